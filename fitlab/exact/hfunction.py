@@ -81,6 +81,7 @@ class HSolution:
         with np.errstate(divide="ignore"):
             out = 1.0 / denom
         out[~finite] = np.inf if self.sqrt_k0 == 0.0 else 1.0 / self.sqrt_k0
+        out[flat == 0.0] = 1.0  # exact; the Nystrom sum gives it to one ulp
         return out.reshape(shape)
 
     def h_minus_one_over_u(self, u):

@@ -1,0 +1,128 @@
+import numpy as np
+import pytest
+
+from fitlab.exact import (
+    albedo,
+    brdf,
+    brdf_modes,
+    doubling_reflection,
+    multiple_scattering_modes,
+    phase_function,
+    single_scattering_albedo,
+    single_scattering_modes,
+    spherical_albedo,
+    three_term_phase_function,
+)
+from fitlab.exact.albedo import _ss_three_term_albedo
+
+MU = np.array([0.0, 1e-12, 1e-6, 0.05, 0.3, 0.7, 1.0])
+
+
+@pytest.mark.parametrize("c", [0.0, 0.4, 0.95, 1.0])
+def test_reciprocity_and_decomposition(c):
+    mi, mo = np.meshgrid(MU, MU, indexing="ij")
+    f = brdf_modes(mi, mo, c)
+    ss = single_scattering_modes(mi, mo, c)
+    ms = multiple_scattering_modes(mi, mo, c)
+    off = (mi + mo) > 0
+    for m in range(3):
+        np.testing.assert_allclose(f[m], f[m].T, rtol=1e-14)
+        assert not np.any(np.isnan(f[m])) and not np.any(np.isnan(ms[m]))
+        with np.errstate(invalid="ignore"):
+            total = ss[m] + ms[m]
+        np.testing.assert_allclose(total[off], f[m][off], rtol=1e-13, atol=1e-300)
+    if c == 0.0:
+        assert all(np.all(x == 0) for x in f + ms)
+
+
+@pytest.mark.parametrize("c", [0.5, 0.999, 1.0])
+def test_modes_agree_with_discrete_ordinates(c):
+    for m in range(3):
+        d = doubling_reflection(m, c)
+        sel = d.nodes > 1e-3
+        mu = d.nodes[sel]
+        f = brdf_modes(mu[:, None], mu[None, :], c)[m]
+        tol = 3e-7 if c == 1.0 else 1e-11  # doubling at c = 1: sqrt(eps)-level deficit
+        np.testing.assert_allclose(d.brdf[np.ix_(sel, sel)], f, rtol=tol)
+
+
+def test_single_scattering_modes_are_the_fourier_series_of_eq10():
+    # Direct azimuthal projection of c p3(u)/(mu_i + mu_o): settles 192 pi vs the printed 384 pi (eq. 28)
+    rng = np.random.default_rng(1)
+    mi, mo, c = rng.uniform(0.01, 1, 3)
+    phi = (np.arange(4096) + 0.5) * 2 * np.pi / 4096
+    s = np.sqrt((1 - mi**2) * (1 - mo**2))
+    f = c * three_term_phase_function(-(mi * mo + s * np.cos(phi))) / (mi + mo)
+    got = single_scattering_modes(mi, mo, c)
+    for m in range(3):
+        proj = f.mean() if m == 0 else 2 * (f * np.cos(m * phi)).mean()
+        assert got[m] == pytest.approx(proj, rel=1e-13)
+    printed_28 = c * (45 * mi * mo + 64) * s / (384 * np.pi * (mi + mo))
+    assert got[1] == pytest.approx(2 * printed_28, rel=1e-14)
+
+
+def test_conservation_at_c_1():
+    a = albedo(MU, 1.0, model="three_term")
+    np.testing.assert_allclose(a, 1.0, atol=1e-13)
+    assert spherical_albedo(1.0, model="three_term") == pytest.approx(1.0, abs=1e-13)
+
+
+def test_small_c_limit_is_single_scattering():
+    c = 1e-6
+    a = albedo(MU[1:], c, model="three_term")
+    np.testing.assert_allclose(a / c, _ss_three_term_albedo(MU[1:]), rtol=1e-5)
+
+
+def test_single_scattering_albedo_two_routes():
+    # the arc-integral route with the three-term phase function vs the Fourier-mode route
+    mu = np.array([1e-9, 0.1, 0.5, 1.0])
+    got = [single_scattering_albedo(x, "three_term") for x in mu]
+    np.testing.assert_allclose(got, _ss_three_term_albedo(mu), rtol=1e-12)
+    # normalisation: at mu_i = 0 every visible direction has weight 1 -> half the phase function
+    assert single_scattering_albedo(0.0) == pytest.approx(0.5, abs=1e-13)
+
+
+def test_albedo_values_are_ordered_and_finite():
+    for model in ("true", "three_term"):
+        kd = spherical_albedo(np.array([0.0, 0.2, 0.6, 0.95, 1.0]), model=model)
+        assert np.all(np.isfinite(kd)) and np.all(np.diff(kd) > 0) and kd[0] == 0.0
+
+
+def test_reference_brdf_edges():
+    assert np.all(brdf(0.0, 0.0, [0.0, 1.0, np.pi], 0.5) == np.inf)
+    assert np.all(brdf(0.0, 0.0, [0.0, np.pi], 0.0) == 0.0)
+    rng = np.random.default_rng(2)
+    mi, mo = rng.uniform(0, 1, (2, 1000))
+    phi = rng.uniform(-np.pi, np.pi, 1000)
+    c = rng.uniform(0, 1, 1000)
+    f = brdf(mi, mo, phi, c)
+    assert np.all(np.isfinite(f)) and np.all(f >= 0)
+    np.testing.assert_allclose(f, brdf(mo, mi, phi, c), rtol=1e-13)
+    np.testing.assert_allclose(f, brdf(mi, mo, -phi, c), rtol=1e-13)
+
+
+def test_runtime_model_with_exact_parts_never_needs_the_clamp():
+    mu = np.concatenate(([1e-9], np.linspace(0.01, 1, 25)))
+    phi = np.linspace(0, np.pi, 13)
+    for c in (0.05, 0.5, 0.99, 1.0):
+        mi, mo, ph = np.meshgrid(mu, mu, phi, indexing="ij")
+        s = np.sqrt((1 - mi**2) * (1 - mo**2))
+        f1 = c * phase_function(-(mi * mo + s * np.cos(ph))) / (mi + mo)
+        fm0, fm1, _ = multiple_scattering_modes(mi, mo, c)
+        assert np.all(f1 + fm0 + fm1 * np.cos(ph) > 0)
+
+
+@pytest.mark.parametrize(
+    "call",
+    [
+        lambda: brdf_modes(-0.1, 0.5, 0.5),
+        lambda: brdf_modes(0.5, 1.1, 0.5),
+        lambda: brdf(0.5, 0.5, np.nan, 0.5),
+        lambda: brdf(0.5, 0.5, 0.0, 2.0),
+        lambda: albedo(0.5, 0.5, model="lambert"),
+        lambda: spherical_albedo(0.5, model="x"),
+    ],
+)
+def test_bad_inputs_raise(call):
+    with pytest.raises(ValueError):
+        call()

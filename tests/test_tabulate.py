@@ -1,0 +1,53 @@
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from fitlab.cli import main
+from fitlab.tabulate import C_GRID, MU_GRID, read_table, write_tables
+
+DATA = Path(__file__).resolve().parents[1] / "data"
+
+
+def test_committed_tables_pass_check(capsys):
+    assert main(["tabulate", "--check", "--out", str(DATA), "--quiet"]) == 0
+
+
+def test_regenerated_tables_match_committed(tmp_path):
+    write_tables(tmp_path, show_progress=False)
+    for name in ("h0.csv", "h1.csv", "h2.csv", "constants.csv", "kd.csv"):
+        new, old = (tmp_path / name).read_text(), (DATA / name).read_text()
+        assert new.splitlines()[:5] == old.splitlines()[:5]  # headers state method, tolerance, grid
+        _, a = read_table(tmp_path / name)
+        _, b = read_table(DATA / name)
+        np.testing.assert_allclose(a, b, rtol=1e-13, atol=1e-15)
+    _, h0 = read_table(tmp_path / "h0.csv")
+    assert h0.shape == (len(C_GRID) * len(MU_GRID), 4)
+    assert not np.any(np.isnan(h0))
+
+
+def test_check_fails_on_a_wrong_value(tmp_path, capsys):
+    for f in DATA.glob("*.csv"):
+        shutil.copy(f, tmp_path / f.name)
+    lines = (tmp_path / "h1.csv").read_text().splitlines()
+    # c = 1 is always in the checked sample; corrupt one of its values by 1e-8 relative
+    i = next(k for k, ln in enumerate(lines) if ln.startswith("0.0,1.0,0.5,"))
+    s, c, mu, h = lines[i].split(",")
+    lines[i] = ",".join([s, c, mu, repr(float(h) * (1 + 1e-8))])
+    (tmp_path / "h1.csv").write_text("\n".join(lines) + "\n")
+    assert main(["tabulate", "--check", "--out", str(tmp_path), "--quiet"]) == 1
+    assert "h1.csv" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("damage", ["missing", "garbage"])
+def test_check_reports_missing_or_corrupt_files(tmp_path, capsys, damage):
+    for f in DATA.glob("*.csv"):
+        shutil.copy(f, tmp_path / f.name)
+    if damage == "missing":
+        (tmp_path / "h0.csv").unlink()
+    else:
+        (tmp_path / "h0.csv").write_text("s,c,mu,H0\n0.0,1.0,abc,1\n")
+    assert main(["tabulate", "--check", "--out", str(tmp_path), "--quiet"]) == 1
+    err = capsys.readouterr().err
+    assert "h0.csv" in err and "fitlab tabulate" in err
