@@ -11,7 +11,7 @@ import time
 
 import numpy as np
 
-from .exact import doubling_reflection, h_function, solve_h, brdf_modes
+from .exact import brdf_modes, doubling_reflection, solve_h
 from .exact.characteristic import lambert_sphere_characteristic
 from .exact.hfunction import _solve_cached, h_fock
 from .tabulate import write_tables
