@@ -17,7 +17,6 @@ from __future__ import annotations
 import csv
 import hashlib
 import io
-import time
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -120,9 +119,6 @@ def albedo_table(progress=None) -> Table:
     )
 
 
-TABLE_FILES = {"h0.csv": 0, "h1.csv": 1, "h2.csv": 2, "constants.csv": "constants", "kd.csv": "kd"}
-
-
 def build_tables(show_progress: bool = True) -> dict[str, Table]:
     total = 4 * len(C_GRID) + len(C_GRID)
     with tqdm(total=total, desc="tabulating", unit="c", disable=not show_progress) as bar:
@@ -148,7 +144,8 @@ class TableError(Exception):
     """A table is missing, malformed, or disagrees with a recomputation."""
 
 
-def read_table(path: Path) -> tuple[list[str], np.ndarray]:
+def read_table(path: Path, columns: tuple[str, ...] | None = None) -> tuple[list[str], np.ndarray]:
+    """Read a table written by :func:`write_tables`; ``columns`` is the header it must have."""
     path = Path(path)
     if not path.exists():
         raise TableError(f"{path}: missing; run `fitlab tabulate` to create it")
@@ -156,6 +153,8 @@ def read_table(path: Path) -> tuple[list[str], np.ndarray]:
     if not lines:
         raise TableError(f"{path}: empty; run `fitlab tabulate` to rewrite it")
     header = lines[0].split(",")
+    if columns is not None and tuple(header) != tuple(columns):
+        raise TableError(f"{path}: header {header}, expected {list(columns)}; run `fitlab tabulate` to rewrite it")
     try:
         data = np.array([[float(x) for x in ln.split(",")] for ln in lines[1:]])
     except ValueError as exc:
@@ -174,7 +173,7 @@ def check_tables(out: Path, every: int = 8, show_progress: bool = True) -> list[
         c_sample = np.append(c_sample, C_GRID[-1])
     with tqdm(total=3 + 2, desc="checking", disable=not show_progress) as bar:
         for m in range(3):
-            _, data = read_table(out / f"h{m}.csv")
+            _, data = read_table(out / f"h{m}.csv", ("s", "c", "mu", f"H{m}"))
             if data.shape[0] != len(C_GRID) * len(MU_GRID):
                 failures.append(f"h{m}.csv: {data.shape[0]} rows, expected {len(C_GRID) * len(MU_GRID)}")
                 bar.update(1)
@@ -188,7 +187,7 @@ def check_tables(out: Path, every: int = 8, show_progress: bool = True) -> list[
                 i = int(np.nanargmax(np.where(np.isnan(rel), np.inf, rel)))
                 failures.append(f"h{m}.csv: c={c[i]!r} mu={mu[i]!r}: {h[i]!r} vs Fock {ref[i]!r} (rel {rel[i]:.2e})")
             bar.update(1)
-        header, data = read_table(out / "constants.csv")
+        header, data = read_table(out / "constants.csv", ("s", "c", *CONSTANT_NAMES))
         sel = np.isin(data[:, 1], c_sample)
         ref = constants(data[sel, 1])
         for j, name in enumerate(header[2:], start=2):
@@ -200,7 +199,7 @@ def check_tables(out: Path, every: int = 8, show_progress: bool = True) -> list[
             if not np.all(err <= CONSTANT_TOLERANCE):
                 failures.append(f"constants.csv: {name} differs by {np.nanmax(err):.2e}")
         bar.update(1)
-        header, data = read_table(out / "kd.csv")
+        _, data = read_table(out / "kd.csv", ("s", "c", "kd_three_term", "kd_true"))
         sel = np.isin(data[:, 1], c_sample)
         for j, model in ((2, "three_term"), (3, "true")):
             err = np.abs(data[sel, j] - spherical_albedo(data[sel, 1], model=model))

@@ -40,14 +40,16 @@ def test_check_fails_on_a_wrong_value(tmp_path, capsys):
     assert "h1.csv" in capsys.readouterr().err
 
 
-@pytest.mark.parametrize("damage", ["missing", "garbage"])
+@pytest.mark.parametrize("damage", ["missing", "garbage", "header"])
 def test_check_reports_missing_or_corrupt_files(tmp_path, capsys, damage):
     for f in DATA.glob("*.csv"):
         shutil.copy(f, tmp_path / f.name)
     if damage == "missing":
         (tmp_path / "h0.csv").unlink()
-    else:
+    elif damage == "garbage":
         (tmp_path / "h0.csv").write_text("s,c,mu,H0\n0.0,1.0,abc,1\n")
+    else:
+        (tmp_path / "h0.csv").write_text("s,c,mu,H\n0.0,1.0,0.5,1.0\n")
     assert main(["tabulate", "--check", "--out", str(tmp_path), "--quiet"]) == 1
     err = capsys.readouterr().err
     assert "h0.csv" in err and "fitlab tabulate" in err
