@@ -95,13 +95,17 @@ def _residuals(x, m, w, alpha, frozen=()):
     return np.concatenate(out) if out else np.zeros(0), r
 
 
-def _newton_r(m, w, alpha, frozen=()):
-    ls = [l for l in range(m, MAX_DEGREE + 1) if l not in frozen]
-    deg = MAX_DEGREE - m
+def _default_start(m, frozen=()):
     # c -> 0 limit: r_l = reduced P_l^m
-    x = np.concatenate([np.pad(associated_legendre_reduced(l, m), (0, deg + 1))[1 : deg + 1] for l in ls])
+    deg = MAX_DEGREE - m
+    ls = [l for l in range(m, MAX_DEGREE + 1) if l not in frozen]
+    return np.concatenate([np.pad(associated_legendre_reduced(l, m), (0, deg + 1))[1 : deg + 1] for l in ls])
+
+
+def _newton(x, m, w, alpha, frozen=()):
+    """Newton on the recurrence from start x; returns (x, max residual)."""
     if x.size == 0:
-        return _residuals(x, m, w, alpha, frozen)[1], 0.0
+        return x, 0.0
     for _ in range(50):
         f, _ = _residuals(x, m, w, alpha, frozen)
         jac = np.empty((f.size, x.size))
@@ -116,8 +120,55 @@ def _newton_r(m, w, alpha, frozen=()):
         x = x + dx
         if np.max(np.abs(dx)) < 1e-15 * max(1.0, np.max(np.abs(x))):
             break
-    f, r = _residuals(x, m, w, alpha, frozen)
-    return r, float(np.max(np.abs(f))) if f.size else 0.0
+    f, _ = _residuals(x, m, w, alpha, frozen)
+    return x, float(np.max(np.abs(f))) if f.size else 0.0
+
+
+#: a converged solution has a residual at rounding level (~1e-16); Newton that
+#: stalls far above this has not found the physical root and is never accepted
+RESIDUAL_TOLERANCE = 1e-12
+
+# Continuation ladder in s = sqrt(1 - c), fixed so that results do not depend on
+# the order in which c values are asked for: 0.5, 0.48, ..., 0.02, then halving.
+_LADDER = tuple(np.round(0.5 - 0.02 * np.arange(25), 12)) + tuple(0.02 / 2.0 ** np.arange(1, 40))
+
+
+def _moment_data(m, c):
+    sol: HSolution = solve_h(lambert_sphere_characteristic(m, c))
+    alpha = np.array([sol.moment(n) for n in range(2 * MAX_DEGREE + 2 * m + 1)])
+    return legendre_weights(m, c), alpha
+
+
+@lru_cache(maxsize=None)
+def _ladder_solution(m, k):
+    """Converged unknowns at ladder point k, each from the one before (k = 0 directly)."""
+    s = _LADDER[k]
+    x = _default_start(m) if k == 0 else _ladder_solution(m, k - 1)
+    x, res = _newton(x, m, *_moment_data(m, 1.0 - s * s))
+    if res > RESIDUAL_TOLERANCE:
+        raise RuntimeError(f"moment relations of order {m}: continuation failed at s = {s} (residual {res:.1e})")
+    return x
+
+
+def _solve_unknowns(m, c, frozen=()):
+    """The r_l coefficients at albedo c.
+
+    Newton from the c -> 0 limit is used for s = sqrt(1 - c) >= 0.5.  Closer to
+    c = 1 (order 0 has a fold at c = 1) it can stall on a non-solution, so there
+    the solution is continued along the fixed ladder in s from s = 0.5 down to
+    the ladder point just above s, and Newton finishes from there.  At c = 1 the
+    reduced (frozen) system is regular and solved directly.
+    """
+    w, alpha = _moment_data(m, c)
+    s = np.sqrt(1.0 - c)
+    if frozen or s >= _LADDER[0]:
+        x = _default_start(m, frozen)
+    else:
+        x = _ladder_solution(m, max(i for i, sk in enumerate(_LADDER) if sk >= s)).copy()
+    x, res = _newton(x, m, w, alpha, frozen)
+    if res > RESIDUAL_TOLERANCE:
+        raise RuntimeError(f"moment relations of order {m} at c = {c!r}: no convergence (residual {res:.1e})")
+    return x, res
 
 
 @lru_cache(maxsize=4096)
@@ -125,15 +176,14 @@ def mode_polynomials(order: int, c: float) -> ModePolynomials:
     """Solve the moment relations of Fourier order ``order`` at albedo c."""
     c = float(c)
     m = order
-    sol: HSolution = solve_h(lambert_sphere_characteristic(m, c))
-    alpha = np.array([sol.moment(n) for n in range(2 * MAX_DEGREE + 2 * m + 1)])
-    w = legendre_weights(m, c)
     # At c = 1 the order-0 system has a fold: r_1 ~ sqrt(1 - c) and the Jacobian
     # is singular, so Newton would stop at sqrt(eps) ~ 1e-8.  There r_1 = 0
     # exactly (psi_1 vanishes in the conservative limit) and the remaining
     # system for r_0, r_2 is regular.
     frozen = (1,) if (m == 0 and c == 1.0) else ()
-    r, res = _newton_r(m, w, alpha, frozen)
+    x, res = _solve_unknowns(m, c, frozen)
+    w, alpha = _moment_data(m, c)
+    _, r = _residuals(x, m, w, alpha, frozen)
     deg = MAX_DEGREE - m
     matrix = np.zeros((deg + 1, deg + 1))
     for l, rl in r.items():
