@@ -40,6 +40,72 @@ def _cmd_bench(args) -> int:
     return 0
 
 
+def _cmd_refit(args) -> int:
+    from .fit.refit import default_jobs, table, timed_refit
+    from .fit.targets import TARGETS
+    from .fits import FitFileError
+    from .fit.solver import FitError
+    from .tabulate import TableError
+
+    if args.list:
+        for t in TARGETS.values():
+            forms = ", ".join(f + (" (default)" if f == t.default_form else "") for f in t.forms)
+            print(f"{t.name:<10} {t.description}\n{'':<10} forms: {forms}")
+        return 0
+    if args.all == bool(args.target):
+        print("fitlab refit: error: give --target NAME (see --list) or --all", file=sys.stderr)
+        return 2
+    if args.all and (args.form or args.domain or args.init):
+        print("fitlab refit: error: --form, --domain and --init go with --target, not --all", file=sys.stderr)
+        return 2
+    jobs = default_jobs() if args.all else [(args.target, args.form)]
+    results, walls = [], []
+    try:
+        from tqdm import tqdm
+
+        for target, form in tqdm(jobs, desc="refit", unit="fit", disable=args.quiet or len(jobs) == 1):
+            res, wall = timed_refit(
+                target, form, out=Path(args.out), domain_items=args.domain, init=args.init,
+                minimax=False if args.no_minimax else None, compare_scipy=args.compare_scipy, write=False,
+            )
+            results.append(res)
+            walls.append(wall)
+    except (KeyError, ValueError, FitError, FitFileError, TableError) as exc:
+        msg = exc.args[0] if isinstance(exc, KeyError) and exc.args else str(exc)
+        print(f"fitlab refit: error: {msg}", file=sys.stderr)
+        return 2
+    # all fits done and validated: only now write (each file atomically)
+    from .fits import write_fit
+
+    for res in results:
+        write_fit(res.path, res.record)
+    print(table(results, walls))
+    for res in results:
+        print(f"wrote {res.path}")
+    return 0
+
+
+def _cmd_audit(args) -> int:
+    from .audit import run_audit
+    from .tabulate import TableError
+
+    t0 = time.perf_counter()
+    try:
+        result = run_audit(Path(args.out), Path(args.fits))
+    except (TableError, ValueError) as exc:
+        print(f"fitlab audit: error: {exc}", file=sys.stderr)
+        return 2
+    for r in result["runtime"]:
+        print(f"{r['model']:<45} max rel* {r['max_rel_nonzero']:.3e}  RMS {r['rms_rel_nonzero']:.3e}  "
+              f"away from grazing: max {r['max_rel_away']:.3e}  RMS {r['rms_rel_away']:.3e}")
+    for r in result["furnace"]:
+        print(f"white furnace c=1, {r['model']:<45} max |a - 1| = {r['max_abs_deviation']:.2e}")
+    for m in result["missing_fits"]:
+        print(f"not measured: {m}")
+    print(f"wrote {Path(args.out) / 'audit.md'} and audit.json in {time.perf_counter() - t0:.1f} s")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="fitlab", description="Fitting workbench for analytic BRDFs (Lambert-sphere BRDF).")
     sub = p.add_subparsers(dest="command", required=True)
@@ -48,6 +114,22 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("--check", action="store_true", help="recompute a sample of rows by independent methods")
     t.add_argument("--quiet", action="store_true", help="no progress bar")
     t.set_defaults(func=_cmd_tabulate)
+    r = sub.add_parser("refit", help="refit a published form (or a richer one) to the exact data")
+    r.add_argument("--target", help="what to fit: H0, H1, l, m, B, C, D, F, kd_of_c, c_of_kd, fm1, fast_brdf")
+    r.add_argument("--form", help="which form of the target (default: the published shape; see --list)")
+    r.add_argument("--all", action="store_true", help="refit every target (every form marked for it)")
+    r.add_argument("--out", default="fits", help="folder for the fit JSON (default: fits)")
+    r.add_argument("--domain", action="append", metavar="NAME=LO:HI", help="restrict an input, e.g. c=0.5:1")
+    r.add_argument("--init", type=Path, help="start from a saved fit of the same target and form")
+    r.add_argument("--no-minimax", action="store_true", help="least squares only, no minimax refinement")
+    r.add_argument("--compare-scipy", action="store_true", help="also solve the least-squares stage with scipy")
+    r.add_argument("--list", action="store_true", help="list targets and forms")
+    r.add_argument("--quiet", action="store_true", help="no progress bar")
+    r.set_defaults(func=_cmd_refit)
+    a = sub.add_parser("audit", help="measure every published formula and the runtime model against the exact engine")
+    a.add_argument("--out", default="docs", help="folder for audit.md and audit.json (default: docs)")
+    a.add_argument("--fits", default="fits", help="folder of the refits to include (default: fits)")
+    a.set_defaults(func=_cmd_audit)
     b = sub.add_parser("bench", help="benchmarks (not tests): speed and accuracy")
     b.add_argument("what", choices=["exact"], help="what to benchmark")
     b.add_argument("--quick", action="store_true", help="smaller sizes")
