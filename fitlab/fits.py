@@ -52,6 +52,19 @@ def _encode(x):
     return x
 
 
+_NONFINITE = {"inf": math.inf, "-inf": -math.inf, "nan": math.nan}
+
+
+def _decode(x):
+    if isinstance(x, str) and x in _NONFINITE:
+        return _NONFINITE[x]
+    if isinstance(x, dict):
+        return {k: _decode(v) for k, v in x.items()}
+    if isinstance(x, list):
+        return [_decode(v) for v in x]
+    return x
+
+
 def write_fit(path: Path, record: Mapping) -> None:
     """Write ``record`` as JSON atomically (a temporary file, then a rename)."""
     path = Path(path)
@@ -80,6 +93,7 @@ def read_fit(path: Path) -> dict:
         ) from None
     if not isinstance(record, dict):
         raise FitFileError(f"{path}: not a fitlab fit (a JSON object is expected)")
+    record = _decode(record)
     missing = [k for k in _REQUIRED if k not in record]
     if missing:
         raise FitFileError(f"{path}: not a fitlab fit, missing {missing}; regenerate it with `fitlab refit`")

@@ -104,7 +104,7 @@ def refit(
     fit = fit_form(
         form, train, target.scale(train), theta0, minimax_rounds=MINIMAX_ROUNDS if minimax else 0, weights=weights
     )
-    scipy_fit = fit_form_scipy(form, train, target.scale(train), theta0) if compare_scipy else None
+    scipy_fit = fit_form_scipy(form, train, target.scale(train), theta0, weights=weights) if compare_scipy else None
 
     vscale = target.scale(valid)
     published = []

@@ -139,13 +139,14 @@ def fit_form(
     )
 
 
-def fit_form_scipy(form, train: Dataset, scale: np.ndarray, theta0=None) -> FitResult:
+def fit_form_scipy(form, train: Dataset, scale: np.ndarray, theta0=None, *, weights=None) -> FitResult:
     """The stage-1 problem solved by scipy.optimize.least_squares (MINPACK LM,
     finite-difference Jacobian), for a side-by-side comparison."""
     from scipy.optimize import least_squares
 
     t_start = time.perf_counter()
     theta0 = np.asarray(form.vector(form.start_values) if theta0 is None else theta0, dtype=float)
+    scale = np.asarray(scale, dtype=float) if weights is None else np.asarray(scale, dtype=float) / weights
     xs, y, inv_scale = _training_arrays(form, train, scale)
     _check_start(form, theta0, xs, y, inv_scale)
     free = np.array([form.params.index(p) for p in form.free_params], dtype=int)

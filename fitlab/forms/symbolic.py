@@ -25,7 +25,16 @@ __all__ = [
     "expression_text",
 ]
 
-safe_pow = sp.Function("safe_pow", positive=False)
+class safe_pow(sp.Function):  # noqa: N801 (the name printed in every back end)
+    """x^p for x > 0, 0 for x <= 0; numeric arguments evaluate at once."""
+
+    nargs = 2
+
+    @classmethod
+    def eval(cls, x, p):
+        if x.is_Number and p.is_Number:
+            return x**p if x > 0 else sp.S.Zero
+        return None
 
 #: The inputs a form may name, with their meaning and domain.
 INPUT_SYMBOLS = {
