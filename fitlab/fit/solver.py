@@ -61,6 +61,17 @@ def _check_start(form, theta, xs, y, inv_scale):
         raise FitError(f"{form.key}: the start parameters give a non-finite value at {point}; choose another start")
 
 
+def _prepare(form, train, scale, theta0, weights):
+    """Start vector, training arrays, 1/scale and the indices of the free parameters."""
+    theta0 = np.asarray(form.vector(form.start_values) if theta0 is None else theta0, dtype=float)
+    # an emphasis weight is folded into the scale: residual = w (f - y)/scale
+    scale = np.asarray(scale, dtype=float) if weights is None else np.asarray(scale, dtype=float) / weights
+    xs, y, inv_scale = _training_arrays(form, train, scale)
+    _check_start(form, theta0, xs, y, inv_scale)
+    free = np.array([form.params.index(p) for p in form.free_params], dtype=int)
+    return theta0, xs, y, inv_scale, free
+
+
 def fit_form(
     form, train: Dataset, scale: np.ndarray, theta0=None, *, minimax_rounds: int = 40, weights=None
 ) -> FitResult:
@@ -74,12 +85,7 @@ def fit_form(
     import optimistix as optx
 
     t_start = time.perf_counter()
-    theta0 = np.asarray(form.vector(form.start_values) if theta0 is None else theta0, dtype=float)
-    # an emphasis weight is folded into the scale: residual = w (f - y)/scale
-    scale = np.asarray(scale, dtype=float) if weights is None else np.asarray(scale, dtype=float) / weights
-    xs, y, inv_scale = _training_arrays(form, train, scale)
-    _check_start(form, theta0, xs, y, inv_scale)
-    free = np.array([form.params.index(p) for p in form.free_params], dtype=int)
+    theta0, xs, y, inv_scale, free = _prepare(form, train, scale, theta0, weights)
     f = form.jax_function
 
     def residual(theta_free, args):
@@ -145,11 +151,7 @@ def fit_form_scipy(form, train: Dataset, scale: np.ndarray, theta0=None, *, weig
     from scipy.optimize import least_squares
 
     t_start = time.perf_counter()
-    theta0 = np.asarray(form.vector(form.start_values) if theta0 is None else theta0, dtype=float)
-    scale = np.asarray(scale, dtype=float) if weights is None else np.asarray(scale, dtype=float) / weights
-    xs, y, inv_scale = _training_arrays(form, train, scale)
-    _check_start(form, theta0, xs, y, inv_scale)
-    free = np.array([form.params.index(p) for p in form.free_params], dtype=int)
+    theta0, xs, y, inv_scale, free = _prepare(form, train, scale, theta0, weights)
 
     def residual(theta_free):
         theta = theta0.copy()
