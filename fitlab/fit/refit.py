@@ -11,7 +11,6 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-import numpy as np
 
 from .. import __version__
 from ..fits import DEFAULT_DOMAINS, FORMAT, read_fit, write_fit
