@@ -17,7 +17,6 @@ parts:
 
 from __future__ import annotations
 
-import json
 import math
 from pathlib import Path
 
@@ -28,7 +27,8 @@ from .exact._quadrature import gauss_legendre, graded_gauss
 from .fit import data as d
 from .fit.metrics import relative_errors, summary
 from .fit.targets import TARGETS
-from .fits import FitFileError, _encode
+from ._io import atomic_write_text
+from .fits import FitFileError, strict_json
 from .runtime import PRESET_VARIANTS, RuntimeModel, runtime_model
 
 __all__ = ["run_audit", "directional_albedo"]
@@ -177,11 +177,7 @@ def run_audit(out_dir: Path = Path("docs"), fits_dir: Path = Path("fits")) -> di
         "furnace": _furnace_rows(models),
     }
     md = _markdown(result)
-    text = json.dumps(_encode(result), indent=2, allow_nan=False) + "\n"
-    out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
+    text = strict_json(result)
     for name, content in (("audit.json", text), ("audit.md", md)):
-        tmp = out_dir / (name + ".tmp")
-        tmp.write_text(content)
-        tmp.replace(out_dir / name)
+        atomic_write_text(Path(out_dir) / name, content)
     return result

@@ -11,15 +11,15 @@ from __future__ import annotations
 
 import json
 import math
-import os
 from pathlib import Path
 from typing import Mapping
 
 import numpy as np
 
+from ._io import atomic_write_text
 from .forms.symbolic import lambdify_numpy, parse_expression, symbols
 
-__all__ = ["FORMAT", "FitFileError", "FitFunction", "load", "read_fit", "write_fit", "DEFAULT_DOMAINS"]
+__all__ = ["FORMAT", "FitFileError", "FitFunction", "load", "read_fit", "write_fit", "strict_json", "DEFAULT_DOMAINS"]
 
 FORMAT = "fitlab-fit/1"
 
@@ -65,14 +65,15 @@ def _decode(x):
     return x
 
 
+def strict_json(obj) -> str:
+    """JSON text with non-finite numbers as the strings "inf", "-inf", "nan"."""
+    return json.dumps(_encode(obj), indent=2, allow_nan=False) + "\n"
+
+
 def write_fit(path: Path, record: Mapping) -> None:
     """Write ``record`` as JSON atomically (a temporary file, then a rename)."""
     path = Path(path)
-    text = json.dumps(_encode(dict(record)), indent=2, allow_nan=False) + "\n"
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(path.name + ".tmp")
-    tmp.write_text(text)
-    os.replace(tmp, path)
+    atomic_write_text(path, strict_json(dict(record)))
 
 
 def read_fit(path: Path) -> dict:

@@ -76,9 +76,9 @@ def runtime_model(
             sources[part] = f"{form_name} / {preset}"
         name = variant
     else:
-        for part in RUNTIME_PARTS:
-            from .fit.targets import get_target
+        from .fit.targets import get_target
 
+        for part in RUNTIME_PARTS:
             form_name = (forms or {}).get(part, get_target(part).default_form)
             path = fit_path(Path(fits_dir), part, form_name)
             fit = load(path)

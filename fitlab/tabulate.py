@@ -24,6 +24,7 @@ import numpy as np
 from tqdm import tqdm
 
 from . import __version__
+from ._io import atomic_write_text
 from .exact import constants, h_function, spherical_albedo
 from .exact.constants import CONSTANT_NAMES
 
@@ -132,11 +133,8 @@ def write_tables(out: Path, show_progress: bool = True) -> dict[str, str]:
     """Compute every table, then write them all (nothing is written on failure)."""
     out = Path(out)
     texts = {name: _render(t) for name, t in build_tables(show_progress).items()}
-    out.mkdir(parents=True, exist_ok=True)
     for name, text in texts.items():
-        tmp = out / (name + ".tmp")
-        tmp.write_text(text)
-        tmp.replace(out / name)
+        atomic_write_text(out / name, text)
     return {name: hashlib.sha256(text.encode()).hexdigest()[:16] for name, text in texts.items()}
 
 
