@@ -106,6 +106,36 @@ def _cmd_audit(args) -> int:
     return 0
 
 
+def _cmd_codegen(args) -> int:
+    from .codegen import generate, write_generated
+    from .fits import FitFileError
+
+    try:
+        files = generate(args.lang, Path(args.fits), args.terms)
+    except (ValueError, KeyError, FitFileError) as exc:
+        msg = exc.args[0] if isinstance(exc, KeyError) and exc.args else str(exc)
+        print(f"fitlab codegen: error: {msg}", file=sys.stderr)
+        return 2
+    for path in write_generated(files, Path(args.out)):
+        print(f"wrote {path}")
+    return 0
+
+
+def _cmd_render(args) -> int:
+    from .render import RenderError, render_comparison
+
+    try:
+        path = render_comparison(
+            Path(args.out), generated=Path(args.generated), kd=args.kd, size=args.size, spp=args.spp,
+            lights=args.lights, show_progress=not args.quiet,
+        )
+    except (RenderError, ValueError) as exc:
+        print(f"fitlab render: error: {exc}", file=sys.stderr)
+        return 2
+    print(f"wrote {path}")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="fitlab", description="Fitting workbench for analytic BRDFs (Lambert-sphere BRDF).")
     sub = p.add_subparsers(dest="command", required=True)
@@ -130,6 +160,21 @@ def build_parser() -> argparse.ArgumentParser:
     a.add_argument("--out", default="docs", help="folder for audit.md and audit.json (default: docs)")
     a.add_argument("--fits", default="fits", help="folder of the refits to include (default: fits)")
     a.set_defaults(func=_cmd_audit)
+    g = sub.add_parser("codegen", help="generate C, Python or GLSL source of the runtime BRDF from the fits")
+    g.add_argument("--lang", required=True, choices=["c", "python", "glsl"], help="target language")
+    g.add_argument("--fits", default="fits", help="folder of the fits JSON (default: fits)")
+    g.add_argument("--out", default="fits/generated", help="output folder (default: fits/generated)")
+    g.add_argument("--terms", help="terms of brdf to keep, comma-separated subset of single,m0,m1 (default: all)")
+    g.set_defaults(func=_cmd_codegen)
+    rr = sub.add_parser("render", help="render spheres with the generated BRDF in Mitsuba 3 beside Lambert, Oren-Nayar, Chandrasekhar")
+    rr.add_argument("--out", default="docs/render.png", help="PNG to write (default: docs/render.png)")
+    rr.add_argument("--generated", default="fits/generated/lambert_sphere.py", help="the generated Python BRDF module")
+    rr.add_argument("--kd", type=float, default=0.8, help="spherical albedo of every material (default 0.8)")
+    rr.add_argument("--size", type=int, default=64, help="image size per sphere in pixels (default 64)")
+    rr.add_argument("--spp", type=int, default=4, help="samples per pixel (default 4)")
+    rr.add_argument("--lights", type=int, default=3, help="number of light directions, 1-5 (default 3)")
+    rr.add_argument("--quiet", action="store_true", help="no progress bar")
+    rr.set_defaults(func=_cmd_render)
     b = sub.add_parser("bench", help="benchmarks (not tests): speed and accuracy")
     b.add_argument("what", choices=["exact"], help="what to benchmark")
     b.add_argument("--quick", action="store_true", help="smaller sizes")

@@ -9,11 +9,11 @@ renderer plugin differs); richer forms of the same families sit beside them.
 from __future__ import annotations
 
 from . import albedo_maps, brdf, constants, h_functions
-from .brdf import RUNTIME_PARTS, runtime_brdf
+from .brdf import RUNTIME_PARTS, RUNTIME_TERMS, runtime_brdf, runtime_terms
 from .form import Form
 from .symbolic import parse_expression, safe_pow
 
-__all__ = ["Form", "FORMS", "get_form", "forms_for", "runtime_brdf", "RUNTIME_PARTS", "parse_expression", "safe_pow"]
+__all__ = ["Form", "FORMS", "get_form", "forms_for", "runtime_brdf", "runtime_terms", "RUNTIME_PARTS", "RUNTIME_TERMS", "parse_expression", "safe_pow"]
 
 FORMS: dict[str, dict[str, Form]] = {}
 for _f in (*h_functions.FORMS, *constants.FORMS, *albedo_maps.FORMS, *brdf.FORMS):

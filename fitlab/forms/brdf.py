@@ -94,18 +94,24 @@ FORMS = (_fm1_fast(), _fm1_fast_general(), _fast_brdf())
 RUNTIME_PARTS = ("H0", "H1", "l", "m", "B", "C", "D", "F")
 
 
-def runtime_brdf(parts: Mapping[str, sp.Expr], normalisation: str = "corrected") -> sp.Expr:
-    r"""The runtime model of SPEC 5 as one expression in (mu_i, mu_o, phi, c).
+#: the terms of the runtime model, in the order they are summed
+RUNTIME_TERMS = ("single", "m0", "m1")
 
-    f_r = max(0, f_1 + fm0 + fm1 cos(phi)) with
+
+def runtime_terms(parts: Mapping[str, sp.Expr], normalisation: str = "corrected") -> dict[str, sp.Expr]:
+    r"""The terms of the runtime model of SPEC 5, each an expression in (mu_i, mu_o, phi, c).
+
+    Returns {"single": f_1, "m0": fm0, "m1": fm1} with f_r = max(0, f_1 + fm0 + fm1 cos(phi)):
+      f_1 = c p(u) / (mu_i + mu_o)  (true phase function, eq. 10),
       fm0 = (H0(mu_i) H0(mu_o) Q / (2 pi) - n0_ss) / (mu_i + mu_o),
         Q = A + B (mu_i+mu_o) + C mu_i mu_o + D mu_i mu_o (mu_i+mu_o) + E mu_i^2 mu_o^2 + F (mu_i^2+mu_o^2),
       fm1 = (c H1(mu_i) H1(mu_o) S (1 + l (mu_i+mu_o) + (l^2 + 45 m/64) mu_i mu_o)/(k pi) - n1_ss/j)
             / (mu_i + mu_o),
     A, E exact (eq. 33); ``parts`` maps H0, H1 (expressions in mu, c) and l, m, B, C, D, F
-    (in c) to expressions with numbers for parameters.  normalisation "corrected"
-    uses k = 3, j = 1 (the exact solution); "printed" uses eqs. 22 and 28 as
-    printed, k = 6 and 384 pi (j = 2), which halves fm1.
+    (in c) to expressions with numbers for parameters, or to calls of undefined
+    functions (codegen prints those as calls of the parts' own routines).
+    normalisation "corrected" uses k = 3, j = 1 (the exact solution); "printed"
+    uses eqs. 22 and 28 as printed, k = 6 and 384 pi (j = 2), which halves fm1.
     """
     missing = [p for p in RUNTIME_PARTS if p not in parts]
     if missing:
@@ -121,4 +127,11 @@ def runtime_brdf(parts: Mapping[str, sp.Expr], normalisation: str = "corrected")
     fm0 = (h0i * h0o * q / (2 * PI) - SINGLE_NUMERATOR_0) / (mu_i + mu_o)
     n1 = c * h1i * h1o * S * (1 + l * (mu_i + mu_o) + (l**2 + sp.Rational(45, 64) * m) * _P) / (k * PI)
     fm1 = (n1 - SINGLE_NUMERATOR_1 / j) / (mu_i + mu_o)
-    return sp.Max(0, SINGLE + fm0 + fm1 * sp.cos(phi))
+    return {"single": SINGLE, "m0": fm0, "m1": fm1}
+
+
+def runtime_brdf(parts: Mapping[str, sp.Expr], normalisation: str = "corrected") -> sp.Expr:
+    r"""The runtime model of SPEC 5 as one expression in (mu_i, mu_o, phi, c):
+    f_r = max(0, f_1 + fm0 + fm1 cos(phi)), the terms of :func:`runtime_terms`."""
+    t = runtime_terms(parts, normalisation)
+    return sp.Max(0, t["single"] + t["m0"] + t["m1"] * sp.cos(phi))

@@ -1,0 +1,168 @@
+r"""Expression printers: one sympy expression in, C, GLSL or numpy text out.
+
+Every printer extends sympy's own (C99 or NumPy) with the few things fitlab's
+forms need:
+
+* ``safe_pow(x, p)`` prints as a call of the generated helper (x^p for x > 0,
+  0 otherwise); the helper is emitted once per file by :mod:`.emit`.
+* calls of other routines (sympy ``Function("h0")(mu_i, c)``) print as calls
+  of the generated function of that routine, with the language's name.
+* pi prints as a literal, not ``M_PI`` (not part of strict C99), and small
+  integer powers print as products (faster than ``pow`` and exact).
+* symbols can be renamed, so that a routine's vector argument ``wi`` reads
+  ``wi[0]`` in C, ``wi.x`` in GLSL and ``wi[..., 0]`` in numpy.
+"""
+
+from __future__ import annotations
+
+from typing import Callable, Mapping
+
+import sympy as sp
+from sympy.codegen.ast import float32, float64, real
+from sympy.core.function import AppliedUndef
+from sympy.printing.c import C99CodePrinter
+from sympy.printing.numpy import NumPyPrinter
+from sympy.printing.precedence import precedence
+
+from ..forms.symbolic import safe_pow
+
+__all__ = ["CPrinter", "GLSLPrinter", "NumpyPrinter"]
+
+_PI_DIGITS = "3.141592653589793238"
+
+
+def _small_power(printer, expr) -> str | None:
+    """x^n for n = 2, 3, 4 as products; x^-1 as a division; None otherwise."""
+    e = expr.exp
+    if e.is_Integer and 2 <= int(e) <= 4:
+        base = printer.parenthesize(expr.base, precedence(sp.Mul(2, expr.base, evaluate=False)) + 1)
+        return "*".join([base] * int(e))
+    return None
+
+
+class _Common:
+    """Shared overrides: routine calls, safe_pow, symbol renames."""
+
+    def __init__(self, call_name: Callable[[str], str], symbol_names: Mapping[str, str] | None = None, **settings):
+        super().__init__(settings)
+        self.call_name = call_name
+        self.symbol_names = dict(symbol_names or {})
+
+    def _print_Symbol(self, expr):
+        return self.symbol_names.get(expr.name, expr.name)
+
+    def _print_Function(self, expr):
+        if isinstance(expr, AppliedUndef):
+            return f"{self.call_name(expr.func.__name__)}({', '.join(self._print(a) for a in expr.args)})"
+        if isinstance(expr, safe_pow):
+            return f"{self.call_name('safe_pow')}({self._print(expr.args[0])}, {self._print(expr.args[1])})"
+        return super()._print_Function(expr)
+
+
+class CPrinter(_Common, C99CodePrinter):
+    """C99 for ``double`` or ``float`` (then every literal has the F suffix and
+    every libm call its float version: sqrtf, powf, ...)."""
+
+    def __init__(self, scalar: str, call_name, symbol_names=None):
+        if scalar not in ("double", "float"):
+            raise ValueError("scalar must be 'double' or 'float'")
+        self.scalar = scalar
+        super().__init__(call_name, symbol_names, type_aliases={real: float64 if scalar == "double" else float32},
+                         math_macros={})
+
+    def _literal(self, text: str) -> str:
+        return text + ("F" if self.scalar == "float" else "")
+
+    def _print_Pi(self, expr):
+        return self._literal(_PI_DIGITS)
+
+    def _print_Integer(self, expr):
+        return self._literal(f"{int(expr)}.0")
+
+    def _print_Rational(self, expr):
+        return f"({self._literal(f'{expr.p}.0')}/{self._literal(f'{expr.q}.0')})"
+
+    def _print_Pow(self, expr):
+        return _small_power(self, expr) or super()._print_Pow(expr)
+
+    def _print_Max(self, expr):
+        return self._minmax("fmax", expr)
+
+    def _print_Min(self, expr):
+        return self._minmax("fmin", expr)
+
+    def _minmax(self, name, expr):
+        name += "f" if self.scalar == "float" else ""
+        args = [self._print(a) for a in expr.args]
+        out = args[-1]
+        for a in reversed(args[:-1]):
+            out = f"{name}({a}, {out})"
+        return out
+
+    def _print_Piecewise(self, expr):
+        if expr.args[-1].cond is not sp.true:
+            raise ValueError("a Piecewise needs a final (value, True) branch")
+        out = self._print(expr.args[-1].expr)
+        for branch in reversed(expr.args[:-1]):
+            out = f"(({self._print(branch.cond)}) ? ({self._print(branch.expr)}) : ({out}))"
+        return out
+
+
+class GLSLPrinter(CPrinter):
+    """GLSL (version 3.30 / ES 3.00 and later): float only, overloaded
+    built-ins (sqrt, pow, max, abs, ...), no literal suffixes."""
+
+    def __init__(self, call_name, symbol_names=None):
+        super().__init__("double", call_name, symbol_names)  # double: libm names without the f suffix
+
+    def _minmax(self, name, expr):
+        return super()._minmax(name[1:], expr)  # fmax -> max
+
+    def _print_Abs(self, expr):
+        return f"abs({self._print(expr.args[0])})"
+
+    # GLSL has no expm1 / log1p: the emitter supplies them as helpers
+    def _print_expm1(self, expr):
+        return f"{self.call_name('expm1')}({self._print(expr.args[0])})"
+
+    def _print_log1p(self, expr):
+        return f"{self.call_name('log1p')}({self._print(expr.args[0])})"
+
+    def _print_Pow(self, expr):
+        if expr.exp == -1:
+            return f"1.0/{self.parenthesize(expr.base, precedence(expr))}"
+        return super()._print_Pow(expr)
+
+
+class NumpyPrinter(_Common, NumPyPrinter):
+    """numpy, for arrays of any broadcastable shapes; ``import numpy`` only."""
+
+    def __init__(self, call_name, symbol_names=None):
+        super().__init__(call_name, symbol_names, fully_qualified_modules=True, inline=True)
+
+    def _print_Pi(self, expr):
+        return _PI_DIGITS
+
+    def _print_Pow(self, expr, rational=False):
+        return _small_power(self, expr) or super()._print_Pow(expr, rational=rational)
+
+    def _print_Max(self, expr):
+        return self._minmax("numpy.maximum", expr)
+
+    def _print_Min(self, expr):
+        return self._minmax("numpy.minimum", expr)
+
+    def _minmax(self, name, expr):
+        args = [self._print(a) for a in expr.args]
+        out = args[-1]
+        for a in reversed(args[:-1]):
+            out = f"{name}({a}, {out})"
+        return out
+
+    def _print_Piecewise(self, expr):
+        if expr.args[-1].cond is not sp.true:
+            raise ValueError("a Piecewise needs a final (value, True) branch")
+        out = self._print(expr.args[-1].expr)
+        for branch in reversed(expr.args[:-1]):
+            out = f"numpy.where({self._print(branch.cond)}, {self._print(branch.expr)}, {out})"
+        return out

@@ -1,0 +1,360 @@
+"""Generated code: reproducible, compiles clean, agrees with the JAX forms, finite everywhere.
+
+The reference for every comparison is the JAX function lambdified from the same
+fits through fitlab.forms / fitlab.runtime (not through codegen's printers).
+"""
+
+from __future__ import annotations
+
+import ast
+import importlib.util
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import jax
+import numpy as np
+import pytest
+
+from fitlab.codegen import POLE_FLOOR, build_program, generate, parse_terms
+from fitlab.codegen.program import _stable
+from fitlab.codegen.emit import emit
+from fitlab.codegen.native import STRICT_FLAGS, build, compiler
+from fitlab.fits import load
+from fitlab.forms.symbolic import lambdify_jax, symbols
+from fitlab.runtime import runtime_model
+
+ROOT = Path(__file__).resolve().parents[1]
+FITS = ROOT / "fits"
+GENERATED = FITS / "generated"
+N = 100_000
+needs_cc = pytest.mark.skipif(compiler() is None, reason="no C compiler on PATH")
+
+
+@pytest.fixture(scope="module")
+def program():
+    os.chdir(ROOT)  # the banner names the fits relative to the project root
+    return build_program(Path("fits"), parse_terms(None))
+
+
+@pytest.fixture(scope="module")
+def sources(program):
+    return {lang: emit(program, lang) for lang in ("c", "python", "glsl")}
+
+
+@pytest.fixture(scope="module")
+def native(program, sources, tmp_path_factory):
+    if compiler() is None:
+        pytest.skip("no C compiler on PATH")
+    return build(sources["c"], program, tmp_path_factory.mktemp("c"))
+
+
+@pytest.fixture(scope="module")
+def py(sources, tmp_path_factory):
+    d = tmp_path_factory.mktemp("py")
+    (d / "lambert_sphere.py").write_text(sources["python"]["lambert_sphere.py"])
+    spec = importlib.util.spec_from_file_location("generated_lambert_sphere", d / "lambert_sphere.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+@pytest.fixture(scope="module")
+def inputs():
+    rng = np.random.default_rng(20261122)
+    mu_i, mu_o, c = rng.random(N), rng.random(N), rng.random(N)
+    cos_phi = rng.uniform(-1.0, 1.0, N)
+    hard_mu = [0.0, 1e-12, 1e-4, 0.5, 1.0]
+    grid = np.array(np.meshgrid(hard_mu, hard_mu, [-1.0, 0.0, 1.0], [0.0, 1e-9, 0.5, 1.0], indexing="ij")).reshape(4, -1)
+    grid = grid[:, (grid[0] + grid[1]) > 0]  # the pole itself is tested apart (the exact value is infinite)
+    return tuple(np.concatenate([a, g]) for a, g in zip((mu_i, mu_o, cos_phi, c), grid))
+
+
+def rel(a, b):
+    a, b = np.asarray(a, float), np.asarray(b, float)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(a == b, 0.0, np.abs(a - b) / np.abs(b))
+
+
+def jax_reference(expr, names):
+    return jax.jit(lambdify_jax(symbols(names), expr))
+
+
+# ---- reproducibility ----------------------------------------------------------
+
+
+@pytest.mark.parametrize("lang", ["c", "python", "glsl"])
+def test_committed_generated_code_is_what_the_committed_fits_generate(sources, lang):
+    for name, text in sources[lang].items():
+        committed = (GENERATED / name).read_text()
+        assert committed == text, f"fits/generated/{name} is stale: run fitlab codegen --lang {lang}"
+
+
+def test_generation_does_not_depend_on_hash_seed(tmp_path):
+    code = ("import os; os.chdir({root!r}); from fitlab.codegen import generate; "
+            "import sys; sys.stdout.write(generate('c')['lambert_sphere.c'])").format(root=str(ROOT))  # fmt: skip
+    outs = [subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
+                           env={**os.environ, "PYTHONHASHSEED": seed}).stdout for seed in ("1", "2")]  # fmt: skip
+    assert outs[0] == outs[1] == (GENERATED / "lambert_sphere.c").read_text()
+
+
+def test_banner_names_every_source_fit(sources):
+    text = sources["c"]["lambert_sphere.h"]
+    for name in ("H0", "H1", "l", "m", "B", "C", "D", "F", "c_of_kd", "kd_of_c", "fast_brdf"):
+        assert f"fits/{name}.json" in text
+
+
+# ---- C ------------------------------------------------------------------------
+
+
+@needs_cc
+def test_c_compiles_clean_under_strict_flags(native):
+    assert "-Werror" in STRICT_FLAGS and "-Wpedantic" in STRICT_FLAGS  # build() used these
+
+
+@needs_cc
+def test_c_and_python_agree_with_the_jax_runtime_model(native, py, inputs):
+    # the reference gets the same cancellation-free rewrite as the generated parts (tested apart below);
+    # points with mu_i + mu_o under the pole floor are tested apart (the unfloored model is ~1/(mu_i + mu_o))
+    keep = inputs[0] + inputs[1] >= float(POLE_FLOOR)
+    mu_i, mu_o, cos_phi, c = (a[keep] for a in inputs)
+    expr = _stable(runtime_model(fits_dir=FITS).expr)
+    ref = np.asarray(jax_reference(expr, ("mu_i", "mu_o", "phi", "c"))(mu_i, mu_o, np.arccos(cos_phi), c))
+    got_c = native("brdf", mu_i, mu_o, cos_phi, c)
+    got_py = py.brdf(mu_i, mu_o, cos_phi, c)
+    assert np.all(np.isfinite(ref))
+    random = np.arange(len(ref)) < keep[:N].sum()
+    for got in (got_c, got_py):
+        assert rel(got[random], ref[random]).max() < 1e-12
+        # hard cases include c = 1e-9 with forward scattering, where f ~ c^2 is a difference of O(c)
+        # terms: agreement to 1e-12 of the size of those terms, c / (pi (mu_i + mu_o))
+        scale = np.maximum(np.abs(ref), c / (np.pi * (mu_i + mu_o)))
+        assert (np.abs(got - ref) / np.where(scale > 0, scale, 1.0)).max() < 1e-12
+
+
+@needs_cc
+def test_fast_variant_agrees_with_its_fit(native, py, inputs):
+    keep = inputs[0] + inputs[1] >= float(POLE_FLOOR)
+    mu_i, mu_o, cos_phi, c = (a[keep] for a in inputs)
+    kd = py.kd_of_c(c)
+    fit = load(FITS / "fast_brdf.json")
+    ref = np.asarray(jax_reference(fit.expression, fit.inputs)(mu_i, mu_o, np.arccos(cos_phi), c, kd))
+    random = np.arange(len(ref)) < keep[:N].sum()
+    scale = np.maximum(np.abs(ref), c / (np.pi * (mu_i + mu_o)))
+    for got in (native("brdf_fast", mu_i, mu_o, cos_phi, c, kd), py.brdf_fast(mu_i, mu_o, cos_phi, c, kd)):
+        assert rel(got[random], ref[random]).max() < 1e-12
+        assert (np.abs(got - ref) / np.where(scale > 0, scale, 1.0)).max() < 1e-12
+
+
+@needs_cc
+@pytest.mark.parametrize("target,routine", [("H0", "h0"), ("H1", "h1"), ("l", "const_l"), ("m", "const_m"),
+                                            ("B", "const_b"), ("C", "const_c"), ("D", "const_d"), ("F", "const_f"),
+                                            ("kd_of_c", "kd_of_c"), ("c_of_kd", "c_of_kd")])  # fmt: skip
+def test_parts_agree_with_their_fits(native, py, inputs, target, routine):
+    fit = load(FITS / f"{target}.json")
+    args = (inputs[0], inputs[3]) if len(fit.inputs) == 2 else (inputs[3],)
+    args = tuple(np.concatenate([a, [0.0, 1e-12, 1e-6, 0.5, 1.0]]) for a in args)
+    ref = np.asarray(jax_reference(fit.expression, fit.inputs)(*args))
+    # the generated parts are rewritten to avoid cancellation near c = 0 and kd = 0 (program._stable):
+    # they agree with the JAX form to 1e-12 of the form's scale, and with the rewritten form to 1e-12
+    scale = np.abs(ref).max()
+    assert np.abs(native(routine, *args) - ref).max() < 1e-12 * scale
+    assert np.abs(py.__dict__[routine](*args) - ref).max() < 1e-12 * scale
+    stable = np.asarray(jax_reference(_stable(fit.expression), fit.inputs)(*args))
+    # relative, except beside a sign change of B-F (a root), where 1e-15 of the scale
+    assert np.all(np.abs(native(routine, *args) - stable) <= 1e-12 * np.abs(stable) + 1e-15 * scale)
+
+
+def test_stable_rewrite_keeps_digits_near_the_exact_zeros():
+    """B, kd(c) near c = 0 and c(kd) near kd = 0: the rewrite keeps full relative accuracy
+    (checked against the same form evaluated in 50-digit arithmetic)."""
+    import sympy as sp
+
+    for target, name in (("B", "c"), ("kd_of_c", "c"), ("c_of_kd", "kd")):
+        fit = load(FITS / f"{target}.json")
+        x = sp.Symbol(name, real=True)
+        f = jax_reference(_stable(fit.expression), fit.inputs)
+        for v in (1e-12, 1e-8, 1e-4):
+            exact = float(fit.expression.subs(x, sp.Float(v, 50)).evalf(50))
+            assert abs(float(f(v)) - exact) <= 1e-12 * abs(exact), (target, v)  # unrewritten: 1e-4 at c = 1e-12
+
+
+@needs_cc
+def test_float_agrees_with_double(native, inputs):
+    """Float vs double at the same (float-rounded) inputs."""
+    mu_i, mu_o, cos_phi, c = (np.float32(a).astype(float) for a in inputs)
+    f64 = native("brdf", mu_i, mu_o, cos_phi, c)
+    f32 = native("brdf", mu_i, mu_o, cos_phi, c, dtype=np.float32)
+    r = rel(f32, f64)
+    assert np.percentile(r, 99.9) < 1e-5
+    # the few points above 1e-5 are forward scattering with tiny f, where p(u) ~ (1 - u)^(3/2) has
+    # condition number ~1.5/(1 - u): error relative to the single-scattering scale c/(mu_i + mu_o) stays small
+    scale = np.maximum(np.abs(f64), c / np.maximum(mu_i + mu_o, 1e-6) * 1e-2)
+    assert (np.abs(f32 - f64) / np.where(scale > 0, scale, 1.0)).max() < 1e-5
+    for name in ("h0", "h1"):
+        assert rel(native(name, mu_i, c, dtype=np.float32), native(name, mu_i, c)).max() < 1e-5
+
+
+@needs_cc
+@pytest.mark.parametrize("dtype", [np.float64, np.float32])
+def test_no_nan_or_inf_anywhere_in_the_domain(native, dtype):
+    edge = [0.0, 1e-38 if dtype == np.float32 else 1e-300, 1e-7, 0.5, 1.0 - 1e-7, 1.0]
+    g = np.array(np.meshgrid(edge, edge, [-1.0, -0.5, 0.0, 1.0], edge, edge, indexing="ij")).reshape(5, -1)
+    mu_i, mu_o, cos_phi, c, kd = g
+    checks = {
+        "brdf": (mu_i, mu_o, cos_phi, c), "single": (mu_i, mu_o, cos_phi, c), "fm0": (mu_i, mu_o, c),
+        "fm1": (mu_i, mu_o, c), "brdf_fast": (mu_i, mu_o, cos_phi, c, kd), "h0": (mu_i, c), "h1": (mu_i, c),
+        "c_of_kd": (kd,), "kd_of_c": (c,), "const_b": (c,), "const_d": (c,),
+    }  # fmt: skip
+    for name, args in checks.items():
+        out = native(name, *args, dtype=dtype)
+        assert np.all(np.isfinite(out)), name
+    assert np.all(native("brdf", mu_i, mu_o, cos_phi, c, dtype=dtype) >= 0)
+
+
+@needs_cc
+def test_the_pole_is_large_and_finite(native, py):
+    for dtype in (np.float64, np.float32):
+        at_pole = native("brdf", 0.0, 0.0, 1.0, 1.0, dtype=dtype)
+        near = native("brdf", 1e-3, 1e-3, 1.0, 1.0, dtype=dtype)
+        assert np.isfinite(at_pole) and at_pole > 100 * near
+    assert np.isfinite(py.brdf(0.0, 0.0, 1.0, 1.0))
+
+
+@needs_cc
+def test_reciprocity(native, py):
+    rng = np.random.default_rng(7)
+    wi, wo = rng.normal(size=(2, 20_000, 3))
+    wi /= np.linalg.norm(wi, axis=-1, keepdims=True)
+    wo /= np.linalg.norm(wo, axis=-1, keepdims=True)
+    wi[:, 2], wo[:, 2] = np.abs(wi[:, 2]), np.abs(wo[:, 2])
+    c = rng.random(20_000)
+    for f in (lambda a, b: native("brdf_local", a, b, c), lambda a, b: py.brdf_local(a, b, c),
+              lambda a, b: native("brdf_local", a, b, c, dtype=np.float32)):  # fmt: skip
+        assert rel(f(wi, wo), f(wo, wi)).max() < 1e-5 if f(wi[:1], wo[:1]).dtype == np.float32 else 1e-13
+    # local-frame entry agrees with the (mu, cos phi) one and is 0 below the surface
+    mu_i, mu_o = wi[:, 2], wo[:, 2]
+    cos_phi = (wi[:, 0] * wo[:, 0] + wi[:, 1] * wo[:, 1]) / np.sqrt((1 - mu_i**2) * (1 - mu_o**2))
+    assert rel(native("brdf_local", wi, wo, c), native("brdf", mu_i, mu_o, cos_phi, c)).max() < 1e-9
+    below = wi * np.array([1, 1, -1])
+    assert np.all(native("brdf_local", below, wo, c) == 0) and np.all(py.brdf_local(wi, below, c) == 0)
+
+
+@needs_cc
+def test_terms_option_keeps_only_the_terms_asked_for(tmp_path):
+    prog = build_program(FITS, parse_terms("single,m0"))
+    names = [r.name for r in prog.routines]
+    assert "fm1" not in names and "fm0" in names
+    m = build(emit(prog, "c"), prog, tmp_path)
+    x = np.array([0.3, 0.7]), np.array([0.6, 0.2]), np.array([0.5, -0.5]), np.array([0.9, 0.4])
+    expect = np.maximum(0.0, m("single", *x) + m("fm0", x[0], x[1], x[3]))
+    assert np.array_equal(m("brdf", *x), expect)
+    with pytest.raises(ValueError, match="single, m0, m1"):
+        parse_terms("single,m3")
+
+
+# ---- Python -------------------------------------------------------------------
+
+
+def test_python_module_imports_only_numpy(sources):
+    tree = ast.parse(sources["python"]["lambert_sphere.py"])
+    imported = {a.name.split(".")[0] for n in ast.walk(tree) if isinstance(n, ast.Import) for a in n.names}
+    imported |= {n.module.split(".")[0] for n in ast.walk(tree) if isinstance(n, ast.ImportFrom)}
+    assert imported == {"numpy"}
+
+
+def test_python_module_broadcasts(py):
+    out = py.brdf(np.linspace(0, 1, 5)[:, None], 0.5, 1.0, np.array([0.2, 0.9]))
+    assert out.shape == (5, 2) and out.dtype == np.float64
+    assert py.h0(0.5, 0.5).shape == ()
+
+
+# ---- GLSL ---------------------------------------------------------------------
+
+_GLSL_AS_C = r"""
+#include <math.h>
+typedef struct { float x, y, z; } vec3;
+static float max(float a, float b) { return fmaxf(a, b); }
+static float min(float a, float b) { return fminf(a, b); }
+static float abs_(float a) { return fabsf(a); }
+#define abs abs_
+#define sqrt sqrtf
+#define pow powf
+#define exp expf
+#define log logf
+#define acos acosf
+#define atan atanf
+#define tanh tanhf
+#define cos cosf
+#include "lambert_sphere.glsl"
+float glsl_brdf_local(const float *wi, const float *wo, float c)
+{ vec3 a = {wi[0], wi[1], wi[2]}, b = {wo[0], wo[1], wo[2]}; return lambert_sphere_brdf_local(a, b, c); }
+float glsl_c_of_kd(float kd) { return lambert_sphere_c_of_kd(kd); }
+"""
+
+
+@needs_cc
+def test_glsl_compiles_as_c_and_agrees(sources, tmp_path):
+    """GLSL's float subset is C: compiled against a shim of the GLSL built-ins, the shader
+    functions must compile (declared before use, only known built-ins) and agree in float."""
+    import ctypes
+
+    (tmp_path / "lambert_sphere.glsl").write_text(sources["glsl"]["lambert_sphere.glsl"])
+    (tmp_path / "shim.c").write_text(_GLSL_AS_C)
+    lib = tmp_path / "libglsl.so"
+    subprocess.run([compiler(), "-std=c99", "-O2", "-Wall", "-Werror", "-Wno-unused-function", "-shared", "-fPIC",
+                    "-o", str(lib), str(tmp_path / "shim.c"), "-lm"], check=True, capture_output=True)  # fmt: skip
+    so = ctypes.CDLL(str(lib))
+    so.glsl_brdf_local.restype = ctypes.c_float
+    so.glsl_brdf_local.argtypes = [ctypes.POINTER(ctypes.c_float)] * 2 + [ctypes.c_float]
+    so.glsl_c_of_kd.restype = ctypes.c_float
+    so.glsl_c_of_kd.argtypes = [ctypes.c_float]
+    prog = build_program(FITS)
+    ref = build(emit(prog, "c"), prog, tmp_path / "ref")
+    rng = np.random.default_rng(3)
+    for _ in range(200):
+        wi, wo = rng.normal(size=(2, 3))
+        wi, wo = wi / np.linalg.norm(wi), wo / np.linalg.norm(wo)
+        wi[2], wo[2] = abs(wi[2]), abs(wo[2])
+        c = float(rng.random())
+        a, b = (np.ascontiguousarray(v, dtype=np.float32) for v in (wi, wo))
+        got = so.glsl_brdf_local(a.ctypes.data_as(ctypes.POINTER(ctypes.c_float)),
+                                 b.ctypes.data_as(ctypes.POINTER(ctypes.c_float)), c)  # fmt: skip
+        want = float(ref("brdf_local", a.astype(float), b.astype(float), np.float32(c).astype(float)))
+        assert abs(got - want) <= 1e-4 * abs(want) + 1e-7
+    for kd in (0.0, 1e-6, 0.3, 0.5, 0.9, 1.0):
+        want = float(ref("c_of_kd", np.float32(kd).astype(float)))
+        assert abs(so.glsl_c_of_kd(kd) - want) <= 1e-5 * abs(want) + 1e-30
+
+
+@pytest.mark.skipif(shutil.which("glslangValidator") is None, reason="glslangValidator not installed (apt: glslang-tools)")
+@pytest.mark.parametrize("version", ["#version 330", "#version 300 es\nprecision highp float;"])
+def test_glsl_validates_with_glslang(sources, tmp_path, version):
+    main = ("out vec4 color; uniform vec3 wi; uniform vec3 wo; uniform float c;\nvoid main() { float kd = "
+            "lambert_sphere_kd_of_c(c); color = vec4(lambert_sphere_brdf_local(wi, wo, c) + "
+            "lambert_sphere_brdf_fast_local(wi, wo, c, kd) + lambert_sphere_c_of_kd(kd)); }\n")  # fmt: skip
+    shader = tmp_path / "test.frag"
+    shader.write_text(version + "\n" + sources["glsl"]["lambert_sphere.glsl"] + main)
+    res = subprocess.run(["glslangValidator", str(shader)], capture_output=True, text=True)
+    assert res.returncode == 0, res.stdout + res.stderr
+
+
+# ---- CLI ----------------------------------------------------------------------
+
+
+def test_cli_errors_write_nothing(tmp_path, capsys):
+    from fitlab.cli import main
+
+    assert main(["codegen", "--lang", "c", "--terms", "single,bogus", "--out", str(tmp_path / "a")]) == 2
+    assert "single, m0, m1" in capsys.readouterr().err
+    assert main(["codegen", "--lang", "c", "--fits", str(tmp_path / "none"), "--out", str(tmp_path / "b")]) == 2
+    assert "no such fit file" in capsys.readouterr().err
+    assert not (tmp_path / "a").exists() and not (tmp_path / "b").exists()
+    with pytest.raises(SystemExit):
+        main(["codegen", "--lang", "fortran"])
+    assert main(["codegen", "--lang", "python", "--out", str(tmp_path / "ok")]) == 0
+    assert (tmp_path / "ok" / "lambert_sphere.py").read_text() == (GENERATED / "lambert_sphere.py").read_text()
+    with pytest.raises(ValueError, match="unknown language"):
+        generate("fortran")
