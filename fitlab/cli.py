@@ -37,6 +37,10 @@ def _cmd_bench(args) -> int:
 
     if args.what == "exact":
         bench_exact(quick=args.quick)
+    elif args.what == "codegen":
+        from .codegen.bench import bench_codegen
+
+        bench_codegen(n=100_000 if args.quick else 1_000_000, repeat=3 if args.quick else 5)
     return 0
 
 
@@ -176,7 +180,7 @@ def build_parser() -> argparse.ArgumentParser:
     rr.add_argument("--quiet", action="store_true", help="no progress bar")
     rr.set_defaults(func=_cmd_render)
     b = sub.add_parser("bench", help="benchmarks (not tests): speed and accuracy")
-    b.add_argument("what", choices=["exact"], help="what to benchmark")
+    b.add_argument("what", choices=["exact", "codegen"], help="what to benchmark")
     b.add_argument("--quick", action="store_true", help="smaller sizes")
     b.set_defaults(func=_cmd_bench)
     return p

@@ -19,6 +19,7 @@ import textwrap
 import sympy as sp
 
 from .. import __version__
+from ..forms.symbolic import safe_pow
 from .printers import CPrinter, GLSLPrinter, NumpyPrinter
 from .program import Program, Routine
 
@@ -67,7 +68,9 @@ def _c_function(routine: Routine, scalar: str) -> str:
     suffix = "_f" if scalar == "float" else ""
     printer = CPrinter(scalar, lambda n: f"{PREFIX}{n}{suffix}", _c_names(routine, "{v}[{k}]"))
     temps, expr = _cse(routine)
-    body = [f"    const {scalar} {t} = {printer.doprint(e)};" for t, e in temps]
+    used = {str(s) for s in routine.expr.free_symbols}
+    body = [f"    (void){a};" for a in routine.args if a not in used and not routine.vectors]
+    body += [f"    const {scalar} {t} = {printer.doprint(e)};" for t, e in temps]
     body.append(f"    return {printer.doprint(expr)};")
     return f"{scalar} {PREFIX}{routine.name}{suffix}({_c_params(routine, scalar)})\n{{\n" + "\n".join(body) + "\n}\n"
 
@@ -84,10 +87,13 @@ def _c_files(program: Program) -> dict[str, str]:
     c = [
         "/*\n" + _banner(program, "c", " *") + " */\n",
         f'#include "{BASENAME}.h"\n\n#include <math.h>\n\n',
-        "/* x^p for x > 0 and 0 otherwise: the forms' safe_pow (keeps pow away from x <= 0). */\n",
-        f"static double {PREFIX}safe_pow(double x, double p) {{ return x > 0.0 ? pow(x, p) : 0.0; }}\n",
-        f"static float {PREFIX}safe_pow_f(float x, float p) {{ return x > 0.0F ? powf(x, p) : 0.0F; }}\n",
     ]
+    if any(r.expr.has(safe_pow) for r in program.routines):
+        c += [
+            "/* x^p for x > 0 and 0 otherwise: the forms' safe_pow (keeps pow away from x <= 0). */\n",
+            f"static double {PREFIX}safe_pow(double x, double p) {{ return x > 0.0 ? pow(x, p) : 0.0; }}\n",
+            f"static float {PREFIX}safe_pow_f(float x, float p) {{ return x > 0.0F ? powf(x, p) : 0.0F; }}\n",
+        ]
     for scalar in ("double", "float"):
         for r in program.routines:
             c.append("\n" + _c_function(r, scalar))
