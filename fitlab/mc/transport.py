@@ -57,7 +57,8 @@ gets a contiguous id range and the tallies are summed with ``psum``.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import lru_cache, partial
+import time
+from functools import partial
 from typing import NamedTuple
 
 import jax
@@ -77,7 +78,7 @@ from .sampling import (
     turn,
 )
 
-__all__ = ["WalkConfig", "TALLY_NAMES", "run_round", "round_key", "default_mesh"]
+__all__ = ["WalkConfig", "TALLY_NAMES", "compile_walk", "run_round", "round_key", "default_mesh"]
 
 PHASES = ("true", "three_term", "both")
 SAMPLERS = ("exact", "approx")
@@ -366,8 +367,10 @@ def default_mesh() -> Mesh:
     return Mesh(np.array(jax.devices()), (AXIS,))
 
 
-@lru_cache(maxsize=None)
-def _compiled(cfg: WalkConfig, mesh: Mesh):
+_COMPILED: dict = {}
+
+
+def _walk_fn(cfg: WalkConfig, mesh: Mesh):
     ndev = mesh.size
 
     def per_device(key_pair, c, mu_i, n_photons):
@@ -383,18 +386,36 @@ def _compiled(cfg: WalkConfig, mesh: Mesh):
     return jax.jit(f)
 
 
-def round_key(seed: int, round_index: int) -> jax.Array:
-    """The Threefry key pair (uint32[2]) of round ``round_index`` of a run seeded ``seed``."""
-    return jax.random.key_data(jax.random.fold_in(jax.random.key(seed), round_index))
+def compile_walk(cfg: WalkConfig, mesh: Mesh | None = None) -> float:
+    """Compile the walk for ``cfg`` on ``mesh`` (once; cached).  Returns the seconds it took (0 if cached)."""
+    mesh = mesh or default_mesh()
+    if (cfg, mesh) in _COMPILED:
+        return 0.0
+    t0 = time.perf_counter()
+    args = (jax.ShapeDtypeStruct((2,), jnp.uint32),) + (jax.ShapeDtypeStruct((), jnp.float64),) * 2 + (
+        jax.ShapeDtypeStruct((), jnp.int64),
+    )
+    _COMPILED[(cfg, mesh)] = _walk_fn(cfg, mesh).lower(*args).compile()
+    return time.perf_counter() - t0
 
 
-def run_round(cfg: WalkConfig, seed: int, round_index: int, c: float, mu_i: float, n_photons: int,
+def round_key(seed: int, *stream: int) -> jax.Array:
+    """Threefry key pair (uint32[2]) for ``seed`` and a stream path, e.g. (job, round)."""
+    key = jax.random.key(seed)
+    for s in stream:
+        key = jax.random.fold_in(key, s)
+    return jax.random.key_data(key)
+
+
+def run_round(cfg: WalkConfig, seed: int, stream: tuple, c: float, mu_i: float, n_photons: int,
               mesh: Mesh | None = None) -> dict:
     """Simulate ``n_photons`` photons (ids 0..n-1 of one round); tallies as numpy arrays.
 
-    c in [0, 1]; mu_i in [0, 1] (ignored for cosine incidence).  Dump rows of
-    the per-bin tallies are removed.  Deterministic in (cfg, seed, round_index,
-    c, mu_i, n_photons), whatever the mesh, up to the order of summation.
+    ``stream`` is a tuple of non-negative ints (e.g. (job, round)) folded into
+    the key of ``seed``.  c in [0, 1]; mu_i in [0, 1] (ignored for cosine
+    incidence).  Dump rows of the per-bin tallies are removed.  Deterministic
+    in (cfg, seed, stream, c, mu_i, n_photons) whatever the mesh, up to the
+    order of summation.
     """
     if not 0.0 <= c <= 1.0:
         raise ValueError(f"c must lie in [0, 1], got {c}")
@@ -403,7 +424,10 @@ def run_round(cfg: WalkConfig, seed: int, round_index: int, c: float, mu_i: floa
     if n_photons < 1 or n_photons >= 2**32:
         raise ValueError("n_photons must lie in [1, 2^32)")
     mesh = mesh or default_mesh()
-    out = _compiled(cfg, mesh)(round_key(seed, round_index), jnp.float64(c), jnp.float64(mu_i), jnp.int64(n_photons))
+    compile_walk(cfg, mesh)
+    out = _COMPILED[(cfg, mesh)](
+        round_key(seed, *stream), jnp.float64(c), jnp.float64(mu_i), jnp.int64(n_photons)
+    )
     res = {k: np.asarray(v) for k, v in out.items()}
     for name in ("fourier", "bins"):
         for suffix in ("", "_sq"):
