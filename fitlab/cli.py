@@ -41,6 +41,10 @@ def _cmd_bench(args) -> int:
         from .codegen.bench import bench_codegen
 
         bench_codegen(n=100_000 if args.quick else 1_000_000, repeat=3 if args.quick else 5)
+    elif args.what == "mc":
+        from .mc.bench import bench_mc
+
+        bench_mc(quick=args.quick)
     return 0
 
 
@@ -140,6 +144,12 @@ def _cmd_render(args) -> int:
     return 0
 
 
+def _cmd_simulate(args) -> int:
+    from .mc.cli import run_simulate
+
+    return run_simulate(args)
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="fitlab", description="Fitting workbench for analytic BRDFs (Lambert-sphere BRDF).")
     sub = p.add_subparsers(dest="command", required=True)
@@ -179,8 +189,17 @@ def build_parser() -> argparse.ArgumentParser:
     rr.add_argument("--lights", type=int, default=3, help="number of light directions, 1-5 (default 3)")
     rr.add_argument("--quiet", action="store_true", help="no progress bar")
     rr.set_defaults(func=_cmd_render)
+    s = sub.add_parser("simulate", help="Monte Carlo: simulate only the effects a scene asks for (data/scenes/)")
+    s.add_argument("scene", help="scene file (.toml or .json), e.g. data/scenes/order1_normalisation.toml")
+    s.add_argument("--out", help="output folder (default: mc_out/<scene name>)")
+    s.add_argument("--target-se", type=float, help="override every effect's standard-error target")
+    s.add_argument("--max-paths", type=int, help="override the path budget per job")
+    s.add_argument("--seed", type=int, help="override the scene's seed")
+    s.add_argument("--no-plots", action="store_true", help="CSV only")
+    s.add_argument("--quiet", action="store_true", help="no progress bar")
+    s.set_defaults(func=_cmd_simulate)
     b = sub.add_parser("bench", help="benchmarks (not tests): speed and accuracy")
-    b.add_argument("what", choices=["exact", "codegen"], help="what to benchmark")
+    b.add_argument("what", choices=["exact", "codegen", "mc"], help="what to benchmark")
     b.add_argument("--quick", action="store_true", help="smaller sizes")
     b.set_defaults(func=_cmd_bench)
     return p
