@@ -58,6 +58,28 @@ class _Common:
             return f"{self.call_name('safe_pow')}({self._print(expr.args[0])}, {self._print(expr.args[1])})"
         return super()._print_Function(expr)
 
+    # Max/Min/Piecewise: nested two-argument calls, and a conditional each language spells its way
+    def _nested(self, name, expr):
+        args = [self._print(a) for a in expr.args]
+        out = args[-1]
+        for a in reversed(args[:-1]):
+            out = f"{name}({a}, {out})"
+        return out
+
+    def _print_Max(self, expr):
+        return self._nested(self._max_min[0], expr)
+
+    def _print_Min(self, expr):
+        return self._nested(self._max_min[1], expr)
+
+    def _print_Piecewise(self, expr):
+        if expr.args[-1].cond is not sp.true:
+            raise ValueError("a Piecewise needs a final (value, True) branch")
+        out = self._print(expr.args[-1].expr)
+        for branch in reversed(expr.args[:-1]):
+            out = self._conditional(self._print(branch.cond), self._print(branch.expr), out)
+        return out
+
 
 class CPrinter(_Common, C99CodePrinter):
     """C99 for ``double`` or ``float`` (then every literal has the F suffix and
@@ -85,27 +107,13 @@ class CPrinter(_Common, C99CodePrinter):
     def _print_Pow(self, expr):
         return _small_power(self, expr) or super()._print_Pow(expr)
 
-    def _print_Max(self, expr):
-        return self._minmax("fmax", expr)
+    @property
+    def _max_min(self):
+        f = "f" if self.scalar == "float" else ""
+        return f"fmax{f}", f"fmin{f}"
 
-    def _print_Min(self, expr):
-        return self._minmax("fmin", expr)
-
-    def _minmax(self, name, expr):
-        name += "f" if self.scalar == "float" else ""
-        args = [self._print(a) for a in expr.args]
-        out = args[-1]
-        for a in reversed(args[:-1]):
-            out = f"{name}({a}, {out})"
-        return out
-
-    def _print_Piecewise(self, expr):
-        if expr.args[-1].cond is not sp.true:
-            raise ValueError("a Piecewise needs a final (value, True) branch")
-        out = self._print(expr.args[-1].expr)
-        for branch in reversed(expr.args[:-1]):
-            out = f"(({self._print(branch.cond)}) ? ({self._print(branch.expr)}) : ({out}))"
-        return out
+    def _conditional(self, cond, a, b):
+        return f"(({cond}) ? ({a}) : ({b}))"
 
 
 class GLSLPrinter(CPrinter):
@@ -115,8 +123,7 @@ class GLSLPrinter(CPrinter):
     def __init__(self, call_name, symbol_names=None):
         super().__init__("double", call_name, symbol_names)  # double: libm names without the f suffix
 
-    def _minmax(self, name, expr):
-        return super()._minmax(name[1:], expr)  # fmax -> max
+    _max_min = ("max", "min")
 
     def _print_Abs(self, expr):
         return f"abs({self._print(expr.args[0])})"
@@ -146,23 +153,7 @@ class NumpyPrinter(_Common, NumPyPrinter):
     def _print_Pow(self, expr, rational=False):
         return _small_power(self, expr) or super()._print_Pow(expr, rational=rational)
 
-    def _print_Max(self, expr):
-        return self._minmax("numpy.maximum", expr)
+    _max_min = ("numpy.maximum", "numpy.minimum")
 
-    def _print_Min(self, expr):
-        return self._minmax("numpy.minimum", expr)
-
-    def _minmax(self, name, expr):
-        args = [self._print(a) for a in expr.args]
-        out = args[-1]
-        for a in reversed(args[:-1]):
-            out = f"{name}({a}, {out})"
-        return out
-
-    def _print_Piecewise(self, expr):
-        if expr.args[-1].cond is not sp.true:
-            raise ValueError("a Piecewise needs a final (value, True) branch")
-        out = self._print(expr.args[-1].expr)
-        for branch in reversed(expr.args[:-1]):
-            out = f"numpy.where({self._print(branch.cond)}, {self._print(branch.expr)}, {out})"
-        return out
+    def _conditional(self, cond, a, b):
+        return f"numpy.where({cond}, {a}, {b})"
