@@ -32,6 +32,7 @@ a precision target.  Example (TOML; the JSON form has the same nesting)::
     max_paths = 2000000          # per job (material x incident direction x phase)
     batch = 100000               # photons per round; the stopping rule is checked per round
     max_collisions = 100000      # the cap; what it cuts is tallied and reported
+    slots = 0                    # photon slots per device (0: automatic)
 
 Every error names ``file:line`` and the field (``material[2].c``); all errors
 of a file are reported together, as one :class:`SceneError`.
@@ -103,7 +104,7 @@ class Scene:
     max_paths: int = 2_000_000
     batch: int = 100_000
     max_collisions: int = 100_000
-    slots: int = 2048
+    slots: int = 0  # 0: automatic (fitlab.mc.transport.default_slots)
 
 
 # --------------------------------------------------------------- line numbers
@@ -487,7 +488,9 @@ def parse_scene(text: str, path: str = "<scene>", fmt: str | None = None) -> Sce
     max_paths = ck.number(prec, ("precision", "max_paths"), 1000, 2**40, default=2_000_000, integer=True)
     batch = ck.number(prec, ("precision", "batch"), 100, 2**31, default=100_000, integer=True)
     max_coll = ck.number(prec, ("precision", "max_collisions"), 2, 10**8, default=100_000, integer=True)
-    slots = ck.number(prec, ("precision", "slots"), 64, 2**22, default=2048, integer=True)
+    slots = ck.number(prec, ("precision", "slots"), 0, 2**22, default=0, integer=True)
+    if slots is not None and 0 < slots < 64:
+        ck.fail(("precision", "slots"), f"photon slots per device: 0 (automatic) or >= 64, got {slots}")
 
     if ck.errors:
         raise SceneError("\n".join(text for _, text in sorted(ck.errors, key=lambda e: e[0])))

@@ -1,0 +1,207 @@
+"""The Monte Carlo random walk against the exact engine, identities, and layout independence.
+
+Small path counts, fixed seeds.  Agreement means |MC - exact| < 4 standard
+errors per point, plus a chi-square over all points of a test.
+"""
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import fitlab  # noqa: F401
+from fitlab.exact import albedo, brdf_modes, multiple_scattering_modes, single_scattering_albedo, spherical_albedo
+from fitlab.exact import three_term_phase_function
+from fitlab.mc.transport import WalkConfig, run_round
+
+EDGES = (0.0, 0.25, 0.5, 0.75, 1.0)
+FOURIER = WalkConfig(phase="three_term", mu_edges=EDGES, orders=(0, 1, 2))
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _mean_se(total, sq, n):
+    m = total / n
+    return m, np.sqrt(np.maximum(sq / n - m * m, 0) / (n - 1))
+
+
+def _bin_average(fn, mu_i, c, a, b):
+    """mu_o-weighted bin average of the three modes of fn (Gauss-Legendre, 64 nodes)."""
+    x, w = np.polynomial.legendre.leggauss(64)
+    mu = a + (b - a) * (x + 1) / 2
+    wmu = w * (b - a) / 2 * mu
+    return np.array(fn(np.full_like(mu, mu_i), mu, c)) @ wmu / wmu.sum()
+
+
+def _ss_modes_eq10(mu_i, c, a, b):
+    """Fourier orders of c p3(u)/(mu_i + mu_o), bin-averaged, by quadrature of eq. 10 itself."""
+    x, w = np.polynomial.legendre.leggauss(64)
+    mu = a + (b - a) * (x + 1) / 2
+    wmu = w * (b - a) / 2 * mu
+    y, v = np.polynomial.legendre.leggauss(64)
+    phi = np.pi * (y + 1) / 2
+    vphi = v * np.pi / 2
+    s = np.sqrt((1 - mu_i**2) * (1 - mu**2))[:, None]
+    f = c * three_term_phase_function(-(mu_i * mu[:, None] + s * np.cos(phi))) / (mu_i + mu[:, None])
+    out = [((2.0 if m else 1.0) / np.pi * (f * np.cos(m * phi) * vphi).sum(1) * wmu).sum() / wmu.sum()
+           for m in range(3)]
+    return np.array(out)
+
+
+POINTS = [(0.5, 0.3, 60_000), (0.9, 0.7, 60_000), (0.99, 0.5, 40_000), (0.99, 0.15, 40_000)]
+
+
+@pytest.fixture(scope="module")
+def fourier_runs():
+    return {(c, mu_i): run_round(FOURIER, 11, (k,), c, mu_i, n) for k, (c, mu_i, n) in enumerate(POINTS)}
+
+
+def test_multiple_scattering_modes_agree_with_exact(fourier_runs):
+    """MC f_ms^m (orders 0-2, 4 mu_o bins) vs multiple_scattering_modes, c = 0.5 ... 0.99."""
+    zs = []
+    for (c, mu_i), r in fourier_runs.items():
+        n = r["photons"]
+        for b, (a, bb) in enumerate(zip(EDGES[:-1], EDGES[1:])):
+            exact = _bin_average(multiple_scattering_modes, mu_i, c, a, bb)
+            for m in range(3):
+                norm = np.pi * (2 if m == 0 else 1) * (bb * bb - a * a) / 2
+                est, se = _mean_se(r["fourier"][b, 0, m], r["fourier_sq"][b, 0, m], n)
+                z = (est / norm - exact[m]) / (se / norm)
+                zs.append(z)
+                assert abs(z) < 4, (c, mu_i, b, m, est / norm, exact[m], se / norm)
+    zs = np.array(zs)
+    # 48 z-scores: their mean square is ~1 (chi-square 48 dof: < 1.7 with probability 0.998)
+    assert np.mean(zs**2) < 1.7, np.mean(zs**2)
+
+
+def test_total_modes_agree_with_brdf_modes(fourier_runs):
+    """Eq. 10 (quadrature, three-term p) + MC multiple scattering vs brdf_modes; order 1 also
+    against the printed normalisation (6 pi), which it must reject."""
+    for (c, mu_i), r in fourier_runs.items():
+        n = r["photons"]
+        for b, (a, bb) in enumerate(zip(EDGES[:-1], EDGES[1:])):
+            exact = _bin_average(brdf_modes, mu_i, c, a, bb)
+            ss = _ss_modes_eq10(mu_i, c, a, bb)
+            for m in range(3):
+                norm = np.pi * (2 if m == 0 else 1) * (bb * bb - a * a) / 2
+                est, se = _mean_se(r["fourier"][b, 0, m], r["fourier_sq"][b, 0, m], n)
+                total = ss[m] + est / norm
+                assert abs(total - exact[m]) < 4 * se / norm
+                if m == 1 and b > 0:
+                    assert abs(total - exact[m] / 2) > 8 * se / norm  # printed eq. 22 is rejected
+
+
+def test_directional_albedo_agrees_with_exact(fourier_runs):
+    for (c, mu_i), r in fourier_runs.items():
+        est, se = _mean_se(r["escape"][0], r["escape_sq"][0], r["photons"])
+        total = c * single_scattering_albedo(mu_i, "three_term") + est
+        assert abs(total - float(albedo(mu_i, c, "three_term"))) < 4 * se
+        assert r["n_capped"] == 0
+
+
+def test_spherical_albedo_agrees_with_exact():
+    from fitlab.mc.effects import _ss_spherical
+
+    cfg = WalkConfig(phase="three_term", incidence="cosine")
+    for k, c in enumerate((0.6, 0.99)):
+        r = run_round(cfg, 4, (k,), c, 0.0, 40_000)
+        est, se = _mean_se(r["escape"][0], r["escape_sq"][0], r["photons"])
+        assert abs(c * _ss_spherical("three_term") + est - float(spherical_albedo(c, "three_term"))) < 4 * se
+
+
+def test_collision_orders_add_up_and_order_two_dominates():
+    cfg = WalkConfig(phase="three_term", mu_edges=EDGES, collision_orders=5)
+    r = run_round(cfg, 2, (0,), 0.7, 0.6, 20_000)
+    np.testing.assert_allclose(r["coll"][:, 0].sum(), r["escape"][0], rtol=1e-12)
+    # the mu_o bins cover [0, 1]: per order, the bins add up to the order's escapes
+    np.testing.assert_allclose(r["coll_f0"][:, :, 0].sum(1), r["coll"][:, 0], rtol=1e-12)
+    assert np.all(np.diff(r["coll"][:-1, 0]) < 0)  # fewer escapes after more collisions at c = 0.7
+
+
+def test_energy_conservation_at_c1_with_the_cap_counted():
+    """c = 1: nothing is absorbed, so escapes after >= 2 collisions + weight stopped by the
+    cap = 1 - single-scattering albedo, for either phase function (p3 integrates to 1 too).
+    A small cap cuts a large tail; the identity holds only because the tail is tallied."""
+    for k, (phase, cap) in enumerate((("true", 20), ("true", 2000), ("both", 300))):
+        cfg = WalkConfig(phase=phase, max_collisions=cap)
+        r = run_round(cfg, 9, (k,), 1.0, 0.4, 10_000)
+        n = r["photons"]
+        tracks = [("true", 0)] if phase == "true" else [("true", 0), ("three_term", 1)]
+        for model, t in tracks:
+            # per photon the escape and the capped weight exclude each other: add sums and squares
+            est, se = _mean_se(r["escape"][t] + r["capped"][t], r["escape_sq"][t] + r["capped_sq"][t], n)
+            assert abs(est + single_scattering_albedo(0.4, model) - 1.0) < 4 * se, (phase, cap, model, est, se)
+        if cap == 20:
+            assert r["n_capped"] > 0.15 * n  # a quarter of the photons are stopped by the cap
+        if phase == "both":
+            # true - three-term on correlated paths: the same identity, with a tiny error
+            est, se = _mean_se(r["escape"][2] + r["capped"][2], r["escape_sq"][2] + r["capped_sq"][2], n)
+            ss = single_scattering_albedo(0.4, "true") - single_scattering_albedo(0.4, "three_term")
+            assert abs(est + ss) < 4 * se
+            assert se < 0.5 * _mean_se(r["escape"][0], r["escape_sq"][0], n)[1]  # 3.8x smaller at c = 1, cap 300
+
+
+def test_both_mode_three_term_track_agrees_with_exact():
+    cfg = WalkConfig(phase="both", max_collisions=300)
+    r = run_round(cfg, 3, (0,), 0.9, 0.5, 20_000)
+    est, se = _mean_se(r["escape"][1], r["escape_sq"][1], r["photons"])
+    assert abs(0.9 * single_scattering_albedo(0.5, "three_term") + est - float(albedo(0.5, 0.9, "three_term"))) < 4 * se
+    # correlated paths: the difference has a far smaller error than either track (18x here)
+    assert _mean_se(r["escape"][2], r["escape_sq"][2], r["photons"])[1] < 0.1 * se
+
+
+def test_eq6_sampler_runs_and_agrees_within_errors():
+    cfg_a = WalkConfig(phase="true", sampler="approx", max_collisions=300)
+    cfg_e = WalkConfig(phase="true", max_collisions=300)
+    ra = run_round(cfg_a, 5, (0,), 0.9, 0.5, 20_000)
+    re = run_round(cfg_e, 5, (1,), 0.9, 0.5, 20_000)
+    ma, sa = _mean_se(ra["escape"][0], ra["escape_sq"][0], ra["photons"])
+    me, se = _mean_se(re["escape"][0], re["escape_sq"][0], re["photons"])
+    assert abs(ma - me) < 4 * np.hypot(sa, se)
+
+
+def test_reproducible_and_independent_of_slots(fourier_runs):
+    again = run_round(FOURIER, 11, (0,), 0.5, 0.3, 60_000)
+    other = run_round(WalkConfig(phase="three_term", mu_edges=EDGES, orders=(0, 1, 2), slots=64), 11, (0,), 0.5,
+                      0.3, 60_000)
+    first = fourier_runs[(0.5, 0.3)]
+    for k in ("fourier", "fourier_sq", "escape", "photons", "collisions"):
+        np.testing.assert_array_equal(again[k], first[k])
+        np.testing.assert_allclose(other[k], first[k], rtol=1e-12, atol=1e-12)
+    diff = run_round(FOURIER, 12, (0,), 0.5, 0.3, 60_000)
+    assert diff["collisions"] != first["collisions"]
+
+
+_SHARD_SCRIPT = """
+import json, sys, numpy as np, jax
+import fitlab
+from fitlab.mc.transport import WalkConfig, run_round
+cfg = WalkConfig(phase="both", mu_edges=(0.0, 0.5, 1.0), orders=(0, 1), phi_edges=(0.0, 1.0, 3.14159),
+                 collision_orders=4, slots=64)
+r = run_round(cfg, 7, (3,), 0.95, 0.3, 5_001)
+print(json.dumps({"devices": jax.device_count(), **{k: np.asarray(v).tolist() for k, v in r.items() if k != "steps"}}))
+"""
+
+
+def _run_sharded(ndev):
+    env = dict(os.environ, XLA_FLAGS=f"--xla_force_host_platform_device_count={ndev}", JAX_PLATFORMS="cpu",
+               PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    out = subprocess.run([sys.executable, "-c", _SHARD_SCRIPT], env=env, capture_output=True, text=True,
+                         timeout=300, cwd=ROOT)
+    assert out.returncode == 0, out.stderr[-2000:]
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def test_sharded_over_four_host_devices_gives_the_same_tallies():
+    """A 1-D mesh over 4 host devices (XLA_FLAGS): each device runs its id range; the
+    tallies equal the one-device run up to the order of summation."""
+    one, four = _run_sharded(1), _run_sharded(4)
+    assert one["devices"] == 1 and four["devices"] == 4
+    for k in one:
+        if k == "devices":
+            continue
+        np.testing.assert_allclose(np.array(four[k]), np.array(one[k]), rtol=1e-12, atol=1e-9, err_msg=k)
+    assert four["photons"] == 5_001
