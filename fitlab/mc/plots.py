@@ -65,13 +65,13 @@ def plot_effect(effect: str, rows: list, path: Path, scene_name: str) -> Path:
         panels = _groups(rows, ("material", "mu_i"))
         n = max(len(panels), 1)
         cols = min(n, 3)
-        fig, axes = plt.subplots((n + cols - 1) // cols, cols, figsize=(4 * cols, 3.2 * ((n + cols - 1) // cols)),
-                                 squeeze=False)
+        rows_n = (n + cols - 1) // cols
+        fig, axes = plt.subplots(rows_n, cols, figsize=(max(4.0 * cols, 5.5), 3.2 * rows_n + 0.6), squeeze=False)
         for ax, ((mat, mu_i), rs) in zip(axes.ravel(), sorted(panels.items(), key=lambda kv: str(kv[0]))):
             _directional(ax, rs, f"{mat}, mu_i={mu_i:g}: {q} (1/sr)")
         for ax in axes.ravel()[len(panels):]:
             ax.axis("off")
-        fig.suptitle(f"{scene_name}: {effect} (points: MC +- 2 se; lines: reference; dotted: printed)", fontsize=9)
+        fig.suptitle(f"{scene_name}: {effect}\npoints: MC +- 2 se; lines: reference; dotted: printed", fontsize=9)
     elif effect == "collisions":
         rows = [r for r in rows if r["quantity"] == "a_ms_n"]
         fig, ax = plt.subplots(figsize=(6, 4))
@@ -112,7 +112,7 @@ def plot_effect(effect: str, rows: list, path: Path, scene_name: str) -> Path:
         ax.set_xlabel(xkey)
         ax.set_ylabel(q)
         ax.legend(fontsize=6)
-        fig.suptitle(f"{scene_name}: {effect} (MC +- 2 se; line: reference)", fontsize=9)
+        fig.suptitle(f"{scene_name}: {effect} (MC +- 2 se; line: reference; dotted: published)", fontsize=9)
     fig.tight_layout()
     _save(fig, path)
     return path

@@ -1,0 +1,151 @@
+"""Scene files: validation with file:line and field, before any simulation."""
+
+import json
+from pathlib import Path
+
+import pytest
+
+import fitlab  # noqa: F401
+from fitlab.mc import scene as scene_mod
+from fitlab.mc.scene import EFFECTS, SceneError, load_scene, parse_scene
+
+ROOT = Path(__file__).resolve().parents[1]
+
+GOOD = """\
+[scene]
+seed = 3
+phase = "three_term"
+
+[[material]]
+c = 0.5
+[[material]]
+c = 0.9
+label = "bright"
+
+[incident]
+mu_i = [0.3,
+        0.7]
+
+[outgoing]
+mu_o = 4
+fourier = [0, 1, 2]
+
+[effects]
+list = ["single", "multiple", "albedo"]
+
+[precision]
+target_se = 2e-3
+max_paths = 50_000
+batch = 10_000
+"""
+
+
+def _as_json(text):
+    import tomllib
+
+    return json.dumps(tomllib.loads(text), indent=2)
+
+
+def test_shipped_scenes_validate():
+    files = sorted((ROOT / "data" / "scenes").glob("*.toml")) + sorted((ROOT / "data" / "scenes").glob("*.json"))
+    names = {p.stem for p in files}
+    assert {"order1_normalisation", "order2_term", "albedo_maps"} <= names
+    for p in files:
+        s = load_scene(p)
+        assert s.effects and s.target_se
+        assert s.name == p.stem
+
+
+def test_toml_and_json_give_the_same_scene():
+    a = parse_scene(GOOD, "x.toml")
+    b = parse_scene(_as_json(GOOD), "x.json")
+    assert a.materials == b.materials and a.mu_edges == b.mu_edges == (0.0, 0.25, 0.5, 0.75, 1.0)
+    assert a.effects == b.effects and a.target_se == b.target_se and a.orders == b.orders
+    assert a.materials[1].label == "bright" and a.mu_i == (0.3, 0.7)
+
+
+def _error(text, path="s.toml"):
+    with pytest.raises(SceneError) as exc:
+        parse_scene(text, path)
+    return str(exc.value)
+
+
+@pytest.mark.parametrize(
+    "old, new, expected",
+    [
+        ("c = 0.9\n", "c = 1.5\n", "s.toml:8: material[1].c: 1.5 is outside [0.0, 1.0]"),
+        ("        0.7]", "        7.0]", "s.toml:13: incident.mu_i[1]: expected a cosine in [0, 1], got 7.0"),
+        ('list = ["single", "multiple", "albedo"]', 'list = ["single", "multiples"]',
+         "s.toml:20: effects.list[1]: unknown effect 'multiples'"),
+        ("seed = 3\n", "seed = 3\ncolour = 1\n", "s.toml:3: scene.colour: unknown field"),
+        ("mu_o = 4\n", "", "effect 'single' needs mu_o bins"),
+        ("target_se = 2e-3\n", "", "s.toml:22: precision.target_se: missing"),
+        ("target_se = 2e-3\n", "target_se = {albedo = 1e-3}\n", "precision.target_se: no target for effect 'multiple'"),
+        ('phase = "three_term"', 'phase = "three_term"\nsampler = "approx"', "s.toml:4: scene.sampler: eq. 6"),
+        ("c = 0.5\n", "c = 0.5\nkd = 0.4\n", "s.toml:5: material[0]: give exactly one of c"),
+        ("fourier = [0, 1, 2]", "fourier = [0, -1]", "s.toml:17: outgoing.fourier: expected a list of Fourier orders"),
+        ("mu_o = 4", "mu_o = [0.0, 0.6, 0.5]", "s.toml:16: outgoing.mu_o: bin edges must increase strictly"),
+        ("batch = 10_000", "batch = 1.5", "s.toml:25: precision.batch: expected an integer"),
+    ],
+)
+def test_errors_name_line_and_field(old, new, expected):
+    assert old in GOOD
+    assert expected in _error(GOOD.replace(old, new, 1))
+
+
+def test_all_errors_reported_together_in_line_order():
+    text = GOOD.replace("c = 0.9\n", "c = -1\n").replace("seed = 3", "seed = -3").replace("mu_o = 4", "mu_o = 0")
+    msg = _error(text).splitlines()
+    assert [m.split(":")[1] for m in msg] == ["2", "8", "16"], msg
+
+
+def test_json_errors_name_line_and_field():
+    text = _as_json(GOOD.replace("        0.7]", "        7.0]"))
+    msg = _error(text, "s.json")
+    line = next(i for i, s in enumerate(text.splitlines(), 1) if "7.0" in s)
+    assert f"s.json:{line}: incident.mu_i[1]" in msg
+    bad = text.replace('"seed": 3,', '"seed": 3,,')
+    assert _error(bad, "s.json").startswith("s.json:3: not valid JSON")
+
+
+def test_toml_syntax_error_names_the_line():
+    assert _error(GOOD.replace("seed = 3", "seed = = 3")).startswith("s.toml:2: not valid TOML")
+    # an unclosed array: tomllib reports the line where it gave up (the next key)
+    assert _error(GOOD.replace("mu_o = 4", "mu_o = [0.0, 0.5")).startswith("s.toml:17: not valid TOML")
+
+
+def test_file_errors(tmp_path):
+    with pytest.raises(SceneError, match="a scene is a .toml or .json file"):
+        load_scene(tmp_path / "scene.yaml")
+    with pytest.raises(SceneError, match="cannot read"):
+        load_scene(tmp_path / "missing.toml")
+
+
+def test_kd_material_is_converted_through_the_exact_spherical_albedo():
+    from fitlab.exact import spherical_albedo
+
+    s = parse_scene(GOOD.replace("c = 0.5\n", "kd = 0.3\n"), "s.toml")
+    m = s.materials[0]
+    assert m.kd == 0.3 and m.label == "kd=0.3"
+    assert float(spherical_albedo(m.c, "three_term")) == pytest.approx(0.3, abs=1e-11)
+
+
+def test_every_effect_is_documented():
+    for e in EFFECTS:
+        assert e in (scene_mod.__doc__ or "")
+
+
+def test_bad_scene_does_no_work(tmp_path, monkeypatch):
+    """A malformed scene fails before any simulation and writes nothing."""
+    import fitlab.mc.simulate as sim
+
+    def boom(*a, **k):
+        raise AssertionError("simulated a malformed scene")
+
+    monkeypatch.setattr(sim, "run_round", boom)
+    monkeypatch.setattr(sim, "compile_walk", boom)
+    p = tmp_path / "bad.toml"
+    p.write_text(GOOD.replace("c = 0.9\n", "c = 2\n"))
+    with pytest.raises(SceneError, match="bad.toml:8: material"):
+        sim.simulate_file(p, out_dir=tmp_path / "out", progress=False)
+    assert not (tmp_path / "out").exists()
