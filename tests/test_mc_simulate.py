@@ -17,7 +17,7 @@ SCENE = """\
 name = "tiny"
 seed = 8
 [[material]]
-c = 0.8
+c = 0.5
 [incident]
 mu_i = [0.6]
 [outgoing]
@@ -134,7 +134,7 @@ def test_only_the_jobs_and_tallies_an_effect_needs():
 
 def test_cli(tmp_path, capsys):
     bad = tmp_path / "bad.toml"
-    bad.write_text(SCENE.replace("c = 0.8", "c = 8"))
+    bad.write_text(SCENE.replace("c = 0.5", "c = 8"))
     assert main(["simulate", str(bad), "--quiet"]) == 2
     err = capsys.readouterr().err
     assert f"{bad}:5: material[0].c: 8 is outside [0.0, 1.0]" in err

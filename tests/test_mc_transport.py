@@ -51,7 +51,8 @@ def _ss_modes_eq10(mu_i, c, a, b):
     return np.array(out)
 
 
-POINTS = [(0.5, 0.3, 60_000), (0.9, 0.7, 60_000), (0.99, 0.5, 40_000), (0.99, 0.15, 40_000)]
+# c values shared with the other MC tests: each new c costs the exact engine seconds
+POINTS = [(0.5, 0.3, 60_000), (0.5, 0.85, 60_000), (0.99, 0.5, 40_000), (0.99, 0.15, 40_000)]
 
 
 @pytest.fixture(scope="module")
@@ -60,7 +61,7 @@ def fourier_runs():
 
 
 def test_multiple_scattering_modes_agree_with_exact(fourier_runs):
-    """MC f_ms^m (orders 0-2, 4 mu_o bins) vs multiple_scattering_modes, c = 0.5 ... 0.99."""
+    """MC f_ms^m (orders 0-2, 4 mu_o bins) vs multiple_scattering_modes, c = 0.5 and 0.99."""
     zs = []
     for (c, mu_i), r in fourier_runs.items():
         n = r["photons"]
@@ -106,7 +107,7 @@ def test_spherical_albedo_agrees_with_exact():
     from fitlab.mc.effects import _ss_spherical
 
     cfg = WalkConfig(phase="three_term", incidence="cosine")
-    for k, c in enumerate((0.6, 0.99)):
+    for k, c in enumerate((0.5, 0.99)):
         r = run_round(cfg, 4, (k,), c, 0.0, 40_000)
         est, se = _mean_se(r["escape"][0], r["escape_sq"][0], r["photons"])
         assert abs(c * _ss_spherical("three_term") + est - float(spherical_albedo(c, "three_term"))) < 4 * se
@@ -145,12 +146,13 @@ def test_energy_conservation_at_c1_with_the_cap_counted():
 
 
 def test_both_mode_three_term_track_agrees_with_exact():
-    cfg = WalkConfig(phase="both", max_collisions=300)
-    r = run_round(cfg, 3, (0,), 0.9, 0.5, 20_000)
+    cfg = WalkConfig(phase="both")
+    r = run_round(cfg, 3, (0,), 0.99, 0.5, 20_000)
+    assert r["n_capped"] == 0
     est, se = _mean_se(r["escape"][1], r["escape_sq"][1], r["photons"])
-    assert abs(0.9 * single_scattering_albedo(0.5, "three_term") + est - float(albedo(0.5, 0.9, "three_term"))) < 4 * se
-    # correlated paths: the difference has a far smaller error than either track (18x here)
-    assert _mean_se(r["escape"][2], r["escape_sq"][2], r["photons"])[1] < 0.1 * se
+    assert abs(0.99 * single_scattering_albedo(0.5, "three_term") + est - float(albedo(0.5, 0.99, "three_term"))) < 4 * se
+    # correlated paths: the difference has a far smaller error than either track (9x at c = 0.99)
+    assert _mean_se(r["escape"][2], r["escape_sq"][2], r["photons"])[1] < 0.2 * se
 
 
 def test_eq6_sampler_runs_and_agrees_within_errors():

@@ -328,7 +328,12 @@ def _edges(ck: _Checker, value, keypath, hi: float, what: str):
 
 
 def _c_of_kd(kd: float, phase: str) -> float:
-    """c whose exact spherical albedo is kd (three-term half space, or fitlab.exact 'true')."""
+    """c whose exact spherical albedo is kd (three-term half space, or fitlab.exact 'true').
+
+    Root of spherical_albedo(c) = kd by Brent's method, bracketed around the
+    published eq. 39 guess (each evaluation solves H0 at a new c: the bracket
+    saves most of them).
+    """
     from scipy.optimize import brentq
 
     from ..exact import spherical_albedo
@@ -336,14 +341,25 @@ def _c_of_kd(kd: float, phase: str) -> float:
     model = "three_term" if phase == "three_term" else "true"
     if kd <= 0.0:
         return 0.0
-    top = float(spherical_albedo(1.0, model))
-    if kd >= top:
+    if kd >= float(spherical_albedo(1.0, model)):
         return 1.0
-    return float(brentq(lambda c: float(spherical_albedo(c, model)) - kd, 0.0, 1.0, xtol=1e-13))
+    q = 1.0 - kd
+    guess = (1.0 - 1.00425 * q**2.67103) / (1.0 - 0.219924 * q**2.44559)  # eq. 39
+    f = lambda c: float(spherical_albedo(c, model)) - kd  # noqa: E731
+    lo, hi = max(0.0, guess - 0.005), min(1.0, guess + 0.005)
+    if f(lo) > 0.0:
+        lo = 0.0
+    if f(hi) < 0.0:
+        hi = 1.0
+    return float(brentq(f, lo, hi, xtol=1e-13))
 
 
-def parse_scene(text: str, path: str = "<scene>", fmt: str | None = None) -> Scene:
-    """Parse and validate scene text (format from ``fmt`` or the file suffix: toml or json)."""
+def parse_scene(text: str, path: str = "<scene>", fmt: str | None = None, resolve_kd: bool = True) -> Scene:
+    """Parse and validate scene text (format from ``fmt`` or the file suffix: toml or json).
+
+    Materials given by kd get their c from the exact engine (``resolve_kd``;
+    without it their c is NaN: enough to validate a scene, not to run it).
+    """
     fmt = fmt or ("json" if str(path).endswith(".json") else "toml")
     try:
         if fmt == "json":
@@ -496,7 +512,7 @@ def parse_scene(text: str, path: str = "<scene>", fmt: str | None = None) -> Sce
         raise SceneError("\n".join(text for _, text in sorted(ck.errors, key=lambda e: e[0])))
     mats = []
     for label, key, v in materials:
-        c = v if key == "c" else _c_of_kd(v, phase)
+        c = v if key == "c" else (_c_of_kd(v, phase) if resolve_kd else math.nan)
         mats.append(Material(label=label, c=c, kd=v if key == "kd" else None))
     return Scene(
         path=str(path), name=name, description=description, seed=int(seed), phase=phase, sampler=sampler,
@@ -506,8 +522,8 @@ def parse_scene(text: str, path: str = "<scene>", fmt: str | None = None) -> Sce
     )
 
 
-def load_scene(path) -> Scene:
-    """Read and validate a scene file (.toml or .json)."""
+def load_scene(path, resolve_kd: bool = True) -> Scene:
+    """Read and validate a scene file (.toml or .json); see :func:`parse_scene`."""
     p = Path(path)
     if p.suffix not in (".toml", ".json"):
         raise SceneError(f"{p}:1: (file): a scene is a .toml or .json file")
@@ -515,4 +531,4 @@ def load_scene(path) -> Scene:
         text = p.read_text()
     except OSError as exc:
         raise SceneError(f"{p}:1: (file): cannot read: {exc.strerror}") from None
-    return parse_scene(text, str(p))
+    return parse_scene(text, str(p), resolve_kd=resolve_kd)

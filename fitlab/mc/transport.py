@@ -56,7 +56,7 @@ gets a contiguous id range and the tallies are summed with ``psum``.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 import time
 from functools import partial
 from typing import NamedTuple
@@ -129,8 +129,8 @@ class WalkConfig:
             raise ValueError("phi_edges must increase strictly within [0, pi]")
         if self.collision_orders not in (0,) and self.collision_orders < 2:
             raise ValueError("collision_orders must be 0 (off) or >= 2")
-        if self.max_collisions < 2:
-            raise ValueError("max_collisions must be >= 2")
+        if not 2 <= self.max_collisions < 2**31:
+            raise ValueError("max_collisions must lie in [2, 2^31)")
         if self.slots != 0 and self.slots < 8:
             raise ValueError("slots must be 0 (automatic) or >= 8")
         if not 0.0 < self.rr_weight < 1.0:
@@ -278,7 +278,7 @@ def _tally(tallies, cfg: WalkConfig, escaped, n, w, dx, dy, dz, capped):
     return out
 
 
-def _step(carry, key_pair, c, mu_i, hi, cfg: WalkConfig):
+def _step(carry, key_pair, c, mu_i, hi, cap, cfg: WalkConfig):
     """Refill empty slots with new photon ids, then one flight (+ collision) for each live slot."""
     s, tallies, nxt = carry
     size = s.alive.shape[0]
@@ -322,7 +322,7 @@ def _step(carry, key_pair, c, mu_i, hi, cfg: WalkConfig):
     escaped = live & (s.n >= 2) & up & (flight > dist)
     z = s.z + flight * dz
     n_next = s.n + 1
-    capped = live & ~escaped & (n_next > cfg.max_collisions)
+    capped = live & ~escaped & (n_next > cap)
     alive = live & ~escaped & ~capped
     tallies = _tally(tallies, cfg, escaped, s.n, w, dx, dy, dz, capped)
     tallies["photons"] = tallies["photons"] + take.sum()
@@ -347,7 +347,7 @@ def default_slots(platform: str) -> int:
     return 512 if platform == "cpu" else 65536
 
 
-def _walk(key_pair, c, mu_i, lo, hi, cfg: WalkConfig, platform: str = "cpu") -> dict:
+def _walk(key_pair, c, mu_i, lo, hi, cap, cfg: WalkConfig, platform: str = "cpu") -> dict:
     """Run photon ids [lo, hi) to completion on one device; returns the tallies."""
     nw = 2 if cfg.phase == "both" else 1
     sizes = [cfg.slots or default_slots(platform)]
@@ -361,7 +361,7 @@ def _walk(key_pair, c, mu_i, lo, hi, cfg: WalkConfig, platform: str = "cpu") -> 
         jnp.zeros(p), jnp.zeros(p), jnp.zeros(p), jnp.zeros(p), jnp.ones((p, nw)),
     )
     carry = (s, _zero_tallies(cfg), jnp.asarray(lo, jnp.int64))
-    body = partial(_step, key_pair=key_pair, c=c, mu_i=mu_i, hi=hi, cfg=cfg)
+    body = partial(_step, key_pair=key_pair, c=c, mu_i=mu_i, hi=hi, cap=cap, cfg=cfg)
     for level, size in enumerate(sizes):
         if level:
             carry = (_compact(carry[0], size),) + carry[1:]
@@ -383,29 +383,35 @@ _COMPILED: dict = {}
 def _walk_fn(cfg: WalkConfig, mesh: Mesh):
     ndev = mesh.size
 
-    def per_device(key_pair, c, mu_i, n_photons):
+    def per_device(key_pair, c, mu_i, n_photons, cap):
         d = jax.lax.axis_index(AXIS).astype(jnp.int64)
         per = (n_photons + ndev - 1) // ndev
         lo = jnp.minimum(d * per, n_photons)
         hi = jnp.minimum(lo + per, n_photons)
-        tallies = _walk(key_pair, c, mu_i, lo, hi, cfg, mesh.devices.flat[0].platform)
+        tallies = _walk(key_pair, c, mu_i, lo, hi, cap, cfg, mesh.devices.flat[0].platform)
         return jax.tree_util.tree_map(lambda a: jax.lax.psum(a, AXIS), tallies)
 
     rep = PartitionSpec()
-    f = jax.shard_map(per_device, mesh=mesh, in_specs=(rep, rep, rep, rep), out_specs=rep, check_vma=False)
+    f = jax.shard_map(per_device, mesh=mesh, in_specs=(rep,) * 5, out_specs=rep, check_vma=False)
     return jax.jit(f)
+
+
+def _static(cfg: WalkConfig) -> WalkConfig:
+    """The compiled part of a config: the cap is a run-time argument."""
+    return replace(cfg, max_collisions=2)
 
 
 def compile_walk(cfg: WalkConfig, mesh: Mesh | None = None) -> float:
     """Compile the walk for ``cfg`` on ``mesh`` (once; cached).  Returns the seconds it took (0 if cached)."""
     mesh = mesh or default_mesh()
-    if (cfg, mesh) in _COMPILED:
+    key = (_static(cfg), mesh)
+    if key in _COMPILED:
         return 0.0
     t0 = time.perf_counter()
-    args = (jax.ShapeDtypeStruct((2,), jnp.uint32),) + (jax.ShapeDtypeStruct((), jnp.float64),) * 2 + (
-        jax.ShapeDtypeStruct((), jnp.int64),
-    )
-    _COMPILED[(cfg, mesh)] = _walk_fn(cfg, mesh).lower(*args).compile()
+    scalar = jax.ShapeDtypeStruct((), jnp.float64)
+    count = jax.ShapeDtypeStruct((), jnp.int64)
+    args = (jax.ShapeDtypeStruct((2,), jnp.uint32), scalar, scalar, count, count)
+    _COMPILED[key] = _walk_fn(key[0], mesh).lower(*args).compile()
     return time.perf_counter() - t0
 
 
@@ -435,8 +441,9 @@ def run_round(cfg: WalkConfig, seed: int, stream: tuple, c: float, mu_i: float, 
         raise ValueError("n_photons must lie in [1, 2^32)")
     mesh = mesh or default_mesh()
     compile_walk(cfg, mesh)
-    out = _COMPILED[(cfg, mesh)](
-        round_key(seed, *stream), jnp.float64(c), jnp.float64(mu_i), jnp.int64(n_photons)
+    out = _COMPILED[(_static(cfg), mesh)](
+        round_key(seed, *stream), jnp.float64(c), jnp.float64(mu_i), jnp.int64(n_photons),
+        jnp.int64(cfg.max_collisions),
     )
     res = {k: np.asarray(v) for k, v in out.items()}
     for name in ("fourier", "bins"):
