@@ -34,7 +34,7 @@ fourier = [0, 1, 2]
 list = ["single", "multiple", "collisions", "phase_difference", "albedo", "spherical_albedo"]
 collision_orders = 6
 [precision]
-target_se = {multiple = 2e-3, collisions = 2e-3, phase_difference = 2e-4, albedo = 1e-3, spherical_albedo = 1e-3}
+target_se = {multiple = 1e-3, collisions = 1e-3, phase_difference = 5e-5, albedo = 3e-4, spherical_albedo = 3e-4}
 max_paths = 4000000
 batch = 50000
 """

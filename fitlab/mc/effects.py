@@ -158,7 +158,7 @@ def _directional_rows(effect, scene, mat, inc, t, track, prefix, ss_fn):
                 norm = math.pi * (2.0 if m == 0 else 1.0) * proj
                 est, se = _mean_se(t["fourier"][b, track, k], t["fourier_sq"][b, track, k], n)
                 ss = ss_fn(mat, inc, b, ("m", m))
-                common = dict(mu_lo=a, mu_hi=bb, m=m, _key=("m", b, m))
+                common = dict(mu_lo=a, mu_hi=bb, m=m, _key=("m", b, m), _norm=norm)
                 rows.append(_row(effect, scene, mat, mu_i, prefix + "f_ms", est / norm, se / norm, **common))
                 rows.append(_row(effect, scene, mat, mu_i, prefix + "f", ss + est / norm, se / norm, **common))
         if "bins" in t:
@@ -166,7 +166,7 @@ def _directional_rows(effect, scene, mat, inc, t, track, prefix, ss_fn):
                 norm = 2.0 * (q - p) * proj
                 est, se = _mean_se(t["bins"][b, track, j], t["bins_sq"][b, track, j], n)
                 ss = ss_fn(mat, inc, b, ("phi", j))
-                common = dict(mu_lo=a, mu_hi=bb, phi_lo=p, phi_hi=q, _key=("phi", b, j))
+                common = dict(mu_lo=a, mu_hi=bb, phi_lo=p, phi_hi=q, _key=("phi", b, j), _norm=norm)
                 rows.append(_row(effect, scene, mat, mu_i, prefix + "f_ms", est / norm, se / norm, **common))
                 rows.append(_row(effect, scene, mat, mu_i, prefix + "f", ss + est / norm, se / norm, **common))
     return rows
@@ -226,7 +226,7 @@ def estimate_rows(effect: str, scene: Scene, results: dict) -> list:
                         norm = math.pi * (bb * bb - a * a)
                         est, se = _mean_se(t["coll_f0"][j, b, 0], t["coll_f0_sq"][j, b, 0], n)
                         rows.append(_row(effect, scene, mat, mu_i, "f0_ms_n", est / norm, se / norm, n=lab,
-                                         mu_lo=a, mu_hi=bb, m=0))
+                                         mu_lo=a, mu_hi=bb, m=0, _norm=norm))
             est, se = _mean_se(t["escape"][0], t["escape_sq"][0], n)
             rows.append(_row(effect, scene, mat, mu_i, "a_ms", est, se, n="all"))
             rows.append(_capped_row(effect, scene, mat, mu_i, t))
@@ -244,7 +244,7 @@ def estimate_rows(effect: str, scene: Scene, results: dict) -> list:
             rows.append(_capped_row(effect, scene, mat, mu_i, t))
         for r in rows:
             if r["_mat"] == mat and r.get("_job") is None:
-                r["_job"] = job
+                r["_job"], r["_n"] = job, n
     return rows
 
 

@@ -103,7 +103,11 @@ def plot_effect(effect: str, rows: list, path: Path, scene_name: str) -> Path:
             if all(_finite(v) for v in alt):
                 ax.plot(x, alt, ":", color=line[0].get_color(), lw=1, label=rs[0]["alt_name"])
             z = [r["z_ref"] for r in rs]
-            az.plot(x, z, "o", ms=3)
+            az.plot(x, z, "o", ms=3, label="vs reference")
+            za = [r["z_alt"] for r in rs]
+            if any(_finite(v) for v in za):
+                az.plot(x, za, "x", ms=4, label=f"vs {rs[0]['alt_name']}")
+                az.legend(fontsize=6)
         az.axhline(0, color="0.6", lw=0.5)
         for s in (-4, 4):
             az.axhline(s, color="r", lw=0.5, ls="--")

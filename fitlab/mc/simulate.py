@@ -5,9 +5,10 @@ then compare with the exact engine and write a CSV and one PNG per effect.
 Stopping rule, per job: after every round of ``batch`` photons, the job stops
 when every effect that uses it has all its Monte Carlo rows at or below that
 effect's ``target_se`` (absolute, in the unit of the row: 1/sr for BRDF
-values, 1 for albedos), with at least 10 000 photons and no empty bin (a bin
-no photon reached has no usable error estimate); or when it has used
-``max_paths`` photons (then the rows say converged = False).
+values, 1 for albedos), with at least 10 000 photons; a bin no photon
+reached (no error estimate) must have its rule-of-three bound 3/(N x bin
+measure) below the target; or when it has used ``max_paths`` photons (then
+the rows say converged = False).
 
 Timing: each job's wall time (compilation reported apart) is charged to every
 effect that uses it; the summary lists per effect the jobs, paths and
@@ -67,13 +68,21 @@ def _accumulate(acc, new):
 
 
 def _effect_done(effect, scene, rows, target):
-    """(done, worst se) for an effect's rows of one job."""
+    """(done, worst se) for an effect's rows of one job.
+
+    A row no photon has reached (se = 0: an empty bin) has no error estimate;
+    it counts as done when the rule-of-three bound on its mean, 3/(N norm)
+    (95 % upper limit for zero events of weight <= 1), is below the target.
+    """
     worst = 0.0
     for r in rows:
         if r.get("_diag"):
             continue
         if r["se"] == 0.0:
-            return False, math.inf  # an empty bin: no error estimate yet
+            bound = 3.0 / (r["_n"] * r.get("_norm", 1.0))
+            if bound > target:
+                return False, math.inf
+            continue
         worst = max(worst, r["se"])
     return worst <= target, worst
 
