@@ -22,11 +22,16 @@ from .sampling import (
     sample_true_approx,
     sample_true_exact,
 )
+from .scene import Scene, SceneError, load_scene, parse_scene
 from .transport import WalkConfig, run_round
 
 __all__ = [
     "THREE_TERM_NORM",
+    "Scene",
+    "SceneError",
     "WalkConfig",
+    "load_scene",
+    "parse_scene",
     "p_three_term",
     "p_true",
     "run_round",

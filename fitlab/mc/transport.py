@@ -79,7 +79,7 @@ from .sampling import (
     turn,
 )
 
-__all__ = ["WalkConfig", "TALLY_NAMES", "compile_walk", "run_round", "round_key", "default_mesh"]
+__all__ = ["WalkConfig", "compile_walk", "run_round", "round_key", "default_mesh", "default_slots"]
 
 PHASES = ("true", "three_term", "both")
 SAMPLERS = ("exact", "approx")
@@ -127,7 +127,7 @@ class WalkConfig:
         p = np.asarray(self.phi_edges, dtype=float)
         if p.size and (p.size < 2 or np.any(np.diff(p) <= 0) or p[0] < 0 or p[-1] > np.pi + 1e-12):
             raise ValueError("phi_edges must increase strictly within [0, pi]")
-        if self.collision_orders not in (0,) and self.collision_orders < 2:
+        if self.collision_orders != 0 and self.collision_orders < 2:
             raise ValueError("collision_orders must be 0 (off) or >= 2")
         if not 2 <= self.max_collisions < 2**31:
             raise ValueError("max_collisions must lie in [2, 2^31)")
@@ -145,9 +145,6 @@ class WalkConfig:
     def words(self) -> int:
         """Threefry pairs per photon per collision (2 uniforms each)."""
         return {"true": 2 if self.sampler == "approx" else 3, "three_term": 2, "both": 4}[self.phase]
-
-
-TALLY_NAMES = ("escape", "capped", "fourier", "bins", "coll", "coll_f0")
 
 
 class _Slots(NamedTuple):
@@ -170,10 +167,10 @@ def _tally_shapes(cfg: WalkConfig) -> dict:
     if cfg.phi_edges:
         shapes["bins"] = (nb + 1, t, len(cfg.phi_edges) - 1)
     if cfg.collision_orders:
-        n = cfg.collision_orders - 1 + 1  # n = 2..N and the rest
-        shapes["coll"] = (n + 1, t)
+        buckets = cfg.collision_orders  # n = 2..N (N - 1 buckets) and the rest; + 1 dump row
+        shapes["coll"] = (buckets + 1, t)
         if nb:
-            shapes["coll_f0"] = (n + 1, nb + 1, t)
+            shapes["coll_f0"] = (buckets + 1, nb + 1, t)
     return shapes
 
 
