@@ -62,17 +62,20 @@ def load_generated(path: Path):
     return module
 
 
+@lru_cache(maxsize=4)
+def _oren_nayar_function(sigma: float):
+    from .forms.baselines import BASELINE_INPUTS, oren_nayar as expression
+    from .forms.symbolic import lambdify_numpy, symbols
+
+    return lambdify_numpy(symbols(BASELINE_INPUTS), expression(sigma))
+
+
 def oren_nayar(wi, wo, kd, sigma=OREN_NAYAR_SIGMA):
-    """Qualitative Oren-Nayar BRDF (RTR ch. 9) of local-frame unit vectors."""
+    """Qualitative Oren-Nayar BRDF (:func:`fitlab.forms.baselines.oren_nayar`) of local-frame unit vectors."""
     wi, wo = np.asarray(wi, float), np.asarray(wo, float)
-    s2 = sigma * sigma
-    a, b = 1.0 - 0.5 * s2 / (s2 + 0.33), 0.45 * s2 / (s2 + 0.09)
-    mu_min = np.minimum(wi[..., 2], wo[..., 2])
-    mu_max = np.maximum(np.maximum(wi[..., 2], wo[..., 2]), 1e-6)
     ring = np.sqrt((wi[..., 0] ** 2 + wi[..., 1] ** 2) * (wo[..., 0] ** 2 + wo[..., 1] ** 2))
     cos_phi = np.where(ring > 0, (wi[..., 0] * wo[..., 0] + wi[..., 1] * wo[..., 1]) / np.maximum(ring, 1e-30), 0.0)
-    sin_alpha_tan_beta = np.sqrt(np.maximum(0.0, 1.0 - mu_min**2)) * np.sqrt(np.maximum(0.0, 1.0 - mu_max**2)) / mu_max
-    return kd / np.pi * (a + b * np.maximum(0.0, cos_phi) * sin_alpha_tan_beta)
+    return _oren_nayar_function(sigma)(wi[..., 2], wo[..., 2], cos_phi, kd)
 
 
 @lru_cache(maxsize=8)
@@ -92,8 +95,9 @@ def chandrasekhar(wi, wo, c: float):
 
 def _chandrasekhar_kd(c: float) -> float:
     mu, h = _isotropic_h_table(float(c))
-    x, w = np.polynomial.legendre.leggauss(64)
-    x, w = 0.5 * (x + 1), 0.5 * w
+    from .exact._quadrature import gauss_legendre
+
+    x, w = gauss_legendre(64)
     hx = np.interp(x, mu, h)
     f = c * hx[:, None] * hx[None, :] / (4 * np.pi * (x[:, None] + x[None, :]))
     return float(2.0 * np.pi * 2.0 * np.einsum("i,j,ij,i,j->", w, w, f, x, x))

@@ -16,9 +16,8 @@ import time
 from pathlib import Path
 
 import numpy as np
-import sympy as sp
 
-from ..forms.symbolic import symbols
+from ..forms.baselines import BASELINE_INPUTS, LAMBERT, oren_nayar
 from .emit import emit
 from .native import build
 from .program import Program, Routine, build_program, parse_terms
@@ -27,16 +26,10 @@ __all__ = ["baseline_program", "bench_codegen"]
 
 
 def baseline_program() -> Program:
-    """Lambert and Oren-Nayar (RTR ch. 9) in the routines' (mu_i, mu_o, cos_phi, kd) signature."""
-    mu_i, mu_o, cos_phi, kd = symbols(("mu_i", "mu_o", "cos_phi", "kd"))
-    s2 = sp.Rational(1, 4)  # sigma = 0.5
-    a, b = 1 - s2 / (2 * (s2 + sp.Rational(33, 100))), sp.Rational(45, 100) * s2 / (s2 + sp.Rational(9, 100))
-    lo, hi = sp.Min(mu_i, mu_o), sp.Max(sp.Max(mu_i, mu_o), sp.Rational(1, 10**6))
-    on = kd / sp.pi * (a + b * sp.Max(0, cos_phi) * sp.sqrt(1 - lo**2) * sp.sqrt(1 - hi**2) / hi)
-    args = ("mu_i", "mu_o", "cos_phi", "kd")
+    """Lambert and Oren-Nayar (sigma = 0.5) from :mod:`fitlab.forms.baselines`, as routines."""
     return Program(
-        (Routine("baseline_lambert", args, kd / sp.pi, "Lambert, kd/pi."),
-         Routine("baseline_oren_nayar", args, on, "Oren-Nayar (qualitative), sigma = 0.5.")),
+        (Routine("baseline_lambert", BASELINE_INPUTS, LAMBERT, "Lambert, kd/pi."),
+         Routine("baseline_oren_nayar", BASELINE_INPUTS, oren_nayar(), "Oren-Nayar (qualitative), sigma = 0.5.")),
         (), (),
     )  # fmt: skip
 

@@ -52,7 +52,7 @@ def _wrap(doc: str, indent: str, width: int = 96) -> list[str]:
 # ---- C ----------------------------------------------------------------------
 
 
-def _c_names(routine: Routine, vector_index: str) -> dict:
+def _vector_names(routine: Routine, vector_index: str) -> dict:
     names = {}
     for v, comps in routine.vectors.items():
         for k, comp in enumerate(comps):
@@ -66,7 +66,7 @@ def _c_params(routine: Routine, scalar: str) -> str:
 
 def _c_function(routine: Routine, scalar: str) -> str:
     suffix = "_f" if scalar == "float" else ""
-    printer = CPrinter(scalar, lambda n: f"{PREFIX}{n}{suffix}", _c_names(routine, "{v}[{k}]"))
+    printer = CPrinter(scalar, lambda n: f"{PREFIX}{n}{suffix}", _vector_names(routine, "{v}[{k}]"))
     temps, expr = _cse(routine)
     used = {str(s) for s in routine.expr.free_symbols}
     body = [f"    (void){a};" for a in routine.args if a not in used and not routine.vectors]
@@ -115,7 +115,7 @@ def _glsl_files(program: Program) -> dict[str, str]:
         "    if (u - 1.0 == -1.0) return -1.0;\n    return (u - 1.0) * x / log(u);\n}\n",
     ]
     for r in program.routines:
-        printer = GLSLPrinter(lambda n: PREFIX + n, _c_names(r, "{v}.{c}"))
+        printer = GLSLPrinter(lambda n: PREFIX + n, _vector_names(r, "{v}.{c}"))
         temps, expr = _cse(r)
         params = ", ".join(f"vec3 {a}" if a in r.vectors else f"float {a}" for a in r.signature())
         body = [f"    float {t} = {printer.doprint(e)};" for t, e in temps]
@@ -152,10 +152,7 @@ def _python_files(program: Program) -> dict[str, str]:
     names = [r.name for r in program.routines]
     out.append("__all__ = [" + ", ".join(f'"{n}"' for n in names) + "]\n")
     for r in program.routines:
-        symbol_names = {}
-        for v, comps in r.vectors.items():
-            for k, comp in enumerate(comps):
-                symbol_names[comp] = f"{v}[..., {k}]"
+        symbol_names = _vector_names(r, "{v}[..., {k}]")
         printer = NumpyPrinter(lambda n: "_safe_pow" if n == "safe_pow" else n, symbol_names)
         temps, expr = _cse(r)
         sig = r.signature()

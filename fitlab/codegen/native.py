@@ -38,10 +38,9 @@ def compiler() -> str | None:
     return None
 
 
-def _loop_source(program: Program, extra_headers=(), extra_routines=()) -> str:
-    lines = [f'#include "{BASENAME}.h"', *(f'#include "{h}"' for h in extra_headers), ""]
-    routines = [(PREFIX + r.name, r.signature(), r.vectors) for r in program.routines] + list(extra_routines)
-    for func, sig, vectors in routines:
+def _loop_source(program: Program) -> str:
+    lines = [f'#include "{BASENAME}.h"', ""]
+    for func, sig, vectors in ((PREFIX + r.name, r.signature(), r.vectors) for r in program.routines):
         for scalar, suffix in (("double", ""), ("float", "_f")):
             params = ", ".join(f"const {scalar} *{a}" for a in sig)
             args = ", ".join(f"{a} + 3 * i" if a in vectors else f"{a}[i]" for a in sig)
@@ -50,10 +49,9 @@ def _loop_source(program: Program, extra_headers=(), extra_routines=()) -> str:
     return "\n".join(lines) + "\n"
 
 
-def build(files: dict[str, str], program: Program, workdir: Path, flags=STRICT_FLAGS, extra=None) -> "NativeModel":
+def build(files: dict[str, str], program: Program, workdir: Path, flags=STRICT_FLAGS) -> "NativeModel":
     """Write ``files`` (the generated C) to ``workdir``, compile with ``flags``
-    (and -shared -fPIC) and load.  ``extra``: (file name, source, header name,
-    [(function, signature)]) of more C compiled the same way (benchmark baselines)."""
+    (and -shared -fPIC) and load."""
     cc = compiler()
     if cc is None:
         raise CompileError("no C compiler found (cc, gcc or clang)")
@@ -61,15 +59,8 @@ def build(files: dict[str, str], program: Program, workdir: Path, flags=STRICT_F
     workdir.mkdir(parents=True, exist_ok=True)
     for name, text in files.items():
         (workdir / name).write_text(text)
-    sources = [workdir / f"{BASENAME}.c"]
-    headers, extra_routines = [], []
-    for name, text, header, routines in extra or ():
-        (workdir / name).write_text(text)
-        sources.append(workdir / name)
-        headers.append(header)
-        extra_routines += [(f, sig, {}) for f, sig in routines]
-    (workdir / "loops.c").write_text(_loop_source(program, headers, extra_routines))
-    sources.append(workdir / "loops.c")
+    (workdir / "loops.c").write_text(_loop_source(program))
+    sources = [workdir / f"{BASENAME}.c", workdir / "loops.c"]
     lib = workdir / "liblambert_sphere.so"
     cmd = [cc, *flags, "-shared", "-fPIC", "-o", str(lib), *map(str, sources), "-lm"]
     res = subprocess.run(cmd, capture_output=True, text=True)

@@ -38,12 +38,10 @@ from ..forms.brdf import SINGLE
 from ..forms.symbolic import safe_pow, symbols
 from sympy.codegen.cfunctions import expm1, log1p
 
-__all__ = ["Routine", "Program", "build_program", "POLE_FLOOR", "TERMS", "parse_terms"]
+__all__ = ["Routine", "Program", "build_program", "POLE_FLOOR", "parse_terms"]
 
 #: mu_i + mu_o is floored at this value wherever it divides
 POLE_FLOOR = sp.Rational(1, 10**6)
-#: the runtime model's terms, as ``--terms`` names them
-TERMS = {"single": "single", "m0": "m0", "m1": "m1"}
 
 mu_i, mu_o, phi, c, kd, mu, cos_phi = symbols(("mu_i", "mu_o", "phi", "c", "kd", "mu", "cos_phi"))
 _VEC = {v: symbols(tuple(f"{v}_{k}" for k in "xyz")) for v in ("wi", "wo")}
@@ -149,9 +147,9 @@ def parse_terms(text: str | None) -> tuple[str, ...]:
     if text is None:
         return RUNTIME_TERMS
     asked = [t.strip() for t in text.split(",") if t.strip()]
-    unknown = [t for t in asked if t not in TERMS]
+    unknown = [t for t in asked if t not in RUNTIME_TERMS]
     if unknown or not asked:
-        raise ValueError(f"--terms takes a comma-separated subset of {', '.join(TERMS)}; got {text!r}")
+        raise ValueError(f"--terms takes a comma-separated subset of {', '.join(RUNTIME_TERMS)}; got {text!r}")
     return tuple(t for t in RUNTIME_TERMS if t in asked)
 
 
