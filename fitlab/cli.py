@@ -150,6 +150,18 @@ def _cmd_simulate(args) -> int:
     return run_simulate(args)
 
 
+def _cmd_discover(args) -> int:
+    from .discover.cli import run_discover
+
+    return run_discover(args)
+
+
+def _cmd_report(args) -> int:
+    from .report.cli import run_report
+
+    return run_report(args)
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="fitlab", description="Fitting workbench for analytic BRDFs (Lambert-sphere BRDF).")
     sub = p.add_subparsers(dest="command", required=True)
@@ -198,6 +210,16 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--no-plots", action="store_true", help="CSV only")
     s.add_argument("--quiet", action="store_true", help="no progress bar")
     s.set_defaults(func=_cmd_simulate)
+    dd = sub.add_parser("discover", help="symbolic regression (pysindy): a Pareto front of new forms for a target")
+    from .discover.cli import add_arguments as _discover_arguments
+
+    _discover_arguments(dd)
+    dd.set_defaults(func=_cmd_discover)
+    rp = sub.add_parser("report", help="accuracy vs cost of every way to evaluate the BRDF: docs/report.md and a plot")
+    from .report.cli import add_arguments as _report_arguments
+
+    _report_arguments(rp)
+    rp.set_defaults(func=_cmd_report)
     b = sub.add_parser("bench", help="benchmarks (not tests): speed and accuracy")
     b.add_argument("what", choices=["exact", "codegen", "mc"], help="what to benchmark")
     b.add_argument("--quick", action="store_true", help="smaller sizes")

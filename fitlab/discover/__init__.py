@@ -1,0 +1,1 @@
+"""Symbolic regression with pysindy: new forms for fitlab's targets (issue 6)."""

@@ -1,0 +1,1 @@
+"""The accuracy-vs-cost report (issue 7)."""
