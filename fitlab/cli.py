@@ -115,11 +115,11 @@ def _cmd_audit(args) -> int:
 
 
 def _cmd_codegen(args) -> int:
-    from .codegen import generate, write_generated
+    from .codegen import generate, parse_forms, write_generated
     from .fits import FitFileError
 
     try:
-        files = generate(args.lang, Path(args.fits), args.terms)
+        files = generate(args.lang, Path(args.fits), args.terms, parse_forms(args.form))
     except (ValueError, KeyError, FitFileError) as exc:
         msg = exc.args[0] if isinstance(exc, KeyError) and exc.args else str(exc)
         print(f"fitlab codegen: error: {msg}", file=sys.stderr)
@@ -191,6 +191,8 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("--fits", default="fits", help="folder of the fits JSON (default: fits)")
     g.add_argument("--out", default="fits/generated", help="output folder (default: fits/generated)")
     g.add_argument("--terms", help="terms of brdf to keep, comma-separated subset of single,m0,m1 (default: all)")
+    g.add_argument("--form", action="append", metavar="TARGET=FORM",
+                   help="use fits/TARGET.FORM.json for a part, e.g. H0=hapke_rational (repeatable)")
     g.set_defaults(func=_cmd_codegen)
     rr = sub.add_parser("render", help="render spheres with the generated BRDF in Mitsuba 3 beside Lambert, Oren-Nayar, Chandrasekhar")
     rr.add_argument("--out", default="docs/render.png", help="PNG to write (default: docs/render.png)")

@@ -19,7 +19,10 @@ import numpy as np
 from ._io import atomic_write_text
 from .forms.symbolic import lambdify_numpy, parse_expression, symbols
 
-__all__ = ["FORMAT", "FitFileError", "FitFunction", "load", "read_fit", "write_fit", "strict_json", "DEFAULT_DOMAINS"]
+__all__ = [
+    "FORMAT", "FitFileError", "FitFunction", "load", "read_fit", "write_fit", "strict_json", "DEFAULT_DOMAINS",
+    "form_from_fit",
+]
 
 FORMAT = "fitlab-fit/1"
 
@@ -168,3 +171,27 @@ class FitFunction:
 def load(path) -> FitFunction:
     """Load a fit file written by ``fitlab refit`` as a :class:`FitFunction`."""
     return FitFunction(read_fit(path), Path(path))
+
+
+def form_from_fit(record: dict):
+    """The :class:`fitlab.forms.Form` a fit record defines (its expression, parameters and fixed
+    values), starting from the record's parameters: how a form found outside fitlab.forms (by
+    ``fitlab discover``) is refitted like any other."""
+    from .forms import Form
+
+    names = (*record["inputs"], *record["params"])
+    try:
+        expr = parse_expression(record["expression"], names)
+    except ValueError as exc:
+        raise FitFileError(f"{record.get('target')}/{record.get('form')}: {exc}") from None
+    return Form(
+        target=record["target"],
+        name=record["form"],
+        inputs=tuple(record["inputs"]),
+        params=tuple(record["params"]),
+        expr=expr,
+        start={k: float(v) for k, v in record["params"].items()},
+        fixed={k: float(v) for k, v in record.get("fixed", {}).items()},
+        description=record.get("form_description", ""),
+        refit_by_default=False,
+    )

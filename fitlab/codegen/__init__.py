@@ -15,16 +15,36 @@ from .._io import atomic_write_text
 from .emit import BASENAME, LANGUAGES, PREFIX, emit
 from .program import POLE_FLOOR, Program, Routine, build_program, parse_terms
 
-__all__ = ["generate", "write_generated", "LANGUAGES", "PREFIX", "BASENAME", "build_program", "parse_terms",
+__all__ = ["generate", "parse_forms", "write_generated", "LANGUAGES", "PREFIX", "BASENAME", "build_program", "parse_terms",
            "Program", "Routine", "POLE_FLOOR"]  # fmt: skip
 
 
-def generate(lang: str, fits_dir: Path = Path("fits"), terms: str | tuple | None = None) -> dict[str, str]:
-    """Source files of the runtime BRDF in ``lang`` from the fits in ``fits_dir``."""
+def generate(lang: str, fits_dir: Path = Path("fits"), terms: str | tuple | None = None,
+             forms: dict | None = None) -> dict[str, str]:
+    """Source files of the runtime BRDF in ``lang`` from the fits in ``fits_dir``; ``forms`` picks a
+    fit other than the default form per target ({"H0": "sr_7_6808f1"}: fits/H0.sr_7_6808f1.json)."""
     if lang not in LANGUAGES:
         raise ValueError(f"unknown language {lang!r}; choose one of {', '.join(LANGUAGES)}")
     term_tuple = parse_terms(terms) if terms is None or isinstance(terms, str) else parse_terms(",".join(terms))
-    return emit(build_program(Path(fits_dir), term_tuple), lang)
+    return emit(build_program(Path(fits_dir), term_tuple, forms), lang)
+
+
+def parse_forms(items) -> dict[str, str]:
+    """``["H0=sr_7_6808f1", ...]`` -> {"H0": "sr_7_6808f1"}; targets must be parts codegen uses."""
+    from .program import PART_ROUTINES
+
+    known = (*PART_ROUTINES, "fast_brdf")
+    out = {}
+    for item in items or ():
+        target, sep, form = item.partition("=")
+        if not sep or not form:
+            raise ValueError(f"--form {item!r}: write TARGET=FORM, e.g. H0=hapke_rational")
+        if target not in known:
+            raise ValueError(f"--form {item!r}: TARGET is one of {', '.join(known)}")
+        if target in out:
+            raise ValueError(f"--form: {target} given twice")
+        out[target] = form
+    return out
 
 
 def write_generated(files: dict[str, str], out: Path) -> list[Path]:

@@ -1,1 +1,15 @@
-"""Symbolic regression with pysindy: new forms for fitlab's targets (issue 6)."""
+r"""Symbolic regression with pysindy: new forms for fitlab's targets.
+
+library (candidate terms) -> regression (pysindy STLSQ sweep + FROLS path on
+the linearised model) -> refine (each sparse model as a Form, refitted with
+optimistix, validated) -> search (the Pareto front) -> output (table, plot,
+fits/ JSON).  ``fitlab discover --target H0`` runs it all.
+"""
+
+from .library import LIBRARIES, Library, get_library
+from .output import save, save_from_front, write_outputs
+from .regression import Candidate, SparseRegression
+from .search import Discovery, discover, pareto_front
+
+__all__ = ["LIBRARIES", "Library", "get_library", "Candidate", "SparseRegression", "Discovery", "discover",
+           "pareto_front", "save", "save_from_front", "write_outputs"]

@@ -2,12 +2,65 @@
 
 from __future__ import annotations
 
+import sys
+from pathlib import Path
+
 __all__ = ["add_arguments", "run_discover"]
 
 
 def add_arguments(p) -> None:
-    p.add_argument("--target", required=True, help="what to discover forms for")
+    from .library import LIBRARIES
+
+    p.add_argument("--target", required=True, help=f"what to discover forms for: {', '.join(LIBRARIES)}")
+    p.add_argument("--max-terms", type=int, default=12, help="largest model refitted (default 12)")
+    p.add_argument("--minimax-rounds", type=int, default=20, help="Lawson rounds per refit (default 20)")
+    p.add_argument("--out", default="docs/discover", help="folder for TARGET.md, .json, .png (default docs/discover)")
+    p.add_argument("--fits", default="fits", help="folder of the saved fits (reference points; --save writes here)")
+    p.add_argument("--save", action="append", metavar="NAME",
+                   help="also write the front member NAME as fits/TARGET.NAME.json (repeatable)")
+    p.add_argument("--from-front", action="store_true",
+                   help="with --save: take the form from the front written earlier (OUT/TARGET.json), no search")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
 def run_discover(args) -> int:
-    raise SystemExit("fitlab discover: not yet implemented")
+    from ..fits import FitFileError
+    from ..tabulate import TableError
+    from .output import front_table, save, save_from_front, write_outputs
+    from .search import discover
+
+    if args.from_front:
+        if not args.save:
+            print("fitlab discover: error: --from-front goes with --save NAME", file=sys.stderr)
+            return 2
+        try:
+            paths = [save_from_front(Path(args.out) / f"{args.target}.json", n, Path(args.fits)) for n in args.save]
+        except (KeyError, ValueError) as exc:
+            msg = exc.args[0] if isinstance(exc, KeyError) and exc.args else str(exc)
+            print(f"fitlab discover: error: {msg}", file=sys.stderr)
+            return 2
+        for path in paths:
+            print(f"wrote {path}")
+        return 0
+    try:
+        from .library import get_library
+
+        get_library(args.target)
+        if args.max_terms < 1 or args.minimax_rounds < 0:
+            raise ValueError("--max-terms must be >= 1 and --minimax-rounds >= 0")
+        disc = discover(args.target, max_terms=args.max_terms, minimax_rounds=args.minimax_rounds,
+                        fits_dir=Path(args.fits), progress=not args.quiet)  # fmt: skip
+        for name in args.save or ():
+            if name not in disc.front:
+                raise KeyError(f"--save {name}: not on the front; the front is {', '.join(disc.front)}")
+    except (KeyError, ValueError, FitFileError, TableError) as exc:
+        msg = exc.args[0] if isinstance(exc, KeyError) and exc.args else str(exc)
+        print(f"fitlab discover: error: {msg}", file=sys.stderr)
+        return 2
+    print(front_table(disc))
+    for path in write_outputs(disc, Path(args.out)):
+        print(f"wrote {path}")
+    for name in args.save or ():
+        print(f"wrote {save(disc, name, Path(args.fits))}")
+    print(f"discover {disc.target}: {disc.seconds:.1f} s")
+    return 0

@@ -13,13 +13,14 @@ from pathlib import Path
 
 
 from .. import __version__
-from ..fits import DEFAULT_DOMAINS, FORMAT, read_fit, write_fit
+from ..fits import DEFAULT_DOMAINS, FORMAT, form_from_fit, read_fit, write_fit
+from ..forms import Form
 from . import data as d
 from .metrics import summary
 from .solver import SOLVER_SETTINGS, FitResult, fit_form, fit_form_scipy
 from .targets import TARGETS, get_target
 
-__all__ = ["RefitResult", "refit", "parse_domain", "fit_path", "MINIMAX_ROUNDS", "default_jobs"]
+__all__ = ["RefitResult", "refit", "resolve_form", "parse_domain", "fit_path", "MINIMAX_ROUNDS", "default_jobs"]
 
 MINIMAX_ROUNDS = 40
 
@@ -43,6 +44,21 @@ def parse_domain(items, inputs) -> dict:
             raise ValueError(f"--domain {item!r}: need {full_lo:g} <= LO < HI <= {full_hi:g} for {name}")
         domain[name] = (lo_f, hi_f)
     return domain
+
+
+def resolve_form(target_name: str, form_name: str | None, fits_dir: Path = Path("fits")) -> Form:
+    """A target's form by name: from fitlab.forms, else (a form found by ``fitlab discover``) from
+    the saved fit fits_dir/TARGET.FORM.json, which holds the form's expression."""
+    target = get_target(target_name)
+    form_name = form_name or target.default_form
+    if form_name in target.forms:
+        return target.forms[form_name]
+    path = fit_path(fits_dir, target.name, form_name)
+    if path.exists():
+        return form_from_fit(read_fit(path))
+    raise KeyError(
+        f"target {target.name} has no form {form_name!r} (and there is no {path}); forms: {', '.join(target.forms)}"
+    )
 
 
 def fit_path(out: Path, target: str, form: str) -> Path:
@@ -76,15 +92,18 @@ def refit(
     out: Path = Path("fits"),
     domain_items=(),
     init: Path | None = None,
+    form: Form | None = None,
     minimax: bool | None = None,
     compare_scipy: bool = False,
     write: bool = True,
+    minimax_rounds: int | None = None,
+    origin: dict | None = None,
 ) -> RefitResult:
+    """Fit ``form`` (default: the target's published shape; a :class:`Form` given as ``form``
+    is fitted as it is) to the target's training set, validate it, and write (``write``) the
+    record to fits/; ``origin`` records where a form not in fitlab.forms came from."""
     target = get_target(target_name)
-    form_name = form_name or target.default_form
-    if form_name not in target.forms:
-        raise KeyError(f"target {target.name} has no form {form_name!r}; forms: {', '.join(target.forms)}")
-    form = target.forms[form_name]
+    form = form if form is not None else resolve_form(target.name, form_name, out)
     domain = parse_domain(domain_items, target.inputs)
     theta0 = None
     if init is not None:
@@ -93,6 +112,7 @@ def refit(
             raise ValueError(f"--init {init}: a fit of {prior['target']}/{prior['form']}, not {form.key}")
         theta0 = form.vector(prior["params"])
     minimax = target.minimax if minimax is None else minimax
+    rounds = MINIMAX_ROUNDS if minimax_rounds is None else minimax_rounds
 
     train = target.training().restricted(domain)
     valid = target.validation().restricted(domain)
@@ -101,7 +121,7 @@ def refit(
 
     weights = None if target.emphasis is None else target.emphasis(train)
     fit = fit_form(
-        form, train, target.scale(train), theta0, minimax_rounds=MINIMAX_ROUNDS if minimax else 0, weights=weights
+        form, train, target.scale(train), theta0, minimax_rounds=rounds if minimax else 0, weights=weights
     )
     scipy_fit = fit_form_scipy(form, train, target.scale(train), theta0, weights=weights) if compare_scipy else None
 
@@ -121,7 +141,7 @@ def refit(
     if target.emphasis_text:
         objective += "; " + target.emphasis_text
     if minimax:
-        objective += f"; then Lawson minimax refinement ({MINIMAX_ROUNDS} rounds, best max error kept)"
+        objective += f"; then Lawson minimax refinement ({rounds} rounds, best max error kept)"
     record = {
         "format": FORMAT,
         "fitlab_version": __version__,
@@ -151,6 +171,8 @@ def refit(
         "note": target.note,
         "data_sha256": d.data_hash(train, valid),
     }
+    if origin is not None:
+        record["origin"] = origin
     path = fit_path(out, target.name, form.name)
     if write:
         write_fit(path, record)

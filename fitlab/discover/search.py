@@ -1,0 +1,189 @@
+r"""``discover``: library -> sparse candidates -> refitted, validated forms -> Pareto front.
+
+1. :class:`~fitlab.discover.regression.SparseRegression` finds sparse supports of
+   the library's linearised model on the target's training set (STLSQ threshold
+   sweep and the FROLS path).
+2. Candidates that no other candidate beats on both term count and operation
+   count at the linearised training error are kept (at most ``max_terms``
+   terms): a refit costs seconds, a linear solve microseconds.
+3. Each is refitted in its nonlinear form by :func:`fitlab.fit.refit.refit`
+   (optimistix least squares on the target's error measure, then Lawson
+   minimax where the target asks for it) and validated on the target's
+   validation set.
+4. The front: candidates no other beats on (terms, error) or (operations,
+   error), error being the validation max relative error (RMS for targets
+   whose max is pinned, ``Target.minimax`` false).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..fit.metrics import relative_errors
+from ..fit.refit import RefitResult, refit
+from ..fit.targets import get_target
+from .library import Library, get_library
+from .refine import arranged, candidate_form, form_name, operation_count
+from .regression import DEFAULT_THRESHOLDS, Candidate, SparseRegression
+
+__all__ = ["Discovered", "Discovery", "discover", "pareto_front", "front_metric"]
+
+
+@dataclass
+class Discovered:
+    """One refitted candidate."""
+
+    candidate: Candidate
+    name: str
+    terms: int
+    operations: int
+    record: dict  # the fit record, as fitlab refit writes it (with "origin")
+    seconds: float
+
+    @property
+    def validation(self) -> dict:
+        return self.record["validation"]
+
+
+@dataclass
+class Discovery:
+    target: str
+    library: Library
+    metric: str  # "max_rel" or "rms_rel"
+    candidates: list  # every Candidate the regression found
+    refined: list  # Discovered, in order of terms
+    front: list  # names of the Discovered on the Pareto front
+    reference: list = field(default_factory=list)  # published presets and saved fits: dicts (label, terms, ops, error)
+    seconds: float = 0.0
+
+    def get(self, name: str) -> Discovered:
+        for d in self.refined:
+            if d.name == name:
+                return d
+        raise KeyError(f"no discovered form {name!r}; on the front: {', '.join(self.front)}")
+
+
+def front_metric(target_name: str) -> str:
+    return "max_rel" if get_target(target_name).minimax else "rms_rel"
+
+
+def pareto_front(points) -> list[int]:
+    """Indices of the points (cost, error) that no other point beats: lower or equal on both,
+    strictly lower on one.  Ties in both keep the first."""
+    pts = [(float(a), float(b)) for a, b in points]
+    keep = []
+    for i, (ci, ei) in enumerate(pts):
+        dominated = any(
+            (cj <= ci and ej <= ei and (cj < ci or ej < ei)) or (cj == ci and ej == ei and j < i)
+            for j, (cj, ej) in enumerate(pts) if j != i
+        )
+        if not dominated:
+            keep.append(i)
+    return keep
+
+
+def _linear_errors(reg: SparseRegression, target, train) -> list[float]:
+    scale = target.scale(train)
+    out = []
+    for cand in reg.candidates_:
+        with np.errstate(all="ignore"):
+            err = relative_errors(reg.predict(train.inputs, cand), train.y, scale)
+        err = err[np.isfinite(train.y) & (scale > 0)]
+        out.append(float(np.max(err)) if target.minimax else float(np.sqrt(np.mean(err**2))))
+    return out
+
+
+def discover(
+    target_name: str,
+    *,
+    library: Library | None = None,
+    thresholds=DEFAULT_THRESHOLDS,
+    max_terms: int = 12,
+    minimax_rounds: int = 20,
+    fits_dir: Path = Path("fits"),
+    progress: bool = True,
+) -> Discovery:
+    """Run the search for ``target_name``; nothing is written (see :func:`fitlab.discover.save`)."""
+    from tqdm import tqdm
+
+    t0 = time.perf_counter()
+    target = get_target(target_name)
+    library = library or get_library(target.name)
+    if library.target != target.name:
+        raise ValueError(f"library {library.name} is for {library.target}, not {target.name}")
+    if max_terms < 1:
+        raise ValueError("max_terms must be at least 1")
+    metric = front_metric(target.name)
+    train = target.training()
+    reg = SparseRegression(library, thresholds=thresholds, frols_steps=max_terms + 2).fit(train.inputs, train.y, target.scale(train))
+    linear = _linear_errors(reg, target, train)
+    pool = [(cand, err) for cand, err in zip(reg.candidates_, linear) if cand.n_terms <= max_terms and np.isfinite(err)]
+    if not pool:
+        raise ValueError(f"{target.name}: the regression found no finite model with at most {max_terms} terms")
+    ops = [operation_count(arranged(library, cand.num, cand.den)) for cand, _ in pool]
+    keep = set(pareto_front([(cand.n_terms, e) for cand, e in pool])) | set(pareto_front([(o, e) for o, (_, e) in zip(ops, pool)]))
+    chosen = [(pool[i][0], ops[i]) for i in sorted(keep)]
+
+    refined = []
+    for cand, n_ops in tqdm(chosen, desc=f"discover {target.name}", unit="form", disable=not progress):
+        name = form_name(cand)
+        form = candidate_form(library, cand, name)
+        t1 = time.perf_counter()
+        try:
+            res: RefitResult = refit(
+                target.name, form=form, out=fits_dir, write=False, minimax_rounds=minimax_rounds,
+                origin={"method": "fitlab discover", "library": library.name, "found_by": cand.found_by,
+                        "numerator": list(cand.num), "denominator": list(cand.den)},
+            )  # fmt: skip
+        except Exception as exc:  # a candidate whose refit fails (non-finite start) is dropped, not fatal
+            if progress:
+                tqdm.write(f"  {name}: refit failed ({exc}); dropped")
+            continue
+        rec = res.record
+        theta = {k: v for k, v in rec["params"].items()}
+        a = {label: theta[f"a{k + 1}"] for k, label in enumerate(cand.num)}
+        b = {label: theta[f"b{k + 1}"] for k, label in enumerate(cand.den)}
+        refined.append(Discovered(cand, name, cand.n_terms, operation_count(arranged(library, a, b)), rec,
+                                  time.perf_counter() - t1))  # fmt: skip
+    if not refined:
+        raise ValueError(f"{target.name}: every candidate's refit failed")
+    errs = [d.validation[metric] for d in refined]
+    on_front = set(pareto_front([(d.terms, e) for d, e in zip(refined, errs)]))
+    on_front |= set(pareto_front([(d.operations, e) for d, e in zip(refined, errs)]))
+    front = [refined[i].name for i in sorted(on_front, key=lambda i: (refined[i].terms, errs[i]))]
+    return Discovery(target.name, library, metric, reg.candidates_, refined, front,
+                     reference_points(target.name, fits_dir), time.perf_counter() - t0)  # fmt: skip
+
+
+def reference_points(target_name: str, fits_dir: Path = Path("fits")) -> list[dict]:
+    """The published presets and every saved fit of the target not found by discover: label,
+    free parameters, operations, validation max and RMS relative error."""
+    from ..fits import read_fit
+    from ..fit.refit import _metrics
+
+    target = get_target(target_name)
+    valid = target.validation()
+    scale = target.scale(valid)
+    out = []
+    for form_name_, preset in target.published:
+        form = target.forms[form_name_]
+        m = _metrics(form, form.vector(preset), valid, scale)
+        out.append({"label": f"{form_name_} / {preset}", "kind": "published", "terms": len(form.free_params),
+                    "operations": operation_count(form.substituted(preset)), "max_rel": m["max_rel"],
+                    "rms_rel": m["rms_rel"], "max_rel_nonzero": m["max_rel_nonzero"]})  # fmt: skip
+    for path in sorted(Path(fits_dir).glob(f"{target.name}.json")) + sorted(Path(fits_dir).glob(f"{target.name}.*.json")):
+        rec = read_fit(path)
+        if rec.get("origin") or rec["target"] != target.name:
+            continue
+        form = target.forms.get(rec["form"])
+        if form is None:
+            continue
+        v = rec["validation"]
+        out.append({"label": f"{rec['form']} / refit", "kind": "refit", "terms": len(form.free_params),
+                    "operations": operation_count(form.substituted(rec["params"])), "max_rel": v["max_rel"],
+                    "rms_rel": v["rms_rel"], "max_rel_nonzero": v["max_rel_nonzero"]})  # fmt: skip
+    return out
