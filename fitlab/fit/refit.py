@@ -104,6 +104,8 @@ def refit(
     record to fits/; ``origin`` records where a form not in fitlab.forms came from."""
     target = get_target(target_name)
     form = form if form is not None else resolve_form(target.name, form_name, out)
+    if origin is None and form.name not in target.forms and fit_path(out, target.name, form.name).exists():
+        origin = read_fit(fit_path(out, target.name, form.name)).get("origin")  # a discovered form stays one
     domain = parse_domain(domain_items, target.inputs)
     theta0 = None
     if init is not None:
