@@ -20,6 +20,8 @@ def add_arguments(p) -> None:
                    help="also write the front member NAME as fits/TARGET.NAME.json (repeatable)")
     p.add_argument("--from-front", action="store_true",
                    help="with --save: take the form from the front written earlier (OUT/TARGET.json), no search")
+    p.add_argument("--cost", action="store_true",
+                   help="with --save: time the generated C of the saved forms beside the default form (a benchmark)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
@@ -41,7 +43,7 @@ def run_discover(args) -> int:
             return 2
         for path in paths:
             print(f"wrote {path}")
-        return 0
+        return _print_cost(args)
     try:
         from .library import get_library
 
@@ -63,4 +65,20 @@ def run_discover(args) -> int:
     for name in args.save or ():
         print(f"wrote {save(disc, name, Path(args.fits))}")
     print(f"discover {disc.target}: {disc.seconds:.1f} s")
+    return _print_cost(args)
+
+
+def _print_cost(args) -> int:
+    if not (args.cost and args.save):
+        return 0
+    from .cost import routine_cost
+
+    try:
+        ns = routine_cost(args.target, [None, *args.save], Path(args.fits))
+    except (KeyError, RuntimeError) as exc:
+        print(f"fitlab discover: --cost: {exc.args[0] if exc.args else exc}", file=sys.stderr)
+        return 2
+    print("generated C, double, ns per evaluation (best of 7, interleaved; ratios within this run):")
+    for name, t in ns.items():
+        print(f"  {name:<16} {t:8.2f} ns  {t / ns['default']:5.2f} x default")
     return 0

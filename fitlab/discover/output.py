@@ -39,7 +39,9 @@ def front_table(disc: Discovery) -> str:
         "|---|---|---:|---:|---:|---:|---|",
     ]
     for r in disc.reference:
-        lines.append(f"| {r['label']} | {r['kind']} | {r['terms']} | {r['operations']} | {_e(r['max_rel'])} | "
+        # a published form that misses an exact zero of the target has an infinite relative error there
+        mx = _e(r["max_rel"]) if math.isfinite(r["max_rel"]) else f"inf ({_e(r['max_rel_nonzero'])} without the zeros)"
+        lines.append(f"| {r['label']} | {r['kind']} | {r['terms']} | {r['operations']} | {mx} | "
                      f"{_e(r['rms_rel'])} | |")  # fmt: skip
     for d in disc.refined:
         star = " (front)" if d.name in disc.front else ""
