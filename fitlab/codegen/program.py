@@ -217,8 +217,10 @@ def build_program(fits_dir: Path, terms: tuple[str, ...] = RUNTIME_TERMS, forms:
     clamp5 = {**clamp4, **_clamped((kd, 0, 1))}
     routines.append(Routine(
         "brdf_fast", ("mu_i", "mu_o", "cos_phi", "c", "kd"), fast_expr.xreplace(clamp5),
-        "The fast variant of the Lambert-sphere BRDF (eq. 41, refitted): max(0, f_1 + lobe(|phi|) + p4 kd^p5); "
-        "kd = kd_of_c(c). Same domain as brdf, kd in [0, 1].",
+        ("The fast variant of the Lambert-sphere BRDF (eq. 41, refitted): max(0, f_1 + lobe(|phi|) + p4 kd^p5); "
+         if fast.form == get_target("fast_brdf").default_form else
+         f"A fast model of the Lambert-sphere BRDF, form {fast.form}: {fast.record.get('form_description', '')} ")
+        + "kd = kd_of_c(c). Same domain as brdf, kd in [0, 1].",
     ))  # fmt: skip
 
     # local frame: u = -wi.wo, mu = z, S cos phi = x_i x_o + y_i y_o

@@ -61,6 +61,7 @@ class Library:
     offset: sp.Expr = sp.S.Zero
     factor: sp.Expr = sp.S.One
     n0: sp.Expr = sp.S.Zero
+    nonnegative: bool = False  # the model is max(0, ...): a BRDF must not go negative where a fit undershoots
     description: str = ""
 
     def __post_init__(self):
@@ -100,7 +101,10 @@ class Library:
         """offset + factor (n0 + sum num[k] f_k) / (1 + sum den[j] g_j): coefficients may be symbols or numbers."""
         n = self.n0 + sum((coef * self.numerator[k] for k, coef in num.items()), sp.S.Zero)
         d = sp.S.One + sum((coef * self.denominator[k] for k, coef in den.items()), sp.S.Zero)
-        return self.offset + self.factor * n / d
+        return self.clamped(self.offset + self.factor * n / d)
+
+    def clamped(self, expr: sp.Expr) -> sp.Expr:
+        return sp.Max(0, expr) if self.nonnegative else expr
 
 
 def products(*factor_sets: Mapping[str, sp.Expr], skip=()) -> dict[str, sp.Expr]:
@@ -199,6 +203,7 @@ def _fast_brdf() -> Library:
         inputs=("mu_i", "mu_o", "phi", "c", "kd"),
         numerator=products(albedo, angular),
         offset=SINGLE,
+        nonnegative=True,
         description=(
             "f_r = f_1 + sum a_k g_k(c, kd) h_k(mu_i, mu_o, phi): f_1 exact single scattering (true phase function), "
             "g in {c^2, c^3, kd, kd^2}, h in {1, m, p, 1/m, p/m, log m, S cos phi, S cos phi/m, S cos phi log m}, "

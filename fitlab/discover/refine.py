@@ -94,7 +94,7 @@ def arranged(library: Library, num: dict, den: dict) -> sp.Expr:
 
     n = library.n0 + sum((value(v) * library.numerator[k] for k, v in num.items()), sp.S.Zero)
     d = sp.S.One + sum((value(v) * library.denominator[k] for k, v in den.items()), sp.S.Zero)
-    return library.offset + library.factor * _horner(n, coefs) / _horner(d, coefs)
+    return library.clamped(library.offset + library.factor * _horner(n, coefs) / _horner(d, coefs))
 
 
 def operation_count(expr: sp.Expr) -> int:

@@ -150,4 +150,5 @@ class SparseRegression:
         v = self.library.evaluate(inputs)
         n = v["_n0"] + sum((a * v[k] for k, a in candidate.num.items()), 0.0)
         d = 1.0 + sum((b * v[f"den:{k}"] for k, b in candidate.den.items()), 0.0)
-        return v["_offset"] + v["_factor"] * n / d
+        y = v["_offset"] + v["_factor"] * n / d
+        return np.maximum(y, 0.0) if self.library.nonnegative else y
