@@ -25,6 +25,7 @@ takes mu_i, mu_o, phi, c with kd = kd_true(c).
 ``approx`` is a callable taking the target's inputs positionally, in the order
 of ``Target.inputs`` (a :class:`fitlab.fits.FitFunction`, or any function), or
 a pair ``(form, preset)`` naming a published preset of :mod:`fitlab.forms`.
+Labels: "form / preset" for a preset, "form (file name)" for a saved fit.
 Exact values are cached per target and grid: comparing several
 approximations on one grid costs the exact engine once.
 """
@@ -41,7 +42,7 @@ from .exact import brdf, brdf_modes, constants, h_function, multiple_scattering_
 from .fit.data import Dataset
 from .fit.metrics import relative_errors, summary
 from .fit.targets import get_target
-from .fits import load
+from .fits import FitFunction, load
 from .forms import get_form
 
 __all__ = ["Residuals", "residuals", "brdf_residuals", "approximations", "grid_axes", "heatmap"]
@@ -67,6 +68,7 @@ class Residuals:
         (the axes, and inputs that follow from them, e.g. kd = kd_true(c)).
     exact, approx, scale: arrays of the grid's shape; error = |approx - exact| / scale.
     fixed: axes removed by :meth:`at`, with the grid value kept.
+    published: whether the approximation is a published preset, given as (form, preset).
     """
 
     label: str
@@ -78,6 +80,7 @@ class Residuals:
     scale: np.ndarray
     error_measure: str
     fixed: dict = field(default_factory=dict)
+    published: bool = False
 
     @property
     def shape(self) -> tuple[int, ...]:
@@ -220,30 +223,29 @@ def _exact(target: str, key: tuple) -> tuple[dict, dict]:
 
 
 def approximations(target: str, fits_dir: Path = Path("fits")) -> dict:
-    """Every approximation of ``target`` there is: its published presets, as (form, preset), then
-    the saved fit of each of its forms found in ``fits_dir`` (loaded), keyed by the label
-    :func:`residuals` gives them ("hapke / paper", "hapke / refit (H0.json)", ...)."""
-    from .fit.refit import fit_path
-
+    """Every approximation of ``target`` there is, keyed by the label :func:`residuals` gives it:
+    its published presets as (form, preset) ("hapke / paper"), then every fit of it saved in
+    ``fits_dir``, loaded: TARGET.json first, then TARGET.*.json by name, whatever made them
+    (``fitlab refit``, ``fitlab discover``): "hapke (H0.json)", "hapke_rational (H0.hapke_rational.json)".
+    """
     t = get_target(target)
-    found = {}
-    for form, preset in t.published:
-        found[_label((form, preset))] = (form, preset)
-    for form in t.forms:
-        path = fit_path(Path(fits_dir), target, form)
-        if path.exists():
-            fit = load(path)
-            found[_label(fit)] = fit
+    fits_dir = Path(fits_dir)
+    found = {_label(p): p for p in t.published}
+    for path in [fits_dir / f"{target}.json", *sorted(fits_dir.glob(f"{target}.*.json"))]:
+        if not path.exists():
+            continue
+        fit = load(path)
+        if fit.target != target:
+            raise ValueError(f"{path} holds a fit of {fit.target}, not {target}: rename or remove it")
+        found[_label(fit)] = fit
     return found
 
 
 def _label(approx) -> str:
     if isinstance(approx, tuple):
         return f"{approx[0]} / {approx[1]}"
-    record = getattr(approx, "record", None)
-    if record is not None:  # a FitFunction
-        path = getattr(approx, "path", None)
-        return f"{record['form']} / refit" + (f" ({path.name})" if path is not None else "")
+    if isinstance(approx, FitFunction):
+        return approx.form + (f" ({approx.path.name})" if approx.path is not None else " (fit)")
     return getattr(approx, "name", None) or getattr(approx, "__name__", None) or repr(approx)
 
 
@@ -280,7 +282,8 @@ def residuals(target: str, approx, *, label: str | None = None, **axes) -> Resid
     flat = Dataset({k: v.ravel() for k, v in inputs.items()}, exact.ravel(), "residual grid",
                    {k: v.ravel() for k, v in aux.items()})  # fmt: skip
     scale = np.asarray(t.scale(flat), dtype=float).reshape(exact.shape)
-    return Residuals(label or _label(approx), target, axes, inputs, exact, approx_values, scale, t.error_measure)
+    return Residuals(label or _label(approx), target, axes, inputs, exact, approx_values, scale, t.error_measure,
+                     published=isinstance(approx, tuple))  # fmt: skip
 
 
 def brdf_residuals(model, *, label: str | None = None, **axes) -> Residuals:

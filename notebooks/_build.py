@@ -55,14 +55,17 @@ $\mu = \mu_i$ and $\mu = \mu_o$, so errors are wanted over the whole square $(\m
 The approximations:
 * **published**: Hapke-style $H_0$ (eq. 31) and the separable $H_1$ (two readings of the printed form, and
   the renderer's coefficients), as presets of `fitlab.forms`;
-* **refits** in `fits/`: the same forms refitted (`fitlab refit --target H0`), and the richer
-  `hapke_rational` form of $H_0$.
+* **fits** in `fits/`: the same forms refitted (`fitlab refit --target H0`), the richer `hapke_rational` form of
+  $H_0$, and whatever else is saved there for the target (e.g. the forms `fitlab discover` found, `H0.sr_*.json`).
 
 The error is relative, $|H_\text{approx} - H|/H$. What to look for:
 * where each fit's largest errors lie (a minimax fit spreads its error evenly; docs/fitting.md shows why the
   eq. 31 form cannot do better than 0.484 % at $c = 1$);
 * whether the refits trade accuracy at small $c$ for accuracy near $c = 1$ (the $H_0$ refit weights small $c$
-  more: the runtime model is most sensitive there).
+  more: the runtime model is most sensitive there);
+* grazing angles: the exact $H - 1$ vanishes like $\mu \log(1/\mu)$ as $\mu \to 0$; a form that vanishes like a
+  power $\mu^d$, $d < 1$, can be accurate in $H$ and still wrong in $(H - 1)/\mu$, which the BRDF divides out
+  (see 04_brdf.ipynb, grazing behaviour).
 """),
     code(SETUP + '''
 from fitlab.exact import h_function
@@ -124,16 +127,20 @@ for name, by_label in res.items():
 ## Heat maps over $(\mu, c)$
 
 One colour scale for all panels (log, 1e-6 to 1e-1). The rows are $H_0$ and $H_1$; the columns the best published
-preset, the refit of the same form and, for $H_0$, the richer form. Look at where the colour is brightest, and at how
+preset, then every saved fit (the refit of the same form first). Look at where the colour is brightest, and at how
 evenly a minimax refit spreads its error compared with the published preset.
 """),
     code('''
 def best_published(name):
-    published = {label: r for label, r in res[name].items() if "refit" not in label}
+    published = {label: r for label, r in res[name].items() if r.published}
     return min(published.values(), key=lambda r: r.summary()["max_rel"])
 
 
-rows = {name: [best_published(name)] + [r for label, r in res[name].items() if "refit" in label] for name in res}
+def saved_fits(name):
+    return [r for r in res[name].values() if not r.published]
+
+
+rows = {name: [best_published(name), *saved_fits(name)] for name in res}
 ncols = max(len(v) for v in rows.values())
 fig, axes = plt.subplots(len(rows), ncols, figsize=(4.6 * ncols, 3.8 * len(rows)), layout="constrained", squeeze=False)
 for row, (name, panels) in zip(axes, rows.items()):
@@ -147,8 +154,8 @@ plt.show()
     md(r"""
 ## Slices
 
-Left: the error along $\mu$ at a few fixed $c$ (the grid value nearest to each); right: along $c$ at fixed $\mu$.
-Solid lines are the refit of the default form, dashed the best published preset.
+Left: the error along $\mu$ at a few fixed $c$ (the grid value nearest to each; log $\mu$, to show grazing angles);
+right: along $c$ at fixed $\mu$. Solid lines are the refit of the default form, dashed the best published preset.
 """),
     code('''
 fig, axes = plt.subplots(2, 2, figsize=(11, 7), layout="constrained")
@@ -158,7 +165,7 @@ for row, name in zip(axes, res):
     for c, colour in zip((0.5, 0.9, 0.99, 1.0), ("C0", "C1", "C2", "C3")):
         for r, style in ((refit, "-"), (published, "--")):
             s = r.at(c=c)
-            row[0].semilogy(s.axes["mu"], s.error, style, color=colour, label=f"c = {s.fixed['c']:.3g}" if style == "-" else None)
+            row[0].loglog(s.axes["mu"], s.error, style, color=colour, label=f"c = {s.fixed['c']:.3g}" if style == "-" else None)
     for mu, colour in zip((0.01, 0.3, 1.0), ("C0", "C1", "C2")):
         for r, style in ((refit, "-"), (published, "--")):
             s = r.at(mu=mu)
@@ -172,12 +179,12 @@ plt.show()
     md(r"""
 ## The worst points
 
-The largest errors of each refit and of the best published preset, with the exact and approximate values.
+The largest errors of the best published preset and of each saved fit, with the exact and approximate values.
 Neighbouring grid points of one peak follow each other in the list.
 """),
     code('''
 for name in res:
-    for r in (best_published(name), *(r for label, r in res[name].items() if "refit" in label)):
+    for r in (best_published(name), *saved_fits(name)):
         print(f"{name}: " + r.table(6), end="\\n\\n")
 '''),
 ]
@@ -248,7 +255,7 @@ not drawn.
 fig, axes = plt.subplots(2, 3, figsize=(13, 7), layout="constrained")
 for ax, name in zip(axes.flat, NAMES):
     for label, r in res[name].items():
-        ax.semilogy(C, r.error, "-" if "refit" in label else "--", label=label)
+        ax.semilogy(C, r.error, "--" if r.published else "-", label=label)
     ax.set(xlabel="c", ylabel=next(iter(res[name].values())).error_measure.split(":")[0], title=name)
     ax.legend(fontsize="x-small")
 plt.show()
@@ -345,10 +352,10 @@ drawn on a log scale); the refitted forms are exact there.
     code('''
 fig, axes = plt.subplots(1, 2, figsize=(11, 4), layout="constrained")
 for label, r in kd_res.items():
-    axes[0].semilogy(r.axes["c"], r.error, "-" if "refit" in label else "--", label=label)
+    axes[0].semilogy(r.axes["c"], r.error, "--" if r.published else "-", label=label)
 axes[0].set(xlabel="c", ylabel="relative error", title="kd_of_c")
 for label, r in c_res.items():
-    axes[1].semilogy(r.inputs["kd"], r.error, "-" if "refit" in label else "--", label=label)
+    axes[1].semilogy(r.inputs["kd"], r.error, "--" if r.published else "-", label=label)
 axes[1].set(xlabel="kd", ylabel="relative error", title="c_of_kd")
 for ax in axes:
     ax.legend(fontsize="small")
@@ -362,7 +369,7 @@ for group in (kd_res, c_res):
 '''),
     code('''
 for r in (*kd_res.values(), *c_res.values()):
-    if "refit" in r.label:
+    if not r.published:
         print(r.table(5), end="\\n\\n")
 '''),
     md(r"""

@@ -2,6 +2,7 @@
 records, each target's own error measure is used, slicing and the worst points
 are right, and every misuse fails with a clear error."""
 
+import shutil
 from pathlib import Path
 
 import matplotlib
@@ -32,7 +33,8 @@ def test_h_grid_matches_the_exact_engine_and_the_preset():
     np.testing.assert_array_equal(r.exact, exact)
     np.testing.assert_array_equal(r.approx, approx)
     np.testing.assert_allclose(r.error, np.abs(approx - exact) / exact, rtol=1e-15)
-    assert r.label == "hapke / paper"
+    assert r.label == "hapke / paper" and r.published
+    assert not residuals("H0", load(FITS / "H0.json"), mu=MU, c=C).published
 
 
 def test_exact_itself_has_zero_error_and_axes_keep_the_targets_order():
@@ -146,10 +148,19 @@ def test_heatmap_draws_two_axes_on_a_log_scale():
         plt.close(fig)
 
 
-def test_approximations_lists_presets_then_every_saved_fit():
-    found = approximations("H0", FITS)
-    assert list(found) == ["hapke / paper", "hapke / refit (H0.json)", "hapke_rational / refit (H0.hapke_rational.json)"]
+def test_approximations_lists_presets_then_every_saved_fit(tmp_path):
+    for name in ("H0.json", "H0.hapke_rational.json", "H1.json"):
+        shutil.copy(FITS / name, tmp_path / name)
+    shutil.copy(FITS / "H0.json", tmp_path / "H0.found_elsewhere.json")  # e.g. by fitlab discover
+    found = approximations("H0", tmp_path)
+    assert list(found) == ["hapke / paper", "hapke (H0.json)", "hapke (H0.found_elsewhere.json)",
+                           "hapke_rational (H0.hapke_rational.json)"]  # fmt: skip
     assert found["hapke / paper"] == ("hapke", "paper")
-    r = residuals("H0", found["hapke_rational / refit (H0.hapke_rational.json)"], mu=MU, c=C)
-    assert r.label == "hapke_rational / refit (H0.hapke_rational.json)"
-    assert len(approximations("H1", FITS)) == 5  # four published readings and the refit
+    r = residuals("H0", found["hapke_rational (H0.hapke_rational.json)"], mu=MU, c=C)
+    assert r.label == "hapke_rational (H0.hapke_rational.json)"
+    assert list(approximations("H1", tmp_path))[-1] == "separable (H1.json)"
+    assert len(approximations("H1", tmp_path)) == 5  # four published readings and the fit
+
+    shutil.copy(FITS / "H1.json", tmp_path / "H0.misnamed.json")
+    with pytest.raises(ValueError, match="holds a fit of H1"):
+        approximations("H0", tmp_path)
