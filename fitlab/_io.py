@@ -18,3 +18,31 @@ def atomic_write_bytes(path: Path, data: bytes) -> None:
     tmp = path.with_name(path.name + ".tmp")
     tmp.write_bytes(data)
     os.replace(tmp, path)
+
+
+def atomic_write_many(files: dict) -> None:
+    """Write several files as one unit: {path: bytes}.
+
+    Every temporary file is written first; only when all are complete are they
+    renamed over their targets.  A target that is a folder, or a failure while
+    writing, leaves every target as it was (and no temporary behind).  The
+    renames themselves are atomic one by one.
+    """
+    paths = [Path(p) for p in files]
+    folders = [p for p in paths if p.is_dir()]
+    if folders:
+        raise IsADirectoryError(f"{folders[0]} is a folder, not a file")
+    tmps = []
+    try:
+        for path, data in zip(paths, files.values()):
+            path.parent.mkdir(parents=True, exist_ok=True)
+            tmp = path.with_name(path.name + ".tmp")
+            tmps.append(tmp)
+            tmp.write_bytes(data)
+    except BaseException:
+        for tmp in tmps:
+            if tmp.is_file():
+                tmp.unlink()
+        raise
+    for tmp, path in zip(tmps, paths):
+        os.replace(tmp, path)

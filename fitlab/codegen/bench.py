@@ -3,9 +3,10 @@ r"""Benchmark (not a test): what the generated BRDF costs per evaluation.
 The generated C (full runtime model, fast variant) and two baselines compiled
 the same way (Lambert kd/pi; qualitative Oren-Nayar, sigma = 0.5), each from
 one sympy expression through the same printer, are timed on the same random
-inputs in a C loop (no Python per element), best of ``repeat``; the generated
-numpy module is timed vectorised over the same inputs.  Only ratios within one
-run carry meaning.
+inputs in a C loop (no Python per element), best of ``repeat`` rounds that
+interleave the cases (:func:`time_routines`, the one C timing harness, also used
+by ``fitlab report``); the generated numpy module is timed vectorised over the
+same inputs.  Only ratios within one run carry meaning.
 """
 
 from __future__ import annotations
@@ -22,7 +23,7 @@ from .emit import emit
 from .native import build
 from .program import Program, Routine, build_program, parse_terms
 
-__all__ = ["baseline_program", "bench_codegen"]
+__all__ = ["baseline_program", "bench_codegen", "random_inputs", "time_routines"]
 
 
 def baseline_program() -> Program:
@@ -43,12 +44,37 @@ def _best(fn, repeat):
     return best
 
 
+def random_inputs(n: int, seed: int = 0) -> dict:
+    """The benchmark's inputs: mu_i, mu_o, c uniform on [0, 1), cos_phi uniform on [-1, 1) (numpy, seeded)."""
+    rng = np.random.default_rng(seed)
+    mu_i, mu_o, c = rng.random(n), rng.random(n), rng.random(n)
+    return {"mu_i": mu_i, "mu_o": mu_o, "c": c, "cos_phi": rng.uniform(-1, 1, n)}
+
+
+def time_routines(cases: dict, repeat: int = 5) -> dict:
+    """ns per evaluation of compiled routines: {key: (lib, routine name, arrays, dtype)} -> {key: ns}.
+
+    Each array is converted to the case's dtype once, before any timing.  Each
+    round calls every case's C loop once, in turn; a case's time is its best
+    round.  Interleaving makes a change of machine load hit every case alike,
+    so the ratios between cases hold even on a shared machine.
+    """
+    conv = {k: (lib, name, [np.ascontiguousarray(a, dtype=dt) for a in args], dt)
+            for k, (lib, name, args, dt) in cases.items()}  # fmt: skip
+    best = dict.fromkeys(cases, np.inf)
+    for _ in range(repeat):
+        for k, (lib, name, arrays, dt) in conv.items():
+            t0 = time.perf_counter()
+            lib(name, *arrays, dtype=dt)
+            best[k] = min(best[k], time.perf_counter() - t0)
+    return {k: best[k] / conv[k][2][0].size * 1e9 for k in cases}
+
+
 def bench_codegen(fits_dir: Path = Path("fits"), n: int = 1_000_000, repeat: int = 5) -> dict:
     prog = build_program(Path(fits_dir), parse_terms(None))
     base = baseline_program()
-    rng = np.random.default_rng(0)
-    mu_i, mu_o, c = rng.random(n), rng.random(n), rng.random(n)
-    cos_phi = rng.uniform(-1, 1, n)
+    x = random_inputs(n)
+    mu_i, mu_o, c, cos_phi = x["mu_i"], x["mu_o"], x["c"], x["cos_phi"]
     rows = {}
     with tempfile.TemporaryDirectory() as tmp:
         model = build(emit(prog, "c"), prog, Path(tmp) / "model")
@@ -65,11 +91,10 @@ def bench_codegen(fits_dir: Path = Path("fits"), n: int = 1_000_000, repeat: int
             "brdf_fast (eq. 41)": (model, "brdf_fast", (mu_i, mu_o, cos_phi, c, kd)),
             "brdf (runtime model)": (model, "brdf", (mu_i, mu_o, cos_phi, c)),
         }
-        for label, (lib, name, args) in cases.items():
-            for dtype in (np.float64, np.float32):
-                conv = [np.ascontiguousarray(a, dtype=dtype) for a in args]
-                t = _best(lambda: lib(name, *conv, dtype=dtype), repeat)
-                rows[(label, "C " + np.dtype(dtype).name)] = t / n * 1e9
+        timed = time_routines({(label, "C " + np.dtype(dt).name): (lib, name, args, dt)
+                               for label, (lib, name, args) in cases.items() for dt in (np.float64, np.float32)},
+                              repeat)  # fmt: skip
+        rows.update(timed)
         for label, fn, args in (("brdf (runtime model)", py.brdf, (mu_i, mu_o, cos_phi, c)),
                                 ("brdf_fast (eq. 41)", py.brdf_fast, (mu_i, mu_o, cos_phi, c, kd))):  # fmt: skip
             rows[(label, "numpy float64")] = _best(lambda: fn(*args), max(1, repeat // 2)) / n * 1e9

@@ -1,0 +1,56 @@
+r"""Accuracy against the exact values: max and RMS relative error on a fixed validation set.
+
+BRDF level: e_k = |f_k - f_exact,k| / |f_exact,k| over the report's validation
+set (:mod:`fitlab.report.validation`); max_rel = max_k e_k, rms_rel =
+sqrt(mean_k e_k^2), and max_rel_away the max over the points with mu_i, mu_o >=
+1/64 (away from the grazing pole, as in docs/audit.md).  A NaN or inf value
+counts as an infinite error (:func:`fitlab.fit.metrics.relative_errors`).
+
+Part level: the target's own error measure and validation set
+(:mod:`fitlab.fit.targets`: |approx - exact| / scale, scale = |exact|, or
+A = 69c/128 for B, C, D, F, or f^(0) for fm1), restricted to a fit's domain
+where the fit declares a smaller one; max_rel* leaves out the target's exact
+zeros (:func:`fitlab.fit.metrics.summary`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..fit.metrics import relative_errors, summary
+from .methods import BRDF_INPUTS
+
+__all__ = ["brdf_errors", "brdf_accuracy", "part_accuracy", "GRAZING"]
+
+GRAZING = 1.0 / 64.0
+
+
+def brdf_errors(method, valid) -> np.ndarray:
+    """Relative errors of ``method`` at every point of the BRDF validation set."""
+    approx = method.evaluate(*(valid.inputs[n] for n in BRDF_INPUTS))
+    return relative_errors(approx, valid.y, np.abs(valid.y))
+
+
+def brdf_accuracy(method, valid) -> dict:
+    """max_rel, rms_rel, max_rel_away (mu_i, mu_o >= 1/64), points and the worst point."""
+    err = brdf_errors(method, valid)
+    away = (valid.inputs["mu_i"] >= GRAZING) & (valid.inputs["mu_o"] >= GRAZING)
+    i = int(np.argmax(err))
+    with np.errstate(over="ignore"):
+        rms = float(np.sqrt(np.mean(err**2)))
+    return {
+        "max_rel": float(err[i]),
+        "rms_rel": rms,
+        "max_rel_away": float(err[away].max()),
+        "points": int(err.size),
+        "worst": {k: float(valid.inputs[k][i]) for k in ("mu_i", "mu_o", "phi", "c")},
+    }
+
+
+def part_accuracy(method, target) -> dict:
+    """The target's error measure on its validation set (restricted to the method's domain)."""
+    valid = target.validation()
+    if method.domain:
+        valid = valid.restricted(method.domain)
+    approx = method.evaluate(**{n: valid.inputs[n] for n in target.inputs})
+    return summary(approx, valid.y, target.scale(valid), valid.inputs)

@@ -1,0 +1,78 @@
+r"""The Pareto front of cost against error, and the recommendations read off the numbers.
+
+A method dominates another when it costs no more and errs no more, and is
+strictly better in one of the two.  The front is the set no method dominates,
+listed by increasing cost (so with strictly decreasing error); of exact
+duplicates the first listed is kept.  Points with a non-finite or negative
+cost or error are not on any front.
+
+Recommendations (each rule applied to the measured rows; the baselines, which
+model another material, are never recommended):
+
+* real-time: among methods with generated C (GLSL is printed from the same
+  expressions), those with RMS relative error <= ``REALTIME_RMS``; the cheapest
+  in C double, where every method within ``COST_TIE`` of that cost counts as
+  equally cheap and the lowest RMS error among them wins (timings are noisy;
+  a 10 % difference is not a reason to take the less accurate model);
+* offline: the lowest max relative error among methods costing at most
+  ``OFFLINE_NS`` per evaluation (C double where measured, else numpy);
+* reference: the lowest max relative error at any cost.
+"""
+
+from __future__ import annotations
+
+import math
+
+__all__ = ["pareto_front", "recommend", "REALTIME_RMS", "OFFLINE_NS", "COST_TIE", "RULES"]
+
+REALTIME_RMS = 1e-2
+OFFLINE_NS = 1e4
+COST_TIE = 0.10
+
+RULES = {
+    "real-time": (f"the cheapest generated C (double) with RMS relative error <= {REALTIME_RMS:g}; methods within "
+                  f"{COST_TIE:.0%} of that cost count as equally cheap and the lowest RMS error among them is taken"),
+    "offline": f"the lowest max relative error among methods costing <= {OFFLINE_NS / 1e3:g} us per evaluation "
+               "(C double where measured, else numpy)",
+    "reference": "the lowest max relative error at any cost",
+}  # fmt: skip
+
+
+def _ok(x) -> bool:
+    return x is not None and math.isfinite(x) and x >= 0.0
+
+
+def pareto_front(costs, errors) -> list[int]:
+    """Indices of the non-dominated points, by increasing cost (errors then strictly decrease)."""
+    idx = [i for i, (c, e) in enumerate(zip(costs, errors)) if _ok(c) and _ok(e)]
+    idx.sort(key=lambda i: (costs[i], errors[i], i))
+    front, best = [], math.inf
+    for i in idx:
+        if errors[i] < best:
+            front.append(i)
+            best = errors[i]
+    return front
+
+
+def _cost(row) -> float:
+    c = row.get("ns_c_double")
+    return c if _ok(c) else row.get("ns_python", math.nan)
+
+
+def recommend(rows: list[dict]) -> dict:
+    """{use: row or None} for "real-time", "offline", "reference" by :data:`RULES` (rows: the BRDF-level
+    rows with max_rel, rms_rel, ns_c_double, ns_python, group)."""
+    cands = [r for r in rows if r["group"] != "baseline"]
+    out = {}
+    rt = [r for r in cands if _ok(r.get("ns_c_double")) and _ok(r["rms_rel"]) and r["rms_rel"] <= REALTIME_RMS]
+    if rt:
+        cheapest = min(r["ns_c_double"] for r in rt)
+        tied = [r for r in rt if r["ns_c_double"] <= cheapest * (1.0 + COST_TIE)]
+        out["real-time"] = min(tied, key=lambda r: (r["rms_rel"], r["ns_c_double"]))
+    else:
+        out["real-time"] = None
+    off = [r for r in cands if _ok(_cost(r)) and _cost(r) <= OFFLINE_NS and _ok(r["max_rel"])]
+    out["offline"] = min(off, key=lambda r: (r["max_rel"], r["rms_rel"])) if off else None
+    ref = [r for r in cands if _ok(r["max_rel"])]
+    out["reference"] = min(ref, key=lambda r: (r["max_rel"], r["rms_rel"])) if ref else None
+    return out

@@ -1,0 +1,100 @@
+r"""Cost of the generated C: build each program the catalogue needs once, time its routines.
+
+One harness for everything (:func:`fitlab.codegen.bench.time_routines`, the harness
+of ``fitlab bench codegen``): the generated C compiled with
+:data:`fitlab.codegen.native.STRICT_FLAGS`, called in a C loop over the same
+seeded random inputs (:func:`fitlab.codegen.bench.random_inputs`; kd =
+kd_true(c) from the tables, H-parts at mu = mu_i), in double and in float, best
+of ``repeat`` rounds that interleave every routine of every program.  Published
+presets are printed from temporary fits folders
+(:func:`fitlab.report.methods.preset_records`).  A program that cannot be built
+(no compiler) leaves its columns empty and says why.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ..codegen import build_program, parse_terms
+from ..codegen.bench import baseline_program, random_inputs, time_routines
+from ..codegen.emit import emit
+from ..codegen.native import CompileError, build
+from ..codegen.program import PART_ROUTINES
+from ..fits import write_fit
+from .methods import CSpec, preset_records
+from .tables import kd_interpolant
+
+__all__ = ["c_costs", "timing_inputs"]
+
+
+def timing_inputs(n: int, data_dir: Path) -> dict:
+    """Seeded random inputs by argument name: mu_i, mu_o, c, cos_phi (as fitlab bench codegen), phi =
+    acos(cos_phi), kd = kd_true(c) (tables), mu = mu_i."""
+    x = random_inputs(n)
+    x["phi"] = np.arccos(x["cos_phi"])
+    x["kd"] = np.clip(kd_interpolant(data_dir)(x["c"]), 0.0, 1.0)
+    x["mu"] = x["mu_i"]
+    return x
+
+
+def _program(spec: CSpec, workdir: Path):
+    """(Program, {routine: (target, label)}) for a spec's program."""
+    if spec.fits_dir is None and spec.preset is None:
+        return baseline_program(), {}
+    if spec.preset is not None:
+        folder = workdir / f"preset_{spec.preset}"
+        forms = {}
+        from ..fit.refit import fit_path
+        from ..fit.targets import get_target
+
+        for (target, form), rec in preset_records(spec.preset).items():
+            write_fit(fit_path(folder, target, form), rec)
+            if form != get_target(target).default_form:
+                forms[target] = form
+        labels = {PART_ROUTINES[t]: (t, f"{f} / {r['origin']['preset']}")
+                  for (t, f), r in preset_records(spec.preset).items() if t in PART_ROUTINES}  # fmt: skip
+        return build_program(folder, parse_terms(None), forms), labels
+    forms = dict(spec.forms)
+    prog = build_program(Path(spec.fits_dir), parse_terms(None), forms)
+    from ..fit.targets import get_target
+
+    labels = {name: (t, forms.get(t, get_target(t).default_form)) for t, name in PART_ROUTINES.items()}
+    return prog, labels
+
+
+def c_costs(methods, workdir: Path, inputs: dict, repeat: int, tick=None) -> tuple[dict, dict, list]:
+    """Build every program the methods' C specs name (``tick()`` after each), then time every method's C
+    routine and the part routines of the same programs in one interleaved harness run.
+
+    Returns ({method name: (ns double, ns float)}, {(target, label): (ns double, ns float)}, notes).
+    """
+    workdir = Path(workdir)
+    by_key = {}
+    for m in methods:
+        if m.c is not None:
+            by_key.setdefault(m.c.program_key, (m.c, []))[1].append(m)
+    cases, notes = {}, []
+    for k, (key, (spec, ms)) in enumerate(sorted(by_key.items(), key=lambda kv: repr(kv[0]))):
+        try:
+            prog, labels = _program(spec, workdir)
+            lib = build(emit(prog, "c"), prog, workdir / f"program_{k}")
+        except CompileError as exc:
+            notes.append(f"C not timed for {', '.join(m.name for m in ms)}: {str(exc).splitlines()[0]}")
+            tick and tick()
+            continue
+        jobs = [(("method", m.name), m.c.routine) for m in ms]
+        jobs += [(("part", label), routine) for routine, label in labels.items()
+                 if not any(key[0] == ("part", label) for key in cases)]  # fmt: skip
+        for what, routine in jobs:
+            args = [inputs[a] for a in prog.routine(routine).signature()]
+            for dt in (np.float64, np.float32):
+                cases[(what, dt)] = (lib, routine, args, dt)
+        tick and tick()
+    ns = time_routines(cases, repeat)
+    costs, parts = {}, {}
+    for what in dict.fromkeys(w for w, _ in cases):
+        kind, name = what
+        (costs if kind == "method" else parts)[name] = (ns[(what, np.float64)], ns[(what, np.float32)])
+    return costs, parts, notes

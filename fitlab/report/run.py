@@ -1,0 +1,269 @@
+r"""Run the whole report: catalogue, accuracy, cost, exact engine, Monte Carlo, refits.
+
+:func:`build_report` measures and returns a :class:`Report` (rows for the CSV,
+the recommendations and the context the markdown needs); it writes nothing.
+Everything that can fail on bad input (fits folder, fit files, tables) fails
+before the slow work.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import math
+import os
+import platform
+import tempfile
+import time
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+from ..fit.data import DATA_DIR
+from .methods import ReportError, _fit_group, brdf_methods, fit_inventory, part_methods
+from .settings import FULL, Settings
+
+__all__ = ["Report", "build_report"]
+
+NAN = math.nan
+
+
+@dataclass
+class Report:
+    settings: Settings
+    rows: list  # dicts with the columns of fitlab.report.write.COLUMNS
+    recommendations: dict  # use -> BRDF row (or None)
+    context: dict = field(default_factory=dict)
+
+
+def _single_threaded_blas():
+    """BLAS limited to one thread (threadpoolctl, when installed): every cost in the report is then per
+    core, like the C loop's; and on a shared, oversubscribed machine a spinning multi-threaded BLAS
+    runs the exact engine several times slower (measured 7x at load 6 on 2 cores)."""
+    try:
+        from threadpoolctl import threadpool_limits
+    except ImportError:  # pragma: no cover - threadpoolctl comes with scikit-learn (pysindy)
+        return contextlib.nullcontext()
+    return threadpool_limits(limits=1, user_api="blas")
+
+
+def _check_tables(data_dir: Path) -> None:
+    from ..tabulate import TableError, read_table
+
+    for name in ("h0.csv", "h1.csv", "h2.csv", "constants.csv", "kd.csv"):
+        try:
+            read_table(Path(data_dir) / name)
+        except TableError as exc:
+            raise ReportError(str(exc)) from None
+
+
+class _Progress:
+    """One tqdm bar whose total grows as each stage announces its steps."""
+
+    def __init__(self, enabled: bool):
+        from tqdm import tqdm
+
+        self.bar = tqdm(total=0, desc="report", unit="step", disable=not enabled)
+
+    def stage(self, desc: str, steps: int) -> None:
+        self.bar.set_description(desc)
+        self.bar.total += steps
+        self.bar.refresh()
+
+    def tick(self) -> None:
+        self.bar.update(1)
+
+    def close(self) -> None:
+        self.bar.close()
+
+
+def _brdf_rows(methods, acc, c_ns, py_ns, jax_tp) -> list[dict]:
+    rows = []
+    for m in methods:
+        a = acc[m.name]
+        w = a["worst"]
+        rows.append({
+            "section": "brdf", "target": "f_r", "group": m.group, "method": m.name, "source": m.source,
+            "points": a["points"], "max_rel": a["max_rel"], "rms_rel": a["rms_rel"],
+            "max_rel_away": a["max_rel_away"],
+            "ns_c_double": c_ns.get(m.name, (NAN, NAN))[0], "ns_c_float": c_ns.get(m.name, (NAN, NAN))[1],
+            "ns_python": py_ns.get(m.name, NAN), "jax_evals_per_s": jax_tp.get(m.name, NAN),
+            "note": "worst at " + ", ".join(f"{k}={v:.4g}" for k, v in w.items()),
+        })  # fmt: skip
+    return rows
+
+
+def _exact_rows(brdf_cost, dbl, conv, ttes) -> list[dict]:
+    agree = dbl or {"max_rel": NAN, "rms_rel": NAN, "points": 0}
+    where = (f"error: agreement with discrete ordinates + doubling (c = {dbl['c']:g}, orders "
+             f"{', '.join(map(str, dbl['orders']))}, node pairs with mu_i, mu_o >= 1e-3)" if dbl else
+             "error not measured (doubling skipped)")  # fmt: skip
+    rows = [{
+        "section": "brdf", "target": "f_r", "group": "exact", "method": "exact engine", "source": "fitlab.exact.brdf",
+        "points": agree["points"], "max_rel": agree["max_rel"], "rms_rel": agree["rms_rel"],
+        "max_rel_away": agree["max_rel"], "ns_python": brdf_cost["ns_per_point"], "seconds": brdf_cost["setup_seconds"],
+        "note": where + "; cost: ns per point once c is set up, seconds: the set-up at a new c",
+    }]  # fmt: skip
+    if dbl:
+        rows.append({
+            "section": "exact", "target": "f^m", "group": "exact", "method": "discrete ordinates + doubling",
+            "source": "fitlab.exact.doubling_reflection", "points": dbl["points"], "max_rel": dbl["max_rel"],
+            "rms_rel": dbl["rms_rel"], "seconds": dbl["seconds_per_order"],
+            "ns_python": dbl["seconds_per_order"] / dbl["node_pairs"] * 1e9,
+            "note": f"f^m at {dbl['node_pairs']} node pairs per (c, order); error: against the H route",
+        })  # fmt: skip
+    for r in conv:
+        rows.append({"section": "exact_h", "target": "H0, H1" , "group": "exact",
+                     "method": f"{r['method']}, {r['resolution']}", "source": "fitlab.exact.hfunction",
+                     "points": r["points"], "max_rel": r["max_rel"], "rms_rel": r["rms_rel"], "seconds": r["seconds"],
+                     "note": "error against the other method at its default; seconds per (order, c): one solve "
+                             "and the evaluation at the mu points"})  # fmt: skip
+    rows.append({"section": "time_to_error", "target": "f_r", "group": "exact", "method": "exact engine (BRDF)",
+                 "target_error": agree["max_rel"], "max_rel": agree["max_rel"],
+                 "seconds": brdf_cost["setup_seconds"] + brdf_cost["ns_per_point"] * 1e-9,
+                 "note": "one value at a new c, set-up included (further points at that c: the exact engine's "
+                         "Python ns)"})  # fmt: skip
+    for t in ttes:
+        rows.append({"section": "time_to_error", "target": "H", "group": "exact", "method": t["method"],
+                     "target_error": t["target"], "max_rel": t["max_rel"], "seconds": t["seconds"],
+                     "note": t["resolution"]})  # fmt: skip
+    return rows
+
+
+def _mc_rows(study, targets) -> list[dict]:
+    from .montecarlo import mc_time_to_error
+
+    rows = []
+    for s in study:
+        rows.append({
+            "section": "brdf", "target": "f_r (bin averages)", "group": "monte carlo",
+            "method": f"Monte Carlo {s['paths']:.0e} paths", "source": "fitlab.mc (three-term multiple scattering)",
+            "points": s["values"], "paths": s["paths"], "max_rel": s["max_rel"], "rms_rel": s["rms_rel"],
+            "max_rel_away": s["max_rel"], "ns_python": s["ns_per_value"], "seconds": s["seconds"],
+            "note": f"{s['jobs']} jobs x {s['paths']} paths; RMS se/exact {s['se_rms']:.3g}; error against exact "
+                    "bin averages; ns per BRDF value",
+        })  # fmt: skip
+    for eps in targets:
+        t = mc_time_to_error(study, eps)
+        rows.append({"section": "time_to_error", "target": "f_r (bin averages)", "group": "monte carlo",
+                     "method": "Monte Carlo", "target_error": eps, "paths": t["paths"], "seconds": t["seconds"],
+                     "note": f"RMS relative error, extrapolated from {study[-1]['paths']} paths per job; "
+                             f"{study[-1]['values']} values"})  # fmt: skip
+    return rows
+
+
+def _part_rows(settings, entries, data_dir, part_ns, tick) -> list[dict]:
+    from ..fit.targets import get_target
+    from .accuracy import part_accuracy
+
+    rows = []
+    for name in settings.parts:
+        t = get_target(name)
+        for pm in part_methods(name, entries, data_dir):
+            a = part_accuracy(pm, t)
+            ns = part_ns.get(pm.c_key, (NAN, NAN)) if pm.c_key else (NAN, NAN)
+            rows.append({"section": "part", "target": name, "group": pm.group, "method": pm.name,
+                         "source": pm.source, "points": a["points"], "max_rel": a["max_rel"],
+                         "max_rel_nonzero": a["max_rel_nonzero"], "rms_rel": a["rms_rel"], "ns_c_double": ns[0],
+                         "ns_c_float": ns[1], "note": t.error_measure.split(":")[0]})  # fmt: skip
+        tick()
+    return rows
+
+
+def _refit_rows(entries, settings, fits_dir, progress) -> list[dict]:
+    from .refits import recorded_seconds, refit_costs, refit_jobs
+
+    jobs = refit_jobs(entries, settings.refits)
+    progress.stage("refits", len(jobs))
+    costs = refit_costs(jobs, fits_dir, progress.tick)
+    rows = [{"section": "refit", "target": r["target"], "group": "refit", "method": r["form"], "source": r["path"],
+             "max_rel": r["max_rel"], "seconds": r["seconds"],
+             "note": f"{r['steps']} steps; the file records max rel {r['recorded_max_rel']:.4g}"} for r in costs]
+    if settings.refits is None:
+        for e in entries:
+            if e.kind != "refit":
+                rows.append({"section": "refit", "target": e.target, "group": e.kind, "method": e.form,
+                             "source": str(e.path), "max_rel": e.max_rel, "seconds": recorded_seconds(e.record),
+                             "note": f"made by {e.kind}, not refitted here; seconds as its record states"})  # fmt: skip
+    return rows
+
+
+def build_report(settings: Settings = FULL, fits_dir: Path = Path("fits"), data_dir: Path = DATA_DIR,
+                 use_cache: bool = True, progress: bool = True) -> Report:  # fmt: skip
+    """Measure everything :mod:`fitlab.report` describes; returns the rows (writes nothing).
+
+    Bad input (the fits folder, a fit file, the tables) fails here, before any slow work."""
+    from .pareto import recommend
+
+    t_start = time.perf_counter()
+    fits_dir, data_dir = Path(fits_dir), Path(data_dir)
+    entries = fit_inventory(fits_dir)
+    _check_tables(data_dir)
+    p = _Progress(progress)
+    try:
+        with _single_threaded_blas():
+            rows, context = _measure(settings, entries, fits_dir, data_dir, use_cache, p)
+    finally:
+        p.close()
+    import jax
+
+    context.update(wall_seconds=time.perf_counter() - t_start, fits_dir=str(fits_dir),
+                   machine=f"{platform.machine()}, {os.cpu_count()} CPUs, BLAS on 1 thread, JAX on "
+                           f"{jax.default_backend()}")  # fmt: skip
+    return Report(settings, rows, recommend([r for r in rows if r["section"] == "brdf"]), context)
+
+
+def _measure(settings, entries, fits_dir, data_dir, use_cache, p) -> tuple[list, dict]:
+    from .accuracy import brdf_accuracy
+    from .cost import jax_costs, numpy_costs
+    from .exact import doubling_agreement, exact_brdf_cost, h_convergence, time_to_error
+    from .montecarlo import mc_study
+    from .programs import c_costs, timing_inputs
+    from .validation import brdf_set
+
+    p.stage("validation set", settings.n_c + settings.with_c1)
+    valid = brdf_set(settings, use_cache, p.tick)
+    p.stage("catalogue", 1)
+    methods = brdf_methods(fits_dir, entries, data_dir, settings.preset_c)
+    if not settings.all_c:
+        methods = [m if m.group in ("refit", "baseline") else replace(m, c=None) for m in methods]
+    p.tick()
+    p.stage("BRDF accuracy", len(methods))
+    acc = {}
+    for m in methods:
+        acc[m.name] = brdf_accuracy(m, valid)
+        p.tick()
+    p.stage("C cost", len({m.c.program_key for m in methods if m.c is not None}))
+    with tempfile.TemporaryDirectory(prefix="fitlab-report-") as tmp:
+        c_ns, part_ns, notes = c_costs(methods, Path(tmp), timing_inputs(settings.c_points, data_dir),
+                                       settings.repeat, p.tick)  # fmt: skip
+    py_inputs = timing_inputs(settings.numpy_points, data_dir)
+    p.stage("numpy cost", settings.repeat)
+    py_ns = numpy_costs(methods, py_inputs, settings.repeat, p.tick)
+    jax_methods = [m for m in methods if m.expr is not None and (settings.all_jax or m.group == "refit")]
+    p.stage("JAX throughput", len(jax_methods))
+    jax_tp = jax_costs(jax_methods, timing_inputs(settings.jax_points, data_dir), settings.repeat, p.tick)
+    rows = _brdf_rows(methods, acc, c_ns, py_ns, jax_tp)
+    p.stage("parts", len(settings.parts))
+    rows += _part_rows(settings, entries, data_dir, part_ns, p.tick)
+    p.stage("exact engine", len(settings.nystrom_nodes) + len(settings.fock_steps) + 2)
+    conv = h_convergence(settings.exact_orders, settings.exact_c, settings.exact_mu_points, settings.nystrom_nodes,
+                         settings.fock_steps, tick=p.tick)  # fmt: skip
+    brdf_cost = exact_brdf_cost(py_inputs, settings.repeat)
+    p.tick()
+    dbl = doubling_agreement(settings.doubling_c, settings.doubling_orders) if settings.doubling_orders else None
+    p.tick()
+    rows += _exact_rows(brdf_cost, dbl, conv, time_to_error(conv, settings.error_targets))
+    p.stage("Monte Carlo", len(settings.mc_paths))
+    study = mc_study(settings, p.tick)
+    rows += _mc_rows(study, [e for e in settings.error_targets if e >= 1e-3])
+    rows += _refit_rows(entries, settings, fits_dir, p)
+    counts = {}
+    for e in entries:
+        g = _fit_group(e)
+        counts[g] = counts.get(g, 0) + 1
+    context = {
+        "fits": counts,
+        "validation": valid.grid, "validation_points": len(valid), "notes": notes, "exact_cost": brdf_cost,
+        "doubling": dbl, "mc": study, "c_points": settings.c_points, "repeat": settings.repeat,
+        "jax_points": settings.jax_points, "numpy_points": settings.numpy_points,
+    }  # fmt: skip
+    return rows, context

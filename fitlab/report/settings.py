@@ -1,0 +1,92 @@
+r"""The sizes of one report: :data:`FULL` (``fitlab report``) and :data:`QUICK` (``--quick``, the test).
+
+Every random number of the report comes from a seed here, so that every
+column but the timings is reproducible run to run.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+__all__ = ["Settings", "FULL", "QUICK"]
+
+
+@dataclass(frozen=True)
+class Settings:
+    """What one report measures and how hard.
+
+    BRDF validation set (see :mod:`fitlab.report.validation`): ``n_c`` albedos
+    c = 1 - s^2 with s = (k + g)/n_c, k = 0..n_c-1, g = (sqrt 5 - 1)/2 (never on
+    the tables' s = k/64 grid), plus c = 1 when ``with_c1``; for each, the same
+    2^``log2_points`` scrambled Sobol points (seed ``seed``) in
+    (mu_i, mu_o, phi/pi) in (0, 1)^3.
+    """
+
+    name: str
+    n_c: int
+    with_c1: bool
+    log2_points: int
+    seed: int = 2021
+    #: targets whose parts are measured on their validation sets (fitlab.fit.targets)
+    parts: tuple = ("H0", "H1", "l", "m", "B", "C", "D", "F", "kd_of_c", "c_of_kd", "fm1")
+    #: runtime presets (fitlab.runtime.PRESET_VARIANTS) whose C is built and timed
+    preset_c: tuple = ("paper_printed", "paper", "renderer")
+    #: build and time C for every catalogue entry (False: only the default refit and the baselines)
+    all_c: bool = True
+    #: random inputs per C timing, best of ``repeat``
+    c_points: int = 1 << 19
+    repeat: int = 5
+    #: random inputs per numpy / JAX timing (best of ``repeat``)
+    numpy_points: int = 1 << 17
+    jax_points: int = 1 << 20
+    #: JAX throughput for every entry with an expression (False: the default refit only)
+    all_jax: bool = True
+    #: exact engine: H-function convergence study (orders, albedos, resolutions)
+    exact_orders: tuple = (0, 1)
+    exact_c: tuple = (0.5, 0.99, 1.0)
+    exact_mu_points: int = 256
+    nystrom_nodes: tuple = (2, 3, 4, 6, 8, 12, 16, 24)
+    fock_steps: tuple = (1.4, 1.0, 0.7, 0.5, 0.35, 0.25, 0.1)
+    #: exact engine vs discrete ordinates + doubling (albedo, orders); () skips it
+    doubling_c: float = 0.5
+    doubling_orders: tuple = (0, 1, 2)
+    #: Monte Carlo: materials, incident cosines, path counts
+    mc_c: tuple = (0.5, 0.9)
+    mc_mu_i: tuple = (0.3, 0.7)
+    mc_mu_edges: tuple = (0.2, 0.4, 0.6, 0.8, 1.0)
+    mc_phi_bins: int = 4
+    mc_paths: tuple = (1_000, 10_000, 100_000, 1_000_000)
+    #: refits timed (target, form); None: every fit file whose form fitlab.forms defines
+    refits: tuple | None = None
+    #: errors at which the time to reach them is reported (Monte Carlo and the exact engine)
+    error_targets: tuple = (1e-2, 1e-3, 1e-6, 1e-10)
+
+
+FULL = Settings(name="full", n_c=15, with_c1=True, log2_points=12)
+
+QUICK = Settings(
+    name="quick",
+    n_c=2,
+    with_c1=False,
+    log2_points=8,
+    parts=("H0", "m"),
+    preset_c=(),
+    all_c=False,
+    c_points=1 << 14,
+    repeat=2,
+    numpy_points=1 << 12,
+    jax_points=1 << 12,
+    all_jax=False,
+    exact_orders=(1,),
+    exact_c=(0.5,),
+    exact_mu_points=32,
+    nystrom_nodes=(4, 8),
+    fock_steps=(0.7, 0.35),
+    doubling_orders=(),
+    mc_c=(0.5,),
+    mc_mu_i=(0.5,),
+    mc_mu_edges=(0.0, 0.5, 1.0),
+    mc_phi_bins=2,
+    mc_paths=(1_000, 4_000),
+    refits=(("m", "linear"),),
+)

@@ -1,0 +1,116 @@
+r"""The one BRDF validation set of the report, over (mu_i, mu_o, phi, c).
+
+Albedos c = 1 - s^2 with s = (k + g)/n, k = 0..n-1, g = (sqrt 5 - 1)/2, plus
+c = 1: an irrational offset keeps every s off the tables' grid s = k/64 (a
+table method would otherwise be exact in c at every point) and off the fits'
+training and validation grids (dyadic in s).  c = 0 is left out: the BRDF is
+0 there and a relative error means nothing.  For each c the same 2^m scrambled
+Sobol points (seeded) give (mu_i, mu_o, phi/pi) in (0, 1)^3; mu is uniform, so
+the grazing pole mu_i = mu_o = 0 is approached only as far as the points go
+(min mu_i + mu_o is about 2^(-m/2)).  kd = kd_true(c), the spherical albedo of
+:func:`fitlab.exact.brdf` (the input of the fast variant and the baselines).
+y = :func:`fitlab.exact.brdf`.
+
+The exact values cost the engine about a second per c, so the set is cached
+(``$FITLAB_CACHE_DIR``, else ``$XDG_CACHE_HOME/fitlab``, else
+``~/.cache/fitlab``) under a key that hashes the points, the albedos and the
+sources of :mod:`fitlab.exact`; a changed engine never reads a stale cache.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import io
+import os
+from pathlib import Path
+
+import numpy as np
+
+from .. import __version__
+from .._io import atomic_write_bytes
+from ..exact import brdf, spherical_albedo
+from ..fit.data import Dataset
+from .settings import Settings
+
+__all__ = ["albedos", "sobol_points", "brdf_set", "cache_dir", "GOLDEN"]
+
+GOLDEN = (np.sqrt(5.0) - 1.0) / 2.0
+EXACT_DIR = Path(__file__).resolve().parents[1] / "exact"
+
+
+def albedos(n: int, with_c1: bool) -> np.ndarray:
+    """c = 1 - s^2, s = (k + g)/n for k = 0..n-1 (g the golden ratio's fraction), then c = 1 if asked."""
+    s = (np.arange(n) + GOLDEN) / n
+    c = 1.0 - s**2
+    return np.concatenate((c, [1.0])) if with_c1 else c
+
+
+def sobol_points(log2_points: int, seed: int) -> np.ndarray:
+    """2^log2_points scrambled Sobol points in (0, 1)^3 (rows: mu_i, mu_o, phi/pi)."""
+    from scipy.stats import qmc
+
+    return qmc.Sobol(3, scramble=True, seed=seed).random_base2(log2_points)
+
+
+def cache_dir() -> Path:
+    if os.environ.get("FITLAB_CACHE_DIR"):
+        return Path(os.environ["FITLAB_CACHE_DIR"])
+    base = os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache"
+    return Path(base) / "fitlab"
+
+
+def _key(points: np.ndarray, c: np.ndarray) -> str:
+    h = hashlib.sha256(__version__.encode())
+    h.update(np.ascontiguousarray(points, dtype="<f8").tobytes())
+    h.update(np.ascontiguousarray(c, dtype="<f8").tobytes())
+    for src in sorted(EXACT_DIR.glob("*.py")):
+        h.update(src.name.encode())
+        h.update(src.read_bytes())
+    return h.hexdigest()[:24]
+
+
+def _load(path: Path, shape) -> tuple | None:
+    try:
+        with np.load(path) as z:
+            y, kd = z["y"], z["kd"]
+    except (OSError, ValueError, KeyError):
+        return None
+    return (y, kd) if y.shape == shape and kd.shape == shape[:1] else None
+
+
+def brdf_set(settings: Settings, use_cache: bool = True, tick=None) -> Dataset:
+    """The validation set (a :class:`fitlab.fit.data.Dataset` with inputs mu_i, mu_o, phi, c, kd).
+
+    ``tick()`` is called once per albedo computed (a progress bar); a cache hit calls it for all.
+    """
+    points = sobol_points(settings.log2_points, settings.seed)
+    c = albedos(settings.n_c, settings.with_c1)
+    mu_i, mu_o, phi = points[:, 0], points[:, 1], np.pi * points[:, 2]
+    path = cache_dir() / f"report-brdf-{_key(points, c)}.npz"
+    cached = _load(path, (c.size, points.shape[0])) if use_cache else None
+    if cached is not None:
+        y, kd = cached
+        for _ in c:
+            tick and tick()
+    else:
+        y = np.empty((c.size, points.shape[0]))
+        for k, cv in enumerate(c):
+            y[k] = brdf(mu_i, mu_o, phi, cv)
+            tick and tick()
+        kd = np.asarray(spherical_albedo(c, model="true"), dtype=float)
+        if use_cache:
+            buf = io.BytesIO()
+            np.savez(buf, y=y, kd=kd)
+            try:
+                atomic_write_bytes(path, buf.getvalue())
+            except OSError:
+                pass  # a cache that cannot be written only costs time
+    n = points.shape[0]
+    grid = (f"{c.size} albedos c = 1 - s^2, s = (k + 0.618...)/{settings.n_c}"
+            + (" and c = 1" if settings.with_c1 else "")
+            + f", x 2^{settings.log2_points} scrambled Sobol points (seed {settings.seed}) in (mu_i, mu_o, phi/pi)")
+    inputs = {
+        "mu_i": np.tile(mu_i, c.size), "mu_o": np.tile(mu_o, c.size), "phi": np.tile(phi, c.size),
+        "c": np.repeat(c, n), "kd": np.repeat(kd, n),
+    }
+    return Dataset(inputs, y.ravel(), grid)

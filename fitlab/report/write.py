@@ -1,0 +1,226 @@
+r"""The report's files: report.csv (every number), report.md (tables), accuracy_vs_cost.png.
+
+:func:`write_outputs` renders all three in memory, then writes them as one
+unit (:func:`fitlab._io.atomic_write_many`): either all three are replaced or
+none is.  Every column of the CSV but :data:`TIMING_COLUMNS` is reproducible
+run to run.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+from pathlib import Path
+
+from .._io import atomic_write_many
+from .methods import GROUPS
+from .pareto import RULES, pareto_front
+from .plot import plot_cost, plot_png
+
+__all__ = ["COLUMNS", "TIMING_COLUMNS", "FILES", "csv_text", "markdown", "write_outputs"]
+
+#: the CSV's columns; ``section`` says what a row is (brdf, part, exact, exact_h, time_to_error, refit)
+COLUMNS = ("section", "target", "group", "method", "source", "points", "paths", "target_error", "max_rel",
+           "max_rel_nonzero", "rms_rel", "max_rel_away", "ns_c_double", "ns_c_float", "ns_python",
+           "jax_evals_per_s", "seconds", "note")  # fmt: skip
+#: the columns that hold timings (everything else is deterministic)
+TIMING_COLUMNS = ("ns_c_double", "ns_c_float", "ns_python", "jax_evals_per_s", "seconds")
+FILES = ("report.md", "accuracy_vs_cost.png", "report.csv")
+
+
+def _cell(v) -> str:
+    if v is None:
+        return ""
+    if isinstance(v, float):
+        if math.isnan(v):
+            return ""
+        return repr(v) if math.isfinite(v) else ("inf" if v > 0 else "-inf")
+    return str(v)
+
+
+def csv_text(rows: list[dict]) -> str:
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(COLUMNS)
+    for r in rows:
+        w.writerow([_cell(r.get(c)) for c in COLUMNS])
+    return buf.getvalue()
+
+
+def _e(x) -> str:
+    if x is None or (isinstance(x, float) and math.isnan(x)):
+        return "-"
+    return "inf" if math.isinf(x) else f"{x:.2e}"
+
+
+def _ns(x) -> str:
+    if x is None or math.isnan(x):
+        return "-"
+    if x < 100:
+        return f"{x:.3g}"
+    return f"{x:.0f}" if x < 1e6 else f"{x:.2e}"
+
+
+def _rate(x) -> str:
+    return "-" if x is None or math.isnan(x) else f"{x / 1e6:.3g}"
+
+
+def _section(rows, name):
+    return [r for r in rows if r["section"] == name]
+
+
+def _front_marks(brdf) -> list[str]:
+    xs = [plot_cost(r)[0] for r in brdf]
+    marks = [[] for _ in brdf]
+    for key, tag in (("max_rel", "max"), ("rms_rel", "RMS")):
+        for i in pareto_front(xs, [r[key] for r in brdf]):
+            marks[i].append(tag)
+    return [", ".join(m) for m in marks]
+
+
+def _brdf_table(brdf) -> list[str]:
+    out = ["| group | method | max rel | RMS rel | max rel, mu >= 1/64 | C double ns | C float ns | Python ns | "
+           "JAX M eval/s | on the front |", "|---|---|---|---|---|---|---|---|---|---|"]
+    order = {g: k for k, g in enumerate(GROUPS)}
+    marks = _front_marks(brdf)
+    for k in sorted(range(len(brdf)), key=lambda k: (order.get(brdf[k]["group"], 99), k)):
+        r = brdf[k]
+        out.append(f"| {r['group']} | {r['method']} | {_e(r['max_rel'])} | {_e(r['rms_rel'])} | "
+                   f"{_e(r.get('max_rel_away'))} | {_ns(r.get('ns_c_double', math.nan))} | "
+                   f"{_ns(r.get('ns_c_float', math.nan))} | {_ns(r.get('ns_python', math.nan))} | "
+                   f"{_rate(r.get('jax_evals_per_s', math.nan))} | {marks[k]} |")  # fmt: skip
+    return out
+
+
+def _recommendations(rec) -> list[str]:
+    out = ["| use | method | max rel | RMS rel | cost (ns per evaluation) | rule |", "|---|---|---|---|---|---|"]
+    for use, rule in RULES.items():
+        r = rec.get(use)
+        if r is None:
+            out.append(f"| {use} | none qualifies | | | | {rule} |")
+            continue
+        cost, kind = plot_cost(r)
+        out.append(f"| {use} | **{r['method']}** ({r['group']}) | {_e(r['max_rel'])} | {_e(r['rms_rel'])} | "
+                   f"{_ns(cost)} ({'C double' if kind == 'C' else 'Python'}) | {rule} |")  # fmt: skip
+    return out
+
+
+def _parts_table(parts) -> list[str]:
+    out = ["| target | method | group | max rel | max rel* | RMS rel | C double ns | C float ns |",
+           "|---|---|---|---|---|---|---|---|"]  # fmt: skip
+    for r in parts:
+        out.append(f"| {r['target']} | {r['method']} | {r['group']} | {_e(r['max_rel'])} | "
+                   f"{_e(r['max_rel_nonzero'])} | {_e(r['rms_rel'])} | {_ns(r.get('ns_c_double', math.nan))} | "
+                   f"{_ns(r.get('ns_c_float', math.nan))} |")  # fmt: skip
+    return out
+
+
+def _exact_section(report) -> list[str]:
+    ctx, rows = report.context, report.rows
+    ec = ctx["exact_cost"]
+    out = ["## The exact engine", "",
+           f"`fitlab.exact.brdf` at a new albedo: set-up (H0, H1, H2 and the moment relations) "
+           f"{ec['setup_seconds']:.2f} s, then {ec['ns_per_point'] / 1e3:.3g} us per point "
+           f"({ctx['numpy_points']} points, c = {ec['c']:.4f})."]  # fmt: skip
+    dbl = ctx["doubling"]
+    if dbl:
+        out += ["", f"Its error, measured against the independent discrete ordinates + doubling "
+                f"(`fitlab.exact.doubling_reflection`, c = {dbl['c']:g}, Fourier orders "
+                f"{', '.join(map(str, dbl['orders']))}, {dbl['points']} node pairs with mu_i, mu_o >= 1e-3): "
+                f"max {_e(dbl['max_rel'])}, RMS {_e(dbl['rms_rel'])}. Doubling itself costs "
+                f"{dbl['seconds_per_order']:.2f} s per (c, order) for f^m at {dbl['node_pairs']} node pairs."]
+    out += ["", "H-functions by both methods at coarser and finer resolution, each against the other method at "
+            "its default (16 nodes per panel; h = 0.1); seconds per (order, c): one solve and the evaluation "
+            f"at {report.settings.exact_mu_points} mu, orders {', '.join(map(str, report.settings.exact_orders))}, "
+            f"c = {', '.join(f'{c:g}' for c in report.settings.exact_c)}.", "",
+            "| method, resolution | max rel | RMS rel | ms per (order, c) |", "|---|---|---|---|"]  # fmt: skip
+    for r in _section(rows, "exact_h"):
+        out.append(f"| {r['method']} | {_e(r['max_rel'])} | {_e(r['rms_rel'])} | {r['seconds'] * 1e3:.3g} |")
+    return out
+
+
+def _time_to_error(rows) -> list[str]:
+    out = ["## Time to reach a given error", "",
+           "Exact engine: the coarsest resolution whose max error (as above) is within the target, for H at one "
+           "albedo and the mu points above. Monte Carlo: RMS relative error of the BRDF bin averages, "
+           "extrapolated from the largest run by se ~ N^(-1/2); seconds for all the run's values.", "",
+           "| method | target error | how | seconds |", "|---|---|---|---|"]  # fmt: skip
+    for r in _section(rows, "time_to_error"):
+        how = r["note"] if r["group"] == "exact" else f"{r['paths']:.3g} paths per job"
+        out.append(f"| {r['method']} | {_e(r['target_error'])} | {how} | {_ns(r['seconds'])} |")
+    return out
+
+
+def _mc_section(report) -> list[str]:
+    s = report.settings
+    out = ["## Monte Carlo", "",
+           f"`fitlab.mc`: c = {', '.join(map(str, s.mc_c))}, mu_i = {', '.join(map(str, s.mc_mu_i))}, mu_o bins "
+           f"{list(s.mc_mu_edges)}, {s.mc_phi_bins} |phi| bins; three-term multiple scattering, single scattering "
+           "in closed form; errors against the exact bin averages. Seconds exclude compilation.", "",
+           "| paths per job | values | max rel | RMS rel | RMS se/exact | seconds | ns per value |",
+           "|---|---|---|---|---|---|---|"]  # fmt: skip
+    for m in report.context["mc"]:
+        out.append(f"| {m['paths']} | {m['values']} | {_e(m['max_rel'])} | {_e(m['rms_rel'])} | {_e(m['se_rms'])} | "
+                   f"{m['seconds']:.3g} | {m['ns_per_value']:.3g} |")  # fmt: skip
+    return out
+
+
+def _refit_section(rows) -> list[str]:
+    out = ["## One-off cost of each refit", "",
+           "Wall seconds of `fitlab.fit.refit.refit` (JIT, Levenberg-Marquardt, minimax rounds, validation; "
+           "nothing written); the target's data is built beforehand (shared with the accuracy section).", "",
+           "| target | form | seconds | refit max rel | note |", "|---|---|---|---|---|"]  # fmt: skip
+    for r in _section(rows, "refit"):
+        out.append(f"| {r['target']} | {r['method']} | {_ns(r['seconds'])} | {_e(r['max_rel'])} | {r['note']} |")
+    return out
+
+
+def markdown(report) -> str:
+    ctx, rows, s = report.context, report.rows, report.settings
+    brdf = _section(rows, "brdf")
+    out = ["# Accuracy and cost of every way to evaluate the Lambert-sphere BRDF", "",
+           "Generated by `fitlab report`" + (" --quick" if s.name == "quick" else "")
+           + " (do not edit); every number is in `report.csv`. All columns but the timings are reproducible "
+           f"run to run. Machine: {ctx['machine']}; this run took {ctx['wall_seconds']:.0f} s.", "",
+           f"**Accuracy.** Against `fitlab.exact.brdf` on one fixed validation set: {ctx['validation']} "
+           f"({ctx['validation_points']} points; kd = kd_true(c) where a method takes kd). Every `{ctx['fits_dir']}/*.json` "
+           "is measured (" + ", ".join(f"{g}: {n}" for g, n in ctx["fits"].items()) + " files). Relative error "
+           "|f - f_exact| / f_exact: the max over the set, the RMS, and the max away from the grazing pole "
+           "(mu_i, mu_o >= 1/64). Parts (H0, H1, constants, albedo maps, fm1): each target's validation set and "
+           "error measure (`fitlab.fit.targets`, as in docs/audit.md).", "",
+           f"**Cost.** ns per evaluation of the generated C (`fitlab.codegen`, `gcc -std=c99 -O2`), called in a C "
+           f"loop over {ctx['c_points']} random inputs, best of {ctx['repeat']} (`fitlab.codegen.bench`, the harness "
+           f"of `fitlab bench codegen`); Python ns: numpy vectorised over {ctx['numpy_points']} inputs (the exact "
+           "engine per point once set up; Monte Carlo per BRDF value); JAX: jit of the same sympy expression, "
+           f"float64, {ctx['jax_points']} inputs, millions of evaluations per second, compilation excluded. The "
+           "machine is shared: compare timings within this run only.", "",
+           "## Recommendations", "", *_recommendations(report.recommendations), "",
+           "## The BRDF", "", "![accuracy vs cost](accuracy_vs_cost.png)", "",
+           "*on the front*: no other method is both cheaper and more accurate (by max or RMS error). Monte Carlo "
+           "is measured on its own points (bin averages, see below); the exact engine's error is its agreement "
+           "with the independent doubling method.", "",
+           *_brdf_table(brdf), "",
+           "## The parts", "",
+           "max rel* leaves out the target's exact zeros. C ns: the part's routine in the generated code.", "",
+           *_parts_table(_section(rows, "part")), "",
+           *_exact_section(report), "", *_time_to_error(rows), "", *_mc_section(report), "",
+           *_refit_section(rows)]  # fmt: skip
+    if ctx["notes"]:
+        out += ["", "## Notes", "", *(f"- {n}" for n in ctx["notes"])]
+    return "\n".join(out) + "\n"
+
+
+def write_outputs(report, out_dir: Path) -> list[Path]:
+    """Render report.md, accuracy_vs_cost.png and report.csv and write all three (or none)."""
+    brdf = _section(report.rows, "brdf")
+    title = (f"Lambert-sphere BRDF: error vs cost of every evaluation method ({report.context['validation_points']} "
+             "validation points; fitlab report)")  # fmt: skip
+    files = {
+        "report.md": markdown(report).encode(),
+        "accuracy_vs_cost.png": plot_png(brdf, title),
+        "report.csv": csv_text(report.rows).encode(),
+    }
+    out_dir = Path(out_dir)
+    atomic_write_many({out_dir / name: data for name, data in files.items()})
+    return [out_dir / name for name in files]

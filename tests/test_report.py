@@ -1,0 +1,203 @@
+"""fitlab report: the reduced report end to end, determinism, the Pareto front, the rules, bad input.
+
+The quick report runs once through the CLI and once through the API (the second
+reads the validation set from the disk cache the first wrote); every column but
+the timings must agree.  About 30 s in all; the full report is `fitlab report`.
+"""
+
+import csv
+import io
+import json
+import math
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from fitlab._io import atomic_write_many
+from fitlab.cli import main
+from fitlab.report import COLUMNS, QUICK, TIMING_COLUMNS, build_report, pareto_front, recommend, write_outputs
+from fitlab.report.methods import ReportError, brdf_methods, fit_inventory
+from fitlab.report.tables import h_interpolant, table_brdf
+from fitlab.report.validation import albedos
+
+FITS = Path(__file__).resolve().parents[1] / "fits"
+DATA = Path(__file__).resolve().parents[1] / "data"
+
+
+def _read_csv(path):
+    with open(path, newline="") as fh:
+        return list(csv.DictReader(fh))
+
+
+@pytest.fixture(scope="module")
+def quick(tmp_path_factory):
+    """Two quick reports: (out dir of the CLI run, out dir of the API run)."""
+    root = tmp_path_factory.mktemp("report")
+    mp = pytest.MonkeyPatch()
+    mp.setenv("FITLAB_CACHE_DIR", str(root / "cache"))
+    try:
+        assert main(["report", "--quick", "--quiet", "--out", str(root / "a"), "--fits", str(FITS)]) == 0
+        assert any((root / "cache").glob("report-brdf-*.npz"))
+        report = build_report(QUICK, FITS, progress=False)
+        write_outputs(report, root / "b")
+    finally:
+        mp.undo()
+    return root / "a", root / "b"
+
+
+def test_quick_report_writes_the_three_files(quick):
+    a, _ = quick
+    assert (a / "accuracy_vs_cost.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    md = (a / "report.md").read_text()
+    for heading in ("## Recommendations", "## The BRDF", "## The parts", "## The exact engine",
+                    "## Time to reach a given error", "## Monte Carlo", "## One-off cost of each refit"):
+        assert heading in md
+    assert "![accuracy vs cost](accuracy_vs_cost.png)" in md
+    assert not list(a.glob("*.tmp"))
+
+
+def test_csv_columns_and_contents(quick):
+    a, _ = quick
+    with open(a / "report.csv", newline="") as fh:
+        assert tuple(next(csv.reader(fh))) == COLUMNS
+    rows = _read_csv(a / "report.csv")
+    sections = {r["section"] for r in rows}
+    assert {"brdf", "part", "exact_h", "time_to_error", "refit"} <= sections
+    brdf = [r for r in rows if r["section"] == "brdf"]
+    groups = {r["group"] for r in brdf}
+    assert {"exact", "tables", "published", "refit", "refit, richer", "fast", "baseline", "monte carlo"} <= groups
+    for r in brdf:
+        if r["group"] not in ("exact",):  # the quick report skips the doubling cross-check
+            assert float(r["max_rel"]) >= float(r["rms_rel"]) > 0.0
+    # the refit is timed in C, the H0 part is measured by every method
+    refit = next(r for r in brdf if r["method"] == "refit")
+    assert float(refit["ns_c_double"]) > 0 and float(refit["jax_evals_per_s"]) > 0
+    h0 = {r["method"] for r in rows if r["section"] == "part" and r["target"] == "H0"}
+    assert {"exact (Fock/Krein)", "tables", "hapke / paper", "hapke", "hapke_rational"} <= h0
+    # the three-order tables are far more accurate than the runtime model (which drops fm2)
+    tab = {r["method"]: float(r["max_rel"]) for r in brdf if r["group"] == "tables"}
+    assert tab["tables, three orders"] < 1e-4 < tab["tables, runtime model"]
+
+
+def test_non_timing_columns_are_reproducible(quick):
+    a, b = quick
+    ra, rb = _read_csv(a / "report.csv"), _read_csv(b / "report.csv")
+    assert len(ra) == len(rb)
+    for x, y in zip(ra, rb):
+        for col in COLUMNS:
+            if col not in TIMING_COLUMNS:
+                assert x[col] == y[col], (col, x, y)
+
+
+def test_pareto_front_on_a_toy_set():
+    costs = [1.0, 2.0, 2.0, 3.0, 4.0, 5.0, math.nan, 1.0, 6.0, 0.5]
+    errors = [5.0, 3.0, 4.0, 3.0, 1.0, 0.5, 0.1, 5.0, math.inf, 9.0]
+    # index 7 duplicates 0 (first kept), 2 and 3 are dominated by 1, 6 and 8 are not finite
+    assert pareto_front(costs, errors) == [9, 0, 1, 4, 5]
+    assert pareto_front([], []) == []
+
+
+def test_pareto_front_matches_the_definition():
+    rng = np.random.default_rng(1)
+    for _ in range(20):
+        c, e = rng.integers(1, 6, 25).astype(float), rng.integers(1, 6, 25).astype(float)
+        front = set(pareto_front(list(c), list(e)))
+        for i in range(25):
+            dominated = any(c[j] <= c[i] and e[j] <= e[i] and (c[j] < c[i] or e[j] < e[i]) for j in range(25))
+            duplicate_of_earlier = any(c[j] == c[i] and e[j] == e[i] for j in range(i))
+            assert (i in front) == (not dominated and not duplicate_of_earlier)
+
+
+def test_recommendations_follow_the_rules():
+    def row(name, group, max_rel, rms, c=math.nan, py=math.nan):
+        return {"method": name, "group": group, "max_rel": max_rel, "rms_rel": rms, "ns_c_double": c, "ns_python": py}
+
+    rows = [
+        row("lambert", "baseline", 1.0, 1e-3, c=1.0),  # never recommended
+        row("fast", "fast", 0.5, 0.1, c=70.0),  # too inaccurate for real time
+        row("model", "refit", 0.05, 5e-3, c=190.0),
+        row("richer", "refit, richer", 0.02, 2e-3, c=200.0),  # within 10 % of the cheapest: more accurate wins
+        row("tables", "tables", 1e-4, 1e-6, py=2000.0),
+        row("exact", "exact", 1e-13, 1e-14, py=7e4),
+    ]
+    rec = recommend(rows)
+    assert rec["real-time"]["method"] == "richer"
+    assert rec["offline"]["method"] == "tables"
+    assert rec["reference"]["method"] == "exact"
+    rows[3]["ns_c_double"] = 400.0
+    assert recommend(rows)["real-time"]["method"] == "model"
+
+
+def test_tables_interpolate_h_to_the_stated_accuracy():
+    from fitlab.exact import h_function
+
+    mu = np.linspace(0.0, 1.0, 97)
+    for order in (0, 1, 2):
+        for c in (0.37, 0.9991):
+            exact = h_function(order, mu, c, method="fock")
+            assert np.max(np.abs(h_interpolant(order, DATA)(mu, c) / exact - 1)) < 1e-5
+    f = table_brdf(DATA, order2=True)
+    assert np.isfinite(f(np.array([0.0, 0.5]), np.array([1e-3, 0.5]), np.array([0.0, 3.0]), np.array([1.0, 0.5]))).all()
+
+
+def test_validation_albedos_avoid_the_table_grid():
+    c = albedos(15, True)
+    s = np.sqrt(1.0 - c[:-1])
+    assert c[-1] == 1.0 and np.all(c[:-1] > 0.0)
+    assert np.all(np.abs(s * 64 - np.round(s * 64)) > 0.01)
+
+
+def test_every_fit_file_is_picked_up_and_discovered_forms_are_grouped(tmp_path):
+    fits = tmp_path / "fits"
+    shutil.copytree(FITS, fits, ignore=shutil.ignore_patterns("generated"))
+    rec = json.loads((fits / "l.cubic.json").read_text())
+    rec.update(form="sr_test", origin={"method": "discover", "seconds": 12.5})
+    (fits / "l.sr_test.json").write_text(json.dumps(rec))
+    entries = fit_inventory(fits)
+    assert len(entries) == len(list(FITS.glob("*.json"))) + 1
+    found = next(e for e in entries if e.form == "sr_test")
+    assert found.kind == "discover" and not found.default
+    methods = brdf_methods(fits, entries, DATA)
+    names = {m.name: m.group for m in methods}
+    assert names["refit + l sr_test"] == "discovered"
+
+
+def test_missing_fits_folder_is_a_clear_error(tmp_path, capsys):
+    rc = main(["report", "--quick", "--quiet", "--out", str(tmp_path / "out"), "--fits", str(tmp_path / "nope")])
+    assert rc == 2
+    assert "no such fits folder" in capsys.readouterr().err
+    assert not (tmp_path / "out").exists()
+
+
+def test_corrupt_fit_file_is_named(tmp_path, capsys):
+    fits = tmp_path / "fits"
+    fits.mkdir()
+    (fits / "H0.json").write_text("{not json")
+    assert main(["report", "--quick", "--quiet", "--out", str(tmp_path / "out"), "--fits", str(fits)]) == 2
+    err = capsys.readouterr().err
+    assert "H0.json" in err and "corrupt JSON" in err
+    with pytest.raises(ReportError, match="no fit files"):
+        fit_inventory(tmp_path)
+
+
+def test_unwritable_out_fails_before_any_work(tmp_path, capsys):
+    out = tmp_path / "file"
+    out.write_text("keep me")
+    assert main(["report", "--quick", "--quiet", "--out", str(out)]) == 2
+    assert "not a folder" in capsys.readouterr().err
+    assert out.read_text() == "keep me"
+
+
+def test_outputs_are_all_or_nothing(tmp_path):
+    (tmp_path / "a.txt").write_text("old a")
+    (tmp_path / "c.txt.tmp").mkdir()  # the temporary of c.txt cannot be written
+    with pytest.raises(OSError):
+        atomic_write_many({tmp_path / "a.txt": b"new a", tmp_path / "c.txt": b"new c"})
+    assert (tmp_path / "a.txt").read_text() == "old a"
+    assert not (tmp_path / "a.txt.tmp").exists() and not (tmp_path / "c.txt").exists()
+    (tmp_path / "b.txt").mkdir()  # a folder where a file should go: refused before anything is written
+    with pytest.raises(IsADirectoryError):
+        atomic_write_many({tmp_path / "a.txt": b"new a", tmp_path / "b.txt": b"new b"})
+    assert (tmp_path / "a.txt").read_text() == "old a"
