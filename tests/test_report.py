@@ -6,7 +6,6 @@ the timings must agree.  About 30 s in all; the full report is `fitlab report`.
 """
 
 import csv
-import io
 import json
 import math
 import shutil
@@ -151,17 +150,23 @@ def test_validation_albedos_avoid_the_table_grid():
 
 def test_every_fit_file_is_picked_up_and_discovered_forms_are_grouped(tmp_path):
     fits = tmp_path / "fits"
-    shutil.copytree(FITS, fits, ignore=shutil.ignore_patterns("generated"))
-    rec = json.loads((fits / "l.cubic.json").read_text())
-    rec.update(form="sr_test", origin={"method": "discover", "seconds": 12.5})
+    fits.mkdir()
+    for target in ("H0", "H1", "l", "m", "B", "C", "D", "F", "kd_of_c", "c_of_kd", "fast_brdf"):  # default forms
+        shutil.copy(FITS / f"{target}.json", fits)
+    shutil.copy(FITS / "m.quadratic.json", fits)
+    rec = json.loads((FITS / "l.cubic.json").read_text())
+    rec.update(form="sr_test", origin={"method": "fitlab discover", "seconds": 12.5})
     (fits / "l.sr_test.json").write_text(json.dumps(rec))
     entries = fit_inventory(fits)
-    assert len(entries) == len(list(FITS.glob("*.json"))) + 1
+    assert len(entries) == 13
     found = next(e for e in entries if e.form == "sr_test")
     assert found.kind == "discover" and not found.default
-    methods = brdf_methods(fits, entries, DATA)
-    names = {m.name: m.group for m in methods}
-    assert names["refit + l sr_test"] == "discovered"
+    groups = {m.name: (m.group, m.c.forms if m.c else None) for m in brdf_methods(fits, entries, DATA)}
+    assert groups["refit + l sr_test"] == ("discovered", (("l", "sr_test"),))
+    assert groups["refit, richer forms"] == ("refit, richer", (("m", "quadratic"),))
+    # the best fit of every part, discovered included: l from the discovered file, m the richer refit
+    assert groups["best fits (discovered included)"] == ("discovered", (("l", "sr_test"), ("m", "quadratic")))
+    assert "refit + l sr_test" not in {m.name for m in brdf_methods(fits, entries, DATA, discovered=False)}
 
 
 def test_missing_fits_folder_is_a_clear_error(tmp_path, capsys):

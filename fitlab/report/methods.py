@@ -106,11 +106,11 @@ class FitEntry:
 
 # -- fits ------------------------------------------------------------------------------------------
 def origin_kind(record: dict) -> str:
-    """How a fit was made: the ``method`` of its ``origin`` (a dict or a string), else "refit"."""
+    """How a fit was made: "refit" when its record has no ``origin``; "discover" when the origin (a dict's
+    ``method``, or a string) names discover ("fitlab discover"); else that method as written."""
     origin = record.get("origin")
-    if isinstance(origin, dict):
-        return str(origin.get("method", "other"))
-    return str(origin) if origin else "refit"
+    method = str(origin.get("method", "other")) if isinstance(origin, dict) else (str(origin) if origin else "refit")
+    return "discover" if "discover" in method else method
 
 
 def fit_inventory(fits_dir: Path) -> list[FitEntry]:
@@ -222,9 +222,11 @@ def _label(forms: dict) -> str:
     return ", ".join(f"{k}: {v}" for k, v in forms.items())
 
 
-def brdf_methods(fits_dir: Path, entries: list[FitEntry], data_dir: Path, preset_c: tuple = ()) -> list[BrdfMethod]:
+def brdf_methods(fits_dir: Path, entries: list[FitEntry], data_dir: Path, preset_c: tuple = (),
+                 discovered: bool = True) -> list[BrdfMethod]:  # fmt: skip
     """The BRDF-level catalogue (see the module docstring); ``preset_c``: the preset variants whose C
-    is built (from temporary fits folders, see :func:`preset_records`)."""
+    is built (from temporary fits folders, see :func:`preset_records`); ``discovered=False`` leaves out
+    the entries of discovered forms."""
     from ..forms import RUNTIME_PARTS
     from ..fits import load
     from ..fit.targets import get_target
@@ -242,12 +244,14 @@ def brdf_methods(fits_dir: Path, entries: list[FitEntry], data_dir: Path, preset
         out.append(_runtime(m, f"published: {v}", "published", _label(m.sources), spec))
     out.append(_runtime(runtime_model(fits_dir=fits_dir), "refit", "refit", "default forms in " + str(fits_dir),
                         CSpec("brdf", fits_dir)))  # fmt: skip
+    maps = ("kd_of_c", "c_of_kd")  # not in the BRDF, but in its program: their C is timed there
     richer = _best_forms(entries, {"refit"}, RUNTIME_PARTS)
     if richer:
         m = runtime_model(fits_dir=fits_dir, forms=richer)
+        c_forms = {**richer, **_best_forms(entries, {"refit"}, maps)}
         out.append(_runtime(m, "refit, richer forms", "refit, richer", _label(richer),
-                            CSpec("brdf", fits_dir, tuple(sorted(richer.items())))))  # fmt: skip
-    discovered = [e for e in entries if e.kind == "discover"]
+                            CSpec("brdf", fits_dir, tuple(sorted(c_forms.items())))))  # fmt: skip
+    discovered = [e for e in entries if e.kind == "discover"] if discovered else []
     for e in discovered:
         if e.target in RUNTIME_PARTS:
             forms = {e.target: e.form}
@@ -255,11 +259,13 @@ def brdf_methods(fits_dir: Path, entries: list[FitEntry], data_dir: Path, preset
             out.append(_runtime(m, f"refit + {e.target} {e.form}", "discovered", str(e.path),
                                 CSpec("brdf", fits_dir, tuple(forms.items()))))  # fmt: skip
     if any(e.target in RUNTIME_PARTS for e in discovered):
-        best = _best_forms(entries, {e.kind for e in entries}, RUNTIME_PARTS)
+        kinds = {e.kind for e in entries}
+        best = _best_forms(entries, kinds, RUNTIME_PARTS)
         if best and best != richer:
             m = runtime_model(fits_dir=fits_dir, forms=best)
+            c_forms = {**best, **_best_forms(entries, kinds, maps)}
             out.append(_runtime(m, "best fits (discovered included)", "discovered", _label(best),
-                                CSpec("brdf", fits_dir, tuple(sorted(best.items())))))  # fmt: skip
+                                CSpec("brdf", fits_dir, tuple(sorted(c_forms.items())))))  # fmt: skip
     fast_form = get_target("fast_brdf").forms["paper"]
     fast_raw = fast_form.numpy_function
     theta = fast_form.vector("paper")
@@ -269,7 +275,7 @@ def brdf_methods(fits_dir: Path, entries: list[FitEntry], data_dir: Path, preset
         fast_form.substituted("paper"), CSpec("brdf_fast", preset="paper") if "paper" in preset_c else None,
     ))  # fmt: skip
     for e in entries:
-        if e.target == "fast_brdf":
+        if e.target == "fast_brdf" and (e.kind != "discover" or discovered):
             spec = CSpec("brdf_fast", fits_dir, () if e.default else (("fast_brdf", e.form),))
             group = "discovered" if e.kind == "discover" else "fast"
             out.append(_fit_brdf(load(e.path), f"fast: {e.form} ({_fit_group(e)})", group, spec))

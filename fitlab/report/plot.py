@@ -57,6 +57,26 @@ def _place_numbers(ax, pts, key):
                     color="0.15")  # fmt: skip
 
 
+#: the groups whose C-costed points the inset enlarges (they crowd one corner of the full view)
+ZOOM_GROUPS = ("published", "refit", "refit, richer", "discovered", "fast")
+
+
+def _draw(ax, sel, key, colors, front, size):
+    """The points of ``sel`` (filled: C, hollow: Python, triangles: MC) and the staircase of ``front``."""
+    for n, r, x, kind in sel:
+        col = colors.get(r["group"], "k")
+        ax.scatter([x], [r[key]], s=size, marker="^" if kind == "MC" else "o",
+                   facecolors="none" if kind == "python" else col, edgecolors=col, linewidths=1.3, zorder=3)
+    if front:
+        fx = np.array([sel[i][2] for i in front])
+        fy = np.array([sel[i][1][key] for i in front])
+        ax.step(np.append(fx, fx[-1] * 4), np.append(fy, fy[-1]), where="post", color="0.35", lw=1.0, ls="--",
+                zorder=2)  # fmt: skip
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.grid(True, which="major", alpha=0.3)
+
+
 def plot_png(rows: list[dict], title: str) -> bytes:
     """The figure as PNG bytes (rows: BRDF-level rows with group, method, max_rel, rms_rel and costs).
 
@@ -74,26 +94,27 @@ def plot_png(rows: list[dict], title: str) -> bytes:
     key_ax = fig.add_subplot(grid[0, 2])
     for ax, key, label in ((axes[0], "max_rel", "max relative error"), (axes[1], "rms_rel", "RMS relative error")):
         sel = [t for t in pts if math.isfinite(t[1][key]) and t[1][key] > 0]
-        for n, r, x, kind in sel:
-            col = colors.get(r["group"], "k")
-            marker = "^" if kind == "MC" else "o"
-            ax.scatter([x], [r[key]], s=38, marker=marker, facecolors="none" if kind == "python" else col,
-                       edgecolors=col, linewidths=1.3, zorder=3)  # fmt: skip
         xs = [x for _, _, x, _ in sel]
         ys = [r[key] for _, r, _, _ in sel]
-        front = pareto_front(xs, ys)
-        if front:
-            fx, fy = np.array(xs)[front], np.array(ys)[front]
-            ax.step(np.append(fx, fx[-1] * 4), np.append(fy, fy[-1]), where="post", color="0.35", lw=1.0, ls="--",
-                    zorder=2)  # fmt: skip
-        ax.set_xscale("log")
-        ax.set_yscale("log")
+        _draw(ax, sel, key, colors, pareto_front(xs, ys), 38)
         ax.set_xlim(min(xs) / 3, max(xs) * 6)
         ax.set_ylim(min(ys) / 6, max(ys) * 6)
         ax.set_xlabel("cost: ns per evaluation")
         ax.set_ylabel(f"{label} vs the exact BRDF")
-        ax.grid(True, which="major", alpha=0.3)
-        _place_numbers(ax, sel, key)
+        zoom = [t for t in sel if t[1]["group"] in ZOOM_GROUPS and t[3] == "C"]
+        if len(zoom) < 2:
+            zoom = []
+        _place_numbers(ax, [t for t in sel if t not in zoom], key)  # the zoomed ones are numbered in the inset
+        if zoom:
+            ins = ax.inset_axes([0.61, 0.13, 0.37, 0.36])
+            _draw(ins, sel, key, colors, pareto_front(xs, ys), 30)
+            zx, zy = [t[2] for t in zoom], [t[1][key] for t in zoom]
+            ins.set_xlim(min(zx) / 1.4, max(zx) * 1.4)
+            ins.set_ylim(min(zy) / 2.5, max(zy) * 2.5)
+            ins.tick_params(labelsize=6, which="both")
+            ins.set_title("zoom: the analytic models in C", fontsize=7)
+            _place_numbers(ins, zoom, key)
+            ax.indicate_inset_zoom(ins, edgecolor="0.5")
     key_ax.axis("off")
     lines = [(f"{n:>2}  {r['method']}", colors.get(r["group"], "k")) for n, r, _, _ in pts]
     step = min(0.045, 0.80 / max(len(lines), 1))

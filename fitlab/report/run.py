@@ -111,7 +111,7 @@ def _exact_rows(brdf_cost, dbl, conv, ttes) -> list[dict]:
             "note": f"f^m at {dbl['node_pairs']} node pairs per (c, order); error: against the H route",
         })  # fmt: skip
     for r in conv:
-        rows.append({"section": "exact_h", "target": "H0, H1" , "group": "exact",
+        rows.append({"section": "exact_h", "target": "H0, H1", "group": "exact",
                      "method": f"{r['method']}, {r['resolution']}", "source": "fitlab.exact.hfunction",
                      "points": r["points"], "max_rel": r["max_rel"], "rms_rel": r["rms_rel"], "seconds": r["seconds"],
                      "note": "error against the other method at its default; seconds per (order, c): one solve "
@@ -180,9 +180,10 @@ def _refit_rows(entries, settings, fits_dir, progress) -> list[dict]:
     if settings.refits is None:
         for e in entries:
             if e.kind != "refit":
-                rows.append({"section": "refit", "target": e.target, "group": e.kind, "method": e.form,
+                rows.append({"section": "refit", "target": e.target, "group": _fit_group(e), "method": e.form,
                              "source": str(e.path), "max_rel": e.max_rel, "seconds": recorded_seconds(e.record),
-                             "note": f"made by {e.kind}, not refitted here; seconds as its record states"})  # fmt: skip
+                             "note": f"made by {e.kind}: its one-off cost is the search, not timed here "
+                                     "(seconds: as its record states, if it does)"})  # fmt: skip
     return rows
 
 
@@ -222,7 +223,7 @@ def _measure(settings, entries, fits_dir, data_dir, use_cache, p) -> tuple[list,
     p.stage("validation set", settings.n_c + settings.with_c1)
     valid = brdf_set(settings, use_cache, p.tick)
     p.stage("catalogue", 1)
-    methods = brdf_methods(fits_dir, entries, data_dir, settings.preset_c)
+    methods = brdf_methods(fits_dir, entries, data_dir, settings.preset_c, settings.discovered_brdf)
     if not settings.all_c:
         methods = [m if m.group in ("refit", "baseline") else replace(m, c=None) for m in methods]
     p.tick()

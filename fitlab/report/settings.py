@@ -33,6 +33,8 @@ class Settings:
     preset_c: tuple = ("paper_printed", "paper", "renderer")
     #: build and time C for every catalogue entry (False: only the default refit and the baselines)
     all_c: bool = True
+    #: BRDF-level entries for discovered forms (False: they are measured as parts only)
+    discovered_brdf: bool = True
     #: random inputs per C timing, best of ``repeat``
     c_points: int = 1 << 19
     repeat: int = 5
@@ -72,6 +74,7 @@ QUICK = Settings(
     parts=("H0", "m"),
     preset_c=(),
     all_c=False,
+    discovered_brdf=False,
     c_points=1 << 14,
     repeat=2,
     numpy_points=1 << 12,

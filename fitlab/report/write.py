@@ -184,8 +184,8 @@ def markdown(report) -> str:
            + " (do not edit); every number is in `report.csv`. All columns but the timings are reproducible "
            f"run to run. Machine: {ctx['machine']}; this run took {ctx['wall_seconds']:.0f} s.", "",
            f"**Accuracy.** Against `fitlab.exact.brdf` on one fixed validation set: {ctx['validation']} "
-           f"({ctx['validation_points']} points; kd = kd_true(c) where a method takes kd). Every `{ctx['fits_dir']}/*.json` "
-           "is measured (" + ", ".join(f"{g}: {n}" for g, n in ctx["fits"].items()) + " files). Relative error "
+           f"({ctx['validation_points']} points; kd = kd_true(c) where a method takes kd). Every "
+           f"`{ctx['fits_dir']}/*.json` is measured (" + ", ".join(f"{g}: {n}" for g, n in ctx["fits"].items()) + " files). Relative error "
            "|f - f_exact| / f_exact: the max over the set, the RMS, and the max away from the grazing pole "
            "(mu_i, mu_o >= 1/64). Parts (H0, H1, constants, albedo maps, fm1): each target's validation set and "
            "error measure (`fitlab.fit.targets`, as in docs/audit.md).", "",
