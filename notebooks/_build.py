@@ -11,6 +11,7 @@ fitlab.residuals); the notebooks only choose grids and plot.
 
 from __future__ import annotations
 
+import json
 import sys
 from pathlib import Path
 
@@ -779,8 +780,8 @@ def main(argv) -> int:
     for name in NOTEBOOKS:
         path = HERE / name
         text = render(name)
-        if check:
-            if not path.exists() or path.read_text() != text:
+        if check:  # compare content, not formatting
+            if not path.exists() or json.loads(path.read_text()) != json.loads(text):
                 stale.append(name)
         else:
             path.write_text(text)
