@@ -1,7 +1,16 @@
 """Slow studies are marked @pytest.mark.benchmark and skipped unless asked for
-with ``-m benchmark`` (pyproject declares the marker)."""
+with ``-m benchmark`` (pyproject declares the marker).
 
-import pytest
+OpenBLAS is held to one thread before numpy loads: the suite's linear algebra is
+small, and on a shared 2-core machine OpenBLAS's spinning worker threads made
+single tests take minutes (test_reference_brdf_edges: 540 s, against 3 min for
+the whole suite with one thread)."""
+
+import os
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
+import pytest  # noqa: E402
 
 
 def pytest_collection_modifyitems(config, items):

@@ -101,6 +101,18 @@ def test_reference_brdf_edges():
     np.testing.assert_allclose(f, brdf(mi, mo, -phi, c), rtol=1e-13)
 
 
+@pytest.mark.parametrize("mu_i, mu_o", [(0.5, 0.3), (0.0, 0.0), (0.0, 0.4)])
+def test_scalar_inputs_give_the_array_values(mu_i, mu_o):
+    # Scalars once failed at the pole fix-up (item assignment on a numpy scalar).
+    f = brdf(mu_i, mu_o, 0.7, 0.6)
+    assert np.shape(f) == ()
+    np.testing.assert_array_equal(f, brdf([mu_i], [mu_o], [0.7], [0.6])[0])
+    for modes in (single_scattering_modes, multiple_scattering_modes, brdf_modes):
+        for scalar, vector in zip(modes(mu_i, mu_o, 0.6), modes([mu_i], [mu_o], [0.6])):
+            assert np.shape(scalar) == ()
+            np.testing.assert_array_equal(scalar, vector[0])
+
+
 def test_runtime_model_with_exact_parts_never_needs_the_clamp():
     mu = np.concatenate(([1e-9], np.linspace(0.01, 1, 25)))
     phi = np.linspace(0, np.pi, 13)

@@ -42,7 +42,7 @@ def check_cosines(*arrays, names=("mu_i", "mu_o")):
 def _divide_pole(numerator, mu_i, mu_o):
     s = mu_i + mu_o
     with np.errstate(divide="ignore", invalid="ignore"):
-        out = numerator / s
+        out = np.asarray(numerator / s)  # 0-d inputs give a numpy scalar, which takes no item assignment
     pole = s == 0.0
     if np.any(pole):
         n = np.broadcast_to(numerator, out.shape)[pole]
@@ -175,7 +175,7 @@ def brdf(mu_i, mu_o, phi, c):
     with np.errstate(divide="ignore", invalid="ignore"):
         single = c * phase_function(u) / (mu_i + mu_o)
         fm0, fm1, fm2 = multiple_scattering_modes(mu_i, mu_o, c)
-        out = single + fm0 + fm1 * cos_phi + fm2 * np.cos(2.0 * phi)
+        out = np.asarray(single + fm0 + fm1 * cos_phi + fm2 * np.cos(2.0 * phi))
     # At mu_i = mu_o = 0 the log poles of fm0 + fm1 cos + fm2 cos 2phi add up to
     # c^2 (0.1453 - 0.1111 cos phi + 0.0034 cos 2phi) log(1/mu) / pi > 0: +inf.
     out[pole] = np.where(c[pole] > 0.0, np.inf, 0.0)
