@@ -7,7 +7,9 @@ Monte Carlo at several path counts, and Lambert / Oren-Nayar as yardsticks) it
 measures
 
 * accuracy against the exact values on fixed validation sets: max and RMS
-  relative error of the BRDF (:mod:`.validation`, :mod:`.accuracy`), and of H0,
+  relative error of the BRDF on uniform points, and its max on a grazing set
+  (mu_i, mu_o down to 1e-6) that uniform points never reach (:mod:`.validation`,
+  :mod:`.accuracy`), and of H0,
   H1, the constants, the albedo maps and fm1 on their targets' sets;
 * cost: ns per evaluation of the generated C (:mod:`.programs`, through the one
   harness of :mod:`fitlab.codegen.bench`), numpy ns and JAX throughput

@@ -3,7 +3,9 @@ r"""Accuracy against the exact values: max and RMS relative error on a fixed val
 BRDF level: e_k = |f_k - f_exact,k| / |f_exact,k| over the report's validation
 set (:mod:`fitlab.report.validation`); max_rel = max_k e_k, rms_rel =
 sqrt(mean_k e_k^2), and max_rel_away the max over the points with mu_i, mu_o >=
-1/64 (away from the grazing pole, as in docs/audit.md).  A NaN or inf value
+1/64 (away from the grazing pole, as in docs/audit.md); max_rel_grazing the max
+over the grazing set (mu_i, mu_o down to 1e-6, :func:`fitlab.report.validation.grazing_set`),
+which the uniform points never reach.  A NaN or inf value
 counts as an infinite error (:func:`fitlab.fit.metrics.relative_errors`).
 
 Part level: the target's own error measure and validation set
@@ -31,20 +33,27 @@ def brdf_errors(method, valid) -> np.ndarray:
     return relative_errors(approx, valid.y, np.abs(valid.y))
 
 
-def brdf_accuracy(method, valid) -> dict:
-    """max_rel, rms_rel, max_rel_away (mu_i, mu_o >= 1/64), points and the worst point."""
+def brdf_accuracy(method, valid, grazing=None) -> dict:
+    """max_rel, rms_rel, max_rel_away (mu_i, mu_o >= 1/64), points and the worst point; with the
+    grazing set, max_rel_grazing and its worst point."""
     err = brdf_errors(method, valid)
     away = (valid.inputs["mu_i"] >= GRAZING) & (valid.inputs["mu_o"] >= GRAZING)
     i = int(np.argmax(err))
     with np.errstate(over="ignore"):
         rms = float(np.sqrt(np.mean(err**2)))
-    return {
+    out = {
         "max_rel": float(err[i]),
         "rms_rel": rms,
         "max_rel_away": float(err[away].max()),
         "points": int(err.size),
         "worst": {k: float(valid.inputs[k][i]) for k in ("mu_i", "mu_o", "phi", "c")},
     }
+    if grazing is not None:
+        g = brdf_errors(method, grazing)
+        j = int(np.argmax(g))
+        out["max_rel_grazing"] = float(g[j])
+        out["worst_grazing"] = {k: float(grazing.inputs[k][j]) for k in ("mu_i", "mu_o", "phi", "c")}
+    return out
 
 
 def part_accuracy(method, target) -> dict:

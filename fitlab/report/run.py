@@ -83,10 +83,12 @@ def _brdf_rows(methods, acc, c_ns, py_ns, jax_tp) -> list[dict]:
         rows.append({
             "section": "brdf", "target": "f_r", "group": m.group, "method": m.name, "source": m.source,
             "points": a["points"], "max_rel": a["max_rel"], "rms_rel": a["rms_rel"],
-            "max_rel_away": a["max_rel_away"],
+            "max_rel_away": a["max_rel_away"], "max_rel_grazing": a.get("max_rel_grazing", NAN),
             "ns_c_double": c_ns.get(m.name, (NAN, NAN))[0], "ns_c_float": c_ns.get(m.name, (NAN, NAN))[1],
             "ns_python": py_ns.get(m.name, NAN), "jax_evals_per_s": jax_tp.get(m.name, NAN),
-            "note": "worst at " + ", ".join(f"{k}={v:.4g}" for k, v in w.items()),
+            "note": "worst at " + ", ".join(f"{k}={v:.4g}" for k, v in w.items())
+                    + ("; grazing worst at " + ", ".join(f"{k}={v:.4g}" for k, v in a["worst_grazing"].items())
+                       if "worst_grazing" in a else ""),
         })  # fmt: skip
     return rows
 
@@ -218,10 +220,11 @@ def _measure(settings, entries, fits_dir, data_dir, use_cache, p) -> tuple[list,
     from .exact import doubling_agreement, exact_brdf_cost, h_convergence, time_to_error
     from .montecarlo import mc_study
     from .programs import c_costs, timing_inputs
-    from .validation import brdf_set
+    from .validation import brdf_set, grazing_set
 
-    p.stage("validation set", settings.n_c + settings.with_c1)
+    p.stage("validation set", 2 * (settings.n_c + settings.with_c1))
     valid = brdf_set(settings, use_cache, p.tick)
+    grazing = grazing_set(settings, use_cache, p.tick)
     p.stage("catalogue", 1)
     methods = brdf_methods(fits_dir, entries, data_dir, settings.preset_c, settings.discovered_brdf)
     if not settings.all_c:
@@ -230,7 +233,7 @@ def _measure(settings, entries, fits_dir, data_dir, use_cache, p) -> tuple[list,
     p.stage("BRDF accuracy", len(methods))
     acc = {}
     for m in methods:
-        acc[m.name] = brdf_accuracy(m, valid)
+        acc[m.name] = brdf_accuracy(m, valid, grazing)
         p.tick()
     p.stage("C cost", len({m.c.program_key for m in methods if m.c is not None}))
     with tempfile.TemporaryDirectory(prefix="fitlab-report-") as tmp:
@@ -263,7 +266,8 @@ def _measure(settings, entries, fits_dir, data_dir, use_cache, p) -> tuple[list,
         counts[g] = counts.get(g, 0) + 1
     context = {
         "fits": counts,
-        "validation": valid.grid, "validation_points": len(valid), "notes": notes, "exact_cost": brdf_cost,
+        "validation": valid.grid, "validation_points": len(valid), "grazing": grazing.grid,
+        "grazing_points": len(grazing), "notes": notes, "exact_cost": brdf_cost,
         "doubling": dbl, "mc": study, "c_points": settings.c_points, "repeat": settings.repeat,
         "jax_points": settings.jax_points, "numpy_points": settings.numpy_points,
     }  # fmt: skip
