@@ -73,7 +73,7 @@ def _cmd_refit(args) -> int:
 
         for target, form in tqdm(jobs, desc="refit", unit="fit", disable=args.quiet or len(jobs) == 1):
             res, wall = timed_refit(
-                target, form, out=Path(args.out), domain_items=args.domain, init=args.init,
+                target, form, out=Path(args.out), fits_dir=Path(args.fits), domain_items=args.domain, init=args.init,
                 minimax=False if args.no_minimax else None, compare_scipy=args.compare_scipy, write=False,
             )
             results.append(res)
@@ -175,6 +175,8 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--form", help="which form of the target (default: the published shape; see --list)")
     r.add_argument("--all", action="store_true", help="refit every target (every form marked for it)")
     r.add_argument("--out", default="fits", help="folder for the fit JSON (default: fits)")
+    r.add_argument("--fits", default="fits",
+                   help="folder the forms saved by `fitlab discover` are read from (default: fits)")
     r.add_argument("--domain", action="append", metavar="NAME=LO:HI", help="restrict an input, e.g. c=0.5:1")
     r.add_argument("--init", type=Path, help="start from a saved fit of the same target and form")
     r.add_argument("--no-minimax", action="store_true", help="least squares only, no minimax refinement")

@@ -27,8 +27,7 @@ def _toy_library(**kw):
     return Library(name="toy", target="toy", inputs=("mu",), numerator=shapes, denominator=shapes, **kw)
 
 
-def _recover(lib, y_of_mu, truth):
-    x = np.linspace(0.0, 1.0, 401)
+def _recover(lib, y_of_mu, truth, x=np.linspace(0.0, 1.0, 401)):
     reg = SparseRegression(lib).fit({"mu": x}, y_of_mu(x), np.abs(y_of_mu(x)))
     exact = [cand for cand in reg.candidates_ if np.max(np.abs(reg.predict({"mu": x}, cand) / y_of_mu(x) - 1)) < 1e-9]
     assert exact, "no candidate reproduces the function"
@@ -38,7 +37,10 @@ def _recover(lib, y_of_mu, truth):
         for k, v in coefs.items():
             assert part[k] == pytest.approx(v, rel=1e-8, abs=1e-10)
     # every sparser candidate misses it by far: the known form is where the front drops
-    assert all(cand.n_terms >= sparsest.n_terms for cand in exact)
+    for cand in reg.candidates_:
+        if cand.n_terms < sparsest.n_terms:
+            with np.errstate(all="ignore"):
+                assert np.max(np.abs(reg.predict({"mu": x}, cand) / y_of_mu(x) - 1)) > 1e-4
 
 
 def test_recovers_a_known_rational_form():
@@ -52,6 +54,23 @@ def test_recovers_a_known_linear_form_with_offset_and_factor():
     lib = Library(name="toy", target="toy", inputs=("mu",), numerator=shapes, offset=sp.exp(mu), factor=1 + mu)
     truth = ({"1": 0.25, "mu3": -1.5}, {})
     _recover(lib, lambda x: np.exp(x) + (1 + x) * (0.25 - 1.5 * x**3), truth)
+
+
+def test_recovers_a_known_form_whose_denominator_is_pinned_by_an_input():
+    # y = mu/(mu + 0.3 (1 - mu)^2 - 0.1 (1 - mu)^3): d0 = mu, as in the c_of_kd ratio library
+    t = 1 - mu
+    shapes = {"t^(1/2)": sp.sqrt(t), "t": t, "t^2": t**2, "t^3": t**3}
+    lib = Library(name="toy", target="toy", inputs=("mu",), numerator=shapes, denominator=shapes, factor=mu,
+                  n0=sp.S.One, d0=mu)  # fmt: skip
+    truth = ({}, {"t^2": 0.3, "t^3": -0.1})
+    y = lambda x: x / (x + 0.3 * (1 - x) ** 2 - 0.1 * (1 - x) ** 3)  # noqa: E731
+    _recover(lib, y, truth, x=np.linspace(0.0025, 1.0, 400))
+    from fitlab.discover.regression import Candidate
+
+    form = candidate_form(lib, Candidate(*truth, "test", "toy"))
+    x = np.array([0.0, 1e-12, 0.5, 1.0])
+    got = form(form.start_values, x)
+    assert got[0] == 0.0 and got[-1] == 1.0 and np.allclose(got[1:], y(x[1:]), rtol=1e-14)
 
 
 def test_library_rejects_undeclared_inputs():
@@ -72,9 +91,9 @@ def test_pareto_front():
     assert pareto_front(pts) == [0, 1, 4]
 
 
-@pytest.mark.parametrize("target", sorted(LIBRARIES))
-def test_library_terms_finite_at_domain_edges(target):
-    lib = get_library(target)
+@pytest.mark.parametrize("target, name", [(t, lib.name) for t in sorted(LIBRARIES) for lib in LIBRARIES[t]])
+def test_library_terms_finite_at_domain_edges(target, name):
+    lib = get_library(target, name)
     edge = {"mu": [0.0, 0.0, 1.0, 1e-12], "c": [0.0, 1.0, 1.0, 0.5], "kd": [0.0, 1.0, 0.5, 1e-12],
             "mu_i": [0.0, 1e-6, 1.0, 1.0], "mu_o": [1e-6, 0.0, 1.0, 0.0], "phi": [0.0, np.pi, -np.pi, 1.0]}  # fmt: skip
     values = lib.evaluate({k: np.array(edge[k]) for k in lib.inputs})
@@ -120,11 +139,21 @@ def test_discover_front_and_outputs(kd_discovery, tmp_path):
     assert any(r["kind"] == "published" for r in disc.reference)
     from fitlab.discover.output import front_json, front_table, write_outputs
 
-    assert front_table(disc) == front_table(disc) and front_json(disc) == front_json(disc)
+    assert all(name in front_table(disc) for name in disc.front)
     paths = write_outputs(disc, tmp_path)
     assert sorted(p.name for p in paths) == ["kd_of_c.json", "kd_of_c.md", "kd_of_c.png"]
     assert paths[2].read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert json.loads(paths[1].read_text())["front"] == disc.front
+
+    # saving from the written front: every name is checked before anything is written
+    from fitlab.discover import save_from_front
+
+    fits = tmp_path / "fits"
+    with pytest.raises(KeyError, match="not on the front"):
+        save_from_front(paths[1], [disc.front[0], "sr_9_nothere"], fits)
+    assert not fits.exists() or not any(fits.iterdir())
+    saved = save_from_front(paths[1], disc.front, fits)
+    assert [p.name for p in saved] == [f"kd_of_c.{n}.json" for n in disc.front]
 
 
 def test_discovered_form_round_trips_through_json_refit_and_codegen(kd_discovery, tmp_path):
@@ -141,7 +170,7 @@ def test_discovered_form_round_trips_through_json_refit_and_codegen(kd_discovery
     fit = load(path)
     c_val = np.concatenate(([0.0, 1e-12, 1.0], np.linspace(0, 1, 101)))
     values = fit(c=c_val)
-    form = candidate_form(disc.library, best.candidate, best.name)
+    form = candidate_form(disc.library_of(best.candidate), best.candidate, best.name)
     assert np.allclose(values, form(best.record["params"], c_val), rtol=1e-14, atol=0)
     assert values[0] == 0.0 and values[2] == pytest.approx(1.0, abs=1e-15)
 
@@ -179,7 +208,14 @@ def test_cli_errors(tmp_path, capsys):
     assert "goes with --save" in capsys.readouterr().err
     assert main(["discover", "--target", "H0", "--from-front", "--save", "x", "--out", str(tmp_path)]) == 2
     assert "no such front" in capsys.readouterr().err
+    assert main(["discover", "--target", "H0", "--cost", "--out", str(tmp_path)]) == 2
+    assert "--cost goes with --save" in capsys.readouterr().err
     assert not any(tmp_path.iterdir())
+    a_file = tmp_path / "file"
+    a_file.write_text("")
+    assert main(["discover", "--target", "H0", "--out", str(a_file)]) == 2
+    assert "not a folder" in capsys.readouterr().err
+    a_file.unlink()
     with pytest.raises(SystemExit):
         main(["codegen", "--lang", "c", "--form"])
     assert main(["codegen", "--lang", "c", "--out", str(tmp_path), "--form", "H0"]) == 2

@@ -6,10 +6,10 @@ optimistix, validated) -> search (the Pareto front) -> output (table, plot,
 fits/ JSON).  ``fitlab discover --target H0`` runs it all.
 """
 
-from .library import LIBRARIES, Library, get_library
+from .library import LIBRARIES, Library, get_libraries, get_library
 from .output import save, save_from_front, write_outputs
 from .regression import Candidate, SparseRegression
 from .search import Discovery, discover, pareto_front
 
-__all__ = ["LIBRARIES", "Library", "get_library", "Candidate", "SparseRegression", "Discovery", "discover",
+__all__ = ["LIBRARIES", "Library", "get_libraries", "get_library", "Candidate", "SparseRegression", "Discovery", "discover",
            "pareto_front", "save", "save_from_front", "write_outputs"]

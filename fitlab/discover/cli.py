@@ -25,19 +25,29 @@ def add_arguments(p) -> None:
     p.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
+def _error(msg: str) -> int:
+    print(f"fitlab discover: error: {msg}", file=sys.stderr)
+    return 2
+
+
 def run_discover(args) -> int:
     from ..fits import FitFileError
     from ..tabulate import TableError
     from .output import front_table, save, save_from_front, write_outputs
     from .search import discover
 
+    if args.from_front and not args.save:
+        return _error("--from-front goes with --save NAME")
+    if args.cost and not args.save:
+        return _error("--cost goes with --save NAME (it times the saved forms)")
+    # a bad destination fails now, not after minutes of search
+    for flag, folder in (("--out", Path(args.out)), ("--fits", Path(args.fits))):
+        if folder.exists() and not folder.is_dir():
+            return _error(f"{flag} {folder}: not a folder")
     if args.from_front:
-        if not args.save:
-            print("fitlab discover: error: --from-front goes with --save NAME", file=sys.stderr)
-            return 2
         try:
-            paths = [save_from_front(Path(args.out) / f"{args.target}.json", n, Path(args.fits)) for n in args.save]
-        except (KeyError, ValueError) as exc:
+            paths = save_from_front(Path(args.out) / f"{args.target}.json", args.save, Path(args.fits))
+        except (KeyError, ValueError, OSError) as exc:
             msg = exc.args[0] if isinstance(exc, KeyError) and exc.args else str(exc)
             print(f"fitlab discover: error: {msg}", file=sys.stderr)
             return 2
@@ -54,7 +64,7 @@ def run_discover(args) -> int:
                         fits_dir=Path(args.fits), progress=not args.quiet)  # fmt: skip
         for name in args.save or ():
             if name not in disc.front:
-                raise KeyError(f"--save {name}: not on the front; the front is {', '.join(disc.front)}")
+                raise KeyError(f"--save {name}: {name!r} is not on the front; the front is {', '.join(disc.front)}")
     except (KeyError, ValueError, FitFileError, TableError) as exc:
         msg = exc.args[0] if isinstance(exc, KeyError) and exc.args else str(exc)
         print(f"fitlab discover: error: {msg}", file=sys.stderr)
@@ -71,14 +81,16 @@ def run_discover(args) -> int:
 def _print_cost(args) -> int:
     if not (args.cost and args.save):
         return 0
-    from .cost import routine_cost
+    from ..fits import FitFileError
+    from .cost import COST_REPEAT, COST_ROUNDS, routine_cost
 
     try:
         ns = routine_cost(args.target, [None, *args.save], Path(args.fits))
-    except (KeyError, RuntimeError) as exc:
+    except (KeyError, RuntimeError, FitFileError) as exc:
         print(f"fitlab discover: --cost: {exc.args[0] if exc.args else exc}", file=sys.stderr)
         return 2
-    print("generated C, double, ns per evaluation (best of 7, interleaved; ratios within this run):")
+    print(f"generated C, double, ns per evaluation (best of {COST_ROUNDS} rounds x {COST_REPEAT}, interleaved; "
+          "ratios within this run):")  # fmt: skip
     for name, t in ns.items():
         print(f"  {name:<16} {t:8.2f} ns  {t / ns['default']:5.2f} x default")
     return 0

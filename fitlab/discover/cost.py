@@ -13,7 +13,11 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["routine_cost", "ROUTINE_OF_TARGET"]
+__all__ = ["routine_cost", "ROUTINE_OF_TARGET", "COST_ROUNDS", "COST_REPEAT"]
+
+#: interleaved rounds, and timings per round, of each variant (the best of all is kept)
+COST_ROUNDS = 2
+COST_REPEAT = 7
 
 #: the generated routine that evaluates each target, and its arguments
 ROUTINE_OF_TARGET = {
@@ -31,7 +35,7 @@ def _inputs(names, n: int, seed: int = 0) -> list[np.ndarray]:
 
 
 def routine_cost(target: str, forms: list[str | None], fits_dir: Path = Path("fits"), n: int = 200_000,
-                 repeat: int = 7, dtype=np.float64) -> dict[str, float]:  # fmt: skip
+                 repeat: int = COST_REPEAT, dtype=np.float64) -> dict[str, float]:  # fmt: skip
     """ns per evaluation of ``target``'s routine for each form (None: the default form)."""
     from ..codegen import generate
     from ..codegen.bench import _best
@@ -51,7 +55,7 @@ def routine_cost(target: str, forms: list[str | None], fits_dir: Path = Path("fi
             chosen = {} if form is None else {target: form}
             program = build_program(Path(fits_dir), forms=chosen)
             models[form] = build(generate("c", fits_dir, forms=chosen), program, Path(tmp) / f"v{k}")
-        for _ in range(2):  # interleaved rounds: drift in machine load hits every variant alike
+        for _ in range(COST_ROUNDS):  # interleaved rounds: drift in machine load hits every variant alike
             for form, model in models.items():
                 t = _best(lambda: model(routine, *args, dtype=dtype), repeat) / n * 1e9
                 out[form or "default"] = min(out.get(form or "default", np.inf), t)

@@ -2,12 +2,14 @@ r"""Candidate-term libraries: the shapes symbolic regression may combine.
 
 A :class:`Library` describes a family of models for one target
 
-    y = P + Q (n0 + sum_k a_k f_k) / (1 + sum_j b_j g_j)
+    y = P + Q (n0 + sum_k a_k f_k) / (d0 + sum_j b_j g_j)
 
-with P (the offset), Q (the factor) and n0 fixed expressions that carry what
-is known exactly (H0(0, c) = 1, kd(0) = 0, the exact single scattering of the
-BRDF), f_k the numerator's candidate terms and g_j the denominator's (none: a
-linear model).  Every term is a sympy expression in the target's inputs, so a
+with P (the offset), Q (the factor), n0 and d0 (1 unless a library says
+otherwise) fixed expressions that carry what is known exactly (H0(0, c) = 1,
+kd(0) = 0, c(1) = 1, the exact single scattering of the BRDF), f_k the
+numerator's candidate terms and g_j the denominator's (none: a linear model).
+A target may have several libraries (:data:`LIBRARIES`); discover searches
+them all and puts their candidates on one front.  Every term is a sympy expression in the target's inputs, so a
 model sparse regression picks becomes a :class:`fitlab.forms.Form` with no
 formula written twice.
 
@@ -21,8 +23,9 @@ input, chosen for what these functions are known to do:
   mu log mu singularity at grazing that no power of mu reproduces (the
   published mu^d shape is why the paper's H0 is worst at small mu);
 * sqrt(mu), and for the BRDF the pole 1/(mu_i + mu_o), the azimuthal factor
-  S cos(phi), and log(mu_i + mu_o) (the exact f_r grows like log(1/mu) at
-  grazing back-scattering, which eq. 41's shapes cannot follow).
+  S cos(phi), and log(mu_i + mu_o) (the exact f_r grows like log(1/mu) as
+  mu_i = mu_o -> 0 at phi = pi, where single scattering vanishes; eq. 41's
+  shapes cannot follow that).
 """
 
 from __future__ import annotations
@@ -37,7 +40,7 @@ import sympy as sp
 from ..forms.brdf import SINGLE
 from ..forms.symbolic import lambdify_numpy, symbols
 
-__all__ = ["Library", "LIBRARIES", "get_library", "products"]
+__all__ = ["Library", "LIBRARIES", "get_library", "get_libraries", "products"]
 
 mu, c, kd, mu_i, mu_o, phi = symbols(("mu", "c", "kd", "mu_i", "mu_o", "phi"))
 s = sp.sqrt(1 - c)
@@ -45,7 +48,7 @@ s = sp.sqrt(1 - c)
 
 @dataclass(frozen=True, eq=False)
 class Library:
-    """Candidate terms for y = offset + factor (n0 + sum a f) / (1 + sum b g).
+    """Candidate terms for y = offset + factor (n0 + sum a f) / (d0 + sum b g).
 
     name: the library's name (a target may have several).
     target: the fitlab target (fitlab.fit.targets) whose data it is fitted to.
@@ -61,13 +64,15 @@ class Library:
     offset: sp.Expr = sp.S.Zero
     factor: sp.Expr = sp.S.One
     n0: sp.Expr = sp.S.Zero
+    d0: sp.Expr = sp.S.One  # the denominator's fixed term: its scale, which the linearisation must pin
     nonnegative: bool = False  # the model is max(0, ...): a BRDF must not go negative where a fit undershoots
     description: str = ""
 
     def __post_init__(self):
         allowed = set(symbols(self.inputs))
         for label, e in (*self.numerator.items(), *self.denominator.items(),
-                         ("offset", self.offset), ("factor", self.factor), ("n0", self.n0)):  # fmt: skip
+                         ("offset", self.offset), ("factor", self.factor), ("n0", self.n0),
+                         ("d0", self.d0)):  # fmt: skip
             extra = sp.sympify(e).free_symbols - allowed
             if extra:
                 raise ValueError(f"library {self.name}: {label} uses {sorted(map(str, extra))}, not inputs {self.inputs}")
@@ -84,9 +89,9 @@ class Library:
         return f
 
     def evaluate(self, inputs: Mapping[str, np.ndarray]) -> dict:
-        """Every term, offset, factor and n0 at the points ``inputs`` (name -> array)."""
-        names = list(self.numerator) + [f"den:{k}" for k in self.denominator] + ["_offset", "_factor", "_n0"]
-        exprs = [*self.numerator.values(), *self.denominator.values(), self.offset, self.factor, self.n0]
+        """Every term, offset, factor, n0 and d0 at the points ``inputs`` (name -> array)."""
+        names = list(self.numerator) + [f"den:{k}" for k in self.denominator] + ["_offset", "_factor", "_n0", "_d0"]
+        exprs = [*self.numerator.values(), *self.denominator.values(), self.offset, self.factor, self.n0, self.d0]
         xs = [np.asarray(inputs[n], dtype=float) for n in self.inputs]
         shape = np.broadcast_shapes(*(x.shape for x in xs))
         with np.errstate(all="ignore"):
@@ -98,9 +103,9 @@ class Library:
         return out
 
     def model(self, num: Mapping[str, sp.Expr], den: Mapping[str, sp.Expr]) -> sp.Expr:
-        """offset + factor (n0 + sum num[k] f_k) / (1 + sum den[j] g_j): coefficients may be symbols or numbers."""
+        """offset + factor (n0 + sum num[k] f_k) / (d0 + sum den[j] g_j): coefficients may be symbols or numbers."""
         n = self.n0 + sum((coef * self.numerator[k] for k, coef in num.items()), sp.S.Zero)
-        d = sp.S.One + sum((coef * self.denominator[k] for k, coef in den.items()), sp.S.Zero)
+        d = self.d0 + sum((coef * self.denominator[k] for k, coef in den.items()), sp.S.Zero)
         return self.clamped(self.offset + self.factor * n / d)
 
     def clamped(self, expr: sp.Expr) -> sp.Expr:
@@ -181,6 +186,29 @@ def _c_of_kd() -> Library:
     )
 
 
+def _c_of_kd_ratio() -> Library:
+    # c = kd N/(kd + sum b t^q), t = 1 - kd, every t^q and N - 1 vanishing at kd = 1: c(0) = 0 and
+    # c(1) = 1 exactly. The denominator's fixed term is kd, not 1, so that kd/(kd + b t^q), two
+    # parameters and five operations, is one term away (rational_kd needs three terms for it)
+    t = 1 - kd
+    powers = {"t^(1/2)": sp.sqrt(t), "t": t, "t^(3/2)": t * sp.sqrt(t), "t^2": t**2, "t^(5/2)": t**2 * sp.sqrt(t),
+              "t^3": t**3}  # fmt: skip
+    return Library(
+        name="ratio_kd",
+        target="c_of_kd",
+        inputs=("kd",),
+        numerator=powers,
+        denominator=powers,
+        factor=kd,
+        n0=sp.S.One,
+        d0=kd,
+        description=(
+            "c = kd (1 + sum a_k t^q_k)/(kd + sum b_k t^q_k), t = 1 - kd, q in {1/2, 1, 3/2, 2, 5/2, 3}: "
+            "c(0) = 0, c(1) = 1"
+        ),
+    )
+
+
 def _fast_brdf() -> Library:
     # f_r = f_1 (exact single scattering) + a linear model of the multiple scattering fm0 + fm1 cos phi
     sum_ = mu_i + mu_o
@@ -212,10 +240,28 @@ def _fast_brdf() -> Library:
     )
 
 
-LIBRARIES: dict[str, Library] = {lib.target: lib for lib in (_h_library("H0"), _h_library("H1"), _kd_of_c(), _c_of_kd(), _fast_brdf())}
+#: the libraries of each target; the first is its primary library (its forms' names carry no library tag)
+LIBRARIES: dict[str, tuple[Library, ...]] = {
+    "H0": (_h_library("H0"),),
+    "H1": (_h_library("H1"),),
+    "kd_of_c": (_kd_of_c(),),
+    "c_of_kd": (_c_of_kd(), _c_of_kd_ratio()),
+    "fast_brdf": (_fast_brdf(),),
+}
 
 
-def get_library(target: str) -> Library:
+def get_libraries(target: str) -> tuple[Library, ...]:
     if target not in LIBRARIES:
         raise KeyError(f"no discovery library for target {target!r}; targets: {', '.join(LIBRARIES)}")
     return LIBRARIES[target]
+
+
+def get_library(target: str, name: str | None = None) -> Library:
+    """The target's library called ``name``, or its primary library."""
+    libs = get_libraries(target)
+    if name is None:
+        return libs[0]
+    for lib in libs:
+        if lib.name == name:
+            return lib
+    raise KeyError(f"no library {name!r} for {target}; libraries: {', '.join(lib.name for lib in libs)}")

@@ -11,7 +11,7 @@ import io
 import math
 from pathlib import Path
 
-from .._io import atomic_write_bytes, atomic_write_text
+from .._io import atomic_write_many
 from ..fit.refit import fit_path
 from ..fits import strict_json, write_fit
 from .search import Discovery
@@ -23,14 +23,18 @@ def _e(x: float) -> str:
     return "inf" if not math.isfinite(x) else f"{x:.2e}"
 
 
+def _tag(disc: Discovery, d) -> str:
+    """The library of a form from a target's secondary library, in parentheses; empty for the primary."""
+    return "" if d.candidate.library == disc.libraries[0].name else f" (library {d.candidate.library})"
+
+
 def front_table(disc: Discovery) -> str:
     """Markdown: the published presets and saved refits, then every refitted candidate (front marked)."""
     m = disc.metric
     lines = [
         f"# fitlab discover --target {disc.target}",
         "",
-        f"Library `{disc.library.name}`: {disc.library.description}.",
-        "",
+        *(f"Library `{lib.name}`: {lib.description}.\n" for lib in disc.libraries),
         f"{len(disc.candidates)} sparse supports from the regression; {len(disc.refined)} refitted (optimistix LM, "
         f"then minimax where the target asks) and validated on the target's validation set. Front: lowest "
         f"validation {'max' if m == 'max_rel' else 'RMS'} relative error for its term count or operation count.",
@@ -47,22 +51,22 @@ def front_table(disc: Discovery) -> str:
         star = " (front)" if d.name in disc.front else ""
         v = d.validation
         lines.append(f"| {d.name}{star} | discovered | {d.terms} | {d.operations} | {_e(v['max_rel'])} | "
-                     f"{_e(v['rms_rel'])} | {d.candidate.found_by} |")  # fmt: skip
+                     f"{_e(v['rms_rel'])} | {d.candidate.found_by}{_tag(disc, d)} |")  # fmt: skip
     lines += ["", "terms: free parameters (for discovered forms: library terms kept); ops: operations after "
               "common-subexpression elimination (sympy count_ops), parameters as numbers.", ""]
     lines.append("## The front's forms")
     lines.append("")
     for d in disc.refined:
         if d.name in disc.front:
-            lines.append(f"- **{d.name}**: numerator {', '.join(d.candidate.num) or '-'}; denominator "
-                         f"{', '.join(d.candidate.den) or '-'}")  # fmt: skip
+            lines.append(f"- **{d.name}**{_tag(disc, d)}: numerator {', '.join(d.candidate.num) or '-'}; "
+                         f"denominator {', '.join(d.candidate.den) or '-'}")  # fmt: skip
     return "\n".join(lines) + "\n"
 
 
 def front_json(disc: Discovery) -> str:
     return strict_json({
         "target": disc.target,
-        "library": disc.library.name,
+        "libraries": [lib.name for lib in disc.libraries],
         "metric": disc.metric,
         "reference": disc.reference,
         "front": disc.front,
@@ -73,14 +77,14 @@ def front_json(disc: Discovery) -> str:
 
 def plot_front(disc: Discovery) -> bytes:
     """PNG: validation error against term count (left) and operation count (right), log error axis."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    # a Figure of its own, not pyplot's: drawing leaves the caller's backend (a notebook's) alone
+    from matplotlib.figure import Figure
+    from matplotlib.lines import Line2D
 
     m = disc.metric
     ylabel = f"validation {'max' if m == 'max_rel' else 'RMS'} relative error"
-    fig, axes = plt.subplots(1, 2, figsize=(11, 4.2), sharey=True)
+    fig = Figure(figsize=(11, 4.2))
+    axes = fig.subplots(1, 2, sharey=True)
     for ax, key, xlabel in ((axes[0], "terms", "terms (free parameters)"), (axes[1], "operations", "operations")):
         xs = [getattr(d, key) for d in disc.refined]
         ys = [d.validation[m] for d in disc.refined]
@@ -103,17 +107,17 @@ def plot_front(disc: Discovery) -> bytes:
         ax.grid(True, which="both", alpha=0.3)
     axes[0].set_ylabel(ylabel)
     handles = [
-        plt.Line2D([], [], marker="o", ls="", color="0.6", label="discovered"),
-        plt.Line2D([], [], marker="o", color="C0", label="Pareto front"),
-        plt.Line2D([], [], marker="*", ls="", color="C3", markersize=11, label="published preset"),
-        plt.Line2D([], [], marker="s", ls="", color="C2", label="refit of a fitlab form"),
+        Line2D([], [], marker="o", ls="", color="0.6", label="discovered"),
+        Line2D([], [], marker="o", color="C0", label="Pareto front"),
+        Line2D([], [], marker="*", ls="", color="C3", markersize=11, label="published preset"),
+        Line2D([], [], marker="s", ls="", color="C2", label="refit of a fitlab form"),
     ]
     axes[1].legend(handles=handles, fontsize=8, loc="upper right")
-    fig.suptitle(f"fitlab discover --target {disc.target} (library {disc.library.name})")
+    names = ", ".join(lib.name for lib in disc.libraries)
+    fig.suptitle(f"fitlab discover --target {disc.target} (librar{'ies' if len(disc.libraries) > 1 else 'y'} {names})")
     fig.tight_layout()
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=110, metadata={"Software": None})
-    plt.close(fig)
     return buf.getvalue()
 
 
@@ -126,10 +130,17 @@ def save(disc: Discovery, name: str, fits_dir: Path = Path("fits")) -> Path:
     return path
 
 
-def save_from_front(front_file: Path, name: str, fits_dir: Path = Path("fits")) -> Path:
-    """:func:`save` from a front written earlier (docs/discover/TARGET.json), without searching again."""
+def save_from_front(front_file: Path, names, fits_dir: Path = Path("fits")) -> list[Path]:
+    """:func:`save` from a front written earlier (docs/discover/TARGET.json), without searching again.
+
+    ``names``: front members (one name or several).  Every name is checked before anything is
+    written, and the files are written as one unit.
+    """
     import json
 
+    from ..fits import _decode
+
+    names = [names] if isinstance(names, str) else list(names)
     front_file = Path(front_file)
     try:
         data = json.loads(front_file.read_text())
@@ -137,27 +148,21 @@ def save_from_front(front_file: Path, name: str, fits_dir: Path = Path("fits")) 
         raise ValueError(f"{front_file}: no such front; run `fitlab discover --target TARGET` first") from None
     except json.JSONDecodeError as exc:
         raise ValueError(f"{front_file}: corrupt JSON ({exc.msg}, line {exc.lineno})") from None
-    from ..fits import _decode
-
-    for item in data.get("refined", []):
-        if item["name"] == name:
-            path = fit_path(Path(fits_dir), data["target"], name)
-            write_fit(path, _decode(item["record"]))
-            return path
-    raise KeyError(f"{front_file}: no discovered form {name!r}; front: {', '.join(data.get('front', []))}")
+    front = data.get("front", [])
+    records = {item["name"]: item["record"] for item in data.get("refined", []) if item["name"] in front}
+    for name in names:
+        if name not in records:
+            raise KeyError(f"{front_file}: {name!r} is not on the front; the front is {', '.join(front)}")
+    files = {fit_path(Path(fits_dir), data["target"], n): strict_json(_decode(records[n])).encode() for n in names}
+    atomic_write_many(files)
+    return list(files)
 
 
 def write_outputs(disc: Discovery, out_dir: Path) -> list[Path]:
-    """out_dir/TARGET.md, TARGET.json and TARGET.png; everything is rendered before anything is written."""
+    """out_dir/TARGET.md, TARGET.json and TARGET.png, rendered first and then written as one unit."""
     out_dir = Path(out_dir)
-    files = {f"{disc.target}.md": front_table(disc).encode(), f"{disc.target}.json": front_json(disc).encode(),
-             f"{disc.target}.png": plot_front(disc)}  # fmt: skip
-    paths = []
-    for fname, data in files.items():
-        path = out_dir / fname
-        if fname.endswith(".png"):
-            atomic_write_bytes(path, data)
-        else:
-            atomic_write_text(path, data.decode())
-        paths.append(path)
-    return paths
+    files = {out_dir / f"{disc.target}.md": front_table(disc).encode(),
+             out_dir / f"{disc.target}.json": front_json(disc).encode(),
+             out_dir / f"{disc.target}.png": plot_front(disc)}  # fmt: skip
+    atomic_write_many(files)
+    return list(files)

@@ -24,11 +24,15 @@ from .regression import Candidate
 __all__ = ["candidate_form", "operation_count", "arranged", "form_name"]
 
 
-def form_name(candidate: Candidate) -> str:
-    """``sr_<terms>_<6 hex digits of the support>``: stable across runs, distinct per support."""
+def form_name(candidate: Candidate, tag: str = "") -> str:
+    """``sr_<terms>_<6 hex digits of the support>``: stable across runs, distinct per support.
+
+    ``tag`` (a library's name) keeps apart equal labels of two libraries of one target; the
+    primary library's forms are untagged, so their names stay as libraries are added.
+    """
     import hashlib
 
-    text = "|".join(candidate.support[0]) + "/" + "|".join(candidate.support[1])
+    text = "|".join(candidate.support[0]) + "/" + "|".join(candidate.support[1]) + (f"@{tag}" if tag else "")
     return f"sr_{candidate.n_terms}_{hashlib.sha256(text.encode()).hexdigest()[:6]}"
 
 
@@ -85,7 +89,7 @@ def _horner(poly_expr: sp.Expr, coefficients=frozenset()) -> sp.Expr:
 
 
 def arranged(library: Library, num: dict, den: dict) -> sp.Expr:
-    """offset + factor N/D with N = n0 + sum num[k] f_k, D = 1 + sum den[j] g_j, each arranged by
+    """offset + factor N/D with N = n0 + sum num[k] f_k, D = d0 + sum den[j] g_j, each arranged by
     :func:`_horner`; coefficients are numbers or parameter symbols."""
     coefs = {v for v in (*num.values(), *den.values()) if isinstance(v, sp.Symbol)}
 
@@ -93,7 +97,7 @@ def arranged(library: Library, num: dict, den: dict) -> sp.Expr:
         return v if isinstance(v, sp.Basic) else sp.Float(repr(float(v)), 17)
 
     n = library.n0 + sum((value(v) * library.numerator[k] for k, v in num.items()), sp.S.Zero)
-    d = sp.S.One + sum((value(v) * library.denominator[k] for k, v in den.items()), sp.S.Zero)
+    d = library.d0 + sum((value(v) * library.denominator[k] for k, v in den.items()), sp.S.Zero)
     return library.clamped(library.offset + library.factor * _horner(n, coefs) / _horner(d, coefs))
 
 

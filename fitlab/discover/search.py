@@ -1,11 +1,11 @@
 r"""``discover``: library -> sparse candidates -> refitted, validated forms -> Pareto front.
 
 1. :class:`~fitlab.discover.regression.SparseRegression` finds sparse supports of
-   the library's linearised model on the target's training set (STLSQ threshold
-   sweep and the FROLS path).
-2. Candidates that no other candidate beats on both term count and operation
-   count at the linearised training error are kept (at most ``max_terms``
-   terms): a refit costs seconds, a linear solve microseconds.
+   each library's linearised model on the target's training set (STLSQ threshold
+   sweep and the FROLS path); a target's libraries pool their candidates.
+2. A candidate is kept (at most ``max_terms`` terms) when it is on the front of
+   term count against linearised training error, or on the front of operation
+   count against that error: a refit costs seconds, a linear solve microseconds.
 3. Each is refitted in its nonlinear form by :func:`fitlab.fit.refit.refit`
    (optimistix least squares on the target's error measure, then Lawson
    minimax where the target asks for it) and validated on the target's
@@ -26,7 +26,7 @@ import numpy as np
 from ..fit.metrics import relative_errors
 from ..fit.refit import RefitResult, refit
 from ..fit.targets import get_target
-from .library import Library, get_library
+from .library import Library, get_libraries
 from .refine import arranged, candidate_form, form_name, operation_count
 from .regression import DEFAULT_THRESHOLDS, Candidate, SparseRegression
 
@@ -52,13 +52,16 @@ class Discovered:
 @dataclass
 class Discovery:
     target: str
-    library: Library
+    libraries: tuple  # the Library objects searched, primary first
     metric: str  # "max_rel" or "rms_rel"
     candidates: list  # every Candidate the regression found
     refined: list  # Discovered, in order of terms
     front: list  # names of the Discovered on the Pareto front
     reference: list = field(default_factory=list)  # published presets and saved fits: dicts (label, terms, ops, error)
     seconds: float = 0.0
+
+    def library_of(self, candidate: Candidate) -> Library:
+        return next(lib for lib in self.libraries if lib.name == candidate.library)
 
     def get(self, name: str) -> Discovered:
         for d in self.refined:
@@ -100,37 +103,46 @@ def _linear_errors(reg: SparseRegression, target, train) -> list[float]:
 def discover(
     target_name: str,
     *,
-    library: Library | None = None,
+    libraries: tuple[Library, ...] | None = None,
     thresholds=DEFAULT_THRESHOLDS,
     max_terms: int = 12,
     minimax_rounds: int = 20,
     fits_dir: Path = Path("fits"),
     progress: bool = True,
 ) -> Discovery:
-    """Run the search for ``target_name``; nothing is written (see :func:`fitlab.discover.save`)."""
+    """Run the search for ``target_name`` over ``libraries`` (default: all of the target's); nothing
+    is written (see :func:`fitlab.discover.save`)."""
     from tqdm import tqdm
 
     t0 = time.perf_counter()
     target = get_target(target_name)
-    library = library or get_library(target.name)
-    if library.target != target.name:
-        raise ValueError(f"library {library.name} is for {library.target}, not {target.name}")
+    libraries = tuple(libraries or get_libraries(target.name))
+    for lib in libraries:
+        if lib.target != target.name:
+            raise ValueError(f"library {lib.name} is for {lib.target}, not {target.name}")
+    if len({lib.name for lib in libraries}) != len(libraries):
+        raise ValueError("libraries must have distinct names")
     if max_terms < 1:
         raise ValueError("max_terms must be at least 1")
+    by_name = {lib.name: lib for lib in libraries}
     metric = front_metric(target.name)
     train = target.training()
-    reg = SparseRegression(library, thresholds=thresholds, frols_steps=max_terms + 2).fit(train.inputs, train.y, target.scale(train))
-    linear = _linear_errors(reg, target, train)
-    pool = [(cand, err) for cand, err in zip(reg.candidates_, linear) if cand.n_terms <= max_terms and np.isfinite(err)]
+    candidates, pool = [], []
+    for lib in libraries:
+        reg = SparseRegression(lib, thresholds=thresholds, frols_steps=max_terms + 2).fit(train.inputs, train.y, target.scale(train))
+        candidates += reg.candidates_
+        pool += [(cand, err) for cand, err in zip(reg.candidates_, _linear_errors(reg, target, train))
+                 if cand.n_terms <= max_terms and np.isfinite(err)]  # fmt: skip
     if not pool:
         raise ValueError(f"{target.name}: the regression found no finite model with at most {max_terms} terms")
-    ops = [operation_count(arranged(library, cand.num, cand.den)) for cand, _ in pool]
+    ops = [operation_count(arranged(by_name[cand.library], cand.num, cand.den)) for cand, _ in pool]
     keep = set(pareto_front([(cand.n_terms, e) for cand, e in pool])) | set(pareto_front([(o, e) for o, (_, e) in zip(ops, pool)]))
-    chosen = [(pool[i][0], ops[i]) for i in sorted(keep)]
+    chosen = [pool[i][0] for i in sorted(keep)]
 
     refined = []
-    for cand, n_ops in tqdm(chosen, desc=f"discover {target.name}", unit="form", disable=not progress):
-        name = form_name(cand)
+    for cand in tqdm(chosen, desc=f"discover {target.name}", unit="form", disable=not progress):
+        library = by_name[cand.library]
+        name = form_name(cand, "" if library is libraries[0] else library.name)
         form = candidate_form(library, cand, name)
         t1 = time.perf_counter()
         try:
@@ -155,7 +167,7 @@ def discover(
     on_front = set(pareto_front([(d.terms, e) for d, e in zip(refined, errs)]))
     on_front |= set(pareto_front([(d.operations, e) for d, e in zip(refined, errs)]))
     front = [refined[i].name for i in sorted(on_front, key=lambda i: (refined[i].terms, errs[i]))]
-    return Discovery(target.name, library, metric, reg.candidates_, refined, front,
+    return Discovery(target.name, libraries, metric, candidates, refined, front,
                      reference_points(target.name, fits_dir), time.perf_counter() - t0)  # fmt: skip
 
 

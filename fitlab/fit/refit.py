@@ -98,14 +98,19 @@ def refit(
     write: bool = True,
     minimax_rounds: int | None = None,
     origin: dict | None = None,
+    fits_dir: Path | None = None,
 ) -> RefitResult:
     """Fit ``form`` (default: the target's published shape; a :class:`Form` given as ``form``
     is fitted as it is) to the target's training set, validate it, and write (``write``) the
-    record to fits/; ``origin`` records where a form not in fitlab.forms came from."""
+    record to ``out``; ``origin`` records where a form not in fitlab.forms came from.  A form
+    named but not defined in fitlab.forms (a discovered one) is read from ``fits_dir``
+    (default: ``out``)."""
     target = get_target(target_name)
-    form = form if form is not None else resolve_form(target.name, form_name, out)
-    if origin is None and form.name not in target.forms and fit_path(out, target.name, form.name).exists():
-        origin = read_fit(fit_path(out, target.name, form.name)).get("origin")  # a discovered form stays one
+    fits_dir = Path(out if fits_dir is None else fits_dir)
+    form = form if form is not None else resolve_form(target.name, form_name, fits_dir)
+    saved = fit_path(fits_dir, target.name, form.name)
+    if origin is None and form.name not in target.forms and saved.exists():
+        origin = read_fit(saved).get("origin")  # a discovered form stays one
     domain = parse_domain(domain_items, target.inputs)
     theta0 = None
     if init is not None:
