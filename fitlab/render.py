@@ -246,10 +246,7 @@ def pixel_geometry(size: int, extent: float = 1.05):
 def render_comparison(out: Path, generated: Path, kd: float = 0.8, size: int = 64, spp: int = 4, lights: int = 3,
                       show_progress: bool = True) -> Path:  # fmt: skip
     """Render every material under ``lights`` directions to one PNG (rows: materials)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from matplotlib.figure import Figure  # not pyplot: rendering leaves the caller's backend alone
     from tqdm import tqdm
 
     from ._io import atomic_write_bytes
@@ -265,7 +262,8 @@ def render_comparison(out: Path, generated: Path, kd: float = 0.8, size: int = 6
     for m, d in tqdm(jobs, desc="render", unit="image", disable=not show_progress):
         images[(m, tuple(d))] = render_sphere(m, kd, d, size, spp, generated=gen)
     vmax = max(float(np.nanmax(im)) for im in images.values())
-    fig, axes = plt.subplots(len(MATERIALS), len(dirs), figsize=(2.2 * len(dirs), 2.2 * len(MATERIALS)), squeeze=False)
+    fig = Figure(figsize=(2.2 * len(dirs), 2.2 * len(MATERIALS)))
+    axes = fig.subplots(len(MATERIALS), len(dirs), squeeze=False)
     for i, m in enumerate(MATERIALS):
         for j, d in enumerate(dirs):
             ax = axes[i, j]
@@ -281,6 +279,5 @@ def render_comparison(out: Path, generated: Path, kd: float = 0.8, size: int = 6
 
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=100)
-    plt.close(fig)
     atomic_write_bytes(Path(out), buf.getvalue())
     return Path(out)

@@ -423,7 +423,8 @@ Models compared:
 * the fast variant, published and refitted.
 
 Errors are relative, $|f_\text{model} - f|/f$. The order-2 term that the runtime model drops, and the grazing pole
-at $\mu_i = \mu_o = 0$ (where the exact $f_r$ grows like $\log(1/\mu)$), set floors no fit of the parts can remove.
+at $\mu_i = \mu_o = 0$ (where the exact $f_r$ grows like $\log(1/\mu)$ at $\phi = \pi$, and like $1/\mu$ through
+single scattering elsewhere), set floors no fit of the parts can remove.
 $\phi = 0$ is back-scattering (the viewer beside the light).
 """),
     code(SETUP + '''

@@ -1,16 +1,22 @@
 """Slow studies are marked @pytest.mark.benchmark and skipped unless asked for
 with ``-m benchmark`` (pyproject declares the marker).
 
-OpenBLAS is held to one thread before numpy loads: the suite's linear algebra is
-small, and on a shared 2-core machine OpenBLAS's spinning worker threads made
-single tests take minutes (test_reference_brdf_edges: 540 s, against 3 min for
-the whole suite with one thread)."""
+BLAS is held to one thread: the suite's linear algebra is small, and on a
+shared 2-core machine OpenBLAS's spinning worker threads made single tests take
+minutes (test_reference_brdf_edges: 540 s, against 3 min for the whole suite
+with one thread).  A pytest plugin (jaxtyping's) loads numpy before any
+conftest, so the environment variable alone comes too late for numpy's own
+OpenBLAS: threadpoolctl limits the libraries already loaded, and the variable
+covers subprocesses and libraries loaded later."""
 
 import os
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import pytest  # noqa: E402
+from threadpoolctl import threadpool_limits  # noqa: E402
+
+_BLAS_LIMIT = threadpool_limits(limits=1, user_api="blas")
 
 
 def pytest_collection_modifyitems(config, items):

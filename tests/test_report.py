@@ -199,6 +199,31 @@ def test_corrupt_fit_file_is_named(tmp_path, capsys):
         fit_inventory(tmp_path)
 
 
+def test_missing_default_fit_fails_before_the_validation_sets(tmp_path, capsys, monkeypatch):
+    fits = tmp_path / "fits"
+    fits.mkdir()
+    shutil.copy(FITS / "m.json", fits)
+    monkeypatch.setenv("FITLAB_CACHE_DIR", str(tmp_path / "cache"))
+    assert main(["report", "--quick", "--quiet", "--out", str(tmp_path / "out"), "--fits", str(fits)]) == 2
+    err = capsys.readouterr().err
+    assert "no default fit of H0, H1, l, B, C, D, F" in err and "m," not in err
+    assert not (tmp_path / "cache").exists() and not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("damage", [b"", b"PK\x03\x04 not a zip archive"])
+def test_damaged_cache_file_is_a_miss(tmp_path, monkeypatch, damage):
+    from fitlab.report.validation import _exact_values
+
+    monkeypatch.setenv("FITLAB_CACHE_DIR", str(tmp_path))
+    points, c = np.array([[0.3, 0.6, 0.25]]), np.array([0.5])
+    y, kd = _exact_values(points, c, "test", True, None)
+    (cached,) = tmp_path.glob("report-test-*.npz")
+    cached.write_bytes(damage)
+    y2, kd2 = _exact_values(points, c, "test", True, None)  # recomputed, and the cache rewritten
+    assert np.array_equal(y, y2) and np.array_equal(kd, kd2)
+    assert np.array_equal(np.load(cached)["y"], y)
+
+
 def test_unwritable_out_fails_before_any_work(tmp_path, capsys):
     out = tmp_path / "file"
     out.write_text("keep me")

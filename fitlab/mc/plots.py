@@ -8,10 +8,7 @@ import math
 import os
 from pathlib import Path
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
+from matplotlib.figure import Figure  # not pyplot: plotting leaves the caller's backend alone
 
 __all__ = ["plot_effect"]
 
@@ -20,7 +17,6 @@ def _save(fig, path: Path) -> None:
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(path.name + ".tmp")
     fig.savefig(tmp, format="png", dpi=110)
-    plt.close(fig)
     os.replace(tmp, path)
 
 
@@ -66,7 +62,8 @@ def plot_effect(effect: str, rows: list, path: Path, scene_name: str) -> Path:
         n = max(len(panels), 1)
         cols = min(n, 3)
         rows_n = (n + cols - 1) // cols
-        fig, axes = plt.subplots(rows_n, cols, figsize=(max(4.0 * cols, 5.5), 3.2 * rows_n + 0.6), squeeze=False)
+        fig = Figure(figsize=(max(4.0 * cols, 5.5), 3.2 * rows_n + 0.6))
+        axes = fig.subplots(rows_n, cols, squeeze=False)
         for ax, ((mat, mu_i), rs) in zip(axes.ravel(), sorted(panels.items(), key=lambda kv: str(kv[0]))):
             _directional(ax, rs, f"{mat}, mu_i={mu_i:g}: {q} (1/sr)")
         for ax in axes.ravel()[len(panels):]:
@@ -74,7 +71,8 @@ def plot_effect(effect: str, rows: list, path: Path, scene_name: str) -> Path:
         fig.suptitle(f"{scene_name}: {effect}\npoints: MC +- 2 se; lines: reference; dotted: printed", fontsize=9)
     elif effect == "collisions":
         rows = [r for r in rows if r["quantity"] == "a_ms_n"]
-        fig, ax = plt.subplots(figsize=(6, 4))
+        fig = Figure(figsize=(6, 4))
+        ax = fig.subplots()
         for (mat, mu_i), rs in sorted(_groups(rows, ("material", "mu_i")).items(), key=lambda kv: str(kv[0])):
             x = list(range(len(rs)))
             ax.errorbar(x, [r["estimate"] for r in rs], yerr=[2 * r["se"] for r in rs], fmt="o-", ms=3,
@@ -89,7 +87,8 @@ def plot_effect(effect: str, rows: list, path: Path, scene_name: str) -> Path:
         q = "a" if effect == "albedo" else "kd"
         rows = [r for r in rows if r["quantity"] == q]
         xkey = "mu_i" if effect == "albedo" else "c"
-        fig, (ax, az) = plt.subplots(1, 2, figsize=(9, 3.6))
+        fig = Figure(figsize=(9, 3.6))
+        (ax, az) = fig.subplots(1, 2)
         for mat, rs in sorted(_groups(rows, ("material",) if effect == "albedo" else ()).items(),
                               key=lambda kv: str(kv[0])):
             rs = sorted(rs, key=lambda r: r[xkey])

@@ -22,9 +22,10 @@ import numpy as np
 from ..fit.metrics import relative_errors, summary
 from .methods import BRDF_INPUTS
 
-__all__ = ["brdf_errors", "brdf_accuracy", "part_accuracy", "GRAZING"]
+__all__ = ["brdf_errors", "brdf_accuracy", "part_accuracy", "AWAY_MU"]
 
-GRAZING = 1.0 / 64.0
+#: max_rel_away counts the points with mu_i, mu_o >= AWAY_MU
+AWAY_MU = 1.0 / 64.0
 
 
 def brdf_errors(method, valid) -> np.ndarray:
@@ -37,7 +38,7 @@ def brdf_accuracy(method, valid, grazing=None) -> dict:
     """max_rel, rms_rel, max_rel_away (mu_i, mu_o >= 1/64), points and the worst point; with the
     grazing set, max_rel_grazing and its worst point."""
     err = brdf_errors(method, valid)
-    away = (valid.inputs["mu_i"] >= GRAZING) & (valid.inputs["mu_o"] >= GRAZING)
+    away = (valid.inputs["mu_i"] >= AWAY_MU) & (valid.inputs["mu_o"] >= AWAY_MU)
     i = int(np.argmax(err))
     with np.errstate(over="ignore"):
         rms = float(np.sqrt(np.mean(err**2)))

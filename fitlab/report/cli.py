@@ -36,6 +36,7 @@ def check_out_dir(out: Path) -> None:
 
 
 def run_report(args) -> int:
+    from ..fits import FitFileError
     from .methods import ReportError
     from .run import build_report
     from .settings import FULL, QUICK
@@ -47,7 +48,7 @@ def run_report(args) -> int:
         report = build_report(QUICK if args.quick else FULL, Path(args.fits), use_cache=not args.no_cache,
                               progress=not args.quiet)  # fmt: skip
         paths = write_outputs(report, Path(args.out))
-    except (ReportError, ValueError, OSError) as exc:
+    except (ReportError, FitFileError, ValueError, OSError) as exc:
         print(f"fitlab report: error: {exc}", file=sys.stderr)
         return 2
     for use, r in report.recommendations.items():

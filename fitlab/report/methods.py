@@ -133,6 +133,15 @@ def fit_inventory(fits_dir: Path) -> list[FitEntry]:
         entries.append(FitEntry(path, rec["target"], rec["form"], origin_kind(rec), default, float(val), rec))
     if not entries:
         raise ReportError(f"{fits_dir}: no fit files (*.json); run `fitlab refit --all`")
+    from ..forms import RUNTIME_PARTS
+
+    # the refitted runtime model, its generated program (which carries both albedo maps) and the
+    # fast variant need every default fit: a gap must fail here, before the validation sets are computed
+    have = {e.target for e in entries if e.default}
+    missing = [t for t in (*RUNTIME_PARTS, "kd_of_c", "c_of_kd", "fast_brdf") if t not in have]
+    if missing:
+        raise ReportError(f"{fits_dir}: no default fit of {', '.join(missing)}; run `fitlab refit --all` "
+                          "or pass --fits")  # fmt: skip
     return entries
 
 
@@ -212,7 +221,7 @@ def _baselines() -> list[BrdfMethod]:
         def f(mi, mo, ph, c, kd, raw=raw):
             return np.broadcast_to(np.asarray(raw(mi, mo, np.cos(ph), kd), dtype=float), np.shape(mi)).copy()
 
-        mu_i, mu_o, phi, kd = symbols(("mu_i", "mu_o", "phi", "kd"))
+        (phi,) = symbols(("phi",))
         e = expr.subs(symbols(("cos_phi",))[0], sp.cos(phi))
         out.append(BrdfMethod(name, "baseline", "fitlab.forms.baselines, kd = kd_true(c)", f, e, CSpec(routine)))
     return out
@@ -251,14 +260,14 @@ def brdf_methods(fits_dir: Path, entries: list[FitEntry], data_dir: Path, preset
         c_forms = {**richer, **_best_forms(entries, {"refit"}, maps)}
         out.append(_runtime(m, "refit, richer forms", "refit, richer", _label(richer),
                             CSpec("brdf", fits_dir, tuple(sorted(c_forms.items())))))  # fmt: skip
-    discovered = [e for e in entries if e.kind == "discover"] if discovered else []
-    for e in discovered:
+    found = [e for e in entries if e.kind == "discover"] if discovered else []
+    for e in found:
         if e.target in RUNTIME_PARTS:
             forms = {e.target: e.form}
             m = runtime_model(fits_dir=fits_dir, forms=forms)
             out.append(_runtime(m, f"refit + {e.target} {e.form}", "discovered", str(e.path),
                                 CSpec("brdf", fits_dir, tuple(forms.items()))))  # fmt: skip
-    if any(e.target in RUNTIME_PARTS for e in discovered):
+    if any(e.target in RUNTIME_PARTS for e in found):
         kinds = {e.kind for e in entries}
         best = _best_forms(entries, kinds, RUNTIME_PARTS)
         if best and best != richer:

@@ -63,7 +63,7 @@ ZOOM_GROUPS = ("published", "refit", "refit, richer", "discovered", "fast")
 
 def _draw(ax, sel, key, colors, front, size):
     """The points of ``sel`` (filled: C, hollow: Python, triangles: MC) and the staircase of ``front``."""
-    for n, r, x, kind in sel:
+    for _number, r, x, kind in sel:
         col = colors.get(r["group"], "k")
         ax.scatter([x], [r[key]], s=size, marker="^" if kind == "MC" else "o",
                    facecolors="none" if kind == "python" else col, edgecolors=col, linewidths=1.3, zorder=3)
@@ -81,14 +81,13 @@ def plot_png(rows: list[dict], title: str) -> bytes:
     """The figure as PNG bytes (rows: BRDF-level rows with group, method, max_rel, rms_rel and costs).
 
     Points are numbered (the same number in both panels); the key on the right names them."""
-    import matplotlib
+    # a Figure of its own, not pyplot's: drawing leaves the caller's backend (a notebook's) alone
+    from matplotlib import colormaps
+    from matplotlib.figure import Figure
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    colors = {g: plt.get_cmap("tab10")(k) for k, g in enumerate(GROUPS)}
+    colors = {g: colormaps["tab10"](k) for k, g in enumerate(GROUPS)}
     pts = _numbered(rows)
-    fig = plt.figure(figsize=(15, 6.8))
+    fig = Figure(figsize=(15, 6.8))
     grid = fig.add_gridspec(1, 3, width_ratios=(1, 1, 0.62), wspace=0.22)
     axes = [fig.add_subplot(grid[0, 0]), fig.add_subplot(grid[0, 1])]
     key_ax = fig.add_subplot(grid[0, 2])
@@ -131,5 +130,4 @@ def plot_png(rows: list[dict], title: str) -> bytes:
     fig.suptitle(title, fontsize=10)
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=130, metadata={"Software": None}, bbox_inches="tight")
-    plt.close(fig)
     return buf.getvalue()

@@ -49,12 +49,13 @@ def _program(spec: CSpec, workdir: Path):
         from ..fit.refit import fit_path
         from ..fit.targets import get_target
 
-        for (target, form), rec in preset_records(spec.preset).items():
+        records = preset_records(spec.preset)
+        for (target, form), rec in records.items():
             write_fit(fit_path(folder, target, form), rec)
             if form != get_target(target).default_form:
                 forms[target] = form
         labels = {PART_ROUTINES[t]: (t, f"{f} / {r['origin']['preset']}")
-                  for (t, f), r in preset_records(spec.preset).items() if t in PART_ROUTINES}  # fmt: skip
+                  for (t, f), r in records.items() if t in PART_ROUTINES}  # fmt: skip
         return build_program(folder, parse_terms(None), forms), labels
     forms = dict(spec.forms)
     prog = build_program(Path(spec.fits_dir), parse_terms(None), forms)

@@ -264,7 +264,10 @@ def _measure(settings, entries, fits_dir, data_dir, use_cache, p) -> tuple[list,
     for e in entries:
         g = _fit_group(e)
         counts[g] = counts.get(g, 0) + 1
+    from ..codegen.native import STRICT_FLAGS, compiler
+
     context = {
+        "c_compiler": f"{Path(compiler() or 'no C compiler').name} {' '.join(STRICT_FLAGS)}",
         "fits": counts,
         "validation": valid.grid, "validation_points": len(valid), "grazing": grazing.grid,
         "grazing_points": len(grazing), "notes": notes, "exact_cost": brdf_cost,

@@ -83,7 +83,7 @@ def _load(path: Path, shape) -> tuple | None:
     try:
         with np.load(path) as z:
             y, kd = z["y"], z["kd"]
-    except (OSError, ValueError, KeyError):
+    except Exception:  # noqa: BLE001 - missing, truncated or damaged (EOFError, BadZipFile, ...): a cache miss
         return None
     return (y, kd) if y.shape == shape and kd.shape == shape[:1] else None
 

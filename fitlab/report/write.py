@@ -1,8 +1,8 @@
 r"""The report's files: report.csv (every number), report.md (tables), accuracy_vs_cost.png.
 
 :func:`write_outputs` renders all three in memory, then writes them as one
-unit (:func:`fitlab._io.atomic_write_many`): either all three are replaced or
-none is.  Every column of the CSV but :data:`TIMING_COLUMNS` is reproducible
+unit (:func:`fitlab._io.atomic_write_many`): a failure while writing leaves all
+three as they were; only the final renames, each atomic, happen one by one.  Every column of the CSV but :data:`TIMING_COLUMNS` is reproducible
 run to run.
 """
 
@@ -124,7 +124,7 @@ def _exact_section(report) -> list[str]:
     out = ["## The exact engine", "",
            f"`fitlab.exact.brdf` at a new albedo: set-up (H0, H1, H2 and the moment relations) "
            f"{ec['setup_seconds']:.2f} s, then {ec['ns_per_point'] / 1e3:.3g} us per point "
-           f"({ctx['numpy_points']} points, c = {ec['c']:.4f})."]  # fmt: skip
+           f"({ec['points']} points, c = {ec['c']:.4f})."]  # fmt: skip
     dbl = ctx["doubling"]
     if dbl:
         out += ["", f"Its error, measured against the independent discrete ordinates + doubling "
@@ -193,10 +193,10 @@ def markdown(report) -> str:
            f"2^(-{s.log2_points}/2), so a second set looks there on purpose: {ctx['grazing']} "
            f"({ctx['grazing_points']} points; max rel, grazing). Parts (H0, H1, constants, albedo maps, fm1): each target's validation set and "
            "error measure (`fitlab.fit.targets`, as in docs/audit.md).", "",
-           f"**Cost.** ns per evaluation of the generated C (`fitlab.codegen`, `gcc -std=c99 -O2`), called in a C "
+           f"**Cost.** ns per evaluation of the generated C (`fitlab.codegen`, `{ctx['c_compiler']}`), called in a C "
            f"loop over {ctx['c_points']} random inputs, best of {ctx['repeat']} (`fitlab.codegen.bench`, the harness "
            f"of `fitlab bench codegen`); Python ns: numpy vectorised over {ctx['numpy_points']} inputs (the exact "
-           "engine per point once set up; Monte Carlo per BRDF value); JAX: jit of the same sympy expression, "
+           "engine per point once set up, on fewer points; Monte Carlo per BRDF value); JAX: jit of the same sympy expression, "
            f"float64, {ctx['jax_points']} inputs, millions of evaluations per second, compilation excluded. The "
            "machine is shared: compare timings within this run only.", "",
            "## Recommendations", "", *_recommendations(report.recommendations), "",
