@@ -188,8 +188,8 @@ def _c_of_kd() -> Library:
 
 def _c_of_kd_ratio() -> Library:
     # c = kd N/(kd + sum b t^q), t = 1 - kd, every t^q and N - 1 vanishing at kd = 1: c(0) = 0 and
-    # c(1) = 1 exactly. The denominator's fixed term is kd, not 1, so that kd/(kd + b t^q), two
-    # parameters and five operations, is one term away (rational_kd needs three terms for it)
+    # c(1) = 1 exactly. The denominator's fixed term is kd, not 1, so that kd/(kd + b t^2), one
+    # parameter and five operations, is a single term (rational_kd needs three terms for it)
     t = 1 - kd
     powers = {"t^(1/2)": sp.sqrt(t), "t": t, "t^(3/2)": t * sp.sqrt(t), "t^2": t**2, "t^(5/2)": t**2 * sp.sqrt(t),
               "t^3": t**3}  # fmt: skip
