@@ -358,3 +358,20 @@ def test_cli_errors_write_nothing(tmp_path, capsys):
     assert (tmp_path / "ok" / "lambert_sphere.py").read_text() == (GENERATED / "lambert_sphere.py").read_text()
     with pytest.raises(ValueError, match="unknown language"):
         generate("fortran")
+
+
+def test_half_integer_powers_print_as_products_with_one_sqrt():
+    # s^3 = (1 - c)^(3/2) appears in the richer forms; pow() would cost tens of ns per call
+    import sympy as sp
+
+    from fitlab.codegen.printers import CPrinter, GLSLPrinter, NumpyPrinter
+
+    (x,) = symbols(("x",))
+    name = str
+    assert CPrinter("double", name).doprint(x ** sp.Rational(3, 2)) == "x*sqrt(x)"
+    assert CPrinter("float", name).doprint((1 - x) ** sp.Rational(5, 2)) == "(1.0F - x)*(1.0F - x)*sqrtf(1.0F - x)"
+    assert GLSLPrinter(name).doprint(x ** sp.Rational(7, 2)) == "x*x*x*sqrt(x)"
+    assert "pow" in CPrinter("double", name).doprint(x ** sp.Rational(9, 2))  # long products: pow stays
+    f = eval("lambda x: " + NumpyPrinter(name).doprint(x ** sp.Rational(3, 2)), {"numpy": np})
+    v = np.linspace(0.0, 1.0, 101)
+    np.testing.assert_allclose(f(v), v**1.5, rtol=4e-16, atol=0)
