@@ -25,6 +25,11 @@ def add_arguments(p) -> None:
     p.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
+def _message(exc: Exception) -> str:
+    """A KeyError's message without the quotes str() adds."""
+    return exc.args[0] if isinstance(exc, KeyError) and exc.args else str(exc)
+
+
 def _error(msg: str) -> int:
     print(f"fitlab discover: error: {msg}", file=sys.stderr)
     return 2
@@ -48,9 +53,7 @@ def run_discover(args) -> int:
         try:
             paths = save_from_front(Path(args.out) / f"{args.target}.json", args.save, Path(args.fits))
         except (KeyError, ValueError, OSError) as exc:
-            msg = exc.args[0] if isinstance(exc, KeyError) and exc.args else str(exc)
-            print(f"fitlab discover: error: {msg}", file=sys.stderr)
-            return 2
+            return _error(_message(exc))
         for path in paths:
             print(f"wrote {path}")
         return _print_cost(args)
@@ -66,9 +69,7 @@ def run_discover(args) -> int:
             if name not in disc.front:
                 raise KeyError(f"--save {name}: {name!r} is not on the front; the front is {', '.join(disc.front)}")
     except (KeyError, ValueError, FitFileError, TableError) as exc:
-        msg = exc.args[0] if isinstance(exc, KeyError) and exc.args else str(exc)
-        print(f"fitlab discover: error: {msg}", file=sys.stderr)
-        return 2
+        return _error(_message(exc))
     print(front_table(disc))
     for path in write_outputs(disc, Path(args.out)):
         print(f"wrote {path}")

@@ -9,9 +9,9 @@ otherwise) fixed expressions that carry what is known exactly (H0(0, c) = 1,
 kd(0) = 0, c(1) = 1, the exact single scattering of the BRDF), f_k the
 numerator's candidate terms and g_j the denominator's (none: a linear model).
 A target may have several libraries (:data:`LIBRARIES`); discover searches
-them all and puts their candidates on one front.  Every term is a sympy expression in the target's inputs, so a
-model sparse regression picks becomes a :class:`fitlab.forms.Form` with no
-formula written twice.
+them all and puts their candidates on one front.  Every term is a sympy
+expression in the target's inputs, so a model sparse regression picks becomes
+a :class:`fitlab.forms.Form` with no formula written twice.
 
 The libraries of :data:`LIBRARIES` are products of a few "shape" factors per
 input, chosen for what these functions are known to do:

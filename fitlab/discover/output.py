@@ -14,7 +14,7 @@ from pathlib import Path
 from .._io import atomic_write_many
 from ..fit.refit import fit_path
 from ..fits import strict_json, write_fit
-from .search import Discovery
+from .search import Discovery, library_tag
 
 __all__ = ["front_table", "front_json", "plot_front", "save", "save_from_front", "write_outputs"]
 
@@ -25,7 +25,8 @@ def _e(x: float) -> str:
 
 def _tag(disc: Discovery, d) -> str:
     """The library of a form from a target's secondary library, in parentheses; empty for the primary."""
-    return "" if d.candidate.library == disc.libraries[0].name else f" (library {d.candidate.library})"
+    tag = library_tag(disc.libraries, d.candidate)
+    return f" (library {tag})" if tag else ""
 
 
 def front_table(disc: Discovery) -> str:

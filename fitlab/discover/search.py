@@ -70,6 +70,11 @@ class Discovery:
         raise KeyError(f"no discovered form {name!r}; on the front: {', '.join(self.front)}")
 
 
+def library_tag(libraries, candidate: Candidate) -> str:
+    """The candidate's library name when it is not the target's primary (first) library, else ""."""
+    return "" if candidate.library == libraries[0].name else candidate.library
+
+
 def front_metric(target_name: str) -> str:
     return "max_rel" if get_target(target_name).minimax else "rms_rel"
 
@@ -142,7 +147,7 @@ def discover(
     refined = []
     for cand in tqdm(chosen, desc=f"discover {target.name}", unit="form", disable=not progress):
         library = by_name[cand.library]
-        name = form_name(cand, "" if library is libraries[0] else library.name)
+        name = form_name(cand, library_tag(libraries, cand))
         form = candidate_form(library, cand, name)
         t1 = time.perf_counter()
         try:

@@ -34,6 +34,10 @@ def brdf_errors(method, valid) -> np.ndarray:
     return relative_errors(approx, valid.y, np.abs(valid.y))
 
 
+def _point(data, i: int) -> dict:
+    return {k: float(data.inputs[k][i]) for k in ("mu_i", "mu_o", "phi", "c")}
+
+
 def brdf_accuracy(method, valid, grazing=None) -> dict:
     """max_rel, rms_rel, max_rel_away (mu_i, mu_o >= 1/64), points and the worst point; with the
     grazing set, max_rel_grazing and its worst point."""
@@ -47,13 +51,13 @@ def brdf_accuracy(method, valid, grazing=None) -> dict:
         "rms_rel": rms,
         "max_rel_away": float(err[away].max()),
         "points": int(err.size),
-        "worst": {k: float(valid.inputs[k][i]) for k in ("mu_i", "mu_o", "phi", "c")},
+        "worst": _point(valid, i),
     }
     if grazing is not None:
         g = brdf_errors(method, grazing)
         j = int(np.argmax(g))
         out["max_rel_grazing"] = float(g[j])
-        out["worst_grazing"] = {k: float(grazing.inputs[k][j]) for k in ("mu_i", "mu_o", "phi", "c")}
+        out["worst_grazing"] = _point(grazing, j)
     return out
 
 

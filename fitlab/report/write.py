@@ -2,8 +2,8 @@ r"""The report's files: report.csv (every number), report.md (tables), accuracy_
 
 :func:`write_outputs` renders all three in memory, then writes them as one
 unit (:func:`fitlab._io.atomic_write_many`): a failure while writing leaves all
-three as they were; only the final renames, each atomic, happen one by one.  Every column of the CSV but :data:`TIMING_COLUMNS` is reproducible
-run to run.
+three as they were; only the final renames, each atomic, happen one by one.
+Every column of the CSV but :data:`TIMING_COLUMNS` is reproducible run to run.
 """
 
 from __future__ import annotations
