@@ -9,7 +9,8 @@ from pathlib import Path
 
 
 def _cmd_tabulate(args) -> int:
-    from .tabulate import TableError, check_tables, write_tables
+    from fitlab.families.lambert_sphere.tabulate import check_tables, write_tables
+    from fitlab.store import TableError
 
     if args.check:
         try:
@@ -33,30 +34,30 @@ def _cmd_tabulate(args) -> int:
 
 
 def _cmd_bench(args) -> int:
-    from .bench import bench_exact
+    from fitlab.families.lambert_sphere.bench import bench_exact
 
     if args.what == "exact":
         bench_exact(quick=args.quick)
     elif args.what == "codegen":
-        from .codegen.bench import bench_codegen
+        from fitlab.codegen.bench import bench_codegen
 
         bench_codegen(n=100_000 if args.quick else 1_000_000, repeat=3 if args.quick else 5)
     elif args.what == "mc":
-        from .mc.bench import bench_mc
+        from fitlab.families.lambert_sphere.mc.bench import bench_mc
 
         bench_mc(quick=args.quick)
     return 0
 
 
 def _cmd_refit(args) -> int:
-    from .fit.refit import default_jobs, table, timed_refit
-    from .fit.targets import TARGETS
-    from .fits import FitFileError
-    from .fit.solver import FitError
-    from .tabulate import TableError
+    from fitlab.fit.refit import default_jobs, table, timed_refit
+    from fitlab.core import get_target, targets
+    from fitlab.store import FitFileError, fit_path, read_fit
+    from fitlab.fit.solver import FitError
+    from fitlab.store import TableError
 
     if args.list:
-        for t in TARGETS.values():
+        for t in targets().values():
             forms = ", ".join(f + (" (default)" if f == t.default_form else "") for f in t.forms)
             print(f"{t.name:<10} {t.description}\n{'':<10} forms: {forms}")
         return 0
@@ -66,15 +67,33 @@ def _cmd_refit(args) -> int:
     if args.all and (args.form or args.domain or args.init):
         print("fitlab refit: error: --form, --domain and --init go with --target, not --all", file=sys.stderr)
         return 2
-    jobs = default_jobs() if args.all else [(args.target, args.form)]
-    results, walls = [], []
+    from fitlab.store import form_from_fit, resolve_form
+
     try:
+        if args.all:
+            jobs = [(get_target(t), get_target(t).forms[f], None, None) for t, f in default_jobs()]
+        else:
+            target = get_target(args.target)
+            form = resolve_form(target.name, args.form, Path(args.fits or args.out))
+            origin = None
+            saved = fit_path(Path(args.fits or args.out), target.name, form.name)
+            if form.name not in target.forms and saved.exists():
+                origin = read_fit(saved).get("origin")  # a discovered form stays one
+            start = None
+            if args.init is not None:
+                prior = read_fit(args.init)
+                if (prior["target"], prior["form"]) != (target.name, form.name):
+                    raise ValueError(f"--init {args.init}: a fit of {prior['target']}/{prior['form']}, not {form.key}")
+                start = prior["params"]
+            jobs = [(target, form, start, origin)]
+            domain = parse_domain(args.domain, target)
+        results, walls = [], []
         from tqdm import tqdm
 
-        for target, form in tqdm(jobs, desc="refit", unit="fit", disable=args.quiet or len(jobs) == 1):
+        for target, form, start, origin in tqdm(jobs, desc="refit", unit="fit", disable=args.quiet or len(jobs) == 1):
             res, wall = timed_refit(
-                target, form, out=Path(args.out), fits_dir=Path(args.fits), domain_items=args.domain, init=args.init,
-                minimax=False if args.no_minimax else None, compare_scipy=args.compare_scipy, write=False,
+                target, form, domain=None if args.all else domain, start=start, origin=origin,
+                minimax=False if args.no_minimax else None, compare_scipy=args.compare_scipy,
             )
             results.append(res)
             walls.append(wall)
@@ -83,19 +102,45 @@ def _cmd_refit(args) -> int:
         print(f"fitlab refit: error: {msg}", file=sys.stderr)
         return 2
     # all fits done and validated: only now write (each file atomically)
-    from .fits import write_fit
+    from fitlab.store import write_fit
 
+    paths = []
     for res in results:
-        write_fit(res.path, res.record)
+        path = fit_path(Path(args.out), res.record["target"], res.record["form"])
+        write_fit(path, res.record)
+        paths.append(path)
     print(table(results, walls))
-    for res in results:
-        print(f"wrote {res.path}")
+    for path in paths:
+        print(f"wrote {path}")
     return 0
 
 
+def parse_domain(items, target) -> dict:
+    """``["c=0.5:1", ...]`` -> {"c": (0.5, 1.0), ...}, checked against the target's domain."""
+    inputs = target.inputs
+    domain = dict(target.domain)
+    for item in items or ():
+        name, sep, rng = item.partition("=")
+        lo, sep2, hi = rng.partition(":")
+        if not sep or not sep2:
+            raise ValueError(f"--domain {item!r}: write NAME=LO:HI, e.g. c=0.5:1")
+        if name not in domain:
+            raise ValueError(f"--domain {item!r}: this target's inputs are {', '.join(inputs)}")
+        try:
+            lo_f, hi_f = float(lo), float(hi)
+        except ValueError:
+            raise ValueError(f"--domain {item!r}: LO and HI must be numbers") from None
+        full_lo, full_hi = target.domain[name]
+        if not (full_lo <= lo_f < hi_f <= full_hi):
+            raise ValueError(f"--domain {item!r}: need {full_lo:g} <= LO < HI <= {full_hi:g} for {name}")
+        domain[name] = (lo_f, hi_f)
+    return domain
+
+
+
 def _cmd_audit(args) -> int:
-    from .audit import run_audit
-    from .tabulate import TableError
+    from fitlab.families.lambert_sphere.audit import run_audit
+    from fitlab.store import TableError
 
     t0 = time.perf_counter()
     try:
@@ -115,8 +160,8 @@ def _cmd_audit(args) -> int:
 
 
 def _cmd_codegen(args) -> int:
-    from .codegen import generate, parse_forms, write_generated
-    from .fits import FitFileError
+    from fitlab.codegen import generate, parse_forms, write_generated
+    from fitlab.store import FitFileError
 
     try:
         files = generate(args.lang, Path(args.fits), args.terms, parse_forms(args.form))
@@ -130,7 +175,7 @@ def _cmd_codegen(args) -> int:
 
 
 def _cmd_render(args) -> int:
-    from .render import RenderError, render_comparison
+    from fitlab.families.lambert_sphere.render import RenderError, render_comparison
 
     try:
         path = render_comparison(
@@ -145,19 +190,19 @@ def _cmd_render(args) -> int:
 
 
 def _cmd_simulate(args) -> int:
-    from .mc.cli import run_simulate
+    from fitlab.families.lambert_sphere.mc.cli import run_simulate
 
     return run_simulate(args)
 
 
 def _cmd_discover(args) -> int:
-    from .discover.cli import run_discover
+    from fitlab.discover.cli import run_discover
 
     return run_discover(args)
 
 
 def _cmd_report(args) -> int:
-    from .report.cli import run_report
+    from fitlab.report.cli import run_report
 
     return run_report(args)
 
@@ -215,12 +260,12 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--quiet", action="store_true", help="no progress bar")
     s.set_defaults(func=_cmd_simulate)
     dd = sub.add_parser("discover", help="symbolic regression (pysindy): a Pareto front of new forms for a target")
-    from .discover.cli import add_arguments as _discover_arguments
+    from fitlab.discover.cli import add_arguments as _discover_arguments
 
     _discover_arguments(dd)
     dd.set_defaults(func=_cmd_discover)
     rp = sub.add_parser("report", help="accuracy vs cost of every way to evaluate the BRDF: docs/report.md and a plot")
-    from .report.cli import add_arguments as _report_arguments
+    from fitlab.report.cli import add_arguments as _report_arguments
 
     _report_arguments(rp)
     rp.set_defaults(func=_cmd_report)

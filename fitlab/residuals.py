@@ -5,12 +5,12 @@ err; this module does their arithmetic, so that a notebook only picks grids
 and plots.
 
 * ``residuals(target, approx, **axes)``: the exact values of a refit target
-  (:mod:`fitlab.fit.targets`) on the tensor product of ``axes``, the
+  (:mod:`fitlab.families.lambert_sphere.targets`) on the tensor product of ``axes``, the
   approximation there, and the error in the target's own measure (relative to
   |exact|; to A = 69c/128 for B, C, D, F; to f^(0) for fm1).
 * ``brdf_residuals(model, mu_i=..., mu_o=..., phi=..., c=...)``: the same for
-  a model of the whole BRDF (:func:`fitlab.runtime.runtime_model`) against
-  :func:`fitlab.exact.brdf`, relative to |exact|.
+  a model of the whole BRDF (:func:`fitlab.families.lambert_sphere.runtime.runtime_model`) against
+  :func:`fitlab.families.lambert_sphere.exact.brdf`, relative to |exact|.
 * :class:`Residuals`: the grid with ``worst(n)``, ``table(n)``, ``summary()``
   and ``at(c=0.9)`` (the slice at the nearest grid value).
 * ``approximations(target, fits_dir)``: the published presets and saved fits of a target.
@@ -23,7 +23,7 @@ except where an input follows from another, as in its training data:
 takes mu_i, mu_o, phi, c with kd = kd_true(c).
 
 ``approx`` is a callable taking the target's inputs positionally, in the order
-of ``Target.inputs`` (a :class:`fitlab.fits.FitFunction`, or any function), or
+of ``Target.inputs`` (a :class:`fitlab.store.FitFunction`, or any function), or
 a pair ``(form, preset)`` naming a published preset of :mod:`fitlab.forms`.
 Labels: "form / preset" for a preset, "form (file name)" for a saved fit.
 Exact values are cached per target and grid: comparing several
@@ -38,12 +38,12 @@ from pathlib import Path
 
 import numpy as np
 
-from .exact import brdf, brdf_modes, constants, h_function, multiple_scattering_modes, spherical_albedo
-from .fit.data import Dataset
-from .fit.metrics import relative_errors, summary
-from .fit.targets import get_target
-from .fits import FitFunction, load
-from .forms import get_form
+from fitlab.families.lambert_sphere.exact import brdf, brdf_modes, constants, h_function, multiple_scattering_modes, spherical_albedo
+from fitlab.core import Dataset
+from fitlab.fit.metrics import relative_errors, summary
+from fitlab.core import get_target
+from fitlab.store import FitFunction, load
+from fitlab.core import get_form
 
 __all__ = ["Residuals", "residuals", "brdf_residuals", "approximations", "grid_axes", "heatmap"]
 
@@ -51,7 +51,7 @@ _H_ORDER = {"H0": 0, "H1": 1}
 _CONSTANTS = ("l", "m", "B", "C", "D", "F")
 #: targets whose grid axes differ from their inputs (an input follows from another)
 _AXES = {"c_of_kd": ("c",), "fast_brdf": ("mu_i", "mu_o", "phi", "c"), "brdf": ("mu_i", "mu_o", "phi", "c")}
-_BRDF_MEASURE = "relative: |approx - exact| / |exact|, exact = fitlab.exact.brdf"
+_BRDF_MEASURE = "relative: |approx - exact| / |exact|, exact = fitlab.families.lambert_sphere.exact.brdf"
 
 
 def grid_axes(target: str) -> tuple[str, ...]:
@@ -183,7 +183,7 @@ def _readonly(d: dict) -> dict:
 
 @lru_cache(maxsize=8)
 def _constants(c: tuple) -> dict:
-    """fitlab.exact.constants on a c axis, once for all six constant targets."""
+    """fitlab.families.lambert_sphere.exact.constants on a c axis, once for all six constant targets."""
     return constants(np.array(c))
 
 
@@ -287,7 +287,7 @@ def residuals(target: str, approx, *, label: str | None = None, **axes) -> Resid
 
 
 def brdf_residuals(model, *, label: str | None = None, **axes) -> Residuals:
-    """``model(mu_i, mu_o, phi, c)`` (e.g. a RuntimeModel) against fitlab.exact.brdf on the grid of
+    """``model(mu_i, mu_o, phi, c)`` (e.g. a RuntimeModel) against fitlab.families.lambert_sphere.exact.brdf on the grid of
     ``axes`` (mu_i, mu_o, phi, c), relative to |exact|."""
     axes = _check_axes("brdf", axes)
     values, _ = _exact("brdf", _key(axes))

@@ -49,7 +49,7 @@ H_FUNCTIONS = [
 
 $H_0(\mu; c)$ and $H_1(\mu; c)$ are Chandrasekhar H-functions of the three-term Lambert-sphere
 half space (SPEC 4.1): the solutions of $H(\mu) = 1 + \mu H(\mu) \int_0^1 \Psi_m(v) H(v)/(\mu + v)\,dv$
-for the characteristic functions $\Psi_0, \Psi_1$. `fitlab.exact.h_function` solves them
+for the characteristic functions $\Psi_0, \Psi_1$. `fitlab.families.lambert_sphere.exact.h_function` solves them
 (Nyström + Newton; the Fock integral agrees to about 1e-13). The BRDF uses them at
 $\mu = \mu_i$ and $\mu = \mu_o$, so errors are wanted over the whole square $(\mu, c) \in [0, 1]^2$.
 
@@ -69,14 +69,14 @@ The error is relative, $|H_\text{approx} - H|/H$. What to look for:
   (see 04_brdf.ipynb, grazing behaviour).
 """),
     code(SETUP + '''
-from fitlab.exact import h_function
-from fitlab.fit.targets import TARGETS
+from fitlab.families.lambert_sphere.exact import h_function
+from fitlab.core import get_target, targets
 from fitlab.residuals import approximations, heatmap, residuals
 '''),
     md(r"""
 ## The grid
 
-With full settings the grid is the refits' own validation grid (`TARGETS[...].validation()`: $c = 1 - s^2$,
+With full settings the grid is the refits' own validation grid (`get_target(...).validation()`: $c = 1 - s^2$,
 $s$ and $\mu$ at odd multiples of 1/256, plus the edges and $\mu$ = 1e-10, 1e-7, 1e-5), so every maximum below is
 the one stored in the fit record. With `SMALL` it is a coarse grid of the same kind.
 """),
@@ -85,7 +85,7 @@ if SMALL:
     MU = np.concatenate(([0.0, 1e-5], np.linspace(1 / 16, 1, 16)))
     C = np.sort(1 - np.linspace(0, 1, 13) ** 2)
 else:
-    validation = TARGETS["H0"].validation()  # H1's validation set has the same points
+    validation = get_target("H0").validation()  # H1's validation set has the same points
     MU, C = np.unique(validation.inputs["mu"]), np.unique(validation.inputs["c"])
 print(f"{MU.size} values of mu x {C.size} values of c")
 
@@ -198,9 +198,9 @@ CONSTANTS = [
 The Fourier orders of the three-term BRDF (SPEC 4.2, 4.3) need a handful of functions of $c$ alone:
 $l(c), m(c)$ in $f^{(1)}$ (eq. 22) and $B, C, D, F$ in the polynomial $Q$ of $f^{(0)}$ (eq. 30),
 $Q = A + B(\mu_i+\mu_o) + C\mu_i\mu_o + D\mu_i\mu_o(\mu_i+\mu_o) + E\mu_i^2\mu_o^2 + F(\mu_i^2+\mu_o^2)$ with
-$A = 69c/128$ and $E$ exact (eq. 33). `fitlab.exact.constants` computes them from moments of the exact H-functions.
+$A = 69c/128$ and $E$ exact (eq. 33). `fitlab.families.lambert_sphere.exact.constants` computes them from moments of the exact H-functions.
 
-Errors use each target's own scale (`fitlab.fit.targets`):
+Errors use each target's own scale (`fitlab.families.lambert_sphere.targets`):
 * $l$, $m$: relative, $|\Delta l|/|l|$;
 * $B, C, D, F$: **relative to $A$**, $|\Delta X|/A$. $B$ changes sign near $c = 0.94$ and $D$, $F$ vanish at $c = 1$, so
   $|\Delta X|/|X|$ has no bound; an error $\Delta X$ moves $Q$ (and $f^{(0)}$) by at most $2|\Delta X|$ against $A$.
@@ -209,8 +209,8 @@ All four printed rationals for $B..F$ miss the exact zero at $c = 0$, an infinit
 `max*` below leaves the exact zeros out.
 """),
     code(SETUP + '''
-from fitlab.exact import constants
-from fitlab.fit.targets import TARGETS
+from fitlab.families.lambert_sphere.exact import constants
+from fitlab.core import get_target, targets
 from fitlab.residuals import approximations, residuals
 
 NAMES = ("l", "m", "B", "C", "D", "F")
@@ -225,7 +225,7 @@ validation grid ($s$ at odd multiples of 1/256 plus the edges), as in the fit re
 if SMALL:
     C = np.sort(1 - np.linspace(0, 1, 17) ** 2)
 else:
-    C = np.unique(TARGETS["l"].validation().inputs["c"])
+    C = np.unique(get_target("l").validation().inputs["c"])
 found = {name: approximations(name, FITS) for name in NAMES}
 res = {name: {label: residuals(name, a, c=C) for label, a in found[name].items()} for name in NAMES}
 print(f"{C.size} values of c; approximations: " + ", ".join(f"{n}: {len(v)}" for n, v in found.items()))
@@ -299,7 +299,7 @@ ALBEDO = [
 # Albedo maps: $k_d(c)$, $c(k_d)$ and the round trip
 
 A renderer is given the spherical (Bond) albedo $k_d$ of the material, the fraction of light it reflects, and
-needs the particle albedo $c$. `fitlab.exact.spherical_albedo(c, model="true")` integrates the exact BRDF (true
+needs the particle albedo $c$. `fitlab.families.lambert_sphere.exact.spherical_albedo(c, model="true")` integrates the exact BRDF (true
 phase function in single scattering): $k_d$ = kd_true(c). The two maps are fitted separately:
 * `kd_of_c`: $k_d(c)$, the printed form (which misses $k_d(0) = 0$) and forms that build the zero in;
 * `c_of_kd`: its inverse (paper and renderer coefficients, and the refit).
@@ -311,16 +311,16 @@ Errors are relative. The last section composes the two fitted maps: a renderer t
 back should get its $k_d$ back.
 """),
     code(SETUP + '''
-from fitlab.exact import spherical_albedo
-from fitlab.fit.targets import TARGETS
-from fitlab.fits import load
+from fitlab.families.lambert_sphere.exact import spherical_albedo
+from fitlab.core import get_target, targets
+from fitlab.store import load
 from fitlab.residuals import approximations, residuals
 '''),
     code('''
 if SMALL:  # every new c costs the exact engine up to seconds (most near c = 1)
     C = np.array([0.0, 0.25, 0.5, 0.75, 0.9, 0.97, 1.0])
 else:
-    C = np.unique(TARGETS["kd_of_c"].validation().inputs["c"])
+    C = np.unique(get_target("kd_of_c").validation().inputs["c"])
 C_INV = C[C < 1]  # c_of_kd is fitted and measured on kd <= 1: every c but c = 1 (its validation set)
 
 kd_res = {label: residuals("kd_of_c", a, c=C) for label, a in approximations("kd_of_c", FITS).items()}
@@ -392,7 +392,7 @@ print(f"largest c(kd) - 1: {np.max(c_back - 1):.1e}")
 trips = {
     "refits: c -> kd -> c": (c, c_of_kd(kd=kd_of_c(c=c))),
     "refits: kd -> c -> kd": (kd, kd_of_c(c=np.clip(c_back, 0, 1))),
-    "published: c -> kd -> c": (c, TARGETS["c_of_kd"].forms["rational_power"]("renderer", TARGETS["kd_of_c"].forms["printed"]("paper", c))),
+    "published: c -> kd -> c": (c, get_target("c_of_kd").forms["rational_power"]("renderer", get_target("kd_of_c").forms["printed"]("paper", c))),
 }
 fig, ax = plt.subplots(figsize=(6, 4), layout="constrained")
 for label, (start, back) in trips.items():
@@ -410,10 +410,10 @@ BRDF = [
     md(r"""
 # The full BRDF: the runtime model and the fast variant
 
-`fitlab.runtime.runtime_model` assembles the runtime BRDF of SPEC 5,
+`fitlab.families.lambert_sphere.runtime.runtime_model` assembles the runtime BRDF of SPEC 5,
 $f_r = \max(0, f_1 + f_m^{(0)} + f_m^{(1)}\cos\phi)$: exact single scattering with the true phase function plus the
 multiple scattering of Fourier orders 0 and 1 built from approximations of $H_0$, $H_1$, $l$, $m$, $B..F$.
-It is measured against `fitlab.exact.brdf`, the reference (all three Fourier orders, exact H-functions).
+It is measured against `fitlab.families.lambert_sphere.exact.brdf`, the reference (all three Fourier orders, exact H-functions).
 The fast variant (eq. 41) replaces the multiple scattering by a lobe and a constant in $k_d$ = kd_true(c).
 
 Models compared:
@@ -428,10 +428,10 @@ single scattering elsewhere), set floors no fit of the parts can remove.
 $\phi = 0$ is back-scattering (the viewer beside the light).
 """),
     code(SETUP + '''
-from fitlab.exact import brdf
-from fitlab.fits import load
+from fitlab.families.lambert_sphere.exact import brdf
+from fitlab.store import load
 from fitlab.residuals import brdf_residuals, heatmap, residuals
-from fitlab.runtime import runtime_model
+from fitlab.families.lambert_sphere.runtime import runtime_model
 '''),
     code('''
 RICHER = {"H0": "hapke_rational", "l": "cubic", "m": "quadratic", **{n: "rational_4_3" for n in "BCDF"}}
@@ -605,26 +605,27 @@ import time
 
 from fitlab.codegen import build_program, generate, write_generated
 from fitlab.codegen.native import CompileError, build, compiler
-from fitlab.exact import brdf, h_function
+from fitlab.families.lambert_sphere.exact import brdf, h_function
 from fitlab.fit.refit import refit, table
-from fitlab.fit.targets import TARGETS
-from fitlab.fits import load
-from fitlab.runtime import runtime_model
+from fitlab.store import fit_path, write_fit
+from fitlab.core import get_target, targets
+from fitlab.store import load
+from fitlab.families.lambert_sphere.runtime import runtime_model
 '''),
     md(r"""
 ## 1. The targets
 
-Each target is something the exact engine computes (`fitlab.fit.targets`), with its forms (`fitlab.forms`: one sympy
+Each target is something the exact engine computes (`fitlab.families.lambert_sphere.targets`), with its forms (`fitlab.forms`: one sympy
 expression each, with published presets) and the form `fitlab refit` fits by default.
 """),
     code('''
-for t in TARGETS.values():
+for t in targets().values():
     forms = ", ".join(f"{f}*" if f == t.default_form else f for f in t.forms)
     print(f"{t.name:<10} {forms:<42} {t.description}")
 print("* the default form")
 '''),
     code('''
-t = TARGETS["H1"]
+t = get_target("H1")
 form = t.forms[t.default_form]
 print(form.description)
 print("expression:", form.expression)
@@ -645,10 +646,12 @@ scratch = Path(tempfile.mkdtemp(prefix="fitlab-walkthrough-"))
 shutil.copytree(FITS, scratch / "fits", ignore=shutil.ignore_patterns("generated", "README.md"))
 
 start = time.perf_counter()
-result = refit("H1", out=scratch / "fits", minimax=not SMALL)
+result = refit("H1", minimax=not SMALL)
 wall = time.perf_counter() - start
 print(table([result], [wall]))
-print("written:", result.path)
+path = fit_path(scratch / "fits", "H1", result.record["form"])
+write_fit(path, result.record)
+print("written:", path)
 '''),
     md(r"""
 ## 3. The record
@@ -669,11 +672,11 @@ print(f"committed fit: max {committed.record['validation']['max_rel']:.3e};  thi
     md(r"""
 ## 4. Load and evaluate
 
-`fitlab.fits.load` turns the file into a numpy callable (the file alone suffices: the expression is in it). Inputs go
+`fitlab.store.load` turns the file into a numpy callable (the file alone suffices: the expression is in it). Inputs go
 by name or position; outside the fit's domain it refuses.
 """),
     code('''
-h1 = load(result.path)
+h1 = load(path)
 mu = np.array([0.0, 0.1, 0.5, 1.0])
 c = 0.9
 print(h1)

@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from fitlab.exact import (
+from fitlab.families.lambert_sphere.exact import (
     albedo,
     brdf,
     brdf_modes,
@@ -13,7 +13,7 @@ from fitlab.exact import (
     spherical_albedo,
     three_term_phase_function,
 )
-from fitlab.exact.albedo import _ss_three_term_albedo
+from fitlab.families.lambert_sphere.exact.albedo import _ss_three_term_albedo
 
 MU = np.array([0.0, 1e-12, 1e-6, 0.05, 0.3, 0.7, 1.0])
 

@@ -1,8 +1,8 @@
 import numpy as np
 import pytest
 
-from fitlab.exact import k_function, psi
-from fitlab.exact.characteristic import lambert_sphere_characteristic
+from fitlab.families.lambert_sphere.exact import k_function, psi
+from fitlab.families.lambert_sphere.exact.characteristic import lambert_sphere_characteristic
 
 
 def k_printed(order, t, c):

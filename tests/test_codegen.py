@@ -1,7 +1,7 @@
 """Generated code: reproducible, compiles clean, agrees with the JAX forms, finite everywhere.
 
 The reference for every comparison is the JAX function lambdified from the same
-fits through fitlab.forms / fitlab.runtime (not through codegen's printers).
+fits through fitlab.forms / fitlab.families.lambert_sphere.runtime (not through codegen's printers).
 """
 
 from __future__ import annotations
@@ -22,9 +22,9 @@ from fitlab.codegen import POLE_FLOOR, build_program, generate, parse_terms
 from fitlab.codegen.program import _stable
 from fitlab.codegen.emit import emit
 from fitlab.codegen.native import STRICT_FLAGS, build, compiler
-from fitlab.fits import load
+from fitlab.store import load
 from fitlab.forms.symbolic import lambdify_jax, symbols
-from fitlab.runtime import runtime_model
+from fitlab.families.lambert_sphere.runtime import runtime_model
 
 ROOT = Path(__file__).resolve().parents[1]
 FITS = ROOT / "fits"

@@ -1,8 +1,8 @@
 import numpy as np
 import pytest
 
-from fitlab.exact import constants, doubling_reflection, h_function, mode_polynomials, psi
-from fitlab.exact.phase import legendre_weights
+from fitlab.families.lambert_sphere.exact import constants, doubling_reflection, h_function, mode_polynomials, psi
+from fitlab.families.lambert_sphere.exact.phase import legendre_weights
 
 C_VALUES = [0.0, 1e-12, 0.1, 0.5, 0.9, 0.99, 1 - 1e-12, 1.0]
 
@@ -112,7 +112,7 @@ def test_moment_relations_agree_with_discrete_ordinates(c):
 def test_constants_and_kd_are_smooth_in_s():
     # A wrong root of the moment relations shows as a jump: on a fine s grid the
     # second differences of B..F and kd must stay small next to the values.
-    from fitlab.exact import spherical_albedo
+    from fitlab.families.lambert_sphere.exact import spherical_albedo
 
     s = np.linspace(0.0, 0.3, 61)
     c = 1 - s**2
@@ -129,7 +129,7 @@ def test_moment_relations_refuse_a_stalled_newton(monkeypatch):
     # A Newton that does not converge raises instead of returning a non-solution.
     import importlib
 
-    mod = importlib.import_module("fitlab.exact.constants")
+    mod = importlib.import_module("fitlab.families.lambert_sphere.exact.constants")
 
     monkeypatch.setattr(mod, "RESIDUAL_TOLERANCE", -1.0)
     mod.mode_polynomials.cache_clear()

@@ -9,10 +9,11 @@ import numpy as np
 import pytest
 import sympy as sp
 
-from fitlab.forms import FORMS, get_form, runtime_brdf
+from fitlab.core import get_form
+from fitlab.families.lambert_sphere.forms import FORMS, runtime_brdf
 from fitlab.forms.symbolic import parse_expression
 
-ALL = [f for forms in FORMS.values() for f in forms.values()]
+ALL = list(FORMS)
 EDGE = {"mu": (0.0, 1e-12, 0.5, 1.0), "mu_i": (0.0, 1e-9, 0.5, 1.0), "mu_o": (0.0, 0.3, 1.0),
         "c": (0.0, 1e-12, 0.5, 1 - 1e-12, 1.0), "kd": (0.0, 0.5, 1.0), "phi": (-np.pi, 0.0, 2.0, np.pi)}  # fmt: skip
 
@@ -115,8 +116,8 @@ def test_fast_brdf_preset_is_eq41():
 def test_printed_normalisation_halves_fm1():
     # eqs. 22 and 28 as printed (6 pi, 384 pi) give exactly half the corrected fm1;
     # fm1 = (g(phi=0) - g(pi) - (f_1(0) - f_1(pi)))/2 of the unclamped sum g
-    from fitlab.forms.brdf import SINGLE, c, mu_i, mu_o, phi
-    from fitlab.runtime import PRESET_VARIANTS
+    from fitlab.families.lambert_sphere.forms.brdf import SINGLE, c, mu_i, mu_o, phi
+    from fitlab.families.lambert_sphere.runtime import PRESET_VARIANTS
 
     choice, _ = PRESET_VARIANTS["paper"]
     parts = {p: get_form(p, f).substituted(pr) for p, (f, pr) in choice.items()}

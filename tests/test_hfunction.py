@@ -1,9 +1,9 @@
 import numpy as np
 import pytest
 
-from fitlab.exact import h_function, isotropic_characteristic, solve_h
-from fitlab.exact.characteristic import lambert_sphere_characteristic
-from fitlab.exact.hfunction import h_fock
+from fitlab.families.lambert_sphere.exact import h_function, isotropic_characteristic, solve_h
+from fitlab.families.lambert_sphere.exact.characteristic import lambert_sphere_characteristic
+from fitlab.families.lambert_sphere.exact.hfunction import h_fock
 
 HARD_C = [0.0, 1e-12, 0.3, 0.9, 0.999, 1 - 1e-8, 1 - 1e-12, 1.0]
 HARD_MU = np.array([0.0, 1e-12, 1e-6, 1e-3, 0.05, 0.3, 0.5, 0.9, 1.0, 2.0, 10.0, 1e6, np.inf])

@@ -1,12 +1,12 @@
-"""Phase sampling of fitlab.mc against the phase functions of fitlab.exact."""
+"""Phase sampling of fitlab.families.lambert_sphere.mc against the phase functions of fitlab.families.lambert_sphere.exact."""
 
 import numpy as np
 import pytest
 from scipy import integrate, optimize, stats
 
 import fitlab  # noqa: F401  (float64)
-from fitlab.exact import LEGENDRE_A, phase_function, three_term_phase_function
-from fitlab.mc.sampling import (
+from fitlab.families.lambert_sphere.exact import LEGENDRE_A, phase_function, three_term_phase_function
+from fitlab.families.lambert_sphere.mc.sampling import (
     MIX,
     THREE_TERM_NORM,
     U1,
@@ -21,7 +21,7 @@ from fitlab.mc.sampling import (
 
 
 def _cdf_true(u):
-    """F(u) = int_{-1}^u 2 pi p(t) dt by adaptive quadrature of fitlab.exact.phase_function."""
+    """F(u) = int_{-1}^u 2 pi p(t) dt by adaptive quadrature of fitlab.families.lambert_sphere.exact.phase_function."""
     return integrate.quad(lambda t: 2 * np.pi * phase_function(t), -1.0, u, epsabs=1e-15, epsrel=1e-13)[0]
 
 

@@ -6,8 +6,8 @@ from pathlib import Path
 import pytest
 
 import fitlab  # noqa: F401
-from fitlab.mc import scene as scene_mod
-from fitlab.mc.scene import EFFECTS, SceneError, load_scene, parse_scene
+from fitlab.families.lambert_sphere.mc import scene as scene_mod
+from fitlab.families.lambert_sphere.mc.scene import EFFECTS, SceneError, load_scene, parse_scene
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -122,7 +122,7 @@ def test_file_errors(tmp_path):
 
 
 def test_kd_material_is_converted_through_the_exact_spherical_albedo():
-    from fitlab.exact import spherical_albedo
+    from fitlab.families.lambert_sphere.exact import spherical_albedo
 
     s = parse_scene(GOOD.replace("c = 0.5\n", "kd = 0.3\n"), "s.toml")
     m = s.materials[0]
@@ -137,7 +137,7 @@ def test_every_effect_is_documented():
 
 def test_bad_scene_does_no_work(tmp_path, monkeypatch):
     """A malformed scene fails before any simulation and writes nothing."""
-    import fitlab.mc.simulate as sim
+    import fitlab.families.lambert_sphere.mc.simulate as sim
 
     def boom(*a, **k):
         raise AssertionError("simulated a malformed scene")

@@ -7,9 +7,9 @@ import pytest
 
 import fitlab  # noqa: F401
 from fitlab.cli import main
-from fitlab.mc.effects import ROW_FIELDS, plan
-from fitlab.mc.scene import parse_scene
-from fitlab.mc.simulate import simulate, simulate_file
+from fitlab.families.lambert_sphere.mc.effects import ROW_FIELDS, plan
+from fitlab.families.lambert_sphere.mc.scene import parse_scene
+from fitlab.families.lambert_sphere.mc.simulate import simulate, simulate_file
 
 SCENE = """\
 [scene]

@@ -5,8 +5,8 @@ from pathlib import Path
 import pytest
 
 import fitlab  # noqa: F401
-from fitlab.mc.scene import load_scene
-from fitlab.mc.simulate import simulate
+from fitlab.families.lambert_sphere.mc.scene import load_scene
+from fitlab.families.lambert_sphere.mc.simulate import simulate
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -14,9 +14,9 @@ import numpy as np
 import pytest
 
 import fitlab  # noqa: F401
-from fitlab.exact import albedo, brdf_modes, multiple_scattering_modes, single_scattering_albedo, spherical_albedo
-from fitlab.exact import three_term_phase_function
-from fitlab.mc.transport import WalkConfig, run_round
+from fitlab.families.lambert_sphere.exact import albedo, brdf_modes, multiple_scattering_modes, single_scattering_albedo, spherical_albedo
+from fitlab.families.lambert_sphere.exact import three_term_phase_function
+from fitlab.families.lambert_sphere.mc.transport import WalkConfig, run_round
 
 EDGES = (0.0, 0.25, 0.5, 0.75, 1.0)
 FOURIER = WalkConfig(phase="three_term", mu_edges=EDGES, orders=(0, 1, 2))
@@ -104,7 +104,7 @@ def test_directional_albedo_agrees_with_exact(fourier_runs):
 
 
 def test_spherical_albedo_agrees_with_exact():
-    from fitlab.mc.effects import _ss_spherical
+    from fitlab.families.lambert_sphere.mc.effects import _ss_spherical
 
     cfg = WalkConfig(phase="three_term", incidence="cosine")
     for k, c in enumerate((0.5, 0.99)):
@@ -180,7 +180,7 @@ def test_reproducible_and_independent_of_slots(fourier_runs):
 _SHARD_SCRIPT = """
 import json, sys, numpy as np, jax
 import fitlab
-from fitlab.mc.transport import WalkConfig, run_round
+from fitlab.families.lambert_sphere.mc.transport import WalkConfig, run_round
 cfg = WalkConfig(phase="both", mu_edges=(0.0, 0.5, 1.0), orders=(0, 1), phi_edges=(0.0, 1.0, 3.14159),
                  collision_orders=4, slots=64)
 r = run_round(cfg, 7, (3,), 0.95, 0.3, 5_001)

@@ -11,11 +11,12 @@ import pytest
 from scipy.optimize import least_squares
 
 from fitlab.cli import main
-from fitlab.exact import h_function
-from fitlab.fit.refit import default_jobs, fit_path, refit
-from fitlab.fit.targets import TARGETS
-from fitlab.fits import FitFileError, load, read_fit
-from fitlab.forms import get_form
+from fitlab.families.lambert_sphere.exact import h_function
+from fitlab.fit.refit import default_jobs, refit
+from fitlab.store import fit_path
+from fitlab.core import get_target, targets
+from fitlab.store import FitFileError, FitFunction, load, read_fit
+from fitlab.core import get_form
 
 FITS = Path(__file__).resolve().parents[1] / "fits"
 
@@ -39,9 +40,9 @@ def test_committed_fit_loads_and_matches_its_form(job):
         assert key in rec
 
 
-@pytest.mark.parametrize("target", list(TARGETS))
+@pytest.mark.parametrize("target", list(targets()))
 def test_default_refit_halves_the_best_preset_or_is_at_the_floor(target):
-    t = TARGETS[target]
+    t = get_target(target)
     rec = read_fit(fit_path(FITS, target, t.default_form))
     best = min(p["validation"]["max_rel"] for p in rec["published"])
     got = rec["validation"]["max_rel"]
@@ -62,7 +63,7 @@ def _minimax(residual, x0, rounds=150):
 
 
 def _preset_max(target):
-    rec = read_fit(fit_path(FITS, target, TARGETS[target].default_form))
+    rec = read_fit(fit_path(FITS, target, get_target(target).default_form))
     return min(p["validation"]["max_rel"] for p in rec["published"])
 
 
@@ -93,7 +94,7 @@ def test_h1_separable_floor_at_c1():
 
 def test_m_linear_floor():
     # one parameter: scan it
-    t = TARGETS["m"]
+    t = get_target("m")
     v = t.validation()
     c, y = v.inputs["c"], v.y
     m1 = np.linspace(0.43, 0.45, 4001)
@@ -104,7 +105,7 @@ def test_m_linear_floor():
 
 def test_fast_brdf_sup_is_one_for_any_parameters():
     # phi = pi, mu_i = mu_o -> 0: exact f_r grows like log(1/mu), eq. 41 stays bounded
-    from fitlab.exact import brdf
+    from fitlab.families.lambert_sphere.exact import brdf
 
     form = get_form("fast_brdf", "paper")
     mu = np.array([1e-3, 1e-6, 1e-9, 1e-12])
@@ -124,18 +125,17 @@ def test_richer_forms_beat_the_published_shapes():
     for target, form in [("H0", "hapke_rational"), ("l", "cubic"), ("m", "quadratic"), ("B", "rational_4_3"),
                          ("kd_of_c", "rational_2_2")]:  # fmt: skip
         rich = read_fit(fit_path(FITS, target, form))["validation"]["max_rel"]
-        plain = read_fit(fit_path(FITS, target, TARGETS[target].default_form))["validation"]["max_rel"]
+        plain = read_fit(fit_path(FITS, target, get_target(target).default_form))["validation"]["max_rel"]
         assert rich < 0.2 * plain, target
 
 
 def test_refit_reproduces_a_committed_fit(tmp_path):
-    res = refit("m", out=tmp_path)
+    res = refit("m")
     committed = read_fit(FITS / "m.json")
-    assert res.path == tmp_path / "m.json" and res.path.exists()
     assert res.record["data_sha256"] == committed["data_sha256"]
     for k, v in committed["params"].items():
         assert res.record["params"][k] == pytest.approx(v, rel=1e-8)
-    assert load(res.path)(c=np.array([0.0, 1.0]))[0] == 1.0  # m(0) = 1 exactly
+    assert FitFunction(res.record)(c=np.array([0.0, 1.0]))[0] == 1.0  # m(0) = 1 exactly
 
 
 def test_refit_h0_cli_end_to_end(tmp_path, capsys):
@@ -150,11 +150,11 @@ def test_refit_h0_cli_end_to_end(tmp_path, capsys):
 
 
 def test_domain_option_restricts_and_is_recorded(tmp_path):
-    res = refit("l", out=tmp_path, domain_items=["c=0.5:1"])
+    res = refit("l", domain={"c": (0.5, 1.0)})
     assert res.record["domain"]["c"] == [0.5, 1.0]
     assert res.record["validation"]["points"] < 130
     with pytest.raises(ValueError, match="lie in"):
-        load(res.path)(c=0.2)
+        FitFunction(res.record)(c=0.2)
 
 
 @pytest.mark.parametrize(
@@ -223,8 +223,8 @@ def test_runtime_model_from_refits_beats_the_presets():
 
 
 def test_directional_albedo_quadrature_matches_the_exact_engine():
-    from fitlab.audit import directional_albedo
-    from fitlab.exact import albedo, brdf
+    from fitlab.families.lambert_sphere.audit import directional_albedo
+    from fitlab.families.lambert_sphere.exact import albedo, brdf
 
     for mu in (0.0, 0.3, 0.9):
         assert directional_albedo(brdf, mu, 0.7) == pytest.approx(float(albedo(mu, 0.7, model="true")), abs=1e-8)

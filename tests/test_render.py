@@ -9,7 +9,7 @@ import pytest
 
 mi = pytest.importorskip("mitsuba")
 
-from fitlab.render import (  # noqa: E402
+from fitlab.families.lambert_sphere.render import (  # noqa: E402
     chandrasekhar_albedo_c, _chandrasekhar_kd, load_generated, oren_nayar, pixel_geometry, render_comparison, render_sphere,
 )  # fmt: skip
 

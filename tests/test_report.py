@@ -142,7 +142,7 @@ def test_recommendations_follow_the_rules():
 
 
 def test_tables_interpolate_h_to_the_stated_accuracy():
-    from fitlab.exact import h_function
+    from fitlab.families.lambert_sphere.exact import h_function
 
     mu = np.linspace(0.0, 1.0, 97)
     for order in (0, 1, 2):

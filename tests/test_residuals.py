@@ -13,10 +13,10 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 
-from fitlab.exact import brdf, constants, h_function, spherical_albedo  # noqa: E402
-from fitlab.fit.targets import TARGETS  # noqa: E402
-from fitlab.fits import load  # noqa: E402
-from fitlab.forms import get_form  # noqa: E402
+from fitlab.families.lambert_sphere.exact import brdf, constants, h_function, spherical_albedo  # noqa: E402
+from fitlab.core import get_target, targets  # noqa: E402
+from fitlab.store import load  # noqa: E402
+from fitlab.core import get_form  # noqa: E402
 from fitlab.residuals import approximations, brdf_residuals, grid_axes, heatmap, residuals  # noqa: E402
 
 FITS = Path(__file__).resolve().parents[1] / "fits"
@@ -45,7 +45,7 @@ def test_exact_itself_has_zero_error_and_axes_keep_the_targets_order():
 
 def test_validation_axes_reproduce_the_fit_record():
     """On the axes of the target's validation set the grid holds exactly its points: same max error."""
-    ds = TARGETS["kd_of_c"].validation()
+    ds = get_target("kd_of_c").validation()
     fit = load(FITS / "kd_of_c.json")
     r = residuals("kd_of_c", fit, c=np.unique(ds.inputs["c"]))
     assert r.exact.size == len(ds)

@@ -5,7 +5,8 @@ import numpy as np
 import pytest
 
 from fitlab.cli import main
-from fitlab.tabulate import C_GRID, MU_GRID, read_table, write_tables
+from fitlab.families.lambert_sphere.tabulate import C_GRID, MU_GRID, write_tables
+from fitlab.store import read_table
 
 DATA = Path(__file__).resolve().parents[1] / "data"
 

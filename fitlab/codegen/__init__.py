@@ -11,9 +11,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from .._io import atomic_write_text
-from .emit import BASENAME, LANGUAGES, PREFIX, emit
-from .program import POLE_FLOOR, Program, Routine, build_program, parse_terms
+from fitlab._io import atomic_write_text
+from fitlab.codegen.emit import BASENAME, LANGUAGES, PREFIX, emit
+from fitlab.codegen.program import POLE_FLOOR, Program, Routine, build_program, parse_terms
 
 __all__ = ["generate", "parse_forms", "write_generated", "LANGUAGES", "PREFIX", "BASENAME", "build_program", "parse_terms",
            "Program", "Routine", "POLE_FLOOR"]  # fmt: skip
@@ -31,7 +31,7 @@ def generate(lang: str, fits_dir: Path = Path("fits"), terms: str | tuple | None
 
 def parse_forms(items) -> dict[str, str]:
     """``["H0=sr_7_6808f1", ...]`` -> {"H0": "sr_7_6808f1"}; targets must be parts codegen uses."""
-    from .program import PART_ROUTINES
+    from fitlab.codegen.program import PART_ROUTINES
 
     known = (*PART_ROUTINES, "fast_brdf")
     out = {}

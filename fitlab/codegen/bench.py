@@ -18,16 +18,16 @@ from pathlib import Path
 
 import numpy as np
 
-from ..forms.baselines import BASELINE_INPUTS, LAMBERT, oren_nayar
-from .emit import emit
-from .native import build
-from .program import Program, Routine, build_program, parse_terms
+from fitlab.families.lambert_sphere.forms.baselines import BASELINE_INPUTS, LAMBERT, oren_nayar
+from fitlab.codegen.emit import emit
+from fitlab.codegen.native import build
+from fitlab.codegen.program import Program, Routine, build_program, parse_terms
 
 __all__ = ["baseline_program", "bench_codegen", "random_inputs", "time_routines"]
 
 
 def baseline_program() -> Program:
-    """Lambert and Oren-Nayar (sigma = 0.5) from :mod:`fitlab.forms.baselines`, as routines."""
+    """Lambert and Oren-Nayar (sigma = 0.5) from :mod:`fitlab.families.lambert_sphere.forms.baselines`, as routines."""
     return Program(
         (Routine("baseline_lambert", BASELINE_INPUTS, LAMBERT, "Lambert, kd/pi."),
          Routine("baseline_oren_nayar", BASELINE_INPUTS, oren_nayar(), "Oren-Nayar (qualitative), sigma = 0.5.")),

@@ -18,10 +18,10 @@ import textwrap
 
 import sympy as sp
 
-from .. import __version__
-from ..forms.symbolic import safe_pow
-from .printers import CPrinter, GLSLPrinter, NumpyPrinter
-from .program import Program, Routine
+from fitlab import __version__
+from fitlab.forms.symbolic import safe_pow
+from fitlab.codegen.printers import CPrinter, GLSLPrinter, NumpyPrinter
+from fitlab.codegen.program import Program, Routine
 
 __all__ = ["emit", "LANGUAGES", "PREFIX"]
 

@@ -16,8 +16,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .emit import BASENAME, PREFIX
-from .program import Program
+from fitlab.codegen.emit import BASENAME, PREFIX
+from fitlab.codegen.program import Program
 
 __all__ = ["compiler", "STRICT_FLAGS", "build", "NativeModel", "CompileError"]
 

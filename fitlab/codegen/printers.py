@@ -24,7 +24,7 @@ from sympy.printing.c import C99CodePrinter
 from sympy.printing.numpy import NumPyPrinter
 from sympy.printing.precedence import precedence
 
-from ..forms.symbolic import safe_pow
+from fitlab.forms.symbolic import safe_pow
 
 __all__ = ["CPrinter", "GLSLPrinter", "NumpyPrinter"]
 

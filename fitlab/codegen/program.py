@@ -33,9 +33,9 @@ from pathlib import Path
 
 import sympy as sp
 
-from ..forms import RUNTIME_PARTS, RUNTIME_TERMS, runtime_terms
-from ..forms.brdf import SINGLE
-from ..forms.symbolic import safe_pow, symbols
+from fitlab.families.lambert_sphere.forms import RUNTIME_PARTS, RUNTIME_TERMS, runtime_terms
+from fitlab.families.lambert_sphere.forms.brdf import SINGLE
+from fitlab.forms.symbolic import safe_pow, symbols
 from sympy.codegen.cfunctions import expm1, log1p
 
 __all__ = ["Routine", "Program", "build_program", "POLE_FLOOR", "parse_terms"]
@@ -163,9 +163,9 @@ def build_program(fits_dir: Path, terms: tuple[str, ...] = RUNTIME_TERMS, forms:
     ``forms`` picks a non-default form per target (as ``fitlab refit --form``);
     each file must exist (FitFileError otherwise).
     """
-    from ..fit.refit import fit_path
-    from ..fit.targets import get_target
-    from ..fits import load
+    from fitlab.store import fit_path
+    from fitlab.core import get_target
+    from fitlab.store import load
 
     fits_dir = Path(fits_dir)
     routines, sources = [], []

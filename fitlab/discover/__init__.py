@@ -6,10 +6,10 @@ optimistix, validated) -> search (the Pareto front) -> output (table, plot,
 fits/ JSON).  ``fitlab discover --target H0`` runs it all.
 """
 
-from .library import LIBRARIES, Library, get_libraries, get_library
-from .output import save, save_from_front, write_outputs
-from .regression import Candidate, SparseRegression
-from .search import Discovery, discover, pareto_front
+from fitlab.discover.library import Library, get_libraries, get_library, libraries_of, products
+from fitlab.discover.output import save, save_from_front, write_outputs
+from fitlab.discover.regression import Candidate, SparseRegression
+from fitlab.discover.search import Discovery, discover, pareto_front
 
-__all__ = ["LIBRARIES", "Library", "get_libraries", "get_library", "Candidate", "SparseRegression", "Discovery", "discover",
+__all__ = ["Library", "get_libraries", "get_library", "libraries_of", "products", "Candidate", "SparseRegression", "Discovery", "discover",
            "pareto_front", "save", "save_from_front", "write_outputs"]

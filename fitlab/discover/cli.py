@@ -9,9 +9,9 @@ __all__ = ["add_arguments", "run_discover"]
 
 
 def add_arguments(p) -> None:
-    from .library import LIBRARIES
+    from fitlab.discover.library import libraries_of
 
-    p.add_argument("--target", required=True, help=f"what to discover forms for: {', '.join(LIBRARIES)}")
+    p.add_argument("--target", required=True, help=f"what to discover forms for: {', '.join(libraries_of())}")
     p.add_argument("--max-terms", type=int, default=12, help="largest model refitted (default 12)")
     p.add_argument("--minimax-rounds", type=int, default=20, help="Lawson rounds per refit (default 20)")
     p.add_argument("--out", default="docs/discover", help="folder for TARGET.md, .json, .png (default docs/discover)")
@@ -36,10 +36,10 @@ def _error(msg: str) -> int:
 
 
 def run_discover(args) -> int:
-    from ..fits import FitFileError
-    from ..tabulate import TableError
-    from .output import front_table, save, save_from_front, write_outputs
-    from .search import discover
+    from fitlab.store import FitFileError
+    from fitlab.store import TableError
+    from fitlab.discover.output import front_table, save, save_from_front, write_outputs
+    from fitlab.discover.search import discover
 
     if args.from_front and not args.save:
         return _error("--from-front goes with --save NAME")
@@ -58,7 +58,7 @@ def run_discover(args) -> int:
             print(f"wrote {path}")
         return _print_cost(args)
     try:
-        from .library import get_library
+        from fitlab.discover.library import get_library
 
         get_library(args.target)
         if args.max_terms < 1 or args.minimax_rounds < 0:
@@ -82,8 +82,8 @@ def run_discover(args) -> int:
 def _print_cost(args) -> int:
     if not (args.cost and args.save):
         return 0
-    from ..fits import FitFileError
-    from .cost import COST_REPEAT, COST_ROUNDS, routine_cost
+    from fitlab.store import FitFileError
+    from fitlab.discover.cost import COST_REPEAT, COST_ROUNDS, routine_cost
 
     try:
         ns = routine_cost(args.target, [None, *args.save], Path(args.fits))

@@ -37,10 +37,10 @@ def _inputs(names, n: int, seed: int = 0) -> list[np.ndarray]:
 def routine_cost(target: str, forms: list[str | None], fits_dir: Path = Path("fits"), n: int = 200_000,
                  repeat: int = COST_REPEAT, dtype=np.float64) -> dict[str, float]:  # fmt: skip
     """ns per evaluation of ``target``'s routine for each form (None: the default form)."""
-    from ..codegen import generate
-    from ..codegen.bench import _best
-    from ..codegen.native import build, compiler
-    from ..codegen.program import build_program
+    from fitlab.codegen import generate
+    from fitlab.codegen.bench import _best
+    from fitlab.codegen.native import build, compiler
+    from fitlab.codegen.program import build_program
 
     if target not in ROUTINE_OF_TARGET:
         raise KeyError(f"no generated routine for {target!r}; targets: {', '.join(ROUTINE_OF_TARGET)}")

@@ -11,10 +11,10 @@ import io
 import math
 from pathlib import Path
 
-from .._io import atomic_write_many
-from ..fit.refit import fit_path
-from ..fits import strict_json, write_fit
-from .search import Discovery, library_tag
+from fitlab._io import atomic_write_many
+from fitlab.store import fit_path
+from fitlab.store import strict_json, write_fit
+from fitlab.discover.search import Discovery, library_tag
 
 __all__ = ["front_table", "front_json", "plot_front", "save", "save_from_front", "write_outputs"]
 
@@ -91,7 +91,7 @@ def plot_front(disc: Discovery) -> bytes:
         ys = [d.validation[m] for d in disc.refined]
         ax.scatter(xs, ys, s=18, color="0.6", label="discovered (refitted)", zorder=2)
         front = sorted((getattr(d, key), d.validation[m]) for d in disc.refined if d.name in disc.front)
-        from .search import pareto_front
+        from fitlab.discover.search import pareto_front
 
         idx = pareto_front(front)
         fx, fy = zip(*sorted(front[i] for i in idx))
@@ -124,7 +124,7 @@ def plot_front(disc: Discovery) -> bytes:
 
 def save(disc: Discovery, name: str, fits_dir: Path = Path("fits")) -> Path:
     """Write the discovered form ``name`` as fits/TARGET.NAME.json, a form ``fitlab refit --form``,
-    ``fitlab codegen --form`` and :func:`fitlab.fits.load` take like any other."""
+    ``fitlab codegen --form`` and :func:`fitlab.store.load` take like any other."""
     d = disc.get(name)
     path = fit_path(Path(fits_dir), disc.target, name)
     write_fit(path, d.record)
@@ -139,7 +139,7 @@ def save_from_front(front_file: Path, names, fits_dir: Path = Path("fits")) -> l
     """
     import json
 
-    from ..fits import _decode
+    from fitlab.store import _decode
 
     names = [names] if isinstance(names, str) else list(names)
     front_file = Path(front_file)

@@ -16,10 +16,10 @@ import itertools
 
 import sympy as sp
 
-from ..forms import Form
-from ..forms.symbolic import symbols
-from .library import Library
-from .regression import Candidate
+from fitlab.forms import Form
+from fitlab.forms.symbolic import symbols
+from fitlab.discover.library import Library
+from fitlab.discover.regression import Candidate
 
 __all__ = ["candidate_form", "operation_count", "arranged", "form_name"]
 

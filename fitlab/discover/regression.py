@@ -26,7 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .library import Library
+from fitlab.discover.library import Library
 
 __all__ = ["Candidate", "SparseRegression", "DEFAULT_THRESHOLDS"]
 

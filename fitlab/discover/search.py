@@ -23,12 +23,12 @@ from pathlib import Path
 
 import numpy as np
 
-from ..fit.metrics import relative_errors
-from ..fit.refit import RefitResult, refit
-from ..fit.targets import get_target
-from .library import Library, get_libraries
-from .refine import arranged, candidate_form, form_name, operation_count
-from .regression import DEFAULT_THRESHOLDS, Candidate, SparseRegression
+from fitlab.fit.metrics import relative_errors
+from fitlab.fit.refit import RefitResult, refit
+from fitlab.core import get_target
+from fitlab.discover.library import Library, get_libraries
+from fitlab.discover.refine import arranged, candidate_form, form_name, operation_count
+from fitlab.discover.regression import DEFAULT_THRESHOLDS, Candidate, SparseRegression
 
 __all__ = ["Discovered", "Discovery", "discover", "pareto_front", "front_metric"]
 
@@ -152,7 +152,7 @@ def discover(
         t1 = time.perf_counter()
         try:
             res: RefitResult = refit(
-                target.name, form=form, out=fits_dir, write=False, minimax_rounds=minimax_rounds,
+                target, form, minimax_rounds=minimax_rounds,
                 origin={"method": "fitlab discover", "library": library.name, "found_by": cand.found_by,
                         "numerator": list(cand.num), "denominator": list(cand.den)},
             )  # fmt: skip
@@ -179,8 +179,8 @@ def discover(
 def reference_points(target_name: str, fits_dir: Path = Path("fits")) -> list[dict]:
     """The published presets and every saved fit of the target not found by discover: label,
     free parameters, operations, validation max and RMS relative error."""
-    from ..fits import read_fit
-    from ..fit.refit import _metrics
+    from fitlab.store import read_fit
+    from fitlab.fit.refit import validation_metrics
 
     target = get_target(target_name)
     valid = target.validation()
@@ -188,7 +188,7 @@ def reference_points(target_name: str, fits_dir: Path = Path("fits")) -> list[di
     out = []
     for form_name_, preset in target.published:
         form = target.forms[form_name_]
-        m = _metrics(form, form.vector(preset), valid, scale)
+        m = validation_metrics(form, form.vector(preset), valid, scale)
         out.append({"label": f"{form_name_} / {preset}", "kind": "published", "terms": len(form.free_params),
                     "operations": operation_count(form.substituted(preset)), "max_rel": m["max_rel"],
                     "rms_rel": m["rms_rel"], "max_rel_nonzero": m["max_rel_nonzero"]})  # fmt: skip

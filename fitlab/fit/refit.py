@@ -1,7 +1,8 @@
-r"""``fitlab refit``: fit a form of a target, validate it, write fits/NAME.json.
+r"""Refit: fit a form of a target to its training set and validate it on its validation set.
 
-Everything that can fail is done before anything is written: parse the
-request, load the data, fit, validate, then one atomic write.
+:func:`refit` takes a target, a form, a domain and starting values and returns
+the record a fit file holds; it reads and writes nothing (``fitlab refit`` and
+:mod:`fitlab.store` do).
 """
 
 from __future__ import annotations
@@ -9,122 +10,87 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass
-from pathlib import Path
+from typing import Mapping
 
+from fitlab import __version__
+from fitlab.store import FORMAT
+from fitlab.forms import Form
+from fitlab.core import Target, data_hash
+from fitlab.fit.metrics import summary
+from fitlab.fit.solver import SOLVER_SETTINGS, FitResult, fit_form, fit_form_scipy
+from fitlab.core import get_target, targets
 
-from .. import __version__
-from ..fits import DEFAULT_DOMAINS, FORMAT, form_from_fit, read_fit, write_fit
-from ..forms import Form
-from . import data as d
-from .metrics import summary
-from .solver import SOLVER_SETTINGS, FitResult, fit_form, fit_form_scipy
-from .targets import TARGETS, get_target
-
-__all__ = ["RefitResult", "refit", "resolve_form", "parse_domain", "fit_path", "MINIMAX_ROUNDS", "default_jobs"]
+__all__ = ["RefitResult", "refit", "check_domain", "validation_metrics", "MINIMAX_ROUNDS", "default_jobs", "table"]
 
 MINIMAX_ROUNDS = 40
 
 
-def parse_domain(items, inputs) -> dict:
-    """``["c=0.5:1", ...]`` -> {"c": (0.5, 1.0), ...}, checked against the inputs' domains."""
-    domain = {name: DEFAULT_DOMAINS[name] for name in inputs}
-    for item in items or ():
-        name, sep, rng = item.partition("=")
-        lo, sep2, hi = rng.partition(":")
-        if not sep or not sep2:
-            raise ValueError(f"--domain {item!r}: write NAME=LO:HI, e.g. c=0.5:1")
-        if name not in domain:
-            raise ValueError(f"--domain {item!r}: this target's inputs are {', '.join(inputs)}")
-        try:
-            lo_f, hi_f = float(lo), float(hi)
-        except ValueError:
-            raise ValueError(f"--domain {item!r}: LO and HI must be numbers") from None
-        full_lo, full_hi = DEFAULT_DOMAINS[name]
-        if not (full_lo <= lo_f < hi_f <= full_hi):
-            raise ValueError(f"--domain {item!r}: need {full_lo:g} <= LO < HI <= {full_hi:g} for {name}")
-        domain[name] = (lo_f, hi_f)
-    return domain
-
-
-def resolve_form(target_name: str, form_name: str | None, fits_dir: Path = Path("fits")) -> Form:
-    """A target's form by name: from fitlab.forms, else (a form found by ``fitlab discover``) from
-    the saved fit fits_dir/TARGET.FORM.json, which holds the form's expression."""
-    target = get_target(target_name)
-    form_name = form_name or target.default_form
-    if form_name in target.forms:
-        return target.forms[form_name]
-    path = fit_path(fits_dir, target.name, form_name)
-    if path.exists():
-        return form_from_fit(read_fit(path))
-    raise KeyError(
-        f"target {target.name} has no form {form_name!r} (and there is no {path}); forms: {', '.join(target.forms)}"
-    )
-
-
-def fit_path(out: Path, target: str, form: str) -> Path:
-    """fits/NAME.json for a target's default form, fits/NAME.FORM.json otherwise."""
-    default = get_target(target).default_form
-    return Path(out) / (f"{target}.json" if form == default else f"{target}.{form}.json")
+def check_domain(target: Target, domain: Mapping[str, tuple[float, float]] | None) -> dict:
+    """The target's domain with ``domain``'s intervals in place of its inputs' whole ranges; each must lie
+    inside the target's domain (ValueError otherwise)."""
+    full = target.domain
+    out = dict(full)
+    for name, interval in (domain or {}).items():
+        if name not in full:
+            raise ValueError(f"domain: {target.name}'s inputs are {', '.join(target.inputs)}, not {name!r}")
+        lo, hi = (float(x) for x in interval)
+        full_lo, full_hi = full[name]
+        if not (full_lo <= lo < hi <= full_hi):
+            raise ValueError(f"domain {name}={lo:g}:{hi:g}: need {full_lo:g} <= LO < HI <= {full_hi:g}")
+        out[name] = (lo, hi)
+    return out
 
 
 def default_jobs() -> list[tuple[str, str]]:
     """(target, form) pairs ``fitlab refit --all`` fits: every form marked refit_by_default."""
-    return [(t.name, f.name) for t in TARGETS.values() for f in t.forms.values() if f.refit_by_default]
+    return [(t.name, f.name) for t in targets().values() for f in t.forms.values() if f.refit_by_default]
 
 
 @dataclass
 class RefitResult:
+    """A refit: the fit file's record, the optimiser's result and (``compare_scipy``) scipy's."""
+
     record: dict
-    path: Path
     fit: FitResult
     scipy: FitResult | None = None
 
 
-def _metrics(form, theta, ds, scale) -> dict:
+def validation_metrics(form, theta, ds, scale) -> dict:
+    """Max and RMS error of ``form`` with parameters ``theta`` on dataset ``ds`` (``scale``: the error's divisor)."""
     xs = [ds.inputs[n] for n in form.inputs]
     return summary(form.numpy_function(theta, *xs), ds.y, scale, ds.inputs)
 
 
 def refit(
-    target_name: str,
-    form_name: str | None = None,
+    target: Target | str,
+    form: Form | str | None = None,
     *,
-    out: Path = Path("fits"),
-    domain_items=(),
-    init: Path | None = None,
-    form: Form | None = None,
+    domain: Mapping[str, tuple[float, float]] | None = None,
+    start: Mapping[str, float] | None = None,
     minimax: bool | None = None,
     compare_scipy: bool = False,
-    write: bool = True,
     minimax_rounds: int | None = None,
     origin: dict | None = None,
-    fits_dir: Path | None = None,
 ) -> RefitResult:
-    """Fit ``form`` (default: the target's published shape; a :class:`Form` given as ``form``
-    is fitted as it is) to the target's training set, validate it, and write (``write``) the
-    record to ``out``; ``origin`` records where a form not in fitlab.forms came from.  A form
-    named but not defined in fitlab.forms (a discovered one) is read from ``fits_dir``
-    (default: ``out``)."""
-    target = get_target(target_name)
-    fits_dir = Path(out if fits_dir is None else fits_dir)
-    form = form if form is not None else resolve_form(target.name, form_name, fits_dir)
-    saved = fit_path(fits_dir, target.name, form.name)
-    if origin is None and form.name not in target.forms and saved.exists():
-        origin = read_fit(saved).get("origin")  # a discovered form stays one
-    domain = parse_domain(domain_items, target.inputs)
-    theta0 = None
-    if init is not None:
-        prior = read_fit(init)
-        if (prior["target"], prior["form"]) != (target.name, form.name):
-            raise ValueError(f"--init {init}: a fit of {prior['target']}/{prior['form']}, not {form.key}")
-        theta0 = form.vector(prior["params"])
+    """Fit ``form`` (a :class:`Form`, the name of a registered form, or None: the target's default
+    form) to the target's training set restricted to ``domain`` ({input: (lo, hi)}, default the
+    target's whole domain), starting from ``start`` (parameter values; default the form's start),
+    validate it on the validation set, and return the record a fit file holds.  ``origin`` records
+    where a form not registered by its family came from (``fitlab discover``).  Nothing is read or
+    written here: the CLI and the store do that."""
+    target = get_target(target) if isinstance(target, str) else target
+    form = target.forms[form or target.default_form] if not isinstance(form, Form) else form
+    if form.target != target.name:
+        raise ValueError(f"form {form.key} is not a form of {target.name}")
+    domain = check_domain(target, domain)
+    theta0 = None if start is None else form.vector(start)
     minimax = target.minimax if minimax is None else minimax
     rounds = MINIMAX_ROUNDS if minimax_rounds is None else minimax_rounds
 
     train = target.training().restricted(domain)
     valid = target.validation().restricted(domain)
     if len(train) < 2 * len(form.free_params) or len(valid) == 0:
-        raise ValueError(f"--domain leaves {len(train)} training and {len(valid)} validation points; widen it")
+        raise ValueError(f"domain {domain} leaves {len(train)} training and {len(valid)} validation points; widen it")
 
     weights = None if target.emphasis is None else target.emphasis(train)
     fit = fit_form(
@@ -141,7 +107,7 @@ def refit(
                 "form": pform_name,
                 "preset": preset,
                 "params": dict(zip(pform.params, pform.vector(preset).tolist())),
-                "validation": _metrics(pform, pform.vector(preset), valid, vscale),
+                "validation": validation_metrics(pform, pform.vector(preset), valid, vscale),
             }
         )
     objective = "relative least squares (" + target.error_measure.split(":")[0] + ")"
@@ -163,7 +129,7 @@ def refit(
         "domain": {k: list(v) for k, v in domain.items()},
         "error_measure": target.error_measure,
         "training": {"points": len(train), "grid": train.grid},
-        "validation": {"grid": valid.grid, **_metrics(form, fit.theta, valid, vscale)},
+        "validation": {"grid": valid.grid, **validation_metrics(form, fit.theta, valid, vscale)},
         "published": published,
         "optimizer": {
             **SOLVER_SETTINGS,
@@ -176,14 +142,11 @@ def refit(
         },
         "claimed_accuracy": target.claimed,
         "note": target.note,
-        "data_sha256": d.data_hash(train, valid),
+        "data_sha256": data_hash(train, valid),
     }
     if origin is not None:
         record["origin"] = origin
-    path = fit_path(out, target.name, form.name)
-    if write:
-        write_fit(path, record)
-    return RefitResult(record, path, fit, scipy_fit)
+    return RefitResult(record, fit, scipy_fit)
 
 
 def _fmt(x: float) -> str:

@@ -1,7 +1,7 @@
 r"""Least-squares fitting of a form with optimistix, and its minimax refinement.
 
 The residual of point i is w_i (f(theta; x_i) - y_i) / scale_i (relative by
-default, see fitlab.fit.targets).  Stage 1 solves the plain problem (w = 1)
+default, see fitlab.families.lambert_sphere.targets).  Stage 1 solves the plain problem (w = 1)
 with Levenberg-Marquardt.  Stage 2, the minimax refinement, is Lawson's
 iteratively reweighted least squares: w_i^2 <- w_i^2 |r_i| / sum_j w_j^2 |r_j|,
 each round a warm-started LM solve; weights concentrate on the extremal
@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .data import Dataset
+from fitlab.core import Dataset
 
 __all__ = ["FitError", "FitResult", "fit_form", "fit_form_scipy", "SOLVER_SETTINGS"]
 

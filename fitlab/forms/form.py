@@ -15,7 +15,7 @@ from typing import Mapping
 import numpy as np
 import sympy as sp
 
-from .symbolic import INPUT_SYMBOLS, expression_text, lambdify_jax, lambdify_numpy, symbols
+from fitlab.forms.symbolic import expression_text, lambdify_jax, lambdify_numpy, symbols
 
 __all__ = ["Form"]
 
@@ -26,7 +26,7 @@ class Form:
 
     target: what it approximates (``"H0"``, ``"c_of_kd"``, ...).
     name: the form's name within the target (``"hapke"``, ``"rational_3_2"``).
-    inputs: names of the inputs, each one of :data:`INPUT_SYMBOLS`.
+    inputs: names of the inputs, the inputs of its target (checked when its family registers it).
     params: names of the parameters, in the order of parameter vectors.
     expr: sympy expression in the input and parameter symbols.
     presets: published parameter values, by preset name (``"paper"``, ``"renderer"``).
@@ -49,9 +49,9 @@ class Form:
     refit_by_default: bool = True
 
     def __post_init__(self):
-        unknown = [n for n in self.inputs if n not in INPUT_SYMBOLS]
+        unknown = [n for n in self.inputs if not n.isidentifier()]
         if unknown:
-            raise ValueError(f"form {self.target}/{self.name}: unknown inputs {unknown}")
+            raise ValueError(f"form {self.target}/{self.name}: input names {unknown} are not identifiers")
         names = set(self.inputs) | set(self.params)
         free = {str(s) for s in self.expr.free_symbols}
         if not free <= names:

@@ -18,7 +18,6 @@ import sympy as sp
 __all__ = [
     "safe_pow",
     "symbols",
-    "INPUT_SYMBOLS",
     "lambdify_numpy",
     "lambdify_jax",
     "parse_expression",
@@ -35,17 +34,6 @@ class safe_pow(sp.Function):  # noqa: N801 (the name printed in every back end)
         if x.is_Number and p.is_Number:
             return x**p if x > 0 else sp.S.Zero
         return None
-
-#: The inputs a form may name, with their meaning and domain.
-INPUT_SYMBOLS = {
-    "mu": "cosine of a direction with the normal, [0, 1]",
-    "mu_i": "cosine of the incident direction, [0, 1]",
-    "mu_o": "cosine of the outgoing direction, [0, 1]",
-    "phi": "relative azimuth (radians), [-pi, pi]; phi = 0 is back-scattering",
-    "c": "particle (single-scattering) albedo, [0, 1]",
-    "kd": "spherical (Bond) albedo of the material, [0, 1]",
-}
-
 
 def symbols(names):
     """Real sympy symbols, one per name (a tuple, even for one name)."""

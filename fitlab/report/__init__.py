@@ -23,11 +23,11 @@ catalogue of methods is :mod:`.methods`; the sizes are :mod:`.settings`
 (``FULL``, and ``QUICK`` for the test); :func:`build_report` runs it all.
 """
 
-from .methods import ReportError
-from .pareto import pareto_front, recommend
-from .run import Report, build_report
-from .settings import FULL, QUICK, Settings
-from .write import COLUMNS, TIMING_COLUMNS, write_outputs
+from fitlab.report.methods import ReportError
+from fitlab.report.pareto import pareto_front, recommend
+from fitlab.report.run import Report, build_report
+from fitlab.report.settings import FULL, QUICK, Settings
+from fitlab.report.write import COLUMNS, TIMING_COLUMNS, write_outputs
 
 __all__ = ["COLUMNS", "FULL", "QUICK", "Report", "ReportError", "Settings", "TIMING_COLUMNS", "build_report",
            "pareto_front", "recommend", "write_outputs"]

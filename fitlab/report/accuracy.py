@@ -9,7 +9,7 @@ which the uniform points never reach.  A NaN or inf value
 counts as an infinite error (:func:`fitlab.fit.metrics.relative_errors`).
 
 Part level: the target's own error measure and validation set
-(:mod:`fitlab.fit.targets`: |approx - exact| / scale, scale = |exact|, or
+(:mod:`fitlab.families.lambert_sphere.targets`: |approx - exact| / scale, scale = |exact|, or
 A = 69c/128 for B, C, D, F, or f^(0) for fm1), restricted to a fit's domain
 where the fit declares a smaller one; max_rel* leaves out the target's exact
 zeros (:func:`fitlab.fit.metrics.summary`).
@@ -19,8 +19,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..fit.metrics import relative_errors, summary
-from .methods import BRDF_INPUTS
+from fitlab.fit.metrics import relative_errors, summary
+from fitlab.report.methods import BRDF_INPUTS
 
 __all__ = ["brdf_errors", "brdf_accuracy", "part_accuracy", "AWAY_MU"]
 

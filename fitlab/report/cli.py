@@ -20,7 +20,7 @@ def add_arguments(p) -> None:
 
 def check_out_dir(out: Path) -> None:
     """Fail early (ValueError) when ``out`` cannot take the report's files: not a folder, or not writable."""
-    from .write import FILES
+    from fitlab.report.write import FILES
 
     out = Path(out)
     if out.exists() and not out.is_dir():
@@ -36,11 +36,11 @@ def check_out_dir(out: Path) -> None:
 
 
 def run_report(args) -> int:
-    from ..fits import FitFileError
-    from .methods import ReportError
-    from .run import build_report
-    from .settings import FULL, QUICK
-    from .write import write_outputs
+    from fitlab.store import FitFileError
+    from fitlab.report.methods import ReportError
+    from fitlab.report.run import build_report
+    from fitlab.report.settings import FULL, QUICK
+    from fitlab.report.write import write_outputs
 
     t0 = time.perf_counter()
     try:

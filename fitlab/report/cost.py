@@ -15,8 +15,8 @@ import time
 
 import numpy as np
 
-from ..forms.symbolic import lambdify_jax, symbols
-from .methods import BRDF_INPUTS
+from fitlab.forms.symbolic import lambdify_jax, symbols
+from fitlab.report.methods import BRDF_INPUTS
 
 __all__ = ["best_seconds", "interleaved_best", "numpy_costs", "jax_costs"]
 

@@ -1,16 +1,16 @@
 r"""The exact engine as an evaluation method: its cost, its error, and time to reach an error.
 
-* H-functions, both methods of :func:`fitlab.exact.h_function` at coarser and
+* H-functions, both methods of :func:`fitlab.families.lambert_sphere.exact.h_function` at coarser and
   finer resolution: Nystrom/Newton ("chandrasekhar") with n nodes per graded
   panel, and the Fock/Krein integral with trapezoidal step h.  Each is measured
   against the *other* method at its default resolution (16 nodes, h = 0.1),
   which it shares nothing with but the characteristic function; the error
   therefore bottoms out at their mutual agreement (~1e-13).  The time is one
   solve plus the evaluation at the mu points, per (order, c), uncached.
-* The BRDF (:func:`fitlab.exact.brdf`): seconds of the set-up at a new c (the
+* The BRDF (:func:`fitlab.families.lambert_sphere.exact.brdf`): seconds of the set-up at a new c (the
   H-functions of orders 0-2 and the moment relations) and then ns per point.
 * Its error: the H route against the independent discrete ordinates + doubling
-  (:func:`fitlab.exact.doubling_reflection`) at the doubling rule's node pairs
+  (:func:`fitlab.families.lambert_sphere.exact.doubling_reflection`) at the doubling rule's node pairs
   with mu_i, mu_o >= 1e-3, Fourier orders 0-2: max and RMS relative difference.
 """
 
@@ -21,10 +21,10 @@ import time
 
 import numpy as np
 
-from ..exact import brdf, brdf_modes, doubling_reflection, h_fock, solve_h
-from ..exact.characteristic import lambert_sphere_characteristic
-from ..exact.hfunction import _solve_cached
-from .cost import best_seconds
+from fitlab.families.lambert_sphere.exact import brdf, brdf_modes, doubling_reflection, h_fock, solve_h
+from fitlab.families.lambert_sphere.exact.characteristic import lambert_sphere_characteristic
+from fitlab.families.lambert_sphere.exact.hfunction import _solve_cached
+from fitlab.report.cost import best_seconds
 
 __all__ = ["h_convergence", "exact_brdf_cost", "doubling_agreement", "time_to_error"]
 

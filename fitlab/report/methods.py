@@ -7,7 +7,7 @@ its generated C (:class:`CSpec`):
 * ``tables``: the runtime model with H0, H1 and the constants interpolated from
   data/, and all three orders with H2 too (:mod:`fitlab.report.tables`);
 * ``published``: the runtime model of SPEC 5 with the published coefficients
-  (:data:`fitlab.runtime.PRESET_VARIANTS`);
+  (:data:`fitlab.families.lambert_sphere.runtime.PRESET_VARIANTS`);
 * ``refit``: the runtime model from fits/ (default forms); ``refit, richer``:
   each part's most accurate refit form (lowest validation max error recorded
   in its fit file), when that differs from the default;
@@ -38,9 +38,9 @@ from typing import Callable
 import numpy as np
 import sympy as sp
 
-from ..fits import FitFileError, FitFunction, read_fit
-from ..forms.symbolic import lambdify_numpy, symbols
-from .tables import c_of_kd_interpolant, constant_interpolant, h_interpolant, kd_interpolant, table_brdf
+from fitlab.store import FitFileError, FitFunction, read_fit
+from fitlab.forms.symbolic import lambdify_numpy, symbols
+from fitlab.report.tables import c_of_kd_interpolant, constant_interpolant, h_interpolant, kd_interpolant, table_brdf
 
 __all__ = ["BrdfMethod", "PartMethod", "CSpec", "FitEntry", "ReportError", "fit_inventory", "brdf_methods",
            "part_methods", "GROUPS", "BRDF_INPUTS", "preset_records", "origin_kind"]  # fmt: skip
@@ -115,7 +115,7 @@ def origin_kind(record: dict) -> str:
 
 def fit_inventory(fits_dir: Path) -> list[FitEntry]:
     """Every fits_dir/*.json, read and checked, sorted by file name; a bad file is a ReportError."""
-    from ..fit.targets import TARGETS
+    from fitlab.core import targets
 
     fits_dir = Path(fits_dir)
     if not fits_dir.is_dir():
@@ -126,14 +126,14 @@ def fit_inventory(fits_dir: Path) -> list[FitEntry]:
             rec = read_fit(path)
         except FitFileError as exc:
             raise ReportError(str(exc)) from None
-        if rec["target"] not in TARGETS:
+        if rec["target"] not in targets():
             raise ReportError(f"{path}: unknown target {rec['target']!r}")
         val = rec.get("validation", {}).get("max_rel", math.inf)
-        default = rec["form"] == TARGETS[rec["target"]].default_form
+        default = rec["form"] == get_target(rec["target"]).default_form
         entries.append(FitEntry(path, rec["target"], rec["form"], origin_kind(rec), default, float(val), rec))
     if not entries:
         raise ReportError(f"{fits_dir}: no fit files (*.json); run `fitlab refit --all`")
-    from ..forms import RUNTIME_PARTS
+    from fitlab.families.lambert_sphere.forms import RUNTIME_PARTS
 
     # the refitted runtime model, its generated program (which carries both albedo maps) and the
     # fast variant need every default fit: a gap must fail here, before the validation sets are computed
@@ -169,13 +169,13 @@ def _best_forms(entries, kinds, parts) -> dict:
 # -- presets as fit records (for codegen) -------------------------------------------------------------
 def preset_records(variant: str) -> dict:
     """{(target, form): fit record} of a published preset set: the runtime parts of
-    :data:`fitlab.runtime.PRESET_VARIANTS` plus the published eq. 41 and albedo maps, so that
+    :data:`fitlab.families.lambert_sphere.runtime.PRESET_VARIANTS` plus the published eq. 41 and albedo maps, so that
     :func:`fitlab.codegen.build_program` can print the published model like any fit.
     (codegen always uses the exact normalisations; ``paper_printed``'s C differs from its
     printed normalisation only in two constants, which cost nothing.)"""
-    from ..fits import DEFAULT_DOMAINS, FORMAT
-    from ..fit.targets import get_target
-    from ..runtime import PRESET_VARIANTS
+    from fitlab.store import DEFAULT_DOMAINS, FORMAT
+    from fitlab.core import get_target
+    from fitlab.families.lambert_sphere.runtime import PRESET_VARIANTS
 
     choice = dict(PRESET_VARIANTS[variant][0])
     choice["fast_brdf"] = ("paper", "paper")
@@ -211,7 +211,7 @@ def _fit_brdf(fit: FitFunction, name, group, cspec) -> BrdfMethod:
 
 
 def _baselines() -> list[BrdfMethod]:
-    from ..forms.baselines import BASELINE_INPUTS, LAMBERT, oren_nayar
+    from fitlab.families.lambert_sphere.forms.baselines import BASELINE_INPUTS, LAMBERT, oren_nayar
 
     out = []
     for name, expr, routine in (("Lambert kd/pi", LAMBERT, "baseline_lambert"),
@@ -223,7 +223,7 @@ def _baselines() -> list[BrdfMethod]:
 
         (phi,) = symbols(("phi",))
         e = expr.subs(symbols(("cos_phi",))[0], sp.cos(phi))
-        out.append(BrdfMethod(name, "baseline", "fitlab.forms.baselines, kd = kd_true(c)", f, e, CSpec(routine)))
+        out.append(BrdfMethod(name, "baseline", "fitlab.families.lambert_sphere.forms.baselines, kd = kd_true(c)", f, e, CSpec(routine)))
     return out
 
 
@@ -236,10 +236,10 @@ def brdf_methods(fits_dir: Path, entries: list[FitEntry], data_dir: Path, preset
     """The BRDF-level catalogue (see the module docstring); ``preset_c``: the preset variants whose C
     is built (from temporary fits folders, see :func:`preset_records`); ``discovered=False`` leaves out
     the entries of discovered forms."""
-    from ..forms import RUNTIME_PARTS
-    from ..fits import load
-    from ..fit.targets import get_target
-    from ..runtime import PRESET_VARIANTS, runtime_model
+    from fitlab.families.lambert_sphere.forms import RUNTIME_PARTS
+    from fitlab.store import load
+    from fitlab.core import get_target
+    from fitlab.families.lambert_sphere.runtime import PRESET_VARIANTS, runtime_model
 
     fits_dir = Path(fits_dir)
     out = []
@@ -310,15 +310,15 @@ def _positional(f, inputs):
 
 def part_methods(target_name: str, entries: list[FitEntry], data_dir: Path) -> list[PartMethod]:
     """The part-level catalogue of one target (see the module docstring)."""
-    from ..exact import h_function
-    from ..fits import load
-    from ..fit.targets import get_target
+    from fitlab.families.lambert_sphere.exact import h_function
+    from fitlab.store import load
+    from fitlab.core import get_target
 
     t = get_target(target_name)
     out = []
     if target_name in ("H0", "H1"):
         order = int(target_name[1])
-        out.append(PartMethod(target_name, "exact (Fock/Krein)", "exact", "fitlab.exact.h_function(method='fock'), "
+        out.append(PartMethod(target_name, "exact (Fock/Krein)", "exact", "fitlab.families.lambert_sphere.exact.h_function(method='fock'), "
                               "against the validation set's Nystrom values",
                               lambda mu, c: h_function(order, mu, c, method="fock")))  # fmt: skip
     f, src = _table_part(target_name, data_dir)

@@ -1,12 +1,12 @@
 r"""Monte Carlo as an evaluation method: error and time at several path counts.
 
-One scene (built here, run by :func:`fitlab.mc.simulate.simulate`): the
+One scene (built here, run by :func:`fitlab.families.lambert_sphere.mc.simulate.simulate`): the
 materials ``mc_c``, incident cosines ``mc_mu_i``, mu_o bins ``mc_mu_edges`` and
 ``mc_phi_bins`` equal |phi| bins; multiple scattering simulated with the
 three-term phase function (as the exact engine has it), single scattering in
 closed form.  Each BRDF value is a bin average; its error is
 |estimate - exact| / exact against the exact three-term bin average that
-:mod:`fitlab.mc.effects` computes (so Monte Carlo is measured on its own points,
+:mod:`fitlab.families.lambert_sphere.mc.effects` computes (so Monte Carlo is measured on its own points,
 not on the report's validation set).  Every path count is a separate run with
 the same seed (deterministic: counter-based random numbers).
 
@@ -25,8 +25,8 @@ __all__ = ["mc_scene", "mc_study", "mc_time_to_error"]
 
 
 def mc_scene(c_values, mu_i, mu_edges, phi_bins: int, paths: int, seed: int):
-    """The scene of one run (a :class:`fitlab.mc.Scene`)."""
-    from ..mc import parse_scene
+    """The scene of one run (a :class:`fitlab.families.lambert_sphere.mc.Scene`)."""
+    from fitlab.families.lambert_sphere.mc import parse_scene
 
     materials = "\n".join(f"[[material]]\nc = {c!r}" for c in c_values)
     text = f"""
@@ -52,7 +52,7 @@ batch = {min(paths, 200_000)}
 
 def mc_study(settings, tick=None) -> list[dict]:
     """One dict per path count: values, max_rel, rms_rel, se_rms, seconds, compile_seconds, ns_per_value."""
-    from ..mc.simulate import simulate
+    from fitlab.families.lambert_sphere.mc.simulate import simulate
 
     def scene(paths):
         return mc_scene(settings.mc_c, settings.mc_mu_i, settings.mc_mu_edges, settings.mc_phi_bins, paths,

@@ -16,8 +16,8 @@ import math
 
 import numpy as np
 
-from .methods import GROUPS
-from .pareto import pareto_front
+from fitlab.report.methods import GROUPS
+from fitlab.report.pareto import pareto_front
 
 __all__ = ["plot_png", "plot_cost"]
 

@@ -17,14 +17,14 @@ from pathlib import Path
 
 import numpy as np
 
-from ..codegen import build_program, parse_terms
-from ..codegen.bench import baseline_program, random_inputs, time_routines
-from ..codegen.emit import emit
-from ..codegen.native import CompileError, build
-from ..codegen.program import PART_ROUTINES
-from ..fits import write_fit
-from .methods import CSpec, preset_records
-from .tables import kd_interpolant
+from fitlab.codegen import build_program, parse_terms
+from fitlab.codegen.bench import baseline_program, random_inputs, time_routines
+from fitlab.codegen.emit import emit
+from fitlab.codegen.native import CompileError, build
+from fitlab.codegen.program import PART_ROUTINES
+from fitlab.store import write_fit
+from fitlab.report.methods import CSpec, preset_records
+from fitlab.report.tables import kd_interpolant
 
 __all__ = ["c_costs", "timing_inputs"]
 
@@ -46,8 +46,8 @@ def _program(spec: CSpec, workdir: Path):
     if spec.preset is not None:
         folder = workdir / f"preset_{spec.preset}"
         forms = {}
-        from ..fit.refit import fit_path
-        from ..fit.targets import get_target
+        from fitlab.store import fit_path
+        from fitlab.core import get_target
 
         records = preset_records(spec.preset)
         for (target, form), rec in records.items():
@@ -59,7 +59,7 @@ def _program(spec: CSpec, workdir: Path):
         return build_program(folder, parse_terms(None), forms), labels
     forms = dict(spec.forms)
     prog = build_program(Path(spec.fits_dir), parse_terms(None), forms)
-    from ..fit.targets import get_target
+    from fitlab.core import get_target
 
     labels = {name: (t, forms.get(t, get_target(t).default_form)) for t, name in PART_ROUTINES.items()}
     return prog, labels

@@ -19,7 +19,7 @@ __all__ = ["refit_jobs", "refit_costs", "recorded_seconds"]
 
 
 def _domain_items(record) -> list[str]:
-    from ..fits import DEFAULT_DOMAINS
+    from fitlab.store import DEFAULT_DOMAINS
 
     items = []
     for name, (lo, hi) in record.get("domain", {}).items():
@@ -30,7 +30,8 @@ def _domain_items(record) -> list[str]:
 
 def refit_jobs(entries, only=None) -> list:
     """(FitEntry, domain items) for every refittable fit file (or those ``only`` names as (target, form))."""
-    from ..fit.targets import get_target
+    from fitlab.core import get_target
+    from fitlab.store import resolve_form
 
     jobs = []
     for e in entries:
@@ -54,8 +55,9 @@ def recorded_seconds(record) -> float:
 
 def refit_costs(jobs, fits_dir, tick=None) -> list[dict]:
     """Rows (target, form, seconds, steps, refit and recorded validation max error)."""
-    from ..fit.refit import refit
-    from ..fit.targets import get_target
+    from fitlab.fit.refit import refit
+    from fitlab.core import get_target
+    from fitlab.store import resolve_form
 
     rows = []
     for e, domain in jobs:
@@ -63,7 +65,7 @@ def refit_costs(jobs, fits_dir, tick=None) -> list[dict]:
         t.training()  # cached per process: built before the clock starts
         t.validation()
         t0 = time.perf_counter()
-        res = refit(e.target, e.form, out=fits_dir, domain_items=domain, write=False)
+        res = refit(t, resolve_form(e.target, e.form, fits_dir), domain=domain)
         seconds = time.perf_counter() - t0
         rows.append({"target": e.target, "form": e.form, "path": str(e.path), "seconds": seconds,
                      "steps": int(res.record["optimizer"]["total_steps"]),

@@ -17,9 +17,9 @@ import time
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
-from ..fit.data import DATA_DIR
-from .methods import ReportError, _fit_group, brdf_methods, fit_inventory, part_methods
-from .settings import FULL, Settings
+from fitlab.families.lambert_sphere.datasets import DATA_DIR
+from fitlab.report.methods import ReportError, _fit_group, brdf_methods, fit_inventory, part_methods
+from fitlab.report.settings import FULL, Settings
 
 __all__ = ["Report", "build_report"]
 
@@ -46,7 +46,7 @@ def _single_threaded_blas():
 
 
 def _check_tables(data_dir: Path) -> None:
-    from ..tabulate import TableError, read_table
+    from fitlab.store import TableError, read_table
 
     for name in ("h0.csv", "h1.csv", "h2.csv", "constants.csv", "kd.csv"):
         try:
@@ -99,7 +99,7 @@ def _exact_rows(brdf_cost, dbl, conv, ttes) -> list[dict]:
              f"{', '.join(map(str, dbl['orders']))}, node pairs with mu_i, mu_o >= 1e-3)" if dbl else
              "error not measured (doubling skipped)")  # fmt: skip
     rows = [{
-        "section": "brdf", "target": "f_r", "group": "exact", "method": "exact engine", "source": "fitlab.exact.brdf",
+        "section": "brdf", "target": "f_r", "group": "exact", "method": "exact engine", "source": "fitlab.families.lambert_sphere.exact.brdf",
         "points": agree["points"], "max_rel": agree["max_rel"], "rms_rel": agree["rms_rel"],
         "max_rel_away": agree["max_rel"], "ns_python": brdf_cost["ns_per_point"], "seconds": brdf_cost["setup_seconds"],
         "note": where + "; cost: ns per point once c is set up, seconds: the set-up at a new c",
@@ -107,14 +107,14 @@ def _exact_rows(brdf_cost, dbl, conv, ttes) -> list[dict]:
     if dbl:
         rows.append({
             "section": "exact", "target": "f^m", "group": "exact", "method": "discrete ordinates + doubling",
-            "source": "fitlab.exact.doubling_reflection", "points": dbl["points"], "max_rel": dbl["max_rel"],
+            "source": "fitlab.families.lambert_sphere.exact.doubling_reflection", "points": dbl["points"], "max_rel": dbl["max_rel"],
             "rms_rel": dbl["rms_rel"], "seconds": dbl["seconds_per_order"],
             "ns_python": dbl["seconds_per_order"] / dbl["node_pairs"] * 1e9,
             "note": f"f^m at {dbl['node_pairs']} node pairs per (c, order); error: against the H route",
         })  # fmt: skip
     for r in conv:
         rows.append({"section": "exact_h", "target": "H0, H1", "group": "exact",
-                     "method": f"{r['method']}, {r['resolution']}", "source": "fitlab.exact.hfunction",
+                     "method": f"{r['method']}, {r['resolution']}", "source": "fitlab.families.lambert_sphere.exact.hfunction",
                      "points": r["points"], "max_rel": r["max_rel"], "rms_rel": r["rms_rel"], "seconds": r["seconds"],
                      "note": "error against the other method at its default; seconds per (order, c): one solve "
                              "and the evaluation at the mu points"})  # fmt: skip
@@ -131,13 +131,13 @@ def _exact_rows(brdf_cost, dbl, conv, ttes) -> list[dict]:
 
 
 def _mc_rows(study, targets) -> list[dict]:
-    from .montecarlo import mc_time_to_error
+    from fitlab.report.montecarlo import mc_time_to_error
 
     rows = []
     for s in study:
         rows.append({
             "section": "brdf", "target": "f_r (bin averages)", "group": "monte carlo",
-            "method": f"Monte Carlo {s['paths']:.0e} paths", "source": "fitlab.mc (three-term multiple scattering)",
+            "method": f"Monte Carlo {s['paths']:.0e} paths", "source": "fitlab.families.lambert_sphere.mc (three-term multiple scattering)",
             "points": s["values"], "paths": s["paths"], "max_rel": s["max_rel"], "rms_rel": s["rms_rel"],
             "max_rel_away": s["max_rel"], "ns_python": s["ns_per_value"], "seconds": s["seconds"],
             "note": f"{s['jobs']} jobs x {s['paths']} paths; RMS se/exact {s['se_rms']:.3g}; error against exact "
@@ -153,8 +153,8 @@ def _mc_rows(study, targets) -> list[dict]:
 
 
 def _part_rows(settings, entries, data_dir, part_ns, tick) -> list[dict]:
-    from ..fit.targets import get_target
-    from .accuracy import part_accuracy
+    from fitlab.core import get_target
+    from fitlab.report.accuracy import part_accuracy
 
     rows = []
     for name in settings.parts:
@@ -171,7 +171,7 @@ def _part_rows(settings, entries, data_dir, part_ns, tick) -> list[dict]:
 
 
 def _refit_rows(entries, settings, fits_dir, progress) -> list[dict]:
-    from .refits import recorded_seconds, refit_costs, refit_jobs
+    from fitlab.report.refits import recorded_seconds, refit_costs, refit_jobs
 
     jobs = refit_jobs(entries, settings.refits)
     progress.stage("refits", len(jobs))
@@ -194,7 +194,7 @@ def build_report(settings: Settings = FULL, fits_dir: Path = Path("fits"), data_
     """Measure everything :mod:`fitlab.report` describes; returns the rows (writes nothing).
 
     Bad input (the fits folder, a fit file, the tables) fails here, before any slow work."""
-    from .pareto import recommend
+    from fitlab.report.pareto import recommend
 
     t_start = time.perf_counter()
     fits_dir, data_dir = Path(fits_dir), Path(data_dir)
@@ -215,12 +215,12 @@ def build_report(settings: Settings = FULL, fits_dir: Path = Path("fits"), data_
 
 
 def _measure(settings, entries, fits_dir, data_dir, use_cache, p) -> tuple[list, dict]:
-    from .accuracy import brdf_accuracy
-    from .cost import jax_costs, numpy_costs
-    from .exact import doubling_agreement, exact_brdf_cost, h_convergence, time_to_error
-    from .montecarlo import mc_study
-    from .programs import c_costs, timing_inputs
-    from .validation import brdf_set, grazing_set
+    from fitlab.report.accuracy import brdf_accuracy
+    from fitlab.report.cost import jax_costs, numpy_costs
+    from fitlab.report.exact import doubling_agreement, exact_brdf_cost, h_convergence, time_to_error
+    from fitlab.report.montecarlo import mc_study
+    from fitlab.report.programs import c_costs, timing_inputs
+    from fitlab.report.validation import brdf_set, grazing_set
 
     p.stage("validation set", 2 * (settings.n_c + settings.with_c1))
     valid = brdf_set(settings, use_cache, p.tick)
@@ -264,7 +264,7 @@ def _measure(settings, entries, fits_dir, data_dir, use_cache, p) -> tuple[list,
     for e in entries:
         g = _fit_group(e)
         counts[g] = counts.get(g, 0) + 1
-    from ..codegen.native import STRICT_FLAGS, compiler
+    from fitlab.codegen.native import STRICT_FLAGS, compiler
 
     context = {
         "c_compiler": f"{Path(compiler() or 'no C compiler').name} {' '.join(STRICT_FLAGS)}",

@@ -27,9 +27,9 @@ class Settings:
     with_c1: bool
     log2_points: int
     seed: int = 2021
-    #: targets whose parts are measured on their validation sets (fitlab.fit.targets)
+    #: targets whose parts are measured on their validation sets (fitlab.families.lambert_sphere.targets)
     parts: tuple = ("H0", "H1", "l", "m", "B", "C", "D", "F", "kd_of_c", "c_of_kd", "fm1")
-    #: runtime presets (fitlab.runtime.PRESET_VARIANTS) whose C is built and timed
+    #: runtime presets (fitlab.families.lambert_sphere.runtime.PRESET_VARIANTS) whose C is built and timed
     preset_c: tuple = ("paper_printed", "paper", "renderer")
     #: build and time C for every catalogue entry (False: only the default refit and the baselines)
     all_c: bool = True

@@ -33,10 +33,10 @@ from pathlib import Path
 import numpy as np
 import sympy as sp
 
-from ..fit.data import DATA_DIR
-from ..forms import RUNTIME_PARTS, runtime_terms
-from ..forms.symbolic import symbols
-from ..tabulate import read_table
+from fitlab.families.lambert_sphere.datasets import DATA_DIR
+from fitlab.families.lambert_sphere.forms import RUNTIME_PARTS, runtime_terms
+from fitlab.forms.symbolic import symbols
+from fitlab.store import read_table
 
 __all__ = ["h_interpolant", "constant_interpolant", "kd_interpolant", "c_of_kd_interpolant", "table_brdf"]
 

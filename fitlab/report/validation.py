@@ -8,8 +8,8 @@ training and validation grids (dyadic in s).  c = 0 is left out: the BRDF is
 Sobol points (seeded) give (mu_i, mu_o, phi/pi) in (0, 1)^3; mu is uniform, so
 the grazing pole mu_i = mu_o = 0 is approached only as far as the points go
 (min mu_i + mu_o is about 2^(-m/2)).  kd = kd_true(c), the spherical albedo of
-:func:`fitlab.exact.brdf` (the input of the fast variant and the baselines).
-y = :func:`fitlab.exact.brdf`.
+:func:`fitlab.families.lambert_sphere.exact.brdf` (the input of the fast variant and the baselines).
+y = :func:`fitlab.families.lambert_sphere.exact.brdf`.
 
 Because uniform points never come near the pole, a second, small set looks there
 on purpose (:func:`grazing_set`): mu_i, mu_o in {1e-6, 1e-4, 1e-2} (all nine
@@ -21,7 +21,7 @@ is tested where 1/mu magnifies the error of H - 1 (docs/fitting.md, "Grazing").
 The exact values cost the engine about a second per c, so the set is cached
 (``$FITLAB_CACHE_DIR``, else ``$XDG_CACHE_HOME/fitlab``, else
 ``~/.cache/fitlab``) under a key that hashes the points, the albedos and the
-sources of :mod:`fitlab.exact`; a changed engine never reads a stale cache.
+sources of :mod:`fitlab.families.lambert_sphere.exact`; a changed engine never reads a stale cache.
 """
 
 from __future__ import annotations
@@ -33,16 +33,16 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import __version__
-from .._io import atomic_write_bytes
-from ..exact import brdf, spherical_albedo
-from ..fit.data import Dataset
-from .settings import Settings
+from fitlab import __version__
+from fitlab._io import atomic_write_bytes
+from fitlab.families.lambert_sphere.exact import brdf, spherical_albedo
+from fitlab.core import Dataset
+from fitlab.report.settings import Settings
 
 __all__ = ["albedos", "sobol_points", "brdf_set", "grazing_set", "cache_dir", "GOLDEN", "GRAZING_MU", "GRAZING_PHI"]
 
 GOLDEN = (np.sqrt(5.0) - 1.0) / 2.0
-EXACT_DIR = Path(__file__).resolve().parents[1] / "exact"
+EXACT_DIR = Path(__file__).resolve().parents[1] / "families" / "lambert_sphere" / "exact"
 #: the grazing set's cosines and azimuths
 GRAZING_MU = (1e-6, 1e-4, 1e-2)
 GRAZING_PHI = (0.0, 0.5 * np.pi, np.pi)
@@ -127,7 +127,7 @@ def _albedo_grid(settings: Settings) -> str:
 
 
 def brdf_set(settings: Settings, use_cache: bool = True, tick=None) -> Dataset:
-    """The validation set (a :class:`fitlab.fit.data.Dataset` with inputs mu_i, mu_o, phi, c, kd).
+    """The validation set (a :class:`fitlab.core.Dataset` with inputs mu_i, mu_o, phi, c, kd).
 
     ``tick()`` is called once per albedo computed (a progress bar); a cache hit calls it for all.
     """

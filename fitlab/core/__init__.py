@@ -1,0 +1,39 @@
+"""fitlab's core vocabulary: inputs, targets, datasets, families and their registry.
+
+A *family* (one folder under :mod:`fitlab.families`, or any importable module that
+calls :func:`register_family`) owns its targets, forms, exact engine, runtime
+models and report methods.  The generic machinery (fit, codegen, discover,
+residuals, report, cli) loops over :func:`targets` and names no family's
+targets.
+"""
+
+from fitlab.core._dataset import Dataset, data_hash
+from fitlab.core._input import Input
+from fitlab.core._registry import (
+    Family,
+    families,
+    forms_for,
+    get_family,
+    get_form,
+    get_target,
+    register_family,
+    targets,
+    unregister_family,
+)
+from fitlab.core._target import Target
+
+__all__ = [
+    "Dataset",
+    "Family",
+    "Input",
+    "Target",
+    "data_hash",
+    "families",
+    "forms_for",
+    "get_family",
+    "get_form",
+    "get_target",
+    "register_family",
+    "targets",
+    "unregister_family",
+]

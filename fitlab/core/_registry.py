@@ -1,0 +1,140 @@
+r"""The family registry: every target, form and family hook fitlab knows.
+
+Families are found, on first use, among the packages of :mod:`fitlab.families`
+and the ``fitlab.families`` entry points of installed distributions; a module
+anywhere may also call :func:`register_family` itself (how a test registers a
+toy family).  Names are global: two families may not register one target.
+"""
+
+from __future__ import annotations
+
+import importlib
+import pkgutil
+from dataclasses import dataclass, field
+from importlib.metadata import entry_points
+from typing import Any, Callable, Mapping
+
+from fitlab.core._target import Target
+
+__all__ = ["Family", "register_family", "unregister_family", "families", "get_family", "targets", "get_target",
+           "forms_for", "get_form"]
+
+
+@dataclass(frozen=True, eq=False)
+class Family:
+    """Everything one BRDF family contributes.
+
+    name: the family's name (its folder's name for the built-in ones).
+    description: one line.
+    targets: its :class:`Target` s, in the order commands list them.
+    forms: its :class:`fitlab.forms.Form` s (each names its target).
+    libraries: the candidate-term libraries of ``fitlab discover``: a function returning target -> tuple of
+        libraries (the first primary), called only by discover (so that pysindy loads only there).
+    codegen: the generated program: ``codegen(records, options) -> routines`` (see :mod:`fitlab.codegen`), or None.
+    hooks: further family services by name (runtime models, Monte Carlo scenes, report methods, tables, audit),
+        each a callable the generic command of that name looks up.
+    """
+
+    name: str
+    description: str
+    targets: tuple[Target, ...]
+    forms: tuple = ()
+    libraries: Callable[[], Mapping[str, tuple]] = dict
+    codegen: Any = None
+    hooks: Mapping[str, Callable] = field(default_factory=dict)
+
+
+_FAMILIES: dict[str, Family] = {}
+_TARGETS: dict[str, Target] = {}
+_LOADED = False
+
+
+def register_family(family: Family) -> Family:
+    """Add ``family``: its targets become visible to every command, its forms to their targets.
+
+    Refused (ValueError) when a target name is taken by another family, when a form names a target the
+    family does not register, or when two forms of one target share a name."""
+    other = _FAMILIES.get(family.name)
+    if other is not None and other is not family:
+        raise ValueError(f"a family named {family.name!r} is already registered")
+    names = [t.name for t in family.targets]
+    clash = [n for n in names if n in _TARGETS and _TARGETS[n].family != family.name]
+    if clash or len(set(names)) != len(names):
+        raise ValueError(f"family {family.name}: target names {clash or names} are taken")
+    forms: dict[str, dict] = {n: {} for n in names}
+    for f in family.forms:
+        if f.target not in forms:
+            raise ValueError(f"family {family.name}: form {f.key} names a target the family does not register")
+        if f.name in forms[f.target]:
+            raise ValueError(f"family {family.name}: form {f.key} defined twice")
+        if set(f.inputs) != set(next(t for t in family.targets if t.name == f.target).inputs):
+            raise ValueError(f"family {family.name}: form {f.key} takes {f.inputs}, not its target's inputs")
+        forms[f.target][f.name] = f
+    for t in family.targets:
+        object.__setattr__(t, "family", family.name)
+        object.__setattr__(t, "_forms", forms[t.name])
+        if t.default_form not in forms[t.name]:
+            raise ValueError(f"family {family.name}: target {t.name}'s default form {t.default_form!r} is not registered")
+    _FAMILIES[family.name] = family
+    for t in family.targets:
+        _TARGETS[t.name] = t
+    return family
+
+
+def unregister_family(name: str) -> None:
+    """Remove a family and its targets (for tests that register a toy family)."""
+    family = _FAMILIES.pop(name, None)
+    if family is not None:
+        for t in family.targets:
+            _TARGETS.pop(t.name, None)
+
+
+def _load() -> None:
+    global _LOADED
+    if _LOADED:
+        return
+    _LOADED = True
+    import fitlab.families as builtin
+
+    for info in sorted(pkgutil.iter_modules(builtin.__path__), key=lambda m: m.name):
+        importlib.import_module(f"{builtin.__name__}.{info.name}")
+    for ep in entry_points(group="fitlab.families"):
+        ep.load()
+
+
+def families() -> dict[str, Family]:
+    """name -> :class:`Family` of every registered family."""
+    _load()
+    return dict(_FAMILIES)
+
+
+def get_family(name: str) -> Family:
+    _load()
+    if name not in _FAMILIES:
+        raise KeyError(f"unknown family {name!r}; families: {', '.join(_FAMILIES)}")
+    return _FAMILIES[name]
+
+
+def targets() -> dict[str, Target]:
+    """name -> :class:`Target` of every registered target, family by family."""
+    _load()
+    return dict(_TARGETS)
+
+
+def get_target(name: str) -> Target:
+    _load()
+    if name not in _TARGETS:
+        raise KeyError(f"unknown target {name!r}; choose one of {', '.join(_TARGETS)}")
+    return _TARGETS[name]
+
+
+def forms_for(target: str) -> Mapping:
+    """name -> Form of a target's registered forms."""
+    return get_target(target).forms
+
+
+def get_form(target: str, name: str):
+    forms = forms_for(target)
+    if name not in forms:
+        raise KeyError(f"target {target} has no form {name!r}; forms: {', '.join(forms)}")
+    return forms[name]

@@ -1,0 +1,33 @@
+r"""The Lambert-sphere BRDF (d'Eon, EGSR 2021): fitlab's first family.
+
+Registers, in one place, everything the family contributes: its targets
+(:mod:`.targets`: H0, H1, l, m, B, C, D, F, kd_of_c, c_of_kd, fm1, fast_brdf),
+their forms and published presets (:mod:`.forms`), the exact engine
+(:mod:`.exact`) behind their training, validation and residual sets, the
+libraries of ``fitlab discover`` (:mod:`.libraries`), the generated program
+(:mod:`.program`), and its runtime models, Monte Carlo, tables, audit, render
+and report methods as hooks.  docs/model.md states the model.
+"""
+
+from fitlab.core import Family, register_family
+from fitlab.families.lambert_sphere.forms import FORMS
+from fitlab.families.lambert_sphere.targets import TARGETS
+
+__all__ = ["FAMILY"]
+
+
+def _libraries():
+    from fitlab.families.lambert_sphere.libraries import LIBRARIES
+
+    return LIBRARIES
+
+
+FAMILY = register_family(
+    Family(
+        name="lambert_sphere",
+        description="Lambert-sphere BRDF (d'Eon, EGSR 2021)",
+        targets=tuple(TARGETS.values()),
+        forms=FORMS,
+        libraries=_libraries,
+    )
+)

@@ -1,0 +1,181 @@
+r"""Training and validation sets drawn from the exact tables and engine.
+
+Training sets come from the committed tables in data/ (their grid is s = k/64,
+mu = k/64 plus the tiny-mu points) or, for BRDF-level targets, from the exact
+engine on a sub-grid of the same lattice.  Validation sets are denser and
+interleaved: their interior points sit between training points (odd multiples
+of a finer step), so no interior point was seen by the fit.  The domain edges
+(mu = 0, mu = 1, c = 0, c = 1) are in both, because the error there must be
+measured and the fit must respect them.  The pole mu_i = mu_o = 0 of the BRDF
+terms is left out of every set (the exact values are infinite there).
+"""
+
+from __future__ import annotations
+
+from functools import lru_cache
+from pathlib import Path
+
+import numpy as np
+
+from fitlab.core import Dataset
+
+from fitlab.families.lambert_sphere.exact import brdf, brdf_modes, constants, h_function, multiple_scattering_modes, spherical_albedo
+from fitlab.store import read_table
+
+__all__ = ["DATA_DIR"]
+
+DATA_DIR = Path(__file__).resolve().parents[3] / "data"
+
+
+def _interleaved(step_denominator: int, extra=()) -> np.ndarray:
+    """Odd multiples of 1/step_denominator in (0, 1), plus 0, 1 and ``extra``."""
+    odd = (2 * np.arange(step_denominator // 2) + 1) / step_denominator
+    return np.unique(np.concatenate(([0.0, 1.0], odd, np.asarray(extra, dtype=float))))
+
+
+# -- H-functions --------------------------------------------------------------
+@lru_cache(maxsize=None)
+def h_training(order: int, data_dir: Path = DATA_DIR) -> Dataset:
+    _, t = read_table(Path(data_dir) / f"h{order}.csv", ("s", "c", "mu", f"H{order}"))
+    t = t[t[:, 2] <= 1.0]
+    return Dataset({"mu": t[:, 2], "c": t[:, 1]}, t[:, 3], f"data/h{order}.csv, mu <= 1: s = k/64, mu = k/64 and 1e-12..1e-3")
+
+
+@lru_cache(maxsize=None)
+def h_validation(order: int) -> Dataset:
+    s = _interleaved(256)
+    mu = _interleaved(256, extra=(1e-10, 1e-7, 1e-5))
+    c = 1.0 - s**2
+    values = np.stack([h_function(order, mu, cv) for cv in c])
+    cc, mm = np.meshgrid(c, mu, indexing="ij")
+    return Dataset({"mu": mm.ravel(), "c": cc.ravel()}, values.ravel(), "s, mu = (2k+1)/256, plus 0, 1 and mu = 1e-10, 1e-7, 1e-5")
+
+
+# -- constants and kd (functions of c) ----------------------------------------
+_S_1D = _interleaved(256)
+
+
+@lru_cache(maxsize=None)
+def _constants_table(data_dir: Path = DATA_DIR):
+    header, t = read_table(Path(data_dir) / "constants.csv")
+    return header, t
+
+
+@lru_cache(maxsize=None)
+def _constants_validation():
+    return constants(1.0 - _S_1D**2)
+
+
+def constant_training(name: str, data_dir: Path = DATA_DIR) -> Dataset:
+    header, t = _constants_table(data_dir)
+    if name not in header:
+        raise KeyError(f"data/constants.csv has no column {name!r}")
+    return Dataset({"c": t[:, 1]}, t[:, header.index(name)], "data/constants.csv: s = k/64")
+
+
+def constant_validation(name: str) -> Dataset:
+    return Dataset({"c": 1.0 - _S_1D**2}, np.asarray(_constants_validation()[name], dtype=float), "s = (2k+1)/256, plus 0 and 1")
+
+
+@lru_cache(maxsize=None)
+def _kd_training(data_dir: Path = DATA_DIR):
+    _, t = read_table(Path(data_dir) / "kd.csv", ("s", "c", "kd_three_term", "kd_true"))
+    return t[:, 1], t[:, 3]
+
+
+@lru_cache(maxsize=None)
+def _kd_validation():
+    c = 1.0 - _S_1D**2
+    return c, spherical_albedo(c, model="true")
+
+
+def kd_of_c_training(data_dir: Path = DATA_DIR) -> Dataset:
+    c, kd = _kd_training(data_dir)
+    return Dataset({"c": c}, kd, "data/kd.csv (kd_true): s = k/64")
+
+
+def kd_of_c_validation() -> Dataset:
+    c, kd = _kd_validation()
+    return Dataset({"c": c}, kd, "s = (2k+1)/256, plus 0 and 1")
+
+
+def _inverse(c, kd, grid):
+    # kd_true(1) = 1 + 1.0e-5 (docs/errata.md): points with kd > 1 lie outside the map's domain
+    keep = kd <= 1.0
+    return Dataset({"kd": kd[keep]}, c[keep], grid)
+
+
+def c_of_kd_training(data_dir: Path = DATA_DIR) -> Dataset:
+    return _inverse(*_kd_training(data_dir), "data/kd.csv (kd_true, kd <= 1): s = k/64")
+
+
+def c_of_kd_validation() -> Dataset:
+    return _inverse(*_kd_validation(), "kd_true at s = (2k+1)/256 plus 0 and 1, kd <= 1")
+
+
+# -- BRDF level ----------------------------------------------------------------
+def _pairs(mu):
+    mi, mo = np.meshgrid(mu, mu, indexing="ij")
+    keep = (mi + mo) > 0.0
+    return mi[keep], mo[keep]
+
+
+@lru_cache(maxsize=None)
+def fm1_training() -> Dataset:
+    return _fm1(np.arange(17) / 16, np.concatenate(([0.0, 1e-6, 1e-3], np.arange(1, 17) / 16)), "s = k/16; mu = k/16 and 1e-6, 1e-3")
+
+
+@lru_cache(maxsize=None)
+def fm1_validation() -> Dataset:
+    return _fm1(_interleaved(64), _interleaved(64, extra=(1e-9, 1e-5)), "s, mu = (2k+1)/64, plus 0, 1 and mu = 1e-9, 1e-5")
+
+
+def _fm1(s, mu, grid) -> Dataset:
+    mi, mo = _pairs(mu)
+    cols = {"mu_i": [], "mu_o": [], "c": []}
+    ys, f0 = [], []
+    for cv in 1.0 - s**2:
+        ys.append(multiple_scattering_modes(mi, mo, cv)[1])
+        f0.append(brdf_modes(mi, mo, cv)[0])
+        for k, v in (("mu_i", mi), ("mu_o", mo), ("c", np.full(mi.shape, cv))):
+            cols[k].append(v)
+    return Dataset(
+        {k: np.concatenate(v) for k, v in cols.items()}, np.concatenate(ys), grid + "; mu_i = mu_o = 0 left out",
+        {"f0": np.concatenate(f0)},
+    )
+
+
+@lru_cache(maxsize=None)
+def brdf_training() -> Dataset:
+    return _brdf(
+        np.arange(17) / 16, np.concatenate(([0.0, 1e-4], np.arange(1, 17) / 16)), np.arange(9) * np.pi / 8,
+        "s = k/16 and c = 0.005, 0.02, 0.05, 0.09 (s = k/16 leaves c in (0, 0.12) empty); mu = k/16 and 1e-4; "
+        "phi = k pi/8",
+        extra_c=(0.005, 0.02, 0.05, 0.09),
+    )
+
+
+@lru_cache(maxsize=None)
+def brdf_validation() -> Dataset:
+    return _brdf(
+        _interleaved(32), _interleaved(32, extra=(1e-6,)), np.pi * _interleaved(32),
+        "s, mu, phi/pi = (2k+1)/32, plus 0, 1 and mu = 1e-6",
+    )
+
+
+def _brdf(s, mu, phi, grid, extra_c=()) -> Dataset:
+    c = np.concatenate((1.0 - s**2, extra_c))
+    kd = spherical_albedo(c, model="true")
+    mi, mo = _pairs(mu)
+    n = mi.size
+    cols = {"mu_i": [], "mu_o": [], "phi": [], "c": [], "kd": []}
+    ys = []
+    for cv, kv in zip(c, kd):
+        for p in phi:
+            ys.append(brdf(mi, mo, p, cv))
+            for k, v in (("mu_i", mi), ("mu_o", mo), ("phi", np.full(n, p)), ("c", np.full(n, cv)), ("kd", np.full(n, kv))):
+                cols[k].append(v)
+    return Dataset(
+        {k: np.concatenate(v) for k, v in cols.items()}, np.concatenate(ys),
+        grid + "; mu_i = mu_o = 0 left out; kd = kd_true(c)",
+    )

@@ -1,0 +1,182 @@
+r"""The exact three-term half-space BRDF by Fourier order, and the reference
+Lambert-sphere BRDF built on it.
+
+All functions use the SPEC conventions: mu_i, mu_o in [0, 1], phi the relative
+azimuth with phi = 0 back-scattering, S = sqrt((1 - mu_i^2)(1 - mu_o^2)), and
+f = f0 + f1 cos(phi) + f2 cos(2 phi) in 1/sr.  Every term has a pole
+1/(mu_i + mu_o); internally each is computed as the "numerator" (mu_i + mu_o) f,
+which is bounded, and divided at the end.  At mu_i = mu_o = 0 exactly the
+result is +inf where the numerator is positive (the physical BRDF diverges
+there), 0 where it is 0; the multiple-scattering parts diverge only
+logarithmically, and are computed without cancellation through (H(mu) - 1)/mu.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from fitlab.families.lambert_sphere.exact.characteristic import check_albedo, lambert_sphere_characteristic
+from fitlab.families.lambert_sphere.exact.constants import mode_polynomials
+from fitlab.families.lambert_sphere.exact.hfunction import solve_h
+from fitlab.families.lambert_sphere.exact.phase import phase_function
+
+__all__ = [
+    "brdf_modes",
+    "single_scattering_modes",
+    "multiple_scattering_modes",
+    "brdf",
+    "check_cosines",
+]
+
+
+def check_cosines(*arrays, names=("mu_i", "mu_o")):
+    out = []
+    for a, name in zip(arrays, names):
+        a = np.asarray(a, dtype=float)
+        if np.any(np.isnan(a)) or np.any((a < 0.0) | (a > 1.0)):
+            raise ValueError(f"{name} must lie in [0, 1] (cosine with the normal, pointing away from the surface)")
+        out.append(a)
+    return out
+
+
+def _divide_pole(numerator, mu_i, mu_o):
+    s = mu_i + mu_o
+    with np.errstate(divide="ignore", invalid="ignore"):
+        out = np.asarray(numerator / s)  # 0-d inputs give a numpy scalar, which takes no item assignment
+    pole = s == 0.0
+    if np.any(pole):
+        n = np.broadcast_to(numerator, out.shape)[pole]
+        out[pole] = np.where(n > 0, np.inf, np.where(n < 0, -np.inf, 0.0))
+    return out
+
+
+def _single_numerators(mu_i, mu_o, c):
+    """(mu_i + mu_o) f_ss^m for the three-term phase function, m = 0, 1, 2."""
+    p = mu_i * mu_o
+    q = mu_i * mu_i + mu_o * mu_o
+    s = np.sqrt((1.0 - mu_i * mu_i) * (1.0 - mu_o * mu_o))
+    n0 = c * (207.0 + 256.0 * p - 45.0 * q + 135.0 * p * p) / (768.0 * np.pi)
+    n1 = c * s * (64.0 + 45.0 * p) / (192.0 * np.pi)
+    n2 = 15.0 * c * s * s / (256.0 * np.pi)
+    return n0, n1, n2
+
+
+def single_scattering_modes(mu_i, mu_o, c):
+    """Fourier orders (f0, f1, f2) of single scattering, three-term phase function.
+
+    f_ss = c p3(u) / (mu_i + mu_o) with p3 the three-term truncation; expanding:
+      f0 = c (207 + 256 mu_i mu_o - 45 (mu_i^2 + mu_o^2) + 135 mu_i^2 mu_o^2) / (768 pi (mu_i + mu_o))
+      f1 = c S (64 + 45 mu_i mu_o) / (192 pi (mu_i + mu_o))     [eq. 28 prints 384 pi]
+      f2 = 15 c S^2 / (256 pi (mu_i + mu_o)).
+    """
+    mu_i, mu_o = check_cosines(mu_i, mu_o)
+    c = check_albedo(c)
+    mu_i, mu_o, c = np.broadcast_arrays(mu_i, mu_o, c)
+    return tuple(_divide_pole(n, mu_i, mu_o) for n in _single_numerators(mu_i, mu_o, c))
+
+
+def _h_parts(order, c, mu):
+    """H(mu) and H(mu) - 1, the latter as mu (H - 1)/mu: no cancellation."""
+    sol = solve_h(lambert_sphere_characteristic(order, c))
+    with np.errstate(invalid="ignore"):
+        h_minus_1 = np.where(mu == 0.0, 0.0, mu * sol.h_minus_one_over_u(mu))
+    return sol(mu), h_minus_1, sol
+
+
+def _mode_numerators(mu_i, mu_o, cv, multiple_only):
+    """Per order m: (mu_i + mu_o) f^m, or for multiple scattering the pieces
+    (H_i H_o - 1, (Q - Q_ss) g, Q g) of (mu_i + mu_o) fm^m = (H_i H_o - 1) Q g + (Q - Q_ss) g."""
+    s2 = (1.0 - mu_i * mu_i) * (1.0 - mu_o * mu_o)
+    singles = _single_numerators(mu_i, mu_o, cv)
+    out = []
+    for m in range(3):
+        mat = mode_polynomials(m, cv).matrix
+        deg = mat.shape[0]
+        vi = np.stack([mu_i**j for j in range(deg)], axis=-1)
+        vo = np.stack([mu_o**j for j in range(deg)], axis=-1)
+        gq = s2 ** (m / 2.0) * np.einsum("...j,jk,...k->...", vi, mat, vo)
+        hi, hi1, sol = _h_parts(m, cv, mu_i)
+        ho, ho1, _ = _h_parts(m, cv, mu_o)
+        if not multiple_only:
+            out.append(hi * ho * gq)
+        else:
+            # H_i H_o - 1 = (H_i - 1) H_o + (H_o - 1)
+            out.append((hi1 * ho + ho1, gq - singles[m], gq, sol.char.coefficients[0]))
+    return out
+
+
+def _modes(mu_i, mu_o, c, multiple_only):
+    mu_i, mu_o = check_cosines(mu_i, mu_o)
+    c = check_albedo(c)
+    mu_i, mu_o, c = np.broadcast_arrays(mu_i, mu_o, c)
+    res = [np.empty(mu_i.shape) for _ in range(3)]
+    for cv in np.unique(c):
+        sel = c == cv
+        mi, mo = mu_i[sel], mu_o[sel]
+        parts = _mode_numerators(mi, mo, float(cv), multiple_only)
+        for m in range(3):
+            if not multiple_only:
+                res[m][sel] = _divide_pole(parts[m], mi, mo)
+                continue
+            hh1, dq, gq, psi0 = parts[m]
+            s = mi + mo
+            pole = s == 0.0
+            with np.errstate(divide="ignore", invalid="ignore"):
+                val = (hh1 * gq + dq) / s
+            # (H_i H_o - 1)/(mu_i + mu_o) ~ Psi_m(0) log(1/mu): a log pole at (0, 0)
+            val[pole] = 0.0 if psi0 == 0.0 else np.sign(psi0) * np.inf
+            res[m][sel] = val
+    return tuple(res)
+
+
+def brdf_modes(mu_i, mu_o, c):
+    """Fourier orders (f0, f1, f2) of the exact three-term half-space BRDF.
+
+    All orders of scattering: f = f0 + f1 cos(phi) + f2 cos(2 phi) (eq. 9), from
+    the exact H-functions and the constants of :func:`constants`:
+      f0 = H0 H0 Q0(mu_i, mu_o) / (2 pi (mu_i + mu_o))  (eq. 30),
+      f1 = c H1 H1 S (1 + l (mu_i+mu_o) + (l^2 + 45m/64) mu_i mu_o) / (3 pi (mu_i + mu_o)),
+      f2 = 15 c H2 H2 S^2 / (256 pi (mu_i + mu_o)).
+    mu_i, mu_o in [0, 1], c in [0, 1]; broadcast.  Reciprocal in (mu_i, mu_o).
+    """
+    return _modes(mu_i, mu_o, c, multiple_only=False)
+
+
+def multiple_scattering_modes(mu_i, mu_o, c):
+    """brdf_modes minus single_scattering_modes, computed without cancellation.
+
+    fm0 and fm1 are the terms the paper's runtime model keeps (eqs. 28, 38);
+    fm2 is the one it drops (eq. 21).  Each diverges like log(1/mu) as
+    mu_i = mu_o -> 0 (inf exactly at mu_i = mu_o = 0, c > 0).
+    """
+    return _modes(mu_i, mu_o, c, multiple_only=True)
+
+
+def brdf(mu_i, mu_o, phi, c):
+    """The reference Lambert-sphere BRDF (1/sr).
+
+    f = c p(u)/(mu_i + mu_o)  [exact single scattering, true phase function, eq. 10]
+        + fm0 + fm1 cos(phi) + fm2 cos(2 phi)  [exact multiple scattering of the
+          three-term half space, all three orders].
+    u = -(mu_i mu_o + S cos phi); phi = 0 is back-scattering.  mu_i, mu_o in
+    [0, 1], phi any real (radians), c in [0, 1]; broadcast.  +inf at the pole
+    mu_i = mu_o = 0 (c > 0, p(u) > 0).
+    """
+    mu_i, mu_o = check_cosines(mu_i, mu_o)
+    phi = np.asarray(phi, dtype=float)
+    if np.any(~np.isfinite(phi)):
+        raise ValueError("phi must be finite (radians)")
+    c = check_albedo(c)
+    mu_i, mu_o, phi, c = np.broadcast_arrays(mu_i, mu_o, phi, c)
+    cos_phi = np.cos(phi)
+    s = np.sqrt((1.0 - mu_i * mu_i) * (1.0 - mu_o * mu_o))
+    u = -(mu_i * mu_o + s * cos_phi)
+    pole = (mu_i + mu_o) == 0.0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        single = c * phase_function(u) / (mu_i + mu_o)
+        fm0, fm1, fm2 = multiple_scattering_modes(mu_i, mu_o, c)
+        out = np.asarray(single + fm0 + fm1 * cos_phi + fm2 * np.cos(2.0 * phi))
+    # At mu_i = mu_o = 0 the log poles of fm0 + fm1 cos + fm2 cos 2phi add up to
+    # c^2 (0.1453 - 0.1111 cos phi + 0.0034 cos 2phi) log(1/mu) / pi > 0: +inf.
+    out[pole] = np.where(c[pole] > 0.0, np.inf, 0.0)
+    return out

@@ -1,0 +1,232 @@
+r"""The constants of the exact three-term BRDF, from moments of H0 and H1.
+
+Derivation (docs/derivation.md gives it in full).  The invariance principle for
+Fourier order m of a half space with phase function sum_l varpi_l P_l gives, with
+varpi_l^m = varpi_l (l-m)!/(l+m)! and Chandrasekhar's azimuth convention,
+
+    4 pi (mu + mu0) f^m(mu, mu0) = (2 - delta_m0) sum_l (-1)^(l+m) varpi_l^m psi_l(mu) psi_l(mu0),
+    psi_l(mu) = P_l^m(mu) + (-1)^(l+m) (2pi/(2-delta_m0)) mu int_0^1 f^m(mu, mu') P_l^m(mu') dmu'.
+
+Multiplying the first line by P_k^m(mu0), integrating, and using the Legendre
+recurrence gives, for l = m..N-1 with beta_kl = int_0^1 psi_k P_l^m,
+
+    (2l+1) mu psi_l - (l-m+1) psi_(l+1) - (l+m) psi_(l-1)
+        = (-1)^(l+m) (2l+1) (mu/2) sum_k (-1)^(k+m) varpi_k^m beta_kl psi_k(mu).
+
+With the classical structure psi_l = H_m(mu) (1-mu^2)^(m/2) r_l(mu), r_l a
+polynomial of degree <= N - m and r_l(0) = P_l^m(0)/(1)^(m/2) (because H(0) = 1 and
+the integral term vanishes at mu = 0), beta_kl is a linear combination of the
+moments alpha_n = int_0^1 H_m(mu) mu^n dmu, and the recurrence becomes a small
+algebraic system for the coefficients of r_l, solved here by Newton's method.
+
+Order 1, explicitly (r_1 = 1 + l mu, r_2 = b mu, m = b^2/9, gamma = alpha_1 - alpha_3,
+delta = alpha_0 - alpha_2 of H1):  l = -(5c/64) b^2 gamma,  b = 3 + c (delta + l gamma),
+i.e. (5 c^2 gamma^2/64) b^2 + b - (3 + c delta) = 0.
+
+The same structure yields two identities that involve no moment at all, used as
+tests: Psi_m(mu) = (1/2) sum_l (-1)^(l+m) varpi_l^m (1-mu^2)^m r_l(mu) r_l(-mu)
+(for m = 1 this is l^2 + 45 m / 64 = (45 + 20 c)/64), and A = Psi_0(0) = 69c/128,
+E = the mu^4 coefficient of Psi_0.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import lru_cache
+
+import numpy as np
+from numpy.polynomial import polynomial as P
+
+from fitlab.families.lambert_sphere.exact.characteristic import check_albedo, lambert_sphere_characteristic
+from fitlab.families.lambert_sphere.exact.hfunction import HSolution, solve_h
+from fitlab.families.lambert_sphere.exact.phase import MAX_DEGREE, associated_legendre_reduced, legendre_weights
+
+__all__ = ["constants", "mode_polynomials", "ModePolynomials", "CONSTANT_NAMES"]
+
+CONSTANT_NAMES = ("H0_inf", "l", "m", "A", "B", "C", "D", "E", "F")
+
+
+@dataclass(frozen=True)
+class ModePolynomials:
+    """r_l(mu) for one Fourier order, and the bilinear form they define.
+
+    f^m(mu_i, mu_o) = H(mu_i) H(mu_o) g(mu_i) g(mu_o) / (mu_i + mu_o)
+                      * sum_jk matrix[j, k] mu_i^j mu_o^k,
+    g(mu) = (1 - mu^2)^(m/2), in the SPEC azimuth convention (phi = 0 backward).
+    """
+
+    order: int
+    c: float
+    r: dict  # l -> coefficients (low -> high)
+    matrix: np.ndarray
+    residual: float
+
+
+def _beta(h_moments, m, rk, l):
+    q = P.polymul(P.polymul(rk, associated_legendre_reduced(l, m)), P.polypow([1.0, 0.0, -1.0], m))
+    return float(np.dot(q, h_moments[: q.size]))
+
+
+def _residuals(x, m, w, alpha, frozen=()):
+    ls = list(range(m, MAX_DEGREE + 1))
+    deg = MAX_DEGREE - m
+    r = {}
+    i = 0
+    for l in ls:
+        r0 = associated_legendre_reduced(l, m)[0]
+        if l in frozen:
+            r[l] = np.zeros(deg + 1)
+            continue
+        r[l] = np.concatenate(([r0], x[i : i + deg]))
+        i += deg
+    out = []
+    for l in ls[:-1]:
+        beta = {k: _beta(alpha, m, r[k], l) for k in ls}
+        lhs = P.polysub(
+            P.polymul([0.0, 2 * l + 1.0], r[l]),
+            P.polyadd((l - m + 1.0) * r[l + 1], (l + m) * r.get(l - 1, np.zeros(1))),
+        )
+        s = np.zeros(1)
+        for k in ls:
+            s = P.polyadd(s, (-1.0) ** (k + m) * w[k] * beta[k] * r[k])
+        rhs = P.polymul([0.0, (-1.0) ** (l + m) * (2 * l + 1) / 2.0], s)
+        d = P.polysub(lhs, rhs)
+        out.append(np.pad(d, (0, deg + 2 - d.size)))
+    return np.concatenate(out) if out else np.zeros(0), r
+
+
+def _default_start(m, frozen=()):
+    # c -> 0 limit: r_l = reduced P_l^m
+    deg = MAX_DEGREE - m
+    ls = [l for l in range(m, MAX_DEGREE + 1) if l not in frozen]
+    return np.concatenate([np.pad(associated_legendre_reduced(l, m), (0, deg + 1))[1 : deg + 1] for l in ls])
+
+
+def _newton(x, m, w, alpha, frozen=()):
+    """Newton on the recurrence from start x; returns (x, max residual)."""
+    if x.size == 0:
+        return x, 0.0
+    for _ in range(50):
+        f, _ = _residuals(x, m, w, alpha, frozen)
+        jac = np.empty((f.size, x.size))
+        for j in range(x.size):
+            step = 1e-7 * max(1.0, abs(x[j]))
+            xp = x.copy()
+            xp[j] += step
+            xm = x.copy()
+            xm[j] -= step
+            jac[:, j] = (_residuals(xp, m, w, alpha, frozen)[0] - _residuals(xm, m, w, alpha, frozen)[0]) / (2 * step)
+        dx = np.linalg.lstsq(jac, -f, rcond=None)[0]
+        x = x + dx
+        if np.max(np.abs(dx)) < 1e-15 * max(1.0, np.max(np.abs(x))):
+            break
+    f, _ = _residuals(x, m, w, alpha, frozen)
+    return x, float(np.max(np.abs(f))) if f.size else 0.0
+
+
+#: a converged solution has a residual at rounding level (~1e-16); Newton that
+#: stalls far above this has not found the physical root and is never accepted
+RESIDUAL_TOLERANCE = 1e-12
+
+# Continuation ladder in s = sqrt(1 - c), fixed so that results do not depend on
+# the order in which c values are asked for: 0.5, 0.48, ..., 0.02, then halving.
+_LADDER = tuple(np.round(0.5 - 0.02 * np.arange(25), 12)) + tuple(0.02 / 2.0 ** np.arange(1, 40))
+
+
+def _moment_data(m, c):
+    sol: HSolution = solve_h(lambert_sphere_characteristic(m, c))
+    alpha = np.array([sol.moment(n) for n in range(2 * MAX_DEGREE + 2 * m + 1)])
+    return legendre_weights(m, c), alpha
+
+
+@lru_cache(maxsize=None)
+def _ladder_solution(m, k):
+    """Converged unknowns at ladder point k, each from the one before (k = 0 directly)."""
+    s = _LADDER[k]
+    x = _default_start(m) if k == 0 else _ladder_solution(m, k - 1)
+    x, res = _newton(x, m, *_moment_data(m, 1.0 - s * s))
+    if res > RESIDUAL_TOLERANCE:
+        raise RuntimeError(f"moment relations of order {m}: continuation failed at s = {s} (residual {res:.1e})")
+    return x
+
+
+def _solve_unknowns(m, c, frozen=()):
+    """The r_l coefficients at albedo c.
+
+    Newton from the c -> 0 limit is used for s = sqrt(1 - c) >= 0.5.  Closer to
+    c = 1 (order 0 has a fold at c = 1) it can stall on a non-solution, so there
+    the solution is continued along the fixed ladder in s from s = 0.5 down to
+    the ladder point just above s, and Newton finishes from there.  At c = 1 the
+    reduced (frozen) system is regular and solved directly.
+    """
+    w, alpha = _moment_data(m, c)
+    s = np.sqrt(1.0 - c)
+    if frozen or s >= _LADDER[0]:
+        x = _default_start(m, frozen)
+    else:
+        x = _ladder_solution(m, max(i for i, sk in enumerate(_LADDER) if sk >= s)).copy()
+    x, res = _newton(x, m, w, alpha, frozen)
+    if res > RESIDUAL_TOLERANCE:
+        raise RuntimeError(f"moment relations of order {m} at c = {c!r}: no convergence (residual {res:.1e})")
+    return x, res
+
+
+@lru_cache(maxsize=4096)
+def mode_polynomials(order: int, c: float) -> ModePolynomials:
+    """Solve the moment relations of Fourier order ``order`` at albedo c."""
+    c = float(c)
+    m = order
+    # At c = 1 the order-0 system has a fold: r_1 ~ sqrt(1 - c) and the Jacobian
+    # is singular, so Newton would stop at sqrt(eps) ~ 1e-8.  There r_1 = 0
+    # exactly (psi_1 vanishes in the conservative limit) and the remaining
+    # system for r_0, r_2 is regular.
+    frozen = (1,) if (m == 0 and c == 1.0) else ()
+    x, res = _solve_unknowns(m, c, frozen)
+    w, alpha = _moment_data(m, c)
+    _, r = _residuals(x, m, w, alpha, frozen)
+    deg = MAX_DEGREE - m
+    matrix = np.zeros((deg + 1, deg + 1))
+    for l, rl in r.items():
+        rl = np.pad(rl, (0, deg + 1 - rl.size))
+        matrix += (-1.0) ** (l + m) * w[l] * np.outer(rl, rl)
+    # (2 - delta)/(4 pi) and (-1)^m for the SPEC azimuth (phi = 0 backward)
+    matrix *= (-1.0) ** m * (1.0 if m == 0 else 2.0) / (4.0 * np.pi)
+    return ModePolynomials(m, c, r, matrix, res)
+
+
+def _constants_scalar(c: float) -> dict:
+    k0 = lambert_sphere_characteristic(0, c).k0
+    m0 = mode_polynomials(0, c).matrix * 2.0 * np.pi
+    r1 = mode_polynomials(1, c).r
+    out = {
+        "H0_inf": np.inf if k0 == 0.0 else 1.0 / np.sqrt(k0),
+        "l": float(r1[1][1]),
+        "m": float(r1[2][1] ** 2 / 9.0),
+        "A": m0[0, 0],
+        "B": m0[0, 1],
+        "C": m0[1, 1],
+        "D": m0[1, 2],
+        "E": m0[2, 2],
+        "F": m0[0, 2],
+    }
+    return out
+
+
+def constants(c):
+    """Exact constants of the three-term BRDF at particle albedo c in [0, 1].
+
+    Returns a dict with keys H0_inf (eq. 32), l, m (eq. 22), A..F (eq. 30); each
+    value has the shape of c.  Conventions, with the normalisations settled in
+    docs/errata.md:
+
+      f0 = H0(mu_i) H0(mu_o) / (2 pi (mu_i + mu_o)) * (A + B (mu_i + mu_o) + C mu_i mu_o
+           + D mu_i mu_o (mu_i + mu_o) + E mu_i^2 mu_o^2 + F (mu_i^2 + mu_o^2))
+      f1 = c H1(mu_i) H1(mu_o) S (1 + (l^2 + 45 m/64) mu_i mu_o + l (mu_i + mu_o))
+           / (3 pi (mu_i + mu_o))
+
+    (f1 with 3 pi, not the 6 pi printed in eq. 22).  H0_inf is inf at c = 1.
+    """
+    c = check_albedo(c)
+    flat = c.ravel()
+    rows = [_constants_scalar(float(cv)) for cv in flat]
+    return {k: np.array([row[k] for row in rows]).reshape(c.shape) for k in CONSTANT_NAMES}

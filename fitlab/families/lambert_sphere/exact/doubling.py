@@ -1,0 +1,91 @@
+r"""Second, independent route to the three-term half space: discrete ordinates
+with doubling.  No H-function, no invariance principle, no moment relation.
+
+For Fourier order m the radiative transfer equation on a graded Gauss rule
+{mu_i, w_i} reads d/dtau [I+; I-] = [[a, -b], [b, -a]] [I+; I-], with
+a = M^-1 (1 - P+), b = M^-1 P-, P+-_ij = (1/2) Phi^m(mu_i, +-mu_j) w_j and
+Phi^m(mu, mu') = sum_l varpi_l^m P_l^m(mu) P_l^m(mu').  A layer of thickness
+tau_0 = 2^-60 is solved by single scattering with exact exponentials; doubling
+(R' = R + T R (1 - R R)^-1 T, T' = T (1 - R R)^-1 T) then builds slabs of
+thickness tau_0 2^k, the direct beam exp(-tau/mu) kept apart from the diffuse
+transmission so that no digit is lost, until R stops changing (tau up to 2^55, far beyond the
+diffusion length even at c = 1 - 1e-12; at c = 1 the reflection deficit of a
+slab falls like 1/tau).  The BRDF at node pairs is
+
+    f^m(mu_i, mu_j) = (2 - delta_m0) (-1)^m R_ij / (2 pi mu_j w_j)
+
+((-1)^m turns Chandrasekhar's azimuth into SPEC's, phi = 0 backward).  This is
+the reflection of the discretised problem: it converges to the exact BRDF as the
+rule is refined, a few 1e-11 relative on the default rule (tests).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import lru_cache
+
+import numpy as np
+
+from fitlab.families.lambert_sphere.exact._quadrature import graded_gauss
+from fitlab.families.lambert_sphere.exact.phase import MAX_DEGREE, associated_legendre_reduced, legendre_weights
+
+__all__ = ["doubling_reflection", "DoublingResult"]
+
+
+@dataclass(frozen=True)
+class DoublingResult:
+    order: int
+    c: float
+    nodes: np.ndarray
+    weights: np.ndarray
+    brdf: np.ndarray  # f^m at (nodes[i], nodes[j]), SPEC azimuth convention
+    thickness: float
+    doublings: int
+
+
+def _assoc(l, m, mu):
+    return (1.0 - mu * mu) ** (m / 2.0) * np.polynomial.polynomial.polyval(mu, associated_legendre_reduced(l, m))
+
+
+@lru_cache(maxsize=256)
+def doubling_reflection(order: int, c: float, nodes_per_panel: int = 12, smallest: float = 1e-7) -> DoublingResult:
+    """Half-space reflection of Fourier order m by discrete ordinates + doubling."""
+    m = int(order)
+    c = float(c)
+    mu, w = graded_gauss(nodes_per_panel, 0.25, smallest)
+    n = mu.size
+    wl = legendre_weights(m, c)
+    phi_pp = sum(wl[l] * np.outer(_assoc(l, m, mu), _assoc(l, m, mu)) for l in wl)
+    phi_pm = sum(wl[l] * (-1.0) ** (l + m) * np.outer(_assoc(l, m, mu), _assoc(l, m, mu)) for l in wl)
+    p_plus = 0.5 * phi_pp * w[None, :]
+    p_minus = 0.5 * phi_pm * w[None, :]
+    a = (np.eye(n) - p_plus) / mu[:, None]
+    b = p_minus / mu[:, None]
+    gen = np.block([[a, -b], [b, -a]])
+    # Thin starting layer: single scattering with exact exponentials; the
+    # neglected double scattering is O(tau sum_k w_k/mu_k) ~ 1e-16 relative.
+    tau = 2.0**-60
+    inv = 1.0 / mu
+    r = 0.5 * phi_pm * (w * mu)[None, :] / (mu[:, None] + mu[None, :]) * -np.expm1(-tau * (inv[:, None] + inv[None, :]))
+    x = tau * (inv[:, None] - inv[None, :])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        rel = np.where(x == 0.0, 1.0, np.expm1(x) / x)
+    td = 0.5 * phi_pp * w[None, :] * (tau * inv)[:, None] * np.exp(-tau * inv)[:, None] * rel
+    d = np.exp(-tau * inv)  # direct transmission, kept apart from the diffuse part
+    eye = np.eye(n)
+    k = 0
+    while True:
+        k += 1
+        g = np.linalg.solve(eye - r @ r, eye)
+        t = td + np.diag(d)
+        r_new = r + t @ (r @ g) @ t
+        rrg = r @ r @ g
+        td = d[:, None] * rrg * d[None, :] + (td @ g) * d[None, :] + d[:, None] * (g @ td) + td @ g @ td
+        tau *= 2.0
+        d = np.exp(-tau * inv)  # not d*d: exp(-2^-60/mu) rounds to 1
+        change = np.max(np.abs(r_new - r))
+        r = r_new
+        if (change <= 1e-17 * np.max(np.abs(r)) and tau > 1e3) or tau > 2.0**55:
+            break
+    f = (1.0 if m == 0 else 2.0) * (-1.0) ** m * r / (2.0 * np.pi * (mu * w)[None, :])
+    return DoublingResult(m, c, mu, w, f, tau, k)

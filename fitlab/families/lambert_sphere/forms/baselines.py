@@ -1,0 +1,30 @@
+r"""Height-field baselines the Lambert-sphere BRDF is compared with (SPEC 8),
+each one sympy expression in (mu_i, mu_o, cos_phi, kd), f in 1/sr.
+
+* Lambert: kd / pi.
+* Oren-Nayar, the qualitative model (RTR ch. 9), facet-slope deviation sigma (radians):
+  f = kd/pi (A + B max(0, cos phi) sin(alpha) tan(beta)),
+  A = 1 - sigma^2 / (2 (sigma^2 + 0.33)), B = 0.45 sigma^2 / (sigma^2 + 0.09),
+  alpha = max(theta_i, theta_o), beta = min(theta_i, theta_o); tan(beta) divides by
+  max(mu_i, mu_o), floored at 1e-6 so that grazing pairs stay finite.
+"""
+
+from __future__ import annotations
+
+import sympy as sp
+
+from fitlab.forms.symbolic import symbols
+
+__all__ = ["BASELINE_INPUTS", "LAMBERT", "oren_nayar"]
+
+BASELINE_INPUTS = ("mu_i", "mu_o", "cos_phi", "kd")
+mu_i, mu_o, cos_phi, kd = symbols(BASELINE_INPUTS)
+
+LAMBERT = kd / sp.pi
+
+
+def oren_nayar(sigma=sp.Rational(1, 2)) -> sp.Expr:
+    s2 = sp.nsimplify(sigma) ** 2
+    a, b = 1 - s2 / (2 * (s2 + sp.Rational(33, 100))), sp.Rational(45, 100) * s2 / (s2 + sp.Rational(9, 100))
+    lo, hi = sp.Min(mu_i, mu_o), sp.Max(sp.Max(mu_i, mu_o), sp.Rational(1, 10**6))
+    return kd / sp.pi * (a + b * sp.Max(0, cos_phi) * sp.sqrt(1 - lo**2) * sp.sqrt(1 - hi**2) / hi)

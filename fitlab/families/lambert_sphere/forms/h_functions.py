@@ -1,0 +1,124 @@
+r"""Forms for H0 and H1 as functions of (mu, c), mu in [0, 1], c in [0, 1].
+
+s = sqrt(1 - c) throughout (SPEC 6).
+"""
+
+from __future__ import annotations
+
+import sympy as sp
+
+from fitlab.forms.form import Form
+from fitlab.forms.symbolic import safe_pow, symbols
+
+mu, c = symbols(("mu", "c"))
+s = sp.sqrt(1 - c)
+
+#: 1/H0(inf) from eq. 32, exact: s sqrt((16 - c)(4c + 9))/12; zero at c = 1,
+#: where H0(inf) is infinite, so the form divides by nothing singular.
+INV_H0_INF = s * sp.sqrt((16 - c) * (4 * c + 9)) / 12
+
+
+def _hapke() -> Form:
+    a1, a2, a3, a4, a5, d1, d2, d3, d4, d5, d6 = symbols(
+        ("a1", "a2", "a3", "a4", "a5", "d1", "d2", "d3", "d4", "d5", "d6")
+    )
+    a = (a1 * safe_pow(s, a2) + a3) / (a4 - a5 * s)
+    d = (d1 - d2 * safe_pow(s, d3)) / (d4 - d5 * safe_pow(s, d6))
+    x = a * safe_pow(mu, d)
+    paper = dict(
+        a1=1.50112, a2=6.05435, a3=8.21644, a4=4.17593, a5=1.21222,
+        d1=7.7731, d2=0.565811, d3=0.961546, d4=8.65912, d5=0.159974, d6=7.0,
+    )  # fmt: skip
+    return Form(
+        target="H0",
+        name="hapke",
+        inputs=("mu", "c"),
+        params=("a1", "a2", "a3", "a4", "a5", "d1", "d2", "d3", "d4", "d5", "d6"),
+        expr=(1 + x) / (1 + x * INV_H0_INF),
+        presets={"paper": paper},
+        # a and d are each a ratio: one scale per ratio is redundant.
+        fixed={"a4": paper["a4"], "d4": paper["d4"]},
+        description=(
+            "Hapke-style H0 (eq. 31): (1 + a mu^d)/(1 + a mu^d/H0(inf)), H0(inf) exact (eq. 32), "
+            "a = (a1 s^a2 + a3)/(a4 - a5 s), d = (d1 - d2 s^d3)/(d4 - d5 s^d6). "
+            "Exact at mu = 0 (H0 = 1) and as mu -> inf; a4, d4 fix the scales of the two ratios."
+        ),
+    )
+
+
+def _hapke_rational() -> Form:
+    # A richer member of the same family: a and d quadratic-over-linear in s,
+    # plus a mu^2 d term in numerator and denominator.  Same limits as eq. 31.
+    names = ("a0", "a1", "a2", "a3", "d0", "d1", "d2", "d3", "b0", "b1")
+    a0, a1, a2, a3, d0, d1, d2, d3, b0, b1 = symbols(names)
+    a = (a0 + a1 * s + a2 * s**2) / (1 + a3 * s)
+    d = (d0 + d1 * s + d2 * s**2) / (1 + d3 * s)
+    b = b0 + b1 * s
+    x = a * safe_pow(mu, d)
+    y = b * safe_pow(mu, 2 * d)
+    # start near eq. 31: a(0) = 8.21644/4.17593, d(0) = 7.7731/8.65912, similar values at s = 1
+    start = dict(a0=1.9676, a1=0.0, a2=0.5, a3=-0.2903, d0=0.8977, d1=-0.05, d2=0.0, d3=0.0, b0=0.0, b1=0.0)
+    return Form(
+        target="H0",
+        name="hapke_rational",
+        inputs=("mu", "c"),
+        params=names,
+        expr=(1 + x + y) / (1 + (x + y) * INV_H0_INF),
+        start=start,
+        description=(
+            "H0 = (1 + a mu^d + b mu^(2d))/(1 + (a mu^d + b mu^(2d))/H0(inf)), a, d quadratic over linear "
+            "in s, b linear in s: eq. 31 with two more degrees of freedom in a, d and a second power of mu."
+        ),
+    )
+
+
+def _h1_exponent():
+    e0, e1, e2, e3 = symbols(("e0", "e1", "e2", "e3"))
+    return e0 + e1 * mu + e2 * mu**2 + e3 * mu**3
+
+
+_H1_PAPER = dict(k1=-0.144839, k2=0.0242851, e0=0.459442, e1=-1.07879, e2=1.85728, e3=-1.12831)
+_H1_RENDERER = dict(
+    k1=-0.14483935877260054, k2=0.024285125615255733,
+    e0=0.45944184025347456, e1=-1.0787917226917565, e2=1.8572804924335546, e3=-1.1283119660147671,
+)  # fmt: skip
+
+
+def _h1_separable() -> Form:
+    k1, k2 = symbols(("k1", "k2"))
+    return Form(
+        target="H1",
+        name="separable",
+        inputs=("mu", "c"),
+        params=("k1", "k2", "e0", "e1", "e2", "e3"),
+        expr=sp.exp((k1 * c + k2 * c**2) * safe_pow(mu, _h1_exponent())),
+        presets={"renderer": _H1_RENDERER, "paper": _H1_PAPER},
+        description=(
+            "Separable H1 as the author's renderer evaluates it: exp((k1 c + k2 c^2) mu^e(mu)), "
+            "e a cubic in mu (eqs. 23-25, renderer reading). H1 = 1 at mu = 0 and at c = 0 exactly; "
+            "the 'paper' preset is the same function with the printed (rounded) coefficients."
+        ),
+    )
+
+
+def _h1_separable_printed() -> Form:
+    k1, k2, h = symbols(("k1", "k2", "h"))
+    params = ("k1", "k2", "h", "e0", "e1", "e2", "e3")
+    paper = dict(_H1_PAPER, h=-0.0894878)
+    return Form(
+        target="H1",
+        name="separable_printed",
+        inputs=("mu", "c"),
+        params=params,
+        expr=sp.exp(k1 * c + k2 * c**2) * sp.exp(h * safe_pow(mu, _h1_exponent())),
+        presets={"paper": paper, "paper_variant": dict(paper, k2=0.242851)},
+        description=(
+            "Separable H1 as printed (eqs. 23-25): H1(1) Hc1(mu), H1(1) = exp(k1 c + k2 c^2), "
+            "Hc1 = exp(h mu^e(mu)); 'paper_variant' is the other version's 0.242851 c^2. The shape cannot give "
+            "H1 = 1 at c = 0 (Hc1 does not depend on c), so its floor is several per cent."
+        ),
+        refit_by_default=False,
+    )
+
+
+FORMS = (_hapke(), _hapke_rational(), _h1_separable(), _h1_separable_printed())

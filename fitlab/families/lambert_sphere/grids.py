@@ -1,0 +1,113 @@
+r"""Exact values of the Lambert-sphere targets on tensor grids (for residual maps).
+
+``exact_grid(target)(axes)`` takes 1-D axes by name and returns (inputs on the
+grid, exact values, aux): the inputs include those that follow from the axes
+(kd = kd_true(c) for ``fast_brdf``; for ``c_of_kd`` the axis is c and the input
+is kd_true(c), the exact pair being (kd_true(c), c)).
+"""
+
+from __future__ import annotations
+
+from functools import lru_cache
+
+import numpy as np
+
+from fitlab.families.lambert_sphere.exact import (
+    brdf,
+    brdf_modes,
+    constants,
+    h_function,
+    multiple_scattering_modes,
+    spherical_albedo,
+)
+
+__all__ = ["exact_grid", "GRID_AXES"]
+
+#: targets whose grid axes differ from their inputs (an input follows from another)
+GRID_AXES = {"c_of_kd": ("c",), "fast_brdf": ("mu_i", "mu_o", "phi", "c"), "brdf": ("mu_i", "mu_o", "phi", "c")}
+
+
+def _check_pole(g: dict) -> None:
+    if np.any((g["mu_i"] == 0.0) & (g["mu_o"] == 0.0)):
+        raise ValueError(
+            "the grid holds mu_i = mu_o = 0, the pole of the BRDF (the exact value is infinite there); "
+            "leave 0 out of one of the two axes"
+        )
+
+
+@lru_cache(maxsize=8)
+def _constants(c: tuple) -> dict:
+    """constants() on a c axis, once for all six constant targets."""
+    return constants(np.array(c))
+
+
+def _mesh(axes: dict) -> dict:
+    return dict(zip(axes, np.meshgrid(*axes.values(), indexing="ij")))
+
+
+def _h(order: int):
+    def grid(axes):
+        g = _mesh(axes)
+        return g, h_function(order, g["mu"], g["c"]), {}
+
+    return grid
+
+
+def _constant(name: str):
+    def grid(axes):
+        return _mesh(axes), _constants(tuple(np.asarray(axes["c"], dtype=float)))[name].copy(), {}
+
+    return grid
+
+
+def _kd_of_c(axes):
+    g = _mesh(axes)
+    return g, spherical_albedo(g["c"], model="true"), {}
+
+
+def _c_of_kd(axes):
+    c = np.asarray(axes["c"], dtype=float)
+    kd = spherical_albedo(c, model="true")
+    if np.any(kd > 1.0):
+        raise ValueError(
+            f"kd_true(c) > 1 at c = {c[kd > 1.0]} (kd_true(1) = 1 + 1e-5, docs/errata.md), outside "
+            "the domain kd <= 1 of c_of_kd; leave those c out"
+        )
+    return {"kd": kd}, c.copy(), {}
+
+
+def _fm1(axes):
+    g = _mesh(axes)
+    _check_pole(g)
+    y = multiple_scattering_modes(g["mu_i"], g["mu_o"], g["c"])[1]
+    return g, y, {"f0": brdf_modes(g["mu_i"], g["mu_o"], g["c"])[0]}
+
+
+def _brdf(with_kd: bool):
+    def grid(axes):
+        g = _mesh(axes)
+        _check_pole(g)
+        y = brdf(g["mu_i"], g["mu_o"], g["phi"], g["c"])
+        if with_kd:
+            c = np.asarray(axes["c"], dtype=float)
+            g["kd"] = np.broadcast_to(spherical_albedo(c, model="true"), y.shape).copy()
+        return g, y, {}
+
+    return grid
+
+
+_GRIDS = {
+    "H0": _h(0),
+    "H1": _h(1),
+    **{n: _constant(n) for n in ("l", "m", "B", "C", "D", "F")},
+    "kd_of_c": _kd_of_c,
+    "c_of_kd": _c_of_kd,
+    "fm1": _fm1,
+    "fast_brdf": _brdf(True),
+    "brdf": _brdf(False),
+}
+
+
+def exact_grid(target: str):
+    """The grid function of ``target`` (see the module docstring)."""
+    return _GRIDS[target]

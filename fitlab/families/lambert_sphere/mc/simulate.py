@@ -1,0 +1,232 @@
+r"""The ``fitlab simulate`` driver: run the jobs a scene's effects need, each
+until its effects reach their standard-error target (or the path budget),
+then compare with the exact engine and write a CSV and one PNG per effect.
+
+Stopping rule, per job: after every round of ``batch`` photons, the job stops
+when every effect that uses it has all its Monte Carlo rows at or below that
+effect's ``target_se`` (absolute, in the unit of the row: 1/sr for BRDF
+values, 1 for albedos), with at least 10 000 photons; a bin no photon
+reached (no error estimate) must have its rule-of-three bound 3/(N x bin
+measure) below the target; or when it has used ``max_paths`` photons (then
+the rows say converged = False).
+
+Timing: each job's wall time (compilation reported apart) is charged to every
+effect that uses it; the summary lists per effect the jobs, paths and
+seconds, and the seconds of the exact references.  Nothing is written until
+the run and the references are complete; every file is written atomically.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+import time
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+import numpy as np
+
+from fitlab._io import atomic_write_text
+from fitlab.families.lambert_sphere.mc.effects import ROW_FIELDS, attach_reference, effect_jobs, estimate_rows, plan
+from fitlab.families.lambert_sphere.mc.scene import Scene, load_scene
+from fitlab.families.lambert_sphere.mc.transport import compile_walk, default_mesh, run_round
+
+__all__ = ["SimulationResult", "simulate", "simulate_file", "write_outputs", "SUMMARY_FIELDS"]
+
+MIN_PHOTONS = 10_000
+SUMMARY_FIELDS = ("effect", "jobs", "paths", "collisions", "seconds", "compile_seconds", "reference_seconds",
+                  "target_se", "worst_se", "converged", "max_abs_z_ref", "capped_weight")
+
+
+@dataclass
+class JobStats:
+    paths: int = 0
+    collisions: int = 0
+    capped: int = 0
+    seconds: float = 0.0
+    compile_seconds: float = 0.0
+    rounds: int = 0
+    converged: bool = False
+
+
+@dataclass
+class SimulationResult:
+    scene: Scene
+    rows: dict = field(default_factory=dict)  # effect -> list of rows
+    summary: list = field(default_factory=list)  # one dict per effect
+    jobs: dict = field(default_factory=dict)  # Job -> JobStats
+    wall_seconds: float = 0.0
+
+
+def _accumulate(acc, new):
+    if acc is None:
+        return {k: np.array(v, copy=True) for k, v in new.items()}
+    for k, v in new.items():
+        acc[k] = acc[k] + v
+    return acc
+
+
+def _effect_done(effect, scene, rows, target):
+    """(done, worst se) for an effect's rows of one job.
+
+    A row no photon has reached (se = 0: an empty bin) has no error estimate;
+    it counts as done when the rule-of-three bound on its mean, 3/(N norm)
+    (95 % upper limit for zero events of weight <= 1), is below the target.
+    """
+    worst = 0.0
+    for r in rows:
+        if r.get("_diag"):
+            continue
+        if r["se"] == 0.0:
+            bound = 3.0 / (r["_n"] * r.get("_norm", 1.0))
+            if bound > target:
+                return False, math.inf
+            continue
+        worst = max(worst, r["se"])
+    return worst <= target, worst
+
+
+def simulate(scene: Scene, progress: bool = True, mesh=None) -> SimulationResult:
+    """Run the scene; returns rows and summary (writes nothing)."""
+    t_start = time.perf_counter()
+    mesh = mesh or default_mesh()
+    jobs = plan(scene)
+    users = {job: [e for e in scene.effects if job in effect_jobs(scene, e)] for job in jobs}
+    results, stats = {}, {job: JobStats() for job in jobs}
+    bar = None
+    if progress:
+        from tqdm import tqdm
+
+        bar = tqdm(total=len(jobs) * scene.max_paths, unit="path", unit_scale=True, desc=scene.name,
+                   disable=not jobs)
+    try:
+        for k, (job, cfg) in enumerate(sorted(jobs.items(), key=lambda kv: kv[0].stream)):
+            st = stats[job]
+            st.compile_seconds = compile_walk(cfg, mesh)
+            mat = scene.materials[job.material]
+            mu_i = scene.mu_i[job.incident] if job.incident >= 0 else 0.0
+            while st.paths < scene.max_paths:
+                n = min(scene.batch, scene.max_paths - st.paths)
+                t0 = time.perf_counter()
+                res = run_round(cfg, scene.seed, job.stream + (st.rounds,), mat.c, mu_i, n, mesh=mesh)
+                st.seconds += time.perf_counter() - t0
+                st.rounds += 1
+                results[job] = _accumulate(results.get(job), res)
+                st.paths = int(results[job]["photons"])
+                st.collisions = int(results[job]["collisions"])
+                st.capped = int(results[job]["n_capped"])
+                done, ratio = True, 0.0
+                for e in users[job]:
+                    rows = estimate_rows(e, scene, {job: results[job]})
+                    ok, worst = _effect_done(e, scene, rows, scene.target_se[e])
+                    done &= ok
+                    ratio = max(ratio, worst / scene.target_se[e])
+                if bar is not None:
+                    bar.update(n)
+                    bar.set_postfix_str(f"job {k + 1}/{len(jobs)} ({job.kind}, {mat.label}) se/target={ratio:.2f}")
+                if done and st.paths >= MIN_PHOTONS:
+                    st.converged = True
+                    break
+            if bar is not None and st.paths < scene.max_paths:
+                bar.update(scene.max_paths - st.paths)
+    finally:
+        if bar is not None:
+            bar.close()
+    out = SimulationResult(scene=scene, jobs=stats)
+    for e in scene.effects:
+        t0 = time.perf_counter()
+        rows = attach_reference(e, scene, estimate_rows(e, scene, results))
+        ref_s = time.perf_counter() - t0
+        ejobs = effect_jobs(scene, e)
+        for r in rows:
+            job = r.get("_job")
+            if job is not None:
+                st = stats[job]
+                r.update(paths=st.paths, collisions=st.collisions, seconds=round(st.seconds, 3),
+                         converged=st.converged)
+            else:
+                r.update(paths=0, collisions=0, seconds=0.0, converged=True)
+        real = [r for r in rows if not r.get("_diag") and r["se"] > 0]
+        zs = [abs(r["z_ref"]) for r in real if math.isfinite(r["z_ref"])]
+        capped = [r["estimate"] for r in rows if r["quantity"] == "capped"]
+        out.rows[e] = rows
+        out.summary.append(dict(
+            effect=e, jobs=len(ejobs), paths=sum(stats[j].paths for j in ejobs),
+            collisions=sum(stats[j].collisions for j in ejobs),
+            seconds=round(sum(stats[j].seconds for j in ejobs), 3),
+            compile_seconds=round(sum(stats[j].compile_seconds for j in ejobs), 3),
+            reference_seconds=round(ref_s, 3),
+            target_se=scene.target_se.get(e, 0.0),
+            worst_se=max((r["se"] for r in real), default=0.0),
+            converged=all(stats[j].converged for j in ejobs),
+            max_abs_z_ref=max(zs, default=math.nan),
+            capped_weight=max(capped, default=0.0),
+        ))
+    out.wall_seconds = time.perf_counter() - t_start
+    return out
+
+
+def _fmt(v):
+    if isinstance(v, float):
+        return "" if math.isnan(v) else f"{v:.10g}"
+    return str(v)
+
+
+def _csv(rows, fields):
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(fields)
+    for r in rows:
+        w.writerow([_fmt(r.get(f, "")) for f in fields])
+    return buf.getvalue()
+
+
+def write_outputs(result: SimulationResult, out_dir: Path, plots: bool = True) -> list:
+    """CSV of all rows, summary CSV, one PNG per effect; returns the paths written."""
+    from fitlab.families.lambert_sphere.mc.plots import plot_effect
+
+    out_dir = Path(out_dir)
+    name = result.scene.name
+    all_rows = [r for e in result.scene.effects for r in result.rows[e]]
+    paths = [out_dir / f"{name}.csv", out_dir / f"{name}_summary.csv"]
+    atomic_write_text(paths[0], _csv(all_rows, ROW_FIELDS))
+    atomic_write_text(paths[1], _csv(result.summary, SUMMARY_FIELDS))
+    if plots:
+        for e in result.scene.effects:
+            paths.append(plot_effect(e, result.rows[e], out_dir / f"{name}_{e}.png", name))
+    return paths
+
+
+def summary_table(result: SimulationResult) -> str:
+    """A plain-text table of the summary."""
+    head = f"{'effect':<18}{'jobs':>5}{'paths':>12}{'collisions':>13}{'seconds':>9}{'target':>9}{'worst se':>10}" \
+           f"{'conv':>6}{'max|z|':>8}"
+    lines = [head]
+    for s in result.summary:
+        lines.append(f"{s['effect']:<18}{s['jobs']:>5}{s['paths']:>12}{s['collisions']:>13}{s['seconds']:>9.2f}"
+                     f"{s['target_se']:>9.1e}{s['worst_se']:>10.2e}{'yes' if s['converged'] else 'NO':>6}"
+                     f"{s['max_abs_z_ref']:>8.2f}")
+    comp = sum(st.compile_seconds for st in result.jobs.values())
+    lines.append(f"wall {result.wall_seconds:.1f} s (compilation {comp:.1f} s), {len(result.jobs)} jobs")
+    return "\n".join(lines)
+
+
+def simulate_file(path, out_dir=None, progress=True, plots=True, target_se=None, max_paths=None, seed=None):
+    """Load, validate (all errors before any work), simulate, write.  Returns (result, paths)."""
+    scene = load_scene(path)
+    changes = {}
+    if target_se is not None:
+        if not target_se > 0:
+            raise ValueError("--target-se must be positive")
+        changes["target_se"] = {e: float(target_se) for e in scene.effects}
+    if max_paths is not None:
+        if max_paths < 1000:
+            raise ValueError("--max-paths must be >= 1000")
+        changes["max_paths"] = int(max_paths)
+    if seed is not None:
+        changes["seed"] = int(seed)
+    scene = replace(scene, **changes) if changes else scene
+    result = simulate(scene, progress=progress)
+    out_dir = Path(out_dir) if out_dir is not None else Path("mc_out") / scene.name
+    return result, write_outputs(result, out_dir, plots=plots)
