@@ -2,11 +2,10 @@
 
 First of all the Lambert-sphere BRDF (d'Eon, EGSR 2021).  Data flow:
 exact -> forms -> fit -> codegen, with mc and report beside them.
+
+fitlab's JAX computations run in float64 (each entry point switches x64 on for
+its own call, :func:`fitlab.core.float64`); importing fitlab leaves JAX's global
+configuration as it was, and imports no JAX.
 """
-
-import jax
-
-# fitlab works in float64 everywhere; set once, on import.
-jax.config.update("jax_enable_x64", True)
 
 __version__ = "0.1.0"

@@ -38,25 +38,34 @@ from pathlib import Path
 
 import numpy as np
 
-from fitlab.families.lambert_sphere.exact import brdf, brdf_modes, constants, h_function, multiple_scattering_modes, spherical_albedo
-from fitlab.core import Dataset
+from fitlab.core import Dataset, families, get_form, get_target
 from fitlab.fit.metrics import relative_errors, summary
-from fitlab.core import get_target
-from fitlab.store import FitFunction, load
-from fitlab.core import get_form
+from fitlab.store import FitFunction, fit_files, load
 
 __all__ = ["Residuals", "residuals", "brdf_residuals", "approximations", "grid_axes", "heatmap"]
 
-_H_ORDER = {"H0": 0, "H1": 1}
-_CONSTANTS = ("l", "m", "B", "C", "D", "F")
-#: targets whose grid axes differ from their inputs (an input follows from another)
-_AXES = {"c_of_kd": ("c",), "fast_brdf": ("mu_i", "mu_o", "phi", "c"), "brdf": ("mu_i", "mu_o", "phi", "c")}
-_BRDF_MEASURE = "relative: |approx - exact| / |exact|, exact = fitlab.families.lambert_sphere.exact.brdf"
+#: the pseudo-target of :func:`brdf_residuals`: a family's whole BRDF (its ``brdf_grid`` hook)
+BRDF = "brdf"
+
+
+def _brdf_grid(family: str | None = None) -> tuple[tuple[str, ...], object, str]:
+    """(axes, grid function, error measure) of the exact BRDF of ``family`` (default: the one family
+    with a ``brdf_grid`` hook): the hook returns (axes, exact_grid, measure)."""
+    found = {name: f.hooks["brdf_grid"] for name, f in families().items() if "brdf_grid" in f.hooks}
+    if family is None:
+        if len(found) != 1:
+            raise ValueError(f"brdf_residuals: name the family (one of {', '.join(found) or 'none'})")
+        family = next(iter(found))
+    if family not in found:
+        raise KeyError(f"family {family!r} registers no exact BRDF grid; families with one: {', '.join(found)}")
+    return found[family]()
 
 
 def grid_axes(target: str) -> tuple[str, ...]:
-    """The axis names :func:`residuals` takes for ``target``."""
-    return _AXES.get(target) or get_target(target).inputs
+    """The axis names :func:`residuals` takes for ``target`` (:attr:`fitlab.core.Target.residual_axes`)."""
+    if target == BRDF:
+        return _brdf_grid()[0]
+    return get_target(target).residual_axes
 
 
 @dataclass(frozen=True, eq=False)
@@ -167,59 +176,27 @@ def _check_axes(target: str, axes: dict) -> dict:
     return out
 
 
-def _check_pole(g: dict) -> None:
-    if np.any((g["mu_i"] == 0.0) & (g["mu_o"] == 0.0)):
-        raise ValueError(
-            "the grid holds mu_i = mu_o = 0, the pole of the BRDF (the exact value is infinite there); "
-            "leave 0 out of one of the two axes"
-        )
-
-
 def _readonly(d: dict) -> dict:
     for a in d.values():
         a.flags.writeable = False
     return d
 
 
-@lru_cache(maxsize=8)
-def _constants(c: tuple) -> dict:
-    """fitlab.families.lambert_sphere.exact.constants on a c axis, once for all six constant targets."""
-    return constants(np.array(c))
-
-
 @lru_cache(maxsize=32)
 def _exact(target: str, key: tuple) -> tuple[dict, dict]:
-    """(arrays on the grid: inputs and y, aux) of ``target`` on the grid ``key``; cached, read-only."""
+    """(arrays on the grid: inputs and y, aux) of ``target`` on the grid ``key``, from the target's
+    ``exact_grid`` (or the family's exact BRDF for :data:`BRDF`); cached, read-only."""
     axes = {name: np.array(values) for name, values in key}
-    g = dict(zip(axes, np.meshgrid(*axes.values(), indexing="ij")))
-    aux = {}
-    if target in _H_ORDER:
-        y = h_function(_H_ORDER[target], g["mu"], g["c"])
-    elif target in _CONSTANTS:
-        y = _constants(tuple(axes["c"]))[target].copy()
-    elif target == "kd_of_c":
-        y = spherical_albedo(g["c"], model="true")
-    elif target == "c_of_kd":
-        kd = spherical_albedo(axes["c"], model="true")
-        if np.any(kd > 1.0):
-            raise ValueError(
-                f"kd_true(c) > 1 at c = {axes['c'][kd > 1.0]} (kd_true(1) = 1 + 1e-5, docs/errata.md), outside "
-                "the domain kd <= 1 of c_of_kd; leave those c out"
-            )
-        g = {"kd": kd}
-        y = axes["c"].copy()
-    elif target == "fm1":
-        _check_pole(g)
-        y = multiple_scattering_modes(g["mu_i"], g["mu_o"], g["c"])[1]
-        aux["f0"] = brdf_modes(g["mu_i"], g["mu_o"], g["c"])[0]
-    elif target in ("fast_brdf", "brdf"):
-        _check_pole(g)
-        y = brdf(g["mu_i"], g["mu_o"], g["phi"], g["c"])
-        if target == "fast_brdf":
-            g["kd"] = np.broadcast_to(spherical_albedo(axes["c"], model="true"), y.shape).copy()
+    if target == BRDF:
+        grid = _brdf_grid()[1]
     else:
-        raise ValueError(f"residuals: no exact values for target {target!r}")
-    return _readonly({**g, "y": y}), _readonly(aux)
+        grid = get_target(target).exact_grid
+        if grid is None:
+            raise ValueError(f"residuals: no exact values on grids for target {target!r}")
+    inputs, y, aux = grid(axes)
+    values = {k: np.array(v, dtype=float) for k, v in inputs.items()}
+    values["y"] = np.array(y, dtype=float)
+    return _readonly(values), _readonly({k: np.array(v, dtype=float) for k, v in aux.items()})
 
 
 def approximations(target: str, fits_dir: Path = Path("fits")) -> dict:
@@ -229,11 +206,8 @@ def approximations(target: str, fits_dir: Path = Path("fits")) -> dict:
     (``fitlab refit``, ``fitlab discover``): "hapke (H0.json)", "hapke_rational (H0.hapke_rational.json)".
     """
     t = get_target(target)
-    fits_dir = Path(fits_dir)
     found = {_label(p): p for p in t.published}
-    for path in [fits_dir / f"{target}.json", *sorted(fits_dir.glob(f"{target}.*.json"))]:
-        if not path.exists():
-            continue
+    for path in fit_files(Path(fits_dir), target):
         fit = load(path)
         if fit.target != target:
             raise ValueError(f"{path} holds a fit of {fit.target}, not {target}: rename or remove it")
@@ -287,14 +261,16 @@ def residuals(target: str, approx, *, label: str | None = None, **axes) -> Resid
 
 
 def brdf_residuals(model, *, label: str | None = None, **axes) -> Residuals:
-    """``model(mu_i, mu_o, phi, c)`` (e.g. a RuntimeModel) against fitlab.families.lambert_sphere.exact.brdf on the grid of
-    ``axes`` (mu_i, mu_o, phi, c), relative to |exact|."""
-    axes = _check_axes("brdf", axes)
-    values, _ = _exact("brdf", _key(axes))
-    inputs = {n: values[n] for n in _AXES["brdf"]}
+    """``model(*axes)`` (e.g. a RuntimeModel of (mu_i, mu_o, phi, c)) against the exact BRDF of the family
+    registering one (the ``brdf_grid`` hook: fitlab.families.lambert_sphere.exact.brdf) on the grid of
+    ``axes``, relative to |exact|."""
+    names, _, measure = _brdf_grid()
+    axes = _check_axes(BRDF, axes)
+    values, _ = _exact(BRDF, _key(axes))
+    inputs = {n: values[n] for n in names}
     exact = values["y"]
-    approx_values = _evaluate("brdf", model, inputs, _AXES["brdf"], exact.shape)
-    return Residuals(label or _label(model), "brdf", axes, inputs, exact, approx_values, np.abs(exact), _BRDF_MEASURE)
+    approx_values = _evaluate(BRDF, model, inputs, names, exact.shape)
+    return Residuals(label or _label(model), BRDF, axes, inputs, exact, approx_values, np.abs(exact), measure)
 
 
 def heatmap(res: Residuals, x: str, y: str, ax=None, vmin: float = 1e-6, vmax: float | None = None,

@@ -17,22 +17,26 @@ import io
 import json
 import math
 from dataclasses import dataclass
+from functools import lru_cache
+from importlib import resources
 from pathlib import Path
 from typing import Mapping
 
+import jsonschema
 import numpy as np
 
 import sympy as sp
 
 from fitlab import __version__
 from fitlab._io import atomic_write_many, atomic_write_text
-from fitlab.core import get_target
+from fitlab.core import get_target, targets
 from fitlab.forms import Form
 from fitlab.forms.symbolic import lambdify_numpy, parse_expression, symbols
 
 __all__ = [
-    "FORMAT", "FitFileError", "FitFunction", "load", "read_fit", "write_fit", "strict_json", "form_from_fit",
-    "fit_path", "fit_files", "resolve_form", "Table", "TableError", "format_table", "read_table", "write_tables",
+    "FORMAT", "FitFileError", "FitFunction", "load", "read_fit", "check_fit", "fit_schema", "PARAM_LIMIT", "write_fit", "write_fits", "strict_json", "decode_nonfinite",
+    "form_from_fit",
+    "fit_path", "fit_files", "fit_sha256", "resolve_form", "Table", "TableError", "format_table", "read_table", "write_tables",
 ]
 
 FORMAT = "fitlab-fit/1"
@@ -74,48 +78,136 @@ def strict_json(obj) -> str:
     return json.dumps(_encode(obj), indent=2, allow_nan=False) + "\n"
 
 
+def decode_nonfinite(obj):
+    """The inverse of :func:`strict_json`'s encoding: the strings "inf", "-inf", "nan" back to floats."""
+    return _decode(obj)
+
+
+def write_fits(records: Mapping[Path, Mapping]) -> list[Path]:
+    """Write several fit records ({path: record}) as one unit: all or none (see fitlab._io.atomic_write_many)."""
+    texts = {Path(p): strict_json(dict(check_fit(dict(r), str(p)))).encode() for p, r in records.items()}
+    atomic_write_many(texts)
+    return list(texts)
+
+
 def write_fit(path: Path, record: Mapping) -> None:
-    """Write ``record`` as JSON atomically (a temporary file, then a rename)."""
+    """Check ``record`` (:func:`check_fit`: what fitlab writes, it can read back) and write it as JSON
+    atomically (a temporary file, then a rename)."""
     path = Path(path)
-    atomic_write_text(path, strict_json(dict(record)))
+    atomic_write_text(path, strict_json(dict(check_fit(dict(record), str(path)))))
 
 
-def read_fit(path: Path) -> dict:
-    """Read and check a fit file; every failure is one :class:`FitFileError` line."""
+#: the largest parameter magnitude a fit file may hold (the committed fits stay below 1e3)
+PARAM_LIMIT = 1e12
+#: the largest fit file read, in bytes
+MAX_FIT_BYTES = 1_000_000
+
+
+@lru_cache(maxsize=1)
+def _validator():
+    schema = json.loads(resources.files("fitlab").joinpath("schemas", "fit-1.schema.json").read_text())
+    return jsonschema.Draft202012Validator(schema)
+
+
+def fit_schema() -> dict:
+    """The JSON Schema of the fit-file format (fitlab/schemas/fit-1.schema.json)."""
+    return dict(_validator().schema)
+
+
+def _refuse_constant(name):
+    raise ValueError(f"the JSON literal {name} (non-finite numbers are written as the strings \"inf\", \"nan\")")
+
+
+def check_fit(record, source: str = "fit") -> dict:
+    """Check a fit record against the schema and the registry; returns it with non-finite strings decoded.
+
+    Refused with one :class:`FitFileError` line: anything the schema refuses (wrong types, unknown
+    fields, names that are not plain identifiers, text a generated source could not quote), an unknown
+    target, inputs other than the target's, a domain outside the target's, parameters that are not
+    finite or exceed :data:`PARAM_LIMIT`, an expression the restricted parser refuses, and, for a form
+    its family registers, parameters or an expression other than the registered form's.  Nothing in
+    the record is evaluated as code.
+    """
+    if not isinstance(record, dict):
+        raise FitFileError(f"{source}: not a fitlab fit (a JSON object is expected)")
+    missing = [k for k in _REQUIRED if k not in record]
+    if missing:
+        raise FitFileError(f"{source}: not a fitlab fit, missing {missing}; regenerate it with `fitlab refit`")
+    if record["format"] != FORMAT:
+        raise FitFileError(f"{source}: format {str(record['format'])[:40]!r}, this fitlab reads {FORMAT!r}")
+    error = jsonschema.exceptions.best_match(_validator().iter_errors(record))
+    if error is not None:
+        where = "/".join(str(x) for x in error.absolute_path) or "the top level"
+        raise FitFileError(f"{source}: not a valid fit file at {where}: {error.message[:200]}")
+    try:
+        target = get_target(record["target"])
+    except KeyError:
+        raise FitFileError(f"{source}: unknown target {record['target']!r}") from None
+    if set(record["inputs"]) != set(target.inputs):
+        raise FitFileError(f"{source}: inputs {record['inputs']}, {target.name} takes {list(target.inputs)}")
+    if set(record["domain"]) != set(record["inputs"]):
+        raise FitFileError(f"{source}: the domain must give every input, and only those: {list(target.inputs)}")
+    for name, (lo, hi) in record["domain"].items():
+        full_lo, full_hi = target.domain[name]
+        if not (full_lo <= lo < hi <= full_hi):
+            raise FitFileError(f"{source}: domain of {name} [{lo:g}, {hi:g}] is not inside [{full_lo:g}, {full_hi:g}]")
+    for group in ("params", "fixed"):
+        for name, value in record.get(group, {}).items():
+            if not (math.isfinite(value) and abs(value) <= PARAM_LIMIT):
+                raise FitFileError(f"{source}: {group} {name} = {value!r} is not a finite number of magnitude <= {PARAM_LIMIT:g}")
+    fixed = record.get("fixed", {})
+    if not set(fixed) <= set(record["params"]) or any(record["params"][k] != v for k, v in fixed.items()):
+        raise FitFileError(f"{source}: fixed parameters must be parameters, with the same values")
+    form = target.forms.get(record["form"])
+    if form is not None:
+        if tuple(record["params"]) != tuple(form.params) and set(record["params"]) != set(form.params):
+            raise FitFileError(f"{source}: params {list(record['params'])}, form {form.key} has {list(form.params)}")
+        if record["expression"] != form.expression:
+            raise FitFileError(f"{source}: the expression is not that of the registered form {form.key}")
+    else:
+        try:
+            parse_expression(record["expression"], (*record["inputs"], *record["params"]))
+        except ValueError as exc:
+            raise FitFileError(f"{source}: {exc}") from None
+    return _decode(record)
+
+
+def read_fit(path: Path, target: str | None = None) -> dict:
+    """Read and check a fit file (:func:`check_fit`); every failure is one :class:`FitFileError` line.
+
+    ``target``: the target the caller expects.  A file named after a registered target
+    (TARGET.json, TARGET.FORM.json) must hold a fit of that target and form, so that a fit saved
+    under another target's name is never taken for it."""
     path = Path(path)
     try:
-        text = path.read_text()
+        with open(path, "rb") as fh:
+            data = fh.read(MAX_FIT_BYTES + 1)
     except FileNotFoundError:
         raise FitFileError(f"{path}: no such fit file; run `fitlab refit --target NAME` to create it") from None
+    except IsADirectoryError:
+        raise FitFileError(f"{path}: a folder, not a fit file") from None
     except OSError as exc:
         raise FitFileError(f"{path}: cannot read ({exc.strerror})") from None
+    if len(data) > MAX_FIT_BYTES:
+        raise FitFileError(f"{path}: larger than {MAX_FIT_BYTES} bytes; not a fit file")
     try:
-        record = json.loads(text)
+        record = json.loads(data.decode("utf-8"), parse_constant=_refuse_constant)
     except json.JSONDecodeError as exc:
         raise FitFileError(
             f"{path}: corrupt JSON (line {exc.lineno}, column {exc.colno}: {exc.msg}); "
             "regenerate it with `fitlab refit`"
         ) from None
-    if not isinstance(record, dict):
-        raise FitFileError(f"{path}: not a fitlab fit (a JSON object is expected)")
-    record = _decode(record)
-    missing = [k for k in _REQUIRED if k not in record]
-    if missing:
-        raise FitFileError(f"{path}: not a fitlab fit, missing {missing}; regenerate it with `fitlab refit`")
-    if record["format"] != FORMAT:
-        raise FitFileError(f"{path}: format {record['format']!r}, this fitlab reads {FORMAT!r}")
-    params = record["params"]
-    if not isinstance(params, dict) or not all(isinstance(v, (int, float)) for v in params.values()):
-        raise FitFileError(f"{path}: params must map names to numbers")
-    try:
-        target = get_target(record["target"])
-    except (KeyError, TypeError):
-        raise FitFileError(f"{path}: unknown target {record['target']!r}") from None
-    for name in record["inputs"]:
-        if name not in target.domain:
-            raise FitFileError(f"{path}: unknown input {name!r}; {target.name}'s inputs are {list(target.inputs)}")
-        if name not in record["domain"]:
-            raise FitFileError(f"{path}: no domain for input {name!r}")
+    except (ValueError, RecursionError, UnicodeDecodeError) as exc:
+        raise FitFileError(f"{path}: not a fit file ({str(exc)[:120] or type(exc).__name__})") from None
+    record = check_fit(record, str(path))
+    named = path.name.split(".")
+    if len(named) in (2, 3) and named[-1] == "json" and named[0] in targets():
+        default = get_target(named[0]).default_form
+        form = named[1] if len(named) == 3 else default
+        if (record["target"], record["form"]) != (named[0], form):
+            raise FitFileError(f"{path}: holds a fit of {record['target']}/{record['form']}, not {named[0]}/{form}")
+    if target is not None and record["target"] != target:
+        raise FitFileError(f"{path}: holds a fit of {record['target']}, not {target}")
     return record
 
 
@@ -128,6 +220,7 @@ class FitFunction:
     """
 
     def __init__(self, record: dict, path: Path | None = None):
+        record = check_fit(record, str(path or "fit"))
         self.record = record
         self.path = path
         self.target = record["target"]
@@ -203,6 +296,11 @@ def fit_path(out: Path, target: str, form: str) -> Path:
     """fits/NAME.json for a target's default form, fits/NAME.FORM.json otherwise."""
     default = get_target(target).default_form
     return Path(out) / (f"{target}.json" if form == default else f"{target}.{form}.json")
+
+
+def fit_sha256(path: Path) -> str:
+    """The sha256 of a fit file's bytes (what generated code's banner names its sources by)."""
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
 
 
 def fit_files(fits_dir: Path, target: str) -> list[Path]:

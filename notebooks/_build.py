@@ -603,7 +603,7 @@ import shutil
 import tempfile
 import time
 
-from fitlab.codegen import build_program, generate, write_generated
+from fitlab.codegen import generate, load_program, write_generated
 from fitlab.codegen.native import CompileError, build, compiler
 from fitlab.families.lambert_sphere.exact import brdf, h_function
 from fitlab.fit.refit import refit, table
@@ -732,7 +732,7 @@ if compiler() is None:
     print("no C compiler (cc, gcc or clang) on PATH: skipped")
 else:
     try:
-        native = build(files, build_program(scratch / "fits"), scratch / "c")
+        native = build(files, load_program(scratch / "fits"), scratch / "c")
     except CompileError as err:
         print(err)
     else:

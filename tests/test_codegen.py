@@ -18,10 +18,10 @@ import jax
 import numpy as np
 import pytest
 
-from fitlab.codegen import POLE_FLOOR, build_program, generate, parse_terms
-from fitlab.codegen.program import _stable
+from fitlab.codegen import POLE_FLOOR, build_program, generate, load_program, parse_terms, stable
 from fitlab.codegen.emit import emit
 from fitlab.codegen.native import STRICT_FLAGS, build, compiler
+from fitlab.core import float64
 from fitlab.store import load
 from fitlab.forms.symbolic import lambdify_jax, symbols
 from fitlab.families.lambert_sphere.runtime import runtime_model
@@ -36,7 +36,7 @@ needs_cc = pytest.mark.skipif(compiler() is None, reason="no C compiler on PATH"
 @pytest.fixture(scope="module")
 def program():
     os.chdir(ROOT)  # the banner names the fits relative to the project root
-    return build_program(Path("fits"), parse_terms(None))
+    return load_program(Path("fits"), parse_terms(None))
 
 
 @pytest.fixture(scope="module")
@@ -79,7 +79,9 @@ def rel(a, b):
 
 
 def jax_reference(expr, names):
-    return jax.jit(lambdify_jax(symbols(names), expr))
+    """The expression as a jitted JAX function, traced and run in float64 (import fitlab leaves JAX's default)."""
+    f = jax.jit(lambdify_jax(symbols(names), expr))
+    return float64(lambda *args: np.asarray(f(*args)))
 
 
 # ---- reproducibility ----------------------------------------------------------
@@ -106,6 +108,33 @@ def test_banner_names_every_source_fit(sources):
         assert f"fits/{name}.json" in text
 
 
+def test_banner_points_to_the_model_document(sources):
+    for files in sources.values():
+        for text in files.values():
+            assert "docs/model.md" in text and "SPEC" not in text
+
+
+def test_build_program_takes_records_and_reads_no_file(program, monkeypatch):
+    """Records (fit-file dicts) go straight in: the same routines as from the files, no file opened."""
+    from fitlab.codegen import program_spec
+    from fitlab.core import get_target
+    from fitlab.store import read_fit
+
+    records = {t: read_fit(FITS / f"{t}.json") for t in program_spec("lambert_sphere").fits}
+
+    def no_reading(*args, **kwargs):
+        raise AssertionError("build_program read a file")
+
+    monkeypatch.setattr(Path, "read_text", no_reading)
+    monkeypatch.setattr(Path, "read_bytes", no_reading)
+    prog = build_program(records)
+    assert [(r.name, r.args, r.expr, r.doc) for r in prog.routines] == [
+        (r.name, r.args, r.expr, r.doc) for r in program.routines
+    ]
+    assert prog.sources == () and program.sources  # only the file edge (load_program) names files
+    assert {get_target(t).routine for t in prog.parts} <= {r.name for r in prog.routines}
+
+
 # ---- C ------------------------------------------------------------------------
 
 
@@ -120,7 +149,7 @@ def test_c_and_python_agree_with_the_jax_runtime_model(native, py, inputs):
     # points with mu_i + mu_o under the pole floor are tested apart (the unfloored model is ~1/(mu_i + mu_o))
     keep = inputs[0] + inputs[1] >= float(POLE_FLOOR)
     mu_i, mu_o, cos_phi, c = (a[keep] for a in inputs)
-    expr = _stable(runtime_model(fits_dir=FITS).expr)
+    expr = stable(runtime_model(fits_dir=FITS).expr)
     ref = np.asarray(jax_reference(expr, ("mu_i", "mu_o", "phi", "c"))(mu_i, mu_o, np.arccos(cos_phi), c))
     got_c = native("brdf", mu_i, mu_o, cos_phi, c)
     got_py = py.brdf(mu_i, mu_o, cos_phi, c)
@@ -157,14 +186,14 @@ def test_parts_agree_with_their_fits(native, py, inputs, target, routine):
     args = (inputs[0], inputs[3]) if len(fit.inputs) == 2 else (inputs[3],)
     args = tuple(np.concatenate([a, [0.0, 1e-12, 1e-6, 0.5, 1.0]]) for a in args)
     ref = np.asarray(jax_reference(fit.expression, fit.inputs)(*args))
-    # the generated parts are rewritten to avoid cancellation near c = 0 and kd = 0 (program._stable):
+    # the generated parts are rewritten to avoid cancellation near c = 0 and kd = 0 (fitlab.codegen.stable):
     # they agree with the JAX form to 1e-12 of the form's scale, and with the rewritten form to 1e-12
     scale = np.abs(ref).max()
     assert np.abs(native(routine, *args) - ref).max() < 1e-12 * scale
     assert np.abs(py.__dict__[routine](*args) - ref).max() < 1e-12 * scale
-    stable = np.asarray(jax_reference(_stable(fit.expression), fit.inputs)(*args))
+    rewritten = np.asarray(jax_reference(stable(fit.expression), fit.inputs)(*args))
     # relative, except beside a sign change of B-F (a root), where 1e-15 of the scale
-    assert np.all(np.abs(native(routine, *args) - stable) <= 1e-12 * np.abs(stable) + 1e-15 * scale)
+    assert np.all(np.abs(native(routine, *args) - rewritten) <= 1e-12 * np.abs(rewritten) + 1e-15 * scale)
 
 
 def test_stable_rewrite_keeps_digits_near_the_exact_zeros():
@@ -175,7 +204,7 @@ def test_stable_rewrite_keeps_digits_near_the_exact_zeros():
     for target, name in (("B", "c"), ("kd_of_c", "c"), ("c_of_kd", "kd")):
         fit = load(FITS / f"{target}.json")
         x = sp.Symbol(name, real=True)
-        f = jax_reference(_stable(fit.expression), fit.inputs)
+        f = jax_reference(stable(fit.expression), fit.inputs)
         for v in (1e-12, 1e-8, 1e-4):
             exact = float(fit.expression.subs(x, sp.Float(v, 50)).evalf(50))
             assert abs(float(f(v)) - exact) <= 1e-12 * abs(exact), (target, v)  # unrewritten: 1e-4 at c = 1e-12
@@ -244,7 +273,7 @@ def test_reciprocity(native, py):
 
 @needs_cc
 def test_terms_option_keeps_only_the_terms_asked_for(tmp_path):
-    prog = build_program(FITS, parse_terms("single,m0"))
+    prog = load_program(FITS, parse_terms("single,m0"))
     names = [r.name for r in prog.routines]
     assert "fm1" not in names and "fm0" in names
     m = build(emit(prog, "c"), prog, tmp_path)
@@ -311,7 +340,7 @@ def test_glsl_compiles_as_c_and_agrees(sources, tmp_path):
     so.glsl_brdf_local.argtypes = [ctypes.POINTER(ctypes.c_float)] * 2 + [ctypes.c_float]
     so.glsl_c_of_kd.restype = ctypes.c_float
     so.glsl_c_of_kd.argtypes = [ctypes.c_float]
-    prog = build_program(FITS)
+    prog = load_program(FITS)
     ref = build(emit(prog, "c"), prog, tmp_path / "ref")
     rng = np.random.default_rng(3)
     for _ in range(200):
@@ -375,3 +404,38 @@ def test_half_integer_powers_print_as_products_with_one_sqrt():
     f = eval("lambda x: " + NumpyPrinter(name).doprint(x ** sp.Rational(3, 2)), {"numpy": np})
     v = np.linspace(0.0, 1.0, 101)
     np.testing.assert_allclose(f(v), v**1.5, rtol=4e-16, atol=0)
+
+
+def test_a_family_without_a_program_of_its_own_gets_one_routine_per_target(tmp_path):
+    """No codegen of its own: codegen prints each target's routine from its record, in Python and C."""
+    import sympy as sp
+
+    from fitlab.core import Dataset, Family, Input, Target, families, register_family, unregister_family
+    from fitlab.forms import Form
+    from fitlab.store import FORMAT
+
+    x, a = sp.Symbol("x", real=True), sp.Symbol("a", real=True)
+
+    def points():
+        xs = np.linspace(0.0, 1.0, 11)
+        return Dataset({"x": xs}, np.exp(xs), "toy")
+
+    target = Target("toy_exp", "exp(x)", (Input("x", (0.0, 1.0)),), "line", (), points, points, routine="toy_exp")
+    form = Form("toy_exp", "line", ("x",), ("a",), 1 + a * x, presets={"p": {"a": 1.0}})
+    families()
+    register_family(Family("toy_codegen", "A toy family", (target,), (form,)))
+    try:
+        record = {"format": FORMAT, "target": "toy_exp", "form": "line", "inputs": ["x"],
+                  "expression": form.expression, "params": {"a": 1.75}, "domain": {"x": [0.0, 1.0]}}  # fmt: skip
+        prog = build_program({"toy_exp": record})
+        assert [r.name for r in prog.routines] == ["toy_exp"] and prog.terms == () and prog.name == "toy_codegen"
+        files = emit(prog, "python")
+        assert set(files) == {"toy_codegen.py"} and "A toy family" in files["toy_codegen.py"]
+        namespace = {}
+        exec(compile(files["toy_codegen.py"], "toy_codegen.py", "exec"), namespace)
+        assert np.allclose(namespace["toy_exp"](np.array([0.0, 0.5, 1.0])), [1.0, 1.875, 2.75], rtol=1e-15)
+        if compiler() is not None:
+            native = build(emit(prog, "c"), prog, tmp_path)
+            assert np.allclose(native("toy_exp", np.array([0.0, 0.5, 1.0])), [1.0, 1.875, 2.75], rtol=1e-15)
+    finally:
+        unregister_family("toy_codegen")

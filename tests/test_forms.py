@@ -2,6 +2,8 @@
 values and parameter gradients stay finite at the domain edges."""
 
 import itertools
+import json
+from pathlib import Path
 
 import jax
 import jax.numpy as jnp
@@ -9,9 +11,9 @@ import numpy as np
 import pytest
 import sympy as sp
 
-from fitlab.core import get_form
+from fitlab.core import float64, get_form
 from fitlab.families.lambert_sphere.forms import FORMS, runtime_brdf
-from fitlab.forms.symbolic import parse_expression
+from fitlab.forms.symbolic import parse_expression, safe_pow
 
 ALL = list(FORMS)
 EDGE = {"mu": (0.0, 1e-12, 0.5, 1.0), "mu_i": (0.0, 1e-9, 0.5, 1.0), "mu_o": (0.0, 0.3, 1.0),
@@ -38,6 +40,7 @@ def _parameter_vectors(form):
 
 
 @pytest.mark.parametrize("form", ALL, ids=lambda f: f.key)
+@float64  # fitlab's JAX work is float64; import fitlab leaves JAX's default as it was
 def test_finite_values_and_gradients_at_edges(form):
     xs = _edge_points(form)
     jac = jax.jit(jax.jacfwd(lambda th, *x: form.jax_function(th, *x)))
@@ -49,6 +52,7 @@ def test_finite_values_and_gradients_at_edges(form):
 
 
 @pytest.mark.parametrize("form", ALL, ids=lambda f: f.key)
+@float64
 def test_numpy_and_jax_agree_and_float32_stays_finite(form):
     rng = np.random.default_rng(1)
     xs = [rng.uniform(0.01, 1.0, 200) for _ in form.inputs]
@@ -67,8 +71,36 @@ def test_expression_text_round_trips():
 
 
 def test_parse_expression_rejects_unknown_names():
-    with pytest.raises(ValueError, match="unknown names"):
+    with pytest.raises(ValueError, match="unknown name 'typo'"):
         parse_expression("mu + typo", ("mu",))
+
+
+def test_parse_expression_matches_sympys_parser_on_every_committed_fit():
+    # the restricted parser must read what sympy's (code-evaluating) parser read before, node for node
+    for path in sorted((Path(__file__).resolve().parents[1] / "fits").glob("*.json")):
+        rec = json.loads(path.read_text())
+        names = (*rec["inputs"], *rec["params"])
+        local = {n: sp.Symbol(n, real=True) for n in names} | {"safe_pow": safe_pow}
+        assert sp.srepr(parse_expression(rec["expression"], names)) == sp.srepr(sp.sympify(rec["expression"], locals=local)), path.name
+
+
+@pytest.mark.parametrize("text, message", [
+    ("__import__('os').system('touch /tmp/x') or mu", "BoolOp"),
+    ("mu.__class__", "Attribute"),
+    ("(lambda: 1)()", "calls"),
+    ("__import__('os')", "calls '__import__'"),
+    ("mu**99999999", "power"),
+    ("(" * 400 + "mu" + ")" * 400, "nest|parse"),
+    ("'a'", "str literal"),
+    ("mu[0]", "Subscript"),
+    ("sqrt(mu, x=1)", "keyword"),
+    ("1e999", "non-finite"),
+    ("sqrt()", "0 arguments"),
+    ("mu" + " + mu" * 60000, "characters long"),
+])
+def test_parse_expression_refuses_code_without_running_it(text, message):
+    with pytest.raises(ValueError, match=message):
+        parse_expression(text, ("mu", "c"))
 
 
 # Independent transcriptions of SPEC 6, typed from the text, checked against the forms' presets.

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from scipy import integrate, optimize, stats
 
-import fitlab  # noqa: F401  (float64)
+import fitlab  # noqa: F401
 from fitlab.families.lambert_sphere.exact import LEGENDRE_A, phase_function, three_term_phase_function
 from fitlab.families.lambert_sphere.mc.sampling import (
     MIX,

@@ -104,13 +104,13 @@ def test_directional_albedo_agrees_with_exact(fourier_runs):
 
 
 def test_spherical_albedo_agrees_with_exact():
-    from fitlab.families.lambert_sphere.mc.effects import _ss_spherical
+    from fitlab.families.lambert_sphere.mc.effects import single_spherical_albedo
 
     cfg = WalkConfig(phase="three_term", incidence="cosine")
     for k, c in enumerate((0.5, 0.99)):
         r = run_round(cfg, 4, (k,), c, 0.0, 40_000)
         est, se = _mean_se(r["escape"][0], r["escape_sq"][0], r["photons"])
-        assert abs(c * _ss_spherical("three_term") + est - float(spherical_albedo(c, "three_term"))) < 4 * se
+        assert abs(c * single_spherical_albedo("three_term") + est - float(spherical_albedo(c, "three_term"))) < 4 * se
 
 
 def test_collision_orders_add_up_and_order_two_dominates():

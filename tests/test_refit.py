@@ -197,8 +197,12 @@ def test_load_errors(tmp_path):
     rec = json.loads((FITS / "l.json").read_text())
     rec["expression"] = "l1*c + typo"
     (tmp_path / "y.json").write_text(json.dumps(rec))
-    with pytest.raises(FitFileError, match="unknown names"):
+    with pytest.raises(FitFileError, match="not that of the registered form"):
         load(tmp_path / "y.json")
+    rec["form"] = "hand_made"  # a form no family registers: its expression is parsed, and must use known names
+    (tmp_path / "z.json").write_text(json.dumps(rec))
+    with pytest.raises(FitFileError, match="unknown name 'typo'"):
+        load(tmp_path / "z.json")
     f = load(FITS / "c_of_kd.json")
     with pytest.raises(TypeError, match="unknown input"):
         f(c=0.5)

@@ -18,7 +18,7 @@ from fitlab._io import atomic_write_many
 from fitlab.cli import main
 from fitlab.report import COLUMNS, QUICK, TIMING_COLUMNS, build_report, pareto_front, recommend, write_outputs
 from fitlab.report.methods import ReportError, brdf_methods, fit_inventory
-from fitlab.report.tables import h_interpolant, table_brdf
+from fitlab.families.lambert_sphere.interpolation import h_interpolant, table_brdf
 from fitlab.report.validation import albedos
 
 FITS = Path(__file__).resolve().parents[1] / "fits"
@@ -113,6 +113,14 @@ def test_pareto_front_matches_the_definition():
             dominated = any(c[j] <= c[i] and e[j] <= e[i] and (c[j] < c[i] or e[j] < e[i]) for j in range(25))
             duplicate_of_earlier = any(c[j] == c[i] and e[j] == e[i] for j in range(i))
             assert (i in front) == (not dominated and not duplicate_of_earlier)
+
+
+def test_pareto_front_takes_pairs_and_counts_infinite_errors_on_request():
+    """The one front of the report and of fitlab discover (which keeps a candidate of infinite error
+    where nothing costs as little)."""
+    pts = [(1, math.inf), (2, 0.5), (2, 0.5), (3, 0.1), (math.nan, 0.01)]
+    assert pareto_front(pts) == pareto_front([p[0] for p in pts], [p[1] for p in pts]) == [1, 3]
+    assert pareto_front(pts, infinite_errors=True) == [0, 1, 3]
 
 
 def test_recommendations_follow_the_rules():
@@ -212,14 +220,14 @@ def test_missing_default_fit_fails_before_the_validation_sets(tmp_path, capsys, 
 
 @pytest.mark.parametrize("damage", [b"", b"PK\x03\x04 not a zip archive"])
 def test_damaged_cache_file_is_a_miss(tmp_path, monkeypatch, damage):
-    from fitlab.report.validation import _exact_values
+    from fitlab.report.validation import exact_values
 
     monkeypatch.setenv("FITLAB_CACHE_DIR", str(tmp_path))
     points, c = np.array([[0.3, 0.6, 0.25]]), np.array([0.5])
-    y, kd = _exact_values(points, c, "test", True, None)
+    y, kd = exact_values(points, c, "test", True, None)
     (cached,) = tmp_path.glob("report-test-*.npz")
     cached.write_bytes(damage)
-    y2, kd2 = _exact_values(points, c, "test", True, None)  # recomputed, and the cache rewritten
+    y2, kd2 = exact_values(points, c, "test", True, None)  # recomputed, and the cache rewritten
     assert np.array_equal(y, y2) and np.array_equal(kd, kd2)
     assert np.array_equal(np.load(cached)["y"], y)
 

@@ -15,7 +15,7 @@ import pytest  # noqa: E402
 
 from fitlab.families.lambert_sphere.exact import brdf, constants, h_function, spherical_albedo  # noqa: E402
 from fitlab.core import get_target, targets  # noqa: E402
-from fitlab.store import load  # noqa: E402
+from fitlab.store import FitFileError, load  # noqa: E402
 from fitlab.core import get_form  # noqa: E402
 from fitlab.residuals import approximations, brdf_residuals, grid_axes, heatmap, residuals  # noqa: E402
 
@@ -151,10 +151,10 @@ def test_heatmap_draws_two_axes_on_a_log_scale():
 def test_approximations_lists_presets_then_every_saved_fit(tmp_path):
     for name in ("H0.json", "H0.hapke_rational.json", "H1.json"):
         shutil.copy(FITS / name, tmp_path / name)
-    shutil.copy(FITS / "H0.json", tmp_path / "H0.found_elsewhere.json")  # e.g. by fitlab discover
+    shutil.copy(FITS / "H0.sr_7_6808f1.json", tmp_path / "H0.sr_7_6808f1.json")  # by fitlab discover
     found = approximations("H0", tmp_path)
-    assert list(found) == ["hapke / paper", "hapke (H0.json)", "hapke (H0.found_elsewhere.json)",
-                           "hapke_rational (H0.hapke_rational.json)"]  # fmt: skip
+    assert list(found) == ["hapke / paper", "hapke (H0.json)", "hapke_rational (H0.hapke_rational.json)",
+                           "sr_7_6808f1 (H0.sr_7_6808f1.json)"]  # fmt: skip
     assert found["hapke / paper"] == ("hapke", "paper")
     r = residuals("H0", found["hapke_rational (H0.hapke_rational.json)"], mu=MU, c=C)
     assert r.label == "hapke_rational (H0.hapke_rational.json)"
@@ -162,5 +162,5 @@ def test_approximations_lists_presets_then_every_saved_fit(tmp_path):
     assert len(approximations("H1", tmp_path)) == 5  # four published readings and the fit
 
     shutil.copy(FITS / "H1.json", tmp_path / "H0.misnamed.json")
-    with pytest.raises(ValueError, match="holds a fit of H1"):
+    with pytest.raises(FitFileError, match="holds a fit of H1"):
         approximations("H0", tmp_path)

@@ -1,10 +1,16 @@
-r"""Code generation: coefficient JSON in, C / Python / GLSL source of the runtime BRDF out.
+r"""Code generation: fit records in, C / Python / GLSL source out.
 
-``generate("c", fits_dir="fits")`` returns {file name: text}; ``write_generated``
-writes them atomically (all or nothing).  The maths comes from
-:mod:`fitlab.forms` through :func:`~fitlab.codegen.program.build_program`;
-:mod:`.printers` and :mod:`.emit` only print it.  The committed output of the
-committed fits lives in fits/generated/ and a test regenerates it.
+:func:`build_program` takes data (fit records by target) and returns a
+:class:`Program`; :func:`emit` prints it in one language.  What a family prints
+is its ``codegen`` (a :class:`ProgramSpec`; the Lambert sphere's runtime BRDF
+is :mod:`fitlab.families.lambert_sphere.program`), or one routine per target
+that names a ``routine`` when it has none.  :mod:`.printers` and :mod:`.emit`
+only print.
+
+The file edge: ``generate("c", fits_dir="fits")`` reads the fits a program
+needs through :mod:`fitlab.store` (:func:`load_program`) and returns
+{file name: text}; ``write_generated`` writes them atomically.  The committed
+output of the committed fits lives in fits/generated/ and a test regenerates it.
 """
 
 from __future__ import annotations
@@ -12,28 +18,64 @@ from __future__ import annotations
 from pathlib import Path
 
 from fitlab._io import atomic_write_text
-from fitlab.codegen.emit import BASENAME, LANGUAGES, PREFIX, emit
-from fitlab.codegen.program import POLE_FLOOR, Program, Routine, build_program, parse_terms
+from fitlab.codegen.emit import LANGUAGES, emit
+from fitlab.codegen.program import (
+    POLE_FLOOR,
+    Program,
+    ProgramSpec,
+    Routine,
+    azimuth_to_cosine,
+    build_program,
+    call,
+    clamped,
+    floor_poles,
+    parse_terms,
+    part_routine,
+    program_spec,
+    stable,
+)
+from fitlab.core import targets
+from fitlab.store import fit_path, fit_sha256, load
 
-__all__ = ["generate", "parse_forms", "write_generated", "LANGUAGES", "PREFIX", "BASENAME", "build_program", "parse_terms",
-           "Program", "Routine", "POLE_FLOOR"]  # fmt: skip
+__all__ = ["generate", "load_program", "parse_forms", "write_generated", "emit", "LANGUAGES", "build_program",
+           "parse_terms", "program_spec", "part_routine", "Program", "ProgramSpec", "Routine", "POLE_FLOOR", "call",
+           "stable", "floor_poles", "azimuth_to_cosine", "clamped"]  # fmt: skip
+
+
+def _terms(terms: str | tuple | None, family: str | None) -> tuple[str, ...] | None:
+    if terms is None or isinstance(terms, str):
+        return parse_terms(terms, family)
+    return parse_terms(",".join(terms), family)
+
+
+def load_program(fits_dir: Path = Path("fits"), terms: str | tuple | None = None, forms: dict | None = None,
+                 family: str | None = None) -> Program:  # fmt: skip
+    """The program of the fits in ``fits_dir``: each target's default form, or the form ``forms`` picks
+    ({"H0": "sr_7_6808f1"}: fits/H0.sr_7_6808f1.json); each file must exist (FitFileError otherwise).
+    ``family``: whose program (default: the family of the targets in ``forms``, else the one family with
+    a program of its own)."""
+    forms = dict(forms or {})
+    spec = program_spec(family, tuple(forms))
+    family = family or next(t.family for t in targets().values() if t.name in spec.fits)
+    term_tuple = _terms(terms, family)
+    fits_dir = Path(fits_dir)
+    paths = {t: fit_path(fits_dir, t, forms.get(t, targets()[t].default_form)) for t in spec.fits}
+    records = {t: load(p) for t, p in paths.items()}
+    sources = [(p.as_posix(), fit_sha256(p)) for p in paths.values()]
+    return build_program(records, term_tuple, sources, family)
 
 
 def generate(lang: str, fits_dir: Path = Path("fits"), terms: str | tuple | None = None,
-             forms: dict | None = None) -> dict[str, str]:
-    """Source files of the runtime BRDF in ``lang`` from the fits in ``fits_dir``; ``forms`` picks a
-    fit other than the default form per target ({"H0": "sr_7_6808f1"}: fits/H0.sr_7_6808f1.json)."""
+             forms: dict | None = None, family: str | None = None) -> dict[str, str]:  # fmt: skip
+    """Source files ({name: text}) in ``lang`` of the program of the fits in ``fits_dir`` (:func:`load_program`)."""
     if lang not in LANGUAGES:
         raise ValueError(f"unknown language {lang!r}; choose one of {', '.join(LANGUAGES)}")
-    term_tuple = parse_terms(terms) if terms is None or isinstance(terms, str) else parse_terms(",".join(terms))
-    return emit(build_program(Path(fits_dir), term_tuple, forms), lang)
+    return emit(load_program(fits_dir, terms, forms, family), lang)
 
 
 def parse_forms(items) -> dict[str, str]:
-    """``["H0=sr_7_6808f1", ...]`` -> {"H0": "sr_7_6808f1"}; targets must be parts codegen uses."""
-    from fitlab.codegen.program import PART_ROUTINES
-
-    known = (*PART_ROUTINES, "fast_brdf")
+    """``["H0=sr_7_6808f1", ...]`` -> {"H0": "sr_7_6808f1"}; each target must have a generated routine."""
+    known = [t.name for t in targets().values() if t.routine is not None]
     out = {}
     for item in items or ():
         target, sep, form = item.partition("=")

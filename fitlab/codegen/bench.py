@@ -5,23 +5,25 @@ the same way (Lambert kd/pi; qualitative Oren-Nayar, sigma = 0.5), each from
 one sympy expression through the same printer, are timed on the same random
 inputs in a C loop (no Python per element), best of ``repeat`` rounds that
 interleave the cases (:func:`time_routines`, the one C timing harness, also used
-by ``fitlab report``); the generated numpy module is timed vectorised over the
-same inputs.  Only ratios within one run carry meaning.
+by ``fitlab report``; the timer is :mod:`fitlab.timing`); the generated numpy
+module is timed vectorised over the same inputs.  Only ratios within one run
+carry meaning.
 """
 
 from __future__ import annotations
 
 import importlib.util
 import tempfile
-import time
 from pathlib import Path
 
 import numpy as np
 
-from fitlab.families.lambert_sphere.forms.baselines import BASELINE_INPUTS, LAMBERT, oren_nayar
+from fitlab.codegen import load_program
 from fitlab.codegen.emit import emit
 from fitlab.codegen.native import build
-from fitlab.codegen.program import Program, Routine, build_program, parse_terms
+from fitlab.codegen.program import Program, Routine
+from fitlab.families.lambert_sphere.forms.baselines import BASELINE_INPUTS, LAMBERT, oren_nayar
+from fitlab.timing import best_seconds, interleaved_best
 
 __all__ = ["baseline_program", "bench_codegen", "random_inputs", "time_routines"]
 
@@ -31,17 +33,8 @@ def baseline_program() -> Program:
     return Program(
         (Routine("baseline_lambert", BASELINE_INPUTS, LAMBERT, "Lambert, kd/pi."),
          Routine("baseline_oren_nayar", BASELINE_INPUTS, oren_nayar(), "Oren-Nayar (qualitative), sigma = 0.5.")),
-        (), (),
+        (), (), name="baselines",
     )  # fmt: skip
-
-
-def _best(fn, repeat):
-    best = np.inf
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        fn()
-        best = min(best, time.perf_counter() - t0)
-    return best
 
 
 def random_inputs(n: int, seed: int = 0) -> dict:
@@ -61,17 +54,14 @@ def time_routines(cases: dict, repeat: int = 5) -> dict:
     """
     conv = {k: (lib, name, [np.ascontiguousarray(a, dtype=dt) for a in args], dt)
             for k, (lib, name, args, dt) in cases.items()}  # fmt: skip
-    best = dict.fromkeys(cases, np.inf)
-    for _ in range(repeat):
-        for k, (lib, name, arrays, dt) in conv.items():
-            t0 = time.perf_counter()
-            lib(name, *arrays, dtype=dt)
-            best[k] = min(best[k], time.perf_counter() - t0)
+    fns = {k: (lambda lib=lib, name=name, arrays=arrays, dt=dt: lib(name, *arrays, dtype=dt))
+           for k, (lib, name, arrays, dt) in conv.items()}  # fmt: skip
+    best = interleaved_best(fns, repeat)
     return {k: best[k] / conv[k][2][0].size * 1e9 for k in cases}
 
 
 def bench_codegen(fits_dir: Path = Path("fits"), n: int = 1_000_000, repeat: int = 5) -> dict:
-    prog = build_program(Path(fits_dir), parse_terms(None))
+    prog = load_program(Path(fits_dir))
     base = baseline_program()
     x = random_inputs(n)
     mu_i, mu_o, c, cos_phi = x["mu_i"], x["mu_o"], x["c"], x["cos_phi"]
@@ -79,9 +69,9 @@ def bench_codegen(fits_dir: Path = Path("fits"), n: int = 1_000_000, repeat: int
     with tempfile.TemporaryDirectory() as tmp:
         model = build(emit(prog, "c"), prog, Path(tmp) / "model")
         baselines = build(emit(base, "c"), base, Path(tmp) / "base")
-        files = emit(prog, "python")
-        (Path(tmp) / "lambert_sphere.py").write_text(files["lambert_sphere.py"])
-        spec = importlib.util.spec_from_file_location("bench_generated", Path(tmp) / "lambert_sphere.py")
+        module = Path(tmp) / f"{prog.name}.py"
+        module.write_text(emit(prog, "python")[module.name])
+        spec = importlib.util.spec_from_file_location("bench_generated", module)
         py = importlib.util.module_from_spec(spec)
         spec.loader.exec_module(py)
         kd = py.kd_of_c(c)
@@ -97,7 +87,7 @@ def bench_codegen(fits_dir: Path = Path("fits"), n: int = 1_000_000, repeat: int
         rows.update(timed)
         for label, fn, args in (("brdf (runtime model)", py.brdf, (mu_i, mu_o, cos_phi, c)),
                                 ("brdf_fast (eq. 41)", py.brdf_fast, (mu_i, mu_o, cos_phi, c, kd))):  # fmt: skip
-            rows[(label, "numpy float64")] = _best(lambda: fn(*args), max(1, repeat // 2)) / n * 1e9
+            rows[(label, "numpy float64")] = best_seconds(lambda: fn(*args), max(1, repeat // 2)) / n * 1e9
     ref = rows[("lambert (baseline)", "C float64")]
     print(f"generated BRDF cost, {n} random inputs, best of {repeat} (ns per evaluation; x = / Lambert C double)")
     for (label, how), ns in rows.items():

@@ -16,7 +16,6 @@ from pathlib import Path
 
 import numpy as np
 
-from fitlab.codegen.emit import BASENAME, PREFIX
 from fitlab.codegen.program import Program
 
 __all__ = ["compiler", "STRICT_FLAGS", "build", "NativeModel", "CompileError"]
@@ -39,8 +38,8 @@ def compiler() -> str | None:
 
 
 def _loop_source(program: Program) -> str:
-    lines = [f'#include "{BASENAME}.h"', ""]
-    for func, sig, vectors in ((PREFIX + r.name, r.signature(), r.vectors) for r in program.routines):
+    lines = [f'#include "{program.name}.h"', ""]
+    for func, sig, vectors in ((program.prefix + r.name, r.signature(), r.vectors) for r in program.routines):
         for scalar, suffix in (("double", ""), ("float", "_f")):
             params = ", ".join(f"const {scalar} *{a}" for a in sig)
             args = ", ".join(f"{a} + 3 * i" if a in vectors else f"{a}[i]" for a in sig)
@@ -60,21 +59,22 @@ def build(files: dict[str, str], program: Program, workdir: Path, flags=STRICT_F
     for name, text in files.items():
         (workdir / name).write_text(text)
     (workdir / "loops.c").write_text(_loop_source(program))
-    sources = [workdir / f"{BASENAME}.c", workdir / "loops.c"]
-    lib = workdir / "liblambert_sphere.so"
+    sources = [workdir / f"{program.name}.c", workdir / "loops.c"]
+    lib = workdir / f"lib{program.name}.so"
     cmd = [cc, *flags, "-shared", "-fPIC", "-o", str(lib), *map(str, sources), "-lm"]
     res = subprocess.run(cmd, capture_output=True, text=True)
     if res.returncode != 0:
         raise CompileError(f"{' '.join(cmd)} failed:\n{res.stderr}")
-    return NativeModel(ctypes.CDLL(str(lib)), {r.name: r for r in program.routines})
+    return NativeModel(ctypes.CDLL(str(lib)), {r.name: r for r in program.routines}, program.prefix)
 
 
 class NativeModel:
     """Call a compiled routine on arrays: ``m("brdf", mu_i, mu_o, cos_phi, c, dtype=np.float32)``."""
 
-    def __init__(self, lib, routines):
+    def __init__(self, lib, routines, prefix: str):
         self.lib = lib
         self.routines = routines
+        self.prefix = prefix
 
     def loop(self, func: str, dtype=np.float64):
         f = getattr(self.lib, func + ("_f" if dtype == np.float32 else "") + "_loop")
@@ -83,7 +83,7 @@ class NativeModel:
 
     def __call__(self, name: str, *args, dtype=np.float64):
         r = self.routines[name]
-        return self.call(PREFIX + name, r.signature(), r.vectors, *args, dtype=dtype)
+        return self.call(self.prefix + name, r.signature(), r.vectors, *args, dtype=dtype)
 
     def call(self, func, sig, vectors, *args, dtype=np.float64):
         if len(args) != len(sig):

@@ -1,54 +1,48 @@
-r"""The language-neutral program that every back end prints.
+r"""The language-neutral program that every back end prints, built from fit records.
 
 A :class:`Routine` is one generated function: scalar arguments, one sympy
 expression, a docstring.  Expressions call other routines through undefined
-sympy functions (``h0(mu_i, c)``), so that the runtime BRDF reads as the sum
-of its terms and each part is evaluated once per call.  Everything here comes
-from the saved fits (fits/*.json: the numbers) and from :mod:`fitlab.forms`
-(the maths): no formula is written per language.
+sympy functions (``call("h0", mu_i, c)``), so that a model assembled from parts
+reads as the sum of its terms and each part is evaluated once per call.  A
+:class:`Program` is the routines of one generated file set, with what its
+banner names.
 
-Routines (args; domain):
+:func:`build_program` takes data (fit records by target: the dicts of fit files,
+or :class:`fitlab.store.FitFunction` objects) and returns a Program; it reads
+no file (:func:`fitlab.codegen.load_program` reads a fits folder through
+:mod:`fitlab.store`).  What is printed is the family's choice: a family whose
+``codegen`` is a :class:`ProgramSpec` contributes its own routines (for the
+Lambert sphere, the runtime BRDF assembled from its parts:
+:mod:`fitlab.families.lambert_sphere.program`); a family without one gets one
+routine per target that names a ``routine`` (:attr:`fitlab.core.Target.routine`),
+its saved fit as it stands (:func:`part_routine`).
 
-* ``h0, h1 (mu, c)``, ``const_l, const_m, const_b, const_c, const_d, const_f (c)``,
-  ``c_of_kd (kd)``, ``kd_of_c (c)``: the fitted parts on their own; mu, c, kd in [0, 1].
-* ``single, fm0, fm1`` and ``brdf (mu_i, mu_o, cos_phi, c)``: the runtime model of
-  SPEC 5, f_r = max(0, f_1 + fm0 + fm1 cos phi) (only the terms asked for).
-* ``brdf_fast (mu_i, mu_o, cos_phi, c, kd)``: the fast variant, eq. 41.
-* ``brdf_local, brdf_fast_local (wi, wo, c[, kd])``: the same for unit vectors in the
-  local frame (z the normal, both pointing away from the surface); 0 when either
-  points below the surface.
-
-Robustness (every value finite for finite inputs): the entry points clamp
-mu, c, kd into [0, 1] and cos_phi into [-1, 1]; every pole 1/(mu_i + mu_o) is
-evaluated as 1/max(mu_i + mu_o, POLE_FLOOR).  The exact BRDF is infinite at
-mu_i = mu_o = 0; with the floor the model there is large and finite
-(c p(u) / POLE_FLOOR at most 2.1e5 c, representable in float).
+The helpers a family's program is written with are public here:
+:func:`call`, :func:`part_routine`, :func:`stable` (cancellation-free rewrites),
+:func:`floor_poles` (1/(mu_i + mu_o) floored at :data:`POLE_FLOOR`),
+:func:`azimuth_to_cosine` and :func:`clamped` (clamping the entry points'
+inputs into their domain).
 """
 
 from __future__ import annotations
 
-import hashlib
 from dataclasses import dataclass, field
-from pathlib import Path
+from typing import Callable, Mapping, Sequence
 
 import sympy as sp
-
-from fitlab.families.lambert_sphere.forms import RUNTIME_PARTS, RUNTIME_TERMS, runtime_terms
-from fitlab.families.lambert_sphere.forms.brdf import SINGLE
-from fitlab.forms.symbolic import safe_pow, symbols
 from sympy.codegen.cfunctions import expm1, log1p
 
-__all__ = ["Routine", "Program", "build_program", "POLE_FLOOR", "parse_terms"]
+from fitlab.core import families, get_family, get_target
+from fitlab.forms.symbolic import safe_pow, symbols
+from fitlab.store import FitFunction
+
+__all__ = ["Routine", "Program", "ProgramSpec", "build_program", "part_routine", "program_spec", "parse_terms",
+           "call", "stable", "floor_poles", "azimuth_to_cosine", "clamped", "POLE_FLOOR"]  # fmt: skip
 
 #: mu_i + mu_o is floored at this value wherever it divides
 POLE_FLOOR = sp.Rational(1, 10**6)
 
-mu_i, mu_o, phi, c, kd, mu, cos_phi = symbols(("mu_i", "mu_o", "phi", "c", "kd", "mu", "cos_phi"))
-_VEC = {v: symbols(tuple(f"{v}_{k}" for k in "xyz")) for v in ("wi", "wo")}
-
-#: routine name of each fitted part
-PART_ROUTINES = {"H0": "h0", "H1": "h1", "l": "const_l", "m": "const_m", "B": "const_b", "C": "const_c",
-                 "D": "const_d", "F": "const_f", "c_of_kd": "c_of_kd", "kd_of_c": "kd_of_c"}  # fmt: skip
+mu_i, mu_o, phi, c, cos_phi = symbols(("mu_i", "mu_o", "phi", "c", "cos_phi"))
 
 
 @dataclass(frozen=True)
@@ -80,19 +74,66 @@ class Routine:
 
 @dataclass(frozen=True)
 class Program:
+    """The routines of one generated file set.
+
+    sources: (fit file, sha256 of its bytes) the banner lists (empty for records that came from no file).
+    terms: the optional terms of the family's model that were kept (see :class:`ProgramSpec`).
+    name: base name of the files and prefix of every generated function (``lambert_sphere`` ->
+        lambert_sphere.c, ``lambert_sphere_h0``).
+    about: the banner's lines that say what the files hold.
+    doc: the generated Python module's docstring.
+    parts: targets whose routine (:attr:`fitlab.core.Target.routine`) is their fit as it stands.
+    """
+
     routines: tuple[Routine, ...]
     sources: tuple[tuple[str, str], ...]  # (fit file, sha256 of its bytes)
     terms: tuple[str, ...]
+    name: str = "fitlab"
+    about: tuple[str, ...] = ()
+    doc: str = "Generated by fitlab: numpy only.\n"
+    parts: tuple[str, ...] = ()
 
     def routine(self, name: str) -> Routine:
         return next(r for r in self.routines if r.name == name)
 
+    @property
+    def prefix(self) -> str:
+        """The prefix of every generated function's name."""
+        return self.name + "_"
+
+
+@dataclass(frozen=True)
+class ProgramSpec:
+    """What a family prints (the ``codegen`` of its :class:`fitlab.core.Family`).
+
+    name: the generated files' base name and the functions' prefix.
+    fits: the targets whose fits the program is built from, in the order of the banner.
+    parts: those of them printed as one routine each, their fit as it stands (:func:`part_routine`).
+    routines: ``routines(fits, terms) -> routines``: every routine, in file order, from the fits
+        ({target: FitFunction}) and the terms kept (a subset of ``terms``, in model order).
+    terms: the optional terms of the family's model (``fitlab codegen --terms``), in model order.
+    about: the banner's description, formatted with ``{terms}`` (the terms kept, comma-separated).
+    doc: the generated Python module's docstring.
+    """
+
+    name: str
+    fits: tuple[str, ...]
+    parts: tuple[str, ...]
+    routines: Callable[[Mapping[str, FitFunction], tuple[str, ...]], Sequence[Routine]]
+    terms: tuple[str, ...] = ()
+    about: str = ""
+    doc: str = ""
+
+    def __call__(self, fits: Mapping[str, FitFunction], terms: tuple[str, ...]) -> tuple[Routine, ...]:
+        return tuple(self.routines(fits, terms))
+
 
 def call(name: str, *args) -> sp.Expr:
+    """A call of the generated routine ``name`` (printed as a call of that function in every language)."""
     return sp.Function(name)(*args)
 
 
-def _floor_poles(expr: sp.Expr) -> sp.Expr:
+def floor_poles(expr: sp.Expr) -> sp.Expr:
     """1/(mu_i + mu_o)^k -> 1/max(mu_i + mu_o, POLE_FLOOR)^k."""
     pole = mu_i + mu_o
     return expr.replace(
@@ -101,7 +142,7 @@ def _floor_poles(expr: sp.Expr) -> sp.Expr:
     )
 
 
-def _azimuth_to_cosine(expr: sp.Expr) -> sp.Expr:
+def azimuth_to_cosine(expr: sp.Expr) -> sp.Expr:
     """Forms take phi in [-pi, pi]; routines take cos(phi): |phi| = acos(cos phi)."""
     out = expr.subs({sp.cos(phi): cos_phi, sp.Abs(phi): sp.acos(cos_phi)})
     if phi in out.free_symbols:
@@ -109,7 +150,7 @@ def _azimuth_to_cosine(expr: sp.Expr) -> sp.Expr:
     return out
 
 
-def _stable(expr: sp.Expr) -> sp.Expr:
+def stable(expr: sp.Expr) -> sp.Expr:
     """Rewrite the cancellations the forms contain into forms that keep every digit.
 
     * 1 - sqrt(1 - c) -> c / (1 + sqrt(1 - c)): the exact zero at c = 0 of B-F and
@@ -138,104 +179,94 @@ def _stable(expr: sp.Expr) -> sp.Expr:
     return expr.replace(is_one_minus_pow, rewrite)
 
 
-def _clamped(*names_and_bounds):
+def clamped(*names_and_bounds) -> dict:
+    """{symbol: min(hi, max(lo, symbol))} for (symbol, lo, hi) triples: to clamp an entry point's inputs."""
     return {s: sp.Min(hi, sp.Max(lo, s)) for s, lo, hi in names_and_bounds}
 
 
-def parse_terms(text: str | None) -> tuple[str, ...]:
-    """'single,m0' -> ('single', 'm0'), in model order; None -> all terms."""
+def part_routine(fit: FitFunction) -> Routine:
+    """A target's routine (named by :attr:`fitlab.core.Target.routine`): its fit as it stands, rewritten
+    by :func:`stable`, documented by the fit's description and validation metrics."""
+    target = get_target(fit.target)
+    if target.routine is None:
+        raise ValueError(f"target {target.name} names no generated routine (Target.routine)")
+    desc = fit.record.get("target_description", fit.target)
+    doc = f"{desc}; form {fit.form}: {fit.record.get('form_description', '')}"
+    val = fit.record.get("validation")
+    if val:
+        doc += f" Validation: max relative error {val['max_rel']:.2e}, RMS {val['rms_rel']:.2e}."
+    return Routine(target.routine, fit.inputs, stable(fit.expression), doc)
+
+
+def _default_spec(family) -> ProgramSpec:
+    """One routine per target of ``family`` that names one: for a family without its own program."""
+    parts = tuple(t.name for t in family.targets if t.routine is not None)
+    return ProgramSpec(
+        name=family.name, fits=parts, parts=parts,
+        routines=lambda fits, terms: [part_routine(fits[t]) for t in parts],
+        about=f"{family.description}: one routine per fitted target.",
+        doc=f"{family.description}, generated by fitlab: numpy only.\n\n"
+            "Every function takes numpy arrays (any broadcastable shapes) and returns an array of float64.\n",
+    )  # fmt: skip
+
+
+def program_spec(family: str | None = None, targets: Sequence[str] = ()) -> ProgramSpec:
+    """The :class:`ProgramSpec` of ``family`` (by name), else of the family of ``targets`` (all of one family),
+    else of the one registered family with a program of its own (else of the one family there is)."""
+    if family is None and targets:
+        names = {get_target(t).family for t in targets}
+        if len(names) != 1:
+            raise ValueError(f"targets {', '.join(targets)} belong to {len(names)} families; one program holds one")
+        (family,) = names
+    if family is None:
+        fams = families()
+        with_spec = [f for f in fams.values() if f.codegen is not None]
+        pool = with_spec if len(with_spec) == 1 else list(fams.values())
+        if len(pool) != 1:
+            raise ValueError(f"name the family to generate: one of {', '.join(fams)}")
+        fam = pool[0]
+    else:
+        fam = get_family(family)
+    return fam.codegen if fam.codegen is not None else _default_spec(fam)
+
+
+def parse_terms(text: str | None, family: str | None = None) -> tuple[str, ...]:
+    """'single,m0' -> ('single', 'm0'), in model order; None -> all terms (of ``family``'s program,
+    :func:`program_spec`)."""
+    available = program_spec(family).terms
     if text is None:
-        return RUNTIME_TERMS
+        return available
     asked = [t.strip() for t in text.split(",") if t.strip()]
-    unknown = [t for t in asked if t not in RUNTIME_TERMS]
+    unknown = [t for t in asked if t not in available]
     if unknown or not asked:
-        raise ValueError(f"--terms takes a comma-separated subset of {', '.join(RUNTIME_TERMS)}; got {text!r}")
-    return tuple(t for t in RUNTIME_TERMS if t in asked)
+        raise ValueError(f"--terms takes a comma-separated subset of {', '.join(available) or '(none)'}; got {text!r}")
+    return tuple(t for t in available if t in asked)
 
 
-def _sha256(path: Path) -> str:
-    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+def _as_fit(target: str, record) -> FitFunction:
+    fit = record if isinstance(record, FitFunction) else FitFunction(dict(record))
+    if fit.target != target:
+        raise ValueError(f"the record given for {target} is a fit of {fit.target}")
+    return fit
 
 
-def build_program(fits_dir: Path, terms: tuple[str, ...] = RUNTIME_TERMS, forms: dict | None = None) -> Program:
-    """Routines of the runtime BRDF from the fits in ``fits_dir``.
+def build_program(records: Mapping[str, object], terms: Sequence[str] | None = None,
+                  sources: Sequence[tuple[str, str]] = (), family: str | None = None) -> Program:  # fmt: skip
+    """The program of one family from fit records by target ({target: record or FitFunction}).
 
-    ``forms`` picks a non-default form per target (as ``fitlab refit --form``);
-    each file must exist (FitFileError otherwise).
+    The family is ``family``, else that of the records' targets.  ``terms``: the optional terms of its
+    model to keep (None: all; see :func:`parse_terms`).  ``sources``: (file, sha256) pairs the banner
+    lists (the records read no file here).  Records of targets the program does not print are ignored;
+    a missing one is a KeyError.
     """
-    from fitlab.store import fit_path
-    from fitlab.core import get_target
-    from fitlab.store import load
-
-    fits_dir = Path(fits_dir)
-    routines, sources = [], []
-
-    def fitted(target):
-        form = (forms or {}).get(target, get_target(target).default_form)
-        path = fit_path(fits_dir, target, form)
-        fit = load(path)
-        sources.append((path.as_posix(), _sha256(path)))
-        return fit
-
-    for target, name in PART_ROUTINES.items():
-        fit = fitted(target)
-        desc = fit.record.get("target_description", target)
-        val = fit.record["validation"]
-        doc = (f"{desc}; form {fit.form}: {fit.record.get('form_description', '')} "
-               f"Validation: max relative error {val['max_rel']:.2e}, RMS {val['rms_rel']:.2e}.")  # fmt: skip
-        routines.append(Routine(name, fit.inputs, _stable(fit.expression), doc))
-
-    clamp4 = _clamped((mu_i, 0, 1), (mu_o, 0, 1), (cos_phi, -1, 1), (c, 0, 1))
-    parts = {p: call(PART_ROUTINES[p], mu, c) if p in ("H0", "H1") else call(PART_ROUTINES[p], c) for p in RUNTIME_PARTS}
-    term_exprs = runtime_terms(parts)
-    term_docs = {
-        "single": "Single scattering with the true phase function, c p(u)/(mu_i + mu_o), u = -(mu_i mu_o + S cos phi) (eq. 10).",
-        "m0": "Multiple scattering, Fourier order 0: fm0 = (H0 H0 Q/(2 pi) - n0_ss)/(mu_i + mu_o) (eqs. 30, 38).",
-        "m1": "Multiple scattering, Fourier order 1 (coefficient of cos phi): fm1 of eq. 22 minus its single "
-              "scattering, exact normalisations 3 pi and 192 pi (docs/errata.md).",
-    }  # fmt: skip
-    term_args = {"single": ("mu_i", "mu_o", "cos_phi", "c"), "m0": ("mu_i", "mu_o", "c"), "m1": ("mu_i", "mu_o", "c")}
-    term_names = {"single": "single", "m0": "fm0", "m1": "fm1"}
-    total = sp.S.Zero
-    for t in terms:
-        expr = _floor_poles(_azimuth_to_cosine(term_exprs[t]))
-        routines.append(Routine(term_names[t], term_args[t], expr, term_docs[t] + " Pole floored at 1e-6."))
-        args = [clamp4.get(s, s) for s in symbols(term_args[t])]
-        total += call(term_names[t], *args) * (clamp4[cos_phi] if t == "m1" else 1)
-    routines.append(Routine(
-        "brdf", ("mu_i", "mu_o", "cos_phi", "c"), sp.Max(0, total),
-        f"The runtime Lambert-sphere BRDF (1/sr), max(0, {' + '.join(term_names[t] + (' cos phi' if t == 'm1' else '') for t in terms)}) "
-        "(SPEC 5). mu_i, mu_o in [0, 1], cos_phi in [-1, 1] (phi = 0 back-scattering), c the particle "
-        "albedo in [0, 1]; inputs outside are clamped.",
-    ))  # fmt: skip
-
-    fast = fitted("fast_brdf")
-    single_call = call("single", mu_i, mu_o, cos_phi, c) if "single" in terms else None
-    fast_expr = _floor_poles(_azimuth_to_cosine(fast.expression))
-    if single_call is not None:
-        fast_expr = fast_expr.subs(_floor_poles(_azimuth_to_cosine(SINGLE)), single_call)
-    clamp5 = {**clamp4, **_clamped((kd, 0, 1))}
-    routines.append(Routine(
-        "brdf_fast", ("mu_i", "mu_o", "cos_phi", "c", "kd"), fast_expr.xreplace(clamp5),
-        ("The fast variant of the Lambert-sphere BRDF (eq. 41, refitted): max(0, f_1 + lobe(|phi|) + p4 kd^p5); "
-         if fast.form == get_target("fast_brdf").default_form else
-         f"A fast model of the Lambert-sphere BRDF, form {fast.form}: {fast.record.get('form_description', '')} ")
-        + "kd = kd_of_c(c). Same domain as brdf, kd in [0, 1].",
-    ))  # fmt: skip
-
-    # local frame: u = -wi.wo, mu = z, S cos phi = x_i x_o + y_i y_o
-    (xi, yi, zi), (xo, yo, zo) = _VEC["wi"], _VEC["wo"]
-    ring = (xi**2 + yi**2) * (xo**2 + yo**2)
-    local_cos = (xi * xo + yi * yo) / sp.sqrt(sp.Max(ring, sp.Rational(1, 10**30)))
-    below = sp.Or(zi < 0, zo < 0)
-    vec_args = tuple(str(s) for s in (*_VEC["wi"], *_VEC["wo"]))
-    vectors = {"wi": tuple(str(s) for s in _VEC["wi"]), "wo": tuple(str(s) for s in _VEC["wo"])}
-    for name, extra in (("brdf", ()), ("brdf_fast", ("kd",))):
-        inner = call(name, zi, zo, local_cos, c, *symbols(extra))
-        routines.append(Routine(
-            f"{name}_local", (*vec_args, "c", *extra), sp.Piecewise((0, below), (inner, True)),
-            f"{name} for unit vectors wi, wo in the local frame (z along the normal, both pointing away "
-            "from the surface); 0 if either is below the surface.",
-            vectors,
-        ))  # fmt: skip
-    return Program(tuple(routines), tuple(sources), tuple(terms))
+    spec = program_spec(family, () if family else tuple(records))
+    missing = [t for t in spec.fits if t not in records]
+    if missing:
+        raise KeyError(f"the {spec.name} program needs fits of {', '.join(missing)}")
+    terms = spec.terms if terms is None else tuple(terms)
+    unknown = [t for t in terms if t not in spec.terms]
+    if unknown:
+        raise ValueError(f"terms {unknown}: the {spec.name} program's terms are {', '.join(spec.terms) or '(none)'}")
+    fits = {t: _as_fit(t, records[t]) for t in spec.fits}
+    return Program(spec(fits, terms), tuple(tuple(s) for s in sources), terms, spec.name,
+                   tuple(spec.about.format(terms=", ".join(terms)).splitlines()), spec.doc, spec.parts)  # fmt: skip

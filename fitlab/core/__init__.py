@@ -9,6 +9,7 @@ targets.
 
 from fitlab.core._dataset import Dataset, data_hash
 from fitlab.core._input import Input
+from fitlab.core._precision import float64
 from fitlab.core._registry import (
     Family,
     families,
@@ -29,6 +30,7 @@ __all__ = [
     "Target",
     "data_hash",
     "families",
+    "float64",
     "forms_for",
     "get_family",
     "get_form",

@@ -30,7 +30,8 @@ class Family:
     forms: its :class:`fitlab.forms.Form` s (each names its target).
     libraries: the candidate-term libraries of ``fitlab discover``: a function returning target -> tuple of
         libraries (the first primary), called only by discover (so that pysindy loads only there).
-    codegen: the generated program: ``codegen(records, options) -> routines`` (see :mod:`fitlab.codegen`), or None.
+    codegen: the program its generated code prints beyond one routine per target (a
+        :class:`fitlab.codegen.ProgramSpec`), or None.
     hooks: further family services by name (runtime models, Monte Carlo scenes, report methods, tables, audit),
         each a callable the generic command of that name looks up.
     """
@@ -93,13 +94,14 @@ def _load() -> None:
     global _LOADED
     if _LOADED:
         return
-    _LOADED = True
     import fitlab.families as builtin
 
+    # a family that fails to import is an error every time, never an empty registry
     for info in sorted(pkgutil.iter_modules(builtin.__path__), key=lambda m: m.name):
         importlib.import_module(f"{builtin.__name__}.{info.name}")
     for ep in entry_points(group="fitlab.families"):
         ep.load()
+    _LOADED = True
 
 
 def families() -> dict[str, Family]:

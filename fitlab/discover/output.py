@@ -12,8 +12,7 @@ import math
 from pathlib import Path
 
 from fitlab._io import atomic_write_many
-from fitlab.store import fit_path
-from fitlab.store import strict_json, write_fit
+from fitlab.store import decode_nonfinite, fit_path, strict_json, write_fit, write_fits
 from fitlab.discover.search import Discovery, library_tag
 
 __all__ = ["front_table", "front_json", "plot_front", "save", "save_from_front", "write_outputs"]
@@ -139,8 +138,6 @@ def save_from_front(front_file: Path, names, fits_dir: Path = Path("fits")) -> l
     """
     import json
 
-    from fitlab.store import _decode
-
     names = [names] if isinstance(names, str) else list(names)
     front_file = Path(front_file)
     try:
@@ -154,9 +151,7 @@ def save_from_front(front_file: Path, names, fits_dir: Path = Path("fits")) -> l
     for name in names:
         if name not in records:
             raise KeyError(f"{front_file}: {name!r} is not on the front; the front is {', '.join(front)}")
-    files = {fit_path(Path(fits_dir), data["target"], n): strict_json(_decode(records[n])).encode() for n in names}
-    atomic_write_many(files)
-    return list(files)
+    return write_fits({fit_path(Path(fits_dir), data["target"], n): decode_nonfinite(records[n]) for n in names})
 
 
 def write_outputs(disc: Discovery, out_dir: Path) -> list[Path]:

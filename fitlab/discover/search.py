@@ -24,11 +24,13 @@ from pathlib import Path
 import numpy as np
 
 from fitlab.fit.metrics import relative_errors
-from fitlab.fit.refit import RefitResult, refit
+from fitlab.fit.refit import RefitResult, preset_metrics, refit
 from fitlab.core import get_target
 from fitlab.discover.library import Library, get_libraries
 from fitlab.discover.refine import arranged, candidate_form, form_name, operation_count
 from fitlab.discover.regression import DEFAULT_THRESHOLDS, Candidate, SparseRegression
+from fitlab.report.pareto import pareto_front
+from fitlab.store import fit_files, read_fit
 
 __all__ = ["Discovered", "Discovery", "discover", "pareto_front", "front_metric"]
 
@@ -79,21 +81,6 @@ def front_metric(target_name: str) -> str:
     return "max_rel" if get_target(target_name).minimax else "rms_rel"
 
 
-def pareto_front(points) -> list[int]:
-    """Indices of the points (cost, error) that no other point beats: lower or equal on both,
-    strictly lower on one.  Ties in both keep the first."""
-    pts = [(float(a), float(b)) for a, b in points]
-    keep = []
-    for i, (ci, ei) in enumerate(pts):
-        dominated = any(
-            (cj <= ci and ej <= ei and (cj < ci or ej < ei)) or (cj == ci and ej == ei and j < i)
-            for j, (cj, ej) in enumerate(pts) if j != i
-        )
-        if not dominated:
-            keep.append(i)
-    return keep
-
-
 def _linear_errors(reg: SparseRegression, target, train) -> list[float]:
     scale = target.scale(train)
     out = []
@@ -141,7 +128,8 @@ def discover(
     if not pool:
         raise ValueError(f"{target.name}: the regression found no finite model with at most {max_terms} terms")
     ops = [operation_count(arranged(by_name[cand.library], cand.num, cand.den)) for cand, _ in pool]
-    keep = set(pareto_front([(cand.n_terms, e) for cand, e in pool])) | set(pareto_front([(o, e) for o, (_, e) in zip(ops, pool)]))
+    keep = (set(pareto_front([(cand.n_terms, e) for cand, e in pool], infinite_errors=True))
+            | set(pareto_front([(o, e) for o, (_, e) in zip(ops, pool)], infinite_errors=True)))
     chosen = [pool[i][0] for i in sorted(keep)]
 
     refined = []
@@ -169,8 +157,8 @@ def discover(
     if not refined:
         raise ValueError(f"{target.name}: every candidate's refit failed")
     errs = [d.validation[metric] for d in refined]
-    on_front = set(pareto_front([(d.terms, e) for d, e in zip(refined, errs)]))
-    on_front |= set(pareto_front([(d.operations, e) for d, e in zip(refined, errs)]))
+    on_front = set(pareto_front([(d.terms, e) for d, e in zip(refined, errs)], infinite_errors=True))
+    on_front |= set(pareto_front([(d.operations, e) for d, e in zip(refined, errs)], infinite_errors=True))
     front = [refined[i].name for i in sorted(on_front, key=lambda i: (refined[i].terms, errs[i]))]
     return Discovery(target.name, libraries, metric, candidates, refined, front,
                      reference_points(target.name, fits_dir), time.perf_counter() - t0)  # fmt: skip
@@ -179,20 +167,15 @@ def discover(
 def reference_points(target_name: str, fits_dir: Path = Path("fits")) -> list[dict]:
     """The published presets and every saved fit of the target not found by discover: label,
     free parameters, operations, validation max and RMS relative error."""
-    from fitlab.store import read_fit
-    from fitlab.fit.refit import validation_metrics
-
     target = get_target(target_name)
-    valid = target.validation()
-    scale = target.scale(valid)
     out = []
     for form_name_, preset in target.published:
         form = target.forms[form_name_]
-        m = validation_metrics(form, form.vector(preset), valid, scale)
+        m = preset_metrics(target, form, preset)
         out.append({"label": f"{form_name_} / {preset}", "kind": "published", "terms": len(form.free_params),
                     "operations": operation_count(form.substituted(preset)), "max_rel": m["max_rel"],
                     "rms_rel": m["rms_rel"], "max_rel_nonzero": m["max_rel_nonzero"]})  # fmt: skip
-    for path in sorted(Path(fits_dir).glob(f"{target.name}.json")) + sorted(Path(fits_dir).glob(f"{target.name}.*.json")):
+    for path in fit_files(Path(fits_dir), target.name):
         rec = read_fit(path)
         if rec.get("origin") or rec["target"] != target.name:
             continue

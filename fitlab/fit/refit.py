@@ -20,7 +20,8 @@ from fitlab.fit.metrics import summary
 from fitlab.fit.solver import SOLVER_SETTINGS, FitResult, fit_form, fit_form_scipy
 from fitlab.core import get_target, targets
 
-__all__ = ["RefitResult", "refit", "check_domain", "validation_metrics", "MINIMAX_ROUNDS", "default_jobs", "table"]
+__all__ = ["RefitResult", "refit", "check_domain", "validation_metrics", "preset_metrics", "MINIMAX_ROUNDS",
+           "default_jobs", "table"]
 
 MINIMAX_ROUNDS = 40
 
@@ -59,6 +60,15 @@ def validation_metrics(form, theta, ds, scale) -> dict:
     """Max and RMS error of ``form`` with parameters ``theta`` on dataset ``ds`` (``scale``: the error's divisor)."""
     xs = [ds.inputs[n] for n in form.inputs]
     return summary(form.numpy_function(theta, *xs), ds.y, scale, ds.inputs)
+
+
+def preset_metrics(target: Target | str, form: Form | str, preset: str, ds=None) -> dict:
+    """Max and RMS error (:func:`validation_metrics`) of a published preset of ``form`` on the target's
+    validation set, or on ``ds`` (a :class:`fitlab.core.Dataset` of the target, e.g. a restricted one)."""
+    target = get_target(target) if isinstance(target, str) else target
+    form = target.forms[form] if isinstance(form, str) else form
+    ds = target.validation() if ds is None else ds
+    return validation_metrics(form, form.vector(preset), ds, target.scale(ds))
 
 
 def refit(

@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from fitlab.core import Dataset
+from fitlab.core import Dataset, float64
 
 __all__ = ["FitError", "FitResult", "fit_form", "fit_form_scipy", "SOLVER_SETTINGS"]
 
@@ -72,6 +72,7 @@ def _prepare(form, train, scale, theta0, weights):
     return theta0, xs, y, inv_scale, free
 
 
+@float64
 def fit_form(
     form, train: Dataset, scale: np.ndarray, theta0=None, *, minimax_rounds: int = 40, weights=None
 ) -> FitResult:

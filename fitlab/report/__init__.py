@@ -14,12 +14,15 @@ measures
 * cost: ns per evaluation of the generated C (:mod:`.programs`, through the one
   harness of :mod:`fitlab.codegen.bench`), numpy ns and JAX throughput
   (:mod:`.cost`), the exact engine's set-up and time to reach an error
-  (:mod:`.exact`), Monte Carlo's error and time against path count
-  (:mod:`.montecarlo`), and the one-off cost of each refit (:mod:`.refits`);
+  and Monte Carlo's error and time against path count (measured by the
+  family, through its ``report`` hook: :func:`fitlab.report.methods.brdf_hook`),
+  and the one-off cost of each refit (:mod:`.refits`);
 
 and writes docs/report.md, docs/accuracy_vs_cost.png (with the Pareto front,
 :mod:`.pareto`, :mod:`.plot`) and docs/report.csv (:mod:`.write`).  The
-catalogue of methods is :mod:`.methods`; the sizes are :mod:`.settings`
+catalogue of methods is :mod:`.methods` (each family adds its own through its
+``report`` hook, for the Lambert sphere
+:mod:`fitlab.families.lambert_sphere.report_methods`); the sizes are :mod:`.settings`
 (``FULL``, and ``QUICK`` for the test); :func:`build_report` runs it all.
 """
 

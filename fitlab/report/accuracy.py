@@ -20,6 +20,7 @@ from __future__ import annotations
 import numpy as np
 
 from fitlab.fit.metrics import relative_errors, summary
+from fitlab.fit.refit import preset_metrics
 from fitlab.report.methods import BRDF_INPUTS
 
 __all__ = ["brdf_errors", "brdf_accuracy", "part_accuracy", "AWAY_MU"]
@@ -62,7 +63,10 @@ def brdf_accuracy(method, valid, grazing=None) -> dict:
 
 
 def part_accuracy(method, target) -> dict:
-    """The target's error measure on its validation set (restricted to the method's domain)."""
+    """The target's error measure on its validation set (restricted to the method's domain); a published
+    preset is measured by :func:`fitlab.fit.refit.preset_metrics`."""
+    if getattr(method, "preset", None) is not None and not method.domain:
+        return preset_metrics(target, *method.preset)
     valid = target.validation()
     if method.domain:
         valid = valid.restricted(method.domain)

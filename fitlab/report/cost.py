@@ -2,7 +2,7 @@ r"""Cost of the Python paths: ns per evaluation of the numpy functions, throughp
 
 Both are timed on the same seeded random inputs as the C
 (:func:`fitlab.report.programs.timing_inputs`), best of ``repeat`` rounds, each
-round calling every method once in turn (:func:`interleaved_best`: a change of
+round calling every method once in turn (:func:`fitlab.timing.interleaved_best`: a change of
 machine load hits all methods alike).  The JAX path is ``jax.jit`` of the
 method's sympy expression lambdified to jax.numpy
 (:func:`fitlab.forms.symbolic.lambdify_jax`), float64, on the default device;
@@ -11,32 +11,12 @@ compilation (the first call) is excluded.
 
 from __future__ import annotations
 
-import time
-
-import numpy as np
-
+from fitlab.core import float64
 from fitlab.forms.symbolic import lambdify_jax, symbols
 from fitlab.report.methods import BRDF_INPUTS
+from fitlab.timing import best_seconds, interleaved_best
 
 __all__ = ["best_seconds", "interleaved_best", "numpy_costs", "jax_costs"]
-
-
-def best_seconds(fn, repeat: int) -> float:
-    """The shortest of ``repeat`` wall-clock times of ``fn()``."""
-    return interleaved_best({0: fn}, repeat)[0]
-
-
-def interleaved_best(fns: dict, repeat: int, tick=None) -> dict:
-    """{key: shortest wall time of fns[key]()} over ``repeat`` rounds; each round calls every function
-    once, in turn (``tick()`` after each round)."""
-    best = dict.fromkeys(fns, np.inf)
-    for _ in range(repeat):
-        for k, fn in fns.items():
-            t0 = time.perf_counter()
-            fn()
-            best[k] = min(best[k], time.perf_counter() - t0)
-        tick and tick()
-    return best
 
 
 def numpy_costs(methods, inputs: dict, repeat: int, tick=None) -> dict:
@@ -46,6 +26,7 @@ def numpy_costs(methods, inputs: dict, repeat: int, tick=None) -> dict:
     return {k: t / args[0].size * 1e9 for k, t in interleaved_best(fns, repeat, tick).items()}
 
 
+@float64
 def jax_costs(methods, inputs: dict, repeat: int, tick=None) -> dict:
     """{method name: evaluations per second} of jit(method.expr); every function is compiled first."""
     import jax

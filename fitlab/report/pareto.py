@@ -47,13 +47,26 @@ def _ok(x) -> bool:
     return x is not None and math.isfinite(x) and x >= 0.0
 
 
-def pareto_front(costs, errors) -> list[int]:
-    """Indices of the non-dominated points, by increasing cost (errors then strictly decrease)."""
-    idx = [i for i, (c, e) in enumerate(zip(costs, errors)) if _ok(c) and _ok(e)]
+def pareto_front(costs, errors=None, *, infinite_errors: bool = False) -> list[int]:
+    """Indices of the non-dominated points, by increasing cost (errors then strictly decrease).
+
+    ``pareto_front(costs, errors)``, or ``pareto_front(points)`` with (cost, error) pairs (how
+    :mod:`fitlab.discover` calls it).  Points with a non-finite or negative cost or error are on no
+    front, except that ``infinite_errors=True`` counts an infinite error as the worst error (such a
+    point is on the front only where nothing else costs as little: how discover keeps a candidate
+    whose linearised error is infinite for its refit)."""
+    if errors is None:
+        pairs = [(float(a), float(b)) for a, b in costs]
+        costs, errors = [p[0] for p in pairs], [p[1] for p in pairs]
+
+    def admitted(c, e) -> bool:
+        return _ok(c) and (_ok(e) or (infinite_errors and e is not None and e == math.inf))
+
+    idx = [i for i, (c, e) in enumerate(zip(costs, errors)) if admitted(c, e)]
     idx.sort(key=lambda i: (costs[i], errors[i], i))
-    front, best = [], math.inf
+    front, best = [], None
     for i in idx:
-        if errors[i] < best:
+        if best is None or errors[i] < best:
             front.append(i)
             best = errors[i]
     return front

@@ -6,9 +6,10 @@ of ``fitlab bench codegen``): the generated C compiled with
 seeded random inputs (:func:`fitlab.codegen.bench.random_inputs`; kd =
 kd_true(c) from the tables, H-parts at mu = mu_i), in double and in float, best
 of ``repeat`` rounds that interleave every routine of every program.  Published
-presets are printed from temporary fits folders
-(:func:`fitlab.report.methods.preset_records`).  A program that cannot be built
-(no compiler) leaves its columns empty and says why.
+presets are printed from their fit records
+(:func:`fitlab.report.methods.preset_records`), which go straight into
+:func:`fitlab.codegen.build_program`.  A program that cannot be built (no
+compiler) leaves its columns empty and says why.
 """
 
 from __future__ import annotations
@@ -17,12 +18,10 @@ from pathlib import Path
 
 import numpy as np
 
-from fitlab.codegen import build_program, parse_terms
+from fitlab.codegen import build_program, emit, load_program
 from fitlab.codegen.bench import baseline_program, random_inputs, time_routines
-from fitlab.codegen.emit import emit
 from fitlab.codegen.native import CompileError, build
-from fitlab.codegen.program import PART_ROUTINES
-from fitlab.store import write_fit
+from fitlab.core import get_target
 from fitlab.report.methods import CSpec, preset_records
 from fitlab.report.tables import kd_interpolant
 
@@ -39,29 +38,19 @@ def timing_inputs(n: int, data_dir: Path) -> dict:
     return x
 
 
-def _program(spec: CSpec, workdir: Path):
-    """(Program, {routine: (target, label)}) for a spec's program."""
+def _program(spec: CSpec):
+    """(Program, {routine: (target, label)}) for a spec's program; the labels name its part routines."""
     if spec.fits_dir is None and spec.preset is None:
         return baseline_program(), {}
     if spec.preset is not None:
-        folder = workdir / f"preset_{spec.preset}"
-        forms = {}
-        from fitlab.store import fit_path
-        from fitlab.core import get_target
-
         records = preset_records(spec.preset)
-        for (target, form), rec in records.items():
-            write_fit(fit_path(folder, target, form), rec)
-            if form != get_target(target).default_form:
-                forms[target] = form
-        labels = {PART_ROUTINES[t]: (t, f"{f} / {r['origin']['preset']}")
-                  for (t, f), r in records.items() if t in PART_ROUTINES}  # fmt: skip
-        return build_program(folder, parse_terms(None), forms), labels
+        prog = build_program({t: rec for (t, _), rec in records.items()})
+        labels = {get_target(t).routine: (t, f"{f} / {r['origin']['preset']}")
+                  for (t, f), r in records.items() if t in prog.parts}  # fmt: skip
+        return prog, labels
     forms = dict(spec.forms)
-    prog = build_program(Path(spec.fits_dir), parse_terms(None), forms)
-    from fitlab.core import get_target
-
-    labels = {name: (t, forms.get(t, get_target(t).default_form)) for t, name in PART_ROUTINES.items()}
+    prog = load_program(Path(spec.fits_dir), forms=forms)
+    labels = {get_target(t).routine: (t, forms.get(t, get_target(t).default_form)) for t in prog.parts}
     return prog, labels
 
 
@@ -79,7 +68,7 @@ def c_costs(methods, workdir: Path, inputs: dict, repeat: int, tick=None) -> tup
     cases, notes = {}, []
     for k, (key, (spec, ms)) in enumerate(sorted(by_key.items(), key=lambda kv: repr(kv[0]))):
         try:
-            prog, labels = _program(spec, workdir)
+            prog, labels = _program(spec)
             lib = build(emit(prog, "c"), prog, workdir / f"program_{k}")
         except CompileError as exc:
             notes.append(f"C not timed for {', '.join(m.name for m in ms)}: {str(exc).splitlines()[0]}")

@@ -15,31 +15,27 @@ from __future__ import annotations
 import math
 import time
 
+from fitlab.core import get_target
+from fitlab.fit.refit import refit
+from fitlab.store import resolve_form
+
 __all__ = ["refit_jobs", "refit_costs", "recorded_seconds"]
 
 
-def _domain_items(record) -> list[str]:
-    from fitlab.store import DEFAULT_DOMAINS
-
-    items = []
-    for name, (lo, hi) in record.get("domain", {}).items():
-        if (float(lo), float(hi)) != tuple(DEFAULT_DOMAINS[name]):
-            items.append(f"{name}={float(lo)!r}:{float(hi)!r}")
-    return items
+def _domain(record) -> dict:
+    """The record's domain as refit takes it: {input: (lo, hi)}."""
+    return {name: (float(lo), float(hi)) for name, (lo, hi) in record.get("domain", {}).items()}
 
 
 def refit_jobs(entries, only=None) -> list:
-    """(FitEntry, domain items) for every refittable fit file (or those ``only`` names as (target, form))."""
-    from fitlab.core import get_target
-    from fitlab.store import resolve_form
-
+    """(FitEntry, domain) for every refittable fit file (or those ``only`` names as (target, form))."""
     jobs = []
     for e in entries:
         if e.form not in get_target(e.target).forms:
             continue
         if only is not None and (e.target, e.form) not in only:
             continue
-        jobs.append((e, _domain_items(e.record)))
+        jobs.append((e, _domain(e.record)))
     return jobs
 
 
@@ -55,10 +51,6 @@ def recorded_seconds(record) -> float:
 
 def refit_costs(jobs, fits_dir, tick=None) -> list[dict]:
     """Rows (target, form, seconds, steps, refit and recorded validation max error)."""
-    from fitlab.fit.refit import refit
-    from fitlab.core import get_target
-    from fitlab.store import resolve_form
-
     rows = []
     for e, domain in jobs:
         t = get_target(e.target)

@@ -17,9 +17,19 @@ import time
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
-from fitlab.families.lambert_sphere.datasets import DATA_DIR
-from fitlab.report.methods import ReportError, _fit_group, brdf_methods, fit_inventory, part_methods
+from fitlab.report.methods import (
+    ReportError,
+    brdf_hook,
+    brdf_methods,
+    fit_group,
+    fit_inventory,
+    part_methods,
+    preset_variants,
+    report_hooks,
+    report_parts,
+)
 from fitlab.report.settings import FULL, Settings
+from fitlab.store import TableError
 
 __all__ = ["Report", "build_report"]
 
@@ -46,11 +56,10 @@ def _single_threaded_blas():
 
 
 def _check_tables(data_dir: Path) -> None:
-    from fitlab.store import TableError, read_table
-
-    for name in ("h0.csv", "h1.csv", "h2.csv", "constants.csv", "kd.csv"):
+    """Every family's tables (its ``check_tables``) in ``data_dir``."""
+    for hook in report_hooks().values():
         try:
-            read_table(Path(data_dir) / name)
+            hook.check_tables(data_dir)
         except TableError as exc:
             raise ReportError(str(exc)) from None
 
@@ -93,13 +102,14 @@ def _brdf_rows(methods, acc, c_ns, py_ns, jax_tp) -> list[dict]:
     return rows
 
 
-def _exact_rows(brdf_cost, dbl, conv, ttes) -> list[dict]:
+def _exact_rows(brdf_cost, dbl, conv, ttes, src) -> list[dict]:
+    """The exact engine's rows; ``src``: the family's ``SOURCES`` (what each row measured)."""
     agree = dbl or {"max_rel": NAN, "rms_rel": NAN, "points": 0}
     where = (f"error: agreement with discrete ordinates + doubling (c = {dbl['c']:g}, orders "
              f"{', '.join(map(str, dbl['orders']))}, node pairs with mu_i, mu_o >= 1e-3)" if dbl else
              "error not measured (doubling skipped)")  # fmt: skip
     rows = [{
-        "section": "brdf", "target": "f_r", "group": "exact", "method": "exact engine", "source": "fitlab.families.lambert_sphere.exact.brdf",
+        "section": "brdf", "target": "f_r", "group": "exact", "method": "exact engine", "source": src["exact"],
         "points": agree["points"], "max_rel": agree["max_rel"], "rms_rel": agree["rms_rel"],
         "max_rel_away": agree["max_rel"], "ns_python": brdf_cost["ns_per_point"], "seconds": brdf_cost["setup_seconds"],
         "note": where + "; cost: ns per point once c is set up, seconds: the set-up at a new c",
@@ -107,14 +117,14 @@ def _exact_rows(brdf_cost, dbl, conv, ttes) -> list[dict]:
     if dbl:
         rows.append({
             "section": "exact", "target": "f^m", "group": "exact", "method": "discrete ordinates + doubling",
-            "source": "fitlab.families.lambert_sphere.exact.doubling_reflection", "points": dbl["points"], "max_rel": dbl["max_rel"],
+            "source": src["doubling"], "points": dbl["points"], "max_rel": dbl["max_rel"],
             "rms_rel": dbl["rms_rel"], "seconds": dbl["seconds_per_order"],
             "ns_python": dbl["seconds_per_order"] / dbl["node_pairs"] * 1e9,
             "note": f"f^m at {dbl['node_pairs']} node pairs per (c, order); error: against the H route",
         })  # fmt: skip
     for r in conv:
         rows.append({"section": "exact_h", "target": "H0, H1", "group": "exact",
-                     "method": f"{r['method']}, {r['resolution']}", "source": "fitlab.families.lambert_sphere.exact.hfunction",
+                     "method": f"{r['method']}, {r['resolution']}", "source": src["h"],
                      "points": r["points"], "max_rel": r["max_rel"], "rms_rel": r["rms_rel"], "seconds": r["seconds"],
                      "note": "error against the other method at its default; seconds per (order, c): one solve "
                              "and the evaluation at the mu points"})  # fmt: skip
@@ -130,14 +140,12 @@ def _exact_rows(brdf_cost, dbl, conv, ttes) -> list[dict]:
     return rows
 
 
-def _mc_rows(study, targets) -> list[dict]:
-    from fitlab.report.montecarlo import mc_time_to_error
-
+def _mc_rows(study, targets, mc_time_to_error, src) -> list[dict]:
     rows = []
     for s in study:
         rows.append({
             "section": "brdf", "target": "f_r (bin averages)", "group": "monte carlo",
-            "method": f"Monte Carlo {s['paths']:.0e} paths", "source": "fitlab.families.lambert_sphere.mc (three-term multiple scattering)",
+            "method": f"Monte Carlo {s['paths']:.0e} paths", "source": src["monte carlo"],
             "points": s["values"], "paths": s["paths"], "max_rel": s["max_rel"], "rms_rel": s["rms_rel"],
             "max_rel_away": s["max_rel"], "ns_python": s["ns_per_value"], "seconds": s["seconds"],
             "note": f"{s['jobs']} jobs x {s['paths']} paths; RMS se/exact {s['se_rms']:.3g}; error against exact "
@@ -182,22 +190,34 @@ def _refit_rows(entries, settings, fits_dir, progress) -> list[dict]:
     if settings.refits is None:
         for e in entries:
             if e.kind != "refit":
-                rows.append({"section": "refit", "target": e.target, "group": _fit_group(e), "method": e.form,
+                rows.append({"section": "refit", "target": e.target, "group": fit_group(e), "method": e.form,
                              "source": str(e.path), "max_rel": e.max_rel, "seconds": recorded_seconds(e.record),
                              "note": f"made by {e.kind}: its one-off cost is the search, not timed here "
                                      "(seconds: as its record states, if it does)"})  # fmt: skip
     return rows
 
 
-def build_report(settings: Settings = FULL, fits_dir: Path = Path("fits"), data_dir: Path = DATA_DIR,
+def _resolved(settings: Settings) -> Settings:
+    """``settings`` with None (every one the families name) replaced: the parts, the preset variants."""
+    if settings.parts is None:
+        settings = replace(settings, parts=report_parts())
+    if settings.preset_c is None:
+        settings = replace(settings, preset_c=preset_variants())
+    return settings
+
+
+def build_report(settings: Settings = FULL, fits_dir: Path = Path("fits"), data_dir: Path | None = None,
                  use_cache: bool = True, progress: bool = True) -> Report:  # fmt: skip
     """Measure everything :mod:`fitlab.report` describes; returns the rows (writes nothing).
+    ``data_dir``: the exact tables (None: the families' data/ folder).
 
     Bad input (the fits folder, a fit file, the tables) fails here, before any slow work."""
     from fitlab.report.pareto import recommend
 
     t_start = time.perf_counter()
-    fits_dir, data_dir = Path(fits_dir), Path(data_dir)
+    settings = _resolved(settings)
+    fits_dir = Path(fits_dir)
+    data_dir = Path(data_dir) if data_dir is not None else next(iter(report_hooks().values())).DATA_DIR
     entries = fit_inventory(fits_dir)
     _check_tables(data_dir)
     p = _Progress(progress)
@@ -217,8 +237,7 @@ def build_report(settings: Settings = FULL, fits_dir: Path = Path("fits"), data_
 def _measure(settings, entries, fits_dir, data_dir, use_cache, p) -> tuple[list, dict]:
     from fitlab.report.accuracy import brdf_accuracy
     from fitlab.report.cost import jax_costs, numpy_costs
-    from fitlab.report.exact import doubling_agreement, exact_brdf_cost, h_convergence, time_to_error
-    from fitlab.report.montecarlo import mc_study
+    hook = brdf_hook()  # the family's exact engine and Monte Carlo
     from fitlab.report.programs import c_costs, timing_inputs
     from fitlab.report.validation import brdf_set, grazing_set
 
@@ -249,20 +268,20 @@ def _measure(settings, entries, fits_dir, data_dir, use_cache, p) -> tuple[list,
     p.stage("parts", len(settings.parts))
     rows += _part_rows(settings, entries, data_dir, part_ns, p.tick)
     p.stage("exact engine", len(settings.nystrom_nodes) + len(settings.fock_steps) + 2)
-    conv = h_convergence(settings.exact_orders, settings.exact_c, settings.exact_mu_points, settings.nystrom_nodes,
+    conv = hook.h_convergence(settings.exact_orders, settings.exact_c, settings.exact_mu_points, settings.nystrom_nodes,
                          settings.fock_steps, tick=p.tick)  # fmt: skip
-    brdf_cost = exact_brdf_cost(py_inputs, settings.repeat)
+    brdf_cost = hook.exact_brdf_cost(py_inputs, settings.repeat)
     p.tick()
-    dbl = doubling_agreement(settings.doubling_c, settings.doubling_orders) if settings.doubling_orders else None
+    dbl = hook.doubling_agreement(settings.doubling_c, settings.doubling_orders) if settings.doubling_orders else None
     p.tick()
-    rows += _exact_rows(brdf_cost, dbl, conv, time_to_error(conv, settings.error_targets))
+    rows += _exact_rows(brdf_cost, dbl, conv, hook.time_to_error(conv, settings.error_targets), hook.SOURCES)
     p.stage("Monte Carlo", len(settings.mc_paths))
-    study = mc_study(settings, p.tick)
-    rows += _mc_rows(study, [e for e in settings.error_targets if e >= 1e-3])
+    study = hook.mc_study(settings, p.tick)
+    rows += _mc_rows(study, [e for e in settings.error_targets if e >= 1e-3], hook.mc_time_to_error, hook.SOURCES)
     rows += _refit_rows(entries, settings, fits_dir, p)
     counts = {}
     for e in entries:
-        g = _fit_group(e)
+        g = fit_group(e)
         counts[g] = counts.get(g, 0) + 1
     from fitlab.codegen.native import STRICT_FLAGS, compiler
 

@@ -27,10 +27,12 @@ class Settings:
     with_c1: bool
     log2_points: int
     seed: int = 2021
-    #: targets whose parts are measured on their validation sets (fitlab.families.lambert_sphere.targets)
-    parts: tuple = ("H0", "H1", "l", "m", "B", "C", "D", "F", "kd_of_c", "c_of_kd", "fm1")
-    #: runtime presets (fitlab.families.lambert_sphere.runtime.PRESET_VARIANTS) whose C is built and timed
-    preset_c: tuple = ("paper_printed", "paper", "renderer")
+    #: targets whose parts are measured on their validation sets; None: every target the families'
+    #: report hooks measure at part level (fitlab.report.methods.report_parts)
+    parts: tuple | None = None
+    #: runtime presets whose C is built and timed; None: every preset set of the families' runtime
+    #: models (fitlab.report.methods.preset_variants)
+    preset_c: tuple | None = None
     #: build and time C for every catalogue entry (False: only the default refit and the baselines)
     all_c: bool = True
     #: BRDF-level entries for discovered forms (False: they are measured as parts only)

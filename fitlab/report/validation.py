@@ -1,5 +1,8 @@
 r"""The one BRDF validation set of the report, over (mu_i, mu_o, phi, c).
 
+The exact values come from the family's report hook (``exact_brdf``, ``exact_kd``:
+for the Lambert sphere :func:`fitlab.families.lambert_sphere.exact.brdf` and kd_true).
+
 Albedos c = 1 - s^2 with s = (k + g)/n, k = 0..n-1, g = (sqrt 5 - 1)/2, plus
 c = 1: an irrational offset keeps every s off the tables' grid s = k/64 (a
 table method would otherwise be exact in c at every point) and off the fits'
@@ -19,30 +22,26 @@ its multiple-scattering orders, so an approximation's (H_i H_o - 1)/(mu_i + mu_o
 is tested where 1/mu magnifies the error of H - 1 (docs/fitting.md, "Grazing").
 
 The exact values cost the engine about a second per c, so the set is cached
-(``$FITLAB_CACHE_DIR``, else ``$XDG_CACHE_HOME/fitlab``, else
+(:mod:`fitlab.cache`: ``$FITLAB_CACHE_DIR``, else ``$XDG_CACHE_HOME/fitlab``, else
 ``~/.cache/fitlab``) under a key that hashes the points, the albedos and the
 sources of :mod:`fitlab.families.lambert_sphere.exact`; a changed engine never reads a stale cache.
 """
 
 from __future__ import annotations
 
-import hashlib
-import io
-import os
 from pathlib import Path
 
 import numpy as np
 
-from fitlab import __version__
-from fitlab._io import atomic_write_bytes
-from fitlab.families.lambert_sphere.exact import brdf, spherical_albedo
+from fitlab.cache import cache_dir, cached_arrays
 from fitlab.core import Dataset
+from fitlab.report.methods import brdf_hook
 from fitlab.report.settings import Settings
 
-__all__ = ["albedos", "sobol_points", "brdf_set", "grazing_set", "cache_dir", "GOLDEN", "GRAZING_MU", "GRAZING_PHI"]
+__all__ = ["albedos", "sobol_points", "brdf_set", "grazing_set", "cache_dir", "exact_values", "GOLDEN", "GRAZING_MU",
+           "GRAZING_PHI"]
 
 GOLDEN = (np.sqrt(5.0) - 1.0) / 2.0
-EXACT_DIR = Path(__file__).resolve().parents[1] / "families" / "lambert_sphere" / "exact"
 #: the grazing set's cosines and azimuths
 GRAZING_MU = (1e-6, 1e-4, 1e-2)
 GRAZING_PHI = (0.0, 0.5 * np.pi, np.pi)
@@ -62,54 +61,29 @@ def sobol_points(log2_points: int, seed: int) -> np.ndarray:
     return qmc.Sobol(3, scramble=True, seed=seed).random_base2(log2_points)
 
 
-def cache_dir() -> Path:
-    if os.environ.get("FITLAB_CACHE_DIR"):
-        return Path(os.environ["FITLAB_CACHE_DIR"])
-    base = os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache"
-    return Path(base) / "fitlab"
+def exact_values(points: np.ndarray, c: np.ndarray, kind: str, use_cache: bool = True, tick=None) -> tuple:
+    """y[k, j] = the exact BRDF at points[j] (mu_i, mu_o, phi/pi) and c[k], and kd[k] = kd_true(c[k]),
+    through :func:`fitlab.cache.cached_arrays` (entries report-KIND-KEY.npz, keyed by the points, the
+    albedos and the family's exact sources; a damaged entry is a miss).  ``tick()`` once per albedo."""
+    hook = brdf_hook()
+    computed = []
 
+    def compute():
+        computed.append(True)
+        mu_i, mu_o, phi = points[:, 0], points[:, 1], np.pi * points[:, 2]
+        y = np.empty((c.size, points.shape[0]))
+        for k, cv in enumerate(c):
+            y[k] = hook.exact_brdf(mu_i, mu_o, phi, cv)
+            tick and tick()
+        return {"y": y, "kd": hook.exact_kd(c)}
 
-def _key(points: np.ndarray, c: np.ndarray) -> str:
-    h = hashlib.sha256(__version__.encode())
-    h.update(np.ascontiguousarray(points, dtype="<f8").tobytes())
-    h.update(np.ascontiguousarray(c, dtype="<f8").tobytes())
-    for src in sorted(EXACT_DIR.glob("*.py")):
-        h.update(src.name.encode())
-        h.update(src.read_bytes())
-    return h.hexdigest()[:24]
-
-
-def _load(path: Path, shape) -> tuple | None:
-    try:
-        with np.load(path) as z:
-            y, kd = z["y"], z["kd"]
-    except Exception:  # noqa: BLE001 - missing, truncated or damaged (EOFError, BadZipFile, ...): a cache miss
-        return None
-    return (y, kd) if y.shape == shape and kd.shape == shape[:1] else None
-
-
-def _exact_values(points: np.ndarray, c: np.ndarray, kind: str, use_cache: bool, tick) -> tuple:
-    """y[k, j] = brdf(points[j], c[k]) and kd[k] = kd_true(c[k]), through the cache."""
-    mu_i, mu_o, phi = points[:, 0], points[:, 1], np.pi * points[:, 2]
-    path = cache_dir() / f"report-{kind}-{_key(points, c)}.npz"
-    cached = _load(path, (c.size, points.shape[0])) if use_cache else None
-    if cached is not None:
+    sources = sorted(Path(hook.EXACT_SOURCES).glob("*.py"))
+    out = cached_arrays(f"report-{kind}", {"points": np.asarray(points, dtype=float), "c": np.asarray(c, dtype=float)},
+                        compute, ("y", "kd"), sources, use_cache)  # fmt: skip
+    if not computed:
         for _ in c:
             tick and tick()
-        return cached
-    y = np.empty((c.size, points.shape[0]))
-    for k, cv in enumerate(c):
-        y[k] = brdf(mu_i, mu_o, phi, cv)
-        tick and tick()
-    kd = np.asarray(spherical_albedo(c, model="true"), dtype=float)
-    if use_cache:
-        buf = io.BytesIO()
-        np.savez(buf, y=y, kd=kd)
-        try:
-            atomic_write_bytes(path, buf.getvalue())
-        except OSError:
-            pass  # a cache that cannot be written only costs time
-    return y, kd
+    return out["y"], out["kd"]
 
 
 def _dataset(points: np.ndarray, c: np.ndarray, y: np.ndarray, kd: np.ndarray, grid: str) -> Dataset:
@@ -133,7 +107,7 @@ def brdf_set(settings: Settings, use_cache: bool = True, tick=None) -> Dataset:
     """
     points = sobol_points(settings.log2_points, settings.seed)
     c = albedos(settings.n_c, settings.with_c1)
-    y, kd = _exact_values(points, c, "brdf", use_cache, tick)
+    y, kd = exact_values(points, c, "brdf", use_cache, tick)
     grid = (_albedo_grid(settings)
             + f", x 2^{settings.log2_points} scrambled Sobol points (seed {settings.seed}) in (mu_i, mu_o, phi/pi)")
     return _dataset(points, c, y, kd, grid)
@@ -144,7 +118,7 @@ def grazing_set(settings: Settings, use_cache: bool = True, tick=None) -> Datase
     mi, mo, ph = np.meshgrid(GRAZING_MU, GRAZING_MU, np.asarray(GRAZING_PHI) / np.pi, indexing="ij")
     points = np.stack([mi.ravel(), mo.ravel(), ph.ravel()], axis=1)
     c = albedos(settings.n_c, settings.with_c1)
-    y, kd = _exact_values(points, c, "grazing", use_cache, tick)
+    y, kd = exact_values(points, c, "grazing", use_cache, tick)
     grid = (_albedo_grid(settings) + " x mu_i, mu_o in {" + ", ".join(f"{m:g}" for m in GRAZING_MU)
             + "} x phi in {0, pi/2, pi}")  # fmt: skip
     return _dataset(points, c, y, kd, grid)

@@ -11,6 +11,7 @@ and report methods as hooks.  docs/model.md states the model.
 
 from fitlab.core import Family, register_family
 from fitlab.families.lambert_sphere.forms import FORMS
+from fitlab.families.lambert_sphere.program import PROGRAM
 from fitlab.families.lambert_sphere.targets import TARGETS
 
 __all__ = ["FAMILY"]
@@ -22,6 +23,18 @@ def _libraries():
     return LIBRARIES
 
 
+def _brdf_grid():
+    from fitlab.families.lambert_sphere.grids import brdf_grid
+
+    return brdf_grid()
+
+
+def _report():
+    from fitlab.families.lambert_sphere import report_methods
+
+    return report_methods
+
+
 FAMILY = register_family(
     Family(
         name="lambert_sphere",
@@ -29,5 +42,7 @@ FAMILY = register_family(
         targets=tuple(TARGETS.values()),
         forms=FORMS,
         libraries=_libraries,
+        codegen=PROGRAM,
+        hooks={"brdf_grid": _brdf_grid, "report": _report},
     )
 )

@@ -17,7 +17,9 @@ from pathlib import Path
 
 import numpy as np
 
+from fitlab.cache import cached_arrays
 from fitlab.core import Dataset
+from fitlab.families.lambert_sphere.exact.constants import CONSTANT_NAMES
 
 from fitlab.families.lambert_sphere.exact import brdf, brdf_modes, constants, h_function, multiple_scattering_modes, spherical_albedo
 from fitlab.store import read_table
@@ -25,6 +27,22 @@ from fitlab.store import read_table
 __all__ = ["DATA_DIR"]
 
 DATA_DIR = Path(__file__).resolve().parents[3] / "data"
+
+
+_ENGINE = tuple(sorted((Path(__file__).resolve().parent / "exact").glob("*.py")))
+
+
+def _cached(name: str, grid: str, compute, inputs: tuple[str, ...], aux: tuple[str, ...] = (), **axes) -> Dataset:
+    """``compute()`` (a Dataset with ``inputs`` and ``aux``) through fitlab's persistent cache of exact
+    values, keyed by the set's name, its grid (text and ``axes`` arrays) and the exact engine's source."""
+    def arrays():
+        ds = compute()
+        return {**{f"in_{k}": ds.inputs[k] for k in inputs}, "y": ds.y, **{f"aux_{k}": ds.aux[k] for k in aux}}
+
+    names = (*(f"in_{k}" for k in inputs), "y", *(f"aux_{k}" for k in aux))
+    a = cached_arrays(f"lambert_sphere-{name}", {"family": "lambert_sphere", "set": name, "grid": grid, **{k: np.asarray(v, dtype=float) for k, v in axes.items()}}, arrays,
+                      names, sources=_ENGINE)  # fmt: skip
+    return Dataset({k: a[f"in_{k}"] for k in inputs}, a["y"], grid, {k: a[f"aux_{k}"] for k in aux} or None)
 
 
 def _interleaved(step_denominator: int, extra=()) -> np.ndarray:
@@ -43,12 +61,18 @@ def h_training(order: int, data_dir: Path = DATA_DIR) -> Dataset:
 
 @lru_cache(maxsize=None)
 def h_validation(order: int) -> Dataset:
-    s = _interleaved(256)
-    mu = _interleaved(256, extra=(1e-10, 1e-7, 1e-5))
-    c = 1.0 - s**2
-    values = np.stack([h_function(order, mu, cv) for cv in c])
-    cc, mm = np.meshgrid(c, mu, indexing="ij")
-    return Dataset({"mu": mm.ravel(), "c": cc.ravel()}, values.ravel(), "s, mu = (2k+1)/256, plus 0, 1 and mu = 1e-10, 1e-7, 1e-5")
+    grid = "s, mu = (2k+1)/256, plus 0, 1 and mu = 1e-10, 1e-7, 1e-5"
+
+    def compute():
+        s = _interleaved(256)
+        mu = _interleaved(256, extra=(1e-10, 1e-7, 1e-5))
+        c = 1.0 - s**2
+        values = np.stack([h_function(order, mu, cv) for cv in c])
+        cc, mm = np.meshgrid(c, mu, indexing="ij")
+        return Dataset({"mu": mm.ravel(), "c": cc.ravel()}, values.ravel(), grid)
+
+    return _cached(f"H{order}-validation", grid, compute, ("mu", "c"), s=_interleaved(256),
+                   mu=_interleaved(256, extra=(1e-10, 1e-7, 1e-5)))  # fmt: skip
 
 
 # -- constants and kd (functions of c) ----------------------------------------
@@ -63,7 +87,14 @@ def _constants_table(data_dir: Path = DATA_DIR):
 
 @lru_cache(maxsize=None)
 def _constants_validation():
-    return constants(1.0 - _S_1D**2)
+    c = 1.0 - _S_1D**2
+
+    def compute():
+        k = constants(c)
+        return Dataset({"c": c}, np.zeros(c.size), "", {n: np.asarray(k[n], dtype=float) for n in CONSTANT_NAMES})
+
+    ds = _cached("constants-validation", "s = (2k+1)/256, plus 0 and 1", compute, ("c",), CONSTANT_NAMES, c=c)
+    return ds.aux
 
 
 def constant_training(name: str, data_dir: Path = DATA_DIR) -> Dataset:
@@ -86,7 +117,9 @@ def _kd_training(data_dir: Path = DATA_DIR):
 @lru_cache(maxsize=None)
 def _kd_validation():
     c = 1.0 - _S_1D**2
-    return c, spherical_albedo(c, model="true")
+    ds = _cached("kd-validation", "s = (2k+1)/256, plus 0 and 1",
+                 lambda: Dataset({"c": c}, spherical_albedo(c, model="true"), ""), ("c",), c=c)  # fmt: skip
+    return ds.inputs["c"], ds.y
 
 
 def kd_of_c_training(data_dir: Path = DATA_DIR) -> Dataset:
@@ -131,6 +164,11 @@ def fm1_validation() -> Dataset:
 
 
 def _fm1(s, mu, grid) -> Dataset:
+    grid = grid + "; mu_i = mu_o = 0 left out"
+    return _cached(f"fm1-{len(s)}x{len(mu)}", grid, lambda: _fm1_exact(s, mu, grid), ("mu_i", "mu_o", "c"), ("f0",), s=s, mu=mu)
+
+
+def _fm1_exact(s, mu, grid) -> Dataset:
     mi, mo = _pairs(mu)
     cols = {"mu_i": [], "mu_o": [], "c": []}
     ys, f0 = [], []
@@ -140,8 +178,7 @@ def _fm1(s, mu, grid) -> Dataset:
         for k, v in (("mu_i", mi), ("mu_o", mo), ("c", np.full(mi.shape, cv))):
             cols[k].append(v)
     return Dataset(
-        {k: np.concatenate(v) for k, v in cols.items()}, np.concatenate(ys), grid + "; mu_i = mu_o = 0 left out",
-        {"f0": np.concatenate(f0)},
+        {k: np.concatenate(v) for k, v in cols.items()}, np.concatenate(ys), grid, {"f0": np.concatenate(f0)},
     )
 
 
@@ -164,6 +201,13 @@ def brdf_validation() -> Dataset:
 
 
 def _brdf(s, mu, phi, grid, extra_c=()) -> Dataset:
+    grid = grid + "; mu_i = mu_o = 0 left out; kd = kd_true(c)"
+    return _cached(f"brdf-{len(s)}x{len(mu)}x{len(phi)}+{len(extra_c)}", grid,
+                   lambda: _brdf_exact(s, mu, phi, grid, extra_c), ("mu_i", "mu_o", "phi", "c", "kd"),
+                   s=s, mu=mu, phi=phi, extra_c=np.asarray(extra_c, dtype=float))  # fmt: skip
+
+
+def _brdf_exact(s, mu, phi, grid, extra_c=()) -> Dataset:
     c = np.concatenate((1.0 - s**2, extra_c))
     kd = spherical_albedo(c, model="true")
     mi, mo = _pairs(mu)
@@ -176,6 +220,5 @@ def _brdf(s, mu, phi, grid, extra_c=()) -> Dataset:
             for k, v in (("mu_i", mi), ("mu_o", mo), ("phi", np.full(n, p)), ("c", np.full(n, cv)), ("kd", np.full(n, kv))):
                 cols[k].append(v)
     return Dataset(
-        {k: np.concatenate(v) for k, v in cols.items()}, np.concatenate(ys),
-        grid + "; mu_i = mu_o = 0 left out; kd = kd_true(c)",
+        {k: np.concatenate(v) for k, v in cols.items()}, np.concatenate(ys), grid,
     )

@@ -21,7 +21,7 @@ from fitlab.families.lambert_sphere.exact import (
     spherical_albedo,
 )
 
-__all__ = ["exact_grid", "GRID_AXES"]
+__all__ = ["exact_grid", "GRID_AXES", "BRDF_AXES", "BRDF_MEASURE", "brdf_grid"]
 
 #: targets whose grid axes differ from their inputs (an input follows from another)
 GRID_AXES = {"c_of_kd": ("c",), "fast_brdf": ("mu_i", "mu_o", "phi", "c"), "brdf": ("mu_i", "mu_o", "phi", "c")}
@@ -111,3 +111,13 @@ _GRIDS = {
 def exact_grid(target: str):
     """The grid function of ``target`` (see the module docstring)."""
     return _GRIDS[target]
+
+
+#: the axes of the whole BRDF's grid, and its error measure (:func:`fitlab.residuals.brdf_residuals`)
+BRDF_AXES = GRID_AXES["brdf"]
+BRDF_MEASURE = "relative: |approx - exact| / |exact|, exact = fitlab.families.lambert_sphere.exact.brdf"
+
+
+def brdf_grid() -> tuple:
+    """The family's ``brdf_grid`` hook: (axes, grid function of the exact BRDF, error measure)."""
+    return BRDF_AXES, _GRIDS["brdf"], BRDF_MEASURE

@@ -10,7 +10,8 @@ numpy); the others are here for comparison:
 
 * Lambert: Mitsuba's own ``diffuse`` with reflectance kd.
 * Oren-Nayar (qualitative model, RTR ch. 9): f = kd/pi (A + B max(0, cos phi) sin(alpha) tan(beta)).
-* Chandrasekhar's BRDF of sparse mirror spheres (isotropic scattering, SPEC 8):
+* Chandrasekhar's BRDF of sparse mirror spheres (isotropic scattering;
+  docs/model.md, "Neighbouring models"):
   f = c H(mu_i) H(mu_o) / (4 pi (mu_i + mu_o)), H from :mod:`fitlab.families.lambert_sphere.exact`, c chosen so
   that its spherical albedo is kd.
 
@@ -95,7 +96,7 @@ def chandrasekhar(wi, wo, c: float):
 
 def _chandrasekhar_kd(c: float) -> float:
     mu, h = _isotropic_h_table(float(c))
-    from fitlab.families.lambert_sphere.exact._quadrature import gauss_legendre
+    from fitlab.families.lambert_sphere.exact import gauss_legendre
 
     x, w = gauss_legendre(64)
     hx = np.interp(x, mu, h)
@@ -105,12 +106,13 @@ def _chandrasekhar_kd(c: float) -> float:
 
 @lru_cache(maxsize=16)
 def chandrasekhar_albedo_c(kd: float) -> float:
-    """The single-scattering albedo c whose Chandrasekhar BRDF has spherical albedo kd."""
-    from scipy.optimize import brentq
+    """The single-scattering albedo c whose Chandrasekhar BRDF has spherical albedo kd
+    (:func:`fitlab.families.lambert_sphere.exact.solve_albedo`)."""
+    from fitlab.families.lambert_sphere.exact import solve_albedo
 
     if not 0.0 < kd < 1.0:
         raise ValueError("kd must lie in (0, 1)")
-    return brentq(lambda c: _chandrasekhar_kd(c) - kd, 1e-9, 1.0 - 1e-12, xtol=1e-12)
+    return solve_albedo(_chandrasekhar_kd, kd, 1e-9, 1.0 - 1e-12, xtol=1e-12)
 
 
 def _bsdf_class():

@@ -1,4 +1,5 @@
-r"""The runtime Lambert-sphere BRDF of SPEC 5, assembled from forms with numbers.
+r"""The runtime Lambert-sphere BRDF (docs/model.md, "The runtime BRDF"),
+assembled from forms with numbers.
 
 ``runtime_model(variant)`` builds f_r(mu_i, mu_o, phi, c) =
 max(0, f_1 + fm0 + fm1 cos phi) (see :func:`fitlab.forms.runtime_brdf`) from

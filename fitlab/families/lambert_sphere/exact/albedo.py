@@ -1,6 +1,6 @@
 r"""Directional and spherical albedos of the exact BRDFs.
 
-Two BRDFs, two albedos each (SPEC 6 asks which one kd refers to):
+Two BRDFs, two albedos each (which one kd refers to: docs/model.md, "Albedo maps"):
 
 * ``model="three_term"``: the exact half space with the three-term phase
   function, all orders.  a(mu_i) = 2 pi int_0^1 f0(mu_i, mu_o) mu_o dmu_o;
@@ -31,13 +31,15 @@ from functools import lru_cache
 import numpy as np
 from scipy import integrate
 
+from fitlab.families.lambert_sphere.exact import _checks
 from fitlab.families.lambert_sphere.exact._quadrature import graded_gauss
 from fitlab.families.lambert_sphere.exact.brdf import check_cosines, single_scattering_modes
 from fitlab.families.lambert_sphere.exact.characteristic import check_albedo, lambert_sphere_characteristic
 from fitlab.families.lambert_sphere.exact.constants import mode_polynomials
 from fitlab.families.lambert_sphere.exact.hfunction import solve_h
 
-__all__ = ["albedo", "spherical_albedo", "single_scattering_albedo", "MODELS"]
+__all__ = ["albedo", "spherical_albedo", "single_scattering_albedo", "single_albedo_nodes", "three_term_single_albedo",
+           "MODELS"]
 
 MODELS = ("true", "three_term")
 
@@ -81,6 +83,8 @@ def _p_three_term(theta):
 
 def single_scattering_albedo(mu_i: float, phase: str = "true") -> float:
     """a1(mu_i): directional albedo of single scattering per unit c."""
+    mu_i = _checks.real_scalar(mu_i, "mu_i", 0.0, 1.0)
+    phase = _checks.choice(phase, "phase", MODELS)
     p = _p_true if phase == "true" else _p_three_term
     theta_i = np.arccos(mu_i)
     edges = sorted({0.0, max(0.0, np.pi / 2 - theta_i), min(np.pi, np.pi / 2 + theta_i)})
@@ -98,8 +102,9 @@ def single_scattering_albedo(mu_i: float, phase: str = "true") -> float:
 
 
 @lru_cache(maxsize=None)
-def _single_albedo_table(phase: str):
+def single_albedo_nodes(phase: str):
     """a1 at the graded nodes (c-independent, computed once)."""
+    phase = _checks.choice(phase, "phase", MODELS)
     v, _ = graded_gauss(8, 0.25, 1e-14)
     return np.array([single_scattering_albedo(float(x), phase) for x in v])
 
@@ -115,8 +120,11 @@ def _three_term_albedo(mu_i, c):
     return 2.0 * np.pi * sol(mu_i) * integral
 
 
-def _ss_three_term_albedo(mu_i):
+def three_term_single_albedo(mu_i):
     """a1_3(mu_i) per unit c, from the order-0 single-scattering mode."""
+    mu_i = _checks.real_array(mu_i, "mu_i", 0.0, 1.0)
+    if mu_i.ndim != 1:
+        raise ValueError(f"mu_i must be a 1-D array of cosines in [0, 1], got shape {mu_i.shape}")
     v, w = graded_gauss(16, 0.25, 1e-17)
     f0 = single_scattering_modes(mu_i[:, None], v[None, :], 1.0)[0]
     return 2.0 * np.pi * (f0 * (w * v)[None, :]).sum(axis=1)
@@ -131,6 +139,9 @@ def albedo(mu_i, c, model: str = "true"):
     precomputed single-scattering table only at the graded quadrature nodes; other
     mu_i use one adaptive quadrature each.
     """
+    model = _checks.choice(model, "model", MODELS)
+    mu_i = _checks.real_array(mu_i, "mu_i", 0.0, 1.0)
+    c = _checks.real_array(c, "c", 0.0, 1.0, domain="[0, 1] (particle albedo)")
     if model not in MODELS:
         raise ValueError(f"model must be one of {MODELS}, got {model!r}")
     (mu_i,) = check_cosines(mu_i, names=("mu_i",))
@@ -142,7 +153,7 @@ def albedo(mu_i, c, model: str = "true"):
         flat = mu_i.ravel()
         uniq, inv = np.unique(flat, return_inverse=True)
         a1 = np.array([single_scattering_albedo(float(x)) for x in uniq])
-        extra = (a1 - _ss_three_term_albedo(uniq))[inv].reshape(mu_i.shape)
+        extra = (a1 - three_term_single_albedo(uniq))[inv].reshape(mu_i.shape)
     for cv in np.unique(c):
         sel = c == cv
         out[sel] = _three_term_albedo(mu_i[sel], float(cv))
@@ -153,13 +164,15 @@ def albedo(mu_i, c, model: str = "true"):
 
 def spherical_albedo(c, model: str = "true"):
     """Spherical (Bond) albedo kd = 2 int_0^1 a(mu_i) mu_i dmu_i; see :func:`albedo`."""
+    model = _checks.choice(model, "model", MODELS)
+    c = _checks.real_array(c, "c", 0.0, 1.0, domain="[0, 1] (particle albedo)")
     if model not in MODELS:
         raise ValueError(f"model must be one of {MODELS}, got {model!r}")
     c = check_albedo(c)
     v, w = graded_gauss(8, 0.25, 1e-14)
     correction = 0.0
     if model == "true":
-        correction = 2.0 * np.dot(w * v, _single_albedo_table("true") - _ss_three_term_albedo(v))
+        correction = 2.0 * np.dot(w * v, single_albedo_nodes("true") - three_term_single_albedo(v))
     out = np.empty(c.shape)
     for idx, cv in np.ndenumerate(c):
         out[idx] = 2.0 * np.dot(w * v, _three_term_albedo(v, float(cv))) + cv * correction

@@ -1,7 +1,8 @@
 r"""The exact three-term half-space BRDF by Fourier order, and the reference
 Lambert-sphere BRDF built on it.
 
-All functions use the SPEC conventions: mu_i, mu_o in [0, 1], phi the relative
+All functions use fitlab's conventions (docs/model.md, "Conventions"):
+mu_i, mu_o in [0, 1], phi the relative
 azimuth with phi = 0 back-scattering, S = sqrt((1 - mu_i^2)(1 - mu_o^2)), and
 f = f0 + f1 cos(phi) + f2 cos(2 phi) in 1/sr.  Every term has a pole
 1/(mu_i + mu_o); internally each is computed as the "numerator" (mu_i + mu_o) f,
@@ -15,6 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from fitlab.families.lambert_sphere.exact import _checks
 from fitlab.families.lambert_sphere.exact.characteristic import check_albedo, lambert_sphere_characteristic
 from fitlab.families.lambert_sphere.exact.constants import mode_polynomials
 from fitlab.families.lambert_sphere.exact.hfunction import solve_h
@@ -69,6 +71,9 @@ def single_scattering_modes(mu_i, mu_o, c):
       f1 = c S (64 + 45 mu_i mu_o) / (192 pi (mu_i + mu_o))     [eq. 28 prints 384 pi]
       f2 = 15 c S^2 / (256 pi (mu_i + mu_o)).
     """
+    mu_i = _checks.real_array(mu_i, "mu_i", 0.0, 1.0)
+    mu_o = _checks.real_array(mu_o, "mu_o", 0.0, 1.0)
+    c = _checks.real_array(c, "c", 0.0, 1.0, domain="[0, 1] (particle albedo)")
     mu_i, mu_o = check_cosines(mu_i, mu_o)
     c = check_albedo(c)
     mu_i, mu_o, c = np.broadcast_arrays(mu_i, mu_o, c)
@@ -139,6 +144,9 @@ def brdf_modes(mu_i, mu_o, c):
       f2 = 15 c H2 H2 S^2 / (256 pi (mu_i + mu_o)).
     mu_i, mu_o in [0, 1], c in [0, 1]; broadcast.  Reciprocal in (mu_i, mu_o).
     """
+    mu_i = _checks.real_array(mu_i, "mu_i", 0.0, 1.0)
+    mu_o = _checks.real_array(mu_o, "mu_o", 0.0, 1.0)
+    c = _checks.real_array(c, "c", 0.0, 1.0, domain="[0, 1] (particle albedo)")
     return _modes(mu_i, mu_o, c, multiple_only=False)
 
 
@@ -149,6 +157,9 @@ def multiple_scattering_modes(mu_i, mu_o, c):
     fm2 is the one it drops (eq. 21).  Each diverges like log(1/mu) as
     mu_i = mu_o -> 0 (inf exactly at mu_i = mu_o = 0, c > 0).
     """
+    mu_i = _checks.real_array(mu_i, "mu_i", 0.0, 1.0)
+    mu_o = _checks.real_array(mu_o, "mu_o", 0.0, 1.0)
+    c = _checks.real_array(c, "c", 0.0, 1.0, domain="[0, 1] (particle albedo)")
     return _modes(mu_i, mu_o, c, multiple_only=True)
 
 
@@ -162,6 +173,10 @@ def brdf(mu_i, mu_o, phi, c):
     [0, 1], phi any real (radians), c in [0, 1]; broadcast.  +inf at the pole
     mu_i = mu_o = 0 (c > 0, p(u) > 0).
     """
+    mu_i = _checks.real_array(mu_i, "mu_i", 0.0, 1.0)
+    mu_o = _checks.real_array(mu_o, "mu_o", 0.0, 1.0)
+    phi = _checks.real_array(phi, "phi", domain="(-inf, inf), finite (radians)", allow_inf=False)
+    c = _checks.real_array(c, "c", 0.0, 1.0, domain="[0, 1] (particle albedo)")
     mu_i, mu_o = check_cosines(mu_i, mu_o)
     phi = np.asarray(phi, dtype=float)
     if np.any(~np.isfinite(phi)):

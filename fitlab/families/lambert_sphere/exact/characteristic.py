@@ -1,6 +1,7 @@
 r"""Characteristic functions Psi_m and the Krein/Fock functions K_m.
 
-The three-term Lambert-sphere phase function (SPEC 4, paper eqs. 13-15) gives,
+The three-term Lambert-sphere phase function (docs/model.md, "H-functions";
+paper eqs. 13-15) gives,
 for Fourier order m, an even polynomial characteristic function
 
     Psi_m(u) = sum_k p_k(c) u^(2k),   u in [0, 1],

@@ -20,8 +20,9 @@ moments alpha_n = int_0^1 H_m(mu) mu^n dmu, and the recurrence becomes a small
 algebraic system for the coefficients of r_l, solved here by Newton's method.
 
 Order 1, explicitly (r_1 = 1 + l mu, r_2 = b mu, m = b^2/9, gamma = alpha_1 - alpha_3,
-delta = alpha_0 - alpha_2 of H1):  l = -(5c/64) b^2 gamma,  b = 3 + c (delta + l gamma),
-i.e. (5 c^2 gamma^2/64) b^2 + b - (3 + c delta) = 0.
+delta = alpha_0 - alpha_2 of H1):  l = -(5c/64) b gamma,  b = 3 + c (delta + l gamma),
+i.e. b = (3 + c delta)/(1 + 5 c^2 gamma^2/64); this reproduces the l and m solved
+here to 4.4e-16 (c = 1e-6 .. 1).
 
 The same structure yields two identities that involve no moment at all, used as
 tests: Psi_m(mu) = (1/2) sum_l (-1)^(l+m) varpi_l^m (1-mu^2)^m r_l(mu) r_l(-mu)
@@ -37,6 +38,7 @@ from functools import lru_cache
 import numpy as np
 from numpy.polynomial import polynomial as P
 
+from fitlab.families.lambert_sphere.exact import _checks
 from fitlab.families.lambert_sphere.exact.characteristic import check_albedo, lambert_sphere_characteristic
 from fitlab.families.lambert_sphere.exact.hfunction import HSolution, solve_h
 from fitlab.families.lambert_sphere.exact.phase import MAX_DEGREE, associated_legendre_reduced, legendre_weights
@@ -52,7 +54,8 @@ class ModePolynomials:
 
     f^m(mu_i, mu_o) = H(mu_i) H(mu_o) g(mu_i) g(mu_o) / (mu_i + mu_o)
                       * sum_jk matrix[j, k] mu_i^j mu_o^k,
-    g(mu) = (1 - mu^2)^(m/2), in the SPEC azimuth convention (phi = 0 backward).
+    g(mu) = (1 - mu^2)^(m/2), in fitlab's azimuth convention (phi = 0 backward;
+    docs/model.md, "Conventions").
     """
 
     order: int
@@ -133,6 +136,19 @@ RESIDUAL_TOLERANCE = 1e-12
 _LADDER = tuple(np.round(0.5 - 0.02 * np.arange(25), 12)) + tuple(0.02 / 2.0 ** np.arange(1, 40))
 
 
+# Order 0 walks the ladder down to this point only (s = 6.25e-4); see _solve_unknowns.
+_LADDER_STOP = 29
+
+
+@lru_cache(maxsize=None)
+def _conservative_unknowns(m):
+    # Order-0 unknowns at c = 1 from the regular frozen system, r_1 = 0 put back
+    # in its place: the s = 0 end of the near-conservative start.
+    x, _ = _solve_unknowns(m, 1.0, (1,))
+    deg = MAX_DEGREE - m
+    return np.concatenate([x[:deg], np.zeros(deg), x[deg:]])
+
+
 def _moment_data(m, c):
     sol: HSolution = solve_h(lambert_sphere_characteristic(m, c))
     alpha = np.array([sol.moment(n) for n in range(2 * MAX_DEGREE + 2 * m + 1)])
@@ -161,19 +177,40 @@ def _solve_unknowns(m, c, frozen=()):
     """
     w, alpha = _moment_data(m, c)
     s = np.sqrt(1.0 - c)
+    # Speed (issue 15: constants(1 - 1e-16) took 20 s cold, 92 H solves, one per
+    # ladder point and order).  The ladder is walked only down to
+    # _LADDER[_LADDER_STOP] = 6.25e-4; below it (0 < s < 6.25e-4):
+    # * order 1 has no fold and starts from the c -> 0 limit (the same root as the
+    #   ladder's, to 4e-16, on s in [1e-8, 0.5]);
+    # * order 0: the branch is analytic in s (r_1 ~ s, the rest ~ s^2), so the
+    #   straight line in s from the conservative solution (s = 0, regular) to the
+    #   last ladder point is within O(s * 6e-4) of the root, inside Newton's basin
+    #   on the physical branch.  Accuracy is that of the Newton solve itself (near
+    #   the fold the equations fix the root only to ~eps/s): B(1 - 1e-16) is now
+    #   2e-12 off its expansion in s, 1.4e-9 before.
+    # Everywhere else (s >= 6.25e-4, and c = 1) the path is the old one, so the
+    # values on the committed data grids (s = 0 and s >= 1/256; their sha256 is
+    # recorded in fits/*.json) are unchanged bit for bit.
     if frozen or s >= _LADDER[0]:
         x = _default_start(m, frozen)
-    else:
+    elif s >= _LADDER[_LADDER_STOP] or s == 0.0:
         x = _ladder_solution(m, max(i for i, sk in enumerate(_LADDER) if sk >= s)).copy()
+    elif m != 0:
+        x = _default_start(m, frozen)
+    else:
+        x0, xk = _conservative_unknowns(m), _ladder_solution(m, _LADDER_STOP)
+        x = x0 + (s / _LADDER[_LADDER_STOP]) * (xk - x0)
     x, res = _newton(x, m, w, alpha, frozen)
     if res > RESIDUAL_TOLERANCE:
         raise RuntimeError(f"moment relations of order {m} at c = {c!r}: no convergence (residual {res:.1e})")
     return x, res
 
 
-@lru_cache(maxsize=4096)
+@lru_cache(maxsize=4096, typed=True)  # typed: True or 0.5+0j must not hit the entries of 1 or 0.5 and skip the checks
 def mode_polynomials(order: int, c: float) -> ModePolynomials:
     """Solve the moment relations of Fourier order ``order`` at albedo c."""
+    order = _checks.fourier_order(order)
+    c = _checks.real_scalar(c, "c", 0.0, 1.0, domain="[0, 1] (particle albedo)")
     c = float(c)
     m = order
     # At c = 1 the order-0 system has a fold: r_1 ~ sqrt(1 - c) and the Jacobian
@@ -189,7 +226,7 @@ def mode_polynomials(order: int, c: float) -> ModePolynomials:
     for l, rl in r.items():
         rl = np.pad(rl, (0, deg + 1 - rl.size))
         matrix += (-1.0) ** (l + m) * w[l] * np.outer(rl, rl)
-    # (2 - delta)/(4 pi) and (-1)^m for the SPEC azimuth (phi = 0 backward)
+    # (2 - delta)/(4 pi) and (-1)^m for fitlab's azimuth (phi = 0 backward; docs/model.md)
     matrix *= (-1.0) ** m * (1.0 if m == 0 else 2.0) / (4.0 * np.pi)
     return ModePolynomials(m, c, r, matrix, res)
 
@@ -226,6 +263,7 @@ def constants(c):
 
     (f1 with 3 pi, not the 6 pi printed in eq. 22).  H0_inf is inf at c = 1.
     """
+    c = _checks.real_array(c, "c", 0.0, 1.0, domain="[0, 1] (particle albedo)")
     c = check_albedo(c)
     flat = c.ravel()
     rows = [_constants_scalar(float(cv)) for cv in flat]

@@ -36,6 +36,7 @@ from functools import lru_cache
 
 import numpy as np
 
+from fitlab.families.lambert_sphere.exact import _checks
 from fitlab.families.lambert_sphere.exact._quadrature import graded_gauss
 from fitlab.families.lambert_sphere.exact.characteristic import (
     Characteristic,
@@ -139,11 +140,17 @@ def _solve_cached(coefficients: tuple, k0: float, n: int, ratio: float) -> HSolu
 
 def solve_h(char: Characteristic, nodes_per_panel: int = 16, ratio: float = 0.25) -> HSolution:
     """Nystrom/Newton solution of the H-equation for ``char`` (cached)."""
+    _checks.characteristic(char, Characteristic)
+    nodes_per_panel = _checks.positive_int(nodes_per_panel, "nodes_per_panel")
+    ratio = _checks.real_scalar(ratio, "ratio", 0.0, 1.0, domain="(0, 1)", open_ends=True)
     return _solve_cached(tuple(float(p) for p in char.coefficients), float(char.k0), nodes_per_panel, ratio)
 
 
 def h_fock(char: Characteristic, u, h: float = 0.1):
     """H(u) from the Fock/Krein integral (paper eq. 16), trapezoidal in log t."""
+    _checks.characteristic(char, Characteristic)
+    u = _checks.real_array(u, "u", 0.0, np.inf)
+    h = _checks.real_scalar(h, "h", 0.0, np.inf, domain="(0, inf)", open_ends=True)
     u = np.asarray(u, dtype=float)
     out = np.ones(u.shape)
     if char.is_zero:
@@ -185,6 +192,10 @@ def h_function(order, mu, c, method: str = "chandrasekhar"):
     "fock" (Fock/Krein integral).  They agree to about 1e-13 relative
     (tests/test_hfunction.py).
     """
+    order = _checks.fourier_order(order)
+    method = _checks.choice(method, "method", METHODS)
+    mu = _checks.real_array(mu, "mu", 0.0, np.inf)
+    c = _checks.real_array(c, "c", 0.0, 1.0, domain="[0, 1] (particle albedo)")
     order = check_order(order)
     if method not in METHODS:
         raise ValueError(f"method must be one of {METHODS}, got {method!r}")

@@ -6,7 +6,7 @@ Legendre form p(u) = (1/4pi) sum_k A_k P_k(u) with A = 1, -4/3, 5/16, 0, 1/64, .
 (eq. 4).  The three-term model keeps A_0..A_2: c p ~ (w0 + w1 P1 + w2 P2)/(4pi),
 w = c (1, -4/3, 5/16) (eq. 8).
 
-Azimuthal decomposition used throughout (SPEC 1: phi = 0 is back-scattering):
+Azimuthal decomposition used throughout (phi = 0 is back-scattering; docs/model.md, "Conventions"):
 for u = -(mu_i mu_o + S cos phi), S = sqrt((1-mu_i^2)(1-mu_o^2)),
 
     P_l(u) = sum_m (2 - delta_m0) (l-m)!/(l+m)! (-1)^l P_l^m(mu_i) P_l^m(mu_o) cos(m phi)

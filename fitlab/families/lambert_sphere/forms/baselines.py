@@ -1,4 +1,5 @@
-r"""Height-field baselines the Lambert-sphere BRDF is compared with (SPEC 8),
+r"""Height-field baselines the Lambert-sphere BRDF is compared with
+(docs/model.md, "Neighbouring models"),
 each one sympy expression in (mu_i, mu_o, cos_phi, kd), f in 1/sr.
 
 * Lambert: kd / pi.

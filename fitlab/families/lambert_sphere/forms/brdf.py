@@ -1,8 +1,10 @@
 r"""BRDF-level forms: single scattering, the fast fm1 (eq. 29), the fast
-variant of the whole BRDF (eq. 41), and the runtime model of SPEC 5 assembled
+variant of the whole BRDF (eq. 41), and the runtime model (docs/model.md,
+"The runtime BRDF") assembled
 from the forms of H0, H1 and the constants.
 
-Conventions (SPEC 1): mu_i, mu_o in [0, 1], phi the relative azimuth with
+Conventions (docs/model.md, "Conventions"): mu_i, mu_o in [0, 1], phi the
+relative azimuth with
 phi = 0 back-scattering, S = sqrt((1 - mu_i^2)(1 - mu_o^2)), f in 1/sr.  Every
 term has the pole 1/(mu_i + mu_o); at mu_i = mu_o = 0 the exact BRDF is
 infinite, and these expressions are not meant to be evaluated there.
@@ -24,7 +26,7 @@ PI = sp.pi
 
 # scattering cosine, clamped so that rounding never takes it outside [-1, 1]
 _u = sp.Max(-1, sp.Min(1, -(mu_i * mu_o + S * sp.cos(phi))))
-#: Lambert-sphere phase function p(u) (SPEC 2)
+#: Lambert-sphere phase function p(u) (docs/model.md, "Phase function")
 PHASE = 2 * (sp.sqrt(sp.Max(0, 1 - _u**2)) - _u * sp.acos(_u)) / (3 * PI**2)
 #: exact single scattering with the true phase function (eq. 10)
 SINGLE = c * PHASE / (mu_i + mu_o)
@@ -99,7 +101,8 @@ RUNTIME_TERMS = ("single", "m0", "m1")
 
 
 def runtime_terms(parts: Mapping[str, sp.Expr], normalisation: str = "corrected") -> dict[str, sp.Expr]:
-    r"""The terms of the runtime model of SPEC 5, each an expression in (mu_i, mu_o, phi, c).
+    r"""The terms of the runtime model, each an expression in (mu_i, mu_o, phi, c)
+    (docs/model.md, "The runtime BRDF").
 
     Returns {"single": f_1, "m0": fm0, "m1": fm1} with f_r = max(0, f_1 + fm0 + fm1 cos(phi)):
       f_1 = c p(u) / (mu_i + mu_o)  (true phase function, eq. 10),
@@ -131,7 +134,7 @@ def runtime_terms(parts: Mapping[str, sp.Expr], normalisation: str = "corrected"
 
 
 def runtime_brdf(parts: Mapping[str, sp.Expr], normalisation: str = "corrected") -> sp.Expr:
-    r"""The runtime model of SPEC 5 as one expression in (mu_i, mu_o, phi, c):
+    r"""The runtime model (docs/model.md, "The runtime BRDF") as one expression in (mu_i, mu_o, phi, c):
     f_r = max(0, f_1 + fm0 + fm1 cos(phi)), the terms of :func:`runtime_terms`."""
     t = runtime_terms(parts, normalisation)
     return sp.Max(0, t["single"] + t["m0"] + t["m1"] * sp.cos(phi))

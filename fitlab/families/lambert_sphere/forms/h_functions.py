@@ -1,6 +1,6 @@
 r"""Forms for H0 and H1 as functions of (mu, c), mu in [0, 1], c in [0, 1].
 
-s = sqrt(1 - c) throughout (SPEC 6).
+s = sqrt(1 - c) throughout (docs/model.md, "Published approximations").
 """
 
 from __future__ import annotations

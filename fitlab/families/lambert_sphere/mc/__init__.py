@@ -1,10 +1,10 @@
-"""Monte Carlo ground truth for the Lambert-sphere half space (SPEC 7).
+"""Monte Carlo ground truth for the Lambert-sphere half space (docs/model.md, "Monte Carlo model").
 
 Independent of the H-function route of :mod:`fitlab.families.lambert_sphere.exact`: photons are
 followed through the half space in JAX (jit, vectorised over photons,
 float64, counter-based random numbers), with the true phase function or its
 three-term truncation.  Single scattering is never simulated (it has the closed
-form of SPEC 3); tallies start at the second collision.
+form of docs/model.md, "Single scattering"); tallies start at the second collision.
 
 Modules: ``sampling`` (phase sampling, eqs. 5 and 6, the signed three-term
 sampler), ``transport`` (the jitted random walk, its tallies and sharding),

@@ -7,7 +7,7 @@ apart), best of ``repeat``; only ratios measured in one run carry meaning.
 
 from __future__ import annotations
 
-import time
+import itertools
 from dataclasses import replace
 
 import jax
@@ -15,6 +15,7 @@ import jax
 from fitlab.families.lambert_sphere.mc.scene import parse_scene
 from fitlab.families.lambert_sphere.mc.simulate import simulate
 from fitlab.families.lambert_sphere.mc.transport import WalkConfig, compile_walk, default_mesh, default_slots, run_round
+from fitlab.timing import best_of
 
 __all__ = ["bench_mc", "throughput", "effect_costs", "BENCH_SCENE"]
 
@@ -44,14 +45,8 @@ def throughput(cfg: WalkConfig, c: float, mu_i: float, n: int, repeat: int = 2) 
     """Best-of-``repeat`` photons/s and collisions/s of one round of n photons."""
     mesh = default_mesh()
     compile_s = compile_walk(cfg, mesh)
-    best = None
-    for r in range(repeat):
-        t0 = time.perf_counter()
-        res = run_round(cfg, 1, (r,), c, mu_i, n, mesh=mesh)
-        dt = time.perf_counter() - t0
-        if best is None or dt < best[0]:
-            best = (dt, res)
-    dt, res = best
+    rounds = itertools.count()  # each timing walks its own photons (key r = 0, 1, ...)
+    dt, res = best_of(lambda: run_round(cfg, 1, (next(rounds),), c, mu_i, n, mesh=mesh), repeat)
     return dict(seconds=dt, compile_seconds=compile_s, photons_per_s=n / dt,
                 collisions_per_s=float(res["collisions"]) / dt, collisions_per_photon=float(res["collisions"]) / n,
                 steps=int(res["steps"]))

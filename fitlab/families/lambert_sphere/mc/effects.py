@@ -51,7 +51,8 @@ import numpy as np
 from fitlab.families.lambert_sphere.mc.scene import Scene
 from fitlab.families.lambert_sphere.mc.transport import WalkConfig
 
-__all__ = ["Job", "plan", "effect_jobs", "estimate_rows", "attach_reference", "ROW_FIELDS", "eq40_kd"]
+__all__ = ["Job", "plan", "effect_jobs", "estimate_rows", "attach_reference", "ROW_FIELDS", "eq40_kd",
+           "single_spherical_albedo"]
 
 ROW_FIELDS = (
     "effect", "material", "c", "mu_i", "quantity", "mu_lo", "mu_hi", "phi_lo", "phi_hi", "m", "n",
@@ -238,7 +239,7 @@ def estimate_rows(effect: str, scene: Scene, results: dict) -> list:
             rows.append(_capped_row(effect, scene, mat, mu_i, t))
         elif effect == "spherical_albedo":
             est, se = _mean_se(t["escape"][0], t["escape_sq"][0], n)
-            ss = c * _ss_spherical(scene.phase)
+            ss = c * single_spherical_albedo(scene.phase)
             rows.append(_row(effect, scene, mat, mu_i, "kd_ms", est, se))
             rows.append(_row(effect, scene, mat, mu_i, "kd", ss + est, se))
             rows.append(_capped_row(effect, scene, mat, mu_i, t))
@@ -296,21 +297,21 @@ def _ss_albedo(mu_i, phase):
 
 
 @lru_cache(maxsize=None)
-def _ss_spherical(phase):
-    """2 int a1(mu) mu dmu per unit c, on the exact engine's graded rule."""
-    from fitlab.families.lambert_sphere.exact._quadrature import graded_gauss
-    from fitlab.families.lambert_sphere.exact.albedo import _single_albedo_table, _ss_three_term_albedo
+def single_spherical_albedo(phase):
+    """2 int a1(mu) mu dmu per unit c (single scattering's share of kd), on the exact engine's graded rule."""
+    from fitlab.families.lambert_sphere.exact import graded_gauss, single_albedo_nodes, three_term_single_albedo
 
     v, w = graded_gauss(8, 0.25, 1e-14)
-    a1 = _single_albedo_table("true") if phase == "true" else _ss_three_term_albedo(np.asarray(v))
+    a1 = single_albedo_nodes("true") if phase == "true" else three_term_single_albedo(np.asarray(v))
     return float(2.0 * np.dot(w * v, a1))
 
 
 # ----------------------------------------------------------- references
 def eq40_kd(c):
-    """Published eq. 40: kd = (1 - 0.453029 (1-c) - 0.544162 s)/(1 + 1.42931 s), s = sqrt(1-c)."""
-    s = math.sqrt(1.0 - c)
-    return (1.0 - 0.453029 * (1.0 - c) - 0.544162 * s) / (1.0 + 1.42931 * s)
+    """Published eq. 40, kd(c): the ``printed`` form of kd_of_c with its ``paper`` preset."""
+    from fitlab.core import get_form
+
+    return float(get_form("kd_of_c", "printed")("paper", np.asarray(float(c))))
 
 
 @lru_cache(maxsize=None)
@@ -376,7 +377,7 @@ def attach_reference(effect: str, scene: Scene, rows: list) -> list:
             r["ref_name"] = model
         elif effect == "spherical_albedo":
             k_ref = float(spherical_albedo(c, "three_term" if three else "true"))
-            ss = c * _ss_spherical(scene.phase)
+            ss = c * single_spherical_albedo(scene.phase)
             ref = k_ref if q == "kd" else k_ref - ss
             r["ref_name"] = model
             if q == "kd":

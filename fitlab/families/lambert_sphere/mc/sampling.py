@@ -1,7 +1,8 @@
 r"""Sampling the scattering cosine u of one collision, and turning directions.
 
 u is the cosine between the photon's flight direction before and after the
-collision (SPEC 1-2: u = -w_i . w_o for single scattering; mean -4/9, backward).
+collision (u = -w_i . w_o for single scattering; mean -4/9, backward;
+docs/model.md, "Conventions" and "Phase function").
 All functions are pure ``jax.numpy`` maps of uniforms in (0, 1) to samples, so
 that the random walk (``fitlab.families.lambert_sphere.mc.transport``) can vectorise them and tests can
 feed them fixed uniforms.
@@ -42,6 +43,8 @@ import math
 
 import jax.numpy as jnp
 
+from fitlab.core import float64
+
 __all__ = [
     "THREE_TERM_NORM",
     "U1",
@@ -72,27 +75,32 @@ THREE_TERM_NORM = (_M_POS + _M_NEG) / 2.0
 _NEWTON_STEPS = 8
 
 
+@float64
 def p_true(u):
     """p(u) = 2 (sqrt(1-u^2) - u acos u)/(3 pi^2), 1/sr; u clipped to [-1, 1]."""
     u = jnp.clip(u, -1.0, 1.0)
     return 2.0 * (jnp.sqrt((1.0 - u) * (1.0 + u)) - u * jnp.arccos(u)) / (3.0 * jnp.pi**2)
 
 
+@float64
 def p_three_term(u):
     """p3(u) = (1 - (4/3) u + (5/16) P2(u)) / (4 pi), 1/sr; negative for u > 0.95029."""
     return (27.0 / 32.0 - 4.0 / 3.0 * u + 15.0 / 32.0 * u * u) / (4.0 * jnp.pi)
 
 
+@float64
 def sample_true_exact(x1, x2, x3):
     """Eq. 5: u = sqrt((1-x1)(1-x2)) sin(2 pi x3) - sqrt(x1 x2); exact for p."""
     return jnp.sqrt((1.0 - x1) * (1.0 - x2)) * jnp.sin(2.0 * jnp.pi * x3) - jnp.sqrt(x1 * x2)
 
 
+@float64
 def sample_true_approx(x):
     """Eq. 6: approximate inverse CDF of p, one uniform."""
     return 1.0 - 2.0 * (1.0 - x ** (0.0401885 * x + 1.01938)) ** 0.397225
 
 
+@float64
 def sample_three_term(x):
     """u from |p3|/N by exact inversion, and the sign of p3(u).
 
@@ -117,6 +125,7 @@ def sample_three_term(x):
 MIX = (0.49, 0.49, 0.02)
 
 
+@float64
 def mixture_density(u):
     """q(u) = 0.49 p(u) + 0.49 |p3(u)|/N + 0.02/(4 pi) (1/sr): the density of the
     'both' sampler.  p/q <= 1/0.49 and |p3|/q <= N/0.49: one path carries both
@@ -127,6 +136,7 @@ def mixture_density(u):
     return MIX[0] * p_true(u) + MIX[1] * jnp.abs(p_three_term(u)) / THREE_TERM_NORM + MIX[2] / (4.0 * jnp.pi)
 
 
+@float64
 def turn(dx, dy, dz, u, psi):
     """Unit direction at angle acos(u) from (dx, dy, dz), azimuth psi about it.
 

@@ -49,6 +49,8 @@ from dataclasses import dataclass, field
 from json.decoder import scanstring
 from pathlib import Path
 
+import numpy as np
+
 __all__ = ["EFFECTS", "Material", "Scene", "SceneError", "load_scene", "parse_scene"]
 
 #: effect name -> one-line description
@@ -328,30 +330,15 @@ def _edges(ck: _Checker, value, keypath, hi: float, what: str):
 
 
 def _c_of_kd(kd: float, phase: str) -> float:
-    """c whose exact spherical albedo is kd (three-term half space, or fitlab.families.lambert_sphere.exact 'true').
-
-    Root of spherical_albedo(c) = kd by Brent's method, bracketed around the
-    published eq. 39 guess (each evaluation solves H0 at a new c: the bracket
-    saves most of them).
-    """
-    from scipy.optimize import brentq
-
-    from fitlab.families.lambert_sphere.exact import spherical_albedo
+    """c whose exact spherical albedo is kd (three-term half space, or fitlab.families.lambert_sphere.exact 'true'):
+    :func:`fitlab.families.lambert_sphere.exact.albedo_inverse`, bracketed around the published eq. 39 map
+    (the ``paper`` preset of the c_of_kd form ``rational_power``)."""
+    from fitlab.core import get_form
+    from fitlab.families.lambert_sphere.exact import albedo_inverse
 
     model = "three_term" if phase == "three_term" else "true"
-    if kd <= 0.0:
-        return 0.0
-    if kd >= float(spherical_albedo(1.0, model)):
-        return 1.0
-    q = 1.0 - kd
-    guess = (1.0 - 1.00425 * q**2.67103) / (1.0 - 0.219924 * q**2.44559)  # eq. 39
-    f = lambda c: float(spherical_albedo(c, model)) - kd  # noqa: E731
-    lo, hi = max(0.0, guess - 0.005), min(1.0, guess + 0.005)
-    if f(lo) > 0.0:
-        lo = 0.0
-    if f(hi) < 0.0:
-        hi = 1.0
-    return float(brentq(f, lo, hi, xtol=1e-13))
+    guess = float(get_form("c_of_kd", "rational_power")("paper", np.asarray(float(kd)))) if 0.0 < kd <= 1.0 else None
+    return albedo_inverse(kd, model, guess)
 
 
 def parse_scene(text: str, path: str = "<scene>", fmt: str | None = None, resolve_kd: bool = True) -> Scene:

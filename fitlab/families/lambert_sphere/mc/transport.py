@@ -1,14 +1,16 @@
 r"""The jitted random walk in the half space, and its tallies.
 
-Model (SPEC 7): the half space z < 0 of unit extinction.  A photon enters at
+Model (docs/model.md, "Monte Carlo model"): the half space z < 0 of unit
+extinction.  A photon enters at
 the origin along -w_i, w_i = (sqrt(1 - mu_i^2), 0, mu_i), flies an exponential
 free path, and at every collision carries its weight times c (no absorption
 by killing) and scatters by the phase function.  It escapes when a free path
 crosses z = 0; its direction is then w_o = (S_o cos phi, S_o sin phi, mu_o):
-phi = 0 is back-scattering (SPEC 1).
+phi = 0 is back-scattering (docs/model.md, "Conventions").
 
 What is simulated is multiple scattering only.  Single scattering has the
-closed form of SPEC 3, so the flight after the first collision is forced to
+closed form (docs/model.md, "Single scattering"), so the flight after the
+first collision is forced to
 stay inside: it is drawn from the exponential truncated at the distance L to
 the surface and the weight is multiplied by P(s < L) = 1 - exp(-L).  Every
 tally therefore starts at the 2nd collision, and no path is spent on single
@@ -67,6 +69,7 @@ import numpy as np
 from jax.extend.random import threefry_2x32
 from jax.sharding import Mesh, PartitionSpec
 
+from fitlab.core import float64
 from fitlab.families.lambert_sphere.mc.sampling import (
     MIX,
     THREE_TERM_NORM,
@@ -398,6 +401,7 @@ def _static(cfg: WalkConfig) -> WalkConfig:
     return replace(cfg, max_collisions=2)
 
 
+@float64
 def compile_walk(cfg: WalkConfig, mesh: Mesh | None = None) -> float:
     """Compile the walk for ``cfg`` on ``mesh`` (once; cached).  Returns the seconds it took (0 if cached)."""
     mesh = mesh or default_mesh()
@@ -412,6 +416,7 @@ def compile_walk(cfg: WalkConfig, mesh: Mesh | None = None) -> float:
     return time.perf_counter() - t0
 
 
+@float64
 def round_key(seed: int, *stream: int) -> jax.Array:
     """Threefry key pair (uint32[2]) for ``seed`` and a stream path, e.g. (job, round)."""
     key = jax.random.key(seed)
@@ -420,6 +425,7 @@ def round_key(seed: int, *stream: int) -> jax.Array:
     return jax.random.key_data(key)
 
 
+@float64
 def run_round(cfg: WalkConfig, seed: int, stream: tuple, c: float, mu_i: float, n_photons: int,
               mesh: Mesh | None = None) -> dict:
     """Simulate ``n_photons`` photons (ids 0..n-1 of one round); tallies as numpy arrays.

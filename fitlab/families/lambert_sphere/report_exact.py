@@ -1,4 +1,4 @@
-r"""The exact engine as an evaluation method: its cost, its error, and time to reach an error.
+r"""The exact engine as an evaluation method of ``fitlab report``: its cost, its error, and time to reach an error.
 
 * H-functions, both methods of :func:`fitlab.families.lambert_sphere.exact.h_function` at coarser and
   finer resolution: Nystrom/Newton ("chandrasekhar") with n nodes per graded
@@ -21,10 +21,16 @@ import time
 
 import numpy as np
 
-from fitlab.families.lambert_sphere.exact import brdf, brdf_modes, doubling_reflection, h_fock, solve_h
-from fitlab.families.lambert_sphere.exact.characteristic import lambert_sphere_characteristic
-from fitlab.families.lambert_sphere.exact.hfunction import _solve_cached
-from fitlab.report.cost import best_seconds
+from fitlab.families.lambert_sphere.exact import (
+    brdf,
+    brdf_modes,
+    doubling_reflection,
+    h_fock,
+    lambert_sphere_characteristic,
+    solve_h,
+    solve_h_uncached,
+)
+from fitlab.timing import best_seconds
 
 __all__ = ["h_convergence", "exact_brdf_cost", "doubling_agreement", "time_to_error"]
 
@@ -33,8 +39,7 @@ _FRESH = itertools.count()
 
 def _nystrom(char, n: int, mu):
     """H at mu from a fresh (uncached) Nystrom solve with n nodes per panel."""
-    sol = _solve_cached.__wrapped__(tuple(float(p) for p in char.coefficients), float(char.k0), n, 0.25)
-    return sol(mu)
+    return solve_h_uncached(char, n, 0.25)(mu)
 
 
 def h_convergence(orders, albedos, mu_points: int, nodes, steps, repeat: int = 2, tick=None) -> list[dict]:

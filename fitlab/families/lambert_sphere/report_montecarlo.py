@@ -1,4 +1,4 @@
-r"""Monte Carlo as an evaluation method: error and time at several path counts.
+r"""Monte Carlo as an evaluation method of ``fitlab report``: error and time at several path counts.
 
 One scene (built here, run by :func:`fitlab.families.lambert_sphere.mc.simulate.simulate`): the
 materials ``mc_c``, incident cosines ``mc_mu_i``, mu_o bins ``mc_mu_edges`` and

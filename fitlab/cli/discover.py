@@ -1,16 +1,24 @@
-"""``fitlab discover``: the command-line face of :mod:`fitlab.discover`."""
+"""``fitlab discover``: the command-line face of :mod:`fitlab.discover` (symbolic regression with pysindy).
+
+pysindy is imported by the regression itself, when :func:`run` searches."""
 
 from __future__ import annotations
 
 import sys
 from pathlib import Path
 
-__all__ = ["add_arguments", "run_discover"]
+from fitlab.discover.cost import COST_REPEAT, COST_ROUNDS, routine_cost
+from fitlab.discover.library import get_library, libraries_of
+from fitlab.discover.output import front_table, save, save_from_front, write_outputs
+from fitlab.discover.search import discover
+from fitlab.store import FitFileError, TableError
+
+__all__ = ["HELP", "add_arguments", "run"]
+
+HELP = "symbolic regression (pysindy): a Pareto front of new forms for a target"
 
 
 def add_arguments(p) -> None:
-    from fitlab.discover.library import libraries_of
-
     p.add_argument("--target", required=True, help=f"what to discover forms for: {', '.join(libraries_of())}")
     p.add_argument("--max-terms", type=int, default=12, help="largest model refitted (default 12)")
     p.add_argument("--minimax-rounds", type=int, default=20, help="Lawson rounds per refit (default 20)")
@@ -35,12 +43,7 @@ def _error(msg: str) -> int:
     return 2
 
 
-def run_discover(args) -> int:
-    from fitlab.store import FitFileError
-    from fitlab.store import TableError
-    from fitlab.discover.output import front_table, save, save_from_front, write_outputs
-    from fitlab.discover.search import discover
-
+def run(args) -> int:
     if args.from_front and not args.save:
         return _error("--from-front goes with --save NAME")
     if args.cost and not args.save:
@@ -58,8 +61,6 @@ def run_discover(args) -> int:
             print(f"wrote {path}")
         return _print_cost(args)
     try:
-        from fitlab.discover.library import get_library
-
         get_library(args.target)
         if args.max_terms < 1 or args.minimax_rounds < 0:
             raise ValueError("--max-terms must be >= 1 and --minimax-rounds >= 0")
@@ -82,9 +83,6 @@ def run_discover(args) -> int:
 def _print_cost(args) -> int:
     if not (args.cost and args.save):
         return 0
-    from fitlab.store import FitFileError
-    from fitlab.discover.cost import COST_REPEAT, COST_ROUNDS, routine_cost
-
     try:
         ns = routine_cost(args.target, [None, *args.save], Path(args.fits))
     except (KeyError, RuntimeError, FitFileError) as exc:

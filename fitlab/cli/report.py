@@ -1,4 +1,4 @@
-"""``fitlab report``: the command-line face of :mod:`fitlab.report`."""
+"""``fitlab report``: the command-line face of :mod:`fitlab.report` (docs/report.md, the plot, report.csv)."""
 
 from __future__ import annotations
 
@@ -7,7 +7,13 @@ import sys
 import time
 from pathlib import Path
 
-__all__ = ["add_arguments", "run_report", "check_out_dir"]
+from fitlab.report import FULL, QUICK, ReportError, build_report, write_outputs
+from fitlab.report.write import FILES
+from fitlab.store import FitFileError
+
+__all__ = ["HELP", "add_arguments", "run", "check_out_dir"]
+
+HELP = "accuracy vs cost of every way to evaluate the BRDF: docs/report.md and a plot"
 
 
 def add_arguments(p) -> None:
@@ -20,8 +26,6 @@ def add_arguments(p) -> None:
 
 def check_out_dir(out: Path) -> None:
     """Fail early (ValueError) when ``out`` cannot take the report's files: not a folder, or not writable."""
-    from fitlab.report.write import FILES
-
     out = Path(out)
     if out.exists() and not out.is_dir():
         raise ValueError(f"--out {out}: exists and is not a folder")
@@ -35,13 +39,7 @@ def check_out_dir(out: Path) -> None:
             raise ValueError(f"--out {out}: {out / name} is a folder")
 
 
-def run_report(args) -> int:
-    from fitlab.store import FitFileError
-    from fitlab.report.methods import ReportError
-    from fitlab.report.run import build_report
-    from fitlab.report.settings import FULL, QUICK
-    from fitlab.report.write import write_outputs
-
+def run(args) -> int:
     t0 = time.perf_counter()
     try:
         check_out_dir(Path(args.out))

@@ -1,0 +1,139 @@
+r"""A persistent cache of exact values: compute once per machine, share between commands.
+
+Exact values (training and validation sets, constants on their grids, the
+report's validation sets) are the slow part of every command that measures a
+fit.  :func:`cached_arrays` keeps them on disk, keyed by everything that
+determines them: a name, the caller's key (target, grid, method), the fitlab
+version and the bytes of the source files that compute them, so that a change
+of engine is a miss, never a stale hit.
+
+* Location: ``$FITLAB_CACHE_DIR``, else ``$XDG_CACHE_HOME/fitlab``, else
+  ``~/.cache/fitlab``.  ``FITLAB_NO_CACHE=1`` turns the cache off.
+* Entries are ``.npz`` files read with ``allow_pickle=False`` (data, never code).
+  A missing, truncated or damaged entry, or one whose arrays do not have the
+  names the caller asks for, is a miss and is recomputed.
+* Writes are atomic (a temporary file named with the process id, then a
+  rename): concurrent processes filling one entry never interleave, and a
+  reader sees either the old entry or a whole new one.
+* A cache that cannot be written (read-only disk) only costs time.
+
+``fitlab cache info`` and ``fitlab cache clear`` manage it.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import io
+import json
+import os
+from pathlib import Path
+from typing import Callable, Iterable, Mapping
+
+import numpy as np
+
+from fitlab import __version__
+from fitlab._io import atomic_write_bytes
+
+__all__ = ["cache_dir", "cache_key", "cached_arrays", "cache_info", "clear_cache", "enabled"]
+
+_SUFFIX = ".npz"
+
+
+def cache_dir() -> Path:
+    """The cache folder (see the module docstring)."""
+    if os.environ.get("FITLAB_CACHE_DIR"):
+        return Path(os.environ["FITLAB_CACHE_DIR"])
+    base = os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache"
+    return Path(base) / "fitlab"
+
+
+def enabled() -> bool:
+    return os.environ.get("FITLAB_NO_CACHE", "") in ("", "0")
+
+
+def cache_key(parts: Mapping, sources: Iterable[Path] = ()) -> str:
+    """sha256 (24 hex digits) of the fitlab version, ``parts`` (JSON with sorted keys; numpy arrays by
+    their float64 bytes) and the names and bytes of ``sources`` (the files that compute the values)."""
+    h = hashlib.sha256(__version__.encode())
+    plain = {k: v for k, v in parts.items() if not isinstance(v, np.ndarray)}
+    h.update(json.dumps(plain, sort_keys=True, default=str).encode())
+    for k in sorted(k for k, v in parts.items() if isinstance(v, np.ndarray)):
+        h.update(k.encode())
+        h.update(np.ascontiguousarray(parts[k], dtype="<f8").tobytes())
+    for src in sorted(Path(s) for s in sources):
+        h.update(src.name.encode())
+        h.update(src.read_bytes())
+    return h.hexdigest()[:24]
+
+
+def _load(path: Path, names: tuple[str, ...]) -> dict | None:
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            out = {n: np.array(z[n]) for n in names}
+    except Exception:  # noqa: BLE001 - missing, truncated or damaged (EOFError, BadZipFile, KeyError, ...): a miss
+        return None
+    return out
+
+
+def cached_arrays(
+    name: str,
+    parts: Mapping,
+    compute: Callable[[], Mapping[str, np.ndarray]],
+    names: tuple[str, ...],
+    sources: Iterable[Path] = (),
+    use_cache: bool = True,
+) -> dict[str, np.ndarray]:
+    """The arrays ``compute()`` returns (a mapping with keys ``names``), from the cache when present.
+
+    ``name`` starts the entry's file name (``NAME-KEY.npz``); ``parts`` and ``sources`` make its key
+    (:func:`cache_key`)."""
+    use = use_cache and enabled()
+    path = cache_dir() / f"{name}-{cache_key(parts, sources)}{_SUFFIX}"
+    if use:
+        hit = _load(path, names)
+        if hit is not None:
+            return hit
+    values = {n: np.asarray(v) for n, v in compute().items()}
+    missing = [n for n in names if n not in values]
+    if missing:
+        raise KeyError(f"cache entry {name}: compute() gave no {missing}")
+    if use:
+        buf = io.BytesIO()
+        np.savez(buf, **{n: values[n] for n in names})
+        try:
+            atomic_write_bytes(path, buf.getvalue())
+        except OSError:
+            pass  # a cache that cannot be written only costs time
+    return {n: values[n] for n in names}
+
+
+def cache_info() -> dict:
+    """{"folder", "entries", "bytes", "by_name": {name: (entries, bytes)}} of the cache as it is now."""
+    folder = cache_dir()
+    by_name: dict[str, list[int]] = {}
+    for p in sorted(folder.glob(f"*{_SUFFIX}")) if folder.is_dir() else []:
+        stem = p.name[: -len(_SUFFIX)].rsplit("-", 1)[0]
+        entry = by_name.setdefault(stem, [0, 0])
+        entry[0] += 1
+        entry[1] += p.stat().st_size
+    return {
+        "folder": str(folder),
+        "entries": sum(e[0] for e in by_name.values()),
+        "bytes": sum(e[1] for e in by_name.values()),
+        "by_name": {k: tuple(v) for k, v in by_name.items()},
+    }
+
+
+def clear_cache() -> int:
+    """Remove every entry (and stray temporaries); returns the number of files removed."""
+    folder = cache_dir()
+    if not folder.is_dir():
+        return 0
+    removed = 0
+    for p in [*folder.glob(f"*{_SUFFIX}"), *folder.glob(f"*{_SUFFIX}.*.tmp")]:
+        try:
+            p.unlink()
+            removed += 1
+        except FileNotFoundError:
+            pass
+    return removed

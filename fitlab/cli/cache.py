@@ -1,0 +1,41 @@
+"""``fitlab cache {info,clear}``: the persistent cache of exact values (fitlab.cache)."""
+
+from __future__ import annotations
+
+import json
+
+from fitlab.cache import cache_info, clear_cache
+
+__all__ = ["HELP", "add_arguments", "run"]
+
+HELP = "show or clear the persistent cache of exact values"
+
+
+def add_arguments(p) -> None:
+    p.description = (
+        "fitlab keeps the exact values its commands measure against (training and validation sets, the report's "
+        "validation sets) in a cache folder ($FITLAB_CACHE_DIR, else $XDG_CACHE_HOME/fitlab, else ~/.cache/fitlab), "
+        "keyed by target, grid, method, fitlab version and the exact engine's source."
+    )
+    p.epilog = "example: fitlab cache info --json"
+    p.add_argument("action", choices=("info", "clear"), help="info: what the cache holds; clear: remove every entry")
+    p.add_argument("--json", action="store_true", help="print a machine-readable summary")
+
+
+def run(args) -> int:
+    if args.action == "clear":
+        removed = clear_cache()
+        summary = {"removed": removed, **cache_info()}
+        if args.json:
+            print(json.dumps(summary))
+        else:
+            print(f"removed {removed} entries from {summary['folder']}")
+        return 0
+    info = cache_info()
+    if args.json:
+        print(json.dumps(info))
+        return 0
+    print(f"{info['folder']}: {info['entries']} entries, {info['bytes'] / 1e6:.1f} MB")
+    for name, (n, size) in sorted(info["by_name"].items()):
+        print(f"  {name:<40} {n:>3} entries  {size / 1e6:8.2f} MB")
+    return 0

@@ -1,0 +1,130 @@
+r"""The Lambert-sphere family's generated program: the runtime BRDF assembled from its fitted parts.
+
+Registered as the family's ``codegen`` (:data:`PROGRAM`, a
+:class:`fitlab.codegen.ProgramSpec`); :func:`fitlab.codegen.build_program` calls
+it with the fits ({target: FitFunction}) and the terms kept.  docs/model.md
+states the model.
+
+Routines (args; domain), named by the targets' ``routine``:
+
+* ``h0, h1 (mu, c)``, ``const_l, const_m, const_b, const_c, const_d, const_f (c)``,
+  ``c_of_kd (kd)``, ``kd_of_c (c)``: the fitted parts on their own; mu, c, kd in [0, 1].
+* ``single, fm0, fm1`` and ``brdf (mu_i, mu_o, cos_phi, c)``: the runtime model
+  (docs/model.md), f_r = max(0, f_1 + fm0 + fm1 cos phi) (only the terms asked for).
+* ``brdf_fast (mu_i, mu_o, cos_phi, c, kd)``: the fast variant, eq. 41 (the fit of ``fast_brdf``).
+* ``brdf_local, brdf_fast_local (wi, wo, c[, kd])``: the same for unit vectors in the
+  local frame (z the normal, both pointing away from the surface); 0 when either
+  points below the surface.
+
+Robustness (every value finite for finite inputs): the entry points clamp
+mu, c, kd into [0, 1] and cos_phi into [-1, 1]; every pole 1/(mu_i + mu_o) is
+evaluated as 1/max(mu_i + mu_o, POLE_FLOOR).  The exact BRDF is infinite at
+mu_i = mu_o = 0; with the floor the model there is large and finite
+(c p(u) / POLE_FLOOR at most 2.1e5 c, representable in float).
+"""
+
+from __future__ import annotations
+
+from typing import Mapping
+
+import sympy as sp
+
+from fitlab.codegen.program import (
+    ProgramSpec,
+    Routine,
+    azimuth_to_cosine,
+    call,
+    clamped,
+    floor_poles,
+    part_routine,
+)
+from fitlab.families.lambert_sphere.forms import RUNTIME_PARTS, RUNTIME_TERMS, SINGLE, runtime_terms
+from fitlab.families.lambert_sphere.targets import TARGETS
+from fitlab.forms.symbolic import symbols
+from fitlab.store import FitFunction
+
+__all__ = ["PROGRAM", "PARTS", "FAST", "routines"]
+
+mu_i, mu_o, c, kd, cos_phi = symbols(("mu_i", "mu_o", "c", "kd", "cos_phi"))
+_VEC = {v: symbols(tuple(f"{v}_{k}" for k in "xyz")) for v in ("wi", "wo")}
+
+#: the target whose fit is the fast variant (routine brdf_fast)
+FAST = "fast_brdf"
+
+#: the targets printed as routines of their own, in the order of the generated files
+PARTS = ("H0", "H1", "l", "m", "B", "C", "D", "F", "c_of_kd", "kd_of_c")
+
+_TERM_DOCS = {
+    "single": "Single scattering with the true phase function, c p(u)/(mu_i + mu_o), u = -(mu_i mu_o + S cos phi) (eq. 10).",
+    "m0": "Multiple scattering, Fourier order 0: fm0 = (H0 H0 Q/(2 pi) - n0_ss)/(mu_i + mu_o) (eqs. 30, 38).",
+    "m1": "Multiple scattering, Fourier order 1 (coefficient of cos phi): fm1 of eq. 22 minus its single "
+          "scattering, exact normalisations 3 pi and 192 pi (docs/errata.md).",
+}  # fmt: skip
+_TERM_ARGS = {"single": ("mu_i", "mu_o", "cos_phi", "c"), "m0": ("mu_i", "mu_o", "c"), "m1": ("mu_i", "mu_o", "c")}
+_TERM_NAMES = {"single": "single", "m0": "fm0", "m1": "fm1"}
+
+
+def routines(fits: Mapping[str, FitFunction], terms: tuple[str, ...]) -> list[Routine]:
+    """Every routine of the generated Lambert-sphere files, in file order."""
+    out = [part_routine(fits[t]) for t in PARTS]
+
+    clamp4 = clamped((mu_i, 0, 1), (mu_o, 0, 1), (cos_phi, -1, 1), (c, 0, 1))
+    parts = {p: call(TARGETS[p].routine, *symbols(TARGETS[p].inputs)) for p in RUNTIME_PARTS}
+    term_exprs = runtime_terms(parts)
+    total = sp.S.Zero
+    for t in terms:
+        expr = floor_poles(azimuth_to_cosine(term_exprs[t]))
+        out.append(Routine(_TERM_NAMES[t], _TERM_ARGS[t], expr, _TERM_DOCS[t] + " Pole floored at 1e-6."))
+        args = [clamp4.get(s, s) for s in symbols(_TERM_ARGS[t])]
+        total += call(_TERM_NAMES[t], *args) * (clamp4[cos_phi] if t == "m1" else 1)
+    out.append(Routine(
+        "brdf", ("mu_i", "mu_o", "cos_phi", "c"), sp.Max(0, total),
+        f"The runtime Lambert-sphere BRDF (1/sr), max(0, {' + '.join(_TERM_NAMES[t] + (' cos phi' if t == 'm1' else '') for t in terms)}) "
+        "(docs/model.md). mu_i, mu_o in [0, 1], cos_phi in [-1, 1] (phi = 0 back-scattering), c the particle "
+        "albedo in [0, 1]; inputs outside are clamped.",
+    ))  # fmt: skip
+
+    fast = fits[FAST]
+    fast_expr = floor_poles(azimuth_to_cosine(fast.expression))
+    if "single" in terms:
+        fast_expr = fast_expr.subs(floor_poles(azimuth_to_cosine(SINGLE)), call("single", mu_i, mu_o, cos_phi, c))
+    clamp5 = {**clamp4, **clamped((kd, 0, 1))}
+    out.append(Routine(
+        TARGETS[FAST].routine, ("mu_i", "mu_o", "cos_phi", "c", "kd"), fast_expr.xreplace(clamp5),
+        ("The fast variant of the Lambert-sphere BRDF (eq. 41, refitted): max(0, f_1 + lobe(|phi|) + p4 kd^p5); "
+         if fast.form == TARGETS[FAST].default_form else
+         f"A fast model of the Lambert-sphere BRDF, form {fast.form}: {fast.record.get('form_description', '')} ")
+        + f"kd = {TARGETS['kd_of_c'].routine}(c). Same domain as brdf, kd in [0, 1].",
+    ))  # fmt: skip
+
+    # local frame: u = -wi.wo, mu = z, S cos phi = x_i x_o + y_i y_o
+    (xi, yi, zi), (xo, yo, zo) = _VEC["wi"], _VEC["wo"]
+    ring = (xi**2 + yi**2) * (xo**2 + yo**2)
+    local_cos = (xi * xo + yi * yo) / sp.sqrt(sp.Max(ring, sp.Rational(1, 10**30)))
+    below = sp.Or(zi < 0, zo < 0)
+    vec_args = tuple(str(s) for s in (*_VEC["wi"], *_VEC["wo"]))
+    vectors = {"wi": tuple(str(s) for s in _VEC["wi"]), "wo": tuple(str(s) for s in _VEC["wo"])}
+    for name, extra in (("brdf", ()), (TARGETS[FAST].routine, ("kd",))):
+        inner = call(name, zi, zo, local_cos, c, *symbols(extra))
+        out.append(Routine(
+            f"{name}_local", (*vec_args, "c", *extra), sp.Piecewise((0, below), (inner, True)),
+            f"{name} for unit vectors wi, wo in the local frame (z along the normal, both pointing away "
+            "from the surface); 0 if either is below the surface.",
+            vectors,
+        ))  # fmt: skip
+    return out
+
+
+PROGRAM = ProgramSpec(
+    name="lambert_sphere",
+    fits=(*PARTS, FAST),
+    parts=PARTS,
+    routines=routines,
+    terms=RUNTIME_TERMS,
+    about="The Lambert-sphere BRDF (d'Eon, EGSR 2021): the runtime model of docs/model.md and its fitted parts.\n"
+          "Terms of brdf: {terms}",
+    doc="The Lambert-sphere BRDF (d'Eon, EGSR 2021), generated by fitlab: numpy only.\n\n"
+        "Every function takes numpy arrays (any broadcastable shapes; vectors have a\n"
+        "last axis of 3) and returns an array of float64.  brdf(mu_i, mu_o, cos_phi, c)\n"
+        "is the runtime model; brdf_local(wi, wo, c) the same for local-frame vectors.\n",
+)  # fmt: skip

@@ -1,0 +1,213 @@
+r"""The Lambert-sphere family's part of ``fitlab report`` (its ``report`` hook).
+
+:mod:`fitlab.report` loops over the families and asks each, through this
+module, for what only the family knows:
+
+* :data:`REQUIRED_FITS`: the default fits its BRDF-level methods need (checked
+  before any slow work): the runtime parts, both albedo maps (the generated
+  program carries them) and the fast variant;
+* :data:`PARTS`: the targets measured at part level (every target but the
+  whole-BRDF ``fast_brdf``, which is measured as a BRDF);
+* :data:`PRESET_VARIANTS`: the published runtime preset sets;
+* :func:`brdf_methods`: the BRDF-level catalogue (tables, published presets,
+  refits, richer and discovered forms, the fast variant, the baselines);
+* :func:`part_extras`: the part-level methods beyond presets and fit files
+  (the exact engine's Fock method for H0 and H1, the tables);
+* :func:`preset_records`: a preset set as fit records, for codegen;
+* :func:`check_tables`, :data:`DATA_DIR`, :func:`exact_brdf`, :func:`exact_kd`
+  and :data:`EXACT_SOURCES`: the tables, and the exact values of the report's
+  BRDF validation set with the sources its cache key hashes;
+* the exact engine and Monte Carlo as methods (:mod:`.report_exact`:
+  :func:`h_convergence`, :func:`exact_brdf_cost`, :func:`doubling_agreement`,
+  :func:`time_to_error`; :mod:`.report_montecarlo`: :func:`mc_study`,
+  :func:`mc_time_to_error`).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import sympy as sp
+
+from fitlab.core import get_target
+from fitlab.families.lambert_sphere.datasets import DATA_DIR
+from fitlab.families.lambert_sphere.exact import brdf, h_function, spherical_albedo
+from fitlab.families.lambert_sphere.forms import RUNTIME_PARTS
+from fitlab.families.lambert_sphere.forms.baselines import BASELINE_INPUTS, LAMBERT, oren_nayar
+from fitlab.families.lambert_sphere.interpolation import table_brdf, table_part
+from fitlab.families.lambert_sphere.report_exact import (
+    doubling_agreement,
+    exact_brdf_cost,
+    h_convergence,
+    time_to_error,
+)
+from fitlab.families.lambert_sphere.report_montecarlo import mc_study, mc_time_to_error
+from fitlab.families.lambert_sphere.runtime import PRESET_VARIANTS, runtime_model
+from fitlab.families.lambert_sphere.table_files import check_tables
+from fitlab.families.lambert_sphere.targets import TARGETS
+from fitlab.forms.symbolic import lambdify_numpy, symbols
+from fitlab.report.methods import BrdfMethod, CSpec, PartMethod, best_forms, fit_group, positional
+from fitlab.store import FORMAT, load
+
+__all__ = ["REQUIRED_FITS", "PARTS", "PRESET_VARIANTS", "DATA_DIR", "EXACT_SOURCES", "SOURCES", "brdf_methods",
+           "part_extras", "preset_records", "check_tables", "exact_brdf", "exact_kd", "h_convergence", "exact_brdf_cost",
+           "doubling_agreement", "time_to_error", "mc_study", "mc_time_to_error"]
+
+#: the albedo maps: not in the BRDF, but in its generated program (their C is timed there)
+MAPS = ("kd_of_c", "c_of_kd")
+FAST = "fast_brdf"
+REQUIRED_FITS = (*RUNTIME_PARTS, *MAPS, FAST)
+PARTS = tuple(name for name in TARGETS if name != FAST)
+#: the exact engine's sources: the report's cache of exact values is keyed on them
+EXACT_SOURCES = Path(__file__).resolve().parent / "exact"
+#: what the report's exact-engine and Monte Carlo rows measured (their "source" column)
+SOURCES = {
+    "exact": "fitlab.families.lambert_sphere.exact.brdf",
+    "doubling": "fitlab.families.lambert_sphere.exact.doubling_reflection",
+    "h": "fitlab.families.lambert_sphere.exact.hfunction",
+    "monte carlo": "fitlab.families.lambert_sphere.mc (three-term multiple scattering)",
+}
+
+
+def exact_brdf(mu_i, mu_o, phi, c: float) -> np.ndarray:
+    """The exact BRDF at points, at one albedo c."""
+    return brdf(mu_i, mu_o, phi, c)
+
+
+def exact_kd(c) -> np.ndarray:
+    """kd = kd_true(c), the spherical albedo of the exact BRDF (the input of the fast variant and the baselines)."""
+    return np.asarray(spherical_albedo(c, model="true"), dtype=float)
+
+
+# -- presets as fit records (for codegen) -------------------------------------------------------------
+def preset_records(variant: str) -> dict:
+    """{(target, form): fit record} of a published preset set: the runtime parts of
+    :data:`PRESET_VARIANTS` plus the published eq. 41 and albedo maps, so that codegen can print the
+    published model like any fit.  (codegen always uses the exact normalisations; ``paper_printed``'s C
+    differs from its printed normalisation only in two constants, which cost nothing.)"""
+    choice = dict(PRESET_VARIANTS[variant][0])
+    choice[FAST] = ("paper", "paper")
+    choice["kd_of_c"] = ("printed", "paper")
+    choice["c_of_kd"] = ("rational_power", "renderer" if variant == "renderer" else "paper")
+    out = {}
+    for target, (form_name, preset) in choice.items():
+        t = get_target(target)
+        form = t.forms[form_name]
+        out[(target, form_name)] = {
+            "format": FORMAT, "target": target, "form": form_name, "inputs": list(form.inputs),
+            "expression": form.expression, "params": dict(zip(form.params, form.vector(preset).tolist())),
+            "domain": {k: list(t.domain[k]) for k in form.inputs},
+            "form_description": f"{form.description} Published preset {preset!r}.",
+            "validation": {"max_rel": float("nan"), "rms_rel": float("nan")},
+            "origin": {"method": "preset", "preset": preset},
+        }  # fmt: skip
+    return out
+
+
+# -- BRDF level ------------------------------------------------------------------------------------
+def _runtime(model, name, group, source, cspec) -> BrdfMethod:
+    return BrdfMethod(name, group, source, lambda mi, mo, ph, c, kd: model(mi, mo, ph, c), model.expr, cspec)
+
+
+def _fit_brdf(fit, name, group, cspec) -> BrdfMethod:
+    """A whole-BRDF fit (fast_brdf): inputs by name; kd clipped to [0, 1] as the generated code does
+    (kd_true(1) = 1 + 1.0e-5)."""
+
+    def f(mi, mo, ph, c, kd):
+        values = {"mu_i": mi, "mu_o": mo, "phi": ph, "c": c, "kd": np.minimum(kd, 1.0)}
+        return fit(**{k: values[k] for k in fit.inputs})
+
+    return BrdfMethod(name, group, str(fit.path), f, fit.expression, cspec)
+
+
+def _baselines() -> list[BrdfMethod]:
+    out = []
+    for name, expr, routine in (("Lambert kd/pi", LAMBERT, "baseline_lambert"),
+                                ("Oren-Nayar sigma 0.5", oren_nayar(), "baseline_oren_nayar")):  # fmt: skip
+        raw = lambdify_numpy(symbols(BASELINE_INPUTS), expr)
+
+        def f(mi, mo, ph, c, kd, raw=raw):
+            return np.broadcast_to(np.asarray(raw(mi, mo, np.cos(ph), kd), dtype=float), np.shape(mi)).copy()
+
+        (phi,) = symbols(("phi",))
+        e = expr.subs(symbols(("cos_phi",))[0], sp.cos(phi))
+        out.append(BrdfMethod(name, "baseline", "fitlab.families.lambert_sphere.forms.baselines, kd = kd_true(c)", f,
+                              e, CSpec(routine)))  # fmt: skip
+    return out
+
+
+def _label(forms: dict) -> str:
+    return ", ".join(f"{k}: {v}" for k, v in forms.items())
+
+
+def brdf_methods(fits_dir: Path, entries: list, data_dir: Path, preset_c: tuple = (),
+                 discovered: bool = True) -> list[BrdfMethod]:  # fmt: skip
+    """The BRDF-level catalogue (see :mod:`fitlab.report.methods`); ``preset_c``: the preset variants
+    whose C is built (see :func:`preset_records`); ``discovered=False`` leaves out the entries of
+    discovered forms."""
+    fits_dir = Path(fits_dir)
+    out = []
+    for order2, name in ((False, "tables, runtime model"), (True, "tables, three orders")):
+        f = table_brdf(data_dir, order2=order2)
+        out.append(BrdfMethod(name, "tables", "data/*.csv with splines (fitlab.report.tables)",
+                              lambda mi, mo, ph, c, kd, f=f: f(mi, mo, ph, c)))  # fmt: skip
+    for v in PRESET_VARIANTS:
+        m = runtime_model(v)
+        spec = CSpec("brdf", preset=v) if v in preset_c else None
+        out.append(_runtime(m, f"published: {v}", "published", _label(m.sources), spec))
+    out.append(_runtime(runtime_model(fits_dir=fits_dir), "refit", "refit", "default forms in " + str(fits_dir),
+                        CSpec("brdf", fits_dir)))  # fmt: skip
+    richer = best_forms(entries, {"refit"}, RUNTIME_PARTS)
+    if richer:
+        m = runtime_model(fits_dir=fits_dir, forms=richer)
+        c_forms = {**richer, **best_forms(entries, {"refit"}, MAPS)}
+        out.append(_runtime(m, "refit, richer forms", "refit, richer", _label(richer),
+                            CSpec("brdf", fits_dir, tuple(sorted(c_forms.items())))))  # fmt: skip
+    found = [e for e in entries if e.kind == "discover"] if discovered else []
+    for e in found:
+        if e.target in RUNTIME_PARTS:
+            forms = {e.target: e.form}
+            m = runtime_model(fits_dir=fits_dir, forms=forms)
+            out.append(_runtime(m, f"refit + {e.target} {e.form}", "discovered", str(e.path),
+                                CSpec("brdf", fits_dir, tuple(forms.items()))))  # fmt: skip
+    if any(e.target in RUNTIME_PARTS for e in found):
+        kinds = {e.kind for e in entries}
+        best = best_forms(entries, kinds, RUNTIME_PARTS)
+        if best and best != richer:
+            m = runtime_model(fits_dir=fits_dir, forms=best)
+            c_forms = {**best, **best_forms(entries, kinds, MAPS)}
+            out.append(_runtime(m, "best fits (discovered included)", "discovered", _label(best),
+                                CSpec("brdf", fits_dir, tuple(sorted(c_forms.items())))))  # fmt: skip
+    fast_form = get_target(FAST).forms["paper"]
+    fast_raw = fast_form.numpy_function
+    theta = fast_form.vector("paper")
+    out.append(BrdfMethod(
+        "fast eq. 41: paper", "fast", "fast_brdf/paper preset (eq. 41 as printed)",
+        lambda mi, mo, ph, c, kd: np.asarray(fast_raw(theta, mi, mo, ph, c, np.minimum(kd, 1.0)), dtype=float),
+        fast_form.substituted("paper"), CSpec("brdf_fast", preset="paper") if "paper" in preset_c else None,
+    ))  # fmt: skip
+    for e in entries:
+        if e.target == FAST and (e.kind != "discover" or discovered):
+            spec = CSpec("brdf_fast", fits_dir, () if e.default else ((FAST, e.form),))
+            group = "discovered" if e.kind == "discover" else "fast"
+            out.append(_fit_brdf(load(e.path), f"fast: {e.form} ({fit_group(e)})", group, spec))
+    return out + _baselines()
+
+
+# -- part level ------------------------------------------------------------------------------------
+def part_extras(target_name: str, data_dir: Path) -> list[PartMethod]:
+    """The part-level methods of a target beyond its presets and fit files: the Fock method of the
+    exact engine (H0, H1), then the tables with interpolation."""
+    t = get_target(target_name)
+    out = []
+    if target_name in ("H0", "H1"):
+        order = int(target_name[1])
+        out.append(PartMethod(target_name, "exact (Fock/Krein)", "exact",
+                              "fitlab.families.lambert_sphere.exact.h_function(method='fock'), "
+                              "against the validation set's Nystrom values",
+                              lambda mu, c: h_function(order, mu, c, method="fock")))  # fmt: skip
+    f, src = table_part(target_name, data_dir)
+    if f is not None:
+        out.append(PartMethod(target_name, "tables", "tables", src, positional(f, t.inputs)))
+    return out

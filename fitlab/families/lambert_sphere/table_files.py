@@ -1,0 +1,62 @@
+r"""The layout of the family's exact tables in data/: file names and columns, written once.
+
+:mod:`.tabulate` writes these files (through :func:`fitlab.store.write_tables`);
+everything that reads them (training sets, the report's interpolation) reads
+them here, through :func:`fitlab.store.read_table`, which checks the header.
+"""
+
+from __future__ import annotations
+
+from functools import lru_cache
+from pathlib import Path
+
+import numpy as np
+
+from fitlab.families.lambert_sphere.exact import CONSTANT_NAMES
+from fitlab.store import read_table
+
+__all__ = ["h_columns", "h_file", "CONSTANTS_FILE", "CONSTANT_COLUMNS", "KD_FILE", "KD_COLUMNS", "TABLE_FILES",
+           "read_h", "read_constants", "read_kd", "check_tables"]
+
+CONSTANTS_FILE = "constants.csv"
+CONSTANT_COLUMNS = ("s", "c", *CONSTANT_NAMES)
+KD_FILE = "kd.csv"
+KD_COLUMNS = ("s", "c", "kd_three_term", "kd_true")
+
+
+def h_file(order: int) -> str:
+    return f"h{order}.csv"
+
+
+def h_columns(order: int) -> tuple[str, ...]:
+    return ("s", "c", "mu", f"H{order}")
+
+
+#: every table file and its columns
+TABLE_FILES = {**{h_file(m): h_columns(m) for m in range(3)}, CONSTANTS_FILE: CONSTANT_COLUMNS, KD_FILE: KD_COLUMNS}
+
+
+@lru_cache(maxsize=None)
+def read_h(order: int, data_dir: Path) -> np.ndarray:
+    """Rows (s, c, mu, H) of data/h{order}.csv."""
+    return read_table(Path(data_dir) / h_file(order), h_columns(order))[1]
+
+
+@lru_cache(maxsize=None)
+def read_constants(data_dir: Path) -> dict[str, np.ndarray]:
+    """Column name -> values of data/constants.csv (s, c, then every constant)."""
+    header, t = read_table(Path(data_dir) / CONSTANTS_FILE, CONSTANT_COLUMNS)
+    return {name: t[:, j] for j, name in enumerate(header)}
+
+
+@lru_cache(maxsize=None)
+def read_kd(data_dir: Path) -> dict[str, np.ndarray]:
+    """Column name -> values of data/kd.csv (s, c, kd_three_term, kd_true)."""
+    header, t = read_table(Path(data_dir) / KD_FILE, KD_COLUMNS)
+    return {name: t[:, j] for j, name in enumerate(header)}
+
+
+def check_tables(data_dir: Path) -> None:
+    """Read every table (a :class:`fitlab.store.TableError` names the first missing or malformed one)."""
+    for name, columns in TABLE_FILES.items():
+        read_table(Path(data_dir) / name, columns)

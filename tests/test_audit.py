@@ -1,0 +1,49 @@
+"""The audit's helpers and the one owner of each rule they share: a preset measured on its
+validation set (fitlab.fit.refit.preset_metrics, as the fit records state it), the richer refit
+forms (the report's rule), and the exact inverse of the spherical albedo."""
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from fitlab.families.lambert_sphere.audit import richer_forms
+from fitlab.families.lambert_sphere.exact import albedo_inverse, solve_albedo, spherical_albedo
+from fitlab.fit.refit import preset_metrics
+
+FITS = Path(__file__).resolve().parents[1] / "fits"
+
+
+@pytest.mark.parametrize("target", ["m", "kd_of_c"])
+def test_preset_metrics_reproduce_the_fit_records(target):
+    record = json.loads((FITS / f"{target}.json").read_text())
+    for p in record["published"]:
+        got = preset_metrics(target, p["form"], p["preset"])
+        for key in ("max_rel", "max_rel_nonzero", "rms_rel", "points"):
+            want = p["validation"][key]
+            want = float(want) if isinstance(want, str) else want  # "inf" in the JSON
+            assert got[key] == want or got[key] == pytest.approx(want, rel=1e-12), (p["form"], p["preset"], key)
+
+
+def test_richer_forms_follow_the_reports_rule(tmp_path):
+    assert richer_forms(FITS) == {"H0": "hapke_rational", "l": "cubic", "m": "quadratic",
+                                  **{n: "rational_4_3" for n in "BCDF"}}  # fmt: skip
+    # a folder without richer refits has none; discovered fits never count
+    for name in ("m.json", "m.quadratic.json"):
+        (tmp_path / name).write_text((FITS / name).read_text())
+    assert richer_forms(tmp_path) == {"m": "quadratic"}
+    rec = json.loads((FITS / "m.quadratic.json").read_text())
+    rec["origin"] = {"method": "fitlab discover"}
+    (tmp_path / "m.quadratic.json").write_text(json.dumps(rec))
+    assert richer_forms(tmp_path) == {}
+
+
+def test_albedo_inverse_inverts_the_spherical_albedo():
+    for model in ("true", "three_term"):
+        for kd in (0.05, 0.5, 0.9):
+            c = albedo_inverse(kd, model)
+            assert float(spherical_albedo(c, model)) == pytest.approx(kd, abs=1e-12)
+            assert albedo_inverse(kd, model, guess=c + 0.003) == pytest.approx(c, abs=1e-12)
+    assert albedo_inverse(0.0) == 0.0 and albedo_inverse(1.1) == 1.0
+    assert solve_albedo(np.sqrt, 0.5) == pytest.approx(0.25, abs=1e-12)

@@ -1,0 +1,112 @@
+"""The persistent cache of exact values: hits, misses, damage, concurrency, the CLI."""
+
+from __future__ import annotations
+
+import json
+import multiprocessing
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from fitlab.cache import cache_dir, cache_info, cache_key, cached_arrays, clear_cache
+from fitlab.cli import main
+
+
+@pytest.fixture
+def cache(tmp_path, monkeypatch):
+    folder = tmp_path / "cache"
+    monkeypatch.setenv("FITLAB_CACHE_DIR", str(folder))
+    monkeypatch.delenv("FITLAB_NO_CACHE", raising=False)
+    return folder
+
+
+def _values(calls):
+    def compute():
+        calls.append(1)
+        return {"x": np.linspace(0, 1, 5), "y": np.arange(5.0) ** 2}
+
+    return compute
+
+
+def test_second_call_is_a_hit_and_returns_the_same_arrays(cache):
+    calls = []
+    a = cached_arrays("demo", {"grid": "k/4"}, _values(calls), ("x", "y"))
+    b = cached_arrays("demo", {"grid": "k/4"}, _values(calls), ("x", "y"))
+    assert len(calls) == 1 and all(np.array_equal(a[k], b[k]) for k in "xy")
+    assert cache_dir() == cache and cache_info()["entries"] == 1
+
+
+def test_key_covers_parts_arrays_and_sources(tmp_path):
+    src = tmp_path / "engine.py"
+    src.write_text("x = 1\n")
+    base = cache_key({"grid": "a", "s": np.array([0.0, 0.5])}, [src])
+    assert cache_key({"grid": "b", "s": np.array([0.0, 0.5])}, [src]) != base
+    assert cache_key({"grid": "a", "s": np.array([0.0, 0.25])}, [src]) != base
+    src.write_text("x = 2\n")
+    assert cache_key({"grid": "a", "s": np.array([0.0, 0.5])}, [src]) != base
+
+
+@pytest.mark.parametrize("damage", [b"", b"not a zip file", "truncate", "wrong names"])
+def test_a_damaged_entry_is_a_miss_and_is_rewritten(cache, damage):
+    calls = []
+    cached_arrays("demo", {}, _values(calls), ("x", "y"))
+    (entry,) = cache.glob("*.npz")
+    if damage == "truncate":
+        entry.write_bytes(entry.read_bytes()[:40])
+    elif damage == "wrong names":
+        np.savez(entry.with_suffix(""), z=np.zeros(3))  # np.savez appends .npz
+    else:
+        entry.write_bytes(damage)
+    again = cached_arrays("demo", {}, _values(calls), ("x", "y"))
+    assert len(calls) == 2 and np.array_equal(again["y"], np.arange(5.0) ** 2)
+    assert cached_arrays("demo", {}, _values(calls), ("x", "y")) and len(calls) == 2  # rewritten whole
+
+
+def test_an_entry_is_never_unpickled(cache):
+    calls = []
+    cached_arrays("demo", {}, _values(calls), ("x", "y"))
+    (entry,) = cache.glob("*.npz")
+    np.savez(entry.with_suffix(""), x=np.array([object()], dtype=object), y=np.zeros(1))
+    out = cached_arrays("demo", {}, _values(calls), ("x", "y"))  # object arrays need pickle: a miss
+    assert len(calls) == 2 and out["x"].dtype == float
+
+
+def _fill(folder: str, seed: int) -> float:
+    import os
+
+    os.environ["FITLAB_CACHE_DIR"] = folder
+    out = cached_arrays("race", {"n": 200_000}, lambda: {"v": np.arange(200_000, dtype=float)}, ("v",))
+    return float(out["v"].sum())
+
+
+def test_concurrent_writers_leave_one_whole_entry(cache):
+    cache.mkdir()
+    with multiprocessing.get_context("spawn").Pool(2) as pool:
+        sums = pool.starmap(_fill, [(str(cache), k) for k in range(4)])
+    assert set(sums) == {float(np.arange(200_000).sum())}
+    assert len(list(cache.glob("*.npz"))) == 1 and not list(cache.glob("*.tmp"))
+    with np.load(next(cache.glob("*.npz")), allow_pickle=False) as z:
+        assert np.array_equal(z["v"], np.arange(200_000, dtype=float))
+
+
+def test_no_cache_switch_and_unwritable_folder_only_cost_time(cache, monkeypatch, tmp_path):
+    calls = []
+    monkeypatch.setenv("FITLAB_NO_CACHE", "1")
+    cached_arrays("demo", {}, _values(calls), ("x", "y"))
+    assert not cache.exists()
+    monkeypatch.delenv("FITLAB_NO_CACHE")
+    blocker = tmp_path / "file"
+    blocker.write_text("")
+    monkeypatch.setenv("FITLAB_CACHE_DIR", str(blocker / "sub"))
+    assert np.array_equal(cached_arrays("demo", {}, _values(calls), ("x", "y"))["x"], np.linspace(0, 1, 5))
+
+
+def test_cli_info_and_clear(cache, capsys):
+    cached_arrays("demo", {}, _values([]), ("x", "y"))
+    assert main(["cache", "info", "--json"]) == 0
+    info = json.loads(capsys.readouterr().out)
+    assert info["entries"] == 1 and info["folder"] == str(cache)
+    assert main(["cache", "clear"]) == 0
+    assert "removed 1" in capsys.readouterr().out and cache_info()["entries"] == 0
+    assert clear_cache() == 0
