@@ -1,9 +1,28 @@
-"""Atomic text writes: a file is either its old self or complete, never half-written."""
+"""Atomic writes: a file is either its old self or complete, never half-written; a set of files is
+written as one unit (all new, or all as they were), with no temporary left behind."""
 
 from __future__ import annotations
 
 import os
 from pathlib import Path
+
+__all__ = ["atomic_write_text", "atomic_write_bytes", "atomic_write_many", "temporary_name"]
+
+
+def temporary_name(path: Path) -> Path:
+    """The temporary a write of ``path`` goes through: beside it, named after it and this process
+    (``NAME.PID.tmp``), so two processes writing one path never share a temporary."""
+    path = Path(path)
+    return path.with_name(f"{path.name}.{os.getpid()}.tmp")
+
+
+def _unlink_quietly(path: Path) -> None:
+    try:
+        path.unlink()
+    except FileNotFoundError:
+        pass
+    except OSError:  # pragma: no cover - a temporary we cannot remove; the original error matters more
+        pass
 
 
 def atomic_write_text(path: Path, text: str) -> None:
@@ -12,40 +31,36 @@ def atomic_write_text(path: Path, text: str) -> None:
 
 
 def atomic_write_bytes(path: Path, data: bytes) -> None:
-    """Write ``data`` to a temporary file beside ``path``, then rename it over ``path``.
-
-    The temporary's name carries the process id, so two processes writing one path (two runs
-    filling one cache) never interleave their bytes in one file."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f"{path.name}.{os.getpid()}.tmp")
-    tmp.write_bytes(data)
-    os.replace(tmp, path)
+    """Write ``data`` to a temporary file beside ``path`` (:func:`temporary_name`), then rename it
+    over ``path``.  A failure or an interrupt (Ctrl-C included) leaves ``path`` as it was and no
+    temporary behind."""
+    atomic_write_many({Path(path): data})
 
 
 def atomic_write_many(files: dict) -> None:
     """Write several files as one unit: {path: bytes}.
 
-    Every temporary file is written first; only when all are complete are they
-    renamed over their targets.  A target that is a folder, or a failure while
-    writing, leaves every target as it was (and no temporary behind).  The
-    renames themselves are atomic one by one.
+    Every temporary (``NAME.PID.tmp``, beside its target) is written first; only when
+    all are complete are they renamed over their targets.  A target that is a folder is refused
+    before anything is written; a failure or an interrupt (any BaseException, KeyboardInterrupt
+    included) while writing leaves every target as it was and removes every temporary.  The
+    renames come last, one by one, each atomic.
     """
-    paths = [Path(p) for p in files]
-    folders = [p for p in paths if p.is_dir()]
+    items = [(Path(p), bytes(data)) for p, data in files.items()]
+    folders = [p for p, _ in items if p.is_dir()]
     if folders:
         raise IsADirectoryError(f"{folders[0]} is a folder, not a file")
-    tmps = []
+    tmps: list[Path] = []
     try:
-        for path, data in zip(paths, files.values()):
+        for path, data in items:
             path.parent.mkdir(parents=True, exist_ok=True)
-            tmp = path.with_name(path.name + ".tmp")
+            tmp = temporary_name(path)
             tmps.append(tmp)
-            tmp.write_bytes(data)
+            with open(tmp, "wb") as fh:
+                fh.write(data)
+        for tmp, (path, _) in zip(tmps, items):
+            os.replace(tmp, path)
     except BaseException:
         for tmp in tmps:
-            if tmp.is_file():
-                tmp.unlink()
+            _unlink_quietly(tmp)
         raise
-    for tmp, path in zip(tmps, paths):
-        os.replace(tmp, path)

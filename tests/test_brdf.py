@@ -18,21 +18,53 @@ from fitlab.families.lambert_sphere.exact import (
 MU = np.array([0.0, 1e-12, 1e-6, 0.05, 0.3, 0.7, 1.0])
 
 
+def eq10_modes(mi, mo, c, n=16):
+    """Fourier modes of single scattering, c p3(u) / (mu_i + mu_o) with u = -(mu_i mu_o + s cos phi)
+    (paper eq. 10), projected in azimuth here, with the three-term phase function written out:
+    p3(u) = (1 - 4u/3 + (5/16) P2(u)) / 4pi.  The integrand is a trigonometric polynomial of degree 2
+    in phi, so the n-point midpoint rule is exact (up to rounding) for n > 4."""
+    mi, mo = np.asarray(mi, dtype=float), np.asarray(mo, dtype=float)
+    phi = (np.arange(n) + 0.5) * 2 * np.pi / n
+    u = -(mi * mo)[..., None] - np.sqrt((1 - mi**2) * (1 - mo**2))[..., None] * np.cos(phi)
+    p3 = (1 - 4 * u / 3 + 5 / 16 * (3 * u * u - 1) / 2) / (4 * np.pi)
+    with np.errstate(divide="ignore", invalid="ignore"):  # inf / NaN at the pole mu_i = mu_o = 0 only
+        f = c * p3 / (mi + mo)[..., None]
+        return [f.mean(-1)] + [2 * (f * np.cos(m * phi)).mean(-1) for m in (1, 2)]
+
+
 @pytest.mark.parametrize("c", [0.0, 0.4, 0.95, 1.0])
 def test_reciprocity_and_decomposition(c):
     mi, mo = np.meshgrid(MU, MU, indexing="ij")
     f = brdf_modes(mi, mo, c)
     ss = single_scattering_modes(mi, mo, c)
     ms = multiple_scattering_modes(mi, mo, c)
+    direct = eq10_modes(mi, mo, c)
     off = (mi + mo) > 0
     for m in range(3):
         np.testing.assert_allclose(f[m], f[m].T, rtol=1e-14)
+        np.testing.assert_allclose(ms[m], ms[m].T, rtol=1e-14)
         assert not np.any(np.isnan(f[m])) and not np.any(np.isnan(ms[m]))
-        with np.errstate(invalid="ignore"):
-            total = ss[m] + ms[m]
-        np.testing.assert_allclose(total[off], f[m][off], rtol=1e-13, atol=1e-300)
+        # the split, against eq. 10 projected here (not fitlab's closed forms): single scattering is
+        # eq. 10, multiple scattering the rest (the whole checked against the doubling method below);
+        # errors measured against the size of f^(0), the largest mode
+        size = 1e-13 * np.abs(f[0][off]) + 1e-300
+        err = np.abs(ss[m][off] - direct[m][off])
+        assert np.all(err <= size), (m, err.max())
+        err = np.abs(ms[m][off] - (f[m][off] - direct[m][off]))
+        assert np.all(err <= size), (m, err.max())
     if c == 0.0:
         assert all(np.all(x == 0) for x in f + ms)
+
+
+def test_multiple_scattering_is_second_order_in_c():
+    # single scattering is exactly linear in c; everything else scatters at least twice: ms = O(c^2)
+    mi, mo = np.meshgrid(MU[3:], MU[3:], indexing="ij")
+    for m in range(3):
+        a, b = (single_scattering_modes(mi, mo, c)[m] for c in (1e-4, 2e-4))
+        np.testing.assert_allclose(b, 2 * a, rtol=1e-13, atol=1e-300)
+        a, b = (multiple_scattering_modes(mi, mo, c)[m] for c in (1e-4, 2e-4))
+        nz = np.abs(a) > 0
+        assert nz.sum() >= 6 and np.all(np.abs(b[nz] / a[nz] - 4) < 1e-3), m
 
 
 @pytest.mark.parametrize("c", [0.5, 0.999, 1.0])
@@ -41,9 +73,14 @@ def test_modes_agree_with_discrete_ordinates(c):
         d = doubling_reflection(m, c)
         sel = d.nodes > 1e-3
         mu = d.nodes[sel]
-        f = brdf_modes(mu[:, None], mu[None, :], c)[m]
+        mi, mo = mu[:, None], mu[None, :]
+        f = brdf_modes(mi, mo, c)
         tol = 3e-7 if c == 1.0 else 1e-11  # doubling at c = 1: sqrt(eps)-level deficit
-        np.testing.assert_allclose(d.brdf[np.ix_(sel, sel)], f, rtol=tol)
+        ref = d.brdf[np.ix_(sel, sel)]
+        np.testing.assert_allclose(ref, f[m], rtol=tol)
+        # the split: multiple scattering = the doubling method's reflection - eq. 10's single scattering
+        err = np.abs(multiple_scattering_modes(mi, mo, c)[m] - (ref - eq10_modes(mi, mo, c)[m]))
+        assert np.all(err <= tol * np.abs(f[0])), (m, err.max())
 
 
 def test_single_scattering_modes_are_the_fourier_series_of_eq10():

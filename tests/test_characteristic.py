@@ -25,11 +25,39 @@ def test_k_matches_printed_closed_form_where_it_is_accurate(order, c):
     np.testing.assert_allclose(k_function(order, t, c), k_printed(order, t, c), rtol=0, atol=5e-15)
 
 
+def psi_printed(order, u, c):
+    """Psi_m(u) as printed (the forms test_psi_printed_forms checks)."""
+    if order == 0:
+        return c * (-15 * (c - 1) * (4 * c + 9) * u**4 + (c * (20 * c + 281) - 346) * u**2 + 207) / 384
+    if order == 1:
+        return -c * (u**2 - 1) * (5 * (4 * c + 9) * u**2 - 64) / 192
+    return 15 * c * (u**2 - 1) ** 2 / 256
+
+
+def k_quadrature(order, t, c, n=40):
+    """K_m(t) = 1 - 2 int_0^1 Psi_m(v) / (1 + t^2 v^2) dv by n-point Gauss-Legendre: independent of both
+    the closed forms and fitlab's evaluation; accurate to rounding for t <= 1 (the integrand's poles
+    v = +-i/t stay at distance >= 1 from [0, 1])."""
+    x, w = np.polynomial.legendre.leggauss(n)
+    v, w = 0.5 * (x + 1), 0.5 * w
+    return 1 - 2 * np.sum(w * psi_printed(order, v, c) / (1 + (t * v) ** 2))
+
+
+@pytest.mark.parametrize("order", [0, 1, 2])
+@pytest.mark.parametrize("c", [0.1, 0.5, 0.9, 1.0])
+def test_k_matches_quadrature_at_small_t(order, c):
+    for t in (0.0, 1e-12, 1e-8, 1e-4, 1e-3, 0.01, 0.1, 0.5, 1.0):
+        assert float(k_function(order, t, c)) == pytest.approx(k_quadrature(order, t, c), rel=1e-13, abs=1e-15), t
+
+
 def test_small_t_cancellation_is_avoided():
-    # SPEC 4.1: the printed K0(1e-4) at c = 0.5 evaluates to 1.0 in double; the true value is 0.59201...
-    assert k_printed(0, 1e-4, 0.5) == pytest.approx(1.0, abs=1e-3)
+    # SPEC 4.1: the printed K0(1e-4) at c = 0.5 loses every digit to cancellation; the value, by quadrature
+    # of the defining integral, is 0.59201...
+    true = k_quadrature(0, 1e-4, 0.5)
+    assert true == pytest.approx(0.59201, abs=1e-5)
+    assert abs(k_printed(0, 1e-4, 0.5) - true) > 0.3  # the printed form is useless there
     k = k_function(0, 1e-4, 0.5)
-    assert k == pytest.approx(0.59201, abs=1e-5)
+    assert k == pytest.approx(true, rel=1e-14)
     # Taylor: K(t) = K(0) + t^2 J(0) + O(t^4); compare with a second-order finite check
     k0 = k_function(0, 0.0, 0.5)
     assert (k - k0) / 1e-8 == pytest.approx((k_function(0, 1e-3, 0.5) - k0) / 1e-6, rel=1e-5)
@@ -63,12 +91,9 @@ def test_k_limits_and_monotone_for_order0():
 
 def test_psi_printed_forms():
     u = np.linspace(0, 1, 11)
-    c = 0.7
-    np.testing.assert_allclose(
-        psi(0, u, c), c * (-15 * (c - 1) * (4 * c + 9) * u**4 + (c * (20 * c + 281) - 346) * u**2 + 207) / 384, atol=1e-15
-    )
-    np.testing.assert_allclose(psi(1, u, c), -c * (u**2 - 1) * (5 * (4 * c + 9) * u**2 - 64) / 192, atol=1e-15)
-    np.testing.assert_allclose(psi(2, u, c), 15 * c * (u**2 - 1) ** 2 / 256, atol=1e-15)
+    for c in (0.0, 0.7, 1.0):
+        for order in (0, 1, 2):
+            np.testing.assert_allclose(psi(order, u, c), psi_printed(order, u, c), atol=1e-15)
 
 
 @pytest.mark.parametrize(

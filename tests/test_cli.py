@@ -41,11 +41,30 @@ print("HEAVY", heavy)
     assert out.stdout.strip().splitlines()[-1] == "HEAVY []"
 
 
+def test_top_level_help_and_version_import_no_family_and_no_sympy():
+    """Only the module of the command being run is imported: ``fitlab --help`` needs none of them."""
+    code = """
+import sys
+from fitlab.cli import main
+for argv in (["--help"], ["--version"]):
+    try:
+        main(argv)
+    except SystemExit as exc:
+        assert exc.code == 0, (argv, exc.code)
+loaded = sorted(m for m in sys.modules if m in ("sympy", "scipy", "numpy", "jax", "fitlab.core")
+                or m.startswith("fitlab.families") or m.startswith("fitlab.cli."))
+print("LOADED", loaded)
+"""
+    out = _python(code)
+    assert out.returncode == 0, out.stderr[-2000:]
+    assert out.stdout.strip().splitlines()[-1] in ("LOADED ['fitlab.cli._common']", "LOADED []")
+
+
 def test_one_module_per_command():
-    assert [m.__name__ for m in COMMANDS] == [f"fitlab.cli.{n}" for n in NAMES]
+    assert list(COMMANDS) == NAMES and all(COMMANDS[n] for n in NAMES)
     for name in NAMES:
         module = importlib.import_module(f"fitlab.cli.{name}")
-        assert callable(module.add_arguments) and callable(module.run) and module.HELP
+        assert callable(module.add_arguments) and callable(module.run)
     sub = next(a for a in build_parser()._actions if a.dest == "command")
     assert list(sub.choices) == NAMES
     assert fitlab.cli.main is main
@@ -72,3 +91,17 @@ def test_python_dash_m_fitlab():
                          capture_output=True, text=True, timeout=300)  # fmt: skip
     assert out.returncode == 2
     assert "fitlab refit: error: give --target NAME (see --list) or --all" in out.stderr
+
+
+@pytest.mark.parametrize("argv, module, extra", [
+    (["render", "--out", "{tmp}"], "mitsuba", "render"),
+    (["discover", "--target", "kd_of_c", "--out", "{tmp}"], "pysindy", "discover"),
+])
+def test_a_missing_extra_is_named_in_one_line(tmp_path, capsys, monkeypatch, argv, module, extra):
+    import importlib.util
+
+    real = importlib.util.find_spec
+    monkeypatch.setattr(importlib.util, "find_spec", lambda name, *a: None if name == module else real(name, *a))
+    assert main([a.replace("{tmp}", str(tmp_path)) for a in argv]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and f"fitlab-brdf[{extra}]" in err

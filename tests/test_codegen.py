@@ -20,7 +20,7 @@ import pytest
 
 from fitlab.codegen import POLE_FLOOR, build_program, generate, load_program, parse_terms, stable
 from fitlab.codegen.emit import emit
-from fitlab.codegen.native import STRICT_FLAGS, build, compiler
+from fitlab.codegen.native import STRICT_FLAGS, build, build_glsl, compiler
 from fitlab.core import float64
 from fitlab.store import load
 from fitlab.forms.symbolic import lambdify_jax, symbols
@@ -140,7 +140,15 @@ def test_build_program_takes_records_and_reads_no_file(program, monkeypatch):
 
 @needs_cc
 def test_c_compiles_clean_under_strict_flags(native):
-    assert "-Werror" in STRICT_FLAGS and "-Wpedantic" in STRICT_FLAGS  # build() used these
+    """The command line build() ran (not the constant it defaults to) compiled the generated file under
+    the strict flags, warnings as errors, and no flag that would loosen the NaN policy."""
+    cmd = native.command
+    assert cmd is not None and Path(cmd[0]).name in ("cc", "gcc", "clang")
+    for flag in ("-std=c99", "-Wall", "-Wextra", "-Wpedantic", "-Werror"):
+        assert flag in cmd, flag
+    assert set(STRICT_FLAGS) <= set(cmd)
+    assert not any(f.startswith(("-ffast-math", "-ffinite-math", "-Ofast", "-Wno-")) for f in cmd)
+    assert any(a.endswith("lambert_sphere.c") for a in cmd)
 
 
 @needs_cc
@@ -302,60 +310,27 @@ def test_python_module_broadcasts(py):
 
 # ---- GLSL ---------------------------------------------------------------------
 
-_GLSL_AS_C = r"""
-#include <math.h>
-typedef struct { float x, y, z; } vec3;
-static float max(float a, float b) { return fmaxf(a, b); }
-static float min(float a, float b) { return fminf(a, b); }
-static float abs_(float a) { return fabsf(a); }
-#define abs abs_
-#define sqrt sqrtf
-#define pow powf
-#define exp expf
-#define log logf
-#define acos acosf
-#define atan atanf
-#define tanh tanhf
-#define cos cosf
-#include "lambert_sphere.glsl"
-float glsl_brdf_local(const float *wi, const float *wo, float c)
-{ vec3 a = {wi[0], wi[1], wi[2]}, b = {wo[0], wo[1], wo[2]}; return lambert_sphere_brdf_local(a, b, c); }
-float glsl_c_of_kd(float kd) { return lambert_sphere_c_of_kd(kd); }
-"""
-
-
 @needs_cc
-def test_glsl_compiles_as_c_and_agrees(sources, tmp_path):
-    """GLSL's float subset is C: compiled against a shim of the GLSL built-ins, the shader
-    functions must compile (declared before use, only known built-ins) and agree in float."""
-    import ctypes
-
-    (tmp_path / "lambert_sphere.glsl").write_text(sources["glsl"]["lambert_sphere.glsl"])
-    (tmp_path / "shim.c").write_text(_GLSL_AS_C)
-    lib = tmp_path / "libglsl.so"
-    subprocess.run([compiler(), "-std=c99", "-O2", "-Wall", "-Werror", "-Wno-unused-function", "-shared", "-fPIC",
-                    "-o", str(lib), str(tmp_path / "shim.c"), "-lm"], check=True, capture_output=True)  # fmt: skip
-    so = ctypes.CDLL(str(lib))
-    so.glsl_brdf_local.restype = ctypes.c_float
-    so.glsl_brdf_local.argtypes = [ctypes.POINTER(ctypes.c_float)] * 2 + [ctypes.c_float]
-    so.glsl_c_of_kd.restype = ctypes.c_float
-    so.glsl_c_of_kd.argtypes = [ctypes.c_float]
-    prog = load_program(FITS)
-    ref = build(emit(prog, "c"), prog, tmp_path / "ref")
+def test_glsl_compiles_as_c_and_agrees(program, sources, tmp_path):
+    """GLSL's float subset is C: compiled against a shim of the GLSL built-ins (fitlab.codegen.native.GLSL_SHIM),
+    the shader functions must compile (declared before use, only known built-ins) and agree in float."""
+    glsl = build_glsl(sources["glsl"], program, tmp_path / "glsl")
+    assert "-Werror" in glsl.command
+    ref = build(sources["c"], program, tmp_path / "ref")
     rng = np.random.default_rng(3)
-    for _ in range(200):
-        wi, wo = rng.normal(size=(2, 3))
-        wi, wo = wi / np.linalg.norm(wi), wo / np.linalg.norm(wo)
-        wi[2], wo[2] = abs(wi[2]), abs(wo[2])
-        c = float(rng.random())
-        a, b = (np.ascontiguousarray(v, dtype=np.float32) for v in (wi, wo))
-        got = so.glsl_brdf_local(a.ctypes.data_as(ctypes.POINTER(ctypes.c_float)),
-                                 b.ctypes.data_as(ctypes.POINTER(ctypes.c_float)), c)  # fmt: skip
-        want = float(ref("brdf_local", a.astype(float), b.astype(float), np.float32(c).astype(float)))
-        assert abs(got - want) <= 1e-4 * abs(want) + 1e-7
-    for kd in (0.0, 1e-6, 0.3, 0.5, 0.9, 1.0):
-        want = float(ref("c_of_kd", np.float32(kd).astype(float)))
-        assert abs(so.glsl_c_of_kd(kd) - want) <= 1e-5 * abs(want) + 1e-30
+    wi, wo = rng.normal(size=(2, 2000, 3))
+    wi /= np.linalg.norm(wi, axis=-1, keepdims=True)
+    wo /= np.linalg.norm(wo, axis=-1, keepdims=True)
+    wi[:, 2], wo[:, 2] = np.abs(wi[:, 2]), np.abs(wo[:, 2])
+    wi, wo, c = wi.astype(np.float32), wo.astype(np.float32), rng.random(2000).astype(np.float32)
+    got = glsl("brdf_local", wi, wo, c, dtype=np.float32).astype(float)
+    want = ref("brdf_local", wi.astype(float), wo.astype(float), c.astype(float))
+    assert np.all(np.abs(got - want) <= 1e-4 * np.abs(want) + 1e-7)
+    kd = np.array([0.0, 1e-6, 0.3, 0.5, 0.9, 1.0], dtype=np.float32)
+    want = ref("c_of_kd", kd.astype(float))
+    assert np.all(np.abs(glsl("c_of_kd", kd, dtype=np.float32) - want) <= 1e-5 * np.abs(want) + 1e-30)
+    with pytest.raises(TypeError, match="float64"):
+        glsl("c_of_kd", kd.astype(float))
 
 
 @pytest.mark.skipif(shutil.which("glslangValidator") is None, reason="glslangValidator not installed (apt: glslang-tools)")
@@ -439,3 +414,60 @@ def test_a_family_without_a_program_of_its_own_gets_one_routine_per_target(tmp_p
             assert np.allclose(native("toy_exp", np.array([0.0, 0.5, 1.0])), [1.0, 1.875, 2.75], rtol=1e-15)
     finally:
         unregister_family("toy_codegen")
+
+
+# ---- the NaN and domain policy (fuzzed in test_codegen_fuzz.py) ---------------------
+
+
+def test_policy_is_one_symbolic_definition_printed_in_every_language():
+    """Max/Min print as the same NaN-propagating conditional in C, GLSL and numpy (with a constant, and of
+    two expressions); more arguments are split by the emitter, not printed; every routine has a domain."""
+    import sympy as sp
+
+    from fitlab.codegen import Routine, with_domain
+    from fitlab.codegen.printers import CPrinter, GLSLPrinter, NumpyPrinter
+
+    x, y = symbols(("x", "y"))
+    assert CPrinter("double", str).doprint(sp.Max(0, x)) == "((x < 0.0) ? (0.0) : (x))"
+    assert CPrinter("float", str).doprint(sp.Min(1, x)) == "((x > 1.0F) ? (1.0F) : (x))"
+    assert GLSLPrinter(str).doprint(sp.Max(-1, x)) == "((x < -1.0) ? (-1.0) : (x))"
+    f = eval("lambda x: " + NumpyPrinter(str).doprint(sp.Min(1, sp.Max(0, x))), {"numpy": np})
+    np.testing.assert_array_equal(f(np.array([np.nan, -np.inf, -1.0, 0.25, 2.0, np.inf])), [np.nan, 0, 0, 0.25, 1, 1])
+    g = eval("lambda x, y: " + NumpyPrinter(str).doprint(sp.Max(x, y)), {"numpy": np})
+    np.testing.assert_array_equal(g(np.array([np.nan, 1.0, 2.0, 0.5]), np.array([1.0, np.nan, 1.0, 3.0])),
+                                  [np.nan, np.nan, 2.0, 3.0])  # fmt: skip
+    with pytest.raises(ValueError, match="NaN policy"):
+        CPrinter("double", str).doprint(sp.Max(x, y, sp.Rational(1, 2)))
+    with pytest.raises(ValueError, match="no domain for y"):
+        with_domain(Routine("f", ("x", "y"), x + y, "", domain={"x": (0.0, 1.0)}))
+
+
+def test_every_routine_clamps_every_input(program):
+    """build_program gives every routine of the program its domain and clamps every input it uses."""
+    import sympy as sp
+
+    for r in program.routines:
+        assert set(r.domain) == set(r.args), r.name
+        for s in r.expr.free_symbols:
+            lo, hi = r.domain[s.name]
+            assert r.expr.has(sp.Min(hi, sp.Max(lo, s))), (r.name, s)
+            # (sympy may merge the clamp's min with a tighter one: min(1/2, max(0, kd)) stays clamped)
+            assert not r.expr.xreplace({sp.Max(lo, s): sp.Dummy()}).has(s), (r.name, s, "used unclamped")
+
+
+@needs_cc
+@pytest.mark.parametrize("dtype", [np.float64, np.float32])
+def test_brdf_clamps_and_nan_in_the_built_c(native, py, dtype):
+    """The values the issue names: brdf(..., c = 1.2) is brdf(..., c = 1), cos_phi = -2 is -1, NaN gives NaN
+    in C and Python alike, and the parts are clamped too."""
+    f = lambda name, *a: native(name, *a, dtype=dtype)  # noqa: E731
+    for g in (f, lambda name, *a: getattr(py, name)(*a)):
+        assert g("brdf", 0.3, 0.6, 0.4, 1.2) == g("brdf", 0.3, 0.6, 0.4, 1.0) > 0
+        assert g("brdf", 0.3, 0.6, -2.0, 0.7) == g("brdf", 0.3, 0.6, -1.0, 0.7) > 0
+        assert g("brdf", 0.3, 0.6, 2.0, 0.7) == g("brdf", 0.3, 0.6, 1.0, 0.7) > 0
+        assert np.isnan(g("brdf", np.nan, 0.5, 0.5, 0.5)) and np.isnan(g("brdf", 0.5, 0.5, np.nan, 0.5))
+        assert np.isnan(g("c_of_kd", np.nan))
+        assert g("h0", 0.5, 1.5) == g("h0", 0.5, 1.0) and np.isfinite(g("h0", 0.5, 1.0))
+        assert g("h1", np.inf, 0.5) == g("h1", 1.0, 0.5) and np.isfinite(g("h1", 1.0, 0.5))
+        assert g("const_l", np.inf) == g("const_l", 1.0) and np.isfinite(g("const_l", 1.0))
+        assert g("const_l", -np.inf) == g("const_l", 0.0) == 0.0

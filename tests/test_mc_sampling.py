@@ -118,14 +118,43 @@ def test_mixture_density_and_weight_bounds():
     assert norm == pytest.approx(1.0, abs=1e-10)
     assert np.max(phase_function(u) / q) <= 1 / MIX[0] + 1e-12
     assert np.max(np.abs(three_term_phase_function(u)) / q) <= THREE_TERM_NORM / MIX[1] + 1e-12
-    # second moments per collision quoted in the docstring
-    def moment(f):
-        return integrate.quad(lambda t: 2 * np.pi * f(t) ** 2 / float(mixture_density(t)), -1, 1,
-                              points=[U1, 0.9, 0.99], limit=500)[0]
 
-    assert moment(lambda t: phase_function(t) - three_term_phase_function(t)) == pytest.approx(2.6e-4, rel=0.05)
-    assert moment(phase_function) - 1 == pytest.approx(1.5e-3, rel=0.05)
-    assert moment(three_term_phase_function) - 1 == pytest.approx(2.3e-3, rel=0.05)
+
+
+def test_mixture_sampler_follows_its_density_and_the_variance_limits():
+    """The 'both' walk's sampler (sample_mixture, what transport draws) against mixture_density:
+    chi-square of a histogram on 60 cells against the density integrated over each cell
+    (scipy quad, independent of the sampler); the per-collision second moments E_q[(p/q)^2],
+    E_q[(p3/q)^2] and E_q[((p - p3)/q)^2] from the samples against scipy quad; and the module's
+    MIXTURE_SECOND_MOMENTS (which set C_LIMIT['both']) against the same quad."""
+    from fitlab.families.lambert_sphere.mc.sampling import C_LIMIT, MIXTURE_SECOND_MOMENTS, sample_mixture
+
+    def q(t):
+        return float(mixture_density(t))
+
+    rng = np.random.default_rng(11)
+    n = 400_000
+    u = np.asarray(sample_mixture(*rng.random((5, n))))
+    edges = np.unique(np.concatenate([np.linspace(-1, 1, 51), [U1], np.linspace(0.96, 1, 10)]))
+    expect = np.array([integrate.quad(lambda t: 2 * np.pi * q(t), a, b)[0] for a, b in zip(edges[:-1], edges[1:])])
+    assert expect.sum() == pytest.approx(1.0, abs=1e-9)
+    counts, _ = np.histogram(u, edges)
+    chi2 = np.sum((counts - n * expect) ** 2 / (n * expect))
+    dof = len(counts) - 1
+    assert chi2 < dof + 5 * np.sqrt(2 * dof), (chi2, dof)
+
+    def moment(f):
+        return integrate.quad(lambda t: 2 * np.pi * f(t) ** 2 / q(t), -1, 1, points=[U1, 0.9, 0.99], limit=500)[0]
+
+    qu = np.asarray(mixture_density(u))
+    for f in (phase_function, three_term_phase_function, lambda t: phase_function(t) - three_term_phase_function(t)):
+        vals = (f(u) / qu) ** 2
+        exact = moment(f)
+        assert abs(vals.mean() - exact) < 4 * vals.std(ddof=1) / np.sqrt(n), (vals.mean(), exact)
+    m_true, m_three = moment(phase_function), moment(three_term_phase_function)
+    np.testing.assert_allclose(MIXTURE_SECOND_MOMENTS, (m_true, m_three), rtol=1e-9)
+    assert C_LIMIT["both"] == pytest.approx(1 / np.sqrt(max(m_true, m_three)), rel=1e-9)
+    assert C_LIMIT["three_term"] == pytest.approx(1 / THREE_TERM_NORM, rel=1e-15)
 
 
 @pytest.mark.parametrize("dz", [0.3, -0.95, 1.0, -1.0, 1 - 1e-12])

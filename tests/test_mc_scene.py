@@ -149,3 +149,84 @@ def test_bad_scene_does_no_work(tmp_path, monkeypatch):
     with pytest.raises(SceneError, match="bad.toml:8: material"):
         sim.simulate_file(p, out_dir=tmp_path / "out", progress=False)
     assert not (tmp_path / "out").exists()
+
+
+def _json_error(text):
+    with pytest.raises(SceneError) as exc:
+        parse_scene(text, "s.json")
+    return str(exc.value)
+
+
+def test_non_finite_numbers_are_refused_with_their_line():
+    """JSON NaN/Infinity (Python's json accepts them) and 1e400 (read as inf), TOML nan/inf:
+    one line each, naming file:line and the field."""
+    text = _as_json(GOOD)
+    line = next(i for i, s in enumerate(text.splitlines(), 1) if '"c": 0.9' in s)
+    for bad in ("NaN", "Infinity", "-Infinity", "1e400"):
+        msg = _json_error(text.replace('"c": 0.9', f'"c": {bad}'))
+        assert msg.startswith(f"s.json:{line}: material[1].c: ") and "not a finite number" in msg, msg
+        assert len(msg.splitlines()) == 1
+    for bad in ("nan", "inf", "-inf"):
+        msg = _error(GOOD.replace("target_se = 2e-3", f"target_se = {bad}"))
+        assert msg == f"s.toml:23: precision.target_se: {float(bad)!r} is not a finite number", msg
+    assert "not a finite number" in _error(GOOD.replace("0.7]", "nan]"))
+
+
+def test_batch_is_bounded():
+    assert "s.toml:25: precision.batch: 2147483648 is outside [100, 10000000]" == _error(
+        GOOD.replace("batch = 10_000", "batch = 2147483648"))
+    assert parse_scene(GOOD.replace("batch = 10_000", "batch = 10_000_000"), "s.toml").batch == 10**7
+
+
+@pytest.mark.parametrize("name", ["..", ".", "a.b", "../x", "a/b", "", "x" * 101, "é"])
+def test_names_are_plain_file_name_stems(name):
+    msg = _error(GOOD.replace("seed = 3", f"name = {json.dumps(name)}\nseed = 3"))
+    assert msg.startswith("s.toml:2: scene.name: expected a plain file-name stem"), msg
+    # the default name is the file stem, under the same rule
+    assert "(the file stem: set scene.name)" in _error(GOOD, "my.scene.toml")
+    assert parse_scene(GOOD.replace("seed = 3", 'name = "ok_Name-2"\nseed = 3'), "s.toml").name == "ok_Name-2"
+
+
+def test_seed_has_one_rule_for_the_scene_and_the_command_line():
+    """The scene's seed and --seed are checked by the same rule (scene.LIMITS["seed"])."""
+    from fitlab.families.lambert_sphere.mc.scene import LIMITS, check_option, with_overrides
+
+    lo, hi = LIMITS["seed"]
+    assert (lo, hi) == (0, 2**63 - 1)
+    for bad in (-1, 2**63, 2**64):
+        assert f"is outside [{lo}, {hi}]" in _error(GOOD.replace("seed = 3", f"seed = {bad}"))
+        for v in (bad, str(bad)):
+            with pytest.raises(SceneError, match=rf"^--seed: expected an integer in \[{lo}, {hi}\]"):
+                check_option("seed", v)
+    for bad in ("abc", "1.5", True, 1.0):
+        with pytest.raises(SceneError, match="^--seed: "):
+            check_option("seed", bad)
+    assert check_option("seed", str(hi)) == hi
+    assert parse_scene(GOOD.replace("seed = 3", f"seed = {hi}"), "s.toml").seed == hi
+    scene = parse_scene(GOOD, "s.toml")
+    with pytest.raises(SceneError) as exc:  # every bad override, one line each
+        with_overrides(scene, target_se="inf", max_paths="5", seed="-1")
+    assert [m.split(":")[0] for m in str(exc.value).splitlines()] == ["--target-se", "--max-paths", "--seed"]
+    s = with_overrides(scene, target_se="1e-3", max_paths="5000", seed="7")
+    assert (s.seed, s.max_paths, s.target_se) == (7, 5000, dict.fromkeys(scene.effects, 1e-3))
+
+
+def test_c_where_the_estimator_has_infinite_variance_is_refused():
+    """Three-term walk: c > 1/N (kd = 1 too) refused with the reason; 1/N itself and the true phase
+    function at c = 1 are accepted; the phase_difference walk has its own, lower limit."""
+    from fitlab.families.lambert_sphere.mc.sampling import C_LIMIT
+
+    msg = _error(GOOD.replace("c = 0.9\n", "c = 1.0\n"))
+    assert msg.startswith("s.toml:8: material[1].c: c = 1 > 1/N = 0.999473: ") and len(msg.splitlines()) == 1
+    assert "infinite mean and variance" in msg
+    msg = _error(GOOD.replace("c = 0.9\n", "kd = 1.0\n"))
+    assert msg.startswith("s.toml:8: material[1].kd: kd = 1 needs c = 1 > 1/N"), msg
+    ok = parse_scene(GOOD.replace("c = 0.9\n", f"c = {C_LIMIT['three_term']!r}\n"), "s.toml")
+    assert ok.materials[1].c == C_LIMIT["three_term"]
+    true = parse_scene(GOOD.replace('phase = "three_term"', 'phase = "true"').replace("c = 0.9\n", "c = 1.0\n"),
+                       "s.toml")
+    assert true.materials[1].c == 1.0
+    diff = GOOD.replace('list = ["single", "multiple", "albedo"]', 'list = ["phase_difference"]')
+    diff = diff.replace("target_se = 2e-3", "target_se = {phase_difference = 1e-3}")
+    assert "variance is infinite" in _error(diff.replace("c = 0.9\n", "c = 0.999\n"))
+    assert parse_scene(diff.replace("c = 0.9\n", "c = 0.998\n"), "s.toml").materials[1].c == 0.998

@@ -66,7 +66,34 @@ def test_estimates_agree_with_references(tiny):
     assert len(zs) > 20
     assert max(abs(z) for z in zs) < 4
     single = result.rows["single"]
-    assert all(r["se"] == 0 and r["ref"] == r["estimate"] for r in single)
+    assert all(r["se"] == 0 for r in single)
+
+
+def test_single_scattering_rows_are_the_exact_closed_form(tiny):
+    """The 'single' rows (eq. 10 by quadrature in mc.effects) against an independent computation:
+    the exact engine's closed-form three-term Fourier orders (single_scattering_modes), averaged over
+    each mu_o bin; a |phi| bin is the series f0 + f1 <cos phi> + f2 <cos 2 phi> (orders > 2 vanish)."""
+    import math
+
+    import numpy as np
+
+    from fitlab.families.lambert_sphere.exact import single_scattering_modes
+
+    result, _ = tiny
+    rows = result.rows["single"]
+    assert len(rows) == 2 * (3 + 2)  # 2 mu_o bins x (3 orders + 2 phi bins)
+    x, w = np.polynomial.legendre.leggauss(64)
+    for r in rows:
+        a, b = r["mu_lo"], r["mu_hi"]
+        mu = a + (b - a) * (x + 1) / 2
+        wmu = w * (b - a) / 2 * mu
+        modes = np.array(single_scattering_modes(np.full_like(mu, r["mu_i"]), mu, r["c"])) @ wmu / wmu.sum()
+        if r["m"] != "":
+            exact = modes[r["m"]]
+        else:
+            p, q = r["phi_lo"], r["phi_hi"]
+            exact = modes[0] + sum(modes[m] * (math.sin(m * q) - math.sin(m * p)) / (m * (q - p)) for m in (1, 2))
+        assert r["estimate"] == pytest.approx(exact, rel=1e-10, abs=1e-13), r
 
 
 def test_phi_bins_and_fourier_orders_tell_the_same_story(tiny):
@@ -146,3 +173,72 @@ def test_cli(tmp_path, capsys):
     assert "albedo" in out and (tmp_path / "o" / "tiny.csv").exists()
     assert not (tmp_path / "o" / "tiny_albedo.png").exists()
     assert main(["simulate", str(good), "--quiet", "--target-se", "-1"]) == 2
+
+
+def _albedo_scene(tmp_path, material="c = 0.5"):
+    p = tmp_path / "alb.toml"
+    p.write_text(SCENE.replace('list = ["single", "multiple", "collisions", "phase_difference", "albedo", '
+                               '"spherical_albedo"]', 'list = ["albedo"]').replace("collision_orders = 4\n", "")
+                 .replace("c = 0.5", material))
+    return p
+
+
+def test_cli_exits_1_when_a_job_misses_its_target(tmp_path, capsys):
+    p = _albedo_scene(tmp_path)
+    args = ["simulate", str(p), "--quiet", "--no-plots", "--max-paths", "1000", "--target-se", "1e-6"]
+    assert main(args + ["--out", str(tmp_path / "a")]) == 1
+    err = capsys.readouterr().err
+    assert "not converged: fixed job, material c=0.5 (c = 0.5), mu_i = 0.6:" in err and "after 1000 paths" in err
+    rows = list(csv.DictReader((tmp_path / "a" / "tiny.csv").open()))
+    assert rows and all(r["converged"] == "False" for r in rows)
+    assert main(args + ["--out", str(tmp_path / "b"), "--allow-unconverged"]) == 0
+    assert "not converged" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("material, expected", [
+    ("c = 1.0", "material[0].c: c = 1 > 1/N = 0.999473: "),
+    ("kd = 1.0", "material[0].kd: kd = 1 needs c = 1 > 1/N = 0.999473: "),
+])
+def test_cli_refuses_the_c1_three_term_scene_before_any_work(tmp_path, capsys, monkeypatch, material, expected):
+    """The unbounded scene (c = 1 or kd = 1, three-term phase function; it used to report 2.3e16 for
+    0.21 with exit 0) is refused with one line naming the reason, exit 2, before any simulation."""
+    import fitlab.families.lambert_sphere.mc.simulate as sim
+
+    def boom(*a, **k):
+        raise AssertionError("simulated a refused scene")
+
+    monkeypatch.setattr(sim, "run_round", boom)
+    monkeypatch.setattr(sim, "compile_walk", boom)
+    p = _albedo_scene(tmp_path, material)
+    assert main(["simulate", str(p), "--quiet", "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err.splitlines()
+    assert len(err) == 1 and expected in err[0] and "infinite mean and variance" in err[0], err
+    assert not (tmp_path / "o").exists()
+    # a scene made in code (no parse_scene) is refused by simulate() itself
+    scene = parse_scene(SCENE, "tiny.toml")
+    bad = replace(scene, materials=(replace(scene.materials[0], c=1.0),), effects=("albedo",))
+    with pytest.raises(ValueError, match="infinite mean and variance"):
+        simulate(bad, progress=False)
+
+
+@pytest.mark.parametrize("extra, expected", [
+    (["--seed", "18446744073709551616"], "--seed: expected an integer in [0, 9223372036854775807]"),
+    (["--seed", "-1"], "--seed: expected an integer in [0, 9223372036854775807], got '-1'"),
+    (["--max-paths", "10"], "--max-paths: expected an integer in [1000, 1099511627776]"),
+    (["--target-se", "inf"], "--target-se: expected a positive finite number, got 'inf'"),
+    (["--out", "/proc/fitlab-x"], "--out: cannot write in /proc/fitlab-x"),
+    (["--out", "FILE"], "exists and is not a folder"),
+])
+def test_cli_bad_options_one_line_exit_2_before_any_work(tmp_path, capsys, monkeypatch, extra, expected):
+    import fitlab.families.lambert_sphere.mc.simulate as sim
+
+    def boom(*a, **k):
+        raise AssertionError("simulated with a bad option")
+
+    monkeypatch.setattr(sim, "run_round", boom)
+    monkeypatch.setattr(sim, "compile_walk", boom)
+    p = _albedo_scene(tmp_path)
+    extra = [str(p) if a == "FILE" else a for a in extra]
+    assert main(["simulate", str(p), "--quiet"] + extra) == 2
+    err = capsys.readouterr().err.splitlines()
+    assert len(err) == 1 and expected in err[0], err

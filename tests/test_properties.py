@@ -1,4 +1,4 @@
-"""Property tests (issue 15, item 7) for the exact engine and every runtime model.
+"""Property tests for the exact engine and every runtime model.
 
 Models under test, all as f(mu_i, mu_o, phi, c) in 1/sr:
 
@@ -15,7 +15,7 @@ Properties: reciprocity, non-negativity, directional albedo at most 1 at c = 1
 exact engine, and the cost and accuracy of ``constants`` near c = 1.
 
 Where a property does not hold today the case is an ``xfail(strict=True)`` whose
-reason gives the measured figure, so that the fix (issue 18 for the runtime
+reason gives the measured figure, so that the fix (the energy-conserving runtime model for the runtime
 models) turns it into an XPASS, which fails the suite until the mark is removed.
 
 Hypothesis runs derandomized (the same examples on every run) with no example
@@ -274,16 +274,16 @@ def test_albedo_quadrature_has_converged_for_runtime_models(name):
 #     mu_i = 1: they hold (they lose 0.6 to 2.1 %; the three presets differ only in
 #     H1, l and m, i.e. in fm1 cos phi, which integrates to 0 over phi);
 #   refit and generated (the same committed fits): max 1.005962 at mu_i = 0.445
-#     (1.005820 at 0.5, 1.004701 at 0.3): they create energy (issue 18);
+#     (1.005820 at 0.5, 1.004701 at 0.3): they create energy;
 #   exact (true phase function in single scattering + three-term multiple
 #     scattering): max 1.0000711 at mu_i = 0.61, not exactly conservative by
 #     construction (docs/model.md: kd_true(1) = 1.0000103); the three-term half
 #     space alone conserves to 1e-12 (test_exact_three_term_albedo_is_one_at_c_1).
 ENERGY_XFAIL = {
     "refit": "creates energy: directional albedo at c = 1 is 1.00582 at mu_i = 0.5, max 1.00596 at "
-    "mu_i = 0.445 (committed fits; issue 18)",
+    "mu_i = 0.445 (committed fits)",
     "generated": "creates energy: directional albedo at c = 1 is 1.00582 at mu_i = 0.5, max 1.00596 at "
-    "mu_i = 0.445 (fits/generated/lambert_sphere.py; issue 18)",
+    "mu_i = 0.445 (fits/generated/lambert_sphere.py)",
 }
 
 
@@ -309,7 +309,7 @@ def test_runtime_albedo_at_most_one_at_c_1(name, mu_i):
     strict=True,
     reason="exact reference BRDF (true phase function in single scattering + three-term multiple scattering) "
     "is not exactly conservative: directional albedo at c = 1 up to 1.0000711 (mu_i = 0.61; docs/model.md); "
-    "by design, not issue 18",
+    "by design of the reference model",
 )
 def test_exact_true_albedo_at_most_one_at_c_1():
     a = albedo(np.linspace(0.0, 1.0, 41), 1.0)
@@ -340,7 +340,7 @@ def test_exact_three_term_albedo_at_most_one(mu_i, c):
 
 # ------------------------------------------------------------- argument errors (exact)
 
-# Found on the engine before the checks of exact/_checks.py (issue 15):
+# Found on the engine before the checks of exact/_checks.py:
 #   "0.5" (a numeric string) was accepted as 0.5 everywhere; a complex numpy array
 #   lost its imaginary part with only a ComplexWarning; True was taken as 1;
 #   None gave "c contains NaN"; "abc", ["a"], object() and {} gave numpy's

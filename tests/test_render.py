@@ -103,6 +103,12 @@ def test_render_comparison_writes_png(tmp_path):
 def test_render_cli_errors(tmp_path, capsys):
     from fitlab.cli import main
 
-    assert main(["render", "--generated", str(tmp_path / "missing.py"), "--out", str(tmp_path / "x.png")]) == 2
-    assert "fitlab codegen --lang python" in capsys.readouterr().err
-    assert not (tmp_path / "x.png").exists()
+    out = tmp_path / "out"
+    assert main(["render", "--generated", str(tmp_path / "missing.py"), "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "fitlab codegen --lang python" in err and "\n" not in err
+    assert not out.exists()
+    (tmp_path / "x.png").write_bytes(b"keep me")  # --out is a folder (render.png goes into it), never a file
+    assert main(["render", "--generated", str(GENERATED), "--out", str(tmp_path / "x.png")]) == 2
+    assert "exists and is not a folder" in capsys.readouterr().err
+    assert (tmp_path / "x.png").read_bytes() == b"keep me"

@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from fitlab._io import atomic_write_many
+from fitlab._io import atomic_write_many, temporary_name
 from fitlab.cli import main
 from fitlab.report import COLUMNS, QUICK, TIMING_COLUMNS, build_report, pareto_front, recommend, write_outputs
 from fitlab.report.methods import ReportError, brdf_methods, fit_inventory
@@ -242,11 +242,11 @@ def test_unwritable_out_fails_before_any_work(tmp_path, capsys):
 
 def test_outputs_are_all_or_nothing(tmp_path):
     (tmp_path / "a.txt").write_text("old a")
-    (tmp_path / "c.txt.tmp").mkdir()  # the temporary of c.txt cannot be written
+    temporary_name(tmp_path / "c.txt").mkdir()  # the temporary of c.txt (c.txt.PID.tmp) cannot be written
     with pytest.raises(OSError):
         atomic_write_many({tmp_path / "a.txt": b"new a", tmp_path / "c.txt": b"new c"})
     assert (tmp_path / "a.txt").read_text() == "old a"
-    assert not (tmp_path / "a.txt.tmp").exists() and not (tmp_path / "c.txt").exists()
+    assert not temporary_name(tmp_path / "a.txt").exists() and not (tmp_path / "c.txt").exists()
     (tmp_path / "b.txt").mkdir()  # a folder where a file should go: refused before anything is written
     with pytest.raises(IsADirectoryError):
         atomic_write_many({tmp_path / "a.txt": b"new a", tmp_path / "b.txt": b"new b"})

@@ -128,3 +128,24 @@ def test_codegen_refuses_hostile_fits(zoo, canary, tmp_path, capsys, label):
     assert code == 2 and err.count("\n") == 0 and "Traceback" not in err
     assert not out.exists() or list(out.iterdir()) == []
     assert not canary.exists()
+
+
+@pytest.mark.parametrize("label", ["code in discovered expression", "another target under this name", "huge parameter",
+                                   "code in a description"])
+def test_report_refuses_hostile_fits_before_any_work(zoo, canary, tmp_path, capsys, monkeypatch, label):
+    import fitlab.report.run as report_run
+
+    def no_work(*args, **kwargs):  # the validation sets must not be computed for a refused folder
+        raise AssertionError("the report started computing")
+
+    monkeypatch.setattr(report_run, "_measure", no_work)
+    name, raw = zoo[label]
+    fits = tmp_path / "fits"
+    shutil.copytree(FITS, fits, ignore=shutil.ignore_patterns("generated"))
+    _write(fits, name, raw)
+    out = tmp_path / "docs"
+    code = main(["report", "--quick", "--fits", str(fits), "--out", str(out), "--quiet"])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and err.count("\n") == 0 and "Traceback" not in err and "report started" not in err
+    assert not out.exists() or list(out.iterdir()) == []
+    assert not canary.exists()

@@ -1,36 +1,107 @@
 """The ``fitlab`` command: one module per subcommand, one dispatch.
 
-Each command module has ``HELP`` (its line in ``fitlab --help``),
-``add_arguments(parser)`` and ``run(args) -> int`` (the exit status).  A module
-parses and validates, reads and writes the files, and calls fitlab's core
-functions; heavy dependencies (JAX and the Monte Carlo, pysindy, Mitsuba) are
-imported inside ``run``, so that ``fitlab --help`` imports none of them.
+:data:`COMMANDS` names each command with its line in ``fitlab --help``; the module
+``fitlab.cli.NAME`` has ``add_arguments(parser)`` and ``run(args) -> int`` (the exit
+status).  Only the module of the command being run is imported, so ``fitlab --help``
+and ``fitlab --version`` import no family, no sympy and no JAX.  A module
+parses and validates every input and its output folder first (:mod:`fitlab.cli._common`),
+then reads and writes the files and calls fitlab's core functions; heavy dependencies
+(JAX and the Monte Carlo, pysindy, Mitsuba) are imported inside ``run``, so that
+``fitlab --help`` imports none of them.
+
+Exit status: 0 success, 1 a runtime failure, 2 a usage error (refused before any work),
+130 Ctrl-C, 141 a closed stdout.  Every error is one line on stderr; a closed stdout (``fitlab refit --list | head``)
+ends quietly.  ``FITLAB_TRACEBACK=1`` shows the traceback of an unexpected error.
 """
 
 from __future__ import annotations
 
-import argparse
+import importlib
+import os
+import sys
 
-from fitlab.cli import audit, bench, cache, codegen, discover, refit, render, report, simulate, tabulate
+from fitlab import __version__
+from fitlab.cli._common import FAILURE, USAGE, Parser, RunFailure, UsageError, fail
 
-__all__ = ["COMMANDS", "build_parser", "main"]
+__all__ = ["COMMANDS", "build_parser", "command_module", "main"]
 
-#: The commands, in the order ``fitlab --help`` lists them; a command's name is its module's.
-COMMANDS = (tabulate, refit, audit, codegen, render, simulate, discover, report, bench, cache)
+#: The commands, in the order ``fitlab --help`` lists them, with their line there; a command's module
+#: is ``fitlab.cli.NAME``.
+COMMANDS = {
+    "tabulate": "write the exact tables to data/ (or check them)",
+    "refit": "refit a published form (or a richer one) to the exact data",
+    "audit": "measure every published formula and the runtime model against the exact engine",
+    "codegen": "generate C, Python or GLSL source of the runtime BRDF from the fits",
+    "render": "render spheres with the generated BRDF in Mitsuba 3 beside Lambert, Oren-Nayar, Chandrasekhar",
+    "simulate": "Monte Carlo: simulate only the effects a scene asks for (data/scenes/)",
+    "discover": "symbolic regression (pysindy): a Pareto front of new forms for a target",
+    "report": "accuracy vs cost of every way to evaluate the BRDF: docs/report.md and a plot",
+    "bench": "benchmarks (not tests): speed and accuracy",
+    "cache": "show or clear the persistent cache of exact values",
+}
 
 
-def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="fitlab", description="Fitting workbench for analytic BRDFs (Lambert-sphere BRDF).")
+def command_module(name: str):
+    """The module of command ``name`` (imported on demand)."""
+    return importlib.import_module(f"fitlab.cli.{name}")
+
+
+def build_parser(commands=None) -> Parser:
+    """The parser; ``commands``: the commands whose arguments are added (default: all; the others are listed
+    with their help line only, enough for ``fitlab --help``)."""
+    p = Parser(prog="fitlab", description="Fitting workbench for analytic BRDFs (Lambert-sphere BRDF).",
+               epilog="exit status: 0 success, 1 a runtime failure, 2 a usage error; `fitlab COMMAND --help` for more")
+    p.add_argument("--version", action="version", version=f"fitlab {__version__}")
     sub = p.add_subparsers(dest="command", required=True)
-    for command in COMMANDS:
-        sp = sub.add_parser(command.__name__.rpartition(".")[2], help=command.HELP)
-        command.add_arguments(sp)
-        sp.set_defaults(func=command.run)
+    for name, summary in COMMANDS.items():
+        sp = sub.add_parser(name, help=summary, description=summary[:1].upper() + summary[1:] + ".")
+        if commands is None or name in commands:
+            module = command_module(name)
+            module.add_arguments(sp)
+            sp.set_defaults(func=module.run)
     return p
+
+
+def _command_in(argv) -> str | None:
+    """The command ``argv`` names (its first word that is not an option), or None."""
+    for word in argv:
+        if not word.startswith("-"):
+            return word if word in COMMANDS else None
+    return None
+
+
+def _closed_stdout() -> None:
+    """stdout's reader went away: point stdout at /dev/null so the interpreter's final flush is silent."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError, AttributeError):  # pragma: no cover - no real stdout (pytest's capture)
+        pass
 
 
 def main(argv=None) -> int:
     """Run ``fitlab ARGV`` (default: sys.argv[1:]); returns the exit status."""
-    args = build_parser().parse_args(argv)
-    return args.func(args)
-
+    argv = sys.argv[1:] if argv is None else list(argv)
+    command = _command_in(argv)
+    args = build_parser(() if command is None else (command,)).parse_args(argv)
+    name = args.command
+    try:
+        status = args.func(args)
+        sys.stdout.flush()  # a closed pipe surfaces here, not in the interpreter's final flush
+        return status
+    except UsageError as exc:
+        return fail(name, exc, USAGE)
+    except RunFailure as exc:
+        return fail(name, exc, FAILURE)
+    except BrokenPipeError:
+        _closed_stdout()
+        return 141  # as if killed by SIGPIPE, like other tools in a pipeline
+    except KeyboardInterrupt:
+        print(f"\nfitlab {name}: interrupted", file=sys.stderr)
+        return 130
+    except MemoryError:
+        return fail(name, "out of memory", FAILURE)
+    except Exception as exc:  # noqa: BLE001 - no traceback reaches a user; FITLAB_TRACEBACK=1 shows it
+        if os.environ.get("FITLAB_TRACEBACK"):
+            raise
+        return fail(name, f"unexpected {type(exc).__name__}: {exc} (FITLAB_TRACEBACK=1 shows where)", FAILURE)

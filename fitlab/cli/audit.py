@@ -2,30 +2,54 @@
 
 from __future__ import annotations
 
-import sys
+import tempfile
 import time
 from pathlib import Path
 
-from fitlab.families.lambert_sphere.audit import run_audit
-from fitlab.store import TableError
+from fitlab.cli._common import (RunFailure, UsageError, add_quiet, service, describe, input_folder, one_line, output_folder, say,
+                                write_failure)
 
-__all__ = ["HELP", "add_arguments", "run"]
+__all__ = ["add_arguments", "run", "FILES"]
 
-HELP = "measure every published formula and the runtime model against the exact engine"
+#: what the audit writes into --out
+FILES = ("audit.md", "audit.json")
 
 
 def add_arguments(p) -> None:
+    describe(p, "Measure every published formula, the runtime model built from the fits in --fits and its white "
+                "furnace against the exact engine; write audit.md and audit.json into --out (both or neither).",
+             "fitlab audit --out /tmp/audit --json")  # fmt: skip
     p.add_argument("--out", default="docs", help="folder for audit.md and audit.json (default: docs)")
     p.add_argument("--fits", default="fits", help="folder of the refits to include (default: fits)")
+    p.add_argument("--json", action="store_true", help="print a machine-readable summary (JSON) instead of the table")
+    add_quiet(p)
 
 
 def run(args) -> int:
+    fits = input_folder(args.fits, "--fits")
+    out = output_folder(args.out, "--out", files=FILES)
+    audit = service("audit")
+    from fitlab._io import atomic_write_many
+    from fitlab.store import FitFileError, TableError, strict_json
+
     t0 = time.perf_counter()
-    try:
-        result = run_audit(Path(args.out), Path(args.fits))
-    except (TableError, ValueError) as exc:
-        print(f"fitlab audit: error: {exc}", file=sys.stderr)
-        return 2
+    # the audit writes its two files one by one: let it write into a private folder, then move both
+    # into --out as one unit (all or nothing, no temporary left in --out)
+    with tempfile.TemporaryDirectory(prefix="fitlab-audit-") as staging:
+        try:
+            result = audit.run_audit(Path(staging), fits)
+        except (FitFileError, TableError) as exc:
+            raise UsageError(one_line(exc)) from None
+        except (ValueError, ArithmeticError) as exc:
+            raise RunFailure(f"the audit failed: {one_line(exc)}") from None
+        try:
+            atomic_write_many({out / name: (Path(staging) / name).read_bytes() for name in FILES})
+        except OSError as exc:
+            raise write_failure(out, exc) from None
+    if args.json:
+        print(strict_json({"runtime": result["runtime"], "furnace": result["furnace"],
+                           "missing_fits": result["missing_fits"], "files": [str(out / n) for n in FILES]}), end="")
+        return 0
     for r in result["runtime"]:
         print(f"{r['model']:<45} max rel* {r['max_rel_nonzero']:.3e}  RMS {r['rms_rel_nonzero']:.3e}  "
               f"away from grazing: max {r['max_rel_away']:.3e}  RMS {r['rms_rel_away']:.3e}")
@@ -33,5 +57,5 @@ def run(args) -> int:
         print(f"white furnace c=1, {r['model']:<45} max |a - 1| = {r['max_abs_deviation']:.2e}")
     for m in result["missing_fits"]:
         print(f"not measured: {m}")
-    print(f"wrote {Path(args.out) / 'audit.md'} and audit.json in {time.perf_counter() - t0:.1f} s")
+    say(args, f"wrote {out / 'audit.md'} and audit.json in {time.perf_counter() - t0:.1f} s")
     return 0

@@ -2,26 +2,51 @@
 
 from __future__ import annotations
 
-from fitlab.codegen.bench import bench_codegen
-from fitlab.families.lambert_sphere.bench import bench_exact
+import contextlib
+import io
+import sys
 
-__all__ = ["HELP", "add_arguments", "run"]
+from fitlab.cli._common import add_quiet, describe, input_folder, service
 
-HELP = "benchmarks (not tests): speed and accuracy"
+__all__ = ["add_arguments", "run"]
 
 
 def add_arguments(p) -> None:
-    p.add_argument("what", choices=["exact", "codegen", "mc"], help="what to benchmark")
+    describe(p, "Benchmarks, not tests: the exact engine's speed and agreement between its methods, the generated "
+                "C against a baseline, the Monte Carlo's photons per second and cost per effect. Prints a table, "
+                "or with --json a machine-readable summary; writes nothing.",
+             "fitlab bench codegen --quick --json")  # fmt: skip
+    p.add_argument("what", choices=["exact", "codegen", "mc"], help="what to benchmark: exact, codegen or mc")
     p.add_argument("--quick", action="store_true", help="smaller sizes")
+    p.add_argument("--fits", default="fits",
+                   help="folder of the fits the generated code is built from (codegen; default: fits)")
+    p.add_argument("--json", action="store_true", help="print a machine-readable summary (JSON) instead of the table")
+    add_quiet(p)
+
+
+def _jsonable(obj):
+    """The results with tuple keys joined ("H0/0.5") so that they are JSON object keys."""
+    if isinstance(obj, dict):
+        return {("/".join(str(x) for x in k) if isinstance(k, tuple) else str(k)): _jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_jsonable(v) for v in obj]
+    return obj
 
 
 def run(args) -> int:
-    if args.what == "exact":
-        bench_exact(quick=args.quick)
-    elif args.what == "codegen":
-        bench_codegen(n=100_000 if args.quick else 1_000_000, repeat=3 if args.quick else 5)
-    elif args.what == "mc":
-        from fitlab.families.lambert_sphere.mc.bench import bench_mc  # JAX
+    fits = input_folder(args.fits, "--fits") if args.what == "codegen" else None
+    # with --json the tables go to stderr (or nowhere with --quiet) and stdout holds only the JSON
+    sink = io.StringIO() if args.quiet else sys.stderr
+    with contextlib.redirect_stdout(sink) if args.json else contextlib.nullcontext():
+        benches = service("bench")
+        if args.what == "exact":
+            results = benches.bench_exact(quick=args.quick)
+        elif args.what == "codegen":
+            results = benches.bench_codegen(fits, n=100_000 if args.quick else 1_000_000, repeat=3 if args.quick else 5)
+        else:
+            results = benches.bench_mc(quick=args.quick)  # JAX
+    if args.json:
+        from fitlab.store import strict_json
 
-        bench_mc(quick=args.quick)
+        print(strict_json({"what": args.what, "quick": args.quick, "results": _jsonable(results)}), end="")
     return 0

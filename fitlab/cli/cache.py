@@ -5,21 +5,22 @@ from __future__ import annotations
 import json
 
 from fitlab.cache import cache_info, clear_cache
+from fitlab.cli._common import add_quiet, describe
 
-__all__ = ["HELP", "add_arguments", "run"]
-
-HELP = "show or clear the persistent cache of exact values"
+__all__ = ["add_arguments", "run"]
 
 
 def add_arguments(p) -> None:
-    p.description = (
+    describe(
+        p,
         "fitlab keeps the exact values its commands measure against (training and validation sets, the report's "
         "validation sets) in a cache folder ($FITLAB_CACHE_DIR, else $XDG_CACHE_HOME/fitlab, else ~/.cache/fitlab), "
-        "keyed by target, grid, method, fitlab version and the exact engine's source."
+        "keyed by target, grid, method, fitlab version and the exact engine's source.",
+        "fitlab cache info --json",
     )
-    p.epilog = "example: fitlab cache info --json"
     p.add_argument("action", choices=("info", "clear"), help="info: what the cache holds; clear: remove every entry")
     p.add_argument("--json", action="store_true", help="print a machine-readable summary")
+    add_quiet(p)
 
 
 def run(args) -> int:

@@ -2,33 +2,53 @@
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
-from fitlab.codegen import generate, parse_forms, write_generated
-from fitlab.store import FitFileError
+from fitlab.cli._common import (RunFailure, UsageError, add_quiet, describe, input_folder, one_line, output_folder, say,
+                                write_failure)
+from fitlab.codegen.emit import LANGUAGES
 
-__all__ = ["HELP", "add_arguments", "run"]
-
-HELP = "generate C, Python or GLSL source of the runtime BRDF from the fits"
+__all__ = ["add_arguments", "run"]
 
 
 def add_arguments(p) -> None:
-    p.add_argument("--lang", required=True, choices=["c", "python", "glsl"], help="target language")
+    describe(p, "Read the fits a runtime program needs from --fits, check them, and write the program's source "
+                "files in one language into --out, all as one unit (nothing is written on a failure).",
+             "fitlab codegen --lang c --out /tmp/generated")  # fmt: skip
+    p.add_argument("--lang", required=True, choices=list(LANGUAGES), help=f"target language: {', '.join(LANGUAGES)}")
     p.add_argument("--fits", default="fits", help="folder of the fits JSON (default: fits)")
     p.add_argument("--out", default="fits/generated", help="output folder (default: fits/generated)")
     p.add_argument("--terms", help="terms of brdf to keep, comma-separated subset of single,m0,m1 (default: all)")
     p.add_argument("--form", action="append", metavar="TARGET=FORM",
                    help="use fits/TARGET.FORM.json for a part, e.g. H0=hapke_rational (repeatable)")
+    add_quiet(p)
 
 
 def run(args) -> int:
+    import fitlab.codegen as codegen
+    from fitlab._io import atomic_write_many
+    from fitlab.codegen.program import parse_terms
+    from fitlab.store import FitFileError
+
     try:
-        files = generate(args.lang, Path(args.fits), args.terms, parse_forms(args.form))
-    except (ValueError, KeyError, FitFileError) as exc:
-        msg = exc.args[0] if isinstance(exc, KeyError) and exc.args else str(exc)
-        print(f"fitlab codegen: error: {msg}", file=sys.stderr)
-        return 2
-    for path in write_generated(files, Path(args.out)):
-        print(f"wrote {path}")
+        parse_terms(args.terms)
+        forms = codegen.parse_forms(args.form)
+    except (ValueError, KeyError) as exc:
+        raise UsageError(one_line(exc)) from None
+    fits = input_folder(args.fits, "--fits", required=False)  # a missing one: "no such fit file" names the fit
+    out = output_folder(args.out, "--out")
+    try:
+        files = codegen.generate(args.lang, fits, args.terms, forms)
+    except (ValueError, KeyError, FitFileError) as exc:  # a fit that is missing, damaged or not what it should be
+        raise UsageError(one_line(exc)) from None
+    except ArithmeticError as exc:
+        raise RunFailure(f"code generation failed: {one_line(exc)}") from None
+    # every file of the program as one unit: all new, or all as they were (no stray temporary)
+    paths = {out / name: text.encode() for name, text in files.items()}
+    try:
+        atomic_write_many(paths)
+    except OSError as exc:
+        raise write_failure(out, exc) from None
+    for path in paths:
+        say(args, f"wrote {path}")
     return 0

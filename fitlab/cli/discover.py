@@ -4,22 +4,25 @@ pysindy is imported by the regression itself, when :func:`run` searches."""
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
+from fitlab.cli._common import (RunFailure, UsageError, add_quiet, require_extra, describe, fail, input_folder, one_line,
+                                output_folder, say, write_failure)
 from fitlab.discover.cost import COST_REPEAT, COST_ROUNDS, routine_cost
 from fitlab.discover.library import get_library, libraries_of
-from fitlab.discover.output import front_table, save, save_from_front, write_outputs
-from fitlab.discover.search import discover
-from fitlab.store import FitFileError, TableError
+from fitlab.discover.output import front_table, save_from_front, write_outputs
+from fitlab.store import FitFileError, TableError, fit_path, write_fits
 
-__all__ = ["HELP", "add_arguments", "run"]
-
-HELP = "symbolic regression (pysindy): a Pareto front of new forms for a target"
+__all__ = ["add_arguments", "run"]
 
 
 def add_arguments(p) -> None:
-    p.add_argument("--target", required=True, help=f"what to discover forms for: {', '.join(libraries_of())}")
+    describe(p, "Search a library of terms (pysindy) for new forms of a target, refit each size, and write the "
+                "Pareto front of error against cost as TARGET.md, .json and .png into --out; --save NAME also "
+                "writes front members as fits (--fits/TARGET.NAME.json) that refit, codegen and report take.",
+             "fitlab discover --target H0 --out /tmp/discover --max-terms 6")  # fmt: skip
+    p.add_argument("--target", required=True, metavar="NAME",
+                   help=f"what to discover forms for: {', '.join(libraries_of())}")
     p.add_argument("--max-terms", type=int, default=12, help="largest model refitted (default 12)")
     p.add_argument("--minimax-rounds", type=int, default=20, help="Lawson rounds per refit (default 20)")
     p.add_argument("--out", default="docs/discover", help="folder for TARGET.md, .json, .png (default docs/discover)")
@@ -30,53 +33,63 @@ def add_arguments(p) -> None:
                    help="with --save: take the form from the front written earlier (OUT/TARGET.json), no search")
     p.add_argument("--cost", action="store_true",
                    help="with --save: time the generated C of the saved forms beside the default form (a benchmark)")
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
-
-
-def _message(exc: Exception) -> str:
-    """A KeyError's message without the quotes str() adds."""
-    return exc.args[0] if isinstance(exc, KeyError) and exc.args else str(exc)
-
-
-def _error(msg: str) -> int:
-    print(f"fitlab discover: error: {msg}", file=sys.stderr)
-    return 2
+    add_quiet(p)
 
 
 def run(args) -> int:
     if args.from_front and not args.save:
-        return _error("--from-front goes with --save NAME")
+        raise UsageError("--from-front goes with --save NAME")
     if args.cost and not args.save:
-        return _error("--cost goes with --save NAME (it times the saved forms)")
+        raise UsageError("--cost goes with --save NAME (it times the saved forms)")
+    if args.max_terms < 1 or args.minimax_rounds < 0:
+        raise UsageError("--max-terms must be >= 1 and --minimax-rounds >= 0")
+    if args.save and len(set(args.save)) != len(args.save):
+        raise UsageError("--save: a name given twice")
+    try:
+        get_library(args.target)
+    except (KeyError, ValueError) as exc:
+        raise UsageError(one_line(exc)) from None
     # a bad destination fails now, not after minutes of search
-    for flag, folder in (("--out", Path(args.out)), ("--fits", Path(args.fits))):
-        if folder.exists() and not folder.is_dir():
-            return _error(f"{flag} {folder}: not a folder")
+    if args.from_front:
+        input_folder(args.out, "--out")  # the front is read from it
+    else:
+        output_folder(args.out, "--out", files=[f"{args.target}{ext}" for ext in (".md", ".json", ".png")])
+    if args.save:
+        output_folder(args.fits, "--fits")
+    else:
+        input_folder(args.fits, "--fits", required=False)
     if args.from_front:
         try:
             paths = save_from_front(Path(args.out) / f"{args.target}.json", args.save, Path(args.fits))
-        except (KeyError, ValueError, OSError) as exc:
-            return _error(_message(exc))
+        except (KeyError, ValueError, FitFileError) as exc:
+            raise UsageError(one_line(exc)) from None
         for path in paths:
-            print(f"wrote {path}")
+            say(args, f"wrote {path}")
         return _print_cost(args)
+    require_extra("pysindy", "discover")
+    from fitlab.discover.search import discover
+    from fitlab.fit.solver import FitError
+
     try:
-        get_library(args.target)
-        if args.max_terms < 1 or args.minimax_rounds < 0:
-            raise ValueError("--max-terms must be >= 1 and --minimax-rounds >= 0")
         disc = discover(args.target, max_terms=args.max_terms, minimax_rounds=args.minimax_rounds,
                         fits_dir=Path(args.fits), progress=not args.quiet)  # fmt: skip
-        for name in args.save or ():
-            if name not in disc.front:
-                raise KeyError(f"--save {name}: {name!r} is not on the front; the front is {', '.join(disc.front)}")
-    except (KeyError, ValueError, FitFileError, TableError) as exc:
-        return _error(_message(exc))
-    print(front_table(disc))
-    for path in write_outputs(disc, Path(args.out)):
-        print(f"wrote {path}")
+    except (FitFileError, TableError, KeyError) as exc:
+        raise UsageError(one_line(exc)) from None
+    except (FitError, ValueError, ArithmeticError) as exc:
+        raise RunFailure(f"the search failed: {one_line(exc)}") from None
     for name in args.save or ():
-        print(f"wrote {save(disc, name, Path(args.fits))}")
-    print(f"discover {disc.target}: {disc.seconds:.1f} s")
+        if name not in disc.front:
+            raise RunFailure(f"--save {name}: {name!r} is not on the front; the front is {', '.join(disc.front)}")
+    print(front_table(disc))
+    try:
+        written = write_outputs(disc, Path(args.out))  # the front's three files as one unit
+        if args.save:  # every saved form as one unit
+            written += write_fits({fit_path(Path(args.fits), disc.target, n): disc.get(n).record for n in args.save})
+    except OSError as exc:
+        raise write_failure(args.out, exc) from None
+    for path in written:
+        say(args, f"wrote {path}")
+    say(args, f"discover {disc.target}: {disc.seconds:.1f} s")
     return _print_cost(args)
 
 
@@ -85,9 +98,10 @@ def _print_cost(args) -> int:
         return 0
     try:
         ns = routine_cost(args.target, [None, *args.save], Path(args.fits))
-    except (KeyError, RuntimeError, FitFileError) as exc:
-        print(f"fitlab discover: --cost: {exc.args[0] if exc.args else exc}", file=sys.stderr)
-        return 2
+    except (KeyError, FitFileError) as exc:
+        return fail("discover --cost", exc, 2)
+    except RuntimeError as exc:  # the compiler or the timing failed
+        return fail("discover --cost", exc, 1)
     print(f"generated C, double, ns per evaluation (best of {COST_ROUNDS} rounds x {COST_REPEAT}, interleaved; "
           "ratios within this run):")  # fmt: skip
     for name, t in ns.items():

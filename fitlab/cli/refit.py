@@ -1,40 +1,105 @@
 """``fitlab refit``: refit a published form (or a richer one) to the exact data, and write the fit files.
 
-:func:`fitlab.fit.refit.refit` reads and writes nothing: this module resolves the
-form, reads a start (``--init``) and the origin of a discovered form, and writes
-the fits only after every fit is done and validated.
+:func:`fitlab.fit.refit.refit` reads and writes nothing: this module checks every option, the
+start (``--init``) and the output folder before any fit starts, resolves the form and the origin
+of a discovered form, and writes the fits (all of them as one unit) only after every fit is done,
+validated and kept by :func:`fitlab.fit.refit.refit_verdict`: a refit worse than its start or
+than the published preset of its form, or with a non-finite error, is a failure (exit status 1)
+and replaces nothing.
 """
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
-from tqdm import tqdm
-
+from fitlab.cli._common import (RunFailure, UsageError, add_quiet, describe, input_file, input_folder, one_line,
+                                output_folder, say, write_failure)
 from fitlab.core import get_target, targets
-from fitlab.fit.refit import default_jobs, table, timed_refit
-from fitlab.fit.solver import FitError
-from fitlab.store import FitFileError, TableError, fit_path, read_fit, resolve_form, write_fit
 
-__all__ = ["HELP", "add_arguments", "run", "parse_domain"]
-
-HELP = "refit a published form (or a richer one) to the exact data"
+__all__ = ["add_arguments", "run", "parse_domain"]
 
 
 def add_arguments(p) -> None:
-    p.add_argument("--target", help=f"what to fit: {', '.join(targets())}")
+    describe(p, "Fit a form of a target to the target's exact training set, validate it on the denser validation "
+                "set beside the published presets, and write TARGET[.FORM].json into --out. A refit that ends worse "
+                "than its start or the published preset of its form (in both max and RMS error), or with a "
+                "non-finite error, fails (exit status 1) and replaces nothing.",
+             "fitlab refit --target H0 --out /tmp/fits")  # fmt: skip
+    p.add_argument("--target", metavar="NAME", help=f"what to fit: {', '.join(targets())}")
     p.add_argument("--form", help="which form of the target (default: the published shape; see --list)")
     p.add_argument("--all", action="store_true", help="refit every target (every form marked for it)")
     p.add_argument("--out", default="fits", help="folder for the fit JSON (default: fits)")
     p.add_argument("--fits", default="fits",
                    help="folder the forms saved by `fitlab discover` are read from (default: fits)")
-    p.add_argument("--domain", action="append", metavar="NAME=LO:HI", help="restrict an input, e.g. c=0.5:1")
+    p.add_argument("--domain", action="append", metavar="NAME=LO:HI",
+                   help="restrict an input, e.g. c=0.5:1 (once per input)")
     p.add_argument("--init", type=Path, help="start from a saved fit of the same target and form")
     p.add_argument("--no-minimax", action="store_true", help="least squares only, no minimax refinement")
     p.add_argument("--compare-scipy", action="store_true", help="also solve the least-squares stage with scipy")
     p.add_argument("--list", action="store_true", help="list targets and forms")
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--json", action="store_true", help="print a machine-readable summary (JSON) instead of the table")
+    add_quiet(p)
+
+
+def _jobs(args) -> list[tuple]:
+    """Every check of the request, before any fit: [(target, form, start, origin, domain)]; UsageError."""
+    from fitlab.store import fit_path
+
+    jobs = _requested(args)
+    for target, form, *_ in jobs:
+        path = fit_path(Path(args.out), target.name, form.name)
+        if path.is_dir():
+            raise UsageError(f"--out {args.out}: {path} is a folder, where the fit will be written")
+    return jobs
+
+
+def _requested(args) -> list[tuple]:
+    from fitlab.store import FitFileError, TableError, fit_path, read_fit, resolve_form
+
+    if args.all == bool(args.target):
+        raise UsageError("give --target NAME (see --list) or --all")
+    if args.all and (args.form or args.domain or args.init):
+        raise UsageError("--form, --domain and --init go with --target, not --all")
+    if args.target not in (None, *targets()):
+        raise UsageError(f"unknown target {args.target!r}; choose one of {', '.join(targets())}")
+    fits = input_folder(args.fits, "--fits", required=False)
+    if args.init is not None:
+        input_file(args.init, "--init")
+    output_folder(args.out, "--out")
+    try:
+        if args.all:
+            from fitlab.fit.refit import default_jobs
+
+            return [(get_target(t), get_target(t).forms[f], None, None, None) for t, f in default_jobs()]
+        target = get_target(args.target)
+        domain = parse_domain(args.domain, target)
+        form = resolve_form(target.name, args.form, fits)
+        origin = None
+        saved = fit_path(fits, target.name, form.name)
+        if form.name not in target.forms and saved.exists():
+            origin = read_fit(saved).get("origin")  # a discovered form stays one
+        start = None
+        if args.init is not None:
+            prior = read_fit(args.init)
+            if (prior["target"], prior["form"]) != (target.name, form.name):
+                raise ValueError(f"--init {args.init}: a fit of {prior['target']}/{prior['form']}, not {form.key}")
+            start = prior["params"]
+        train = target.training().restricted(domain)
+        if len(train) < 2 * len(form.free_params) or len(target.validation().restricted(domain)) == 0:
+            raise ValueError(f"--domain leaves {len(train)} training points (and too few validation points) "
+                             f"for {len(form.free_params)} free parameters; widen it")
+        return [(target, form, start, origin, domain)]
+    except (KeyError, ValueError, FitFileError, TableError) as exc:
+        raise UsageError(one_line(exc)) from None
+
+
+def _start_metrics(target, form, start, domain) -> dict:
+    """The validation error of the refit's starting point (``--init``'s parameters or the form's start)."""
+    from fitlab.fit.refit import check_domain, validation_metrics
+
+    valid = target.validation().restricted(check_domain(target, domain))
+    theta = form.vector(start if start is not None else form.start_values)
+    return validation_metrics(form, theta, valid, target.scale(valid))
 
 
 def run(args) -> int:
@@ -43,71 +108,86 @@ def run(args) -> int:
             forms = ", ".join(f + (" (default)" if f == t.default_form else "") for f in t.forms)
             print(f"{t.name:<10} {t.description}\n{'':<10} forms: {forms}")
         return 0
-    if args.all == bool(args.target):
-        print("fitlab refit: error: give --target NAME (see --list) or --all", file=sys.stderr)
-        return 2
-    if args.all and (args.form or args.domain or args.init):
-        print("fitlab refit: error: --form, --domain and --init go with --target, not --all", file=sys.stderr)
-        return 2
+    jobs = _jobs(args)  # every usage error before any work
+
+    from tqdm import tqdm
+
+    from fitlab.fit.refit import refit_verdict, table, timed_refit
+    from fitlab.fit.solver import FitError
+    from fitlab.store import FitFileError, TableError, fit_path, strict_json, write_fits
+
+    results, walls, verdicts = [], [], []
     try:
-        if args.all:
-            jobs = [(get_target(t), get_target(t).forms[f], None, None) for t, f in default_jobs()]
-        else:
-            target = get_target(args.target)
-            form = resolve_form(target.name, args.form, Path(args.fits or args.out))
-            origin = None
-            saved = fit_path(Path(args.fits or args.out), target.name, form.name)
-            if form.name not in target.forms and saved.exists():
-                origin = read_fit(saved).get("origin")  # a discovered form stays one
-            start = None
-            if args.init is not None:
-                prior = read_fit(args.init)
-                if (prior["target"], prior["form"]) != (target.name, form.name):
-                    raise ValueError(f"--init {args.init}: a fit of {prior['target']}/{prior['form']}, not {form.key}")
-                start = prior["params"]
-            jobs = [(target, form, start, origin)]
-            domain = parse_domain(args.domain, target)
-        results, walls = [], []
-        for target, form, start, origin in tqdm(jobs, desc="refit", unit="fit", disable=args.quiet or len(jobs) == 1):
+        for target, form, start, origin, domain in tqdm(jobs, desc="refit", unit="fit",
+                                                         disable=args.quiet or len(jobs) == 1):  # fmt: skip
             res, wall = timed_refit(
-                target, form, domain=None if args.all else domain, start=start, origin=origin,
+                target, form, domain=domain, start=start, origin=origin,
                 minimax=False if args.no_minimax else None, compare_scipy=args.compare_scipy,
             )
             results.append(res)
             walls.append(wall)
-    except (KeyError, ValueError, FitError, FitFileError, TableError) as exc:
-        msg = exc.args[0] if isinstance(exc, KeyError) and exc.args else str(exc)
-        print(f"fitlab refit: error: {msg}", file=sys.stderr)
-        return 2
-    # all fits done and validated: only now write (each file atomically)
-    paths = []
-    for res in results:
-        path = fit_path(Path(args.out), res.record["target"], res.record["form"])
-        write_fit(path, res.record)
-        paths.append(path)
-    print(table(results, walls))
+            verdicts.append(refit_verdict(res, _start_metrics(target, form, start, domain)))
+    except (FitFileError, TableError) as exc:
+        raise UsageError(one_line(exc)) from None
+    except (FitError, ValueError, ArithmeticError) as exc:
+        raise RunFailure(f"{form.key}: the fit failed: {one_line(exc)}") from None
+    failures = [v for v in verdicts if v is not None]
+    paths = [fit_path(Path(args.out), r.record["target"], r.record["form"]) for r in results]
+    if not failures:  # every fit done, validated and kept: only now write, all as one unit
+        try:
+            write_fits({path: res.record for path, res in zip(paths, results)})
+        except OSError as exc:
+            raise write_failure(args.out, exc) from None
+    if args.json:
+        print(strict_json(_summary(results, walls, verdicts, paths, written=not failures)), end="")
+    else:
+        print(table(results, walls))
+    if failures:
+        more = f" (and {len(failures) - 1} more)" if len(failures) > 1 else ""
+        raise RunFailure(f"{failures[0]}{more}; nothing written")
     for path in paths:
-        print(f"wrote {path}")
+        say(args, f"wrote {path}")
     return 0
 
 
+def _summary(results, walls, verdicts, paths, written: bool) -> dict:
+    fits = []
+    for res, wall, verdict, path in zip(results, walls, verdicts, paths):
+        rec = res.record
+        fits.append({
+            "target": rec["target"], "form": rec["form"], "path": str(path), "written": written,
+            "failure": verdict, "wall_s": wall, "params": rec["params"], "domain": rec["domain"],
+            "validation": {k: rec["validation"][k] for k in ("max_rel", "max_rel_nonzero", "rms_rel", "points")},
+            "published": [{"form": p["form"], "preset": p["preset"],
+                           "validation": {k: p["validation"][k] for k in ("max_rel", "max_rel_nonzero", "rms_rel")}}
+                          for p in rec["published"]],
+        })  # fmt: skip
+    return {"ok": all(v is None for v in verdicts), "written": written, "fits": fits}
+
+
 def parse_domain(items, target) -> dict:
-    """``["c=0.5:1", ...]`` -> {"c": (0.5, 1.0), ...}, checked against the target's domain."""
+    """``["c=0.5:1", ...]`` -> {"c": (0.5, 1.0), ...}, checked against the target's domain; an input
+    given twice is refused (ValueError), not silently the last one."""
     inputs = target.inputs
     domain = dict(target.domain)
+    seen = set()
     for item in items or ():
         name, sep, rng = item.partition("=")
         lo, sep2, hi = rng.partition(":")
+        name = name.strip()
         if not sep or not sep2:
             raise ValueError(f"--domain {item!r}: write NAME=LO:HI, e.g. c=0.5:1")
         if name not in domain:
             raise ValueError(f"--domain {item!r}: this target's inputs are {', '.join(inputs)}")
+        if name in seen:
+            raise ValueError(f"--domain {item!r}: {name} given twice; give each input once")
+        seen.add(name)
         try:
             lo_f, hi_f = float(lo), float(hi)
         except ValueError:
             raise ValueError(f"--domain {item!r}: LO and HI must be numbers") from None
         full_lo, full_hi = target.domain[name]
-        if not (full_lo <= lo_f < hi_f <= full_hi):
+        if not (full_lo <= lo_f < hi_f <= full_hi):  # NaN fails too
             raise ValueError(f"--domain {item!r}: need {full_lo:g} <= LO < HI <= {full_hi:g} for {name}")
         domain[name] = (lo_f, hi_f)
     return domain

@@ -3,34 +3,49 @@ Chandrasekhar (Mitsuba is imported by the renderer, when :func:`run` renders).""
 
 from __future__ import annotations
 
-import sys
-from pathlib import Path
+from fitlab.cli._common import (RunFailure, UsageError, add_quiet, require_extra, service, describe, input_file, integer, number, one_line,
+                                output_folder, say, write_failure)
 
-from fitlab.families.lambert_sphere.render import RenderError, render_comparison
+__all__ = ["add_arguments", "run", "FILE"]
 
-__all__ = ["HELP", "add_arguments", "run"]
-
-HELP = "render spheres with the generated BRDF in Mitsuba 3 beside Lambert, Oren-Nayar, Chandrasekhar"
+#: what the render writes into --out
+FILE = "render.png"
 
 
 def add_arguments(p) -> None:
-    p.add_argument("--out", default="docs/render.png", help="PNG to write (default: docs/render.png)")
+    describe(p, "Render spheres in Mitsuba 3 (scalar_rgb) with the generated Python BRDF beside Lambert, Oren-Nayar "
+                "and Chandrasekhar's mirror-sphere BRDF, all at the same spherical albedo, under several light "
+                f"directions, and write the comparison as {FILE} into --out.",
+             "fitlab render --out /tmp/render --size 32 --spp 2")  # fmt: skip
+    p.add_argument("--out", default="docs", help=f"folder for {FILE} (default: docs)")
     p.add_argument("--generated", default="fits/generated/lambert_sphere.py", help="the generated Python BRDF module")
-    p.add_argument("--kd", type=float, default=0.8, help="spherical albedo of every material (default 0.8)")
-    p.add_argument("--size", type=int, default=64, help="image size per sphere in pixels (default 64)")
-    p.add_argument("--spp", type=int, default=4, help="samples per pixel (default 4)")
-    p.add_argument("--lights", type=int, default=3, help="number of light directions, 1-5 (default 3)")
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--kd", type=number(0.0, 1.0, open_lo=True, open_hi=True), default=0.8,
+                   help="spherical albedo of every material, in (0, 1) (default 0.8)")
+    p.add_argument("--size", type=integer(8, 4096), default=64,
+                   help="image size per sphere in pixels, 8-4096 (default 64)")
+    p.add_argument("--spp", type=integer(1, 65536), default=4, help="samples per pixel, 1-65536 (default 4)")
+    p.add_argument("--lights", type=integer(1, 5), default=3, help="number of light directions, 1-5 (default 3)")
+    add_quiet(p)
 
 
 def run(args) -> int:
+    generated = input_file(args.generated, "--generated", hint="; run `fitlab codegen --lang python` first")
+    out = output_folder(args.out, "--out", files=(FILE,))
+    require_extra("mitsuba", "render")
+    render = service("render")
+
     try:
-        path = render_comparison(
-            Path(args.out), generated=Path(args.generated), kd=args.kd, size=args.size, spp=args.spp,
-            lights=args.lights, show_progress=not args.quiet,
-        )
-    except (RenderError, ValueError) as exc:
-        print(f"fitlab render: error: {exc}", file=sys.stderr)
-        return 2
-    print(f"wrote {path}")
+        render.load_generated(generated)  # numpy only: a module that is not a generated BRDF is refused now
+    except render.RenderError as exc:
+        raise UsageError(one_line(exc)) from None
+    except Exception as exc:  # noqa: BLE001 - the module failed to import
+        raise UsageError(f"--generated {generated}: cannot load it ({type(exc).__name__}: {one_line(exc)})") from None
+    try:
+        path = render.render_comparison(out / FILE, generated=generated, kd=args.kd, size=args.size, spp=args.spp,
+                                        lights=args.lights, show_progress=not args.quiet)  # fmt: skip
+    except (render.RenderError, ValueError, ArithmeticError) as exc:
+        raise RunFailure(one_line(exc)) from None
+    except OSError as exc:
+        raise write_failure(out, exc) from None
+    say(args, f"wrote {path}")
     return 0

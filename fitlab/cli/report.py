@@ -2,56 +2,49 @@
 
 from __future__ import annotations
 
-import os
-import sys
 import time
-from pathlib import Path
 
-from fitlab.report import FULL, QUICK, ReportError, build_report, write_outputs
-from fitlab.report.write import FILES
-from fitlab.store import FitFileError
+from fitlab.cli._common import (RunFailure, UsageError, add_quiet, describe, input_folder, one_line, output_folder, say,
+                                write_failure)
 
-__all__ = ["HELP", "add_arguments", "run", "check_out_dir"]
-
-HELP = "accuracy vs cost of every way to evaluate the BRDF: docs/report.md and a plot"
+__all__ = ["add_arguments", "run"]
 
 
 def add_arguments(p) -> None:
+    describe(p, "Measure the error and the cost of every way to evaluate the BRDF (the exact engine, tables, the "
+                "published formulas, the refits in --fits, the generated code, Monte Carlo) on one validation set, "
+                "and write report.md, accuracy_vs_cost.png and report.csv into --out, all three or none.",
+             "fitlab report --quick --out /tmp/report")  # fmt: skip
     p.add_argument("--out", default="docs", help="folder for report.md, accuracy_vs_cost.png and report.csv")
     p.add_argument("--fits", default="fits", help="folder of the fits JSON, every *.json is measured (default: fits)")
     p.add_argument("--quick", action="store_true", help="reduced sizes (seconds, for tests; numbers are rougher)")
     p.add_argument("--no-cache", action="store_true", help="recompute the exact validation values (no disk cache)")
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
-
-
-def check_out_dir(out: Path) -> None:
-    """Fail early (ValueError) when ``out`` cannot take the report's files: not a folder, or not writable."""
-    out = Path(out)
-    if out.exists() and not out.is_dir():
-        raise ValueError(f"--out {out}: exists and is not a folder")
-    probe = out
-    while not probe.exists():
-        probe = probe.parent
-    if not probe.is_dir() or not os.access(probe, os.W_OK | os.X_OK):
-        raise ValueError(f"--out {out}: {probe} is not a writable folder")
-    for name in FILES:
-        if (out / name).is_dir():
-            raise ValueError(f"--out {out}: {out / name} is a folder")
+    add_quiet(p)
 
 
 def run(args) -> int:
     t0 = time.perf_counter()
+    fits = input_folder(args.fits, "--fits", required=False)  # a missing one: the report's own line names it
+    from fitlab.report.write import FILES
+
+    out = output_folder(args.out, "--out", files=FILES)
+    from fitlab.report import FULL, QUICK, ReportError, build_report, write_outputs
+    from fitlab.store import FitFileError
+
     try:
-        check_out_dir(Path(args.out))
-        report = build_report(QUICK if args.quick else FULL, Path(args.fits), use_cache=not args.no_cache,
+        report = build_report(QUICK if args.quick else FULL, fits, use_cache=not args.no_cache,
                               progress=not args.quiet)  # fmt: skip
-        paths = write_outputs(report, Path(args.out))
-    except (ReportError, FitFileError, ValueError, OSError) as exc:
-        print(f"fitlab report: error: {exc}", file=sys.stderr)
-        return 2
+    except (ReportError, FitFileError) as exc:  # bad input: a missing or damaged fit, a missing table
+        raise UsageError(one_line(exc)) from None
+    except (ValueError, ArithmeticError) as exc:
+        raise RunFailure(f"the report failed: {one_line(exc)}") from None
+    try:
+        paths = write_outputs(report, out)  # all three files or none
+    except OSError as exc:
+        raise write_failure(out, exc) from None
     for use, r in report.recommendations.items():
         print(f"{use:<10} {r['method'] if r else 'none qualifies'}")
     for p in paths:
-        print(f"wrote {p}")
-    print(f"fitlab report: {time.perf_counter() - t0:.0f} s")
+        say(args, f"wrote {p}")
+    say(args, f"fitlab report: {time.perf_counter() - t0:.0f} s")
     return 0

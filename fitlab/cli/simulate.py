@@ -1,43 +1,58 @@
-"""``fitlab simulate``: the command-line face of :mod:`fitlab.families.lambert_sphere.mc.simulate`.
+"""``fitlab simulate``: the command-line face of the family's Monte Carlo (the ``simulate`` service;
+for the Lambert sphere :mod:`fitlab.families.lambert_sphere.mc.simulate`).
 
-The Monte Carlo (JAX) is imported inside :func:`run` only."""
+The Monte Carlo (JAX) is imported inside :func:`run` only.
+
+Exit status: 0 when every job reached its standard-error target; 1 when a job
+stopped on its path budget without reaching it ("conv NO"; the outputs are
+written and their rows say converged = False) unless ``--allow-unconverged``,
+or on a runtime failure; 2 when an input is refused, always before any
+computation (one line per problem).
+"""
 
 from __future__ import annotations
 
 import sys
 
-__all__ = ["HELP", "add_arguments", "run"]
-
-HELP = "Monte Carlo: simulate only the effects a scene asks for (data/scenes/)"
+__all__ = ["add_arguments", "run"]
 
 
 def add_arguments(p) -> None:
     p.add_argument("scene", help="scene file (.toml or .json), e.g. data/scenes/order1_normalisation.toml")
     p.add_argument("--out", help="output folder (default: mc_out/<scene name>)")
-    p.add_argument("--target-se", type=float, help="override every effect's standard-error target")
-    p.add_argument("--max-paths", type=int, help="override the path budget per job")
-    p.add_argument("--seed", type=int, help="override the scene's seed")
+    # strings: checked by the scene file's own rules (mc.scene.check_option), one line each
+    p.add_argument("--target-se", help="override every effect's standard-error target (positive, finite)")
+    p.add_argument("--max-paths", help="override the path budget per job (integer in [1000, 2^40])")
+    p.add_argument("--seed", help="override the scene's seed (integer in [0, 2^63 - 1], as in the scene file)")
+    p.add_argument("--allow-unconverged", action="store_true",
+                   help="exit 0 even when a job stops on its path budget above its target")
     p.add_argument("--no-plots", action="store_true", help="CSV only")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
 def run(args) -> int:
-    """Validate the scene (every error before any work), simulate, write; 2 on a bad scene."""
-    from fitlab.families.lambert_sphere.mc.scene import SceneError  # JAX
-    from fitlab.families.lambert_sphere.mc.simulate import simulate_file, summary_table
+    """Validate everything (every error before any work), simulate, write; see the module's exit statuses."""
+    from fitlab.cli._common import FAILURE, USAGE, fail, service
+
+    mc = service("simulate")  # the family's Monte Carlo (imports JAX)
+    SceneError, simulate_file, summary_table, unconverged = mc.SceneError, mc.simulate_file, mc.summary_table, mc.unconverged
 
     try:
         result, paths = simulate_file(
             args.scene, out_dir=args.out, progress=not args.quiet, plots=not args.no_plots,
             target_se=args.target_se, max_paths=args.max_paths, seed=args.seed,
         )
-    except SceneError as exc:
-        print(f"fitlab simulate: error in the scene:\n{exc}", file=sys.stderr)
-        return 2
-    except ValueError as exc:
-        print(f"fitlab simulate: error: {exc}", file=sys.stderr)
-        return 2
+    except SceneError as exc:  # every input is checked before any work: a usage error
+        return fail("simulate", exc, USAGE)
+    except (OSError, ValueError, RuntimeError) as exc:
+        return fail("simulate", f"{type(exc).__name__}: {exc}", FAILURE)
     print(summary_table(result))
     for p in paths:
         print(f"wrote {p}")
+    missed = unconverged(result)
+    for line in missed:
+        print(f"fitlab simulate: {line}", file=sys.stderr)
+    if missed and not args.allow_unconverged:
+        return fail("simulate", f"{len(missed)} job(s) did not reach the standard-error target "
+                                "(--allow-unconverged accepts this)", FAILURE)
     return 0

@@ -2,41 +2,52 @@
 
 from __future__ import annotations
 
-import sys
 import time
 from pathlib import Path
 
-from fitlab.families.lambert_sphere.tabulate import check_tables, write_tables
-from fitlab.store import TableError
+from fitlab.cli._common import (RunFailure, add_quiet, describe, fail, input_folder, output_folder, say, service,
+                                write_failure)
 
-__all__ = ["HELP", "add_arguments", "run"]
-
-HELP = "write the exact tables to data/ (or check them)"
+__all__ = ["add_arguments", "run"]
 
 
 def add_arguments(p) -> None:
+    describe(p, "Compute the exact tables (H-functions, constants) every refit reads, and write them all as one "
+                "unit into --out (nothing is written on a failure); or, with --check, recompute a sample of the "
+                "rows of the tables in --out by independent methods.",
+             "fitlab tabulate --out /tmp/data --quiet")  # fmt: skip
     p.add_argument("--out", default="data", help="folder for the CSV tables (default: data)")
     p.add_argument("--check", action="store_true", help="recompute a sample of rows by independent methods")
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_quiet(p)
 
 
 def run(args) -> int:
     if args.check:
+        folder = input_folder(args.out, "--out")
+        from fitlab.store import TableError
+
         try:
-            failures = check_tables(Path(args.out), show_progress=not args.quiet)
+            failures = service("tables").check_tables(folder, show_progress=not args.quiet)
         except TableError as exc:
-            print(f"fitlab tabulate --check: {exc}", file=sys.stderr)
-            return 1
+            return fail("tabulate --check", exc, 1)
+        for f in failures:
+            fail("tabulate --check", f, 1)
         if failures:
-            for f in failures:
-                print(f"fitlab tabulate --check: {f}", file=sys.stderr)
             return 1
-        print(f"fitlab tabulate --check: {args.out} agrees with the independent recomputation")
+        say(args, f"fitlab tabulate --check: {args.out} agrees with the independent recomputation")
         return 0
+    tables = service("tables")
+    out = output_folder(args.out, "--out", files=tables.TABLE_FILES)  # the names written
+
     t0 = time.perf_counter()
-    digests = write_tables(Path(args.out), show_progress=not args.quiet)
+    try:
+        digests = tables.write_tables(out, show_progress=not args.quiet)
+    except (ArithmeticError, ValueError) as exc:
+        raise RunFailure(f"the tables could not be computed: {exc}") from None
+    except OSError as exc:
+        raise write_failure(out, exc) from None
     dt = time.perf_counter() - t0
     for name, digest in digests.items():
-        print(f"  {Path(args.out) / name}  sha256:{digest}")
-    print(f"wrote {len(digests)} tables in {dt:.1f} s")
+        print(f"  {out / name}  sha256:{digest}")
+    say(args, f"wrote {len(digests)} tables in {dt:.1f} s")
     return 0

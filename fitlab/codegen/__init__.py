@@ -26,20 +26,25 @@ from fitlab.codegen.program import (
     Routine,
     azimuth_to_cosine,
     build_program,
+    SAFE_POW,
     call,
+    clamp,
     clamped,
     floor_poles,
+    minmax_piecewise,
     parse_terms,
     part_routine,
     program_spec,
     stable,
+    with_domain,
 )
 from fitlab.core import targets
 from fitlab.store import fit_path, fit_sha256, load
 
 __all__ = ["generate", "load_program", "parse_forms", "write_generated", "emit", "LANGUAGES", "build_program",
            "parse_terms", "program_spec", "part_routine", "Program", "ProgramSpec", "Routine", "POLE_FLOOR", "call",
-           "stable", "floor_poles", "azimuth_to_cosine", "clamped"]  # fmt: skip
+           "stable", "floor_poles", "azimuth_to_cosine", "clamp", "clamped", "minmax_piecewise", "with_domain",
+           "SAFE_POW"]  # fmt: skip
 
 
 def _terms(terms: str | tuple | None, family: str | None) -> tuple[str, ...] | None:

@@ -22,14 +22,44 @@ import sympy as sp
 from fitlab import __version__
 from fitlab.forms.symbolic import safe_pow
 from fitlab.codegen.printers import CPrinter, GLSLPrinter, NumpyPrinter
-from fitlab.codegen.program import Program, Routine
+from fitlab.codegen.program import SAFE_POW, Program, Routine
 
 __all__ = ["emit", "LANGUAGES"]
 
 
 def _cse(routine: Routine):
-    temps, (expr,) = sp.cse(routine.expr, symbols=sp.numbered_symbols("t", real=True), order="canonical")
-    return temps, expr
+    """Common subexpressions, then every non-atomic argument of a Max or Min in a temporary of its own:
+    Max and Min print as conditionals (x < k ? k : x), which name their argument twice."""
+    names = sp.numbered_symbols("t", real=True)
+    temps, (expr,) = sp.cse(routine.expr, symbols=names, order="canonical")
+    out = []
+
+    def temp(value):
+        t = next(names)
+        out.append((t, value))
+        return t
+
+    def hoist(e):
+        if e.is_Atom:
+            return e
+        args = [hoist(a) for a in e.args]
+        if isinstance(e, (sp.Max, sp.Min)):
+            args = [a if a.is_Atom or a.is_number else temp(a) for a in args]
+            others, consts = [a for a in args if not a.is_number], [a for a in args if a.is_number]
+            if len(others) > 1 and (len(others) > 2 or consts):  # pairs, each in a temporary
+                acc = others[0]
+                for a in others[1:-1]:
+                    acc = temp(e.func(acc, a))
+                return e.func(acc, others[-1], *consts) if not consts else e.func(temp(e.func(acc, others[-1])), *consts)
+        return e if all(a is b for a, b in zip(args, e.args)) else e.func(*args)
+
+    for t, e in temps:
+        e = hoist(e)
+        if isinstance(e, sp.logic.boolalg.Boolean):
+            raise ValueError(f"routine {routine.name}: a condition {e} became a temporary (not printable as a number)")
+        out.append((t, e))
+    expr = hoist(expr)
+    return out, expr
 
 
 def _banner(program: Program, lang: str, comment: str) -> str:
@@ -87,11 +117,10 @@ def _c_files(program: Program) -> dict[str, str]:
         f'#include "{base}.h"\n\n#include <math.h>\n\n',
     ]
     if any(r.expr.has(safe_pow) for r in program.routines):
-        c += [
-            "/* x^p for x > 0 and 0 otherwise: the forms' safe_pow (keeps pow away from x <= 0). */\n",
-            f"static double {prefix}safe_pow(double x, double p) {{ return x > 0.0 ? pow(x, p) : 0.0; }}\n",
-            f"static float {prefix}safe_pow_f(float x, float p) {{ return x > 0.0F ? powf(x, p) : 0.0F; }}\n",
-        ]
+        c.append(f"/* {_SAFE_POW_DOC} */\n")
+        for scalar, suffix in (("double", ""), ("float", "_f")):
+            body = CPrinter(scalar, str).doprint(SAFE_POW)
+            c.append(f"static {scalar} {prefix}safe_pow{suffix}({scalar} x, {scalar} p) {{ return {body}; }}\n")
     for scalar in ("double", "float"):
         for r in program.routines:
             c.append("\n" + _c_function(r, scalar, prefix))
@@ -106,8 +135,8 @@ def _glsl_files(program: Program) -> dict[str, str]:
     out = [
         _banner(program, "glsl", "//"),
         "// Float functions for GLSL 3.30 / ES 3.00 and later; paste or #include into a shader.\n\n",
-        "// x^p for x > 0 and 0 otherwise: the forms' safe_pow (keeps pow away from x <= 0).\n",
-        f"float {prefix}safe_pow(float x, float p) {{ return x > 0.0 ? pow(x, p) : 0.0; }}\n",
+        f"// {_SAFE_POW_DOC}\n",
+        f"float {prefix}safe_pow(float x, float p) {{ return {GLSLPrinter(str).doprint(SAFE_POW)}; }}\n",
         "// log(1 + x) and exp(x) - 1 without cancellation near x = 0 (Kahan's tricks; GLSL lacks both).\n",
         f"float {prefix}log1p(float x) {{ float u = 1.0 + x; return u == 1.0 ? x : log(u) * x / (u - 1.0); }}\n",
         f"float {prefix}expm1(float x)\n{{\n    float u = exp(x);\n    if (u == 1.0) return x;\n"
@@ -133,16 +162,19 @@ import numpy
 
 
 def _safe_pow(x, p):
-    """x^p for x > 0 and 0 otherwise (the forms' safe_pow)."""
-    x = numpy.asarray(x, dtype=float)
-    positive = x > 0.0
-    return numpy.where(positive, numpy.power(numpy.where(positive, x, 1.0), p), 0.0)
+    """{safe_pow_doc}"""
+    x, p = numpy.asarray(x, dtype=float), numpy.asarray(p, dtype=float)
+    return {safe_pow}
 
 '''
 
+#: what the safe_pow helper does, in every language (fitlab.codegen.program.SAFE_POW)
+_SAFE_POW_DOC = "x^p for x > 0, 0 for x <= 0, NaN for NaN: the forms' safe_pow (keeps pow away from x <= 0)."
+
 
 def _python_files(program: Program) -> dict[str, str]:
-    out = [_banner(program, "python", "#"), _PY_HEADER.format(doc=program.doc)]
+    header = _PY_HEADER.format(doc=program.doc, safe_pow_doc=_SAFE_POW_DOC, safe_pow=NumpyPrinter(str).doprint(SAFE_POW))
+    out = [_banner(program, "python", "#"), header]
     names = [r.name for r in program.routines]
     out.append("__all__ = [" + ", ".join(f'"{n}"' for n in names) + "]\n")
     for r in program.routines:

@@ -9,6 +9,8 @@ forms need:
   of the generated function of that routine, with the language's name.
 * pi prints as a literal, not ``M_PI`` (not part of strict C99), and small
   integer powers print as products (faster than ``pow`` and exact).
+* Max and Min print as conditionals (:func:`fitlab.codegen.program.minmax_piecewise`)
+  that let NaN through, the same in every language (not fmax, max or numpy.maximum).
 * symbols can be renamed, so that a routine's vector argument ``wi`` reads
   ``wi[0]`` in C, ``wi.x`` in GLSL and ``wi[..., 0]`` in numpy.
 """
@@ -24,6 +26,7 @@ from sympy.printing.c import C99CodePrinter
 from sympy.printing.numpy import NumPyPrinter
 from sympy.printing.precedence import precedence
 
+from fitlab.codegen.program import minmax_piecewise
 from fitlab.forms.symbolic import safe_pow
 
 __all__ = ["CPrinter", "GLSLPrinter", "NumpyPrinter"]
@@ -64,19 +67,13 @@ class _Common:
             return f"{self.call_name('safe_pow')}({self._print(expr.args[0])}, {self._print(expr.args[1])})"
         return super()._print_Function(expr)
 
-    # Max/Min/Piecewise: nested two-argument calls, and a conditional each language spells its way
-    def _nested(self, name, expr):
-        args = [self._print(a) for a in expr.args]
-        out = args[-1]
-        for a in reversed(args[:-1]):
-            out = f"{name}({a}, {out})"
-        return out
-
+    # Max/Min: one NaN-propagating definition for every language (fitlab.codegen.program.minmax_piecewise);
+    # the emitter puts a non-atomic argument into a temporary first, so that it is printed once.
+    # Piecewise: a conditional each language spells its way.
     def _print_Max(self, expr):
-        return self._nested(self._max_min[0], expr)
+        return self._print(minmax_piecewise(expr))
 
-    def _print_Min(self, expr):
-        return self._nested(self._max_min[1], expr)
+    _print_Min = _print_Max
 
     def _print_Piecewise(self, expr):
         if expr.args[-1].cond is not sp.true:
@@ -113,11 +110,6 @@ class CPrinter(_Common, C99CodePrinter):
     def _print_Pow(self, expr):
         return _small_power(self, expr) or super()._print_Pow(expr)
 
-    @property
-    def _max_min(self):
-        f = "f" if self.scalar == "float" else ""
-        return f"fmax{f}", f"fmin{f}"
-
     def _conditional(self, cond, a, b):
         return f"(({cond}) ? ({a}) : ({b}))"
 
@@ -128,8 +120,6 @@ class GLSLPrinter(CPrinter):
 
     def __init__(self, call_name, symbol_names=None):
         super().__init__("double", call_name, symbol_names)  # double: libm names without the f suffix
-
-    _max_min = ("max", "min")
 
     def _print_Abs(self, expr):
         return f"abs({self._print(expr.args[0])})"
@@ -158,8 +148,6 @@ class NumpyPrinter(_Common, NumPyPrinter):
 
     def _print_Pow(self, expr, rational=False):
         return _small_power(self, expr) or super()._print_Pow(expr, rational=rational)
-
-    _max_min = ("numpy.maximum", "numpy.minimum")
 
     def _conditional(self, cond, a, b):
         return f"numpy.where({cond}, {a}, {b})"

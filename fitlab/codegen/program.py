@@ -20,13 +20,19 @@ its saved fit as it stands (:func:`part_routine`).
 The helpers a family's program is written with are public here:
 :func:`call`, :func:`part_routine`, :func:`stable` (cancellation-free rewrites),
 :func:`floor_poles` (1/(mu_i + mu_o) floored at :data:`POLE_FLOOR`),
-:func:`azimuth_to_cosine` and :func:`clamped` (clamping the entry points'
-inputs into their domain).
+:func:`azimuth_to_cosine`, :func:`clamp` and :func:`clamped`.
+
+The NaN and domain policy is kept here, once for every language (see the
+section below): :func:`build_program` clamps every routine's inputs into its
+:attr:`Routine.domain` (:func:`with_domain`), and the printers print every Max
+and Min through :func:`minmax_piecewise` and safe_pow from :data:`SAFE_POW`, so
+that NaN in any input gives NaN, +-inf and other out-of-domain inputs are
+clamped, and every other input gives a finite value.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Callable, Mapping, Sequence
 
 import sympy as sp
@@ -37,7 +43,8 @@ from fitlab.forms.symbolic import safe_pow, symbols
 from fitlab.store import FitFunction
 
 __all__ = ["Routine", "Program", "ProgramSpec", "build_program", "part_routine", "program_spec", "parse_terms",
-           "call", "stable", "floor_poles", "azimuth_to_cosine", "clamped", "POLE_FLOOR"]  # fmt: skip
+           "call", "stable", "floor_poles", "azimuth_to_cosine", "clamp", "clamped", "minmax_piecewise",
+           "with_domain", "SAFE_POW", "POLE_FLOOR"]  # fmt: skip
 
 #: mu_i + mu_o is floored at this value wherever it divides
 POLE_FLOOR = sp.Rational(1, 10**6)
@@ -51,6 +58,9 @@ class Routine:
 
     args: scalar argument names, in order; ``vectors`` groups consecutive ones
     into a 3-vector argument (name -> its three component names).
+    domain: arg name -> (lo, hi), the closed interval every input is clamped into
+    (:func:`with_domain`, applied by :func:`build_program` to every routine; each
+    argument must have one).
     """
 
     name: str
@@ -58,6 +68,7 @@ class Routine:
     expr: sp.Expr
     doc: str
     vectors: dict = field(default_factory=dict)
+    domain: dict = field(default_factory=dict)
 
     def signature(self) -> tuple[str, ...]:
         """Arguments as the caller passes them: vectors as one argument."""
@@ -179,9 +190,74 @@ def stable(expr: sp.Expr) -> sp.Expr:
     return expr.replace(is_one_minus_pow, rewrite)
 
 
+# ---- the NaN and domain policy ------------------------------------------------
+#
+# One policy, the same in every language, because every language prints the same
+# symbolic definitions below:
+#
+# * NaN in any input propagates: the result is NaN.
+# * A finite input outside its routine's domain, and +-inf, is clamped into the
+#   domain (Routine.domain: mu, c, kd to [0, 1], cos_phi to [-1, 1]).
+# * Hence every routine is finite for every input that is not NaN.
+#
+# Max and Min are printed in every language as :func:`minmax_piecewise`, a
+# conditional that returns its non-constant argument when a comparison is false,
+# so a NaN passes through (C's fmax/fmin and GLSL's max/min would drop it, numpy's
+# maximum would keep it: the three languages used to disagree).  The safe_pow
+# helper is printed from :data:`SAFE_POW` (NaN in, NaN out).
+
+
+def clamp(x, lo, hi) -> sp.Expr:
+    """min(hi, max(lo, x)): printed through :func:`minmax_piecewise`, so NaN stays NaN and +-inf clamps."""
+    return sp.Min(hi, sp.Max(lo, x))
+
+
 def clamped(*names_and_bounds) -> dict:
-    """{symbol: min(hi, max(lo, symbol))} for (symbol, lo, hi) triples: to clamp an entry point's inputs."""
-    return {s: sp.Min(hi, sp.Max(lo, s)) for s, lo, hi in names_and_bounds}
+    """{symbol: clamp(symbol, lo, hi)} for (symbol, lo, hi) triples."""
+    return {s: clamp(s, lo, hi) for s, lo, hi in names_and_bounds}
+
+
+def minmax_piecewise(expr) -> sp.Piecewise:
+    """The one definition of Max and Min in generated code, with NaN propagating.
+
+    * Max(x, k1, k2, ...), numbers k and one other argument x: Piecewise((k, x < k), (x, True)),
+      k = max(k1, k2, ...) (Min likewise with x > k).  A NaN x fails the comparison and is returned.
+    * Max(a, b), neither a number: Piecewise((b, a < b), (a, a >= b), (a + b, True)): both comparisons
+      fail only when a or b is NaN, and then a + b is NaN (Min likewise).
+    * Anything else (more arguments) is a ValueError: :mod:`fitlab.codegen.emit` splits it into pairs,
+      each in a temporary, before printing.
+    """
+    is_max = isinstance(expr, sp.Max)
+    if not is_max and not isinstance(expr, sp.Min):
+        raise TypeError(f"{expr} is not a Max or Min")
+    consts = [a for a in expr.args if a.is_number]
+    others = [a for a in expr.args if not a.is_number]
+    if len(others) == 1 and consts:
+        (x,) = others
+        k = (sp.Max if is_max else sp.Min)(*consts)
+        return sp.Piecewise((k, x < k if is_max else x > k), (x, True))
+    if len(others) == 2 and not consts:
+        a, b = others
+        beats, holds = (a < b, a >= b) if is_max else (a > b, a <= b)
+        return sp.Piecewise((b, beats), (a, holds), (a + b, True), evaluate=False)
+    raise ValueError(f"{expr}: print max/min of more than two expressions as pairs (NaN policy; emit splits them)")
+
+
+_x, _p = sp.Symbol("x", real=True), sp.Symbol("p", real=True)
+_not_positive = _x <= 0
+#: the generated safe_pow helper: x^p for x > 0, 0 for x <= 0, NaN for NaN (the comparison fails);
+#: the inner conditional keeps pow away from x <= 0 where every branch is evaluated (numpy)
+SAFE_POW = sp.Piecewise((0, _not_positive), (sp.Pow(sp.Piecewise((1, _not_positive), (_x, True)), _p, evaluate=False), True))
+
+
+def with_domain(routine: Routine) -> Routine:
+    """``routine`` with every input clamped into its domain (:attr:`Routine.domain`) at entry."""
+    missing = [a for a in routine.args if a not in routine.domain]
+    if missing:
+        raise ValueError(f"routine {routine.name}: no domain for {', '.join(missing)} (Routine.domain)")
+    by_name = {s.name: s for s in routine.expr.free_symbols}
+    subs = {by_name[a]: clamp(by_name[a], *routine.domain[a]) for a in routine.args if a in by_name}
+    return replace(routine, expr=routine.expr.xreplace(subs))
 
 
 def part_routine(fit: FitFunction) -> Routine:
@@ -195,7 +271,8 @@ def part_routine(fit: FitFunction) -> Routine:
     val = fit.record.get("validation")
     if val:
         doc += f" Validation: max relative error {val['max_rel']:.2e}, RMS {val['rms_rel']:.2e}."
-    return Routine(target.routine, fit.inputs, stable(fit.expression), doc)
+    return Routine(target.routine, fit.inputs, stable(fit.expression), doc,
+                   domain={a: target.domain[a] for a in fit.inputs})  # fmt: skip
 
 
 def _default_spec(family) -> ProgramSpec:
@@ -268,5 +345,5 @@ def build_program(records: Mapping[str, object], terms: Sequence[str] | None = N
     if unknown:
         raise ValueError(f"terms {unknown}: the {spec.name} program's terms are {', '.join(spec.terms) or '(none)'}")
     fits = {t: _as_fit(t, records[t]) for t in spec.fits}
-    return Program(spec(fits, terms), tuple(tuple(s) for s in sources), terms, spec.name,
+    return Program(tuple(with_domain(r) for r in spec(fits, terms)), tuple(tuple(s) for s in sources), terms, spec.name,
                    tuple(spec.about.format(terms=", ".join(terms)).splitlines()), spec.doc, spec.parts)  # fmt: skip

@@ -13,6 +13,7 @@ from fitlab.core._precision import float64
 from fitlab.core._registry import (
     Family,
     families,
+    family_service,
     forms_for,
     get_family,
     get_form,
@@ -30,6 +31,7 @@ __all__ = [
     "Target",
     "data_hash",
     "families",
+    "family_service",
     "float64",
     "forms_for",
     "get_family",

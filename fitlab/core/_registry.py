@@ -17,7 +17,7 @@ from typing import Any, Callable, Mapping
 from fitlab.core._target import Target
 
 __all__ = ["Family", "register_family", "unregister_family", "families", "get_family", "targets", "get_target",
-           "forms_for", "get_form"]
+           "forms_for", "get_form", "family_service"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -128,6 +128,17 @@ def get_target(name: str) -> Target:
     if name not in _TARGETS:
         raise KeyError(f"unknown target {name!r}; choose one of {', '.join(_TARGETS)}")
     return _TARGETS[name]
+
+
+def family_service(name: str):
+    """The service ``name`` (a family hook: ``hooks[name]()``) of the one registered family that offers it.
+
+    KeyError (one line) when no family offers it, or when several do (then the caller must choose)."""
+    offering = {fname: f for fname, f in families().items() if name in f.hooks}
+    if len(offering) != 1:
+        which = ", ".join(offering) or "none"
+        raise KeyError(f"{len(offering)} families offer {name!r} ({which}); exactly one is needed")
+    return next(iter(offering.values())).hooks[name]()
 
 
 def forms_for(target: str) -> Mapping:

@@ -21,7 +21,7 @@ from fitlab.fit.solver import SOLVER_SETTINGS, FitResult, fit_form, fit_form_sci
 from fitlab.core import get_target, targets
 
 __all__ = ["RefitResult", "refit", "check_domain", "validation_metrics", "preset_metrics", "MINIMAX_ROUNDS",
-           "default_jobs", "table"]
+           "default_jobs", "table", "refit_verdict", "VERDICT_RTOL"]
 
 MINIMAX_ROUNDS = 40
 
@@ -157,6 +157,45 @@ def refit(
     if origin is not None:
         record["origin"] = origin
     return RefitResult(record, fit, scipy_fit)
+
+
+#: how much worse (relative) than a reference a refit may end before it counts as worse: rounding only
+VERDICT_RTOL = 1e-6
+
+
+def refit_verdict(result: RefitResult, start_metrics: Mapping | None = None) -> str | None:
+    """Whether a refit may be kept: None if so, else the reason (one line).
+
+    A refit fails when its validation error (max rel* or RMS) is not finite, or when it ends worse
+    than a reference on the same validation set: its starting point (``start_metrics``, the
+    :func:`validation_metrics` of the ``--init`` parameters or of the form's start) or a published
+    preset of the same form (the record's ``published`` rows).  Worse means worse in both max rel*
+    (the error without the target's exact zeros) and RMS, by more than :data:`VERDICT_RTOL`: a refit
+    that trades one for the other (the minimax refit of H0 against the paper's preset) is kept.  A refit
+    whose max rel is infinite (it misses an exact zero of the target) fails where the reference's is
+    finite."""
+    rec = result.record
+    v = rec["validation"]
+    _g = "{:.3e}".format  # nan and inf as themselves
+    mine = (float(v["max_rel_nonzero"]), float(v["rms_rel"]))
+    if not all(math.isfinite(x) for x in mine):
+        return (f"{rec['target']}/{rec['form']}: the refit's validation error is not finite "
+                f"(max rel* {_g(mine[0])}, RMS {_g(mine[1])})")
+    references = []
+    if start_metrics is not None:
+        references.append(("its starting point", start_metrics))
+    for p in rec.get("published", ()):
+        if p["form"] == rec["form"]:
+            references.append((f"the published preset {p['preset']}", p["validation"]))
+    for label, m in references:
+        if not math.isfinite(float(v["max_rel"])) and math.isfinite(float(m.get("max_rel", math.inf))):
+            return (f"{rec['target']}/{rec['form']}: the refit misses an exact zero of the target (max rel "
+                    f"{_g(float(v['max_rel']))}) that {label} keeps (max rel {_g(float(m['max_rel']))})")
+        ref = (float(m["max_rel_nonzero"]), float(m["rms_rel"]))
+        if all(x > r * (1 + VERDICT_RTOL) for x, r in zip(mine, ref)):
+            return (f"{rec['target']}/{rec['form']}: the refit (max rel* {_g(mine[0])}, RMS {_g(mine[1])}) "
+                    f"is worse than {label} (max rel* {_g(ref[0])}, RMS {_g(ref[1])}) on the validation set")
+    return None
 
 
 def _fmt(x: float) -> str:

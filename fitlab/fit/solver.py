@@ -118,6 +118,8 @@ def fit_form(
     weights = np.ones_like(y)
     for k in range(1, minimax_rounds + 1):
         weights = weights * np.abs(r)
+        if not weights.sum() > 0.0:
+            break  # every residual is zero: the fit is exact, nothing is left to level
         weights = np.maximum(weights / weights.sum(), 1e-14 / weights.size)
         value, steps, ok, r_new = solve(jnp.asarray(value), args_for(np.sqrt(weights * weights.size)))
         total += int(steps)

@@ -64,7 +64,7 @@ class ReportError(Exception):
 class CSpec:
     """Where a method's generated C comes from: a fits folder, the non-default forms, the routine.
 
-    ``fits_dir`` None means the baselines' program (:func:`fitlab.codegen.bench.baseline_program`);
+    ``fits_dir`` None means the baselines' program (the family report hook's ``baseline_program``);
     ``preset`` names a published preset set written to a temporary fits folder (see
     :func:`preset_records`)."""
 

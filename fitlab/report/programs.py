@@ -3,7 +3,7 @@ r"""Cost of the generated C: build each program the catalogue needs once, time i
 One harness for everything (:func:`fitlab.codegen.bench.time_routines`, the harness
 of ``fitlab bench codegen``): the generated C compiled with
 :data:`fitlab.codegen.native.STRICT_FLAGS`, called in a C loop over the same
-seeded random inputs (:func:`fitlab.codegen.bench.random_inputs`; kd =
+seeded random inputs (the family's ``timing_inputs``; kd =
 kd_true(c) from the tables, H-parts at mu = mu_i), in double and in float, best
 of ``repeat`` rounds that interleave every routine of every program.  Published
 presets are printed from their fit records
@@ -19,29 +19,24 @@ from pathlib import Path
 import numpy as np
 
 from fitlab.codegen import build_program, emit, load_program
-from fitlab.codegen.bench import baseline_program, random_inputs, time_routines
+from fitlab.codegen.bench import time_routines
 from fitlab.codegen.native import CompileError, build
 from fitlab.core import get_target
-from fitlab.report.methods import CSpec, preset_records
-from fitlab.report.tables import kd_interpolant
+from fitlab.report.methods import CSpec, brdf_hook, preset_records
 
 __all__ = ["c_costs", "timing_inputs"]
 
 
 def timing_inputs(n: int, data_dir: Path) -> dict:
-    """Seeded random inputs by argument name: mu_i, mu_o, c, cos_phi (as fitlab bench codegen), phi =
-    acos(cos_phi), kd = kd_true(c) (tables), mu = mu_i."""
-    x = random_inputs(n)
-    x["phi"] = np.arccos(x["cos_phi"])
-    x["kd"] = np.clip(kd_interpolant(data_dir)(x["c"]), 0.0, 1.0)
-    x["mu"] = x["mu_i"]
-    return x
+    """Seeded random inputs by argument name, from the measured family's report hook
+    (``timing_inputs(n, data_dir)``)."""
+    return brdf_hook().timing_inputs(n, data_dir)
 
 
 def _program(spec: CSpec):
     """(Program, {routine: (target, label)}) for a spec's program; the labels name its part routines."""
     if spec.fits_dir is None and spec.preset is None:
-        return baseline_program(), {}
+        return brdf_hook().baseline_program(), {}
     if spec.preset is not None:
         records = preset_records(spec.preset)
         prog = build_program({t: rec for (t, _), rec in records.items()})

@@ -18,7 +18,7 @@ from fitlab.report.methods import GROUPS
 from fitlab.report.pareto import RULES, pareto_front
 from fitlab.report.plot import plot_cost, plot_png
 
-__all__ = ["COLUMNS", "TIMING_COLUMNS", "FILES", "csv_text", "markdown", "write_outputs"]
+__all__ = ["COLUMNS", "TIMING_COLUMNS", "FILES", "csv_text", "markdown", "parts_table", "write_outputs"]
 
 #: the CSV's columns; ``section`` says what a row is (brdf, part, exact, exact_h, time_to_error, refit)
 COLUMNS = ("section", "target", "group", "method", "source", "points", "paths", "target_error", "max_rel",
@@ -108,7 +108,7 @@ def _recommendations(rec) -> list[str]:
     return out
 
 
-def _parts_table(parts) -> list[str]:
+def parts_table(parts) -> list[str]:
     out = ["| target | method | group | max rel | max rel* | RMS rel | C double ns | C float ns |",
            "|---|---|---|---|---|---|---|---|"]  # fmt: skip
     for r in parts:
@@ -207,7 +207,7 @@ def markdown(report) -> str:
            *_brdf_table(brdf), "",
            "## The parts", "",
            "max rel* leaves out the target's exact zeros. C ns: the part's routine in the generated code.", "",
-           *_parts_table(_section(rows, "part")), "",
+           *parts_table(_section(rows, "part")), "",
            *_exact_section(report), "", *_time_to_error(rows), "", *_mc_section(report), "",
            *_refit_section(rows)]  # fmt: skip
     if ctx["notes"]:

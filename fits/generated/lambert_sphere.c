@@ -19,234 +19,402 @@
 
 #include <math.h>
 
-/* x^p for x > 0 and 0 otherwise: the forms' safe_pow (keeps pow away from x <= 0). */
-static double lambert_sphere_safe_pow(double x, double p) { return x > 0.0 ? pow(x, p) : 0.0; }
-static float lambert_sphere_safe_pow_f(float x, float p) { return x > 0.0F ? powf(x, p) : 0.0F; }
+/* x^p for x > 0, 0 for x <= 0, NaN for NaN: the forms' safe_pow (keeps pow away from x <= 0). */
+static double lambert_sphere_safe_pow(double x, double p) { return ((x <= 0.0) ? (0.0) : (pow(((x <= 0.0) ? (1.0) : (x)), p))); }
+static float lambert_sphere_safe_pow_f(float x, float p) { return ((x <= 0.0F) ? (0.0F) : (powf(((x <= 0.0F) ? (1.0F) : (x)), p))); }
 
 double lambert_sphere_h0(double mu, double c)
 {
-    const double t0 = sqrt(1.0 - c);
-    const double t1 = (3.8305327514727012*lambert_sphere_safe_pow(t0, 14.941212175793074) + 8.19214852144955)*lambert_sphere_safe_pow(mu, (7.685072839712366 - 0.42819044883697743*lambert_sphere_safe_pow(t0, 0.9321043182422831))/(8.65912 - 1.643902438637549*lambert_sphere_safe_pow(t0, 24.201422329834347)));
-    return (t1/(4.17593 - 1.3037245568711244*t0) + 1.0)/(t0*t1*sqrt((16.0 - c)*(4.0*c + 9.0))/(50.11116 - 15.644694682453493*t0) + 1.0);
+    const double t3 = ((c < 0.0) ? (0.0) : (c));
+    const double t0 = ((t3 > 1.0) ? (1.0) : (t3));
+    const double t1 = sqrt(1.0 - t0);
+    const double t4 = ((mu < 0.0) ? (0.0) : (mu));
+    const double t2 = (3.8305327514727012*lambert_sphere_safe_pow(t1, 14.941212175793074) + 8.19214852144955)*lambert_sphere_safe_pow(((t4 > 1.0) ? (1.0) : (t4)), (7.685072839712366 - 0.42819044883697743*lambert_sphere_safe_pow(t1, 0.9321043182422831))/(8.65912 - 1.643902438637549*lambert_sphere_safe_pow(t1, 24.201422329834347)));
+    return (t2/(4.17593 - 1.3037245568711244*t1) + 1.0)/(t1*t2*sqrt(16.0 - t0)*sqrt(4.0*t0 + 9.0)/(50.11116 - 15.644694682453493*t1) + 1.0);
 }
 
 double lambert_sphere_h1(double mu, double c)
 {
-    return exp((0.01882082482630519*c*c - 0.13807263067296432*c)*lambert_sphere_safe_pow(mu, -3.223218047565822*mu*mu*mu + 4.189642488540238*mu*mu - 1.8030024947250645*mu + 0.4943166764166247));
+    const double t2 = ((c < 0.0) ? (0.0) : (c));
+    const double t0 = ((t2 > 1.0) ? (1.0) : (t2));
+    const double t3 = ((mu < 0.0) ? (0.0) : (mu));
+    const double t1 = ((t3 > 1.0) ? (1.0) : (t3));
+    return exp((0.01882082482630519*t0*t0 - 0.13807263067296432*t0)*lambert_sphere_safe_pow(t1, -3.223218047565822*t1*t1*t1 + 4.189642488540238*t1*t1 - 1.8030024947250645*t1 + 0.4943166764166247));
 }
 
 double lambert_sphere_const_l(double c)
 {
-    return -0.004939205708442875*c*c - 0.058722447997744905*c;
+    const double t1 = ((c < 0.0) ? (0.0) : (c));
+    const double t0 = ((t1 > 1.0) ? (1.0) : (t1));
+    return -0.004939205708442875*t0*t0 - 0.058722447997744905*t0;
 }
 
 double lambert_sphere_const_m(double c)
 {
-    return 0.43989525562906495*c + 1.0;
+    const double t0 = ((c < 0.0) ? (0.0) : (c));
+    return 0.43989525562906495*((t0 > 1.0) ? (1.0) : (t0)) + 1.0;
 }
 
 double lambert_sphere_const_b(double c)
 {
-    const double t0 = sqrt(1.0 - c);
-    return c*(0.34151292193316496*c + 0.42539619449220856*t0 - 0.42502738212912709)/((t0 + 1.0)*(-0.31781995145264474*c - 0.8195923954429231*t0 + 1.3178199514526447));
+    const double t2 = ((c < 0.0) ? (0.0) : (c));
+    const double t0 = ((t2 > 1.0) ? (1.0) : (t2));
+    const double t1 = sqrt(1.0 - t0);
+    return t0*(0.34151292193316496*t0 + 0.42539619449220856*t1 - 0.42502738212912709)/((t1 + 1.0)*(-0.31781995145264474*t0 - 0.8195923954429231*t1 + 1.3178199514526447));
 }
 
 double lambert_sphere_const_c(double c)
 {
-    const double t0 = sqrt(1.0 - c);
-    return c*(-0.9663773151448398*c - 0.32388164709149464*t0 + 1.0838878671403959)/((t0 + 1.0)*(-0.227141899506518*c - 0.6566197428676952*t0 + 1.227141899506518));
+    const double t2 = ((c < 0.0) ? (0.0) : (c));
+    const double t0 = ((t2 > 1.0) ? (1.0) : (t2));
+    const double t1 = sqrt(1.0 - t0);
+    return t0*(-0.9663773151448398*t0 - 0.32388164709149464*t1 + 1.0838878671403959)/((t1 + 1.0)*(-0.227141899506518*t0 - 0.6566197428676952*t1 + 1.227141899506518));
 }
 
 double lambert_sphere_const_d(double c)
 {
-    const double t0 = sqrt(1.0 - c);
-    return c*(0.23105932045840868*c + 0.2287969443732025*t0 - 0.23069779057206398)/((t0 + 1.0)*(-1.286135656793819*c - 0.8387237260643413*t0 + 2.286135656793819));
+    const double t2 = ((c < 0.0) ? (0.0) : (c));
+    const double t0 = ((t2 > 1.0) ? (1.0) : (t2));
+    const double t1 = sqrt(1.0 - t0);
+    return t0*(0.23105932045840868*t0 + 0.2287969443732025*t1 - 0.23069779057206398)/((t1 + 1.0)*(-1.286135656793819*t0 - 0.8387237260643413*t1 + 2.286135656793819));
 }
 
 double lambert_sphere_const_f(double c)
 {
-    const double t0 = sqrt(1.0 - c);
-    return c*(0.029805005006246013*c - 0.17459333248007913*t0 - 0.029783256955795048)/((t0 + 1.0)*(-0.19647267114251268*c - 0.3247775246127321*t0 + 1.1964726711425127));
+    const double t2 = ((c < 0.0) ? (0.0) : (c));
+    const double t0 = ((t2 > 1.0) ? (1.0) : (t2));
+    const double t1 = sqrt(1.0 - t0);
+    return t0*(0.029805005006246013*t0 - 0.17459333248007913*t1 - 0.029783256955795048)/((t1 + 1.0)*(-0.19647267114251268*t0 - 0.3247775246127321*t1 + 1.1964726711425127));
 }
 
 double lambert_sphere_c_of_kd(double kd)
 {
-    const double t0 = 1.0 - kd;
-    return ((kd < (1.0/2.0)) ? (-expm1(2.8775788936624416*log1p(-fmin((1.0/2.0), kd)))) : (1.0 - 1.0*lambert_sphere_safe_pow(t0, 2.8775788936624416)))/(1.0 - 0.11899098002850213*lambert_sphere_safe_pow(t0, 2.5692796349372196));
+    const double t0 = ((kd < 0.0) ? (0.0) : (kd));
+    const double t1 = ((t0 > 1.0) ? (1.0) : (t0));
+    const double t2 = 1.0 - t1;
+    return ((t1 < (1.0/2.0)) ? (-expm1(2.8775788936624416*log1p(-((t0 > (1.0/2.0)) ? ((1.0/2.0)) : (t0))))) : (1.0 - 1.0*lambert_sphere_safe_pow(t2, 2.8775788936624416)))/(1.0 - 0.11899098002850213*lambert_sphere_safe_pow(t2, 2.5692796349372196));
 }
 
 double lambert_sphere_kd_of_c(double c)
 {
-    const double t0 = sqrt(1.0 - c);
-    return c*(0.65035428162017445*t0 + 1.0)/((t0 + 1.0)*(1.6879717175153437*t0 + 1.0));
+    const double t2 = ((c < 0.0) ? (0.0) : (c));
+    const double t0 = ((t2 > 1.0) ? (1.0) : (t2));
+    const double t1 = sqrt(1.0 - t0);
+    return t0*(0.65035428162017445*t1 + 1.0)/((t1 + 1.0)*(1.6879717175153437*t1 + 1.0));
 }
 
 double lambert_sphere_single(double mu_i, double mu_o, double cos_phi, double c)
 {
-    const double t0 = fmax(-1.0, fmin(1.0, -cos_phi*sqrt((1.0 - mu_i*mu_i)*(1.0 - mu_o*mu_o)) - mu_i*mu_o));
-    return ((1.0/3.0))*c*(-2.0*t0*acos(t0) + 2.0*sqrt(fmax(0.0, 1.0 - t0*t0)))/(3.141592653589793238*3.141592653589793238*fmax((1.0/1000000.0), mu_i + mu_o));
+    const double t3 = ((mu_i < 0.0) ? (0.0) : (mu_i));
+    const double t0 = ((t3 > 1.0) ? (1.0) : (t3));
+    const double t4 = ((mu_o < 0.0) ? (0.0) : (mu_o));
+    const double t1 = ((t4 > 1.0) ? (1.0) : (t4));
+    const double t5 = ((cos_phi < -1.0) ? (-1.0) : (cos_phi));
+    const double t6 = -t0*t1 - sqrt((1.0 - t0*t0)*(1.0 - t1*t1))*((t5 > 1.0) ? (1.0) : (t5));
+    const double t7 = ((t6 > 1.0) ? (1.0) : (t6));
+    const double t2 = ((t7 < -1.0) ? (-1.0) : (t7));
+    const double t8 = t0 + t1;
+    const double t9 = 1.0 - t2*t2;
+    const double t10 = ((c < 0.0) ? (0.0) : (c));
+    return ((1.0/3.0))*(-2.0*t2*acos(t2) + 2.0*sqrt(((t9 < 0.0) ? (0.0) : (t9))))*((t10 > 1.0) ? (1.0) : (t10))/(3.141592653589793238*3.141592653589793238*((t8 < (1.0/1000000.0)) ? ((1.0/1000000.0)) : (t8)));
 }
 
 double lambert_sphere_fm0(double mu_i, double mu_o, double c)
 {
-    const double t0 = mu_i + mu_o;
-    const double t1 = 1.0/3.141592653589793238;
-    const double t2 = mu_i*mu_o;
-    const double t3 = mu_i*mu_i;
-    const double t4 = mu_o*mu_o;
-    const double t5 = t3*t4;
-    return (-(1.0/768.0)*c*t1*(256.0*t2 - 45.0*t3 - 45.0*t4 + 135.0*t5 + 207.0) + ((1.0/2.0))*t1*(c*t5*((15.0/128.0) - (15.0/128.0)*c)*(((4.0/3.0))*c + 3.0) + ((69.0/128.0))*c + t0*t2*lambert_sphere_const_d(c) + t0*lambert_sphere_const_b(c) + t2*lambert_sphere_const_c(c) + (t3 + t4)*lambert_sphere_const_f(c))*lambert_sphere_h0(mu_i, c)*lambert_sphere_h0(mu_o, c))/fmax((1.0/1000000.0), t0);
+    const double t9 = ((mu_i < 0.0) ? (0.0) : (mu_i));
+    const double t0 = ((t9 > 1.0) ? (1.0) : (t9));
+    const double t10 = ((mu_o < 0.0) ? (0.0) : (mu_o));
+    const double t1 = ((t10 > 1.0) ? (1.0) : (t10));
+    const double t2 = t0 + t1;
+    const double t3 = 1.0/3.141592653589793238;
+    const double t11 = ((c < 0.0) ? (0.0) : (c));
+    const double t4 = ((t11 > 1.0) ? (1.0) : (t11));
+    const double t5 = t0*t0;
+    const double t6 = t1*t1;
+    const double t7 = t0*t1;
+    const double t8 = t5*t6;
+    return (-(1.0/768.0)*t3*t4*(-45.0*t5 - 45.0*t6 + 256.0*t7 + 135.0*t8 + 207.0) + ((1.0/2.0))*t3*(t2*t7*lambert_sphere_const_d(t4) + t2*lambert_sphere_const_b(t4) + t4*t8*((15.0/128.0) - (15.0/128.0)*t4)*(((4.0/3.0))*t4 + 3.0) + ((69.0/128.0))*t4 + t7*lambert_sphere_const_c(t4) + (t5 + t6)*lambert_sphere_const_f(t4))*lambert_sphere_h0(t0, t4)*lambert_sphere_h0(t1, t4))/((t2 < (1.0/1000000.0)) ? ((1.0/1000000.0)) : (t2));
 }
 
 double lambert_sphere_fm1(double mu_i, double mu_o, double c)
 {
-    const double t0 = mu_i + mu_o;
-    const double t1 = mu_i*mu_o;
-    const double t2 = 1.0/3.141592653589793238;
-    const double t3 = sqrt((1.0 - mu_i*mu_i)*(1.0 - mu_o*mu_o));
-    const double t4 = lambert_sphere_const_l(c);
-    return (-(1.0/192.0)*c*t2*t3*(45.0*t1 + 64.0) + ((1.0/3.0))*c*t2*t3*(t0*t4 + t1*(t4*t4 + ((45.0/64.0))*lambert_sphere_const_m(c)) + 1.0)*lambert_sphere_h1(mu_i, c)*lambert_sphere_h1(mu_o, c))/fmax((1.0/1000000.0), t0);
+    const double t8 = ((mu_i < 0.0) ? (0.0) : (mu_i));
+    const double t0 = ((t8 > 1.0) ? (1.0) : (t8));
+    const double t9 = ((mu_o < 0.0) ? (0.0) : (mu_o));
+    const double t1 = ((t9 > 1.0) ? (1.0) : (t9));
+    const double t2 = t0 + t1;
+    const double t3 = t0*t1;
+    const double t4 = 1.0/3.141592653589793238;
+    const double t5 = sqrt((1.0 - t0*t0)*(1.0 - t1*t1));
+    const double t10 = ((c < 0.0) ? (0.0) : (c));
+    const double t6 = ((t10 > 1.0) ? (1.0) : (t10));
+    const double t7 = lambert_sphere_const_l(t6);
+    return (-(1.0/192.0)*t4*t5*t6*(45.0*t3 + 64.0) + ((1.0/3.0))*t4*t5*t6*(t2*t7 + t3*(t7*t7 + ((45.0/64.0))*lambert_sphere_const_m(t6)) + 1.0)*lambert_sphere_h1(t0, t6)*lambert_sphere_h1(t1, t6))/((t2 < (1.0/1000000.0)) ? ((1.0/1000000.0)) : (t2));
 }
 
 double lambert_sphere_brdf(double mu_i, double mu_o, double cos_phi, double c)
 {
-    const double t0 = fmin(1.0, fmax(0.0, mu_i));
-    const double t1 = fmin(1.0, fmax(0.0, mu_o));
-    const double t2 = fmin(1.0, fmax(0.0, c));
-    const double t3 = fmin(1.0, fmax(-1.0, cos_phi));
-    return fmax(0.0, t3*lambert_sphere_fm1(t0, t1, t2) + lambert_sphere_fm0(t0, t1, t2) + lambert_sphere_single(t0, t1, t3, t2));
+    const double t4 = ((mu_i < 0.0) ? (0.0) : (mu_i));
+    const double t0 = ((t4 > 1.0) ? (1.0) : (t4));
+    const double t5 = ((mu_o < 0.0) ? (0.0) : (mu_o));
+    const double t1 = ((t5 > 1.0) ? (1.0) : (t5));
+    const double t6 = ((c < 0.0) ? (0.0) : (c));
+    const double t2 = ((t6 > 1.0) ? (1.0) : (t6));
+    const double t7 = ((cos_phi < -1.0) ? (-1.0) : (cos_phi));
+    const double t3 = ((t7 > 1.0) ? (1.0) : (t7));
+    const double t8 = t3*lambert_sphere_fm1(t0, t1, t2) + lambert_sphere_fm0(t0, t1, t2) + lambert_sphere_single(t0, t1, t3, t2);
+    return ((t8 < 0.0) ? (0.0) : (t8));
 }
 
 double lambert_sphere_brdf_fast(double mu_i, double mu_o, double cos_phi, double c, double kd)
 {
-    const double t0 = fmin(1.0, fmax(0.0, mu_i));
-    const double t1 = fmin(1.0, fmax(0.0, mu_o));
-    const double t2 = fmin(1.0, fmax(-1.0, cos_phi));
-    const double t3 = fmin(1.0, fmax(0.0, c));
+    const double t5 = ((mu_i < 0.0) ? (0.0) : (mu_i));
+    const double t0 = ((t5 > 1.0) ? (1.0) : (t5));
+    const double t6 = ((mu_o < 0.0) ? (0.0) : (mu_o));
+    const double t1 = ((t6 > 1.0) ? (1.0) : (t6));
+    const double t7 = ((cos_phi < -1.0) ? (-1.0) : (cos_phi));
+    const double t2 = ((t7 > 1.0) ? (1.0) : (t7));
+    const double t8 = ((c < 0.0) ? (0.0) : (c));
+    const double t3 = ((t8 > 1.0) ? (1.0) : (t8));
     const double t4 = sqrt((1.0 - t0*t0)*(1.0 - t1*t1));
-    return fmax(0.0, 0.0002960293020859936*t4*(t3 - 0.005114435840591982)*(sqrt(t0)*sqrt(t1) + acos(t2))/(0.03949778634318503*t4 + acos(t4)) + lambert_sphere_single(t0, t1, t2, t3) + 0.24146093005575472*lambert_sphere_safe_pow(fmin(1.0, fmax(0.0, kd)), 1.652000584354108));
+    const double t9 = ((kd < 0.0) ? (0.0) : (kd));
+    const double t10 = 0.0002960293020859936*t4*(t3 - 0.005114435840591982)*(sqrt(t0)*sqrt(t1) + acos(t2))/(0.03949778634318503*t4 + acos(t4)) + lambert_sphere_single(t0, t1, t2, t3) + 0.24146093005575472*lambert_sphere_safe_pow(((t9 > 1.0) ? (1.0) : (t9)), 1.652000584354108);
+    return ((t10 < 0.0) ? (0.0) : (t10));
 }
 
 double lambert_sphere_brdf_local(const double wi[3], const double wo[3], double c)
 {
-    return ((wi[2] < 0.0 || wo[2] < 0.0) ? (0.0) : (lambert_sphere_brdf(wi[2], wo[2], (wi[0]*wo[0] + wi[1]*wo[1])/sqrt(fmax((1.0/1000000000000000000000000000000.0), (wi[0]*wi[0] + wi[1]*wi[1])*(wo[0]*wo[0] + wo[1]*wo[1]))), c)));
+    const double t6 = ((wi[2] < -1.0) ? (-1.0) : (wi[2]));
+    const double t0 = ((t6 > 1.0) ? (1.0) : (t6));
+    const double t7 = ((wo[2] < -1.0) ? (-1.0) : (wo[2]));
+    const double t1 = ((t7 > 1.0) ? (1.0) : (t7));
+    const double t8 = ((wi[0] < -1.0) ? (-1.0) : (wi[0]));
+    const double t2 = ((t8 > 1.0) ? (1.0) : (t8));
+    const double t9 = ((wo[0] < -1.0) ? (-1.0) : (wo[0]));
+    const double t3 = ((t9 > 1.0) ? (1.0) : (t9));
+    const double t10 = ((wi[1] < -1.0) ? (-1.0) : (wi[1]));
+    const double t4 = ((t10 > 1.0) ? (1.0) : (t10));
+    const double t11 = ((wo[1] < -1.0) ? (-1.0) : (wo[1]));
+    const double t5 = ((t11 > 1.0) ? (1.0) : (t11));
+    const double t12 = (t2*t2 + t4*t4)*(t3*t3 + t5*t5);
+    const double t13 = ((c < 0.0) ? (0.0) : (c));
+    return ((t0 < 0.0) ? (0.0) : (1.0))*((t1 < 0.0) ? (0.0) : (1.0))*lambert_sphere_brdf(t0, t1, (t2*t3 + t4*t5)/sqrt(((t12 < (1.0/1000000000000000000000000000000.0)) ? ((1.0/1000000000000000000000000000000.0)) : (t12))), ((t13 > 1.0) ? (1.0) : (t13)));
 }
 
 double lambert_sphere_brdf_fast_local(const double wi[3], const double wo[3], double c, double kd)
 {
-    return ((wi[2] < 0.0 || wo[2] < 0.0) ? (0.0) : (lambert_sphere_brdf_fast(wi[2], wo[2], (wi[0]*wo[0] + wi[1]*wo[1])/sqrt(fmax((1.0/1000000000000000000000000000000.0), (wi[0]*wi[0] + wi[1]*wi[1])*(wo[0]*wo[0] + wo[1]*wo[1]))), c, kd)));
+    const double t6 = ((wi[2] < -1.0) ? (-1.0) : (wi[2]));
+    const double t0 = ((t6 > 1.0) ? (1.0) : (t6));
+    const double t7 = ((wo[2] < -1.0) ? (-1.0) : (wo[2]));
+    const double t1 = ((t7 > 1.0) ? (1.0) : (t7));
+    const double t8 = ((wi[0] < -1.0) ? (-1.0) : (wi[0]));
+    const double t2 = ((t8 > 1.0) ? (1.0) : (t8));
+    const double t9 = ((wo[0] < -1.0) ? (-1.0) : (wo[0]));
+    const double t3 = ((t9 > 1.0) ? (1.0) : (t9));
+    const double t10 = ((wi[1] < -1.0) ? (-1.0) : (wi[1]));
+    const double t4 = ((t10 > 1.0) ? (1.0) : (t10));
+    const double t11 = ((wo[1] < -1.0) ? (-1.0) : (wo[1]));
+    const double t5 = ((t11 > 1.0) ? (1.0) : (t11));
+    const double t12 = (t2*t2 + t4*t4)*(t3*t3 + t5*t5);
+    const double t13 = ((c < 0.0) ? (0.0) : (c));
+    const double t14 = ((kd < 0.0) ? (0.0) : (kd));
+    return ((t0 < 0.0) ? (0.0) : (1.0))*((t1 < 0.0) ? (0.0) : (1.0))*lambert_sphere_brdf_fast(t0, t1, (t2*t3 + t4*t5)/sqrt(((t12 < (1.0/1000000000000000000000000000000.0)) ? ((1.0/1000000000000000000000000000000.0)) : (t12))), ((t13 > 1.0) ? (1.0) : (t13)), ((t14 > 1.0) ? (1.0) : (t14)));
 }
 
 float lambert_sphere_h0_f(float mu, float c)
 {
-    const float t0 = sqrtf(1.0F - c);
-    const float t1 = (3.83053275F*lambert_sphere_safe_pow_f(t0, 14.9412122F) + 8.19214852F)*lambert_sphere_safe_pow_f(mu, (7.68507284F - 0.428190449F*lambert_sphere_safe_pow_f(t0, 0.932104318F))/(8.65912F - 1.64390244F*lambert_sphere_safe_pow_f(t0, 24.2014223F)));
-    return (t1/(4.17593F - 1.30372456F*t0) + 1.0F)/(t0*t1*sqrtf((16.0F - c)*(4.0F*c + 9.0F))/(50.11116F - 15.6446947F*t0) + 1.0F);
+    const float t3 = ((c < 0.0F) ? (0.0F) : (c));
+    const float t0 = ((t3 > 1.0F) ? (1.0F) : (t3));
+    const float t1 = sqrtf(1.0F - t0);
+    const float t4 = ((mu < 0.0F) ? (0.0F) : (mu));
+    const float t2 = (3.83053275F*lambert_sphere_safe_pow_f(t1, 14.9412122F) + 8.19214852F)*lambert_sphere_safe_pow_f(((t4 > 1.0F) ? (1.0F) : (t4)), (7.68507284F - 0.428190449F*lambert_sphere_safe_pow_f(t1, 0.932104318F))/(8.65912F - 1.64390244F*lambert_sphere_safe_pow_f(t1, 24.2014223F)));
+    return (t2/(4.17593F - 1.30372456F*t1) + 1.0F)/(t1*t2*sqrtf(16.0F - t0)*sqrtf(4.0F*t0 + 9.0F)/(50.11116F - 15.6446947F*t1) + 1.0F);
 }
 
 float lambert_sphere_h1_f(float mu, float c)
 {
-    return expf((0.0188208248F*c*c - 0.138072631F*c)*lambert_sphere_safe_pow_f(mu, -3.22321805F*mu*mu*mu + 4.18964249F*mu*mu - 1.80300249F*mu + 0.494316676F));
+    const float t2 = ((c < 0.0F) ? (0.0F) : (c));
+    const float t0 = ((t2 > 1.0F) ? (1.0F) : (t2));
+    const float t3 = ((mu < 0.0F) ? (0.0F) : (mu));
+    const float t1 = ((t3 > 1.0F) ? (1.0F) : (t3));
+    return expf((0.0188208248F*t0*t0 - 0.138072631F*t0)*lambert_sphere_safe_pow_f(t1, -3.22321805F*t1*t1*t1 + 4.18964249F*t1*t1 - 1.80300249F*t1 + 0.494316676F));
 }
 
 float lambert_sphere_const_l_f(float c)
 {
-    return -0.00493920571F*c*c - 0.058722448F*c;
+    const float t1 = ((c < 0.0F) ? (0.0F) : (c));
+    const float t0 = ((t1 > 1.0F) ? (1.0F) : (t1));
+    return -0.00493920571F*t0*t0 - 0.058722448F*t0;
 }
 
 float lambert_sphere_const_m_f(float c)
 {
-    return 0.439895256F*c + 1.0F;
+    const float t0 = ((c < 0.0F) ? (0.0F) : (c));
+    return 0.439895256F*((t0 > 1.0F) ? (1.0F) : (t0)) + 1.0F;
 }
 
 float lambert_sphere_const_b_f(float c)
 {
-    const float t0 = sqrtf(1.0F - c);
-    return c*(0.341512922F*c + 0.425396195F*t0 - 0.425027382F)/((t0 + 1.0F)*(-0.317819951F*c - 0.819592395F*t0 + 1.31781995F));
+    const float t2 = ((c < 0.0F) ? (0.0F) : (c));
+    const float t0 = ((t2 > 1.0F) ? (1.0F) : (t2));
+    const float t1 = sqrtf(1.0F - t0);
+    return t0*(0.341512922F*t0 + 0.425396195F*t1 - 0.425027382F)/((t1 + 1.0F)*(-0.317819951F*t0 - 0.819592395F*t1 + 1.31781995F));
 }
 
 float lambert_sphere_const_c_f(float c)
 {
-    const float t0 = sqrtf(1.0F - c);
-    return c*(-0.966377315F*c - 0.323881647F*t0 + 1.08388787F)/((t0 + 1.0F)*(-0.227141899F*c - 0.656619743F*t0 + 1.2271419F));
+    const float t2 = ((c < 0.0F) ? (0.0F) : (c));
+    const float t0 = ((t2 > 1.0F) ? (1.0F) : (t2));
+    const float t1 = sqrtf(1.0F - t0);
+    return t0*(-0.966377315F*t0 - 0.323881647F*t1 + 1.08388787F)/((t1 + 1.0F)*(-0.227141899F*t0 - 0.656619743F*t1 + 1.2271419F));
 }
 
 float lambert_sphere_const_d_f(float c)
 {
-    const float t0 = sqrtf(1.0F - c);
-    return c*(0.23105932F*c + 0.228796944F*t0 - 0.230697791F)/((t0 + 1.0F)*(-1.28613566F*c - 0.838723726F*t0 + 2.28613566F));
+    const float t2 = ((c < 0.0F) ? (0.0F) : (c));
+    const float t0 = ((t2 > 1.0F) ? (1.0F) : (t2));
+    const float t1 = sqrtf(1.0F - t0);
+    return t0*(0.23105932F*t0 + 0.228796944F*t1 - 0.230697791F)/((t1 + 1.0F)*(-1.28613566F*t0 - 0.838723726F*t1 + 2.28613566F));
 }
 
 float lambert_sphere_const_f_f(float c)
 {
-    const float t0 = sqrtf(1.0F - c);
-    return c*(0.029805005F*c - 0.174593332F*t0 - 0.029783257F)/((t0 + 1.0F)*(-0.196472671F*c - 0.324777525F*t0 + 1.19647267F));
+    const float t2 = ((c < 0.0F) ? (0.0F) : (c));
+    const float t0 = ((t2 > 1.0F) ? (1.0F) : (t2));
+    const float t1 = sqrtf(1.0F - t0);
+    return t0*(0.029805005F*t0 - 0.174593332F*t1 - 0.029783257F)/((t1 + 1.0F)*(-0.196472671F*t0 - 0.324777525F*t1 + 1.19647267F));
 }
 
 float lambert_sphere_c_of_kd_f(float kd)
 {
-    const float t0 = 1.0F - kd;
-    return ((kd < (1.0F/2.0F)) ? (-expm1f(2.87757889F*log1pf(-fminf((1.0F/2.0F), kd)))) : (1.0F - 1.0F*lambert_sphere_safe_pow_f(t0, 2.87757889F)))/(1.0F - 0.11899098F*lambert_sphere_safe_pow_f(t0, 2.56927963F));
+    const float t0 = ((kd < 0.0F) ? (0.0F) : (kd));
+    const float t1 = ((t0 > 1.0F) ? (1.0F) : (t0));
+    const float t2 = 1.0F - t1;
+    return ((t1 < (1.0F/2.0F)) ? (-expm1f(2.87757889F*log1pf(-((t0 > (1.0F/2.0F)) ? ((1.0F/2.0F)) : (t0))))) : (1.0F - 1.0F*lambert_sphere_safe_pow_f(t2, 2.87757889F)))/(1.0F - 0.11899098F*lambert_sphere_safe_pow_f(t2, 2.56927963F));
 }
 
 float lambert_sphere_kd_of_c_f(float c)
 {
-    const float t0 = sqrtf(1.0F - c);
-    return c*(0.650354282F*t0 + 1.0F)/((t0 + 1.0F)*(1.68797172F*t0 + 1.0F));
+    const float t2 = ((c < 0.0F) ? (0.0F) : (c));
+    const float t0 = ((t2 > 1.0F) ? (1.0F) : (t2));
+    const float t1 = sqrtf(1.0F - t0);
+    return t0*(0.650354282F*t1 + 1.0F)/((t1 + 1.0F)*(1.68797172F*t1 + 1.0F));
 }
 
 float lambert_sphere_single_f(float mu_i, float mu_o, float cos_phi, float c)
 {
-    const float t0 = fmaxf(-1.0F, fminf(1.0F, -cos_phi*sqrtf((1.0F - mu_i*mu_i)*(1.0F - mu_o*mu_o)) - mu_i*mu_o));
-    return ((1.0F/3.0F))*c*(-2.0F*t0*acosf(t0) + 2.0F*sqrtf(fmaxf(0.0F, 1.0F - t0*t0)))/(3.141592653589793238F*3.141592653589793238F*fmaxf((1.0F/1000000.0F), mu_i + mu_o));
+    const float t3 = ((mu_i < 0.0F) ? (0.0F) : (mu_i));
+    const float t0 = ((t3 > 1.0F) ? (1.0F) : (t3));
+    const float t4 = ((mu_o < 0.0F) ? (0.0F) : (mu_o));
+    const float t1 = ((t4 > 1.0F) ? (1.0F) : (t4));
+    const float t5 = ((cos_phi < -1.0F) ? (-1.0F) : (cos_phi));
+    const float t6 = -t0*t1 - sqrtf((1.0F - t0*t0)*(1.0F - t1*t1))*((t5 > 1.0F) ? (1.0F) : (t5));
+    const float t7 = ((t6 > 1.0F) ? (1.0F) : (t6));
+    const float t2 = ((t7 < -1.0F) ? (-1.0F) : (t7));
+    const float t8 = t0 + t1;
+    const float t9 = 1.0F - t2*t2;
+    const float t10 = ((c < 0.0F) ? (0.0F) : (c));
+    return ((1.0F/3.0F))*(-2.0F*t2*acosf(t2) + 2.0F*sqrtf(((t9 < 0.0F) ? (0.0F) : (t9))))*((t10 > 1.0F) ? (1.0F) : (t10))/(3.141592653589793238F*3.141592653589793238F*((t8 < (1.0F/1000000.0F)) ? ((1.0F/1000000.0F)) : (t8)));
 }
 
 float lambert_sphere_fm0_f(float mu_i, float mu_o, float c)
 {
-    const float t0 = mu_i + mu_o;
-    const float t1 = 1.0F/3.141592653589793238F;
-    const float t2 = mu_i*mu_o;
-    const float t3 = mu_i*mu_i;
-    const float t4 = mu_o*mu_o;
-    const float t5 = t3*t4;
-    return (-(1.0F/768.0F)*c*t1*(256.0F*t2 - 45.0F*t3 - 45.0F*t4 + 135.0F*t5 + 207.0F) + ((1.0F/2.0F))*t1*(c*t5*((15.0F/128.0F) - (15.0F/128.0F)*c)*(((4.0F/3.0F))*c + 3.0F) + ((69.0F/128.0F))*c + t0*t2*lambert_sphere_const_d_f(c) + t0*lambert_sphere_const_b_f(c) + t2*lambert_sphere_const_c_f(c) + (t3 + t4)*lambert_sphere_const_f_f(c))*lambert_sphere_h0_f(mu_i, c)*lambert_sphere_h0_f(mu_o, c))/fmaxf((1.0F/1000000.0F), t0);
+    const float t9 = ((mu_i < 0.0F) ? (0.0F) : (mu_i));
+    const float t0 = ((t9 > 1.0F) ? (1.0F) : (t9));
+    const float t10 = ((mu_o < 0.0F) ? (0.0F) : (mu_o));
+    const float t1 = ((t10 > 1.0F) ? (1.0F) : (t10));
+    const float t2 = t0 + t1;
+    const float t3 = 1.0F/3.141592653589793238F;
+    const float t11 = ((c < 0.0F) ? (0.0F) : (c));
+    const float t4 = ((t11 > 1.0F) ? (1.0F) : (t11));
+    const float t5 = t0*t0;
+    const float t6 = t1*t1;
+    const float t7 = t0*t1;
+    const float t8 = t5*t6;
+    return (-(1.0F/768.0F)*t3*t4*(-45.0F*t5 - 45.0F*t6 + 256.0F*t7 + 135.0F*t8 + 207.0F) + ((1.0F/2.0F))*t3*(t2*t7*lambert_sphere_const_d_f(t4) + t2*lambert_sphere_const_b_f(t4) + t4*t8*((15.0F/128.0F) - (15.0F/128.0F)*t4)*(((4.0F/3.0F))*t4 + 3.0F) + ((69.0F/128.0F))*t4 + t7*lambert_sphere_const_c_f(t4) + (t5 + t6)*lambert_sphere_const_f_f(t4))*lambert_sphere_h0_f(t0, t4)*lambert_sphere_h0_f(t1, t4))/((t2 < (1.0F/1000000.0F)) ? ((1.0F/1000000.0F)) : (t2));
 }
 
 float lambert_sphere_fm1_f(float mu_i, float mu_o, float c)
 {
-    const float t0 = mu_i + mu_o;
-    const float t1 = mu_i*mu_o;
-    const float t2 = 1.0F/3.141592653589793238F;
-    const float t3 = sqrtf((1.0F - mu_i*mu_i)*(1.0F - mu_o*mu_o));
-    const float t4 = lambert_sphere_const_l_f(c);
-    return (-(1.0F/192.0F)*c*t2*t3*(45.0F*t1 + 64.0F) + ((1.0F/3.0F))*c*t2*t3*(t0*t4 + t1*(t4*t4 + ((45.0F/64.0F))*lambert_sphere_const_m_f(c)) + 1.0F)*lambert_sphere_h1_f(mu_i, c)*lambert_sphere_h1_f(mu_o, c))/fmaxf((1.0F/1000000.0F), t0);
+    const float t8 = ((mu_i < 0.0F) ? (0.0F) : (mu_i));
+    const float t0 = ((t8 > 1.0F) ? (1.0F) : (t8));
+    const float t9 = ((mu_o < 0.0F) ? (0.0F) : (mu_o));
+    const float t1 = ((t9 > 1.0F) ? (1.0F) : (t9));
+    const float t2 = t0 + t1;
+    const float t3 = t0*t1;
+    const float t4 = 1.0F/3.141592653589793238F;
+    const float t5 = sqrtf((1.0F - t0*t0)*(1.0F - t1*t1));
+    const float t10 = ((c < 0.0F) ? (0.0F) : (c));
+    const float t6 = ((t10 > 1.0F) ? (1.0F) : (t10));
+    const float t7 = lambert_sphere_const_l_f(t6);
+    return (-(1.0F/192.0F)*t4*t5*t6*(45.0F*t3 + 64.0F) + ((1.0F/3.0F))*t4*t5*t6*(t2*t7 + t3*(t7*t7 + ((45.0F/64.0F))*lambert_sphere_const_m_f(t6)) + 1.0F)*lambert_sphere_h1_f(t0, t6)*lambert_sphere_h1_f(t1, t6))/((t2 < (1.0F/1000000.0F)) ? ((1.0F/1000000.0F)) : (t2));
 }
 
 float lambert_sphere_brdf_f(float mu_i, float mu_o, float cos_phi, float c)
 {
-    const float t0 = fminf(1.0F, fmaxf(0.0F, mu_i));
-    const float t1 = fminf(1.0F, fmaxf(0.0F, mu_o));
-    const float t2 = fminf(1.0F, fmaxf(0.0F, c));
-    const float t3 = fminf(1.0F, fmaxf(-1.0F, cos_phi));
-    return fmaxf(0.0F, t3*lambert_sphere_fm1_f(t0, t1, t2) + lambert_sphere_fm0_f(t0, t1, t2) + lambert_sphere_single_f(t0, t1, t3, t2));
+    const float t4 = ((mu_i < 0.0F) ? (0.0F) : (mu_i));
+    const float t0 = ((t4 > 1.0F) ? (1.0F) : (t4));
+    const float t5 = ((mu_o < 0.0F) ? (0.0F) : (mu_o));
+    const float t1 = ((t5 > 1.0F) ? (1.0F) : (t5));
+    const float t6 = ((c < 0.0F) ? (0.0F) : (c));
+    const float t2 = ((t6 > 1.0F) ? (1.0F) : (t6));
+    const float t7 = ((cos_phi < -1.0F) ? (-1.0F) : (cos_phi));
+    const float t3 = ((t7 > 1.0F) ? (1.0F) : (t7));
+    const float t8 = t3*lambert_sphere_fm1_f(t0, t1, t2) + lambert_sphere_fm0_f(t0, t1, t2) + lambert_sphere_single_f(t0, t1, t3, t2);
+    return ((t8 < 0.0F) ? (0.0F) : (t8));
 }
 
 float lambert_sphere_brdf_fast_f(float mu_i, float mu_o, float cos_phi, float c, float kd)
 {
-    const float t0 = fminf(1.0F, fmaxf(0.0F, mu_i));
-    const float t1 = fminf(1.0F, fmaxf(0.0F, mu_o));
-    const float t2 = fminf(1.0F, fmaxf(-1.0F, cos_phi));
-    const float t3 = fminf(1.0F, fmaxf(0.0F, c));
+    const float t5 = ((mu_i < 0.0F) ? (0.0F) : (mu_i));
+    const float t0 = ((t5 > 1.0F) ? (1.0F) : (t5));
+    const float t6 = ((mu_o < 0.0F) ? (0.0F) : (mu_o));
+    const float t1 = ((t6 > 1.0F) ? (1.0F) : (t6));
+    const float t7 = ((cos_phi < -1.0F) ? (-1.0F) : (cos_phi));
+    const float t2 = ((t7 > 1.0F) ? (1.0F) : (t7));
+    const float t8 = ((c < 0.0F) ? (0.0F) : (c));
+    const float t3 = ((t8 > 1.0F) ? (1.0F) : (t8));
     const float t4 = sqrtf((1.0F - t0*t0)*(1.0F - t1*t1));
-    return fmaxf(0.0F, 0.000296029302F*t4*(t3 - 0.00511443584F)*(sqrtf(t0)*sqrtf(t1) + acosf(t2))/(0.0394977863F*t4 + acosf(t4)) + lambert_sphere_single_f(t0, t1, t2, t3) + 0.24146093F*lambert_sphere_safe_pow_f(fminf(1.0F, fmaxf(0.0F, kd)), 1.65200058F));
+    const float t9 = ((kd < 0.0F) ? (0.0F) : (kd));
+    const float t10 = 0.000296029302F*t4*(t3 - 0.00511443584F)*(sqrtf(t0)*sqrtf(t1) + acosf(t2))/(0.0394977863F*t4 + acosf(t4)) + lambert_sphere_single_f(t0, t1, t2, t3) + 0.24146093F*lambert_sphere_safe_pow_f(((t9 > 1.0F) ? (1.0F) : (t9)), 1.65200058F);
+    return ((t10 < 0.0F) ? (0.0F) : (t10));
 }
 
 float lambert_sphere_brdf_local_f(const float wi[3], const float wo[3], float c)
 {
-    return ((wi[2] < 0.0F || wo[2] < 0.0F) ? (0.0F) : (lambert_sphere_brdf_f(wi[2], wo[2], (wi[0]*wo[0] + wi[1]*wo[1])/sqrtf(fmaxf((1.0F/1000000000000000000000000000000.0F), (wi[0]*wi[0] + wi[1]*wi[1])*(wo[0]*wo[0] + wo[1]*wo[1]))), c)));
+    const float t6 = ((wi[2] < -1.0F) ? (-1.0F) : (wi[2]));
+    const float t0 = ((t6 > 1.0F) ? (1.0F) : (t6));
+    const float t7 = ((wo[2] < -1.0F) ? (-1.0F) : (wo[2]));
+    const float t1 = ((t7 > 1.0F) ? (1.0F) : (t7));
+    const float t8 = ((wi[0] < -1.0F) ? (-1.0F) : (wi[0]));
+    const float t2 = ((t8 > 1.0F) ? (1.0F) : (t8));
+    const float t9 = ((wo[0] < -1.0F) ? (-1.0F) : (wo[0]));
+    const float t3 = ((t9 > 1.0F) ? (1.0F) : (t9));
+    const float t10 = ((wi[1] < -1.0F) ? (-1.0F) : (wi[1]));
+    const float t4 = ((t10 > 1.0F) ? (1.0F) : (t10));
+    const float t11 = ((wo[1] < -1.0F) ? (-1.0F) : (wo[1]));
+    const float t5 = ((t11 > 1.0F) ? (1.0F) : (t11));
+    const float t12 = (t2*t2 + t4*t4)*(t3*t3 + t5*t5);
+    const float t13 = ((c < 0.0F) ? (0.0F) : (c));
+    return ((t0 < 0.0F) ? (0.0F) : (1.0F))*((t1 < 0.0F) ? (0.0F) : (1.0F))*lambert_sphere_brdf_f(t0, t1, (t2*t3 + t4*t5)/sqrtf(((t12 < (1.0F/1000000000000000000000000000000.0F)) ? ((1.0F/1000000000000000000000000000000.0F)) : (t12))), ((t13 > 1.0F) ? (1.0F) : (t13)));
 }
 
 float lambert_sphere_brdf_fast_local_f(const float wi[3], const float wo[3], float c, float kd)
 {
-    return ((wi[2] < 0.0F || wo[2] < 0.0F) ? (0.0F) : (lambert_sphere_brdf_fast_f(wi[2], wo[2], (wi[0]*wo[0] + wi[1]*wo[1])/sqrtf(fmaxf((1.0F/1000000000000000000000000000000.0F), (wi[0]*wi[0] + wi[1]*wi[1])*(wo[0]*wo[0] + wo[1]*wo[1]))), c, kd)));
+    const float t6 = ((wi[2] < -1.0F) ? (-1.0F) : (wi[2]));
+    const float t0 = ((t6 > 1.0F) ? (1.0F) : (t6));
+    const float t7 = ((wo[2] < -1.0F) ? (-1.0F) : (wo[2]));
+    const float t1 = ((t7 > 1.0F) ? (1.0F) : (t7));
+    const float t8 = ((wi[0] < -1.0F) ? (-1.0F) : (wi[0]));
+    const float t2 = ((t8 > 1.0F) ? (1.0F) : (t8));
+    const float t9 = ((wo[0] < -1.0F) ? (-1.0F) : (wo[0]));
+    const float t3 = ((t9 > 1.0F) ? (1.0F) : (t9));
+    const float t10 = ((wi[1] < -1.0F) ? (-1.0F) : (wi[1]));
+    const float t4 = ((t10 > 1.0F) ? (1.0F) : (t10));
+    const float t11 = ((wo[1] < -1.0F) ? (-1.0F) : (wo[1]));
+    const float t5 = ((t11 > 1.0F) ? (1.0F) : (t11));
+    const float t12 = (t2*t2 + t4*t4)*(t3*t3 + t5*t5);
+    const float t13 = ((c < 0.0F) ? (0.0F) : (c));
+    const float t14 = ((kd < 0.0F) ? (0.0F) : (kd));
+    return ((t0 < 0.0F) ? (0.0F) : (1.0F))*((t1 < 0.0F) ? (0.0F) : (1.0F))*lambert_sphere_brdf_fast_f(t0, t1, (t2*t3 + t4*t5)/sqrtf(((t12 < (1.0F/1000000000000000000000000000000.0F)) ? ((1.0F/1000000000000000000000000000000.0F)) : (t12))), ((t13 > 1.0F) ? (1.0F) : (t13)), ((t14 > 1.0F) ? (1.0F) : (t14)));
 }

@@ -15,8 +15,8 @@
 //   fits/fast_brdf.json  88236703c7510cb5c1b581febb4ef8bfc82b4704a8bc02dd976905bdc8977b81
 // Float functions for GLSL 3.30 / ES 3.00 and later; paste or #include into a shader.
 
-// x^p for x > 0 and 0 otherwise: the forms' safe_pow (keeps pow away from x <= 0).
-float lambert_sphere_safe_pow(float x, float p) { return x > 0.0 ? pow(x, p) : 0.0; }
+// x^p for x > 0, 0 for x <= 0, NaN for NaN: the forms' safe_pow (keeps pow away from x <= 0).
+float lambert_sphere_safe_pow(float x, float p) { return ((x <= 0.0) ? (0.0) : (pow(((x <= 0.0) ? (1.0) : (x)), p))); }
 // log(1 + x) and exp(x) - 1 without cancellation near x = 0 (Kahan's tricks; GLSL lacks both).
 float lambert_sphere_log1p(float x) { float u = 1.0 + x; return u == 1.0 ? x : log(u) * x / (u - 1.0); }
 float lambert_sphere_expm1(float x)
@@ -33,9 +33,12 @@ float lambert_sphere_expm1(float x)
 // ratios. Validation: max relative error 4.84e-03, RMS 1.98e-03.
 float lambert_sphere_h0(float mu, float c)
 {
-    float t0 = sqrt(1.0 - c);
-    float t1 = (3.8305327514727012*lambert_sphere_safe_pow(t0, 14.941212175793074) + 8.19214852144955)*lambert_sphere_safe_pow(mu, (7.685072839712366 - 0.42819044883697743*lambert_sphere_safe_pow(t0, 0.9321043182422831))/(8.65912 - 1.643902438637549*lambert_sphere_safe_pow(t0, 24.201422329834347)));
-    return (t1/(4.17593 - 1.3037245568711244*t0) + 1.0)/(t0*t1*sqrt((16.0 - c)*(4.0*c + 9.0))/(50.11116 - 15.644694682453493*t0) + 1.0);
+    float t3 = ((c < 0.0) ? (0.0) : (c));
+    float t0 = ((t3 > 1.0) ? (1.0) : (t3));
+    float t1 = sqrt(1.0 - t0);
+    float t4 = ((mu < 0.0) ? (0.0) : (mu));
+    float t2 = (3.8305327514727012*lambert_sphere_safe_pow(t1, 14.941212175793074) + 8.19214852144955)*lambert_sphere_safe_pow(((t4 > 1.0) ? (1.0) : (t4)), (7.685072839712366 - 0.42819044883697743*lambert_sphere_safe_pow(t1, 0.9321043182422831))/(8.65912 - 1.643902438637549*lambert_sphere_safe_pow(t1, 24.201422329834347)));
+    return (t2/(4.17593 - 1.3037245568711244*t1) + 1.0)/(t1*t2*sqrt(16.0 - t0)*sqrt(4.0*t0 + 9.0)/(50.11116 - 15.644694682453493*t1) + 1.0);
 }
 
 // H1(mu, c), mu and c in [0, 1]; form separable: Separable H1 as the author's renderer
@@ -44,21 +47,28 @@ float lambert_sphere_h0(float mu, float c)
 // printed (rounded) coefficients. Validation: max relative error 2.02e-03, RMS 1.10e-03.
 float lambert_sphere_h1(float mu, float c)
 {
-    return exp((0.01882082482630519*c*c - 0.13807263067296432*c)*lambert_sphere_safe_pow(mu, -3.223218047565822*mu*mu*mu + 4.189642488540238*mu*mu - 1.8030024947250645*mu + 0.4943166764166247));
+    float t2 = ((c < 0.0) ? (0.0) : (c));
+    float t0 = ((t2 > 1.0) ? (1.0) : (t2));
+    float t3 = ((mu < 0.0) ? (0.0) : (mu));
+    float t1 = ((t3 > 1.0) ? (1.0) : (t3));
+    return exp((0.01882082482630519*t0*t0 - 0.13807263067296432*t0)*lambert_sphere_safe_pow(t1, -3.223218047565822*t1*t1*t1 + 4.189642488540238*t1*t1 - 1.8030024947250645*t1 + 0.4943166764166247));
 }
 
 // l(c) of f^(1) (eq. 22); form quadratic: l = l1 c + l2 c^2 (eq. 26); exact l(0) = 0.
 // Validation: max relative error 2.06e-03, RMS 1.20e-03.
 float lambert_sphere_const_l(float c)
 {
-    return -0.004939205708442875*c*c - 0.058722447997744905*c;
+    float t1 = ((c < 0.0) ? (0.0) : (c));
+    float t0 = ((t1 > 1.0) ? (1.0) : (t1));
+    return -0.004939205708442875*t0*t0 - 0.058722447997744905*t0;
 }
 
 // m(c) of f^(1) (eq. 22); form linear: m = 1 + m1 c (eq. 27); exact m(0) = 1. Validation: max
 // relative error 8.32e-04, RMS 5.92e-04.
 float lambert_sphere_const_m(float c)
 {
-    return 0.43989525562906495*c + 1.0;
+    float t0 = ((c < 0.0) ? (0.0) : (c));
+    return 0.43989525562906495*((t0 > 1.0) ? (1.0) : (t0)) + 1.0;
 }
 
 // B(c) of Q in f^(0) (eq. 30); form rational_3_2: B = (1 - s) P(s)/R(s), degrees 3/2 in s, R(0)
@@ -66,8 +76,10 @@ float lambert_sphere_const_m(float c)
 // built in. Validation: max relative error 5.96e-04, RMS 2.59e-04.
 float lambert_sphere_const_b(float c)
 {
-    float t0 = sqrt(1.0 - c);
-    return c*(0.34151292193316496*c + 0.42539619449220856*t0 - 0.42502738212912709)/((t0 + 1.0)*(-0.31781995145264474*c - 0.8195923954429231*t0 + 1.3178199514526447));
+    float t2 = ((c < 0.0) ? (0.0) : (c));
+    float t0 = ((t2 > 1.0) ? (1.0) : (t2));
+    float t1 = sqrt(1.0 - t0);
+    return t0*(0.34151292193316496*t0 + 0.42539619449220856*t1 - 0.42502738212912709)/((t1 + 1.0)*(-0.31781995145264474*t0 - 0.8195923954429231*t1 + 1.3178199514526447));
 }
 
 // C(c) of Q in f^(0) (eq. 30); form rational_3_2: C = (1 - s) P(s)/R(s), degrees 3/2 in s, R(0)
@@ -75,8 +87,10 @@ float lambert_sphere_const_b(float c)
 // built in. Validation: max relative error 9.80e-04, RMS 4.36e-04.
 float lambert_sphere_const_c(float c)
 {
-    float t0 = sqrt(1.0 - c);
-    return c*(-0.9663773151448398*c - 0.32388164709149464*t0 + 1.0838878671403959)/((t0 + 1.0)*(-0.227141899506518*c - 0.6566197428676952*t0 + 1.227141899506518));
+    float t2 = ((c < 0.0) ? (0.0) : (c));
+    float t0 = ((t2 > 1.0) ? (1.0) : (t2));
+    float t1 = sqrt(1.0 - t0);
+    return t0*(-0.9663773151448398*t0 - 0.32388164709149464*t1 + 1.0838878671403959)/((t1 + 1.0)*(-0.227141899506518*t0 - 0.6566197428676952*t1 + 1.227141899506518));
 }
 
 // D(c) of Q in f^(0) (eq. 30); form rational_3_2: D = (1 - s) P(s)/R(s), degrees 3/2 in s, R(0)
@@ -84,8 +98,10 @@ float lambert_sphere_const_c(float c)
 // built in. Validation: max relative error 1.07e-03, RMS 4.87e-04.
 float lambert_sphere_const_d(float c)
 {
-    float t0 = sqrt(1.0 - c);
-    return c*(0.23105932045840868*c + 0.2287969443732025*t0 - 0.23069779057206398)/((t0 + 1.0)*(-1.286135656793819*c - 0.8387237260643413*t0 + 2.286135656793819));
+    float t2 = ((c < 0.0) ? (0.0) : (c));
+    float t0 = ((t2 > 1.0) ? (1.0) : (t2));
+    float t1 = sqrt(1.0 - t0);
+    return t0*(0.23105932045840868*t0 + 0.2287969443732025*t1 - 0.23069779057206398)/((t1 + 1.0)*(-1.286135656793819*t0 - 0.8387237260643413*t1 + 2.286135656793819));
 }
 
 // F(c) of Q in f^(0) (eq. 30); form rational_3_2: F = (1 - s) P(s)/R(s), degrees 3/2 in s, R(0)
@@ -93,8 +109,10 @@ float lambert_sphere_const_d(float c)
 // built in. Validation: max relative error 6.75e-05, RMS 2.94e-05.
 float lambert_sphere_const_f(float c)
 {
-    float t0 = sqrt(1.0 - c);
-    return c*(0.029805005006246013*c - 0.17459333248007913*t0 - 0.029783256955795048)/((t0 + 1.0)*(-0.19647267114251268*c - 0.3247775246127321*t0 + 1.1964726711425127));
+    float t2 = ((c < 0.0) ? (0.0) : (c));
+    float t0 = ((t2 > 1.0) ? (1.0) : (t2));
+    float t1 = sqrt(1.0 - t0);
+    return t0*(0.029805005006246013*t0 - 0.17459333248007913*t1 - 0.029783256955795048)/((t1 + 1.0)*(-0.19647267114251268*t0 - 0.3247775246127321*t1 + 1.1964726711425127));
 }
 
 // c(kd): inverse of kd_true, kd in [0, 1]; form rational_power: c = (1 - a (1-kd)^p)/(1 - b
@@ -102,8 +120,10 @@ float lambert_sphere_const_f(float c)
 // c(1) = 1 for every parameter value. Validation: max relative error 1.13e-02, RMS 6.53e-03.
 float lambert_sphere_c_of_kd(float kd)
 {
-    float t0 = 1.0 - kd;
-    return ((kd < (1.0/2.0)) ? (-lambert_sphere_expm1(2.8775788936624416*lambert_sphere_log1p(-min((1.0/2.0), kd)))) : (1.0 - 1.0*lambert_sphere_safe_pow(t0, 2.8775788936624416)))/(1.0 - 0.11899098002850213*lambert_sphere_safe_pow(t0, 2.5692796349372196));
+    float t0 = ((kd < 0.0) ? (0.0) : (kd));
+    float t1 = ((t0 > 1.0) ? (1.0) : (t0));
+    float t2 = 1.0 - t1;
+    return ((t1 < (1.0/2.0)) ? (-lambert_sphere_expm1(2.8775788936624416*lambert_sphere_log1p(-((t0 > (1.0/2.0)) ? ((1.0/2.0)) : (t0))))) : (1.0 - 1.0*lambert_sphere_safe_pow(t2, 2.8775788936624416)))/(1.0 - 0.11899098002850213*lambert_sphere_safe_pow(t2, 2.5692796349372196));
 }
 
 // kd(c): spherical albedo of fitlab.exact.brdf (kd_true), c in [0, 1]; form printed_c0: kd = (1
@@ -111,77 +131,143 @@ float lambert_sphere_c_of_kd(float kd)
 // Validation: max relative error 8.71e-03, RMS 5.25e-03.
 float lambert_sphere_kd_of_c(float c)
 {
-    float t0 = sqrt(1.0 - c);
-    return c*(0.65035428162017445*t0 + 1.0)/((t0 + 1.0)*(1.6879717175153437*t0 + 1.0));
+    float t2 = ((c < 0.0) ? (0.0) : (c));
+    float t0 = ((t2 > 1.0) ? (1.0) : (t2));
+    float t1 = sqrt(1.0 - t0);
+    return t0*(0.65035428162017445*t1 + 1.0)/((t1 + 1.0)*(1.6879717175153437*t1 + 1.0));
 }
 
 // Single scattering with the true phase function, c p(u)/(mu_i + mu_o), u = -(mu_i mu_o + S cos
 // phi) (eq. 10). Pole floored at 1e-6.
 float lambert_sphere_single(float mu_i, float mu_o, float cos_phi, float c)
 {
-    float t0 = max(-1.0, min(1.0, -cos_phi*sqrt((1.0 - mu_i*mu_i)*(1.0 - mu_o*mu_o)) - mu_i*mu_o));
-    return ((1.0/3.0))*c*(-2.0*t0*acos(t0) + 2.0*sqrt(max(0.0, 1.0 - t0*t0)))/(3.141592653589793238*3.141592653589793238*max((1.0/1000000.0), mu_i + mu_o));
+    float t3 = ((mu_i < 0.0) ? (0.0) : (mu_i));
+    float t0 = ((t3 > 1.0) ? (1.0) : (t3));
+    float t4 = ((mu_o < 0.0) ? (0.0) : (mu_o));
+    float t1 = ((t4 > 1.0) ? (1.0) : (t4));
+    float t5 = ((cos_phi < -1.0) ? (-1.0) : (cos_phi));
+    float t6 = -t0*t1 - sqrt((1.0 - t0*t0)*(1.0 - t1*t1))*((t5 > 1.0) ? (1.0) : (t5));
+    float t7 = ((t6 > 1.0) ? (1.0) : (t6));
+    float t2 = ((t7 < -1.0) ? (-1.0) : (t7));
+    float t8 = t0 + t1;
+    float t9 = 1.0 - t2*t2;
+    float t10 = ((c < 0.0) ? (0.0) : (c));
+    return ((1.0/3.0))*(-2.0*t2*acos(t2) + 2.0*sqrt(((t9 < 0.0) ? (0.0) : (t9))))*((t10 > 1.0) ? (1.0) : (t10))/(3.141592653589793238*3.141592653589793238*((t8 < (1.0/1000000.0)) ? ((1.0/1000000.0)) : (t8)));
 }
 
 // Multiple scattering, Fourier order 0: fm0 = (H0 H0 Q/(2 pi) - n0_ss)/(mu_i + mu_o) (eqs. 30,
 // 38). Pole floored at 1e-6.
 float lambert_sphere_fm0(float mu_i, float mu_o, float c)
 {
-    float t0 = mu_i + mu_o;
-    float t1 = 1.0/3.141592653589793238;
-    float t2 = mu_i*mu_o;
-    float t3 = mu_i*mu_i;
-    float t4 = mu_o*mu_o;
-    float t5 = t3*t4;
-    return (-(1.0/768.0)*c*t1*(256.0*t2 - 45.0*t3 - 45.0*t4 + 135.0*t5 + 207.0) + ((1.0/2.0))*t1*(c*t5*((15.0/128.0) - (15.0/128.0)*c)*(((4.0/3.0))*c + 3.0) + ((69.0/128.0))*c + t0*t2*lambert_sphere_const_d(c) + t0*lambert_sphere_const_b(c) + t2*lambert_sphere_const_c(c) + (t3 + t4)*lambert_sphere_const_f(c))*lambert_sphere_h0(mu_i, c)*lambert_sphere_h0(mu_o, c))/max((1.0/1000000.0), t0);
+    float t9 = ((mu_i < 0.0) ? (0.0) : (mu_i));
+    float t0 = ((t9 > 1.0) ? (1.0) : (t9));
+    float t10 = ((mu_o < 0.0) ? (0.0) : (mu_o));
+    float t1 = ((t10 > 1.0) ? (1.0) : (t10));
+    float t2 = t0 + t1;
+    float t3 = 1.0/3.141592653589793238;
+    float t11 = ((c < 0.0) ? (0.0) : (c));
+    float t4 = ((t11 > 1.0) ? (1.0) : (t11));
+    float t5 = t0*t0;
+    float t6 = t1*t1;
+    float t7 = t0*t1;
+    float t8 = t5*t6;
+    return (-(1.0/768.0)*t3*t4*(-45.0*t5 - 45.0*t6 + 256.0*t7 + 135.0*t8 + 207.0) + ((1.0/2.0))*t3*(t2*t7*lambert_sphere_const_d(t4) + t2*lambert_sphere_const_b(t4) + t4*t8*((15.0/128.0) - (15.0/128.0)*t4)*(((4.0/3.0))*t4 + 3.0) + ((69.0/128.0))*t4 + t7*lambert_sphere_const_c(t4) + (t5 + t6)*lambert_sphere_const_f(t4))*lambert_sphere_h0(t0, t4)*lambert_sphere_h0(t1, t4))/((t2 < (1.0/1000000.0)) ? ((1.0/1000000.0)) : (t2));
 }
 
 // Multiple scattering, Fourier order 1 (coefficient of cos phi): fm1 of eq. 22 minus its single
 // scattering, exact normalisations 3 pi and 192 pi (docs/errata.md). Pole floored at 1e-6.
 float lambert_sphere_fm1(float mu_i, float mu_o, float c)
 {
-    float t0 = mu_i + mu_o;
-    float t1 = mu_i*mu_o;
-    float t2 = 1.0/3.141592653589793238;
-    float t3 = sqrt((1.0 - mu_i*mu_i)*(1.0 - mu_o*mu_o));
-    float t4 = lambert_sphere_const_l(c);
-    return (-(1.0/192.0)*c*t2*t3*(45.0*t1 + 64.0) + ((1.0/3.0))*c*t2*t3*(t0*t4 + t1*(t4*t4 + ((45.0/64.0))*lambert_sphere_const_m(c)) + 1.0)*lambert_sphere_h1(mu_i, c)*lambert_sphere_h1(mu_o, c))/max((1.0/1000000.0), t0);
+    float t8 = ((mu_i < 0.0) ? (0.0) : (mu_i));
+    float t0 = ((t8 > 1.0) ? (1.0) : (t8));
+    float t9 = ((mu_o < 0.0) ? (0.0) : (mu_o));
+    float t1 = ((t9 > 1.0) ? (1.0) : (t9));
+    float t2 = t0 + t1;
+    float t3 = t0*t1;
+    float t4 = 1.0/3.141592653589793238;
+    float t5 = sqrt((1.0 - t0*t0)*(1.0 - t1*t1));
+    float t10 = ((c < 0.0) ? (0.0) : (c));
+    float t6 = ((t10 > 1.0) ? (1.0) : (t10));
+    float t7 = lambert_sphere_const_l(t6);
+    return (-(1.0/192.0)*t4*t5*t6*(45.0*t3 + 64.0) + ((1.0/3.0))*t4*t5*t6*(t2*t7 + t3*(t7*t7 + ((45.0/64.0))*lambert_sphere_const_m(t6)) + 1.0)*lambert_sphere_h1(t0, t6)*lambert_sphere_h1(t1, t6))/((t2 < (1.0/1000000.0)) ? ((1.0/1000000.0)) : (t2));
 }
 
 // The runtime Lambert-sphere BRDF (1/sr), max(0, single + fm0 + fm1 cos phi) (docs/model.md).
 // mu_i, mu_o in [0, 1], cos_phi in [-1, 1] (phi = 0 back-scattering), c the particle albedo in
-// [0, 1]; inputs outside are clamped.
+// [0, 1]; inputs outside (+-inf included) are clamped, NaN in any input gives NaN.
 float lambert_sphere_brdf(float mu_i, float mu_o, float cos_phi, float c)
 {
-    float t0 = min(1.0, max(0.0, mu_i));
-    float t1 = min(1.0, max(0.0, mu_o));
-    float t2 = min(1.0, max(0.0, c));
-    float t3 = min(1.0, max(-1.0, cos_phi));
-    return max(0.0, t3*lambert_sphere_fm1(t0, t1, t2) + lambert_sphere_fm0(t0, t1, t2) + lambert_sphere_single(t0, t1, t3, t2));
+    float t4 = ((mu_i < 0.0) ? (0.0) : (mu_i));
+    float t0 = ((t4 > 1.0) ? (1.0) : (t4));
+    float t5 = ((mu_o < 0.0) ? (0.0) : (mu_o));
+    float t1 = ((t5 > 1.0) ? (1.0) : (t5));
+    float t6 = ((c < 0.0) ? (0.0) : (c));
+    float t2 = ((t6 > 1.0) ? (1.0) : (t6));
+    float t7 = ((cos_phi < -1.0) ? (-1.0) : (cos_phi));
+    float t3 = ((t7 > 1.0) ? (1.0) : (t7));
+    float t8 = t3*lambert_sphere_fm1(t0, t1, t2) + lambert_sphere_fm0(t0, t1, t2) + lambert_sphere_single(t0, t1, t3, t2);
+    return ((t8 < 0.0) ? (0.0) : (t8));
 }
 
 // The fast variant of the Lambert-sphere BRDF (eq. 41, refitted): max(0, f_1 + lobe(|phi|) + p4
-// kd^p5); kd = kd_of_c(c). Same domain as brdf, kd in [0, 1].
+// kd^p5); kd = kd_of_c(c). Same domain and policy as brdf, kd in [0, 1].
 float lambert_sphere_brdf_fast(float mu_i, float mu_o, float cos_phi, float c, float kd)
 {
-    float t0 = min(1.0, max(0.0, mu_i));
-    float t1 = min(1.0, max(0.0, mu_o));
-    float t2 = min(1.0, max(-1.0, cos_phi));
-    float t3 = min(1.0, max(0.0, c));
+    float t5 = ((mu_i < 0.0) ? (0.0) : (mu_i));
+    float t0 = ((t5 > 1.0) ? (1.0) : (t5));
+    float t6 = ((mu_o < 0.0) ? (0.0) : (mu_o));
+    float t1 = ((t6 > 1.0) ? (1.0) : (t6));
+    float t7 = ((cos_phi < -1.0) ? (-1.0) : (cos_phi));
+    float t2 = ((t7 > 1.0) ? (1.0) : (t7));
+    float t8 = ((c < 0.0) ? (0.0) : (c));
+    float t3 = ((t8 > 1.0) ? (1.0) : (t8));
     float t4 = sqrt((1.0 - t0*t0)*(1.0 - t1*t1));
-    return max(0.0, 0.0002960293020859936*t4*(t3 - 0.005114435840591982)*(sqrt(t0)*sqrt(t1) + acos(t2))/(0.03949778634318503*t4 + acos(t4)) + lambert_sphere_single(t0, t1, t2, t3) + 0.24146093005575472*lambert_sphere_safe_pow(min(1.0, max(0.0, kd)), 1.652000584354108));
+    float t9 = ((kd < 0.0) ? (0.0) : (kd));
+    float t10 = 0.0002960293020859936*t4*(t3 - 0.005114435840591982)*(sqrt(t0)*sqrt(t1) + acos(t2))/(0.03949778634318503*t4 + acos(t4)) + lambert_sphere_single(t0, t1, t2, t3) + 0.24146093005575472*lambert_sphere_safe_pow(((t9 > 1.0) ? (1.0) : (t9)), 1.652000584354108);
+    return ((t10 < 0.0) ? (0.0) : (t10));
 }
 
 // brdf for unit vectors wi, wo in the local frame (z along the normal, both pointing away from
-// the surface); 0 if either is below the surface.
+// the surface); 0 if either is below the surface. Components are clamped to [-1, 1] (not
+// normalised); NaN in any input gives NaN.
 float lambert_sphere_brdf_local(vec3 wi, vec3 wo, float c)
 {
-    return ((wi.z < 0.0 || wo.z < 0.0) ? (0.0) : (lambert_sphere_brdf(wi.z, wo.z, (wi.x*wo.x + wi.y*wo.y)/sqrt(max((1.0/1000000000000000000000000000000.0), (wi.x*wi.x + wi.y*wi.y)*(wo.x*wo.x + wo.y*wo.y))), c)));
+    float t6 = ((wi.z < -1.0) ? (-1.0) : (wi.z));
+    float t0 = ((t6 > 1.0) ? (1.0) : (t6));
+    float t7 = ((wo.z < -1.0) ? (-1.0) : (wo.z));
+    float t1 = ((t7 > 1.0) ? (1.0) : (t7));
+    float t8 = ((wi.x < -1.0) ? (-1.0) : (wi.x));
+    float t2 = ((t8 > 1.0) ? (1.0) : (t8));
+    float t9 = ((wo.x < -1.0) ? (-1.0) : (wo.x));
+    float t3 = ((t9 > 1.0) ? (1.0) : (t9));
+    float t10 = ((wi.y < -1.0) ? (-1.0) : (wi.y));
+    float t4 = ((t10 > 1.0) ? (1.0) : (t10));
+    float t11 = ((wo.y < -1.0) ? (-1.0) : (wo.y));
+    float t5 = ((t11 > 1.0) ? (1.0) : (t11));
+    float t12 = (t2*t2 + t4*t4)*(t3*t3 + t5*t5);
+    float t13 = ((c < 0.0) ? (0.0) : (c));
+    return ((t0 < 0.0) ? (0.0) : (1.0))*((t1 < 0.0) ? (0.0) : (1.0))*lambert_sphere_brdf(t0, t1, (t2*t3 + t4*t5)/sqrt(((t12 < (1.0/1000000000000000000000000000000.0)) ? ((1.0/1000000000000000000000000000000.0)) : (t12))), ((t13 > 1.0) ? (1.0) : (t13)));
 }
 
 // brdf_fast for unit vectors wi, wo in the local frame (z along the normal, both pointing away
-// from the surface); 0 if either is below the surface.
+// from the surface); 0 if either is below the surface. Components are clamped to [-1, 1] (not
+// normalised); NaN in any input gives NaN.
 float lambert_sphere_brdf_fast_local(vec3 wi, vec3 wo, float c, float kd)
 {
-    return ((wi.z < 0.0 || wo.z < 0.0) ? (0.0) : (lambert_sphere_brdf_fast(wi.z, wo.z, (wi.x*wo.x + wi.y*wo.y)/sqrt(max((1.0/1000000000000000000000000000000.0), (wi.x*wi.x + wi.y*wi.y)*(wo.x*wo.x + wo.y*wo.y))), c, kd)));
+    float t6 = ((wi.z < -1.0) ? (-1.0) : (wi.z));
+    float t0 = ((t6 > 1.0) ? (1.0) : (t6));
+    float t7 = ((wo.z < -1.0) ? (-1.0) : (wo.z));
+    float t1 = ((t7 > 1.0) ? (1.0) : (t7));
+    float t8 = ((wi.x < -1.0) ? (-1.0) : (wi.x));
+    float t2 = ((t8 > 1.0) ? (1.0) : (t8));
+    float t9 = ((wo.x < -1.0) ? (-1.0) : (wo.x));
+    float t3 = ((t9 > 1.0) ? (1.0) : (t9));
+    float t10 = ((wi.y < -1.0) ? (-1.0) : (wi.y));
+    float t4 = ((t10 > 1.0) ? (1.0) : (t10));
+    float t11 = ((wo.y < -1.0) ? (-1.0) : (wo.y));
+    float t5 = ((t11 > 1.0) ? (1.0) : (t11));
+    float t12 = (t2*t2 + t4*t4)*(t3*t3 + t5*t5);
+    float t13 = ((c < 0.0) ? (0.0) : (c));
+    float t14 = ((kd < 0.0) ? (0.0) : (kd));
+    return ((t0 < 0.0) ? (0.0) : (1.0))*((t1 < 0.0) ? (0.0) : (1.0))*lambert_sphere_brdf_fast(t0, t1, (t2*t3 + t4*t5)/sqrt(((t12 < (1.0/1000000000000000000000000000000.0)) ? ((1.0/1000000000000000000000000000000.0)) : (t12))), ((t13 > 1.0) ? (1.0) : (t13)), ((t14 > 1.0) ? (1.0) : (t14)));
 }

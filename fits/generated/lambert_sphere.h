@@ -122,28 +122,30 @@ float lambert_sphere_fm1_f(float mu_i, float mu_o, float c);
 /*
  * The runtime Lambert-sphere BRDF (1/sr), max(0, single + fm0 + fm1 cos phi) (docs/model.md).
  * mu_i, mu_o in [0, 1], cos_phi in [-1, 1] (phi = 0 back-scattering), c the particle albedo in
- * [0, 1]; inputs outside are clamped.
+ * [0, 1]; inputs outside (+-inf included) are clamped, NaN in any input gives NaN.
  */
 double lambert_sphere_brdf(double mu_i, double mu_o, double cos_phi, double c);
 float lambert_sphere_brdf_f(float mu_i, float mu_o, float cos_phi, float c);
 
 /*
  * The fast variant of the Lambert-sphere BRDF (eq. 41, refitted): max(0, f_1 + lobe(|phi|) + p4
- * kd^p5); kd = kd_of_c(c). Same domain as brdf, kd in [0, 1].
+ * kd^p5); kd = kd_of_c(c). Same domain and policy as brdf, kd in [0, 1].
  */
 double lambert_sphere_brdf_fast(double mu_i, double mu_o, double cos_phi, double c, double kd);
 float lambert_sphere_brdf_fast_f(float mu_i, float mu_o, float cos_phi, float c, float kd);
 
 /*
  * brdf for unit vectors wi, wo in the local frame (z along the normal, both pointing away from
- * the surface); 0 if either is below the surface.
+ * the surface); 0 if either is below the surface. Components are clamped to [-1, 1] (not
+ * normalised); NaN in any input gives NaN.
  */
 double lambert_sphere_brdf_local(const double wi[3], const double wo[3], double c);
 float lambert_sphere_brdf_local_f(const float wi[3], const float wo[3], float c);
 
 /*
  * brdf_fast for unit vectors wi, wo in the local frame (z along the normal, both pointing away
- * from the surface); 0 if either is below the surface.
+ * from the surface); 0 if either is below the surface. Components are clamped to [-1, 1] (not
+ * normalised); NaN in any input gives NaN.
  */
 double lambert_sphere_brdf_fast_local(const double wi[3], const double wo[3], double c, double kd);
 float lambert_sphere_brdf_fast_local_f(const float wi[3], const float wo[3], float c, float kd);

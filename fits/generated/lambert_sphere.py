@@ -24,10 +24,9 @@ import numpy
 
 
 def _safe_pow(x, p):
-    """x^p for x > 0 and 0 otherwise (the forms' safe_pow)."""
-    x = numpy.asarray(x, dtype=float)
-    positive = x > 0.0
-    return numpy.where(positive, numpy.power(numpy.where(positive, x, 1.0), p), 0.0)
+    """x^p for x > 0, 0 for x <= 0, NaN for NaN: the forms' safe_pow (keeps pow away from x <= 0)."""
+    x, p = numpy.asarray(x, dtype=float), numpy.asarray(p, dtype=float)
+    return numpy.where(numpy.less_equal(x, 0), 0, numpy.where(numpy.less_equal(x, 0), 1, x)**p)
 
 __all__ = ["h0", "h1", "const_l", "const_m", "const_b", "const_c", "const_d", "const_f", "c_of_kd", "kd_of_c", "single", "fm0", "fm1", "brdf", "brdf_fast", "brdf_local", "brdf_fast_local"]
 
@@ -38,9 +37,12 @@ def h0(mu, c):
     s^d3)/(d4 - d5 s^d6). Exact at mu = 0 (H0 = 1) and as mu -> inf; a4, d4 fix the scales
     of the two ratios. Validation: max relative error 4.84e-03, RMS 1.98e-03."""
     mu, c = numpy.asarray(mu, dtype=float), numpy.asarray(c, dtype=float)
-    t0 = numpy.sqrt(1 - c)
-    t1 = (3.8305327514727012*_safe_pow(t0, 14.941212175793074) + 8.19214852144955)*_safe_pow(mu, (7.685072839712366 - 0.42819044883697743*_safe_pow(t0, 0.9321043182422831))/(8.65912 - 1.643902438637549*_safe_pow(t0, 24.201422329834347)))
-    return (t1/(4.17593 - 1.3037245568711244*t0) + 1)/(t0*t1*numpy.sqrt((16 - c)*(4*c + 9))/(50.11116 - 15.644694682453493*t0) + 1)
+    t3 = numpy.where(numpy.less(c, 0), 0.0, c)
+    t0 = numpy.where(numpy.greater(t3, 1.0), 1.0, t3)
+    t1 = numpy.sqrt(1 - t0)
+    t4 = numpy.where(numpy.less(mu, 0), 0.0, mu)
+    t2 = (3.8305327514727012*_safe_pow(t1, 14.941212175793074) + 8.19214852144955)*_safe_pow(numpy.where(numpy.greater(t4, 1.0), 1.0, t4), (7.685072839712366 - 0.42819044883697743*_safe_pow(t1, 0.9321043182422831))/(8.65912 - 1.643902438637549*_safe_pow(t1, 24.201422329834347)))
+    return (t2/(4.17593 - 1.3037245568711244*t1) + 1)/(t1*t2*numpy.sqrt(16 - t0)*numpy.sqrt(4*t0 + 9)/(50.11116 - 15.644694682453493*t1) + 1)
 
 
 def h1(mu, c):
@@ -50,21 +52,28 @@ def h1(mu, c):
     with the printed (rounded) coefficients. Validation: max relative error 2.02e-03, RMS
     1.10e-03."""
     mu, c = numpy.asarray(mu, dtype=float), numpy.asarray(c, dtype=float)
-    return numpy.exp((0.01882082482630519*c*c - 0.13807263067296432*c)*_safe_pow(mu, -3.223218047565822*mu*mu*mu + 4.189642488540238*mu*mu - 1.8030024947250645*mu + 0.4943166764166247))
+    t2 = numpy.where(numpy.less(c, 0), 0.0, c)
+    t0 = numpy.where(numpy.greater(t2, 1.0), 1.0, t2)
+    t3 = numpy.where(numpy.less(mu, 0), 0.0, mu)
+    t1 = numpy.where(numpy.greater(t3, 1.0), 1.0, t3)
+    return numpy.exp((0.01882082482630519*t0*t0 - 0.13807263067296432*t0)*_safe_pow(t1, -3.223218047565822*t1*t1*t1 + 4.189642488540238*t1*t1 - 1.8030024947250645*t1 + 0.4943166764166247))
 
 
 def const_l(c):
     """l(c) of f^(1) (eq. 22); form quadratic: l = l1 c + l2 c^2 (eq. 26); exact l(0) = 0.
     Validation: max relative error 2.06e-03, RMS 1.20e-03."""
     c = numpy.asarray(c, dtype=float)
-    return -0.004939205708442875*c*c - 0.058722447997744905*c
+    t1 = numpy.where(numpy.less(c, 0), 0.0, c)
+    t0 = numpy.where(numpy.greater(t1, 1.0), 1.0, t1)
+    return -0.004939205708442875*t0*t0 - 0.058722447997744905*t0
 
 
 def const_m(c):
     """m(c) of f^(1) (eq. 22); form linear: m = 1 + m1 c (eq. 27); exact m(0) = 1. Validation:
     max relative error 8.32e-04, RMS 5.92e-04."""
     c = numpy.asarray(c, dtype=float)
-    return 0.43989525562906495*c + 1
+    t0 = numpy.where(numpy.less(c, 0), 0.0, c)
+    return 0.43989525562906495*numpy.where(numpy.greater(t0, 1.0), 1.0, t0) + 1
 
 
 def const_b(c):
@@ -72,8 +81,10 @@ def const_b(c):
     R(0) = 1: the printed cubic-over-quadratic shape (eqs. 34-37) with the exact limit
     B(c=0) = 0 built in. Validation: max relative error 5.96e-04, RMS 2.59e-04."""
     c = numpy.asarray(c, dtype=float)
-    t0 = numpy.sqrt(1 - c)
-    return c*(0.34151292193316496*c + 0.42539619449220856*t0 - 0.42502738212912709)/((t0 + 1)*(-0.31781995145264474*c - 0.8195923954429231*t0 + 1.3178199514526447))
+    t2 = numpy.where(numpy.less(c, 0), 0.0, c)
+    t0 = numpy.where(numpy.greater(t2, 1.0), 1.0, t2)
+    t1 = numpy.sqrt(1 - t0)
+    return t0*(0.34151292193316496*t0 + 0.42539619449220856*t1 - 0.42502738212912709)/((t1 + 1)*(-0.31781995145264474*t0 - 0.8195923954429231*t1 + 1.3178199514526447))
 
 
 def const_c(c):
@@ -81,8 +92,10 @@ def const_c(c):
     R(0) = 1: the printed cubic-over-quadratic shape (eqs. 34-37) with the exact limit
     C(c=0) = 0 built in. Validation: max relative error 9.80e-04, RMS 4.36e-04."""
     c = numpy.asarray(c, dtype=float)
-    t0 = numpy.sqrt(1 - c)
-    return c*(-0.9663773151448398*c - 0.32388164709149464*t0 + 1.0838878671403959)/((t0 + 1)*(-0.227141899506518*c - 0.6566197428676952*t0 + 1.227141899506518))
+    t2 = numpy.where(numpy.less(c, 0), 0.0, c)
+    t0 = numpy.where(numpy.greater(t2, 1.0), 1.0, t2)
+    t1 = numpy.sqrt(1 - t0)
+    return t0*(-0.9663773151448398*t0 - 0.32388164709149464*t1 + 1.0838878671403959)/((t1 + 1)*(-0.227141899506518*t0 - 0.6566197428676952*t1 + 1.227141899506518))
 
 
 def const_d(c):
@@ -90,8 +103,10 @@ def const_d(c):
     R(0) = 1: the printed cubic-over-quadratic shape (eqs. 34-37) with the exact limit
     D(c=0) = 0 built in. Validation: max relative error 1.07e-03, RMS 4.87e-04."""
     c = numpy.asarray(c, dtype=float)
-    t0 = numpy.sqrt(1 - c)
-    return c*(0.23105932045840868*c + 0.2287969443732025*t0 - 0.23069779057206398)/((t0 + 1)*(-1.286135656793819*c - 0.8387237260643413*t0 + 2.286135656793819))
+    t2 = numpy.where(numpy.less(c, 0), 0.0, c)
+    t0 = numpy.where(numpy.greater(t2, 1.0), 1.0, t2)
+    t1 = numpy.sqrt(1 - t0)
+    return t0*(0.23105932045840868*t0 + 0.2287969443732025*t1 - 0.23069779057206398)/((t1 + 1)*(-1.286135656793819*t0 - 0.8387237260643413*t1 + 2.286135656793819))
 
 
 def const_f(c):
@@ -99,8 +114,10 @@ def const_f(c):
     R(0) = 1: the printed cubic-over-quadratic shape (eqs. 34-37) with the exact limit
     F(c=0) = 0 built in. Validation: max relative error 6.75e-05, RMS 2.94e-05."""
     c = numpy.asarray(c, dtype=float)
-    t0 = numpy.sqrt(1 - c)
-    return c*(0.029805005006246013*c - 0.17459333248007913*t0 - 0.029783256955795048)/((t0 + 1)*(-0.19647267114251268*c - 0.3247775246127321*t0 + 1.1964726711425127))
+    t2 = numpy.where(numpy.less(c, 0), 0.0, c)
+    t0 = numpy.where(numpy.greater(t2, 1.0), 1.0, t2)
+    t1 = numpy.sqrt(1 - t0)
+    return t0*(0.029805005006246013*t0 - 0.17459333248007913*t1 - 0.029783256955795048)/((t1 + 1)*(-0.19647267114251268*t0 - 0.3247775246127321*t1 + 1.1964726711425127))
 
 
 def c_of_kd(kd):
@@ -109,8 +126,10 @@ def c_of_kd(kd):
     exact; c(1) = 1 for every parameter value. Validation: max relative error 1.13e-02, RMS
     6.53e-03."""
     kd = numpy.asarray(kd, dtype=float)
-    t0 = 1 - kd
-    return numpy.where(numpy.less(kd, 1/2), -numpy.expm1(2.8775788936624416*numpy.log1p(-numpy.minimum(1/2, kd))), 1 - 1.0*_safe_pow(t0, 2.8775788936624416))/(1 - 0.11899098002850213*_safe_pow(t0, 2.5692796349372196))
+    t0 = numpy.where(numpy.less(kd, 0), 0.0, kd)
+    t1 = numpy.where(numpy.greater(t0, 1.0), 1.0, t0)
+    t2 = 1 - t1
+    return numpy.where(numpy.less(t1, 1/2), -numpy.expm1(2.8775788936624416*numpy.log1p(-numpy.where(numpy.greater(t0, 1/2), 1/2, t0))), 1 - 1.0*_safe_pow(t2, 2.8775788936624416))/(1 - 0.11899098002850213*_safe_pow(t2, 2.5692796349372196))
 
 
 def kd_of_c(c):
@@ -118,29 +137,47 @@ def kd_of_c(c):
     = (1 - s)(1 + (1-b) s)/(1 + d s): eq. 40 with a = 1 - b, so that kd(0) = 0 and kd(1) =
     1. Validation: max relative error 8.71e-03, RMS 5.25e-03."""
     c = numpy.asarray(c, dtype=float)
-    t0 = numpy.sqrt(1 - c)
-    return c*(0.65035428162017445*t0 + 1)/((t0 + 1)*(1.6879717175153437*t0 + 1))
+    t2 = numpy.where(numpy.less(c, 0), 0.0, c)
+    t0 = numpy.where(numpy.greater(t2, 1.0), 1.0, t2)
+    t1 = numpy.sqrt(1 - t0)
+    return t0*(0.65035428162017445*t1 + 1)/((t1 + 1)*(1.6879717175153437*t1 + 1))
 
 
 def single(mu_i, mu_o, cos_phi, c):
     """Single scattering with the true phase function, c p(u)/(mu_i + mu_o), u = -(mu_i mu_o +
     S cos phi) (eq. 10). Pole floored at 1e-6."""
     mu_i, mu_o, cos_phi, c = numpy.asarray(mu_i, dtype=float), numpy.asarray(mu_o, dtype=float), numpy.asarray(cos_phi, dtype=float), numpy.asarray(c, dtype=float)
-    t0 = numpy.maximum(-1, numpy.minimum(1, -cos_phi*numpy.sqrt((1 - mu_i*mu_i)*(1 - mu_o*mu_o)) - mu_i*mu_o))
-    return (1/3)*c*(-2*t0*numpy.arccos(t0) + 2*numpy.sqrt(numpy.maximum(0, 1 - t0*t0)))/(3.141592653589793238*3.141592653589793238*numpy.maximum(1/1000000, mu_i + mu_o))
+    t3 = numpy.where(numpy.less(mu_i, 0), 0.0, mu_i)
+    t0 = numpy.where(numpy.greater(t3, 1.0), 1.0, t3)
+    t4 = numpy.where(numpy.less(mu_o, 0), 0.0, mu_o)
+    t1 = numpy.where(numpy.greater(t4, 1.0), 1.0, t4)
+    t5 = numpy.where(numpy.less(cos_phi, -1.0), -1.0, cos_phi)
+    t6 = -t0*t1 - numpy.sqrt((1 - t0*t0)*(1 - t1*t1))*numpy.where(numpy.greater(t5, 1.0), 1.0, t5)
+    t7 = numpy.where(numpy.greater(t6, 1), 1, t6)
+    t2 = numpy.where(numpy.less(t7, -1), -1, t7)
+    t8 = t0 + t1
+    t9 = 1 - t2*t2
+    t10 = numpy.where(numpy.less(c, 0), 0.0, c)
+    return (1/3)*(-2*t2*numpy.arccos(t2) + 2*numpy.sqrt(numpy.where(numpy.less(t9, 0), 0, t9)))*numpy.where(numpy.greater(t10, 1.0), 1.0, t10)/(3.141592653589793238*3.141592653589793238*numpy.where(numpy.less(t8, 1/1000000), 1/1000000, t8))
 
 
 def fm0(mu_i, mu_o, c):
     """Multiple scattering, Fourier order 0: fm0 = (H0 H0 Q/(2 pi) - n0_ss)/(mu_i + mu_o) (eqs.
     30, 38). Pole floored at 1e-6."""
     mu_i, mu_o, c = numpy.asarray(mu_i, dtype=float), numpy.asarray(mu_o, dtype=float), numpy.asarray(c, dtype=float)
-    t0 = mu_i + mu_o
-    t1 = 3.141592653589793238**(-1.0)
-    t2 = mu_i*mu_o
-    t3 = mu_i*mu_i
-    t4 = mu_o*mu_o
-    t5 = t3*t4
-    return (-1/768*c*t1*(256*t2 - 45*t3 - 45*t4 + 135*t5 + 207) + (1/2)*t1*(c*t5*(15/128 - 15/128*c)*((4/3)*c + 3) + (69/128)*c + t0*t2*const_d(c) + t0*const_b(c) + t2*const_c(c) + (t3 + t4)*const_f(c))*h0(mu_i, c)*h0(mu_o, c))/numpy.maximum(1/1000000, t0)
+    t9 = numpy.where(numpy.less(mu_i, 0), 0.0, mu_i)
+    t0 = numpy.where(numpy.greater(t9, 1.0), 1.0, t9)
+    t10 = numpy.where(numpy.less(mu_o, 0), 0.0, mu_o)
+    t1 = numpy.where(numpy.greater(t10, 1.0), 1.0, t10)
+    t2 = t0 + t1
+    t3 = 3.141592653589793238**(-1.0)
+    t11 = numpy.where(numpy.less(c, 0), 0.0, c)
+    t4 = numpy.where(numpy.greater(t11, 1.0), 1.0, t11)
+    t5 = t0*t0
+    t6 = t1*t1
+    t7 = t0*t1
+    t8 = t5*t6
+    return (-1/768*t3*t4*(-45*t5 - 45*t6 + 256*t7 + 135*t8 + 207) + (1/2)*t3*(t2*t7*const_d(t4) + t2*const_b(t4) + t4*t8*(15/128 - 15/128*t4)*((4/3)*t4 + 3) + (69/128)*t4 + t7*const_c(t4) + (t5 + t6)*const_f(t4))*h0(t0, t4)*h0(t1, t4))/numpy.where(numpy.less(t2, 1/1000000), 1/1000000, t2)
 
 
 def fm1(mu_i, mu_o, c):
@@ -148,47 +185,96 @@ def fm1(mu_i, mu_o, c):
     single scattering, exact normalisations 3 pi and 192 pi (docs/errata.md). Pole floored
     at 1e-6."""
     mu_i, mu_o, c = numpy.asarray(mu_i, dtype=float), numpy.asarray(mu_o, dtype=float), numpy.asarray(c, dtype=float)
-    t0 = mu_i + mu_o
-    t1 = mu_i*mu_o
-    t2 = 3.141592653589793238**(-1.0)
-    t3 = numpy.sqrt((1 - mu_i*mu_i)*(1 - mu_o*mu_o))
-    t4 = const_l(c)
-    return (-1/192*c*t2*t3*(45*t1 + 64) + (1/3)*c*t2*t3*(t0*t4 + t1*(t4*t4 + (45/64)*const_m(c)) + 1)*h1(mu_i, c)*h1(mu_o, c))/numpy.maximum(1/1000000, t0)
+    t8 = numpy.where(numpy.less(mu_i, 0), 0.0, mu_i)
+    t0 = numpy.where(numpy.greater(t8, 1.0), 1.0, t8)
+    t9 = numpy.where(numpy.less(mu_o, 0), 0.0, mu_o)
+    t1 = numpy.where(numpy.greater(t9, 1.0), 1.0, t9)
+    t2 = t0 + t1
+    t3 = t0*t1
+    t4 = 3.141592653589793238**(-1.0)
+    t5 = numpy.sqrt((1 - t0*t0)*(1 - t1*t1))
+    t10 = numpy.where(numpy.less(c, 0), 0.0, c)
+    t6 = numpy.where(numpy.greater(t10, 1.0), 1.0, t10)
+    t7 = const_l(t6)
+    return (-1/192*t4*t5*t6*(45*t3 + 64) + (1/3)*t4*t5*t6*(t2*t7 + t3*(t7*t7 + (45/64)*const_m(t6)) + 1)*h1(t0, t6)*h1(t1, t6))/numpy.where(numpy.less(t2, 1/1000000), 1/1000000, t2)
 
 
 def brdf(mu_i, mu_o, cos_phi, c):
     """The runtime Lambert-sphere BRDF (1/sr), max(0, single + fm0 + fm1 cos phi)
     (docs/model.md). mu_i, mu_o in [0, 1], cos_phi in [-1, 1] (phi = 0 back-scattering), c
-    the particle albedo in [0, 1]; inputs outside are clamped."""
+    the particle albedo in [0, 1]; inputs outside (+-inf included) are clamped, NaN in any
+    input gives NaN."""
     mu_i, mu_o, cos_phi, c = numpy.asarray(mu_i, dtype=float), numpy.asarray(mu_o, dtype=float), numpy.asarray(cos_phi, dtype=float), numpy.asarray(c, dtype=float)
-    t0 = numpy.minimum(1, numpy.maximum(0, mu_i))
-    t1 = numpy.minimum(1, numpy.maximum(0, mu_o))
-    t2 = numpy.minimum(1, numpy.maximum(0, c))
-    t3 = numpy.minimum(1, numpy.maximum(-1, cos_phi))
-    return numpy.maximum(0, t3*fm1(t0, t1, t2) + fm0(t0, t1, t2) + single(t0, t1, t3, t2))
+    t4 = numpy.where(numpy.less(mu_i, 0), 0.0, mu_i)
+    t0 = numpy.where(numpy.greater(t4, 1.0), 1.0, t4)
+    t5 = numpy.where(numpy.less(mu_o, 0), 0.0, mu_o)
+    t1 = numpy.where(numpy.greater(t5, 1.0), 1.0, t5)
+    t6 = numpy.where(numpy.less(c, 0), 0.0, c)
+    t2 = numpy.where(numpy.greater(t6, 1.0), 1.0, t6)
+    t7 = numpy.where(numpy.less(cos_phi, -1.0), -1.0, cos_phi)
+    t3 = numpy.where(numpy.greater(t7, 1.0), 1.0, t7)
+    t8 = t3*fm1(t0, t1, t2) + fm0(t0, t1, t2) + single(t0, t1, t3, t2)
+    return numpy.where(numpy.less(t8, 0), 0, t8)
 
 
 def brdf_fast(mu_i, mu_o, cos_phi, c, kd):
     """The fast variant of the Lambert-sphere BRDF (eq. 41, refitted): max(0, f_1 + lobe(|phi|)
-    + p4 kd^p5); kd = kd_of_c(c). Same domain as brdf, kd in [0, 1]."""
+    + p4 kd^p5); kd = kd_of_c(c). Same domain and policy as brdf, kd in [0, 1]."""
     mu_i, mu_o, cos_phi, c, kd = numpy.asarray(mu_i, dtype=float), numpy.asarray(mu_o, dtype=float), numpy.asarray(cos_phi, dtype=float), numpy.asarray(c, dtype=float), numpy.asarray(kd, dtype=float)
-    t0 = numpy.minimum(1, numpy.maximum(0, mu_i))
-    t1 = numpy.minimum(1, numpy.maximum(0, mu_o))
-    t2 = numpy.minimum(1, numpy.maximum(-1, cos_phi))
-    t3 = numpy.minimum(1, numpy.maximum(0, c))
+    t5 = numpy.where(numpy.less(mu_i, 0), 0.0, mu_i)
+    t0 = numpy.where(numpy.greater(t5, 1.0), 1.0, t5)
+    t6 = numpy.where(numpy.less(mu_o, 0), 0.0, mu_o)
+    t1 = numpy.where(numpy.greater(t6, 1.0), 1.0, t6)
+    t7 = numpy.where(numpy.less(cos_phi, -1.0), -1.0, cos_phi)
+    t2 = numpy.where(numpy.greater(t7, 1.0), 1.0, t7)
+    t8 = numpy.where(numpy.less(c, 0), 0.0, c)
+    t3 = numpy.where(numpy.greater(t8, 1.0), 1.0, t8)
     t4 = numpy.sqrt((1 - t0*t0)*(1 - t1*t1))
-    return numpy.maximum(0, 0.0002960293020859936*t4*(t3 - 0.005114435840591982)*(numpy.sqrt(t0)*numpy.sqrt(t1) + numpy.arccos(t2))/(0.03949778634318503*t4 + numpy.arccos(t4)) + single(t0, t1, t2, t3) + 0.24146093005575472*_safe_pow(numpy.minimum(1, numpy.maximum(0, kd)), 1.652000584354108))
+    t9 = numpy.where(numpy.less(kd, 0), 0.0, kd)
+    t10 = 0.0002960293020859936*t4*(t3 - 0.005114435840591982)*(numpy.sqrt(t0)*numpy.sqrt(t1) + numpy.arccos(t2))/(0.03949778634318503*t4 + numpy.arccos(t4)) + single(t0, t1, t2, t3) + 0.24146093005575472*_safe_pow(numpy.where(numpy.greater(t9, 1.0), 1.0, t9), 1.652000584354108)
+    return numpy.where(numpy.less(t10, 0), 0, t10)
 
 
 def brdf_local(wi, wo, c):
     """brdf for unit vectors wi, wo in the local frame (z along the normal, both pointing away
-    from the surface); 0 if either is below the surface."""
+    from the surface); 0 if either is below the surface. Components are clamped to [-1, 1]
+    (not normalised); NaN in any input gives NaN."""
     wi, wo, c = numpy.asarray(wi, dtype=float), numpy.asarray(wo, dtype=float), numpy.asarray(c, dtype=float)
-    return numpy.where(numpy.logical_or.reduce((numpy.less(wi[..., 2], 0),numpy.less(wo[..., 2], 0))), 0, brdf(wi[..., 2], wo[..., 2], (wi[..., 0]*wo[..., 0] + wi[..., 1]*wo[..., 1])/numpy.sqrt(numpy.maximum(1/1000000000000000000000000000000, (wi[..., 0]*wi[..., 0] + wi[..., 1]*wi[..., 1])*(wo[..., 0]*wo[..., 0] + wo[..., 1]*wo[..., 1]))), c))
+    t6 = numpy.where(numpy.less(wi[..., 2], -1.0), -1.0, wi[..., 2])
+    t0 = numpy.where(numpy.greater(t6, 1.0), 1.0, t6)
+    t7 = numpy.where(numpy.less(wo[..., 2], -1.0), -1.0, wo[..., 2])
+    t1 = numpy.where(numpy.greater(t7, 1.0), 1.0, t7)
+    t8 = numpy.where(numpy.less(wi[..., 0], -1.0), -1.0, wi[..., 0])
+    t2 = numpy.where(numpy.greater(t8, 1.0), 1.0, t8)
+    t9 = numpy.where(numpy.less(wo[..., 0], -1.0), -1.0, wo[..., 0])
+    t3 = numpy.where(numpy.greater(t9, 1.0), 1.0, t9)
+    t10 = numpy.where(numpy.less(wi[..., 1], -1.0), -1.0, wi[..., 1])
+    t4 = numpy.where(numpy.greater(t10, 1.0), 1.0, t10)
+    t11 = numpy.where(numpy.less(wo[..., 1], -1.0), -1.0, wo[..., 1])
+    t5 = numpy.where(numpy.greater(t11, 1.0), 1.0, t11)
+    t12 = (t2*t2 + t4*t4)*(t3*t3 + t5*t5)
+    t13 = numpy.where(numpy.less(c, 0), 0.0, c)
+    return numpy.where(numpy.less(t0, 0), 0, 1)*numpy.where(numpy.less(t1, 0), 0, 1)*brdf(t0, t1, (t2*t3 + t4*t5)/numpy.sqrt(numpy.where(numpy.less(t12, 1/1000000000000000000000000000000), 1/1000000000000000000000000000000, t12)), numpy.where(numpy.greater(t13, 1.0), 1.0, t13))
 
 
 def brdf_fast_local(wi, wo, c, kd):
     """brdf_fast for unit vectors wi, wo in the local frame (z along the normal, both pointing
-    away from the surface); 0 if either is below the surface."""
+    away from the surface); 0 if either is below the surface. Components are clamped to [-1,
+    1] (not normalised); NaN in any input gives NaN."""
     wi, wo, c, kd = numpy.asarray(wi, dtype=float), numpy.asarray(wo, dtype=float), numpy.asarray(c, dtype=float), numpy.asarray(kd, dtype=float)
-    return numpy.where(numpy.logical_or.reduce((numpy.less(wi[..., 2], 0),numpy.less(wo[..., 2], 0))), 0, brdf_fast(wi[..., 2], wo[..., 2], (wi[..., 0]*wo[..., 0] + wi[..., 1]*wo[..., 1])/numpy.sqrt(numpy.maximum(1/1000000000000000000000000000000, (wi[..., 0]*wi[..., 0] + wi[..., 1]*wi[..., 1])*(wo[..., 0]*wo[..., 0] + wo[..., 1]*wo[..., 1]))), c, kd))
+    t6 = numpy.where(numpy.less(wi[..., 2], -1.0), -1.0, wi[..., 2])
+    t0 = numpy.where(numpy.greater(t6, 1.0), 1.0, t6)
+    t7 = numpy.where(numpy.less(wo[..., 2], -1.0), -1.0, wo[..., 2])
+    t1 = numpy.where(numpy.greater(t7, 1.0), 1.0, t7)
+    t8 = numpy.where(numpy.less(wi[..., 0], -1.0), -1.0, wi[..., 0])
+    t2 = numpy.where(numpy.greater(t8, 1.0), 1.0, t8)
+    t9 = numpy.where(numpy.less(wo[..., 0], -1.0), -1.0, wo[..., 0])
+    t3 = numpy.where(numpy.greater(t9, 1.0), 1.0, t9)
+    t10 = numpy.where(numpy.less(wi[..., 1], -1.0), -1.0, wi[..., 1])
+    t4 = numpy.where(numpy.greater(t10, 1.0), 1.0, t10)
+    t11 = numpy.where(numpy.less(wo[..., 1], -1.0), -1.0, wo[..., 1])
+    t5 = numpy.where(numpy.greater(t11, 1.0), 1.0, t11)
+    t12 = (t2*t2 + t4*t4)*(t3*t3 + t5*t5)
+    t13 = numpy.where(numpy.less(c, 0), 0.0, c)
+    t14 = numpy.where(numpy.less(kd, 0), 0.0, kd)
+    return numpy.where(numpy.less(t0, 0), 0, 1)*numpy.where(numpy.less(t1, 0), 0, 1)*brdf_fast(t0, t1, (t2*t3 + t4*t5)/numpy.sqrt(numpy.where(numpy.less(t12, 1/1000000000000000000000000000000), 1/1000000000000000000000000000000, t12)), numpy.where(numpy.greater(t13, 1.0), 1.0, t13), numpy.where(numpy.greater(t14, 1.0), 1.0, t14))

@@ -9,12 +9,20 @@ libraries of ``fitlab discover`` (:mod:`.libraries`), the generated program
 and report methods as hooks.  docs/model.md states the model.
 """
 
+import importlib
+
 from fitlab.core import Family, register_family
 from fitlab.families.lambert_sphere.forms import FORMS
 from fitlab.families.lambert_sphere.program import PROGRAM
 from fitlab.families.lambert_sphere.targets import TARGETS
 
 __all__ = ["FAMILY"]
+
+
+def _lazy(module: str):
+    """A hook that imports ``module`` of this family only when a command asks for it (JAX, Mitsuba, scipy's
+    heavier parts stay unloaded until then)."""
+    return lambda: importlib.import_module(f"{__name__}.{module}")
 
 
 def _libraries():
@@ -43,6 +51,14 @@ FAMILY = register_family(
         forms=FORMS,
         libraries=_libraries,
         codegen=PROGRAM,
-        hooks={"brdf_grid": _brdf_grid, "report": _report},
+        hooks={
+            "brdf_grid": _brdf_grid,
+            "report": _report,
+            "tables": _lazy("tabulate"),  # write_tables, check_tables, TABLE_FILES
+            "audit": _lazy("audit"),  # run_audit
+            "render": _lazy("render"),  # load_generated, render_comparison, RenderError
+            "simulate": _lazy("mc.simulate"),  # simulate_file, summary_table, unconverged, SceneError
+            "bench": _lazy("bench"),  # bench_exact, bench_codegen, bench_mc
+        },
     )
 )

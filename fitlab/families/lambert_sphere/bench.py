@@ -1,20 +1,38 @@
-"""Benchmarks (not tests): speed and accuracy of the exact engine.
+"""Benchmarks (not tests) of the Lambert-sphere family: the exact engine, the generated code, the Monte Carlo.
 
-Timings are wall-clock on this machine and are reported side by side in one
-run, so only their ratios carry meaning.
+``bench_exact``: points per second and agreement of each exact method.  ``bench_codegen``: the
+generated C (full runtime model, fast variant) against two baselines compiled the same way (Lambert
+kd/pi; qualitative Oren-Nayar, sigma = 0.5), each printed from one sympy expression, on the same
+random inputs (:func:`fitlab.codegen.bench.time_routines`), and the generated numpy module.
+``bench_mc`` (:mod:`.mc.bench`): photons and collisions per second.  Timings are wall-clock on this
+machine, side by side in one run: only their ratios carry meaning.
 """
 
 from __future__ import annotations
 
+import importlib.util
 import tempfile
+from pathlib import Path
 
 import numpy as np
 
-from fitlab.families.lambert_sphere.exact import brdf_modes, doubling_reflection, solve_h
-from fitlab.families.lambert_sphere.exact.characteristic import lambert_sphere_characteristic
-from fitlab.families.lambert_sphere.exact.hfunction import _solve_cached, h_fock
+from fitlab.families.lambert_sphere.exact import (
+    brdf_modes,
+    clear_h_cache,
+    doubling_reflection,
+    h_fock,
+    lambert_sphere_characteristic,
+    solve_h,
+)
 from fitlab.families.lambert_sphere.tabulate import write_tables
-from fitlab.timing import best_of
+from fitlab.codegen import emit, load_program
+from fitlab.codegen.bench import time_routines
+from fitlab.codegen.native import build
+from fitlab.codegen.program import Program, Routine
+from fitlab.families.lambert_sphere.forms.baselines import BASELINE_INPUTS, LAMBERT, oren_nayar
+from fitlab.timing import best_of, best_seconds
+
+__all__ = ["bench_exact", "bench_codegen", "bench_mc", "baseline_program", "random_inputs"]
 
 
 def bench_exact(quick: bool = False) -> dict:
@@ -27,7 +45,7 @@ def bench_exact(quick: bool = False) -> dict:
     for c in (0.5, 0.99, 1.0):
         for m in range(3):
             char = lambert_sphere_characteristic(m, c)
-            _solve_cached.cache_clear()
+            clear_h_cache()
             t_solve, sol = best_of(lambda: solve_h(char), 1)
             t_ny, a = best_of(lambda: sol(mu), 3)
             t_fo, b = best_of(lambda: h_fock(char, mu), 1)
@@ -48,3 +66,62 @@ def bench_exact(quick: bool = False) -> dict:
         print(f"writing all tables: {t_tab:.1f} s")
         results["tabulate_s"] = t_tab
     return results
+
+
+# -- generated code: the runtime model and the fast variant against Lambert and Oren-Nayar ----------
+def baseline_program() -> Program:
+    """Lambert and Oren-Nayar (sigma = 0.5) from :mod:`fitlab.families.lambert_sphere.forms.baselines`, as routines."""
+    return Program(
+        (Routine("baseline_lambert", BASELINE_INPUTS, LAMBERT, "Lambert, kd/pi."),
+         Routine("baseline_oren_nayar", BASELINE_INPUTS, oren_nayar(), "Oren-Nayar (qualitative), sigma = 0.5.")),
+        (), (), name="baselines",
+    )  # fmt: skip
+
+
+def random_inputs(n: int, seed: int = 0) -> dict:
+    """The benchmark's inputs: mu_i, mu_o, c uniform on [0, 1), cos_phi uniform on [-1, 1) (numpy, seeded)."""
+    rng = np.random.default_rng(seed)
+    mu_i, mu_o, c = rng.random(n), rng.random(n), rng.random(n)
+    return {"mu_i": mu_i, "mu_o": mu_o, "c": c, "cos_phi": rng.uniform(-1, 1, n)}
+
+
+def bench_codegen(fits_dir: Path = Path("fits"), n: int = 1_000_000, repeat: int = 5) -> dict:
+    prog = load_program(Path(fits_dir))
+    base = baseline_program()
+    x = random_inputs(n)
+    mu_i, mu_o, c, cos_phi = x["mu_i"], x["mu_o"], x["c"], x["cos_phi"]
+    rows = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        model = build(emit(prog, "c"), prog, Path(tmp) / "model")
+        baselines = build(emit(base, "c"), base, Path(tmp) / "base")
+        module = Path(tmp) / f"{prog.name}.py"
+        module.write_text(emit(prog, "python")[module.name])
+        spec = importlib.util.spec_from_file_location("bench_generated", module)
+        py = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(py)
+        kd = py.kd_of_c(c)
+        cases = {
+            "lambert (baseline)": (baselines, "baseline_lambert", (mu_i, mu_o, cos_phi, kd)),
+            "oren_nayar (baseline)": (baselines, "baseline_oren_nayar", (mu_i, mu_o, cos_phi, kd)),
+            "brdf_fast (eq. 41)": (model, "brdf_fast", (mu_i, mu_o, cos_phi, c, kd)),
+            "brdf (runtime model)": (model, "brdf", (mu_i, mu_o, cos_phi, c)),
+        }
+        timed = time_routines({(label, "C " + np.dtype(dt).name): (lib, name, args, dt)
+                               for label, (lib, name, args) in cases.items() for dt in (np.float64, np.float32)},
+                              repeat)  # fmt: skip
+        rows.update(timed)
+        for label, fn, args in (("brdf (runtime model)", py.brdf, (mu_i, mu_o, cos_phi, c)),
+                                ("brdf_fast (eq. 41)", py.brdf_fast, (mu_i, mu_o, cos_phi, c, kd))):  # fmt: skip
+            rows[(label, "numpy float64")] = best_seconds(lambda: fn(*args), max(1, repeat // 2)) / n * 1e9
+    ref = rows[("lambert (baseline)", "C float64")]
+    print(f"generated BRDF cost, {n} random inputs, best of {repeat} (ns per evaluation; x = / Lambert C double)")
+    for (label, how), ns in rows.items():
+        print(f"  {label:<24} {how:<14} {ns:8.2f} ns  {ns / ref:7.1f} x")
+    return {f"{label} / {how}": ns for (label, how), ns in rows.items()}
+
+
+def bench_mc(quick: bool = False) -> dict:
+    """Photons and collisions per second of the Monte Carlo (:func:`.mc.bench.bench_mc`; imports JAX)."""
+    from fitlab.families.lambert_sphere.mc.bench import bench_mc as run
+
+    return run(quick=quick)

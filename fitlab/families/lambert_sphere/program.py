@@ -16,8 +16,11 @@ Routines (args; domain), named by the targets' ``routine``:
   local frame (z the normal, both pointing away from the surface); 0 when either
   points below the surface.
 
-Robustness (every value finite for finite inputs): the entry points clamp
-mu, c, kd into [0, 1] and cos_phi into [-1, 1]; every pole 1/(mu_i + mu_o) is
+Robustness (the policy of :mod:`fitlab.codegen.program`): every routine, the
+parts included, clamps its inputs into its domain (mu, c, kd into [0, 1],
+cos_phi into [-1, 1], the local routines' vector components into [-1, 1];
++-inf clamps like any finite value), NaN in any input gives NaN, and every
+value is finite for every other input; every pole 1/(mu_i + mu_o) is
 evaluated as 1/max(mu_i + mu_o, POLE_FLOOR).  The exact BRDF is infinite at
 mu_i = mu_o = 0; with the floor the model there is large and finite
 (c p(u) / POLE_FLOOR at most 2.1e5 c, representable in float).
@@ -34,7 +37,6 @@ from fitlab.codegen.program import (
     Routine,
     azimuth_to_cosine,
     call,
-    clamped,
     floor_poles,
     part_routine,
 )
@@ -43,7 +45,7 @@ from fitlab.families.lambert_sphere.targets import TARGETS
 from fitlab.forms.symbolic import symbols
 from fitlab.store import FitFunction
 
-__all__ = ["PROGRAM", "PARTS", "FAST", "routines"]
+__all__ = ["PROGRAM", "PARTS", "FAST", "DOMAIN", "routines"]
 
 mu_i, mu_o, c, kd, cos_phi = symbols(("mu_i", "mu_o", "c", "kd", "cos_phi"))
 _VEC = {v: symbols(tuple(f"{v}_{k}" for k in "xyz")) for v in ("wi", "wo")}
@@ -64,53 +66,63 @@ _TERM_ARGS = {"single": ("mu_i", "mu_o", "cos_phi", "c"), "m0": ("mu_i", "mu_o",
 _TERM_NAMES = {"single": "single", "m0": "fm0", "m1": "fm1"}
 
 
+#: the domain of every scalar input of the composed routines (the parts take their targets' domains)
+DOMAIN = {"mu_i": (0.0, 1.0), "mu_o": (0.0, 1.0), "cos_phi": (-1.0, 1.0), "c": (0.0, 1.0), "kd": (0.0, 1.0)}
+
+
+def _domain(names) -> dict:
+    return {n: DOMAIN[n] for n in names}
+
+
 def routines(fits: Mapping[str, FitFunction], terms: tuple[str, ...]) -> list[Routine]:
     """Every routine of the generated Lambert-sphere files, in file order."""
     out = [part_routine(fits[t]) for t in PARTS]
 
-    clamp4 = clamped((mu_i, 0, 1), (mu_o, 0, 1), (cos_phi, -1, 1), (c, 0, 1))
     parts = {p: call(TARGETS[p].routine, *symbols(TARGETS[p].inputs)) for p in RUNTIME_PARTS}
     term_exprs = runtime_terms(parts)
     total = sp.S.Zero
     for t in terms:
         expr = floor_poles(azimuth_to_cosine(term_exprs[t]))
-        out.append(Routine(_TERM_NAMES[t], _TERM_ARGS[t], expr, _TERM_DOCS[t] + " Pole floored at 1e-6."))
-        args = [clamp4.get(s, s) for s in symbols(_TERM_ARGS[t])]
-        total += call(_TERM_NAMES[t], *args) * (clamp4[cos_phi] if t == "m1" else 1)
+        out.append(Routine(_TERM_NAMES[t], _TERM_ARGS[t], expr, _TERM_DOCS[t] + " Pole floored at 1e-6.",
+                           domain=_domain(_TERM_ARGS[t])))  # fmt: skip
+        total += call(_TERM_NAMES[t], *symbols(_TERM_ARGS[t])) * (cos_phi if t == "m1" else 1)
     out.append(Routine(
         "brdf", ("mu_i", "mu_o", "cos_phi", "c"), sp.Max(0, total),
         f"The runtime Lambert-sphere BRDF (1/sr), max(0, {' + '.join(_TERM_NAMES[t] + (' cos phi' if t == 'm1' else '') for t in terms)}) "
         "(docs/model.md). mu_i, mu_o in [0, 1], cos_phi in [-1, 1] (phi = 0 back-scattering), c the particle "
-        "albedo in [0, 1]; inputs outside are clamped.",
+        "albedo in [0, 1]; inputs outside (+-inf included) are clamped, NaN in any input gives NaN.",
+        domain=_domain(("mu_i", "mu_o", "cos_phi", "c")),
     ))  # fmt: skip
 
     fast = fits[FAST]
     fast_expr = floor_poles(azimuth_to_cosine(fast.expression))
     if "single" in terms:
         fast_expr = fast_expr.subs(floor_poles(azimuth_to_cosine(SINGLE)), call("single", mu_i, mu_o, cos_phi, c))
-    clamp5 = {**clamp4, **clamped((kd, 0, 1))}
     out.append(Routine(
-        TARGETS[FAST].routine, ("mu_i", "mu_o", "cos_phi", "c", "kd"), fast_expr.xreplace(clamp5),
+        TARGETS[FAST].routine, ("mu_i", "mu_o", "cos_phi", "c", "kd"), fast_expr,
         ("The fast variant of the Lambert-sphere BRDF (eq. 41, refitted): max(0, f_1 + lobe(|phi|) + p4 kd^p5); "
          if fast.form == TARGETS[FAST].default_form else
          f"A fast model of the Lambert-sphere BRDF, form {fast.form}: {fast.record.get('form_description', '')} ")
-        + f"kd = {TARGETS['kd_of_c'].routine}(c). Same domain as brdf, kd in [0, 1].",
+        + f"kd = {TARGETS['kd_of_c'].routine}(c). Same domain and policy as brdf, kd in [0, 1].",
+        domain=_domain(("mu_i", "mu_o", "cos_phi", "c", "kd")),
     ))  # fmt: skip
 
     # local frame: u = -wi.wo, mu = z, S cos phi = x_i x_o + y_i y_o
     (xi, yi, zi), (xo, yo, zo) = _VEC["wi"], _VEC["wo"]
     ring = (xi**2 + yi**2) * (xo**2 + yo**2)
     local_cos = (xi * xo + yi * yo) / sp.sqrt(sp.Max(ring, sp.Rational(1, 10**30)))
-    below = sp.Or(zi < 0, zo < 0)
+    # 0 below the surface as a factor, not a branch: a NaN anywhere still reaches the result
+    above = sp.Piecewise((0, zi < 0), (1, True)) * sp.Piecewise((0, zo < 0), (1, True))
     vec_args = tuple(str(s) for s in (*_VEC["wi"], *_VEC["wo"]))
     vectors = {"wi": tuple(str(s) for s in _VEC["wi"]), "wo": tuple(str(s) for s in _VEC["wo"])}
     for name, extra in (("brdf", ()), (TARGETS[FAST].routine, ("kd",))):
         inner = call(name, zi, zo, local_cos, c, *symbols(extra))
         out.append(Routine(
-            f"{name}_local", (*vec_args, "c", *extra), sp.Piecewise((0, below), (inner, True)),
+            f"{name}_local", (*vec_args, "c", *extra), above * inner,
             f"{name} for unit vectors wi, wo in the local frame (z along the normal, both pointing away "
-            "from the surface); 0 if either is below the surface.",
-            vectors,
+            "from the surface); 0 if either is below the surface. Components are clamped to [-1, 1] "
+            "(not normalised); NaN in any input gives NaN.",
+            vectors, domain={**{a: (-1.0, 1.0) for a in vec_args}, **_domain(("c", *extra))},
         ))  # fmt: skip
     return out
 

@@ -35,7 +35,7 @@ from fitlab.families.lambert_sphere.datasets import DATA_DIR
 from fitlab.families.lambert_sphere.exact import brdf, h_function, spherical_albedo
 from fitlab.families.lambert_sphere.forms import RUNTIME_PARTS
 from fitlab.families.lambert_sphere.forms.baselines import BASELINE_INPUTS, LAMBERT, oren_nayar
-from fitlab.families.lambert_sphere.interpolation import table_brdf, table_part
+from fitlab.families.lambert_sphere.interpolation import kd_interpolant, table_brdf, table_part
 from fitlab.families.lambert_sphere.report_exact import (
     doubling_agreement,
     exact_brdf_cost,
@@ -46,6 +46,7 @@ from fitlab.families.lambert_sphere.report_montecarlo import mc_study, mc_time_t
 from fitlab.families.lambert_sphere.runtime import PRESET_VARIANTS, runtime_model
 from fitlab.families.lambert_sphere.table_files import check_tables
 from fitlab.families.lambert_sphere.targets import TARGETS
+from fitlab.families.lambert_sphere.bench import baseline_program, random_inputs  # noqa: F401 (baseline_program: the report's hook)
 from fitlab.forms.symbolic import lambdify_numpy, symbols
 from fitlab.report.methods import BrdfMethod, CSpec, PartMethod, best_forms, fit_group, positional
 from fitlab.store import FORMAT, load
@@ -68,6 +69,16 @@ SOURCES = {
     "h": "fitlab.families.lambert_sphere.exact.hfunction",
     "monte carlo": "fitlab.families.lambert_sphere.mc (three-term multiple scattering)",
 }
+
+
+def timing_inputs(n: int, data_dir: Path) -> dict:
+    """Seeded random inputs by argument name: mu_i, mu_o, c, cos_phi (as fitlab bench codegen), phi =
+    acos(cos_phi), kd = kd_true(c) (tables), mu = mu_i."""
+    x = random_inputs(n)
+    x["phi"] = np.arccos(x["cos_phi"])
+    x["kd"] = np.clip(kd_interpolant(data_dir)(x["c"]), 0.0, 1.0)
+    x["mu"] = x["mu_i"]
+    return x
 
 
 def exact_brdf(mu_i, mu_o, phi, c: float) -> np.ndarray:
@@ -150,7 +161,7 @@ def brdf_methods(fits_dir: Path, entries: list, data_dir: Path, preset_c: tuple 
     out = []
     for order2, name in ((False, "tables, runtime model"), (True, "tables, three orders")):
         f = table_brdf(data_dir, order2=order2)
-        out.append(BrdfMethod(name, "tables", "data/*.csv with splines (fitlab.report.tables)",
+        out.append(BrdfMethod(name, "tables", "data/*.csv with splines (fitlab.families.lambert_sphere.interpolation)",
                               lambda mi, mo, ph, c, kd, f=f: f(mi, mo, ph, c)))  # fmt: skip
     for v in PRESET_VARIANTS:
         m = runtime_model(v)

@@ -21,6 +21,7 @@ from tqdm import tqdm
 
 from fitlab.families.lambert_sphere.exact import constants, h_function, spherical_albedo
 from fitlab.families.lambert_sphere.exact.constants import CONSTANT_NAMES
+from fitlab.families.lambert_sphere.table_files import TABLE_FILES
 from fitlab.store import Table, TableError, read_table
 from fitlab.store import write_tables as store_write_tables
 

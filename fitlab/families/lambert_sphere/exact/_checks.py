@@ -1,4 +1,4 @@
-"""Argument checks for the public functions of the exact engine (issue 15, item 7).
+"""Argument checks for the public functions of the exact engine.
 
 Each check refuses a bad argument with one line that names the argument and its
 domain, before any work is done:

@@ -177,7 +177,7 @@ def _solve_unknowns(m, c, frozen=()):
     """
     w, alpha = _moment_data(m, c)
     s = np.sqrt(1.0 - c)
-    # Speed (issue 15: constants(1 - 1e-16) took 20 s cold, 92 H solves, one per
+    # Speed (constants(1 - 1e-16) took 20 s cold, 92 H solves, one per
     # ladder point and order).  The ladder is walked only down to
     # _LADDER[_LADDER_STOP] = 6.25e-4; below it (0 < s < 6.25e-4):
     # * order 1 has no fold and starts from the c -> 0 limit (the same root as the

@@ -19,11 +19,15 @@ True phase function p(u) = 2 (sqrt(1-u^2) - u acos u) / (3 pi^2):
 
 Three-term truncation p3(u) = (1/4pi) g(u), g(u) = 27/32 - (4/3) u + (15/32) u^2.
 g < 0 for u in (u1, 1], u1 = (64 - sqrt 451)/45 = 0.95029: p3 is no density.
-``sample_three_term`` draws u from |p3| / N, N = int |p3| dOmega = 1.000505...,
+``sample_three_term`` draws u from |p3| / N, N = int |p3| dOmega = 1.0005274,
 and returns the sign of p3(u): a walk that multiplies its weight by
 sign * N per collision estimates the three-term half space exactly, with a
 weight of modulus N^n after n collisions (second moment N^(2n), N^2 = 1.001):
-the smallest variance any signed-weight scheme can have.  (Sampling the true p
+the smallest variance any signed-weight scheme can have.  With c the modulus
+is (c N)^n: at most 1 for c <= 1/N = 0.999473, and for c > 1/N the estimate
+has infinite mean and variance, for this and any other sampler (the expected
+modulus per collision is int |c p3| dOmega = c N > 1): such c are refused
+(``C_LIMIT``, ``unbounded_reason``).  (Sampling the true p
 and carrying p3/p would have an unbounded weight, p(1) = 0 < |p3(1)|, and an
 infinite variance; sampling u uniformly and carrying 4 pi p3 has a bounded
 weight but second moment 1.61^n per n collisions.)
@@ -42,6 +46,7 @@ from __future__ import annotations
 import math
 
 import jax.numpy as jnp
+import numpy as np
 
 from fitlab.core import float64
 
@@ -55,6 +60,10 @@ __all__ = [
     "sample_three_term",
     "MIX",
     "mixture_density",
+    "sample_mixture",
+    "MIXTURE_SECOND_MOMENTS",
+    "C_LIMIT",
+    "unbounded_reason",
     "turn",
 ]
 
@@ -134,6 +143,72 @@ def mixture_density(u):
     which covers the forward cone where p -> 0 but p3 -> -0.0208/(4 pi)), and
     int p^2/q - 1 = 1.5e-3, int p3^2/q - 1 = 2.3e-3 (the single weights)."""
     return MIX[0] * p_true(u) + MIX[1] * jnp.abs(p_three_term(u)) / THREE_TERM_NORM + MIX[2] / (4.0 * jnp.pi)
+
+
+@float64
+def sample_mixture(x1, x2, x3, x4, sel):
+    """u from the 'both' sampler's mixture q (``mixture_density``): eq. 5 from
+    (x1, x2, x3) when sel < MIX[0], |p3|/N from x4 when sel < MIX[0] + MIX[1],
+    else uniform in u from sel itself (uniform on [MIX[0] + MIX[1], 1) there)."""
+    u_p = sample_true_exact(x1, x2, x3)
+    u_3, _ = sample_three_term(x4)
+    lim = MIX[0] + MIX[1]
+    u_uni = 2.0 * (sel - lim) / MIX[2] - 1.0
+    return jnp.where(sel < MIX[0], u_p, jnp.where(sel < lim, u_3, jnp.clip(u_uni, -1.0, 1.0)))
+
+
+def _mixture_second_moments() -> tuple:
+    """(int p^2/q dOmega, int p3^2/q dOmega) for the mixture q, by Gauss-Legendre
+    (200 nodes on each of [-1, u1], [u1, 0.99], [0.99, 1]; plain numpy, no JAX)."""
+    x, w = (np.asarray(a) for a in np.polynomial.legendre.leggauss(200))
+
+    def p(u):
+        u = np.clip(u, -1.0, 1.0)
+        return 2.0 * (np.sqrt((1.0 - u) * (1.0 + u)) - u * np.arccos(u)) / (3.0 * math.pi**2)
+
+    def p3(u):
+        return (27.0 / 32.0 - 4.0 / 3.0 * u + 15.0 / 32.0 * u * u) / (4.0 * math.pi)
+
+    out = [0.0, 0.0]
+    for a, b in ((-1.0, U1), (U1, 0.99), (0.99, 1.0)):
+        u = a + (b - a) * (x + 1.0) / 2.0
+        q = MIX[0] * p(u) + MIX[1] * np.abs(p3(u)) / THREE_TERM_NORM + MIX[2] / (4.0 * math.pi)
+        for k, f in enumerate((p, p3)):
+            out[k] += 2.0 * math.pi * float(np.sum(f(u) ** 2 / q * w)) * (b - a) / 2.0
+    return tuple(out)
+
+
+#: Per collision, E_q[(p/q)^2] and E_q[(p3/q)^2] of the 'both' sampler (1.0015, 1.0023).
+MIXTURE_SECOND_MOMENTS = _mixture_second_moments()
+
+#: The largest single-scattering albedo c at which each walk's estimator has a
+#: finite variance (docs/montecarlo.md, "Where the signed weights stop working").
+#: three_term: |weight| = (c N)^n after n collisions, bounded by 1 iff c N <= 1,
+#: and E|estimate| is infinite for c N > 1 whatever the sampler (int |c p3| = c N).
+#: both: the second moment of a weight grows by c^2 E_q[(p3/q)^2] per collision.
+C_LIMIT = {
+    "true": 1.0,
+    "three_term": 1.0 / THREE_TERM_NORM,
+    "both": 1.0 / math.sqrt(max(MIXTURE_SECOND_MOMENTS)),
+}
+
+
+def unbounded_reason(phase: str, c: float) -> str | None:
+    """Why the walk ``phase`` cannot estimate anything at this c (None: it can).
+
+    One line, for scene errors and :func:`~fitlab.families.lambert_sphere.mc.transport.run_round`.
+    """
+    lim = C_LIMIT[phase]
+    if not c > lim:  # NaN: not judged here
+        return None
+    if phase == "three_term":
+        return (f"c = {c:g} > 1/N = {lim:.6f}: the three-term phase function is negative for u > {U1:.5f}, so its "
+                f"signed weights grow as (c N)^n with N = int |p3| = {THREE_TERM_NORM:.7f} and the estimate has "
+                f"infinite mean and variance (any sampler: the signed series diverges); use c <= {lim:.6f} or "
+                f"phase = \"true\"")
+    return (f"c = {c:g} > {lim:.6f}: the correlated true/three-term walk (phase_difference) multiplies each "
+            f"weight's second moment by c^2 x {max(MIXTURE_SECOND_MOMENTS):.5f} per collision, so its variance "
+            f"is infinite; use c <= {lim:.6f}")
 
 
 @float64

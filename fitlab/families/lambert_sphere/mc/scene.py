@@ -7,8 +7,8 @@ bins and Fourier orders cos(m phi), and/or |phi| bins), the effects wanted and
 a precision target.  Example (TOML; the JSON form has the same nesting)::
 
     [scene]
-    name = "order1"              # optional; default: the file stem
-    seed = 1
+    name = "order1"              # optional; default: the file stem; letters, digits, _ and - only
+    seed = 1                     # integer in [0, 2^63 - 1] (the rule of --seed too)
     phase = "three_term"         # multiple scattering by "three_term" or "true" p
     sampler = "exact"            # eq. 5 ("exact") or eq. 6 ("approx"), true p only
 
@@ -30,12 +30,16 @@ a precision target.  Example (TOML; the JSON form has the same nesting)::
     [precision]
     target_se = 2e-3             # or a table per effect: {multiple = 2e-3, albedo = 5e-4}
     max_paths = 2000000          # per job (material x incident direction x phase)
-    batch = 100000               # photons per round; the stopping rule is checked per round
+    batch = 100000               # photons per round, at most 10^7; the stopping rule is checked per round
     max_collisions = 100000      # the cap; what it cuts is tallied and reported
     slots = 0                    # photon slots per device (0: automatic)
 
 Every error names ``file:line`` and the field (``material[2].c``); all errors
-of a file are reported together, as one :class:`SceneError`.
+of a file are reported together, as one :class:`SceneError`.  NaN and infinite
+numbers are refused anywhere, and so is a material whose Monte Carlo estimate
+would have an infinite variance: c > 1/N = 0.999473 with the three-term phase
+function (kd = 1 included), c > 0.998863 with ``phase_difference``
+(:data:`fitlab.families.lambert_sphere.mc.sampling.C_LIMIT`).
 """
 
 from __future__ import annotations
@@ -51,7 +55,8 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["EFFECTS", "Material", "Scene", "SceneError", "load_scene", "parse_scene"]
+__all__ = ["EFFECTS", "LIMITS", "NAME_RE", "Material", "Scene", "SceneError", "check_option", "load_scene",
+           "parse_scene", "with_overrides"]
 
 #: effect name -> one-line description
 EFFECTS = {
@@ -64,6 +69,20 @@ EFFECTS = {
 }
 PHASES = ("three_term", "true")
 SAMPLERS = ("exact", "approx")
+
+#: Integer fields and the options that override them: one rule each, for the
+#: scene file and the command line.  batch: the stopping rule and the progress
+#: are checked once per round, so a round is at most 10^7 photons (seconds to a
+#: few minutes); the seed is a 63-bit non-negative integer (JAX's key).
+LIMITS = {
+    "seed": (0, 2**63 - 1),
+    "max_paths": (1000, 2**40),
+    "batch": (100, 10**7),
+    "max_collisions": (2, 10**8),
+    "slots": (0, 2**22),
+}
+#: A scene name is a plain file-name stem (the outputs are <name>.csv, ...).
+NAME_RE = re.compile(r"[A-Za-z0-9_-]{1,100}")
 
 _KNOWN = {
     (): {"scene", "material", "incident", "outgoing", "effects", "precision"},
@@ -250,7 +269,7 @@ def _json_lines(text: str) -> dict:
                 return i + 1
         if ch == '"':
             return scanstring(text, i + 1)[1]
-        for lit in ("true", "false", "null"):
+        for lit in ("true", "false", "null", "NaN", "Infinity", "-Infinity"):
             if text.startswith(lit, i):
                 return i + len(lit)
         return num.match(text, i).end()
@@ -341,6 +360,72 @@ def _c_of_kd(kd: float, phase: str) -> float:
     return albedo_inverse(kd, model, guess)
 
 
+def _non_finite(v, keypath):
+    """(key path, value) of every NaN or infinite float in a parsed scene."""
+    if isinstance(v, float) and not math.isfinite(v):
+        yield keypath, v
+    elif isinstance(v, dict):
+        for k, x in v.items():
+            yield from _non_finite(x, keypath + (k,))
+    elif isinstance(v, list):
+        for k, x in enumerate(v):
+            yield from _non_finite(x, keypath + (k,))
+
+
+def _walks(phase: str, effects) -> tuple:
+    """The walk phases (transport.WalkConfig.phase) a scene's effects run."""
+    out = []
+    if any(e in effects for e in ("multiple", "collisions", "albedo", "spherical_albedo")):
+        out.append(phase)
+    if "phase_difference" in effects:
+        out.append("both")
+    return tuple(out)
+
+
+def _unbounded(walk: str, c: float):
+    from fitlab.families.lambert_sphere.mc.sampling import unbounded_reason  # JAX, only when a scene is checked
+
+    return unbounded_reason(walk, c)
+
+
+def check_option(name: str, value) -> int | float:
+    """A command-line override (``seed``, ``max_paths`` or ``target_se``), by the
+    scene file's own rule; a string is parsed first.  Raises a one-line SceneError."""
+    flag = "--" + name.replace("_", "-")
+    v = value
+    if isinstance(v, str):
+        try:
+            v = int(v.strip()) if name != "target_se" else float(v.strip())
+        except ValueError:
+            v = None
+    if name == "target_se":
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not 0 < v < math.inf:
+            raise SceneError(f"{flag}: expected a positive finite number, got {value!r}")
+        return float(v)
+    lo, hi = LIMITS[name]
+    if isinstance(v, bool) or not isinstance(v, int) or not lo <= v <= hi:
+        raise SceneError(f"{flag}: expected an integer in [{lo}, {hi}], got {value!r}")
+    return v
+
+
+def with_overrides(scene: Scene, target_se=None, max_paths=None, seed=None) -> Scene:
+    """The scene with command-line overrides (None: keep), each checked by :func:`check_option`."""
+    from dataclasses import replace
+
+    changes, errors = {}, []
+    for name, value in (("target_se", target_se), ("max_paths", max_paths), ("seed", seed)):
+        if value is not None:
+            try:
+                changes[name] = check_option(name, value)
+            except SceneError as exc:
+                errors.append(str(exc))
+    if errors:
+        raise SceneError("\n".join(errors))
+    if "target_se" in changes:
+        changes["target_se"] = {e: changes["target_se"] for e in scene.effects}
+    return replace(scene, **changes) if changes else scene
+
+
 def parse_scene(text: str, path: str = "<scene>", fmt: str | None = None, resolve_kd: bool = True) -> Scene:
     """Parse and validate scene text (format from ``fmt`` or the file suffix: toml or json).
 
@@ -351,7 +436,10 @@ def parse_scene(text: str, path: str = "<scene>", fmt: str | None = None, resolv
     try:
         if fmt == "json":
             raw = json.loads(text)
-            lines = _json_lines(text)
+            try:
+                lines = _json_lines(text)
+            except (IndexError, ValueError, AttributeError):  # positions are a courtesy: never fail on them
+                lines = {}
         else:
             raw = tomllib.loads(text)
             lines = _toml_lines(text)
@@ -364,6 +452,10 @@ def parse_scene(text: str, path: str = "<scene>", fmt: str | None = None, resolv
     if not isinstance(raw, dict):
         raise SceneError(f"{path}:1: (top level): expected a table/object")
     ck = _Checker(str(path), lines)
+    for keypath, v in _non_finite(raw, ()):
+        ck.fail(keypath, f"{v!r} is not a finite number")
+    if ck.errors:  # NaN/inf anywhere: refused before any other check reads the value
+        raise SceneError("\n".join(text for _, text in sorted(ck.errors, key=lambda e: e[0])))
     ck.unknown(raw, (), _KNOWN[()])
     sections = {}
     for name in ("scene", "incident", "outgoing", "effects", "precision"):
@@ -376,12 +468,14 @@ def parse_scene(text: str, path: str = "<scene>", fmt: str | None = None, resolv
     sc, inc, out, eff, prec = (sections[k] for k in ("scene", "incident", "outgoing", "effects", "precision"))
 
     name = sc.get("name", Path(str(path)).stem)
-    if not isinstance(name, str) or not re.fullmatch(r"[A-Za-z0-9_.-]+", name):
-        ck.fail(("scene", "name"), f"expected a name of letters, digits, '_', '.', '-', got {name!r}")
+    if not isinstance(name, str) or not NAME_RE.fullmatch(name):
+        given = "" if "name" in sc else " (the file stem: set scene.name)"
+        ck.fail(("scene", "name"), f"expected a plain file-name stem of 1-100 letters, digits, '_' or '-', "
+                                   f"got {name!r}{given}")
     description = sc.get("description", "")
     if not isinstance(description, str):
         ck.fail(("scene", "description"), "expected a string")
-    seed = ck.number(sc, ("scene", "seed"), 0, 2**63 - 1, default=0, integer=True)
+    seed = ck.number(sc, ("scene", "seed"), *LIMITS["seed"], default=0, integer=True)
     phase = ck.choice(sc, ("scene", "phase"), PHASES, "three_term")
     sampler = ck.choice(sc, ("scene", "sampler"), SAMPLERS, "exact")
 
@@ -477,30 +571,39 @@ def parse_scene(text: str, path: str = "<scene>", fmt: str | None = None, resolv
         for k, v in tse.items():
             if k not in EFFECTS:
                 ck.fail(("precision", "target_se", k), f"unknown effect {k!r}")
-            elif isinstance(v, bool) or not isinstance(v, (int, float)) or not v > 0:
-                ck.fail(("precision", "target_se", k), f"expected a positive number, got {v!r}")
+            elif isinstance(v, bool) or not isinstance(v, (int, float)) or not 0 < v < math.inf:
+                ck.fail(("precision", "target_se", k), f"expected a positive finite number, got {v!r}")
             else:
                 target[k] = float(v)
         for e in effects:
             if e != "single" and e not in target:
                 ck.fail(("precision", "target_se"), f"no target for effect {e!r}")
-    elif isinstance(tse, bool) or not isinstance(tse, (int, float)) or not tse > 0:
-        ck.fail(("precision", "target_se"), f"expected a positive number or a table per effect, got {tse!r}")
+    elif isinstance(tse, bool) or not isinstance(tse, (int, float)) or not 0 < tse < math.inf:
+        ck.fail(("precision", "target_se"), f"expected a positive finite number or a table per effect, got {tse!r}")
     else:
         target = {e: float(tse) for e in effects}
-    max_paths = ck.number(prec, ("precision", "max_paths"), 1000, 2**40, default=2_000_000, integer=True)
-    batch = ck.number(prec, ("precision", "batch"), 100, 2**31, default=100_000, integer=True)
-    max_coll = ck.number(prec, ("precision", "max_collisions"), 2, 10**8, default=100_000, integer=True)
-    slots = ck.number(prec, ("precision", "slots"), 0, 2**22, default=0, integer=True)
+    max_paths = ck.number(prec, ("precision", "max_paths"), *LIMITS["max_paths"], default=2_000_000, integer=True)
+    batch = ck.number(prec, ("precision", "batch"), *LIMITS["batch"], default=100_000, integer=True)
+    max_coll = ck.number(prec, ("precision", "max_collisions"), *LIMITS["max_collisions"], default=100_000,
+                         integer=True)
+    slots = ck.number(prec, ("precision", "slots"), *LIMITS["slots"], default=0, integer=True)
     if slots is not None and 0 < slots < 64:
         ck.fail(("precision", "slots"), f"photon slots per device: 0 (automatic) or >= 64, got {slots}")
 
     if ck.errors:
         raise SceneError("\n".join(text for _, text in sorted(ck.errors, key=lambda e: e[0])))
     mats = []
-    for label, key, v in materials:
+    walks = _walks(phase, effects)
+    for i, (label, key, v) in enumerate(materials):
         c = v if key == "c" else (_c_of_kd(v, phase) if resolve_kd else math.nan)
         mats.append(Material(label=label, c=c, kd=v if key == "kd" else None))
+        for walk in walks:
+            why = _unbounded(walk, c)
+            if why:
+                ck.fail(("material", i, key), (f"kd = {v:g} needs " if key == "kd" else "") + why)
+                break
+    if ck.errors:
+        raise SceneError("\n".join(text for _, text in sorted(ck.errors, key=lambda e: e[0])))
     return Scene(
         path=str(path), name=name, description=description, seed=int(seed), phase=phase, sampler=sampler,
         materials=tuple(mats), mu_i=mu_i, mu_edges=mu_edges, orders=orders, phi_edges=phi_edges,

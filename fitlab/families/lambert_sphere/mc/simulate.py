@@ -8,7 +8,14 @@ effect's ``target_se`` (absolute, in the unit of the row: 1/sr for BRDF
 values, 1 for albedos), with at least 10 000 photons; a bin no photon
 reached (no error estimate) must have its rule-of-three bound 3/(N x bin
 measure) below the target; or when it has used ``max_paths`` photons (then
-the rows say converged = False).
+the rows say converged = False).  A job that stops on the budget has missed
+its target: :func:`unconverged` names each such job, and ``fitlab simulate``
+exits 1 unless ``--allow-unconverged`` is given.
+
+Refused before any work (:class:`~fitlab.families.lambert_sphere.mc.scene.SceneError`,
+one line per problem): every scene error, a bad override, an output location
+that is not a writable folder, and a material whose estimator would have an
+infinite variance (c > 1/N for the three-term walk; docs/montecarlo.md).
 
 Timing: each job's wall time (compilation reported apart) is charged to every
 effect that uses it; the summary lists per effect the jobs, paths and
@@ -22,17 +29,19 @@ import csv
 import io
 import math
 import time
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from fitlab._io import atomic_write_text
 from fitlab.families.lambert_sphere.mc.effects import ROW_FIELDS, attach_reference, effect_jobs, estimate_rows, plan
-from fitlab.families.lambert_sphere.mc.scene import Scene, load_scene
+from fitlab.families.lambert_sphere.mc.scene import Scene, SceneError, load_scene, with_overrides
+from fitlab.families.lambert_sphere.mc.sampling import unbounded_reason
 from fitlab.families.lambert_sphere.mc.transport import compile_walk, default_mesh, run_round
 
-__all__ = ["SimulationResult", "simulate", "simulate_file", "write_outputs", "SUMMARY_FIELDS"]
+__all__ = ["SimulationResult", "simulate", "simulate_file", "write_outputs", "unconverged", "check_out_dir",
+           "SUMMARY_FIELDS"]
 
 MIN_PHOTONS = 10_000
 SUMMARY_FIELDS = ("effect", "jobs", "paths", "collisions", "seconds", "compile_seconds", "reference_seconds",
@@ -48,6 +57,7 @@ class JobStats:
     compile_seconds: float = 0.0
     rounds: int = 0
     converged: bool = False
+    se_ratio: float = math.nan  # worst (standard error / target) over the job's effects, last round
 
 
 @dataclass
@@ -92,6 +102,10 @@ def simulate(scene: Scene, progress: bool = True, mesh=None) -> SimulationResult
     t_start = time.perf_counter()
     mesh = mesh or default_mesh()
     jobs = plan(scene)
+    for job, cfg in jobs.items():  # scenes made in code skip parse_scene's check: refuse before any work
+        why = unbounded_reason(cfg.phase, scene.materials[job.material].c)
+        if why:
+            raise SceneError(f"material {scene.materials[job.material].label}: {why}")
     users = {job: [e for e in scene.effects if job in effect_jobs(scene, e)] for job in jobs}
     results, stats = {}, {job: JobStats() for job in jobs}
     bar = None
@@ -125,6 +139,7 @@ def simulate(scene: Scene, progress: bool = True, mesh=None) -> SimulationResult
                 if bar is not None:
                     bar.update(n)
                     bar.set_postfix_str(f"job {k + 1}/{len(jobs)} ({job.kind}, {mat.label}) se/target={ratio:.2f}")
+                st.se_ratio = ratio
                 if done and st.paths >= MIN_PHOTONS:
                     st.converged = True
                     break
@@ -212,21 +227,61 @@ def summary_table(result: SimulationResult) -> str:
     return "\n".join(lines)
 
 
+def unconverged(result: SimulationResult) -> list:
+    """One line per job that stopped on its path budget without converging (above its
+    standard-error target, or under the 10 000-photon minimum)."""
+    lines = []
+    scene = result.scene
+    for job in sorted(plan(scene), key=lambda j: j.stream):
+        st = result.jobs[job]
+        if st.converged:
+            continue
+        mat = scene.materials[job.material]
+        where = f"mu_i = {scene.mu_i[job.incident]:g}" if job.incident >= 0 else "cosine incidence"
+        why = (f"standard error {st.se_ratio:.3g} x its target" if not st.se_ratio <= 1.0
+               else f"fewer than the {MIN_PHOTONS} photons the stopping rule needs")
+        lines.append(f"not converged: {job.kind} job, material {mat.label} (c = {mat.c:.6g}), {where}: "
+                     f"{why} after {st.paths} paths (max_paths)")
+    return lines
+
+
+def check_out_dir(out_dir: Path) -> None:
+    """Refuse (one-line SceneError) an output location that is not, or cannot become, a writable folder.
+
+    Tried for real: the missing folders are made, a probe file is written and
+    removed, and the folders made are removed again (nothing is left behind).
+    """
+    import tempfile
+
+    out_dir = Path(out_dir)
+    if out_dir.exists() and not out_dir.is_dir():
+        raise SceneError(f"--out: {out_dir} exists and is not a folder")
+    made = []
+    try:
+        for d in reversed([out_dir, *out_dir.parents]):
+            if not d.exists():
+                d.mkdir()
+                made.append(d)
+        with tempfile.NamedTemporaryFile(dir=out_dir, prefix=".probe-"):
+            pass
+    except OSError as exc:
+        raise SceneError(f"--out: cannot write in {out_dir}: {exc.strerror or exc}") from None
+    finally:
+        for d in reversed(made):
+            try:
+                d.rmdir()
+            except OSError:
+                pass
+
+
 def simulate_file(path, out_dir=None, progress=True, plots=True, target_se=None, max_paths=None, seed=None):
-    """Load, validate (all errors before any work), simulate, write.  Returns (result, paths)."""
-    scene = load_scene(path)
-    changes = {}
-    if target_se is not None:
-        if not target_se > 0:
-            raise ValueError("--target-se must be positive")
-        changes["target_se"] = {e: float(target_se) for e in scene.effects}
-    if max_paths is not None:
-        if max_paths < 1000:
-            raise ValueError("--max-paths must be >= 1000")
-        changes["max_paths"] = int(max_paths)
-    if seed is not None:
-        changes["seed"] = int(seed)
-    scene = replace(scene, **changes) if changes else scene
-    result = simulate(scene, progress=progress)
+    """Load, validate (all errors before any work: scene, overrides, output folder), simulate, write.
+
+    Returns (result, paths).  Overrides take the scene file's rules
+    (:func:`~fitlab.families.lambert_sphere.mc.scene.check_option`); strings are parsed.
+    """
+    scene = with_overrides(load_scene(path), target_se=target_se, max_paths=max_paths, seed=seed)
     out_dir = Path(out_dir) if out_dir is not None else Path("mc_out") / scene.name
+    check_out_dir(out_dir)
+    result = simulate(scene, progress=progress)
     return result, write_outputs(result, out_dir, plots=plots)

@@ -71,15 +71,16 @@ from jax.sharding import Mesh, PartitionSpec
 
 from fitlab.core import float64
 from fitlab.families.lambert_sphere.mc.sampling import (
-    MIX,
     THREE_TERM_NORM,
     mixture_density,
     p_three_term,
     p_true,
+    sample_mixture,
     sample_three_term,
     sample_true_approx,
     sample_true_exact,
     turn,
+    unbounded_reason,
 )
 
 __all__ = ["WalkConfig", "compile_walk", "run_round", "round_key", "default_mesh", "default_slots"]
@@ -226,12 +227,7 @@ def _scatter(s: _Slots, u01, c, cfg: WalkConfig):
         u, sign = sample_three_term(u01[0])
         factor = (sign * THREE_TERM_NORM)[:, None]
     else:
-        u_p = sample_true_exact(u01[0], u01[1], u01[2])
-        u_3, _ = sample_three_term(u01[3])
-        sel = u01[4]
-        lim = MIX[0] + MIX[1]
-        u_uni = 2.0 * (sel - lim) / MIX[2] - 1.0  # sel is uniform on [lim, 1) in that branch
-        u = jnp.where(sel < MIX[0], u_p, jnp.where(sel < lim, u_3, jnp.clip(u_uni, -1.0, 1.0)))
+        u = sample_mixture(u01[0], u01[1], u01[2], u01[3], u01[4])
         q = mixture_density(u)
         factor = jnp.stack([p_true(u) / q, p_three_term(u) / q], axis=-1)
     psi = 2.0 * jnp.pi * u01[-3]
@@ -427,7 +423,7 @@ def round_key(seed: int, *stream: int) -> jax.Array:
 
 @float64
 def run_round(cfg: WalkConfig, seed: int, stream: tuple, c: float, mu_i: float, n_photons: int,
-              mesh: Mesh | None = None) -> dict:
+              mesh: Mesh | None = None, unbounded_ok: bool = False) -> dict:
     """Simulate ``n_photons`` photons (ids 0..n-1 of one round); tallies as numpy arrays.
 
     ``stream`` is a tuple of non-negative ints (e.g. (job, round)) folded into
@@ -435,9 +431,17 @@ def run_round(cfg: WalkConfig, seed: int, stream: tuple, c: float, mu_i: float, 
     incidence).  Dump rows of the per-bin tallies are removed.  Deterministic
     in (cfg, seed, stream, c, mu_i, n_photons) whatever the mesh, up to the
     order of summation.
+
+    A c at which the walk's estimator has infinite variance (c > 1/N for the
+    three-term walk, :data:`~fitlab.families.lambert_sphere.mc.sampling.C_LIMIT`)
+    is refused unless ``unbounded_ok`` (then only the collision cap bounds the
+    weights: for identities that hold path by path, never for estimates).
     """
     if not 0.0 <= c <= 1.0:
         raise ValueError(f"c must lie in [0, 1], got {c}")
+    why = unbounded_reason(cfg.phase, c)
+    if why and not unbounded_ok:
+        raise ValueError(why)
     if not 0.0 <= mu_i <= 1.0:
         raise ValueError(f"mu_i must lie in [0, 1], got {mu_i}")
     if n_photons < 1 or n_photons >= 2**32:

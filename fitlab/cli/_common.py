@@ -1,0 +1,201 @@
+"""What every ``fitlab`` command shares: checking its inputs and output folder before any work, one-line
+errors with the conventional exit status, the ``--quiet`` flag, the one-line argparse parser.
+
+Exit status: 0 success; 1 a runtime failure (a computation that failed, a refit worse than its start);
+2 a usage error (a bad option or value, an input that is missing or not what it should be, an output
+location that cannot take the outputs), always refused before any computation starts.
+
+A command raises :class:`UsageError` (exit 2) or :class:`RunFailure` (exit 1) with a one-line message,
+or returns :func:`fail`'s status; :func:`fitlab.cli.main` prints ``fitlab COMMAND: error: MESSAGE``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import sys
+import tempfile
+from pathlib import Path
+
+__all__ = [
+    "USAGE", "FAILURE", "UsageError", "RunFailure", "Parser", "fail", "one_line", "output_folder", "input_file",
+    "input_folder", "write_failure", "number", "integer", "add_quiet", "say", "describe",
+]
+
+#: exit status of a runtime failure and of a usage error
+FAILURE, USAGE = 1, 2
+
+
+class UsageError(Exception):
+    """A bad option, value, input or output location: one line, exit status 2, nothing computed."""
+
+
+class RunFailure(Exception):
+    """A computation that failed (or ended in a result fitlab refuses to keep): one line, exit status 1."""
+
+
+def one_line(message) -> str:
+    """``message`` (an exception or text) as one line: a KeyError without its quotes, newlines folded."""
+    if isinstance(message, KeyError) and message.args:
+        message = message.args[0]
+    text = str(message) if str(message) else type(message).__name__
+    return "; ".join(part.strip() for part in text.splitlines() if part.strip())
+
+
+def fail(command: str, message, status: int = USAGE) -> int:
+    """Print ``fitlab COMMAND: error: MESSAGE`` (one line) on stderr; returns ``status``."""
+    print(f"fitlab {command}: error: {one_line(message)}", file=sys.stderr)
+    return status
+
+
+class Parser(argparse.ArgumentParser):
+    """argparse with a one-line error (``fitlab refit: error: argument --kd: ...``), still exit status 2."""
+
+    def error(self, message):  # noqa: D401 - argparse's hook
+        self.exit(USAGE, f"{self.prog}: error: {one_line(message)} (see {self.prog} --help)\n")
+
+
+# -- values ------------------------------------------------------------------------
+def number(lo: float | None = None, hi: float | None = None, *, open_lo: bool = False, open_hi: bool = False):
+    """An argparse ``type``: a finite float within [lo, hi] (or an open end); anything else is a usage error."""
+
+    def parse(text: str) -> float:
+        try:
+            x = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+        if not math.isfinite(x):
+            raise argparse.ArgumentTypeError(f"{text!r} is not a finite number")
+        if lo is not None and (x < lo or (open_lo and x == lo)):
+            raise argparse.ArgumentTypeError(f"{text} must be {'>' if open_lo else '>='} {lo:g}")
+        if hi is not None and (x > hi or (open_hi and x == hi)):
+            raise argparse.ArgumentTypeError(f"{text} must be {'<' if open_hi else '<='} {hi:g}")
+        return x
+
+    parse.__name__ = "number"
+    return parse
+
+
+def integer(lo: int | None = None, hi: int | None = None):
+    """An argparse ``type``: an integer within [lo, hi]."""
+
+    def parse(text: str) -> int:
+        try:
+            n = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
+        if (lo is not None and n < lo) or (hi is not None and n > hi):
+            bounds = f"between {lo} and {hi}" if lo is not None and hi is not None else (
+                f">= {lo}" if lo is not None else f"<= {hi}")
+            raise argparse.ArgumentTypeError(f"{text} must be {bounds}")
+        return n
+
+    parse.__name__ = "integer"
+    return parse
+
+
+# -- files and folders -------------------------------------------------------------
+def _nearest_existing(path: Path) -> Path:
+    probe = Path(os.path.abspath(path))
+    while not os.path.lexists(probe):
+        probe = probe.parent
+    return probe
+
+
+def output_folder(path, flag: str = "--out", files=()) -> Path:
+    """Check that ``path`` can take a command's outputs before any work starts; returns it as a Path.
+
+    It must be a folder that exists or can be created (its nearest existing ancestor a folder), and
+    writable: the folder it is or will be made in takes a probe file, created and removed at once,
+    so that /proc, a read-only mount or a folder without write permission is refused even for root.
+    An existing file is never a folder.  ``files``: the names the command writes into it; none may be
+    a folder.  Nothing is created.  Refusals are :class:`UsageError`."""
+    if path is None or str(path).strip() == "":
+        raise UsageError(f"{flag}: give a folder")
+    out = Path(path)
+    if out.exists() and not out.is_dir():
+        raise UsageError(f"{flag} {out}: exists and is not a folder")
+    where = _nearest_existing(out)
+    if not where.is_dir():
+        raise UsageError(f"{flag} {out}: {where} is not a folder")
+    if not os.access(where, os.W_OK | os.X_OK):
+        raise UsageError(f"{flag} {out}: {where} is not writable")
+    try:
+        fd, probe = tempfile.mkstemp(prefix=".fitlab-probe-", dir=where)
+    except OSError as exc:
+        raise UsageError(f"{flag} {out}: cannot write in {where} ({exc.strerror or exc})") from None
+    os.close(fd)
+    try:
+        os.unlink(probe)
+    except OSError:  # pragma: no cover
+        pass
+    for name in files:
+        if (out / name).is_dir():
+            raise UsageError(f"{flag} {out}: {out / name} is a folder, where a file will be written")
+    return out
+
+
+def write_failure(out, exc: OSError) -> RunFailure:
+    """The one-line failure of a write into ``out`` that the checks could not foresee (a full disk)."""
+    return RunFailure(f"cannot write into {out}: {exc.strerror or one_line(exc)}; nothing written")
+
+
+def input_file(path, flag: str, hint: str = "") -> Path:
+    """An input file that must exist, be a file and be readable (:class:`UsageError` otherwise)."""
+    p = Path(path)
+    if not p.exists():
+        raise UsageError(f"{flag} {p}: no such file{hint}")
+    if not p.is_file():
+        raise UsageError(f"{flag} {p}: not a file")
+    if not os.access(p, os.R_OK):
+        raise UsageError(f"{flag} {p}: not readable")
+    return p
+
+
+def input_folder(path, flag: str, required: bool = True) -> Path:
+    """An input folder: it must be a folder (and exist, unless ``required`` is false)."""
+    p = Path(path)
+    if p.exists() and not p.is_dir():
+        raise UsageError(f"{flag} {p}: not a folder")
+    if required and not p.exists():
+        raise UsageError(f"{flag} {p}: no such folder")
+    return p
+
+
+# -- conventions --------------------------------------------------------------------
+def add_quiet(p) -> None:
+    """``--quiet``: no progress bar and no status lines (results and errors still print)."""
+    p.add_argument("--quiet", action="store_true",
+                   help="no progress bar or status lines (results and errors still print)")
+
+
+def say(args, message: str) -> None:
+    """A status line (``wrote PATH``): on stdout, on stderr with ``--json`` (stdout holds only the JSON),
+    nowhere with ``--quiet``."""
+    if not getattr(args, "quiet", False):
+        print(message, file=sys.stderr if getattr(args, "json", False) else sys.stdout)
+
+
+def describe(p, description: str, example: str) -> None:
+    """A subcommand's ``--help``: its description and an example."""
+    p.description = description
+    p.epilog = f"example: {example}"
+
+
+def require_extra(module: str, extra: str) -> None:
+    """Refuse (usage error, one line) when an optional dependency is missing: name the extra that brings it."""
+    import importlib.util
+
+    if importlib.util.find_spec(module) is None:
+        raise UsageError(f"this command needs {module}, which is not installed: pip install 'fitlab-brdf[{extra}]'")
+
+
+def service(name: str):
+    """The family service ``name`` (fitlab.core.family_service): tables, audit, render, simulate, bench."""
+    from fitlab.core import family_service
+
+    try:
+        return family_service(name)
+    except KeyError as exc:
+        raise UsageError(one_line(exc.args[0] if exc.args else exc)) from None
