@@ -48,7 +48,7 @@ H_FUNCTIONS = [
 # H-functions: where the approximations of H0 and H1 err
 
 $H_0(\mu; c)$ and $H_1(\mu; c)$ are Chandrasekhar H-functions of the three-term Lambert-sphere
-half space (SPEC 4.1): the solutions of $H(\mu) = 1 + \mu H(\mu) \int_0^1 \Psi_m(v) H(v)/(\mu + v)\,dv$
+half space (docs/model.md, "H-functions"): the solutions of $H(\mu) = 1 + \mu H(\mu) \int_0^1 \Psi_m(v) H(v)/(\mu + v)\,dv$
 for the characteristic functions $\Psi_0, \Psi_1$. `fitlab.families.lambert_sphere.exact.h_function` solves them
 (Nyström + Newton; the Fock integral agrees to about 1e-13). The BRDF uses them at
 $\mu = \mu_i$ and $\mu = \mu_o$, so errors are wanted over the whole square $(\mu, c) \in [0, 1]^2$.
@@ -195,7 +195,7 @@ CONSTANTS = [
     md(r"""
 # Constants: l, m (order 1) and B, C, D, F (order 0)
 
-The Fourier orders of the three-term BRDF (SPEC 4.2, 4.3) need a handful of functions of $c$ alone:
+The Fourier orders of the three-term BRDF (docs/model.md, "Order 0", "Order 1") need a handful of functions of $c$ alone:
 $l(c), m(c)$ in $f^{(1)}$ (eq. 22) and $B, C, D, F$ in the polynomial $Q$ of $f^{(0)}$ (eq. 30),
 $Q = A + B(\mu_i+\mu_o) + C\mu_i\mu_o + D\mu_i\mu_o(\mu_i+\mu_o) + E\mu_i^2\mu_o^2 + F(\mu_i^2+\mu_o^2)$ with
 $A = 69c/128$ and $E$ exact (eq. 33). `fitlab.families.lambert_sphere.exact.constants` computes them from moments of the exact H-functions.
@@ -410,7 +410,7 @@ BRDF = [
     md(r"""
 # The full BRDF: the runtime model and the fast variant
 
-`fitlab.families.lambert_sphere.runtime.runtime_model` assembles the runtime BRDF of SPEC 5,
+`fitlab.families.lambert_sphere.runtime.runtime_model` assembles the runtime BRDF (docs/model.md),
 $f_r = \max(0, f_1 + f_m^{(0)} + f_m^{(1)}\cos\phi)$: exact single scattering with the true phase function plus the
 multiple scattering of Fourier orders 0 and 1 built from approximations of $H_0$, $H_1$, $l$, $m$, $B..F$.
 It is measured against `fitlab.families.lambert_sphere.exact.brdf`, the reference (all three Fourier orders, exact H-functions).

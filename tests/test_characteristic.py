@@ -51,7 +51,7 @@ def test_k_matches_quadrature_at_small_t(order, c):
 
 
 def test_small_t_cancellation_is_avoided():
-    # SPEC 4.1: the printed K0(1e-4) at c = 0.5 loses every digit to cancellation; the value, by quadrature
+    # docs/model.md, "H-functions": the printed K0(1e-4) at c = 0.5 loses every digit to cancellation; the value, by quadrature
     # of the defining integral, is 0.59201...
     true = k_quadrature(0, 1e-4, 0.5)
     assert true == pytest.approx(0.59201, abs=1e-5)

@@ -358,10 +358,9 @@ def test_refit_worse_than_its_start_fails_and_writes_nothing(tmp_path, monkeypat
 def _stub_refits(monkeypatch, worse: str | None = None):
     """refit --all of l and m, each 'refit' being its committed fit (``worse``: that one made worse)."""
     import fitlab.cli.refit
-    import fitlab.fit.refit as refit_module
 
     monkeypatch.setattr(fitlab.cli.refit, "_start_metrics", lambda *a: None)  # the presets are the reference here
-    monkeypatch.setattr(refit_module, "default_jobs", lambda: [("l", "quadratic"), ("m", "linear")])
+    monkeypatch.setattr(fitlab.cli.refit, "default_jobs", lambda: [("l", "quadratic"), ("m", "linear")])
 
     def timed_refit(target, form, **kwargs):
         res = _committed(target.name)
@@ -370,7 +369,7 @@ def _stub_refits(monkeypatch, worse: str | None = None):
                 p["validation"].update(max_rel_nonzero=1e-9, rms_rel=1e-9)
         return res, 0.01
 
-    monkeypatch.setattr(refit_module, "timed_refit", timed_refit)
+    monkeypatch.setattr(fitlab.cli.refit, "timed_refit", timed_refit)
 
 
 def test_refit_all_writes_every_fit_or_none(tmp_path, monkeypatch, capsys):

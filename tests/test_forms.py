@@ -1,4 +1,4 @@
-"""Forms: one symbolic definition, numpy and JAX agree, presets transcribe SPEC 6,
+"""Forms: one symbolic definition, numpy and JAX agree, presets transcribe the published coefficients (docs/model.md),
 values and parameter gradients stay finite at the domain edges."""
 
 import itertools
@@ -103,7 +103,7 @@ def test_parse_expression_refuses_code_without_running_it(text, message):
         parse_expression(text, ("mu", "c"))
 
 
-# Independent transcriptions of SPEC 6, typed from the text, checked against the forms' presets.
+# Independent transcriptions of the paper's coefficients (docs/model.md, "Published approximations"), typed from the text, checked against the forms' presets.
 def test_presets_transcribe_spec6():
     mu = np.linspace(0, 1, 11)[:, None]
     c = np.linspace(0, 1, 7)[None, :]

@@ -6,8 +6,20 @@ import tempfile
 import time
 from pathlib import Path
 
-from fitlab.cli._common import (RunFailure, UsageError, add_quiet, service, describe, input_folder, one_line, output_folder, say,
-                                write_failure)
+from fitlab._io import atomic_write_many
+from fitlab.cli._common import (
+    RunFailure,
+    UsageError,
+    add_quiet,
+    describe,
+    input_folder,
+    one_line,
+    output_folder,
+    say,
+    service,
+    write_failure,
+)
+from fitlab.store import FitFileError, TableError, strict_json
 
 __all__ = ["add_arguments", "run", "FILES"]
 
@@ -29,8 +41,6 @@ def run(args) -> int:
     fits = input_folder(args.fits, "--fits")
     out = output_folder(args.out, "--out", files=FILES)
     audit = service("audit")
-    from fitlab._io import atomic_write_many
-    from fitlab.store import FitFileError, TableError, strict_json
 
     t0 = time.perf_counter()
     # the audit writes its two files one by one: let it write into a private folder, then move both

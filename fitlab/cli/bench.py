@@ -7,6 +7,7 @@ import io
 import sys
 
 from fitlab.cli._common import add_quiet, describe, input_folder, service
+from fitlab.store import strict_json
 
 __all__ = ["add_arguments", "run"]
 
@@ -46,7 +47,6 @@ def run(args) -> int:
         else:
             results = benches.bench_mc(quick=args.quick)  # JAX
     if args.json:
-        from fitlab.store import strict_json
 
         print(strict_json({"what": args.what, "quick": args.quick, "results": _jsonable(results)}), end="")
     return 0

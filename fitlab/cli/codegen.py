@@ -4,9 +4,22 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from fitlab.cli._common import (RunFailure, UsageError, add_quiet, describe, input_folder, one_line, output_folder, say,
-                                write_failure)
+import fitlab.codegen as codegen
+from fitlab._io import atomic_write_many
+from fitlab.cli._common import (
+    RunFailure,
+    UsageError,
+    add_quiet,
+    describe,
+    input_folder,
+    one_line,
+    output_folder,
+    say,
+    write_failure,
+)
 from fitlab.codegen.emit import LANGUAGES
+from fitlab.codegen.program import parse_terms
+from fitlab.store import FitFileError
 
 __all__ = ["add_arguments", "run"]
 
@@ -25,10 +38,6 @@ def add_arguments(p) -> None:
 
 
 def run(args) -> int:
-    import fitlab.codegen as codegen
-    from fitlab._io import atomic_write_many
-    from fitlab.codegen.program import parse_terms
-    from fitlab.store import FitFileError
 
     try:
         parse_terms(args.terms)

@@ -6,11 +6,24 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from fitlab.cli._common import (RunFailure, UsageError, add_quiet, require_extra, describe, fail, input_folder, one_line,
-                                output_folder, say, write_failure)
+from fitlab.cli._common import (
+    RunFailure,
+    UsageError,
+    add_quiet,
+    describe,
+    fail,
+    input_folder,
+    one_line,
+    output_folder,
+    require_extra,
+    say,
+    write_failure,
+)
 from fitlab.discover.cost import COST_REPEAT, COST_ROUNDS, routine_cost
 from fitlab.discover.library import get_library, libraries_of
 from fitlab.discover.output import front_table, save_from_front, write_outputs
+from fitlab.discover.search import discover
+from fitlab.fit.solver import FitError
 from fitlab.store import FitFileError, TableError, fit_path, write_fits
 
 __all__ = ["add_arguments", "run"]
@@ -67,8 +80,6 @@ def run(args) -> int:
             say(args, f"wrote {path}")
         return _print_cost(args)
     require_extra("pysindy", "discover")
-    from fitlab.discover.search import discover
-    from fitlab.fit.solver import FitError
 
     try:
         disc = discover(args.target, max_terms=args.max_terms, minimax_rounds=args.minimax_rounds,

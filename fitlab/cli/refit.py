@@ -12,9 +12,24 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from fitlab.cli._common import (RunFailure, UsageError, add_quiet, describe, input_file, input_folder, one_line,
-                                output_folder, say, write_failure)
+from tqdm import tqdm
+
+from fitlab.cli._common import (
+    RunFailure,
+    UsageError,
+    add_quiet,
+    describe,
+    input_file,
+    input_folder,
+    one_line,
+    output_folder,
+    say,
+    write_failure,
+)
 from fitlab.core import get_target, targets
+from fitlab.fit.refit import check_domain, default_jobs, refit_verdict, table, timed_refit, validation_metrics
+from fitlab.fit.solver import FitError
+from fitlab.store import FitFileError, TableError, fit_path, read_fit, resolve_form, strict_json, write_fits
 
 __all__ = ["add_arguments", "run", "parse_domain"]
 
@@ -43,7 +58,6 @@ def add_arguments(p) -> None:
 
 def _jobs(args) -> list[tuple]:
     """Every check of the request, before any fit: [(target, form, start, origin, domain)]; UsageError."""
-    from fitlab.store import fit_path
 
     jobs = _requested(args)
     for target, form, *_ in jobs:
@@ -54,7 +68,6 @@ def _jobs(args) -> list[tuple]:
 
 
 def _requested(args) -> list[tuple]:
-    from fitlab.store import FitFileError, TableError, fit_path, read_fit, resolve_form
 
     if args.all == bool(args.target):
         raise UsageError("give --target NAME (see --list) or --all")
@@ -68,7 +81,6 @@ def _requested(args) -> list[tuple]:
     output_folder(args.out, "--out")
     try:
         if args.all:
-            from fitlab.fit.refit import default_jobs
 
             return [(get_target(t), get_target(t).forms[f], None, None, None) for t, f in default_jobs()]
         target = get_target(args.target)
@@ -95,7 +107,6 @@ def _requested(args) -> list[tuple]:
 
 def _start_metrics(target, form, start, domain) -> dict:
     """The validation error of the refit's starting point (``--init``'s parameters or the form's start)."""
-    from fitlab.fit.refit import check_domain, validation_metrics
 
     valid = target.validation().restricted(check_domain(target, domain))
     theta = form.vector(start if start is not None else form.start_values)
@@ -110,11 +121,7 @@ def run(args) -> int:
         return 0
     jobs = _jobs(args)  # every usage error before any work
 
-    from tqdm import tqdm
 
-    from fitlab.fit.refit import refit_verdict, table, timed_refit
-    from fitlab.fit.solver import FitError
-    from fitlab.store import FitFileError, TableError, fit_path, strict_json, write_fits
 
     results, walls, verdicts = [], [], []
     try:

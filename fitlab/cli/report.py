@@ -4,8 +4,20 @@ from __future__ import annotations
 
 import time
 
-from fitlab.cli._common import (RunFailure, UsageError, add_quiet, describe, input_folder, one_line, output_folder, say,
-                                write_failure)
+from fitlab.cli._common import (
+    RunFailure,
+    UsageError,
+    add_quiet,
+    describe,
+    input_folder,
+    one_line,
+    output_folder,
+    say,
+    write_failure,
+)
+from fitlab.report import FULL, QUICK, ReportError, build_report, write_outputs
+from fitlab.report.write import FILES
+from fitlab.store import FitFileError
 
 __all__ = ["add_arguments", "run"]
 
@@ -25,11 +37,8 @@ def add_arguments(p) -> None:
 def run(args) -> int:
     t0 = time.perf_counter()
     fits = input_folder(args.fits, "--fits", required=False)  # a missing one: the report's own line names it
-    from fitlab.report.write import FILES
 
     out = output_folder(args.out, "--out", files=FILES)
-    from fitlab.report import FULL, QUICK, ReportError, build_report, write_outputs
-    from fitlab.store import FitFileError
 
     try:
         report = build_report(QUICK if args.quick else FULL, fits, use_cache=not args.no_cache,

@@ -14,6 +14,8 @@ from __future__ import annotations
 
 import sys
 
+from fitlab.cli._common import FAILURE, USAGE, fail, service
+
 __all__ = ["add_arguments", "run"]
 
 
@@ -32,7 +34,6 @@ def add_arguments(p) -> None:
 
 def run(args) -> int:
     """Validate everything (every error before any work), simulate, write; see the module's exit statuses."""
-    from fitlab.cli._common import FAILURE, USAGE, fail, service
 
     mc = service("simulate")  # the family's Monte Carlo (imports JAX)
     SceneError, simulate_file, summary_table, unconverged = mc.SceneError, mc.simulate_file, mc.summary_table, mc.unconverged

@@ -5,8 +5,18 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
-from fitlab.cli._common import (RunFailure, add_quiet, describe, fail, input_folder, output_folder, say, service,
-                                write_failure)
+from fitlab.cli._common import (
+    RunFailure,
+    add_quiet,
+    describe,
+    fail,
+    input_folder,
+    output_folder,
+    say,
+    service,
+    write_failure,
+)
+from fitlab.store import TableError
 
 __all__ = ["add_arguments", "run"]
 
@@ -24,7 +34,6 @@ def add_arguments(p) -> None:
 def run(args) -> int:
     if args.check:
         folder = input_folder(args.out, "--out")
-        from fitlab.store import TableError
 
         try:
             failures = service("tables").check_tables(folder, show_progress=not args.quiet)

@@ -8,12 +8,13 @@ the same search gives the same files.
 from __future__ import annotations
 
 import io
+import json
 import math
 from pathlib import Path
 
 from fitlab._io import atomic_write_many
+from fitlab.discover.search import Discovery, library_tag, pareto_front
 from fitlab.store import decode_nonfinite, fit_path, strict_json, write_fit, write_fits
-from fitlab.discover.search import Discovery, library_tag
 
 __all__ = ["front_table", "front_json", "plot_front", "save", "save_from_front", "write_outputs"]
 
@@ -90,7 +91,6 @@ def plot_front(disc: Discovery) -> bytes:
         ys = [d.validation[m] for d in disc.refined]
         ax.scatter(xs, ys, s=18, color="0.6", label="discovered (refitted)", zorder=2)
         front = sorted((getattr(d, key), d.validation[m]) for d in disc.refined if d.name in disc.front)
-        from fitlab.discover.search import pareto_front
 
         idx = pareto_front(front)
         fx, fy = zip(*sorted(front[i] for i in idx))
@@ -136,7 +136,6 @@ def save_from_front(front_file: Path, names, fits_dir: Path = Path("fits")) -> l
     ``names``: front members (one name or several).  Every name is checked before anything is
     written, and the files are written as one unit.
     """
-    import json
 
     names = [names] if isinstance(names, str) else list(names)
     front_file = Path(front_file)

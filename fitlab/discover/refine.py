@@ -12,14 +12,15 @@ elimination and a Horner arrangement: what a compiler is left to do.
 
 from __future__ import annotations
 
+import hashlib
 import itertools
 
 import sympy as sp
 
-from fitlab.forms import Form
-from fitlab.forms.symbolic import symbols
 from fitlab.discover.library import Library
 from fitlab.discover.regression import Candidate
+from fitlab.forms import Form
+from fitlab.forms.symbolic import symbols
 
 __all__ = ["candidate_form", "operation_count", "arranged", "form_name"]
 
@@ -30,7 +31,6 @@ def form_name(candidate: Candidate, tag: str = "") -> str:
     ``tag`` (a library's name) keeps apart equal labels of two libraries of one target; the
     primary library's forms are untagged, so their names stay as libraries are added.
     """
-    import hashlib
 
     text = "|".join(candidate.support[0]) + "/" + "|".join(candidate.support[1]) + (f"@{tag}" if tag else "")
     return f"sr_{candidate.n_terms}_{hashlib.sha256(text.encode()).hexdigest()[:6]}"

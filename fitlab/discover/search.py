@@ -22,13 +22,14 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+from tqdm import tqdm
 
-from fitlab.fit.metrics import relative_errors
-from fitlab.fit.refit import RefitResult, preset_metrics, refit
 from fitlab.core import get_target
 from fitlab.discover.library import Library, get_libraries
 from fitlab.discover.refine import arranged, candidate_form, form_name, operation_count
 from fitlab.discover.regression import DEFAULT_THRESHOLDS, Candidate, SparseRegression
+from fitlab.fit.metrics import relative_errors
+from fitlab.fit.refit import RefitResult, preset_metrics, refit
 from fitlab.report.pareto import pareto_front
 from fitlab.store import fit_files, read_fit
 
@@ -104,7 +105,6 @@ def discover(
 ) -> Discovery:
     """Run the search for ``target_name`` over ``libraries`` (default: all of the target's); nothing
     is written (see :func:`fitlab.discover.save`)."""
-    from tqdm import tqdm
 
     t0 = time.perf_counter()
     target = get_target(target_name)

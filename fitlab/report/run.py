@@ -17,6 +17,12 @@ import time
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
+from tqdm import tqdm
+
+from fitlab.codegen.native import STRICT_FLAGS, compiler
+from fitlab.core import get_target
+from fitlab.report.accuracy import brdf_accuracy, part_accuracy
+from fitlab.report.cost import jax_costs, numpy_costs
 from fitlab.report.methods import (
     ReportError,
     brdf_hook,
@@ -28,7 +34,11 @@ from fitlab.report.methods import (
     report_hooks,
     report_parts,
 )
+from fitlab.report.pareto import recommend
+from fitlab.report.programs import c_costs, timing_inputs
+from fitlab.report.refits import recorded_seconds, refit_costs, refit_jobs
 from fitlab.report.settings import FULL, Settings
+from fitlab.report.validation import brdf_set, grazing_set
 from fitlab.store import TableError
 
 __all__ = ["Report", "build_report"]
@@ -68,7 +78,6 @@ class _Progress:
     """One tqdm bar whose total grows as each stage announces its steps."""
 
     def __init__(self, enabled: bool):
-        from tqdm import tqdm
 
         self.bar = tqdm(total=0, desc="report", unit="step", disable=not enabled)
 
@@ -161,8 +170,6 @@ def _mc_rows(study, targets, mc_time_to_error, src) -> list[dict]:
 
 
 def _part_rows(settings, entries, data_dir, part_ns, tick) -> list[dict]:
-    from fitlab.core import get_target
-    from fitlab.report.accuracy import part_accuracy
 
     rows = []
     for name in settings.parts:
@@ -179,7 +186,6 @@ def _part_rows(settings, entries, data_dir, part_ns, tick) -> list[dict]:
 
 
 def _refit_rows(entries, settings, fits_dir, progress) -> list[dict]:
-    from fitlab.report.refits import recorded_seconds, refit_costs, refit_jobs
 
     jobs = refit_jobs(entries, settings.refits)
     progress.stage("refits", len(jobs))
@@ -212,7 +218,6 @@ def build_report(settings: Settings = FULL, fits_dir: Path = Path("fits"), data_
     ``data_dir``: the exact tables (None: the families' data/ folder).
 
     Bad input (the fits folder, a fit file, the tables) fails here, before any slow work."""
-    from fitlab.report.pareto import recommend
 
     t_start = time.perf_counter()
     settings = _resolved(settings)
@@ -235,11 +240,7 @@ def build_report(settings: Settings = FULL, fits_dir: Path = Path("fits"), data_
 
 
 def _measure(settings, entries, fits_dir, data_dir, use_cache, p) -> tuple[list, dict]:
-    from fitlab.report.accuracy import brdf_accuracy
-    from fitlab.report.cost import jax_costs, numpy_costs
     hook = brdf_hook()  # the family's exact engine and Monte Carlo
-    from fitlab.report.programs import c_costs, timing_inputs
-    from fitlab.report.validation import brdf_set, grazing_set
 
     p.stage("validation set", 2 * (settings.n_c + settings.with_c1))
     valid = brdf_set(settings, use_cache, p.tick)
@@ -283,7 +284,6 @@ def _measure(settings, entries, fits_dir, data_dir, use_cache, p) -> tuple[list,
     for e in entries:
         g = fit_group(e)
         counts[g] = counts.get(g, 0) + 1
-    from fitlab.codegen.native import STRICT_FLAGS, compiler
 
     context = {
         "c_compiler": f"{Path(compiler() or 'no C compiler').name} {' '.join(STRICT_FLAGS)}",

@@ -167,7 +167,7 @@ def _markdown(result: dict) -> str:
         w = r["worst"]
         out.append(f"| {r['target']} | {r['form']} / {r['preset']} | {r['claimed']} | {_f(r['max_rel'])} | "
                    f"{_f(r['max_rel_nonzero'])} | {_f(r['rms_rel'])} | {_point(w)} ({w['exact']:.6g}, {w['approx']:.6g}) |")
-    out += ["", "## Runtime model (SPEC 5) against `fitlab.families.lambert_sphere.exact.brdf`", "",
+    out += ["", "## Runtime model (docs/model.md) against `fitlab.families.lambert_sphere.exact.brdf`", "",
             f"Validation set: {result['runtime_grid']}. *away* = mu_i, mu_o >= 1/64. Variants: `paper_printed`",
             "(all printed, 6 pi / 384 pi, H1 read as printed), `paper` (printed coefficients, H1 in the renderer's",
             "reading, the exact 3 pi / 192 pi), `renderer` (the renderer's coefficients), `refit` (fits/, default",

@@ -22,11 +22,19 @@ c = c_of_kd(kd) of the generated module), so differences are of shape only.
 from __future__ import annotations
 
 import importlib.util
+import io
 import sys
 from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
+from tqdm import tqdm
+
+from fitlab._io import atomic_write_bytes
+from fitlab.families.lambert_sphere.exact import gauss_legendre, isotropic_characteristic, solve_albedo, solve_h
+from fitlab.families.lambert_sphere.forms.baselines import BASELINE_INPUTS
+from fitlab.families.lambert_sphere.forms.baselines import oren_nayar as expression
+from fitlab.forms.symbolic import lambdify_numpy, symbols
 
 __all__ = ["RenderError", "load_generated", "FunctionBSDF", "render_sphere", "render_comparison", "MATERIALS",
            "chandrasekhar_albedo_c", "light_directions", "pixel_geometry", "material_function"]  # fmt: skip
@@ -65,8 +73,6 @@ def load_generated(path: Path):
 
 @lru_cache(maxsize=4)
 def _oren_nayar_function(sigma: float):
-    from fitlab.families.lambert_sphere.forms.baselines import BASELINE_INPUTS, oren_nayar as expression
-    from fitlab.forms.symbolic import lambdify_numpy, symbols
 
     return lambdify_numpy(symbols(BASELINE_INPUTS), expression(sigma))
 
@@ -81,7 +87,6 @@ def oren_nayar(wi, wo, kd, sigma=OREN_NAYAR_SIGMA):
 
 @lru_cache(maxsize=8)
 def _isotropic_h_table(c: float):
-    from fitlab.families.lambert_sphere.exact import isotropic_characteristic, solve_h
 
     mu = np.linspace(0.0, 1.0, 1025)
     return mu, solve_h(isotropic_characteristic(c))(mu)
@@ -96,7 +101,6 @@ def chandrasekhar(wi, wo, c: float):
 
 def _chandrasekhar_kd(c: float) -> float:
     mu, h = _isotropic_h_table(float(c))
-    from fitlab.families.lambert_sphere.exact import gauss_legendre
 
     x, w = gauss_legendre(64)
     hx = np.interp(x, mu, h)
@@ -108,7 +112,6 @@ def _chandrasekhar_kd(c: float) -> float:
 def chandrasekhar_albedo_c(kd: float) -> float:
     """The single-scattering albedo c whose Chandrasekhar BRDF has spherical albedo kd
     (:func:`fitlab.families.lambert_sphere.exact.solve_albedo`)."""
-    from fitlab.families.lambert_sphere.exact import solve_albedo
 
     if not 0.0 < kd < 1.0:
         raise ValueError("kd must lie in (0, 1)")
@@ -249,9 +252,7 @@ def render_comparison(out: Path, generated: Path, kd: float = 0.8, size: int = 6
                       show_progress: bool = True) -> Path:  # fmt: skip
     """Render every material under ``lights`` directions to one PNG (rows: materials)."""
     from matplotlib.figure import Figure  # not pyplot: rendering leaves the caller's backend alone
-    from tqdm import tqdm
 
-    from fitlab._io import atomic_write_bytes
 
     if not 0.0 < kd < 1.0:
         raise ValueError("--kd must lie in (0, 1)")
@@ -277,7 +278,6 @@ def render_comparison(out: Path, generated: Path, kd: float = 0.8, size: int = 6
                 ax.set_title(f"phase {np.degrees(np.arccos(d[2])):.0f} deg", fontsize=9)
     fig.suptitle(f"spherical albedo kd = {kd} for every material; one exposure for all", fontsize=9)
     fig.tight_layout()
-    import io
 
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=100)

@@ -25,9 +25,10 @@ from pathlib import Path
 import numpy as np
 import sympy as sp
 
-from fitlab.core import get_form
+from fitlab.core import get_form, get_target
 from fitlab.families.lambert_sphere.forms import RUNTIME_PARTS, runtime_brdf
 from fitlab.forms.symbolic import lambdify_numpy, symbols
+from fitlab.store import fit_path, load
 
 __all__ = ["RuntimeModel", "runtime_model", "PRESET_VARIANTS"]
 
@@ -62,8 +63,6 @@ class RuntimeModel:
 def runtime_model(
     variant: str | None = None, *, fits_dir: Path | None = None, forms: dict | None = None, normalisation: str = "corrected"
 ) -> RuntimeModel:
-    from fitlab.store import fit_path
-    from fitlab.store import load
 
     if (variant is None) == (fits_dir is None):
         raise ValueError("give a preset variant or fits_dir")
@@ -78,7 +77,6 @@ def runtime_model(
             sources[part] = f"{form_name} / {preset}"
         name = variant
     else:
-        from fitlab.core import get_target
 
         for part in RUNTIME_PARTS:
             form_name = (forms or {}).get(part, get_target(part).default_form)

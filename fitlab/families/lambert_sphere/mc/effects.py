@@ -48,6 +48,19 @@ from functools import lru_cache
 
 import numpy as np
 
+from fitlab.core import get_form
+from fitlab.families.lambert_sphere.exact import (
+    albedo,
+    brdf_modes,
+    graded_gauss,
+    multiple_scattering_modes,
+    phase_function,
+    single_albedo_nodes,
+    single_scattering_albedo,
+    spherical_albedo,
+    three_term_phase_function,
+    three_term_single_albedo,
+)
 from fitlab.families.lambert_sphere.mc.scene import Scene
 from fitlab.families.lambert_sphere.mc.transport import WalkConfig
 
@@ -251,7 +264,6 @@ def estimate_rows(effect: str, scene: Scene, results: dict) -> list:
 
 # ------------------------------------------------------- single scattering
 def _p(u, phase):
-    from fitlab.families.lambert_sphere.exact import phase_function, three_term_phase_function
 
     return phase_function(u) if phase == "true" else three_term_phase_function(u)
 
@@ -291,7 +303,6 @@ def _ss_bin(scene, mat, inc, b, key, phase=None):
 @lru_cache(maxsize=None)
 def _ss_albedo(mu_i, phase):
     """Single-scattering directional albedo per unit c (fitlab.families.lambert_sphere.exact, adaptive quadrature)."""
-    from fitlab.families.lambert_sphere.exact import single_scattering_albedo
 
     return float(single_scattering_albedo(mu_i, "true" if phase == "true" else "three_term"))
 
@@ -299,7 +310,6 @@ def _ss_albedo(mu_i, phase):
 @lru_cache(maxsize=None)
 def single_spherical_albedo(phase):
     """2 int a1(mu) mu dmu per unit c (single scattering's share of kd), on the exact engine's graded rule."""
-    from fitlab.families.lambert_sphere.exact import graded_gauss, single_albedo_nodes, three_term_single_albedo
 
     v, w = graded_gauss(8, 0.25, 1e-14)
     a1 = single_albedo_nodes("true") if phase == "true" else three_term_single_albedo(np.asarray(v))
@@ -309,7 +319,6 @@ def single_spherical_albedo(phase):
 # ----------------------------------------------------------- references
 def eq40_kd(c):
     """Published eq. 40, kd(c): the ``printed`` form of kd_of_c with its ``paper`` preset."""
-    from fitlab.core import get_form
 
     return float(get_form("kd_of_c", "printed")("paper", np.asarray(float(c))))
 
@@ -317,7 +326,6 @@ def eq40_kd(c):
 @lru_cache(maxsize=None)
 def _exact_modes_bin(c, mu_i, a, b, multiple_only):
     """mu_o-weighted bin averages of the three exact three-term modes (f0, f1, f2)."""
-    from fitlab.families.lambert_sphere.exact import brdf_modes, multiple_scattering_modes
 
     x, w = np.polynomial.legendre.leggauss(_N_MU)
     mu = a + (b - a) * (x + 1.0) / 2.0
@@ -340,7 +348,6 @@ def _exact_directional(c, mu_i, row, key, scene, multiple_only):
 
 def attach_reference(effect: str, scene: Scene, rows: list) -> list:
     """Fill ref/ref_name/z_ref and alt/alt_name/z_alt of the rows (uses the exact engine)."""
-    from fitlab.families.lambert_sphere.exact import albedo, spherical_albedo
 
     three = scene.phase == "three_term"
     model = "exact three-term half space" if three else "fitlab.families.lambert_sphere.exact reference (true SS + three-term MS)"

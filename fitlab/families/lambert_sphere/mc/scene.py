@@ -49,11 +49,14 @@ import json
 import math
 import re
 import tomllib
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from json.decoder import scanstring
 from pathlib import Path
 
 import numpy as np
+
+from fitlab.core import get_form
+from fitlab.families.lambert_sphere.exact import albedo_inverse
 
 __all__ = ["EFFECTS", "LIMITS", "NAME_RE", "Material", "Scene", "SceneError", "check_option", "load_scene",
            "parse_scene", "with_overrides"]
@@ -352,8 +355,6 @@ def _c_of_kd(kd: float, phase: str) -> float:
     """c whose exact spherical albedo is kd (three-term half space, or fitlab.families.lambert_sphere.exact 'true'):
     :func:`fitlab.families.lambert_sphere.exact.albedo_inverse`, bracketed around the published eq. 39 map
     (the ``paper`` preset of the c_of_kd form ``rational_power``)."""
-    from fitlab.core import get_form
-    from fitlab.families.lambert_sphere.exact import albedo_inverse
 
     model = "three_term" if phase == "three_term" else "true"
     guess = float(get_form("c_of_kd", "rational_power")("paper", np.asarray(float(kd)))) if 0.0 < kd <= 1.0 else None
@@ -410,7 +411,6 @@ def check_option(name: str, value) -> int | float:
 
 def with_overrides(scene: Scene, target_se=None, max_paths=None, seed=None) -> Scene:
     """The scene with command-line overrides (None: keep), each checked by :func:`check_option`."""
-    from dataclasses import replace
 
     changes, errors = {}, []
     for name, value in (("target_se", target_se), ("max_paths", max_paths), ("seed", seed)):

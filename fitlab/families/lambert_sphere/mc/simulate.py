@@ -28,16 +28,18 @@ from __future__ import annotations
 import csv
 import io
 import math
+import tempfile
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+from tqdm import tqdm
 
 from fitlab._io import atomic_write_text
 from fitlab.families.lambert_sphere.mc.effects import ROW_FIELDS, attach_reference, effect_jobs, estimate_rows, plan
-from fitlab.families.lambert_sphere.mc.scene import Scene, SceneError, load_scene, with_overrides
 from fitlab.families.lambert_sphere.mc.sampling import unbounded_reason
+from fitlab.families.lambert_sphere.mc.scene import Scene, SceneError, load_scene, with_overrides
 from fitlab.families.lambert_sphere.mc.transport import compile_walk, default_mesh, run_round
 
 __all__ = ["SimulationResult", "simulate", "simulate_file", "write_outputs", "unconverged", "check_out_dir",
@@ -110,7 +112,6 @@ def simulate(scene: Scene, progress: bool = True, mesh=None) -> SimulationResult
     results, stats = {}, {job: JobStats() for job in jobs}
     bar = None
     if progress:
-        from tqdm import tqdm
 
         bar = tqdm(total=len(jobs) * scene.max_paths, unit="path", unit_scale=True, desc=scene.name,
                    disable=not jobs)
@@ -251,7 +252,6 @@ def check_out_dir(out_dir: Path) -> None:
     Tried for real: the missing folders are made, a probe file is written and
     removed, and the folders made are removed again (nothing is left behind).
     """
-    import tempfile
 
     out_dir = Path(out_dir)
     if out_dir.exists() and not out_dir.is_dir():
