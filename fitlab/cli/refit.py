@@ -10,6 +10,7 @@ and replaces nothing.
 
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 
 from tqdm import tqdm
@@ -121,12 +122,14 @@ def run(args) -> int:
         return 0
     jobs = _jobs(args)  # every usage error before any work
 
-
-
     results, walls, verdicts = [], [], []
     try:
         for target, form, start, origin, domain in tqdm(jobs, desc="refit", unit="fit",
                                                          disable=args.quiet or len(jobs) == 1):  # fmt: skip
+            if len(jobs) == 1 and not args.quiet:  # one job has no bar: say what the next seconds go to
+                print(f"fitlab refit: {form.key}: exact data (cached after the first run), least squares"
+                      f"{', minimax' if (target.minimax and not args.no_minimax) else ''}, validation ...",
+                      file=sys.stderr, flush=True)  # fmt: skip
             res, wall = timed_refit(
                 target, form, domain=domain, start=start, origin=origin,
                 minimax=False if args.no_minimax else None, compare_scipy=args.compare_scipy,
