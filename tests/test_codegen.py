@@ -114,6 +114,15 @@ def test_banner_points_to_the_model_document(sources):
             assert "docs/model.md" in text and "SPEC" not in text
 
 
+def test_every_generated_file_opens_with_an_spdx_licence_line(sources):
+    licence = (ROOT / "LICENSE").read_text().splitlines()[0]
+    assert licence == "MIT License"
+    for files in sources.values():
+        for name, text in files.items():
+            first = text.splitlines()[1] if text.startswith("/*") else text.splitlines()[0]
+            assert first.endswith("SPDX-License-Identifier: MIT"), name
+
+
 def test_build_program_takes_records_and_reads_no_file(program, monkeypatch):
     """Records (fit-file dicts) go straight in: the same routines as from the files, no file opened."""
     from fitlab.codegen import program_spec
