@@ -34,8 +34,8 @@ from fitlab.forms import Form
 from fitlab.forms.symbolic import lambdify_numpy, parse_expression, symbols
 
 __all__ = [
-    "FORMAT", "FitFileError", "FitFunction", "load", "read_fit", "check_fit", "fit_schema", "PARAM_LIMIT", "write_fit", "write_fits", "strict_json", "decode_nonfinite",
-    "form_from_fit",
+    "FORMAT", "FitFileError", "FitFunction", "load", "read_fit", "read_checked_fit", "check_fit", "checked_fit",
+    "fit_schema", "PARAM_LIMIT", "write_fit", "write_fits", "strict_json", "decode_nonfinite", "form_from_fit",
     "fit_path", "fit_files", "fit_sha256", "resolve_form", "Table", "TableError", "format_table", "read_table", "write_tables",
 ]
 
@@ -119,7 +119,13 @@ def _refuse_constant(name):
 
 
 def check_fit(record, source: str = "fit") -> dict:
-    """Check a fit record against the schema and the registry; returns it with non-finite strings decoded.
+    """:func:`checked_fit` without the expression: the record, with non-finite strings decoded."""
+    return checked_fit(record, source)[0]
+
+
+def checked_fit(record, source: str = "fit") -> tuple[dict, sp.Expr]:
+    """Check a fit record against the schema and the registry; returns it with non-finite strings decoded, and its
+    expression read by the restricted parser (the one parse of a record).
 
     Refused with one :class:`FitFileError` line: anything the schema refuses (wrong types, unknown
     fields, names that are not plain identifiers, text a generated source could not quote), an unknown
@@ -164,15 +170,19 @@ def check_fit(record, source: str = "fit") -> dict:
             raise FitFileError(f"{source}: params {list(record['params'])}, form {form.key} has {list(form.params)}")
         if record["expression"] != form.expression:
             raise FitFileError(f"{source}: the expression is not that of the registered form {form.key}")
-    else:
-        try:
-            parse_expression(record["expression"], (*record["inputs"], *record["params"]))
-        except ValueError as exc:
-            raise FitFileError(f"{source}: {exc}") from None
-    return _decode(record)
+    try:
+        expr = parse_expression(record["expression"], (*record["inputs"], *record["params"]))
+    except ValueError as exc:
+        raise FitFileError(f"{source}: {exc}") from None
+    return _decode(record), expr
 
 
 def read_fit(path: Path, target: str | None = None) -> dict:
+    """:func:`read_checked_fit` without the expression."""
+    return read_checked_fit(path, target)[0]
+
+
+def read_checked_fit(path: Path, target: str | None = None) -> tuple[dict, sp.Expr]:
     """Read and check a fit file (:func:`check_fit`); every failure is one :class:`FitFileError` line.
 
     ``target``: the target the caller expects.  A file named after a registered target
@@ -199,7 +209,7 @@ def read_fit(path: Path, target: str | None = None) -> dict:
         ) from None
     except (ValueError, RecursionError, UnicodeDecodeError) as exc:
         raise FitFileError(f"{path}: not a fit file ({str(exc)[:120] or type(exc).__name__})") from None
-    record = check_fit(record, str(path))
+    record, expr = checked_fit(record, str(path))
     named = path.name.split(".")
     if len(named) in (2, 3) and named[-1] == "json" and named[0] in targets():
         default = get_target(named[0]).default_form
@@ -208,7 +218,7 @@ def read_fit(path: Path, target: str | None = None) -> dict:
             raise FitFileError(f"{path}: holds a fit of {record['target']}/{record['form']}, not {named[0]}/{form}")
     if target is not None and record["target"] != target:
         raise FitFileError(f"{path}: holds a fit of {record['target']}, not {target}")
-    return record
+    return record, expr
 
 
 class FitFunction:
@@ -219,8 +229,9 @@ class FitFunction:
     nothing outside the domain it was validated on.
     """
 
-    def __init__(self, record: dict, path: Path | None = None):
-        record = check_fit(record, str(path or "fit"))
+    def __init__(self, record: dict, path: Path | None = None, *, checked: tuple[dict, sp.Expr] | None = None):
+        # ``checked``: the (record, expression) pair :func:`read_checked_fit` already made (``load``)
+        record, expr = checked if checked is not None else checked_fit(record, str(path or "fit"))
         self.record = record
         self.path = path
         self.target = record["target"]
@@ -228,10 +239,6 @@ class FitFunction:
         self.inputs = tuple(record["inputs"])
         self.params = dict(record["params"])
         self.domain = {k: tuple(float(x) for x in v) for k, v in record["domain"].items()}
-        try:
-            expr = parse_expression(record["expression"], (*self.inputs, *self.params))
-        except ValueError as exc:
-            raise FitFileError(f"{path or 'fit'}: {exc}") from None
         expr = expr.subs({sp.Symbol(p, real=True): sp.Float(repr(float(v)), 17) for p, v in self.params.items()})
         self.expression = expr
         self._f = lambdify_numpy(symbols(self.inputs), expr)
@@ -266,18 +273,18 @@ class FitFunction:
 
 def load(path) -> FitFunction:
     """Load a fit file written by ``fitlab refit`` as a :class:`FitFunction`."""
-    return FitFunction(read_fit(path), Path(path))
+    checked = read_checked_fit(path)
+    return FitFunction(checked[0], Path(path), checked=checked)
 
 
 def form_from_fit(record: dict):
     """The :class:`fitlab.forms.Form` a fit record defines (its expression, parameters and fixed
     values), starting from the record's parameters: how a form found outside fitlab.forms (by
     ``fitlab discover``) is refitted like any other."""
-    names = (*record["inputs"], *record["params"])
-    try:
-        expr = parse_expression(record["expression"], names)
-    except ValueError as exc:
-        raise FitFileError(f"{record.get('target')}/{record.get('form')}: {exc}") from None
+    return _form(*checked_fit(record, f"{record.get('target')}/{record.get('form')}"))
+
+
+def _form(record: dict, expr: sp.Expr) -> Form:
     return Form(
         target=record["target"],
         name=record["form"],
@@ -318,7 +325,7 @@ def resolve_form(target_name: str, form_name: str | None, fits_dir: Path = Path(
         return target.forms[form_name]
     path = fit_path(fits_dir, target.name, form_name)
     if path.exists():
-        return form_from_fit(read_fit(path))
+        return _form(*read_checked_fit(path))
     raise KeyError(
         f"target {target.name} has no form {form_name!r} (and there is no {path}); forms: {', '.join(target.forms)}"
     )

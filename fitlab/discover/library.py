@@ -55,7 +55,7 @@ class Library:
         for label, e in (*self.numerator.items(), *self.denominator.items(),
                          ("offset", self.offset), ("factor", self.factor), ("n0", self.n0),
                          ("d0", self.d0)):  # fmt: skip
-            extra = sp.sympify(e).free_symbols - allowed
+            extra = sp.sympify(e, strict=True).free_symbols - allowed
             if extra:
                 raise ValueError(f"library {self.name}: {label} uses {sorted(map(str, extra))}, not inputs {self.inputs}")
         if not self.numerator:

@@ -36,8 +36,8 @@ def check_domain(target: Target, domain: Mapping[str, tuple[float, float]] | Non
             raise ValueError(f"domain: {target.name}'s inputs are {', '.join(target.inputs)}, not {name!r}")
         lo, hi = (float(x) for x in interval)
         full_lo, full_hi = full[name]
-        if not (full_lo <= lo < hi <= full_hi):
-            raise ValueError(f"domain {name}={lo:g}:{hi:g}: need {full_lo:g} <= LO < HI <= {full_hi:g}")
+        if not (full_lo <= lo < hi <= full_hi):  # NaN fails too
+            raise ValueError(f"domain {name}={lo:g}:{hi:g}: need {full_lo:g} <= LO < HI <= {full_hi:g} for {name}")
         out[name] = (lo, hi)
     return out
 
