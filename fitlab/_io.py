@@ -4,6 +4,7 @@ written as one unit (all new, or all as they were), with no temporary left behin
 from __future__ import annotations
 
 import os
+import tempfile
 from pathlib import Path
 
 __all__ = ["atomic_write_text", "atomic_write_bytes", "atomic_write_many", "temporary_name"]
@@ -64,3 +65,52 @@ def atomic_write_many(files: dict) -> None:
         for tmp in tmps:
             _unlink_quietly(tmp)
         raise
+
+
+class FolderError(Exception):
+    """An output location that is not, or cannot become, a writable folder.
+
+    kind: "file" (it exists and is not a folder), "below_file" (its nearest existing ancestor is not a
+    folder), "read_only" (that ancestor denies writing), "unwritable" (a probe file could not be made
+    there; ``detail`` says why), "file_is_folder" (a file the command writes is a folder).
+    where: the path the problem is at."""
+
+    def __init__(self, kind: str, where: Path, detail: str = ""):
+        super().__init__(f"{kind}: {where}{': ' + detail if detail else ''}")
+        self.kind, self.where, self.detail = kind, Path(where), detail
+
+
+def _nearest_existing(path: Path) -> Path:
+    probe = Path(os.path.abspath(path))
+    while not os.path.lexists(probe):
+        probe = probe.parent
+    return probe
+
+
+def check_output_folder(path, files=()) -> Path:
+    """``path`` as a Path, once it is certain that a command can write its outputs there (else
+    :class:`FolderError`): a folder that exists or can be created, whose nearest existing ancestor
+    takes a probe file (created and removed at once, so that /proc, a read-only mount or a folder
+    without write permission is refused even for root), none of ``files`` (the names to be written)
+    a folder.  Nothing is created."""
+    out = Path(path)
+    if out.exists() and not out.is_dir():
+        raise FolderError("file", out)
+    where = _nearest_existing(out)
+    if not where.is_dir():
+        raise FolderError("below_file", where)
+    if not os.access(where, os.W_OK | os.X_OK):
+        raise FolderError("read_only", where)
+    try:
+        fd, probe = tempfile.mkstemp(prefix=".fitlab-probe-", dir=where)
+    except OSError as exc:
+        raise FolderError("unwritable", where, str(exc.strerror or exc)) from None
+    os.close(fd)
+    try:
+        os.unlink(probe)
+    except OSError:  # pragma: no cover
+        pass
+    for name in files:
+        if (out / name).is_dir():
+            raise FolderError("file_is_folder", out / name)
+    return out

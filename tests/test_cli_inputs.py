@@ -54,12 +54,21 @@ COMMANDS = {
 
 @pytest.fixture
 def guarded(monkeypatch):
-    """Every command's core function raises Started."""
+    """Every command's core function raises Started, where it is defined and wherever a command module
+    imported it by name (the command modules are imported first, so each binds the real function)."""
     import importlib
 
+    from fitlab.cli import COMMANDS as NAMES, command_module
+
+    commands = [command_module(n) for n in NAMES]
     for _, cores in COMMANDS.values():
         for module, name in cores:
-            monkeypatch.setattr(importlib.import_module(module), name, _boom)
+            owner = importlib.import_module(module)
+            real = getattr(owner, name)
+            monkeypatch.setattr(owner, name, _boom)
+            for command in commands:
+                if getattr(command, name, None) is real:
+                    monkeypatch.setattr(command, name, _boom)
     return monkeypatch
 
 

@@ -15,8 +15,9 @@ import argparse
 import math
 import os
 import sys
-import tempfile
 from pathlib import Path
+
+from fitlab._io import FolderError, check_output_folder
 
 __all__ = [
     "USAGE", "FAILURE", "UsageError", "RunFailure", "Parser", "fail", "one_line", "output_folder", "input_file",
@@ -96,44 +97,24 @@ def integer(lo: int | None = None, hi: int | None = None):
 
 
 # -- files and folders -------------------------------------------------------------
-def _nearest_existing(path: Path) -> Path:
-    probe = Path(os.path.abspath(path))
-    while not os.path.lexists(probe):
-        probe = probe.parent
-    return probe
-
-
 def output_folder(path, flag: str = "--out", files=()) -> Path:
-    """Check that ``path`` can take a command's outputs before any work starts; returns it as a Path.
-
-    It must be a folder that exists or can be created (its nearest existing ancestor a folder), and
-    writable: the folder it is or will be made in takes a probe file, created and removed at once,
-    so that /proc, a read-only mount or a folder without write permission is refused even for root.
-    An existing file is never a folder.  ``files``: the names the command writes into it; none may be
-    a folder.  Nothing is created.  Refusals are :class:`UsageError`."""
+    """Check that ``path`` can take a command's outputs before any work starts; returns it as a Path
+    (:func:`fitlab._io.check_output_folder`: a folder that exists or can be made, writable, none of
+    ``files`` a folder; nothing is created).  Refusals are :class:`UsageError`."""
     if path is None or str(path).strip() == "":
         raise UsageError(f"{flag}: give a folder")
     out = Path(path)
-    if out.exists() and not out.is_dir():
-        raise UsageError(f"{flag} {out}: exists and is not a folder")
-    where = _nearest_existing(out)
-    if not where.is_dir():
-        raise UsageError(f"{flag} {out}: {where} is not a folder")
-    if not os.access(where, os.W_OK | os.X_OK):
-        raise UsageError(f"{flag} {out}: {where} is not writable")
     try:
-        fd, probe = tempfile.mkstemp(prefix=".fitlab-probe-", dir=where)
-    except OSError as exc:
-        raise UsageError(f"{flag} {out}: cannot write in {where} ({exc.strerror or exc})") from None
-    os.close(fd)
-    try:
-        os.unlink(probe)
-    except OSError:  # pragma: no cover
-        pass
-    for name in files:
-        if (out / name).is_dir():
-            raise UsageError(f"{flag} {out}: {out / name} is a folder, where a file will be written")
-    return out
+        return check_output_folder(out, files)
+    except FolderError as exc:
+        message = {
+            "file": "exists and is not a folder",
+            "below_file": f"{exc.where} is not a folder",
+            "read_only": f"{exc.where} is not writable",
+            "unwritable": f"cannot write in {exc.where} ({exc.detail})",
+            "file_is_folder": f"{exc.where} is a folder, where a file will be written",
+        }[exc.kind]
+        raise UsageError(f"{flag} {out}: {message}") from None
 
 
 def write_failure(out, exc: OSError) -> RunFailure:

@@ -28,7 +28,6 @@ from __future__ import annotations
 import csv
 import io
 import math
-import tempfile
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -36,7 +35,7 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
-from fitlab._io import atomic_write_text
+from fitlab._io import FolderError, atomic_write_text, check_output_folder
 from fitlab.families.lambert_sphere.mc.effects import ROW_FIELDS, attach_reference, effect_jobs, estimate_rows, plan
 from fitlab.families.lambert_sphere.mc.sampling import unbounded_reason
 from fitlab.families.lambert_sphere.mc.scene import Scene, SceneError, load_scene, with_overrides
@@ -247,31 +246,16 @@ def unconverged(result: SimulationResult) -> list:
 
 
 def check_out_dir(out_dir: Path) -> None:
-    """Refuse (one-line SceneError) an output location that is not, or cannot become, a writable folder.
-
-    Tried for real: the missing folders are made, a probe file is written and
-    removed, and the folders made are removed again (nothing is left behind).
-    """
-
+    """Refuse (one-line SceneError) an output location that is not, or cannot become, a writable folder
+    (:func:`fitlab._io.check_output_folder`, the check every command makes; nothing is created)."""
     out_dir = Path(out_dir)
-    if out_dir.exists() and not out_dir.is_dir():
-        raise SceneError(f"--out: {out_dir} exists and is not a folder")
-    made = []
     try:
-        for d in reversed([out_dir, *out_dir.parents]):
-            if not d.exists():
-                d.mkdir()
-                made.append(d)
-        with tempfile.NamedTemporaryFile(dir=out_dir, prefix=".probe-"):
-            pass
-    except OSError as exc:
-        raise SceneError(f"--out: cannot write in {out_dir}: {exc.strerror or exc}") from None
-    finally:
-        for d in reversed(made):
-            try:
-                d.rmdir()
-            except OSError:
-                pass
+        check_output_folder(out_dir)
+    except FolderError as exc:
+        if exc.kind == "file":
+            raise SceneError(f"--out: {out_dir} exists and is not a folder") from None
+        raise SceneError(f"--out: cannot write in {out_dir}: {exc.detail or exc.kind.replace('_', ' ')} at "
+                         f"{exc.where}") from None
 
 
 def simulate_file(path, out_dir=None, progress=True, plots=True, target_se=None, max_paths=None, seed=None):
