@@ -17,7 +17,11 @@ of engine is a miss, never a stale hit.
   reader sees either the old entry or a whole new one.
 * A cache that cannot be written (read-only disk) only costs time.
 
-``fitlab cache info`` and ``fitlab cache clear`` manage it.
+The same folder keeps, under ``xla/``, the programs JAX compiles for the commands
+(:func:`enable_compilation_cache`, JAX's persistent compilation cache): a second
+``fitlab refit`` traces its model but does not compile it again.
+
+``fitlab cache info`` and ``fitlab cache clear`` manage both.
 """
 
 from __future__ import annotations
@@ -34,9 +38,11 @@ import numpy as np
 from fitlab import __version__
 from fitlab._io import atomic_write_bytes
 
-__all__ = ["cache_dir", "cache_key", "cached_arrays", "cache_info", "clear_cache", "enabled"]
+__all__ = ["cache_dir", "cache_key", "cached_arrays", "cache_info", "clear_cache", "enabled", "enable_compilation_cache"]
 
 _SUFFIX = ".npz"
+#: the subfolder of JAX's compiled programs
+_XLA = "xla"
 
 
 def cache_dir() -> Path:
@@ -107,6 +113,20 @@ def cached_arrays(
     return {n: values[n] for n in names}
 
 
+def enable_compilation_cache() -> None:
+    """Keep what JAX compiles in CACHE/xla (JAX's persistent compilation cache, keyed by JAX on the program,
+    its shapes, the backend and the JAX version), unless the cache is off or the user set JAX's own folder.
+    Programs that compile in under 0.2 s are not kept.  Imports JAX."""
+    if not enabled():
+        return
+    import jax
+
+    if jax.config.jax_compilation_cache_dir:
+        return  # the user's own setting wins
+    jax.config.update("jax_compilation_cache_dir", str(cache_dir() / _XLA))
+    jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.2)
+
+
 def cache_info() -> dict:
     """{"folder", "entries", "bytes", "by_name": {name: (entries, bytes)}} of the cache as it is now."""
     folder = cache_dir()
@@ -116,6 +136,9 @@ def cache_info() -> dict:
         entry = by_name.setdefault(stem, [0, 0])
         entry[0] += 1
         entry[1] += p.stat().st_size
+    xla = [p for p in (folder / _XLA).rglob("*") if p.is_file()] if (folder / _XLA).is_dir() else []
+    if xla:
+        by_name["xla (compiled JAX programs)"] = [len(xla), sum(p.stat().st_size for p in xla)]
     return {
         "folder": str(folder),
         "entries": sum(e[0] for e in by_name.values()),
@@ -130,10 +153,17 @@ def clear_cache() -> int:
     if not folder.is_dir():
         return 0
     removed = 0
-    for p in [*folder.glob(f"*{_SUFFIX}"), *folder.glob(f"*{_SUFFIX}.*.tmp")]:
+    xla = folder / _XLA
+    for p in [*folder.glob(f"*{_SUFFIX}"), *folder.glob(f"*{_SUFFIX}.*.tmp"),
+              *(q for q in xla.rglob("*") if q.is_file() or q.is_symlink())]:
         try:
             p.unlink()
             removed += 1
         except FileNotFoundError:
+            pass
+    for d in sorted((q for q in xla.rglob("*") if q.is_dir()), reverse=True) + [xla]:
+        try:
+            d.rmdir()
+        except OSError:
             pass
     return removed

@@ -40,7 +40,7 @@ import numpy as np
 
 from fitlab.core import Dataset, families, get_form, get_target
 from fitlab.fit.metrics import relative_errors, summary
-from fitlab.store import FitFunction, fit_files, load
+from fitlab.store import FitFunction, fit_files, fits_folder, load
 
 __all__ = ["Residuals", "residuals", "brdf_residuals", "approximations", "grid_axes", "heatmap"]
 
@@ -199,15 +199,15 @@ def _exact(target: str, key: tuple) -> tuple[dict, dict]:
     return _readonly(values), _readonly({k: np.array(v, dtype=float) for k, v in aux.items()})
 
 
-def approximations(target: str, fits_dir: Path = Path("fits")) -> dict:
+def approximations(target: str, fits_dir: Path | None = None) -> dict:
     """Every approximation of ``target`` there is, keyed by the label :func:`residuals` gives it:
     its published presets as (form, preset) ("hapke / paper"), then every fit of it saved in
-    ``fits_dir``, loaded: TARGET.json first, then TARGET.*.json by name, whatever made them
+    ``fits_dir`` (None: the packaged fits), loaded: TARGET.json first, then TARGET.*.json by name, whatever made them
     (``fitlab refit``, ``fitlab discover``): "hapke (H0.json)", "hapke_rational (H0.hapke_rational.json)".
     """
     t = get_target(target)
     found = {_label(p): p for p in t.published}
-    for path in fit_files(Path(fits_dir), target):
+    for path in fit_files(fits_folder(fits_dir), target):
         fit = load(path)
         if fit.target != target:
             raise ValueError(f"{path} holds a fit of {fit.target}, not {target}: rename or remove it")

@@ -32,11 +32,12 @@ from fitlab._io import atomic_write_many, atomic_write_text
 from fitlab.core import get_target, targets
 from fitlab.forms import Form
 from fitlab.forms.symbolic import lambdify_numpy, parse_expression, symbols
+from fitlab.resources import packaged_fits
 
 __all__ = [
     "FORMAT", "FitFileError", "FitFunction", "load", "read_fit", "read_checked_fit", "check_fit", "checked_fit",
     "fit_schema", "PARAM_LIMIT", "write_fit", "write_fits", "strict_json", "decode_nonfinite", "form_from_fit",
-    "fit_path", "fit_files", "fit_sha256", "resolve_form", "Table", "TableError", "format_table", "read_table", "write_tables",
+    "fits_folder", "fit_path", "fit_files", "fit_sha256", "resolve_form", "Table", "TableError", "format_table", "read_table", "write_tables",
 ]
 
 FORMAT = "fitlab-fit/1"
@@ -299,6 +300,12 @@ def _form(record: dict, expr: sp.Expr) -> Form:
 
 
 # -- where fits live -------------------------------------------------------------
+def fits_folder(fits_dir: Path | str | None = None) -> Path:
+    """The folder fits are read from: ``fits_dir`` when given, else the fits packaged with fitlab
+    (:func:`fitlab.resources.packaged_fits`)."""
+    return Path(fits_dir) if fits_dir is not None else packaged_fits()
+
+
 def fit_path(out: Path, target: str, form: str) -> Path:
     """fits/NAME.json for a target's default form, fits/NAME.FORM.json otherwise."""
     default = get_target(target).default_form
@@ -316,14 +323,14 @@ def fit_files(fits_dir: Path, target: str) -> list[Path]:
     return [p for p in (fits_dir / f"{target}.json",) if p.exists()] + sorted(fits_dir.glob(f"{target}.*.json"))
 
 
-def resolve_form(target_name: str, form_name: str | None, fits_dir: Path = Path("fits")) -> Form:
+def resolve_form(target_name: str, form_name: str | None, fits_dir: Path | None = None) -> Form:
     """A target's form by name: from fitlab.forms, else (a form found by ``fitlab discover``) from
-    the saved fit fits_dir/TARGET.FORM.json, which holds the form's expression."""
+    the saved fit fits_dir/TARGET.FORM.json (None: the packaged fits), which holds the form's expression."""
     target = get_target(target_name)
     form_name = form_name or target.default_form
     if form_name in target.forms:
         return target.forms[form_name]
-    path = fit_path(fits_dir, target.name, form_name)
+    path = fit_path(fits_folder(fits_dir), target.name, form_name)
     if path.exists():
         return _form(*read_checked_fit(path))
     raise KeyError(

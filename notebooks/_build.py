@@ -26,11 +26,11 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 import numpy as np
 
+from fitlab.resources import packaged_fits
+
 # tests/test_notebooks.py sets FITLAB_NOTEBOOK_SMALL=1: coarse grids, a few seconds per notebook
 SMALL = os.environ.get("FITLAB_NOTEBOOK_SMALL") == "1"
-FITS = Path("..") / "fits"  # Jupyter runs a notebook in its own folder, notebooks/
-if not (FITS / "H0.json").exists():
-    raise FileNotFoundError(f"no fits in {FITS.resolve()}: open this notebook from the repository (jupyter lab notebooks/)")
+FITS = packaged_fits()  # the fits packaged with fitlab (fitlab.resources)
 '''
 
 
@@ -594,7 +594,7 @@ fitlab codegen --lang python --fits SCRATCH/fits --out SCRATCH/generated
 fitlab codegen --lang c --fits SCRATCH/fits --out SCRATCH/generated
 ```
 
-It works in a scratch folder, so the committed `fits/` stay as they are.
+It works in a scratch folder, so the fits packaged with fitlab stay as they are.
 """),
     code(SETUP + '''
 import importlib.util
@@ -637,7 +637,7 @@ print("error measure:", t.error_measure)
 
 The code generator needs a fit of every part of the runtime model, so the scratch folder starts as a copy of the
 committed fits; the refit of $H_1$ then replaces `H1.json` in it. `refit` fits the training set (the table
-`data/h1.csv`: least squares with optimistix, then a Lawson minimax refinement), measures the fit and every
+`h1.csv` of the packaged exact tables: least squares with optimistix, then a Lawson minimax refinement), measures the fit and every
 published preset on the denser validation set and writes the record. With `SMALL` the minimax refinement is
 skipped: compare its maximum with the committed fit's to see what the refinement buys.
 """),

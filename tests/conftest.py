@@ -10,8 +10,12 @@ OpenBLAS: threadpoolctl limits the libraries already loaded, and the variable
 covers subprocesses and libraries loaded later."""
 
 import os
+import tempfile
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+# the tests read the tables packaged with fitlab, never a user's data folder (fitlab.resources): this one
+# does not exist
+os.environ["FITLAB_DATA"] = os.path.join(tempfile.gettempdir(), f"fitlab-tests-no-data-{os.getpid()}")
 
 import pytest  # noqa: E402
 from threadpoolctl import threadpool_limits  # noqa: E402

@@ -12,7 +12,7 @@ from fitlab.families.lambert_sphere.audit import richer_forms
 from fitlab.families.lambert_sphere.exact import albedo_inverse, solve_albedo, spherical_albedo
 from fitlab.fit.refit import preset_metrics
 
-FITS = Path(__file__).resolve().parents[1] / "fits"
+FITS = Path(__file__).resolve().parents[1] / "fitlab" / "fits"
 
 
 @pytest.mark.parametrize("target", ["m", "kd_of_c"])

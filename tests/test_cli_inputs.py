@@ -22,7 +22,7 @@ import pytest
 from fitlab.cli import main
 
 ROOT = Path(__file__).resolve().parents[1]
-FITS = ROOT / "fits"
+FITS = ROOT / "fitlab" / "fits"
 GENERATED = FITS / "generated" / "lambert_sphere.py"
 
 
@@ -50,6 +50,9 @@ COMMANDS = {
                  [("fitlab.discover.search", "discover")]),
     "report": (["report", "--quick", "--quiet", "--fits", str(FITS)], [("fitlab.report", "build_report")]),
 }
+
+#: the flag that names a command's output folder: --out, but tabulate writes into the data folder
+OUT_FLAG = {"tabulate": "--data"}
 
 
 @pytest.fixture
@@ -99,17 +102,19 @@ def _refused(argv, capsys, *words) -> str:
 @pytest.mark.parametrize("command", list(COMMANDS))
 def test_out_in_proc_is_refused_before_any_work(guarded, capsys, command):
     argv, _ = COMMANDS[command]
-    _refused([*argv, "--out", "/proc/x"], capsys, "--out /proc/x")
+    flag = OUT_FLAG.get(command, "--out")
+    _refused([*argv, flag, "/proc/x"], capsys, f"{flag} /proc/x")
 
 
 @pytest.mark.parametrize("command", list(COMMANDS))
 def test_out_naming_an_existing_file_is_refused(guarded, capsys, tmp_path, command):
     argv, _ = COMMANDS[command]
+    flag = OUT_FLAG.get(command, "--out")
     a_file = tmp_path / "a_file"
     a_file.write_text("keep me")
-    _refused([*argv, "--out", str(a_file)], capsys, "not a folder")
+    _refused([*argv, flag, str(a_file)], capsys, "not a folder")
     assert a_file.read_text() == "keep me"
-    _refused([*argv, "--out", str(a_file / "sub")], capsys, "not a folder")  # below a file
+    _refused([*argv, flag, str(a_file / "sub")], capsys, "not a folder")  # below a file
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a_file"]
 
 
@@ -122,8 +127,9 @@ def test_out_without_write_permission_is_refused(guarded, capsys, tmp_path, comm
         if os.access(locked, os.W_OK):
             pytest.skip("running as root: a folder without write permission is still writable")
         argv, _ = COMMANDS[command]
-        _refused([*argv, "--out", str(locked / "new")], capsys, "not writable")
-        _refused([*argv, "--out", str(locked)], capsys, "not writable")
+        flag = OUT_FLAG.get(command, "--out")
+        _refused([*argv, flag, str(locked / "new")], capsys, "not writable")
+        _refused([*argv, flag, str(locked)], capsys, "not writable")
     finally:
         locked.chmod(stat.S_IRWXU)
 
@@ -164,7 +170,7 @@ BAD = [
     (["codegen", "--lang", "c", "--fits", "/proc/version"], "not a folder"),
     (["audit", "--fits", "/nonexistent"], "no such folder"),
     (["report", "--quick", "--fits", "/proc/version"], "not a folder"),
-    (["tabulate", "--check", "--out", "/nonexistent"], "no such folder"),
+    (["tabulate", "--check", "--data", "/nonexistent"], "no such folder"),
     (["bench", "codegen", "--fits", "/nonexistent"], "no such folder"),
     (["bench", "nothing"], "invalid choice"),
 ]
@@ -175,7 +181,8 @@ def test_bad_values_are_refused_in_one_line(guarded, capsys, tmp_path, argv, mes
     out = tmp_path / "out"
     out.mkdir()
     (out / "keep.json").write_text("keep me")
-    extra = [] if "--out" in argv or argv[0] == "bench" else ["--out", str(out)]
+    flag = OUT_FLAG.get(argv[0], "--out")
+    extra = [] if flag in argv or argv[0] == "bench" else [flag, str(out)]
     _refused([*argv, *extra], capsys, message)
     assert [p.name for p in out.iterdir()] == ["keep.json"] and (out / "keep.json").read_text() == "keep me"
 
@@ -263,8 +270,8 @@ def test_tabulate_writes_all_tables_or_none(tmp_path, monkeypatch):
     import fitlab.families.lambert_sphere.tabulate as tabulate
     from fitlab.store import Table
 
-    out = tmp_path / "data"
-    out.mkdir()
+    out = tmp_path / "data" / "lambert_sphere"
+    out.mkdir(parents=True)
     (out / "h0.csv").write_text("old")
     before = _snapshot(out)
     tables = {n: Table(n, "test", "0", ("s", "c"), [[0.0, 0.5]]) for n in ("h0.csv", "h1.csv", "kd.csv")}
@@ -276,7 +283,7 @@ def test_tabulate_writes_all_tables_or_none(tmp_path, monkeypatch):
     monkeypatch.undo()
     monkeypatch.setattr(tabulate, "build_tables", lambda show_progress=True: tables)
     _fail_on_second_file(monkeypatch, KeyboardInterrupt)
-    assert main(["tabulate", "--quiet", "--out", str(out)]) == 130
+    assert main(["tabulate", "--quiet", "--data", str(out.parent)]) == 130
     assert _snapshot(out) == before
 
 

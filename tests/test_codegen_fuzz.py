@@ -26,7 +26,8 @@ from fitlab.codegen import load_program
 from fitlab.codegen.native import build, build_glsl, compiler
 
 ROOT = Path(__file__).resolve().parents[1]
-GENERATED = ROOT / "fits" / "generated"
+FITS = ROOT / "fitlab" / "fits"
+GENERATED = ROOT / "fitlab" / "fits" / "generated"
 needs_cc = pytest.mark.skipif(compiler() is None, reason="no C compiler on PATH")
 
 #: the documented domain of every scalar argument; a vector's components are in VECTOR
@@ -118,7 +119,7 @@ def check_policy(name, routine, f, args, tag):
 @pytest.fixture(scope="module")
 def program():
     os.chdir(ROOT)
-    return load_program(Path("fits"))
+    return load_program(FITS)
 
 
 def _committed(*names):

@@ -164,7 +164,7 @@ def test_discovered_form_round_trips_through_json_refit_and_codegen(kd_discovery
     disc = kd_discovery
     best = min((disc.get(n) for n in disc.front), key=lambda d: d.validation["max_rel"])
     fits = tmp_path / "fits"
-    shutil.copytree(ROOT / "fits", fits, ignore=shutil.ignore_patterns("generated"))
+    shutil.copytree(ROOT / "fitlab" / "fits", fits, ignore=shutil.ignore_patterns("generated"))
     path = save(disc, best.name, fits)
     assert path.name == f"kd_of_c.{best.name}.json"
     fit = load(path)
@@ -210,6 +210,9 @@ def test_cli_errors(tmp_path, capsys):
     assert main(["discover", "--target", "H0", "--from-front", "--out", str(tmp_path)]) == 2
     assert "goes with --save" in capsys.readouterr().err
     assert main(["discover", "--target", "H0", "--from-front", "--save", "x", "--out", str(tmp_path)]) == 2
+    assert "--save writes into --fits" in capsys.readouterr().err  # never into the packaged fits
+    assert main(["discover", "--target", "H0", "--from-front", "--save", "x", "--out", str(tmp_path),
+                 "--fits", str(tmp_path / "fits")]) == 2  # fmt: skip
     assert "no such front" in capsys.readouterr().err
     assert main(["discover", "--target", "H0", "--cost", "--out", str(tmp_path)]) == 2
     assert "--cost goes with --save" in capsys.readouterr().err

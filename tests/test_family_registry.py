@@ -77,7 +77,7 @@ def toy_family(tmp_path_factory):
 def toy_fits(toy_family, tmp_path_factory):
     # a fits folder of both families: the report takes the Lambert sphere's committed fits beside the toy's
     out = tmp_path_factory.mktemp("toy_fits")
-    for path in (Path(__file__).resolve().parents[1] / "fits").glob("*.json"):
+    for path in (Path(__file__).resolve().parents[1] / "fitlab" / "fits").glob("*.json"):
         (out / path.name).write_bytes(path.read_bytes())
     assert main(["refit", "--target", "toy_recip", "--out", str(out), "--quiet"]) == 0
     return out

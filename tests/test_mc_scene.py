@@ -47,7 +47,7 @@ def _as_json(text):
 
 
 def test_shipped_scenes_validate():
-    files = sorted((ROOT / "data" / "scenes").glob("*.toml")) + sorted((ROOT / "data" / "scenes").glob("*.json"))
+    files = sorted((ROOT / "fitlab" / "data" / "lambert_sphere" / "scenes").glob("*.toml")) + sorted((ROOT / "fitlab" / "data" / "lambert_sphere" / "scenes").glob("*.json"))
     names = {p.stem for p in files}
     assert {"order1_normalisation", "order2_term", "albedo_maps"} <= names
     for p in files:

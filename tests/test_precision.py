@@ -60,7 +60,7 @@ def test_import_keeps_float32_default_and_fits_stay_float64():
     # the user's default survives import fitlab (and the family, the refit and the Monte Carlo modules)
     assert r["x64_after_import"] is False and r["dtype_after_import"] == "float32"
     # the refit still runs in float64: the committed fit, to 1e-8 relative
-    committed = json.loads((ROOT / "fits" / "m.json").read_text())["params"]
+    committed = json.loads((ROOT / "fitlab" / "fits" / "m.json").read_text())["params"]
     assert set(r["params"]) == set(committed)
     for name, value in committed.items():
         np.testing.assert_allclose(r["params"][name], value, rtol=1e-8, err_msg=name)

@@ -60,7 +60,7 @@ from fitlab.families.lambert_sphere.exact import (
 from fitlab.families.lambert_sphere.runtime import PRESET_VARIANTS, runtime_model
 
 ROOT = Path(__file__).resolve().parents[1]
-FITS = ROOT / "fits"
+FITS = ROOT / "fitlab" / "fits"
 GENERATED = FITS / "generated" / "lambert_sphere.py"
 
 PROPERTY = settings(

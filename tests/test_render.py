@@ -14,7 +14,7 @@ from fitlab.families.lambert_sphere.render import (  # noqa: E402
 )  # fmt: skip
 
 ROOT = Path(__file__).resolve().parents[1]
-GENERATED = ROOT / "fits" / "generated" / "lambert_sphere.py"
+GENERATED = ROOT / "fitlab" / "fits" / "generated" / "lambert_sphere.py"
 SIZE = 12
 
 

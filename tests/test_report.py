@@ -21,8 +21,8 @@ from fitlab.report.methods import ReportError, brdf_methods, fit_inventory
 from fitlab.families.lambert_sphere.interpolation import h_interpolant, table_brdf
 from fitlab.report.validation import albedos
 
-FITS = Path(__file__).resolve().parents[1] / "fits"
-DATA = Path(__file__).resolve().parents[1] / "data"
+FITS = Path(__file__).resolve().parents[1] / "fitlab" / "fits"
+DATA = Path(__file__).resolve().parents[1] / "fitlab" / "data" / "lambert_sphere"
 
 
 def _read_csv(path):

@@ -19,7 +19,7 @@ from fitlab.store import FitFileError, load  # noqa: E402
 from fitlab.core import get_form  # noqa: E402
 from fitlab.residuals import approximations, brdf_residuals, grid_axes, heatmap, residuals  # noqa: E402
 
-FITS = Path(__file__).resolve().parents[1] / "fits"
+FITS = Path(__file__).resolve().parents[1] / "fitlab" / "fits"
 MU = np.array([0.0, 0.25, 0.5, 1.0])
 C = np.array([0.0, 0.5, 0.9, 1.0])
 

@@ -8,11 +8,11 @@ from fitlab.cli import main
 from fitlab.families.lambert_sphere.tabulate import C_GRID, MU_GRID, write_tables
 from fitlab.store import read_table
 
-DATA = Path(__file__).resolve().parents[1] / "data"
+DATA = Path(__file__).resolve().parents[1] / "fitlab" / "data" / "lambert_sphere"
 
 
 def test_committed_tables_pass_check(capsys):
-    assert main(["tabulate", "--check", "--out", str(DATA), "--quiet"]) == 0
+    assert main(["tabulate", "--check", "--quiet"]) == 0  # the packaged tables (conftest: no user data folder)
 
 
 def test_regenerated_tables_match_committed(tmp_path):
@@ -29,6 +29,8 @@ def test_regenerated_tables_match_committed(tmp_path):
 
 
 def test_check_fails_on_a_wrong_value(tmp_path, capsys):
+    root, tmp_path = tmp_path, tmp_path / "lambert_sphere"
+    tmp_path.mkdir()
     for f in DATA.glob("*.csv"):
         shutil.copy(f, tmp_path / f.name)
     lines = (tmp_path / "h1.csv").read_text().splitlines()
@@ -37,12 +39,14 @@ def test_check_fails_on_a_wrong_value(tmp_path, capsys):
     s, c, mu, h = lines[i].split(",")
     lines[i] = ",".join([s, c, mu, repr(float(h) * (1 + 1e-8))])
     (tmp_path / "h1.csv").write_text("\n".join(lines) + "\n")
-    assert main(["tabulate", "--check", "--out", str(tmp_path), "--quiet"]) == 1
+    assert main(["tabulate", "--check", "--data", str(root), "--quiet"]) == 1
     assert "h1.csv" in capsys.readouterr().err
 
 
 @pytest.mark.parametrize("damage", ["missing", "garbage", "header"])
 def test_check_reports_missing_or_corrupt_files(tmp_path, capsys, damage):
+    root, tmp_path = tmp_path, tmp_path / "lambert_sphere"
+    tmp_path.mkdir()
     for f in DATA.glob("*.csv"):
         shutil.copy(f, tmp_path / f.name)
     if damage == "missing":
@@ -51,6 +55,6 @@ def test_check_reports_missing_or_corrupt_files(tmp_path, capsys, damage):
         (tmp_path / "h0.csv").write_text("s,c,mu,H0\n0.0,1.0,abc,1\n")
     else:
         (tmp_path / "h0.csv").write_text("s,c,mu,H\n0.0,1.0,0.5,1.0\n")
-    assert main(["tabulate", "--check", "--out", str(tmp_path), "--quiet"]) == 1
+    assert main(["tabulate", "--check", "--data", str(root), "--quiet"]) == 1
     err = capsys.readouterr().err
     assert "h0.csv" in err and "fitlab tabulate" in err

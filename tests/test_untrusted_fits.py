@@ -18,7 +18,7 @@ from fitlab.cli import main
 from fitlab.store import FitFileError, fit_schema, load, read_fit
 
 ROOT = Path(__file__).resolve().parents[1]
-FITS = ROOT / "fits"
+FITS = ROOT / "fitlab" / "fits"
 
 
 def _base(name="m.json"):

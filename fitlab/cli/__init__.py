@@ -28,17 +28,21 @@ __all__ = ["COMMANDS", "build_parser", "command_module", "main"]
 #: The commands, in the order ``fitlab --help`` lists them, with their line there; a command's module
 #: is ``fitlab.cli.NAME``.
 COMMANDS = {
-    "tabulate": "write the exact tables to data/ (or check them)",
+    "tabulate": "compute the exact tables into the data folder (or check them)",
     "refit": "refit a published form (or a richer one) to the exact data",
     "audit": "measure every published formula and the runtime model against the exact engine",
     "codegen": "generate C, Python or GLSL source of the runtime BRDF from the fits",
     "render": "render spheres with the generated BRDF in Mitsuba 3 beside Lambert, Oren-Nayar, Chandrasekhar",
-    "simulate": "Monte Carlo: simulate only the effects a scene asks for (data/scenes/)",
+    "simulate": "Monte Carlo: simulate only the effects a scene asks for (a file, or a packaged scene by name)",
     "discover": "symbolic regression (pysindy): a Pareto front of new forms for a target",
-    "report": "accuracy vs cost of every way to evaluate the BRDF: docs/report.md and a plot",
+    "report": "accuracy vs cost of every way to evaluate the BRDF: report.md, a CSV and a plot",
     "bench": "benchmarks (not tests): speed and accuracy",
     "cache": "show or clear the persistent cache of exact values",
 }
+
+
+#: the commands that run JAX: they keep its compiled programs in fitlab's cache (fitlab.cache)
+JAX_COMMANDS = ("refit", "audit", "simulate", "discover", "report", "bench")
 
 
 def command_module(name: str):
@@ -86,6 +90,10 @@ def main(argv=None) -> int:
     args = build_parser(() if command is None else (command,)).parse_args(argv)
     name = args.command
     try:
+        if name in JAX_COMMANDS:
+            from fitlab.cache import enable_compilation_cache
+
+            enable_compilation_cache()
         status = args.func(args)
         sys.stdout.flush()  # a closed pipe surfaces here, not in the interpreter's final flush
         return status

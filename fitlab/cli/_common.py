@@ -21,7 +21,8 @@ from fitlab._io import FolderError, check_output_folder
 
 __all__ = [
     "USAGE", "FAILURE", "UsageError", "RunFailure", "Parser", "fail", "one_line", "output_folder", "input_file",
-    "input_folder", "write_failure", "number", "integer", "add_quiet", "say", "describe",
+    "input_folder", "write_failure", "number", "integer", "add_quiet", "say", "describe", "add_fits", "fits_input",
+    "add_data", "use_data",
 ]
 
 #: exit status of a runtime failure and of a usage error
@@ -149,6 +150,39 @@ def add_quiet(p) -> None:
     """``--quiet``: no progress bar and no status lines (results and errors still print)."""
     p.add_argument("--quiet", action="store_true",
                    help="no progress bar or status lines (results and errors still print)")
+
+
+def add_fits(p, what: str = "folder of the fits JSON") -> None:
+    """``--fits DIR``: where fits are read from (default: the fits packaged with fitlab)."""
+    p.add_argument("--fits", default=None, metavar="DIR", help=f"{what} (default: the fits packaged with fitlab)")
+
+
+def fits_input(args, required: bool = True) -> Path | None:
+    """``--fits`` checked as an input folder (None: the packaged fits, :func:`fitlab.store.fits_folder`)."""
+    return None if args.fits is None else input_folder(args.fits, "--fits", required=required)
+
+
+def add_data(p, output: bool = False) -> None:
+    """``--data DIR``: the user's data folder, where ``fitlab tabulate`` writes the exact tables and every
+    command reads them (default: $FITLAB_DATA, else ~/.local/share/fitlab; the packaged tables are the
+    fallback)."""
+    from fitlab.resources import DATA_ENV
+
+    verb = "write the exact tables into DIR/FAMILY/" if output else "read the exact tables from DIR/FAMILY/ when there"
+    p.add_argument("--data", default=None, metavar="DIR",
+                   help=f"the data folder: {verb} (default: ${DATA_ENV}, else ~/.local/share/fitlab"
+                        f"{'' if output else '; else the tables packaged with fitlab'})")
+
+
+def use_data(args, required: bool = True) -> Path:
+    """Apply ``--data`` for this process (it sets $FITLAB_DATA, which :mod:`fitlab.resources` reads) after
+    checking it is a folder; returns the data folder in force."""
+    from fitlab.resources import DATA_ENV, data_root
+
+    if getattr(args, "data", None) is not None:
+        folder = input_folder(args.data, "--data", required=required)
+        os.environ[DATA_ENV] = str(folder)
+    return data_root()
 
 
 def say(args, message: str) -> None:

@@ -8,11 +8,14 @@ from pathlib import Path
 
 from fitlab._io import atomic_write_many
 from fitlab.cli._common import (
+    use_data,
+    add_data,
+    fits_input,
+    add_fits,
     RunFailure,
     UsageError,
     add_quiet,
     describe,
-    input_folder,
     one_line,
     output_folder,
     say,
@@ -31,14 +34,16 @@ def add_arguments(p) -> None:
     describe(p, "Measure every published formula, the runtime model built from the fits in --fits and its white "
                 "furnace against the exact engine; write audit.md and audit.json into --out (both or neither).",
              "fitlab audit --out /tmp/audit --json")  # fmt: skip
-    p.add_argument("--out", default="docs", help="folder for audit.md and audit.json (default: docs)")
-    p.add_argument("--fits", default="fits", help="folder of the refits to include (default: fits)")
+    p.add_argument("--out", default=".", help="folder for audit.md and audit.json (default: the current folder)")
+    add_fits(p, "folder of the refits to include")
+    add_data(p)
     p.add_argument("--json", action="store_true", help="print a machine-readable summary (JSON) instead of the table")
     add_quiet(p)
 
 
 def run(args) -> int:
-    fits = input_folder(args.fits, "--fits")
+    fits = fits_input(args)
+    use_data(args)
     out = output_folder(args.out, "--out", files=FILES)
     audit = service("audit")
 

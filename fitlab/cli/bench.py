@@ -1,4 +1,5 @@
-"""``fitlab bench``: benchmarks (not tests) of the exact engine, the generated code and the Monte Carlo."""
+"""``fitlab bench``: benchmarks (not tests) of the exact engine, the generated code, the Monte Carlo, and
+of the commands themselves as a user waits for them."""
 
 from __future__ import annotations
 
@@ -6,7 +7,7 @@ import contextlib
 import io
 import sys
 
-from fitlab.cli._common import add_quiet, describe, input_folder, service
+from fitlab.cli._common import add_fits, add_quiet, describe, fits_input, service
 from fitlab.store import strict_json
 
 __all__ = ["add_arguments", "run"]
@@ -14,13 +15,14 @@ __all__ = ["add_arguments", "run"]
 
 def add_arguments(p) -> None:
     describe(p, "Benchmarks, not tests: the exact engine's speed and agreement between its methods, the generated "
-                "C against a baseline, the Monte Carlo's photons per second and cost per effect. Prints a table, "
-                "or with --json a machine-readable summary; writes nothing.",
+                "C against a baseline, the Monte Carlo's photons per second and cost per effect, and (commands) "
+                "the seconds of `fitlab --help` and of every single-target refit, cold and warm, in fresh "
+                "processes. Prints a table, or with --json a machine-readable summary; writes nothing.",
              "fitlab bench codegen --quick --json")  # fmt: skip
-    p.add_argument("what", choices=["exact", "codegen", "mc"], help="what to benchmark: exact, codegen or mc")
-    p.add_argument("--quick", action="store_true", help="smaller sizes")
-    p.add_argument("--fits", default="fits",
-                   help="folder of the fits the generated code is built from (codegen; default: fits)")
+    p.add_argument("what", choices=["exact", "codegen", "mc", "commands"],
+                   help="what to benchmark: exact, codegen, mc or commands")
+    p.add_argument("--quick", action="store_true", help="smaller sizes (commands: the refits of H0 and m only)")
+    add_fits(p, "folder of the fits the generated code is built from (codegen)")
     p.add_argument("--json", action="store_true", help="print a machine-readable summary (JSON) instead of the table")
     add_quiet(p)
 
@@ -35,18 +37,23 @@ def _jsonable(obj):
 
 
 def run(args) -> int:
-    fits = input_folder(args.fits, "--fits") if args.what == "codegen" else None
+    fits = fits_input(args) if args.what == "codegen" else None
     # with --json the tables go to stderr (or nowhere with --quiet) and stdout holds only the JSON
     sink = io.StringIO() if args.quiet else sys.stderr
     with contextlib.redirect_stdout(sink) if args.json else contextlib.nullcontext():
-        benches = service("bench")
-        if args.what == "exact":
-            results = benches.bench_exact(quick=args.quick)
-        elif args.what == "codegen":
-            results = benches.bench_codegen(fits, n=100_000 if args.quick else 1_000_000, repeat=3 if args.quick else 5)
-        else:
-            results = benches.bench_mc(quick=args.quick)  # JAX
-    if args.json:
+        if args.what == "commands":  # generic: fresh processes over every registered target
+            from fitlab.cli._bench_commands import QUICK_TARGETS, bench_commands, table
+            from fitlab.core import targets
 
+            results = bench_commands(QUICK_TARGETS if args.quick else tuple(targets()), show_progress=not args.quiet)
+            print(table(results))
+        elif args.what == "exact":
+            results = service("bench").bench_exact(quick=args.quick)
+        elif args.what == "codegen":
+            results = service("bench").bench_codegen(fits, n=100_000 if args.quick else 1_000_000,
+                                                     repeat=3 if args.quick else 5)  # fmt: skip
+        else:
+            results = service("bench").bench_mc(quick=args.quick)  # JAX
+    if args.json:
         print(strict_json({"what": args.what, "quick": args.quick, "results": _jsonable(results)}), end="")
     return 0

@@ -2,16 +2,16 @@
 
 from __future__ import annotations
 
-from pathlib import Path
 
 import fitlab.codegen as codegen
 from fitlab._io import atomic_write_many
 from fitlab.cli._common import (
+    fits_input,
+    add_fits,
     RunFailure,
     UsageError,
     add_quiet,
     describe,
-    input_folder,
     one_line,
     output_folder,
     say,
@@ -29,11 +29,11 @@ def add_arguments(p) -> None:
                 "files in one language into --out, all as one unit (nothing is written on a failure).",
              "fitlab codegen --lang c --out /tmp/generated")  # fmt: skip
     p.add_argument("--lang", required=True, choices=list(LANGUAGES), help=f"target language: {', '.join(LANGUAGES)}")
-    p.add_argument("--fits", default="fits", help="folder of the fits JSON (default: fits)")
-    p.add_argument("--out", default="fits/generated", help="output folder (default: fits/generated)")
+    add_fits(p)
+    p.add_argument("--out", default="generated", help="output folder (default: generated)")
     p.add_argument("--terms", help="terms of brdf to keep, comma-separated subset of single,m0,m1 (default: all)")
     p.add_argument("--form", action="append", metavar="TARGET=FORM",
-                   help="use fits/TARGET.FORM.json for a part, e.g. H0=hapke_rational (repeatable)")
+                   help="use the fit TARGET.FORM.json of --fits for a part, e.g. H0=hapke_rational (repeatable)")
     add_quiet(p)
 
 
@@ -44,7 +44,7 @@ def run(args) -> int:
         forms = codegen.parse_forms(args.form)
     except (ValueError, KeyError) as exc:
         raise UsageError(one_line(exc)) from None
-    fits = input_folder(args.fits, "--fits", required=False)  # a missing one: "no such fit file" names the fit
+    fits = fits_input(args, required=False)  # a missing one: "no such fit file" names the fit
     out = output_folder(args.out, "--out")
     try:
         files = codegen.generate(args.lang, fits, args.terms, forms)

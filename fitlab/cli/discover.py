@@ -9,7 +9,10 @@ from pathlib import Path
 from fitlab.cli._common import (
     RunFailure,
     UsageError,
+    add_data,
     add_quiet,
+    fits_input,
+    use_data,
     describe,
     fail,
     input_folder,
@@ -38,10 +41,13 @@ def add_arguments(p) -> None:
                    help=f"what to discover forms for: {', '.join(libraries_of())}")
     p.add_argument("--max-terms", type=int, default=12, help="largest model refitted (default 12)")
     p.add_argument("--minimax-rounds", type=int, default=20, help="Lawson rounds per refit (default 20)")
-    p.add_argument("--out", default="docs/discover", help="folder for TARGET.md, .json, .png (default docs/discover)")
-    p.add_argument("--fits", default="fits", help="folder of the saved fits (reference points; --save writes here)")
+    p.add_argument("--out", default="discover", help="folder for TARGET.md, .json, .png (default: discover)")
+    p.add_argument("--fits", default=None, metavar="DIR",
+                   help="folder of saved fits: the reference points are read from it and --save writes into it "
+                        "(default: the fits packaged with fitlab, read only; --save needs --fits)")
     p.add_argument("--save", action="append", metavar="NAME",
-                   help="also write the front member NAME as fits/TARGET.NAME.json (repeatable)")
+                   help="also write the front member NAME as TARGET.NAME.json into --fits (repeatable)")
+    add_data(p)
     p.add_argument("--from-front", action="store_true",
                    help="with --save: take the form from the front written earlier (OUT/TARGET.json), no search")
     p.add_argument("--cost", action="store_true",
@@ -68,9 +74,12 @@ def run(args) -> int:
     else:
         output_folder(args.out, "--out", files=[f"{args.target}{ext}" for ext in (".md", ".json", ".png")])
     if args.save:
+        if args.fits is None:
+            raise UsageError("--save writes into --fits: give the folder (for example --fits fits)")
         output_folder(args.fits, "--fits")
     else:
-        input_folder(args.fits, "--fits", required=False)
+        fits_input(args, required=False)
+    use_data(args)
     if args.from_front:
         try:
             paths = save_from_front(Path(args.out) / f"{args.target}.json", args.save, Path(args.fits))
@@ -83,7 +92,7 @@ def run(args) -> int:
 
     try:
         disc = discover(args.target, max_terms=args.max_terms, minimax_rounds=args.minimax_rounds,
-                        fits_dir=Path(args.fits), progress=not args.quiet)  # fmt: skip
+                        fits_dir=args.fits, progress=not args.quiet)  # fmt: skip
     except (FitFileError, TableError, KeyError) as exc:
         raise UsageError(one_line(exc)) from None
     except (FitError, ValueError, ArithmeticError) as exc:
@@ -108,7 +117,7 @@ def _print_cost(args) -> int:
     if not (args.cost and args.save):
         return 0
     try:
-        ns = routine_cost(args.target, [None, *args.save], Path(args.fits))
+        ns = routine_cost(args.target, [None, *args.save], args.fits)
     except (KeyError, FitFileError) as exc:
         return fail("discover --cost", exc, 2)
     except RuntimeError as exc:  # the compiler or the timing failed

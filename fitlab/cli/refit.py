@@ -10,7 +10,6 @@ and replaces nothing.
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 from tqdm import tqdm
@@ -18,19 +17,22 @@ from tqdm import tqdm
 from fitlab.cli._common import (
     RunFailure,
     UsageError,
+    add_data,
+    add_fits,
     add_quiet,
+    fits_input,
+    use_data,
     describe,
     input_file,
-    input_folder,
     one_line,
     output_folder,
     say,
     write_failure,
 )
 from fitlab.core import get_target, targets
-from fitlab.fit.refit import check_domain, default_jobs, refit_verdict, table, timed_refit, validation_metrics
+from fitlab.fit.refit import check_domain, default_jobs, refit_stages, refit_verdict, table, timed_refit, validation_metrics
 from fitlab.fit.solver import FitError
-from fitlab.store import FitFileError, TableError, fit_path, read_fit, resolve_form, strict_json, write_fits
+from fitlab.store import FitFileError, TableError, fit_path, fits_folder, read_fit, resolve_form, strict_json, write_fits
 
 __all__ = ["add_arguments", "run", "parse_domain"]
 
@@ -44,9 +46,9 @@ def add_arguments(p) -> None:
     p.add_argument("--target", metavar="NAME", help=f"what to fit: {', '.join(targets())}")
     p.add_argument("--form", help="which form of the target (default: the published shape; see --list)")
     p.add_argument("--all", action="store_true", help="refit every target (every form marked for it)")
-    p.add_argument("--out", default="fits", help="folder for the fit JSON (default: fits)")
-    p.add_argument("--fits", default="fits",
-                   help="folder the forms saved by `fitlab discover` are read from (default: fits)")
+    p.add_argument("--out", default="fits", help="folder for the fit JSON (default: fits, below the current folder)")
+    add_fits(p, "folder the forms saved by `fitlab discover` are read from")
+    add_data(p)
     p.add_argument("--domain", action="append", metavar="NAME=LO:HI",
                    help="restrict an input, e.g. c=0.5:1 (once per input)")
     p.add_argument("--init", type=Path, help="start from a saved fit of the same target and form")
@@ -76,7 +78,8 @@ def _requested(args) -> list[tuple]:
         raise UsageError("--form, --domain and --init go with --target, not --all")
     if args.target not in (None, *targets()):
         raise UsageError(f"unknown target {args.target!r}; choose one of {', '.join(targets())}")
-    fits = input_folder(args.fits, "--fits", required=False)
+    fits = fits_input(args, required=False)
+    use_data(args)
     if args.init is not None:
         input_file(args.init, "--init")
     output_folder(args.out, "--out")
@@ -88,7 +91,7 @@ def _requested(args) -> list[tuple]:
         domain = parse_domain(args.domain, target)
         form = resolve_form(target.name, args.form, fits)
         origin = None
-        saved = fit_path(fits, target.name, form.name)
+        saved = fit_path(fits_folder(fits), target.name, form.name)
         if form.name not in target.forms and saved.exists():
             origin = read_fit(saved).get("origin")  # a discovered form stays one
         start = None
@@ -126,14 +129,22 @@ def run(args) -> int:
     try:
         for target, form, start, origin, domain in tqdm(jobs, desc="refit", unit="fit",
                                                          disable=args.quiet or len(jobs) == 1):  # fmt: skip
-            if len(jobs) == 1 and not args.quiet:  # one job has no bar: say what the next seconds go to
-                print(f"fitlab refit: {form.key}: exact data (cached after the first run), least squares"
-                      f"{', minimax' if (target.minimax and not args.no_minimax) else ''}, validation ...",
-                      file=sys.stderr, flush=True)  # fmt: skip
-            res, wall = timed_refit(
-                target, form, domain=domain, start=start, origin=origin,
-                minimax=False if args.no_minimax else None, compare_scipy=args.compare_scipy,
-            )
+            minimax = False if args.no_minimax else None
+            # one job: a bar over its stages (exact data, least squares, minimax rounds, validation)
+            stages = tqdm(total=refit_stages(target, minimax), desc=f"refit {form.key}", unit="stage", leave=False,
+                          disable=args.quiet or len(jobs) > 1)  # fmt: skip
+
+            def on_step(stage, bar=stages):
+                bar.set_postfix_str(stage, refresh=False)
+                bar.update()
+
+            try:
+                res, wall = timed_refit(
+                    target, form, domain=domain, start=start, origin=origin,
+                    minimax=minimax, compare_scipy=args.compare_scipy, on_step=on_step,
+                )
+            finally:
+                stages.close()
             results.append(res)
             walls.append(wall)
             verdicts.append(refit_verdict(res, _start_metrics(target, form, start, domain)))

@@ -3,6 +3,7 @@ Chandrasekhar (Mitsuba is imported by the renderer, when :func:`run` renders).""
 
 from __future__ import annotations
 
+from fitlab.resources import packaged_fits
 from fitlab.cli._common import (RunFailure, UsageError, add_quiet, require_extra, service, describe, input_file, integer, number, one_line,
                                 output_folder, say, write_failure)
 
@@ -17,8 +18,9 @@ def add_arguments(p) -> None:
                 "and Chandrasekhar's mirror-sphere BRDF, all at the same spherical albedo, under several light "
                 f"directions, and write the comparison as {FILE} into --out.",
              "fitlab render --out /tmp/render --size 32 --spp 2")  # fmt: skip
-    p.add_argument("--out", default="docs", help=f"folder for {FILE} (default: docs)")
-    p.add_argument("--generated", default="fits/generated/lambert_sphere.py", help="the generated Python BRDF module")
+    p.add_argument("--out", default=".", help=f"folder for {FILE} (default: the current folder)")
+    p.add_argument("--generated", default=None,
+                   help="the generated Python BRDF module (default: the one packaged with fitlab, generated/ of its fits)")
     p.add_argument("--kd", type=number(0.0, 1.0, open_lo=True, open_hi=True), default=0.8,
                    help="spherical albedo of every material, in (0, 1) (default 0.8)")
     p.add_argument("--size", type=integer(8, 4096), default=64,
@@ -29,7 +31,8 @@ def add_arguments(p) -> None:
 
 
 def run(args) -> int:
-    generated = input_file(args.generated, "--generated", hint="; run `fitlab codegen --lang python` first")
+    generated = input_file(args.generated if args.generated is not None else packaged_fits() / "generated" / "lambert_sphere.py",
+                           "--generated", hint="; run `fitlab codegen --lang python` first")
     out = output_folder(args.out, "--out", files=(FILE,))
     require_extra("mitsuba", "render")
     render = service("render")

@@ -5,11 +5,14 @@ from __future__ import annotations
 import time
 
 from fitlab.cli._common import (
+    use_data,
+    add_data,
+    fits_input,
+    add_fits,
     RunFailure,
     UsageError,
     add_quiet,
     describe,
-    input_folder,
     one_line,
     output_folder,
     say,
@@ -27,8 +30,10 @@ def add_arguments(p) -> None:
                 "published formulas, the refits in --fits, the generated code, Monte Carlo) on one validation set, "
                 "and write report.md, accuracy_vs_cost.png and report.csv into --out, all three or none.",
              "fitlab report --quick --out /tmp/report")  # fmt: skip
-    p.add_argument("--out", default="docs", help="folder for report.md, accuracy_vs_cost.png and report.csv")
-    p.add_argument("--fits", default="fits", help="folder of the fits JSON, every *.json is measured (default: fits)")
+    p.add_argument("--out", default=".", help="folder for report.md, accuracy_vs_cost.png and report.csv "
+                                              "(default: the current folder)")
+    add_fits(p, "folder of the fits JSON, every *.json is measured")
+    add_data(p)
     p.add_argument("--quick", action="store_true", help="reduced sizes (seconds, for tests; numbers are rougher)")
     p.add_argument("--no-cache", action="store_true", help="recompute the exact validation values (no disk cache)")
     add_quiet(p)
@@ -36,7 +41,8 @@ def add_arguments(p) -> None:
 
 def run(args) -> int:
     t0 = time.perf_counter()
-    fits = input_folder(args.fits, "--fits", required=False)  # a missing one: the report's own line names it
+    fits = fits_input(args, required=False)  # a missing one: the report's own line names it
+    use_data(args)
 
     out = output_folder(args.out, "--out", files=FILES)
 

@@ -15,12 +15,15 @@ from __future__ import annotations
 import sys
 
 from fitlab.cli._common import FAILURE, USAGE, fail, service
+from fitlab.core import families
+from fitlab.resources import find_scene, packaged_scenes
 
 __all__ = ["add_arguments", "run"]
 
 
 def add_arguments(p) -> None:
-    p.add_argument("scene", help="scene file (.toml or .json), e.g. data/scenes/order1_normalisation.toml")
+    p.add_argument("scene", help="scene file (.toml or .json), or the name of a scene packaged with fitlab "
+                                 f"({', '.join(packaged_scene_names()) or 'none'})")
     p.add_argument("--out", help="output folder (default: mc_out/<scene name>)")
     # strings: checked by the scene file's own rules (mc.scene.check_option), one line each
     p.add_argument("--target-se", help="override every effect's standard-error target (positive, finite)")
@@ -32,15 +35,28 @@ def add_arguments(p) -> None:
     p.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
+def _simulating_families() -> list[str]:
+    return [name for name, f in families().items() if "simulate" in f.hooks]
+
+
+def packaged_scene_names() -> list[str]:
+    """The names of the example scenes packaged with fitlab (``fitlab simulate NAME`` runs one)."""
+    return sorted(p.stem for fam in _simulating_families() for p in packaged_scenes(fam).glob("*.toml"))
+
+
 def run(args) -> int:
     """Validate everything (every error before any work), simulate, write; see the module's exit statuses."""
+    scene = find_scene(args.scene, _simulating_families())
+    if scene is None:
+        return fail("simulate", f"{args.scene}: no such scene file, and no packaged scene of that name "
+                                f"(packaged: {', '.join(packaged_scene_names())})", USAGE)
 
     mc = service("simulate")  # the family's Monte Carlo (imports JAX)
     SceneError, simulate_file, summary_table, unconverged = mc.SceneError, mc.simulate_file, mc.summary_table, mc.unconverged
 
     try:
         result, paths = simulate_file(
-            args.scene, out_dir=args.out, progress=not args.quiet, plots=not args.no_plots,
+            scene, out_dir=args.out, progress=not args.quiet, plots=not args.no_plots,
             target_se=args.target_se, max_paths=args.max_paths, seed=args.seed,
         )
     except SceneError as exc:  # every input is checked before any work: a usage error

@@ -39,7 +39,7 @@ from fitlab.codegen.program import (
     with_domain,
 )
 from fitlab.core import targets
-from fitlab.store import fit_path, fit_sha256, load
+from fitlab.store import fit_path, fit_sha256, fits_folder, load
 
 __all__ = ["generate", "load_program", "parse_forms", "write_generated", "emit", "LANGUAGES", "build_program",
            "parse_terms", "program_spec", "part_routine", "Program", "ProgramSpec", "Routine", "POLE_FLOOR", "call",
@@ -53,9 +53,9 @@ def _terms(terms: str | tuple | None, family: str | None) -> tuple[str, ...] | N
     return parse_terms(",".join(terms), family)
 
 
-def load_program(fits_dir: Path = Path("fits"), terms: str | tuple | None = None, forms: dict | None = None,
+def load_program(fits_dir: Path | None = None, terms: str | tuple | None = None, forms: dict | None = None,
                  family: str | None = None) -> Program:  # fmt: skip
-    """The program of the fits in ``fits_dir``: each target's default form, or the form ``forms`` picks
+    """The program of the fits in ``fits_dir`` (None: the packaged fits): each target's default form, or the form ``forms`` picks
     ({"H0": "sr_7_6808f1"}: fits/H0.sr_7_6808f1.json); each file must exist (FitFileError otherwise).
     ``family``: whose program (default: the family of the targets in ``forms``, else the one family with
     a program of its own)."""
@@ -63,14 +63,15 @@ def load_program(fits_dir: Path = Path("fits"), terms: str | tuple | None = None
     spec = program_spec(family, tuple(forms))
     family = family or next(t.family for t in targets().values() if t.name in spec.fits)
     term_tuple = _terms(terms, family)
-    fits_dir = Path(fits_dir)
+    fits_dir = fits_folder(fits_dir)
     paths = {t: fit_path(fits_dir, t, forms.get(t, targets()[t].default_form)) for t in spec.fits}
     records = {t: load(p) for t, p in paths.items()}
-    sources = [(p.as_posix(), fit_sha256(p)) for p in paths.values()]
+    # the file name and its digest name a fit wherever its folder is, so regenerated code is byte-identical
+    sources = [(p.name, fit_sha256(p)) for p in paths.values()]
     return build_program(records, term_tuple, sources, family)
 
 
-def generate(lang: str, fits_dir: Path = Path("fits"), terms: str | tuple | None = None,
+def generate(lang: str, fits_dir: Path | None = None, terms: str | tuple | None = None,
              forms: dict | None = None, family: str | None = None) -> dict[str, str]:  # fmt: skip
     """Source files ({name: text}) in ``lang`` of the program of the fits in ``fits_dir`` (:func:`load_program`)."""
     if lang not in LANGUAGES:

@@ -31,7 +31,7 @@ def _inputs(names, n: int, seed: int = 0) -> list[np.ndarray]:
     return [rng.uniform(-1.0, 1.0, n) if name == "cos_phi" else rng.random(n) for name in names]
 
 
-def routine_cost(target: str, forms: list[str | None], fits_dir: Path = Path("fits"), n: int = 200_000,
+def routine_cost(target: str, forms: list[str | None], fits_dir: Path | None = None, n: int = 200_000,
                  repeat: int = COST_REPEAT, dtype=np.float64) -> dict[str, float]:  # fmt: skip
     """ns per evaluation of ``target``'s routine for each form (None: the default form)."""
     routine = get_target(target).routine if target in targets() else None
@@ -44,7 +44,7 @@ def routine_cost(target: str, forms: list[str | None], fits_dir: Path = Path("fi
     with tempfile.TemporaryDirectory() as tmp:
         models, names = {}, ()
         for k, form in enumerate(forms):
-            program = load_program(Path(fits_dir), forms={} if form is None else {target: form})
+            program = load_program(fits_dir, forms={} if form is None else {target: form})
             models[form] = build(emit(program, "c"), program, Path(tmp) / f"v{k}")
             names = program.routine(routine).signature()
         args = [np.ascontiguousarray(a, dtype=dtype) for a in _inputs(names, n)]

@@ -31,7 +31,7 @@ from fitlab.discover.regression import DEFAULT_THRESHOLDS, Candidate, SparseRegr
 from fitlab.fit.metrics import relative_errors
 from fitlab.fit.refit import RefitResult, preset_metrics, refit
 from fitlab.report.pareto import pareto_front
-from fitlab.store import fit_files, read_fit
+from fitlab.store import fit_files, fits_folder, read_fit
 
 __all__ = ["Discovered", "Discovery", "discover", "pareto_front", "front_metric"]
 
@@ -100,7 +100,7 @@ def discover(
     thresholds=DEFAULT_THRESHOLDS,
     max_terms: int = 12,
     minimax_rounds: int = 20,
-    fits_dir: Path = Path("fits"),
+    fits_dir: Path | None = None,
     progress: bool = True,
 ) -> Discovery:
     """Run the search for ``target_name`` over ``libraries`` (default: all of the target's); nothing
@@ -164,7 +164,7 @@ def discover(
                      reference_points(target.name, fits_dir), time.perf_counter() - t0)  # fmt: skip
 
 
-def reference_points(target_name: str, fits_dir: Path = Path("fits")) -> list[dict]:
+def reference_points(target_name: str, fits_dir: Path | None = None) -> list[dict]:
     """The published presets and every saved fit of the target not found by discover: label,
     free parameters, operations, validation max and RMS relative error."""
     target = get_target(target_name)
@@ -175,7 +175,7 @@ def reference_points(target_name: str, fits_dir: Path = Path("fits")) -> list[di
         out.append({"label": f"{form_name_} / {preset}", "kind": "published", "terms": len(form.free_params),
                     "operations": operation_count(form.substituted(preset)), "max_rel": m["max_rel"],
                     "rms_rel": m["rms_rel"], "max_rel_nonzero": m["max_rel_nonzero"]})  # fmt: skip
-    for path in fit_files(Path(fits_dir), target.name):
+    for path in fit_files(fits_folder(fits_dir), target.name):
         rec = read_fit(path)
         if rec.get("origin") or rec["target"] != target.name:
             continue

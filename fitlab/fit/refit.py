@@ -20,7 +20,7 @@ from fitlab.fit.metrics import summary
 from fitlab.fit.solver import SOLVER_SETTINGS, FitResult, fit_form, fit_form_scipy
 from fitlab.core import get_target, targets
 
-__all__ = ["RefitResult", "refit", "check_domain", "validation_metrics", "preset_metrics", "MINIMAX_ROUNDS",
+__all__ = ["RefitResult", "refit", "refit_stages", "check_domain", "validation_metrics", "preset_metrics", "MINIMAX_ROUNDS",
            "default_jobs", "table", "refit_verdict", "VERDICT_RTOL"]
 
 MINIMAX_ROUNDS = 40
@@ -81,13 +81,15 @@ def refit(
     compare_scipy: bool = False,
     minimax_rounds: int | None = None,
     origin: dict | None = None,
+    on_step=None,
 ) -> RefitResult:
     """Fit ``form`` (a :class:`Form`, the name of a registered form, or None: the target's default
     form) to the target's training set restricted to ``domain`` ({input: (lo, hi)}, default the
     target's whole domain), starting from ``start`` (parameter values; default the form's start),
     validate it on the validation set, and return the record a fit file holds.  ``origin`` records
     where a form not registered by its family came from (``fitlab discover``).  Nothing is read or
-    written here: the CLI and the store do that."""
+    written here: the CLI and the store do that.  ``on_step(stage)``, when given, is called as each stage
+    ends: "exact data", "least squares", each "minimax K/N", "validation" (:func:`refit_stages` counts them)."""
     target = get_target(target) if isinstance(target, str) else target
     form = target.forms[form or target.default_form] if not isinstance(form, Form) else form
     if form.target != target.name:
@@ -101,10 +103,13 @@ def refit(
     valid = target.validation().restricted(domain)
     if len(train) < 2 * len(form.free_params) or len(valid) == 0:
         raise ValueError(f"domain {domain} leaves {len(train)} training and {len(valid)} validation points; widen it")
+    if on_step is not None:
+        on_step("exact data")
 
     weights = None if target.emphasis is None else target.emphasis(train)
     fit = fit_form(
-        form, train, target.scale(train), theta0, minimax_rounds=rounds if minimax else 0, weights=weights
+        form, train, target.scale(train), theta0, minimax_rounds=rounds if minimax else 0, weights=weights,
+        on_step=on_step,
     )
     scipy_fit = fit_form_scipy(form, train, target.scale(train), theta0, weights=weights) if compare_scipy else None
 
@@ -156,7 +161,17 @@ def refit(
     }
     if origin is not None:
         record["origin"] = origin
+    if on_step is not None:
+        on_step("validation")
     return RefitResult(record, fit, scipy_fit)
+
+
+def refit_stages(target: Target | str, minimax: bool | None = None, minimax_rounds: int | None = None) -> int:
+    """How many times :func:`refit` calls its ``on_step`` for ``target`` (at most: a minimax refinement
+    whose residuals all vanish stops early)."""
+    target = get_target(target) if isinstance(target, str) else target
+    minimax = target.minimax if minimax is None else minimax
+    return 3 + ((MINIMAX_ROUNDS if minimax_rounds is None else minimax_rounds) if minimax else 0)
 
 
 #: how much worse (relative) than a reference a refit may end before it counts as worse: rounding only

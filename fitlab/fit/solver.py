@@ -74,12 +74,13 @@ def _prepare(form, train, scale, theta0, weights):
 
 @float64
 def fit_form(
-    form, train: Dataset, scale: np.ndarray, theta0=None, *, minimax_rounds: int = 40, weights=None
+    form, train: Dataset, scale: np.ndarray, theta0=None, *, minimax_rounds: int = 40, weights=None, on_step=None
 ) -> FitResult:
     """Fit ``form``'s free parameters to ``train``; returns the full parameter vector.
 
     theta0: full start vector (default: ``form.start_values``); fixed
-    parameters keep their entries in theta0.
+    parameters keep their entries in theta0.  ``on_step(stage)``, when given, is called after the
+    least-squares solve ("least squares") and after each minimax round ("minimax K/N"): a progress hook.
     """
     import equinox as eqx
     import jax.numpy as jnp
@@ -112,6 +113,8 @@ def fit_form(
         raise FitError(f"{form.key}: the least-squares solution gives non-finite residuals")
     l2_seconds = time.perf_counter() - t_start
     l2_steps = total = int(steps)
+    if on_step is not None:
+        on_step("least squares")
     best = (float(np.max(np.abs(r))), np.asarray(value), r)
     results = ["successful" if bool(ok) else "max_steps or stagnation"]
     history = [(0, best[0])]
@@ -123,6 +126,8 @@ def fit_form(
         weights = np.maximum(weights / weights.sum(), 1e-14 / weights.size)
         value, steps, ok, r_new = solve(jnp.asarray(value), args_for(np.sqrt(weights * weights.size)))
         total += int(steps)
+        if on_step is not None:
+            on_step(f"minimax {k}/{minimax_rounds}")
         r_new = np.asarray(r_new)
         if not np.all(np.isfinite(r_new)):
             break  # keep the best finite solution; a non-finite step never reaches the result

@@ -114,7 +114,7 @@ class FitEntry:
 # -- the families' report hooks -------------------------------------------------------------------------
 def report_hooks() -> dict:
     """family name -> what its ``report`` hook returns: an object (a module) with REQUIRED_FITS, PARTS,
-    PRESET_VARIANTS, DATA_DIR, brdf_methods, part_extras, preset_records and check_tables, and, for the
+    PRESET_VARIANTS, tables_dir, brdf_methods, part_extras, preset_records and check_tables, and, for the
     family whose BRDF the report measures, exact_brdf, exact_kd, EXACT_SOURCES, SOURCES and the exact engine's
     and Monte Carlo's measurements (:mod:`fitlab.families.lambert_sphere.report_methods` lists them)."""
     return {name: f.hooks["report"]() for name, f in families().items() if "report" in f.hooks}
@@ -227,7 +227,7 @@ def brdf_methods(fits_dir: Path, entries: list[FitEntry], data_dir: Path | None 
     the entries of discovered forms."""
     out = []
     for hook in report_hooks().values():
-        out += hook.brdf_methods(Path(fits_dir), entries, Path(data_dir or hook.DATA_DIR), preset_c, discovered)
+        out += hook.brdf_methods(Path(fits_dir), entries, hook.tables_dir(data_dir), preset_c, discovered)
     return out
 
 
@@ -241,7 +241,7 @@ def part_methods(target_name: str, entries: list[FitEntry], data_dir: Path | Non
     """The part-level catalogue of one target (see the module docstring)."""
     t = get_target(target_name)
     hook = report_hooks().get(t.family)
-    out = [] if hook is None else list(hook.part_extras(target_name, Path(data_dir or hook.DATA_DIR)))
+    out = [] if hook is None else list(hook.part_extras(target_name, hook.tables_dir(data_dir)))
     for form_name, preset in t.published:
         form = t.forms[form_name]
         theta = form.vector(preset)

@@ -39,7 +39,7 @@ from fitlab.report.programs import c_costs, timing_inputs
 from fitlab.report.refits import recorded_seconds, refit_costs, refit_jobs
 from fitlab.report.settings import FULL, Settings
 from fitlab.report.validation import brdf_set, grazing_set
-from fitlab.store import TableError
+from fitlab.store import TableError, fits_folder
 
 __all__ = ["Report", "build_report"]
 
@@ -66,10 +66,10 @@ def _single_threaded_blas():
 
 
 def _check_tables(data_dir: Path) -> None:
-    """Every family's tables (its ``check_tables``) in ``data_dir``."""
+    """Every family's tables (its ``check_tables``), in ``data_dir`` or where the family reads them."""
     for hook in report_hooks().values():
         try:
-            hook.check_tables(data_dir)
+            hook.check_tables(hook.tables_dir(data_dir))
         except TableError as exc:
             raise ReportError(str(exc)) from None
 
@@ -212,17 +212,18 @@ def _resolved(settings: Settings) -> Settings:
     return settings
 
 
-def build_report(settings: Settings = FULL, fits_dir: Path = Path("fits"), data_dir: Path | None = None,
+def build_report(settings: Settings = FULL, fits_dir: Path | None = None, data_dir: Path | None = None,
                  use_cache: bool = True, progress: bool = True) -> Report:  # fmt: skip
     """Measure everything :mod:`fitlab.report` describes; returns the rows (writes nothing).
-    ``data_dir``: the exact tables (None: the families' data/ folder).
+    ``fits_dir``: the fits measured (None: the packaged fits); ``data_dir``: the exact tables (None: where
+    each family reads them, :mod:`fitlab.resources`).
 
     Bad input (the fits folder, a fit file, the tables) fails here, before any slow work."""
 
     t_start = time.perf_counter()
     settings = _resolved(settings)
-    fits_dir = Path(fits_dir)
-    data_dir = Path(data_dir) if data_dir is not None else next(iter(report_hooks().values())).DATA_DIR
+    fits_dir = fits_folder(fits_dir)
+    data_dir = Path(data_dir) if data_dir is not None else None
     entries = fit_inventory(fits_dir)
     _check_tables(data_dir)
     p = _Progress(progress)

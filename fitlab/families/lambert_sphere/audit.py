@@ -34,8 +34,8 @@ from fitlab.families.lambert_sphere import datasets as d
 from fitlab.fit.metrics import relative_errors, summary
 from fitlab.fit.refit import preset_metrics
 from fitlab.core import get_target, targets
-from fitlab._io import atomic_write_text
-from fitlab.store import FitFileError, fit_files, read_fit, strict_json
+from fitlab._io import atomic_write_many
+from fitlab.store import FitFileError, fit_files, fits_folder, read_fit, strict_json
 from fitlab.families.lambert_sphere.forms import RUNTIME_PARTS
 from fitlab.families.lambert_sphere.runtime import PRESET_VARIANTS, RuntimeModel, runtime_model
 from fitlab.report.methods import FitEntry, best_forms, origin_kind
@@ -188,9 +188,10 @@ def _markdown(result: dict) -> str:
     return "\n".join(out) + "\n"
 
 
-def run_audit(out_dir: Path = Path("docs"), fits_dir: Path = Path("fits")) -> dict:
-    """Compute the audit, then write audit.md and audit.json (both or neither)."""
-    models, missing = _runtime_models(Path(fits_dir))
+def run_audit(out_dir: Path, fits_dir: Path | None = None) -> dict:
+    """Compute the audit of the fits in ``fits_dir`` (None: the packaged fits), then write audit.md and
+    audit.json into ``out_dir`` (both or neither)."""
+    models, missing = _runtime_models(fits_folder(fits_dir))
     result = {
         "published": _published_rows(),
         "runtime_grid": d.brdf_validation().grid,
@@ -200,6 +201,5 @@ def run_audit(out_dir: Path = Path("docs"), fits_dir: Path = Path("fits")) -> di
     }
     md = _markdown(result)
     text = strict_json(result)
-    for name, content in (("audit.json", text), ("audit.md", md)):
-        atomic_write_text(Path(out_dir) / name, content)
+    atomic_write_many({Path(out_dir) / "audit.json": text.encode(), Path(out_dir) / "audit.md": md.encode()})
     return result

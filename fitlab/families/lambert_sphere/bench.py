@@ -85,8 +85,8 @@ def random_inputs(n: int, seed: int = 0) -> dict:
     return {"mu_i": mu_i, "mu_o": mu_o, "c": c, "cos_phi": rng.uniform(-1, 1, n)}
 
 
-def bench_codegen(fits_dir: Path = Path("fits"), n: int = 1_000_000, repeat: int = 5) -> dict:
-    prog = load_program(Path(fits_dir))
+def bench_codegen(fits_dir: Path | None = None, n: int = 1_000_000, repeat: int = 5) -> dict:
+    prog = load_program(fits_dir)
     base = baseline_program()
     x = random_inputs(n)
     mu_i, mu_o, c, cos_phi = x["mu_i"], x["mu_o"], x["c"], x["cos_phi"]

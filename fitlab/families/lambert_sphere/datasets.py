@@ -1,6 +1,7 @@
 r"""Training and validation sets drawn from the exact tables and engine.
 
-Training sets come from the committed tables in data/ (their grid is s = k/64,
+Training sets come from the family's exact tables (:mod:`.table_files`: the
+packaged ones, or those ``fitlab tabulate`` wrote to the user's data folder; their grid is s = k/64,
 mu = k/64 plus the tiny-mu points) or, for BRDF-level targets, from the exact
 engine on a sub-grid of the same lattice.  Validation sets are denser and
 interleaved: their interior points sit between training points (odd multiples
@@ -22,11 +23,7 @@ from fitlab.core import Dataset
 from fitlab.families.lambert_sphere.exact.constants import CONSTANT_NAMES
 
 from fitlab.families.lambert_sphere.exact import brdf, brdf_modes, constants, h_function, multiple_scattering_modes, spherical_albedo
-from fitlab.store import read_table
-
-__all__ = ["DATA_DIR"]
-
-DATA_DIR = Path(__file__).resolve().parents[3] / "data"
+from fitlab.families.lambert_sphere.table_files import read_constants, read_h, read_kd, tables_dir
 
 
 _ENGINE = tuple(sorted((Path(__file__).resolve().parent / "exact").glob("*.py")))
@@ -52,11 +49,16 @@ def _interleaved(step_denominator: int, extra=()) -> np.ndarray:
 
 
 # -- H-functions --------------------------------------------------------------
+def h_training(order: int, data_dir: Path | None = None) -> Dataset:
+    """H_order on the grid of the tables (``data_dir``: the tables' folder; None: :func:`.table_files.tables_dir`)."""
+    return _h_training(order, tables_dir(data_dir))
+
+
 @lru_cache(maxsize=None)
-def h_training(order: int, data_dir: Path = DATA_DIR) -> Dataset:
-    _, t = read_table(Path(data_dir) / f"h{order}.csv", ("s", "c", "mu", f"H{order}"))
+def _h_training(order: int, folder: Path) -> Dataset:
+    t = read_h(order, folder)
     t = t[t[:, 2] <= 1.0]
-    return Dataset({"mu": t[:, 2], "c": t[:, 1]}, t[:, 3], f"data/h{order}.csv, mu <= 1: s = k/64, mu = k/64 and 1e-12..1e-3")
+    return Dataset({"mu": t[:, 2], "c": t[:, 1]}, t[:, 3], f"table h{order}.csv, mu <= 1: s = k/64, mu = k/64 and 1e-12..1e-3")
 
 
 @lru_cache(maxsize=None)
@@ -80,12 +82,6 @@ _S_1D = _interleaved(256)
 
 
 @lru_cache(maxsize=None)
-def _constants_table(data_dir: Path = DATA_DIR):
-    header, t = read_table(Path(data_dir) / "constants.csv")
-    return header, t
-
-
-@lru_cache(maxsize=None)
 def _constants_validation():
     c = 1.0 - _S_1D**2
 
@@ -97,21 +93,20 @@ def _constants_validation():
     return ds.aux
 
 
-def constant_training(name: str, data_dir: Path = DATA_DIR) -> Dataset:
-    header, t = _constants_table(data_dir)
-    if name not in header:
-        raise KeyError(f"data/constants.csv has no column {name!r}")
-    return Dataset({"c": t[:, 1]}, t[:, header.index(name)], "data/constants.csv: s = k/64")
+def constant_training(name: str, data_dir: Path | None = None) -> Dataset:
+    table = read_constants(tables_dir(data_dir))
+    if name not in table or name in ("s", "c"):
+        raise KeyError(f"table constants.csv has no constant {name!r}")
+    return Dataset({"c": table["c"]}, table[name], "table constants.csv: s = k/64")
 
 
 def constant_validation(name: str) -> Dataset:
     return Dataset({"c": 1.0 - _S_1D**2}, np.asarray(_constants_validation()[name], dtype=float), "s = (2k+1)/256, plus 0 and 1")
 
 
-@lru_cache(maxsize=None)
-def _kd_training(data_dir: Path = DATA_DIR):
-    _, t = read_table(Path(data_dir) / "kd.csv", ("s", "c", "kd_three_term", "kd_true"))
-    return t[:, 1], t[:, 3]
+def _kd_training(data_dir: Path | None = None):
+    t = read_kd(tables_dir(data_dir))
+    return t["c"], t["kd_true"]
 
 
 @lru_cache(maxsize=None)
@@ -122,9 +117,9 @@ def _kd_validation():
     return ds.inputs["c"], ds.y
 
 
-def kd_of_c_training(data_dir: Path = DATA_DIR) -> Dataset:
+def kd_of_c_training(data_dir: Path | None = None) -> Dataset:
     c, kd = _kd_training(data_dir)
-    return Dataset({"c": c}, kd, "data/kd.csv (kd_true): s = k/64")
+    return Dataset({"c": c}, kd, "table kd.csv (kd_true): s = k/64")
 
 
 def kd_of_c_validation() -> Dataset:
@@ -138,8 +133,8 @@ def _inverse(c, kd, grid):
     return Dataset({"kd": kd[keep]}, c[keep], grid)
 
 
-def c_of_kd_training(data_dir: Path = DATA_DIR) -> Dataset:
-    return _inverse(*_kd_training(data_dir), "data/kd.csv (kd_true, kd <= 1): s = k/64")
+def c_of_kd_training(data_dir: Path | None = None) -> Dataset:
+    return _inverse(*_kd_training(data_dir), "table kd.csv (kd_true, kd <= 1): s = k/64")
 
 
 def c_of_kd_validation() -> Dataset:

@@ -1,4 +1,4 @@
-r"""The exact tables of data/ with interpolation, as an evaluation method of the report.
+r"""The exact tables (:mod:`.table_files`) with interpolation, as an evaluation method of the report.
 
 Interpolation (chosen by its error on the H validation sets, stated in the report):
 
@@ -35,10 +35,9 @@ from pathlib import Path
 import numpy as np
 import sympy as sp
 
-from fitlab.families.lambert_sphere.datasets import DATA_DIR
 from fitlab.families.lambert_sphere.exact import CONSTANT_NAMES
 from fitlab.families.lambert_sphere.forms import RUNTIME_PARTS, runtime_terms
-from fitlab.families.lambert_sphere.table_files import read_constants, read_h, read_kd
+from fitlab.families.lambert_sphere.table_files import read_constants, read_h, read_kd, tables_dir
 from fitlab.forms.symbolic import symbols
 
 __all__ = ["h_interpolant", "constant_interpolant", "kd_interpolant", "c_of_kd_interpolant", "table_brdf", "table_part"]
@@ -46,12 +45,17 @@ __all__ = ["h_interpolant", "constant_interpolant", "kd_interpolant", "c_of_kd_i
 mu_i, mu_o, phi, c, mu = symbols(("mu_i", "mu_o", "phi", "c", "mu"))
 
 
+def h_interpolant(order: int, data_dir: Path | None = None):
+    """H_order(mu, c) from the table h{order}.csv: f(mu, c) on numpy arrays (mu, c in [0, 1]).
+    ``data_dir``: the tables' folder (None: :func:`.table_files.tables_dir`), as in every function here."""
+    return _h_interpolant(order, tables_dir(data_dir))
+
+
 @lru_cache(maxsize=None)
-def h_interpolant(order: int, data_dir: Path = DATA_DIR):
-    """H_order(mu, c) from data/h{order}.csv: f(mu, c) on numpy arrays (mu, c in [0, 1])."""
+def _h_interpolant(order: int, data_dir: Path):
     from scipy.interpolate import RectBivariateSpline
 
-    t = read_h(order, Path(data_dir))
+    t = read_h(order, data_dir)
     s, mus = np.unique(t[:, 0]), np.unique(t[:, 2])
     h = t[:, 3].reshape(s.size, mus.size)
     keep = (mus > 0.0) & np.isfinite(mus)
@@ -66,34 +70,46 @@ def h_interpolant(order: int, data_dir: Path = DATA_DIR):
     return f
 
 
+def constant_interpolant(name: str, data_dir: Path | None = None):
+    """A constant of the table constants.csv (l, m, A..F) as f(c): cubic spline in s = sqrt(1 - c)."""
+    return _constant_interpolant(name, tables_dir(data_dir))
+
+
 @lru_cache(maxsize=None)
-def constant_interpolant(name: str, data_dir: Path = DATA_DIR):
-    """A constant of data/constants.csv (l, m, A..F) as f(c): cubic spline in s = sqrt(1 - c)."""
+def _constant_interpolant(name: str, data_dir: Path):
     from scipy.interpolate import CubicSpline
 
-    table = read_constants(Path(data_dir))
+    table = read_constants(data_dir)
     if name not in table or name in ("s", "c"):
         raise KeyError(f"{Path(data_dir) / 'constants.csv'} has no constant {name!r}")
     spline = CubicSpline(table["s"], table[name])
     return lambda c: spline(np.sqrt(1.0 - np.asarray(c, dtype=float)))
 
 
+def kd_interpolant(data_dir: Path | None = None):
+    """kd_true(c) from the table kd.csv: cubic spline in s = sqrt(1 - c)."""
+    return _kd_interpolant(tables_dir(data_dir))
+
+
 @lru_cache(maxsize=None)
-def kd_interpolant(data_dir: Path = DATA_DIR):
-    """kd_true(c) from data/kd.csv: cubic spline in s = sqrt(1 - c)."""
+def _kd_interpolant(data_dir: Path):
     from scipy.interpolate import CubicSpline
 
-    t = read_kd(Path(data_dir))
+    t = read_kd(data_dir)
     spline = CubicSpline(t["s"], t["kd_true"])
     return lambda c: spline(np.sqrt(1.0 - np.asarray(c, dtype=float)))
 
 
+def c_of_kd_interpolant(data_dir: Path | None = None):
+    """c(kd), the inverse of kd_true, from the table kd.csv: cubic spline of c against kd (kd <= 1)."""
+    return _c_of_kd_interpolant(tables_dir(data_dir))
+
+
 @lru_cache(maxsize=None)
-def c_of_kd_interpolant(data_dir: Path = DATA_DIR):
-    """c(kd), the inverse of kd_true, from data/kd.csv: cubic spline of c against kd (kd <= 1)."""
+def _c_of_kd_interpolant(data_dir: Path):
     from scipy.interpolate import CubicSpline
 
-    t = read_kd(Path(data_dir))
+    t = read_kd(data_dir)
     keep = t["kd_true"] <= 1.0
     order = np.argsort(t["kd_true"][keep])
     spline = CubicSpline(t["kd_true"][keep][order], t["c"][keep][order])
@@ -105,11 +121,11 @@ def _fm2(h2) -> sp.Expr:
     return 15 * c * s2 * (h2.subs(mu, mu_i) * h2.subs(mu, mu_o) - 1) / (256 * sp.pi * (mu_i + mu_o))
 
 
-def table_brdf(data_dir: Path = DATA_DIR, order2: bool = False):
+def table_brdf(data_dir: Path | None = None, order2: bool = False):
     """f(mu_i, mu_o, phi, c) from the tables: the runtime model (``order2=False``) or all three orders.
 
     Returns a numpy function; the parts are spline calls (see the module docstring)."""
-    data_dir = Path(data_dir)
+    data_dir = tables_dir(data_dir)
     funcs = {"tab_H0": h_interpolant(0, data_dir), "tab_H1": h_interpolant(1, data_dir)}
     parts = {}
     for part in RUNTIME_PARTS:
@@ -134,17 +150,17 @@ def table_brdf(data_dir: Path = DATA_DIR, order2: bool = False):
     return f
 
 
-def table_part(target: str, data_dir: Path = DATA_DIR):
+def table_part(target: str, data_dir: Path | None = None):
     """(f, source) of a part's interpolant from the tables, f taking the target's inputs positionally;
     (None, "") for a target the tables do not hold."""
-    data_dir = Path(data_dir)
+    data_dir = tables_dir(data_dir)
     if target in ("H0", "H1"):
         order = int(target[1])
-        return h_interpolant(order, data_dir), f"data/h{order}.csv, spline of log(H)/mu in (s, log mu)"
+        return h_interpolant(order, data_dir), f"table h{order}.csv, spline of log(H)/mu in (s, log mu)"
     if target in CONSTANT_NAMES and target in RUNTIME_PARTS:
-        return constant_interpolant(target, data_dir), "data/constants.csv, cubic spline in s"
+        return constant_interpolant(target, data_dir), "table constants.csv, cubic spline in s"
     if target == "kd_of_c":
-        return kd_interpolant(data_dir), "data/kd.csv (kd_true), cubic spline in s"
+        return kd_interpolant(data_dir), "table kd.csv (kd_true), cubic spline in s"
     if target == "c_of_kd":
-        return c_of_kd_interpolant(data_dir), "data/kd.csv, cubic spline of c against kd_true"
+        return c_of_kd_interpolant(data_dir), "table kd.csv, cubic spline of c against kd_true"
     return None, ""

@@ -14,7 +14,7 @@ module, for what only the family knows:
 * :func:`part_extras`: the part-level methods beyond presets and fit files
   (the exact engine's Fock method for H0 and H1, the tables);
 * :func:`preset_records`: a preset set as fit records, for codegen;
-* :func:`check_tables`, :data:`DATA_DIR`, :func:`exact_brdf`, :func:`exact_kd`
+* :func:`check_tables`, :func:`tables_dir`, :func:`exact_brdf`, :func:`exact_kd`
   and :data:`EXACT_SOURCES`: the tables, and the exact values of the report's
   BRDF validation set with the sources its cache key hashes;
 * the exact engine and Monte Carlo as methods (:mod:`.report_exact`:
@@ -31,7 +31,6 @@ import numpy as np
 import sympy as sp
 
 from fitlab.core import get_target
-from fitlab.families.lambert_sphere.datasets import DATA_DIR
 from fitlab.families.lambert_sphere.exact import brdf, h_function, spherical_albedo
 from fitlab.families.lambert_sphere.forms import RUNTIME_PARTS
 from fitlab.families.lambert_sphere.forms.baselines import BASELINE_INPUTS, LAMBERT, oren_nayar
@@ -44,14 +43,14 @@ from fitlab.families.lambert_sphere.report_exact import (
 )
 from fitlab.families.lambert_sphere.report_montecarlo import mc_study, mc_time_to_error
 from fitlab.families.lambert_sphere.runtime import PRESET_VARIANTS, runtime_model
-from fitlab.families.lambert_sphere.table_files import check_tables
+from fitlab.families.lambert_sphere.table_files import check_tables, tables_dir
 from fitlab.families.lambert_sphere.targets import TARGETS
 from fitlab.families.lambert_sphere.bench import baseline_program, random_inputs  # noqa: F401 (baseline_program: the report's hook)
 from fitlab.forms.symbolic import lambdify_numpy, symbols
 from fitlab.report.methods import BrdfMethod, CSpec, PartMethod, best_forms, fit_group, positional
 from fitlab.store import FORMAT, load
 
-__all__ = ["REQUIRED_FITS", "PARTS", "PRESET_VARIANTS", "DATA_DIR", "EXACT_SOURCES", "SOURCES", "brdf_methods",
+__all__ = ["REQUIRED_FITS", "PARTS", "PRESET_VARIANTS", "tables_dir", "EXACT_SOURCES", "SOURCES", "brdf_methods",
            "part_extras", "preset_records", "check_tables", "exact_brdf", "exact_kd", "h_convergence", "exact_brdf_cost",
            "doubling_agreement", "time_to_error", "mc_study", "mc_time_to_error"]
 

@@ -83,6 +83,6 @@ def runtime_model(
             path = fit_path(Path(fits_dir), part, form_name)
             fit = load(path)
             parts[part] = fit.expression
-            sources[part] = str(path)
+            sources[part] = path.name  # the file, wherever its folder is (audit.json stays the same)
         name = "refit" if not forms else "refit (" + ", ".join(f"{k}: {v}" for k, v in forms.items()) + ")"
     return RuntimeModel(name, runtime_brdf(parts, normalisation), sources)

@@ -1,8 +1,11 @@
-r"""The layout of the family's exact tables in data/: file names and columns, written once.
+r"""The layout of the family's exact tables: file names and columns, written once, and where they are read.
 
 :mod:`.tabulate` writes these files (through :func:`fitlab.store.write_tables`);
 everything that reads them (training sets, the report's interpolation) reads
 them here, through :func:`fitlab.store.read_table`, which checks the header.
+The packaged tables are ``fitlab/data/lambert_sphere/``; :func:`tables_dir`
+prefers the user's data folder when ``fitlab tabulate`` has written them there
+(:mod:`fitlab.resources`).
 """
 
 from __future__ import annotations
@@ -13,11 +16,14 @@ from pathlib import Path
 import numpy as np
 
 from fitlab.families.lambert_sphere.exact import CONSTANT_NAMES
+from fitlab.resources import tables_folder
 from fitlab.store import read_table
 
-__all__ = ["h_columns", "h_file", "CONSTANTS_FILE", "CONSTANT_COLUMNS", "KD_FILE", "KD_COLUMNS", "TABLE_FILES",
+__all__ = ["FAMILY_NAME", "tables_dir", "h_columns", "h_file", "CONSTANTS_FILE", "CONSTANT_COLUMNS", "KD_FILE", "KD_COLUMNS", "TABLE_FILES",
            "read_h", "read_constants", "read_kd", "check_tables"]
 
+#: the family's name: its tables live in ``fitlab/data/FAMILY_NAME/`` and ``DATA/FAMILY_NAME/``
+FAMILY_NAME = "lambert_sphere"
 CONSTANTS_FILE = "constants.csv"
 CONSTANT_COLUMNS = ("s", "c", *CONSTANT_NAMES)
 KD_FILE = "kd.csv"
@@ -36,22 +42,29 @@ def h_columns(order: int) -> tuple[str, ...]:
 TABLE_FILES = {**{h_file(m): h_columns(m) for m in range(3)}, CONSTANTS_FILE: CONSTANT_COLUMNS, KD_FILE: KD_COLUMNS}
 
 
+def tables_dir(data_dir: Path | str | None = None) -> Path:
+    """The folder the tables are read from: ``data_dir`` itself when given; else the user's data folder's
+    ``lambert_sphere/`` when it holds every table (:func:`fitlab.resources.tables_folder`), else the
+    packaged tables."""
+    return Path(data_dir) if data_dir is not None else tables_folder(FAMILY_NAME, tuple(TABLE_FILES))
+
+
 @lru_cache(maxsize=None)
 def read_h(order: int, data_dir: Path) -> np.ndarray:
-    """Rows (s, c, mu, H) of data/h{order}.csv."""
+    """Rows (s, c, mu, H) of h{order}.csv in ``data_dir``."""
     return read_table(Path(data_dir) / h_file(order), h_columns(order))[1]
 
 
 @lru_cache(maxsize=None)
 def read_constants(data_dir: Path) -> dict[str, np.ndarray]:
-    """Column name -> values of data/constants.csv (s, c, then every constant)."""
+    """Column name -> values of constants.csv in ``data_dir`` (s, c, then every constant)."""
     header, t = read_table(Path(data_dir) / CONSTANTS_FILE, CONSTANT_COLUMNS)
     return {name: t[:, j] for j, name in enumerate(header)}
 
 
 @lru_cache(maxsize=None)
 def read_kd(data_dir: Path) -> dict[str, np.ndarray]:
-    """Column name -> values of data/kd.csv (s, c, kd_three_term, kd_true)."""
+    """Column name -> values of kd.csv in ``data_dir`` (s, c, kd_three_term, kd_true)."""
     header, t = read_table(Path(data_dir) / KD_FILE, KD_COLUMNS)
     return {name: t[:, j] for j, name in enumerate(header)}
 

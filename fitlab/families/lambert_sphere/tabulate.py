@@ -1,4 +1,4 @@
-"""Exact tables in data/: H0, H1, H2 on a (mu, c) grid, the constants and kd.
+"""The exact tables (fitlab/data/lambert_sphere/, or DATA/lambert_sphere/ from ``fitlab tabulate``): H0, H1, H2 on a (mu, c) grid, the constants and kd.
 
 Grid (documented in every header):
   c = 1 - s^2 with s = k/64, k = 0..64 (uniform in s = sqrt(1-c): dense near
@@ -21,9 +21,13 @@ from tqdm import tqdm
 
 from fitlab.families.lambert_sphere.exact import constants, h_function, spherical_albedo
 from fitlab.families.lambert_sphere.exact.constants import CONSTANT_NAMES
-from fitlab.families.lambert_sphere.table_files import TABLE_FILES
-from fitlab.store import Table, TableError, read_table
+from fitlab.families.lambert_sphere.table_files import FAMILY_NAME, TABLE_FILES
+from fitlab.store import Table, read_table
 from fitlab.store import write_tables as store_write_tables
+
+# the family's `tables` service: the layout (FAMILY_NAME, TABLE_FILES) with the writer and the checker
+__all__ = ["FAMILY_NAME", "TABLE_FILES", "build_tables", "write_tables", "check_tables", "h_table", "constants_table",
+           "albedo_table", "C_GRID", "MU_GRID", "S_GRID"]
 
 S_GRID = np.arange(65) / 64.0
 C_GRID = 1.0 - S_GRID**2

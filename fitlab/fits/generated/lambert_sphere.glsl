@@ -3,17 +3,17 @@
 // The Lambert-sphere BRDF (d'Eon, EGSR 2021): the runtime model of docs/model.md and its fitted parts.
 // Terms of brdf: single, m0, m1
 // From these fits (sha256):
-//   fits/H0.json  4fd784b49568912da15f25155857db3289c4dd43898c022295291a437984b06a
-//   fits/H1.json  d28de3eb6ce75a422c7e14dfdb1972ac057e7809b8e5e91c97f6f3d5bf068442
-//   fits/l.json  035c90022880beecd7fd52233c3054a001231d479f1eb26b038bba64f2335419
-//   fits/m.json  f41bffd48fdf7c1101ff021073c3742980fb9db426f486da155ed27ad97cb10f
-//   fits/B.json  6c2f4c8f88b0ddb09af23f1bcbb728209ea50ae49777bfe756be3768d932af55
-//   fits/C.json  6fdbfb4a52311d59bb5465b2c8802f9febe9cad765fe0f3b8bf48ec4e42232dd
-//   fits/D.json  fa4f1c774b0ee4db89198f59752aee47cc6727002d0ffe8002b4abe5dd4baeb2
-//   fits/F.json  89383f63b15149959b93a7b34cb92d6f80e4212a126a339dfae088eb725c824a
-//   fits/c_of_kd.json  ad8bcd2ba210486e2105a562f5eb249c207cc3857f11405e011f8d13e38c592d
-//   fits/kd_of_c.json  97fd68ebd9ef5a510e97d6f742d5e9ff4ca179dfae3908df011426f60c64c6c0
-//   fits/fast_brdf.json  88236703c7510cb5c1b581febb4ef8bfc82b4704a8bc02dd976905bdc8977b81
+//   H0.json  4fd784b49568912da15f25155857db3289c4dd43898c022295291a437984b06a
+//   H1.json  d28de3eb6ce75a422c7e14dfdb1972ac057e7809b8e5e91c97f6f3d5bf068442
+//   l.json  035c90022880beecd7fd52233c3054a001231d479f1eb26b038bba64f2335419
+//   m.json  f41bffd48fdf7c1101ff021073c3742980fb9db426f486da155ed27ad97cb10f
+//   B.json  6c2f4c8f88b0ddb09af23f1bcbb728209ea50ae49777bfe756be3768d932af55
+//   C.json  6fdbfb4a52311d59bb5465b2c8802f9febe9cad765fe0f3b8bf48ec4e42232dd
+//   D.json  fa4f1c774b0ee4db89198f59752aee47cc6727002d0ffe8002b4abe5dd4baeb2
+//   F.json  89383f63b15149959b93a7b34cb92d6f80e4212a126a339dfae088eb725c824a
+//   c_of_kd.json  ad8bcd2ba210486e2105a562f5eb249c207cc3857f11405e011f8d13e38c592d
+//   kd_of_c.json  97fd68ebd9ef5a510e97d6f742d5e9ff4ca179dfae3908df011426f60c64c6c0
+//   fast_brdf.json  88236703c7510cb5c1b581febb4ef8bfc82b4704a8bc02dd976905bdc8977b81
 // Float functions for GLSL 3.30 / ES 3.00 and later; paste or #include into a shader.
 
 // x^p for x > 0, 0 for x <= 0, NaN for NaN: the forms' safe_pow (keeps pow away from x <= 0).

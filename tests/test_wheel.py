@@ -1,0 +1,109 @@
+"""A wheel built from the checkout works outside it: the installation a user gets from the package registry.
+
+The wheel is built from the files git tracks (or would track), installed into a fresh virtual environment
+(its dependencies come from the test environment's site-packages: nothing is downloaded), and driven from a
+temporary folder far from the checkout, with a cold cache and no user data folder, so every table, fit and
+scene it uses must come from inside the installed package:
+
+* ``fitlab refit --target H0 --out TMP`` writes a fit that the schema accepts;
+* ``fitlab codegen --lang c --out TMP`` writes the same bytes as the generated code packaged with fitlab
+  (regenerated from the packaged fits), and the C compiles;
+* ``fitlab simulate order1_normalisation`` (a packaged scene, by name) at a small budget writes its table.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+import venv
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _sources() -> list[str]:
+    """The checkout's files as git sees them: tracked, plus untracked ones that are not ignored."""
+    out = subprocess.run(["git", "-C", str(ROOT), "ls-files", "-z", "--cached", "--others", "--exclude-standard"],
+                         capture_output=True, check=True).stdout.decode()  # fmt: skip
+    return [name for name in out.split("\0") if name and (ROOT / name).is_file()]
+
+
+@pytest.fixture(scope="module")
+def installed(tmp_path_factory):
+    if shutil.which("git") is None or not (ROOT / ".git").exists():
+        pytest.skip("needs a git checkout to know which files are the sources")
+    base = tmp_path_factory.mktemp("wheel")
+    src = base / "src"
+    for name in _sources():
+        (src / name).parent.mkdir(parents=True, exist_ok=True)
+        shutil.copy2(ROOT / name, src / name)
+    dist = base / "dist"
+    # no build isolation: setuptools and build come with the [dev] extra, nothing is downloaded
+    built = subprocess.run([sys.executable, "-m", "build", "--wheel", "--no-isolation", "--outdir", str(dist), str(src)],
+                           capture_output=True, text=True)  # fmt: skip
+    assert built.returncode == 0, built.stdout[-3000:] + built.stderr[-3000:]
+    (wheel,) = dist.glob("fitlab_brdf-*.whl")
+    env_dir = base / "venv"
+    venv.EnvBuilder(system_site_packages=True, with_pip=True).create(env_dir)
+    python = env_dir / "bin" / "python"
+    pip = subprocess.run([str(python), "-m", "pip", "install", "--no-deps", "--no-index", "--quiet", str(wheel)],
+                         capture_output=True, text=True)  # fmt: skip
+    assert pip.returncode == 0, pip.stderr[-3000:]
+    work = base / "elsewhere"
+    work.mkdir()
+    env = {**os.environ, "FITLAB_CACHE_DIR": str(base / "cache"), "FITLAB_DATA": str(base / "no-data"),
+           "PYTHONPATH": "", "OPENBLAS_NUM_THREADS": "1"}  # fmt: skip
+
+    def run(*args, check=True):
+        done = subprocess.run([str(env_dir / "bin" / "fitlab"), *args], cwd=work, env=env, capture_output=True, text=True)
+        if check:
+            assert done.returncode == 0, (args, done.stdout[-2000:], done.stderr[-2000:])
+        return done
+
+    where = subprocess.run([str(python), "-c", "import fitlab; print(fitlab.__file__)"], cwd=work, env=env,
+                           capture_output=True, text=True, check=True).stdout.strip()  # fmt: skip
+    return {"run": run, "work": work, "package": Path(where).parent, "env": env_dir}
+
+
+def test_the_installed_package_is_the_wheel_and_holds_its_data(installed):
+    package = installed["package"]
+    assert installed["env"] in package.parents, package  # not the checkout
+    for name in ("h0.csv", "h1.csv", "h2.csv", "constants.csv", "kd.csv"):
+        assert (package / "data" / "lambert_sphere" / name).is_file(), name
+    assert (package / "fits" / "H0.json").is_file()
+    assert (package / "fits" / "generated" / "lambert_sphere.c").is_file()
+    assert (package / "data" / "lambert_sphere" / "scenes" / "order1_normalisation.toml").is_file()
+    assert (package / "schemas" / "fit-1.schema.json").is_file()
+
+
+def test_refit_from_any_folder(installed):
+    done = installed["run"]("refit", "--target", "H0", "--out", "out/fits", "--quiet", "--json")
+    summary = json.loads(done.stdout)
+    assert summary["ok"] and summary["written"]
+    record = json.loads((installed["work"] / "out" / "fits" / "H0.json").read_text())
+    assert record["target"] == "H0" and record["format"] == "fitlab-fit/1"
+
+
+def test_codegen_from_any_folder_reproduces_the_packaged_code(installed):
+    installed["run"]("codegen", "--lang", "c", "--out", "out/generated", "--quiet")
+    out = installed["work"] / "out" / "generated"
+    for name in ("lambert_sphere.c", "lambert_sphere.h"):
+        assert (out / name).read_bytes() == (installed["package"] / "fits" / "generated" / name).read_bytes(), name
+    cc = shutil.which("cc") or shutil.which("gcc")
+    if cc is not None:
+        subprocess.run([cc, "-std=c99", "-c", str(out / "lambert_sphere.c"), "-o", str(out / "lambert_sphere.o")],
+                       check=True, capture_output=True)  # fmt: skip
+
+
+def test_simulate_a_packaged_scene_by_name(installed):
+    installed["run"]("simulate", "order1_normalisation", "--max-paths", "1000", "--allow-unconverged", "--no-plots",
+                     "--quiet", "--out", "out/mc")  # fmt: skip
+    written = sorted(p.name for p in (installed["work"] / "out" / "mc").iterdir())
+    assert "order1_normalisation.csv" in written, written
+    refused = installed["run"]("simulate", "no_such_scene", check=False)
+    assert refused.returncode == 2 and "order1_normalisation" in refused.stderr
