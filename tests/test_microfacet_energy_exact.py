@@ -158,7 +158,7 @@ def test_ggx_mirror_limit(model):
 
 @pytest.mark.parametrize("model", [m for m in MODEL_NAMES if m != "oren_nayar_057"])
 def test_albedo_decreases_with_roughness_on_average(model):
-    alpha = np.linspace(0, 1, 21)
+    alpha = np.linspace(0, 1, 11)
     e_avg = average_albedo(alpha, model)
     assert np.all(np.diff(e_avg) < 0)
 
@@ -263,6 +263,7 @@ def test_smith_functions_and_ndf():
     np.testing.assert_allclose(smith_g2(mu[:, None], mu, alpha), smith_g1(mu[:, None], alpha) * smith_g1(mu, alpha))
     assert smith_g1(0.0, 0.0) == 1 and smith_lambda(0.0, 0.0) == 0 and smith_g2(0.0, 0.0, 0.0, "correlated") == 1
     assert smith_g2(0.0, 0.5, alpha, "correlated") == 0
+    np.testing.assert_allclose(ggx_ndf([1.0, 0.0], alpha), [1 / (np.pi * alpha**2), alpha**2 / np.pi], rtol=1e-15)
     # int D(m) mu_m dw_m = 1: with u = tan^2(theta_m) / alpha^2 it is int_0^inf du / (1 + u)^2 in closed form;
     # numerically on theta_m in [0, pi/2], graded towards 0 where the peak is
     for a in (0.05, 0.5, 1.0):
@@ -276,13 +277,13 @@ def test_smith_functions_and_ndf():
 
 @pytest.mark.parametrize("model", ["ggx_separable", "ggx_correlated", "oren_nayar", "oren_nayar_gamma"])
 def test_float32_evaluation(model):
-    mu_o, mu_i, phi, alpha = (x.astype(np.float32) for x in random_configurations())
+    mu_o, mu_i, phi, alpha = random_configurations()
     if model.startswith("ggx"):
-        # and a sharp peak, near the mirror configuration
-        mu_i = np.concatenate((mu_i, mu_o + np.float32(1e-4)))[: 2 * mu_o.size].clip(0, 1).astype(np.float32)
-        mu_o = np.concatenate((mu_o, mu_o))
-        phi = np.concatenate((phi, np.full(phi.size, np.pi - 1e-3, dtype=np.float32)))
-        alpha = np.concatenate((alpha, np.full(alpha.size, 1e-2, dtype=np.float32)))
+        # and as many near the mirror configuration of a sharp peak (alpha = 0.01)
+        mu_o, mu_i = np.concatenate((mu_o, mu_o)), np.concatenate((mu_i, np.minimum(mu_o + 1e-4, 1)))
+        phi = np.concatenate((phi, np.full(phi.size, np.pi - 1e-3)))
+        alpha = np.concatenate((alpha, np.full(alpha.size, 1e-2)))
+    mu_o, mu_i, phi, alpha = (x.astype(np.float32) for x in (mu_o, mu_i, phi, alpha))
     single = brdf(mu_o, mu_i, phi, alpha, model)
     double = brdf(*(x.astype(np.float64) for x in (mu_o, mu_i, phi, alpha)), model)
     assert single.dtype == np.float32
@@ -298,13 +299,17 @@ def test_oren_nayar_brdf_conventions():
     blog_displayed = mu_i / np.pi * (a + b * np.maximum(0, np.cos(phi)) * np.sin(np.maximum(theta_o, theta_i))
                                      * np.tan(np.minimum(theta_o, theta_i)))
     np.testing.assert_allclose(oren_nayar_brdf(mu_o, mu_i, phi, alpha) * mu_i, blog_displayed, rtol=1e-12)
+    np.testing.assert_array_equal(oren_nayar_coefficients(0.0), (1.0, 0.0))  # sigma = 0: Lambert
+    sigma2 = (np.pi / 2) ** 2  # alpha = 1: sigma = pi/2
+    np.testing.assert_allclose(oren_nayar_coefficients(1.0), (1 - sigma2 / (2 * (sigma2 + 0.33)),
+                                                              0.45 * sigma2 / (sigma2 + 0.09)), rtol=1e-15)
     # the footnote variant changes A only
     a57, b57 = oren_nayar_coefficients(alpha, 0.57)
     np.testing.assert_array_equal(b57, b)
     assert np.all(a57 >= a)
     # both directions grazing: tan(theta_min) = inf
     assert oren_nayar_brdf(0.0, 0.0, 0.0, 0.5) == np.inf
-    assert oren_nayar_brdf(0.0, 0.0, np.pi, 0.5) == oren_nayar_coefficients(0.5)[0] / np.pi  # no B lobe backwards
+    assert oren_nayar_brdf(0.0, 0.0, np.pi, 0.5) == oren_nayar_coefficients(0.5)[0] / np.pi  # phi = pi: no B lobe
 
 
 # -- energy compensation and the blog's claims ------------------------------------------------------------
@@ -357,7 +362,7 @@ def test_vectorised_shapes():
     mu, alpha = np.array([[0.1], [0.5], [0.9]]), np.array([0.2, 0.4, 0.6, 0.8])
     grid = directional_albedo(mu, alpha)
     assert grid.shape == (3, 4)
-    assert grid[1, 2] == directional_albedo(0.5, 0.6)
+    np.testing.assert_allclose(grid[1, 2], directional_albedo(0.5, 0.6), rtol=1e-14)
     assert directional_albedo(0.5, 0.6).shape == ()
     assert average_albedo([[0.5]]).shape == (1, 1)
 
@@ -391,7 +396,8 @@ def test_arguments_outside_the_domain_are_refused(call, error):
 def test_brdf_domain_edges():
     assert np.isfinite(ggx_brdf([0.0, 1.0], [1.0, 0.0], 0.0, 1e-3)).all()
     assert np.isfinite(ggx_brdf(1.0, 1.0, 0.0, 1.0))
-    assert np.isnan(ggx_brdf(0.0, 0.0, np.pi, 0.5))  # w_i = -w_o: no half vector
+    # both grazing: h horizontal, D = alpha^2/pi, V = 1/alpha^2 (separable); at w_i = -w_o the same limit
+    np.testing.assert_allclose(ggx_brdf(0.0, 0.0, [0.0, 1.0, np.pi], 0.5), 0.25 / np.pi / 0.25, rtol=1e-14)
     assert ggx_brdf(0.0, 0.0, 0.0, 0.5, "correlated") == np.inf  # V = 1/(2 (mu_o S_i + mu_i S_o))
     assert np.isfinite(ggx_brdf(0.0, 0.0, 0.0, 0.5, "separable"))
 
@@ -418,6 +424,20 @@ def test_table_writer_round_trip(tmp_path):
     path.write_text("\n".join(lines[:-1] + [",".join(fields)]) + "\n")
     failures = tabulate.check_tables(tmp_path, False, every=1, specs=specs)
     assert len(failures) == 1 and specs[0].file in failures[0]
+
+
+def test_table_grids_and_a_wrong_grid(tmp_path):
+    np.testing.assert_array_equal(tabulate.grid("centres", 4), [0.125, 0.375, 0.625, 0.875])
+    np.testing.assert_array_equal(tabulate.grid("nodes", 2), [0.0, 0.5, 1.0])
+    with pytest.raises(ValueError):
+        tabulate.grid("edges", 4)
+    nodes, centres = (tabulate.AlbedoTable("ggx", GGX_MODELS, kind, 2) for kind in ("nodes", "centres"))
+    from fitlab.store import TableError, write_tables
+
+    write_tables(tmp_path, tabulate.build_tables(False, specs=[centres]))
+    (tmp_path / centres.file).rename(tmp_path / nodes.file)
+    with pytest.raises(TableError):  # 4 rows where 9 are expected
+        tabulate.read_albedo_table(tmp_path / nodes.file, nodes)
 
 
 @pytest.mark.skipif(not DATA.is_dir(), reason="the committed tables are not in this checkout")

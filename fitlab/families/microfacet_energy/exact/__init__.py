@@ -1,0 +1,114 @@
+r"""Exact engine of the microfacet_energy family: directional and average albedos of single-scattering
+BRDFs and their Kulla-Conti energy compensation, with F = 1 (a white furnace), in numpy and scipy.
+
+What is implemented (the source is the blog article on multiple-scattering BRDFs whose section
+"Energy Compensation" follows Kelemen and Szirmay-Kalos 2001 and Kulla and Conti 2017, and RTR4 ch. 9
+for the height-correlated Smith function; nothing here reads those texts at run time):
+
+* BRDFs (:func:`brdf`, :data:`MODELS`): GGX with separable Smith masking-shadowing, exactly the
+  blog's f = D / ((mu_i + S_i)(mu_o + S_o)), S = sqrt(alpha^2 + (1 - alpha^2) mu^2); GGX with
+  height-correlated Smith G2 = 1 / (1 + Lambda_i + Lambda_o) (RTR4 eq. 9.31); Oren-Nayar as the blog
+  writes it (A with 0.33 or the footnote's 0.57, sigma = (pi/2) alpha, the exact cos(phi) or the
+  HLSL's unnormalised gamma).  alpha in [0, 1] is the GGX parameter itself (the blog uses alpha in D,
+  not roughness^2); phi = pi is the mirror configuration.  Conventions: :mod:`._ggx`, :mod:`._oren_nayar`.
+* E(mu, alpha) = int f(w_o, w_i) mu_i dw_i (:func:`directional_albedo`), by two independent routes
+  (:mod:`._albedo`): for GGX over the half vector with the GGX distribution's own change of variable
+  (which follows the peak down to alpha = 1e-6) and over the incident direction on graded panels; for
+  Oren-Nayar a closed form and a 2-D quadrature.  The routes agree to 1e-9 or better on [0, 1] x
+  [1e-5, 1] (GGX) and [0, 1]^2 (Oren-Nayar).  alpha = 0 is defined as the mirror: E = 1 at every mu.
+* E_avg(alpha) (:func:`average_albedo`) in both normalisations: Kulla-Conti's
+  E_avg = 2 int_0^1 E mu dmu in [0, 1], with f_ms = (1 - E(mu_o))(1 - E(mu_i)) / (pi (1 - E_avg)); the
+  blog's int E mu dw = 2 pi int_0^1 E mu dmu = pi E_avg in [0, pi], with f_ms = (1 - E)(1 - E) / (pi -
+  E_avg_blog).  The two f_ms are one function (:func:`multiple_scattering_brdf`).
+
+Properties the tests check, besides the two routes: E(mu, 1) in closed form for GGX (D = 1/pi at
+alpha = 1): 2 (1 - ln 2) / (1 + mu) separable, 1 - mu ln((1 + mu)/mu) correlated; E(1, alpha) is the
+same for both Smith forms (G1(w_o) = 1 at normal incidence); E(0, alpha) = 1 for height-correlated
+Smith (at grazing every visible facet reflects upwards, and G2/G1(w_o) -> 1), while separable Smith
+keeps a factor G1(w_i) and E(0, alpha) -> 0.93613 as alpha -> 0, so that its E is discontinuous at
+the corner (mu, alpha) = (0, 0); Oren-Nayar has E = 1 at sigma = 0 (Lambert) in the convention stated
+in :mod:`._oren_nayar` (the blog's displayed formula already holds the cos(theta_i) of the integrand).
+
+The blog's statements, checked (tests/test_microfacet_energy_exact.py computes each):
+
+* "the multiple scattering BRDF term becomes preponderant over the single scattering term when
+  alpha > 0.8": in energy (the compensation's pi (1 - E_avg) against the single scattering's pi E_avg,
+  the blog's blue and grey curves), GGX separable crosses at alpha = 0.7732 and GGX height-correlated
+  at alpha = 0.8143 (:func:`crossover_alpha`); per direction (E(mu) = 1/2) at normal incidence both
+  cross at alpha = 0.7045, at mu = 0.5 at 0.818 (separable) and 0.886 (correlated), and at grazing
+  never.  So "about 0.8" holds for the average, a little lower for the blog's own (separable) GGX.
+  Oren-Nayar never crosses (E >= A > 0.55).
+* "the double integral of f + f_ms is always pi": yes, for every model and alpha, to rounding
+  (:func:`energy_integrals`), and the furnace of f + f_ms is 1 at every mu_o (:func:`compensated_albedo`).
+
+E_avg (Kulla-Conti normalisation) at alpha = 0.5 and 1: GGX separable 0.689403, 0.376635 (= 4 (1 - ln 2)^2);
+GGX correlated 0.700240, 0.409137; Oren-Nayar 0.758285, 0.651877; with 0.57: 0.824154, 0.686724; gamma:
+0.726644, 0.616895; gamma with 0.57: 0.792513, 0.651742.
+
+Oren-Nayar as the blog writes it gains energy for small roughness: E(0, alpha) = A + B/2 > 1 for
+alpha < 0.208 (0.33) and < 0.350 (0.57), by up to 1.5 % and 4.4 % (the gamma shortcut: < 0.154, < 0.289,
+0.6 %, 2.9 %), so its compensation lobe is negative at grazing there; with the footnote's 0.57 even
+E_avg > 1 for alpha < 0.0996, and f_ms is unbounded as alpha approaches that value (:mod:`._oren_nayar`).
+
+Fresnel: :func:`directional_albedo` takes an optional F(w_o . h) applied inside either GGX route (the
+two agree with it too); the coloured Kulla-Conti factor is not part of this package.
+
+Noticed in the blog on the way: its mu_h = (mu_o + mu_i) / sqrt(2 (1 + mu_o mu_i + (1 - mu_o^2)
+(1 - mu_i^2) cos phi)) lacks the square root of (1 - mu_o^2)(1 - mu_i^2) (an error of print:
+|w_o + w_i|^2 = 2 (1 + mu_o mu_i + s_o s_i cos phi); test_ggx_against_the_blog_formula_with_vectors); its
+displayed Oren-Nayar f_r includes cos(theta_i) (an ambiguity: read literally with its
+E = int f_r (w_i . n) dw_i, Lambert would give E = 2/3; the displayed expression is taken as
+f cos(theta_i), as its HLSL returns it).
+"""
+
+from fitlab.families.microfacet_energy.exact._albedo import CONVENTIONS, METHODS, average_albedo, directional_albedo
+from fitlab.families.microfacet_energy.exact._compensation import (
+    compensated_albedo,
+    crossover_alpha,
+    energy_integrals,
+    multiple_scattering_brdf,
+)
+from fitlab.families.microfacet_energy.exact._ggx import SMITH, ggx_brdf, ggx_ndf, smith_g1, smith_g2, smith_lambda
+from fitlab.families.microfacet_energy.exact._models import (
+    GGX_MODELS,
+    MODEL_NAMES,
+    MODELS,
+    OREN_NAYAR_MODELS,
+    Model,
+    brdf,
+    get_model,
+)
+from fitlab.families.microfacet_energy.exact._oren_nayar import (
+    A_CONSTANTS,
+    AZIMUTH,
+    oren_nayar_brdf,
+    oren_nayar_coefficients,
+)
+
+__all__ = [
+    "A_CONSTANTS",
+    "AZIMUTH",
+    "CONVENTIONS",
+    "GGX_MODELS",
+    "METHODS",
+    "MODEL_NAMES",
+    "MODELS",
+    "Model",
+    "OREN_NAYAR_MODELS",
+    "SMITH",
+    "average_albedo",
+    "brdf",
+    "compensated_albedo",
+    "crossover_alpha",
+    "directional_albedo",
+    "energy_integrals",
+    "get_model",
+    "ggx_brdf",
+    "ggx_ndf",
+    "multiple_scattering_brdf",
+    "oren_nayar_brdf",
+    "oren_nayar_coefficients",
+    "smith_g1",
+    "smith_g2",
+    "smith_lambda",
+]
