@@ -22,7 +22,7 @@ from fitlab._io import FolderError, check_output_folder
 __all__ = [
     "USAGE", "FAILURE", "UsageError", "RunFailure", "Parser", "fail", "one_line", "output_folder", "input_file",
     "input_folder", "write_failure", "number", "integer", "add_quiet", "say", "describe", "add_fits", "fits_input",
-    "add_data", "use_data",
+    "add_data", "use_data", "add_family", "service",
 ]
 
 #: exit status of a runtime failure and of a usage error
@@ -206,11 +206,18 @@ def require_extra(module: str, extra: str) -> None:
         raise UsageError(f"this command needs {module}, which is not installed: pip install 'fitlab-brdf[{extra}]'")
 
 
-def service(name: str):
-    """The family service ``name`` (fitlab.core.family_service): tables, audit, render, simulate, bench."""
+def add_family(p, hook: str, default: str = "the one family that offers it") -> None:
+    """``--family NAME``: which family's ``hook`` service a command uses (needed when several offer it)."""
+    p.add_argument("--family", metavar="NAME", default=None,
+                   help=f"the family whose {hook} service to use (default: {default})")
+
+
+def service(name: str, family: str | None = None):
+    """The family service ``name`` (fitlab.core.family_service): tables, audit, render, simulate, bench; of
+    ``family``, or of the one family that offers it (a usage error, one line, otherwise)."""
     from fitlab.core import family_service
 
     try:
-        return family_service(name)
+        return family_service(name, family)
     except KeyError as exc:
         raise UsageError(one_line(exc.args[0] if exc.args else exc)) from None

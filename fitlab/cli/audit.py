@@ -8,6 +8,7 @@ from pathlib import Path
 
 from fitlab._io import atomic_write_many
 from fitlab.cli._common import (
+    add_family,
     use_data,
     add_data,
     fits_input,
@@ -38,6 +39,7 @@ def add_arguments(p) -> None:
     add_fits(p, "folder of the refits to include")
     add_data(p)
     p.add_argument("--json", action="store_true", help="print a machine-readable summary (JSON) instead of the table")
+    add_family(p, "audit")
     add_quiet(p)
 
 
@@ -45,7 +47,7 @@ def run(args) -> int:
     fits = fits_input(args)
     use_data(args)
     out = output_folder(args.out, "--out", files=FILES)
-    audit = service("audit")
+    audit = service("audit", args.family)
 
     t0 = time.perf_counter()
     # the audit writes its two files one by one: let it write into a private folder, then move both

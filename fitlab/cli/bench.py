@@ -7,7 +7,7 @@ import contextlib
 import io
 import sys
 
-from fitlab.cli._common import add_fits, add_quiet, describe, fits_input, service
+from fitlab.cli._common import add_family, add_fits, add_quiet, describe, fits_input, service
 from fitlab.store import strict_json
 
 __all__ = ["add_arguments", "run"]
@@ -24,6 +24,7 @@ def add_arguments(p) -> None:
     p.add_argument("--quick", action="store_true", help="smaller sizes (commands: the refits of H0 and m only)")
     add_fits(p, "folder of the fits the generated code is built from (codegen)")
     p.add_argument("--json", action="store_true", help="print a machine-readable summary (JSON) instead of the table")
+    add_family(p, "bench")
     add_quiet(p)
 
 
@@ -48,12 +49,12 @@ def run(args) -> int:
             results = bench_commands(QUICK_TARGETS if args.quick else tuple(targets()), show_progress=not args.quiet)
             print(table(results))
         elif args.what == "exact":
-            results = service("bench").bench_exact(quick=args.quick)
+            results = service("bench", args.family).bench_exact(quick=args.quick)
         elif args.what == "codegen":
-            results = service("bench").bench_codegen(fits, n=100_000 if args.quick else 1_000_000,
+            results = service("bench", args.family).bench_codegen(fits, n=100_000 if args.quick else 1_000_000,
                                                      repeat=3 if args.quick else 5)  # fmt: skip
         else:
-            results = service("bench").bench_mc(quick=args.quick)  # JAX
+            results = service("bench", args.family).bench_mc(quick=args.quick)  # JAX
     if args.json:
         print(strict_json({"what": args.what, "quick": args.quick, "results": _jsonable(results)}), end="")
     return 0

@@ -34,20 +34,23 @@ def add_arguments(p) -> None:
     p.add_argument("--terms", help="terms of brdf to keep, comma-separated subset of single,m0,m1 (default: all)")
     p.add_argument("--form", action="append", metavar="TARGET=FORM",
                    help="use the fit TARGET.FORM.json of --fits for a part, e.g. H0=hapke_rational (repeatable)")
+    p.add_argument("--family", metavar="NAME", default=None,
+                   help="the family whose program to generate (default: the family of the --form targets, else the "
+                        "one family with a program of its own)")
     add_quiet(p)
 
 
 def run(args) -> int:
 
     try:
-        parse_terms(args.terms)
+        parse_terms(args.terms, args.family)
         forms = codegen.parse_forms(args.form)
     except (ValueError, KeyError) as exc:
         raise UsageError(one_line(exc)) from None
     fits = fits_input(args, required=False)  # a missing one: "no such fit file" names the fit
     out = output_folder(args.out, "--out")
     try:
-        files = codegen.generate(args.lang, fits, args.terms, forms)
+        files = codegen.generate(args.lang, fits, args.terms, forms, args.family)
     except (ValueError, KeyError, FitFileError) as exc:  # a fit that is missing, damaged or not what it should be
         raise UsageError(one_line(exc)) from None
     except ArithmeticError as exc:

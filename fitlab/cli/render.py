@@ -3,9 +3,23 @@ Chandrasekhar (Mitsuba is imported by the renderer, when :func:`run` renders).""
 
 from __future__ import annotations
 
+from fitlab.cli._common import (
+    RunFailure,
+    UsageError,
+    add_family,
+    add_quiet,
+    describe,
+    input_file,
+    integer,
+    number,
+    one_line,
+    output_folder,
+    require_extra,
+    say,
+    service,
+    write_failure,
+)
 from fitlab.resources import packaged_fits
-from fitlab.cli._common import (RunFailure, UsageError, add_quiet, require_extra, service, describe, input_file, integer, number, one_line,
-                                output_folder, say, write_failure)
 
 __all__ = ["add_arguments", "run", "FILE"]
 
@@ -27,6 +41,7 @@ def add_arguments(p) -> None:
                    help="image size per sphere in pixels, 8-4096 (default 64)")
     p.add_argument("--spp", type=integer(1, 65536), default=4, help="samples per pixel, 1-65536 (default 4)")
     p.add_argument("--lights", type=integer(1, 5), default=3, help="number of light directions, 1-5 (default 3)")
+    add_family(p, "render")
     add_quiet(p)
 
 
@@ -35,7 +50,7 @@ def run(args) -> int:
                            "--generated", hint="; run `fitlab codegen --lang python` first")
     out = output_folder(args.out, "--out", files=(FILE,))
     require_extra("mitsuba", "render")
-    render = service("render")
+    render = service("render", args.family)
 
     try:
         render.load_generated(generated)  # numpy only: a module that is not a generated BRDF is refused now

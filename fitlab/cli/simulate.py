@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import sys
 
-from fitlab.cli._common import FAILURE, USAGE, fail, service
+from fitlab.cli._common import add_family, FAILURE, USAGE, fail, service
 from fitlab.core import families
 from fitlab.resources import find_scene, packaged_scenes
 
@@ -32,6 +32,7 @@ def add_arguments(p) -> None:
     p.add_argument("--allow-unconverged", action="store_true",
                    help="exit 0 even when a job stops on its path budget above its target")
     p.add_argument("--no-plots", action="store_true", help="CSV only")
+    add_family(p, "simulate")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
@@ -51,7 +52,7 @@ def run(args) -> int:
         return fail("simulate", f"{args.scene}: no such scene file, and no packaged scene of that name "
                                 f"(packaged: {', '.join(packaged_scene_names())})", USAGE)
 
-    mc = service("simulate")  # the family's Monte Carlo (imports JAX)
+    mc = service("simulate", args.family)  # the family's Monte Carlo (imports JAX)
     SceneError, simulate_file, summary_table, unconverged = mc.SceneError, mc.simulate_file, mc.summary_table, mc.unconverged
 
     try:

@@ -1,5 +1,5 @@
 """``fitlab tabulate``: compute the exact tables into the data folder (where every command reads them), or
-check them."""
+check them; for every family that offers tables, or the one ``--family`` names."""
 
 from __future__ import annotations
 
@@ -8,7 +8,9 @@ from pathlib import Path
 
 from fitlab.cli._common import (
     RunFailure,
+    UsageError,
     add_data,
+    add_family,
     add_quiet,
     describe,
     fail,
@@ -25,21 +27,51 @@ __all__ = ["add_arguments", "run"]
 
 
 def add_arguments(p) -> None:
-    describe(p, "Compute the exact tables (H-functions, constants) every refit reads, and write them all as one "
-                "unit into the data folder, DATA/FAMILY/ (nothing is written on a failure); every command then reads "
-                "them there instead of the tables packaged with fitlab. With --check, recompute a sample of the rows "
-                "of the tables in force by independent methods.",
+    describe(p, "Compute the exact tables every refit reads, family by family (or the one --family names), and "
+                "write each family's tables as one unit into the data folder, DATA/FAMILY/ (nothing of a family is "
+                "written on its failure); every command then reads them there instead of the tables packaged with "
+                "fitlab. With --check, recompute a sample of the rows of the tables in force by independent methods.",
              "fitlab tabulate --data /tmp/fitlab-data --quiet")  # fmt: skip
     add_data(p, output=True)
+    add_family(p, "tables", "every family with tables")
     p.add_argument("--check", action="store_true",
                    help="recompute a sample of rows of the tables in force (DATA/FAMILY/ with --data)")
     add_quiet(p)
 
 
 def run(args) -> int:
-    tables = service("tables")
+    from fitlab.core import families_offering
+
+    names = families_offering("tables")
+    if args.family is not None and args.family not in names:
+        raise UsageError(f"--family {args.family}: no such family with tables; choose one of {', '.join(names)}")
+    chosen = [args.family] if args.family is not None else names
     root = data_root() if args.data is None else Path(args.data)
     if args.check:
+        return _check(args, chosen, root)
+    # every destination is checked before any family's work starts
+    outs = {name: output_folder(root / service("tables", name).FAMILY_NAME, "--data", files=service("tables", name).TABLE_FILES)
+            for name in chosen}  # fmt: skip
+    for name, out in outs.items():
+        tables = service("tables", name)
+        t0 = time.perf_counter()
+        try:
+            digests = tables.write_tables(out, show_progress=not args.quiet)
+        except (ArithmeticError, ValueError) as exc:
+            raise RunFailure(f"the tables of {name} could not be computed: {exc}") from None
+        except OSError as exc:
+            raise write_failure(out, exc) from None
+        dt = time.perf_counter() - t0
+        for file, digest in digests.items():
+            print(f"  {out / file}  sha256:{digest}")
+        say(args, f"{name}: wrote {len(digests)} tables in {dt:.1f} s")
+    return 0
+
+
+def _check(args, chosen, root) -> int:
+    failed = 0
+    for name in chosen:
+        tables = service("tables", name)
         if args.data is not None:  # exactly the tables there, no fallback
             folder = input_folder(Path(args.data) / tables.FAMILY_NAME, "--data")
         else:
@@ -47,24 +79,13 @@ def run(args) -> int:
         try:
             failures = tables.check_tables(folder, show_progress=not args.quiet)
         except TableError as exc:
-            return fail("tabulate --check", exc, 1)
+            fail("tabulate --check", exc, 1)
+            failed += 1
+            continue
         for f in failures:
             fail("tabulate --check", f, 1)
         if failures:
-            return 1
+            failed += 1
+            continue
         say(args, f"fitlab tabulate --check: {folder} agrees with the independent recomputation")
-        return 0
-    out = output_folder(root / tables.FAMILY_NAME, "--data", files=tables.TABLE_FILES)  # the names written
-
-    t0 = time.perf_counter()
-    try:
-        digests = tables.write_tables(out, show_progress=not args.quiet)
-    except (ArithmeticError, ValueError) as exc:
-        raise RunFailure(f"the tables could not be computed: {exc}") from None
-    except OSError as exc:
-        raise write_failure(out, exc) from None
-    dt = time.perf_counter() - t0
-    for name, digest in digests.items():
-        print(f"  {out / name}  sha256:{digest}")
-    say(args, f"wrote {len(digests)} tables in {dt:.1f} s")
-    return 0
+    return 1 if failed else 0

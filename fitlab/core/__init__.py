@@ -13,6 +13,7 @@ from fitlab.core._precision import float64
 from fitlab.core._registry import (
     Family,
     families,
+    families_offering,
     family_service,
     forms_for,
     get_family,
@@ -31,6 +32,7 @@ __all__ = [
     "Target",
     "data_hash",
     "families",
+    "families_offering",
     "family_service",
     "float64",
     "forms_for",

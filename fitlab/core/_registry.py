@@ -130,15 +130,26 @@ def get_target(name: str) -> Target:
     return _TARGETS[name]
 
 
-def family_service(name: str):
-    """The service ``name`` (a family hook: ``hooks[name]()``) of the one registered family that offers it.
+def families_offering(name: str) -> list[str]:
+    """The names of the registered families whose hooks include ``name``, in registration order."""
+    return [fname for fname, f in families().items() if name in f.hooks]
 
-    KeyError (one line) when no family offers it, or when several do (then the caller must choose)."""
-    offering = {fname: f for fname, f in families().items() if name in f.hooks}
+
+def family_service(name: str, family: str | None = None):
+    """The service ``name`` (a family hook: ``hooks[name]()``) of ``family``, or (None) of the one registered
+    family that offers it.
+
+    KeyError (one line) when the family does not offer it, when no family does, or when several do and
+    none is named (then the caller must choose)."""
+    offering = families_offering(name)
+    if family is not None:
+        if family not in offering:
+            raise KeyError(f"family {family!r} offers no {name!r}; families that do: {', '.join(offering) or 'none'}")
+        return get_family(family).hooks[name]()
     if len(offering) != 1:
-        which = ", ".join(offering) or "none"
-        raise KeyError(f"{len(offering)} families offer {name!r} ({which}); exactly one is needed")
-    return next(iter(offering.values())).hooks[name]()
+        raise KeyError(f"{len(offering)} families offer {name!r} ({', '.join(offering) or 'none'}); "
+                       "name one with --family")
+    return get_family(offering[0]).hooks[name]()
 
 
 def forms_for(target: str) -> Mapping:
