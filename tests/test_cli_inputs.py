@@ -296,7 +296,7 @@ def test_audit_writes_both_files_or_neither(tmp_path, monkeypatch, capsys):
     (out / "audit.json").write_text("old json")
     before = _snapshot(out)
 
-    def fake_run_audit(out_dir, fits_dir):
+    def fake_run_audit(out_dir, fits_dir, show_progress=False):
         (Path(out_dir) / "audit.json").write_text("{}")
         (Path(out_dir) / "audit.md").write_text("new")
         return {"runtime": [], "furnace": [], "missing_fits": []}

@@ -54,7 +54,7 @@ def run(args) -> int:
     # into --out as one unit (all or nothing, no temporary left in --out)
     with tempfile.TemporaryDirectory(prefix="fitlab-audit-") as staging:
         try:
-            result = audit.run_audit(Path(staging), fits)
+            result = audit.run_audit(Path(staging), fits, show_progress=not args.quiet)
         except (FitFileError, TableError) as exc:
             raise UsageError(one_line(exc)) from None
         except (ValueError, ArithmeticError) as exc:

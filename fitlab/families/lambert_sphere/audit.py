@@ -188,17 +188,24 @@ def _markdown(result: dict) -> str:
     return "\n".join(out) + "\n"
 
 
-def run_audit(out_dir: Path, fits_dir: Path | None = None) -> dict:
+def run_audit(out_dir: Path, fits_dir: Path | None = None, show_progress: bool = False) -> dict:
     """Compute the audit of the fits in ``fits_dir`` (None: the packaged fits), then write audit.md and
-    audit.json into ``out_dir`` (both or neither)."""
-    models, missing = _runtime_models(fits_folder(fits_dir))
-    result = {
-        "published": _published_rows(),
-        "runtime_grid": d.brdf_validation().grid,
-        "runtime": _runtime_rows(models),
-        "missing_fits": missing,
-        "furnace": _furnace_rows(models),
-    }
+    audit.json into ``out_dir`` (both or neither); ``show_progress``: a bar over its stages on stderr."""
+    from tqdm import tqdm
+
+    with tqdm(total=4, desc="audit", unit="stage", disable=not show_progress, leave=False) as bar:
+        def stage(name, value):
+            bar.set_postfix_str(name, refresh=False)
+            bar.update()
+            return value
+
+        models, missing = _runtime_models(fits_folder(fits_dir))
+        published = stage("published formulas", _published_rows())
+        grid = stage("BRDF validation set", d.brdf_validation().grid)
+        runtime = stage("runtime models", _runtime_rows(models))
+        furnace = stage("white furnace", _furnace_rows(models))
+    result = {"published": published, "runtime_grid": grid, "runtime": runtime, "missing_fits": missing,
+              "furnace": furnace}
     md = _markdown(result)
     text = strict_json(result)
     atomic_write_many({Path(out_dir) / "audit.json": text.encode(), Path(out_dir) / "audit.md": md.encode()})
