@@ -34,6 +34,8 @@ def add_arguments(p) -> None:
     p.add_argument("--terms", help="terms of brdf to keep, comma-separated subset of single,m0,m1 (default: all)")
     p.add_argument("--form", action="append", metavar="TARGET=FORM",
                    help="use the fit TARGET.FORM.json of --fits for a part, e.g. H0=hapke_rational (repeatable)")
+    p.add_argument("--single-header", action="store_true",
+                   help="C: one stb-style header (define PREFIX_IMPLEMENTATION in one file before including it)")
     p.add_argument("--family", metavar="NAME", default=None,
                    help="the family whose program to generate (default: the family of the --form targets, else the "
                         "one family with a program of its own)")
@@ -42,6 +44,8 @@ def add_arguments(p) -> None:
 
 def run(args) -> int:
 
+    if args.single_header and args.lang != "c":
+        raise UsageError("--single-header is a C option (--lang c)")
     try:
         parse_terms(args.terms, args.family)
         forms = codegen.parse_forms(args.form)
@@ -50,7 +54,7 @@ def run(args) -> int:
     fits = fits_input(args, required=False)  # a missing one: "no such fit file" names the fit
     out = output_folder(args.out, "--out")
     try:
-        files = codegen.generate(args.lang, fits, args.terms, forms, args.family)
+        files = codegen.generate(args.lang, fits, args.terms, forms, args.family, args.single_header)
     except (ValueError, KeyError, FitFileError) as exc:  # a fit that is missing, damaged or not what it should be
         raise UsageError(one_line(exc)) from None
     except ArithmeticError as exc:

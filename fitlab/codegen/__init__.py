@@ -41,7 +41,7 @@ from fitlab.codegen.program import (
 from fitlab.core import targets
 from fitlab.store import fit_path, fit_sha256, fits_folder, load
 
-__all__ = ["generate", "load_program", "parse_forms", "write_generated", "emit", "LANGUAGES", "build_program",
+__all__ = ["generate", "codegen_command", "load_program", "parse_forms", "write_generated", "emit", "LANGUAGES", "build_program",
            "parse_terms", "program_spec", "part_routine", "Program", "ProgramSpec", "Routine", "POLE_FLOOR", "call",
            "stable", "floor_poles", "azimuth_to_cosine", "clamp", "clamped", "minmax_piecewise", "with_domain",
            "SAFE_POW"]  # fmt: skip
@@ -72,11 +72,28 @@ def load_program(fits_dir: Path | None = None, terms: str | tuple | None = None,
 
 
 def generate(lang: str, fits_dir: Path | None = None, terms: str | tuple | None = None,
-             forms: dict | None = None, family: str | None = None) -> dict[str, str]:  # fmt: skip
-    """Source files ({name: text}) in ``lang`` of the program of the fits in ``fits_dir`` (:func:`load_program`)."""
+             forms: dict | None = None, family: str | None = None, single_header: bool = False) -> dict[str, str]:  # fmt: skip
+    """Source files ({name: text}) in ``lang`` of the program of the fits in ``fits_dir`` (:func:`load_program`);
+    their banner names the command that makes them (:func:`codegen_command`)."""
     if lang not in LANGUAGES:
         raise ValueError(f"unknown language {lang!r}; choose one of {', '.join(LANGUAGES)}")
-    return emit(load_program(fits_dir, terms, forms, family), lang)
+    command = codegen_command(lang, terms, forms, family, single_header)
+    return emit(load_program(fits_dir, terms, forms, family), lang, command, single_header)
+
+
+def codegen_command(lang: str, terms=None, forms: dict | None = None, family: str | None = None,
+                    single_header: bool = False) -> str:  # fmt: skip
+    """The ``fitlab codegen`` command that makes these files, with every option that changes their content
+    (not --fits or --out: the banner's digests name the fits, and the files are the same wherever written)."""
+    words = ["fitlab codegen", f"--lang {lang}"]
+    if family is not None:
+        words.append(f"--family {family}")
+    if terms is not None:
+        words.append(f"--terms {terms if isinstance(terms, str) else ','.join(terms)}")
+    words += [f"--form {t}={f}" for t, f in (forms or {}).items()]
+    if single_header:
+        words.append("--single-header")
+    return " ".join(words)
 
 
 def parse_forms(items) -> dict[str, str]:

@@ -21,10 +21,10 @@
 #include <math.h>
 
 /* x^p for x > 0, 0 for x <= 0, NaN for NaN: the forms' safe_pow (keeps pow away from x <= 0). */
-static double lambert_sphere_safe_pow(double x, double p) { return ((x <= 0.0) ? (0.0) : (pow(((x <= 0.0) ? (1.0) : (x)), p))); }
-static float lambert_sphere_safe_pow_f(float x, float p) { return ((x <= 0.0F) ? (0.0F) : (powf(((x <= 0.0F) ? (1.0F) : (x)), p))); }
+static LAMBERT_SPHERE_FN double lambert_sphere_safe_pow(double x, double p) { return ((x <= 0.0) ? (0.0) : (pow(((x <= 0.0) ? (1.0) : (x)), p))); }
+static LAMBERT_SPHERE_FN float lambert_sphere_safe_pow_f(float x, float p) { return ((x <= 0.0F) ? (0.0F) : (powf(((x <= 0.0F) ? (1.0F) : (x)), p))); }
 
-double lambert_sphere_h0(double mu, double c)
+LAMBERT_SPHERE_FN double lambert_sphere_h0(double mu, double c)
 {
     const double t3 = ((c < 0.0) ? (0.0) : (c));
     const double t0 = ((t3 > 1.0) ? (1.0) : (t3));
@@ -34,7 +34,7 @@ double lambert_sphere_h0(double mu, double c)
     return (t2/(4.17593 - 1.3037245568711244*t1) + 1.0)/(t1*t2*sqrt(16.0 - t0)*sqrt(4.0*t0 + 9.0)/(50.11116 - 15.644694682453493*t1) + 1.0);
 }
 
-double lambert_sphere_h1(double mu, double c)
+LAMBERT_SPHERE_FN double lambert_sphere_h1(double mu, double c)
 {
     const double t2 = ((c < 0.0) ? (0.0) : (c));
     const double t0 = ((t2 > 1.0) ? (1.0) : (t2));
@@ -43,20 +43,20 @@ double lambert_sphere_h1(double mu, double c)
     return exp((0.01882082482630519*t0*t0 - 0.13807263067296432*t0)*lambert_sphere_safe_pow(t1, -3.223218047565822*t1*t1*t1 + 4.189642488540238*t1*t1 - 1.8030024947250645*t1 + 0.4943166764166247));
 }
 
-double lambert_sphere_const_l(double c)
+LAMBERT_SPHERE_FN double lambert_sphere_const_l(double c)
 {
     const double t1 = ((c < 0.0) ? (0.0) : (c));
     const double t0 = ((t1 > 1.0) ? (1.0) : (t1));
     return -0.004939205708442875*t0*t0 - 0.058722447997744905*t0;
 }
 
-double lambert_sphere_const_m(double c)
+LAMBERT_SPHERE_FN double lambert_sphere_const_m(double c)
 {
     const double t0 = ((c < 0.0) ? (0.0) : (c));
     return 0.43989525562906495*((t0 > 1.0) ? (1.0) : (t0)) + 1.0;
 }
 
-double lambert_sphere_const_b(double c)
+LAMBERT_SPHERE_FN double lambert_sphere_const_b(double c)
 {
     const double t2 = ((c < 0.0) ? (0.0) : (c));
     const double t0 = ((t2 > 1.0) ? (1.0) : (t2));
@@ -64,7 +64,7 @@ double lambert_sphere_const_b(double c)
     return t0*(0.34151292193316496*t0 + 0.42539619449220856*t1 - 0.42502738212912709)/((t1 + 1.0)*(-0.31781995145264474*t0 - 0.8195923954429231*t1 + 1.3178199514526447));
 }
 
-double lambert_sphere_const_c(double c)
+LAMBERT_SPHERE_FN double lambert_sphere_const_c(double c)
 {
     const double t2 = ((c < 0.0) ? (0.0) : (c));
     const double t0 = ((t2 > 1.0) ? (1.0) : (t2));
@@ -72,7 +72,7 @@ double lambert_sphere_const_c(double c)
     return t0*(-0.9663773151448398*t0 - 0.32388164709149464*t1 + 1.0838878671403959)/((t1 + 1.0)*(-0.227141899506518*t0 - 0.6566197428676952*t1 + 1.227141899506518));
 }
 
-double lambert_sphere_const_d(double c)
+LAMBERT_SPHERE_FN double lambert_sphere_const_d(double c)
 {
     const double t2 = ((c < 0.0) ? (0.0) : (c));
     const double t0 = ((t2 > 1.0) ? (1.0) : (t2));
@@ -80,7 +80,7 @@ double lambert_sphere_const_d(double c)
     return t0*(0.23105932045840868*t0 + 0.2287969443732025*t1 - 0.23069779057206398)/((t1 + 1.0)*(-1.286135656793819*t0 - 0.8387237260643413*t1 + 2.286135656793819));
 }
 
-double lambert_sphere_const_f(double c)
+LAMBERT_SPHERE_FN double lambert_sphere_const_f(double c)
 {
     const double t2 = ((c < 0.0) ? (0.0) : (c));
     const double t0 = ((t2 > 1.0) ? (1.0) : (t2));
@@ -88,7 +88,7 @@ double lambert_sphere_const_f(double c)
     return t0*(0.029805005006246013*t0 - 0.17459333248007913*t1 - 0.029783256955795048)/((t1 + 1.0)*(-0.19647267114251268*t0 - 0.3247775246127321*t1 + 1.1964726711425127));
 }
 
-double lambert_sphere_c_of_kd(double kd)
+LAMBERT_SPHERE_FN double lambert_sphere_c_of_kd(double kd)
 {
     const double t0 = ((kd < 0.0) ? (0.0) : (kd));
     const double t1 = ((t0 > 1.0) ? (1.0) : (t0));
@@ -96,7 +96,7 @@ double lambert_sphere_c_of_kd(double kd)
     return ((t1 < (1.0/2.0)) ? (-expm1(2.8775788936624416*log1p(-((t0 > (1.0/2.0)) ? ((1.0/2.0)) : (t0))))) : (1.0 - 1.0*lambert_sphere_safe_pow(t2, 2.8775788936624416)))/(1.0 - 0.11899098002850213*lambert_sphere_safe_pow(t2, 2.5692796349372196));
 }
 
-double lambert_sphere_kd_of_c(double c)
+LAMBERT_SPHERE_FN double lambert_sphere_kd_of_c(double c)
 {
     const double t2 = ((c < 0.0) ? (0.0) : (c));
     const double t0 = ((t2 > 1.0) ? (1.0) : (t2));
@@ -104,7 +104,7 @@ double lambert_sphere_kd_of_c(double c)
     return t0*(0.65035428162017445*t1 + 1.0)/((t1 + 1.0)*(1.6879717175153437*t1 + 1.0));
 }
 
-double lambert_sphere_single(double mu_i, double mu_o, double cos_phi, double c)
+LAMBERT_SPHERE_FN double lambert_sphere_single(double mu_i, double mu_o, double cos_phi, double c)
 {
     const double t3 = ((mu_i < 0.0) ? (0.0) : (mu_i));
     const double t0 = ((t3 > 1.0) ? (1.0) : (t3));
@@ -120,7 +120,7 @@ double lambert_sphere_single(double mu_i, double mu_o, double cos_phi, double c)
     return ((1.0/3.0))*(-2.0*t2*acos(t2) + 2.0*sqrt(((t9 < 0.0) ? (0.0) : (t9))))*((t10 > 1.0) ? (1.0) : (t10))/(3.141592653589793238*3.141592653589793238*((t8 < (1.0/1000000.0)) ? ((1.0/1000000.0)) : (t8)));
 }
 
-double lambert_sphere_fm0(double mu_i, double mu_o, double c)
+LAMBERT_SPHERE_FN double lambert_sphere_fm0(double mu_i, double mu_o, double c)
 {
     const double t9 = ((mu_i < 0.0) ? (0.0) : (mu_i));
     const double t0 = ((t9 > 1.0) ? (1.0) : (t9));
@@ -137,7 +137,7 @@ double lambert_sphere_fm0(double mu_i, double mu_o, double c)
     return (-(1.0/768.0)*t3*t4*(-45.0*t5 - 45.0*t6 + 256.0*t7 + 135.0*t8 + 207.0) + ((1.0/2.0))*t3*(t2*t7*lambert_sphere_const_d(t4) + t2*lambert_sphere_const_b(t4) + t4*t8*((15.0/128.0) - (15.0/128.0)*t4)*(((4.0/3.0))*t4 + 3.0) + ((69.0/128.0))*t4 + t7*lambert_sphere_const_c(t4) + (t5 + t6)*lambert_sphere_const_f(t4))*lambert_sphere_h0(t0, t4)*lambert_sphere_h0(t1, t4))/((t2 < (1.0/1000000.0)) ? ((1.0/1000000.0)) : (t2));
 }
 
-double lambert_sphere_fm1(double mu_i, double mu_o, double c)
+LAMBERT_SPHERE_FN double lambert_sphere_fm1(double mu_i, double mu_o, double c)
 {
     const double t8 = ((mu_i < 0.0) ? (0.0) : (mu_i));
     const double t0 = ((t8 > 1.0) ? (1.0) : (t8));
@@ -153,7 +153,7 @@ double lambert_sphere_fm1(double mu_i, double mu_o, double c)
     return (-(1.0/192.0)*t4*t5*t6*(45.0*t3 + 64.0) + ((1.0/3.0))*t4*t5*t6*(t2*t7 + t3*(t7*t7 + ((45.0/64.0))*lambert_sphere_const_m(t6)) + 1.0)*lambert_sphere_h1(t0, t6)*lambert_sphere_h1(t1, t6))/((t2 < (1.0/1000000.0)) ? ((1.0/1000000.0)) : (t2));
 }
 
-double lambert_sphere_brdf(double mu_i, double mu_o, double cos_phi, double c)
+LAMBERT_SPHERE_FN double lambert_sphere_brdf(double mu_i, double mu_o, double cos_phi, double c)
 {
     const double t4 = ((mu_i < 0.0) ? (0.0) : (mu_i));
     const double t0 = ((t4 > 1.0) ? (1.0) : (t4));
@@ -167,7 +167,7 @@ double lambert_sphere_brdf(double mu_i, double mu_o, double cos_phi, double c)
     return ((t8 < 0.0) ? (0.0) : (t8));
 }
 
-double lambert_sphere_brdf_fast(double mu_i, double mu_o, double cos_phi, double c, double kd)
+LAMBERT_SPHERE_FN double lambert_sphere_brdf_fast(double mu_i, double mu_o, double cos_phi, double c, double kd)
 {
     const double t5 = ((mu_i < 0.0) ? (0.0) : (mu_i));
     const double t0 = ((t5 > 1.0) ? (1.0) : (t5));
@@ -183,7 +183,7 @@ double lambert_sphere_brdf_fast(double mu_i, double mu_o, double cos_phi, double
     return ((t10 < 0.0) ? (0.0) : (t10));
 }
 
-double lambert_sphere_brdf_local(const double wi[3], const double wo[3], double c)
+LAMBERT_SPHERE_FN double lambert_sphere_brdf_local(const double wi[3], const double wo[3], double c)
 {
     const double t6 = ((wi[2] < -1.0) ? (-1.0) : (wi[2]));
     const double t0 = ((t6 > 1.0) ? (1.0) : (t6));
@@ -202,7 +202,7 @@ double lambert_sphere_brdf_local(const double wi[3], const double wo[3], double 
     return ((t0 < 0.0) ? (0.0) : (1.0))*((t1 < 0.0) ? (0.0) : (1.0))*lambert_sphere_brdf(t0, t1, (t2*t3 + t4*t5)/sqrt(((t12 < (1.0/1000000000000000000000000000000.0)) ? ((1.0/1000000000000000000000000000000.0)) : (t12))), ((t13 > 1.0) ? (1.0) : (t13)));
 }
 
-double lambert_sphere_brdf_fast_local(const double wi[3], const double wo[3], double c, double kd)
+LAMBERT_SPHERE_FN double lambert_sphere_brdf_fast_local(const double wi[3], const double wo[3], double c, double kd)
 {
     const double t6 = ((wi[2] < -1.0) ? (-1.0) : (wi[2]));
     const double t0 = ((t6 > 1.0) ? (1.0) : (t6));
@@ -222,7 +222,7 @@ double lambert_sphere_brdf_fast_local(const double wi[3], const double wo[3], do
     return ((t0 < 0.0) ? (0.0) : (1.0))*((t1 < 0.0) ? (0.0) : (1.0))*lambert_sphere_brdf_fast(t0, t1, (t2*t3 + t4*t5)/sqrt(((t12 < (1.0/1000000000000000000000000000000.0)) ? ((1.0/1000000000000000000000000000000.0)) : (t12))), ((t13 > 1.0) ? (1.0) : (t13)), ((t14 > 1.0) ? (1.0) : (t14)));
 }
 
-float lambert_sphere_h0_f(float mu, float c)
+LAMBERT_SPHERE_FN float lambert_sphere_h0_f(float mu, float c)
 {
     const float t3 = ((c < 0.0F) ? (0.0F) : (c));
     const float t0 = ((t3 > 1.0F) ? (1.0F) : (t3));
@@ -232,7 +232,7 @@ float lambert_sphere_h0_f(float mu, float c)
     return (t2/(4.17593F - 1.30372456F*t1) + 1.0F)/(t1*t2*sqrtf(16.0F - t0)*sqrtf(4.0F*t0 + 9.0F)/(50.11116F - 15.6446947F*t1) + 1.0F);
 }
 
-float lambert_sphere_h1_f(float mu, float c)
+LAMBERT_SPHERE_FN float lambert_sphere_h1_f(float mu, float c)
 {
     const float t2 = ((c < 0.0F) ? (0.0F) : (c));
     const float t0 = ((t2 > 1.0F) ? (1.0F) : (t2));
@@ -241,20 +241,20 @@ float lambert_sphere_h1_f(float mu, float c)
     return expf((0.0188208248F*t0*t0 - 0.138072631F*t0)*lambert_sphere_safe_pow_f(t1, -3.22321805F*t1*t1*t1 + 4.18964249F*t1*t1 - 1.80300249F*t1 + 0.494316676F));
 }
 
-float lambert_sphere_const_l_f(float c)
+LAMBERT_SPHERE_FN float lambert_sphere_const_l_f(float c)
 {
     const float t1 = ((c < 0.0F) ? (0.0F) : (c));
     const float t0 = ((t1 > 1.0F) ? (1.0F) : (t1));
     return -0.00493920571F*t0*t0 - 0.058722448F*t0;
 }
 
-float lambert_sphere_const_m_f(float c)
+LAMBERT_SPHERE_FN float lambert_sphere_const_m_f(float c)
 {
     const float t0 = ((c < 0.0F) ? (0.0F) : (c));
     return 0.439895256F*((t0 > 1.0F) ? (1.0F) : (t0)) + 1.0F;
 }
 
-float lambert_sphere_const_b_f(float c)
+LAMBERT_SPHERE_FN float lambert_sphere_const_b_f(float c)
 {
     const float t2 = ((c < 0.0F) ? (0.0F) : (c));
     const float t0 = ((t2 > 1.0F) ? (1.0F) : (t2));
@@ -262,7 +262,7 @@ float lambert_sphere_const_b_f(float c)
     return t0*(0.341512922F*t0 + 0.425396195F*t1 - 0.425027382F)/((t1 + 1.0F)*(-0.317819951F*t0 - 0.819592395F*t1 + 1.31781995F));
 }
 
-float lambert_sphere_const_c_f(float c)
+LAMBERT_SPHERE_FN float lambert_sphere_const_c_f(float c)
 {
     const float t2 = ((c < 0.0F) ? (0.0F) : (c));
     const float t0 = ((t2 > 1.0F) ? (1.0F) : (t2));
@@ -270,7 +270,7 @@ float lambert_sphere_const_c_f(float c)
     return t0*(-0.966377315F*t0 - 0.323881647F*t1 + 1.08388787F)/((t1 + 1.0F)*(-0.227141899F*t0 - 0.656619743F*t1 + 1.2271419F));
 }
 
-float lambert_sphere_const_d_f(float c)
+LAMBERT_SPHERE_FN float lambert_sphere_const_d_f(float c)
 {
     const float t2 = ((c < 0.0F) ? (0.0F) : (c));
     const float t0 = ((t2 > 1.0F) ? (1.0F) : (t2));
@@ -278,7 +278,7 @@ float lambert_sphere_const_d_f(float c)
     return t0*(0.23105932F*t0 + 0.228796944F*t1 - 0.230697791F)/((t1 + 1.0F)*(-1.28613566F*t0 - 0.838723726F*t1 + 2.28613566F));
 }
 
-float lambert_sphere_const_f_f(float c)
+LAMBERT_SPHERE_FN float lambert_sphere_const_f_f(float c)
 {
     const float t2 = ((c < 0.0F) ? (0.0F) : (c));
     const float t0 = ((t2 > 1.0F) ? (1.0F) : (t2));
@@ -286,7 +286,7 @@ float lambert_sphere_const_f_f(float c)
     return t0*(0.029805005F*t0 - 0.174593332F*t1 - 0.029783257F)/((t1 + 1.0F)*(-0.196472671F*t0 - 0.324777525F*t1 + 1.19647267F));
 }
 
-float lambert_sphere_c_of_kd_f(float kd)
+LAMBERT_SPHERE_FN float lambert_sphere_c_of_kd_f(float kd)
 {
     const float t0 = ((kd < 0.0F) ? (0.0F) : (kd));
     const float t1 = ((t0 > 1.0F) ? (1.0F) : (t0));
@@ -294,7 +294,7 @@ float lambert_sphere_c_of_kd_f(float kd)
     return ((t1 < (1.0F/2.0F)) ? (-expm1f(2.87757889F*log1pf(-((t0 > (1.0F/2.0F)) ? ((1.0F/2.0F)) : (t0))))) : (1.0F - 1.0F*lambert_sphere_safe_pow_f(t2, 2.87757889F)))/(1.0F - 0.11899098F*lambert_sphere_safe_pow_f(t2, 2.56927963F));
 }
 
-float lambert_sphere_kd_of_c_f(float c)
+LAMBERT_SPHERE_FN float lambert_sphere_kd_of_c_f(float c)
 {
     const float t2 = ((c < 0.0F) ? (0.0F) : (c));
     const float t0 = ((t2 > 1.0F) ? (1.0F) : (t2));
@@ -302,7 +302,7 @@ float lambert_sphere_kd_of_c_f(float c)
     return t0*(0.650354282F*t1 + 1.0F)/((t1 + 1.0F)*(1.68797172F*t1 + 1.0F));
 }
 
-float lambert_sphere_single_f(float mu_i, float mu_o, float cos_phi, float c)
+LAMBERT_SPHERE_FN float lambert_sphere_single_f(float mu_i, float mu_o, float cos_phi, float c)
 {
     const float t3 = ((mu_i < 0.0F) ? (0.0F) : (mu_i));
     const float t0 = ((t3 > 1.0F) ? (1.0F) : (t3));
@@ -318,7 +318,7 @@ float lambert_sphere_single_f(float mu_i, float mu_o, float cos_phi, float c)
     return ((1.0F/3.0F))*(-2.0F*t2*acosf(t2) + 2.0F*sqrtf(((t9 < 0.0F) ? (0.0F) : (t9))))*((t10 > 1.0F) ? (1.0F) : (t10))/(3.141592653589793238F*3.141592653589793238F*((t8 < (1.0F/1000000.0F)) ? ((1.0F/1000000.0F)) : (t8)));
 }
 
-float lambert_sphere_fm0_f(float mu_i, float mu_o, float c)
+LAMBERT_SPHERE_FN float lambert_sphere_fm0_f(float mu_i, float mu_o, float c)
 {
     const float t9 = ((mu_i < 0.0F) ? (0.0F) : (mu_i));
     const float t0 = ((t9 > 1.0F) ? (1.0F) : (t9));
@@ -335,7 +335,7 @@ float lambert_sphere_fm0_f(float mu_i, float mu_o, float c)
     return (-(1.0F/768.0F)*t3*t4*(-45.0F*t5 - 45.0F*t6 + 256.0F*t7 + 135.0F*t8 + 207.0F) + ((1.0F/2.0F))*t3*(t2*t7*lambert_sphere_const_d_f(t4) + t2*lambert_sphere_const_b_f(t4) + t4*t8*((15.0F/128.0F) - (15.0F/128.0F)*t4)*(((4.0F/3.0F))*t4 + 3.0F) + ((69.0F/128.0F))*t4 + t7*lambert_sphere_const_c_f(t4) + (t5 + t6)*lambert_sphere_const_f_f(t4))*lambert_sphere_h0_f(t0, t4)*lambert_sphere_h0_f(t1, t4))/((t2 < (1.0F/1000000.0F)) ? ((1.0F/1000000.0F)) : (t2));
 }
 
-float lambert_sphere_fm1_f(float mu_i, float mu_o, float c)
+LAMBERT_SPHERE_FN float lambert_sphere_fm1_f(float mu_i, float mu_o, float c)
 {
     const float t8 = ((mu_i < 0.0F) ? (0.0F) : (mu_i));
     const float t0 = ((t8 > 1.0F) ? (1.0F) : (t8));
@@ -351,7 +351,7 @@ float lambert_sphere_fm1_f(float mu_i, float mu_o, float c)
     return (-(1.0F/192.0F)*t4*t5*t6*(45.0F*t3 + 64.0F) + ((1.0F/3.0F))*t4*t5*t6*(t2*t7 + t3*(t7*t7 + ((45.0F/64.0F))*lambert_sphere_const_m_f(t6)) + 1.0F)*lambert_sphere_h1_f(t0, t6)*lambert_sphere_h1_f(t1, t6))/((t2 < (1.0F/1000000.0F)) ? ((1.0F/1000000.0F)) : (t2));
 }
 
-float lambert_sphere_brdf_f(float mu_i, float mu_o, float cos_phi, float c)
+LAMBERT_SPHERE_FN float lambert_sphere_brdf_f(float mu_i, float mu_o, float cos_phi, float c)
 {
     const float t4 = ((mu_i < 0.0F) ? (0.0F) : (mu_i));
     const float t0 = ((t4 > 1.0F) ? (1.0F) : (t4));
@@ -365,7 +365,7 @@ float lambert_sphere_brdf_f(float mu_i, float mu_o, float cos_phi, float c)
     return ((t8 < 0.0F) ? (0.0F) : (t8));
 }
 
-float lambert_sphere_brdf_fast_f(float mu_i, float mu_o, float cos_phi, float c, float kd)
+LAMBERT_SPHERE_FN float lambert_sphere_brdf_fast_f(float mu_i, float mu_o, float cos_phi, float c, float kd)
 {
     const float t5 = ((mu_i < 0.0F) ? (0.0F) : (mu_i));
     const float t0 = ((t5 > 1.0F) ? (1.0F) : (t5));
@@ -381,7 +381,7 @@ float lambert_sphere_brdf_fast_f(float mu_i, float mu_o, float cos_phi, float c,
     return ((t10 < 0.0F) ? (0.0F) : (t10));
 }
 
-float lambert_sphere_brdf_local_f(const float wi[3], const float wo[3], float c)
+LAMBERT_SPHERE_FN float lambert_sphere_brdf_local_f(const float wi[3], const float wo[3], float c)
 {
     const float t6 = ((wi[2] < -1.0F) ? (-1.0F) : (wi[2]));
     const float t0 = ((t6 > 1.0F) ? (1.0F) : (t6));
@@ -400,7 +400,7 @@ float lambert_sphere_brdf_local_f(const float wi[3], const float wo[3], float c)
     return ((t0 < 0.0F) ? (0.0F) : (1.0F))*((t1 < 0.0F) ? (0.0F) : (1.0F))*lambert_sphere_brdf_f(t0, t1, (t2*t3 + t4*t5)/sqrtf(((t12 < (1.0F/1000000000000000000000000000000.0F)) ? ((1.0F/1000000000000000000000000000000.0F)) : (t12))), ((t13 > 1.0F) ? (1.0F) : (t13)));
 }
 
-float lambert_sphere_brdf_fast_local_f(const float wi[3], const float wo[3], float c, float kd)
+LAMBERT_SPHERE_FN float lambert_sphere_brdf_fast_local_f(const float wi[3], const float wo[3], float c, float kd)
 {
     const float t6 = ((wi[2] < -1.0F) ? (-1.0F) : (wi[2]));
     const float t0 = ((t6 > 1.0F) ? (1.0F) : (t6));

@@ -19,14 +19,28 @@
 #ifndef LAMBERT_SPHERE_H
 #define LAMBERT_SPHERE_H
 
+/* LAMBERT_SPHERE_FN: the qualifier of every function; __host__ __device__ under nvcc, so that CUDA kernels
+ * call them (define it before including this header to choose another). */
+#ifndef LAMBERT_SPHERE_FN
+#ifdef __CUDACC__
+#define LAMBERT_SPHERE_FN __host__ __device__
+#else
+#define LAMBERT_SPHERE_FN
+#endif
+#endif
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 /*
  * H0(mu, c), mu and c in [0, 1]; form hapke: Hapke-style H0 (eq. 31): (1 + a mu^d)/(1 + a
  * mu^d/H0(inf)), H0(inf) exact (eq. 32), a = (a1 s^a2 + a3)/(a4 - a5 s), d = (d1 - d2 s^d3)/(d4
  * - d5 s^d6). Exact at mu = 0 (H0 = 1) and as mu -> inf; a4, d4 fix the scales of the two
  * ratios. Validation: max relative error 4.84e-03, RMS 1.98e-03.
  */
-double lambert_sphere_h0(double mu, double c);
-float lambert_sphere_h0_f(float mu, float c);
+LAMBERT_SPHERE_FN double lambert_sphere_h0(double mu, double c);
+LAMBERT_SPHERE_FN float lambert_sphere_h0_f(float mu, float c);
 
 /*
  * H1(mu, c), mu and c in [0, 1]; form separable: Separable H1 as the author's renderer
@@ -34,121 +48,125 @@ float lambert_sphere_h0_f(float mu, float c);
  * H1 = 1 at mu = 0 and at c = 0 exactly; the 'paper' preset is the same function with the
  * printed (rounded) coefficients. Validation: max relative error 2.02e-03, RMS 1.10e-03.
  */
-double lambert_sphere_h1(double mu, double c);
-float lambert_sphere_h1_f(float mu, float c);
+LAMBERT_SPHERE_FN double lambert_sphere_h1(double mu, double c);
+LAMBERT_SPHERE_FN float lambert_sphere_h1_f(float mu, float c);
 
 /*
  * l(c) of f^(1) (eq. 22); form quadratic: l = l1 c + l2 c^2 (eq. 26); exact l(0) = 0.
  * Validation: max relative error 2.06e-03, RMS 1.20e-03.
  */
-double lambert_sphere_const_l(double c);
-float lambert_sphere_const_l_f(float c);
+LAMBERT_SPHERE_FN double lambert_sphere_const_l(double c);
+LAMBERT_SPHERE_FN float lambert_sphere_const_l_f(float c);
 
 /*
  * m(c) of f^(1) (eq. 22); form linear: m = 1 + m1 c (eq. 27); exact m(0) = 1. Validation: max
  * relative error 8.32e-04, RMS 5.92e-04.
  */
-double lambert_sphere_const_m(double c);
-float lambert_sphere_const_m_f(float c);
+LAMBERT_SPHERE_FN double lambert_sphere_const_m(double c);
+LAMBERT_SPHERE_FN float lambert_sphere_const_m_f(float c);
 
 /*
  * B(c) of Q in f^(0) (eq. 30); form rational_3_2: B = (1 - s) P(s)/R(s), degrees 3/2 in s, R(0)
  * = 1: the printed cubic-over-quadratic shape (eqs. 34-37) with the exact limit B(c=0) = 0
  * built in. Validation: max relative error 5.96e-04, RMS 2.59e-04.
  */
-double lambert_sphere_const_b(double c);
-float lambert_sphere_const_b_f(float c);
+LAMBERT_SPHERE_FN double lambert_sphere_const_b(double c);
+LAMBERT_SPHERE_FN float lambert_sphere_const_b_f(float c);
 
 /*
  * C(c) of Q in f^(0) (eq. 30); form rational_3_2: C = (1 - s) P(s)/R(s), degrees 3/2 in s, R(0)
  * = 1: the printed cubic-over-quadratic shape (eqs. 34-37) with the exact limit C(c=0) = 0
  * built in. Validation: max relative error 9.80e-04, RMS 4.36e-04.
  */
-double lambert_sphere_const_c(double c);
-float lambert_sphere_const_c_f(float c);
+LAMBERT_SPHERE_FN double lambert_sphere_const_c(double c);
+LAMBERT_SPHERE_FN float lambert_sphere_const_c_f(float c);
 
 /*
  * D(c) of Q in f^(0) (eq. 30); form rational_3_2: D = (1 - s) P(s)/R(s), degrees 3/2 in s, R(0)
  * = 1: the printed cubic-over-quadratic shape (eqs. 34-37) with the exact limit D(c=0) = 0
  * built in. Validation: max relative error 1.07e-03, RMS 4.87e-04.
  */
-double lambert_sphere_const_d(double c);
-float lambert_sphere_const_d_f(float c);
+LAMBERT_SPHERE_FN double lambert_sphere_const_d(double c);
+LAMBERT_SPHERE_FN float lambert_sphere_const_d_f(float c);
 
 /*
  * F(c) of Q in f^(0) (eq. 30); form rational_3_2: F = (1 - s) P(s)/R(s), degrees 3/2 in s, R(0)
  * = 1: the printed cubic-over-quadratic shape (eqs. 34-37) with the exact limit F(c=0) = 0
  * built in. Validation: max relative error 6.75e-05, RMS 2.94e-05.
  */
-double lambert_sphere_const_f(double c);
-float lambert_sphere_const_f_f(float c);
+LAMBERT_SPHERE_FN double lambert_sphere_const_f(double c);
+LAMBERT_SPHERE_FN float lambert_sphere_const_f_f(float c);
 
 /*
  * c(kd): inverse of kd_true, kd in [0, 1]; form rational_power: c = (1 - a (1-kd)^p)/(1 - b
  * (1-kd)^q) (eq. 39; the renderer has a = 1). Refits hold a = 1, which makes c(0) = 0 exact;
  * c(1) = 1 for every parameter value. Validation: max relative error 1.13e-02, RMS 6.53e-03.
  */
-double lambert_sphere_c_of_kd(double kd);
-float lambert_sphere_c_of_kd_f(float kd);
+LAMBERT_SPHERE_FN double lambert_sphere_c_of_kd(double kd);
+LAMBERT_SPHERE_FN float lambert_sphere_c_of_kd_f(float kd);
 
 /*
  * kd(c): spherical albedo of fitlab.exact.brdf (kd_true), c in [0, 1]; form printed_c0: kd = (1
  * - s)(1 + (1-b) s)/(1 + d s): eq. 40 with a = 1 - b, so that kd(0) = 0 and kd(1) = 1.
  * Validation: max relative error 8.71e-03, RMS 5.25e-03.
  */
-double lambert_sphere_kd_of_c(double c);
-float lambert_sphere_kd_of_c_f(float c);
+LAMBERT_SPHERE_FN double lambert_sphere_kd_of_c(double c);
+LAMBERT_SPHERE_FN float lambert_sphere_kd_of_c_f(float c);
 
 /*
  * Single scattering with the true phase function, c p(u)/(mu_i + mu_o), u = -(mu_i mu_o + S cos
  * phi) (eq. 10). Pole floored at 1e-6.
  */
-double lambert_sphere_single(double mu_i, double mu_o, double cos_phi, double c);
-float lambert_sphere_single_f(float mu_i, float mu_o, float cos_phi, float c);
+LAMBERT_SPHERE_FN double lambert_sphere_single(double mu_i, double mu_o, double cos_phi, double c);
+LAMBERT_SPHERE_FN float lambert_sphere_single_f(float mu_i, float mu_o, float cos_phi, float c);
 
 /*
  * Multiple scattering, Fourier order 0: fm0 = (H0 H0 Q/(2 pi) - n0_ss)/(mu_i + mu_o) (eqs. 30,
  * 38). Pole floored at 1e-6.
  */
-double lambert_sphere_fm0(double mu_i, double mu_o, double c);
-float lambert_sphere_fm0_f(float mu_i, float mu_o, float c);
+LAMBERT_SPHERE_FN double lambert_sphere_fm0(double mu_i, double mu_o, double c);
+LAMBERT_SPHERE_FN float lambert_sphere_fm0_f(float mu_i, float mu_o, float c);
 
 /*
  * Multiple scattering, Fourier order 1 (coefficient of cos phi): fm1 of eq. 22 minus its single
  * scattering, exact normalisations 3 pi and 192 pi (docs/errata.md). Pole floored at 1e-6.
  */
-double lambert_sphere_fm1(double mu_i, double mu_o, double c);
-float lambert_sphere_fm1_f(float mu_i, float mu_o, float c);
+LAMBERT_SPHERE_FN double lambert_sphere_fm1(double mu_i, double mu_o, double c);
+LAMBERT_SPHERE_FN float lambert_sphere_fm1_f(float mu_i, float mu_o, float c);
 
 /*
  * The runtime Lambert-sphere BRDF (1/sr), max(0, single + fm0 + fm1 cos phi) (docs/model.md).
  * mu_i, mu_o in [0, 1], cos_phi in [-1, 1] (phi = 0 back-scattering), c the particle albedo in
  * [0, 1]; inputs outside (+-inf included) are clamped, NaN in any input gives NaN.
  */
-double lambert_sphere_brdf(double mu_i, double mu_o, double cos_phi, double c);
-float lambert_sphere_brdf_f(float mu_i, float mu_o, float cos_phi, float c);
+LAMBERT_SPHERE_FN double lambert_sphere_brdf(double mu_i, double mu_o, double cos_phi, double c);
+LAMBERT_SPHERE_FN float lambert_sphere_brdf_f(float mu_i, float mu_o, float cos_phi, float c);
 
 /*
  * The fast variant of the Lambert-sphere BRDF (eq. 41, refitted): max(0, f_1 + lobe(|phi|) + p4
  * kd^p5); kd = kd_of_c(c). Same domain and policy as brdf, kd in [0, 1].
  */
-double lambert_sphere_brdf_fast(double mu_i, double mu_o, double cos_phi, double c, double kd);
-float lambert_sphere_brdf_fast_f(float mu_i, float mu_o, float cos_phi, float c, float kd);
+LAMBERT_SPHERE_FN double lambert_sphere_brdf_fast(double mu_i, double mu_o, double cos_phi, double c, double kd);
+LAMBERT_SPHERE_FN float lambert_sphere_brdf_fast_f(float mu_i, float mu_o, float cos_phi, float c, float kd);
 
 /*
  * brdf for unit vectors wi, wo in the local frame (z along the normal, both pointing away from
  * the surface); 0 if either is below the surface. Components are clamped to [-1, 1] (not
  * normalised); NaN in any input gives NaN.
  */
-double lambert_sphere_brdf_local(const double wi[3], const double wo[3], double c);
-float lambert_sphere_brdf_local_f(const float wi[3], const float wo[3], float c);
+LAMBERT_SPHERE_FN double lambert_sphere_brdf_local(const double wi[3], const double wo[3], double c);
+LAMBERT_SPHERE_FN float lambert_sphere_brdf_local_f(const float wi[3], const float wo[3], float c);
 
 /*
  * brdf_fast for unit vectors wi, wo in the local frame (z along the normal, both pointing away
  * from the surface); 0 if either is below the surface. Components are clamped to [-1, 1] (not
  * normalised); NaN in any input gives NaN.
  */
-double lambert_sphere_brdf_fast_local(const double wi[3], const double wo[3], double c, double kd);
-float lambert_sphere_brdf_fast_local_f(const float wi[3], const float wo[3], float c, float kd);
+LAMBERT_SPHERE_FN double lambert_sphere_brdf_fast_local(const double wi[3], const double wo[3], double c, double kd);
+LAMBERT_SPHERE_FN float lambert_sphere_brdf_fast_local_f(const float wi[3], const float wo[3], float c, float kd);
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif /* LAMBERT_SPHERE_H */
