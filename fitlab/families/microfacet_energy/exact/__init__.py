@@ -51,7 +51,17 @@ alpha < 0.208 (0.33) and < 0.350 (0.57), by up to 1.5 % and 4.4 % (the gamma sho
 E_avg > 1 for alpha < 0.0996, and f_ms is unbounded as alpha approaches that value (:mod:`._oren_nayar`).
 
 Fresnel: :func:`directional_albedo` takes an optional F(w_o . h) applied inside either GGX route (the
-two agree with it too); the coloured Kulla-Conti factor is not part of this package.
+two agree with it too).  :mod:`._fresnel` gives the Fresnel factors (Schlick; the exact conductor,
+eta + i k; the exact dielectric), their average F_avg = 2 int_0^1 F mu dmu (adaptive Gauss-Legendre,
+1e-12; Schlick's (20 F0 + 1) / 21 in closed form) and Kulla-Conti's coloured compensation f_ms_F = f_add
+f_ms, f_add = F_avg^2 E_avg / (1 - F_avg (1 - E_avg)), derived there from a stated model of the
+inter-reflections (each later bounce cosine-distributed with escape E_avg, every reflection weighted by
+F_avg), with the form that has one Fresnel factor fewer (F_avg E_avg / (...)) and why it is not the
+default.  Exact: the lobe's albedo f_add (1 - E(mu_o)) per direction; the white furnace 1 at F = 1; the
+cosine-averaged total E_F,avg + f_add (1 - E_avg), against the model's F_avg E_avg / (1 - F_avg (1 -
+E_avg)) (the difference is E_F,avg - F_avg E_avg, the single scattering).  Approximate, and bounded there:
+the Fresnel weight F_avg of the energy lost at the first reflection, against :func:`random_walk_albedo`,
+which takes the first reflection exactly with :func:`visible_fresnel` (tests/test_microfacet_energy_fresnel.py).
 
 Noticed in the blog on the way: its mu_h = (mu_o + mu_i) / sqrt(2 (1 + mu_o mu_i + (1 - mu_o^2)
 (1 - mu_i^2) cos phi)) lacks the square root of (1 - mu_o^2)(1 - mu_i^2) (an error of print:
@@ -67,6 +77,22 @@ from fitlab.families.microfacet_energy.exact._compensation import (
     crossover_alpha,
     energy_integrals,
     multiple_scattering_brdf,
+)
+from fitlab.families.microfacet_energy.exact._fresnel import (
+    COMPENSATION_FORMS,
+    FIRST_BOUNCE,
+    average_fresnel,
+    average_fresnel_conductor,
+    average_fresnel_dielectric,
+    average_fresnel_schlick,
+    compensated_fresnel_albedo,
+    fresnel_compensation_factor,
+    fresnel_conductor,
+    fresnel_dielectric,
+    fresnel_multiple_scattering_brdf,
+    fresnel_schlick,
+    random_walk_albedo,
+    visible_fresnel,
 )
 from fitlab.families.microfacet_energy.exact._ggx import SMITH, ggx_brdf, ggx_ndf, smith_g1, smith_g2, smith_lambda
 from fitlab.families.microfacet_energy.exact._models import (
@@ -88,7 +114,9 @@ from fitlab.families.microfacet_energy.exact._oren_nayar import (
 __all__ = [
     "A_CONSTANTS",
     "AZIMUTH",
+    "COMPENSATION_FORMS",
     "CONVENTIONS",
+    "FIRST_BOUNCE",
     "GGX_MODELS",
     "METHODS",
     "MODEL_NAMES",
@@ -97,18 +125,30 @@ __all__ = [
     "OREN_NAYAR_MODELS",
     "SMITH",
     "average_albedo",
+    "average_fresnel",
+    "average_fresnel_conductor",
+    "average_fresnel_dielectric",
+    "average_fresnel_schlick",
     "brdf",
     "compensated_albedo",
+    "compensated_fresnel_albedo",
     "crossover_alpha",
     "directional_albedo",
     "energy_integrals",
+    "fresnel_compensation_factor",
+    "fresnel_conductor",
+    "fresnel_dielectric",
+    "fresnel_multiple_scattering_brdf",
+    "fresnel_schlick",
     "get_model",
     "ggx_brdf",
     "ggx_ndf",
     "multiple_scattering_brdf",
     "oren_nayar_brdf",
     "oren_nayar_coefficients",
+    "random_walk_albedo",
     "smith_g1",
     "smith_g2",
     "smith_lambda",
+    "visible_fresnel",
 ]

@@ -1,0 +1,475 @@
+r"""Fresnel factors and Kulla-Conti's coloured energy compensation (the blog's "With varying Fresnel",
+left as a TODO there), with what it conserves and what it approximates.
+
+Fresnel factors F(c), c = cos(theta_d) = w . m in [0, 1], unpolarised light from a medium of index 1:
+
+* Schlick: F = F0 + (1 - F0) (1 - c)^5, F0 in [0, 1] (:func:`fresnel_schlick`).
+* Conductor of complex relative index eta + i k (:func:`fresnel_conductor`), the exact average of the s and
+  p reflectances in the real form of Born and Wolf (also PBRT-v3's FrConductor, Lazanyi and Szirmay-Kalos
+  2005).  With s2 = 1 - c^2, t0 = eta^2 - k^2 - s2, |z| = sqrt(t0^2 + 4 eta^2 k^2) and a, b >= 0 defined by
+  a^2 - b^2 = t0, a^2 + b^2 = |z| (a + i b = sqrt(eta_c^2 - s2), the principal root, eta_c = eta + i k):
+
+      R_s = ((c - a)^2 + b^2) / ((c + a)^2 + b^2),
+      R_p = R_s ((a c - s2)^2 + (b c)^2) / ((a c + s2)^2 + (b c)^2),     F = (R_s + R_p) / 2.
+
+  Both ratios are sums of squares, so nothing cancels in them; a^2 and b^2 are formed without
+  cancellation (the larger as (|z| + |t0|) / 2, the other as eta^2 k^2 / that), and t0 as
+  ((eta - 1)(eta + 1) - k^2) + c^2, accurate for eta near 1 at grazing (exact at eta = 1, k = 0).
+  Limits: c = 1 gives ((eta - 1)^2 + k^2) / ((eta + 1)^2 + k^2) (R_p = R_s there); c = 0 gives 1;
+  k = 0 gives the dielectric below (with total internal reflection, a = 0, when eta < 1); k -> inf
+  gives 1, as 1 - F <= 4 eta / k^2 + eta / k (the second term is R_p's dip near c ~ 1/k).
+* Dielectric of relative index eta = n_t / n_i > 0 (:func:`fresnel_dielectric`), the textbook form with
+  cos(theta_t) = sqrt(1 - s2 / eta^2): r_s = (c - eta cos_t) / (c + eta cos_t), r_p = (eta c - cos_t) /
+  (eta c + cos_t), F = (r_s^2 + r_p^2) / 2, and F = 1 beyond the critical angle (s2 > eta^2).  It is an
+  independent implementation of the conductor's k = 0.
+
+The index-matched interface (eta = 1, k = 0) reflects nothing: F = 0 for c > 0, and its limit 0 at c = 0
+(every other interface has F(0) = 1).  All three evaluate in float32 when every argument is a numpy
+float32 value, otherwise in float64.  The domain is cos in [0, 1]; a cosine in [-1, 0) (a back-facing
+facet, whose light a caller weights by max(0, w . m) = 0: the half-vector route of :mod:`._albedo` evaluates
+F at such nodes of zero weight, cos down to -alpha e^-19, at mu_o = 0) is taken as 0, and one up to 16 ulp
+above 1 (rounding of w . h formed from vectors) as 1, so that F stays finite there; beyond [-1, 1] the
+functions refuse the argument.
+
+Average Fresnel (Kulla and Conti's cosine-weighted hemispherical average):
+
+    F_avg = 2 int_0^1 F(mu) mu dmu,
+
+by adaptive Gauss-Legendre (:func:`average_fresnel`): each panel is integrated with 16 nodes and again
+with 16 nodes on each half; a panel is accepted when the two differ by less than 1e-14 (the finer value is
+kept), otherwise both halves are refined (60 bisections at most, and refinement stops when more than
+4096 panels remain open, which no piecewise smooth F reaches).  Deterministic; F_avg to 1e-12 or better
+(the tests compare an independent adaptive quadrature in theta with the complex Fresnel amplitudes).  The conductor's F bends
+sharply where t0 = 0, i.e. mu^2 = 1 - eta^2 + k^2 (for k = 0 and eta < 1: the critical angle, a square
+root there); that mu is given to the quadrature as a panel edge.  Schlick in closed form:
+int_0^1 (1 - mu)^5 mu dmu = B(2, 6) = 1! 5! / 7! = 1/42, so
+
+    F_avg = F0 + 2 (1 - F0) / 42 = (20 F0 + 1) / 21.
+
+The coloured compensation (Kulla and Conti 2017, the blog's source).  The model of the inter-reflections
+behind the F = 1 lobe f_ms = (1 - E(mu_o)) (1 - E(mu_i)) / (pi (1 - E_avg)) (:mod:`._compensation`),
+extended to Fresnel, assumes:
+
+(A1) a unit of energy arriving from mu_o is reflected a first time; the fraction E(mu_o) leaves (single
+     scattering, the BRDF f), the fraction 1 - E(mu_o) meets the microsurface again;
+(A2) energy that meets the microsurface again does so with no memory of mu_o, as from a cosine-
+     distributed direction: of it, each further reflection lets the fraction E_avg leave and 1 - E_avg
+     go on (E and E_avg of the F = 1 BRDF);
+(A3) every reflection multiplies the energy by F_avg, whichever fraction then leaves or goes on (Fresnel
+     independent of escaping, and its cosine-weighted average standing for its average over the facets
+     each bounce meets); this includes the first reflection of the energy that goes on.  (The first
+     reflection's escaping part needs no assumption in the compensated BRDF: f with Fresnel gives it,
+     E_F(mu_o); the model's own value for it is F_avg E(mu_o).)
+
+The energy that leaves after exactly n >= 2 reflections is then F_avg^n (1 - E(mu_o)) (1 - E_avg)^(n-2)
+E_avg, and summing the geometric series (|F_avg (1 - E_avg)| < 1, i.e. all but F_avg = 1 with E_avg = 0):
+
+    sum_{n>=2} ... = (1 - E(mu_o)) F_avg^2 E_avg / (1 - F_avg (1 - E_avg)) = f_add (1 - E(mu_o)),
+    f_add = F_avg^2 E_avg / (1 - F_avg (1 - E_avg))                                  (form "kulla_conti").
+
+Since the F = 1 lobe's albedo from mu_o is 1 - E(mu_o), the coloured lobe is f_ms_F = f_add f_ms
+(reciprocal, since f_add is a constant).  Averaged over mu_o (the cosine-weighted average of 1 - E(mu_o) is
+1 - E_avg) this is the series sum_{k>=1} F_avg^(k+1) E_avg (1 - E_avg)^k, k = n - 1, whose sum is
+F_avg^2 E_avg (1 - E_avg) / (1 - F_avg (1 - E_avg)); with the single-scattering term n = 1, F_avg E_avg,
+the model's total average albedo is F_avg E_avg / (1 - F_avg (1 - E_avg)) (1 at F_avg = 1).
+
+The other form: with one Fresnel factor fewer per path, i.e. if the energy 1 - E(mu_o) missing from the
+F = 1 BRDF arrived at its second reflection without the Fresnel factor of its first (dropping the last
+clause of A3), the series is sum_{k>=1} F_avg^k E_avg (1 - E_avg)^k and f_add' = F_avg E_avg / (1 -
+F_avg (1 - E_avg)) = f_add / F_avg (form "unweighted_first").  Every reflection off a facet is a Fresnel
+reflection, so that form counts a path of k + 1 reflections with k factors; for a constant F = c it gives
+c E(mu_o) + (1 - E(mu_o)) c E_avg / (1 - c (1 - E_avg)), where the sum of c^n over the paths of A1-A2 is
+c E(mu_o) + (1 - E(mu_o)) c^2 E_avg / (1 - c (1 - E_avg)): the lobe is 1/c too bright (11.7 times for
+F0 = 0.04 Schlick, F_avg = 0.0857).  "kulla_conti" is implemented and is the default; the other is kept
+for comparison.  They agree at F = 1 (f_add = f_add' = 1).
+
+What is exact and what is not (tests/test_microfacet_energy_fresnel.py checks each numerically):
+
+* per direction, the coloured lobe's albedo is int f_ms_F mu_i dw_i = f_add (1 - E(mu_o)) exactly, and the
+  compensated BRDF's is E_F(mu_o) + f_add (1 - E(mu_o)) (:func:`compensated_fresnel_albedo`), with E_F the
+  exact single-scattering albedo with Fresnel (:func:`directional_albedo` with ``fresnel``);
+* averaged over mu_o: E_F,avg + f_add (1 - E_avg), where the model above says F_avg E_avg + f_add
+  (1 - E_avg): the multiple-scattering energy is the model's exactly, the single scattering is exact
+  rather than the model's F_avg E_avg, and the difference is E_F,avg - F_avg E_avg;
+* F = 1 (F0 = 1, or k -> inf): f_add = 1 (computed as F_avg^2 E_avg / ((1 - F_avg) + F_avg E_avg), so exactly
+  1 at F_avg = 1) and the white furnace is 1 at every mu_o;
+* a constant F = c: everything in A1-A3 is then exact about Fresnel, and the compensated albedo equals the
+  model's sum of c^n over paths at every mu_o.
+
+A reference that assumes less (:func:`random_walk_albedo`, first_bounce="exact"): keep A2-A3 for the
+second and later reflections but take the first reflection exactly.  The first reflection reflects
+R(mu_o) = int D_o(m) F(w_o . m) dw_m (:func:`visible_fresnel`, the Fresnel factor averaged over the
+visible normals D_o = G1(mu_o) max(0, w_o . m) D(m) / mu_o; R = 1 at F = 1), of which E_F(mu_o) leaves;
+R - E_F meets the microsurface again, and a fraction g = F_avg E_avg / (1 - F_avg (1 - E_avg)) of that
+eventually leaves (A2-A3).  So
+
+    E_ref(mu_o) = E_F(mu_o) + g (R(mu_o) - E_F(mu_o)),
+
+against Kulla-Conti's E_F + g F_avg (1 - E(mu_o)) (f_add = g F_avg): the compensation's only per-direction
+error against this reference is g (F_avg (1 - E) - (R - E_F)), the Fresnel weight of the energy lost at
+the first reflection taken as F_avg.  Since R - E_F = int D_o F (1 - [mu_i > 0] G2/G1(mu_o)) dw_m with a
+non-negative weight whose integral is 1 - E(mu_o), both R - E_F and F_avg (1 - E) lie in [F_min, F_max]
+(1 - E), and |error| <= g (F_max - F_min) (1 - E(mu_o)); likewise |E_F - F_avg E| <= (F_max - F_min) E.
+first_bounce="averaged" is the model of A1-A3 itself, F_avg E(mu_o) + g F_avg (1 - E(mu_o)), which differs
+from Kulla-Conti's total by E_F - F_avg E only.  Neither is the true multiple scattering of a random walk
+on the microsurface (Heitz et al. 2016), which A2-A3 approximate.
+
+The visible-normal average R uses the half-vector variables of :mod:`._albedo`: tan(theta_m) = alpha e^tau,
+D mu_m dw_m = dxi dphi / (2 pi), dxi = 2 dtau / (t + 1/t)^2, so that
+
+    R(mu_o) = 2 / (pi (mu_o + S(mu_o))) int dtau dxi/dtau int_0^phi_end dphi max(0, w_o . m / mu_m) F(w_o . m),
+
+w_o . m / mu_m = mu_o + s_o tan(theta_m) cos(phi), phi_end = pi while tan(theta_m) <= mu_o / s_o and
+arccos(-mu_o / (s_o tan(theta_m))) beyond; the tau rule of the half-vector route with its breakpoint at
+tan(theta_m) = mu_o / s_o (where the azimuthal integral has a (tau - tau_c)^(3/2) term).  With F = 1 it
+is exactly 1 (G1's normalisation), which the tests check to 1e-10.
+"""
+
+from __future__ import annotations
+
+from functools import lru_cache
+
+import numpy as np
+
+from fitlab.families.microfacet_energy.exact._albedo import (
+    HALF_VECTOR,
+    _phi_unit_rule,
+    _tau_rule,
+    average_albedo,
+    average_nodes,
+    directional_albedo,
+)
+from fitlab.families.microfacet_energy.exact._checks import choice, real_array, working_dtype
+from fitlab.families.microfacet_energy.exact._compensation import _lobe, multiple_scattering_brdf
+from fitlab.families.microfacet_energy.exact._ggx import root_term
+from fitlab.families.microfacet_energy.exact._models import get_model
+from fitlab.families.microfacet_energy.exact._quadrature import gauss_legendre
+
+__all__ = [
+    "COMPENSATION_FORMS",
+    "FIRST_BOUNCE",
+    "average_fresnel",
+    "average_fresnel_conductor",
+    "average_fresnel_dielectric",
+    "average_fresnel_schlick",
+    "compensated_fresnel_albedo",
+    "fresnel_compensation_factor",
+    "fresnel_conductor",
+    "fresnel_dielectric",
+    "fresnel_multiple_scattering_brdf",
+    "fresnel_schlick",
+    "random_walk_albedo",
+    "visible_fresnel",
+]
+
+#: the two forms of the coloured factor (module docstring): Kulla-Conti's F_avg^2 E_avg / (1 - F_avg (1 - E_avg))
+#: (the default) and the one with a Fresnel factor fewer, F_avg E_avg / (1 - F_avg (1 - E_avg))
+COMPENSATION_FORMS = ("kulla_conti", "unweighted_first")
+#: the first reflection of :func:`random_walk_albedo`: exact, or as the model A1-A3 takes it
+FIRST_BOUNCE = ("exact", "averaged")
+
+_ROUNDING_ULPS = 16  # a cosine this many ulp outside [0, 1] is clipped, not refused
+_AVERAGE_NODES = 16  # Gauss-Legendre nodes per panel of the adaptive F_avg
+_AVERAGE_TOL = 1e-14  # accepted difference between a panel's coarse and fine values
+_AVERAGE_MAX_LEVELS = 60  # bisections at most (a panel of 2^-60 is below the spacing of floats near 1)
+_AVERAGE_MAX_PANELS = 4096  # panels refined at once at most (a function that is nowhere smooth stops there)
+
+
+# -- Fresnel factors ------------------------------------------------------------------------------------
+def _cosine(cos, dtype):
+    """cos as an array of dtype clipped to [0, 1]: refused beyond [-1, 1 + 16 ulp] (module docstring)."""
+    slack = _ROUNDING_ULPS * float(np.finfo(dtype).eps)
+    c = real_array(cos, "cos", -1.0, 1 + slack, dtype=dtype, domain="[-1, 1] (cos(theta_d) = w . m)")
+    return np.clip(c, 0, 1)
+
+
+def _index(value, name, dtype, open_lo):
+    # k^2 and eta^2 must stay finite: below sqrt(max) / 4
+    hi = float(np.sqrt(np.finfo(dtype).max)) / 4
+    return real_array(value, name, 0.0, hi, open_lo=open_lo, dtype=dtype,
+                      domain=f"{'(0' if open_lo else '[0'}, {hi:.3g}] (a refractive index)")
+
+
+def fresnel_schlick(cos, f0):
+    """Schlick's Fresnel F = F0 + (1 - F0) (1 - cos)^5; cos in [0, 1], F0 in [0, 1] (scalar or an array, e.g.
+    RGB: numpy broadcasting).  float32 when every argument is float32, else float64."""
+    dtype = working_dtype(cos, f0)
+    c = _cosine(cos, dtype)
+    f0 = real_array(f0, "f0", 0.0, 1.0, dtype=dtype)
+    m = 1 - c
+    m2 = m * m
+    return (f0 + (1 - f0) * (m2 * m2 * m)).astype(dtype)
+
+
+def fresnel_conductor(cos, eta, k):
+    """Exact unpolarised Fresnel reflectance of a conductor of relative index eta + i k (module docstring:
+    R_s, R_p in Born and Wolf's real form, PBRT-v3's FrConductor).  cos in [0, 1]; eta > 0, k >= 0 (k = 0:
+    a dielectric, with total internal reflection for eta < 1); numpy broadcasting, so eta and k may be RGB
+    arrays.  F(1) = ((eta - 1)^2 + k^2) / ((eta + 1)^2 + k^2), F(0) = 1 (0 for the matched eta = 1, k = 0).
+    float32 when every argument is float32, else float64."""
+    dtype = working_dtype(cos, eta, k)
+    c = _cosine(cos, dtype)
+    eta = _index(eta, "eta", dtype, True)
+    k = _index(k, "k", dtype, False)
+    c, eta, k = np.broadcast_arrays(c, eta, k)
+    s2 = (1 - c) * (1 + c)
+    t0 = ((eta - 1) * (eta + 1) - k * k) + c * c  # eta^2 - k^2 - s2, exact when eta = 1, k = 0
+    ek = eta * k
+    z = np.hypot(t0, 2 * ek)  # |eta_c^2 - s2|
+    big = (z + np.abs(t0)) / 2  # the larger of a^2, b^2, without cancellation
+    with np.errstate(divide="ignore", invalid="ignore"):
+        small = np.where(big > 0, ek * (ek / np.where(big > 0, big, 1)), 0)
+    a2 = np.where(t0 >= 0, big, small)
+    b2 = np.where(t0 >= 0, small, big)
+    a = np.sqrt(a2)
+    den_s = (c + a) ** 2 + b2
+    with np.errstate(divide="ignore", invalid="ignore"):
+        r_s = np.where(den_s > 0, ((c - a) ** 2 + b2) / np.where(den_s > 0, den_s, 1), 0)  # 0: matched, c = 0
+        ac = a * c
+        b2c2 = b2 * c * c
+        den_p = (ac + s2) ** 2 + b2c2  # 0 only at c = 1 with a = b = 0 (eta^2 underflowing), where R_p = R_s
+        r_p = r_s * np.where(den_p > 0, ((ac - s2) ** 2 + b2c2) / np.where(den_p > 0, den_p, 1), 1)
+    return ((r_s + r_p) / 2).astype(dtype)
+
+
+def fresnel_dielectric(cos, eta):
+    """Exact unpolarised Fresnel reflectance at a dielectric interface of relative index eta = n_t / n_i > 0,
+    seen from the incident side: cos_t = sqrt(1 - (1 - cos^2) / eta^2), F = 1 beyond the critical angle
+    (eta < 1).  cos in [0, 1]; numpy broadcasting.  Independent of :func:`fresnel_conductor` (its k = 0).
+    float32 when every argument is float32, else float64."""
+    dtype = working_dtype(cos, eta)
+    c = _cosine(cos, dtype)
+    eta = _index(eta, "eta", dtype, True)
+    c, eta = np.broadcast_arrays(c, eta)
+    cos_t2 = ((eta - 1) * (eta + 1) + c * c) / (eta * eta)  # 1 - (1 - c^2) / eta^2
+    tir = cos_t2 < 0
+    cos_t = np.sqrt(np.where(tir, 0, cos_t2))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        den_s, den_p = c + eta * cos_t, eta * c + cos_t
+        r_s = np.where(den_s > 0, (c - eta * cos_t) / np.where(den_s > 0, den_s, 1), 0)
+        r_p = np.where(den_p > 0, (eta * c - cos_t) / np.where(den_p > 0, den_p, 1), 0)
+    return np.where(tir, 1, (r_s * r_s + r_p * r_p) / 2).astype(dtype)
+
+
+# -- average Fresnel ------------------------------------------------------------------------------------
+def average_fresnel(fresnel, breakpoints=()) -> float:
+    """F_avg = 2 int_0^1 F(mu) mu dmu of a function ``fresnel`` (1-D float64 arrays of cos in [0, 1] in, arrays
+    of their shape out), by the adaptive Gauss-Legendre rule of the module docstring (1e-12 or better).
+    breakpoints: points of [0, 1] where F is not smooth (or nearly so), made panel edges."""
+    if not callable(fresnel):
+        raise TypeError("fresnel must be a function of cos(theta) (arrays in, arrays out)")
+    inner = sorted({float(b) for b in np.ravel(np.asarray(breakpoints, dtype=float)) if 0 < b < 1})
+    edges = np.array([0.0, *inner, 1.0])
+    x, w = gauss_legendre(_AVERAGE_NODES)
+    n = x.size
+    lo, hi = edges[:-1], edges[1:]
+    parts = []
+    for level in range(_AVERAGE_MAX_LEVELS + 1):
+        if lo.size == 0:
+            break
+        h = hi - lo
+        mid = lo + h / 2
+        nodes = np.concatenate((lo[:, None] + h[:, None] * x, lo[:, None] + (h / 2)[:, None] * x,
+                                mid[:, None] + (h / 2)[:, None] * x), axis=1)
+        values = np.asarray(fresnel(nodes.ravel()), dtype=float).reshape(nodes.shape) * 2 * nodes
+        if not np.all(np.isfinite(values)):
+            raise ValueError("fresnel returned a value that is not finite on [0, 1]")
+        coarse = h * (values[:, :n] @ w)
+        fine = (h / 2) * (values[:, n:2 * n] @ w + values[:, 2 * n:] @ w)
+        last = level == _AVERAGE_MAX_LEVELS or lo.size > _AVERAGE_MAX_PANELS
+        done = (np.abs(fine - coarse) <= _AVERAGE_TOL) | last
+        parts.append(fine[done])
+        lo, hi = np.concatenate((lo[~done], mid[~done])), np.concatenate((mid[~done], hi[~done]))
+    return float(np.sum(np.sort(np.concatenate(parts))))
+
+
+def average_fresnel_schlick(f0):
+    """F_avg of Schlick's Fresnel in closed form, (20 F0 + 1) / 21 (module docstring); F0 in [0, 1], any shape."""
+    f0 = real_array(f0, "f0", 0.0, 1.0)
+    return (20 * f0 + 1) / 21
+
+
+def _conductor_kink(eta, k):
+    """mu where t0 = eta^2 - k^2 - (1 - mu^2) = 0, if in (0, 1)."""
+    m2 = 1 - (eta * eta - k * k)
+    return (np.sqrt(m2),) if 0 < m2 < 1 else ()
+
+
+def average_fresnel_conductor(eta, k):
+    """F_avg of :func:`fresnel_conductor` by :func:`average_fresnel` (with the bend at t0 = 0 as a panel
+    edge); eta > 0, k >= 0, broadcast (e.g. RGB); float64 of their broadcast shape."""
+    eta = _index(eta, "eta", np.float64, True)
+    k = _index(k, "k", np.float64, False)
+    eta, k = np.broadcast_arrays(eta, k)
+    out = np.empty(eta.shape)
+    for idx in np.ndindex(eta.shape):
+        e, kk = float(eta[idx]), float(k[idx])
+        out[idx] = average_fresnel(lambda c: fresnel_conductor(c, e, kk), _conductor_kink(e, kk))
+    return out
+
+
+def average_fresnel_dielectric(eta):
+    """F_avg of :func:`fresnel_dielectric` by :func:`average_fresnel` (with the critical angle as a panel
+    edge when eta < 1); eta > 0, any shape; float64."""
+    eta = _index(eta, "eta", np.float64, True)
+    out = np.empty(eta.shape)
+    for idx in np.ndindex(eta.shape):
+        e = float(eta[idx])
+        out[idx] = average_fresnel(lambda c: fresnel_dielectric(c, e), _conductor_kink(e, 0.0))
+    return out
+
+
+# -- the coloured compensation --------------------------------------------------------------------------
+def fresnel_compensation_factor(f_avg, e_avg, form: str = "kulla_conti"):
+    """The factor f_add of the coloured lobe f_ms_F = f_add f_ms (module docstring):
+
+    "kulla_conti": F_avg^2 E_avg / (1 - F_avg (1 - E_avg)); "unweighted_first": F_avg E_avg / (1 - F_avg
+    (1 - E_avg)).  f_avg, e_avg in [0, 1], broadcast (f_avg may be RGB); the denominator is formed as
+    (1 - F_avg) + F_avg E_avg, so F_avg = 1 gives exactly 1 (also at E_avg = 0, the limit along F_avg = 1;
+    the series does not converge there).  In [0, F_avg^2] (resp. [0, F_avg])."""
+    form = choice(form, "form", COMPENSATION_FORMS)
+    f_avg = real_array(f_avg, "f_avg", 0.0, 1.0)
+    e_avg = real_array(e_avg, "e_avg", 0.0, 1.0)
+    den = (1 - f_avg) + f_avg * e_avg
+    num = f_avg * e_avg * (f_avg if form == "kulla_conti" else 1.0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(f_avg == 1, 1.0, num / np.where(den > 0, den, 1))
+
+
+def fresnel_multiple_scattering_brdf(mu_o, mu_i, alpha, f_avg, model: str = "ggx_separable",
+                                     form: str = "kulla_conti"):
+    """The coloured compensation lobe f_ms_F = f_add(F_avg, E_avg(alpha)) f_ms(mu_o, mu_i, alpha) with the F = 1
+    lobe of :func:`multiple_scattering_brdf` and E_avg of ``model``.  mu_o, mu_i, alpha in [0, 1], f_avg in
+    [0, 1] (e.g. :func:`average_fresnel_schlick`), all broadcast by numpy's rules (for RGB against arrays of
+    directions give the directions a trailing axis).  Reciprocal, independent of the azimuth."""
+    alpha = real_array(alpha, "alpha", 0.0, 1.0)
+    f_add = fresnel_compensation_factor(f_avg, average_albedo(alpha, model), form)
+    return f_add * multiple_scattering_brdf(mu_o, mu_i, alpha, model)
+
+
+@lru_cache(maxsize=64)
+def _albedo_at_average_nodes(alpha: float, model: str) -> np.ndarray:
+    """E (F = 1) at the nodes of :func:`average_nodes`, read-only (every coloured lobe of a model and alpha
+    integrates against the same values)."""
+    nodes, _ = average_nodes()
+    e = directional_albedo(nodes, alpha, model)
+    e.setflags(write=False)
+    return e
+
+
+def _f_avg_of(fresnel, f_avg):
+    return average_fresnel(fresnel) if f_avg is None else float(real_array(f_avg, "f_avg", 0.0, 1.0))
+
+
+def compensated_fresnel_albedo(mu_o, alpha, fresnel, model: str = "ggx_separable", f_avg=None,
+                               form: str = "kulla_conti"):
+    """The albedo of f_F + f_ms_F: E_F(mu_o) + int f_ms_F(mu_o, mu_i) mu_i dw_i, E_F by
+    :func:`directional_albedo` with ``fresnel`` and the lobe integrated numerically over mu_i (the rule of
+    :func:`compensated_albedo`), not replaced by its value f_add (1 - E(mu_o)).
+
+    fresnel: a function F(cos theta_d) with scalar parameters (one colour channel); f_avg: its F_avg, computed
+    by :func:`average_fresnel` when None.  mu_o, alpha in [0, 1], broadcast; GGX models.  With F = 1 this is
+    :func:`compensated_albedo` (1 at every mu_o)."""
+    get_model(model)
+    form = choice(form, "form", COMPENSATION_FORMS)
+    mu_o = real_array(mu_o, "mu_o", 0.0, 1.0)
+    alpha = real_array(alpha, "alpha", 0.0, 1.0)
+    mu_o, alpha = np.broadcast_arrays(mu_o, alpha)
+    f_avg = _f_avg_of(fresnel, f_avg)
+    nodes, weights = average_nodes()
+    out = np.empty(mu_o.shape)
+    for a in np.unique(alpha):
+        sel = alpha == a
+        e_nodes = _albedo_at_average_nodes(float(a), model)
+        e_o = directional_albedo(mu_o[sel], a, model)
+        e_f = directional_albedo(mu_o[sel], a, model, fresnel=fresnel)
+        e_avg = average_albedo(a, model)
+        lobe = fresnel_compensation_factor(f_avg, e_avg, form) * _lobe(e_o[:, None], e_nodes[None, :], e_avg)
+        out[sel] = e_f + 2 * np.pi * (lobe @ (weights * nodes))
+    return out
+
+
+# -- the first reflection and the random-walk references ------------------------------------------------
+_CHUNK = 200_000
+
+
+def _visible_fresnel_chunk(mu_o, alpha, fresnel, rule=HALF_VECTOR):
+    s_o = np.sqrt((1 - mu_o) * (1 + mu_o))
+    log_a = np.log(alpha)
+    tau_hi = rule.tau_hi_margin - log_a
+    with np.errstate(divide="ignore"):
+        tau_c = np.log(mu_o) - np.log(s_o) - log_a  # tan(theta_c) = mu_o / s_o
+    tau_c = np.clip(tau_c, rule.tau_lo, tau_hi)
+    (tau_a, w_a), (tau_b, w_b) = _tau_rule(np.full(mu_o.shape, rule.tau_lo), tau_c, tau_hi, rule)
+    mu_o_, s_o_ = mu_o[:, None, None], s_o[:, None, None]
+    x_phi, w_phi = _phi_unit_rule(rule.panels_phi, rule.nodes_phi, rule.ratio)
+
+    def panel(tau, w_tau, full: bool):
+        t = np.exp(tau)[..., None]
+        tan_m = alpha[:, None, None] * t
+        dxi = 2 / (t + 1 / t) ** 2
+        if full:
+            phi_end = np.pi
+        else:
+            with np.errstate(divide="ignore", invalid="ignore"):
+                threshold = np.where(s_o_ > 0, -mu_o_ / (s_o_ * tan_m), -1.0)
+            phi_end = np.arccos(np.clip(np.nan_to_num(threshold, nan=-1.0), -1, 1))
+        om_over_mu_m = np.maximum(mu_o_ + s_o_ * tan_m * np.cos(phi_end * x_phi), 0)  # (w_o . m) / mu_m
+        cos_d = np.minimum(om_over_mu_m / np.sqrt(1 + tan_m * tan_m), 1)
+        value = om_over_mu_m if fresnel is None else om_over_mu_m * fresnel(cos_d)
+        inner = (value @ w_phi) * (phi_end * dxi)[..., 0]
+        return np.sum(inner * w_tau, axis=1)
+
+    return 2 * (panel(tau_a, w_a, True) + panel(tau_b, w_b, False)) / (np.pi * (mu_o + root_term(mu_o, alpha)))
+
+
+def visible_fresnel(mu_o, alpha, fresnel=None):
+    """R(mu_o) = int D_o(m) F(w_o . m) dw_m: the Fresnel factor averaged over GGX's visible normals
+    D_o = G1(mu_o) max(0, w_o . m) D(m) / mu_o, i.e. what the first reflection reflects in all, before
+    masking decides whether it leaves (module docstring).  The same for both Smith forms (G1 is).
+
+    mu_o, alpha in [0, 1], broadcast; fresnel as for :func:`directional_albedo` (None: F = 1, R = 1 exactly,
+    to the quadrature's 1e-10 or better); alpha = 0 (the mirror) gives F(mu_o)."""
+    mu_o = real_array(mu_o, "mu_o", 0.0, 1.0)
+    alpha = real_array(alpha, "alpha", 0.0, 1.0)
+    if fresnel is not None and not callable(fresnel):
+        raise TypeError("fresnel must be a function of cos(theta_d) = w_o . h (arrays in, arrays out)")
+    mu_o, alpha = np.broadcast_arrays(mu_o, alpha)
+    mu, a = mu_o.ravel().copy(), alpha.ravel().copy()
+    out = np.empty(mu.shape)
+    mirror = a == 0
+    out[mirror] = 1.0 if fresnel is None else fresnel(mu[mirror])
+    rough = np.flatnonzero(~mirror)
+    rule = HALF_VECTOR
+    per_point = (2 * len(rule.edges) + 3 * rule.graded + 3) * rule.nodes_tau * rule.panels_phi * rule.nodes_phi
+    step = max(1, _CHUNK // per_point)
+    for start in range(0, rough.size, step):
+        sl = rough[start:start + step]
+        out[sl] = _visible_fresnel_chunk(mu[sl], a[sl], fresnel)
+    return out.reshape(mu_o.shape)
+
+
+def random_walk_albedo(mu_o, alpha, fresnel, model: str = "ggx_separable", f_avg=None, first_bounce: str = "exact"):
+    """Total albedo from mu_o of the inter-reflection model of the module docstring, a reference for the
+    compensated albedo (:func:`compensated_fresnel_albedo`); g = F_avg E_avg / (1 - F_avg (1 - E_avg)) is the
+    fraction of the energy meeting the microsurface a second time that eventually leaves (A2-A3):
+
+    first_bounce "exact": E_F(mu_o) + g (R(mu_o) - E_F(mu_o)), R of :func:`visible_fresnel` (A2-A3 for the
+    second and later reflections only); "averaged": F_avg E(mu_o) + g F_avg (1 - E(mu_o)) (A1-A3 throughout;
+    its cosine-weighted average is F_avg E_avg / (1 - F_avg (1 - E_avg))).  fresnel: F(cos theta_d) with
+    scalar parameters; f_avg its F_avg (computed when None).  mu_o, alpha in [0, 1], broadcast; GGX models.
+    Both are 1 at F = 1."""
+    get_model(model)
+    first_bounce = choice(first_bounce, "first_bounce", FIRST_BOUNCE)
+    mu_o = real_array(mu_o, "mu_o", 0.0, 1.0)
+    alpha = real_array(alpha, "alpha", 0.0, 1.0)
+    mu_o, alpha = np.broadcast_arrays(mu_o, alpha)
+    f_avg = _f_avg_of(fresnel, f_avg)
+    e_avg = average_albedo(alpha, model)
+    den = (1 - f_avg) + f_avg * e_avg
+    g = np.where(f_avg == 1, 1.0, f_avg * e_avg / np.where(den > 0, den, 1))
+    if first_bounce == "averaged":
+        e = directional_albedo(mu_o, alpha, model)
+        return f_avg * e + g * f_avg * (1 - e)
+    e_f = directional_albedo(mu_o, alpha, model, fresnel=fresnel)
+    return e_f + g * (visible_fresnel(mu_o, alpha, fresnel) - e_f)
