@@ -1,0 +1,209 @@
+r"""The Smith microsurface of Heitz, Hanika, d'Eon and Dachsbacher (2016), "Multiple-Scattering
+Microfacet BSDFs with the Smith Model": heights, slopes, masking and the sampling of both.
+
+Pure ``jax.numpy`` maps of directions and uniforms in (0, 1), so that the walk
+(:mod:`.walk`) can vectorise them and tests can feed fixed uniforms.  Directions
+are unit 3-vectors given as three arrays (x, y, z), z along the macro normal.
+
+Slopes (anisotropic alpha_x, alpha_y; isotropic when equal).  With the stretched
+tangent t^2(w) = (alpha_x^2 w_x^2 + alpha_y^2 w_y^2) / w_z^2 = alpha(phi)^2 tan^2(theta):
+
+* GGX: D(m) = 1 / (pi alpha_x alpha_y mu_m^4 (1 + (m_x^2/alpha_x^2 + m_y^2/alpha_y^2) / mu_m^2)^2),
+  Lambda(w) = (-1 + sqrt(1 + t^2)) / 2 for w_z > 0 (written t^2 / (2 (1 + sqrt(1 + t^2))), free of
+  cancellation at small t).
+* Beckmann: D(m) = exp(-(m_x^2/alpha_x^2 + m_y^2/alpha_y^2) / mu_m^2) / (pi alpha_x alpha_y mu_m^4),
+  Lambda(w) = (exp(-a^2) / (a sqrt(pi)) - erfc(a)) / 2 with a = 1 / t, for w_z > 0.
+* Downward directions (w_z < 0): Lambda(w) = -1 - Lambda(-w) (paper, eq. 9): the projected area of
+  the microsurface seen along w is w_z (1 + Lambda(w)) either way.  Lambda(w) = 0 for w = +z.
+
+Heights (uncorrelated with the slopes: the Smith assumption), the uniform distribution the paper
+uses, P1(h) = 1/2 on [-1, 1], C1(h) = clip((h + 1)/2, 0, 1), invC1(U) = clip(2 U - 1, -1, 1).
+The walk depends on the height distribution only through C1 (the paper shows its results are
+independent of P1); h = 1 is the top of the microsurface (C1 = 1), where a path starts.
+
+Masking at height h: G1(w, h) = C1(h)^Lambda(w) for w_z > 0 (the probability that a ray leaving
+height h along w escapes), 0 for w_z < 0 (a downward ray always meets the surface).
+
+Free path (``sample_height``): a ray leaving height h along a rising w passes height x > h
+unobstructed with probability G1(w, h) / G1(w, x) = (C1(h) / C1(x))^Lambda(w) (and a falling ray
+passes x < h with probability (C1(x) / C1(h))^(-Lambda(w))); inverting with one uniform U:
+
+* w_z > 0: the ray escapes if U > 1 - G1(w, h); else h' = invC1(C1(h) / (1 - U)^(1 / Lambda(w))),
+  which lies above h;
+* w_z < 0: h' = invC1(C1(h) (1 - U)^(1 / |Lambda(w)|)) (the same formula, Lambda(w) <= -1), below h;
+* w_z = 0 (horizontal): h' = h (Lambda is infinite: the ray hits at once).
+
+Visible normals (``sample_vndf``): m from D_wi(m) = G1(wi) max(0, wi.m) D(m) / wi_z, for wi on
+either side of the horizon (the walk's wi = -w can point downwards, when a rising ray is hit):
+
+* GGX, Heitz 2018 (JCGT 7(4), "Sampling the GGX Distribution of Visible Normals"): stretch wi to
+  V = normalize(alpha_x wi_x, alpha_y wi_y, wi_z), sample the projected visible hemisphere as a disk
+  point (t1, t2) = sqrt(U1) (cos 2 pi U2, sin 2 pi U2) with t2 warped to
+  (1 - s) sqrt(1 - t1^2) + s t2, s = (1 + V_z) / 2, lift it onto the hemisphere, unstretch
+  and normalise.  The warp removes the half-ellipse of semi-axis |V_z| that the horizon projects
+  to, which is right for V_z < 0 as well.
+* Beckmann, the slope-space method of Heitz and d'Eon 2014 (the paper's code): stretch wi to the
+  alpha = 1 configuration, rotate it into the xz-plane (polar angle theta, cot(theta) = s_i);
+  the visible slope x_m has the CDF c (cos(theta) erfc(-x)/2 + sin(theta) exp(-x^2) / (2 sqrt pi))
+  for x < s_i (c: 1 / the value at s_i), inverted by safeguarded Newton steps inside a bisection
+  bracket; y_m = erfinv(2 U2 - 1) (an independent unit-variance/sqrt 2 normal); rotate back,
+  unstretch the slopes and m = normalize(-x_m, -y_m, 1).  Rising rays steeper than
+  cot(theta) < -6 (theta > 170.5 deg; they hit with probability below 1 - C1^Lambda, Lambda < 3e-18)
+  are given the slope bracket of cot(theta) = -6.
+"""
+
+from __future__ import annotations
+
+import math
+
+import jax.numpy as jnp
+from jax.scipy.special import erfc, erfinv
+
+__all__ = ["DISTRIBUTIONS", "height_c1", "height_inv_c1", "smith_lambda", "masking_g1", "sample_height",
+           "sample_vndf", "reflect", "ESCAPED"]
+
+DISTRIBUTIONS = ("ggx", "beckmann")
+#: sample_height's value for a ray that leaves the microsurface
+ESCAPED = math.inf
+#: Newton steps of the Beckmann visible-slope inversion (each at least halves the bracket)
+_BECKMANN_STEPS = 60
+_BECKMANN_SLOPE_FLOOR = -6.0
+_SQRT_PI = math.sqrt(math.pi)
+
+
+def height_c1(h):
+    """C1(h) = clip((h + 1) / 2, 0, 1): the cumulative uniform height distribution on [-1, 1]."""
+    return jnp.clip(0.5 * (h + 1.0), 0.0, 1.0)
+
+
+def height_inv_c1(u):
+    """invC1(U) = clip(2 U - 1, -1, 1), U in [0, 1]."""
+    return jnp.clip(2.0 * u - 1.0, -1.0, 1.0)
+
+
+def _stretched_tan2(x, y, z, alpha_x, alpha_y):
+    """t^2 = (alpha_x^2 x^2 + alpha_y^2 y^2) / z^2 (inf for z = 0 and a tangential part)."""
+    num = (alpha_x * x) ** 2 + (alpha_y * y) ** 2
+    return num / (z * z)
+
+
+def _lambda_up(t2, distribution: str):
+    """Lambda of an upward direction of stretched tangent^2 t2 >= 0 (0 at t2 = 0, inf at t2 = inf)."""
+    if distribution == "ggx":
+        return t2 / (2.0 * (1.0 + jnp.sqrt(1.0 + t2)))
+    t2_safe = jnp.where(t2 > 0.0, t2, 1.0)
+    a = 1.0 / jnp.sqrt(t2_safe)
+    lam = 0.5 * (jnp.exp(-a * a) / (a * _SQRT_PI) - erfc(a))
+    return jnp.where(t2 > 0.0, jnp.maximum(lam, 0.0), 0.0)
+
+
+def smith_lambda(x, y, z, alpha_x, alpha_y, distribution: str):
+    """Smith's Lambda(w) for w = (x, y, z) on the whole sphere: Lambda of |z| upwards, -1 - that downwards.
+
+    Horizontal w (z = 0): +inf (the +-inf limits differ; callers treat z = 0 apart)."""
+    with_z = jnp.where(z == 0.0, 1e-300, z)
+    lam = _lambda_up(_stretched_tan2(x, y, with_z, alpha_x, alpha_y), distribution)
+    return jnp.where(z >= 0.0, lam, -1.0 - lam)
+
+
+def masking_g1(x, y, z, h, alpha_x, alpha_y, distribution: str):
+    """G1(w, h) = C1(h)^Lambda(w) for z > 0 (1 where Lambda = 0), 0 for z <= 0."""
+    lam = smith_lambda(x, y, z, alpha_x, alpha_y, distribution)
+    c1 = height_c1(h)
+    up = jnp.where(lam > 0.0, c1 ** jnp.where(lam > 0.0, lam, 1.0), 1.0)
+    return jnp.where(z > 0.0, up, 0.0)
+
+
+def sample_height(x, y, z, h, u, alpha_x, alpha_y, distribution: str):
+    """The height of the next intersection of the ray from height h along w = (x, y, z), or ESCAPED.
+
+    u in (0, 1).  See the module docstring ("Free path")."""
+    lam = smith_lambda(x, y, z, alpha_x, alpha_y, distribution)
+    c1 = height_c1(h)
+    g1 = masking_g1(x, y, z, h, alpha_x, alpha_y, distribution)
+    lam_safe = jnp.where(lam != 0.0, lam, 1.0)
+    # (1 - u)^(1/Lambda): for a rising ray it grows C1 (the hit lies above), for a falling one it shrinks it
+    h_next = height_inv_c1(c1 / (1.0 - u) ** (1.0 / lam_safe))
+    h_next = jnp.where(z == 0.0, h, h_next)
+    escapes = (z > 0.0) & (u > 1.0 - g1)
+    return jnp.where(escapes, ESCAPED, h_next)
+
+
+def _normalize(x, y, z):
+    n = jnp.sqrt(x * x + y * y + z * z)
+    return x / n, y / n, z / n
+
+
+def _vndf_ggx(wx, wy, wz, u1, u2, alpha_x, alpha_y):
+    vx, vy, vz = _normalize(alpha_x * wx, alpha_y * wy, wz)
+    lensq = vx * vx + vy * vy
+    inv = jnp.where(lensq > 0.0, 1.0 / jnp.sqrt(jnp.where(lensq > 0.0, lensq, 1.0)), 0.0)
+    t1x, t1y = jnp.where(lensq > 0.0, -vy * inv, 1.0), jnp.where(lensq > 0.0, vx * inv, 0.0)
+    # T2 = V x T1 (T1 has no z component)
+    t2x, t2y, t2z = -vz * t1y, vz * t1x, vx * t1y - vy * t1x
+    r = jnp.sqrt(u1)
+    ang = 2.0 * jnp.pi * u2
+    p1, p2 = r * jnp.cos(ang), r * jnp.sin(ang)
+    s = 0.5 * (1.0 + vz)
+    p2 = (1.0 - s) * jnp.sqrt(jnp.maximum(0.0, 1.0 - p1 * p1)) + s * p2
+    p3 = jnp.sqrt(jnp.maximum(0.0, 1.0 - p1 * p1 - p2 * p2))
+    nx = p1 * t1x + p2 * t2x + p3 * vx
+    ny = p1 * t1y + p2 * t2y + p3 * vy
+    nz = p2 * t2z + p3 * vz
+    return _normalize(alpha_x * nx, alpha_y * ny, jnp.maximum(1e-300, nz))
+
+
+def _beckmann_slope_x(cot_theta, sin_theta, cos_theta, u):
+    """x < s_i = cot(theta) with the visible-slope CDF of the module docstring equal to u."""
+    s_i = jnp.clip(cot_theta, _BECKMANN_SLOPE_FLOOR, 8.0)
+
+    def g(x):
+        return 0.5 * cos_theta * erfc(-x) + sin_theta * jnp.exp(-x * x) / (2.0 * _SQRT_PI)
+
+    target = u * g(s_i)
+    lo = jnp.minimum(s_i - 1.0, -8.0) + 0.0 * u
+    hi = s_i + 0.0 * u
+    x = 0.5 * (lo + hi)
+    for _ in range(_BECKMANN_STEPS):
+        f = g(x) - target
+        lo = jnp.where(f < 0.0, x, lo)
+        hi = jnp.where(f < 0.0, hi, x)
+        slope = jnp.exp(-x * x) * (cos_theta - x * sin_theta) / _SQRT_PI
+        step = jnp.where(slope > 0.0, x - f / jnp.where(slope > 0.0, slope, 1.0), 0.5 * (lo + hi))
+        # Newton where it stays inside the bracket, bisection elsewhere: monotone convergence
+        x = jnp.where((step > lo) & (step < hi), step, 0.5 * (lo + hi))
+    return x
+
+
+def _vndf_beckmann(wx, wy, wz, u1, u2, alpha_x, alpha_y):
+    vx, vy, vz = _normalize(alpha_x * wx, alpha_y * wy, wz)
+    sin_theta = jnp.sqrt(vx * vx + vy * vy)
+    polar = sin_theta < 1e-12
+    safe = jnp.where(polar, 1.0, sin_theta)
+    cos_phi, sin_phi = jnp.where(polar, 1.0, vx / safe), jnp.where(polar, 0.0, vy / safe)
+    cot = jnp.where(polar, 0.0, vz / safe)
+    x = _beckmann_slope_x(cot, jnp.where(polar, 1.0, sin_theta), vz, u1)
+    y = erfinv(2.0 * u2 - 1.0)
+    # straight up (or down): the visible slopes are the slopes themselves, a radial normal sample
+    rad = jnp.sqrt(-jnp.log(u1))
+    x = jnp.where(polar, rad * jnp.cos(2.0 * jnp.pi * u2), x)
+    y = jnp.where(polar, rad * jnp.sin(2.0 * jnp.pi * u2), y)
+    xr = cos_phi * x - sin_phi * y
+    yr = sin_phi * x + cos_phi * y
+    return _normalize(-alpha_x * xr, -alpha_y * yr, jnp.ones_like(xr))
+
+
+def sample_vndf(wx, wy, wz, u1, u2, alpha_x, alpha_y, distribution: str):
+    """A microfacet normal m from the visible normals D_wi of wi = (wx, wy, wz) (module docstring).
+
+    u1, u2 in (0, 1); wi on either side of the horizon (not horizontal and below: the projected
+    area vanishes only for wi straight down).  Returns (m_x, m_y, m_z), m_z > 0, wi.m >= 0."""
+    if distribution == "ggx":
+        return _vndf_ggx(wx, wy, wz, u1, u2, alpha_x, alpha_y)
+    return _vndf_beckmann(wx, wy, wz, u1, u2, alpha_x, alpha_y)
+
+
+def reflect(wx, wy, wz, mx, my, mz):
+    """-w + 2 (w.m) m: the mirror image of w (pointing away from the facet) about m."""
+    d = 2.0 * (wx * mx + wy * my + wz * mz)
+    return _normalize(d * mx - wx, d * my - wy, d * mz - wz)

@@ -1,0 +1,331 @@
+r"""Driver of the microsurface walk: run every job of a scene (material x mu_i) in rounds until its
+rows reach their standard-error targets (or the path budget), attach the deterministic references,
+and write a CSV, a summary CSV and (when matplotlib is present) one PNG of the lobe by order per job.
+
+Estimates from the tallies of :mod:`.walk` after N paths (a tally holds, per path, its one
+contribution x_p: the weight if the path ended there, else 0):
+
+    mean = S1 / N,  se = sqrt((S2 / N - mean^2) / (N - 1)),
+
+* ``lobe`` rows: the bin average of f mu_o (1/sr), mean / Omega, Omega = 2 (mu_1 - mu_0)(phi_1 - phi_0);
+  order "1".."K" and ">K"; reference (order 1 only): :func:`.reference.bin_average_single`;
+* ``albedo`` rows: int f_k mu_o dw_o by order, and ``capped`` (paths stopped at max_bounces);
+  reference for order 1: :func:`.reference.albedo_single`;
+* ``albedo_multiple``: orders >= 2 with the capped weight (each path contributes once, so the sums of
+  S1 and S2 over the tallies are that row's own); reference 1 - E_1 for lossless materials (F = 1
+  conductor, albedo-1 diffuse facets) whose order 1 has a reference;
+* ``albedo_total``: every order plus the capped weight; reference 1 for lossless materials (energy
+  conservation); ``transmission``: exits through the bottom (0 for opaque facets).
+
+z_ref = (estimate - reference) / se (NaN without a reference or with se = 0).
+
+Stopping rule, per job: after every round of ``batch`` paths, the job stops when every lobe row has
+se <= target_se["lobe"] and every albedo row se <= target_se["albedo"], after at least MIN_PATHS paths;
+a bin no path reached has no error estimate and counts as done when its rule-of-three bound
+3 / (N Omega) (95 % upper limit for no event of weight <= 1) is below the target; or when it has used
+``max_paths`` (its rows then say converged = False: :func:`unconverged` names the job).
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from fitlab._io import FolderError, atomic_write_bytes, atomic_write_text, check_output_folder
+from fitlab.families.microfacet_energy.microsurface.reference import albedo_single, bin_average_single
+from fitlab.families.microfacet_energy.microsurface.scene import Scene, SceneError, load_scene, with_overrides
+from fitlab.families.microfacet_energy.microsurface.walk import (
+    MaterialParams,
+    WalkConfig,
+    compile_walk,
+    job_key,
+    run_round,
+)
+
+__all__ = ["SimulationResult", "SceneError", "simulate", "simulate_file", "write_outputs", "summary_table",
+           "unconverged", "check_out_dir", "ROW_FIELDS", "SUMMARY_FIELDS", "MIN_PATHS", "job_config",
+           "job_params"]
+
+MIN_PATHS = 10_000
+ROW_FIELDS = ("quantity", "material", "kind", "distribution", "alpha_x", "alpha_y", "fresnel", "mu_i", "order",
+              "mu_lo", "mu_hi", "phi_lo", "phi_hi", "estimate", "se", "reference", "z_ref", "reference_method",
+              "paths", "bounces", "seconds", "converged")
+SUMMARY_FIELDS = ("material", "mu_i", "paths", "bounces", "seconds", "compile_seconds", "bounces_per_second",
+                  "worst_se_ratio", "converged", "max_abs_z_ref", "albedo_total", "capped")
+
+
+@dataclass
+class JobStats:
+    paths: int = 0
+    bounces: int = 0
+    seconds: float = 0.0
+    compile_seconds: float = 0.0
+    rounds: int = 0
+    converged: bool = False
+    se_ratio: float = math.nan
+
+
+@dataclass
+class SimulationResult:
+    scene: Scene
+    tallies: dict = field(default_factory=dict)  # (material index, mu_i index) -> summed tallies
+    rows: list = field(default_factory=list)
+    summary: list = field(default_factory=list)
+    jobs: dict = field(default_factory=dict)  # (material index, mu_i index) -> JobStats
+    wall_seconds: float = 0.0
+
+
+def job_config(scene: Scene, material) -> WalkConfig:
+    """The compiled configuration of a material's jobs."""
+    return WalkConfig(distribution=material.distribution, kind=material.kind, fresnel=material.fresnel,
+                      orders=scene.orders, mu_edges=scene.mu_edges, phi_edges=scene.phi_edges, slots=scene.slots)
+
+
+def job_params(material) -> MaterialParams:
+    return MaterialParams(alpha_x=material.alpha_x, alpha_y=material.alpha_y, f0=material.f0, eta=material.eta,
+                          k=material.k, albedo=material.albedo)
+
+
+def _mean_se(s1, s2, n):
+    s1, s2 = np.asarray(s1, float), np.asarray(s2, float)
+    mean = s1 / n
+    var = np.maximum(s2 / n - mean * mean, 0.0) / max(n - 1, 1)
+    return mean, np.sqrt(var)
+
+
+def _order_labels(k: int) -> list:
+    return [str(j + 1) for j in range(k)] + [f">{k}"]
+
+
+def estimate_rows(scene: Scene, mi: int, ii: int, t: dict, references: dict | None = None) -> list:
+    """The rows of one job from its summed tallies ``t`` (references: from :func:`_references`, or None)."""
+    mat, mu_i, n = scene.materials[mi], scene.mu_i[ii], int(t["paths"])
+    base = dict(material=mat.label, kind=mat.kind, distribution=mat.distribution, alpha_x=mat.alpha_x,
+                alpha_y=mat.alpha_y, fresnel=mat.fresnel, mu_i=mu_i)
+    ref = references or {}
+    rows = []
+    labels = _order_labels(scene.orders)
+    mu_e, phi_e = np.asarray(scene.mu_edges), np.asarray(scene.phi_edges)
+    omega = 2.0 * np.outer(np.diff(mu_e), np.diff(phi_e))
+    mean, se = _mean_se(t["lobe"], t["lobe_sq"], n)
+    for k, lab in enumerate(labels):
+        for i in range(len(mu_e) - 1):
+            for j in range(len(phi_e) - 1):
+                r = dict(base, quantity="lobe", order=lab, mu_lo=mu_e[i], mu_hi=mu_e[i + 1], phi_lo=phi_e[j],
+                         phi_hi=phi_e[j + 1], estimate=mean[k, i, j] / omega[i, j], se=se[k, i, j] / omega[i, j],
+                         _norm=omega[i, j], _n=n)
+                if k == 0 and "lobe" in ref:
+                    r.update(reference=ref["lobe"][i, j], reference_method="bin_quadrature")
+                rows.append(r)
+    a_mean, a_se = _mean_se(t["albedo"], t["albedo_sq"], n)
+    for k, lab in enumerate(labels):
+        r = dict(base, quantity="albedo", order=lab, estimate=a_mean[k], se=a_se[k], _n=n)
+        if k == 0 and "albedo" in ref:
+            r.update(reference=ref["albedo"][0], reference_method=ref["albedo"][1])
+        rows.append(r)
+    c_mean, c_se = _mean_se(t["capped"], t["capped_sq"], n)
+    rows.append(dict(base, quantity="albedo", order="capped", estimate=float(c_mean), se=float(c_se), _n=n))
+    ms_mean, ms_se = _mean_se(np.sum(t["albedo"][1:]) + t["capped"], np.sum(t["albedo_sq"][1:]) + t["capped_sq"], n)
+    r = dict(base, quantity="albedo_multiple", order=">=2", estimate=float(ms_mean), se=float(ms_se), _n=n)
+    if mat.lossless and "albedo" in ref:
+        r.update(reference=1.0 - ref["albedo"][0], reference_method="1 - " + ref["albedo"][1])
+    rows.append(r)
+    tot_mean, tot_se = _mean_se(np.sum(t["albedo"]) + t["capped"], np.sum(t["albedo_sq"]) + t["capped_sq"], n)
+    r = dict(base, quantity="albedo_total", order="all", estimate=float(tot_mean), se=float(tot_se), _n=n)
+    if mat.lossless:
+        r.update(reference=1.0, reference_method="energy_conservation")
+    rows.append(r)
+    tr_mean, tr_se = _mean_se(np.sum(t["transmission"]), np.sum(t["transmission_sq"]), n)
+    rows.append(dict(base, quantity="transmission", order="all", estimate=float(tr_mean), se=float(tr_se), _n=n))
+    for r in rows:
+        if "reference" in r:
+            r["z_ref"] = (r["estimate"] - r["reference"]) / r["se"] if r["se"] > 0 else math.nan
+        else:
+            r.update(reference=math.nan, z_ref=math.nan, reference_method="")
+    return rows
+
+
+def _references(scene: Scene, mi: int, ii: int) -> dict:
+    """Order-1 references of a conductor job (lobe bin averages, albedo); none for diffuse facets."""
+    mat = scene.materials[mi]
+    if mat.kind != "conductor":
+        return {}
+    mu_i = scene.mu_i[ii]
+    return {"lobe": bin_average_single(scene.mu_edges, scene.phi_edges, mu_i, mat),
+            "albedo": albedo_single(mu_i, mat)}
+
+
+def _job_done(scene: Scene, rows: list) -> tuple:
+    worst = 0.0
+    for r in rows:
+        if r["quantity"] in ("transmission",):
+            continue
+        target = scene.target_se["lobe" if r["quantity"] == "lobe" else "albedo"]
+        if r["se"] == 0.0:
+            if r["estimate"] == 0.0 and 3.0 / (r["_n"] * r.get("_norm", 1.0)) > target:
+                return False, math.inf
+            continue
+        worst = max(worst, r["se"] / target)
+    return worst <= 1.0, worst
+
+
+def simulate(scene: Scene, progress: bool = False) -> SimulationResult:
+    """Run every job of the scene (writes nothing); see the module docstring."""
+    t_start = time.perf_counter()
+    out = SimulationResult(scene=scene)
+    for mi, mat in enumerate(scene.materials):
+        cfg, params = job_config(scene, mat), job_params(mat)
+        for ii, mu_i in enumerate(scene.mu_i):
+            st = JobStats(compile_seconds=compile_walk(cfg))
+            key = job_key(scene.seed, mi, ii)
+            acc = None
+            while st.paths < scene.max_paths:
+                n = min(scene.batch, scene.max_paths - st.paths)
+                t0 = time.perf_counter()
+                res = run_round(cfg, key, params, mu_i, st.paths, n, scene.max_bounces)
+                st.seconds += time.perf_counter() - t0
+                st.rounds += 1
+                acc = res if acc is None else {k: acc[k] + v for k, v in res.items()}
+                st.paths, st.bounces = int(acc["paths"]), int(acc["bounces"])
+                done, st.se_ratio = _job_done(scene, estimate_rows(scene, mi, ii, acc))
+                if progress:
+                    print(f"{scene.name}: {mat.label} mu_i={mu_i:g}: {st.paths} paths, se/target {st.se_ratio:.2f}",
+                          flush=True)
+                if done and st.paths >= MIN_PATHS:
+                    st.converged = True
+                    break
+            out.tallies[(mi, ii)], out.jobs[(mi, ii)] = acc, st
+            rows = estimate_rows(scene, mi, ii, acc, _references(scene, mi, ii))
+            for r in rows:
+                r.update(paths=st.paths, bounces=st.bounces, seconds=round(st.seconds, 3), converged=st.converged)
+            out.rows.extend(rows)
+            zs = [abs(r["z_ref"]) for r in rows if math.isfinite(r["z_ref"])]
+            total = next(r for r in rows if r["quantity"] == "albedo_total")
+            capped = next(r for r in rows if r["quantity"] == "albedo" and r["order"] == "capped")
+            out.summary.append(dict(
+                material=mat.label, mu_i=mu_i, paths=st.paths, bounces=st.bounces, seconds=round(st.seconds, 3),
+                compile_seconds=round(st.compile_seconds, 3),
+                bounces_per_second=st.bounces / st.seconds if st.seconds > 0 else math.nan,
+                worst_se_ratio=st.se_ratio, converged=st.converged, max_abs_z_ref=max(zs, default=math.nan),
+                albedo_total=total["estimate"], capped=capped["estimate"]))
+    out.wall_seconds = time.perf_counter() - t_start
+    return out
+
+
+def _fmt(v):
+    if isinstance(v, (float, np.floating)):
+        return "" if math.isnan(v) else f"{float(v):.10g}"
+    return str(v)
+
+
+def _csv(rows, fields):
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(fields)
+    for r in rows:
+        w.writerow([_fmt(r.get(f, "")) for f in fields])
+    return buf.getvalue()
+
+
+def _plot(result: SimulationResult, mi: int, ii: int, path: Path):
+    """One panel per order: the bin averages of f mu_o over (mu_o, |phi_o|); None without matplotlib."""
+    try:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:  # plots are optional: the CSV holds every number
+        return None
+    scene, t = result.scene, result.tallies[(mi, ii)]
+    mu_e, phi_e = np.asarray(scene.mu_edges), np.asarray(scene.phi_edges)
+    omega = 2.0 * np.outer(np.diff(mu_e), np.diff(phi_e))
+    labels = _order_labels(scene.orders)
+    fig, axes = plt.subplots(1, len(labels), figsize=(3.0 * len(labels), 3.0), squeeze=False)
+    for k, lab in enumerate(labels):
+        ax = axes[0, k]
+        im = ax.pcolormesh(phi_e, mu_e, t["lobe"][k] / (t["paths"] * omega), shading="flat")
+        ax.set_title(f"order {lab}")
+        ax.set_xlabel("|phi_o| (pi: mirror)")
+        if k == 0:
+            ax.set_ylabel("mu_o")
+        fig.colorbar(im, ax=ax)
+    fig.suptitle(f"{scene.name}: {scene.materials[mi].label}, mu_i = {scene.mu_i[ii]:g}  (f mu_o, 1/sr)")
+    fig.tight_layout()
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=80)
+    plt.close(fig)
+    atomic_write_bytes(path, buf.getvalue())
+    return path
+
+
+def write_outputs(result: SimulationResult, out_dir, plots: bool = True) -> list:
+    """<name>.csv (every row), <name>_summary.csv, and <name>_<material>_<mu_i index>.png; returns the paths."""
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    name = result.scene.name
+    paths = [out_dir / f"{name}.csv", out_dir / f"{name}_summary.csv"]
+    atomic_write_text(paths[0], _csv(result.rows, ROW_FIELDS))
+    atomic_write_text(paths[1], _csv(result.summary, SUMMARY_FIELDS))
+    if plots:
+        for (mi, ii) in sorted(result.tallies):
+            safe = "".join(ch if ch.isalnum() or ch in "_-" else "_" for ch in result.scene.materials[mi].label)
+            p = _plot(result, mi, ii, out_dir / f"{name}_{safe}_{ii}.png")
+            if p is not None:
+                paths.append(p)
+    return paths
+
+
+def summary_table(result: SimulationResult) -> str:
+    """A plain-text table of the summary, one line per job."""
+    lines = [f"{'material':<16}{'mu_i':>6}{'paths':>11}{'bounces':>11}{'seconds':>9}{'bounce/s':>11}"
+             f"{'se/tgt':>8}{'conv':>6}{'max|z|':>8}{'total':>10}"]
+    for s in result.summary:
+        lines.append(f"{s['material']:<16}{s['mu_i']:>6.3g}{s['paths']:>11}{s['bounces']:>11}{s['seconds']:>9.2f}"
+                     f"{s['bounces_per_second']:>11.3g}{s['worst_se_ratio']:>8.2f}"
+                     f"{'yes' if s['converged'] else 'NO':>6}{s['max_abs_z_ref']:>8.2f}{s['albedo_total']:>10.6f}")
+    comp = sum(st.compile_seconds for st in result.jobs.values())
+    lines.append(f"wall {result.wall_seconds:.1f} s (compilation {comp:.1f} s), {len(result.jobs)} jobs")
+    return "\n".join(lines)
+
+
+def unconverged(result: SimulationResult) -> list:
+    """One line per job that stopped on its path budget above its standard-error target (or under MIN_PATHS)."""
+    lines = []
+    for (mi, ii), st in sorted(result.jobs.items()):
+        if st.converged:
+            continue
+        mat = result.scene.materials[mi]
+        why = (f"standard error {st.se_ratio:.3g} x its target" if not st.se_ratio <= 1.0
+               else f"fewer than the {MIN_PATHS} paths the stopping rule needs")
+        lines.append(f"not converged: material {mat.label}, mu_i = {result.scene.mu_i[ii]:g}: {why} after "
+                     f"{st.paths} paths (max_paths)")
+    return lines
+
+
+def check_out_dir(out_dir) -> None:
+    """Refuse (one-line SceneError) an output location that is not, or cannot become, a writable folder."""
+    out_dir = Path(out_dir)
+    try:
+        check_output_folder(out_dir)
+    except FolderError as exc:
+        if exc.kind == "file":
+            raise SceneError(f"--out: {out_dir} exists and is not a folder") from None
+        raise SceneError(f"--out: cannot write in {out_dir}: {exc.detail or exc.kind.replace('_', ' ')} at "
+                         f"{exc.where}") from None
+
+
+def simulate_file(path, out_dir=None, progress=False, plots=True, target_se=None, max_paths=None, seed=None):
+    """Load and validate (scene, overrides, output folder: every error before any work), simulate, write.
+
+    Returns (result, paths written)."""
+    scene = with_overrides(load_scene(path), target_se=target_se, max_paths=max_paths, seed=seed)
+    out_dir = Path(out_dir) if out_dir is not None else Path("mc_out") / scene.name
+    check_out_dir(out_dir)
+    result = simulate(scene, progress=progress)
+    return result, write_outputs(result, out_dir, plots=plots)

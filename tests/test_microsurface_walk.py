@@ -1,0 +1,243 @@
+"""The microsurface random walk (Heitz et al. 2016) against independent references and identities.
+
+Small budgets: each compiled walk configuration costs a few seconds; the configurations are shared
+through module fixtures.  Every comparison is between two independent computations (the walk against
+deterministic quadratures of the analytic single scattering or the exact engine's E), or an identity
+that holds path by path."""
+
+from __future__ import annotations
+
+import math
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from fitlab.core import float64
+from fitlab.families.microfacet_energy.exact import directional_albedo, fresnel_conductor, fresnel_schlick, ggx_brdf
+from fitlab.families.microfacet_energy.microsurface import parse_scene, simulate
+from fitlab.families.microfacet_energy.microsurface.fresnel import conductor, schlick
+from fitlab.families.microfacet_energy.microsurface.microsurface import sample_vndf, smith_lambda
+from fitlab.families.microfacet_energy.microsurface.reference import ndf, single_scattering_brdf
+from fitlab.families.microfacet_energy.microsurface.simulate import job_config
+from fitlab.families.microfacet_energy.microsurface.walk import MaterialParams, job_key, run_round
+
+Z_MAX = 4.0
+
+
+def _scene(materials: str, mu_i="[0.5]", max_paths=200_000, target=1e-9, mu_o=4, phi=4, orders=3) -> str:
+    return f"""
+[scene]
+name = "t"
+seed = 7
+{materials}
+[incident]
+mu_i = {mu_i}
+[outgoing]
+mu_o = {mu_o}
+phi = {phi}
+orders = {orders}
+[precision]
+target_se = {target}
+max_paths = {max_paths}
+batch = {max_paths}
+"""
+
+
+WHITE_GGX = """
+[[material]]
+label = "white"
+kind = "conductor"
+distribution = "ggx"
+alpha = 0.6
+[[material]]
+label = "aniso"
+kind = "conductor"
+distribution = "ggx"
+alpha_x = 0.3
+alpha_y = 0.8
+"""
+
+
+@pytest.fixture(scope="module")
+def white_ggx():
+    return simulate(parse_scene(_scene(WHITE_GGX, mu_i="[0.3, 0.8]")))
+
+
+def _assert_agrees(rows):
+    """Each row within Z_MAX standard errors of its reference; a bin no path reached (se = 0, estimate 0)
+    must have a reference below the rule-of-three bound 3 / (N Omega) of an empty bin."""
+    worst = 0.0
+    for r in rows:
+        assert math.isfinite(r["reference"]), r
+        if r["se"] == 0.0:
+            assert r["estimate"] == 0.0 and r["reference"] < 3.0 / (r["paths"] * r.get("_norm", 1.0)), r
+            continue
+        worst = max(worst, abs(r["z_ref"]))
+    assert worst < Z_MAX, worst
+    return worst
+
+
+def _rows(result, quantity, material=None, order=None):
+    return [r for r in result.rows if r["quantity"] == quantity and (material is None or r["material"] == material)
+            and (order is None or r["order"] == order)]
+
+
+def test_order_one_lobe_is_height_correlated_single_scattering(white_ggx):
+    rows = _rows(white_ggx, "lobe", order="1")
+    assert len(rows) == 2 * 2 * 16
+    _assert_agrees(rows)
+
+
+def test_white_conductor_conserves_energy_path_by_path(white_ggx):
+    for (mi, ii), t in white_ggx.tallies.items():
+        # F = 1: every path carries weight 1 and ends exactly once, escaped (some order) or capped
+        assert np.sum(t["albedo"]) + t["capped"] == t["paths"]
+        assert np.sum(t["lobe"]) == np.sum(t["albedo"])  # the bins cover the hemisphere
+        assert np.sum(t["transmission"]) == 0.0
+    for r in _rows(white_ggx, "albedo_total"):
+        assert r["estimate"] == 1.0 and abs(r["z_ref"]) < Z_MAX or r["se"] == 0.0
+
+
+def test_multiple_scattering_albedo_is_one_minus_e(white_ggx):
+    for r in _rows(white_ggx, "albedo", material="white", order="1"):
+        e = float(directional_albedo(r["mu_i"], 0.6, "ggx_correlated"))
+        assert abs(r["estimate"] - e) < Z_MAX * r["se"]
+    for r in _rows(white_ggx, "albedo_multiple", material="white"):
+        e = float(directional_albedo(r["mu_i"], 0.6, "ggx_correlated"))
+        assert abs(r["estimate"] - (1.0 - e)) < Z_MAX * r["se"]
+        assert r["estimate"] > 10 * r["se"]  # a real multiple-scattering signal, not noise
+
+
+def test_anisotropic_order_one_albedo_against_quadrature(white_ggx):
+    for r in _rows(white_ggx, "albedo", material="aniso", order="1"):
+        assert r["reference_method"] == "bin_quadrature" and abs(r["z_ref"]) < Z_MAX
+
+
+def test_reproducible_and_independent_of_batch_split(white_ggx):
+    cfg = job_config(white_ggx.scene, white_ggx.scene.materials[0])  # compiled already
+    key, params = job_key(3, 0, 0), MaterialParams(0.6, 0.6)
+    whole = run_round(cfg, key, params, 0.5, 0, 30_000)
+    again = run_round(cfg, key, params, 0.5, 0, 30_000)
+    parts = [run_round(cfg, key, params, 0.5, lo, 10_000) for lo in (0, 10_000, 20_000)]
+    for name in whole:
+        assert np.array_equal(whole[name], again[name])
+        # F = 1: the tallies are counts, exact in float64 whatever the order of summation
+        assert np.array_equal(whole[name], sum(p[name] for p in parts)), name
+    other = run_round(cfg, job_key(4, 0, 0), params, 0.5, 0, 30_000)
+    assert not np.array_equal(whole["lobe"], other["lobe"])
+
+
+DIFFUSE = """
+[[material]]
+label = "diffuse"
+kind = "diffuse"
+distribution = "ggx"
+alpha = 0.6
+"""
+
+
+def test_diffuse_facets_conserve_energy_and_weigh_albedo_per_order():
+    scene = parse_scene(_scene(DIFFUSE, max_paths=20_000))
+    cfg = job_config(scene, scene.materials[0])  # one compilation for both parts of the test
+    key = job_key(5, 0, 0)
+    white = run_round(cfg, key, MaterialParams(0.6, 0.6, albedo=1.0), 0.5, 0, 50_000)
+    grey = run_round(cfg, key, MaterialParams(0.6, 0.6, albedo=0.5), 0.5, 0, 50_000)
+    assert np.sum(white["albedo"]) + white["capped"] == white["paths"]
+    assert white["albedo"][1] > 0.1 * white["paths"]
+    # the path does not depend on the weight: order n carries albedo^n exactly
+    for k in range(3):
+        np.testing.assert_allclose(grey["albedo"][k], 0.5 ** (k + 1) * white["albedo"][k], rtol=1e-12)
+    res = simulate(scene)
+    total = _rows(res, "albedo_total")[0]
+    assert total["estimate"] == 1.0 and total["reference"] == 1.0
+
+
+FRESNEL_AND_BECKMANN = """
+[[material]]
+label = "gold"
+kind = "conductor"
+distribution = "ggx"
+alpha = 0.5
+fresnel = "conductor"
+eta = 0.2
+k = 3.0
+[[material]]
+label = "beckmann"
+kind = "conductor"
+distribution = "beckmann"
+alpha = 0.5
+"""
+
+
+def test_fresnel_conductor_and_beckmann_order_one():
+    res = simulate(parse_scene(_scene(FRESNEL_AND_BECKMANN, max_paths=100_000)))
+    for mat in ("gold", "beckmann"):
+        _assert_agrees(_rows(res, "lobe", material=mat, order="1") + _rows(res, "albedo", material=mat, order="1"))
+    gold = _rows(res, "albedo_total", material="gold")[0]
+    assert 0.0 < gold["estimate"] < 1.0 and math.isnan(gold["reference"])
+
+
+@float64
+def test_fresnel_functions_agree_with_the_exact_engine():
+    c = np.linspace(0.0, 1.0, 101)
+    for eta, k in ((0.2, 3.0), (1.5, 0.0), (2.5, 1.2)):
+        np.testing.assert_allclose(np.asarray(conductor(jnp.asarray(c), eta, k)), fresnel_conductor(c, eta, k),
+                                   rtol=1e-12, atol=1e-14)
+    np.testing.assert_allclose(np.asarray(schlick(jnp.asarray(c), 0.3)), fresnel_schlick(c, 0.3), rtol=1e-14)
+
+
+def test_reference_brdf_agrees_with_exact_ggx():
+    mu_o, phi = np.meshgrid(np.linspace(0.05, 1.0, 9), np.linspace(0.0, math.pi, 7))
+    for mu_i, alpha in ((0.3, 0.2), (0.8, 0.9)):
+        ours = single_scattering_brdf(mu_o, phi, mu_i, alpha, alpha, "ggx")
+        np.testing.assert_allclose(ours, ggx_brdf(mu_o, mu_i, phi, alpha, smith="correlated"), rtol=1e-12)
+
+
+def _sphere_rule(n=400):
+    """Gauss-Legendre nodes on the upper hemisphere of normals (m_z = cos theta in (0, 1), azimuth)."""
+    x, w = np.polynomial.legendre.leggauss(n)
+    mz, wz = (x + 1) / 2, w / 2
+    ph, wp = np.pi * (x + 1), np.pi * w
+    MZ, PH = np.meshgrid(mz, ph, indexing="ij")
+    s = np.sqrt(1 - MZ * MZ)
+    return s * np.cos(PH), s * np.sin(PH), MZ, np.outer(wz, wp)
+
+
+@pytest.mark.parametrize("distribution", ["ggx", "beckmann"])
+@float64
+def test_visible_normals_of_a_rising_ray(distribution):
+    """wi below the horizon (the walk's -w for a rising ray): the projected area int max(0, wi.m) D dm
+    equals wi_z (1 + Lambda(wi)) with Lambda(wi) = -1 - Lambda(-wi), and the sampled m have the
+    quadrature's mean of D_wi."""
+    ax, ay = 0.5, 0.7
+    wi = np.array([0.8, 0.3, -0.3])
+    wi /= np.linalg.norm(wi)
+    mx, my, mz, w = _sphere_rule()
+    dens = np.maximum(0.0, wi[0] * mx + wi[1] * my + wi[2] * mz) * ndf(mx, my, mz, ax, ay, distribution)
+    area = np.sum(dens * w)
+    lam = float(smith_lambda(jnp.float64(wi[0]), jnp.float64(wi[1]), jnp.float64(wi[2]), ax, ay, distribution))
+    assert lam < -1.0
+    # the rule is not split along the kink of max(0, wi.m): 1e-4 is its accuracy, far below a wrong Lambda's
+    assert area == pytest.approx(wi[2] * (1.0 + lam), rel=1e-4)
+    mean = [np.sum(dens * c * w) / area for c in (mx, my, mz)]
+    n = 200_000
+    u = jax.random.uniform(jax.random.key(11), (2, n), dtype=jnp.float64)
+    sample = jax.jit(lambda a, b: sample_vndf(wi[0], wi[1], wi[2], a, b, ax, ay, distribution))(u[0], u[1])
+    for k in range(3):
+        s = np.asarray(sample[k])
+        assert abs(s.mean() - mean[k]) < Z_MAX * s.std() / math.sqrt(n), (k, s.mean(), mean[k])
+    dots = wi[0] * np.asarray(sample[0]) + wi[1] * np.asarray(sample[1]) + wi[2] * np.asarray(sample[2])
+    assert np.all(dots >= -1e-12)
+
+
+@pytest.mark.benchmark
+def test_throughput_report():
+    """Bounces per second of the walk on this machine (a report, not a timed assertion)."""
+    from fitlab.families.microfacet_energy.microsurface.bench import bench_walk
+
+    for distribution in ("ggx", "beckmann"):
+        r = bench_walk(distribution=distribution)
+        print(f"{distribution}: {r['bounces_per_second']:.3g} bounces/s, {r['paths_per_second']:.3g} paths/s")
+        assert r["bounces"] > r["paths"]
