@@ -1,0 +1,63 @@
+"""The energy-compensation study (fitlab.families.microfacet_energy.study): its texture read and its furnace
+are checked on identities, at sizes small enough for the suite."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from fitlab.families.microfacet_energy import study as S
+from fitlab.families.microfacet_energy.exact import directional_albedo
+
+
+def test_bilinear_read_is_exact_at_texel_centres_and_clamps_at_the_edges():
+    rng = np.random.default_rng(1)
+    table = rng.random((5, 7))
+    v, u = np.meshgrid((np.arange(5) + 0.5) / 5, (np.arange(7) + 0.5) / 7, indexing="ij")
+    assert np.array_equal(S.bilinear(table, u.ravel(), v.ravel()), table.ravel())
+    assert S.bilinear(table, np.array([0.0]), np.array([0.0]))[0] == table[0, 0]  # clamp-to-edge
+    assert S.bilinear(table, np.array([1.0]), np.array([1.0]))[0] == table[-1, -1]
+    line = rng.random(4)
+    assert S.bilinear(line, np.array([0.5]))[0] == pytest.approx(0.5 * (line[1] + line[2]), rel=1e-15)
+
+
+def test_a_bilinear_read_of_a_bilinear_function_is_exact():
+    """Linear in each coordinate between the centres: the read reproduces it everywhere inside them."""
+    n = 6
+    c = (np.arange(n) + 0.5) / n
+    a, m = np.meshgrid(c, c, indexing="ij")
+    f = lambda mu, alpha: 0.3 + 0.2 * mu - 0.1 * alpha + 0.05 * mu * alpha  # noqa: E731
+    rng = np.random.default_rng(2)
+    mu, alpha = rng.uniform(c[0], c[-1], 50), rng.uniform(c[0], c[-1], 50)
+    assert np.allclose(S.bilinear(f(m, a), mu, alpha), f(mu, alpha), rtol=0, atol=1e-15)
+
+
+@pytest.mark.parametrize("model", ["ggx_correlated", "oren_nayar"])
+def test_furnace_with_the_exact_albedo_is_one(model):
+    """With E_hat = E and E_avg_hat = E_avg the furnace is 1 (to the midpoint rule of the lobe's integral)."""
+    mu, alpha = np.array([0.0, 0.3, 1.0, 0.7]), np.array([0.2, 0.2, 0.6, 1.0])
+    a = S.furnace(S.exact_method(model), model, mu, alpha, directional_albedo(mu, alpha, model))
+    assert np.allclose(a, 1.0, atol=2e-5)
+
+
+def test_no_compensation_loses_one_minus_E():
+    mu, alpha = np.array([0.5]), np.array([1.0])
+    E = directional_albedo(mu, alpha, "ggx_separable")
+    assert S.furnace(S.no_compensation(), "ggx_separable", mu, alpha, E)[0] == E[0]
+
+
+def test_node_addressing_reads_the_nodes():
+    n = 5
+    nodes = np.arange(n) / (n - 1.0)
+    table = np.add.outer(nodes, 2.0 * nodes)  # [alpha, mu]
+    to = lambda u: (u * (n - 1) + 0.5) / n  # noqa: E731
+    a, m = np.meshgrid(nodes, nodes, indexing="ij")
+    assert np.allclose(S.bilinear(table, to(m.ravel()), to(a.ravel())), table.ravel(), atol=1e-15)
+
+
+def test_validation_set_holds_the_edges_and_no_texel_centre():
+    v = S.validation_set(8)
+    assert {0.0, 1.0} <= set(v["mu"]) and {S.ALPHA_MIN, 1.0} <= set(v["alpha"])
+    for n in S.TABLE_SIZES:
+        centres = (np.arange(n) + 0.5) / n
+        assert not np.any(np.isclose(v["mu"][:, None], centres[None, :], rtol=0, atol=1e-12))
