@@ -381,9 +381,9 @@ def test_half_integer_powers_print_as_products_with_one_sqrt():
 
     (x,) = symbols(("x",))
     name = str
-    assert CPrinter("double", name).doprint(x ** sp.Rational(3, 2)) == "x*sqrt(x)"
-    assert CPrinter("float", name).doprint((1 - x) ** sp.Rational(5, 2)) == "(1.0F - x)*(1.0F - x)*sqrtf(1.0F - x)"
-    assert GLSLPrinter(name).doprint(x ** sp.Rational(7, 2)) == "x*x*x*sqrt(x)"
+    assert CPrinter("double", name).doprint(x ** sp.Rational(3, 2)) == "(x*sqrt(x))"
+    assert CPrinter("float", name).doprint((1 - x) ** sp.Rational(5, 2)) == "((1.0F - x)*(1.0F - x)*sqrtf(1.0F - x))"
+    assert GLSLPrinter(name).doprint(x ** sp.Rational(7, 2)) == "(x*x*x*sqrt(x))"
     assert "pow" in CPrinter("double", name).doprint(x ** sp.Rational(9, 2))  # long products: pow stays
     f = eval("lambda x: " + NumpyPrinter(name).doprint(x ** sp.Rational(3, 2)), {"numpy": np})
     v = np.linspace(0.0, 1.0, 101)

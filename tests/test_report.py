@@ -171,7 +171,7 @@ def test_validation_albedos_avoid_the_table_grid():
 def test_every_fit_file_is_picked_up_and_discovered_forms_are_grouped(tmp_path):
     fits = tmp_path / "fits"
     fits.mkdir()
-    for target in ("H0", "H1", "l", "m", "B", "C", "D", "F", "kd_of_c", "c_of_kd", "fast_brdf"):  # default forms
+    for target in ("H0", "H1", "H2", "l", "m", "B", "C", "D", "F", "kd_of_c", "c_of_kd", "fast_brdf"):  # default forms
         shutil.copy(FITS / f"{target}.json", fits)
     shutil.copy(FITS / "m.quadratic.json", fits)
     rec = json.loads((FITS / "l.cubic.json").read_text())

@@ -42,10 +42,12 @@ def _small_power(printer, expr) -> str | None:
     """
     e = expr.exp
     base = printer.parenthesize(expr.base, precedence(sp.Mul(2, expr.base, evaluate=False)) + 1)
+    # the product is bracketed: a power binds tighter than * and /, and the Mul printer puts it after a
+    # "/" unbracketed when it is a denominator (x**3/y**3 must not print as x*x*x/y*y*y)
     if e.is_Integer and 2 <= int(e) <= 4:
-        return "*".join([base] * int(e))
+        return "(" + "*".join([base] * int(e)) + ")"
     if e.is_Rational and e.q == 2 and 3 <= e.p <= 7:
-        return "*".join([base] * (e.p // 2) + [printer._print(sp.sqrt(expr.base))])
+        return "(" + "*".join([base] * (e.p // 2) + [printer._print(sp.sqrt(expr.base))]) + ")"
     return None
 
 

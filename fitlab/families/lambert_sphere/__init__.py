@@ -1,7 +1,7 @@
 r"""The Lambert-sphere BRDF (d'Eon, EGSR 2021): fitlab's first family.
 
 Registers, in one place, everything the family contributes: its targets
-(:mod:`.targets`: H0, H1, l, m, B, C, D, F, kd_of_c, c_of_kd, fm1, fast_brdf),
+(:mod:`.targets`: H0, H1, H2, l, m, B, C, D, F, kd_of_c, c_of_kd, fm1, fast_brdf),
 their forms and published presets (:mod:`.forms`), the exact engine
 (:mod:`.exact`) behind their training, validation and residual sets, the
 libraries of ``fitlab discover`` (:mod:`.libraries`), the generated program

@@ -21,6 +21,7 @@ import sympy as sp
 
 from fitlab.discover import Library, products
 from fitlab.families.lambert_sphere.forms.brdf import SINGLE
+from fitlab.families.lambert_sphere.forms.h_functions import LOG_FLOOR
 from fitlab.forms.symbolic import symbols
 
 __all__ = ["LIBRARIES", "LOG_FLOOR"]
@@ -31,8 +32,7 @@ s = sp.sqrt(1 - c)
 
 #: floor of mu in mu log(1 + 1/mu) and of mu_i + mu_o in log(mu_i + mu_o): written directly, both are
 #: 0 * inf = nan at 0 (their limits are 0 and a finite floor); 1e-30 is a normal float, so the float C
-#: back end keeps the floor too
-LOG_FLOOR = sp.Float("1e-30")
+#: back end keeps the floor too.  The same floor as the log_exp H forms (defined there once).
 
 
 def _mu_log(x):

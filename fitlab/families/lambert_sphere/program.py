@@ -7,10 +7,11 @@ states the model.
 
 Routines (args; domain), named by the targets' ``routine``:
 
-* ``h0, h1 (mu, c)``, ``const_l, const_m, const_b, const_c, const_d, const_f (c)``,
+* ``h0, h1, h2 (mu, c)``, ``const_l, const_m, const_b, const_c, const_d, const_f (c)``,
   ``c_of_kd (kd)``, ``kd_of_c (c)``: the fitted parts on their own; mu, c, kd in [0, 1].
-* ``single, fm0, fm1`` and ``brdf (mu_i, mu_o, cos_phi, c)``: the runtime model
-  (docs/model.md), f_r = max(0, f_1 + fm0 + fm1 cos phi) (only the terms asked for).
+* ``single, fm0, fm1, fm2`` and ``brdf (mu_i, mu_o, cos_phi, c)``: the runtime model
+  (docs/model.md), f_r = max(0, f_1 + fm0 + fm1 cos phi + fm2 cos 2phi) (only the terms asked for;
+  ``--terms single,m0,m1`` is the paper's model).
 * ``brdf_fast (mu_i, mu_o, cos_phi, c, kd)``: the fast variant, eq. 41 (the fit of ``fast_brdf``).
 * ``brdf_local, brdf_fast_local (wi, wo, c[, kd])``: the same for unit vectors in the
   local frame (z the normal, both pointing away from the surface); 0 when either
@@ -40,7 +41,7 @@ from fitlab.codegen.program import (
     floor_poles,
     part_routine,
 )
-from fitlab.families.lambert_sphere.forms import RUNTIME_PARTS, RUNTIME_TERMS, SINGLE, runtime_terms
+from fitlab.families.lambert_sphere.forms import ORDER2_PART, RUNTIME_PARTS, RUNTIME_TERMS, SINGLE, runtime_terms
 from fitlab.families.lambert_sphere.targets import TARGETS
 from fitlab.forms.symbolic import symbols
 from fitlab.store import FitFunction
@@ -54,16 +55,22 @@ _VEC = {v: symbols(tuple(f"{v}_{k}" for k in "xyz")) for v in ("wi", "wo")}
 FAST = "fast_brdf"
 
 #: the targets printed as routines of their own, in the order of the generated files
-PARTS = ("H0", "H1", "l", "m", "B", "C", "D", "F", "c_of_kd", "kd_of_c")
+PARTS = ("H0", "H1", "H2", "l", "m", "B", "C", "D", "F", "c_of_kd", "kd_of_c")
 
 _TERM_DOCS = {
     "single": "Single scattering with the true phase function, c p(u)/(mu_i + mu_o), u = -(mu_i mu_o + S cos phi) (eq. 10).",
     "m0": "Multiple scattering, Fourier order 0: fm0 = (H0 H0 Q/(2 pi) - n0_ss)/(mu_i + mu_o) (eqs. 30, 38).",
     "m1": "Multiple scattering, Fourier order 1 (coefficient of cos phi): fm1 of eq. 22 minus its single "
           "scattering, exact normalisations 3 pi and 192 pi (docs/errata.md).",
+    "m2": "Multiple scattering, Fourier order 2 (coefficient of cos 2phi), which the paper drops (eq. 21): "
+          "fm2 = 15 c S^2 (H2(mu_i) H2(mu_o) - 1)/(256 pi (mu_i + mu_o)) (docs/model.md, 'Order 2').",
 }  # fmt: skip
-_TERM_ARGS = {"single": ("mu_i", "mu_o", "cos_phi", "c"), "m0": ("mu_i", "mu_o", "c"), "m1": ("mu_i", "mu_o", "c")}
-_TERM_NAMES = {"single": "single", "m0": "fm0", "m1": "fm1"}
+_TERM_ARGS = {"single": ("mu_i", "mu_o", "cos_phi", "c"), "m0": ("mu_i", "mu_o", "c"), "m1": ("mu_i", "mu_o", "c"),
+              "m2": ("mu_i", "mu_o", "c")}  # fmt: skip
+_TERM_NAMES = {"single": "single", "m0": "fm0", "m1": "fm1", "m2": "fm2"}
+#: each term's azimuthal factor in terms of cos phi (cos 2phi = 2 cos^2 phi - 1)
+_TERM_AZIMUTH = {"single": sp.S.One, "m0": sp.S.One, "m1": cos_phi, "m2": 2 * cos_phi**2 - 1}
+_AZIMUTH_TEXT = {"single": "", "m0": "", "m1": " cos phi", "m2": " cos 2phi"}
 
 
 #: the domain of every scalar input of the composed routines (the parts take their targets' domains)
@@ -78,17 +85,17 @@ def routines(fits: Mapping[str, FitFunction], terms: tuple[str, ...]) -> list[Ro
     """Every routine of the generated Lambert-sphere files, in file order."""
     out = [part_routine(fits[t]) for t in PARTS]
 
-    parts = {p: call(TARGETS[p].routine, *symbols(TARGETS[p].inputs)) for p in RUNTIME_PARTS}
+    parts = {p: call(TARGETS[p].routine, *symbols(TARGETS[p].inputs)) for p in (*RUNTIME_PARTS, ORDER2_PART)}
     term_exprs = runtime_terms(parts)
     total = sp.S.Zero
     for t in terms:
         expr = floor_poles(azimuth_to_cosine(term_exprs[t]))
         out.append(Routine(_TERM_NAMES[t], _TERM_ARGS[t], expr, _TERM_DOCS[t] + " Pole floored at 1e-6.",
                            domain=_domain(_TERM_ARGS[t])))  # fmt: skip
-        total += call(_TERM_NAMES[t], *symbols(_TERM_ARGS[t])) * (cos_phi if t == "m1" else 1)
+        total += call(_TERM_NAMES[t], *symbols(_TERM_ARGS[t])) * _TERM_AZIMUTH[t]
     out.append(Routine(
         "brdf", ("mu_i", "mu_o", "cos_phi", "c"), sp.Max(0, total),
-        f"The runtime Lambert-sphere BRDF (1/sr), max(0, {' + '.join(_TERM_NAMES[t] + (' cos phi' if t == 'm1' else '') for t in terms)}) "
+        f"The runtime Lambert-sphere BRDF (1/sr), max(0, {' + '.join(_TERM_NAMES[t] + _AZIMUTH_TEXT[t] for t in terms)}) "
         "(docs/model.md). mu_i, mu_o in [0, 1], cos_phi in [-1, 1] (phi = 0 back-scattering), c the particle "
         "albedo in [0, 1]; inputs outside (+-inf included) are clamped, NaN in any input gives NaN.",
         domain=_domain(("mu_i", "mu_o", "cos_phi", "c")),

@@ -4,13 +4,13 @@ r"""The Lambert-sphere family's part of ``fitlab report`` (its ``report`` hook).
 module, for what only the family knows:
 
 * :data:`REQUIRED_FITS`: the default fits its BRDF-level methods need (checked
-  before any slow work): the runtime parts, both albedo maps (the generated
+  before any slow work): the runtime parts and H2, both albedo maps (the generated
   program carries them) and the fast variant;
 * :data:`PARTS`: the targets measured at part level (every target but the
   whole-BRDF ``fast_brdf``, which is measured as a BRDF);
 * :data:`PRESET_VARIANTS`: the published runtime preset sets;
 * :func:`brdf_methods`: the BRDF-level catalogue (tables, published presets,
-  refits, richer and discovered forms, the fast variant, the baselines);
+  refits, the order-2 model of :data:`.runtime.ORDER2_FORMS`, richer and discovered forms, the fast variant, the baselines);
 * :func:`part_extras`: the part-level methods beyond presets and fit files
   (the exact engine's Fock method for H0 and H1, the tables);
 * :func:`preset_records`: a preset set as fit records, for codegen;
@@ -32,7 +32,7 @@ import sympy as sp
 
 from fitlab.core import get_target
 from fitlab.families.lambert_sphere.exact import brdf, h_function, spherical_albedo
-from fitlab.families.lambert_sphere.forms import RUNTIME_PARTS
+from fitlab.families.lambert_sphere.forms import ORDER2_PART, RUNTIME_PARTS
 from fitlab.families.lambert_sphere.forms.baselines import BASELINE_INPUTS, LAMBERT, oren_nayar
 from fitlab.families.lambert_sphere.interpolation import kd_interpolant, table_brdf, table_part
 from fitlab.families.lambert_sphere.report_exact import (
@@ -42,7 +42,7 @@ from fitlab.families.lambert_sphere.report_exact import (
     time_to_error,
 )
 from fitlab.families.lambert_sphere.report_montecarlo import mc_study, mc_time_to_error
-from fitlab.families.lambert_sphere.runtime import PRESET_VARIANTS, runtime_model
+from fitlab.families.lambert_sphere.runtime import ORDER2_FORMS, PRESET_VARIANTS, runtime_model
 from fitlab.families.lambert_sphere.table_files import check_tables, tables_dir
 from fitlab.families.lambert_sphere.targets import TARGETS
 from fitlab.families.lambert_sphere.bench import baseline_program, random_inputs  # noqa: F401 (baseline_program: the report's hook)
@@ -57,7 +57,7 @@ __all__ = ["REQUIRED_FITS", "PARTS", "PRESET_VARIANTS", "tables_dir", "EXACT_SOU
 #: the albedo maps: not in the BRDF, but in its generated program (their C is timed there)
 MAPS = ("kd_of_c", "c_of_kd")
 FAST = "fast_brdf"
-REQUIRED_FITS = (*RUNTIME_PARTS, *MAPS, FAST)
+REQUIRED_FITS = (*RUNTIME_PARTS, ORDER2_PART, *MAPS, FAST)
 PARTS = tuple(name for name in TARGETS if name != FAST)
 #: the exact engine's sources: the report's cache of exact values is keyed on them
 EXACT_SOURCES = Path(__file__).resolve().parent / "exact"
@@ -93,10 +93,11 @@ def exact_kd(c) -> np.ndarray:
 # -- presets as fit records (for codegen) -------------------------------------------------------------
 def preset_records(variant: str) -> dict:
     """{(target, form): fit record} of a published preset set: the runtime parts of
-    :data:`PRESET_VARIANTS` plus the published eq. 41 and albedo maps, so that codegen can print the
+    :data:`PRESET_VARIANTS`, H2 = 1 (the paper drops fm2), the published eq. 41 and albedo maps, so that codegen can print the
     published model like any fit.  (codegen always uses the exact normalisations; ``paper_printed``'s C
     differs from its printed normalisation only in two constants, which cost nothing.)"""
     choice = dict(PRESET_VARIANTS[variant][0])
+    choice[ORDER2_PART] = ("unity", "paper")  # the paper drops fm2 (eq. 21): H2 = 1 makes it 0
     choice[FAST] = ("paper", "paper")
     choice["kd_of_c"] = ("printed", "paper")
     choice["c_of_kd"] = ("rational_power", "renderer" if variant == "renderer" else "paper")
@@ -168,8 +169,15 @@ def brdf_methods(fits_dir: Path, entries: list, data_dir: Path, preset_c: tuple 
         out.append(_runtime(m, f"published: {v}", "published", _label(m.sources), spec))
     out.append(_runtime(runtime_model(fits_dir=fits_dir), "refit", "refit", "default forms in " + str(fits_dir),
                         CSpec("brdf", fits_dir)))  # fmt: skip
-    richer = best_forms(entries, {"refit"}, RUNTIME_PARTS)
-    if richer:
+    order2 = {p: f for p, f in ORDER2_FORMS.items() if f != get_target(p).default_form}
+    if not all(any(e.target == p and e.form == f for e in entries) for p, f in order2.items()):
+        order2 = None
+    if order2:
+        m = runtime_model(fits_dir=fits_dir, forms=order2)
+        out.append(_runtime(m, "refit, order 2 (issue 18)", "refit, richer", _label(order2),
+                            CSpec("brdf", fits_dir, tuple(sorted(order2.items())))))  # fmt: skip
+    richer = best_forms(entries, {"refit"}, (*RUNTIME_PARTS, ORDER2_PART))
+    if richer and richer != order2:  # the best part fits may be the order-2 model itself
         m = runtime_model(fits_dir=fits_dir, forms=richer)
         c_forms = {**richer, **best_forms(entries, {"refit"}, MAPS)}
         out.append(_runtime(m, "refit, richer forms", "refit, richer", _label(richer),

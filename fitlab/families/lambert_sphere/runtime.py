@@ -2,7 +2,8 @@ r"""The runtime Lambert-sphere BRDF (docs/model.md, "The runtime BRDF"),
 assembled from forms with numbers.
 
 ``runtime_model(variant)`` builds f_r(mu_i, mu_o, phi, c) =
-max(0, f_1 + fm0 + fm1 cos phi) (see :func:`fitlab.forms.runtime_brdf`) from
+max(0, f_1 + fm0 + fm1 cos phi [+ fm2 cos 2phi]) (see
+:func:`fitlab.families.lambert_sphere.forms.runtime_brdf`) from
 
 * a published preset set: ``"paper_printed"`` (every coefficient and both
   normalisations as printed, the separable H1 read as printed),
@@ -11,7 +12,12 @@ max(0, f_1 + fm0 + fm1 cos phi) (see :func:`fitlab.forms.runtime_brdf`) from
   coefficients where they differ, exact normalisations); or
 * saved fits: ``runtime_model(fits_dir=Path("fits"))`` takes fits/H0.json,
   H1.json, l.json, m.json, B.json ... F.json (the default forms), or with
-  ``forms={"H0": "hapke_rational", ...}`` the files of other forms.
+  ``forms={"H0": "hapke_rational", ...}`` the files of other forms; fits add
+  the second Fourier order fm2 cos 2phi with fits/H2.json unless ``order2=False``.
+
+:func:`accuracy` measures a runtime model against the exact BRDF on the
+issue-18 sets (random and edge points over mu >= 0.01 and every c, the grazing
+set, c = 0) and its directional albedo against the exact one.
 
 The result is a :class:`RuntimeModel`: the sympy expression (what codegen
 consumes) and a numpy callable.
@@ -26,11 +32,12 @@ import numpy as np
 import sympy as sp
 
 from fitlab.core import get_form, get_target
-from fitlab.families.lambert_sphere.forms import RUNTIME_PARTS, runtime_brdf
+from fitlab.families.lambert_sphere.forms import ORDER2_PART, RUNTIME_PARTS, runtime_brdf
 from fitlab.forms.symbolic import lambdify_numpy, symbols
 from fitlab.store import fit_path, load
 
-__all__ = ["RuntimeModel", "runtime_model", "PRESET_VARIANTS"]
+__all__ = ["RuntimeModel", "runtime_model", "PRESET_VARIANTS", "accuracy", "accuracy_points", "directional_albedo", "ALBEDOS",
+           "ORDER2_FORMS"]
 
 PRESET_VARIANTS = {
     "paper_printed": ({"H0": ("hapke", "paper"), "H1": ("separable_printed", "paper"), "l": ("quadratic", "paper"),
@@ -42,6 +49,13 @@ PRESET_VARIANTS = {
 }  # fmt: skip
 
 INPUTS = ("mu_i", "mu_o", "phi", "c")
+
+#: the forms of the order-2 runtime model (issue 18): H0, H1, H2 exact at mu = 0, to first order in c and in
+#: their grazing log(1/mu) behaviour (log_exp); B, C, D, F exact to first order in c (c2_rational_4_3), so that
+#: fm0 = f0 - f0_ss is O(c^2) like the exact one; l, m the richer polynomials.  With fits_dir and
+#: ``forms=ORDER2_FORMS``, :func:`runtime_model` gives f_1 + fm0 + fm1 cos phi + fm2 cos 2phi.
+ORDER2_FORMS = {"H0": "log_exp", "H1": "log_exp", "H2": "log_exp", "l": "cubic", "m": "quadratic",
+                **{n: "c2_rational_4_3" for n in "BCDF"}}  # fmt: skip
 
 
 @dataclass(frozen=True, eq=False)
@@ -61,11 +75,22 @@ class RuntimeModel:
 
 
 def runtime_model(
-    variant: str | None = None, *, fits_dir: Path | None = None, forms: dict | None = None, normalisation: str = "corrected"
+    variant: str | None = None, *, fits_dir: Path | None = None, forms: dict | None = None, normalisation: str = "corrected",
+    order2: bool | None = None,
 ) -> RuntimeModel:
+    """The runtime BRDF from a preset ``variant`` or from the fits in ``fits_dir`` (``forms``: {part: form}
+    where a part's file is not its default form's).
 
+    ``order2``: add fm2 cos(2 phi) with the fit of H2 (docs/model.md, "Order 2"); None means yes for fits
+    when ``fits_dir`` holds that fit (the generated program has fm2) and no for the published presets (the
+    paper has no H2; True with a preset is an error)."""
     if (variant is None) == (fits_dir is None):
         raise ValueError("give a preset variant or fits_dir")
+    if order2 is None:
+        h2 = (forms or {}).get(ORDER2_PART, get_target(ORDER2_PART).default_form)
+        order2 = fits_dir is not None and fit_path(Path(fits_dir), ORDER2_PART, h2).exists()
+    if order2 and variant is not None:
+        raise ValueError("the published presets have no H2: order2=True needs fits_dir")
     parts, sources = {}, {}
     if variant is not None:
         if variant not in PRESET_VARIANTS:
@@ -78,11 +103,109 @@ def runtime_model(
         name = variant
     else:
 
-        for part in RUNTIME_PARTS:
+        for part in (*RUNTIME_PARTS, *((ORDER2_PART,) if order2 else ())):
             form_name = (forms or {}).get(part, get_target(part).default_form)
             path = fit_path(Path(fits_dir), part, form_name)
             fit = load(path)
             parts[part] = fit.expression
             sources[part] = path.name  # the file, wherever its folder is (audit.json stays the same)
         name = "refit" if not forms else "refit (" + ", ".join(f"{k}: {v}" for k, v in forms.items()) + ")"
+        if not order2:
+            name += ", orders 0 and 1"
     return RuntimeModel(name, runtime_brdf(parts, normalisation), sources)
+
+
+# -- measurement (issue 18) -------------------------------------------------------------------------
+#: albedos of the accuracy sets: the edges c -> 0 and c = 1 that the report's validation set misses
+#: (its smallest c is 0.0503), then random ones (drawn per seed, uniform in c and in s)
+ALBEDOS = (1e-6, 1e-4, 1e-3, 0.01, 0.03, 0.05, 1.0)
+
+
+def accuracy_points(seed: int = 18, n: int = 400, n_random_c: int = 8, mu_min: float = 0.01) -> dict:
+    """The point sets of :func:`accuracy`, as arrays by name.
+
+    "main": for every albedo (:data:`ALBEDOS`, ``n_random_c`` uniform in c and as many uniform in
+    s = sqrt(1 - c), seeded), ``n`` uniform points (mu_i, mu_o) in [mu_min, 1]^2, phi in [0, pi], plus the
+    edge points mu in {mu_min, 1}^2 x phi in {0, pi/2, pi}; "grazing": mu_i, mu_o in {1e-6, 1e-4, 1e-2}
+    x phi in {0, pi/2, pi} at the same albedos.  phi and -phi give the same value (every term is even in
+    phi), so [0, pi] covers the domain."""
+    rng = np.random.default_rng(seed)
+    albedos = np.concatenate((ALBEDOS, rng.uniform(0.0, 1.0, n_random_c), 1.0 - rng.uniform(0.0, 1.0, n_random_c) ** 2))
+    edge_mu, edge_phi = np.array([mu_min, 1.0]), np.array([0.0, np.pi / 2, np.pi])
+    graze_mu = np.array([1e-6, 1e-4, 1e-2])
+    sets = {"main": [], "grazing": []}
+    for cv in albedos:
+        mi, mo, ph = rng.uniform(mu_min, 1.0, n), rng.uniform(mu_min, 1.0, n), rng.uniform(0.0, np.pi, n)
+        e = np.meshgrid(edge_mu, edge_mu, edge_phi, indexing="ij")
+        sets["main"].append(np.stack([np.concatenate((mi, e[0].ravel())), np.concatenate((mo, e[1].ravel())),
+                                      np.concatenate((ph, e[2].ravel()))]))  # fmt: skip
+        g = np.meshgrid(graze_mu, graze_mu, edge_phi, indexing="ij")
+        sets["grazing"].append(np.stack([x.ravel() for x in g]))
+    out = {}
+    for name, blocks in sets.items():
+        cols = np.concatenate(blocks, axis=1)
+        reps = [b.shape[1] for b in blocks]
+        out[name] = {"mu_i": cols[0], "mu_o": cols[1], "phi": cols[2], "c": np.repeat(albedos, reps)}
+    return out
+
+
+def directional_albedo(f, mu_i, c, n_phi: int = 48, nodes_per_panel: int = 8) -> np.ndarray:
+    r"""a(mu_i) = int_0^1 int_0^{2 pi} f(mu_i, mu_o, phi, c) mu_o dphi dmu_o for a BRDF f(mu_i, mu_o, phi, c)
+    even in phi: 2 int_0^pi by Gauss-Legendre in phi (``n_phi`` nodes), mu_o by the exact engine's graded
+    Gauss rule (panels [4^-(k+1), 4^-k] down to 1e-12: the multiple-scattering terms grow like log(1/mu)
+    at grazing).  mu_i in (0, 1] (1-D), c in [0, 1] one albedo."""
+    from fitlab.families.lambert_sphere.exact import gauss_legendre, graded_gauss
+
+    mu_o, w_mu = graded_gauss(nodes_per_panel, 0.25, 1e-12)
+    x, w_phi = gauss_legendre(n_phi)
+    phi, w_phi = np.pi * x, np.pi * w_phi
+    mu_i = np.atleast_1d(np.asarray(mu_i, dtype=float))
+    mi, mo, ph = np.meshgrid(mu_i, mu_o, phi, indexing="ij")
+    vals = np.asarray(f(mi, mo, ph, np.full(mi.shape, float(c))), dtype=float)
+    return 2.0 * np.einsum("ijk,j,k->i", vals, w_mu * mu_o, w_phi)
+
+
+def _rel(f, exact):
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.abs(f - exact) / np.abs(exact)
+
+
+def accuracy(model, seed: int = 18, n: int = 400, albedo_c=(1e-3, 0.3, 0.7, 0.95, 1.0), albedo_mu=None) -> dict:
+    r"""The figures of issue 18 for a runtime model ``model(mu_i, mu_o, phi, c)``, against
+    :func:`fitlab.families.lambert_sphere.exact.brdf` (relative error |f - f_exact| / f_exact):
+
+    * "max", "rms", "worst": on the main set of :func:`accuracy_points` (mu >= 0.01, every c, every phi);
+    * "max_grazing", "worst_grazing": on the grazing set (mu down to 1e-6);
+    * "max_c0": max |f| at c = 0 on the main set's points (0 for an exact zero);
+    * "albedo_err": max |a - a_exact| over ``albedo_c`` x ``albedo_mu`` (:func:`directional_albedo`
+      against :func:`fitlab.families.lambert_sphere.exact.albedo` with model "true");
+    * "albedo_c1_max", "albedo_c1_min": the model's directional albedo at c = 1, max and min over
+      ``albedo_mu`` (default: 1e-3, then 0.05 ... 1 in steps of 0.05).
+    """
+    from fitlab.families.lambert_sphere.exact import albedo, brdf
+
+    pts = accuracy_points(seed, n)
+    out = {}
+    for name, p in pts.items():
+        exact = brdf(p["mu_i"], p["mu_o"], p["phi"], p["c"])
+        rel = _rel(model(p["mu_i"], p["mu_o"], p["phi"], p["c"]), exact)
+        rel = np.where(np.isnan(rel), np.inf, rel)
+        k = int(np.argmax(rel))
+        worst = {n_: float(v[k]) for n_, v in p.items()}
+        if name == "main":
+            out.update(max=float(rel.max()), rms=float(np.sqrt(np.mean(rel**2))), worst=worst)
+            zero = model(p["mu_i"], p["mu_o"], p["phi"], np.zeros_like(p["c"]))
+            out["max_c0"] = float(np.max(np.abs(zero)))
+        else:
+            out.update(max_grazing=float(rel.max()), worst_grazing=worst)
+    mu = np.concatenate(([1e-3], np.arange(1, 21) / 20)) if albedo_mu is None else np.asarray(albedo_mu, dtype=float)
+    err, c1 = 0.0, None
+    for cv in albedo_c:
+        a = directional_albedo(model, mu, cv)
+        err = max(err, float(np.max(np.abs(a - albedo(mu, cv, model="true")))))
+        if cv == 1.0:
+            c1 = a
+    out["albedo_err"] = err
+    if c1 is not None:
+        out.update(albedo_c1_max=float(c1.max()), albedo_c1_min=float(c1.min()))
+    return out

@@ -17,6 +17,7 @@ import numpy as np
 from fitlab.core import Dataset, Input, Target
 from fitlab.families.lambert_sphere.grids import GRID_AXES, exact_grid
 from fitlab.families.lambert_sphere import datasets as d
+from fitlab.families.lambert_sphere.exact import h_function
 
 __all__ = ["INPUTS", "TARGETS"]
 
@@ -37,6 +38,16 @@ INPUTS = {
 
 def _inputs(*names: str) -> tuple[Input, ...]:
     return tuple(INPUTS[n] for n in names)
+
+
+def _h_grid(order: int):
+    """Exact H_order on a tensor grid of (mu, c) axes (the ``exact_grid`` of a target)."""
+
+    def grid(axes):
+        g = dict(zip(axes, np.meshgrid(*axes.values(), indexing="ij")))
+        return g, h_function(order, g["mu"], g["c"]), {}
+
+    return grid
 
 
 def _scale_a(ds: Dataset) -> np.ndarray:
@@ -83,6 +94,11 @@ TARGETS: dict[str, Target] = {
              ("separable", "renderer")),
             lambda: d.h_training(1), lambda: d.h_validation(1), exact_grid("H1"), "h1",
             claimed="relative error < 0.5 % (paper, sec. 3.3)",
+        ),
+        Target(
+            "H2", "H2(mu, c), mu and c in [0, 1]: the H-function of Fourier order 2 (eq. 15), for fm2",
+            _inputs("mu", "c"), "log_exp", (("unity", "paper"),), lambda: d.h_training(2), lambda: d.h_validation(2), _h_grid(2), "h2",
+            claimed="none: the paper drops fm2 (eq. 21), i.e. takes H2 = 1 (form unity)",
         ),
         _constant_target("l", ("quadratic",), (("quadratic", "paper"), ("quadratic", "renderer")),
                          "l(c) of f^(1) (eq. 22)"),

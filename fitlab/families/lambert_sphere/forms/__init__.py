@@ -6,8 +6,16 @@ renderer plugin differs); richer forms of the same shapes sit beside them.
 """
 
 from fitlab.families.lambert_sphere.forms import albedo_maps, brdf, constants, h_functions
-from fitlab.families.lambert_sphere.forms.brdf import RUNTIME_PARTS, RUNTIME_TERMS, SINGLE, runtime_brdf, runtime_terms
+from fitlab.families.lambert_sphere.forms.brdf import (
+    AZIMUTH,
+    ORDER2_PART,
+    RUNTIME_PARTS,
+    RUNTIME_TERMS,
+    SINGLE,
+    runtime_brdf,
+    runtime_terms,
+)
 
 FORMS = (*h_functions.FORMS, *constants.FORMS, *albedo_maps.FORMS, *brdf.FORMS)
 
-__all__ = ["FORMS", "RUNTIME_PARTS", "RUNTIME_TERMS", "SINGLE", "runtime_brdf", "runtime_terms"]
+__all__ = ["FORMS", "AZIMUTH", "ORDER2_PART", "RUNTIME_PARTS", "RUNTIME_TERMS", "SINGLE", "runtime_brdf", "runtime_terms"]

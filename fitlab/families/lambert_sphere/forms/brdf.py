@@ -92,29 +92,37 @@ def _fast_brdf() -> Form:
 
 FORMS = (_fm1_fast(), _fm1_fast_general(), _fast_brdf())
 
-#: the parts of the runtime model and the input symbols their forms use
+#: the parts of the runtime model of orders 0 and 1 (the paper's, eqs. 11, 12, 21)
 RUNTIME_PARTS = ("H0", "H1", "l", "m", "B", "C", "D", "F")
+#: the part the second Fourier order adds: with it the runtime model is f_1 + fm0 + fm1 cos phi + fm2 cos 2phi
+ORDER2_PART = "H2"
 
 
-#: the terms of the runtime model, in the order they are summed
-RUNTIME_TERMS = ("single", "m0", "m1")
+#: the terms of the runtime model, in the order they are summed (m2 only where the parts hold H2)
+RUNTIME_TERMS = ("single", "m0", "m1", "m2")
+#: the azimuthal factor of each term: f_r = max(0, sum_t term_t * AZIMUTH[t])
+AZIMUTH = {"single": sp.S.One, "m0": sp.S.One, "m1": sp.cos(phi), "m2": sp.cos(2 * phi)}
 
 
 def runtime_terms(parts: Mapping[str, sp.Expr], normalisation: str = "corrected") -> dict[str, sp.Expr]:
-    r"""The terms of the runtime model, each an expression in (mu_i, mu_o, phi, c)
+    r"""The terms of the runtime model, each an expression in (mu_i, mu_o, c) (single: and phi)
     (docs/model.md, "The runtime BRDF").
 
-    Returns {"single": f_1, "m0": fm0, "m1": fm1} with f_r = max(0, f_1 + fm0 + fm1 cos(phi)):
+    Returns {"single": f_1, "m0": fm0, "m1": fm1} and, where ``parts`` holds H2, "m2": fm2, with
+    f_r = max(0, f_1 + fm0 + fm1 cos(phi) [+ fm2 cos(2 phi)]):
       f_1 = c p(u) / (mu_i + mu_o)  (true phase function, eq. 10),
       fm0 = (H0(mu_i) H0(mu_o) Q / (2 pi) - n0_ss) / (mu_i + mu_o),
         Q = A + B (mu_i+mu_o) + C mu_i mu_o + D mu_i mu_o (mu_i+mu_o) + E mu_i^2 mu_o^2 + F (mu_i^2+mu_o^2),
       fm1 = (c H1(mu_i) H1(mu_o) S (1 + l (mu_i+mu_o) + (l^2 + 45 m/64) mu_i mu_o)/(k pi) - n1_ss/j)
             / (mu_i + mu_o),
-    A, E exact (eq. 33); ``parts`` maps H0, H1 (expressions in mu, c) and l, m, B, C, D, F
+      fm2 = 15 c S^2 (H2(mu_i) H2(mu_o) - 1) / (256 pi (mu_i + mu_o))  (docs/model.md, "Order 2"),
+    A, E exact (eq. 33); ``parts`` maps H0, H1 (and H2) (expressions in mu, c) and l, m, B, C, D, F
     (in c) to expressions with numbers for parameters, or to calls of undefined
     functions (codegen prints those as calls of the parts' own routines).
     normalisation "corrected" uses k = 3, j = 1 (the exact solution); "printed"
     uses eqs. 22 and 28 as printed, k = 6 and 384 pi (j = 2), which halves fm1.
+    fm2 vanishes at c = 0 and where H2 = 1, is reciprocal when H2 is one function of (mu, c), and
+    is exact with the exact H2.
     """
     missing = [p for p in RUNTIME_PARTS if p not in parts]
     if missing:
@@ -130,11 +138,17 @@ def runtime_terms(parts: Mapping[str, sp.Expr], normalisation: str = "corrected"
     fm0 = (h0i * h0o * q / (2 * PI) - SINGLE_NUMERATOR_0) / (mu_i + mu_o)
     n1 = c * h1i * h1o * S * (1 + l * (mu_i + mu_o) + (l**2 + sp.Rational(45, 64) * m) * _P) / (k * PI)
     fm1 = (n1 - SINGLE_NUMERATOR_1 / j) / (mu_i + mu_o)
-    return {"single": SINGLE, "m0": fm0, "m1": fm1}
+    out = {"single": SINGLE, "m0": fm0, "m1": fm1}
+    if ORDER2_PART in parts:
+        h2i, h2o = (parts[ORDER2_PART].subs(mu, x) for x in (mu_i, mu_o))
+        s2 = (1 - mu_i**2) * (1 - mu_o**2)
+        out["m2"] = 15 * c * s2 * (h2i * h2o - 1) / (256 * PI * (mu_i + mu_o))
+    return out
 
 
 def runtime_brdf(parts: Mapping[str, sp.Expr], normalisation: str = "corrected") -> sp.Expr:
     r"""The runtime model (docs/model.md, "The runtime BRDF") as one expression in (mu_i, mu_o, phi, c):
-    f_r = max(0, f_1 + fm0 + fm1 cos(phi)), the terms of :func:`runtime_terms`."""
+    f_r = max(0, f_1 + fm0 + fm1 cos(phi) [+ fm2 cos(2 phi) where ``parts`` holds H2]), the terms of
+    :func:`runtime_terms`."""
     t = runtime_terms(parts, normalisation)
-    return sp.Max(0, t["single"] + t["m0"] + t["m1"] * sp.cos(phi))
+    return sp.Max(0, sum(t[n] * AZIMUTH[n] for n in RUNTIME_TERMS if n in t))

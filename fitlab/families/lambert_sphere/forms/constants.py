@@ -131,10 +131,37 @@ def _rational(name: str, num_degree: int) -> Form:
     )
 
 
+#: the O(c) coefficient of B, C, D, F, exactly: with H0 = 1 + O(c), f0 = H0 H0 Q/(2 pi (mu_i + mu_o)) equals the
+#: order-0 single scattering f0_ss (eq. 38) to first order in c, so Q = 2 pi (mu_i + mu_o) f0_ss + O(c^2) =
+#: c (207 + 256 mu_i mu_o - 45 (mu_i^2 + mu_o^2) + 135 mu_i^2 mu_o^2)/384 + O(c^2) (A and E agree to all orders)
+FIRST_ORDER = {"B": sp.S.Zero, "C": sp.Rational(256, 384), "D": sp.S.Zero, "F": sp.Rational(-45, 384)}
+
+
+def _c2_rational(name: str) -> Form:
+    """X1 c + c^2 P(s)/R(s), P cubic, R cubic with R(0) = 1: exact at c = 0 and to first order in c."""
+    a = symbols(tuple(f"a{k}" for k in range(4)))
+    b = symbols(tuple(f"b{k}" for k in range(1, 4)))
+    num = sum(ak * s**k for k, ak in enumerate(a))
+    den = 1 + sum(bk * s ** (k + 1) for k, bk in enumerate(b))
+    return Form(
+        target=name,
+        name="c2_rational_4_3",
+        inputs=("c",),
+        params=tuple(str(x) for x in a + b),
+        expr=FIRST_ORDER[name] * c + c**2 * num / den,
+        start={str(x): 0.0 for x in a + b},
+        description=(
+            f"{name} = {FIRST_ORDER[name]} c + c^2 P(s)/R(s), P and R cubic in s, R(0) = 1: the O(c) term exact "
+            "(Q = 2 pi (mu_i + mu_o) f0_ss + O(c^2)), so that the runtime fm0 = f0 - f0_ss is O(c^2) like the "
+            "exact one and keeps its relative accuracy as c -> 0."
+        ),
+    )
+
+
 def _constant_forms():
     out = []
     for name in ("B", "C", "D", "F"):
-        out += [_printed(name), _rational(name, 3), _rational(name, 4)]
+        out += [_printed(name), _rational(name, 3), _rational(name, 4), _c2_rational(name)]
     return out
 
 

@@ -1,4 +1,4 @@
-r"""Forms for H0 and H1 as functions of (mu, c), mu in [0, 1], c in [0, 1].
+r"""Forms for H0, H1 (and H2, which only the log_exp form approximates) as functions of (mu, c), mu in [0, 1], c in [0, 1].
 
 s = sqrt(1 - c) throughout (docs/model.md, "Published approximations").
 """
@@ -121,4 +121,82 @@ def _h1_separable_printed() -> Form:
     )
 
 
-FORMS = (_hapke(), _hapke_rational(), _h1_separable(), _h1_separable_printed())
+#: floor of mu inside log(1 + 1/mu): mu log(1 + 1/mu) -> 0 at mu = 0 instead of 0 * inf (1e-30 is a normal
+#: float, so the float back ends keep it)
+LOG_FLOOR = sp.Float("1e-30")
+
+
+def characteristic(order: int, x: sp.Expr = mu) -> sp.Expr:
+    r"""Psi_order(x, c), the characteristic function of Fourier order 0, 1, 2 (eqs. 13-15; docs/model.md)."""
+    if order == 0:
+        return c * (-15 * (c - 1) * (4 * c + 9) * x**4 + (c * (20 * c + 281) - 346) * x**2 + 207) / 384
+    if order == 1:
+        return -c * (x**2 - 1) * (5 * (4 * c + 9) * x**2 - 64) / 192
+    if order == 2:
+        return 15 * c * (x**2 - 1) ** 2 / 256
+    raise ValueError(f"order must be 0, 1 or 2, got {order!r}")
+
+
+def first_order(order: int, x: sp.Expr = mu) -> sp.Expr:
+    r"""The O(c) part of log(H_order(x))/x less its log term, exactly: a cubic in x.
+
+    With Psi = c P(v) + O(c^2), the first iterate of H = 1 + x H int_0^1 Psi(v) H(v)/(x + v) dv gives
+    H = 1 + c x int_0^1 P(v)/(x + v) dv + O(c^2), and for P even
+    int_0^1 P(v)/(x + v) dv = P(x) log(1 + 1/x) + int_0^1 (P(v) - P(-x))/(v + x) dv;
+    for P = sum_n p_2n v^2n the last integral is sum_n p_2n sum_{k<2n} (-x)^(2n-1-k)/(k+1)."""
+    p = sp.Poly(sp.expand(characteristic(order, symbols(("v",))[0]) / c).subs(c, 0), symbols(("v",))[0])
+    out = sp.S.Zero
+    for (deg,), coeff in p.terms():
+        out += coeff * sum((-x) ** (deg - 1 - k) / sp.Integer(k + 1) for k in range(deg))
+    return sp.expand(out)
+
+
+#: (degree in s, degree in mu) of the fitted part of each order's log_exp form, a polynomial times (1 - s),
+#: chosen by a linear least-squares scan of log(H)/mu on the tables: H0 needs the most powers (its H0(inf)
+#: is infinite at s = 0), H2 the fewest (Psi2 <= 15c/256)
+LOG_EXP_DEGREES = {0: (5, 4), 1: (2, 3), 2: (1, 3)}
+
+
+def _h_log_exp(order: int) -> Form:
+    s_degree, mu_degree = LOG_EXP_DEGREES[order]
+    names = tuple(f"a{j}{k}" for j in range(s_degree + 1) for k in range(mu_degree + 1))
+    coef = dict(zip(names, symbols(names)))
+    # (1 - s) once, not its powers: 1 - s = c/(1 + s) is one division in the generated code
+    fitted = (1 - s) * sum(coef[f"a{j}{k}"] * s**j * mu**k for j in range(s_degree + 1) for k in range(mu_degree + 1))
+    grazing = characteristic(order) * sp.log(1 + 1 / sp.Max(mu, LOG_FLOOR))
+    return Form(
+        target=f"H{order}",
+        name="log_exp",
+        inputs=("mu", "c"),
+        params=names,
+        expr=sp.exp(mu * (grazing + c * (first_order(order) + fitted))),
+        start={n: 0.0 for n in names},
+        description=(
+            f"H{order} = exp(mu (Psi{order}(mu) log(1 + 1/mu) + c (p(mu) + (1 - s) sum_jk a_jk s^j mu^k))), "
+            f"j <= {s_degree}, k <= {mu_degree}, Psi{order} the exact characteristic function "
+            "(eqs. 13-15) and p the exact cubic of the first iterate (first_order). Exact at mu = 0 (H = 1), "
+            f"at c = 0 and to first order in c (1 - s = O(c)); H - 1 ~ Psi{order}(0) mu log(1/mu) "
+            "as mu -> 0, the exact grazing behaviour, so (H_i H_o - 1)/(mu_i + mu_o) in the runtime BRDF keeps "
+            "its log(1/mu) pole."
+        ),
+    )
+
+
+def _h2_unity() -> Form:
+    return Form(
+        target="H2",
+        name="unity",
+        inputs=("mu", "c"),
+        params=(),
+        expr=sp.S.One,
+        presets={"paper": {}},
+        description=(
+            "H2 = 1: the paper's runtime model, which drops fm2 (eq. 21); with it fm2 = 15 c S^2 (H2 H2 - 1)/"
+            "(256 pi (mu_i + mu_o)) is 0 identically. Exact at mu = 0 and c = 0 only."
+        ),
+        refit_by_default=False,
+    )
+
+
+FORMS = (_hapke(), _hapke_rational(), _h1_separable(), _h1_separable_printed(), *(_h_log_exp(n) for n in range(3)),
+         _h2_unity())  # fmt: skip
