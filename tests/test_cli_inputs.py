@@ -283,7 +283,7 @@ def test_tabulate_writes_all_tables_or_none(tmp_path, monkeypatch):
     monkeypatch.undo()
     monkeypatch.setattr(tabulate, "build_tables", lambda show_progress=True: tables)
     _fail_on_second_file(monkeypatch, KeyboardInterrupt)
-    assert main(["tabulate", "--quiet", "--data", str(out.parent)]) == 130
+    assert main(["tabulate", "--quiet", "--family", "lambert_sphere", "--data", str(out.parent)]) == 130
     assert _snapshot(out) == before
 
 

@@ -13,7 +13,7 @@ import pytest
 import sympy as sp
 
 from fitlab.cli import main
-from fitlab.core import float64
+from fitlab.core import float64, get_target
 from fitlab.discover import Library, SparseRegression, discover, get_library, pareto_front, save
 from fitlab.discover.library import libraries_of, products
 from fitlab.discover.refine import arranged, candidate_form, operation_count
@@ -97,6 +97,9 @@ def test_library_terms_finite_at_domain_edges(target, name):
     lib = get_library(target, name)
     edge = {"mu": [0.0, 0.0, 1.0, 1e-12], "c": [0.0, 1.0, 1.0, 0.5], "kd": [0.0, 1.0, 0.5, 1e-12],
             "mu_i": [0.0, 1e-6, 1.0, 1.0], "mu_o": [1e-6, 0.0, 1.0, 0.0], "phi": [0.0, np.pi, -np.pi, 1.0]}  # fmt: skip
+    domains = get_target(target).domain
+    # an input without hand-picked edges: both ends of its domain and a point next to the lower one
+    edge.update({k: [lo, hi, hi, lo + 1e-12 * (hi - lo)] for k, (lo, hi) in domains.items() if k not in edge})
     values = lib.evaluate({k: np.array(edge[k]) for k in lib.inputs})
     assert all(np.all(np.isfinite(v)) for v in values.values())
 

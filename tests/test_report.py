@@ -178,7 +178,7 @@ def test_every_fit_file_is_picked_up_and_discovered_forms_are_grouped(tmp_path):
     rec.update(form="sr_test", origin={"method": "fitlab discover", "seconds": 12.5})
     (fits / "l.sr_test.json").write_text(json.dumps(rec))
     entries = fit_inventory(fits)
-    assert len(entries) == 13
+    assert len(entries) == 14  # the 12 default fits, m.quadratic and l.sr_test
     found = next(e for e in entries if e.form == "sr_test")
     assert found.kind == "discover" and not found.default
     groups = {m.name: (m.group, m.c.forms if m.c else None) for m in brdf_methods(fits, entries, DATA)}

@@ -39,7 +39,7 @@ def test_check_fails_on_a_wrong_value(tmp_path, capsys):
     s, c, mu, h = lines[i].split(",")
     lines[i] = ",".join([s, c, mu, repr(float(h) * (1 + 1e-8))])
     (tmp_path / "h1.csv").write_text("\n".join(lines) + "\n")
-    assert main(["tabulate", "--check", "--data", str(root), "--quiet"]) == 1
+    assert main(["tabulate", "--check", "--data", str(root), "--family", "lambert_sphere", "--quiet"]) == 1
     assert "h1.csv" in capsys.readouterr().err
 
 
@@ -55,6 +55,6 @@ def test_check_reports_missing_or_corrupt_files(tmp_path, capsys, damage):
         (tmp_path / "h0.csv").write_text("s,c,mu,H0\n0.0,1.0,abc,1\n")
     else:
         (tmp_path / "h0.csv").write_text("s,c,mu,H\n0.0,1.0,0.5,1.0\n")
-    assert main(["tabulate", "--check", "--data", str(root), "--quiet"]) == 1
+    assert main(["tabulate", "--check", "--data", str(root), "--family", "lambert_sphere", "--quiet"]) == 1
     err = capsys.readouterr().err
     assert "h0.csv" in err and "fitlab tabulate" in err

@@ -44,7 +44,7 @@ from fitlab.families.microfacet_energy.exact import (
 from fitlab.store import Table, TableError, read_table
 from fitlab.store import write_tables as store_write_tables
 
-__all__ = ["AlbedoTable", "TABLES", "FINE_TABLES", "TABLE_FILES", "AVERAGE_FILE", "AVERAGE_COLUMNS", "TOLERANCE",
+__all__ = ["FAMILY_NAME", "AlbedoTable", "TABLES", "FINE_TABLES", "TABLE_FILES", "AVERAGE_FILE", "AVERAGE_COLUMNS", "TOLERANCE",
            "DECIMALS", "grid", "albedo_table", "average_table", "build_tables", "write_tables", "check_tables",
            "read_albedo_table", "read_average_table"]
 
@@ -84,6 +84,8 @@ FINE_TABLES = (AlbedoTable("ggx", GGX_MODELS, "centres", 256),)
 
 #: every committed table file and its columns
 TABLE_FILES = {**{t.file: t.columns for t in TABLES}, AVERAGE_FILE: AVERAGE_COLUMNS}
+#: the family's name: its tables live in fitlab/data/FAMILY_NAME/ and DATA/FAMILY_NAME/
+FAMILY_NAME = "microfacet_energy"
 
 
 def grid(kind: str, size: int) -> np.ndarray:
