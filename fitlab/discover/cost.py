@@ -44,7 +44,7 @@ def routine_cost(target: str, forms: list[str | None], fits_dir: Path | None = N
     with tempfile.TemporaryDirectory() as tmp:
         models, names = {}, ()
         for k, form in enumerate(forms):
-            program = load_program(fits_dir, forms={} if form is None else {target: form})
+            program = load_program(fits_dir, forms={} if form is None else {target: form}, family=get_target(target).family)
             models[form] = build(emit(program, "c"), program, Path(tmp) / f"v{k}")
             names = program.routine(routine).signature()
         args = [np.ascontiguousarray(a, dtype=dtype) for a in _inputs(names, n)]

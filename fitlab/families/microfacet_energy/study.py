@@ -42,7 +42,7 @@ from fitlab.cache import cached_arrays
 from fitlab.codegen.native import compiler
 from fitlab.families.microfacet_energy.exact import average_albedo, directional_albedo
 
-__all__ = ["STUDY_MODELS", "TABLE_SIZES", "ALPHA_MIN", "validation_set", "centre_table", "bilinear", "study_rows", "markdown", "main",
+__all__ = ["STUDY_MODELS", "TABLE_SIZES", "ALPHA_MIN", "validation_set", "centre_table", "bilinear", "study_rows", "markdown", "main", "fitted_methods", "FIT_TARGETS",
            "table_method", "exact_method", "no_compensation", "furnace", "measure", "table_lookup_ns"]
 
 #: the models studied (the exact engine's names)
@@ -255,6 +255,14 @@ def markdown(rows: list[dict], ns: dict, validation_n: int = 64) -> str:
                        f"{_g(r['max_furnace'])} | {_g(r['max_furnace_interior'])} | ({w['mu']:.3g}, {w['alpha']:.3g}) | "
                        f"{'-' if r['bytes'] is None else r['bytes']} |")  # fmt: skip
         out.append("")
+    out += ["## Why a fit's furnace can be far worse than its E", "",
+            "The lobe is divided by 1 - E_avg_hat, which goes to 0 as alpha -> 0 (GGX becomes a mirror and "
+            "loses nothing). A method whose E_avg_hat is not the average of its own E_hat (a fit of E beside a "
+            "separate fit of E_avg, or a published E with a fitted E_avg) has a numerator and a denominator that "
+            "do not vanish together there, and the ratio runs away at the smallest alpha: compare the whole-"
+            "domain and interior furnace columns. A renderer that takes E_avg_hat = 2 int E_hat mu dmu from the "
+            "same E_hat (or clamps the lobe where 1 - E_avg_hat is tiny) does not have this failure; a table "
+            "and its own 1-D average nearly do that by construction.", ""]
     out += ["## Cost", "", "ns per evaluation of E_hat in C (double, -O2), one interleaved run on this machine "
             "(only the ratios carry meaning): " + ", ".join(f"{k}: {v:.1f}" for k, v in ns.items()) + ".", ""]
     sep = {r["method"]: r for r in rows if r["model"] == "ggx_separable"}
@@ -271,6 +279,40 @@ def markdown(rows: list[dict], ns: dict, validation_n: int = 64) -> str:
     return "\n".join(out)
 
 
+#: model -> (its E target, its E_avg target) in the family's registry
+FIT_TARGETS = {"ggx_separable": ("E_ggx_sep", "E_avg_ggx_sep"), "ggx_correlated": ("E_ggx_cor", "E_avg_ggx_cor"),
+               "oren_nayar": ("E_on", "E_avg_on")}
+
+
+def fitted_methods(fits_dir=None) -> dict:
+    """{model: [method]}: each E form with a saved fit in ``fits_dir`` (None: the packaged fits), paired with
+    the default fit of E_avg, and every published preset of the E target with that same E_avg."""
+    from fitlab.core import get_target
+    from fitlab.store import fit_files, fits_folder, load
+
+    out = {}
+    for model, (e_name, avg_name) in FIT_TARGETS.items():
+        folder = fits_folder(fits_dir)
+        avg = load(folder / f"{avg_name}.json")
+        E_avg = lambda alpha, avg=avg: np.asarray(avg(alpha=np.asarray(alpha, dtype=float)), dtype=float)  # noqa: E731
+        methods = []
+        for path in fit_files(folder, e_name):
+            fit = load(path)
+            n_params = len(fit.params) if hasattr(fit, "params") else None
+            methods.append({"label": f"fit {path.name} + {avg_name}.json",
+                            "E": lambda mu, alpha, fit=fit: np.asarray(fit(mu=mu, alpha=alpha), dtype=float),
+                            "E_avg": E_avg, "bytes": None if n_params is None else 8 * n_params})  # fmt: skip
+        target = get_target(e_name)
+        for form_name, preset in target.published:
+            form = target.forms[form_name]
+            theta = form.vector(preset)
+            methods.append({"label": f"published {form_name} / {preset} + {avg_name}.json",
+                            "E": lambda mu, alpha, form=form, theta=theta: np.asarray(form.numpy_function(theta, mu, alpha), dtype=float),
+                            "E_avg": E_avg, "bytes": 8 * len(form.free_params)})  # fmt: skip
+        out[model] = methods
+    return out
+
+
 def main(argv=None) -> int:
     import argparse
     import json
@@ -281,8 +323,12 @@ def main(argv=None) -> int:
                                 description="Write energy_compensation.md and .json (the study of this module).")
     p.add_argument("--out", default=".", help="folder for energy_compensation.md and .json")
     args = p.parse_args(argv)
-    rows = study_rows()
+    rows = study_rows(fitted=fitted_methods())
     ns = table_lookup_ns("ggx_separable")
+    from fitlab.discover.cost import routine_cost
+
+    for e_name in (FIT_TARGETS["ggx_separable"][0], FIT_TARGETS["ggx_correlated"][0]):
+        ns[f"fit {e_name} (generated C, a separate run)"] = next(iter(routine_cost(e_name, [None]).values()))
     out = Path(args.out)
     atomic_write_many({out / "energy_compensation.md": markdown(rows, ns).encode(),
                        out / "energy_compensation.json": json.dumps({"rows": rows}, indent=1).encode()})
