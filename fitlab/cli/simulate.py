@@ -12,7 +12,10 @@ computation (one line per problem).
 
 from __future__ import annotations
 
+import json
 import sys
+import tomllib
+from pathlib import Path
 
 from fitlab.cli._common import add_family, FAILURE, USAGE, fail, service
 from fitlab.core import families
@@ -40,6 +43,27 @@ def _simulating_families() -> list[str]:
     return [name for name, f in families().items() if "simulate" in f.hooks]
 
 
+def _family_of(scene: Path, family: str | None) -> str | None:
+    """Whose Monte Carlo runs ``scene``: --family; else the one family that simulates; else the family whose
+    packaged scenes hold it; else the one whose ``claims`` accepts the parsed file (parsed as data: TOML or
+    JSON); else the first family that simulates, whose scene rules then say what is wrong."""
+    if family is not None:
+        return family
+    offering = _simulating_families()
+    if len(offering) <= 1:
+        return None
+    for fam in offering:
+        if scene.resolve().parent == packaged_scenes(fam).resolve():
+            return fam
+    try:
+        text = scene.read_text()
+        raw = json.loads(text) if scene.suffix == ".json" else tomllib.loads(text)
+    except (OSError, UnicodeDecodeError, ValueError):  # TOMLDecodeError and JSONDecodeError are ValueErrors
+        raw = {}
+    claiming = [fam for fam in offering if getattr(service("simulate", fam), "claims", lambda raw: False)(raw)]
+    return claiming[0] if len(claiming) == 1 else offering[0]
+
+
 def packaged_scene_names() -> list[str]:
     """The names of the example scenes packaged with fitlab (``fitlab simulate NAME`` runs one)."""
     return sorted(p.stem for fam in _simulating_families() for p in packaged_scenes(fam).glob("*.toml"))
@@ -52,7 +76,7 @@ def run(args) -> int:
         return fail("simulate", f"{args.scene}: no such scene file, and no packaged scene of that name "
                                 f"(packaged: {', '.join(packaged_scene_names())})", USAGE)
 
-    mc = service("simulate", args.family)  # the family's Monte Carlo (imports JAX)
+    mc = service("simulate", _family_of(scene, args.family))  # the family's Monte Carlo (imports JAX)
     SceneError, simulate_file, summary_table, unconverged = mc.SceneError, mc.simulate_file, mc.summary_table, mc.unconverged
 
     try:

@@ -41,7 +41,7 @@ from fitlab.families.lambert_sphere.mc.sampling import unbounded_reason
 from fitlab.families.lambert_sphere.mc.scene import Scene, SceneError, load_scene, with_overrides
 from fitlab.families.lambert_sphere.mc.transport import compile_walk, default_mesh, run_round
 
-__all__ = ["SimulationResult", "simulate", "simulate_file", "write_outputs", "unconverged", "check_out_dir",
+__all__ = ["claims", "SimulationResult", "simulate", "simulate_file", "write_outputs", "unconverged", "check_out_dir",
            "SUMMARY_FIELDS"]
 
 MIN_PHOTONS = 10_000
@@ -269,3 +269,14 @@ def simulate_file(path, out_dir=None, progress=True, plots=True, target_se=None,
     check_out_dir(out_dir)
     result = simulate(scene, progress=progress)
     return result, write_outputs(result, out_dir, plots=plots)
+
+
+def claims(raw: dict) -> bool:
+    """Whether a parsed scene file (a dict, before any validation) is one of this Monte Carlo's: a
+    three-term or true phase half space, whose materials are given by c or kd.  ``fitlab simulate`` asks
+    each family that simulates, when the scene does not say and no --family is given."""
+    materials = raw.get("material") if isinstance(raw, dict) else None
+    scene = raw.get("scene") if isinstance(raw, dict) else None
+    if isinstance(scene, dict) and "phase" in scene:
+        return True
+    return isinstance(materials, list) and any(isinstance(m, dict) and ("c" in m or "kd" in m) for m in materials)

@@ -48,7 +48,7 @@ from fitlab.families.microfacet_energy.microsurface.walk import (
     run_round,
 )
 
-__all__ = ["SimulationResult", "SceneError", "simulate", "simulate_file", "write_outputs", "summary_table",
+__all__ = ["claims", "SimulationResult", "SceneError", "simulate", "simulate_file", "write_outputs", "summary_table",
            "unconverged", "check_out_dir", "ROW_FIELDS", "SUMMARY_FIELDS", "MIN_PATHS", "job_config",
            "job_params"]
 
@@ -329,3 +329,11 @@ def simulate_file(path, out_dir=None, progress=False, plots=True, target_se=None
     check_out_dir(out_dir)
     result = simulate(scene, progress=progress)
     return result, write_outputs(result, out_dir, plots=plots)
+
+
+def claims(raw: dict) -> bool:
+    """Whether a parsed scene file (a dict, before any validation) is a microsurface walk's: its materials
+    name a facet kind or a slope distribution.  ``fitlab simulate`` asks each family that simulates."""
+    materials = raw.get("material") if isinstance(raw, dict) else None
+    return isinstance(materials, list) and any(isinstance(m, dict) and ("kind" in m or "distribution" in m)
+                                               for m in materials)  # fmt: skip
