@@ -174,7 +174,7 @@ def brdf_methods(fits_dir: Path, entries: list, data_dir: Path, preset_c: tuple 
         order2 = None
     if order2:
         m = runtime_model(fits_dir=fits_dir, forms=order2)
-        out.append(_runtime(m, "refit, order 2 (issue 18)", "refit, richer", _label(order2),
+        out.append(_runtime(m, "refit, order 2", "refit, richer", _label(order2),
                             CSpec("brdf", fits_dir, tuple(sorted(order2.items())))))  # fmt: skip
     richer = best_forms(entries, {"refit"}, (*RUNTIME_PARTS, ORDER2_PART))
     if richer and richer != order2:  # the best part fits may be the order-2 model itself
