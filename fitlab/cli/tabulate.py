@@ -49,11 +49,12 @@ def run(args) -> int:
     root = data_root() if args.data is None else Path(args.data)
     if args.check:
         return _check(args, chosen, root)
+    services = {name: service("tables", name) for name in chosen}
     # every destination is checked before any family's work starts
-    outs = {name: output_folder(root / service("tables", name).FAMILY_NAME, "--data", files=service("tables", name).TABLE_FILES)
-            for name in chosen}  # fmt: skip
+    outs = {name: output_folder(root / tables.FAMILY_NAME, "--data", files=tables.TABLE_FILES)
+            for name, tables in services.items()}  # fmt: skip
     for name, out in outs.items():
-        tables = service("tables", name)
+        tables = services[name]
         t0 = time.perf_counter()
         try:
             digests = tables.write_tables(out, show_progress=not args.quiet)

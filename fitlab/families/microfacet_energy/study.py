@@ -288,20 +288,19 @@ def fitted_methods(fits_dir=None) -> dict:
     """{model: [method]}: each E form with a saved fit in ``fits_dir`` (None: the packaged fits), paired with
     the default fit of E_avg, and every published preset of the E target with that same E_avg."""
     from fitlab.core import get_target
-    from fitlab.store import fit_files, fits_folder, load
+    from fitlab.store import fit_files, fit_path, fits_folder, load
 
+    folder = fits_folder(fits_dir)
     out = {}
     for model, (e_name, avg_name) in FIT_TARGETS.items():
-        folder = fits_folder(fits_dir)
-        avg = load(folder / f"{avg_name}.json")
+        avg = load(fit_path(folder, avg_name, get_target(avg_name).default_form))
         E_avg = lambda alpha, avg=avg: np.asarray(avg(alpha=np.asarray(alpha, dtype=float)), dtype=float)  # noqa: E731
         methods = []
         for path in fit_files(folder, e_name):
             fit = load(path)
-            n_params = len(fit.params) if hasattr(fit, "params") else None
             methods.append({"label": f"fit {path.name} + {avg_name}.json",
                             "E": lambda mu, alpha, fit=fit: np.asarray(fit(mu=mu, alpha=alpha), dtype=float),
-                            "E_avg": E_avg, "bytes": None if n_params is None else 8 * n_params})  # fmt: skip
+                            "E_avg": E_avg, "bytes": 8 * len(fit.params)})  # fmt: skip
         target = get_target(e_name)
         for form_name, preset in target.published:
             form = target.forms[form_name]
