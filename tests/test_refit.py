@@ -132,7 +132,9 @@ def test_richer_forms_beat_the_published_shapes():
 def test_refit_reproduces_a_committed_fit(tmp_path):
     res = refit("m")
     committed = read_fit(FITS / "m.json")
-    assert res.record["data_sha256"] == committed["data_sha256"]
+    # (not data_sha256: the validation values come from the exact engine and may differ in the last bits
+    # between numpy/scipy releases; the parameters and figures must not)
+    assert res.record["validation"]["max_rel"] == pytest.approx(committed["validation"]["max_rel"], rel=1e-6)
     for k, v in committed["params"].items():
         assert res.record["params"][k] == pytest.approx(v, rel=1e-8)
     assert FitFunction(res.record)(c=np.array([0.0, 1.0]))[0] == 1.0  # m(0) = 1 exactly
