@@ -22,12 +22,21 @@ from fitlab.codegen import POLE_FLOOR, build_program, generate, load_program, pa
 from fitlab.codegen.emit import emit
 from fitlab.codegen.native import STRICT_FLAGS, build, build_glsl, compiler
 from fitlab.core import float64
-from fitlab.store import load
+from fitlab.codegen import program_spec
+from fitlab.core import get_target
+from fitlab.store import fit_path, load
 from fitlab.forms.symbolic import lambdify_jax, symbols
-from fitlab.families.lambert_sphere.runtime import runtime_model
+from fitlab.families.lambert_sphere.runtime import energy_scale, runtime_model
 
 ROOT = Path(__file__).resolve().parents[1]
 FITS = ROOT / "fitlab" / "fits"
+#: the forms of the program codegen prints by default (its default model), by target
+MODEL_FORMS = program_spec("lambert_sphere").model()[1]
+
+
+def fit_file(target: str) -> Path:
+    """The fit file of ``target`` that the default program is built from."""
+    return fit_path(FITS, target, MODEL_FORMS.get(target, get_target(target).default_form))
 GENERATED = FITS / "generated"
 N = 100_000
 needs_cc = pytest.mark.skipif(compiler() is None, reason="no C compiler on PATH")
@@ -104,8 +113,8 @@ def test_generation_does_not_depend_on_hash_seed(tmp_path):
 
 def test_banner_names_every_source_fit(sources):
     text = sources["c"]["lambert_sphere.h"]
-    for name in ("H0", "H1", "l", "m", "B", "C", "D", "F", "c_of_kd", "kd_of_c", "fast_brdf"):
-        assert f" {name}.json " in text
+    for name in ("H0", "H1", "H2", "l", "m", "B", "C", "D", "F", "c_of_kd", "kd_of_c", "fast_brdf"):
+        assert f" {fit_file(name).name} " in text
 
 
 def test_banner_points_to_the_model_document(sources):
@@ -129,7 +138,7 @@ def test_build_program_takes_records_and_reads_no_file(program, monkeypatch):
     from fitlab.core import get_target
     from fitlab.store import read_fit
 
-    records = {t: read_fit(FITS / f"{t}.json") for t in program_spec("lambert_sphere").fits}
+    records = {t: read_fit(fit_file(t)) for t in program_spec("lambert_sphere").fits}
 
     def no_reading(*args, **kwargs):
         raise AssertionError("build_program read a file")
@@ -166,7 +175,7 @@ def test_c_and_python_agree_with_the_jax_runtime_model(native, py, inputs):
     # points with mu_i + mu_o under the pole floor are tested apart (the unfloored model is ~1/(mu_i + mu_o))
     keep = inputs[0] + inputs[1] >= float(POLE_FLOOR)
     mu_i, mu_o, cos_phi, c = (a[keep] for a in inputs)
-    expr = stable(runtime_model(fits_dir=FITS).expr)
+    expr = stable(runtime_model(fits_dir=FITS, forms=MODEL_FORMS).expr)
     ref = np.asarray(jax_reference(expr, ("mu_i", "mu_o", "phi", "c"))(mu_i, mu_o, np.arccos(cos_phi), c))
     got_c = native("brdf", mu_i, mu_o, cos_phi, c)
     got_py = py.brdf(mu_i, mu_o, cos_phi, c)
@@ -199,7 +208,7 @@ def test_fast_variant_agrees_with_its_fit(native, py, inputs):
                                             ("B", "const_b"), ("C", "const_c"), ("D", "const_d"), ("F", "const_f"),
                                             ("kd_of_c", "kd_of_c"), ("c_of_kd", "c_of_kd")])  # fmt: skip
 def test_parts_agree_with_their_fits(native, py, inputs, target, routine):
-    fit = load(FITS / f"{target}.json")
+    fit = load(fit_file(target))
     args = (inputs[0], inputs[3]) if len(fit.inputs) == 2 else (inputs[3],)
     args = tuple(np.concatenate([a, [0.0, 1e-12, 1e-6, 0.5, 1.0]]) for a in args)
     ref = np.asarray(jax_reference(fit.expression, fit.inputs)(*args))
@@ -295,8 +304,12 @@ def test_terms_option_keeps_only_the_terms_asked_for(tmp_path):
     assert "fm1" not in names and "fm0" in names
     m = build(emit(prog, "c"), prog, tmp_path)
     x = np.array([0.3, 0.7]), np.array([0.6, 0.2]), np.array([0.5, -0.5]), np.array([0.9, 0.4])
-    expect = np.maximum(0.0, m("single", *x) + m("fm0", x[0], x[1], x[3]))
-    assert np.array_equal(m("brdf", *x), expect)
+    # brdf = max(0, s (single + fm0)), s the energy scale of the terms kept
+    parts = {t: load(fit_file(t)).expression for t in ("H0", "H1", "H2", "l", "m", "B", "C", "D", "F")}
+    scale = float(energy_scale(parts, ("single", "m0")))
+    assert 0.99 < scale <= 1.0
+    expect = np.maximum(0.0, scale * (m("single", *x) + m("fm0", x[0], x[1], x[3])))
+    assert rel(m("brdf", *x), expect).max() < 1e-15
     with pytest.raises(ValueError, match="single, m0, m1"):
         parse_terms("single,m3")
 

@@ -123,7 +123,8 @@ def test_codegen_refuses_hostile_fits(zoo, canary, tmp_path, capsys, label):
     shutil.copytree(FITS, fits, ignore=shutil.ignore_patterns("generated"))
     _write(fits, name if name != "m.sr_1_abcdef.json" else "m.json", raw)
     out = tmp_path / "gen"
-    code = main(["codegen", "--lang", "c", "--fits", str(fits), "--out", str(out)])
+    # the default-forms model reads the files the zoo replaces (m.json, H0.json, ...)
+    code = main(["codegen", "--lang", "c", "--fits", str(fits), "--out", str(out), "--model", "default-forms"])
     err = capsys.readouterr().err.strip()
     assert code == 2 and err.count("\n") == 0 and "Traceback" not in err
     assert not out.exists() or list(out.iterdir()) == []

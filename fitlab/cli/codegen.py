@@ -31,7 +31,11 @@ def add_arguments(p) -> None:
     p.add_argument("--lang", required=True, choices=list(LANGUAGES), help=f"target language: {', '.join(LANGUAGES)}")
     add_fits(p)
     p.add_argument("--out", default="generated", help="output folder (default: generated)")
-    p.add_argument("--terms", help="terms of brdf to keep, comma-separated subset of single,m0,m1 (default: all)")
+    p.add_argument("--terms", help="terms of brdf to keep, comma-separated subset of single,m0,m1,m2 (default: all)")
+    p.add_argument("--model", metavar="NAME", default=None,
+                   help="the forms to print: a model of the family's program (Lambert sphere: order2, the report's "
+                        "real-time recommendation and the default; default-forms, each target's default form); "
+                        "--form overrides a part")
     p.add_argument("--form", action="append", metavar="TARGET=FORM",
                    help="use the fit TARGET.FORM.json of --fits for a part, e.g. H0=hapke_rational (repeatable)")
     p.add_argument("--single-header", action="store_true",
@@ -49,12 +53,14 @@ def run(args) -> int:
     try:
         parse_terms(args.terms, args.family)
         forms = codegen.parse_forms(args.form)
+        if args.model is not None:
+            codegen.program_spec(args.family, tuple(forms)).model(args.model)
     except (ValueError, KeyError) as exc:
         raise UsageError(one_line(exc)) from None
     fits = fits_input(args, required=False)  # a missing one: "no such fit file" names the fit
     out = output_folder(args.out, "--out")
     try:
-        files = codegen.generate(args.lang, fits, args.terms, forms, args.family, args.single_header)
+        files = codegen.generate(args.lang, fits, args.terms, forms, args.family, args.single_header, args.model)
     except (ValueError, KeyError, FitFileError) as exc:  # a fit that is missing, damaged or not what it should be
         raise UsageError(one_line(exc)) from None
     except ArithmeticError as exc:

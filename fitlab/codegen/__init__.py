@@ -20,6 +20,7 @@ from pathlib import Path
 from fitlab._io import atomic_write_text
 from fitlab.codegen.emit import LANGUAGES, emit
 from fitlab.codegen.program import (
+    DEFAULT_FORMS,
     POLE_FLOOR,
     Program,
     ProgramSpec,
@@ -44,7 +45,7 @@ from fitlab.store import fit_path, fit_sha256, fits_folder, load
 __all__ = ["generate", "codegen_command", "load_program", "parse_forms", "write_generated", "emit", "LANGUAGES", "build_program",
            "parse_terms", "program_spec", "part_routine", "Program", "ProgramSpec", "Routine", "POLE_FLOOR", "call",
            "stable", "floor_poles", "azimuth_to_cosine", "clamp", "clamped", "minmax_piecewise", "with_domain",
-           "SAFE_POW"]  # fmt: skip
+           "SAFE_POW", "DEFAULT_FORMS"]  # fmt: skip
 
 
 def _terms(terms: str | tuple | None, family: str | None) -> tuple[str, ...] | None:
@@ -54,40 +55,48 @@ def _terms(terms: str | tuple | None, family: str | None) -> tuple[str, ...] | N
 
 
 def load_program(fits_dir: Path | None = None, terms: str | tuple | None = None, forms: dict | None = None,
-                 family: str | None = None) -> Program:  # fmt: skip
-    """The program of the fits in ``fits_dir`` (None: the packaged fits): each target's default form, or the form ``forms`` picks
-    ({"H0": "sr_7_6808f1"}: fits/H0.sr_7_6808f1.json); each file must exist (FitFileError otherwise).
-    ``family``: whose program (default: the family of the targets in ``forms``, else the one family with
-    a program of its own)."""
+                 family: str | None = None, model: str | None = None) -> Program:  # fmt: skip
+    """The program of the fits in ``fits_dir`` (None: the packaged fits).
+
+    Each target's form is the one ``forms`` picks ({"H0": "sr_7_6808f1"}: fits/H0.sr_7_6808f1.json), else
+    the one the ``model`` picks (:attr:`ProgramSpec.models`; None: the program's default model,
+    :data:`DEFAULT_FORMS`: none), else the target's default form; each file must exist (FitFileError
+    otherwise).  ``family``: whose program (default: the family of the targets in ``forms``, else the one
+    family with a program of its own)."""
     forms = dict(forms or {})
     spec = program_spec(family, tuple(forms))
     family = family or next(t.family for t in targets().values() if t.name in spec.fits)
     term_tuple = _terms(terms, family)
+    model_name, model_forms, description = spec.model(model)
+    chosen = {**model_forms, **forms}
     fits_dir = fits_folder(fits_dir)
-    paths = {t: fit_path(fits_dir, t, forms.get(t, targets()[t].default_form)) for t in spec.fits}
+    paths = {t: fit_path(fits_dir, t, chosen.get(t, targets()[t].default_form)) for t in spec.fits}
     records = {t: load(p) for t, p in paths.items()}
     # the file name and its digest name a fit wherever its folder is, so regenerated code is byte-identical
     sources = [(p.name, fit_sha256(p)) for p in paths.values()]
-    return build_program(records, term_tuple, sources, family)
+    return build_program(records, term_tuple, sources, family, (model_name, description))
 
 
 def generate(lang: str, fits_dir: Path | None = None, terms: str | tuple | None = None,
-             forms: dict | None = None, family: str | None = None, single_header: bool = False) -> dict[str, str]:  # fmt: skip
+             forms: dict | None = None, family: str | None = None, single_header: bool = False,
+             model: str | None = None) -> dict[str, str]:  # fmt: skip
     """Source files ({name: text}) in ``lang`` of the program of the fits in ``fits_dir`` (:func:`load_program`);
     their banner names the command that makes them (:func:`codegen_command`)."""
     if lang not in LANGUAGES:
         raise ValueError(f"unknown language {lang!r}; choose one of {', '.join(LANGUAGES)}")
-    command = codegen_command(lang, terms, forms, family, single_header)
-    return emit(load_program(fits_dir, terms, forms, family), lang, command, single_header)
+    command = codegen_command(lang, terms, forms, family, single_header, model)
+    return emit(load_program(fits_dir, terms, forms, family, model), lang, command, single_header)
 
 
 def codegen_command(lang: str, terms=None, forms: dict | None = None, family: str | None = None,
-                    single_header: bool = False) -> str:  # fmt: skip
+                    single_header: bool = False, model: str | None = None) -> str:  # fmt: skip
     """The ``fitlab codegen`` command that makes these files, with every option that changes their content
     (not --fits or --out: the banner's digests name the fits, and the files are the same wherever written)."""
     words = ["fitlab codegen", f"--lang {lang}"]
     if family is not None:
         words.append(f"--family {family}")
+    if model is not None:
+        words.append(f"--model {model}")
     if terms is not None:
         words.append(f"--terms {terms if isinstance(terms, str) else ','.join(terms)}")
     words += [f"--form {t}={f}" for t, f in (forms or {}).items()]

@@ -52,6 +52,8 @@ GLSL_SHIM = r"""
 #include <math.h>
 typedef struct { float x, y, z; } vec3;
 static vec3 glsl_vec3(const float *p) { vec3 v; v.x = p[0]; v.y = p[1]; v.z = p[2]; return v; }
+static vec3 glsl_make_vec3(float x, float y, float z) { vec3 v; v.x = x; v.y = y; v.z = z; return v; }
+#define vec3(x, y, z) glsl_make_vec3(x, y, z)
 static float max(float a, float b) { return fmaxf(a, b); }
 static float min(float a, float b) { return fminf(a, b); }
 static float abs_(float a) { return fabsf(a); }
@@ -75,17 +77,58 @@ def _loop_source(program: Program) -> str:
             args = ", ".join(f"{a} + 3 * i" if a in vectors else f"{a}[i]" for a in sig)
             lines.append(f"void {func}{suffix}_loop(long n, {params}, {scalar} *out)")
             lines.append(f"{{ long i; for (i = 0; i < n; ++i) out[i] = {func}{suffix}({args}); }}")
-    return "\n".join(lines) + "\n"
+    return "\n".join(lines + _material_loops(program, by_value=False)) + "\n"
+
+
+def _material_loops(program: Program, by_value: bool, scalars=(("double", "", ""), ("float", "_f", "_f"))) -> list[str]:
+    """Loops of the per-material routines: ``PREPARE_loop(n, params..., material *out)`` fills n structs;
+    ``EVAL_loop(n, const material *m, const long *which, args..., out)`` evaluates point i with material
+    which[i] (the set-up hoisted, as a renderer calls it); ``EVAL_rgb_loop`` the same with three materials
+    per point (m + 3 which[i]) and three outputs.  ``scalars``: (type, suffix of the functions called, suffix
+    of the loops) (GLSL: float functions without a suffix, loops named like C's float ones)."""
+    m, prefix, lines = program.material, program.prefix, []
+    if m is None:
+        return lines
+    for scalar, suffix, loop in scalars:
+        struct = f"{prefix}material{suffix}"
+        for name, params in ((m.prepare_name, m.params), *((n, (a,)) for n, a, _ in m.setups)):
+            decl = ", ".join(f"const {scalar} *{a}" for a in params)
+            lines.append(f"void {prefix}{name}{loop}_loop(long n, {decl}, {struct} *out)")
+            lines.append(f"{{ long i; for (i = 0; i < n; ++i) out[i] = {prefix}{name}{suffix}"
+                         f"({', '.join(f'{a}[i]' for a in params)}); }}")
+        for r in m.evaluators:
+            sig = r.signature()
+            decl = ", ".join(f"const {scalar} *{a}" for a in sig)
+            args = ", ".join(f"{a} + 3 * i" if a in r.vectors else f"{a}[i]" for a in sig)
+            if by_value:  # GLSL: structs and vectors by value
+                args = ", ".join(f"glsl_vec3({a} + 3 * i)" if a in r.vectors else f"{a}[i]" for a in sig)
+            one = "m[which[i]]" if by_value else "m + which[i]"
+            lines.append(f"void {prefix}{r.name}{loop}_loop(long n, const {struct} *m, const long *which, {decl}, {scalar} *out)")
+            lines.append(f"{{ long i; for (i = 0; i < n; ++i) out[i] = {prefix}{r.name}{suffix}({one}, {args}); }}")
+            if by_value:
+                three = "m[3 * which[i]], m[3 * which[i] + 1], m[3 * which[i] + 2]"
+                lines.append(f"void {prefix}{r.name}_rgb{loop}_loop(long n, const {struct} *m, const long *which, "
+                             f"{decl}, {scalar} *out)")
+                lines.append(f"{{ long i; for (i = 0; i < n; ++i) {{ vec3 v = {prefix}{r.name}_rgb({three}, {args}); "
+                             "out[3 * i] = v.x; out[3 * i + 1] = v.y; out[3 * i + 2] = v.z; } }")
+            else:
+                lines.append(f"void {prefix}{r.name}_rgb{loop}_loop(long n, const {struct} *m, const long *which, "
+                             f"{decl}, {scalar} *out)")
+                lines.append(f"{{ long i; for (i = 0; i < n; ++i) {prefix}{r.name}_rgb{suffix}(m + 3 * which[i], "
+                             f"{args}, out + 3 * i); }}")
+    return lines
 
 
 def _glsl_loop_source(program: Program) -> str:
-    lines = [GLSL_SHIM, f'#include "{program.name}.glsl"', ""]
+    # GLSL names a struct type by its tag; C needs a typedef (allowed before the struct's definition)
+    struct = [f"typedef struct {program.prefix}material {program.prefix}material;"] if program.material else []
+    lines = [GLSL_SHIM, *struct, f'#include "{program.name}.glsl"', ""]
     for func, sig, vectors in ((program.prefix + r.name, r.signature(), r.vectors) for r in program.routines):
         params = ", ".join(f"const float *{a}" for a in sig)
         args = ", ".join(f"glsl_vec3({a} + 3 * i)" if a in vectors else f"{a}[i]" for a in sig)
         lines.append(f"void {func}_f_loop(long n, {params}, float *out)")
         lines.append(f"{{ long i; for (i = 0; i < n; ++i) out[i] = {func}({args}); }}")
-    return "\n".join(lines) + "\n"
+    return "\n".join(lines + _material_loops(program, by_value=True, scalars=(("float", "", "_f"),))) + "\n"
 
 
 def _compile(workdir: Path, sources: list[Path], lib: Path, flags) -> list[str]:
@@ -114,7 +157,8 @@ def build(files: dict[str, str], program: Program, workdir: Path, flags=STRICT_F
     workdir = _written(files, workdir, {"loops.c": _loop_source(program)})
     lib = workdir / f"lib{program.name}.so"
     cmd = _compile(workdir, [workdir / f"{program.name}.c", workdir / "loops.c"], lib, flags)
-    return NativeModel(ctypes.CDLL(str(lib)), {r.name: r for r in program.routines}, program.prefix, cmd)
+    return NativeModel(ctypes.CDLL(str(lib)), {r.name: r for r in program.routines}, program.prefix, cmd,
+                       material=program.material)  # fmt: skip
 
 
 def build_glsl(files: dict[str, str], program: Program, workdir: Path, flags=GLSL_FLAGS) -> "NativeModel":
@@ -124,7 +168,7 @@ def build_glsl(files: dict[str, str], program: Program, workdir: Path, flags=GLS
     lib = workdir / f"lib{program.name}_glsl.so"
     cmd = _compile(workdir, [workdir / "glsl_loops.c"], lib, flags)
     return NativeModel(ctypes.CDLL(str(lib)), {r.name: r for r in program.routines}, program.prefix, cmd,
-                       dtypes=(np.float32,))  # fmt: skip
+                       dtypes=(np.float32,), material=program.material)  # fmt: skip
 
 
 class NativeModel:
@@ -132,14 +176,23 @@ class NativeModel:
 
     command: the compiler command line the library was built with (None when not built here).
     dtypes: the scalar types its loops exist in.
+    material: the program's per-material set-up (:class:`fitlab.codegen.program.Material`), or None.
+    Its routines are called the same way: ``m("prepare_c", c)`` gives materials, an array (n, fields);
+    ``m("eval", materials, which, mu_i, mu_o, cos_phi)`` evaluates point i with materials[which[i]]
+    (``which``: integers); ``m("eval_rgb", materials, which, ...)`` with materials[3 which[i] + k],
+    k = 0, 1, 2, and an output with a last axis of 3.
     """
 
-    def __init__(self, lib, routines, prefix: str, command=None, dtypes=(np.float64, np.float32)):
+    def __init__(self, lib, routines, prefix: str, command=None, dtypes=(np.float64, np.float32), material=None):
         self.lib = lib
         self.routines = routines
         self.prefix = prefix
         self.command = None if command is None else tuple(command)
         self.dtypes = tuple(dtypes)
+        self.material = material
+        self._evaluators = {} if material is None else {r.name: r for r in material.evaluators}
+        self._setups = {} if material is None else {
+            material.prepare_name: material.params, **{n: (a,) for n, a, _ in material.setups}}
 
     def loop(self, func: str, dtype=np.float64):
         if np.dtype(dtype) not in [np.dtype(d) for d in self.dtypes]:
@@ -149,8 +202,54 @@ class NativeModel:
         return f
 
     def __call__(self, name: str, *args, dtype=np.float64):
+        if name in self._setups:
+            return self._prepare(name, *args, dtype=dtype)
+        base = name[:-4] if name.endswith("_rgb") else name
+        if base in self._evaluators:
+            return self._evaluate(name, self._evaluators[base], *args, dtype=dtype, rgb=base != name)
         r = self.routines[name]
         return self.call(self.prefix + name, r.signature(), r.vectors, *args, dtype=dtype)
+
+    def _ptr(self, a, dtype):
+        return a.ctypes.data_as(ctypes.POINTER(ctypes.c_float if dtype == np.float32 else ctypes.c_double))
+
+    def _prepare(self, name, *args, dtype=np.float64):
+        params = self._setups[name]
+        if len(args) != len(params):
+            raise TypeError(f"{self.prefix}{name} takes {params}")
+        arrays = [np.asarray(a, dtype=dtype) for a in args]
+        shape = np.broadcast_shapes(*(a.shape for a in arrays))
+        arrays = [np.ascontiguousarray(np.broadcast_to(a, shape)) for a in arrays]
+        out = np.empty((*shape, len(self.material.fields)), dtype=dtype)
+        self.loop(self.prefix + name, dtype)(ctypes.c_long(int(np.prod(shape))), *(self._ptr(a, dtype) for a in arrays),
+                                             self._ptr(out, dtype))  # fmt: skip
+        return out
+
+    def _evaluate(self, name, r, materials, which, *args, dtype=np.float64, rgb=False):
+        sig = r.signature()
+        if len(args) != len(sig):
+            raise TypeError(f"{self.prefix}{name} takes (materials, which, {', '.join(sig)})")
+        materials = np.ascontiguousarray(materials, dtype=dtype)
+        if materials.ndim != 2 or materials.shape[1] != len(self.material.fields):
+            raise ValueError(f"materials must be an array (n, {len(self.material.fields)}) (from a prepare routine)")
+        which = np.asarray(which, dtype=np.int64)
+        count = materials.shape[0] // 3 if rgb else materials.shape[0]
+        if which.size and (which.min() < 0 or which.max() >= count):
+            raise IndexError(f"which must index the {count} materials{' (triples)' if rgb else ''}")
+        vecs = [np.asarray(a, dtype=dtype) for a, n in zip(args, sig) if n in r.vectors]
+        scalars = [np.asarray(a, dtype=dtype) for a, n in zip(args, sig) if n not in r.vectors]
+        shape = np.broadcast_shapes(which.shape, *(a.shape for a in scalars), *(v.shape[:-1] for v in vecs))
+        arrays, si, vi = [], iter(scalars), iter(vecs)
+        for n in sig:
+            a = np.broadcast_to(next(vi), (*shape, 3)) if n in r.vectors else np.broadcast_to(next(si), shape)
+            arrays.append(np.ascontiguousarray(a))
+        which = np.ascontiguousarray(np.broadcast_to(which, shape))
+        out = np.empty((*shape, 3) if rgb else shape, dtype=dtype)
+        self.loop(self.prefix + name, dtype)(
+            ctypes.c_long(int(np.prod(shape))), self._ptr(materials, dtype),
+            which.ctypes.data_as(ctypes.POINTER(ctypes.c_long)), *(self._ptr(a, dtype) for a in arrays),
+            self._ptr(out, dtype))  # fmt: skip
+        return out
 
     def call(self, func, sig, vectors, *args, dtype=np.float64):
         if len(args) != len(sig):

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from fitlab.codegen import emit, load_program
+from fitlab.codegen import DEFAULT_FORMS, emit, load_program
 from fitlab.codegen.native import build, compiler
 from fitlab.core import get_target, targets
 from fitlab.timing import best_seconds
@@ -44,7 +44,8 @@ def routine_cost(target: str, forms: list[str | None], fits_dir: Path | None = N
     with tempfile.TemporaryDirectory() as tmp:
         models, names = {}, ()
         for k, form in enumerate(forms):
-            program = load_program(fits_dir, forms={} if form is None else {target: form}, family=get_target(target).family)
+            program = load_program(fits_dir, forms={} if form is None else {target: form}, family=get_target(target).family,
+                                   model=DEFAULT_FORMS)
             models[form] = build(emit(program, "c"), program, Path(tmp) / f"v{k}")
             names = program.routine(routine).signature()
         args = [np.ascontiguousarray(a, dtype=dtype) for a in _inputs(names, n)]

@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from fitlab.codegen import build_program, emit, load_program
+from fitlab.codegen import DEFAULT_FORMS, build_program, emit, load_program
 from fitlab.codegen.bench import time_routines
 from fitlab.codegen.native import CompileError, build
 from fitlab.core import get_target
@@ -44,7 +44,7 @@ def _program(spec: CSpec):
                   for (t, f), r in records.items() if t in prog.parts}  # fmt: skip
         return prog, labels
     forms = dict(spec.forms)
-    prog = load_program(Path(spec.fits_dir), forms=forms)
+    prog = load_program(Path(spec.fits_dir), forms=forms, model=DEFAULT_FORMS)
     labels = {get_target(t).routine: (t, forms.get(t, get_target(t).default_form)) for t in prog.parts}
     return prog, labels
 

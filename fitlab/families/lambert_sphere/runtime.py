@@ -25,6 +25,7 @@ consumes) and a numpy callable.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -32,12 +33,12 @@ import numpy as np
 import sympy as sp
 
 from fitlab.core import get_form, get_target
-from fitlab.families.lambert_sphere.forms import ORDER2_PART, RUNTIME_PARTS, runtime_brdf
+from fitlab.families.lambert_sphere.forms import AZIMUTH, ORDER2_PART, RUNTIME_PARTS, RUNTIME_TERMS, runtime_brdf, runtime_terms
 from fitlab.forms.symbolic import lambdify_numpy, symbols
 from fitlab.store import fit_path, load
 
 __all__ = ["RuntimeModel", "runtime_model", "PRESET_VARIANTS", "accuracy", "accuracy_points", "directional_albedo", "ALBEDOS",
-           "ORDER2_FORMS"]
+           "ORDER2_FORMS", "energy_scale", "ENERGY_MARGIN", "ENERGY_MU"]
 
 PRESET_VARIANTS = {
     "paper_printed": ({"H0": ("hapke", "paper"), "H1": ("separable_printed", "paper"), "l": ("quadratic", "paper"),
@@ -112,7 +113,46 @@ def runtime_model(
         name = "refit" if not forms else "refit (" + ", ".join(f"{k}: {v}" for k, v in forms.items()) + ")"
         if not order2:
             name += ", orders 0 and 1"
-    return RuntimeModel(name, runtime_brdf(parts, normalisation), sources)
+    return RuntimeModel(name, runtime_brdf(parts, normalisation, energy_scale(parts, normalisation=normalisation)), sources)
+
+
+# -- energy ------------------------------------------------------------------------------------------
+#: the fitted model's directional albedo at c = 1 is held at or below 1 - ENERGY_MARGIN on ENERGY_MU
+ENERGY_MARGIN = 1e-5
+#: the incidences where the energy scale is measured: the grazing edge, then every 0.01 up to normal
+ENERGY_MU = np.concatenate(([1e-6, 1e-4, 1e-3], np.arange(1, 101) / 100))
+
+
+def energy_scale(parts: dict, terms=RUNTIME_TERMS, normalisation: str = "corrected") -> sp.Rational:
+    r"""The energy scale s of a fitted runtime model: f_r = max(0, s (f_1 + fm0 + ...)), so that the model
+    never creates energy.
+
+    s = min(1, (1 - ENERGY_MARGIN) / max_mu a(mu, c = 1)), rounded down to 6 decimals (so that it prints
+    the same on every machine), where a is the directional albedo (:func:`directional_albedo`) of the
+    unscaled model built from ``parts`` (expressions with numbers), the ``terms`` kept and
+    ``normalisation`` (:func:`runtime_terms`), at the incidences :data:`ENERGY_MU`.  Every runtime model
+    has it, the published presets included; theirs is 1 (they lose 1 to 2 % at c = 1), which a test checks.  The exact BRDF itself reaches 1 + 7e-5 at c = 1 (its single
+    scattering has the true phase function, its multiple scattering the three-term one), so a model
+    close to it overshoots 1 by as much; s < 1 scales it by a few 1e-5, far inside the accuracy goal,
+    keeping the exact zero at c = 0, reciprocity and non-negativity.  The albedo is smooth in mu
+    (it varies by about 1e-5 over 0.05 near its maximum), so ENERGY_MARGIN covers the incidences
+    between the grid's; tests measure the scaled model on a finer grid."""
+    return _energy_scale(tuple(sorted(parts.items())), tuple(terms), normalisation)
+
+
+@functools.lru_cache(maxsize=64)
+def _energy_scale(parts: tuple, terms: tuple, normalisation: str) -> sp.Rational:
+    t = runtime_terms(dict(parts), normalisation)
+    total = sum(t[n] * AZIMUTH[n] for n in terms if n in t)
+    f = lambdify_numpy(symbols(INPUTS), total)  # the max(0, .) in numpy: sympy's Max(0, total) costs seconds
+
+    def model(mu_i, mu_o, phi, c):
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            return np.maximum(0.0, f(mu_i, mu_o, phi, c))
+
+    peak = float(np.max(directional_albedo(model, ENERGY_MU, 1.0)))
+    scaled = int(np.floor((1.0 - ENERGY_MARGIN) / peak * 1e6))
+    return sp.S.One if scaled >= 10**6 else sp.Rational(scaled, 10**6)
 
 
 # -- measurement (issue 18) -------------------------------------------------------------------------
