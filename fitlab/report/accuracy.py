@@ -39,9 +39,12 @@ def _point(data, i: int) -> dict:
     return {k: float(data.inputs[k][i]) for k in ("mu_i", "mu_o", "phi", "c")}
 
 
-def brdf_accuracy(method, valid, grazing=None) -> dict:
-    """max_rel, rms_rel, max_rel_away (mu_i, mu_o >= 1/64), points and the worst point; with the
-    grazing set, max_rel_grazing and its worst point."""
+def brdf_accuracy(method, valid, grazing=None, fresh=None, energy=None) -> dict:
+    """max_rel, rms_rel, max_rel_away (mu_i, mu_o >= 1/64), points and the worst point, and max_abs_c0 (max |f|
+    at c = 0 on the set's points, kd = 0); with the grazing set, max_rel_grazing and its worst point; with the
+    independent set, max_rel_fresh and rms_rel_fresh; with ``energy`` = (mu, albedos, their kd, exact
+    albedos (one row per albedo), directional_albedo(f, mu, c)), albedo_err = max |a - a_exact| over
+    mu and the albedos."""
     err = brdf_errors(method, valid)
     away = (valid.inputs["mu_i"] >= AWAY_MU) & (valid.inputs["mu_o"] >= AWAY_MU)
     i = int(np.argmax(err))
@@ -54,11 +57,30 @@ def brdf_accuracy(method, valid, grazing=None) -> dict:
         "points": int(err.size),
         "worst": _point(valid, i),
     }
+    zero = np.zeros_like(valid.inputs["c"])
+    with np.errstate(all="ignore"):
+        at0 = method.evaluate(valid.inputs["mu_i"], valid.inputs["mu_o"], valid.inputs["phi"], zero, zero)
+    out["max_abs_c0"] = float(np.max(np.where(np.isfinite(at0), np.abs(at0), np.inf)))
     if grazing is not None:
         g = brdf_errors(method, grazing)
         j = int(np.argmax(g))
         out["max_rel_grazing"] = float(g[j])
         out["worst_grazing"] = _point(grazing, j)
+    if fresh is not None:
+        e = brdf_errors(method, fresh)
+        with np.errstate(over="ignore"):
+            out.update(max_rel_fresh=float(e.max()), rms_rel_fresh=float(np.sqrt(np.mean(e**2))))
+    if energy is not None:
+        mu, cs, kds, exact, directional_albedo = energy
+        err = 0.0
+        for cv, kd, want in zip(cs, kds, exact):
+            def f(mi, mo, ph, c, kd=kd):
+                return method.evaluate(mi, mo, ph, c, np.full(np.shape(c), kd))
+
+            with np.errstate(all="ignore"):
+                a = directional_albedo(f, mu, cv)
+            err = max(err, float(np.max(np.where(np.isfinite(a), np.abs(a - want), np.inf))))
+        out["albedo_err"] = err
     return out
 
 

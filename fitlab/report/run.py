@@ -17,6 +17,7 @@ import time
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
+import numpy as np
 from tqdm import tqdm
 
 from fitlab.codegen.native import STRICT_FLAGS, compiler
@@ -38,7 +39,7 @@ from fitlab.report.pareto import recommend
 from fitlab.report.programs import c_costs, timing_inputs
 from fitlab.report.refits import recorded_seconds, refit_costs, refit_jobs
 from fitlab.report.settings import FULL, Settings
-from fitlab.report.validation import brdf_set, grazing_set
+from fitlab.report.validation import brdf_set, fresh_set, grazing_set
 from fitlab.store import TableError, fits_folder
 
 __all__ = ["Report", "build_report"]
@@ -102,6 +103,8 @@ def _brdf_rows(methods, acc, c_ns, py_ns, jax_tp) -> list[dict]:
             "section": "brdf", "target": "f_r", "group": m.group, "method": m.name, "source": m.source,
             "points": a["points"], "max_rel": a["max_rel"], "rms_rel": a["rms_rel"],
             "max_rel_away": a["max_rel_away"], "max_rel_grazing": a.get("max_rel_grazing", NAN),
+            "max_abs_c0": a.get("max_abs_c0", NAN), "max_rel_fresh": a.get("max_rel_fresh", NAN),
+            "rms_rel_fresh": a.get("rms_rel_fresh", NAN), "albedo_err": a.get("albedo_err", NAN),
             "ns_c_double": c_ns.get(m.name, (NAN, NAN))[0], "ns_c_float": c_ns.get(m.name, (NAN, NAN))[1],
             "ns_python": py_ns.get(m.name, NAN), "jax_evals_per_s": jax_tp.get(m.name, NAN),
             "note": "worst at " + ", ".join(f"{k}={v:.4g}" for k, v in w.items())
@@ -243,9 +246,15 @@ def build_report(settings: Settings = FULL, fits_dir: Path | None = None, data_d
 def _measure(settings, entries, fits_dir, data_dir, use_cache, p) -> tuple[list, dict]:
     hook = brdf_hook()  # the family's exact engine and Monte Carlo
 
-    p.stage("validation set", 2 * (settings.n_c + settings.with_c1))
+    n_albedos = len(settings.small_c) + settings.n_c + settings.with_c1
+    p.stage("validation set", 2 * n_albedos + settings.fresh_c)
     valid = brdf_set(settings, use_cache, p.tick)
     grazing = grazing_set(settings, use_cache, p.tick)
+    fresh = fresh_set(settings, use_cache, p.tick)
+    energy_mu = np.maximum(np.linspace(0.0, 1.0, settings.energy_mu), 1e-3)
+    energy_c = np.asarray(settings.energy_c, dtype=float)
+    energy = (energy_mu, energy_c, hook.exact_kd(energy_c), [hook.exact_albedo(energy_mu, cv) for cv in energy_c],
+              hook.directional_albedo)  # fmt: skip
     p.stage("catalogue", 1)
     methods = brdf_methods(fits_dir, entries, data_dir, settings.preset_c, settings.discovered_brdf)
     if not settings.all_c:
@@ -254,7 +263,7 @@ def _measure(settings, entries, fits_dir, data_dir, use_cache, p) -> tuple[list,
     p.stage("BRDF accuracy", len(methods))
     acc = {}
     for m in methods:
-        acc[m.name] = brdf_accuracy(m, valid, grazing)
+        acc[m.name] = brdf_accuracy(m, valid, grazing, fresh, energy)
         p.tick()
     p.stage("C cost", len({m.c.program_key for m in methods if m.c is not None}))
     with tempfile.TemporaryDirectory(prefix="fitlab-report-") as tmp:
@@ -290,7 +299,10 @@ def _measure(settings, entries, fits_dir, data_dir, use_cache, p) -> tuple[list,
         "c_compiler": f"{Path(compiler() or 'no C compiler').name} {' '.join(STRICT_FLAGS)}",
         "fits": counts,
         "validation": valid.grid, "validation_points": len(valid), "grazing": grazing.grid,
-        "grazing_points": len(grazing), "notes": notes, "exact_cost": brdf_cost,
+        "grazing_points": len(grazing), "fresh": fresh.grid, "fresh_points": len(fresh),
+        "energy": f"directional albedo at c in {{{', '.join(f'{c:g}' for c in settings.energy_c)}}} x "
+                  f"{settings.energy_mu} incident cosines uniform on [0, 1] (0 read as 1e-3), against the exact one",
+        "notes": notes, "exact_cost": brdf_cost,
         "doubling": dbl, "mc": study, "c_points": settings.c_points, "repeat": settings.repeat,
         "jax_points": settings.jax_points, "numpy_points": settings.numpy_points,
     }  # fmt: skip

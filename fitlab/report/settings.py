@@ -19,7 +19,15 @@ class Settings:
     c = 1 - s^2 with s = (k + g)/n_c, k = 0..n_c-1, g = (sqrt 5 - 1)/2 (never on
     the tables' s = k/64 grid), plus c = 1 when ``with_c1``; for each, the same
     2^``log2_points`` scrambled Sobol points (seed ``seed``) in
-    (mu_i, mu_o, phi/pi) in (0, 1)^3.
+    (mu_i, mu_o, phi/pi) in (0, 1)^3; the small albedos ``small_c`` join them (the BRDF is O(c) there,
+    and O(c^2) in forward scattering at grazing, where fitted O(c) terms fail), and c = 0 is measured
+    as max |f| (exactly 0 for an exact model).
+
+    A second, independent set (:func:`fitlab.report.validation.fresh_set`) that nothing is fitted or
+    selected on: ``fresh_c`` albedos uniform in (0, 1) and ``fresh_points`` points in all, (mu_i, mu_o,
+    phi) uniform, from numpy's PCG64 with seed ``fresh_seed`` (another generator and seed than the
+    main set's).  Energy: the directional albedo against the exact one at ``energy_c`` x
+    ``energy_mu`` incident cosines (uniform on [0, 1], 0 replaced by 1e-3).
     """
 
     name: str
@@ -27,6 +35,12 @@ class Settings:
     with_c1: bool
     log2_points: int
     seed: int = 2021
+    small_c: tuple = (1e-6, 1e-5, 1e-4, 1e-3, 1e-2)
+    fresh_c: int = 64
+    fresh_points: int = 100_000
+    fresh_seed: int = 18_2026
+    energy_c: tuple = (1e-3, 0.3, 0.7, 0.95, 1.0)
+    energy_mu: int = 11
     #: targets whose parts are measured on their validation sets; None: every target the families'
     #: report hooks measure at part level (fitlab.report.methods.report_parts)
     parts: tuple | None = None
@@ -77,6 +91,11 @@ QUICK = Settings(
     preset_c=(),
     all_c=False,
     discovered_brdf=False,
+    small_c=(1e-4,),
+    fresh_c=3,
+    fresh_points=3000,
+    energy_c=(1.0,),
+    energy_mu=3,
     c_points=1 << 14,
     repeat=2,
     numpy_points=1 << 12,

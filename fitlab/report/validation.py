@@ -38,7 +38,7 @@ from fitlab.core import Dataset
 from fitlab.report.methods import brdf_hook
 from fitlab.report.settings import Settings
 
-__all__ = ["albedos", "sobol_points", "brdf_set", "grazing_set", "cache_dir", "exact_values", "GOLDEN", "GRAZING_MU",
+__all__ = ["albedos", "sobol_points", "brdf_set", "grazing_set", "fresh_set", "cache_dir", "exact_values", "GOLDEN", "GRAZING_MU",
            "GRAZING_PHI"]
 
 GOLDEN = (np.sqrt(5.0) - 1.0) / 2.0
@@ -47,10 +47,11 @@ GRAZING_MU = (1e-6, 1e-4, 1e-2)
 GRAZING_PHI = (0.0, 0.5 * np.pi, np.pi)
 
 
-def albedos(n: int, with_c1: bool) -> np.ndarray:
-    """c = 1 - s^2, s = (k + g)/n for k = 0..n-1 (g the golden ratio's fraction), then c = 1 if asked."""
+def albedos(n: int, with_c1: bool, small: tuple = ()) -> np.ndarray:
+    """The ``small`` albedos, then c = 1 - s^2, s = (k + g)/n for k = 0..n-1 (g the golden ratio's fraction),
+    then c = 1 if asked."""
     s = (np.arange(n) + GOLDEN) / n
-    c = 1.0 - s**2
+    c = np.concatenate((np.asarray(small, dtype=float), 1.0 - s**2))
     return np.concatenate((c, [1.0])) if with_c1 else c
 
 
@@ -95,9 +96,14 @@ def _dataset(points: np.ndarray, c: np.ndarray, y: np.ndarray, kd: np.ndarray, g
     return Dataset(inputs, y.ravel(), grid)
 
 
+def _albedos(settings: Settings) -> np.ndarray:
+    return albedos(settings.n_c, settings.with_c1, settings.small_c)
+
+
 def _albedo_grid(settings: Settings) -> str:
-    return (f"{settings.n_c + settings.with_c1} albedos c = 1 - s^2, s = (k + 0.618...)/{settings.n_c}"
-            + (" and c = 1" if settings.with_c1 else ""))  # fmt: skip
+    small = f"c in {{{', '.join(f'{c:g}' for c in settings.small_c)}}} and " if settings.small_c else ""
+    return (f"{len(settings.small_c) + settings.n_c + settings.with_c1} albedos: {small}c = 1 - s^2, "
+            f"s = (k + 0.618...)/{settings.n_c}" + (" and c = 1" if settings.with_c1 else ""))  # fmt: skip
 
 
 def brdf_set(settings: Settings, use_cache: bool = True, tick=None) -> Dataset:
@@ -106,7 +112,7 @@ def brdf_set(settings: Settings, use_cache: bool = True, tick=None) -> Dataset:
     ``tick()`` is called once per albedo computed (a progress bar); a cache hit calls it for all.
     """
     points = sobol_points(settings.log2_points, settings.seed)
-    c = albedos(settings.n_c, settings.with_c1)
+    c = _albedos(settings)
     y, kd = exact_values(points, c, "brdf", use_cache, tick)
     grid = (_albedo_grid(settings)
             + f", x 2^{settings.log2_points} scrambled Sobol points (seed {settings.seed}) in (mu_i, mu_o, phi/pi)")
@@ -117,8 +123,41 @@ def grazing_set(settings: Settings, use_cache: bool = True, tick=None) -> Datase
     """The grazing set: mu_i, mu_o in :data:`GRAZING_MU`, phi in :data:`GRAZING_PHI`, the report's albedos."""
     mi, mo, ph = np.meshgrid(GRAZING_MU, GRAZING_MU, np.asarray(GRAZING_PHI) / np.pi, indexing="ij")
     points = np.stack([mi.ravel(), mo.ravel(), ph.ravel()], axis=1)
-    c = albedos(settings.n_c, settings.with_c1)
+    c = _albedos(settings)
     y, kd = exact_values(points, c, "grazing", use_cache, tick)
     grid = (_albedo_grid(settings) + " x mu_i, mu_o in {" + ", ".join(f"{m:g}" for m in GRAZING_MU)
             + "} x phi in {0, pi/2, pi}")  # fmt: skip
     return _dataset(points, c, y, kd, grid)
+
+
+def fresh_set(settings: Settings, use_cache: bool = True, tick=None) -> Dataset:
+    """The independent set: ``fresh_c`` albedos uniform in (0, 1), each with its own points (mu_i, mu_o,
+    phi) uniform in (0, 1)^2 x (0, pi), ``fresh_points`` in all, all drawn from numpy's PCG64 seeded with
+    ``fresh_seed`` (nothing of fitlab is fitted or selected on it; another generator and seed than the
+    Sobol set's).  ``tick()`` once per albedo."""
+    rng = np.random.default_rng(settings.fresh_seed)
+    c = rng.uniform(0.0, 1.0, settings.fresh_c)
+    per_c = -(-settings.fresh_points // settings.fresh_c)
+    points = rng.uniform(0.0, 1.0, (settings.fresh_c, per_c, 3))
+    hook = brdf_hook()
+    computed = []
+
+    def compute():
+        computed.append(True)
+        y = np.empty((c.size, per_c))
+        for k, cv in enumerate(c):
+            p = points[k]
+            y[k] = hook.exact_brdf(p[:, 0], p[:, 1], np.pi * p[:, 2], cv)
+            tick and tick()
+        return {"y": y, "kd": hook.exact_kd(c)}
+
+    sources = sorted(Path(hook.EXACT_SOURCES).glob("*.py"))
+    out = cached_arrays("report-fresh", {"points": points, "c": c}, compute, ("y", "kd"), sources, use_cache)
+    if not computed:
+        for _ in c:
+            tick and tick()
+    inputs = {"mu_i": points[:, :, 0].ravel(), "mu_o": points[:, :, 1].ravel(), "phi": np.pi * points[:, :, 2].ravel(),
+              "c": np.repeat(c, per_c), "kd": np.repeat(out["kd"], per_c)}  # fmt: skip
+    grid = (f"{settings.fresh_c} albedos uniform in (0, 1), {per_c} points each, (mu_i, mu_o, phi) uniform, numpy "
+            f"PCG64 seed {settings.fresh_seed}")  # fmt: skip
+    return Dataset(inputs, out["y"].ravel(), grid)

@@ -22,8 +22,9 @@ __all__ = ["COLUMNS", "TIMING_COLUMNS", "FILES", "csv_text", "markdown", "parts_
 
 #: the CSV's columns; ``section`` says what a row is (brdf, part, exact, exact_h, time_to_error, refit)
 COLUMNS = ("section", "target", "group", "method", "source", "points", "paths", "target_error", "max_rel",
-           "max_rel_nonzero", "rms_rel", "max_rel_away", "max_rel_grazing", "ns_c_double", "ns_c_float", "ns_python",
-           "jax_evals_per_s", "seconds", "note")  # fmt: skip
+           "max_rel_nonzero", "rms_rel", "max_rel_away", "max_rel_grazing", "max_abs_c0", "max_rel_fresh",
+           "rms_rel_fresh", "albedo_err", "ns_c_double", "ns_c_float", "ns_python", "jax_evals_per_s", "seconds",
+           "note")  # fmt: skip
 #: the columns that hold timings (everything else is deterministic)
 TIMING_COLUMNS = ("ns_c_double", "ns_c_float", "ns_python", "jax_evals_per_s", "seconds")
 FILES = ("report.md", "accuracy_vs_cost.png", "report.csv")
@@ -80,14 +81,16 @@ def _front_marks(brdf) -> list[str]:
 
 
 def _brdf_table(brdf) -> list[str]:
-    out = ["| group | method | max rel | RMS rel | max rel, mu >= 1/64 | max rel, grazing | C double ns | C float ns | "
-           "Python ns | JAX M eval/s | on the front |", "|---|---|---|---|---|---|---|---|---|---|---|"]
+    out = ["| group | method | max rel | RMS rel | max rel, mu >= 1/64 | max rel, grazing | max abs, c = 0 | "
+           "max rel, fresh | RMS rel, fresh | albedo error | C double ns | C float ns | Python ns | JAX M eval/s | "
+           "on the front |", "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     order = {g: k for k, g in enumerate(GROUPS)}
     marks = _front_marks(brdf)
     for k in sorted(range(len(brdf)), key=lambda k: (order.get(brdf[k]["group"], 99), k)):
         r = brdf[k]
         out.append(f"| {r['group']} | {r['method']} | {_e(r['max_rel'])} | {_e(r['rms_rel'])} | "
-                   f"{_e(r.get('max_rel_away'))} | {_e(r.get('max_rel_grazing'))} | "
+                   f"{_e(r.get('max_rel_away'))} | {_e(r.get('max_rel_grazing'))} | {_e(r.get('max_abs_c0'))} | "
+                   f"{_e(r.get('max_rel_fresh'))} | {_e(r.get('rms_rel_fresh'))} | {_e(r.get('albedo_err'))} | "
                    f"{_ns(r.get('ns_c_double', math.nan))} | "
                    f"{_ns(r.get('ns_c_float', math.nan))} | {_ns(r.get('ns_python', math.nan))} | "
                    f"{_rate(r.get('jax_evals_per_s', math.nan))} | {marks[k]} |")  # fmt: skip
@@ -95,16 +98,17 @@ def _brdf_table(brdf) -> list[str]:
 
 
 def _recommendations(rec) -> list[str]:
-    out = ["| use | method | max rel | RMS rel | max rel, grazing | cost (ns per evaluation) | rule |",
-           "|---|---|---|---|---|---|---|"]
+    out = ["| use | method | max rel | RMS rel | max rel, grazing | max / RMS rel, fresh set | albedo error | "
+           "cost (ns per evaluation) | rule |", "|---|---|---|---|---|---|---|---|---|"]
     for use, rule in RULES.items():
         r = rec.get(use)
         if r is None:
-            out.append(f"| {use} | none qualifies | | | | | {rule} |")
+            out.append(f"| {use} | none qualifies | | | | | | | {rule} |")
             continue
         cost, kind = plot_cost(r)
         out.append(f"| {use} | **{r['method']}** ({r['group']}) | {_e(r['max_rel'])} | {_e(r['rms_rel'])} | "
-                   f"{_e(r.get('max_rel_grazing'))} | {_ns(cost)} ({'C double' if kind == 'C' else 'Python'}) | {rule} |")  # fmt: skip
+                   f"{_e(r.get('max_rel_grazing'))} | {_e(r.get('max_rel_fresh'))} / {_e(r.get('rms_rel_fresh'))} | "
+                   f"{_e(r.get('albedo_err'))} | {_ns(cost)} ({'C double' if kind == 'C' else 'Python'}) | {rule} |")  # fmt: skip
     return out
 
 
@@ -191,7 +195,10 @@ def markdown(report) -> str:
            "|f - f_exact| / f_exact: the max over the set, the RMS, and the max away from the grazing pole "
            "(mu_i, mu_o >= 1/64); the uniform points never come closer to the pole than mu_i + mu_o of about "
            f"2^(-{s.log2_points}/2), so a second set looks there on purpose: {ctx['grazing']} "
-           f"({ctx['grazing_points']} points; max rel, grazing). Parts (H0, H1, constants, albedo maps, fm1): each target's validation set and "
+           f"({ctx['grazing_points']} points; max rel, grazing). At c = 0 the BRDF is exactly 0: max abs, c = 0 is "
+           "max |f| at the set's points with c = 0. Nothing is fitted or selected on a third, independent set: "
+           f"{ctx['fresh']} ({ctx['fresh_points']} points; max rel and RMS rel, fresh). Albedo error: "
+           f"{ctx['energy']}, max over both. Parts (H0, H1, constants, albedo maps, fm1): each target's validation set and "
            "error measure (`fitlab.families.lambert_sphere.targets`, as in docs/audit.md).", "",
            f"**Cost.** ns per evaluation of the generated C (`fitlab.codegen`, `{ctx['c_compiler']}`), called in a C "
            f"loop over {ctx['c_points']} random inputs, best of {ctx['repeat']} (`fitlab.codegen.bench`, the harness "

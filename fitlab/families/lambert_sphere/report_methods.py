@@ -31,7 +31,7 @@ import numpy as np
 import sympy as sp
 
 from fitlab.core import get_target
-from fitlab.families.lambert_sphere.exact import brdf, h_function, spherical_albedo
+from fitlab.families.lambert_sphere.exact import albedo, brdf, h_function, spherical_albedo
 from fitlab.families.lambert_sphere.forms import ORDER2_PART, RUNTIME_PARTS
 from fitlab.families.lambert_sphere.forms.baselines import BASELINE_INPUTS, LAMBERT, oren_nayar
 from fitlab.families.lambert_sphere.interpolation import kd_interpolant, table_brdf, table_part
@@ -42,7 +42,7 @@ from fitlab.families.lambert_sphere.report_exact import (
     time_to_error,
 )
 from fitlab.families.lambert_sphere.report_montecarlo import mc_study, mc_time_to_error
-from fitlab.families.lambert_sphere.runtime import ORDER2_FORMS, PRESET_VARIANTS, runtime_model
+from fitlab.families.lambert_sphere.runtime import ORDER2_FORMS, PRESET_VARIANTS, directional_albedo, runtime_model
 from fitlab.families.lambert_sphere.table_files import check_tables, tables_dir
 from fitlab.families.lambert_sphere.targets import TARGETS
 from fitlab.families.lambert_sphere.bench import baseline_program, random_inputs  # noqa: F401 (baseline_program: the report's hook)
@@ -52,7 +52,7 @@ from fitlab.store import FORMAT, load
 
 __all__ = ["REQUIRED_FITS", "PARTS", "PRESET_VARIANTS", "tables_dir", "EXACT_SOURCES", "SOURCES", "brdf_methods",
            "part_extras", "preset_records", "check_tables", "exact_brdf", "exact_kd", "h_convergence", "exact_brdf_cost",
-           "doubling_agreement", "time_to_error", "mc_study", "mc_time_to_error"]
+           "doubling_agreement", "time_to_error", "mc_study", "mc_time_to_error", "exact_albedo", "directional_albedo"]
 
 #: the albedo maps: not in the BRDF, but in its generated program (their C is timed there)
 MAPS = ("kd_of_c", "c_of_kd")
@@ -83,6 +83,11 @@ def timing_inputs(n: int, data_dir: Path) -> dict:
 def exact_brdf(mu_i, mu_o, phi, c: float) -> np.ndarray:
     """The exact BRDF at points, at one albedo c."""
     return brdf(mu_i, mu_o, phi, c)
+
+
+def exact_albedo(mu, c: float) -> np.ndarray:
+    """The exact directional albedo at incident cosines mu, one albedo c (true phase function, as exact_brdf)."""
+    return np.asarray(albedo(np.asarray(mu, dtype=float), c, model="true"), dtype=float)
 
 
 def exact_kd(c) -> np.ndarray:
