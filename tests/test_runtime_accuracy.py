@@ -251,3 +251,18 @@ def test_order2_c_agrees_with_the_model_and_float_with_double(order2, order2_c):
     for order in range(3):
         fit = load(fit_path(FITS, f"H{order}", "log_exp"))
         assert np.max(np.abs(order2_c(f"h{order}", mi, cc) / fit(mu=mi, c=cc) - 1)) < 1e-13
+
+
+def test_runtime_structure_with_exact_parts_is_the_reference():
+    """The identity the error budget (fitlab.families.lambert_sphere.budget) rests on: with every part exact,
+    f_1 + fm0 + fm1 cos phi + fm2 cos 2phi is the exact BRDF (the three-term phase function has Legendre
+    orders 0-2, so multiple scattering has these three Fourier orders and no other)."""
+    from fitlab.families.lambert_sphere.budget import assembled, exact_parts
+
+    rng = np.random.default_rng(7)
+    n = 300
+    mi, mo, ph = rng.uniform(0.01, 1, n), rng.uniform(0.01, 1, n), rng.uniform(0, np.pi, n)
+    cc = np.repeat([1e-4, 0.3, 0.9, 1.0], n // 4)
+    got = assembled(exact_parts())(mi, mo, ph, cc)
+    want = brdf(mi, mo, ph, cc)
+    assert np.max(np.abs(got / want - 1)) < 1e-9
