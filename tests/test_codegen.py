@@ -493,3 +493,27 @@ def test_brdf_clamps_and_nan_in_the_built_c(native, py, dtype):
         assert g("h1", np.inf, 0.5) == g("h1", 1.0, 0.5) and np.isfinite(g("h1", 1.0, 0.5))
         assert g("const_l", np.inf) == g("const_l", 1.0) and np.isfinite(g("const_l", 1.0))
         assert g("const_l", -np.inf) == g("const_l", 0.0) == 0.0
+
+
+def test_default_model_is_the_reports_real_time_recommendation():
+    """One rule picks the real-time model (fitlab.report.pareto.recommend, on the committed docs/report.csv),
+    and the generated code's default model is the one it picks."""
+    import csv
+    import math
+
+    from fitlab.report.pareto import recommend
+
+    def number(v):
+        try:
+            return float(v)
+        except ValueError:
+            return math.nan
+
+    with open(ROOT / "docs" / "report.csv", newline="") as fh:
+        rows = [r for r in csv.DictReader(fh) if r["section"] == "brdf"]
+    numeric = ("max_rel", "rms_rel", "max_rel_grazing", "ns_c_double", "ns_python")
+    rows = [{**r, **{k: number(r[k]) for k in numeric}} for r in rows]
+    picked = recommend(rows)["real-time"]
+    changed = {t: f for t, f in MODEL_FORMS.items() if f != get_target(t).default_form}
+    assert picked["source"] == ", ".join(f"{t}: {f}" for t, f in changed.items())
+    assert program_spec("lambert_sphere").default_model == "order2"
