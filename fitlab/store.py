@@ -240,7 +240,8 @@ class FitFunction:
         self.inputs = tuple(record["inputs"])
         self.params = dict(record["params"])
         self.domain = {k: tuple(float(x) for x in v) for k, v in record["domain"].items()}
-        expr = expr.subs({sp.Symbol(p, real=True): sp.Float(repr(float(v)), 17) for p, v in self.params.items()})
+        # xreplace, not subs: the same substitution of symbols by numbers, without subs's matching (10x faster)
+        expr = expr.xreplace({sp.Symbol(p, real=True): sp.Float(repr(float(v)), 17) for p, v in self.params.items()})
         self.expression = expr
         self._f = lambdify_numpy(symbols(self.inputs), expr)
 

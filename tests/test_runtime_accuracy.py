@@ -257,7 +257,8 @@ def test_runtime_structure_with_exact_parts_is_the_reference():
     """The identity the error budget (fitlab.families.lambert_sphere.budget) rests on: with every part exact,
     f_1 + fm0 + fm1 cos phi + fm2 cos 2phi is the exact BRDF (the three-term phase function has Legendre
     orders 0-2, so multiple scattering has these three Fourier orders and no other)."""
-    from fitlab.families.lambert_sphere.budget import assembled, exact_parts
+    from fitlab.families.lambert_sphere.budget import exact_parts
+    from fitlab.families.lambert_sphere.runtime import assembled
 
     rng = np.random.default_rng(7)
     n = 300

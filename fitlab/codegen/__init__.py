@@ -71,10 +71,20 @@ def load_program(fits_dir: Path | None = None, terms: str | tuple | None = None,
     chosen = {**model_forms, **forms}
     fits_dir = fits_folder(fits_dir)
     paths = {t: fit_path(fits_dir, t, chosen.get(t, targets()[t].default_form)) for t in spec.fits}
-    records = {t: load(p) for t, p in paths.items()}
     # the file name and its digest name a fit wherever its folder is, so regenerated code is byte-identical
-    sources = [(p.name, fit_sha256(p)) for p in paths.values()]
-    return build_program(records, term_tuple, sources, family, (model_name, description))
+    sources = tuple((p.name, fit_sha256(p)) for p in paths.values())
+    # the same files (by digest) make the same program: built once per process (inlining and hoisting the
+    # model takes seconds; a Program is immutable)
+    key = (sources, term_tuple, family, model_name)
+    if key not in _PROGRAMS:
+        records = {t: load(p) for t, p in paths.items()}
+        if len(_PROGRAMS) >= 16:
+            _PROGRAMS.pop(next(iter(_PROGRAMS)))
+        _PROGRAMS[key] = build_program(records, term_tuple, sources, family, (model_name, description))
+    return _PROGRAMS[key]
+
+
+_PROGRAMS: dict = {}
 
 
 def generate(lang: str, fits_dir: Path | None = None, terms: str | tuple | None = None,

@@ -22,12 +22,13 @@ function names come from the program's ``name`` (``lambert_sphere`` below).
 from __future__ import annotations
 
 import textwrap
+from dataclasses import dataclass
 
 import sympy as sp
 
 from fitlab import __version__
 from fitlab.forms.symbolic import safe_pow
-from fitlab.codegen.printers import CPrinter, GLSLPrinter, NumpyPrinter
+from fitlab.codegen.printers import CPrinter, GLSLPrinter, MetalPrinter, NumpyPrinter
 from fitlab.codegen.program import SAFE_POW, Material, Program, Routine, field_symbol
 
 __all__ = ["emit", "LANGUAGES"]
@@ -109,16 +110,22 @@ def _c_params(routine: Routine, scalar: str) -> str:
     return ", ".join(f"const {scalar} {a}[3]" if a in routine.vectors else f"{scalar} {a}" for a in routine.signature())
 
 
-def _c_function(routine: Routine, scalar: str, prefix: str, qualifier: str) -> str:
+def _c_signature(routine: Routine, scalar: str, prefix: str, leading: str = "") -> str:
     suffix = "_f" if scalar == "float" else ""
-    printer = CPrinter(scalar, lambda n: f"{prefix}{n}{suffix}", _vector_names(routine, "{v}[{k}]"))
+    return f"{scalar} {prefix}{routine.name}{suffix}({leading}{_c_params(routine, scalar)})"
+
+
+def _c_function(routine: Routine, scalar: str, prefix: str, qualifier: str, leading: str = "", names=None) -> str:
+    """One routine as a C function; ``leading``: parameters before the routine's own (with their comma),
+    ``names``: how further symbols read (a material's fields)."""
+    suffix = "_f" if scalar == "float" else ""
+    printer = CPrinter(scalar, lambda n: f"{prefix}{n}{suffix}", {**_vector_names(routine, "{v}[{k}]"), **(names or {})})
     temps, expr = _cse(routine)
     used = {str(s) for s in routine.expr.free_symbols}
     body = [f"    (void){a};" for a in routine.args if a not in used and not routine.vectors]
     body += [f"    const {scalar} {t} = {printer.doprint(e)};" for t, e in temps]
     body.append(f"    return {printer.doprint(expr)};")
-    return (f"{qualifier} {scalar} {prefix}{routine.name}{suffix}({_c_params(routine, scalar)})\n{{\n"
-            + "\n".join(body) + "\n}\n")  # fmt: skip
+    return f"{qualifier} {_c_signature(routine, scalar, prefix, leading)}\n{{\n" + "\n".join(body) + "\n}\n"
 
 
 _MATERIAL_DOC = ("Per-material set-up: {prepare}({params}) fills the struct with every quantity that depends on "
@@ -164,18 +171,11 @@ def _c_material(program: Program, qualifier: str) -> tuple[list[str], list[str]]
             defs.append(f"\n{qualifier} {sig}\n{{\n    int k;\n    for (k = 0; k < 3; ++k) m[k] = "
                         f"{prefix}{name}{suffix}({arg}[k]);\n}}\n")
         for r in m.evaluators:
-            printer = CPrinter(scalar, lambda n, s=suffix: f"{prefix}{n}{s}",
-                               {**_vector_names(r, "{v}[{k}]"), **_material_names(m, "m->k[{j}]")})
-            temps, (expr,) = _cse_many([r.expr], r.name)
-            params = f"const {struct} *m, {_c_params(r, scalar)}"
-            sig = f"{scalar} {prefix}{r.name}{suffix}({params})"
+            leading = f"const {struct} *m, "
             if scalar == "double":
                 decls.append("\n/*\n" + "\n".join(_wrap(r.doc, " * ")) + "\n */\n")
-            decls.append(f"{qualifier} {sig};\n")
-            used = {str(x) for x in r.expr.free_symbols}
-            body = [f"    (void){a};" for a in r.signature() if a not in used and not r.vectors]
-            body += [f"    const {scalar} {t} = {printer.doprint(e)};" for t, e in temps]
-            defs.append(f"\n{qualifier} {sig}\n{{\n" + "\n".join(body) + f"\n    return {printer.doprint(expr)};\n}}\n")
+            decls.append(f"{qualifier} {_c_signature(r, scalar, prefix, leading)};\n")
+            defs.append("\n" + _c_function(r, scalar, prefix, qualifier, leading, _material_names(m, "m->k[{j}]")))
             args = ", ".join(r.signature())
             sig = f"void {prefix}{r.name}_rgb{suffix}(const {struct} m[3], {_c_params(r, scalar)}, {scalar} out[3])"
             decls.append(f"{qualifier} {sig};\n")
@@ -197,8 +197,7 @@ def _c_files(program: Program, command: str | None = None, single_header: bool =
     for r in program.routines:
         h.append("\n/*\n" + "\n".join(_wrap(r.doc, " * ")) + "\n */\n")
         for scalar in ("double", "float"):
-            suffix = "_f" if scalar == "float" else ""
-            h.append(f"{qualifier} {scalar} {prefix}{r.name}{suffix}({_c_params(r, scalar)});\n")
+            h.append(f"{qualifier} {_c_signature(r, scalar, prefix)};\n")
     material_decls, material_defs = _c_material(program, qualifier) if program.material else ([], [])
     h += material_decls
     h.append("\n#ifdef __cplusplus\n}\n#endif\n")
@@ -227,38 +226,69 @@ def _c_files(program: Program, command: str | None = None, single_header: bool =
 # ---- GLSL -------------------------------------------------------------------
 
 
-def _glsl_files(program: Program, command: str | None = None) -> dict[str, str]:
+@dataclass(frozen=True)
+class _Shading:
+    """What a shading language changes in the one shader emitter: the file's extension and opening lines,
+    the 3-vector type, and the printer (Metal: float literals carry the f suffix)."""
+
+    lang: str
+    extension: str
+    vec3: str
+    preamble: str
+    printer: type = GLSLPrinter
+
+
+_SHADING = {
+    "glsl": _Shading("glsl", "glsl", "vec3",
+                     "// Float functions for GLSL 3.30 / ES 3.00 and later; paste or #include after #version.\n"
+                     "// OpenGL ES has no default float precision in fragment shaders: this file sets highp there.\n"
+                     "#ifdef GL_ES\nprecision highp float;\n#endif\n\n"),
+    "hlsl": _Shading("hlsl", "hlsl", "float3",
+                     "// Float functions for HLSL (shader model 5 and later; DXC, FXC, glslang); #include into a shader.\n\n"),
+    "metal": _Shading("metal", "metal", "float3",
+                      "// Float functions for the Metal Shading Language (2.0 and later); #include into a .metal file.\n"
+                      "#include <metal_stdlib>\nusing namespace metal;\n\n", MetalPrinter),
+}
+
+
+def _shading_files(program: Program, command: str | None, lang: str) -> dict[str, str]:
+    """One shader source for GLSL, HLSL or Metal (:data:`_SHADING`): float functions, the same expressions."""
+    sh = _SHADING[lang]
     prefix, base = program.prefix, program.name
     out = [
-        _banner(program, "glsl", "//", command),
-        "// Float functions for GLSL 3.30 / ES 3.00 and later; paste or #include into a shader.\n\n",
+        _banner(program, lang, "//", command),
+        sh.preamble,
         f"// {_SAFE_POW_DOC}\n",
-        f"float {prefix}safe_pow(float x, float p) {{ return {GLSLPrinter(str).doprint(SAFE_POW)}; }}\n",
-        "// log(1 + x) and exp(x) - 1 without cancellation near x = 0 (Kahan's tricks; GLSL lacks both).\n",
-        f"float {prefix}log1p(float x) {{ float u = 1.0 + x; return u == 1.0 ? x : log(u) * x / (u - 1.0); }}\n",
-        f"float {prefix}expm1(float x)\n{{\n    float u = exp(x);\n    if (u == 1.0) return x;\n"
-        "    if (u - 1.0 == -1.0) return -1.0;\n    return (u - 1.0) * x / log(u);\n}\n",
+        f"float {prefix}safe_pow(float x, float p) {{ return {sh.printer(str).doprint(SAFE_POW)}; }}\n",
+        "// log(1 + x) and exp(x) - 1 without cancellation near x = 0 (Kahan's tricks; the language lacks both).\n",
+        f"float {prefix}log1p(float x) {{ float u = {_one(sh)} + x; return u == {_one(sh)} ? x : log(u) * x / (u - {_one(sh)}); }}\n",
+        f"float {prefix}expm1(float x)\n{{\n    float u = exp(x);\n    if (u == {_one(sh)}) return x;\n"
+        f"    if (u - {_one(sh)} == -{_one(sh)}) return -{_one(sh)};\n    return (u - {_one(sh)}) * x / log(u);\n}}\n",
     ]
     for r in program.routines:
-        printer = GLSLPrinter(lambda n: prefix + n, _vector_names(r, "{v}.{c}"))
+        printer = sh.printer(lambda n: prefix + n, _vector_names(r, "{v}.{c}"))
         temps, expr = _cse(r)
-        params = ", ".join(f"vec3 {a}" if a in r.vectors else f"float {a}" for a in r.signature())
+        params = ", ".join(f"{sh.vec3} {a}" if a in r.vectors else f"float {a}" for a in r.signature())
         body = [f"    float {t} = {printer.doprint(e)};" for t, e in temps]
         body.append(f"    return {printer.doprint(expr)};")
         out.append("\n" + "\n".join(_wrap(r.doc, "// ")) + "\n")
         out.append(f"float {prefix}{r.name}({params})\n{{\n" + "\n".join(body) + "\n}\n")
     if program.material is not None:
-        out += _glsl_material(program)
-    return {f"{base}.glsl": "".join(out)}
+        out += _shading_material(program, sh)
+    return {f"{base}.{sh.extension}": "".join(out)}
 
 
-def _glsl_material(program: Program) -> list[str]:
-    """The struct, its set-up and the evaluators in GLSL (structs by value); _rgb takes three materials."""
+def _one(sh: _Shading) -> str:
+    return sh.printer(str).doprint(sp.Float(1.0))
+
+
+def _shading_material(program: Program, sh: _Shading) -> list[str]:
+    """The struct, its set-up and the evaluators (structs by value); _rgb takes three materials."""
     m, prefix = program.material, program.prefix
     struct = f"{prefix}material"
     out = ["\n" + "\n".join(_wrap(_material_doc(program), "// ")) + "\n",
            f"struct {struct} {{ float k[{len(m.fields)}]; }};\n"]
-    printer = GLSLPrinter(lambda n: prefix + n)
+    printer = sh.printer(lambda n: prefix + n)
     temps, exprs = _cse_many(m.fields, m.prepare_name)
     body = [f"    {struct} m;"] + [f"    float {t} = {printer.doprint(e)};" for t, e in temps]
     body += [f"    m.k[{j}] = {printer.doprint(e)};" for j, e in enumerate(exprs)]
@@ -267,16 +297,17 @@ def _glsl_material(program: Program) -> list[str]:
     for name, arg, routine in m.setups:
         out.append(f"\n{struct} {prefix}{name}(float {arg}) {{ return {prefix}{m.prepare_name}({prefix}{routine}({arg})); }}\n")
     for r in m.evaluators:
-        printer = GLSLPrinter(lambda n: prefix + n, {**_vector_names(r, "{v}.{c}"), **_material_names(m, "m.k[{j}]")})
+        printer = sh.printer(lambda n: prefix + n, {**_vector_names(r, "{v}.{c}"), **_material_names(m, "m.k[{j}]")})
         temps, (expr,) = _cse_many([r.expr], r.name)
-        params = ", ".join(f"vec3 {a}" if a in r.vectors else f"float {a}" for a in r.signature())
+        params = ", ".join(f"{sh.vec3} {a}" if a in r.vectors else f"float {a}" for a in r.signature())
         body = [f"    float {t} = {printer.doprint(e)};" for t, e in temps]
         out.append("\n" + "\n".join(_wrap(r.doc, "// ")) + "\n")
         out.append(f"float {prefix}{r.name}({struct} m, {params})\n{{\n" + "\n".join(body)
                    + f"\n    return {printer.doprint(expr)};\n}}\n")
         args = ", ".join(r.signature())
-        out.append(f"vec3 {prefix}{r.name}_rgb({struct} r, {struct} g, {struct} b, {params})\n{{\n"
-                   f"    return vec3({prefix}{r.name}(r, {args}), {prefix}{r.name}(g, {args}), {prefix}{r.name}(b, {args}));\n}}\n")
+        out.append(f"{sh.vec3} {prefix}{r.name}_rgb({struct} r, {struct} g, {struct} b, {params})\n{{\n"
+                   f"    return {sh.vec3}({prefix}{r.name}(r, {args}), {prefix}{r.name}(g, {args}), "
+                   f"{prefix}{r.name}(b, {args}));\n}}\n")
     return out
 
 
@@ -307,19 +338,7 @@ def _python_files(program: Program, command: str | None = None) -> dict[str, str
         names += [program.material.prepare_name, *(n for n, _, _ in program.material.setups),
                   *(r.name for r in program.material.evaluators)]
     out.append("__all__ = [" + ", ".join(f'"{n}"' for n in names) + "]\n")
-    for r in program.routines:
-        symbol_names = _vector_names(r, "{v}[..., {k}]")
-        printer = NumpyPrinter(lambda n: "_safe_pow" if n == "safe_pow" else n, symbol_names)
-        temps, expr = _cse(r)
-        sig = r.signature()
-        lines = [f"\n\ndef {r.name}({', '.join(sig)}):", '    """' + "\n".join(_wrap(r.doc, "    ", 92)).strip() + '"""']
-        lines.append(f"    {', '.join(sig)} = {', '.join(f'numpy.asarray({a}, dtype=float)' for a in sig)}")
-        lines += [f"    {t} = {printer.doprint(e)}" for t, e in temps]
-        # an input the result does not depend on must still broadcast into its shape
-        used = {str(s) for s in r.expr.free_symbols}
-        unused = [f"0.0 * {a}" for a in r.args if a not in used and a not in symbol_names]
-        lines.append(f"    return {' + '.join([printer.doprint(expr), *unused])}")
-        out.append("\n".join(lines) + "\n")
+    out += [_python_function(r) for r in program.routines]
     if program.material is not None:
         out += _python_material(program)
     return {f"{program.name}.py": "".join(out)}
@@ -345,22 +364,29 @@ def _python_material(program: Program) -> list[str]:
     for name, arg, routine in m.setups:
         out.append(f'\n\ndef {name}({arg}):\n    """{m.prepare_name}({routine}({arg})): the material of {arg}."""\n'
                    f"    return {m.prepare_name}({routine}({arg}))\n")
-    for r in m.evaluators:
-        names = {**_vector_names(r, "{v}[..., {k}]"), **_material_names(m, "material[..., {j}]")}
-        printer = NumpyPrinter(lambda n: "_safe_pow" if n == "safe_pow" else n, names)
-        temps, (expr,) = _cse_many([r.expr], r.name)
-        sig = ("material", *r.signature())
-        lines = [f"\n\ndef {r.name}({', '.join(sig)}):", '    """' + "\n".join(_wrap(r.doc, "    ", 92)).strip() + '"""']
-        lines.append(f"    {', '.join(sig)} = {', '.join(f'numpy.asarray({a}, dtype=float)' for a in sig)}")
-        lines += [f"    {t} = {printer.doprint(e)}" for t, e in temps]
-        used = {str(x) for x in r.expr.free_symbols}
-        unused = [f"0.0 * {a}" for a in r.args if a not in used and a not in names]
-        lines.append(f"    return {' + '.join([printer.doprint(expr), *unused])}")
-        out.append("\n".join(lines) + "\n")
+    out += [_python_function(r, ("material",), _material_names(m, "material[..., {j}]")) for r in m.evaluators]
     return out
 
 
-LANGUAGES = {"c": _c_files, "python": _python_files, "glsl": _glsl_files}
+def _python_function(r: Routine, leading=(), names=None) -> str:
+    """One routine as a numpy function; ``leading``: arguments before the routine's own, ``names``: how
+    further symbols read (a material's fields)."""
+    symbol_names = {**_vector_names(r, "{v}[..., {k}]"), **(names or {})}
+    printer = NumpyPrinter(lambda n: "_safe_pow" if n == "safe_pow" else n, symbol_names)
+    temps, expr = _cse(r)
+    sig = (*leading, *r.signature())
+    lines = [f"\n\ndef {r.name}({', '.join(sig)}):", '    """' + "\n".join(_wrap(r.doc, "    ", 92)).strip() + '"""']
+    lines.append(f"    {', '.join(sig)} = {', '.join(f'numpy.asarray({a}, dtype=float)' for a in sig)}")
+    lines += [f"    {t} = {printer.doprint(e)}" for t, e in temps]
+    # an input the result does not depend on must still broadcast into its shape
+    used = {str(s) for s in r.expr.free_symbols}
+    unused = [f"0.0 * {a}" for a in r.args if a not in used and a not in symbol_names]
+    lines.append(f"    return {' + '.join([printer.doprint(expr), *unused])}")
+    return "\n".join(lines) + "\n"
+
+
+LANGUAGES = {"c": _c_files, "python": _python_files, **{lang: (lambda program, command=None, lang=lang:
+                                                               _shading_files(program, command, lang)) for lang in _SHADING}}
 
 
 def emit(program: Program, lang: str, command: str | None = None, single_header: bool = False) -> dict[str, str]:

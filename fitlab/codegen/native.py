@@ -25,7 +25,8 @@ import numpy as np
 
 from fitlab.codegen.program import Program
 
-__all__ = ["compiler", "STRICT_FLAGS", "GLSL_FLAGS", "GLSL_SHIM", "build", "build_glsl", "NativeModel", "CompileError"]
+__all__ = ["compiler", "cxx_compiler", "STRICT_FLAGS", "GLSL_FLAGS", "GLSL_SHIM", "HLSL_SHIM", "METAL_STDLIB", "METAL_FLAGS",
+           "build", "build_glsl", "NativeModel", "CompileError"]
 
 #: the issue's standard: the generated C must compile clean under these
 STRICT_FLAGS = ("-std=c99", "-O2", "-Wall", "-Wextra", "-Wpedantic", "-Werror")
@@ -51,6 +52,7 @@ GLSL_FLAGS = ("-std=c99", "-O2", "-Wall", "-Werror", "-Wno-unused-function")
 GLSL_SHIM = r"""
 #include <math.h>
 typedef struct { float x, y, z; } vec3;
+#define SHADER_VEC3 vec3
 static vec3 glsl_vec3(const float *p) { vec3 v; v.x = p[0]; v.y = p[1]; v.z = p[2]; return v; }
 static vec3 glsl_make_vec3(float x, float y, float z) { vec3 v; v.x = x; v.y = y; v.z = z; return v; }
 #define vec3(x, y, z) glsl_make_vec3(x, y, z)
@@ -109,7 +111,7 @@ def _material_loops(program: Program, by_value: bool, scalars=(("double", "", ""
                 three = "m[3 * which[i]], m[3 * which[i] + 1], m[3 * which[i] + 2]"
                 lines.append(f"void {prefix}{r.name}_rgb{loop}_loop(long n, const {struct} *m, const long *which, "
                              f"{decl}, {scalar} *out)")
-                lines.append(f"{{ long i; for (i = 0; i < n; ++i) {{ vec3 v = {prefix}{r.name}_rgb({three}, {args}); "
+                lines.append(f"{{ long i; for (i = 0; i < n; ++i) {{ SHADER_VEC3 v = {prefix}{r.name}_rgb({three}, {args}); "
                              "out[3 * i] = v.x; out[3 * i + 1] = v.y; out[3 * i + 2] = v.z; } }")
             else:
                 lines.append(f"void {prefix}{r.name}_rgb{loop}_loop(long n, const {struct} *m, const long *which, "
@@ -119,16 +121,40 @@ def _material_loops(program: Program, by_value: bool, scalars=(("double", "", ""
     return lines
 
 
-def _glsl_loop_source(program: Program) -> str:
-    # GLSL names a struct type by its tag; C needs a typedef (allowed before the struct's definition)
-    struct = [f"typedef struct {program.prefix}material {program.prefix}material;"] if program.material else []
-    lines = [GLSL_SHIM, *struct, f'#include "{program.name}.glsl"', ""]
+#: HLSL's float subset is C too, with float3 for vec3 (the same shim, and the name)
+HLSL_SHIM = GLSL_SHIM + "typedef vec3 float3;\n#define float3(x, y, z) glsl_make_vec3(x, y, z)\n"
+
+#: a C++ stand-in for <metal_stdlib>: the Metal Shading Language is C++14 with float overloads of the
+#: built-ins and a float3 type; the generated .metal file compiles against it as C++ (-I the folder)
+METAL_STDLIB = r"""
+#pragma once
+#include <cmath>
+namespace metal {
+using std::abs; using std::acos; using std::exp; using std::log; using std::pow; using std::sqrt; using std::atan;
+using std::tanh; using std::cos;
+struct float3 { float x, y, z; float3() : x(0), y(0), z(0) {} float3(float a, float b, float c) : x(a), y(b), z(c) {} };
+}
+"""
+
+
+def _glsl_loop_source(program: Program, lang: str = "glsl") -> str:
+    """Loops over the shader functions: C against :data:`GLSL_SHIM` / :data:`HLSL_SHIM`, or C++ (extern "C"
+    loops) against :data:`METAL_STDLIB` for Metal."""
+    if lang == "metal":
+        head = ["#include <metal_stdlib>", f'#include "{program.name}.metal"', "#define SHADER_VEC3 float3",
+                "static float3 glsl_vec3(const float *p) { return float3(p[0], p[1], p[2]); }", 'extern "C" {']
+    else:
+        # the language names a struct type by its tag; C needs a typedef (allowed before the struct's definition)
+        struct = [f"typedef struct {program.prefix}material {program.prefix}material;"] if program.material else []
+        head = [GLSL_SHIM if lang == "glsl" else HLSL_SHIM, *struct, f'#include "{program.name}.{lang}"']
+    lines = [*head, ""]
     for func, sig, vectors in ((program.prefix + r.name, r.signature(), r.vectors) for r in program.routines):
         params = ", ".join(f"const float *{a}" for a in sig)
         args = ", ".join(f"glsl_vec3({a} + 3 * i)" if a in vectors else f"{a}[i]" for a in sig)
         lines.append(f"void {func}_f_loop(long n, {params}, float *out)")
         lines.append(f"{{ long i; for (i = 0; i < n; ++i) out[i] = {func}({args}); }}")
-    return "\n".join(lines + _material_loops(program, by_value=True, scalars=(("float", "", "_f"),))) + "\n"
+    tail = ["}"] if lang == "metal" else []
+    return "\n".join(lines + _material_loops(program, by_value=True, scalars=(("float", "", "_f"),)) + tail) + "\n"
 
 
 def _compile(workdir: Path, sources: list[Path], lib: Path, flags) -> list[str]:
@@ -161,12 +187,40 @@ def build(files: dict[str, str], program: Program, workdir: Path, flags=STRICT_F
                        material=program.material)  # fmt: skip
 
 
-def build_glsl(files: dict[str, str], program: Program, workdir: Path, flags=GLSL_FLAGS) -> "NativeModel":
-    """Write ``files`` (the generated GLSL) to ``workdir``, compile it as C against :data:`GLSL_SHIM` and load:
-    a model of the shader functions, callable in float only (``dtype=np.float32``)."""
-    workdir = _written(files, workdir, {"glsl_loops.c": _glsl_loop_source(program)})
-    lib = workdir / f"lib{program.name}_glsl.so"
-    cmd = _compile(workdir, [workdir / "glsl_loops.c"], lib, flags)
+#: flags the Metal-as-C++ shim is compiled with
+METAL_FLAGS = ("-std=c++17", "-O2", "-Wall", "-Werror", "-Wno-unused-function")
+
+
+def cxx_compiler() -> str | None:
+    """A C++ compiler on PATH (c++, g++ or clang++), or None."""
+    for name in ("c++", "g++", "clang++"):
+        path = shutil.which(name)
+        if path:
+            return path
+    return None
+
+
+def build_glsl(files: dict[str, str], program: Program, workdir: Path, flags=None, lang: str = "glsl") -> "NativeModel":
+    """Write ``files`` (the generated GLSL, HLSL or Metal: ``lang``) to ``workdir``, compile them against a shim
+    of the language's built-ins (GLSL and HLSL as C: :data:`GLSL_SHIM`, :data:`HLSL_SHIM`; Metal as C++:
+    :data:`METAL_STDLIB`) and load: a model of the shader functions, callable in float only
+    (``dtype=np.float32``)."""
+    if lang not in ("glsl", "hlsl", "metal"):
+        raise ValueError(f"no shim for {lang!r}")
+    loops = f"{lang}_loops.{'cpp' if lang == 'metal' else 'c'}"
+    extra = {"metal_stdlib": METAL_STDLIB} if lang == "metal" else {}
+    workdir = _written(files, workdir, {loops: _glsl_loop_source(program, lang), **extra})
+    lib = workdir / f"lib{program.name}_{lang}.so"
+    if lang == "metal":
+        cxx = cxx_compiler()
+        if cxx is None:
+            raise CompileError("no C++ compiler found (c++, g++ or clang++)")
+        cmd = [cxx, *(flags or METAL_FLAGS), f"-I{workdir}", "-shared", "-fPIC", "-o", str(lib), str(workdir / loops)]
+        res = subprocess.run(cmd, capture_output=True, text=True)
+        if res.returncode != 0:
+            raise CompileError(f"{' '.join(cmd)} failed:\n{res.stderr}")
+    else:
+        cmd = _compile(workdir, [workdir / loops], lib, flags or GLSL_FLAGS)
     return NativeModel(ctypes.CDLL(str(lib)), {r.name: r for r in program.routines}, program.prefix, cmd,
                        dtypes=(np.float32,), material=program.material)  # fmt: skip
 

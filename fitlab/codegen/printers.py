@@ -29,7 +29,7 @@ from sympy.printing.precedence import precedence
 from fitlab.codegen.program import minmax_piecewise
 from fitlab.forms.symbolic import safe_pow
 
-__all__ = ["CPrinter", "GLSLPrinter", "NumpyPrinter"]
+__all__ = ["CPrinter", "GLSLPrinter", "MetalPrinter", "NumpyPrinter"]
 
 _PI_DIGITS = "3.141592653589793238"
 
@@ -137,6 +137,17 @@ class GLSLPrinter(CPrinter):
         if expr.exp == -1:
             return f"1.0/{self.parenthesize(expr.base, precedence(expr))}"
         return super()._print_Pow(expr)
+
+
+class MetalPrinter(GLSLPrinter):
+    """The Metal Shading Language: GLSL's overloaded built-ins (metal_stdlib), float literals with the f
+    suffix (an unsuffixed literal is a double in C++, which Metal lacks)."""
+
+    def _literal(self, text: str) -> str:
+        return text + "f"
+
+    def _print_Float(self, expr):
+        return super()._print_Float(expr) + "f"
 
 
 class NumpyPrinter(_Common, NumPyPrinter):

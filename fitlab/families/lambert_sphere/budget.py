@@ -18,22 +18,20 @@ import json
 from pathlib import Path
 
 import numpy as np
-import sympy as sp
 
 from fitlab._io import atomic_write_text
 from fitlab.core import get_target
 from fitlab.families.lambert_sphere.exact import constants, h_function
-from fitlab.families.lambert_sphere.forms import ORDER2_PART, RUNTIME_PARTS, runtime_brdf
-from fitlab.families.lambert_sphere.runtime import ORDER2_FORMS, accuracy, energy_scale
+from fitlab.families.lambert_sphere.forms import ORDER2_PART, RUNTIME_PARTS
+from fitlab.families.lambert_sphere.runtime import ORDER2_FORMS, accuracy, assembled, energy_scale
 from fitlab.forms.symbolic import lambdify_numpy, symbols
 from fitlab.store import fit_path, load
 
-__all__ = ["error_budget", "assembled", "exact_parts", "PARTS"]
+__all__ = ["error_budget", "exact_parts", "PARTS"]
 
 #: the parts of the order-2 runtime model, in the order of the budget
 PARTS = (*RUNTIME_PARTS, ORDER2_PART)
 _H = {"H0": 0, "H1": 1, "H2": 2}
-mu, c = symbols(("mu", "c"))
 
 
 def _exact_h(order: int):
@@ -60,23 +58,6 @@ def _exact_constant(name: str):
 def exact_parts() -> dict:
     """{part: numpy function} of every part, exact: H_n(mu, c), X(c)."""
     return {p: (_exact_h(_H[p]) if p in _H else _exact_constant(p)) for p in PARTS}
-
-
-def assembled(functions: dict, scale=1):
-    """The runtime structure with each part a numpy function ({part: f(mu, c) or f(c)}): a model
-    f(mu_i, mu_o, phi, c) with the energy scale ``scale``."""
-    placeholders = {p: sp.Function(f"part_{p}")(*((mu, c) if get_target(p).inputs == ("mu", "c") else (c,))) for p in PARTS}
-    expr = runtime_brdf(placeholders, scale=scale)
-    names = {f"part_{p}": f for p, f in functions.items()}
-    args = symbols(("mu_i", "mu_o", "phi", "c"))
-    f = sp.lambdify(args, expr, modules=[names, "numpy"])
-
-    def model(mu_i, mu_o, phi, cv):
-        arrays = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in (mu_i, mu_o, phi, cv)))
-        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-            return np.broadcast_to(np.asarray(f(*arrays), dtype=float), arrays[0].shape).copy()
-
-    return model
 
 
 def error_budget(fits_dir: Path, forms: dict | None = None, seed: int = 18, n: int = 400, progress=None) -> list[dict]:

@@ -38,7 +38,7 @@ from fitlab.forms.symbolic import lambdify_numpy, symbols
 from fitlab.store import fit_path, load
 
 __all__ = ["RuntimeModel", "runtime_model", "PRESET_VARIANTS", "accuracy", "accuracy_points", "directional_albedo", "ALBEDOS",
-           "ORDER2_FORMS", "energy_scale", "ENERGY_MARGIN", "ENERGY_MU"]
+           "ORDER2_FORMS", "energy_scale", "assembled", "ENERGY_MARGIN", "ENERGY_MU"]
 
 PRESET_VARIANTS = {
     "paper_printed": ({"H0": ("hapke", "paper"), "H1": ("separable_printed", "paper"), "l": ("quadratic", "paper"),
@@ -142,17 +142,33 @@ def energy_scale(parts: dict, terms=RUNTIME_TERMS, normalisation: str = "correct
 
 @functools.lru_cache(maxsize=64)
 def _energy_scale(parts: tuple, terms: tuple, normalisation: str) -> sp.Rational:
-    t = runtime_terms(dict(parts), normalisation)
-    total = sum(t[n] * AZIMUTH[n] for n in terms if n in t)
-    f = lambdify_numpy(symbols(INPUTS), total)  # the max(0, .) in numpy: sympy's Max(0, total) costs seconds
-
-    def model(mu_i, mu_o, phi, c):
-        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-            return np.maximum(0.0, f(mu_i, mu_o, phi, c))
-
+    # each part lambdified on its own and the structure over placeholders: one lambdify (with cse) of the
+    # whole inlined model costs seconds
+    parts = dict(parts)
+    functions = {p: lambdify_numpy(symbols(get_target(p).inputs), e) for p, e in parts.items()}
+    model = assembled(functions, terms=terms, normalisation=normalisation)
     peak = float(np.max(directional_albedo(model, ENERGY_MU, 1.0)))
     scaled = int(np.floor((1.0 - ENERGY_MARGIN) / peak * 1e6))
     return sp.S.One if scaled >= 10**6 else sp.Rational(scaled, 10**6)
+
+
+def assembled(functions: dict, scale=1, terms=RUNTIME_TERMS, normalisation: str = "corrected"):
+    """The runtime structure with each part a numpy function ({part: f(mu, c) or f(c)}; H2 optional):
+    a model f(mu_i, mu_o, phi, c) = max(0, scale (sum of the ``terms`` kept))."""
+    mu, c = symbols(("mu", "c"))
+    placeholders = {p: sp.Function(f"part_{p}")(*((mu, c) if get_target(p).inputs == ("mu", "c") else (c,)))
+                    for p in functions}  # fmt: skip
+    t = runtime_terms(placeholders, normalisation)
+    total = sum(t[n] * AZIMUTH[n] for n in terms if n in t)
+    f = sp.lambdify(symbols(INPUTS), total, modules=[{f"part_{p}": g for p, g in functions.items()}, "numpy"])
+
+    def model(mu_i, mu_o, phi, cv):
+        arrays = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in (mu_i, mu_o, phi, cv)))
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            out = np.maximum(0.0, float(scale) * np.asarray(f(*arrays), dtype=float))
+        return np.broadcast_to(out, arrays[0].shape).copy()
+
+    return model
 
 
 # -- measurement (issue 18) -------------------------------------------------------------------------

@@ -16,11 +16,15 @@
 //   c_of_kd.json  ad8bcd2ba210486e2105a562f5eb249c207cc3857f11405e011f8d13e38c592d
 //   kd_of_c.json  97fd68ebd9ef5a510e97d6f742d5e9ff4ca179dfae3908df011426f60c64c6c0
 //   fast_brdf.json  88236703c7510cb5c1b581febb4ef8bfc82b4704a8bc02dd976905bdc8977b81
-// Float functions for GLSL 3.30 / ES 3.00 and later; paste or #include into a shader.
+// Float functions for GLSL 3.30 / ES 3.00 and later; paste or #include after #version.
+// OpenGL ES has no default float precision in fragment shaders: this file sets highp there.
+#ifdef GL_ES
+precision highp float;
+#endif
 
 // x^p for x > 0, 0 for x <= 0, NaN for NaN: the forms' safe_pow (keeps pow away from x <= 0).
 float lambert_sphere_safe_pow(float x, float p) { return ((x <= 0.0) ? (0.0) : (pow(((x <= 0.0) ? (1.0) : (x)), p))); }
-// log(1 + x) and exp(x) - 1 without cancellation near x = 0 (Kahan's tricks; GLSL lacks both).
+// log(1 + x) and exp(x) - 1 without cancellation near x = 0 (Kahan's tricks; the language lacks both).
 float lambert_sphere_log1p(float x) { float u = 1.0 + x; return u == 1.0 ? x : log(u) * x / (u - 1.0); }
 float lambert_sphere_expm1(float x)
 {
