@@ -71,6 +71,9 @@ def load_program(fits_dir: Path | None = None, terms: str | tuple | None = None,
     chosen = {**model_forms, **forms}
     fits_dir = fits_folder(fits_dir)
     paths = {t: fit_path(fits_dir, t, chosen.get(t, targets()[t].default_form)) for t in spec.fits}
+    for p in paths.values():
+        if not p.is_file():
+            load(p)  # the store's own error for a missing fit ("no such fit file", naming it)
     # the file name and its digest name a fit wherever its folder is, so regenerated code is byte-identical
     sources = tuple((p.name, fit_sha256(p)) for p in paths.values())
     # the same files (by digest) make the same program: built once per process (inlining and hoisting the
