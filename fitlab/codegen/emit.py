@@ -231,7 +231,6 @@ class _Shading:
     """What a shading language changes in the one shader emitter: the file's extension and opening lines,
     the 3-vector type, and the printer (Metal: float literals carry the f suffix)."""
 
-    lang: str
     extension: str
     vec3: str
     preamble: str
@@ -239,13 +238,13 @@ class _Shading:
 
 
 _SHADING = {
-    "glsl": _Shading("glsl", "glsl", "vec3",
+    "glsl": _Shading("glsl", "vec3",
                      "// Float functions for GLSL 3.30 / ES 3.00 and later; paste or #include after #version.\n"
                      "// OpenGL ES has no default float precision in fragment shaders: this file sets highp there.\n"
                      "#ifdef GL_ES\nprecision highp float;\n#endif\n\n"),
-    "hlsl": _Shading("hlsl", "hlsl", "float3",
+    "hlsl": _Shading("hlsl", "float3",
                      "// Float functions for HLSL (shader model 5 and later; DXC, FXC, glslang); #include into a shader.\n\n"),
-    "metal": _Shading("metal", "metal", "float3",
+    "metal": _Shading("metal", "float3",
                       "// Float functions for the Metal Shading Language (2.0 and later); #include into a .metal file.\n"
                       "#include <metal_stdlib>\nusing namespace metal;\n\n", MetalPrinter),
 }
@@ -265,17 +264,25 @@ def _shading_files(program: Program, command: str | None, lang: str) -> dict[str
         f"float {prefix}expm1(float x)\n{{\n    float u = exp(x);\n    if (u == {_one(sh)}) return x;\n"
         f"    if (u - {_one(sh)} == -{_one(sh)}) return -{_one(sh)};\n    return (u - {_one(sh)}) * x / log(u);\n}}\n",
     ]
-    for r in program.routines:
-        printer = sh.printer(lambda n: prefix + n, _vector_names(r, "{v}.{c}"))
-        temps, expr = _cse(r)
-        params = ", ".join(f"{sh.vec3} {a}" if a in r.vectors else f"float {a}" for a in r.signature())
-        body = [f"    float {t} = {printer.doprint(e)};" for t, e in temps]
-        body.append(f"    return {printer.doprint(expr)};")
-        out.append("\n" + "\n".join(_wrap(r.doc, "// ")) + "\n")
-        out.append(f"float {prefix}{r.name}({params})\n{{\n" + "\n".join(body) + "\n}\n")
+    out += [_shading_function(r, sh, prefix) for r in program.routines]
     if program.material is not None:
         out += _shading_material(program, sh)
     return {f"{base}.{sh.extension}": "".join(out)}
+
+
+def _shading_params(r: Routine, sh: _Shading) -> str:
+    return ", ".join(f"{sh.vec3} {a}" if a in r.vectors else f"float {a}" for a in r.signature())
+
+
+def _shading_function(r: Routine, sh: _Shading, prefix: str, leading: str = "", names=None) -> str:
+    """One routine as a float function of the shading language, its doc comment first; ``leading``:
+    parameters before the routine's own (with their comma), ``names``: how further symbols read."""
+    printer = sh.printer(lambda n: prefix + n, {**_vector_names(r, "{v}.{c}"), **(names or {})})
+    temps, expr = _cse(r)
+    body = [f"    float {t} = {printer.doprint(e)};" for t, e in temps]
+    body.append(f"    return {printer.doprint(expr)};")
+    return ("\n" + "\n".join(_wrap(r.doc, "// ")) + "\n"
+            + f"float {prefix}{r.name}({leading}{_shading_params(r, sh)})\n{{\n" + "\n".join(body) + "\n}\n")
 
 
 def _one(sh: _Shading) -> str:
@@ -297,13 +304,8 @@ def _shading_material(program: Program, sh: _Shading) -> list[str]:
     for name, arg, routine in m.setups:
         out.append(f"\n{struct} {prefix}{name}(float {arg}) {{ return {prefix}{m.prepare_name}({prefix}{routine}({arg})); }}\n")
     for r in m.evaluators:
-        printer = sh.printer(lambda n: prefix + n, {**_vector_names(r, "{v}.{c}"), **_material_names(m, "m.k[{j}]")})
-        temps, (expr,) = _cse_many([r.expr], r.name)
-        params = ", ".join(f"{sh.vec3} {a}" if a in r.vectors else f"float {a}" for a in r.signature())
-        body = [f"    float {t} = {printer.doprint(e)};" for t, e in temps]
-        out.append("\n" + "\n".join(_wrap(r.doc, "// ")) + "\n")
-        out.append(f"float {prefix}{r.name}({struct} m, {params})\n{{\n" + "\n".join(body)
-                   + f"\n    return {printer.doprint(expr)};\n}}\n")
+        out.append(_shading_function(r, sh, prefix, f"{struct} m, ", _material_names(m, "m.k[{j}]")))
+        params = _shading_params(r, sh)
         args = ", ".join(r.signature())
         out.append(f"{sh.vec3} {prefix}{r.name}_rgb({struct} r, {struct} g, {struct} b, {params})\n{{\n"
                    f"    return {sh.vec3}({prefix}{r.name}(r, {args}), {prefix}{r.name}(g, {args}), "
