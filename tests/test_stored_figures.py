@@ -118,7 +118,7 @@ def preset_values(target, form_name: str, params: dict, ds) -> np.ndarray:
     outside the domain a fit file may state."""
     form = target.forms[form_name]
     expr = parse_expression(form.expression, (*form.inputs, *form.params))
-    expr = expr.subs({sp.Symbol(k, real=True): sp.Float(repr(float(v)), 17) for k, v in params.items()})
+    expr = expr.xreplace({sp.Symbol(k, real=True): sp.Float(repr(float(v)), 17) for k, v in params.items()})
     f = lambdify_numpy(symbols(form.inputs), expr)
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         out = f(*(ds.inputs[name] for name in form.inputs))
