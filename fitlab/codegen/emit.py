@@ -29,16 +29,17 @@ import sympy as sp
 from fitlab import __version__
 from fitlab.forms.symbolic import safe_pow
 from fitlab.codegen.printers import CPrinter, GLSLPrinter, MetalPrinter, NumpyPrinter
-from fitlab.codegen.program import SAFE_POW, Material, Program, Routine, field_symbol
+from fitlab.codegen.program import SAFE_POW, Material, Program, Routine, field_symbol, outputs
 
 __all__ = ["emit", "LANGUAGES"]
 
 
 def _cse(routine: Routine):
     """Common subexpressions, then every non-atomic argument of a Max or Min in a temporary of its own:
-    Max and Min print as conditionals (x < k ? k : x), which name their argument twice."""
-    temps, (expr,) = _cse_many([routine.expr], routine.name)
-    return temps, expr
+    Max and Min print as conditionals (x < k ? k : x), which name their argument twice.  Returns (temps,
+    value expression, [x, y, z] of the output vector or [])."""
+    temps, exprs = _cse_many(outputs(routine), routine.name)
+    return temps, exprs[0], exprs[1:]
 
 
 def _cse_many(exprs, name: str):
@@ -66,12 +67,14 @@ def _cse_many(exprs, name: str):
                 return e.func(acc, others[-1], *consts) if not consts else e.func(temp(e.func(acc, others[-1])), *consts)
         return e if all(a is b for a, b in zip(args, e.args)) else e.func(*args)
 
+    conditions = {}  # a condition shared by several branches stays written where it is used
     for t, e in temps:
-        e = hoist(e)
+        e = hoist(e.xreplace(conditions))
         if isinstance(e, sp.logic.boolalg.Boolean):
-            raise ValueError(f"routine {name}: a condition {e} became a temporary (not printable as a number)")
+            conditions[t] = e
+            continue
         out.append((t, e))
-    exprs = [hoist(e) for e in exprs]
+    exprs = [hoist(e.xreplace(conditions)) for e in exprs]
     return out, exprs
 
 
@@ -107,7 +110,8 @@ def _vector_names(routine: Routine, vector_index: str) -> dict:
 
 
 def _c_params(routine: Routine, scalar: str) -> str:
-    return ", ".join(f"const {scalar} {a}[3]" if a in routine.vectors else f"{scalar} {a}" for a in routine.signature())
+    params = [f"const {scalar} {a}[3]" if a in routine.vectors else f"{scalar} {a}" for a in routine.signature()]
+    return ", ".join(params + ([f"{scalar} {routine.out}[3]"] if routine.out else []))
 
 
 def _c_signature(routine: Routine, scalar: str, prefix: str, leading: str = "") -> str:
@@ -120,10 +124,11 @@ def _c_function(routine: Routine, scalar: str, prefix: str, qualifier: str, lead
     ``names``: how further symbols read (a material's fields)."""
     suffix = "_f" if scalar == "float" else ""
     printer = CPrinter(scalar, lambda n: f"{prefix}{n}{suffix}", {**_vector_names(routine, "{v}[{k}]"), **(names or {})})
-    temps, expr = _cse(routine)
+    temps, expr, vector = _cse(routine)
     used = {str(s) for s in routine.expr.free_symbols}
     body = [f"    (void){a};" for a in routine.args if a not in used and not routine.vectors]
     body += [f"    const {scalar} {t} = {printer.doprint(e)};" for t, e in temps]
+    body += [f"    {routine.out}[{k}] = {printer.doprint(e)};" for k, e in enumerate(vector)]
     body.append(f"    return {printer.doprint(expr)};")
     return f"{qualifier} {_c_signature(routine, scalar, prefix, leading)}\n{{\n" + "\n".join(body) + "\n}\n"
 
@@ -176,6 +181,8 @@ def _c_material(program: Program, qualifier: str) -> tuple[list[str], list[str]]
                 decls.append("\n/*\n" + "\n".join(_wrap(r.doc, " * ")) + "\n */\n")
             decls.append(f"{qualifier} {_c_signature(r, scalar, prefix, leading)};\n")
             defs.append("\n" + _c_function(r, scalar, prefix, qualifier, leading, _material_names(m, "m->k[{j}]")))
+            if r.out:  # a sampler: one direction per call, whichever channel the caller samples by
+                continue
             args = ", ".join(r.signature())
             sig = f"void {prefix}{r.name}_rgb{suffix}(const {struct} m[3], {_c_params(r, scalar)}, {scalar} out[3])"
             decls.append(f"{qualifier} {sig};\n")
@@ -229,11 +236,12 @@ def _c_files(program: Program, command: str | None = None, single_header: bool =
 @dataclass(frozen=True)
 class _Shading:
     """What a shading language changes in the one shader emitter: the file's extension and opening lines,
-    the 3-vector type, and the printer (Metal: float literals carry the f suffix)."""
+    the 3- and 4-vector types, and the printer (Metal: float literals carry the f suffix)."""
 
     extension: str
     vec3: str
     preamble: str
+    vec4: str
     printer: type = GLSLPrinter
 
 
@@ -241,12 +249,12 @@ _SHADING = {
     "glsl": _Shading("glsl", "vec3",
                      "// Float functions for GLSL 3.30 / ES 3.00 and later; paste or #include after #version.\n"
                      "// OpenGL ES has no default float precision in fragment shaders: this file sets highp there.\n"
-                     "#ifdef GL_ES\nprecision highp float;\n#endif\n\n"),
+                     "#ifdef GL_ES\nprecision highp float;\n#endif\n\n", "vec4"),
     "hlsl": _Shading("hlsl", "float3",
-                     "// Float functions for HLSL (shader model 5 and later; DXC, FXC, glslang); #include into a shader.\n\n"),
+                     "// Float functions for HLSL (shader model 5 and later; DXC, FXC, glslang); #include into a shader.\n\n", "float4"),
     "metal": _Shading("metal", "float3",
                       "// Float functions for the Metal Shading Language (2.0 and later); #include into a .metal file.\n"
-                      "#include <metal_stdlib>\nusing namespace metal;\n\n", MetalPrinter),
+                      "#include <metal_stdlib>\nusing namespace metal;\n\n", "float4", MetalPrinter),
 }
 
 
@@ -278,11 +286,15 @@ def _shading_function(r: Routine, sh: _Shading, prefix: str, leading: str = "", 
     """One routine as a float function of the shading language, its doc comment first; ``leading``:
     parameters before the routine's own (with their comma), ``names``: how further symbols read."""
     printer = sh.printer(lambda n: prefix + n, {**_vector_names(r, "{v}.{c}"), **(names or {})})
-    temps, expr = _cse(r)
+    temps, expr, vector = _cse(r)
     body = [f"    float {t} = {printer.doprint(e)};" for t, e in temps]
-    body.append(f"    return {printer.doprint(expr)};")
+    if vector:  # (x, y, z, value) in one vector: GLSL's out parameters have no C or Metal spelling in common
+        body.append(f"    return {sh.vec4}({', '.join(printer.doprint(e) for e in (*vector, expr))});")
+    else:
+        body.append(f"    return {printer.doprint(expr)};")
+    kind = sh.vec4 if vector else "float"
     return ("\n" + "\n".join(_wrap(r.doc, "// ")) + "\n"
-            + f"float {prefix}{r.name}({leading}{_shading_params(r, sh)})\n{{\n" + "\n".join(body) + "\n}\n")
+            + f"{kind} {prefix}{r.name}({leading}{_shading_params(r, sh)})\n{{\n" + "\n".join(body) + "\n}\n")
 
 
 def _one(sh: _Shading) -> str:
@@ -305,6 +317,8 @@ def _shading_material(program: Program, sh: _Shading) -> list[str]:
         out.append(f"\n{struct} {prefix}{name}(float {arg}) {{ return {prefix}{m.prepare_name}({prefix}{routine}({arg})); }}\n")
     for r in m.evaluators:
         out.append(_shading_function(r, sh, prefix, f"{struct} m, ", _material_names(m, "m.k[{j}]")))
+        if r.out:
+            continue
         params = _shading_params(r, sh)
         args = ", ".join(r.signature())
         out.append(f"{sh.vec3} {prefix}{r.name}_rgb({struct} r, {struct} g, {struct} b, {params})\n{{\n"
@@ -375,11 +389,19 @@ def _python_function(r: Routine, leading=(), names=None) -> str:
     further symbols read (a material's fields)."""
     symbol_names = {**_vector_names(r, "{v}[..., {k}]"), **(names or {})}
     printer = NumpyPrinter(lambda n: "_safe_pow" if n == "safe_pow" else n, symbol_names)
-    temps, expr = _cse(r)
+    temps, expr, vector = _cse(r)
     sig = (*leading, *r.signature())
     lines = [f"\n\ndef {r.name}({', '.join(sig)}):", '    """' + "\n".join(_wrap(r.doc, "    ", 92)).strip() + '"""']
     lines.append(f"    {', '.join(sig)} = {', '.join(f'numpy.asarray({a}, dtype=float)' for a in sig)}")
     lines += [f"    {t} = {printer.doprint(e)}" for t, e in temps]
+    if vector:
+        # every output in the shape of all the inputs together (vectors and materials less their last axis)
+        shapes = ", ".join(f"{a}.shape[:-1]" if a in r.vectors or a in leading else f"{a}.shape" for a in sig)
+        values = ", ".join(printer.doprint(e) for e in (*vector, expr))
+        lines.append(f"    shape = numpy.broadcast_shapes({shapes})")
+        lines.append(f"    x, y, z, value = (numpy.broadcast_to(e, shape) for e in ({values}))")
+        lines.append("    return numpy.stack((x, y, z), axis=-1), value.copy()")
+        return "\n".join(lines) + "\n"
     # an input the result does not depend on must still broadcast into its shape
     used = {str(s) for s in r.expr.free_symbols}
     unused = [f"0.0 * {a}" for a in r.args if a not in used and a not in symbol_names]

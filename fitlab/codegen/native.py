@@ -56,6 +56,10 @@ typedef struct { float x, y, z; } vec3;
 static vec3 glsl_vec3(const float *p) { vec3 v; v.x = p[0]; v.y = p[1]; v.z = p[2]; return v; }
 static vec3 glsl_make_vec3(float x, float y, float z) { vec3 v; v.x = x; v.y = y; v.z = z; return v; }
 #define vec3(x, y, z) glsl_make_vec3(x, y, z)
+typedef struct { float x, y, z, w; } vec4;
+#define SHADER_VEC4 vec4
+static vec4 glsl_make_vec4(float x, float y, float z, float w) { vec4 v; v.x = x; v.y = y; v.z = z; v.w = w; return v; }
+#define vec4(x, y, z, w) glsl_make_vec4(x, y, z, w)
 static float max(float a, float b) { return fmaxf(a, b); }
 static float min(float a, float b) { return fminf(a, b); }
 static float abs_(float a) { return fabsf(a); }
@@ -68,18 +72,31 @@ static float abs_(float a) { return fabsf(a); }
 #define atan atanf
 #define tanh tanhf
 #define cos cosf
+#define sin sinf
 """
 
 
 def _loop_source(program: Program) -> str:
     lines = [f'#include "{program.name}.h"', ""]
-    for func, sig, vectors in ((program.prefix + r.name, r.signature(), r.vectors) for r in program.routines):
+    for r in program.routines:
+        func, sig = program.prefix + r.name, r.signature()
         for scalar, suffix in (("double", ""), ("float", "_f")):
             params = ", ".join(f"const {scalar} *{a}" for a in sig)
-            args = ", ".join(f"{a} + 3 * i" if a in vectors else f"{a}[i]" for a in sig)
+            args = ", ".join(f"{a} + 3 * i" if a in r.vectors else f"{a}[i]" for a in sig)
             lines.append(f"void {func}{suffix}_loop(long n, {params}, {scalar} *out)")
-            lines.append(f"{{ long i; for (i = 0; i < n; ++i) out[i] = {func}{suffix}({args}); }}")
+            lines.append(f"{{ long i; for (i = 0; i < n; ++i) {_store(r, f'{func}{suffix}', args, False)} }}")
     return "\n".join(lines + _material_loops(program, by_value=False)) + "\n"
+
+
+def _store(r, func: str, args: str, by_value: bool) -> str:
+    """The statement of a loop that stores point i: out[i] = value, or for a routine with an output vector
+    (value, x, y, z) at out + 4 i (C writes the vector through its pointer, a shader returns a 4-vector)."""
+    if not r.out:
+        return f"out[i] = {func}({args});"
+    if by_value:
+        return (f"{{ SHADER_VEC4 v = {func}({args}); out[4 * i] = v.w; out[4 * i + 1] = v.x; out[4 * i + 2] = v.y; "
+                "out[4 * i + 3] = v.z; }")
+    return f"out[4 * i] = {func}({args}, out + 4 * i + 1);"
 
 
 def _material_loops(program: Program, by_value: bool, scalars=(("double", "", ""), ("float", "_f", "_f"))) -> list[str]:
@@ -106,7 +123,9 @@ def _material_loops(program: Program, by_value: bool, scalars=(("double", "", ""
                 args = ", ".join(f"glsl_vec3({a} + 3 * i)" if a in r.vectors else f"{a}[i]" for a in sig)
             one = "m[which[i]]" if by_value else "m + which[i]"
             lines.append(f"void {prefix}{r.name}{loop}_loop(long n, const {struct} *m, const long *which, {decl}, {scalar} *out)")
-            lines.append(f"{{ long i; for (i = 0; i < n; ++i) out[i] = {prefix}{r.name}{suffix}({one}, {args}); }}")
+            lines.append(f"{{ long i; for (i = 0; i < n; ++i) {_store(r, f'{prefix}{r.name}{suffix}', f'{one}, {args}', by_value)} }}")
+            if r.out:
+                continue
             if by_value:
                 three = "m[3 * which[i]], m[3 * which[i] + 1], m[3 * which[i] + 2]"
                 lines.append(f"void {prefix}{r.name}_rgb{loop}_loop(long n, const {struct} *m, const long *which, "
@@ -122,7 +141,8 @@ def _material_loops(program: Program, by_value: bool, scalars=(("double", "", ""
 
 
 #: HLSL's float subset is C too, with float3 for vec3 (the same shim, and the name)
-HLSL_SHIM = GLSL_SHIM + "typedef vec3 float3;\n#define float3(x, y, z) glsl_make_vec3(x, y, z)\n"
+HLSL_SHIM = GLSL_SHIM + ("typedef vec3 float3;\n#define float3(x, y, z) glsl_make_vec3(x, y, z)\n"
+                         "typedef vec4 float4;\n#define float4(x, y, z, w) glsl_make_vec4(x, y, z, w)\n")
 
 #: a C++ stand-in for <metal_stdlib>: the Metal Shading Language is C++14 with float overloads of the
 #: built-ins and a float3 type; the generated .metal file compiles against it as C++ (-I the folder)
@@ -131,8 +151,13 @@ METAL_STDLIB = r"""
 #include <cmath>
 namespace metal {
 using std::abs; using std::acos; using std::exp; using std::log; using std::pow; using std::sqrt; using std::atan;
-using std::tanh; using std::cos;
+using std::tanh; using std::cos; using std::sin;
 struct float3 { float x, y, z; float3() : x(0), y(0), z(0) {} float3(float a, float b, float c) : x(a), y(b), z(c) {} };
+struct float4 {
+    float x, y, z, w;
+    float4() : x(0), y(0), z(0), w(0) {}
+    float4(float a, float b, float c, float d) : x(a), y(b), z(c), w(d) {}
+};
 }
 """
 
@@ -142,17 +167,19 @@ def _glsl_loop_source(program: Program, lang: str = "glsl") -> str:
     loops) against :data:`METAL_STDLIB` for Metal."""
     if lang == "metal":
         head = ["#include <metal_stdlib>", f'#include "{program.name}.metal"', "#define SHADER_VEC3 float3",
+                "#define SHADER_VEC4 float4",
                 "static float3 glsl_vec3(const float *p) { return float3(p[0], p[1], p[2]); }", 'extern "C" {']
     else:
         # the language names a struct type by its tag; C needs a typedef (allowed before the struct's definition)
         struct = [f"typedef struct {program.prefix}material {program.prefix}material;"] if program.material else []
         head = [GLSL_SHIM if lang == "glsl" else HLSL_SHIM, *struct, f'#include "{program.name}.{lang}"']
     lines = [*head, ""]
-    for func, sig, vectors in ((program.prefix + r.name, r.signature(), r.vectors) for r in program.routines):
+    for r in program.routines:
+        func, sig = program.prefix + r.name, r.signature()
         params = ", ".join(f"const float *{a}" for a in sig)
-        args = ", ".join(f"glsl_vec3({a} + 3 * i)" if a in vectors else f"{a}[i]" for a in sig)
+        args = ", ".join(f"glsl_vec3({a} + 3 * i)" if a in r.vectors else f"{a}[i]" for a in sig)
         lines.append(f"void {func}_f_loop(long n, {params}, float *out)")
-        lines.append(f"{{ long i; for (i = 0; i < n; ++i) out[i] = {func}({args}); }}")
+        lines.append(f"{{ long i; for (i = 0; i < n; ++i) {_store(r, func, args, True)} }}")
     tail = ["}"] if lang == "metal" else []
     return "\n".join(lines + _material_loops(program, by_value=True, scalars=(("float", "", "_f"),)) + tail) + "\n"
 
@@ -262,7 +289,7 @@ class NativeModel:
         if base in self._evaluators:
             return self._evaluate(name, self._evaluators[base], *args, dtype=dtype, rgb=base != name)
         r = self.routines[name]
-        return self.call(self.prefix + name, r.signature(), r.vectors, *args, dtype=dtype)
+        return self.call(self.prefix + name, r.signature(), r.vectors, *args, dtype=dtype, out=r.out)
 
     def _ptr(self, a, dtype):
         return a.ctypes.data_as(ctypes.POINTER(ctypes.c_float if dtype == np.float32 else ctypes.c_double))
@@ -298,14 +325,15 @@ class NativeModel:
             a = np.broadcast_to(next(vi), (*shape, 3)) if n in r.vectors else np.broadcast_to(next(si), shape)
             arrays.append(np.ascontiguousarray(a))
         which = np.ascontiguousarray(np.broadcast_to(which, shape))
-        out = np.empty((*shape, 3) if rgb else shape, dtype=dtype)
+        out = np.empty((*shape, 3) if rgb else (*shape, 4) if r.out else shape, dtype=dtype)
         self.loop(self.prefix + name, dtype)(
             ctypes.c_long(int(np.prod(shape))), self._ptr(materials, dtype),
             which.ctypes.data_as(ctypes.POINTER(ctypes.c_long)), *(self._ptr(a, dtype) for a in arrays),
             self._ptr(out, dtype))  # fmt: skip
-        return out
+        return (out[..., 1:], out[..., 0]) if r.out else out
 
-    def call(self, func, sig, vectors, *args, dtype=np.float64):
+    def call(self, func, sig, vectors, *args, dtype=np.float64, out=""):
+        """``func``'s loop on arrays; a routine with an output vector (``out``) gives (vectors, values)."""
         if len(args) != len(sig):
             raise TypeError(f"{func} takes {sig}")
         scalars = [np.asarray(a, dtype=dtype) for a, n in zip(args, sig) if n not in vectors]
@@ -315,10 +343,10 @@ class NativeModel:
         for n in sig:
             a = np.broadcast_to(next(vi), (*shape, 3)) if n in vectors else np.broadcast_to(next(si), shape)
             arrays.append(np.ascontiguousarray(a))
-        out = np.empty(shape, dtype=dtype)
+        result = np.empty((*shape, 4) if out else shape, dtype=dtype)
         ptr = ctypes.c_float if dtype == np.float32 else ctypes.c_double
         self.loop(func, dtype)(
-            ctypes.c_long(out.size), *(a.ctypes.data_as(ctypes.POINTER(ptr)) for a in arrays),
-            out.ctypes.data_as(ctypes.POINTER(ptr)),
+            ctypes.c_long(int(np.prod(shape))), *(a.ctypes.data_as(ctypes.POINTER(ptr)) for a in arrays),
+            result.ctypes.data_as(ctypes.POINTER(ptr)),
         )  # fmt: skip
-        return out
+        return (result[..., 1:], result[..., 0]) if out else result

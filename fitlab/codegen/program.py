@@ -46,7 +46,7 @@ from fitlab.store import FitFunction
 __all__ = ["Routine", "Program", "ProgramSpec", "build_program", "part_routine", "program_spec", "parse_terms",
            "call", "stable", "floor_poles", "azimuth_to_cosine", "clamp", "clamped", "minmax_piecewise",
            "with_domain", "SAFE_POW", "POLE_FLOOR", "DEFAULT_FORMS", "MaterialSpec", "Material", "material_of",
-           "field_symbol", "inline_calls", "hoist_params", "merge_exp_products"]  # fmt: skip
+           "field_symbol", "outputs", "inline_calls", "hoist_params", "merge_exp_products"]  # fmt: skip
 
 #: the model every program has: each target's default form (:attr:`ProgramSpec.models`)
 DEFAULT_FORMS = "default-forms"
@@ -66,6 +66,10 @@ class Routine:
     domain: arg name -> (lo, hi), the closed interval every input is clamped into
     (:func:`with_domain`, applied by :func:`build_program` to every routine; each
     argument must have one).
+    out: the name of a 3-vector the routine gives besides its value (a sampler's direction), or "";
+    then ``expr`` is ``sp.Tuple(value, x, y, z)`` (:func:`outputs`), printed as a C function that
+    returns the value and writes ``out[3]``, a numpy function that returns (vector, value), and a
+    shader function that returns vec4(x, y, z, value).
     """
 
     name: str
@@ -74,6 +78,12 @@ class Routine:
     doc: str
     vectors: dict = field(default_factory=dict)
     domain: dict = field(default_factory=dict)
+    out: str = ""
+
+    def __post_init__(self):
+        if bool(self.out) != isinstance(self.expr, sp.Tuple) or (self.out and len(self.expr) != 4):
+            raise ValueError(f"routine {self.name}: a routine with an output vector has expr Tuple(value, x, y, z), "
+                             "and only such a routine")
 
     def signature(self) -> tuple[str, ...]:
         """Arguments as the caller passes them: vectors as one argument."""
@@ -211,6 +221,11 @@ class Material:
         return "prepare_" + "_".join(self.params)
 
 
+def outputs(routine: Routine) -> list[sp.Expr]:
+    """The expressions a routine gives: [value], or [value, x, y, z] with an output vector (Routine.out)."""
+    return list(routine.expr.args) if routine.out else [routine.expr]
+
+
 def field_symbol(k: int) -> sp.Symbol:
     """The symbol an evaluator reads the material's field k as (printers print it as the struct's k[k])."""
     return sp.Symbol(f"material_{k}", real=True)
@@ -278,12 +293,22 @@ def hoist_params(exprs: Sequence[sp.Expr], params: Sequence[str]) -> tuple[list[
     """
     names = set(params)
     fields: dict = {}
+    free_names: dict = {}  # node -> names of its free symbols, each node's computed once from its arguments'
+
+    def free(e) -> frozenset:
+        out = free_names.get(e)
+        if out is None:
+            out = frozenset((e.name,)) if e.is_Symbol else frozenset().union(*(free(a) for a in e.args))
+            free_names[e] = out
+        return out
 
     def only_params(e) -> bool:
-        free = e.free_symbols
         # (a Symbol is also a sympy Boolean: relations and logic are what stay)
         logic = (sp.core.relational.Relational, sp.logic.boolalg.BooleanFunction, sp.logic.boolalg.BooleanAtom)
-        return isinstance(e, sp.Expr) and not isinstance(e, logic) and bool(free) and all(x.name in names for x in free)
+        if not isinstance(e, sp.Expr) or isinstance(e, logic):
+            return False
+        names_here = free(e)
+        return bool(names_here) and names_here <= names
 
     def field(e):
         if e not in fields:
@@ -326,7 +351,7 @@ def material_of(routines: Sequence[Routine], spec: MaterialSpec) -> Material:
         args = tuple(a for a in r.args if a not in spec.params)
         doc = (f"{source} with the per-material set-up hoisted: the material m comes from "
                f"{' or '.join(['prepare_' + '_'.join(spec.params), *spec.setups])}. " + r.doc)
-        evaluators.append(Routine(name, args, e, doc, r.vectors, {a: r.domain[a] for a in args}))
+        evaluators.append(Routine(name, args, e, doc, r.vectors, {a: r.domain[a] for a in args}, r.out))
     setups = tuple((name, arg, routine) for name, (arg, routine) in spec.setups.items())
     return Material(tuple(spec.params), tuple(fields), tuple(evaluators), setups, dict(spec.evaluators))
 
