@@ -275,13 +275,13 @@ def test_tabulate_writes_all_tables_or_none(tmp_path, monkeypatch):
     (out / "h0.csv").write_text("old")
     before = _snapshot(out)
     tables = {n: Table(n, "test", "0", ("s", "c"), [[0.0, 0.5]]) for n in ("h0.csv", "h1.csv", "kd.csv")}
-    monkeypatch.setattr(tabulate, "build_tables", lambda show_progress=True: tables)
+    monkeypatch.setattr(tabulate, "build_tables", lambda show_progress=True, names=(): tables)
     with pytest.raises(KeyboardInterrupt):  # Ctrl-C reaches the caller (main reports it) after the cleanup
         _fail_on_second_file(monkeypatch)
         tabulate.write_tables(out, show_progress=False)
     assert _snapshot(out) == before
     monkeypatch.undo()
-    monkeypatch.setattr(tabulate, "build_tables", lambda show_progress=True: tables)
+    monkeypatch.setattr(tabulate, "build_tables", lambda show_progress=True, names=(): tables)
     _fail_on_second_file(monkeypatch, KeyboardInterrupt)
     assert main(["tabulate", "--quiet", "--family", "lambert_sphere", "--data", str(out.parent)]) == 130
     assert _snapshot(out) == before

@@ -32,10 +32,10 @@ needs_cc = pytest.mark.skipif(compiler() is None, reason="no C compiler on PATH"
 
 #: the documented domain of every scalar argument; a vector's components are in VECTOR
 DOMAIN = {"mu": (0.0, 1.0), "mu_i": (0.0, 1.0), "mu_o": (0.0, 1.0), "c": (0.0, 1.0), "kd": (0.0, 1.0),
-          "cos_phi": (-1.0, 1.0)}  # fmt: skip
+          "cos_phi": (-1.0, 1.0), "u1": (0.0, 1.0), "u2": (0.0, 1.0)}  # fmt: skip
 VECTOR = (-1.0, 1.0)
-#: the routines that are a BRDF (or a part of one that is >= 0 by construction)
-NONNEGATIVE = {"brdf", "brdf_fast", "brdf_local", "brdf_fast_local", "single"}
+#: the routines that are a BRDF (or a part of one that is >= 0 by construction), or a density
+NONNEGATIVE = {"brdf", "brdf_fast", "brdf_local", "brdf_fast_local", "single", "pdf_local", "sample_local"}
 
 #: points per routine: C gets N_C per routine and scalar type, 17 routines x 2 types x 300k = 1.0e7 in all
 N_C, N_PY, N_GLSL = 300_000, 40_000, 40_000
@@ -95,16 +95,26 @@ def nan_in(routine, args) -> np.ndarray:
     return np.any([np.isnan(x).reshape(len(x), -1).any(axis=1) for x in args], axis=0)
 
 
+def value_of(result):
+    """A routine's value; for a sampler (value, vector) the value, NaN wherever the vector is not finite (the
+    direction must be finite wherever the density is not NaN; with a NaN input the density is NaN, the
+    direction may be either)."""
+    if not isinstance(result, tuple):
+        return result
+    vector, value = result
+    return value + 0 * np.sum(vector, axis=-1)
+
+
 def check_policy(name, routine, f, args, tag):
     """f(args) is NaN exactly where an input is NaN, finite elsewhere, equal to f(clip(args)), >= 0 for a BRDF."""
-    out = f(*args)
+    out = value_of(f(*args))
     bad = nan_in(routine, args)
     assert out.shape == bad.shape
     wrong_nan = np.isnan(out) != bad
     assert not wrong_nan.any(), f"{tag} {name}: NaN policy broken at {[x[wrong_nan][:3] for x in args]}"
     finite = np.isfinite(out[~bad])
     assert finite.all(), f"{tag} {name}: not finite at {[x[~bad][~finite][:3] for x in args]}"
-    clipped = f(*clip(routine, args))
+    clipped = value_of(f(*clip(routine, args)))
     differ = ~((out == clipped) | (np.isnan(out) & np.isnan(clipped)))
     assert not differ.any(), (f"{tag} {name}: clamping the inputs into the documented domain changes the value at "
                               f"{[x[differ][:3] for x in args]}: {out[differ][:3]} vs {clipped[differ][:3]}")  # fmt: skip
@@ -153,7 +163,7 @@ def test_every_argument_has_a_documented_domain(program):
     for r in program.routines:
         for a in r.signature():
             assert a in r.vectors or a in DOMAIN, (r.name, a)
-    assert len(program.routines) == 19  # with h2 and fm2, the order-2 term
+    assert len(program.routines) == 23  # with h2 and fm2 (the order-2 term), and the sampler's four
 
 
 # ---- the fuzz ----------------------------------------------------------------------
@@ -192,10 +202,10 @@ def test_glsl_policy_fuzz(program, glsl):
 
 def _languages(native, glsl, py):
     return {
-        "C double": lambda name, *a: native(name, *a),
-        "C float": lambda name, *a: native(name, *a, dtype=np.float32),
-        "GLSL": lambda name, *a: glsl(name, *a, dtype=np.float32),
-        "Python": lambda name, *a: getattr(py, name)(*a),
+        "C double": lambda name, *a: value_of(native(name, *a)),
+        "C float": lambda name, *a: value_of(native(name, *a, dtype=np.float32)),
+        "GLSL": lambda name, *a: value_of(glsl(name, *a, dtype=np.float32)),
+        "Python": lambda name, *a: value_of(getattr(py, name)(*a)),
     }
 
 
@@ -233,7 +243,7 @@ def test_nan_in_any_input_gives_nan(program, native, glsl, py):
                 args = list(base)
                 args[k] = np.array([0.6, np.nan, 0.8]) if a in r.vectors else np.nan
                 assert np.isnan(f(r.name, *args)), (lang, r.name, a)
-                if a in r.vectors:  # below the surface (0) unless NaN: NaN wins
+                if a in r.vectors and len(r.vectors) == 2:  # the other below the surface (0) unless NaN: NaN wins
                     args[1 - k if k < 2 else 0] = np.array([0.6, 0.0, -0.8])
                     assert np.isnan(f(r.name, *args)), (lang, r.name, a, "below")
         assert f("brdf_local", np.array([0.6, 0.0, -0.8]), np.array([0.6, 0.0, 0.8]), 0.5) == 0.0

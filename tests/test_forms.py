@@ -22,7 +22,7 @@ EDGE = {"mu": (0.0, 1e-12, 0.5, 1.0), "mu_i": (0.0, 1e-9, 0.5, 1.0), "mu_o": (0.
 
 def _edge_points(form):
     grid = np.array(list(itertools.product(*(EDGE[n] for n in form.inputs))))
-    if "mu_i" in form.inputs:  # the pole mu_i = mu_o = 0 of every BRDF term is outside the forms' domain
+    if "mu_i" in form.inputs and "mu_o" in form.inputs:  # the pole mu_i = mu_o = 0 of every BRDF term is outside the forms' domain
         i, o = form.inputs.index("mu_i"), form.inputs.index("mu_o")
         grid = grid[(grid[:, i] + grid[:, o]) > 0]
     return [grid[:, k] for k in range(grid.shape[1])]

@@ -44,6 +44,9 @@ def test_committed_fit_loads_and_matches_its_form(job):
 def test_default_refit_halves_the_best_preset_or_is_at_the_floor(target):
     t = get_target(target)
     rec = read_fit(fit_path(FITS, target, t.default_form))
+    if not t.published:  # nothing published to beat (the sampler's mixture): docs/model.md measures its variance
+        assert rec["published"] == [] and np.isfinite(rec["validation"]["max_rel"])
+        return
     best = min(p["validation"]["max_rel"] for p in rec["published"])
     got = rec["validation"]["max_rel"]
     assert got < best  # never worse than what was published

@@ -23,7 +23,7 @@ from fitlab.core import Dataset
 from fitlab.families.lambert_sphere.exact.constants import CONSTANT_NAMES
 
 from fitlab.families.lambert_sphere.exact import brdf, brdf_modes, constants, h_function, multiple_scattering_modes, spherical_albedo
-from fitlab.families.lambert_sphere.table_files import read_constants, read_h, read_kd, tables_dir
+from fitlab.families.lambert_sphere.table_files import SAMPLING_FILES, read_constants, read_h, read_kd, read_sampling, tables_dir
 
 
 _ENGINE = tuple(sorted((Path(__file__).resolve().parent / "exact").glob("*.py")))
@@ -217,3 +217,25 @@ def _brdf_exact(s, mu, phi, grid, extra_c=()) -> Dataset:
     return Dataset(
         {k: np.concatenate(v) for k, v in cols.items()}, np.concatenate(ys), grid,
     )
+
+
+# -- the sampler's mixture (functions of mu_i and c) ---------------------------
+#: target -> the column of the sampling tables that holds its exact values
+SAMPLING_COLUMN = {"sample_weight": "weight", "sample_exponent": "exponent"}
+
+
+def _sampling(target: str, name: str, data_dir: Path | None) -> Dataset:
+    from fitlab.families.lambert_sphere.tabulate import SAMPLING_GRIDS
+
+    t = read_sampling(name, tables_dir(data_dir))
+    return Dataset({"mu_i": t["mu_i"], "c": t["c"]}, t[SAMPLING_COLUMN[target]], f"table {name}: {SAMPLING_GRIDS[name][2]}")
+
+
+def sampling_training(target: str, data_dir: Path | None = None) -> Dataset:
+    """The variance-optimal mixture's ``target`` on the training grid (table sampling.csv)."""
+    return _sampling(target, SAMPLING_FILES[0], data_dir)
+
+
+def sampling_validation(target: str, data_dir: Path | None = None) -> Dataset:
+    """The same on the interleaved validation grid (table sampling_validation.csv)."""
+    return _sampling(target, SAMPLING_FILES[1], data_dir)

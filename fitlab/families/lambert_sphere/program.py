@@ -45,7 +45,7 @@ from fitlab.codegen.program import (
 from fitlab.families.lambert_sphere.forms import ORDER2_PART, RUNTIME_PARTS, RUNTIME_TERMS, SINGLE, runtime_terms
 from fitlab.families.lambert_sphere.runtime import ORDER2_FORMS, energy_scale
 from fitlab.families.lambert_sphere.targets import TARGETS
-from fitlab.forms.symbolic import symbols
+from fitlab.forms.symbolic import safe_pow, symbols
 from fitlab.store import FitFunction
 
 __all__ = ["PROGRAM", "PARTS", "FAST", "DOMAIN", "routines"]
@@ -57,7 +57,7 @@ _VEC = {v: symbols(tuple(f"{v}_{k}" for k in "xyz")) for v in ("wi", "wo")}
 FAST = "fast_brdf"
 
 #: the targets printed as routines of their own, in the order of the generated files
-PARTS = ("H0", "H1", "H2", "l", "m", "B", "C", "D", "F", "c_of_kd", "kd_of_c")
+PARTS = ("H0", "H1", "H2", "l", "m", "B", "C", "D", "F", "c_of_kd", "kd_of_c", "sample_weight", "sample_exponent")
 
 _TERM_DOCS = {
     "single": "Single scattering with the true phase function, c p(u)/(mu_i + mu_o), u = -(mu_i mu_o + S cos phi) (eq. 10).",
@@ -136,6 +136,63 @@ def routines(fits: Mapping[str, FitFunction], terms: tuple[str, ...]) -> list[Ro
             "(not normalised); NaN in any input gives NaN.",
             vectors, domain={**{a: (-1.0, 1.0) for a in vec_args}, **_domain(("c", *extra))},
         ))  # fmt: skip
+    out += _sampling_routines(vectors, vec_args)
+    return out
+
+
+def _sampling_routines(vectors: dict, vec_args: tuple) -> list[Routine]:
+    r"""pdf_local(wi, wo, c) and sample_local(wi, u1, u2, c): the mixture of
+    :mod:`fitlab.families.lambert_sphere.exact.sampling` with its fitted weight and exponent,
+    p = (1 - w) mu_o/pi + w (n + 1)/(2 pi) max(0, wi.wo)^n above the surface.
+
+    sample_local draws the lobe when u1 < w (u1/w reused as its uniform number), the cosine lobe
+    otherwise ((u1 - w)/(1 - w)); the back-scatter lobe is drawn about wi in the frame of Duff et al.
+    (2017), cos theta = v^(1/(n+1)); a direction below the surface has pdf 0 (a lost sample)."""
+    (xi, yi, zi), (xo, yo, zo) = _VEC["wi"], _VEC["wo"]
+    u1, u2 = symbols(("u1", "u2"))
+    w, n = call("sample_weight", zi, c), call("sample_exponent", zi, c)
+    above_i = sp.Piecewise((0, zi < 0), (1, True))
+
+    def density(ox, oy, oz, below):
+        dot = xi * ox + yi * oy + zi * oz
+        mixture = (1 - w) * sp.Max(oz, 0) / sp.pi + w * (n + 1) / (2 * sp.pi) * safe_pow(dot, n)
+        return above_i * sp.Piecewise((0, below), (1, True)) * mixture
+
+    out = [Routine(
+        "pdf_local", (*vec_args, "c"), density(xo, yo, zo, zo < 0),
+        "The density (1/sr) with which sample_local draws wo given wi, for unit vectors in the local frame: "
+        "(1 - w) mu_o/pi + w (n + 1)/(2 pi) max(0, wi.wo)^n, w = sample_weight(mu_i, c), n = sample_exponent(mu_i, c), "
+        "a cosine lobe mixed with a back-scatter lobe fitted to f_r cos(theta_o) (docs/model.md, 'Importance sampling'); "
+        "0 if either vector is below the surface. Components are clamped to [-1, 1]; NaN in any input gives NaN.",
+        vectors, domain={**{a: (-1.0, 1.0) for a in vec_args}, **_domain(("c",))},
+    )]  # fmt: skip
+    # the back-scatter lobe about wi, in the frame (t, b, wi) of Duff et al. 2017 (wi above the surface)
+    z = sp.Max(zi, 0)
+    a = -1 / (1 + z)
+    t = (1 + xi**2 * a, xi * yi * a, -xi)
+    b = (xi * yi * a, 1 + yi**2 * a, -yi)
+    angle = 2 * sp.pi * u2
+    v = u1 / w
+    cos_t = safe_pow(v, 1 / (n + 1))
+    sin_t = sp.sqrt(sp.Max(1 - cos_t**2, 0))
+    lobe = [sin_t * sp.cos(angle) * tk + sin_t * sp.sin(angle) * bk + cos_t * wk for tk, bk, wk in zip(t, b, (xi, yi, zi))]
+    # the cosine lobe about the normal (Malley's method)
+    v = sp.Max((u1 - w) / (1 - w), 0)
+    r = sp.sqrt(v)
+    cosine = [r * sp.cos(angle), r * sp.sin(angle), sp.sqrt(sp.Max(1 - v, 0))]
+    wo = [sp.Piecewise((lk, u1 < w), (ck, True)) for lk, ck in zip(lobe, cosine)]
+    out.append(Routine(
+        "sample_local", (*(str(x) for x in _VEC["wi"]), "u1", "u2", "c"),
+        # below the surface only from the back-scatter lobe (the condition on the branch, not on wo: sympy
+        # would fold a condition on a conditional into an if-then-else of conditions)
+        sp.Tuple(density(*wo, sp.And(u1 < w, lobe[2] < 0)), *wo),
+        "Importance sampling of brdf_local: draws wo (written to wo) for the unit vector wi in the local frame and two "
+        "uniform numbers u1, u2 in [0, 1), and returns its density pdf_local(wi, wo) (1/sr); the sample weight is "
+        "brdf_local(wi, wo, c) wo.z / pdf. pdf 0 marks a lost sample (wo below the surface, or wi below it). "
+        "Components of wi are clamped to [-1, 1], u1, u2 to [0, 1]; NaN in any input gives NaN.",
+        {"wi": vectors["wi"]}, domain={**{str(x): (-1.0, 1.0) for x in _VEC["wi"]}, "u1": (0.0, 1.0), "u2": (0.0, 1.0),
+                                       **_domain(("c",))}, out="wo",
+    ))  # fmt: skip
     return out
 
 
@@ -148,7 +205,8 @@ PROGRAM = ProgramSpec(
     models={"order2": (ORDER2_FORMS, "the report's real-time recommendation: orders 0, 1 and 2 of multiple "
                                      "scattering with the forms of runtime.ORDER2_FORMS")},
     default_model="order2",
-    material=MaterialSpec(("c",), {"eval": "brdf", "eval_local": "brdf_local"}, {"prepare": ("kd", "c_of_kd")}),
+    material=MaterialSpec(("c",), {"eval": "brdf", "eval_local": "brdf_local", "pdf": "pdf_local", "sample": "sample_local"},
+                          {"prepare": ("kd", "c_of_kd")}),
     about="The Lambert-sphere BRDF (d'Eon, EGSR 2021): the runtime model of docs/model.md and its fitted parts.\n"
           "Terms of brdf: {terms}",
     doc="The Lambert-sphere BRDF (d'Eon, EGSR 2021), generated by fitlab: numpy only.\n\n"

@@ -23,7 +23,6 @@ from __future__ import annotations
 
 import importlib.util
 import io
-import sys
 from functools import lru_cache
 from pathlib import Path
 

@@ -20,6 +20,7 @@ from fitlab.resources import tables_folder
 from fitlab.store import read_table
 
 __all__ = ["FAMILY_NAME", "tables_dir", "h_columns", "h_file", "CONSTANTS_FILE", "CONSTANT_COLUMNS", "KD_FILE", "KD_COLUMNS", "TABLE_FILES",
+           "SAMPLING_FILES", "SAMPLING_COLUMNS", "read_sampling",
            "read_h", "read_constants", "read_kd", "check_tables"]
 
 #: the family's name: its tables live in ``fitlab/data/FAMILY_NAME/`` and ``DATA/FAMILY_NAME/``
@@ -28,6 +29,9 @@ CONSTANTS_FILE = "constants.csv"
 CONSTANT_COLUMNS = ("s", "c", *CONSTANT_NAMES)
 KD_FILE = "kd.csv"
 KD_COLUMNS = ("s", "c", "kd_three_term", "kd_true")
+#: the variance-optimal sampling mixture (:mod:`.exact.sampling`) on the training and the validation grid
+SAMPLING_FILES = ("sampling.csv", "sampling_validation.csv")
+SAMPLING_COLUMNS = ("s", "c", "mu_i", "weight", "exponent", "relvar_optimal", "relvar_cosine")
 
 
 def h_file(order: int) -> str:
@@ -39,7 +43,8 @@ def h_columns(order: int) -> tuple[str, ...]:
 
 
 #: every table file and its columns
-TABLE_FILES = {**{h_file(m): h_columns(m) for m in range(3)}, CONSTANTS_FILE: CONSTANT_COLUMNS, KD_FILE: KD_COLUMNS}
+TABLE_FILES = {**{h_file(m): h_columns(m) for m in range(3)}, CONSTANTS_FILE: CONSTANT_COLUMNS, KD_FILE: KD_COLUMNS,
+               **{name: SAMPLING_COLUMNS for name in SAMPLING_FILES}}
 
 
 def tables_dir(data_dir: Path | str | None = None) -> Path:
@@ -67,6 +72,13 @@ def read_kd(data_dir: Path) -> dict[str, np.ndarray]:
     """Column name -> values of kd.csv in ``data_dir`` (s, c, kd_three_term, kd_true)."""
     header, t = read_table(Path(data_dir) / KD_FILE, KD_COLUMNS)
     return {name: t[:, j] for j, name in enumerate(header)}
+
+
+@lru_cache(maxsize=None)
+def read_sampling(name: str, data_dir: Path) -> dict[str, np.ndarray]:
+    """Column name -> values of the sampling table ``name`` (one of :data:`SAMPLING_FILES`) in ``data_dir``."""
+    header, t = read_table(Path(data_dir) / name, SAMPLING_COLUMNS)
+    return {column: t[:, j] for j, column in enumerate(header)}
 
 
 def check_tables(data_dir: Path) -> None:

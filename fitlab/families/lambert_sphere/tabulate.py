@@ -21,13 +21,15 @@ from tqdm import tqdm
 
 from fitlab.families.lambert_sphere.exact import constants, h_function, spherical_albedo
 from fitlab.families.lambert_sphere.exact.constants import CONSTANT_NAMES
-from fitlab.families.lambert_sphere.table_files import FAMILY_NAME, TABLE_FILES
+from fitlab.families.lambert_sphere.exact.sampling import (MU_MIN, QUADRATURE_NODES, optimal_mixture, relative_variance,
+                                                           variance_function)
+from fitlab.families.lambert_sphere.table_files import FAMILY_NAME, SAMPLING_COLUMNS, SAMPLING_FILES, TABLE_FILES
 from fitlab.store import Table, read_table
 from fitlab.store import write_tables as store_write_tables
 
 # the family's `tables` service: the layout (FAMILY_NAME, TABLE_FILES) with the writer and the checker
 __all__ = ["FAMILY_NAME", "TABLE_FILES", "build_tables", "write_tables", "check_tables", "h_table", "constants_table",
-           "albedo_table", "C_GRID", "MU_GRID", "S_GRID"]
+           "albedo_table", "sampling_table", "SAMPLING_GRIDS", "FAST_TABLES", "C_GRID", "MU_GRID", "S_GRID"]
 
 S_GRID = np.arange(65) / 64.0
 C_GRID = 1.0 - S_GRID**2
@@ -96,18 +98,73 @@ def albedo_table(progress=None) -> Table:
     )
 
 
-def build_tables(show_progress: bool = True) -> dict[str, Table]:
-    total = 4 * len(C_GRID) + len(C_GRID)
+def _interleaved(denominator: int) -> np.ndarray:
+    return np.concatenate(([0.0], (2 * np.arange(denominator // 2) + 1) / denominator, [1.0]))
+
+
+#: the sampling tables' grids, (s axis, mu_i axis, text) by file: the validation grid's interior points
+#: lie between the training grid's
+SAMPLING_GRIDS = {
+    SAMPLING_FILES[0]: (np.arange(17) / 16, np.concatenate(([MU_MIN, 0.01], np.arange(1, 33) / 32)),
+                        "c = 1 - s^2, s = k/16 for k = 0..16; mu_i = 1e-3, 0.01, j/32 for j = 1..32"),
+    SAMPLING_FILES[1]: (_interleaved(32), np.concatenate(([MU_MIN, 0.003], _interleaved(64)[1:])),
+                        "c = 1 - s^2, s = 0, (2k+1)/32 for k = 0..15, 1; mu_i = 1e-3, 0.003, (2j+1)/64 for j = 0..31, 1"),
+}
+SAMPLING_TOLERANCE = 5e-3  # relative, of the optimal variance: the finer rule and the independent optimiser (2e-3 at mu_i = 1e-3)
+
+
+def sampling_table(name: str, progress=None) -> Table:
+    """The variance-optimal sampling mixture (:func:`fitlab.families.lambert_sphere.exact.sampling.optimal_mixture`)
+    on the grid :data:`SAMPLING_GRIDS` [name]."""
+    s_axis, mu_axis, grid = SAMPLING_GRIDS[name]
+    rows = []
+    for s in s_axis:
+        c = 1.0 - s * s
+        r = optimal_mixture(mu_axis, c)
+        rows.extend(zip([s] * len(mu_axis), [c] * len(mu_axis), mu_axis, *(r[k] for k in SAMPLING_COLUMNS[3:])))
+        if progress is not None:
+            progress.update(1)
+    return Table(
+        "variance-optimal sampling mixture" + (" (validation grid)" if name != SAMPLING_FILES[0] else ""),
+        "(w, n) minimising the relative variance V of the one-sample albedo estimator with the density "
+        "(1 - w) mu_o/pi + w (n + 1)/(2 pi) max(0, wi.wo)^n (fitlab.families.lambert_sphere.exact.sampling; "
+        f"V by Gauss-Legendre, {QUADRATURE_NODES[0]} nodes in phi and {QUADRATURE_NODES[1]} per graded panel in mu_o); "
+        "relvar_cosine is V at w = 0",
+        f"relative {SAMPLING_TOLERANCE:g} of relvar_optimal, verified by an independent optimiser",
+        SAMPLING_COLUMNS,
+        rows,
+        grid,
+    )
+
+
+#: the fast tables and the slow ones (sampling: a variance optimisation per point, minutes)
+FAST_TABLES = ("h0.csv", "h1.csv", "h2.csv", "constants.csv", "kd.csv")
+
+
+def build_tables(show_progress: bool = True, names=tuple(TABLE_FILES)) -> dict[str, Table]:
+    """Every table of ``names`` (default: all of :data:`TABLE_FILES`)."""
+    unknown = set(names) - set(TABLE_FILES)
+    if unknown:
+        raise ValueError(f"unknown tables {sorted(unknown)}; the tables are {', '.join(TABLE_FILES)}")
+    total = sum(len(C_GRID) if n in FAST_TABLES else len(SAMPLING_GRIDS[n][0]) for n in names)
+    tables = {}
     with tqdm(total=total, desc="tabulating", unit="c", disable=not show_progress) as bar:
-        tables = {f"h{m}.csv": h_table(m, bar) for m in range(3)}
-        tables["constants.csv"] = constants_table(bar)
-        tables["kd.csv"] = albedo_table(bar)
+        for name in names:
+            if name.startswith("h"):
+                tables[name] = h_table(int(name[1]), bar)
+            elif name == "constants.csv":
+                tables[name] = constants_table(bar)
+            elif name == "kd.csv":
+                tables[name] = albedo_table(bar)
+            else:
+                tables[name] = sampling_table(name, bar)
     return tables
 
 
-def write_tables(out: Path, show_progress: bool = True) -> dict[str, str]:
-    """Compute every table, then write them all as one unit (nothing is written on failure)."""
-    return store_write_tables(Path(out), build_tables(show_progress))
+def write_tables(out: Path, show_progress: bool = True, names=tuple(TABLE_FILES)) -> dict[str, str]:
+    """Compute the tables ``names`` (default: every one), then write them all as one unit (nothing is
+    written on failure)."""
+    return store_write_tables(Path(out), build_tables(show_progress, names))
 
 
 def check_tables(out: Path, every: int = 8, show_progress: bool = True) -> list[str]:
@@ -117,7 +174,7 @@ def check_tables(out: Path, every: int = 8, show_progress: bool = True) -> list[
     c_sample = C_GRID[::every]
     if C_GRID[-1] not in c_sample:
         c_sample = np.append(c_sample, C_GRID[-1])
-    with tqdm(total=3 + 2, desc="checking", disable=not show_progress) as bar:
+    with tqdm(total=3 + 2 + len(SAMPLING_FILES), desc="checking", disable=not show_progress) as bar:
         for m in range(3):
             _, data = read_table(out / f"h{m}.csv", ("s", "c", "mu", f"H{m}"))
             if data.shape[0] != len(C_GRID) * len(MU_GRID):
@@ -152,4 +209,39 @@ def check_tables(out: Path, every: int = 8, show_progress: bool = True) -> list[
             if not np.all(err <= CONSTANT_TOLERANCE):
                 failures.append(f"kd.csv: kd_{model} differs by {err.max():.2e}")
         bar.update(1)
+        for name in SAMPLING_FILES:
+            failures += _check_sampling(out / name, name)
+            bar.update(1)
+    return failures
+
+
+def _check_sampling(path: Path, name: str) -> list[str]:
+    """A sample of rows of a sampling table (the largest c, and one near 0.75; three incidences each, the
+    smallest among them): V at the tabulated (w, n) by a finer quadrature (64 nodes in phi, 12 per panel in
+    mu_o) matches relvar_optimal, V at w = 0 matches relvar_cosine, and Nelder-Mead in (logit w, log n)
+    started away from the table finds nothing lower."""
+    from scipy.optimize import minimize
+
+    _, data = read_table(path, SAMPLING_COLUMNS)
+    s_axis, mu_axis, _ = SAMPLING_GRIDS[name]
+    if data.shape[0] != len(s_axis) * len(mu_axis):
+        return [f"{name}: {data.shape[0]} rows, expected {len(s_axis) * len(mu_axis)}"]
+    t = dict(zip(SAMPLING_COLUMNS, data.T))
+    failures = []
+    for c in (t["c"].max(), t["c"][np.argmin(np.abs(t["c"] - 0.75))]):
+        rows = np.flatnonzero(t["c"] == c)[[0, len(mu_axis) // 2, -2]]  # mu_i = MU_MIN, about 0.5, below 1
+        mu, w, n = t["mu_i"][rows], t["weight"][rows], t["exponent"][rows]
+        fine = relative_variance(mu, c, w, n, nodes=(64, 12))
+        cosine = relative_variance(mu, c, 0.0, 1.0, nodes=(64, 12))
+        for k, r in enumerate(rows):
+            for label, got, want in (("relvar_optimal", t["relvar_optimal"][r], fine[k]),
+                                     ("relvar_cosine", t["relvar_cosine"][r], cosine[k])):
+                if not abs(got - want) <= SAMPLING_TOLERANCE * abs(want) + 1e-9:
+                    failures.append(f"{name}: c={float(c)!r} mu_i={float(mu[k])!r}: {label} {float(got)!r} vs {float(want)!r} by the finer rule")
+
+            v = variance_function(mu[k], c)
+            best = minimize(lambda q: v(1.0 / (1.0 + np.exp(-q[0])), np.exp(q[1])), [0.0, np.log(2.0)], method="Nelder-Mead", options={"xatol": 1e-6, "fatol": 1e-10})
+            if best.fun < t["relvar_optimal"][r] - SAMPLING_TOLERANCE * abs(t["relvar_optimal"][r]) - 1e-9:
+                failures.append(f"{name}: c={float(c)!r} mu_i={float(mu[k])!r}: Nelder-Mead finds V = {float(best.fun)!r} "
+                                f"below the tabulated optimum {float(t['relvar_optimal'][r])!r}")
     return failures

@@ -16,6 +16,8 @@
  *   F.c2_rational_4_3.json  0f1f7932f040e5e5b58fdba017bbba03385cf386fd03d6eb7f8af8819eda5940
  *   c_of_kd.json  ad8bcd2ba210486e2105a562f5eb249c207cc3857f11405e011f8d13e38c592d
  *   kd_of_c.json  97fd68ebd9ef5a510e97d6f742d5e9ff4ca179dfae3908df011426f60c64c6c0
+ *   sample_weight.json  c023aba5f7c16920c95bbcef2bfcb03fb23c438b2fa85bf4ef965bd73c9c78ea
+ *   sample_exponent.json  461f6e087b3a3b3ea084420e291400a96f4eb1a2af4d1758032926ac354f71ad
  *   fast_brdf.json  88236703c7510cb5c1b581febb4ef8bfc82b4704a8bc02dd976905bdc8977b81
  */
 #include "lambert_sphere.h"
@@ -136,6 +138,46 @@ LAMBERT_SPHERE_FN double lambert_sphere_kd_of_c(double c)
     const double t0 = ((t2 > 1.0) ? (1.0) : (t2));
     const double t1 = sqrt(1.0 - t0);
     return t0*(0.65035428162017445*t1 + 1.0)/((t1 + 1.0)*(1.6879717175153437*t1 + 1.0));
+}
+
+LAMBERT_SPHERE_FN double lambert_sphere_sample_weight(double mu_i, double c)
+{
+    const double t0 = 1.0/3.141592653589793238;
+    const double t13 = ((mu_i < 0.0) ? (0.0) : (mu_i));
+    const double t1 = acos(((t13 > 1.0) ? (1.0) : (t13)));
+    const double t14 = ((c < 0.0) ? (0.0) : (c));
+    const double t2 = sqrt(1.0 - ((t14 > 1.0) ? (1.0) : (t14)));
+    const double t3 = 4.0*t0*t1 - 1.0;
+    const double t4 = (t3*t3);
+    const double t5 = (t3*t3*t3);
+    const double t6 = (t3*t3*t3*t3);
+    const double t7 = pow(t3, 5.0);
+    const double t8 = pow(t3, 6.0);
+    const double t9 = 2.0*t2 - 1.0;
+    const double t10 = (t9*t9);
+    const double t11 = (t9*t9*t9);
+    const double t12 = (t9*t9*t9*t9);
+    return 1.0/(9.7240632799166419*exp(1.7500311057966532*t0*t1 + 0.10959653178533475*t10*t3 + 0.1766119774816802*t10*t4 - 1.7626547831461115*t10*t5 + 0.25597403686706693*t10*t6 + 3.9162801286388897*t10*t7 - 2.8379131409273515*t10*t8 + 0.10625650933246486*t10 - 0.014210822631915428*t11*t3 + 0.5027933198177464*t11*t4 - 1.6739402521122886*t11*t5 + 0.519096218517333*t11*t6 + 2.42146807891088*t11*t7 - 1.7061192768751303*t11*t8 - 0.09050045154983123*t11 - 0.016932172543436784*t12*t3 - 0.46352701817452785*t12*t4 + 2.070129643634922*t12*t5 - 0.7128581043130656*t12*t6 - 3.6618141129510917*t12*t7 + 2.7903213618028806*t12*t8 + 0.040558449658917785*t12 - 1.8499934365876788*t2 - 0.21141002665509673*t3*t9 - 0.4890688103263692*t4*t9 + 0.04628582994795521*t4 + 1.3385823867874944*t5*t9 - 0.550401436459078*t5 - 0.49993828263168366*t6*t9 + 0.07829314674691852*t6 - 2.295795044579524*t7*t9 - 0.7161701495184881*t7 + 2.5251177518363694*t8*t9 - 0.5341871660342392*t8) + 1.0);
+}
+
+LAMBERT_SPHERE_FN double lambert_sphere_sample_exponent(double mu_i, double c)
+{
+    const double t0 = 1.0/3.141592653589793238;
+    const double t13 = ((mu_i < 0.0) ? (0.0) : (mu_i));
+    const double t1 = acos(((t13 > 1.0) ? (1.0) : (t13)));
+    const double t14 = ((c < 0.0) ? (0.0) : (c));
+    const double t2 = sqrt(1.0 - ((t14 > 1.0) ? (1.0) : (t14)));
+    const double t3 = 4.0*t0*t1 - 1.0;
+    const double t4 = (t3*t3);
+    const double t5 = (t3*t3*t3);
+    const double t6 = (t3*t3*t3*t3);
+    const double t7 = pow(t3, 5.0);
+    const double t8 = pow(t3, 6.0);
+    const double t9 = 2.0*t2 - 1.0;
+    const double t10 = (t9*t9);
+    const double t11 = (t9*t9*t9);
+    const double t12 = (t9*t9*t9*t9);
+    return 2.0429479122374826*exp(3.9697173818393476*t0*t1 - 0.07180031380227185*t10*t3 + 0.45043691346028303*t10*t4 - 0.49761324603578005*t10*t5 - 0.3929206076202727*t10*t6 + 0.8371462419661069*t10*t7 - 0.37270829229253744*t10*t8 + 0.07480678777429003*t10 + 0.18739898105517722*t11*t3 - 0.15688016937511312*t11*t4 - 0.6316753368520219*t11*t5 + 0.41754495392944535*t11*t6 + 0.805852957259517*t11*t7 - 0.5766031303491715*t11*t8 - 0.048730004697608804*t11 - 0.08951890733992941*t12*t3 + 0.028662593819483183*t12*t4 + 0.6212937162033938*t12*t5 - 0.37628293329323487*t12*t6 - 0.7667251911655493*t12*t7 + 0.5742385031683162*t12*t8 + 0.017690506072644132*t12 - 0.5194652563684371*t2 - 0.5773338931218077*t3*t9 - 0.43279839293414*t4*t9 - 0.861604156944149*t4 + 0.6582269037007633*t5*t9 - 0.8684385788422878*t5 + 0.4124295039969486*t6*t9 + 0.20080844606204426*t6 - 0.5901356749175913*t7*t9 - 0.36251640502651766*t7 + 0.6392720659218424*t8*t9 - 0.4275420217467747*t8);
 }
 
 LAMBERT_SPHERE_FN double lambert_sphere_single(double mu_i, double mu_o, double cos_phi, double c)
@@ -268,6 +310,67 @@ LAMBERT_SPHERE_FN double lambert_sphere_brdf_fast_local(const double wi[3], cons
     return ((t0 < 0.0) ? (0.0) : (1.0))*((t1 < 0.0) ? (0.0) : (1.0))*lambert_sphere_brdf_fast(t0, t1, (t2*t3 + t4*t5)/sqrt(((t12 < (1.0/1000000000000000000000000000000.0)) ? ((1.0/1000000000000000000000000000000.0)) : (t12))), ((t13 > 1.0) ? (1.0) : (t13)), ((t14 > 1.0) ? (1.0) : (t14)));
 }
 
+LAMBERT_SPHERE_FN double lambert_sphere_pdf_local(const double wi[3], const double wo[3], double c)
+{
+    const double t6 = ((wi[2] < -1.0) ? (-1.0) : (wi[2]));
+    const double t0 = ((t6 > 1.0) ? (1.0) : (t6));
+    const double t7 = ((wo[2] < -1.0) ? (-1.0) : (wo[2]));
+    const double t1 = ((t7 > 1.0) ? (1.0) : (t7));
+    const double t2 = 1.0/3.141592653589793238;
+    const double t8 = ((c < 0.0) ? (0.0) : (c));
+    const double t3 = ((t8 > 1.0) ? (1.0) : (t8));
+    const double t4 = lambert_sphere_sample_weight(t0, t3);
+    const double t5 = lambert_sphere_sample_exponent(t0, t3);
+    const double t9 = ((wi[0] < -1.0) ? (-1.0) : (wi[0]));
+    const double t10 = ((wo[0] < -1.0) ? (-1.0) : (wo[0]));
+    const double t11 = ((wi[1] < -1.0) ? (-1.0) : (wi[1]));
+    const double t12 = ((wo[1] < -1.0) ? (-1.0) : (wo[1]));
+    return (((1.0/2.0))*t2*t4*(t5 + 1.0)*lambert_sphere_safe_pow(t0*t1 + ((t10 > 1.0) ? (1.0) : (t10))*((t9 > 1.0) ? (1.0) : (t9)) + ((t11 > 1.0) ? (1.0) : (t11))*((t12 > 1.0) ? (1.0) : (t12)), t5) + t2*(1.0 - t4)*((t1 < 0.0) ? (0.0) : (t1)))*((t0 < 0.0) ? (0.0) : (1.0))*((t1 < 0.0) ? (0.0) : (1.0));
+}
+
+LAMBERT_SPHERE_FN double lambert_sphere_sample_local(const double wi[3], double u1, double u2, double c, double wo[3])
+{
+    const double t27 = ((wi[2] < -1.0) ? (-1.0) : (wi[2]));
+    const double t0 = ((t27 > 1.0) ? (1.0) : (t27));
+    const double t28 = ((u1 < 0.0) ? (0.0) : (u1));
+    const double t1 = ((t28 > 1.0) ? (1.0) : (t28));
+    const double t29 = ((c < 0.0) ? (0.0) : (c));
+    const double t2 = ((t29 > 1.0) ? (1.0) : (t29));
+    const double t3 = lambert_sphere_sample_weight(t0, t2);
+    const double t5 = lambert_sphere_sample_exponent(t0, t2);
+    const double t6 = t5 + 1.0;
+    const double t7 = lambert_sphere_safe_pow(t1/t3, 1.0/t6);
+    const double t30 = ((wi[1] < -1.0) ? (-1.0) : (wi[1]));
+    const double t8 = ((t30 > 1.0) ? (1.0) : (t30));
+    const double t31 = ((u2 < 0.0) ? (0.0) : (u2));
+    const double t9 = 2.0*3.141592653589793238*((t31 > 1.0) ? (1.0) : (t31));
+    const double t10 = sin(t9);
+    const double t32 = 1.0 - (t7*t7);
+    const double t11 = sqrt(((t32 < 0.0) ? (0.0) : (t32)));
+    const double t12 = t10*t11;
+    const double t13 = t12*t8;
+    const double t33 = ((wi[0] < -1.0) ? (-1.0) : (wi[0]));
+    const double t14 = ((t33 > 1.0) ? (1.0) : (t33));
+    const double t15 = cos(t9);
+    const double t16 = t11*t15;
+    const double t17 = t14*t16;
+    const double t18 = -t0*t7 + t13 + t17;
+    const double t19 = 1.0/3.141592653589793238;
+    const double t20 = 1.0 - t3;
+    const double t34 = (t1 - t3)/t20;
+    const double t21 = ((t34 < 0.0) ? (0.0) : (t34));
+    const double t35 = 1.0 - t21;
+    const double t22 = ((t1 < t3) ? (-t18) : (sqrt(((t35 < 0.0) ? (0.0) : (t35)))));
+    const double t23 = 1.0/(((t0 < 0.0) ? (0.0) : (t0)) + 1.0);
+    const double t24 = sqrt(t21);
+    const double t25 = ((t1 < t3) ? (-t13*t14*t23 + t14*t7 + t16*(-(t14*t14)*t23 + 1.0)) : (t15*t24));
+    const double t26 = ((t1 < t3) ? (t12*(-t23*(t8*t8) + 1.0) - t17*t23*t8 + t7*t8) : (t10*t24));
+    wo[0] = t25;
+    wo[1] = t26;
+    wo[2] = t22;
+    return (t19*t20*((t22 < 0.0) ? (0.0) : (t22)) + ((1.0/2.0))*t19*t3*t6*lambert_sphere_safe_pow(t0*t22 + t14*t25 + t26*t8, t5))*((t18 > 0.0 && t1 < t3) ? (0.0) : (1.0))*((t0 < 0.0) ? (0.0) : (1.0));
+}
+
 LAMBERT_SPHERE_FN float lambert_sphere_h0_f(float mu, float c)
 {
     const float t10 = ((mu < 0.0F) ? (0.0F) : (mu));
@@ -378,6 +481,46 @@ LAMBERT_SPHERE_FN float lambert_sphere_kd_of_c_f(float c)
     const float t0 = ((t2 > 1.0F) ? (1.0F) : (t2));
     const float t1 = sqrtf(1.0F - t0);
     return t0*(0.650354282F*t1 + 1.0F)/((t1 + 1.0F)*(1.68797172F*t1 + 1.0F));
+}
+
+LAMBERT_SPHERE_FN float lambert_sphere_sample_weight_f(float mu_i, float c)
+{
+    const float t0 = 1.0F/3.141592653589793238F;
+    const float t13 = ((mu_i < 0.0F) ? (0.0F) : (mu_i));
+    const float t1 = acosf(((t13 > 1.0F) ? (1.0F) : (t13)));
+    const float t14 = ((c < 0.0F) ? (0.0F) : (c));
+    const float t2 = sqrtf(1.0F - ((t14 > 1.0F) ? (1.0F) : (t14)));
+    const float t3 = 4.0F*t0*t1 - 1.0F;
+    const float t4 = (t3*t3);
+    const float t5 = (t3*t3*t3);
+    const float t6 = (t3*t3*t3*t3);
+    const float t7 = powf(t3, 5.0F);
+    const float t8 = powf(t3, 6.0F);
+    const float t9 = 2.0F*t2 - 1.0F;
+    const float t10 = (t9*t9);
+    const float t11 = (t9*t9*t9);
+    const float t12 = (t9*t9*t9*t9);
+    return 1.0F/(9.72406328F*expf(1.75003111F*t0*t1 + 0.109596532F*t10*t3 + 0.176611977F*t10*t4 - 1.76265478F*t10*t5 + 0.255974037F*t10*t6 + 3.91628013F*t10*t7 - 2.83791314F*t10*t8 + 0.106256509F*t10 - 0.0142108226F*t11*t3 + 0.50279332F*t11*t4 - 1.67394025F*t11*t5 + 0.519096219F*t11*t6 + 2.42146808F*t11*t7 - 1.70611928F*t11*t8 - 0.0905004516F*t11 - 0.0169321725F*t12*t3 - 0.463527018F*t12*t4 + 2.07012964F*t12*t5 - 0.712858104F*t12*t6 - 3.66181411F*t12*t7 + 2.79032136F*t12*t8 + 0.0405584497F*t12 - 1.84999344F*t2 - 0.211410027F*t3*t9 - 0.48906881F*t4*t9 + 0.04628583F*t4 + 1.33858239F*t5*t9 - 0.550401437F*t5 - 0.499938283F*t6*t9 + 0.0782931467F*t6 - 2.29579504F*t7*t9 - 0.71617015F*t7 + 2.52511775F*t8*t9 - 0.534187166F*t8) + 1.0F);
+}
+
+LAMBERT_SPHERE_FN float lambert_sphere_sample_exponent_f(float mu_i, float c)
+{
+    const float t0 = 1.0F/3.141592653589793238F;
+    const float t13 = ((mu_i < 0.0F) ? (0.0F) : (mu_i));
+    const float t1 = acosf(((t13 > 1.0F) ? (1.0F) : (t13)));
+    const float t14 = ((c < 0.0F) ? (0.0F) : (c));
+    const float t2 = sqrtf(1.0F - ((t14 > 1.0F) ? (1.0F) : (t14)));
+    const float t3 = 4.0F*t0*t1 - 1.0F;
+    const float t4 = (t3*t3);
+    const float t5 = (t3*t3*t3);
+    const float t6 = (t3*t3*t3*t3);
+    const float t7 = powf(t3, 5.0F);
+    const float t8 = powf(t3, 6.0F);
+    const float t9 = 2.0F*t2 - 1.0F;
+    const float t10 = (t9*t9);
+    const float t11 = (t9*t9*t9);
+    const float t12 = (t9*t9*t9*t9);
+    return 2.04294791F*expf(3.96971738F*t0*t1 - 0.0718003138F*t10*t3 + 0.450436913F*t10*t4 - 0.497613246F*t10*t5 - 0.392920608F*t10*t6 + 0.837146242F*t10*t7 - 0.372708292F*t10*t8 + 0.0748067878F*t10 + 0.187398981F*t11*t3 - 0.156880169F*t11*t4 - 0.631675337F*t11*t5 + 0.417544954F*t11*t6 + 0.805852957F*t11*t7 - 0.57660313F*t11*t8 - 0.0487300047F*t11 - 0.0895189073F*t12*t3 + 0.0286625938F*t12*t4 + 0.621293716F*t12*t5 - 0.376282933F*t12*t6 - 0.766725191F*t12*t7 + 0.574238503F*t12*t8 + 0.0176905061F*t12 - 0.519465256F*t2 - 0.577333893F*t3*t9 - 0.432798393F*t4*t9 - 0.861604157F*t4 + 0.658226904F*t5*t9 - 0.868438579F*t5 + 0.412429504F*t6*t9 + 0.200808446F*t6 - 0.590135675F*t7*t9 - 0.362516405F*t7 + 0.639272066F*t8*t9 - 0.427542022F*t8);
 }
 
 LAMBERT_SPHERE_FN float lambert_sphere_single_f(float mu_i, float mu_o, float cos_phi, float c)
@@ -510,11 +653,72 @@ LAMBERT_SPHERE_FN float lambert_sphere_brdf_fast_local_f(const float wi[3], cons
     return ((t0 < 0.0F) ? (0.0F) : (1.0F))*((t1 < 0.0F) ? (0.0F) : (1.0F))*lambert_sphere_brdf_fast_f(t0, t1, (t2*t3 + t4*t5)/sqrtf(((t12 < (1.0F/1000000000000000000000000000000.0F)) ? ((1.0F/1000000000000000000000000000000.0F)) : (t12))), ((t13 > 1.0F) ? (1.0F) : (t13)), ((t14 > 1.0F) ? (1.0F) : (t14)));
 }
 
+LAMBERT_SPHERE_FN float lambert_sphere_pdf_local_f(const float wi[3], const float wo[3], float c)
+{
+    const float t6 = ((wi[2] < -1.0F) ? (-1.0F) : (wi[2]));
+    const float t0 = ((t6 > 1.0F) ? (1.0F) : (t6));
+    const float t7 = ((wo[2] < -1.0F) ? (-1.0F) : (wo[2]));
+    const float t1 = ((t7 > 1.0F) ? (1.0F) : (t7));
+    const float t2 = 1.0F/3.141592653589793238F;
+    const float t8 = ((c < 0.0F) ? (0.0F) : (c));
+    const float t3 = ((t8 > 1.0F) ? (1.0F) : (t8));
+    const float t4 = lambert_sphere_sample_weight_f(t0, t3);
+    const float t5 = lambert_sphere_sample_exponent_f(t0, t3);
+    const float t9 = ((wi[0] < -1.0F) ? (-1.0F) : (wi[0]));
+    const float t10 = ((wo[0] < -1.0F) ? (-1.0F) : (wo[0]));
+    const float t11 = ((wi[1] < -1.0F) ? (-1.0F) : (wi[1]));
+    const float t12 = ((wo[1] < -1.0F) ? (-1.0F) : (wo[1]));
+    return (((1.0F/2.0F))*t2*t4*(t5 + 1.0F)*lambert_sphere_safe_pow_f(t0*t1 + ((t10 > 1.0F) ? (1.0F) : (t10))*((t9 > 1.0F) ? (1.0F) : (t9)) + ((t11 > 1.0F) ? (1.0F) : (t11))*((t12 > 1.0F) ? (1.0F) : (t12)), t5) + t2*(1.0F - t4)*((t1 < 0.0F) ? (0.0F) : (t1)))*((t0 < 0.0F) ? (0.0F) : (1.0F))*((t1 < 0.0F) ? (0.0F) : (1.0F));
+}
+
+LAMBERT_SPHERE_FN float lambert_sphere_sample_local_f(const float wi[3], float u1, float u2, float c, float wo[3])
+{
+    const float t27 = ((wi[2] < -1.0F) ? (-1.0F) : (wi[2]));
+    const float t0 = ((t27 > 1.0F) ? (1.0F) : (t27));
+    const float t28 = ((u1 < 0.0F) ? (0.0F) : (u1));
+    const float t1 = ((t28 > 1.0F) ? (1.0F) : (t28));
+    const float t29 = ((c < 0.0F) ? (0.0F) : (c));
+    const float t2 = ((t29 > 1.0F) ? (1.0F) : (t29));
+    const float t3 = lambert_sphere_sample_weight_f(t0, t2);
+    const float t5 = lambert_sphere_sample_exponent_f(t0, t2);
+    const float t6 = t5 + 1.0F;
+    const float t7 = lambert_sphere_safe_pow_f(t1/t3, 1.0F/t6);
+    const float t30 = ((wi[1] < -1.0F) ? (-1.0F) : (wi[1]));
+    const float t8 = ((t30 > 1.0F) ? (1.0F) : (t30));
+    const float t31 = ((u2 < 0.0F) ? (0.0F) : (u2));
+    const float t9 = 2.0F*3.141592653589793238F*((t31 > 1.0F) ? (1.0F) : (t31));
+    const float t10 = sinf(t9);
+    const float t32 = 1.0F - (t7*t7);
+    const float t11 = sqrtf(((t32 < 0.0F) ? (0.0F) : (t32)));
+    const float t12 = t10*t11;
+    const float t13 = t12*t8;
+    const float t33 = ((wi[0] < -1.0F) ? (-1.0F) : (wi[0]));
+    const float t14 = ((t33 > 1.0F) ? (1.0F) : (t33));
+    const float t15 = cosf(t9);
+    const float t16 = t11*t15;
+    const float t17 = t14*t16;
+    const float t18 = -t0*t7 + t13 + t17;
+    const float t19 = 1.0F/3.141592653589793238F;
+    const float t20 = 1.0F - t3;
+    const float t34 = (t1 - t3)/t20;
+    const float t21 = ((t34 < 0.0F) ? (0.0F) : (t34));
+    const float t35 = 1.0F - t21;
+    const float t22 = ((t1 < t3) ? (-t18) : (sqrtf(((t35 < 0.0F) ? (0.0F) : (t35)))));
+    const float t23 = 1.0F/(((t0 < 0.0F) ? (0.0F) : (t0)) + 1.0F);
+    const float t24 = sqrtf(t21);
+    const float t25 = ((t1 < t3) ? (-t13*t14*t23 + t14*t7 + t16*(-(t14*t14)*t23 + 1.0F)) : (t15*t24));
+    const float t26 = ((t1 < t3) ? (t12*(-t23*(t8*t8) + 1.0F) - t17*t23*t8 + t7*t8) : (t10*t24));
+    wo[0] = t25;
+    wo[1] = t26;
+    wo[2] = t22;
+    return (t19*t20*((t22 < 0.0F) ? (0.0F) : (t22)) + ((1.0F/2.0F))*t19*t3*t6*lambert_sphere_safe_pow_f(t0*t22 + t14*t25 + t26*t8, t5))*((t18 > 0.0F && t1 < t3) ? (0.0F) : (1.0F))*((t0 < 0.0F) ? (0.0F) : (1.0F));
+}
+
 LAMBERT_SPHERE_FN lambert_sphere_material lambert_sphere_prepare_c(double c)
 {
     lambert_sphere_material m;
-    const double t14 = ((c < 0.0) ? (0.0) : (c));
-    const double t0 = ((t14 > 1.0) ? (1.0) : (t14));
+    const double t18 = ((c < 0.0) ? (0.0) : (c));
+    const double t0 = ((t18 > 1.0) ? (1.0) : (t18));
     const double t1 = 1.0/3.141592653589793238;
     const double t2 = t0*t1;
     const double t3 = ((15.0/128.0))*t0;
@@ -528,6 +732,10 @@ LAMBERT_SPHERE_FN lambert_sphere_material lambert_sphere_prepare_c(double c)
     const double t11 = ((15.0/256.0))*t0;
     const double t12 = ((1.0/192.0))*t0;
     const double t13 = 0.0008773011177337195*(t0*t0*t0) - 0.05860387324696379*t0 - 0.005821682593788582*t4;
+    const double t14 = 2.0*t6 - 1.0;
+    const double t15 = (t14*t14);
+    const double t16 = (t14*t14*t14);
+    const double t17 = (t14*t14*t14*t14);
     m.k[0] = -(1.0/768.0)*t2;
     m.k[1] = ((69.0/128.0))*t0;
     m.k[2] = -t3 + t4*(0.14740850623957125*t0 + 0.10176577919541374*t6 + 0.022994579304556582*t7 - 0.03022099337713794)/(-0.5511565927837337*t0 + 2.348527040324315*t6 - 0.9953813084156506*t7 + 1.5511565927837337);
@@ -581,6 +789,56 @@ LAMBERT_SPHERE_FN lambert_sphere_material lambert_sphere_prepare_c(double c)
     m.k[50] = t10 + 45.0;
     m.k[51] = -t12;
     m.k[52] = ((1.0/3.0))*t2;
+    m.k[53] = 0.10959653178533475*t15;
+    m.k[54] = 0.1766119774816802*t15;
+    m.k[55] = 0.25597403686706693*t15;
+    m.k[56] = 2.42146807891088*t16;
+    m.k[57] = 0.5027933198177464*t16;
+    m.k[58] = 2.070129643634922*t17;
+    m.k[59] = 0.519096218517333*t16;
+    m.k[60] = 2.5251177518363694*t14;
+    m.k[61] = 1.3385823867874944*t14;
+    m.k[62] = 2.7903213618028806*t17;
+    m.k[63] = 3.9162801286388897*t15;
+    m.k[64] = -1.7626547831461115*t15;
+    m.k[65] = -3.6618141129510917*t17;
+    m.k[66] = -0.21141002665509673*t14;
+    m.k[67] = -0.016932172543436784*t17;
+    m.k[68] = -2.295795044579524*t14;
+    m.k[69] = -2.8379131409273515*t15;
+    m.k[70] = -0.7128581043130656*t17;
+    m.k[71] = -1.6739402521122886*t16;
+    m.k[72] = -1.7061192768751303*t16;
+    m.k[73] = -0.014210822631915428*t16;
+    m.k[74] = -0.46352701817452785*t17;
+    m.k[75] = -0.4890688103263692*t14;
+    m.k[76] = -0.49993828263168366*t14;
+    m.k[77] = 0.10625650933246486*t15 - 0.09050045154983123*t16 + 0.040558449658917785*t17 - 1.8499934365876788*t6;
+    m.k[78] = 0.805852957259517*t16;
+    m.k[79] = 0.6582269037007633*t14;
+    m.k[80] = 0.45043691346028303*t15;
+    m.k[81] = 0.5742385031683162*t17;
+    m.k[82] = 0.6392720659218424*t14;
+    m.k[83] = 0.18739898105517722*t16;
+    m.k[84] = 0.8371462419661069*t15;
+    m.k[85] = 0.6212937162033938*t17;
+    m.k[86] = 0.4124295039969486*t14;
+    m.k[87] = 0.41754495392944535*t16;
+    m.k[88] = 0.028662593819483183*t17;
+    m.k[89] = -0.5773338931218077*t14;
+    m.k[90] = -0.7667251911655493*t17;
+    m.k[91] = -0.07180031380227185*t15;
+    m.k[92] = -0.6316753368520219*t16;
+    m.k[93] = -0.5766031303491715*t16;
+    m.k[94] = -0.5901356749175913*t14;
+    m.k[95] = -0.15688016937511312*t16;
+    m.k[96] = -0.08951890733992941*t17;
+    m.k[97] = -0.37270829229253744*t15;
+    m.k[98] = -0.37628293329323487*t17;
+    m.k[99] = -0.3929206076202727*t15;
+    m.k[100] = -0.43279839293414*t14;
+    m.k[101] = -0.49761324603578005*t15;
+    m.k[102] = 0.07480678777429003*t15 - 0.048730004697608804*t16 + 0.017690506072644132*t17 - 0.5194652563684371*t6;
     return m;
 }
 
@@ -691,11 +949,91 @@ LAMBERT_SPHERE_FN void lambert_sphere_eval_local_rgb(const lambert_sphere_materi
     for (k = 0; k < 3; ++k) out[k] = lambert_sphere_eval_local(m + k, wi, wo);
 }
 
+LAMBERT_SPHERE_FN double lambert_sphere_pdf(const lambert_sphere_material *m, const double wi[3], const double wo[3])
+{
+    const double t12 = ((wi[2] < -1.0) ? (-1.0) : (wi[2]));
+    const double t0 = ((t12 > 1.0) ? (1.0) : (t12));
+    const double t13 = ((wo[2] < -1.0) ? (-1.0) : (wo[2]));
+    const double t1 = ((t13 > 1.0) ? (1.0) : (t13));
+    const double t2 = 1.0/3.141592653589793238;
+    const double t14 = ((t0 < 0.0) ? (0.0) : (t0));
+    const double t3 = t2*acos(((t14 > 1.0) ? (1.0) : (t14)));
+    const double t4 = 4.0*t3 - 1.0;
+    const double t5 = (t4*t4);
+    const double t6 = (t4*t4*t4);
+    const double t7 = (t4*t4*t4*t4);
+    const double t8 = pow(t4, 5.0);
+    const double t9 = pow(t4, 6.0);
+    const double t10 = 1.0/(9.7240632799166419*exp(m->k[53]*t4 + m->k[54]*t5 + m->k[55]*t7 + m->k[56]*t8 + m->k[57]*t5 + m->k[58]*t6 + m->k[59]*t7 + m->k[60]*t9 + m->k[61]*t6 + m->k[62]*t9 + m->k[63]*t8 + m->k[64]*t6 + m->k[65]*t8 + m->k[66]*t4 + m->k[67]*t4 + m->k[68]*t8 + m->k[69]*t9 + m->k[70]*t7 + m->k[71]*t6 + m->k[72]*t9 + m->k[73]*t4 + m->k[74]*t5 + m->k[75]*t5 + m->k[76]*t7 + m->k[77] + 1.7500311057966532*t3 + 0.04628582994795521*t5 - 0.550401436459078*t6 + 0.07829314674691852*t7 - 0.7161701495184881*t8 - 0.5341871660342392*t9) + 1.0);
+    const double t11 = 2.0429479122374826*exp(m->k[100]*t5 + m->k[101]*t6 + m->k[102] + m->k[78]*t8 + m->k[79]*t6 + m->k[80]*t5 + m->k[81]*t9 + m->k[82]*t9 + m->k[83]*t4 + m->k[84]*t8 + m->k[85]*t6 + m->k[86]*t7 + m->k[87]*t7 + m->k[88]*t5 + m->k[89]*t4 + m->k[90]*t8 + m->k[91]*t4 + m->k[92]*t6 + m->k[93]*t9 + m->k[94]*t8 + m->k[95]*t5 + m->k[96]*t4 + m->k[97]*t9 + m->k[98]*t7 + m->k[99]*t7 + 3.9697173818393476*t3 - 0.861604156944149*t5 - 0.8684385788422878*t6 + 0.20080844606204426*t7 - 0.36251640502651766*t8 - 0.4275420217467747*t9);
+    const double t15 = ((wi[0] < -1.0) ? (-1.0) : (wi[0]));
+    const double t16 = ((wo[0] < -1.0) ? (-1.0) : (wo[0]));
+    const double t17 = ((wi[1] < -1.0) ? (-1.0) : (wi[1]));
+    const double t18 = ((wo[1] < -1.0) ? (-1.0) : (wo[1]));
+    return (((1.0/2.0))*t10*t2*(t11 + 1.0)*lambert_sphere_safe_pow(t0*t1 + ((t15 > 1.0) ? (1.0) : (t15))*((t16 > 1.0) ? (1.0) : (t16)) + ((t17 > 1.0) ? (1.0) : (t17))*((t18 > 1.0) ? (1.0) : (t18)), t11) + t2*(1.0 - t10)*((t1 < 0.0) ? (0.0) : (t1)))*((t0 < 0.0) ? (0.0) : (1.0))*((t1 < 0.0) ? (0.0) : (1.0));
+}
+
+LAMBERT_SPHERE_FN void lambert_sphere_pdf_rgb(const lambert_sphere_material m[3], const double wi[3], const double wo[3], double out[3])
+{
+    int k;
+    for (k = 0; k < 3; ++k) out[k] = lambert_sphere_pdf(m + k, wi, wo);
+}
+
+LAMBERT_SPHERE_FN double lambert_sphere_sample(const lambert_sphere_material *m, const double wi[3], double u1, double u2, double wo[3])
+{
+    const double t34 = ((wi[2] < -1.0) ? (-1.0) : (wi[2]));
+    const double t0 = ((t34 > 1.0) ? (1.0) : (t34));
+    const double t35 = ((u1 < 0.0) ? (0.0) : (u1));
+    const double t1 = ((t35 > 1.0) ? (1.0) : (t35));
+    const double t2 = 1.0/3.141592653589793238;
+    const double t36 = ((t0 < 0.0) ? (0.0) : (t0));
+    const double t3 = t2*acos(((t36 > 1.0) ? (1.0) : (t36)));
+    const double t4 = 4.0*t3 - 1.0;
+    const double t5 = (t4*t4);
+    const double t6 = (t4*t4*t4);
+    const double t7 = (t4*t4*t4*t4);
+    const double t8 = pow(t4, 5.0);
+    const double t9 = pow(t4, 6.0);
+    const double t10 = 1.0/(9.7240632799166419*exp(m->k[53]*t4 + m->k[54]*t5 + m->k[55]*t7 + m->k[56]*t8 + m->k[57]*t5 + m->k[58]*t6 + m->k[59]*t7 + m->k[60]*t9 + m->k[61]*t6 + m->k[62]*t9 + m->k[63]*t8 + m->k[64]*t6 + m->k[65]*t8 + m->k[66]*t4 + m->k[67]*t4 + m->k[68]*t8 + m->k[69]*t9 + m->k[70]*t7 + m->k[71]*t6 + m->k[72]*t9 + m->k[73]*t4 + m->k[74]*t5 + m->k[75]*t5 + m->k[76]*t7 + m->k[77] + 1.7500311057966532*t3 + 0.04628582994795521*t5 - 0.550401436459078*t6 + 0.07829314674691852*t7 - 0.7161701495184881*t8 - 0.5341871660342392*t9) + 1.0);
+    const double t12 = 2.0429479122374826*exp(m->k[100]*t5 + m->k[101]*t6 + m->k[102] + m->k[78]*t8 + m->k[79]*t6 + m->k[80]*t5 + m->k[81]*t9 + m->k[82]*t9 + m->k[83]*t4 + m->k[84]*t8 + m->k[85]*t6 + m->k[86]*t7 + m->k[87]*t7 + m->k[88]*t5 + m->k[89]*t4 + m->k[90]*t8 + m->k[91]*t4 + m->k[92]*t6 + m->k[93]*t9 + m->k[94]*t8 + m->k[95]*t5 + m->k[96]*t4 + m->k[97]*t9 + m->k[98]*t7 + m->k[99]*t7 + 3.9697173818393476*t3 - 0.861604156944149*t5 - 0.8684385788422878*t6 + 0.20080844606204426*t7 - 0.36251640502651766*t8 - 0.4275420217467747*t9);
+    const double t13 = t12 + 1.0;
+    const double t14 = lambert_sphere_safe_pow(t1/t10, 1.0/t13);
+    const double t37 = ((wi[1] < -1.0) ? (-1.0) : (wi[1]));
+    const double t15 = ((t37 > 1.0) ? (1.0) : (t37));
+    const double t38 = ((u2 < 0.0) ? (0.0) : (u2));
+    const double t16 = 2.0*3.141592653589793238*((t38 > 1.0) ? (1.0) : (t38));
+    const double t17 = sin(t16);
+    const double t39 = 1.0 - (t14*t14);
+    const double t18 = sqrt(((t39 < 0.0) ? (0.0) : (t39)));
+    const double t19 = t17*t18;
+    const double t20 = t15*t19;
+    const double t40 = ((wi[0] < -1.0) ? (-1.0) : (wi[0]));
+    const double t21 = ((t40 > 1.0) ? (1.0) : (t40));
+    const double t22 = cos(t16);
+    const double t23 = t18*t22;
+    const double t24 = t21*t23;
+    const double t25 = -t0*t14 + t20 + t24;
+    const double t26 = -t10;
+    const double t27 = t26 + 1.0;
+    const double t41 = (t1 + t26)/t27;
+    const double t28 = ((t41 < 0.0) ? (0.0) : (t41));
+    const double t42 = 1.0 - t28;
+    const double t29 = ((t1 < t10) ? (-t25) : (sqrt(((t42 < 0.0) ? (0.0) : (t42)))));
+    const double t30 = 1.0/(((t0 < 0.0) ? (0.0) : (t0)) + 1.0);
+    const double t31 = sqrt(t28);
+    const double t32 = ((t1 < t10) ? (t14*t21 - t20*t21*t30 + t23*(-(t21*t21)*t30 + 1.0)) : (t22*t31));
+    const double t33 = ((t1 < t10) ? (t14*t15 - t15*t24*t30 + t19*(-(t15*t15)*t30 + 1.0)) : (t17*t31));
+    wo[0] = t32;
+    wo[1] = t33;
+    wo[2] = t29;
+    return (((1.0/2.0))*t10*t13*t2*lambert_sphere_safe_pow(t0*t29 + t15*t33 + t21*t32, t12) + t2*t27*((t29 < 0.0) ? (0.0) : (t29)))*((t25 > 0.0 && t1 < t10) ? (0.0) : (1.0))*((t0 < 0.0) ? (0.0) : (1.0));
+}
+
 LAMBERT_SPHERE_FN lambert_sphere_material_f lambert_sphere_prepare_c_f(float c)
 {
     lambert_sphere_material_f m;
-    const float t14 = ((c < 0.0F) ? (0.0F) : (c));
-    const float t0 = ((t14 > 1.0F) ? (1.0F) : (t14));
+    const float t18 = ((c < 0.0F) ? (0.0F) : (c));
+    const float t0 = ((t18 > 1.0F) ? (1.0F) : (t18));
     const float t1 = 1.0F/3.141592653589793238F;
     const float t2 = t0*t1;
     const float t3 = ((15.0F/128.0F))*t0;
@@ -709,6 +1047,10 @@ LAMBERT_SPHERE_FN lambert_sphere_material_f lambert_sphere_prepare_c_f(float c)
     const float t11 = ((15.0F/256.0F))*t0;
     const float t12 = ((1.0F/192.0F))*t0;
     const float t13 = 0.000877301118F*(t0*t0*t0) - 0.0586038732F*t0 - 0.00582168259F*t4;
+    const float t14 = 2.0F*t6 - 1.0F;
+    const float t15 = (t14*t14);
+    const float t16 = (t14*t14*t14);
+    const float t17 = (t14*t14*t14*t14);
     m.k[0] = -(1.0F/768.0F)*t2;
     m.k[1] = ((69.0F/128.0F))*t0;
     m.k[2] = -t3 + t4*(0.147408506F*t0 + 0.101765779F*t6 + 0.0229945793F*t7 - 0.0302209934F)/(-0.551156593F*t0 + 2.34852704F*t6 - 0.995381308F*t7 + 1.55115659F);
@@ -762,6 +1104,56 @@ LAMBERT_SPHERE_FN lambert_sphere_material_f lambert_sphere_prepare_c_f(float c)
     m.k[50] = t10 + 45.0F;
     m.k[51] = -t12;
     m.k[52] = ((1.0F/3.0F))*t2;
+    m.k[53] = 0.109596532F*t15;
+    m.k[54] = 0.176611977F*t15;
+    m.k[55] = 0.255974037F*t15;
+    m.k[56] = 2.42146808F*t16;
+    m.k[57] = 0.50279332F*t16;
+    m.k[58] = 2.07012964F*t17;
+    m.k[59] = 0.519096219F*t16;
+    m.k[60] = 2.52511775F*t14;
+    m.k[61] = 1.33858239F*t14;
+    m.k[62] = 2.79032136F*t17;
+    m.k[63] = 3.91628013F*t15;
+    m.k[64] = -1.76265478F*t15;
+    m.k[65] = -3.66181411F*t17;
+    m.k[66] = -0.211410027F*t14;
+    m.k[67] = -0.0169321725F*t17;
+    m.k[68] = -2.29579504F*t14;
+    m.k[69] = -2.83791314F*t15;
+    m.k[70] = -0.712858104F*t17;
+    m.k[71] = -1.67394025F*t16;
+    m.k[72] = -1.70611928F*t16;
+    m.k[73] = -0.0142108226F*t16;
+    m.k[74] = -0.463527018F*t17;
+    m.k[75] = -0.48906881F*t14;
+    m.k[76] = -0.499938283F*t14;
+    m.k[77] = 0.106256509F*t15 - 0.0905004516F*t16 + 0.0405584497F*t17 - 1.84999344F*t6;
+    m.k[78] = 0.805852957F*t16;
+    m.k[79] = 0.658226904F*t14;
+    m.k[80] = 0.450436913F*t15;
+    m.k[81] = 0.574238503F*t17;
+    m.k[82] = 0.639272066F*t14;
+    m.k[83] = 0.187398981F*t16;
+    m.k[84] = 0.837146242F*t15;
+    m.k[85] = 0.621293716F*t17;
+    m.k[86] = 0.412429504F*t14;
+    m.k[87] = 0.417544954F*t16;
+    m.k[88] = 0.0286625938F*t17;
+    m.k[89] = -0.577333893F*t14;
+    m.k[90] = -0.766725191F*t17;
+    m.k[91] = -0.0718003138F*t15;
+    m.k[92] = -0.631675337F*t16;
+    m.k[93] = -0.57660313F*t16;
+    m.k[94] = -0.590135675F*t14;
+    m.k[95] = -0.156880169F*t16;
+    m.k[96] = -0.0895189073F*t17;
+    m.k[97] = -0.372708292F*t15;
+    m.k[98] = -0.376282933F*t17;
+    m.k[99] = -0.392920608F*t15;
+    m.k[100] = -0.432798393F*t14;
+    m.k[101] = -0.497613246F*t15;
+    m.k[102] = 0.0748067878F*t15 - 0.0487300047F*t16 + 0.0176905061F*t17 - 0.519465256F*t6;
     return m;
 }
 
@@ -870,4 +1262,84 @@ LAMBERT_SPHERE_FN void lambert_sphere_eval_local_rgb_f(const lambert_sphere_mate
 {
     int k;
     for (k = 0; k < 3; ++k) out[k] = lambert_sphere_eval_local_f(m + k, wi, wo);
+}
+
+LAMBERT_SPHERE_FN float lambert_sphere_pdf_f(const lambert_sphere_material_f *m, const float wi[3], const float wo[3])
+{
+    const float t12 = ((wi[2] < -1.0F) ? (-1.0F) : (wi[2]));
+    const float t0 = ((t12 > 1.0F) ? (1.0F) : (t12));
+    const float t13 = ((wo[2] < -1.0F) ? (-1.0F) : (wo[2]));
+    const float t1 = ((t13 > 1.0F) ? (1.0F) : (t13));
+    const float t2 = 1.0F/3.141592653589793238F;
+    const float t14 = ((t0 < 0.0F) ? (0.0F) : (t0));
+    const float t3 = t2*acosf(((t14 > 1.0F) ? (1.0F) : (t14)));
+    const float t4 = 4.0F*t3 - 1.0F;
+    const float t5 = (t4*t4);
+    const float t6 = (t4*t4*t4);
+    const float t7 = (t4*t4*t4*t4);
+    const float t8 = powf(t4, 5.0F);
+    const float t9 = powf(t4, 6.0F);
+    const float t10 = 1.0F/(9.72406328F*expf(m->k[53]*t4 + m->k[54]*t5 + m->k[55]*t7 + m->k[56]*t8 + m->k[57]*t5 + m->k[58]*t6 + m->k[59]*t7 + m->k[60]*t9 + m->k[61]*t6 + m->k[62]*t9 + m->k[63]*t8 + m->k[64]*t6 + m->k[65]*t8 + m->k[66]*t4 + m->k[67]*t4 + m->k[68]*t8 + m->k[69]*t9 + m->k[70]*t7 + m->k[71]*t6 + m->k[72]*t9 + m->k[73]*t4 + m->k[74]*t5 + m->k[75]*t5 + m->k[76]*t7 + m->k[77] + 1.75003111F*t3 + 0.04628583F*t5 - 0.550401437F*t6 + 0.0782931467F*t7 - 0.71617015F*t8 - 0.534187166F*t9) + 1.0F);
+    const float t11 = 2.04294791F*expf(m->k[100]*t5 + m->k[101]*t6 + m->k[102] + m->k[78]*t8 + m->k[79]*t6 + m->k[80]*t5 + m->k[81]*t9 + m->k[82]*t9 + m->k[83]*t4 + m->k[84]*t8 + m->k[85]*t6 + m->k[86]*t7 + m->k[87]*t7 + m->k[88]*t5 + m->k[89]*t4 + m->k[90]*t8 + m->k[91]*t4 + m->k[92]*t6 + m->k[93]*t9 + m->k[94]*t8 + m->k[95]*t5 + m->k[96]*t4 + m->k[97]*t9 + m->k[98]*t7 + m->k[99]*t7 + 3.96971738F*t3 - 0.861604157F*t5 - 0.868438579F*t6 + 0.200808446F*t7 - 0.362516405F*t8 - 0.427542022F*t9);
+    const float t15 = ((wi[0] < -1.0F) ? (-1.0F) : (wi[0]));
+    const float t16 = ((wo[0] < -1.0F) ? (-1.0F) : (wo[0]));
+    const float t17 = ((wi[1] < -1.0F) ? (-1.0F) : (wi[1]));
+    const float t18 = ((wo[1] < -1.0F) ? (-1.0F) : (wo[1]));
+    return (((1.0F/2.0F))*t10*t2*(t11 + 1.0F)*lambert_sphere_safe_pow_f(t0*t1 + ((t15 > 1.0F) ? (1.0F) : (t15))*((t16 > 1.0F) ? (1.0F) : (t16)) + ((t17 > 1.0F) ? (1.0F) : (t17))*((t18 > 1.0F) ? (1.0F) : (t18)), t11) + t2*(1.0F - t10)*((t1 < 0.0F) ? (0.0F) : (t1)))*((t0 < 0.0F) ? (0.0F) : (1.0F))*((t1 < 0.0F) ? (0.0F) : (1.0F));
+}
+
+LAMBERT_SPHERE_FN void lambert_sphere_pdf_rgb_f(const lambert_sphere_material_f m[3], const float wi[3], const float wo[3], float out[3])
+{
+    int k;
+    for (k = 0; k < 3; ++k) out[k] = lambert_sphere_pdf_f(m + k, wi, wo);
+}
+
+LAMBERT_SPHERE_FN float lambert_sphere_sample_f(const lambert_sphere_material_f *m, const float wi[3], float u1, float u2, float wo[3])
+{
+    const float t34 = ((wi[2] < -1.0F) ? (-1.0F) : (wi[2]));
+    const float t0 = ((t34 > 1.0F) ? (1.0F) : (t34));
+    const float t35 = ((u1 < 0.0F) ? (0.0F) : (u1));
+    const float t1 = ((t35 > 1.0F) ? (1.0F) : (t35));
+    const float t2 = 1.0F/3.141592653589793238F;
+    const float t36 = ((t0 < 0.0F) ? (0.0F) : (t0));
+    const float t3 = t2*acosf(((t36 > 1.0F) ? (1.0F) : (t36)));
+    const float t4 = 4.0F*t3 - 1.0F;
+    const float t5 = (t4*t4);
+    const float t6 = (t4*t4*t4);
+    const float t7 = (t4*t4*t4*t4);
+    const float t8 = powf(t4, 5.0F);
+    const float t9 = powf(t4, 6.0F);
+    const float t10 = 1.0F/(9.72406328F*expf(m->k[53]*t4 + m->k[54]*t5 + m->k[55]*t7 + m->k[56]*t8 + m->k[57]*t5 + m->k[58]*t6 + m->k[59]*t7 + m->k[60]*t9 + m->k[61]*t6 + m->k[62]*t9 + m->k[63]*t8 + m->k[64]*t6 + m->k[65]*t8 + m->k[66]*t4 + m->k[67]*t4 + m->k[68]*t8 + m->k[69]*t9 + m->k[70]*t7 + m->k[71]*t6 + m->k[72]*t9 + m->k[73]*t4 + m->k[74]*t5 + m->k[75]*t5 + m->k[76]*t7 + m->k[77] + 1.75003111F*t3 + 0.04628583F*t5 - 0.550401437F*t6 + 0.0782931467F*t7 - 0.71617015F*t8 - 0.534187166F*t9) + 1.0F);
+    const float t12 = 2.04294791F*expf(m->k[100]*t5 + m->k[101]*t6 + m->k[102] + m->k[78]*t8 + m->k[79]*t6 + m->k[80]*t5 + m->k[81]*t9 + m->k[82]*t9 + m->k[83]*t4 + m->k[84]*t8 + m->k[85]*t6 + m->k[86]*t7 + m->k[87]*t7 + m->k[88]*t5 + m->k[89]*t4 + m->k[90]*t8 + m->k[91]*t4 + m->k[92]*t6 + m->k[93]*t9 + m->k[94]*t8 + m->k[95]*t5 + m->k[96]*t4 + m->k[97]*t9 + m->k[98]*t7 + m->k[99]*t7 + 3.96971738F*t3 - 0.861604157F*t5 - 0.868438579F*t6 + 0.200808446F*t7 - 0.362516405F*t8 - 0.427542022F*t9);
+    const float t13 = t12 + 1.0F;
+    const float t14 = lambert_sphere_safe_pow_f(t1/t10, 1.0F/t13);
+    const float t37 = ((wi[1] < -1.0F) ? (-1.0F) : (wi[1]));
+    const float t15 = ((t37 > 1.0F) ? (1.0F) : (t37));
+    const float t38 = ((u2 < 0.0F) ? (0.0F) : (u2));
+    const float t16 = 2.0F*3.141592653589793238F*((t38 > 1.0F) ? (1.0F) : (t38));
+    const float t17 = sinf(t16);
+    const float t39 = 1.0F - (t14*t14);
+    const float t18 = sqrtf(((t39 < 0.0F) ? (0.0F) : (t39)));
+    const float t19 = t17*t18;
+    const float t20 = t15*t19;
+    const float t40 = ((wi[0] < -1.0F) ? (-1.0F) : (wi[0]));
+    const float t21 = ((t40 > 1.0F) ? (1.0F) : (t40));
+    const float t22 = cosf(t16);
+    const float t23 = t18*t22;
+    const float t24 = t21*t23;
+    const float t25 = -t0*t14 + t20 + t24;
+    const float t26 = -t10;
+    const float t27 = t26 + 1.0F;
+    const float t41 = (t1 + t26)/t27;
+    const float t28 = ((t41 < 0.0F) ? (0.0F) : (t41));
+    const float t42 = 1.0F - t28;
+    const float t29 = ((t1 < t10) ? (-t25) : (sqrtf(((t42 < 0.0F) ? (0.0F) : (t42)))));
+    const float t30 = 1.0F/(((t0 < 0.0F) ? (0.0F) : (t0)) + 1.0F);
+    const float t31 = sqrtf(t28);
+    const float t32 = ((t1 < t10) ? (t14*t21 - t20*t21*t30 + t23*(-(t21*t21)*t30 + 1.0F)) : (t22*t31));
+    const float t33 = ((t1 < t10) ? (t14*t15 - t15*t24*t30 + t19*(-(t15*t15)*t30 + 1.0F)) : (t17*t31));
+    wo[0] = t32;
+    wo[1] = t33;
+    wo[2] = t29;
+    return (((1.0F/2.0F))*t10*t13*t2*lambert_sphere_safe_pow_f(t0*t29 + t15*t33 + t21*t32, t12) + t2*t27*((t29 < 0.0F) ? (0.0F) : (t29)))*((t25 > 0.0F && t1 < t10) ? (0.0F) : (1.0F))*((t0 < 0.0F) ? (0.0F) : (1.0F));
 }

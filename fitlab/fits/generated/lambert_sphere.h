@@ -16,6 +16,8 @@
  *   F.c2_rational_4_3.json  0f1f7932f040e5e5b58fdba017bbba03385cf386fd03d6eb7f8af8819eda5940
  *   c_of_kd.json  ad8bcd2ba210486e2105a562f5eb249c207cc3857f11405e011f8d13e38c592d
  *   kd_of_c.json  97fd68ebd9ef5a510e97d6f742d5e9ff4ca179dfae3908df011426f60c64c6c0
+ *   sample_weight.json  c023aba5f7c16920c95bbcef2bfcb03fb23c438b2fa85bf4ef965bd73c9c78ea
+ *   sample_exponent.json  461f6e087b3a3b3ea084420e291400a96f4eb1a2af4d1758032926ac354f71ad
  *   fast_brdf.json  88236703c7510cb5c1b581febb4ef8bfc82b4704a8bc02dd976905bdc8977b81
  */
 #ifndef LAMBERT_SPHERE_H
@@ -136,6 +138,24 @@ LAMBERT_SPHERE_FN double lambert_sphere_kd_of_c(double c);
 LAMBERT_SPHERE_FN float lambert_sphere_kd_of_c_f(float c);
 
 /*
+ * w(mu_i, c): the weight of the back-scatter lobe in the variance-optimal sampling mixture
+ * (exact.sampling), mu_i and c in [0, 1]; form logistic_poly: w = 1/(1 + exp(-P)), P = sum_jk
+ * a_jk (2s - 1)^j (2t - 1)^k, t = 2 acos(mu_i)/pi, j <= 4, k <= 6: in (0, 1) for every
+ * parameter vector Validation: max relative error 2.09e-01, RMS 2.70e-02.
+ */
+LAMBERT_SPHERE_FN double lambert_sphere_sample_weight(double mu_i, double c);
+LAMBERT_SPHERE_FN float lambert_sphere_sample_weight_f(float mu_i, float c);
+
+/*
+ * n(mu_i, c): the exponent of the back-scatter lobe in the variance-optimal sampling mixture
+ * (exact.sampling), mu_i and c in [0, 1]; form exp_poly: n = exp(P), P = sum_jk a_jk (2s - 1)^j
+ * (2t - 1)^k, t = 2 acos(mu_i)/pi, j <= 4, k <= 6: positive for every parameter vector
+ * Validation: max relative error 1.10e-01, RMS 2.39e-02.
+ */
+LAMBERT_SPHERE_FN double lambert_sphere_sample_exponent(double mu_i, double c);
+LAMBERT_SPHERE_FN float lambert_sphere_sample_exponent_f(float mu_i, float c);
+
+/*
  * Single scattering with the true phase function, c p(u)/(mu_i + mu_o), u = -(mu_i mu_o + S cos
  * phi) (eq. 10). Pole floored at 1e-6.
  */
@@ -198,13 +218,33 @@ LAMBERT_SPHERE_FN double lambert_sphere_brdf_fast_local(const double wi[3], cons
 LAMBERT_SPHERE_FN float lambert_sphere_brdf_fast_local_f(const float wi[3], const float wo[3], float c, float kd);
 
 /*
- * Per-material set-up: lambert_sphere_prepare_c(c) fills the struct with every quantity that
- * depends on c alone (53 numbers), lambert_sphere_prepare(kd) the same from kd;
- * lambert_sphere_eval, lambert_sphere_eval_local evaluate with it, so that a renderer prepares
- * each material once and evaluates it many times. The _rgb variants take three materials (one
- * per channel) and give three values.
+ * The density (1/sr) with which sample_local draws wo given wi, for unit vectors in the local
+ * frame: (1 - w) mu_o/pi + w (n + 1)/(2 pi) max(0, wi.wo)^n, w = sample_weight(mu_i, c), n =
+ * sample_exponent(mu_i, c), a cosine lobe mixed with a back-scatter lobe fitted to f_r
+ * cos(theta_o) (docs/model.md, 'Importance sampling'); 0 if either vector is below the surface.
+ * Components are clamped to [-1, 1]; NaN in any input gives NaN.
  */
-typedef struct lambert_sphere_material { double k[53]; } lambert_sphere_material;
+LAMBERT_SPHERE_FN double lambert_sphere_pdf_local(const double wi[3], const double wo[3], double c);
+LAMBERT_SPHERE_FN float lambert_sphere_pdf_local_f(const float wi[3], const float wo[3], float c);
+
+/*
+ * Importance sampling of brdf_local: draws wo (written to wo) for the unit vector wi in the
+ * local frame and two uniform numbers u1, u2 in [0, 1), and returns its density pdf_local(wi,
+ * wo) (1/sr); the sample weight is brdf_local(wi, wo, c) wo.z / pdf. pdf 0 marks a lost sample
+ * (wo below the surface, or wi below it). Components of wi are clamped to [-1, 1], u1, u2 to
+ * [0, 1]; NaN in any input gives NaN.
+ */
+LAMBERT_SPHERE_FN double lambert_sphere_sample_local(const double wi[3], double u1, double u2, double c, double wo[3]);
+LAMBERT_SPHERE_FN float lambert_sphere_sample_local_f(const float wi[3], float u1, float u2, float c, float wo[3]);
+
+/*
+ * Per-material set-up: lambert_sphere_prepare_c(c) fills the struct with every quantity that
+ * depends on c alone (103 numbers), lambert_sphere_prepare(kd) the same from kd;
+ * lambert_sphere_eval, lambert_sphere_eval_local, lambert_sphere_pdf, lambert_sphere_sample
+ * evaluate with it, so that a renderer prepares each material once and evaluates it many times.
+ * The _rgb variants take three materials (one per channel) and give three values.
+ */
+typedef struct lambert_sphere_material { double k[103]; } lambert_sphere_material;
 LAMBERT_SPHERE_FN lambert_sphere_material lambert_sphere_prepare_c(double c);
 LAMBERT_SPHERE_FN lambert_sphere_material lambert_sphere_prepare(double kd);
 LAMBERT_SPHERE_FN void lambert_sphere_prepare_c_rgb(const double c[3], lambert_sphere_material m[3]);
@@ -229,7 +269,28 @@ LAMBERT_SPHERE_FN void lambert_sphere_eval_rgb(const lambert_sphere_material m[3
  */
 LAMBERT_SPHERE_FN double lambert_sphere_eval_local(const lambert_sphere_material *m, const double wi[3], const double wo[3]);
 LAMBERT_SPHERE_FN void lambert_sphere_eval_local_rgb(const lambert_sphere_material m[3], const double wi[3], const double wo[3], double out[3]);
-typedef struct lambert_sphere_material_f { float k[53]; } lambert_sphere_material_f;
+
+/*
+ * pdf_local with the per-material set-up hoisted: the material m comes from prepare_c or
+ * prepare. The density (1/sr) with which sample_local draws wo given wi, for unit vectors in
+ * the local frame: (1 - w) mu_o/pi + w (n + 1)/(2 pi) max(0, wi.wo)^n, w = sample_weight(mu_i,
+ * c), n = sample_exponent(mu_i, c), a cosine lobe mixed with a back-scatter lobe fitted to f_r
+ * cos(theta_o) (docs/model.md, 'Importance sampling'); 0 if either vector is below the surface.
+ * Components are clamped to [-1, 1]; NaN in any input gives NaN.
+ */
+LAMBERT_SPHERE_FN double lambert_sphere_pdf(const lambert_sphere_material *m, const double wi[3], const double wo[3]);
+LAMBERT_SPHERE_FN void lambert_sphere_pdf_rgb(const lambert_sphere_material m[3], const double wi[3], const double wo[3], double out[3]);
+
+/*
+ * sample_local with the per-material set-up hoisted: the material m comes from prepare_c or
+ * prepare. Importance sampling of brdf_local: draws wo (written to wo) for the unit vector wi
+ * in the local frame and two uniform numbers u1, u2 in [0, 1), and returns its density
+ * pdf_local(wi, wo) (1/sr); the sample weight is brdf_local(wi, wo, c) wo.z / pdf. pdf 0 marks
+ * a lost sample (wo below the surface, or wi below it). Components of wi are clamped to [-1,
+ * 1], u1, u2 to [0, 1]; NaN in any input gives NaN.
+ */
+LAMBERT_SPHERE_FN double lambert_sphere_sample(const lambert_sphere_material *m, const double wi[3], double u1, double u2, double wo[3]);
+typedef struct lambert_sphere_material_f { float k[103]; } lambert_sphere_material_f;
 LAMBERT_SPHERE_FN lambert_sphere_material_f lambert_sphere_prepare_c_f(float c);
 LAMBERT_SPHERE_FN lambert_sphere_material_f lambert_sphere_prepare_f(float kd);
 LAMBERT_SPHERE_FN void lambert_sphere_prepare_c_rgb_f(const float c[3], lambert_sphere_material_f m[3]);
@@ -238,6 +299,9 @@ LAMBERT_SPHERE_FN float lambert_sphere_eval_f(const lambert_sphere_material_f *m
 LAMBERT_SPHERE_FN void lambert_sphere_eval_rgb_f(const lambert_sphere_material_f m[3], float mu_i, float mu_o, float cos_phi, float out[3]);
 LAMBERT_SPHERE_FN float lambert_sphere_eval_local_f(const lambert_sphere_material_f *m, const float wi[3], const float wo[3]);
 LAMBERT_SPHERE_FN void lambert_sphere_eval_local_rgb_f(const lambert_sphere_material_f m[3], const float wi[3], const float wo[3], float out[3]);
+LAMBERT_SPHERE_FN float lambert_sphere_pdf_f(const lambert_sphere_material_f *m, const float wi[3], const float wo[3]);
+LAMBERT_SPHERE_FN void lambert_sphere_pdf_rgb_f(const lambert_sphere_material_f m[3], const float wi[3], const float wo[3], float out[3]);
+LAMBERT_SPHERE_FN float lambert_sphere_sample_f(const lambert_sphere_material_f *m, const float wi[3], float u1, float u2, float wo[3]);
 
 #ifdef __cplusplus
 }
