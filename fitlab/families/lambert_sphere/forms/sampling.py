@@ -26,42 +26,26 @@ t = 2 * sp.acos(mu_i) / sp.pi
 DEGREES = {"sample_weight": (4, 6), "sample_exponent": (4, 6)}
 
 
-def _polynomial(target: str):
+def _mixture_form(target: str, name: str, link, link_text: str, start: float, bound: str) -> Form:
+    """``link(P)``, P = sum_jk a_jk (2s - 1)^j (2t - 1)^k, degrees :data:`DEGREES` [target]; a00 starts at ``start``."""
     s_degree, mu_degree = DEGREES[target]
     names = tuple(f"a{j}{k}" for j in range(s_degree + 1) for k in range(mu_degree + 1))
     coef = dict(zip(names, symbols(names)))
     x, y = 2 * s - 1, 2 * t - 1
-    return names, sum(coef[f"a{j}{k}"] * x**j * y**k for j in range(s_degree + 1) for k in range(mu_degree + 1))
-
-
-def _logistic_poly() -> Form:
-    names, p = _polynomial("sample_weight")
-    s_degree, mu_degree = DEGREES["sample_weight"]
+    p = sum(coef[f"a{j}{k}"] * x**j * y**k for j in range(s_degree + 1) for k in range(mu_degree + 1))
     return Form(
-        target="sample_weight",
-        name="logistic_poly",
+        target=target,
+        name=name,
         inputs=("mu_i", "c"),
         params=names,
-        expr=1 / (1 + sp.exp(-p)),
-        start={n: (-1.0 if n == "a00" else 0.0) for n in names},
-        description=(f"w = 1/(1 + exp(-P)), P = sum_jk a_jk (2s - 1)^j (2t - 1)^k, t = 2 acos(mu_i)/pi, j <= {s_degree}, "
-                     f"k <= {mu_degree}: in (0, 1) for every parameter vector"),
+        expr=link(p),
+        start={n: (start if n == "a00" else 0.0) for n in names},
+        description=(f"{link_text}, P = sum_jk a_jk (2s - 1)^j (2t - 1)^k, t = 2 acos(mu_i)/pi, j <= {s_degree}, "
+                     f"k <= {mu_degree}: {bound} for every parameter vector"),
     )
 
 
-def _exp_poly() -> Form:
-    names, p = _polynomial("sample_exponent")
-    s_degree, mu_degree = DEGREES["sample_exponent"]
-    return Form(
-        target="sample_exponent",
-        name="exp_poly",
-        inputs=("mu_i", "c"),
-        params=names,
-        expr=sp.exp(p),
-        start={n: (1.0 if n == "a00" else 0.0) for n in names},
-        description=(f"n = exp(P), P = sum_jk a_jk (2s - 1)^j (2t - 1)^k, t = 2 acos(mu_i)/pi, j <= {s_degree}, "
-                     f"k <= {mu_degree}: positive for every parameter vector"),
-    )
-
-
-FORMS = (_logistic_poly(), _exp_poly())
+FORMS = (
+    _mixture_form("sample_weight", "logistic_poly", lambda p: 1 / (1 + sp.exp(-p)), "w = 1/(1 + exp(-P))", -1.0, "in (0, 1)"),
+    _mixture_form("sample_exponent", "exp_poly", sp.exp, "n = exp(P)", 1.0, "positive"),
+)
