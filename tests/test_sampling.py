@@ -12,7 +12,7 @@ import textwrap
 import numpy as np
 import pytest
 
-from fitlab.codegen import emit, load_program
+from fitlab.codegen import build_program, emit, load_program
 from fitlab.codegen.native import build, build_glsl, compiler
 from fitlab.families.lambert_sphere.exact.sampling import MU_MIN, mixture_pdf, optimal_mixture, variance_function
 from fitlab.families.lambert_sphere.render import load_generated
@@ -217,3 +217,23 @@ def test_mitsuba_chi2_accepts_the_sampler():
     assert len(results) == 9
     failed = [r for r in results if not r["passed"]]
     assert not failed, failed
+
+
+def test_a_program_without_the_sampler_fits_leaves_the_sampler_out(tmp_path):
+    """The sampler's parts are optional (ProgramSpec.optional): a published preset has none, and a fits folder
+    without them gives the BRDF routines alone; with them the program has sample and pdf."""
+    import shutil
+
+    from fitlab.report.methods import preset_records
+
+    records = preset_records("paper")
+    preset = build_program({t: rec for (t, _), rec in records.items()})
+    names = {r.name for r in preset.routines}
+    assert "brdf" in names and not names & {"sample_local", "pdf_local", "sample_weight", "sample_exponent"}
+    assert [r.name for r in preset.material.evaluators] == ["eval", "eval_local"]
+    for path in FITS.glob("*.json"):
+        if not path.name.startswith("sample_"):
+            shutil.copy(path, tmp_path / path.name)
+    without = load_program(tmp_path)
+    assert "sample_local" not in {r.name for r in without.routines}
+    assert "sample" in {r.name for r in load_program(FITS).material.evaluators}

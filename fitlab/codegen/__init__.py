@@ -61,7 +61,7 @@ def load_program(fits_dir: Path | None = None, terms: str | tuple | None = None,
     Each target's form is the one ``forms`` picks ({"H0": "sr_7_6808f1"}: fits/H0.sr_7_6808f1.json), else
     the one the ``model`` picks (:attr:`ProgramSpec.models`; None: the program's default model,
     :data:`DEFAULT_FORMS`: none), else the target's default form; each file must exist (FitFileError
-    otherwise).  ``family``: whose program (default: the family of the targets in ``forms``, else the one
+    otherwise), but those of the program's optional parts (:attr:`ProgramSpec.optional`).  ``family``: whose program (default: the family of the targets in ``forms``, else the one
     family with a program of its own)."""
     forms = dict(forms or {})
     spec = program_spec(family, tuple(forms))
@@ -71,6 +71,8 @@ def load_program(fits_dir: Path | None = None, terms: str | tuple | None = None,
     chosen = {**model_forms, **forms}
     fits_dir = fits_folder(fits_dir)
     paths = {t: fit_path(fits_dir, t, chosen.get(t, targets()[t].default_form)) for t in spec.fits}
+    # an optional part (ProgramSpec.optional) the folder lacks leaves its routines out
+    paths = {t: p for t, p in paths.items() if t not in spec.optional or t in chosen or p.is_file()}
     for p in paths.values():
         if not p.is_file():
             load(p)  # the store's own error for a missing fit ("no such fit file", naming it)

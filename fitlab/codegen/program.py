@@ -148,6 +148,8 @@ class ProgramSpec:
         :data:`DEFAULT_FORMS` (each target's default form).  ``fitlab codegen --model NAME``.
     default_model: the model ``fitlab codegen`` prints when none is named: the one place that choice
         is made (for the Lambert sphere, the report's real-time recommendation).
+    optional: those of ``fits`` a program can do without (the routines that need them are left out, as
+        from a published preset that has no such part: the Lambert sphere's sampler).
     """
 
     name: str
@@ -160,6 +162,7 @@ class ProgramSpec:
     models: Mapping[str, tuple[Mapping[str, str], str]] = field(default_factory=dict)
     default_model: str = DEFAULT_FORMS
     material: "MaterialSpec | None" = None
+    optional: tuple[str, ...] = ()
 
     def model_names(self) -> tuple[str, ...]:
         """Every model's name, the default first."""
@@ -340,20 +343,21 @@ def material_of(routines: Sequence[Routine], spec: MaterialSpec) -> Material:
     its subexpressions in ``spec.params`` alone hoisted (:func:`hoist_params`, one set of fields for every
     evaluator)."""
     by_name = {r.name: r for r in routines}
-    sources = [by_name[name] for name in spec.evaluators.values()]
+    kept = {name: source for name, source in spec.evaluators.items() if source in by_name}  # optional routines
+    sources = [by_name[name] for name in kept.values()]
     # rebuilt unevaluated: sympy's evaluation of the nested Max and Min (the clamps) costs tens of seconds
     # and changes nothing that is printed
     with sp.evaluate(False):
         inlined = [merge_exp_products(inline_calls(r.expr, by_name)) for r in sources]
         exprs, fields = hoist_params(inlined, spec.params)
     evaluators = []
-    for (name, source), r, e in zip(spec.evaluators.items(), sources, exprs):
+    for (name, source), r, e in zip(kept.items(), sources, exprs):
         args = tuple(a for a in r.args if a not in spec.params)
         doc = (f"{source} with the per-material set-up hoisted: the material m comes from "
                f"{' or '.join(['prepare_' + '_'.join(spec.params), *spec.setups])}. " + r.doc)
         evaluators.append(Routine(name, args, e, doc, r.vectors, {a: r.domain[a] for a in args}, r.out))
     setups = tuple((name, arg, routine) for name, (arg, routine) in spec.setups.items())
-    return Material(tuple(spec.params), tuple(fields), tuple(evaluators), setups, dict(spec.evaluators))
+    return Material(tuple(spec.params), tuple(fields), tuple(evaluators), setups, kept)
 
 
 def call(name: str, *args) -> sp.Expr:
@@ -555,14 +559,14 @@ def build_program(records: Mapping[str, object], terms: Sequence[str] | None = N
     a missing one is a KeyError.
     """
     spec = program_spec(family, () if family else tuple(records))
-    missing = [t for t in spec.fits if t not in records]
+    missing = [t for t in spec.fits if t not in records and t not in spec.optional]
     if missing:
         raise KeyError(f"the {spec.name} program needs fits of {', '.join(missing)}")
     terms = spec.terms if terms is None else tuple(terms)
     unknown = [t for t in terms if t not in spec.terms]
     if unknown:
         raise ValueError(f"terms {unknown}: the {spec.name} program's terms are {', '.join(spec.terms) or '(none)'}")
-    fits = {t: _as_fit(t, records[t]) for t in spec.fits}
+    fits = {t: _as_fit(t, records[t]) for t in spec.fits if t in records}
     routines = tuple(with_domain(r) for r in spec(fits, terms))
     material = material_of(routines, spec.material) if spec.material is not None else None
     return Program(routines, tuple(tuple(s) for s in sources), terms, spec.name,

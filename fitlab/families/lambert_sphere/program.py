@@ -48,13 +48,16 @@ from fitlab.families.lambert_sphere.targets import TARGETS
 from fitlab.forms.symbolic import safe_pow, symbols
 from fitlab.store import FitFunction
 
-__all__ = ["PROGRAM", "PARTS", "FAST", "DOMAIN", "routines"]
+__all__ = ["PROGRAM", "PARTS", "FAST", "SAMPLER", "DOMAIN", "routines"]
 
 mu_i, mu_o, c, kd, cos_phi = symbols(("mu_i", "mu_o", "c", "kd", "cos_phi"))
 _VEC = {v: symbols(tuple(f"{v}_{k}" for k in "xyz")) for v in ("wi", "wo")}
 
 #: the target whose fit is the fast variant (routine brdf_fast)
 FAST = "fast_brdf"
+
+#: the sampler's parts: a program without them (a published preset's) has no sample and pdf routines
+SAMPLER = ("sample_weight", "sample_exponent")
 
 #: the targets printed as routines of their own, in the order of the generated files
 PARTS = ("H0", "H1", "H2", "l", "m", "B", "C", "D", "F", "c_of_kd", "kd_of_c", "sample_weight", "sample_exponent")
@@ -85,7 +88,7 @@ def _domain(names) -> dict:
 
 def routines(fits: Mapping[str, FitFunction], terms: tuple[str, ...]) -> list[Routine]:
     """Every routine of the generated Lambert-sphere files, in file order."""
-    out = [part_routine(fits[t]) for t in PARTS]
+    out = [part_routine(fits[t]) for t in PARTS if t in fits]
 
     parts = {p: call(TARGETS[p].routine, *symbols(TARGETS[p].inputs)) for p in (*RUNTIME_PARTS, ORDER2_PART)}
     term_exprs = runtime_terms(parts)
@@ -136,7 +139,8 @@ def routines(fits: Mapping[str, FitFunction], terms: tuple[str, ...]) -> list[Ro
             "(not normalised); NaN in any input gives NaN.",
             vectors, domain={**{a: (-1.0, 1.0) for a in vec_args}, **_domain(("c", *extra))},
         ))  # fmt: skip
-    out += _sampling_routines(vectors, vec_args)
+    if all(t in fits for t in SAMPLER):
+        out += _sampling_routines(vectors, vec_args)
     return out
 
 
@@ -205,6 +209,7 @@ PROGRAM = ProgramSpec(
     models={"order2": (ORDER2_FORMS, "the report's real-time recommendation: orders 0, 1 and 2 of multiple "
                                      "scattering with the forms of runtime.ORDER2_FORMS")},
     default_model="order2",
+    optional=SAMPLER,
     material=MaterialSpec(("c",), {"eval": "brdf", "eval_local": "brdf_local", "pdf": "pdf_local", "sample": "sample_local"},
                           {"prepare": ("kd", "c_of_kd")}),
     about="The Lambert-sphere BRDF (d'Eon, EGSR 2021): the runtime model of docs/model.md and its fitted parts.\n"
