@@ -184,10 +184,11 @@ def _glsl_loop_source(program: Program, lang: str = "glsl") -> str:
     return "\n".join(lines + _material_loops(program, by_value=True, scalars=(("float", "", "_f"),)) + tail) + "\n"
 
 
-def _compile(workdir: Path, sources: list[Path], lib: Path, flags) -> list[str]:
-    cc = compiler()
+def _compile(workdir: Path, sources: list[Path], lib: Path, flags, cxx: bool = False) -> list[str]:
+    """Compile ``sources`` into the shared library ``lib`` with the C compiler (C++ with ``cxx``)."""
+    cc = cxx_compiler() if cxx else compiler()
     if cc is None:
-        raise CompileError("no C compiler found (cc, gcc or clang)")
+        raise CompileError("no C++ compiler found (c++, g++ or clang++)" if cxx else "no C compiler found (cc, gcc or clang)")
     cmd = [cc, *flags, "-shared", "-fPIC", "-o", str(lib), *map(str, sources), "-lm"]
     res = subprocess.run(cmd, capture_output=True, text=True)
     if res.returncode != 0:
@@ -238,14 +239,8 @@ def build_glsl(files: dict[str, str], program: Program, workdir: Path, flags=Non
     extra = {"metal_stdlib": METAL_STDLIB} if lang == "metal" else {}
     workdir = _written(files, workdir, {loops: _glsl_loop_source(program, lang), **extra})
     lib = workdir / f"lib{program.name}_{lang}.so"
-    if lang == "metal":
-        cxx = cxx_compiler()
-        if cxx is None:
-            raise CompileError("no C++ compiler found (c++, g++ or clang++)")
-        cmd = [cxx, *(flags or METAL_FLAGS), f"-I{workdir}", "-shared", "-fPIC", "-o", str(lib), str(workdir / loops)]
-        res = subprocess.run(cmd, capture_output=True, text=True)
-        if res.returncode != 0:
-            raise CompileError(f"{' '.join(cmd)} failed:\n{res.stderr}")
+    if lang == "metal":  # <metal_stdlib> is the shim in the work folder
+        cmd = _compile(workdir, [workdir / loops], lib, (*(flags or METAL_FLAGS), f"-I{workdir}"), cxx=True)
     else:
         cmd = _compile(workdir, [workdir / loops], lib, flags or GLSL_FLAGS)
     return NativeModel(ctypes.CDLL(str(lib)), {r.name: r for r in program.routines}, program.prefix, cmd,
@@ -330,7 +325,7 @@ class NativeModel:
             ctypes.c_long(int(np.prod(shape))), self._ptr(materials, dtype),
             which.ctypes.data_as(ctypes.POINTER(ctypes.c_long)), *(self._ptr(a, dtype) for a in arrays),
             self._ptr(out, dtype))  # fmt: skip
-        return (out[..., 1:], out[..., 0]) if r.out else out
+        return _outputs(out, r.out)
 
     def call(self, func, sig, vectors, *args, dtype=np.float64, out=""):
         """``func``'s loop on arrays; a routine with an output vector (``out``) gives (vectors, values)."""
@@ -349,4 +344,10 @@ class NativeModel:
             ctypes.c_long(int(np.prod(shape))), *(a.ctypes.data_as(ctypes.POINTER(ptr)) for a in arrays),
             result.ctypes.data_as(ctypes.POINTER(ptr)),
         )  # fmt: skip
-        return (result[..., 1:], result[..., 0]) if out else result
+        return _outputs(result, out)
+
+
+def _outputs(result: np.ndarray, out: str):
+    """A loop's results: the values, or for a routine with an output vector (vectors, values) from the
+    (value, x, y, z) rows the loops store (:func:`_store`)."""
+    return (result[..., 1:], result[..., 0]) if out else result
