@@ -28,6 +28,8 @@ import numpy as np
 from fitlab._io import atomic_write_text
 from fitlab.families.lambert_sphere.exact import albedo
 from fitlab.families.lambert_sphere.exact.sampling import MU_MIN, optimal_mixture, relative_variance
+from fitlab.core import get_target
+from fitlab.families.lambert_sphere.program import SAMPLER
 from fitlab.store import fit_path, load
 
 __all__ = ["ISSUE_C", "ISSUE_MU", "fitted_mixture", "variance_rows", "fresh_summary", "monte_carlo_rows"]
@@ -38,9 +40,9 @@ ISSUE_MU = (0.1, 0.5, 1.0)
 
 
 def fitted_mixture(fits_dir: Path):
-    """(w, n) of the fits in ``fits_dir`` as a function of (mu_i, c) (numpy arrays)."""
-    weight = load(fit_path(Path(fits_dir), "sample_weight", "logistic_poly"))
-    exponent = load(fit_path(Path(fits_dir), "sample_exponent", "exp_poly"))
+    """(w, n) of the fits in ``fits_dir`` (each target's default form, as the generated code takes them) as a
+    function of (mu_i, c) (numpy arrays)."""
+    weight, exponent = (load(fit_path(Path(fits_dir), t, get_target(t).default_form)) for t in SAMPLER)
 
     def mixture(mu_i, c):
         mu_i, c = np.broadcast_arrays(np.asarray(mu_i, dtype=float), np.asarray(c, dtype=float))

@@ -59,13 +59,22 @@ MU_MIN = 1e-3
 _N_SCAN = np.geomspace(N_MIN, N_MAX, 49)
 
 
+def _dot(mu_i, mu_o, cos_phi):
+    """w_i . w_o = mu_i mu_o + S cos phi (phi = 0 back-scattering)."""
+    return mu_i * mu_o + np.sqrt(np.maximum(0.0, (1.0 - mu_i**2) * (1.0 - mu_o**2))) * cos_phi
+
+
+def _mixture(cosine, dot, weight, exponent):
+    """The mixture from the cosine lobe's density mu_o/pi and max(0, w_i . w_o)."""
+    return (1.0 - weight) * cosine + weight * (exponent + 1.0) / (2.0 * np.pi) * dot**exponent
+
+
 def mixture_pdf(mu_i, mu_o, cos_phi, weight, exponent):
     """The sampling density p(w_o | w_i) (1/sr) of the module docstring; 0 for mu_o <= 0.  Broadcast."""
     mu_i, mu_o, cos_phi, weight, exponent = np.broadcast_arrays(*(np.asarray(x, dtype=float) for x in
                                                                   (mu_i, mu_o, cos_phi, weight, exponent)))
-    dot = mu_i * mu_o + np.sqrt(np.maximum(0.0, (1.0 - mu_i**2) * (1.0 - mu_o**2))) * cos_phi
-    lobe = (exponent + 1.0) / (2.0 * np.pi) * np.maximum(dot, 0.0) ** exponent
-    return np.where(mu_o > 0.0, (1.0 - weight) * mu_o / np.pi + weight * lobe, 0.0)
+    density = _mixture(mu_o / np.pi, np.maximum(_dot(mu_i, mu_o, cos_phi), 0.0), weight, exponent)
+    return np.where(mu_o > 0.0, density, 0.0)
 
 
 def _nodes(nodes: tuple):
@@ -83,8 +92,7 @@ def _integrand(mu_i: np.ndarray, c: float, nodes: tuple):
     if c > 0.0:
         g = brdf(mi, mo, ph, np.full(mi.shape, c)) * mo
     else:
-        u = -(mi * mo + np.sqrt((1.0 - mi**2) * (1.0 - mo**2)) * np.cos(ph))
-        g = phase_function(u) / (mi + mo) * mo
+        g = phase_function(-_dot(mi, mo, np.cos(ph))) / (mi + mo) * mo
     return g, mo, np.cos(ph), weights
 
 
@@ -92,10 +100,10 @@ def _variance_function(g, mu_i, mu_o, cos_phi, weights):
     a = np.sum(weights * g)
     g2 = weights * g**2 / a**2
     cosine = mu_o / np.pi
-    dot = np.maximum(mu_i * mu_o + np.sqrt((1.0 - mu_i**2) * (1.0 - mu_o**2)) * cos_phi, 0.0)
+    dot = np.maximum(_dot(mu_i, mu_o, cos_phi), 0.0)
 
     def variance(w, n):
-        return float(np.sum(g2 / ((1.0 - w) * cosine + w * (n + 1.0) / (2.0 * np.pi) * dot**n)) - 1.0)
+        return float(np.sum(g2 / _mixture(cosine, dot, w, n)) - 1.0)
 
     return variance
 
