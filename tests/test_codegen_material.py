@@ -191,7 +191,13 @@ def test_numpy_agrees_with_c(native, py, points):
     assert mats.shape == (len(c), len(native.material.fields))
     assert np.max(_rel(mats, native("prepare_c", c))) < 1e-13
     got = py.eval(mats[which], mu_i, mu_o, cos_phi)
-    assert np.max(_rel(got, native("eval", native("prepare_c", c), which, mu_i, mu_o, cos_phi))) < 1e-12
+    rel = _rel(got, native("eval", native("prepare_c", c), which, mu_i, mu_o, cos_phi))
+    # Near mu_i = mu_o = 0 the evaluator adds terms some 1e5 times its value (at c = 0.777, mu_i = 0,
+    # mu_o = 1e-6: C is 2e-12 and numpy 2e-11 from the 60-digit value), so a one-ulp difference between
+    # numpy's exp and libm's is amplified there; everywhere else the two agree to 1e-12.
+    grazing = np.minimum(mu_i, mu_o) < 1e-5
+    assert np.max(rel[~grazing]) < 1e-12
+    assert np.max(rel[grazing]) < 1e-10
     # RGB by broadcasting: materials (3, fields) against inputs with a trailing axis
     rgb = py.eval(py.prepare(np.array([0.2, 0.5, 0.9])), mu_i[:50, None], mu_o[:50, None], cos_phi[:50, None])
     assert rgb.shape == (50, 3)
