@@ -198,7 +198,7 @@ def test_version_and_help(capsys):
         assert "example: fitlab " + command in " ".join(text.split()), command
         assert "--quiet" in text, command
     assert _status(["codegen", "--help"]) == 0
-    assert "{c,python,glsl,hlsl,metal}" in capsys.readouterr().out
+    assert "{c,python,glsl,hlsl,metal,drjit}" in capsys.readouterr().out
 
 
 def test_closed_pipe_ends_quietly():

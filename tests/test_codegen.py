@@ -50,7 +50,7 @@ def program():
 
 @pytest.fixture(scope="module")
 def sources(program):
-    return {lang: emit(program, lang) for lang in ("c", "python", "glsl", "hlsl", "metal")}
+    return {lang: emit(program, lang) for lang in ("c", "python", "glsl", "hlsl", "metal", "drjit")}
 
 
 @pytest.fixture(scope="module")
@@ -96,7 +96,7 @@ def jax_reference(expr, names):
 # ---- reproducibility ----------------------------------------------------------
 
 
-@pytest.mark.parametrize("lang", ["c", "python", "glsl", "hlsl", "metal"])
+@pytest.mark.parametrize("lang", ["c", "python", "glsl", "hlsl", "metal", "drjit"])
 def test_committed_generated_code_is_what_the_committed_fits_generate(sources, lang):
     for name, text in sources[lang].items():
         committed = (GENERATED / name).read_text()

@@ -1,6 +1,6 @@
-r"""Expression printers: one sympy expression in, C, GLSL or numpy text out.
+r"""Expression printers: one sympy expression in, C, GLSL, numpy or Dr.Jit text out.
 
-Every printer extends sympy's own (C99 or NumPy) with the few things fitlab's
+Every printer extends sympy's own (C99, NumPy or Python) with the few things fitlab's
 forms need:
 
 * ``safe_pow(x, p)`` prints as a call of the generated helper (x^p for x > 0,
@@ -24,12 +24,13 @@ from sympy.codegen.ast import float32, float64, real
 from sympy.core.function import AppliedUndef
 from sympy.printing.c import C99CodePrinter
 from sympy.printing.numpy import NumPyPrinter
+from sympy.printing.pycode import PythonCodePrinter
 from sympy.printing.precedence import precedence
 
 from fitlab.codegen.program import minmax_piecewise
 from fitlab.forms.symbolic import safe_pow
 
-__all__ = ["CPrinter", "GLSLPrinter", "MetalPrinter", "NumpyPrinter"]
+__all__ = ["CPrinter", "GLSLPrinter", "MetalPrinter", "NumpyPrinter", "DrJitPrinter"]
 
 _PI_DIGITS = "3.141592653589793238"
 
@@ -164,3 +165,89 @@ class NumpyPrinter(_Common, NumPyPrinter):
 
     def _conditional(self, cond, a, b):
         return f"numpy.where({cond}, {a}, {b})"
+
+
+class DrJitPrinter(_Common, PythonCodePrinter):
+    """Dr.Jit (``import drjit as dr``): one text for Dr.Jit arrays of any backend and precision (the caller's
+    arrays choose: ``drjit.llvm.ad.Float``, ``drjit.cuda.Float64``, Mitsuba's ``Color3f``, ...) and for
+    Python floats (Mitsuba's scalar variants): it calls only functions Dr.Jit defines for both.
+
+    * A conditional is ``dr.select(cond, a, b)`` (both branches are evaluated, as in numpy); ``&`` and
+      ``|`` combine conditions (``and`` would ask an array for its truth value).
+    * Integers print as float literals: ``dr.select(mask, 0, 1)`` of two Python ints is an integer array.
+    * An integer power above the small ones is ``dr.power(x, n)`` with an integer n, which Dr.Jit
+      evaluates by multiplication (with a float n it takes exp2(n log2 x): NaN for x < 0).
+    * Dr.Jit has no expm1 and log1p: they print as calls of generated helpers (as in GLSL).
+    """
+
+    #: sympy function -> Dr.Jit function of the same name for arrays and Python floats
+    _FUNCTIONS = {"exp": "exp", "log": "log", "acos": "acos", "asin": "asin", "atan": "atan", "sin": "sin",
+                  "cos": "cos", "tan": "tan", "Abs": "abs", "erf": "erf"}  # fmt: skip
+
+    def __init__(self, call_name, symbol_names=None):
+        super().__init__(call_name, symbol_names, fully_qualified_modules=False, inline=True)
+
+    def _print_Function(self, expr):
+        name = type(expr).__name__
+        if isinstance(expr, AppliedUndef) or isinstance(expr, safe_pow):
+            return super()._print_Function(expr)
+        if name in self._FUNCTIONS:
+            return f"dr.{self._FUNCTIONS[name]}({', '.join(self._print(a) for a in expr.args)})"
+        if name in ("expm1", "log1p"):
+            return f"{self.call_name(name)}({self._print(expr.args[0])})"
+        raise ValueError(f"no Dr.Jit spelling of {name}")
+
+    _print_exp = _print_log = _print_acos = _print_asin = _print_atan = _print_Function
+    _print_sin = _print_cos = _print_tan = _print_Abs = _print_erf = _print_expm1 = _print_log1p = _print_Function
+
+    def _print_Pi(self, expr):
+        return _PI_DIGITS
+
+    def _print_Integer(self, expr):
+        return f"{int(expr)}.0"
+
+    _print_Zero = _print_One = _print_NegativeOne = _print_Integer
+
+    def _print_Rational(self, expr):
+        return f"{expr.p}.0/{expr.q}.0"
+
+    _print_Half = _print_Rational
+
+    def _print_Pow(self, expr, rational=False):
+        small = _small_power(self, expr)
+        if small:
+            return small
+        base, e = self._print(expr.base), expr.exp
+        if e == sp.S.Half:
+            return f"dr.sqrt({base})"
+        if e == -sp.S.Half:
+            return f"(1.0/dr.sqrt({base}))"
+        if e == -1:
+            return f"(1.0/{self.parenthesize(expr.base, precedence(expr))})"
+        if e.is_Integer:
+            return f"dr.power({base}, {int(e)})"
+        return f"dr.power({base}, {self._print(e)})"
+
+    def _print_Relational(self, expr):
+        if expr.rel_op not in ("==", "!=", "<", "<=", ">", ">="):
+            raise ValueError(f"no Dr.Jit spelling of the relation {expr.rel_op}")
+        return f"({self._print(expr.lhs)} {expr.rel_op} {self._print(expr.rhs)})"
+
+    def _print_And(self, expr):
+        return "(" + " & ".join(self._print(a) for a in expr.args) + ")"
+
+    def _print_Or(self, expr):
+        return "(" + " | ".join(self._print(a) for a in expr.args) + ")"
+
+    def _print_Not(self, expr):
+        # ~ negates a Dr.Jit mask but turns the Python bool True into -2
+        raise ValueError("no Dr.Jit spelling of a negation that serves masks and Python bools: print the opposite relation")
+
+    def _print_BooleanTrue(self, expr):
+        return "True"
+
+    def _print_BooleanFalse(self, expr):
+        return "False"
+
+    def _conditional(self, cond, a, b):
+        return f"dr.select({cond}, {a}, {b})"
