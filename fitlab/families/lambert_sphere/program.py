@@ -48,7 +48,7 @@ from fitlab.families.lambert_sphere.targets import TARGETS
 from fitlab.forms.symbolic import safe_pow, symbols
 from fitlab.store import FitFunction
 
-__all__ = ["PROGRAM", "PARTS", "FAST", "SAMPLER", "DOMAIN", "routines"]
+__all__ = ["PROGRAM", "PARTS", "FAST", "SAMPLER", "DOMAIN", "routines", "brdf_routines", "local_routine"]
 
 mu_i, mu_o, c, kd, cos_phi = symbols(("mu_i", "mu_o", "c", "kd", "cos_phi"))
 _VEC = {v: symbols(tuple(f"{v}_{k}" for k in "xyz")) for v in ("wi", "wo")}
@@ -90,24 +90,8 @@ def routines(fits: Mapping[str, FitFunction], terms: tuple[str, ...]) -> list[Ro
     """Every routine of the generated Lambert-sphere files, in file order."""
     out = [part_routine(fits[t]) for t in PARTS if t in fits]
 
-    parts = {p: call(TARGETS[p].routine, *symbols(TARGETS[p].inputs)) for p in (*RUNTIME_PARTS, ORDER2_PART)}
-    term_exprs = runtime_terms(parts)
-    total = sp.S.Zero
-    for t in terms:
-        expr = floor_poles(azimuth_to_cosine(term_exprs[t]))
-        out.append(Routine(_TERM_NAMES[t], _TERM_ARGS[t], expr, _TERM_DOCS[t] + " Pole floored at 1e-6.",
-                           domain=_domain(_TERM_ARGS[t])))  # fmt: skip
-        total += call(_TERM_NAMES[t], *symbols(_TERM_ARGS[t])) * _TERM_AZIMUTH[t]
     scale = energy_scale({p: fits[p].expression for p in (*RUNTIME_PARTS, ORDER2_PART)}, terms)
-    sum_text = " + ".join(_TERM_NAMES[t] + _AZIMUTH_TEXT[t] for t in terms)
-    out.append(Routine(
-        "brdf", ("mu_i", "mu_o", "cos_phi", "c"), sp.Max(0, total if scale == 1 else sp.Mul(scale, total, evaluate=False)),
-        f"The runtime Lambert-sphere BRDF (1/sr), max(0, {sum_text if scale == 1 else f's ({sum_text})'}) "
-        + ("" if scale == 1 else f"with the energy scale s = {float(scale)!r}, which keeps the directional albedo "
-           "at c = 1 below 1 ") + "(docs/model.md). mu_i, mu_o in [0, 1], cos_phi in [-1, 1] (phi = 0 back-scattering), c the particle "
-        "albedo in [0, 1]; inputs outside (+-inf included) are clamped, NaN in any input gives NaN.",
-        domain=_domain(("mu_i", "mu_o", "cos_phi", "c")),
-    ))  # fmt: skip
+    out += brdf_routines(terms, scale)
 
     fast = fits[FAST]
     fast_expr = floor_poles(azimuth_to_cosine(fast.expression))
@@ -122,7 +106,41 @@ def routines(fits: Mapping[str, FitFunction], terms: tuple[str, ...]) -> list[Ro
         domain=_domain(("mu_i", "mu_o", "cos_phi", "c", "kd")),
     ))  # fmt: skip
 
-    # local frame: u = -wi.wo, mu = z, S cos phi = x_i x_o + y_i y_o
+    out += [local_routine(name, extra) for name, extra in (("brdf", ()), (TARGETS[FAST].routine, ("kd",)))]
+    vec_args = tuple(str(s) for s in (*_VEC["wi"], *_VEC["wo"]))
+    vectors = {"wi": tuple(str(s) for s in _VEC["wi"]), "wo": tuple(str(s) for s in _VEC["wo"])}
+    if all(t in fits for t in SAMPLER):
+        out += _sampling_routines(vectors, vec_args)
+    return out
+
+
+def brdf_routines(terms: tuple[str, ...], scale=1, what: str = "The runtime Lambert-sphere BRDF") -> list[Routine]:
+    """The routines of the terms kept (single, fm0, fm1, fm2: :data:`RUNTIME_TERMS` order) and ``brdf``, their
+    sum clamped at 0 (times the energy ``scale`` unless it is 1), each term calling the parts' routines by
+    the targets' routine names (h0, ..., const_f); ``what`` opens brdf's documentation."""
+    parts = {p: call(TARGETS[p].routine, *symbols(TARGETS[p].inputs)) for p in (*RUNTIME_PARTS, ORDER2_PART)}
+    term_exprs = runtime_terms(parts)
+    out, total = [], sp.S.Zero
+    for t in terms:
+        expr = floor_poles(azimuth_to_cosine(term_exprs[t]))
+        out.append(Routine(_TERM_NAMES[t], _TERM_ARGS[t], expr, _TERM_DOCS[t] + " Pole floored at 1e-6.",
+                           domain=_domain(_TERM_ARGS[t])))  # fmt: skip
+        total += call(_TERM_NAMES[t], *symbols(_TERM_ARGS[t])) * _TERM_AZIMUTH[t]
+    sum_text = " + ".join(_TERM_NAMES[t] + _AZIMUTH_TEXT[t] for t in terms)
+    out.append(Routine(
+        "brdf", ("mu_i", "mu_o", "cos_phi", "c"), sp.Max(0, total if scale == 1 else sp.Mul(scale, total, evaluate=False)),
+        f"{what} (1/sr), max(0, {sum_text if scale == 1 else f's ({sum_text})'}) "
+        + ("" if scale == 1 else f"with the energy scale s = {float(scale)!r}, which keeps the directional albedo "
+           "at c = 1 below 1 ") + "(docs/model.md). mu_i, mu_o in [0, 1], cos_phi in [-1, 1] (phi = 0 back-scattering), c the particle "
+        "albedo in [0, 1]; inputs outside (+-inf included) are clamped, NaN in any input gives NaN.",
+        domain=_domain(("mu_i", "mu_o", "cos_phi", "c")),
+    ))  # fmt: skip
+    return out
+
+
+def local_routine(name: str, extra: tuple[str, ...] = ()) -> Routine:
+    """``NAME_local(wi, wo, c, *extra)``: the routine ``name(mu_i, mu_o, cos_phi, c, *extra)`` for unit vectors in
+    the local frame (u = -wi.wo, mu = z, S cos phi = x_i x_o + y_i y_o), 0 below the surface."""
     (xi, yi, zi), (xo, yo, zo) = _VEC["wi"], _VEC["wo"]
     ring = (xi**2 + yi**2) * (xo**2 + yo**2)
     local_cos = (xi * xo + yi * yo) / sp.sqrt(sp.Max(ring, sp.Rational(1, 10**30)))
@@ -130,18 +148,14 @@ def routines(fits: Mapping[str, FitFunction], terms: tuple[str, ...]) -> list[Ro
     above = sp.Piecewise((0, zi < 0), (1, True)) * sp.Piecewise((0, zo < 0), (1, True))
     vec_args = tuple(str(s) for s in (*_VEC["wi"], *_VEC["wo"]))
     vectors = {"wi": tuple(str(s) for s in _VEC["wi"]), "wo": tuple(str(s) for s in _VEC["wo"])}
-    for name, extra in (("brdf", ()), (TARGETS[FAST].routine, ("kd",))):
-        inner = call(name, zi, zo, local_cos, c, *symbols(extra))
-        out.append(Routine(
-            f"{name}_local", (*vec_args, "c", *extra), above * inner,
-            f"{name} for unit vectors wi, wo in the local frame (z along the normal, both pointing away "
-            "from the surface); 0 if either is below the surface. Components are clamped to [-1, 1] "
-            "(not normalised); NaN in any input gives NaN.",
-            vectors, domain={**{a: (-1.0, 1.0) for a in vec_args}, **_domain(("c", *extra))},
-        ))  # fmt: skip
-    if all(t in fits for t in SAMPLER):
-        out += _sampling_routines(vectors, vec_args)
-    return out
+    inner = call(name, zi, zo, local_cos, c, *symbols(extra))
+    return Routine(
+        f"{name}_local", (*vec_args, "c", *extra), above * inner,
+        f"{name} for unit vectors wi, wo in the local frame (z along the normal, both pointing away "
+        "from the surface); 0 if either is below the surface. Components are clamped to [-1, 1] "
+        "(not normalised); NaN in any input gives NaN.",
+        vectors, domain={**{a: (-1.0, 1.0) for a in vec_args}, **_domain(("c", *extra))},
+    )  # fmt: skip
 
 
 def _sampling_routines(vectors: dict, vec_args: tuple) -> list[Routine]:
