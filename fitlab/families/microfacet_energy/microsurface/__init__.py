@@ -4,14 +4,17 @@ a Smith microsurface (uncorrelated uniform heights, GGX or Beckmann slopes, isot
 alpha), by scattering order, in JAX (jit, float64 within fitlab's calls only, counter-based random
 numbers: results depend on (seed, material, incident direction, path id) only).
 
-Materials: conductors (F = 1, Schlick F0, the exact conductor Fresnel of eta + i k) and diffuse
-(Lambertian) facets.  Not yet: dielectric facets (reflection and transmission).
+Materials: conductors (F = 1, Schlick F0, the exact conductor Fresnel of eta + i k), diffuse
+(Lambertian) facets, and dielectrics (reflection and transmission through an interface of relative
+index eta, on both sides of the microsurface as in the paper's MicrosurfaceDielectric).
 
 Modules: ``microsurface`` (heights C1/invC1, Lambda, G1, the free path of heights, visible-normal
-sampling), ``fresnel``, ``walk`` (the jitted walk and its tallies), ``scene`` (TOML scene files and
-their validation), ``reference`` (the analytic single scattering, height-correlated Smith, and its
-bin averages), ``simulate`` (driver: stopping rule, CSV and PNG; ``simulate_file``, ``summary_table``,
-``unconverged``, ``SceneError``: the family's future "simulate" hook), ``bench`` (bounces per second).
+sampling, reflection and refraction), ``fresnel``, ``walk`` (the jitted walk, its tallies, and its
+sharding over devices), ``scene`` (TOML scene files and their validation), ``reference`` (the analytic
+single scattering with height-correlated Smith: BRDF, Walter's BTDF, diffuse facets; bin averages and
+totals), ``simulate`` (driver: stopping rule, CSV and PNG; the family's "simulate" hook), ``validation``
+(the order-1 study at large budgets), ``bench`` (bounces and paths per second).  docs/microsurface.md
+states the walk, the references and their derivations, and the figures measured.
 """
 
 from fitlab.families.microfacet_energy.microsurface.scene import Material, Scene, SceneError, load_scene, parse_scene
@@ -22,7 +25,13 @@ from fitlab.families.microfacet_energy.microsurface.simulate import (
     summary_table,
     unconverged,
 )
-from fitlab.families.microfacet_energy.microsurface.walk import MaterialParams, WalkConfig, job_key, run_round
+from fitlab.families.microfacet_energy.microsurface.walk import (
+    MaterialParams,
+    WalkConfig,
+    default_mesh,
+    job_key,
+    run_round,
+)
 
 __all__ = [
     "Material",
@@ -31,6 +40,7 @@ __all__ = [
     "SceneError",
     "SimulationResult",
     "WalkConfig",
+    "default_mesh",
     "job_key",
     "load_scene",
     "parse_scene",

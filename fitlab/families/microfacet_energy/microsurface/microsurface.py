@@ -60,7 +60,7 @@ import jax.numpy as jnp
 from jax.scipy.special import erfc, erfinv
 
 __all__ = ["DISTRIBUTIONS", "height_c1", "height_inv_c1", "smith_lambda", "masking_g1", "sample_height",
-           "sample_vndf", "reflect", "ESCAPED"]
+           "sample_vndf", "reflect", "refract", "ESCAPED"]
 
 DISTRIBUTIONS = ("ggx", "beckmann")
 #: sample_height's value for a ray that leaves the microsurface
@@ -207,3 +207,15 @@ def reflect(wx, wy, wz, mx, my, mz):
     """-w + 2 (w.m) m: the mirror image of w (pointing away from the facet) about m."""
     d = 2.0 * (wx * mx + wy * my + wz * mz)
     return _normalize(d * mx - wx, d * my - wy, d * mz - wz)
+
+
+def refract(wx, wy, wz, mx, my, mz, eta):
+    """The direction refracted through the facet m from w (pointing away from the facet, w.m >= 0) into a
+    medium of relative index eta = n_t / n_i: m (c / eta - c_t) - w / eta, c = w.m, c_t = sqrt(1 - (1 - c^2) /
+    eta^2) (Snell; the paper's code).  It points away from the facet on the other side (its dot with m is
+    -c_t).  Beyond the critical angle (eta < 1) c_t is taken as 0: the caller never refracts there (the
+    Fresnel factor is 1)."""
+    c = wx * mx + wy * my + wz * mz
+    cos_t = jnp.sqrt(jnp.maximum(0.0, 1.0 - (1.0 - c * c) / (eta * eta)))
+    a = c / eta - cos_t
+    return _normalize(a * mx - wx / eta, a * my - wy / eta, a * mz - wz / eta)

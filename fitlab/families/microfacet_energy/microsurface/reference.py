@@ -18,9 +18,69 @@ Gauss-Legendre with ``panels`` x ``panels`` sub-panels of ``nodes`` x ``nodes`` 
 (the integrand is smooth inside a bin; its peak is resolved when the sub-panels are narrower
 than alpha).
 
-Albedo of order 1: for isotropic GGX, the exact engine's E(mu_i, alpha) of "ggx_correlated"
-(:func:`fitlab.families.microfacet_energy.exact.directional_albedo`, with the Fresnel factor inside
-its integral); otherwise the same bin rule over the whole hemisphere.
+Albedo of order 1: for isotropic GGX with alpha <= 1, the exact engine's E(mu_i, alpha) of
+"ggx_correlated" (:func:`fitlab.families.microfacet_energy.exact.directional_albedo`, with the Fresnel
+factor inside its integral); otherwise the same bin rule over the whole hemisphere.  Not for a
+dielectric with eta < 1: the exact engine's two routes assume a smooth F, and the kink of total internal
+reflection leaves them 3e-3 apart (alpha = 0.6, mu = 0.5, eta = 1/1.5: 0.35938 and 0.35654, where the
+bin rule and the normals give 0.35802), so the bin rule serves there.
+
+Dielectric facets (relative index eta = n_lower / n_upper, light from above, eta != 1).  Reflection of
+order 1 is f_1 above with the exact dielectric F (:func:`fitlab.families.microfacet_energy.exact.fresnel_dielectric`,
+1 under total internal reflection).  Transmission of order 1 is the microfacet BTDF of Walter, Marschner,
+Li and Torrance (2007, eq. 21) with the height-correlated masking-shadowing of a refraction:
+
+    f_t(w_i, w_o) = |w_i.h| |w_o.h| eta^2 (1 - F(w_i.h)) D(h) G2_t(w_i, w_o) / (mu_i |mu_o| (w_i.h + eta w_o.h)^2),
+
+h = -(w_i + eta w_o) / |w_i + eta w_o| for eta > 1 and +(...) for eta < 1 (the facet normal, h_z > 0,
+that refracts w_i into w_o; Snell's law makes the tangential parts of w_i and eta w_o cancel), nonzero
+only where w_i.h > 0 > w_o.h, and
+
+    G2_t(w_i, w_o) = B(1 + Lambda(w_i), 1 + Lambda(-w_o)) = Gamma(1 + Lambda_i) Gamma(1 + Lambda_o) / Gamma(2 + Lambda_i + Lambda_o),
+
+B the Beta function, Lambda_o of the upward direction -w_o.  Derivation for the walk's uncorrelated
+heights (C1 uniform; the result does not depend on the height distribution): coming from above, the ray
+passes height h unobstructed with probability C1(h)^(1 + Lambda_i) (the free path of :mod:`.microsurface`
+for a falling ray, exponent -Lambda(-w_i) = 1 + Lambda_i), so its first hit lies at C1 = c with density
+(1 + Lambda_i) c^Lambda_i; the facet met is drawn from the visible normals, D_wi(m) = <w_i.m> D(m) /
+(mu_i (1 + Lambda_i)); the refracted ray leaves height h downwards, where the flipped microsurface
+(h -> -h) puts it at C1 = 1 - c, and escapes with probability (1 - c)^Lambda_o.  Averaging over c,
+
+    int_0^1 (1 + Lambda_i) c^Lambda_i (1 - c)^Lambda_o dc / (1 + Lambda_i) = B(1 + Lambda_i, 1 + Lambda_o),
+
+the form Heitz (2014, "Understanding the Masking-Shadowing Function", JCGT 3(2), section 6) gives for
+height-correlated transmission; the same steps with the reflected ray escaping upwards from C1 = c give
+int (1 + Lambda_i) c^(Lambda_i + Lambda_o) dc / (1 + Lambda_i) = 1 / (1 + Lambda_i + Lambda_o), the G2
+above.  The change of variables from h to w_o is Walter's eq. 17, |dw_h / dw_o| = eta^2 |w_o.h| /
+(w_i.h + eta w_o.h)^2, so f_t |mu_o| is the density of the transmitted directions (per steradian):
+integrated over the lower hemisphere it gives the transmitted fraction, with no radiance factor.
+The generalised reciprocity f_t(w_i, w_o; eta) / eta^2 = f_t(-w_o, -w_i; 1 / eta) (light from inside,
+by the flip of :mod:`.walk`) holds for it (tested).
+
+Orders 1 by the normals (:func:`order_one_by_normals`): the same R_1 and T_1 by the other order of
+integration, over the facet normal m drawn from D with no change of variables:
+
+    R_1 = int <w_i.m> D(m) / mu_i  F(w_i.m) / (1 + Lambda_i + Lambda(w_r)) [w_r,z > 0] dm,
+    T_1 = int <w_i.m> D(m) / mu_i  (1 - F(w_i.m)) B(1 + Lambda_i, 1 + Lambda(-w_t)) [w_t,z < 0] dm,
+
+w_r, w_t the reflected and refracted directions.  Their agreement with the bin sums of f_1 and f_t
+checks the Jacobian and the half vector (tested).
+
+Diffuse (Lambertian) facets of albedo rho.  Order 1: the ray meets the visible facet m (D_wi), leaves
+along w_o with density <w_o.m> / pi about it, weight rho, and escapes from the height it hit with
+probability C1^Lambda_o; averaged over heights as above,
+
+    f_1(w_i, w_o) = rho / (pi mu_i mu_o) G2(w_i, w_o) int <w_i.m> <w_o.m> D(m) dm,  G2 = 1 / (1 + Lambda_i + Lambda_o),
+
+for mu_o > 0 (a downward w_o always hits again).  The integral over m is a product Gauss rule in the
+slope-space sampling of D (:func:`normal_rule`); at alpha -> 0 it tends to mu_i mu_o and f_1 to rho / pi.
+
+The normal rule: a standard slope of radius r (GGX r^2 = u / (1 - u), Beckmann r^2 = -ln(1 - u)) and
+azimuth 2 pi u2, stretched by alpha_x, alpha_y, has the density D(m) m_z, so int g D m_z dm = int int g du
+du2; with u = 1 - v^2 the 1 / m_z of the integrands above (g = <w_i.m> ... / m_z, bounded by O(1 / v)
+near the horizon) becomes bounded, and Gauss-Legendre panels in v and the azimuth converge (kinks where
+w_i.m, w_o.m or w_r,z change sign are resolved by the number of nodes; :func:`normal_rule` is tested
+against its own refinement and a closed form at alpha = 1).
 """
 
 from __future__ import annotations
@@ -28,20 +88,27 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.special import erfc
+from scipy.special import beta, erfc
 
 from fitlab.families.microfacet_energy.exact import (
     directional_albedo,
     fresnel_conductor,
+    fresnel_dielectric,
     fresnel_schlick,
     ggx_brdf,
 )
 
-__all__ = ["ndf", "lambda_", "single_scattering_brdf", "bin_average_single", "albedo_single", "fresnel_numpy"]
+__all__ = ["ndf", "lambda_", "single_scattering_brdf", "bin_average_single", "albedo_single", "fresnel_numpy",
+           "transmission_g2", "btdf", "single_transmission_btdf", "bin_average_transmission",
+           "transmission_single", "order_one_by_normals", "normal_rule", "diffuse_single_brdf",
+           "bin_average_diffuse", "references"]
 
 
 def fresnel_numpy(material):
-    """F(cos) of a conductor material (``scene.Material``) in numpy, from the exact engine."""
+    """F(cos) of a material (``scene.Material``: a conductor's Fresnel form, or a dielectric's F of its
+    eta seen from above) in numpy, from the exact engine."""
+    if material.kind == "dielectric":
+        return lambda c: fresnel_dielectric(np.clip(c, 0.0, 1.0), material.eta)
     if material.fresnel == "schlick":
         return lambda c: fresnel_schlick(np.clip(c, 0.0, 1.0), material.f0)
     if material.fresnel == "conductor":
@@ -85,9 +152,12 @@ def single_scattering_brdf(mu_o, phi_o, mu_i, alpha_x, alpha_y, distribution: st
     return f
 
 
-def _rule(lo, hi, panels, nodes):
+def _rule(lo, hi, panels, nodes, breaks=()):
+    """Composite Gauss-Legendre on [lo, hi]: ``panels`` equal panels, each split again at the ``breaks``
+    inside it (where the integrand jumps)."""
     x, w = np.polynomial.legendre.leggauss(nodes)
     edges = np.linspace(lo, hi, panels + 1)
+    edges = np.unique(np.concatenate([edges, [b for b in breaks if lo < b < hi]]))
     a, b = edges[:-1, None], edges[1:, None]
     return ((a + b) / 2 + (b - a) / 2 * x).ravel(), ((b - a) / 2 * w).ravel()
 
@@ -119,9 +189,16 @@ def bin_average_single(mu_edges, phi_edges, mu_i, material, panels: int = 4, nod
 
 
 def albedo_single(mu_i, material):
-    """The order-1 albedo int f_1 mu_o dw_o, and the name of the method that gave it."""
-    if material.distribution == "ggx" and material.isotropic:
-        fres = fresnel_numpy(material) if material.fresnel != "one" else None
+    """The order-1 albedo int f_1 mu_o dw_o, and the name of the method that gave it (conductor and
+    dielectric facets: reflection; diffuse facets: :func:`bin_average_diffuse` over the hemisphere)."""
+    if material.kind == "diffuse":
+        mu_edges, phi_edges = np.linspace(0.0, 1.0, 5), np.linspace(0.0, math.pi, 5)
+        avg = bin_average_diffuse(mu_edges, phi_edges, mu_i, material, panels=1, nodes=8)
+        return float(np.sum(avg * 2.0 * np.outer(np.diff(mu_edges), np.diff(phi_edges)))), "bin_quadrature"
+    # the exact engine's quadratures assume a smooth F: not a dielectric's total internal reflection (eta < 1)
+    smooth = material.kind != "dielectric" or material.eta > 1.0
+    if material.distribution == "ggx" and material.isotropic and material.alpha_x <= 1.0 and smooth:
+        fres = fresnel_numpy(material) if material.kind == "dielectric" or material.fresnel != "one" else None
         e = float(directional_albedo(mu_i, material.alpha_x, "ggx_correlated", fresnel=fres))
         return e, "exact_directional_albedo"
     mu_edges = np.linspace(0.0, 1.0, 17)
@@ -129,3 +206,145 @@ def albedo_single(mu_i, material):
     avg = bin_average_single(mu_edges, phi_edges, mu_i, material, panels=2, nodes=16)
     omega = 2.0 * np.outer(np.diff(mu_edges), np.diff(phi_edges))
     return float(np.sum(avg * omega)), "bin_quadrature"
+
+
+def _unit(x, y, z):
+    n = np.sqrt(x * x + y * y + z * z)
+    return x / n, y / n, z / n
+
+
+def transmission_g2(lambda_i, lambda_o):
+    """G2_t = B(1 + Lambda_i, 1 + Lambda_o) (module docstring); Lambda's >= 0, either infinite gives 0."""
+    return beta(1.0 + np.asarray(lambda_i, float), 1.0 + np.asarray(lambda_o, float))
+
+
+def btdf(wi, wo, alpha_x, alpha_y, distribution: str, eta: float):
+    """f_t(w_i, w_o) of order 1 (module docstring) for unit vectors w_i = (x, y, z), z > 0 (above) and w_o,
+    z < 0 (below), each a tuple of arrays (broadcast); eta = n_lower / n_upper > 0, != 1."""
+    if not (eta > 0.0 and eta != 1.0):
+        raise ValueError(f"eta must be positive and not 1 (no interface: a delta), got {eta}")
+    ix, iy, iz = (np.asarray(c, float) for c in wi)
+    ox, oy, oz = (np.asarray(c, float) for c in wo)
+    s = -1.0 if eta > 1.0 else 1.0
+    hx, hy, hz = _unit(s * (ix + eta * ox), s * (iy + eta * oy), s * (iz + eta * oz))
+    c_i = ix * hx + iy * hy + iz * hz
+    c_o = ox * hx + oy * hy + oz * hz
+    valid = (hz > 0.0) & (c_i > 0.0) & (c_o < 0.0)
+    hz_safe = np.where(valid, hz, 1.0)
+    g2 = transmission_g2(lambda_(ix, iy, iz, alpha_x, alpha_y, distribution),
+                         lambda_(-ox, -oy, -oz, alpha_x, alpha_y, distribution))
+    f = (c_i * -c_o * eta * eta * (1.0 - fresnel_dielectric(np.clip(c_i, 0.0, 1.0), eta))
+         * ndf(hx, hy, hz_safe, alpha_x, alpha_y, distribution) * g2 / (iz * -oz * (c_i + eta * c_o) ** 2))
+    return np.where(valid, f, 0.0)
+
+
+def single_transmission_btdf(mu_o, phi_o, mu_i, alpha_x, alpha_y, distribution: str, eta: float):
+    """f_t for w_i = (s_i, 0, mu_i) and the transmitted w_o = (s_o cos phi_o, s_o sin phi_o, -mu_o),
+    mu_o = |mu_o| in (0, 1] (phi_o = pi: straight through)."""
+    s_i = math.sqrt(1.0 - mu_i * mu_i)
+    s_o = np.sqrt(1.0 - mu_o * mu_o)
+    return btdf((s_i, 0.0, mu_i), (s_o * np.cos(phi_o), s_o * np.sin(phi_o), -mu_o), alpha_x, alpha_y,
+                distribution, eta)
+
+
+def bin_average_transmission(mu_edges, phi_edges, mu_i, material, panels: int = 4, nodes: int = 12):
+    """Bin averages of f_t |mu_o| (1/sr) over the transmitted bins in (|mu_o|, |phi_o|): array [mu bin, phi bin]."""
+    # the facet that refracts w_i into w_o lies in the horizon at |mu_o| = mu_i / eta, where a GGX f_t
+    # jumps to 0 (D of a horizontal normal is not 0): a panel edge there
+    out = np.zeros((len(mu_edges) - 1, len(phi_edges) - 1))
+    for i in range(len(mu_edges) - 1):
+        mu, wmu = _rule(mu_edges[i], mu_edges[i + 1], panels, nodes, breaks=(mu_i / material.eta,))
+        for j in range(len(phi_edges) - 1):
+            ph, wph = _rule(phi_edges[j], phi_edges[j + 1], panels, nodes)
+            m, p = np.meshgrid(mu, ph, indexing="ij")
+            f = single_transmission_btdf(m, p, mu_i, material.alpha_x, material.alpha_y, material.distribution,
+                                         material.eta)
+            out[i, j] = np.einsum("i,j,ij->", wmu, wph, f * m) / ((mu_edges[i + 1] - mu_edges[i])
+                                                                  * (phi_edges[j + 1] - phi_edges[j]))
+    return out
+
+
+def normal_rule(alpha_x, alpha_y, distribution: str, radial: int = 96, azimuthal: int = 192):
+    """Nodes m (three arrays) and weights w with sum w g(m) ~ int g(m) D(m) m_z dm (module docstring, "The
+    normal rule"): Gauss-Legendre in v = sqrt(1 - u) on 4 panels and in the azimuth on 8 panels."""
+    v, wv = _rule(0.0, 1.0, 4, radial // 4)
+    ph, wph = _rule(0.0, 2.0 * math.pi, 8, azimuthal // 8)
+    u = 1.0 - v * v
+    r = np.sqrt(u) / v if distribution == "ggx" else np.sqrt(-2.0 * np.log(v))
+    weight = np.outer(2.0 * v * wv, wph / (2.0 * math.pi))
+    sx, sy = alpha_x * np.outer(r, np.cos(ph)), alpha_y * np.outer(r, np.sin(ph))
+    mx, my, mz = _unit(-sx, -sy, np.ones_like(sx))
+    return (mx.ravel(), my.ravel(), mz.ravel()), weight.ravel()
+
+
+def order_one_by_normals(mu_i, material, radial: int = 384, azimuthal: int = 768):
+    """(R_1, T_1) of a dielectric seen from above, integrated over the facet normals (module docstring)."""
+    eta = material.eta
+    ax, ay, dist = material.alpha_x, material.alpha_y, material.distribution
+    (mx, my, mz), w = normal_rule(ax, ay, dist, radial, azimuthal)
+    ix, iz = math.sqrt(1.0 - mu_i * mu_i), mu_i
+    c = ix * mx + iz * mz
+    seen = c > 0.0
+    c = np.where(seen, c, 0.0)
+    f = fresnel_dielectric(c, eta)
+    lam_i = lambda_(ix, 0.0, iz, ax, ay, dist)
+    # reflected: 2 c m - w_i; refracted: m (c / eta - c_t) - w_i / eta (as the walk's microsurface.refract)
+    rx, ry, rz = 2 * c * mx - ix, 2 * c * my, 2 * c * mz - iz
+    cos_t = np.sqrt(np.maximum(0.0, 1.0 - (1.0 - c * c) / (eta * eta)))
+    a = c / eta - cos_t
+    tx, ty, tz = _unit(a * mx - ix / eta, a * my, a * mz - iz / eta)
+    up, down = seen & (rz > 0.0), seen & (tz < 0.0) & (f < 1.0)
+    g_r = np.where(up, 1.0 / (1.0 + lam_i + lambda_(rx, ry, np.where(up, rz, 1.0), ax, ay, dist)), 0.0)
+    g_t = np.where(down, transmission_g2(lam_i, lambda_(-tx, -ty, np.where(down, -tz, 1.0), ax, ay, dist)), 0.0)
+    base = w * c / (mu_i * mz)
+    return float(np.sum(base * f * g_r)), float(np.sum(base * (1.0 - f) * g_t))
+
+
+def transmission_single(mu_i, material):
+    """The order-1 transmitted fraction int f_t |mu_o| dw_o (by the normals), and its method's name."""
+    return order_one_by_normals(mu_i, material)[1], "normal_quadrature"
+
+
+def diffuse_single_brdf(wi, wo, material, rule=None):
+    """f_1 of diffuse facets (module docstring) for w_i = (x, y, z) (floats, z > 0) and the arrays w_o
+    (z > 0); rule: a :func:`normal_rule` (default 96 x 192 nodes)."""
+    ax, ay, dist = material.alpha_x, material.alpha_y, material.distribution
+    (mx, my, mz), w = rule if rule is not None else normal_rule(ax, ay, dist)
+    ix, iy, iz = wi
+    ox, oy, oz = (np.asarray(c, float)[..., None] for c in wo)
+    ci = np.maximum(0.0, ix * mx + iy * my + iz * mz)
+    co = np.maximum(0.0, ox * mx + oy * my + oz * mz)
+    integral = np.sum(co * (w * ci / mz), axis=-1)
+    oz = oz[..., 0]
+    g2 = 1.0 / (1.0 + lambda_(ix, iy, iz, ax, ay, dist) + lambda_(ox[..., 0], oy[..., 0], oz, ax, ay, dist))
+    return material.albedo / math.pi * integral * g2 / (iz * oz)
+
+
+def bin_average_diffuse(mu_edges, phi_edges, mu_i, material, panels: int = 2, nodes: int = 6):
+    """Bin averages of the diffuse facets' f_1 mu_o (1/sr) over the reflected bins: array [mu bin, phi bin]."""
+    rule = normal_rule(material.alpha_x, material.alpha_y, material.distribution)
+    wi = (math.sqrt(1.0 - mu_i * mu_i), 0.0, mu_i)
+    out = np.zeros((len(mu_edges) - 1, len(phi_edges) - 1))
+    for i in range(len(mu_edges) - 1):
+        mu, wmu = _rule(mu_edges[i], mu_edges[i + 1], panels, nodes)
+        for j in range(len(phi_edges) - 1):
+            ph, wph = _rule(phi_edges[j], phi_edges[j + 1], panels, nodes)
+            m, p = np.meshgrid(mu, ph, indexing="ij")
+            s = np.sqrt(1.0 - m * m)
+            f = diffuse_single_brdf(wi, (s * np.cos(p), s * np.sin(p), m), material, rule)
+            out[i, j] = np.einsum("i,j,ij->", wmu, wph, f * m) / ((mu_edges[i + 1] - mu_edges[i])
+                                                                  * (phi_edges[j + 1] - phi_edges[j]))
+    return out
+
+
+def references(mu_edges, phi_edges, mu_i, material) -> dict:
+    """The order-1 references of a job: ``lobe`` (bin averages), ``albedo`` ((value, method)), and for a
+    dielectric ``lobe_transmission`` and ``transmission``."""
+    if material.kind == "diffuse":
+        return {"lobe": bin_average_diffuse(mu_edges, phi_edges, mu_i, material),
+                "albedo": albedo_single(mu_i, material)}
+    out = {"lobe": bin_average_single(mu_edges, phi_edges, mu_i, material), "albedo": albedo_single(mu_i, material)}
+    if material.kind == "dielectric":
+        out["lobe_transmission"] = bin_average_transmission(mu_edges, phi_edges, mu_i, material)
+        out["transmission"] = transmission_single(mu_i, material)
+    return out

@@ -11,12 +11,15 @@ Example::
 
     [[material]]
     label = "white"             # optional; default "material<i>"
-    kind = "conductor"          # "conductor" (mirror facets) or "diffuse" (Lambertian facets)
+    kind = "conductor"          # "conductor" (mirror facets), "diffuse" (Lambertian facets) or "dielectric"
     distribution = "ggx"        # "ggx" or "beckmann" slopes
     alpha = 0.5                 # or alpha_x = 0.3 and alpha_y = 0.6 (anisotropic); each in [1e-3, 2]
     fresnel = "one"             # conductor: "one" (F = 1), "schlick" (with f0 in [0, 1]),
                                 #   "conductor" (with eta in (0, 100], k in [0, 100]: eta + i k)
     # albedo = 0.8              # diffuse: the facets' albedo in [0, 1] (default 1)
+    # eta = 1.5                 # dielectric: n_lower / n_upper in [1e-6, 100], not 1 (required); light
+                                #   arrives from the upper medium; eta < 1 is light from inside a medium of
+                                #   index 1 / eta (the walk's flip symmetry), so that case needs no option
 
     [incident]
     mu_i = [0.5, 0.9]           # cosines in (0, 1]
@@ -25,6 +28,8 @@ Example::
     mu_o = 8                    # mu_o bins: a count (equal bins on [0, 1]) or increasing edges in [0, 1]
     phi = 6                     # |phi_o| bins on [0, pi] (phi = pi: the mirror side): count or edges
     orders = 4                  # orders 1..orders tallied one by one, the rest together (1..64)
+    transmission_lobe = true    # dielectrics: also the transmitted lobe, in (|mu_o|, |phi_o|) bins (default
+                                #   true; false keeps only its totals by order); ignored by opaque facets
 
     [precision]
     target_se = 0.01            # or {lobe = 0.02, albedo = 2e-3}: lobe rows in 1/sr (f mu_o), albedos in 1
@@ -67,7 +72,7 @@ _KNOWN = {
     "material": {"label", "kind", "distribution", "alpha", "alpha_x", "alpha_y", "fresnel", "f0", "eta", "k",
                  "albedo"},
     "incident": {"mu_i"},
-    "outgoing": {"mu_o", "phi", "orders"},
+    "outgoing": {"mu_o", "phi", "orders", "transmission_lobe"},
     "precision": {"target_se", "max_paths", "batch", "max_bounces", "slots"},
 }
 
@@ -95,8 +100,14 @@ class Material:
 
     @property
     def lossless(self) -> bool:
-        """Whether every scattering keeps the weight (F = 1 conductor, albedo-1 diffuse facets)."""
+        """Whether every scattering keeps the weight and reflects (F = 1 conductor, albedo-1 diffuse facets):
+        the reflected albedo of all orders is 1."""
         return (self.kind == "conductor" and self.fresnel == "one") or (self.kind == "diffuse" and self.albedo == 1.0)
+
+    @property
+    def conserves_energy(self) -> bool:
+        """Whether reflection and transmission of all orders add up to 1 (lossless, or a dielectric)."""
+        return self.lossless or self.kind == "dielectric"
 
 
 @dataclass(frozen=True)
@@ -115,6 +126,7 @@ class Scene:
     batch: int = 100_000
     max_bounces: int = 1000
     slots: int = 1024
+    transmission_lobe: bool = True
 
 
 def _line_index(text: str) -> dict:
@@ -231,10 +243,18 @@ def _material(ck: _Checker, m, i: int):
         wanted = ("albedo",)
         if "fresnel" in m:
             ck.fail("material", i, "fresnel", "a diffuse facet has no Fresnel factor (give albedo)")
+    if kind == "dielectric":
+        wanted = ("eta",)
+        if "fresnel" in m:
+            ck.fail("material", i, "fresnel", "a dielectric's Fresnel factor is the exact one of its eta (give eta)")
     ranges = {"f0": (0.0, 1.0), "eta": (1e-6, 100.0), "k": (0.0, 100.0), "albedo": (0.0, 1.0)}
     for key in ("f0", "eta", "k", "albedo"):
         if key in wanted:
             params[key] = ck.number(m, "material", i, key, *ranges[key], default=1.0 if key == "albedo" else None)
+            if kind == "dielectric" and key == "eta" and params[key] == 1.0:
+                ck.fail("material", i, key, "eta = 1 is no interface (every path passes straight through, the "
+                                            "transmitted lobe is a delta): give eta != 1")
+                params[key] = None
         elif key in m:
             ck.fail("material", i, key, f"not used by kind = {kind!r}" + (f" with fresnel = {fres!r}"
                                                                            if kind == "conductor" else ""))
@@ -302,6 +322,9 @@ def parse_scene(text: str, path: str = "<scene>") -> Scene:
     mu_edges = _edges(ck, out, "mu_o", 1.0, 8, "mu_o")
     phi_edges = _edges(ck, out, "phi", math.pi, 6, "|phi_o|")
     orders = ck.number(out, "outgoing", None, "orders", *LIMITS["orders"], default=4, integer=True)
+    transmission_lobe = out.get("transmission_lobe", True)
+    if not isinstance(transmission_lobe, bool):
+        ck.fail("outgoing", None, "transmission_lobe", f"expected true or false, got {transmission_lobe!r}")
 
     tse = prec.get("target_se")
     target = {}
@@ -330,7 +353,7 @@ def parse_scene(text: str, path: str = "<scene>") -> Scene:
         raise SceneError("\n".join(t for _, t in sorted(ck.errors, key=lambda e: e[0])))
     return Scene(path=str(path), name=name, description=description, seed=int(seed), materials=tuple(materials),
                  mu_i=mu_i, mu_edges=mu_edges, phi_edges=phi_edges, orders=int(orders), target_se=target,
-                 **{k: int(v) for k, v in nums.items()})
+                 transmission_lobe=transmission_lobe, **{k: int(v) for k, v in nums.items()})
 
 
 def load_scene(path) -> Scene:

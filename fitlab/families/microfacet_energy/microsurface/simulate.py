@@ -8,19 +8,26 @@ contribution x_p: the weight if the path ended there, else 0):
     mean = S1 / N,  se = sqrt((S2 / N - mean^2) / (N - 1)),
 
 * ``lobe`` rows: the bin average of f mu_o (1/sr), mean / Omega, Omega = 2 (mu_1 - mu_0)(phi_1 - phi_0);
-  order "1".."K" and ">K"; reference (order 1 only): :func:`.reference.bin_average_single`;
-* ``albedo`` rows: int f_k mu_o dw_o by order, and ``capped`` (paths stopped at max_bounces);
-  reference for order 1: :func:`.reference.albedo_single`;
+  order "1".."K" and ">K"; reference (order 1 only): :func:`.reference.bin_average_single` (conductor
+  and dielectric facets), :func:`.reference.bin_average_diffuse` (diffuse facets);
+* ``lobe_transmission`` rows (dielectrics, when the scene asks): the same for the transmitted lobe,
+  f_t |mu_o| in bins of |mu_o| (mu_lo, mu_hi) and |phi_o|; reference :func:`.reference.bin_average_transmission`;
+* ``albedo`` rows: int f_k mu_o dw_o by order (reflection), and ``capped`` (paths stopped at
+  max_bounces); reference for order 1: :func:`.reference.albedo_single`;
 * ``albedo_multiple``: orders >= 2 with the capped weight (each path contributes once, so the sums of
   S1 and S2 over the tallies are that row's own); reference 1 - E_1 for lossless materials (F = 1
   conductor, albedo-1 diffuse facets) whose order 1 has a reference;
-* ``albedo_total``: every order plus the capped weight; reference 1 for lossless materials (energy
-  conservation); ``transmission``: exits through the bottom (0 for opaque facets).
+* ``albedo_total``: every order plus the capped weight; reference 1 for lossless materials;
+* ``transmission``: exits through the bottom, by order for dielectrics (reference for order 1:
+  :func:`.reference.transmission_single`) and in all ("all"; 0 for opaque facets);
+* ``energy_total``: reflection and transmission of every order plus the capped weight; reference 1
+  (energy conservation) for lossless materials and dielectrics, where it holds path by path.
 
 z_ref = (estimate - reference) / se (NaN without a reference or with se = 0).
 
 Stopping rule, per job: after every round of ``batch`` paths, the job stops when every lobe row has
-se <= target_se["lobe"] and every albedo row se <= target_se["albedo"], after at least MIN_PATHS paths;
+se <= target_se["lobe"] and every albedo (transmission, energy) row se <= target_se["albedo"], after at
+least MIN_PATHS paths;
 a bin no path reached has no error estimate and counts as done when its rule-of-three bound
 3 / (N Omega) (95 % upper limit for no event of weight <= 1) is below the target; or when it has used
 ``max_paths`` (its rows then say converged = False: :func:`unconverged` names the job).
@@ -38,7 +45,7 @@ from pathlib import Path
 import numpy as np
 
 from fitlab._io import FolderError, atomic_write_bytes, atomic_write_text, check_output_folder
-from fitlab.families.microfacet_energy.microsurface.reference import albedo_single, bin_average_single
+from fitlab.families.microfacet_energy.microsurface.reference import references
 from fitlab.families.microfacet_energy.microsurface.scene import Scene, SceneError, load_scene, with_overrides
 from fitlab.families.microfacet_energy.microsurface.walk import (
     MaterialParams,
@@ -55,9 +62,9 @@ __all__ = ["claims", "SimulationResult", "SceneError", "simulate", "simulate_fil
 MIN_PATHS = 10_000
 ROW_FIELDS = ("quantity", "material", "kind", "distribution", "alpha_x", "alpha_y", "fresnel", "mu_i", "order",
               "mu_lo", "mu_hi", "phi_lo", "phi_hi", "estimate", "se", "reference", "z_ref", "reference_method",
-              "paths", "bounces", "seconds", "converged")
+              "paths", "bounces", "seconds", "converged", "eta")
 SUMMARY_FIELDS = ("material", "mu_i", "paths", "bounces", "seconds", "compile_seconds", "bounces_per_second",
-                  "worst_se_ratio", "converged", "max_abs_z_ref", "albedo_total", "capped")
+                  "worst_se_ratio", "converged", "max_abs_z_ref", "albedo_total", "capped", "transmission")
 
 
 @dataclass
@@ -84,7 +91,8 @@ class SimulationResult:
 def job_config(scene: Scene, material) -> WalkConfig:
     """The compiled configuration of a material's jobs."""
     return WalkConfig(distribution=material.distribution, kind=material.kind, fresnel=material.fresnel,
-                      orders=scene.orders, mu_edges=scene.mu_edges, phi_edges=scene.phi_edges, slots=scene.slots)
+                      orders=scene.orders, mu_edges=scene.mu_edges, phi_edges=scene.phi_edges, slots=scene.slots,
+                      transmission_lobe=scene.transmission_lobe and material.kind == "dielectric")
 
 
 def job_params(material) -> MaterialParams:
@@ -103,32 +111,47 @@ def _order_labels(k: int) -> list:
     return [str(j + 1) for j in range(k)] + [f">{k}"]
 
 
-def estimate_rows(scene: Scene, mi: int, ii: int, t: dict, references: dict | None = None) -> list:
-    """The rows of one job from its summed tallies ``t`` (references: from :func:`_references`, or None)."""
-    mat, mu_i, n = scene.materials[mi], scene.mu_i[ii], int(t["paths"])
-    base = dict(material=mat.label, kind=mat.kind, distribution=mat.distribution, alpha_x=mat.alpha_x,
-                alpha_y=mat.alpha_y, fresnel=mat.fresnel, mu_i=mu_i)
-    ref = references or {}
-    rows = []
-    labels = _order_labels(scene.orders)
-    mu_e, phi_e = np.asarray(scene.mu_edges), np.asarray(scene.phi_edges)
+def _lobe_rows(quantity, t, base, labels, mu_e, phi_e, n, reference):
     omega = 2.0 * np.outer(np.diff(mu_e), np.diff(phi_e))
-    mean, se = _mean_se(t["lobe"], t["lobe_sq"], n)
+    mean, se = _mean_se(t[quantity], t[quantity + "_sq"], n)
+    rows = []
     for k, lab in enumerate(labels):
         for i in range(len(mu_e) - 1):
             for j in range(len(phi_e) - 1):
-                r = dict(base, quantity="lobe", order=lab, mu_lo=mu_e[i], mu_hi=mu_e[i + 1], phi_lo=phi_e[j],
+                r = dict(base, quantity=quantity, order=lab, mu_lo=mu_e[i], mu_hi=mu_e[i + 1], phi_lo=phi_e[j],
                          phi_hi=phi_e[j + 1], estimate=mean[k, i, j] / omega[i, j], se=se[k, i, j] / omega[i, j],
                          _norm=omega[i, j], _n=n)
-                if k == 0 and "lobe" in ref:
-                    r.update(reference=ref["lobe"][i, j], reference_method="bin_quadrature")
+                if k == 0 and reference is not None:
+                    r.update(reference=reference[i, j], reference_method="bin_quadrature")
                 rows.append(r)
-    a_mean, a_se = _mean_se(t["albedo"], t["albedo_sq"], n)
+    return rows
+
+
+def _order_rows(quantity, t, base, labels, n, reference):
+    mean, se = _mean_se(t[quantity], t[quantity + "_sq"], n)
+    rows = []
     for k, lab in enumerate(labels):
-        r = dict(base, quantity="albedo", order=lab, estimate=a_mean[k], se=a_se[k], _n=n)
-        if k == 0 and "albedo" in ref:
-            r.update(reference=ref["albedo"][0], reference_method=ref["albedo"][1])
+        r = dict(base, quantity=quantity, order=lab, estimate=mean[k], se=se[k], _n=n)
+        if k == 0 and reference is not None:
+            r.update(reference=reference[0], reference_method=reference[1])
         rows.append(r)
+    return rows
+
+
+def estimate_rows(scene: Scene, mi: int, ii: int, t: dict, references: dict | None = None) -> list:
+    """The rows of one job from its summed tallies ``t`` (references: from :func:`_references`, or None)."""
+    mat, mu_i, n = scene.materials[mi], scene.mu_i[ii], int(t["paths"])
+    uses_eta = mat.kind == "dielectric" or (mat.kind == "conductor" and mat.fresnel == "conductor")
+    base = dict(material=mat.label, kind=mat.kind, distribution=mat.distribution, alpha_x=mat.alpha_x,
+                alpha_y=mat.alpha_y, fresnel="dielectric" if mat.kind == "dielectric" else mat.fresnel, mu_i=mu_i,
+                eta=mat.eta if uses_eta else math.nan)
+    ref = references or {}
+    labels = _order_labels(scene.orders)
+    mu_e, phi_e = np.asarray(scene.mu_edges), np.asarray(scene.phi_edges)
+    rows = _lobe_rows("lobe", t, base, labels, mu_e, phi_e, n, ref.get("lobe"))
+    if "lobe_transmission" in t:
+        rows += _lobe_rows("lobe_transmission", t, base, labels, mu_e, phi_e, n, ref.get("lobe_transmission"))
+    rows += _order_rows("albedo", t, base, labels, n, ref.get("albedo"))
     c_mean, c_se = _mean_se(t["capped"], t["capped_sq"], n)
     rows.append(dict(base, quantity="albedo", order="capped", estimate=float(c_mean), se=float(c_se), _n=n))
     ms_mean, ms_se = _mean_se(np.sum(t["albedo"][1:]) + t["capped"], np.sum(t["albedo_sq"][1:]) + t["capped_sq"], n)
@@ -141,8 +164,17 @@ def estimate_rows(scene: Scene, mi: int, ii: int, t: dict, references: dict | No
     if mat.lossless:
         r.update(reference=1.0, reference_method="energy_conservation")
     rows.append(r)
+    if mat.kind == "dielectric":
+        rows += _order_rows("transmission", t, base, labels, n, ref.get("transmission"))
     tr_mean, tr_se = _mean_se(np.sum(t["transmission"]), np.sum(t["transmission_sq"]), n)
     rows.append(dict(base, quantity="transmission", order="all", estimate=float(tr_mean), se=float(tr_se), _n=n))
+    # every path ends once (escaped up or down, or capped): the sums of S1 and S2 are this row's own
+    en_mean, en_se = _mean_se(np.sum(t["albedo"]) + np.sum(t["transmission"]) + t["capped"],
+                              np.sum(t["albedo_sq"]) + np.sum(t["transmission_sq"]) + t["capped_sq"], n)
+    r = dict(base, quantity="energy_total", order="all", estimate=float(en_mean), se=float(en_se), _n=n)
+    if mat.conserves_energy:
+        r.update(reference=1.0, reference_method="energy_conservation")
+    rows.append(r)
     for r in rows:
         if "reference" in r:
             r["z_ref"] = (r["estimate"] - r["reference"]) / r["se"] if r["se"] > 0 else math.nan
@@ -152,21 +184,17 @@ def estimate_rows(scene: Scene, mi: int, ii: int, t: dict, references: dict | No
 
 
 def _references(scene: Scene, mi: int, ii: int) -> dict:
-    """Order-1 references of a conductor job (lobe bin averages, albedo); none for diffuse facets."""
-    mat = scene.materials[mi]
-    if mat.kind != "conductor":
-        return {}
-    mu_i = scene.mu_i[ii]
-    return {"lobe": bin_average_single(scene.mu_edges, scene.phi_edges, mu_i, mat),
-            "albedo": albedo_single(mu_i, mat)}
+    """Order-1 references of a job (:func:`.reference.references`): lobe bin averages and albedo, and for a
+    dielectric the transmitted lobe and fraction."""
+    return references(scene.mu_edges, scene.phi_edges, scene.mu_i[ii], scene.materials[mi])
 
 
 def _job_done(scene: Scene, rows: list) -> tuple:
     worst = 0.0
     for r in rows:
-        if r["quantity"] in ("transmission",):
-            continue
-        target = scene.target_se["lobe" if r["quantity"] == "lobe" else "albedo"]
+        if r["quantity"] == "transmission" and r["kind"] != "dielectric":
+            continue  # opaque facets transmit nothing: no error estimate, and none needed
+        target = scene.target_se["lobe" if r["quantity"] in ("lobe", "lobe_transmission") else "albedo"]
         if r["se"] == 0.0:
             if r["estimate"] == 0.0 and 3.0 / (r["_n"] * r.get("_norm", 1.0)) > target:
                 return False, math.inf
@@ -208,12 +236,13 @@ def simulate(scene: Scene, progress: bool = False) -> SimulationResult:
             zs = [abs(r["z_ref"]) for r in rows if math.isfinite(r["z_ref"])]
             total = next(r for r in rows if r["quantity"] == "albedo_total")
             capped = next(r for r in rows if r["quantity"] == "albedo" and r["order"] == "capped")
+            trans = next(r for r in rows if r["quantity"] == "transmission" and r["order"] == "all")
             out.summary.append(dict(
                 material=mat.label, mu_i=mu_i, paths=st.paths, bounces=st.bounces, seconds=round(st.seconds, 3),
                 compile_seconds=round(st.compile_seconds, 3),
                 bounces_per_second=st.bounces / st.seconds if st.seconds > 0 else math.nan,
                 worst_se_ratio=st.se_ratio, converged=st.converged, max_abs_z_ref=max(zs, default=math.nan),
-                albedo_total=total["estimate"], capped=capped["estimate"]))
+                albedo_total=total["estimate"], capped=capped["estimate"], transmission=trans["estimate"]))
     out.wall_seconds = time.perf_counter() - t_start
     return out
 
@@ -234,7 +263,8 @@ def _csv(rows, fields):
 
 
 def _plot(result: SimulationResult, mi: int, ii: int, path: Path):
-    """One panel per order: the bin averages of f mu_o over (mu_o, |phi_o|); None without matplotlib."""
+    """One panel per order: the bin averages of f mu_o over (mu_o, |phi_o|), and a second row for the
+    transmitted lobe (f_t |mu_o| over (|mu_o|, |phi_o|)) when it was tallied; None without matplotlib."""
     try:
         import matplotlib
 
@@ -246,16 +276,19 @@ def _plot(result: SimulationResult, mi: int, ii: int, path: Path):
     mu_e, phi_e = np.asarray(scene.mu_edges), np.asarray(scene.phi_edges)
     omega = 2.0 * np.outer(np.diff(mu_e), np.diff(phi_e))
     labels = _order_labels(scene.orders)
-    fig, axes = plt.subplots(1, len(labels), figsize=(3.0 * len(labels), 3.0), squeeze=False)
-    for k, lab in enumerate(labels):
-        ax = axes[0, k]
-        im = ax.pcolormesh(phi_e, mu_e, t["lobe"][k] / (t["paths"] * omega), shading="flat")
-        ax.set_title(f"order {lab}")
-        ax.set_xlabel("|phi_o| (pi: mirror)")
-        if k == 0:
-            ax.set_ylabel("mu_o")
-        fig.colorbar(im, ax=ax)
-    fig.suptitle(f"{scene.name}: {scene.materials[mi].label}, mu_i = {scene.mu_i[ii]:g}  (f mu_o, 1/sr)")
+    lobes = [("lobe", "mu_o", "mirror")] + ([("lobe_transmission", "|mu_o|, transmitted", "straight through")]
+                                            if "lobe_transmission" in t else [])
+    fig, axes = plt.subplots(len(lobes), len(labels), figsize=(3.0 * len(labels), 3.0 * len(lobes)), squeeze=False)
+    for row, (name, ylabel, pi_side) in enumerate(lobes):
+        for k, lab in enumerate(labels):
+            ax = axes[row, k]
+            im = ax.pcolormesh(phi_e, mu_e, t[name][k] / (t["paths"] * omega), shading="flat")
+            ax.set_title(f"order {lab}" + (" (transmitted)" if row else ""))
+            ax.set_xlabel(f"|phi_o| (pi: {pi_side})")
+            if k == 0:
+                ax.set_ylabel(ylabel)
+            fig.colorbar(im, ax=ax)
+    fig.suptitle(f"{scene.name}: {scene.materials[mi].label}, mu_i = {scene.mu_i[ii]:g}  (f |mu_o|, 1/sr)")
     fig.tight_layout()
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=80)
@@ -282,13 +315,15 @@ def write_outputs(result: SimulationResult, out_dir, plots: bool = True) -> list
 
 
 def summary_table(result: SimulationResult) -> str:
-    """A plain-text table of the summary, one line per job."""
+    """A plain-text table of the summary, one line per job (total: reflected albedo of all orders with the
+    capped weight; trans: transmitted fraction)."""
     lines = [f"{'material':<16}{'mu_i':>6}{'paths':>11}{'bounces':>11}{'seconds':>9}{'bounce/s':>11}"
-             f"{'se/tgt':>8}{'conv':>6}{'max|z|':>8}{'total':>10}"]
+             f"{'se/tgt':>8}{'conv':>6}{'max|z|':>8}{'total':>10}{'trans':>10}"]
     for s in result.summary:
         lines.append(f"{s['material']:<16}{s['mu_i']:>6.3g}{s['paths']:>11}{s['bounces']:>11}{s['seconds']:>9.2f}"
                      f"{s['bounces_per_second']:>11.3g}{s['worst_se_ratio']:>8.2f}"
-                     f"{'yes' if s['converged'] else 'NO':>6}{s['max_abs_z_ref']:>8.2f}{s['albedo_total']:>10.6f}")
+                     f"{'yes' if s['converged'] else 'NO':>6}{s['max_abs_z_ref']:>8.2f}{s['albedo_total']:>10.6f}"
+                     f"{s['transmission']:>10.6f}")
     comp = sum(st.compile_seconds for st in result.jobs.values())
     lines.append(f"wall {result.wall_seconds:.1f} s (compilation {comp:.1f} s), {len(result.jobs)} jobs")
     return "\n".join(lines)

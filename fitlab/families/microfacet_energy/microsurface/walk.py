@@ -9,7 +9,21 @@ microsurface (h = 1, C1 = 1) travelling along -w_i with weight 1.  Repeat:
 2. else scatter (n <- n + 1): m from the visible normals of w_i' = -w (``sample_vndf``), then
    * conductor: w <- reflect(-w, m), weight *= F(w_i'.m) (:mod:`.fresnel`);
    * diffuse facets: w <- a cosine-distributed direction about m (Lambertian facet), weight *= albedo
-     (the new w may point below the macro surface: step 1 takes it down).
+     (the new w may point below the macro surface: step 1 takes it down);
+   * dielectric: with probability F(w_i'.m) (the exact dielectric Fresnel of the relative index of the
+     side the ray is on, 1 under total internal reflection) w <- reflect(-w, m), else w <- the direction
+     refracted through m and the ray changes side; the weight stays 1.
+
+Dielectrics (the paper's MicrosurfaceDielectric): the ray alternates between the upper medium (index 1)
+and the lower one (relative index eta = n_lower / n_upper).  Seen from below, the microsurface is the same
+Smith microsurface flipped, h -> -h and w -> -w (uniform heights and the slope distributions are symmetric
+under it), so the walk keeps (h, w) in the frame of the side the ray is on, where the ray always comes
+from "above": steps 1 and 2 are the same on both sides, with relative index eta outside and 1 / eta
+inside.  A refraction changes the side and flips the state, (h, w) <- (-h, -w_t).  A ray escaping from the
+outside frame is reflected (physical w = w, mu_o > 0); one escaping from the inside frame is transmitted
+(physical w = -w_local, mu_o < 0).  Light arrives from outside (mu_i > 0).  Light from inside with index
+ratio eta is the same walk as light from outside with 1 / eta (the flip maps one onto the other,
+reflected and transmitted lobes mirrored in z, relative azimuths kept), so it needs no option of its own.
 
 The order-1 lobe is the single-scattering microfacet BRDF with the height-correlated Smith
 masking-shadowing G2 = 1 / (1 + Lambda(w_i) + Lambda(w_o)) (paper, section 5; the tests check it).
@@ -26,9 +40,12 @@ Tallies (per round of paths; sums over paths of the weight w and of w^2, each pa
 * ``lobe[k, i, j]`` (and ``lobe_sq``): escapes of order k + 1 (k = K: every order above K) in mu_o bin
   i and |phi_o| bin j; E[lobe / N] = int over the bin (both signs of phi) of f_k mu_o dw_o, so the
   bin average of f_k mu_o is lobe / (N Omega), Omega = 2 (mu_1 - mu_0)(phi_1 - phi_0).
+* ``lobe_transmission[k, i, j]`` (``lobe_transmission_sq``; only when ``WalkConfig.transmission_lobe``):
+  the same for transmitted escapes, binned by |mu_o| and |phi_o| (phi = pi: the straight-through side,
+  where the refracted peak lies): the bin average of f_t,k |mu_o|.
 * ``albedo[k]`` (``albedo_sq``): escapes of order k + 1 (k = K: above K) anywhere: the albedo by order.
-* ``transmission[k]`` (``transmission_sq``): escapes through the bottom (none for the opaque
-  materials here; kept for dielectrics).
+* ``transmission[k]`` (``transmission_sq``): transmitted escapes (through the bottom) by order (none for
+  the opaque materials).
 * ``capped``, ``capped_sq``: weight of paths stopped at ``max_bounces``; ``paths``; ``bounces`` (the
   scattering events of all paths).
 
@@ -40,6 +57,12 @@ equal up to the order of summation; exactly equal when the weights are 1).
 
 Vectorisation: a pool of ``slots`` lanes runs one event per lane per loop iteration; a lane whose path
 ended takes the next id at once, so lanes idle only at the end of a round.
+
+Devices: the walk runs under ``jax.shard_map`` on a 1-D mesh (default: every device JAX sees, see
+:func:`default_mesh`); device d walks the d-th contiguous slice of the round's ids with its own lane
+pool, and the tallies are summed over devices (``psum``).  As paths depend only on their ids, a mesh of
+any size gives the same paths, and the same tallies up to the order of summation (exactly, when every
+weight is 1).  On one device the mesh changes nothing.
 """
 
 from __future__ import annotations
@@ -51,22 +74,33 @@ from functools import partial
 import jax
 import jax.numpy as jnp
 import numpy as np
+from jax.sharding import Mesh, PartitionSpec
 
 from fitlab.core import float64
-from fitlab.families.microfacet_energy.microsurface.fresnel import fresnel_factor
-from fitlab.families.microfacet_energy.microsurface.microsurface import ESCAPED, reflect, sample_height, sample_vndf
+from fitlab.families.microfacet_energy.microsurface.fresnel import FRESNEL, dielectric, fresnel_factor
+from fitlab.families.microfacet_energy.microsurface.microsurface import (
+    DISTRIBUTIONS,
+    ESCAPED,
+    reflect,
+    refract,
+    sample_height,
+    sample_vndf,
+)
 
-__all__ = ["WalkConfig", "MaterialParams", "KINDS", "run_round", "compile_walk", "job_key", "TALLY_NAMES"]
+__all__ = ["WalkConfig", "MaterialParams", "KINDS", "run_round", "compile_walk", "job_key", "default_mesh",
+           "TALLY_NAMES"]
 
-KINDS = ("conductor", "diffuse")
-TALLY_NAMES = ("lobe", "albedo", "transmission", "capped")
+KINDS = ("conductor", "diffuse", "dielectric")
+TALLY_NAMES = ("lobe", "lobe_transmission", "albedo", "transmission", "capped")
+AXIS = "paths"
 _UNIFORMS = 5
 
 
 @dataclass(frozen=True)
 class WalkConfig:
-    """What is compiled: the slope distribution, the material kind and Fresnel form, the number of
-    orders tallied one by one, the bin edges, and the lanes."""
+    """What is compiled: the slope distribution, the material kind and Fresnel form (conductors), the number
+    of orders tallied one by one, the bin edges, the lanes per device, and whether the transmitted lobe is
+    tallied (dielectrics)."""
 
     distribution: str = "ggx"
     kind: str = "conductor"
@@ -75,11 +109,27 @@ class WalkConfig:
     mu_edges: tuple = (0.0, 0.5, 1.0)
     phi_edges: tuple = (0.0, np.pi)
     slots: int = 1024
+    transmission_lobe: bool = False
+
+    def __post_init__(self):
+        if self.distribution not in DISTRIBUTIONS:
+            raise ValueError(f"distribution must be one of {DISTRIBUTIONS}, got {self.distribution!r}")
+        if self.kind not in KINDS:
+            raise ValueError(f"kind must be one of {KINDS}, got {self.kind!r}")
+        if self.fresnel not in FRESNEL:
+            raise ValueError(f"fresnel must be one of {FRESNEL}, got {self.fresnel!r}")
+        if self.transmission_lobe and self.kind != "dielectric":
+            raise ValueError("only a dielectric transmits: transmission_lobe needs kind='dielectric'")
+        for name, edges in (("mu_edges", self.mu_edges), ("phi_edges", self.phi_edges)):
+            e = np.asarray(edges, dtype=float)
+            if e.size < 2 or np.any(np.diff(e) <= 0):
+                raise ValueError(f"{name} must hold at least 2 strictly increasing edges")
 
 
 @dataclass(frozen=True)
 class MaterialParams:
-    """Run-time parameters: alpha_x, alpha_y > 0; f0 (schlick); eta, k (conductor); albedo (diffuse)."""
+    """Run-time parameters: alpha_x, alpha_y > 0; f0 (schlick); eta, k (conductor: eta + i k; dielectric:
+    eta = n_lower / n_upper > 0); albedo (diffuse)."""
 
     alpha_x: float
     alpha_y: float
@@ -91,13 +141,12 @@ class MaterialParams:
 
 def _zero_tallies(cfg: WalkConfig) -> dict:
     nk = cfg.orders + 1
-    shape = (nk, len(cfg.mu_edges), len(cfg.phi_edges))  # one extra row/column: outside every bin
-    z = {}
-    for name in ("lobe",):
-        z[name], z[name + "_sq"] = jnp.zeros(shape), jnp.zeros(shape)
-    for name in ("albedo", "transmission"):
-        z[name], z[name + "_sq"] = jnp.zeros(nk), jnp.zeros(nk)
-    z["capped"], z["capped_sq"] = jnp.zeros(()), jnp.zeros(())
+    sides = 2 if cfg.transmission_lobe else 1
+    shape = (sides, nk, len(cfg.mu_edges), len(cfg.phi_edges))  # one extra row/column: outside every bin
+    z = {"lobe": jnp.zeros(shape), "lobe_sq": jnp.zeros(shape),
+         # [0]: escapes upwards (reflection), [1]: downwards (transmission), by order
+         "exits": jnp.zeros((2, nk)), "exits_sq": jnp.zeros((2, nk)),
+         "capped": jnp.zeros(()), "capped_sq": jnp.zeros(())}
     z["paths"], z["bounces"] = jnp.zeros((), jnp.int64), jnp.zeros((), jnp.int64)
     return z
 
@@ -131,7 +180,8 @@ def _cosine_about(mx, my, mz, u1, u2):
 
 
 def _step(carry, key, params, mu_i, hi, cap, cfg: WalkConfig):
-    (alive, pid, order, h, wx, wy, wz, weight), tallies, next_id = carry
+    # (h, w) are in the frame of the side the ray is on (module docstring, "Dielectrics"); inside: below
+    (alive, pid, order, h, wx, wy, wz, weight, inside), tallies, next_id = carry
     # refill: dead lanes take the next ids in lane order
     dead = ~alive
     rank = jnp.cumsum(dead.astype(jnp.int64)) - 1
@@ -144,6 +194,7 @@ def _step(carry, key, params, mu_i, hi, cap, cfg: WalkConfig):
     h = jnp.where(start, 1.0, h)
     wx, wy, wz = jnp.where(start, -s_i, wx), jnp.where(start, 0.0, wy), jnp.where(start, -mu_i, wz)
     weight = jnp.where(start, 1.0, weight)
+    inside = inside & ~start
     alive = alive | start
 
     u = jax.vmap(lambda i, n: jax.random.uniform(jax.random.fold_in(jax.random.fold_in(key, i), n), (_UNIFORMS,),
@@ -156,20 +207,26 @@ def _step(carry, key, params, mu_i, hi, cap, cfg: WalkConfig):
     capped = alive & ~escaped & (order >= cap)
     scatters = alive & ~escaped & ~capped
 
-    # tallies of the paths that end here
+    # tallies of the paths that end here; an escape is always upwards in the frame of its side
     k = jnp.minimum(order, cfg.orders + 1) - 1  # order 1..K -> 0..K-1, above K -> K
     k = jnp.where(escaped, k, 0)
-    w_up = jnp.where(escaped & (wz > 0.0), weight, 0.0)
-    w_down = jnp.where(escaped & (wz <= 0.0), weight, 0.0)
-    bi = _bin(wz, cfg.mu_edges)
-    bj = _bin(jnp.abs(jnp.arctan2(wy, wx)), cfg.phi_edges)
+    side = inside.astype(jnp.int32)
+    w_out = jnp.where(escaped, weight, 0.0)
+    bi = _bin(wz, cfg.mu_edges)  # |mu_o|
+    if cfg.kind == "dielectric":  # physical azimuth: the inside frame is the point reflection of the outside
+        bj = _bin(jnp.abs(jnp.arctan2(jnp.where(inside, -wy, wy), jnp.where(inside, -wx, wx))), cfg.phi_edges)
+    else:
+        bj = _bin(jnp.abs(jnp.arctan2(wy, wx)), cfg.phi_edges)
     t = dict(tallies)
-    t["lobe"] = t["lobe"].at[k, bi, bj].add(w_up)
-    t["lobe_sq"] = t["lobe_sq"].at[k, bi, bj].add(w_up * w_up)
-    t["albedo"] = t["albedo"].at[k].add(w_up)
-    t["albedo_sq"] = t["albedo_sq"].at[k].add(w_up * w_up)
-    t["transmission"] = t["transmission"].at[k].add(w_down)
-    t["transmission_sq"] = t["transmission_sq"].at[k].add(w_down * w_down)
+    if cfg.transmission_lobe:
+        t["lobe"] = t["lobe"].at[side, k, bi, bj].add(w_out)
+        t["lobe_sq"] = t["lobe_sq"].at[side, k, bi, bj].add(w_out * w_out)
+    else:
+        w_up = jnp.where(inside, 0.0, w_out)
+        t["lobe"] = t["lobe"].at[0, k, bi, bj].add(w_up)
+        t["lobe_sq"] = t["lobe_sq"].at[0, k, bi, bj].add(w_up * w_up)
+    t["exits"] = t["exits"].at[side, k].add(w_out)
+    t["exits_sq"] = t["exits_sq"].at[side, k].add(w_out * w_out)
     w_cap = jnp.where(capped, weight, 0.0)
     t["capped"] = t["capped"] + jnp.sum(w_cap)
     t["capped_sq"] = t["capped_sq"] + jnp.sum(w_cap * w_cap)
@@ -179,30 +236,56 @@ def _step(carry, key, params, mu_i, hi, cap, cfg: WalkConfig):
     # scattering from the facet met at h_next
     vx, vy, vz = -wx, -wy, -wz
     mx, my, mz = sample_vndf(vx, vy, vz, u[:, 1], u[:, 2], ax, ay, cfg.distribution)
+    h_out = h_next
     if cfg.kind == "conductor":
         ox, oy, oz = reflect(vx, vy, vz, mx, my, mz)
         cos_d = jnp.clip(vx * mx + vy * my + vz * mz, 0.0, 1.0)
-        factor = fresnel_factor(cfg.fresnel, cos_d, params.f0, params.eta, params.k)
-    else:
+        weight = jnp.where(scatters, weight * fresnel_factor(cfg.fresnel, cos_d, params.f0, params.eta, params.k),
+                           weight)
+    elif cfg.kind == "diffuse":
         ox, oy, oz = _cosine_about(mx, my, mz, u[:, 3], u[:, 4])
-        factor = params.albedo
+        weight = jnp.where(scatters, weight * params.albedo, weight)
+    else:  # dielectric: reflect with probability F, else refract and change side; the weight stays 1
+        eta = jnp.where(inside, 1.0 / params.eta, params.eta)
+        cos_d = jnp.clip(vx * mx + vy * my + vz * mz, 0.0, 1.0)
+        reflects = u[:, 3] < dielectric(cos_d, eta)
+        rx, ry, rz = reflect(vx, vy, vz, mx, my, mz)
+        tx, ty, tz = refract(vx, vy, vz, mx, my, mz, eta)
+        ox, oy, oz = jnp.where(reflects, rx, -tx), jnp.where(reflects, ry, -ty), jnp.where(reflects, rz, -tz)
+        h_out = jnp.where(reflects, h_next, -h_next)
+        inside = jnp.where(scatters, inside ^ ~reflects, inside)
     wx, wy, wz = jnp.where(scatters, ox, wx), jnp.where(scatters, oy, wy), jnp.where(scatters, oz, wz)
-    weight = jnp.where(scatters, weight * factor, weight)
-    h = jnp.where(scatters, h_next, h)
+    h = jnp.where(scatters, h_out, h)
     order = jnp.where(scatters, order + 1, order)
     alive = scatters
-    return (alive, pid, order, h, wx, wy, wz, weight), t, next_id + n_started
+    return (alive, pid, order, h, wx, wy, wz, weight, inside), t, next_id + n_started
 
 
 def _walk(key_data, params, mu_i, lo, hi, cap, cfg: WalkConfig):
+    """Run path ids [lo, hi) to completion on one device; returns the tallies."""
     key = jax.random.wrap_key_data(key_data)
     p = cfg.slots
     lanes = (jnp.zeros(p, bool), jnp.zeros(p, jnp.int64), jnp.zeros(p, jnp.int64), jnp.ones(p), jnp.zeros(p),
-             jnp.zeros(p), jnp.zeros(p), jnp.ones(p))
+             jnp.zeros(p), jnp.zeros(p), jnp.ones(p), jnp.zeros(p, bool))
     carry = (lanes, _zero_tallies(cfg), lo)
     body = partial(_step, key=key, params=params, mu_i=mu_i, hi=hi, cap=cap, cfg=cfg)
     carry = jax.lax.while_loop(lambda c: (c[2] < hi) | jnp.any(c[0][0]), body, carry)
     return carry[1]
+
+
+def _walk_fn(cfg: WalkConfig, mesh: Mesh):
+    ndev = mesh.size
+
+    def per_device(key_data, params, mu_i, lo, hi, cap):
+        d = jax.lax.axis_index(AXIS).astype(jnp.int64)
+        per = (hi - lo + ndev - 1) // ndev
+        a = jnp.minimum(lo + d * per, hi)
+        b = jnp.minimum(a + per, hi)
+        tallies = _walk(key_data, params, mu_i, a, b, cap, cfg)
+        return jax.tree_util.tree_map(lambda x: jax.lax.psum(x, AXIS), tallies)
+
+    rep = PartitionSpec()
+    return jax.jit(jax.shard_map(per_device, mesh=mesh, in_specs=(rep,) * 6, out_specs=rep, check_vma=False))
 
 
 jax.tree_util.register_pytree_node(
@@ -211,20 +294,28 @@ jax.tree_util.register_pytree_node(
     lambda _, c: MaterialParams(*c),
 )
 
+
+def default_mesh() -> Mesh:
+    """A 1-D mesh over every device JAX sees (one device: sharding changes nothing)."""
+    return Mesh(np.array(jax.devices()), (AXIS,))
+
+
 _COMPILED: dict = {}
 
 
 @float64
-def compile_walk(cfg: WalkConfig) -> float:
-    """Compile the walk of ``cfg`` once (cached); returns the seconds it took (0 when cached)."""
-    if cfg in _COMPILED:
+def compile_walk(cfg: WalkConfig, mesh: Mesh | None = None) -> float:
+    """Compile the walk of ``cfg`` on ``mesh`` (default: :func:`default_mesh`) once (cached); returns the
+    seconds it took (0 when cached)."""
+    mesh = mesh or default_mesh()
+    if (cfg, mesh) in _COMPILED:
         return 0.0
     t0 = time.perf_counter()
     f64 = jax.ShapeDtypeStruct((), jnp.float64)
     i64 = jax.ShapeDtypeStruct((), jnp.int64)
     params = MaterialParams(*(f64,) * 6)
     args = (jax.ShapeDtypeStruct((2,), jnp.uint32), params, f64, i64, i64, i64)
-    _COMPILED[cfg] = jax.jit(partial(_walk, cfg=cfg)).lower(*args).compile()
+    _COMPILED[(cfg, mesh)] = _walk_fn(cfg, mesh).lower(*args).compile()
     return time.perf_counter() - t0
 
 
@@ -237,25 +328,37 @@ def job_key(seed: int, material: int, incident: int) -> np.ndarray:
 
 @float64
 def run_round(cfg: WalkConfig, key_data, params: MaterialParams, mu_i: float, first_id: int, n_paths: int,
-              max_bounces: int = 1000) -> dict:
+              max_bounces: int = 1000, mesh: Mesh | None = None) -> dict:
     """Run paths first_id .. first_id + n_paths - 1 of the job whose key is ``key_data``; tallies as numpy.
 
-    mu_i in (0, 1]; alpha_x, alpha_y > 0; ids below 2^32; max_bounces >= 1.  The outside-every-bin
-    row and column of ``lobe`` are removed."""
+    mu_i in (0, 1]; alpha_x, alpha_y > 0; a dielectric's eta > 0; ids below 2^32; max_bounces >= 1; mesh:
+    the devices (default :func:`default_mesh`; the tallies do not depend on it beyond the order of
+    summation).  The outside-every-bin row and column of the lobes are removed; ``lobe_transmission``
+    is there when ``cfg.transmission_lobe``."""
     if not 0.0 < mu_i <= 1.0:
         raise ValueError(f"mu_i must lie in (0, 1], got {mu_i}")
     if not (params.alpha_x > 0.0 and params.alpha_y > 0.0):
         raise ValueError("alpha_x and alpha_y must be positive")
+    if cfg.kind == "dielectric" and not params.eta > 0.0:
+        raise ValueError(f"a dielectric's eta must be positive, got {params.eta}")
     if first_id < 0 or n_paths < 1 or first_id + n_paths > 2**32:
         raise ValueError("path ids must lie in [0, 2^32)")
     if max_bounces < 1:
         raise ValueError("max_bounces must be >= 1")
-    compile_walk(cfg)
+    mesh = mesh or default_mesh()
+    compile_walk(cfg, mesh)
     p = MaterialParams(*(jnp.float64(v) for v in (params.alpha_x, params.alpha_y, params.f0, params.eta, params.k,
                                                    params.albedo)))
-    out = _COMPILED[cfg](jnp.asarray(key_data, jnp.uint32), p, jnp.float64(mu_i), jnp.int64(first_id),
-                         jnp.int64(first_id + n_paths), jnp.int64(max_bounces))
-    res = {k: np.asarray(v) for k, v in out.items()}
-    for name in ("lobe", "lobe_sq"):
-        res[name] = res[name][:, :-1, :-1]
+    out = _COMPILED[(cfg, mesh)](jnp.asarray(key_data, jnp.uint32), p, jnp.float64(mu_i), jnp.int64(first_id),
+                                 jnp.int64(first_id + n_paths), jnp.int64(max_bounces))
+    out = {k: np.asarray(v) for k, v in out.items()}
+    res = {}
+    for suffix in ("", "_sq"):
+        lobe = out["lobe" + suffix][:, :, :-1, :-1]
+        res["lobe" + suffix] = lobe[0]
+        if cfg.transmission_lobe:
+            res["lobe_transmission" + suffix] = lobe[1]
+        res["albedo" + suffix], res["transmission" + suffix] = out["exits" + suffix][0], out["exits" + suffix][1]
+        res["capped" + suffix] = out["capped" + suffix]
+    res["paths"], res["bounces"] = out["paths"], out["bounces"]
     return res
