@@ -23,7 +23,7 @@ from fitlab.cli import main
 
 ROOT = Path(__file__).resolve().parents[1]
 FITS = ROOT / "fitlab" / "fits"
-GENERATED = FITS / "generated" / "lambert_sphere.py"
+GENERATED = FITS / "generated" / "lambert_sphere_drjit.py"
 
 
 class Started(BaseException):
@@ -160,7 +160,8 @@ BAD = [
     (["render", "--generated", str(GENERATED), "--size", "1e9"], "--size"),
     (["render", "--generated", str(GENERATED), "--spp", "abc"], "--spp"),
     (["render", "--generated", str(GENERATED), "--lights", "9"], "--lights"),
-    (["render", "--generated", "/nonexistent.py"], "fitlab codegen --lang python"),
+    (["render", "--generated", "/nonexistent.py"], "fitlab codegen --lang drjit"),
+    (["render", "--generated", str(GENERATED), "--variant", "cuda_ad_rgb"], "invalid choice"),
     (["discover", "--target", "H0", "--max-terms", "0"], "--max-terms"),
     (["discover", "--target", "H0", "--minimax-rounds", "-1"], "--minimax-rounds"),
     (["discover", "--target", "nope"], "no discovery library"),

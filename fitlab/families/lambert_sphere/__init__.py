@@ -56,7 +56,7 @@ FAMILY = register_family(
             "report": _report,
             "tables": _lazy("tabulate"),  # write_tables, check_tables, TABLE_FILES
             "audit": _lazy("audit"),  # run_audit
-            "render": _lazy("render"),  # load_generated, render_comparison, RenderError
+            "render": _lazy("render"),  # check_generated, llvm_problem, render_comparison, RenderError
             "simulate": _lazy("mc.simulate"),  # simulate_file, summary_table, unconverged, SceneError
             "bench": _lazy("bench"),  # bench_exact, bench_codegen, bench_mc
         },

@@ -41,7 +41,7 @@ from pathlib import Path
 
 from fitlab.resources import packaged_fits
 
-__all__ = ["register", "load_drjit_module", "bsdf_class", "PLUGIN", "DRJIT_FILE", "REQUIRED"]
+__all__ = ["register", "load_drjit_module", "bsdf_class", "PluginError", "PLUGIN", "DRJIT_FILE", "REQUIRED", "PARAMETERS"]
 
 #: the name the plugin is registered under
 PLUGIN = "lambert_sphere"
@@ -72,6 +72,9 @@ def load_drjit_module(path: Path | None = None):
     missing = [n for n in REQUIRED if not hasattr(module, n)]
     if missing:
         raise PluginError(f"{path}: not a generated Lambert-sphere Dr.Jit module (no {', '.join(missing)})")
+    if type(getattr(module, "dr", None)).__name__ != "module" or module.dr.__name__ != "drjit":
+        raise PluginError(f"{path}: not a generated Dr.Jit module (it does not compute with drjit; "
+                          "`fitlab codegen --lang drjit` makes one)")
     return module
 
 
@@ -100,7 +103,7 @@ def bsdf_class(generated=None):
 
         def __init__(self, props):
             mi.BSDF.__init__(self, props)
-            given = [name for name in PARAMETERS if props.has_property(name)]
+            given = [name for name in PARAMETERS if name in props]
             if len(given) > 1:
                 raise ValueError(f"{PLUGIN}: give reflectance (the spherical albedo kd) or albedo (the particle "
                                  "albedo c), not both")  # fmt: skip

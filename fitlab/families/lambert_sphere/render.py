@@ -1,28 +1,28 @@
-r"""A real consumer of the generated code: Mitsuba 3 (scalar_rgb) renders spheres
-with the generated Python BRDF, beside Lambert, Oren-Nayar and Chandrasekhar.
+r"""A real consumer of the generated code: Mitsuba 3 renders spheres with the registered ``lambert_sphere``
+plugin (:mod:`.mitsuba_plugin`, the generated Dr.Jit module), beside Lambert, Oren-Nayar and Chandrasekhar.
 
-:class:`FunctionBSDF` is one small Mitsuba BSDF plugin around any function
-``f(wi, wo) -> 1/sr`` of local-frame unit vectors (z the normal, both pointing
-away from the surface): ``eval`` returns f cos(theta_o), ``sample`` draws
-cosine-weighted directions.  The Lambert-sphere BRDF is the generated module
-(``fits/generated/lambert_sphere.py``, loaded from its file: it needs only
-numpy); the others are here for comparison:
+Every material is vectorised with Dr.Jit, so that a render runs in ``llvm_ad_rgb`` (one kernel for the whole
+image) where Dr.Jit's LLVM backend works, and in ``scalar_rgb`` otherwise (:func:`resolve_variant`):
 
+* Lambert sphere: the plugin, ``{"type": "lambert_sphere", "reflectance": kd}``.
 * Lambert: Mitsuba's own ``diffuse`` with reflectance kd.
-* Oren-Nayar (qualitative model, RTR ch. 9): f = kd/pi (A + B max(0, cos phi) sin(alpha) tan(beta)).
-* Chandrasekhar's BRDF of sparse mirror spheres (isotropic scattering;
-  docs/model.md, "Neighbouring models"):
-  f = c H(mu_i) H(mu_o) / (4 pi (mu_i + mu_o)), H from :mod:`fitlab.families.lambert_sphere.exact`, c chosen so
-  that its spherical albedo is kd.
+* Oren-Nayar (qualitative model, RTR ch. 9): f = kd/pi (A + B max(0, cos phi) sin(alpha) tan(beta)), printed
+  in Dr.Jit from its sympy expression (:mod:`fitlab.families.lambert_sphere.forms.baselines`).
+* Chandrasekhar's BRDF of sparse mirror spheres (isotropic scattering; docs/model.md, "Neighbouring models"):
+  f = c H(mu_i) H(mu_o) / (4 pi (mu_i + mu_o)), H from :mod:`fitlab.families.lambert_sphere.exact` on a table
+  (linear interpolation), c chosen so that its spherical albedo is kd.
 
-Every material is given the same spherical albedo kd (for the Lambert sphere,
-c = c_of_kd(kd) of the generated module), so differences are of shape only.
+The last two are :func:`function_bsdf` objects: f(wi, wo) of local-frame vectors, cosine-weighted sampling.
+Every material is given the same spherical albedo kd, so differences are of shape only.
 """
 
 from __future__ import annotations
 
 import importlib.util
 import io
+import subprocess
+import sys
+import types
 from functools import lru_cache
 from pathlib import Path
 
@@ -31,12 +31,11 @@ from tqdm import tqdm
 
 from fitlab._io import atomic_write_bytes
 from fitlab.families.lambert_sphere.exact import gauss_legendre, isotropic_characteristic, solve_albedo, solve_h
-from fitlab.families.lambert_sphere.forms.baselines import BASELINE_INPUTS
-from fitlab.families.lambert_sphere.forms.baselines import oren_nayar as expression
-from fitlab.forms.symbolic import lambdify_numpy, symbols
+from fitlab.families.lambert_sphere.mitsuba_plugin import PluginError, load_drjit_module, register
 
-__all__ = ["RenderError", "load_generated", "FunctionBSDF", "render_sphere", "render_comparison", "MATERIALS",
-           "chandrasekhar_albedo_c", "light_directions", "pixel_geometry", "material_function"]  # fmt: skip
+__all__ = ["RenderError", "load_generated", "check_generated", "function_bsdf", "sphere_scene", "render_bsdf", "render_sphere",
+           "render_comparison", "resolve_variant", "llvm_problem", "MATERIALS", "chandrasekhar_albedo_c",
+           "light_directions", "pixel_geometry", "material_function", "oren_nayar"]  # fmt: skip
 
 MATERIALS = ("lambert_sphere", "lambert", "oren_nayar", "chandrasekhar")
 OREN_NAYAR_SIGMA = 0.5  # radians of facet slope: a rough surface, as in RTR's figure
@@ -46,18 +45,8 @@ class RenderError(RuntimeError):
     pass
 
 
-def _mitsuba():
-    try:
-        import mitsuba as mi
-    except ImportError as exc:  # pragma: no cover - mitsuba is a dependency
-        raise RenderError(f"mitsuba is not installed ({exc}); pip install mitsuba") from None
-    if mi.variant() != "scalar_rgb":
-        mi.set_variant("scalar_rgb")
-    return mi
-
-
 def load_generated(path: Path):
-    """Import a generated Python module from its file (not via fitlab)."""
+    """Import a generated Python (numpy) module from its file (not via fitlab)."""
     path = Path(path)
     if not path.is_file():
         raise RenderError(f"{path}: no generated module; run `fitlab codegen --lang python` first")
@@ -70,18 +59,93 @@ def load_generated(path: Path):
     return module
 
 
-@lru_cache(maxsize=4)
-def _oren_nayar_function(sigma: float):
+def check_generated(path: Path) -> None:
+    """Refuse (RenderError, one line) a file that is not a generated Lambert-sphere Dr.Jit module (what the
+    renderer's plugin runs; ``fitlab codegen --lang drjit``)."""
+    try:
+        load_drjit_module(path)
+    except PluginError as exc:
+        raise RenderError(str(exc)) from None
 
-    return lambdify_numpy(symbols(BASELINE_INPUTS), expression(sigma))
+
+# -- the variant -----------------------------------------------------------------------------------------
+_PROBE = ("import mitsuba as mi, drjit as dr; mi.set_variant('llvm_ad_rgb'); "
+          "x = dr.maximum(mi.Float([1.0, 2.0]), mi.Float([1.5, 0.5])); dr.eval(x); print(x)")  # fmt: skip
 
 
-def oren_nayar(wi, wo, kd, sigma=OREN_NAYAR_SIGMA):
-    """Qualitative Oren-Nayar BRDF (:func:`fitlab.families.lambert_sphere.forms.baselines.oren_nayar`) of local-frame unit vectors."""
-    wi, wo = np.asarray(wi, float), np.asarray(wo, float)
-    ring = np.sqrt((wi[..., 0] ** 2 + wi[..., 1] ** 2) * (wo[..., 0] ** 2 + wo[..., 1] ** 2))
-    cos_phi = np.where(ring > 0, (wi[..., 0] * wo[..., 0] + wi[..., 1] * wo[..., 1]) / np.maximum(ring, 1e-30), 0.0)
-    return _oren_nayar_function(sigma)(wi[..., 2], wo[..., 2], cos_phi, kd)
+@lru_cache(maxsize=1)
+def llvm_problem() -> str | None:
+    """None when Mitsuba's llvm_ad_rgb variant runs a kernel here, else why not (one line).  Tried in a
+    subprocess: Dr.Jit loads the system's libLLVM, and one too old to compile its code aborts the process
+    (tools/install-system-packages.sh installs a recent one)."""
+    try:
+        done = subprocess.run([sys.executable, "-c", _PROBE], capture_output=True, text=True, timeout=300)
+    except subprocess.TimeoutExpired:
+        return "a test kernel in llvm_ad_rgb did not finish in 300 s"
+    if done.returncode == 0:
+        return None
+    lines = done.stderr.strip().splitlines() or [f"exit status {done.returncode}"]
+    return lines[-1]
+
+
+def resolve_variant(variant: str = "auto") -> str:
+    """The Mitsuba variant to render in: ``variant`` (a Mitsuba variant's name), or for "auto" llvm_ad_rgb when
+    :func:`llvm_problem` finds none, else scalar_rgb."""
+    if variant == "auto":
+        return "llvm_ad_rgb" if llvm_problem() is None else "scalar_rgb"
+    return variant
+
+
+def _mitsuba(variant: str | None = None, generated: Path | None = None):
+    """Mitsuba in ``variant`` (None: the current one, else scalar_rgb), with the plugin registered there."""
+    try:
+        import drjit as dr
+        import mitsuba as mi
+    except ImportError as exc:  # pragma: no cover - mitsuba is a dependency
+        raise RenderError(f"mitsuba is not installed ({exc}); pip install mitsuba") from None
+    variant = variant or mi.variant() or "scalar_rgb"
+    if mi.variant() != variant:
+        mi.set_variant(variant)
+    key = (variant, str(Path(generated).resolve()) if generated is not None else None)
+    if key not in _REGISTERED:
+        try:
+            register(generated)
+        except PluginError as exc:
+            raise RenderError(str(exc)) from None
+        _REGISTERED.add(key)
+    return mi, dr
+
+
+_REGISTERED: set = set()
+
+
+# -- the comparison materials, vectorised ----------------------------------------------------------------
+def _cos_phi(wi, wo, dr):
+    """cos of the azimuth between local-frame vectors (0 where either is along the normal)."""
+    ring = dr.sqrt((wi[0] * wi[0] + wi[1] * wi[1]) * (wo[0] * wo[0] + wo[1] * wo[1]))
+    return dr.select(ring > 0, (wi[0] * wo[0] + wi[1] * wo[1]) / dr.maximum(ring, 1e-30), 0.0)
+
+
+@lru_cache(maxsize=1)
+def _baselines():
+    """The baselines' routines (Lambert, Oren-Nayar at sigma = 0.5) printed as Dr.Jit functions from their sympy
+    expressions by the code generator (as :mod:`.bench` prints them in C)."""
+    from fitlab.codegen import emit
+    from fitlab.families.lambert_sphere.bench import baseline_program
+
+    program = baseline_program()
+    (name, text), = emit(program, "drjit").items()
+    module = types.ModuleType(f"_fitlab_{Path(name).stem}")
+    exec(compile(text, f"<fitlab codegen --lang drjit: {name}>", "exec"), module.__dict__)  # our own printed code
+    return module
+
+
+def oren_nayar(wi, wo, kd):
+    """Qualitative Oren-Nayar BRDF (sigma = 0.5; :func:`fitlab.families.lambert_sphere.forms.baselines.oren_nayar`)
+    of local-frame unit vectors: Dr.Jit arrays, or sequences of Python floats."""
+    import drjit as dr
+
+    return _baselines().baseline_oren_nayar(wi[2], wo[2], _cos_phi(wi, wo, dr), kd)
 
 
 @lru_cache(maxsize=8)
@@ -89,13 +153,6 @@ def _isotropic_h_table(c: float):
 
     mu = np.linspace(0.0, 1.0, 1025)
     return mu, solve_h(isotropic_characteristic(c))(mu)
-
-
-def chandrasekhar(wi, wo, c: float):
-    """Chandrasekhar's BRDF, f = c H(mu_i) H(mu_o) / (4 pi (mu_i + mu_o)), isotropic H (exact, tabulated)."""
-    mu, h = _isotropic_h_table(float(c))
-    mi_, mo_ = float(wi[2]), float(wo[2])
-    return c * np.interp(mi_, mu, h) * np.interp(mo_, mu, h) / (4.0 * np.pi * max(mi_ + mo_, 1e-6))
 
 
 def _chandrasekhar_kd(c: float) -> float:
@@ -117,43 +174,62 @@ def chandrasekhar_albedo_c(kd: float) -> float:
     return solve_albedo(_chandrasekhar_kd, kd, 1e-9, 1.0 - 1e-12, xtol=1e-12)
 
 
-def _bsdf_class():
-    mi = _mitsuba()
+def _chandrasekhar(c: float, mi, dr):
+    """f(wi, wo) = c H(mu_i) H(mu_o) / (4 pi (mu_i + mu_o)), H linearly interpolated on its table (Dr.Jit arrays:
+    a gather from the table; Python floats: numpy)."""
+    mu, h = _isotropic_h_table(float(c))
+    n = len(mu)
+    table = None if mi.variant().startswith("scalar") else mi.Float(h)
+
+    def h_of(x):
+        if table is None:
+            return float(np.interp(x, mu, h))
+        t = dr.clip(x, 0.0, 1.0) * (n - 1)
+        i = mi.UInt32(dr.minimum(dr.floor(t), n - 2))
+        return dr.lerp(dr.gather(mi.Float, table, i), dr.gather(mi.Float, table, i + 1), t - mi.Float(i))
+
+    return lambda wi, wo: c * h_of(wi[2]) * h_of(wo[2]) / (4.0 * np.pi * dr.maximum(wi[2] + wo[2], 1e-6))
+
+
+def function_bsdf(function, mi=None, dr=None):
+    """A Mitsuba BSDF object (of the current variant) evaluating ``function(wi, wo)`` (1/sr, grey) of local-frame
+    Dr.Jit vectors or Python floats: one-sided, a diffuse lobe, cosine-weighted sampling."""
+    if mi is None:
+        mi, dr = _mitsuba()
+    flags = mi.BSDFFlags.DiffuseReflection | mi.BSDFFlags.FrontSide
 
     class FunctionBSDF(mi.BSDF):
-        """A Mitsuba BSDF from f(wi, wo) of local-frame unit vectors (1/sr), one-sided, diffuse lobe."""
-
-        def __init__(self, props, function=None):
+        def __init__(self, props):
             mi.BSDF.__init__(self, props)
-            self.function = function
-            self.m_flags = mi.BSDFFlags.DiffuseReflection | mi.BSDFFlags.FrontSide
-            self.m_components = [self.m_flags]
+            self.m_flags = flags
+            self.m_components = [flags]
 
-        def _f(self, wi, wo):
-            if wi.z <= 0 or wo.z <= 0:
-                return 0.0
-            return float(self.function(np.array([wi.x, wi.y, wi.z]), np.array([wo.x, wo.y, wo.z])))
+        def _value(self, si, wo, active):
+            ok = active & (mi.Frame3f.cos_theta(si.wi) > 0) & (mi.Frame3f.cos_theta(wo) > 0)
+            return dr.select(ok, mi.Spectrum(function(si.wi, wo) * mi.Frame3f.cos_theta(wo)), 0.0)
+
+        def _pdf(self, si, wo, active):
+            ok = active & (mi.Frame3f.cos_theta(si.wi) > 0)
+            return dr.select(ok, mi.warp.square_to_cosine_hemisphere_pdf(wo), 0.0)
 
         def sample(self, ctx, si, sample1, sample2, active=True):
-            wo = mi.warp.square_to_cosine_hemisphere(sample2)
-            bs = mi.BSDFSample3f()
-            bs.wo = wo
-            bs.pdf = mi.warp.square_to_cosine_hemisphere_pdf(wo)
+            bs = dr.zeros(mi.BSDFSample3f)
+            bs.wo = mi.warp.square_to_cosine_hemisphere(sample2)
+            bs.pdf = self._pdf(si, bs.wo, active)
             bs.eta = 1.0
-            bs.sampled_type = int(mi.BSDFFlags.DiffuseReflection)
-            bs.sampled_component = 0
-            if si.wi.z <= 0 or bs.pdf <= 0:
-                return bs, mi.Color3f(0.0)
-            return bs, mi.Color3f(self._f(si.wi, wo) * np.pi)  # f cos / pdf, pdf = cos / pi
+            bs.sampled_type = mi.UInt32(+mi.BSDFFlags.DiffuseReflection)
+            bs.sampled_component = mi.UInt32(0)
+            ok = bs.pdf > 0
+            return bs, dr.select(ok, self._value(si, bs.wo, active) / dr.select(ok, bs.pdf, 1.0), 0.0)
 
         def eval(self, ctx, si, wo, active=True):
-            return mi.Color3f(self._f(si.wi, wo) * max(float(wo.z), 0.0))
+            return self._value(si, wo, active)
 
         def pdf(self, ctx, si, wo, active=True):
-            return mi.warp.square_to_cosine_hemisphere_pdf(wo) if si.wi.z > 0 else 0.0
+            return self._pdf(si, wo, active)
 
         def eval_pdf(self, ctx, si, wo, active=True):
-            return self.eval(ctx, si, wo, active), self.pdf(ctx, si, wo, active)
+            return self._value(si, wo, active), self._pdf(si, wo, active)
 
         def traverse(self, callback):
             pass
@@ -161,13 +237,23 @@ def _bsdf_class():
         def to_string(self):
             return "FunctionBSDF[]"
 
-    return FunctionBSDF
+    return FunctionBSDF(mi.Properties())
 
 
-def FunctionBSDF(function):  # noqa: N802 (reads as the class it builds)
-    """A Mitsuba BSDF object evaluating ``function(wi, wo)``."""
-    mi = _mitsuba()
-    return _bsdf_class()(mi.Properties(), function)
+def material_function(material: str, kd: float, mi=None, dr=None):
+    """The BSDF (a dict for :func:`mitsuba.load_dict`, or a :func:`function_bsdf` object) of a material at
+    spherical albedo kd, in the current variant."""
+    if material == "lambert_sphere":
+        return {"type": "lambert_sphere", "reflectance": {"type": "rgb", "value": [kd] * 3}}
+    if material == "lambert":
+        return {"type": "diffuse", "reflectance": {"type": "rgb", "value": [kd] * 3}}
+    if mi is None:
+        mi, dr = _mitsuba()
+    if material == "oren_nayar":
+        return function_bsdf(lambda wi, wo: oren_nayar(wi, wo, kd), mi, dr)
+    if material == "chandrasekhar":
+        return function_bsdf(_chandrasekhar(chandrasekhar_albedo_c(kd), mi, dr), mi, dr)
+    raise ValueError(f"unknown material {material!r}; choose from {', '.join(MATERIALS)}")
 
 
 def light_directions(n: int) -> list[np.ndarray]:
@@ -183,23 +269,18 @@ def light_directions(n: int) -> list[np.ndarray]:
     return out
 
 
-def material_function(material: str, kd: float, generated):
-    """(bsdf dict or None, function or None) for a material at spherical albedo kd."""
-    if material == "lambert_sphere":
-        c = float(generated.c_of_kd(kd))
-        return lambda wi, wo: generated.brdf_local(wi, wo, c)
-    if material == "oren_nayar":
-        return lambda wi, wo: oren_nayar(wi, wo, kd)
-    if material == "chandrasekhar":
-        c = chandrasekhar_albedo_c(kd)
-        return lambda wi, wo: chandrasekhar(wi, wo, c)
-    if material == "lambert":
-        return None
-    raise ValueError(f"unknown material {material!r}; choose from {', '.join(MATERIALS)}")
-
-
-def _scene(bsdf, emitter, size, spp, integrator="direct"):
-    mi = _mitsuba()
+def sphere_scene(bsdf, light, size, spp, mi=None):
+    """A unit sphere seen from +z (orthographic, frame [-1.05, 1.05]^2, box filter), lit by a directional light
+    of unit irradiance toward ``light`` (direct illumination), or with light None by a white furnace (a
+    constant environment of radiance 1; path tracing), in the current variant."""
+    if mi is None:
+        mi, _ = _mitsuba()
+    if light is None:
+        emitter, integrator = {"type": "constant", "radiance": {"type": "rgb", "value": [1.0, 1.0, 1.0]}}, "path"
+    else:
+        emitter = {"type": "directional", "direction": (-np.asarray(light, float)).tolist(),
+                   "irradiance": {"type": "rgb", "value": [1.0, 1.0, 1.0]}}  # fmt: skip
+        integrator = "direct"
     return mi.load_dict({
         "type": "scene",
         "integrator": {"type": integrator},
@@ -216,53 +297,53 @@ def _scene(bsdf, emitter, size, spp, integrator="direct"):
     })  # fmt: skip
 
 
-def render_sphere(material: str, kd: float, light: np.ndarray | None, size: int, spp: int, generated=None,
-                  seed: int = 0) -> np.ndarray:  # fmt: skip
-    """Radiance image (size x size, one channel) of a unit sphere seen from +z
-    (orthographic, frame [-1.05, 1.05]^2), lit by a directional light of unit
-    irradiance toward ``light`` (a unit vector), or, with light None, by a
-    white furnace (constant environment of radiance 1)."""
-    mi = _mitsuba()
+def render_bsdf(bsdf, light: np.ndarray | None, size: int, spp: int, seed: int = 0, variant: str | None = None,
+                generated: Path | None = None) -> np.ndarray:  # fmt: skip
+    """RGB radiance image (size x size x 3) of a unit sphere of ``bsdf`` (a dict for :func:`mitsuba.load_dict`
+    or a BSDF object) seen from +z (orthographic, frame [-1.05, 1.05]^2), lit by a directional light of unit
+    irradiance toward ``light`` (a unit vector), or, with light None, by a white furnace (constant environment
+    of radiance 1).  ``variant``: the Mitsuba variant (None: the current one, else scalar_rgb), where the
+    ``lambert_sphere`` plugin evaluates the generated Dr.Jit module ``generated`` (None: the packaged one)."""
     if size < 1 or spp < 1:
         raise ValueError("size and spp must be positive")
-    func = material_function(material, kd, generated)
-    bsdf = {"type": "diffuse", "reflectance": {"type": "rgb", "value": [kd] * 3}} if func is None else FunctionBSDF(func)
-    if light is None:
-        emitter = {"type": "constant", "radiance": {"type": "rgb", "value": [1.0, 1.0, 1.0]}}
-    else:
-        emitter = {"type": "directional", "direction": (-np.asarray(light, float)).tolist(),
-                   "irradiance": {"type": "rgb", "value": [1.0, 1.0, 1.0]}}  # fmt: skip
-    scene = _scene(bsdf, emitter, size, spp, integrator="direct" if light is not None else "path")
-    img = np.array(mi.render(scene, seed=seed))
-    return img[..., 0]
+    mi, _ = _mitsuba(variant, generated)
+    return np.array(mi.render(sphere_scene(bsdf, light, size, spp, mi), seed=seed))
+
+
+def render_sphere(material: str, kd: float, light: np.ndarray | None, size: int, spp: int, seed: int = 0,
+                  variant: str | None = None, generated: Path | None = None) -> np.ndarray:  # fmt: skip
+    """One channel (size x size) of :func:`render_bsdf` for one of :data:`MATERIALS` at spherical albedo kd."""
+    mi, dr = _mitsuba(variant, generated)
+    return render_bsdf(material_function(material, kd, mi, dr), light, size, spp, seed, variant, generated)[..., 0]
 
 
 def pixel_geometry(size: int, extent: float = 1.05):
     """Normals (size x size x 3, NaN off the sphere) at pixel centres of :func:`render_sphere`'s camera."""
     x = (np.arange(size) + 0.5) / size * 2 * extent - extent
-    X, Y = np.meshgrid(x, -x)  # image columns run toward +x, rows toward -y (checked by tests/test_render.py)
+    X, Y = np.meshgrid(x, -x)  # image columns run toward +x, rows toward -y (checked by tests/test_mitsuba_plugin.py)
     Z = np.sqrt(np.maximum(0.0, 1 - X * X - Y * Y))
     n = np.stack([X, Y, Z], axis=-1)
     n[X * X + Y * Y >= 1] = np.nan
     return n
 
 
-def render_comparison(out: Path, generated: Path, kd: float = 0.8, size: int = 64, spp: int = 4, lights: int = 3,
-                      show_progress: bool = True) -> Path:  # fmt: skip
-    """Render every material under ``lights`` directions to one PNG (rows: materials)."""
+def render_comparison(out: Path, generated: Path | None = None, kd: float = 0.8, size: int = 64, spp: int = 4,
+                      lights: int = 3, show_progress: bool = True, variant: str = "auto") -> Path:  # fmt: skip
+    """Render every material under ``lights`` directions to one PNG (rows: materials), in ``variant``
+    (:func:`resolve_variant`), the plugin running the generated Dr.Jit module ``generated``."""
     from matplotlib.figure import Figure  # not pyplot: rendering leaves the caller's backend alone
-
 
     if not 0.0 < kd < 1.0:
         raise ValueError("--kd must lie in (0, 1)")
     if size < 8 or spp < 1:
         raise ValueError("--size must be at least 8 and --spp at least 1")
-    gen = load_generated(generated)
+    check_generated(generated)
+    variant = resolve_variant(variant)
     dirs = light_directions(lights)
     jobs = [(m, d) for m in MATERIALS for d in dirs]
     images = {}
-    for m, d in tqdm(jobs, desc="render", unit="image", disable=not show_progress):
-        images[(m, tuple(d))] = render_sphere(m, kd, d, size, spp, generated=gen)
+    for m, d in tqdm(jobs, desc=f"render ({variant})", unit="image", disable=not show_progress):
+        images[(m, tuple(d))] = render_sphere(m, kd, d, size, spp, variant=variant, generated=generated)
     vmax = max(float(np.nanmax(im)) for im in images.values())
     fig = Figure(figsize=(2.2 * len(dirs), 2.2 * len(MATERIALS)))
     axes = fig.subplots(len(MATERIALS), len(dirs), squeeze=False)
@@ -275,7 +356,7 @@ def render_comparison(out: Path, generated: Path, kd: float = 0.8, size: int = 6
                 ax.set_ylabel(m.replace("_", " "))
             if i == 0:
                 ax.set_title(f"phase {np.degrees(np.arccos(d[2])):.0f} deg", fontsize=9)
-    fig.suptitle(f"spherical albedo kd = {kd} for every material; one exposure for all", fontsize=9)
+    fig.suptitle(f"spherical albedo kd = {kd} for every material; one exposure for all (Mitsuba {variant})", fontsize=9)
     fig.tight_layout()
 
     buf = io.BytesIO()
