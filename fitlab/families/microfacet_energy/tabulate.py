@@ -22,6 +22,11 @@ absolute and written rounded to 12 decimals (a 5e-13 change, which keeps the fil
 machine and library versions reproduce them byte for byte).  :func:`check_tables` recomputes a sample
 of rows by the other, independent route.
 
+The simulated multiple-scattering lobes by order (``lobes_KIND_SET.csv``, :mod:`.lobes.tables`: the
+microsurface random walk, about 7 minutes on 2 cores) and the per-lobe fits of their shapes
+(``lobe_params_KIND_SET.csv``, :mod:`.lobes.params`, about a minute) are written beside them; their check
+re-simulates one job of each kind with an independent seed and refits one lobe.
+
 A 256 x 256 GGX table (``fine=True``) is not committed: at about 3.5 MB it alone exceeds the budget for
 the family's tables; write it when needed.
 """
@@ -41,6 +46,8 @@ from fitlab.families.microfacet_energy.exact import (
     average_albedo,
     directional_albedo,
 )
+from fitlab.families.microfacet_energy.lobes import params as lobe_params
+from fitlab.families.microfacet_energy.lobes import tables as lobe_tables
 from fitlab.store import Table, TableError, read_table
 from fitlab.store import write_tables as store_write_tables
 
@@ -82,8 +89,9 @@ TABLES = (
 )
 FINE_TABLES = (AlbedoTable("ggx", GGX_MODELS, "centres", 256),)
 
-#: every committed table file and its columns
-TABLE_FILES = {**{t.file: t.columns for t in TABLES}, AVERAGE_FILE: AVERAGE_COLUMNS}
+#: every committed table file and its columns (the E tables, E_avg, the simulated lobes and their per-lobe fits)
+TABLE_FILES = {**{t.file: t.columns for t in TABLES}, AVERAGE_FILE: AVERAGE_COLUMNS, **lobe_tables.LOBE_FILES,
+               **lobe_params.PARAM_FILES}
 #: the family's name: its tables live in fitlab/data/FAMILY_NAME/ and DATA/FAMILY_NAME/
 FAMILY_NAME = "microfacet_energy"
 
@@ -151,7 +159,7 @@ def average_table() -> Table:
 
 def build_tables(show_progress: bool = True, fine: bool = False, specs=None) -> dict[str, Table]:
     """Every table ({file name: Table}); ``specs`` (AlbedoTable) replaces the committed set of E tables,
-    and then no E_avg table is built (for small test grids)."""
+    and then neither the E_avg table nor the lobe tables are built (for small test grids)."""
     chosen = tuple(specs) if specs is not None else TABLES + (FINE_TABLES if fine else ())
     tables = {}
     with tqdm(total=len(chosen) + (specs is None), desc="tabulating", unit="table", disable=not show_progress) as bar:
@@ -161,6 +169,12 @@ def build_tables(show_progress: bool = True, fine: bool = False, specs=None) -> 
         if specs is None:
             tables[AVERAGE_FILE] = average_table()
             bar.update(1)
+    if specs is None:
+        lobes = lobe_tables.build_lobe_tables(show_progress)
+        tables.update(lobes)
+        simulated = {(k, w): lobe_tables.lobes_from_rows(lobes[lobe_tables.lobe_file(k, w)].rows, k, w)
+                     for k in lobe_tables.KINDS for w in lobe_tables.SETS}  # fmt: skip
+        tables.update(lobe_params.build_params_tables(simulated, show_progress))
     return tables
 
 
@@ -239,4 +253,7 @@ def check_tables(folder: Path, show_progress: bool = True, every: int = 8, specs
                         failures.append(f"{AVERAGE_FILE}: E_avg_{model} differs from the direction route by "
                                         f"{err.max():.2e}")
             bar.update(1)
+    if specs is None:
+        failures += lobe_tables.check_lobe_tables(folder)
+        failures += lobe_params.check_params_tables(folder)
     return failures
