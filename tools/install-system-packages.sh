@@ -6,7 +6,8 @@
 #   and spirv-cross (package spirv-cross) turns that SPIR-V into Metal Shading Language
 #   (tests/test_codegen_shaders.py, tests/test_codegen.py).
 # * libLLVM 17 or later (package libllvm19, else libllvm18 or libllvm17) for Mitsuba's llvm variants
-#   (tests/test_sampling.py): Dr.Jit loads the system's libLLVM, and LLVM 15 (Debian 12's default)
+#   (tests/test_sampling.py, tests/test_codegen_drjit.py, tests/test_mitsuba_plugin.py, fitlab render and
+#   fitlab bench render): Dr.Jit loads the system's libLLVM, and LLVM 15 (Debian 12's default)
 #   aborts on the float maximum Dr.Jit emits.
 have_llvm() {
     for v in 19 18 17; do

@@ -7,7 +7,7 @@ import contextlib
 import io
 import sys
 
-from fitlab.cli._common import add_family, add_fits, add_quiet, describe, fits_input, service
+from fitlab.cli._common import add_family, add_fits, add_quiet, describe, fits_input, require_extra, service
 from fitlab.store import strict_json
 
 __all__ = ["add_arguments", "run"]
@@ -15,12 +15,14 @@ __all__ = ["add_arguments", "run"]
 
 def add_arguments(p) -> None:
     describe(p, "Benchmarks, not tests: the exact engine's speed and agreement between its methods, the generated "
-                "C against a baseline, the Monte Carlo's photons per second and cost per effect, and (commands) "
+                "C against a baseline, the Monte Carlo's photons per second and cost per effect, Mitsuba's samples "
+                "per second with the lambert_sphere plugin (render), and (commands) "
                 "the seconds of `fitlab --help` and of every single-target refit, cold and warm, in fresh "
                 "processes. Prints a table, or with --json a machine-readable summary; writes nothing.",
              "fitlab bench codegen --quick --json")  # fmt: skip
-    p.add_argument("what", choices=["exact", "codegen", "mc", "commands"],
-                   help="what to benchmark: exact, codegen, mc or commands")
+    p.add_argument("what", choices=["exact", "codegen", "mc", "render", "commands"],
+                   help="what to benchmark: exact, codegen, mc, render (Mitsuba samples per second of the "
+                        "lambert_sphere plugin, llvm_ad_rgb against scalar_rgb) or commands")
     p.add_argument("--quick", action="store_true", help="smaller sizes (commands: the refits of H0 and m only)")
     add_fits(p, "folder of the fits the generated code is built from (codegen)")
     p.add_argument("--json", action="store_true", help="print a machine-readable summary (JSON) instead of the table")
@@ -53,6 +55,9 @@ def run(args) -> int:
         elif args.what == "codegen":
             results = service("bench", args.family).bench_codegen(fits, n=100_000 if args.quick else 1_000_000,
                                                      repeat=3 if args.quick else 5)  # fmt: skip
+        elif args.what == "render":
+            require_extra("mitsuba", "render")
+            results = service("bench", args.family).bench_render(quick=args.quick, show_progress=not args.quiet)
         else:
             results = service("bench", args.family).bench_mc(quick=args.quick)  # JAX
     if args.json:

@@ -4,8 +4,9 @@
 generated C (full runtime model, fast variant) against two baselines compiled the same way (Lambert
 kd/pi; qualitative Oren-Nayar, sigma = 0.5), each printed from one sympy expression, on the same
 random inputs (:func:`fitlab.codegen.bench.time_routines`), and the generated numpy module.
-``bench_mc`` (:mod:`.mc.bench`): photons and collisions per second.  Timings are wall-clock on this
-machine, side by side in one run: only their ratios carry meaning.
+``bench_mc`` (:mod:`.mc.bench`): photons and collisions per second.  ``bench_render``: Mitsuba 3 samples per
+second of the registered ``lambert_sphere`` plugin in scalar_rgb and llvm_ad_rgb, beside Mitsuba's own
+``diffuse``.  Timings are wall-clock on this machine, side by side in one run: only their ratios carry meaning.
 """
 
 from __future__ import annotations
@@ -32,7 +33,7 @@ from fitlab.codegen.program import MaterialSpec, Program, Routine, build_program
 from fitlab.families.lambert_sphere.forms.baselines import BASELINE_INPUTS, LAMBERT, oren_nayar
 from fitlab.timing import best_of, best_seconds
 
-__all__ = ["bench_exact", "bench_codegen", "bench_mc", "baseline_program", "random_inputs"]
+__all__ = ["bench_exact", "bench_codegen", "bench_mc", "bench_render", "baseline_program", "random_inputs"]
 
 
 def bench_exact(quick: bool = False) -> dict:
@@ -167,3 +168,54 @@ def bench_mc(quick: bool = False) -> dict:
     from fitlab.families.lambert_sphere.mc.bench import bench_mc as run
 
     return run(quick=quick)
+
+
+#: the scene of :func:`bench_render`: an RGB reflectance (a material per channel) in a white furnace
+RENDER_KD = (0.8, 0.5, 0.2)
+
+
+def bench_render(quick: bool = False, size: int | None = None, spp: int = 4, repeat: int = 3,
+                 show_progress: bool = True) -> dict:  # fmt: skip
+    """Samples (camera rays) per second of a Mitsuba render: a sphere of reflectance :data:`RENDER_KD` in a white
+    furnace (path tracing: every sample calls the BSDF's sample and eval_pdf), size x size pixels (256; quick:
+    64) at ``spp`` samples per pixel, with the ``lambert_sphere`` plugin and with Mitsuba's ``diffuse`` (the
+    same reflectance), in scalar_rgb and, where Dr.Jit's LLVM backend runs, llvm_ad_rgb, one variant after the
+    other in this process.  llvm: the first render (tracing the Python plugin and compiling the kernel, or
+    reading it from Dr.Jit's kernel cache) apart from the best of ``repeat`` later ones; scalar: one render each
+    (it has nothing to compile, and the plugin's render takes seconds)."""
+    from tqdm import tqdm
+
+    from fitlab.families.lambert_sphere.render import llvm_problem, sphere_scene, use_variant
+
+    size = size or (64 if quick else 256)
+    problem = llvm_problem()
+    variants = ("scalar_rgb",) if problem else ("scalar_rgb", "llvm_ad_rgb")
+    bsdfs = {"lambert_sphere (plugin)": "lambert_sphere", "diffuse (Mitsuba)": "diffuse"}
+    samples = size * size * spp
+    rows = {}
+    bar = tqdm(total=len(variants) * len(bsdfs), desc="bench render", unit="scene", disable=not show_progress)
+    for variant in variants:
+        mi, _ = use_variant(variant)
+        scenes = {label: sphere_scene({"type": kind, "reflectance": {"type": "rgb", "value": list(RENDER_KD)}}, None,
+                                      size, spp, mi) for label, kind in bsdfs.items()}  # fmt: skip
+        for label, scene in scenes.items():
+            render = lambda seed=0, scene=scene: np.array(mi.render(scene, seed=seed))  # noqa: E731
+            first = best_seconds(render, 1)
+            later = best_seconds(lambda: render(seed=1), repeat) if variant != "scalar_rgb" else first
+            rows[(label, variant)] = {"first_s": first, "best_s": later, "samples_per_s": samples / later}
+            bar.update()
+    bar.close()
+    print(f"Mitsuba render, {size} x {size} pixels, {spp} spp, white furnace, reflectance {RENDER_KD}: samples per "
+          "second (best of later renders; llvm's first render traces and compiles)")  # fmt: skip
+    if problem:
+        print(f"  llvm_ad_rgb not run here: {problem}")
+    for (label, variant), r in rows.items():
+        print(f"  {label:<26} {variant:<12} {r['samples_per_s']:12.4g} samples/s  first render {r['first_s']:7.2f} s")
+    plugin, diffuse = bsdfs
+    if not problem:
+        ratio = rows[(plugin, "llvm_ad_rgb")]["samples_per_s"] / rows[(plugin, "scalar_rgb")]["samples_per_s"]
+        print(f"  plugin, llvm_ad_rgb / scalar_rgb: {ratio:.3g} x")
+    for variant in variants:
+        ratio = rows[(diffuse, variant)]["samples_per_s"] / rows[(plugin, variant)]["samples_per_s"]
+        print(f"  {variant}: diffuse is {ratio:.3g} x as fast as the plugin")
+    return {"size": size, "spp": spp, "llvm_problem": problem, "rows": rows}

@@ -34,7 +34,7 @@ from fitlab.families.lambert_sphere.exact import gauss_legendre, isotropic_chara
 from fitlab.families.lambert_sphere.mitsuba_plugin import PluginError, load_drjit_module, register
 
 __all__ = ["RenderError", "load_generated", "check_generated", "function_bsdf", "sphere_scene", "render_bsdf", "render_sphere",
-           "render_comparison", "resolve_variant", "llvm_problem", "MATERIALS", "chandrasekhar_albedo_c",
+           "render_comparison", "resolve_variant", "llvm_problem", "use_variant", "MATERIALS", "chandrasekhar_albedo_c",
            "light_directions", "pixel_geometry", "material_function", "oren_nayar"]  # fmt: skip
 
 MATERIALS = ("lambert_sphere", "lambert", "oren_nayar", "chandrasekhar")
@@ -96,8 +96,9 @@ def resolve_variant(variant: str = "auto") -> str:
     return variant
 
 
-def _mitsuba(variant: str | None = None, generated: Path | None = None):
-    """Mitsuba in ``variant`` (None: the current one, else scalar_rgb), with the plugin registered there."""
+def use_variant(variant: str | None = None, generated: Path | None = None):
+    """(mitsuba, drjit) with ``variant`` set (None: the current one, else scalar_rgb) and the ``lambert_sphere``
+    plugin registered there, running the generated Dr.Jit module ``generated`` (None: the packaged one)."""
     try:
         import drjit as dr
         import mitsuba as mi
@@ -195,7 +196,7 @@ def function_bsdf(function, mi=None, dr=None):
     """A Mitsuba BSDF object (of the current variant) evaluating ``function(wi, wo)`` (1/sr, grey) of local-frame
     Dr.Jit vectors or Python floats: one-sided, a diffuse lobe, cosine-weighted sampling."""
     if mi is None:
-        mi, dr = _mitsuba()
+        mi, dr = use_variant()
     flags = mi.BSDFFlags.DiffuseReflection | mi.BSDFFlags.FrontSide
 
     class FunctionBSDF(mi.BSDF):
@@ -248,7 +249,7 @@ def material_function(material: str, kd: float, mi=None, dr=None):
     if material == "lambert":
         return {"type": "diffuse", "reflectance": {"type": "rgb", "value": [kd] * 3}}
     if mi is None:
-        mi, dr = _mitsuba()
+        mi, dr = use_variant()
     if material == "oren_nayar":
         return function_bsdf(lambda wi, wo: oren_nayar(wi, wo, kd), mi, dr)
     if material == "chandrasekhar":
@@ -274,7 +275,7 @@ def sphere_scene(bsdf, light, size, spp, mi=None):
     of unit irradiance toward ``light`` (direct illumination), or with light None by a white furnace (a
     constant environment of radiance 1; path tracing), in the current variant."""
     if mi is None:
-        mi, _ = _mitsuba()
+        mi, _ = use_variant()
     if light is None:
         emitter, integrator = {"type": "constant", "radiance": {"type": "rgb", "value": [1.0, 1.0, 1.0]}}, "path"
     else:
@@ -306,14 +307,14 @@ def render_bsdf(bsdf, light: np.ndarray | None, size: int, spp: int, seed: int =
     ``lambert_sphere`` plugin evaluates the generated Dr.Jit module ``generated`` (None: the packaged one)."""
     if size < 1 or spp < 1:
         raise ValueError("size and spp must be positive")
-    mi, _ = _mitsuba(variant, generated)
+    mi, _ = use_variant(variant, generated)
     return np.array(mi.render(sphere_scene(bsdf, light, size, spp, mi), seed=seed))
 
 
 def render_sphere(material: str, kd: float, light: np.ndarray | None, size: int, spp: int, seed: int = 0,
                   variant: str | None = None, generated: Path | None = None) -> np.ndarray:  # fmt: skip
     """One channel (size x size) of :func:`render_bsdf` for one of :data:`MATERIALS` at spherical albedo kd."""
-    mi, dr = _mitsuba(variant, generated)
+    mi, dr = use_variant(variant, generated)
     return render_bsdf(material_function(material, kd, mi, dr), light, size, spp, seed, variant, generated)[..., 0]
 
 
