@@ -72,6 +72,21 @@ _RENDERS = textwrap.dedent('''
         params.update()
         res["traversed"] = np.array(mi.render(scene, seed=1))
         meta["traverse_keys"] = keys
+        # differentiable rendering: d(sum of the image)/d(reflectance) by AD through the plugin against a
+        # central difference of renders with the adjoint pass's seed (seed_grad; a delta light: the same
+        # samples give the same image, so the difference is exact but for rounding)
+        grey = lambda v: mi.Color3f(v, v, v)  # noqa: E731
+        params[keys[0]] = grey(0.5)
+        dr.enable_grad(params[keys[0]])
+        params.update()
+        dr.backward(dr.sum(mi.render(scene, params, seed=1, seed_grad=2), axis=None))
+        meta["grad"] = float(np.sum(np.array(dr.grad(params[keys[0]]))))
+        total = {}
+        for v in (0.49, 0.51):
+            params[keys[0]] = grey(v)
+            params.update()
+            total[v] = float(np.array(mi.render(scene, params, seed=2)).sum())
+        meta["fd"] = (total[0.51] - total[0.49]) / 0.02
         # Mitsuba's chi-square test of sample() against pdf(), through its BSDFAdapter
         from mitsuba.chi2 import BSDFAdapter, ChiSquareTest, SphericalDomain
         points = json.loads(sys.argv[9])
@@ -219,7 +234,7 @@ def test_furnace_in_colour_each_channel_is_its_own_albedo(rendered, native):
         assert abs(residual.mean()) < 4 * se, (kd, residual.mean(), se)
 
 
-def test_a_texture_that_varies_and_traverse(rendered):
+def test_a_texture_that_varies_traverse_and_gradients(rendered):
     variant, img, meta = rendered
     if variant != "llvm_ad_rgb":
         pytest.skip("run in llvm_ad_rgb only (the scalar variant shares the code and costs seconds per render)")
@@ -233,6 +248,7 @@ def test_a_texture_that_varies_and_traverse(rendered):
     assert near(img["grey0"]).sum() > 10 and near(img["grey_03"]).sum() > 10
     assert meta["traverse_keys"] == ["sphere.bsdf.reflectance.value"]
     np.testing.assert_allclose(img["traversed"], img["rgb"], rtol=1e-5, atol=1e-7)
+    assert np.isfinite(meta["grad"]) and meta["grad"] == pytest.approx(meta["fd"], rel=1e-4)
 
 
 def test_mitsuba_chi2_accepts_the_plugin_sampler(rendered):
