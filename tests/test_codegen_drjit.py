@@ -161,14 +161,18 @@ def test_llvm_float32_agrees_with_double(llvm, npy):
     # relative to the single-scattering scale c/(mu_i + mu_o) where f cancels far below it (forward
     # scattering, p(u) ~ (1 - u)^(3/2)), as for C float
     def scale(c, mu_i, mu_o):
-        return 1e-2 * c / np.maximum(mu_i + mu_o, 1e-6)
+        return 1e-7 * c / np.maximum(mu_i + mu_o, 1e-6)  # 1e-5 of 1 % of it
 
     mu_io = (x32["mu_i"], x32["mu_o"])
     local = (x32["wi"][:, 2], x32["wo"][:, 2])
     atol = {"brdf": scale(x32["c"], *mu_io), "brdf_fast": scale(x32["c"], *mu_io), "eval": scale(x32["c"], *mu_io),
             "brdf_local": scale(x32["c"], *local), "eval_local": scale(want["c_of_kd"], *local)}  # fmt: skip
+    # eval_local's material comes from kd: as kd -> 1, c = c_of_kd(kd) -> 1 faster than float resolves
+    # (1 - c ~ (1 - kd)^2.9), and the model depends on s = sqrt(1 - c), whose float error grows to 2.4e-4 (the
+    # square root of float's epsilon) as 1 - c falls below 1e-5 (kd > 0.98): the same in any float code
+    rtol = {"brdf_fast": 5e-5, "eval_local": np.where(1 - want["c_of_kd"] < 1e-5, 1e-3, 1e-5)}
     for name in ("brdf", "brdf_fast", "c_of_kd", "kd_of_c", "brdf_local", "eval", "eval_local", "pdf"):
-        assert _close(out["f32/" + name], want[name], 1e-5, atol.get(name, 0.0)) <= 1, name
+        assert _close(out["f32/" + name], want[name], rtol.get(name, 1e-5), atol.get(name, 0.0)) <= 1, name
     # a draw at u1 ~ w can take the other lobe in float: compare where the lobe and the side are the same
     w = npy.sample_weight(x32["wi"][:, 2], x32["c"])
     same = (np.abs(x32["u1"] - w) > 1e-4) & (np.abs(want["sample_wo"][:, 2]) > 1e-4)
