@@ -16,7 +16,10 @@ function names come from the program's ``name`` (``lambert_sphere`` below).
 * Python: ``lambert_sphere.py``, numpy only, every routine vectorised
   (broadcasting inputs; vectors are arrays with a last axis of 3).
 * GLSL: ``lambert_sphere.glsl``, float functions ``lambert_sphere_NAME``
-  (GLSL 3.30 / ES 3.00 and later).
+  (GLSL 3.30 / ES 3.00 and later); HLSL and Metal from the same shader emitter.
+* Dr.Jit: ``lambert_sphere_drjit.py``, ``import drjit`` only: every routine as a function of Dr.Jit
+  arrays of the caller's backend and precision, or of Python floats (Mitsuba's scalar variants); a
+  material is a tuple of fields of its parameter's type (a Color3f: one material per channel).
 """
 
 from __future__ import annotations
