@@ -37,6 +37,7 @@ defined for this BRDF here).
 from __future__ import annotations
 
 import importlib.util
+import types
 from pathlib import Path
 
 from fitlab.resources import packaged_fits
@@ -72,7 +73,8 @@ def load_drjit_module(path: Path | None = None):
     missing = [n for n in REQUIRED if not hasattr(module, n)]
     if missing:
         raise PluginError(f"{path}: not a generated Lambert-sphere Dr.Jit module (no {', '.join(missing)})")
-    if type(getattr(module, "dr", None)).__name__ != "module" or module.dr.__name__ != "drjit":
+    drjit = getattr(module, "dr", None)
+    if not isinstance(drjit, types.ModuleType) or drjit.__name__ != "drjit":
         raise PluginError(f"{path}: not a generated Dr.Jit module (it does not compute with drjit; "
                           "`fitlab codegen --lang drjit` makes one)")
     return module
@@ -105,8 +107,8 @@ def bsdf_class(generated=None):
             mi.BSDF.__init__(self, props)
             given = [name for name in PARAMETERS if name in props]
             if len(given) > 1:
-                raise ValueError(f"{PLUGIN}: give reflectance (the spherical albedo kd) or albedo (the particle "
-                                 "albedo c), not both")  # fmt: skip
+                either = " or ".join(f"{name} ({what})" for name, what in PARAMETERS.items())
+                raise ValueError(f"{PLUGIN}: give {either}, not both")
             self.parameter = given[0] if given else "reflectance"
             self.texture = props.get_texture(self.parameter, 0.5)
             self.m_flags = flags
