@@ -103,23 +103,48 @@ _RENDERS = textwrap.dedent('''
 ''')
 
 
-def _run(variant, tmp_path):
-    out = tmp_path / f"{variant}.npz"
+def _start(variant, folder):
+    """The renders of ``variant`` started in a subprocess: (process, its output file)."""
+    out = folder / f"{variant}.npz"
     args = [variant, str(out), json.dumps(LIGHT.tolist()), json.dumps(list(KD)), str(SIZE), str(SPP),
             *(str(n) for n in FURNACE[variant]), json.dumps(CHI2)]  # fmt: skip
-    res = subprocess.run([sys.executable, "-c", _RENDERS, *args], capture_output=True, text=True, timeout=900,
-                         env={**os.environ, "PYTHONHASHSEED": "0"})  # fmt: skip
-    if res.returncode != 0:
-        reason = (res.stderr.strip().splitlines() or ["?"])[-1]
-        if variant.startswith("llvm") and ("LLVM" in res.stderr or "libLLVM" in res.stderr):
+    proc = subprocess.Popen([sys.executable, "-c", _RENDERS, *args], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            text=True, env={**os.environ, "PYTHONHASHSEED": "0"})  # fmt: skip
+    return proc, out
+
+
+def _finish(variant, proc, out):
+    """(images, metadata) of a started subprocess; a skip with the reason where the llvm variant cannot run."""
+    try:
+        stdout, stderr = proc.communicate(timeout=900)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        pytest.fail(f"the {variant} renders did not finish in 900 s")
+    if proc.returncode != 0:
+        reason = (stderr.strip().splitlines() or ["?"])[-1]
+        if variant.startswith("llvm") and ("LLVM" in stderr or "libLLVM" in stderr):
             pytest.skip(f"Mitsuba's llvm variant is unavailable here (tools/install-system-packages.sh): {reason}")
-        pytest.fail(res.stderr[-3000:])
-    return dict(np.load(out)), json.loads(res.stdout.strip().splitlines()[-1])
+        pytest.fail(stderr[-3000:])
+    return dict(np.load(out)), json.loads(stdout.strip().splitlines()[-1])
 
 
-@pytest.fixture(scope="module", params=["scalar_rgb", "llvm_ad_rgb"])
-def rendered(request, tmp_path_factory):
-    return request.param, *_run(request.param, tmp_path_factory.mktemp(request.param))
+@pytest.fixture(scope="module")
+def started(tmp_path_factory):
+    """Both variants' renders, started at once (two processes) while this one builds the C reference."""
+    folder = tmp_path_factory.mktemp("renders")
+    procs = {variant: _start(variant, folder) for variant in FURNACE}
+    yield procs
+    for proc, _ in procs.values():
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+
+
+@pytest.fixture(scope="module", params=list(FURNACE))
+def rendered(request, started):
+    if compiler() is not None:
+        request.getfixturevalue("native")  # built here while the renders run
+    return request.param, *_finish(request.param, *started[request.param])
 
 
 @pytest.fixture(scope="module")
