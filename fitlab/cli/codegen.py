@@ -7,19 +7,24 @@ import fitlab.codegen as codegen
 from fitlab._io import atomic_write_many
 from fitlab.cli._common import (
     fits_input,
+    add_data,
     add_fits,
     RunFailure,
     UsageError,
     add_quiet,
     describe,
+    integer,
     one_line,
     output_folder,
     say,
+    service,
+    use_data,
     write_failure,
 )
 from fitlab.codegen.emit import LANGUAGES
 from fitlab.codegen.program import parse_terms
-from fitlab.store import FitFileError
+from fitlab.codegen.texture import LOOKUPS
+from fitlab.store import FitFileError, TableError
 
 __all__ = ["add_arguments", "run"]
 
@@ -43,11 +48,58 @@ def add_arguments(p) -> None:
     p.add_argument("--family", metavar="NAME", default=None,
                    help="the family whose program to generate (default: the family of the --form targets, else the "
                         "one family with a program of its own)")
+    p.add_argument("--tables", action="store_true",
+                   help="print the family's exact tables as engines ship them instead of its fits: one float32 texture "
+                        "(C arrays, a raw .f32 file) and the BRDF read from it (c, glsl or python; docs/codegen.md)")
+    p.add_argument("--nodes", type=integer(2), default=None, metavar="N",
+                   help="--tables: nodes per axis of the texture (Lambert sphere: 5, 9, 17, 33 (default) or 65)")
+    p.add_argument("--lookup", choices=list(LOOKUPS), default=None,
+                   help="--tables: how the texture is read, cubic (bicubic, the default) or linear (bilinear)")
+    add_data(p)
     add_quiet(p)
+
+
+def _run_tables(args) -> int:
+    """``--tables``: the family's table export service (``table_export`` hook): its files, written as one unit."""
+    given = [flag for flag, value in (("--terms", args.terms), ("--model", args.model), ("--form", args.form),
+                                       ("--single-header", args.single_header), ("--fits", args.fits)) if value]
+    if given:
+        raise UsageError(f"{given[0]} is not a --tables option (the tables print no fits)")
+    exporter = service("table_export", args.family)
+    if args.lang not in exporter.LANGUAGES:
+        raise UsageError(f"--tables prints {', '.join(exporter.LANGUAGES)}, not {args.lang}")
+    nodes = exporter.DEFAULT_NODES if args.nodes is None else args.nodes
+    if nodes not in exporter.NODES:
+        raise UsageError(f"--nodes {nodes}: one of {', '.join(map(str, exporter.NODES))} (every node a node of the "
+                         "exact tables)")
+    lookup = exporter.DEFAULT_LOOKUP if args.lookup is None else args.lookup
+    use_data(args, required=True)
+    out = output_folder(args.out, "--out")
+    try:
+        exporter.check_tables(exporter.tables_dir())
+    except TableError as exc:
+        raise UsageError(one_line(exc)) from None
+    from tqdm import tqdm
+
+    with tqdm(total=exporter.GENERATE_STEPS, desc="tables", unit="step", disable=args.quiet) as bar:
+        files = exporter.generate(args.lang, nodes, lookup, tick=lambda: bar.update(1))
+    paths = {out / name: data for name, data in files.items()}
+    try:
+        atomic_write_many(paths)
+    except OSError as exc:
+        raise write_failure(out, exc) from None
+    for path in paths:
+        say(args, f"wrote {path}")
+    return 0
 
 
 def run(args) -> int:
 
+    if args.tables:
+        return _run_tables(args)
+    given = [flag for flag, value in (("--nodes", args.nodes), ("--lookup", args.lookup), ("--data", args.data)) if value]
+    if given:
+        raise UsageError(f"{given[0]} is a --tables option")
     if args.single_header and args.lang != "c":
         raise UsageError("--single-header is a C option (--lang c)")
     try:

@@ -157,19 +157,33 @@ def first_order(order: int, x: sp.Expr = mu) -> sp.Expr:
 LOG_EXP_DEGREES = {0: (5, 4), 1: (2, 3), 2: (1, 3)}
 
 
+def log_exp(order: int, remainder: sp.Expr) -> sp.Expr:
+    r"""H_order(mu, c) = exp(mu (Psi_order(mu) log(1 + 1/mu) + c (p(mu) + remainder))): the exact grazing term
+    (Psi_order, eqs. 13-15) and the exact first-order cubic p (:func:`first_order`), with ``remainder`` the
+    rest, O(c), a function of (mu, c): a fitted polynomial (the ``log_exp`` forms) or a table
+    (:mod:`fitlab.families.lambert_sphere.table_export`).  See :func:`log_exp_remainder` for its inverse."""
+    grazing = characteristic(order) * sp.log(1 + 1 / sp.Max(mu, LOG_FLOOR))
+    return sp.exp(mu * (grazing + c * (first_order(order) + remainder)))
+
+
+def log_exp_remainder(order: int, h: sp.Expr) -> sp.Expr:
+    r"""The remainder of :func:`log_exp` that gives H_order = ``h``: (log(h)/mu - Psi_order(mu) log(1 + 1/mu))/c - p(mu),
+    for mu > 0 and c > 0 (at c = 0 it is 0, at mu -> 0 a finite limit)."""
+    return (sp.log(h) / mu - characteristic(order) * sp.log(1 + 1 / mu)) / c - first_order(order)
+
+
 def _h_log_exp(order: int) -> Form:
     s_degree, mu_degree = LOG_EXP_DEGREES[order]
     names = tuple(f"a{j}{k}" for j in range(s_degree + 1) for k in range(mu_degree + 1))
     coef = dict(zip(names, symbols(names)))
     # (1 - s) once, not its powers: 1 - s = c/(1 + s) is one division in the generated code
     fitted = (1 - s) * sum(coef[f"a{j}{k}"] * s**j * mu**k for j in range(s_degree + 1) for k in range(mu_degree + 1))
-    grazing = characteristic(order) * sp.log(1 + 1 / sp.Max(mu, LOG_FLOOR))
     return Form(
         target=f"H{order}",
         name="log_exp",
         inputs=("mu", "c"),
         params=names,
-        expr=sp.exp(mu * (grazing + c * (first_order(order) + fitted))),
+        expr=log_exp(order, fitted),
         start={n: 0.0 for n in names},
         description=(
             f"H{order} = exp(mu (Psi{order}(mu) log(1 + 1/mu) + c (p(mu) + (1 - s) sum_jk a_jk s^j mu^k))), "

@@ -1,0 +1,312 @@
+r"""Tables as engines ship them: a float32 texture, and lookups of it defined once, symbolically.
+
+A :class:`Texture` is a 2-D array of float32 values, ``rows x columns``, shipped three ways from the same
+numbers:
+
+* C: a ``static const float PREFIX_data[ROWS][COLUMNS]`` array in a header of its own (``PREFIX_data.h``);
+* a raw file ``PREFIX.f32``: the values as little-endian IEEE float32, row after row (row 0 first, each
+  row from column 0), no header: ``rows * columns * 4`` bytes, a 2-D texture of format R32F (OpenGL
+  ``GL_R32F``/``GL_RED``/``GL_FLOAT``, Vulkan ``VK_FORMAT_R32_SFLOAT``, Direct3D ``DXGI_FORMAT_R32_FLOAT``)
+  ``columns`` texels wide and ``rows`` texels high, texel (x = column, y = row);
+* numpy: the generated module reads that file.
+
+Every lookup reads the texture only through :func:`texel` (row, column), an undefined sympy function, which
+every printer prints as a call of the generated function ``PREFIX_texel`` (``PREFIX_texel_f`` in C float).
+That function is the one thing written per language (an array read in C and numpy, ``texelFetch`` in
+GLSL); the interpolation is maths and is written once here, as sympy expressions the printers print in
+every language (:func:`lookup_1d`, :func:`lookup_2d`):
+
+* an axis with n nodes x_k = k/(n - 1), k = 0 .. n-1, covers [0, 1]; a coordinate is clamped into [0, 1]
+  and p = x (n - 1) is its position in nodes;
+* ``linear``: the two nodes around p, i = min(floor(p), n - 2), t = p - i, weights (1 - t, t);
+  bilinear in two dimensions;
+* ``cubic``: the four nodes i .. i + 3 nearest p, i = min(max(floor(p) - 1, 0), n - 4), t = p - i in [0, 3],
+  weights the Lagrange cubics through them: L_0 = -(t - 1)(t - 2)(t - 3)/6, L_1 = t (t - 2)(t - 3)/2,
+  L_2 = -t (t - 1)(t - 3)/2, L_3 = t (t - 1)(t - 2)/6 (inside, the interval between the middle two
+  nodes; in the first and last interval the window stays inside the table, so no texel beyond its
+  edge is needed); bicubic (16 texels) in two dimensions.  Continuous, exact for cubics, error O(h^4).
+
+Both lookups return a node's value exactly at the node (the weights are exactly 0 and 1 there), so the
+tables' values are reproduced wherever a coordinate is a node.  Texels are read with integer coordinates
+(``texelFetch``), never through the GPU's filtering, so the result does not depend on the filtering
+precision of a GPU (often 8 bits of fraction).  NaN: a NaN coordinate gives NaN weights, hence a NaN
+result; its texel index reads texel 0 (C and numpy, never out of bounds).
+
+:func:`emit_textured` prints a program whose routines read a texture: :func:`fitlab.codegen.emit` prints
+the routines, and this module adds the texture to each language's files (C: the data header, included by
+the source; GLSL: the sampler and its texel function; numpy: the file's reader and its texel function) and
+the raw file.  :data:`TEXTURE_SHIM` lets the GLSL compile as C against an array, for tests without a GPU.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import sympy as sp
+
+from fitlab.codegen.emit import emit
+from fitlab.codegen.program import Program, call, clamp
+
+__all__ = ["Texture", "TEXEL", "LOOKUPS", "texel", "lookup_1d", "lookup_2d", "axis_weights", "emit_textured",
+           "texture_bytes", "TEXTURE_SHIM", "texture_from_bytes"]
+
+#: the routine name every lookup reads texels through (printed PREFIX_texel, PREFIX_texel_f)
+TEXEL = "texel"
+#: the lookups and the nodes each reads per axis
+LOOKUPS = {"linear": 2, "cubic": 4}
+
+
+def texel(row, col) -> sp.Expr:
+    """The texture's value at (row, column), integer-valued expressions (a call of the generated texel function)."""
+    return call(TEXEL, row, col)
+
+
+def _lagrange(t) -> list:
+    """The Lagrange cubics through the nodes 0, 1, 2, 3, at t."""
+    return [-(t - 1) * (t - 2) * (t - 3) / 6, t * (t - 2) * (t - 3) / 2, -t * (t - 1) * (t - 3) / 2,
+            t * (t - 1) * (t - 2) / 6]  # fmt: skip
+
+
+def axis_weights(x, n: int, lookup: str) -> tuple[sp.Expr, list]:
+    """(first node index, [weight of node first + k]) of coordinate ``x`` (clamped into [0, 1]) on an axis of
+    ``n`` nodes k/(n - 1); ``lookup`` is ``linear`` (2 nodes) or ``cubic`` (4, Lagrange)."""
+    if lookup not in LOOKUPS:
+        raise ValueError(f"lookup must be one of {', '.join(LOOKUPS)}, not {lookup!r}")
+    if n < LOOKUPS[lookup]:
+        raise ValueError(f"a {lookup} lookup needs at least {LOOKUPS[lookup]} nodes per axis, not {n}")
+    p = clamp(x, 0, 1) * (n - 1)
+    node = sp.floor(p)
+    # the window's first node, as conditionals rather than max/min: the same in every language (a NaN p fails
+    # every comparison and gives a NaN index, hence NaN weights), and sympy does not compare them while printing
+    if lookup == "linear":
+        first = sp.Piecewise((n - 2, node > n - 2), (node, True))
+        t = p - first
+        return first, [1 - t, t]
+    first = sp.Piecewise((0, node < 1), (n - 4, node > n - 3), (node - 1, True))
+    return first, _lagrange(p - first)
+
+
+def lookup_1d(row: int, x, n: int, lookup: str) -> sp.Expr:
+    """The function tabulated in row ``row`` (columns 0 .. n-1 at x = k/(n - 1)), at ``x``."""
+    first, w = axis_weights(x, n, lookup)
+    return sp.Add(*(wk * texel(row, first + k) for k, wk in enumerate(w)))
+
+
+def lookup_2d(row0: int, x, y, n_x: int, n_y: int, lookup: str) -> sp.Expr:
+    """The function tabulated in rows row0 .. row0 + n_y - 1 (row ``row0 + j`` at y = j/(n_y - 1), column k at
+    x = k/(n_x - 1)), at (x, y): bilinear or bicubic (:func:`axis_weights`)."""
+    fx, wx = axis_weights(x, n_x, lookup)
+    fy, wy = axis_weights(y, n_y, lookup)
+    return sp.Add(*(wy[a] * sp.Add(*(wx[b] * texel(row0 + fy + a, fx + b) for b in range(len(wx))))
+                    for a in range(len(wy))))  # fmt: skip
+
+
+@dataclass(frozen=True)
+class Texture:
+    """A float32 texture: ``data`` (rows, columns) and what it holds.
+
+    blocks: (first row, number of rows, what they hold), in order, covering every row (written above each
+    block in the C header, and in the layout notes).
+    layout: lines that say how to address it (the generated files and docs quote them).
+    """
+
+    data: np.ndarray
+    blocks: tuple = ()
+    layout: tuple = field(default_factory=tuple)
+
+    def __post_init__(self):
+        data = np.ascontiguousarray(self.data, dtype=np.float32)
+        if data.ndim != 2:
+            raise ValueError("a texture is a 2-D array (rows, columns)")
+        if not np.all(np.isfinite(data)):
+            raise ValueError("a texture holds finite values only")
+        object.__setattr__(self, "data", data)
+        covered = sum(n for _, n, _ in self.blocks)
+        if self.blocks and covered != data.shape[0]:
+            raise ValueError(f"the blocks cover {covered} rows of {data.shape[0]}")
+
+    @property
+    def rows(self) -> int:
+        return self.data.shape[0]
+
+    @property
+    def columns(self) -> int:
+        return self.data.shape[1]
+
+    @property
+    def nbytes(self) -> int:
+        return self.rows * self.columns * 4
+
+
+def texture_bytes(texture: Texture) -> bytes:
+    """The raw file: every value as little-endian float32, row after row."""
+    return texture.data.astype("<f4").tobytes()
+
+
+def texture_from_bytes(data: bytes, rows: int, columns: int) -> np.ndarray:
+    """The values of a raw texture file (the inverse of :func:`texture_bytes`); a size that is not
+    rows x columns float32 values is a ValueError."""
+    if len(data) != rows * columns * 4:
+        raise ValueError(f"a {columns} x {rows} R32F texture is {rows * columns * 4} bytes, not {len(data)}")
+    return np.frombuffer(data, dtype="<f4").reshape(rows, columns)
+
+
+def _float_literal(x: np.float32) -> str:
+    """The shortest decimal that reads back as this float32 exactly, with C's F suffix."""
+    text = np.format_float_scientific(x, unique=True, trim="-", exp_digits=2) if x != 0 else "0.0"
+    if "." not in text and "e" not in text:
+        text += ".0"
+    mantissa, _, exponent = text.partition("e")
+    if "." not in mantissa:
+        mantissa += ".0"
+    return mantissa + (f"e{exponent}" if exponent else "") + "F"
+
+
+def _macro(program: Program, name: str) -> str:
+    return f"{program.name.upper()}_{name}"
+
+
+def _c_data_header(program: Program, texture: Texture, banner: str) -> str:
+    """The header with the texture as a static const float array, its size and the texel functions."""
+    guard = _macro(program, "DATA_H")
+    prefix = program.prefix
+    out = [banner, f"#ifndef {guard}\n#define {guard}\n\n/*\n"]
+    out += [f" * {line}".rstrip() + "\n" for line in texture.layout]
+    out.append(" */\n\n")
+    out.append(f"#define {_macro(program, 'ROWS')} {texture.rows}\n#define {_macro(program, 'COLUMNS')} "
+               f"{texture.columns}\n\n")  # fmt: skip
+    out.append(f"static const float {prefix}data[{texture.rows}][{texture.columns}] = {{\n")
+    for first, count, what in texture.blocks or ((0, texture.rows, "rows"),):
+        out.append(f"    /* rows {first} .. {first + count - 1}: {what} */\n")
+        for r in range(first, first + count):
+            values = [_float_literal(v) for v in texture.data[r]]
+            lines, line = [], "        "
+            for v in values:
+                if len(line) + len(v) + 2 > 116:
+                    lines.append(line.rstrip())
+                    line = "        "
+                line += v + ", "
+            lines.append(line.rstrip().rstrip(","))
+            out.append(f"    {{ /* row {r} */\n" + "\n".join(lines) + "\n    },\n")
+    out.append("};\n\n")
+    out.append(f"/* The texture's value at (row, column), integer-valued; a NaN or out-of-range index reads index 0\n"
+               f" * (a NaN coordinate's weights make the lookup NaN; the index only has to stay in bounds). */\n")
+    for scalar, suffix in (("double", ""), ("float", "_f")):
+        rows, cols = texture.rows - 1, texture.columns - 1
+        out.append(f"static {scalar} {prefix}texel{suffix}({scalar} row, {scalar} col)\n{{\n"
+                   f"    const int i = (row >= 0 && row <= {rows}) ? (int)row : 0;\n"
+                   f"    const int j = (col >= 0 && col <= {cols}) ? (int)col : 0;\n"
+                   f"    return ({scalar}){prefix}data[i][j];\n}}\n")  # fmt: skip
+    out.append(f"\n#endif /* {guard} */\n")
+    return "".join(out)
+
+
+def _glsl_block(program: Program, texture: Texture) -> str:
+    """The sampler (unless the includer names its own with PREFIX_TEXTURE) and the texel function."""
+    name = _macro(program, "TEXTURE")
+    lines = ["", "// The tables: one R32F texture (texelFetch only: no filtering, no mipmaps).",
+             *(f"// {line}".rstrip() for line in texture.layout),
+             f"// Bind it to the sampler {program.prefix}texture, or #define {name} as your own highp sampler2D "
+             "before this file.", "#ifdef GL_ES", "precision highp float;", "precision highp int;",
+             "precision highp sampler2D;", "#endif", f"#ifndef {name}", f"#define {name} {program.prefix}texture",
+             f"uniform highp sampler2D {program.prefix}texture;", "#endif",
+             f"float {program.prefix}texel(float row, float col) {{ return texelFetch({name}, ivec2(col, row), 0).r; }}",
+             ""]  # fmt: skip
+    return "\n".join(lines) + "\n"
+
+
+def _python_block(program: Program, texture: Texture, file_name: str) -> str:
+    rows, cols = texture.rows, texture.columns
+    layout = "\n".join(f"#: {line}".rstrip() for line in texture.layout)
+    return f'''
+
+# ---- the texture -------------------------------------------------------------------------------------
+{layout}
+TEXTURE_FILE = "{file_name}"
+TEXTURE_SHAPE = ({rows}, {cols})
+
+
+def _read_texture():
+    """The texture file beside this module ({rows} x {cols} little-endian float32), as float64."""
+    import pathlib
+
+    path = pathlib.Path(__file__).with_name(TEXTURE_FILE)
+    data = numpy.fromfile(path, dtype="<f4")
+    if data.size != {rows * cols}:
+        raise ValueError(f"{{path}}: {{data.size}} float32 values, expected {rows * cols} ({rows} rows x {cols} columns)")
+    return data.reshape(TEXTURE_SHAPE).astype(numpy.float64)
+
+
+TEXTURE = _read_texture()
+
+
+def texel(row, col):
+    """The texture's value at integer-valued (row, col); a NaN or out-of-range index reads index 0 (a NaN
+    coordinate's weights make the lookup NaN)."""
+    row, col = numpy.asarray(row, dtype=float), numpy.asarray(col, dtype=float)
+    i = numpy.where((row >= 0) & (row <= {rows - 1}), row, 0).astype(numpy.intp)
+    j = numpy.where((col >= 0) & (col <= {cols - 1}), col, 0).astype(numpy.intp)
+    return TEXTURE[i, j]
+'''
+
+
+def _banner_of(text: str, comment: str) -> str:
+    """The banner that opens an emitted file: its first block comment (C) or its leading comment lines."""
+    if comment == "/*":
+        end = text.index("*/\n") + 3
+        return text[:end]
+    lines = text.splitlines(keepends=True)
+    k = 0
+    while k < len(lines) and lines[k].startswith("//"):
+        k += 1
+    return "".join(lines[:k])
+
+
+def emit_textured(program: Program, texture: Texture, lang: str, command: str | None = None) -> dict[str, bytes]:
+    """{file name: bytes} of ``program`` (whose routines read ``texture`` through :func:`texel`) in ``lang``:
+    c (PREFIX.h, PREFIX.c and PREFIX_data.h, the array), glsl (PREFIX.glsl and PREFIX.f32) or python
+    (PREFIX.py and PREFIX.f32, which the module reads)."""
+    if lang not in ("c", "glsl", "python"):
+        raise ValueError(f"a program with a texture is printed in c, glsl or python, not {lang!r}")
+    files = emit(program, lang, command)
+    base, raw = program.name, f"{program.name}.f32"
+    if lang == "c":
+        header, source = files[f"{base}.h"], files[f"{base}.c"]
+        banner = _banner_of(source, "/*")
+        data_name = f"{base}_data.h"
+        # the source's banner, then the array and its texel functions, then what emit wrote
+        source = banner + f'#include "{data_name}"\n' + source[len(banner):]
+        out = {f"{base}.h": header, f"{base}.c": source, data_name: _c_data_header(program, texture, banner)}
+        return {name: text.encode() for name, text in out.items()}
+    if lang == "glsl":
+        (text,) = files.values()
+        banner = _banner_of(text, "//")
+        # after the banner, before any function: the sampler and the texel function the routines call
+        return {f"{base}.glsl": (banner + _glsl_block(program, texture) + text[len(banner):]).encode(),
+                raw: texture_bytes(texture)}  # fmt: skip
+    (text,) = files.values()
+    return {f"{base}.py": (text + _python_block(program, texture, raw)).encode(), raw: texture_bytes(texture)}
+
+
+#: compiles the GLSL of a textured program as C (after :data:`fitlab.codegen.native.GLSL_SHIM`): the sampler
+#: becomes an array the test binds with ``shim_bind_texture(data, columns, rows)`` (ctypes), texelFetch a read
+TEXTURE_SHIM = r"""
+#define uniform static
+#define highp
+typedef int sampler2D;
+typedef struct { int x, y; } shim_ivec2;
+static shim_ivec2 shim_make_ivec2(int x, int y) { shim_ivec2 v; v.x = x; v.y = y; return v; }
+#define ivec2(x, y) shim_make_ivec2((int)(x), (int)(y))
+typedef struct { float r, g, b, a; } shim_texel;
+static const float *shim_texture = 0;
+static int shim_columns = 0, shim_rows = 0;
+void shim_bind_texture(const float *data, int columns, int rows) { shim_texture = data; shim_columns = columns; shim_rows = rows; }
+static shim_texel texelFetch(sampler2D sampler, shim_ivec2 p, int lod)
+{
+    shim_texel t; (void)sampler; (void)lod;
+    t.r = (p.x >= 0 && p.x < shim_columns && p.y >= 0 && p.y < shim_rows) ? shim_texture[p.y * shim_columns + p.x] : 0.0f;
+    t.g = t.b = 0.0f; t.a = 1.0f;
+    return t;
+}
+"""

@@ -1,0 +1,432 @@
+r"""The exact tables as engines ship them: one float32 texture and the "tables, three orders" BRDF read from it.
+
+The report's "tables, three orders" method (:mod:`.interpolation`) is the exact BRDF up to the interpolation of
+H0, H1, H2 and the constants; it interpolates with scipy splines and cannot be shipped.  This module stores
+what that BRDF needs in one texture (:class:`fitlab.codegen.texture.Texture`) and builds the BRDF from lookups of
+it, printed like any program (:func:`fitlab.codegen.texture.emit_textured`): C (the texture as a ``static const
+float`` array), GLSL (an R32F texture read with ``texelFetch``) and numpy (the raw file), with a bicubic or
+bilinear lookup defined once (:func:`fitlab.codegen.texture.lookup_2d`).
+
+What is stored, and why (docs/model.md, "The exported tables"; the measurements are in docs/table_export.md,
+``python -m fitlab.families.lambert_sphere.table_export --out docs``):
+
+* H_m, m = 0, 1, 2, through the remainder R_m of :func:`.forms.h_functions.log_exp`:
+
+      H_m(mu, c) = exp(mu (Psi_m(mu) log(1 + 1/mu) + c (p_m(mu) + R_m(s, mu)))),  s = sqrt(1 - c),
+
+  Psi_m the exact characteristic function and p_m the exact first-order cubic.  The two parts the BRDF is
+  most sensitive to are then exact, not interpolated: the grazing behaviour H - 1 ~ Psi_m(0) mu log(1/mu)
+  (the terms (H_i H_o - 1)/(mu_i + mu_o) magnify any error of H - 1 there) and the O(c) part of H (as
+  c -> 0 the multiple scattering is O(c^2), a difference of O(c) terms).  R_m is smooth on [0, 1]^2, 0 at
+  c = 0 exactly, and enters the BRDF at O(c^3) as c -> 0.  Stored at s = k/(N - 1), mu = j/(N - 1).
+* the constants as functions of s, each as the quantity that is 0 at c = 0 and whose error stays relative as
+  c -> 0: l, m - 1, and X/c - X1 for X = B, C, D, F (X1 the exact O(c) coefficient,
+  :data:`.forms.constants.FIRST_ORDER`).  They are read per material, always with the cubic lookup (a linear
+  one costs 1e-3 of the BRDF at c = 0.01, and a material is read once).
+* c(kd), the particle albedo of a spherical albedo kd (kd_true), at kd = k/(N - 1), for ``prepare(kd)``.
+
+Every stored value but c(kd) is an exact table value (``N - 1`` divides 64: each node is a node of the tables,
+s = k/64, mu = j/64; nothing is interpolated before it is stored), transformed; three are limits: R_m = 0 at
+c = 0 (the first-order part is exact), the constants' quantities are 0 at c = 0, and R_m at mu = 0 is read
+at the table's node mu = :data:`LIMIT_MU` (R_m - R_m(0) = O(mu log^2 mu), about 4e-7 there, below float32's
+resolution of R_m).  c(kd) comes from the root in s of the kd table's spline (:func:`.interpolation.kd_interpolant`,
+2.8e-7 on kd).
+
+The single-scattering term is printed with sqrt((1 - u)(1 + u)) for sqrt(1 - u^2) (:func:`stable_phase`): in
+forward scattering at grazing, 1 - u is about mu^2 and 1 - u*u in double keeps only 1e-16/mu^2 of it (37 % of
+f_1 at mu = 1e-4, which shows at small c, where f_1 is the part of f that is O(c)).
+"""
+
+from __future__ import annotations
+
+import hashlib
+from dataclasses import dataclass, replace
+from functools import lru_cache
+from pathlib import Path
+
+import numpy as np
+import sympy as sp
+
+from fitlab.codegen.program import MaterialSpec, Program, Routine, material_of, with_domain
+from fitlab.codegen.texture import LOOKUPS, TEXEL, Texture, emit_textured, lookup_1d, lookup_2d
+from fitlab.families.lambert_sphere.forms import ORDER2_PART, RUNTIME_PARTS, RUNTIME_TERMS
+from fitlab.families.lambert_sphere.forms.brdf import PHASE
+from fitlab.families.lambert_sphere.forms.constants import FIRST_ORDER
+from fitlab.families.lambert_sphere.forms.h_functions import first_order, log_exp, log_exp_remainder
+from fitlab.families.lambert_sphere.interpolation import kd_interpolant
+from fitlab.families.lambert_sphere.program import brdf_routines, local_routine
+from fitlab.families.lambert_sphere.table_files import (
+    CONSTANTS_FILE,
+    KD_FILE,
+    check_tables,
+    h_file,
+    read_constants,
+    read_h,
+    tables_dir,
+)
+from fitlab.families.lambert_sphere.targets import TARGETS
+from fitlab.forms.symbolic import symbols
+
+__all__ = ["NAME", "LANGUAGES", "NODES", "DEFAULT_NODES", "DEFAULT_LOOKUP", "QUANTITIES", "DEFAULT_QUANTITY", "LIMIT_MU",
+           "CONSTANT_ROWS", "TableLayout", "layout", "texture", "program", "generate", "command", "check_tables",
+           "tables_dir", "stable_phase", "numpy_brdf", "numpy_part", "memory_bytes", "GENERATE_STEPS"]
+
+#: the generated files' base name and the functions' prefix
+NAME = "lambert_sphere_tables"
+#: the languages the exported tables are printed in (``fitlab codegen --tables --lang``)
+LANGUAGES = ("c", "glsl", "python")
+#: the table's resolution (nodes per axis) may be any of these: N - 1 divides 64, so that every node is a
+#: node of the exact tables (s = k/64, mu = j/64), and a cubic lookup has its four nodes
+NODES = (5, 9, 17, 33, 65)
+#: what ``fitlab codegen --tables`` prints unless told otherwise (docs/table_export.md: 33 nodes, bicubic, 3.4e-6
+#: on the BRDF in 13.9 KB; 65 nodes give 3.8e-7 in 52.5 KB, below what float evaluation resolves)
+DEFAULT_NODES = 33
+DEFAULT_LOOKUP = "cubic"
+#: the table node that stands in for mu -> 0 in R_m (R_m - R_m(0) = O(mu log^2 mu): about 4e-7 here)
+LIMIT_MU = 1e-9
+#: the c-only rows after the three H blocks, in order, with the part each gives and what is stored
+CONSTANT_ROWS = (("l", "l"), ("m", "m - 1"), ("B", "B/c - B1"), ("C", "C/c - C1"), ("D", "D/c - D1"), ("F", "F/c - F1"))
+#: what the H rows may hold (docs/table_export.md measures each): ``remainder`` is what is shipped
+QUANTITIES = {
+    "remainder": "R_m = (log(H)/mu - Psi_m(mu) log(1 + 1/mu))/c - p_m(mu): grazing and first-order parts exact",
+    "log": "log(H)/mu - Psi_m(mu) log(1 + 1/mu) = c (p_m + R_m): grazing part exact, first order interpolated",
+    "h": "H_m itself",
+}
+DEFAULT_QUANTITY = "remainder"
+
+mu, c, kd = symbols(("mu", "c", "kd"))
+_S = sp.sqrt(1 - c)
+
+
+@dataclass(frozen=True)
+class TableLayout:
+    """Where each quantity sits in a texture of ``nodes`` nodes per axis (rows x columns = (3 nodes + 7) x nodes)."""
+
+    nodes: int
+
+    def h_row(self, order: int) -> int:
+        """First row of R_order: row h_row + k holds s = k/(N - 1), column j holds mu = j/(N - 1)."""
+        return order * self.nodes
+
+    def constant_row(self, part: str) -> int:
+        """The row of a constant's stored quantity (column k: s = k/(N - 1))."""
+        return 3 * self.nodes + [p for p, _ in CONSTANT_ROWS].index(part)
+
+    @property
+    def kd_row(self) -> int:
+        """The row of c(kd) (column k: kd = k/(N - 1))."""
+        return 3 * self.nodes + len(CONSTANT_ROWS)
+
+    @property
+    def rows(self) -> int:
+        return self.kd_row + 1
+
+    def blocks(self) -> tuple:
+        n = self.nodes
+        out = [(self.h_row(m), n, f"R{m}(s, mu), row h + k: s = k/{n - 1}, column j: mu = j/{n - 1}") for m in range(3)]
+        out += [(self.constant_row(p), 1, f"{what} at s = k/{n - 1} (column k)") for p, what in CONSTANT_ROWS]
+        out.append((self.kd_row, 1, f"c(kd) at kd = k/{n - 1} (column k)"))
+        return tuple(out)
+
+    def lines(self) -> tuple:
+        """The layout in words (the generated files and docs/codegen.md quote it)."""
+        n, r = self.nodes, self.rows
+        return (
+            f"Texture: {n} columns x {r} rows of float32 (R32F), {n * r * 4} bytes; texel (column x, row y); the raw",
+            f"file is little-endian float32, row 0 first, each row from column 0. N = {n} nodes per axis.",
+            f"Rows {self.h_row(0)}-{n - 1}, {n}-{2 * n - 1}, {2 * n}-{3 * n - 1}: R0, R1, R2 (row 'first + k': "
+            f"s = sqrt(1 - c) = k/{n - 1};",
+            f"column j: mu = j/{n - 1}), H_m = exp(mu (Psi_m(mu) log(1 + 1/mu) + c (p_m(mu) + R_m(s, mu)))).",
+            f"Rows {3 * n}-{3 * n + 5}: l, m - 1, B/c - B1, C/c - C1, D/c - D1, F/c - F1 at s = k/{n - 1} (column k);",
+            "B1, C1, D1, F1 = 0, 2/3, 0, -15/128 (exact O(c) terms).",
+            f"Row {self.kd_row}: c(kd) at kd = k/{n - 1} (column k). Lookup: position p = x (N - 1), x in [0, 1];",
+            "bicubic: Lagrange cubics on the 4 nodes i..i+3, i = min(max(floor(p) - 1, 0), N - 4); bilinear:",
+            "nodes i, i+1, i = min(floor(p), N - 2). docs/codegen.md, 'Tables as engines ship them'.",
+        )
+
+
+def layout(nodes: int) -> TableLayout:
+    """The layout of a table of ``nodes`` nodes per axis (one of :data:`NODES`)."""
+    if nodes not in NODES:
+        raise ValueError(f"nodes must be one of {', '.join(map(str, NODES))} (N - 1 divides 64: every node a node of "
+                         f"the exact tables), not {nodes}")
+    return TableLayout(nodes)
+
+
+def _grid_index(values: np.ndarray, wanted: np.ndarray, what: str, source: Path) -> np.ndarray:
+    """The indices of ``wanted`` in ``values`` (exact matches), or a ValueError naming the table."""
+    index = np.searchsorted(values, wanted)
+    index = np.minimum(index, values.size - 1)
+    if not np.array_equal(values[index], wanted):
+        raise ValueError(f"{source}: its {what} grid lacks the nodes {what} = k/64 the export reads")
+    return index
+
+
+@lru_cache(maxsize=None)
+def _stored_function(order: int, quantity: str):
+    """numpy f(H, mu, c) of the stored quantity (:data:`QUANTITIES`)."""
+    h = sp.Symbol("h", positive=True)
+    expr = {"remainder": log_exp_remainder(order, h), "log": c * (log_exp_remainder(order, h) + first_order(order)),
+            "h": h}[quantity]
+    return sp.lambdify((h, mu, c), expr, "numpy")
+
+
+def _h_of_stored(order: int, stored: sp.Expr, quantity: str) -> sp.Expr:
+    """H_order from the looked-up stored quantity (the inverse of :func:`_stored_function`)."""
+    if quantity == "h":
+        return stored
+    return log_exp(order, stored if quantity == "remainder" else stored / c - first_order(order))
+
+
+def _stored_h(order: int, nodes: int, data_dir: Path, quantity: str = DEFAULT_QUANTITY) -> np.ndarray:
+    """The stored quantity of H_order on the nodes (rows s = k/(N-1), columns mu = j/(N-1)), from h{order}.csv."""
+    t = read_h(order, data_dir)
+    s_all, mu_all = np.unique(t[:, 0]), np.unique(t[:, 2])
+    h = t[:, 3].reshape(s_all.size, mu_all.size)
+    grid = np.linspace(0.0, 1.0, nodes)
+    # H itself is 1 at mu = 0; the other quantities have a limit there, read at mu = LIMIT_MU
+    mus = grid if quantity == "h" else np.concatenate(([LIMIT_MU], grid[1:]))
+    rows = _grid_index(s_all, grid, "s", data_dir / h_file(order))
+    cols = _grid_index(mu_all, mus, "mu", data_dir / h_file(order))
+    s, m = np.meshgrid(s_all[rows], mus, indexing="ij")
+    cc = 1.0 - s**2
+    with np.errstate(divide="ignore", invalid="ignore"):
+        r = _stored_function(order, quantity)(h[np.ix_(rows, cols)], m, cc) + np.zeros(m.shape)
+    # at c = 0, H = 1 and the first-order part is exact: the remainder and log H are 0
+    return r if quantity == "h" else np.where(cc == 0.0, 0.0, r)
+
+
+def _stored_constants(nodes: int, data_dir: Path) -> list[np.ndarray]:
+    table = read_constants(data_dir)
+    grid = np.linspace(0.0, 1.0, nodes)
+    idx = _grid_index(table["s"], grid, "s", data_dir / CONSTANTS_FILE)
+    cc = table["c"][idx]
+    out = []
+    for part, _ in CONSTANT_ROWS:
+        x = table[part][idx]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            if part == "l":
+                v = x
+            elif part == "m":
+                v = x - 1.0
+            else:
+                v = x / cc - float(FIRST_ORDER[part])
+        out.append(np.where(cc == 0.0, 0.0, v))  # every stored quantity is 0 at c = 0
+    return out
+
+
+def _stored_c_of_kd(nodes: int, data_dir: Path) -> np.ndarray:
+    """c at kd = k/(N-1): the root in s of kd_true(1 - s^2) = kd (the kd table's spline in s), c = 1 - s^2."""
+    from scipy.optimize import brentq
+
+    kd_of_c = kd_interpolant(data_dir)
+
+    def c_of(k: float) -> float:
+        if k == 0.0:
+            return 0.0
+        s = brentq(lambda s: float(kd_of_c(1.0 - s * s)) - k, 0.0, 1.0, xtol=1e-15, rtol=1e-15)
+        return 1.0 - s * s
+
+    return np.array([c_of(k) for k in np.linspace(0.0, 1.0, nodes)])
+
+
+@lru_cache(maxsize=None)
+def _texture(nodes: int, data_dir: Path, quantity: str) -> Texture:
+    lay = layout(nodes)
+    rows = [_stored_h(m, nodes, data_dir, quantity) for m in range(3)]
+    rows += [v[None, :] for v in _stored_constants(nodes, data_dir)]
+    rows.append(_stored_c_of_kd(nodes, data_dir)[None, :])
+    return Texture(np.concatenate(rows, axis=0), lay.blocks(), lay.lines())
+
+
+def texture(nodes: int = DEFAULT_NODES, data_dir: Path | None = None, quantity: str = DEFAULT_QUANTITY) -> Texture:
+    """The texture of ``nodes`` nodes per axis from the tables in ``data_dir`` (None: :func:`.table_files.tables_dir`);
+    ``quantity``: what its H rows hold (:data:`QUANTITIES`; the others are measured, not shipped)."""
+    _check(nodes, DEFAULT_LOOKUP, quantity)
+    return _texture(nodes, tables_dir(data_dir), quantity)
+
+
+def _check(nodes: int, lookup: str, quantity: str) -> None:
+    layout(nodes)
+    if lookup not in LOOKUPS:
+        raise ValueError(f"lookup must be one of {', '.join(LOOKUPS)}, not {lookup!r}")
+    if quantity not in QUANTITIES:
+        raise ValueError(f"quantity must be one of {', '.join(QUANTITIES)}, not {quantity!r}")
+
+
+def stable_phase(expr: sp.Expr) -> sp.Expr:
+    """``expr`` with every max(0, 1 - u^2) (the phase function's sqrt(1 - u^2)) written max(0, (1 - u)(1 + u)):
+    the same value, without the cancellation of 1 - u*u as u -> 1 (forward scattering at grazing)."""
+
+    def square_of(term):
+        """X when ``term`` is -X^2, else None."""
+        coeff, rest = term.as_coeff_Mul()
+        return rest.base if coeff == -1 and rest.is_Pow and rest.exp == 2 else None
+
+    def one_minus_square(a):
+        return a.is_Add and len(a.args) == 2 and sp.S.One in a.args and square_of(a.args[1 - a.args.index(sp.S.One)]) is not None
+
+    def is_target(e):
+        return isinstance(e, sp.Max) and len(e.args) == 2 and sp.S.Zero in e.args and any(one_minus_square(a) for a in e.args)
+
+    def rewrite(e):
+        a = next(a for a in e.args if one_minus_square(a))
+        u = square_of(a.args[1 - a.args.index(sp.S.One)])
+        return sp.Max(0, (1 - u) * (1 + u))
+
+    return expr.replace(is_target, rewrite)
+
+
+def _part_routines(lay: TableLayout, lookup: str, quantity: str) -> list[Routine]:
+    n, out = lay.nodes, []
+    for m in range(3):
+        target = TARGETS[f"H{m}"]
+        expr = _h_of_stored(m, lookup_2d(lay.h_row(m), mu, _S, n, n, lookup), quantity)
+        out.append(Routine(target.routine, ("mu", "c"), expr,
+                           f"H{m}(mu, c) from the table: exp(mu (Psi{m}(mu) log(1 + 1/mu) + c (p{m}(mu) + R{m}(s, mu)))), "
+                           f"R{m} read {'bicubic' if lookup == 'cubic' else 'bilinear'} (rows {lay.h_row(m)}-"
+                           f"{lay.h_row(m) + n - 1}). mu, c in [0, 1].",
+                           domain={a: target.domain[a] for a in ("mu", "c")}))  # fmt: skip
+    for part, what in CONSTANT_ROWS:
+        target = TARGETS[part]
+        stored = lookup_1d(lay.constant_row(part), _S, n, "cubic")
+        expr = {"l": stored, "m": 1 + stored}.get(part, c * (FIRST_ORDER.get(part, 0) + stored))
+        out.append(Routine(target.routine, ("c",), expr,
+                           f"The constant {part}(c) from the table: row {lay.constant_row(part)} holds {what} at "
+                           f"s = k/{n - 1}, read cubic. c in [0, 1].", domain={"c": target.domain["c"]}))  # fmt: skip
+    target = TARGETS["c_of_kd"]
+    out.append(Routine(target.routine, ("kd",), lookup_1d(lay.kd_row, kd, n, "cubic"),
+                       f"The particle albedo c of the spherical albedo kd (kd_true) from the table: row {lay.kd_row}, "
+                       f"kd = k/{n - 1}, read cubic. kd in [0, 1].", domain={"kd": target.domain["kd"]}))  # fmt: skip
+    return out
+
+
+@lru_cache(maxsize=None)
+def _routines(nodes: int, lookup: str, quantity: str) -> tuple[Routine, ...]:
+    """Every routine of the program, in file order, each clamping its inputs (no per-material set-up)."""
+    lay = layout(nodes)
+    routines = _part_routines(lay, lookup, quantity)
+    what = "The Lambert-sphere BRDF from the exported tables, all three Fourier orders"
+    routines += [replace(r, expr=stable_phase(r.expr)) if r.name == "single" else r
+                 for r in brdf_routines(RUNTIME_TERMS, 1, what)]
+    routines.append(local_routine("brdf"))
+    # unevaluated: substituting the clamped inputs would have sympy compare every nested max and min again
+    # (tens of seconds) and change nothing that is printed
+    with sp.evaluate(False):
+        return tuple(with_domain(r) for r in routines)
+
+
+@lru_cache(maxsize=None)
+def _program(nodes: int, lookup: str, digests: tuple) -> Program:
+    lay = layout(nodes)
+    routines = _routines(nodes, lookup, DEFAULT_QUANTITY)
+    spec = MaterialSpec(("c",), {"eval": "brdf", "eval_local": "brdf_local"}, {"prepare": ("kd", "c_of_kd")})
+    name = "bicubic" if lookup == "cubic" else "bilinear"
+    about = (f"The Lambert-sphere BRDF (d'Eon, EGSR 2021) from its exact tables: H0, H1, H2 and the constants read "
+             f"{name} from one texture of {nodes} x {lay.rows} float32 (docs/codegen.md, 'Tables as engines ship them').",
+             "Terms of brdf: single, m0, m1, m2 (the exact BRDF up to the lookup's error; no energy scale).",
+             "From these tables (sha256):", *(f"  {file}  {digest}" for file, digest in digests))
+    doc = ("The Lambert-sphere BRDF from its exported tables, generated by fitlab: numpy only.\n\n"
+           "Every function takes numpy arrays (any broadcastable shapes; vectors have a\n"
+           "last axis of 3) and returns an array of float64; the texture is read from the\n"
+           f"file {NAME}.f32 beside this module.\n")
+    parts = (*RUNTIME_PARTS, ORDER2_PART, "c_of_kd")
+    return Program(routines, (), RUNTIME_TERMS, NAME, about, doc, parts, None, material_of(routines, spec))
+
+
+def _digests(data_dir: Path) -> tuple:
+    names = (*(h_file(m) for m in range(3)), CONSTANTS_FILE, KD_FILE)
+    return tuple((name, hashlib.sha256((data_dir / name).read_bytes()).hexdigest()) for name in names)
+
+
+def program(nodes: int = DEFAULT_NODES, lookup: str = DEFAULT_LOOKUP, data_dir: Path | None = None) -> Program:
+    """The program of the texture of ``nodes`` nodes per axis read by ``lookup`` (cubic or linear): the parts
+    (h0, h1, h2, const_l ... const_f, c_of_kd), the terms, brdf, brdf_local and the per-material set-up
+    (prepare_c, prepare, eval, eval_local).  Built once per process for each choice."""
+    _check(nodes, lookup, DEFAULT_QUANTITY)
+    return _program(nodes, lookup, _digests(tables_dir(data_dir)))
+
+
+def command(lang: str, nodes: int = DEFAULT_NODES, lookup: str = DEFAULT_LOOKUP) -> str:
+    """The command that prints these files (named in their banner; not --data or --out)."""
+    words = ["fitlab codegen --tables", f"--lang {lang}"]
+    if nodes != DEFAULT_NODES:
+        words.append(f"--nodes {nodes}")
+    if lookup != DEFAULT_LOOKUP:
+        words.append(f"--lookup {lookup}")
+    return " ".join(words)
+
+
+#: the steps of :func:`generate` (a progress bar's total)
+GENERATE_STEPS = 3
+
+
+def generate(lang: str, nodes: int = DEFAULT_NODES, lookup: str = DEFAULT_LOOKUP, data_dir: Path | None = None,
+             tick=None) -> dict[str, bytes]:  # fmt: skip
+    """{file name: bytes} of the exported tables in ``lang`` (c, glsl or python; see
+    :func:`fitlab.codegen.texture.emit_textured`); ``tick()`` after each of :data:`GENERATE_STEPS` steps (the
+    texture, the program, the files)."""
+    if lang not in LANGUAGES:
+        raise ValueError(f"the exported tables are printed in {', '.join(LANGUAGES)}, not {lang!r}")
+    tex = texture(nodes, data_dir)
+    tick and tick()
+    prog = program(nodes, lookup, data_dir)
+    tick and tick()
+    files = emit_textured(prog, tex, lang, command(lang, nodes, lookup))
+    tick and tick()
+    return files
+
+
+def memory_bytes(nodes: int) -> int:
+    """Bytes of the texture of ``nodes`` nodes per axis (float32)."""
+    return layout(nodes).rows * nodes * 4
+
+
+# -- numpy: the report's methods and the tests' reference ----------------------------------------------------
+def _numpy_routines(routines, data: np.ndarray) -> dict:
+    """{routine name: numpy function of its arguments (positional)}: each routine lambdified on its own, calling
+    the others (as the generated module does), the texel function reading ``data``."""
+    rows, cols = data.shape
+
+    def read(row, col):
+        row, col = np.asarray(row, dtype=float), np.asarray(col, dtype=float)
+        i = np.where((row >= 0) & (row <= rows - 1), row, 0).astype(np.intp)
+        j = np.where((col >= 0) & (col <= cols - 1), col, 0).astype(np.intp)
+        return data[i, j]
+
+    namespace = {TEXEL: read}
+    for r in routines:  # a routine calls only the routines before it
+        namespace[r.name] = sp.lambdify(symbols(r.args), r.expr, modules=[dict(namespace), "numpy"], cse=True)
+    return namespace
+
+
+@lru_cache(maxsize=None)
+def _numpy_functions(nodes: int, lookup: str, data_dir: Path, quantity: str) -> dict:
+    data = texture(nodes, data_dir, quantity).data.astype(np.float64)
+    return _numpy_routines(_routines(nodes, lookup, quantity), data)
+
+
+def _vectorised(f):
+    def g(*x):
+        arrays = np.broadcast_arrays(*(np.asarray(v, dtype=float) for v in x))
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            return np.asarray(f(*arrays), dtype=float) + np.zeros(arrays[0].shape)
+
+    return g
+
+
+def numpy_brdf(nodes: int = DEFAULT_NODES, lookup: str = DEFAULT_LOOKUP, data_dir: Path | None = None,
+               quantity: str = DEFAULT_QUANTITY):  # fmt: skip
+    """f(mu_i, mu_o, phi, c) of the exported tables in numpy: the routines lambdified one by one, reading the
+    texture's float32 values (what the generated code computes, in double)."""
+    _check(nodes, lookup, quantity)
+    brdf = _numpy_functions(nodes, lookup, tables_dir(data_dir), quantity)["brdf"]
+    return _vectorised(lambda mi, mo, phi, c: brdf(mi, mo, np.cos(phi), c))
+
+
+def numpy_part(target: str, nodes: int = DEFAULT_NODES, lookup: str = DEFAULT_LOOKUP, data_dir: Path | None = None,
+               quantity: str = DEFAULT_QUANTITY):  # fmt: skip
+    """The part ``target`` (H0, H1, H2, l, m, B, C, D, F, c_of_kd) of the exported tables as a numpy function of
+    the target's inputs, positionally."""
+    _check(nodes, lookup, quantity)
+    return _vectorised(_numpy_functions(nodes, lookup, tables_dir(data_dir), quantity)[TARGETS[target].routine])

@@ -1,0 +1,268 @@
+r"""What to store in the exported tables, and at what resolution: docs/table_export.md (and .json, .png).
+
+``python -m fitlab.families.lambert_sphere.table_study --out docs`` measures, against the exact engine:
+
+* the candidates for what the H rows hold (:data:`.table_export.QUANTITIES`: H itself, log(H)/mu less its
+  grazing term, the remainder beyond the exact grazing and first-order parts), each with the bilinear and the
+  bicubic lookup, at 17, 33 and 65 nodes per axis: H0, H1, H2 on their validation sets (relative error of H
+  and of H - 1, which the BRDF's (H_i H_o - 1)/(mu_i + mu_o) terms magnify) and the BRDF on the report's
+  sets (:mod:`fitlab.report.validation`: the validation set with c down to 1e-6, the grazing set with mu down
+  to 1e-6, the independent set);
+* the resolution of the shipped quantity, 5 to 65 nodes, against bytes, for both lookups.
+
+The constants and c(kd) are stored and read the same way in every row (cubic, per material), so the rows
+differ in H alone.  Every exact value comes from the caches of the report and the targets (computed by the
+exact engine on a first run, several minutes).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from fitlab.families.lambert_sphere import table_export as te
+from fitlab.families.lambert_sphere.datasets import h_validation
+
+__all__ = ["candidate_rows", "resolution_rows", "study", "markdown", "plot_png", "main", "FILES"]
+
+FILES = ("table_export.md", "table_export.json", "table_export.png")
+#: H - 1 is measured where |H - 1| is at least this (the exact values are H in double: 1e-16 of H)
+H_MINUS_1_FLOOR = 1e-8
+_INPUTS = ("mu_i", "mu_o", "phi", "c")
+
+
+def _rel(approx, exact) -> np.ndarray:
+    approx, exact = np.asarray(approx, dtype=float), np.asarray(exact, dtype=float)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        err = np.abs(approx - exact) / np.abs(exact)
+    err = np.where(exact == approx, 0.0, err)
+    return np.where(np.isfinite(err), err, np.inf)
+
+
+def _sets():
+    from fitlab.report.settings import FULL
+    from fitlab.report.validation import brdf_set, fresh_set, grazing_set
+
+    return {"valid": brdf_set(FULL), "grazing": grazing_set(FULL), "fresh": fresh_set(FULL)}
+
+
+def _measure(nodes: int, lookup: str, quantity: str, sets: dict, h_sets: dict, data_dir) -> dict:
+    out = {"nodes": nodes, "lookup": lookup, "quantity": quantity, "bytes": te.memory_bytes(nodes)}
+    for order, v in h_sets.items():
+        h = te.numpy_part(f"H{order}", nodes, lookup, data_dir, quantity)(v.inputs["mu"], v.inputs["c"])
+        out[f"H{order}_max_rel"] = float(_rel(h, v.y).max())
+        # where |H - 1| >= 1e-8: below, the exact value's own rounding (1e-16 of H) is 1e-8 of H - 1 or more
+        moved = np.abs(v.y - 1.0) >= H_MINUS_1_FLOOR
+        out[f"H{order}_minus_1_max_rel"] = float(_rel(h[moved] - 1.0, v.y[moved] - 1.0).max())
+    f = te.numpy_brdf(nodes, lookup, data_dir, quantity)
+    for name, v in sets.items():
+        e = _rel(f(*(v.inputs[k] for k in _INPUTS)), v.y)
+        out[f"{name}_max_rel"] = float(e.max())
+        out[f"{name}_rms_rel"] = float(np.sqrt(np.mean(e**2)))
+        k = int(np.argmax(e))
+        out[f"{name}_worst"] = {n: float(v.inputs[n][k]) for n in _INPUTS}
+    if quantity == te.DEFAULT_QUANTITY and lookup == te.DEFAULT_LOOKUP and nodes == te.DEFAULT_NODES:
+        out["tiny_c"] = _tiny_c(f)
+    valid = sets["valid"]
+    at0 = f(valid.inputs["mu_i"], valid.inputs["mu_o"], valid.inputs["phi"], np.zeros_like(valid.inputs["c"]))
+    out["max_abs_c0"] = float(np.max(np.abs(at0)))
+    return out
+
+
+#: below the report's smallest albedo: forward scattering (phi = pi) at mu_i = mu_o = mu
+TINY_C = (1e-6, 1e-8, 1e-10)
+TINY_MU = (1e-6, 1e-4, 1e-2)
+
+
+def _tiny_c(f) -> list[dict]:
+    """Forward scattering at grazing for albedos down to 1e-10, against the exact engine (one point each)."""
+    from fitlab.families.lambert_sphere.exact import brdf
+
+    out = []
+    for cv in TINY_C:
+        for m in TINY_MU:
+            exact = float(brdf(np.array([m]), np.array([m]), np.array([np.pi]), cv)[0])
+            value = float(f(m, m, np.pi, cv))
+            out.append({"c": cv, "mu": m, "exact": exact, "value": value, "rel": float(_rel(value, exact))})
+    return out
+
+
+def candidate_rows(sets, h_sets, data_dir=None, tick=None) -> list[dict]:
+    """Every stored quantity x lookup at 17, 33, 65 nodes."""
+    rows = []
+    for quantity in te.QUANTITIES:
+        for lookup in ("linear", "cubic"):
+            for nodes in (17, 33, 65):
+                rows.append(_measure(nodes, lookup, quantity, sets, h_sets, data_dir))
+                tick and tick()
+    return rows
+
+
+def resolution_rows(sets, h_sets, data_dir=None, tick=None) -> list[dict]:
+    """The shipped quantity at every resolution (:data:`.table_export.NODES`), both lookups."""
+    rows = []
+    for lookup in ("linear", "cubic"):
+        for nodes in te.NODES:
+            rows.append(_measure(nodes, lookup, te.DEFAULT_QUANTITY, sets, h_sets, data_dir))
+            tick and tick()
+    return rows
+
+
+def study(data_dir=None, progress: bool = True) -> dict:
+    """Both tables of the study (exact values from the caches)."""
+    from tqdm import tqdm
+
+    with tqdm(total=3 + 18 + 10, desc="table study", unit="step", disable=not progress) as bar:
+        sets = _sets()
+        bar.update(1)
+        h_sets = {m: h_validation(m) for m in range(3)}
+        bar.update(2)
+        candidates = candidate_rows(sets, h_sets, data_dir, lambda: bar.update(1))
+        resolution = resolution_rows(sets, h_sets, data_dir, lambda: bar.update(1))
+    points = {name: len(v) for name, v in sets.items()}
+    return {"candidates": candidates, "resolution": resolution, "points": points,
+            "sets": {name: v.grid for name, v in sets.items()},
+            "h_sets": {f"H{m}": v.grid for m, v in h_sets.items()}}  # fmt: skip
+
+
+def _e(x: float) -> str:
+    return f"{x:.2e}"
+
+
+def _kb(n: int) -> str:
+    return f"{n / 1000:.1f}"
+
+
+def markdown(result: dict) -> str:
+    c = result["candidates"]
+    p = result["points"]
+    lookup_name = {"linear": "bilinear", "cubic": "bicubic"}
+    out = ["# The exported tables: what is stored, and at what resolution", "",
+           "Generated by `python -m fitlab.families.lambert_sphere.table_study --out docs` (do not edit; every number "
+           "is in table_export.json). What engines ship: one float32 texture read by a bilinear or bicubic lookup "
+           "(`fitlab codegen --tables`; docs/codegen.md, 'Tables as engines ship them'). Every node of the texture is "
+           "a node of the exact tables (s = sqrt(1 - c) = k/64, mu = j/64), so the only error is the lookup's between "
+           "the nodes (and float32's rounding of the stored values).", "",
+           f"**Sets.** H: each target's validation set ({result['h_sets']['H0']}; relative error of H and of H - 1). "
+           f"BRDF, against the exact engine: the report's validation set ({p['valid']} points: {result['sets']['valid']}), "
+           f"its grazing set ({p['grazing']} points: {result['sets']['grazing']}) and its independent set ({p['fresh']} "
+           f"points: {result['sets']['fresh']}); max and RMS relative error. The constants are read the same way in "
+           "every row (cubic in s, per material), so rows differ in H alone.", "",
+           "## What the H rows hold", "",
+           "| stored | lookup | nodes | bytes | H0 max rel | H0 - 1 max rel | H1 - 1 max rel | H2 - 1 max rel | BRDF max rel "
+           "| BRDF RMS rel | grazing max rel | fresh max rel |",
+           "|---|---|---|---|---|---|---|---|---|---|---|---|"]  # fmt: skip
+    names = {"remainder": "remainder R (shipped)", "log": "log(H)/mu - Psi log(1 + 1/mu)", "h": "H"}
+    for r in c:
+        out.append(f"| {names[r['quantity']]} | {lookup_name[r['lookup']]} | {r['nodes']} | {r['bytes']} | "
+                   f"{_e(r['H0_max_rel'])} | {_e(r['H0_minus_1_max_rel'])} | {_e(r['H1_minus_1_max_rel'])} | "
+                   f"{_e(r['H2_minus_1_max_rel'])} | {_e(r['valid_max_rel'])} | {_e(r['valid_rms_rel'])} | "
+                   f"{_e(r['grazing_max_rel'])} | {_e(r['fresh_max_rel'])} |")  # fmt: skip
+    tiny = next(r for r in result["resolution"] if "tiny_c" in r)["tiny_c"]
+
+    def at(q, lookup, n):
+        return next(r for r in c if r["quantity"] == q and r["lookup"] == lookup and r["nodes"] == n)
+
+    lowest = all(min(te.QUANTITIES, key=lambda q: at(q, lk, n)["valid_max_rel"]) == "remainder"
+                 for lk in ("linear", "cubic") for n in (17, 33, 65))  # fmt: skip
+    h, lg, rm = (at(q, "cubic", 65) for q in ("h", "log", "remainder"))
+    lg1, rm1 = at("log", "linear", 65), at("remainder", "linear", 65)
+    out += ["", f"H - 1 is measured where |H - 1| >= {H_MINUS_1_FLOOR:g} (the exact values are H in double). Why the "
+            "remainder (65 nodes):", "",
+            "* H itself: near mu = 0, H - 1 ~ Psi(0) mu log(1/mu) has an infinite slope, which no polynomial lookup "
+            "follows, and the BRDF's (H_i H_o - 1)/(mu_i + mu_o) magnifies the error of H - 1: bicubic "
+            f"{_e(h['valid_max_rel'])} on the BRDF, {_e(h['grazing_max_rel'])} at grazing.",
+            "* log(H)/mu less its grazing term: the grazing behaviour is exact, but the O(c) part is interpolated in "
+            "s = sqrt(1 - c), and as c -> 0 the multiple scattering is O(c^2), a difference of O(c) terms that needs "
+            f"the O(c) part to relative accuracy: bilinear {_e(lg1['valid_max_rel'])} (worst at c = "
+            f"{lg1['valid_worst']['c']:.3g}), bicubic {_e(lg['valid_max_rel'])}.",
+            "* the remainder beyond the exact grazing and first-order parts: it enters the BRDF at O(c^3) as c -> 0: "
+            f"bilinear {_e(rm1['valid_max_rel'])}, bicubic {_e(rm['valid_max_rel'])}"
+            + ("; the lowest of the three in every row above." if lowest else "."), "",
+            "The grazing set's floor, about 1e-5 at c = 1e-6 and mu_i = mu_o = 1e-6 in forward scattering, is not the "
+            "table's: there the BRDF (1e-12) is the difference of terms of order c/(mu_i + mu_o) = 0.5, and the runtime "
+            "formula (docs/model.md) loses the rest in double; the order-2 model evaluates the same formula. Below the report's "
+            "smallest albedo it grows as c falls (the shipped table, forward scattering, mu_i = mu_o = mu, against the "
+            "exact engine):", "", "| c | " + " | ".join(f"mu = {m:g}" for m in TINY_MU) + " |",
+            "|---|" + "---|" * len(TINY_MU),
+            *(f"| {cv:g} | " + " | ".join(_e(r["rel"]) for r in tiny if r["c"] == cv) + " |" for cv in TINY_C), "",
+            "## Resolution against accuracy (the shipped quantity)", "",
+            "| lookup | nodes per axis | texture (columns x rows) | bytes | KB | BRDF max rel | BRDF RMS rel | "
+            "grazing max rel | fresh max rel | fresh RMS rel | max abs, c = 0 |",
+            "|---|---|---|---|---|---|---|---|---|---|---|"]  # fmt: skip
+    for r in result["resolution"]:
+        n = r["nodes"]
+        out.append(f"| {lookup_name[r['lookup']]} | {n} | {n} x {te.layout(n).rows} | {r['bytes']} | {_kb(r['bytes'])} | "
+                   f"{_e(r['valid_max_rel'])} | {_e(r['valid_rms_rel'])} | {_e(r['grazing_max_rel'])} | "
+                   f"{_e(r['fresh_max_rel'])} | {_e(r['fresh_rms_rel'])} | {r['max_abs_c0']:.1e} |")  # fmt: skip
+    cubic = {r["nodes"]: r for r in result["resolution"] if r["lookup"] == "cubic"}
+    linear = {r["nodes"]: r for r in result["resolution"] if r["lookup"] == "linear"}
+    d = te.DEFAULT_NODES
+    out += ["", f"The bicubic lookup pays: at {d} nodes ({_kb(cubic[d]['bytes'])} KB) it is "
+            f"{_e(cubic[d]['valid_max_rel'])} on the BRDF, where the bilinear one needs 65 nodes "
+            f"({_kb(linear[65]['bytes'])} KB) for {_e(linear[65]['valid_max_rel'])}; its error falls as h^4 "
+            "(16 texels per lookup instead of 4). `fitlab codegen --tables` ships "
+            f"{d} nodes, bicubic, by default; 65 nodes ({_e(cubic[65]['valid_max_rel'])}) go below what float32 "
+            "evaluation resolves (a few 1e-6, docs/codegen.md), and any node count of the table's grid can be asked "
+            "for (`--nodes`, `--lookup linear`).", "",
+            "![BRDF error against bytes](table_export.png)", ""]  # fmt: skip
+    return "\n".join(out)
+
+
+def plot_png(result: dict) -> bytes:
+    """Max relative error of the BRDF against the texture's bytes, one line per stored quantity and lookup."""
+    import io
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(7, 4.5), dpi=100)
+    rows = result["candidates"] + [r for r in result["resolution"] if r["nodes"] not in (17, 33, 65)]
+    for quantity in te.QUANTITIES:
+        for lookup, style in (("linear", "--"), ("cubic", "-")):
+            pts = sorted((r["bytes"], r["valid_max_rel"]) for r in rows if r["quantity"] == quantity and r["lookup"] == lookup)
+            ax.loglog(*zip(*pts), style, marker="o", label=f"{quantity}, {'bilinear' if lookup == 'linear' else 'bicubic'}")
+    ax.set_xlabel("texture bytes (float32)")
+    ax.set_ylabel("BRDF max relative error (validation set)")
+    ax.set_title("Exported Lambert-sphere tables: error against memory")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", metadata={"Software": None})
+    plt.close(fig)
+    return buf.getvalue()
+
+
+def main(argv=None) -> int:
+    from fitlab._io import FolderError, atomic_write_many, check_output_folder
+
+    p = argparse.ArgumentParser(prog="python -m fitlab.families.lambert_sphere.table_study",
+                                description="Measure what the exported tables store and at what resolution; write "
+                                            + ", ".join(FILES) + " into --out as one unit.")  # fmt: skip
+    p.add_argument("--out", default="docs", help="output folder (default: docs)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    args = p.parse_args(argv)
+    try:
+        out = check_output_folder(Path(args.out), FILES)
+    except FolderError as exc:
+        print(f"table_study: error: --out {args.out}: {exc}", file=sys.stderr)
+        return 2
+    result = study(progress=not args.quiet)
+    files = {out / "table_export.md": markdown(result).encode(),
+             out / "table_export.json": (json.dumps(result, indent=1, sort_keys=True) + "\n").encode(),
+             out / "table_export.png": plot_png(result)}  # fmt: skip
+    atomic_write_many(files)
+    for path in files:
+        print(f"wrote {path}") if not args.quiet else None
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
