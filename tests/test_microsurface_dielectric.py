@@ -102,14 +102,20 @@ def _rows(result, quantity, material=None, order=None):
             and (order is None or r["order"] == order)]
 
 
+#: an empty bin is accepted when the reference makes it at least this likely, exp(-lambda) for the expected
+#: count lambda = reference N Omega: 1e-4 (lambda < 9.2), as rare as a one-sided 3.7-sigma deviation
+EMPTY_BIN_P = 1e-4
+
+
 def _assert_agrees(rows):
-    """Each row within Z_MAX standard errors of its reference; an empty bin (se = 0) must have a reference
-    below the rule-of-three bound 3 / (N Omega)."""
+    """Each row within Z_MAX standard errors of its reference; an empty bin (se = 0) must be one the reference
+    leaves empty with probability >= EMPTY_BIN_P."""
     worst, checked = 0.0, 0
     for r in rows:
         assert math.isfinite(r["reference"]), r
         if r["se"] == 0.0:
-            assert r["estimate"] == 0.0 and r["reference"] < 3.0 / (r["paths"] * r.get("_norm", 1.0)), r
+            expected = r["reference"] * r["paths"] * r.get("_norm", 1.0)
+            assert r["estimate"] == 0.0 and math.exp(-expected) >= EMPTY_BIN_P, r
             continue
         worst, checked = max(worst, abs(r["z_ref"])), checked + 1
     assert checked > 0 and worst < Z_MAX, worst
@@ -202,9 +208,9 @@ def test_refraction_obeys_snell_and_reverses(theta_m, phi_m, cos_w, phi_w, eta):
         return  # total internal reflection: the walk never refracts there
     t = np.array([float(v) for v in refract(*map(jnp.float64, w), *map(jnp.float64, m), eta)])
     assert np.linalg.norm(t) == pytest.approx(1.0, abs=1e-14)
-    cos_t = -t.dot(m)
-    assert cos_t > 0.0
-    assert eta * math.sqrt(max(0.0, 1.0 - cos_t**2)) == pytest.approx(math.sqrt(1.0 - cos_w**2), abs=1e-12)
+    assert -t.dot(m) > 0.0
+    # sines as |v x m| (well conditioned near normal incidence, unlike sqrt(1 - cos^2))
+    assert eta * np.linalg.norm(np.cross(t, m)) == pytest.approx(np.linalg.norm(np.cross(w, m)), abs=1e-12)
     assert abs(np.cross(w, m).dot(t)) < 1e-12  # coplanar
     back = np.array([float(v) for v in refract(*map(jnp.float64, t), *map(jnp.float64, -m), 1.0 / eta)])
     # near grazing w the way back is ill-conditioned: cos_w = sqrt(cos_w^2 + O(eps)) is off by eps / cos_w
