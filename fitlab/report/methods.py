@@ -66,16 +66,18 @@ class CSpec:
 
     ``fits_dir`` None means the baselines' program (the family report hook's ``baseline_program``);
     ``preset`` names a published preset set written to a temporary fits folder (see
-    :func:`preset_records`)."""
+    :func:`preset_records`); ``build``, a program that is not made from fits (the exported tables):
+    ``build() -> (Program, {C file name: text})``."""
 
     routine: str
     fits_dir: Path | None = None
     forms: tuple = ()
     preset: str | None = None
+    build: Callable | None = None
 
     @property
     def program_key(self) -> tuple:
-        return (None if self.fits_dir is None else str(self.fits_dir), self.forms, self.preset)
+        return (None if self.fits_dir is None else str(self.fits_dir), self.forms, self.preset, self.build)
 
 
 @dataclass(frozen=True, eq=False)
@@ -86,6 +88,7 @@ class BrdfMethod:
     evaluate: Callable  # f(mu_i, mu_o, phi, c, kd) on numpy arrays
     expr: sp.Expr | None = None  # in BRDF_INPUTS, for the JAX path
     c: CSpec | None = None
+    bytes: float = math.nan  # the data it reads besides its code: table values, spline or fitted coefficients
 
 
 @dataclass(frozen=True, eq=False)

@@ -35,6 +35,8 @@ def timing_inputs(n: int, data_dir: Path) -> dict:
 
 def _program(spec: CSpec):
     """(Program, {routine: (target, label)}) for a spec's program; the labels name its part routines."""
+    if spec.build is not None:
+        return spec.build()[0], {}
     if spec.fits_dir is None and spec.preset is None:
         return brdf_hook().baseline_program(), {}
     if spec.preset is not None:
@@ -64,7 +66,8 @@ def c_costs(methods, workdir: Path, inputs: dict, repeat: int, tick=None) -> tup
     for k, (key, (spec, ms)) in enumerate(sorted(by_key.items(), key=lambda kv: repr(kv[0]))):
         try:
             prog, labels = _program(spec)
-            lib = build(emit(prog, "c"), prog, workdir / f"program_{k}")
+            files = spec.build()[1] if spec.build is not None else emit(prog, "c")
+            lib = build(files, prog, workdir / f"program_{k}")
         except CompileError as exc:
             notes.append(f"C not timed for {', '.join(m.name for m in ms)}: {str(exc).splitlines()[0]}")
             tick and tick()

@@ -104,7 +104,7 @@ def _brdf_rows(methods, acc, c_ns, py_ns, jax_tp) -> list[dict]:
             "points": a["points"], "max_rel": a["max_rel"], "rms_rel": a["rms_rel"],
             "max_rel_away": a["max_rel_away"], "max_rel_grazing": a.get("max_rel_grazing", NAN),
             "max_abs_c0": a.get("max_abs_c0", NAN), "max_rel_fresh": a.get("max_rel_fresh", NAN),
-            "rms_rel_fresh": a.get("rms_rel_fresh", NAN), "albedo_err": a.get("albedo_err", NAN),
+            "rms_rel_fresh": a.get("rms_rel_fresh", NAN), "albedo_err": a.get("albedo_err", NAN), "bytes": m.bytes,
             "ns_c_double": c_ns.get(m.name, (NAN, NAN))[0], "ns_c_float": c_ns.get(m.name, (NAN, NAN))[1],
             "ns_python": py_ns.get(m.name, NAN), "jax_evals_per_s": jax_tp.get(m.name, NAN),
             "note": "worst at " + ", ".join(f"{k}={v:.4g}" for k, v in w.items())

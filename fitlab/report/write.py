@@ -23,8 +23,8 @@ __all__ = ["COLUMNS", "TIMING_COLUMNS", "FILES", "csv_text", "markdown", "parts_
 #: the CSV's columns; ``section`` says what a row is (brdf, part, exact, exact_h, time_to_error, refit)
 COLUMNS = ("section", "target", "group", "method", "source", "points", "paths", "target_error", "max_rel",
            "max_rel_nonzero", "rms_rel", "max_rel_away", "max_rel_grazing", "max_abs_c0", "max_rel_fresh",
-           "rms_rel_fresh", "albedo_err", "ns_c_double", "ns_c_float", "ns_python", "jax_evals_per_s", "seconds",
-           "note")  # fmt: skip
+           "rms_rel_fresh", "albedo_err", "bytes", "ns_c_double", "ns_c_float", "ns_python", "jax_evals_per_s",
+           "seconds", "note")  # fmt: skip
 #: the columns that hold timings (everything else is deterministic)
 TIMING_COLUMNS = ("ns_c_double", "ns_c_float", "ns_python", "jax_evals_per_s", "seconds")
 FILES = ("report.md", "accuracy_vs_cost.png", "report.csv")
@@ -63,6 +63,12 @@ def _ns(x) -> str:
     return f"{x:.0f}" if x < 1e6 else f"{x:.2e}"
 
 
+def _bytes(x) -> str:
+    if x is None or (isinstance(x, float) and math.isnan(x)):
+        return "-"
+    return f"{x:.0f}" if x < 1e4 else f"{x / 1e3:.1f} k"
+
+
 def _rate(x) -> str:
     return "-" if x is None or math.isnan(x) else f"{x / 1e6:.3g}"
 
@@ -82,8 +88,8 @@ def _front_marks(brdf) -> list[str]:
 
 def _brdf_table(brdf) -> list[str]:
     out = ["| group | method | max rel | RMS rel | max rel, mu >= 1/64 | max rel, grazing | max abs, c = 0 | "
-           "max rel, fresh | RMS rel, fresh | albedo error | C double ns | C float ns | Python ns | JAX M eval/s | "
-           "on the front |", "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+           "max rel, fresh | RMS rel, fresh | albedo error | data bytes | C double ns | C float ns | Python ns | "
+           "JAX M eval/s | on the front |", "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     order = {g: k for k, g in enumerate(GROUPS)}
     marks = _front_marks(brdf)
     for k in sorted(range(len(brdf)), key=lambda k: (order.get(brdf[k]["group"], 99), k)):
@@ -91,7 +97,7 @@ def _brdf_table(brdf) -> list[str]:
         out.append(f"| {r['group']} | {r['method']} | {_e(r['max_rel'])} | {_e(r['rms_rel'])} | "
                    f"{_e(r.get('max_rel_away'))} | {_e(r.get('max_rel_grazing'))} | {_e(r.get('max_abs_c0'))} | "
                    f"{_e(r.get('max_rel_fresh'))} | {_e(r.get('rms_rel_fresh'))} | {_e(r.get('albedo_err'))} | "
-                   f"{_ns(r.get('ns_c_double', math.nan))} | "
+                   f"{_bytes(r.get('bytes'))} | {_ns(r.get('ns_c_double', math.nan))} | "
                    f"{_ns(r.get('ns_c_float', math.nan))} | {_ns(r.get('ns_python', math.nan))} | "
                    f"{_rate(r.get('jax_evals_per_s', math.nan))} | {marks[k]} |")  # fmt: skip
     return out
@@ -206,6 +212,9 @@ def markdown(report) -> str:
            "engine per point once set up, on fewer points; Monte Carlo per BRDF value); JAX: jit of the same sympy expression, "
            f"float64, {ctx['jax_points']} inputs, millions of evaluations per second, compilation excluded. The "
            "machine is shared: compare timings within this run only.", "",
+           "**Memory.** data bytes: what a method reads besides its code: the exported tables' texture (float32; "
+           "docs/table_export.md), the spline tables' knots and coefficients (float64), a fitted model's "
+           "coefficients (float64, 8 bytes per number the fits set; the exact constants of the maths not counted).", "",
            "## Recommendations", "", *_recommendations(report.recommendations), "",
            "## The BRDF", "", "![accuracy vs cost](accuracy_vs_cost.png)", "",
            "*on the front*: no other method is both cheaper and more accurate (by max or RMS error). Monte Carlo "

@@ -40,7 +40,8 @@ from fitlab.families.lambert_sphere.forms import RUNTIME_PARTS, runtime_terms
 from fitlab.families.lambert_sphere.table_files import read_constants, read_h, read_kd, tables_dir
 from fitlab.forms.symbolic import symbols
 
-__all__ = ["h_interpolant", "constant_interpolant", "kd_interpolant", "c_of_kd_interpolant", "table_brdf", "table_part"]
+__all__ = ["h_interpolant", "constant_interpolant", "kd_interpolant", "c_of_kd_interpolant", "table_brdf", "table_part",
+           "memory_bytes"]
 
 mu_i, mu_o, phi, c, mu = symbols(("mu_i", "mu_o", "phi", "c", "mu"))
 
@@ -52,14 +53,19 @@ def h_interpolant(order: int, data_dir: Path | None = None):
 
 
 @lru_cache(maxsize=None)
-def _h_interpolant(order: int, data_dir: Path):
+def _h_spline(order: int, data_dir: Path):
     from scipy.interpolate import RectBivariateSpline
 
     t = read_h(order, data_dir)
     s, mus = np.unique(t[:, 0]), np.unique(t[:, 2])
     h = t[:, 3].reshape(s.size, mus.size)
     keep = (mus > 0.0) & np.isfinite(mus)
-    spline = RectBivariateSpline(s, np.log(mus[keep]), np.log(h[:, keep]) / mus[keep], kx=3, ky=3)
+    return RectBivariateSpline(s, np.log(mus[keep]), np.log(h[:, keep]) / mus[keep], kx=3, ky=3)
+
+
+@lru_cache(maxsize=None)
+def _h_interpolant(order: int, data_dir: Path):
+    spline = _h_spline(order, data_dir)
 
     def f(mu, c):
         mu, c = np.broadcast_arrays(np.asarray(mu, dtype=float), np.asarray(c, dtype=float))
@@ -114,6 +120,24 @@ def _c_of_kd_interpolant(data_dir: Path):
     order = np.argsort(t["kd_true"][keep])
     spline = CubicSpline(t["kd_true"][keep][order], t["c"][keep][order])
     return lambda kd: spline(np.asarray(kd, dtype=float))
+
+
+def memory_bytes(data_dir: Path | None = None, order2: bool = False) -> int:
+    """The bytes of float64 a table BRDF (:func:`table_brdf`) reads: its splines' knots and coefficients (H0, H1,
+    H2 with ``order2``; the six constants of the runtime model)."""
+    data_dir = tables_dir(data_dir)
+    count = 0
+    for order in range(3 if order2 else 2):
+        tx, ty, coeffs = _h_spline(order, data_dir).tck
+        count += tx.size + ty.size + coeffs.size
+    table = read_constants(data_dir)
+    from scipy.interpolate import CubicSpline
+
+    for part in RUNTIME_PARTS:
+        if part not in ("H0", "H1"):
+            spline = CubicSpline(table["s"], table[part])
+            count += spline.x.size + spline.c.size
+    return 8 * count
 
 
 def _fm2(h2) -> sp.Expr:

@@ -25,6 +25,7 @@ module, for what only the family knows:
 
 from __future__ import annotations
 
+from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
@@ -34,7 +35,9 @@ from fitlab.core import get_target
 from fitlab.families.lambert_sphere.exact import albedo, brdf, h_function, spherical_albedo
 from fitlab.families.lambert_sphere.forms import ORDER2_PART, RUNTIME_PARTS
 from fitlab.families.lambert_sphere.forms.baselines import BASELINE_INPUTS, LAMBERT, oren_nayar
+from fitlab.families.lambert_sphere import table_export
 from fitlab.families.lambert_sphere.interpolation import kd_interpolant, table_brdf, table_part
+from fitlab.families.lambert_sphere.interpolation import memory_bytes as spline_bytes
 from fitlab.families.lambert_sphere.report_exact import (
     doubling_agreement,
     exact_brdf_cost,
@@ -122,8 +125,43 @@ def preset_records(variant: str) -> dict:
 
 
 # -- BRDF level ------------------------------------------------------------------------------------
+def _coefficient_bytes(expr) -> float:
+    """8 bytes per floating-point number in a fitted model's expression (its fitted coefficients; the exact
+    constants of the maths are rationals)."""
+    return 8.0 * len(expr.atoms(sp.Float)) if expr is not None else float("nan")
+
+
 def _runtime(model, name, group, source, cspec) -> BrdfMethod:
-    return BrdfMethod(name, group, source, lambda mi, mo, ph, c, kd: model(mi, mo, ph, c), model.expr, cspec)
+    return BrdfMethod(name, group, source, lambda mi, mo, ph, c, kd: model(mi, mo, ph, c), model.expr, cspec,
+                      _coefficient_bytes(model.expr))  # fmt: skip
+
+
+#: the exported tables the report measures (nodes per axis, lookup): the shipped default, and the other lookup
+#: and resolutions of docs/table_export.md that bound it
+EXPORTED_TABLES = ((table_export.DEFAULT_NODES, table_export.DEFAULT_LOOKUP), (17, "cubic"), (65, "linear"))
+
+
+#: the parts the exported tables hold, measured at part level (the shipped default)
+EXPORTED_PARTS = ("H0", "H1", "H2", "l", "m", "B", "C", "D", "F", "c_of_kd")
+
+
+def _exported_tables(data_dir: Path) -> list[BrdfMethod]:
+    out = []
+    for nodes, lookup in EXPORTED_TABLES:
+        f = table_export.numpy_brdf(nodes, lookup, data_dir)
+
+        @lru_cache(maxsize=1)
+        def c_files(nodes=nodes, lookup=lookup):
+            prog = table_export.program(nodes, lookup, data_dir)
+            files = table_export.generate("c", nodes, lookup, data_dir)
+            return prog, {name: data.decode() for name, data in files.items()}
+
+        name = f"exported tables, {'bicubic' if lookup == 'cubic' else 'bilinear'} {nodes} x {nodes}"
+        out.append(BrdfMethod(name, "tables", f"fitlab codegen --tables --nodes {nodes} --lookup {lookup} "
+                              "(fitlab.families.lambert_sphere.table_export)",
+                              lambda mi, mo, ph, c, kd, f=f: f(mi, mo, ph, c), None, CSpec("brdf", build=c_files),
+                              float(table_export.memory_bytes(nodes))))  # fmt: skip
+    return out
 
 
 def _fit_brdf(fit, name, group, cspec) -> BrdfMethod:
@@ -134,7 +172,7 @@ def _fit_brdf(fit, name, group, cspec) -> BrdfMethod:
         values = {"mu_i": mi, "mu_o": mo, "phi": ph, "c": c, "kd": np.minimum(kd, 1.0)}
         return fit(**{k: values[k] for k in fit.inputs})
 
-    return BrdfMethod(name, group, str(fit.path), f, fit.expression, cspec)
+    return BrdfMethod(name, group, str(fit.path), f, fit.expression, cspec, _coefficient_bytes(fit.expression))
 
 
 def _baselines() -> list[BrdfMethod]:
@@ -149,7 +187,7 @@ def _baselines() -> list[BrdfMethod]:
         (phi,) = symbols(("phi",))
         e = expr.subs(symbols(("cos_phi",))[0], sp.cos(phi))
         out.append(BrdfMethod(name, "baseline", "fitlab.families.lambert_sphere.forms.baselines, kd = kd_true(c)", f,
-                              e, CSpec(routine)))  # fmt: skip
+                              e, CSpec(routine), _coefficient_bytes(e)))  # fmt: skip
     return out
 
 
@@ -167,7 +205,9 @@ def brdf_methods(fits_dir: Path, entries: list, data_dir: Path, preset_c: tuple 
     for order2, name in ((False, "tables, runtime model"), (True, "tables, three orders")):
         f = table_brdf(data_dir, order2=order2)
         out.append(BrdfMethod(name, "tables", "data/*.csv with splines (fitlab.families.lambert_sphere.interpolation)",
-                              lambda mi, mo, ph, c, kd, f=f: f(mi, mo, ph, c)))  # fmt: skip
+                              lambda mi, mo, ph, c, kd, f=f: f(mi, mo, ph, c),
+                              bytes=float(spline_bytes(data_dir, order2))))  # fmt: skip
+    out += _exported_tables(data_dir)
     for v in PRESET_VARIANTS:
         m = runtime_model(v)
         spec = CSpec("brdf", preset=v) if v in preset_c else None
@@ -209,6 +249,7 @@ def brdf_methods(fits_dir: Path, entries: list, data_dir: Path, preset_c: tuple 
         "fast eq. 41: paper", "fast", "fast_brdf/paper preset (eq. 41 as printed)",
         lambda mi, mo, ph, c, kd: np.asarray(fast_raw(theta, mi, mo, ph, c, np.minimum(kd, 1.0)), dtype=float),
         fast_form.substituted("paper"), CSpec("brdf_fast", preset="paper") if "paper" in preset_c else None,
+        _coefficient_bytes(fast_form.substituted("paper")),
     ))  # fmt: skip
     for e in entries:
         if e.target == FAST and (e.kind != "discover" or discovered):
@@ -233,4 +274,10 @@ def part_extras(target_name: str, data_dir: Path) -> list[PartMethod]:
     f, src = table_part(target_name, data_dir)
     if f is not None:
         out.append(PartMethod(target_name, "tables", "tables", src, positional(f, t.inputs)))
+    if target_name in EXPORTED_PARTS:
+        nodes, lookup = EXPORTED_TABLES[0]
+        f = table_export.numpy_part(target_name, nodes, lookup, data_dir)
+        out.append(PartMethod(target_name, f"exported tables, {'bicubic' if lookup == 'cubic' else 'bilinear'} "
+                              f"{nodes} x {nodes}", "tables", "fitlab codegen --tables (the shipped default)",
+                              positional(f, t.inputs)))  # fmt: skip
     return out
