@@ -154,13 +154,8 @@ def texture_from_bytes(data: bytes, rows: int, columns: int) -> np.ndarray:
 
 def _float_literal(x: np.float32) -> str:
     """The shortest decimal that reads back as this float32 exactly, with C's F suffix."""
-    text = np.format_float_scientific(x, unique=True, trim="-", exp_digits=2) if x != 0 else "0.0"
-    if "." not in text and "e" not in text:
-        text += ".0"
-    mantissa, _, exponent = text.partition("e")
-    if "." not in mantissa:
-        mantissa += ".0"
-    return mantissa + (f"e{exponent}" if exponent else "") + "F"
+    mantissa, _, exponent = np.format_float_scientific(x, unique=True, trim="-", exp_digits=2).partition("e")
+    return f"{mantissa if '.' in mantissa else mantissa + '.0'}e{exponent}F"
 
 
 def _macro(program: Program, name: str) -> str:

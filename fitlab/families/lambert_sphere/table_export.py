@@ -138,7 +138,7 @@ class TableLayout:
             f"s = sqrt(1 - c) = k/{n - 1};",
             f"column j: mu = j/{n - 1}), H_m = exp(mu (Psi_m(mu) log(1 + 1/mu) + c (p_m(mu) + R_m(s, mu)))).",
             f"Rows {3 * n}-{3 * n + 5}: l, m - 1, B/c - B1, C/c - C1, D/c - D1, F/c - F1 at s = k/{n - 1} (column k);",
-            "B1, C1, D1, F1 = 0, 2/3, 0, -15/128 (exact O(c) terms).",
+            f"B1, C1, D1, F1 = {', '.join(str(FIRST_ORDER[x]) for x in 'BCDF')} (exact O(c) terms).",
             f"Row {self.kd_row}: c(kd) at kd = k/{n - 1} (column k). Lookup: position p = x (N - 1), x in [0, 1];",
             "bicubic: Lagrange cubics on the 4 nodes i..i+3, i = min(max(floor(p) - 1, 0), N - 4); bilinear:",
             "nodes i, i+1, i = min(floor(p), N - 2). docs/codegen.md, 'Tables as engines ship them'.",
