@@ -174,6 +174,7 @@ BAD = [
     (["tabulate", "--check", "--data", "/nonexistent"], "no such folder"),
     (["bench", "codegen", "--fits", "/nonexistent"], "no such folder"),
     (["bench", "nothing"], "invalid choice"),
+    (["bench", "exact", "--family", "microfacet_energy"], "has no 'exact' benchmark"),
 ]
 
 

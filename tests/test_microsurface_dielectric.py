@@ -340,6 +340,10 @@ def test_dielectric_scene_rules():
     assert not parse_scene(base.replace("orders = 3", "orders = 3\ntransmission_lobe = false")).transmission_lobe
     with pytest.raises(ValueError, match="only a dielectric transmits"):
         WalkConfig(kind="conductor", transmission_lobe=True)
+    # slots = 0: the lanes per device are the platform's default (default_slots)
+    assert parse_scene(base.replace("max_bounces = 1000", "max_bounces = 1000\nslots = 0")).slots == 0
+    with pytest.raises(SceneError, match=re.escape("precision.slots: expected an integer")):
+        parse_scene(base.replace("max_bounces = 1000", "max_bounces = 1000\nslots = 0.0"))
 
 
 _SHARD_SCRIPT = """

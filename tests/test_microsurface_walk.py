@@ -234,10 +234,12 @@ def test_visible_normals_of_a_rising_ray(distribution):
 
 @pytest.mark.benchmark
 def test_throughput_report():
-    """Bounces per second of the walk on this machine (a report, not a timed assertion)."""
-    from fitlab.families.microfacet_energy.microsurface.bench import bench_walk
+    """Bounces and paths per second of every walk on this machine, the blog's job extrapolated, and the walk
+    on every CPU core as forced host devices (``fitlab bench mc --family microfacet_energy``; a report, not
+    a timed assertion)."""
+    from fitlab.families.microfacet_energy.microsurface.bench import CASES, bench_mc
 
-    for distribution in ("ggx", "beckmann"):
-        r = bench_walk(distribution=distribution)
-        print(f"{distribution}: {r['bounces_per_second']:.3g} bounces/s, {r['paths_per_second']:.3g} paths/s")
-        assert r["bounces"] > r["paths"]
+    r = bench_mc(quick=False)
+    for case in CASES:
+        assert r[case]["bounces_per_second"] > 0 and r[case]["bounces_per_path"] > 1.0
+    assert r["sharding"]["identical_tallies"]

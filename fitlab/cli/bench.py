@@ -7,7 +7,16 @@ import contextlib
 import io
 import sys
 
-from fitlab.cli._common import add_family, add_fits, add_quiet, describe, fits_input, require_extra, service
+from fitlab.cli._common import (
+    UsageError,
+    add_family,
+    add_fits,
+    add_quiet,
+    describe,
+    fits_input,
+    require_extra,
+    service,
+)
 from fitlab.store import strict_json
 
 __all__ = ["add_arguments", "run"]
@@ -15,7 +24,8 @@ __all__ = ["add_arguments", "run"]
 
 def add_arguments(p) -> None:
     describe(p, "Benchmarks, not tests: the exact engine's speed and agreement between its methods, the generated "
-                "C against a baseline, the Monte Carlo's photons per second and cost per effect, Mitsuba's samples "
+                "C against a baseline, the Monte Carlo's photons (or the microsurface walk's paths and bounces) per "
+                "second and cost per effect, Mitsuba's samples "
                 "per second with the lambert_sphere plugin (render), and (commands) "
                 "the seconds of `fitlab --help` and of every single-target refit, cold and warm, in fresh "
                 "processes. Prints a table, or with --json a machine-readable summary; writes nothing.",
@@ -39,6 +49,28 @@ def _jsonable(obj):
     return obj
 
 
+def _bench_function(what: str, family: str | None, quiet: bool):
+    """``bench_<what>`` of the bench service of --family; without it, of the families whose service has one:
+    the one, else the first registered (a line on stderr names the others and --family)."""
+    from fitlab.core import families_offering
+
+    name = "bench_" + what
+    if family is not None:
+        function = getattr(service("bench", family), name, None)
+        if function is None:
+            having = [f for f in families_offering("bench") if hasattr(service("bench", f), name)]
+            raise UsageError(f"family {family!r} has no {what!r} benchmark; families that have one: "
+                             f"{', '.join(having) or 'none'}")
+        return function
+    having = [f for f in families_offering("bench") if hasattr(service("bench", f), name)]
+    if not having:
+        raise UsageError(f"no family has a {what!r} benchmark")
+    if len(having) > 1 and not quiet:
+        print(f"fitlab bench {what}: family {having[0]} (also {', '.join(having[1:])}: choose with --family)",
+              file=sys.stderr)
+    return getattr(service("bench", having[0]), name)
+
+
 def run(args) -> int:
     fits = fits_input(args) if args.what == "codegen" else None
     # with --json the tables go to stderr (or nowhere with --quiet) and stdout holds only the JSON
@@ -51,15 +83,16 @@ def run(args) -> int:
             results = bench_commands(QUICK_TARGETS if args.quick else tuple(targets()), show_progress=not args.quiet)
             print(table(results))
         elif args.what == "exact":
-            results = service("bench", args.family).bench_exact(quick=args.quick)
+            results = _bench_function("exact", args.family, args.quiet)(quick=args.quick)
         elif args.what == "codegen":
-            results = service("bench", args.family).bench_codegen(fits, n=100_000 if args.quick else 1_000_000,
-                                                     repeat=3 if args.quick else 5)  # fmt: skip
+            results = _bench_function("codegen", args.family, args.quiet)(fits, n=100_000 if args.quick else 1_000_000,
+                                                                          repeat=3 if args.quick else 5)  # fmt: skip
         elif args.what == "render":
             require_extra("mitsuba", "render")
-            results = service("bench", args.family).bench_render(quick=args.quick, show_progress=not args.quiet)
+            results = _bench_function("render", args.family, args.quiet)(quick=args.quick,
+                                                                         show_progress=not args.quiet)
         else:
-            results = service("bench", args.family).bench_mc(quick=args.quick)  # JAX
+            results = _bench_function("mc", args.family, args.quiet)(quick=args.quick)  # JAX
     if args.json:
         print(strict_json({"what": args.what, "quick": args.quick, "results": _jsonable(results)}), end="")
     return 0

@@ -43,6 +43,7 @@ FAMILY = register_family(
         hooks={
             "tables": _lazy("tabulate"),  # write_tables, check_tables, TABLE_FILES, FAMILY_NAME
             "simulate": _lazy("microsurface.simulate"),  # simulate_file, summary_table, unconverged, SceneError
+            "bench": _lazy("microsurface.bench"),  # bench_mc: the microsurface walk's throughput
         },
     )
 )

@@ -36,7 +36,8 @@ Example::
     max_paths = 1000000         # per job (material x mu_i), in [1000, 2^32]
     batch = 100000              # paths per round, in [100, 10^7]; the stopping rule is checked per round
     max_bounces = 1000          # scattering events after which a path is stopped and tallied as capped
-    slots = 1024                # lanes of the vectorised walk, in [64, 2^20]
+    slots = 1024                # lanes of the vectorised walk per device, in [64, 2^20], or 0: 1024 on a
+                                #   CPU, 65536 on an accelerator
 """
 
 from __future__ import annotations
@@ -347,6 +348,9 @@ def parse_scene(text: str, path: str = "<scene>") -> Scene:
         target = {k: float(tse) for k in TARGETS}
     nums = {}
     for key, default in (("max_paths", 1_000_000), ("batch", 100_000), ("max_bounces", 1000), ("slots", 1024)):
+        if key == "slots" and type(prec.get(key)) is int and prec[key] == 0:
+            nums[key] = 0  # automatic: the walk's default for the platform
+            continue
         nums[key] = ck.number(prec, "precision", None, key, *LIMITS[key], default=default, integer=True)
 
     if ck.errors:
