@@ -339,3 +339,25 @@ def test_command_refuses_in_one_line_and_writes_nothing(tmp_path, capsys):
     assert main(["codegen", "--lang", "c", "--nodes", "33", "--out", str(out)]) == 2
     assert "--tables option" in capsys.readouterr().err
     assert not out.exists()
+
+
+def test_the_study_document_is_rendered_from_its_numbers():
+    """docs/table_export.md is table_study.markdown of docs/table_export.json (regenerate both with
+    python -m fitlab.families.lambert_sphere.table_study --out docs)."""
+    from fitlab.families.lambert_sphere.table_study import markdown
+
+    assert markdown(json.loads(STUDY.read_text())) == (ROOT / "docs" / "table_export.md").read_text()
+
+
+def test_a_texture_holds_finite_float32_rows_its_blocks_cover():
+    from fitlab.codegen.texture import Texture, texture_bytes
+
+    t = Texture(np.arange(6.0).reshape(2, 3), ((0, 1, "a"), (1, 1, "b")))
+    assert t.data.dtype == np.float32 and (t.rows, t.columns, t.nbytes) == (2, 3, 24)
+    assert texture_bytes(t) == np.arange(6, dtype="<f4").tobytes()
+    with pytest.raises(ValueError, match="finite"):
+        Texture(np.array([[1.0, np.nan]]))
+    with pytest.raises(ValueError, match="cover"):
+        Texture(np.zeros((3, 2)), ((0, 2, "a"),))
+    with pytest.raises(ValueError, match="nodes"):
+        te.layout(7)
