@@ -264,6 +264,20 @@ def test_order_one_totals_by_bins_and_by_normals(dist, eta):
         assert 0.0 < r1 + t1 < 1.0
 
 
+def test_references_cover_alpha_up_to_two():
+    """Scenes take alpha up to 2, the exact engine's GGX up to 1: an isotropic GGX beyond it is integrated
+    by the bin rule (which agrees with the normals), for conductors and dielectrics."""
+    mu_e, phi_e = np.linspace(0.0, 1.0, 5), np.linspace(0.0, math.pi, 5)
+    omega = 2.0 * np.outer(np.diff(mu_e), np.diff(phi_e))
+    glass = Material(label="g", kind="dielectric", distribution="ggx", alpha_x=2.0, alpha_y=2.0, eta=1.5)
+    r1, t1 = order_one_by_normals(0.3, glass)
+    assert np.sum(bin_average_single(mu_e, phi_e, 0.3, glass) * omega) == pytest.approx(r1, rel=2e-5)
+    assert np.sum(bin_average_transmission(mu_e, phi_e, 0.3, glass) * omega) == pytest.approx(t1, rel=1e-6)
+    white = Material(label="w", kind="conductor", distribution="ggx", alpha_x=2.0, alpha_y=2.0)
+    a1, method = albedo_single(0.3, white)
+    assert method == "bin_quadrature" and 0.0 < a1 < 1.0
+
+
 def test_reflection_reference_against_the_exact_engine():
     """Isotropic GGX, eta > 1 (a smooth F): the normals' R_1 equals the exact engine's E with the F inside
     (to the normal rule's accuracy, ~1e-5: the kink where w_i.m = 0 is not a line of the rule)."""

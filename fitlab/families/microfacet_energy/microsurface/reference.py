@@ -175,7 +175,8 @@ def bin_average_single(mu_edges, phi_edges, mu_i, material, panels: int = 4, nod
         for j in range(len(phi_edges) - 1):
             ph, wph = _rule(phi_edges[j], phi_edges[j + 1], panels, nodes)
             m, p = np.meshgrid(mu, ph, indexing="ij")
-            if use_exact_ggx and material.distribution == "ggx" and material.isotropic:
+            # the exact engine's GGX takes alpha in [0, 1]; scenes go to 2
+            if use_exact_ggx and material.distribution == "ggx" and material.isotropic and material.alpha_x <= 1.0:
                 f = ggx_brdf(m, mu_i, p, material.alpha_x, smith="correlated")
                 s_i, s_o = math.sqrt(1 - mu_i * mu_i), np.sqrt(1 - m * m)
                 h = np.stack([s_o * np.cos(p) + s_i, s_o * np.sin(p), m + mu_i])
