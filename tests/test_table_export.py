@@ -361,3 +361,18 @@ def test_a_texture_holds_finite_float32_rows_its_blocks_cover():
         Texture(np.zeros((3, 2)), ((0, 2, "a"),))
     with pytest.raises(ValueError, match="nodes"):
         te.layout(7)
+
+
+def test_c_of_kd_inverts_the_spherical_albedo():
+    """kd/c at kd = 0 (the table's kd/c extrapolated to c = 0) against the exact engine's spherical albedo of single
+    scattering per unit c (2 int a1(mu) mu dmu), the O(c) part of kd_true; and c_of_kd against kd_true read from the
+    kd table's spline (another route: kd from c instead of c from kd) at kd in (0, 1)."""
+    from fitlab.families.lambert_sphere.exact import graded_gauss, single_albedo_nodes
+    from fitlab.families.lambert_sphere.interpolation import kd_interpolant
+
+    v, w = graded_gauss(8, 0.25, 1e-14)
+    exact = 2.0 * np.dot(w * v, single_albedo_nodes("true"))
+    assert abs(te.kd_ratio_limit(TABLES) / exact - 1.0) < 1e-5
+    kd = np.concatenate(([1e-9, 1e-6, 1e-3], np.random.default_rng(11).uniform(0.0, 0.999, 200)))
+    c = te.numpy_part("c_of_kd", data_dir=TABLES)(kd)
+    assert rel(kd_interpolant(TABLES)(c), kd).max() < 1e-5

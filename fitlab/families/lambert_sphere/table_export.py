@@ -23,14 +23,17 @@ What is stored, and why (docs/model.md, "The exported tables"; the measurements 
   c -> 0: l, m - 1, and X/c - X1 for X = B, C, D, F (X1 the exact O(c) coefficient,
   :data:`.forms.constants.FIRST_ORDER`).  They are read per material, always with the cubic lookup (a linear
   one costs 1e-3 of the BRDF at c = 0.01, and a material is read once).
-* c(kd), the particle albedo of a spherical albedo kd (kd_true), at kd = k/(N - 1), for ``prepare(kd)``.
+* c(kd), the particle albedo of a spherical albedo kd (kd_true), for ``prepare(kd)``, as kd/c at kd = k/(N - 1)
+  (smooth and between 0.31 and 1; c itself has large higher derivatives near kd = 0, where a cubic through
+  c(kd) is 4e-4 off): c = kd / lookup.
 
-Every stored value but c(kd) is an exact table value (``N - 1`` divides 64: each node is a node of the tables,
+Every stored value but kd/c is an exact table value (``N - 1`` divides 64: each node is a node of the tables,
 s = k/64, mu = j/64; nothing is interpolated before it is stored), transformed; three are limits: R_m = 0 at
 c = 0 (the first-order part is exact), the constants' quantities are 0 at c = 0, and R_m at mu = 0 is read
 at the table's node mu = :data:`LIMIT_MU` (R_m - R_m(0) = O(mu log^2 mu), about 4e-7 there, below float32's
-resolution of R_m).  c(kd) comes from the root in s of the kd table's spline (:func:`.interpolation.kd_interpolant`,
-2.8e-7 on kd).
+resolution of R_m).  kd/c comes from the root in s of the kd table's spline (:func:`.interpolation.kd_interpolant`,
+2.8e-7 on kd), and at kd = 0 from the table's kd/c extrapolated to c = 0 (:func:`kd_ratio_limit`; the exact
+limit is the spherical albedo of single scattering per unit c, 3e-6 away).
 
 The single-scattering term is printed with sqrt((1 - u)(1 + u)) for sqrt(1 - u^2) (:func:`stable_phase`): in
 forward scattering at grazing, 1 - u is about mu^2 and 1 - u*u in double keeps only 1e-16/mu^2 of it (37 % of
@@ -62,6 +65,7 @@ from fitlab.families.lambert_sphere.table_files import (
     h_file,
     read_constants,
     read_h,
+    read_kd,
     tables_dir,
 )
 from fitlab.families.lambert_sphere.targets import TARGETS
@@ -69,7 +73,7 @@ from fitlab.forms.symbolic import symbols
 
 __all__ = ["NAME", "LANGUAGES", "NODES", "DEFAULT_NODES", "DEFAULT_LOOKUP", "QUANTITIES", "DEFAULT_QUANTITY", "LIMIT_MU",
            "CONSTANT_ROWS", "TableLayout", "layout", "texture", "program", "generate", "command", "check_tables",
-           "tables_dir", "stable_phase", "numpy_brdf", "numpy_part", "memory_bytes", "GENERATE_STEPS"]
+           "tables_dir", "stable_phase", "numpy_brdf", "numpy_part", "memory_bytes", "GENERATE_STEPS", "kd_ratio_limit"]
 
 #: the generated files' base name and the functions' prefix
 NAME = "lambert_sphere_tables"
@@ -114,7 +118,7 @@ class TableLayout:
 
     @property
     def kd_row(self) -> int:
-        """The row of c(kd) (column k: kd = k/(N - 1))."""
+        """The row of kd/c(kd) (column k: kd = k/(N - 1))."""
         return 3 * self.nodes + len(CONSTANT_ROWS)
 
     @property
@@ -125,7 +129,7 @@ class TableLayout:
         n = self.nodes
         out = [(self.h_row(m), n, f"R{m}(s, mu), row h + k: s = k/{n - 1}, column j: mu = j/{n - 1}") for m in range(3)]
         out += [(self.constant_row(p), 1, f"{what} at s = k/{n - 1} (column k)") for p, what in CONSTANT_ROWS]
-        out.append((self.kd_row, 1, f"c(kd) at kd = k/{n - 1} (column k)"))
+        out.append((self.kd_row, 1, f"kd/c(kd) at kd = k/{n - 1} (column k)"))
         return tuple(out)
 
     def lines(self) -> tuple:
@@ -139,7 +143,7 @@ class TableLayout:
             f"column j: mu = j/{n - 1}), H_m = exp(mu (Psi_m(mu) log(1 + 1/mu) + c (p_m(mu) + R_m(s, mu)))).",
             f"Rows {3 * n}-{3 * n + 5}: l, m - 1, B/c - B1, C/c - C1, D/c - D1, F/c - F1 at s = k/{n - 1} (column k);",
             f"B1, C1, D1, F1 = {', '.join(str(FIRST_ORDER[x]) for x in 'BCDF')} (exact O(c) terms).",
-            f"Row {self.kd_row}: c(kd) at kd = k/{n - 1} (column k). Lookup: position p = x (N - 1), x in [0, 1];",
+            f"Row {self.kd_row}: kd/c(kd) at kd = k/{n - 1} (column k). Lookup: position p = x (N - 1), x in [0, 1];",
             "bicubic: Lagrange cubics on the 4 nodes i..i+3, i = min(max(floor(p) - 1, 0), N - 4); bilinear:",
             "nodes i, i+1, i = min(floor(p), N - 2). docs/codegen.md, 'Tables as engines ship them'.",
         )
@@ -215,19 +219,31 @@ def _stored_constants(nodes: int, data_dir: Path) -> list[np.ndarray]:
     return out
 
 
-def _stored_c_of_kd(nodes: int, data_dir: Path) -> np.ndarray:
-    """c at kd = k/(N-1): the root in s of kd_true(1 - s^2) = kd (the kd table's spline in s), c = 1 - s^2."""
+def _stored_kd_ratio(nodes: int, data_dir: Path) -> np.ndarray:
+    """kd/c at kd = k/(N-1): c is the root in s of kd_true(1 - s^2) = kd (the kd table's spline in s),
+    c = 1 - s^2; at kd = 0 the limit kd_true'(0), the table's kd/c at its first four positive albedos
+    extrapolated to c = 0 by the cubic through them (kd/c is smooth in c; :func:`kd_ratio_limit`)."""
     from scipy.optimize import brentq
 
     kd_of_c = kd_interpolant(data_dir)
 
-    def c_of(k: float) -> float:
-        if k == 0.0:
-            return 0.0
+    def ratio(k: float) -> float:
         s = brentq(lambda s: float(kd_of_c(1.0 - s * s)) - k, 0.0, 1.0, xtol=1e-15, rtol=1e-15)
-        return 1.0 - s * s
+        return k / (1.0 - s * s)
 
-    return np.array([c_of(k) for k in np.linspace(0.0, 1.0, nodes)])
+    grid = np.linspace(0.0, 1.0, nodes)
+    return np.array([kd_ratio_limit(data_dir)] + [ratio(k) for k in grid[1:]])
+
+
+def kd_ratio_limit(data_dir: Path | None = None) -> float:
+    """lim kd_true/c as c -> 0 (the spherical albedo of single scattering per unit c), from the kd table: the cubic
+    through kd/c at its four smallest positive albedos, at c = 0."""
+    table = read_kd(tables_dir(data_dir))
+    order = np.argsort(table["c"])
+    c, kd = table["c"][order], table["kd_true"][order]
+    keep = c > 0.0
+    c, q = c[keep][:4], kd[keep][:4] / c[keep][:4]
+    return float(np.polyval(np.polyfit(c, q, 3), 0.0))
 
 
 @lru_cache(maxsize=None)
@@ -235,7 +251,7 @@ def _texture(nodes: int, data_dir: Path, quantity: str) -> Texture:
     lay = layout(nodes)
     rows = [_stored_h(m, nodes, data_dir, quantity) for m in range(3)]
     rows += [v[None, :] for v in _stored_constants(nodes, data_dir)]
-    rows.append(_stored_c_of_kd(nodes, data_dir)[None, :])
+    rows.append(_stored_kd_ratio(nodes, data_dir)[None, :])
     return Texture(np.concatenate(rows, axis=0), lay.blocks(), lay.lines())
 
 
@@ -295,8 +311,8 @@ def _part_routines(lay: TableLayout, lookup: str, quantity: str) -> list[Routine
                            f"The constant {part}(c) from the table: row {lay.constant_row(part)} holds {what} at "
                            f"s = k/{n - 1}, read cubic. c in [0, 1].", domain={"c": target.domain["c"]}))  # fmt: skip
     target = TARGETS["c_of_kd"]
-    out.append(Routine(target.routine, ("kd",), lookup_1d(lay.kd_row, kd, n, "cubic"),
-                       f"The particle albedo c of the spherical albedo kd (kd_true) from the table: row {lay.kd_row}, "
+    out.append(Routine(target.routine, ("kd",), kd / lookup_1d(lay.kd_row, kd, n, "cubic"),
+                       f"The particle albedo c of the spherical albedo kd (kd_true) from the table: kd over kd/c, row {lay.kd_row}, "
                        f"kd = k/{n - 1}, read cubic. kd in [0, 1].", domain={"kd": target.domain["kd"]}))  # fmt: skip
     return out
 

@@ -249,17 +249,19 @@ LAMBERT_SPHERE_TABLES_FN double lambert_sphere_tables_const_f(double c)
 
 LAMBERT_SPHERE_TABLES_FN double lambert_sphere_tables_c_of_kd(double kd)
 {
-    const double t9 = ((kd < 0.0) ? (0.0) : (kd));
-    const double t0 = ((t9 > 1.0) ? (1.0) : (t9));
-    const double t1 = ((t0 < (1.0/32.0)) ? (0.0) : (((t0 >= (31.0/32.0)) ? (29.0) : (floor(32.0*t0) - 1.0))));
-    const double t2 = -32.0*t0 + t1;
-    const double t3 = t2 + 1.0;
-    const double t4 = -t2 - 3.0;
-    const double t5 = -t2 - 2.0;
-    const double t6 = -t3;
-    const double t7 = ((1.0/2.0))*t4;
-    const double t8 = -t2*t5;
-    return t2*t6*t7*lambert_sphere_tables_texel(105.0, t1 + 2.0) + ((1.0/6.0))*t3*t4*t5*lambert_sphere_tables_texel(105.0, t1) + ((1.0/6.0))*t6*t8*lambert_sphere_tables_texel(105.0, t1 + 3.0) + t7*t8*lambert_sphere_tables_texel(105.0, t1 + 1.0);
+    const double t10 = ((kd < 0.0) ? (0.0) : (kd));
+    const double t0 = ((t10 > 1.0) ? (1.0) : (t10));
+    const double t11 = ((t0 < 0.0) ? (0.0) : (t0));
+    const double t1 = ((t11 > 1.0) ? (1.0) : (t11));
+    const double t2 = ((t1 < (1.0/32.0)) ? (0.0) : (((t1 >= (31.0/32.0)) ? (29.0) : (floor(32.0*t1) - 1.0))));
+    const double t3 = -32.0*t1 + t2;
+    const double t4 = t3 + 1.0;
+    const double t5 = -t3 - 3.0;
+    const double t6 = -t3 - 2.0;
+    const double t7 = -t4;
+    const double t8 = ((1.0/2.0))*t5;
+    const double t9 = -t3*t6;
+    return t0/(t3*t7*t8*lambert_sphere_tables_texel(105.0, t2 + 2.0) + ((1.0/6.0))*t4*t5*t6*lambert_sphere_tables_texel(105.0, t2) + ((1.0/6.0))*t7*t9*lambert_sphere_tables_texel(105.0, t2 + 3.0) + t8*t9*lambert_sphere_tables_texel(105.0, t2 + 1.0));
 }
 
 LAMBERT_SPHERE_TABLES_FN double lambert_sphere_tables_single(double mu_i, double mu_o, double cos_phi, double c)
@@ -587,17 +589,19 @@ LAMBERT_SPHERE_TABLES_FN float lambert_sphere_tables_const_f_f(float c)
 
 LAMBERT_SPHERE_TABLES_FN float lambert_sphere_tables_c_of_kd_f(float kd)
 {
-    const float t9 = ((kd < 0.0F) ? (0.0F) : (kd));
-    const float t0 = ((t9 > 1.0F) ? (1.0F) : (t9));
-    const float t1 = ((t0 < (1.0F/32.0F)) ? (0.0F) : (((t0 >= (31.0F/32.0F)) ? (29.0F) : (floorf(32.0F*t0) - 1.0F))));
-    const float t2 = -32.0F*t0 + t1;
-    const float t3 = t2 + 1.0F;
-    const float t4 = -t2 - 3.0F;
-    const float t5 = -t2 - 2.0F;
-    const float t6 = -t3;
-    const float t7 = ((1.0F/2.0F))*t4;
-    const float t8 = -t2*t5;
-    return t2*t6*t7*lambert_sphere_tables_texel_f(105.0F, t1 + 2.0F) + ((1.0F/6.0F))*t3*t4*t5*lambert_sphere_tables_texel_f(105.0F, t1) + ((1.0F/6.0F))*t6*t8*lambert_sphere_tables_texel_f(105.0F, t1 + 3.0F) + t7*t8*lambert_sphere_tables_texel_f(105.0F, t1 + 1.0F);
+    const float t10 = ((kd < 0.0F) ? (0.0F) : (kd));
+    const float t0 = ((t10 > 1.0F) ? (1.0F) : (t10));
+    const float t11 = ((t0 < 0.0F) ? (0.0F) : (t0));
+    const float t1 = ((t11 > 1.0F) ? (1.0F) : (t11));
+    const float t2 = ((t1 < (1.0F/32.0F)) ? (0.0F) : (((t1 >= (31.0F/32.0F)) ? (29.0F) : (floorf(32.0F*t1) - 1.0F))));
+    const float t3 = -32.0F*t1 + t2;
+    const float t4 = t3 + 1.0F;
+    const float t5 = -t3 - 3.0F;
+    const float t6 = -t3 - 2.0F;
+    const float t7 = -t4;
+    const float t8 = ((1.0F/2.0F))*t5;
+    const float t9 = -t3*t6;
+    return t0/(t3*t7*t8*lambert_sphere_tables_texel_f(105.0F, t2 + 2.0F) + ((1.0F/6.0F))*t4*t5*t6*lambert_sphere_tables_texel_f(105.0F, t2) + ((1.0F/6.0F))*t7*t9*lambert_sphere_tables_texel_f(105.0F, t2 + 3.0F) + t8*t9*lambert_sphere_tables_texel_f(105.0F, t2 + 1.0F));
 }
 
 LAMBERT_SPHERE_TABLES_FN float lambert_sphere_tables_single_f(float mu_i, float mu_o, float cos_phi, float c)

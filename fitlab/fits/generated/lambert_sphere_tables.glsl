@@ -18,7 +18,7 @@
 // column j: mu = j/32), H_m = exp(mu (Psi_m(mu) log(1 + 1/mu) + c (p_m(mu) + R_m(s, mu)))).
 // Rows 99-104: l, m - 1, B/c - B1, C/c - C1, D/c - D1, F/c - F1 at s = k/32 (column k);
 // B1, C1, D1, F1 = 0, 2/3, 0, -15/128 (exact O(c) terms).
-// Row 105: c(kd) at kd = k/32 (column k). Lookup: position p = x (N - 1), x in [0, 1];
+// Row 105: kd/c(kd) at kd = k/32 (column k). Lookup: position p = x (N - 1), x in [0, 1];
 // bicubic: Lagrange cubics on the 4 nodes i..i+3, i = min(max(floor(p) - 1, 0), N - 4); bilinear:
 // nodes i, i+1, i = min(floor(p), N - 2). docs/codegen.md, 'Tables as engines ship them'.
 // Bind it to the sampler lambert_sphere_tables_texture, or #define LAMBERT_SPHERE_TABLES_TEXTURE as your own highp sampler2D before this file.
@@ -296,21 +296,23 @@ float lambert_sphere_tables_const_f(float c)
     return t0*(t3*t7*t8*lambert_sphere_tables_texel(104.0, t2 + 2.0) + ((1.0/6.0))*t4*t5*t6*lambert_sphere_tables_texel(104.0, t2) + ((1.0/6.0))*t7*t9*lambert_sphere_tables_texel(104.0, t2 + 3.0) + t8*t9*lambert_sphere_tables_texel(104.0, t2 + 1.0) + (-15.0/128.0));
 }
 
-// The particle albedo c of the spherical albedo kd (kd_true) from the table: row 105, kd =
-// k/32, read cubic. kd in [0, 1].
+// The particle albedo c of the spherical albedo kd (kd_true) from the table: kd over kd/c, row
+// 105, kd = k/32, read cubic. kd in [0, 1].
 float lambert_sphere_tables_c_of_kd(float kd)
 {
-    float t9 = ((kd < 0.0) ? (0.0) : (kd));
-    float t0 = ((t9 > 1.0) ? (1.0) : (t9));
-    float t1 = ((t0 < (1.0/32.0)) ? (0.0) : (((t0 >= (31.0/32.0)) ? (29.0) : (floor(32.0*t0) - 1.0))));
-    float t2 = -32.0*t0 + t1;
-    float t3 = t2 + 1.0;
-    float t4 = -t2 - 3.0;
-    float t5 = -t2 - 2.0;
-    float t6 = -t3;
-    float t7 = ((1.0/2.0))*t4;
-    float t8 = -t2*t5;
-    return t2*t6*t7*lambert_sphere_tables_texel(105.0, t1 + 2.0) + ((1.0/6.0))*t3*t4*t5*lambert_sphere_tables_texel(105.0, t1) + ((1.0/6.0))*t6*t8*lambert_sphere_tables_texel(105.0, t1 + 3.0) + t7*t8*lambert_sphere_tables_texel(105.0, t1 + 1.0);
+    float t10 = ((kd < 0.0) ? (0.0) : (kd));
+    float t0 = ((t10 > 1.0) ? (1.0) : (t10));
+    float t11 = ((t0 < 0.0) ? (0.0) : (t0));
+    float t1 = ((t11 > 1.0) ? (1.0) : (t11));
+    float t2 = ((t1 < (1.0/32.0)) ? (0.0) : (((t1 >= (31.0/32.0)) ? (29.0) : (floor(32.0*t1) - 1.0))));
+    float t3 = -32.0*t1 + t2;
+    float t4 = t3 + 1.0;
+    float t5 = -t3 - 3.0;
+    float t6 = -t3 - 2.0;
+    float t7 = -t4;
+    float t8 = ((1.0/2.0))*t5;
+    float t9 = -t3*t6;
+    return t0/(t3*t7*t8*lambert_sphere_tables_texel(105.0, t2 + 2.0) + ((1.0/6.0))*t4*t5*t6*lambert_sphere_tables_texel(105.0, t2) + ((1.0/6.0))*t7*t9*lambert_sphere_tables_texel(105.0, t2 + 3.0) + t8*t9*lambert_sphere_tables_texel(105.0, t2 + 1.0));
 }
 
 // Single scattering with the true phase function, c p(u)/(mu_i + mu_o), u = -(mu_i mu_o + S cos

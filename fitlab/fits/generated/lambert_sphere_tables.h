@@ -89,8 +89,8 @@ LAMBERT_SPHERE_TABLES_FN double lambert_sphere_tables_const_f(double c);
 LAMBERT_SPHERE_TABLES_FN float lambert_sphere_tables_const_f_f(float c);
 
 /*
- * The particle albedo c of the spherical albedo kd (kd_true) from the table: row 105, kd =
- * k/32, read cubic. kd in [0, 1].
+ * The particle albedo c of the spherical albedo kd (kd_true) from the table: kd over kd/c, row
+ * 105, kd = k/32, read cubic. kd in [0, 1].
  */
 LAMBERT_SPHERE_TABLES_FN double lambert_sphere_tables_c_of_kd(double kd);
 LAMBERT_SPHERE_TABLES_FN float lambert_sphere_tables_c_of_kd_f(float kd);

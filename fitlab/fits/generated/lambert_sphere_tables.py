@@ -275,20 +275,22 @@ def const_f(c):
 
 
 def c_of_kd(kd):
-    """The particle albedo c of the spherical albedo kd (kd_true) from the table: row 105, kd =
-    k/32, read cubic. kd in [0, 1]."""
+    """The particle albedo c of the spherical albedo kd (kd_true) from the table: kd over kd/c,
+    row 105, kd = k/32, read cubic. kd in [0, 1]."""
     kd = numpy.asarray(kd, dtype=float)
-    t9 = numpy.where(numpy.less(kd, 0), 0.0, kd)
-    t0 = numpy.where(numpy.greater(t9, 1.0), 1.0, t9)
-    t1 = numpy.where(numpy.less(t0, 1/32), 0, numpy.where(numpy.greater_equal(t0, 31/32), 29, numpy.floor(32*t0) - 1))
-    t2 = -32*t0 + t1
-    t3 = t2 + 1
-    t4 = -t2 - 3
-    t5 = -t2 - 2
-    t6 = -t3
-    t7 = (1/2)*t4
-    t8 = -t2*t5
-    return t2*t6*t7*texel(105, t1 + 2) + (1/6)*t3*t4*t5*texel(105, t1) + (1/6)*t6*t8*texel(105, t1 + 3) + t7*t8*texel(105, t1 + 1)
+    t10 = numpy.where(numpy.less(kd, 0), 0.0, kd)
+    t0 = numpy.where(numpy.greater(t10, 1.0), 1.0, t10)
+    t11 = numpy.where(numpy.less(t0, 0), 0, t0)
+    t1 = numpy.where(numpy.greater(t11, 1), 1, t11)
+    t2 = numpy.where(numpy.less(t1, 1/32), 0, numpy.where(numpy.greater_equal(t1, 31/32), 29, numpy.floor(32*t1) - 1))
+    t3 = -32*t1 + t2
+    t4 = t3 + 1
+    t5 = -t3 - 3
+    t6 = -t3 - 2
+    t7 = -t4
+    t8 = (1/2)*t5
+    t9 = -t3*t6
+    return t0/(t3*t7*t8*texel(105, t2 + 2) + (1/6)*t4*t5*t6*texel(105, t2) + (1/6)*t7*t9*texel(105, t2 + 3) + t8*t9*texel(105, t2 + 1))
 
 
 def single(mu_i, mu_o, cos_phi, c):
@@ -588,7 +590,7 @@ def eval_local(material, wi, wo):
 #: column j: mu = j/32), H_m = exp(mu (Psi_m(mu) log(1 + 1/mu) + c (p_m(mu) + R_m(s, mu)))).
 #: Rows 99-104: l, m - 1, B/c - B1, C/c - C1, D/c - D1, F/c - F1 at s = k/32 (column k);
 #: B1, C1, D1, F1 = 0, 2/3, 0, -15/128 (exact O(c) terms).
-#: Row 105: c(kd) at kd = k/32 (column k). Lookup: position p = x (N - 1), x in [0, 1];
+#: Row 105: kd/c(kd) at kd = k/32 (column k). Lookup: position p = x (N - 1), x in [0, 1];
 #: bicubic: Lagrange cubics on the 4 nodes i..i+3, i = min(max(floor(p) - 1, 0), N - 4); bilinear:
 #: nodes i, i+1, i = min(floor(p), N - 2). docs/codegen.md, 'Tables as engines ship them'.
 TEXTURE_FILE = "lambert_sphere_tables.f32"
