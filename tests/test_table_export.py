@@ -23,6 +23,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 import sympy as sp
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from fitlab.codegen.native import STRICT_FLAGS, build, build_glsl, compiler, cxx_compiler
 from fitlab.codegen.texture import TEXTURE_SHIM, lookup_1d, lookup_2d, texture_from_bytes
@@ -376,3 +378,16 @@ def test_c_of_kd_inverts_the_spherical_albedo():
     kd = np.concatenate(([1e-9, 1e-6, 1e-3], np.random.default_rng(11).uniform(0.0, 0.999, 200)))
     c = te.numpy_part("c_of_kd", data_dir=TABLES)(kd)
     assert rel(kd_interpolant(TABLES)(c), kd).max() < 1e-5
+
+
+@needs_cc
+@settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(mu_i=st.floats(0.0, 1.0), mu_o=st.floats(0.0, 1.0), cos_phi=st.floats(-1.0, 1.0), c=st.floats(0.0, 1.0))
+def test_reciprocal_non_negative_and_finite(native, mu_i, mu_o, cos_phi, c):
+    """Every part is one function of (mu, c) read at mu_i and at mu_o: f(mu_i, mu_o) = f(mu_o, mu_i) (to the
+    order of summation), in double and float; never negative, never infinite."""
+    for dtype, bound in ((np.float64, 1e-13), (np.float32, 1e-5)):
+        a = float(native("brdf", mu_i, mu_o, cos_phi, c, dtype=dtype))
+        b = float(native("brdf", mu_o, mu_i, cos_phi, c, dtype=dtype))
+        assert np.isfinite(a) and a >= 0.0
+        assert abs(a - b) <= bound * max(abs(a), c / max(mu_i + mu_o, 1e-6) * 1e-2)
