@@ -176,11 +176,13 @@ def test_every_published_pair_names_a_preset_of_its_form():
 # -- the family ----------------------------------------------------------------------------------------
 def test_the_family_registers_its_targets_with_valid_names():
     fam = get_family(FAMILY)
-    assert [t.name for t in fam.targets] == NAMES
+    assert [t.name for t in fam.targets if not t.name.startswith("ms_")] == NAMES  # ms_: the lobe parameters
     lambert = {t.name for t in get_family("lambert_sphere").targets}
     for t in fam.targets:
         assert t.name.isidentifier() and "." not in t.name and t.name not in lambert
         assert t.routine == t.name and t.default_form in t.forms
+        if t.name.startswith("ms_"):  # tests/test_microsurface_lobe_models.py
+            continue
         assert t.inputs == (("alpha",) if t.name.startswith("E_avg") else ("mu", "alpha"))
         assert all(v.domain == (0.0, 1.0) for v in t.variables)
     assert set(NAMES) <= set(targets())

@@ -163,3 +163,8 @@ _DEFAULTS = {
 }
 
 TARGETS: dict[str, Target] = {t.name: t for model in MODEL_SUFFIX for t in _albedo_targets(model, _DEFAULTS[model])}
+
+# the parameters of the fitted multiple-scattering lobes by order (issue 20): lobes.targets owns them
+from fitlab.families.microfacet_energy.lobes.targets import LOBE_TARGETS  # noqa: E402
+
+TARGETS.update(LOBE_TARGETS)

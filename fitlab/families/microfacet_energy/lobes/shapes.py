@@ -83,8 +83,15 @@ def eta_of_lobe_roughness(alpha_l) -> sp.Expr:
 
 def blog_lobe(sigma, eta, sigma_n, theta_d=0, a=0, m=0) -> sp.Expr:
     """The blog's lobe f(w_o) (1/sr; module docstring) with the exponent ``eta`` given directly."""
+    n_of = lambda z: (2 + eta) / (2 * sp.pi) * safe_pow(z, eta)  # noqa: E731
+    if theta_d == 0 and a == 0:
+        # undeviated and isotropic: x'^2 + y'^2 = 1 - mu_o^2, no azimuth (the blog's final lobe)
+        n = n_of(mu_o)
+        radius = 1 / sp.sqrt(sp.Max(1 - mu_o**2, 0) + mu_o**2 / sigma_n**2)
+        masking = 1 if m == 0 else (1 - m) + m * beckmann_g1(mu_i) * beckmann_g1(mu_o)
+        return sigma * masking * n * radius
     x, y2, z = lobe_frame(theta_d)
-    n = (2 + eta) / (2 * sp.pi) * safe_pow(z, eta)
+    n = n_of(z)
     radius = 1 / sp.sqrt(x**2 + (y2 if a == 0 else y2 / (1 - a) ** 2) + z**2 / sigma_n**2)
     masking = 1 if m == 0 else (1 - m) + m * beckmann_g1(mu_i) * beckmann_g1(mu_o)
     return sigma * masking * n * radius

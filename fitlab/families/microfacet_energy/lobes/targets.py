@@ -1,0 +1,196 @@
+r"""The lobe-parameter targets: the per-lobe fits (:mod:`.params`) as functions of alpha, mu_i and the order.
+
+For each facet kind (``diffuse``, ``conductor``):
+
+==============================  =====================  ====================================================
+target (= generated routine)    inputs                 value (per-lobe fit of :mod:`.params`)
+==============================  =====================  ====================================================
+ms_blog_eta_KIND                alpha, mu_i            exponent eta of the blog's final lobe, order 2
+ms_blog_flattening_KIND         alpha, mu_i            its normal flattening sigma_n, order 2
+ms_blog_scale_KIND              alpha, mu_i, order     its scale, order 2..5, with the order-2 shape
+ms_tilt_sigma_KIND              alpha, mu_i, order     scale of the tilted lobe (:func:`.shapes.tilted_lobe`)
+ms_tilt_eta_KIND                alpha, mu_i, order     its exponent eta
+ms_tilt_flattening_KIND         alpha, mu_i, order     its normal flattening sigma_n
+ms_tilt_b_KIND, ms_tilt_k_KIND  alpha, mu_i, order     its azimuthal tilt b and narrowing k
+==============================  =====================  ====================================================
+
+Domain: alpha and mu_i in [0.05, 1] (the lobe tables' domain), order in [2, 5] (5 stands for every order
+above 4; the forms are meant at the integer orders).  Training and validation sets: the parameter tables of
+the training and of the interleaved validation grid; for the shape parameters (exponent, flattening, tilt)
+restricted to the lobes that carry at least :data:`MIN_ALBEDO` of the energy (below it a lobe's shape is
+noise and worth nothing to a renderer: at alpha = 0.05 the conductors' orders above 2 hold 1e-5 to 1e-3),
+but for the tilted lobe's scale every lobe with any energy (a lobe without energy must get a scale near 0:
+left out, its exponential form extrapolates there freely and the lobe with it; their noisy values weigh
+little, see below).  The tilted lobe's scale is not its per-lobe fit but the scale that gives the lobe of
+the fitted shape functions the simulated albedo (:func:`energy_scales`).
+
+Error measures: relative for the scales and flattenings (a relative error of either is a relative error
+of the lobe), absolute for the exponents (a change d eta changes the lobe by the factor mu_o^d eta, about
+1 - d eta |log mu_o|, i.e. by d eta where mu_o ~ 1/e) and for b and k (exp(b s_o cos phi) moves by db at
+most).  The per-lobe values are Monte Carlo estimates: each training point is weighted by 1 / max(1,
+se / (0.05 scale)) (its standard error against a tolerance of 0.05 of the error measure's scale), so that
+the lobes whose parameter the simulation leaves uncertain pull less; the validation metrics are
+unweighted.  No minimax refinement: the largest error is the noise of one lobe, which a minimax fit
+would chase.  What a renderer sees is the lobe's error, which docs/microsurface_lobes.md measures.
+"""
+
+from __future__ import annotations
+
+from functools import lru_cache
+from pathlib import Path
+
+import numpy as np
+
+from fitlab.core import Dataset, Input, Target
+from fitlab.families.microfacet_energy.lobes.params import params_file, read_params
+from fitlab.families.microfacet_energy.lobes.tables import DOMAIN, KINDS
+
+__all__ = ["LOBE_TARGETS", "MIN_ALBEDO", "TOLERANCE", "lobe_target_names", "BLOG_PARTS", "TILT_PARTS", "target_name",
+           "energy_scales", "ENERGY_SCALE"]
+
+#: the tilted lobe's scale is not the per-lobe fit's but the energy-matching one (:func:`energy_scales`)
+ENERGY_SCALE = "energy_scale"
+#: lobes below this albedo are left out of the sets (module docstring)
+MIN_ALBEDO = 1e-3
+#: the columns whose sets hold every lobe with any energy (the others': albedo >= MIN_ALBEDO): the tilted
+#: lobe's scale (the blog's scale is fitted the blog's way, on the lobes that matter, orders 2 and 3 for it)
+SCALE_COLUMNS = (ENERGY_SCALE,)
+#: the parameters' standard errors are measured against this fraction of the error measure's scale
+TOLERANCE = 0.05
+
+ALPHA = Input("alpha", DOMAIN["alpha"], "GGX roughness alpha of the microsurface")
+MU_I = Input("mu_i", DOMAIN["mu_i"], "cosine of the incident direction with the normal")
+ORDER = Input("order", (2.0, 5.0), "scattering order: 2, 3, 4, and 5 for every order above 4")
+
+#: (parameter, table column, error measure, what, with order) of the blog's final lobe and of the tilted lobe
+BLOG_PARTS = (("eta", "blog_eta", "absolute", "exponent eta", False),
+              ("flattening", "blog_sigma_n", "relative", "normal flattening sigma_n", False),
+              ("scale", "blog_scale", "relative", "scale sigma (with the order-2 lobe's shape)", True))
+TILT_PARTS = (("sigma", ENERGY_SCALE, "relative", "scale sigma (the one that gives the fitted shape the simulated albedo)",
+               True),
+              ("eta", "tilt_eta", "absolute", "exponent eta", True),
+              ("flattening", "tilt_sigma_n", "relative", "normal flattening sigma_n", True),
+              ("b", "tilt_b", "absolute", "azimuthal tilt b (< 0: towards the mirror side)", True),
+              ("k", "tilt_k", "absolute", "azimuthal narrowing k", True))
+_DEFAULT_FORM = {"eta": "poly", "flattening": "exp_poly", "scale": "exp_poly", "sigma": "exp_poly", "b": "sine_poly",
+                 "k": "sine2_poly"}
+
+
+def target_name(model: str, param: str, kind: str) -> str:
+    """``ms_{model}_{param}_{kind}``, model "blog" or "tilt"."""
+    return f"ms_{model}_{param}_{kind}"
+
+
+def _tables_dir() -> Path:
+    from fitlab.families.microfacet_energy.datasets import tables_dir
+
+    return tables_dir()
+
+
+@lru_cache(maxsize=None)
+def _dataset(kind: str, which: str, column: str, with_order: bool, folder: Path) -> Dataset:
+    p = read_params(folder, kind, which)
+    if column == ENERGY_SCALE:
+        p = dict(p)
+        p[ENERGY_SCALE], p["se_" + ENERGY_SCALE] = energy_scales(kind, which, folder)
+    # a scale is measured on every lobe (a lobe with no energy must get none); a shape where it carries energy
+    keep = p["albedo"] > 0 if column in SCALE_COLUMNS else p["albedo"] >= MIN_ALBEDO
+    if not with_order:
+        keep &= p["order"] == 2
+    inputs = {"alpha": p["alpha"][keep], "mu_i": p["mu_i"][keep]}
+    if with_order:
+        inputs["order"] = p["order"][keep]
+    grid = (f"table {params_file(kind, which)}: the per-lobe fits, {'orders 2..5' if with_order else 'order 2'}, "
+            + ("lobes of albedo > 0" if column in SCALE_COLUMNS else f"lobes of albedo >= {MIN_ALBEDO:g}"))
+    if column == ENERGY_SCALE:
+        grid += "; the scale that gives the shape of the packaged tilt fits the albedo of the lobe table"
+    return Dataset(inputs, p[column][keep].copy(), grid, {"se": p["se_" + column][keep].copy()})
+
+
+def energy_scales(kind: str, which: str, folder: Path, fits_dir: Path | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """The tilted lobe's energy-matching scale of every row of the parameter table (orders 2..5 of every job):
+    A_S / I_S, A_S the simulated albedo of the lobe (lobes.tables), I_S the albedo of the tilted lobe of scale 1
+    whose exponent, flattening and tilt are the fitted functions of the packaged fits (``fits_dir``), integrated
+    over the bins (lobes.fitting's quadrature); its standard error sigma se(A_S)/A_S.  Why: the per-lobe scale
+    trades against the lobe's other parameters, which the fitted functions smooth, so that per-lobe scales with
+    fitted shapes miss the energy by 40 % (RMS, conductors; 22 % diffuse facets, validation lobes); this scale
+    keeps it by construction, and only its own fit's error is left."""
+    import sympy as sp
+
+    from fitlab.families.microfacet_energy.lobes.fitting import bin_averages_numpy
+    from fitlab.families.microfacet_energy.lobes.runtime import order_lobes, parameter_expressions
+    from fitlab.families.microfacet_energy.lobes.shapes import SHAPE_INPUTS
+    from fitlab.families.microfacet_energy.lobes.tables import read_lobes, solid_angles
+    from fitlab.forms.symbolic import lambdify_numpy, symbols
+
+    parts = dict(parameter_expressions("tilted", kind, fits_dir))
+    parts[target_name("tilt", "sigma", kind)] = sp.Integer(1)
+    unit = {s: lambdify_numpy(symbols(SHAPE_INPUTS), e) for s, e in order_lobes("tilted", kind, parts).items()}
+    t = read_lobes(folder, kind, which)
+    p = read_params(folder, kind, which)
+    omega = solid_angles()
+    scale, se = np.zeros(p["alpha"].size), np.zeros(p["alpha"].size)
+    for row, (a, m, s) in enumerate(zip(p["alpha"], p["mu_i"], p["order"].astype(int))):
+        j = int(np.where((t.alpha == a) & (t.mu_i == m))[0][0])
+        albedo = float((bin_averages_numpy(unit[s], m, a) * omega).sum())
+        scale[row] = t.albedo[j, s - 1] / albedo
+        se[row] = scale[row] * t.albedo_se[j, s - 1] / t.albedo[j, s - 1] if t.albedo[j, s - 1] > 0 else 0.0
+    return scale, se
+
+
+def _sets(kind: str, column: str, with_order: bool):
+    return (lambda: _dataset(kind, "training", column, with_order, _tables_dir()),
+            lambda: _dataset(kind, "validation", column, with_order, _tables_dir()))
+
+
+def _scale(measure: str):
+    if measure == "relative":
+        return lambda ds: np.abs(ds.y)
+    return lambda ds: np.ones_like(ds.y)
+
+
+def _emphasis(measure: str):
+    scale = _scale(measure)
+    return lambda ds: 1.0 / np.maximum(1.0, ds.aux["se"] / (TOLERANCE * scale(ds)))
+
+
+_PUBLISHED = {"eta": (("blog_quadratic", "blog_text"), ("blog_quadratic", "blog_code"), ("blog_exp2", "blog_text")),
+              "flattening": (("blog_cubic", "blog_text"), ("blog_cubic", "blog_code")),
+              "scale": (("blog_cubic", "blog_text"), ("blog_cubic", "blog_code"))}
+
+
+def _targets(kind: str) -> list[Target]:
+    out = []
+    what_kind = "diffuse facets of albedo 1" if kind == "diffuse" else "conductor facets with F = 1"
+    for model, parts, lobe in (("blog", BLOG_PARTS, "the blog's final lobe"), ("tilt", TILT_PARTS, "the tilted lobe")):
+        for param, column, measure, what, with_order in parts:
+            name = target_name(model, param, kind)
+            variables = (ALPHA, MU_I, ORDER) if with_order else (ALPHA, MU_I)
+            training, validation = _sets(kind, column, with_order)
+            published = _PUBLISHED.get(param, ()) if model == "blog" and kind == "diffuse" else ()
+            out.append(Target(
+                name, f"{what} of {lobe} fitted to the simulated multiple-scattering lobes of {what_kind} on GGX "
+                      f"(lobes.params){'' if with_order else ', order 2'}; alpha, mu_i in [0.05, 1]"
+                      + (", order 2..5" if with_order else ""),
+                variables, _DEFAULT_FORM[param], published,
+                training, validation, None, name,
+                claimed=("none stated (the blog: 'I'm not sure my results are accurate or useable anymore')"
+                         if published else "none: the blog fitted diffuse facets only"),
+                error_measure=(f"{measure}: |approx - exact|" + (" / |exact|" if measure == "relative" else "")
+                               + " (lobes.targets says why)"),
+                scale=_scale(measure), minimax=False, emphasis=_emphasis(measure),
+                emphasis_text=f"each lobe weighted by 1/max(1, se/({TOLERANCE:g} scale)) (its Monte Carlo uncertainty)",
+                note=("Exact values are per-lobe fits of Monte Carlo lobes, with standard errors: the refit weighs them "
+                      "by their uncertainty and minimises the RMS; the lobe's own error is in docs/microsurface_lobes.md."),
+            ))  # fmt: skip
+    return out
+
+
+#: every lobe-parameter target, by name
+LOBE_TARGETS = {t.name: t for kind in KINDS for t in _targets(kind)}
+
+
+def lobe_target_names(model: str, kind: str) -> tuple[str, ...]:
+    """The targets of ``model`` ("blog" or "tilt") and ``kind``, in the order of the shape's parameters."""
+    parts = BLOG_PARTS if model == "blog" else TILT_PARTS
+    return tuple(target_name(model, p[0], kind) for p in parts)
