@@ -104,8 +104,12 @@ def bench_codegen(fits_dir: Path | None = None, n: int = 1_000_000, repeat: int 
     * set-up hoisted: ``eval(&material, mu_i, mu_o, cos_phi)`` with :data:`BENCH_MATERIALS` materials
       prepared once, point i taking a random one (as a renderer does: a material is prepared when the
       scene loads), for the same models; and ``prepare`` itself, per material;
+    * the exported tables (``fitlab codegen --tables``, the shipped default: bicubic, 33 nodes), per call,
+      hoisted and prepare;
     * the generated numpy module, per call.
     """
+    from fitlab.families.lambert_sphere import table_export
+
     from fitlab.report.methods import preset_records
 
     prog = load_program(fits_dir)
@@ -122,6 +126,9 @@ def bench_codegen(fits_dir: Path | None = None, n: int = 1_000_000, repeat: int 
         model = build(emit(prog, "c"), prog, Path(tmp) / "model")
         paper = build(emit(published, "c"), published, Path(tmp) / "paper")
         baselines = build(emit(base, "c"), base, Path(tmp) / "base")
+        tables_prog = table_export.program()
+        tables = build({name: data.decode() for name, data in table_export.generate("c").items()}, tables_prog,
+                       Path(tmp) / "tables")  # fmt: skip
         module = Path(tmp) / f"{prog.name}.py"
         module.write_text(emit(prog, "python")[module.name])
         spec = importlib.util.spec_from_file_location("bench_generated", module)
@@ -135,12 +142,14 @@ def bench_codegen(fits_dir: Path | None = None, n: int = 1_000_000, repeat: int 
             "brdf_fast (eq. 41)": (model, "brdf_fast", (mu_i, mu_o, cos_phi, c, kd)),
             "brdf (published: paper)": (paper, "brdf", (mu_i, mu_o, cos_phi, c)),
             "brdf (shipped model)": (model, "brdf", (mu_i, mu_o, cos_phi, c)),
+            "brdf (exported tables)": (tables, "brdf", (mu_i, mu_o, cos_phi, c)),
         }
         hoisted = {
             "lambert (baseline)": (baselines, "eval_lambert", mat_kd),
             "oren_nayar (baseline)": (baselines, "eval_oren_nayar", mat_kd),
             "brdf (published: paper)": (paper, "eval", mat_c),
             "brdf (shipped model)": (model, "eval", mat_c),
+            "brdf (exported tables)": (tables, "eval", mat_c),
         }
         timed = {}
         for dt in (np.float64, np.float32):
@@ -149,7 +158,8 @@ def bench_codegen(fits_dir: Path | None = None, n: int = 1_000_000, repeat: int 
             for label, (lib, name, params) in hoisted.items():
                 setup = lib.material.prepare_name
                 timed[(label, how + ", hoisted")] = (lib, name, (lib(setup, params, dtype=dt), which, mu_i, mu_o, cos_phi), dt)
-            for label, lib in (("prepare (published: paper)", paper), ("prepare (shipped model)", model)):
+            for label, lib in (("prepare (published: paper)", paper), ("prepare (shipped model)", model),
+                               ("prepare (exported tables)", tables)):  # fmt: skip
                 timed[(label, how)] = (lib, lib.material.prepare_name, (c[: n // 16],), dt)
         rows.update(time_routines(timed, repeat))
         for label, fn, args in (("brdf (shipped model)", py.brdf, (mu_i, mu_o, cos_phi, c)),
