@@ -153,8 +153,7 @@ def py(sources):
 def native(sources, tmp_path_factory):
     if compiler() is None:
         pytest.skip("no C compiler on PATH")
-    fits = {t: __import__("fitlab.store", fromlist=["load"]).load(p) for t, p in lp.fit_files().items()}
-    return build(sources["c"], lp.lobe_program(fits), tmp_path_factory.mktemp("lobes"))
+    return build(sources["c"], lp.load_lobe_program(), tmp_path_factory.mktemp("lobes"))
 
 
 @pytest.mark.parametrize("lang", lp.LANGUAGES)
@@ -246,3 +245,39 @@ def test_glsl_validates(sources, tmp_path, version):
     shader.write_text(version + "\n" + text + main)
     res = subprocess.run(["glslangValidator", str(shader)], capture_output=True, text=True)
     assert res.returncode == 0, res.stdout + res.stderr
+
+
+# -- the study (docs/microsurface_lobes.md) ---------------------------------------------------------------
+STUDY_JSON = ROOT / "docs" / "microsurface_lobes.json"
+
+
+@pytest.mark.skipif(not STUDY_JSON.is_file(), reason="docs/microsurface_lobes.json is not in this checkout")
+def test_stored_study_figures_are_recomputed():
+    """The tilted lobe's and the blog's published lobe's figures in docs/microsurface_lobes.json, recomputed
+    from the committed tables and fits (a stale document fails)."""
+    import json
+
+    from fitlab.families.microfacet_energy.lobes import study
+    from fitlab.families.microfacet_energy.lobes import tables as lt
+
+    stored = json.loads(STUDY_JSON.read_text())["accuracy"]["diffuse"]
+    t = lt.read_lobes(lt_folder(), "diffuse", "validation")
+    got = study.accuracy("diffuse", t, models=("blog_text", "tilted"))
+    for model in ("blog_text", "tilted"):
+        for key in ("max_rel", "rms_rel", "energy_max_rel", "energy_rms_rel"):
+            assert got[model]["multiple"][key] == pytest.approx(stored[model]["multiple"][key], rel=1e-9), (model, key)
+
+
+def lt_folder():
+    from fitlab.families.microfacet_energy.datasets import tables_dir
+
+    return tables_dir()
+
+
+@pytest.mark.benchmark
+def test_the_study_runs_and_writes_its_document(tmp_path):
+    from fitlab.families.microfacet_energy.lobes import study
+
+    assert study.main(["--out", str(tmp_path)]) == 0
+    text = (tmp_path / "microsurface_lobes.md").read_text()
+    assert "Kulla-Conti" in text and (tmp_path / "microsurface_lobes_diffuse.png").is_file()

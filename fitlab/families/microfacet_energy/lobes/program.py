@@ -38,8 +38,8 @@ from fitlab.families.microfacet_energy.lobes.tables import KINDS
 from fitlab.forms.symbolic import symbols
 from fitlab.store import FitFunction, fit_path, fit_sha256, fits_folder, load
 
-__all__ = ["NAME", "PROGRAM_MODELS", "KULLA_CONTI_PARTS", "fit_files", "lobe_program", "generate", "main",
-           "LANGUAGES"]
+__all__ = ["NAME", "PROGRAM_MODELS", "KULLA_CONTI_PARTS", "fit_files", "lobe_program", "load_lobe_program", "generate",
+           "main", "LANGUAGES"]
 
 NAME = "microsurface_lobes"
 #: the lobe of each composed routine and the model whose forms it prints
@@ -118,13 +118,23 @@ def lobe_program(fits: Mapping[str, FitFunction], sources=()) -> Program:
                    tuple(fits))
 
 
+def load_lobe_program(fits_dir: Path | None = None) -> Program:
+    """The program of the fits in ``fits_dir`` (None: the packaged fits), built once per process for the same
+    fit files (by digest)."""
+    paths = fit_files(fits_dir)
+    sources = tuple((p.name, fit_sha256(p)) for p in paths.values())
+    if sources not in _PROGRAMS:
+        _PROGRAMS[sources] = lobe_program({t: load(p) for t, p in paths.items()}, sources)
+    return _PROGRAMS[sources]
+
+
+_PROGRAMS: dict = {}
+
+
 def generate(lang: str, fits_dir: Path | None = None) -> dict[str, str]:
     """{file name: text} of the program of the fits in ``fits_dir`` (None: the packaged fits) in ``lang``."""
-    paths = fit_files(fits_dir)
-    fits = {t: load(p) for t, p in paths.items()}
-    sources = tuple((p.name, fit_sha256(p)) for p in paths.values())
     command = f"python -m fitlab.families.microfacet_energy.lobes.program --lang {lang}"
-    return emit(lobe_program(fits, sources), lang, command)
+    return emit(load_lobe_program(fits_dir), lang, command)
 
 
 def main(argv=None) -> int:
