@@ -12,6 +12,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from fitlab.codegen.native import STRICT_FLAGS, build, compiler
 from fitlab.core import float64, get_target, targets
@@ -195,6 +197,44 @@ def test_numpy_and_c_agree_in_double_and_float(native, py, routine):
     f32 = native(routine, *(a.astype(np.float32) for a in args), dtype=np.float32)
     assert np.all(np.isfinite(f32))
     np.testing.assert_allclose(f32, want, rtol=2e-4, atol=1e-6 * np.max(want))
+
+
+@needs_cc
+def test_glsl_compiled_as_c_agrees_with_the_c_float_version(sources, native, tmp_path):
+    from fitlab.codegen.native import build_glsl
+
+    shader = build_glsl(sources["glsl"], lp.load_lobe_program(), tmp_path)
+    x = _inputs(2000, np.random.default_rng(5))
+    for routine, names in ROUTINES.items():
+        args = [x[a].astype(np.float32) for a in names]
+        want = native(routine, *args, dtype=np.float32)
+        got = shader(routine, *args, dtype=np.float32)
+        np.testing.assert_allclose(got, want, rtol=2e-4, atol=1e-6 * np.max(want))
+
+
+@settings(max_examples=60, deadline=None)
+@given(mu_i=st.floats(0, 1), mu_o=st.floats(0, 1), cos_phi=st.floats(-1, 1), alpha=st.floats(0, 1),
+       rho=st.floats(0, 1))
+def test_generated_lobes_are_nonnegative_finite_and_grow_with_the_facet_albedo(mu_i, mu_o, cos_phi, alpha, rho):
+    py = _generated_module()
+    for routine, names in ROUTINES.items():
+        x = {"mu_i": mu_i, "mu_o": mu_o, "cos_phi": cos_phi, "alpha": alpha, "rho": rho}
+        v = float(getattr(py, routine)(*[np.array(x[a]) for a in names]))
+        assert np.isfinite(v) and v >= 0, (routine, x)
+        if "rho" in names and rho < 1:  # every order's weight rho^S grows with rho
+            assert float(getattr(py, routine)(*[np.array(1.0 if a == "rho" else x[a]) for a in names])) >= v
+
+
+def _generated_module():
+    global _GENERATED_MODULE
+    if _GENERATED_MODULE is None:
+        spec = importlib.util.spec_from_file_location("microsurface_lobes_hypothesis", GENERATED / "microsurface_lobes.py")
+        _GENERATED_MODULE = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(_GENERATED_MODULE)
+    return _GENERATED_MODULE
+
+
+_GENERATED_MODULE = None
 
 
 @pytest.mark.parametrize("routine", ROUTINES)

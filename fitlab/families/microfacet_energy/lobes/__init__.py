@@ -13,5 +13,10 @@ Modules:
 * :mod:`.fitting`: a shape fitted to one simulated lobe with optimistix (the chi-square of the bins and of
   the albedo);
 * :mod:`.params`: the per-lobe fits of every lobe, tabulated (lobe_params_*.csv): the exact values of the
-  lobe-parameter targets.
+  lobe-parameter targets;
+* :mod:`.targets`, :mod:`.forms`: those targets (ms_blog_*, ms_tilt_*: functions of alpha, mu_i and the
+  order) and their forms, the blog's published expressions as presets (docs/blog_lobe_model.md);
+* :mod:`.runtime`: each model's lobes from its parameters' forms (presets or fits), in sympy and numpy;
+* :mod:`.program`: the generated runtime lobes (fitlab/fits/generated/microsurface_lobes.*);
+* :mod:`.study`: docs/microsurface_lobes.md, every model against the simulated lobes, with energy and cost.
 """
