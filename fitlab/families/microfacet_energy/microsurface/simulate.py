@@ -23,7 +23,9 @@ contribution x_p: the weight if the path ended there, else 0):
 * ``energy_total``: reflection and transmission of every order plus the capped weight; reference 1
   (energy conservation) for lossless materials and dielectrics, where it holds path by path.
 
-z_ref = (estimate - reference) / se (NaN without a reference or with se = 0).
+z_ref = (estimate - reference) / se (NaN without a reference or with se = 0).  In bins few paths reach z
+is not normal (its se comes from the few paths): :func:`count_p_value` gives the exact binomial p-value of
+a bin's count under its reference, which the tests and the validation study use for the lobes.
 
 Stopping rule, per job: after every round of ``batch`` paths, the job stops when every lobe row has
 se <= target_se["lobe"] and every albedo (transmission, energy) row se <= target_se["albedo"], after at
@@ -56,8 +58,8 @@ from fitlab.families.microfacet_energy.microsurface.walk import (
 )
 
 __all__ = ["claims", "SimulationResult", "SceneError", "simulate", "simulate_file", "write_outputs", "summary_table",
-           "unconverged", "check_out_dir", "ROW_FIELDS", "SUMMARY_FIELDS", "MIN_PATHS", "job_config",
-           "job_params"]
+           "unconverged", "check_out_dir", "count_p_value", "ROW_FIELDS", "SUMMARY_FIELDS", "MIN_PATHS",
+           "job_config", "job_params"]
 
 MIN_PATHS = 10_000
 ROW_FIELDS = ("quantity", "material", "kind", "distribution", "alpha_x", "alpha_y", "fresnel", "mu_i", "order",
@@ -120,7 +122,8 @@ def _lobe_rows(quantity, t, base, labels, mu_e, phi_e, n, reference):
             for j in range(len(phi_e) - 1):
                 r = dict(base, quantity=quantity, order=lab, mu_lo=mu_e[i], mu_hi=mu_e[i + 1], phi_lo=phi_e[j],
                          phi_hi=phi_e[j + 1], estimate=mean[k, i, j] / omega[i, j], se=se[k, i, j] / omega[i, j],
-                         _norm=omega[i, j], _n=n)
+                         _norm=omega[i, j], _n=n, _s1=float(t[quantity][k, i, j]),
+                         _s2=float(t[quantity + "_sq"][k, i, j]))
                 if k == 0 and reference is not None:
                     r.update(reference=reference[i, j], reference_method="bin_quadrature")
                 rows.append(r)
@@ -181,6 +184,28 @@ def estimate_rows(scene: Scene, mi: int, ii: int, t: dict, references: dict | No
         else:
             r.update(reference=math.nan, z_ref=math.nan, reference_method="")
     return rows
+
+
+def count_p_value(row) -> float:
+    """Two-sided p-value of a lobe row's bin under its reference (NaN without one): the bin's paths are a
+    binomial count, n ~ Binomial(N, q), q = reference Omega / w, w = S2 / S1 the paths' weight (exact when
+    it is the same for every path of the bin: 1 for F = 1 conductors and dielectrics, albedo^k for order k
+    of diffuse facets; an approximation otherwise), n = S1 / w; p = min(1, 2 min(P(n' <= n), P(n' >= n))).
+    An empty bin gives p = 2 (1 - q)^N.  Unlike z, which takes its standard error from the
+    sample, p stays calibrated in bins that a few paths reach (a bin expected to hold 8 paths that holds 2
+    has z = -4.4 but p = 0.02)."""
+    from scipy.stats import binom
+
+    ref = row.get("reference", math.nan)
+    if not math.isfinite(ref) or "_s1" not in row:
+        return math.nan
+    n_paths, s1, s2 = row["_n"], row["_s1"], row["_s2"]
+    w = s2 / s1 if s1 > 0.0 else 1.0
+    q = min(1.0, max(0.0, ref * row["_norm"] / w))
+    count = s1 / w
+    below = binom.cdf(math.floor(count + 1e-9), n_paths, q)
+    above = binom.sf(math.ceil(count - 1e-9) - 1, n_paths, q)
+    return float(min(1.0, 2.0 * min(below, above)))
 
 
 def _references(scene: Scene, mi: int, ii: int) -> dict:
