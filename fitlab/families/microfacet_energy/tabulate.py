@@ -23,7 +23,7 @@ machine and library versions reproduce them byte for byte).  :func:`check_tables
 of rows by the other, independent route.
 
 The simulated multiple-scattering lobes by order (``lobes_KIND_SET.csv``, :mod:`.lobes.tables`: the
-microsurface random walk, about 7 minutes on 2 cores) and the per-lobe fits of their shapes
+microsurface random walk, 3 to 7 minutes on 2 cores) and the per-lobe fits of their shapes
 (``lobe_params_KIND_SET.csv``, :mod:`.lobes.params`, about a minute) are written beside them; their check
 re-simulates one job of each kind with an independent seed and refits one lobe.
 

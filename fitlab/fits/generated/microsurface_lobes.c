@@ -4,22 +4,22 @@
  * Multiple-scattering lobes of GGX microsurfaces (diffuse facets, F = 1 conductors), fitted by order to
  * the microsurface random walk: the blog's final lobe refitted and the tilted lobe; Kulla-Conti's f_ms.
  * From these fits (sha256):
- *   ms_blog_eta_diffuse.blog_quadratic.json  c8a7b05f604018edc37a7abfed91e0810eb63a2ced0a9e7e757d2550a343b44f
- *   ms_blog_flattening_diffuse.blog_cubic.json  f50c215b614672c0219df4d3c2200231d67130e68b5cf769381a178a7ec36fc8
- *   ms_blog_scale_diffuse.blog_cubic.json  59c205ee71b92fa9435597e1959f0350a666328f6cfe44fbdd5207d25d88732b
- *   ms_tilt_sigma_diffuse.json  5aeaed89d3bfbb35197703f0dd12085cd39d9e492cd4a89966d4a0398642babe
- *   ms_tilt_eta_diffuse.json  46c721654acda0fc4e5ab76725b399f6da796115c7a6ff6637f953a9b7c19664
- *   ms_tilt_flattening_diffuse.json  dcb4ecb1b6a0796c7781ad6cdae30057d0077998cdb5eb3a234285133a1dbbb4
- *   ms_tilt_b_diffuse.json  8056158d4afcf8c6b23e2832b2b48ba579b38bbd858044b61be9ddcf8ab4dace
- *   ms_tilt_k_diffuse.json  01aee970a1b44318868b757866beb47f4c8ea132fa4df409acd54d4f6101c8b0
- *   ms_blog_eta_conductor.blog_quadratic.json  00b177e4a0ae3bf5dc59bc840b55fded16708a0d4e3f32842e84bcfa7f5b3016
- *   ms_blog_flattening_conductor.blog_cubic.json  183be2dbd9002775a466930e5a24d712342a80dc9d9c48bba18b48c1cba4fd05
- *   ms_blog_scale_conductor.blog_cubic.json  baabb26741b49bd7ae3d55c3b64ebd552b3d0bead0675276e3fbbab7da1b6c2c
- *   ms_tilt_sigma_conductor.json  b9c87efaf1b73534c4ea881936d1e8d82c23bcde986a1469a8c84e4c1b4f8c13
- *   ms_tilt_eta_conductor.json  f8182f2db377ba59b722514d908df844ed91e388e214a44732c000a360a26334
- *   ms_tilt_flattening_conductor.json  9d5d8902c65c13cc2f89627d6d810648adc3b840f0e4409cb39e0ffb4ef14dc7
- *   ms_tilt_b_conductor.json  5a55f1e6bd9df53d4c84a7990a4fa7b129e37cebc6fdd7c2e7f190ac0e06b381
- *   ms_tilt_k_conductor.json  edbc787e375868109865ba5c8808070b59e9b7b3c93170fc173b36cc4c362337
+ *   ms_blog_eta_diffuse.blog_quadratic.json  0f4abe1b462affadb7fa1aa2d7a5590f72756ea5d8a6c89f56ad3b166cdcd08b
+ *   ms_blog_flattening_diffuse.blog_cubic.json  6094ac7edaa1fd80613486ff4e7650968823ff07b57eb6589f7bc42d0c11ed97
+ *   ms_blog_scale_diffuse.blog_cubic.json  c11ae1f3974e5bc59347a5e31a23abbd80c0bd8ea67fe9c23cba1e6d0d84219e
+ *   ms_tilt_sigma_diffuse.json  df054a292ad15c71d6fa8b95ce1d9804d22cda0e023d8a7192c3376003158301
+ *   ms_tilt_eta_diffuse.json  81bfdbc03d6911fe0a7d512f411226ae12026e5edb7e20bcb53fae03e30555eb
+ *   ms_tilt_flattening_diffuse.json  0a07eadc7975259dac697217c48d0e1c51a28a2a90ab25bc11d285c4fd9a2692
+ *   ms_tilt_b_diffuse.json  f9d7ec251d3e121d1d80ca4e7367150780a93fcf66ebccdf222c45e5b7e20108
+ *   ms_tilt_k_diffuse.json  3937aadd17c262a6659dd1a557ec97c44cabe2be050c07a61fa2790de45589e3
+ *   ms_blog_eta_conductor.blog_quadratic.json  c18242213ba0dfcd951e4775c76d556fd451fe12466c1b8585427bd98972d050
+ *   ms_blog_flattening_conductor.blog_cubic.json  6e7c453ea2d7a0120c37722b6862ea82161c0b5b45d84c00d06e57105cecc335
+ *   ms_blog_scale_conductor.blog_cubic.json  5848521ae82ea79f44aeae22a32e33994efe8a83a7c737086b87dffcd040e3e6
+ *   ms_tilt_sigma_conductor.json  4225cdbbfb75bd04d03c5396872e272bf2ec6856284b6683df14b63fd75127d5
+ *   ms_tilt_eta_conductor.json  aa582a4afa824bdc611feb708c0a3051de0f9d58bcfb80169699608d41abb549
+ *   ms_tilt_flattening_conductor.json  5f2bae299dd1c791a2f5013568d9ea930d18a3088a3b4c99fd23eed2aee3a617
+ *   ms_tilt_b_conductor.json  467d577c6aafbb22e8130e7ccc28f34365128538d80ec0678cd8a4be0a19ddac
+ *   ms_tilt_k_conductor.json  6422b0a3adfea5e896c067576dbdd6e2776364786d9476335e20337b11f8d479
  *   E_ggx_cor.json  006307cb26bcfa3740e6ab79baa0eab4aff570d18034c97b33611231cc94bff7
  *   E_avg_ggx_cor.json  01da745251f7c2ec93bc9c1c68cf1a9b6a4b3e761196f928c6f24191d02f1d02
  */
@@ -36,7 +36,7 @@ MICROSURFACE_LOBES_FN double microsurface_lobes_ms_blog_eta_diffuse(double alpha
     (void)mu_i;
     const double t1 = ((alpha < 0.050000000000000003) ? (0.050000000000000003) : (alpha));
     const double t0 = ((t1 > 1.0) ? (1.0) : (t1));
-    return 1.1114101141838293*(t0*t0) - 0.9645380949207288*t0;
+    return 1.0877990720085609*(t0*t0) - 0.9474705111794323*t0;
 }
 
 MICROSURFACE_LOBES_FN double microsurface_lobes_ms_blog_flattening_diffuse(double alpha, double mu_i)
@@ -48,7 +48,7 @@ MICROSURFACE_LOBES_FN double microsurface_lobes_ms_blog_flattening_diffuse(doubl
     const double t2 = (t0*t0);
     const double t3 = (t1*t1);
     const double t4 = (t1*t1*t1);
-    return -1.1837691678820106*(t0*t0*t0) - 3.608945331290763*t0*t1 + 1.2540615186061739*t0*t3 + 0.8835106252645545*t0*t4 - 0.6752557723503337*t0 + 1.0054569118916972*t1 + 4.5482151633769545*t2*t3 - 4.004576674903577*t2*t4 + 2.2130152500311198*t2 - 0.9490914693327971*t3 + 0.2153399312875631*t4 + 1.0777170020907914;
+    return -1.6562656481489018*(t0*t0*t0) - 3.4628989266542267*t0*t1 + 1.2117786276097873*t0*t3 + 0.3916566532160779*t0*t4 - 0.7859353452099775*t0 + 1.1691862702252298*t1 + 4.136185804966846*t2*t3 - 3.2307224441769553*t2*t4 + 2.76778727106632*t2 - 1.327731403225174*t3 + 0.5337199392351057*t4 + 1.045680289819587;
 }
 
 MICROSURFACE_LOBES_FN double microsurface_lobes_ms_blog_scale_diffuse(double alpha, double mu_i, double order)
@@ -67,7 +67,7 @@ MICROSURFACE_LOBES_FN double microsurface_lobes_ms_blog_scale_diffuse(double alp
     const double t8 = (t5*t5*t5);
     const double t9 = (t6*t6);
     const double t10 = (t6*t6*t6);
-    return (-0.3322597229959841*t2*((5.0/2.0) - t1)*(t0 - 2.0) + 0.0686001483284857*t2*(t1 + (-3.0/2.0))*(t4 + (-2.0/3.0)) - t3*((5.0/3.0) - t4)*(2.0 - t1) + 0.10465127967828648*t3*(5.0 - t0)*(t1 - 1.0))*(0.2449048992691601*t10*t5 + 1.808520743156589*t10*t7 - 1.941836058256379*t10*t8 - 0.04926499877638764*t10 + 0.3404549796405072*t5*t6 - 0.5338418498042966*t5*t9 - 0.20923049442877564*t5 + 1.8585889911837372*t6*t7 - 1.5074711991242118*t6*t8 - 0.06657538383308706*t6 - 3.293963962804495*t7*t9 + 1.0096354480382357*t7 + 3.104257985558577*t8*t9 - 0.6031006859985973*t8 + 0.10273329536062409*t9 + 0.024657921724335886);
+    return (-0.3295961677232844*t2*((5.0/2.0) - t1)*(t0 - 2.0) + 0.06833981076173223*t2*(t1 + (-3.0/2.0))*(t4 + (-2.0/3.0)) - t3*((5.0/3.0) - t4)*(2.0 - t1) + 0.10337654552309455*t3*(5.0 - t0)*(t1 - 1.0))*(0.4550167452703966*t10*t5 + 0.792194941478882*t10*t7 - 1.269640317574752*t10*t8 - 0.0594050185042275*t10 + 0.4565170363747333*t5*t6 - 0.8469936607045311*t5*t9 - 0.21261324600709514*t5 + 1.2124442264944706*t6*t7 - 1.0242284087959774*t6*t8 - 0.07185059858271628*t6 - 1.6852430138904961*t7*t9 + 1.0482635520786259*t7 + 1.9785432919671517*t8*t9 - 0.6308554470205076*t8 + 0.11729797999501176*t9 + 0.0248993418533331);
 }
 
 MICROSURFACE_LOBES_FN double microsurface_lobes_ms_tilt_sigma_diffuse(double alpha, double mu_i, double order)
@@ -85,7 +85,7 @@ MICROSURFACE_LOBES_FN double microsurface_lobes_ms_tilt_sigma_diffuse(double alp
     const double t7 = (t6*t6);
     const double t8 = 2.0*t1*log(t0) - 1.0;
     const double t9 = (t8*t8);
-    return 0.037631877077514322*pow(t0, 6.9439779399768514*t1)*exp(-0.16849371178529272*t2 - 1.4317243972741727*t3 + 0.15698359262752398*(t4*t4*t4) - 0.006908509183634999*t4*t6*t8 + 0.1902407831818581*t4*t6 - 0.06499826248098971*t4*t7 + 0.19213267792506264*t4*t8 + 0.014990689467973536*t4*t9 - 0.10267730627371142*t5*t6 - 0.2751091643415666*t5*t8 - 0.04441450566135793*t5 + 1.9197623629929934*t6*t8 - 0.29989713738259083*t6*t9 + 0.47484156012257844*t7*t8 + 0.13990073396263894*t7 - 0.28999206910019804*(t8*t8*t8) - 0.8251940067228922*t9);
+    return 0.029314643446564239*pow(t0, 6.725286903433162*t1)*exp(-0.10982677495627066*t2 - 1.3270422800322229*t3 + 0.11114568841105608*(t4*t4*t4) - 0.03295621477689129*t4*t6*t8 + 0.21239470842098646*t4*t6 - 0.047088636069265916*t4*t7 + 0.16933520734531343*t4*t8 + 0.025745293559688475*t4*t9 - 0.1264022103295333*t5*t6 - 0.25094216141632353*t5*t8 - 0.0618292909452432*t5 + 1.6547139333800123*t6*t8 - 0.19755208044074904*t6*t9 + 0.3224309457258726*t7*t8 + 0.2618705308826311*t7 - 0.30682283103839697*(t8*t8*t8) - 0.7234161841096599*t9);
 }
 
 MICROSURFACE_LOBES_FN double microsurface_lobes_ms_tilt_eta_diffuse(double alpha, double mu_i, double order)
@@ -103,7 +103,7 @@ MICROSURFACE_LOBES_FN double microsurface_lobes_ms_tilt_eta_diffuse(double alpha
     const double t7 = t2*t4;
     const double t8 = 2.0*t6 - 1.0;
     const double t9 = (t8*t8);
-    return 0.07340233009754704*t0 + 0.11405688157872623*t1 + 0.042431713153765406*(t2*t2*t2) - 0.0395376098148373*t2*t5 + 0.029464437373737194*t2*t8 + 0.06405293461253621*t2*t9 + 0.042423343682375915*t3*t4 - 0.11566923296842606*t3*t8 - 0.0032521372685265044*t3 - 0.08671795796393518*t4*t8 + 0.07752086422831837*t4*t9 + 0.02197821467822621*t5*t8 - 0.04441898953164496*t5 + 0.25956087018850992*t6 - 0.11252945268820755*t7*t8 + 0.050702257970470295*t7 - 0.07010890094834346*(t8*t8*t8) + 0.10730521259272187*t9 - 0.51902269441925609;
+    return 0.09098289863835012*t0 + 0.177522532578988*t1 + 0.04071419756203633*(t2*t2*t2) - 0.0236663961892579*t2*t5 + 0.014188670408166059*t2*t8 + 0.06389797970691098*t2*t9 + 0.027797999525746686*t3*t4 - 0.11039513365866654*t3*t8 - 0.014288782959218491*t3 - 0.24253079461777538*t4*t8 + 0.13870031070912597*t4*t9 - 0.062269363766852374*t5*t8 + 0.025688622744945752*t5 + 0.13245265177053104*t6 - 0.14006178357791182*t7*t8 + 0.07825284321538534*t7 - 0.082754400134707*(t8*t8*t8) + 0.15498204508721689*t9 - 0.65750603597102944;
 }
 
 MICROSURFACE_LOBES_FN double microsurface_lobes_ms_tilt_flattening_diffuse(double alpha, double mu_i, double order)
@@ -121,29 +121,10 @@ MICROSURFACE_LOBES_FN double microsurface_lobes_ms_tilt_flattening_diffuse(doubl
     const double t7 = (t6*t6);
     const double t8 = 2.0*t1*log(t0) - 1.0;
     const double t9 = (t8*t8);
-    return 1.6599535623455453*pow(t0, -0.2061894011506503*t1)*exp(-0.023114227800856292*t2 - 0.15863042069772457*t3 - 0.08402404570906592*(t4*t4*t4) + 0.1336747083337018*t4*t6*t8 - 0.060715913537099625*t4*t6 - 0.04337797513145954*t4*t7 + 0.028904193106602125*t4*t8 + 0.05440540597943016*t4*t9 - 0.07244765188348376*t5*t6 + 0.10358981232711954*t5*t8 - 0.013850463711637282*t5 + 0.3407783632689436*t6*t8 - 0.07071630045967829*t6*t9 + 0.143279969967084*t7*t8 - 0.09631116533129262*t7 + 0.06945124166804989*(t8*t8*t8) - 0.0612927618290842*t9);
+    return 2.268158760846169*pow(t0, 0.12939302187910228*t1)*exp(-0.071919489719417848*t2 - 0.30557204024275873*t3 - 0.043467021964560724*(t4*t4*t4) + 0.1501484137324496*t4*t6*t8 - 0.07429738638933844*t4*t6 - 0.05293553501998511*t4*t7 + 0.03242399671799421*t4*t8 + 0.061056685525979905*t4*t9 - 0.03620981853674712*t5*t6 + 0.06874908122755363*t5*t8 + 0.011898062849848843*t5 + 0.7002355805790147*t6*t8 - 0.20384922969954342*t6*t9 + 0.33488085270478574*t7*t8 - 0.25690426405500344*t7 + 0.08701404214055972*(t8*t8*t8) - 0.1939363537772392*t9);
 }
 
 MICROSURFACE_LOBES_FN double microsurface_lobes_ms_tilt_b_diffuse(double alpha, double mu_i, double order)
-{
-    const double t10 = ((mu_i < 0.050000000000000003) ? (0.050000000000000003) : (mu_i));
-    const double t0 = ((t10 > 1.0) ? (1.0) : (t10));
-    const double t11 = ((order < 2.0) ? (2.0) : (order));
-    const double t1 = ((t11 > 5.0) ? (5.0) : (t11));
-    const double t2 = 2.0*t0 - 1.0;
-    const double t3 = (t2*t2);
-    const double t4 = ((2.0/3.0))*t1 + (-7.0/3.0);
-    const double t5 = (t4*t4);
-    const double t12 = ((alpha < 0.050000000000000003) ? (0.050000000000000003) : (alpha));
-    const double t6 = log(20.0*((t12 > 1.0) ? (1.0) : (t12)))/log(20.0);
-    const double t7 = 2.0*t6 - 1.0;
-    const double t8 = (t7*t7);
-    const double t9 = t4*t7;
-    const double t13 = 1.0 - (t0*t0);
-    return (-0.073457946683877548*t0 + 0.03314821898616784*t1 + 0.04763205192922137*(t2*t2*t2) - 0.02945598363048262*t2*t4 + 0.060325762100518016*t2*t5 + 0.024851581998733902*t2*t7 - 0.0390742800266235*t2*t8 + 0.04137755796420026*t2*t9 + 0.0282993572455166*t3*t4 - 0.009243518408760577*t3*t7 + 0.04465569438531523*t3 - 0.015988347597127205*t4*t8 - 0.1904263703435278*t5*t7 - 0.23962162088171896*t5 + 0.24509114695056374*t6 + 0.022396032268811535*(t7*t7*t7) - 0.09718306429353404*t8 + 0.22703320232668128*t9 - 0.14793353161765725)*sqrt(((t13 < 0.0) ? (0.0) : (t13)));
-}
-
-MICROSURFACE_LOBES_FN double microsurface_lobes_ms_tilt_k_diffuse(double alpha, double mu_i, double order)
 {
     const double t10 = ((mu_i < 0.050000000000000003) ? (0.050000000000000003) : (mu_i));
     const double t0 = ((t10 > 1.0) ? (1.0) : (t10));
@@ -159,7 +140,26 @@ MICROSURFACE_LOBES_FN double microsurface_lobes_ms_tilt_k_diffuse(double alpha, 
     const double t8 = 2.0*t6*t7 - 1.0;
     const double t9 = (t8*t8);
     const double t13 = 1.0 - (t0*t0);
-    return (0.0032847122887568734*t0 + 0.006979222889032372*t1 - 0.06181149081416506*(t2*t2*t2) + 0.03022740383277587*t2*t4*t8 - 0.027220581668077875*t2*t4 + 0.017275412841433052*t2*t5 + 0.04971211583166076*t2*t8 - 0.04024048579880827*t2*t9 - 0.02978969252061477*t3*t4 + 0.025543478232273046*t3*t8 - 0.06963259814733871*t3 + 0.13042355339827688*t4*t8 - 0.017520195293943802*t4*t9 - 0.01698994823396624*t5*t8 - 0.044105104488958505*t5 + 0.07550828635352594*t6*t7 + 0.01542698445576197*(t8*t8*t8) - 0.09565548375119343*t9 - 0.051123480023127257)*((t13 < 0.0) ? (0.0) : (t13));
+    return (-0.022150839372880406*t0 + 0.023487515526247153*t1 - 0.015795701586849523*(t2*t2*t2) + 0.0509788412083864*t2*t4*t8 - 0.055910312617410696*t2*t4 + 0.037341576534580166*t2*t5 + 0.03728906752522548*t2*t8 - 0.042137213203556456*t2*t9 - 0.010796846265837025*t3*t4 + 0.01778152820287614*t3*t8 - 0.021246246297229463*t3 + 0.2782039497489137*t4*t8 - 0.043359979126659925*t4*t9 - 0.15791798397157478*t5*t8 - 0.27709472459335793*t5 + 0.26199686990484316*t6*t7 + 0.023531430191966886*(t8*t8*t8) - 0.12882071559344316*t9 - 0.1185791351056715)*sqrt(((t13 < 0.0) ? (0.0) : (t13)));
+}
+
+MICROSURFACE_LOBES_FN double microsurface_lobes_ms_tilt_k_diffuse(double alpha, double mu_i, double order)
+{
+    const double t10 = ((mu_i < 0.050000000000000003) ? (0.050000000000000003) : (mu_i));
+    const double t0 = ((t10 > 1.0) ? (1.0) : (t10));
+    const double t11 = ((order < 2.0) ? (2.0) : (order));
+    const double t1 = ((t11 > 5.0) ? (5.0) : (t11));
+    const double t2 = 2.0*t0 - 1.0;
+    const double t3 = (t2*t2);
+    const double t4 = ((2.0/3.0))*t1 + (-7.0/3.0);
+    const double t5 = (t4*t4);
+    const double t12 = ((alpha < 0.050000000000000003) ? (0.050000000000000003) : (alpha));
+    const double t6 = log(20.0*((t12 > 1.0) ? (1.0) : (t12)))/log(20.0);
+    const double t7 = 2.0*t6 - 1.0;
+    const double t8 = (t7*t7);
+    const double t9 = t4*t7;
+    const double t13 = 1.0 - (t0*t0);
+    return (0.0776673786676697*t0 + 0.0091072356588052993*t1 - 0.0558980052111239*(t2*t2*t2) - 0.0265866726607751*t2*t4 + 0.0044782107909437105*t2*t5 + 0.04287736966752975*t2*t7 - 0.06093368174382067*t2*t8 + 0.07653398578719274*t2*t9 + 0.03513165962319481*t3*t4 - 0.06984768083522311*t3*t7 + 0.019945457381824287*t3 + 0.09533724338059496*t4*t8 - 0.09009509694301572*t5*t7 + 0.018099862578654535*t5 + 0.061702514887364634*t6 - 0.007254722539779813*(t7*t7*t7) - 0.032286379556750885*t8 + 0.025360531611489632*t9 - 0.12920225355036589)*((t13 < 0.0) ? (0.0) : (t13));
 }
 
 MICROSURFACE_LOBES_FN double microsurface_lobes_ms_blog_eta_conductor(double alpha, double mu_i)
@@ -167,7 +167,7 @@ MICROSURFACE_LOBES_FN double microsurface_lobes_ms_blog_eta_conductor(double alp
     (void)mu_i;
     const double t1 = ((alpha < 0.050000000000000003) ? (0.050000000000000003) : (alpha));
     const double t0 = ((t1 > 1.0) ? (1.0) : (t1));
-    return -0.6407977822636706*(t0*t0) + 0.9673231711957381*t0;
+    return -0.5404312809344088*(t0*t0) + 0.8928694035232881*t0;
 }
 
 MICROSURFACE_LOBES_FN double microsurface_lobes_ms_blog_flattening_conductor(double alpha, double mu_i)
@@ -179,7 +179,7 @@ MICROSURFACE_LOBES_FN double microsurface_lobes_ms_blog_flattening_conductor(dou
     const double t2 = (t0*t0);
     const double t3 = (t1*t1);
     const double t4 = (t1*t1*t1);
-    return -3.9572000707543222*(t0*t0*t0) - 6.364452875600403*t0*t1 + 4.8087587869139465*t0*t3 + 0.3060385536277008*t0*t4 + 0.03414650571484433*t0 + 2.7277993741545563*t1 + 9.892737177637512*t2*t3 - 8.904723210491499*t2*t4 + 4.4825560163273135*t2 - 5.295627284261014*t3 + 2.7638590239661585*t4 + 0.06196223147898847;
+    return -3.1082678386321136*(t0*t0*t0) - 6.802150975684207*t0*t1 + 13.29086238214652*t0*t3 - 7.805927221469935*t0*t4 + 0.5695826664858286*t0 + 2.7984635734512033*t1 + 1.439047122772186*t2*t3 - 0.6370226766483926*t2*t4 + 3.3941172590945654*t2 - 6.594608958353959*t3 + 4.067979359029894*t4 - 0.028090469729388803;
 }
 
 MICROSURFACE_LOBES_FN double microsurface_lobes_ms_blog_scale_conductor(double alpha, double mu_i, double order)
@@ -198,7 +198,7 @@ MICROSURFACE_LOBES_FN double microsurface_lobes_ms_blog_scale_conductor(double a
     const double t8 = (t5*t5*t5);
     const double t9 = (t6*t6);
     const double t10 = (t6*t6*t6);
-    return (-0.44099042979812114*t2*((5.0/2.0) - t1)*(t0 - 2.0) + 0.017801016277255992*t2*(t1 + (-3.0/2.0))*(t4 + (-2.0/3.0)) - t3*((5.0/3.0) - t4)*(2.0 - t1) + 0.08122001038433052*t3*(5.0 - t0)*(t1 - 1.0))*(7.407167378194365*t10*t5 - 25.757183885113932*t10*t7 + 22.15941057917169*t10*t8 - 0.3426799632062791*t10 + 6.25959360042694*t5*t6 - 13.636870223462578*t5*t9 - 0.2678368580219562*t5 - 19.15897286872526*t6*t7 + 17.359532381405515*t6*t8 - 0.30410131766127024*t6 + 46.02215505758821*t7*t9 + 0.8157898615700179*t7 - 39.893503537426334*t8*t9 - 0.7132980075923833*t8 + 0.6380542883076653*t9 + 0.020326487613598);
+    return (-0.4260262302963385*t2*((5.0/2.0) - t1)*(t0 - 2.0) + 0.015683910418714284*t2*(t1 + (-3.0/2.0))*(t4 + (-2.0/3.0)) - t3*((5.0/3.0) - t4)*(2.0 - t1) + 0.07379867281121144*t3*(5.0 - t0)*(t1 - 1.0))*(4.784811049898559*t10*t5 - 14.699633486317317*t10*t7 + 10.221765681164399*t10*t8 - 0.21918690934189689*t10 + 4.536878103649955*t5*t6 - 9.463383202511539*t5*t9 - 0.1370627169981231*t5 - 11.806819100627093*t6*t7 + 9.759737616612396*t6*t8 - 0.22133543265717803*t6 + 28.330112863251106*t7*t9 + 0.36516646079715354*t7 - 21.01995664050115*t8*t9 - 0.30233163163881577*t8 + 0.43840926760704607*t9 + 0.013381540377514373);
 }
 
 MICROSURFACE_LOBES_FN double microsurface_lobes_ms_tilt_sigma_conductor(double alpha, double mu_i, double order)
@@ -216,7 +216,7 @@ MICROSURFACE_LOBES_FN double microsurface_lobes_ms_tilt_sigma_conductor(double a
     const double t7 = (t6*t6);
     const double t8 = 2.0*t1*log(t0) - 1.0;
     const double t9 = (t8*t8);
-    return 0.68445490910959206*pow(t0, 8.415288090199812*t1)*exp(-0.62152330289773472*t2 - 2.3670836832037953*t3 + 1.6401022757134611*(t4*t4*t4) + 1.808562402154816*t4*t6*t8 + 0.01796398524226253*t4*t6 - 0.14614965628168106*t4*t7 + 2.2559872381032666*t4*t8 - 0.9283069335674842*t4*t9 - 1.244937054936467*t5*t6 - 1.1604182826967542*t5*t8 - 1.4343748689680216*t5 + 2.66858099567334*t6*t8 - 0.5855283511121978*t6*t9 + 0.43089819131116064*t7*t8 - 0.9008001785946674*t7 + 0.8169065361432222*(t8*t8*t8) - 1.5140330348705608*t9);
+    return 0.62951252757620981*pow(t0, 8.752327128137852*t1)*exp(-0.11165397310749381*t2 - 2.584534222644326*t3 + 1.6959134518116719*(t4*t4*t4) + 1.1804231775789578*t4*t6*t8 + 0.5748705439756813*t4*t6 + 0.03041114601014649*t4*t7 + 1.6691952388533184*t4*t8 - 0.741221281367652*t4*t9 - 1.0435287319011535*t5*t6 - 1.7956979338693981*t5*t8 - 0.8502283099206015*t5 + 2.3702407403877768*t6*t8 - 0.007835094059160132*t6*t9 + 0.7290706727691105*t7*t8 - 1.2184307274230355*t7 + 0.37478294712803345*(t8*t8*t8) - 0.7796783384458056*t9);
 }
 
 MICROSURFACE_LOBES_FN double microsurface_lobes_ms_tilt_eta_conductor(double alpha, double mu_i, double order)
@@ -234,7 +234,7 @@ MICROSURFACE_LOBES_FN double microsurface_lobes_ms_tilt_eta_conductor(double alp
     const double t7 = log(20.0*((t12 > 1.0) ? (1.0) : (t12)));
     const double t8 = 2.0*t6*t7 - 1.0;
     const double t9 = (t8*t8);
-    return -0.8403391032565902*t0 + 0.3087008305027384*t1 + 0.44106434854835147*(t2*t2*t2) + 0.7126696696849046*t2*t4*t8 - 0.3266470893957193*t2*t4 - 0.03454296354947512*t2*t5 + 1.1295405263879144*t2*t8 - 0.2523028439672477*t2*t9 - 0.20974094352526781*t3*t4 - 0.40428521800804157*t3*t8 - 0.2858601329581243*t3 + 0.7937789435557784*t4*t8 - 0.49259255025996496*t4*t9 - 0.12946179350297693*t5*t8 - 0.12553570096605615*t5 + 2.7339695555743448*t6*t7 + 0.11327762119855192*(t8*t8*t8) - 0.8880417309877425*t9 - 1.0918450504404928;
+    return -0.6350431839472656*t0 + 0.025571389465206549*t1 + 0.45792165279495806*(t2*t2*t2) + 0.4409463673438305*t2*t4*t8 - 0.029634994753946518*t2*t4 + 0.09389943666552329*t2*t5 + 0.9030471057444573*t2*t8 - 0.1817475418143609*t2*t9 - 0.21029221311066312*t3*t4 - 0.5057264207513669*t3*t8 - 0.26154485319798637*t3 + 1.413770577498136*t4*t8 - 0.6707652884206897*t4*t9 + 0.3512679024159117*t5*t8 - 0.521641807879216*t5 + 3.128773661689535*t6*t7 + 0.09155161757052648*(t8*t8*t8) - 1.0020113294119948*t9 - 0.47371228581979312;
 }
 
 MICROSURFACE_LOBES_FN double microsurface_lobes_ms_tilt_flattening_conductor(double alpha, double mu_i, double order)
@@ -250,10 +250,10 @@ MICROSURFACE_LOBES_FN double microsurface_lobes_ms_tilt_flattening_conductor(dou
     const double t5 = (t4*t4);
     const double t6 = ((2.0/3.0))*t3 + (-7.0/3.0);
     const double t7 = (t6*t6);
-    const double t8 = t4*t6;
-    const double t9 = 2.0*t1*log(t0) - 1.0;
-    const double t10 = (t9*t9);
-    return 0.06692669022212561*pow(t0, 0.45317330700689406*t1)*exp(0.46784822592666725*t10*t4 + 2.015496461654833*t10*t6 + 2.412636144745291*t10 + 1.2312857773069102*t2 + 0.02132783557696464*t3 - 0.6191211148080317*(t4*t4*t4) + 0.184010630937416*t4*t7 - 0.8786403315677748*t4*t9 + 0.3911436736094265*t5*t6 + 0.0634494469936628*t5*t9 + 0.5219876996350582*t5 - 1.9880529870102461*t6*t9 - 0.12837660257903705*t7*t9 + 0.5130077755804965*t7 - 1.7441781748997032*t8*t9 + 1.2247196531623101*t8 - 2.144356753787966*(t9*t9*t9));
+    const double t8 = 2.0*t1*log(t0) - 1.0;
+    const double t9 = (t8*t8);
+    const double t10 = t4*t8;
+    return 0.081276738191483959*pow(t0, -0.94446012963695014*t1)*exp(-0.8456465945320778*t10*t6 + 0.3135504731675751*t10 + 0.58287663612587426*t2 + 0.44441424259039113*t3 - 0.6512474083255292*(t4*t4*t4) + 0.48301180866141913*t4*t6 - 0.10813164867235003*t4*t7 - 0.30292775319588794*t4*t9 + 0.0853495562933592*t5*t6 + 1.446349237968191*t5*t8 - 0.5994584218645371*t5 - 2.156731184858749*t6*t8 + 1.6159837609424446*t6*t9 - 0.9187047469265671*t7*t8 + 1.2275683865095603*t7 - 1.5802863367124642*(t8*t8*t8) + 1.8454981024090906*t9);
 }
 
 MICROSURFACE_LOBES_FN double microsurface_lobes_ms_tilt_b_conductor(double alpha, double mu_i, double order)
@@ -272,7 +272,7 @@ MICROSURFACE_LOBES_FN double microsurface_lobes_ms_tilt_b_conductor(double alpha
     const double t8 = 2.0*t6*t7 - 1.0;
     const double t9 = (t8*t8);
     const double t13 = 1.0 - (t0*t0);
-    return (-0.18324715347436008*t0 + 0.059556616644859813*t1 - 0.06371455719997347*(t2*t2*t2) - 0.04874231480392294*t2*t4*t8 + 0.07710190585335273*t2*t4 - 0.03541295459524743*t2*t5 + 0.009472621015325212*t2*t8 + 0.17551864521052563*t2*t9 - 0.03164061288428633*t3*t4 + 0.06477812601940239*t3*t8 - 0.07087726596313904*t3 + 0.4740214129123269*t4*t8 - 0.5834024980627792*t4*t9 + 0.3605471848698473*t5*t8 - 0.35545481854219535*t5 + 2.096451519613572*t6*t7 - 0.32752965495336817*(t8*t8*t8) - 0.2877999692906151*t9 - 1.6114148314655865)*sqrt(((t13 < 0.0) ? (0.0) : (t13)));
+    return (-0.06377060368475039*t0 + 0.077162515191923133*t1 - 0.11736396108741967*(t2*t2*t2) - 0.14589364188646334*t2*t4*t8 + 0.14362276704803145*t2*t4 - 0.020004972695280395*t2*t5 - 0.0980734941648107*t2*t8 + 0.21117999411115893*t2*t9 + 0.030254654746143538*t3*t4 + 0.04760040254565157*t3*t8 - 0.015792734292789254*t3 + 0.32547180093822164*t4*t8 - 0.4670767545112056*t4*t9 + 0.33581936894652337*t5*t8 - 0.337748747758625*t5 + 1.9165051485063*t6*t7 - 0.3694809482583736*(t8*t8*t8) - 0.14532530414009806*t9 - 1.6477244805951888)*sqrt(((t13 < 0.0) ? (0.0) : (t13)));
 }
 
 MICROSURFACE_LOBES_FN double microsurface_lobes_ms_tilt_k_conductor(double alpha, double mu_i, double order)
@@ -291,7 +291,7 @@ MICROSURFACE_LOBES_FN double microsurface_lobes_ms_tilt_k_conductor(double alpha
     const double t8 = (t7*t7);
     const double t9 = t2*t7;
     const double t13 = 1.0 - (t0*t0);
-    return (0.3182250596128472*t0 - 0.030743016398938753*t1 + 0.05566022772906045*(t2*t2*t2) - 0.2644124854604207*t2*t4 - 0.012352295545516999*t2*t5 - 0.422318683547285*t2*t8 + 0.019810519934218018*t3*t4 + 0.18255898799282835*t3*t7 - 0.13890751278478997*t3 - 0.4615080786242637*t4*t7 + 0.5742155681800037*t4*t8 + 0.26443014012016874*t4*t9 - 0.8359404321765848*t5*t7 + 0.8107719198981788*t5 - 5.21477082278721*t6 + 1.0981551720842957*(t7*t7*t7) + 0.2921182740609462*t8 + 0.20819578738154973*t9 + 3.8202974293276648)*((t13 < 0.0) ? (0.0) : (t13));
+    return (0.32918818378247616*t0 - 0.33282226539112891*t1 - 0.03273943633096704*(t2*t2*t2) - 0.20276707881629305*t2*t4 - 0.011988904444744852*t2*t5 - 0.43630174618571904*t2*t8 + 0.1090201552355426*t3*t4 + 0.1715065892724311*t3*t7 - 0.09599983806480045*t3 + 0.34580011396424293*t4*t7 + 0.20015122895955334*t4*t8 + 0.22507868890420046*t4*t9 - 0.4630641583084296*t5*t7 + 0.45534399053265456*t5 - 4.2050079683504916*t6 + 1.027597643785732*(t7*t7*t7) - 0.018766008112199292*t8 + 0.27669026987181383*t9 + 4.2188131061329999)*((t13 < 0.0) ? (0.0) : (t13));
 }
 
 MICROSURFACE_LOBES_FN double microsurface_lobes_E_ggx_cor(double mu, double alpha)
@@ -503,7 +503,7 @@ MICROSURFACE_LOBES_FN float microsurface_lobes_ms_blog_eta_diffuse_f(float alpha
     (void)mu_i;
     const float t1 = ((alpha < 0.05F) ? (0.05F) : (alpha));
     const float t0 = ((t1 > 1.0F) ? (1.0F) : (t1));
-    return 1.11141011F*(t0*t0) - 0.964538095F*t0;
+    return 1.08779907F*(t0*t0) - 0.947470511F*t0;
 }
 
 MICROSURFACE_LOBES_FN float microsurface_lobes_ms_blog_flattening_diffuse_f(float alpha, float mu_i)
@@ -515,7 +515,7 @@ MICROSURFACE_LOBES_FN float microsurface_lobes_ms_blog_flattening_diffuse_f(floa
     const float t2 = (t0*t0);
     const float t3 = (t1*t1);
     const float t4 = (t1*t1*t1);
-    return -1.18376917F*(t0*t0*t0) - 3.60894533F*t0*t1 + 1.25406152F*t0*t3 + 0.883510625F*t0*t4 - 0.675255772F*t0 + 1.00545691F*t1 + 4.54821516F*t2*t3 - 4.00457667F*t2*t4 + 2.21301525F*t2 - 0.949091469F*t3 + 0.215339931F*t4 + 1.077717F;
+    return -1.65626565F*(t0*t0*t0) - 3.46289893F*t0*t1 + 1.21177863F*t0*t3 + 0.391656653F*t0*t4 - 0.785935345F*t0 + 1.16918627F*t1 + 4.13618581F*t2*t3 - 3.23072244F*t2*t4 + 2.76778727F*t2 - 1.3277314F*t3 + 0.533719939F*t4 + 1.04568029F;
 }
 
 MICROSURFACE_LOBES_FN float microsurface_lobes_ms_blog_scale_diffuse_f(float alpha, float mu_i, float order)
@@ -534,7 +534,7 @@ MICROSURFACE_LOBES_FN float microsurface_lobes_ms_blog_scale_diffuse_f(float alp
     const float t8 = (t5*t5*t5);
     const float t9 = (t6*t6);
     const float t10 = (t6*t6*t6);
-    return (-0.332259723F*t2*((5.0F/2.0F) - t1)*(t0 - 2.0F) + 0.0686001483F*t2*(t1 + (-3.0F/2.0F))*(t4 + (-2.0F/3.0F)) - t3*((5.0F/3.0F) - t4)*(2.0F - t1) + 0.10465128F*t3*(5.0F - t0)*(t1 - 1.0F))*(0.244904899F*t10*t5 + 1.80852074F*t10*t7 - 1.94183606F*t10*t8 - 0.0492649988F*t10 + 0.34045498F*t5*t6 - 0.53384185F*t5*t9 - 0.209230494F*t5 + 1.85858899F*t6*t7 - 1.5074712F*t6*t8 - 0.0665753838F*t6 - 3.29396396F*t7*t9 + 1.00963545F*t7 + 3.10425799F*t8*t9 - 0.603100686F*t8 + 0.102733295F*t9 + 0.0246579217F);
+    return (-0.329596168F*t2*((5.0F/2.0F) - t1)*(t0 - 2.0F) + 0.0683398108F*t2*(t1 + (-3.0F/2.0F))*(t4 + (-2.0F/3.0F)) - t3*((5.0F/3.0F) - t4)*(2.0F - t1) + 0.103376546F*t3*(5.0F - t0)*(t1 - 1.0F))*(0.455016745F*t10*t5 + 0.792194941F*t10*t7 - 1.26964032F*t10*t8 - 0.0594050185F*t10 + 0.456517036F*t5*t6 - 0.846993661F*t5*t9 - 0.212613246F*t5 + 1.21244423F*t6*t7 - 1.02422841F*t6*t8 - 0.0718505986F*t6 - 1.68524301F*t7*t9 + 1.04826355F*t7 + 1.97854329F*t8*t9 - 0.630855447F*t8 + 0.11729798F*t9 + 0.0248993419F);
 }
 
 MICROSURFACE_LOBES_FN float microsurface_lobes_ms_tilt_sigma_diffuse_f(float alpha, float mu_i, float order)
@@ -552,7 +552,7 @@ MICROSURFACE_LOBES_FN float microsurface_lobes_ms_tilt_sigma_diffuse_f(float alp
     const float t7 = (t6*t6);
     const float t8 = 2.0F*t1*logf(t0) - 1.0F;
     const float t9 = (t8*t8);
-    return 0.0376318771F*powf(t0, 6.94397794F*t1)*expf(-0.168493712F*t2 - 1.4317244F*t3 + 0.156983593F*(t4*t4*t4) - 0.00690850918F*t4*t6*t8 + 0.190240783F*t4*t6 - 0.0649982625F*t4*t7 + 0.192132678F*t4*t8 + 0.0149906895F*t4*t9 - 0.102677306F*t5*t6 - 0.275109164F*t5*t8 - 0.0444145057F*t5 + 1.91976236F*t6*t8 - 0.299897137F*t6*t9 + 0.47484156F*t7*t8 + 0.139900734F*t7 - 0.289992069F*(t8*t8*t8) - 0.825194007F*t9);
+    return 0.0293146434F*powf(t0, 6.7252869F*t1)*expf(-0.109826775F*t2 - 1.32704228F*t3 + 0.111145688F*(t4*t4*t4) - 0.0329562148F*t4*t6*t8 + 0.212394708F*t4*t6 - 0.0470886361F*t4*t7 + 0.169335207F*t4*t8 + 0.0257452936F*t4*t9 - 0.12640221F*t5*t6 - 0.250942161F*t5*t8 - 0.0618292909F*t5 + 1.65471393F*t6*t8 - 0.19755208F*t6*t9 + 0.322430946F*t7*t8 + 0.261870531F*t7 - 0.306822831F*(t8*t8*t8) - 0.723416184F*t9);
 }
 
 MICROSURFACE_LOBES_FN float microsurface_lobes_ms_tilt_eta_diffuse_f(float alpha, float mu_i, float order)
@@ -570,7 +570,7 @@ MICROSURFACE_LOBES_FN float microsurface_lobes_ms_tilt_eta_diffuse_f(float alpha
     const float t7 = t2*t4;
     const float t8 = 2.0F*t6 - 1.0F;
     const float t9 = (t8*t8);
-    return 0.0734023301F*t0 + 0.114056882F*t1 + 0.0424317132F*(t2*t2*t2) - 0.0395376098F*t2*t5 + 0.0294644374F*t2*t8 + 0.0640529346F*t2*t9 + 0.0424233437F*t3*t4 - 0.115669233F*t3*t8 - 0.00325213727F*t3 - 0.086717958F*t4*t8 + 0.0775208642F*t4*t9 + 0.0219782147F*t5*t8 - 0.0444189895F*t5 + 0.25956087F*t6 - 0.112529453F*t7*t8 + 0.050702258F*t7 - 0.070108901F*(t8*t8*t8) + 0.107305213F*t9 - 0.519022694F;
+    return 0.0909828986F*t0 + 0.177522533F*t1 + 0.0407141976F*(t2*t2*t2) - 0.0236663962F*t2*t5 + 0.0141886704F*t2*t8 + 0.0638979797F*t2*t9 + 0.0277979995F*t3*t4 - 0.110395134F*t3*t8 - 0.014288783F*t3 - 0.242530795F*t4*t8 + 0.138700311F*t4*t9 - 0.0622693638F*t5*t8 + 0.0256886227F*t5 + 0.132452652F*t6 - 0.140061784F*t7*t8 + 0.0782528432F*t7 - 0.0827544001F*(t8*t8*t8) + 0.154982045F*t9 - 0.657506036F;
 }
 
 MICROSURFACE_LOBES_FN float microsurface_lobes_ms_tilt_flattening_diffuse_f(float alpha, float mu_i, float order)
@@ -588,29 +588,10 @@ MICROSURFACE_LOBES_FN float microsurface_lobes_ms_tilt_flattening_diffuse_f(floa
     const float t7 = (t6*t6);
     const float t8 = 2.0F*t1*logf(t0) - 1.0F;
     const float t9 = (t8*t8);
-    return 1.65995356F*powf(t0, -0.206189401F*t1)*expf(-0.0231142278F*t2 - 0.158630421F*t3 - 0.0840240457F*(t4*t4*t4) + 0.133674708F*t4*t6*t8 - 0.0607159135F*t4*t6 - 0.0433779751F*t4*t7 + 0.0289041931F*t4*t8 + 0.054405406F*t4*t9 - 0.0724476519F*t5*t6 + 0.103589812F*t5*t8 - 0.0138504637F*t5 + 0.340778363F*t6*t8 - 0.0707163005F*t6*t9 + 0.14327997F*t7*t8 - 0.0963111653F*t7 + 0.0694512417F*(t8*t8*t8) - 0.0612927618F*t9);
+    return 2.26815876F*powf(t0, 0.129393022F*t1)*expf(-0.0719194897F*t2 - 0.30557204F*t3 - 0.043467022F*(t4*t4*t4) + 0.150148414F*t4*t6*t8 - 0.0742973864F*t4*t6 - 0.052935535F*t4*t7 + 0.0324239967F*t4*t8 + 0.0610566855F*t4*t9 - 0.0362098185F*t5*t6 + 0.0687490812F*t5*t8 + 0.0118980629F*t5 + 0.700235581F*t6*t8 - 0.20384923F*t6*t9 + 0.334880853F*t7*t8 - 0.256904264F*t7 + 0.0870140421F*(t8*t8*t8) - 0.193936354F*t9);
 }
 
 MICROSURFACE_LOBES_FN float microsurface_lobes_ms_tilt_b_diffuse_f(float alpha, float mu_i, float order)
-{
-    const float t10 = ((mu_i < 0.05F) ? (0.05F) : (mu_i));
-    const float t0 = ((t10 > 1.0F) ? (1.0F) : (t10));
-    const float t11 = ((order < 2.0F) ? (2.0F) : (order));
-    const float t1 = ((t11 > 5.0F) ? (5.0F) : (t11));
-    const float t2 = 2.0F*t0 - 1.0F;
-    const float t3 = (t2*t2);
-    const float t4 = ((2.0F/3.0F))*t1 + (-7.0F/3.0F);
-    const float t5 = (t4*t4);
-    const float t12 = ((alpha < 0.05F) ? (0.05F) : (alpha));
-    const float t6 = logf(20.0F*((t12 > 1.0F) ? (1.0F) : (t12)))/logf(20.0F);
-    const float t7 = 2.0F*t6 - 1.0F;
-    const float t8 = (t7*t7);
-    const float t9 = t4*t7;
-    const float t13 = 1.0F - (t0*t0);
-    return (-0.0734579467F*t0 + 0.033148219F*t1 + 0.0476320519F*(t2*t2*t2) - 0.0294559836F*t2*t4 + 0.0603257621F*t2*t5 + 0.024851582F*t2*t7 - 0.03907428F*t2*t8 + 0.041377558F*t2*t9 + 0.0282993572F*t3*t4 - 0.00924351841F*t3*t7 + 0.0446556944F*t3 - 0.0159883476F*t4*t8 - 0.19042637F*t5*t7 - 0.239621621F*t5 + 0.245091147F*t6 + 0.0223960323F*(t7*t7*t7) - 0.0971830643F*t8 + 0.227033202F*t9 - 0.147933532F)*sqrtf(((t13 < 0.0F) ? (0.0F) : (t13)));
-}
-
-MICROSURFACE_LOBES_FN float microsurface_lobes_ms_tilt_k_diffuse_f(float alpha, float mu_i, float order)
 {
     const float t10 = ((mu_i < 0.05F) ? (0.05F) : (mu_i));
     const float t0 = ((t10 > 1.0F) ? (1.0F) : (t10));
@@ -626,7 +607,26 @@ MICROSURFACE_LOBES_FN float microsurface_lobes_ms_tilt_k_diffuse_f(float alpha, 
     const float t8 = 2.0F*t6*t7 - 1.0F;
     const float t9 = (t8*t8);
     const float t13 = 1.0F - (t0*t0);
-    return (0.00328471229F*t0 + 0.00697922289F*t1 - 0.0618114908F*(t2*t2*t2) + 0.0302274038F*t2*t4*t8 - 0.0272205817F*t2*t4 + 0.0172754128F*t2*t5 + 0.0497121158F*t2*t8 - 0.0402404858F*t2*t9 - 0.0297896925F*t3*t4 + 0.0255434782F*t3*t8 - 0.0696325981F*t3 + 0.130423553F*t4*t8 - 0.0175201953F*t4*t9 - 0.0169899482F*t5*t8 - 0.0441051045F*t5 + 0.0755082863F*t6*t7 + 0.0154269845F*(t8*t8*t8) - 0.0956554837F*t9 - 0.05112348F)*((t13 < 0.0F) ? (0.0F) : (t13));
+    return (-0.0221508394F*t0 + 0.0234875155F*t1 - 0.0157957016F*(t2*t2*t2) + 0.0509788412F*t2*t4*t8 - 0.0559103126F*t2*t4 + 0.0373415765F*t2*t5 + 0.0372890675F*t2*t8 - 0.0421372132F*t2*t9 - 0.0107968463F*t3*t4 + 0.0177815282F*t3*t8 - 0.0212462463F*t3 + 0.27820395F*t4*t8 - 0.0433599791F*t4*t9 - 0.157917984F*t5*t8 - 0.277094725F*t5 + 0.26199687F*t6*t7 + 0.0235314302F*(t8*t8*t8) - 0.128820716F*t9 - 0.118579135F)*sqrtf(((t13 < 0.0F) ? (0.0F) : (t13)));
+}
+
+MICROSURFACE_LOBES_FN float microsurface_lobes_ms_tilt_k_diffuse_f(float alpha, float mu_i, float order)
+{
+    const float t10 = ((mu_i < 0.05F) ? (0.05F) : (mu_i));
+    const float t0 = ((t10 > 1.0F) ? (1.0F) : (t10));
+    const float t11 = ((order < 2.0F) ? (2.0F) : (order));
+    const float t1 = ((t11 > 5.0F) ? (5.0F) : (t11));
+    const float t2 = 2.0F*t0 - 1.0F;
+    const float t3 = (t2*t2);
+    const float t4 = ((2.0F/3.0F))*t1 + (-7.0F/3.0F);
+    const float t5 = (t4*t4);
+    const float t12 = ((alpha < 0.05F) ? (0.05F) : (alpha));
+    const float t6 = logf(20.0F*((t12 > 1.0F) ? (1.0F) : (t12)))/logf(20.0F);
+    const float t7 = 2.0F*t6 - 1.0F;
+    const float t8 = (t7*t7);
+    const float t9 = t4*t7;
+    const float t13 = 1.0F - (t0*t0);
+    return (0.0776673787F*t0 + 0.00910723566F*t1 - 0.0558980052F*(t2*t2*t2) - 0.0265866727F*t2*t4 + 0.00447821079F*t2*t5 + 0.0428773697F*t2*t7 - 0.0609336817F*t2*t8 + 0.0765339858F*t2*t9 + 0.0351316596F*t3*t4 - 0.0698476808F*t3*t7 + 0.0199454574F*t3 + 0.0953372434F*t4*t8 - 0.0900950969F*t5*t7 + 0.0180998626F*t5 + 0.0617025149F*t6 - 0.00725472254F*(t7*t7*t7) - 0.0322863796F*t8 + 0.0253605316F*t9 - 0.129202254F)*((t13 < 0.0F) ? (0.0F) : (t13));
 }
 
 MICROSURFACE_LOBES_FN float microsurface_lobes_ms_blog_eta_conductor_f(float alpha, float mu_i)
@@ -634,7 +634,7 @@ MICROSURFACE_LOBES_FN float microsurface_lobes_ms_blog_eta_conductor_f(float alp
     (void)mu_i;
     const float t1 = ((alpha < 0.05F) ? (0.05F) : (alpha));
     const float t0 = ((t1 > 1.0F) ? (1.0F) : (t1));
-    return -0.640797782F*(t0*t0) + 0.967323171F*t0;
+    return -0.540431281F*(t0*t0) + 0.892869403F*t0;
 }
 
 MICROSURFACE_LOBES_FN float microsurface_lobes_ms_blog_flattening_conductor_f(float alpha, float mu_i)
@@ -646,7 +646,7 @@ MICROSURFACE_LOBES_FN float microsurface_lobes_ms_blog_flattening_conductor_f(fl
     const float t2 = (t0*t0);
     const float t3 = (t1*t1);
     const float t4 = (t1*t1*t1);
-    return -3.95720007F*(t0*t0*t0) - 6.36445288F*t0*t1 + 4.80875879F*t0*t3 + 0.306038554F*t0*t4 + 0.0341465057F*t0 + 2.72779937F*t1 + 9.89273718F*t2*t3 - 8.90472321F*t2*t4 + 4.48255602F*t2 - 5.29562728F*t3 + 2.76385902F*t4 + 0.0619622315F;
+    return -3.10826784F*(t0*t0*t0) - 6.80215098F*t0*t1 + 13.2908624F*t0*t3 - 7.80592722F*t0*t4 + 0.569582667F*t0 + 2.79846357F*t1 + 1.43904712F*t2*t3 - 0.637022677F*t2*t4 + 3.39411726F*t2 - 6.59460896F*t3 + 4.06797936F*t4 - 0.0280904697F;
 }
 
 MICROSURFACE_LOBES_FN float microsurface_lobes_ms_blog_scale_conductor_f(float alpha, float mu_i, float order)
@@ -665,7 +665,7 @@ MICROSURFACE_LOBES_FN float microsurface_lobes_ms_blog_scale_conductor_f(float a
     const float t8 = (t5*t5*t5);
     const float t9 = (t6*t6);
     const float t10 = (t6*t6*t6);
-    return (-0.44099043F*t2*((5.0F/2.0F) - t1)*(t0 - 2.0F) + 0.0178010163F*t2*(t1 + (-3.0F/2.0F))*(t4 + (-2.0F/3.0F)) - t3*((5.0F/3.0F) - t4)*(2.0F - t1) + 0.0812200104F*t3*(5.0F - t0)*(t1 - 1.0F))*(7.40716738F*t10*t5 - 25.7571839F*t10*t7 + 22.1594106F*t10*t8 - 0.342679963F*t10 + 6.2595936F*t5*t6 - 13.6368702F*t5*t9 - 0.267836858F*t5 - 19.1589729F*t6*t7 + 17.3595324F*t6*t8 - 0.304101318F*t6 + 46.0221551F*t7*t9 + 0.815789862F*t7 - 39.8935035F*t8*t9 - 0.713298008F*t8 + 0.638054288F*t9 + 0.0203264876F);
+    return (-0.42602623F*t2*((5.0F/2.0F) - t1)*(t0 - 2.0F) + 0.0156839104F*t2*(t1 + (-3.0F/2.0F))*(t4 + (-2.0F/3.0F)) - t3*((5.0F/3.0F) - t4)*(2.0F - t1) + 0.0737986728F*t3*(5.0F - t0)*(t1 - 1.0F))*(4.78481105F*t10*t5 - 14.6996335F*t10*t7 + 10.2217657F*t10*t8 - 0.219186909F*t10 + 4.5368781F*t5*t6 - 9.4633832F*t5*t9 - 0.137062717F*t5 - 11.8068191F*t6*t7 + 9.75973762F*t6*t8 - 0.221335433F*t6 + 28.3301129F*t7*t9 + 0.365166461F*t7 - 21.0199566F*t8*t9 - 0.302331632F*t8 + 0.438409268F*t9 + 0.0133815404F);
 }
 
 MICROSURFACE_LOBES_FN float microsurface_lobes_ms_tilt_sigma_conductor_f(float alpha, float mu_i, float order)
@@ -683,7 +683,7 @@ MICROSURFACE_LOBES_FN float microsurface_lobes_ms_tilt_sigma_conductor_f(float a
     const float t7 = (t6*t6);
     const float t8 = 2.0F*t1*logf(t0) - 1.0F;
     const float t9 = (t8*t8);
-    return 0.684454909F*powf(t0, 8.41528809F*t1)*expf(-0.621523303F*t2 - 2.36708368F*t3 + 1.64010228F*(t4*t4*t4) + 1.8085624F*t4*t6*t8 + 0.0179639852F*t4*t6 - 0.146149656F*t4*t7 + 2.25598724F*t4*t8 - 0.928306934F*t4*t9 - 1.24493706F*t5*t6 - 1.16041828F*t5*t8 - 1.43437487F*t5 + 2.668581F*t6*t8 - 0.585528351F*t6*t9 + 0.430898191F*t7*t8 - 0.900800179F*t7 + 0.816906536F*(t8*t8*t8) - 1.51403303F*t9);
+    return 0.629512528F*powf(t0, 8.75232713F*t1)*expf(-0.111653973F*t2 - 2.58453422F*t3 + 1.69591345F*(t4*t4*t4) + 1.18042318F*t4*t6*t8 + 0.574870544F*t4*t6 + 0.030411146F*t4*t7 + 1.66919524F*t4*t8 - 0.741221281F*t4*t9 - 1.04352873F*t5*t6 - 1.79569793F*t5*t8 - 0.85022831F*t5 + 2.37024074F*t6*t8 - 0.00783509406F*t6*t9 + 0.729070673F*t7*t8 - 1.21843073F*t7 + 0.374782947F*(t8*t8*t8) - 0.779678338F*t9);
 }
 
 MICROSURFACE_LOBES_FN float microsurface_lobes_ms_tilt_eta_conductor_f(float alpha, float mu_i, float order)
@@ -701,7 +701,7 @@ MICROSURFACE_LOBES_FN float microsurface_lobes_ms_tilt_eta_conductor_f(float alp
     const float t7 = logf(20.0F*((t12 > 1.0F) ? (1.0F) : (t12)));
     const float t8 = 2.0F*t6*t7 - 1.0F;
     const float t9 = (t8*t8);
-    return -0.840339103F*t0 + 0.308700831F*t1 + 0.441064349F*(t2*t2*t2) + 0.71266967F*t2*t4*t8 - 0.326647089F*t2*t4 - 0.0345429635F*t2*t5 + 1.12954053F*t2*t8 - 0.252302844F*t2*t9 - 0.209740944F*t3*t4 - 0.404285218F*t3*t8 - 0.285860133F*t3 + 0.793778944F*t4*t8 - 0.49259255F*t4*t9 - 0.129461793F*t5*t8 - 0.125535701F*t5 + 2.73396956F*t6*t7 + 0.113277621F*(t8*t8*t8) - 0.888041731F*t9 - 1.09184505F;
+    return -0.635043184F*t0 + 0.0255713895F*t1 + 0.457921653F*(t2*t2*t2) + 0.440946367F*t2*t4*t8 - 0.0296349948F*t2*t4 + 0.0938994367F*t2*t5 + 0.903047106F*t2*t8 - 0.181747542F*t2*t9 - 0.210292213F*t3*t4 - 0.505726421F*t3*t8 - 0.261544853F*t3 + 1.41377058F*t4*t8 - 0.670765288F*t4*t9 + 0.351267902F*t5*t8 - 0.521641808F*t5 + 3.12877366F*t6*t7 + 0.0915516176F*(t8*t8*t8) - 1.00201133F*t9 - 0.473712286F;
 }
 
 MICROSURFACE_LOBES_FN float microsurface_lobes_ms_tilt_flattening_conductor_f(float alpha, float mu_i, float order)
@@ -717,10 +717,10 @@ MICROSURFACE_LOBES_FN float microsurface_lobes_ms_tilt_flattening_conductor_f(fl
     const float t5 = (t4*t4);
     const float t6 = ((2.0F/3.0F))*t3 + (-7.0F/3.0F);
     const float t7 = (t6*t6);
-    const float t8 = t4*t6;
-    const float t9 = 2.0F*t1*logf(t0) - 1.0F;
-    const float t10 = (t9*t9);
-    return 0.0669266902F*powf(t0, 0.453173307F*t1)*expf(0.467848226F*t10*t4 + 2.01549646F*t10*t6 + 2.41263614F*t10 + 1.23128578F*t2 + 0.0213278356F*t3 - 0.619121115F*(t4*t4*t4) + 0.184010631F*t4*t7 - 0.878640332F*t4*t9 + 0.391143674F*t5*t6 + 0.063449447F*t5*t9 + 0.5219877F*t5 - 1.98805299F*t6*t9 - 0.128376603F*t7*t9 + 0.513007776F*t7 - 1.74417817F*t8*t9 + 1.22471965F*t8 - 2.14435675F*(t9*t9*t9));
+    const float t8 = 2.0F*t1*logf(t0) - 1.0F;
+    const float t9 = (t8*t8);
+    const float t10 = t4*t8;
+    return 0.0812767382F*powf(t0, -0.94446013F*t1)*expf(-0.845646595F*t10*t6 + 0.313550473F*t10 + 0.582876636F*t2 + 0.444414243F*t3 - 0.651247408F*(t4*t4*t4) + 0.483011809F*t4*t6 - 0.108131649F*t4*t7 - 0.302927753F*t4*t9 + 0.0853495563F*t5*t6 + 1.44634924F*t5*t8 - 0.599458422F*t5 - 2.15673119F*t6*t8 + 1.61598376F*t6*t9 - 0.918704747F*t7*t8 + 1.22756839F*t7 - 1.58028634F*(t8*t8*t8) + 1.8454981F*t9);
 }
 
 MICROSURFACE_LOBES_FN float microsurface_lobes_ms_tilt_b_conductor_f(float alpha, float mu_i, float order)
@@ -739,7 +739,7 @@ MICROSURFACE_LOBES_FN float microsurface_lobes_ms_tilt_b_conductor_f(float alpha
     const float t8 = 2.0F*t6*t7 - 1.0F;
     const float t9 = (t8*t8);
     const float t13 = 1.0F - (t0*t0);
-    return (-0.183247153F*t0 + 0.0595566166F*t1 - 0.0637145572F*(t2*t2*t2) - 0.0487423148F*t2*t4*t8 + 0.0771019059F*t2*t4 - 0.0354129546F*t2*t5 + 0.00947262102F*t2*t8 + 0.175518645F*t2*t9 - 0.0316406129F*t3*t4 + 0.064778126F*t3*t8 - 0.070877266F*t3 + 0.474021413F*t4*t8 - 0.583402498F*t4*t9 + 0.360547185F*t5*t8 - 0.355454819F*t5 + 2.09645152F*t6*t7 - 0.327529655F*(t8*t8*t8) - 0.287799969F*t9 - 1.61141483F)*sqrtf(((t13 < 0.0F) ? (0.0F) : (t13)));
+    return (-0.0637706037F*t0 + 0.0771625152F*t1 - 0.117363961F*(t2*t2*t2) - 0.145893642F*t2*t4*t8 + 0.143622767F*t2*t4 - 0.0200049727F*t2*t5 - 0.0980734942F*t2*t8 + 0.211179994F*t2*t9 + 0.0302546547F*t3*t4 + 0.0476004025F*t3*t8 - 0.0157927343F*t3 + 0.325471801F*t4*t8 - 0.467076754F*t4*t9 + 0.335819369F*t5*t8 - 0.337748748F*t5 + 1.91650515F*t6*t7 - 0.369480948F*(t8*t8*t8) - 0.145325304F*t9 - 1.64772448F)*sqrtf(((t13 < 0.0F) ? (0.0F) : (t13)));
 }
 
 MICROSURFACE_LOBES_FN float microsurface_lobes_ms_tilt_k_conductor_f(float alpha, float mu_i, float order)
@@ -758,7 +758,7 @@ MICROSURFACE_LOBES_FN float microsurface_lobes_ms_tilt_k_conductor_f(float alpha
     const float t8 = (t7*t7);
     const float t9 = t2*t7;
     const float t13 = 1.0F - (t0*t0);
-    return (0.31822506F*t0 - 0.0307430164F*t1 + 0.0556602277F*(t2*t2*t2) - 0.264412485F*t2*t4 - 0.0123522955F*t2*t5 - 0.422318684F*t2*t8 + 0.0198105199F*t3*t4 + 0.182558988F*t3*t7 - 0.138907513F*t3 - 0.461508079F*t4*t7 + 0.574215568F*t4*t8 + 0.26443014F*t4*t9 - 0.835940432F*t5*t7 + 0.81077192F*t5 - 5.21477082F*t6 + 1.09815517F*(t7*t7*t7) + 0.292118274F*t8 + 0.208195787F*t9 + 3.82029743F)*((t13 < 0.0F) ? (0.0F) : (t13));
+    return (0.329188184F*t0 - 0.332822265F*t1 - 0.0327394363F*(t2*t2*t2) - 0.202767079F*t2*t4 - 0.0119889044F*t2*t5 - 0.436301746F*t2*t8 + 0.109020155F*t3*t4 + 0.171506589F*t3*t7 - 0.0959998381F*t3 + 0.345800114F*t4*t7 + 0.200151229F*t4*t8 + 0.225078689F*t4*t9 - 0.463064158F*t5*t7 + 0.455343991F*t5 - 4.20500797F*t6 + 1.02759764F*(t7*t7*t7) - 0.0187660081F*t8 + 0.27669027F*t9 + 4.21881311F)*((t13 < 0.0F) ? (0.0F) : (t13));
 }
 
 MICROSURFACE_LOBES_FN float microsurface_lobes_E_ggx_cor_f(float mu, float alpha)

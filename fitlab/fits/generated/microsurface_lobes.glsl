@@ -3,22 +3,22 @@
 // Multiple-scattering lobes of GGX microsurfaces (diffuse facets, F = 1 conductors), fitted by order to
 // the microsurface random walk: the blog's final lobe refitted and the tilted lobe; Kulla-Conti's f_ms.
 // From these fits (sha256):
-//   ms_blog_eta_diffuse.blog_quadratic.json  c8a7b05f604018edc37a7abfed91e0810eb63a2ced0a9e7e757d2550a343b44f
-//   ms_blog_flattening_diffuse.blog_cubic.json  f50c215b614672c0219df4d3c2200231d67130e68b5cf769381a178a7ec36fc8
-//   ms_blog_scale_diffuse.blog_cubic.json  59c205ee71b92fa9435597e1959f0350a666328f6cfe44fbdd5207d25d88732b
-//   ms_tilt_sigma_diffuse.json  5aeaed89d3bfbb35197703f0dd12085cd39d9e492cd4a89966d4a0398642babe
-//   ms_tilt_eta_diffuse.json  46c721654acda0fc4e5ab76725b399f6da796115c7a6ff6637f953a9b7c19664
-//   ms_tilt_flattening_diffuse.json  dcb4ecb1b6a0796c7781ad6cdae30057d0077998cdb5eb3a234285133a1dbbb4
-//   ms_tilt_b_diffuse.json  8056158d4afcf8c6b23e2832b2b48ba579b38bbd858044b61be9ddcf8ab4dace
-//   ms_tilt_k_diffuse.json  01aee970a1b44318868b757866beb47f4c8ea132fa4df409acd54d4f6101c8b0
-//   ms_blog_eta_conductor.blog_quadratic.json  00b177e4a0ae3bf5dc59bc840b55fded16708a0d4e3f32842e84bcfa7f5b3016
-//   ms_blog_flattening_conductor.blog_cubic.json  183be2dbd9002775a466930e5a24d712342a80dc9d9c48bba18b48c1cba4fd05
-//   ms_blog_scale_conductor.blog_cubic.json  baabb26741b49bd7ae3d55c3b64ebd552b3d0bead0675276e3fbbab7da1b6c2c
-//   ms_tilt_sigma_conductor.json  b9c87efaf1b73534c4ea881936d1e8d82c23bcde986a1469a8c84e4c1b4f8c13
-//   ms_tilt_eta_conductor.json  f8182f2db377ba59b722514d908df844ed91e388e214a44732c000a360a26334
-//   ms_tilt_flattening_conductor.json  9d5d8902c65c13cc2f89627d6d810648adc3b840f0e4409cb39e0ffb4ef14dc7
-//   ms_tilt_b_conductor.json  5a55f1e6bd9df53d4c84a7990a4fa7b129e37cebc6fdd7c2e7f190ac0e06b381
-//   ms_tilt_k_conductor.json  edbc787e375868109865ba5c8808070b59e9b7b3c93170fc173b36cc4c362337
+//   ms_blog_eta_diffuse.blog_quadratic.json  0f4abe1b462affadb7fa1aa2d7a5590f72756ea5d8a6c89f56ad3b166cdcd08b
+//   ms_blog_flattening_diffuse.blog_cubic.json  6094ac7edaa1fd80613486ff4e7650968823ff07b57eb6589f7bc42d0c11ed97
+//   ms_blog_scale_diffuse.blog_cubic.json  c11ae1f3974e5bc59347a5e31a23abbd80c0bd8ea67fe9c23cba1e6d0d84219e
+//   ms_tilt_sigma_diffuse.json  df054a292ad15c71d6fa8b95ce1d9804d22cda0e023d8a7192c3376003158301
+//   ms_tilt_eta_diffuse.json  81bfdbc03d6911fe0a7d512f411226ae12026e5edb7e20bcb53fae03e30555eb
+//   ms_tilt_flattening_diffuse.json  0a07eadc7975259dac697217c48d0e1c51a28a2a90ab25bc11d285c4fd9a2692
+//   ms_tilt_b_diffuse.json  f9d7ec251d3e121d1d80ca4e7367150780a93fcf66ebccdf222c45e5b7e20108
+//   ms_tilt_k_diffuse.json  3937aadd17c262a6659dd1a557ec97c44cabe2be050c07a61fa2790de45589e3
+//   ms_blog_eta_conductor.blog_quadratic.json  c18242213ba0dfcd951e4775c76d556fd451fe12466c1b8585427bd98972d050
+//   ms_blog_flattening_conductor.blog_cubic.json  6e7c453ea2d7a0120c37722b6862ea82161c0b5b45d84c00d06e57105cecc335
+//   ms_blog_scale_conductor.blog_cubic.json  5848521ae82ea79f44aeae22a32e33994efe8a83a7c737086b87dffcd040e3e6
+//   ms_tilt_sigma_conductor.json  4225cdbbfb75bd04d03c5396872e272bf2ec6856284b6683df14b63fd75127d5
+//   ms_tilt_eta_conductor.json  aa582a4afa824bdc611feb708c0a3051de0f9d58bcfb80169699608d41abb549
+//   ms_tilt_flattening_conductor.json  5f2bae299dd1c791a2f5013568d9ea930d18a3088a3b4c99fd23eed2aee3a617
+//   ms_tilt_b_conductor.json  467d577c6aafbb22e8130e7ccc28f34365128538d80ec0678cd8a4be0a19ddac
+//   ms_tilt_k_conductor.json  6422b0a3adfea5e896c067576dbdd6e2776364786d9476335e20337b11f8d479
 //   E_ggx_cor.json  006307cb26bcfa3740e6ab79baa0eab4aff570d18034c97b33611231cc94bff7
 //   E_avg_ggx_cor.json  01da745251f7c2ec93bc9c1c68cf1a9b6a4b3e761196f928c6f24191d02f1d02
 // Float functions for GLSL 3.30 / ES 3.00 and later; paste or #include after #version.
@@ -42,19 +42,19 @@ float microsurface_lobes_expm1(float x)
 // exponent eta of the blog's final lobe fitted to the simulated multiple-scattering lobes of
 // diffuse facets of albedo 1 on GGX (lobes.params), order 2; alpha, mu_i in [0.05, 1]; form
 // blog_quadratic: the blog's eta(alpha) = e1 alpha + e2 alpha^2 (section 'Parameters Fitting';
-// text and code differ) Validation: max relative error 3.49e-01, RMS 1.59e-01.
+// text and code differ) Validation: max relative error 3.07e-01, RMS 1.54e-01.
 float microsurface_lobes_ms_blog_eta_diffuse(float alpha, float mu_i)
 {
     float t1 = ((alpha < 0.050000000000000003) ? (0.050000000000000003) : (alpha));
     float t0 = ((t1 > 1.0) ? (1.0) : (t1));
-    return 1.1114101141838293*(t0*t0) - 0.9645380949207288*t0;
+    return 1.0877990720085609*(t0*t0) - 0.9474705111794323*t0;
 }
 
 // normal flattening sigma_n of the blog's final lobe fitted to the simulated multiple-
 // scattering lobes of diffuse facets of albedo 1 on GGX (lobes.params), order 2; alpha, mu_i in
 // [0.05, 1]; form blog_cubic: the blog's sigma_n(mu, alpha) = a + b mu + c mu^2 + d mu^3, a
 // cubic, b linear, c and d quadratic in alpha (the text's d is linear), mu = mu_i Validation:
-// max relative error 1.38e-01, RMS 4.35e-02.
+// max relative error 9.23e-02, RMS 3.63e-02.
 float microsurface_lobes_ms_blog_flattening_diffuse(float alpha, float mu_i)
 {
     float t5 = ((alpha < 0.050000000000000003) ? (0.050000000000000003) : (alpha));
@@ -64,7 +64,7 @@ float microsurface_lobes_ms_blog_flattening_diffuse(float alpha, float mu_i)
     float t2 = (t0*t0);
     float t3 = (t1*t1);
     float t4 = (t1*t1*t1);
-    return -1.1837691678820106*(t0*t0*t0) - 3.608945331290763*t0*t1 + 1.2540615186061739*t0*t3 + 0.8835106252645545*t0*t4 - 0.6752557723503337*t0 + 1.0054569118916972*t1 + 4.5482151633769545*t2*t3 - 4.004576674903577*t2*t4 + 2.2130152500311198*t2 - 0.9490914693327971*t3 + 0.2153399312875631*t4 + 1.0777170020907914;
+    return -1.6562656481489018*(t0*t0*t0) - 3.4628989266542267*t0*t1 + 1.2117786276097873*t0*t3 + 0.3916566532160779*t0*t4 - 0.7859353452099775*t0 + 1.1691862702252298*t1 + 4.136185804966846*t2*t3 - 3.2307224441769553*t2*t4 + 2.76778727106632*t2 - 1.327731403225174*t3 + 0.5337199392351057*t4 + 1.045680289819587;
 }
 
 // scale sigma (with the order-2 lobe's shape) of the blog's final lobe fitted to the simulated
@@ -73,7 +73,7 @@ float microsurface_lobes_ms_blog_flattening_diffuse(float alpha, float mu_i)
 // mu^3, each cubic in alpha, mu = mu_i, times k(order): k(2) = 1, k(3) = k3, k(4) = k4, k(5) =
 // k5 (Lagrange in the order); the blog has k3 = 0.363902052363025 and neglects higher orders
 // (k4 = k5 = 0); the code's preset carries its normalisation 2/pi Validation: max relative
-// error 1.21e+00, RMS 4.31e-01.
+// error 1.23e+00, RMS 4.34e-01.
 float microsurface_lobes_ms_blog_scale_diffuse(float alpha, float mu_i, float order)
 {
     float t11 = ((order < 2.0) ? (2.0) : (order));
@@ -90,14 +90,14 @@ float microsurface_lobes_ms_blog_scale_diffuse(float alpha, float mu_i, float or
     float t8 = (t5*t5*t5);
     float t9 = (t6*t6);
     float t10 = (t6*t6*t6);
-    return (-0.3322597229959841*t2*((5.0/2.0) - t1)*(t0 - 2.0) + 0.0686001483284857*t2*(t1 + (-3.0/2.0))*(t4 + (-2.0/3.0)) - t3*((5.0/3.0) - t4)*(2.0 - t1) + 0.10465127967828648*t3*(5.0 - t0)*(t1 - 1.0))*(0.2449048992691601*t10*t5 + 1.808520743156589*t10*t7 - 1.941836058256379*t10*t8 - 0.04926499877638764*t10 + 0.3404549796405072*t5*t6 - 0.5338418498042966*t5*t9 - 0.20923049442877564*t5 + 1.8585889911837372*t6*t7 - 1.5074711991242118*t6*t8 - 0.06657538383308706*t6 - 3.293963962804495*t7*t9 + 1.0096354480382357*t7 + 3.104257985558577*t8*t9 - 0.6031006859985973*t8 + 0.10273329536062409*t9 + 0.024657921724335886);
+    return (-0.3295961677232844*t2*((5.0/2.0) - t1)*(t0 - 2.0) + 0.06833981076173223*t2*(t1 + (-3.0/2.0))*(t4 + (-2.0/3.0)) - t3*((5.0/3.0) - t4)*(2.0 - t1) + 0.10337654552309455*t3*(5.0 - t0)*(t1 - 1.0))*(0.4550167452703966*t10*t5 + 0.792194941478882*t10*t7 - 1.269640317574752*t10*t8 - 0.0594050185042275*t10 + 0.4565170363747333*t5*t6 - 0.8469936607045311*t5*t9 - 0.21261324600709514*t5 + 1.2124442264944706*t6*t7 - 1.0242284087959774*t6*t8 - 0.07185059858271628*t6 - 1.6852430138904961*t7*t9 + 1.0482635520786259*t7 + 1.9785432919671517*t8*t9 - 0.6308554470205076*t8 + 0.11729797999501176*t9 + 0.0248993418533331);
 }
 
 // scale sigma (the one that gives the fitted shape the simulated albedo) of the tilted lobe
 // fitted to the simulated multiple-scattering lobes of diffuse facets of albedo 1 on GGX
 // (lobes.params); alpha, mu_i in [0.05, 1], order 2..5; form exp_poly: exp(P), P a polynomial
 // in x = 2 log(20 alpha)/log(20) - 1, y = 2 mu_i - 1, z = (2 order - 7)/3: degree <= 3 in (x,
-// y), <= 2 with z, <= 1 with z^2 Validation: max relative error 7.77e-01, RMS 1.52e-01.
+// y), <= 2 with z, <= 1 with z^2 Validation: max relative error 8.16e-01, RMS 1.55e-01.
 float microsurface_lobes_ms_tilt_sigma_diffuse(float alpha, float mu_i, float order)
 {
     float t10 = ((alpha < 0.050000000000000003) ? (0.050000000000000003) : (alpha));
@@ -113,14 +113,14 @@ float microsurface_lobes_ms_tilt_sigma_diffuse(float alpha, float mu_i, float or
     float t7 = (t6*t6);
     float t8 = 2.0*t1*log(t0) - 1.0;
     float t9 = (t8*t8);
-    return 0.037631877077514322*pow(t0, 6.9439779399768514*t1)*exp(-0.16849371178529272*t2 - 1.4317243972741727*t3 + 0.15698359262752398*(t4*t4*t4) - 0.006908509183634999*t4*t6*t8 + 0.1902407831818581*t4*t6 - 0.06499826248098971*t4*t7 + 0.19213267792506264*t4*t8 + 0.014990689467973536*t4*t9 - 0.10267730627371142*t5*t6 - 0.2751091643415666*t5*t8 - 0.04441450566135793*t5 + 1.9197623629929934*t6*t8 - 0.29989713738259083*t6*t9 + 0.47484156012257844*t7*t8 + 0.13990073396263894*t7 - 0.28999206910019804*(t8*t8*t8) - 0.8251940067228922*t9);
+    return 0.029314643446564239*pow(t0, 6.725286903433162*t1)*exp(-0.10982677495627066*t2 - 1.3270422800322229*t3 + 0.11114568841105608*(t4*t4*t4) - 0.03295621477689129*t4*t6*t8 + 0.21239470842098646*t4*t6 - 0.047088636069265916*t4*t7 + 0.16933520734531343*t4*t8 + 0.025745293559688475*t4*t9 - 0.1264022103295333*t5*t6 - 0.25094216141632353*t5*t8 - 0.0618292909452432*t5 + 1.6547139333800123*t6*t8 - 0.19755208044074904*t6*t9 + 0.3224309457258726*t7*t8 + 0.2618705308826311*t7 - 0.30682283103839697*(t8*t8*t8) - 0.7234161841096599*t9);
 }
 
 // exponent eta of the tilted lobe fitted to the simulated multiple-scattering lobes of diffuse
 // facets of albedo 1 on GGX (lobes.params); alpha, mu_i in [0.05, 1], order 2..5; form poly: P,
 // P a polynomial in x = 2 log(20 alpha)/log(20) - 1, y = 2 mu_i - 1, z = (2 order - 7)/3:
-// degree <= 3 in (x, y), <= 2 with z, <= 1 with z^2 Validation: max relative error 6.26e-01,
-// RMS 9.72e-02.
+// degree <= 3 in (x, y), <= 2 with z, <= 1 with z^2 Validation: max relative error 5.86e-01,
+// RMS 1.00e-01.
 float microsurface_lobes_ms_tilt_eta_diffuse(float alpha, float mu_i, float order)
 {
     float t10 = ((mu_i < 0.050000000000000003) ? (0.050000000000000003) : (mu_i));
@@ -136,14 +136,14 @@ float microsurface_lobes_ms_tilt_eta_diffuse(float alpha, float mu_i, float orde
     float t7 = t2*t4;
     float t8 = 2.0*t6 - 1.0;
     float t9 = (t8*t8);
-    return 0.07340233009754704*t0 + 0.11405688157872623*t1 + 0.042431713153765406*(t2*t2*t2) - 0.0395376098148373*t2*t5 + 0.029464437373737194*t2*t8 + 0.06405293461253621*t2*t9 + 0.042423343682375915*t3*t4 - 0.11566923296842606*t3*t8 - 0.0032521372685265044*t3 - 0.08671795796393518*t4*t8 + 0.07752086422831837*t4*t9 + 0.02197821467822621*t5*t8 - 0.04441898953164496*t5 + 0.25956087018850992*t6 - 0.11252945268820755*t7*t8 + 0.050702257970470295*t7 - 0.07010890094834346*(t8*t8*t8) + 0.10730521259272187*t9 - 0.51902269441925609;
+    return 0.09098289863835012*t0 + 0.177522532578988*t1 + 0.04071419756203633*(t2*t2*t2) - 0.0236663961892579*t2*t5 + 0.014188670408166059*t2*t8 + 0.06389797970691098*t2*t9 + 0.027797999525746686*t3*t4 - 0.11039513365866654*t3*t8 - 0.014288782959218491*t3 - 0.24253079461777538*t4*t8 + 0.13870031070912597*t4*t9 - 0.062269363766852374*t5*t8 + 0.025688622744945752*t5 + 0.13245265177053104*t6 - 0.14006178357791182*t7*t8 + 0.07825284321538534*t7 - 0.082754400134707*(t8*t8*t8) + 0.15498204508721689*t9 - 0.65750603597102944;
 }
 
 // normal flattening sigma_n of the tilted lobe fitted to the simulated multiple-scattering
 // lobes of diffuse facets of albedo 1 on GGX (lobes.params); alpha, mu_i in [0.05, 1], order
 // 2..5; form exp_poly: exp(P), P a polynomial in x = 2 log(20 alpha)/log(20) - 1, y = 2 mu_i -
 // 1, z = (2 order - 7)/3: degree <= 3 in (x, y), <= 2 with z, <= 1 with z^2 Validation: max
-// relative error 2.52e+00, RMS 3.07e-01.
+// relative error 3.49e+00, RMS 4.08e-01.
 float microsurface_lobes_ms_tilt_flattening_diffuse(float alpha, float mu_i, float order)
 {
     float t10 = ((alpha < 0.050000000000000003) ? (0.050000000000000003) : (alpha));
@@ -159,40 +159,16 @@ float microsurface_lobes_ms_tilt_flattening_diffuse(float alpha, float mu_i, flo
     float t7 = (t6*t6);
     float t8 = 2.0*t1*log(t0) - 1.0;
     float t9 = (t8*t8);
-    return 1.6599535623455453*pow(t0, -0.2061894011506503*t1)*exp(-0.023114227800856292*t2 - 0.15863042069772457*t3 - 0.08402404570906592*(t4*t4*t4) + 0.1336747083337018*t4*t6*t8 - 0.060715913537099625*t4*t6 - 0.04337797513145954*t4*t7 + 0.028904193106602125*t4*t8 + 0.05440540597943016*t4*t9 - 0.07244765188348376*t5*t6 + 0.10358981232711954*t5*t8 - 0.013850463711637282*t5 + 0.3407783632689436*t6*t8 - 0.07071630045967829*t6*t9 + 0.143279969967084*t7*t8 - 0.09631116533129262*t7 + 0.06945124166804989*(t8*t8*t8) - 0.0612927618290842*t9);
+    return 2.268158760846169*pow(t0, 0.12939302187910228*t1)*exp(-0.071919489719417848*t2 - 0.30557204024275873*t3 - 0.043467021964560724*(t4*t4*t4) + 0.1501484137324496*t4*t6*t8 - 0.07429738638933844*t4*t6 - 0.05293553501998511*t4*t7 + 0.03242399671799421*t4*t8 + 0.061056685525979905*t4*t9 - 0.03620981853674712*t5*t6 + 0.06874908122755363*t5*t8 + 0.011898062849848843*t5 + 0.7002355805790147*t6*t8 - 0.20384922969954342*t6*t9 + 0.33488085270478574*t7*t8 - 0.25690426405500344*t7 + 0.08701404214055972*(t8*t8*t8) - 0.1939363537772392*t9);
 }
 
 // azimuthal tilt b (< 0: towards the mirror side) of the tilted lobe fitted to the simulated
 // multiple-scattering lobes of diffuse facets of albedo 1 on GGX (lobes.params); alpha, mu_i in
 // [0.05, 1], order 2..5; form sine_poly: s_i P, s_i = sqrt(1 - mu_i^2) (0 at normal incidence),
 // P a polynomial in x = 2 log(20 alpha)/log(20) - 1, y = 2 mu_i - 1, z = (2 order - 7)/3:
-// degree <= 3 in (x, y), <= 2 with z, <= 1 with z^2 Validation: max relative error 4.16e-01,
+// degree <= 3 in (x, y), <= 2 with z, <= 1 with z^2 Validation: max relative error 4.24e-01,
 // RMS 1.65e-01.
 float microsurface_lobes_ms_tilt_b_diffuse(float alpha, float mu_i, float order)
-{
-    float t10 = ((mu_i < 0.050000000000000003) ? (0.050000000000000003) : (mu_i));
-    float t0 = ((t10 > 1.0) ? (1.0) : (t10));
-    float t11 = ((order < 2.0) ? (2.0) : (order));
-    float t1 = ((t11 > 5.0) ? (5.0) : (t11));
-    float t2 = 2.0*t0 - 1.0;
-    float t3 = (t2*t2);
-    float t4 = ((2.0/3.0))*t1 + (-7.0/3.0);
-    float t5 = (t4*t4);
-    float t12 = ((alpha < 0.050000000000000003) ? (0.050000000000000003) : (alpha));
-    float t6 = log(20.0*((t12 > 1.0) ? (1.0) : (t12)))/log(20.0);
-    float t7 = 2.0*t6 - 1.0;
-    float t8 = (t7*t7);
-    float t9 = t4*t7;
-    float t13 = 1.0 - (t0*t0);
-    return (-0.073457946683877548*t0 + 0.03314821898616784*t1 + 0.04763205192922137*(t2*t2*t2) - 0.02945598363048262*t2*t4 + 0.060325762100518016*t2*t5 + 0.024851581998733902*t2*t7 - 0.0390742800266235*t2*t8 + 0.04137755796420026*t2*t9 + 0.0282993572455166*t3*t4 - 0.009243518408760577*t3*t7 + 0.04465569438531523*t3 - 0.015988347597127205*t4*t8 - 0.1904263703435278*t5*t7 - 0.23962162088171896*t5 + 0.24509114695056374*t6 + 0.022396032268811535*(t7*t7*t7) - 0.09718306429353404*t8 + 0.22703320232668128*t9 - 0.14793353161765725)*sqrt(((t13 < 0.0) ? (0.0) : (t13)));
-}
-
-// azimuthal narrowing k of the tilted lobe fitted to the simulated multiple-scattering lobes of
-// diffuse facets of albedo 1 on GGX (lobes.params); alpha, mu_i in [0.05, 1], order 2..5; form
-// sine2_poly: s_i^2 P, s_i = sqrt(1 - mu_i^2) (0 at normal incidence), P a polynomial in x = 2
-// log(20 alpha)/log(20) - 1, y = 2 mu_i - 1, z = (2 order - 7)/3: degree <= 3 in (x, y), <= 2
-// with z, <= 1 with z^2 Validation: max relative error 2.98e-01, RMS 4.76e-02.
-float microsurface_lobes_ms_tilt_k_diffuse(float alpha, float mu_i, float order)
 {
     float t10 = ((mu_i < 0.050000000000000003) ? (0.050000000000000003) : (mu_i));
     float t0 = ((t10 > 1.0) ? (1.0) : (t10));
@@ -208,25 +184,49 @@ float microsurface_lobes_ms_tilt_k_diffuse(float alpha, float mu_i, float order)
     float t8 = 2.0*t6*t7 - 1.0;
     float t9 = (t8*t8);
     float t13 = 1.0 - (t0*t0);
-    return (0.0032847122887568734*t0 + 0.006979222889032372*t1 - 0.06181149081416506*(t2*t2*t2) + 0.03022740383277587*t2*t4*t8 - 0.027220581668077875*t2*t4 + 0.017275412841433052*t2*t5 + 0.04971211583166076*t2*t8 - 0.04024048579880827*t2*t9 - 0.02978969252061477*t3*t4 + 0.025543478232273046*t3*t8 - 0.06963259814733871*t3 + 0.13042355339827688*t4*t8 - 0.017520195293943802*t4*t9 - 0.01698994823396624*t5*t8 - 0.044105104488958505*t5 + 0.07550828635352594*t6*t7 + 0.01542698445576197*(t8*t8*t8) - 0.09565548375119343*t9 - 0.051123480023127257)*((t13 < 0.0) ? (0.0) : (t13));
+    return (-0.022150839372880406*t0 + 0.023487515526247153*t1 - 0.015795701586849523*(t2*t2*t2) + 0.0509788412083864*t2*t4*t8 - 0.055910312617410696*t2*t4 + 0.037341576534580166*t2*t5 + 0.03728906752522548*t2*t8 - 0.042137213203556456*t2*t9 - 0.010796846265837025*t3*t4 + 0.01778152820287614*t3*t8 - 0.021246246297229463*t3 + 0.2782039497489137*t4*t8 - 0.043359979126659925*t4*t9 - 0.15791798397157478*t5*t8 - 0.27709472459335793*t5 + 0.26199686990484316*t6*t7 + 0.023531430191966886*(t8*t8*t8) - 0.12882071559344316*t9 - 0.1185791351056715)*sqrt(((t13 < 0.0) ? (0.0) : (t13)));
+}
+
+// azimuthal narrowing k of the tilted lobe fitted to the simulated multiple-scattering lobes of
+// diffuse facets of albedo 1 on GGX (lobes.params); alpha, mu_i in [0.05, 1], order 2..5; form
+// sine2_poly: s_i^2 P, s_i = sqrt(1 - mu_i^2) (0 at normal incidence), P a polynomial in x = 2
+// log(20 alpha)/log(20) - 1, y = 2 mu_i - 1, z = (2 order - 7)/3: degree <= 3 in (x, y), <= 2
+// with z, <= 1 with z^2 Validation: max relative error 3.30e-01, RMS 5.43e-02.
+float microsurface_lobes_ms_tilt_k_diffuse(float alpha, float mu_i, float order)
+{
+    float t10 = ((mu_i < 0.050000000000000003) ? (0.050000000000000003) : (mu_i));
+    float t0 = ((t10 > 1.0) ? (1.0) : (t10));
+    float t11 = ((order < 2.0) ? (2.0) : (order));
+    float t1 = ((t11 > 5.0) ? (5.0) : (t11));
+    float t2 = 2.0*t0 - 1.0;
+    float t3 = (t2*t2);
+    float t4 = ((2.0/3.0))*t1 + (-7.0/3.0);
+    float t5 = (t4*t4);
+    float t12 = ((alpha < 0.050000000000000003) ? (0.050000000000000003) : (alpha));
+    float t6 = log(20.0*((t12 > 1.0) ? (1.0) : (t12)))/log(20.0);
+    float t7 = 2.0*t6 - 1.0;
+    float t8 = (t7*t7);
+    float t9 = t4*t7;
+    float t13 = 1.0 - (t0*t0);
+    return (0.0776673786676697*t0 + 0.0091072356588052993*t1 - 0.0558980052111239*(t2*t2*t2) - 0.0265866726607751*t2*t4 + 0.0044782107909437105*t2*t5 + 0.04287736966752975*t2*t7 - 0.06093368174382067*t2*t8 + 0.07653398578719274*t2*t9 + 0.03513165962319481*t3*t4 - 0.06984768083522311*t3*t7 + 0.019945457381824287*t3 + 0.09533724338059496*t4*t8 - 0.09009509694301572*t5*t7 + 0.018099862578654535*t5 + 0.061702514887364634*t6 - 0.007254722539779813*(t7*t7*t7) - 0.032286379556750885*t8 + 0.025360531611489632*t9 - 0.12920225355036589)*((t13 < 0.0) ? (0.0) : (t13));
 }
 
 // exponent eta of the blog's final lobe fitted to the simulated multiple-scattering lobes of
 // conductor facets with F = 1 on GGX (lobes.params), order 2; alpha, mu_i in [0.05, 1]; form
 // blog_quadratic: the blog's eta(alpha) = e1 alpha + e2 alpha^2 (section 'Parameters Fitting';
-// text and code differ) Validation: max relative error 8.29e-01, RMS 3.50e-01.
+// text and code differ) Validation: max relative error 7.97e-01, RMS 3.57e-01.
 float microsurface_lobes_ms_blog_eta_conductor(float alpha, float mu_i)
 {
     float t1 = ((alpha < 0.050000000000000003) ? (0.050000000000000003) : (alpha));
     float t0 = ((t1 > 1.0) ? (1.0) : (t1));
-    return -0.6407977822636706*(t0*t0) + 0.9673231711957381*t0;
+    return -0.5404312809344088*(t0*t0) + 0.8928694035232881*t0;
 }
 
 // normal flattening sigma_n of the blog's final lobe fitted to the simulated multiple-
 // scattering lobes of conductor facets with F = 1 on GGX (lobes.params), order 2; alpha, mu_i
 // in [0.05, 1]; form blog_cubic: the blog's sigma_n(mu, alpha) = a + b mu + c mu^2 + d mu^3, a
 // cubic, b linear, c and d quadratic in alpha (the text's d is linear), mu = mu_i Validation:
-// max relative error 2.02e+00, RMS 5.49e-01.
+// max relative error 1.52e+00, RMS 4.84e-01.
 float microsurface_lobes_ms_blog_flattening_conductor(float alpha, float mu_i)
 {
     float t5 = ((alpha < 0.050000000000000003) ? (0.050000000000000003) : (alpha));
@@ -236,7 +236,7 @@ float microsurface_lobes_ms_blog_flattening_conductor(float alpha, float mu_i)
     float t2 = (t0*t0);
     float t3 = (t1*t1);
     float t4 = (t1*t1*t1);
-    return -3.9572000707543222*(t0*t0*t0) - 6.364452875600403*t0*t1 + 4.8087587869139465*t0*t3 + 0.3060385536277008*t0*t4 + 0.03414650571484433*t0 + 2.7277993741545563*t1 + 9.892737177637512*t2*t3 - 8.904723210491499*t2*t4 + 4.4825560163273135*t2 - 5.295627284261014*t3 + 2.7638590239661585*t4 + 0.06196223147898847;
+    return -3.1082678386321136*(t0*t0*t0) - 6.802150975684207*t0*t1 + 13.29086238214652*t0*t3 - 7.805927221469935*t0*t4 + 0.5695826664858286*t0 + 2.7984635734512033*t1 + 1.439047122772186*t2*t3 - 0.6370226766483926*t2*t4 + 3.3941172590945654*t2 - 6.594608958353959*t3 + 4.067979359029894*t4 - 0.028090469729388803;
 }
 
 // scale sigma (with the order-2 lobe's shape) of the blog's final lobe fitted to the simulated
@@ -245,7 +245,7 @@ float microsurface_lobes_ms_blog_flattening_conductor(float alpha, float mu_i)
 // d mu^3, each cubic in alpha, mu = mu_i, times k(order): k(2) = 1, k(3) = k3, k(4) = k4, k(5)
 // = k5 (Lagrange in the order); the blog has k3 = 0.363902052363025 and neglects higher orders
 // (k4 = k5 = 0); the code's preset carries its normalisation 2/pi Validation: max relative
-// error 1.95e+00, RMS 5.80e-01.
+// error 1.37e+00, RMS 5.25e-01.
 float microsurface_lobes_ms_blog_scale_conductor(float alpha, float mu_i, float order)
 {
     float t11 = ((order < 2.0) ? (2.0) : (order));
@@ -262,14 +262,14 @@ float microsurface_lobes_ms_blog_scale_conductor(float alpha, float mu_i, float 
     float t8 = (t5*t5*t5);
     float t9 = (t6*t6);
     float t10 = (t6*t6*t6);
-    return (-0.44099042979812114*t2*((5.0/2.0) - t1)*(t0 - 2.0) + 0.017801016277255992*t2*(t1 + (-3.0/2.0))*(t4 + (-2.0/3.0)) - t3*((5.0/3.0) - t4)*(2.0 - t1) + 0.08122001038433052*t3*(5.0 - t0)*(t1 - 1.0))*(7.407167378194365*t10*t5 - 25.757183885113932*t10*t7 + 22.15941057917169*t10*t8 - 0.3426799632062791*t10 + 6.25959360042694*t5*t6 - 13.636870223462578*t5*t9 - 0.2678368580219562*t5 - 19.15897286872526*t6*t7 + 17.359532381405515*t6*t8 - 0.30410131766127024*t6 + 46.02215505758821*t7*t9 + 0.8157898615700179*t7 - 39.893503537426334*t8*t9 - 0.7132980075923833*t8 + 0.6380542883076653*t9 + 0.020326487613598);
+    return (-0.4260262302963385*t2*((5.0/2.0) - t1)*(t0 - 2.0) + 0.015683910418714284*t2*(t1 + (-3.0/2.0))*(t4 + (-2.0/3.0)) - t3*((5.0/3.0) - t4)*(2.0 - t1) + 0.07379867281121144*t3*(5.0 - t0)*(t1 - 1.0))*(4.784811049898559*t10*t5 - 14.699633486317317*t10*t7 + 10.221765681164399*t10*t8 - 0.21918690934189689*t10 + 4.536878103649955*t5*t6 - 9.463383202511539*t5*t9 - 0.1370627169981231*t5 - 11.806819100627093*t6*t7 + 9.759737616612396*t6*t8 - 0.22133543265717803*t6 + 28.330112863251106*t7*t9 + 0.36516646079715354*t7 - 21.01995664050115*t8*t9 - 0.30233163163881577*t8 + 0.43840926760704607*t9 + 0.013381540377514373);
 }
 
 // scale sigma (the one that gives the fitted shape the simulated albedo) of the tilted lobe
 // fitted to the simulated multiple-scattering lobes of conductor facets with F = 1 on GGX
 // (lobes.params); alpha, mu_i in [0.05, 1], order 2..5; form exp_poly: exp(P), P a polynomial
 // in x = 2 log(20 alpha)/log(20) - 1, y = 2 mu_i - 1, z = (2 order - 7)/3: degree <= 3 in (x,
-// y), <= 2 with z, <= 1 with z^2 Validation: max relative error 3.47e+00, RMS 4.28e-01.
+// y), <= 2 with z, <= 1 with z^2 Validation: max relative error 2.38e+00, RMS 3.61e-01.
 float microsurface_lobes_ms_tilt_sigma_conductor(float alpha, float mu_i, float order)
 {
     float t10 = ((alpha < 0.050000000000000003) ? (0.050000000000000003) : (alpha));
@@ -285,14 +285,14 @@ float microsurface_lobes_ms_tilt_sigma_conductor(float alpha, float mu_i, float 
     float t7 = (t6*t6);
     float t8 = 2.0*t1*log(t0) - 1.0;
     float t9 = (t8*t8);
-    return 0.68445490910959206*pow(t0, 8.415288090199812*t1)*exp(-0.62152330289773472*t2 - 2.3670836832037953*t3 + 1.6401022757134611*(t4*t4*t4) + 1.808562402154816*t4*t6*t8 + 0.01796398524226253*t4*t6 - 0.14614965628168106*t4*t7 + 2.2559872381032666*t4*t8 - 0.9283069335674842*t4*t9 - 1.244937054936467*t5*t6 - 1.1604182826967542*t5*t8 - 1.4343748689680216*t5 + 2.66858099567334*t6*t8 - 0.5855283511121978*t6*t9 + 0.43089819131116064*t7*t8 - 0.9008001785946674*t7 + 0.8169065361432222*(t8*t8*t8) - 1.5140330348705608*t9);
+    return 0.62951252757620981*pow(t0, 8.752327128137852*t1)*exp(-0.11165397310749381*t2 - 2.584534222644326*t3 + 1.6959134518116719*(t4*t4*t4) + 1.1804231775789578*t4*t6*t8 + 0.5748705439756813*t4*t6 + 0.03041114601014649*t4*t7 + 1.6691952388533184*t4*t8 - 0.741221281367652*t4*t9 - 1.0435287319011535*t5*t6 - 1.7956979338693981*t5*t8 - 0.8502283099206015*t5 + 2.3702407403877768*t6*t8 - 0.007835094059160132*t6*t9 + 0.7290706727691105*t7*t8 - 1.2184307274230355*t7 + 0.37478294712803345*(t8*t8*t8) - 0.7796783384458056*t9);
 }
 
 // exponent eta of the tilted lobe fitted to the simulated multiple-scattering lobes of
 // conductor facets with F = 1 on GGX (lobes.params); alpha, mu_i in [0.05, 1], order 2..5; form
 // poly: P, P a polynomial in x = 2 log(20 alpha)/log(20) - 1, y = 2 mu_i - 1, z = (2 order -
 // 7)/3: degree <= 3 in (x, y), <= 2 with z, <= 1 with z^2 Validation: max relative error
-// 4.77e-01, RMS 1.57e-01.
+// 4.93e-01, RMS 1.69e-01.
 float microsurface_lobes_ms_tilt_eta_conductor(float alpha, float mu_i, float order)
 {
     float t10 = ((mu_i < 0.050000000000000003) ? (0.050000000000000003) : (mu_i));
@@ -308,14 +308,14 @@ float microsurface_lobes_ms_tilt_eta_conductor(float alpha, float mu_i, float or
     float t7 = log(20.0*((t12 > 1.0) ? (1.0) : (t12)));
     float t8 = 2.0*t6*t7 - 1.0;
     float t9 = (t8*t8);
-    return -0.8403391032565902*t0 + 0.3087008305027384*t1 + 0.44106434854835147*(t2*t2*t2) + 0.7126696696849046*t2*t4*t8 - 0.3266470893957193*t2*t4 - 0.03454296354947512*t2*t5 + 1.1295405263879144*t2*t8 - 0.2523028439672477*t2*t9 - 0.20974094352526781*t3*t4 - 0.40428521800804157*t3*t8 - 0.2858601329581243*t3 + 0.7937789435557784*t4*t8 - 0.49259255025996496*t4*t9 - 0.12946179350297693*t5*t8 - 0.12553570096605615*t5 + 2.7339695555743448*t6*t7 + 0.11327762119855192*(t8*t8*t8) - 0.8880417309877425*t9 - 1.0918450504404928;
+    return -0.6350431839472656*t0 + 0.025571389465206549*t1 + 0.45792165279495806*(t2*t2*t2) + 0.4409463673438305*t2*t4*t8 - 0.029634994753946518*t2*t4 + 0.09389943666552329*t2*t5 + 0.9030471057444573*t2*t8 - 0.1817475418143609*t2*t9 - 0.21029221311066312*t3*t4 - 0.5057264207513669*t3*t8 - 0.26154485319798637*t3 + 1.413770577498136*t4*t8 - 0.6707652884206897*t4*t9 + 0.3512679024159117*t5*t8 - 0.521641807879216*t5 + 3.128773661689535*t6*t7 + 0.09155161757052648*(t8*t8*t8) - 1.0020113294119948*t9 - 0.47371228581979312;
 }
 
 // normal flattening sigma_n of the tilted lobe fitted to the simulated multiple-scattering
 // lobes of conductor facets with F = 1 on GGX (lobes.params); alpha, mu_i in [0.05, 1], order
 // 2..5; form exp_poly: exp(P), P a polynomial in x = 2 log(20 alpha)/log(20) - 1, y = 2 mu_i -
 // 1, z = (2 order - 7)/3: degree <= 3 in (x, y), <= 2 with z, <= 1 with z^2 Validation: max
-// relative error 2.47e+00, RMS 5.24e-01.
+// relative error 1.27e+00, RMS 4.14e-01.
 float microsurface_lobes_ms_tilt_flattening_conductor(float alpha, float mu_i, float order)
 {
     float t11 = ((alpha < 0.050000000000000003) ? (0.050000000000000003) : (alpha));
@@ -329,10 +329,10 @@ float microsurface_lobes_ms_tilt_flattening_conductor(float alpha, float mu_i, f
     float t5 = (t4*t4);
     float t6 = ((2.0/3.0))*t3 + (-7.0/3.0);
     float t7 = (t6*t6);
-    float t8 = t4*t6;
-    float t9 = 2.0*t1*log(t0) - 1.0;
-    float t10 = (t9*t9);
-    return 0.06692669022212561*pow(t0, 0.45317330700689406*t1)*exp(0.46784822592666725*t10*t4 + 2.015496461654833*t10*t6 + 2.412636144745291*t10 + 1.2312857773069102*t2 + 0.02132783557696464*t3 - 0.6191211148080317*(t4*t4*t4) + 0.184010630937416*t4*t7 - 0.8786403315677748*t4*t9 + 0.3911436736094265*t5*t6 + 0.0634494469936628*t5*t9 + 0.5219876996350582*t5 - 1.9880529870102461*t6*t9 - 0.12837660257903705*t7*t9 + 0.5130077755804965*t7 - 1.7441781748997032*t8*t9 + 1.2247196531623101*t8 - 2.144356753787966*(t9*t9*t9));
+    float t8 = 2.0*t1*log(t0) - 1.0;
+    float t9 = (t8*t8);
+    float t10 = t4*t8;
+    return 0.081276738191483959*pow(t0, -0.94446012963695014*t1)*exp(-0.8456465945320778*t10*t6 + 0.3135504731675751*t10 + 0.58287663612587426*t2 + 0.44441424259039113*t3 - 0.6512474083255292*(t4*t4*t4) + 0.48301180866141913*t4*t6 - 0.10813164867235003*t4*t7 - 0.30292775319588794*t4*t9 + 0.0853495562933592*t5*t6 + 1.446349237968191*t5*t8 - 0.5994584218645371*t5 - 2.156731184858749*t6*t8 + 1.6159837609424446*t6*t9 - 0.9187047469265671*t7*t8 + 1.2275683865095603*t7 - 1.5802863367124642*(t8*t8*t8) + 1.8454981024090906*t9);
 }
 
 // azimuthal tilt b (< 0: towards the mirror side) of the tilted lobe fitted to the simulated
@@ -340,7 +340,7 @@ float microsurface_lobes_ms_tilt_flattening_conductor(float alpha, float mu_i, f
 // in [0.05, 1], order 2..5; form sine_poly: s_i P, s_i = sqrt(1 - mu_i^2) (0 at normal
 // incidence), P a polynomial in x = 2 log(20 alpha)/log(20) - 1, y = 2 mu_i - 1, z = (2 order -
 // 7)/3: degree <= 3 in (x, y), <= 2 with z, <= 1 with z^2 Validation: max relative error
-// 2.48e-01, RMS 6.19e-02.
+// 2.36e-01, RMS 5.88e-02.
 float microsurface_lobes_ms_tilt_b_conductor(float alpha, float mu_i, float order)
 {
     float t10 = ((mu_i < 0.050000000000000003) ? (0.050000000000000003) : (mu_i));
@@ -357,14 +357,14 @@ float microsurface_lobes_ms_tilt_b_conductor(float alpha, float mu_i, float orde
     float t8 = 2.0*t6*t7 - 1.0;
     float t9 = (t8*t8);
     float t13 = 1.0 - (t0*t0);
-    return (-0.18324715347436008*t0 + 0.059556616644859813*t1 - 0.06371455719997347*(t2*t2*t2) - 0.04874231480392294*t2*t4*t8 + 0.07710190585335273*t2*t4 - 0.03541295459524743*t2*t5 + 0.009472621015325212*t2*t8 + 0.17551864521052563*t2*t9 - 0.03164061288428633*t3*t4 + 0.06477812601940239*t3*t8 - 0.07087726596313904*t3 + 0.4740214129123269*t4*t8 - 0.5834024980627792*t4*t9 + 0.3605471848698473*t5*t8 - 0.35545481854219535*t5 + 2.096451519613572*t6*t7 - 0.32752965495336817*(t8*t8*t8) - 0.2877999692906151*t9 - 1.6114148314655865)*sqrt(((t13 < 0.0) ? (0.0) : (t13)));
+    return (-0.06377060368475039*t0 + 0.077162515191923133*t1 - 0.11736396108741967*(t2*t2*t2) - 0.14589364188646334*t2*t4*t8 + 0.14362276704803145*t2*t4 - 0.020004972695280395*t2*t5 - 0.0980734941648107*t2*t8 + 0.21117999411115893*t2*t9 + 0.030254654746143538*t3*t4 + 0.04760040254565157*t3*t8 - 0.015792734292789254*t3 + 0.32547180093822164*t4*t8 - 0.4670767545112056*t4*t9 + 0.33581936894652337*t5*t8 - 0.337748747758625*t5 + 1.9165051485063*t6*t7 - 0.3694809482583736*(t8*t8*t8) - 0.14532530414009806*t9 - 1.6477244805951888)*sqrt(((t13 < 0.0) ? (0.0) : (t13)));
 }
 
 // azimuthal narrowing k of the tilted lobe fitted to the simulated multiple-scattering lobes of
 // conductor facets with F = 1 on GGX (lobes.params); alpha, mu_i in [0.05, 1], order 2..5; form
 // sine2_poly: s_i^2 P, s_i = sqrt(1 - mu_i^2) (0 at normal incidence), P a polynomial in x = 2
 // log(20 alpha)/log(20) - 1, y = 2 mu_i - 1, z = (2 order - 7)/3: degree <= 3 in (x, y), <= 2
-// with z, <= 1 with z^2 Validation: max relative error 8.14e-01, RMS 1.94e-01.
+// with z, <= 1 with z^2 Validation: max relative error 1.09e+00, RMS 2.32e-01.
 float microsurface_lobes_ms_tilt_k_conductor(float alpha, float mu_i, float order)
 {
     float t10 = ((mu_i < 0.050000000000000003) ? (0.050000000000000003) : (mu_i));
@@ -381,7 +381,7 @@ float microsurface_lobes_ms_tilt_k_conductor(float alpha, float mu_i, float orde
     float t8 = (t7*t7);
     float t9 = t2*t7;
     float t13 = 1.0 - (t0*t0);
-    return (0.3182250596128472*t0 - 0.030743016398938753*t1 + 0.05566022772906045*(t2*t2*t2) - 0.2644124854604207*t2*t4 - 0.012352295545516999*t2*t5 - 0.422318683547285*t2*t8 + 0.019810519934218018*t3*t4 + 0.18255898799282835*t3*t7 - 0.13890751278478997*t3 - 0.4615080786242637*t4*t7 + 0.5742155681800037*t4*t8 + 0.26443014012016874*t4*t9 - 0.8359404321765848*t5*t7 + 0.8107719198981788*t5 - 5.21477082278721*t6 + 1.0981551720842957*(t7*t7*t7) + 0.2921182740609462*t8 + 0.20819578738154973*t9 + 3.8202974293276648)*((t13 < 0.0) ? (0.0) : (t13));
+    return (0.32918818378247616*t0 - 0.33282226539112891*t1 - 0.03273943633096704*(t2*t2*t2) - 0.20276707881629305*t2*t4 - 0.011988904444744852*t2*t5 - 0.43630174618571904*t2*t8 + 0.1090201552355426*t3*t4 + 0.1715065892724311*t3*t7 - 0.09599983806480045*t3 + 0.34580011396424293*t4*t7 + 0.20015122895955334*t4*t8 + 0.22507868890420046*t4*t9 - 0.4630641583084296*t5*t7 + 0.45534399053265456*t5 - 4.2050079683504916*t6 + 1.027597643785732*(t7*t7*t7) - 0.018766008112199292*t8 + 0.27669026987181383*t9 + 4.2188131061329999)*((t13 < 0.0) ? (0.0) : (t13));
 }
 
 // E(mu, alpha): directional albedo (F = 1), GGX, height-correlated Smith 1/(1 + Lambda_i +

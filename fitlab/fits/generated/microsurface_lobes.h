@@ -4,22 +4,22 @@
  * Multiple-scattering lobes of GGX microsurfaces (diffuse facets, F = 1 conductors), fitted by order to
  * the microsurface random walk: the blog's final lobe refitted and the tilted lobe; Kulla-Conti's f_ms.
  * From these fits (sha256):
- *   ms_blog_eta_diffuse.blog_quadratic.json  c8a7b05f604018edc37a7abfed91e0810eb63a2ced0a9e7e757d2550a343b44f
- *   ms_blog_flattening_diffuse.blog_cubic.json  f50c215b614672c0219df4d3c2200231d67130e68b5cf769381a178a7ec36fc8
- *   ms_blog_scale_diffuse.blog_cubic.json  59c205ee71b92fa9435597e1959f0350a666328f6cfe44fbdd5207d25d88732b
- *   ms_tilt_sigma_diffuse.json  5aeaed89d3bfbb35197703f0dd12085cd39d9e492cd4a89966d4a0398642babe
- *   ms_tilt_eta_diffuse.json  46c721654acda0fc4e5ab76725b399f6da796115c7a6ff6637f953a9b7c19664
- *   ms_tilt_flattening_diffuse.json  dcb4ecb1b6a0796c7781ad6cdae30057d0077998cdb5eb3a234285133a1dbbb4
- *   ms_tilt_b_diffuse.json  8056158d4afcf8c6b23e2832b2b48ba579b38bbd858044b61be9ddcf8ab4dace
- *   ms_tilt_k_diffuse.json  01aee970a1b44318868b757866beb47f4c8ea132fa4df409acd54d4f6101c8b0
- *   ms_blog_eta_conductor.blog_quadratic.json  00b177e4a0ae3bf5dc59bc840b55fded16708a0d4e3f32842e84bcfa7f5b3016
- *   ms_blog_flattening_conductor.blog_cubic.json  183be2dbd9002775a466930e5a24d712342a80dc9d9c48bba18b48c1cba4fd05
- *   ms_blog_scale_conductor.blog_cubic.json  baabb26741b49bd7ae3d55c3b64ebd552b3d0bead0675276e3fbbab7da1b6c2c
- *   ms_tilt_sigma_conductor.json  b9c87efaf1b73534c4ea881936d1e8d82c23bcde986a1469a8c84e4c1b4f8c13
- *   ms_tilt_eta_conductor.json  f8182f2db377ba59b722514d908df844ed91e388e214a44732c000a360a26334
- *   ms_tilt_flattening_conductor.json  9d5d8902c65c13cc2f89627d6d810648adc3b840f0e4409cb39e0ffb4ef14dc7
- *   ms_tilt_b_conductor.json  5a55f1e6bd9df53d4c84a7990a4fa7b129e37cebc6fdd7c2e7f190ac0e06b381
- *   ms_tilt_k_conductor.json  edbc787e375868109865ba5c8808070b59e9b7b3c93170fc173b36cc4c362337
+ *   ms_blog_eta_diffuse.blog_quadratic.json  0f4abe1b462affadb7fa1aa2d7a5590f72756ea5d8a6c89f56ad3b166cdcd08b
+ *   ms_blog_flattening_diffuse.blog_cubic.json  6094ac7edaa1fd80613486ff4e7650968823ff07b57eb6589f7bc42d0c11ed97
+ *   ms_blog_scale_diffuse.blog_cubic.json  c11ae1f3974e5bc59347a5e31a23abbd80c0bd8ea67fe9c23cba1e6d0d84219e
+ *   ms_tilt_sigma_diffuse.json  df054a292ad15c71d6fa8b95ce1d9804d22cda0e023d8a7192c3376003158301
+ *   ms_tilt_eta_diffuse.json  81bfdbc03d6911fe0a7d512f411226ae12026e5edb7e20bcb53fae03e30555eb
+ *   ms_tilt_flattening_diffuse.json  0a07eadc7975259dac697217c48d0e1c51a28a2a90ab25bc11d285c4fd9a2692
+ *   ms_tilt_b_diffuse.json  f9d7ec251d3e121d1d80ca4e7367150780a93fcf66ebccdf222c45e5b7e20108
+ *   ms_tilt_k_diffuse.json  3937aadd17c262a6659dd1a557ec97c44cabe2be050c07a61fa2790de45589e3
+ *   ms_blog_eta_conductor.blog_quadratic.json  c18242213ba0dfcd951e4775c76d556fd451fe12466c1b8585427bd98972d050
+ *   ms_blog_flattening_conductor.blog_cubic.json  6e7c453ea2d7a0120c37722b6862ea82161c0b5b45d84c00d06e57105cecc335
+ *   ms_blog_scale_conductor.blog_cubic.json  5848521ae82ea79f44aeae22a32e33994efe8a83a7c737086b87dffcd040e3e6
+ *   ms_tilt_sigma_conductor.json  4225cdbbfb75bd04d03c5396872e272bf2ec6856284b6683df14b63fd75127d5
+ *   ms_tilt_eta_conductor.json  aa582a4afa824bdc611feb708c0a3051de0f9d58bcfb80169699608d41abb549
+ *   ms_tilt_flattening_conductor.json  5f2bae299dd1c791a2f5013568d9ea930d18a3088a3b4c99fd23eed2aee3a617
+ *   ms_tilt_b_conductor.json  467d577c6aafbb22e8130e7ccc28f34365128538d80ec0678cd8a4be0a19ddac
+ *   ms_tilt_k_conductor.json  6422b0a3adfea5e896c067576dbdd6e2776364786d9476335e20337b11f8d479
  *   E_ggx_cor.json  006307cb26bcfa3740e6ab79baa0eab4aff570d18034c97b33611231cc94bff7
  *   E_avg_ggx_cor.json  01da745251f7c2ec93bc9c1c68cf1a9b6a4b3e761196f928c6f24191d02f1d02
  */
@@ -44,7 +44,7 @@ extern "C" {
  * exponent eta of the blog's final lobe fitted to the simulated multiple-scattering lobes of
  * diffuse facets of albedo 1 on GGX (lobes.params), order 2; alpha, mu_i in [0.05, 1]; form
  * blog_quadratic: the blog's eta(alpha) = e1 alpha + e2 alpha^2 (section 'Parameters Fitting';
- * text and code differ) Validation: max relative error 3.49e-01, RMS 1.59e-01.
+ * text and code differ) Validation: max relative error 3.07e-01, RMS 1.54e-01.
  */
 MICROSURFACE_LOBES_FN double microsurface_lobes_ms_blog_eta_diffuse(double alpha, double mu_i);
 MICROSURFACE_LOBES_FN float microsurface_lobes_ms_blog_eta_diffuse_f(float alpha, float mu_i);
@@ -54,7 +54,7 @@ MICROSURFACE_LOBES_FN float microsurface_lobes_ms_blog_eta_diffuse_f(float alpha
  * scattering lobes of diffuse facets of albedo 1 on GGX (lobes.params), order 2; alpha, mu_i in
  * [0.05, 1]; form blog_cubic: the blog's sigma_n(mu, alpha) = a + b mu + c mu^2 + d mu^3, a
  * cubic, b linear, c and d quadratic in alpha (the text's d is linear), mu = mu_i Validation:
- * max relative error 1.38e-01, RMS 4.35e-02.
+ * max relative error 9.23e-02, RMS 3.63e-02.
  */
 MICROSURFACE_LOBES_FN double microsurface_lobes_ms_blog_flattening_diffuse(double alpha, double mu_i);
 MICROSURFACE_LOBES_FN float microsurface_lobes_ms_blog_flattening_diffuse_f(float alpha, float mu_i);
@@ -66,7 +66,7 @@ MICROSURFACE_LOBES_FN float microsurface_lobes_ms_blog_flattening_diffuse_f(floa
  * mu^3, each cubic in alpha, mu = mu_i, times k(order): k(2) = 1, k(3) = k3, k(4) = k4, k(5) =
  * k5 (Lagrange in the order); the blog has k3 = 0.363902052363025 and neglects higher orders
  * (k4 = k5 = 0); the code's preset carries its normalisation 2/pi Validation: max relative
- * error 1.21e+00, RMS 4.31e-01.
+ * error 1.23e+00, RMS 4.34e-01.
  */
 MICROSURFACE_LOBES_FN double microsurface_lobes_ms_blog_scale_diffuse(double alpha, double mu_i, double order);
 MICROSURFACE_LOBES_FN float microsurface_lobes_ms_blog_scale_diffuse_f(float alpha, float mu_i, float order);
@@ -76,7 +76,7 @@ MICROSURFACE_LOBES_FN float microsurface_lobes_ms_blog_scale_diffuse_f(float alp
  * fitted to the simulated multiple-scattering lobes of diffuse facets of albedo 1 on GGX
  * (lobes.params); alpha, mu_i in [0.05, 1], order 2..5; form exp_poly: exp(P), P a polynomial
  * in x = 2 log(20 alpha)/log(20) - 1, y = 2 mu_i - 1, z = (2 order - 7)/3: degree <= 3 in (x,
- * y), <= 2 with z, <= 1 with z^2 Validation: max relative error 7.77e-01, RMS 1.52e-01.
+ * y), <= 2 with z, <= 1 with z^2 Validation: max relative error 8.16e-01, RMS 1.55e-01.
  */
 MICROSURFACE_LOBES_FN double microsurface_lobes_ms_tilt_sigma_diffuse(double alpha, double mu_i, double order);
 MICROSURFACE_LOBES_FN float microsurface_lobes_ms_tilt_sigma_diffuse_f(float alpha, float mu_i, float order);
@@ -85,8 +85,8 @@ MICROSURFACE_LOBES_FN float microsurface_lobes_ms_tilt_sigma_diffuse_f(float alp
  * exponent eta of the tilted lobe fitted to the simulated multiple-scattering lobes of diffuse
  * facets of albedo 1 on GGX (lobes.params); alpha, mu_i in [0.05, 1], order 2..5; form poly: P,
  * P a polynomial in x = 2 log(20 alpha)/log(20) - 1, y = 2 mu_i - 1, z = (2 order - 7)/3:
- * degree <= 3 in (x, y), <= 2 with z, <= 1 with z^2 Validation: max relative error 6.26e-01,
- * RMS 9.72e-02.
+ * degree <= 3 in (x, y), <= 2 with z, <= 1 with z^2 Validation: max relative error 5.86e-01,
+ * RMS 1.00e-01.
  */
 MICROSURFACE_LOBES_FN double microsurface_lobes_ms_tilt_eta_diffuse(double alpha, double mu_i, double order);
 MICROSURFACE_LOBES_FN float microsurface_lobes_ms_tilt_eta_diffuse_f(float alpha, float mu_i, float order);
@@ -96,7 +96,7 @@ MICROSURFACE_LOBES_FN float microsurface_lobes_ms_tilt_eta_diffuse_f(float alpha
  * lobes of diffuse facets of albedo 1 on GGX (lobes.params); alpha, mu_i in [0.05, 1], order
  * 2..5; form exp_poly: exp(P), P a polynomial in x = 2 log(20 alpha)/log(20) - 1, y = 2 mu_i -
  * 1, z = (2 order - 7)/3: degree <= 3 in (x, y), <= 2 with z, <= 1 with z^2 Validation: max
- * relative error 2.52e+00, RMS 3.07e-01.
+ * relative error 3.49e+00, RMS 4.08e-01.
  */
 MICROSURFACE_LOBES_FN double microsurface_lobes_ms_tilt_flattening_diffuse(double alpha, double mu_i, double order);
 MICROSURFACE_LOBES_FN float microsurface_lobes_ms_tilt_flattening_diffuse_f(float alpha, float mu_i, float order);
@@ -106,7 +106,7 @@ MICROSURFACE_LOBES_FN float microsurface_lobes_ms_tilt_flattening_diffuse_f(floa
  * multiple-scattering lobes of diffuse facets of albedo 1 on GGX (lobes.params); alpha, mu_i in
  * [0.05, 1], order 2..5; form sine_poly: s_i P, s_i = sqrt(1 - mu_i^2) (0 at normal incidence),
  * P a polynomial in x = 2 log(20 alpha)/log(20) - 1, y = 2 mu_i - 1, z = (2 order - 7)/3:
- * degree <= 3 in (x, y), <= 2 with z, <= 1 with z^2 Validation: max relative error 4.16e-01,
+ * degree <= 3 in (x, y), <= 2 with z, <= 1 with z^2 Validation: max relative error 4.24e-01,
  * RMS 1.65e-01.
  */
 MICROSURFACE_LOBES_FN double microsurface_lobes_ms_tilt_b_diffuse(double alpha, double mu_i, double order);
@@ -117,7 +117,7 @@ MICROSURFACE_LOBES_FN float microsurface_lobes_ms_tilt_b_diffuse_f(float alpha, 
  * diffuse facets of albedo 1 on GGX (lobes.params); alpha, mu_i in [0.05, 1], order 2..5; form
  * sine2_poly: s_i^2 P, s_i = sqrt(1 - mu_i^2) (0 at normal incidence), P a polynomial in x = 2
  * log(20 alpha)/log(20) - 1, y = 2 mu_i - 1, z = (2 order - 7)/3: degree <= 3 in (x, y), <= 2
- * with z, <= 1 with z^2 Validation: max relative error 2.98e-01, RMS 4.76e-02.
+ * with z, <= 1 with z^2 Validation: max relative error 3.30e-01, RMS 5.43e-02.
  */
 MICROSURFACE_LOBES_FN double microsurface_lobes_ms_tilt_k_diffuse(double alpha, double mu_i, double order);
 MICROSURFACE_LOBES_FN float microsurface_lobes_ms_tilt_k_diffuse_f(float alpha, float mu_i, float order);
@@ -126,7 +126,7 @@ MICROSURFACE_LOBES_FN float microsurface_lobes_ms_tilt_k_diffuse_f(float alpha, 
  * exponent eta of the blog's final lobe fitted to the simulated multiple-scattering lobes of
  * conductor facets with F = 1 on GGX (lobes.params), order 2; alpha, mu_i in [0.05, 1]; form
  * blog_quadratic: the blog's eta(alpha) = e1 alpha + e2 alpha^2 (section 'Parameters Fitting';
- * text and code differ) Validation: max relative error 8.29e-01, RMS 3.50e-01.
+ * text and code differ) Validation: max relative error 7.97e-01, RMS 3.57e-01.
  */
 MICROSURFACE_LOBES_FN double microsurface_lobes_ms_blog_eta_conductor(double alpha, double mu_i);
 MICROSURFACE_LOBES_FN float microsurface_lobes_ms_blog_eta_conductor_f(float alpha, float mu_i);
@@ -136,7 +136,7 @@ MICROSURFACE_LOBES_FN float microsurface_lobes_ms_blog_eta_conductor_f(float alp
  * scattering lobes of conductor facets with F = 1 on GGX (lobes.params), order 2; alpha, mu_i
  * in [0.05, 1]; form blog_cubic: the blog's sigma_n(mu, alpha) = a + b mu + c mu^2 + d mu^3, a
  * cubic, b linear, c and d quadratic in alpha (the text's d is linear), mu = mu_i Validation:
- * max relative error 2.02e+00, RMS 5.49e-01.
+ * max relative error 1.52e+00, RMS 4.84e-01.
  */
 MICROSURFACE_LOBES_FN double microsurface_lobes_ms_blog_flattening_conductor(double alpha, double mu_i);
 MICROSURFACE_LOBES_FN float microsurface_lobes_ms_blog_flattening_conductor_f(float alpha, float mu_i);
@@ -148,7 +148,7 @@ MICROSURFACE_LOBES_FN float microsurface_lobes_ms_blog_flattening_conductor_f(fl
  * d mu^3, each cubic in alpha, mu = mu_i, times k(order): k(2) = 1, k(3) = k3, k(4) = k4, k(5)
  * = k5 (Lagrange in the order); the blog has k3 = 0.363902052363025 and neglects higher orders
  * (k4 = k5 = 0); the code's preset carries its normalisation 2/pi Validation: max relative
- * error 1.95e+00, RMS 5.80e-01.
+ * error 1.37e+00, RMS 5.25e-01.
  */
 MICROSURFACE_LOBES_FN double microsurface_lobes_ms_blog_scale_conductor(double alpha, double mu_i, double order);
 MICROSURFACE_LOBES_FN float microsurface_lobes_ms_blog_scale_conductor_f(float alpha, float mu_i, float order);
@@ -158,7 +158,7 @@ MICROSURFACE_LOBES_FN float microsurface_lobes_ms_blog_scale_conductor_f(float a
  * fitted to the simulated multiple-scattering lobes of conductor facets with F = 1 on GGX
  * (lobes.params); alpha, mu_i in [0.05, 1], order 2..5; form exp_poly: exp(P), P a polynomial
  * in x = 2 log(20 alpha)/log(20) - 1, y = 2 mu_i - 1, z = (2 order - 7)/3: degree <= 3 in (x,
- * y), <= 2 with z, <= 1 with z^2 Validation: max relative error 3.47e+00, RMS 4.28e-01.
+ * y), <= 2 with z, <= 1 with z^2 Validation: max relative error 2.38e+00, RMS 3.61e-01.
  */
 MICROSURFACE_LOBES_FN double microsurface_lobes_ms_tilt_sigma_conductor(double alpha, double mu_i, double order);
 MICROSURFACE_LOBES_FN float microsurface_lobes_ms_tilt_sigma_conductor_f(float alpha, float mu_i, float order);
@@ -168,7 +168,7 @@ MICROSURFACE_LOBES_FN float microsurface_lobes_ms_tilt_sigma_conductor_f(float a
  * conductor facets with F = 1 on GGX (lobes.params); alpha, mu_i in [0.05, 1], order 2..5; form
  * poly: P, P a polynomial in x = 2 log(20 alpha)/log(20) - 1, y = 2 mu_i - 1, z = (2 order -
  * 7)/3: degree <= 3 in (x, y), <= 2 with z, <= 1 with z^2 Validation: max relative error
- * 4.77e-01, RMS 1.57e-01.
+ * 4.93e-01, RMS 1.69e-01.
  */
 MICROSURFACE_LOBES_FN double microsurface_lobes_ms_tilt_eta_conductor(double alpha, double mu_i, double order);
 MICROSURFACE_LOBES_FN float microsurface_lobes_ms_tilt_eta_conductor_f(float alpha, float mu_i, float order);
@@ -178,7 +178,7 @@ MICROSURFACE_LOBES_FN float microsurface_lobes_ms_tilt_eta_conductor_f(float alp
  * lobes of conductor facets with F = 1 on GGX (lobes.params); alpha, mu_i in [0.05, 1], order
  * 2..5; form exp_poly: exp(P), P a polynomial in x = 2 log(20 alpha)/log(20) - 1, y = 2 mu_i -
  * 1, z = (2 order - 7)/3: degree <= 3 in (x, y), <= 2 with z, <= 1 with z^2 Validation: max
- * relative error 2.47e+00, RMS 5.24e-01.
+ * relative error 1.27e+00, RMS 4.14e-01.
  */
 MICROSURFACE_LOBES_FN double microsurface_lobes_ms_tilt_flattening_conductor(double alpha, double mu_i, double order);
 MICROSURFACE_LOBES_FN float microsurface_lobes_ms_tilt_flattening_conductor_f(float alpha, float mu_i, float order);
@@ -189,7 +189,7 @@ MICROSURFACE_LOBES_FN float microsurface_lobes_ms_tilt_flattening_conductor_f(fl
  * in [0.05, 1], order 2..5; form sine_poly: s_i P, s_i = sqrt(1 - mu_i^2) (0 at normal
  * incidence), P a polynomial in x = 2 log(20 alpha)/log(20) - 1, y = 2 mu_i - 1, z = (2 order -
  * 7)/3: degree <= 3 in (x, y), <= 2 with z, <= 1 with z^2 Validation: max relative error
- * 2.48e-01, RMS 6.19e-02.
+ * 2.36e-01, RMS 5.88e-02.
  */
 MICROSURFACE_LOBES_FN double microsurface_lobes_ms_tilt_b_conductor(double alpha, double mu_i, double order);
 MICROSURFACE_LOBES_FN float microsurface_lobes_ms_tilt_b_conductor_f(float alpha, float mu_i, float order);
@@ -199,7 +199,7 @@ MICROSURFACE_LOBES_FN float microsurface_lobes_ms_tilt_b_conductor_f(float alpha
  * conductor facets with F = 1 on GGX (lobes.params); alpha, mu_i in [0.05, 1], order 2..5; form
  * sine2_poly: s_i^2 P, s_i = sqrt(1 - mu_i^2) (0 at normal incidence), P a polynomial in x = 2
  * log(20 alpha)/log(20) - 1, y = 2 mu_i - 1, z = (2 order - 7)/3: degree <= 3 in (x, y), <= 2
- * with z, <= 1 with z^2 Validation: max relative error 8.14e-01, RMS 1.94e-01.
+ * with z, <= 1 with z^2 Validation: max relative error 1.09e+00, RMS 2.32e-01.
  */
 MICROSURFACE_LOBES_FN double microsurface_lobes_ms_tilt_k_conductor(double alpha, double mu_i, double order);
 MICROSURFACE_LOBES_FN float microsurface_lobes_ms_tilt_k_conductor_f(float alpha, float mu_i, float order);

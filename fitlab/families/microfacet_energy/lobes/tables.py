@@ -205,7 +205,7 @@ def lobe_table(kind: str, which: str, progress=None) -> Table:
 
 
 def build_lobe_tables(show_progress: bool = True, kinds=KINDS, sets=SETS) -> dict[str, Table]:
-    """Every lobe table ({file name: Table}): about 12 minutes on 2 cores."""
+    """Every lobe table ({file name: Table}): about 3 minutes on 2 cores (6.5 when other work shares them)."""
     jobs = sum(len(grid_points(w)) for w in sets) * len(kinds)
     out = {}
     with tqdm(total=jobs, desc="simulating lobes", unit="job", disable=not show_progress) as bar:
