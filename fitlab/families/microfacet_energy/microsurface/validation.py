@@ -6,7 +6,7 @@ incidence, smooth to rough, isotropic and anisotropic, GGX and Beckmann; and ene
 line per material, over its order-1 lobe bins, reflected and transmitted, that the reference or a path
 reaches: the smallest two-sided p-value of a bin's count under its reference (``simulate.count_p_value``,
 binomial, calibrated where few paths land) and the number of bins below 6.3e-5 (a 4-sigma deviation; with
-some 2500 bins in the study, 0.16 expected by chance); the z-scores (estimate - reference) / se of the
+some 2200 bins in the study, 0.14 expected by chance); the z-scores (estimate - reference) / se of the
 bins expected to hold 25 paths or more, where z is normal (max |z| and RMS z: RMS near 1, max |z| near 3.5
 over a few hundred bins for unbiased estimates); the largest |z| of the order-1 totals (and of the
 multiple-scattering albedo against 1 - A_1 where the facets lose nothing); and the energy defect |sum of
