@@ -243,7 +243,7 @@ class FitFunction:
         # xreplace, not subs: the same substitution of symbols by numbers, without subs's matching (10x faster)
         expr = expr.xreplace({sp.Symbol(p, real=True): sp.Float(repr(float(v)), 17) for p, v in self.params.items()})
         self.expression = expr
-        self._f = lambdify_numpy(symbols(self.inputs), expr)
+        self._f = None  # the numpy function, made on the first call: codegen reads only the expression
 
     def __repr__(self) -> str:
         return f"FitFunction({self.target}/{self.form}, inputs={self.inputs})"
@@ -268,6 +268,8 @@ class FitFunction:
             if np.any(np.isnan(a)) or np.any((a < lo) | (a > hi)):
                 raise ValueError(f"{name} must lie in [{lo}, {hi}] (the domain this fit was validated on)")
             arrays.append(a)
+        if self._f is None:
+            self._f = lambdify_numpy(symbols(self.inputs), self.expression)
         with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
             out = self._f(*arrays)
         return np.broadcast_to(np.asarray(out, dtype=float), np.broadcast_shapes(*(a.shape for a in arrays))).copy()

@@ -235,15 +235,32 @@ def field_symbol(k: int) -> sp.Symbol:
 
 
 def inline_calls(expr: sp.Expr, routines: Mapping[str, Routine]) -> sp.Expr:
-    """``expr`` with every call of a routine (:func:`call`) replaced by that routine's expression, recursively."""
+    """``expr`` with every call of a routine (:func:`call`) replaced by that routine's expression, recursively;
+    a routine called with an argument its caller has clamped into the same domain clamps it once
+    (clamp(clamp(x, lo, hi), lo, hi) -> clamp(x, lo, hi))."""
+    # one bottom-up pass with every distinct subexpression visited once: a model's tree repeats its clamped
+    # inputs and its calls many times, and sympy's replace would walk each copy (and each inlined body once
+    # per level of calls)
+    done: dict = {}
 
-    def expand(e):
-        r = routines[e.func.__name__]
-        by_name = {s.name: s for s in r.expr.free_symbols}
-        body = r.expr.xreplace({by_name[a]: v for a, v in zip(r.args, e.args) if a in by_name})
-        return inline_calls(body, routines)
+    def visit(e):
+        out = done.get(e)
+        if out is None:
+            out = done[e] = rebuilt(e)
+        return out
 
-    return _single_clamps(expr.replace(lambda e: isinstance(e, AppliedUndef) and e.func.__name__ in routines, expand))
+    def rebuilt(e):
+        if e.args:
+            args = tuple(visit(a) for a in e.args)
+            if args != e.args:
+                e = e.func(*args)
+        if isinstance(e, AppliedUndef) and e.func.__name__ in routines:
+            r = routines[e.func.__name__]
+            by_name = {s.name: s for s in r.expr.free_symbols}
+            return visit(r.expr.xreplace({by_name[a]: v for a, v in zip(r.args, e.args) if a in by_name}))
+        return _clamp_parts(e)[2] if _clamped_twice(e) else e
+
+    return visit(expr)
 
 
 def _clamp_parts(e):
@@ -259,16 +276,11 @@ def _clamp_parts(e):
     return (lo[0], hi[0], x[0]) if len(lo) == 1 and len(x) == 1 else None
 
 
-def _single_clamps(expr: sp.Expr) -> sp.Expr:
-    """clamp(clamp(x, lo, hi), lo, hi) -> clamp(x, lo, hi): a routine called with an argument its caller
-    has clamped into the same domain clamps it once."""
-
-    def twice(e):
-        outer = _clamp_parts(e)
-        inner = outer and _clamp_parts(outer[2])
-        return bool(inner) and float(inner[0]) == float(outer[0]) and float(inner[1]) == float(outer[1])
-
-    return expr.replace(twice, lambda e: _clamp_parts(e)[2])
+def _clamped_twice(e) -> bool:
+    """Whether ``e`` is clamp(clamp(x, lo, hi), lo, hi)."""
+    outer = _clamp_parts(e)
+    inner = outer and _clamp_parts(outer[2])
+    return bool(inner) and float(inner[0]) == float(outer[0]) and float(inner[1]) == float(outer[1])
 
 
 def merge_exp_products(expr: sp.Expr) -> sp.Expr:
@@ -478,6 +490,9 @@ def with_domain(routine: Routine) -> Routine:
         raise ValueError(f"routine {routine.name}: no domain for {', '.join(missing)} (Routine.domain)")
     by_name = {s.name: s for s in routine.expr.free_symbols}
     subs = {by_name[a]: clamp(by_name[a], *routine.domain[a]) for a in routine.args if a in by_name}
+    # evaluated, unlike the table export's (fitlab.families.lambert_sphere.table_export): what sympy makes of the
+    # Max, Min, products and powers the clamped inputs reach (min(1/2, min(1, x)) -> min(1/2, x),
+    # sqrt(a b) -> sqrt(a) sqrt(b) for a, b >= 0, ...) is part of what the committed files print
     return replace(routine, expr=routine.expr.xreplace(subs))
 
 
