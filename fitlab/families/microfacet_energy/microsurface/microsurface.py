@@ -48,8 +48,8 @@ either side of the horizon (the walk's wi = -w can point downwards, when a risin
   for x < s_i (c: 1 / the value at s_i), inverted by safeguarded Newton steps inside a bisection
   bracket, from the root of the cos(theta) term alone (an erfinv), each lane until its CDF residual is
   below 1e-14 of the total (a lane that has converged keeps its value while others go on: the result
-  of a lane never depends on the batch); y_m = erfinv(2 U2 - 1) (an independent unit-variance/sqrt 2 normal); rotate back,
-  unstretch the slopes and m = normalize(-x_m, -y_m, 1).  Rising rays steeper than
+  of a lane never depends on the batch); y_m = erfinv(2 U2 - 1) (an independent unit-variance/sqrt 2
+  normal); rotate back, unstretch the slopes and m = normalize(-x_m, -y_m, 1).  Rising rays steeper than
   cot(theta) < -6 (theta > 170.5 deg; they hit with probability below 1 - C1^Lambda, Lambda < 3e-18)
   are given the slope bracket of cot(theta) = -6.
 """

@@ -38,7 +38,8 @@ h = -(w_i + eta w_o) / |w_i + eta w_o| for eta > 1 and +(...) for eta < 1 (the f
 that refracts w_i into w_o; Snell's law makes the tangential parts of w_i and eta w_o cancel), nonzero
 only where w_i.h > 0 > w_o.h, and
 
-    G2_t(w_i, w_o) = B(1 + Lambda(w_i), 1 + Lambda(-w_o)) = Gamma(1 + Lambda_i) Gamma(1 + Lambda_o) / Gamma(2 + Lambda_i + Lambda_o),
+    G2_t(w_i, w_o) = B(1 + Lambda(w_i), 1 + Lambda(-w_o))
+                   = Gamma(1 + Lambda_i) Gamma(1 + Lambda_o) / Gamma(2 + Lambda_i + Lambda_o),
 
 B the Beta function, Lambda_o of the upward direction -w_o.  Derivation for the walk's uncorrelated
 heights (C1 uniform; the result does not depend on the height distribution): coming from above, the ray

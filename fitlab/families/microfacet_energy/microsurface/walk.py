@@ -52,11 +52,12 @@ Tallies (per round of paths; sums over paths of the weight w and of w^2, each pa
 Random numbers are counter-based: the uniforms of path ``id`` at its event n are the words of
 Threefry-2x32(job_key; id, 3 n + j), j = 0, 1, 2 (the two words of block j are numbers 2 j and 2 j + 1),
 mapped to (word + 1/2) 2^-32 in (0, 1); a kind hashes only the blocks it uses (conductor 3 numbers,
-dielectric 4, diffuse 5), job_key = fold_in(fold_in(key(seed), material), incident).  32-bit uniforms cut the sampled tails at
-probabilities of 2^-33 (a Beckmann slope beyond 4.7 standard deviations, an escape probability below
-1e-10): biases of 1e-10, far below any standard error here.  A path depends only on (seed, material, incident, id), never on the slot, the
-round or the batch that runs it, so any split of the ids into rounds gives the same paths (and tallies
-equal up to the order of summation; exactly equal when the weights are 1).
+dielectric 4, diffuse 5), job_key = fold_in(fold_in(key(seed), material), incident).  32-bit uniforms
+cut the sampled tails at probabilities of 2^-33 (a Beckmann slope beyond 4.7 standard deviations, an
+escape probability below 1e-10): biases of 1e-10, far below any standard error here.  A path depends only
+on (seed, material, incident, id), never on the slot, the round or the batch that runs it, so any split
+of the ids into rounds gives the same paths (and tallies equal up to the order of summation; exactly equal
+when the weights are 1).
 
 Vectorisation: a pool of ``slots`` lanes runs one event per lane per loop iteration; a lane whose path
 ended takes the next id at once, so lanes idle only at the end of a round.
