@@ -83,14 +83,7 @@ def _run_tables(args) -> int:
 
     with tqdm(total=exporter.GENERATE_STEPS, desc="tables", unit="step", disable=args.quiet) as bar:
         files = exporter.generate(args.lang, nodes, lookup, tick=lambda: bar.update(1))
-    paths = {out / name: data for name, data in files.items()}
-    try:
-        atomic_write_many(paths)
-    except OSError as exc:
-        raise write_failure(out, exc) from None
-    for path in paths:
-        say(args, f"wrote {path}")
-    return 0
+    return _write(args, out, files)
 
 
 def run(args) -> int:
@@ -117,8 +110,12 @@ def run(args) -> int:
         raise UsageError(one_line(exc)) from None
     except ArithmeticError as exc:
         raise RunFailure(f"code generation failed: {one_line(exc)}") from None
-    # every file of the program as one unit: all new, or all as they were (no stray temporary)
-    paths = {out / name: text.encode() for name, text in files.items()}
+    return _write(args, out, {name: text.encode() for name, text in files.items()})
+
+
+def _write(args, out, files: dict[str, bytes]) -> int:
+    """Every file ({name: bytes}) into ``out`` as one unit: all new, or all as they were (no stray temporary)."""
+    paths = {out / name: data for name, data in files.items()}
     try:
         atomic_write_many(paths)
     except OSError as exc:

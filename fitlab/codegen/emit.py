@@ -349,14 +349,19 @@ def _safe_pow(x, p):
 _SAFE_POW_DOC = "x^p for x > 0, 0 for x <= 0, NaN for NaN: the forms' safe_pow (keeps pow away from x <= 0)."
 
 
-def _python_files(program: Program, command: str | None = None) -> dict[str, str]:
-    header = _PY_HEADER.format(doc=program.doc, safe_pow_doc=_SAFE_POW_DOC, safe_pow=NumpyPrinter(str).doprint(SAFE_POW))
-    out = [_banner(program, "python", "#", command), header]
+def _python_all(program: Program) -> str:
+    """The ``__all__`` line of a generated Python module (numpy or Dr.Jit): every routine, then the
+    per-material set-up and evaluators."""
     names = [r.name for r in program.routines]
     if program.material is not None:
         names += [program.material.prepare_name, *(n for n, _, _ in program.material.setups),
                   *(r.name for r in program.material.evaluators)]
-    out.append("__all__ = [" + ", ".join(f'"{n}"' for n in names) + "]\n")
+    return "__all__ = [" + ", ".join(f'"{n}"' for n in names) + "]\n"
+
+
+def _python_files(program: Program, command: str | None = None) -> dict[str, str]:
+    header = _PY_HEADER.format(doc=program.doc, safe_pow_doc=_SAFE_POW_DOC, safe_pow=NumpyPrinter(str).doprint(SAFE_POW))
+    out = [_banner(program, "python", "#", command), header, _python_all(program)]
     out += [_python_function(r) for r in program.routines]
     if program.material is not None:
         out += _python_material(program)
@@ -467,12 +472,7 @@ def _drjit_files(program: Program, command: str | None = None) -> dict[str, str]
     """``NAME_drjit.py``: every routine (and the per-material set-up) as a function of Dr.Jit arrays."""
     doc = _DRJIT_DOC.format(about=" ".join(program.about[:1]) or program.name)
     header = _DRJIT_HEADER.format(doc=doc, safe_pow_doc=_SAFE_POW_DOC, safe_pow=DrJitPrinter(str).doprint(SAFE_POW))
-    out = [_banner(program, "drjit", "#", command), header]
-    names = [r.name for r in program.routines]
-    if program.material is not None:
-        names += [program.material.prepare_name, *(n for n, _, _ in program.material.setups),
-                  *(r.name for r in program.material.evaluators)]
-    out.append("__all__ = [" + ", ".join(f'"{n}"' for n in names) + "]\n")
+    out = [_banner(program, "drjit", "#", command), header, _python_all(program)]
     out += [_drjit_function(r) for r in program.routines]
     if program.material is not None:
         out += _drjit_material(program)
