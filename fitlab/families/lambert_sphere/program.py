@@ -25,6 +25,10 @@ value is finite for every other input; every pole 1/(mu_i + mu_o) is
 evaluated as 1/max(mu_i + mu_o, POLE_FLOOR).  The exact BRDF is infinite at
 mu_i = mu_o = 0; with the floor the model there is large and finite
 (c p(u) / POLE_FLOOR at most 2.1e5 c, representable in float).
+
+Accuracy: every term and the fast variant are rewritten by :func:`fitlab.codegen.program.stable` (the
+parts by :func:`~fitlab.codegen.program.part_routine`), which removes the forms' cancellations; in
+single scattering, the phase function's sqrt(1 - u^2) is evaluated as sqrt((1 - u)(1 + u)).
 """
 
 from __future__ import annotations
@@ -41,6 +45,7 @@ from fitlab.codegen.program import (
     call,
     floor_poles,
     part_routine,
+    stable,
 )
 from fitlab.families.lambert_sphere.forms import ORDER2_PART, RUNTIME_PARTS, RUNTIME_TERMS, SINGLE, runtime_terms
 from fitlab.families.lambert_sphere.runtime import ORDER2_FORMS, energy_scale
@@ -63,7 +68,8 @@ SAMPLER = ("sample_weight", "sample_exponent")
 PARTS = ("H0", "H1", "H2", "l", "m", "B", "C", "D", "F", "c_of_kd", "kd_of_c", "sample_weight", "sample_exponent")
 
 _TERM_DOCS = {
-    "single": "Single scattering with the true phase function, c p(u)/(mu_i + mu_o), u = -(mu_i mu_o + S cos phi) (eq. 10).",
+    "single": "Single scattering with the true phase function, c p(u)/(mu_i + mu_o), u = -(mu_i mu_o + S cos phi) (eq. 10), "
+              "sqrt(1 - u^2) evaluated as sqrt((1 - u)(1 + u)) (full accuracy in forward scattering at grazing).",
     "m0": "Multiple scattering, Fourier order 0: fm0 = (H0 H0 Q/(2 pi) - n0_ss)/(mu_i + mu_o) (eqs. 30, 38).",
     "m1": "Multiple scattering, Fourier order 1 (coefficient of cos phi): fm1 of eq. 22 minus its single "
           "scattering, exact normalisations 3 pi and 192 pi (docs/errata.md).",
@@ -98,7 +104,7 @@ def routines(fits: Mapping[str, FitFunction], terms: tuple[str, ...]) -> list[Ro
     if "single" in terms:
         fast_expr = fast_expr.subs(floor_poles(azimuth_to_cosine(SINGLE)), call("single", mu_i, mu_o, cos_phi, c))
     out.append(Routine(
-        TARGETS[FAST].routine, ("mu_i", "mu_o", "cos_phi", "c", "kd"), fast_expr,
+        TARGETS[FAST].routine, ("mu_i", "mu_o", "cos_phi", "c", "kd"), stable(fast_expr),
         ("The fast variant of the Lambert-sphere BRDF (eq. 41, refitted): max(0, f_1 + lobe(|phi|) + p4 kd^p5); "
          if fast.form == TARGETS[FAST].default_form else
          f"A fast model of the Lambert-sphere BRDF, form {fast.form}: {fast.record.get('form_description', '')} ")
@@ -122,7 +128,7 @@ def brdf_routines(terms: tuple[str, ...], scale=1, what: str = "The runtime Lamb
     term_exprs = runtime_terms(parts)
     out, total = [], sp.S.Zero
     for t in terms:
-        expr = floor_poles(azimuth_to_cosine(term_exprs[t]))
+        expr = stable(floor_poles(azimuth_to_cosine(term_exprs[t])))
         out.append(Routine(_TERM_NAMES[t], _TERM_ARGS[t], expr, _TERM_DOCS[t] + " Pole floored at 1e-6.",
                            domain=_domain(_TERM_ARGS[t])))  # fmt: skip
         total += call(_TERM_NAMES[t], *symbols(_TERM_ARGS[t])) * _TERM_AZIMUTH[t]

@@ -32,6 +32,7 @@ from pathlib import Path
 import numpy as np
 import sympy as sp
 
+from fitlab.codegen.program import stable
 from fitlab.core import get_form, get_target
 from fitlab.families.lambert_sphere.forms import AZIMUTH, ORDER2_PART, RUNTIME_PARTS, RUNTIME_TERMS, runtime_brdf, runtime_terms
 from fitlab.forms.symbolic import lambdify_numpy, symbols
@@ -154,12 +155,14 @@ def _energy_scale(parts: tuple, terms: tuple, normalisation: str) -> sp.Rational
 
 def assembled(functions: dict, scale=1, terms=RUNTIME_TERMS, normalisation: str = "corrected"):
     """The runtime structure with each part a numpy function ({part: f(mu, c) or f(c)}; H2 optional):
-    a model f(mu_i, mu_o, phi, c) = max(0, scale (sum of the ``terms`` kept))."""
+    a model f(mu_i, mu_o, phi, c) = max(0, scale (sum of the ``terms`` kept)), evaluated as the generated
+    code evaluates it (:func:`fitlab.codegen.program.stable`: single scattering without the cancellation of
+    sqrt(1 - u^2) in forward scattering at grazing)."""
     mu, c = symbols(("mu", "c"))
     placeholders = {p: sp.Function(f"part_{p}")(*((mu, c) if get_target(p).inputs == ("mu", "c") else (c,)))
                     for p in functions}  # fmt: skip
     t = runtime_terms(placeholders, normalisation)
-    total = sum(t[n] * AZIMUTH[n] for n in terms if n in t)
+    total = stable(sum(t[n] * AZIMUTH[n] for n in terms if n in t))
     f = sp.lambdify(symbols(INPUTS), total, modules=[{f"part_{p}": g for p, g in functions.items()}, "numpy"])
 
     def model(mu_i, mu_o, phi, cv):

@@ -35,15 +35,16 @@ resolution of R_m).  kd/c comes from the root in s of the kd table's spline (:fu
 2.8e-7 on kd), and at kd = 0 from the table's kd/c extrapolated to c = 0 (:func:`kd_ratio_limit`; the exact
 limit is the spherical albedo of single scattering per unit c, 3e-6 away).
 
-The single-scattering term is printed with sqrt((1 - u)(1 + u)) for sqrt(1 - u^2) (:func:`stable_phase`): in
-forward scattering at grazing, 1 - u is about mu^2 and 1 - u*u in double keeps only 1e-16/mu^2 of it (37 % of
-f_1 at mu = 1e-4, which shows at small c, where f_1 is the part of f that is O(c)).
+The single-scattering term is printed with sqrt((1 - u)(1 + u)) for sqrt(1 - u^2), as every generated
+Lambert-sphere program is (:func:`fitlab.codegen.program.stable`): in forward scattering at grazing, 1 - u is
+about mu^2 and 1 - u*u in double keeps only 1e-16/mu^2 of it (37 % of f_1 at mu = 1e-4, which shows at small c,
+where f_1 is the part of f that is O(c)).
 """
 
 from __future__ import annotations
 
 import hashlib
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
 
@@ -73,7 +74,7 @@ from fitlab.forms.symbolic import symbols
 
 __all__ = ["NAME", "LANGUAGES", "NODES", "DEFAULT_NODES", "DEFAULT_LOOKUP", "QUANTITIES", "DEFAULT_QUANTITY", "LIMIT_MU",
            "CONSTANT_ROWS", "TableLayout", "layout", "texture", "program", "generate", "command", "check_tables",
-           "tables_dir", "stable_phase", "numpy_brdf", "numpy_part", "memory_bytes", "GENERATE_STEPS", "kd_ratio_limit"]
+           "tables_dir", "numpy_brdf", "numpy_part", "memory_bytes", "GENERATE_STEPS", "kd_ratio_limit"]
 
 #: the generated files' base name and the functions' prefix
 NAME = "lambert_sphere_tables"
@@ -270,29 +271,6 @@ def _check(nodes: int, lookup: str, quantity: str) -> None:
         raise ValueError(f"quantity must be one of {', '.join(QUANTITIES)}, not {quantity!r}")
 
 
-def stable_phase(expr: sp.Expr) -> sp.Expr:
-    """``expr`` with every max(0, 1 - u^2) (the phase function's sqrt(1 - u^2)) written max(0, (1 - u)(1 + u)):
-    the same value, without the cancellation of 1 - u*u as u -> 1 (forward scattering at grazing)."""
-
-    def square_of(term):
-        """X when ``term`` is -X^2, else None."""
-        coeff, rest = term.as_coeff_Mul()
-        return rest.base if coeff == -1 and rest.is_Pow and rest.exp == 2 else None
-
-    def one_minus_square(a):
-        return a.is_Add and len(a.args) == 2 and sp.S.One in a.args and square_of(a.args[1 - a.args.index(sp.S.One)]) is not None
-
-    def is_target(e):
-        return isinstance(e, sp.Max) and len(e.args) == 2 and sp.S.Zero in e.args and any(one_minus_square(a) for a in e.args)
-
-    def rewrite(e):
-        a = next(a for a in e.args if one_minus_square(a))
-        u = square_of(a.args[1 - a.args.index(sp.S.One)])
-        return sp.Max(0, (1 - u) * (1 + u))
-
-    return expr.replace(is_target, rewrite)
-
-
 def _part_routines(lay: TableLayout, lookup: str, quantity: str) -> list[Routine]:
     n, out = lay.nodes, []
     for m in range(3):
@@ -323,8 +301,7 @@ def _routines(nodes: int, lookup: str, quantity: str) -> tuple[Routine, ...]:
     lay = layout(nodes)
     routines = _part_routines(lay, lookup, quantity)
     what = "The Lambert-sphere BRDF from the exported tables, all three Fourier orders"
-    routines += [replace(r, expr=stable_phase(r.expr)) if r.name == "single" else r
-                 for r in brdf_routines(RUNTIME_TERMS, 1, what)]
+    routines += brdf_routines(RUNTIME_TERMS, 1, what)
     routines.append(local_routine("brdf"))
     # unevaluated: substituting the clamped inputs would have sympy compare every nested max and min again
     # (tens of seconds) and change nothing that is printed

@@ -246,7 +246,8 @@ def sample_exponent(mu_i, c):
 
 def single(mu_i, mu_o, cos_phi, c):
     """Single scattering with the true phase function, c p(u)/(mu_i + mu_o), u = -(mu_i mu_o +
-    S cos phi) (eq. 10). Pole floored at 1e-6."""
+    S cos phi) (eq. 10), sqrt(1 - u^2) evaluated as sqrt((1 - u)(1 + u)) (full accuracy in
+    forward scattering at grazing). Pole floored at 1e-6."""
     mu_i, mu_o, cos_phi, c = numpy.asarray(mu_i, dtype=float), numpy.asarray(mu_o, dtype=float), numpy.asarray(cos_phi, dtype=float), numpy.asarray(c, dtype=float)
     t3 = numpy.where(numpy.less(mu_i, 0), 0.0, mu_i)
     t0 = numpy.where(numpy.greater(t3, 1.0), 1.0, t3)
@@ -257,7 +258,7 @@ def single(mu_i, mu_o, cos_phi, c):
     t7 = numpy.where(numpy.greater(t6, 1), 1, t6)
     t2 = numpy.where(numpy.less(t7, -1), -1, t7)
     t8 = t0 + t1
-    t9 = 1 - (t2*t2)
+    t9 = (1 - t2)*(t2 + 1)
     t10 = numpy.where(numpy.less(c, 0), 0.0, c)
     return (1/3)*(-2*t2*numpy.arccos(t2) + 2*numpy.sqrt(numpy.where(numpy.less(t9, 0), 0, t9)))*numpy.where(numpy.greater(t10, 1.0), 1.0, t10)/((3.141592653589793238*3.141592653589793238)*numpy.where(numpy.less(t8, 1/1000000), 1/1000000, t8))
 
@@ -534,7 +535,7 @@ def eval(material, mu_i, mu_o, cos_phi):
     t17 = t6*t8
     t18 = (t0*t0*t0*t0)
     t19 = (t1*t1*t1*t1)
-    t25 = 1 - (t12*t12)
+    t25 = (1 - t12)*(t12 + 1)
     t26 = (499973/500000)*material[..., 33]*t3*(-2*t12*numpy.arccos(t12) + 2*numpy.sqrt(numpy.where(numpy.less(t25, 0), 0, t25))) + (499973/500000)*material[..., 39]*t10*t3*(2*(t5*t5) - 1)*(numpy.exp(t0*(material[..., 29]*(material[..., 28]*(material[..., 34]*t6 + material[..., 35]*t14 + material[..., 36]*t0 + material[..., 37] - 0.0037961708223872375*t0 - 0.0014135909284063626*t14 + 0.0037035545003035746*t6) + (25/256)*t0 - 15/256*t14 + (15/512)*t6 - 45/1024) + material[..., 38]*t13*(t7*t7)) + t1*(material[..., 29]*(material[..., 28]*(material[..., 34]*t8 + material[..., 35]*t16 + material[..., 36]*t1 + material[..., 37] - 0.0037961708223872375*t1 - 0.0014135909284063626*t16 + 0.0037035545003035746*t8) + (25/256)*t1 - 15/256*t16 + (15/512)*t8 - 45/1024) + material[..., 38]*t15*(t9*t9))) - 1) + (499973/500000)*t3*t5*(material[..., 40]*t11*(45*t4 + 64) + material[..., 52]*t11*(material[..., 41]*t2 + material[..., 42]*t4 + 1)*numpy.exp(t0*(material[..., 29]*(material[..., 28]*(material[..., 43]*t6 + material[..., 44]*t14 + material[..., 45]*t14 + material[..., 46]*t0 + material[..., 47]*t0 + material[..., 48]*t6 + material[..., 49] - 0.1788584769584851*t0 + 0.06143020603611769*t14 + 0.05802135097287754*t6) - 47/96*t0 + (15/64)*t14 - 15/128*t6 + 173/768) + material[..., 51]*t13*t7*(material[..., 50]*t6 - 64)) + t1*(material[..., 29]*(material[..., 28]*(material[..., 43]*t8 + material[..., 44]*t16 + material[..., 45]*t16 + material[..., 46]*t1 + material[..., 47]*t1 + material[..., 48]*t8 + material[..., 49] - 0.1788584769584851*t1 + 0.06143020603611769*t16 + 0.05802135097287754*t8) - 47/96*t1 + (15/64)*t16 - 15/128*t8 + 173/768) + material[..., 51]*t15*t9*(material[..., 50]*t8 - 64)))) + (499973/500000)*t3*(material[..., 0]*(135*t17 + 256*t4 - 45*t6 - 45*t8 + 207) + (1/2)*(material[..., 1] + material[..., 2]*(t6 + t8) + material[..., 3]*t2 + material[..., 4]*t0*t1 + material[..., 5]*t0*t1*t2 + material[..., 6]*t17)*numpy.exp(t0*(material[..., 29]*(material[..., 28]*(material[..., 10]*t6 + material[..., 11]*t18 + material[..., 12]*t6 + material[..., 13]*t14 + material[..., 14]*t0 + material[..., 15]*t14 + material[..., 16]*t18 + material[..., 17]*t18 + material[..., 18]*t0 + material[..., 19]*t6 + material[..., 20]*t0 + material[..., 21]*t14 + material[..., 22]*t18 + material[..., 23]*t0 + material[..., 24]*t14 + material[..., 25]*t18 + material[..., 26]*t6 + material[..., 27] + material[..., 7]*t6 + material[..., 8]*t0 + material[..., 9]*t14 - 1.317974632049971*t0 + 0.10385474081646198*t14 + 0.06215295319723717*t18 + 0.28728468847971017*t6) + (301/384)*t0 - 45/128*t14 + (45/256)*t6 - 557/1536) + material[..., 32]*t13*(material[..., 30]*t6 + material[..., 31]*t18 + 207)) + t1*(material[..., 29]*(material[..., 28]*(material[..., 10]*t8 + material[..., 11]*t19 + material[..., 12]*t8 + material[..., 13]*t16 + material[..., 14]*t1 + material[..., 15]*t16 + material[..., 16]*t19 + material[..., 17]*t19 + material[..., 18]*t1 + material[..., 19]*t8 + material[..., 20]*t1 + material[..., 21]*t16 + material[..., 22]*t19 + material[..., 23]*t1 + material[..., 24]*t16 + material[..., 25]*t19 + material[..., 26]*t8 + material[..., 27] + material[..., 7]*t8 + material[..., 8]*t1 + material[..., 9]*t16 - 1.317974632049971*t1 + 0.10385474081646198*t16 + 0.06215295319723717*t19 + 0.28728468847971017*t8) + (301/384)*t1 - 45/128*t16 + (45/256)*t8 - 557/1536) + material[..., 32]*t15*(material[..., 30]*t8 + material[..., 31]*t19 + 207)))/3.141592653589793238)
     return numpy.where(numpy.less(t26, 0), 0, t26)
 
@@ -549,43 +550,43 @@ def eval_local(material, wi, wo):
     t0 = numpy.where(numpy.greater(t26, 1.0), 1.0, t26)
     t27 = numpy.where(numpy.less(wo[..., 2], -1.0), -1.0, wo[..., 2])
     t1 = numpy.where(numpy.greater(t27, 1.0), 1.0, t27)
-    t28 = numpy.where(numpy.less(t0, 0), 0.0, t0)
+    t28 = numpy.where(numpy.less(wi[..., 0], -1.0), -1.0, wi[..., 0])
     t2 = numpy.where(numpy.greater(t28, 1.0), 1.0, t28)
-    t29 = numpy.where(numpy.less(t1, 0), 0.0, t1)
+    t29 = numpy.where(numpy.less(wo[..., 0], -1.0), -1.0, wo[..., 0])
     t3 = numpy.where(numpy.greater(t29, 1.0), 1.0, t29)
-    t4 = t2 + t3
-    t5 = numpy.where(numpy.less(t4, 1/1000000), 1/1000000, t4)**(-1.0)
-    t6 = t2*t3
-    t7 = (t2*t2)
-    t8 = t7 - 1
-    t9 = (t3*t3)
-    t10 = t9 - 1
-    t11 = t10*t8
-    t12 = numpy.sqrt(t11)
-    t30 = numpy.where(numpy.less(wi[..., 0], -1.0), -1.0, wi[..., 0])
-    t13 = numpy.where(numpy.greater(t30, 1.0), 1.0, t30)
-    t31 = numpy.where(numpy.less(wo[..., 0], -1.0), -1.0, wo[..., 0])
-    t14 = numpy.where(numpy.greater(t31, 1.0), 1.0, t31)
-    t32 = numpy.where(numpy.less(wi[..., 1], -1.0), -1.0, wi[..., 1])
-    t15 = numpy.where(numpy.greater(t32, 1.0), 1.0, t32)
-    t33 = numpy.where(numpy.less(wo[..., 1], -1.0), -1.0, wo[..., 1])
-    t16 = numpy.where(numpy.greater(t33, 1.0), 1.0, t33)
-    t34 = ((t13*t13) + (t15*t15))*((t14*t14) + (t16*t16))
-    t35 = (t13*t14 + t15*t16)/numpy.sqrt(numpy.where(numpy.less(t34, 1/1000000000000000000000000000000), 1/1000000000000000000000000000000, t34))
-    t36 = numpy.where(numpy.less(t35, -1.0), -1.0, t35)
-    t17 = numpy.where(numpy.greater(t36, 1.0), 1.0, t36)
-    t37 = -t12*t17 - t6
+    t30 = numpy.where(numpy.less(wi[..., 1], -1.0), -1.0, wi[..., 1])
+    t4 = numpy.where(numpy.greater(t30, 1.0), 1.0, t30)
+    t31 = numpy.where(numpy.less(wo[..., 1], -1.0), -1.0, wo[..., 1])
+    t5 = numpy.where(numpy.greater(t31, 1.0), 1.0, t31)
+    t32 = ((t2*t2) + (t4*t4))*((t3*t3) + (t5*t5))
+    t33 = (t2*t3 + t4*t5)/numpy.sqrt(numpy.where(numpy.less(t32, 1/1000000000000000000000000000000), 1/1000000000000000000000000000000, t32))
+    t34 = numpy.where(numpy.less(t33, -1.0), -1.0, t33)
+    t6 = numpy.where(numpy.greater(t34, 1.0), 1.0, t34)
+    t35 = numpy.where(numpy.less(t0, 0), 0.0, t0)
+    t7 = numpy.where(numpy.greater(t35, 1.0), 1.0, t35)
+    t36 = numpy.where(numpy.less(t1, 0), 0.0, t1)
+    t8 = numpy.where(numpy.greater(t36, 1.0), 1.0, t36)
+    t9 = t7 + t8
+    t10 = numpy.where(numpy.less(t9, 1/1000000), 1/1000000, t9)**(-1.0)
+    t11 = (t7*t7)
+    t12 = t11 - 1
+    t13 = numpy.log(1 + numpy.where(numpy.less(t7, 1.0e-30), 1.0e-30, t7)**(-1.0))
+    t14 = (t7*t7*t7)
+    t15 = (t8*t8)
+    t16 = t15 - 1
+    t17 = numpy.log(1 + numpy.where(numpy.less(t8, 1.0e-30), 1.0e-30, t8)**(-1.0))
+    t18 = (t8*t8*t8)
+    t19 = t12*t16
+    t20 = t7*t8
+    t21 = numpy.sqrt(t19)
+    t37 = -t20 - t21*t6
     t38 = numpy.where(numpy.greater(t37, 1), 1, t37)
-    t18 = numpy.where(numpy.less(t38, -1), -1, t38)
-    t19 = numpy.log(1 + numpy.where(numpy.less(t2, 1.0e-30), 1.0e-30, t2)**(-1.0))
-    t20 = (t2*t2*t2)
-    t21 = numpy.log(1 + numpy.where(numpy.less(t3, 1.0e-30), 1.0e-30, t3)**(-1.0))
-    t22 = (t3*t3*t3)
-    t23 = t7*t9
-    t24 = (t2*t2*t2*t2)
-    t25 = (t3*t3*t3*t3)
-    t39 = 1 - (t18*t18)
-    t40 = (499973/500000)*material[..., 33]*t5*(-2*t18*numpy.arccos(t18) + 2*numpy.sqrt(numpy.where(numpy.less(t39, 0), 0, t39))) + (499973/500000)*material[..., 39]*t11*t5*(2*(t17*t17) - 1)*(numpy.exp(t2*(material[..., 29]*(material[..., 28]*(material[..., 34]*t7 + material[..., 35]*t20 + material[..., 36]*t2 + material[..., 37] - 0.0037961708223872375*t2 - 0.0014135909284063626*t20 + 0.0037035545003035746*t7) + (25/256)*t2 - 15/256*t20 + (15/512)*t7 - 45/1024) + material[..., 38]*t19*(t8*t8)) + t3*(material[..., 29]*(material[..., 28]*(material[..., 34]*t9 + material[..., 35]*t22 + material[..., 36]*t3 + material[..., 37] - 0.0014135909284063626*t22 - 0.0037961708223872375*t3 + 0.0037035545003035746*t9) - 15/256*t22 + (25/256)*t3 + (15/512)*t9 - 45/1024) + material[..., 38]*(t10*t10)*t21)) - 1) + (499973/500000)*t17*t5*(material[..., 40]*t12*(45*t6 + 64) + material[..., 52]*t12*(material[..., 41]*t4 + material[..., 42]*t6 + 1)*numpy.exp(t2*(material[..., 29]*(material[..., 28]*(material[..., 43]*t7 + material[..., 44]*t20 + material[..., 45]*t20 + material[..., 46]*t2 + material[..., 47]*t2 + material[..., 48]*t7 + material[..., 49] - 0.1788584769584851*t2 + 0.06143020603611769*t20 + 0.05802135097287754*t7) - 47/96*t2 + (15/64)*t20 - 15/128*t7 + 173/768) + material[..., 51]*t19*t8*(material[..., 50]*t7 - 64)) + t3*(material[..., 29]*(material[..., 28]*(material[..., 43]*t9 + material[..., 44]*t22 + material[..., 45]*t22 + material[..., 46]*t3 + material[..., 47]*t3 + material[..., 48]*t9 + material[..., 49] + 0.06143020603611769*t22 - 0.1788584769584851*t3 + 0.05802135097287754*t9) + (15/64)*t22 - 47/96*t3 - 15/128*t9 + 173/768) + material[..., 51]*t10*t21*(material[..., 50]*t9 - 64)))) + (499973/500000)*t5*(material[..., 0]*(135*t23 + 256*t6 - 45*t7 - 45*t9 + 207) + (1/2)*(material[..., 1] + material[..., 2]*(t7 + t9) + material[..., 3]*t4 + material[..., 4]*t2*t3 + material[..., 5]*t2*t3*t4 + material[..., 6]*t23)*numpy.exp(t2*(material[..., 29]*(material[..., 28]*(material[..., 10]*t7 + material[..., 11]*t24 + material[..., 12]*t7 + material[..., 13]*t20 + material[..., 14]*t2 + material[..., 15]*t20 + material[..., 16]*t24 + material[..., 17]*t24 + material[..., 18]*t2 + material[..., 19]*t7 + material[..., 20]*t2 + material[..., 21]*t20 + material[..., 22]*t24 + material[..., 23]*t2 + material[..., 24]*t20 + material[..., 25]*t24 + material[..., 26]*t7 + material[..., 27] + material[..., 7]*t7 + material[..., 8]*t2 + material[..., 9]*t20 - 1.317974632049971*t2 + 0.10385474081646198*t20 + 0.06215295319723717*t24 + 0.28728468847971017*t7) + (301/384)*t2 - 45/128*t20 + (45/256)*t7 - 557/1536) + material[..., 32]*t19*(material[..., 30]*t7 + material[..., 31]*t24 + 207)) + t3*(material[..., 29]*(material[..., 28]*(material[..., 10]*t9 + material[..., 11]*t25 + material[..., 12]*t9 + material[..., 13]*t22 + material[..., 14]*t3 + material[..., 15]*t22 + material[..., 16]*t25 + material[..., 17]*t25 + material[..., 18]*t3 + material[..., 19]*t9 + material[..., 20]*t3 + material[..., 21]*t22 + material[..., 22]*t25 + material[..., 23]*t3 + material[..., 24]*t22 + material[..., 25]*t25 + material[..., 26]*t9 + material[..., 27] + material[..., 7]*t9 + material[..., 8]*t3 + material[..., 9]*t22 + 0.10385474081646198*t22 + 0.06215295319723717*t25 - 1.317974632049971*t3 + 0.28728468847971017*t9) - 45/128*t22 + (301/384)*t3 + (45/256)*t9 - 557/1536) + material[..., 32]*t21*(material[..., 30]*t9 + material[..., 31]*t25 + 207)))/3.141592653589793238)
+    t22 = numpy.where(numpy.less(t38, -1), -1, t38)
+    t23 = t11*t15
+    t24 = (t7*t7*t7*t7)
+    t25 = (t8*t8*t8*t8)
+    t39 = (1 - t22)*(t22 + 1)
+    t40 = (499973/500000)*material[..., 33]*t10*(-2*t22*numpy.arccos(t22) + 2*numpy.sqrt(numpy.where(numpy.less(t39, 0), 0, t39))) + (499973/500000)*material[..., 39]*t10*t19*(2*(t6*t6) - 1)*(numpy.exp(t7*(material[..., 29]*(material[..., 28]*(material[..., 34]*t11 + material[..., 35]*t14 + material[..., 36]*t7 + material[..., 37] + 0.0037035545003035746*t11 - 0.0014135909284063626*t14 - 0.0037961708223872375*t7) + (15/512)*t11 - 15/256*t14 + (25/256)*t7 - 45/1024) + material[..., 38]*(t12*t12)*t13) + t8*(material[..., 29]*(material[..., 28]*(material[..., 34]*t15 + material[..., 35]*t18 + material[..., 36]*t8 + material[..., 37] + 0.0037035545003035746*t15 - 0.0014135909284063626*t18 - 0.0037961708223872375*t8) + (15/512)*t15 - 15/256*t18 + (25/256)*t8 - 45/1024) + material[..., 38]*(t16*t16)*t17)) - 1) + (499973/500000)*t10*t6*(material[..., 40]*t21*(45*t20 + 64) + material[..., 52]*t21*(material[..., 41]*t9 + material[..., 42]*t20 + 1)*numpy.exp(t7*(material[..., 29]*(material[..., 28]*(material[..., 43]*t11 + material[..., 44]*t14 + material[..., 45]*t14 + material[..., 46]*t7 + material[..., 47]*t7 + material[..., 48]*t11 + material[..., 49] + 0.05802135097287754*t11 + 0.06143020603611769*t14 - 0.1788584769584851*t7) - 15/128*t11 + (15/64)*t14 - 47/96*t7 + 173/768) + material[..., 51]*t12*t13*(material[..., 50]*t11 - 64)) + t8*(material[..., 29]*(material[..., 28]*(material[..., 43]*t15 + material[..., 44]*t18 + material[..., 45]*t18 + material[..., 46]*t8 + material[..., 47]*t8 + material[..., 48]*t15 + material[..., 49] + 0.05802135097287754*t15 + 0.06143020603611769*t18 - 0.1788584769584851*t8) - 15/128*t15 + (15/64)*t18 - 47/96*t8 + 173/768) + material[..., 51]*t16*t17*(material[..., 50]*t15 - 64)))) + (499973/500000)*t10*(material[..., 0]*(-45*t11 - 45*t15 + 256*t20 + 135*t23 + 207) + (1/2)*(material[..., 1] + material[..., 2]*(t11 + t15) + material[..., 3]*t9 + material[..., 4]*t7*t8 + material[..., 5]*t7*t8*t9 + material[..., 6]*t23)*numpy.exp(t7*(material[..., 29]*(material[..., 28]*(material[..., 10]*t11 + material[..., 11]*t24 + material[..., 12]*t11 + material[..., 13]*t14 + material[..., 14]*t7 + material[..., 15]*t14 + material[..., 16]*t24 + material[..., 17]*t24 + material[..., 18]*t7 + material[..., 19]*t11 + material[..., 20]*t7 + material[..., 21]*t14 + material[..., 22]*t24 + material[..., 23]*t7 + material[..., 24]*t14 + material[..., 25]*t24 + material[..., 26]*t11 + material[..., 27] + material[..., 7]*t11 + material[..., 8]*t7 + material[..., 9]*t14 + 0.28728468847971017*t11 + 0.10385474081646198*t14 + 0.06215295319723717*t24 - 1.317974632049971*t7) + (45/256)*t11 - 45/128*t14 + (301/384)*t7 - 557/1536) + material[..., 32]*t13*(material[..., 30]*t11 + material[..., 31]*t24 + 207)) + t8*(material[..., 29]*(material[..., 28]*(material[..., 10]*t15 + material[..., 11]*t25 + material[..., 12]*t15 + material[..., 13]*t18 + material[..., 14]*t8 + material[..., 15]*t18 + material[..., 16]*t25 + material[..., 17]*t25 + material[..., 18]*t8 + material[..., 19]*t15 + material[..., 20]*t8 + material[..., 21]*t18 + material[..., 22]*t25 + material[..., 23]*t8 + material[..., 24]*t18 + material[..., 25]*t25 + material[..., 26]*t15 + material[..., 27] + material[..., 7]*t15 + material[..., 8]*t8 + material[..., 9]*t18 + 0.28728468847971017*t15 + 0.10385474081646198*t18 + 0.06215295319723717*t25 - 1.317974632049971*t8) + (45/256)*t15 - 45/128*t18 + (301/384)*t8 - 557/1536) + material[..., 32]*t17*(material[..., 30]*t15 + material[..., 31]*t25 + 207)))/3.141592653589793238)
     return numpy.where(numpy.less(t0, 0), 0, 1)*numpy.where(numpy.less(t1, 0), 0, 1)*numpy.where(numpy.less(t40, 0), 0, t40)
 
 

@@ -316,7 +316,8 @@ float lambert_sphere_tables_c_of_kd(float kd)
 }
 
 // Single scattering with the true phase function, c p(u)/(mu_i + mu_o), u = -(mu_i mu_o + S cos
-// phi) (eq. 10). Pole floored at 1e-6.
+// phi) (eq. 10), sqrt(1 - u^2) evaluated as sqrt((1 - u)(1 + u)) (full accuracy in forward
+// scattering at grazing). Pole floored at 1e-6.
 float lambert_sphere_tables_single(float mu_i, float mu_o, float cos_phi, float c)
 {
     float t3 = ((mu_i < 0.0) ? (0.0) : (mu_i));

@@ -295,7 +295,8 @@ def c_of_kd(kd):
 
 def single(mu_i, mu_o, cos_phi, c):
     """Single scattering with the true phase function, c p(u)/(mu_i + mu_o), u = -(mu_i mu_o +
-    S cos phi) (eq. 10). Pole floored at 1e-6."""
+    S cos phi) (eq. 10), sqrt(1 - u^2) evaluated as sqrt((1 - u)(1 + u)) (full accuracy in
+    forward scattering at grazing). Pole floored at 1e-6."""
     mu_i, mu_o, cos_phi, c = numpy.asarray(mu_i, dtype=float), numpy.asarray(mu_o, dtype=float), numpy.asarray(cos_phi, dtype=float), numpy.asarray(c, dtype=float)
     t3 = numpy.where(numpy.less(mu_i, 0), 0.0, mu_i)
     t0 = numpy.where(numpy.greater(t3, 1.0), 1.0, t3)
