@@ -51,8 +51,10 @@ alpha < 0.208 (0.33) and < 0.350 (0.57), by up to 1.5 % and 4.4 % (the gamma sho
 E_avg > 1 for alpha < 0.0996, and f_ms is unbounded as alpha approaches that value (:mod:`._oren_nayar`).
 
 Fresnel: :func:`directional_albedo` takes an optional F(w_o . h) applied inside either GGX route (the
-two agree with it too).  :mod:`._fresnel` gives the Fresnel factors (Schlick; the exact conductor,
-eta + i k; the exact dielectric), their average F_avg = 2 int_0^1 F mu dmu (adaptive Gauss-Legendre,
+two agree with it too); a F with kinks (total internal reflection: a dielectric with eta < 1) comes as a
+:class:`FresnelFactor` naming them (:func:`dielectric_factor`, :func:`conductor_factor`), and the routes put
+panel edges on the curves w_o . h = c_k (:mod:`._albedo`; a plain function is taken as smooth).
+:mod:`._fresnel` gives the Fresnel factors (Schlick; the exact conductor, eta + i k; the exact dielectric), their average F_avg = 2 int_0^1 F mu dmu (adaptive Gauss-Legendre,
 1e-12; Schlick's (20 F0 + 1) / 21 in closed form) and Kulla-Conti's coloured compensation f_ms_F = f_add
 f_ms, f_add = F_avg^2 E_avg / (1 - F_avg (1 - E_avg)), derived there from a stated model of the
 inter-reflections (each later bounce cosine-distributed with escape E_avg, every reflection weighted by
@@ -86,6 +88,8 @@ from fitlab.families.microfacet_energy.exact._fresnel import (
     average_fresnel_dielectric,
     average_fresnel_schlick,
     compensated_fresnel_albedo,
+    conductor_factor,
+    dielectric_factor,
     fresnel_compensation_factor,
     fresnel_conductor,
     fresnel_dielectric,
@@ -94,6 +98,7 @@ from fitlab.families.microfacet_energy.exact._fresnel import (
     random_walk_albedo,
     visible_fresnel,
 )
+from fitlab.families.microfacet_energy.exact._fresnel_factor import FresnelFactor
 from fitlab.families.microfacet_energy.exact._ggx import SMITH, ggx_brdf, ggx_ndf, smith_g1, smith_g2, smith_lambda
 from fitlab.families.microfacet_energy.exact._models import (
     GGX_MODELS,
@@ -117,6 +122,7 @@ __all__ = [
     "COMPENSATION_FORMS",
     "CONVENTIONS",
     "FIRST_BOUNCE",
+    "FresnelFactor",
     "GGX_MODELS",
     "METHODS",
     "MODEL_NAMES",
@@ -132,7 +138,9 @@ __all__ = [
     "brdf",
     "compensated_albedo",
     "compensated_fresnel_albedo",
+    "conductor_factor",
     "crossover_alpha",
+    "dielectric_factor",
     "directional_albedo",
     "energy_integrals",
     "fresnel_compensation_factor",

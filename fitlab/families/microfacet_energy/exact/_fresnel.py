@@ -122,7 +122,11 @@ D mu_m dw_m = dxi dphi / (2 pi), dxi = 2 dtau / (t + 1/t)^2, so that
 w_o . m / mu_m = mu_o + s_o tan(theta_m) cos(phi), phi_end = pi while tan(theta_m) <= mu_o / s_o and
 arccos(-mu_o / (s_o tan(theta_m))) beyond; the tau rule of the half-vector route with its breakpoint at
 tan(theta_m) = mu_o / s_o (where the azimuthal integral has a (tau - tau_c)^(3/2) term).  With F = 1 it
-is exactly 1 (G1's normalisation), which the tests check to 1e-10.
+is exactly 1 (G1's normalisation), which the tests check to 1e-10.  A :class:`FresnelFactor`'s kinks are
+followed as in :mod:`._albedo` (the azimuths split at w_o . m = c_k, graded stretches in tau where that curve
+touches phi = 0 or pi); the curve never meets phi_end, where w_o . m = 0.  :func:`dielectric_factor` and
+:func:`conductor_factor` give the two exact Fresnel factors with their kinks, which :func:`average_fresnel`
+takes as panel edges too.
 """
 
 from __future__ import annotations
@@ -133,7 +137,11 @@ import numpy as np
 
 from fitlab.families.microfacet_energy.exact._albedo import (
     HALF_VECTOR,
+    _half_vector_nodes,
+    _kink_azimuths,
+    _kink_taus,
     _phi_unit_rule,
+    _split_rule,
     _tau_rule,
     average_albedo,
     average_nodes,
@@ -141,6 +149,7 @@ from fitlab.families.microfacet_energy.exact._albedo import (
 )
 from fitlab.families.microfacet_energy.exact._checks import choice, real_array, working_dtype
 from fitlab.families.microfacet_energy.exact._compensation import _lobe, multiple_scattering_brdf
+from fitlab.families.microfacet_energy.exact._fresnel_factor import FresnelFactor, kinks_of
 from fitlab.families.microfacet_energy.exact._ggx import root_term
 from fitlab.families.microfacet_energy.exact._models import get_model
 from fitlab.families.microfacet_energy.exact._quadrature import gauss_legendre
@@ -153,6 +162,8 @@ __all__ = [
     "average_fresnel_dielectric",
     "average_fresnel_schlick",
     "compensated_fresnel_albedo",
+    "conductor_factor",
+    "dielectric_factor",
     "fresnel_compensation_factor",
     "fresnel_conductor",
     "fresnel_dielectric",
@@ -255,10 +266,12 @@ def fresnel_dielectric(cos, eta):
 def average_fresnel(fresnel, breakpoints=()) -> float:
     """F_avg = 2 int_0^1 F(mu) mu dmu of a function ``fresnel`` (1-D float64 arrays of cos in [0, 1] in, arrays
     of their shape out), by the adaptive Gauss-Legendre rule of the module docstring (1e-12 or better).
-    breakpoints: points of [0, 1] where F is not smooth (or nearly so), made panel edges."""
+    breakpoints: points of [0, 1] where F is not smooth (or nearly so), made panel edges, besides the kinks
+    of a :class:`FresnelFactor`."""
     if not callable(fresnel):
         raise TypeError("fresnel must be a function of cos(theta) (arrays in, arrays out)")
-    inner = sorted({float(b) for b in np.ravel(np.asarray(breakpoints, dtype=float)) if 0 < b < 1})
+    given = [float(b) for b in np.ravel(np.asarray(breakpoints, dtype=float))]
+    inner = sorted({b for b in (*given, *kinks_of(fresnel)) if 0 < b < 1})
     edges = np.array([0.0, *inner, 1.0])
     x, w = gauss_legendre(_AVERAGE_NODES)
     n = x.size
@@ -293,6 +306,27 @@ def _conductor_kink(eta, k):
     """mu where t0 = eta^2 - k^2 - (1 - mu^2) = 0, if in (0, 1)."""
     m2 = 1 - (eta * eta - k * k)
     return (np.sqrt(m2),) if 0 < m2 < 1 else ()
+
+
+def _scalar_index(value, name, open_lo):
+    if np.ndim(value) != 0:
+        raise ValueError(f"{name} must be one number (one colour channel: its kinks are numbers), got shape "
+                         f"{np.shape(value)}")
+    return float(_index(value, name, np.float64, open_lo))
+
+
+def dielectric_factor(eta) -> FresnelFactor:
+    """:func:`fresnel_dielectric` of one relative index eta > 0 as a :class:`FresnelFactor`, with its kink at the
+    critical angle, cos = sqrt(1 - eta^2), when eta < 1 (the quadratures follow it there)."""
+    e = _scalar_index(eta, "eta", True)
+    return FresnelFactor(lambda c: fresnel_dielectric(c, e), _conductor_kink(e, 0.0))
+
+
+def conductor_factor(eta, k) -> FresnelFactor:
+    """:func:`fresnel_conductor` of one complex index eta + i k as a :class:`FresnelFactor`, with its bend where
+    t0 = eta^2 - k^2 - (1 - cos^2) = 0 when that cosine lies in (0, 1) (a kink when k = 0)."""
+    e, kk = _scalar_index(eta, "eta", True), _scalar_index(k, "k", False)
+    return FresnelFactor(lambda c: fresnel_conductor(c, e, kk), _conductor_kink(e, kk))
 
 
 def average_fresnel_conductor(eta, k):
@@ -400,7 +434,10 @@ def _visible_fresnel_chunk(mu_o, alpha, fresnel, rule=HALF_VECTOR):
     with np.errstate(divide="ignore"):
         tau_c = np.log(mu_o) - np.log(s_o) - log_a  # tan(theta_c) = mu_o / s_o
     tau_c = np.clip(tau_c, rule.tau_lo, tau_hi)
-    (tau_a, w_a), (tau_b, w_b) = _tau_rule(np.full(mu_o.shape, rule.tau_lo), tau_c, tau_hi, rule)
+    kinks = kinks_of(fresnel)
+    # the kink curves w_o . m = c_k > 0 stay away from the end phi_end (w_o . m = 0) of panel 2
+    kink_taus = _kink_taus(mu_o, alpha, kinks, horizon=False) if kinks else None
+    (tau_a, w_a), (tau_b, w_b) = _tau_rule(np.full(mu_o.shape, rule.tau_lo), tau_c, tau_hi, rule, kink_taus)
     mu_o_, s_o_ = mu_o[:, None, None], s_o[:, None, None]
     x_phi, w_phi = _phi_unit_rule(rule.panels_phi, rule.nodes_phi, rule.ratio)
 
@@ -414,10 +451,18 @@ def _visible_fresnel_chunk(mu_o, alpha, fresnel, rule=HALF_VECTOR):
             with np.errstate(divide="ignore", invalid="ignore"):
                 threshold = np.where(s_o_ > 0, -mu_o_ / (s_o_ * tan_m), -1.0)
             phi_end = np.arccos(np.clip(np.nan_to_num(threshold, nan=-1.0), -1, 1))
-        om_over_mu_m = np.maximum(mu_o_ + s_o_ * tan_m * np.cos(phi_end * x_phi), 0)  # (w_o . m) / mu_m
+        if kinks:
+            phi, w_phi_ = _split_rule(phi_end, _kink_azimuths(mu_o_, s_o_, tan_m, kinks), rule.panels_phi,
+                                      rule.nodes_phi, rule.ratio, False, True)
+        else:
+            phi = phi_end * x_phi
+        om_over_mu_m = np.maximum(mu_o_ + s_o_ * tan_m * np.cos(phi), 0)  # (w_o . m) / mu_m
         cos_d = np.minimum(om_over_mu_m / np.sqrt(1 + tan_m * tan_m), 1)
         value = om_over_mu_m if fresnel is None else om_over_mu_m * fresnel(cos_d)
-        inner = (value @ w_phi) * (phi_end * dxi)[..., 0]
+        if kinks:
+            inner = np.sum(value * w_phi_, axis=-1) * dxi[..., 0]
+        else:
+            inner = (value @ w_phi) * (phi_end * dxi)[..., 0]
         return np.sum(inner * w_tau, axis=1)
 
     return 2 * (panel(tau_a, w_a, True) + panel(tau_b, w_b, False)) / (np.pi * (mu_o + root_term(mu_o, alpha)))
@@ -441,8 +486,7 @@ def visible_fresnel(mu_o, alpha, fresnel=None):
     out[mirror] = 1.0 if fresnel is None else fresnel(mu[mirror])
     rough = np.flatnonzero(~mirror)
     rule = HALF_VECTOR
-    per_point = (2 * len(rule.edges) + 3 * rule.graded + 3) * rule.nodes_tau * rule.panels_phi * rule.nodes_phi
-    step = max(1, _CHUNK // per_point)
+    step = max(1, _CHUNK // _half_vector_nodes(rule, len(kinks_of(fresnel))))
     for start in range(0, rough.size, step):
         sl = rough[start:start + step]
         out[sl] = _visible_fresnel_chunk(mu[sl], a[sl], fresnel)

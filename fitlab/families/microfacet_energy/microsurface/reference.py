@@ -22,10 +22,10 @@ the hemisphere: one such bin of 32 x 32 panels of 16 x 16 nodes.
 
 Albedo of order 1: for isotropic GGX with alpha <= 1, the exact engine's E(mu_i, alpha) of
 "ggx_correlated" (:func:`fitlab.families.microfacet_energy.exact.directional_albedo`, with the Fresnel
-factor inside its integral); otherwise the same bin rule over the whole hemisphere.  Not for a
-dielectric with eta < 1: the exact engine's two routes assume a smooth F, and the kink of total internal
-reflection leaves them 3e-3 apart (alpha = 0.6, mu = 0.5, eta = 1/1.5: 0.35938 and 0.35654, where the
-bin rule and the normals give 0.35802), so the bin rule serves there.
+factor inside its integral); otherwise the same bin rule over the whole hemisphere.  The Fresnel factor
+goes to the engine with its kink (:func:`fresnel_numpy`: a ``FresnelFactor``), the critical angle of a
+dielectric with eta < 1, whose square-root edge its quadratures then follow (1e-10; a plain function
+there left its two routes 3e-3 apart).
 
 Dielectric facets (relative index eta = n_lower / n_upper, light from above, eta != 1).  Reflection of
 order 1 is f_1 above with the exact dielectric F (:func:`fitlab.families.microfacet_energy.exact.fresnel_dielectric`,
@@ -94,8 +94,10 @@ import numpy as np
 from scipy.special import beta, erfc
 
 from fitlab.families.microfacet_energy.exact import (
+    FresnelFactor,
+    conductor_factor,
+    dielectric_factor,
     directional_albedo,
-    fresnel_conductor,
     fresnel_dielectric,
     fresnel_schlick,
     ggx_brdf,
@@ -109,14 +111,19 @@ __all__ = ["ndf", "lambda_", "single_scattering_brdf", "bin_average_single", "al
 
 def fresnel_numpy(material):
     """F(cos) of a material (``scene.Material``: a conductor's Fresnel form, or a dielectric's F of its
-    eta seen from above) in numpy, from the exact engine."""
+    eta seen from above) in numpy, from the exact engine; cosines clipped to [0, 1].  A dielectric's and a
+    conductor's come as the engine's ``FresnelFactor`` with their kinks (the critical angle when eta < 1)."""
     if material.kind == "dielectric":
-        return lambda c: fresnel_dielectric(np.clip(c, 0.0, 1.0), material.eta)
+        return _clipped_factor(dielectric_factor(material.eta))
     if material.fresnel == "schlick":
         return lambda c: fresnel_schlick(np.clip(c, 0.0, 1.0), material.f0)
     if material.fresnel == "conductor":
-        return lambda c: fresnel_conductor(np.clip(c, 0.0, 1.0), material.eta, material.k)
+        return _clipped_factor(conductor_factor(material.eta, material.k))
     return lambda c: np.ones_like(c)
+
+
+def _clipped_factor(factor: FresnelFactor) -> FresnelFactor:
+    return FresnelFactor(lambda c: factor(np.clip(c, 0.0, 1.0)), factor.kinks)
 
 
 def ndf(mx, my, mz, alpha_x, alpha_y, distribution: str):
@@ -211,9 +218,7 @@ def albedo_single(mu_i, material):
         mu_edges, phi_edges = np.linspace(0.0, 1.0, 5), np.linspace(0.0, math.pi, 5)
         avg = bin_average_diffuse(mu_edges, phi_edges, mu_i, material, panels=1, nodes=8)
         return float(np.sum(avg * 2.0 * np.outer(np.diff(mu_edges), np.diff(phi_edges)))), "bin_quadrature"
-    # the exact engine's quadratures assume a smooth F: not a dielectric's total internal reflection (eta < 1)
-    smooth = material.kind != "dielectric" or material.eta > 1.0
-    if material.distribution == "ggx" and material.isotropic and material.alpha_x <= 1.0 and smooth:
+    if material.distribution == "ggx" and material.isotropic and material.alpha_x <= 1.0:
         fres = fresnel_numpy(material) if material.kind == "dielectric" or material.fresnel != "one" else None
         e = float(directional_albedo(mu_i, material.alpha_x, "ggx_correlated", fresnel=fres))
         return e, "exact_directional_albedo"
