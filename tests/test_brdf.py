@@ -67,6 +67,41 @@ def test_multiple_scattering_is_second_order_in_c():
         assert nz.sum() >= 6 and np.all(np.abs(b[nz] / a[nz] - 4) < 1e-3), m
 
 
+def test_brdf_at_tiny_albedos_is_single_scattering_plus_c_squared_multiple_scattering():
+    """As c -> 0, f = c p(u)/(mu_i + mu_o) + c^2 L(mu_i, mu_o, phi) (1 + O(c)): at c = 1e-12 and 1e-15 the BRDF
+    agrees with that law, L taken from the multiple scattering at c = 1e-9, to 1.2e-10 (bound 1e-8), at grazing
+    (mu down to 0, forward scattering included) and elsewhere; it is > 0 wherever mu_i + mu_o > 0, and 0 at
+    c = 0.  The multiple scattering used to be a difference of O(c) numerators, which at grazing kept eps c of
+    rounding against a value of O(c^2 mu): -5.1e-24 at c = 1e-12, mu_i = mu_o = 1e-6, phi = pi."""
+    grid = np.array(np.meshgrid([0.0, 1e-12, 1e-9, 1e-6, 1e-4, 1e-2, 0.3, 1.0], [0.0, 1e-9, 1e-6, 1e-4, 1e-2, 0.5, 1.0],
+                                [0.0, 1.0, 2.5, 3.0, np.pi], indexing="ij")).reshape(3, -1)  # fmt: skip
+    mi, mo, ph = grid[:, grid[0] + grid[1] > 0]
+    s = np.sqrt((1.0 - mi * mi) * (1.0 - mo * mo))
+    p = phase_function(-(mi * mo + s * np.cos(ph)))
+    fm = multiple_scattering_modes(mi, mo, 1e-9)
+    law = (fm[0] + fm[1] * np.cos(ph) + fm[2] * np.cos(2.0 * ph)) / 1e-18
+    for c in (1e-12, 1e-15):
+        f = brdf(mi, mo, ph, c)
+        assert np.all(f > 0)
+        assert np.max(np.abs(f / (c * p / (mi + mo) + c * c * law) - 1)) < 1e-8, c
+    assert np.all(brdf(mi, mo, ph, 0.0) == 0.0)
+    assert np.all(brdf(mi, mo, ph, 1e-300) >= 0.0)
+
+
+def test_multiple_scattering_orders_scale_as_c_squared_down_to_1e_15():
+    """Each order is c^2 L (1 + O(c)): fm^m / c^2 at c = 1e-12 and 1e-15 against c = 1e-9.  Near grazing
+    (mu_i, mu_o in {1e-6, 1e-4}) within 1.8e-6 (bound 1e-5); the stated limit away from grazing, about
+    1.5e-16/c relative at mu_i = mu_o = 1 (the r_l - P_l^m beside O(1) coefficients are solved to eps
+    absolute), checked at c = 1e-12: 1.5e-4 (bound 1e-3)."""
+    mi, mo = (a.ravel() for a in np.meshgrid([1e-6, 1e-4], [1e-6, 1e-4], indexing="ij"))
+    ref = [m / 1e-18 for m in multiple_scattering_modes(mi, mo, 1e-9)]
+    for c in (1e-12, 1e-15):
+        for m, x in enumerate(multiple_scattering_modes(mi, mo, c)):
+            np.testing.assert_allclose(x / (c * c), ref[m], rtol=1e-5, err_msg=f"order {m}, c = {c}")
+    ref = multiple_scattering_modes(1.0, 1.0, 1e-9)[0] / 1e-18  # order 0 (orders 1, 2 have S = 0 there)
+    np.testing.assert_allclose(multiple_scattering_modes(1.0, 1.0, 1e-12)[0] / 1e-24, ref, rtol=1e-3)
+
+
 @pytest.mark.parametrize("c", [0.5, 0.999, 1.0])
 def test_modes_agree_with_discrete_ordinates(c):
     for m in range(3):

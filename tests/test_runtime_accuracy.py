@@ -271,13 +271,13 @@ def test_runtime_structure_with_exact_parts_is_the_reference():
 
 def test_runtime_structure_with_exact_parts_at_grazing():
     """The same identity on the grazing set's corner (mu_i, mu_o in {1e-6, 1e-4, 1e-2}, phi in {0, pi}):
-    within 1.3e-5 (measured; bound 4e-5), the cancellation of the O(c) terms of H_i H_o Q/(2 pi) - n0_ss
-    at mu_i = mu_o = 1e-6, c = 1e-6.  With sqrt(1 - u^2) evaluated directly, single scattering in forward
-    scattering at grazing made it 1.2e-4."""
+    within 2.4e-6 (measured; bound 1e-5), the structure's own cancellation of the O(c) terms of
+    H_i H_o Q/(2 pi) - n0_ss at mu_i = mu_o = 1e-6, c = 1e-6.  With sqrt(1 - u^2) evaluated directly, single
+    scattering in forward scattering at grazing made it 1.2e-4."""
     from fitlab.families.lambert_sphere.budget import exact_parts
     from fitlab.families.lambert_sphere.runtime import assembled
 
     g = np.array(np.meshgrid([1e-6, 1e-4, 1e-2], [1e-6, 1e-4, 1e-2], [0.0, np.pi], [1e-6, 0.5], indexing="ij"))
     mi, mo, ph, cc = g.reshape(4, -1)
     got = assembled(exact_parts())(mi, mo, ph, cc)
-    assert np.max(np.abs(got / brdf(mi, mo, ph, cc) - 1)) < 4e-5
+    assert np.max(np.abs(got / brdf(mi, mo, ph, cc) - 1)) < 1e-5

@@ -63,6 +63,12 @@ class ModePolynomials:
     r: dict  # l -> coefficients (low -> high)
     matrix: np.ndarray
     residual: float
+    #: ``matrix`` less its single-scattering part (the same sum with r_l = reduced P_l^m, the c -> 0 limit: the
+    #: three-term single scattering of this order), summed from r_l - P_l^m.  It is O(c^2), and its mu^0 entry is 0
+    #: exactly (r_l(0) is fixed); as the difference of the two O(c) matrices it would keep only eps c of rounding
+    #: there, which at grazing (where the multiple-scattering numerator is O(c^2 mu)) outweighs the value for
+    #: c below about 1e-10 (the BRDF came out negative at c = 1e-12)
+    multiple: np.ndarray
 
 
 def _beta(h_moments, m, rk, l):
@@ -222,13 +228,17 @@ def mode_polynomials(order: int, c: float) -> ModePolynomials:
     w, alpha = _moment_data(m, c)
     _, r = _residuals(x, m, w, alpha, frozen)
     deg = MAX_DEGREE - m
-    matrix = np.zeros((deg + 1, deg + 1))
+    matrix, multiple = np.zeros((deg + 1, deg + 1)), np.zeros((deg + 1, deg + 1))
     for l, rl in r.items():
         rl = np.pad(rl, (0, deg + 1 - rl.size))
+        pl = associated_legendre_reduced(l, m)
+        d = rl - np.pad(pl, (0, deg + 1 - pl.size))  # O(c); 0 at mu^0
         matrix += (-1.0) ** (l + m) * w[l] * np.outer(rl, rl)
+        # r r^T - p p^T = d p^T + p d^T + d d^T = d r^T + r d^T - d d^T
+        multiple += (-1.0) ** (l + m) * w[l] * (np.outer(d, rl) + np.outer(rl, d) - np.outer(d, d))
     # (2 - delta)/(4 pi) and (-1)^m for fitlab's azimuth (phi = 0 backward; docs/model.md)
-    matrix *= (-1.0) ** m * (1.0 if m == 0 else 2.0) / (4.0 * np.pi)
-    return ModePolynomials(m, c, r, matrix, res)
+    scale = (-1.0) ** m * (1.0 if m == 0 else 2.0) / (4.0 * np.pi)
+    return ModePolynomials(m, c, r, matrix * scale, res, multiple * scale)
 
 
 def _constants_scalar(c: float) -> dict:
