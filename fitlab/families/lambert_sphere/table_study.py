@@ -163,6 +163,7 @@ def markdown(result: dict) -> str:
                    f"{_e(r['H2_minus_1_max_rel'])} | {_e(r['valid_max_rel'])} | {_e(r['valid_rms_rel'])} | "
                    f"{_e(r['grazing_max_rel'])} | {_e(r['fresh_max_rel'])} |")  # fmt: skip
     tiny = next(r for r in result["resolution"] if "tiny_c" in r)["tiny_c"]
+    floor = next(r["rel"] for r in tiny if r["c"] == TINY_C[0] and r["mu"] == TINY_MU[0])
 
     def at(q, lookup, n):
         return next(r for r in c if r["quantity"] == q and r["lookup"] == lookup and r["nodes"] == n)
@@ -183,9 +184,10 @@ def markdown(result: dict) -> str:
             "* the remainder beyond the exact grazing and first-order parts: it enters the BRDF at O(c^3) as c -> 0: "
             f"bilinear {_e(rm1['valid_max_rel'])}, bicubic {_e(rm['valid_max_rel'])}"
             + ("; the lowest of the three in every row above." if lowest else "."), "",
-            "The grazing set's floor, about 1e-5 at c = 1e-6 and mu_i = mu_o = 1e-6 in forward scattering, is not the "
-            "table's: there the BRDF (1e-12) is the difference of terms of order c/(mu_i + mu_o) = 0.5, and the runtime "
-            "formula (docs/model.md) loses the rest in double; the order-2 model evaluates the same formula. Below the report's "
+            f"The grazing set's floor, {_e(floor)} at c = {TINY_C[0]:g} and mu_i = mu_o = {TINY_MU[0]:g} in forward "
+            "scattering, is not the table's: there the BRDF (1e-12) is the "
+            "difference of terms of order c/(mu_i + mu_o) = 0.5, and the runtime formula (docs/model.md) loses the rest "
+            "in double; the order-2 model evaluates the same formula. Below the report's "
             "smallest albedo it grows as c falls (the shipped table, forward scattering, mu_i = mu_o = mu, against the "
             "exact engine):", "", "| c | " + " | ".join(f"mu = {m:g}" for m in TINY_MU) + " |",
             "|---|" + "---|" * len(TINY_MU),

@@ -18,7 +18,7 @@
  *   kd_of_c.json  97fd68ebd9ef5a510e97d6f742d5e9ff4ca179dfae3908df011426f60c64c6c0
  *   sample_weight.json  c023aba5f7c16920c95bbcef2bfcb03fb23c438b2fa85bf4ef965bd73c9c78ea
  *   sample_exponent.json  461f6e087b3a3b3ea084420e291400a96f4eb1a2af4d1758032926ac354f71ad
- *   fast_brdf.json  88236703c7510cb5c1b581febb4ef8bfc82b4704a8bc02dd976905bdc8977b81
+ *   fast_brdf.json  28be87af26765a3bfab7c76dd2eb42934f8ae3b16168c7d761c978a10bf96eca
  */
 #ifndef LAMBERT_SPHERE_H
 #define LAMBERT_SPHERE_H
