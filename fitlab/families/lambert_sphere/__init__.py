@@ -58,7 +58,7 @@ FAMILY = register_family(
             "audit": _lazy("audit"),  # run_audit
             "render": _lazy("render"),  # check_generated, llvm_problem, render_comparison, RenderError
             "simulate": _lazy("mc.simulate"),  # simulate_file, summary_table, unconverged, SceneError
-            "bench": _lazy("bench"),  # bench_exact, bench_codegen, bench_mc
+            "bench": _lazy("bench"),  # bench_exact, bench_codegen, bench_mc, bench_render
             "table_export": _lazy("table_export"),  # generate, LANGUAGES, NODES, DEFAULT_NODES, DEFAULT_LOOKUP, ...
         },
     )
