@@ -1,7 +1,8 @@
 """The fitted multiple-scattering lobes (fitlab.families.microfacet_energy.lobes): the lobe shapes and the
 parameter forms at their domain edges with finite gradients, the per-lobe fit recovering known parameters,
-the blog's published model against the blog's own code (transcribed here), and the generated code
-(reproducible, strict C, GLSL, numpy vs C in double and float, the domain and NaN policy)."""
+the blog's published model against the blog's own code (transcribed here), and the family's generated program
+(``fitlab codegen --family microfacet_energy``: reproducible, strict C, GLSL, HLSL, numpy vs C in double and
+float, the domain and NaN policy)."""
 
 from __future__ import annotations
 
@@ -137,33 +138,76 @@ def test_blog_text_and_code_scales_agree_to_the_texts_digits():
 
 
 # -- generated code -----------------------------------------------------------------------------------------
+PROGRAM_FILE = {"python": ("microfacet_energy.py",), "c": ("microfacet_energy.c", "microfacet_energy.h"),
+                "glsl": ("microfacet_energy.glsl",)}
+COMMAND = "fitlab codegen --family microfacet_energy --lang {lang} --fits fitlab/fits --out fitlab/fits/generated"
+
+
 @pytest.fixture(scope="module")
-def sources():
-    return {lang: lp.generate(lang) for lang in lp.LANGUAGES}
+def sources(tmp_path_factory):
+    """{lang: {file name: text}} as ``fitlab codegen --family microfacet_energy`` writes them (every committed
+    language, the packaged fits)."""
+    from fitlab.cli import main
+
+    out = {}
+    for lang in lp.LANGUAGES:
+        folder = tmp_path_factory.mktemp(f"family_program_{lang}")
+        assert main(["codegen", "--family", "microfacet_energy", "--lang", lang, "--out", str(folder), "--quiet"]) == 0
+        out[lang] = {p.name: p.read_text() for p in folder.iterdir()}
+    return out
+
+
+@pytest.fixture(scope="module")
+def program():
+    from fitlab.codegen import load_program
+
+    return load_program(family="microfacet_energy")
 
 
 @pytest.fixture(scope="module")
 def py(sources):
-    path = GENERATED / "microsurface_lobes.py"
-    spec = importlib.util.spec_from_file_location("microsurface_lobes_generated", path)
+    path = GENERATED / "microfacet_energy.py"
+    spec = importlib.util.spec_from_file_location("microfacet_energy_generated", path)
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
     return mod
 
 
 @pytest.fixture(scope="module")
-def native(sources, tmp_path_factory):
+def native(sources, program, tmp_path_factory):
     if compiler() is None:
         pytest.skip("no C compiler on PATH")
-    return build(sources["c"], lp.load_lobe_program(), tmp_path_factory.mktemp("lobes"))
+    return build(sources["c"], program, tmp_path_factory.mktemp("lobes"))
 
 
 @pytest.mark.parametrize("lang", lp.LANGUAGES)
-def test_committed_generated_code_is_what_the_committed_fits_generate(sources, lang):
+def test_committed_generated_code_is_what_the_family_codegen_writes(sources, lang):
+    assert set(sources[lang]) == set(PROGRAM_FILE[lang])
     for name, text in sources[lang].items():
         assert (GENERATED / name).read_text() == text, (
-            f"fitlab/fits/generated/{name} is stale: run python -m fitlab.families.microfacet_energy.lobes.program "
-            "--out fitlab/fits/generated")
+            f"fitlab/fits/generated/{name} is stale: run {COMMAND.format(lang=lang)}")
+
+
+def test_the_family_program_prints_every_albedo_every_lobe_parameter_and_the_lobes(program):
+    """Nothing of the one-routine-per-target program is lost: every target with a routine is a part, beside
+    the composed lobes; the blog lobe's parameters are read in the blog's forms (model blog_refit)."""
+    from fitlab.core import get_family
+
+    names = [r.name for r in program.routines]
+    with_routine = [t.routine for t in get_family("microfacet_energy").targets if t.routine is not None]
+    assert names == [*with_routine, "ms_blog_diffuse", "ms_tilt_diffuse", "ms_blog_conductor", "ms_tilt_conductor",
+                     "ms_kulla_conti"]
+    assert {"E_ggx_sep", "one_minus_E_ggx_cor", "E_avg_on"} <= set(names) and program.parts == tuple(with_routine)
+    assert program.model[0] == "blog_refit" and program.name == "microfacet_energy"
+    assert "ms_blog_eta_diffuse.blog_quadratic.json" in dict(program.sources)
+
+
+def test_default_forms_model_prints_the_blog_lobe_in_the_targets_default_forms(tmp_path):
+    from fitlab.codegen import load_program
+
+    prog = load_program(family="microfacet_energy", model="default-forms")
+    assert "ms_blog_eta_diffuse.json" in dict(prog.sources) and "richer default forms" in prog.routine(
+        "ms_blog_diffuse").doc
 
 
 @needs_cc
@@ -200,10 +244,10 @@ def test_numpy_and_c_agree_in_double_and_float(native, py, routine):
 
 
 @needs_cc
-def test_glsl_compiled_as_c_agrees_with_the_c_float_version(sources, native, tmp_path):
+def test_glsl_compiled_as_c_agrees_with_the_c_float_version(sources, program, native, tmp_path):
     from fitlab.codegen.native import build_glsl
 
-    shader = build_glsl(sources["glsl"], lp.load_lobe_program(), tmp_path)
+    shader = build_glsl(sources["glsl"], program, tmp_path)
     x = _inputs(2000, np.random.default_rng(5))
     for routine, names in ROUTINES.items():
         args = [x[a].astype(np.float32) for a in names]
@@ -228,7 +272,7 @@ def test_generated_lobes_are_nonnegative_finite_and_grow_with_the_facet_albedo(m
 def _generated_module():
     global _GENERATED_MODULE
     if _GENERATED_MODULE is None:
-        spec = importlib.util.spec_from_file_location("microsurface_lobes_hypothesis", GENERATED / "microsurface_lobes.py")
+        spec = importlib.util.spec_from_file_location("microfacet_energy_hypothesis", GENERATED / "microfacet_energy.py")
         _GENERATED_MODULE = importlib.util.module_from_spec(spec)
         spec.loader.exec_module(_GENERATED_MODULE)
     return _GENERATED_MODULE
@@ -279,11 +323,28 @@ def test_the_kulla_conti_routine_restores_one_minus_E(py):
 @pytest.mark.parametrize("version", ["#version 330", "#version 300 es"])
 def test_glsl_validates(sources, tmp_path, version):
     (text,) = sources["glsl"].values()
-    main = ("\nuniform float a; out vec4 color;\nvoid main() { color = vec4(microsurface_lobes_ms_tilt_diffuse(a, a, a, "
-            "a, a) + microsurface_lobes_ms_blog_conductor(a, a, a) + microsurface_lobes_ms_kulla_conti(a, a, a)); }\n")
+    main = ("\nuniform float a; out vec4 color;\nvoid main() { color = vec4(microfacet_energy_ms_tilt_diffuse(a, a, a, "
+            "a, a) + microfacet_energy_ms_blog_conductor(a, a, a) + microfacet_energy_ms_kulla_conti(a, a, a) + "
+            "microfacet_energy_E_avg_on(a)); }\n")
     shader = tmp_path / "lobes.frag"
     shader.write_text(version + "\n" + text + main)
     res = subprocess.run(["glslangValidator", str(shader)], capture_output=True, text=True)
+    assert res.returncode == 0, res.stdout + res.stderr
+
+
+@pytest.mark.skipif(shutil.which("glslangValidator") is None, reason="glslangValidator not installed")
+def test_hlsl_compiles_to_spirv(program, tmp_path):
+    """HLSL is printed on demand (not committed): glslangValidator compiles it to SPIR-V."""
+    from fitlab.codegen import emit
+
+    (text,) = emit(program, "hlsl").values()
+    main = ("\ncbuffer Inputs { float a; };\nfloat4 main(float4 position : SV_Position) : SV_Target {\n"
+            "    return float4(microfacet_energy_ms_tilt_conductor(a, a, a, a) + microfacet_energy_ms_blog_diffuse(a, a, "
+            "a, a) + microfacet_energy_one_minus_E_ggx_sep(a, a), 0.0, 0.0, 1.0);\n}\n")
+    shader = tmp_path / "lobes.hlsl"
+    shader.write_text(text + main)
+    res = subprocess.run(["glslangValidator", "-D", "-V", "-S", "frag", "-e", "main", "-o", str(tmp_path / "lobes.spv"),
+                          str(shader)], capture_output=True, text=True)  # fmt: skip
     assert res.returncode == 0, res.stdout + res.stderr
 
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import sys
 
 import fitlab.codegen as codegen
 from fitlab._io import atomic_write_many
@@ -39,15 +40,16 @@ def add_arguments(p) -> None:
     p.add_argument("--terms", help="terms of brdf to keep, comma-separated subset of single,m0,m1,m2 (default: all)")
     p.add_argument("--model", metavar="NAME", default=None,
                    help="the forms to print: a model of the family's program (Lambert sphere: order2, the report's "
-                        "real-time recommendation and the default; default-forms, each target's default form); "
-                        "--form overrides a part")
+                        "real-time recommendation and the default; microfacet_energy: blog_refit, the default; "
+                        "every program: default-forms, each target's default form); --form overrides a part")
     p.add_argument("--form", action="append", metavar="TARGET=FORM",
                    help="use the fit TARGET.FORM.json of --fits for a part, e.g. H0=hapke_rational (repeatable)")
     p.add_argument("--single-header", action="store_true",
                    help="C: one stb-style header (define PREFIX_IMPLEMENTATION in one file before including it)")
     p.add_argument("--family", metavar="NAME", default=None,
                    help="the family whose program to generate (default: the family of the --form targets, else the "
-                        "one family with a program of its own)")
+                        "first registered family with a program of its own, lambert_sphere; microfacet_energy prints "
+                        "the energy-compensation albedos and the multiple-scattering lobes)")
     p.add_argument("--tables", action="store_true",
                    help="print the family's exact tables as engines ship them instead of its fits: one float32 texture "
                         "(C arrays, a raw .f32 file) and the BRDF read from it (c, glsl or python; docs/codegen.md)")
@@ -102,6 +104,7 @@ def run(args) -> int:
             codegen.program_spec(args.family, tuple(forms)).model(args.model)
     except (ValueError, KeyError) as exc:
         raise UsageError(one_line(exc)) from None
+    _name_the_default(args, forms)
     fits = fits_input(args, required=False)  # a missing one: "no such fit file" names the fit
     out = output_folder(args.out, "--out")
     try:
@@ -111,6 +114,20 @@ def run(args) -> int:
     except ArithmeticError as exc:
         raise RunFailure(f"code generation failed: {one_line(exc)}") from None
     return _write(args, out, {name: text.encode() for name, text in files.items()})
+
+
+def _name_the_default(args, forms: dict) -> None:
+    """Without --family (nor --form), a line on stderr names the family whose program is printed and the others
+    that have one (codegen.program.default_program_family is the rule)."""
+    if args.family is not None or forms or args.quiet:
+        return
+    from fitlab.core import families
+
+    having = [name for name, f in families().items() if f.codegen is not None]
+    if len(having) > 1:
+        default = codegen.default_program_family()
+        others = ", ".join(n for n in having if n != default)
+        print(f"fitlab codegen: family {default} (also {others}: choose with --family)", file=sys.stderr)
 
 
 def _write(args, out, files: dict[str, bytes]) -> int:

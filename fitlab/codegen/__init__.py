@@ -31,6 +31,7 @@ from fitlab.codegen.program import (
     call,
     clamp,
     clamped,
+    default_program_family,
     floor_poles,
     minmax_piecewise,
     parse_terms,
@@ -43,7 +44,8 @@ from fitlab.core import targets
 from fitlab.store import fit_path, fit_sha256, fits_folder, load
 
 __all__ = ["generate", "codegen_command", "load_program", "parse_forms", "write_generated", "emit", "LANGUAGES", "build_program",
-           "parse_terms", "program_spec", "part_routine", "Program", "ProgramSpec", "Routine", "POLE_FLOOR", "call",
+           "parse_terms", "program_spec", "default_program_family", "part_routine", "Program", "ProgramSpec",
+           "Routine", "POLE_FLOOR", "call",
            "stable", "floor_poles", "azimuth_to_cosine", "clamp", "clamped", "minmax_piecewise", "with_domain",
            "SAFE_POW", "DEFAULT_FORMS"]  # fmt: skip
 

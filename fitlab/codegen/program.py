@@ -43,7 +43,8 @@ from fitlab.core import families, get_family, get_target
 from fitlab.forms.symbolic import safe_pow, symbols
 from fitlab.store import FitFunction
 
-__all__ = ["Routine", "Program", "ProgramSpec", "build_program", "part_routine", "program_spec", "parse_terms",
+__all__ = ["Routine", "Program", "ProgramSpec", "build_program", "part_routine", "program_spec",
+           "default_program_family", "parse_terms",
            "call", "stable", "floor_poles", "azimuth_to_cosine", "clamp", "clamped", "minmax_piecewise",
            "with_domain", "SAFE_POW", "POLE_FLOOR", "DEFAULT_FORMS", "MaterialSpec", "Material", "material_of",
            "field_symbol", "outputs", "inline_calls", "hoist_params", "merge_exp_products"]  # fmt: skip
@@ -559,22 +560,33 @@ def _default_spec(family) -> ProgramSpec:
 
 def program_spec(family: str | None = None, targets: Sequence[str] = ()) -> ProgramSpec:
     """The :class:`ProgramSpec` of ``family`` (by name), else of the family of ``targets`` (all of one family),
-    else of the one registered family with a program of its own (else of the one family there is)."""
+    else of the default family (:func:`default_program_family`)."""
     if family is None and targets:
         names = {get_target(t).family for t in targets}
         if len(names) != 1:
             raise ValueError(f"targets {', '.join(targets)} belong to {len(names)} families; one program holds one")
         (family,) = names
-    if family is None:
-        fams = families()
-        with_spec = [f for f in fams.values() if f.codegen is not None]
-        pool = with_spec if len(with_spec) == 1 else list(fams.values())
-        if len(pool) != 1:
-            raise ValueError(f"name the family to generate: one of {', '.join(fams)}")
-        fam = pool[0]
-    else:
-        fam = get_family(family)
+    fam = get_family(family if family is not None else default_program_family())
     return fam.codegen if fam.codegen is not None else _default_spec(fam)
+
+
+def default_program_family() -> str:
+    """The family whose program ``fitlab codegen`` (and :func:`fitlab.codegen.generate`, ``load_program``)
+    prints when none is named: the first registered family with a program of its own (a ``codegen``), else
+    the one family there is.
+
+    Registration order is the built-in families' folder names in sorted order, then the plugins' (entry
+    points ``fitlab.families``), then families registered at run time: the Lambert sphere before
+    microfacet_energy, and a plugin's program never displaces a built-in one.  The rule is the one
+    ``fitlab bench WHAT`` follows for a family's benchmark (the first registered family that has it).
+    ValueError when no family has a program and there are several."""
+    fams = families()
+    with_spec = [name for name, f in fams.items() if f.codegen is not None]
+    if with_spec:
+        return with_spec[0]
+    if len(fams) != 1:
+        raise ValueError(f"name the family to generate: one of {', '.join(fams)}")
+    return next(iter(fams))
 
 
 def parse_terms(text: str | None, family: str | None = None) -> tuple[str, ...]:

@@ -8,14 +8,17 @@ generated routine has its name), their forms and the published presets (:mod:`.f
 libraries of ``fitlab discover`` (:mod:`.libraries`).  The exact engine is :mod:`.exact` (directional
 albedo E(mu, alpha), its average E_avg(alpha), the compensation lobe f_ms, with F = 1); :mod:`.tabulate`
 writes its tables and :mod:`.datasets` reads them; :mod:`.microsurface` is the Monte Carlo random walk
-on Smith microsurfaces (``fitlab simulate``), :mod:`.study` the energy-compensation study.  Generated code is one routine per target (the
-default program of :func:`fitlab.codegen.program.program_spec`).
+on Smith microsurfaces (``fitlab simulate``), :mod:`.study` the energy-compensation study.  Its program
+(``codegen``: :data:`.lobes.program.PROGRAM`, ``fitlab codegen --family microfacet_energy``) prints every
+fitted albedo and lobe parameter as a routine, and the multiple-scattering lobes and Kulla-Conti's f_ms
+composed of them.
 """
 
 import importlib
 
 from fitlab.core import Family, register_family
 from fitlab.families.microfacet_energy.forms import FORMS
+from fitlab.families.microfacet_energy.lobes.program import PROGRAM
 from fitlab.families.microfacet_energy.targets import TARGETS
 
 __all__ = ["FAMILY"]
@@ -40,6 +43,7 @@ FAMILY = register_family(
         targets=tuple(TARGETS.values()),
         forms=FORMS,
         libraries=_libraries,
+        codegen=PROGRAM,
         hooks={
             "tables": _lazy("tabulate"),  # write_tables, check_tables, TABLE_FILES, FAMILY_NAME
             "simulate": _lazy("microsurface.simulate"),  # simulate_file, summary_table, unconverged, SceneError

@@ -17,6 +17,7 @@ Modules:
 * :mod:`.targets`, :mod:`.forms`: those targets (ms_blog_*, ms_tilt_*: functions of alpha, mu_i and the
   order) and their forms, the blog's published expressions as presets (docs/blog_lobe_model.md);
 * :mod:`.runtime`: each model's lobes from its parameters' forms (presets or fits), in sympy and numpy;
-* :mod:`.program`: the generated runtime lobes (fitlab/fits/generated/microsurface_lobes.*);
+* :mod:`.program`: the family's program (``fitlab codegen --family microfacet_energy``): the fitted albedos and the
+  runtime lobes (fitlab/fits/generated/microfacet_energy.*);
 * :mod:`.study`: docs/microsurface_lobes.md, every model against the simulated lobes, with energy and cost.
 """
