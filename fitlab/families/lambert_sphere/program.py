@@ -48,6 +48,7 @@ from fitlab.codegen.program import (
     stable,
 )
 from fitlab.families.lambert_sphere.forms import ORDER2_PART, RUNTIME_PARTS, RUNTIME_TERMS, SINGLE, runtime_terms
+from fitlab.families.lambert_sphere.forms.brdf import parts_in_algebra
 from fitlab.families.lambert_sphere.runtime import ORDER2_FORMS, energy_scale
 from fitlab.families.lambert_sphere.targets import TARGETS
 from fitlab.forms.symbolic import safe_pow, symbols
@@ -70,9 +71,12 @@ PARTS = ("H0", "H1", "H2", "l", "m", "B", "C", "D", "F", "c_of_kd", "kd_of_c", "
 _TERM_DOCS = {
     "single": "Single scattering with the true phase function, c p(u)/(mu_i + mu_o), u = -(mu_i mu_o + S cos phi) (eq. 10), "
               "sqrt(1 - u^2) evaluated as sqrt((1 - u)(1 + u)) (full accuracy in forward scattering at grazing).",
-    "m0": "Multiple scattering, Fourier order 0: fm0 = (H0 H0 Q/(2 pi) - n0_ss)/(mu_i + mu_o) (eqs. 30, 38).",
+    "m0": "Multiple scattering, Fourier order 0: fm0 = (H0 H0 Q/(2 pi) - n0_ss)/(mu_i + mu_o) (eqs. 30, 38), "
+          "evaluated as ((H0 H0 - 1) Q + (Q - Q_ss))/(2 pi (mu_i + mu_o)), Q_ss = 2 pi n0_ss, without cancellation "
+          "at grazing and small c.",
     "m1": "Multiple scattering, Fourier order 1 (coefficient of cos phi): fm1 of eq. 22 minus its single "
-          "scattering, exact normalisations 3 pi and 192 pi (docs/errata.md).",
+          "scattering, exact normalisations 3 pi and 192 pi (docs/errata.md), evaluated as "
+          "c S ((H1 H1 - 1) G + (G - G_ss))/(3 pi (mu_i + mu_o)) without cancellation at grazing and small c.",
     "m2": "Multiple scattering, Fourier order 2 (coefficient of cos 2phi), which the paper drops (eq. 21): "
           "fm2 = 15 c S^2 (H2(mu_i) H2(mu_o) - 1)/(256 pi (mu_i + mu_o)) (docs/model.md, 'Order 2').",
 }  # fmt: skip
@@ -96,8 +100,8 @@ def routines(fits: Mapping[str, FitFunction], terms: tuple[str, ...]) -> list[Ro
     """Every routine of the generated Lambert-sphere files, in file order."""
     out = [part_routine(fits[t]) for t in PARTS if t in fits]
 
-    scale = energy_scale({p: fits[p].expression for p in (*RUNTIME_PARTS, ORDER2_PART)}, terms)
-    out += brdf_routines(terms, scale)
+    parts = {p: fits[p].expression for p in (*RUNTIME_PARTS, ORDER2_PART)}
+    out += brdf_routines(terms, energy_scale(parts, terms), parts=parts)
 
     fast = fits[FAST]
     fast_expr = floor_poles(azimuth_to_cosine(fast.expression))
@@ -120,12 +124,19 @@ def routines(fits: Mapping[str, FitFunction], terms: tuple[str, ...]) -> list[Ro
     return out
 
 
-def brdf_routines(terms: tuple[str, ...], scale=1, what: str = "The runtime Lambert-sphere BRDF") -> list[Routine]:
+def brdf_routines(terms: tuple[str, ...], scale=1, what: str = "The runtime Lambert-sphere BRDF",
+                  parts: Mapping[str, sp.Expr] | None = None) -> list[Routine]:  # fmt: skip
     """The routines of the terms kept (single, fm0, fm1, fm2: :data:`RUNTIME_TERMS` order) and ``brdf``, their
     sum clamped at 0 (times the energy ``scale`` unless it is 1), each term calling the parts' routines by
-    the targets' routine names (h0, ..., const_f); ``what`` opens brdf's documentation."""
-    parts = {p: call(TARGETS[p].routine, *symbols(TARGETS[p].inputs)) for p in (*RUNTIME_PARTS, ORDER2_PART)}
-    term_exprs = runtime_terms(parts)
+    the targets' routine names (h0, ..., const_f); ``what`` opens brdf's documentation.
+
+    ``parts``: the parts' expressions (in their targets' inputs), where the caller has them: those whose form
+    lets the terms subtract without cancellation (:func:`~fitlab.families.lambert_sphere.forms.brdf.parts_in_algebra`:
+    H_i H_o - 1 as expm1 of the sum of the exponents, X - X1 c in the algebra) are inlined in the terms, the
+    others called."""
+    calls = {p: call(TARGETS[p].routine, *symbols(TARGETS[p].inputs)) for p in (*RUNTIME_PARTS, ORDER2_PART)}
+    inlined = {} if parts is None else {p: parts[p] for p in parts_in_algebra(parts)}
+    term_exprs = runtime_terms({**calls, **inlined})
     out, total = [], sp.S.Zero
     for t in terms:
         expr = stable(floor_poles(azimuth_to_cosine(term_exprs[t])))

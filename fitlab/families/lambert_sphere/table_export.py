@@ -301,7 +301,9 @@ def _routines(nodes: int, lookup: str, quantity: str) -> tuple[Routine, ...]:
     lay = layout(nodes)
     routines = _part_routines(lay, lookup, quantity)
     what = "The Lambert-sphere BRDF from the exported tables, all three Fourier orders"
-    routines += brdf_routines(RUNTIME_TERMS, 1, what)
+    by_name = {r.name: r.expr for r in routines}
+    parts = {p: by_name[TARGETS[p].routine] for p in (*RUNTIME_PARTS, ORDER2_PART)}
+    routines += brdf_routines(RUNTIME_TERMS, 1, what, parts)
     routines.append(local_routine("brdf"))
     # unevaluated: substituting the clamped inputs would have sympy compare every nested max and min again
     # (tens of seconds) and change nothing that is printed

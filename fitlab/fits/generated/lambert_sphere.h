@@ -165,14 +165,17 @@ LAMBERT_SPHERE_FN float lambert_sphere_single_f(float mu_i, float mu_o, float co
 
 /*
  * Multiple scattering, Fourier order 0: fm0 = (H0 H0 Q/(2 pi) - n0_ss)/(mu_i + mu_o) (eqs. 30,
- * 38). Pole floored at 1e-6.
+ * 38), evaluated as ((H0 H0 - 1) Q + (Q - Q_ss))/(2 pi (mu_i + mu_o)), Q_ss = 2 pi n0_ss,
+ * without cancellation at grazing and small c. Pole floored at 1e-6.
  */
 LAMBERT_SPHERE_FN double lambert_sphere_fm0(double mu_i, double mu_o, double c);
 LAMBERT_SPHERE_FN float lambert_sphere_fm0_f(float mu_i, float mu_o, float c);
 
 /*
  * Multiple scattering, Fourier order 1 (coefficient of cos phi): fm1 of eq. 22 minus its single
- * scattering, exact normalisations 3 pi and 192 pi (docs/errata.md). Pole floored at 1e-6.
+ * scattering, exact normalisations 3 pi and 192 pi (docs/errata.md), evaluated as c S ((H1 H1 -
+ * 1) G + (G - G_ss))/(3 pi (mu_i + mu_o)) without cancellation at grazing and small c. Pole
+ * floored at 1e-6.
  */
 LAMBERT_SPHERE_FN double lambert_sphere_fm1(double mu_i, double mu_o, double c);
 LAMBERT_SPHERE_FN float lambert_sphere_fm1_f(float mu_i, float mu_o, float c);
@@ -240,12 +243,12 @@ LAMBERT_SPHERE_FN float lambert_sphere_sample_local_f(const float wi[3], float u
 
 /*
  * Per-material set-up: lambert_sphere_prepare_c(c) fills the struct with every quantity that
- * depends on c alone (103 numbers), lambert_sphere_prepare(kd) the same from kd;
+ * depends on c alone (100 numbers), lambert_sphere_prepare(kd) the same from kd;
  * lambert_sphere_eval, lambert_sphere_eval_local, lambert_sphere_pdf, lambert_sphere_sample
  * evaluate with it, so that a renderer prepares each material once and evaluates it many times.
  * The _rgb variants take three materials (one per channel) and give three values.
  */
-typedef struct lambert_sphere_material { double k[103]; } lambert_sphere_material;
+typedef struct lambert_sphere_material { double k[100]; } lambert_sphere_material;
 LAMBERT_SPHERE_FN lambert_sphere_material lambert_sphere_prepare_c(double c);
 LAMBERT_SPHERE_FN lambert_sphere_material lambert_sphere_prepare(double kd);
 LAMBERT_SPHERE_FN void lambert_sphere_prepare_c_rgb(const double c[3], lambert_sphere_material m[3]);
@@ -291,7 +294,7 @@ LAMBERT_SPHERE_FN void lambert_sphere_pdf_rgb(const lambert_sphere_material m[3]
  * 1], u1, u2 to [0, 1]; NaN in any input gives NaN.
  */
 LAMBERT_SPHERE_FN double lambert_sphere_sample(const lambert_sphere_material *m, const double wi[3], double u1, double u2, double wo[3]);
-typedef struct lambert_sphere_material_f { float k[103]; } lambert_sphere_material_f;
+typedef struct lambert_sphere_material_f { float k[100]; } lambert_sphere_material_f;
 LAMBERT_SPHERE_FN lambert_sphere_material_f lambert_sphere_prepare_c_f(float c);
 LAMBERT_SPHERE_FN lambert_sphere_material_f lambert_sphere_prepare_f(float kd);
 LAMBERT_SPHERE_FN void lambert_sphere_prepare_c_rgb_f(const float c[3], lambert_sphere_material_f m[3]);

@@ -265,40 +265,94 @@ def single(mu_i, mu_o, cos_phi, c):
 
 def fm0(mu_i, mu_o, c):
     """Multiple scattering, Fourier order 0: fm0 = (H0 H0 Q/(2 pi) - n0_ss)/(mu_i + mu_o) (eqs.
-    30, 38). Pole floored at 1e-6."""
+    30, 38), evaluated as ((H0 H0 - 1) Q + (Q - Q_ss))/(2 pi (mu_i + mu_o)), Q_ss = 2 pi
+    n0_ss, without cancellation at grazing and small c. Pole floored at 1e-6."""
     mu_i, mu_o, c = numpy.asarray(mu_i, dtype=float), numpy.asarray(mu_o, dtype=float), numpy.asarray(c, dtype=float)
-    t9 = numpy.where(numpy.less(mu_i, 0), 0.0, mu_i)
-    t0 = numpy.where(numpy.greater(t9, 1.0), 1.0, t9)
-    t10 = numpy.where(numpy.less(mu_o, 0), 0.0, mu_o)
-    t1 = numpy.where(numpy.greater(t10, 1.0), 1.0, t10)
+    t44 = numpy.where(numpy.less(mu_i, 0), 0.0, mu_i)
+    t0 = numpy.where(numpy.greater(t44, 1.0), 1.0, t44)
+    t45 = numpy.where(numpy.less(mu_o, 0), 0.0, mu_o)
+    t1 = numpy.where(numpy.greater(t45, 1.0), 1.0, t45)
     t2 = t0 + t1
-    t3 = 3.141592653589793238**(-1.0)
-    t11 = numpy.where(numpy.less(c, 0), 0.0, c)
-    t4 = numpy.where(numpy.greater(t11, 1.0), 1.0, t11)
-    t5 = (t0*t0)
-    t6 = (t1*t1)
-    t7 = t0*t1
-    t8 = t5*t6
-    return (-1/768*t3*t4*(-45*t5 - 45*t6 + 256*t7 + 135*t8 + 207) + (1/2)*t3*(t2*t7*const_d(t4) + t2*const_b(t4) + t4*t8*(15/128 - 15/128*t4)*((4/3)*t4 + 3) + (69/128)*t4 + t7*const_c(t4) + (t5 + t6)*const_f(t4))*h0(t0, t4)*h0(t1, t4))/numpy.where(numpy.less(t2, 1/1000000), 1/1000000, t2)
+    t3 = (t0*t0)
+    t4 = (t1*t1)
+    t5 = t0*t1
+    t6 = t3*t4
+    t46 = numpy.where(numpy.less(c, 0), 0.0, c)
+    t7 = numpy.where(numpy.greater(t46, 1.0), 1.0, t46)
+    t8 = (1/384)*t7
+    t9 = (t7*t7)
+    t10 = 1 - t7
+    t11 = numpy.sqrt(t10)
+    t12 = (t10*numpy.sqrt(t10))
+    t13 = t2*t5*const_d(t7) + t2*const_b(t7) + t5*t9*(-0.6683906999502577*t11 - 0.13969581510284687*t12 - 0.45542898085520883*t7 - 0.09405025651670227)/(0.5850916184498237*t11 + 0.1607346721831539*t12 + 0.3926142724681187*t7 + 0.6073857275318813) + t6*(-5/32*(t7*t7*t7) - 25/128*t9) + t9*(t3 + t4)*(0.10176577919541374*t11 + 0.022994579304556582*t12 + 0.14740850623957125*t7 - 0.03022099337713794)/(2.348527040324315*t11 - 0.9953813084156506*t12 - 0.5511565927837337*t7 + 1.5511565927837337)
+    t14 = t7*(20*t7 + 281) - 346
+    t15 = (t0*t0*t0*t0)
+    t16 = (15 - 15*t7)*(4*t7 + 9)
+    t17 = (t0*t0*t0)
+    t18 = (t10*t10)
+    t19 = 2.9870469264138593*t18
+    t20 = 1.0662443661683643*t12
+    t21 = 1.572829970027227*t12
+    t22 = 0.2088906671287879*t11
+    t23 = (t10*t10*numpy.sqrt(t10))
+    t24 = 0.018803920406571046*t23
+    t25 = 2.6178417261370144*t10
+    t26 = 0.6982143204310637*t23
+    t27 = 0.7386182603458875*t23
+    t28 = 0.20716954535903143*t11
+    t29 = 0.6451850986747949*t10
+    t30 = 0.022495141608287784*t11
+    t31 = 0.054352180621602*t10
+    t32 = 1.6749178633061865*t23
+    t33 = 1.2962245400847459*t11
+    t34 = 2.287922901523356*t10
+    t35 = 0.5386479579696892*t18
+    t36 = 1.2792064158675018*t18
+    t37 = 0.3547833158798482*t18
+    t38 = 0.10725514469713378*t12
+    t39 = 3.8437036802186566*t12
+    t40 = -0.665811224859062*t11 - 0.4181420674159667*t12 + 0.3124914633548267*t18 - 0.12850663941518076*t23 - 0.5107867682402644*t7 + 1.9281823615276229
+    t41 = t7/(t11 + 1)
+    t42 = (t1*t1*t1*t1)
+    t43 = (t1*t1*t1)
+    return (1/2)*(t13 + (t13 + t8*(-45*t3 - 45*t4 + 256*t5 + 135*t6 + 207))*numpy.expm1(t0*(t7*((301/384)*t0 - 45/128*t17 + (45/256)*t3 + t41*(t0*t20 + t0*t27 + t0*t31 - t0*t33 - t0*t36 - 1.317974632049971*t0 + t15*t24 + t15*t29 + t15*t30 - t15*t35 - t15*t38 + 0.06215295319723717*t15 + t17*t21 + t17*t26 + t17*t28 - t17*t34 - t17*t37 + 0.10385474081646198*t17 + t19*t3 + t22*t3 + t25*t3 - t3*t32 - t3*t39 + 0.28728468847971017*t3 + t40) - 557/1536) + t8*(t14*t3 + t15*t16 + 207)*numpy.log(1 + numpy.where(numpy.less(t0, 1.0e-30), 1.0e-30, t0)**(-1.0))) + t1*(t7*((301/384)*t1 + (45/256)*t4 + t41*(t1*t20 + t1*t27 + t1*t31 - t1*t33 - t1*t36 - 1.317974632049971*t1 + t19*t4 + t21*t43 + t22*t4 + t24*t42 + t25*t4 + t26*t43 + t28*t43 + t29*t42 + t30*t42 - t32*t4 - t34*t43 - t35*t42 - t37*t43 - t38*t42 - t39*t4 + 0.28728468847971017*t4 + t40 + 0.06215295319723717*t42 + 0.10385474081646198*t43) - 45/128*t43 - 557/1536) + t8*(t14*t4 + t16*t42 + 207)*numpy.log(1 + numpy.where(numpy.less(t1, 1.0e-30), 1.0e-30, t1)**(-1.0)))))/(3.141592653589793238*numpy.where(numpy.less(t2, 1/1000000), 1/1000000, t2))
 
 
 def fm1(mu_i, mu_o, c):
     """Multiple scattering, Fourier order 1 (coefficient of cos phi): fm1 of eq. 22 minus its
-    single scattering, exact normalisations 3 pi and 192 pi (docs/errata.md). Pole floored
-    at 1e-6."""
+    single scattering, exact normalisations 3 pi and 192 pi (docs/errata.md), evaluated as c
+    S ((H1 H1 - 1) G + (G - G_ss))/(3 pi (mu_i + mu_o)) without cancellation at grazing and
+    small c. Pole floored at 1e-6."""
     mu_i, mu_o, c = numpy.asarray(mu_i, dtype=float), numpy.asarray(mu_o, dtype=float), numpy.asarray(c, dtype=float)
-    t8 = numpy.where(numpy.less(mu_i, 0), 0.0, mu_i)
-    t0 = numpy.where(numpy.greater(t8, 1.0), 1.0, t8)
-    t9 = numpy.where(numpy.less(mu_o, 0), 0.0, mu_o)
-    t1 = numpy.where(numpy.greater(t9, 1.0), 1.0, t9)
-    t2 = t0 + t1
-    t3 = t0*t1
-    t4 = 3.141592653589793238**(-1.0)
-    t5 = numpy.sqrt((1 - (t0*t0))*(1 - (t1*t1)))
-    t10 = numpy.where(numpy.less(c, 0), 0.0, c)
-    t6 = numpy.where(numpy.greater(t10, 1.0), 1.0, t10)
-    t7 = const_l(t6)
-    return (-1/192*t4*t5*t6*(45*t3 + 64) + (1/3)*t4*t5*t6*(t2*t7 + t3*((t7*t7) + (45/64)*const_m(t6)) + 1)*h1(t0, t6)*h1(t1, t6))/numpy.where(numpy.less(t2, 1/1000000), 1/1000000, t2)
+    t25 = numpy.where(numpy.less(c, 0), 0.0, c)
+    t0 = numpy.where(numpy.greater(t25, 1.0), 1.0, t25)
+    t26 = numpy.where(numpy.less(mu_i, 0), 0.0, mu_i)
+    t1 = numpy.where(numpy.greater(t26, 1.0), 1.0, t26)
+    t27 = numpy.where(numpy.less(mu_o, 0), 0.0, mu_o)
+    t2 = numpy.where(numpy.greater(t27, 1.0), 1.0, t27)
+    t3 = t1 + t2
+    t4 = (t1*t1)
+    t5 = t4 - 1
+    t6 = (t2*t2)
+    t7 = t6 - 1
+    t8 = t1*t2
+    t9 = const_l(t0)
+    t10 = t3*t9 + t8*(-0.0042389660736671498*(t0*t0) + 0.31272388944032809*t0 + (t9*t9))
+    t11 = 20*t0 + 45
+    t12 = (1/192)*t0
+    t13 = (t1*t1*t1)
+    t14 = 1 - t0
+    t15 = numpy.sqrt(t14)
+    t16 = 0.0662557328553895*t15
+    t17 = 0.0574662363213306*t15
+    t18 = 0.06061898656512081*t14
+    t19 = 0.05837316923777987*t14
+    t20 = 0.18408011133833516*t15
+    t21 = 0.1147580846390276*t14
+    t22 = -0.004494906937942091*t0 + 0.08617889059204359*t15 + 0.090016644370520301
+    t23 = t0/(t15 + 1)
+    t24 = (t2*t2*t2)
+    return (1/3)*t0*numpy.sqrt(t5*t7)*(t10 + (t10 + (45/64)*t8 + 1)*numpy.expm1(t1*(t0*(-47/96*t1 + (15/64)*t13 + t23*(t1*t19 - t1*t20 - 0.1788584769584851*t1 + t13*t17 + t13*t18 + 0.06143020603611769*t13 + t16*t4 - t21*t4 + t22 + 0.05802135097287754*t4) - 15/128*t4 + 173/768) - t12*t5*(t11*t4 - 64)*numpy.log(1 + numpy.where(numpy.less(t1, 1.0e-30), 1.0e-30, t1)**(-1.0))) + t2*(t0*(-47/96*t2 + t23*(t16*t6 + t17*t24 + t18*t24 + t19*t2 - t2*t20 - 0.1788584769584851*t2 - t21*t6 + t22 + 0.06143020603611769*t24 + 0.05802135097287754*t6) + (15/64)*t24 - 15/128*t6 + 173/768) - t12*t7*(t11*t6 - 64)*numpy.log(1 + numpy.where(numpy.less(t2, 1.0e-30), 1.0e-30, t2)**(-1.0)))))/(3.141592653589793238*numpy.where(numpy.less(t3, 1/1000000), 1/1000000, t3))
 
 
 def fm2(mu_i, mu_o, c):
@@ -306,14 +360,26 @@ def fm2(mu_i, mu_o, c):
     (eq. 21): fm2 = 15 c S^2 (H2(mu_i) H2(mu_o) - 1)/(256 pi (mu_i + mu_o)) (docs/model.md,
     'Order 2'). Pole floored at 1e-6."""
     mu_i, mu_o, c = numpy.asarray(mu_i, dtype=float), numpy.asarray(mu_o, dtype=float), numpy.asarray(c, dtype=float)
-    t3 = numpy.where(numpy.less(c, 0), 0.0, c)
-    t0 = numpy.where(numpy.greater(t3, 1.0), 1.0, t3)
-    t4 = numpy.where(numpy.less(mu_i, 0), 0.0, mu_i)
-    t1 = numpy.where(numpy.greater(t4, 1.0), 1.0, t4)
-    t5 = numpy.where(numpy.less(mu_o, 0), 0.0, mu_o)
-    t2 = numpy.where(numpy.greater(t5, 1.0), 1.0, t5)
-    t6 = t1 + t2
-    return (15/256)*t0*(1 - (t1*t1))*(1 - (t2*t2))*(h2(t1, t0)*h2(t2, t0) - 1)/(3.141592653589793238*numpy.where(numpy.less(t6, 1/1000000), 1/1000000, t6))
+    t15 = numpy.where(numpy.less(mu_i, 0), 0.0, mu_i)
+    t0 = numpy.where(numpy.greater(t15, 1.0), 1.0, t15)
+    t16 = numpy.where(numpy.less(mu_o, 0), 0.0, mu_o)
+    t1 = numpy.where(numpy.greater(t16, 1.0), 1.0, t16)
+    t2 = (t0*t0)
+    t3 = t2 - 1
+    t4 = (t1*t1)
+    t5 = t4 - 1
+    t17 = numpy.where(numpy.less(c, 0), 0.0, c)
+    t6 = numpy.where(numpy.greater(t17, 1.0), 1.0, t17)
+    t7 = (15/256)*t6
+    t8 = (t0*t0*t0)
+    t9 = numpy.sqrt(1 - t6)
+    t10 = 0.0011793166019935435*t9
+    t11 = 0.003569301003270028*t9
+    t12 = -0.002147602955343103*t9 - 0.0021870832323814967
+    t13 = t6/(t9 + 1)
+    t14 = (t1*t1*t1)
+    t18 = t0 + t1
+    return t3*t5*t7*numpy.expm1(t0*((t3*t3)*t7*numpy.log(1 + numpy.where(numpy.less(t0, 1.0e-30), 1.0e-30, t0)**(-1.0)) + t6*((25/256)*t0 + t13*(-t0*t11 - 0.0037961708223872375*t0 - t10*t8 - t12 + 0.0032773104377737225*t2*t9 + 0.0037035545003035746*t2 - 0.0014135909284063626*t8) + (15/512)*t2 - 15/256*t8 - 45/1024)) + t1*((t5*t5)*t7*numpy.log(1 + numpy.where(numpy.less(t1, 1.0e-30), 1.0e-30, t1)**(-1.0)) + t6*((25/256)*t1 + t13*(-t1*t11 - 0.0037961708223872375*t1 - t10*t14 - t12 - 0.0014135909284063626*t14 + 0.0032773104377737225*t4*t9 + 0.0037035545003035746*t4) - 15/256*t14 + (15/512)*t4 - 45/1024)))/(3.141592653589793238*numpy.where(numpy.less(t18, 1/1000000), 1/1000000, t18))
 
 
 def brdf(mu_i, mu_o, cos_phi, c):
@@ -470,31 +536,30 @@ def sample_local(wi, u1, u2, c):
 
 def prepare_c(c):
     """Per-material set-up: prepare_c(c) fills the struct with every quantity that depends on c
-    alone (103 numbers), prepare(kd) the same from kd; eval, eval_local, pdf, sample
+    alone (100 numbers), prepare(kd) the same from kd; eval, eval_local, pdf, sample
     evaluate with it, so that a renderer prepares each material once and evaluates it many
     times. A material is an array with a last axis of the fields; for RGB prepare an array
     of three values (shape (..., 3)) and give the inputs a trailing axis (mu_i[..., None])."""
     c = numpy.asarray(c, dtype=float)
-    t18 = numpy.where(numpy.less(c, 0), 0.0, c)
-    t0 = numpy.where(numpy.greater(t18, 1.0), 1.0, t18)
-    t1 = 3.141592653589793238**(-1.0)
-    t2 = t0*t1
-    t3 = (15/128)*t0
-    t4 = (t0*t0)
-    t5 = 1 - t0
-    t6 = numpy.sqrt(t5)
-    t7 = (t5*numpy.sqrt(t5))
-    t8 = (t5*t5)
-    t9 = (t5*t5*numpy.sqrt(t5))
-    t10 = 20*t0
-    t11 = (15/256)*t0
-    t12 = (1/192)*t0
-    t13 = 0.0008773011177337195*(t0*t0*t0) - 0.05860387324696379*t0 - 0.005821682593788582*t4
-    t14 = 2*t6 - 1
-    t15 = (t14*t14)
-    t16 = (t14*t14*t14)
-    t17 = (t14*t14*t14*t14)
-    return numpy.stack(numpy.broadcast_arrays(numpy.asarray(-1/768*t2, dtype=float), numpy.asarray((69/128)*t0, dtype=float), numpy.asarray(-t3 + t4*(0.14740850623957125*t0 + 0.10176577919541374*t6 + 0.022994579304556582*t7 - 0.03022099337713794)/(-0.5511565927837337*t0 + 2.348527040324315*t6 - 0.9953813084156506*t7 + 1.5511565927837337), dtype=float), numpy.asarray(t4*(-0.22663319577369706*t0 + 0.29221196193805016*t6 - 0.09729469824061904*t7 + 0.14331013054356149)/(-0.2843749048892069*t0 + 1.6614506172832844*t6 - 0.4540930164912601*t7 + 1.2843749048892069), dtype=float), numpy.asarray((2/3)*t0 + t4*(-0.45542898085520883*t0 - 0.6683906999502577*t6 - 0.13969581510284687*t7 - 0.09405025651670227)/(0.3926142724681187*t0 + 0.5850916184498237*t6 + 0.1607346721831539*t7 + 0.6073857275318813), dtype=float), numpy.asarray(t4*(0.1918890413123029*t0 + 0.2439251200821899*t6 - 0.005563423093113986*t7 - 0.19188888216400411)/(0.2233886724495462*t0 + 0.6918781317657061*t6 + 0.118158009514729*t7 + 0.7766113275504538), dtype=float), numpy.asarray(t0*(15/128 - t3)*((4/3)*t0 + 3), dtype=float), numpy.asarray(2.9870469264138593*t8, dtype=float), numpy.asarray(1.0662443661683643*t7, dtype=float), numpy.asarray(1.572829970027227*t7, dtype=float), numpy.asarray(0.2088906671287879*t6, dtype=float), numpy.asarray(0.018803920406571046*t9, dtype=float), numpy.asarray(2.6178417261370144*t5, dtype=float), numpy.asarray(0.6982143204310637*t9, dtype=float), numpy.asarray(0.7386182603458875*t9, dtype=float), numpy.asarray(0.20716954535903143*t6, dtype=float), numpy.asarray(0.6451850986747949*t5, dtype=float), numpy.asarray(0.022495141608287784*t6, dtype=float), numpy.asarray(0.054352180621602*t5, dtype=float), numpy.asarray(-1.6749178633061865*t9, dtype=float), numpy.asarray(-1.2962245400847459*t6, dtype=float), numpy.asarray(-2.287922901523356*t5, dtype=float), numpy.asarray(-0.5386479579696892*t8, dtype=float), numpy.asarray(-1.2792064158675018*t8, dtype=float), numpy.asarray(-0.3547833158798482*t8, dtype=float), numpy.asarray(-0.10725514469713378*t7, dtype=float), numpy.asarray(-3.8437036802186566*t7, dtype=float), numpy.asarray(-0.5107867682402644*t0 - 0.665811224859062*t6 - 0.4181420674159667*t7 + 0.3124914633548267*t8 - 0.12850663941518076*t9 + 1.9281823615276229, dtype=float), numpy.asarray(t0/(t6 + 1), dtype=float), numpy.asarray(t0, dtype=float), numpy.asarray(t0*(t10 + 281) - 346, dtype=float), numpy.asarray((15 - 15*t0)*(4*t0 + 9), dtype=float), numpy.asarray((1/384)*t0, dtype=float), numpy.asarray((1/3)*t0/(3.141592653589793238*3.141592653589793238), dtype=float), numpy.asarray(0.0032773104377737225*t6, dtype=float), numpy.asarray(-0.0011793166019935435*t6, dtype=float), numpy.asarray(-0.003569301003270028*t6, dtype=float), numpy.asarray(0.002147602955343103*t6 + 0.0021870832323814967, dtype=float), numpy.asarray(t11, dtype=float), numpy.asarray(t1*t11, dtype=float), numpy.asarray(-t1*t12, dtype=float), numpy.asarray(t13, dtype=float), numpy.asarray(0.31272388944032809*t0 + (t13*t13) - 0.0042389660736671498*t4 + 45/64, dtype=float), numpy.asarray(0.0662557328553895*t6, dtype=float), numpy.asarray(0.0574662363213306*t6, dtype=float), numpy.asarray(0.06061898656512081*t5, dtype=float), numpy.asarray(0.05837316923777987*t5, dtype=float), numpy.asarray(-0.18408011133833516*t6, dtype=float), numpy.asarray(-0.1147580846390276*t5, dtype=float), numpy.asarray(-0.004494906937942091*t0 + 0.08617889059204359*t6 + 0.090016644370520301, dtype=float), numpy.asarray(t10 + 45, dtype=float), numpy.asarray(-t12, dtype=float), numpy.asarray((1/3)*t2, dtype=float), numpy.asarray(0.10959653178533475*t15, dtype=float), numpy.asarray(0.1766119774816802*t15, dtype=float), numpy.asarray(0.25597403686706693*t15, dtype=float), numpy.asarray(2.42146807891088*t16, dtype=float), numpy.asarray(0.5027933198177464*t16, dtype=float), numpy.asarray(2.070129643634922*t17, dtype=float), numpy.asarray(0.519096218517333*t16, dtype=float), numpy.asarray(2.5251177518363694*t14, dtype=float), numpy.asarray(1.3385823867874944*t14, dtype=float), numpy.asarray(2.7903213618028806*t17, dtype=float), numpy.asarray(3.9162801286388897*t15, dtype=float), numpy.asarray(-1.7626547831461115*t15, dtype=float), numpy.asarray(-3.6618141129510917*t17, dtype=float), numpy.asarray(-0.21141002665509673*t14, dtype=float), numpy.asarray(-0.016932172543436784*t17, dtype=float), numpy.asarray(-2.295795044579524*t14, dtype=float), numpy.asarray(-2.8379131409273515*t15, dtype=float), numpy.asarray(-0.7128581043130656*t17, dtype=float), numpy.asarray(-1.6739402521122886*t16, dtype=float), numpy.asarray(-1.7061192768751303*t16, dtype=float), numpy.asarray(-0.014210822631915428*t16, dtype=float), numpy.asarray(-0.46352701817452785*t17, dtype=float), numpy.asarray(-0.4890688103263692*t14, dtype=float), numpy.asarray(-0.49993828263168366*t14, dtype=float), numpy.asarray(0.10625650933246486*t15 - 0.09050045154983123*t16 + 0.040558449658917785*t17 - 1.8499934365876788*t6, dtype=float), numpy.asarray(0.805852957259517*t16, dtype=float), numpy.asarray(0.6582269037007633*t14, dtype=float), numpy.asarray(0.45043691346028303*t15, dtype=float), numpy.asarray(0.5742385031683162*t17, dtype=float), numpy.asarray(0.6392720659218424*t14, dtype=float), numpy.asarray(0.18739898105517722*t16, dtype=float), numpy.asarray(0.8371462419661069*t15, dtype=float), numpy.asarray(0.6212937162033938*t17, dtype=float), numpy.asarray(0.4124295039969486*t14, dtype=float), numpy.asarray(0.41754495392944535*t16, dtype=float), numpy.asarray(0.028662593819483183*t17, dtype=float), numpy.asarray(-0.5773338931218077*t14, dtype=float), numpy.asarray(-0.7667251911655493*t17, dtype=float), numpy.asarray(-0.07180031380227185*t15, dtype=float), numpy.asarray(-0.6316753368520219*t16, dtype=float), numpy.asarray(-0.5766031303491715*t16, dtype=float), numpy.asarray(-0.5901356749175913*t14, dtype=float), numpy.asarray(-0.15688016937511312*t16, dtype=float), numpy.asarray(-0.08951890733992941*t17, dtype=float), numpy.asarray(-0.37270829229253744*t15, dtype=float), numpy.asarray(-0.37628293329323487*t17, dtype=float), numpy.asarray(-0.3929206076202727*t15, dtype=float), numpy.asarray(-0.43279839293414*t14, dtype=float), numpy.asarray(-0.49761324603578005*t15, dtype=float), numpy.asarray(0.07480678777429003*t15 - 0.048730004697608804*t16 + 0.017690506072644132*t17 - 0.5194652563684371*t6, dtype=float)), axis=-1)
+    t17 = numpy.where(numpy.less(c, 0), 0.0, c)
+    t0 = numpy.where(numpy.greater(t17, 1.0), 1.0, t17)
+    t1 = (t0*t0)
+    t2 = 1 - t0
+    t3 = numpy.sqrt(t2)
+    t4 = (t2*numpy.sqrt(t2))
+    t5 = (t0*t0*t0)
+    t6 = (t2*t2)
+    t7 = (t2*t2*numpy.sqrt(t2))
+    t8 = 20*t0
+    t9 = (1/3)*t0
+    t10 = (15/256)*t0
+    t11 = 3.141592653589793238**(-1.0)
+    t12 = -0.05860387324696379*t0 - 0.005821682593788582*t1 + 0.0008773011177337195*t5
+    t13 = 2*t3 - 1
+    t14 = (t13*t13)
+    t15 = (t13*t13*t13)
+    t16 = (t13*t13*t13*t13)
+    return numpy.stack(numpy.broadcast_arrays(numpy.asarray(t1*(-0.22663319577369706*t0 + 0.29221196193805016*t3 - 0.09729469824061904*t4 + 0.14331013054356149)/(-0.2843749048892069*t0 + 1.6614506172832844*t3 - 0.4540930164912601*t4 + 1.2843749048892069), dtype=float), numpy.asarray((1/384)*t0, dtype=float), numpy.asarray(-25/128*t1 - 5/32*t5, dtype=float), numpy.asarray(t1*(0.14740850623957125*t0 + 0.10176577919541374*t3 + 0.022994579304556582*t4 - 0.03022099337713794)/(-0.5511565927837337*t0 + 2.348527040324315*t3 - 0.9953813084156506*t4 + 1.5511565927837337), dtype=float), numpy.asarray(t1*(0.1918890413123029*t0 + 0.2439251200821899*t3 - 0.005563423093113986*t4 - 0.19188888216400411)/(0.2233886724495462*t0 + 0.6918781317657061*t3 + 0.118158009514729*t4 + 0.7766113275504538), dtype=float), numpy.asarray(t1*(-0.45542898085520883*t0 - 0.6683906999502577*t3 - 0.13969581510284687*t4 - 0.09405025651670227)/(0.3926142724681187*t0 + 0.5850916184498237*t3 + 0.1607346721831539*t4 + 0.6073857275318813), dtype=float), numpy.asarray(2.9870469264138593*t6, dtype=float), numpy.asarray(1.0662443661683643*t4, dtype=float), numpy.asarray(1.572829970027227*t4, dtype=float), numpy.asarray(0.2088906671287879*t3, dtype=float), numpy.asarray(0.018803920406571046*t7, dtype=float), numpy.asarray(2.6178417261370144*t2, dtype=float), numpy.asarray(0.6982143204310637*t7, dtype=float), numpy.asarray(0.7386182603458875*t7, dtype=float), numpy.asarray(0.20716954535903143*t3, dtype=float), numpy.asarray(0.6451850986747949*t2, dtype=float), numpy.asarray(0.022495141608287784*t3, dtype=float), numpy.asarray(0.054352180621602*t2, dtype=float), numpy.asarray(-1.6749178633061865*t7, dtype=float), numpy.asarray(-1.2962245400847459*t3, dtype=float), numpy.asarray(-2.287922901523356*t2, dtype=float), numpy.asarray(-0.5386479579696892*t6, dtype=float), numpy.asarray(-1.2792064158675018*t6, dtype=float), numpy.asarray(-0.3547833158798482*t6, dtype=float), numpy.asarray(-0.10725514469713378*t4, dtype=float), numpy.asarray(-3.8437036802186566*t4, dtype=float), numpy.asarray(-0.5107867682402644*t0 - 0.665811224859062*t3 - 0.4181420674159667*t4 + 0.3124914633548267*t6 - 0.12850663941518076*t7 + 1.9281823615276229, dtype=float), numpy.asarray(t0/(t3 + 1), dtype=float), numpy.asarray(t0, dtype=float), numpy.asarray(t0*(t8 + 281) - 346, dtype=float), numpy.asarray((15 - 15*t0)*(4*t0 + 9), dtype=float), numpy.asarray(t9/(3.141592653589793238*3.141592653589793238), dtype=float), numpy.asarray(0.0032773104377737225*t3, dtype=float), numpy.asarray(-0.0011793166019935435*t3, dtype=float), numpy.asarray(-0.003569301003270028*t3, dtype=float), numpy.asarray(0.002147602955343103*t3 + 0.0021870832323814967, dtype=float), numpy.asarray(t10, dtype=float), numpy.asarray(t10*t11, dtype=float), numpy.asarray(t12, dtype=float), numpy.asarray(0.31272388944032809*t0 - 0.0042389660736671498*t1 + (t12*t12), dtype=float), numpy.asarray(0.0662557328553895*t3, dtype=float), numpy.asarray(0.0574662363213306*t3, dtype=float), numpy.asarray(0.06061898656512081*t2, dtype=float), numpy.asarray(0.05837316923777987*t2, dtype=float), numpy.asarray(-0.18408011133833516*t3, dtype=float), numpy.asarray(-0.1147580846390276*t2, dtype=float), numpy.asarray(-0.004494906937942091*t0 + 0.08617889059204359*t3 + 0.090016644370520301, dtype=float), numpy.asarray(t8 + 45, dtype=float), numpy.asarray(-1/192*t0, dtype=float), numpy.asarray(t11*t9, dtype=float), numpy.asarray(0.10959653178533475*t14, dtype=float), numpy.asarray(0.1766119774816802*t14, dtype=float), numpy.asarray(0.25597403686706693*t14, dtype=float), numpy.asarray(2.42146807891088*t15, dtype=float), numpy.asarray(0.5027933198177464*t15, dtype=float), numpy.asarray(2.070129643634922*t16, dtype=float), numpy.asarray(0.519096218517333*t15, dtype=float), numpy.asarray(2.5251177518363694*t13, dtype=float), numpy.asarray(1.3385823867874944*t13, dtype=float), numpy.asarray(2.7903213618028806*t16, dtype=float), numpy.asarray(3.9162801286388897*t14, dtype=float), numpy.asarray(-1.7626547831461115*t14, dtype=float), numpy.asarray(-3.6618141129510917*t16, dtype=float), numpy.asarray(-0.21141002665509673*t13, dtype=float), numpy.asarray(-0.016932172543436784*t16, dtype=float), numpy.asarray(-2.295795044579524*t13, dtype=float), numpy.asarray(-2.8379131409273515*t14, dtype=float), numpy.asarray(-0.7128581043130656*t16, dtype=float), numpy.asarray(-1.6739402521122886*t15, dtype=float), numpy.asarray(-1.7061192768751303*t15, dtype=float), numpy.asarray(-0.014210822631915428*t15, dtype=float), numpy.asarray(-0.46352701817452785*t16, dtype=float), numpy.asarray(-0.4890688103263692*t13, dtype=float), numpy.asarray(-0.49993828263168366*t13, dtype=float), numpy.asarray(0.10625650933246486*t14 - 0.09050045154983123*t15 + 0.040558449658917785*t16 - 1.8499934365876788*t3, dtype=float), numpy.asarray(0.805852957259517*t15, dtype=float), numpy.asarray(0.6582269037007633*t13, dtype=float), numpy.asarray(0.45043691346028303*t14, dtype=float), numpy.asarray(0.5742385031683162*t16, dtype=float), numpy.asarray(0.6392720659218424*t13, dtype=float), numpy.asarray(0.18739898105517722*t15, dtype=float), numpy.asarray(0.8371462419661069*t14, dtype=float), numpy.asarray(0.6212937162033938*t16, dtype=float), numpy.asarray(0.4124295039969486*t13, dtype=float), numpy.asarray(0.41754495392944535*t15, dtype=float), numpy.asarray(0.028662593819483183*t16, dtype=float), numpy.asarray(-0.5773338931218077*t13, dtype=float), numpy.asarray(-0.7667251911655493*t16, dtype=float), numpy.asarray(-0.07180031380227185*t14, dtype=float), numpy.asarray(-0.6316753368520219*t15, dtype=float), numpy.asarray(-0.5766031303491715*t15, dtype=float), numpy.asarray(-0.5901356749175913*t13, dtype=float), numpy.asarray(-0.15688016937511312*t15, dtype=float), numpy.asarray(-0.08951890733992941*t16, dtype=float), numpy.asarray(-0.37270829229253744*t14, dtype=float), numpy.asarray(-0.37628293329323487*t16, dtype=float), numpy.asarray(-0.3929206076202727*t14, dtype=float), numpy.asarray(-0.43279839293414*t13, dtype=float), numpy.asarray(-0.49761324603578005*t14, dtype=float), numpy.asarray(0.07480678777429003*t14 - 0.048730004697608804*t15 + 0.017690506072644132*t16 - 0.5194652563684371*t3, dtype=float)), axis=-1)
 
 
 def prepare(kd):
@@ -510,34 +575,35 @@ def eval(material, mu_i, mu_o, cos_phi):
     scattering), c the particle albedo in [0, 1]; inputs outside (+-inf included) are
     clamped, NaN in any input gives NaN."""
     material, mu_i, mu_o, cos_phi = numpy.asarray(material, dtype=float), numpy.asarray(mu_i, dtype=float), numpy.asarray(mu_o, dtype=float), numpy.asarray(cos_phi, dtype=float)
-    t20 = numpy.where(numpy.less(mu_i, 0), 0.0, mu_i)
-    t0 = numpy.where(numpy.greater(t20, 1.0), 1.0, t20)
-    t21 = numpy.where(numpy.less(mu_o, 0), 0.0, mu_o)
-    t1 = numpy.where(numpy.greater(t21, 1.0), 1.0, t21)
+    t21 = numpy.where(numpy.less(mu_i, 0), 0.0, mu_i)
+    t0 = numpy.where(numpy.greater(t21, 1.0), 1.0, t21)
+    t22 = numpy.where(numpy.less(mu_o, 0), 0.0, mu_o)
+    t1 = numpy.where(numpy.greater(t22, 1.0), 1.0, t22)
     t2 = t0 + t1
     t3 = numpy.where(numpy.less(t2, 1/1000000), 1/1000000, t2)**(-1.0)
     t4 = t0*t1
-    t22 = numpy.where(numpy.less(cos_phi, -1.0), -1.0, cos_phi)
-    t5 = numpy.where(numpy.greater(t22, 1.0), 1.0, t22)
+    t23 = numpy.where(numpy.less(cos_phi, -1.0), -1.0, cos_phi)
+    t5 = numpy.where(numpy.greater(t23, 1.0), 1.0, t23)
     t6 = (t0*t0)
     t7 = t6 - 1
     t8 = (t1*t1)
     t9 = t8 - 1
     t10 = t7*t9
     t11 = numpy.sqrt(t10)
-    t23 = -t11*t5 - t4
-    t24 = numpy.where(numpy.greater(t23, 1), 1, t23)
-    t12 = numpy.where(numpy.less(t24, -1), -1, t24)
+    t24 = -t11*t5 - t4
+    t25 = numpy.where(numpy.greater(t24, 1), 1, t24)
+    t12 = numpy.where(numpy.less(t25, -1), -1, t25)
     t13 = numpy.log(1 + numpy.where(numpy.less(t0, 1.0e-30), 1.0e-30, t0)**(-1.0))
     t14 = (t0*t0*t0)
     t15 = numpy.log(1 + numpy.where(numpy.less(t1, 1.0e-30), 1.0e-30, t1)**(-1.0))
     t16 = (t1*t1*t1)
-    t17 = t6*t8
-    t18 = (t0*t0*t0*t0)
-    t19 = (t1*t1*t1*t1)
-    t25 = (1 - t12)*(t12 + 1)
-    t26 = (499973/500000)*material[..., 33]*t3*(-2*t12*numpy.arccos(t12) + 2*numpy.sqrt(numpy.where(numpy.less(t25, 0), 0, t25))) + (499973/500000)*material[..., 39]*t10*t3*(2*(t5*t5) - 1)*(numpy.exp(t0*(material[..., 29]*(material[..., 28]*(material[..., 34]*t6 + material[..., 35]*t14 + material[..., 36]*t0 + material[..., 37] - 0.0037961708223872375*t0 - 0.0014135909284063626*t14 + 0.0037035545003035746*t6) + (25/256)*t0 - 15/256*t14 + (15/512)*t6 - 45/1024) + material[..., 38]*t13*(t7*t7)) + t1*(material[..., 29]*(material[..., 28]*(material[..., 34]*t8 + material[..., 35]*t16 + material[..., 36]*t1 + material[..., 37] - 0.0037961708223872375*t1 - 0.0014135909284063626*t16 + 0.0037035545003035746*t8) + (25/256)*t1 - 15/256*t16 + (15/512)*t8 - 45/1024) + material[..., 38]*t15*(t9*t9))) - 1) + (499973/500000)*t3*t5*(material[..., 40]*t11*(45*t4 + 64) + material[..., 52]*t11*(material[..., 41]*t2 + material[..., 42]*t4 + 1)*numpy.exp(t0*(material[..., 29]*(material[..., 28]*(material[..., 43]*t6 + material[..., 44]*t14 + material[..., 45]*t14 + material[..., 46]*t0 + material[..., 47]*t0 + material[..., 48]*t6 + material[..., 49] - 0.1788584769584851*t0 + 0.06143020603611769*t14 + 0.05802135097287754*t6) - 47/96*t0 + (15/64)*t14 - 15/128*t6 + 173/768) + material[..., 51]*t13*t7*(material[..., 50]*t6 - 64)) + t1*(material[..., 29]*(material[..., 28]*(material[..., 43]*t8 + material[..., 44]*t16 + material[..., 45]*t16 + material[..., 46]*t1 + material[..., 47]*t1 + material[..., 48]*t8 + material[..., 49] - 0.1788584769584851*t1 + 0.06143020603611769*t16 + 0.05802135097287754*t8) - 47/96*t1 + (15/64)*t16 - 15/128*t8 + 173/768) + material[..., 51]*t15*t9*(material[..., 50]*t8 - 64)))) + (499973/500000)*t3*(material[..., 0]*(135*t17 + 256*t4 - 45*t6 - 45*t8 + 207) + (1/2)*(material[..., 1] + material[..., 2]*(t6 + t8) + material[..., 3]*t2 + material[..., 4]*t0*t1 + material[..., 5]*t0*t1*t2 + material[..., 6]*t17)*numpy.exp(t0*(material[..., 29]*(material[..., 28]*(material[..., 10]*t6 + material[..., 11]*t18 + material[..., 12]*t6 + material[..., 13]*t14 + material[..., 14]*t0 + material[..., 15]*t14 + material[..., 16]*t18 + material[..., 17]*t18 + material[..., 18]*t0 + material[..., 19]*t6 + material[..., 20]*t0 + material[..., 21]*t14 + material[..., 22]*t18 + material[..., 23]*t0 + material[..., 24]*t14 + material[..., 25]*t18 + material[..., 26]*t6 + material[..., 27] + material[..., 7]*t6 + material[..., 8]*t0 + material[..., 9]*t14 - 1.317974632049971*t0 + 0.10385474081646198*t14 + 0.06215295319723717*t18 + 0.28728468847971017*t6) + (301/384)*t0 - 45/128*t14 + (45/256)*t6 - 557/1536) + material[..., 32]*t13*(material[..., 30]*t6 + material[..., 31]*t18 + 207)) + t1*(material[..., 29]*(material[..., 28]*(material[..., 10]*t8 + material[..., 11]*t19 + material[..., 12]*t8 + material[..., 13]*t16 + material[..., 14]*t1 + material[..., 15]*t16 + material[..., 16]*t19 + material[..., 17]*t19 + material[..., 18]*t1 + material[..., 19]*t8 + material[..., 20]*t1 + material[..., 21]*t16 + material[..., 22]*t19 + material[..., 23]*t1 + material[..., 24]*t16 + material[..., 25]*t19 + material[..., 26]*t8 + material[..., 27] + material[..., 7]*t8 + material[..., 8]*t1 + material[..., 9]*t16 - 1.317974632049971*t1 + 0.10385474081646198*t16 + 0.06215295319723717*t19 + 0.28728468847971017*t8) + (301/384)*t1 - 45/128*t16 + (45/256)*t8 - 557/1536) + material[..., 32]*t15*(material[..., 30]*t8 + material[..., 31]*t19 + 207)))/3.141592653589793238)
-    return numpy.where(numpy.less(t26, 0), 0, t26)
+    t17 = material[..., 38]*t2 + material[..., 39]*t4
+    t18 = material[..., 0]*t2 + material[..., 2]*t6*t8 + material[..., 3]*(t6 + t8) + material[..., 4]*t0*t1*t2 + material[..., 5]*t4
+    t19 = (t0*t0*t0*t0)
+    t20 = (t1*t1*t1*t1)
+    t26 = (1 - t12)*(t12 + 1)
+    t27 = (499973/500000)*material[..., 31]*t3*(-2*t12*numpy.arccos(t12) + 2*numpy.sqrt(numpy.where(numpy.less(t26, 0), 0, t26))) + (499973/500000)*material[..., 37]*t10*t3*(2*(t5*t5) - 1)*numpy.expm1(t0*(material[..., 28]*(material[..., 27]*(material[..., 32]*t6 + material[..., 33]*t14 + material[..., 34]*t0 + material[..., 35] - 0.0037961708223872375*t0 - 0.0014135909284063626*t14 + 0.0037035545003035746*t6) + (25/256)*t0 - 15/256*t14 + (15/512)*t6 - 45/1024) + material[..., 36]*t13*(t7*t7)) + t1*(material[..., 28]*(material[..., 27]*(material[..., 32]*t8 + material[..., 33]*t16 + material[..., 34]*t1 + material[..., 35] - 0.0037961708223872375*t1 - 0.0014135909284063626*t16 + 0.0037035545003035746*t8) + (25/256)*t1 - 15/256*t16 + (15/512)*t8 - 45/1024) + material[..., 36]*t15*(t9*t9))) + (499973/500000)*material[..., 49]*t11*t3*t5*(t17 + (t17 + (45/64)*t4 + 1)*numpy.expm1(t0*(material[..., 28]*(material[..., 27]*(material[..., 40]*t6 + material[..., 41]*t14 + material[..., 42]*t14 + material[..., 43]*t0 + material[..., 44]*t0 + material[..., 45]*t6 + material[..., 46] - 0.1788584769584851*t0 + 0.06143020603611769*t14 + 0.05802135097287754*t6) - 47/96*t0 + (15/64)*t14 - 15/128*t6 + 173/768) + material[..., 48]*t13*t7*(material[..., 47]*t6 - 64)) + t1*(material[..., 28]*(material[..., 27]*(material[..., 40]*t8 + material[..., 41]*t16 + material[..., 42]*t16 + material[..., 43]*t1 + material[..., 44]*t1 + material[..., 45]*t8 + material[..., 46] - 0.1788584769584851*t1 + 0.06143020603611769*t16 + 0.05802135097287754*t8) - 47/96*t1 + (15/64)*t16 - 15/128*t8 + 173/768) + material[..., 48]*t15*t9*(material[..., 47]*t8 - 64)))) + (499973/1000000)*t3*(t18 + (material[..., 1]*(256*t4 + 135*t6*t8 - 45*t6 - 45*t8 + 207) + t18)*numpy.expm1(t0*(material[..., 1]*t13*(material[..., 29]*t6 + material[..., 30]*t19 + 207) + material[..., 28]*(material[..., 27]*(material[..., 10]*t19 + material[..., 11]*t6 + material[..., 12]*t14 + material[..., 13]*t0 + material[..., 14]*t14 + material[..., 15]*t19 + material[..., 16]*t19 + material[..., 17]*t0 + material[..., 18]*t6 + material[..., 19]*t0 + material[..., 20]*t14 + material[..., 21]*t19 + material[..., 22]*t0 + material[..., 23]*t14 + material[..., 24]*t19 + material[..., 25]*t6 + material[..., 26] + material[..., 6]*t6 + material[..., 7]*t0 + material[..., 8]*t14 + material[..., 9]*t6 - 1.317974632049971*t0 + 0.10385474081646198*t14 + 0.06215295319723717*t19 + 0.28728468847971017*t6) + (301/384)*t0 - 45/128*t14 + (45/256)*t6 - 557/1536)) + t1*(material[..., 1]*t15*(material[..., 29]*t8 + material[..., 30]*t20 + 207) + material[..., 28]*(material[..., 27]*(material[..., 10]*t20 + material[..., 11]*t8 + material[..., 12]*t16 + material[..., 13]*t1 + material[..., 14]*t16 + material[..., 15]*t20 + material[..., 16]*t20 + material[..., 17]*t1 + material[..., 18]*t8 + material[..., 19]*t1 + material[..., 20]*t16 + material[..., 21]*t20 + material[..., 22]*t1 + material[..., 23]*t16 + material[..., 24]*t20 + material[..., 25]*t8 + material[..., 26] + material[..., 6]*t8 + material[..., 7]*t1 + material[..., 8]*t16 + material[..., 9]*t8 - 1.317974632049971*t1 + 0.10385474081646198*t16 + 0.06215295319723717*t20 + 0.28728468847971017*t8) + (301/384)*t1 - 45/128*t16 + (45/256)*t8 - 557/1536))))/3.141592653589793238
+    return numpy.where(numpy.less(t27, 0), 0, t27)
 
 
 def eval_local(material, wi, wo):
@@ -546,26 +612,26 @@ def eval_local(material, wi, wo):
     pointing away from the surface); 0 if either is below the surface. Components are
     clamped to [-1, 1] (not normalised); NaN in any input gives NaN."""
     material, wi, wo = numpy.asarray(material, dtype=float), numpy.asarray(wi, dtype=float), numpy.asarray(wo, dtype=float)
-    t26 = numpy.where(numpy.less(wi[..., 2], -1.0), -1.0, wi[..., 2])
-    t0 = numpy.where(numpy.greater(t26, 1.0), 1.0, t26)
-    t27 = numpy.where(numpy.less(wo[..., 2], -1.0), -1.0, wo[..., 2])
-    t1 = numpy.where(numpy.greater(t27, 1.0), 1.0, t27)
-    t28 = numpy.where(numpy.less(wi[..., 0], -1.0), -1.0, wi[..., 0])
-    t2 = numpy.where(numpy.greater(t28, 1.0), 1.0, t28)
-    t29 = numpy.where(numpy.less(wo[..., 0], -1.0), -1.0, wo[..., 0])
-    t3 = numpy.where(numpy.greater(t29, 1.0), 1.0, t29)
-    t30 = numpy.where(numpy.less(wi[..., 1], -1.0), -1.0, wi[..., 1])
-    t4 = numpy.where(numpy.greater(t30, 1.0), 1.0, t30)
-    t31 = numpy.where(numpy.less(wo[..., 1], -1.0), -1.0, wo[..., 1])
-    t5 = numpy.where(numpy.greater(t31, 1.0), 1.0, t31)
-    t32 = ((t2*t2) + (t4*t4))*((t3*t3) + (t5*t5))
-    t33 = (t2*t3 + t4*t5)/numpy.sqrt(numpy.where(numpy.less(t32, 1/1000000000000000000000000000000), 1/1000000000000000000000000000000, t32))
-    t34 = numpy.where(numpy.less(t33, -1.0), -1.0, t33)
-    t6 = numpy.where(numpy.greater(t34, 1.0), 1.0, t34)
-    t35 = numpy.where(numpy.less(t0, 0), 0.0, t0)
-    t7 = numpy.where(numpy.greater(t35, 1.0), 1.0, t35)
-    t36 = numpy.where(numpy.less(t1, 0), 0.0, t1)
-    t8 = numpy.where(numpy.greater(t36, 1.0), 1.0, t36)
+    t27 = numpy.where(numpy.less(wi[..., 2], -1.0), -1.0, wi[..., 2])
+    t0 = numpy.where(numpy.greater(t27, 1.0), 1.0, t27)
+    t28 = numpy.where(numpy.less(wo[..., 2], -1.0), -1.0, wo[..., 2])
+    t1 = numpy.where(numpy.greater(t28, 1.0), 1.0, t28)
+    t29 = numpy.where(numpy.less(wi[..., 0], -1.0), -1.0, wi[..., 0])
+    t2 = numpy.where(numpy.greater(t29, 1.0), 1.0, t29)
+    t30 = numpy.where(numpy.less(wo[..., 0], -1.0), -1.0, wo[..., 0])
+    t3 = numpy.where(numpy.greater(t30, 1.0), 1.0, t30)
+    t31 = numpy.where(numpy.less(wi[..., 1], -1.0), -1.0, wi[..., 1])
+    t4 = numpy.where(numpy.greater(t31, 1.0), 1.0, t31)
+    t32 = numpy.where(numpy.less(wo[..., 1], -1.0), -1.0, wo[..., 1])
+    t5 = numpy.where(numpy.greater(t32, 1.0), 1.0, t32)
+    t33 = ((t2*t2) + (t4*t4))*((t3*t3) + (t5*t5))
+    t34 = (t2*t3 + t4*t5)/numpy.sqrt(numpy.where(numpy.less(t33, 1/1000000000000000000000000000000), 1/1000000000000000000000000000000, t33))
+    t35 = numpy.where(numpy.less(t34, -1.0), -1.0, t34)
+    t6 = numpy.where(numpy.greater(t35, 1.0), 1.0, t35)
+    t36 = numpy.where(numpy.less(t0, 0), 0.0, t0)
+    t7 = numpy.where(numpy.greater(t36, 1.0), 1.0, t36)
+    t37 = numpy.where(numpy.less(t1, 0), 0.0, t1)
+    t8 = numpy.where(numpy.greater(t37, 1.0), 1.0, t37)
     t9 = t7 + t8
     t10 = numpy.where(numpy.less(t9, 1/1000000), 1/1000000, t9)**(-1.0)
     t11 = (t7*t7)
@@ -579,15 +645,16 @@ def eval_local(material, wi, wo):
     t19 = t12*t16
     t20 = t7*t8
     t21 = numpy.sqrt(t19)
-    t37 = -t20 - t21*t6
-    t38 = numpy.where(numpy.greater(t37, 1), 1, t37)
-    t22 = numpy.where(numpy.less(t38, -1), -1, t38)
-    t23 = t11*t15
-    t24 = (t7*t7*t7*t7)
-    t25 = (t8*t8*t8*t8)
-    t39 = (1 - t22)*(t22 + 1)
-    t40 = (499973/500000)*material[..., 33]*t10*(-2*t22*numpy.arccos(t22) + 2*numpy.sqrt(numpy.where(numpy.less(t39, 0), 0, t39))) + (499973/500000)*material[..., 39]*t10*t19*(2*(t6*t6) - 1)*(numpy.exp(t7*(material[..., 29]*(material[..., 28]*(material[..., 34]*t11 + material[..., 35]*t14 + material[..., 36]*t7 + material[..., 37] + 0.0037035545003035746*t11 - 0.0014135909284063626*t14 - 0.0037961708223872375*t7) + (15/512)*t11 - 15/256*t14 + (25/256)*t7 - 45/1024) + material[..., 38]*(t12*t12)*t13) + t8*(material[..., 29]*(material[..., 28]*(material[..., 34]*t15 + material[..., 35]*t18 + material[..., 36]*t8 + material[..., 37] + 0.0037035545003035746*t15 - 0.0014135909284063626*t18 - 0.0037961708223872375*t8) + (15/512)*t15 - 15/256*t18 + (25/256)*t8 - 45/1024) + material[..., 38]*(t16*t16)*t17)) - 1) + (499973/500000)*t10*t6*(material[..., 40]*t21*(45*t20 + 64) + material[..., 52]*t21*(material[..., 41]*t9 + material[..., 42]*t20 + 1)*numpy.exp(t7*(material[..., 29]*(material[..., 28]*(material[..., 43]*t11 + material[..., 44]*t14 + material[..., 45]*t14 + material[..., 46]*t7 + material[..., 47]*t7 + material[..., 48]*t11 + material[..., 49] + 0.05802135097287754*t11 + 0.06143020603611769*t14 - 0.1788584769584851*t7) - 15/128*t11 + (15/64)*t14 - 47/96*t7 + 173/768) + material[..., 51]*t12*t13*(material[..., 50]*t11 - 64)) + t8*(material[..., 29]*(material[..., 28]*(material[..., 43]*t15 + material[..., 44]*t18 + material[..., 45]*t18 + material[..., 46]*t8 + material[..., 47]*t8 + material[..., 48]*t15 + material[..., 49] + 0.05802135097287754*t15 + 0.06143020603611769*t18 - 0.1788584769584851*t8) - 15/128*t15 + (15/64)*t18 - 47/96*t8 + 173/768) + material[..., 51]*t16*t17*(material[..., 50]*t15 - 64)))) + (499973/500000)*t10*(material[..., 0]*(-45*t11 - 45*t15 + 256*t20 + 135*t23 + 207) + (1/2)*(material[..., 1] + material[..., 2]*(t11 + t15) + material[..., 3]*t9 + material[..., 4]*t7*t8 + material[..., 5]*t7*t8*t9 + material[..., 6]*t23)*numpy.exp(t7*(material[..., 29]*(material[..., 28]*(material[..., 10]*t11 + material[..., 11]*t24 + material[..., 12]*t11 + material[..., 13]*t14 + material[..., 14]*t7 + material[..., 15]*t14 + material[..., 16]*t24 + material[..., 17]*t24 + material[..., 18]*t7 + material[..., 19]*t11 + material[..., 20]*t7 + material[..., 21]*t14 + material[..., 22]*t24 + material[..., 23]*t7 + material[..., 24]*t14 + material[..., 25]*t24 + material[..., 26]*t11 + material[..., 27] + material[..., 7]*t11 + material[..., 8]*t7 + material[..., 9]*t14 + 0.28728468847971017*t11 + 0.10385474081646198*t14 + 0.06215295319723717*t24 - 1.317974632049971*t7) + (45/256)*t11 - 45/128*t14 + (301/384)*t7 - 557/1536) + material[..., 32]*t13*(material[..., 30]*t11 + material[..., 31]*t24 + 207)) + t8*(material[..., 29]*(material[..., 28]*(material[..., 10]*t15 + material[..., 11]*t25 + material[..., 12]*t15 + material[..., 13]*t18 + material[..., 14]*t8 + material[..., 15]*t18 + material[..., 16]*t25 + material[..., 17]*t25 + material[..., 18]*t8 + material[..., 19]*t15 + material[..., 20]*t8 + material[..., 21]*t18 + material[..., 22]*t25 + material[..., 23]*t8 + material[..., 24]*t18 + material[..., 25]*t25 + material[..., 26]*t15 + material[..., 27] + material[..., 7]*t15 + material[..., 8]*t8 + material[..., 9]*t18 + 0.28728468847971017*t15 + 0.10385474081646198*t18 + 0.06215295319723717*t25 - 1.317974632049971*t8) + (45/256)*t15 - 45/128*t18 + (301/384)*t8 - 557/1536) + material[..., 32]*t17*(material[..., 30]*t15 + material[..., 31]*t25 + 207)))/3.141592653589793238)
-    return numpy.where(numpy.less(t0, 0), 0, 1)*numpy.where(numpy.less(t1, 0), 0, 1)*numpy.where(numpy.less(t40, 0), 0, t40)
+    t38 = -t20 - t21*t6
+    t39 = numpy.where(numpy.greater(t38, 1), 1, t38)
+    t22 = numpy.where(numpy.less(t39, -1), -1, t39)
+    t23 = material[..., 38]*t9 + material[..., 39]*t20
+    t24 = material[..., 0]*t9 + material[..., 2]*t11*t15 + material[..., 3]*(t11 + t15) + material[..., 4]*t7*t8*t9 + material[..., 5]*t20
+    t25 = (t7*t7*t7*t7)
+    t26 = (t8*t8*t8*t8)
+    t40 = (1 - t22)*(t22 + 1)
+    t41 = (499973/500000)*material[..., 31]*t10*(-2*t22*numpy.arccos(t22) + 2*numpy.sqrt(numpy.where(numpy.less(t40, 0), 0, t40))) + (499973/500000)*material[..., 37]*t10*t19*(2*(t6*t6) - 1)*numpy.expm1(t7*(material[..., 28]*(material[..., 27]*(material[..., 32]*t11 + material[..., 33]*t14 + material[..., 34]*t7 + material[..., 35] + 0.0037035545003035746*t11 - 0.0014135909284063626*t14 - 0.0037961708223872375*t7) + (15/512)*t11 - 15/256*t14 + (25/256)*t7 - 45/1024) + material[..., 36]*(t12*t12)*t13) + t8*(material[..., 28]*(material[..., 27]*(material[..., 32]*t15 + material[..., 33]*t18 + material[..., 34]*t8 + material[..., 35] + 0.0037035545003035746*t15 - 0.0014135909284063626*t18 - 0.0037961708223872375*t8) + (15/512)*t15 - 15/256*t18 + (25/256)*t8 - 45/1024) + material[..., 36]*(t16*t16)*t17)) + (499973/500000)*material[..., 49]*t10*t21*t6*(t23 + ((45/64)*t20 + t23 + 1)*numpy.expm1(t7*(material[..., 28]*(material[..., 27]*(material[..., 40]*t11 + material[..., 41]*t14 + material[..., 42]*t14 + material[..., 43]*t7 + material[..., 44]*t7 + material[..., 45]*t11 + material[..., 46] + 0.05802135097287754*t11 + 0.06143020603611769*t14 - 0.1788584769584851*t7) - 15/128*t11 + (15/64)*t14 - 47/96*t7 + 173/768) + material[..., 48]*t12*t13*(material[..., 47]*t11 - 64)) + t8*(material[..., 28]*(material[..., 27]*(material[..., 40]*t15 + material[..., 41]*t18 + material[..., 42]*t18 + material[..., 43]*t8 + material[..., 44]*t8 + material[..., 45]*t15 + material[..., 46] + 0.05802135097287754*t15 + 0.06143020603611769*t18 - 0.1788584769584851*t8) - 15/128*t15 + (15/64)*t18 - 47/96*t8 + 173/768) + material[..., 48]*t16*t17*(material[..., 47]*t15 - 64)))) + (499973/1000000)*t10*(t24 + (material[..., 1]*(135*t11*t15 - 45*t11 - 45*t15 + 256*t20 + 207) + t24)*numpy.expm1(t7*(material[..., 1]*t13*(material[..., 29]*t11 + material[..., 30]*t25 + 207) + material[..., 28]*(material[..., 27]*(material[..., 10]*t25 + material[..., 11]*t11 + material[..., 12]*t14 + material[..., 13]*t7 + material[..., 14]*t14 + material[..., 15]*t25 + material[..., 16]*t25 + material[..., 17]*t7 + material[..., 18]*t11 + material[..., 19]*t7 + material[..., 20]*t14 + material[..., 21]*t25 + material[..., 22]*t7 + material[..., 23]*t14 + material[..., 24]*t25 + material[..., 25]*t11 + material[..., 26] + material[..., 6]*t11 + material[..., 7]*t7 + material[..., 8]*t14 + material[..., 9]*t11 + 0.28728468847971017*t11 + 0.10385474081646198*t14 + 0.06215295319723717*t25 - 1.317974632049971*t7) + (45/256)*t11 - 45/128*t14 + (301/384)*t7 - 557/1536)) + t8*(material[..., 1]*t17*(material[..., 29]*t15 + material[..., 30]*t26 + 207) + material[..., 28]*(material[..., 27]*(material[..., 10]*t26 + material[..., 11]*t15 + material[..., 12]*t18 + material[..., 13]*t8 + material[..., 14]*t18 + material[..., 15]*t26 + material[..., 16]*t26 + material[..., 17]*t8 + material[..., 18]*t15 + material[..., 19]*t8 + material[..., 20]*t18 + material[..., 21]*t26 + material[..., 22]*t8 + material[..., 23]*t18 + material[..., 24]*t26 + material[..., 25]*t15 + material[..., 26] + material[..., 6]*t15 + material[..., 7]*t8 + material[..., 8]*t18 + material[..., 9]*t15 + 0.28728468847971017*t15 + 0.10385474081646198*t18 + 0.06215295319723717*t26 - 1.317974632049971*t8) + (45/256)*t15 - 45/128*t18 + (301/384)*t8 - 557/1536))))/3.141592653589793238
+    return numpy.where(numpy.less(t0, 0), 0, 1)*numpy.where(numpy.less(t1, 0), 0, 1)*numpy.where(numpy.less(t41, 0), 0, t41)
 
 
 def pdf(material, wi, wo):
@@ -612,8 +679,8 @@ def pdf(material, wi, wo):
     t7 = (t4*t4*t4*t4)
     t8 = t4**5
     t9 = t4**6
-    t10 = (9.7240632799166419*numpy.exp(material[..., 53]*t4 + material[..., 54]*t5 + material[..., 55]*t7 + material[..., 56]*t8 + material[..., 57]*t5 + material[..., 58]*t6 + material[..., 59]*t7 + material[..., 60]*t9 + material[..., 61]*t6 + material[..., 62]*t9 + material[..., 63]*t8 + material[..., 64]*t6 + material[..., 65]*t8 + material[..., 66]*t4 + material[..., 67]*t4 + material[..., 68]*t8 + material[..., 69]*t9 + material[..., 70]*t7 + material[..., 71]*t6 + material[..., 72]*t9 + material[..., 73]*t4 + material[..., 74]*t5 + material[..., 75]*t5 + material[..., 76]*t7 + material[..., 77] + 1.7500311057966532*t3 + 0.04628582994795521*t5 - 0.550401436459078*t6 + 0.07829314674691852*t7 - 0.7161701495184881*t8 - 0.5341871660342392*t9) + 1)**(-1.0)
-    t11 = 2.0429479122374826*numpy.exp(material[..., 100]*t5 + material[..., 101]*t6 + material[..., 102] + material[..., 78]*t8 + material[..., 79]*t6 + material[..., 80]*t5 + material[..., 81]*t9 + material[..., 82]*t9 + material[..., 83]*t4 + material[..., 84]*t8 + material[..., 85]*t6 + material[..., 86]*t7 + material[..., 87]*t7 + material[..., 88]*t5 + material[..., 89]*t4 + material[..., 90]*t8 + material[..., 91]*t4 + material[..., 92]*t6 + material[..., 93]*t9 + material[..., 94]*t8 + material[..., 95]*t5 + material[..., 96]*t4 + material[..., 97]*t9 + material[..., 98]*t7 + material[..., 99]*t7 + 3.9697173818393476*t3 - 0.861604156944149*t5 - 0.8684385788422878*t6 + 0.20080844606204426*t7 - 0.36251640502651766*t8 - 0.4275420217467747*t9)
+    t10 = (9.7240632799166419*numpy.exp(material[..., 50]*t4 + material[..., 51]*t5 + material[..., 52]*t7 + material[..., 53]*t8 + material[..., 54]*t5 + material[..., 55]*t6 + material[..., 56]*t7 + material[..., 57]*t9 + material[..., 58]*t6 + material[..., 59]*t9 + material[..., 60]*t8 + material[..., 61]*t6 + material[..., 62]*t8 + material[..., 63]*t4 + material[..., 64]*t4 + material[..., 65]*t8 + material[..., 66]*t9 + material[..., 67]*t7 + material[..., 68]*t6 + material[..., 69]*t9 + material[..., 70]*t4 + material[..., 71]*t5 + material[..., 72]*t5 + material[..., 73]*t7 + material[..., 74] + 1.7500311057966532*t3 + 0.04628582994795521*t5 - 0.550401436459078*t6 + 0.07829314674691852*t7 - 0.7161701495184881*t8 - 0.5341871660342392*t9) + 1)**(-1.0)
+    t11 = 2.0429479122374826*numpy.exp(material[..., 75]*t8 + material[..., 76]*t6 + material[..., 77]*t5 + material[..., 78]*t9 + material[..., 79]*t9 + material[..., 80]*t4 + material[..., 81]*t8 + material[..., 82]*t6 + material[..., 83]*t7 + material[..., 84]*t7 + material[..., 85]*t5 + material[..., 86]*t4 + material[..., 87]*t8 + material[..., 88]*t4 + material[..., 89]*t6 + material[..., 90]*t9 + material[..., 91]*t8 + material[..., 92]*t5 + material[..., 93]*t4 + material[..., 94]*t9 + material[..., 95]*t7 + material[..., 96]*t7 + material[..., 97]*t5 + material[..., 98]*t6 + material[..., 99] + 3.9697173818393476*t3 - 0.861604156944149*t5 - 0.8684385788422878*t6 + 0.20080844606204426*t7 - 0.36251640502651766*t8 - 0.4275420217467747*t9)
     t15 = numpy.where(numpy.less(wi[..., 0], -1.0), -1.0, wi[..., 0])
     t16 = numpy.where(numpy.less(wo[..., 0], -1.0), -1.0, wo[..., 0])
     t17 = numpy.where(numpy.less(wi[..., 1], -1.0), -1.0, wi[..., 1])
@@ -642,8 +709,8 @@ def sample(material, wi, u1, u2):
     t7 = (t4*t4*t4*t4)
     t8 = t4**5
     t9 = t4**6
-    t10 = (9.7240632799166419*numpy.exp(material[..., 53]*t4 + material[..., 54]*t5 + material[..., 55]*t7 + material[..., 56]*t8 + material[..., 57]*t5 + material[..., 58]*t6 + material[..., 59]*t7 + material[..., 60]*t9 + material[..., 61]*t6 + material[..., 62]*t9 + material[..., 63]*t8 + material[..., 64]*t6 + material[..., 65]*t8 + material[..., 66]*t4 + material[..., 67]*t4 + material[..., 68]*t8 + material[..., 69]*t9 + material[..., 70]*t7 + material[..., 71]*t6 + material[..., 72]*t9 + material[..., 73]*t4 + material[..., 74]*t5 + material[..., 75]*t5 + material[..., 76]*t7 + material[..., 77] + 1.7500311057966532*t3 + 0.04628582994795521*t5 - 0.550401436459078*t6 + 0.07829314674691852*t7 - 0.7161701495184881*t8 - 0.5341871660342392*t9) + 1)**(-1.0)
-    t12 = 2.0429479122374826*numpy.exp(material[..., 100]*t5 + material[..., 101]*t6 + material[..., 102] + material[..., 78]*t8 + material[..., 79]*t6 + material[..., 80]*t5 + material[..., 81]*t9 + material[..., 82]*t9 + material[..., 83]*t4 + material[..., 84]*t8 + material[..., 85]*t6 + material[..., 86]*t7 + material[..., 87]*t7 + material[..., 88]*t5 + material[..., 89]*t4 + material[..., 90]*t8 + material[..., 91]*t4 + material[..., 92]*t6 + material[..., 93]*t9 + material[..., 94]*t8 + material[..., 95]*t5 + material[..., 96]*t4 + material[..., 97]*t9 + material[..., 98]*t7 + material[..., 99]*t7 + 3.9697173818393476*t3 - 0.861604156944149*t5 - 0.8684385788422878*t6 + 0.20080844606204426*t7 - 0.36251640502651766*t8 - 0.4275420217467747*t9)
+    t10 = (9.7240632799166419*numpy.exp(material[..., 50]*t4 + material[..., 51]*t5 + material[..., 52]*t7 + material[..., 53]*t8 + material[..., 54]*t5 + material[..., 55]*t6 + material[..., 56]*t7 + material[..., 57]*t9 + material[..., 58]*t6 + material[..., 59]*t9 + material[..., 60]*t8 + material[..., 61]*t6 + material[..., 62]*t8 + material[..., 63]*t4 + material[..., 64]*t4 + material[..., 65]*t8 + material[..., 66]*t9 + material[..., 67]*t7 + material[..., 68]*t6 + material[..., 69]*t9 + material[..., 70]*t4 + material[..., 71]*t5 + material[..., 72]*t5 + material[..., 73]*t7 + material[..., 74] + 1.7500311057966532*t3 + 0.04628582994795521*t5 - 0.550401436459078*t6 + 0.07829314674691852*t7 - 0.7161701495184881*t8 - 0.5341871660342392*t9) + 1)**(-1.0)
+    t12 = 2.0429479122374826*numpy.exp(material[..., 75]*t8 + material[..., 76]*t6 + material[..., 77]*t5 + material[..., 78]*t9 + material[..., 79]*t9 + material[..., 80]*t4 + material[..., 81]*t8 + material[..., 82]*t6 + material[..., 83]*t7 + material[..., 84]*t7 + material[..., 85]*t5 + material[..., 86]*t4 + material[..., 87]*t8 + material[..., 88]*t4 + material[..., 89]*t6 + material[..., 90]*t9 + material[..., 91]*t8 + material[..., 92]*t5 + material[..., 93]*t4 + material[..., 94]*t9 + material[..., 95]*t7 + material[..., 96]*t7 + material[..., 97]*t5 + material[..., 98]*t6 + material[..., 99] + 3.9697173818393476*t3 - 0.861604156944149*t5 - 0.8684385788422878*t6 + 0.20080844606204426*t7 - 0.36251640502651766*t8 - 0.4275420217467747*t9)
     t13 = t12 + 1
     t14 = _safe_pow(t1/t10, t13**(-1.0))
     t37 = numpy.where(numpy.less(wi[..., 1], -1.0), -1.0, wi[..., 1])

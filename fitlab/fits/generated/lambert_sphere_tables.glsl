@@ -335,38 +335,160 @@ float lambert_sphere_tables_single(float mu_i, float mu_o, float cos_phi, float 
 }
 
 // Multiple scattering, Fourier order 0: fm0 = (H0 H0 Q/(2 pi) - n0_ss)/(mu_i + mu_o) (eqs. 30,
-// 38). Pole floored at 1e-6.
+// 38), evaluated as ((H0 H0 - 1) Q + (Q - Q_ss))/(2 pi (mu_i + mu_o)), Q_ss = 2 pi n0_ss,
+// without cancellation at grazing and small c. Pole floored at 1e-6.
 float lambert_sphere_tables_fm0(float mu_i, float mu_o, float c)
 {
-    float t8 = ((mu_i < 0.0) ? (0.0) : (mu_i));
-    float t0 = ((t8 > 1.0) ? (1.0) : (t8));
-    float t9 = ((mu_o < 0.0) ? (0.0) : (mu_o));
-    float t1 = ((t9 > 1.0) ? (1.0) : (t9));
+    float t59 = ((mu_i < 0.0) ? (0.0) : (mu_i));
+    float t0 = ((t59 > 1.0) ? (1.0) : (t59));
+    float t60 = ((mu_o < 0.0) ? (0.0) : (mu_o));
+    float t1 = ((t60 > 1.0) ? (1.0) : (t60));
     float t2 = t0 + t1;
-    float t3 = 1.0/3.141592653589793238;
-    float t10 = ((c < 0.0) ? (0.0) : (c));
-    float t4 = ((t10 > 1.0) ? (1.0) : (t10));
-    float t5 = (t0*t0);
-    float t6 = (t1*t1);
-    float t7 = t0*t1;
-    return (-(1.0/768.0)*t3*t4*(135.0*t5*t6 - 45.0*t5 - 45.0*t6 + 256.0*t7 + 207.0) + ((1.0/2.0))*t3*(t0*t1*t2*lambert_sphere_tables_const_d(t4) + t2*lambert_sphere_tables_const_b(t4) + t4*t5*t6*((15.0/128.0) - (15.0/128.0)*t4)*(((4.0/3.0))*t4 + 3.0) + ((69.0/128.0))*t4 + t7*lambert_sphere_tables_const_c(t4) + (t5 + t6)*lambert_sphere_tables_const_f(t4))*lambert_sphere_tables_h0(t0, t4)*lambert_sphere_tables_h0(t1, t4))/((t2 < (1.0/1000000.0)) ? ((1.0/1000000.0)) : (t2));
+    float t61 = ((c < 0.0) ? (0.0) : (c));
+    float t3 = ((t61 > 1.0) ? (1.0) : (t61));
+    float t4 = (t0*t0);
+    float t5 = (t1*t1);
+    float t6 = t4*t5;
+    float t62 = sqrt(1.0 - t3);
+    float t63 = ((t62 < 0.0) ? (0.0) : (t62));
+    float t7 = ((t63 > 1.0) ? (1.0) : (t63));
+    float t8 = ((t7 < (1.0/32.0)) ? (0.0) : (((t7 >= (31.0/32.0)) ? (29.0) : (floor(32.0*t7) - 1.0))));
+    float t9 = -32.0*t7 + t8;
+    float t10 = t9 + 1.0;
+    float t11 = -t9 - 3.0;
+    float t12 = -t9 - 2.0;
+    float t13 = t8 + 2.0;
+    float t14 = -t10;
+    float t15 = t8 + 1.0;
+    float t16 = -t9;
+    float t17 = t8 + 3.0;
+    float t18 = t0*t1*t2*lambert_sphere_tables_const_d(t3) + t0*t1*(((1.0/6.0))*t10*t11*t12*t3*lambert_sphere_tables_texel(102.0, t8) + ((1.0/2.0))*t11*t12*t16*t3*lambert_sphere_tables_texel(102.0, t15) + ((1.0/2.0))*t11*t14*t3*t9*lambert_sphere_tables_texel(102.0, t13) + ((1.0/6.0))*t12*t14*t16*t3*lambert_sphere_tables_texel(102.0, t17)) + t2*lambert_sphere_tables_const_b(t3) + t6*(-(5.0/32.0)*(t3*t3*t3) - (25.0/128.0)*(t3*t3)) + (t4 + t5)*(((1.0/6.0))*t10*t11*t12*t3*lambert_sphere_tables_texel(104.0, t8) + ((1.0/2.0))*t11*t12*t16*t3*lambert_sphere_tables_texel(104.0, t15) + ((1.0/2.0))*t11*t14*t3*t9*lambert_sphere_tables_texel(104.0, t13) + ((1.0/6.0))*t12*t14*t16*t3*lambert_sphere_tables_texel(104.0, t17));
+    float t19 = t3*(20.0*t3 + 281.0) - 346.0;
+    float t20 = (15.0 - 15.0*t3)*(4.0*t3 + 9.0);
+    float t64 = ((t0 < 0.0) ? (0.0) : (t0));
+    float t21 = ((t64 > 1.0) ? (1.0) : (t64));
+    float t22 = ((t21 < (1.0/32.0)) ? (0.0) : (((t21 >= (31.0/32.0)) ? (29.0) : (floor(32.0*t21) - 1.0))));
+    float t23 = -32.0*t21 + t22;
+    float t24 = -t23 - 3.0;
+    float t25 = -t23 - 2.0;
+    float t26 = t23 + 1.0;
+    float t27 = ((1.0/6.0))*t24*t25*t26;
+    float t28 = t22 + 2.0;
+    float t29 = -t26;
+    float t30 = ((1.0/2.0))*t24;
+    float t31 = t23*t29*t30;
+    float t32 = t22 + 1.0;
+    float t33 = -t23*t25;
+    float t34 = t30*t33;
+    float t35 = t22 + 3.0;
+    float t36 = ((1.0/6.0))*t29*t33;
+    float t37 = ((1.0/6.0))*t10*t11*t12;
+    float t38 = ((1.0/2.0))*t11;
+    float t39 = t14*t38*t9;
+    float t40 = t12*t16;
+    float t41 = t38*t40;
+    float t42 = ((1.0/6.0))*t14*t40;
+    float t65 = ((t1 < 0.0) ? (0.0) : (t1));
+    float t43 = ((t65 > 1.0) ? (1.0) : (t65));
+    float t44 = ((t43 < (1.0/32.0)) ? (0.0) : (((t43 >= (31.0/32.0)) ? (29.0) : (floor(32.0*t43) - 1.0))));
+    float t45 = -32.0*t43 + t44;
+    float t46 = -t45 - 3.0;
+    float t47 = -t45 - 2.0;
+    float t48 = t45 + 1.0;
+    float t49 = ((1.0/6.0))*t46*t47*t48;
+    float t50 = t44 + 2.0;
+    float t51 = -t48;
+    float t52 = ((1.0/2.0))*t46;
+    float t53 = t45*t51*t52;
+    float t54 = t44 + 1.0;
+    float t55 = -t45*t47;
+    float t56 = t52*t55;
+    float t57 = t44 + 3.0;
+    float t58 = ((1.0/6.0))*t51*t55;
+    return ((1.0/2.0))*(t18 + (t18 + ((1.0/384.0))*t3*(256.0*t0*t1 - 45.0*t4 - 45.0*t5 + 135.0*t6 + 207.0))*lambert_sphere_tables_expm1(t0*(((1.0/384.0))*t3*((t0*t0*t0*t0)*t20 + t19*t4 + 207.0)*log(1.0 + 1.0/((t0 < 1.0000000000000001e-30) ? (1.0000000000000001e-30) : (t0))) + t3*(-(45.0/128.0)*(t0*t0*t0) + ((301.0/384.0))*t0 + t37*(t27*lambert_sphere_tables_texel(t8, t22) + t31*lambert_sphere_tables_texel(t8, t28) + t34*lambert_sphere_tables_texel(t8, t32) + t36*lambert_sphere_tables_texel(t8, t35)) + t39*(t27*lambert_sphere_tables_texel(t13, t22) + t31*lambert_sphere_tables_texel(t13, t28) + t34*lambert_sphere_tables_texel(t13, t32) + t36*lambert_sphere_tables_texel(t13, t35)) + ((45.0/256.0))*t4 + t41*(t27*lambert_sphere_tables_texel(t15, t22) + t31*lambert_sphere_tables_texel(t15, t28) + t34*lambert_sphere_tables_texel(t15, t32) + t36*lambert_sphere_tables_texel(t15, t35)) + t42*(t27*lambert_sphere_tables_texel(t17, t22) + t31*lambert_sphere_tables_texel(t17, t28) + t34*lambert_sphere_tables_texel(t17, t32) + t36*lambert_sphere_tables_texel(t17, t35)) + (-557.0/1536.0))) + t1*(((1.0/384.0))*t3*((t1*t1*t1*t1)*t20 + t19*t5 + 207.0)*log(1.0 + 1.0/((t1 < 1.0000000000000001e-30) ? (1.0000000000000001e-30) : (t1))) + t3*(-(45.0/128.0)*(t1*t1*t1) + ((301.0/384.0))*t1 + t37*(t49*lambert_sphere_tables_texel(t8, t44) + t53*lambert_sphere_tables_texel(t8, t50) + t56*lambert_sphere_tables_texel(t8, t54) + t58*lambert_sphere_tables_texel(t8, t57)) + t39*(t49*lambert_sphere_tables_texel(t13, t44) + t53*lambert_sphere_tables_texel(t13, t50) + t56*lambert_sphere_tables_texel(t13, t54) + t58*lambert_sphere_tables_texel(t13, t57)) + t41*(t49*lambert_sphere_tables_texel(t15, t44) + t53*lambert_sphere_tables_texel(t15, t50) + t56*lambert_sphere_tables_texel(t15, t54) + t58*lambert_sphere_tables_texel(t15, t57)) + t42*(t49*lambert_sphere_tables_texel(t17, t44) + t53*lambert_sphere_tables_texel(t17, t50) + t56*lambert_sphere_tables_texel(t17, t54) + t58*lambert_sphere_tables_texel(t17, t57)) + ((45.0/256.0))*t5 + (-557.0/1536.0)))))/(3.141592653589793238*((t2 < (1.0/1000000.0)) ? ((1.0/1000000.0)) : (t2)));
 }
 
 // Multiple scattering, Fourier order 1 (coefficient of cos phi): fm1 of eq. 22 minus its single
-// scattering, exact normalisations 3 pi and 192 pi (docs/errata.md). Pole floored at 1e-6.
+// scattering, exact normalisations 3 pi and 192 pi (docs/errata.md), evaluated as c S ((H1 H1 -
+// 1) G + (G - G_ss))/(3 pi (mu_i + mu_o)) without cancellation at grazing and small c. Pole
+// floored at 1e-6.
 float lambert_sphere_tables_fm1(float mu_i, float mu_o, float c)
 {
-    float t7 = ((mu_i < 0.0) ? (0.0) : (mu_i));
-    float t0 = ((t7 > 1.0) ? (1.0) : (t7));
-    float t8 = ((mu_o < 0.0) ? (0.0) : (mu_o));
-    float t1 = ((t8 > 1.0) ? (1.0) : (t8));
-    float t2 = t0 + t1;
-    float t3 = 1.0/3.141592653589793238;
-    float t9 = ((c < 0.0) ? (0.0) : (c));
-    float t4 = ((t9 > 1.0) ? (1.0) : (t9));
-    float t5 = sqrt((1.0 - (t0*t0))*(1.0 - (t1*t1)));
-    float t6 = lambert_sphere_tables_const_l(t4);
-    return (-(1.0/192.0)*t3*t4*t5*(45.0*t0*t1 + 64.0) + ((1.0/3.0))*t3*t4*t5*(t0*t1*((t6*t6) + ((45.0/64.0))*lambert_sphere_tables_const_m(t4)) + t2*t6 + 1.0)*lambert_sphere_tables_h1(t0, t4)*lambert_sphere_tables_h1(t1, t4))/((t2 < (1.0/1000000.0)) ? ((1.0/1000000.0)) : (t2));
+    float t67 = ((c < 0.0) ? (0.0) : (c));
+    float t0 = ((t67 > 1.0) ? (1.0) : (t67));
+    float t68 = ((mu_i < 0.0) ? (0.0) : (mu_i));
+    float t1 = ((t68 > 1.0) ? (1.0) : (t68));
+    float t69 = ((mu_o < 0.0) ? (0.0) : (mu_o));
+    float t2 = ((t69 > 1.0) ? (1.0) : (t69));
+    float t3 = t1 + t2;
+    float t4 = (t1*t1);
+    float t5 = t4 - 1.0;
+    float t6 = (t2*t2);
+    float t7 = t6 - 1.0;
+    float t8 = lambert_sphere_tables_const_l(t0);
+    float t70 = sqrt(1.0 - t0);
+    float t71 = ((t70 < 0.0) ? (0.0) : (t70));
+    float t9 = ((t71 > 1.0) ? (1.0) : (t71));
+    float t10 = ((t9 < (1.0/32.0)) ? (0.0) : (((t9 >= (31.0/32.0)) ? (29.0) : (floor(32.0*t9) - 1.0))));
+    float t11 = t10 - 32.0*t9;
+    float t12 = -t11 - 2.0;
+    float t13 = ((15.0/128.0))*t12;
+    float t14 = t11 + 1.0;
+    float t15 = -t11 - 3.0;
+    float t16 = t14*t15;
+    float t17 = ((45.0/128.0))*t15;
+    float t18 = -t14;
+    float t19 = t11*t18;
+    float t20 = -t11;
+    float t21 = t12*t20;
+    float t22 = t18*t20;
+    float t23 = t1*t2*(t13*t16*lambert_sphere_tables_texel(100.0, t10) + t13*t22*lambert_sphere_tables_texel(100.0, t10 + 3.0) + t17*t19*lambert_sphere_tables_texel(100.0, t10 + 2.0) + t17*t21*lambert_sphere_tables_texel(100.0, t10 + 1.0) + (t8*t8)) + t3*t8;
+    float t24 = 20.0*t0 + 45.0;
+    float t25 = t10 + 35.0;
+    float t72 = ((t1 < 0.0) ? (0.0) : (t1));
+    float t26 = ((t72 > 1.0) ? (1.0) : (t72));
+    float t27 = ((t26 < (1.0/32.0)) ? (0.0) : (((t26 >= (31.0/32.0)) ? (29.0) : (floor(32.0*t26) - 1.0))));
+    float t28 = -32.0*t26 + t27;
+    float t29 = -t28 - 3.0;
+    float t30 = -t28 - 2.0;
+    float t31 = t28 + 1.0;
+    float t32 = ((1.0/6.0))*t29*t30*t31;
+    float t33 = t27 + 2.0;
+    float t34 = -t31;
+    float t35 = ((1.0/2.0))*t29;
+    float t36 = t28*t34*t35;
+    float t37 = t27 + 1.0;
+    float t38 = -t28*t30;
+    float t39 = t35*t38;
+    float t40 = t27 + 3.0;
+    float t41 = ((1.0/6.0))*t34*t38;
+    float t42 = ((1.0/2.0))*t15;
+    float t43 = t19*t42;
+    float t44 = t10 + 33.0;
+    float t45 = ((1.0/6.0))*t12;
+    float t46 = t16*t45;
+    float t47 = t10 + 34.0;
+    float t48 = t21*t42;
+    float t49 = t10 + 36.0;
+    float t50 = t22*t45;
+    float t73 = ((t2 < 0.0) ? (0.0) : (t2));
+    float t51 = ((t73 > 1.0) ? (1.0) : (t73));
+    float t52 = ((t51 < (1.0/32.0)) ? (0.0) : (((t51 >= (31.0/32.0)) ? (29.0) : (floor(32.0*t51) - 1.0))));
+    float t53 = -32.0*t51 + t52;
+    float t54 = -t53 - 3.0;
+    float t55 = -t53 - 2.0;
+    float t56 = t53 + 1.0;
+    float t57 = ((1.0/6.0))*t54*t55*t56;
+    float t58 = t52 + 2.0;
+    float t59 = -t56;
+    float t60 = ((1.0/2.0))*t54;
+    float t61 = t53*t59*t60;
+    float t62 = t52 + 1.0;
+    float t63 = -t53*t55;
+    float t64 = t60*t63;
+    float t65 = t52 + 3.0;
+    float t66 = ((1.0/6.0))*t59*t63;
+    return ((1.0/3.0))*t0*sqrt(t5*t7)*(t23 + (((45.0/64.0))*t1*t2 + t23 + 1.0)*lambert_sphere_tables_expm1(t1*(-(1.0/192.0)*t0*t5*(t24*t4 - 64.0)*log(1.0 + 1.0/((t1 < 1.0000000000000001e-30) ? (1.0000000000000001e-30) : (t1))) + t0*(((15.0/64.0))*(t1*t1*t1) - (47.0/96.0)*t1 - (15.0/128.0)*t4 + t43*(t32*lambert_sphere_tables_texel(t25, t27) + t36*lambert_sphere_tables_texel(t25, t33) + t39*lambert_sphere_tables_texel(t25, t37) + t41*lambert_sphere_tables_texel(t25, t40)) + t46*(t32*lambert_sphere_tables_texel(t44, t27) + t36*lambert_sphere_tables_texel(t44, t33) + t39*lambert_sphere_tables_texel(t44, t37) + t41*lambert_sphere_tables_texel(t44, t40)) + t48*(t32*lambert_sphere_tables_texel(t47, t27) + t36*lambert_sphere_tables_texel(t47, t33) + t39*lambert_sphere_tables_texel(t47, t37) + t41*lambert_sphere_tables_texel(t47, t40)) + t50*(t32*lambert_sphere_tables_texel(t49, t27) + t36*lambert_sphere_tables_texel(t49, t33) + t39*lambert_sphere_tables_texel(t49, t37) + t41*lambert_sphere_tables_texel(t49, t40)) + (173.0/768.0))) + t2*(-(1.0/192.0)*t0*t7*(t24*t6 - 64.0)*log(1.0 + 1.0/((t2 < 1.0000000000000001e-30) ? (1.0000000000000001e-30) : (t2))) + t0*(((15.0/64.0))*(t2*t2*t2) - (47.0/96.0)*t2 + t43*(t57*lambert_sphere_tables_texel(t25, t52) + t61*lambert_sphere_tables_texel(t25, t58) + t64*lambert_sphere_tables_texel(t25, t62) + t66*lambert_sphere_tables_texel(t25, t65)) + t46*(t57*lambert_sphere_tables_texel(t44, t52) + t61*lambert_sphere_tables_texel(t44, t58) + t64*lambert_sphere_tables_texel(t44, t62) + t66*lambert_sphere_tables_texel(t44, t65)) + t48*(t57*lambert_sphere_tables_texel(t47, t52) + t61*lambert_sphere_tables_texel(t47, t58) + t64*lambert_sphere_tables_texel(t47, t62) + t66*lambert_sphere_tables_texel(t47, t65)) + t50*(t57*lambert_sphere_tables_texel(t49, t52) + t61*lambert_sphere_tables_texel(t49, t58) + t64*lambert_sphere_tables_texel(t49, t62) + t66*lambert_sphere_tables_texel(t49, t65)) - (15.0/128.0)*t6 + (173.0/768.0)))))/(3.141592653589793238*((t3 < (1.0/1000000.0)) ? ((1.0/1000000.0)) : (t3)));
 }
 
 // Multiple scattering, Fourier order 2 (coefficient of cos 2phi), which the paper drops (eq.
@@ -374,14 +496,71 @@ float lambert_sphere_tables_fm1(float mu_i, float mu_o, float c)
 // 2'). Pole floored at 1e-6.
 float lambert_sphere_tables_fm2(float mu_i, float mu_o, float c)
 {
-    float t3 = ((c < 0.0) ? (0.0) : (c));
-    float t0 = ((t3 > 1.0) ? (1.0) : (t3));
-    float t4 = ((mu_i < 0.0) ? (0.0) : (mu_i));
-    float t1 = ((t4 > 1.0) ? (1.0) : (t4));
-    float t5 = ((mu_o < 0.0) ? (0.0) : (mu_o));
-    float t2 = ((t5 > 1.0) ? (1.0) : (t5));
-    float t6 = t1 + t2;
-    return ((15.0/256.0))*t0*(1.0 - (t1*t1))*(1.0 - (t2*t2))*(lambert_sphere_tables_h2(t1, t0)*lambert_sphere_tables_h2(t2, t0) - 1.0)/(3.141592653589793238*((t6 < (1.0/1000000.0)) ? ((1.0/1000000.0)) : (t6)));
+    float t56 = ((c < 0.0) ? (0.0) : (c));
+    float t0 = ((t56 > 1.0) ? (1.0) : (t56));
+    float t57 = ((mu_i < 0.0) ? (0.0) : (mu_i));
+    float t1 = ((t57 > 1.0) ? (1.0) : (t57));
+    float t2 = (t1*t1);
+    float t3 = t2 - 1.0;
+    float t58 = ((mu_o < 0.0) ? (0.0) : (mu_o));
+    float t4 = ((t58 > 1.0) ? (1.0) : (t58));
+    float t5 = (t4*t4);
+    float t6 = t5 - 1.0;
+    float t59 = sqrt(1.0 - t0);
+    float t60 = ((t59 < 0.0) ? (0.0) : (t59));
+    float t7 = ((t60 > 1.0) ? (1.0) : (t60));
+    float t8 = ((t7 < (1.0/32.0)) ? (0.0) : (((t7 >= (31.0/32.0)) ? (29.0) : (floor(32.0*t7) - 1.0))));
+    float t9 = t8 + 68.0;
+    float t61 = ((t1 < 0.0) ? (0.0) : (t1));
+    float t10 = ((t61 > 1.0) ? (1.0) : (t61));
+    float t11 = ((t10 < (1.0/32.0)) ? (0.0) : (((t10 >= (31.0/32.0)) ? (29.0) : (floor(32.0*t10) - 1.0))));
+    float t12 = -32.0*t10 + t11;
+    float t13 = -t12 - 3.0;
+    float t14 = -t12 - 2.0;
+    float t15 = t12 + 1.0;
+    float t16 = ((1.0/6.0))*t13*t14*t15;
+    float t17 = t11 + 2.0;
+    float t18 = -t15;
+    float t19 = ((1.0/2.0))*t13;
+    float t20 = t12*t18*t19;
+    float t21 = t11 + 1.0;
+    float t22 = -t12*t14;
+    float t23 = t19*t22;
+    float t24 = t11 + 3.0;
+    float t25 = ((1.0/6.0))*t18*t22;
+    float t26 = -32.0*t7 + t8;
+    float t27 = t26 + 1.0;
+    float t28 = -t27;
+    float t29 = -t26 - 3.0;
+    float t30 = ((1.0/2.0))*t29;
+    float t31 = t26*t28*t30;
+    float t32 = t8 + 66.0;
+    float t33 = -t26 - 2.0;
+    float t34 = ((1.0/6.0))*t27*t29*t33;
+    float t35 = t8 + 67.0;
+    float t36 = -t26*t33;
+    float t37 = t30*t36;
+    float t38 = t8 + 69.0;
+    float t39 = ((1.0/6.0))*t28*t36;
+    float t62 = ((t4 < 0.0) ? (0.0) : (t4));
+    float t40 = ((t62 > 1.0) ? (1.0) : (t62));
+    float t41 = ((t40 < (1.0/32.0)) ? (0.0) : (((t40 >= (31.0/32.0)) ? (29.0) : (floor(32.0*t40) - 1.0))));
+    float t42 = -32.0*t40 + t41;
+    float t43 = -t42 - 3.0;
+    float t44 = -t42 - 2.0;
+    float t45 = t42 + 1.0;
+    float t46 = ((1.0/6.0))*t43*t44*t45;
+    float t47 = t41 + 2.0;
+    float t48 = -t45;
+    float t49 = ((1.0/2.0))*t43;
+    float t50 = t42*t48*t49;
+    float t51 = t41 + 1.0;
+    float t52 = -t42*t44;
+    float t53 = t49*t52;
+    float t54 = t41 + 3.0;
+    float t55 = ((1.0/6.0))*t48*t52;
+    float t63 = t1 + t4;
+    return ((15.0/256.0))*t0*t3*t6*lambert_sphere_tables_expm1(t1*(((15.0/256.0))*t0*(t3*t3)*log(1.0 + 1.0/((t1 < 1.0000000000000001e-30) ? (1.0000000000000001e-30) : (t1))) + t0*(-(15.0/256.0)*(t1*t1*t1) + ((25.0/256.0))*t1 + ((15.0/512.0))*t2 + t31*(t16*lambert_sphere_tables_texel(t9, t11) + t20*lambert_sphere_tables_texel(t9, t17) + t23*lambert_sphere_tables_texel(t9, t21) + t25*lambert_sphere_tables_texel(t9, t24)) + t34*(t16*lambert_sphere_tables_texel(t32, t11) + t20*lambert_sphere_tables_texel(t32, t17) + t23*lambert_sphere_tables_texel(t32, t21) + t25*lambert_sphere_tables_texel(t32, t24)) + t37*(t16*lambert_sphere_tables_texel(t35, t11) + t20*lambert_sphere_tables_texel(t35, t17) + t23*lambert_sphere_tables_texel(t35, t21) + t25*lambert_sphere_tables_texel(t35, t24)) + t39*(t16*lambert_sphere_tables_texel(t38, t11) + t20*lambert_sphere_tables_texel(t38, t17) + t23*lambert_sphere_tables_texel(t38, t21) + t25*lambert_sphere_tables_texel(t38, t24)) + (-45.0/1024.0))) + t4*(((15.0/256.0))*t0*(t6*t6)*log(1.0 + 1.0/((t4 < 1.0000000000000001e-30) ? (1.0000000000000001e-30) : (t4))) + t0*(t31*(t46*lambert_sphere_tables_texel(t9, t41) + t50*lambert_sphere_tables_texel(t9, t47) + t53*lambert_sphere_tables_texel(t9, t51) + t55*lambert_sphere_tables_texel(t9, t54)) + t34*(t46*lambert_sphere_tables_texel(t32, t41) + t50*lambert_sphere_tables_texel(t32, t47) + t53*lambert_sphere_tables_texel(t32, t51) + t55*lambert_sphere_tables_texel(t32, t54)) + t37*(t46*lambert_sphere_tables_texel(t35, t41) + t50*lambert_sphere_tables_texel(t35, t47) + t53*lambert_sphere_tables_texel(t35, t51) + t55*lambert_sphere_tables_texel(t35, t54)) + t39*(t46*lambert_sphere_tables_texel(t38, t41) + t50*lambert_sphere_tables_texel(t38, t47) + t53*lambert_sphere_tables_texel(t38, t51) + t55*lambert_sphere_tables_texel(t38, t54)) - (15.0/256.0)*(t4*t4*t4) + ((25.0/256.0))*t4 + ((15.0/512.0))*t5 + (-45.0/1024.0))))/(3.141592653589793238*((t63 < (1.0/1000000.0)) ? ((1.0/1000000.0)) : (t63)));
 }
 
 // The Lambert-sphere BRDF from the exported tables, all three Fourier orders (1/sr), max(0,
@@ -425,74 +604,76 @@ float lambert_sphere_tables_brdf_local(vec3 wi, vec3 wo, float c)
 }
 
 // Per-material set-up: lambert_sphere_tables_prepare_c(c) fills the struct with every quantity
-// that depends on c alone (36 numbers), lambert_sphere_tables_prepare(kd) the same from kd;
+// that depends on c alone (33 numbers), lambert_sphere_tables_prepare(kd) the same from kd;
 // lambert_sphere_tables_eval, lambert_sphere_tables_eval_local evaluate with it, so that a
 // renderer prepares each material once and evaluates it many times. The _rgb variants take
 // three materials (one per channel) and give three values.
-struct lambert_sphere_tables_material { float k[36]; };
+struct lambert_sphere_tables_material { float k[33]; };
 
 lambert_sphere_tables_material lambert_sphere_tables_prepare_c(float c)
 {
     lambert_sphere_tables_material m;
-    float t0 = 1.0/3.141592653589793238;
-    float t20 = ((c < 0.0) ? (0.0) : (c));
-    float t1 = ((t20 > 1.0) ? (1.0) : (t20));
-    float t21 = sqrt(1.0 - t1);
-    float t22 = ((t21 < 0.0) ? (0.0) : (t21));
-    float t2 = ((t22 > 1.0) ? (1.0) : (t22));
-    float t3 = ((t2 < (1.0/32.0)) ? (0.0) : (((t2 >= (31.0/32.0)) ? (29.0) : (floor(32.0*t2) - 1.0))));
-    float t4 = -32.0*t2 + t3;
-    float t5 = t4 + 1.0;
-    float t6 = -t4 - 3.0;
-    float t7 = -t4 - 2.0;
-    float t8 = ((1.0/6.0))*t5*t6*t7;
-    float t9 = t3 + 2.0;
-    float t10 = -t5;
-    float t11 = ((1.0/2.0))*t6;
-    float t12 = t10*t11*t4;
-    float t13 = t3 + 1.0;
-    float t14 = -t4*t7;
-    float t15 = t11*t14;
-    float t16 = t3 + 3.0;
-    float t17 = ((1.0/6.0))*t10*t14;
-    float t18 = t12*lambert_sphere_tables_texel(99.0, t9) + t15*lambert_sphere_tables_texel(99.0, t13) + t17*lambert_sphere_tables_texel(99.0, t16) + t8*lambert_sphere_tables_texel(99.0, t3);
-    float t19 = 20.0*t1;
-    m.k[0] = -(1.0/192.0)*t0*t1;
-    m.k[1] = t18;
-    m.k[2] = ((45.0/64.0))*t12*lambert_sphere_tables_texel(100.0, t9) + ((45.0/64.0))*t15*lambert_sphere_tables_texel(100.0, t13) + ((45.0/64.0))*t17*lambert_sphere_tables_texel(100.0, t16) + (t18*t18) + ((45.0/64.0))*t8*lambert_sphere_tables_texel(100.0, t3) + (45.0/64.0);
-    m.k[3] = t1;
-    m.k[4] = t3 + 34.0;
-    m.k[5] = t15;
-    m.k[6] = t3 + 35.0;
-    m.k[7] = t12;
-    m.k[8] = t3 + 36.0;
-    m.k[9] = t17;
-    m.k[10] = t3 + 33.0;
-    m.k[11] = t8;
-    m.k[12] = t19 + 45.0;
-    m.k[13] = -(1.0/192.0)*t1;
-    m.k[14] = ((1.0/3.0))*t0*t1;
-    m.k[15] = t3 + 67.0;
-    m.k[16] = t3 + 68.0;
-    m.k[17] = t3 + 69.0;
-    m.k[18] = t3 + 66.0;
-    m.k[19] = ((15.0/256.0))*t1;
-    m.k[20] = ((15.0/256.0))*t0*t1;
-    m.k[21] = -(1.0/768.0)*t0*t1;
-    m.k[22] = ((69.0/128.0))*t1;
-    m.k[23] = t1*(t12*lambert_sphere_tables_texel(101.0, t9) + t15*lambert_sphere_tables_texel(101.0, t13) + t17*lambert_sphere_tables_texel(101.0, t16) + t8*lambert_sphere_tables_texel(101.0, t3));
-    m.k[24] = t1*(t12*lambert_sphere_tables_texel(104.0, t9) + t15*lambert_sphere_tables_texel(104.0, t13) + t17*lambert_sphere_tables_texel(104.0, t16) + t8*lambert_sphere_tables_texel(104.0, t3) + (-15.0/128.0));
-    m.k[25] = t1*(t12*lambert_sphere_tables_texel(102.0, t9) + t15*lambert_sphere_tables_texel(102.0, t13) + t17*lambert_sphere_tables_texel(102.0, t16) + t8*lambert_sphere_tables_texel(102.0, t3) + (2.0/3.0));
-    m.k[26] = t1*(t12*lambert_sphere_tables_texel(103.0, t9) + t15*lambert_sphere_tables_texel(103.0, t13) + t17*lambert_sphere_tables_texel(103.0, t16) + t8*lambert_sphere_tables_texel(103.0, t3));
-    m.k[27] = t1*((15.0/128.0) - (15.0/128.0)*t1)*(((4.0/3.0))*t1 + 3.0);
-    m.k[28] = t13;
-    m.k[29] = t9;
-    m.k[30] = t16;
-    m.k[31] = t3;
-    m.k[32] = t1*(t19 + 281.0) - 346.0;
-    m.k[33] = (15.0 - 15.0*t1)*(4.0*t1 + 9.0);
-    m.k[34] = ((1.0/384.0))*t1;
-    m.k[35] = ((1.0/3.0))*t1/(3.141592653589793238*3.141592653589793238);
+    float t25 = ((c < 0.0) ? (0.0) : (c));
+    float t0 = ((t25 > 1.0) ? (1.0) : (t25));
+    float t26 = sqrt(1.0 - t0);
+    float t27 = ((t26 < 0.0) ? (0.0) : (t26));
+    float t1 = ((t27 > 1.0) ? (1.0) : (t27));
+    float t2 = ((t1 < (1.0/32.0)) ? (0.0) : (((t1 >= (31.0/32.0)) ? (29.0) : (floor(32.0*t1) - 1.0))));
+    float t3 = -32.0*t1 + t2;
+    float t4 = -t3 - 3.0;
+    float t5 = -t3 - 2.0;
+    float t6 = t3 + 1.0;
+    float t7 = t4*t5*t6;
+    float t8 = ((1.0/6.0))*t7;
+    float t9 = t2 + 2.0;
+    float t10 = ((1.0/2.0))*t4;
+    float t11 = -t6;
+    float t12 = t11*t3;
+    float t13 = t10*t12;
+    float t14 = t2 + 1.0;
+    float t15 = -t3;
+    float t16 = t15*t5;
+    float t17 = t10*t16;
+    float t18 = t2 + 3.0;
+    float t19 = t11*t16;
+    float t20 = ((1.0/6.0))*t19;
+    float t21 = t13*lambert_sphere_tables_texel(99.0, t9) + t17*lambert_sphere_tables_texel(99.0, t14) + t20*lambert_sphere_tables_texel(99.0, t18) + t8*lambert_sphere_tables_texel(99.0, t2);
+    float t22 = ((45.0/128.0))*t4;
+    float t23 = 20.0*t0;
+    float t24 = 1.0/3.141592653589793238;
+    m.k[0] = t21;
+    m.k[1] = t12*t22*lambert_sphere_tables_texel(100.0, t9) + t16*t22*lambert_sphere_tables_texel(100.0, t14) + ((15.0/128.0))*t19*lambert_sphere_tables_texel(100.0, t18) + (t21*t21) + ((15.0/128.0))*t7*lambert_sphere_tables_texel(100.0, t2);
+    m.k[2] = t0;
+    m.k[3] = t2 + 34.0;
+    m.k[4] = t17;
+    m.k[5] = t2 + 35.0;
+    m.k[6] = t13;
+    m.k[7] = t2 + 36.0;
+    m.k[8] = t20;
+    m.k[9] = t2 + 33.0;
+    m.k[10] = t8;
+    m.k[11] = t23 + 45.0;
+    m.k[12] = -(1.0/192.0)*t0;
+    m.k[13] = ((1.0/3.0))*t0*t24;
+    m.k[14] = t2 + 67.0;
+    m.k[15] = t2 + 68.0;
+    m.k[16] = t2 + 69.0;
+    m.k[17] = t2 + 66.0;
+    m.k[18] = ((15.0/256.0))*t0;
+    m.k[19] = ((15.0/256.0))*t0*t24;
+    m.k[20] = t0*(t13*lambert_sphere_tables_texel(101.0, t9) + t17*lambert_sphere_tables_texel(101.0, t14) + t20*lambert_sphere_tables_texel(101.0, t18) + t8*lambert_sphere_tables_texel(101.0, t2));
+    m.k[21] = ((1.0/6.0))*t0*t11*t15*t5*lambert_sphere_tables_texel(104.0, t18) + ((1.0/2.0))*t0*t11*t3*t4*lambert_sphere_tables_texel(104.0, t9) + ((1.0/2.0))*t0*t15*t4*t5*lambert_sphere_tables_texel(104.0, t14) + ((1.0/6.0))*t0*t4*t5*t6*lambert_sphere_tables_texel(104.0, t2);
+    m.k[22] = ((1.0/384.0))*t0;
+    m.k[23] = ((1.0/6.0))*t0*t11*t15*t5*lambert_sphere_tables_texel(102.0, t18) + ((1.0/2.0))*t0*t11*t3*t4*lambert_sphere_tables_texel(102.0, t9) + ((1.0/2.0))*t0*t15*t4*t5*lambert_sphere_tables_texel(102.0, t14) + ((1.0/6.0))*t0*t4*t5*t6*lambert_sphere_tables_texel(102.0, t2);
+    m.k[24] = -(5.0/32.0)*(t0*t0*t0) - (25.0/128.0)*(t0*t0);
+    m.k[25] = t0*(t13*lambert_sphere_tables_texel(103.0, t9) + t17*lambert_sphere_tables_texel(103.0, t14) + t20*lambert_sphere_tables_texel(103.0, t18) + t8*lambert_sphere_tables_texel(103.0, t2));
+    m.k[26] = t14;
+    m.k[27] = t9;
+    m.k[28] = t18;
+    m.k[29] = t2;
+    m.k[30] = t0*(t23 + 281.0) - 346.0;
+    m.k[31] = (15.0 - 15.0*t0)*(4.0*t0 + 9.0);
+    m.k[32] = ((1.0/3.0))*t0/(3.141592653589793238*3.141592653589793238);
     return m;
 }
 
@@ -505,24 +686,24 @@ lambert_sphere_tables_material lambert_sphere_tables_prepare(float kd) { return 
 // included) are clamped, NaN in any input gives NaN.
 float lambert_sphere_tables_eval(lambert_sphere_tables_material m, float mu_i, float mu_o, float cos_phi)
 {
-    float t48 = ((mu_i < 0.0) ? (0.0) : (mu_i));
-    float t0 = ((t48 > 1.0) ? (1.0) : (t48));
-    float t49 = ((mu_o < 0.0) ? (0.0) : (mu_o));
-    float t1 = ((t49 > 1.0) ? (1.0) : (t49));
+    float t49 = ((mu_i < 0.0) ? (0.0) : (mu_i));
+    float t0 = ((t49 > 1.0) ? (1.0) : (t49));
+    float t50 = ((mu_o < 0.0) ? (0.0) : (mu_o));
+    float t1 = ((t50 > 1.0) ? (1.0) : (t50));
     float t2 = t0 + t1;
     float t3 = 1.0/((t2 < (1.0/1000000.0)) ? ((1.0/1000000.0)) : (t2));
     float t4 = t0*t1;
-    float t50 = ((cos_phi < -1.0) ? (-1.0) : (cos_phi));
-    float t5 = ((t50 > 1.0) ? (1.0) : (t50));
+    float t51 = ((cos_phi < -1.0) ? (-1.0) : (cos_phi));
+    float t5 = ((t51 > 1.0) ? (1.0) : (t51));
     float t6 = (t0*t0);
     float t7 = t6 - 1.0;
     float t8 = (t1*t1);
     float t9 = t8 - 1.0;
     float t10 = t7*t9;
     float t11 = sqrt(t10);
-    float t51 = -t11*t5 - t4;
-    float t52 = ((t51 > 1.0) ? (1.0) : (t51));
-    float t12 = ((t52 < -1.0) ? (-1.0) : (t52));
+    float t52 = -t11*t5 - t4;
+    float t53 = ((t52 > 1.0) ? (1.0) : (t52));
+    float t12 = ((t53 < -1.0) ? (-1.0) : (t53));
     float t13 = log(1.0 + 1.0/((t0 < 1.0000000000000001e-30) ? (1.0000000000000001e-30) : (t0)));
     float t14 = (t0*t0*t0);
     float t15 = ((t0 < (1.0/32.0)) ? (0.0) : (((t0 >= (31.0/32.0)) ? (29.0) : (floor(32.0*t0) - 1.0))));
@@ -557,10 +738,11 @@ float lambert_sphere_tables_eval(lambert_sphere_tables_material m, float mu_i, f
     float t44 = t40*t43;
     float t45 = t32 + 3.0;
     float t46 = ((1.0/6.0))*t39*t43;
-    float t47 = t6*t8;
-    float t53 = (1.0 - t12)*(t12 + 1.0);
-    float t54 = m.k[20]*t10*t3*(2.0*(t5*t5) - 1.0)*(exp(t0*(m.k[19]*t13*(t7*t7) + m.k[3]*(m.k[11]*(t20*lambert_sphere_tables_texel(m.k[18], t15) + t24*lambert_sphere_tables_texel(m.k[18], t21) + t27*lambert_sphere_tables_texel(m.k[18], t25) + t29*lambert_sphere_tables_texel(m.k[18], t28)) + m.k[5]*(t20*lambert_sphere_tables_texel(m.k[15], t15) + t24*lambert_sphere_tables_texel(m.k[15], t21) + t27*lambert_sphere_tables_texel(m.k[15], t25) + t29*lambert_sphere_tables_texel(m.k[15], t28)) + m.k[7]*(t20*lambert_sphere_tables_texel(m.k[16], t15) + t24*lambert_sphere_tables_texel(m.k[16], t21) + t27*lambert_sphere_tables_texel(m.k[16], t25) + t29*lambert_sphere_tables_texel(m.k[16], t28)) + m.k[9]*(t20*lambert_sphere_tables_texel(m.k[17], t15) + t24*lambert_sphere_tables_texel(m.k[17], t21) + t27*lambert_sphere_tables_texel(m.k[17], t25) + t29*lambert_sphere_tables_texel(m.k[17], t28)) + ((25.0/256.0))*t0 - (15.0/256.0)*t14 + ((15.0/512.0))*t6 + (-45.0/1024.0))) + t1*(m.k[19]*t30*(t9*t9) + m.k[3]*(m.k[11]*(t37*lambert_sphere_tables_texel(m.k[18], t32) + t41*lambert_sphere_tables_texel(m.k[18], t38) + t44*lambert_sphere_tables_texel(m.k[18], t42) + t46*lambert_sphere_tables_texel(m.k[18], t45)) + m.k[5]*(t37*lambert_sphere_tables_texel(m.k[15], t32) + t41*lambert_sphere_tables_texel(m.k[15], t38) + t44*lambert_sphere_tables_texel(m.k[15], t42) + t46*lambert_sphere_tables_texel(m.k[15], t45)) + m.k[7]*(t37*lambert_sphere_tables_texel(m.k[16], t32) + t41*lambert_sphere_tables_texel(m.k[16], t38) + t44*lambert_sphere_tables_texel(m.k[16], t42) + t46*lambert_sphere_tables_texel(m.k[16], t45)) + m.k[9]*(t37*lambert_sphere_tables_texel(m.k[17], t32) + t41*lambert_sphere_tables_texel(m.k[17], t38) + t44*lambert_sphere_tables_texel(m.k[17], t42) + t46*lambert_sphere_tables_texel(m.k[17], t45)) + ((25.0/256.0))*t1 - (15.0/256.0)*t31 + ((15.0/512.0))*t8 + (-45.0/1024.0)))) - 1.0) + m.k[35]*t3*(-2.0*t12*acos(t12) + 2.0*sqrt(((t53 < 0.0) ? (0.0) : (t53)))) + t3*t5*(m.k[0]*t11*(45.0*t4 + 64.0) + m.k[14]*t11*(m.k[1]*t2 + m.k[2]*t0*t1 + 1.0)*exp(t0*(m.k[13]*t13*t7*(m.k[12]*t6 - 64.0) + m.k[3]*(m.k[11]*(t20*lambert_sphere_tables_texel(m.k[10], t15) + t24*lambert_sphere_tables_texel(m.k[10], t21) + t27*lambert_sphere_tables_texel(m.k[10], t25) + t29*lambert_sphere_tables_texel(m.k[10], t28)) + m.k[5]*(t20*lambert_sphere_tables_texel(m.k[4], t15) + t24*lambert_sphere_tables_texel(m.k[4], t21) + t27*lambert_sphere_tables_texel(m.k[4], t25) + t29*lambert_sphere_tables_texel(m.k[4], t28)) + m.k[7]*(t20*lambert_sphere_tables_texel(m.k[6], t15) + t24*lambert_sphere_tables_texel(m.k[6], t21) + t27*lambert_sphere_tables_texel(m.k[6], t25) + t29*lambert_sphere_tables_texel(m.k[6], t28)) + m.k[9]*(t20*lambert_sphere_tables_texel(m.k[8], t15) + t24*lambert_sphere_tables_texel(m.k[8], t21) + t27*lambert_sphere_tables_texel(m.k[8], t25) + t29*lambert_sphere_tables_texel(m.k[8], t28)) - (47.0/96.0)*t0 + ((15.0/64.0))*t14 - (15.0/128.0)*t6 + (173.0/768.0))) + t1*(m.k[13]*t30*t9*(m.k[12]*t8 - 64.0) + m.k[3]*(m.k[11]*(t37*lambert_sphere_tables_texel(m.k[10], t32) + t41*lambert_sphere_tables_texel(m.k[10], t38) + t44*lambert_sphere_tables_texel(m.k[10], t42) + t46*lambert_sphere_tables_texel(m.k[10], t45)) + m.k[5]*(t37*lambert_sphere_tables_texel(m.k[4], t32) + t41*lambert_sphere_tables_texel(m.k[4], t38) + t44*lambert_sphere_tables_texel(m.k[4], t42) + t46*lambert_sphere_tables_texel(m.k[4], t45)) + m.k[7]*(t37*lambert_sphere_tables_texel(m.k[6], t32) + t41*lambert_sphere_tables_texel(m.k[6], t38) + t44*lambert_sphere_tables_texel(m.k[6], t42) + t46*lambert_sphere_tables_texel(m.k[6], t45)) + m.k[9]*(t37*lambert_sphere_tables_texel(m.k[8], t32) + t41*lambert_sphere_tables_texel(m.k[8], t38) + t44*lambert_sphere_tables_texel(m.k[8], t42) + t46*lambert_sphere_tables_texel(m.k[8], t45)) - (47.0/96.0)*t1 + ((15.0/64.0))*t31 - (15.0/128.0)*t8 + (173.0/768.0))))) + t3*(m.k[21]*(256.0*t4 + 135.0*t47 - 45.0*t6 - 45.0*t8 + 207.0) + ((1.0/2.0))*(m.k[22] + m.k[23]*t2 + m.k[24]*(t6 + t8) + m.k[25]*t0*t1 + m.k[26]*t0*t1*t2 + m.k[27]*t47)*exp(t0*(m.k[3]*(m.k[11]*(t20*lambert_sphere_tables_texel(m.k[31], t15) + t24*lambert_sphere_tables_texel(m.k[31], t21) + t27*lambert_sphere_tables_texel(m.k[31], t25) + t29*lambert_sphere_tables_texel(m.k[31], t28)) + m.k[5]*(t20*lambert_sphere_tables_texel(m.k[28], t15) + t24*lambert_sphere_tables_texel(m.k[28], t21) + t27*lambert_sphere_tables_texel(m.k[28], t25) + t29*lambert_sphere_tables_texel(m.k[28], t28)) + m.k[7]*(t20*lambert_sphere_tables_texel(m.k[29], t15) + t24*lambert_sphere_tables_texel(m.k[29], t21) + t27*lambert_sphere_tables_texel(m.k[29], t25) + t29*lambert_sphere_tables_texel(m.k[29], t28)) + m.k[9]*(t20*lambert_sphere_tables_texel(m.k[30], t15) + t24*lambert_sphere_tables_texel(m.k[30], t21) + t27*lambert_sphere_tables_texel(m.k[30], t25) + t29*lambert_sphere_tables_texel(m.k[30], t28)) + ((301.0/384.0))*t0 - (45.0/128.0)*t14 + ((45.0/256.0))*t6 + (-557.0/1536.0)) + m.k[34]*t13*(m.k[32]*t6 + m.k[33]*(t0*t0*t0*t0) + 207.0)) + t1*(m.k[3]*(m.k[11]*(t37*lambert_sphere_tables_texel(m.k[31], t32) + t41*lambert_sphere_tables_texel(m.k[31], t38) + t44*lambert_sphere_tables_texel(m.k[31], t42) + t46*lambert_sphere_tables_texel(m.k[31], t45)) + m.k[5]*(t37*lambert_sphere_tables_texel(m.k[28], t32) + t41*lambert_sphere_tables_texel(m.k[28], t38) + t44*lambert_sphere_tables_texel(m.k[28], t42) + t46*lambert_sphere_tables_texel(m.k[28], t45)) + m.k[7]*(t37*lambert_sphere_tables_texel(m.k[29], t32) + t41*lambert_sphere_tables_texel(m.k[29], t38) + t44*lambert_sphere_tables_texel(m.k[29], t42) + t46*lambert_sphere_tables_texel(m.k[29], t45)) + m.k[9]*(t37*lambert_sphere_tables_texel(m.k[30], t32) + t41*lambert_sphere_tables_texel(m.k[30], t38) + t44*lambert_sphere_tables_texel(m.k[30], t42) + t46*lambert_sphere_tables_texel(m.k[30], t45)) + ((301.0/384.0))*t1 - (45.0/128.0)*t31 + ((45.0/256.0))*t8 + (-557.0/1536.0)) + m.k[34]*t30*(m.k[32]*t8 + m.k[33]*(t1*t1*t1*t1) + 207.0)))/3.141592653589793238);
-    return ((t54 < 0.0) ? (0.0) : (t54));
+    float t47 = m.k[0]*t2 + m.k[1]*t0*t1;
+    float t48 = m.k[20]*t2 + m.k[21]*(t6 + t8) + m.k[23]*t0*t1 + m.k[24]*t6*t8 + m.k[25]*t0*t1*t2;
+    float t54 = (1.0 - t12)*(t12 + 1.0);
+    float t55 = m.k[13]*t11*t3*t5*(t47 + (((45.0/64.0))*t4 + t47 + 1.0)*lambert_sphere_tables_expm1(t0*(m.k[12]*t13*t7*(m.k[11]*t6 - 64.0) + m.k[2]*(m.k[10]*(t20*lambert_sphere_tables_texel(m.k[9], t15) + t24*lambert_sphere_tables_texel(m.k[9], t21) + t27*lambert_sphere_tables_texel(m.k[9], t25) + t29*lambert_sphere_tables_texel(m.k[9], t28)) + m.k[4]*(t20*lambert_sphere_tables_texel(m.k[3], t15) + t24*lambert_sphere_tables_texel(m.k[3], t21) + t27*lambert_sphere_tables_texel(m.k[3], t25) + t29*lambert_sphere_tables_texel(m.k[3], t28)) + m.k[6]*(t20*lambert_sphere_tables_texel(m.k[5], t15) + t24*lambert_sphere_tables_texel(m.k[5], t21) + t27*lambert_sphere_tables_texel(m.k[5], t25) + t29*lambert_sphere_tables_texel(m.k[5], t28)) + m.k[8]*(t20*lambert_sphere_tables_texel(m.k[7], t15) + t24*lambert_sphere_tables_texel(m.k[7], t21) + t27*lambert_sphere_tables_texel(m.k[7], t25) + t29*lambert_sphere_tables_texel(m.k[7], t28)) - (47.0/96.0)*t0 + ((15.0/64.0))*t14 - (15.0/128.0)*t6 + (173.0/768.0))) + t1*(m.k[12]*t30*t9*(m.k[11]*t8 - 64.0) + m.k[2]*(m.k[10]*(t37*lambert_sphere_tables_texel(m.k[9], t32) + t41*lambert_sphere_tables_texel(m.k[9], t38) + t44*lambert_sphere_tables_texel(m.k[9], t42) + t46*lambert_sphere_tables_texel(m.k[9], t45)) + m.k[4]*(t37*lambert_sphere_tables_texel(m.k[3], t32) + t41*lambert_sphere_tables_texel(m.k[3], t38) + t44*lambert_sphere_tables_texel(m.k[3], t42) + t46*lambert_sphere_tables_texel(m.k[3], t45)) + m.k[6]*(t37*lambert_sphere_tables_texel(m.k[5], t32) + t41*lambert_sphere_tables_texel(m.k[5], t38) + t44*lambert_sphere_tables_texel(m.k[5], t42) + t46*lambert_sphere_tables_texel(m.k[5], t45)) + m.k[8]*(t37*lambert_sphere_tables_texel(m.k[7], t32) + t41*lambert_sphere_tables_texel(m.k[7], t38) + t44*lambert_sphere_tables_texel(m.k[7], t42) + t46*lambert_sphere_tables_texel(m.k[7], t45)) - (47.0/96.0)*t1 + ((15.0/64.0))*t31 - (15.0/128.0)*t8 + (173.0/768.0))))) + m.k[19]*t10*t3*(2.0*(t5*t5) - 1.0)*lambert_sphere_tables_expm1(t0*(m.k[18]*t13*(t7*t7) + m.k[2]*(m.k[10]*(t20*lambert_sphere_tables_texel(m.k[17], t15) + t24*lambert_sphere_tables_texel(m.k[17], t21) + t27*lambert_sphere_tables_texel(m.k[17], t25) + t29*lambert_sphere_tables_texel(m.k[17], t28)) + m.k[4]*(t20*lambert_sphere_tables_texel(m.k[14], t15) + t24*lambert_sphere_tables_texel(m.k[14], t21) + t27*lambert_sphere_tables_texel(m.k[14], t25) + t29*lambert_sphere_tables_texel(m.k[14], t28)) + m.k[6]*(t20*lambert_sphere_tables_texel(m.k[15], t15) + t24*lambert_sphere_tables_texel(m.k[15], t21) + t27*lambert_sphere_tables_texel(m.k[15], t25) + t29*lambert_sphere_tables_texel(m.k[15], t28)) + m.k[8]*(t20*lambert_sphere_tables_texel(m.k[16], t15) + t24*lambert_sphere_tables_texel(m.k[16], t21) + t27*lambert_sphere_tables_texel(m.k[16], t25) + t29*lambert_sphere_tables_texel(m.k[16], t28)) + ((25.0/256.0))*t0 - (15.0/256.0)*t14 + ((15.0/512.0))*t6 + (-45.0/1024.0))) + t1*(m.k[18]*t30*(t9*t9) + m.k[2]*(m.k[10]*(t37*lambert_sphere_tables_texel(m.k[17], t32) + t41*lambert_sphere_tables_texel(m.k[17], t38) + t44*lambert_sphere_tables_texel(m.k[17], t42) + t46*lambert_sphere_tables_texel(m.k[17], t45)) + m.k[4]*(t37*lambert_sphere_tables_texel(m.k[14], t32) + t41*lambert_sphere_tables_texel(m.k[14], t38) + t44*lambert_sphere_tables_texel(m.k[14], t42) + t46*lambert_sphere_tables_texel(m.k[14], t45)) + m.k[6]*(t37*lambert_sphere_tables_texel(m.k[15], t32) + t41*lambert_sphere_tables_texel(m.k[15], t38) + t44*lambert_sphere_tables_texel(m.k[15], t42) + t46*lambert_sphere_tables_texel(m.k[15], t45)) + m.k[8]*(t37*lambert_sphere_tables_texel(m.k[16], t32) + t41*lambert_sphere_tables_texel(m.k[16], t38) + t44*lambert_sphere_tables_texel(m.k[16], t42) + t46*lambert_sphere_tables_texel(m.k[16], t45)) + ((25.0/256.0))*t1 - (15.0/256.0)*t31 + ((15.0/512.0))*t8 + (-45.0/1024.0)))) + m.k[32]*t3*(-2.0*t12*acos(t12) + 2.0*sqrt(((t54 < 0.0) ? (0.0) : (t54)))) + ((1.0/2.0))*t3*(t48 + (m.k[22]*(256.0*t4 + 135.0*t6*t8 - 45.0*t6 - 45.0*t8 + 207.0) + t48)*lambert_sphere_tables_expm1(t0*(m.k[2]*(m.k[10]*(t20*lambert_sphere_tables_texel(m.k[29], t15) + t24*lambert_sphere_tables_texel(m.k[29], t21) + t27*lambert_sphere_tables_texel(m.k[29], t25) + t29*lambert_sphere_tables_texel(m.k[29], t28)) + m.k[4]*(t20*lambert_sphere_tables_texel(m.k[26], t15) + t24*lambert_sphere_tables_texel(m.k[26], t21) + t27*lambert_sphere_tables_texel(m.k[26], t25) + t29*lambert_sphere_tables_texel(m.k[26], t28)) + m.k[6]*(t20*lambert_sphere_tables_texel(m.k[27], t15) + t24*lambert_sphere_tables_texel(m.k[27], t21) + t27*lambert_sphere_tables_texel(m.k[27], t25) + t29*lambert_sphere_tables_texel(m.k[27], t28)) + m.k[8]*(t20*lambert_sphere_tables_texel(m.k[28], t15) + t24*lambert_sphere_tables_texel(m.k[28], t21) + t27*lambert_sphere_tables_texel(m.k[28], t25) + t29*lambert_sphere_tables_texel(m.k[28], t28)) + ((301.0/384.0))*t0 - (45.0/128.0)*t14 + ((45.0/256.0))*t6 + (-557.0/1536.0)) + m.k[22]*t13*(m.k[30]*t6 + m.k[31]*(t0*t0*t0*t0) + 207.0)) + t1*(m.k[2]*(m.k[10]*(t37*lambert_sphere_tables_texel(m.k[29], t32) + t41*lambert_sphere_tables_texel(m.k[29], t38) + t44*lambert_sphere_tables_texel(m.k[29], t42) + t46*lambert_sphere_tables_texel(m.k[29], t45)) + m.k[4]*(t37*lambert_sphere_tables_texel(m.k[26], t32) + t41*lambert_sphere_tables_texel(m.k[26], t38) + t44*lambert_sphere_tables_texel(m.k[26], t42) + t46*lambert_sphere_tables_texel(m.k[26], t45)) + m.k[6]*(t37*lambert_sphere_tables_texel(m.k[27], t32) + t41*lambert_sphere_tables_texel(m.k[27], t38) + t44*lambert_sphere_tables_texel(m.k[27], t42) + t46*lambert_sphere_tables_texel(m.k[27], t45)) + m.k[8]*(t37*lambert_sphere_tables_texel(m.k[28], t32) + t41*lambert_sphere_tables_texel(m.k[28], t38) + t44*lambert_sphere_tables_texel(m.k[28], t42) + t46*lambert_sphere_tables_texel(m.k[28], t45)) + ((301.0/384.0))*t1 - (45.0/128.0)*t31 + ((45.0/256.0))*t8 + (-557.0/1536.0)) + m.k[22]*t30*(m.k[30]*t8 + m.k[31]*(t1*t1*t1*t1) + 207.0))))/3.141592653589793238;
+    return ((t55 < 0.0) ? (0.0) : (t55));
 }
 vec3 lambert_sphere_tables_eval_rgb(lambert_sphere_tables_material r, lambert_sphere_tables_material g, lambert_sphere_tables_material b, float mu_i, float mu_o, float cos_phi)
 {
@@ -573,14 +755,14 @@ vec3 lambert_sphere_tables_eval_rgb(lambert_sphere_tables_material r, lambert_sp
 // (not normalised); NaN in any input gives NaN.
 float lambert_sphere_tables_eval_local(lambert_sphere_tables_material m, vec3 wi, vec3 wo)
 {
-    float t54 = ((wi.z < -1.0) ? (-1.0) : (wi.z));
-    float t0 = ((t54 > 1.0) ? (1.0) : (t54));
-    float t55 = ((wo.z < -1.0) ? (-1.0) : (wo.z));
-    float t1 = ((t55 > 1.0) ? (1.0) : (t55));
-    float t56 = ((t0 < 0.0) ? (0.0) : (t0));
-    float t2 = ((t56 > 1.0) ? (1.0) : (t56));
-    float t57 = ((t1 < 0.0) ? (0.0) : (t1));
-    float t3 = ((t57 > 1.0) ? (1.0) : (t57));
+    float t55 = ((wi.z < -1.0) ? (-1.0) : (wi.z));
+    float t0 = ((t55 > 1.0) ? (1.0) : (t55));
+    float t56 = ((wo.z < -1.0) ? (-1.0) : (wo.z));
+    float t1 = ((t56 > 1.0) ? (1.0) : (t56));
+    float t57 = ((t0 < 0.0) ? (0.0) : (t0));
+    float t2 = ((t57 > 1.0) ? (1.0) : (t57));
+    float t58 = ((t1 < 0.0) ? (0.0) : (t1));
+    float t3 = ((t58 > 1.0) ? (1.0) : (t58));
     float t4 = t2 + t3;
     float t5 = 1.0/((t4 < (1.0/1000000.0)) ? ((1.0/1000000.0)) : (t4));
     float t6 = t2*t3;
@@ -590,21 +772,21 @@ float lambert_sphere_tables_eval_local(lambert_sphere_tables_material m, vec3 wi
     float t10 = t9 - 1.0;
     float t11 = t10*t8;
     float t12 = sqrt(t11);
-    float t58 = ((wi.x < -1.0) ? (-1.0) : (wi.x));
-    float t13 = ((t58 > 1.0) ? (1.0) : (t58));
-    float t59 = ((wo.x < -1.0) ? (-1.0) : (wo.x));
-    float t14 = ((t59 > 1.0) ? (1.0) : (t59));
-    float t60 = ((wi.y < -1.0) ? (-1.0) : (wi.y));
-    float t15 = ((t60 > 1.0) ? (1.0) : (t60));
-    float t61 = ((wo.y < -1.0) ? (-1.0) : (wo.y));
-    float t16 = ((t61 > 1.0) ? (1.0) : (t61));
-    float t62 = ((t13*t13) + (t15*t15))*((t14*t14) + (t16*t16));
-    float t63 = (t13*t14 + t15*t16)/sqrt(((t62 < (1.0/1000000000000000000000000000000.0)) ? ((1.0/1000000000000000000000000000000.0)) : (t62)));
-    float t64 = ((t63 < -1.0) ? (-1.0) : (t63));
-    float t17 = ((t64 > 1.0) ? (1.0) : (t64));
-    float t65 = -t12*t17 - t6;
-    float t66 = ((t65 > 1.0) ? (1.0) : (t65));
-    float t18 = ((t66 < -1.0) ? (-1.0) : (t66));
+    float t59 = ((wi.x < -1.0) ? (-1.0) : (wi.x));
+    float t13 = ((t59 > 1.0) ? (1.0) : (t59));
+    float t60 = ((wo.x < -1.0) ? (-1.0) : (wo.x));
+    float t14 = ((t60 > 1.0) ? (1.0) : (t60));
+    float t61 = ((wi.y < -1.0) ? (-1.0) : (wi.y));
+    float t15 = ((t61 > 1.0) ? (1.0) : (t61));
+    float t62 = ((wo.y < -1.0) ? (-1.0) : (wo.y));
+    float t16 = ((t62 > 1.0) ? (1.0) : (t62));
+    float t63 = ((t13*t13) + (t15*t15))*((t14*t14) + (t16*t16));
+    float t64 = (t13*t14 + t15*t16)/sqrt(((t63 < (1.0/1000000000000000000000000000000.0)) ? ((1.0/1000000000000000000000000000000.0)) : (t63)));
+    float t65 = ((t64 < -1.0) ? (-1.0) : (t64));
+    float t17 = ((t65 > 1.0) ? (1.0) : (t65));
+    float t66 = -t12*t17 - t6;
+    float t67 = ((t66 > 1.0) ? (1.0) : (t66));
+    float t18 = ((t67 < -1.0) ? (-1.0) : (t67));
     float t19 = log(1.0 + 1.0/((t2 < 1.0000000000000001e-30) ? (1.0000000000000001e-30) : (t2)));
     float t20 = (t2*t2*t2);
     float t21 = ((t2 < (1.0/32.0)) ? (0.0) : (((t2 >= (31.0/32.0)) ? (29.0) : (floor(32.0*t2) - 1.0))));
@@ -639,10 +821,11 @@ float lambert_sphere_tables_eval_local(lambert_sphere_tables_material m, vec3 wi
     float t50 = t46*t49;
     float t51 = t38 + 3.0;
     float t52 = ((1.0/6.0))*t45*t49;
-    float t53 = t7*t9;
-    float t67 = (1.0 - t18)*(t18 + 1.0);
-    float t68 = m.k[20]*t11*t5*(2.0*(t17*t17) - 1.0)*(exp(t2*(m.k[19]*t19*(t8*t8) + m.k[3]*(m.k[11]*(t26*lambert_sphere_tables_texel(m.k[18], t21) + t30*lambert_sphere_tables_texel(m.k[18], t27) + t33*lambert_sphere_tables_texel(m.k[18], t31) + t35*lambert_sphere_tables_texel(m.k[18], t34)) + m.k[5]*(t26*lambert_sphere_tables_texel(m.k[15], t21) + t30*lambert_sphere_tables_texel(m.k[15], t27) + t33*lambert_sphere_tables_texel(m.k[15], t31) + t35*lambert_sphere_tables_texel(m.k[15], t34)) + m.k[7]*(t26*lambert_sphere_tables_texel(m.k[16], t21) + t30*lambert_sphere_tables_texel(m.k[16], t27) + t33*lambert_sphere_tables_texel(m.k[16], t31) + t35*lambert_sphere_tables_texel(m.k[16], t34)) + m.k[9]*(t26*lambert_sphere_tables_texel(m.k[17], t21) + t30*lambert_sphere_tables_texel(m.k[17], t27) + t33*lambert_sphere_tables_texel(m.k[17], t31) + t35*lambert_sphere_tables_texel(m.k[17], t34)) + ((25.0/256.0))*t2 - (15.0/256.0)*t20 + ((15.0/512.0))*t7 + (-45.0/1024.0))) + t3*(m.k[19]*(t10*t10)*t36 + m.k[3]*(m.k[11]*(t43*lambert_sphere_tables_texel(m.k[18], t38) + t47*lambert_sphere_tables_texel(m.k[18], t44) + t50*lambert_sphere_tables_texel(m.k[18], t48) + t52*lambert_sphere_tables_texel(m.k[18], t51)) + m.k[5]*(t43*lambert_sphere_tables_texel(m.k[15], t38) + t47*lambert_sphere_tables_texel(m.k[15], t44) + t50*lambert_sphere_tables_texel(m.k[15], t48) + t52*lambert_sphere_tables_texel(m.k[15], t51)) + m.k[7]*(t43*lambert_sphere_tables_texel(m.k[16], t38) + t47*lambert_sphere_tables_texel(m.k[16], t44) + t50*lambert_sphere_tables_texel(m.k[16], t48) + t52*lambert_sphere_tables_texel(m.k[16], t51)) + m.k[9]*(t43*lambert_sphere_tables_texel(m.k[17], t38) + t47*lambert_sphere_tables_texel(m.k[17], t44) + t50*lambert_sphere_tables_texel(m.k[17], t48) + t52*lambert_sphere_tables_texel(m.k[17], t51)) + ((25.0/256.0))*t3 - (15.0/256.0)*t37 + ((15.0/512.0))*t9 + (-45.0/1024.0)))) - 1.0) + m.k[35]*t5*(-2.0*t18*acos(t18) + 2.0*sqrt(((t67 < 0.0) ? (0.0) : (t67)))) + t17*t5*(m.k[0]*t12*(45.0*t6 + 64.0) + m.k[14]*t12*(m.k[1]*t4 + m.k[2]*t2*t3 + 1.0)*exp(t2*(m.k[13]*t19*t8*(m.k[12]*t7 - 64.0) + m.k[3]*(m.k[11]*(t26*lambert_sphere_tables_texel(m.k[10], t21) + t30*lambert_sphere_tables_texel(m.k[10], t27) + t33*lambert_sphere_tables_texel(m.k[10], t31) + t35*lambert_sphere_tables_texel(m.k[10], t34)) + m.k[5]*(t26*lambert_sphere_tables_texel(m.k[4], t21) + t30*lambert_sphere_tables_texel(m.k[4], t27) + t33*lambert_sphere_tables_texel(m.k[4], t31) + t35*lambert_sphere_tables_texel(m.k[4], t34)) + m.k[7]*(t26*lambert_sphere_tables_texel(m.k[6], t21) + t30*lambert_sphere_tables_texel(m.k[6], t27) + t33*lambert_sphere_tables_texel(m.k[6], t31) + t35*lambert_sphere_tables_texel(m.k[6], t34)) + m.k[9]*(t26*lambert_sphere_tables_texel(m.k[8], t21) + t30*lambert_sphere_tables_texel(m.k[8], t27) + t33*lambert_sphere_tables_texel(m.k[8], t31) + t35*lambert_sphere_tables_texel(m.k[8], t34)) - (47.0/96.0)*t2 + ((15.0/64.0))*t20 - (15.0/128.0)*t7 + (173.0/768.0))) + t3*(m.k[13]*t10*t36*(m.k[12]*t9 - 64.0) + m.k[3]*(m.k[11]*(t43*lambert_sphere_tables_texel(m.k[10], t38) + t47*lambert_sphere_tables_texel(m.k[10], t44) + t50*lambert_sphere_tables_texel(m.k[10], t48) + t52*lambert_sphere_tables_texel(m.k[10], t51)) + m.k[5]*(t43*lambert_sphere_tables_texel(m.k[4], t38) + t47*lambert_sphere_tables_texel(m.k[4], t44) + t50*lambert_sphere_tables_texel(m.k[4], t48) + t52*lambert_sphere_tables_texel(m.k[4], t51)) + m.k[7]*(t43*lambert_sphere_tables_texel(m.k[6], t38) + t47*lambert_sphere_tables_texel(m.k[6], t44) + t50*lambert_sphere_tables_texel(m.k[6], t48) + t52*lambert_sphere_tables_texel(m.k[6], t51)) + m.k[9]*(t43*lambert_sphere_tables_texel(m.k[8], t38) + t47*lambert_sphere_tables_texel(m.k[8], t44) + t50*lambert_sphere_tables_texel(m.k[8], t48) + t52*lambert_sphere_tables_texel(m.k[8], t51)) - (47.0/96.0)*t3 + ((15.0/64.0))*t37 - (15.0/128.0)*t9 + (173.0/768.0))))) + t5*(m.k[21]*(135.0*t53 + 256.0*t6 - 45.0*t7 - 45.0*t9 + 207.0) + ((1.0/2.0))*(m.k[22] + m.k[23]*t4 + m.k[24]*(t7 + t9) + m.k[25]*t2*t3 + m.k[26]*t2*t3*t4 + m.k[27]*t53)*exp(t2*(m.k[3]*(m.k[11]*(t26*lambert_sphere_tables_texel(m.k[31], t21) + t30*lambert_sphere_tables_texel(m.k[31], t27) + t33*lambert_sphere_tables_texel(m.k[31], t31) + t35*lambert_sphere_tables_texel(m.k[31], t34)) + m.k[5]*(t26*lambert_sphere_tables_texel(m.k[28], t21) + t30*lambert_sphere_tables_texel(m.k[28], t27) + t33*lambert_sphere_tables_texel(m.k[28], t31) + t35*lambert_sphere_tables_texel(m.k[28], t34)) + m.k[7]*(t26*lambert_sphere_tables_texel(m.k[29], t21) + t30*lambert_sphere_tables_texel(m.k[29], t27) + t33*lambert_sphere_tables_texel(m.k[29], t31) + t35*lambert_sphere_tables_texel(m.k[29], t34)) + m.k[9]*(t26*lambert_sphere_tables_texel(m.k[30], t21) + t30*lambert_sphere_tables_texel(m.k[30], t27) + t33*lambert_sphere_tables_texel(m.k[30], t31) + t35*lambert_sphere_tables_texel(m.k[30], t34)) + ((301.0/384.0))*t2 - (45.0/128.0)*t20 + ((45.0/256.0))*t7 + (-557.0/1536.0)) + m.k[34]*t19*(m.k[32]*t7 + m.k[33]*(t2*t2*t2*t2) + 207.0)) + t3*(m.k[3]*(m.k[11]*(t43*lambert_sphere_tables_texel(m.k[31], t38) + t47*lambert_sphere_tables_texel(m.k[31], t44) + t50*lambert_sphere_tables_texel(m.k[31], t48) + t52*lambert_sphere_tables_texel(m.k[31], t51)) + m.k[5]*(t43*lambert_sphere_tables_texel(m.k[28], t38) + t47*lambert_sphere_tables_texel(m.k[28], t44) + t50*lambert_sphere_tables_texel(m.k[28], t48) + t52*lambert_sphere_tables_texel(m.k[28], t51)) + m.k[7]*(t43*lambert_sphere_tables_texel(m.k[29], t38) + t47*lambert_sphere_tables_texel(m.k[29], t44) + t50*lambert_sphere_tables_texel(m.k[29], t48) + t52*lambert_sphere_tables_texel(m.k[29], t51)) + m.k[9]*(t43*lambert_sphere_tables_texel(m.k[30], t38) + t47*lambert_sphere_tables_texel(m.k[30], t44) + t50*lambert_sphere_tables_texel(m.k[30], t48) + t52*lambert_sphere_tables_texel(m.k[30], t51)) + ((301.0/384.0))*t3 - (45.0/128.0)*t37 + ((45.0/256.0))*t9 + (-557.0/1536.0)) + m.k[34]*t36*(m.k[32]*t9 + m.k[33]*(t3*t3*t3*t3) + 207.0)))/3.141592653589793238);
-    return ((t0 < 0.0) ? (0.0) : (1.0))*((t1 < 0.0) ? (0.0) : (1.0))*((t68 < 0.0) ? (0.0) : (t68));
+    float t53 = m.k[0]*t4 + m.k[1]*t2*t3;
+    float t54 = m.k[20]*t4 + m.k[21]*(t7 + t9) + m.k[23]*t2*t3 + m.k[24]*t7*t9 + m.k[25]*t2*t3*t4;
+    float t68 = (1.0 - t18)*(t18 + 1.0);
+    float t69 = m.k[13]*t12*t17*t5*(t53 + (t53 + ((45.0/64.0))*t6 + 1.0)*lambert_sphere_tables_expm1(t2*(m.k[12]*t19*t8*(m.k[11]*t7 - 64.0) + m.k[2]*(m.k[10]*(t26*lambert_sphere_tables_texel(m.k[9], t21) + t30*lambert_sphere_tables_texel(m.k[9], t27) + t33*lambert_sphere_tables_texel(m.k[9], t31) + t35*lambert_sphere_tables_texel(m.k[9], t34)) + m.k[4]*(t26*lambert_sphere_tables_texel(m.k[3], t21) + t30*lambert_sphere_tables_texel(m.k[3], t27) + t33*lambert_sphere_tables_texel(m.k[3], t31) + t35*lambert_sphere_tables_texel(m.k[3], t34)) + m.k[6]*(t26*lambert_sphere_tables_texel(m.k[5], t21) + t30*lambert_sphere_tables_texel(m.k[5], t27) + t33*lambert_sphere_tables_texel(m.k[5], t31) + t35*lambert_sphere_tables_texel(m.k[5], t34)) + m.k[8]*(t26*lambert_sphere_tables_texel(m.k[7], t21) + t30*lambert_sphere_tables_texel(m.k[7], t27) + t33*lambert_sphere_tables_texel(m.k[7], t31) + t35*lambert_sphere_tables_texel(m.k[7], t34)) - (47.0/96.0)*t2 + ((15.0/64.0))*t20 - (15.0/128.0)*t7 + (173.0/768.0))) + t3*(m.k[12]*t10*t36*(m.k[11]*t9 - 64.0) + m.k[2]*(m.k[10]*(t43*lambert_sphere_tables_texel(m.k[9], t38) + t47*lambert_sphere_tables_texel(m.k[9], t44) + t50*lambert_sphere_tables_texel(m.k[9], t48) + t52*lambert_sphere_tables_texel(m.k[9], t51)) + m.k[4]*(t43*lambert_sphere_tables_texel(m.k[3], t38) + t47*lambert_sphere_tables_texel(m.k[3], t44) + t50*lambert_sphere_tables_texel(m.k[3], t48) + t52*lambert_sphere_tables_texel(m.k[3], t51)) + m.k[6]*(t43*lambert_sphere_tables_texel(m.k[5], t38) + t47*lambert_sphere_tables_texel(m.k[5], t44) + t50*lambert_sphere_tables_texel(m.k[5], t48) + t52*lambert_sphere_tables_texel(m.k[5], t51)) + m.k[8]*(t43*lambert_sphere_tables_texel(m.k[7], t38) + t47*lambert_sphere_tables_texel(m.k[7], t44) + t50*lambert_sphere_tables_texel(m.k[7], t48) + t52*lambert_sphere_tables_texel(m.k[7], t51)) - (47.0/96.0)*t3 + ((15.0/64.0))*t37 - (15.0/128.0)*t9 + (173.0/768.0))))) + m.k[19]*t11*t5*(2.0*(t17*t17) - 1.0)*lambert_sphere_tables_expm1(t2*(m.k[18]*t19*(t8*t8) + m.k[2]*(m.k[10]*(t26*lambert_sphere_tables_texel(m.k[17], t21) + t30*lambert_sphere_tables_texel(m.k[17], t27) + t33*lambert_sphere_tables_texel(m.k[17], t31) + t35*lambert_sphere_tables_texel(m.k[17], t34)) + m.k[4]*(t26*lambert_sphere_tables_texel(m.k[14], t21) + t30*lambert_sphere_tables_texel(m.k[14], t27) + t33*lambert_sphere_tables_texel(m.k[14], t31) + t35*lambert_sphere_tables_texel(m.k[14], t34)) + m.k[6]*(t26*lambert_sphere_tables_texel(m.k[15], t21) + t30*lambert_sphere_tables_texel(m.k[15], t27) + t33*lambert_sphere_tables_texel(m.k[15], t31) + t35*lambert_sphere_tables_texel(m.k[15], t34)) + m.k[8]*(t26*lambert_sphere_tables_texel(m.k[16], t21) + t30*lambert_sphere_tables_texel(m.k[16], t27) + t33*lambert_sphere_tables_texel(m.k[16], t31) + t35*lambert_sphere_tables_texel(m.k[16], t34)) + ((25.0/256.0))*t2 - (15.0/256.0)*t20 + ((15.0/512.0))*t7 + (-45.0/1024.0))) + t3*(m.k[18]*(t10*t10)*t36 + m.k[2]*(m.k[10]*(t43*lambert_sphere_tables_texel(m.k[17], t38) + t47*lambert_sphere_tables_texel(m.k[17], t44) + t50*lambert_sphere_tables_texel(m.k[17], t48) + t52*lambert_sphere_tables_texel(m.k[17], t51)) + m.k[4]*(t43*lambert_sphere_tables_texel(m.k[14], t38) + t47*lambert_sphere_tables_texel(m.k[14], t44) + t50*lambert_sphere_tables_texel(m.k[14], t48) + t52*lambert_sphere_tables_texel(m.k[14], t51)) + m.k[6]*(t43*lambert_sphere_tables_texel(m.k[15], t38) + t47*lambert_sphere_tables_texel(m.k[15], t44) + t50*lambert_sphere_tables_texel(m.k[15], t48) + t52*lambert_sphere_tables_texel(m.k[15], t51)) + m.k[8]*(t43*lambert_sphere_tables_texel(m.k[16], t38) + t47*lambert_sphere_tables_texel(m.k[16], t44) + t50*lambert_sphere_tables_texel(m.k[16], t48) + t52*lambert_sphere_tables_texel(m.k[16], t51)) + ((25.0/256.0))*t3 - (15.0/256.0)*t37 + ((15.0/512.0))*t9 + (-45.0/1024.0)))) + m.k[32]*t5*(-2.0*t18*acos(t18) + 2.0*sqrt(((t68 < 0.0) ? (0.0) : (t68)))) + ((1.0/2.0))*t5*(t54 + (m.k[22]*(256.0*t6 + 135.0*t7*t9 - 45.0*t7 - 45.0*t9 + 207.0) + t54)*lambert_sphere_tables_expm1(t2*(m.k[2]*(m.k[10]*(t26*lambert_sphere_tables_texel(m.k[29], t21) + t30*lambert_sphere_tables_texel(m.k[29], t27) + t33*lambert_sphere_tables_texel(m.k[29], t31) + t35*lambert_sphere_tables_texel(m.k[29], t34)) + m.k[4]*(t26*lambert_sphere_tables_texel(m.k[26], t21) + t30*lambert_sphere_tables_texel(m.k[26], t27) + t33*lambert_sphere_tables_texel(m.k[26], t31) + t35*lambert_sphere_tables_texel(m.k[26], t34)) + m.k[6]*(t26*lambert_sphere_tables_texel(m.k[27], t21) + t30*lambert_sphere_tables_texel(m.k[27], t27) + t33*lambert_sphere_tables_texel(m.k[27], t31) + t35*lambert_sphere_tables_texel(m.k[27], t34)) + m.k[8]*(t26*lambert_sphere_tables_texel(m.k[28], t21) + t30*lambert_sphere_tables_texel(m.k[28], t27) + t33*lambert_sphere_tables_texel(m.k[28], t31) + t35*lambert_sphere_tables_texel(m.k[28], t34)) + ((301.0/384.0))*t2 - (45.0/128.0)*t20 + ((45.0/256.0))*t7 + (-557.0/1536.0)) + m.k[22]*t19*(m.k[30]*t7 + m.k[31]*(t2*t2*t2*t2) + 207.0)) + t3*(m.k[2]*(m.k[10]*(t43*lambert_sphere_tables_texel(m.k[29], t38) + t47*lambert_sphere_tables_texel(m.k[29], t44) + t50*lambert_sphere_tables_texel(m.k[29], t48) + t52*lambert_sphere_tables_texel(m.k[29], t51)) + m.k[4]*(t43*lambert_sphere_tables_texel(m.k[26], t38) + t47*lambert_sphere_tables_texel(m.k[26], t44) + t50*lambert_sphere_tables_texel(m.k[26], t48) + t52*lambert_sphere_tables_texel(m.k[26], t51)) + m.k[6]*(t43*lambert_sphere_tables_texel(m.k[27], t38) + t47*lambert_sphere_tables_texel(m.k[27], t44) + t50*lambert_sphere_tables_texel(m.k[27], t48) + t52*lambert_sphere_tables_texel(m.k[27], t51)) + m.k[8]*(t43*lambert_sphere_tables_texel(m.k[28], t38) + t47*lambert_sphere_tables_texel(m.k[28], t44) + t50*lambert_sphere_tables_texel(m.k[28], t48) + t52*lambert_sphere_tables_texel(m.k[28], t51)) + ((301.0/384.0))*t3 - (45.0/128.0)*t37 + ((45.0/256.0))*t9 + (-557.0/1536.0)) + m.k[22]*t36*(m.k[30]*t9 + m.k[31]*(t3*t3*t3*t3) + 207.0))))/3.141592653589793238;
+    return ((t0 < 0.0) ? (0.0) : (1.0))*((t1 < 0.0) ? (0.0) : (1.0))*((t69 < 0.0) ? (0.0) : (t69));
 }
 vec3 lambert_sphere_tables_eval_local_rgb(lambert_sphere_tables_material r, lambert_sphere_tables_material g, lambert_sphere_tables_material b, vec3 wi, vec3 wo)
 {

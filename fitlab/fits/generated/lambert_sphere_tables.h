@@ -105,14 +105,17 @@ LAMBERT_SPHERE_TABLES_FN float lambert_sphere_tables_single_f(float mu_i, float 
 
 /*
  * Multiple scattering, Fourier order 0: fm0 = (H0 H0 Q/(2 pi) - n0_ss)/(mu_i + mu_o) (eqs. 30,
- * 38). Pole floored at 1e-6.
+ * 38), evaluated as ((H0 H0 - 1) Q + (Q - Q_ss))/(2 pi (mu_i + mu_o)), Q_ss = 2 pi n0_ss,
+ * without cancellation at grazing and small c. Pole floored at 1e-6.
  */
 LAMBERT_SPHERE_TABLES_FN double lambert_sphere_tables_fm0(double mu_i, double mu_o, double c);
 LAMBERT_SPHERE_TABLES_FN float lambert_sphere_tables_fm0_f(float mu_i, float mu_o, float c);
 
 /*
  * Multiple scattering, Fourier order 1 (coefficient of cos phi): fm1 of eq. 22 minus its single
- * scattering, exact normalisations 3 pi and 192 pi (docs/errata.md). Pole floored at 1e-6.
+ * scattering, exact normalisations 3 pi and 192 pi (docs/errata.md), evaluated as c S ((H1 H1 -
+ * 1) G + (G - G_ss))/(3 pi (mu_i + mu_o)) without cancellation at grazing and small c. Pole
+ * floored at 1e-6.
  */
 LAMBERT_SPHERE_TABLES_FN double lambert_sphere_tables_fm1(double mu_i, double mu_o, double c);
 LAMBERT_SPHERE_TABLES_FN float lambert_sphere_tables_fm1_f(float mu_i, float mu_o, float c);
@@ -144,12 +147,12 @@ LAMBERT_SPHERE_TABLES_FN float lambert_sphere_tables_brdf_local_f(const float wi
 
 /*
  * Per-material set-up: lambert_sphere_tables_prepare_c(c) fills the struct with every quantity
- * that depends on c alone (36 numbers), lambert_sphere_tables_prepare(kd) the same from kd;
+ * that depends on c alone (33 numbers), lambert_sphere_tables_prepare(kd) the same from kd;
  * lambert_sphere_tables_eval, lambert_sphere_tables_eval_local evaluate with it, so that a
  * renderer prepares each material once and evaluates it many times. The _rgb variants take
  * three materials (one per channel) and give three values.
  */
-typedef struct lambert_sphere_tables_material { double k[36]; } lambert_sphere_tables_material;
+typedef struct lambert_sphere_tables_material { double k[33]; } lambert_sphere_tables_material;
 LAMBERT_SPHERE_TABLES_FN lambert_sphere_tables_material lambert_sphere_tables_prepare_c(double c);
 LAMBERT_SPHERE_TABLES_FN lambert_sphere_tables_material lambert_sphere_tables_prepare(double kd);
 LAMBERT_SPHERE_TABLES_FN void lambert_sphere_tables_prepare_c_rgb(const double c[3], lambert_sphere_tables_material m[3]);
@@ -173,7 +176,7 @@ LAMBERT_SPHERE_TABLES_FN void lambert_sphere_tables_eval_rgb(const lambert_spher
  */
 LAMBERT_SPHERE_TABLES_FN double lambert_sphere_tables_eval_local(const lambert_sphere_tables_material *m, const double wi[3], const double wo[3]);
 LAMBERT_SPHERE_TABLES_FN void lambert_sphere_tables_eval_local_rgb(const lambert_sphere_tables_material m[3], const double wi[3], const double wo[3], double out[3]);
-typedef struct lambert_sphere_tables_material_f { float k[36]; } lambert_sphere_tables_material_f;
+typedef struct lambert_sphere_tables_material_f { float k[33]; } lambert_sphere_tables_material_f;
 LAMBERT_SPHERE_TABLES_FN lambert_sphere_tables_material_f lambert_sphere_tables_prepare_c_f(float c);
 LAMBERT_SPHERE_TABLES_FN lambert_sphere_tables_material_f lambert_sphere_tables_prepare_f(float kd);
 LAMBERT_SPHERE_TABLES_FN void lambert_sphere_tables_prepare_c_rgb_f(const float c[3], lambert_sphere_tables_material_f m[3]);

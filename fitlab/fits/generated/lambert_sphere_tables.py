@@ -314,38 +314,159 @@ def single(mu_i, mu_o, cos_phi, c):
 
 def fm0(mu_i, mu_o, c):
     """Multiple scattering, Fourier order 0: fm0 = (H0 H0 Q/(2 pi) - n0_ss)/(mu_i + mu_o) (eqs.
-    30, 38). Pole floored at 1e-6."""
+    30, 38), evaluated as ((H0 H0 - 1) Q + (Q - Q_ss))/(2 pi (mu_i + mu_o)), Q_ss = 2 pi
+    n0_ss, without cancellation at grazing and small c. Pole floored at 1e-6."""
     mu_i, mu_o, c = numpy.asarray(mu_i, dtype=float), numpy.asarray(mu_o, dtype=float), numpy.asarray(c, dtype=float)
-    t8 = numpy.where(numpy.less(mu_i, 0), 0.0, mu_i)
-    t0 = numpy.where(numpy.greater(t8, 1.0), 1.0, t8)
-    t9 = numpy.where(numpy.less(mu_o, 0), 0.0, mu_o)
-    t1 = numpy.where(numpy.greater(t9, 1.0), 1.0, t9)
+    t59 = numpy.where(numpy.less(mu_i, 0), 0.0, mu_i)
+    t0 = numpy.where(numpy.greater(t59, 1.0), 1.0, t59)
+    t60 = numpy.where(numpy.less(mu_o, 0), 0.0, mu_o)
+    t1 = numpy.where(numpy.greater(t60, 1.0), 1.0, t60)
     t2 = t0 + t1
-    t3 = 3.141592653589793238**(-1.0)
-    t10 = numpy.where(numpy.less(c, 0), 0.0, c)
-    t4 = numpy.where(numpy.greater(t10, 1.0), 1.0, t10)
-    t5 = (t0*t0)
-    t6 = (t1*t1)
-    t7 = t0*t1
-    return (-1/768*t3*t4*(135*t5*t6 - 45*t5 - 45*t6 + 256*t7 + 207) + (1/2)*t3*(t0*t1*t2*const_d(t4) + t2*const_b(t4) + t4*t5*t6*(15/128 - 15/128*t4)*((4/3)*t4 + 3) + (69/128)*t4 + t7*const_c(t4) + (t5 + t6)*const_f(t4))*h0(t0, t4)*h0(t1, t4))/numpy.where(numpy.less(t2, 1/1000000), 1/1000000, t2)
+    t61 = numpy.where(numpy.less(c, 0), 0.0, c)
+    t3 = numpy.where(numpy.greater(t61, 1.0), 1.0, t61)
+    t4 = (t0*t0)
+    t5 = (t1*t1)
+    t6 = t4*t5
+    t62 = numpy.sqrt(1 - t3)
+    t63 = numpy.where(numpy.less(t62, 0), 0, t62)
+    t7 = numpy.where(numpy.greater(t63, 1), 1, t63)
+    t8 = numpy.where(numpy.less(t7, 1/32), 0, numpy.where(numpy.greater_equal(t7, 31/32), 29, numpy.floor(32*t7) - 1))
+    t9 = -32*t7 + t8
+    t10 = t9 + 1
+    t11 = -t9 - 3
+    t12 = -t9 - 2
+    t13 = t8 + 2
+    t14 = -t10
+    t15 = t8 + 1
+    t16 = -t9
+    t17 = t8 + 3
+    t18 = t0*t1*t2*const_d(t3) + t0*t1*((1/6)*t10*t11*t12*t3*texel(102, t8) + (1/2)*t11*t12*t16*t3*texel(102, t15) + (1/2)*t11*t14*t3*t9*texel(102, t13) + (1/6)*t12*t14*t16*t3*texel(102, t17)) + t2*const_b(t3) + t6*(-5/32*(t3*t3*t3) - 25/128*(t3*t3)) + (t4 + t5)*((1/6)*t10*t11*t12*t3*texel(104, t8) + (1/2)*t11*t12*t16*t3*texel(104, t15) + (1/2)*t11*t14*t3*t9*texel(104, t13) + (1/6)*t12*t14*t16*t3*texel(104, t17))
+    t19 = t3*(20*t3 + 281) - 346
+    t20 = (15 - 15*t3)*(4*t3 + 9)
+    t64 = numpy.where(numpy.less(t0, 0), 0, t0)
+    t21 = numpy.where(numpy.greater(t64, 1), 1, t64)
+    t22 = numpy.where(numpy.less(t21, 1/32), 0, numpy.where(numpy.greater_equal(t21, 31/32), 29, numpy.floor(32*t21) - 1))
+    t23 = -32*t21 + t22
+    t24 = -t23 - 3
+    t25 = -t23 - 2
+    t26 = t23 + 1
+    t27 = (1/6)*t24*t25*t26
+    t28 = t22 + 2
+    t29 = -t26
+    t30 = (1/2)*t24
+    t31 = t23*t29*t30
+    t32 = t22 + 1
+    t33 = -t23*t25
+    t34 = t30*t33
+    t35 = t22 + 3
+    t36 = (1/6)*t29*t33
+    t37 = (1/6)*t10*t11*t12
+    t38 = (1/2)*t11
+    t39 = t14*t38*t9
+    t40 = t12*t16
+    t41 = t38*t40
+    t42 = (1/6)*t14*t40
+    t65 = numpy.where(numpy.less(t1, 0), 0, t1)
+    t43 = numpy.where(numpy.greater(t65, 1), 1, t65)
+    t44 = numpy.where(numpy.less(t43, 1/32), 0, numpy.where(numpy.greater_equal(t43, 31/32), 29, numpy.floor(32*t43) - 1))
+    t45 = -32*t43 + t44
+    t46 = -t45 - 3
+    t47 = -t45 - 2
+    t48 = t45 + 1
+    t49 = (1/6)*t46*t47*t48
+    t50 = t44 + 2
+    t51 = -t48
+    t52 = (1/2)*t46
+    t53 = t45*t51*t52
+    t54 = t44 + 1
+    t55 = -t45*t47
+    t56 = t52*t55
+    t57 = t44 + 3
+    t58 = (1/6)*t51*t55
+    return (1/2)*(t18 + (t18 + (1/384)*t3*(256*t0*t1 - 45*t4 - 45*t5 + 135*t6 + 207))*numpy.expm1(t0*((1/384)*t3*((t0*t0*t0*t0)*t20 + t19*t4 + 207)*numpy.log(1 + numpy.where(numpy.less(t0, 1.0e-30), 1.0e-30, t0)**(-1.0)) + t3*(-45/128*(t0*t0*t0) + (301/384)*t0 + t37*(t27*texel(t8, t22) + t31*texel(t8, t28) + t34*texel(t8, t32) + t36*texel(t8, t35)) + t39*(t27*texel(t13, t22) + t31*texel(t13, t28) + t34*texel(t13, t32) + t36*texel(t13, t35)) + (45/256)*t4 + t41*(t27*texel(t15, t22) + t31*texel(t15, t28) + t34*texel(t15, t32) + t36*texel(t15, t35)) + t42*(t27*texel(t17, t22) + t31*texel(t17, t28) + t34*texel(t17, t32) + t36*texel(t17, t35)) - 557/1536)) + t1*((1/384)*t3*((t1*t1*t1*t1)*t20 + t19*t5 + 207)*numpy.log(1 + numpy.where(numpy.less(t1, 1.0e-30), 1.0e-30, t1)**(-1.0)) + t3*(-45/128*(t1*t1*t1) + (301/384)*t1 + t37*(t49*texel(t8, t44) + t53*texel(t8, t50) + t56*texel(t8, t54) + t58*texel(t8, t57)) + t39*(t49*texel(t13, t44) + t53*texel(t13, t50) + t56*texel(t13, t54) + t58*texel(t13, t57)) + t41*(t49*texel(t15, t44) + t53*texel(t15, t50) + t56*texel(t15, t54) + t58*texel(t15, t57)) + t42*(t49*texel(t17, t44) + t53*texel(t17, t50) + t56*texel(t17, t54) + t58*texel(t17, t57)) + (45/256)*t5 - 557/1536))))/(3.141592653589793238*numpy.where(numpy.less(t2, 1/1000000), 1/1000000, t2))
 
 
 def fm1(mu_i, mu_o, c):
     """Multiple scattering, Fourier order 1 (coefficient of cos phi): fm1 of eq. 22 minus its
-    single scattering, exact normalisations 3 pi and 192 pi (docs/errata.md). Pole floored
-    at 1e-6."""
+    single scattering, exact normalisations 3 pi and 192 pi (docs/errata.md), evaluated as c
+    S ((H1 H1 - 1) G + (G - G_ss))/(3 pi (mu_i + mu_o)) without cancellation at grazing and
+    small c. Pole floored at 1e-6."""
     mu_i, mu_o, c = numpy.asarray(mu_i, dtype=float), numpy.asarray(mu_o, dtype=float), numpy.asarray(c, dtype=float)
-    t7 = numpy.where(numpy.less(mu_i, 0), 0.0, mu_i)
-    t0 = numpy.where(numpy.greater(t7, 1.0), 1.0, t7)
-    t8 = numpy.where(numpy.less(mu_o, 0), 0.0, mu_o)
-    t1 = numpy.where(numpy.greater(t8, 1.0), 1.0, t8)
-    t2 = t0 + t1
-    t3 = 3.141592653589793238**(-1.0)
-    t9 = numpy.where(numpy.less(c, 0), 0.0, c)
-    t4 = numpy.where(numpy.greater(t9, 1.0), 1.0, t9)
-    t5 = numpy.sqrt((1 - (t0*t0))*(1 - (t1*t1)))
-    t6 = const_l(t4)
-    return (-1/192*t3*t4*t5*(45*t0*t1 + 64) + (1/3)*t3*t4*t5*(t0*t1*((t6*t6) + (45/64)*const_m(t4)) + t2*t6 + 1)*h1(t0, t4)*h1(t1, t4))/numpy.where(numpy.less(t2, 1/1000000), 1/1000000, t2)
+    t67 = numpy.where(numpy.less(c, 0), 0.0, c)
+    t0 = numpy.where(numpy.greater(t67, 1.0), 1.0, t67)
+    t68 = numpy.where(numpy.less(mu_i, 0), 0.0, mu_i)
+    t1 = numpy.where(numpy.greater(t68, 1.0), 1.0, t68)
+    t69 = numpy.where(numpy.less(mu_o, 0), 0.0, mu_o)
+    t2 = numpy.where(numpy.greater(t69, 1.0), 1.0, t69)
+    t3 = t1 + t2
+    t4 = (t1*t1)
+    t5 = t4 - 1
+    t6 = (t2*t2)
+    t7 = t6 - 1
+    t8 = const_l(t0)
+    t70 = numpy.sqrt(1 - t0)
+    t71 = numpy.where(numpy.less(t70, 0), 0, t70)
+    t9 = numpy.where(numpy.greater(t71, 1), 1, t71)
+    t10 = numpy.where(numpy.less(t9, 1/32), 0, numpy.where(numpy.greater_equal(t9, 31/32), 29, numpy.floor(32*t9) - 1))
+    t11 = t10 - 32*t9
+    t12 = -t11 - 2
+    t13 = (15/128)*t12
+    t14 = t11 + 1
+    t15 = -t11 - 3
+    t16 = t14*t15
+    t17 = (45/128)*t15
+    t18 = -t14
+    t19 = t11*t18
+    t20 = -t11
+    t21 = t12*t20
+    t22 = t18*t20
+    t23 = t1*t2*(t13*t16*texel(100, t10) + t13*t22*texel(100, t10 + 3) + t17*t19*texel(100, t10 + 2) + t17*t21*texel(100, t10 + 1) + (t8*t8)) + t3*t8
+    t24 = 20*t0 + 45
+    t25 = t10 + 35
+    t72 = numpy.where(numpy.less(t1, 0), 0, t1)
+    t26 = numpy.where(numpy.greater(t72, 1), 1, t72)
+    t27 = numpy.where(numpy.less(t26, 1/32), 0, numpy.where(numpy.greater_equal(t26, 31/32), 29, numpy.floor(32*t26) - 1))
+    t28 = -32*t26 + t27
+    t29 = -t28 - 3
+    t30 = -t28 - 2
+    t31 = t28 + 1
+    t32 = (1/6)*t29*t30*t31
+    t33 = t27 + 2
+    t34 = -t31
+    t35 = (1/2)*t29
+    t36 = t28*t34*t35
+    t37 = t27 + 1
+    t38 = -t28*t30
+    t39 = t35*t38
+    t40 = t27 + 3
+    t41 = (1/6)*t34*t38
+    t42 = (1/2)*t15
+    t43 = t19*t42
+    t44 = t10 + 33
+    t45 = (1/6)*t12
+    t46 = t16*t45
+    t47 = t10 + 34
+    t48 = t21*t42
+    t49 = t10 + 36
+    t50 = t22*t45
+    t73 = numpy.where(numpy.less(t2, 0), 0, t2)
+    t51 = numpy.where(numpy.greater(t73, 1), 1, t73)
+    t52 = numpy.where(numpy.less(t51, 1/32), 0, numpy.where(numpy.greater_equal(t51, 31/32), 29, numpy.floor(32*t51) - 1))
+    t53 = -32*t51 + t52
+    t54 = -t53 - 3
+    t55 = -t53 - 2
+    t56 = t53 + 1
+    t57 = (1/6)*t54*t55*t56
+    t58 = t52 + 2
+    t59 = -t56
+    t60 = (1/2)*t54
+    t61 = t53*t59*t60
+    t62 = t52 + 1
+    t63 = -t53*t55
+    t64 = t60*t63
+    t65 = t52 + 3
+    t66 = (1/6)*t59*t63
+    return (1/3)*t0*numpy.sqrt(t5*t7)*(t23 + ((45/64)*t1*t2 + t23 + 1)*numpy.expm1(t1*(-1/192*t0*t5*(t24*t4 - 64)*numpy.log(1 + numpy.where(numpy.less(t1, 1.0e-30), 1.0e-30, t1)**(-1.0)) + t0*((15/64)*(t1*t1*t1) - 47/96*t1 - 15/128*t4 + t43*(t32*texel(t25, t27) + t36*texel(t25, t33) + t39*texel(t25, t37) + t41*texel(t25, t40)) + t46*(t32*texel(t44, t27) + t36*texel(t44, t33) + t39*texel(t44, t37) + t41*texel(t44, t40)) + t48*(t32*texel(t47, t27) + t36*texel(t47, t33) + t39*texel(t47, t37) + t41*texel(t47, t40)) + t50*(t32*texel(t49, t27) + t36*texel(t49, t33) + t39*texel(t49, t37) + t41*texel(t49, t40)) + 173/768)) + t2*(-1/192*t0*t7*(t24*t6 - 64)*numpy.log(1 + numpy.where(numpy.less(t2, 1.0e-30), 1.0e-30, t2)**(-1.0)) + t0*((15/64)*(t2*t2*t2) - 47/96*t2 + t43*(t57*texel(t25, t52) + t61*texel(t25, t58) + t64*texel(t25, t62) + t66*texel(t25, t65)) + t46*(t57*texel(t44, t52) + t61*texel(t44, t58) + t64*texel(t44, t62) + t66*texel(t44, t65)) + t48*(t57*texel(t47, t52) + t61*texel(t47, t58) + t64*texel(t47, t62) + t66*texel(t47, t65)) + t50*(t57*texel(t49, t52) + t61*texel(t49, t58) + t64*texel(t49, t62) + t66*texel(t49, t65)) - 15/128*t6 + 173/768))))/(3.141592653589793238*numpy.where(numpy.less(t3, 1/1000000), 1/1000000, t3))
 
 
 def fm2(mu_i, mu_o, c):
@@ -353,14 +474,71 @@ def fm2(mu_i, mu_o, c):
     (eq. 21): fm2 = 15 c S^2 (H2(mu_i) H2(mu_o) - 1)/(256 pi (mu_i + mu_o)) (docs/model.md,
     'Order 2'). Pole floored at 1e-6."""
     mu_i, mu_o, c = numpy.asarray(mu_i, dtype=float), numpy.asarray(mu_o, dtype=float), numpy.asarray(c, dtype=float)
-    t3 = numpy.where(numpy.less(c, 0), 0.0, c)
-    t0 = numpy.where(numpy.greater(t3, 1.0), 1.0, t3)
-    t4 = numpy.where(numpy.less(mu_i, 0), 0.0, mu_i)
-    t1 = numpy.where(numpy.greater(t4, 1.0), 1.0, t4)
-    t5 = numpy.where(numpy.less(mu_o, 0), 0.0, mu_o)
-    t2 = numpy.where(numpy.greater(t5, 1.0), 1.0, t5)
-    t6 = t1 + t2
-    return (15/256)*t0*(1 - (t1*t1))*(1 - (t2*t2))*(h2(t1, t0)*h2(t2, t0) - 1)/(3.141592653589793238*numpy.where(numpy.less(t6, 1/1000000), 1/1000000, t6))
+    t56 = numpy.where(numpy.less(c, 0), 0.0, c)
+    t0 = numpy.where(numpy.greater(t56, 1.0), 1.0, t56)
+    t57 = numpy.where(numpy.less(mu_i, 0), 0.0, mu_i)
+    t1 = numpy.where(numpy.greater(t57, 1.0), 1.0, t57)
+    t2 = (t1*t1)
+    t3 = t2 - 1
+    t58 = numpy.where(numpy.less(mu_o, 0), 0.0, mu_o)
+    t4 = numpy.where(numpy.greater(t58, 1.0), 1.0, t58)
+    t5 = (t4*t4)
+    t6 = t5 - 1
+    t59 = numpy.sqrt(1 - t0)
+    t60 = numpy.where(numpy.less(t59, 0), 0, t59)
+    t7 = numpy.where(numpy.greater(t60, 1), 1, t60)
+    t8 = numpy.where(numpy.less(t7, 1/32), 0, numpy.where(numpy.greater_equal(t7, 31/32), 29, numpy.floor(32*t7) - 1))
+    t9 = t8 + 68
+    t61 = numpy.where(numpy.less(t1, 0), 0, t1)
+    t10 = numpy.where(numpy.greater(t61, 1), 1, t61)
+    t11 = numpy.where(numpy.less(t10, 1/32), 0, numpy.where(numpy.greater_equal(t10, 31/32), 29, numpy.floor(32*t10) - 1))
+    t12 = -32*t10 + t11
+    t13 = -t12 - 3
+    t14 = -t12 - 2
+    t15 = t12 + 1
+    t16 = (1/6)*t13*t14*t15
+    t17 = t11 + 2
+    t18 = -t15
+    t19 = (1/2)*t13
+    t20 = t12*t18*t19
+    t21 = t11 + 1
+    t22 = -t12*t14
+    t23 = t19*t22
+    t24 = t11 + 3
+    t25 = (1/6)*t18*t22
+    t26 = -32*t7 + t8
+    t27 = t26 + 1
+    t28 = -t27
+    t29 = -t26 - 3
+    t30 = (1/2)*t29
+    t31 = t26*t28*t30
+    t32 = t8 + 66
+    t33 = -t26 - 2
+    t34 = (1/6)*t27*t29*t33
+    t35 = t8 + 67
+    t36 = -t26*t33
+    t37 = t30*t36
+    t38 = t8 + 69
+    t39 = (1/6)*t28*t36
+    t62 = numpy.where(numpy.less(t4, 0), 0, t4)
+    t40 = numpy.where(numpy.greater(t62, 1), 1, t62)
+    t41 = numpy.where(numpy.less(t40, 1/32), 0, numpy.where(numpy.greater_equal(t40, 31/32), 29, numpy.floor(32*t40) - 1))
+    t42 = -32*t40 + t41
+    t43 = -t42 - 3
+    t44 = -t42 - 2
+    t45 = t42 + 1
+    t46 = (1/6)*t43*t44*t45
+    t47 = t41 + 2
+    t48 = -t45
+    t49 = (1/2)*t43
+    t50 = t42*t48*t49
+    t51 = t41 + 1
+    t52 = -t42*t44
+    t53 = t49*t52
+    t54 = t41 + 3
+    t55 = (1/6)*t48*t52
+    t63 = t1 + t4
+    return (15/256)*t0*t3*t6*numpy.expm1(t1*((15/256)*t0*(t3*t3)*numpy.log(1 + numpy.where(numpy.less(t1, 1.0e-30), 1.0e-30, t1)**(-1.0)) + t0*(-15/256*(t1*t1*t1) + (25/256)*t1 + (15/512)*t2 + t31*(t16*texel(t9, t11) + t20*texel(t9, t17) + t23*texel(t9, t21) + t25*texel(t9, t24)) + t34*(t16*texel(t32, t11) + t20*texel(t32, t17) + t23*texel(t32, t21) + t25*texel(t32, t24)) + t37*(t16*texel(t35, t11) + t20*texel(t35, t17) + t23*texel(t35, t21) + t25*texel(t35, t24)) + t39*(t16*texel(t38, t11) + t20*texel(t38, t17) + t23*texel(t38, t21) + t25*texel(t38, t24)) - 45/1024)) + t4*((15/256)*t0*(t6*t6)*numpy.log(1 + numpy.where(numpy.less(t4, 1.0e-30), 1.0e-30, t4)**(-1.0)) + t0*(t31*(t46*texel(t9, t41) + t50*texel(t9, t47) + t53*texel(t9, t51) + t55*texel(t9, t54)) + t34*(t46*texel(t32, t41) + t50*texel(t32, t47) + t53*texel(t32, t51) + t55*texel(t32, t54)) + t37*(t46*texel(t35, t41) + t50*texel(t35, t47) + t53*texel(t35, t51) + t55*texel(t35, t54)) + t39*(t46*texel(t38, t41) + t50*texel(t38, t47) + t53*texel(t38, t51) + t55*texel(t38, t54)) - 15/256*(t4*t4*t4) + (25/256)*t4 + (15/512)*t5 - 45/1024)))/(3.141592653589793238*numpy.where(numpy.less(t63, 1/1000000), 1/1000000, t63))
 
 
 def brdf(mu_i, mu_o, cos_phi, c):
@@ -405,35 +583,40 @@ def brdf_local(wi, wo, c):
 
 def prepare_c(c):
     """Per-material set-up: prepare_c(c) fills the struct with every quantity that depends on c
-    alone (36 numbers), prepare(kd) the same from kd; eval, eval_local evaluate with it, so
+    alone (33 numbers), prepare(kd) the same from kd; eval, eval_local evaluate with it, so
     that a renderer prepares each material once and evaluates it many times. A material is
     an array with a last axis of the fields; for RGB prepare an array of three values (shape
     (..., 3)) and give the inputs a trailing axis (mu_i[..., None])."""
     c = numpy.asarray(c, dtype=float)
-    t0 = 3.141592653589793238**(-1.0)
-    t20 = numpy.where(numpy.less(c, 0), 0.0, c)
-    t1 = numpy.where(numpy.greater(t20, 1.0), 1.0, t20)
-    t21 = numpy.sqrt(1 - t1)
-    t22 = numpy.where(numpy.less(t21, 0), 0, t21)
-    t2 = numpy.where(numpy.greater(t22, 1), 1, t22)
-    t3 = numpy.where(numpy.less(t2, 1/32), 0, numpy.where(numpy.greater_equal(t2, 31/32), 29, numpy.floor(32*t2) - 1))
-    t4 = -32*t2 + t3
-    t5 = t4 + 1
-    t6 = -t4 - 3
-    t7 = -t4 - 2
-    t8 = (1/6)*t5*t6*t7
-    t9 = t3 + 2
-    t10 = -t5
-    t11 = (1/2)*t6
-    t12 = t10*t11*t4
-    t13 = t3 + 1
-    t14 = -t4*t7
-    t15 = t11*t14
-    t16 = t3 + 3
-    t17 = (1/6)*t10*t14
-    t18 = t12*texel(99, t9) + t15*texel(99, t13) + t17*texel(99, t16) + t8*texel(99, t3)
-    t19 = 20*t1
-    return numpy.stack(numpy.broadcast_arrays(numpy.asarray(-1/192*t0*t1, dtype=float), numpy.asarray(t18, dtype=float), numpy.asarray((45/64)*t12*texel(100, t9) + (45/64)*t15*texel(100, t13) + (45/64)*t17*texel(100, t16) + (t18*t18) + (45/64)*t8*texel(100, t3) + 45/64, dtype=float), numpy.asarray(t1, dtype=float), numpy.asarray(t3 + 34, dtype=float), numpy.asarray(t15, dtype=float), numpy.asarray(t3 + 35, dtype=float), numpy.asarray(t12, dtype=float), numpy.asarray(t3 + 36, dtype=float), numpy.asarray(t17, dtype=float), numpy.asarray(t3 + 33, dtype=float), numpy.asarray(t8, dtype=float), numpy.asarray(t19 + 45, dtype=float), numpy.asarray(-1/192*t1, dtype=float), numpy.asarray((1/3)*t0*t1, dtype=float), numpy.asarray(t3 + 67, dtype=float), numpy.asarray(t3 + 68, dtype=float), numpy.asarray(t3 + 69, dtype=float), numpy.asarray(t3 + 66, dtype=float), numpy.asarray((15/256)*t1, dtype=float), numpy.asarray((15/256)*t0*t1, dtype=float), numpy.asarray(-1/768*t0*t1, dtype=float), numpy.asarray((69/128)*t1, dtype=float), numpy.asarray(t1*(t12*texel(101, t9) + t15*texel(101, t13) + t17*texel(101, t16) + t8*texel(101, t3)), dtype=float), numpy.asarray(t1*(t12*texel(104, t9) + t15*texel(104, t13) + t17*texel(104, t16) + t8*texel(104, t3) - 15/128), dtype=float), numpy.asarray(t1*(t12*texel(102, t9) + t15*texel(102, t13) + t17*texel(102, t16) + t8*texel(102, t3) + 2/3), dtype=float), numpy.asarray(t1*(t12*texel(103, t9) + t15*texel(103, t13) + t17*texel(103, t16) + t8*texel(103, t3)), dtype=float), numpy.asarray(t1*(15/128 - 15/128*t1)*((4/3)*t1 + 3), dtype=float), numpy.asarray(t13, dtype=float), numpy.asarray(t9, dtype=float), numpy.asarray(t16, dtype=float), numpy.asarray(t3, dtype=float), numpy.asarray(t1*(t19 + 281) - 346, dtype=float), numpy.asarray((15 - 15*t1)*(4*t1 + 9), dtype=float), numpy.asarray((1/384)*t1, dtype=float), numpy.asarray((1/3)*t1/(3.141592653589793238*3.141592653589793238), dtype=float)), axis=-1)
+    t25 = numpy.where(numpy.less(c, 0), 0.0, c)
+    t0 = numpy.where(numpy.greater(t25, 1.0), 1.0, t25)
+    t26 = numpy.sqrt(1 - t0)
+    t27 = numpy.where(numpy.less(t26, 0), 0, t26)
+    t1 = numpy.where(numpy.greater(t27, 1), 1, t27)
+    t2 = numpy.where(numpy.less(t1, 1/32), 0, numpy.where(numpy.greater_equal(t1, 31/32), 29, numpy.floor(32*t1) - 1))
+    t3 = -32*t1 + t2
+    t4 = -t3 - 3
+    t5 = -t3 - 2
+    t6 = t3 + 1
+    t7 = t4*t5*t6
+    t8 = (1/6)*t7
+    t9 = t2 + 2
+    t10 = (1/2)*t4
+    t11 = -t6
+    t12 = t11*t3
+    t13 = t10*t12
+    t14 = t2 + 1
+    t15 = -t3
+    t16 = t15*t5
+    t17 = t10*t16
+    t18 = t2 + 3
+    t19 = t11*t16
+    t20 = (1/6)*t19
+    t21 = t13*texel(99, t9) + t17*texel(99, t14) + t20*texel(99, t18) + t8*texel(99, t2)
+    t22 = (45/128)*t4
+    t23 = 20*t0
+    t24 = 3.141592653589793238**(-1.0)
+    return numpy.stack(numpy.broadcast_arrays(numpy.asarray(t21, dtype=float), numpy.asarray(t12*t22*texel(100, t9) + t16*t22*texel(100, t14) + (15/128)*t19*texel(100, t18) + (t21*t21) + (15/128)*t7*texel(100, t2), dtype=float), numpy.asarray(t0, dtype=float), numpy.asarray(t2 + 34, dtype=float), numpy.asarray(t17, dtype=float), numpy.asarray(t2 + 35, dtype=float), numpy.asarray(t13, dtype=float), numpy.asarray(t2 + 36, dtype=float), numpy.asarray(t20, dtype=float), numpy.asarray(t2 + 33, dtype=float), numpy.asarray(t8, dtype=float), numpy.asarray(t23 + 45, dtype=float), numpy.asarray(-1/192*t0, dtype=float), numpy.asarray((1/3)*t0*t24, dtype=float), numpy.asarray(t2 + 67, dtype=float), numpy.asarray(t2 + 68, dtype=float), numpy.asarray(t2 + 69, dtype=float), numpy.asarray(t2 + 66, dtype=float), numpy.asarray((15/256)*t0, dtype=float), numpy.asarray((15/256)*t0*t24, dtype=float), numpy.asarray(t0*(t13*texel(101, t9) + t17*texel(101, t14) + t20*texel(101, t18) + t8*texel(101, t2)), dtype=float), numpy.asarray((1/6)*t0*t11*t15*t5*texel(104, t18) + (1/2)*t0*t11*t3*t4*texel(104, t9) + (1/2)*t0*t15*t4*t5*texel(104, t14) + (1/6)*t0*t4*t5*t6*texel(104, t2), dtype=float), numpy.asarray((1/384)*t0, dtype=float), numpy.asarray((1/6)*t0*t11*t15*t5*texel(102, t18) + (1/2)*t0*t11*t3*t4*texel(102, t9) + (1/2)*t0*t15*t4*t5*texel(102, t14) + (1/6)*t0*t4*t5*t6*texel(102, t2), dtype=float), numpy.asarray(-5/32*(t0*t0*t0) - 25/128*(t0*t0), dtype=float), numpy.asarray(t0*(t13*texel(103, t9) + t17*texel(103, t14) + t20*texel(103, t18) + t8*texel(103, t2)), dtype=float), numpy.asarray(t14, dtype=float), numpy.asarray(t9, dtype=float), numpy.asarray(t18, dtype=float), numpy.asarray(t2, dtype=float), numpy.asarray(t0*(t23 + 281) - 346, dtype=float), numpy.asarray((15 - 15*t0)*(4*t0 + 9), dtype=float), numpy.asarray((1/3)*t0/(3.141592653589793238*3.141592653589793238), dtype=float)), axis=-1)
 
 
 def prepare(kd):
@@ -448,24 +631,24 @@ def eval(material, mu_i, mu_o, cos_phi):
     [0, 1], cos_phi in [-1, 1] (phi = 0 back-scattering), c the particle albedo in [0, 1];
     inputs outside (+-inf included) are clamped, NaN in any input gives NaN."""
     material, mu_i, mu_o, cos_phi = numpy.asarray(material, dtype=float), numpy.asarray(mu_i, dtype=float), numpy.asarray(mu_o, dtype=float), numpy.asarray(cos_phi, dtype=float)
-    t48 = numpy.where(numpy.less(mu_i, 0), 0.0, mu_i)
-    t0 = numpy.where(numpy.greater(t48, 1.0), 1.0, t48)
-    t49 = numpy.where(numpy.less(mu_o, 0), 0.0, mu_o)
-    t1 = numpy.where(numpy.greater(t49, 1.0), 1.0, t49)
+    t49 = numpy.where(numpy.less(mu_i, 0), 0.0, mu_i)
+    t0 = numpy.where(numpy.greater(t49, 1.0), 1.0, t49)
+    t50 = numpy.where(numpy.less(mu_o, 0), 0.0, mu_o)
+    t1 = numpy.where(numpy.greater(t50, 1.0), 1.0, t50)
     t2 = t0 + t1
     t3 = numpy.where(numpy.less(t2, 1/1000000), 1/1000000, t2)**(-1.0)
     t4 = t0*t1
-    t50 = numpy.where(numpy.less(cos_phi, -1.0), -1.0, cos_phi)
-    t5 = numpy.where(numpy.greater(t50, 1.0), 1.0, t50)
+    t51 = numpy.where(numpy.less(cos_phi, -1.0), -1.0, cos_phi)
+    t5 = numpy.where(numpy.greater(t51, 1.0), 1.0, t51)
     t6 = (t0*t0)
     t7 = t6 - 1
     t8 = (t1*t1)
     t9 = t8 - 1
     t10 = t7*t9
     t11 = numpy.sqrt(t10)
-    t51 = -t11*t5 - t4
-    t52 = numpy.where(numpy.greater(t51, 1), 1, t51)
-    t12 = numpy.where(numpy.less(t52, -1), -1, t52)
+    t52 = -t11*t5 - t4
+    t53 = numpy.where(numpy.greater(t52, 1), 1, t52)
+    t12 = numpy.where(numpy.less(t53, -1), -1, t53)
     t13 = numpy.log(1 + numpy.where(numpy.less(t0, 1.0e-30), 1.0e-30, t0)**(-1.0))
     t14 = (t0*t0*t0)
     t15 = numpy.where(numpy.less(t0, 1/32), 0, numpy.where(numpy.greater_equal(t0, 31/32), 29, numpy.floor(32*t0) - 1))
@@ -500,10 +683,11 @@ def eval(material, mu_i, mu_o, cos_phi):
     t44 = t40*t43
     t45 = t32 + 3
     t46 = (1/6)*t39*t43
-    t47 = t6*t8
-    t53 = (1 - t12)*(t12 + 1)
-    t54 = material[..., 20]*t10*t3*(2*(t5*t5) - 1)*(numpy.exp(t0*(material[..., 19]*t13*(t7*t7) + material[..., 3]*(material[..., 11]*(t20*texel(material[..., 18], t15) + t24*texel(material[..., 18], t21) + t27*texel(material[..., 18], t25) + t29*texel(material[..., 18], t28)) + material[..., 5]*(t20*texel(material[..., 15], t15) + t24*texel(material[..., 15], t21) + t27*texel(material[..., 15], t25) + t29*texel(material[..., 15], t28)) + material[..., 7]*(t20*texel(material[..., 16], t15) + t24*texel(material[..., 16], t21) + t27*texel(material[..., 16], t25) + t29*texel(material[..., 16], t28)) + material[..., 9]*(t20*texel(material[..., 17], t15) + t24*texel(material[..., 17], t21) + t27*texel(material[..., 17], t25) + t29*texel(material[..., 17], t28)) + (25/256)*t0 - 15/256*t14 + (15/512)*t6 - 45/1024)) + t1*(material[..., 19]*t30*(t9*t9) + material[..., 3]*(material[..., 11]*(t37*texel(material[..., 18], t32) + t41*texel(material[..., 18], t38) + t44*texel(material[..., 18], t42) + t46*texel(material[..., 18], t45)) + material[..., 5]*(t37*texel(material[..., 15], t32) + t41*texel(material[..., 15], t38) + t44*texel(material[..., 15], t42) + t46*texel(material[..., 15], t45)) + material[..., 7]*(t37*texel(material[..., 16], t32) + t41*texel(material[..., 16], t38) + t44*texel(material[..., 16], t42) + t46*texel(material[..., 16], t45)) + material[..., 9]*(t37*texel(material[..., 17], t32) + t41*texel(material[..., 17], t38) + t44*texel(material[..., 17], t42) + t46*texel(material[..., 17], t45)) + (25/256)*t1 - 15/256*t31 + (15/512)*t8 - 45/1024))) - 1) + material[..., 35]*t3*(-2*t12*numpy.arccos(t12) + 2*numpy.sqrt(numpy.where(numpy.less(t53, 0), 0, t53))) + t3*t5*(material[..., 0]*t11*(45*t4 + 64) + material[..., 14]*t11*(material[..., 1]*t2 + material[..., 2]*t0*t1 + 1)*numpy.exp(t0*(material[..., 13]*t13*t7*(material[..., 12]*t6 - 64) + material[..., 3]*(material[..., 11]*(t20*texel(material[..., 10], t15) + t24*texel(material[..., 10], t21) + t27*texel(material[..., 10], t25) + t29*texel(material[..., 10], t28)) + material[..., 5]*(t20*texel(material[..., 4], t15) + t24*texel(material[..., 4], t21) + t27*texel(material[..., 4], t25) + t29*texel(material[..., 4], t28)) + material[..., 7]*(t20*texel(material[..., 6], t15) + t24*texel(material[..., 6], t21) + t27*texel(material[..., 6], t25) + t29*texel(material[..., 6], t28)) + material[..., 9]*(t20*texel(material[..., 8], t15) + t24*texel(material[..., 8], t21) + t27*texel(material[..., 8], t25) + t29*texel(material[..., 8], t28)) - 47/96*t0 + (15/64)*t14 - 15/128*t6 + 173/768)) + t1*(material[..., 13]*t30*t9*(material[..., 12]*t8 - 64) + material[..., 3]*(material[..., 11]*(t37*texel(material[..., 10], t32) + t41*texel(material[..., 10], t38) + t44*texel(material[..., 10], t42) + t46*texel(material[..., 10], t45)) + material[..., 5]*(t37*texel(material[..., 4], t32) + t41*texel(material[..., 4], t38) + t44*texel(material[..., 4], t42) + t46*texel(material[..., 4], t45)) + material[..., 7]*(t37*texel(material[..., 6], t32) + t41*texel(material[..., 6], t38) + t44*texel(material[..., 6], t42) + t46*texel(material[..., 6], t45)) + material[..., 9]*(t37*texel(material[..., 8], t32) + t41*texel(material[..., 8], t38) + t44*texel(material[..., 8], t42) + t46*texel(material[..., 8], t45)) - 47/96*t1 + (15/64)*t31 - 15/128*t8 + 173/768)))) + t3*(material[..., 21]*(256*t4 + 135*t47 - 45*t6 - 45*t8 + 207) + (1/2)*(material[..., 22] + material[..., 23]*t2 + material[..., 24]*(t6 + t8) + material[..., 25]*t0*t1 + material[..., 26]*t0*t1*t2 + material[..., 27]*t47)*numpy.exp(t0*(material[..., 3]*(material[..., 11]*(t20*texel(material[..., 31], t15) + t24*texel(material[..., 31], t21) + t27*texel(material[..., 31], t25) + t29*texel(material[..., 31], t28)) + material[..., 5]*(t20*texel(material[..., 28], t15) + t24*texel(material[..., 28], t21) + t27*texel(material[..., 28], t25) + t29*texel(material[..., 28], t28)) + material[..., 7]*(t20*texel(material[..., 29], t15) + t24*texel(material[..., 29], t21) + t27*texel(material[..., 29], t25) + t29*texel(material[..., 29], t28)) + material[..., 9]*(t20*texel(material[..., 30], t15) + t24*texel(material[..., 30], t21) + t27*texel(material[..., 30], t25) + t29*texel(material[..., 30], t28)) + (301/384)*t0 - 45/128*t14 + (45/256)*t6 - 557/1536) + material[..., 34]*t13*(material[..., 32]*t6 + material[..., 33]*(t0*t0*t0*t0) + 207)) + t1*(material[..., 3]*(material[..., 11]*(t37*texel(material[..., 31], t32) + t41*texel(material[..., 31], t38) + t44*texel(material[..., 31], t42) + t46*texel(material[..., 31], t45)) + material[..., 5]*(t37*texel(material[..., 28], t32) + t41*texel(material[..., 28], t38) + t44*texel(material[..., 28], t42) + t46*texel(material[..., 28], t45)) + material[..., 7]*(t37*texel(material[..., 29], t32) + t41*texel(material[..., 29], t38) + t44*texel(material[..., 29], t42) + t46*texel(material[..., 29], t45)) + material[..., 9]*(t37*texel(material[..., 30], t32) + t41*texel(material[..., 30], t38) + t44*texel(material[..., 30], t42) + t46*texel(material[..., 30], t45)) + (301/384)*t1 - 45/128*t31 + (45/256)*t8 - 557/1536) + material[..., 34]*t30*(material[..., 32]*t8 + material[..., 33]*(t1*t1*t1*t1) + 207)))/3.141592653589793238)
-    return numpy.where(numpy.less(t54, 0), 0, t54)
+    t47 = material[..., 0]*t2 + material[..., 1]*t0*t1
+    t48 = material[..., 20]*t2 + material[..., 21]*(t6 + t8) + material[..., 23]*t0*t1 + material[..., 24]*t6*t8 + material[..., 25]*t0*t1*t2
+    t54 = (1 - t12)*(t12 + 1)
+    t55 = material[..., 13]*t11*t3*t5*(t47 + ((45/64)*t4 + t47 + 1)*numpy.expm1(t0*(material[..., 12]*t13*t7*(material[..., 11]*t6 - 64) + material[..., 2]*(material[..., 10]*(t20*texel(material[..., 9], t15) + t24*texel(material[..., 9], t21) + t27*texel(material[..., 9], t25) + t29*texel(material[..., 9], t28)) + material[..., 4]*(t20*texel(material[..., 3], t15) + t24*texel(material[..., 3], t21) + t27*texel(material[..., 3], t25) + t29*texel(material[..., 3], t28)) + material[..., 6]*(t20*texel(material[..., 5], t15) + t24*texel(material[..., 5], t21) + t27*texel(material[..., 5], t25) + t29*texel(material[..., 5], t28)) + material[..., 8]*(t20*texel(material[..., 7], t15) + t24*texel(material[..., 7], t21) + t27*texel(material[..., 7], t25) + t29*texel(material[..., 7], t28)) - 47/96*t0 + (15/64)*t14 - 15/128*t6 + 173/768)) + t1*(material[..., 12]*t30*t9*(material[..., 11]*t8 - 64) + material[..., 2]*(material[..., 10]*(t37*texel(material[..., 9], t32) + t41*texel(material[..., 9], t38) + t44*texel(material[..., 9], t42) + t46*texel(material[..., 9], t45)) + material[..., 4]*(t37*texel(material[..., 3], t32) + t41*texel(material[..., 3], t38) + t44*texel(material[..., 3], t42) + t46*texel(material[..., 3], t45)) + material[..., 6]*(t37*texel(material[..., 5], t32) + t41*texel(material[..., 5], t38) + t44*texel(material[..., 5], t42) + t46*texel(material[..., 5], t45)) + material[..., 8]*(t37*texel(material[..., 7], t32) + t41*texel(material[..., 7], t38) + t44*texel(material[..., 7], t42) + t46*texel(material[..., 7], t45)) - 47/96*t1 + (15/64)*t31 - 15/128*t8 + 173/768)))) + material[..., 19]*t10*t3*(2*(t5*t5) - 1)*numpy.expm1(t0*(material[..., 18]*t13*(t7*t7) + material[..., 2]*(material[..., 10]*(t20*texel(material[..., 17], t15) + t24*texel(material[..., 17], t21) + t27*texel(material[..., 17], t25) + t29*texel(material[..., 17], t28)) + material[..., 4]*(t20*texel(material[..., 14], t15) + t24*texel(material[..., 14], t21) + t27*texel(material[..., 14], t25) + t29*texel(material[..., 14], t28)) + material[..., 6]*(t20*texel(material[..., 15], t15) + t24*texel(material[..., 15], t21) + t27*texel(material[..., 15], t25) + t29*texel(material[..., 15], t28)) + material[..., 8]*(t20*texel(material[..., 16], t15) + t24*texel(material[..., 16], t21) + t27*texel(material[..., 16], t25) + t29*texel(material[..., 16], t28)) + (25/256)*t0 - 15/256*t14 + (15/512)*t6 - 45/1024)) + t1*(material[..., 18]*t30*(t9*t9) + material[..., 2]*(material[..., 10]*(t37*texel(material[..., 17], t32) + t41*texel(material[..., 17], t38) + t44*texel(material[..., 17], t42) + t46*texel(material[..., 17], t45)) + material[..., 4]*(t37*texel(material[..., 14], t32) + t41*texel(material[..., 14], t38) + t44*texel(material[..., 14], t42) + t46*texel(material[..., 14], t45)) + material[..., 6]*(t37*texel(material[..., 15], t32) + t41*texel(material[..., 15], t38) + t44*texel(material[..., 15], t42) + t46*texel(material[..., 15], t45)) + material[..., 8]*(t37*texel(material[..., 16], t32) + t41*texel(material[..., 16], t38) + t44*texel(material[..., 16], t42) + t46*texel(material[..., 16], t45)) + (25/256)*t1 - 15/256*t31 + (15/512)*t8 - 45/1024))) + material[..., 32]*t3*(-2*t12*numpy.arccos(t12) + 2*numpy.sqrt(numpy.where(numpy.less(t54, 0), 0, t54))) + (1/2)*t3*(t48 + (material[..., 22]*(256*t4 + 135*t6*t8 - 45*t6 - 45*t8 + 207) + t48)*numpy.expm1(t0*(material[..., 2]*(material[..., 10]*(t20*texel(material[..., 29], t15) + t24*texel(material[..., 29], t21) + t27*texel(material[..., 29], t25) + t29*texel(material[..., 29], t28)) + material[..., 4]*(t20*texel(material[..., 26], t15) + t24*texel(material[..., 26], t21) + t27*texel(material[..., 26], t25) + t29*texel(material[..., 26], t28)) + material[..., 6]*(t20*texel(material[..., 27], t15) + t24*texel(material[..., 27], t21) + t27*texel(material[..., 27], t25) + t29*texel(material[..., 27], t28)) + material[..., 8]*(t20*texel(material[..., 28], t15) + t24*texel(material[..., 28], t21) + t27*texel(material[..., 28], t25) + t29*texel(material[..., 28], t28)) + (301/384)*t0 - 45/128*t14 + (45/256)*t6 - 557/1536) + material[..., 22]*t13*(material[..., 30]*t6 + material[..., 31]*(t0*t0*t0*t0) + 207)) + t1*(material[..., 2]*(material[..., 10]*(t37*texel(material[..., 29], t32) + t41*texel(material[..., 29], t38) + t44*texel(material[..., 29], t42) + t46*texel(material[..., 29], t45)) + material[..., 4]*(t37*texel(material[..., 26], t32) + t41*texel(material[..., 26], t38) + t44*texel(material[..., 26], t42) + t46*texel(material[..., 26], t45)) + material[..., 6]*(t37*texel(material[..., 27], t32) + t41*texel(material[..., 27], t38) + t44*texel(material[..., 27], t42) + t46*texel(material[..., 27], t45)) + material[..., 8]*(t37*texel(material[..., 28], t32) + t41*texel(material[..., 28], t38) + t44*texel(material[..., 28], t42) + t46*texel(material[..., 28], t45)) + (301/384)*t1 - 45/128*t31 + (45/256)*t8 - 557/1536) + material[..., 22]*t30*(material[..., 30]*t8 + material[..., 31]*(t1*t1*t1*t1) + 207))))/3.141592653589793238
+    return numpy.where(numpy.less(t55, 0), 0, t55)
 
 
 def eval_local(material, wi, wo):
@@ -512,14 +696,14 @@ def eval_local(material, wi, wo):
     pointing away from the surface); 0 if either is below the surface. Components are
     clamped to [-1, 1] (not normalised); NaN in any input gives NaN."""
     material, wi, wo = numpy.asarray(material, dtype=float), numpy.asarray(wi, dtype=float), numpy.asarray(wo, dtype=float)
-    t54 = numpy.where(numpy.less(wi[..., 2], -1.0), -1.0, wi[..., 2])
-    t0 = numpy.where(numpy.greater(t54, 1.0), 1.0, t54)
-    t55 = numpy.where(numpy.less(wo[..., 2], -1.0), -1.0, wo[..., 2])
-    t1 = numpy.where(numpy.greater(t55, 1.0), 1.0, t55)
-    t56 = numpy.where(numpy.less(t0, 0), 0.0, t0)
-    t2 = numpy.where(numpy.greater(t56, 1.0), 1.0, t56)
-    t57 = numpy.where(numpy.less(t1, 0), 0.0, t1)
-    t3 = numpy.where(numpy.greater(t57, 1.0), 1.0, t57)
+    t55 = numpy.where(numpy.less(wi[..., 2], -1.0), -1.0, wi[..., 2])
+    t0 = numpy.where(numpy.greater(t55, 1.0), 1.0, t55)
+    t56 = numpy.where(numpy.less(wo[..., 2], -1.0), -1.0, wo[..., 2])
+    t1 = numpy.where(numpy.greater(t56, 1.0), 1.0, t56)
+    t57 = numpy.where(numpy.less(t0, 0), 0.0, t0)
+    t2 = numpy.where(numpy.greater(t57, 1.0), 1.0, t57)
+    t58 = numpy.where(numpy.less(t1, 0), 0.0, t1)
+    t3 = numpy.where(numpy.greater(t58, 1.0), 1.0, t58)
     t4 = t2 + t3
     t5 = numpy.where(numpy.less(t4, 1/1000000), 1/1000000, t4)**(-1.0)
     t6 = t2*t3
@@ -529,21 +713,21 @@ def eval_local(material, wi, wo):
     t10 = t9 - 1
     t11 = t10*t8
     t12 = numpy.sqrt(t11)
-    t58 = numpy.where(numpy.less(wi[..., 0], -1.0), -1.0, wi[..., 0])
-    t13 = numpy.where(numpy.greater(t58, 1.0), 1.0, t58)
-    t59 = numpy.where(numpy.less(wo[..., 0], -1.0), -1.0, wo[..., 0])
-    t14 = numpy.where(numpy.greater(t59, 1.0), 1.0, t59)
-    t60 = numpy.where(numpy.less(wi[..., 1], -1.0), -1.0, wi[..., 1])
-    t15 = numpy.where(numpy.greater(t60, 1.0), 1.0, t60)
-    t61 = numpy.where(numpy.less(wo[..., 1], -1.0), -1.0, wo[..., 1])
-    t16 = numpy.where(numpy.greater(t61, 1.0), 1.0, t61)
-    t62 = ((t13*t13) + (t15*t15))*((t14*t14) + (t16*t16))
-    t63 = (t13*t14 + t15*t16)/numpy.sqrt(numpy.where(numpy.less(t62, 1/1000000000000000000000000000000), 1/1000000000000000000000000000000, t62))
-    t64 = numpy.where(numpy.less(t63, -1.0), -1.0, t63)
-    t17 = numpy.where(numpy.greater(t64, 1.0), 1.0, t64)
-    t65 = -t12*t17 - t6
-    t66 = numpy.where(numpy.greater(t65, 1), 1, t65)
-    t18 = numpy.where(numpy.less(t66, -1), -1, t66)
+    t59 = numpy.where(numpy.less(wi[..., 0], -1.0), -1.0, wi[..., 0])
+    t13 = numpy.where(numpy.greater(t59, 1.0), 1.0, t59)
+    t60 = numpy.where(numpy.less(wo[..., 0], -1.0), -1.0, wo[..., 0])
+    t14 = numpy.where(numpy.greater(t60, 1.0), 1.0, t60)
+    t61 = numpy.where(numpy.less(wi[..., 1], -1.0), -1.0, wi[..., 1])
+    t15 = numpy.where(numpy.greater(t61, 1.0), 1.0, t61)
+    t62 = numpy.where(numpy.less(wo[..., 1], -1.0), -1.0, wo[..., 1])
+    t16 = numpy.where(numpy.greater(t62, 1.0), 1.0, t62)
+    t63 = ((t13*t13) + (t15*t15))*((t14*t14) + (t16*t16))
+    t64 = (t13*t14 + t15*t16)/numpy.sqrt(numpy.where(numpy.less(t63, 1/1000000000000000000000000000000), 1/1000000000000000000000000000000, t63))
+    t65 = numpy.where(numpy.less(t64, -1.0), -1.0, t64)
+    t17 = numpy.where(numpy.greater(t65, 1.0), 1.0, t65)
+    t66 = -t12*t17 - t6
+    t67 = numpy.where(numpy.greater(t66, 1), 1, t66)
+    t18 = numpy.where(numpy.less(t67, -1), -1, t67)
     t19 = numpy.log(1 + numpy.where(numpy.less(t2, 1.0e-30), 1.0e-30, t2)**(-1.0))
     t20 = (t2*t2*t2)
     t21 = numpy.where(numpy.less(t2, 1/32), 0, numpy.where(numpy.greater_equal(t2, 31/32), 29, numpy.floor(32*t2) - 1))
@@ -578,10 +762,11 @@ def eval_local(material, wi, wo):
     t50 = t46*t49
     t51 = t38 + 3
     t52 = (1/6)*t45*t49
-    t53 = t7*t9
-    t67 = (1 - t18)*(t18 + 1)
-    t68 = material[..., 20]*t11*t5*(2*(t17*t17) - 1)*(numpy.exp(t2*(material[..., 19]*t19*(t8*t8) + material[..., 3]*(material[..., 11]*(t26*texel(material[..., 18], t21) + t30*texel(material[..., 18], t27) + t33*texel(material[..., 18], t31) + t35*texel(material[..., 18], t34)) + material[..., 5]*(t26*texel(material[..., 15], t21) + t30*texel(material[..., 15], t27) + t33*texel(material[..., 15], t31) + t35*texel(material[..., 15], t34)) + material[..., 7]*(t26*texel(material[..., 16], t21) + t30*texel(material[..., 16], t27) + t33*texel(material[..., 16], t31) + t35*texel(material[..., 16], t34)) + material[..., 9]*(t26*texel(material[..., 17], t21) + t30*texel(material[..., 17], t27) + t33*texel(material[..., 17], t31) + t35*texel(material[..., 17], t34)) + (25/256)*t2 - 15/256*t20 + (15/512)*t7 - 45/1024)) + t3*(material[..., 19]*(t10*t10)*t36 + material[..., 3]*(material[..., 11]*(t43*texel(material[..., 18], t38) + t47*texel(material[..., 18], t44) + t50*texel(material[..., 18], t48) + t52*texel(material[..., 18], t51)) + material[..., 5]*(t43*texel(material[..., 15], t38) + t47*texel(material[..., 15], t44) + t50*texel(material[..., 15], t48) + t52*texel(material[..., 15], t51)) + material[..., 7]*(t43*texel(material[..., 16], t38) + t47*texel(material[..., 16], t44) + t50*texel(material[..., 16], t48) + t52*texel(material[..., 16], t51)) + material[..., 9]*(t43*texel(material[..., 17], t38) + t47*texel(material[..., 17], t44) + t50*texel(material[..., 17], t48) + t52*texel(material[..., 17], t51)) + (25/256)*t3 - 15/256*t37 + (15/512)*t9 - 45/1024))) - 1) + material[..., 35]*t5*(-2*t18*numpy.arccos(t18) + 2*numpy.sqrt(numpy.where(numpy.less(t67, 0), 0, t67))) + t17*t5*(material[..., 0]*t12*(45*t6 + 64) + material[..., 14]*t12*(material[..., 1]*t4 + material[..., 2]*t2*t3 + 1)*numpy.exp(t2*(material[..., 13]*t19*t8*(material[..., 12]*t7 - 64) + material[..., 3]*(material[..., 11]*(t26*texel(material[..., 10], t21) + t30*texel(material[..., 10], t27) + t33*texel(material[..., 10], t31) + t35*texel(material[..., 10], t34)) + material[..., 5]*(t26*texel(material[..., 4], t21) + t30*texel(material[..., 4], t27) + t33*texel(material[..., 4], t31) + t35*texel(material[..., 4], t34)) + material[..., 7]*(t26*texel(material[..., 6], t21) + t30*texel(material[..., 6], t27) + t33*texel(material[..., 6], t31) + t35*texel(material[..., 6], t34)) + material[..., 9]*(t26*texel(material[..., 8], t21) + t30*texel(material[..., 8], t27) + t33*texel(material[..., 8], t31) + t35*texel(material[..., 8], t34)) - 47/96*t2 + (15/64)*t20 - 15/128*t7 + 173/768)) + t3*(material[..., 13]*t10*t36*(material[..., 12]*t9 - 64) + material[..., 3]*(material[..., 11]*(t43*texel(material[..., 10], t38) + t47*texel(material[..., 10], t44) + t50*texel(material[..., 10], t48) + t52*texel(material[..., 10], t51)) + material[..., 5]*(t43*texel(material[..., 4], t38) + t47*texel(material[..., 4], t44) + t50*texel(material[..., 4], t48) + t52*texel(material[..., 4], t51)) + material[..., 7]*(t43*texel(material[..., 6], t38) + t47*texel(material[..., 6], t44) + t50*texel(material[..., 6], t48) + t52*texel(material[..., 6], t51)) + material[..., 9]*(t43*texel(material[..., 8], t38) + t47*texel(material[..., 8], t44) + t50*texel(material[..., 8], t48) + t52*texel(material[..., 8], t51)) - 47/96*t3 + (15/64)*t37 - 15/128*t9 + 173/768)))) + t5*(material[..., 21]*(135*t53 + 256*t6 - 45*t7 - 45*t9 + 207) + (1/2)*(material[..., 22] + material[..., 23]*t4 + material[..., 24]*(t7 + t9) + material[..., 25]*t2*t3 + material[..., 26]*t2*t3*t4 + material[..., 27]*t53)*numpy.exp(t2*(material[..., 3]*(material[..., 11]*(t26*texel(material[..., 31], t21) + t30*texel(material[..., 31], t27) + t33*texel(material[..., 31], t31) + t35*texel(material[..., 31], t34)) + material[..., 5]*(t26*texel(material[..., 28], t21) + t30*texel(material[..., 28], t27) + t33*texel(material[..., 28], t31) + t35*texel(material[..., 28], t34)) + material[..., 7]*(t26*texel(material[..., 29], t21) + t30*texel(material[..., 29], t27) + t33*texel(material[..., 29], t31) + t35*texel(material[..., 29], t34)) + material[..., 9]*(t26*texel(material[..., 30], t21) + t30*texel(material[..., 30], t27) + t33*texel(material[..., 30], t31) + t35*texel(material[..., 30], t34)) + (301/384)*t2 - 45/128*t20 + (45/256)*t7 - 557/1536) + material[..., 34]*t19*(material[..., 32]*t7 + material[..., 33]*(t2*t2*t2*t2) + 207)) + t3*(material[..., 3]*(material[..., 11]*(t43*texel(material[..., 31], t38) + t47*texel(material[..., 31], t44) + t50*texel(material[..., 31], t48) + t52*texel(material[..., 31], t51)) + material[..., 5]*(t43*texel(material[..., 28], t38) + t47*texel(material[..., 28], t44) + t50*texel(material[..., 28], t48) + t52*texel(material[..., 28], t51)) + material[..., 7]*(t43*texel(material[..., 29], t38) + t47*texel(material[..., 29], t44) + t50*texel(material[..., 29], t48) + t52*texel(material[..., 29], t51)) + material[..., 9]*(t43*texel(material[..., 30], t38) + t47*texel(material[..., 30], t44) + t50*texel(material[..., 30], t48) + t52*texel(material[..., 30], t51)) + (301/384)*t3 - 45/128*t37 + (45/256)*t9 - 557/1536) + material[..., 34]*t36*(material[..., 32]*t9 + material[..., 33]*(t3*t3*t3*t3) + 207)))/3.141592653589793238)
-    return numpy.where(numpy.less(t0, 0), 0, 1)*numpy.where(numpy.less(t1, 0), 0, 1)*numpy.where(numpy.less(t68, 0), 0, t68)
+    t53 = material[..., 0]*t4 + material[..., 1]*t2*t3
+    t54 = material[..., 20]*t4 + material[..., 21]*(t7 + t9) + material[..., 23]*t2*t3 + material[..., 24]*t7*t9 + material[..., 25]*t2*t3*t4
+    t68 = (1 - t18)*(t18 + 1)
+    t69 = material[..., 13]*t12*t17*t5*(t53 + (t53 + (45/64)*t6 + 1)*numpy.expm1(t2*(material[..., 12]*t19*t8*(material[..., 11]*t7 - 64) + material[..., 2]*(material[..., 10]*(t26*texel(material[..., 9], t21) + t30*texel(material[..., 9], t27) + t33*texel(material[..., 9], t31) + t35*texel(material[..., 9], t34)) + material[..., 4]*(t26*texel(material[..., 3], t21) + t30*texel(material[..., 3], t27) + t33*texel(material[..., 3], t31) + t35*texel(material[..., 3], t34)) + material[..., 6]*(t26*texel(material[..., 5], t21) + t30*texel(material[..., 5], t27) + t33*texel(material[..., 5], t31) + t35*texel(material[..., 5], t34)) + material[..., 8]*(t26*texel(material[..., 7], t21) + t30*texel(material[..., 7], t27) + t33*texel(material[..., 7], t31) + t35*texel(material[..., 7], t34)) - 47/96*t2 + (15/64)*t20 - 15/128*t7 + 173/768)) + t3*(material[..., 12]*t10*t36*(material[..., 11]*t9 - 64) + material[..., 2]*(material[..., 10]*(t43*texel(material[..., 9], t38) + t47*texel(material[..., 9], t44) + t50*texel(material[..., 9], t48) + t52*texel(material[..., 9], t51)) + material[..., 4]*(t43*texel(material[..., 3], t38) + t47*texel(material[..., 3], t44) + t50*texel(material[..., 3], t48) + t52*texel(material[..., 3], t51)) + material[..., 6]*(t43*texel(material[..., 5], t38) + t47*texel(material[..., 5], t44) + t50*texel(material[..., 5], t48) + t52*texel(material[..., 5], t51)) + material[..., 8]*(t43*texel(material[..., 7], t38) + t47*texel(material[..., 7], t44) + t50*texel(material[..., 7], t48) + t52*texel(material[..., 7], t51)) - 47/96*t3 + (15/64)*t37 - 15/128*t9 + 173/768)))) + material[..., 19]*t11*t5*(2*(t17*t17) - 1)*numpy.expm1(t2*(material[..., 18]*t19*(t8*t8) + material[..., 2]*(material[..., 10]*(t26*texel(material[..., 17], t21) + t30*texel(material[..., 17], t27) + t33*texel(material[..., 17], t31) + t35*texel(material[..., 17], t34)) + material[..., 4]*(t26*texel(material[..., 14], t21) + t30*texel(material[..., 14], t27) + t33*texel(material[..., 14], t31) + t35*texel(material[..., 14], t34)) + material[..., 6]*(t26*texel(material[..., 15], t21) + t30*texel(material[..., 15], t27) + t33*texel(material[..., 15], t31) + t35*texel(material[..., 15], t34)) + material[..., 8]*(t26*texel(material[..., 16], t21) + t30*texel(material[..., 16], t27) + t33*texel(material[..., 16], t31) + t35*texel(material[..., 16], t34)) + (25/256)*t2 - 15/256*t20 + (15/512)*t7 - 45/1024)) + t3*(material[..., 18]*(t10*t10)*t36 + material[..., 2]*(material[..., 10]*(t43*texel(material[..., 17], t38) + t47*texel(material[..., 17], t44) + t50*texel(material[..., 17], t48) + t52*texel(material[..., 17], t51)) + material[..., 4]*(t43*texel(material[..., 14], t38) + t47*texel(material[..., 14], t44) + t50*texel(material[..., 14], t48) + t52*texel(material[..., 14], t51)) + material[..., 6]*(t43*texel(material[..., 15], t38) + t47*texel(material[..., 15], t44) + t50*texel(material[..., 15], t48) + t52*texel(material[..., 15], t51)) + material[..., 8]*(t43*texel(material[..., 16], t38) + t47*texel(material[..., 16], t44) + t50*texel(material[..., 16], t48) + t52*texel(material[..., 16], t51)) + (25/256)*t3 - 15/256*t37 + (15/512)*t9 - 45/1024))) + material[..., 32]*t5*(-2*t18*numpy.arccos(t18) + 2*numpy.sqrt(numpy.where(numpy.less(t68, 0), 0, t68))) + (1/2)*t5*(t54 + (material[..., 22]*(256*t6 + 135*t7*t9 - 45*t7 - 45*t9 + 207) + t54)*numpy.expm1(t2*(material[..., 2]*(material[..., 10]*(t26*texel(material[..., 29], t21) + t30*texel(material[..., 29], t27) + t33*texel(material[..., 29], t31) + t35*texel(material[..., 29], t34)) + material[..., 4]*(t26*texel(material[..., 26], t21) + t30*texel(material[..., 26], t27) + t33*texel(material[..., 26], t31) + t35*texel(material[..., 26], t34)) + material[..., 6]*(t26*texel(material[..., 27], t21) + t30*texel(material[..., 27], t27) + t33*texel(material[..., 27], t31) + t35*texel(material[..., 27], t34)) + material[..., 8]*(t26*texel(material[..., 28], t21) + t30*texel(material[..., 28], t27) + t33*texel(material[..., 28], t31) + t35*texel(material[..., 28], t34)) + (301/384)*t2 - 45/128*t20 + (45/256)*t7 - 557/1536) + material[..., 22]*t19*(material[..., 30]*t7 + material[..., 31]*(t2*t2*t2*t2) + 207)) + t3*(material[..., 2]*(material[..., 10]*(t43*texel(material[..., 29], t38) + t47*texel(material[..., 29], t44) + t50*texel(material[..., 29], t48) + t52*texel(material[..., 29], t51)) + material[..., 4]*(t43*texel(material[..., 26], t38) + t47*texel(material[..., 26], t44) + t50*texel(material[..., 26], t48) + t52*texel(material[..., 26], t51)) + material[..., 6]*(t43*texel(material[..., 27], t38) + t47*texel(material[..., 27], t44) + t50*texel(material[..., 27], t48) + t52*texel(material[..., 27], t51)) + material[..., 8]*(t43*texel(material[..., 28], t38) + t47*texel(material[..., 28], t44) + t50*texel(material[..., 28], t48) + t52*texel(material[..., 28], t51)) + (301/384)*t3 - 45/128*t37 + (45/256)*t9 - 557/1536) + material[..., 22]*t36*(material[..., 30]*t9 + material[..., 31]*(t3*t3*t3*t3) + 207))))/3.141592653589793238
+    return numpy.where(numpy.less(t0, 0), 0, 1)*numpy.where(numpy.less(t1, 0), 0, 1)*numpy.where(numpy.less(t69, 0), 0, t69)
 
 
 # ---- the texture -------------------------------------------------------------------------------------

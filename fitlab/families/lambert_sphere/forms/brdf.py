@@ -15,8 +15,9 @@ from __future__ import annotations
 from typing import Mapping
 
 import sympy as sp
+from sympy.codegen.cfunctions import expm1
 
-from fitlab.families.lambert_sphere.forms.constants import A_EXACT, E_EXACT
+from fitlab.families.lambert_sphere.forms.constants import A_EXACT, E_EXACT, FIRST_ORDER
 from fitlab.forms.form import Form
 from fitlab.forms.symbolic import safe_pow, symbols
 
@@ -104,6 +105,57 @@ RUNTIME_TERMS = ("single", "m0", "m1", "m2")
 AZIMUTH = {"single": sp.S.One, "m0": sp.S.One, "m1": sp.cos(phi), "m2": sp.cos(2 * phi)}
 
 
+def product_less_one(h_i: sp.Expr, h_o: sp.Expr) -> sp.Expr:
+    r"""H(mu_i) H(mu_o) - 1 without cancellation where the form allows it: expm1(x_i + x_o) when both are
+    exponentials exp(x) (the ``log_exp`` forms, the exported tables), else the product less 1.
+
+    Why: H - 1 = O(c) and O(mu log(1/mu)) as mu -> 0; the product of two numbers near 1 less 1 keeps only
+    eps/(H_i H_o - 1) of its value (float: all of it at c = 1e-4 or mu = 1e-6)."""
+    if isinstance(h_i, sp.exp) and isinstance(h_o, sp.exp):
+        return expm1(h_i.args[0] + h_o.args[0])
+    return h_i * h_o - 1
+
+
+def less_exactly(x: sp.Expr, y: sp.Expr) -> sp.Expr | None:
+    r"""x - y with y cancelled in the algebra, or None where x does not hold y: y a term of x (X1 c + c^2 R(c)
+    less X1 c is c^2 R(c), 1 + m1 c + ... less 1), or of the sum a product multiplies (c (X1 + r) less X1 c is
+    c r, as the exported tables store the constants), or y = 0."""
+    if y == 0:
+        return x
+    terms = sp.Add.make_args(sp.expand_mul(x, deep=False) if x.is_Mul else x)
+    if y.is_Add or y not in terms:
+        return None
+    return sp.Add(*(t for t in terms if t != y))
+
+
+#: the O(c) part of each quantity the multiple-scattering terms subtract, exactly: the single-scattering
+#: numerators' coefficients (Q_ss = c (207 + 256 P - 45 (mu_i^2 + mu_o^2) + 135 P^2)/384: A - 207 c/384 = 0
+#: and E - 135 c/384 are exact polynomials) and m = 1 + O(c)
+_SUBTRACTED = {**{x: FIRST_ORDER[x] * c for x in "BCDF"}, "m": sp.S.One}
+
+
+def parts_in_algebra(parts: Mapping[str, sp.Expr]) -> tuple[str, ...]:
+    r"""The parts whose expressions, not just their values, :func:`runtime_terms` needs to keep every digit:
+    an H of exponential form (H_i H_o - 1 = expm1 of the sum of exponents: :func:`product_less_one`), a
+    constant whose O(c) part the terms subtract and that holds it exactly (C - 2c/3, F + 15c/128, m - 1:
+    :func:`less_exactly`).  Generated code inlines these in the terms and calls the others' routines."""
+    out = []
+    for p, e in parts.items():
+        if p in ("H0", "H1", ORDER2_PART):
+            keep = isinstance(e, sp.exp)
+        else:
+            keep = p in _SUBTRACTED and _SUBTRACTED[p] != 0 and less_exactly(e, _SUBTRACTED[p]) is not None
+        if keep:
+            out.append(p)
+    return tuple(out)
+
+
+def _less(x: sp.Expr, y: sp.Expr) -> sp.Expr:
+    """x - y, cancelled in the algebra where x holds y (:func:`less_exactly`), else in floating point."""
+    exact = less_exactly(x, y)
+    return x - y if exact is None else exact
+
+
 def runtime_terms(parts: Mapping[str, sp.Expr], normalisation: str = "corrected") -> dict[str, sp.Expr]:
     r"""The terms of the runtime model, each an expression in (mu_i, mu_o, c) (single: and phi)
     (docs/model.md, "The runtime BRDF").
@@ -113,8 +165,7 @@ def runtime_terms(parts: Mapping[str, sp.Expr], normalisation: str = "corrected"
       f_1 = c p(u) / (mu_i + mu_o)  (true phase function, eq. 10),
       fm0 = (H0(mu_i) H0(mu_o) Q / (2 pi) - n0_ss) / (mu_i + mu_o),
         Q = A + B (mu_i+mu_o) + C mu_i mu_o + D mu_i mu_o (mu_i+mu_o) + E mu_i^2 mu_o^2 + F (mu_i^2+mu_o^2),
-      fm1 = (c H1(mu_i) H1(mu_o) S (1 + l (mu_i+mu_o) + (l^2 + 45 m/64) mu_i mu_o)/(k pi) - n1_ss/j)
-            / (mu_i + mu_o),
+      fm1 = (c H1(mu_i) H1(mu_o) S G/(k pi) - n1_ss/j) / (mu_i + mu_o),  G = 1 + l (mu_i+mu_o) + (l^2 + 45 m/64) mu_i mu_o,
       fm2 = 15 c S^2 (H2(mu_i) H2(mu_o) - 1) / (256 pi (mu_i + mu_o))  (docs/model.md, "Order 2"),
     A, E exact (eq. 33); ``parts`` maps H0, H1 (and H2) (expressions in mu, c) and l, m, B, C, D, F
     (in c) to expressions with numbers for parameters, or to calls of undefined
@@ -123,26 +174,43 @@ def runtime_terms(parts: Mapping[str, sp.Expr], normalisation: str = "corrected"
     uses eqs. 22 and 28 as printed, k = 6 and 384 pi (j = 2), which halves fm1.
     fm2 vanishes at c = 0 and where H2 = 1, is reciprocal when H2 is one function of (mu, c), and
     is exact with the exact H2.
+
+    Written without the cancellation of fm0 and fm1 as printed (whose two O(c) parts agree at mu -> 0 and to
+    first order in c, so that float keeps none of their difference at grazing or small c):
+      fm0 = ((H0_i H0_o - 1) Q + (Q - Q_ss)) / (2 pi (mu_i + mu_o)),  Q_ss = 2 pi n0_ss,
+      fm1 = c S ((H1_i H1_o - 1) G + (G - G_ss)) / (k pi (mu_i + mu_o)),  G_ss = 1 + 45 mu_i mu_o/64
+    (n1_ss/j = c S G_ss/(k pi) for both normalisations), H_i H_o - 1 by :func:`product_less_one` and
+    Q - Q_ss = B (mu_i+mu_o) + (C - 2c/3) mu_i mu_o + D mu_i mu_o (mu_i+mu_o) + (E - 135c/384) mu_i^2 mu_o^2
+    + (F + 15c/128)(mu_i^2+mu_o^2), G - G_ss = l (mu_i+mu_o) + (l^2 + 45 (m - 1)/64) mu_i mu_o, each difference
+    cancelled in the algebra (:func:`less_exactly`) where the part holds its O(c) term exactly (the
+    ``c2_rational_4_3`` and ``log_exp`` forms, the exported tables; :func:`parts_in_algebra`).  The same
+    function as the printed one: the exact engine subtracts the same way
+    (:class:`fitlab.families.lambert_sphere.exact.brdf.ModePolynomials`).
     """
     missing = [p for p in RUNTIME_PARTS if p not in parts]
     if missing:
         raise KeyError(f"runtime model needs forms for {missing}")
     if normalisation not in NORMALISATIONS:
         raise ValueError(f"normalisation must be one of {sorted(NORMALISATIONS)}")
-    k, j = NORMALISATIONS[normalisation]
-    h0i, h0o = (parts["H0"].subs(mu, x) for x in (mu_i, mu_o))
-    h1i, h1o = (parts["H1"].subs(mu, x) for x in (mu_i, mu_o))
+    k, _ = NORMALISATIONS[normalisation]
+    sigma = mu_i + mu_o
+
+    def pair(part):
+        return product_less_one(*(parts[part].subs(mu, x) for x in (mu_i, mu_o)))
+
     l, m = parts["l"], parts["m"]
-    B, C, D, F = (parts[n] for n in "BCDF")
-    q = A_EXACT + B * (mu_i + mu_o) + C * _P + D * _P * (mu_i + mu_o) + E_EXACT * _P**2 + F * _Q
-    fm0 = (h0i * h0o * q / (2 * PI) - SINGLE_NUMERATOR_0) / (mu_i + mu_o)
-    n1 = c * h1i * h1o * S * (1 + l * (mu_i + mu_o) + (l**2 + sp.Rational(45, 64) * m) * _P) / (k * PI)
-    fm1 = (n1 - SINGLE_NUMERATOR_1 / j) / (mu_i + mu_o)
+    B, C, D, F = (_less(parts[n], _SUBTRACTED[n]) for n in "BCDF")
+    # Q - Q_ss; A - 207 c/384 is 0
+    dq = (B * sigma + C * _P + D * _P * sigma + sp.expand(E_EXACT - sp.Rational(135, 384) * c) * _P**2 + F * _Q)
+    q_ss = 2 * PI * SINGLE_NUMERATOR_0
+    fm0 = (pair("H0") * (q_ss + dq) + dq) / (2 * PI * sigma)
+    g_ss = 1 + sp.Rational(45, 64) * _P
+    dg = l * sigma + (l**2 + sp.Rational(45, 64) * _less(m, _SUBTRACTED["m"])) * _P
+    fm1 = c * S * (pair("H1") * (g_ss + dg) + dg) / (k * PI * sigma)
     out = {"single": SINGLE, "m0": fm0, "m1": fm1}
     if ORDER2_PART in parts:
-        h2i, h2o = (parts[ORDER2_PART].subs(mu, x) for x in (mu_i, mu_o))
         s2 = (1 - mu_i**2) * (1 - mu_o**2)
-        out["m2"] = 15 * c * s2 * (h2i * h2o - 1) / (256 * PI * (mu_i + mu_o))
+        out["m2"] = 15 * c * s2 * pair(ORDER2_PART) / (256 * PI * sigma)
     return out
 
 
