@@ -48,8 +48,8 @@ def add_arguments(p) -> None:
                    help="C: one stb-style header (define PREFIX_IMPLEMENTATION in one file before including it)")
     p.add_argument("--family", metavar="NAME", default=None,
                    help="the family whose program to generate (default: the family of the --form targets, else the "
-                        "first registered family with a program of its own, lambert_sphere; microfacet_energy prints "
-                        "the energy-compensation albedos and the multiple-scattering lobes)")
+                        "family that declares the default program, lambert_sphere; microfacet_energy prints the "
+                        "energy-compensation albedos and the multiple-scattering lobes)")
     p.add_argument("--tables", action="store_true",
                    help="print the family's exact tables as engines ship them instead of its fits: one float32 texture "
                         "(C arrays, a raw .f32 file) and the BRDF read from it (c, glsl or python; docs/codegen.md)")
@@ -104,7 +104,6 @@ def run(args) -> int:
             codegen.program_spec(args.family, tuple(forms)).model(args.model)
     except (ValueError, KeyError) as exc:
         raise UsageError(one_line(exc)) from None
-    _name_the_default(args, forms)
     fits = fits_input(args, required=False)  # a missing one: "no such fit file" names the fit
     out = output_folder(args.out, "--out")
     try:
@@ -113,12 +112,13 @@ def run(args) -> int:
         raise UsageError(one_line(exc)) from None
     except ArithmeticError as exc:
         raise RunFailure(f"code generation failed: {one_line(exc)}") from None
+    _name_the_default(args, forms)
     return _write(args, out, {name: text.encode() for name, text in files.items()})
 
 
 def _name_the_default(args, forms: dict) -> None:
     """Without --family (nor --form), a line on stderr names the family whose program is printed and the others
-    that have one (codegen.program.default_program_family is the rule)."""
+    that have one (the rule: fitlab.codegen.default_program_family)."""
     if args.family is not None or forms or args.quiet:
         return
     from fitlab.core import families
@@ -126,7 +126,7 @@ def _name_the_default(args, forms: dict) -> None:
     having = [name for name, f in families().items() if f.codegen is not None]
     if len(having) > 1:
         default = codegen.default_program_family()
-        others = ", ".join(n for n in having if n != default)
+        others = ", ".join(sorted(n for n in having if n != default))
         print(f"fitlab codegen: family {default} (also {others}: choose with --family)", file=sys.stderr)
 
 

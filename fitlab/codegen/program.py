@@ -572,21 +572,21 @@ def program_spec(family: str | None = None, targets: Sequence[str] = ()) -> Prog
 
 def default_program_family() -> str:
     """The family whose program ``fitlab codegen`` (and :func:`fitlab.codegen.generate`, ``load_program``)
-    prints when none is named: the first registered family with a program of its own (a ``codegen``), else
-    the one family there is.
+    prints when none is named: the one registered family that declares it (:attr:`fitlab.core.Family.default_program`:
+    the Lambert sphere), else the one family with a program of its own, else the one family there is.
 
-    Registration order is the built-in families' folder names in sorted order, then the plugins' (entry
-    points ``fitlab.families``), then families registered at run time: the Lambert sphere before
-    microfacet_energy, and a plugin's program never displaces a built-in one.  The rule is the one
-    ``fitlab bench WHAT`` follows for a family's benchmark (the first registered family that has it).
-    ValueError when no family has a program and there are several."""
+    A declaration, not the order of registration: a family registered at run time can precede the built-in
+    ones (registering it loads none of them), and a new family's name must not move the default.  ValueError
+    (one line) when several families declare it, or when none does and there is no single candidate."""
     fams = families()
+    declared = [name for name, f in fams.items() if f.default_program]
+    if len(declared) > 1:
+        raise ValueError(f"families {', '.join(declared)} each declare the default program; name one with --family")
     with_spec = [name for name, f in fams.items() if f.codegen is not None]
-    if with_spec:
-        return with_spec[0]
-    if len(fams) != 1:
-        raise ValueError(f"name the family to generate: one of {', '.join(fams)}")
-    return next(iter(fams))
+    for pool in (declared, with_spec, list(fams)):
+        if len(pool) == 1:
+            return pool[0]
+    raise ValueError(f"name the family to generate: one of {', '.join(fams)}")
 
 
 def parse_terms(text: str | None, family: str | None = None) -> tuple[str, ...]:

@@ -34,6 +34,9 @@ class Family:
         :class:`fitlab.codegen.ProgramSpec`), or None.
     hooks: further family services by name (runtime models, Monte Carlo scenes, report methods, tables, audit),
         each a callable the generic command of that name looks up.
+    default_program: whether its program is the one ``fitlab codegen`` (and ``fitlab.codegen.generate``,
+        ``load_program``) prints when no family is named: at most one family says so (the Lambert sphere; the
+        rule is :func:`fitlab.codegen.program.default_program_family`).
     """
 
     name: str
@@ -43,6 +46,7 @@ class Family:
     libraries: Callable[[], Mapping[str, tuple]] = dict
     codegen: Any = None
     hooks: Mapping[str, Callable] = field(default_factory=dict)
+    default_program: bool = False
 
 
 _FAMILIES: dict[str, Family] = {}

@@ -51,6 +51,7 @@ FAMILY = register_family(
         forms=FORMS,
         libraries=_libraries,
         codegen=PROGRAM,
+        default_program=True,  # fitlab codegen without --family prints this program
         hooks={
             "brdf_grid": _brdf_grid,
             "report": _report,
