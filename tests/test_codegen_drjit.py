@@ -169,8 +169,9 @@ def test_llvm_float32_agrees_with_double(llvm, npy):
             "brdf_local": scale(x32["c"], *local), "eval_local": scale(want["c_of_kd"], *local)}  # fmt: skip
     # eval_local's material comes from kd: as kd -> 1, c = c_of_kd(kd) -> 1 faster than float resolves
     # (1 - c ~ (1 - kd)^2.9), and the model depends on s = sqrt(1 - c), whose float error grows to 2.4e-4 (the
-    # square root of float's epsilon) as 1 - c falls below 1e-5 (kd > 0.98): the same in any float code
-    rtol = {"brdf_fast": 5e-5, "eval_local": np.where(1 - want["c_of_kd"] < 1e-5, 1e-3, 1e-5)}
+    # square root of float's epsilon) as 1 - c falls below 1e-5 (kd > 0.98): the same in any float code; already
+    # 1e-5 at 1 - c = 2e-5 (float's c there is 3e-3 off in 1 - c), so the looser bound holds below 1e-4
+    rtol = {"brdf_fast": 5e-5, "eval_local": np.where(1 - want["c_of_kd"] < 1e-4, 1e-3, 1e-5)}
     for name in ("brdf", "brdf_fast", "c_of_kd", "kd_of_c", "brdf_local", "eval", "eval_local", "pdf"):
         assert _close(out["f32/" + name], want[name], rtol.get(name, 1e-5), atol.get(name, 0.0)) <= 1, name
     # a draw at u1 ~ w can take the other lobe in float: compare where the lobe and the side are the same

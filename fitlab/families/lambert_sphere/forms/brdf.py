@@ -120,6 +120,7 @@ def less_exactly(x: sp.Expr, y: sp.Expr) -> sp.Expr | None:
     r"""x - y with y cancelled in the algebra, or None where x does not hold y: y a term of x (X1 c + c^2 R(c)
     less X1 c is c^2 R(c), 1 + m1 c + ... less 1), or of the sum a product multiplies (c (X1 + r) less X1 c is
     c r, as the exported tables store the constants), or y = 0."""
+    x, y = sp.S(x), sp.S(y)
     if y == 0:
         return x
     terms = sp.Add.make_args(sp.expand_mul(x, deep=False) if x.is_Mul else x)
