@@ -63,8 +63,8 @@ def load_program(fits_dir: Path | None = None, terms: str | tuple | None = None,
     Each target's form is the one ``forms`` picks ({"H0": "sr_7_6808f1"}: fits/H0.sr_7_6808f1.json), else
     the one the ``model`` picks (:attr:`ProgramSpec.models`; None: the program's default model,
     :data:`DEFAULT_FORMS`: none), else the target's default form; each file must exist (FitFileError
-    otherwise), but those of the program's optional parts (:attr:`ProgramSpec.optional`).  ``family``: whose program (default: the family of the targets in ``forms``, else the one
-    family with a program of its own)."""
+    otherwise), but those of the program's optional parts (:attr:`ProgramSpec.optional`).  ``family``: whose
+    program (default: the family of the targets in ``forms``, else :func:`default_program_family`)."""
     forms = dict(forms or {})
     spec = program_spec(family, tuple(forms))
     family = family or next(t.family for t in targets().values() if t.name in spec.fits)

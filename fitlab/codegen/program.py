@@ -15,7 +15,8 @@ no file (:func:`fitlab.codegen.load_program` reads a fits folder through
 Lambert sphere, the runtime BRDF assembled from its parts:
 :mod:`fitlab.families.lambert_sphere.program`); a family without one gets one
 routine per target that names a ``routine`` (:attr:`fitlab.core.Target.routine`),
-its saved fit as it stands (:func:`part_routine`).
+its saved fit as it stands (:func:`part_routine`).  Where no family is named, the program is the default
+family's (:func:`default_program_family`: the one that declares ``Family.default_program``).
 
 The helpers a family's program is written with are public here:
 :func:`call`, :func:`part_routine`, :func:`stable` (cancellation-free rewrites),
