@@ -368,12 +368,23 @@ def _python_files(program: Program, command: str | None = None) -> dict[str, str
     return {f"{program.name}.py": "".join(out)}
 
 
+#: the sentence of _material_doc on the _rgb variants, which the Python emitters replace with their own way of RGB
+_RGB_SENTENCE = "The _rgb variants take three materials (one per channel) and give three values."
+
+
+def _python_setups(m) -> list[str]:
+    """The set-ups other than prepare (prepare_c and the like) as Python functions: the same text in numpy and
+    Dr.Jit, since each only composes two generated functions."""
+    return [f'\n\ndef {name}({arg}):\n    """{m.prepare_name}({routine}({arg})): the material of {arg}."""\n'
+            f"    return {m.prepare_name}({routine}({arg}))\n" for name, arg, routine in m.setups]
+
+
 def _python_material(program: Program) -> list[str]:
     """The per-material routines in numpy: a material is an array whose last axis holds the fields, so
     that materials of any shape (one per channel: (..., 3, fields)) broadcast against the inputs."""
     m = program.material
     doc = _material_doc(program).replace(program.prefix, "").replace(
-        "The _rgb variants take three materials (one per channel) and give three values.",
+        _RGB_SENTENCE,
         "A material is an array with a last axis of the fields; for RGB prepare an array of three values "
         "(shape (..., 3)) and give the inputs a trailing axis (mu_i[..., None]).")
     params = ", ".join(m.params)
@@ -384,10 +395,7 @@ def _python_material(program: Program) -> list[str]:
     lines += [f"    {t} = {printer.doprint(e)}" for t, e in temps]
     fields = ", ".join(f"numpy.asarray({printer.doprint(e)}, dtype=float)" for e in exprs)
     lines.append(f"    return numpy.stack(numpy.broadcast_arrays({fields}), axis=-1)")
-    out = ["\n".join(lines) + "\n"]
-    for name, arg, routine in m.setups:
-        out.append(f'\n\ndef {name}({arg}):\n    """{m.prepare_name}({routine}({arg})): the material of {arg}."""\n'
-                   f"    return {m.prepare_name}({routine}({arg}))\n")
+    out = ["\n".join(lines) + "\n", *_python_setups(m)]
     out += [_python_function(r, ("material",), _material_names(m, "material[..., {j}]")) for r in m.evaluators]
     return out
 
@@ -483,7 +491,7 @@ def _drjit_material(program: Program) -> list[str]:
     """The per-material routines: a material is a tuple of fields, each of the type of the parameter."""
     m = program.material
     doc = _material_doc(program).replace(program.prefix, "").replace(
-        "The _rgb variants take three materials (one per channel) and give three values.",
+        _RGB_SENTENCE,
         "A material is a tuple of fields of the type of the argument: prepare a Color3f (one value per channel) "
         "for RGB, and the evaluators give a Color3f.")
     params = ", ".join(m.params)
@@ -494,10 +502,7 @@ def _drjit_material(program: Program) -> list[str]:
     lines.append("    return (")
     lines += [f"        {printer.doprint(e)}," for e in exprs]
     lines.append("    )")
-    out = ["\n".join(lines) + "\n"]
-    for name, arg, routine in m.setups:
-        out.append(f'\n\ndef {name}({arg}):\n    """{m.prepare_name}({routine}({arg})): the material of {arg}."""\n'
-                   f"    return {m.prepare_name}({routine}({arg}))\n")
+    out = ["\n".join(lines) + "\n", *_python_setups(m)]
     out += [_drjit_function(r, ("material",), _material_names(m, "material[{j}]")) for r in m.evaluators]
     return out
 
