@@ -246,21 +246,32 @@ def sample_exponent(mu_i, c):
 
 def single(mu_i, mu_o, cos_phi, c):
     """Single scattering with the true phase function, c p(u)/(mu_i + mu_o), u = -(mu_i mu_o +
-    S cos phi) (eq. 10), sqrt(1 - u^2) evaluated as sqrt((1 - u)(1 + u)) (full accuracy in
-    forward scattering at grazing). Pole floored at 1e-6."""
+    S cos phi) (eq. 10), p evaluated from 1 - u = (1 - S^2)/(1 + S) + mu_i mu_o + S (1 + cos
+    phi) and x = acos(u) = 2 asin(sqrt((1 - u)/2)), sin x - x cos x by its series below x =
+    1/2 (full accuracy in forward scattering at grazing, float included). Pole floored at
+    1e-6."""
     mu_i, mu_o, cos_phi, c = numpy.asarray(mu_i, dtype=float), numpy.asarray(mu_o, dtype=float), numpy.asarray(cos_phi, dtype=float), numpy.asarray(c, dtype=float)
-    t3 = numpy.where(numpy.less(mu_i, 0), 0.0, mu_i)
-    t0 = numpy.where(numpy.greater(t3, 1.0), 1.0, t3)
-    t4 = numpy.where(numpy.less(mu_o, 0), 0.0, mu_o)
-    t1 = numpy.where(numpy.greater(t4, 1.0), 1.0, t4)
-    t5 = numpy.where(numpy.less(cos_phi, -1.0), -1.0, cos_phi)
-    t6 = -t0*t1 - numpy.sqrt((1 - (t0*t0))*(1 - (t1*t1)))*numpy.where(numpy.greater(t5, 1.0), 1.0, t5)
+    t15 = numpy.where(numpy.less(mu_i, 0), 0.0, mu_i)
+    t0 = numpy.where(numpy.greater(t15, 1.0), 1.0, t15)
+    t16 = numpy.where(numpy.less(mu_o, 0), 0.0, mu_o)
+    t1 = numpy.where(numpy.greater(t16, 1.0), 1.0, t16)
+    t2 = (t0*t0)
+    t3 = 1 - t2
+    t4 = (t1*t1)
+    t5 = numpy.sqrt(t3*(1 - t4))
+    t17 = numpy.where(numpy.less(cos_phi, -1.0), -1.0, cos_phi)
+    t18 = (1/2)*t0*t1 + (1/2)*t5*(numpy.where(numpy.greater(t17, 1.0), 1.0, t17) + 1) + (1/2)*(t2 + t3*t4)/(t5 + 1)
+    t6 = numpy.where(numpy.less(t18, 0), 0, t18)
     t7 = numpy.where(numpy.greater(t6, 1), 1, t6)
-    t2 = numpy.where(numpy.less(t7, -1), -1, t7)
-    t8 = t0 + t1
-    t9 = (1 - t2)*(t2 + 1)
-    t10 = numpy.where(numpy.less(c, 0), 0.0, c)
-    return (1/3)*(-2*t2*numpy.arccos(t2) + 2*numpy.sqrt(numpy.where(numpy.less(t9, 0), 0, t9)))*numpy.where(numpy.greater(t10, 1.0), 1.0, t10)/((3.141592653589793238*3.141592653589793238)*numpy.where(numpy.less(t8, 1/1000000), 1/1000000, t8))
+    t8 = 1 - t7
+    t9 = numpy.arcsin(numpy.sqrt(numpy.where(numpy.greater(t6, t8), t8, numpy.where(numpy.less_equal(t6, t8), t6, t6 + t8))))
+    t11 = 2*t9
+    t12 = t11 - 3.141592653589793238
+    t13 = -t12
+    t14 = numpy.where(numpy.less(t7, 1/2), 4*(t9*t9), (t13*t13))
+    t19 = t0 + t1
+    t20 = numpy.where(numpy.less(c, 0), 0.0, c)
+    return (2/3)*numpy.where(numpy.where(numpy.less(t7, 1/2), numpy.less(t9, 1/4), numpy.greater(t12, -1/2)), (t14*(t14*(t14*(t14*(t14*((1/93405312000)*t14 - 1/518918400) + 1/3991680) - 1/45360) + 1/840) - 1/30) + 1/3)*numpy.where(numpy.less(t7, 1/2), 8*(t9*t9*t9), (t13*t13*t13)), 2*numpy.sqrt(t7)*numpy.sqrt(t8) - (1 - 2*t7)*numpy.where(numpy.less(t7, 1/2), t11, t13))*numpy.where(numpy.greater(t20, 1.0), 1.0, t20)/((3.141592653589793238*3.141592653589793238)*numpy.where(numpy.less(t19, 1/1000000), 1/1000000, t19))
 
 
 def fm0(mu_i, mu_o, c):
@@ -541,8 +552,8 @@ def prepare_c(c):
     times. A material is an array with a last axis of the fields; for RGB prepare an array
     of three values (shape (..., 3)) and give the inputs a trailing axis (mu_i[..., None])."""
     c = numpy.asarray(c, dtype=float)
-    t17 = numpy.where(numpy.less(c, 0), 0.0, c)
-    t0 = numpy.where(numpy.greater(t17, 1.0), 1.0, t17)
+    t16 = numpy.where(numpy.less(c, 0), 0.0, c)
+    t0 = numpy.where(numpy.greater(t16, 1.0), 1.0, t16)
     t1 = (t0*t0)
     t2 = 1 - t0
     t3 = numpy.sqrt(t2)
@@ -551,15 +562,14 @@ def prepare_c(c):
     t6 = (t2*t2)
     t7 = (t2*t2*numpy.sqrt(t2))
     t8 = 20*t0
-    t9 = (1/3)*t0
-    t10 = (15/256)*t0
-    t11 = 3.141592653589793238**(-1.0)
-    t12 = -0.05860387324696379*t0 - 0.005821682593788582*t1 + 0.0008773011177337195*t5
-    t13 = 2*t3 - 1
-    t14 = (t13*t13)
-    t15 = (t13*t13*t13)
-    t16 = (t13*t13*t13*t13)
-    return numpy.stack(numpy.broadcast_arrays(numpy.asarray(t1*(-0.22663319577369706*t0 + 0.29221196193805016*t3 - 0.09729469824061904*t4 + 0.14331013054356149)/(-0.2843749048892069*t0 + 1.6614506172832844*t3 - 0.4540930164912601*t4 + 1.2843749048892069), dtype=float), numpy.asarray((1/384)*t0, dtype=float), numpy.asarray(-25/128*t1 - 5/32*t5, dtype=float), numpy.asarray(t1*(0.14740850623957125*t0 + 0.10176577919541374*t3 + 0.022994579304556582*t4 - 0.03022099337713794)/(-0.5511565927837337*t0 + 2.348527040324315*t3 - 0.9953813084156506*t4 + 1.5511565927837337), dtype=float), numpy.asarray(t1*(0.1918890413123029*t0 + 0.2439251200821899*t3 - 0.005563423093113986*t4 - 0.19188888216400411)/(0.2233886724495462*t0 + 0.6918781317657061*t3 + 0.118158009514729*t4 + 0.7766113275504538), dtype=float), numpy.asarray(t1*(-0.45542898085520883*t0 - 0.6683906999502577*t3 - 0.13969581510284687*t4 - 0.09405025651670227)/(0.3926142724681187*t0 + 0.5850916184498237*t3 + 0.1607346721831539*t4 + 0.6073857275318813), dtype=float), numpy.asarray(2.9870469264138593*t6, dtype=float), numpy.asarray(1.0662443661683643*t4, dtype=float), numpy.asarray(1.572829970027227*t4, dtype=float), numpy.asarray(0.2088906671287879*t3, dtype=float), numpy.asarray(0.018803920406571046*t7, dtype=float), numpy.asarray(2.6178417261370144*t2, dtype=float), numpy.asarray(0.6982143204310637*t7, dtype=float), numpy.asarray(0.7386182603458875*t7, dtype=float), numpy.asarray(0.20716954535903143*t3, dtype=float), numpy.asarray(0.6451850986747949*t2, dtype=float), numpy.asarray(0.022495141608287784*t3, dtype=float), numpy.asarray(0.054352180621602*t2, dtype=float), numpy.asarray(-1.6749178633061865*t7, dtype=float), numpy.asarray(-1.2962245400847459*t3, dtype=float), numpy.asarray(-2.287922901523356*t2, dtype=float), numpy.asarray(-0.5386479579696892*t6, dtype=float), numpy.asarray(-1.2792064158675018*t6, dtype=float), numpy.asarray(-0.3547833158798482*t6, dtype=float), numpy.asarray(-0.10725514469713378*t4, dtype=float), numpy.asarray(-3.8437036802186566*t4, dtype=float), numpy.asarray(-0.5107867682402644*t0 - 0.665811224859062*t3 - 0.4181420674159667*t4 + 0.3124914633548267*t6 - 0.12850663941518076*t7 + 1.9281823615276229, dtype=float), numpy.asarray(t0/(t3 + 1), dtype=float), numpy.asarray(t0, dtype=float), numpy.asarray(t0*(t8 + 281) - 346, dtype=float), numpy.asarray((15 - 15*t0)*(4*t0 + 9), dtype=float), numpy.asarray(t9/(3.141592653589793238*3.141592653589793238), dtype=float), numpy.asarray(0.0032773104377737225*t3, dtype=float), numpy.asarray(-0.0011793166019935435*t3, dtype=float), numpy.asarray(-0.003569301003270028*t3, dtype=float), numpy.asarray(0.002147602955343103*t3 + 0.0021870832323814967, dtype=float), numpy.asarray(t10, dtype=float), numpy.asarray(t10*t11, dtype=float), numpy.asarray(t12, dtype=float), numpy.asarray(0.31272388944032809*t0 - 0.0042389660736671498*t1 + (t12*t12), dtype=float), numpy.asarray(0.0662557328553895*t3, dtype=float), numpy.asarray(0.0574662363213306*t3, dtype=float), numpy.asarray(0.06061898656512081*t2, dtype=float), numpy.asarray(0.05837316923777987*t2, dtype=float), numpy.asarray(-0.18408011133833516*t3, dtype=float), numpy.asarray(-0.1147580846390276*t2, dtype=float), numpy.asarray(-0.004494906937942091*t0 + 0.08617889059204359*t3 + 0.090016644370520301, dtype=float), numpy.asarray(t8 + 45, dtype=float), numpy.asarray(-1/192*t0, dtype=float), numpy.asarray(t11*t9, dtype=float), numpy.asarray(0.10959653178533475*t14, dtype=float), numpy.asarray(0.1766119774816802*t14, dtype=float), numpy.asarray(0.25597403686706693*t14, dtype=float), numpy.asarray(2.42146807891088*t15, dtype=float), numpy.asarray(0.5027933198177464*t15, dtype=float), numpy.asarray(2.070129643634922*t16, dtype=float), numpy.asarray(0.519096218517333*t15, dtype=float), numpy.asarray(2.5251177518363694*t13, dtype=float), numpy.asarray(1.3385823867874944*t13, dtype=float), numpy.asarray(2.7903213618028806*t16, dtype=float), numpy.asarray(3.9162801286388897*t14, dtype=float), numpy.asarray(-1.7626547831461115*t14, dtype=float), numpy.asarray(-3.6618141129510917*t16, dtype=float), numpy.asarray(-0.21141002665509673*t13, dtype=float), numpy.asarray(-0.016932172543436784*t16, dtype=float), numpy.asarray(-2.295795044579524*t13, dtype=float), numpy.asarray(-2.8379131409273515*t14, dtype=float), numpy.asarray(-0.7128581043130656*t16, dtype=float), numpy.asarray(-1.6739402521122886*t15, dtype=float), numpy.asarray(-1.7061192768751303*t15, dtype=float), numpy.asarray(-0.014210822631915428*t15, dtype=float), numpy.asarray(-0.46352701817452785*t16, dtype=float), numpy.asarray(-0.4890688103263692*t13, dtype=float), numpy.asarray(-0.49993828263168366*t13, dtype=float), numpy.asarray(0.10625650933246486*t14 - 0.09050045154983123*t15 + 0.040558449658917785*t16 - 1.8499934365876788*t3, dtype=float), numpy.asarray(0.805852957259517*t15, dtype=float), numpy.asarray(0.6582269037007633*t13, dtype=float), numpy.asarray(0.45043691346028303*t14, dtype=float), numpy.asarray(0.5742385031683162*t16, dtype=float), numpy.asarray(0.6392720659218424*t13, dtype=float), numpy.asarray(0.18739898105517722*t15, dtype=float), numpy.asarray(0.8371462419661069*t14, dtype=float), numpy.asarray(0.6212937162033938*t16, dtype=float), numpy.asarray(0.4124295039969486*t13, dtype=float), numpy.asarray(0.41754495392944535*t15, dtype=float), numpy.asarray(0.028662593819483183*t16, dtype=float), numpy.asarray(-0.5773338931218077*t13, dtype=float), numpy.asarray(-0.7667251911655493*t16, dtype=float), numpy.asarray(-0.07180031380227185*t14, dtype=float), numpy.asarray(-0.6316753368520219*t15, dtype=float), numpy.asarray(-0.5766031303491715*t15, dtype=float), numpy.asarray(-0.5901356749175913*t13, dtype=float), numpy.asarray(-0.15688016937511312*t15, dtype=float), numpy.asarray(-0.08951890733992941*t16, dtype=float), numpy.asarray(-0.37270829229253744*t14, dtype=float), numpy.asarray(-0.37628293329323487*t16, dtype=float), numpy.asarray(-0.3929206076202727*t14, dtype=float), numpy.asarray(-0.43279839293414*t13, dtype=float), numpy.asarray(-0.49761324603578005*t14, dtype=float), numpy.asarray(0.07480678777429003*t14 - 0.048730004697608804*t15 + 0.017690506072644132*t16 - 0.5194652563684371*t3, dtype=float)), axis=-1)
+    t9 = (15/256)*t0
+    t10 = 3.141592653589793238**(-1.0)
+    t11 = -0.05860387324696379*t0 - 0.005821682593788582*t1 + 0.0008773011177337195*t5
+    t12 = 2*t3 - 1
+    t13 = (t12*t12)
+    t14 = (t12*t12*t12)
+    t15 = (t12*t12*t12*t12)
+    return numpy.stack(numpy.broadcast_arrays(numpy.asarray(t1*(-0.22663319577369706*t0 + 0.29221196193805016*t3 - 0.09729469824061904*t4 + 0.14331013054356149)/(-0.2843749048892069*t0 + 1.6614506172832844*t3 - 0.4540930164912601*t4 + 1.2843749048892069), dtype=float), numpy.asarray((1/384)*t0, dtype=float), numpy.asarray(-25/128*t1 - 5/32*t5, dtype=float), numpy.asarray(t1*(0.14740850623957125*t0 + 0.10176577919541374*t3 + 0.022994579304556582*t4 - 0.03022099337713794)/(-0.5511565927837337*t0 + 2.348527040324315*t3 - 0.9953813084156506*t4 + 1.5511565927837337), dtype=float), numpy.asarray(t1*(0.1918890413123029*t0 + 0.2439251200821899*t3 - 0.005563423093113986*t4 - 0.19188888216400411)/(0.2233886724495462*t0 + 0.6918781317657061*t3 + 0.118158009514729*t4 + 0.7766113275504538), dtype=float), numpy.asarray(t1*(-0.45542898085520883*t0 - 0.6683906999502577*t3 - 0.13969581510284687*t4 - 0.09405025651670227)/(0.3926142724681187*t0 + 0.5850916184498237*t3 + 0.1607346721831539*t4 + 0.6073857275318813), dtype=float), numpy.asarray(2.9870469264138593*t6, dtype=float), numpy.asarray(1.0662443661683643*t4, dtype=float), numpy.asarray(1.572829970027227*t4, dtype=float), numpy.asarray(0.2088906671287879*t3, dtype=float), numpy.asarray(0.018803920406571046*t7, dtype=float), numpy.asarray(2.6178417261370144*t2, dtype=float), numpy.asarray(0.6982143204310637*t7, dtype=float), numpy.asarray(0.7386182603458875*t7, dtype=float), numpy.asarray(0.20716954535903143*t3, dtype=float), numpy.asarray(0.6451850986747949*t2, dtype=float), numpy.asarray(0.022495141608287784*t3, dtype=float), numpy.asarray(0.054352180621602*t2, dtype=float), numpy.asarray(-1.6749178633061865*t7, dtype=float), numpy.asarray(-1.2962245400847459*t3, dtype=float), numpy.asarray(-2.287922901523356*t2, dtype=float), numpy.asarray(-0.5386479579696892*t6, dtype=float), numpy.asarray(-1.2792064158675018*t6, dtype=float), numpy.asarray(-0.3547833158798482*t6, dtype=float), numpy.asarray(-0.10725514469713378*t4, dtype=float), numpy.asarray(-3.8437036802186566*t4, dtype=float), numpy.asarray(-0.5107867682402644*t0 - 0.665811224859062*t3 - 0.4181420674159667*t4 + 0.3124914633548267*t6 - 0.12850663941518076*t7 + 1.9281823615276229, dtype=float), numpy.asarray(t0/(t3 + 1), dtype=float), numpy.asarray(t0, dtype=float), numpy.asarray(t0*(t8 + 281) - 346, dtype=float), numpy.asarray((15 - 15*t0)*(4*t0 + 9), dtype=float), numpy.asarray((2/3)*t0/(3.141592653589793238*3.141592653589793238), dtype=float), numpy.asarray(0.0032773104377737225*t3, dtype=float), numpy.asarray(-0.0011793166019935435*t3, dtype=float), numpy.asarray(-0.003569301003270028*t3, dtype=float), numpy.asarray(0.002147602955343103*t3 + 0.0021870832323814967, dtype=float), numpy.asarray(t9, dtype=float), numpy.asarray(t10*t9, dtype=float), numpy.asarray(t11, dtype=float), numpy.asarray(0.31272388944032809*t0 - 0.0042389660736671498*t1 + (t11*t11), dtype=float), numpy.asarray(0.0662557328553895*t3, dtype=float), numpy.asarray(0.0574662363213306*t3, dtype=float), numpy.asarray(0.06061898656512081*t2, dtype=float), numpy.asarray(0.05837316923777987*t2, dtype=float), numpy.asarray(-0.18408011133833516*t3, dtype=float), numpy.asarray(-0.1147580846390276*t2, dtype=float), numpy.asarray(-0.004494906937942091*t0 + 0.08617889059204359*t3 + 0.090016644370520301, dtype=float), numpy.asarray(t8 + 45, dtype=float), numpy.asarray(-1/192*t0, dtype=float), numpy.asarray((1/3)*t0*t10, dtype=float), numpy.asarray(0.10959653178533475*t13, dtype=float), numpy.asarray(0.1766119774816802*t13, dtype=float), numpy.asarray(0.25597403686706693*t13, dtype=float), numpy.asarray(2.42146807891088*t14, dtype=float), numpy.asarray(0.5027933198177464*t14, dtype=float), numpy.asarray(2.070129643634922*t15, dtype=float), numpy.asarray(0.519096218517333*t14, dtype=float), numpy.asarray(2.5251177518363694*t12, dtype=float), numpy.asarray(1.3385823867874944*t12, dtype=float), numpy.asarray(2.7903213618028806*t15, dtype=float), numpy.asarray(3.9162801286388897*t13, dtype=float), numpy.asarray(-1.7626547831461115*t13, dtype=float), numpy.asarray(-3.6618141129510917*t15, dtype=float), numpy.asarray(-0.21141002665509673*t12, dtype=float), numpy.asarray(-0.016932172543436784*t15, dtype=float), numpy.asarray(-2.295795044579524*t12, dtype=float), numpy.asarray(-2.8379131409273515*t13, dtype=float), numpy.asarray(-0.7128581043130656*t15, dtype=float), numpy.asarray(-1.6739402521122886*t14, dtype=float), numpy.asarray(-1.7061192768751303*t14, dtype=float), numpy.asarray(-0.014210822631915428*t14, dtype=float), numpy.asarray(-0.46352701817452785*t15, dtype=float), numpy.asarray(-0.4890688103263692*t12, dtype=float), numpy.asarray(-0.49993828263168366*t12, dtype=float), numpy.asarray(0.10625650933246486*t13 - 0.09050045154983123*t14 + 0.040558449658917785*t15 - 1.8499934365876788*t3, dtype=float), numpy.asarray(0.805852957259517*t14, dtype=float), numpy.asarray(0.6582269037007633*t12, dtype=float), numpy.asarray(0.45043691346028303*t13, dtype=float), numpy.asarray(0.5742385031683162*t15, dtype=float), numpy.asarray(0.6392720659218424*t12, dtype=float), numpy.asarray(0.18739898105517722*t14, dtype=float), numpy.asarray(0.8371462419661069*t13, dtype=float), numpy.asarray(0.6212937162033938*t15, dtype=float), numpy.asarray(0.4124295039969486*t12, dtype=float), numpy.asarray(0.41754495392944535*t14, dtype=float), numpy.asarray(0.028662593819483183*t15, dtype=float), numpy.asarray(-0.5773338931218077*t12, dtype=float), numpy.asarray(-0.7667251911655493*t15, dtype=float), numpy.asarray(-0.07180031380227185*t13, dtype=float), numpy.asarray(-0.6316753368520219*t14, dtype=float), numpy.asarray(-0.5766031303491715*t14, dtype=float), numpy.asarray(-0.5901356749175913*t12, dtype=float), numpy.asarray(-0.15688016937511312*t14, dtype=float), numpy.asarray(-0.08951890733992941*t15, dtype=float), numpy.asarray(-0.37270829229253744*t13, dtype=float), numpy.asarray(-0.37628293329323487*t15, dtype=float), numpy.asarray(-0.3929206076202727*t13, dtype=float), numpy.asarray(-0.43279839293414*t12, dtype=float), numpy.asarray(-0.49761324603578005*t13, dtype=float), numpy.asarray(0.07480678777429003*t13 - 0.048730004697608804*t14 + 0.017690506072644132*t15 - 0.5194652563684371*t3, dtype=float)), axis=-1)
 
 
 def prepare(kd):
@@ -575,35 +585,41 @@ def eval(material, mu_i, mu_o, cos_phi):
     scattering), c the particle albedo in [0, 1]; inputs outside (+-inf included) are
     clamped, NaN in any input gives NaN."""
     material, mu_i, mu_o, cos_phi = numpy.asarray(material, dtype=float), numpy.asarray(mu_i, dtype=float), numpy.asarray(mu_o, dtype=float), numpy.asarray(cos_phi, dtype=float)
-    t21 = numpy.where(numpy.less(mu_i, 0), 0.0, mu_i)
-    t0 = numpy.where(numpy.greater(t21, 1.0), 1.0, t21)
-    t22 = numpy.where(numpy.less(mu_o, 0), 0.0, mu_o)
-    t1 = numpy.where(numpy.greater(t22, 1.0), 1.0, t22)
-    t2 = t0 + t1
-    t3 = numpy.where(numpy.less(t2, 1/1000000), 1/1000000, t2)**(-1.0)
-    t4 = t0*t1
-    t23 = numpy.where(numpy.less(cos_phi, -1.0), -1.0, cos_phi)
-    t5 = numpy.where(numpy.greater(t23, 1.0), 1.0, t23)
-    t6 = (t0*t0)
-    t7 = t6 - 1
-    t8 = (t1*t1)
-    t9 = t8 - 1
-    t10 = t7*t9
-    t11 = numpy.sqrt(t10)
-    t24 = -t11*t5 - t4
-    t25 = numpy.where(numpy.greater(t24, 1), 1, t24)
-    t12 = numpy.where(numpy.less(t25, -1), -1, t25)
-    t13 = numpy.log(1 + numpy.where(numpy.less(t0, 1.0e-30), 1.0e-30, t0)**(-1.0))
-    t14 = (t0*t0*t0)
-    t15 = numpy.log(1 + numpy.where(numpy.less(t1, 1.0e-30), 1.0e-30, t1)**(-1.0))
-    t16 = (t1*t1*t1)
-    t17 = material[..., 38]*t2 + material[..., 39]*t4
-    t18 = material[..., 0]*t2 + material[..., 2]*t6*t8 + material[..., 3]*(t6 + t8) + material[..., 4]*t0*t1*t2 + material[..., 5]*t4
-    t19 = (t0*t0*t0*t0)
-    t20 = (t1*t1*t1*t1)
-    t26 = (1 - t12)*(t12 + 1)
-    t27 = (499973/500000)*material[..., 31]*t3*(-2*t12*numpy.arccos(t12) + 2*numpy.sqrt(numpy.where(numpy.less(t26, 0), 0, t26))) + (499973/500000)*material[..., 37]*t10*t3*(2*(t5*t5) - 1)*numpy.expm1(t0*(material[..., 28]*(material[..., 27]*(material[..., 32]*t6 + material[..., 33]*t14 + material[..., 34]*t0 + material[..., 35] - 0.0037961708223872375*t0 - 0.0014135909284063626*t14 + 0.0037035545003035746*t6) + (25/256)*t0 - 15/256*t14 + (15/512)*t6 - 45/1024) + material[..., 36]*t13*(t7*t7)) + t1*(material[..., 28]*(material[..., 27]*(material[..., 32]*t8 + material[..., 33]*t16 + material[..., 34]*t1 + material[..., 35] - 0.0037961708223872375*t1 - 0.0014135909284063626*t16 + 0.0037035545003035746*t8) + (25/256)*t1 - 15/256*t16 + (15/512)*t8 - 45/1024) + material[..., 36]*t15*(t9*t9))) + (499973/500000)*material[..., 49]*t11*t3*t5*(t17 + (t17 + (45/64)*t4 + 1)*numpy.expm1(t0*(material[..., 28]*(material[..., 27]*(material[..., 40]*t6 + material[..., 41]*t14 + material[..., 42]*t14 + material[..., 43]*t0 + material[..., 44]*t0 + material[..., 45]*t6 + material[..., 46] - 0.1788584769584851*t0 + 0.06143020603611769*t14 + 0.05802135097287754*t6) - 47/96*t0 + (15/64)*t14 - 15/128*t6 + 173/768) + material[..., 48]*t13*t7*(material[..., 47]*t6 - 64)) + t1*(material[..., 28]*(material[..., 27]*(material[..., 40]*t8 + material[..., 41]*t16 + material[..., 42]*t16 + material[..., 43]*t1 + material[..., 44]*t1 + material[..., 45]*t8 + material[..., 46] - 0.1788584769584851*t1 + 0.06143020603611769*t16 + 0.05802135097287754*t8) - 47/96*t1 + (15/64)*t16 - 15/128*t8 + 173/768) + material[..., 48]*t15*t9*(material[..., 47]*t8 - 64)))) + (499973/1000000)*t3*(t18 + (material[..., 1]*(256*t4 + 135*t6*t8 - 45*t6 - 45*t8 + 207) + t18)*numpy.expm1(t0*(material[..., 1]*t13*(material[..., 29]*t6 + material[..., 30]*t19 + 207) + material[..., 28]*(material[..., 27]*(material[..., 10]*t19 + material[..., 11]*t6 + material[..., 12]*t14 + material[..., 13]*t0 + material[..., 14]*t14 + material[..., 15]*t19 + material[..., 16]*t19 + material[..., 17]*t0 + material[..., 18]*t6 + material[..., 19]*t0 + material[..., 20]*t14 + material[..., 21]*t19 + material[..., 22]*t0 + material[..., 23]*t14 + material[..., 24]*t19 + material[..., 25]*t6 + material[..., 26] + material[..., 6]*t6 + material[..., 7]*t0 + material[..., 8]*t14 + material[..., 9]*t6 - 1.317974632049971*t0 + 0.10385474081646198*t14 + 0.06215295319723717*t19 + 0.28728468847971017*t6) + (301/384)*t0 - 45/128*t14 + (45/256)*t6 - 557/1536)) + t1*(material[..., 1]*t15*(material[..., 29]*t8 + material[..., 30]*t20 + 207) + material[..., 28]*(material[..., 27]*(material[..., 10]*t20 + material[..., 11]*t8 + material[..., 12]*t16 + material[..., 13]*t1 + material[..., 14]*t16 + material[..., 15]*t20 + material[..., 16]*t20 + material[..., 17]*t1 + material[..., 18]*t8 + material[..., 19]*t1 + material[..., 20]*t16 + material[..., 21]*t20 + material[..., 22]*t1 + material[..., 23]*t16 + material[..., 24]*t20 + material[..., 25]*t8 + material[..., 26] + material[..., 6]*t8 + material[..., 7]*t1 + material[..., 8]*t16 + material[..., 9]*t8 - 1.317974632049971*t1 + 0.10385474081646198*t16 + 0.06215295319723717*t20 + 0.28728468847971017*t8) + (301/384)*t1 - 45/128*t16 + (45/256)*t8 - 557/1536))))/3.141592653589793238
-    return numpy.where(numpy.less(t27, 0), 0, t27)
+    t30 = numpy.where(numpy.less(cos_phi, -1.0), -1.0, cos_phi)
+    t0 = numpy.where(numpy.greater(t30, 1.0), 1.0, t30)
+    t31 = numpy.where(numpy.less(mu_i, 0), 0.0, mu_i)
+    t1 = numpy.where(numpy.greater(t31, 1.0), 1.0, t31)
+    t32 = numpy.where(numpy.less(mu_o, 0), 0.0, mu_o)
+    t2 = numpy.where(numpy.greater(t32, 1.0), 1.0, t32)
+    t3 = t1 + t2
+    t4 = numpy.where(numpy.less(t3, 1/1000000), 1/1000000, t3)**(-1.0)
+    t5 = (t1*t1)
+    t6 = t5 - 1
+    t7 = numpy.log(1 + numpy.where(numpy.less(t1, 1.0e-30), 1.0e-30, t1)**(-1.0))
+    t8 = (t1*t1*t1)
+    t9 = (t2*t2)
+    t10 = t9 - 1
+    t11 = numpy.log(1 + numpy.where(numpy.less(t2, 1.0e-30), 1.0e-30, t2)**(-1.0))
+    t12 = (t2*t2*t2)
+    t13 = -t6
+    t14 = -t10*t13
+    t15 = numpy.sqrt(t14)
+    t16 = t1*t2
+    t17 = material[..., 38]*t3 + material[..., 39]*t16
+    t18 = material[..., 0]*t3 + material[..., 2]*t5*t9 + material[..., 3]*(t5 + t9) + material[..., 4]*t1*t2*t3 + material[..., 5]*t16
+    t19 = (t1*t1*t1*t1)
+    t20 = (t2*t2*t2*t2)
+    t33 = (1/2)*t15*(t0 + 1) + (1/2)*t16 + (1/2)*(t13*t9 + t5)/(t15 + 1)
+    t21 = numpy.where(numpy.less(t33, 0), 0, t33)
+    t22 = numpy.where(numpy.greater(t21, 1), 1, t21)
+    t23 = 1 - t22
+    t24 = numpy.arcsin(numpy.sqrt(numpy.where(numpy.greater(t21, t23), t23, numpy.where(numpy.less_equal(t21, t23), t21, t21 + t23))))
+    t26 = 2*t24
+    t27 = t26 - 3.141592653589793238
+    t28 = -t27
+    t29 = numpy.where(numpy.less(t22, 1/2), 4*(t24*t24), (t28*t28))
+    t34 = (499973/500000)*material[..., 31]*t4*numpy.where(numpy.where(numpy.less(t22, 1/2), numpy.less(t24, 1/4), numpy.greater(t27, -1/2)), (t29*(t29*(t29*(t29*(t29*((1/93405312000)*t29 - 1/518918400) + 1/3991680) - 1/45360) + 1/840) - 1/30) + 1/3)*numpy.where(numpy.less(t22, 1/2), 8*(t24*t24*t24), (t28*t28*t28)), 2*numpy.sqrt(t22)*numpy.sqrt(t23) - (1 - 2*t22)*numpy.where(numpy.less(t22, 1/2), t26, t28)) + (499973/500000)*material[..., 37]*t14*t4*(2*(t0*t0) - 1)*numpy.expm1(t1*(material[..., 28]*(material[..., 27]*(material[..., 32]*t5 + material[..., 33]*t8 + material[..., 34]*t1 + material[..., 35] - 0.0037961708223872375*t1 + 0.0037035545003035746*t5 - 0.0014135909284063626*t8) + (25/256)*t1 + (15/512)*t5 - 15/256*t8 - 45/1024) + material[..., 36]*(t6*t6)*t7) + t2*(material[..., 28]*(material[..., 27]*(material[..., 32]*t9 + material[..., 33]*t12 + material[..., 34]*t2 + material[..., 35] - 0.0014135909284063626*t12 - 0.0037961708223872375*t2 + 0.0037035545003035746*t9) - 15/256*t12 + (25/256)*t2 + (15/512)*t9 - 45/1024) + material[..., 36]*(t10*t10)*t11)) + (499973/500000)*material[..., 49]*t0*t15*t4*(t17 + ((45/64)*t16 + t17 + 1)*numpy.expm1(t1*(material[..., 28]*(material[..., 27]*(material[..., 40]*t5 + material[..., 41]*t8 + material[..., 42]*t8 + material[..., 43]*t1 + material[..., 44]*t1 + material[..., 45]*t5 + material[..., 46] - 0.1788584769584851*t1 + 0.05802135097287754*t5 + 0.06143020603611769*t8) - 47/96*t1 - 15/128*t5 + (15/64)*t8 + 173/768) + material[..., 48]*t6*t7*(material[..., 47]*t5 - 64)) + t2*(material[..., 28]*(material[..., 27]*(material[..., 40]*t9 + material[..., 41]*t12 + material[..., 42]*t12 + material[..., 43]*t2 + material[..., 44]*t2 + material[..., 45]*t9 + material[..., 46] + 0.06143020603611769*t12 - 0.1788584769584851*t2 + 0.05802135097287754*t9) + (15/64)*t12 - 47/96*t2 - 15/128*t9 + 173/768) + material[..., 48]*t10*t11*(material[..., 47]*t9 - 64)))) + (499973/1000000)*t4*(t18 + (material[..., 1]*(256*t16 + 135*t5*t9 - 45*t5 - 45*t9 + 207) + t18)*numpy.expm1(t1*(material[..., 1]*t7*(material[..., 29]*t5 + material[..., 30]*t19 + 207) + material[..., 28]*(material[..., 27]*(material[..., 10]*t19 + material[..., 11]*t5 + material[..., 12]*t8 + material[..., 13]*t1 + material[..., 14]*t8 + material[..., 15]*t19 + material[..., 16]*t19 + material[..., 17]*t1 + material[..., 18]*t5 + material[..., 19]*t1 + material[..., 20]*t8 + material[..., 21]*t19 + material[..., 22]*t1 + material[..., 23]*t8 + material[..., 24]*t19 + material[..., 25]*t5 + material[..., 26] + material[..., 6]*t5 + material[..., 7]*t1 + material[..., 8]*t8 + material[..., 9]*t5 - 1.317974632049971*t1 + 0.06215295319723717*t19 + 0.28728468847971017*t5 + 0.10385474081646198*t8) + (301/384)*t1 + (45/256)*t5 - 45/128*t8 - 557/1536)) + t2*(material[..., 1]*t11*(material[..., 29]*t9 + material[..., 30]*t20 + 207) + material[..., 28]*(material[..., 27]*(material[..., 10]*t20 + material[..., 11]*t9 + material[..., 12]*t12 + material[..., 13]*t2 + material[..., 14]*t12 + material[..., 15]*t20 + material[..., 16]*t20 + material[..., 17]*t2 + material[..., 18]*t9 + material[..., 19]*t2 + material[..., 20]*t12 + material[..., 21]*t20 + material[..., 22]*t2 + material[..., 23]*t12 + material[..., 24]*t20 + material[..., 25]*t9 + material[..., 26] + material[..., 6]*t9 + material[..., 7]*t2 + material[..., 8]*t12 + material[..., 9]*t9 + 0.10385474081646198*t12 - 1.317974632049971*t2 + 0.06215295319723717*t20 + 0.28728468847971017*t9) - 45/128*t12 + (301/384)*t2 + (45/256)*t9 - 557/1536))))/3.141592653589793238
+    return numpy.where(numpy.less(t34, 0), 0, t34)
 
 
 def eval_local(material, wi, wo):
@@ -612,26 +628,26 @@ def eval_local(material, wi, wo):
     pointing away from the surface); 0 if either is below the surface. Components are
     clamped to [-1, 1] (not normalised); NaN in any input gives NaN."""
     material, wi, wo = numpy.asarray(material, dtype=float), numpy.asarray(wi, dtype=float), numpy.asarray(wo, dtype=float)
-    t27 = numpy.where(numpy.less(wi[..., 2], -1.0), -1.0, wi[..., 2])
-    t0 = numpy.where(numpy.greater(t27, 1.0), 1.0, t27)
-    t28 = numpy.where(numpy.less(wo[..., 2], -1.0), -1.0, wo[..., 2])
-    t1 = numpy.where(numpy.greater(t28, 1.0), 1.0, t28)
-    t29 = numpy.where(numpy.less(wi[..., 0], -1.0), -1.0, wi[..., 0])
-    t2 = numpy.where(numpy.greater(t29, 1.0), 1.0, t29)
-    t30 = numpy.where(numpy.less(wo[..., 0], -1.0), -1.0, wo[..., 0])
-    t3 = numpy.where(numpy.greater(t30, 1.0), 1.0, t30)
-    t31 = numpy.where(numpy.less(wi[..., 1], -1.0), -1.0, wi[..., 1])
-    t4 = numpy.where(numpy.greater(t31, 1.0), 1.0, t31)
-    t32 = numpy.where(numpy.less(wo[..., 1], -1.0), -1.0, wo[..., 1])
-    t5 = numpy.where(numpy.greater(t32, 1.0), 1.0, t32)
-    t33 = ((t2*t2) + (t4*t4))*((t3*t3) + (t5*t5))
-    t34 = (t2*t3 + t4*t5)/numpy.sqrt(numpy.where(numpy.less(t33, 1/1000000000000000000000000000000), 1/1000000000000000000000000000000, t33))
-    t35 = numpy.where(numpy.less(t34, -1.0), -1.0, t34)
-    t6 = numpy.where(numpy.greater(t35, 1.0), 1.0, t35)
-    t36 = numpy.where(numpy.less(t0, 0), 0.0, t0)
-    t7 = numpy.where(numpy.greater(t36, 1.0), 1.0, t36)
-    t37 = numpy.where(numpy.less(t1, 0), 0.0, t1)
-    t8 = numpy.where(numpy.greater(t37, 1.0), 1.0, t37)
+    t36 = numpy.where(numpy.less(wi[..., 2], -1.0), -1.0, wi[..., 2])
+    t0 = numpy.where(numpy.greater(t36, 1.0), 1.0, t36)
+    t37 = numpy.where(numpy.less(wo[..., 2], -1.0), -1.0, wo[..., 2])
+    t1 = numpy.where(numpy.greater(t37, 1.0), 1.0, t37)
+    t38 = numpy.where(numpy.less(wi[..., 0], -1.0), -1.0, wi[..., 0])
+    t2 = numpy.where(numpy.greater(t38, 1.0), 1.0, t38)
+    t39 = numpy.where(numpy.less(wo[..., 0], -1.0), -1.0, wo[..., 0])
+    t3 = numpy.where(numpy.greater(t39, 1.0), 1.0, t39)
+    t40 = numpy.where(numpy.less(wi[..., 1], -1.0), -1.0, wi[..., 1])
+    t4 = numpy.where(numpy.greater(t40, 1.0), 1.0, t40)
+    t41 = numpy.where(numpy.less(wo[..., 1], -1.0), -1.0, wo[..., 1])
+    t5 = numpy.where(numpy.greater(t41, 1.0), 1.0, t41)
+    t42 = ((t2*t2) + (t4*t4))*((t3*t3) + (t5*t5))
+    t43 = (t2*t3 + t4*t5)/numpy.sqrt(numpy.where(numpy.less(t42, 1/1000000000000000000000000000000), 1/1000000000000000000000000000000, t42))
+    t44 = numpy.where(numpy.less(t43, -1.0), -1.0, t43)
+    t6 = numpy.where(numpy.greater(t44, 1.0), 1.0, t44)
+    t45 = numpy.where(numpy.less(t0, 0), 0.0, t0)
+    t7 = numpy.where(numpy.greater(t45, 1.0), 1.0, t45)
+    t46 = numpy.where(numpy.less(t1, 0), 0.0, t1)
+    t8 = numpy.where(numpy.greater(t46, 1.0), 1.0, t46)
     t9 = t7 + t8
     t10 = numpy.where(numpy.less(t9, 1/1000000), 1/1000000, t9)**(-1.0)
     t11 = (t7*t7)
@@ -642,19 +658,25 @@ def eval_local(material, wi, wo):
     t16 = t15 - 1
     t17 = numpy.log(1 + numpy.where(numpy.less(t8, 1.0e-30), 1.0e-30, t8)**(-1.0))
     t18 = (t8*t8*t8)
-    t19 = t12*t16
-    t20 = t7*t8
-    t21 = numpy.sqrt(t19)
-    t38 = -t20 - t21*t6
-    t39 = numpy.where(numpy.greater(t38, 1), 1, t38)
-    t22 = numpy.where(numpy.less(t39, -1), -1, t39)
-    t23 = material[..., 38]*t9 + material[..., 39]*t20
-    t24 = material[..., 0]*t9 + material[..., 2]*t11*t15 + material[..., 3]*(t11 + t15) + material[..., 4]*t7*t8*t9 + material[..., 5]*t20
+    t19 = -t12
+    t20 = -t16*t19
+    t21 = numpy.sqrt(t20)
+    t22 = t7*t8
+    t23 = material[..., 38]*t9 + material[..., 39]*t22
+    t24 = material[..., 0]*t9 + material[..., 2]*t11*t15 + material[..., 3]*(t11 + t15) + material[..., 4]*t7*t8*t9 + material[..., 5]*t22
     t25 = (t7*t7*t7*t7)
     t26 = (t8*t8*t8*t8)
-    t40 = (1 - t22)*(t22 + 1)
-    t41 = (499973/500000)*material[..., 31]*t10*(-2*t22*numpy.arccos(t22) + 2*numpy.sqrt(numpy.where(numpy.less(t40, 0), 0, t40))) + (499973/500000)*material[..., 37]*t10*t19*(2*(t6*t6) - 1)*numpy.expm1(t7*(material[..., 28]*(material[..., 27]*(material[..., 32]*t11 + material[..., 33]*t14 + material[..., 34]*t7 + material[..., 35] + 0.0037035545003035746*t11 - 0.0014135909284063626*t14 - 0.0037961708223872375*t7) + (15/512)*t11 - 15/256*t14 + (25/256)*t7 - 45/1024) + material[..., 36]*(t12*t12)*t13) + t8*(material[..., 28]*(material[..., 27]*(material[..., 32]*t15 + material[..., 33]*t18 + material[..., 34]*t8 + material[..., 35] + 0.0037035545003035746*t15 - 0.0014135909284063626*t18 - 0.0037961708223872375*t8) + (15/512)*t15 - 15/256*t18 + (25/256)*t8 - 45/1024) + material[..., 36]*(t16*t16)*t17)) + (499973/500000)*material[..., 49]*t10*t21*t6*(t23 + ((45/64)*t20 + t23 + 1)*numpy.expm1(t7*(material[..., 28]*(material[..., 27]*(material[..., 40]*t11 + material[..., 41]*t14 + material[..., 42]*t14 + material[..., 43]*t7 + material[..., 44]*t7 + material[..., 45]*t11 + material[..., 46] + 0.05802135097287754*t11 + 0.06143020603611769*t14 - 0.1788584769584851*t7) - 15/128*t11 + (15/64)*t14 - 47/96*t7 + 173/768) + material[..., 48]*t12*t13*(material[..., 47]*t11 - 64)) + t8*(material[..., 28]*(material[..., 27]*(material[..., 40]*t15 + material[..., 41]*t18 + material[..., 42]*t18 + material[..., 43]*t8 + material[..., 44]*t8 + material[..., 45]*t15 + material[..., 46] + 0.05802135097287754*t15 + 0.06143020603611769*t18 - 0.1788584769584851*t8) - 15/128*t15 + (15/64)*t18 - 47/96*t8 + 173/768) + material[..., 48]*t16*t17*(material[..., 47]*t15 - 64)))) + (499973/1000000)*t10*(t24 + (material[..., 1]*(135*t11*t15 - 45*t11 - 45*t15 + 256*t20 + 207) + t24)*numpy.expm1(t7*(material[..., 1]*t13*(material[..., 29]*t11 + material[..., 30]*t25 + 207) + material[..., 28]*(material[..., 27]*(material[..., 10]*t25 + material[..., 11]*t11 + material[..., 12]*t14 + material[..., 13]*t7 + material[..., 14]*t14 + material[..., 15]*t25 + material[..., 16]*t25 + material[..., 17]*t7 + material[..., 18]*t11 + material[..., 19]*t7 + material[..., 20]*t14 + material[..., 21]*t25 + material[..., 22]*t7 + material[..., 23]*t14 + material[..., 24]*t25 + material[..., 25]*t11 + material[..., 26] + material[..., 6]*t11 + material[..., 7]*t7 + material[..., 8]*t14 + material[..., 9]*t11 + 0.28728468847971017*t11 + 0.10385474081646198*t14 + 0.06215295319723717*t25 - 1.317974632049971*t7) + (45/256)*t11 - 45/128*t14 + (301/384)*t7 - 557/1536)) + t8*(material[..., 1]*t17*(material[..., 29]*t15 + material[..., 30]*t26 + 207) + material[..., 28]*(material[..., 27]*(material[..., 10]*t26 + material[..., 11]*t15 + material[..., 12]*t18 + material[..., 13]*t8 + material[..., 14]*t18 + material[..., 15]*t26 + material[..., 16]*t26 + material[..., 17]*t8 + material[..., 18]*t15 + material[..., 19]*t8 + material[..., 20]*t18 + material[..., 21]*t26 + material[..., 22]*t8 + material[..., 23]*t18 + material[..., 24]*t26 + material[..., 25]*t15 + material[..., 26] + material[..., 6]*t15 + material[..., 7]*t8 + material[..., 8]*t18 + material[..., 9]*t15 + 0.28728468847971017*t15 + 0.10385474081646198*t18 + 0.06215295319723717*t26 - 1.317974632049971*t8) + (45/256)*t15 - 45/128*t18 + (301/384)*t8 - 557/1536))))/3.141592653589793238
-    return numpy.where(numpy.less(t0, 0), 0, 1)*numpy.where(numpy.less(t1, 0), 0, 1)*numpy.where(numpy.less(t41, 0), 0, t41)
+    t47 = (1/2)*t21*(t6 + 1) + (1/2)*t22 + (1/2)*(t11 + t15*t19)/(t21 + 1)
+    t27 = numpy.where(numpy.less(t47, 0), 0, t47)
+    t28 = numpy.where(numpy.greater(t27, 1), 1, t27)
+    t29 = 1 - t28
+    t30 = numpy.arcsin(numpy.sqrt(numpy.where(numpy.greater(t27, t29), t29, numpy.where(numpy.less_equal(t27, t29), t27, t27 + t29))))
+    t32 = 2*t30
+    t33 = t32 - 3.141592653589793238
+    t34 = -t33
+    t35 = numpy.where(numpy.less(t28, 1/2), 4*(t30*t30), (t34*t34))
+    t48 = (499973/500000)*material[..., 31]*t10*numpy.where(numpy.where(numpy.less(t28, 1/2), numpy.less(t30, 1/4), numpy.greater(t33, -1/2)), (t35*(t35*(t35*(t35*(t35*((1/93405312000)*t35 - 1/518918400) + 1/3991680) - 1/45360) + 1/840) - 1/30) + 1/3)*numpy.where(numpy.less(t28, 1/2), 8*(t30*t30*t30), (t34*t34*t34)), 2*numpy.sqrt(t28)*numpy.sqrt(t29) - (1 - 2*t28)*numpy.where(numpy.less(t28, 1/2), t32, t34)) + (499973/500000)*material[..., 37]*t10*t20*(2*(t6*t6) - 1)*numpy.expm1(t7*(material[..., 28]*(material[..., 27]*(material[..., 32]*t11 + material[..., 33]*t14 + material[..., 34]*t7 + material[..., 35] + 0.0037035545003035746*t11 - 0.0014135909284063626*t14 - 0.0037961708223872375*t7) + (15/512)*t11 - 15/256*t14 + (25/256)*t7 - 45/1024) + material[..., 36]*(t12*t12)*t13) + t8*(material[..., 28]*(material[..., 27]*(material[..., 32]*t15 + material[..., 33]*t18 + material[..., 34]*t8 + material[..., 35] + 0.0037035545003035746*t15 - 0.0014135909284063626*t18 - 0.0037961708223872375*t8) + (15/512)*t15 - 15/256*t18 + (25/256)*t8 - 45/1024) + material[..., 36]*(t16*t16)*t17)) + (499973/500000)*material[..., 49]*t10*t21*t6*(t23 + ((45/64)*t22 + t23 + 1)*numpy.expm1(t7*(material[..., 28]*(material[..., 27]*(material[..., 40]*t11 + material[..., 41]*t14 + material[..., 42]*t14 + material[..., 43]*t7 + material[..., 44]*t7 + material[..., 45]*t11 + material[..., 46] + 0.05802135097287754*t11 + 0.06143020603611769*t14 - 0.1788584769584851*t7) - 15/128*t11 + (15/64)*t14 - 47/96*t7 + 173/768) + material[..., 48]*t12*t13*(material[..., 47]*t11 - 64)) + t8*(material[..., 28]*(material[..., 27]*(material[..., 40]*t15 + material[..., 41]*t18 + material[..., 42]*t18 + material[..., 43]*t8 + material[..., 44]*t8 + material[..., 45]*t15 + material[..., 46] + 0.05802135097287754*t15 + 0.06143020603611769*t18 - 0.1788584769584851*t8) - 15/128*t15 + (15/64)*t18 - 47/96*t8 + 173/768) + material[..., 48]*t16*t17*(material[..., 47]*t15 - 64)))) + (499973/1000000)*t10*(t24 + (material[..., 1]*(135*t11*t15 - 45*t11 - 45*t15 + 256*t22 + 207) + t24)*numpy.expm1(t7*(material[..., 1]*t13*(material[..., 29]*t11 + material[..., 30]*t25 + 207) + material[..., 28]*(material[..., 27]*(material[..., 10]*t25 + material[..., 11]*t11 + material[..., 12]*t14 + material[..., 13]*t7 + material[..., 14]*t14 + material[..., 15]*t25 + material[..., 16]*t25 + material[..., 17]*t7 + material[..., 18]*t11 + material[..., 19]*t7 + material[..., 20]*t14 + material[..., 21]*t25 + material[..., 22]*t7 + material[..., 23]*t14 + material[..., 24]*t25 + material[..., 25]*t11 + material[..., 26] + material[..., 6]*t11 + material[..., 7]*t7 + material[..., 8]*t14 + material[..., 9]*t11 + 0.28728468847971017*t11 + 0.10385474081646198*t14 + 0.06215295319723717*t25 - 1.317974632049971*t7) + (45/256)*t11 - 45/128*t14 + (301/384)*t7 - 557/1536)) + t8*(material[..., 1]*t17*(material[..., 29]*t15 + material[..., 30]*t26 + 207) + material[..., 28]*(material[..., 27]*(material[..., 10]*t26 + material[..., 11]*t15 + material[..., 12]*t18 + material[..., 13]*t8 + material[..., 14]*t18 + material[..., 15]*t26 + material[..., 16]*t26 + material[..., 17]*t8 + material[..., 18]*t15 + material[..., 19]*t8 + material[..., 20]*t18 + material[..., 21]*t26 + material[..., 22]*t8 + material[..., 23]*t18 + material[..., 24]*t26 + material[..., 25]*t15 + material[..., 26] + material[..., 6]*t15 + material[..., 7]*t8 + material[..., 8]*t18 + material[..., 9]*t15 + 0.28728468847971017*t15 + 0.10385474081646198*t18 + 0.06215295319723717*t26 - 1.317974632049971*t8) + (45/256)*t15 - 45/128*t18 + (301/384)*t8 - 557/1536))))/3.141592653589793238
+    return numpy.where(numpy.less(t0, 0), 0, 1)*numpy.where(numpy.less(t1, 0), 0, 1)*numpy.where(numpy.less(t48, 0), 0, t48)
 
 
 def pdf(material, wi, wo):

@@ -257,20 +257,31 @@ def sample_exponent(mu_i, c):
 
 def single(mu_i, mu_o, cos_phi, c):
     """Single scattering with the true phase function, c p(u)/(mu_i + mu_o), u = -(mu_i mu_o +
-    S cos phi) (eq. 10), sqrt(1 - u^2) evaluated as sqrt((1 - u)(1 + u)) (full accuracy in
-    forward scattering at grazing). Pole floored at 1e-6."""
-    t3 = dr.select((mu_i < 0.0), 0.0, mu_i)
-    t0 = dr.select((t3 > 1.0), 1.0, t3)
-    t4 = dr.select((mu_o < 0.0), 0.0, mu_o)
-    t1 = dr.select((t4 > 1.0), 1.0, t4)
-    t5 = dr.select((cos_phi < -1.0), -1.0, cos_phi)
-    t6 = -t0*t1 - dr.sqrt((1.0 - (t0*t0))*(1.0 - (t1*t1)))*dr.select((t5 > 1.0), 1.0, t5)
+    S cos phi) (eq. 10), p evaluated from 1 - u = (1 - S^2)/(1 + S) + mu_i mu_o + S (1 + cos
+    phi) and x = acos(u) = 2 asin(sqrt((1 - u)/2)), sin x - x cos x by its series below x =
+    1/2 (full accuracy in forward scattering at grazing, float included). Pole floored at
+    1e-6."""
+    t15 = dr.select((mu_i < 0.0), 0.0, mu_i)
+    t0 = dr.select((t15 > 1.0), 1.0, t15)
+    t16 = dr.select((mu_o < 0.0), 0.0, mu_o)
+    t1 = dr.select((t16 > 1.0), 1.0, t16)
+    t2 = (t0*t0)
+    t3 = 1.0 - t2
+    t4 = (t1*t1)
+    t5 = dr.sqrt(t3*(1.0 - t4))
+    t17 = dr.select((cos_phi < -1.0), -1.0, cos_phi)
+    t18 = (1.0/2.0)*t0*t1 + (1.0/2.0)*t5*(dr.select((t17 > 1.0), 1.0, t17) + 1.0) + (1.0/2.0)*(t2 + t3*t4)/(t5 + 1.0)
+    t6 = dr.select((t18 < 0.0), 0.0, t18)
     t7 = dr.select((t6 > 1.0), 1.0, t6)
-    t2 = dr.select((t7 < -1.0), -1.0, t7)
-    t8 = t0 + t1
-    t9 = (1.0 - t2)*(t2 + 1.0)
-    t10 = dr.select((c < 0.0), 0.0, c)
-    return (1.0/3.0)*(-2.0*t2*dr.acos(t2) + 2.0*dr.sqrt(dr.select((t9 < 0.0), 0.0, t9)))*dr.select((t10 > 1.0), 1.0, t10)/((3.141592653589793238*3.141592653589793238)*dr.select((t8 < 1.0/1000000.0), 1.0/1000000.0, t8))
+    t8 = 1.0 - t7
+    t9 = dr.asin(dr.sqrt(dr.select((t6 > t8), t8, dr.select((t6 <= t8), t6, t6 + t8))))
+    t11 = 2.0*t9
+    t12 = t11 - 3.141592653589793238
+    t13 = -t12
+    t14 = dr.select((t7 < 1.0/2.0), 4.0*(t9*t9), (t13*t13))
+    t19 = t0 + t1
+    t20 = dr.select((c < 0.0), 0.0, c)
+    return (2.0/3.0)*dr.select(dr.select((t7 < 1.0/2.0), (t9 < 1.0/4.0), (t12 > -1.0/2.0)), (t14*(t14*(t14*(t14*(t14*((1.0/93405312000.0)*t14 - 1.0/518918400.0) + 1.0/3991680.0) - 1.0/45360.0) + 1.0/840.0) - 1.0/30.0) + 1.0/3.0)*dr.select((t7 < 1.0/2.0), 8.0*(t9*t9*t9), (t13*t13*t13)), 2.0*dr.sqrt(t7)*dr.sqrt(t8) - (1.0 - 2.0*t7)*dr.select((t7 < 1.0/2.0), t11, t13))*dr.select((t20 > 1.0), 1.0, t20)/((3.141592653589793238*3.141592653589793238)*dr.select((t19 < 1.0/1000000.0), 1.0/1000000.0, t19))
 
 
 def fm0(mu_i, mu_o, c):
@@ -539,8 +550,8 @@ def prepare_c(c):
     evaluate with it, so that a renderer prepares each material once and evaluates it many
     times. A material is a tuple of fields of the type of the argument: prepare a Color3f
     (one value per channel) for RGB, and the evaluators give a Color3f."""
-    t17 = dr.select((c < 0.0), 0.0, c)
-    t0 = dr.select((t17 > 1.0), 1.0, t17)
+    t16 = dr.select((c < 0.0), 0.0, c)
+    t0 = dr.select((t16 > 1.0), 1.0, t16)
     t1 = (t0*t0)
     t2 = 1.0 - t0
     t3 = dr.sqrt(t2)
@@ -549,14 +560,13 @@ def prepare_c(c):
     t6 = (t2*t2)
     t7 = (t2*t2*dr.sqrt(t2))
     t8 = 20.0*t0
-    t9 = (1.0/3.0)*t0
-    t10 = (15.0/256.0)*t0
-    t11 = (1.0/3.141592653589793238)
-    t12 = -0.05860387324696379*t0 - 0.005821682593788582*t1 + 0.0008773011177337195*t5
-    t13 = 2.0*t3 - 1.0
-    t14 = (t13*t13)
-    t15 = (t13*t13*t13)
-    t16 = (t13*t13*t13*t13)
+    t9 = (15.0/256.0)*t0
+    t10 = (1.0/3.141592653589793238)
+    t11 = -0.05860387324696379*t0 - 0.005821682593788582*t1 + 0.0008773011177337195*t5
+    t12 = 2.0*t3 - 1.0
+    t13 = (t12*t12)
+    t14 = (t12*t12*t12)
+    t15 = (t12*t12*t12*t12)
     return (
         t1*(-0.22663319577369706*t0 + 0.29221196193805016*t3 - 0.09729469824061904*t4 + 0.14331013054356149)/(-0.2843749048892069*t0 + 1.6614506172832844*t3 - 0.4540930164912601*t4 + 1.2843749048892069),
         (1.0/384.0)*t0,
@@ -589,15 +599,15 @@ def prepare_c(c):
         t0,
         t0*(t8 + 281.0) - 346.0,
         (15.0 - 15.0*t0)*(4.0*t0 + 9.0),
-        t9/(3.141592653589793238*3.141592653589793238),
+        (2.0/3.0)*t0/(3.141592653589793238*3.141592653589793238),
         0.0032773104377737225*t3,
         -0.0011793166019935435*t3,
         -0.003569301003270028*t3,
         0.002147602955343103*t3 + 0.0021870832323814967,
-        t10,
-        t10*t11,
-        t12,
-        0.31272388944032809*t0 - 0.0042389660736671498*t1 + (t12*t12),
+        t9,
+        t10*t9,
+        t11,
+        0.31272388944032809*t0 - 0.0042389660736671498*t1 + (t11*t11),
         0.0662557328553895*t3,
         0.0574662363213306*t3,
         0.06061898656512081*t2,
@@ -607,57 +617,57 @@ def prepare_c(c):
         -0.004494906937942091*t0 + 0.08617889059204359*t3 + 0.090016644370520301,
         t8 + 45.0,
         -1.0/192.0*t0,
-        t11*t9,
-        0.10959653178533475*t14,
-        0.1766119774816802*t14,
-        0.25597403686706693*t14,
-        2.42146807891088*t15,
-        0.5027933198177464*t15,
-        2.070129643634922*t16,
-        0.519096218517333*t15,
-        2.5251177518363694*t13,
-        1.3385823867874944*t13,
-        2.7903213618028806*t16,
-        3.9162801286388897*t14,
-        -1.7626547831461115*t14,
-        -3.6618141129510917*t16,
-        -0.21141002665509673*t13,
-        -0.016932172543436784*t16,
-        -2.295795044579524*t13,
-        -2.8379131409273515*t14,
-        -0.7128581043130656*t16,
-        -1.6739402521122886*t15,
-        -1.7061192768751303*t15,
-        -0.014210822631915428*t15,
-        -0.46352701817452785*t16,
-        -0.4890688103263692*t13,
-        -0.49993828263168366*t13,
-        0.10625650933246486*t14 - 0.09050045154983123*t15 + 0.040558449658917785*t16 - 1.8499934365876788*t3,
-        0.805852957259517*t15,
-        0.6582269037007633*t13,
-        0.45043691346028303*t14,
-        0.5742385031683162*t16,
-        0.6392720659218424*t13,
-        0.18739898105517722*t15,
-        0.8371462419661069*t14,
-        0.6212937162033938*t16,
-        0.4124295039969486*t13,
-        0.41754495392944535*t15,
-        0.028662593819483183*t16,
-        -0.5773338931218077*t13,
-        -0.7667251911655493*t16,
-        -0.07180031380227185*t14,
-        -0.6316753368520219*t15,
-        -0.5766031303491715*t15,
-        -0.5901356749175913*t13,
-        -0.15688016937511312*t15,
-        -0.08951890733992941*t16,
-        -0.37270829229253744*t14,
-        -0.37628293329323487*t16,
-        -0.3929206076202727*t14,
-        -0.43279839293414*t13,
-        -0.49761324603578005*t14,
-        0.07480678777429003*t14 - 0.048730004697608804*t15 + 0.017690506072644132*t16 - 0.5194652563684371*t3,
+        (1.0/3.0)*t0*t10,
+        0.10959653178533475*t13,
+        0.1766119774816802*t13,
+        0.25597403686706693*t13,
+        2.42146807891088*t14,
+        0.5027933198177464*t14,
+        2.070129643634922*t15,
+        0.519096218517333*t14,
+        2.5251177518363694*t12,
+        1.3385823867874944*t12,
+        2.7903213618028806*t15,
+        3.9162801286388897*t13,
+        -1.7626547831461115*t13,
+        -3.6618141129510917*t15,
+        -0.21141002665509673*t12,
+        -0.016932172543436784*t15,
+        -2.295795044579524*t12,
+        -2.8379131409273515*t13,
+        -0.7128581043130656*t15,
+        -1.6739402521122886*t14,
+        -1.7061192768751303*t14,
+        -0.014210822631915428*t14,
+        -0.46352701817452785*t15,
+        -0.4890688103263692*t12,
+        -0.49993828263168366*t12,
+        0.10625650933246486*t13 - 0.09050045154983123*t14 + 0.040558449658917785*t15 - 1.8499934365876788*t3,
+        0.805852957259517*t14,
+        0.6582269037007633*t12,
+        0.45043691346028303*t13,
+        0.5742385031683162*t15,
+        0.6392720659218424*t12,
+        0.18739898105517722*t14,
+        0.8371462419661069*t13,
+        0.6212937162033938*t15,
+        0.4124295039969486*t12,
+        0.41754495392944535*t14,
+        0.028662593819483183*t15,
+        -0.5773338931218077*t12,
+        -0.7667251911655493*t15,
+        -0.07180031380227185*t13,
+        -0.6316753368520219*t14,
+        -0.5766031303491715*t14,
+        -0.5901356749175913*t12,
+        -0.15688016937511312*t14,
+        -0.08951890733992941*t15,
+        -0.37270829229253744*t13,
+        -0.37628293329323487*t15,
+        -0.3929206076202727*t13,
+        -0.43279839293414*t12,
+        -0.49761324603578005*t13,
+        0.07480678777429003*t13 - 0.048730004697608804*t14 + 0.017690506072644132*t15 - 0.5194652563684371*t3,
     )
 
 
@@ -673,35 +683,41 @@ def eval(material, mu_i, mu_o, cos_phi):
     c = 1 below 1 (docs/model.md). mu_i, mu_o in [0, 1], cos_phi in [-1, 1] (phi = 0 back-
     scattering), c the particle albedo in [0, 1]; inputs outside (+-inf included) are
     clamped, NaN in any input gives NaN."""
-    t21 = dr.select((mu_i < 0.0), 0.0, mu_i)
-    t0 = dr.select((t21 > 1.0), 1.0, t21)
-    t22 = dr.select((mu_o < 0.0), 0.0, mu_o)
-    t1 = dr.select((t22 > 1.0), 1.0, t22)
-    t2 = t0 + t1
-    t3 = (1.0/dr.select((t2 < 1.0/1000000.0), 1.0/1000000.0, t2))
-    t4 = t0*t1
-    t23 = dr.select((cos_phi < -1.0), -1.0, cos_phi)
-    t5 = dr.select((t23 > 1.0), 1.0, t23)
-    t6 = (t0*t0)
-    t7 = t6 - 1.0
-    t8 = (t1*t1)
-    t9 = t8 - 1.0
-    t10 = t7*t9
-    t11 = dr.sqrt(t10)
-    t24 = -t11*t5 - t4
-    t25 = dr.select((t24 > 1.0), 1.0, t24)
-    t12 = dr.select((t25 < -1.0), -1.0, t25)
-    t13 = dr.log(1.0 + (1.0/dr.select((t0 < 1.0e-30), 1.0e-30, t0)))
-    t14 = (t0*t0*t0)
-    t15 = dr.log(1.0 + (1.0/dr.select((t1 < 1.0e-30), 1.0e-30, t1)))
-    t16 = (t1*t1*t1)
-    t17 = material[38]*t2 + material[39]*t4
-    t18 = material[0]*t2 + material[2]*t6*t8 + material[3]*(t6 + t8) + material[4]*t0*t1*t2 + material[5]*t4
-    t19 = (t0*t0*t0*t0)
-    t20 = (t1*t1*t1*t1)
-    t26 = (1.0 - t12)*(t12 + 1.0)
-    t27 = (499973.0/500000.0)*material[31]*t3*(-2.0*t12*dr.acos(t12) + 2.0*dr.sqrt(dr.select((t26 < 0.0), 0.0, t26))) + (499973.0/500000.0)*material[37]*t10*t3*(2.0*(t5*t5) - 1.0)*_expm1(t0*(material[28]*(material[27]*(material[32]*t6 + material[33]*t14 + material[34]*t0 + material[35] - 0.0037961708223872375*t0 - 0.0014135909284063626*t14 + 0.0037035545003035746*t6) + (25.0/256.0)*t0 - 15.0/256.0*t14 + (15.0/512.0)*t6 - 45.0/1024.0) + material[36]*t13*(t7*t7)) + t1*(material[28]*(material[27]*(material[32]*t8 + material[33]*t16 + material[34]*t1 + material[35] - 0.0037961708223872375*t1 - 0.0014135909284063626*t16 + 0.0037035545003035746*t8) + (25.0/256.0)*t1 - 15.0/256.0*t16 + (15.0/512.0)*t8 - 45.0/1024.0) + material[36]*t15*(t9*t9))) + (499973.0/500000.0)*material[49]*t11*t3*t5*(t17 + (t17 + (45.0/64.0)*t4 + 1.0)*_expm1(t0*(material[28]*(material[27]*(material[40]*t6 + material[41]*t14 + material[42]*t14 + material[43]*t0 + material[44]*t0 + material[45]*t6 + material[46] - 0.1788584769584851*t0 + 0.06143020603611769*t14 + 0.05802135097287754*t6) - 47.0/96.0*t0 + (15.0/64.0)*t14 - 15.0/128.0*t6 + 173.0/768.0) + material[48]*t13*t7*(material[47]*t6 - 64.0)) + t1*(material[28]*(material[27]*(material[40]*t8 + material[41]*t16 + material[42]*t16 + material[43]*t1 + material[44]*t1 + material[45]*t8 + material[46] - 0.1788584769584851*t1 + 0.06143020603611769*t16 + 0.05802135097287754*t8) - 47.0/96.0*t1 + (15.0/64.0)*t16 - 15.0/128.0*t8 + 173.0/768.0) + material[48]*t15*t9*(material[47]*t8 - 64.0)))) + (499973.0/1000000.0)*t3*(t18 + (material[1]*(256.0*t4 + 135.0*t6*t8 - 45.0*t6 - 45.0*t8 + 207.0) + t18)*_expm1(t0*(material[1]*t13*(material[29]*t6 + material[30]*t19 + 207.0) + material[28]*(material[27]*(material[10]*t19 + material[11]*t6 + material[12]*t14 + material[13]*t0 + material[14]*t14 + material[15]*t19 + material[16]*t19 + material[17]*t0 + material[18]*t6 + material[19]*t0 + material[20]*t14 + material[21]*t19 + material[22]*t0 + material[23]*t14 + material[24]*t19 + material[25]*t6 + material[26] + material[6]*t6 + material[7]*t0 + material[8]*t14 + material[9]*t6 - 1.317974632049971*t0 + 0.10385474081646198*t14 + 0.06215295319723717*t19 + 0.28728468847971017*t6) + (301.0/384.0)*t0 - 45.0/128.0*t14 + (45.0/256.0)*t6 - 557.0/1536.0)) + t1*(material[1]*t15*(material[29]*t8 + material[30]*t20 + 207.0) + material[28]*(material[27]*(material[10]*t20 + material[11]*t8 + material[12]*t16 + material[13]*t1 + material[14]*t16 + material[15]*t20 + material[16]*t20 + material[17]*t1 + material[18]*t8 + material[19]*t1 + material[20]*t16 + material[21]*t20 + material[22]*t1 + material[23]*t16 + material[24]*t20 + material[25]*t8 + material[26] + material[6]*t8 + material[7]*t1 + material[8]*t16 + material[9]*t8 - 1.317974632049971*t1 + 0.10385474081646198*t16 + 0.06215295319723717*t20 + 0.28728468847971017*t8) + (301.0/384.0)*t1 - 45.0/128.0*t16 + (45.0/256.0)*t8 - 557.0/1536.0))))/3.141592653589793238
-    return dr.select((t27 < 0.0), 0.0, t27)
+    t30 = dr.select((cos_phi < -1.0), -1.0, cos_phi)
+    t0 = dr.select((t30 > 1.0), 1.0, t30)
+    t31 = dr.select((mu_i < 0.0), 0.0, mu_i)
+    t1 = dr.select((t31 > 1.0), 1.0, t31)
+    t32 = dr.select((mu_o < 0.0), 0.0, mu_o)
+    t2 = dr.select((t32 > 1.0), 1.0, t32)
+    t3 = t1 + t2
+    t4 = (1.0/dr.select((t3 < 1.0/1000000.0), 1.0/1000000.0, t3))
+    t5 = (t1*t1)
+    t6 = t5 - 1.0
+    t7 = dr.log(1.0 + (1.0/dr.select((t1 < 1.0e-30), 1.0e-30, t1)))
+    t8 = (t1*t1*t1)
+    t9 = (t2*t2)
+    t10 = t9 - 1.0
+    t11 = dr.log(1.0 + (1.0/dr.select((t2 < 1.0e-30), 1.0e-30, t2)))
+    t12 = (t2*t2*t2)
+    t13 = -t6
+    t14 = -t10*t13
+    t15 = dr.sqrt(t14)
+    t16 = t1*t2
+    t17 = material[38]*t3 + material[39]*t16
+    t18 = material[0]*t3 + material[2]*t5*t9 + material[3]*(t5 + t9) + material[4]*t1*t2*t3 + material[5]*t16
+    t19 = (t1*t1*t1*t1)
+    t20 = (t2*t2*t2*t2)
+    t33 = (1.0/2.0)*t15*(t0 + 1.0) + (1.0/2.0)*t16 + (1.0/2.0)*(t13*t9 + t5)/(t15 + 1.0)
+    t21 = dr.select((t33 < 0.0), 0.0, t33)
+    t22 = dr.select((t21 > 1.0), 1.0, t21)
+    t23 = 1.0 - t22
+    t24 = dr.asin(dr.sqrt(dr.select((t21 > t23), t23, dr.select((t21 <= t23), t21, t21 + t23))))
+    t26 = 2.0*t24
+    t27 = t26 - 3.141592653589793238
+    t28 = -t27
+    t29 = dr.select((t22 < 1.0/2.0), 4.0*(t24*t24), (t28*t28))
+    t34 = (499973.0/500000.0)*material[31]*t4*dr.select(dr.select((t22 < 1.0/2.0), (t24 < 1.0/4.0), (t27 > -1.0/2.0)), (t29*(t29*(t29*(t29*(t29*((1.0/93405312000.0)*t29 - 1.0/518918400.0) + 1.0/3991680.0) - 1.0/45360.0) + 1.0/840.0) - 1.0/30.0) + 1.0/3.0)*dr.select((t22 < 1.0/2.0), 8.0*(t24*t24*t24), (t28*t28*t28)), 2.0*dr.sqrt(t22)*dr.sqrt(t23) - (1.0 - 2.0*t22)*dr.select((t22 < 1.0/2.0), t26, t28)) + (499973.0/500000.0)*material[37]*t14*t4*(2.0*(t0*t0) - 1.0)*_expm1(t1*(material[28]*(material[27]*(material[32]*t5 + material[33]*t8 + material[34]*t1 + material[35] - 0.0037961708223872375*t1 + 0.0037035545003035746*t5 - 0.0014135909284063626*t8) + (25.0/256.0)*t1 + (15.0/512.0)*t5 - 15.0/256.0*t8 - 45.0/1024.0) + material[36]*(t6*t6)*t7) + t2*(material[28]*(material[27]*(material[32]*t9 + material[33]*t12 + material[34]*t2 + material[35] - 0.0014135909284063626*t12 - 0.0037961708223872375*t2 + 0.0037035545003035746*t9) - 15.0/256.0*t12 + (25.0/256.0)*t2 + (15.0/512.0)*t9 - 45.0/1024.0) + material[36]*(t10*t10)*t11)) + (499973.0/500000.0)*material[49]*t0*t15*t4*(t17 + ((45.0/64.0)*t16 + t17 + 1.0)*_expm1(t1*(material[28]*(material[27]*(material[40]*t5 + material[41]*t8 + material[42]*t8 + material[43]*t1 + material[44]*t1 + material[45]*t5 + material[46] - 0.1788584769584851*t1 + 0.05802135097287754*t5 + 0.06143020603611769*t8) - 47.0/96.0*t1 - 15.0/128.0*t5 + (15.0/64.0)*t8 + 173.0/768.0) + material[48]*t6*t7*(material[47]*t5 - 64.0)) + t2*(material[28]*(material[27]*(material[40]*t9 + material[41]*t12 + material[42]*t12 + material[43]*t2 + material[44]*t2 + material[45]*t9 + material[46] + 0.06143020603611769*t12 - 0.1788584769584851*t2 + 0.05802135097287754*t9) + (15.0/64.0)*t12 - 47.0/96.0*t2 - 15.0/128.0*t9 + 173.0/768.0) + material[48]*t10*t11*(material[47]*t9 - 64.0)))) + (499973.0/1000000.0)*t4*(t18 + (material[1]*(256.0*t16 + 135.0*t5*t9 - 45.0*t5 - 45.0*t9 + 207.0) + t18)*_expm1(t1*(material[1]*t7*(material[29]*t5 + material[30]*t19 + 207.0) + material[28]*(material[27]*(material[10]*t19 + material[11]*t5 + material[12]*t8 + material[13]*t1 + material[14]*t8 + material[15]*t19 + material[16]*t19 + material[17]*t1 + material[18]*t5 + material[19]*t1 + material[20]*t8 + material[21]*t19 + material[22]*t1 + material[23]*t8 + material[24]*t19 + material[25]*t5 + material[26] + material[6]*t5 + material[7]*t1 + material[8]*t8 + material[9]*t5 - 1.317974632049971*t1 + 0.06215295319723717*t19 + 0.28728468847971017*t5 + 0.10385474081646198*t8) + (301.0/384.0)*t1 + (45.0/256.0)*t5 - 45.0/128.0*t8 - 557.0/1536.0)) + t2*(material[1]*t11*(material[29]*t9 + material[30]*t20 + 207.0) + material[28]*(material[27]*(material[10]*t20 + material[11]*t9 + material[12]*t12 + material[13]*t2 + material[14]*t12 + material[15]*t20 + material[16]*t20 + material[17]*t2 + material[18]*t9 + material[19]*t2 + material[20]*t12 + material[21]*t20 + material[22]*t2 + material[23]*t12 + material[24]*t20 + material[25]*t9 + material[26] + material[6]*t9 + material[7]*t2 + material[8]*t12 + material[9]*t9 + 0.10385474081646198*t12 - 1.317974632049971*t2 + 0.06215295319723717*t20 + 0.28728468847971017*t9) - 45.0/128.0*t12 + (301.0/384.0)*t2 + (45.0/256.0)*t9 - 557.0/1536.0))))/3.141592653589793238
+    return dr.select((t34 < 0.0), 0.0, t34)
 
 
 def eval_local(material, wi, wo):
@@ -709,26 +725,26 @@ def eval_local(material, wi, wo):
     prepare. brdf for unit vectors wi, wo in the local frame (z along the normal, both
     pointing away from the surface); 0 if either is below the surface. Components are
     clamped to [-1, 1] (not normalised); NaN in any input gives NaN."""
-    t27 = dr.select((wi[2] < -1.0), -1.0, wi[2])
-    t0 = dr.select((t27 > 1.0), 1.0, t27)
-    t28 = dr.select((wo[2] < -1.0), -1.0, wo[2])
-    t1 = dr.select((t28 > 1.0), 1.0, t28)
-    t29 = dr.select((wi[0] < -1.0), -1.0, wi[0])
-    t2 = dr.select((t29 > 1.0), 1.0, t29)
-    t30 = dr.select((wo[0] < -1.0), -1.0, wo[0])
-    t3 = dr.select((t30 > 1.0), 1.0, t30)
-    t31 = dr.select((wi[1] < -1.0), -1.0, wi[1])
-    t4 = dr.select((t31 > 1.0), 1.0, t31)
-    t32 = dr.select((wo[1] < -1.0), -1.0, wo[1])
-    t5 = dr.select((t32 > 1.0), 1.0, t32)
-    t33 = ((t2*t2) + (t4*t4))*((t3*t3) + (t5*t5))
-    t34 = (t2*t3 + t4*t5)/dr.sqrt(dr.select((t33 < 1.0/1000000000000000000000000000000.0), 1.0/1000000000000000000000000000000.0, t33))
-    t35 = dr.select((t34 < -1.0), -1.0, t34)
-    t6 = dr.select((t35 > 1.0), 1.0, t35)
-    t36 = dr.select((t0 < 0.0), 0.0, t0)
-    t7 = dr.select((t36 > 1.0), 1.0, t36)
-    t37 = dr.select((t1 < 0.0), 0.0, t1)
-    t8 = dr.select((t37 > 1.0), 1.0, t37)
+    t36 = dr.select((wi[2] < -1.0), -1.0, wi[2])
+    t0 = dr.select((t36 > 1.0), 1.0, t36)
+    t37 = dr.select((wo[2] < -1.0), -1.0, wo[2])
+    t1 = dr.select((t37 > 1.0), 1.0, t37)
+    t38 = dr.select((wi[0] < -1.0), -1.0, wi[0])
+    t2 = dr.select((t38 > 1.0), 1.0, t38)
+    t39 = dr.select((wo[0] < -1.0), -1.0, wo[0])
+    t3 = dr.select((t39 > 1.0), 1.0, t39)
+    t40 = dr.select((wi[1] < -1.0), -1.0, wi[1])
+    t4 = dr.select((t40 > 1.0), 1.0, t40)
+    t41 = dr.select((wo[1] < -1.0), -1.0, wo[1])
+    t5 = dr.select((t41 > 1.0), 1.0, t41)
+    t42 = ((t2*t2) + (t4*t4))*((t3*t3) + (t5*t5))
+    t43 = (t2*t3 + t4*t5)/dr.sqrt(dr.select((t42 < 1.0/1000000000000000000000000000000.0), 1.0/1000000000000000000000000000000.0, t42))
+    t44 = dr.select((t43 < -1.0), -1.0, t43)
+    t6 = dr.select((t44 > 1.0), 1.0, t44)
+    t45 = dr.select((t0 < 0.0), 0.0, t0)
+    t7 = dr.select((t45 > 1.0), 1.0, t45)
+    t46 = dr.select((t1 < 0.0), 0.0, t1)
+    t8 = dr.select((t46 > 1.0), 1.0, t46)
     t9 = t7 + t8
     t10 = (1.0/dr.select((t9 < 1.0/1000000.0), 1.0/1000000.0, t9))
     t11 = (t7*t7)
@@ -739,19 +755,25 @@ def eval_local(material, wi, wo):
     t16 = t15 - 1.0
     t17 = dr.log(1.0 + (1.0/dr.select((t8 < 1.0e-30), 1.0e-30, t8)))
     t18 = (t8*t8*t8)
-    t19 = t12*t16
-    t20 = t7*t8
-    t21 = dr.sqrt(t19)
-    t38 = -t20 - t21*t6
-    t39 = dr.select((t38 > 1.0), 1.0, t38)
-    t22 = dr.select((t39 < -1.0), -1.0, t39)
-    t23 = material[38]*t9 + material[39]*t20
-    t24 = material[0]*t9 + material[2]*t11*t15 + material[3]*(t11 + t15) + material[4]*t7*t8*t9 + material[5]*t20
+    t19 = -t12
+    t20 = -t16*t19
+    t21 = dr.sqrt(t20)
+    t22 = t7*t8
+    t23 = material[38]*t9 + material[39]*t22
+    t24 = material[0]*t9 + material[2]*t11*t15 + material[3]*(t11 + t15) + material[4]*t7*t8*t9 + material[5]*t22
     t25 = (t7*t7*t7*t7)
     t26 = (t8*t8*t8*t8)
-    t40 = (1.0 - t22)*(t22 + 1.0)
-    t41 = (499973.0/500000.0)*material[31]*t10*(-2.0*t22*dr.acos(t22) + 2.0*dr.sqrt(dr.select((t40 < 0.0), 0.0, t40))) + (499973.0/500000.0)*material[37]*t10*t19*(2.0*(t6*t6) - 1.0)*_expm1(t7*(material[28]*(material[27]*(material[32]*t11 + material[33]*t14 + material[34]*t7 + material[35] + 0.0037035545003035746*t11 - 0.0014135909284063626*t14 - 0.0037961708223872375*t7) + (15.0/512.0)*t11 - 15.0/256.0*t14 + (25.0/256.0)*t7 - 45.0/1024.0) + material[36]*(t12*t12)*t13) + t8*(material[28]*(material[27]*(material[32]*t15 + material[33]*t18 + material[34]*t8 + material[35] + 0.0037035545003035746*t15 - 0.0014135909284063626*t18 - 0.0037961708223872375*t8) + (15.0/512.0)*t15 - 15.0/256.0*t18 + (25.0/256.0)*t8 - 45.0/1024.0) + material[36]*(t16*t16)*t17)) + (499973.0/500000.0)*material[49]*t10*t21*t6*(t23 + ((45.0/64.0)*t20 + t23 + 1.0)*_expm1(t7*(material[28]*(material[27]*(material[40]*t11 + material[41]*t14 + material[42]*t14 + material[43]*t7 + material[44]*t7 + material[45]*t11 + material[46] + 0.05802135097287754*t11 + 0.06143020603611769*t14 - 0.1788584769584851*t7) - 15.0/128.0*t11 + (15.0/64.0)*t14 - 47.0/96.0*t7 + 173.0/768.0) + material[48]*t12*t13*(material[47]*t11 - 64.0)) + t8*(material[28]*(material[27]*(material[40]*t15 + material[41]*t18 + material[42]*t18 + material[43]*t8 + material[44]*t8 + material[45]*t15 + material[46] + 0.05802135097287754*t15 + 0.06143020603611769*t18 - 0.1788584769584851*t8) - 15.0/128.0*t15 + (15.0/64.0)*t18 - 47.0/96.0*t8 + 173.0/768.0) + material[48]*t16*t17*(material[47]*t15 - 64.0)))) + (499973.0/1000000.0)*t10*(t24 + (material[1]*(135.0*t11*t15 - 45.0*t11 - 45.0*t15 + 256.0*t20 + 207.0) + t24)*_expm1(t7*(material[1]*t13*(material[29]*t11 + material[30]*t25 + 207.0) + material[28]*(material[27]*(material[10]*t25 + material[11]*t11 + material[12]*t14 + material[13]*t7 + material[14]*t14 + material[15]*t25 + material[16]*t25 + material[17]*t7 + material[18]*t11 + material[19]*t7 + material[20]*t14 + material[21]*t25 + material[22]*t7 + material[23]*t14 + material[24]*t25 + material[25]*t11 + material[26] + material[6]*t11 + material[7]*t7 + material[8]*t14 + material[9]*t11 + 0.28728468847971017*t11 + 0.10385474081646198*t14 + 0.06215295319723717*t25 - 1.317974632049971*t7) + (45.0/256.0)*t11 - 45.0/128.0*t14 + (301.0/384.0)*t7 - 557.0/1536.0)) + t8*(material[1]*t17*(material[29]*t15 + material[30]*t26 + 207.0) + material[28]*(material[27]*(material[10]*t26 + material[11]*t15 + material[12]*t18 + material[13]*t8 + material[14]*t18 + material[15]*t26 + material[16]*t26 + material[17]*t8 + material[18]*t15 + material[19]*t8 + material[20]*t18 + material[21]*t26 + material[22]*t8 + material[23]*t18 + material[24]*t26 + material[25]*t15 + material[26] + material[6]*t15 + material[7]*t8 + material[8]*t18 + material[9]*t15 + 0.28728468847971017*t15 + 0.10385474081646198*t18 + 0.06215295319723717*t26 - 1.317974632049971*t8) + (45.0/256.0)*t15 - 45.0/128.0*t18 + (301.0/384.0)*t8 - 557.0/1536.0))))/3.141592653589793238
-    return dr.select((t0 < 0.0), 0.0, 1.0)*dr.select((t1 < 0.0), 0.0, 1.0)*dr.select((t41 < 0.0), 0.0, t41)
+    t47 = (1.0/2.0)*t21*(t6 + 1.0) + (1.0/2.0)*t22 + (1.0/2.0)*(t11 + t15*t19)/(t21 + 1.0)
+    t27 = dr.select((t47 < 0.0), 0.0, t47)
+    t28 = dr.select((t27 > 1.0), 1.0, t27)
+    t29 = 1.0 - t28
+    t30 = dr.asin(dr.sqrt(dr.select((t27 > t29), t29, dr.select((t27 <= t29), t27, t27 + t29))))
+    t32 = 2.0*t30
+    t33 = t32 - 3.141592653589793238
+    t34 = -t33
+    t35 = dr.select((t28 < 1.0/2.0), 4.0*(t30*t30), (t34*t34))
+    t48 = (499973.0/500000.0)*material[31]*t10*dr.select(dr.select((t28 < 1.0/2.0), (t30 < 1.0/4.0), (t33 > -1.0/2.0)), (t35*(t35*(t35*(t35*(t35*((1.0/93405312000.0)*t35 - 1.0/518918400.0) + 1.0/3991680.0) - 1.0/45360.0) + 1.0/840.0) - 1.0/30.0) + 1.0/3.0)*dr.select((t28 < 1.0/2.0), 8.0*(t30*t30*t30), (t34*t34*t34)), 2.0*dr.sqrt(t28)*dr.sqrt(t29) - (1.0 - 2.0*t28)*dr.select((t28 < 1.0/2.0), t32, t34)) + (499973.0/500000.0)*material[37]*t10*t20*(2.0*(t6*t6) - 1.0)*_expm1(t7*(material[28]*(material[27]*(material[32]*t11 + material[33]*t14 + material[34]*t7 + material[35] + 0.0037035545003035746*t11 - 0.0014135909284063626*t14 - 0.0037961708223872375*t7) + (15.0/512.0)*t11 - 15.0/256.0*t14 + (25.0/256.0)*t7 - 45.0/1024.0) + material[36]*(t12*t12)*t13) + t8*(material[28]*(material[27]*(material[32]*t15 + material[33]*t18 + material[34]*t8 + material[35] + 0.0037035545003035746*t15 - 0.0014135909284063626*t18 - 0.0037961708223872375*t8) + (15.0/512.0)*t15 - 15.0/256.0*t18 + (25.0/256.0)*t8 - 45.0/1024.0) + material[36]*(t16*t16)*t17)) + (499973.0/500000.0)*material[49]*t10*t21*t6*(t23 + ((45.0/64.0)*t22 + t23 + 1.0)*_expm1(t7*(material[28]*(material[27]*(material[40]*t11 + material[41]*t14 + material[42]*t14 + material[43]*t7 + material[44]*t7 + material[45]*t11 + material[46] + 0.05802135097287754*t11 + 0.06143020603611769*t14 - 0.1788584769584851*t7) - 15.0/128.0*t11 + (15.0/64.0)*t14 - 47.0/96.0*t7 + 173.0/768.0) + material[48]*t12*t13*(material[47]*t11 - 64.0)) + t8*(material[28]*(material[27]*(material[40]*t15 + material[41]*t18 + material[42]*t18 + material[43]*t8 + material[44]*t8 + material[45]*t15 + material[46] + 0.05802135097287754*t15 + 0.06143020603611769*t18 - 0.1788584769584851*t8) - 15.0/128.0*t15 + (15.0/64.0)*t18 - 47.0/96.0*t8 + 173.0/768.0) + material[48]*t16*t17*(material[47]*t15 - 64.0)))) + (499973.0/1000000.0)*t10*(t24 + (material[1]*(135.0*t11*t15 - 45.0*t11 - 45.0*t15 + 256.0*t22 + 207.0) + t24)*_expm1(t7*(material[1]*t13*(material[29]*t11 + material[30]*t25 + 207.0) + material[28]*(material[27]*(material[10]*t25 + material[11]*t11 + material[12]*t14 + material[13]*t7 + material[14]*t14 + material[15]*t25 + material[16]*t25 + material[17]*t7 + material[18]*t11 + material[19]*t7 + material[20]*t14 + material[21]*t25 + material[22]*t7 + material[23]*t14 + material[24]*t25 + material[25]*t11 + material[26] + material[6]*t11 + material[7]*t7 + material[8]*t14 + material[9]*t11 + 0.28728468847971017*t11 + 0.10385474081646198*t14 + 0.06215295319723717*t25 - 1.317974632049971*t7) + (45.0/256.0)*t11 - 45.0/128.0*t14 + (301.0/384.0)*t7 - 557.0/1536.0)) + t8*(material[1]*t17*(material[29]*t15 + material[30]*t26 + 207.0) + material[28]*(material[27]*(material[10]*t26 + material[11]*t15 + material[12]*t18 + material[13]*t8 + material[14]*t18 + material[15]*t26 + material[16]*t26 + material[17]*t8 + material[18]*t15 + material[19]*t8 + material[20]*t18 + material[21]*t26 + material[22]*t8 + material[23]*t18 + material[24]*t26 + material[25]*t15 + material[26] + material[6]*t15 + material[7]*t8 + material[8]*t18 + material[9]*t15 + 0.28728468847971017*t15 + 0.10385474081646198*t18 + 0.06215295319723717*t26 - 1.317974632049971*t8) + (45.0/256.0)*t15 - 45.0/128.0*t18 + (301.0/384.0)*t8 - 557.0/1536.0))))/3.141592653589793238
+    return dr.select((t0 < 0.0), 0.0, 1.0)*dr.select((t1 < 0.0), 0.0, 1.0)*dr.select((t48 < 0.0), 0.0, t48)
 
 
 def pdf(material, wi, wo):

@@ -266,18 +266,27 @@ LAMBERT_SPHERE_TABLES_FN double lambert_sphere_tables_c_of_kd(double kd)
 
 LAMBERT_SPHERE_TABLES_FN double lambert_sphere_tables_single(double mu_i, double mu_o, double cos_phi, double c)
 {
-    const double t3 = ((mu_i < 0.0) ? (0.0) : (mu_i));
-    const double t0 = ((t3 > 1.0) ? (1.0) : (t3));
-    const double t4 = ((mu_o < 0.0) ? (0.0) : (mu_o));
-    const double t1 = ((t4 > 1.0) ? (1.0) : (t4));
-    const double t5 = ((cos_phi < -1.0) ? (-1.0) : (cos_phi));
-    const double t6 = -t0*t1 - sqrt((1.0 - (t0*t0))*(1.0 - (t1*t1)))*((t5 > 1.0) ? (1.0) : (t5));
+    const double t15 = ((mu_i < 0.0) ? (0.0) : (mu_i));
+    const double t0 = ((t15 > 1.0) ? (1.0) : (t15));
+    const double t16 = ((mu_o < 0.0) ? (0.0) : (mu_o));
+    const double t1 = ((t16 > 1.0) ? (1.0) : (t16));
+    const double t2 = (t0*t0);
+    const double t3 = 1.0 - t2;
+    const double t4 = (t1*t1);
+    const double t5 = sqrt(t3*(1.0 - t4));
+    const double t17 = ((cos_phi < -1.0) ? (-1.0) : (cos_phi));
+    const double t18 = ((1.0/2.0))*t0*t1 + ((1.0/2.0))*t5*(((t17 > 1.0) ? (1.0) : (t17)) + 1.0) + ((1.0/2.0))*(t2 + t3*t4)/(t5 + 1.0);
+    const double t6 = ((t18 < 0.0) ? (0.0) : (t18));
     const double t7 = ((t6 > 1.0) ? (1.0) : (t6));
-    const double t2 = ((t7 < -1.0) ? (-1.0) : (t7));
-    const double t8 = t0 + t1;
-    const double t9 = (1.0 - t2)*(t2 + 1.0);
-    const double t10 = ((c < 0.0) ? (0.0) : (c));
-    return ((1.0/3.0))*(-2.0*t2*acos(t2) + 2.0*sqrt(((t9 < 0.0) ? (0.0) : (t9))))*((t10 > 1.0) ? (1.0) : (t10))/((3.141592653589793238*3.141592653589793238)*((t8 < (1.0/1000000.0)) ? ((1.0/1000000.0)) : (t8)));
+    const double t8 = 1.0 - t7;
+    const double t9 = asin(sqrt(((t6 > t8) ? (t8) : (((t6 <= t8) ? (t6) : (t6 + t8))))));
+    const double t11 = 2.0*t9;
+    const double t12 = t11 - 3.141592653589793238;
+    const double t13 = -t12;
+    const double t14 = ((t7 < (1.0/2.0)) ? (4.0*(t9*t9)) : ((t13*t13)));
+    const double t19 = t0 + t1;
+    const double t20 = ((c < 0.0) ? (0.0) : (c));
+    return ((2.0/3.0))*((((t7 < (1.0/2.0)) ? (t9 < (1.0/4.0)) : (t12 > (-1.0/2.0)))) ? ((t14*(t14*(t14*(t14*(t14*(((1.0/93405312000.0))*t14 + (-1.0/518918400.0)) + (1.0/3991680.0)) + (-1.0/45360.0)) + (1.0/840.0)) + (-1.0/30.0)) + (1.0/3.0))*((t7 < (1.0/2.0)) ? (8.0*(t9*t9*t9)) : ((t13*t13*t13)))) : (2.0*sqrt(t7)*sqrt(t8) - (1.0 - 2.0*t7)*((t7 < (1.0/2.0)) ? (t11) : (t13))))*((t20 > 1.0) ? (1.0) : (t20))/((3.141592653589793238*3.141592653589793238)*((t19 < (1.0/1000000.0)) ? ((1.0/1000000.0)) : (t19)));
 }
 
 LAMBERT_SPHERE_TABLES_FN double lambert_sphere_tables_fm0(double mu_i, double mu_o, double c)
@@ -782,18 +791,27 @@ LAMBERT_SPHERE_TABLES_FN float lambert_sphere_tables_c_of_kd_f(float kd)
 
 LAMBERT_SPHERE_TABLES_FN float lambert_sphere_tables_single_f(float mu_i, float mu_o, float cos_phi, float c)
 {
-    const float t3 = ((mu_i < 0.0F) ? (0.0F) : (mu_i));
-    const float t0 = ((t3 > 1.0F) ? (1.0F) : (t3));
-    const float t4 = ((mu_o < 0.0F) ? (0.0F) : (mu_o));
-    const float t1 = ((t4 > 1.0F) ? (1.0F) : (t4));
-    const float t5 = ((cos_phi < -1.0F) ? (-1.0F) : (cos_phi));
-    const float t6 = -t0*t1 - sqrtf((1.0F - (t0*t0))*(1.0F - (t1*t1)))*((t5 > 1.0F) ? (1.0F) : (t5));
+    const float t15 = ((mu_i < 0.0F) ? (0.0F) : (mu_i));
+    const float t0 = ((t15 > 1.0F) ? (1.0F) : (t15));
+    const float t16 = ((mu_o < 0.0F) ? (0.0F) : (mu_o));
+    const float t1 = ((t16 > 1.0F) ? (1.0F) : (t16));
+    const float t2 = (t0*t0);
+    const float t3 = 1.0F - t2;
+    const float t4 = (t1*t1);
+    const float t5 = sqrtf(t3*(1.0F - t4));
+    const float t17 = ((cos_phi < -1.0F) ? (-1.0F) : (cos_phi));
+    const float t18 = ((1.0F/2.0F))*t0*t1 + ((1.0F/2.0F))*t5*(((t17 > 1.0F) ? (1.0F) : (t17)) + 1.0F) + ((1.0F/2.0F))*(t2 + t3*t4)/(t5 + 1.0F);
+    const float t6 = ((t18 < 0.0F) ? (0.0F) : (t18));
     const float t7 = ((t6 > 1.0F) ? (1.0F) : (t6));
-    const float t2 = ((t7 < -1.0F) ? (-1.0F) : (t7));
-    const float t8 = t0 + t1;
-    const float t9 = (1.0F - t2)*(t2 + 1.0F);
-    const float t10 = ((c < 0.0F) ? (0.0F) : (c));
-    return ((1.0F/3.0F))*(-2.0F*t2*acosf(t2) + 2.0F*sqrtf(((t9 < 0.0F) ? (0.0F) : (t9))))*((t10 > 1.0F) ? (1.0F) : (t10))/((3.141592653589793238F*3.141592653589793238F)*((t8 < (1.0F/1000000.0F)) ? ((1.0F/1000000.0F)) : (t8)));
+    const float t8 = 1.0F - t7;
+    const float t9 = asinf(sqrtf(((t6 > t8) ? (t8) : (((t6 <= t8) ? (t6) : (t6 + t8))))));
+    const float t11 = 2.0F*t9;
+    const float t12 = t11 - 3.141592653589793238F;
+    const float t13 = -t12;
+    const float t14 = ((t7 < (1.0F/2.0F)) ? (4.0F*(t9*t9)) : ((t13*t13)));
+    const float t19 = t0 + t1;
+    const float t20 = ((c < 0.0F) ? (0.0F) : (c));
+    return ((2.0F/3.0F))*((((t7 < (1.0F/2.0F)) ? (t9 < (1.0F/4.0F)) : (t12 > (-1.0F/2.0F)))) ? ((t14*(t14*(t14*(t14*(t14*(((1.0F/93405312000.0F))*t14 + (-1.0F/518918400.0F)) + (1.0F/3991680.0F)) + (-1.0F/45360.0F)) + (1.0F/840.0F)) + (-1.0F/30.0F)) + (1.0F/3.0F))*((t7 < (1.0F/2.0F)) ? (8.0F*(t9*t9*t9)) : ((t13*t13*t13)))) : (2.0F*sqrtf(t7)*sqrtf(t8) - (1.0F - 2.0F*t7)*((t7 < (1.0F/2.0F)) ? (t11) : (t13))))*((t20 > 1.0F) ? (1.0F) : (t20))/((3.141592653589793238F*3.141592653589793238F)*((t19 < (1.0F/1000000.0F)) ? ((1.0F/1000000.0F)) : (t19)));
 }
 
 LAMBERT_SPHERE_TABLES_FN float lambert_sphere_tables_fm0_f(float mu_i, float mu_o, float c)
@@ -1111,7 +1129,7 @@ LAMBERT_SPHERE_TABLES_FN lambert_sphere_tables_material lambert_sphere_tables_pr
     m.k[29] = t2;
     m.k[30] = t0*(t23 + 281.0) - 346.0;
     m.k[31] = (15.0 - 15.0*t0)*(4.0*t0 + 9.0);
-    m.k[32] = ((1.0/3.0))*t0/(3.141592653589793238*3.141592653589793238);
+    m.k[32] = ((2.0/3.0))*t0/(3.141592653589793238*3.141592653589793238);
     return m;
 }
 
@@ -1134,28 +1152,107 @@ LAMBERT_SPHERE_TABLES_FN void lambert_sphere_tables_prepare_rgb(const double kd[
 
 LAMBERT_SPHERE_TABLES_FN double lambert_sphere_tables_eval(const lambert_sphere_tables_material *m, double mu_i, double mu_o, double cos_phi)
 {
-    const double t49 = ((mu_i < 0.0) ? (0.0) : (mu_i));
-    const double t0 = ((t49 > 1.0) ? (1.0) : (t49));
-    const double t50 = ((mu_o < 0.0) ? (0.0) : (mu_o));
-    const double t1 = ((t50 > 1.0) ? (1.0) : (t50));
-    const double t2 = t0 + t1;
-    const double t3 = 1.0/((t2 < (1.0/1000000.0)) ? ((1.0/1000000.0)) : (t2));
-    const double t4 = t0*t1;
-    const double t51 = ((cos_phi < -1.0) ? (-1.0) : (cos_phi));
-    const double t5 = ((t51 > 1.0) ? (1.0) : (t51));
-    const double t6 = (t0*t0);
-    const double t7 = t6 - 1.0;
-    const double t8 = (t1*t1);
-    const double t9 = t8 - 1.0;
-    const double t10 = t7*t9;
-    const double t11 = sqrt(t10);
-    const double t52 = -t11*t5 - t4;
-    const double t53 = ((t52 > 1.0) ? (1.0) : (t52));
-    const double t12 = ((t53 < -1.0) ? (-1.0) : (t53));
-    const double t13 = log(1.0 + 1.0/((t0 < 1.0000000000000001e-30) ? (1.0000000000000001e-30) : (t0)));
-    const double t14 = (t0*t0*t0);
-    const double t15 = ((t0 < (1.0/32.0)) ? (0.0) : (((t0 >= (31.0/32.0)) ? (29.0) : (floor(32.0*t0) - 1.0))));
-    const double t16 = -32.0*t0 + t15;
+    const double t58 = ((cos_phi < -1.0) ? (-1.0) : (cos_phi));
+    const double t0 = ((t58 > 1.0) ? (1.0) : (t58));
+    const double t59 = ((mu_i < 0.0) ? (0.0) : (mu_i));
+    const double t1 = ((t59 > 1.0) ? (1.0) : (t59));
+    const double t60 = ((mu_o < 0.0) ? (0.0) : (mu_o));
+    const double t2 = ((t60 > 1.0) ? (1.0) : (t60));
+    const double t3 = t1 + t2;
+    const double t4 = 1.0/((t3 < (1.0/1000000.0)) ? ((1.0/1000000.0)) : (t3));
+    const double t5 = (t1*t1);
+    const double t6 = t5 - 1.0;
+    const double t7 = log(1.0 + 1.0/((t1 < 1.0000000000000001e-30) ? (1.0000000000000001e-30) : (t1)));
+    const double t8 = (t1*t1*t1);
+    const double t9 = ((t1 < (1.0/32.0)) ? (0.0) : (((t1 >= (31.0/32.0)) ? (29.0) : (floor(32.0*t1) - 1.0))));
+    const double t10 = -32.0*t1 + t9;
+    const double t11 = -t10 - 3.0;
+    const double t12 = -t10 - 2.0;
+    const double t13 = t10 + 1.0;
+    const double t14 = ((1.0/6.0))*t11*t12*t13;
+    const double t15 = t9 + 2.0;
+    const double t16 = -t13;
+    const double t17 = ((1.0/2.0))*t11;
+    const double t18 = t10*t16*t17;
+    const double t19 = t9 + 1.0;
+    const double t20 = -t10*t12;
+    const double t21 = t17*t20;
+    const double t22 = t9 + 3.0;
+    const double t23 = ((1.0/6.0))*t16*t20;
+    const double t24 = (t2*t2);
+    const double t25 = t24 - 1.0;
+    const double t26 = log(1.0 + 1.0/((t2 < 1.0000000000000001e-30) ? (1.0000000000000001e-30) : (t2)));
+    const double t27 = (t2*t2*t2);
+    const double t28 = ((t2 < (1.0/32.0)) ? (0.0) : (((t2 >= (31.0/32.0)) ? (29.0) : (floor(32.0*t2) - 1.0))));
+    const double t29 = -32.0*t2 + t28;
+    const double t30 = -t29 - 3.0;
+    const double t31 = -t29 - 2.0;
+    const double t32 = t29 + 1.0;
+    const double t33 = ((1.0/6.0))*t30*t31*t32;
+    const double t34 = t28 + 2.0;
+    const double t35 = -t32;
+    const double t36 = ((1.0/2.0))*t30;
+    const double t37 = t29*t35*t36;
+    const double t38 = t28 + 1.0;
+    const double t39 = -t29*t31;
+    const double t40 = t36*t39;
+    const double t41 = t28 + 3.0;
+    const double t42 = ((1.0/6.0))*t35*t39;
+    const double t43 = -t6;
+    const double t44 = -t25*t43;
+    const double t45 = sqrt(t44);
+    const double t46 = t1*t2;
+    const double t47 = m->k[0]*t3 + m->k[1]*t1*t2;
+    const double t48 = m->k[20]*t3 + m->k[21]*(t24 + t5) + m->k[23]*t1*t2 + m->k[24]*t24*t5 + m->k[25]*t1*t2*t3;
+    const double t61 = ((1.0/2.0))*t45*(t0 + 1.0) + ((1.0/2.0))*t46 + ((1.0/2.0))*(t24*t43 + t5)/(t45 + 1.0);
+    const double t49 = ((t61 < 0.0) ? (0.0) : (t61));
+    const double t50 = ((t49 > 1.0) ? (1.0) : (t49));
+    const double t51 = 1.0 - t50;
+    const double t52 = asin(sqrt(((t49 > t51) ? (t51) : (((t49 <= t51) ? (t49) : (t49 + t51))))));
+    const double t54 = 2.0*t52;
+    const double t55 = t54 - 3.141592653589793238;
+    const double t56 = -t55;
+    const double t57 = ((t50 < (1.0/2.0)) ? (4.0*(t52*t52)) : ((t56*t56)));
+    const double t62 = m->k[13]*t0*t4*t45*(t47 + (((45.0/64.0))*t46 + t47 + 1.0)*expm1(t1*(m->k[12]*t6*t7*(m->k[11]*t5 - 64.0) + m->k[2]*(m->k[10]*(t14*lambert_sphere_tables_texel(m->k[9], t9) + t18*lambert_sphere_tables_texel(m->k[9], t15) + t21*lambert_sphere_tables_texel(m->k[9], t19) + t23*lambert_sphere_tables_texel(m->k[9], t22)) + m->k[4]*(t14*lambert_sphere_tables_texel(m->k[3], t9) + t18*lambert_sphere_tables_texel(m->k[3], t15) + t21*lambert_sphere_tables_texel(m->k[3], t19) + t23*lambert_sphere_tables_texel(m->k[3], t22)) + m->k[6]*(t14*lambert_sphere_tables_texel(m->k[5], t9) + t18*lambert_sphere_tables_texel(m->k[5], t15) + t21*lambert_sphere_tables_texel(m->k[5], t19) + t23*lambert_sphere_tables_texel(m->k[5], t22)) + m->k[8]*(t14*lambert_sphere_tables_texel(m->k[7], t9) + t18*lambert_sphere_tables_texel(m->k[7], t15) + t21*lambert_sphere_tables_texel(m->k[7], t19) + t23*lambert_sphere_tables_texel(m->k[7], t22)) - (47.0/96.0)*t1 - (15.0/128.0)*t5 + ((15.0/64.0))*t8 + (173.0/768.0))) + t2*(m->k[12]*t25*t26*(m->k[11]*t24 - 64.0) + m->k[2]*(m->k[10]*(t33*lambert_sphere_tables_texel(m->k[9], t28) + t37*lambert_sphere_tables_texel(m->k[9], t34) + t40*lambert_sphere_tables_texel(m->k[9], t38) + t42*lambert_sphere_tables_texel(m->k[9], t41)) + m->k[4]*(t33*lambert_sphere_tables_texel(m->k[3], t28) + t37*lambert_sphere_tables_texel(m->k[3], t34) + t40*lambert_sphere_tables_texel(m->k[3], t38) + t42*lambert_sphere_tables_texel(m->k[3], t41)) + m->k[6]*(t33*lambert_sphere_tables_texel(m->k[5], t28) + t37*lambert_sphere_tables_texel(m->k[5], t34) + t40*lambert_sphere_tables_texel(m->k[5], t38) + t42*lambert_sphere_tables_texel(m->k[5], t41)) + m->k[8]*(t33*lambert_sphere_tables_texel(m->k[7], t28) + t37*lambert_sphere_tables_texel(m->k[7], t34) + t40*lambert_sphere_tables_texel(m->k[7], t38) + t42*lambert_sphere_tables_texel(m->k[7], t41)) - (47.0/96.0)*t2 - (15.0/128.0)*t24 + ((15.0/64.0))*t27 + (173.0/768.0))))) + m->k[19]*t4*t44*(2.0*(t0*t0) - 1.0)*expm1(t1*(m->k[18]*(t6*t6)*t7 + m->k[2]*(m->k[10]*(t14*lambert_sphere_tables_texel(m->k[17], t9) + t18*lambert_sphere_tables_texel(m->k[17], t15) + t21*lambert_sphere_tables_texel(m->k[17], t19) + t23*lambert_sphere_tables_texel(m->k[17], t22)) + m->k[4]*(t14*lambert_sphere_tables_texel(m->k[14], t9) + t18*lambert_sphere_tables_texel(m->k[14], t15) + t21*lambert_sphere_tables_texel(m->k[14], t19) + t23*lambert_sphere_tables_texel(m->k[14], t22)) + m->k[6]*(t14*lambert_sphere_tables_texel(m->k[15], t9) + t18*lambert_sphere_tables_texel(m->k[15], t15) + t21*lambert_sphere_tables_texel(m->k[15], t19) + t23*lambert_sphere_tables_texel(m->k[15], t22)) + m->k[8]*(t14*lambert_sphere_tables_texel(m->k[16], t9) + t18*lambert_sphere_tables_texel(m->k[16], t15) + t21*lambert_sphere_tables_texel(m->k[16], t19) + t23*lambert_sphere_tables_texel(m->k[16], t22)) + ((25.0/256.0))*t1 + ((15.0/512.0))*t5 - (15.0/256.0)*t8 + (-45.0/1024.0))) + t2*(m->k[18]*(t25*t25)*t26 + m->k[2]*(m->k[10]*(t33*lambert_sphere_tables_texel(m->k[17], t28) + t37*lambert_sphere_tables_texel(m->k[17], t34) + t40*lambert_sphere_tables_texel(m->k[17], t38) + t42*lambert_sphere_tables_texel(m->k[17], t41)) + m->k[4]*(t33*lambert_sphere_tables_texel(m->k[14], t28) + t37*lambert_sphere_tables_texel(m->k[14], t34) + t40*lambert_sphere_tables_texel(m->k[14], t38) + t42*lambert_sphere_tables_texel(m->k[14], t41)) + m->k[6]*(t33*lambert_sphere_tables_texel(m->k[15], t28) + t37*lambert_sphere_tables_texel(m->k[15], t34) + t40*lambert_sphere_tables_texel(m->k[15], t38) + t42*lambert_sphere_tables_texel(m->k[15], t41)) + m->k[8]*(t33*lambert_sphere_tables_texel(m->k[16], t28) + t37*lambert_sphere_tables_texel(m->k[16], t34) + t40*lambert_sphere_tables_texel(m->k[16], t38) + t42*lambert_sphere_tables_texel(m->k[16], t41)) + ((25.0/256.0))*t2 + ((15.0/512.0))*t24 - (15.0/256.0)*t27 + (-45.0/1024.0)))) + m->k[32]*t4*((((t50 < (1.0/2.0)) ? (t52 < (1.0/4.0)) : (t55 > (-1.0/2.0)))) ? ((t57*(t57*(t57*(t57*(t57*(((1.0/93405312000.0))*t57 + (-1.0/518918400.0)) + (1.0/3991680.0)) + (-1.0/45360.0)) + (1.0/840.0)) + (-1.0/30.0)) + (1.0/3.0))*((t50 < (1.0/2.0)) ? (8.0*(t52*t52*t52)) : ((t56*t56*t56)))) : (2.0*sqrt(t50)*sqrt(t51) - (1.0 - 2.0*t50)*((t50 < (1.0/2.0)) ? (t54) : (t56)))) + ((1.0/2.0))*t4*(t48 + (m->k[22]*(135.0*t24*t5 - 45.0*t24 + 256.0*t46 - 45.0*t5 + 207.0) + t48)*expm1(t1*(m->k[2]*(m->k[10]*(t14*lambert_sphere_tables_texel(m->k[29], t9) + t18*lambert_sphere_tables_texel(m->k[29], t15) + t21*lambert_sphere_tables_texel(m->k[29], t19) + t23*lambert_sphere_tables_texel(m->k[29], t22)) + m->k[4]*(t14*lambert_sphere_tables_texel(m->k[26], t9) + t18*lambert_sphere_tables_texel(m->k[26], t15) + t21*lambert_sphere_tables_texel(m->k[26], t19) + t23*lambert_sphere_tables_texel(m->k[26], t22)) + m->k[6]*(t14*lambert_sphere_tables_texel(m->k[27], t9) + t18*lambert_sphere_tables_texel(m->k[27], t15) + t21*lambert_sphere_tables_texel(m->k[27], t19) + t23*lambert_sphere_tables_texel(m->k[27], t22)) + m->k[8]*(t14*lambert_sphere_tables_texel(m->k[28], t9) + t18*lambert_sphere_tables_texel(m->k[28], t15) + t21*lambert_sphere_tables_texel(m->k[28], t19) + t23*lambert_sphere_tables_texel(m->k[28], t22)) + ((301.0/384.0))*t1 + ((45.0/256.0))*t5 - (45.0/128.0)*t8 + (-557.0/1536.0)) + m->k[22]*t7*(m->k[30]*t5 + m->k[31]*(t1*t1*t1*t1) + 207.0)) + t2*(m->k[2]*(m->k[10]*(t33*lambert_sphere_tables_texel(m->k[29], t28) + t37*lambert_sphere_tables_texel(m->k[29], t34) + t40*lambert_sphere_tables_texel(m->k[29], t38) + t42*lambert_sphere_tables_texel(m->k[29], t41)) + m->k[4]*(t33*lambert_sphere_tables_texel(m->k[26], t28) + t37*lambert_sphere_tables_texel(m->k[26], t34) + t40*lambert_sphere_tables_texel(m->k[26], t38) + t42*lambert_sphere_tables_texel(m->k[26], t41)) + m->k[6]*(t33*lambert_sphere_tables_texel(m->k[27], t28) + t37*lambert_sphere_tables_texel(m->k[27], t34) + t40*lambert_sphere_tables_texel(m->k[27], t38) + t42*lambert_sphere_tables_texel(m->k[27], t41)) + m->k[8]*(t33*lambert_sphere_tables_texel(m->k[28], t28) + t37*lambert_sphere_tables_texel(m->k[28], t34) + t40*lambert_sphere_tables_texel(m->k[28], t38) + t42*lambert_sphere_tables_texel(m->k[28], t41)) + ((301.0/384.0))*t2 + ((45.0/256.0))*t24 - (45.0/128.0)*t27 + (-557.0/1536.0)) + m->k[22]*t26*(m->k[30]*t24 + m->k[31]*(t2*t2*t2*t2) + 207.0))))/3.141592653589793238;
+    return ((t62 < 0.0) ? (0.0) : (t62));
+}
+
+LAMBERT_SPHERE_TABLES_FN void lambert_sphere_tables_eval_rgb(const lambert_sphere_tables_material m[3], double mu_i, double mu_o, double cos_phi, double out[3])
+{
+    int k;
+    for (k = 0; k < 3; ++k) out[k] = lambert_sphere_tables_eval(m + k, mu_i, mu_o, cos_phi);
+}
+
+LAMBERT_SPHERE_TABLES_FN double lambert_sphere_tables_eval_local(const lambert_sphere_tables_material *m, const double wi[3], const double wo[3])
+{
+    const double t64 = ((wi[2] < -1.0) ? (-1.0) : (wi[2]));
+    const double t0 = ((t64 > 1.0) ? (1.0) : (t64));
+    const double t65 = ((wo[2] < -1.0) ? (-1.0) : (wo[2]));
+    const double t1 = ((t65 > 1.0) ? (1.0) : (t65));
+    const double t66 = ((wi[0] < -1.0) ? (-1.0) : (wi[0]));
+    const double t2 = ((t66 > 1.0) ? (1.0) : (t66));
+    const double t67 = ((wo[0] < -1.0) ? (-1.0) : (wo[0]));
+    const double t3 = ((t67 > 1.0) ? (1.0) : (t67));
+    const double t68 = ((wi[1] < -1.0) ? (-1.0) : (wi[1]));
+    const double t4 = ((t68 > 1.0) ? (1.0) : (t68));
+    const double t69 = ((wo[1] < -1.0) ? (-1.0) : (wo[1]));
+    const double t5 = ((t69 > 1.0) ? (1.0) : (t69));
+    const double t70 = ((t2*t2) + (t4*t4))*((t3*t3) + (t5*t5));
+    const double t71 = (t2*t3 + t4*t5)/sqrt(((t70 < (1.0/1000000000000000000000000000000.0)) ? ((1.0/1000000000000000000000000000000.0)) : (t70)));
+    const double t72 = ((t71 < -1.0) ? (-1.0) : (t71));
+    const double t6 = ((t72 > 1.0) ? (1.0) : (t72));
+    const double t73 = ((t0 < 0.0) ? (0.0) : (t0));
+    const double t7 = ((t73 > 1.0) ? (1.0) : (t73));
+    const double t74 = ((t1 < 0.0) ? (0.0) : (t1));
+    const double t8 = ((t74 > 1.0) ? (1.0) : (t74));
+    const double t9 = t7 + t8;
+    const double t10 = 1.0/((t9 < (1.0/1000000.0)) ? ((1.0/1000000.0)) : (t9));
+    const double t11 = (t7*t7);
+    const double t12 = t11 - 1.0;
+    const double t13 = log(1.0 + 1.0/((t7 < 1.0000000000000001e-30) ? (1.0000000000000001e-30) : (t7)));
+    const double t14 = (t7*t7*t7);
+    const double t15 = ((t7 < (1.0/32.0)) ? (0.0) : (((t7 >= (31.0/32.0)) ? (29.0) : (floor(32.0*t7) - 1.0))));
+    const double t16 = t15 - 32.0*t7;
     const double t17 = -t16 - 3.0;
     const double t18 = -t16 - 2.0;
     const double t19 = t16 + 1.0;
@@ -1169,109 +1266,42 @@ LAMBERT_SPHERE_TABLES_FN double lambert_sphere_tables_eval(const lambert_sphere_
     const double t27 = t23*t26;
     const double t28 = t15 + 3.0;
     const double t29 = ((1.0/6.0))*t22*t26;
-    const double t30 = log(1.0 + 1.0/((t1 < 1.0000000000000001e-30) ? (1.0000000000000001e-30) : (t1)));
-    const double t31 = (t1*t1*t1);
-    const double t32 = ((t1 < (1.0/32.0)) ? (0.0) : (((t1 >= (31.0/32.0)) ? (29.0) : (floor(32.0*t1) - 1.0))));
-    const double t33 = -32.0*t1 + t32;
-    const double t34 = -t33 - 3.0;
-    const double t35 = -t33 - 2.0;
-    const double t36 = t33 + 1.0;
-    const double t37 = ((1.0/6.0))*t34*t35*t36;
-    const double t38 = t32 + 2.0;
-    const double t39 = -t36;
-    const double t40 = ((1.0/2.0))*t34;
-    const double t41 = t33*t39*t40;
-    const double t42 = t32 + 1.0;
-    const double t43 = -t33*t35;
-    const double t44 = t40*t43;
-    const double t45 = t32 + 3.0;
-    const double t46 = ((1.0/6.0))*t39*t43;
-    const double t47 = m->k[0]*t2 + m->k[1]*t0*t1;
-    const double t48 = m->k[20]*t2 + m->k[21]*(t6 + t8) + m->k[23]*t0*t1 + m->k[24]*t6*t8 + m->k[25]*t0*t1*t2;
-    const double t54 = (1.0 - t12)*(t12 + 1.0);
-    const double t55 = m->k[13]*t11*t3*t5*(t47 + (((45.0/64.0))*t4 + t47 + 1.0)*expm1(t0*(m->k[12]*t13*t7*(m->k[11]*t6 - 64.0) + m->k[2]*(m->k[10]*(t20*lambert_sphere_tables_texel(m->k[9], t15) + t24*lambert_sphere_tables_texel(m->k[9], t21) + t27*lambert_sphere_tables_texel(m->k[9], t25) + t29*lambert_sphere_tables_texel(m->k[9], t28)) + m->k[4]*(t20*lambert_sphere_tables_texel(m->k[3], t15) + t24*lambert_sphere_tables_texel(m->k[3], t21) + t27*lambert_sphere_tables_texel(m->k[3], t25) + t29*lambert_sphere_tables_texel(m->k[3], t28)) + m->k[6]*(t20*lambert_sphere_tables_texel(m->k[5], t15) + t24*lambert_sphere_tables_texel(m->k[5], t21) + t27*lambert_sphere_tables_texel(m->k[5], t25) + t29*lambert_sphere_tables_texel(m->k[5], t28)) + m->k[8]*(t20*lambert_sphere_tables_texel(m->k[7], t15) + t24*lambert_sphere_tables_texel(m->k[7], t21) + t27*lambert_sphere_tables_texel(m->k[7], t25) + t29*lambert_sphere_tables_texel(m->k[7], t28)) - (47.0/96.0)*t0 + ((15.0/64.0))*t14 - (15.0/128.0)*t6 + (173.0/768.0))) + t1*(m->k[12]*t30*t9*(m->k[11]*t8 - 64.0) + m->k[2]*(m->k[10]*(t37*lambert_sphere_tables_texel(m->k[9], t32) + t41*lambert_sphere_tables_texel(m->k[9], t38) + t44*lambert_sphere_tables_texel(m->k[9], t42) + t46*lambert_sphere_tables_texel(m->k[9], t45)) + m->k[4]*(t37*lambert_sphere_tables_texel(m->k[3], t32) + t41*lambert_sphere_tables_texel(m->k[3], t38) + t44*lambert_sphere_tables_texel(m->k[3], t42) + t46*lambert_sphere_tables_texel(m->k[3], t45)) + m->k[6]*(t37*lambert_sphere_tables_texel(m->k[5], t32) + t41*lambert_sphere_tables_texel(m->k[5], t38) + t44*lambert_sphere_tables_texel(m->k[5], t42) + t46*lambert_sphere_tables_texel(m->k[5], t45)) + m->k[8]*(t37*lambert_sphere_tables_texel(m->k[7], t32) + t41*lambert_sphere_tables_texel(m->k[7], t38) + t44*lambert_sphere_tables_texel(m->k[7], t42) + t46*lambert_sphere_tables_texel(m->k[7], t45)) - (47.0/96.0)*t1 + ((15.0/64.0))*t31 - (15.0/128.0)*t8 + (173.0/768.0))))) + m->k[19]*t10*t3*(2.0*(t5*t5) - 1.0)*expm1(t0*(m->k[18]*t13*(t7*t7) + m->k[2]*(m->k[10]*(t20*lambert_sphere_tables_texel(m->k[17], t15) + t24*lambert_sphere_tables_texel(m->k[17], t21) + t27*lambert_sphere_tables_texel(m->k[17], t25) + t29*lambert_sphere_tables_texel(m->k[17], t28)) + m->k[4]*(t20*lambert_sphere_tables_texel(m->k[14], t15) + t24*lambert_sphere_tables_texel(m->k[14], t21) + t27*lambert_sphere_tables_texel(m->k[14], t25) + t29*lambert_sphere_tables_texel(m->k[14], t28)) + m->k[6]*(t20*lambert_sphere_tables_texel(m->k[15], t15) + t24*lambert_sphere_tables_texel(m->k[15], t21) + t27*lambert_sphere_tables_texel(m->k[15], t25) + t29*lambert_sphere_tables_texel(m->k[15], t28)) + m->k[8]*(t20*lambert_sphere_tables_texel(m->k[16], t15) + t24*lambert_sphere_tables_texel(m->k[16], t21) + t27*lambert_sphere_tables_texel(m->k[16], t25) + t29*lambert_sphere_tables_texel(m->k[16], t28)) + ((25.0/256.0))*t0 - (15.0/256.0)*t14 + ((15.0/512.0))*t6 + (-45.0/1024.0))) + t1*(m->k[18]*t30*(t9*t9) + m->k[2]*(m->k[10]*(t37*lambert_sphere_tables_texel(m->k[17], t32) + t41*lambert_sphere_tables_texel(m->k[17], t38) + t44*lambert_sphere_tables_texel(m->k[17], t42) + t46*lambert_sphere_tables_texel(m->k[17], t45)) + m->k[4]*(t37*lambert_sphere_tables_texel(m->k[14], t32) + t41*lambert_sphere_tables_texel(m->k[14], t38) + t44*lambert_sphere_tables_texel(m->k[14], t42) + t46*lambert_sphere_tables_texel(m->k[14], t45)) + m->k[6]*(t37*lambert_sphere_tables_texel(m->k[15], t32) + t41*lambert_sphere_tables_texel(m->k[15], t38) + t44*lambert_sphere_tables_texel(m->k[15], t42) + t46*lambert_sphere_tables_texel(m->k[15], t45)) + m->k[8]*(t37*lambert_sphere_tables_texel(m->k[16], t32) + t41*lambert_sphere_tables_texel(m->k[16], t38) + t44*lambert_sphere_tables_texel(m->k[16], t42) + t46*lambert_sphere_tables_texel(m->k[16], t45)) + ((25.0/256.0))*t1 - (15.0/256.0)*t31 + ((15.0/512.0))*t8 + (-45.0/1024.0)))) + m->k[32]*t3*(-2.0*t12*acos(t12) + 2.0*sqrt(((t54 < 0.0) ? (0.0) : (t54)))) + ((1.0/2.0))*t3*(t48 + (m->k[22]*(256.0*t4 + 135.0*t6*t8 - 45.0*t6 - 45.0*t8 + 207.0) + t48)*expm1(t0*(m->k[2]*(m->k[10]*(t20*lambert_sphere_tables_texel(m->k[29], t15) + t24*lambert_sphere_tables_texel(m->k[29], t21) + t27*lambert_sphere_tables_texel(m->k[29], t25) + t29*lambert_sphere_tables_texel(m->k[29], t28)) + m->k[4]*(t20*lambert_sphere_tables_texel(m->k[26], t15) + t24*lambert_sphere_tables_texel(m->k[26], t21) + t27*lambert_sphere_tables_texel(m->k[26], t25) + t29*lambert_sphere_tables_texel(m->k[26], t28)) + m->k[6]*(t20*lambert_sphere_tables_texel(m->k[27], t15) + t24*lambert_sphere_tables_texel(m->k[27], t21) + t27*lambert_sphere_tables_texel(m->k[27], t25) + t29*lambert_sphere_tables_texel(m->k[27], t28)) + m->k[8]*(t20*lambert_sphere_tables_texel(m->k[28], t15) + t24*lambert_sphere_tables_texel(m->k[28], t21) + t27*lambert_sphere_tables_texel(m->k[28], t25) + t29*lambert_sphere_tables_texel(m->k[28], t28)) + ((301.0/384.0))*t0 - (45.0/128.0)*t14 + ((45.0/256.0))*t6 + (-557.0/1536.0)) + m->k[22]*t13*(m->k[30]*t6 + m->k[31]*(t0*t0*t0*t0) + 207.0)) + t1*(m->k[2]*(m->k[10]*(t37*lambert_sphere_tables_texel(m->k[29], t32) + t41*lambert_sphere_tables_texel(m->k[29], t38) + t44*lambert_sphere_tables_texel(m->k[29], t42) + t46*lambert_sphere_tables_texel(m->k[29], t45)) + m->k[4]*(t37*lambert_sphere_tables_texel(m->k[26], t32) + t41*lambert_sphere_tables_texel(m->k[26], t38) + t44*lambert_sphere_tables_texel(m->k[26], t42) + t46*lambert_sphere_tables_texel(m->k[26], t45)) + m->k[6]*(t37*lambert_sphere_tables_texel(m->k[27], t32) + t41*lambert_sphere_tables_texel(m->k[27], t38) + t44*lambert_sphere_tables_texel(m->k[27], t42) + t46*lambert_sphere_tables_texel(m->k[27], t45)) + m->k[8]*(t37*lambert_sphere_tables_texel(m->k[28], t32) + t41*lambert_sphere_tables_texel(m->k[28], t38) + t44*lambert_sphere_tables_texel(m->k[28], t42) + t46*lambert_sphere_tables_texel(m->k[28], t45)) + ((301.0/384.0))*t1 - (45.0/128.0)*t31 + ((45.0/256.0))*t8 + (-557.0/1536.0)) + m->k[22]*t30*(m->k[30]*t8 + m->k[31]*(t1*t1*t1*t1) + 207.0))))/3.141592653589793238;
-    return ((t55 < 0.0) ? (0.0) : (t55));
-}
-
-LAMBERT_SPHERE_TABLES_FN void lambert_sphere_tables_eval_rgb(const lambert_sphere_tables_material m[3], double mu_i, double mu_o, double cos_phi, double out[3])
-{
-    int k;
-    for (k = 0; k < 3; ++k) out[k] = lambert_sphere_tables_eval(m + k, mu_i, mu_o, cos_phi);
-}
-
-LAMBERT_SPHERE_TABLES_FN double lambert_sphere_tables_eval_local(const lambert_sphere_tables_material *m, const double wi[3], const double wo[3])
-{
-    const double t55 = ((wi[2] < -1.0) ? (-1.0) : (wi[2]));
-    const double t0 = ((t55 > 1.0) ? (1.0) : (t55));
-    const double t56 = ((wo[2] < -1.0) ? (-1.0) : (wo[2]));
-    const double t1 = ((t56 > 1.0) ? (1.0) : (t56));
-    const double t57 = ((t0 < 0.0) ? (0.0) : (t0));
-    const double t2 = ((t57 > 1.0) ? (1.0) : (t57));
-    const double t58 = ((t1 < 0.0) ? (0.0) : (t1));
-    const double t3 = ((t58 > 1.0) ? (1.0) : (t58));
-    const double t4 = t2 + t3;
-    const double t5 = 1.0/((t4 < (1.0/1000000.0)) ? ((1.0/1000000.0)) : (t4));
-    const double t6 = t2*t3;
-    const double t7 = (t2*t2);
-    const double t8 = t7 - 1.0;
-    const double t9 = (t3*t3);
-    const double t10 = t9 - 1.0;
-    const double t11 = t10*t8;
-    const double t12 = sqrt(t11);
-    const double t59 = ((wi[0] < -1.0) ? (-1.0) : (wi[0]));
-    const double t13 = ((t59 > 1.0) ? (1.0) : (t59));
-    const double t60 = ((wo[0] < -1.0) ? (-1.0) : (wo[0]));
-    const double t14 = ((t60 > 1.0) ? (1.0) : (t60));
-    const double t61 = ((wi[1] < -1.0) ? (-1.0) : (wi[1]));
-    const double t15 = ((t61 > 1.0) ? (1.0) : (t61));
-    const double t62 = ((wo[1] < -1.0) ? (-1.0) : (wo[1]));
-    const double t16 = ((t62 > 1.0) ? (1.0) : (t62));
-    const double t63 = ((t13*t13) + (t15*t15))*((t14*t14) + (t16*t16));
-    const double t64 = (t13*t14 + t15*t16)/sqrt(((t63 < (1.0/1000000000000000000000000000000.0)) ? ((1.0/1000000000000000000000000000000.0)) : (t63)));
-    const double t65 = ((t64 < -1.0) ? (-1.0) : (t64));
-    const double t17 = ((t65 > 1.0) ? (1.0) : (t65));
-    const double t66 = -t12*t17 - t6;
-    const double t67 = ((t66 > 1.0) ? (1.0) : (t66));
-    const double t18 = ((t67 < -1.0) ? (-1.0) : (t67));
-    const double t19 = log(1.0 + 1.0/((t2 < 1.0000000000000001e-30) ? (1.0000000000000001e-30) : (t2)));
-    const double t20 = (t2*t2*t2);
-    const double t21 = ((t2 < (1.0/32.0)) ? (0.0) : (((t2 >= (31.0/32.0)) ? (29.0) : (floor(32.0*t2) - 1.0))));
-    const double t22 = -32.0*t2 + t21;
-    const double t23 = -t22 - 3.0;
-    const double t24 = -t22 - 2.0;
-    const double t25 = t22 + 1.0;
-    const double t26 = ((1.0/6.0))*t23*t24*t25;
-    const double t27 = t21 + 2.0;
-    const double t28 = -t25;
-    const double t29 = ((1.0/2.0))*t23;
-    const double t30 = t22*t28*t29;
-    const double t31 = t21 + 1.0;
-    const double t32 = -t22*t24;
-    const double t33 = t29*t32;
-    const double t34 = t21 + 3.0;
-    const double t35 = ((1.0/6.0))*t28*t32;
-    const double t36 = log(1.0 + 1.0/((t3 < 1.0000000000000001e-30) ? (1.0000000000000001e-30) : (t3)));
-    const double t37 = (t3*t3*t3);
-    const double t38 = ((t3 < (1.0/32.0)) ? (0.0) : (((t3 >= (31.0/32.0)) ? (29.0) : (floor(32.0*t3) - 1.0))));
-    const double t39 = -32.0*t3 + t38;
-    const double t40 = -t39 - 3.0;
-    const double t41 = -t39 - 2.0;
-    const double t42 = t39 + 1.0;
-    const double t43 = ((1.0/6.0))*t40*t41*t42;
-    const double t44 = t38 + 2.0;
-    const double t45 = -t42;
-    const double t46 = ((1.0/2.0))*t40;
-    const double t47 = t39*t45*t46;
-    const double t48 = t38 + 1.0;
-    const double t49 = -t39*t41;
-    const double t50 = t46*t49;
-    const double t51 = t38 + 3.0;
-    const double t52 = ((1.0/6.0))*t45*t49;
-    const double t53 = m->k[0]*t4 + m->k[1]*t2*t3;
-    const double t54 = m->k[20]*t4 + m->k[21]*(t7 + t9) + m->k[23]*t2*t3 + m->k[24]*t7*t9 + m->k[25]*t2*t3*t4;
-    const double t68 = (1.0 - t18)*(t18 + 1.0);
-    const double t69 = m->k[13]*t12*t17*t5*(t53 + (t53 + ((45.0/64.0))*t6 + 1.0)*expm1(t2*(m->k[12]*t19*t8*(m->k[11]*t7 - 64.0) + m->k[2]*(m->k[10]*(t26*lambert_sphere_tables_texel(m->k[9], t21) + t30*lambert_sphere_tables_texel(m->k[9], t27) + t33*lambert_sphere_tables_texel(m->k[9], t31) + t35*lambert_sphere_tables_texel(m->k[9], t34)) + m->k[4]*(t26*lambert_sphere_tables_texel(m->k[3], t21) + t30*lambert_sphere_tables_texel(m->k[3], t27) + t33*lambert_sphere_tables_texel(m->k[3], t31) + t35*lambert_sphere_tables_texel(m->k[3], t34)) + m->k[6]*(t26*lambert_sphere_tables_texel(m->k[5], t21) + t30*lambert_sphere_tables_texel(m->k[5], t27) + t33*lambert_sphere_tables_texel(m->k[5], t31) + t35*lambert_sphere_tables_texel(m->k[5], t34)) + m->k[8]*(t26*lambert_sphere_tables_texel(m->k[7], t21) + t30*lambert_sphere_tables_texel(m->k[7], t27) + t33*lambert_sphere_tables_texel(m->k[7], t31) + t35*lambert_sphere_tables_texel(m->k[7], t34)) - (47.0/96.0)*t2 + ((15.0/64.0))*t20 - (15.0/128.0)*t7 + (173.0/768.0))) + t3*(m->k[12]*t10*t36*(m->k[11]*t9 - 64.0) + m->k[2]*(m->k[10]*(t43*lambert_sphere_tables_texel(m->k[9], t38) + t47*lambert_sphere_tables_texel(m->k[9], t44) + t50*lambert_sphere_tables_texel(m->k[9], t48) + t52*lambert_sphere_tables_texel(m->k[9], t51)) + m->k[4]*(t43*lambert_sphere_tables_texel(m->k[3], t38) + t47*lambert_sphere_tables_texel(m->k[3], t44) + t50*lambert_sphere_tables_texel(m->k[3], t48) + t52*lambert_sphere_tables_texel(m->k[3], t51)) + m->k[6]*(t43*lambert_sphere_tables_texel(m->k[5], t38) + t47*lambert_sphere_tables_texel(m->k[5], t44) + t50*lambert_sphere_tables_texel(m->k[5], t48) + t52*lambert_sphere_tables_texel(m->k[5], t51)) + m->k[8]*(t43*lambert_sphere_tables_texel(m->k[7], t38) + t47*lambert_sphere_tables_texel(m->k[7], t44) + t50*lambert_sphere_tables_texel(m->k[7], t48) + t52*lambert_sphere_tables_texel(m->k[7], t51)) - (47.0/96.0)*t3 + ((15.0/64.0))*t37 - (15.0/128.0)*t9 + (173.0/768.0))))) + m->k[19]*t11*t5*(2.0*(t17*t17) - 1.0)*expm1(t2*(m->k[18]*t19*(t8*t8) + m->k[2]*(m->k[10]*(t26*lambert_sphere_tables_texel(m->k[17], t21) + t30*lambert_sphere_tables_texel(m->k[17], t27) + t33*lambert_sphere_tables_texel(m->k[17], t31) + t35*lambert_sphere_tables_texel(m->k[17], t34)) + m->k[4]*(t26*lambert_sphere_tables_texel(m->k[14], t21) + t30*lambert_sphere_tables_texel(m->k[14], t27) + t33*lambert_sphere_tables_texel(m->k[14], t31) + t35*lambert_sphere_tables_texel(m->k[14], t34)) + m->k[6]*(t26*lambert_sphere_tables_texel(m->k[15], t21) + t30*lambert_sphere_tables_texel(m->k[15], t27) + t33*lambert_sphere_tables_texel(m->k[15], t31) + t35*lambert_sphere_tables_texel(m->k[15], t34)) + m->k[8]*(t26*lambert_sphere_tables_texel(m->k[16], t21) + t30*lambert_sphere_tables_texel(m->k[16], t27) + t33*lambert_sphere_tables_texel(m->k[16], t31) + t35*lambert_sphere_tables_texel(m->k[16], t34)) + ((25.0/256.0))*t2 - (15.0/256.0)*t20 + ((15.0/512.0))*t7 + (-45.0/1024.0))) + t3*(m->k[18]*(t10*t10)*t36 + m->k[2]*(m->k[10]*(t43*lambert_sphere_tables_texel(m->k[17], t38) + t47*lambert_sphere_tables_texel(m->k[17], t44) + t50*lambert_sphere_tables_texel(m->k[17], t48) + t52*lambert_sphere_tables_texel(m->k[17], t51)) + m->k[4]*(t43*lambert_sphere_tables_texel(m->k[14], t38) + t47*lambert_sphere_tables_texel(m->k[14], t44) + t50*lambert_sphere_tables_texel(m->k[14], t48) + t52*lambert_sphere_tables_texel(m->k[14], t51)) + m->k[6]*(t43*lambert_sphere_tables_texel(m->k[15], t38) + t47*lambert_sphere_tables_texel(m->k[15], t44) + t50*lambert_sphere_tables_texel(m->k[15], t48) + t52*lambert_sphere_tables_texel(m->k[15], t51)) + m->k[8]*(t43*lambert_sphere_tables_texel(m->k[16], t38) + t47*lambert_sphere_tables_texel(m->k[16], t44) + t50*lambert_sphere_tables_texel(m->k[16], t48) + t52*lambert_sphere_tables_texel(m->k[16], t51)) + ((25.0/256.0))*t3 - (15.0/256.0)*t37 + ((15.0/512.0))*t9 + (-45.0/1024.0)))) + m->k[32]*t5*(-2.0*t18*acos(t18) + 2.0*sqrt(((t68 < 0.0) ? (0.0) : (t68)))) + ((1.0/2.0))*t5*(t54 + (m->k[22]*(256.0*t6 + 135.0*t7*t9 - 45.0*t7 - 45.0*t9 + 207.0) + t54)*expm1(t2*(m->k[2]*(m->k[10]*(t26*lambert_sphere_tables_texel(m->k[29], t21) + t30*lambert_sphere_tables_texel(m->k[29], t27) + t33*lambert_sphere_tables_texel(m->k[29], t31) + t35*lambert_sphere_tables_texel(m->k[29], t34)) + m->k[4]*(t26*lambert_sphere_tables_texel(m->k[26], t21) + t30*lambert_sphere_tables_texel(m->k[26], t27) + t33*lambert_sphere_tables_texel(m->k[26], t31) + t35*lambert_sphere_tables_texel(m->k[26], t34)) + m->k[6]*(t26*lambert_sphere_tables_texel(m->k[27], t21) + t30*lambert_sphere_tables_texel(m->k[27], t27) + t33*lambert_sphere_tables_texel(m->k[27], t31) + t35*lambert_sphere_tables_texel(m->k[27], t34)) + m->k[8]*(t26*lambert_sphere_tables_texel(m->k[28], t21) + t30*lambert_sphere_tables_texel(m->k[28], t27) + t33*lambert_sphere_tables_texel(m->k[28], t31) + t35*lambert_sphere_tables_texel(m->k[28], t34)) + ((301.0/384.0))*t2 - (45.0/128.0)*t20 + ((45.0/256.0))*t7 + (-557.0/1536.0)) + m->k[22]*t19*(m->k[30]*t7 + m->k[31]*(t2*t2*t2*t2) + 207.0)) + t3*(m->k[2]*(m->k[10]*(t43*lambert_sphere_tables_texel(m->k[29], t38) + t47*lambert_sphere_tables_texel(m->k[29], t44) + t50*lambert_sphere_tables_texel(m->k[29], t48) + t52*lambert_sphere_tables_texel(m->k[29], t51)) + m->k[4]*(t43*lambert_sphere_tables_texel(m->k[26], t38) + t47*lambert_sphere_tables_texel(m->k[26], t44) + t50*lambert_sphere_tables_texel(m->k[26], t48) + t52*lambert_sphere_tables_texel(m->k[26], t51)) + m->k[6]*(t43*lambert_sphere_tables_texel(m->k[27], t38) + t47*lambert_sphere_tables_texel(m->k[27], t44) + t50*lambert_sphere_tables_texel(m->k[27], t48) + t52*lambert_sphere_tables_texel(m->k[27], t51)) + m->k[8]*(t43*lambert_sphere_tables_texel(m->k[28], t38) + t47*lambert_sphere_tables_texel(m->k[28], t44) + t50*lambert_sphere_tables_texel(m->k[28], t48) + t52*lambert_sphere_tables_texel(m->k[28], t51)) + ((301.0/384.0))*t3 - (45.0/128.0)*t37 + ((45.0/256.0))*t9 + (-557.0/1536.0)) + m->k[22]*t36*(m->k[30]*t9 + m->k[31]*(t3*t3*t3*t3) + 207.0))))/3.141592653589793238;
-    return ((t0 < 0.0) ? (0.0) : (1.0))*((t1 < 0.0) ? (0.0) : (1.0))*((t69 < 0.0) ? (0.0) : (t69));
+    const double t30 = (t8*t8);
+    const double t31 = t30 - 1.0;
+    const double t32 = log(1.0 + 1.0/((t8 < 1.0000000000000001e-30) ? (1.0000000000000001e-30) : (t8)));
+    const double t33 = (t8*t8*t8);
+    const double t34 = ((t8 < (1.0/32.0)) ? (0.0) : (((t8 >= (31.0/32.0)) ? (29.0) : (floor(32.0*t8) - 1.0))));
+    const double t35 = t34 - 32.0*t8;
+    const double t36 = -t35 - 3.0;
+    const double t37 = -t35 - 2.0;
+    const double t38 = t35 + 1.0;
+    const double t39 = ((1.0/6.0))*t36*t37*t38;
+    const double t40 = t34 + 2.0;
+    const double t41 = -t38;
+    const double t42 = ((1.0/2.0))*t36;
+    const double t43 = t35*t41*t42;
+    const double t44 = t34 + 1.0;
+    const double t45 = -t35*t37;
+    const double t46 = t42*t45;
+    const double t47 = t34 + 3.0;
+    const double t48 = ((1.0/6.0))*t41*t45;
+    const double t49 = -t12;
+    const double t50 = -t31*t49;
+    const double t51 = sqrt(t50);
+    const double t52 = t7*t8;
+    const double t53 = m->k[0]*t9 + m->k[1]*t7*t8;
+    const double t54 = m->k[20]*t9 + m->k[21]*(t11 + t30) + m->k[23]*t7*t8 + m->k[24]*t11*t30 + m->k[25]*t7*t8*t9;
+    const double t75 = ((1.0/2.0))*t51*(t6 + 1.0) + ((1.0/2.0))*t52 + ((1.0/2.0))*(t11 + t30*t49)/(t51 + 1.0);
+    const double t55 = ((t75 < 0.0) ? (0.0) : (t75));
+    const double t56 = ((t55 > 1.0) ? (1.0) : (t55));
+    const double t57 = 1.0 - t56;
+    const double t58 = asin(sqrt(((t55 > t57) ? (t57) : (((t55 <= t57) ? (t55) : (t55 + t57))))));
+    const double t60 = 2.0*t58;
+    const double t61 = t60 - 3.141592653589793238;
+    const double t62 = -t61;
+    const double t63 = ((t56 < (1.0/2.0)) ? (4.0*(t58*t58)) : ((t62*t62)));
+    const double t76 = m->k[13]*t10*t51*t6*(t53 + (((45.0/64.0))*t52 + t53 + 1.0)*expm1(t7*(m->k[12]*t12*t13*(m->k[11]*t11 - 64.0) + m->k[2]*(m->k[10]*(t20*lambert_sphere_tables_texel(m->k[9], t15) + t24*lambert_sphere_tables_texel(m->k[9], t21) + t27*lambert_sphere_tables_texel(m->k[9], t25) + t29*lambert_sphere_tables_texel(m->k[9], t28)) + m->k[4]*(t20*lambert_sphere_tables_texel(m->k[3], t15) + t24*lambert_sphere_tables_texel(m->k[3], t21) + t27*lambert_sphere_tables_texel(m->k[3], t25) + t29*lambert_sphere_tables_texel(m->k[3], t28)) + m->k[6]*(t20*lambert_sphere_tables_texel(m->k[5], t15) + t24*lambert_sphere_tables_texel(m->k[5], t21) + t27*lambert_sphere_tables_texel(m->k[5], t25) + t29*lambert_sphere_tables_texel(m->k[5], t28)) + m->k[8]*(t20*lambert_sphere_tables_texel(m->k[7], t15) + t24*lambert_sphere_tables_texel(m->k[7], t21) + t27*lambert_sphere_tables_texel(m->k[7], t25) + t29*lambert_sphere_tables_texel(m->k[7], t28)) - (15.0/128.0)*t11 + ((15.0/64.0))*t14 - (47.0/96.0)*t7 + (173.0/768.0))) + t8*(m->k[12]*t31*t32*(m->k[11]*t30 - 64.0) + m->k[2]*(m->k[10]*(t39*lambert_sphere_tables_texel(m->k[9], t34) + t43*lambert_sphere_tables_texel(m->k[9], t40) + t46*lambert_sphere_tables_texel(m->k[9], t44) + t48*lambert_sphere_tables_texel(m->k[9], t47)) + m->k[4]*(t39*lambert_sphere_tables_texel(m->k[3], t34) + t43*lambert_sphere_tables_texel(m->k[3], t40) + t46*lambert_sphere_tables_texel(m->k[3], t44) + t48*lambert_sphere_tables_texel(m->k[3], t47)) + m->k[6]*(t39*lambert_sphere_tables_texel(m->k[5], t34) + t43*lambert_sphere_tables_texel(m->k[5], t40) + t46*lambert_sphere_tables_texel(m->k[5], t44) + t48*lambert_sphere_tables_texel(m->k[5], t47)) + m->k[8]*(t39*lambert_sphere_tables_texel(m->k[7], t34) + t43*lambert_sphere_tables_texel(m->k[7], t40) + t46*lambert_sphere_tables_texel(m->k[7], t44) + t48*lambert_sphere_tables_texel(m->k[7], t47)) - (15.0/128.0)*t30 + ((15.0/64.0))*t33 - (47.0/96.0)*t8 + (173.0/768.0))))) + m->k[19]*t10*t50*(2.0*(t6*t6) - 1.0)*expm1(t7*(m->k[18]*(t12*t12)*t13 + m->k[2]*(m->k[10]*(t20*lambert_sphere_tables_texel(m->k[17], t15) + t24*lambert_sphere_tables_texel(m->k[17], t21) + t27*lambert_sphere_tables_texel(m->k[17], t25) + t29*lambert_sphere_tables_texel(m->k[17], t28)) + m->k[4]*(t20*lambert_sphere_tables_texel(m->k[14], t15) + t24*lambert_sphere_tables_texel(m->k[14], t21) + t27*lambert_sphere_tables_texel(m->k[14], t25) + t29*lambert_sphere_tables_texel(m->k[14], t28)) + m->k[6]*(t20*lambert_sphere_tables_texel(m->k[15], t15) + t24*lambert_sphere_tables_texel(m->k[15], t21) + t27*lambert_sphere_tables_texel(m->k[15], t25) + t29*lambert_sphere_tables_texel(m->k[15], t28)) + m->k[8]*(t20*lambert_sphere_tables_texel(m->k[16], t15) + t24*lambert_sphere_tables_texel(m->k[16], t21) + t27*lambert_sphere_tables_texel(m->k[16], t25) + t29*lambert_sphere_tables_texel(m->k[16], t28)) + ((15.0/512.0))*t11 - (15.0/256.0)*t14 + ((25.0/256.0))*t7 + (-45.0/1024.0))) + t8*(m->k[18]*(t31*t31)*t32 + m->k[2]*(m->k[10]*(t39*lambert_sphere_tables_texel(m->k[17], t34) + t43*lambert_sphere_tables_texel(m->k[17], t40) + t46*lambert_sphere_tables_texel(m->k[17], t44) + t48*lambert_sphere_tables_texel(m->k[17], t47)) + m->k[4]*(t39*lambert_sphere_tables_texel(m->k[14], t34) + t43*lambert_sphere_tables_texel(m->k[14], t40) + t46*lambert_sphere_tables_texel(m->k[14], t44) + t48*lambert_sphere_tables_texel(m->k[14], t47)) + m->k[6]*(t39*lambert_sphere_tables_texel(m->k[15], t34) + t43*lambert_sphere_tables_texel(m->k[15], t40) + t46*lambert_sphere_tables_texel(m->k[15], t44) + t48*lambert_sphere_tables_texel(m->k[15], t47)) + m->k[8]*(t39*lambert_sphere_tables_texel(m->k[16], t34) + t43*lambert_sphere_tables_texel(m->k[16], t40) + t46*lambert_sphere_tables_texel(m->k[16], t44) + t48*lambert_sphere_tables_texel(m->k[16], t47)) + ((15.0/512.0))*t30 - (15.0/256.0)*t33 + ((25.0/256.0))*t8 + (-45.0/1024.0)))) + m->k[32]*t10*((((t56 < (1.0/2.0)) ? (t58 < (1.0/4.0)) : (t61 > (-1.0/2.0)))) ? ((t63*(t63*(t63*(t63*(t63*(((1.0/93405312000.0))*t63 + (-1.0/518918400.0)) + (1.0/3991680.0)) + (-1.0/45360.0)) + (1.0/840.0)) + (-1.0/30.0)) + (1.0/3.0))*((t56 < (1.0/2.0)) ? (8.0*(t58*t58*t58)) : ((t62*t62*t62)))) : (2.0*sqrt(t56)*sqrt(t57) - (1.0 - 2.0*t56)*((t56 < (1.0/2.0)) ? (t60) : (t62)))) + ((1.0/2.0))*t10*(t54 + (m->k[22]*(135.0*t11*t30 - 45.0*t11 - 45.0*t30 + 256.0*t52 + 207.0) + t54)*expm1(t7*(m->k[2]*(m->k[10]*(t20*lambert_sphere_tables_texel(m->k[29], t15) + t24*lambert_sphere_tables_texel(m->k[29], t21) + t27*lambert_sphere_tables_texel(m->k[29], t25) + t29*lambert_sphere_tables_texel(m->k[29], t28)) + m->k[4]*(t20*lambert_sphere_tables_texel(m->k[26], t15) + t24*lambert_sphere_tables_texel(m->k[26], t21) + t27*lambert_sphere_tables_texel(m->k[26], t25) + t29*lambert_sphere_tables_texel(m->k[26], t28)) + m->k[6]*(t20*lambert_sphere_tables_texel(m->k[27], t15) + t24*lambert_sphere_tables_texel(m->k[27], t21) + t27*lambert_sphere_tables_texel(m->k[27], t25) + t29*lambert_sphere_tables_texel(m->k[27], t28)) + m->k[8]*(t20*lambert_sphere_tables_texel(m->k[28], t15) + t24*lambert_sphere_tables_texel(m->k[28], t21) + t27*lambert_sphere_tables_texel(m->k[28], t25) + t29*lambert_sphere_tables_texel(m->k[28], t28)) + ((45.0/256.0))*t11 - (45.0/128.0)*t14 + ((301.0/384.0))*t7 + (-557.0/1536.0)) + m->k[22]*t13*(m->k[30]*t11 + m->k[31]*(t7*t7*t7*t7) + 207.0)) + t8*(m->k[2]*(m->k[10]*(t39*lambert_sphere_tables_texel(m->k[29], t34) + t43*lambert_sphere_tables_texel(m->k[29], t40) + t46*lambert_sphere_tables_texel(m->k[29], t44) + t48*lambert_sphere_tables_texel(m->k[29], t47)) + m->k[4]*(t39*lambert_sphere_tables_texel(m->k[26], t34) + t43*lambert_sphere_tables_texel(m->k[26], t40) + t46*lambert_sphere_tables_texel(m->k[26], t44) + t48*lambert_sphere_tables_texel(m->k[26], t47)) + m->k[6]*(t39*lambert_sphere_tables_texel(m->k[27], t34) + t43*lambert_sphere_tables_texel(m->k[27], t40) + t46*lambert_sphere_tables_texel(m->k[27], t44) + t48*lambert_sphere_tables_texel(m->k[27], t47)) + m->k[8]*(t39*lambert_sphere_tables_texel(m->k[28], t34) + t43*lambert_sphere_tables_texel(m->k[28], t40) + t46*lambert_sphere_tables_texel(m->k[28], t44) + t48*lambert_sphere_tables_texel(m->k[28], t47)) + ((45.0/256.0))*t30 - (45.0/128.0)*t33 + ((301.0/384.0))*t8 + (-557.0/1536.0)) + m->k[22]*t32*(m->k[30]*t30 + m->k[31]*(t8*t8*t8*t8) + 207.0))))/3.141592653589793238;
+    return ((t0 < 0.0) ? (0.0) : (1.0))*((t1 < 0.0) ? (0.0) : (1.0))*((t76 < 0.0) ? (0.0) : (t76));
 }
 
 LAMBERT_SPHERE_TABLES_FN void lambert_sphere_tables_eval_local_rgb(const lambert_sphere_tables_material m[3], const double wi[3], const double wo[3], double out[3])
@@ -1343,7 +1373,7 @@ LAMBERT_SPHERE_TABLES_FN lambert_sphere_tables_material_f lambert_sphere_tables_
     m.k[29] = t2;
     m.k[30] = t0*(t23 + 281.0F) - 346.0F;
     m.k[31] = (15.0F - 15.0F*t0)*(4.0F*t0 + 9.0F);
-    m.k[32] = ((1.0F/3.0F))*t0/(3.141592653589793238F*3.141592653589793238F);
+    m.k[32] = ((2.0F/3.0F))*t0/(3.141592653589793238F*3.141592653589793238F);
     return m;
 }
 
@@ -1366,28 +1396,107 @@ LAMBERT_SPHERE_TABLES_FN void lambert_sphere_tables_prepare_rgb_f(const float kd
 
 LAMBERT_SPHERE_TABLES_FN float lambert_sphere_tables_eval_f(const lambert_sphere_tables_material_f *m, float mu_i, float mu_o, float cos_phi)
 {
-    const float t49 = ((mu_i < 0.0F) ? (0.0F) : (mu_i));
-    const float t0 = ((t49 > 1.0F) ? (1.0F) : (t49));
-    const float t50 = ((mu_o < 0.0F) ? (0.0F) : (mu_o));
-    const float t1 = ((t50 > 1.0F) ? (1.0F) : (t50));
-    const float t2 = t0 + t1;
-    const float t3 = 1.0F/((t2 < (1.0F/1000000.0F)) ? ((1.0F/1000000.0F)) : (t2));
-    const float t4 = t0*t1;
-    const float t51 = ((cos_phi < -1.0F) ? (-1.0F) : (cos_phi));
-    const float t5 = ((t51 > 1.0F) ? (1.0F) : (t51));
-    const float t6 = (t0*t0);
-    const float t7 = t6 - 1.0F;
-    const float t8 = (t1*t1);
-    const float t9 = t8 - 1.0F;
-    const float t10 = t7*t9;
-    const float t11 = sqrtf(t10);
-    const float t52 = -t11*t5 - t4;
-    const float t53 = ((t52 > 1.0F) ? (1.0F) : (t52));
-    const float t12 = ((t53 < -1.0F) ? (-1.0F) : (t53));
-    const float t13 = logf(1.0F + 1.0F/((t0 < 1.0e-30F) ? (1.0e-30F) : (t0)));
-    const float t14 = (t0*t0*t0);
-    const float t15 = ((t0 < (1.0F/32.0F)) ? (0.0F) : (((t0 >= (31.0F/32.0F)) ? (29.0F) : (floorf(32.0F*t0) - 1.0F))));
-    const float t16 = -32.0F*t0 + t15;
+    const float t58 = ((cos_phi < -1.0F) ? (-1.0F) : (cos_phi));
+    const float t0 = ((t58 > 1.0F) ? (1.0F) : (t58));
+    const float t59 = ((mu_i < 0.0F) ? (0.0F) : (mu_i));
+    const float t1 = ((t59 > 1.0F) ? (1.0F) : (t59));
+    const float t60 = ((mu_o < 0.0F) ? (0.0F) : (mu_o));
+    const float t2 = ((t60 > 1.0F) ? (1.0F) : (t60));
+    const float t3 = t1 + t2;
+    const float t4 = 1.0F/((t3 < (1.0F/1000000.0F)) ? ((1.0F/1000000.0F)) : (t3));
+    const float t5 = (t1*t1);
+    const float t6 = t5 - 1.0F;
+    const float t7 = logf(1.0F + 1.0F/((t1 < 1.0e-30F) ? (1.0e-30F) : (t1)));
+    const float t8 = (t1*t1*t1);
+    const float t9 = ((t1 < (1.0F/32.0F)) ? (0.0F) : (((t1 >= (31.0F/32.0F)) ? (29.0F) : (floorf(32.0F*t1) - 1.0F))));
+    const float t10 = -32.0F*t1 + t9;
+    const float t11 = -t10 - 3.0F;
+    const float t12 = -t10 - 2.0F;
+    const float t13 = t10 + 1.0F;
+    const float t14 = ((1.0F/6.0F))*t11*t12*t13;
+    const float t15 = t9 + 2.0F;
+    const float t16 = -t13;
+    const float t17 = ((1.0F/2.0F))*t11;
+    const float t18 = t10*t16*t17;
+    const float t19 = t9 + 1.0F;
+    const float t20 = -t10*t12;
+    const float t21 = t17*t20;
+    const float t22 = t9 + 3.0F;
+    const float t23 = ((1.0F/6.0F))*t16*t20;
+    const float t24 = (t2*t2);
+    const float t25 = t24 - 1.0F;
+    const float t26 = logf(1.0F + 1.0F/((t2 < 1.0e-30F) ? (1.0e-30F) : (t2)));
+    const float t27 = (t2*t2*t2);
+    const float t28 = ((t2 < (1.0F/32.0F)) ? (0.0F) : (((t2 >= (31.0F/32.0F)) ? (29.0F) : (floorf(32.0F*t2) - 1.0F))));
+    const float t29 = -32.0F*t2 + t28;
+    const float t30 = -t29 - 3.0F;
+    const float t31 = -t29 - 2.0F;
+    const float t32 = t29 + 1.0F;
+    const float t33 = ((1.0F/6.0F))*t30*t31*t32;
+    const float t34 = t28 + 2.0F;
+    const float t35 = -t32;
+    const float t36 = ((1.0F/2.0F))*t30;
+    const float t37 = t29*t35*t36;
+    const float t38 = t28 + 1.0F;
+    const float t39 = -t29*t31;
+    const float t40 = t36*t39;
+    const float t41 = t28 + 3.0F;
+    const float t42 = ((1.0F/6.0F))*t35*t39;
+    const float t43 = -t6;
+    const float t44 = -t25*t43;
+    const float t45 = sqrtf(t44);
+    const float t46 = t1*t2;
+    const float t47 = m->k[0]*t3 + m->k[1]*t1*t2;
+    const float t48 = m->k[20]*t3 + m->k[21]*(t24 + t5) + m->k[23]*t1*t2 + m->k[24]*t24*t5 + m->k[25]*t1*t2*t3;
+    const float t61 = ((1.0F/2.0F))*t45*(t0 + 1.0F) + ((1.0F/2.0F))*t46 + ((1.0F/2.0F))*(t24*t43 + t5)/(t45 + 1.0F);
+    const float t49 = ((t61 < 0.0F) ? (0.0F) : (t61));
+    const float t50 = ((t49 > 1.0F) ? (1.0F) : (t49));
+    const float t51 = 1.0F - t50;
+    const float t52 = asinf(sqrtf(((t49 > t51) ? (t51) : (((t49 <= t51) ? (t49) : (t49 + t51))))));
+    const float t54 = 2.0F*t52;
+    const float t55 = t54 - 3.141592653589793238F;
+    const float t56 = -t55;
+    const float t57 = ((t50 < (1.0F/2.0F)) ? (4.0F*(t52*t52)) : ((t56*t56)));
+    const float t62 = m->k[13]*t0*t4*t45*(t47 + (((45.0F/64.0F))*t46 + t47 + 1.0F)*expm1f(t1*(m->k[12]*t6*t7*(m->k[11]*t5 - 64.0F) + m->k[2]*(m->k[10]*(t14*lambert_sphere_tables_texel_f(m->k[9], t9) + t18*lambert_sphere_tables_texel_f(m->k[9], t15) + t21*lambert_sphere_tables_texel_f(m->k[9], t19) + t23*lambert_sphere_tables_texel_f(m->k[9], t22)) + m->k[4]*(t14*lambert_sphere_tables_texel_f(m->k[3], t9) + t18*lambert_sphere_tables_texel_f(m->k[3], t15) + t21*lambert_sphere_tables_texel_f(m->k[3], t19) + t23*lambert_sphere_tables_texel_f(m->k[3], t22)) + m->k[6]*(t14*lambert_sphere_tables_texel_f(m->k[5], t9) + t18*lambert_sphere_tables_texel_f(m->k[5], t15) + t21*lambert_sphere_tables_texel_f(m->k[5], t19) + t23*lambert_sphere_tables_texel_f(m->k[5], t22)) + m->k[8]*(t14*lambert_sphere_tables_texel_f(m->k[7], t9) + t18*lambert_sphere_tables_texel_f(m->k[7], t15) + t21*lambert_sphere_tables_texel_f(m->k[7], t19) + t23*lambert_sphere_tables_texel_f(m->k[7], t22)) - (47.0F/96.0F)*t1 - (15.0F/128.0F)*t5 + ((15.0F/64.0F))*t8 + (173.0F/768.0F))) + t2*(m->k[12]*t25*t26*(m->k[11]*t24 - 64.0F) + m->k[2]*(m->k[10]*(t33*lambert_sphere_tables_texel_f(m->k[9], t28) + t37*lambert_sphere_tables_texel_f(m->k[9], t34) + t40*lambert_sphere_tables_texel_f(m->k[9], t38) + t42*lambert_sphere_tables_texel_f(m->k[9], t41)) + m->k[4]*(t33*lambert_sphere_tables_texel_f(m->k[3], t28) + t37*lambert_sphere_tables_texel_f(m->k[3], t34) + t40*lambert_sphere_tables_texel_f(m->k[3], t38) + t42*lambert_sphere_tables_texel_f(m->k[3], t41)) + m->k[6]*(t33*lambert_sphere_tables_texel_f(m->k[5], t28) + t37*lambert_sphere_tables_texel_f(m->k[5], t34) + t40*lambert_sphere_tables_texel_f(m->k[5], t38) + t42*lambert_sphere_tables_texel_f(m->k[5], t41)) + m->k[8]*(t33*lambert_sphere_tables_texel_f(m->k[7], t28) + t37*lambert_sphere_tables_texel_f(m->k[7], t34) + t40*lambert_sphere_tables_texel_f(m->k[7], t38) + t42*lambert_sphere_tables_texel_f(m->k[7], t41)) - (47.0F/96.0F)*t2 - (15.0F/128.0F)*t24 + ((15.0F/64.0F))*t27 + (173.0F/768.0F))))) + m->k[19]*t4*t44*(2.0F*(t0*t0) - 1.0F)*expm1f(t1*(m->k[18]*(t6*t6)*t7 + m->k[2]*(m->k[10]*(t14*lambert_sphere_tables_texel_f(m->k[17], t9) + t18*lambert_sphere_tables_texel_f(m->k[17], t15) + t21*lambert_sphere_tables_texel_f(m->k[17], t19) + t23*lambert_sphere_tables_texel_f(m->k[17], t22)) + m->k[4]*(t14*lambert_sphere_tables_texel_f(m->k[14], t9) + t18*lambert_sphere_tables_texel_f(m->k[14], t15) + t21*lambert_sphere_tables_texel_f(m->k[14], t19) + t23*lambert_sphere_tables_texel_f(m->k[14], t22)) + m->k[6]*(t14*lambert_sphere_tables_texel_f(m->k[15], t9) + t18*lambert_sphere_tables_texel_f(m->k[15], t15) + t21*lambert_sphere_tables_texel_f(m->k[15], t19) + t23*lambert_sphere_tables_texel_f(m->k[15], t22)) + m->k[8]*(t14*lambert_sphere_tables_texel_f(m->k[16], t9) + t18*lambert_sphere_tables_texel_f(m->k[16], t15) + t21*lambert_sphere_tables_texel_f(m->k[16], t19) + t23*lambert_sphere_tables_texel_f(m->k[16], t22)) + ((25.0F/256.0F))*t1 + ((15.0F/512.0F))*t5 - (15.0F/256.0F)*t8 + (-45.0F/1024.0F))) + t2*(m->k[18]*(t25*t25)*t26 + m->k[2]*(m->k[10]*(t33*lambert_sphere_tables_texel_f(m->k[17], t28) + t37*lambert_sphere_tables_texel_f(m->k[17], t34) + t40*lambert_sphere_tables_texel_f(m->k[17], t38) + t42*lambert_sphere_tables_texel_f(m->k[17], t41)) + m->k[4]*(t33*lambert_sphere_tables_texel_f(m->k[14], t28) + t37*lambert_sphere_tables_texel_f(m->k[14], t34) + t40*lambert_sphere_tables_texel_f(m->k[14], t38) + t42*lambert_sphere_tables_texel_f(m->k[14], t41)) + m->k[6]*(t33*lambert_sphere_tables_texel_f(m->k[15], t28) + t37*lambert_sphere_tables_texel_f(m->k[15], t34) + t40*lambert_sphere_tables_texel_f(m->k[15], t38) + t42*lambert_sphere_tables_texel_f(m->k[15], t41)) + m->k[8]*(t33*lambert_sphere_tables_texel_f(m->k[16], t28) + t37*lambert_sphere_tables_texel_f(m->k[16], t34) + t40*lambert_sphere_tables_texel_f(m->k[16], t38) + t42*lambert_sphere_tables_texel_f(m->k[16], t41)) + ((25.0F/256.0F))*t2 + ((15.0F/512.0F))*t24 - (15.0F/256.0F)*t27 + (-45.0F/1024.0F)))) + m->k[32]*t4*((((t50 < (1.0F/2.0F)) ? (t52 < (1.0F/4.0F)) : (t55 > (-1.0F/2.0F)))) ? ((t57*(t57*(t57*(t57*(t57*(((1.0F/93405312000.0F))*t57 + (-1.0F/518918400.0F)) + (1.0F/3991680.0F)) + (-1.0F/45360.0F)) + (1.0F/840.0F)) + (-1.0F/30.0F)) + (1.0F/3.0F))*((t50 < (1.0F/2.0F)) ? (8.0F*(t52*t52*t52)) : ((t56*t56*t56)))) : (2.0F*sqrtf(t50)*sqrtf(t51) - (1.0F - 2.0F*t50)*((t50 < (1.0F/2.0F)) ? (t54) : (t56)))) + ((1.0F/2.0F))*t4*(t48 + (m->k[22]*(135.0F*t24*t5 - 45.0F*t24 + 256.0F*t46 - 45.0F*t5 + 207.0F) + t48)*expm1f(t1*(m->k[2]*(m->k[10]*(t14*lambert_sphere_tables_texel_f(m->k[29], t9) + t18*lambert_sphere_tables_texel_f(m->k[29], t15) + t21*lambert_sphere_tables_texel_f(m->k[29], t19) + t23*lambert_sphere_tables_texel_f(m->k[29], t22)) + m->k[4]*(t14*lambert_sphere_tables_texel_f(m->k[26], t9) + t18*lambert_sphere_tables_texel_f(m->k[26], t15) + t21*lambert_sphere_tables_texel_f(m->k[26], t19) + t23*lambert_sphere_tables_texel_f(m->k[26], t22)) + m->k[6]*(t14*lambert_sphere_tables_texel_f(m->k[27], t9) + t18*lambert_sphere_tables_texel_f(m->k[27], t15) + t21*lambert_sphere_tables_texel_f(m->k[27], t19) + t23*lambert_sphere_tables_texel_f(m->k[27], t22)) + m->k[8]*(t14*lambert_sphere_tables_texel_f(m->k[28], t9) + t18*lambert_sphere_tables_texel_f(m->k[28], t15) + t21*lambert_sphere_tables_texel_f(m->k[28], t19) + t23*lambert_sphere_tables_texel_f(m->k[28], t22)) + ((301.0F/384.0F))*t1 + ((45.0F/256.0F))*t5 - (45.0F/128.0F)*t8 + (-557.0F/1536.0F)) + m->k[22]*t7*(m->k[30]*t5 + m->k[31]*(t1*t1*t1*t1) + 207.0F)) + t2*(m->k[2]*(m->k[10]*(t33*lambert_sphere_tables_texel_f(m->k[29], t28) + t37*lambert_sphere_tables_texel_f(m->k[29], t34) + t40*lambert_sphere_tables_texel_f(m->k[29], t38) + t42*lambert_sphere_tables_texel_f(m->k[29], t41)) + m->k[4]*(t33*lambert_sphere_tables_texel_f(m->k[26], t28) + t37*lambert_sphere_tables_texel_f(m->k[26], t34) + t40*lambert_sphere_tables_texel_f(m->k[26], t38) + t42*lambert_sphere_tables_texel_f(m->k[26], t41)) + m->k[6]*(t33*lambert_sphere_tables_texel_f(m->k[27], t28) + t37*lambert_sphere_tables_texel_f(m->k[27], t34) + t40*lambert_sphere_tables_texel_f(m->k[27], t38) + t42*lambert_sphere_tables_texel_f(m->k[27], t41)) + m->k[8]*(t33*lambert_sphere_tables_texel_f(m->k[28], t28) + t37*lambert_sphere_tables_texel_f(m->k[28], t34) + t40*lambert_sphere_tables_texel_f(m->k[28], t38) + t42*lambert_sphere_tables_texel_f(m->k[28], t41)) + ((301.0F/384.0F))*t2 + ((45.0F/256.0F))*t24 - (45.0F/128.0F)*t27 + (-557.0F/1536.0F)) + m->k[22]*t26*(m->k[30]*t24 + m->k[31]*(t2*t2*t2*t2) + 207.0F))))/3.141592653589793238F;
+    return ((t62 < 0.0F) ? (0.0F) : (t62));
+}
+
+LAMBERT_SPHERE_TABLES_FN void lambert_sphere_tables_eval_rgb_f(const lambert_sphere_tables_material_f m[3], float mu_i, float mu_o, float cos_phi, float out[3])
+{
+    int k;
+    for (k = 0; k < 3; ++k) out[k] = lambert_sphere_tables_eval_f(m + k, mu_i, mu_o, cos_phi);
+}
+
+LAMBERT_SPHERE_TABLES_FN float lambert_sphere_tables_eval_local_f(const lambert_sphere_tables_material_f *m, const float wi[3], const float wo[3])
+{
+    const float t64 = ((wi[2] < -1.0F) ? (-1.0F) : (wi[2]));
+    const float t0 = ((t64 > 1.0F) ? (1.0F) : (t64));
+    const float t65 = ((wo[2] < -1.0F) ? (-1.0F) : (wo[2]));
+    const float t1 = ((t65 > 1.0F) ? (1.0F) : (t65));
+    const float t66 = ((wi[0] < -1.0F) ? (-1.0F) : (wi[0]));
+    const float t2 = ((t66 > 1.0F) ? (1.0F) : (t66));
+    const float t67 = ((wo[0] < -1.0F) ? (-1.0F) : (wo[0]));
+    const float t3 = ((t67 > 1.0F) ? (1.0F) : (t67));
+    const float t68 = ((wi[1] < -1.0F) ? (-1.0F) : (wi[1]));
+    const float t4 = ((t68 > 1.0F) ? (1.0F) : (t68));
+    const float t69 = ((wo[1] < -1.0F) ? (-1.0F) : (wo[1]));
+    const float t5 = ((t69 > 1.0F) ? (1.0F) : (t69));
+    const float t70 = ((t2*t2) + (t4*t4))*((t3*t3) + (t5*t5));
+    const float t71 = (t2*t3 + t4*t5)/sqrtf(((t70 < (1.0F/1000000000000000000000000000000.0F)) ? ((1.0F/1000000000000000000000000000000.0F)) : (t70)));
+    const float t72 = ((t71 < -1.0F) ? (-1.0F) : (t71));
+    const float t6 = ((t72 > 1.0F) ? (1.0F) : (t72));
+    const float t73 = ((t0 < 0.0F) ? (0.0F) : (t0));
+    const float t7 = ((t73 > 1.0F) ? (1.0F) : (t73));
+    const float t74 = ((t1 < 0.0F) ? (0.0F) : (t1));
+    const float t8 = ((t74 > 1.0F) ? (1.0F) : (t74));
+    const float t9 = t7 + t8;
+    const float t10 = 1.0F/((t9 < (1.0F/1000000.0F)) ? ((1.0F/1000000.0F)) : (t9));
+    const float t11 = (t7*t7);
+    const float t12 = t11 - 1.0F;
+    const float t13 = logf(1.0F + 1.0F/((t7 < 1.0e-30F) ? (1.0e-30F) : (t7)));
+    const float t14 = (t7*t7*t7);
+    const float t15 = ((t7 < (1.0F/32.0F)) ? (0.0F) : (((t7 >= (31.0F/32.0F)) ? (29.0F) : (floorf(32.0F*t7) - 1.0F))));
+    const float t16 = t15 - 32.0F*t7;
     const float t17 = -t16 - 3.0F;
     const float t18 = -t16 - 2.0F;
     const float t19 = t16 + 1.0F;
@@ -1401,109 +1510,42 @@ LAMBERT_SPHERE_TABLES_FN float lambert_sphere_tables_eval_f(const lambert_sphere
     const float t27 = t23*t26;
     const float t28 = t15 + 3.0F;
     const float t29 = ((1.0F/6.0F))*t22*t26;
-    const float t30 = logf(1.0F + 1.0F/((t1 < 1.0e-30F) ? (1.0e-30F) : (t1)));
-    const float t31 = (t1*t1*t1);
-    const float t32 = ((t1 < (1.0F/32.0F)) ? (0.0F) : (((t1 >= (31.0F/32.0F)) ? (29.0F) : (floorf(32.0F*t1) - 1.0F))));
-    const float t33 = -32.0F*t1 + t32;
-    const float t34 = -t33 - 3.0F;
-    const float t35 = -t33 - 2.0F;
-    const float t36 = t33 + 1.0F;
-    const float t37 = ((1.0F/6.0F))*t34*t35*t36;
-    const float t38 = t32 + 2.0F;
-    const float t39 = -t36;
-    const float t40 = ((1.0F/2.0F))*t34;
-    const float t41 = t33*t39*t40;
-    const float t42 = t32 + 1.0F;
-    const float t43 = -t33*t35;
-    const float t44 = t40*t43;
-    const float t45 = t32 + 3.0F;
-    const float t46 = ((1.0F/6.0F))*t39*t43;
-    const float t47 = m->k[0]*t2 + m->k[1]*t0*t1;
-    const float t48 = m->k[20]*t2 + m->k[21]*(t6 + t8) + m->k[23]*t0*t1 + m->k[24]*t6*t8 + m->k[25]*t0*t1*t2;
-    const float t54 = (1.0F - t12)*(t12 + 1.0F);
-    const float t55 = m->k[13]*t11*t3*t5*(t47 + (((45.0F/64.0F))*t4 + t47 + 1.0F)*expm1f(t0*(m->k[12]*t13*t7*(m->k[11]*t6 - 64.0F) + m->k[2]*(m->k[10]*(t20*lambert_sphere_tables_texel_f(m->k[9], t15) + t24*lambert_sphere_tables_texel_f(m->k[9], t21) + t27*lambert_sphere_tables_texel_f(m->k[9], t25) + t29*lambert_sphere_tables_texel_f(m->k[9], t28)) + m->k[4]*(t20*lambert_sphere_tables_texel_f(m->k[3], t15) + t24*lambert_sphere_tables_texel_f(m->k[3], t21) + t27*lambert_sphere_tables_texel_f(m->k[3], t25) + t29*lambert_sphere_tables_texel_f(m->k[3], t28)) + m->k[6]*(t20*lambert_sphere_tables_texel_f(m->k[5], t15) + t24*lambert_sphere_tables_texel_f(m->k[5], t21) + t27*lambert_sphere_tables_texel_f(m->k[5], t25) + t29*lambert_sphere_tables_texel_f(m->k[5], t28)) + m->k[8]*(t20*lambert_sphere_tables_texel_f(m->k[7], t15) + t24*lambert_sphere_tables_texel_f(m->k[7], t21) + t27*lambert_sphere_tables_texel_f(m->k[7], t25) + t29*lambert_sphere_tables_texel_f(m->k[7], t28)) - (47.0F/96.0F)*t0 + ((15.0F/64.0F))*t14 - (15.0F/128.0F)*t6 + (173.0F/768.0F))) + t1*(m->k[12]*t30*t9*(m->k[11]*t8 - 64.0F) + m->k[2]*(m->k[10]*(t37*lambert_sphere_tables_texel_f(m->k[9], t32) + t41*lambert_sphere_tables_texel_f(m->k[9], t38) + t44*lambert_sphere_tables_texel_f(m->k[9], t42) + t46*lambert_sphere_tables_texel_f(m->k[9], t45)) + m->k[4]*(t37*lambert_sphere_tables_texel_f(m->k[3], t32) + t41*lambert_sphere_tables_texel_f(m->k[3], t38) + t44*lambert_sphere_tables_texel_f(m->k[3], t42) + t46*lambert_sphere_tables_texel_f(m->k[3], t45)) + m->k[6]*(t37*lambert_sphere_tables_texel_f(m->k[5], t32) + t41*lambert_sphere_tables_texel_f(m->k[5], t38) + t44*lambert_sphere_tables_texel_f(m->k[5], t42) + t46*lambert_sphere_tables_texel_f(m->k[5], t45)) + m->k[8]*(t37*lambert_sphere_tables_texel_f(m->k[7], t32) + t41*lambert_sphere_tables_texel_f(m->k[7], t38) + t44*lambert_sphere_tables_texel_f(m->k[7], t42) + t46*lambert_sphere_tables_texel_f(m->k[7], t45)) - (47.0F/96.0F)*t1 + ((15.0F/64.0F))*t31 - (15.0F/128.0F)*t8 + (173.0F/768.0F))))) + m->k[19]*t10*t3*(2.0F*(t5*t5) - 1.0F)*expm1f(t0*(m->k[18]*t13*(t7*t7) + m->k[2]*(m->k[10]*(t20*lambert_sphere_tables_texel_f(m->k[17], t15) + t24*lambert_sphere_tables_texel_f(m->k[17], t21) + t27*lambert_sphere_tables_texel_f(m->k[17], t25) + t29*lambert_sphere_tables_texel_f(m->k[17], t28)) + m->k[4]*(t20*lambert_sphere_tables_texel_f(m->k[14], t15) + t24*lambert_sphere_tables_texel_f(m->k[14], t21) + t27*lambert_sphere_tables_texel_f(m->k[14], t25) + t29*lambert_sphere_tables_texel_f(m->k[14], t28)) + m->k[6]*(t20*lambert_sphere_tables_texel_f(m->k[15], t15) + t24*lambert_sphere_tables_texel_f(m->k[15], t21) + t27*lambert_sphere_tables_texel_f(m->k[15], t25) + t29*lambert_sphere_tables_texel_f(m->k[15], t28)) + m->k[8]*(t20*lambert_sphere_tables_texel_f(m->k[16], t15) + t24*lambert_sphere_tables_texel_f(m->k[16], t21) + t27*lambert_sphere_tables_texel_f(m->k[16], t25) + t29*lambert_sphere_tables_texel_f(m->k[16], t28)) + ((25.0F/256.0F))*t0 - (15.0F/256.0F)*t14 + ((15.0F/512.0F))*t6 + (-45.0F/1024.0F))) + t1*(m->k[18]*t30*(t9*t9) + m->k[2]*(m->k[10]*(t37*lambert_sphere_tables_texel_f(m->k[17], t32) + t41*lambert_sphere_tables_texel_f(m->k[17], t38) + t44*lambert_sphere_tables_texel_f(m->k[17], t42) + t46*lambert_sphere_tables_texel_f(m->k[17], t45)) + m->k[4]*(t37*lambert_sphere_tables_texel_f(m->k[14], t32) + t41*lambert_sphere_tables_texel_f(m->k[14], t38) + t44*lambert_sphere_tables_texel_f(m->k[14], t42) + t46*lambert_sphere_tables_texel_f(m->k[14], t45)) + m->k[6]*(t37*lambert_sphere_tables_texel_f(m->k[15], t32) + t41*lambert_sphere_tables_texel_f(m->k[15], t38) + t44*lambert_sphere_tables_texel_f(m->k[15], t42) + t46*lambert_sphere_tables_texel_f(m->k[15], t45)) + m->k[8]*(t37*lambert_sphere_tables_texel_f(m->k[16], t32) + t41*lambert_sphere_tables_texel_f(m->k[16], t38) + t44*lambert_sphere_tables_texel_f(m->k[16], t42) + t46*lambert_sphere_tables_texel_f(m->k[16], t45)) + ((25.0F/256.0F))*t1 - (15.0F/256.0F)*t31 + ((15.0F/512.0F))*t8 + (-45.0F/1024.0F)))) + m->k[32]*t3*(-2.0F*t12*acosf(t12) + 2.0F*sqrtf(((t54 < 0.0F) ? (0.0F) : (t54)))) + ((1.0F/2.0F))*t3*(t48 + (m->k[22]*(256.0F*t4 + 135.0F*t6*t8 - 45.0F*t6 - 45.0F*t8 + 207.0F) + t48)*expm1f(t0*(m->k[2]*(m->k[10]*(t20*lambert_sphere_tables_texel_f(m->k[29], t15) + t24*lambert_sphere_tables_texel_f(m->k[29], t21) + t27*lambert_sphere_tables_texel_f(m->k[29], t25) + t29*lambert_sphere_tables_texel_f(m->k[29], t28)) + m->k[4]*(t20*lambert_sphere_tables_texel_f(m->k[26], t15) + t24*lambert_sphere_tables_texel_f(m->k[26], t21) + t27*lambert_sphere_tables_texel_f(m->k[26], t25) + t29*lambert_sphere_tables_texel_f(m->k[26], t28)) + m->k[6]*(t20*lambert_sphere_tables_texel_f(m->k[27], t15) + t24*lambert_sphere_tables_texel_f(m->k[27], t21) + t27*lambert_sphere_tables_texel_f(m->k[27], t25) + t29*lambert_sphere_tables_texel_f(m->k[27], t28)) + m->k[8]*(t20*lambert_sphere_tables_texel_f(m->k[28], t15) + t24*lambert_sphere_tables_texel_f(m->k[28], t21) + t27*lambert_sphere_tables_texel_f(m->k[28], t25) + t29*lambert_sphere_tables_texel_f(m->k[28], t28)) + ((301.0F/384.0F))*t0 - (45.0F/128.0F)*t14 + ((45.0F/256.0F))*t6 + (-557.0F/1536.0F)) + m->k[22]*t13*(m->k[30]*t6 + m->k[31]*(t0*t0*t0*t0) + 207.0F)) + t1*(m->k[2]*(m->k[10]*(t37*lambert_sphere_tables_texel_f(m->k[29], t32) + t41*lambert_sphere_tables_texel_f(m->k[29], t38) + t44*lambert_sphere_tables_texel_f(m->k[29], t42) + t46*lambert_sphere_tables_texel_f(m->k[29], t45)) + m->k[4]*(t37*lambert_sphere_tables_texel_f(m->k[26], t32) + t41*lambert_sphere_tables_texel_f(m->k[26], t38) + t44*lambert_sphere_tables_texel_f(m->k[26], t42) + t46*lambert_sphere_tables_texel_f(m->k[26], t45)) + m->k[6]*(t37*lambert_sphere_tables_texel_f(m->k[27], t32) + t41*lambert_sphere_tables_texel_f(m->k[27], t38) + t44*lambert_sphere_tables_texel_f(m->k[27], t42) + t46*lambert_sphere_tables_texel_f(m->k[27], t45)) + m->k[8]*(t37*lambert_sphere_tables_texel_f(m->k[28], t32) + t41*lambert_sphere_tables_texel_f(m->k[28], t38) + t44*lambert_sphere_tables_texel_f(m->k[28], t42) + t46*lambert_sphere_tables_texel_f(m->k[28], t45)) + ((301.0F/384.0F))*t1 - (45.0F/128.0F)*t31 + ((45.0F/256.0F))*t8 + (-557.0F/1536.0F)) + m->k[22]*t30*(m->k[30]*t8 + m->k[31]*(t1*t1*t1*t1) + 207.0F))))/3.141592653589793238F;
-    return ((t55 < 0.0F) ? (0.0F) : (t55));
-}
-
-LAMBERT_SPHERE_TABLES_FN void lambert_sphere_tables_eval_rgb_f(const lambert_sphere_tables_material_f m[3], float mu_i, float mu_o, float cos_phi, float out[3])
-{
-    int k;
-    for (k = 0; k < 3; ++k) out[k] = lambert_sphere_tables_eval_f(m + k, mu_i, mu_o, cos_phi);
-}
-
-LAMBERT_SPHERE_TABLES_FN float lambert_sphere_tables_eval_local_f(const lambert_sphere_tables_material_f *m, const float wi[3], const float wo[3])
-{
-    const float t55 = ((wi[2] < -1.0F) ? (-1.0F) : (wi[2]));
-    const float t0 = ((t55 > 1.0F) ? (1.0F) : (t55));
-    const float t56 = ((wo[2] < -1.0F) ? (-1.0F) : (wo[2]));
-    const float t1 = ((t56 > 1.0F) ? (1.0F) : (t56));
-    const float t57 = ((t0 < 0.0F) ? (0.0F) : (t0));
-    const float t2 = ((t57 > 1.0F) ? (1.0F) : (t57));
-    const float t58 = ((t1 < 0.0F) ? (0.0F) : (t1));
-    const float t3 = ((t58 > 1.0F) ? (1.0F) : (t58));
-    const float t4 = t2 + t3;
-    const float t5 = 1.0F/((t4 < (1.0F/1000000.0F)) ? ((1.0F/1000000.0F)) : (t4));
-    const float t6 = t2*t3;
-    const float t7 = (t2*t2);
-    const float t8 = t7 - 1.0F;
-    const float t9 = (t3*t3);
-    const float t10 = t9 - 1.0F;
-    const float t11 = t10*t8;
-    const float t12 = sqrtf(t11);
-    const float t59 = ((wi[0] < -1.0F) ? (-1.0F) : (wi[0]));
-    const float t13 = ((t59 > 1.0F) ? (1.0F) : (t59));
-    const float t60 = ((wo[0] < -1.0F) ? (-1.0F) : (wo[0]));
-    const float t14 = ((t60 > 1.0F) ? (1.0F) : (t60));
-    const float t61 = ((wi[1] < -1.0F) ? (-1.0F) : (wi[1]));
-    const float t15 = ((t61 > 1.0F) ? (1.0F) : (t61));
-    const float t62 = ((wo[1] < -1.0F) ? (-1.0F) : (wo[1]));
-    const float t16 = ((t62 > 1.0F) ? (1.0F) : (t62));
-    const float t63 = ((t13*t13) + (t15*t15))*((t14*t14) + (t16*t16));
-    const float t64 = (t13*t14 + t15*t16)/sqrtf(((t63 < (1.0F/1000000000000000000000000000000.0F)) ? ((1.0F/1000000000000000000000000000000.0F)) : (t63)));
-    const float t65 = ((t64 < -1.0F) ? (-1.0F) : (t64));
-    const float t17 = ((t65 > 1.0F) ? (1.0F) : (t65));
-    const float t66 = -t12*t17 - t6;
-    const float t67 = ((t66 > 1.0F) ? (1.0F) : (t66));
-    const float t18 = ((t67 < -1.0F) ? (-1.0F) : (t67));
-    const float t19 = logf(1.0F + 1.0F/((t2 < 1.0e-30F) ? (1.0e-30F) : (t2)));
-    const float t20 = (t2*t2*t2);
-    const float t21 = ((t2 < (1.0F/32.0F)) ? (0.0F) : (((t2 >= (31.0F/32.0F)) ? (29.0F) : (floorf(32.0F*t2) - 1.0F))));
-    const float t22 = -32.0F*t2 + t21;
-    const float t23 = -t22 - 3.0F;
-    const float t24 = -t22 - 2.0F;
-    const float t25 = t22 + 1.0F;
-    const float t26 = ((1.0F/6.0F))*t23*t24*t25;
-    const float t27 = t21 + 2.0F;
-    const float t28 = -t25;
-    const float t29 = ((1.0F/2.0F))*t23;
-    const float t30 = t22*t28*t29;
-    const float t31 = t21 + 1.0F;
-    const float t32 = -t22*t24;
-    const float t33 = t29*t32;
-    const float t34 = t21 + 3.0F;
-    const float t35 = ((1.0F/6.0F))*t28*t32;
-    const float t36 = logf(1.0F + 1.0F/((t3 < 1.0e-30F) ? (1.0e-30F) : (t3)));
-    const float t37 = (t3*t3*t3);
-    const float t38 = ((t3 < (1.0F/32.0F)) ? (0.0F) : (((t3 >= (31.0F/32.0F)) ? (29.0F) : (floorf(32.0F*t3) - 1.0F))));
-    const float t39 = -32.0F*t3 + t38;
-    const float t40 = -t39 - 3.0F;
-    const float t41 = -t39 - 2.0F;
-    const float t42 = t39 + 1.0F;
-    const float t43 = ((1.0F/6.0F))*t40*t41*t42;
-    const float t44 = t38 + 2.0F;
-    const float t45 = -t42;
-    const float t46 = ((1.0F/2.0F))*t40;
-    const float t47 = t39*t45*t46;
-    const float t48 = t38 + 1.0F;
-    const float t49 = -t39*t41;
-    const float t50 = t46*t49;
-    const float t51 = t38 + 3.0F;
-    const float t52 = ((1.0F/6.0F))*t45*t49;
-    const float t53 = m->k[0]*t4 + m->k[1]*t2*t3;
-    const float t54 = m->k[20]*t4 + m->k[21]*(t7 + t9) + m->k[23]*t2*t3 + m->k[24]*t7*t9 + m->k[25]*t2*t3*t4;
-    const float t68 = (1.0F - t18)*(t18 + 1.0F);
-    const float t69 = m->k[13]*t12*t17*t5*(t53 + (t53 + ((45.0F/64.0F))*t6 + 1.0F)*expm1f(t2*(m->k[12]*t19*t8*(m->k[11]*t7 - 64.0F) + m->k[2]*(m->k[10]*(t26*lambert_sphere_tables_texel_f(m->k[9], t21) + t30*lambert_sphere_tables_texel_f(m->k[9], t27) + t33*lambert_sphere_tables_texel_f(m->k[9], t31) + t35*lambert_sphere_tables_texel_f(m->k[9], t34)) + m->k[4]*(t26*lambert_sphere_tables_texel_f(m->k[3], t21) + t30*lambert_sphere_tables_texel_f(m->k[3], t27) + t33*lambert_sphere_tables_texel_f(m->k[3], t31) + t35*lambert_sphere_tables_texel_f(m->k[3], t34)) + m->k[6]*(t26*lambert_sphere_tables_texel_f(m->k[5], t21) + t30*lambert_sphere_tables_texel_f(m->k[5], t27) + t33*lambert_sphere_tables_texel_f(m->k[5], t31) + t35*lambert_sphere_tables_texel_f(m->k[5], t34)) + m->k[8]*(t26*lambert_sphere_tables_texel_f(m->k[7], t21) + t30*lambert_sphere_tables_texel_f(m->k[7], t27) + t33*lambert_sphere_tables_texel_f(m->k[7], t31) + t35*lambert_sphere_tables_texel_f(m->k[7], t34)) - (47.0F/96.0F)*t2 + ((15.0F/64.0F))*t20 - (15.0F/128.0F)*t7 + (173.0F/768.0F))) + t3*(m->k[12]*t10*t36*(m->k[11]*t9 - 64.0F) + m->k[2]*(m->k[10]*(t43*lambert_sphere_tables_texel_f(m->k[9], t38) + t47*lambert_sphere_tables_texel_f(m->k[9], t44) + t50*lambert_sphere_tables_texel_f(m->k[9], t48) + t52*lambert_sphere_tables_texel_f(m->k[9], t51)) + m->k[4]*(t43*lambert_sphere_tables_texel_f(m->k[3], t38) + t47*lambert_sphere_tables_texel_f(m->k[3], t44) + t50*lambert_sphere_tables_texel_f(m->k[3], t48) + t52*lambert_sphere_tables_texel_f(m->k[3], t51)) + m->k[6]*(t43*lambert_sphere_tables_texel_f(m->k[5], t38) + t47*lambert_sphere_tables_texel_f(m->k[5], t44) + t50*lambert_sphere_tables_texel_f(m->k[5], t48) + t52*lambert_sphere_tables_texel_f(m->k[5], t51)) + m->k[8]*(t43*lambert_sphere_tables_texel_f(m->k[7], t38) + t47*lambert_sphere_tables_texel_f(m->k[7], t44) + t50*lambert_sphere_tables_texel_f(m->k[7], t48) + t52*lambert_sphere_tables_texel_f(m->k[7], t51)) - (47.0F/96.0F)*t3 + ((15.0F/64.0F))*t37 - (15.0F/128.0F)*t9 + (173.0F/768.0F))))) + m->k[19]*t11*t5*(2.0F*(t17*t17) - 1.0F)*expm1f(t2*(m->k[18]*t19*(t8*t8) + m->k[2]*(m->k[10]*(t26*lambert_sphere_tables_texel_f(m->k[17], t21) + t30*lambert_sphere_tables_texel_f(m->k[17], t27) + t33*lambert_sphere_tables_texel_f(m->k[17], t31) + t35*lambert_sphere_tables_texel_f(m->k[17], t34)) + m->k[4]*(t26*lambert_sphere_tables_texel_f(m->k[14], t21) + t30*lambert_sphere_tables_texel_f(m->k[14], t27) + t33*lambert_sphere_tables_texel_f(m->k[14], t31) + t35*lambert_sphere_tables_texel_f(m->k[14], t34)) + m->k[6]*(t26*lambert_sphere_tables_texel_f(m->k[15], t21) + t30*lambert_sphere_tables_texel_f(m->k[15], t27) + t33*lambert_sphere_tables_texel_f(m->k[15], t31) + t35*lambert_sphere_tables_texel_f(m->k[15], t34)) + m->k[8]*(t26*lambert_sphere_tables_texel_f(m->k[16], t21) + t30*lambert_sphere_tables_texel_f(m->k[16], t27) + t33*lambert_sphere_tables_texel_f(m->k[16], t31) + t35*lambert_sphere_tables_texel_f(m->k[16], t34)) + ((25.0F/256.0F))*t2 - (15.0F/256.0F)*t20 + ((15.0F/512.0F))*t7 + (-45.0F/1024.0F))) + t3*(m->k[18]*(t10*t10)*t36 + m->k[2]*(m->k[10]*(t43*lambert_sphere_tables_texel_f(m->k[17], t38) + t47*lambert_sphere_tables_texel_f(m->k[17], t44) + t50*lambert_sphere_tables_texel_f(m->k[17], t48) + t52*lambert_sphere_tables_texel_f(m->k[17], t51)) + m->k[4]*(t43*lambert_sphere_tables_texel_f(m->k[14], t38) + t47*lambert_sphere_tables_texel_f(m->k[14], t44) + t50*lambert_sphere_tables_texel_f(m->k[14], t48) + t52*lambert_sphere_tables_texel_f(m->k[14], t51)) + m->k[6]*(t43*lambert_sphere_tables_texel_f(m->k[15], t38) + t47*lambert_sphere_tables_texel_f(m->k[15], t44) + t50*lambert_sphere_tables_texel_f(m->k[15], t48) + t52*lambert_sphere_tables_texel_f(m->k[15], t51)) + m->k[8]*(t43*lambert_sphere_tables_texel_f(m->k[16], t38) + t47*lambert_sphere_tables_texel_f(m->k[16], t44) + t50*lambert_sphere_tables_texel_f(m->k[16], t48) + t52*lambert_sphere_tables_texel_f(m->k[16], t51)) + ((25.0F/256.0F))*t3 - (15.0F/256.0F)*t37 + ((15.0F/512.0F))*t9 + (-45.0F/1024.0F)))) + m->k[32]*t5*(-2.0F*t18*acosf(t18) + 2.0F*sqrtf(((t68 < 0.0F) ? (0.0F) : (t68)))) + ((1.0F/2.0F))*t5*(t54 + (m->k[22]*(256.0F*t6 + 135.0F*t7*t9 - 45.0F*t7 - 45.0F*t9 + 207.0F) + t54)*expm1f(t2*(m->k[2]*(m->k[10]*(t26*lambert_sphere_tables_texel_f(m->k[29], t21) + t30*lambert_sphere_tables_texel_f(m->k[29], t27) + t33*lambert_sphere_tables_texel_f(m->k[29], t31) + t35*lambert_sphere_tables_texel_f(m->k[29], t34)) + m->k[4]*(t26*lambert_sphere_tables_texel_f(m->k[26], t21) + t30*lambert_sphere_tables_texel_f(m->k[26], t27) + t33*lambert_sphere_tables_texel_f(m->k[26], t31) + t35*lambert_sphere_tables_texel_f(m->k[26], t34)) + m->k[6]*(t26*lambert_sphere_tables_texel_f(m->k[27], t21) + t30*lambert_sphere_tables_texel_f(m->k[27], t27) + t33*lambert_sphere_tables_texel_f(m->k[27], t31) + t35*lambert_sphere_tables_texel_f(m->k[27], t34)) + m->k[8]*(t26*lambert_sphere_tables_texel_f(m->k[28], t21) + t30*lambert_sphere_tables_texel_f(m->k[28], t27) + t33*lambert_sphere_tables_texel_f(m->k[28], t31) + t35*lambert_sphere_tables_texel_f(m->k[28], t34)) + ((301.0F/384.0F))*t2 - (45.0F/128.0F)*t20 + ((45.0F/256.0F))*t7 + (-557.0F/1536.0F)) + m->k[22]*t19*(m->k[30]*t7 + m->k[31]*(t2*t2*t2*t2) + 207.0F)) + t3*(m->k[2]*(m->k[10]*(t43*lambert_sphere_tables_texel_f(m->k[29], t38) + t47*lambert_sphere_tables_texel_f(m->k[29], t44) + t50*lambert_sphere_tables_texel_f(m->k[29], t48) + t52*lambert_sphere_tables_texel_f(m->k[29], t51)) + m->k[4]*(t43*lambert_sphere_tables_texel_f(m->k[26], t38) + t47*lambert_sphere_tables_texel_f(m->k[26], t44) + t50*lambert_sphere_tables_texel_f(m->k[26], t48) + t52*lambert_sphere_tables_texel_f(m->k[26], t51)) + m->k[6]*(t43*lambert_sphere_tables_texel_f(m->k[27], t38) + t47*lambert_sphere_tables_texel_f(m->k[27], t44) + t50*lambert_sphere_tables_texel_f(m->k[27], t48) + t52*lambert_sphere_tables_texel_f(m->k[27], t51)) + m->k[8]*(t43*lambert_sphere_tables_texel_f(m->k[28], t38) + t47*lambert_sphere_tables_texel_f(m->k[28], t44) + t50*lambert_sphere_tables_texel_f(m->k[28], t48) + t52*lambert_sphere_tables_texel_f(m->k[28], t51)) + ((301.0F/384.0F))*t3 - (45.0F/128.0F)*t37 + ((45.0F/256.0F))*t9 + (-557.0F/1536.0F)) + m->k[22]*t36*(m->k[30]*t9 + m->k[31]*(t3*t3*t3*t3) + 207.0F))))/3.141592653589793238F;
-    return ((t0 < 0.0F) ? (0.0F) : (1.0F))*((t1 < 0.0F) ? (0.0F) : (1.0F))*((t69 < 0.0F) ? (0.0F) : (t69));
+    const float t30 = (t8*t8);
+    const float t31 = t30 - 1.0F;
+    const float t32 = logf(1.0F + 1.0F/((t8 < 1.0e-30F) ? (1.0e-30F) : (t8)));
+    const float t33 = (t8*t8*t8);
+    const float t34 = ((t8 < (1.0F/32.0F)) ? (0.0F) : (((t8 >= (31.0F/32.0F)) ? (29.0F) : (floorf(32.0F*t8) - 1.0F))));
+    const float t35 = t34 - 32.0F*t8;
+    const float t36 = -t35 - 3.0F;
+    const float t37 = -t35 - 2.0F;
+    const float t38 = t35 + 1.0F;
+    const float t39 = ((1.0F/6.0F))*t36*t37*t38;
+    const float t40 = t34 + 2.0F;
+    const float t41 = -t38;
+    const float t42 = ((1.0F/2.0F))*t36;
+    const float t43 = t35*t41*t42;
+    const float t44 = t34 + 1.0F;
+    const float t45 = -t35*t37;
+    const float t46 = t42*t45;
+    const float t47 = t34 + 3.0F;
+    const float t48 = ((1.0F/6.0F))*t41*t45;
+    const float t49 = -t12;
+    const float t50 = -t31*t49;
+    const float t51 = sqrtf(t50);
+    const float t52 = t7*t8;
+    const float t53 = m->k[0]*t9 + m->k[1]*t7*t8;
+    const float t54 = m->k[20]*t9 + m->k[21]*(t11 + t30) + m->k[23]*t7*t8 + m->k[24]*t11*t30 + m->k[25]*t7*t8*t9;
+    const float t75 = ((1.0F/2.0F))*t51*(t6 + 1.0F) + ((1.0F/2.0F))*t52 + ((1.0F/2.0F))*(t11 + t30*t49)/(t51 + 1.0F);
+    const float t55 = ((t75 < 0.0F) ? (0.0F) : (t75));
+    const float t56 = ((t55 > 1.0F) ? (1.0F) : (t55));
+    const float t57 = 1.0F - t56;
+    const float t58 = asinf(sqrtf(((t55 > t57) ? (t57) : (((t55 <= t57) ? (t55) : (t55 + t57))))));
+    const float t60 = 2.0F*t58;
+    const float t61 = t60 - 3.141592653589793238F;
+    const float t62 = -t61;
+    const float t63 = ((t56 < (1.0F/2.0F)) ? (4.0F*(t58*t58)) : ((t62*t62)));
+    const float t76 = m->k[13]*t10*t51*t6*(t53 + (((45.0F/64.0F))*t52 + t53 + 1.0F)*expm1f(t7*(m->k[12]*t12*t13*(m->k[11]*t11 - 64.0F) + m->k[2]*(m->k[10]*(t20*lambert_sphere_tables_texel_f(m->k[9], t15) + t24*lambert_sphere_tables_texel_f(m->k[9], t21) + t27*lambert_sphere_tables_texel_f(m->k[9], t25) + t29*lambert_sphere_tables_texel_f(m->k[9], t28)) + m->k[4]*(t20*lambert_sphere_tables_texel_f(m->k[3], t15) + t24*lambert_sphere_tables_texel_f(m->k[3], t21) + t27*lambert_sphere_tables_texel_f(m->k[3], t25) + t29*lambert_sphere_tables_texel_f(m->k[3], t28)) + m->k[6]*(t20*lambert_sphere_tables_texel_f(m->k[5], t15) + t24*lambert_sphere_tables_texel_f(m->k[5], t21) + t27*lambert_sphere_tables_texel_f(m->k[5], t25) + t29*lambert_sphere_tables_texel_f(m->k[5], t28)) + m->k[8]*(t20*lambert_sphere_tables_texel_f(m->k[7], t15) + t24*lambert_sphere_tables_texel_f(m->k[7], t21) + t27*lambert_sphere_tables_texel_f(m->k[7], t25) + t29*lambert_sphere_tables_texel_f(m->k[7], t28)) - (15.0F/128.0F)*t11 + ((15.0F/64.0F))*t14 - (47.0F/96.0F)*t7 + (173.0F/768.0F))) + t8*(m->k[12]*t31*t32*(m->k[11]*t30 - 64.0F) + m->k[2]*(m->k[10]*(t39*lambert_sphere_tables_texel_f(m->k[9], t34) + t43*lambert_sphere_tables_texel_f(m->k[9], t40) + t46*lambert_sphere_tables_texel_f(m->k[9], t44) + t48*lambert_sphere_tables_texel_f(m->k[9], t47)) + m->k[4]*(t39*lambert_sphere_tables_texel_f(m->k[3], t34) + t43*lambert_sphere_tables_texel_f(m->k[3], t40) + t46*lambert_sphere_tables_texel_f(m->k[3], t44) + t48*lambert_sphere_tables_texel_f(m->k[3], t47)) + m->k[6]*(t39*lambert_sphere_tables_texel_f(m->k[5], t34) + t43*lambert_sphere_tables_texel_f(m->k[5], t40) + t46*lambert_sphere_tables_texel_f(m->k[5], t44) + t48*lambert_sphere_tables_texel_f(m->k[5], t47)) + m->k[8]*(t39*lambert_sphere_tables_texel_f(m->k[7], t34) + t43*lambert_sphere_tables_texel_f(m->k[7], t40) + t46*lambert_sphere_tables_texel_f(m->k[7], t44) + t48*lambert_sphere_tables_texel_f(m->k[7], t47)) - (15.0F/128.0F)*t30 + ((15.0F/64.0F))*t33 - (47.0F/96.0F)*t8 + (173.0F/768.0F))))) + m->k[19]*t10*t50*(2.0F*(t6*t6) - 1.0F)*expm1f(t7*(m->k[18]*(t12*t12)*t13 + m->k[2]*(m->k[10]*(t20*lambert_sphere_tables_texel_f(m->k[17], t15) + t24*lambert_sphere_tables_texel_f(m->k[17], t21) + t27*lambert_sphere_tables_texel_f(m->k[17], t25) + t29*lambert_sphere_tables_texel_f(m->k[17], t28)) + m->k[4]*(t20*lambert_sphere_tables_texel_f(m->k[14], t15) + t24*lambert_sphere_tables_texel_f(m->k[14], t21) + t27*lambert_sphere_tables_texel_f(m->k[14], t25) + t29*lambert_sphere_tables_texel_f(m->k[14], t28)) + m->k[6]*(t20*lambert_sphere_tables_texel_f(m->k[15], t15) + t24*lambert_sphere_tables_texel_f(m->k[15], t21) + t27*lambert_sphere_tables_texel_f(m->k[15], t25) + t29*lambert_sphere_tables_texel_f(m->k[15], t28)) + m->k[8]*(t20*lambert_sphere_tables_texel_f(m->k[16], t15) + t24*lambert_sphere_tables_texel_f(m->k[16], t21) + t27*lambert_sphere_tables_texel_f(m->k[16], t25) + t29*lambert_sphere_tables_texel_f(m->k[16], t28)) + ((15.0F/512.0F))*t11 - (15.0F/256.0F)*t14 + ((25.0F/256.0F))*t7 + (-45.0F/1024.0F))) + t8*(m->k[18]*(t31*t31)*t32 + m->k[2]*(m->k[10]*(t39*lambert_sphere_tables_texel_f(m->k[17], t34) + t43*lambert_sphere_tables_texel_f(m->k[17], t40) + t46*lambert_sphere_tables_texel_f(m->k[17], t44) + t48*lambert_sphere_tables_texel_f(m->k[17], t47)) + m->k[4]*(t39*lambert_sphere_tables_texel_f(m->k[14], t34) + t43*lambert_sphere_tables_texel_f(m->k[14], t40) + t46*lambert_sphere_tables_texel_f(m->k[14], t44) + t48*lambert_sphere_tables_texel_f(m->k[14], t47)) + m->k[6]*(t39*lambert_sphere_tables_texel_f(m->k[15], t34) + t43*lambert_sphere_tables_texel_f(m->k[15], t40) + t46*lambert_sphere_tables_texel_f(m->k[15], t44) + t48*lambert_sphere_tables_texel_f(m->k[15], t47)) + m->k[8]*(t39*lambert_sphere_tables_texel_f(m->k[16], t34) + t43*lambert_sphere_tables_texel_f(m->k[16], t40) + t46*lambert_sphere_tables_texel_f(m->k[16], t44) + t48*lambert_sphere_tables_texel_f(m->k[16], t47)) + ((15.0F/512.0F))*t30 - (15.0F/256.0F)*t33 + ((25.0F/256.0F))*t8 + (-45.0F/1024.0F)))) + m->k[32]*t10*((((t56 < (1.0F/2.0F)) ? (t58 < (1.0F/4.0F)) : (t61 > (-1.0F/2.0F)))) ? ((t63*(t63*(t63*(t63*(t63*(((1.0F/93405312000.0F))*t63 + (-1.0F/518918400.0F)) + (1.0F/3991680.0F)) + (-1.0F/45360.0F)) + (1.0F/840.0F)) + (-1.0F/30.0F)) + (1.0F/3.0F))*((t56 < (1.0F/2.0F)) ? (8.0F*(t58*t58*t58)) : ((t62*t62*t62)))) : (2.0F*sqrtf(t56)*sqrtf(t57) - (1.0F - 2.0F*t56)*((t56 < (1.0F/2.0F)) ? (t60) : (t62)))) + ((1.0F/2.0F))*t10*(t54 + (m->k[22]*(135.0F*t11*t30 - 45.0F*t11 - 45.0F*t30 + 256.0F*t52 + 207.0F) + t54)*expm1f(t7*(m->k[2]*(m->k[10]*(t20*lambert_sphere_tables_texel_f(m->k[29], t15) + t24*lambert_sphere_tables_texel_f(m->k[29], t21) + t27*lambert_sphere_tables_texel_f(m->k[29], t25) + t29*lambert_sphere_tables_texel_f(m->k[29], t28)) + m->k[4]*(t20*lambert_sphere_tables_texel_f(m->k[26], t15) + t24*lambert_sphere_tables_texel_f(m->k[26], t21) + t27*lambert_sphere_tables_texel_f(m->k[26], t25) + t29*lambert_sphere_tables_texel_f(m->k[26], t28)) + m->k[6]*(t20*lambert_sphere_tables_texel_f(m->k[27], t15) + t24*lambert_sphere_tables_texel_f(m->k[27], t21) + t27*lambert_sphere_tables_texel_f(m->k[27], t25) + t29*lambert_sphere_tables_texel_f(m->k[27], t28)) + m->k[8]*(t20*lambert_sphere_tables_texel_f(m->k[28], t15) + t24*lambert_sphere_tables_texel_f(m->k[28], t21) + t27*lambert_sphere_tables_texel_f(m->k[28], t25) + t29*lambert_sphere_tables_texel_f(m->k[28], t28)) + ((45.0F/256.0F))*t11 - (45.0F/128.0F)*t14 + ((301.0F/384.0F))*t7 + (-557.0F/1536.0F)) + m->k[22]*t13*(m->k[30]*t11 + m->k[31]*(t7*t7*t7*t7) + 207.0F)) + t8*(m->k[2]*(m->k[10]*(t39*lambert_sphere_tables_texel_f(m->k[29], t34) + t43*lambert_sphere_tables_texel_f(m->k[29], t40) + t46*lambert_sphere_tables_texel_f(m->k[29], t44) + t48*lambert_sphere_tables_texel_f(m->k[29], t47)) + m->k[4]*(t39*lambert_sphere_tables_texel_f(m->k[26], t34) + t43*lambert_sphere_tables_texel_f(m->k[26], t40) + t46*lambert_sphere_tables_texel_f(m->k[26], t44) + t48*lambert_sphere_tables_texel_f(m->k[26], t47)) + m->k[6]*(t39*lambert_sphere_tables_texel_f(m->k[27], t34) + t43*lambert_sphere_tables_texel_f(m->k[27], t40) + t46*lambert_sphere_tables_texel_f(m->k[27], t44) + t48*lambert_sphere_tables_texel_f(m->k[27], t47)) + m->k[8]*(t39*lambert_sphere_tables_texel_f(m->k[28], t34) + t43*lambert_sphere_tables_texel_f(m->k[28], t40) + t46*lambert_sphere_tables_texel_f(m->k[28], t44) + t48*lambert_sphere_tables_texel_f(m->k[28], t47)) + ((45.0F/256.0F))*t30 - (45.0F/128.0F)*t33 + ((301.0F/384.0F))*t8 + (-557.0F/1536.0F)) + m->k[22]*t32*(m->k[30]*t30 + m->k[31]*(t8*t8*t8*t8) + 207.0F))))/3.141592653589793238F;
+    return ((t0 < 0.0F) ? (0.0F) : (1.0F))*((t1 < 0.0F) ? (0.0F) : (1.0F))*((t76 < 0.0F) ? (0.0F) : (t76));
 }
 
 LAMBERT_SPHERE_TABLES_FN void lambert_sphere_tables_eval_local_rgb_f(const lambert_sphere_tables_material_f m[3], const float wi[3], const float wo[3], float out[3])

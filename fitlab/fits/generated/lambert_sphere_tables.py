@@ -295,21 +295,32 @@ def c_of_kd(kd):
 
 def single(mu_i, mu_o, cos_phi, c):
     """Single scattering with the true phase function, c p(u)/(mu_i + mu_o), u = -(mu_i mu_o +
-    S cos phi) (eq. 10), sqrt(1 - u^2) evaluated as sqrt((1 - u)(1 + u)) (full accuracy in
-    forward scattering at grazing). Pole floored at 1e-6."""
+    S cos phi) (eq. 10), p evaluated from 1 - u = (1 - S^2)/(1 + S) + mu_i mu_o + S (1 + cos
+    phi) and x = acos(u) = 2 asin(sqrt((1 - u)/2)), sin x - x cos x by its series below x =
+    1/2 (full accuracy in forward scattering at grazing, float included). Pole floored at
+    1e-6."""
     mu_i, mu_o, cos_phi, c = numpy.asarray(mu_i, dtype=float), numpy.asarray(mu_o, dtype=float), numpy.asarray(cos_phi, dtype=float), numpy.asarray(c, dtype=float)
-    t3 = numpy.where(numpy.less(mu_i, 0), 0.0, mu_i)
-    t0 = numpy.where(numpy.greater(t3, 1.0), 1.0, t3)
-    t4 = numpy.where(numpy.less(mu_o, 0), 0.0, mu_o)
-    t1 = numpy.where(numpy.greater(t4, 1.0), 1.0, t4)
-    t5 = numpy.where(numpy.less(cos_phi, -1.0), -1.0, cos_phi)
-    t6 = -t0*t1 - numpy.sqrt((1 - (t0*t0))*(1 - (t1*t1)))*numpy.where(numpy.greater(t5, 1.0), 1.0, t5)
+    t15 = numpy.where(numpy.less(mu_i, 0), 0.0, mu_i)
+    t0 = numpy.where(numpy.greater(t15, 1.0), 1.0, t15)
+    t16 = numpy.where(numpy.less(mu_o, 0), 0.0, mu_o)
+    t1 = numpy.where(numpy.greater(t16, 1.0), 1.0, t16)
+    t2 = (t0*t0)
+    t3 = 1 - t2
+    t4 = (t1*t1)
+    t5 = numpy.sqrt(t3*(1 - t4))
+    t17 = numpy.where(numpy.less(cos_phi, -1.0), -1.0, cos_phi)
+    t18 = (1/2)*t0*t1 + (1/2)*t5*(numpy.where(numpy.greater(t17, 1.0), 1.0, t17) + 1) + (1/2)*(t2 + t3*t4)/(t5 + 1)
+    t6 = numpy.where(numpy.less(t18, 0), 0, t18)
     t7 = numpy.where(numpy.greater(t6, 1), 1, t6)
-    t2 = numpy.where(numpy.less(t7, -1), -1, t7)
-    t8 = t0 + t1
-    t9 = (1 - t2)*(t2 + 1)
-    t10 = numpy.where(numpy.less(c, 0), 0.0, c)
-    return (1/3)*(-2*t2*numpy.arccos(t2) + 2*numpy.sqrt(numpy.where(numpy.less(t9, 0), 0, t9)))*numpy.where(numpy.greater(t10, 1.0), 1.0, t10)/((3.141592653589793238*3.141592653589793238)*numpy.where(numpy.less(t8, 1/1000000), 1/1000000, t8))
+    t8 = 1 - t7
+    t9 = numpy.arcsin(numpy.sqrt(numpy.where(numpy.greater(t6, t8), t8, numpy.where(numpy.less_equal(t6, t8), t6, t6 + t8))))
+    t11 = 2*t9
+    t12 = t11 - 3.141592653589793238
+    t13 = -t12
+    t14 = numpy.where(numpy.less(t7, 1/2), 4*(t9*t9), (t13*t13))
+    t19 = t0 + t1
+    t20 = numpy.where(numpy.less(c, 0), 0.0, c)
+    return (2/3)*numpy.where(numpy.where(numpy.less(t7, 1/2), numpy.less(t9, 1/4), numpy.greater(t12, -1/2)), (t14*(t14*(t14*(t14*(t14*((1/93405312000)*t14 - 1/518918400) + 1/3991680) - 1/45360) + 1/840) - 1/30) + 1/3)*numpy.where(numpy.less(t7, 1/2), 8*(t9*t9*t9), (t13*t13*t13)), 2*numpy.sqrt(t7)*numpy.sqrt(t8) - (1 - 2*t7)*numpy.where(numpy.less(t7, 1/2), t11, t13))*numpy.where(numpy.greater(t20, 1.0), 1.0, t20)/((3.141592653589793238*3.141592653589793238)*numpy.where(numpy.less(t19, 1/1000000), 1/1000000, t19))
 
 
 def fm0(mu_i, mu_o, c):
@@ -616,7 +627,7 @@ def prepare_c(c):
     t22 = (45/128)*t4
     t23 = 20*t0
     t24 = 3.141592653589793238**(-1.0)
-    return numpy.stack(numpy.broadcast_arrays(numpy.asarray(t21, dtype=float), numpy.asarray(t12*t22*texel(100, t9) + t16*t22*texel(100, t14) + (15/128)*t19*texel(100, t18) + (t21*t21) + (15/128)*t7*texel(100, t2), dtype=float), numpy.asarray(t0, dtype=float), numpy.asarray(t2 + 34, dtype=float), numpy.asarray(t17, dtype=float), numpy.asarray(t2 + 35, dtype=float), numpy.asarray(t13, dtype=float), numpy.asarray(t2 + 36, dtype=float), numpy.asarray(t20, dtype=float), numpy.asarray(t2 + 33, dtype=float), numpy.asarray(t8, dtype=float), numpy.asarray(t23 + 45, dtype=float), numpy.asarray(-1/192*t0, dtype=float), numpy.asarray((1/3)*t0*t24, dtype=float), numpy.asarray(t2 + 67, dtype=float), numpy.asarray(t2 + 68, dtype=float), numpy.asarray(t2 + 69, dtype=float), numpy.asarray(t2 + 66, dtype=float), numpy.asarray((15/256)*t0, dtype=float), numpy.asarray((15/256)*t0*t24, dtype=float), numpy.asarray(t0*(t13*texel(101, t9) + t17*texel(101, t14) + t20*texel(101, t18) + t8*texel(101, t2)), dtype=float), numpy.asarray((1/6)*t0*t11*t15*t5*texel(104, t18) + (1/2)*t0*t11*t3*t4*texel(104, t9) + (1/2)*t0*t15*t4*t5*texel(104, t14) + (1/6)*t0*t4*t5*t6*texel(104, t2), dtype=float), numpy.asarray((1/384)*t0, dtype=float), numpy.asarray((1/6)*t0*t11*t15*t5*texel(102, t18) + (1/2)*t0*t11*t3*t4*texel(102, t9) + (1/2)*t0*t15*t4*t5*texel(102, t14) + (1/6)*t0*t4*t5*t6*texel(102, t2), dtype=float), numpy.asarray(-5/32*(t0*t0*t0) - 25/128*(t0*t0), dtype=float), numpy.asarray(t0*(t13*texel(103, t9) + t17*texel(103, t14) + t20*texel(103, t18) + t8*texel(103, t2)), dtype=float), numpy.asarray(t14, dtype=float), numpy.asarray(t9, dtype=float), numpy.asarray(t18, dtype=float), numpy.asarray(t2, dtype=float), numpy.asarray(t0*(t23 + 281) - 346, dtype=float), numpy.asarray((15 - 15*t0)*(4*t0 + 9), dtype=float), numpy.asarray((1/3)*t0/(3.141592653589793238*3.141592653589793238), dtype=float)), axis=-1)
+    return numpy.stack(numpy.broadcast_arrays(numpy.asarray(t21, dtype=float), numpy.asarray(t12*t22*texel(100, t9) + t16*t22*texel(100, t14) + (15/128)*t19*texel(100, t18) + (t21*t21) + (15/128)*t7*texel(100, t2), dtype=float), numpy.asarray(t0, dtype=float), numpy.asarray(t2 + 34, dtype=float), numpy.asarray(t17, dtype=float), numpy.asarray(t2 + 35, dtype=float), numpy.asarray(t13, dtype=float), numpy.asarray(t2 + 36, dtype=float), numpy.asarray(t20, dtype=float), numpy.asarray(t2 + 33, dtype=float), numpy.asarray(t8, dtype=float), numpy.asarray(t23 + 45, dtype=float), numpy.asarray(-1/192*t0, dtype=float), numpy.asarray((1/3)*t0*t24, dtype=float), numpy.asarray(t2 + 67, dtype=float), numpy.asarray(t2 + 68, dtype=float), numpy.asarray(t2 + 69, dtype=float), numpy.asarray(t2 + 66, dtype=float), numpy.asarray((15/256)*t0, dtype=float), numpy.asarray((15/256)*t0*t24, dtype=float), numpy.asarray(t0*(t13*texel(101, t9) + t17*texel(101, t14) + t20*texel(101, t18) + t8*texel(101, t2)), dtype=float), numpy.asarray((1/6)*t0*t11*t15*t5*texel(104, t18) + (1/2)*t0*t11*t3*t4*texel(104, t9) + (1/2)*t0*t15*t4*t5*texel(104, t14) + (1/6)*t0*t4*t5*t6*texel(104, t2), dtype=float), numpy.asarray((1/384)*t0, dtype=float), numpy.asarray((1/6)*t0*t11*t15*t5*texel(102, t18) + (1/2)*t0*t11*t3*t4*texel(102, t9) + (1/2)*t0*t15*t4*t5*texel(102, t14) + (1/6)*t0*t4*t5*t6*texel(102, t2), dtype=float), numpy.asarray(-5/32*(t0*t0*t0) - 25/128*(t0*t0), dtype=float), numpy.asarray(t0*(t13*texel(103, t9) + t17*texel(103, t14) + t20*texel(103, t18) + t8*texel(103, t2)), dtype=float), numpy.asarray(t14, dtype=float), numpy.asarray(t9, dtype=float), numpy.asarray(t18, dtype=float), numpy.asarray(t2, dtype=float), numpy.asarray(t0*(t23 + 281) - 346, dtype=float), numpy.asarray((15 - 15*t0)*(4*t0 + 9), dtype=float), numpy.asarray((2/3)*t0/(3.141592653589793238*3.141592653589793238), dtype=float)), axis=-1)
 
 
 def prepare(kd):
@@ -631,28 +642,105 @@ def eval(material, mu_i, mu_o, cos_phi):
     [0, 1], cos_phi in [-1, 1] (phi = 0 back-scattering), c the particle albedo in [0, 1];
     inputs outside (+-inf included) are clamped, NaN in any input gives NaN."""
     material, mu_i, mu_o, cos_phi = numpy.asarray(material, dtype=float), numpy.asarray(mu_i, dtype=float), numpy.asarray(mu_o, dtype=float), numpy.asarray(cos_phi, dtype=float)
-    t49 = numpy.where(numpy.less(mu_i, 0), 0.0, mu_i)
-    t0 = numpy.where(numpy.greater(t49, 1.0), 1.0, t49)
-    t50 = numpy.where(numpy.less(mu_o, 0), 0.0, mu_o)
-    t1 = numpy.where(numpy.greater(t50, 1.0), 1.0, t50)
-    t2 = t0 + t1
-    t3 = numpy.where(numpy.less(t2, 1/1000000), 1/1000000, t2)**(-1.0)
-    t4 = t0*t1
-    t51 = numpy.where(numpy.less(cos_phi, -1.0), -1.0, cos_phi)
-    t5 = numpy.where(numpy.greater(t51, 1.0), 1.0, t51)
-    t6 = (t0*t0)
-    t7 = t6 - 1
-    t8 = (t1*t1)
-    t9 = t8 - 1
-    t10 = t7*t9
-    t11 = numpy.sqrt(t10)
-    t52 = -t11*t5 - t4
-    t53 = numpy.where(numpy.greater(t52, 1), 1, t52)
-    t12 = numpy.where(numpy.less(t53, -1), -1, t53)
-    t13 = numpy.log(1 + numpy.where(numpy.less(t0, 1.0e-30), 1.0e-30, t0)**(-1.0))
-    t14 = (t0*t0*t0)
-    t15 = numpy.where(numpy.less(t0, 1/32), 0, numpy.where(numpy.greater_equal(t0, 31/32), 29, numpy.floor(32*t0) - 1))
-    t16 = -32*t0 + t15
+    t58 = numpy.where(numpy.less(cos_phi, -1.0), -1.0, cos_phi)
+    t0 = numpy.where(numpy.greater(t58, 1.0), 1.0, t58)
+    t59 = numpy.where(numpy.less(mu_i, 0), 0.0, mu_i)
+    t1 = numpy.where(numpy.greater(t59, 1.0), 1.0, t59)
+    t60 = numpy.where(numpy.less(mu_o, 0), 0.0, mu_o)
+    t2 = numpy.where(numpy.greater(t60, 1.0), 1.0, t60)
+    t3 = t1 + t2
+    t4 = numpy.where(numpy.less(t3, 1/1000000), 1/1000000, t3)**(-1.0)
+    t5 = (t1*t1)
+    t6 = t5 - 1
+    t7 = numpy.log(1 + numpy.where(numpy.less(t1, 1.0e-30), 1.0e-30, t1)**(-1.0))
+    t8 = (t1*t1*t1)
+    t9 = numpy.where(numpy.less(t1, 1/32), 0, numpy.where(numpy.greater_equal(t1, 31/32), 29, numpy.floor(32*t1) - 1))
+    t10 = -32*t1 + t9
+    t11 = -t10 - 3
+    t12 = -t10 - 2
+    t13 = t10 + 1
+    t14 = (1/6)*t11*t12*t13
+    t15 = t9 + 2
+    t16 = -t13
+    t17 = (1/2)*t11
+    t18 = t10*t16*t17
+    t19 = t9 + 1
+    t20 = -t10*t12
+    t21 = t17*t20
+    t22 = t9 + 3
+    t23 = (1/6)*t16*t20
+    t24 = (t2*t2)
+    t25 = t24 - 1
+    t26 = numpy.log(1 + numpy.where(numpy.less(t2, 1.0e-30), 1.0e-30, t2)**(-1.0))
+    t27 = (t2*t2*t2)
+    t28 = numpy.where(numpy.less(t2, 1/32), 0, numpy.where(numpy.greater_equal(t2, 31/32), 29, numpy.floor(32*t2) - 1))
+    t29 = -32*t2 + t28
+    t30 = -t29 - 3
+    t31 = -t29 - 2
+    t32 = t29 + 1
+    t33 = (1/6)*t30*t31*t32
+    t34 = t28 + 2
+    t35 = -t32
+    t36 = (1/2)*t30
+    t37 = t29*t35*t36
+    t38 = t28 + 1
+    t39 = -t29*t31
+    t40 = t36*t39
+    t41 = t28 + 3
+    t42 = (1/6)*t35*t39
+    t43 = -t6
+    t44 = -t25*t43
+    t45 = numpy.sqrt(t44)
+    t46 = t1*t2
+    t47 = material[..., 0]*t3 + material[..., 1]*t1*t2
+    t48 = material[..., 20]*t3 + material[..., 21]*(t24 + t5) + material[..., 23]*t1*t2 + material[..., 24]*t24*t5 + material[..., 25]*t1*t2*t3
+    t61 = (1/2)*t45*(t0 + 1) + (1/2)*t46 + (1/2)*(t24*t43 + t5)/(t45 + 1)
+    t49 = numpy.where(numpy.less(t61, 0), 0, t61)
+    t50 = numpy.where(numpy.greater(t49, 1), 1, t49)
+    t51 = 1 - t50
+    t52 = numpy.arcsin(numpy.sqrt(numpy.where(numpy.greater(t49, t51), t51, numpy.where(numpy.less_equal(t49, t51), t49, t49 + t51))))
+    t54 = 2*t52
+    t55 = t54 - 3.141592653589793238
+    t56 = -t55
+    t57 = numpy.where(numpy.less(t50, 1/2), 4*(t52*t52), (t56*t56))
+    t62 = material[..., 13]*t0*t4*t45*(t47 + ((45/64)*t46 + t47 + 1)*numpy.expm1(t1*(material[..., 12]*t6*t7*(material[..., 11]*t5 - 64) + material[..., 2]*(material[..., 10]*(t14*texel(material[..., 9], t9) + t18*texel(material[..., 9], t15) + t21*texel(material[..., 9], t19) + t23*texel(material[..., 9], t22)) + material[..., 4]*(t14*texel(material[..., 3], t9) + t18*texel(material[..., 3], t15) + t21*texel(material[..., 3], t19) + t23*texel(material[..., 3], t22)) + material[..., 6]*(t14*texel(material[..., 5], t9) + t18*texel(material[..., 5], t15) + t21*texel(material[..., 5], t19) + t23*texel(material[..., 5], t22)) + material[..., 8]*(t14*texel(material[..., 7], t9) + t18*texel(material[..., 7], t15) + t21*texel(material[..., 7], t19) + t23*texel(material[..., 7], t22)) - 47/96*t1 - 15/128*t5 + (15/64)*t8 + 173/768)) + t2*(material[..., 12]*t25*t26*(material[..., 11]*t24 - 64) + material[..., 2]*(material[..., 10]*(t33*texel(material[..., 9], t28) + t37*texel(material[..., 9], t34) + t40*texel(material[..., 9], t38) + t42*texel(material[..., 9], t41)) + material[..., 4]*(t33*texel(material[..., 3], t28) + t37*texel(material[..., 3], t34) + t40*texel(material[..., 3], t38) + t42*texel(material[..., 3], t41)) + material[..., 6]*(t33*texel(material[..., 5], t28) + t37*texel(material[..., 5], t34) + t40*texel(material[..., 5], t38) + t42*texel(material[..., 5], t41)) + material[..., 8]*(t33*texel(material[..., 7], t28) + t37*texel(material[..., 7], t34) + t40*texel(material[..., 7], t38) + t42*texel(material[..., 7], t41)) - 47/96*t2 - 15/128*t24 + (15/64)*t27 + 173/768)))) + material[..., 19]*t4*t44*(2*(t0*t0) - 1)*numpy.expm1(t1*(material[..., 18]*(t6*t6)*t7 + material[..., 2]*(material[..., 10]*(t14*texel(material[..., 17], t9) + t18*texel(material[..., 17], t15) + t21*texel(material[..., 17], t19) + t23*texel(material[..., 17], t22)) + material[..., 4]*(t14*texel(material[..., 14], t9) + t18*texel(material[..., 14], t15) + t21*texel(material[..., 14], t19) + t23*texel(material[..., 14], t22)) + material[..., 6]*(t14*texel(material[..., 15], t9) + t18*texel(material[..., 15], t15) + t21*texel(material[..., 15], t19) + t23*texel(material[..., 15], t22)) + material[..., 8]*(t14*texel(material[..., 16], t9) + t18*texel(material[..., 16], t15) + t21*texel(material[..., 16], t19) + t23*texel(material[..., 16], t22)) + (25/256)*t1 + (15/512)*t5 - 15/256*t8 - 45/1024)) + t2*(material[..., 18]*(t25*t25)*t26 + material[..., 2]*(material[..., 10]*(t33*texel(material[..., 17], t28) + t37*texel(material[..., 17], t34) + t40*texel(material[..., 17], t38) + t42*texel(material[..., 17], t41)) + material[..., 4]*(t33*texel(material[..., 14], t28) + t37*texel(material[..., 14], t34) + t40*texel(material[..., 14], t38) + t42*texel(material[..., 14], t41)) + material[..., 6]*(t33*texel(material[..., 15], t28) + t37*texel(material[..., 15], t34) + t40*texel(material[..., 15], t38) + t42*texel(material[..., 15], t41)) + material[..., 8]*(t33*texel(material[..., 16], t28) + t37*texel(material[..., 16], t34) + t40*texel(material[..., 16], t38) + t42*texel(material[..., 16], t41)) + (25/256)*t2 + (15/512)*t24 - 15/256*t27 - 45/1024))) + material[..., 32]*t4*numpy.where(numpy.where(numpy.less(t50, 1/2), numpy.less(t52, 1/4), numpy.greater(t55, -1/2)), (t57*(t57*(t57*(t57*(t57*((1/93405312000)*t57 - 1/518918400) + 1/3991680) - 1/45360) + 1/840) - 1/30) + 1/3)*numpy.where(numpy.less(t50, 1/2), 8*(t52*t52*t52), (t56*t56*t56)), 2*numpy.sqrt(t50)*numpy.sqrt(t51) - (1 - 2*t50)*numpy.where(numpy.less(t50, 1/2), t54, t56)) + (1/2)*t4*(t48 + (material[..., 22]*(135*t24*t5 - 45*t24 + 256*t46 - 45*t5 + 207) + t48)*numpy.expm1(t1*(material[..., 2]*(material[..., 10]*(t14*texel(material[..., 29], t9) + t18*texel(material[..., 29], t15) + t21*texel(material[..., 29], t19) + t23*texel(material[..., 29], t22)) + material[..., 4]*(t14*texel(material[..., 26], t9) + t18*texel(material[..., 26], t15) + t21*texel(material[..., 26], t19) + t23*texel(material[..., 26], t22)) + material[..., 6]*(t14*texel(material[..., 27], t9) + t18*texel(material[..., 27], t15) + t21*texel(material[..., 27], t19) + t23*texel(material[..., 27], t22)) + material[..., 8]*(t14*texel(material[..., 28], t9) + t18*texel(material[..., 28], t15) + t21*texel(material[..., 28], t19) + t23*texel(material[..., 28], t22)) + (301/384)*t1 + (45/256)*t5 - 45/128*t8 - 557/1536) + material[..., 22]*t7*(material[..., 30]*t5 + material[..., 31]*(t1*t1*t1*t1) + 207)) + t2*(material[..., 2]*(material[..., 10]*(t33*texel(material[..., 29], t28) + t37*texel(material[..., 29], t34) + t40*texel(material[..., 29], t38) + t42*texel(material[..., 29], t41)) + material[..., 4]*(t33*texel(material[..., 26], t28) + t37*texel(material[..., 26], t34) + t40*texel(material[..., 26], t38) + t42*texel(material[..., 26], t41)) + material[..., 6]*(t33*texel(material[..., 27], t28) + t37*texel(material[..., 27], t34) + t40*texel(material[..., 27], t38) + t42*texel(material[..., 27], t41)) + material[..., 8]*(t33*texel(material[..., 28], t28) + t37*texel(material[..., 28], t34) + t40*texel(material[..., 28], t38) + t42*texel(material[..., 28], t41)) + (301/384)*t2 + (45/256)*t24 - 45/128*t27 - 557/1536) + material[..., 22]*t26*(material[..., 30]*t24 + material[..., 31]*(t2*t2*t2*t2) + 207))))/3.141592653589793238
+    return numpy.where(numpy.less(t62, 0), 0, t62)
+
+
+def eval_local(material, wi, wo):
+    """brdf_local with the per-material set-up hoisted: the material m comes from prepare_c or
+    prepare. brdf for unit vectors wi, wo in the local frame (z along the normal, both
+    pointing away from the surface); 0 if either is below the surface. Components are
+    clamped to [-1, 1] (not normalised); NaN in any input gives NaN."""
+    material, wi, wo = numpy.asarray(material, dtype=float), numpy.asarray(wi, dtype=float), numpy.asarray(wo, dtype=float)
+    t64 = numpy.where(numpy.less(wi[..., 2], -1.0), -1.0, wi[..., 2])
+    t0 = numpy.where(numpy.greater(t64, 1.0), 1.0, t64)
+    t65 = numpy.where(numpy.less(wo[..., 2], -1.0), -1.0, wo[..., 2])
+    t1 = numpy.where(numpy.greater(t65, 1.0), 1.0, t65)
+    t66 = numpy.where(numpy.less(wi[..., 0], -1.0), -1.0, wi[..., 0])
+    t2 = numpy.where(numpy.greater(t66, 1.0), 1.0, t66)
+    t67 = numpy.where(numpy.less(wo[..., 0], -1.0), -1.0, wo[..., 0])
+    t3 = numpy.where(numpy.greater(t67, 1.0), 1.0, t67)
+    t68 = numpy.where(numpy.less(wi[..., 1], -1.0), -1.0, wi[..., 1])
+    t4 = numpy.where(numpy.greater(t68, 1.0), 1.0, t68)
+    t69 = numpy.where(numpy.less(wo[..., 1], -1.0), -1.0, wo[..., 1])
+    t5 = numpy.where(numpy.greater(t69, 1.0), 1.0, t69)
+    t70 = ((t2*t2) + (t4*t4))*((t3*t3) + (t5*t5))
+    t71 = (t2*t3 + t4*t5)/numpy.sqrt(numpy.where(numpy.less(t70, 1/1000000000000000000000000000000), 1/1000000000000000000000000000000, t70))
+    t72 = numpy.where(numpy.less(t71, -1.0), -1.0, t71)
+    t6 = numpy.where(numpy.greater(t72, 1.0), 1.0, t72)
+    t73 = numpy.where(numpy.less(t0, 0), 0.0, t0)
+    t7 = numpy.where(numpy.greater(t73, 1.0), 1.0, t73)
+    t74 = numpy.where(numpy.less(t1, 0), 0.0, t1)
+    t8 = numpy.where(numpy.greater(t74, 1.0), 1.0, t74)
+    t9 = t7 + t8
+    t10 = numpy.where(numpy.less(t9, 1/1000000), 1/1000000, t9)**(-1.0)
+    t11 = (t7*t7)
+    t12 = t11 - 1
+    t13 = numpy.log(1 + numpy.where(numpy.less(t7, 1.0e-30), 1.0e-30, t7)**(-1.0))
+    t14 = (t7*t7*t7)
+    t15 = numpy.where(numpy.less(t7, 1/32), 0, numpy.where(numpy.greater_equal(t7, 31/32), 29, numpy.floor(32*t7) - 1))
+    t16 = t15 - 32*t7
     t17 = -t16 - 3
     t18 = -t16 - 2
     t19 = t16 + 1
@@ -666,107 +754,42 @@ def eval(material, mu_i, mu_o, cos_phi):
     t27 = t23*t26
     t28 = t15 + 3
     t29 = (1/6)*t22*t26
-    t30 = numpy.log(1 + numpy.where(numpy.less(t1, 1.0e-30), 1.0e-30, t1)**(-1.0))
-    t31 = (t1*t1*t1)
-    t32 = numpy.where(numpy.less(t1, 1/32), 0, numpy.where(numpy.greater_equal(t1, 31/32), 29, numpy.floor(32*t1) - 1))
-    t33 = -32*t1 + t32
-    t34 = -t33 - 3
-    t35 = -t33 - 2
-    t36 = t33 + 1
-    t37 = (1/6)*t34*t35*t36
-    t38 = t32 + 2
-    t39 = -t36
-    t40 = (1/2)*t34
-    t41 = t33*t39*t40
-    t42 = t32 + 1
-    t43 = -t33*t35
-    t44 = t40*t43
-    t45 = t32 + 3
-    t46 = (1/6)*t39*t43
-    t47 = material[..., 0]*t2 + material[..., 1]*t0*t1
-    t48 = material[..., 20]*t2 + material[..., 21]*(t6 + t8) + material[..., 23]*t0*t1 + material[..., 24]*t6*t8 + material[..., 25]*t0*t1*t2
-    t54 = (1 - t12)*(t12 + 1)
-    t55 = material[..., 13]*t11*t3*t5*(t47 + ((45/64)*t4 + t47 + 1)*numpy.expm1(t0*(material[..., 12]*t13*t7*(material[..., 11]*t6 - 64) + material[..., 2]*(material[..., 10]*(t20*texel(material[..., 9], t15) + t24*texel(material[..., 9], t21) + t27*texel(material[..., 9], t25) + t29*texel(material[..., 9], t28)) + material[..., 4]*(t20*texel(material[..., 3], t15) + t24*texel(material[..., 3], t21) + t27*texel(material[..., 3], t25) + t29*texel(material[..., 3], t28)) + material[..., 6]*(t20*texel(material[..., 5], t15) + t24*texel(material[..., 5], t21) + t27*texel(material[..., 5], t25) + t29*texel(material[..., 5], t28)) + material[..., 8]*(t20*texel(material[..., 7], t15) + t24*texel(material[..., 7], t21) + t27*texel(material[..., 7], t25) + t29*texel(material[..., 7], t28)) - 47/96*t0 + (15/64)*t14 - 15/128*t6 + 173/768)) + t1*(material[..., 12]*t30*t9*(material[..., 11]*t8 - 64) + material[..., 2]*(material[..., 10]*(t37*texel(material[..., 9], t32) + t41*texel(material[..., 9], t38) + t44*texel(material[..., 9], t42) + t46*texel(material[..., 9], t45)) + material[..., 4]*(t37*texel(material[..., 3], t32) + t41*texel(material[..., 3], t38) + t44*texel(material[..., 3], t42) + t46*texel(material[..., 3], t45)) + material[..., 6]*(t37*texel(material[..., 5], t32) + t41*texel(material[..., 5], t38) + t44*texel(material[..., 5], t42) + t46*texel(material[..., 5], t45)) + material[..., 8]*(t37*texel(material[..., 7], t32) + t41*texel(material[..., 7], t38) + t44*texel(material[..., 7], t42) + t46*texel(material[..., 7], t45)) - 47/96*t1 + (15/64)*t31 - 15/128*t8 + 173/768)))) + material[..., 19]*t10*t3*(2*(t5*t5) - 1)*numpy.expm1(t0*(material[..., 18]*t13*(t7*t7) + material[..., 2]*(material[..., 10]*(t20*texel(material[..., 17], t15) + t24*texel(material[..., 17], t21) + t27*texel(material[..., 17], t25) + t29*texel(material[..., 17], t28)) + material[..., 4]*(t20*texel(material[..., 14], t15) + t24*texel(material[..., 14], t21) + t27*texel(material[..., 14], t25) + t29*texel(material[..., 14], t28)) + material[..., 6]*(t20*texel(material[..., 15], t15) + t24*texel(material[..., 15], t21) + t27*texel(material[..., 15], t25) + t29*texel(material[..., 15], t28)) + material[..., 8]*(t20*texel(material[..., 16], t15) + t24*texel(material[..., 16], t21) + t27*texel(material[..., 16], t25) + t29*texel(material[..., 16], t28)) + (25/256)*t0 - 15/256*t14 + (15/512)*t6 - 45/1024)) + t1*(material[..., 18]*t30*(t9*t9) + material[..., 2]*(material[..., 10]*(t37*texel(material[..., 17], t32) + t41*texel(material[..., 17], t38) + t44*texel(material[..., 17], t42) + t46*texel(material[..., 17], t45)) + material[..., 4]*(t37*texel(material[..., 14], t32) + t41*texel(material[..., 14], t38) + t44*texel(material[..., 14], t42) + t46*texel(material[..., 14], t45)) + material[..., 6]*(t37*texel(material[..., 15], t32) + t41*texel(material[..., 15], t38) + t44*texel(material[..., 15], t42) + t46*texel(material[..., 15], t45)) + material[..., 8]*(t37*texel(material[..., 16], t32) + t41*texel(material[..., 16], t38) + t44*texel(material[..., 16], t42) + t46*texel(material[..., 16], t45)) + (25/256)*t1 - 15/256*t31 + (15/512)*t8 - 45/1024))) + material[..., 32]*t3*(-2*t12*numpy.arccos(t12) + 2*numpy.sqrt(numpy.where(numpy.less(t54, 0), 0, t54))) + (1/2)*t3*(t48 + (material[..., 22]*(256*t4 + 135*t6*t8 - 45*t6 - 45*t8 + 207) + t48)*numpy.expm1(t0*(material[..., 2]*(material[..., 10]*(t20*texel(material[..., 29], t15) + t24*texel(material[..., 29], t21) + t27*texel(material[..., 29], t25) + t29*texel(material[..., 29], t28)) + material[..., 4]*(t20*texel(material[..., 26], t15) + t24*texel(material[..., 26], t21) + t27*texel(material[..., 26], t25) + t29*texel(material[..., 26], t28)) + material[..., 6]*(t20*texel(material[..., 27], t15) + t24*texel(material[..., 27], t21) + t27*texel(material[..., 27], t25) + t29*texel(material[..., 27], t28)) + material[..., 8]*(t20*texel(material[..., 28], t15) + t24*texel(material[..., 28], t21) + t27*texel(material[..., 28], t25) + t29*texel(material[..., 28], t28)) + (301/384)*t0 - 45/128*t14 + (45/256)*t6 - 557/1536) + material[..., 22]*t13*(material[..., 30]*t6 + material[..., 31]*(t0*t0*t0*t0) + 207)) + t1*(material[..., 2]*(material[..., 10]*(t37*texel(material[..., 29], t32) + t41*texel(material[..., 29], t38) + t44*texel(material[..., 29], t42) + t46*texel(material[..., 29], t45)) + material[..., 4]*(t37*texel(material[..., 26], t32) + t41*texel(material[..., 26], t38) + t44*texel(material[..., 26], t42) + t46*texel(material[..., 26], t45)) + material[..., 6]*(t37*texel(material[..., 27], t32) + t41*texel(material[..., 27], t38) + t44*texel(material[..., 27], t42) + t46*texel(material[..., 27], t45)) + material[..., 8]*(t37*texel(material[..., 28], t32) + t41*texel(material[..., 28], t38) + t44*texel(material[..., 28], t42) + t46*texel(material[..., 28], t45)) + (301/384)*t1 - 45/128*t31 + (45/256)*t8 - 557/1536) + material[..., 22]*t30*(material[..., 30]*t8 + material[..., 31]*(t1*t1*t1*t1) + 207))))/3.141592653589793238
-    return numpy.where(numpy.less(t55, 0), 0, t55)
-
-
-def eval_local(material, wi, wo):
-    """brdf_local with the per-material set-up hoisted: the material m comes from prepare_c or
-    prepare. brdf for unit vectors wi, wo in the local frame (z along the normal, both
-    pointing away from the surface); 0 if either is below the surface. Components are
-    clamped to [-1, 1] (not normalised); NaN in any input gives NaN."""
-    material, wi, wo = numpy.asarray(material, dtype=float), numpy.asarray(wi, dtype=float), numpy.asarray(wo, dtype=float)
-    t55 = numpy.where(numpy.less(wi[..., 2], -1.0), -1.0, wi[..., 2])
-    t0 = numpy.where(numpy.greater(t55, 1.0), 1.0, t55)
-    t56 = numpy.where(numpy.less(wo[..., 2], -1.0), -1.0, wo[..., 2])
-    t1 = numpy.where(numpy.greater(t56, 1.0), 1.0, t56)
-    t57 = numpy.where(numpy.less(t0, 0), 0.0, t0)
-    t2 = numpy.where(numpy.greater(t57, 1.0), 1.0, t57)
-    t58 = numpy.where(numpy.less(t1, 0), 0.0, t1)
-    t3 = numpy.where(numpy.greater(t58, 1.0), 1.0, t58)
-    t4 = t2 + t3
-    t5 = numpy.where(numpy.less(t4, 1/1000000), 1/1000000, t4)**(-1.0)
-    t6 = t2*t3
-    t7 = (t2*t2)
-    t8 = t7 - 1
-    t9 = (t3*t3)
-    t10 = t9 - 1
-    t11 = t10*t8
-    t12 = numpy.sqrt(t11)
-    t59 = numpy.where(numpy.less(wi[..., 0], -1.0), -1.0, wi[..., 0])
-    t13 = numpy.where(numpy.greater(t59, 1.0), 1.0, t59)
-    t60 = numpy.where(numpy.less(wo[..., 0], -1.0), -1.0, wo[..., 0])
-    t14 = numpy.where(numpy.greater(t60, 1.0), 1.0, t60)
-    t61 = numpy.where(numpy.less(wi[..., 1], -1.0), -1.0, wi[..., 1])
-    t15 = numpy.where(numpy.greater(t61, 1.0), 1.0, t61)
-    t62 = numpy.where(numpy.less(wo[..., 1], -1.0), -1.0, wo[..., 1])
-    t16 = numpy.where(numpy.greater(t62, 1.0), 1.0, t62)
-    t63 = ((t13*t13) + (t15*t15))*((t14*t14) + (t16*t16))
-    t64 = (t13*t14 + t15*t16)/numpy.sqrt(numpy.where(numpy.less(t63, 1/1000000000000000000000000000000), 1/1000000000000000000000000000000, t63))
-    t65 = numpy.where(numpy.less(t64, -1.0), -1.0, t64)
-    t17 = numpy.where(numpy.greater(t65, 1.0), 1.0, t65)
-    t66 = -t12*t17 - t6
-    t67 = numpy.where(numpy.greater(t66, 1), 1, t66)
-    t18 = numpy.where(numpy.less(t67, -1), -1, t67)
-    t19 = numpy.log(1 + numpy.where(numpy.less(t2, 1.0e-30), 1.0e-30, t2)**(-1.0))
-    t20 = (t2*t2*t2)
-    t21 = numpy.where(numpy.less(t2, 1/32), 0, numpy.where(numpy.greater_equal(t2, 31/32), 29, numpy.floor(32*t2) - 1))
-    t22 = -32*t2 + t21
-    t23 = -t22 - 3
-    t24 = -t22 - 2
-    t25 = t22 + 1
-    t26 = (1/6)*t23*t24*t25
-    t27 = t21 + 2
-    t28 = -t25
-    t29 = (1/2)*t23
-    t30 = t22*t28*t29
-    t31 = t21 + 1
-    t32 = -t22*t24
-    t33 = t29*t32
-    t34 = t21 + 3
-    t35 = (1/6)*t28*t32
-    t36 = numpy.log(1 + numpy.where(numpy.less(t3, 1.0e-30), 1.0e-30, t3)**(-1.0))
-    t37 = (t3*t3*t3)
-    t38 = numpy.where(numpy.less(t3, 1/32), 0, numpy.where(numpy.greater_equal(t3, 31/32), 29, numpy.floor(32*t3) - 1))
-    t39 = -32*t3 + t38
-    t40 = -t39 - 3
-    t41 = -t39 - 2
-    t42 = t39 + 1
-    t43 = (1/6)*t40*t41*t42
-    t44 = t38 + 2
-    t45 = -t42
-    t46 = (1/2)*t40
-    t47 = t39*t45*t46
-    t48 = t38 + 1
-    t49 = -t39*t41
-    t50 = t46*t49
-    t51 = t38 + 3
-    t52 = (1/6)*t45*t49
-    t53 = material[..., 0]*t4 + material[..., 1]*t2*t3
-    t54 = material[..., 20]*t4 + material[..., 21]*(t7 + t9) + material[..., 23]*t2*t3 + material[..., 24]*t7*t9 + material[..., 25]*t2*t3*t4
-    t68 = (1 - t18)*(t18 + 1)
-    t69 = material[..., 13]*t12*t17*t5*(t53 + (t53 + (45/64)*t6 + 1)*numpy.expm1(t2*(material[..., 12]*t19*t8*(material[..., 11]*t7 - 64) + material[..., 2]*(material[..., 10]*(t26*texel(material[..., 9], t21) + t30*texel(material[..., 9], t27) + t33*texel(material[..., 9], t31) + t35*texel(material[..., 9], t34)) + material[..., 4]*(t26*texel(material[..., 3], t21) + t30*texel(material[..., 3], t27) + t33*texel(material[..., 3], t31) + t35*texel(material[..., 3], t34)) + material[..., 6]*(t26*texel(material[..., 5], t21) + t30*texel(material[..., 5], t27) + t33*texel(material[..., 5], t31) + t35*texel(material[..., 5], t34)) + material[..., 8]*(t26*texel(material[..., 7], t21) + t30*texel(material[..., 7], t27) + t33*texel(material[..., 7], t31) + t35*texel(material[..., 7], t34)) - 47/96*t2 + (15/64)*t20 - 15/128*t7 + 173/768)) + t3*(material[..., 12]*t10*t36*(material[..., 11]*t9 - 64) + material[..., 2]*(material[..., 10]*(t43*texel(material[..., 9], t38) + t47*texel(material[..., 9], t44) + t50*texel(material[..., 9], t48) + t52*texel(material[..., 9], t51)) + material[..., 4]*(t43*texel(material[..., 3], t38) + t47*texel(material[..., 3], t44) + t50*texel(material[..., 3], t48) + t52*texel(material[..., 3], t51)) + material[..., 6]*(t43*texel(material[..., 5], t38) + t47*texel(material[..., 5], t44) + t50*texel(material[..., 5], t48) + t52*texel(material[..., 5], t51)) + material[..., 8]*(t43*texel(material[..., 7], t38) + t47*texel(material[..., 7], t44) + t50*texel(material[..., 7], t48) + t52*texel(material[..., 7], t51)) - 47/96*t3 + (15/64)*t37 - 15/128*t9 + 173/768)))) + material[..., 19]*t11*t5*(2*(t17*t17) - 1)*numpy.expm1(t2*(material[..., 18]*t19*(t8*t8) + material[..., 2]*(material[..., 10]*(t26*texel(material[..., 17], t21) + t30*texel(material[..., 17], t27) + t33*texel(material[..., 17], t31) + t35*texel(material[..., 17], t34)) + material[..., 4]*(t26*texel(material[..., 14], t21) + t30*texel(material[..., 14], t27) + t33*texel(material[..., 14], t31) + t35*texel(material[..., 14], t34)) + material[..., 6]*(t26*texel(material[..., 15], t21) + t30*texel(material[..., 15], t27) + t33*texel(material[..., 15], t31) + t35*texel(material[..., 15], t34)) + material[..., 8]*(t26*texel(material[..., 16], t21) + t30*texel(material[..., 16], t27) + t33*texel(material[..., 16], t31) + t35*texel(material[..., 16], t34)) + (25/256)*t2 - 15/256*t20 + (15/512)*t7 - 45/1024)) + t3*(material[..., 18]*(t10*t10)*t36 + material[..., 2]*(material[..., 10]*(t43*texel(material[..., 17], t38) + t47*texel(material[..., 17], t44) + t50*texel(material[..., 17], t48) + t52*texel(material[..., 17], t51)) + material[..., 4]*(t43*texel(material[..., 14], t38) + t47*texel(material[..., 14], t44) + t50*texel(material[..., 14], t48) + t52*texel(material[..., 14], t51)) + material[..., 6]*(t43*texel(material[..., 15], t38) + t47*texel(material[..., 15], t44) + t50*texel(material[..., 15], t48) + t52*texel(material[..., 15], t51)) + material[..., 8]*(t43*texel(material[..., 16], t38) + t47*texel(material[..., 16], t44) + t50*texel(material[..., 16], t48) + t52*texel(material[..., 16], t51)) + (25/256)*t3 - 15/256*t37 + (15/512)*t9 - 45/1024))) + material[..., 32]*t5*(-2*t18*numpy.arccos(t18) + 2*numpy.sqrt(numpy.where(numpy.less(t68, 0), 0, t68))) + (1/2)*t5*(t54 + (material[..., 22]*(256*t6 + 135*t7*t9 - 45*t7 - 45*t9 + 207) + t54)*numpy.expm1(t2*(material[..., 2]*(material[..., 10]*(t26*texel(material[..., 29], t21) + t30*texel(material[..., 29], t27) + t33*texel(material[..., 29], t31) + t35*texel(material[..., 29], t34)) + material[..., 4]*(t26*texel(material[..., 26], t21) + t30*texel(material[..., 26], t27) + t33*texel(material[..., 26], t31) + t35*texel(material[..., 26], t34)) + material[..., 6]*(t26*texel(material[..., 27], t21) + t30*texel(material[..., 27], t27) + t33*texel(material[..., 27], t31) + t35*texel(material[..., 27], t34)) + material[..., 8]*(t26*texel(material[..., 28], t21) + t30*texel(material[..., 28], t27) + t33*texel(material[..., 28], t31) + t35*texel(material[..., 28], t34)) + (301/384)*t2 - 45/128*t20 + (45/256)*t7 - 557/1536) + material[..., 22]*t19*(material[..., 30]*t7 + material[..., 31]*(t2*t2*t2*t2) + 207)) + t3*(material[..., 2]*(material[..., 10]*(t43*texel(material[..., 29], t38) + t47*texel(material[..., 29], t44) + t50*texel(material[..., 29], t48) + t52*texel(material[..., 29], t51)) + material[..., 4]*(t43*texel(material[..., 26], t38) + t47*texel(material[..., 26], t44) + t50*texel(material[..., 26], t48) + t52*texel(material[..., 26], t51)) + material[..., 6]*(t43*texel(material[..., 27], t38) + t47*texel(material[..., 27], t44) + t50*texel(material[..., 27], t48) + t52*texel(material[..., 27], t51)) + material[..., 8]*(t43*texel(material[..., 28], t38) + t47*texel(material[..., 28], t44) + t50*texel(material[..., 28], t48) + t52*texel(material[..., 28], t51)) + (301/384)*t3 - 45/128*t37 + (45/256)*t9 - 557/1536) + material[..., 22]*t36*(material[..., 30]*t9 + material[..., 31]*(t3*t3*t3*t3) + 207))))/3.141592653589793238
-    return numpy.where(numpy.less(t0, 0), 0, 1)*numpy.where(numpy.less(t1, 0), 0, 1)*numpy.where(numpy.less(t69, 0), 0, t69)
+    t30 = (t8*t8)
+    t31 = t30 - 1
+    t32 = numpy.log(1 + numpy.where(numpy.less(t8, 1.0e-30), 1.0e-30, t8)**(-1.0))
+    t33 = (t8*t8*t8)
+    t34 = numpy.where(numpy.less(t8, 1/32), 0, numpy.where(numpy.greater_equal(t8, 31/32), 29, numpy.floor(32*t8) - 1))
+    t35 = t34 - 32*t8
+    t36 = -t35 - 3
+    t37 = -t35 - 2
+    t38 = t35 + 1
+    t39 = (1/6)*t36*t37*t38
+    t40 = t34 + 2
+    t41 = -t38
+    t42 = (1/2)*t36
+    t43 = t35*t41*t42
+    t44 = t34 + 1
+    t45 = -t35*t37
+    t46 = t42*t45
+    t47 = t34 + 3
+    t48 = (1/6)*t41*t45
+    t49 = -t12
+    t50 = -t31*t49
+    t51 = numpy.sqrt(t50)
+    t52 = t7*t8
+    t53 = material[..., 0]*t9 + material[..., 1]*t7*t8
+    t54 = material[..., 20]*t9 + material[..., 21]*(t11 + t30) + material[..., 23]*t7*t8 + material[..., 24]*t11*t30 + material[..., 25]*t7*t8*t9
+    t75 = (1/2)*t51*(t6 + 1) + (1/2)*t52 + (1/2)*(t11 + t30*t49)/(t51 + 1)
+    t55 = numpy.where(numpy.less(t75, 0), 0, t75)
+    t56 = numpy.where(numpy.greater(t55, 1), 1, t55)
+    t57 = 1 - t56
+    t58 = numpy.arcsin(numpy.sqrt(numpy.where(numpy.greater(t55, t57), t57, numpy.where(numpy.less_equal(t55, t57), t55, t55 + t57))))
+    t60 = 2*t58
+    t61 = t60 - 3.141592653589793238
+    t62 = -t61
+    t63 = numpy.where(numpy.less(t56, 1/2), 4*(t58*t58), (t62*t62))
+    t76 = material[..., 13]*t10*t51*t6*(t53 + ((45/64)*t52 + t53 + 1)*numpy.expm1(t7*(material[..., 12]*t12*t13*(material[..., 11]*t11 - 64) + material[..., 2]*(material[..., 10]*(t20*texel(material[..., 9], t15) + t24*texel(material[..., 9], t21) + t27*texel(material[..., 9], t25) + t29*texel(material[..., 9], t28)) + material[..., 4]*(t20*texel(material[..., 3], t15) + t24*texel(material[..., 3], t21) + t27*texel(material[..., 3], t25) + t29*texel(material[..., 3], t28)) + material[..., 6]*(t20*texel(material[..., 5], t15) + t24*texel(material[..., 5], t21) + t27*texel(material[..., 5], t25) + t29*texel(material[..., 5], t28)) + material[..., 8]*(t20*texel(material[..., 7], t15) + t24*texel(material[..., 7], t21) + t27*texel(material[..., 7], t25) + t29*texel(material[..., 7], t28)) - 15/128*t11 + (15/64)*t14 - 47/96*t7 + 173/768)) + t8*(material[..., 12]*t31*t32*(material[..., 11]*t30 - 64) + material[..., 2]*(material[..., 10]*(t39*texel(material[..., 9], t34) + t43*texel(material[..., 9], t40) + t46*texel(material[..., 9], t44) + t48*texel(material[..., 9], t47)) + material[..., 4]*(t39*texel(material[..., 3], t34) + t43*texel(material[..., 3], t40) + t46*texel(material[..., 3], t44) + t48*texel(material[..., 3], t47)) + material[..., 6]*(t39*texel(material[..., 5], t34) + t43*texel(material[..., 5], t40) + t46*texel(material[..., 5], t44) + t48*texel(material[..., 5], t47)) + material[..., 8]*(t39*texel(material[..., 7], t34) + t43*texel(material[..., 7], t40) + t46*texel(material[..., 7], t44) + t48*texel(material[..., 7], t47)) - 15/128*t30 + (15/64)*t33 - 47/96*t8 + 173/768)))) + material[..., 19]*t10*t50*(2*(t6*t6) - 1)*numpy.expm1(t7*(material[..., 18]*(t12*t12)*t13 + material[..., 2]*(material[..., 10]*(t20*texel(material[..., 17], t15) + t24*texel(material[..., 17], t21) + t27*texel(material[..., 17], t25) + t29*texel(material[..., 17], t28)) + material[..., 4]*(t20*texel(material[..., 14], t15) + t24*texel(material[..., 14], t21) + t27*texel(material[..., 14], t25) + t29*texel(material[..., 14], t28)) + material[..., 6]*(t20*texel(material[..., 15], t15) + t24*texel(material[..., 15], t21) + t27*texel(material[..., 15], t25) + t29*texel(material[..., 15], t28)) + material[..., 8]*(t20*texel(material[..., 16], t15) + t24*texel(material[..., 16], t21) + t27*texel(material[..., 16], t25) + t29*texel(material[..., 16], t28)) + (15/512)*t11 - 15/256*t14 + (25/256)*t7 - 45/1024)) + t8*(material[..., 18]*(t31*t31)*t32 + material[..., 2]*(material[..., 10]*(t39*texel(material[..., 17], t34) + t43*texel(material[..., 17], t40) + t46*texel(material[..., 17], t44) + t48*texel(material[..., 17], t47)) + material[..., 4]*(t39*texel(material[..., 14], t34) + t43*texel(material[..., 14], t40) + t46*texel(material[..., 14], t44) + t48*texel(material[..., 14], t47)) + material[..., 6]*(t39*texel(material[..., 15], t34) + t43*texel(material[..., 15], t40) + t46*texel(material[..., 15], t44) + t48*texel(material[..., 15], t47)) + material[..., 8]*(t39*texel(material[..., 16], t34) + t43*texel(material[..., 16], t40) + t46*texel(material[..., 16], t44) + t48*texel(material[..., 16], t47)) + (15/512)*t30 - 15/256*t33 + (25/256)*t8 - 45/1024))) + material[..., 32]*t10*numpy.where(numpy.where(numpy.less(t56, 1/2), numpy.less(t58, 1/4), numpy.greater(t61, -1/2)), (t63*(t63*(t63*(t63*(t63*((1/93405312000)*t63 - 1/518918400) + 1/3991680) - 1/45360) + 1/840) - 1/30) + 1/3)*numpy.where(numpy.less(t56, 1/2), 8*(t58*t58*t58), (t62*t62*t62)), 2*numpy.sqrt(t56)*numpy.sqrt(t57) - (1 - 2*t56)*numpy.where(numpy.less(t56, 1/2), t60, t62)) + (1/2)*t10*(t54 + (material[..., 22]*(135*t11*t30 - 45*t11 - 45*t30 + 256*t52 + 207) + t54)*numpy.expm1(t7*(material[..., 2]*(material[..., 10]*(t20*texel(material[..., 29], t15) + t24*texel(material[..., 29], t21) + t27*texel(material[..., 29], t25) + t29*texel(material[..., 29], t28)) + material[..., 4]*(t20*texel(material[..., 26], t15) + t24*texel(material[..., 26], t21) + t27*texel(material[..., 26], t25) + t29*texel(material[..., 26], t28)) + material[..., 6]*(t20*texel(material[..., 27], t15) + t24*texel(material[..., 27], t21) + t27*texel(material[..., 27], t25) + t29*texel(material[..., 27], t28)) + material[..., 8]*(t20*texel(material[..., 28], t15) + t24*texel(material[..., 28], t21) + t27*texel(material[..., 28], t25) + t29*texel(material[..., 28], t28)) + (45/256)*t11 - 45/128*t14 + (301/384)*t7 - 557/1536) + material[..., 22]*t13*(material[..., 30]*t11 + material[..., 31]*(t7*t7*t7*t7) + 207)) + t8*(material[..., 2]*(material[..., 10]*(t39*texel(material[..., 29], t34) + t43*texel(material[..., 29], t40) + t46*texel(material[..., 29], t44) + t48*texel(material[..., 29], t47)) + material[..., 4]*(t39*texel(material[..., 26], t34) + t43*texel(material[..., 26], t40) + t46*texel(material[..., 26], t44) + t48*texel(material[..., 26], t47)) + material[..., 6]*(t39*texel(material[..., 27], t34) + t43*texel(material[..., 27], t40) + t46*texel(material[..., 27], t44) + t48*texel(material[..., 27], t47)) + material[..., 8]*(t39*texel(material[..., 28], t34) + t43*texel(material[..., 28], t40) + t46*texel(material[..., 28], t44) + t48*texel(material[..., 28], t47)) + (45/256)*t30 - 45/128*t33 + (301/384)*t8 - 557/1536) + material[..., 22]*t32*(material[..., 30]*t30 + material[..., 31]*(t8*t8*t8*t8) + 207))))/3.141592653589793238
+    return numpy.where(numpy.less(t0, 0), 0, 1)*numpy.where(numpy.less(t1, 0), 0, 1)*numpy.where(numpy.less(t76, 0), 0, t76)
 
 
 # ---- the texture -------------------------------------------------------------------------------------

@@ -32,6 +32,35 @@ PHASE = 2 * (sp.sqrt(sp.Max(0, 1 - _u**2)) - _u * sp.acos(_u)) / (3 * PI**2)
 #: exact single scattering with the true phase function (eq. 10)
 SINGLE = c * PHASE / (mu_i + mu_o)
 
+#: (1 - u)/2 = (1 + mu_i mu_o + S cos(phi))/2, from a sum of terms >= 0: 1 - u = (1 - S^2)/(1 + S) + mu_i mu_o +
+#: S (1 + cos phi), 1 - S^2 = mu_i^2 + mu_o^2 (1 - mu_i^2); clamped to [0, 1] against rounding
+_V = sp.Min(1, sp.Max(0, ((mu_i**2 + mu_o**2 * (1 - mu_i**2)) / (1 + S) + mu_i * mu_o + S * (1 + sp.cos(phi))) / 2))
+#: x = acos(u) from v = (1 - u)/2 with one asin: 2 asin(sqrt(v)) in forward scattering (v < 1/2), pi - 2 asin(sqrt(1 - v))
+#: otherwise (1 - v is exact there, and x reads the same rounded v as sqrt(v (1 - v)): near back-scattering the
+#: two terms of p then cancel their first order exactly, as from one u; 2 asin(sqrt(v)) alone cost 6e-5 in float there)
+_HALF = 2 * sp.asin(sp.sqrt(sp.Min(_V, 1 - _V)))
+_X = sp.Piecewise((_HALF, _V < sp.Rational(1, 2)), (PI - _HALF, True))
+
+
+def _sin_less_x_cos(x: sp.Expr, terms: int = 7) -> sp.Expr:
+    """sin x - x cos x = sum_k (-1)^(k+1) 2k x^(2k+1)/(2k+1)!, k = 1 .. ``terms``, in Horner form in x^2: below
+    x = 1/2 the first term left out is 1e-17 of the sum."""
+    y, out = x**2, sp.S.Zero
+    for k in range(terms, 0, -1):
+        out = (-1) ** (k + 1) * sp.Rational(2 * k, sp.factorial(2 * k + 1)) + (y * out if out != 0 else 0)
+    return x**3 * out
+
+
+#: the phase function p(u) as a function of 1 - u (:data:`PHASE`, the same function): sqrt(1 - u^2) - u acos(u) =
+#: sin x - x cos x, x = acos(u), by its series for x < 1/2 (forward scattering), where the two terms agree to
+#: 1 - O(x^2) and their difference, of order x^3/3, would keep eps/x^2 of its digits; directly above, with
+#: sqrt(1 - u^2) = 2 sqrt(v (1 - v)) and u = 1 - 2v, v = (1 - u)/2
+PHASE_FORWARD = 2 * sp.Piecewise((_sin_less_x_cos(_X), _X < sp.Rational(1, 2)),
+                                 (2 * sp.sqrt(_V * (1 - _V)) - (1 - 2 * _V) * _X, True)) / (3 * PI**2)  # fmt: skip
+#: :data:`SINGLE` evaluated through :data:`PHASE_FORWARD`: what the runtime terms use (in forward scattering at
+#: grazing 1 - u ~ (mu_i + mu_o)^2/2, which u itself, rounded to float, no longer resolves below mu ~ 1e-4)
+SINGLE_FORWARD = c * PHASE_FORWARD / (mu_i + mu_o)
+
 #: (mu_i + mu_o) times the three-term single scattering of orders 0 and 1
 #: (eq. 38 and eq. 28 with 192 pi; docs/errata.md)
 _P, _Q = mu_i * mu_o, mu_i**2 + mu_o**2
@@ -161,7 +190,7 @@ def runtime_terms(parts: Mapping[str, sp.Expr], normalisation: str = "corrected"
     r"""The terms of the runtime model, each an expression in (mu_i, mu_o, c) (single: and phi)
     (docs/model.md, "The runtime BRDF").
 
-    Returns {"single": f_1, "m0": fm0, "m1": fm1} and, where ``parts`` holds H2, "m2": fm2, with
+    Returns {"single": f_1 (:data:`SINGLE_FORWARD`), "m0": fm0, "m1": fm1} and, where ``parts`` holds H2, "m2": fm2, with
     f_r = max(0, f_1 + fm0 + fm1 cos(phi) [+ fm2 cos(2 phi)]):
       f_1 = c p(u) / (mu_i + mu_o)  (true phase function, eq. 10),
       fm0 = (H0(mu_i) H0(mu_o) Q / (2 pi) - n0_ss) / (mu_i + mu_o),
@@ -208,7 +237,7 @@ def runtime_terms(parts: Mapping[str, sp.Expr], normalisation: str = "corrected"
     g_ss = 1 + sp.Rational(45, 64) * _P
     dg = l * sigma + (l**2 + sp.Rational(45, 64) * _less(m, _SUBTRACTED["m"])) * _P
     fm1 = c * S * (pair("H1") * (g_ss + dg) + dg) / (k * PI * sigma)
-    out = {"single": SINGLE, "m0": fm0, "m1": fm1}
+    out = {"single": SINGLE_FORWARD, "m0": fm0, "m1": fm1}
     if ORDER2_PART in parts:
         s2 = (1 - mu_i**2) * (1 - mu_o**2)
         out["m2"] = 15 * c * s2 * pair(ORDER2_PART) / (256 * PI * sigma)
