@@ -376,16 +376,15 @@ def test_parts_in_algebra_are_the_parts_with_exact_structure():
 
 @needs_cc
 def test_float_agrees_with_double(native, inputs):
-    """Float vs double at the same (float-rounded) inputs."""
+    """Float vs double at the same (float-rounded) inputs, plain relative error: measured 4.7e-7 at the 99.9th
+    percentile and 9.0e-7 at most (every term is evaluated without cancellation, single scattering from 1 - u:
+    no point needs a looser scale, as forward scattering with tiny f did when float rounded u to 1)."""
     mu_i, mu_o, cos_phi, c = (np.float32(a).astype(float) for a in inputs)
     f64 = native("brdf", mu_i, mu_o, cos_phi, c)
     f32 = native("brdf", mu_i, mu_o, cos_phi, c, dtype=np.float32)
     r = rel(f32, f64)
-    assert np.percentile(r, 99.9) < 1e-5
-    # the few points above 1e-5 are forward scattering with tiny f, where p(u) ~ (1 - u)^(3/2) has
-    # condition number ~1.5/(1 - u): error relative to the single-scattering scale c/(mu_i + mu_o) stays small
-    scale = np.maximum(np.abs(f64), c / np.maximum(mu_i + mu_o, 1e-6) * 1e-2)
-    assert (np.abs(f32 - f64) / np.where(scale > 0, scale, 1.0)).max() < 1e-5
+    assert np.percentile(r, 99.9) < 2e-6
+    assert r.max() < 5e-6
     for name in ("h0", "h1"):
         assert rel(native(name, mu_i, c, dtype=np.float32), native(name, mu_i, c)).max() < 1e-5
 
