@@ -251,27 +251,26 @@ def single(mu_i, mu_o, cos_phi, c):
     1/2 (full accuracy in forward scattering at grazing, float included). Pole floored at
     1e-6."""
     mu_i, mu_o, cos_phi, c = numpy.asarray(mu_i, dtype=float), numpy.asarray(mu_o, dtype=float), numpy.asarray(cos_phi, dtype=float), numpy.asarray(c, dtype=float)
-    t15 = numpy.where(numpy.less(mu_i, 0), 0.0, mu_i)
-    t0 = numpy.where(numpy.greater(t15, 1.0), 1.0, t15)
-    t16 = numpy.where(numpy.less(mu_o, 0), 0.0, mu_o)
-    t1 = numpy.where(numpy.greater(t16, 1.0), 1.0, t16)
+    t13 = numpy.where(numpy.less(mu_i, 0), 0.0, mu_i)
+    t0 = numpy.where(numpy.greater(t13, 1.0), 1.0, t13)
+    t14 = numpy.where(numpy.less(mu_o, 0), 0.0, mu_o)
+    t1 = numpy.where(numpy.greater(t14, 1.0), 1.0, t14)
     t2 = (t0*t0)
     t3 = 1 - t2
     t4 = (t1*t1)
     t5 = numpy.sqrt(t3*(1 - t4))
-    t17 = numpy.where(numpy.less(cos_phi, -1.0), -1.0, cos_phi)
-    t18 = (1/2)*t0*t1 + (1/2)*t5*(numpy.where(numpy.greater(t17, 1.0), 1.0, t17) + 1) + (1/2)*(t2 + t3*t4)/(t5 + 1)
-    t6 = numpy.where(numpy.less(t18, 0), 0, t18)
+    t15 = numpy.where(numpy.less(cos_phi, -1.0), -1.0, cos_phi)
+    t16 = (1/2)*t0*t1 + (1/2)*t5*(numpy.where(numpy.greater(t15, 1.0), 1.0, t15) + 1) + (1/2)*(t2 + t3*t4)/(t5 + 1)
+    t6 = numpy.where(numpy.less(t16, 0), 0, t16)
     t7 = numpy.where(numpy.greater(t6, 1), 1, t6)
     t8 = 1 - t7
     t9 = numpy.arcsin(numpy.sqrt(numpy.where(numpy.greater(t6, t8), t8, numpy.where(numpy.less_equal(t6, t8), t6, t6 + t8))))
-    t11 = 2*t9
-    t12 = t11 - 3.141592653589793238
-    t13 = -t12
-    t14 = numpy.where(numpy.less(t7, 1/2), 4*(t9*t9), (t13*t13))
-    t19 = t0 + t1
-    t20 = numpy.where(numpy.less(c, 0), 0.0, c)
-    return (2/3)*numpy.where(numpy.where(numpy.less(t7, 1/2), numpy.less(t9, 1/4), numpy.greater(t12, -1/2)), (t14*(t14*(t14*(t14*(t14*((1/93405312000)*t14 - 1/518918400) + 1/3991680) - 1/45360) + 1/840) - 1/30) + 1/3)*numpy.where(numpy.less(t7, 1/2), 8*(t9*t9*t9), (t13*t13*t13)), 2*numpy.sqrt(t7)*numpy.sqrt(t8) - (1 - 2*t7)*numpy.where(numpy.less(t7, 1/2), t11, t13))*numpy.where(numpy.greater(t20, 1.0), 1.0, t20)/((3.141592653589793238*3.141592653589793238)*numpy.where(numpy.less(t19, 1/1000000), 1/1000000, t19))
+    t10 = (t9*t9)
+    t11 = 4*t10
+    t12 = 2*t9
+    t17 = t0 + t1
+    t18 = numpy.where(numpy.less(c, 0), 0.0, c)
+    return (2/3)*numpy.where(numpy.less(t7, 1/16), 8*(t9*t9*t9)*(t11*(t11*(t11*(t11*(t11*((1/23351328000)*t10 - 1/518918400) + 1/3991680) - 1/45360) + 1/840) - 1/30) + 1/3), 2*numpy.sqrt(t7)*numpy.sqrt(t8) - (1 - 2*t7)*numpy.where(numpy.less(t7, 1/2), t12, 3.141592653589793238 - t12))*numpy.where(numpy.greater(t18, 1.0), 1.0, t18)/((3.141592653589793238*3.141592653589793238)*numpy.where(numpy.less(t17, 1/1000000), 1/1000000, t17))
 
 
 def fm0(mu_i, mu_o, c):
@@ -585,12 +584,12 @@ def eval(material, mu_i, mu_o, cos_phi):
     scattering), c the particle albedo in [0, 1]; inputs outside (+-inf included) are
     clamped, NaN in any input gives NaN."""
     material, mu_i, mu_o, cos_phi = numpy.asarray(material, dtype=float), numpy.asarray(mu_i, dtype=float), numpy.asarray(mu_o, dtype=float), numpy.asarray(cos_phi, dtype=float)
-    t30 = numpy.where(numpy.less(cos_phi, -1.0), -1.0, cos_phi)
-    t0 = numpy.where(numpy.greater(t30, 1.0), 1.0, t30)
-    t31 = numpy.where(numpy.less(mu_i, 0), 0.0, mu_i)
-    t1 = numpy.where(numpy.greater(t31, 1.0), 1.0, t31)
-    t32 = numpy.where(numpy.less(mu_o, 0), 0.0, mu_o)
-    t2 = numpy.where(numpy.greater(t32, 1.0), 1.0, t32)
+    t28 = numpy.where(numpy.less(cos_phi, -1.0), -1.0, cos_phi)
+    t0 = numpy.where(numpy.greater(t28, 1.0), 1.0, t28)
+    t29 = numpy.where(numpy.less(mu_i, 0), 0.0, mu_i)
+    t1 = numpy.where(numpy.greater(t29, 1.0), 1.0, t29)
+    t30 = numpy.where(numpy.less(mu_o, 0), 0.0, mu_o)
+    t2 = numpy.where(numpy.greater(t30, 1.0), 1.0, t30)
     t3 = t1 + t2
     t4 = numpy.where(numpy.less(t3, 1/1000000), 1/1000000, t3)**(-1.0)
     t5 = (t1*t1)
@@ -609,17 +608,16 @@ def eval(material, mu_i, mu_o, cos_phi):
     t18 = material[..., 0]*t3 + material[..., 2]*t5*t9 + material[..., 3]*(t5 + t9) + material[..., 4]*t1*t2*t3 + material[..., 5]*t16
     t19 = (t1*t1*t1*t1)
     t20 = (t2*t2*t2*t2)
-    t33 = (1/2)*t15*(t0 + 1) + (1/2)*t16 + (1/2)*(t13*t9 + t5)/(t15 + 1)
-    t21 = numpy.where(numpy.less(t33, 0), 0, t33)
+    t31 = (1/2)*t15*(t0 + 1) + (1/2)*t16 + (1/2)*(t13*t9 + t5)/(t15 + 1)
+    t21 = numpy.where(numpy.less(t31, 0), 0, t31)
     t22 = numpy.where(numpy.greater(t21, 1), 1, t21)
     t23 = 1 - t22
     t24 = numpy.arcsin(numpy.sqrt(numpy.where(numpy.greater(t21, t23), t23, numpy.where(numpy.less_equal(t21, t23), t21, t21 + t23))))
-    t26 = 2*t24
-    t27 = t26 - 3.141592653589793238
-    t28 = -t27
-    t29 = numpy.where(numpy.less(t22, 1/2), 4*(t24*t24), (t28*t28))
-    t34 = (499973/500000)*material[..., 31]*t4*numpy.where(numpy.where(numpy.less(t22, 1/2), numpy.less(t24, 1/4), numpy.greater(t27, -1/2)), (t29*(t29*(t29*(t29*(t29*((1/93405312000)*t29 - 1/518918400) + 1/3991680) - 1/45360) + 1/840) - 1/30) + 1/3)*numpy.where(numpy.less(t22, 1/2), 8*(t24*t24*t24), (t28*t28*t28)), 2*numpy.sqrt(t22)*numpy.sqrt(t23) - (1 - 2*t22)*numpy.where(numpy.less(t22, 1/2), t26, t28)) + (499973/500000)*material[..., 37]*t14*t4*(2*(t0*t0) - 1)*numpy.expm1(t1*(material[..., 28]*(material[..., 27]*(material[..., 32]*t5 + material[..., 33]*t8 + material[..., 34]*t1 + material[..., 35] - 0.0037961708223872375*t1 + 0.0037035545003035746*t5 - 0.0014135909284063626*t8) + (25/256)*t1 + (15/512)*t5 - 15/256*t8 - 45/1024) + material[..., 36]*(t6*t6)*t7) + t2*(material[..., 28]*(material[..., 27]*(material[..., 32]*t9 + material[..., 33]*t12 + material[..., 34]*t2 + material[..., 35] - 0.0014135909284063626*t12 - 0.0037961708223872375*t2 + 0.0037035545003035746*t9) - 15/256*t12 + (25/256)*t2 + (15/512)*t9 - 45/1024) + material[..., 36]*(t10*t10)*t11)) + (499973/500000)*material[..., 49]*t0*t15*t4*(t17 + ((45/64)*t16 + t17 + 1)*numpy.expm1(t1*(material[..., 28]*(material[..., 27]*(material[..., 40]*t5 + material[..., 41]*t8 + material[..., 42]*t8 + material[..., 43]*t1 + material[..., 44]*t1 + material[..., 45]*t5 + material[..., 46] - 0.1788584769584851*t1 + 0.05802135097287754*t5 + 0.06143020603611769*t8) - 47/96*t1 - 15/128*t5 + (15/64)*t8 + 173/768) + material[..., 48]*t6*t7*(material[..., 47]*t5 - 64)) + t2*(material[..., 28]*(material[..., 27]*(material[..., 40]*t9 + material[..., 41]*t12 + material[..., 42]*t12 + material[..., 43]*t2 + material[..., 44]*t2 + material[..., 45]*t9 + material[..., 46] + 0.06143020603611769*t12 - 0.1788584769584851*t2 + 0.05802135097287754*t9) + (15/64)*t12 - 47/96*t2 - 15/128*t9 + 173/768) + material[..., 48]*t10*t11*(material[..., 47]*t9 - 64)))) + (499973/1000000)*t4*(t18 + (material[..., 1]*(256*t16 + 135*t5*t9 - 45*t5 - 45*t9 + 207) + t18)*numpy.expm1(t1*(material[..., 1]*t7*(material[..., 29]*t5 + material[..., 30]*t19 + 207) + material[..., 28]*(material[..., 27]*(material[..., 10]*t19 + material[..., 11]*t5 + material[..., 12]*t8 + material[..., 13]*t1 + material[..., 14]*t8 + material[..., 15]*t19 + material[..., 16]*t19 + material[..., 17]*t1 + material[..., 18]*t5 + material[..., 19]*t1 + material[..., 20]*t8 + material[..., 21]*t19 + material[..., 22]*t1 + material[..., 23]*t8 + material[..., 24]*t19 + material[..., 25]*t5 + material[..., 26] + material[..., 6]*t5 + material[..., 7]*t1 + material[..., 8]*t8 + material[..., 9]*t5 - 1.317974632049971*t1 + 0.06215295319723717*t19 + 0.28728468847971017*t5 + 0.10385474081646198*t8) + (301/384)*t1 + (45/256)*t5 - 45/128*t8 - 557/1536)) + t2*(material[..., 1]*t11*(material[..., 29]*t9 + material[..., 30]*t20 + 207) + material[..., 28]*(material[..., 27]*(material[..., 10]*t20 + material[..., 11]*t9 + material[..., 12]*t12 + material[..., 13]*t2 + material[..., 14]*t12 + material[..., 15]*t20 + material[..., 16]*t20 + material[..., 17]*t2 + material[..., 18]*t9 + material[..., 19]*t2 + material[..., 20]*t12 + material[..., 21]*t20 + material[..., 22]*t2 + material[..., 23]*t12 + material[..., 24]*t20 + material[..., 25]*t9 + material[..., 26] + material[..., 6]*t9 + material[..., 7]*t2 + material[..., 8]*t12 + material[..., 9]*t9 + 0.10385474081646198*t12 - 1.317974632049971*t2 + 0.06215295319723717*t20 + 0.28728468847971017*t9) - 45/128*t12 + (301/384)*t2 + (45/256)*t9 - 557/1536))))/3.141592653589793238
-    return numpy.where(numpy.less(t34, 0), 0, t34)
+    t25 = (t24*t24)
+    t26 = 4*t25
+    t27 = 2*t24
+    t32 = (499973/500000)*material[..., 31]*t4*numpy.where(numpy.less(t22, 1/16), 8*(t24*t24*t24)*(t26*(t26*(t26*(t26*(t26*((1/23351328000)*t25 - 1/518918400) + 1/3991680) - 1/45360) + 1/840) - 1/30) + 1/3), 2*numpy.sqrt(t22)*numpy.sqrt(t23) - (1 - 2*t22)*numpy.where(numpy.less(t22, 1/2), t27, 3.141592653589793238 - t27)) + (499973/500000)*material[..., 37]*t14*t4*(2*(t0*t0) - 1)*numpy.expm1(t1*(material[..., 28]*(material[..., 27]*(material[..., 32]*t5 + material[..., 33]*t8 + material[..., 34]*t1 + material[..., 35] - 0.0037961708223872375*t1 + 0.0037035545003035746*t5 - 0.0014135909284063626*t8) + (25/256)*t1 + (15/512)*t5 - 15/256*t8 - 45/1024) + material[..., 36]*(t6*t6)*t7) + t2*(material[..., 28]*(material[..., 27]*(material[..., 32]*t9 + material[..., 33]*t12 + material[..., 34]*t2 + material[..., 35] - 0.0014135909284063626*t12 - 0.0037961708223872375*t2 + 0.0037035545003035746*t9) - 15/256*t12 + (25/256)*t2 + (15/512)*t9 - 45/1024) + material[..., 36]*(t10*t10)*t11)) + (499973/500000)*material[..., 49]*t0*t15*t4*(t17 + ((45/64)*t16 + t17 + 1)*numpy.expm1(t1*(material[..., 28]*(material[..., 27]*(material[..., 40]*t5 + material[..., 41]*t8 + material[..., 42]*t8 + material[..., 43]*t1 + material[..., 44]*t1 + material[..., 45]*t5 + material[..., 46] - 0.1788584769584851*t1 + 0.05802135097287754*t5 + 0.06143020603611769*t8) - 47/96*t1 - 15/128*t5 + (15/64)*t8 + 173/768) + material[..., 48]*t6*t7*(material[..., 47]*t5 - 64)) + t2*(material[..., 28]*(material[..., 27]*(material[..., 40]*t9 + material[..., 41]*t12 + material[..., 42]*t12 + material[..., 43]*t2 + material[..., 44]*t2 + material[..., 45]*t9 + material[..., 46] + 0.06143020603611769*t12 - 0.1788584769584851*t2 + 0.05802135097287754*t9) + (15/64)*t12 - 47/96*t2 - 15/128*t9 + 173/768) + material[..., 48]*t10*t11*(material[..., 47]*t9 - 64)))) + (499973/1000000)*t4*(t18 + (material[..., 1]*(256*t16 + 135*t5*t9 - 45*t5 - 45*t9 + 207) + t18)*numpy.expm1(t1*(material[..., 1]*t7*(material[..., 29]*t5 + material[..., 30]*t19 + 207) + material[..., 28]*(material[..., 27]*(material[..., 10]*t19 + material[..., 11]*t5 + material[..., 12]*t8 + material[..., 13]*t1 + material[..., 14]*t8 + material[..., 15]*t19 + material[..., 16]*t19 + material[..., 17]*t1 + material[..., 18]*t5 + material[..., 19]*t1 + material[..., 20]*t8 + material[..., 21]*t19 + material[..., 22]*t1 + material[..., 23]*t8 + material[..., 24]*t19 + material[..., 25]*t5 + material[..., 26] + material[..., 6]*t5 + material[..., 7]*t1 + material[..., 8]*t8 + material[..., 9]*t5 - 1.317974632049971*t1 + 0.06215295319723717*t19 + 0.28728468847971017*t5 + 0.10385474081646198*t8) + (301/384)*t1 + (45/256)*t5 - 45/128*t8 - 557/1536)) + t2*(material[..., 1]*t11*(material[..., 29]*t9 + material[..., 30]*t20 + 207) + material[..., 28]*(material[..., 27]*(material[..., 10]*t20 + material[..., 11]*t9 + material[..., 12]*t12 + material[..., 13]*t2 + material[..., 14]*t12 + material[..., 15]*t20 + material[..., 16]*t20 + material[..., 17]*t2 + material[..., 18]*t9 + material[..., 19]*t2 + material[..., 20]*t12 + material[..., 21]*t20 + material[..., 22]*t2 + material[..., 23]*t12 + material[..., 24]*t20 + material[..., 25]*t9 + material[..., 26] + material[..., 6]*t9 + material[..., 7]*t2 + material[..., 8]*t12 + material[..., 9]*t9 + 0.10385474081646198*t12 - 1.317974632049971*t2 + 0.06215295319723717*t20 + 0.28728468847971017*t9) - 45/128*t12 + (301/384)*t2 + (45/256)*t9 - 557/1536))))/3.141592653589793238
+    return numpy.where(numpy.less(t32, 0), 0, t32)
 
 
 def eval_local(material, wi, wo):
@@ -628,26 +626,26 @@ def eval_local(material, wi, wo):
     pointing away from the surface); 0 if either is below the surface. Components are
     clamped to [-1, 1] (not normalised); NaN in any input gives NaN."""
     material, wi, wo = numpy.asarray(material, dtype=float), numpy.asarray(wi, dtype=float), numpy.asarray(wo, dtype=float)
-    t36 = numpy.where(numpy.less(wi[..., 2], -1.0), -1.0, wi[..., 2])
-    t0 = numpy.where(numpy.greater(t36, 1.0), 1.0, t36)
-    t37 = numpy.where(numpy.less(wo[..., 2], -1.0), -1.0, wo[..., 2])
-    t1 = numpy.where(numpy.greater(t37, 1.0), 1.0, t37)
-    t38 = numpy.where(numpy.less(wi[..., 0], -1.0), -1.0, wi[..., 0])
-    t2 = numpy.where(numpy.greater(t38, 1.0), 1.0, t38)
-    t39 = numpy.where(numpy.less(wo[..., 0], -1.0), -1.0, wo[..., 0])
-    t3 = numpy.where(numpy.greater(t39, 1.0), 1.0, t39)
-    t40 = numpy.where(numpy.less(wi[..., 1], -1.0), -1.0, wi[..., 1])
-    t4 = numpy.where(numpy.greater(t40, 1.0), 1.0, t40)
-    t41 = numpy.where(numpy.less(wo[..., 1], -1.0), -1.0, wo[..., 1])
-    t5 = numpy.where(numpy.greater(t41, 1.0), 1.0, t41)
-    t42 = ((t2*t2) + (t4*t4))*((t3*t3) + (t5*t5))
-    t43 = (t2*t3 + t4*t5)/numpy.sqrt(numpy.where(numpy.less(t42, 1/1000000000000000000000000000000), 1/1000000000000000000000000000000, t42))
-    t44 = numpy.where(numpy.less(t43, -1.0), -1.0, t43)
-    t6 = numpy.where(numpy.greater(t44, 1.0), 1.0, t44)
-    t45 = numpy.where(numpy.less(t0, 0), 0.0, t0)
-    t7 = numpy.where(numpy.greater(t45, 1.0), 1.0, t45)
-    t46 = numpy.where(numpy.less(t1, 0), 0.0, t1)
-    t8 = numpy.where(numpy.greater(t46, 1.0), 1.0, t46)
+    t34 = numpy.where(numpy.less(wi[..., 2], -1.0), -1.0, wi[..., 2])
+    t0 = numpy.where(numpy.greater(t34, 1.0), 1.0, t34)
+    t35 = numpy.where(numpy.less(wo[..., 2], -1.0), -1.0, wo[..., 2])
+    t1 = numpy.where(numpy.greater(t35, 1.0), 1.0, t35)
+    t36 = numpy.where(numpy.less(wi[..., 0], -1.0), -1.0, wi[..., 0])
+    t2 = numpy.where(numpy.greater(t36, 1.0), 1.0, t36)
+    t37 = numpy.where(numpy.less(wo[..., 0], -1.0), -1.0, wo[..., 0])
+    t3 = numpy.where(numpy.greater(t37, 1.0), 1.0, t37)
+    t38 = numpy.where(numpy.less(wi[..., 1], -1.0), -1.0, wi[..., 1])
+    t4 = numpy.where(numpy.greater(t38, 1.0), 1.0, t38)
+    t39 = numpy.where(numpy.less(wo[..., 1], -1.0), -1.0, wo[..., 1])
+    t5 = numpy.where(numpy.greater(t39, 1.0), 1.0, t39)
+    t40 = ((t2*t2) + (t4*t4))*((t3*t3) + (t5*t5))
+    t41 = (t2*t3 + t4*t5)/numpy.sqrt(numpy.where(numpy.less(t40, 1/1000000000000000000000000000000), 1/1000000000000000000000000000000, t40))
+    t42 = numpy.where(numpy.less(t41, -1.0), -1.0, t41)
+    t6 = numpy.where(numpy.greater(t42, 1.0), 1.0, t42)
+    t43 = numpy.where(numpy.less(t0, 0), 0.0, t0)
+    t7 = numpy.where(numpy.greater(t43, 1.0), 1.0, t43)
+    t44 = numpy.where(numpy.less(t1, 0), 0.0, t1)
+    t8 = numpy.where(numpy.greater(t44, 1.0), 1.0, t44)
     t9 = t7 + t8
     t10 = numpy.where(numpy.less(t9, 1/1000000), 1/1000000, t9)**(-1.0)
     t11 = (t7*t7)
@@ -666,17 +664,16 @@ def eval_local(material, wi, wo):
     t24 = material[..., 0]*t9 + material[..., 2]*t11*t15 + material[..., 3]*(t11 + t15) + material[..., 4]*t7*t8*t9 + material[..., 5]*t22
     t25 = (t7*t7*t7*t7)
     t26 = (t8*t8*t8*t8)
-    t47 = (1/2)*t21*(t6 + 1) + (1/2)*t22 + (1/2)*(t11 + t15*t19)/(t21 + 1)
-    t27 = numpy.where(numpy.less(t47, 0), 0, t47)
+    t45 = (1/2)*t21*(t6 + 1) + (1/2)*t22 + (1/2)*(t11 + t15*t19)/(t21 + 1)
+    t27 = numpy.where(numpy.less(t45, 0), 0, t45)
     t28 = numpy.where(numpy.greater(t27, 1), 1, t27)
     t29 = 1 - t28
     t30 = numpy.arcsin(numpy.sqrt(numpy.where(numpy.greater(t27, t29), t29, numpy.where(numpy.less_equal(t27, t29), t27, t27 + t29))))
-    t32 = 2*t30
-    t33 = t32 - 3.141592653589793238
-    t34 = -t33
-    t35 = numpy.where(numpy.less(t28, 1/2), 4*(t30*t30), (t34*t34))
-    t48 = (499973/500000)*material[..., 31]*t10*numpy.where(numpy.where(numpy.less(t28, 1/2), numpy.less(t30, 1/4), numpy.greater(t33, -1/2)), (t35*(t35*(t35*(t35*(t35*((1/93405312000)*t35 - 1/518918400) + 1/3991680) - 1/45360) + 1/840) - 1/30) + 1/3)*numpy.where(numpy.less(t28, 1/2), 8*(t30*t30*t30), (t34*t34*t34)), 2*numpy.sqrt(t28)*numpy.sqrt(t29) - (1 - 2*t28)*numpy.where(numpy.less(t28, 1/2), t32, t34)) + (499973/500000)*material[..., 37]*t10*t20*(2*(t6*t6) - 1)*numpy.expm1(t7*(material[..., 28]*(material[..., 27]*(material[..., 32]*t11 + material[..., 33]*t14 + material[..., 34]*t7 + material[..., 35] + 0.0037035545003035746*t11 - 0.0014135909284063626*t14 - 0.0037961708223872375*t7) + (15/512)*t11 - 15/256*t14 + (25/256)*t7 - 45/1024) + material[..., 36]*(t12*t12)*t13) + t8*(material[..., 28]*(material[..., 27]*(material[..., 32]*t15 + material[..., 33]*t18 + material[..., 34]*t8 + material[..., 35] + 0.0037035545003035746*t15 - 0.0014135909284063626*t18 - 0.0037961708223872375*t8) + (15/512)*t15 - 15/256*t18 + (25/256)*t8 - 45/1024) + material[..., 36]*(t16*t16)*t17)) + (499973/500000)*material[..., 49]*t10*t21*t6*(t23 + ((45/64)*t22 + t23 + 1)*numpy.expm1(t7*(material[..., 28]*(material[..., 27]*(material[..., 40]*t11 + material[..., 41]*t14 + material[..., 42]*t14 + material[..., 43]*t7 + material[..., 44]*t7 + material[..., 45]*t11 + material[..., 46] + 0.05802135097287754*t11 + 0.06143020603611769*t14 - 0.1788584769584851*t7) - 15/128*t11 + (15/64)*t14 - 47/96*t7 + 173/768) + material[..., 48]*t12*t13*(material[..., 47]*t11 - 64)) + t8*(material[..., 28]*(material[..., 27]*(material[..., 40]*t15 + material[..., 41]*t18 + material[..., 42]*t18 + material[..., 43]*t8 + material[..., 44]*t8 + material[..., 45]*t15 + material[..., 46] + 0.05802135097287754*t15 + 0.06143020603611769*t18 - 0.1788584769584851*t8) - 15/128*t15 + (15/64)*t18 - 47/96*t8 + 173/768) + material[..., 48]*t16*t17*(material[..., 47]*t15 - 64)))) + (499973/1000000)*t10*(t24 + (material[..., 1]*(135*t11*t15 - 45*t11 - 45*t15 + 256*t22 + 207) + t24)*numpy.expm1(t7*(material[..., 1]*t13*(material[..., 29]*t11 + material[..., 30]*t25 + 207) + material[..., 28]*(material[..., 27]*(material[..., 10]*t25 + material[..., 11]*t11 + material[..., 12]*t14 + material[..., 13]*t7 + material[..., 14]*t14 + material[..., 15]*t25 + material[..., 16]*t25 + material[..., 17]*t7 + material[..., 18]*t11 + material[..., 19]*t7 + material[..., 20]*t14 + material[..., 21]*t25 + material[..., 22]*t7 + material[..., 23]*t14 + material[..., 24]*t25 + material[..., 25]*t11 + material[..., 26] + material[..., 6]*t11 + material[..., 7]*t7 + material[..., 8]*t14 + material[..., 9]*t11 + 0.28728468847971017*t11 + 0.10385474081646198*t14 + 0.06215295319723717*t25 - 1.317974632049971*t7) + (45/256)*t11 - 45/128*t14 + (301/384)*t7 - 557/1536)) + t8*(material[..., 1]*t17*(material[..., 29]*t15 + material[..., 30]*t26 + 207) + material[..., 28]*(material[..., 27]*(material[..., 10]*t26 + material[..., 11]*t15 + material[..., 12]*t18 + material[..., 13]*t8 + material[..., 14]*t18 + material[..., 15]*t26 + material[..., 16]*t26 + material[..., 17]*t8 + material[..., 18]*t15 + material[..., 19]*t8 + material[..., 20]*t18 + material[..., 21]*t26 + material[..., 22]*t8 + material[..., 23]*t18 + material[..., 24]*t26 + material[..., 25]*t15 + material[..., 26] + material[..., 6]*t15 + material[..., 7]*t8 + material[..., 8]*t18 + material[..., 9]*t15 + 0.28728468847971017*t15 + 0.10385474081646198*t18 + 0.06215295319723717*t26 - 1.317974632049971*t8) + (45/256)*t15 - 45/128*t18 + (301/384)*t8 - 557/1536))))/3.141592653589793238
-    return numpy.where(numpy.less(t0, 0), 0, 1)*numpy.where(numpy.less(t1, 0), 0, 1)*numpy.where(numpy.less(t48, 0), 0, t48)
+    t31 = (t30*t30)
+    t32 = 4*t31
+    t33 = 2*t30
+    t46 = (499973/500000)*material[..., 31]*t10*numpy.where(numpy.less(t28, 1/16), 8*(t30*t30*t30)*(t32*(t32*(t32*(t32*(t32*((1/23351328000)*t31 - 1/518918400) + 1/3991680) - 1/45360) + 1/840) - 1/30) + 1/3), 2*numpy.sqrt(t28)*numpy.sqrt(t29) - (1 - 2*t28)*numpy.where(numpy.less(t28, 1/2), t33, 3.141592653589793238 - t33)) + (499973/500000)*material[..., 37]*t10*t20*(2*(t6*t6) - 1)*numpy.expm1(t7*(material[..., 28]*(material[..., 27]*(material[..., 32]*t11 + material[..., 33]*t14 + material[..., 34]*t7 + material[..., 35] + 0.0037035545003035746*t11 - 0.0014135909284063626*t14 - 0.0037961708223872375*t7) + (15/512)*t11 - 15/256*t14 + (25/256)*t7 - 45/1024) + material[..., 36]*(t12*t12)*t13) + t8*(material[..., 28]*(material[..., 27]*(material[..., 32]*t15 + material[..., 33]*t18 + material[..., 34]*t8 + material[..., 35] + 0.0037035545003035746*t15 - 0.0014135909284063626*t18 - 0.0037961708223872375*t8) + (15/512)*t15 - 15/256*t18 + (25/256)*t8 - 45/1024) + material[..., 36]*(t16*t16)*t17)) + (499973/500000)*material[..., 49]*t10*t21*t6*(t23 + ((45/64)*t22 + t23 + 1)*numpy.expm1(t7*(material[..., 28]*(material[..., 27]*(material[..., 40]*t11 + material[..., 41]*t14 + material[..., 42]*t14 + material[..., 43]*t7 + material[..., 44]*t7 + material[..., 45]*t11 + material[..., 46] + 0.05802135097287754*t11 + 0.06143020603611769*t14 - 0.1788584769584851*t7) - 15/128*t11 + (15/64)*t14 - 47/96*t7 + 173/768) + material[..., 48]*t12*t13*(material[..., 47]*t11 - 64)) + t8*(material[..., 28]*(material[..., 27]*(material[..., 40]*t15 + material[..., 41]*t18 + material[..., 42]*t18 + material[..., 43]*t8 + material[..., 44]*t8 + material[..., 45]*t15 + material[..., 46] + 0.05802135097287754*t15 + 0.06143020603611769*t18 - 0.1788584769584851*t8) - 15/128*t15 + (15/64)*t18 - 47/96*t8 + 173/768) + material[..., 48]*t16*t17*(material[..., 47]*t15 - 64)))) + (499973/1000000)*t10*(t24 + (material[..., 1]*(135*t11*t15 - 45*t11 - 45*t15 + 256*t22 + 207) + t24)*numpy.expm1(t7*(material[..., 1]*t13*(material[..., 29]*t11 + material[..., 30]*t25 + 207) + material[..., 28]*(material[..., 27]*(material[..., 10]*t25 + material[..., 11]*t11 + material[..., 12]*t14 + material[..., 13]*t7 + material[..., 14]*t14 + material[..., 15]*t25 + material[..., 16]*t25 + material[..., 17]*t7 + material[..., 18]*t11 + material[..., 19]*t7 + material[..., 20]*t14 + material[..., 21]*t25 + material[..., 22]*t7 + material[..., 23]*t14 + material[..., 24]*t25 + material[..., 25]*t11 + material[..., 26] + material[..., 6]*t11 + material[..., 7]*t7 + material[..., 8]*t14 + material[..., 9]*t11 + 0.28728468847971017*t11 + 0.10385474081646198*t14 + 0.06215295319723717*t25 - 1.317974632049971*t7) + (45/256)*t11 - 45/128*t14 + (301/384)*t7 - 557/1536)) + t8*(material[..., 1]*t17*(material[..., 29]*t15 + material[..., 30]*t26 + 207) + material[..., 28]*(material[..., 27]*(material[..., 10]*t26 + material[..., 11]*t15 + material[..., 12]*t18 + material[..., 13]*t8 + material[..., 14]*t18 + material[..., 15]*t26 + material[..., 16]*t26 + material[..., 17]*t8 + material[..., 18]*t15 + material[..., 19]*t8 + material[..., 20]*t18 + material[..., 21]*t26 + material[..., 22]*t8 + material[..., 23]*t18 + material[..., 24]*t26 + material[..., 25]*t15 + material[..., 26] + material[..., 6]*t15 + material[..., 7]*t8 + material[..., 8]*t18 + material[..., 9]*t15 + 0.28728468847971017*t15 + 0.10385474081646198*t18 + 0.06215295319723717*t26 - 1.317974632049971*t8) + (45/256)*t15 - 45/128*t18 + (301/384)*t8 - 557/1536))))/3.141592653589793238
+    return numpy.where(numpy.less(t0, 0), 0, 1)*numpy.where(numpy.less(t1, 0), 0, 1)*numpy.where(numpy.less(t46, 0), 0, t46)
 
 
 def pdf(material, wi, wo):

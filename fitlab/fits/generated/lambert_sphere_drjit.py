@@ -261,27 +261,26 @@ def single(mu_i, mu_o, cos_phi, c):
     phi) and x = acos(u) = 2 asin(sqrt((1 - u)/2)), sin x - x cos x by its series below x =
     1/2 (full accuracy in forward scattering at grazing, float included). Pole floored at
     1e-6."""
-    t15 = dr.select((mu_i < 0.0), 0.0, mu_i)
-    t0 = dr.select((t15 > 1.0), 1.0, t15)
-    t16 = dr.select((mu_o < 0.0), 0.0, mu_o)
-    t1 = dr.select((t16 > 1.0), 1.0, t16)
+    t13 = dr.select((mu_i < 0.0), 0.0, mu_i)
+    t0 = dr.select((t13 > 1.0), 1.0, t13)
+    t14 = dr.select((mu_o < 0.0), 0.0, mu_o)
+    t1 = dr.select((t14 > 1.0), 1.0, t14)
     t2 = (t0*t0)
     t3 = 1.0 - t2
     t4 = (t1*t1)
     t5 = dr.sqrt(t3*(1.0 - t4))
-    t17 = dr.select((cos_phi < -1.0), -1.0, cos_phi)
-    t18 = (1.0/2.0)*t0*t1 + (1.0/2.0)*t5*(dr.select((t17 > 1.0), 1.0, t17) + 1.0) + (1.0/2.0)*(t2 + t3*t4)/(t5 + 1.0)
-    t6 = dr.select((t18 < 0.0), 0.0, t18)
+    t15 = dr.select((cos_phi < -1.0), -1.0, cos_phi)
+    t16 = (1.0/2.0)*t0*t1 + (1.0/2.0)*t5*(dr.select((t15 > 1.0), 1.0, t15) + 1.0) + (1.0/2.0)*(t2 + t3*t4)/(t5 + 1.0)
+    t6 = dr.select((t16 < 0.0), 0.0, t16)
     t7 = dr.select((t6 > 1.0), 1.0, t6)
     t8 = 1.0 - t7
     t9 = dr.asin(dr.sqrt(dr.select((t6 > t8), t8, dr.select((t6 <= t8), t6, t6 + t8))))
-    t11 = 2.0*t9
-    t12 = t11 - 3.141592653589793238
-    t13 = -t12
-    t14 = dr.select((t7 < 1.0/2.0), 4.0*(t9*t9), (t13*t13))
-    t19 = t0 + t1
-    t20 = dr.select((c < 0.0), 0.0, c)
-    return (2.0/3.0)*dr.select(dr.select((t7 < 1.0/2.0), (t9 < 1.0/4.0), (t12 > -1.0/2.0)), (t14*(t14*(t14*(t14*(t14*((1.0/93405312000.0)*t14 - 1.0/518918400.0) + 1.0/3991680.0) - 1.0/45360.0) + 1.0/840.0) - 1.0/30.0) + 1.0/3.0)*dr.select((t7 < 1.0/2.0), 8.0*(t9*t9*t9), (t13*t13*t13)), 2.0*dr.sqrt(t7)*dr.sqrt(t8) - (1.0 - 2.0*t7)*dr.select((t7 < 1.0/2.0), t11, t13))*dr.select((t20 > 1.0), 1.0, t20)/((3.141592653589793238*3.141592653589793238)*dr.select((t19 < 1.0/1000000.0), 1.0/1000000.0, t19))
+    t10 = (t9*t9)
+    t11 = 4.0*t10
+    t12 = 2.0*t9
+    t17 = t0 + t1
+    t18 = dr.select((c < 0.0), 0.0, c)
+    return (2.0/3.0)*dr.select((t7 < 1.0/16.0), 8.0*(t9*t9*t9)*(t11*(t11*(t11*(t11*(t11*((1.0/23351328000.0)*t10 - 1.0/518918400.0) + 1.0/3991680.0) - 1.0/45360.0) + 1.0/840.0) - 1.0/30.0) + 1.0/3.0), 2.0*dr.sqrt(t7)*dr.sqrt(t8) - (1.0 - 2.0*t7)*dr.select((t7 < 1.0/2.0), t12, 3.141592653589793238 - t12))*dr.select((t18 > 1.0), 1.0, t18)/((3.141592653589793238*3.141592653589793238)*dr.select((t17 < 1.0/1000000.0), 1.0/1000000.0, t17))
 
 
 def fm0(mu_i, mu_o, c):
@@ -683,12 +682,12 @@ def eval(material, mu_i, mu_o, cos_phi):
     c = 1 below 1 (docs/model.md). mu_i, mu_o in [0, 1], cos_phi in [-1, 1] (phi = 0 back-
     scattering), c the particle albedo in [0, 1]; inputs outside (+-inf included) are
     clamped, NaN in any input gives NaN."""
-    t30 = dr.select((cos_phi < -1.0), -1.0, cos_phi)
-    t0 = dr.select((t30 > 1.0), 1.0, t30)
-    t31 = dr.select((mu_i < 0.0), 0.0, mu_i)
-    t1 = dr.select((t31 > 1.0), 1.0, t31)
-    t32 = dr.select((mu_o < 0.0), 0.0, mu_o)
-    t2 = dr.select((t32 > 1.0), 1.0, t32)
+    t28 = dr.select((cos_phi < -1.0), -1.0, cos_phi)
+    t0 = dr.select((t28 > 1.0), 1.0, t28)
+    t29 = dr.select((mu_i < 0.0), 0.0, mu_i)
+    t1 = dr.select((t29 > 1.0), 1.0, t29)
+    t30 = dr.select((mu_o < 0.0), 0.0, mu_o)
+    t2 = dr.select((t30 > 1.0), 1.0, t30)
     t3 = t1 + t2
     t4 = (1.0/dr.select((t3 < 1.0/1000000.0), 1.0/1000000.0, t3))
     t5 = (t1*t1)
@@ -707,17 +706,16 @@ def eval(material, mu_i, mu_o, cos_phi):
     t18 = material[0]*t3 + material[2]*t5*t9 + material[3]*(t5 + t9) + material[4]*t1*t2*t3 + material[5]*t16
     t19 = (t1*t1*t1*t1)
     t20 = (t2*t2*t2*t2)
-    t33 = (1.0/2.0)*t15*(t0 + 1.0) + (1.0/2.0)*t16 + (1.0/2.0)*(t13*t9 + t5)/(t15 + 1.0)
-    t21 = dr.select((t33 < 0.0), 0.0, t33)
+    t31 = (1.0/2.0)*t15*(t0 + 1.0) + (1.0/2.0)*t16 + (1.0/2.0)*(t13*t9 + t5)/(t15 + 1.0)
+    t21 = dr.select((t31 < 0.0), 0.0, t31)
     t22 = dr.select((t21 > 1.0), 1.0, t21)
     t23 = 1.0 - t22
     t24 = dr.asin(dr.sqrt(dr.select((t21 > t23), t23, dr.select((t21 <= t23), t21, t21 + t23))))
-    t26 = 2.0*t24
-    t27 = t26 - 3.141592653589793238
-    t28 = -t27
-    t29 = dr.select((t22 < 1.0/2.0), 4.0*(t24*t24), (t28*t28))
-    t34 = (499973.0/500000.0)*material[31]*t4*dr.select(dr.select((t22 < 1.0/2.0), (t24 < 1.0/4.0), (t27 > -1.0/2.0)), (t29*(t29*(t29*(t29*(t29*((1.0/93405312000.0)*t29 - 1.0/518918400.0) + 1.0/3991680.0) - 1.0/45360.0) + 1.0/840.0) - 1.0/30.0) + 1.0/3.0)*dr.select((t22 < 1.0/2.0), 8.0*(t24*t24*t24), (t28*t28*t28)), 2.0*dr.sqrt(t22)*dr.sqrt(t23) - (1.0 - 2.0*t22)*dr.select((t22 < 1.0/2.0), t26, t28)) + (499973.0/500000.0)*material[37]*t14*t4*(2.0*(t0*t0) - 1.0)*_expm1(t1*(material[28]*(material[27]*(material[32]*t5 + material[33]*t8 + material[34]*t1 + material[35] - 0.0037961708223872375*t1 + 0.0037035545003035746*t5 - 0.0014135909284063626*t8) + (25.0/256.0)*t1 + (15.0/512.0)*t5 - 15.0/256.0*t8 - 45.0/1024.0) + material[36]*(t6*t6)*t7) + t2*(material[28]*(material[27]*(material[32]*t9 + material[33]*t12 + material[34]*t2 + material[35] - 0.0014135909284063626*t12 - 0.0037961708223872375*t2 + 0.0037035545003035746*t9) - 15.0/256.0*t12 + (25.0/256.0)*t2 + (15.0/512.0)*t9 - 45.0/1024.0) + material[36]*(t10*t10)*t11)) + (499973.0/500000.0)*material[49]*t0*t15*t4*(t17 + ((45.0/64.0)*t16 + t17 + 1.0)*_expm1(t1*(material[28]*(material[27]*(material[40]*t5 + material[41]*t8 + material[42]*t8 + material[43]*t1 + material[44]*t1 + material[45]*t5 + material[46] - 0.1788584769584851*t1 + 0.05802135097287754*t5 + 0.06143020603611769*t8) - 47.0/96.0*t1 - 15.0/128.0*t5 + (15.0/64.0)*t8 + 173.0/768.0) + material[48]*t6*t7*(material[47]*t5 - 64.0)) + t2*(material[28]*(material[27]*(material[40]*t9 + material[41]*t12 + material[42]*t12 + material[43]*t2 + material[44]*t2 + material[45]*t9 + material[46] + 0.06143020603611769*t12 - 0.1788584769584851*t2 + 0.05802135097287754*t9) + (15.0/64.0)*t12 - 47.0/96.0*t2 - 15.0/128.0*t9 + 173.0/768.0) + material[48]*t10*t11*(material[47]*t9 - 64.0)))) + (499973.0/1000000.0)*t4*(t18 + (material[1]*(256.0*t16 + 135.0*t5*t9 - 45.0*t5 - 45.0*t9 + 207.0) + t18)*_expm1(t1*(material[1]*t7*(material[29]*t5 + material[30]*t19 + 207.0) + material[28]*(material[27]*(material[10]*t19 + material[11]*t5 + material[12]*t8 + material[13]*t1 + material[14]*t8 + material[15]*t19 + material[16]*t19 + material[17]*t1 + material[18]*t5 + material[19]*t1 + material[20]*t8 + material[21]*t19 + material[22]*t1 + material[23]*t8 + material[24]*t19 + material[25]*t5 + material[26] + material[6]*t5 + material[7]*t1 + material[8]*t8 + material[9]*t5 - 1.317974632049971*t1 + 0.06215295319723717*t19 + 0.28728468847971017*t5 + 0.10385474081646198*t8) + (301.0/384.0)*t1 + (45.0/256.0)*t5 - 45.0/128.0*t8 - 557.0/1536.0)) + t2*(material[1]*t11*(material[29]*t9 + material[30]*t20 + 207.0) + material[28]*(material[27]*(material[10]*t20 + material[11]*t9 + material[12]*t12 + material[13]*t2 + material[14]*t12 + material[15]*t20 + material[16]*t20 + material[17]*t2 + material[18]*t9 + material[19]*t2 + material[20]*t12 + material[21]*t20 + material[22]*t2 + material[23]*t12 + material[24]*t20 + material[25]*t9 + material[26] + material[6]*t9 + material[7]*t2 + material[8]*t12 + material[9]*t9 + 0.10385474081646198*t12 - 1.317974632049971*t2 + 0.06215295319723717*t20 + 0.28728468847971017*t9) - 45.0/128.0*t12 + (301.0/384.0)*t2 + (45.0/256.0)*t9 - 557.0/1536.0))))/3.141592653589793238
-    return dr.select((t34 < 0.0), 0.0, t34)
+    t25 = (t24*t24)
+    t26 = 4.0*t25
+    t27 = 2.0*t24
+    t32 = (499973.0/500000.0)*material[31]*t4*dr.select((t22 < 1.0/16.0), 8.0*(t24*t24*t24)*(t26*(t26*(t26*(t26*(t26*((1.0/23351328000.0)*t25 - 1.0/518918400.0) + 1.0/3991680.0) - 1.0/45360.0) + 1.0/840.0) - 1.0/30.0) + 1.0/3.0), 2.0*dr.sqrt(t22)*dr.sqrt(t23) - (1.0 - 2.0*t22)*dr.select((t22 < 1.0/2.0), t27, 3.141592653589793238 - t27)) + (499973.0/500000.0)*material[37]*t14*t4*(2.0*(t0*t0) - 1.0)*_expm1(t1*(material[28]*(material[27]*(material[32]*t5 + material[33]*t8 + material[34]*t1 + material[35] - 0.0037961708223872375*t1 + 0.0037035545003035746*t5 - 0.0014135909284063626*t8) + (25.0/256.0)*t1 + (15.0/512.0)*t5 - 15.0/256.0*t8 - 45.0/1024.0) + material[36]*(t6*t6)*t7) + t2*(material[28]*(material[27]*(material[32]*t9 + material[33]*t12 + material[34]*t2 + material[35] - 0.0014135909284063626*t12 - 0.0037961708223872375*t2 + 0.0037035545003035746*t9) - 15.0/256.0*t12 + (25.0/256.0)*t2 + (15.0/512.0)*t9 - 45.0/1024.0) + material[36]*(t10*t10)*t11)) + (499973.0/500000.0)*material[49]*t0*t15*t4*(t17 + ((45.0/64.0)*t16 + t17 + 1.0)*_expm1(t1*(material[28]*(material[27]*(material[40]*t5 + material[41]*t8 + material[42]*t8 + material[43]*t1 + material[44]*t1 + material[45]*t5 + material[46] - 0.1788584769584851*t1 + 0.05802135097287754*t5 + 0.06143020603611769*t8) - 47.0/96.0*t1 - 15.0/128.0*t5 + (15.0/64.0)*t8 + 173.0/768.0) + material[48]*t6*t7*(material[47]*t5 - 64.0)) + t2*(material[28]*(material[27]*(material[40]*t9 + material[41]*t12 + material[42]*t12 + material[43]*t2 + material[44]*t2 + material[45]*t9 + material[46] + 0.06143020603611769*t12 - 0.1788584769584851*t2 + 0.05802135097287754*t9) + (15.0/64.0)*t12 - 47.0/96.0*t2 - 15.0/128.0*t9 + 173.0/768.0) + material[48]*t10*t11*(material[47]*t9 - 64.0)))) + (499973.0/1000000.0)*t4*(t18 + (material[1]*(256.0*t16 + 135.0*t5*t9 - 45.0*t5 - 45.0*t9 + 207.0) + t18)*_expm1(t1*(material[1]*t7*(material[29]*t5 + material[30]*t19 + 207.0) + material[28]*(material[27]*(material[10]*t19 + material[11]*t5 + material[12]*t8 + material[13]*t1 + material[14]*t8 + material[15]*t19 + material[16]*t19 + material[17]*t1 + material[18]*t5 + material[19]*t1 + material[20]*t8 + material[21]*t19 + material[22]*t1 + material[23]*t8 + material[24]*t19 + material[25]*t5 + material[26] + material[6]*t5 + material[7]*t1 + material[8]*t8 + material[9]*t5 - 1.317974632049971*t1 + 0.06215295319723717*t19 + 0.28728468847971017*t5 + 0.10385474081646198*t8) + (301.0/384.0)*t1 + (45.0/256.0)*t5 - 45.0/128.0*t8 - 557.0/1536.0)) + t2*(material[1]*t11*(material[29]*t9 + material[30]*t20 + 207.0) + material[28]*(material[27]*(material[10]*t20 + material[11]*t9 + material[12]*t12 + material[13]*t2 + material[14]*t12 + material[15]*t20 + material[16]*t20 + material[17]*t2 + material[18]*t9 + material[19]*t2 + material[20]*t12 + material[21]*t20 + material[22]*t2 + material[23]*t12 + material[24]*t20 + material[25]*t9 + material[26] + material[6]*t9 + material[7]*t2 + material[8]*t12 + material[9]*t9 + 0.10385474081646198*t12 - 1.317974632049971*t2 + 0.06215295319723717*t20 + 0.28728468847971017*t9) - 45.0/128.0*t12 + (301.0/384.0)*t2 + (45.0/256.0)*t9 - 557.0/1536.0))))/3.141592653589793238
+    return dr.select((t32 < 0.0), 0.0, t32)
 
 
 def eval_local(material, wi, wo):
@@ -725,26 +723,26 @@ def eval_local(material, wi, wo):
     prepare. brdf for unit vectors wi, wo in the local frame (z along the normal, both
     pointing away from the surface); 0 if either is below the surface. Components are
     clamped to [-1, 1] (not normalised); NaN in any input gives NaN."""
-    t36 = dr.select((wi[2] < -1.0), -1.0, wi[2])
-    t0 = dr.select((t36 > 1.0), 1.0, t36)
-    t37 = dr.select((wo[2] < -1.0), -1.0, wo[2])
-    t1 = dr.select((t37 > 1.0), 1.0, t37)
-    t38 = dr.select((wi[0] < -1.0), -1.0, wi[0])
-    t2 = dr.select((t38 > 1.0), 1.0, t38)
-    t39 = dr.select((wo[0] < -1.0), -1.0, wo[0])
-    t3 = dr.select((t39 > 1.0), 1.0, t39)
-    t40 = dr.select((wi[1] < -1.0), -1.0, wi[1])
-    t4 = dr.select((t40 > 1.0), 1.0, t40)
-    t41 = dr.select((wo[1] < -1.0), -1.0, wo[1])
-    t5 = dr.select((t41 > 1.0), 1.0, t41)
-    t42 = ((t2*t2) + (t4*t4))*((t3*t3) + (t5*t5))
-    t43 = (t2*t3 + t4*t5)/dr.sqrt(dr.select((t42 < 1.0/1000000000000000000000000000000.0), 1.0/1000000000000000000000000000000.0, t42))
-    t44 = dr.select((t43 < -1.0), -1.0, t43)
-    t6 = dr.select((t44 > 1.0), 1.0, t44)
-    t45 = dr.select((t0 < 0.0), 0.0, t0)
-    t7 = dr.select((t45 > 1.0), 1.0, t45)
-    t46 = dr.select((t1 < 0.0), 0.0, t1)
-    t8 = dr.select((t46 > 1.0), 1.0, t46)
+    t34 = dr.select((wi[2] < -1.0), -1.0, wi[2])
+    t0 = dr.select((t34 > 1.0), 1.0, t34)
+    t35 = dr.select((wo[2] < -1.0), -1.0, wo[2])
+    t1 = dr.select((t35 > 1.0), 1.0, t35)
+    t36 = dr.select((wi[0] < -1.0), -1.0, wi[0])
+    t2 = dr.select((t36 > 1.0), 1.0, t36)
+    t37 = dr.select((wo[0] < -1.0), -1.0, wo[0])
+    t3 = dr.select((t37 > 1.0), 1.0, t37)
+    t38 = dr.select((wi[1] < -1.0), -1.0, wi[1])
+    t4 = dr.select((t38 > 1.0), 1.0, t38)
+    t39 = dr.select((wo[1] < -1.0), -1.0, wo[1])
+    t5 = dr.select((t39 > 1.0), 1.0, t39)
+    t40 = ((t2*t2) + (t4*t4))*((t3*t3) + (t5*t5))
+    t41 = (t2*t3 + t4*t5)/dr.sqrt(dr.select((t40 < 1.0/1000000000000000000000000000000.0), 1.0/1000000000000000000000000000000.0, t40))
+    t42 = dr.select((t41 < -1.0), -1.0, t41)
+    t6 = dr.select((t42 > 1.0), 1.0, t42)
+    t43 = dr.select((t0 < 0.0), 0.0, t0)
+    t7 = dr.select((t43 > 1.0), 1.0, t43)
+    t44 = dr.select((t1 < 0.0), 0.0, t1)
+    t8 = dr.select((t44 > 1.0), 1.0, t44)
     t9 = t7 + t8
     t10 = (1.0/dr.select((t9 < 1.0/1000000.0), 1.0/1000000.0, t9))
     t11 = (t7*t7)
@@ -763,17 +761,16 @@ def eval_local(material, wi, wo):
     t24 = material[0]*t9 + material[2]*t11*t15 + material[3]*(t11 + t15) + material[4]*t7*t8*t9 + material[5]*t22
     t25 = (t7*t7*t7*t7)
     t26 = (t8*t8*t8*t8)
-    t47 = (1.0/2.0)*t21*(t6 + 1.0) + (1.0/2.0)*t22 + (1.0/2.0)*(t11 + t15*t19)/(t21 + 1.0)
-    t27 = dr.select((t47 < 0.0), 0.0, t47)
+    t45 = (1.0/2.0)*t21*(t6 + 1.0) + (1.0/2.0)*t22 + (1.0/2.0)*(t11 + t15*t19)/(t21 + 1.0)
+    t27 = dr.select((t45 < 0.0), 0.0, t45)
     t28 = dr.select((t27 > 1.0), 1.0, t27)
     t29 = 1.0 - t28
     t30 = dr.asin(dr.sqrt(dr.select((t27 > t29), t29, dr.select((t27 <= t29), t27, t27 + t29))))
-    t32 = 2.0*t30
-    t33 = t32 - 3.141592653589793238
-    t34 = -t33
-    t35 = dr.select((t28 < 1.0/2.0), 4.0*(t30*t30), (t34*t34))
-    t48 = (499973.0/500000.0)*material[31]*t10*dr.select(dr.select((t28 < 1.0/2.0), (t30 < 1.0/4.0), (t33 > -1.0/2.0)), (t35*(t35*(t35*(t35*(t35*((1.0/93405312000.0)*t35 - 1.0/518918400.0) + 1.0/3991680.0) - 1.0/45360.0) + 1.0/840.0) - 1.0/30.0) + 1.0/3.0)*dr.select((t28 < 1.0/2.0), 8.0*(t30*t30*t30), (t34*t34*t34)), 2.0*dr.sqrt(t28)*dr.sqrt(t29) - (1.0 - 2.0*t28)*dr.select((t28 < 1.0/2.0), t32, t34)) + (499973.0/500000.0)*material[37]*t10*t20*(2.0*(t6*t6) - 1.0)*_expm1(t7*(material[28]*(material[27]*(material[32]*t11 + material[33]*t14 + material[34]*t7 + material[35] + 0.0037035545003035746*t11 - 0.0014135909284063626*t14 - 0.0037961708223872375*t7) + (15.0/512.0)*t11 - 15.0/256.0*t14 + (25.0/256.0)*t7 - 45.0/1024.0) + material[36]*(t12*t12)*t13) + t8*(material[28]*(material[27]*(material[32]*t15 + material[33]*t18 + material[34]*t8 + material[35] + 0.0037035545003035746*t15 - 0.0014135909284063626*t18 - 0.0037961708223872375*t8) + (15.0/512.0)*t15 - 15.0/256.0*t18 + (25.0/256.0)*t8 - 45.0/1024.0) + material[36]*(t16*t16)*t17)) + (499973.0/500000.0)*material[49]*t10*t21*t6*(t23 + ((45.0/64.0)*t22 + t23 + 1.0)*_expm1(t7*(material[28]*(material[27]*(material[40]*t11 + material[41]*t14 + material[42]*t14 + material[43]*t7 + material[44]*t7 + material[45]*t11 + material[46] + 0.05802135097287754*t11 + 0.06143020603611769*t14 - 0.1788584769584851*t7) - 15.0/128.0*t11 + (15.0/64.0)*t14 - 47.0/96.0*t7 + 173.0/768.0) + material[48]*t12*t13*(material[47]*t11 - 64.0)) + t8*(material[28]*(material[27]*(material[40]*t15 + material[41]*t18 + material[42]*t18 + material[43]*t8 + material[44]*t8 + material[45]*t15 + material[46] + 0.05802135097287754*t15 + 0.06143020603611769*t18 - 0.1788584769584851*t8) - 15.0/128.0*t15 + (15.0/64.0)*t18 - 47.0/96.0*t8 + 173.0/768.0) + material[48]*t16*t17*(material[47]*t15 - 64.0)))) + (499973.0/1000000.0)*t10*(t24 + (material[1]*(135.0*t11*t15 - 45.0*t11 - 45.0*t15 + 256.0*t22 + 207.0) + t24)*_expm1(t7*(material[1]*t13*(material[29]*t11 + material[30]*t25 + 207.0) + material[28]*(material[27]*(material[10]*t25 + material[11]*t11 + material[12]*t14 + material[13]*t7 + material[14]*t14 + material[15]*t25 + material[16]*t25 + material[17]*t7 + material[18]*t11 + material[19]*t7 + material[20]*t14 + material[21]*t25 + material[22]*t7 + material[23]*t14 + material[24]*t25 + material[25]*t11 + material[26] + material[6]*t11 + material[7]*t7 + material[8]*t14 + material[9]*t11 + 0.28728468847971017*t11 + 0.10385474081646198*t14 + 0.06215295319723717*t25 - 1.317974632049971*t7) + (45.0/256.0)*t11 - 45.0/128.0*t14 + (301.0/384.0)*t7 - 557.0/1536.0)) + t8*(material[1]*t17*(material[29]*t15 + material[30]*t26 + 207.0) + material[28]*(material[27]*(material[10]*t26 + material[11]*t15 + material[12]*t18 + material[13]*t8 + material[14]*t18 + material[15]*t26 + material[16]*t26 + material[17]*t8 + material[18]*t15 + material[19]*t8 + material[20]*t18 + material[21]*t26 + material[22]*t8 + material[23]*t18 + material[24]*t26 + material[25]*t15 + material[26] + material[6]*t15 + material[7]*t8 + material[8]*t18 + material[9]*t15 + 0.28728468847971017*t15 + 0.10385474081646198*t18 + 0.06215295319723717*t26 - 1.317974632049971*t8) + (45.0/256.0)*t15 - 45.0/128.0*t18 + (301.0/384.0)*t8 - 557.0/1536.0))))/3.141592653589793238
-    return dr.select((t0 < 0.0), 0.0, 1.0)*dr.select((t1 < 0.0), 0.0, 1.0)*dr.select((t48 < 0.0), 0.0, t48)
+    t31 = (t30*t30)
+    t32 = 4.0*t31
+    t33 = 2.0*t30
+    t46 = (499973.0/500000.0)*material[31]*t10*dr.select((t28 < 1.0/16.0), 8.0*(t30*t30*t30)*(t32*(t32*(t32*(t32*(t32*((1.0/23351328000.0)*t31 - 1.0/518918400.0) + 1.0/3991680.0) - 1.0/45360.0) + 1.0/840.0) - 1.0/30.0) + 1.0/3.0), 2.0*dr.sqrt(t28)*dr.sqrt(t29) - (1.0 - 2.0*t28)*dr.select((t28 < 1.0/2.0), t33, 3.141592653589793238 - t33)) + (499973.0/500000.0)*material[37]*t10*t20*(2.0*(t6*t6) - 1.0)*_expm1(t7*(material[28]*(material[27]*(material[32]*t11 + material[33]*t14 + material[34]*t7 + material[35] + 0.0037035545003035746*t11 - 0.0014135909284063626*t14 - 0.0037961708223872375*t7) + (15.0/512.0)*t11 - 15.0/256.0*t14 + (25.0/256.0)*t7 - 45.0/1024.0) + material[36]*(t12*t12)*t13) + t8*(material[28]*(material[27]*(material[32]*t15 + material[33]*t18 + material[34]*t8 + material[35] + 0.0037035545003035746*t15 - 0.0014135909284063626*t18 - 0.0037961708223872375*t8) + (15.0/512.0)*t15 - 15.0/256.0*t18 + (25.0/256.0)*t8 - 45.0/1024.0) + material[36]*(t16*t16)*t17)) + (499973.0/500000.0)*material[49]*t10*t21*t6*(t23 + ((45.0/64.0)*t22 + t23 + 1.0)*_expm1(t7*(material[28]*(material[27]*(material[40]*t11 + material[41]*t14 + material[42]*t14 + material[43]*t7 + material[44]*t7 + material[45]*t11 + material[46] + 0.05802135097287754*t11 + 0.06143020603611769*t14 - 0.1788584769584851*t7) - 15.0/128.0*t11 + (15.0/64.0)*t14 - 47.0/96.0*t7 + 173.0/768.0) + material[48]*t12*t13*(material[47]*t11 - 64.0)) + t8*(material[28]*(material[27]*(material[40]*t15 + material[41]*t18 + material[42]*t18 + material[43]*t8 + material[44]*t8 + material[45]*t15 + material[46] + 0.05802135097287754*t15 + 0.06143020603611769*t18 - 0.1788584769584851*t8) - 15.0/128.0*t15 + (15.0/64.0)*t18 - 47.0/96.0*t8 + 173.0/768.0) + material[48]*t16*t17*(material[47]*t15 - 64.0)))) + (499973.0/1000000.0)*t10*(t24 + (material[1]*(135.0*t11*t15 - 45.0*t11 - 45.0*t15 + 256.0*t22 + 207.0) + t24)*_expm1(t7*(material[1]*t13*(material[29]*t11 + material[30]*t25 + 207.0) + material[28]*(material[27]*(material[10]*t25 + material[11]*t11 + material[12]*t14 + material[13]*t7 + material[14]*t14 + material[15]*t25 + material[16]*t25 + material[17]*t7 + material[18]*t11 + material[19]*t7 + material[20]*t14 + material[21]*t25 + material[22]*t7 + material[23]*t14 + material[24]*t25 + material[25]*t11 + material[26] + material[6]*t11 + material[7]*t7 + material[8]*t14 + material[9]*t11 + 0.28728468847971017*t11 + 0.10385474081646198*t14 + 0.06215295319723717*t25 - 1.317974632049971*t7) + (45.0/256.0)*t11 - 45.0/128.0*t14 + (301.0/384.0)*t7 - 557.0/1536.0)) + t8*(material[1]*t17*(material[29]*t15 + material[30]*t26 + 207.0) + material[28]*(material[27]*(material[10]*t26 + material[11]*t15 + material[12]*t18 + material[13]*t8 + material[14]*t18 + material[15]*t26 + material[16]*t26 + material[17]*t8 + material[18]*t15 + material[19]*t8 + material[20]*t18 + material[21]*t26 + material[22]*t8 + material[23]*t18 + material[24]*t26 + material[25]*t15 + material[26] + material[6]*t15 + material[7]*t8 + material[8]*t18 + material[9]*t15 + 0.28728468847971017*t15 + 0.10385474081646198*t18 + 0.06215295319723717*t26 - 1.317974632049971*t8) + (45.0/256.0)*t15 - 45.0/128.0*t18 + (301.0/384.0)*t8 - 557.0/1536.0))))/3.141592653589793238
+    return dr.select((t0 < 0.0), 0.0, 1.0)*dr.select((t1 < 0.0), 0.0, 1.0)*dr.select((t46 < 0.0), 0.0, t46)
 
 
 def pdf(material, wi, wo):

@@ -321,27 +321,26 @@ float lambert_sphere_tables_c_of_kd(float kd)
 // accuracy in forward scattering at grazing, float included). Pole floored at 1e-6.
 float lambert_sphere_tables_single(float mu_i, float mu_o, float cos_phi, float c)
 {
-    float t15 = ((mu_i < 0.0) ? (0.0) : (mu_i));
-    float t0 = ((t15 > 1.0) ? (1.0) : (t15));
-    float t16 = ((mu_o < 0.0) ? (0.0) : (mu_o));
-    float t1 = ((t16 > 1.0) ? (1.0) : (t16));
+    float t13 = ((mu_i < 0.0) ? (0.0) : (mu_i));
+    float t0 = ((t13 > 1.0) ? (1.0) : (t13));
+    float t14 = ((mu_o < 0.0) ? (0.0) : (mu_o));
+    float t1 = ((t14 > 1.0) ? (1.0) : (t14));
     float t2 = (t0*t0);
     float t3 = 1.0 - t2;
     float t4 = (t1*t1);
     float t5 = sqrt(t3*(1.0 - t4));
-    float t17 = ((cos_phi < -1.0) ? (-1.0) : (cos_phi));
-    float t18 = ((1.0/2.0))*t0*t1 + ((1.0/2.0))*t5*(((t17 > 1.0) ? (1.0) : (t17)) + 1.0) + ((1.0/2.0))*(t2 + t3*t4)/(t5 + 1.0);
-    float t6 = ((t18 < 0.0) ? (0.0) : (t18));
+    float t15 = ((cos_phi < -1.0) ? (-1.0) : (cos_phi));
+    float t16 = ((1.0/2.0))*t0*t1 + ((1.0/2.0))*t5*(((t15 > 1.0) ? (1.0) : (t15)) + 1.0) + ((1.0/2.0))*(t2 + t3*t4)/(t5 + 1.0);
+    float t6 = ((t16 < 0.0) ? (0.0) : (t16));
     float t7 = ((t6 > 1.0) ? (1.0) : (t6));
     float t8 = 1.0 - t7;
     float t9 = asin(sqrt(((t6 > t8) ? (t8) : (((t6 <= t8) ? (t6) : (t6 + t8))))));
-    float t11 = 2.0*t9;
-    float t12 = t11 - 3.141592653589793238;
-    float t13 = -t12;
-    float t14 = ((t7 < (1.0/2.0)) ? (4.0*(t9*t9)) : ((t13*t13)));
-    float t19 = t0 + t1;
-    float t20 = ((c < 0.0) ? (0.0) : (c));
-    return ((2.0/3.0))*((((t7 < (1.0/2.0)) ? (t9 < (1.0/4.0)) : (t12 > (-1.0/2.0)))) ? ((t14*(t14*(t14*(t14*(t14*(((1.0/93405312000.0))*t14 + (-1.0/518918400.0)) + (1.0/3991680.0)) + (-1.0/45360.0)) + (1.0/840.0)) + (-1.0/30.0)) + (1.0/3.0))*((t7 < (1.0/2.0)) ? (8.0*(t9*t9*t9)) : ((t13*t13*t13)))) : (2.0*sqrt(t7)*sqrt(t8) - (1.0 - 2.0*t7)*((t7 < (1.0/2.0)) ? (t11) : (t13))))*((t20 > 1.0) ? (1.0) : (t20))/((3.141592653589793238*3.141592653589793238)*((t19 < (1.0/1000000.0)) ? ((1.0/1000000.0)) : (t19)));
+    float t10 = (t9*t9);
+    float t11 = 4.0*t10;
+    float t12 = 2.0*t9;
+    float t17 = t0 + t1;
+    float t18 = ((c < 0.0) ? (0.0) : (c));
+    return ((2.0/3.0))*((t7 < (1.0/16.0)) ? (8.0*(t9*t9*t9)*(t11*(t11*(t11*(t11*(t11*(((1.0/23351328000.0))*t10 + (-1.0/518918400.0)) + (1.0/3991680.0)) + (-1.0/45360.0)) + (1.0/840.0)) + (-1.0/30.0)) + (1.0/3.0))) : (2.0*sqrt(t7)*sqrt(t8) - (1.0 - 2.0*t7)*((t7 < (1.0/2.0)) ? (t12) : (3.141592653589793238 - t12))))*((t18 > 1.0) ? (1.0) : (t18))/((3.141592653589793238*3.141592653589793238)*((t17 < (1.0/1000000.0)) ? ((1.0/1000000.0)) : (t17)));
 }
 
 // Multiple scattering, Fourier order 0: fm0 = (H0 H0 Q/(2 pi) - n0_ss)/(mu_i + mu_o) (eqs. 30,
@@ -696,35 +695,118 @@ lambert_sphere_tables_material lambert_sphere_tables_prepare(float kd) { return 
 // included) are clamped, NaN in any input gives NaN.
 float lambert_sphere_tables_eval(lambert_sphere_tables_material m, float mu_i, float mu_o, float cos_phi)
 {
+    float t56 = ((mu_i < 0.0) ? (0.0) : (mu_i));
+    float t0 = ((t56 > 1.0) ? (1.0) : (t56));
+    float t57 = ((mu_o < 0.0) ? (0.0) : (mu_o));
+    float t1 = ((t57 > 1.0) ? (1.0) : (t57));
+    float t2 = t0 + t1;
+    float t3 = 1.0/((t2 < (1.0/1000000.0)) ? ((1.0/1000000.0)) : (t2));
+    float t4 = t0*t1;
     float t58 = ((cos_phi < -1.0) ? (-1.0) : (cos_phi));
-    float t0 = ((t58 > 1.0) ? (1.0) : (t58));
-    float t59 = ((mu_i < 0.0) ? (0.0) : (mu_i));
-    float t1 = ((t59 > 1.0) ? (1.0) : (t59));
-    float t60 = ((mu_o < 0.0) ? (0.0) : (mu_o));
-    float t2 = ((t60 > 1.0) ? (1.0) : (t60));
-    float t3 = t1 + t2;
-    float t4 = 1.0/((t3 < (1.0/1000000.0)) ? ((1.0/1000000.0)) : (t3));
-    float t5 = (t1*t1);
-    float t6 = t5 - 1.0;
-    float t7 = log(1.0 + 1.0/((t1 < 1.0000000000000001e-30) ? (1.0000000000000001e-30) : (t1)));
-    float t8 = (t1*t1*t1);
-    float t9 = ((t1 < (1.0/32.0)) ? (0.0) : (((t1 >= (31.0/32.0)) ? (29.0) : (floor(32.0*t1) - 1.0))));
-    float t10 = -32.0*t1 + t9;
-    float t11 = -t10 - 3.0;
-    float t12 = -t10 - 2.0;
-    float t13 = t10 + 1.0;
-    float t14 = ((1.0/6.0))*t11*t12*t13;
-    float t15 = t9 + 2.0;
-    float t16 = -t13;
-    float t17 = ((1.0/2.0))*t11;
-    float t18 = t10*t16*t17;
-    float t19 = t9 + 1.0;
-    float t20 = -t10*t12;
-    float t21 = t17*t20;
-    float t22 = t9 + 3.0;
-    float t23 = ((1.0/6.0))*t16*t20;
-    float t24 = (t2*t2);
-    float t25 = t24 - 1.0;
+    float t5 = ((t58 > 1.0) ? (1.0) : (t58));
+    float t6 = (t0*t0);
+    float t7 = t6 - 1.0;
+    float t8 = -t7;
+    float t9 = (t1*t1);
+    float t10 = t9 - 1.0;
+    float t11 = -t10*t8;
+    float t12 = sqrt(t11);
+    float t59 = ((1.0/2.0))*t12*(t5 + 1.0) + ((1.0/2.0))*t4 + ((1.0/2.0))*(t6 + t8*t9)/(t12 + 1.0);
+    float t13 = ((t59 < 0.0) ? (0.0) : (t59));
+    float t14 = ((t13 > 1.0) ? (1.0) : (t13));
+    float t15 = 1.0 - t14;
+    float t16 = asin(sqrt(((t13 > t15) ? (t15) : (((t13 <= t15) ? (t13) : (t13 + t15))))));
+    float t17 = (t16*t16);
+    float t18 = 4.0*t17;
+    float t19 = 2.0*t16;
+    float t20 = log(1.0 + 1.0/((t0 < 1.0000000000000001e-30) ? (1.0000000000000001e-30) : (t0)));
+    float t21 = (t0*t0*t0);
+    float t22 = ((t0 < (1.0/32.0)) ? (0.0) : (((t0 >= (31.0/32.0)) ? (29.0) : (floor(32.0*t0) - 1.0))));
+    float t23 = -32.0*t0 + t22;
+    float t24 = -t23 - 3.0;
+    float t25 = -t23 - 2.0;
+    float t26 = t23 + 1.0;
+    float t27 = ((1.0/6.0))*t24*t25*t26;
+    float t28 = t22 + 2.0;
+    float t29 = -t26;
+    float t30 = ((1.0/2.0))*t24;
+    float t31 = t23*t29*t30;
+    float t32 = t22 + 1.0;
+    float t33 = -t23*t25;
+    float t34 = t30*t33;
+    float t35 = t22 + 3.0;
+    float t36 = ((1.0/6.0))*t29*t33;
+    float t37 = log(1.0 + 1.0/((t1 < 1.0000000000000001e-30) ? (1.0000000000000001e-30) : (t1)));
+    float t38 = (t1*t1*t1);
+    float t39 = ((t1 < (1.0/32.0)) ? (0.0) : (((t1 >= (31.0/32.0)) ? (29.0) : (floor(32.0*t1) - 1.0))));
+    float t40 = -32.0*t1 + t39;
+    float t41 = -t40 - 3.0;
+    float t42 = -t40 - 2.0;
+    float t43 = t40 + 1.0;
+    float t44 = ((1.0/6.0))*t41*t42*t43;
+    float t45 = t39 + 2.0;
+    float t46 = -t43;
+    float t47 = ((1.0/2.0))*t41;
+    float t48 = t40*t46*t47;
+    float t49 = t39 + 1.0;
+    float t50 = -t40*t42;
+    float t51 = t47*t50;
+    float t52 = t39 + 3.0;
+    float t53 = ((1.0/6.0))*t46*t50;
+    float t54 = m.k[0]*t2 + m.k[1]*t0*t1;
+    float t55 = m.k[20]*t2 + m.k[21]*(t6 + t9) + m.k[23]*t0*t1 + m.k[24]*t6*t9 + m.k[25]*t0*t1*t2;
+    float t60 = m.k[13]*t12*t3*t5*(t54 + (((45.0/64.0))*t4 + t54 + 1.0)*lambert_sphere_tables_expm1(t0*(m.k[12]*t20*t7*(m.k[11]*t6 - 64.0) + m.k[2]*(m.k[10]*(t27*lambert_sphere_tables_texel(m.k[9], t22) + t31*lambert_sphere_tables_texel(m.k[9], t28) + t34*lambert_sphere_tables_texel(m.k[9], t32) + t36*lambert_sphere_tables_texel(m.k[9], t35)) + m.k[4]*(t27*lambert_sphere_tables_texel(m.k[3], t22) + t31*lambert_sphere_tables_texel(m.k[3], t28) + t34*lambert_sphere_tables_texel(m.k[3], t32) + t36*lambert_sphere_tables_texel(m.k[3], t35)) + m.k[6]*(t27*lambert_sphere_tables_texel(m.k[5], t22) + t31*lambert_sphere_tables_texel(m.k[5], t28) + t34*lambert_sphere_tables_texel(m.k[5], t32) + t36*lambert_sphere_tables_texel(m.k[5], t35)) + m.k[8]*(t27*lambert_sphere_tables_texel(m.k[7], t22) + t31*lambert_sphere_tables_texel(m.k[7], t28) + t34*lambert_sphere_tables_texel(m.k[7], t32) + t36*lambert_sphere_tables_texel(m.k[7], t35)) - (47.0/96.0)*t0 + ((15.0/64.0))*t21 - (15.0/128.0)*t6 + (173.0/768.0))) + t1*(m.k[12]*t10*t37*(m.k[11]*t9 - 64.0) + m.k[2]*(m.k[10]*(t44*lambert_sphere_tables_texel(m.k[9], t39) + t48*lambert_sphere_tables_texel(m.k[9], t45) + t51*lambert_sphere_tables_texel(m.k[9], t49) + t53*lambert_sphere_tables_texel(m.k[9], t52)) + m.k[4]*(t44*lambert_sphere_tables_texel(m.k[3], t39) + t48*lambert_sphere_tables_texel(m.k[3], t45) + t51*lambert_sphere_tables_texel(m.k[3], t49) + t53*lambert_sphere_tables_texel(m.k[3], t52)) + m.k[6]*(t44*lambert_sphere_tables_texel(m.k[5], t39) + t48*lambert_sphere_tables_texel(m.k[5], t45) + t51*lambert_sphere_tables_texel(m.k[5], t49) + t53*lambert_sphere_tables_texel(m.k[5], t52)) + m.k[8]*(t44*lambert_sphere_tables_texel(m.k[7], t39) + t48*lambert_sphere_tables_texel(m.k[7], t45) + t51*lambert_sphere_tables_texel(m.k[7], t49) + t53*lambert_sphere_tables_texel(m.k[7], t52)) - (47.0/96.0)*t1 + ((15.0/64.0))*t38 - (15.0/128.0)*t9 + (173.0/768.0))))) + m.k[19]*t11*t3*(2.0*(t5*t5) - 1.0)*lambert_sphere_tables_expm1(t0*(m.k[18]*t20*(t7*t7) + m.k[2]*(m.k[10]*(t27*lambert_sphere_tables_texel(m.k[17], t22) + t31*lambert_sphere_tables_texel(m.k[17], t28) + t34*lambert_sphere_tables_texel(m.k[17], t32) + t36*lambert_sphere_tables_texel(m.k[17], t35)) + m.k[4]*(t27*lambert_sphere_tables_texel(m.k[14], t22) + t31*lambert_sphere_tables_texel(m.k[14], t28) + t34*lambert_sphere_tables_texel(m.k[14], t32) + t36*lambert_sphere_tables_texel(m.k[14], t35)) + m.k[6]*(t27*lambert_sphere_tables_texel(m.k[15], t22) + t31*lambert_sphere_tables_texel(m.k[15], t28) + t34*lambert_sphere_tables_texel(m.k[15], t32) + t36*lambert_sphere_tables_texel(m.k[15], t35)) + m.k[8]*(t27*lambert_sphere_tables_texel(m.k[16], t22) + t31*lambert_sphere_tables_texel(m.k[16], t28) + t34*lambert_sphere_tables_texel(m.k[16], t32) + t36*lambert_sphere_tables_texel(m.k[16], t35)) + ((25.0/256.0))*t0 - (15.0/256.0)*t21 + ((15.0/512.0))*t6 + (-45.0/1024.0))) + t1*(m.k[18]*(t10*t10)*t37 + m.k[2]*(m.k[10]*(t44*lambert_sphere_tables_texel(m.k[17], t39) + t48*lambert_sphere_tables_texel(m.k[17], t45) + t51*lambert_sphere_tables_texel(m.k[17], t49) + t53*lambert_sphere_tables_texel(m.k[17], t52)) + m.k[4]*(t44*lambert_sphere_tables_texel(m.k[14], t39) + t48*lambert_sphere_tables_texel(m.k[14], t45) + t51*lambert_sphere_tables_texel(m.k[14], t49) + t53*lambert_sphere_tables_texel(m.k[14], t52)) + m.k[6]*(t44*lambert_sphere_tables_texel(m.k[15], t39) + t48*lambert_sphere_tables_texel(m.k[15], t45) + t51*lambert_sphere_tables_texel(m.k[15], t49) + t53*lambert_sphere_tables_texel(m.k[15], t52)) + m.k[8]*(t44*lambert_sphere_tables_texel(m.k[16], t39) + t48*lambert_sphere_tables_texel(m.k[16], t45) + t51*lambert_sphere_tables_texel(m.k[16], t49) + t53*lambert_sphere_tables_texel(m.k[16], t52)) + ((25.0/256.0))*t1 - (15.0/256.0)*t38 + ((15.0/512.0))*t9 + (-45.0/1024.0)))) + m.k[32]*t3*((t14 < (1.0/16.0)) ? (8.0*(t16*t16*t16)*(t18*(t18*(t18*(t18*(t18*(((1.0/23351328000.0))*t17 + (-1.0/518918400.0)) + (1.0/3991680.0)) + (-1.0/45360.0)) + (1.0/840.0)) + (-1.0/30.0)) + (1.0/3.0))) : (2.0*sqrt(t14)*sqrt(t15) - (1.0 - 2.0*t14)*((t14 < (1.0/2.0)) ? (t19) : (3.141592653589793238 - t19)))) + ((1.0/2.0))*t3*(t55 + (m.k[22]*(256.0*t4 + 135.0*t6*t9 - 45.0*t6 - 45.0*t9 + 207.0) + t55)*lambert_sphere_tables_expm1(t0*(m.k[2]*(m.k[10]*(t27*lambert_sphere_tables_texel(m.k[29], t22) + t31*lambert_sphere_tables_texel(m.k[29], t28) + t34*lambert_sphere_tables_texel(m.k[29], t32) + t36*lambert_sphere_tables_texel(m.k[29], t35)) + m.k[4]*(t27*lambert_sphere_tables_texel(m.k[26], t22) + t31*lambert_sphere_tables_texel(m.k[26], t28) + t34*lambert_sphere_tables_texel(m.k[26], t32) + t36*lambert_sphere_tables_texel(m.k[26], t35)) + m.k[6]*(t27*lambert_sphere_tables_texel(m.k[27], t22) + t31*lambert_sphere_tables_texel(m.k[27], t28) + t34*lambert_sphere_tables_texel(m.k[27], t32) + t36*lambert_sphere_tables_texel(m.k[27], t35)) + m.k[8]*(t27*lambert_sphere_tables_texel(m.k[28], t22) + t31*lambert_sphere_tables_texel(m.k[28], t28) + t34*lambert_sphere_tables_texel(m.k[28], t32) + t36*lambert_sphere_tables_texel(m.k[28], t35)) + ((301.0/384.0))*t0 - (45.0/128.0)*t21 + ((45.0/256.0))*t6 + (-557.0/1536.0)) + m.k[22]*t20*(m.k[30]*t6 + m.k[31]*(t0*t0*t0*t0) + 207.0)) + t1*(m.k[2]*(m.k[10]*(t44*lambert_sphere_tables_texel(m.k[29], t39) + t48*lambert_sphere_tables_texel(m.k[29], t45) + t51*lambert_sphere_tables_texel(m.k[29], t49) + t53*lambert_sphere_tables_texel(m.k[29], t52)) + m.k[4]*(t44*lambert_sphere_tables_texel(m.k[26], t39) + t48*lambert_sphere_tables_texel(m.k[26], t45) + t51*lambert_sphere_tables_texel(m.k[26], t49) + t53*lambert_sphere_tables_texel(m.k[26], t52)) + m.k[6]*(t44*lambert_sphere_tables_texel(m.k[27], t39) + t48*lambert_sphere_tables_texel(m.k[27], t45) + t51*lambert_sphere_tables_texel(m.k[27], t49) + t53*lambert_sphere_tables_texel(m.k[27], t52)) + m.k[8]*(t44*lambert_sphere_tables_texel(m.k[28], t39) + t48*lambert_sphere_tables_texel(m.k[28], t45) + t51*lambert_sphere_tables_texel(m.k[28], t49) + t53*lambert_sphere_tables_texel(m.k[28], t52)) + ((301.0/384.0))*t1 - (45.0/128.0)*t38 + ((45.0/256.0))*t9 + (-557.0/1536.0)) + m.k[22]*t37*(m.k[30]*t9 + m.k[31]*(t1*t1*t1*t1) + 207.0))))/3.141592653589793238;
+    return ((t60 < 0.0) ? (0.0) : (t60));
+}
+vec3 lambert_sphere_tables_eval_rgb(lambert_sphere_tables_material r, lambert_sphere_tables_material g, lambert_sphere_tables_material b, float mu_i, float mu_o, float cos_phi)
+{
+    return vec3(lambert_sphere_tables_eval(r, mu_i, mu_o, cos_phi), lambert_sphere_tables_eval(g, mu_i, mu_o, cos_phi), lambert_sphere_tables_eval(b, mu_i, mu_o, cos_phi));
+}
+
+// brdf_local with the per-material set-up hoisted: the material m comes from prepare_c or
+// prepare. brdf for unit vectors wi, wo in the local frame (z along the normal, both pointing
+// away from the surface); 0 if either is below the surface. Components are clamped to [-1, 1]
+// (not normalised); NaN in any input gives NaN.
+float lambert_sphere_tables_eval_local(lambert_sphere_tables_material m, vec3 wi, vec3 wo)
+{
+    float t62 = ((wi.z < -1.0) ? (-1.0) : (wi.z));
+    float t0 = ((t62 > 1.0) ? (1.0) : (t62));
+    float t63 = ((wo.z < -1.0) ? (-1.0) : (wo.z));
+    float t1 = ((t63 > 1.0) ? (1.0) : (t63));
+    float t64 = ((t0 < 0.0) ? (0.0) : (t0));
+    float t2 = ((t64 > 1.0) ? (1.0) : (t64));
+    float t65 = ((t1 < 0.0) ? (0.0) : (t1));
+    float t3 = ((t65 > 1.0) ? (1.0) : (t65));
+    float t4 = t2 + t3;
+    float t5 = 1.0/((t4 < (1.0/1000000.0)) ? ((1.0/1000000.0)) : (t4));
+    float t6 = t2*t3;
+    float t7 = (t2*t2);
+    float t8 = t7 - 1.0;
+    float t9 = -t8;
+    float t10 = (t3*t3);
+    float t11 = t10 - 1.0;
+    float t12 = -t11*t9;
+    float t13 = sqrt(t12);
+    float t66 = ((wi.x < -1.0) ? (-1.0) : (wi.x));
+    float t14 = ((t66 > 1.0) ? (1.0) : (t66));
+    float t67 = ((wo.x < -1.0) ? (-1.0) : (wo.x));
+    float t15 = ((t67 > 1.0) ? (1.0) : (t67));
+    float t68 = ((wi.y < -1.0) ? (-1.0) : (wi.y));
+    float t16 = ((t68 > 1.0) ? (1.0) : (t68));
+    float t69 = ((wo.y < -1.0) ? (-1.0) : (wo.y));
+    float t17 = ((t69 > 1.0) ? (1.0) : (t69));
+    float t70 = ((t14*t14) + (t16*t16))*((t15*t15) + (t17*t17));
+    float t71 = (t14*t15 + t16*t17)/sqrt(((t70 < (1.0/1000000000000000000000000000000.0)) ? ((1.0/1000000000000000000000000000000.0)) : (t70)));
+    float t72 = ((t71 < -1.0) ? (-1.0) : (t71));
+    float t18 = ((t72 > 1.0) ? (1.0) : (t72));
+    float t73 = ((1.0/2.0))*t13*(t18 + 1.0) + ((1.0/2.0))*t6 + ((1.0/2.0))*(t10*t9 + t7)/(t13 + 1.0);
+    float t19 = ((t73 < 0.0) ? (0.0) : (t73));
+    float t20 = ((t19 > 1.0) ? (1.0) : (t19));
+    float t21 = 1.0 - t20;
+    float t22 = asin(sqrt(((t19 > t21) ? (t21) : (((t19 <= t21) ? (t19) : (t19 + t21))))));
+    float t23 = (t22*t22);
+    float t24 = 4.0*t23;
+    float t25 = 2.0*t22;
     float t26 = log(1.0 + 1.0/((t2 < 1.0000000000000001e-30) ? (1.0000000000000001e-30) : (t2)));
     float t27 = (t2*t2*t2);
     float t28 = ((t2 < (1.0/32.0)) ? (0.0) : (((t2 >= (31.0/32.0)) ? (29.0) : (floor(32.0*t2) - 1.0))));
@@ -742,112 +824,27 @@ float lambert_sphere_tables_eval(lambert_sphere_tables_material m, float mu_i, f
     float t40 = t36*t39;
     float t41 = t28 + 3.0;
     float t42 = ((1.0/6.0))*t35*t39;
-    float t43 = -t6;
-    float t44 = -t25*t43;
-    float t45 = sqrt(t44);
-    float t46 = t1*t2;
-    float t47 = m.k[0]*t3 + m.k[1]*t1*t2;
-    float t48 = m.k[20]*t3 + m.k[21]*(t24 + t5) + m.k[23]*t1*t2 + m.k[24]*t24*t5 + m.k[25]*t1*t2*t3;
-    float t61 = ((1.0/2.0))*t45*(t0 + 1.0) + ((1.0/2.0))*t46 + ((1.0/2.0))*(t24*t43 + t5)/(t45 + 1.0);
-    float t49 = ((t61 < 0.0) ? (0.0) : (t61));
-    float t50 = ((t49 > 1.0) ? (1.0) : (t49));
-    float t51 = 1.0 - t50;
-    float t52 = asin(sqrt(((t49 > t51) ? (t51) : (((t49 <= t51) ? (t49) : (t49 + t51))))));
-    float t54 = 2.0*t52;
-    float t55 = t54 - 3.141592653589793238;
-    float t56 = -t55;
-    float t57 = ((t50 < (1.0/2.0)) ? (4.0*(t52*t52)) : ((t56*t56)));
-    float t62 = m.k[13]*t0*t4*t45*(t47 + (((45.0/64.0))*t46 + t47 + 1.0)*lambert_sphere_tables_expm1(t1*(m.k[12]*t6*t7*(m.k[11]*t5 - 64.0) + m.k[2]*(m.k[10]*(t14*lambert_sphere_tables_texel(m.k[9], t9) + t18*lambert_sphere_tables_texel(m.k[9], t15) + t21*lambert_sphere_tables_texel(m.k[9], t19) + t23*lambert_sphere_tables_texel(m.k[9], t22)) + m.k[4]*(t14*lambert_sphere_tables_texel(m.k[3], t9) + t18*lambert_sphere_tables_texel(m.k[3], t15) + t21*lambert_sphere_tables_texel(m.k[3], t19) + t23*lambert_sphere_tables_texel(m.k[3], t22)) + m.k[6]*(t14*lambert_sphere_tables_texel(m.k[5], t9) + t18*lambert_sphere_tables_texel(m.k[5], t15) + t21*lambert_sphere_tables_texel(m.k[5], t19) + t23*lambert_sphere_tables_texel(m.k[5], t22)) + m.k[8]*(t14*lambert_sphere_tables_texel(m.k[7], t9) + t18*lambert_sphere_tables_texel(m.k[7], t15) + t21*lambert_sphere_tables_texel(m.k[7], t19) + t23*lambert_sphere_tables_texel(m.k[7], t22)) - (47.0/96.0)*t1 - (15.0/128.0)*t5 + ((15.0/64.0))*t8 + (173.0/768.0))) + t2*(m.k[12]*t25*t26*(m.k[11]*t24 - 64.0) + m.k[2]*(m.k[10]*(t33*lambert_sphere_tables_texel(m.k[9], t28) + t37*lambert_sphere_tables_texel(m.k[9], t34) + t40*lambert_sphere_tables_texel(m.k[9], t38) + t42*lambert_sphere_tables_texel(m.k[9], t41)) + m.k[4]*(t33*lambert_sphere_tables_texel(m.k[3], t28) + t37*lambert_sphere_tables_texel(m.k[3], t34) + t40*lambert_sphere_tables_texel(m.k[3], t38) + t42*lambert_sphere_tables_texel(m.k[3], t41)) + m.k[6]*(t33*lambert_sphere_tables_texel(m.k[5], t28) + t37*lambert_sphere_tables_texel(m.k[5], t34) + t40*lambert_sphere_tables_texel(m.k[5], t38) + t42*lambert_sphere_tables_texel(m.k[5], t41)) + m.k[8]*(t33*lambert_sphere_tables_texel(m.k[7], t28) + t37*lambert_sphere_tables_texel(m.k[7], t34) + t40*lambert_sphere_tables_texel(m.k[7], t38) + t42*lambert_sphere_tables_texel(m.k[7], t41)) - (47.0/96.0)*t2 - (15.0/128.0)*t24 + ((15.0/64.0))*t27 + (173.0/768.0))))) + m.k[19]*t4*t44*(2.0*(t0*t0) - 1.0)*lambert_sphere_tables_expm1(t1*(m.k[18]*(t6*t6)*t7 + m.k[2]*(m.k[10]*(t14*lambert_sphere_tables_texel(m.k[17], t9) + t18*lambert_sphere_tables_texel(m.k[17], t15) + t21*lambert_sphere_tables_texel(m.k[17], t19) + t23*lambert_sphere_tables_texel(m.k[17], t22)) + m.k[4]*(t14*lambert_sphere_tables_texel(m.k[14], t9) + t18*lambert_sphere_tables_texel(m.k[14], t15) + t21*lambert_sphere_tables_texel(m.k[14], t19) + t23*lambert_sphere_tables_texel(m.k[14], t22)) + m.k[6]*(t14*lambert_sphere_tables_texel(m.k[15], t9) + t18*lambert_sphere_tables_texel(m.k[15], t15) + t21*lambert_sphere_tables_texel(m.k[15], t19) + t23*lambert_sphere_tables_texel(m.k[15], t22)) + m.k[8]*(t14*lambert_sphere_tables_texel(m.k[16], t9) + t18*lambert_sphere_tables_texel(m.k[16], t15) + t21*lambert_sphere_tables_texel(m.k[16], t19) + t23*lambert_sphere_tables_texel(m.k[16], t22)) + ((25.0/256.0))*t1 + ((15.0/512.0))*t5 - (15.0/256.0)*t8 + (-45.0/1024.0))) + t2*(m.k[18]*(t25*t25)*t26 + m.k[2]*(m.k[10]*(t33*lambert_sphere_tables_texel(m.k[17], t28) + t37*lambert_sphere_tables_texel(m.k[17], t34) + t40*lambert_sphere_tables_texel(m.k[17], t38) + t42*lambert_sphere_tables_texel(m.k[17], t41)) + m.k[4]*(t33*lambert_sphere_tables_texel(m.k[14], t28) + t37*lambert_sphere_tables_texel(m.k[14], t34) + t40*lambert_sphere_tables_texel(m.k[14], t38) + t42*lambert_sphere_tables_texel(m.k[14], t41)) + m.k[6]*(t33*lambert_sphere_tables_texel(m.k[15], t28) + t37*lambert_sphere_tables_texel(m.k[15], t34) + t40*lambert_sphere_tables_texel(m.k[15], t38) + t42*lambert_sphere_tables_texel(m.k[15], t41)) + m.k[8]*(t33*lambert_sphere_tables_texel(m.k[16], t28) + t37*lambert_sphere_tables_texel(m.k[16], t34) + t40*lambert_sphere_tables_texel(m.k[16], t38) + t42*lambert_sphere_tables_texel(m.k[16], t41)) + ((25.0/256.0))*t2 + ((15.0/512.0))*t24 - (15.0/256.0)*t27 + (-45.0/1024.0)))) + m.k[32]*t4*((((t50 < (1.0/2.0)) ? (t52 < (1.0/4.0)) : (t55 > (-1.0/2.0)))) ? ((t57*(t57*(t57*(t57*(t57*(((1.0/93405312000.0))*t57 + (-1.0/518918400.0)) + (1.0/3991680.0)) + (-1.0/45360.0)) + (1.0/840.0)) + (-1.0/30.0)) + (1.0/3.0))*((t50 < (1.0/2.0)) ? (8.0*(t52*t52*t52)) : ((t56*t56*t56)))) : (2.0*sqrt(t50)*sqrt(t51) - (1.0 - 2.0*t50)*((t50 < (1.0/2.0)) ? (t54) : (t56)))) + ((1.0/2.0))*t4*(t48 + (m.k[22]*(135.0*t24*t5 - 45.0*t24 + 256.0*t46 - 45.0*t5 + 207.0) + t48)*lambert_sphere_tables_expm1(t1*(m.k[2]*(m.k[10]*(t14*lambert_sphere_tables_texel(m.k[29], t9) + t18*lambert_sphere_tables_texel(m.k[29], t15) + t21*lambert_sphere_tables_texel(m.k[29], t19) + t23*lambert_sphere_tables_texel(m.k[29], t22)) + m.k[4]*(t14*lambert_sphere_tables_texel(m.k[26], t9) + t18*lambert_sphere_tables_texel(m.k[26], t15) + t21*lambert_sphere_tables_texel(m.k[26], t19) + t23*lambert_sphere_tables_texel(m.k[26], t22)) + m.k[6]*(t14*lambert_sphere_tables_texel(m.k[27], t9) + t18*lambert_sphere_tables_texel(m.k[27], t15) + t21*lambert_sphere_tables_texel(m.k[27], t19) + t23*lambert_sphere_tables_texel(m.k[27], t22)) + m.k[8]*(t14*lambert_sphere_tables_texel(m.k[28], t9) + t18*lambert_sphere_tables_texel(m.k[28], t15) + t21*lambert_sphere_tables_texel(m.k[28], t19) + t23*lambert_sphere_tables_texel(m.k[28], t22)) + ((301.0/384.0))*t1 + ((45.0/256.0))*t5 - (45.0/128.0)*t8 + (-557.0/1536.0)) + m.k[22]*t7*(m.k[30]*t5 + m.k[31]*(t1*t1*t1*t1) + 207.0)) + t2*(m.k[2]*(m.k[10]*(t33*lambert_sphere_tables_texel(m.k[29], t28) + t37*lambert_sphere_tables_texel(m.k[29], t34) + t40*lambert_sphere_tables_texel(m.k[29], t38) + t42*lambert_sphere_tables_texel(m.k[29], t41)) + m.k[4]*(t33*lambert_sphere_tables_texel(m.k[26], t28) + t37*lambert_sphere_tables_texel(m.k[26], t34) + t40*lambert_sphere_tables_texel(m.k[26], t38) + t42*lambert_sphere_tables_texel(m.k[26], t41)) + m.k[6]*(t33*lambert_sphere_tables_texel(m.k[27], t28) + t37*lambert_sphere_tables_texel(m.k[27], t34) + t40*lambert_sphere_tables_texel(m.k[27], t38) + t42*lambert_sphere_tables_texel(m.k[27], t41)) + m.k[8]*(t33*lambert_sphere_tables_texel(m.k[28], t28) + t37*lambert_sphere_tables_texel(m.k[28], t34) + t40*lambert_sphere_tables_texel(m.k[28], t38) + t42*lambert_sphere_tables_texel(m.k[28], t41)) + ((301.0/384.0))*t2 + ((45.0/256.0))*t24 - (45.0/128.0)*t27 + (-557.0/1536.0)) + m.k[22]*t26*(m.k[30]*t24 + m.k[31]*(t2*t2*t2*t2) + 207.0))))/3.141592653589793238;
-    return ((t62 < 0.0) ? (0.0) : (t62));
-}
-vec3 lambert_sphere_tables_eval_rgb(lambert_sphere_tables_material r, lambert_sphere_tables_material g, lambert_sphere_tables_material b, float mu_i, float mu_o, float cos_phi)
-{
-    return vec3(lambert_sphere_tables_eval(r, mu_i, mu_o, cos_phi), lambert_sphere_tables_eval(g, mu_i, mu_o, cos_phi), lambert_sphere_tables_eval(b, mu_i, mu_o, cos_phi));
-}
-
-// brdf_local with the per-material set-up hoisted: the material m comes from prepare_c or
-// prepare. brdf for unit vectors wi, wo in the local frame (z along the normal, both pointing
-// away from the surface); 0 if either is below the surface. Components are clamped to [-1, 1]
-// (not normalised); NaN in any input gives NaN.
-float lambert_sphere_tables_eval_local(lambert_sphere_tables_material m, vec3 wi, vec3 wo)
-{
-    float t64 = ((wi.z < -1.0) ? (-1.0) : (wi.z));
-    float t0 = ((t64 > 1.0) ? (1.0) : (t64));
-    float t65 = ((wo.z < -1.0) ? (-1.0) : (wo.z));
-    float t1 = ((t65 > 1.0) ? (1.0) : (t65));
-    float t66 = ((wi.x < -1.0) ? (-1.0) : (wi.x));
-    float t2 = ((t66 > 1.0) ? (1.0) : (t66));
-    float t67 = ((wo.x < -1.0) ? (-1.0) : (wo.x));
-    float t3 = ((t67 > 1.0) ? (1.0) : (t67));
-    float t68 = ((wi.y < -1.0) ? (-1.0) : (wi.y));
-    float t4 = ((t68 > 1.0) ? (1.0) : (t68));
-    float t69 = ((wo.y < -1.0) ? (-1.0) : (wo.y));
-    float t5 = ((t69 > 1.0) ? (1.0) : (t69));
-    float t70 = ((t2*t2) + (t4*t4))*((t3*t3) + (t5*t5));
-    float t71 = (t2*t3 + t4*t5)/sqrt(((t70 < (1.0/1000000000000000000000000000000.0)) ? ((1.0/1000000000000000000000000000000.0)) : (t70)));
-    float t72 = ((t71 < -1.0) ? (-1.0) : (t71));
-    float t6 = ((t72 > 1.0) ? (1.0) : (t72));
-    float t73 = ((t0 < 0.0) ? (0.0) : (t0));
-    float t7 = ((t73 > 1.0) ? (1.0) : (t73));
-    float t74 = ((t1 < 0.0) ? (0.0) : (t1));
-    float t8 = ((t74 > 1.0) ? (1.0) : (t74));
-    float t9 = t7 + t8;
-    float t10 = 1.0/((t9 < (1.0/1000000.0)) ? ((1.0/1000000.0)) : (t9));
-    float t11 = (t7*t7);
-    float t12 = t11 - 1.0;
-    float t13 = log(1.0 + 1.0/((t7 < 1.0000000000000001e-30) ? (1.0000000000000001e-30) : (t7)));
-    float t14 = (t7*t7*t7);
-    float t15 = ((t7 < (1.0/32.0)) ? (0.0) : (((t7 >= (31.0/32.0)) ? (29.0) : (floor(32.0*t7) - 1.0))));
-    float t16 = t15 - 32.0*t7;
-    float t17 = -t16 - 3.0;
-    float t18 = -t16 - 2.0;
-    float t19 = t16 + 1.0;
-    float t20 = ((1.0/6.0))*t17*t18*t19;
-    float t21 = t15 + 2.0;
-    float t22 = -t19;
-    float t23 = ((1.0/2.0))*t17;
-    float t24 = t16*t22*t23;
-    float t25 = t15 + 1.0;
-    float t26 = -t16*t18;
-    float t27 = t23*t26;
-    float t28 = t15 + 3.0;
-    float t29 = ((1.0/6.0))*t22*t26;
-    float t30 = (t8*t8);
-    float t31 = t30 - 1.0;
-    float t32 = log(1.0 + 1.0/((t8 < 1.0000000000000001e-30) ? (1.0000000000000001e-30) : (t8)));
-    float t33 = (t8*t8*t8);
-    float t34 = ((t8 < (1.0/32.0)) ? (0.0) : (((t8 >= (31.0/32.0)) ? (29.0) : (floor(32.0*t8) - 1.0))));
-    float t35 = t34 - 32.0*t8;
-    float t36 = -t35 - 3.0;
-    float t37 = -t35 - 2.0;
-    float t38 = t35 + 1.0;
-    float t39 = ((1.0/6.0))*t36*t37*t38;
-    float t40 = t34 + 2.0;
-    float t41 = -t38;
-    float t42 = ((1.0/2.0))*t36;
-    float t43 = t35*t41*t42;
-    float t44 = t34 + 1.0;
-    float t45 = -t35*t37;
-    float t46 = t42*t45;
-    float t47 = t34 + 3.0;
-    float t48 = ((1.0/6.0))*t41*t45;
-    float t49 = -t12;
-    float t50 = -t31*t49;
-    float t51 = sqrt(t50);
-    float t52 = t7*t8;
-    float t53 = m.k[0]*t9 + m.k[1]*t7*t8;
-    float t54 = m.k[20]*t9 + m.k[21]*(t11 + t30) + m.k[23]*t7*t8 + m.k[24]*t11*t30 + m.k[25]*t7*t8*t9;
-    float t75 = ((1.0/2.0))*t51*(t6 + 1.0) + ((1.0/2.0))*t52 + ((1.0/2.0))*(t11 + t30*t49)/(t51 + 1.0);
-    float t55 = ((t75 < 0.0) ? (0.0) : (t75));
-    float t56 = ((t55 > 1.0) ? (1.0) : (t55));
-    float t57 = 1.0 - t56;
-    float t58 = asin(sqrt(((t55 > t57) ? (t57) : (((t55 <= t57) ? (t55) : (t55 + t57))))));
-    float t60 = 2.0*t58;
-    float t61 = t60 - 3.141592653589793238;
-    float t62 = -t61;
-    float t63 = ((t56 < (1.0/2.0)) ? (4.0*(t58*t58)) : ((t62*t62)));
-    float t76 = m.k[13]*t10*t51*t6*(t53 + (((45.0/64.0))*t52 + t53 + 1.0)*lambert_sphere_tables_expm1(t7*(m.k[12]*t12*t13*(m.k[11]*t11 - 64.0) + m.k[2]*(m.k[10]*(t20*lambert_sphere_tables_texel(m.k[9], t15) + t24*lambert_sphere_tables_texel(m.k[9], t21) + t27*lambert_sphere_tables_texel(m.k[9], t25) + t29*lambert_sphere_tables_texel(m.k[9], t28)) + m.k[4]*(t20*lambert_sphere_tables_texel(m.k[3], t15) + t24*lambert_sphere_tables_texel(m.k[3], t21) + t27*lambert_sphere_tables_texel(m.k[3], t25) + t29*lambert_sphere_tables_texel(m.k[3], t28)) + m.k[6]*(t20*lambert_sphere_tables_texel(m.k[5], t15) + t24*lambert_sphere_tables_texel(m.k[5], t21) + t27*lambert_sphere_tables_texel(m.k[5], t25) + t29*lambert_sphere_tables_texel(m.k[5], t28)) + m.k[8]*(t20*lambert_sphere_tables_texel(m.k[7], t15) + t24*lambert_sphere_tables_texel(m.k[7], t21) + t27*lambert_sphere_tables_texel(m.k[7], t25) + t29*lambert_sphere_tables_texel(m.k[7], t28)) - (15.0/128.0)*t11 + ((15.0/64.0))*t14 - (47.0/96.0)*t7 + (173.0/768.0))) + t8*(m.k[12]*t31*t32*(m.k[11]*t30 - 64.0) + m.k[2]*(m.k[10]*(t39*lambert_sphere_tables_texel(m.k[9], t34) + t43*lambert_sphere_tables_texel(m.k[9], t40) + t46*lambert_sphere_tables_texel(m.k[9], t44) + t48*lambert_sphere_tables_texel(m.k[9], t47)) + m.k[4]*(t39*lambert_sphere_tables_texel(m.k[3], t34) + t43*lambert_sphere_tables_texel(m.k[3], t40) + t46*lambert_sphere_tables_texel(m.k[3], t44) + t48*lambert_sphere_tables_texel(m.k[3], t47)) + m.k[6]*(t39*lambert_sphere_tables_texel(m.k[5], t34) + t43*lambert_sphere_tables_texel(m.k[5], t40) + t46*lambert_sphere_tables_texel(m.k[5], t44) + t48*lambert_sphere_tables_texel(m.k[5], t47)) + m.k[8]*(t39*lambert_sphere_tables_texel(m.k[7], t34) + t43*lambert_sphere_tables_texel(m.k[7], t40) + t46*lambert_sphere_tables_texel(m.k[7], t44) + t48*lambert_sphere_tables_texel(m.k[7], t47)) - (15.0/128.0)*t30 + ((15.0/64.0))*t33 - (47.0/96.0)*t8 + (173.0/768.0))))) + m.k[19]*t10*t50*(2.0*(t6*t6) - 1.0)*lambert_sphere_tables_expm1(t7*(m.k[18]*(t12*t12)*t13 + m.k[2]*(m.k[10]*(t20*lambert_sphere_tables_texel(m.k[17], t15) + t24*lambert_sphere_tables_texel(m.k[17], t21) + t27*lambert_sphere_tables_texel(m.k[17], t25) + t29*lambert_sphere_tables_texel(m.k[17], t28)) + m.k[4]*(t20*lambert_sphere_tables_texel(m.k[14], t15) + t24*lambert_sphere_tables_texel(m.k[14], t21) + t27*lambert_sphere_tables_texel(m.k[14], t25) + t29*lambert_sphere_tables_texel(m.k[14], t28)) + m.k[6]*(t20*lambert_sphere_tables_texel(m.k[15], t15) + t24*lambert_sphere_tables_texel(m.k[15], t21) + t27*lambert_sphere_tables_texel(m.k[15], t25) + t29*lambert_sphere_tables_texel(m.k[15], t28)) + m.k[8]*(t20*lambert_sphere_tables_texel(m.k[16], t15) + t24*lambert_sphere_tables_texel(m.k[16], t21) + t27*lambert_sphere_tables_texel(m.k[16], t25) + t29*lambert_sphere_tables_texel(m.k[16], t28)) + ((15.0/512.0))*t11 - (15.0/256.0)*t14 + ((25.0/256.0))*t7 + (-45.0/1024.0))) + t8*(m.k[18]*(t31*t31)*t32 + m.k[2]*(m.k[10]*(t39*lambert_sphere_tables_texel(m.k[17], t34) + t43*lambert_sphere_tables_texel(m.k[17], t40) + t46*lambert_sphere_tables_texel(m.k[17], t44) + t48*lambert_sphere_tables_texel(m.k[17], t47)) + m.k[4]*(t39*lambert_sphere_tables_texel(m.k[14], t34) + t43*lambert_sphere_tables_texel(m.k[14], t40) + t46*lambert_sphere_tables_texel(m.k[14], t44) + t48*lambert_sphere_tables_texel(m.k[14], t47)) + m.k[6]*(t39*lambert_sphere_tables_texel(m.k[15], t34) + t43*lambert_sphere_tables_texel(m.k[15], t40) + t46*lambert_sphere_tables_texel(m.k[15], t44) + t48*lambert_sphere_tables_texel(m.k[15], t47)) + m.k[8]*(t39*lambert_sphere_tables_texel(m.k[16], t34) + t43*lambert_sphere_tables_texel(m.k[16], t40) + t46*lambert_sphere_tables_texel(m.k[16], t44) + t48*lambert_sphere_tables_texel(m.k[16], t47)) + ((15.0/512.0))*t30 - (15.0/256.0)*t33 + ((25.0/256.0))*t8 + (-45.0/1024.0)))) + m.k[32]*t10*((((t56 < (1.0/2.0)) ? (t58 < (1.0/4.0)) : (t61 > (-1.0/2.0)))) ? ((t63*(t63*(t63*(t63*(t63*(((1.0/93405312000.0))*t63 + (-1.0/518918400.0)) + (1.0/3991680.0)) + (-1.0/45360.0)) + (1.0/840.0)) + (-1.0/30.0)) + (1.0/3.0))*((t56 < (1.0/2.0)) ? (8.0*(t58*t58*t58)) : ((t62*t62*t62)))) : (2.0*sqrt(t56)*sqrt(t57) - (1.0 - 2.0*t56)*((t56 < (1.0/2.0)) ? (t60) : (t62)))) + ((1.0/2.0))*t10*(t54 + (m.k[22]*(135.0*t11*t30 - 45.0*t11 - 45.0*t30 + 256.0*t52 + 207.0) + t54)*lambert_sphere_tables_expm1(t7*(m.k[2]*(m.k[10]*(t20*lambert_sphere_tables_texel(m.k[29], t15) + t24*lambert_sphere_tables_texel(m.k[29], t21) + t27*lambert_sphere_tables_texel(m.k[29], t25) + t29*lambert_sphere_tables_texel(m.k[29], t28)) + m.k[4]*(t20*lambert_sphere_tables_texel(m.k[26], t15) + t24*lambert_sphere_tables_texel(m.k[26], t21) + t27*lambert_sphere_tables_texel(m.k[26], t25) + t29*lambert_sphere_tables_texel(m.k[26], t28)) + m.k[6]*(t20*lambert_sphere_tables_texel(m.k[27], t15) + t24*lambert_sphere_tables_texel(m.k[27], t21) + t27*lambert_sphere_tables_texel(m.k[27], t25) + t29*lambert_sphere_tables_texel(m.k[27], t28)) + m.k[8]*(t20*lambert_sphere_tables_texel(m.k[28], t15) + t24*lambert_sphere_tables_texel(m.k[28], t21) + t27*lambert_sphere_tables_texel(m.k[28], t25) + t29*lambert_sphere_tables_texel(m.k[28], t28)) + ((45.0/256.0))*t11 - (45.0/128.0)*t14 + ((301.0/384.0))*t7 + (-557.0/1536.0)) + m.k[22]*t13*(m.k[30]*t11 + m.k[31]*(t7*t7*t7*t7) + 207.0)) + t8*(m.k[2]*(m.k[10]*(t39*lambert_sphere_tables_texel(m.k[29], t34) + t43*lambert_sphere_tables_texel(m.k[29], t40) + t46*lambert_sphere_tables_texel(m.k[29], t44) + t48*lambert_sphere_tables_texel(m.k[29], t47)) + m.k[4]*(t39*lambert_sphere_tables_texel(m.k[26], t34) + t43*lambert_sphere_tables_texel(m.k[26], t40) + t46*lambert_sphere_tables_texel(m.k[26], t44) + t48*lambert_sphere_tables_texel(m.k[26], t47)) + m.k[6]*(t39*lambert_sphere_tables_texel(m.k[27], t34) + t43*lambert_sphere_tables_texel(m.k[27], t40) + t46*lambert_sphere_tables_texel(m.k[27], t44) + t48*lambert_sphere_tables_texel(m.k[27], t47)) + m.k[8]*(t39*lambert_sphere_tables_texel(m.k[28], t34) + t43*lambert_sphere_tables_texel(m.k[28], t40) + t46*lambert_sphere_tables_texel(m.k[28], t44) + t48*lambert_sphere_tables_texel(m.k[28], t47)) + ((45.0/256.0))*t30 - (45.0/128.0)*t33 + ((301.0/384.0))*t8 + (-557.0/1536.0)) + m.k[22]*t32*(m.k[30]*t30 + m.k[31]*(t8*t8*t8*t8) + 207.0))))/3.141592653589793238;
-    return ((t0 < 0.0) ? (0.0) : (1.0))*((t1 < 0.0) ? (0.0) : (1.0))*((t76 < 0.0) ? (0.0) : (t76));
+    float t43 = log(1.0 + 1.0/((t3 < 1.0000000000000001e-30) ? (1.0000000000000001e-30) : (t3)));
+    float t44 = (t3*t3*t3);
+    float t45 = ((t3 < (1.0/32.0)) ? (0.0) : (((t3 >= (31.0/32.0)) ? (29.0) : (floor(32.0*t3) - 1.0))));
+    float t46 = -32.0*t3 + t45;
+    float t47 = -t46 - 3.0;
+    float t48 = -t46 - 2.0;
+    float t49 = t46 + 1.0;
+    float t50 = ((1.0/6.0))*t47*t48*t49;
+    float t51 = t45 + 2.0;
+    float t52 = -t49;
+    float t53 = ((1.0/2.0))*t47;
+    float t54 = t46*t52*t53;
+    float t55 = t45 + 1.0;
+    float t56 = -t46*t48;
+    float t57 = t53*t56;
+    float t58 = t45 + 3.0;
+    float t59 = ((1.0/6.0))*t52*t56;
+    float t60 = m.k[0]*t4 + m.k[1]*t2*t3;
+    float t61 = m.k[20]*t4 + m.k[21]*(t10 + t7) + m.k[23]*t2*t3 + m.k[24]*t10*t7 + m.k[25]*t2*t3*t4;
+    float t74 = m.k[13]*t13*t18*t5*(t60 + (((45.0/64.0))*t6 + t60 + 1.0)*lambert_sphere_tables_expm1(t2*(m.k[12]*t26*t8*(m.k[11]*t7 - 64.0) + m.k[2]*(m.k[10]*(t33*lambert_sphere_tables_texel(m.k[9], t28) + t37*lambert_sphere_tables_texel(m.k[9], t34) + t40*lambert_sphere_tables_texel(m.k[9], t38) + t42*lambert_sphere_tables_texel(m.k[9], t41)) + m.k[4]*(t33*lambert_sphere_tables_texel(m.k[3], t28) + t37*lambert_sphere_tables_texel(m.k[3], t34) + t40*lambert_sphere_tables_texel(m.k[3], t38) + t42*lambert_sphere_tables_texel(m.k[3], t41)) + m.k[6]*(t33*lambert_sphere_tables_texel(m.k[5], t28) + t37*lambert_sphere_tables_texel(m.k[5], t34) + t40*lambert_sphere_tables_texel(m.k[5], t38) + t42*lambert_sphere_tables_texel(m.k[5], t41)) + m.k[8]*(t33*lambert_sphere_tables_texel(m.k[7], t28) + t37*lambert_sphere_tables_texel(m.k[7], t34) + t40*lambert_sphere_tables_texel(m.k[7], t38) + t42*lambert_sphere_tables_texel(m.k[7], t41)) - (47.0/96.0)*t2 + ((15.0/64.0))*t27 - (15.0/128.0)*t7 + (173.0/768.0))) + t3*(m.k[12]*t11*t43*(m.k[11]*t10 - 64.0) + m.k[2]*(m.k[10]*(t50*lambert_sphere_tables_texel(m.k[9], t45) + t54*lambert_sphere_tables_texel(m.k[9], t51) + t57*lambert_sphere_tables_texel(m.k[9], t55) + t59*lambert_sphere_tables_texel(m.k[9], t58)) + m.k[4]*(t50*lambert_sphere_tables_texel(m.k[3], t45) + t54*lambert_sphere_tables_texel(m.k[3], t51) + t57*lambert_sphere_tables_texel(m.k[3], t55) + t59*lambert_sphere_tables_texel(m.k[3], t58)) + m.k[6]*(t50*lambert_sphere_tables_texel(m.k[5], t45) + t54*lambert_sphere_tables_texel(m.k[5], t51) + t57*lambert_sphere_tables_texel(m.k[5], t55) + t59*lambert_sphere_tables_texel(m.k[5], t58)) + m.k[8]*(t50*lambert_sphere_tables_texel(m.k[7], t45) + t54*lambert_sphere_tables_texel(m.k[7], t51) + t57*lambert_sphere_tables_texel(m.k[7], t55) + t59*lambert_sphere_tables_texel(m.k[7], t58)) - (15.0/128.0)*t10 - (47.0/96.0)*t3 + ((15.0/64.0))*t44 + (173.0/768.0))))) + m.k[19]*t12*t5*(2.0*(t18*t18) - 1.0)*lambert_sphere_tables_expm1(t2*(m.k[18]*t26*(t8*t8) + m.k[2]*(m.k[10]*(t33*lambert_sphere_tables_texel(m.k[17], t28) + t37*lambert_sphere_tables_texel(m.k[17], t34) + t40*lambert_sphere_tables_texel(m.k[17], t38) + t42*lambert_sphere_tables_texel(m.k[17], t41)) + m.k[4]*(t33*lambert_sphere_tables_texel(m.k[14], t28) + t37*lambert_sphere_tables_texel(m.k[14], t34) + t40*lambert_sphere_tables_texel(m.k[14], t38) + t42*lambert_sphere_tables_texel(m.k[14], t41)) + m.k[6]*(t33*lambert_sphere_tables_texel(m.k[15], t28) + t37*lambert_sphere_tables_texel(m.k[15], t34) + t40*lambert_sphere_tables_texel(m.k[15], t38) + t42*lambert_sphere_tables_texel(m.k[15], t41)) + m.k[8]*(t33*lambert_sphere_tables_texel(m.k[16], t28) + t37*lambert_sphere_tables_texel(m.k[16], t34) + t40*lambert_sphere_tables_texel(m.k[16], t38) + t42*lambert_sphere_tables_texel(m.k[16], t41)) + ((25.0/256.0))*t2 - (15.0/256.0)*t27 + ((15.0/512.0))*t7 + (-45.0/1024.0))) + t3*(m.k[18]*(t11*t11)*t43 + m.k[2]*(m.k[10]*(t50*lambert_sphere_tables_texel(m.k[17], t45) + t54*lambert_sphere_tables_texel(m.k[17], t51) + t57*lambert_sphere_tables_texel(m.k[17], t55) + t59*lambert_sphere_tables_texel(m.k[17], t58)) + m.k[4]*(t50*lambert_sphere_tables_texel(m.k[14], t45) + t54*lambert_sphere_tables_texel(m.k[14], t51) + t57*lambert_sphere_tables_texel(m.k[14], t55) + t59*lambert_sphere_tables_texel(m.k[14], t58)) + m.k[6]*(t50*lambert_sphere_tables_texel(m.k[15], t45) + t54*lambert_sphere_tables_texel(m.k[15], t51) + t57*lambert_sphere_tables_texel(m.k[15], t55) + t59*lambert_sphere_tables_texel(m.k[15], t58)) + m.k[8]*(t50*lambert_sphere_tables_texel(m.k[16], t45) + t54*lambert_sphere_tables_texel(m.k[16], t51) + t57*lambert_sphere_tables_texel(m.k[16], t55) + t59*lambert_sphere_tables_texel(m.k[16], t58)) + ((15.0/512.0))*t10 + ((25.0/256.0))*t3 - (15.0/256.0)*t44 + (-45.0/1024.0)))) + m.k[32]*t5*((t20 < (1.0/16.0)) ? (8.0*(t22*t22*t22)*(t24*(t24*(t24*(t24*(t24*(((1.0/23351328000.0))*t23 + (-1.0/518918400.0)) + (1.0/3991680.0)) + (-1.0/45360.0)) + (1.0/840.0)) + (-1.0/30.0)) + (1.0/3.0))) : (2.0*sqrt(t20)*sqrt(t21) - (1.0 - 2.0*t20)*((t20 < (1.0/2.0)) ? (t25) : (3.141592653589793238 - t25)))) + ((1.0/2.0))*t5*(t61 + (m.k[22]*(135.0*t10*t7 - 45.0*t10 + 256.0*t6 - 45.0*t7 + 207.0) + t61)*lambert_sphere_tables_expm1(t2*(m.k[2]*(m.k[10]*(t33*lambert_sphere_tables_texel(m.k[29], t28) + t37*lambert_sphere_tables_texel(m.k[29], t34) + t40*lambert_sphere_tables_texel(m.k[29], t38) + t42*lambert_sphere_tables_texel(m.k[29], t41)) + m.k[4]*(t33*lambert_sphere_tables_texel(m.k[26], t28) + t37*lambert_sphere_tables_texel(m.k[26], t34) + t40*lambert_sphere_tables_texel(m.k[26], t38) + t42*lambert_sphere_tables_texel(m.k[26], t41)) + m.k[6]*(t33*lambert_sphere_tables_texel(m.k[27], t28) + t37*lambert_sphere_tables_texel(m.k[27], t34) + t40*lambert_sphere_tables_texel(m.k[27], t38) + t42*lambert_sphere_tables_texel(m.k[27], t41)) + m.k[8]*(t33*lambert_sphere_tables_texel(m.k[28], t28) + t37*lambert_sphere_tables_texel(m.k[28], t34) + t40*lambert_sphere_tables_texel(m.k[28], t38) + t42*lambert_sphere_tables_texel(m.k[28], t41)) + ((301.0/384.0))*t2 - (45.0/128.0)*t27 + ((45.0/256.0))*t7 + (-557.0/1536.0)) + m.k[22]*t26*(m.k[30]*t7 + m.k[31]*(t2*t2*t2*t2) + 207.0)) + t3*(m.k[2]*(m.k[10]*(t50*lambert_sphere_tables_texel(m.k[29], t45) + t54*lambert_sphere_tables_texel(m.k[29], t51) + t57*lambert_sphere_tables_texel(m.k[29], t55) + t59*lambert_sphere_tables_texel(m.k[29], t58)) + m.k[4]*(t50*lambert_sphere_tables_texel(m.k[26], t45) + t54*lambert_sphere_tables_texel(m.k[26], t51) + t57*lambert_sphere_tables_texel(m.k[26], t55) + t59*lambert_sphere_tables_texel(m.k[26], t58)) + m.k[6]*(t50*lambert_sphere_tables_texel(m.k[27], t45) + t54*lambert_sphere_tables_texel(m.k[27], t51) + t57*lambert_sphere_tables_texel(m.k[27], t55) + t59*lambert_sphere_tables_texel(m.k[27], t58)) + m.k[8]*(t50*lambert_sphere_tables_texel(m.k[28], t45) + t54*lambert_sphere_tables_texel(m.k[28], t51) + t57*lambert_sphere_tables_texel(m.k[28], t55) + t59*lambert_sphere_tables_texel(m.k[28], t58)) + ((45.0/256.0))*t10 + ((301.0/384.0))*t3 - (45.0/128.0)*t44 + (-557.0/1536.0)) + m.k[22]*t43*(m.k[30]*t10 + m.k[31]*(t3*t3*t3*t3) + 207.0))))/3.141592653589793238;
+    return ((t0 < 0.0) ? (0.0) : (1.0))*((t1 < 0.0) ? (0.0) : (1.0))*((t74 < 0.0) ? (0.0) : (t74));
 }
 vec3 lambert_sphere_tables_eval_local_rgb(lambert_sphere_tables_material r, lambert_sphere_tables_material g, lambert_sphere_tables_material b, vec3 wi, vec3 wo)
 {

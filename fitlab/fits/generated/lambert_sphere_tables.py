@@ -300,27 +300,26 @@ def single(mu_i, mu_o, cos_phi, c):
     1/2 (full accuracy in forward scattering at grazing, float included). Pole floored at
     1e-6."""
     mu_i, mu_o, cos_phi, c = numpy.asarray(mu_i, dtype=float), numpy.asarray(mu_o, dtype=float), numpy.asarray(cos_phi, dtype=float), numpy.asarray(c, dtype=float)
-    t15 = numpy.where(numpy.less(mu_i, 0), 0.0, mu_i)
-    t0 = numpy.where(numpy.greater(t15, 1.0), 1.0, t15)
-    t16 = numpy.where(numpy.less(mu_o, 0), 0.0, mu_o)
-    t1 = numpy.where(numpy.greater(t16, 1.0), 1.0, t16)
+    t13 = numpy.where(numpy.less(mu_i, 0), 0.0, mu_i)
+    t0 = numpy.where(numpy.greater(t13, 1.0), 1.0, t13)
+    t14 = numpy.where(numpy.less(mu_o, 0), 0.0, mu_o)
+    t1 = numpy.where(numpy.greater(t14, 1.0), 1.0, t14)
     t2 = (t0*t0)
     t3 = 1 - t2
     t4 = (t1*t1)
     t5 = numpy.sqrt(t3*(1 - t4))
-    t17 = numpy.where(numpy.less(cos_phi, -1.0), -1.0, cos_phi)
-    t18 = (1/2)*t0*t1 + (1/2)*t5*(numpy.where(numpy.greater(t17, 1.0), 1.0, t17) + 1) + (1/2)*(t2 + t3*t4)/(t5 + 1)
-    t6 = numpy.where(numpy.less(t18, 0), 0, t18)
+    t15 = numpy.where(numpy.less(cos_phi, -1.0), -1.0, cos_phi)
+    t16 = (1/2)*t0*t1 + (1/2)*t5*(numpy.where(numpy.greater(t15, 1.0), 1.0, t15) + 1) + (1/2)*(t2 + t3*t4)/(t5 + 1)
+    t6 = numpy.where(numpy.less(t16, 0), 0, t16)
     t7 = numpy.where(numpy.greater(t6, 1), 1, t6)
     t8 = 1 - t7
     t9 = numpy.arcsin(numpy.sqrt(numpy.where(numpy.greater(t6, t8), t8, numpy.where(numpy.less_equal(t6, t8), t6, t6 + t8))))
-    t11 = 2*t9
-    t12 = t11 - 3.141592653589793238
-    t13 = -t12
-    t14 = numpy.where(numpy.less(t7, 1/2), 4*(t9*t9), (t13*t13))
-    t19 = t0 + t1
-    t20 = numpy.where(numpy.less(c, 0), 0.0, c)
-    return (2/3)*numpy.where(numpy.where(numpy.less(t7, 1/2), numpy.less(t9, 1/4), numpy.greater(t12, -1/2)), (t14*(t14*(t14*(t14*(t14*((1/93405312000)*t14 - 1/518918400) + 1/3991680) - 1/45360) + 1/840) - 1/30) + 1/3)*numpy.where(numpy.less(t7, 1/2), 8*(t9*t9*t9), (t13*t13*t13)), 2*numpy.sqrt(t7)*numpy.sqrt(t8) - (1 - 2*t7)*numpy.where(numpy.less(t7, 1/2), t11, t13))*numpy.where(numpy.greater(t20, 1.0), 1.0, t20)/((3.141592653589793238*3.141592653589793238)*numpy.where(numpy.less(t19, 1/1000000), 1/1000000, t19))
+    t10 = (t9*t9)
+    t11 = 4*t10
+    t12 = 2*t9
+    t17 = t0 + t1
+    t18 = numpy.where(numpy.less(c, 0), 0.0, c)
+    return (2/3)*numpy.where(numpy.less(t7, 1/16), 8*(t9*t9*t9)*(t11*(t11*(t11*(t11*(t11*((1/23351328000)*t10 - 1/518918400) + 1/3991680) - 1/45360) + 1/840) - 1/30) + 1/3), 2*numpy.sqrt(t7)*numpy.sqrt(t8) - (1 - 2*t7)*numpy.where(numpy.less(t7, 1/2), t12, 3.141592653589793238 - t12))*numpy.where(numpy.greater(t18, 1.0), 1.0, t18)/((3.141592653589793238*3.141592653589793238)*numpy.where(numpy.less(t17, 1/1000000), 1/1000000, t17))
 
 
 def fm0(mu_i, mu_o, c):
@@ -642,35 +641,114 @@ def eval(material, mu_i, mu_o, cos_phi):
     [0, 1], cos_phi in [-1, 1] (phi = 0 back-scattering), c the particle albedo in [0, 1];
     inputs outside (+-inf included) are clamped, NaN in any input gives NaN."""
     material, mu_i, mu_o, cos_phi = numpy.asarray(material, dtype=float), numpy.asarray(mu_i, dtype=float), numpy.asarray(mu_o, dtype=float), numpy.asarray(cos_phi, dtype=float)
+    t56 = numpy.where(numpy.less(mu_i, 0), 0.0, mu_i)
+    t0 = numpy.where(numpy.greater(t56, 1.0), 1.0, t56)
+    t57 = numpy.where(numpy.less(mu_o, 0), 0.0, mu_o)
+    t1 = numpy.where(numpy.greater(t57, 1.0), 1.0, t57)
+    t2 = t0 + t1
+    t3 = numpy.where(numpy.less(t2, 1/1000000), 1/1000000, t2)**(-1.0)
+    t4 = t0*t1
     t58 = numpy.where(numpy.less(cos_phi, -1.0), -1.0, cos_phi)
-    t0 = numpy.where(numpy.greater(t58, 1.0), 1.0, t58)
-    t59 = numpy.where(numpy.less(mu_i, 0), 0.0, mu_i)
-    t1 = numpy.where(numpy.greater(t59, 1.0), 1.0, t59)
-    t60 = numpy.where(numpy.less(mu_o, 0), 0.0, mu_o)
-    t2 = numpy.where(numpy.greater(t60, 1.0), 1.0, t60)
-    t3 = t1 + t2
-    t4 = numpy.where(numpy.less(t3, 1/1000000), 1/1000000, t3)**(-1.0)
-    t5 = (t1*t1)
-    t6 = t5 - 1
-    t7 = numpy.log(1 + numpy.where(numpy.less(t1, 1.0e-30), 1.0e-30, t1)**(-1.0))
-    t8 = (t1*t1*t1)
-    t9 = numpy.where(numpy.less(t1, 1/32), 0, numpy.where(numpy.greater_equal(t1, 31/32), 29, numpy.floor(32*t1) - 1))
-    t10 = -32*t1 + t9
-    t11 = -t10 - 3
-    t12 = -t10 - 2
-    t13 = t10 + 1
-    t14 = (1/6)*t11*t12*t13
-    t15 = t9 + 2
-    t16 = -t13
-    t17 = (1/2)*t11
-    t18 = t10*t16*t17
-    t19 = t9 + 1
-    t20 = -t10*t12
-    t21 = t17*t20
-    t22 = t9 + 3
-    t23 = (1/6)*t16*t20
-    t24 = (t2*t2)
-    t25 = t24 - 1
+    t5 = numpy.where(numpy.greater(t58, 1.0), 1.0, t58)
+    t6 = (t0*t0)
+    t7 = t6 - 1
+    t8 = -t7
+    t9 = (t1*t1)
+    t10 = t9 - 1
+    t11 = -t10*t8
+    t12 = numpy.sqrt(t11)
+    t59 = (1/2)*t12*(t5 + 1) + (1/2)*t4 + (1/2)*(t6 + t8*t9)/(t12 + 1)
+    t13 = numpy.where(numpy.less(t59, 0), 0, t59)
+    t14 = numpy.where(numpy.greater(t13, 1), 1, t13)
+    t15 = 1 - t14
+    t16 = numpy.arcsin(numpy.sqrt(numpy.where(numpy.greater(t13, t15), t15, numpy.where(numpy.less_equal(t13, t15), t13, t13 + t15))))
+    t17 = (t16*t16)
+    t18 = 4*t17
+    t19 = 2*t16
+    t20 = numpy.log(1 + numpy.where(numpy.less(t0, 1.0e-30), 1.0e-30, t0)**(-1.0))
+    t21 = (t0*t0*t0)
+    t22 = numpy.where(numpy.less(t0, 1/32), 0, numpy.where(numpy.greater_equal(t0, 31/32), 29, numpy.floor(32*t0) - 1))
+    t23 = -32*t0 + t22
+    t24 = -t23 - 3
+    t25 = -t23 - 2
+    t26 = t23 + 1
+    t27 = (1/6)*t24*t25*t26
+    t28 = t22 + 2
+    t29 = -t26
+    t30 = (1/2)*t24
+    t31 = t23*t29*t30
+    t32 = t22 + 1
+    t33 = -t23*t25
+    t34 = t30*t33
+    t35 = t22 + 3
+    t36 = (1/6)*t29*t33
+    t37 = numpy.log(1 + numpy.where(numpy.less(t1, 1.0e-30), 1.0e-30, t1)**(-1.0))
+    t38 = (t1*t1*t1)
+    t39 = numpy.where(numpy.less(t1, 1/32), 0, numpy.where(numpy.greater_equal(t1, 31/32), 29, numpy.floor(32*t1) - 1))
+    t40 = -32*t1 + t39
+    t41 = -t40 - 3
+    t42 = -t40 - 2
+    t43 = t40 + 1
+    t44 = (1/6)*t41*t42*t43
+    t45 = t39 + 2
+    t46 = -t43
+    t47 = (1/2)*t41
+    t48 = t40*t46*t47
+    t49 = t39 + 1
+    t50 = -t40*t42
+    t51 = t47*t50
+    t52 = t39 + 3
+    t53 = (1/6)*t46*t50
+    t54 = material[..., 0]*t2 + material[..., 1]*t0*t1
+    t55 = material[..., 20]*t2 + material[..., 21]*(t6 + t9) + material[..., 23]*t0*t1 + material[..., 24]*t6*t9 + material[..., 25]*t0*t1*t2
+    t60 = material[..., 13]*t12*t3*t5*(t54 + ((45/64)*t4 + t54 + 1)*numpy.expm1(t0*(material[..., 12]*t20*t7*(material[..., 11]*t6 - 64) + material[..., 2]*(material[..., 10]*(t27*texel(material[..., 9], t22) + t31*texel(material[..., 9], t28) + t34*texel(material[..., 9], t32) + t36*texel(material[..., 9], t35)) + material[..., 4]*(t27*texel(material[..., 3], t22) + t31*texel(material[..., 3], t28) + t34*texel(material[..., 3], t32) + t36*texel(material[..., 3], t35)) + material[..., 6]*(t27*texel(material[..., 5], t22) + t31*texel(material[..., 5], t28) + t34*texel(material[..., 5], t32) + t36*texel(material[..., 5], t35)) + material[..., 8]*(t27*texel(material[..., 7], t22) + t31*texel(material[..., 7], t28) + t34*texel(material[..., 7], t32) + t36*texel(material[..., 7], t35)) - 47/96*t0 + (15/64)*t21 - 15/128*t6 + 173/768)) + t1*(material[..., 12]*t10*t37*(material[..., 11]*t9 - 64) + material[..., 2]*(material[..., 10]*(t44*texel(material[..., 9], t39) + t48*texel(material[..., 9], t45) + t51*texel(material[..., 9], t49) + t53*texel(material[..., 9], t52)) + material[..., 4]*(t44*texel(material[..., 3], t39) + t48*texel(material[..., 3], t45) + t51*texel(material[..., 3], t49) + t53*texel(material[..., 3], t52)) + material[..., 6]*(t44*texel(material[..., 5], t39) + t48*texel(material[..., 5], t45) + t51*texel(material[..., 5], t49) + t53*texel(material[..., 5], t52)) + material[..., 8]*(t44*texel(material[..., 7], t39) + t48*texel(material[..., 7], t45) + t51*texel(material[..., 7], t49) + t53*texel(material[..., 7], t52)) - 47/96*t1 + (15/64)*t38 - 15/128*t9 + 173/768)))) + material[..., 19]*t11*t3*(2*(t5*t5) - 1)*numpy.expm1(t0*(material[..., 18]*t20*(t7*t7) + material[..., 2]*(material[..., 10]*(t27*texel(material[..., 17], t22) + t31*texel(material[..., 17], t28) + t34*texel(material[..., 17], t32) + t36*texel(material[..., 17], t35)) + material[..., 4]*(t27*texel(material[..., 14], t22) + t31*texel(material[..., 14], t28) + t34*texel(material[..., 14], t32) + t36*texel(material[..., 14], t35)) + material[..., 6]*(t27*texel(material[..., 15], t22) + t31*texel(material[..., 15], t28) + t34*texel(material[..., 15], t32) + t36*texel(material[..., 15], t35)) + material[..., 8]*(t27*texel(material[..., 16], t22) + t31*texel(material[..., 16], t28) + t34*texel(material[..., 16], t32) + t36*texel(material[..., 16], t35)) + (25/256)*t0 - 15/256*t21 + (15/512)*t6 - 45/1024)) + t1*(material[..., 18]*(t10*t10)*t37 + material[..., 2]*(material[..., 10]*(t44*texel(material[..., 17], t39) + t48*texel(material[..., 17], t45) + t51*texel(material[..., 17], t49) + t53*texel(material[..., 17], t52)) + material[..., 4]*(t44*texel(material[..., 14], t39) + t48*texel(material[..., 14], t45) + t51*texel(material[..., 14], t49) + t53*texel(material[..., 14], t52)) + material[..., 6]*(t44*texel(material[..., 15], t39) + t48*texel(material[..., 15], t45) + t51*texel(material[..., 15], t49) + t53*texel(material[..., 15], t52)) + material[..., 8]*(t44*texel(material[..., 16], t39) + t48*texel(material[..., 16], t45) + t51*texel(material[..., 16], t49) + t53*texel(material[..., 16], t52)) + (25/256)*t1 - 15/256*t38 + (15/512)*t9 - 45/1024))) + material[..., 32]*t3*numpy.where(numpy.less(t14, 1/16), 8*(t16*t16*t16)*(t18*(t18*(t18*(t18*(t18*((1/23351328000)*t17 - 1/518918400) + 1/3991680) - 1/45360) + 1/840) - 1/30) + 1/3), 2*numpy.sqrt(t14)*numpy.sqrt(t15) - (1 - 2*t14)*numpy.where(numpy.less(t14, 1/2), t19, 3.141592653589793238 - t19)) + (1/2)*t3*(t55 + (material[..., 22]*(256*t4 + 135*t6*t9 - 45*t6 - 45*t9 + 207) + t55)*numpy.expm1(t0*(material[..., 2]*(material[..., 10]*(t27*texel(material[..., 29], t22) + t31*texel(material[..., 29], t28) + t34*texel(material[..., 29], t32) + t36*texel(material[..., 29], t35)) + material[..., 4]*(t27*texel(material[..., 26], t22) + t31*texel(material[..., 26], t28) + t34*texel(material[..., 26], t32) + t36*texel(material[..., 26], t35)) + material[..., 6]*(t27*texel(material[..., 27], t22) + t31*texel(material[..., 27], t28) + t34*texel(material[..., 27], t32) + t36*texel(material[..., 27], t35)) + material[..., 8]*(t27*texel(material[..., 28], t22) + t31*texel(material[..., 28], t28) + t34*texel(material[..., 28], t32) + t36*texel(material[..., 28], t35)) + (301/384)*t0 - 45/128*t21 + (45/256)*t6 - 557/1536) + material[..., 22]*t20*(material[..., 30]*t6 + material[..., 31]*(t0*t0*t0*t0) + 207)) + t1*(material[..., 2]*(material[..., 10]*(t44*texel(material[..., 29], t39) + t48*texel(material[..., 29], t45) + t51*texel(material[..., 29], t49) + t53*texel(material[..., 29], t52)) + material[..., 4]*(t44*texel(material[..., 26], t39) + t48*texel(material[..., 26], t45) + t51*texel(material[..., 26], t49) + t53*texel(material[..., 26], t52)) + material[..., 6]*(t44*texel(material[..., 27], t39) + t48*texel(material[..., 27], t45) + t51*texel(material[..., 27], t49) + t53*texel(material[..., 27], t52)) + material[..., 8]*(t44*texel(material[..., 28], t39) + t48*texel(material[..., 28], t45) + t51*texel(material[..., 28], t49) + t53*texel(material[..., 28], t52)) + (301/384)*t1 - 45/128*t38 + (45/256)*t9 - 557/1536) + material[..., 22]*t37*(material[..., 30]*t9 + material[..., 31]*(t1*t1*t1*t1) + 207))))/3.141592653589793238
+    return numpy.where(numpy.less(t60, 0), 0, t60)
+
+
+def eval_local(material, wi, wo):
+    """brdf_local with the per-material set-up hoisted: the material m comes from prepare_c or
+    prepare. brdf for unit vectors wi, wo in the local frame (z along the normal, both
+    pointing away from the surface); 0 if either is below the surface. Components are
+    clamped to [-1, 1] (not normalised); NaN in any input gives NaN."""
+    material, wi, wo = numpy.asarray(material, dtype=float), numpy.asarray(wi, dtype=float), numpy.asarray(wo, dtype=float)
+    t62 = numpy.where(numpy.less(wi[..., 2], -1.0), -1.0, wi[..., 2])
+    t0 = numpy.where(numpy.greater(t62, 1.0), 1.0, t62)
+    t63 = numpy.where(numpy.less(wo[..., 2], -1.0), -1.0, wo[..., 2])
+    t1 = numpy.where(numpy.greater(t63, 1.0), 1.0, t63)
+    t64 = numpy.where(numpy.less(t0, 0), 0.0, t0)
+    t2 = numpy.where(numpy.greater(t64, 1.0), 1.0, t64)
+    t65 = numpy.where(numpy.less(t1, 0), 0.0, t1)
+    t3 = numpy.where(numpy.greater(t65, 1.0), 1.0, t65)
+    t4 = t2 + t3
+    t5 = numpy.where(numpy.less(t4, 1/1000000), 1/1000000, t4)**(-1.0)
+    t6 = t2*t3
+    t7 = (t2*t2)
+    t8 = t7 - 1
+    t9 = -t8
+    t10 = (t3*t3)
+    t11 = t10 - 1
+    t12 = -t11*t9
+    t13 = numpy.sqrt(t12)
+    t66 = numpy.where(numpy.less(wi[..., 0], -1.0), -1.0, wi[..., 0])
+    t14 = numpy.where(numpy.greater(t66, 1.0), 1.0, t66)
+    t67 = numpy.where(numpy.less(wo[..., 0], -1.0), -1.0, wo[..., 0])
+    t15 = numpy.where(numpy.greater(t67, 1.0), 1.0, t67)
+    t68 = numpy.where(numpy.less(wi[..., 1], -1.0), -1.0, wi[..., 1])
+    t16 = numpy.where(numpy.greater(t68, 1.0), 1.0, t68)
+    t69 = numpy.where(numpy.less(wo[..., 1], -1.0), -1.0, wo[..., 1])
+    t17 = numpy.where(numpy.greater(t69, 1.0), 1.0, t69)
+    t70 = ((t14*t14) + (t16*t16))*((t15*t15) + (t17*t17))
+    t71 = (t14*t15 + t16*t17)/numpy.sqrt(numpy.where(numpy.less(t70, 1/1000000000000000000000000000000), 1/1000000000000000000000000000000, t70))
+    t72 = numpy.where(numpy.less(t71, -1.0), -1.0, t71)
+    t18 = numpy.where(numpy.greater(t72, 1.0), 1.0, t72)
+    t73 = (1/2)*t13*(t18 + 1) + (1/2)*t6 + (1/2)*(t10*t9 + t7)/(t13 + 1)
+    t19 = numpy.where(numpy.less(t73, 0), 0, t73)
+    t20 = numpy.where(numpy.greater(t19, 1), 1, t19)
+    t21 = 1 - t20
+    t22 = numpy.arcsin(numpy.sqrt(numpy.where(numpy.greater(t19, t21), t21, numpy.where(numpy.less_equal(t19, t21), t19, t19 + t21))))
+    t23 = (t22*t22)
+    t24 = 4*t23
+    t25 = 2*t22
     t26 = numpy.log(1 + numpy.where(numpy.less(t2, 1.0e-30), 1.0e-30, t2)**(-1.0))
     t27 = (t2*t2*t2)
     t28 = numpy.where(numpy.less(t2, 1/32), 0, numpy.where(numpy.greater_equal(t2, 31/32), 29, numpy.floor(32*t2) - 1))
@@ -688,108 +766,27 @@ def eval(material, mu_i, mu_o, cos_phi):
     t40 = t36*t39
     t41 = t28 + 3
     t42 = (1/6)*t35*t39
-    t43 = -t6
-    t44 = -t25*t43
-    t45 = numpy.sqrt(t44)
-    t46 = t1*t2
-    t47 = material[..., 0]*t3 + material[..., 1]*t1*t2
-    t48 = material[..., 20]*t3 + material[..., 21]*(t24 + t5) + material[..., 23]*t1*t2 + material[..., 24]*t24*t5 + material[..., 25]*t1*t2*t3
-    t61 = (1/2)*t45*(t0 + 1) + (1/2)*t46 + (1/2)*(t24*t43 + t5)/(t45 + 1)
-    t49 = numpy.where(numpy.less(t61, 0), 0, t61)
-    t50 = numpy.where(numpy.greater(t49, 1), 1, t49)
-    t51 = 1 - t50
-    t52 = numpy.arcsin(numpy.sqrt(numpy.where(numpy.greater(t49, t51), t51, numpy.where(numpy.less_equal(t49, t51), t49, t49 + t51))))
-    t54 = 2*t52
-    t55 = t54 - 3.141592653589793238
-    t56 = -t55
-    t57 = numpy.where(numpy.less(t50, 1/2), 4*(t52*t52), (t56*t56))
-    t62 = material[..., 13]*t0*t4*t45*(t47 + ((45/64)*t46 + t47 + 1)*numpy.expm1(t1*(material[..., 12]*t6*t7*(material[..., 11]*t5 - 64) + material[..., 2]*(material[..., 10]*(t14*texel(material[..., 9], t9) + t18*texel(material[..., 9], t15) + t21*texel(material[..., 9], t19) + t23*texel(material[..., 9], t22)) + material[..., 4]*(t14*texel(material[..., 3], t9) + t18*texel(material[..., 3], t15) + t21*texel(material[..., 3], t19) + t23*texel(material[..., 3], t22)) + material[..., 6]*(t14*texel(material[..., 5], t9) + t18*texel(material[..., 5], t15) + t21*texel(material[..., 5], t19) + t23*texel(material[..., 5], t22)) + material[..., 8]*(t14*texel(material[..., 7], t9) + t18*texel(material[..., 7], t15) + t21*texel(material[..., 7], t19) + t23*texel(material[..., 7], t22)) - 47/96*t1 - 15/128*t5 + (15/64)*t8 + 173/768)) + t2*(material[..., 12]*t25*t26*(material[..., 11]*t24 - 64) + material[..., 2]*(material[..., 10]*(t33*texel(material[..., 9], t28) + t37*texel(material[..., 9], t34) + t40*texel(material[..., 9], t38) + t42*texel(material[..., 9], t41)) + material[..., 4]*(t33*texel(material[..., 3], t28) + t37*texel(material[..., 3], t34) + t40*texel(material[..., 3], t38) + t42*texel(material[..., 3], t41)) + material[..., 6]*(t33*texel(material[..., 5], t28) + t37*texel(material[..., 5], t34) + t40*texel(material[..., 5], t38) + t42*texel(material[..., 5], t41)) + material[..., 8]*(t33*texel(material[..., 7], t28) + t37*texel(material[..., 7], t34) + t40*texel(material[..., 7], t38) + t42*texel(material[..., 7], t41)) - 47/96*t2 - 15/128*t24 + (15/64)*t27 + 173/768)))) + material[..., 19]*t4*t44*(2*(t0*t0) - 1)*numpy.expm1(t1*(material[..., 18]*(t6*t6)*t7 + material[..., 2]*(material[..., 10]*(t14*texel(material[..., 17], t9) + t18*texel(material[..., 17], t15) + t21*texel(material[..., 17], t19) + t23*texel(material[..., 17], t22)) + material[..., 4]*(t14*texel(material[..., 14], t9) + t18*texel(material[..., 14], t15) + t21*texel(material[..., 14], t19) + t23*texel(material[..., 14], t22)) + material[..., 6]*(t14*texel(material[..., 15], t9) + t18*texel(material[..., 15], t15) + t21*texel(material[..., 15], t19) + t23*texel(material[..., 15], t22)) + material[..., 8]*(t14*texel(material[..., 16], t9) + t18*texel(material[..., 16], t15) + t21*texel(material[..., 16], t19) + t23*texel(material[..., 16], t22)) + (25/256)*t1 + (15/512)*t5 - 15/256*t8 - 45/1024)) + t2*(material[..., 18]*(t25*t25)*t26 + material[..., 2]*(material[..., 10]*(t33*texel(material[..., 17], t28) + t37*texel(material[..., 17], t34) + t40*texel(material[..., 17], t38) + t42*texel(material[..., 17], t41)) + material[..., 4]*(t33*texel(material[..., 14], t28) + t37*texel(material[..., 14], t34) + t40*texel(material[..., 14], t38) + t42*texel(material[..., 14], t41)) + material[..., 6]*(t33*texel(material[..., 15], t28) + t37*texel(material[..., 15], t34) + t40*texel(material[..., 15], t38) + t42*texel(material[..., 15], t41)) + material[..., 8]*(t33*texel(material[..., 16], t28) + t37*texel(material[..., 16], t34) + t40*texel(material[..., 16], t38) + t42*texel(material[..., 16], t41)) + (25/256)*t2 + (15/512)*t24 - 15/256*t27 - 45/1024))) + material[..., 32]*t4*numpy.where(numpy.where(numpy.less(t50, 1/2), numpy.less(t52, 1/4), numpy.greater(t55, -1/2)), (t57*(t57*(t57*(t57*(t57*((1/93405312000)*t57 - 1/518918400) + 1/3991680) - 1/45360) + 1/840) - 1/30) + 1/3)*numpy.where(numpy.less(t50, 1/2), 8*(t52*t52*t52), (t56*t56*t56)), 2*numpy.sqrt(t50)*numpy.sqrt(t51) - (1 - 2*t50)*numpy.where(numpy.less(t50, 1/2), t54, t56)) + (1/2)*t4*(t48 + (material[..., 22]*(135*t24*t5 - 45*t24 + 256*t46 - 45*t5 + 207) + t48)*numpy.expm1(t1*(material[..., 2]*(material[..., 10]*(t14*texel(material[..., 29], t9) + t18*texel(material[..., 29], t15) + t21*texel(material[..., 29], t19) + t23*texel(material[..., 29], t22)) + material[..., 4]*(t14*texel(material[..., 26], t9) + t18*texel(material[..., 26], t15) + t21*texel(material[..., 26], t19) + t23*texel(material[..., 26], t22)) + material[..., 6]*(t14*texel(material[..., 27], t9) + t18*texel(material[..., 27], t15) + t21*texel(material[..., 27], t19) + t23*texel(material[..., 27], t22)) + material[..., 8]*(t14*texel(material[..., 28], t9) + t18*texel(material[..., 28], t15) + t21*texel(material[..., 28], t19) + t23*texel(material[..., 28], t22)) + (301/384)*t1 + (45/256)*t5 - 45/128*t8 - 557/1536) + material[..., 22]*t7*(material[..., 30]*t5 + material[..., 31]*(t1*t1*t1*t1) + 207)) + t2*(material[..., 2]*(material[..., 10]*(t33*texel(material[..., 29], t28) + t37*texel(material[..., 29], t34) + t40*texel(material[..., 29], t38) + t42*texel(material[..., 29], t41)) + material[..., 4]*(t33*texel(material[..., 26], t28) + t37*texel(material[..., 26], t34) + t40*texel(material[..., 26], t38) + t42*texel(material[..., 26], t41)) + material[..., 6]*(t33*texel(material[..., 27], t28) + t37*texel(material[..., 27], t34) + t40*texel(material[..., 27], t38) + t42*texel(material[..., 27], t41)) + material[..., 8]*(t33*texel(material[..., 28], t28) + t37*texel(material[..., 28], t34) + t40*texel(material[..., 28], t38) + t42*texel(material[..., 28], t41)) + (301/384)*t2 + (45/256)*t24 - 45/128*t27 - 557/1536) + material[..., 22]*t26*(material[..., 30]*t24 + material[..., 31]*(t2*t2*t2*t2) + 207))))/3.141592653589793238
-    return numpy.where(numpy.less(t62, 0), 0, t62)
-
-
-def eval_local(material, wi, wo):
-    """brdf_local with the per-material set-up hoisted: the material m comes from prepare_c or
-    prepare. brdf for unit vectors wi, wo in the local frame (z along the normal, both
-    pointing away from the surface); 0 if either is below the surface. Components are
-    clamped to [-1, 1] (not normalised); NaN in any input gives NaN."""
-    material, wi, wo = numpy.asarray(material, dtype=float), numpy.asarray(wi, dtype=float), numpy.asarray(wo, dtype=float)
-    t64 = numpy.where(numpy.less(wi[..., 2], -1.0), -1.0, wi[..., 2])
-    t0 = numpy.where(numpy.greater(t64, 1.0), 1.0, t64)
-    t65 = numpy.where(numpy.less(wo[..., 2], -1.0), -1.0, wo[..., 2])
-    t1 = numpy.where(numpy.greater(t65, 1.0), 1.0, t65)
-    t66 = numpy.where(numpy.less(wi[..., 0], -1.0), -1.0, wi[..., 0])
-    t2 = numpy.where(numpy.greater(t66, 1.0), 1.0, t66)
-    t67 = numpy.where(numpy.less(wo[..., 0], -1.0), -1.0, wo[..., 0])
-    t3 = numpy.where(numpy.greater(t67, 1.0), 1.0, t67)
-    t68 = numpy.where(numpy.less(wi[..., 1], -1.0), -1.0, wi[..., 1])
-    t4 = numpy.where(numpy.greater(t68, 1.0), 1.0, t68)
-    t69 = numpy.where(numpy.less(wo[..., 1], -1.0), -1.0, wo[..., 1])
-    t5 = numpy.where(numpy.greater(t69, 1.0), 1.0, t69)
-    t70 = ((t2*t2) + (t4*t4))*((t3*t3) + (t5*t5))
-    t71 = (t2*t3 + t4*t5)/numpy.sqrt(numpy.where(numpy.less(t70, 1/1000000000000000000000000000000), 1/1000000000000000000000000000000, t70))
-    t72 = numpy.where(numpy.less(t71, -1.0), -1.0, t71)
-    t6 = numpy.where(numpy.greater(t72, 1.0), 1.0, t72)
-    t73 = numpy.where(numpy.less(t0, 0), 0.0, t0)
-    t7 = numpy.where(numpy.greater(t73, 1.0), 1.0, t73)
-    t74 = numpy.where(numpy.less(t1, 0), 0.0, t1)
-    t8 = numpy.where(numpy.greater(t74, 1.0), 1.0, t74)
-    t9 = t7 + t8
-    t10 = numpy.where(numpy.less(t9, 1/1000000), 1/1000000, t9)**(-1.0)
-    t11 = (t7*t7)
-    t12 = t11 - 1
-    t13 = numpy.log(1 + numpy.where(numpy.less(t7, 1.0e-30), 1.0e-30, t7)**(-1.0))
-    t14 = (t7*t7*t7)
-    t15 = numpy.where(numpy.less(t7, 1/32), 0, numpy.where(numpy.greater_equal(t7, 31/32), 29, numpy.floor(32*t7) - 1))
-    t16 = t15 - 32*t7
-    t17 = -t16 - 3
-    t18 = -t16 - 2
-    t19 = t16 + 1
-    t20 = (1/6)*t17*t18*t19
-    t21 = t15 + 2
-    t22 = -t19
-    t23 = (1/2)*t17
-    t24 = t16*t22*t23
-    t25 = t15 + 1
-    t26 = -t16*t18
-    t27 = t23*t26
-    t28 = t15 + 3
-    t29 = (1/6)*t22*t26
-    t30 = (t8*t8)
-    t31 = t30 - 1
-    t32 = numpy.log(1 + numpy.where(numpy.less(t8, 1.0e-30), 1.0e-30, t8)**(-1.0))
-    t33 = (t8*t8*t8)
-    t34 = numpy.where(numpy.less(t8, 1/32), 0, numpy.where(numpy.greater_equal(t8, 31/32), 29, numpy.floor(32*t8) - 1))
-    t35 = t34 - 32*t8
-    t36 = -t35 - 3
-    t37 = -t35 - 2
-    t38 = t35 + 1
-    t39 = (1/6)*t36*t37*t38
-    t40 = t34 + 2
-    t41 = -t38
-    t42 = (1/2)*t36
-    t43 = t35*t41*t42
-    t44 = t34 + 1
-    t45 = -t35*t37
-    t46 = t42*t45
-    t47 = t34 + 3
-    t48 = (1/6)*t41*t45
-    t49 = -t12
-    t50 = -t31*t49
-    t51 = numpy.sqrt(t50)
-    t52 = t7*t8
-    t53 = material[..., 0]*t9 + material[..., 1]*t7*t8
-    t54 = material[..., 20]*t9 + material[..., 21]*(t11 + t30) + material[..., 23]*t7*t8 + material[..., 24]*t11*t30 + material[..., 25]*t7*t8*t9
-    t75 = (1/2)*t51*(t6 + 1) + (1/2)*t52 + (1/2)*(t11 + t30*t49)/(t51 + 1)
-    t55 = numpy.where(numpy.less(t75, 0), 0, t75)
-    t56 = numpy.where(numpy.greater(t55, 1), 1, t55)
-    t57 = 1 - t56
-    t58 = numpy.arcsin(numpy.sqrt(numpy.where(numpy.greater(t55, t57), t57, numpy.where(numpy.less_equal(t55, t57), t55, t55 + t57))))
-    t60 = 2*t58
-    t61 = t60 - 3.141592653589793238
-    t62 = -t61
-    t63 = numpy.where(numpy.less(t56, 1/2), 4*(t58*t58), (t62*t62))
-    t76 = material[..., 13]*t10*t51*t6*(t53 + ((45/64)*t52 + t53 + 1)*numpy.expm1(t7*(material[..., 12]*t12*t13*(material[..., 11]*t11 - 64) + material[..., 2]*(material[..., 10]*(t20*texel(material[..., 9], t15) + t24*texel(material[..., 9], t21) + t27*texel(material[..., 9], t25) + t29*texel(material[..., 9], t28)) + material[..., 4]*(t20*texel(material[..., 3], t15) + t24*texel(material[..., 3], t21) + t27*texel(material[..., 3], t25) + t29*texel(material[..., 3], t28)) + material[..., 6]*(t20*texel(material[..., 5], t15) + t24*texel(material[..., 5], t21) + t27*texel(material[..., 5], t25) + t29*texel(material[..., 5], t28)) + material[..., 8]*(t20*texel(material[..., 7], t15) + t24*texel(material[..., 7], t21) + t27*texel(material[..., 7], t25) + t29*texel(material[..., 7], t28)) - 15/128*t11 + (15/64)*t14 - 47/96*t7 + 173/768)) + t8*(material[..., 12]*t31*t32*(material[..., 11]*t30 - 64) + material[..., 2]*(material[..., 10]*(t39*texel(material[..., 9], t34) + t43*texel(material[..., 9], t40) + t46*texel(material[..., 9], t44) + t48*texel(material[..., 9], t47)) + material[..., 4]*(t39*texel(material[..., 3], t34) + t43*texel(material[..., 3], t40) + t46*texel(material[..., 3], t44) + t48*texel(material[..., 3], t47)) + material[..., 6]*(t39*texel(material[..., 5], t34) + t43*texel(material[..., 5], t40) + t46*texel(material[..., 5], t44) + t48*texel(material[..., 5], t47)) + material[..., 8]*(t39*texel(material[..., 7], t34) + t43*texel(material[..., 7], t40) + t46*texel(material[..., 7], t44) + t48*texel(material[..., 7], t47)) - 15/128*t30 + (15/64)*t33 - 47/96*t8 + 173/768)))) + material[..., 19]*t10*t50*(2*(t6*t6) - 1)*numpy.expm1(t7*(material[..., 18]*(t12*t12)*t13 + material[..., 2]*(material[..., 10]*(t20*texel(material[..., 17], t15) + t24*texel(material[..., 17], t21) + t27*texel(material[..., 17], t25) + t29*texel(material[..., 17], t28)) + material[..., 4]*(t20*texel(material[..., 14], t15) + t24*texel(material[..., 14], t21) + t27*texel(material[..., 14], t25) + t29*texel(material[..., 14], t28)) + material[..., 6]*(t20*texel(material[..., 15], t15) + t24*texel(material[..., 15], t21) + t27*texel(material[..., 15], t25) + t29*texel(material[..., 15], t28)) + material[..., 8]*(t20*texel(material[..., 16], t15) + t24*texel(material[..., 16], t21) + t27*texel(material[..., 16], t25) + t29*texel(material[..., 16], t28)) + (15/512)*t11 - 15/256*t14 + (25/256)*t7 - 45/1024)) + t8*(material[..., 18]*(t31*t31)*t32 + material[..., 2]*(material[..., 10]*(t39*texel(material[..., 17], t34) + t43*texel(material[..., 17], t40) + t46*texel(material[..., 17], t44) + t48*texel(material[..., 17], t47)) + material[..., 4]*(t39*texel(material[..., 14], t34) + t43*texel(material[..., 14], t40) + t46*texel(material[..., 14], t44) + t48*texel(material[..., 14], t47)) + material[..., 6]*(t39*texel(material[..., 15], t34) + t43*texel(material[..., 15], t40) + t46*texel(material[..., 15], t44) + t48*texel(material[..., 15], t47)) + material[..., 8]*(t39*texel(material[..., 16], t34) + t43*texel(material[..., 16], t40) + t46*texel(material[..., 16], t44) + t48*texel(material[..., 16], t47)) + (15/512)*t30 - 15/256*t33 + (25/256)*t8 - 45/1024))) + material[..., 32]*t10*numpy.where(numpy.where(numpy.less(t56, 1/2), numpy.less(t58, 1/4), numpy.greater(t61, -1/2)), (t63*(t63*(t63*(t63*(t63*((1/93405312000)*t63 - 1/518918400) + 1/3991680) - 1/45360) + 1/840) - 1/30) + 1/3)*numpy.where(numpy.less(t56, 1/2), 8*(t58*t58*t58), (t62*t62*t62)), 2*numpy.sqrt(t56)*numpy.sqrt(t57) - (1 - 2*t56)*numpy.where(numpy.less(t56, 1/2), t60, t62)) + (1/2)*t10*(t54 + (material[..., 22]*(135*t11*t30 - 45*t11 - 45*t30 + 256*t52 + 207) + t54)*numpy.expm1(t7*(material[..., 2]*(material[..., 10]*(t20*texel(material[..., 29], t15) + t24*texel(material[..., 29], t21) + t27*texel(material[..., 29], t25) + t29*texel(material[..., 29], t28)) + material[..., 4]*(t20*texel(material[..., 26], t15) + t24*texel(material[..., 26], t21) + t27*texel(material[..., 26], t25) + t29*texel(material[..., 26], t28)) + material[..., 6]*(t20*texel(material[..., 27], t15) + t24*texel(material[..., 27], t21) + t27*texel(material[..., 27], t25) + t29*texel(material[..., 27], t28)) + material[..., 8]*(t20*texel(material[..., 28], t15) + t24*texel(material[..., 28], t21) + t27*texel(material[..., 28], t25) + t29*texel(material[..., 28], t28)) + (45/256)*t11 - 45/128*t14 + (301/384)*t7 - 557/1536) + material[..., 22]*t13*(material[..., 30]*t11 + material[..., 31]*(t7*t7*t7*t7) + 207)) + t8*(material[..., 2]*(material[..., 10]*(t39*texel(material[..., 29], t34) + t43*texel(material[..., 29], t40) + t46*texel(material[..., 29], t44) + t48*texel(material[..., 29], t47)) + material[..., 4]*(t39*texel(material[..., 26], t34) + t43*texel(material[..., 26], t40) + t46*texel(material[..., 26], t44) + t48*texel(material[..., 26], t47)) + material[..., 6]*(t39*texel(material[..., 27], t34) + t43*texel(material[..., 27], t40) + t46*texel(material[..., 27], t44) + t48*texel(material[..., 27], t47)) + material[..., 8]*(t39*texel(material[..., 28], t34) + t43*texel(material[..., 28], t40) + t46*texel(material[..., 28], t44) + t48*texel(material[..., 28], t47)) + (45/256)*t30 - 45/128*t33 + (301/384)*t8 - 557/1536) + material[..., 22]*t32*(material[..., 30]*t30 + material[..., 31]*(t8*t8*t8*t8) + 207))))/3.141592653589793238
-    return numpy.where(numpy.less(t0, 0), 0, 1)*numpy.where(numpy.less(t1, 0), 0, 1)*numpy.where(numpy.less(t76, 0), 0, t76)
+    t43 = numpy.log(1 + numpy.where(numpy.less(t3, 1.0e-30), 1.0e-30, t3)**(-1.0))
+    t44 = (t3*t3*t3)
+    t45 = numpy.where(numpy.less(t3, 1/32), 0, numpy.where(numpy.greater_equal(t3, 31/32), 29, numpy.floor(32*t3) - 1))
+    t46 = -32*t3 + t45
+    t47 = -t46 - 3
+    t48 = -t46 - 2
+    t49 = t46 + 1
+    t50 = (1/6)*t47*t48*t49
+    t51 = t45 + 2
+    t52 = -t49
+    t53 = (1/2)*t47
+    t54 = t46*t52*t53
+    t55 = t45 + 1
+    t56 = -t46*t48
+    t57 = t53*t56
+    t58 = t45 + 3
+    t59 = (1/6)*t52*t56
+    t60 = material[..., 0]*t4 + material[..., 1]*t2*t3
+    t61 = material[..., 20]*t4 + material[..., 21]*(t10 + t7) + material[..., 23]*t2*t3 + material[..., 24]*t10*t7 + material[..., 25]*t2*t3*t4
+    t74 = material[..., 13]*t13*t18*t5*(t60 + ((45/64)*t6 + t60 + 1)*numpy.expm1(t2*(material[..., 12]*t26*t8*(material[..., 11]*t7 - 64) + material[..., 2]*(material[..., 10]*(t33*texel(material[..., 9], t28) + t37*texel(material[..., 9], t34) + t40*texel(material[..., 9], t38) + t42*texel(material[..., 9], t41)) + material[..., 4]*(t33*texel(material[..., 3], t28) + t37*texel(material[..., 3], t34) + t40*texel(material[..., 3], t38) + t42*texel(material[..., 3], t41)) + material[..., 6]*(t33*texel(material[..., 5], t28) + t37*texel(material[..., 5], t34) + t40*texel(material[..., 5], t38) + t42*texel(material[..., 5], t41)) + material[..., 8]*(t33*texel(material[..., 7], t28) + t37*texel(material[..., 7], t34) + t40*texel(material[..., 7], t38) + t42*texel(material[..., 7], t41)) - 47/96*t2 + (15/64)*t27 - 15/128*t7 + 173/768)) + t3*(material[..., 12]*t11*t43*(material[..., 11]*t10 - 64) + material[..., 2]*(material[..., 10]*(t50*texel(material[..., 9], t45) + t54*texel(material[..., 9], t51) + t57*texel(material[..., 9], t55) + t59*texel(material[..., 9], t58)) + material[..., 4]*(t50*texel(material[..., 3], t45) + t54*texel(material[..., 3], t51) + t57*texel(material[..., 3], t55) + t59*texel(material[..., 3], t58)) + material[..., 6]*(t50*texel(material[..., 5], t45) + t54*texel(material[..., 5], t51) + t57*texel(material[..., 5], t55) + t59*texel(material[..., 5], t58)) + material[..., 8]*(t50*texel(material[..., 7], t45) + t54*texel(material[..., 7], t51) + t57*texel(material[..., 7], t55) + t59*texel(material[..., 7], t58)) - 15/128*t10 - 47/96*t3 + (15/64)*t44 + 173/768)))) + material[..., 19]*t12*t5*(2*(t18*t18) - 1)*numpy.expm1(t2*(material[..., 18]*t26*(t8*t8) + material[..., 2]*(material[..., 10]*(t33*texel(material[..., 17], t28) + t37*texel(material[..., 17], t34) + t40*texel(material[..., 17], t38) + t42*texel(material[..., 17], t41)) + material[..., 4]*(t33*texel(material[..., 14], t28) + t37*texel(material[..., 14], t34) + t40*texel(material[..., 14], t38) + t42*texel(material[..., 14], t41)) + material[..., 6]*(t33*texel(material[..., 15], t28) + t37*texel(material[..., 15], t34) + t40*texel(material[..., 15], t38) + t42*texel(material[..., 15], t41)) + material[..., 8]*(t33*texel(material[..., 16], t28) + t37*texel(material[..., 16], t34) + t40*texel(material[..., 16], t38) + t42*texel(material[..., 16], t41)) + (25/256)*t2 - 15/256*t27 + (15/512)*t7 - 45/1024)) + t3*(material[..., 18]*(t11*t11)*t43 + material[..., 2]*(material[..., 10]*(t50*texel(material[..., 17], t45) + t54*texel(material[..., 17], t51) + t57*texel(material[..., 17], t55) + t59*texel(material[..., 17], t58)) + material[..., 4]*(t50*texel(material[..., 14], t45) + t54*texel(material[..., 14], t51) + t57*texel(material[..., 14], t55) + t59*texel(material[..., 14], t58)) + material[..., 6]*(t50*texel(material[..., 15], t45) + t54*texel(material[..., 15], t51) + t57*texel(material[..., 15], t55) + t59*texel(material[..., 15], t58)) + material[..., 8]*(t50*texel(material[..., 16], t45) + t54*texel(material[..., 16], t51) + t57*texel(material[..., 16], t55) + t59*texel(material[..., 16], t58)) + (15/512)*t10 + (25/256)*t3 - 15/256*t44 - 45/1024))) + material[..., 32]*t5*numpy.where(numpy.less(t20, 1/16), 8*(t22*t22*t22)*(t24*(t24*(t24*(t24*(t24*((1/23351328000)*t23 - 1/518918400) + 1/3991680) - 1/45360) + 1/840) - 1/30) + 1/3), 2*numpy.sqrt(t20)*numpy.sqrt(t21) - (1 - 2*t20)*numpy.where(numpy.less(t20, 1/2), t25, 3.141592653589793238 - t25)) + (1/2)*t5*(t61 + (material[..., 22]*(135*t10*t7 - 45*t10 + 256*t6 - 45*t7 + 207) + t61)*numpy.expm1(t2*(material[..., 2]*(material[..., 10]*(t33*texel(material[..., 29], t28) + t37*texel(material[..., 29], t34) + t40*texel(material[..., 29], t38) + t42*texel(material[..., 29], t41)) + material[..., 4]*(t33*texel(material[..., 26], t28) + t37*texel(material[..., 26], t34) + t40*texel(material[..., 26], t38) + t42*texel(material[..., 26], t41)) + material[..., 6]*(t33*texel(material[..., 27], t28) + t37*texel(material[..., 27], t34) + t40*texel(material[..., 27], t38) + t42*texel(material[..., 27], t41)) + material[..., 8]*(t33*texel(material[..., 28], t28) + t37*texel(material[..., 28], t34) + t40*texel(material[..., 28], t38) + t42*texel(material[..., 28], t41)) + (301/384)*t2 - 45/128*t27 + (45/256)*t7 - 557/1536) + material[..., 22]*t26*(material[..., 30]*t7 + material[..., 31]*(t2*t2*t2*t2) + 207)) + t3*(material[..., 2]*(material[..., 10]*(t50*texel(material[..., 29], t45) + t54*texel(material[..., 29], t51) + t57*texel(material[..., 29], t55) + t59*texel(material[..., 29], t58)) + material[..., 4]*(t50*texel(material[..., 26], t45) + t54*texel(material[..., 26], t51) + t57*texel(material[..., 26], t55) + t59*texel(material[..., 26], t58)) + material[..., 6]*(t50*texel(material[..., 27], t45) + t54*texel(material[..., 27], t51) + t57*texel(material[..., 27], t55) + t59*texel(material[..., 27], t58)) + material[..., 8]*(t50*texel(material[..., 28], t45) + t54*texel(material[..., 28], t51) + t57*texel(material[..., 28], t55) + t59*texel(material[..., 28], t58)) + (45/256)*t10 + (301/384)*t3 - 45/128*t44 - 557/1536) + material[..., 22]*t43*(material[..., 30]*t10 + material[..., 31]*(t3*t3*t3*t3) + 207))))/3.141592653589793238
+    return numpy.where(numpy.less(t0, 0), 0, 1)*numpy.where(numpy.less(t1, 0), 0, 1)*numpy.where(numpy.less(t74, 0), 0, t74)
 
 
 # ---- the texture -------------------------------------------------------------------------------------

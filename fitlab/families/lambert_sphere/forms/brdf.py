@@ -44,18 +44,24 @@ _X = sp.Piecewise((_HALF, _V < sp.Rational(1, 2)), (PI - _HALF, True))
 
 def _sin_less_x_cos(x: sp.Expr, terms: int = 7) -> sp.Expr:
     """sin x - x cos x = sum_k (-1)^(k+1) 2k x^(2k+1)/(2k+1)!, k = 1 .. ``terms``, in Horner form in x^2: below
-    x = 1/2 the first term left out is 1e-17 of the sum."""
+    x = 0.505 the first term left out is 1e-17 of the sum."""
     y, out = x**2, sp.S.Zero
     for k in range(terms, 0, -1):
         out = (-1) ** (k + 1) * sp.Rational(2 * k, sp.factorial(2 * k + 1)) + (y * out if out != 0 else 0)
     return x**3 * out
 
 
+#: where the series of :func:`_sin_less_x_cos` is used: v < 1/16, x < 2 asin(1/4) = 0.505 (there x = _HALF).  A
+#: condition on v, not on x: a condition that holds a Piecewise becomes an ITE, which sympy's numpy printer
+#: (lambdify) simplifies with simplify_logic, a minute per model
+_SERIES_BELOW = sp.Rational(1, 16)
+
+
 #: the phase function p(u) as a function of 1 - u (:data:`PHASE`, the same function): sqrt(1 - u^2) - u acos(u) =
-#: sin x - x cos x, x = acos(u), by its series for x < 1/2 (forward scattering), where the two terms agree to
+#: sin x - x cos x, x = acos(u), by its series for x < 0.505 (forward scattering), where the two terms agree to
 #: 1 - O(x^2) and their difference, of order x^3/3, would keep eps/x^2 of its digits; directly above, with
 #: sqrt(1 - u^2) = 2 sqrt(v (1 - v)) and u = 1 - 2v, v = (1 - u)/2
-PHASE_FORWARD = 2 * sp.Piecewise((_sin_less_x_cos(_X), _X < sp.Rational(1, 2)),
+PHASE_FORWARD = 2 * sp.Piecewise((_sin_less_x_cos(_HALF), _V < _SERIES_BELOW),
                                  (2 * sp.sqrt(_V * (1 - _V)) - (1 - 2 * _V) * _X, True)) / (3 * PI**2)  # fmt: skip
 #: :data:`SINGLE` evaluated through :data:`PHASE_FORWARD`: what the runtime terms use (in forward scattering at
 #: grazing 1 - u ~ (mu_i + mu_o)^2/2, which u itself, rounded to float, no longer resolves below mu ~ 1e-4)
