@@ -184,12 +184,11 @@ def markdown(result: dict) -> str:
             "* the remainder beyond the exact grazing and first-order parts: it enters the BRDF at O(c^3) as c -> 0: "
             f"bilinear {_e(rm1['valid_max_rel'])}, bicubic {_e(rm['valid_max_rel'])}"
             + ("; the lowest of the three in every row above." if lowest else "."), "",
-            f"The grazing set's floor, {_e(floor)} at c = {TINY_C[0]:g} and mu_i = mu_o = {TINY_MU[0]:g} in forward "
-            "scattering, is not the table's: there the BRDF (1e-12) is the "
-            "difference of terms of order c/(mu_i + mu_o) = 0.5, and the runtime formula (docs/model.md) loses the rest "
-            "in double; the order-2 model evaluates the same formula. Below the report's "
-            "smallest albedo it grows as c falls (the shipped table, forward scattering, mu_i = mu_o = mu, against the "
-            "exact engine):", "", "| c | " + " | ".join(f"mu = {m:g}" for m in TINY_MU) + " |",
+            f"In forward scattering at grazing (c = {TINY_C[0]:g}, mu_i = mu_o = {TINY_MU[0]:g}: {_e(floor)}) the "
+            "multiple scattering is O(c^2) (the BRDF about 1e-12) while each of its terms is of order c/(mu_i + mu_o) "
+            "= 0.5; the runtime formula subtracts their O(c) parts in the algebra, not in floating point (docs/model.md, "
+            "'The runtime BRDF'), so the error stays at the table's level below the report's smallest albedo too (the "
+            "shipped table, forward scattering, mu_i = mu_o = mu, against the exact engine):", "", "| c | " + " | ".join(f"mu = {m:g}" for m in TINY_MU) + " |",
             "|---|" + "---|" * len(TINY_MU),
             *(f"| {cv:g} | " + " | ".join(_e(r["rel"]) for r in tiny if r["c"] == cv) + " |" for cv in TINY_C), "",
             "## Resolution against accuracy (the shipped quantity)", "",
