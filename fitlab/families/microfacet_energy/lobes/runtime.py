@@ -106,7 +106,7 @@ def order_lobes(model: str, kind: str, parts: dict) -> dict[int, sp.Expr]:
     bounds = parameter_bounds()
     out = {}
     for s in ORDERS:
-        p = {name.removeprefix(f"ms_{lobe}_").removesuffix(f"_{kind}"): sp.sympify(e).subs(order, s)
+        p = {name.removeprefix(f"ms_{lobe}_").removesuffix(f"_{kind}"): sp.sympify(e, strict=True).subs(order, s)
              for name, e in parts.items()}  # fmt: skip
         p = {k: _clamped(v, bounds[k]) for k, v in p.items()}
         if lobe == "blog":
