@@ -71,7 +71,7 @@ PARTS = ("H0", "H1", "H2", "l", "m", "B", "C", "D", "F", "c_of_kd", "kd_of_c", "
 _TERM_DOCS = {
     "single": "Single scattering with the true phase function, c p(u)/(mu_i + mu_o), u = -(mu_i mu_o + S cos phi) (eq. 10), "
               "p evaluated from 1 - u = (1 - S^2)/(1 + S) + mu_i mu_o + S (1 + cos phi) and x = acos(u) = 2 asin(sqrt((1 - u)/2)), "
-              "sin x - x cos x by its series below x = 1/2 (full accuracy in forward scattering at grazing, float included).",
+              "sin x - x cos x by its series below x = 0.505, (1 - u)/2 < 1/16 (full accuracy in forward scattering at grazing, float included).",
     "m0": "Multiple scattering, Fourier order 0: fm0 = (H0 H0 Q/(2 pi) - n0_ss)/(mu_i + mu_o) (eqs. 30, 38), "
           "evaluated as ((H0 H0 - 1) Q + (Q - Q_ss))/(2 pi (mu_i + mu_o)), Q_ss = 2 pi n0_ss, without cancellation "
           "at grazing and small c.",

@@ -241,8 +241,9 @@ float lambert_sphere_sample_exponent(float mu_i, float c)
 
 // Single scattering with the true phase function, c p(u)/(mu_i + mu_o), u = -(mu_i mu_o + S cos
 // phi) (eq. 10), p evaluated from 1 - u = (1 - S^2)/(1 + S) + mu_i mu_o + S (1 + cos phi) and x
-// = acos(u) = 2 asin(sqrt((1 - u)/2)), sin x - x cos x by its series below x = 1/2 (full
-// accuracy in forward scattering at grazing, float included). Pole floored at 1e-6.
+// = acos(u) = 2 asin(sqrt((1 - u)/2)), sin x - x cos x by its series below x = 0.505, (1 - u)/2
+// < 1/16 (full accuracy in forward scattering at grazing, float included). Pole floored at
+// 1e-6.
 float lambert_sphere_single(float mu_i, float mu_o, float cos_phi, float c)
 {
     float t13 = ((mu_i < 0.0f) ? (0.0f) : (mu_i));

@@ -248,8 +248,8 @@ def single(mu_i, mu_o, cos_phi, c):
     """Single scattering with the true phase function, c p(u)/(mu_i + mu_o), u = -(mu_i mu_o +
     S cos phi) (eq. 10), p evaluated from 1 - u = (1 - S^2)/(1 + S) + mu_i mu_o + S (1 + cos
     phi) and x = acos(u) = 2 asin(sqrt((1 - u)/2)), sin x - x cos x by its series below x =
-    1/2 (full accuracy in forward scattering at grazing, float included). Pole floored at
-    1e-6."""
+    0.505, (1 - u)/2 < 1/16 (full accuracy in forward scattering at grazing, float
+    included). Pole floored at 1e-6."""
     mu_i, mu_o, cos_phi, c = numpy.asarray(mu_i, dtype=float), numpy.asarray(mu_o, dtype=float), numpy.asarray(cos_phi, dtype=float), numpy.asarray(c, dtype=float)
     t13 = numpy.where(numpy.less(mu_i, 0), 0.0, mu_i)
     t0 = numpy.where(numpy.greater(t13, 1.0), 1.0, t13)
