@@ -37,7 +37,8 @@ from fitlab.resources import packaged_fits
 __all__ = [
     "FORMAT", "FitFileError", "FitFunction", "load", "read_fit", "read_checked_fit", "check_fit", "checked_fit",
     "fit_schema", "PARAM_LIMIT", "write_fit", "write_fits", "strict_json", "decode_nonfinite", "form_from_fit",
-    "fits_folder", "fit_path", "fit_files", "fit_sha256", "resolve_form", "Table", "TableError", "format_table", "read_table", "write_tables",
+    "fits_folder", "fit_path", "fit_source", "fit_origin", "fit_files", "fit_sha256", "resolve_form", "Table", "TableError",
+    "format_table", "read_table", "write_tables",
 ]
 
 FORMAT = "fitlab-fit/1"
@@ -134,6 +135,10 @@ def checked_fit(record, source: str = "fit") -> tuple[dict, sp.Expr]:
     finite or exceed :data:`PARAM_LIMIT`, an expression the restricted parser refuses, and, for a form
     its family registers, parameters or an expression other than the registered form's.  Nothing in
     the record is evaluated as code.
+
+    A record with ``user_data`` (a fit of a user's own table, :mod:`fitlab.fit.user`) is checked against
+    its own stated inputs and domain instead of the registry (:func:`_checked_user_fit`); its target may
+    not be a registered target's name, so that it is never taken for that target's fit.
     """
     if not isinstance(record, dict):
         raise FitFileError(f"{source}: not a fitlab fit (a JSON object is expected)")
@@ -146,6 +151,8 @@ def checked_fit(record, source: str = "fit") -> tuple[dict, sp.Expr]:
     if error is not None:
         where = "/".join(str(x) for x in error.absolute_path) or "the top level"
         raise FitFileError(f"{source}: not a valid fit file at {where}: {error.message[:200]}")
+    if "user_data" in record:  # a fit of a user's own table: checked against its own inputs and domain
+        return _checked_user_fit(record, source)
     try:
         target = get_target(record["target"])
     except KeyError:
@@ -173,6 +180,45 @@ def checked_fit(record, source: str = "fit") -> tuple[dict, sp.Expr]:
             raise FitFileError(f"{source}: the expression is not that of the registered form {form.key}")
     try:
         expr = parse_expression(record["expression"], (*record["inputs"], *record["params"]))
+    except ValueError as exc:
+        raise FitFileError(f"{source}: {exc}") from None
+    return _decode(record), expr
+
+
+def _checked_user_fit(record: dict, source: str) -> tuple[dict, sp.Expr]:
+    """:func:`checked_fit` of a record with ``user_data`` (already valid by the schema): its target is no
+    registered target's name and is not among its inputs; ``user_data.columns`` are its inputs then its
+    target; its domain gives every input, and only those, as finite intervals lo < hi; a relative error
+    measure has a finite scale floor > 0 and the held-out rows are every ``holdout_every``-th from
+    ``holdout_offset`` < ``holdout_every``; parameters finite and of magnitude <= :data:`PARAM_LIMIT`; the
+    expression read by the restricted parser, in its inputs and parameters only."""
+    name, inputs, user = record["target"], list(record["inputs"]), record["user_data"]
+    if name in targets():
+        raise FitFileError(f"{source}: a fit of a user's table may not take the name of the registered target {name}")
+    if name in inputs or set(inputs) & set(record["params"]):
+        raise FitFileError(f"{source}: the target {name} and the parameters must not be among the inputs {inputs}")
+    if list(user["columns"]) != [*inputs, name]:
+        raise FitFileError(f"{source}: user_data.columns must be the inputs then the target: {[*inputs, name]}")
+    if set(record["domain"]) != set(inputs):
+        raise FitFileError(f"{source}: the domain must give every input, and only those: {inputs}")
+    for key, (lo, hi) in record["domain"].items():
+        if not (isinstance(lo, (int, float)) and isinstance(hi, (int, float)) and math.isfinite(lo)
+                and math.isfinite(hi) and lo < hi):  # fmt: skip
+            raise FitFileError(f"{source}: domain of {key} {[lo, hi]} is not a finite interval lo < hi")
+    floor = user["scale_floor"]
+    if not math.isfinite(floor) or (user["error"] == "relative" and not floor > 0.0):
+        raise FitFileError(f"{source}: user_data.scale_floor {floor!r}: a relative error needs a finite floor > 0")
+    if user["holdout_offset"] >= user["holdout_every"]:
+        raise FitFileError(f"{source}: user_data.holdout_offset must be below holdout_every")
+    for group in ("params", "fixed"):
+        for key, value in record.get(group, {}).items():
+            if not (math.isfinite(value) and abs(value) <= PARAM_LIMIT):
+                raise FitFileError(f"{source}: {group} {key} = {value!r} is not a finite number of magnitude <= {PARAM_LIMIT:g}")
+    fixed = record.get("fixed", {})
+    if not set(fixed) <= set(record["params"]) or any(record["params"][k] != v for k, v in fixed.items()):
+        raise FitFileError(f"{source}: fixed parameters must be parameters, with the same values")
+    try:
+        expr = parse_expression(record["expression"], (*inputs, *record["params"]))
     except ValueError as exc:
         raise FitFileError(f"{source}: {exc}") from None
     return _decode(record), expr
@@ -244,6 +290,8 @@ class FitFunction:
         expr = expr.xreplace({sp.Symbol(p, real=True): sp.Float(repr(float(v)), 17) for p, v in self.params.items()})
         self.expression = expr
         self._f = None  # the numpy function, made on the first call: codegen reads only the expression
+        #: what :func:`fitlab.fit.verify.verify_fit` measured (error figures, the set and domain measured on), or None
+        self.measured: dict | None = None
 
     def __repr__(self) -> str:
         return f"FitFunction({self.target}/{self.form}, inputs={self.inputs})"
@@ -268,6 +316,12 @@ class FitFunction:
             if np.any(np.isnan(a)) or np.any((a < lo) | (a > hi)):
                 raise ValueError(f"{name} must lie in [{lo}, {hi}] (the domain this fit was validated on)")
             arrays.append(a)
+        return self.evaluate(*arrays)
+
+    def evaluate(self, *arrays) -> np.ndarray:
+        """The fit's expression at ``arrays`` (positional, in the order of :attr:`inputs`), without the domain
+        check of a call: how a fit is measured beyond the domain it was made on."""
+        arrays = [np.asarray(a, dtype=float) for a in arrays]
         if self._f is None:
             self._f = lambdify_numpy(symbols(self.inputs), self.expression)
         with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
@@ -275,10 +329,21 @@ class FitFunction:
         return np.broadcast_to(np.asarray(out, dtype=float), np.broadcast_shapes(*(a.shape for a in arrays))).copy()
 
 
-def load(path) -> FitFunction:
-    """Load a fit file written by ``fitlab refit`` as a :class:`FitFunction`."""
+def load(path, *, verify: bool = False, allow_partial_domain: bool = False) -> FitFunction:
+    """Load a fit file written by ``fitlab refit`` as a :class:`FitFunction`.
+
+    ``verify``: also re-measure the fit on its target's own validation set over the target's whole
+    domain (:func:`fitlab.fit.verify.verify_fit`), and refuse it (one :class:`FitFileError` line naming
+    the file) when it is non-finite anywhere there, or its error is more than 10 % worse than the one
+    its record states; ``allow_partial_domain`` measures a fit made on part of the domain on that part
+    only.  The figures measured are the fit's ``measured`` attribute (None without ``verify``)."""
     checked = read_checked_fit(path)
-    return FitFunction(checked[0], Path(path), checked=checked)
+    fit = FitFunction(checked[0], Path(path), checked=checked)
+    if verify:
+        from fitlab.fit.verify import verify_fit  # the exact values: JAX and the families' engines, on demand
+
+        verify_fit(fit, allow_partial_domain=allow_partial_domain)
+    return fit
 
 
 def form_from_fit(record: dict):
@@ -304,8 +369,9 @@ def _form(record: dict, expr: sp.Expr) -> Form:
 
 # -- where fits live -------------------------------------------------------------
 def fits_folder(fits_dir: Path | str | None = None) -> Path:
-    """The folder fits are read from: ``fits_dir`` when given, else the fits packaged with fitlab
-    (:func:`fitlab.resources.packaged_fits`)."""
+    """The folder fits are written to and read from first: ``fits_dir`` when given, else the fits packaged with
+    fitlab (:func:`fitlab.resources.packaged_fits`).  Reading goes through :func:`fit_source`, which falls back
+    to the packaged fits for what ``fits_dir`` lacks."""
     return Path(fits_dir) if fits_dir is not None else packaged_fits()
 
 
@@ -320,10 +386,42 @@ def fit_sha256(path: Path) -> str:
     return hashlib.sha256(Path(path).read_bytes()).hexdigest()
 
 
-def fit_files(fits_dir: Path, target: str) -> list[Path]:
-    """Every saved fit of ``target`` in ``fits_dir``: TARGET.json first, then TARGET.*.json by name."""
-    fits_dir = Path(fits_dir)
-    return [p for p in (fits_dir / f"{target}.json",) if p.exists()] + sorted(fits_dir.glob(f"{target}.*.json"))
+def fit_source(fits_dir: Path | str | None, target: str, form: str) -> Path:
+    """The file a fit of ``target`` in ``form`` is read from: ``fits_dir`` overlays the packaged fits, so it is
+    fits_dir/NAME when that file exists, else the packaged fit of that name (:func:`fit_path` names it); when
+    neither exists, the path in ``fits_dir`` (whose reading then fails naming it).  ``fits_dir`` None: the
+    packaged fits."""
+    packaged = fit_path(packaged_fits(), target, form)
+    if fits_dir is None:
+        return packaged
+    own = fit_path(Path(fits_dir), target, form)
+    if own.is_file() or not packaged.is_file():
+        return own
+    return packaged
+
+
+def fit_origin(path: Path) -> str:
+    """Where a fit file lies, as generated banners say it: "packaged" (the fits shipped with fitlab, wherever
+    they are installed) or "--fits" (a folder of the user's)."""
+    try:
+        packaged = Path(path).resolve().parent == packaged_fits().resolve()
+    except OSError:
+        packaged = False
+    return "packaged" if packaged else "--fits"
+
+
+def fit_files(fits_dir: Path | None, target: str) -> list[Path]:
+    """Every saved fit of ``target`` in ``fits_dir`` overlaid on the packaged fits (a file of ``fits_dir`` in place
+    of the packaged file of the same name; None: the packaged fits alone): TARGET.json first, then TARGET.*.json
+    by name."""
+    folders = [packaged_fits()] if fits_dir is None else [Path(fits_dir), packaged_fits()]
+    by_name: dict[str, Path] = {}
+    for folder in folders:
+        for p in [folder / f"{target}.json", *sorted(folder.glob(f"{target}.*.json"))]:
+            if p.is_file():
+                by_name.setdefault(p.name, p)
+    first = f"{target}.json"
+    return [by_name[n] for n in sorted(by_name, key=lambda n: (n != first, n))]
 
 
 def resolve_form(target_name: str, form_name: str | None, fits_dir: Path | None = None) -> Form:
@@ -333,7 +431,7 @@ def resolve_form(target_name: str, form_name: str | None, fits_dir: Path | None 
     form_name = form_name or target.default_form
     if form_name in target.forms:
         return target.forms[form_name]
-    path = fit_path(fits_folder(fits_dir), target.name, form_name)
+    path = fit_source(fits_dir, target.name, form_name)
     if path.exists():
         return _form(*read_checked_fit(path))
     raise KeyError(

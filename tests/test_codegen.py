@@ -152,10 +152,13 @@ def test_build_program_takes_records_and_reads_no_file(program, monkeypatch):
     monkeypatch.setattr(Path, "read_text", no_reading)
     monkeypatch.setattr(Path, "read_bytes", no_reading)
     prog = build_program(records)
-    assert [(r.name, r.args, r.expr, r.doc) for r in prog.routines] == [
-        (r.name, r.args, r.expr, r.doc) for r in program.routines
-    ]
-    assert prog.sources == () and program.sources  # only the file edge (load_program) names files
+    assert [(r.name, r.args, r.expr) for r in prog.routines] == [(r.name, r.args, r.expr) for r in program.routines]
+    # only the file edge (load_program) names files and re-measures the fits; from bare records no figure is
+    # printed (none is copied from a record), and the docs are otherwise the same
+    assert prog.sources == () and program.sources and len(program.source_notes) == len(program.sources)
+    for built, loaded in zip(prog.routines, program.routines):
+        assert "Measured by" not in built.doc and "Validation" not in built.doc
+        assert loaded.doc.split(" Measured by fitlab codegen")[0].rstrip(".") == built.doc.rstrip(".")
     assert {get_target(t).routine for t in prog.parts} <= {r.name for r in prog.routines}
 
 
@@ -513,6 +516,10 @@ def test_cli_errors_write_nothing(tmp_path, capsys):
     assert main(["codegen", "--lang", "c", "--terms", "single,bogus", "--out", str(tmp_path / "a")]) == 2
     assert "single, m0, m1" in capsys.readouterr().err
     assert main(["codegen", "--lang", "c", "--fits", str(tmp_path / "none"), "--out", str(tmp_path / "b")]) == 2
+    assert "no such folder" in capsys.readouterr().err
+    (tmp_path / "empty").mkdir()
+    assert main(["codegen", "--lang", "c", "--fits", str(tmp_path / "empty"), "--form", "H0=sr_none",
+                 "--out", str(tmp_path / "b")]) == 2  # fmt: skip
     assert "no such fit file" in capsys.readouterr().err
     assert not (tmp_path / "a").exists() and not (tmp_path / "b").exists()
     with pytest.raises(SystemExit):

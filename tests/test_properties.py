@@ -57,6 +57,7 @@ from fitlab.families.lambert_sphere.exact import (
     spherical_albedo,
     three_term_single_albedo,
 )
+from fitlab.codegen import DEFAULT_FORMS
 from fitlab.families.lambert_sphere.runtime import PRESET_VARIANTS, runtime_model
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -96,7 +97,7 @@ def model(name):
     if name in PRESET_VARIANTS:
         return runtime_model(name)
     if name == "refit":
-        return runtime_model(fits_dir=FITS)
+        return runtime_model(fits_dir=FITS, model=DEFAULT_FORMS)
     if name == "generated":
         gen = generated_module()
         return lambda mu_i, mu_o, phi, c: gen.brdf(mu_i, mu_o, np.cos(phi), c)

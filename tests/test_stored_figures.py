@@ -210,13 +210,14 @@ def test_audit_kd_against_three_term_albedo_is_recomputed(audit):
 @pytest.fixture(scope="module")
 def runtime_models():
     from fitlab.families.lambert_sphere.audit import richer_forms
+    from fitlab.codegen import DEFAULT_FORMS
     from fitlab.families.lambert_sphere.runtime import PRESET_VARIANTS, runtime_model
 
     models = [runtime_model(v) for v in PRESET_VARIANTS]
-    models.append(runtime_model(fits_dir=ROOT / "fitlab" / "fits"))
+    models.append(runtime_model(fits_dir=ROOT / "fitlab" / "fits", model=DEFAULT_FORMS))
     richer = richer_forms(ROOT / "fitlab" / "fits")
     if richer:
-        models.append(runtime_model(fits_dir=ROOT / "fitlab" / "fits", forms=richer))
+        models.append(runtime_model(fits_dir=ROOT / "fitlab" / "fits", forms=richer, model=DEFAULT_FORMS))
     return models
 
 

@@ -31,11 +31,19 @@ __all__ = ["add_arguments", "run"]
 
 
 def add_arguments(p) -> None:
-    describe(p, "Read the fits a runtime program needs from --fits, check them, and write the program's source "
-                "files in one language into --out, all as one unit (nothing is written on a failure).",
-             "fitlab codegen --lang c --out /tmp/generated")  # fmt: skip
+    describe(p, "Read the fits a runtime program needs (each from --fits when that folder has it, else the fit "
+                "packaged with fitlab: `fitlab refit --target H1` then `fitlab codegen --fits fits` prints that "
+                "refit), re-measure each on its target's validation set over the target's whole domain (a fit not "
+                "finite there, or more than 10 %% worse than its file states, is refused), and write the "
+                "program's source files in one language into --out, all as one unit (nothing is written on a "
+                "failure). The banner lists every fit's file, sha256, origin and re-measured error.",
+             "fitlab refit --target H1 && fitlab codegen --fits fits --lang c --out /tmp/generated")  # fmt: skip
     p.add_argument("--lang", required=True, choices=list(LANGUAGES), help=f"target language: {', '.join(LANGUAGES)}")
-    add_fits(p)
+    add_fits(p, "folder of fits JSON, read in place of the packaged fits of the same names (the packaged fits fill "
+                "in the rest)")
+    p.add_argument("--allow-partial-domain", action="store_true",
+                   help="print a fit made on part of its target's domain (refit --domain): it is measured on that "
+                        "part only, and its routine states that domain and clamps its inputs to it")
     p.add_argument("--out", default="generated", help="output folder (default: generated)")
     p.add_argument("--terms", help="terms of brdf to keep, comma-separated subset of single,m0,m1,m2 (default: all)")
     p.add_argument("--model", metavar="NAME", default=None,
@@ -46,6 +54,9 @@ def add_arguments(p) -> None:
                    help="use the fit TARGET.FORM.json of --fits for a part, e.g. H0=hapke_rational (repeatable)")
     p.add_argument("--single-header", action="store_true",
                    help="C: one stb-style header (define PREFIX_IMPLEMENTATION in one file before including it)")
+    p.add_argument("--fit", metavar="FILE.json", default=None,
+                   help="print one fit of a table of your own (`fitlab fit`) instead of a family's program: its "
+                        "function, clamped to its domain, with the held-out error measured again on its table")
     p.add_argument("--family", metavar="NAME", default=None,
                    help="the family whose program to generate (default: the family of the --form targets, else the "
                         "family that declares the default program, lambert_sphere; microfacet_energy prints the "
@@ -88,8 +99,33 @@ def _run_tables(args) -> int:
     return _write(args, out, files)
 
 
-def run(args) -> int:
+def _run_fit(args) -> int:
+    """``--fit FILE.json``: one fit of a user's table as a program of its own (:mod:`fitlab.codegen.single`)."""
+    from fitlab.cli._common import input_file
+    from fitlab.codegen.single import generate_fit_file
 
+    others = (("--fits", "fits"), ("--model", "model"), ("--form", "form"), ("--tables", "tables"),
+              ("--family", "family"), ("--terms", "terms"), ("--nodes", "nodes"), ("--lookup", "lookup"),
+              ("--data", "data"), ("--allow-partial-domain", "allow_partial_domain"))  # fmt: skip
+    given = [flag for flag, name in others if getattr(args, name, None)]
+    if given:
+        raise UsageError(f"{given[0]} goes with a family's program, not with --fit (one fit of a table of your own)")
+    if args.single_header and args.lang != "c":
+        raise UsageError("--single-header is a C option (--lang c)")
+    path = input_file(args.fit, "--fit")
+    out = output_folder(args.out, "--out")
+    try:
+        files = generate_fit_file(path, args.lang, args.single_header)
+    except (ValueError, KeyError, FitFileError) as exc:  # the fit or its table missing, damaged or disagreeing
+        raise UsageError(one_line(exc)) from None
+    except ArithmeticError as exc:
+        raise RunFailure(f"code generation failed: {one_line(exc)}") from None
+    return _write(args, out, {name: text.encode() for name, text in files.items()})
+
+
+def run(args) -> int:
+    if args.fit is not None:
+        return _run_fit(args)
     if args.tables:
         return _run_tables(args)
     given = [flag for flag, value in (("--nodes", args.nodes), ("--lookup", args.lookup), ("--data", args.data)) if value]
@@ -104,15 +140,17 @@ def run(args) -> int:
             codegen.program_spec(args.family, tuple(forms)).model(args.model)
     except (ValueError, KeyError) as exc:
         raise UsageError(one_line(exc)) from None
-    fits = fits_input(args, required=False)  # a missing one: "no such fit file" names the fit
+    fits = fits_input(args, required=True)  # a folder that is not there is a typo, not "use the packaged fits"
     out = output_folder(args.out, "--out")
     try:
-        files = codegen.generate(args.lang, fits, args.terms, forms, args.family, args.single_header, args.model)
-    except (ValueError, KeyError, FitFileError) as exc:  # a fit that is missing, damaged or not what it should be
+        files = codegen.generate(args.lang, fits, args.terms, forms, args.family, args.single_header, args.model,
+                                 allow_partial_domain=args.allow_partial_domain)  # fmt: skip
+    except (ValueError, KeyError, FitFileError, TableError) as exc:  # a fit that is missing, damaged, not what it says
         raise UsageError(one_line(exc)) from None
     except ArithmeticError as exc:
         raise RunFailure(f"code generation failed: {one_line(exc)}") from None
     _name_the_default(args, forms)
+    _name_the_unused(args, fits, forms)
     return _write(args, out, {name: text.encode() for name, text in files.items()})
 
 
@@ -128,6 +166,20 @@ def _name_the_default(args, forms: dict) -> None:
         default = codegen.default_program_family()
         others = ", ".join(sorted(n for n in having if n != default))
         print(f"fitlab codegen: family {default} (also {others}: choose with --family)", file=sys.stderr)
+
+
+def _name_the_unused(args, fits, forms: dict) -> None:
+    """One line on stderr naming the fits of --fits that the program's model leaves out (a refit of a part in another
+    form than the model's), and how to print them."""
+    if fits is None or args.quiet:
+        return
+    unused = codegen.unused_fits(fits, forms=forms, family=args.family, model=args.model)
+    if unused:
+        names = ", ".join(p.name for p, _, _ in unused)
+        picks = " ".join(f"--form {t}={f}" for _, t, f in unused)
+        print(f"fitlab codegen: {names} in {fits} not printed: the model uses other forms of "
+              f"{'that part' if len(unused) == 1 else 'those parts'} (to print {'it' if len(unused) == 1 else 'them'}: "
+              f"{picks})", file=sys.stderr)
 
 
 def _write(args, out, files: dict[str, bytes]) -> int:

@@ -29,6 +29,7 @@ from fitlab.cli._common import (
     say,
     write_failure,
 )
+from fitlab.codegen.program import model_form
 from fitlab.core import get_target, targets
 from fitlab.fit.refit import check_domain, default_jobs, refit_stages, refit_verdict, table, timed_refit, validation_metrics
 from fitlab.fit.solver import FitError
@@ -44,7 +45,8 @@ def add_arguments(p) -> None:
                 "non-finite error, fails (exit status 1) and replaces nothing.",
              "fitlab refit --target H0 --out /tmp/fits")  # fmt: skip
     p.add_argument("--target", metavar="NAME", help=f"what to fit: {', '.join(targets())}")
-    p.add_argument("--form", help="which form of the target (default: the published shape; see --list)")
+    p.add_argument("--form", help="which form of the target (default: the form the generated code prints, so that "
+                                  "`fitlab codegen --fits OUT` prints the refit; see --list)")
     p.add_argument("--all", action="store_true", help="refit every target (every form marked for it)")
     p.add_argument("--out", default="fits", help="folder for the fit JSON (default: fits, below the current folder)")
     add_fits(p, "folder the forms saved by `fitlab discover` are read from")
@@ -89,7 +91,7 @@ def _requested(args) -> list[tuple]:
             return [(get_target(t), get_target(t).forms[f], None, None, None) for t, f in default_jobs()]
         target = get_target(args.target)
         domain = parse_domain(args.domain, target)
-        form = resolve_form(target.name, args.form, fits)
+        form = resolve_form(target.name, args.form or model_form(target.name), fits)
         origin = None
         saved = fit_path(fits_folder(fits), target.name, form.name)
         if form.name not in target.forms and saved.exists():
@@ -120,7 +122,8 @@ def _start_metrics(target, form, start, domain) -> dict:
 def run(args) -> int:
     if args.list:
         for t in targets().values():
-            forms = ", ".join(f + (" (default)" if f == t.default_form else "") for f in t.forms)
+            default = model_form(t.name)
+            forms = ", ".join(f + (" (default)" if f == default else "") for f in t.forms)
             print(f"{t.name:<10} {t.description}\n{'':<10} forms: {forms}")
         return 0
     jobs = _jobs(args)  # every usage error before any work

@@ -15,6 +15,7 @@ output of the committed fits lives in fits/generated/ and a test regenerates it.
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 from fitlab._io import atomic_write_text
@@ -34,6 +35,7 @@ from fitlab.codegen.program import (
     default_program_family,
     floor_poles,
     minmax_piecewise,
+    model_form,
     parse_terms,
     part_routine,
     program_spec,
@@ -41,10 +43,10 @@ from fitlab.codegen.program import (
     with_domain,
 )
 from fitlab.core import targets
-from fitlab.store import fit_path, fit_sha256, fits_folder, load
+from fitlab.store import fit_files, fit_origin, fit_path, fit_sha256, fit_source, load
 
-__all__ = ["generate", "codegen_command", "load_program", "parse_forms", "write_generated", "emit", "LANGUAGES", "build_program",
-           "parse_terms", "program_spec", "default_program_family", "part_routine", "Program", "ProgramSpec",
+__all__ = ["generate", "codegen_command", "load_program", "unused_fits", "parse_forms", "write_generated", "emit", "LANGUAGES", "build_program",
+           "parse_terms", "program_spec", "default_program_family", "model_form", "part_routine", "Program", "ProgramSpec",
            "Routine", "POLE_FLOOR", "call",
            "stable", "floor_poles", "azimuth_to_cosine", "clamp", "clamped", "minmax_piecewise", "with_domain",
            "SAFE_POW", "DEFAULT_FORMS"]  # fmt: skip
@@ -57,23 +59,32 @@ def _terms(terms: str | tuple | None, family: str | None) -> tuple[str, ...] | N
 
 
 def load_program(fits_dir: Path | None = None, terms: str | tuple | None = None, forms: dict | None = None,
-                 family: str | None = None, model: str | None = None) -> Program:  # fmt: skip
-    """The program of the fits in ``fits_dir`` (None: the packaged fits).
+                 family: str | None = None, model: str | None = None, *,
+                 allow_partial_domain: bool = False) -> Program:  # fmt: skip
+    """The program of the fits in ``fits_dir`` overlaid on the packaged fits (None: the packaged fits alone).
 
-    Each target's form is the one ``forms`` picks ({"H0": "sr_7_6808f1"}: fits/H0.sr_7_6808f1.json), else
-    the one the ``model`` picks (:attr:`ProgramSpec.models`; None: the program's default model,
-    :data:`DEFAULT_FORMS`: none), else the target's default form; each file must exist (FitFileError
-    otherwise), but those of the program's optional parts (:attr:`ProgramSpec.optional`).  ``family``: whose
-    program (default: the family of the targets in ``forms``, else :func:`default_program_family`)."""
+    Each target's form is the one ``forms`` picks ({"H0": "sr_7_6808f1"}: H0.sr_7_6808f1.json), else
+    the one the ``model`` picks (:attr:`ProgramSpec.models`; None: the program's default model), else the
+    target's default form.  Each fit is read from ``fits_dir`` when that folder has its file, else from the
+    packaged fits (:func:`fitlab.store.fit_source`); each must exist (FitFileError otherwise), but those of the
+    program's optional parts (:attr:`ProgramSpec.optional`).  ``family``: whose program (default: the family of
+    the targets in ``forms``, else :func:`default_program_family`).
+
+    Every fit is re-measured on its target's validation set over the target's whole domain
+    (:func:`fitlab.fit.verify.verify_fit`) and refused (FitFileError, one line naming the file) when it is not
+    finite there or more than 10 % worse than its record states; ``allow_partial_domain`` measures a fit made on
+    part of the domain over that part, and its routine clamps its inputs to it.  The banner lists, fit by fit,
+    the file, its sha256, where it was read and the figures measured here."""
+    from fitlab.fit.verify import describe_measured, verify_fit
+
     forms = dict(forms or {})
     spec = program_spec(family, tuple(forms))
     family = family or next(t.family for t in targets().values() if t.name in spec.fits)
     term_tuple = _terms(terms, family)
     model_name, model_forms, description = spec.model(model)
     chosen = {**model_forms, **forms}
-    fits_dir = fits_folder(fits_dir)
-    paths = {t: fit_path(fits_dir, t, chosen.get(t, targets()[t].default_form)) for t in spec.fits}
-    # an optional part (ProgramSpec.optional) the folder lacks leaves its routines out
+    paths = {t: fit_source(fits_dir, t, chosen.get(t, targets()[t].default_form)) for t in spec.fits}
+    # an optional part (ProgramSpec.optional) the folders lack leaves its routines out
     paths = {t: p for t, p in paths.items() if t not in spec.optional or t in chosen or p.is_file()}
     for p in paths.values():
         if not p.is_file():
@@ -82,13 +93,38 @@ def load_program(fits_dir: Path | None = None, terms: str | tuple | None = None,
     sources = tuple((p.name, fit_sha256(p)) for p in paths.values())
     # the same files (by digest) make the same program: built once per process (inlining and hoisting the
     # model takes seconds; a Program is immutable)
-    key = (sources, term_tuple, family, model_name)
+    key = (sources, tuple(fit_origin(p) for p in paths.values()), term_tuple, family, model_name, allow_partial_domain)
     if key not in _PROGRAMS:
         records = {t: load(p) for t, p in paths.items()}
+        notes = []
+        for t, fit in records.items():
+            measured = verify_fit(fit, allow_partial_domain=allow_partial_domain)
+            notes.append(f"{fit_origin(paths[t])}; {describe_measured(measured)}")
         if len(_PROGRAMS) >= 16:
             _PROGRAMS.pop(next(iter(_PROGRAMS)))
-        _PROGRAMS[key] = build_program(records, term_tuple, sources, family, (model_name, description))
+        _PROGRAMS[key] = replace(build_program(records, term_tuple, sources, family, (model_name, description)),
+                                 source_notes=tuple(notes))
     return _PROGRAMS[key]
+
+
+def unused_fits(fits_dir: Path, program: Program | None = None, forms: dict | None = None, family: str | None = None,
+                model: str | None = None) -> list[tuple[Path, str, str]]:
+    """The fits of ``fits_dir`` (a user's folder) of the targets a program prints that the program does not use,
+    as (path, target, form): each a fit of one of its targets in a form other than the one its model (or
+    ``forms``) picks.  What
+    ``fitlab codegen --fits`` names in one line, so that a refit left out of the code is never a surprise."""
+    forms = dict(forms or {})
+    spec = program_spec(family, tuple(forms))
+    chosen = {**spec.model(model)[1], **forms}
+    folder = Path(fits_dir)
+    unused = []
+    for t in spec.fits:
+        used = fit_path(folder, t, chosen.get(t, targets()[t].default_form))
+        for p in fit_files(folder, t):
+            if p.parent == folder and p != used:
+                words = p.name.split(".")
+                unused.append((p, t, words[1] if len(words) == 3 else targets()[t].default_form))
+    return unused
 
 
 _PROGRAMS: dict = {}
@@ -96,17 +132,19 @@ _PROGRAMS: dict = {}
 
 def generate(lang: str, fits_dir: Path | None = None, terms: str | tuple | None = None,
              forms: dict | None = None, family: str | None = None, single_header: bool = False,
-             model: str | None = None) -> dict[str, str]:  # fmt: skip
+             model: str | None = None, *, allow_partial_domain: bool = False) -> dict[str, str]:  # fmt: skip
     """Source files ({name: text}) in ``lang`` of the program of the fits in ``fits_dir`` (:func:`load_program`);
     their banner names the command that makes them (:func:`codegen_command`)."""
     if lang not in LANGUAGES:
         raise ValueError(f"unknown language {lang!r}; choose one of {', '.join(LANGUAGES)}")
-    command = codegen_command(lang, terms, forms, family, single_header, model)
-    return emit(load_program(fits_dir, terms, forms, family, model), lang, command, single_header)
+    command = codegen_command(lang, terms, forms, family, single_header, model, allow_partial_domain)
+    program = load_program(fits_dir, terms, forms, family, model, allow_partial_domain=allow_partial_domain)
+    return emit(program, lang, command, single_header)
 
 
 def codegen_command(lang: str, terms=None, forms: dict | None = None, family: str | None = None,
-                    single_header: bool = False, model: str | None = None) -> str:  # fmt: skip
+                    single_header: bool = False, model: str | None = None,
+                    allow_partial_domain: bool = False) -> str:  # fmt: skip
     """The ``fitlab codegen`` command that makes these files, with every option that changes their content
     (not --fits or --out: the banner's digests name the fits, and the files are the same wherever written)."""
     words = ["fitlab codegen", f"--lang {lang}"]
@@ -119,6 +157,8 @@ def codegen_command(lang: str, terms=None, forms: dict | None = None, family: st
     words += [f"--form {t}={f}" for t, f in (forms or {}).items()]
     if single_header:
         words.append("--single-header")
+    if allow_partial_domain:
+        words.append("--allow-partial-domain")
     return " ".join(words)
 
 

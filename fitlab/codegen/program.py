@@ -45,7 +45,7 @@ from fitlab.forms.symbolic import safe_pow, symbols
 from fitlab.store import FitFunction
 
 __all__ = ["Routine", "Program", "ProgramSpec", "build_program", "part_routine", "program_spec",
-           "default_program_family", "parse_terms",
+           "default_program_family", "model_form", "parse_terms",
            "call", "stable", "floor_poles", "azimuth_to_cosine", "clamp", "clamped", "minmax_piecewise",
            "with_domain", "SAFE_POW", "POLE_FLOOR", "DEFAULT_FORMS", "MaterialSpec", "Material", "material_of",
            "field_symbol", "outputs", "inline_calls", "hoist_params", "merge_exp_products"]  # fmt: skip
@@ -124,6 +124,8 @@ class Program:
     parts: tuple[str, ...] = ()
     model: tuple[str, str] | None = None
     material: "Material | None" = None
+    #: one phrase per source, in the order of ``sources``: where the file was read, and the error measured there
+    source_notes: tuple[str, ...] = ()
 
     def routine(self, name: str) -> Routine:
         return next(r for r in self.routines if r.name == name)
@@ -540,11 +542,16 @@ def part_routine(fit: FitFunction) -> Routine:
         raise ValueError(f"target {target.name} names no generated routine (Target.routine)")
     desc = fit.record.get("target_description", fit.target)
     doc = f"{desc}; form {fit.form}: {fit.record.get('form_description', '')}"
-    val = fit.record.get("validation")
-    if val:
-        doc += f" Validation: max relative error {val['max_rel']:.2e}, RMS {val['rms_rel']:.2e}."
-    return Routine(target.routine, fit.inputs, stable(fit.expression), doc,
-                   domain={a: target.domain[a] for a in fit.inputs})  # fmt: skip
+    measured = fit.measured  # set by fitlab.fit.verify.verify_fit: figures re-measured, never the record's
+    domain = {a: target.domain[a] for a in fit.inputs}
+    if measured is not None:
+        from fitlab.fit.verify import describe_measured
+
+        doc = doc.rstrip() + ("" if doc.rstrip().endswith(".") else ".")
+        doc += f" Measured by fitlab codegen: {describe_measured(measured)}."
+        if measured["partial"]:
+            domain = {a: tuple(measured["domain"][a]) for a in fit.inputs}
+    return Routine(target.routine, fit.inputs, stable(fit.expression), doc, domain=domain)
 
 
 def _default_spec(family) -> ProgramSpec:
@@ -569,6 +576,17 @@ def program_spec(family: str | None = None, targets: Sequence[str] = ()) -> Prog
         (family,) = names
     fam = get_family(family if family is not None else default_program_family())
     return fam.codegen if fam.codegen is not None else _default_spec(fam)
+
+
+def model_form(target: str) -> str:
+    """The form of ``target`` its family's program prints by default (the form its default model picks: for the
+    Lambert sphere's H1, log_exp), else the target's default form: the one form ``fitlab refit`` fits when none is
+    named, so that a refit is what ``fitlab codegen --fits`` then prints."""
+    t = get_target(target)
+    spec = get_family(t.family).codegen
+    if spec is None or target not in spec.fits:
+        return t.default_form
+    return spec.model()[1].get(target, t.default_form)
 
 
 def default_program_family() -> str:

@@ -37,6 +37,7 @@ from fitlab.core import get_target, targets
 from fitlab._io import atomic_write_many
 from fitlab.store import FitFileError, fit_files, fits_folder, read_fit, strict_json
 from fitlab.families.lambert_sphere.forms import RUNTIME_PARTS
+from fitlab.codegen.program import DEFAULT_FORMS
 from fitlab.families.lambert_sphere.runtime import PRESET_VARIANTS, RuntimeModel, runtime_model
 from fitlab.report.methods import FitEntry, best_forms, origin_kind
 
@@ -92,7 +93,7 @@ def _runtime_models(fits_dir: Path) -> tuple[list[RuntimeModel], list[str]]:
     richer = richer_forms(fits_dir)
     for forms in (None, richer) if richer else (None,):
         try:
-            models.append(runtime_model(fits_dir=fits_dir, forms=forms))
+            models.append(runtime_model(fits_dir=fits_dir, forms=forms, model=DEFAULT_FORMS))
         except FitFileError as exc:
             missing.append(str(exc))
     return models, missing

@@ -45,7 +45,8 @@ from fitlab.families.lambert_sphere.report_exact import (
     time_to_error,
 )
 from fitlab.families.lambert_sphere.report_montecarlo import mc_study, mc_time_to_error
-from fitlab.families.lambert_sphere.runtime import ORDER2_FORMS, PRESET_VARIANTS, directional_albedo, runtime_model
+from fitlab.codegen.program import DEFAULT_FORMS, program_spec
+from fitlab.families.lambert_sphere.runtime import FAMILY_NAME, PRESET_VARIANTS, directional_albedo, runtime_model
 from fitlab.families.lambert_sphere.table_files import check_tables, tables_dir
 from fitlab.families.lambert_sphere.targets import TARGETS
 from fitlab.families.lambert_sphere.bench import baseline_program, random_inputs  # noqa: F401 (baseline_program: the report's hook)
@@ -212,18 +213,19 @@ def brdf_methods(fits_dir: Path, entries: list, data_dir: Path, preset_c: tuple 
         m = runtime_model(v)
         spec = CSpec("brdf", preset=v) if v in preset_c else None
         out.append(_runtime(m, f"published: {v}", "published", _label(m.sources), spec))
-    out.append(_runtime(runtime_model(fits_dir=fits_dir), "refit", "refit", "default forms in " + str(fits_dir),
+    out.append(_runtime(runtime_model(fits_dir=fits_dir, model=DEFAULT_FORMS), "refit", "refit", "default forms in " + str(fits_dir),
                         CSpec("brdf", fits_dir)))  # fmt: skip
-    order2 = {p: f for p, f in ORDER2_FORMS.items() if f != get_target(p).default_form}
+    # the program's default model (what fitlab codegen and runtime_model() give), where its forms are in the catalogue
+    order2 = {p: f for p, f in program_spec(FAMILY_NAME).model()[1].items() if f != get_target(p).default_form}
     if not all(any(e.target == p and e.form == f for e in entries) for p, f in order2.items()):
         order2 = None
     if order2:
-        m = runtime_model(fits_dir=fits_dir, forms=order2)
+        m = runtime_model(fits_dir=fits_dir)  # the default model: what fitlab codegen prints
         out.append(_runtime(m, "refit, order 2", "refit, richer", _label(order2),
                             CSpec("brdf", fits_dir, tuple(sorted(order2.items())))))  # fmt: skip
     richer = best_forms(entries, {"refit"}, (*RUNTIME_PARTS, ORDER2_PART))
     if richer and richer != order2:  # the best part fits may be the order-2 model itself
-        m = runtime_model(fits_dir=fits_dir, forms=richer)
+        m = runtime_model(fits_dir=fits_dir, forms=richer, model=DEFAULT_FORMS)
         c_forms = {**richer, **best_forms(entries, {"refit"}, MAPS)}
         out.append(_runtime(m, "refit, richer forms", "refit, richer", _label(richer),
                             CSpec("brdf", fits_dir, tuple(sorted(c_forms.items())))))  # fmt: skip
@@ -231,14 +233,14 @@ def brdf_methods(fits_dir: Path, entries: list, data_dir: Path, preset_c: tuple 
     for e in found:
         if e.target in RUNTIME_PARTS:
             forms = {e.target: e.form}
-            m = runtime_model(fits_dir=fits_dir, forms=forms)
+            m = runtime_model(fits_dir=fits_dir, forms=forms, model=DEFAULT_FORMS)
             out.append(_runtime(m, f"refit + {e.target} {e.form}", "discovered", str(e.path),
                                 CSpec("brdf", fits_dir, tuple(forms.items()))))  # fmt: skip
     if any(e.target in RUNTIME_PARTS for e in found):
         kinds = {e.kind for e in entries}
         best = best_forms(entries, kinds, RUNTIME_PARTS)
         if best and best != richer:
-            m = runtime_model(fits_dir=fits_dir, forms=best)
+            m = runtime_model(fits_dir=fits_dir, forms=best, model=DEFAULT_FORMS)
             c_forms = {**best, **best_forms(entries, kinds, MAPS)}
             out.append(_runtime(m, "best fits (discovered included)", "discovered", _label(best),
                                 CSpec("brdf", fits_dir, tuple(sorted(c_forms.items())))))  # fmt: skip

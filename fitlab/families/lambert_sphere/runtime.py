@@ -10,10 +10,12 @@ max(0, f_1 + fm0 + fm1 cos phi [+ fm2 cos 2phi]) (see
   ``"paper"`` (printed coefficients, the renderer reading of H1, the exact
   3 pi / 192 pi normalisations), ``"renderer"`` (the author's renderer
   coefficients where they differ, exact normalisations); or
-* saved fits: ``runtime_model(fits_dir=Path("fits"))`` takes fits/H0.json,
-  H1.json, l.json, m.json, B.json ... F.json (the default forms), or with
-  ``forms={"H0": "hapke_rational", ...}`` the files of other forms; fits add
-  the second Fourier order fm2 cos 2phi with fits/H2.json unless ``order2=False``.
+* saved fits: ``runtime_model()`` is the model ``fitlab codegen`` prints (the
+  program's default model, from the packaged fits); ``fits_dir`` overlays a
+  folder of one's own on the packaged fits, ``model="default-forms"`` takes
+  fits/H0.json, H1.json, l.json, m.json, B.json ... F.json (the default forms),
+  ``forms={"H0": "hapke_rational", ...}`` the files of other forms; fits add the
+  second Fourier order fm2 cos 2phi with fits/H2.json unless ``order2=False``.
 
 :func:`accuracy` measures a runtime model against the exact BRDF on the
 issue-18 sets (random and edge points over mu >= 0.01 and every c, the grazing
@@ -32,11 +34,11 @@ from pathlib import Path
 import numpy as np
 import sympy as sp
 
-from fitlab.codegen.program import stable
+from fitlab.codegen.program import DEFAULT_FORMS, stable
 from fitlab.core import get_form, get_target
 from fitlab.families.lambert_sphere.forms import AZIMUTH, ORDER2_PART, RUNTIME_PARTS, RUNTIME_TERMS, runtime_brdf, runtime_terms
 from fitlab.forms.symbolic import lambdify_numpy, symbols
-from fitlab.store import fit_path, load
+from fitlab.store import fit_source, load
 
 __all__ = ["RuntimeModel", "runtime_model", "PRESET_VARIANTS", "accuracy", "accuracy_points", "directional_albedo", "ALBEDOS",
            "ORDER2_FORMS", "energy_scale", "assembled", "ENERGY_MARGIN", "ENERGY_MU"]
@@ -51,6 +53,9 @@ PRESET_VARIANTS = {
 }  # fmt: skip
 
 INPUTS = ("mu_i", "mu_o", "phi", "c")
+
+#: the family's name, whose program's models :func:`runtime_model` takes
+FAMILY_NAME = "lambert_sphere"
 
 #: the forms of the order-2 runtime model (issue 18): H0, H1, H2 exact at mu = 0, to first order in c and in
 #: their grazing log(1/mu) behaviour (log_exp); B, C, D, F exact to first order in c (c2_rational_4_3), so that
@@ -77,22 +82,25 @@ class RuntimeModel:
 
 
 def runtime_model(
-    variant: str | None = None, *, fits_dir: Path | None = None, forms: dict | None = None, normalisation: str = "corrected",
-    order2: bool | None = None,
+    variant: str | None = None, *, fits_dir: Path | None = None, forms: dict | None = None, model: str | None = None,
+    normalisation: str = "corrected", order2: bool | None = None,
 ) -> RuntimeModel:
-    """The runtime BRDF from a preset ``variant`` or from the fits in ``fits_dir`` (``forms``: {part: form}
-    where a part's file is not its default form's).
+    """The runtime BRDF from a preset ``variant``, else from fits: ``runtime_model()`` is the model ``fitlab codegen``
+    prints, from the packaged fits.
 
-    ``order2``: add fm2 cos(2 phi) with the fit of H2 (docs/model.md, "Order 2"); None means yes for fits
-    when ``fits_dir`` holds that fit (the generated program has fm2) and no for the published presets (the
-    paper has no H2; True with a preset is an error)."""
-    if (variant is None) == (fits_dir is None):
-        raise ValueError("give a preset variant or fits_dir")
+    Fits are read from ``fits_dir`` overlaid on the packaged fits (:func:`fitlab.store.fit_source`; None: the
+    packaged fits).  Their forms are ``model``'s (a model of the family's program,
+    :attr:`fitlab.codegen.ProgramSpec.models`; None: the program's default model, the one place that default is
+    chosen; ``"default-forms"``: each part's default form), with ``forms`` ({part: form}) in place of a part's.
+    ``order2``: add fm2 cos(2 phi) with the fit of H2 (docs/model.md, "Order 2"); None means yes for fits (the
+    generated program has fm2) and no for the published presets (the paper has no H2; True with a preset is an
+    error)."""
+    if variant is not None and (fits_dir is not None or forms or model is not None):
+        raise ValueError("give a preset variant, or fits (fits_dir, forms, model), not both")
     if order2 is None:
-        h2 = (forms or {}).get(ORDER2_PART, get_target(ORDER2_PART).default_form)
-        order2 = fits_dir is not None and fit_path(Path(fits_dir), ORDER2_PART, h2).exists()
+        order2 = variant is None
     if order2 and variant is not None:
-        raise ValueError("the published presets have no H2: order2=True needs fits_dir")
+        raise ValueError("the published presets have no H2: order2=True needs fits")
     parts, sources = {}, {}
     if variant is not None:
         if variant not in PRESET_VARIANTS:
@@ -104,14 +112,17 @@ def runtime_model(
             sources[part] = f"{form_name} / {preset}"
         name = variant
     else:
+        from fitlab.codegen import program_spec  # the program's models: imported here, the program imports this
 
+        model_name, model_forms, _ = program_spec(FAMILY_NAME).model(model)
+        chosen = {**model_forms, **(forms or {})}
         for part in (*RUNTIME_PARTS, *((ORDER2_PART,) if order2 else ())):
-            form_name = (forms or {}).get(part, get_target(part).default_form)
-            path = fit_path(Path(fits_dir), part, form_name)
-            fit = load(path)
-            parts[part] = fit.expression
+            path = fit_source(fits_dir, part, chosen.get(part, get_target(part).default_form))
+            parts[part] = load(path).expression
             sources[part] = path.name  # the file, wherever its folder is (audit.json stays the same)
-        name = "refit" if not forms else "refit (" + ", ".join(f"{k}: {v}" for k, v in forms.items()) + ")"
+        name = "refit" if model_name == DEFAULT_FORMS else f"refit, model {model_name}"
+        if forms:
+            name += " (" + ", ".join(f"{k}: {v}" for k, v in forms.items()) + ")"
         if not order2:
             name += ", orders 0 and 1"
     return RuntimeModel(name, runtime_brdf(parts, normalisation, energy_scale(parts, normalisation=normalisation)), sources)

@@ -4,21 +4,21 @@
  * The Lambert-sphere BRDF (d'Eon, EGSR 2021): the runtime model of docs/model.md and its fitted parts.
  * Terms of brdf: single, m0, m1, m2
  * Model: order2 (the report's real-time recommendation: orders 0, 1 and 2 of multiple scattering with the forms of runtime.ORDER2_FORMS)
- * From these fits (sha256):
- *   H0.log_exp.json  ec19ca996b0459d1ff416b4249e6c74dde8b7735a576921aac57ed4b3f4ea4a0
- *   H1.log_exp.json  d3215fa25d19244d534d72f99cc9c71b7616d54c9a8b5735aac9d0490052b38a
- *   H2.json  3db5ffc42ca56ab25ff45ab99466adc5447df68f7fe8a657068258056c6fbf85
- *   l.cubic.json  a8cf3ba8cfe48e7479e89ae372d9b4ae6a82302ad8f656c348194166f213ac39
- *   m.quadratic.json  d2ffb4db60bec3bd3b61586bccdea6b87caa226435299efe31830917e3fe3d24
- *   B.c2_rational_4_3.json  95c10f06da0560341cd38444b23248ab5fe3eed2aa359bc9146dcefd8eaa9539
- *   C.c2_rational_4_3.json  7153f0382f5f1432cd48926b397bbb7ff224f606403767861cf2b7ebc078ef88
- *   D.c2_rational_4_3.json  08f003bcbfdfa26e4e387f90c14ca7823ac645e182e3403a5278841448f631c0
- *   F.c2_rational_4_3.json  0f1f7932f040e5e5b58fdba017bbba03385cf386fd03d6eb7f8af8819eda5940
- *   c_of_kd.json  ad8bcd2ba210486e2105a562f5eb249c207cc3857f11405e011f8d13e38c592d
- *   kd_of_c.json  97fd68ebd9ef5a510e97d6f742d5e9ff4ca179dfae3908df011426f60c64c6c0
- *   sample_weight.json  c023aba5f7c16920c95bbcef2bfcb03fb23c438b2fa85bf4ef965bd73c9c78ea
- *   sample_exponent.json  461f6e087b3a3b3ea084420e291400a96f4eb1a2af4d1758032926ac354f71ad
- *   fast_brdf.json  28be87af26765a3bfab7c76dd2eb42934f8ae3b16168c7d761c978a10bf96eca
+ * From these fits (file, sha256, where read, and the error fitlab codegen re-measured on the target's validation set):
+ *   H0.log_exp.json  ec19ca996b0459d1ff416b4249e6c74dde8b7735a576921aac57ed4b3f4ea4a0  packaged; max 5.59e-05, RMS 2.72e-05 (relative, 17290 points)
+ *   H1.log_exp.json  d3215fa25d19244d534d72f99cc9c71b7616d54c9a8b5735aac9d0490052b38a  packaged; max 1.39e-04, RMS 7.73e-05 (relative, 17290 points)
+ *   H2.json  3db5ffc42ca56ab25ff45ab99466adc5447df68f7fe8a657068258056c6fbf85  packaged; max 4.35e-06, RMS 2.25e-06 (relative, 17290 points)
+ *   l.cubic.json  a8cf3ba8cfe48e7479e89ae372d9b4ae6a82302ad8f656c348194166f213ac39  packaged; max 1.53e-04, RMS 7.30e-05 (relative, 130 points)
+ *   m.quadratic.json  d2ffb4db60bec3bd3b61586bccdea6b87caa226435299efe31830917e3fe3d24  packaged; max 2.40e-05, RMS 1.70e-05 (relative, 130 points)
+ *   B.c2_rational_4_3.json  95c10f06da0560341cd38444b23248ab5fe3eed2aa359bc9146dcefd8eaa9539  packaged; max 1.05e-07, RMS 7.43e-08 (relative to A = 69c/128, 130 points)
+ *   C.c2_rational_4_3.json  7153f0382f5f1432cd48926b397bbb7ff224f606403767861cf2b7ebc078ef88  packaged; max 1.35e-07, RMS 9.38e-08 (relative to A = 69c/128, 130 points)
+ *   D.c2_rational_4_3.json  08f003bcbfdfa26e4e387f90c14ca7823ac645e182e3403a5278841448f631c0  packaged; max 3.07e-07, RMS 2.12e-07 (relative to A = 69c/128, 130 points)
+ *   F.c2_rational_4_3.json  0f1f7932f040e5e5b58fdba017bbba03385cf386fd03d6eb7f8af8819eda5940  packaged; max 2.54e-08, RMS 1.77e-08 (relative to A = 69c/128, 130 points)
+ *   c_of_kd.json  ad8bcd2ba210486e2105a562f5eb249c207cc3857f11405e011f8d13e38c592d  packaged; max 1.13e-02, RMS 6.53e-03 (relative, 129 points)
+ *   kd_of_c.json  97fd68ebd9ef5a510e97d6f742d5e9ff4ca179dfae3908df011426f60c64c6c0  packaged; max 8.71e-03, RMS 5.25e-03 (relative, 130 points)
+ *   sample_weight.json  c023aba5f7c16920c95bbcef2bfcb03fb23c438b2fa85bf4ef965bd73c9c78ea  packaged; max 2.09e-01, RMS 2.70e-02 (relative, 630 points)
+ *   sample_exponent.json  461f6e087b3a3b3ea084420e291400a96f4eb1a2af4d1758032926ac354f71ad  packaged; max 1.10e-01, RMS 2.39e-02 (relative, 630 points)
+ *   fast_brdf.json  28be87af26765a3bfab7c76dd2eb42934f8ae3b16168c7d761c978a10bf96eca  packaged; max 9.07e-01, RMS 1.22e-01 (relative, 116640 points)
  */
 #include "lambert_sphere.h"
 
