@@ -363,14 +363,14 @@ def test_refit_worse_than_its_start_fails_and_writes_nothing(tmp_path, monkeypat
     monkeypatch.setattr(refit_module, "fit_form", worse_solver)
     out = tmp_path / "fits"
     out.mkdir()
-    (out / "l.json").write_text("keep me")
+    (out / "l.cubic.json").write_text("keep me")  # what the refit would write (l's form in the default model)
     assert main(["refit", "--target", "l", "--out", str(out), "--quiet", "--json"]) == 1
     captured = capsys.readouterr()
     err = captured.err.strip()
     assert "\n" not in err and "worse than its starting point" in err and "nothing written" in err
     summary = json.loads(captured.out)
     assert summary["ok"] is False and summary["written"] is False and summary["fits"][0]["failure"]
-    assert _snapshot(out) == {"l.json": b"keep me"}
+    assert _snapshot(out) == {"l.cubic.json": b"keep me"}
 
 
 def _stub_refits(monkeypatch, worse: str | None = None):

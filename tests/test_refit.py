@@ -147,7 +147,7 @@ def test_refit_reproduces_a_committed_fit(tmp_path):
 
 
 def test_refit_h0_cli_end_to_end(tmp_path, capsys):
-    assert main(["refit", "--target", "H0", "--out", str(tmp_path), "--compare-scipy"]) == 0
+    assert main(["refit", "--target", "H0", "--form", "hapke", "--out", str(tmp_path), "--compare-scipy"]) == 0
     out = capsys.readouterr().out
     assert "hapke / paper" in out and "hapke / refit" in out and "scipy" in out
     rec = json.loads((tmp_path / "H0.json").read_text())
