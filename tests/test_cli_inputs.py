@@ -24,6 +24,7 @@ from fitlab.cli import main
 ROOT = Path(__file__).resolve().parents[1]
 FITS = ROOT / "fitlab" / "fits"
 GENERATED = FITS / "generated" / "lambert_sphere_drjit.py"
+EXAMPLE_TABLE = ROOT / "fitlab" / "data" / "examples" / "renderer_E.csv"
 
 
 class Started(BaseException):
@@ -42,6 +43,8 @@ COMMANDS = {
                                                                           ("fitlab.fit.refit", "timed_refit")]),
     "refit --all": (["refit", "--all", "--quiet"],
                     [("fitlab.fit.refit", "refit"), ("fitlab.fit.refit", "timed_refit")]),
+    "fit": (["fit", str(EXAMPLE_TABLE), "--target", "E", "--form", "a0 + a1*mu + a2*alpha", "--quiet"],
+            [("fitlab.fit.user", "run_fit"), ("fitlab.fit.refit", "refit")]),
     "audit": (["audit", "--fits", str(FITS)], [("fitlab.families.lambert_sphere.audit", "run_audit")]),
     "codegen": (["codegen", "--lang", "c", "--fits", str(FITS)], [("fitlab.codegen", "generate")]),
     "render": (["render", "--generated", str(GENERATED), "--quiet"],
@@ -194,7 +197,7 @@ def test_version_and_help(capsys):
 
     assert _status(["--version"]) == 0
     assert capsys.readouterr().out.strip() == f"fitlab {__version__}"
-    for command in ("tabulate", "refit", "audit", "codegen", "render", "discover", "report", "bench", "cache"):
+    for command in ("tabulate", "refit", "fit", "audit", "codegen", "render", "discover", "report", "bench", "cache"):
         assert _status([command, "--help"]) == 0
         text = capsys.readouterr().out
         assert "example: fitlab " + command in " ".join(text.split()), command

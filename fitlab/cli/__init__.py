@@ -30,6 +30,7 @@ __all__ = ["COMMANDS", "build_parser", "command_module", "main"]
 COMMANDS = {
     "tabulate": "compute the exact tables into the data folder (or check them)",
     "refit": "refit a published form (or a richer one) to the exact data",
+    "fit": "fit a form of your own to a column of your own table (CSV)",
     "audit": "measure every published formula and the runtime model against the exact engine",
     "codegen": "generate C, Python or GLSL source of the runtime BRDF from the fits",
     "render": "render spheres with the generated BRDF in Mitsuba 3 beside Lambert, Oren-Nayar, Chandrasekhar",
@@ -42,7 +43,7 @@ COMMANDS = {
 
 
 #: the commands that run JAX: they keep its compiled programs in fitlab's cache (fitlab.cache)
-JAX_COMMANDS = ("refit", "audit", "simulate", "discover", "report", "bench")
+JAX_COMMANDS = ("refit", "fit", "audit", "simulate", "discover", "report", "bench")
 
 
 def command_module(name: str):

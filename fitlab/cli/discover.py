@@ -37,8 +37,13 @@ def add_arguments(p) -> None:
                 "Pareto front of error against cost as TARGET.md, .json and .png into --out; --save NAME also "
                 "writes front members as fits (--fits/TARGET.NAME.json) that refit, codegen and report take.",
              "fitlab discover --target H0 --out /tmp/discover --max-terms 6")  # fmt: skip
+    p.add_argument("table", nargs="?", metavar="TABLE.csv", default=None,
+                   help="a table of your own (CSV with a header row, as `fitlab fit` reads it): search forms of its "
+                        "column --target in its other columns (or --inputs)")
     p.add_argument("--target", required=True, metavar="NAME",
-                   help=f"what to discover forms for: {', '.join(libraries_of())}")
+                   help=f"what to discover forms for: {', '.join(libraries_of())}; with TABLE.csv, its column to fit")
+    p.add_argument("--inputs", metavar="X,Y", default=None,
+                   help="with TABLE.csv: the input columns (default: every other column)")
     p.add_argument("--max-terms", type=int, default=12, help="largest model refitted (default 12)")
     p.add_argument("--minimax-rounds", type=int, default=20, help="Lawson rounds per refit (default 20)")
     p.add_argument("--out", default="discover", help="folder for TARGET.md, .json, .png (default: discover)")
@@ -55,7 +60,60 @@ def add_arguments(p) -> None:
     add_quiet(p)
 
 
+def _run_table(args) -> int:
+    """``fitlab discover TABLE.csv --target COLUMN``: the search on a table of one's own (:mod:`fitlab.discover.user`);
+    --save writes the front members as fits of that table (FITS/COLUMN.NAME.json)."""
+    from fitlab.fit.user import UserDataError, read_csv_table, relative_file
+
+    given = [flag for flag, value in (("--from-front", args.from_front), ("--cost", args.cost), ("--data", args.data))
+             if value]  # fmt: skip
+    if given:
+        raise UsageError(f"{given[0]} goes with a fitlab target, not with a table of your own")
+    if args.max_terms < 1 or args.minimax_rounds < 0:
+        raise UsageError("--max-terms must be >= 1 and --minimax-rounds >= 0")
+    if args.save and len(set(args.save)) != len(args.save):
+        raise UsageError("--save: a name given twice")
+    inputs = None if args.inputs is None else [n.strip() for n in args.inputs.split(",") if n.strip()]
+    out = output_folder(args.out, "--out", files=[f"{args.target}{ext}" for ext in (".md", ".json", ".png")])
+    if args.save:
+        if args.fits is None:
+            raise UsageError("--save writes into --fits: give the folder (for example --fits fits)")
+        output_folder(args.fits, "--fits")
+    require_extra("pysindy", "discover")
+    from fitlab.discover.user import discover_table
+
+    try:
+        table = read_csv_table(args.table)
+        file = relative_file(args.table, args.fits) if args.save else None
+        disc = discover_table(table, args.target, inputs=inputs, max_terms=args.max_terms,
+                              minimax_rounds=args.minimax_rounds, progress=not args.quiet)  # fmt: skip
+    except UserDataError as exc:  # the checks of the table, before the search
+        raise UsageError(one_line(exc)) from None
+    except (FitError, ValueError, ArithmeticError) as exc:
+        raise RunFailure(f"the search failed: {one_line(exc)}") from None
+    for name in args.save or ():
+        if name not in disc.front:
+            raise RunFailure(f"--save {name}: {name!r} is not on the front; the front is {', '.join(disc.front)}")
+    print(front_table(disc))
+    saved = {Path(args.fits) / f"{disc.target}.{n}.json": {**disc.get(n).record, "user_data": {
+        **disc.get(n).record["user_data"], "file": file}} for n in args.save or ()}  # fmt: skip
+    try:
+        written = write_outputs(disc, out)  # the front's three files as one unit
+        if saved:  # every saved form as one unit
+            written += write_fits(saved)
+    except OSError as exc:
+        raise write_failure(args.out, exc) from None
+    for path in written:
+        say(args, f"wrote {path}")
+    say(args, f"discover {disc.target}: {disc.seconds:.1f} s")
+    return 0
+
+
 def run(args) -> int:
+    if args.table is not None:
+        return _run_table(args)
+    if args.inputs is not None:
+        raise UsageError("--inputs goes with a table of your own (fitlab discover TABLE.csv --target COLUMN)")
     if args.from_front and not args.save:
         raise UsageError("--from-front goes with --save NAME")
     if args.cost and not args.save:

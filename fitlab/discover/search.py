@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
-from fitlab.core import get_target
+from fitlab.core import Target, get_target
 from fitlab.discover.library import Library, get_libraries
 from fitlab.discover.refine import arranged, candidate_form, form_name, operation_count
 from fitlab.discover.regression import DEFAULT_THRESHOLDS, Candidate, SparseRegression
@@ -78,8 +78,9 @@ def library_tag(libraries, candidate: Candidate) -> str:
     return "" if candidate.library == libraries[0].name else candidate.library
 
 
-def front_metric(target_name: str) -> str:
-    return "max_rel" if get_target(target_name).minimax else "rms_rel"
+def front_metric(target_name: str | Target) -> str:
+    target = target_name if isinstance(target_name, Target) else get_target(target_name)
+    return "max_rel" if target.minimax else "rms_rel"
 
 
 def _linear_errors(reg: SparseRegression, target, train) -> list[float]:
@@ -94,7 +95,7 @@ def _linear_errors(reg: SparseRegression, target, train) -> list[float]:
 
 
 def discover(
-    target_name: str,
+    target_name: str | Target,
     *,
     libraries: tuple[Library, ...] | None = None,
     thresholds=DEFAULT_THRESHOLDS,
@@ -104,10 +105,12 @@ def discover(
     progress: bool = True,
 ) -> Discovery:
     """Run the search for ``target_name`` over ``libraries`` (default: all of the target's); nothing
-    is written (see :func:`fitlab.discover.save`)."""
+    is written (see :func:`fitlab.discover.save`).  ``target_name`` may be an unregistered
+    :class:`fitlab.core.Target` (a user's table, :mod:`fitlab.discover.user`): then ``libraries`` are given,
+    and the front has no reference points."""
 
     t0 = time.perf_counter()
-    target = get_target(target_name)
+    target = target_name if isinstance(target_name, Target) else get_target(target_name)
     libraries = tuple(libraries or get_libraries(target.name))
     for lib in libraries:
         if lib.target != target.name:
@@ -117,7 +120,7 @@ def discover(
     if max_terms < 1:
         raise ValueError("max_terms must be at least 1")
     by_name = {lib.name: lib for lib in libraries}
-    metric = front_metric(target.name)
+    metric = front_metric(target)
     train = target.training()
     candidates, pool = [], []
     for lib in libraries:
@@ -160,8 +163,9 @@ def discover(
     on_front = set(pareto_front([(d.terms, e) for d, e in zip(refined, errs)], infinite_errors=True))
     on_front |= set(pareto_front([(d.operations, e) for d, e in zip(refined, errs)], infinite_errors=True))
     front = [refined[i].name for i in sorted(on_front, key=lambda i: (refined[i].terms, errs[i]))]
-    return Discovery(target.name, libraries, metric, candidates, refined, front,
-                     reference_points(target.name, fits_dir), time.perf_counter() - t0)  # fmt: skip
+    reference = reference_points(target.name, fits_dir) if target.family else []  # a registered target's
+    return Discovery(target.name, libraries, metric, candidates, refined, front, reference,
+                     time.perf_counter() - t0)  # fmt: skip
 
 
 def reference_points(target_name: str, fits_dir: Path | None = None) -> list[dict]:

@@ -163,7 +163,8 @@ def origin_kind(record: dict) -> str:
 
 
 def fit_inventory(fits_dir: Path) -> list[FitEntry]:
-    """Every fits_dir/*.json, read and checked, sorted by file name; a bad file is a ReportError."""
+    """Every fits_dir/*.json, read and checked, sorted by file name; a bad file is a ReportError; fits of a
+    user's own table (``user_data``, ``fitlab fit``) are left out."""
     fits_dir = Path(fits_dir)
     if not fits_dir.is_dir():
         raise ReportError(f"{fits_dir}: no such fits folder; run `fitlab refit --all` or pass --fits")
@@ -173,6 +174,8 @@ def fit_inventory(fits_dir: Path) -> list[FitEntry]:
             rec = read_fit(path)
         except FitFileError as exc:
             raise ReportError(str(exc)) from None
+        if "user_data" in rec:  # a fit of a user's own table (fitlab fit): no method of a family
+            continue
         if rec["target"] not in targets():
             raise ReportError(f"{path}: unknown target {rec['target']!r}")
         val = rec.get("validation", {}).get("max_rel", math.inf)
