@@ -7,13 +7,23 @@ Edit the cells here, not in Jupyter, then rebuild: the committed notebooks carry
 no outputs, and tests/test_notebooks.py checks that they match this file and
 runs each of them top to bottom.  Every computation is fitlab's API (mostly
 fitlab.residuals); the notebooks only choose grids and plot.
+
+Every number (and every checkable fact) a notebook's text states is a :class:`Claim`
+in ``CLAIMS``: the markdown cell holds its marker ``[[key]]``, which the build
+replaces by the claim's sentence, and tests/test_notebooks.py appends
+:func:`claims_cell` to its in-memory copy of the notebook, which checks each
+claim's value in the kernel after the notebook ran.  A sentence and its check
+come from one entry, so they cannot drift apart; the build refuses a claim that
+no cell states and a marker that names no claim.
 """
 
 from __future__ import annotations
 
 import json
+import re
 import sys
 from pathlib import Path
+from typing import NamedTuple
 
 import nbformat
 
@@ -38,6 +48,87 @@ def md(text: str):
     return nbformat.v4.new_markdown_cell(text.strip("\n"))
 
 
+class Claim(NamedTuple):
+    """A number (or a fact) a notebook's text states, and the check of it in the notebook's kernel.
+
+    key: the marker ``[[key]]`` of the markdown cell that states it.
+    text: the sentence; ``{bound}`` (``{lo}``, ``{hi}`` for "between") is replaced by the bound as stated,
+        ``format(bound, fmt)``.
+    value: a Python expression, evaluated in the kernel after the notebook's last cell: a number, or (for the
+        comparisons) a sequence of numbers, each of which must hold.
+    check: "<", "<=", ">", ">=" (value against bound), "between" (lo <= value <= hi, bound = (lo, hi)),
+        "prints as" (format(value, fmt) == format(bound, fmt): the digits the text states) or
+        "true" (bool(value); the text states a fact, or a bound its expression holds).
+    when: a Python expression; the claim is checked where it is true (a C compiler is present, ...).
+    """
+
+    key: str
+    text: str
+    value: str
+    check: str
+    bound: object = None
+    fmt: str = ".0e"
+    when: str | None = None
+
+    def stated(self, x) -> str:
+        """``x`` as the text states it: ``format(x, fmt)``, exponents without a leading zero (1e-3, not 1e-03)."""
+        return re.sub(r"e([+-])0(\d)", r"e\1\2", format(x, self.fmt)).replace("e+", "e")
+
+    def sentence(self) -> str:
+        if self.check == "between":
+            lo, hi = self.bound
+            return self.text.replace("{lo}", self.stated(lo)).replace("{hi}", self.stated(hi))
+        if self.check == "true":
+            return self.text
+        return self.text.replace("{bound}", self.stated(self.bound))
+
+
+CHECKS = ("<", "<=", ">", ">=", "between", "prints as", "true")
+MARKER = re.compile(r"\[\[([A-Za-z0-9_]+)\]\]")
+
+#: the cell tests/test_notebooks.py appends: each claim's value, its check, and one JSON line of what it found
+CHECK_CELL = '''\
+# appended by tests/test_notebooks.py (never committed): the claims of this notebook's text, notebooks/_build.py CLAIMS
+import json as _json
+import operator as _operator
+
+_found, _failed = [], []
+for _key, _value, _check, _bound, _fmt, _when in __CLAIMS__:
+    if _when is not None and not eval(_when):
+        _found.append({"key": _key, "skipped": _when})
+        continue
+    _v = eval(_value)
+    if _check == "true":
+        _v = bool(_v)
+        _ok = _v
+    else:
+        _v = [float(_x) for _x in _v] if isinstance(_v, (list, tuple)) else float(_v)
+        if _check == "between":
+            _holds = lambda _x: _bound[0] <= _x <= _bound[1]
+        elif _check == "prints as":
+            _holds = lambda _x: format(_x, _fmt) == format(_bound, _fmt)
+        else:
+            _op = {"<": _operator.lt, "<=": _operator.le, ">": _operator.gt, ">=": _operator.ge}[_check]
+            _holds = lambda _x: _op(_x, _bound)
+        _ok = all(map(_holds, _v)) if isinstance(_v, list) and _v else (not isinstance(_v, list) and _holds(_v))
+    _found.append({"key": _key, "value": _v, "check": _check, "bound": _bound, "ok": _ok})
+    if not _ok:
+        _failed.append(f"{_key}: {_v!r} {_check} {_bound!r}")
+print("CLAIMS " + _json.dumps(_found))
+assert not _failed, "a claim of the text does not hold: " + "; ".join(_failed)
+'''
+
+
+def check_source(claims) -> str:
+    """The source of a code cell that checks ``claims`` in the kernel it runs in."""
+    return CHECK_CELL.replace("__CLAIMS__", repr([(c.key, c.value, c.check, c.bound, c.fmt, c.when) for c in claims]))
+
+
+def claims_cell(name: str) -> nbformat.NotebookNode:
+    """The code cell that checks the claims of notebook ``name`` (appended by the test, never written)."""
+    return nbformat.v4.new_code_cell(check_source(CLAIMS.get(name, ())))
+
+
 def code(text: str):
     return nbformat.v4.new_code_cell(text.strip("\n"))
 
@@ -50,18 +141,20 @@ H_FUNCTIONS = [
 $H_0(\mu; c)$ and $H_1(\mu; c)$ are Chandrasekhar H-functions of the three-term Lambert-sphere
 half space (docs/model.md, "H-functions"): the solutions of $H(\mu) = 1 + \mu H(\mu) \int_0^1 \Psi_m(v) H(v)/(\mu + v)\,dv$
 for the characteristic functions $\Psi_0, \Psi_1$. `fitlab.families.lambert_sphere.exact.h_function` solves them
-(Nyström + Newton; the Fock integral agrees to about 1e-13). The BRDF uses them at
+(Nyström + Newton; `method="fock"`, the Fock integral, is an independent second method). The BRDF uses them at
 $\mu = \mu_i$ and $\mu = \mu_o$, so errors are wanted over the whole square $(\mu, c) \in [0, 1]^2$.
 
 The approximations:
 * **published**: Hapke-style $H_0$ (eq. 31) and the separable $H_1$ (two readings of the printed form, and
   the renderer's coefficients), as presets of `fitlab.forms`;
-* **fits** in `fits/`: the same forms refitted (`fitlab refit --target H0`), the richer `hapke_rational` form of
-  $H_0$, and whatever else is saved there for the target (e.g. the forms `fitlab discover` found, `H0.sr_*.json`).
+* **fits** packaged with fitlab (`fitlab.resources.packaged_fits()`): the same forms refitted (`H0.json`, `H1.json`:
+  `fitlab refit --target H0 --form hapke`), the `log_exp` forms with the exact grazing behaviour that the generated
+  code prints (`H0.log_exp.json`: what `fitlab refit --target H0` fits), the richer `hapke_rational` form of $H_0$, and
+  whatever else is saved there for the target (the forms `fitlab discover` found, `H0.sr_*.json`).
 
 The error is relative, $|H_\text{approx} - H|/H$. What to look for:
 * where each fit's largest errors lie (a minimax fit spreads its error evenly; docs/fitting.md shows why the
-  eq. 31 form cannot do better than 0.484 % at $c = 1$);
+  eq. 31 form cannot do much better than its minimax refit: [[hapke_floor]], [[hapke_floor_at]]);
 * whether the refits trade accuracy at small $c$ for accuracy near $c = 1$ (the $H_0$ refit weights small $c$
   more: the runtime model is most sensitive there);
 * grazing angles: the exact $H - 1$ vanishes like $\mu \log(1/\mu)$ as $\mu \to 0$; a form that vanishes like a
@@ -72,21 +165,23 @@ The error is relative, $|H_\text{approx} - H|/H$. What to look for:
 from fitlab.families.lambert_sphere.exact import h_function
 from fitlab.core import get_target, targets
 from fitlab.residuals import approximations, heatmap, residuals
+from fitlab.store import load
 '''),
     md(r"""
 ## The grid
 
-With full settings the grid is the refits' own validation grid (`get_target(...).validation()`: $c = 1 - s^2$,
-$s$ and $\mu$ at odd multiples of 1/256, plus the edges and $\mu$ = 1e-10, 1e-7, 1e-5), so every maximum below is
-the one stored in the fit record. With `SMALL` it is a coarse grid of the same kind.
+With full settings the grid is the refits' own validation grid (`get_target(...).validation()`: [[validation_grid]]),
+the one every fit record's figures are measured on. With `SMALL` it is a coarse grid of the same kind.
 """),
     code('''
+validation = get_target("H0").validation()  # H1's validation set has the same points
+VALID_MU, VALID_C = np.unique(validation.inputs["mu"]), np.unique(validation.inputs["c"])
+ODD = np.arange(1, 256, 2) / 256
 if SMALL:
     MU = np.concatenate(([0.0, 1e-5], np.linspace(1 / 16, 1, 16)))
     C = np.sort(1 - np.linspace(0, 1, 13) ** 2)
 else:
-    validation = get_target("H0").validation()  # H1's validation set has the same points
-    MU, C = np.unique(validation.inputs["mu"]), np.unique(validation.inputs["c"])
+    MU, C = VALID_MU, VALID_C
 print(f"{MU.size} values of mu x {C.size} values of c")
 
 found = {name: approximations(name, FITS) for name in ("H0", "H1")}
@@ -96,39 +191,51 @@ res = {name: {label: residuals(name, a, mu=MU, c=C) for label, a in found[name].
 ## The exact functions
 
 $H_0$ and $H_1$ rise from 1 at grazing ($\mu = 0$); $H_0$ grows fastest at $c = 1$, where $H_0(\infty)$ is infinite
-(the conservative case, eq. 32).
+(the conservative case, eq. 32). The two methods agree: [[fock]]
 """),
     code('''
 fig, axes = plt.subplots(1, 2, figsize=(10, 3.5), layout="constrained")
-mu = np.linspace(0, 1, 101)
+mu = np.linspace(0, 1, 21 if SMALL else 101)
+fock_difference = 0.0
 for ax, order in zip(axes, (0, 1)):
     for c in (0.3, 0.7, 0.9, 0.99, 1.0):
-        ax.plot(mu, h_function(order, mu, c), label=f"c = {c}")
+        h = h_function(order, mu, c)
+        fock_difference = max(fock_difference, np.max(np.abs(h_function(order, mu, c, method="fock") - h) / h))
+        ax.plot(mu, h, label=f"c = {c}")
     ax.set(xlabel="mu", ylabel=f"H{order}(mu; c)", title=f"exact H{order}")
 axes[0].legend()
 plt.show()
+print(f"Nystrom vs Fock on these curves: max relative difference {fock_difference:.1e}")
 '''),
     md(r"""
 ## Summary
 
 `max` is the largest relative error on the grid, `rms` its root mean square; `worst at` is where the maximum lies.
-For the refits, `record` is the validation maximum stored in the fit file (with full settings the two agree).
+For the saved fits, `record` is the validation maximum the fit file states and `re-measured` the one
+`fitlab.store.load(path, verify=True)` measures on the validation set (what `fitlab codegen` does before it prints a
+fit): [[record_remeasured]] With full settings the grid is that set, and `max` is the same figure again.
 """),
     code('''
-print(f"{'approximation':<54} {'max':>9} {'rms':>9} {'record':>9}  worst at")
+remeasured = {}  # (target, label): (the record's max, the max re-measured on the validation set)
+print(f"{'approximation':<54} {'max':>9} {'rms':>9} {'record':>9} {'re-measured':>11}  worst at")
 for name, by_label in res.items():
     for label, r in by_label.items():
         s = r.summary()
         fit = found[name][label]
-        record = f"{fit.record['validation']['max_rel']:9.2e}" if hasattr(fit, "record") else " " * 9
+        columns = " " * 21
+        if hasattr(fit, "record"):
+            m = load(fit.path, verify=True).measured
+            remeasured[name, label] = (fit.record["validation"]["max_rel"], m["max_rel"])
+            columns = f"{fit.record['validation']['max_rel']:9.2e} {m['max_rel']:11.2e}"
         w = s["worst"]
-        print(f"{name + ': ' + label:<54} {s['max_rel']:9.2e} {s['rms_rel']:9.2e} {record}  mu = {w['mu']:.4g}, c = {w['c']:.4g}")
+        print(f"{name + ': ' + label:<54} {s['max_rel']:9.2e} {s['rms_rel']:9.2e} {columns}  mu = {w['mu']:.4g}, c = {w['c']:.4g}")
+hapke = load(FITS / "H0.json", verify=True).measured  # the eq. 31 form, refitted minimax
 '''),
     md(r"""
 ## Heat maps over $(\mu, c)$
 
-One colour scale for all panels (log, 1e-6 to 1e-1). The rows are $H_0$ and $H_1$; the columns the best published
-preset, then every saved fit (the refit of the same form first). Look at where the colour is brightest, and at how
+One log colour scale for all panels (the colour bars show it). The rows are $H_0$ and $H_1$; the columns the best
+published preset, then every saved fit (the refit of the same form first). Look at where the colour is brightest, and at how
 evenly a minimax refit spreads its error compared with the published preset.
 """),
     code('''
@@ -202,11 +309,10 @@ $A = 69c/128$ and $E$ exact (eq. 33). `fitlab.families.lambert_sphere.exact.cons
 
 Errors use each target's own scale (`fitlab.families.lambert_sphere.targets`):
 * $l$, $m$: relative, $|\Delta l|/|l|$;
-* $B, C, D, F$: **relative to $A$**, $|\Delta X|/A$. $B$ changes sign near $c = 0.94$ and $D$, $F$ vanish at $c = 1$, so
+* $B, C, D, F$: **relative to $A$**, $|\Delta X|/A$. [[b_sign]], and [[df_zero]], so
   $|\Delta X|/|X|$ has no bound; an error $\Delta X$ moves $Q$ (and $f^{(0)}$) by at most $2|\Delta X|$ against $A$.
 
-All four printed rationals for $B..F$ miss the exact zero at $c = 0$, an infinite error in this measure:
-`max*` below leaves the exact zeros out.
+[[printed_zero]] `max*` below leaves the exact zeros out.
 """),
     code(SETUP + '''
 from fitlab.families.lambert_sphere.exact import constants
@@ -219,13 +325,12 @@ NAMES = ("l", "m", "B", "C", "D", "F")
 ## The grid
 
 $c = 1 - s^2$ for evenly spaced $s$, dense near $c = 1$ where the constants bend. With full settings: the refits'
-validation grid ($s$ at odd multiples of 1/256 plus the edges), as in the fit records.
+validation grid ([[validation_grid]]), as in the fit records.
 """),
     code('''
-if SMALL:
-    C = np.sort(1 - np.linspace(0, 1, 17) ** 2)
-else:
-    C = np.unique(get_target("l").validation().inputs["c"])
+VALID_C = np.unique(get_target("l").validation().inputs["c"])
+ODD = np.arange(1, 256, 2) / 256
+C = np.sort(1 - np.linspace(0, 1, 17) ** 2) if SMALL else VALID_C
 found = {name: approximations(name, FITS) for name in NAMES}
 res = {name: {label: residuals(name, a, c=C) for label, a in found[name].items()} for name in NAMES}
 print(f"{C.size} values of c; approximations: " + ", ".join(f"{n}: {len(v)}" for n, v in found.items()))
@@ -284,12 +389,21 @@ for name in NAMES:
 ## An identity: the runtime model needs no fit of $m$
 
 The order-1 term uses $l$ and $m$ only through $l$ and $l^2 + 45m/64$, and the moment relations give
-$l^2 + 45m/64 = (45 + 20c)/64$ exactly (docs/fitting.md). The exact constants confirm it to rounding:
+$l^2 + 45m/64 = (45 + 20c)/64$ exactly (docs/fitting.md). The exact constants confirm it to rounding: [[identity]]
+The cell also locates the sign change of $B$ and the values of $D$ and $F$ at $c = 1$ that the introduction states.
 """),
     code('''
 exact = constants(C)
 deviation = np.abs(exact["l"] ** 2 + 45 * exact["m"] / 64 - (45 + 20 * C) / 64)
 print(f"max |l^2 + 45 m/64 - (45 + 20c)/64| over {C.size} values of c: {deviation.max():.1e}")
+
+B = exact["B"]
+b_flips = np.flatnonzero(B[:-1] * B[1:] < 0)  # grid intervals where B changes sign (B(0) = 0 is no change)
+i = b_flips[0]
+b_root = C[i] - B[i] * (C[i + 1] - C[i]) / (B[i + 1] - B[i])  # linear interpolation inside the interval
+A1 = 69 / 128  # A at c = 1
+at_one = {name: exact[name][C == 1][0] / A1 for name in ("D", "F")}
+print(f"B changes sign {b_flips.size} time(s), at c = {b_root:.4f};  at c = 1: D/A = {at_one['D']:.1e}, F/A = {at_one['F']:.1e}")
 '''),
 ]
 
@@ -304,8 +418,8 @@ phase function in single scattering): $k_d$ = kd_true(c). The two maps are fitte
 * `kd_of_c`: $k_d(c)$, the printed form (which misses $k_d(0) = 0$) and forms that build the zero in;
 * `c_of_kd`: its inverse (paper and renderer coefficients, and the refit).
 
-Note kd_true(1) = 1 + 1e-5, not 1 (docs/errata.md): the inverse is fitted and measured on $k_d \le 1$ only, so the
-$c$ grid of `c_of_kd` leaves out $c = 1$.
+Note kd_true(1) = 1 + [[kd_one]], not 1 (docs/errata.md): the inverse is fitted and measured on $k_d \le 1$ only, so
+[[c_of_kd_domain]].
 
 Errors are relative. The last section composes the two fitted maps: a renderer that converts $k_d \to c$ and
 back should get its $k_d$ back.
@@ -331,7 +445,7 @@ print(f"{C.size} values of c")
 ## The exact map, and the three-term phase function
 
 The three-term half space alone (`model="three_term"`) gives a slightly different albedo; the true phase function
-enters only through single scattering, so the difference grows in proportion to $c$.
+enters only through single scattering, so the difference grows in proportion to $c$: [[proportional]]
 """),
     code('''
 kd_true, kd_three = spherical_albedo(C, model="true"), spherical_albedo(C, model="three_term")
@@ -343,12 +457,13 @@ axes[0].legend()
 axes[1].plot(C, kd_true - kd_three, ".-")
 axes[1].set(xlabel="c", ylabel="kd_true - kd_three_term", title="true vs three-term phase function")
 plt.show()
+per_c = (kd_true - kd_three)[C > 0] / C[C > 0]
+print(f"kd_true(1) - 1 = {kd_true[C == 1][0] - 1:.2e};  (kd_true - kd_three)/c from {per_c.min():.6e} to {per_c.max():.6e}")
 '''),
     md(r"""
 ## Errors of $k_d(c)$ and $c(k_d)$
 
-Dashed lines are published presets. The printed $k_d(c)$ misses $k_d(0) = 0$ (infinite relative error at $c = 0$, not
-drawn on a log scale); the refitted forms are exact there.
+Dashed lines are published presets. [[printed_kd0]] [[refits_kd0]]
 """),
     code('''
 fig, axes = plt.subplots(1, 2, figsize=(11, 4), layout="constrained")
@@ -411,20 +526,26 @@ BRDF = [
 # The full BRDF: the runtime model and the fast variant
 
 `fitlab.families.lambert_sphere.runtime.runtime_model` assembles the runtime BRDF (docs/model.md),
-$f_r = \max(0, f_1 + f_m^{(0)} + f_m^{(1)}\cos\phi)$: exact single scattering with the true phase function plus the
-multiple scattering of Fourier orders 0 and 1 built from approximations of $H_0$, $H_1$, $l$, $m$, $B..F$.
+$f_r = \max(0, f_1 + f_m^{(0)} + f_m^{(1)}\cos\phi + f_m^{(2)}\cos 2\phi)$: exact single scattering with the true
+phase function plus the multiple scattering of Fourier orders 0, 1 and 2 built from approximations of $H_0$, $H_1$,
+$H_2$, $l$, $m$, $B..F$ (the fitted models also carry an energy scale that keeps their albedo at or below 1).
 It is measured against `fitlab.families.lambert_sphere.exact.brdf`, the reference (all three Fourier orders, exact H-functions).
 The fast variant (eq. 41) replaces the multiple scattering by a lobe and a constant in $k_d$ = kd_true(c).
 
-Models compared:
-* `paper`: printed coefficients, renderer reading of $H_1$, exact normalisations;
-* `refit`: the default forms refitted (`fits/*.json`);
-* `refit (richer)`: the richer forms where fitted (`hapke_rational` $H_0$, cubic $l$, ...);
+Models compared, the fitted ones from the fits packaged with fitlab (`fitlab.resources.packaged_fits()`; `fits_dir=DIR`
+overlays a folder of one's own on them):
+* `paper`: printed coefficients, renderer reading of $H_1$, exact normalisations, Fourier orders 0 and 1;
+* `shipped (order 2)`: `runtime_model()`, the model `fitlab codegen` prints: the second Fourier order $f_m^{(2)}\cos 2\phi$
+  added, $H_0, H_1, H_2$ in the `log_exp` forms (exact grazing behaviour), $B..F$ exact to first order in $c$
+  (docs/model.md, "Order 2");
+* `refit, default forms`: `runtime_model(model="default-forms")`, each part's default form refitted (Hapke-style $H_0$,
+  separable $H_1$, ...), with the order-2 term;
+* `refit, richer forms`: the same with the richer forms where fitted (`hapke_rational` $H_0$, cubic $l$, ...);
 * the fast variant, published and refitted.
 
-Errors are relative, $|f_\text{model} - f|/f$. The order-2 term that the runtime model drops, and the grazing pole
-at $\mu_i = \mu_o = 0$ (where the exact $f_r$ grows like $\log(1/\mu)$ at $\phi = \pi$, and like $1/\mu$ through
-single scattering elsewhere), set floors no fit of the parts can remove.
+Errors are relative, $|f_\text{model} - f|/f$. [[order2]] The grazing pole at
+$\mu_i = \mu_o = 0$ (where the exact $f_r$ grows like $\log(1/\mu)$ at $\phi = \pi$, and like $1/\mu$ through
+single scattering elsewhere) is where forms without the exact grazing behaviour fail.
 $\phi = 0$ is back-scattering (the viewer beside the light).
 """),
     code(SETUP + '''
@@ -437,9 +558,12 @@ from fitlab.families.lambert_sphere.runtime import runtime_model
 RICHER = {"H0": "hapke_rational", "l": "cubic", "m": "quadratic", **{n: "rational_4_3" for n in "BCDF"}}
 MODELS = {
     "paper": runtime_model("paper"),
-    "refit": runtime_model(fits_dir=FITS),
-    "refit (richer)": runtime_model(fits_dir=FITS, forms=RICHER),
+    "shipped (order 2)": runtime_model(),
+    "refit, default forms": runtime_model(model="default-forms"),
+    "refit, richer forms": runtime_model(model="default-forms", forms=RICHER),
 }
+for label, m in MODELS.items():
+    print(f"{label:<22} {m.name}: " + ", ".join(m.sources.values()))
 FAST = {"fast / paper": ("paper", "paper"), "fast / refit": load(FITS / "fast_brdf.json")}
 
 n = 13 if SMALL else 41
@@ -454,22 +578,23 @@ print(f"{MU.size}^2 directions x {PHI.size} azimuths x {C.size} albedos")
     md(r"""
 ## Summary
 
-`max` over the whole grid, `max (mu >= 0.1)` away from grazing, and where the maximum lies.
+`max` over the whole grid, `max (mu >= 0.1)` away from grazing, and where the maximum lies. [[shipped_best]]
 """),
     code('''
-print(f"{'model':<16} {'max':>9} {'rms':>9} {'max (mu >= 0.1)':>16}  worst at")
+print(f"{'model':<22} {'max':>9} {'rms':>9} {'max (mu >= 0.1)':>16}  worst at")
 for label, r in res.items():
     s = r.summary()
     away = (r.inputs["mu_i"] >= 0.1) & (r.inputs["mu_o"] >= 0.1)
     w = s["worst"]
-    print(f"{label:<16} {s['max_rel']:9.2e} {s['rms_rel']:9.2e} {r.error[away].max():16.2e}  "
+    print(f"{label:<22} {s['max_rel']:9.2e} {s['rms_rel']:9.2e} {r.error[away].max():16.2e}  "
           f"mu_i = {w['mu_i']:.3g}, mu_o = {w['mu_o']:.3g}, phi = {w['phi']:.3g}, c = {w['c']:.3g}")
 '''),
     md(r"""
 ## Heat maps over $(\mu_i, \mu_o)$
 
-Rows are albedos, columns azimuths; log axes in $\mu$ and a log colour scale (1e-4 to 1). First the refitted runtime
-model, then the refitted fast variant. The diagonal $\mu_i = \mu_o$ at $\phi = \pi$ is where the grazing pole bites.
+Rows are albedos, columns azimuths; log axes in $\mu$ and one log colour scale (the colour bars show it). First the
+shipped runtime model, then the refitted runtime model of the default forms, then the refitted fast variant. The
+diagonal $\mu_i = \mu_o$ at $\phi = \pi$ is where the grazing pole bites.
 """),
     code('''
 def heatmaps(r):
@@ -482,7 +607,10 @@ def heatmaps(r):
     plt.show()
 
 
-heatmaps(res["refit"])
+heatmaps(res["shipped (order 2)"])
+'''),
+    code('''
+heatmaps(res["refit, default forms"])
 '''),
     code('''
 heatmaps(res["fast / refit"])
@@ -490,8 +618,8 @@ heatmaps(res["fast / refit"])
     md(r"""
 ## Polar slices in the plane of incidence
 
-Light at $\theta_i = 60°$; the viewer moves through the plane of incidence, $\theta_o$ from $-89°$ (beside the light,
-$\phi = 0$) to $+89°$ (opposite, $\phi = \pi$). Left: $f_r$ (1/sr); right: the relative error of each model.
+The light at a fixed $\theta_i$ (the title states it); the viewer moves through the plane of incidence, from grazing
+beside the light ($\phi = 0$, negative $\theta_o$) to grazing opposite ($\phi = \pi$, positive $\theta_o$). Left: $f_r$ (1/sr); right: the relative error of each model.
 """),
     code('''
 theta = np.radians(np.linspace(0, 89, 30 if SMALL else 90))
@@ -522,14 +650,17 @@ plt.show()
     md(r"""
 ## Grazing behaviour
 
-Along $\mu_i = \mu_o = \mu \to 0$ (the diagonal of the grid, extended to $\mu$ = 1e-6):
-* at $\phi = 0$ single scattering, $c\,p(u)/(2\mu)$, dominates and every model follows it;
+Along $\mu_i = \mu_o = \mu \to 0$ (the diagonal of the grid, [[grazing_mu]], at $c = 0.9$):
+* at $\phi = 0$ single scattering, $c\,p(u)/(2\mu)$, dominates and every model follows it: [[grazing_forward]]
 * at $\phi = \pi$ single scattering vanishes ($u \to 1$) and the exact BRDF grows like $\log(1/\mu)$ through its
   multiple-scattering orders. Every member of the fast family stays bounded there, so its relative error tends to 1
-  (docs/fitting.md). The runtime models do not stay bounded: the separable $H_1$ form,
+  (docs/fitting.md): [[grazing_fast]] The separable $H_1$ form of the paper's model and of the default forms,
   $\exp(k(c)\,\mu^{e(\mu)})$, approaches 1 like $\mu^{e(0)}$ with $e(0) < 1$, where the exact $H_1 - 1$ goes like
   $\mu\log\mu$, so $(H_1(\mu_i)H_1(\mu_o) - 1)/(\mu_i + \mu_o)$ in $f_m^{(1)}$ grows like a power of $1/\mu$ instead
-  of $\log(1/\mu)$. The printed cells below show the size of this at the smallest $\mu$.
+  of $\log(1/\mu)$: [[grazing_separable]] The shipped model's `log_exp` forms have the exact grazing behaviour:
+  [[grazing_shipped]]
+
+The cell prints each model at the smallest $\mu$, $\phi = \pi$.
 """),
     code('''
 mu = np.geomspace(1e-6, 1, 13 if SMALL else 49)
@@ -549,9 +680,11 @@ axes[0].legend(fontsize="x-small")
 axes[1].legend(fontsize="x-small")
 plt.show()
 
+GRAZING_MU = mu[0]
+at_grazing = {label: r.error[0, 0, :, 0] for label, r in diag.items()}  # the relative error at mu[0], by phi
 k = int(np.argmin(np.abs(PHI - np.pi)))
 for label, r in diag.items():
-    print(f"{label:<16} phi = pi, mu_i = mu_o = {mu[0]:.0e}: exact {r.exact[0, 0, k, 0]:.4g}, model {r.approx[0, 0, k, 0]:.4g}, "
+    print(f"{label:<22} phi = pi, mu_i = mu_o = {mu[0]:.0e}: exact {r.exact[0, 0, k, 0]:.4g}, model {r.approx[0, 0, k, 0]:.4g}, "
           f"relative error {r.error[0, 0, k, 0]:.3g}")
 '''),
     md(r"""
@@ -560,7 +693,7 @@ for label, r in diag.items():
 The grid points of largest error for the refitted runtime model and the refitted fast variant.
 """),
     code('''
-for label in ("refit", "refit (richer)", "fast / refit"):
+for label in ("shipped (order 2)", "refit, default forms", "fast / refit"):
     print(res[label].table(8), end="\\n\\n")
 '''),
     md(r"""
@@ -583,7 +716,7 @@ plt.show()
 # -----------------------------------------------------------------------------
 WALKTHROUGH = [
     md(r"""
-# Refit a target and generate code: a walkthrough
+# Refit a target and generate code that uses the refit: a walkthrough
 
 This notebook does, through the Python API, what these commands do:
 
@@ -594,7 +727,11 @@ fitlab codegen --lang python --fits SCRATCH/fits --out SCRATCH/generated
 fitlab codegen --lang c --fits SCRATCH/fits --out SCRATCH/generated
 ```
 
-It works in a scratch folder, so the fits packaged with fitlab stay as they are.
+`fitlab refit --target H1` fits $H_1$ in the form the generated code prints and writes that one fit file. A `--fits`
+folder overlays the fits packaged with fitlab (`fitlab.resources.packaged_fits()`): each fit is read from the folder
+when it has the file, else from the packaged fits. So the scratch folder starts empty and holds only the refit, the
+generated code uses the refit for $H_1$ and the packaged fits for every other part, and the packaged fits stay as
+they are.
 """),
     code(SETUP + '''
 import importlib.util
@@ -603,55 +740,64 @@ import shutil
 import tempfile
 import time
 
-from fitlab.codegen import generate, load_program, write_generated
-from fitlab.codegen.native import CompileError, build, compiler
-from fitlab.families.lambert_sphere.exact import brdf, h_function
-from fitlab.fit.refit import refit, table
-from fitlab.store import fit_path, write_fit
+from fitlab.codegen import generate, load_program, model_form, write_generated
+from fitlab.codegen.native import STRICT_FLAGS, CompileError, build, compiler
 from fitlab.core import get_target, targets
-from fitlab.store import load
+from fitlab.families.lambert_sphere.exact import brdf, h_function
 from fitlab.families.lambert_sphere.runtime import runtime_model
+from fitlab.fit.refit import refit, table
+from fitlab.fit.verify import TOLERANCE
+from fitlab.store import fit_path, fit_sha256, fit_source, load, write_fit
 '''),
     md(r"""
 ## 1. The targets
 
-Each target is something the exact engine computes (`fitlab.families.lambert_sphere.targets`), with its forms (`fitlab.forms`: one sympy
-expression each, with published presets) and the form `fitlab refit` fits by default.
+Each target is something the exact engine computes (`fitlab.families.lambert_sphere.targets`), with its forms
+(`fitlab.forms`: one sympy expression each, with published presets). `fitlab refit` fits by default the form the
+generated code prints (`fitlab.codegen.model_form`: the program's default model, the order-2 runtime model of
+docs/model.md), else the target's default form.
 """),
     code('''
 for t in targets().values():
-    forms = ", ".join(f"{f}*" if f == t.default_form else f for f in t.forms)
-    print(f"{t.name:<10} {forms:<42} {t.description}")
-print("* the default form")
+    if t.family != "lambert_sphere":
+        continue
+    default = model_form(t.name)
+    forms = ", ".join(f"{f}*" if f == default else f for f in t.forms)
+    print(f"{t.name:<16} {forms:<58} {t.description}")
+print("* the form fitlab refit fits by default")
 '''),
     code('''
+FORM = model_form("H1")
 t = get_target("H1")
-form = t.forms[t.default_form]
+form = t.forms[FORM]
+print("H1's form in the generated code:", FORM)
 print(form.description)
-print("expression:", form.expression)
 print("parameters:", form.params, " fixed:", dict(form.fixed))
 print("error measure:", t.error_measure)
 '''),
     md(r"""
-## 2. Refit into a scratch folder
+## 2. Refit $H_1$ into an empty scratch folder
 
-The code generator needs a fit of every part of the runtime model, so the scratch folder starts as a copy of the
-committed fits; the refit of $H_1$ then replaces `H1.json` in it. `refit` fits the training set (the table
-`h1.csv` of the packaged exact tables: least squares with optimistix, then a Lawson minimax refinement), measures the fit and every
-published preset on the denser validation set and writes the record. With `SMALL` the minimax refinement is
-skipped: compare its maximum with the committed fit's to see what the refinement buys.
+`refit` fits the training set (from the packaged exact tables: least squares with optimistix, then a Lawson minimax
+refinement), measures the fit and the published presets on the denser validation set and returns the record
+(`result.record`); it writes no file. `fitlab.store.write_fit` writes it where `fitlab.store.fit_path` names it.
+With `SMALL` the minimax refinement is skipped: compare its maximum with the packaged fit's to see what the
+refinement buys. [[one_file]]
 """),
     code('''
 scratch = Path(tempfile.mkdtemp(prefix="fitlab-walkthrough-"))
-shutil.copytree(FITS, scratch / "fits", ignore=shutil.ignore_patterns("generated", "README.md"))
+fits_dir = scratch / "fits"
 
 start = time.perf_counter()
-result = refit("H1", minimax=not SMALL)
+result = refit("H1", FORM, minimax=not SMALL)
 wall = time.perf_counter() - start
 print(table([result], [wall]))
-path = fit_path(scratch / "fits", "H1", result.record["form"])
+path = fit_path(fits_dir, "H1", result.record["form"])
 write_fit(path, result.record)
-print("written:", path)
+scratch_files = sorted(p.name for p in fits_dir.iterdir())
+scratch_sha256 = fit_sha256(path)
+print("the scratch folder holds:", scratch_files)
+print("sha256:", scratch_sha256)
 '''),
     md(r"""
 ## 3. The record
@@ -666,8 +812,9 @@ print("validation:", {k: record["validation"][k] for k in ("max_rel", "rms_rel",
 for p in record["published"]:
     print(f"published {p['form']} / {p['preset']}: max {p['validation']['max_rel']:.3g}")
 print("optimizer:", record["optimizer"]["objective"])
-committed = load(FITS / "H1.json")
-print(f"committed fit: max {committed.record['validation']['max_rel']:.3e};  this refit: max {record['validation']['max_rel']:.3e}")
+packaged_h1 = load(fit_source(None, "H1", FORM))  # fits_dir None: the packaged fit
+print(f"packaged fit ({packaged_h1.path.name}): max {packaged_h1.record['validation']['max_rel']:.3e};  "
+      f"this refit: max {record['validation']['max_rel']:.3e}")
 '''),
     md(r"""
 ## 4. Load and evaluate
@@ -688,69 +835,197 @@ except ValueError as err:
     print("outside the domain:", err)
 '''),
     md(r"""
-## 5. Generate Python and compare
+## 5. Generate Python from the scratch folder
 
-`generate("python", fits_dir)` prints the runtime BRDF and every fitted part from the fits and the sympy forms; the
-module needs only numpy. It should agree with the same model evaluated through fitlab (`runtime_model(fits_dir=...)`)
-to rounding. Note the generated `brdf` takes $\cos\phi$, `runtime_model` takes $\phi$.
+`generate("python", fits_dir=fits_dir)` prints the runtime BRDF (the program's default model) and every fitted part,
+from the fits and the sympy forms; the module needs only numpy. It re-measures every fit on its target's validation
+set first, and refuses one [[tolerance]] than its file states. Its banner lists, fit by fit, the file, its sha256,
+where it was read and the error measured. [[banner_h1]] [[banner_rest]] [[banner_max]]
 """),
     code('''
-paths = write_generated(generate("python", fits_dir=scratch / "fits"), scratch / "generated")
+files = generate("python", fits_dir=fits_dir)
+paths = write_generated(files, scratch / "generated")
 print("wrote", [p.name for p in paths])
+source = files["lambert_sphere.py"]
+head = source[:source.index('"""')]  # the banner: the comment lines before the docstring
+print(head)
+# the lines under "From these fits": file, sha256, "packaged;" or "--fits;", then the figures
+listed = [line[1:].split() for line in head.splitlines() if line.startswith("#   ")]
+banner = {words[0]: (words[1], words[2].rstrip(";"), float(words[4].rstrip(","))) for words in listed}
+banner_h1 = banner[path.name]
+'''),
+    md(r"""
+The generated $h_1$ is the refit: [[h1_equal]] The packaged fit is another fit of the same form, and the next cell
+prints how far the two are apart.
+"""),
+    code('''
 spec = importlib.util.spec_from_file_location("lambert_sphere_walkthrough", scratch / "generated" / "lambert_sphere.py")
 generated = importlib.util.module_from_spec(spec)
 spec.loader.exec_module(generated)
 print(inspect.getsource(generated.h1))
-print("h1, generated vs loaded fit: max |difference| =", np.abs(generated.h1(mu, c) - h1(mu=mu, c=c)).max())
+
+# the whole domain: mu and c in [0, 1], grazing mu included
+MU_H, C_H = np.meshgrid(np.concatenate(([0.0, 1e-10, 1e-6, 1e-3], np.linspace(0, 1, 101)[1:])), np.linspace(0, 1, 101))
+h1_refit = h1(mu=MU_H, c=C_H)
+h1_difference = np.max(np.abs(generated.h1(MU_H, C_H) - h1_refit) / h1_refit)
+print(f"h1, generated vs the refit (load(path)): max relative difference {h1_difference:.1e}")
+print(f"h1, the refit vs the packaged fit:          max relative difference "
+      f"{np.max(np.abs(packaged_h1(mu=MU_H, c=C_H) - h1_refit) / h1_refit):.1e}")
 '''),
+    md(r"""
+The generated `brdf` is the model `runtime_model(fits_dir=fits_dir)` evaluates through fitlab (the same default model,
+the same overlay of the scratch folder on the packaged fits): [[brdf_runtime]] Against the exact BRDF
+(`fitlab.families.lambert_sphere.exact.brdf`) on random directions with $\mu \ge 0.01$, [[brdf_exact]] (the cell
+prints the figure). Note the generated `brdf` takes $\cos\phi$, `runtime_model` takes $\phi$.
+"""),
     code('''
 rng = np.random.default_rng(0)
 n = 2000 if SMALL else 100_000
 mu_i, mu_o = rng.uniform(0.01, 1, (2, n))
 phi = rng.uniform(0, np.pi, n)
 c = rng.choice([0.2, 0.5, 0.8, 0.95, 1.0], n)  # a few albedos: the exact engine solves the H-equations once per c
-model = runtime_model(fits_dir=scratch / "fits")
+model = runtime_model(fits_dir=fits_dir)
+print("runtime_model:", model.name, "; H1 from", model.sources["H1"])
 via_fitlab = model(mu_i, mu_o, phi, c)
 via_generated = generated.brdf(mu_i, mu_o, np.cos(phi), c)
-print(f"generated vs runtime_model: max relative difference {np.max(np.abs(via_generated - via_fitlab) / via_fitlab):.1e}")
+brdf_difference = np.max(np.abs(via_generated - via_fitlab) / via_fitlab)
+print(f"generated vs runtime_model: max relative difference {brdf_difference:.1e}")
 exact = brdf(mu_i, mu_o, phi, c)
 err = np.abs(via_generated - exact) / exact
-print(f"generated vs exact BRDF ({n} random points, mu >= 0.01): max relative error {err.max():.2e}, median {np.median(err):.2e}")
+brdf_error = err.max()
+print(f"generated vs exact BRDF ({n} random points, mu >= 0.01): max relative error {brdf_error:.2e}, median {np.median(err):.2e}")
 '''),
     md(r"""
 ## 6. Generate C, compile and compare (when a compiler is present)
 
 The C file has double and float versions of every routine (`lambert_sphere_brdf`, `lambert_sphere_brdf_f`, ...).
-`fitlab.codegen.native.build` compiles it with the strict flags the tests use
-(`-std=c99 -O2 -Wall -Wextra -Wpedantic -Werror`) and calls it through ctypes.
+[[c_banner]] `fitlab.codegen.native.build` compiles it with the strict flags the tests use
+([[c_flags]]) and calls it through ctypes: [[c_python]] The cell also prints how
+far the float version is from the double one.
 """),
     code('''
-files = generate("c", fits_dir=scratch / "fits")
-header = files["lambert_sphere.h"]
+files_c = generate("c", fits_dir=fits_dir)
+header = files_c["lambert_sphere.h"]
+words = next(line for line in header.splitlines() if path.name in line).strip(" */").split()
+c_banner_h1 = (words[0], words[1], words[2].rstrip(";"))
+print("C banner:", " ".join(words))
 print("\\n".join(line for line in header.splitlines() if "_h1" in line))
+c_difference = None
 if compiler() is None:
     print("no C compiler (cc, gcc or clang) on PATH: skipped")
 else:
     try:
-        native = build(files, load_program(scratch / "fits"), scratch / "c")
+        native = build(files_c, load_program(fits_dir), scratch / "c")
     except CompileError as err:
         print(err)
     else:
         double = native("brdf", mu_i, mu_o, np.cos(phi), c)
         single = native("brdf", mu_i, mu_o, np.cos(phi), c, dtype=np.float32)
-        print(f"C double vs generated Python: max relative difference {np.max(np.abs(double - via_generated) / via_generated):.1e}")
+        print("compiled with", " ".join(STRICT_FLAGS))
+        c_difference = np.max(np.abs(double - via_generated) / via_generated)
+        print(f"C double vs generated Python: max relative difference {c_difference:.1e}")
         print(f"C float vs C double:          max relative difference {np.max(np.abs(single - double) / double):.1e}")
 '''),
     md(r"""
-## 7. Clean up
+## 7. Keeping a refit
 
-To keep a refit, write it to `fits/` instead (`refit(..., out=Path("../fits"))`, or `fitlab refit --target H1`),
-then regenerate `fits/generated/` with `fitlab codegen` for each language.
+The scratch folder goes away below. To keep a refit, write it into a folder of one's own and generate from that folder
+(the packaged fits fill in every part it lacks):
+
+```
+fitlab refit --target H1 --out my-fits                       # my-fits/H1.log_exp.json
+fitlab codegen --lang c --fits my-fits --out my-generated    # and --lang python, glsl, hlsl, metal, drjit
+```
+
+or, in Python, `write_fit(fit_path(Path("my-fits"), "H1", result.record["form"]), result.record)`, then
+`write_generated(generate("c", fits_dir=Path("my-fits")), Path("my-generated"))`; `runtime_model(fits_dir=Path("my-fits"))`
+evaluates the same model through fitlab. `fitlab refit --form NAME` fits another form (`fitlab refit --list` names them),
+and `fitlab codegen --form H1=NAME` prints it.
 """),
     code('''
 shutil.rmtree(scratch)
 '''),
 ]
+
+SEPARABLE_H1 = '("paper", "refit, default forms", "refit, richer forms")'
+CLAIMS = {
+    "01_h_functions.ipynb": [
+        Claim("validation_grid", "$c = 1 - s^2$, $s$ and $\\mu$ at odd multiples of 1/256, plus the edges and $\\mu$ = 1e-10, "
+              "1e-7, 1e-5",
+              "np.array_equal(VALID_MU, np.concatenate(([0, 1e-10, 1e-7, 1e-5], ODD, [1]))) and "
+              "np.allclose(VALID_C, np.sort(1 - np.concatenate(([0], ODD, [1])) ** 2), rtol=0, atol=1e-15)", "true"),
+        Claim("fock", "on the curves plotted below their largest relative difference is below {bound}.",
+              "fock_difference", "<", 1e-13),
+        Claim("hapke_floor", "the refit `H0.json` reaches {bound}", 'hapke["max_rel"]', "prints as", 0.00484, ".3%"),
+        Claim("hapke_floor_at", "at $c = 1$, where its largest error lies", 'hapke["worst"]["c"] == 1', "true"),
+        Claim("record_remeasured", "for every saved fit the two differ by less than {bound} (relative).",
+              "[abs(measured - stated) / stated for stated, measured in remeasured.values()]", "<", 1e-9),
+    ],
+    "02_constants.ipynb": [
+        Claim("validation_grid", "$s$ at odd multiples of 1/256 plus the edges",
+              "np.allclose(VALID_C, np.sort(1 - np.concatenate(([0], ODD, [1])) ** 2), rtol=0, atol=1e-15)", "true"),
+        Claim("b_sign", "$B$ changes sign once, between $c$ = {lo} and {hi}", "b_root if b_flips.size == 1 else np.nan",
+              "between", (0.93, 0.95), "g"),
+        Claim("df_zero", "$D$, $F$ vanish at $c = 1$ (below {bound} of $A$ there)", "[abs(v) for v in at_one.values()]",
+              "<", 1e-12),
+        Claim("printed_zero", "All four printed rationals for $B..F$ miss the exact zero at $c = 0$, an infinite error in "
+              "this measure.", 'all(np.isinf(res[n]["printed / paper"].error[C == 0]).all() for n in "BCDF")', "true"),
+        Claim("identity", "the largest deviation on the grid is below {bound}.", "deviation.max()", "<", 1e-14),
+    ],
+    "03_albedo_maps.ipynb": [
+        Claim("kd_one", "{bound}", "kd_true[C == 1][0] - 1", "prints as", 1.03e-5, ".2e"),
+        Claim("c_of_kd_domain", "the validation set of `c_of_kd` leaves out $c = 1$ (its largest $k_d$ is below 1)",
+              'get_target("c_of_kd").validation().inputs["kd"].max() < 1', "true"),
+        Claim("proportional", "$(k_d^{true} - k_d^{three})/c$ is the same at every $c > 0$ of the grid to within {bound} (relative).",
+              "np.ptp(per_c) / per_c.mean()", "<", 1e-9),
+        Claim("printed_kd0", "The printed $k_d(c)$ misses $k_d(0) = 0$ (infinite relative error at $c = 0$, not drawn on a "
+              "log scale);", 'np.isinf(kd_res["printed / paper"].error[C == 0]).all()', "true"),
+        Claim("refits_kd0", "every fit saved for $k_d(c)$ is exact there.",
+              "all(r.error[C == 0][0] == 0 for r in kd_res.values() if not r.published)", "true"),
+    ],
+    "04_brdf.ipynb": [
+        Claim("order2", "The paper's model has no order-2 term (it has no $H_2$); the three fitted models each read "
+              "`H2.json` for it.",
+              '"H2" not in MODELS["paper"].sources and all(MODELS[label].sources.get("H2") == "H2.json" '
+              'for label in list(MODELS)[1:])', "true"),
+        Claim("shipped_best", "On this grid the shipped model has the smallest maximum of all the models.",
+              'min(res, key=lambda label: res[label].summary()["max_rel"]) == "shipped (order 2)"', "true"),
+        Claim("grazing_mu", "extended down to $\\mu$ = {bound}", "GRAZING_MU", "prints as", 1e-6, ".0e"),
+        Claim("grazing_forward", "at the smallest $\\mu$ every model is within {bound} of it (relative);",
+              "[errors[0] for errors in at_grazing.values()]", "<", 1e-2),
+        Claim("grazing_fast", "at the smallest $\\mu$ the fast variants' relative errors lie between {lo} and {hi}.",
+              '[at_grazing[label][-1] for label in FAST]', "between", (0.5, 1.0), "g"),
+        Claim("grazing_separable", "at the smallest $\\mu$ their relative errors exceed {bound}.",
+              f"[at_grazing[label][-1] for label in {SEPARABLE_H1}]", ">", 5.0, "g"),
+        Claim("grazing_shipped", "its relative error there stays below {bound}.",
+              'at_grazing["shipped (order 2)"][-1]', "<", 1e-3),
+    ],
+    "05_refit_and_codegen.ipynb": [
+        Claim("one_file", "The scratch folder then holds that one file, `H1.log_exp.json`.",
+              'scratch_files == ["H1.log_exp.json"]', "true"),
+        Claim("tolerance", "more than {bound} worse", "TOLERANCE", "prints as", 0.10, ".0%"),
+        Claim("banner_h1", "The line of $H_1$ names the scratch file, `--fits` as where it was read, and the sha256 of "
+              "the file's bytes (`fitlab.store.fit_sha256(path)`);",
+              'banner_h1[:2] == (scratch_sha256, "--fits")', "true"),
+        Claim("banner_rest", "every other line says `packaged`;",
+              'len(banner) > 1 and all(where == "packaged" for name, (_, where, _) in banner.items() if name != path.name)',
+              "true"),
+        Claim("banner_max", "and the maximum it measured for $H_1$ prints as the one the refit's record states.",
+              'f"{banner_h1[2]:.2e}" == f"{record[\'validation\'][\'max_rel\']:.2e}"', "true"),
+        Claim("h1_equal", "over the whole domain ($\\mu, c \\in [0, 1]$, grazing $\\mu$ included) the generated `h1` "
+              "and the fit that `load(path)` returns differ by less than {bound} (relative).",
+              "h1_difference", "<", 1e-14),
+        Claim("brdf_runtime", "their largest relative difference on random directions is below {bound}.",
+              "brdf_difference", "<", 1e-13),
+        Claim("brdf_exact", "the largest relative error is below {bound}", "brdf_error", "<", 2e-3, ".0e"),
+        Claim("c_banner", "Its banner names the same file, sha256 and origin as the Python module's.",
+              "c_banner_h1 == (path.name, scratch_sha256, \"--fits\")", "true"),
+        Claim("c_flags", "`-std=c99 -O2 -Wall -Wextra -Wpedantic -Werror`",
+              '" ".join(STRICT_FLAGS) == "-std=c99 -O2 -Wall -Wextra -Wpedantic -Werror"', "true"),
+        Claim("c_python", "the double version and the generated Python differ by less than {bound} (relative).",
+              "c_difference", "<", 1e-13, when="c_difference is not None"),
+    ],
+}
 
 NOTEBOOKS = {
     "01_h_functions.ipynb": H_FUNCTIONS,
@@ -761,13 +1036,45 @@ NOTEBOOKS = {
 }
 
 
-def build_notebook(cells) -> nbformat.NotebookNode:
+def state_claims(name: str, cells) -> list:
+    """The cells of notebook ``name`` with each marker [[key]] of its markdown replaced by its claim's sentence;
+    ValueError for a marker that names no claim, and for a claim stated nowhere or twice."""
+    claims = {c.key: c for c in CLAIMS.get(name, ())}
+    if len(claims) != len(CLAIMS.get(name, ())):
+        raise ValueError(f"{name}: two claims share a key")
+    for c in claims.values():
+        if c.check not in CHECKS:
+            raise ValueError(f"{name}: claim {c.key}: unknown check {c.check!r}; one of {', '.join(CHECKS)}")
+    used = []
+
+    def sentence(match):
+        key = match.group(1)
+        if key not in claims:
+            raise ValueError(f"{name}: the marker [[{key}]] names no claim")
+        used.append(key)
+        return claims[key].sentence()
+
+    out = []
+    for cell in cells:
+        cell = nbformat.from_dict(dict(cell))
+        if cell.cell_type == "markdown":
+            cell.source = MARKER.sub(sentence, cell.source)
+        elif MARKER.search(cell.source):
+            raise ValueError(f"{name}: a claim's marker in a code cell")
+        out.append(cell)
+    unstated = sorted(set(claims) - set(used)) + sorted({k for k in used if used.count(k) > 1})
+    if unstated:
+        raise ValueError(f"{name}: claims stated nowhere or twice: {', '.join(unstated)}")
+    return out
+
+
+def build_notebook(cells, name: str | None = None) -> nbformat.NotebookNode:
     nb = nbformat.v4.new_notebook()
     nb.metadata = {
         "kernelspec": {"display_name": "Python 3", "language": "python", "name": "python3"},
         "language_info": {"name": "python"},
     }
-    nb.cells = [nbformat.from_dict(dict(cell)) for cell in cells]
+    nb.cells = state_claims(name, cells) if name is not None else [nbformat.from_dict(dict(cell)) for cell in cells]
     for i, cell in enumerate(nb.cells):
         cell.id = f"cell-{i:02d}"  # stable ids: a rebuild changes nothing unless the cells do
     nbformat.validate(nb)
@@ -775,7 +1082,7 @@ def build_notebook(cells) -> nbformat.NotebookNode:
 
 
 def render(name: str) -> str:
-    return nbformat.writes(build_notebook(NOTEBOOKS[name]))
+    return nbformat.writes(build_notebook(NOTEBOOKS[name], name))
 
 
 def main(argv) -> int:

@@ -1,8 +1,11 @@
 """The notebooks in notebooks/: each runs top to bottom without an error (small
-grids: FITLAB_NOTEBOOK_SMALL=1), the committed files carry no outputs and match
+grids: FITLAB_NOTEBOOK_SMALL=1) and every number and fact its text states holds
+(the claims of notebooks/_build.py, checked in the notebook's kernel by a cell
+appended to the in-memory copy); the committed files carry no outputs and match
 their source notebooks/_build.py, and notebooks/README.md describes each one."""
 
 import importlib.util
+import json
 from pathlib import Path
 
 import nbformat
@@ -22,10 +25,12 @@ def _build_module():
     return mod
 
 
+BUILD = _build_module()
+
+
 def test_the_notebooks_are_the_ones_build_writes():
-    build = _build_module()
-    assert [p.name for p in NOTEBOOKS] == sorted(build.NOTEBOOKS)
-    assert build.main(["--check"]) == 0, "a notebook differs from notebooks/_build.py: run python notebooks/_build.py"
+    assert [p.name for p in NOTEBOOKS] == sorted(BUILD.NOTEBOOKS)
+    assert BUILD.main(["--check"]) == 0, "a notebook differs from notebooks/_build.py: run python notebooks/_build.py"
 
 
 @pytest.mark.parametrize("path", NOTEBOOKS, ids=lambda p: p.stem)
@@ -44,7 +49,46 @@ def test_readme_describes_every_notebook():
 
 
 @pytest.mark.parametrize("path", NOTEBOOKS, ids=lambda p: p.stem)
-def test_notebook_runs_top_to_bottom(path, monkeypatch):
+def test_every_claim_is_stated_in_the_committed_text(path):
+    claims = BUILD.CLAIMS.get(path.name, [])
+    assert claims, f"{path.name} states no claim that the test checks"
+    text = "\n".join(c.source for c in nbformat.read(path, as_version=4).cells if c.cell_type == "markdown")
+    assert not BUILD.MARKER.search(text), f"{path.name}: a claim's marker left in the text"
+    for claim in claims:
+        assert claim.sentence() in text, f"{path.name}: claim {claim.key} is not in the text"
+
+
+def _check(claims, namespace):
+    exec(BUILD.check_source(claims), namespace)
+
+
+def test_the_check_cell_refuses_a_false_claim():
+    Claim = BUILD.Claim
+    ns = {"x": 2.0, "xs": [0.6, 0.9], "flag": True, "np": None}
+    _check([Claim("a", "x below {bound}", "x", "<", 3.0), Claim("b", "{lo} to {hi}", "xs", "between", (0.5, 1.0), "g"),
+            Claim("c", "x is {bound}", "x", "prints as", 2.001, ".2f"), Claim("d", "a fact", "flag", "true"),
+            Claim("e", "skipped", "undefined_name", "<", 1.0, when="False")], dict(ns))
+    for wrong in (Claim("a", "x below {bound}", "x", "<", 1.0), Claim("b", "", "xs", "between", (0.7, 1.0)),
+                  Claim("c", "", "x", "prints as", 2.01, ".2f"), Claim("d", "", "not flag", "true"),
+                  Claim("e", "", "[]", "<", 1.0)):
+        with pytest.raises(AssertionError, match=wrong.key):
+            _check([wrong], dict(ns))
+
+
+def test_the_build_refuses_an_unstated_claim_and_an_unknown_marker(monkeypatch):
+    Claim = BUILD.Claim
+    monkeypatch.setitem(BUILD.CLAIMS, "x.ipynb", [Claim("stated", "it holds", "True", "true"),
+                                                  Claim("unstated", "it also holds", "True", "true")])
+    with pytest.raises(ValueError, match="unstated"):
+        BUILD.build_notebook([BUILD.md("[[stated]]")], "x.ipynb")
+    with pytest.raises(ValueError, match="unknown"):
+        BUILD.build_notebook([BUILD.md("[[stated]] [[unstated]] [[unknown]]")], "x.ipynb")
+    nb = BUILD.build_notebook([BUILD.md("[[stated]] [[unstated]]")], "x.ipynb")
+    assert nb.cells[0].source == "it holds it also holds"
+
+
+@pytest.mark.parametrize("path", NOTEBOOKS, ids=lambda p: p.stem)
+def test_notebook_runs_and_its_claims_hold(path, monkeypatch):
     monkeypatch.setenv("FITLAB_NOTEBOOK_SMALL", "1")
     monkeypatch.setenv("MPLBACKEND", "Agg")
     # the exact engine's small linear solves: a second BLAS thread gains nothing, and on a
@@ -52,8 +96,13 @@ def test_notebook_runs_top_to_bottom(path, monkeypatch):
     monkeypatch.setenv("OPENBLAS_NUM_THREADS", "1")
     before = sorted(NB_DIR.iterdir())
     nb = nbformat.read(path, as_version=4)  # executed in memory: the committed file is never written
+    nb.cells.append(BUILD.claims_cell(path.name))  # checks every claim of the text after the last cell
     client = NotebookClient(nb, timeout=CELL_TIMEOUT, kernel_name="python3", resources={"metadata": {"path": str(NB_DIR)}})
-    client.execute()  # raises CellExecutionError at the first cell that fails
+    client.execute()  # raises CellExecutionError at the first cell that fails, the claims' cell included
     ran = [c for c in nb.cells if c.cell_type == "code"]
     assert ran and all(c.execution_count is not None for c in ran)
+    report = [line for o in nb.cells[-1].outputs for line in o.get("text", "").splitlines() if line.startswith("CLAIMS ")]
+    found = json.loads(report[-1][len("CLAIMS "):])
+    assert [f["key"] for f in found] == [c.key for c in BUILD.CLAIMS[path.name]]
+    assert all(f.get("ok") or "skipped" in f for f in found), found
     assert sorted(NB_DIR.iterdir()) == before, "a notebook wrote into notebooks/; write to a temporary folder"
