@@ -411,17 +411,11 @@ def fit_origin(path: Path) -> str:
 
 
 def fit_files(fits_dir: Path | None, target: str) -> list[Path]:
-    """Every saved fit of ``target`` in ``fits_dir`` overlaid on the packaged fits (a file of ``fits_dir`` in place
-    of the packaged file of the same name; None: the packaged fits alone): TARGET.json first, then TARGET.*.json
-    by name."""
-    folders = [packaged_fits()] if fits_dir is None else [Path(fits_dir), packaged_fits()]
-    by_name: dict[str, Path] = {}
-    for folder in folders:
-        for p in [folder / f"{target}.json", *sorted(folder.glob(f"{target}.*.json"))]:
-            if p.is_file():
-                by_name.setdefault(p.name, p)
-    first = f"{target}.json"
-    return [by_name[n] for n in sorted(by_name, key=lambda n: (n != first, n))]
+    """Every saved fit of ``target`` in the folder ``fits_dir`` (None: the packaged fits): TARGET.json first, then
+    TARGET.*.json by name.  A listing of one folder (what an inventory shows); a part a program needs is read
+    through :func:`fit_source`, which overlays the folder on the packaged fits."""
+    fits_dir = packaged_fits() if fits_dir is None else Path(fits_dir)
+    return [p for p in (fits_dir / f"{target}.json",) if p.exists()] + sorted(fits_dir.glob(f"{target}.*.json"))
 
 
 def resolve_form(target_name: str, form_name: str | None, fits_dir: Path | None = None) -> Form:

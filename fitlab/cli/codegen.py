@@ -37,7 +37,7 @@ def add_arguments(p) -> None:
                 "finite there, or more than 10 %% worse than its file states, is refused), and write the "
                 "program's source files in one language into --out, all as one unit (nothing is written on a "
                 "failure). The banner lists every fit's file, sha256, origin and re-measured error.",
-             "fitlab refit --target H1 && fitlab codegen --fits fits --lang c --out /tmp/generated")  # fmt: skip
+             "fitlab codegen --fits fits --lang c --out /tmp/generated (after fitlab refit --target H1)")  # fmt: skip
     p.add_argument("--lang", required=True, choices=list(LANGUAGES), help=f"target language: {', '.join(LANGUAGES)}")
     add_fits(p, "folder of fits JSON, read in place of the packaged fits of the same names (the packaged fits fill "
                 "in the rest)")
