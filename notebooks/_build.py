@@ -6,7 +6,8 @@
 Edit the cells here, not in Jupyter, then rebuild: the committed notebooks carry
 no outputs, and tests/test_notebooks.py checks that they match this file and
 runs each of them top to bottom.  Every computation is fitlab's API (mostly
-fitlab.residuals); the notebooks only choose grids and plot.
+fitlab.residuals); the notebooks choose grids, plot, and compare one result with
+another (generated code with fitlab's evaluation, a figure measured again).
 
 Every number (and every checkable fact) a notebook's text states is a :class:`Claim`
 in ``CLAIMS``: the markdown cell holds its marker ``[[key]]``, which the build
@@ -947,6 +948,194 @@ shutil.rmtree(scratch)
 '''),
 ]
 
+# -----------------------------------------------------------------------------
+OWN_TABLE = [
+    md(r"""
+# Fit a table of your own and generate the function
+
+This notebook does, through the Python API, what these commands do (docs/your_own_data.md):
+
+```
+fitlab fit renderer_E.csv --target E --name rational --form "..." --out SCRATCH/fits
+fitlab codegen --fit SCRATCH/fits/E.rational.json --lang python --out SCRATCH/generated
+fitlab codegen --fit SCRATCH/fits/E.rational.json --lang c --out SCRATCH/generated
+```
+
+The table is the example fitlab ships (`fitlab/data/examples/renderer_E.csv`, found by
+`fitlab.resources.package_folder`): $E(\mu, \alpha)$ as a renderer tabulates it for energy compensation, the
+directional albedo of GGX with height-correlated Smith masking-shadowing and $F = 1$, with the noise of a Monte Carlo
+bake (its header says how it was made). The notebook works in a scratch folder it removes at the end.
+"""),
+    code(SETUP + '''
+import importlib.util
+import inspect
+import shutil
+import tempfile
+
+import fitlab
+from fitlab.codegen import write_generated
+from fitlab.codegen.native import CompileError, build, compiler
+from fitlab.codegen.single import generate_fit_file, read_user_fit, user_program
+from fitlab.fit.user import HOLDOUT_EVERY, SCALE_FLOOR
+from fitlab.resources import package_folder
+from fitlab.store import fit_sha256, load
+'''),
+    md(r"""
+## 1. The table
+
+`fitlab.read_csv_table` reads it as `fitlab fit` does: a header row naming the columns, one row per point, lines
+starting with `#` skipped. [[table_grid]]
+"""),
+    code('''
+TABLE = package_folder("data", "examples", "renderer_E.csv")
+print("".join(line for line in TABLE.open() if line.startswith("#")))
+table = fitlab.read_csv_table(TABLE)
+mu, alpha, E = (table.column(name) for name in ("mu", "alpha", "E"))
+print(f"{table.rows} rows, columns {table.header}, sha256 {table.sha256}")
+TEXELS = (np.arange(32) + 0.5) / 32
+
+fig, ax = plt.subplots(figsize=(5, 4), layout="constrained")
+grid = ax.tricontourf(mu, alpha, E, levels=20)
+fig.colorbar(grid, ax=ax, label="E")
+ax.set(xlabel="mu", ylabel="alpha", title="renderer_E.csv")
+plt.show()
+'''),
+    md(r"""
+## 2. Fit it
+
+The form is text: an expression in the input columns and the parameters `a0`, `a1`, ..., read by fitlab's restricted
+parser (nothing in it runs as code). $E$ depends on $\mu$ mostly through $v = \alpha/(\mu + \alpha)$ and on the
+roughness through $\sqrt\alpha$; the form below is a quadratic over a quadratic in $(v, \sqrt\alpha)$.
+
+`fitlab.fit_table` makes the fit `fitlab fit` makes: [[every]], fits the others (least squares with optimistix,
+then Lawson's minimax refinement), and measures the relative error with a floor, $|f - E| / \max(|E|, s_0)$,
+[[floor]], on the held-out rows the fit never saw. It writes no file. [[held_out_rows]] [[domain]] [[held_out_max]]
+[[held_out_worst]]
+"""),
+    code('''
+v = "alpha/(mu + alpha)"
+FORM = (f"(a0 + a1*sqrt(alpha) + a2*alpha + (a3 + a4*sqrt(alpha) + a5*{v})*{v})"
+        f" / (1 + a6*sqrt(alpha) + a7*alpha + (a8 + a9*sqrt(alpha) + a10*{v})*{v})")
+fit = fitlab.fit_table({"mu": mu, "alpha": alpha}, E, FORM, target="E", name="rational", progress=False)
+print(fit)
+print("domain:", fit.domain)
+print("parameters:", {k: float(f"{p:.6g}") for k, p in fit.params.items()})
+held_out = fit.validation
+print(f"held-out rows: {held_out['points']}; max relative error {held_out['max_rel']:.3e} at {held_out['worst']}, "
+      f"RMS {held_out['rms_rel']:.3e}")
+'''),
+    md(r"""
+## 3. The held-out error, measured here
+
+The same figure from the table and the fit alone, following the rule the text above states: sort the rows, take
+every 4th from the 3rd, divide by the floored $|E|$. [[split_agrees]]
+"""),
+    code('''
+order = np.lexsort((alpha, mu))  # rows sorted by (mu, alpha)
+held = np.zeros(mu.size, bool)
+held[order[2::4]] = True
+floor = 1e-3 * np.abs(E).max()
+
+
+def held_out_error(values):
+    """max and RMS of |values - E| / max(|E|, floor) on the held-out rows"""
+    e = np.abs(values[held] - E[held]) / np.maximum(np.abs(E[held]), floor)
+    return e.max(), np.sqrt(np.mean(e ** 2))
+
+
+here = held_out_error(fit(mu=mu, alpha=alpha))
+fitted_rows = np.abs(fit(mu=mu[~held], alpha=alpha[~held]) - E[~held]) / np.maximum(np.abs(E[~held]), floor)
+print(f"held-out rows {held.sum()}: max {here[0]:.6e}, RMS {here[1]:.6e}  (the fit states {held_out['max_rel']:.6e}, "
+      f"{held_out['rms_rel']:.6e})")
+print(f"fitted rows {(~held).sum()}: max {fitted_rows.max():.3e}")
+split_difference = max(abs(here[0] - held_out["max_rel"]) / held_out["max_rel"],
+                       abs(here[1] - held_out["rms_rel"]) / held_out["rms_rel"])
+'''),
+    md(r"""
+## 4. Save it and generate code
+
+`fit.save` writes the fit file and, beside it, the rows it was fitted to (the fit came from arrays);
+`fitlab.codegen.single.generate_fit_file` is what `fitlab codegen --fit` does: it reads the fit and its table, splits
+the table again, measures the fit on the held-out rows (and generates nothing when that disagrees with what the file
+states), and prints one function clamped to the fit's domain. [[banner_max]]
+"""),
+    code('''
+scratch = Path(tempfile.mkdtemp(prefix="fitlab-own-table-"))
+saved = fit.save(scratch / "fits" / "E.rational.json")
+print("saved:", [p.name for p in saved])
+fit_file = scratch / "fits" / "E.rational.json"
+files = generate_fit_file(fit_file, "python")
+write_generated(files, scratch / "generated")
+source = files["E.py"]
+print(source[:source.index('"""')])
+# "... on the 256 held-out rows (...), relative error ...: max 2.305e-02, RMS ..." in the banner
+banner_max = float(source.split("): max ", 1)[1].split(",", 1)[0])
+spec = importlib.util.spec_from_file_location("E_generated", scratch / "generated" / "E.py")
+generated = importlib.util.module_from_spec(spec)
+spec.loader.exec_module(generated)
+print(inspect.getsource(generated.rational))
+'''),
+    md(r"""
+The generated function is the fit: [[generated_equal]] Its held-out error, measured here on the table's held-out
+rows as above, is the one the fit states: [[generated_held_out]] Outside the domain it clamps its inputs: [[clamp]]
+"""),
+    code('''
+MU_G, ALPHA_G = np.meshgrid(np.linspace(1 / 64, 63 / 64, 201), np.linspace(1 / 64, 63 / 64, 201))
+by_fit = fit(mu=MU_G, alpha=ALPHA_G)
+generated_difference = np.max(np.abs(generated.rational(MU_G, ALPHA_G) - by_fit) / np.abs(by_fit))
+print(f"generated vs the fit, {MU_G.size} points over the domain: max relative difference {generated_difference:.1e}")
+generated_here = held_out_error(generated.rational(mu, alpha))
+generated_held_difference = abs(generated_here[0] - held_out["max_rel"]) / held_out["max_rel"]
+print(f"generated, held-out rows: max {generated_here[0]:.6e}, RMS {generated_here[1]:.6e}")
+corner = (float(generated.rational(0.0, 0.0)), float(fit(mu=1 / 64, alpha=1 / 64)))
+print(f"generated at (0, 0): {corner[0]:.12g};  the fit at (1/64, 1/64): {corner[1]:.12g}")
+'''),
+    md(r"""
+## 5. C, compiled and compared (when a compiler is present)
+
+`fitlab codegen --fit ... --lang c` writes `E.h` and `E.c`, C99 and libm only: [[c_names]]
+`fitlab.codegen.native.build` compiles them with the strict flags the tests use and calls them through ctypes:
+[[c_python]] The cell also prints how far the float version is from the double one.
+"""),
+    code('''
+files_c = generate_fit_file(fit_file, "c")
+print("\\n".join(line for line in files_c["E.h"].splitlines() if "E_rational" in line and "(" in line))
+c_difference = None
+if compiler() is None:
+    print("no C compiler (cc, gcc or clang) on PATH: skipped")
+else:
+    try:
+        native = build(files_c, user_program(*read_user_fit(fit_file), (fit_file.name, fit_sha256(fit_file))), scratch / "c")
+    except CompileError as err:
+        print(err)
+    else:
+        double = native("rational", MU_G.ravel(), ALPHA_G.ravel())
+        single = native("rational", MU_G.ravel(), ALPHA_G.ravel(), dtype=np.float32)
+        python = generated.rational(MU_G.ravel(), ALPHA_G.ravel())
+        c_difference = np.max(np.abs(double - python) / np.abs(python))
+        print(f"C double vs generated Python: max relative difference {c_difference:.1e}")
+        print(f"C float vs C double:          max relative difference {np.max(np.abs(single - double) / np.abs(double)):.1e}")
+'''),
+    md(r"""
+## 6. Keeping it
+
+The scratch folder goes away below. With the commands, in a folder of one's own:
+
+```
+fitlab fit renderer_E.csv --target E --name rational --form "(a0 + ...)" --out fits   # fits/E.rational.json
+fitlab codegen --fit fits/E.rational.json --lang c --out generated              # and glsl, hlsl, metal, python, drjit
+```
+
+or, in Python, `fit.save(Path("fits/E.rational.json"))` and `generate_fit_file(Path("fits/E.rational.json"), "c")`
+(`fit.generate("c")` prints the fit in memory, before it is saved). `fitlab.fit_function` fits a Python function
+sampled on a grid the same way, and `fitlab discover renderer_E.csv --target E` searches for a form
+(docs/your_own_data.md).
+"""),
+    code('''
+shutil.rmtree(scratch)
+'''),
+]
+
 SEPARABLE_H1 = '("paper", "refit, default forms", "refit, richer forms")'
 CLAIMS = {
     "01_h_functions.ipynb": [
@@ -1025,6 +1214,36 @@ CLAIMS = {
         Claim("c_python", "the double version and the generated Python differ by less than {bound} (relative).",
               "c_difference", "<", 1e-13, when="c_difference is not None"),
     ],
+    "06_your_own_table.ipynb": [
+        Claim("table_grid", "It has 1024 rows on the texel centres of a 32 x 32 texture, $\\mu$ and $\\alpha$ at "
+              "$(k + 1/2)/32$.",
+              "table.rows == 1024 and all(np.array_equal(np.unique(x), TEXELS) for x in (mu, alpha)) and TEXELS.size == 32",
+              "true"),
+        Claim("held_out_rows", "Here {bound} rows are held out,", 'held_out["points"]', "prints as", 256, ".0f"),
+        Claim("domain", "the fit's domain is the bounding box of the rows, $\\mu, \\alpha \\in [1/64, 63/64]$,",
+              'fit.domain == {"mu": (1 / 64, 63 / 64), "alpha": (1 / 64, 63 / 64)}', "true"),
+        Claim("every", "it holds out one row in {bound} (the rows sorted by $(\\mu, \\alpha)$, every {bound}th from the 3rd)",
+              "HOLDOUT_EVERY", "prints as", 4, ".0f"),
+        Claim("floor", "$s_0$ = {bound} of the largest $|E|$", "SCALE_FLOOR", "prints as", 1e-3, ".0e"),
+        Claim("held_out_max", "and the largest held-out relative error is below {bound} (the cell prints it),",
+              'held_out["max_rel"]', "<", 2.5e-2, ".1e"),
+        Claim("held_out_worst", "at grazing, $\\mu = 1/64$, where $E$ of GGX changes on the scale $\\alpha$.",
+              'held_out["worst"]["mu"] == 1 / 64', "true"),
+        Claim("split_agrees", "The max and RMS agree with the fit's to a relative {bound}.", "split_difference", "<", 1e-12),
+        Claim("banner_max", "The banner states the held-out maximum it measured, which prints as the fit's.",
+              'f"{banner_max:.3e}" == f"{held_out[\'max_rel\']:.3e}"', "true"),
+        Claim("generated_equal", "on a grid over the domain the two differ by less than {bound} (relative).",
+              "generated_difference", "<", 1e-14),
+        Claim("generated_held_out", "the two maxima differ by less than {bound} (relative).",
+              "generated_held_difference", "<", 1e-12),
+        Claim("clamp", "at $(\\mu, \\alpha) = (0, 0)$ it returns the fit's value at $(1/64, 1/64)$, the domain's corner.",
+              "abs(corner[0] - corner[1]) <= 1e-15 * abs(corner[1])", "true"),
+        Claim("c_names", "`E_rational` in double and `E_rational_f` in float.",
+              '"double E_rational(double mu, double alpha)" in files_c["E.h"] and '
+              '"float E_rational_f(float mu, float alpha)" in files_c["E.h"]', "true"),
+        Claim("c_python", "the double version and the generated Python differ by less than {bound} (relative).",
+              "c_difference", "<", 1e-14, when="c_difference is not None"),
+    ],
 }
 
 NOTEBOOKS = {
@@ -1033,6 +1252,7 @@ NOTEBOOKS = {
     "03_albedo_maps.ipynb": ALBEDO,
     "04_brdf.ipynb": BRDF,
     "05_refit_and_codegen.ipynb": WALKTHROUGH,
+    "06_your_own_table.ipynb": OWN_TABLE,
 }
 
 
