@@ -83,7 +83,8 @@ def user_program(fit: FitFunction, table, source: tuple[str, str] | None = None)
            f"{'...' if len(record['expression']) > 300 else ''}, fitted to {origin} (sha256 {user['sha256'][:16]}..., "
            f"{user['rows']} rows). Valid on {where}: inputs outside are clamped into it (NaN stays NaN). The {error}")
     routine = Routine(fit.form, fit.inputs, fit.expression, doc, domain=domain)
-    about = (f"A fit of {origin} by the form {fit.form}: one function, {fit.target}_{fit.form}({args}).",
+    about = (f"A fit of {origin} by the form {fit.form}: one function, {fit.target}_{fit.form}({args}) in C and the "
+             f"shaders, {fit.form}({args}) in the Python and Dr.Jit modules.",
              f"Domain: {where} (inputs clamped into it).",
              f"The {error}",
              f"Table: {Path(table.name).name if user['source'] == 'csv' else user.get('file', table.name)} "
