@@ -7,6 +7,8 @@ import os
 import tempfile
 from pathlib import Path
 
+from fitlab._interrupt import check, hold
+
 __all__ = ["atomic_write_text", "atomic_write_bytes", "atomic_write_many", "temporary_name"]
 
 
@@ -45,7 +47,10 @@ def atomic_write_many(files: dict) -> None:
     all are complete are they renamed over their targets.  A target that is a folder is refused
     before anything is written; a failure or an interrupt (any BaseException, KeyboardInterrupt
     included) while writing leaves every target as it was and removes every temporary.  The
-    renames come last, one by one, each atomic.
+    renames come last, one by one, each atomic, after a last check for Ctrl-C
+    (:func:`fitlab._interrupt.check`: under the ``fitlab`` command a Ctrl-C that Python could not
+    raise still refuses the write); a Ctrl-C during the renames waits until all are done
+    (:func:`fitlab._interrupt.hold`), so the set is never left half renamed.
     """
     items = [(Path(p), bytes(data)) for p, data in files.items()]
     folders = [p for p, _ in items if p.is_dir()]
@@ -59,8 +64,10 @@ def atomic_write_many(files: dict) -> None:
             tmps.append(tmp)
             with open(tmp, "wb") as fh:
                 fh.write(data)
-        for tmp, (path, _) in zip(tmps, items):
-            os.replace(tmp, path)
+        with hold():
+            check()  # Ctrl-C before this point: nothing is renamed
+            for tmp, (path, _) in zip(tmps, items):
+                os.replace(tmp, path)
     except BaseException:
         for tmp in tmps:
             _unlink_quietly(tmp)

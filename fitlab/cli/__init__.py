@@ -21,6 +21,7 @@ import os
 import sys
 
 from fitlab import __version__
+from fitlab import _interrupt as interrupt
 from fitlab.cli._common import FAILURE, USAGE, Parser, RunFailure, UsageError, fail
 
 __all__ = ["COMMANDS", "build_parser", "command_module", "main"]
@@ -85,18 +86,47 @@ def _closed_stdout() -> None:
 
 
 def main(argv=None) -> int:
-    """Run ``fitlab ARGV`` (default: sys.argv[1:]); returns the exit status."""
+    """Run ``fitlab ARGV`` (default: sys.argv[1:], the ``fitlab`` command); returns the exit status.
+
+    Ctrl-C is fitlab's from the first line (:mod:`fitlab._interrupt`): at any moment before a command's
+    outputs are in place it ends in exit status 130, one line (``fitlab COMMAND: interrupted``), and the old
+    files as they were; one after that (refit's last lines) changes nothing.  Called with ``argv`` (from
+    Python), the SIGINT handler in force before is put back on return."""
+    from_python = argv is not None
+    interrupt.install()
     argv = sys.argv[1:] if argv is None else list(argv)
-    command = _command_in(argv)
-    args = build_parser(() if command is None else (command,)).parse_args(argv)
-    name = args.command
     try:
+        try:
+            status = _run(argv)
+        except KeyboardInterrupt:  # Ctrl-C while an error line printed
+            status = _interrupted(_command_in(argv) or "")
+    finally:
+        if from_python:
+            interrupt.uninstall()
+        else:
+            interrupt.close(ignore=True)  # the interpreter's shutdown: a late Ctrl-C changes nothing
+    return status
+
+
+def _interrupted(name: str) -> int:
+    interrupt.close()  # a second Ctrl-C while this line prints changes nothing
+    print(f"{chr(10) if sys.stderr.isatty() else ''}fitlab{' ' + name if name else ''}: interrupted", file=sys.stderr)
+    return 130
+
+
+def _run(argv) -> int:
+    name = _command_in(argv) or ""
+    try:
+        args = build_parser(() if not name else (name,)).parse_args(argv)
+        name = args.command
         if name in JAX_COMMANDS:
             from fitlab.cache import enable_compilation_cache
 
             enable_compilation_cache()
         status = args.func(args)
         sys.stdout.flush()  # a closed pipe surfaces here, not in the interpreter's final flush
+        if interrupt.requested():  # a Ctrl-C Python could not raise (in a gc callback), or one it swallowed
+            return _interrupted(name)
         return status
     except UsageError as exc:
         return fail(name, exc, USAGE)
@@ -106,8 +136,7 @@ def main(argv=None) -> int:
         _closed_stdout()
         return 141  # as if killed by SIGPIPE, like other tools in a pipeline
     except KeyboardInterrupt:
-        print(f"\nfitlab {name}: interrupted", file=sys.stderr)
-        return 130
+        return _interrupted(name)
     except MemoryError:
         return fail(name, "out of memory", FAILURE)
     except Exception as exc:  # noqa: BLE001 - no traceback reaches a user; FITLAB_TRACEBACK=1 shows it

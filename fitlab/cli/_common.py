@@ -46,8 +46,9 @@ def one_line(message) -> str:
 
 
 def fail(command: str, message, status: int = USAGE) -> int:
-    """Print ``fitlab COMMAND: error: MESSAGE`` (one line) on stderr; returns ``status``."""
-    print(f"fitlab {command}: error: {one_line(message)}", file=sys.stderr)
+    """Print ``fitlab COMMAND: error: MESSAGE`` (one line; ``fitlab: error: ...`` when no command is named)
+    on stderr; returns ``status``."""
+    print(f"fitlab{' ' + command if command else ''}: error: {one_line(message)}", file=sys.stderr)
     return status
 
 

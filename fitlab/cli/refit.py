@@ -5,15 +5,19 @@ start (``--init``) and the output folder before any fit starts, resolves the for
 of a discovered form, and writes the fits (all of them as one unit) only after every fit is done,
 validated and kept by :func:`fitlab.fit.refit.refit_verdict`: a refit worse than its start or
 than the published preset of its form, or with a non-finite error, is a failure (exit status 1)
-and replaces nothing.
+and replaces nothing.  Nor does a refit replace a better fit already in ``--out`` (:func:`kept_fit`)
+unless ``--force``.  Ctrl-C before the fits are in place leaves every old file as it was (exit status
+130); after that, the command ends as it would have (:func:`fitlab._interrupt.hold`).
 """
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 from tqdm import tqdm
 
+from fitlab import _interrupt as interrupt
 from fitlab.cli._common import (
     RunFailure,
     UsageError,
@@ -31,18 +35,41 @@ from fitlab.cli._common import (
 )
 from fitlab.codegen.program import model_form
 from fitlab.core import get_target, targets
-from fitlab.fit.refit import check_domain, default_jobs, refit_stages, refit_verdict, table, timed_refit, validation_metrics
+from fitlab.fit.refit import (
+    VERDICT_RTOL,
+    check_domain,
+    default_jobs,
+    refit_stages,
+    refit_verdict,
+    table,
+    timed_refit,
+    validation_metrics,
+)
 from fitlab.fit.solver import FitError
-from fitlab.store import FitFileError, TableError, fit_path, fits_folder, read_fit, resolve_form, strict_json, write_fits
+from fitlab.store import (
+    FitFileError,
+    TableError,
+    fit_path,
+    fits_folder,
+    form_from_fit,
+    read_fit,
+    resolve_form,
+    strict_json,
+    write_fits,
+)
 
-__all__ = ["add_arguments", "run", "parse_domain"]
+__all__ = ["add_arguments", "run", "parse_domain", "kept_fit"]
 
 
 def add_arguments(p) -> None:
     describe(p, "Fit a form of a target to the target's exact training set, validate it on the denser validation "
                 "set beside the published presets, and write TARGET[.FORM].json into --out. A refit that ends worse "
                 "than its start or the published preset of its form (in both max and RMS error), or with a "
-                "non-finite error, fails (exit status 1) and replaces nothing.",
+                "non-finite error, fails (exit status 1) and replaces nothing. Nor does a refit replace a fit "
+                "already in --out that is better on the same validation set (smaller max relative error, or the "
+                "same max and a smaller RMS) or that was fitted over another --domain: it says so in one line "
+                "and exits 1, unless --force. Ctrl-C before the fit is written leaves the old file as it was "
+                "(exit status 130).",
              "fitlab refit --target H0 --out /tmp/fits")  # fmt: skip
     p.add_argument("--target", metavar="NAME", help=f"what to fit: {', '.join(targets())}")
     p.add_argument("--form", help="which form of the target (default: the form the generated code prints, so that "
@@ -54,6 +81,8 @@ def add_arguments(p) -> None:
     p.add_argument("--domain", action="append", metavar="NAME=LO:HI",
                    help="restrict an input, e.g. c=0.5:1 (once per input)")
     p.add_argument("--init", type=Path, help="start from a saved fit of the same target and form")
+    p.add_argument("--force", action="store_true",
+                   help="replace the fit in --out even when it is better than the refit, or fitted over another domain")
     p.add_argument("--no-minimax", action="store_true", help="least squares only, no minimax refinement")
     p.add_argument("--compare-scipy", action="store_true", help="also solve the least-squares stage with scipy")
     p.add_argument("--list", action="store_true", help="list targets and forms")
@@ -138,6 +167,7 @@ def run(args) -> int:
                           disable=args.quiet or len(jobs) > 1)  # fmt: skip
 
             def on_step(stage, bar=stages):
+                interrupt.check()  # between stages: a Ctrl-C Python could not raise stops the refit here
                 bar.set_postfix_str(stage, refresh=False)
                 bar.update()
 
@@ -155,23 +185,85 @@ def run(args) -> int:
         raise UsageError(one_line(exc)) from None
     except (FitError, ValueError, ArithmeticError) as exc:
         raise RunFailure(f"{form.key}: the fit failed: {one_line(exc)}") from None
-    failures = [v for v in verdicts if v is not None]
     paths = [fit_path(Path(args.out), r.record["target"], r.record["form"]) for r in results]
-    if not failures:  # every fit done, validated and kept: only now write, all as one unit
-        try:
-            write_fits({path: res.record for path, res in zip(paths, results)})
-        except OSError as exc:
-            raise write_failure(args.out, exc) from None
-    if args.json:
-        print(strict_json(_summary(results, walls, verdicts, paths, written=not failures)), end="")
-    else:
-        print(table(results, walls))
-    if failures:
-        more = f" (and {len(failures) - 1} more)" if len(failures) > 1 else ""
-        raise RunFailure(f"{failures[0]}{more}; nothing written")
-    for path in paths:
-        say(args, f"wrote {path}")
+    notes = {}
+    for i, (path, res, job) in enumerate(zip(paths, results, jobs)):
+        if verdicts[i] is None and not args.force:  # a better fit already there stays
+            verdicts[i], notes[path] = kept_fit(path, res, job[0])
+    failures = [v for v in verdicts if v is not None]
+    interrupt.check()
+    with interrupt.hold(final=True):  # Ctrl-C from here: refused by the write's check, or after it and too late
+        if not failures:  # every fit done, validated and kept: only now write, all as one unit
+            try:
+                write_fits({path: res.record for path, res in zip(paths, results)})
+            except OSError as exc:
+                raise write_failure(args.out, exc) from None
+        if args.json:
+            print(strict_json(_summary(results, walls, verdicts, paths, written=not failures)), end="")
+        else:
+            print(table(results, walls))
+        if failures:
+            more = f" (and {len(failures) - 1} more)" if len(failures) > 1 else ""
+            raise RunFailure(f"{failures[0]}{more}; nothing written")
+        for path in paths:
+            say(args, f"wrote {path}{notes.get(path) or ''}")
     return 0
+
+
+def _domain_text(domain) -> str:
+    return ", ".join(f"{k}={float(lo):g}:{float(hi):g}" for k, (lo, hi) in domain.items())
+
+
+def _worse(mine, theirs) -> bool:
+    """Whether ``mine`` is worse than ``theirs`` (validation figures): a larger max rel (infinite where the
+    fit misses an exact zero), else a larger max rel*, else a larger RMS, each beyond rounding
+    (:data:`fitlab.fit.refit.VERDICT_RTOL`); equal figures are not worse."""
+    for key in ("max_rel", "max_rel_nonzero", "rms_rel"):
+        a, b = float(mine[key]), float(theirs[key])
+        if a == b:
+            continue
+        if a > b * (1 + VERDICT_RTOL):
+            return True
+        if a * (1 + VERDICT_RTOL) < b:
+            return False
+    return False
+
+
+def kept_fit(path: Path, result, target) -> tuple[str | None, str | None]:
+    """Whether the fit already at ``path`` stays instead of ``result`` (a refit of ``target``):
+    (reason, None) when it stays, (None, note) when the refit may replace it (``note``: what the
+    ``wrote`` line adds, or None).
+
+    It stays when it is a readable fit of the same target and form that is better on the refit's own
+    validation set (measured again there, from the file's expression and parameters, not its stated
+    figures; :func:`_worse` says what better is), or that was fitted over another domain (not
+    comparable).  A file that is not a readable fit is replaced, and the note says so."""
+    path = Path(path)
+    if not path.exists():
+        return None, None
+    rec = result.record
+    key = f"{rec['target']}/{rec['form']}"
+    try:
+        old = read_fit(path, target=rec["target"])
+        if (old["target"], old["form"]) != (rec["target"], rec["form"]):
+            raise FitFileError(f"a fit of {old['target']}/{old['form']}, not {key}")
+    except FitFileError as exc:
+        return None, f" (replacing a file that was not a readable fit of {key}: {one_line(exc)})"
+    mine = {k: (float(lo), float(hi)) for k, (lo, hi) in rec["domain"].items()}
+    theirs = {k: (float(lo), float(hi)) for k, (lo, hi) in old["domain"].items()}
+    if mine != theirs:
+        return (f"{key}: {path} holds a fit over {_domain_text(theirs)}, the refit is over {_domain_text(mine)}; "
+                f"not comparable, so it is kept (--force replaces it)"), None
+    valid = target.validation().restricted(mine)
+    form = form_from_fit(old)
+    measured = validation_metrics(form, form.vector(old["params"]), valid, target.scale(valid))
+    new = rec["validation"]
+    if any(math.isnan(float(measured[k])) for k in ("max_rel", "max_rel_nonzero", "rms_rel")) or not _worse(new, measured):
+        return None, None
+    _g = "{:.3e}".format
+    return (f"{key}: the refit (max rel {_g(new['max_rel'])}, RMS {_g(new['rms_rel'])}) is worse than the fit in "
+            f"{path} (max rel {_g(measured['max_rel'])}, RMS {_g(measured['rms_rel'])}, measured again on the same "
+            f"validation set), which is kept (--force replaces it)"), None
 
 
 def _summary(results, walls, verdicts, paths, written: bool) -> dict:

@@ -12,6 +12,7 @@ from fitlab.core._input import Input
 from fitlab.core._precision import float64
 from fitlab.core._registry import (
     Family,
+    broken_families,
     families,
     families_offering,
     family_service,
@@ -30,6 +31,7 @@ __all__ = [
     "Family",
     "Input",
     "Target",
+    "broken_families",
     "data_hash",
     "families",
     "families_offering",

@@ -4,12 +4,18 @@ Families are found, on first use, among the packages of :mod:`fitlab.families`
 and the ``fitlab.families`` entry points of installed distributions; a module
 anywhere may also call :func:`register_family` itself (how a test registers a
 toy family).  Names are global: two families may not register one target.
+
+A built-in family that fails to import is an error, every time.  An entry point that fails to load
+(it raises, or its family clashes with another) is left out, with whatever it registered before it
+failed: one line on stderr names it, once per process, and :func:`broken_families` says why; every
+other family works.
 """
 
 from __future__ import annotations
 
 import importlib
 import pkgutil
+import sys
 from dataclasses import dataclass, field
 from importlib.metadata import entry_points
 from typing import Any, Callable, Mapping
@@ -17,7 +23,7 @@ from typing import Any, Callable, Mapping
 from fitlab.core._target import Target
 
 __all__ = ["Family", "register_family", "unregister_family", "families", "get_family", "targets", "get_target",
-           "forms_for", "get_form", "family_service"]
+           "forms_for", "get_form", "family_service", "broken_families"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -52,6 +58,8 @@ class Family:
 _FAMILIES: dict[str, Family] = {}
 _TARGETS: dict[str, Target] = {}
 _LOADED = False
+#: entry point name -> why it was left out (one line)
+_BROKEN: dict[str, str] = {}
 
 
 def register_family(family: Family) -> Family:
@@ -104,8 +112,24 @@ def _load() -> None:
     for info in sorted(pkgutil.iter_modules(builtin.__path__), key=lambda m: m.name):
         importlib.import_module(f"{builtin.__name__}.{info.name}")
     for ep in entry_points(group="fitlab.families"):
-        ep.load()
+        before = set(_FAMILIES)
+        try:
+            ep.load()
+        except Exception as exc:  # noqa: BLE001 - a third party's family must not take the others down
+            for name in set(_FAMILIES) - before:  # what it registered before it failed goes too
+                unregister_family(name)
+            text = "; ".join(line.strip() for line in str(exc).splitlines() if line.strip())
+            _BROKEN[ep.name] = f"{type(exc).__name__}: {text}" if text else type(exc).__name__
+            print(f"fitlab: the family entry point {ep.name!r} ({ep.value}) failed to load and is left out: "
+                  f"{_BROKEN[ep.name]}", file=sys.stderr)
     _LOADED = True
+
+
+def broken_families() -> dict[str, str]:
+    """Entry point name -> why it was left out (one line), for every ``fitlab.families`` entry point that
+    failed to load."""
+    _load()
+    return dict(_BROKEN)
 
 
 def families() -> dict[str, Family]:
