@@ -206,6 +206,19 @@ def test_version_and_help(capsys):
     assert "{c,python,glsl,hlsl,metal,drjit}" in capsys.readouterr().out
 
 
+def test_top_level_help_names_every_language_codegen_writes(capsys):
+    """``fitlab --help`` used to say codegen writes "C, Python or GLSL"; it writes every language of
+    fitlab.codegen.LANGUAGES."""
+    from fitlab.codegen import LANGUAGES
+
+    names = {"c": "C", "python": "Python", "glsl": "GLSL", "hlsl": "HLSL", "metal": "Metal", "drjit": "Dr.Jit"}
+    assert set(LANGUAGES) == set(names)
+    assert _status(["--help"]) == 0
+    text = " ".join(capsys.readouterr().out.split())
+    line = text[text.index("codegen generate"):text.index(" render ")]
+    assert line == "codegen generate C, Python, GLSL, HLSL, Metal or Dr.Jit source of the runtime BRDF from the fits"
+
+
 def test_closed_pipe_ends_quietly():
     env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
     proc = subprocess.Popen([sys.executable, "-m", "fitlab", "refit", "--list"], cwd=ROOT, env=env,

@@ -121,6 +121,17 @@ def test_file_errors(tmp_path):
         load_scene(tmp_path / "missing.toml")
 
 
+@pytest.mark.parametrize("suffix", [".toml", ".json"])
+def test_binary_garbage_is_refused_in_one_line(tmp_path, suffix):
+    """A file that is not UTF-8 text is a SceneError naming the file and the first bad byte (it used to escape
+    as a raw UnicodeDecodeError: exit 1 with no file name)."""
+    p = tmp_path / f"garbage{suffix}"
+    p.write_bytes(b"[scene]\n\xfc\xff\x00\x81 binary")
+    with pytest.raises(SceneError) as exc:
+        load_scene(p)
+    assert str(exc.value) == f"{p}:1: (file): not a UTF-8 text file (byte 0xfc at offset 8)"
+
+
 def test_kd_material_is_converted_through_the_exact_spherical_albedo():
     from fitlab.families.lambert_sphere.exact import spherical_albedo
 

@@ -224,7 +224,8 @@ def test_cli_refuses_the_c1_three_term_scene_before_any_work(tmp_path, capsys, m
 @pytest.mark.parametrize("extra, expected", [
     (["--seed", "18446744073709551616"], "--seed: expected an integer in [0, 9223372036854775807]"),
     (["--seed", "-1"], "--seed: expected an integer in [0, 9223372036854775807], got '-1'"),
-    (["--max-paths", "10"], "--max-paths: expected an integer in [1000, 1099511627776]"),
+    (["--max-paths", "10"], "--max-paths: expected an integer in [1000, 4294967296]"),
+    (["--max-paths", str(2**32 + 1)], "--max-paths: expected an integer in [1000, 4294967296]"),
     (["--target-se", "inf"], "--target-se: expected a positive finite number, got 'inf'"),
     (["--out", "/proc/fitlab-x"], "--out: cannot write in /proc/fitlab-x"),
     (["--out", "FILE"], "exists and is not a folder"),
@@ -242,3 +243,97 @@ def test_cli_bad_options_one_line_exit_2_before_any_work(tmp_path, capsys, monke
     assert main(["simulate", str(p), "--quiet"] + extra) == 2
     err = capsys.readouterr().err.splitlines()
     assert len(err) == 1 and expected in err[0], err
+
+
+@pytest.mark.parametrize("name, family", [("garbage.toml", None), ("garbage.json", None),
+                                          ("garbage.toml", "microfacet_energy")])
+def test_cli_refuses_binary_garbage_in_one_line_exit_2(tmp_path, capsys, name, family):
+    """``fitlab simulate`` on a file that is not UTF-8 text: one line naming the file, exit 2 (it was a raw
+    UnicodeDecodeError with exit 1)."""
+    p = tmp_path / name
+    p.write_bytes(bytes(range(256)) * 4)
+    argv = ["simulate", str(p), "--quiet", "--out", str(tmp_path / "o")] + (["--family", family] if family else [])
+    assert main(argv) == 2
+    err = capsys.readouterr().err.splitlines()
+    assert err == [f"fitlab simulate: error: {p}:1: (file): not a UTF-8 text file (byte 0x80 at offset 128)"], err
+    assert not (tmp_path / "o").exists()
+
+
+def test_one_path_budget_limit_for_every_family_and_the_command_line(tmp_path, capsys):
+    """One limit, 2^32 paths per job (fitlab._montecarlo.MAX_PATHS): both families' scene rules and the help
+    of --max-paths say it (the Lambert sphere's scenes used to allow 2^40, the microsurface's 2^32)."""
+    from fitlab._montecarlo import MAX_PATHS
+    from fitlab.families.lambert_sphere.mc.scene import LIMITS as SPHERE
+    from fitlab.families.microfacet_energy.microsurface.scene import LIMITS as MICROSURFACE
+    from fitlab.families.microfacet_energy.microsurface.scene import parse_scene as parse_microsurface
+
+    assert MAX_PATHS == 2**32 and SPHERE["max_paths"] == MICROSURFACE["max_paths"] == (1000, MAX_PATHS)
+    with pytest.raises(SystemExit):
+        main(["simulate", "--help"])
+    assert "(integer in [1000, 2^32])" in " ".join(capsys.readouterr().out.split())
+    for limit, ok in ((MAX_PATHS, True), (MAX_PATHS + 1, False)):
+        sphere = SCENE.replace("max_paths = 60_000", f"max_paths = {limit}")
+        micro = ('[[material]]\nkind = "conductor"\ndistribution = "ggx"\nalpha = 0.5\n[incident]\nmu_i = [0.5]\n'
+                 f"[precision]\ntarget_se = 0.01\nmax_paths = {limit}\n")
+        for parse, text in ((parse_scene, sphere), (parse_microsurface, micro)):
+            if ok:
+                assert parse(text, "s.toml").max_paths == limit
+            else:
+                with pytest.raises(ValueError, match=r"max_paths: 4294967297 is outside \[1000(\.0)?, 4294967296"):
+                    parse(text, "s.toml")
+
+
+def test_slow_job_projection():
+    """The projection behind the warning: the standard error falls as 1/sqrt(N), the job stops at its target or
+    its budget, the rest of the paths at the measured rate; None within the bound or without an estimate."""
+    from fitlab._montecarlo import SLOW_JOB_SECONDS, slow_job_warning
+
+    assert SLOW_JOB_SECONDS == 3600
+    # the issue's case: a target out of reach, the largest budget, 1e6 paths/s: 2^32 paths take 1.2 h
+    w = slow_job_warning(20_000, 0.02, 1000.0, 2**32)
+    assert w == ("standard error 1e+03 x its target after 20000 paths; the target needs about 2e+10 paths, more "
+                 "than max_paths = 4294967296: the job will stop above its target after 1.2 h more at 1e+06 paths/s "
+                 "(over the 1 h bound; lower --max-paths or raise --target-se)")
+    # reachable, but 1.8e9 paths at 1e5 paths/s: 5 h
+    assert slow_job_warning(20_000, 0.2, 300.0, 2**32).endswith("about 1.8e+09 paths: 5 h more at 1e+05 paths/s "
+                                                                "(over the 1 h bound)")
+    assert slow_job_warning(20_000, 0.2, 30.0, 2**32) is None  # 1.8e7 paths: 3 min
+    assert slow_job_warning(20_000, 0.02, 1000.0, 10**9) is None  # the budget ends it in 17 min
+    # an empty bin above its target has no error estimate: only the budget bounds the job
+    assert slow_job_warning(20_000, 0.02, float("inf"), 2**32) == (
+        "after 20000 paths a bin is still empty (no error estimate): the job may run to max_paths = 4294967296, "
+        "1.2 h more at 1e+06 paths/s (over the 1 h bound)")
+    assert slow_job_warning(20_000, 0.02, float("inf"), 10**9) is None
+    assert slow_job_warning(20_000, 0.02, float("nan"), 2**32) is None
+
+
+@pytest.mark.parametrize("family", ["lambert_sphere", "microfacet_energy"])
+def test_cli_warns_once_per_job_projected_past_the_bound(tmp_path, capsys, monkeypatch, family):
+    """The warning's wiring in both families' runners, with the bound at 0 s (every job that has not stopped
+    after its first round is past it): one line per job on stderr, after the first round, naming the job."""
+    import functools
+    import importlib
+
+    import fitlab._montecarlo as mc
+
+    sim = importlib.import_module("fitlab.families.lambert_sphere.mc.simulate" if family == "lambert_sphere" else
+                                  "fitlab.families.microfacet_energy.microsurface.simulate")
+    monkeypatch.setattr(sim, "slow_job_warning", functools.partial(mc.slow_job_warning, bound=0.0))
+    if family == "lambert_sphere":
+        p = _albedo_scene(tmp_path)
+        job = "fixed job, material c=0.5 (c = 0.5), mu_i = 0.6"
+        budget, batch = "60000", 20_000
+    else:
+        p = tmp_path / "m.toml"
+        p.write_text('[[material]]\nlabel = "white"\nkind = "conductor"\ndistribution = "ggx"\nalpha = 0.5\n'
+                     "[incident]\nmu_i = [0.5]\n[outgoing]\nmu_o = 2\nphi = 2\n[precision]\ntarget_se = 0.01\n"
+                     "batch = 1000\nslots = 64\n")
+        job = "material white, mu_i = 0.5"
+        budget, batch = "3000", 1000
+    argv = ["simulate", str(p), "--quiet", "--no-plots", "--out", str(tmp_path / "o"), "--max-paths", budget,
+            "--target-se", "1e-9", "--allow-unconverged"]
+    assert main(argv) == 0
+    warnings = [line for line in capsys.readouterr().err.splitlines() if "warning" in line]
+    assert len(warnings) == 1, warnings
+    assert warnings[0].startswith(f"fitlab simulate: warning: {job}: ")
+    assert f"after {batch} paths" in warnings[0] and f"max_paths = {budget}" in warnings[0]

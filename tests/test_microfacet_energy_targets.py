@@ -395,3 +395,42 @@ def test_refit_through_the_cli(tmp_path, capsys):
     table = capsys.readouterr().out
     assert "E_on" in table and "materialx_rational / materialx" in table
     assert load(out / "E_on.json").form == get_target("E_on").default_form
+
+
+def test_oren_nayar_one_minus_e_below_zero_is_measured_and_stated():
+    """Oren-Nayar's 1 - E goes below 0 where E > 1; its target's description (hence the generated
+    one_minus_E_on's docstring) states where and how far, and every figure is recomputed here with the exact
+    engine: the minimum on [0, 1]^2 is at mu = 0 (1 - E decreases towards grazing), E(0, alpha) = 1 at
+    alpha = 0.2076, and as alpha -> 0 the negative region reaches mu = 0.489."""
+    import re
+    from pathlib import Path
+
+    from scipy.optimize import brentq, minimize_scalar
+
+    from fitlab.families.microfacet_energy.targets import ON_NEGATIVE
+
+    def one_minus(mu, alpha):
+        return 1.0 - directional_albedo(mu, alpha, "oren_nayar")
+
+    stated = [float(x) for x in re.findall(r"-?\d+\.\d+", ON_NEGATIVE)]
+    assert stated == [0.2076, 0.49, -0.01518, 0.1264], ON_NEGATIVE
+    alpha_zero, mu_reach, minimum, alpha_min = stated
+    best = minimize_scalar(lambda a: float(one_minus(0.0, a)), bounds=(0.0, 1.0), method="bounded",
+                           options={"xatol": 1e-10})
+    assert round(best.fun, 5) == minimum and round(best.x, 4) == alpha_min
+    # the closed form and the independent direction route agree there
+    assert abs(float(1.0 - directional_albedo(0.0, best.x, "oren_nayar", method="direction")) - best.fun) < 1e-9
+    mu, alpha = np.meshgrid(np.linspace(0.0, 1.0, 201), np.linspace(0.0, 1.0, 201), indexing="ij")
+    grid = one_minus(mu, alpha)
+    assert grid.min() >= best.fun - 1e-12 and mu.ravel()[np.argmin(grid)] == 0.0
+    assert round(brentq(lambda a: float(one_minus(0.0, a)), 0.1, 0.3, xtol=1e-12), 4) == alpha_zero
+    assert np.all(grid[alpha > alpha_zero + 1e-4] >= 0.0)
+    reach = brentq(lambda m: float(one_minus(m, 1e-4)), 0.3, 0.7, xtol=1e-12)
+    assert mu_reach - 0.01 < reach < mu_reach and np.all(mu[grid < 0.0] < reach)
+    # stated by the target, the packaged fit's record and the generated routine's docstring
+    target = get_target("one_minus_E_on")
+    assert target.description.endswith("; " + ON_NEGATIVE)
+    generated = Path(__file__).resolve().parents[1] / "fitlab" / "fits" / "generated" / "microfacet_energy.py"
+    text = generated.read_text()
+    doc = text[text.index("def one_minus_E_on("):text.index("def E_avg_on(")]
+    assert ON_NEGATIVE in " ".join(doc.split())

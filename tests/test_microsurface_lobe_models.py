@@ -313,6 +313,34 @@ def test_nan_gives_nan_and_out_of_domain_inputs_are_clamped(py, routine):
         np.testing.assert_array_equal(out[1:], getattr(py, routine)(*clamp))
 
 
+def test_an_input_a_routine_does_not_use_follows_the_nan_and_domain_policy(program, py, native):
+    """ms_blog_eta_* take mu_i and do not use it (the blog's eta depends on alpha alone): NaN there gives NaN,
+    +-inf and any other number the value at the domain's edge, in Python and C, double and float (the Python
+    returned NaN at mu_i = +-inf, from 0 * mu_i; the C ignored a NaN mu_i)."""
+    from fitlab.codegen.program import unused_inputs
+
+    checked = []
+    for r in program.routines:
+        unused = {str(x.free_symbols.pop()) for x in unused_inputs(r)}
+        if r.vectors or not unused:
+            continue
+        base = {a: 0.5 * (r.domain[a][0] + r.domain[a][1]) for a in r.args}
+        for k in sorted(unused):
+            lo, hi = r.domain[k]
+            x = {a: np.full(6, v) for a, v in base.items()}
+            x[k] = np.array([np.nan, np.inf, -np.inf, 1e30, -1e30, hi])
+            inside = {a: np.full(6, v) for a, v in base.items()}
+            want = getattr(py, r.name)(*inside.values())[0]
+            for dtype in (np.float64, np.float32):
+                for f in (lambda *a: getattr(py, r.name)(*a),
+                          lambda *a, dtype=dtype: native(r.name, *(v.astype(dtype) for v in a), dtype=dtype)):
+                    out = np.asarray(f(*x.values()), dtype=np.float64)
+                    assert np.isnan(out[0]) and np.all(np.isfinite(out[1:])), (r.name, k, out)
+                    np.testing.assert_allclose(out[1:], want, rtol=1e-6 if dtype == np.float32 else 0)
+            checked.append((r.name, k))
+    assert ("ms_blog_eta_diffuse", "mu_i") in checked and ("ms_blog_eta_conductor", "mu_i") in checked, checked
+
+
 def test_the_kulla_conti_routine_restores_one_minus_E(py):
     # int f_ms mu_o dw_o = 1 - E(mu_i) with the exact E; with the fitted E and E_avg, to their accuracy
     from fitlab.families.microfacet_energy.exact import directional_albedo

@@ -91,3 +91,11 @@ def test_simulate_file_refuses_a_bad_output_before_any_work(tmp_path):
         simulate_file(scene, blocker)
     with pytest.raises(SceneError, match="a microsurface scene is a .toml file"):
         simulate_file(tmp_path / "s.json", tmp_path / "out")
+
+
+def test_binary_garbage_is_refused_in_one_line(tmp_path):
+    p = tmp_path / "garbage.toml"
+    p.write_bytes(b"[scene]\n\xfc\xff\x00\x81 binary")
+    with pytest.raises(SceneError) as exc:
+        load_scene(p)
+    assert str(exc.value) == f"{p}:1: (file): not a UTF-8 text file (byte 0xfc at offset 8)"

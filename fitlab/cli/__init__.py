@@ -33,7 +33,7 @@ COMMANDS = {
     "refit": "refit a published form (or a richer one) to the exact data",
     "fit": "fit a form of your own to a column of your own table (CSV)",
     "audit": "measure every published formula and the runtime model against the exact engine",
-    "codegen": "generate C, Python or GLSL source of the runtime BRDF from the fits",
+    "codegen": "generate C, Python, GLSL, HLSL, Metal or Dr.Jit source of the runtime BRDF from the fits",
     "render": "render spheres with the generated BRDF in Mitsuba 3 beside Lambert, Oren-Nayar, Chandrasekhar",
     "simulate": "Monte Carlo: simulate only the effects a scene asks for (a file, or a packaged scene by name)",
     "discover": "symbolic regression (pysindy): a Pareto front of new forms for a target",

@@ -17,6 +17,7 @@ import sys
 import tomllib
 from pathlib import Path
 
+from fitlab._montecarlo import MAX_PATHS, MIN_PATHS_BUDGET, SLOW_JOB_SECONDS, duration
 from fitlab.cli._common import add_family, FAILURE, USAGE, fail, service
 from fitlab.core import families
 from fitlab.resources import find_scene, packaged_scenes
@@ -30,7 +31,9 @@ def add_arguments(p) -> None:
     p.add_argument("--out", help="output folder (default: mc_out/<scene name>)")
     # strings: checked by the scene file's own rules (mc.scene.check_option), one line each
     p.add_argument("--target-se", help="override every effect's standard-error target (positive, finite)")
-    p.add_argument("--max-paths", help="override the path budget per job (integer in [1000, 2^40])")
+    p.add_argument("--max-paths", help=f"override the path budget per job (integer in [{MIN_PATHS_BUDGET}, "
+                                       f"2^{MAX_PATHS.bit_length() - 1}]); a job projected to run longer than "
+                                       f"{duration(SLOW_JOB_SECONDS)} is named in a warning on stderr")
     p.add_argument("--seed", help="override the scene's seed (integer in [0, 2^63 - 1], as in the scene file)")
     p.add_argument("--allow-unconverged", action="store_true",
                    help="exit 0 even when a job stops on its path budget above its target")

@@ -33,7 +33,7 @@ import sympy as sp
 from fitlab import __version__
 from fitlab.forms.symbolic import safe_pow
 from fitlab.codegen.printers import CPrinter, DrJitPrinter, GLSLPrinter, MetalPrinter, NumpyPrinter
-from fitlab.codegen.program import SAFE_POW, Material, Program, Routine, field_symbol, outputs
+from fitlab.codegen.program import SAFE_POW, Material, Program, Routine, field_symbol, outputs, unused_inputs
 
 __all__ = ["emit", "LANGUAGES"]
 
@@ -121,6 +121,17 @@ def _c_params(routine: Routine, scalar: str) -> str:
     return ", ".join(params + ([f"{scalar} {routine.out}[3]"] if routine.out else []))
 
 
+def _with_unused(value: str, r: Routine, printer, scalar_args: bool, skip=()) -> str:
+    """``value`` plus 0 times each argument of ``r`` that it does not use, clamped into its domain
+    (:func:`fitlab.codegen.program.unused_inputs`; none when ``scalar_args`` is false, names in ``skip``
+    excepted): a NaN there gives NaN, and +-inf or any other number adds exactly 0, in every language."""
+    if not scalar_args:
+        return value
+    zero = printer.doprint(sp.Float(0.0))
+    terms = [f"{zero}*({printer.doprint(x)})" for x in unused_inputs(r) if str(x.free_symbols.pop()) not in skip]
+    return " + ".join([value, *terms])
+
+
 def _c_signature(routine: Routine, scalar: str, prefix: str, leading: str = "") -> str:
     suffix = "_f" if scalar == "float" else ""
     return f"{scalar} {prefix}{routine.name}{suffix}({leading}{_c_params(routine, scalar)})"
@@ -132,11 +143,9 @@ def _c_function(routine: Routine, scalar: str, prefix: str, qualifier: str, lead
     suffix = "_f" if scalar == "float" else ""
     printer = CPrinter(scalar, lambda n: f"{prefix}{n}{suffix}", {**_vector_names(routine, "{v}[{k}]"), **(names or {})})
     temps, expr, vector = _cse(routine)
-    used = {str(s) for s in routine.expr.free_symbols}
-    body = [f"    (void){a};" for a in routine.args if a not in used and not routine.vectors]
-    body += [f"    const {scalar} {t} = {printer.doprint(e)};" for t, e in temps]
+    body = [f"    const {scalar} {t} = {printer.doprint(e)};" for t, e in temps]
     body += [f"    {routine.out}[{k}] = {printer.doprint(e)};" for k, e in enumerate(vector)]
-    body.append(f"    return {printer.doprint(expr)};")
+    body.append(f"    return {_with_unused(printer.doprint(expr), routine, printer, not routine.vectors)};")
     return f"{qualifier} {_c_signature(routine, scalar, prefix, leading)}\n{{\n" + "\n".join(body) + "\n}\n"
 
 
@@ -298,7 +307,7 @@ def _shading_function(r: Routine, sh: _Shading, prefix: str, leading: str = "", 
     if vector:  # (x, y, z, value) in one vector: GLSL's out parameters have no C or Metal spelling in common
         body.append(f"    return {sh.vec4}({', '.join(printer.doprint(e) for e in (*vector, expr))});")
     else:
-        body.append(f"    return {printer.doprint(expr)};")
+        body.append(f"    return {_with_unused(printer.doprint(expr), r, printer, True, names or {})};")
     kind = sh.vec4 if vector else "float"
     return ("\n" + "\n".join(_wrap(r.doc, "// ")) + "\n"
             + f"{kind} {prefix}{r.name}({leading}{_shading_params(r, sh)})\n{{\n" + "\n".join(body) + "\n}\n")
@@ -422,10 +431,8 @@ def _python_function(r: Routine, leading=(), names=None) -> str:
         lines.append(f"    x, y, z, value = (numpy.broadcast_to(e, shape) for e in ({values}))")
         lines.append("    return numpy.stack((x, y, z), axis=-1), value.copy()")
         return "\n".join(lines) + "\n"
-    # an input the result does not depend on must still broadcast into its shape
-    used = {str(s) for s in r.expr.free_symbols}
-    unused = [f"0.0 * {a}" for a in r.args if a not in used and a not in symbol_names]
-    lines.append(f"    return {' + '.join([printer.doprint(expr), *unused])}")
+    # an input the result does not depend on must still broadcast into its shape (and pass its NaN on)
+    lines.append(f"    return {_with_unused(printer.doprint(expr), r, printer, True, symbol_names)}")
     return "\n".join(lines) + "\n"
 
 
@@ -525,9 +532,7 @@ def _drjit_function(r: Routine, leading=(), names=None) -> str:
         lines.append(f"    return _vector({next(iter(r.vectors))}, {x}, {y}, {z}), {printer.doprint(expr)}")
         return "\n".join(lines) + "\n"
     # an input the result does not depend on still passes its NaN on (as in every language)
-    used = {str(s) for s in r.expr.free_symbols}
-    unused = [f"0.0 * {a}" for a in r.args if a not in used and a not in symbol_names]
-    lines.append(f"    return {' + '.join([printer.doprint(expr), *unused])}")
+    lines.append(f"    return {_with_unused(printer.doprint(expr), r, printer, True, symbol_names)}")
     return "\n".join(lines) + "\n"
 
 

@@ -47,8 +47,8 @@ from fitlab.store import FitFunction
 __all__ = ["Routine", "Program", "ProgramSpec", "build_program", "part_routine", "program_spec",
            "default_program_family", "model_form", "parse_terms",
            "call", "stable", "floor_poles", "azimuth_to_cosine", "clamp", "clamped", "minmax_piecewise",
-           "with_domain", "SAFE_POW", "POLE_FLOOR", "DEFAULT_FORMS", "MaterialSpec", "Material", "material_of",
-           "field_symbol", "outputs", "inline_calls", "hoist_params", "merge_exp_products"]  # fmt: skip
+           "with_domain", "unused_inputs", "SAFE_POW", "POLE_FLOOR", "DEFAULT_FORMS", "MaterialSpec", "Material",
+           "material_of", "field_symbol", "outputs", "inline_calls", "hoist_params", "merge_exp_products"]  # fmt: skip
 
 #: the model every program has: each target's default form (:attr:`ProgramSpec.models`)
 DEFAULT_FORMS = "default-forms"
@@ -532,6 +532,22 @@ def with_domain(routine: Routine) -> Routine:
     # Max, Min, products and powers the clamped inputs reach (min(1/2, min(1, x)) -> min(1/2, x),
     # sqrt(a b) -> sqrt(a) sqrt(b) for a, b >= 0, ...) is part of what the committed files print
     return replace(routine, expr=routine.expr.xreplace(subs))
+
+
+def unused_inputs(routine: Routine) -> list[sp.Expr]:
+    """Every scalar argument of ``routine`` that its expression does not use (a vector's components
+    excepted), clamped into its domain: ``clamp(x, lo, hi)``.  The emitters add 0 times each to the routine's
+    value, in every language, so that such an input follows the NaN and domain policy like any other: NaN
+    gives NaN, and +-inf, clamped first, adds exactly 0 (0 times the bare input is NaN at +-inf; the blog's
+    lobe exponent eta(alpha) takes mu_i and does not use it)."""
+    used = {s.name for s in routine.expr.free_symbols}
+    parts = {c for comps in routine.vectors.values() for c in comps}
+    out = []
+    for a in routine.args:
+        if a not in used and a not in parts:
+            x = sp.Symbol(a, real=True)
+            out.append(clamp(x, *routine.domain[a]) if a in routine.domain else x)
+    return out
 
 
 def part_routine(fit: FitFunction) -> Routine:

@@ -29,7 +29,8 @@ Error measures (the ``scale`` of each target):
   of E exceeds 1 flips the lobe's sign, an error of at least 100 %).  Where less than 0.1 % of the
   energy is missing the error is measured against 1e-3 instead: there the lobe is invisible and only its
   absolute error (in units of 0.1 % of the energy) counts.  Oren-Nayar's 1 - E is negative near grazing
-  for alpha < 0.208 (the model gains energy there; exact engine's docstring): the scale uses |1 - E|.
+  for alpha < 0.208 (the model gains energy there; exact engine's docstring), down to -0.01518 at mu = 0,
+  alpha = 0.1264 (:data:`ON_NEGATIVE`, which its target's description states): the scale uses |1 - E|.
 
 Oren-Nayar with A's 0.57 (the 1992 footnote) is not a target: it gains energy for alpha < 0.35 (E(0) > 1),
 E_avg > 1 for alpha < 0.0996, so that its f_ms is negative below and unbounded near that alpha, and
@@ -44,13 +45,20 @@ import numpy as np
 from fitlab.core import Dataset, Input, Target
 from fitlab.families.microfacet_energy import datasets as d
 
-__all__ = ["INPUTS", "TARGETS", "MODEL_SUFFIX", "ONE_MINUS_E_FLOOR", "target_name"]
+__all__ = ["INPUTS", "TARGETS", "MODEL_SUFFIX", "ONE_MINUS_E_FLOOR", "ON_NEGATIVE", "target_name"]
 
 #: the models that have targets, by the suffix of their targets' names
 MODEL_SUFFIX = {"ggx_separable": "ggx_sep", "ggx_correlated": "ggx_cor", "oren_nayar": "on"}
 
 #: the floor of the scale of the 1 - E targets: below it only the absolute error counts (module docstring)
 ONE_MINUS_E_FLOOR = 1e-3
+
+#: where Oren-Nayar's 1 - E goes below 0, as its target's description states it: E > 1 (the model gains energy)
+#: for alpha < 0.2076 near grazing (mu up to 0.49 as alpha -> 0); the minimum on [0, 1]^2 is at mu = 0, where
+#: 1 - E = 1 - A - B/2, for alpha = 0.1264 (the exact engine; tests/test_microfacet_energy_targets.py
+#: recomputes every figure)
+ON_NEGATIVE = ("below 0 where E > 1 (the model gains energy: alpha < 0.2076, mu below 0.49), down to -0.01518 at "
+               "mu = 0, alpha = 0.1264")
 
 MU = Input("mu", (0.0, 1.0), "cosine of the direction (outgoing, or by reciprocity incident) with the normal")
 ALPHA_GGX = Input("alpha", (0.0, 1.0), "GGX roughness alpha, the parameter of D (perceptual roughness squared); "
@@ -121,7 +129,8 @@ def _albedo_targets(model: str, defaults: dict) -> tuple[Target, ...]:
             note=grazing.strip(), **_ABSOLUTE,
         ),
         Target(
-            om_name, f"1 - E(mu, alpha): the energy Kulla-Conti's f_ms restores, {what}; mu, alpha in [0, 1]",
+            om_name, f"1 - E(mu, alpha): the energy Kulla-Conti's f_ms restores, {what}; mu, alpha in [0, 1]"
+                     + (f"; {ON_NEGATIVE}" if model == "oren_nayar" else ""),
             (MU, alpha), defaults["one_minus_E"], PUBLISHED[om_name],
             lambda: _complement(d.albedo_training(model)), lambda: _complement(d.albedo_validation(model)),
             _complement_grid(d.albedo_grid(model)), om_name,

@@ -14,7 +14,7 @@
  *   one_minus_E_ggx_cor.json  d82f0d6c6b962bc78b60b390f4d8a07a0edad86792bd01301402da48d5204e51  packaged; max 6.84e-02, RMS 9.26e-03 (relative to max(|1 - E|, 0.001), 17452 points)
  *   E_avg_ggx_cor.json  01da745251f7c2ec93bc9c1c68cf1a9b6a4b3e761196f928c6f24191d02f1d02  packaged; max 1.36e-06, RMS 9.40e-07 (absolute, 198 points)
  *   E_on.json  58e9efd5295b35fab0b16c60a97b080c0d5582b4515f3618923f3b1847aa2d42  packaged; max 2.90e-05, RMS 1.65e-05 (absolute, 16900 points)
- *   one_minus_E_on.json  90938938d03c071ed06dd6f9cc0b4cfd7989e7f0746755d75b9e6815ef7c40c9  packaged; max 1.80e-03, RMS 2.23e-04 (relative to max(|1 - E|, 0.001), 16900 points)
+ *   one_minus_E_on.json  17bd127c67304aa1c32a34469de89ee3511a9195ee000a1d6420a877836ddaee  packaged; max 1.80e-03, RMS 2.23e-04 (relative to max(|1 - E|, 0.001), 16900 points)
  *   E_avg_on.json  fb678a37d0e14ac8f4cc00c024287012580e5ef33b644dcee150034a932f4d7b  packaged; max 4.98e-13, RMS 2.72e-13 (absolute, 194 points)
  *   ms_blog_eta_diffuse.blog_quadratic.json  0f4abe1b462affadb7fa1aa2d7a5590f72756ea5d8a6c89f56ad3b166cdcd08b  packaged; max 3.07e-01, RMS 1.54e-01 (absolute, 42 points)
  *   ms_blog_flattening_diffuse.blog_cubic.json  6094ac7edaa1fd80613486ff4e7650968823ff07b57eb6589f7bc42d0c11ed97  packaged; max 9.23e-02, RMS 3.63e-02 (relative, 42 points)
@@ -167,10 +167,9 @@ MICROFACET_ENERGY_FN double microfacet_energy_E_avg_on(double alpha)
 
 MICROFACET_ENERGY_FN double microfacet_energy_ms_blog_eta_diffuse(double alpha, double mu_i)
 {
-    (void)mu_i;
     const double t1 = ((alpha < 0.050000000000000003) ? (0.050000000000000003) : (alpha));
     const double t0 = ((t1 > 1.0) ? (1.0) : (t1));
-    return 1.0877990720085609*(t0*t0) - 0.9474705111794323*t0;
+    return 1.0877990720085609*(t0*t0) - 0.9474705111794323*t0 + 0.0*(((((mu_i < 0.050000000000000003) ? (0.050000000000000003) : (mu_i)) > 1.0) ? (1.0) : (((mu_i < 0.050000000000000003) ? (0.050000000000000003) : (mu_i)))));
 }
 
 MICROFACET_ENERGY_FN double microfacet_energy_ms_blog_flattening_diffuse(double alpha, double mu_i)
@@ -298,10 +297,9 @@ MICROFACET_ENERGY_FN double microfacet_energy_ms_tilt_k_diffuse(double alpha, do
 
 MICROFACET_ENERGY_FN double microfacet_energy_ms_blog_eta_conductor(double alpha, double mu_i)
 {
-    (void)mu_i;
     const double t1 = ((alpha < 0.050000000000000003) ? (0.050000000000000003) : (alpha));
     const double t0 = ((t1 > 1.0) ? (1.0) : (t1));
-    return -0.5404312809344088*(t0*t0) + 0.8928694035232881*t0;
+    return -0.5404312809344088*(t0*t0) + 0.8928694035232881*t0 + 0.0*(((((mu_i < 0.050000000000000003) ? (0.050000000000000003) : (mu_i)) > 1.0) ? (1.0) : (((mu_i < 0.050000000000000003) ? (0.050000000000000003) : (mu_i)))));
 }
 
 MICROFACET_ENERGY_FN double microfacet_energy_ms_blog_flattening_conductor(double alpha, double mu_i)
@@ -732,10 +730,9 @@ MICROFACET_ENERGY_FN float microfacet_energy_E_avg_on_f(float alpha)
 
 MICROFACET_ENERGY_FN float microfacet_energy_ms_blog_eta_diffuse_f(float alpha, float mu_i)
 {
-    (void)mu_i;
     const float t1 = ((alpha < 0.05F) ? (0.05F) : (alpha));
     const float t0 = ((t1 > 1.0F) ? (1.0F) : (t1));
-    return 1.08779907F*(t0*t0) - 0.947470511F*t0;
+    return 1.08779907F*(t0*t0) - 0.947470511F*t0 + 0.0F*(((((mu_i < 0.05F) ? (0.05F) : (mu_i)) > 1.0F) ? (1.0F) : (((mu_i < 0.05F) ? (0.05F) : (mu_i)))));
 }
 
 MICROFACET_ENERGY_FN float microfacet_energy_ms_blog_flattening_diffuse_f(float alpha, float mu_i)
@@ -863,10 +860,9 @@ MICROFACET_ENERGY_FN float microfacet_energy_ms_tilt_k_diffuse_f(float alpha, fl
 
 MICROFACET_ENERGY_FN float microfacet_energy_ms_blog_eta_conductor_f(float alpha, float mu_i)
 {
-    (void)mu_i;
     const float t1 = ((alpha < 0.05F) ? (0.05F) : (alpha));
     const float t0 = ((t1 > 1.0F) ? (1.0F) : (t1));
-    return -0.540431281F*(t0*t0) + 0.892869403F*t0;
+    return -0.540431281F*(t0*t0) + 0.892869403F*t0 + 0.0F*(((((mu_i < 0.05F) ? (0.05F) : (mu_i)) > 1.0F) ? (1.0F) : (((mu_i < 0.05F) ? (0.05F) : (mu_i)))));
 }
 
 MICROFACET_ENERGY_FN float microfacet_energy_ms_blog_flattening_conductor_f(float alpha, float mu_i)

@@ -13,7 +13,7 @@
 //   one_minus_E_ggx_cor.json  d82f0d6c6b962bc78b60b390f4d8a07a0edad86792bd01301402da48d5204e51  packaged; max 6.84e-02, RMS 9.26e-03 (relative to max(|1 - E|, 0.001), 17452 points)
 //   E_avg_ggx_cor.json  01da745251f7c2ec93bc9c1c68cf1a9b6a4b3e761196f928c6f24191d02f1d02  packaged; max 1.36e-06, RMS 9.40e-07 (absolute, 198 points)
 //   E_on.json  58e9efd5295b35fab0b16c60a97b080c0d5582b4515f3618923f3b1847aa2d42  packaged; max 2.90e-05, RMS 1.65e-05 (absolute, 16900 points)
-//   one_minus_E_on.json  90938938d03c071ed06dd6f9cc0b4cfd7989e7f0746755d75b9e6815ef7c40c9  packaged; max 1.80e-03, RMS 2.23e-04 (relative to max(|1 - E|, 0.001), 16900 points)
+//   one_minus_E_on.json  17bd127c67304aa1c32a34469de89ee3511a9195ee000a1d6420a877836ddaee  packaged; max 1.80e-03, RMS 2.23e-04 (relative to max(|1 - E|, 0.001), 16900 points)
 //   E_avg_on.json  fb678a37d0e14ac8f4cc00c024287012580e5ef33b644dcee150034a932f4d7b  packaged; max 4.98e-13, RMS 2.72e-13 (absolute, 194 points)
 //   ms_blog_eta_diffuse.blog_quadratic.json  0f4abe1b462affadb7fa1aa2d7a5590f72756ea5d8a6c89f56ad3b166cdcd08b  packaged; max 3.07e-01, RMS 1.54e-01 (absolute, 42 points)
 //   ms_blog_flattening_diffuse.blog_cubic.json  6094ac7edaa1fd80613486ff4e7650968823ff07b57eb6589f7bc42d0c11ed97  packaged; max 9.23e-02, RMS 3.63e-02 (relative, 42 points)
@@ -193,10 +193,12 @@ float microfacet_energy_E_on(float mu, float alpha)
 }
 
 // 1 - E(mu, alpha): the energy Kulla-Conti's f_ms restores, Oren-Nayar (A with 0.33, sigma =
-// (pi/2) alpha); mu, alpha in [0, 1]; form abg_cubic: 1 - E with E = A(sigma) + B(sigma) sqrt(1
-// - mu^2) (g0 + g1 mu + g2 mu^2 + g3 mu^3), A, B the exact Oren-Nayar coefficients (0.33),
-// sigma = (pi/2) alpha: the exact E = A + B g(mu) with g fitted. Measured by fitlab codegen:
-// max 1.80e-03, RMS 2.23e-04 (relative to max(|1 - E|, 0.001), 16900 points).
+// (pi/2) alpha); mu, alpha in [0, 1]; below 0 where E > 1 (the model gains energy: alpha <
+// 0.2076, mu below 0.49), down to -0.01518 at mu = 0, alpha = 0.1264; form abg_cubic: 1 - E
+// with E = A(sigma) + B(sigma) sqrt(1 - mu^2) (g0 + g1 mu + g2 mu^2 + g3 mu^3), A, B the exact
+// Oren-Nayar coefficients (0.33), sigma = (pi/2) alpha: the exact E = A + B g(mu) with g
+// fitted. Measured by fitlab codegen: max 1.80e-03, RMS 2.23e-04 (relative to max(|1 - E|,
+// 0.001), 16900 points).
 float microfacet_energy_one_minus_E_on(float mu, float alpha)
 {
     float t0 = (3.141592653589793238*3.141592653589793238);
@@ -228,7 +230,7 @@ float microfacet_energy_ms_blog_eta_diffuse(float alpha, float mu_i)
 {
     float t1 = ((alpha < 0.050000000000000003) ? (0.050000000000000003) : (alpha));
     float t0 = ((t1 > 1.0) ? (1.0) : (t1));
-    return 1.0877990720085609*(t0*t0) - 0.9474705111794323*t0;
+    return 1.0877990720085609*(t0*t0) - 0.9474705111794323*t0 + 0.0*(((((mu_i < 0.050000000000000003) ? (0.050000000000000003) : (mu_i)) > 1.0) ? (1.0) : (((mu_i < 0.050000000000000003) ? (0.050000000000000003) : (mu_i)))));
 }
 
 // normal flattening sigma_n of the blog's final lobe fitted to the simulated multiple-
@@ -403,7 +405,7 @@ float microfacet_energy_ms_blog_eta_conductor(float alpha, float mu_i)
 {
     float t1 = ((alpha < 0.050000000000000003) ? (0.050000000000000003) : (alpha));
     float t0 = ((t1 > 1.0) ? (1.0) : (t1));
-    return -0.5404312809344088*(t0*t0) + 0.8928694035232881*t0;
+    return -0.5404312809344088*(t0*t0) + 0.8928694035232881*t0 + 0.0*(((((mu_i < 0.050000000000000003) ? (0.050000000000000003) : (mu_i)) > 1.0) ? (1.0) : (((mu_i < 0.050000000000000003) ? (0.050000000000000003) : (mu_i)))));
 }
 
 // normal flattening sigma_n of the blog's final lobe fitted to the simulated multiple-

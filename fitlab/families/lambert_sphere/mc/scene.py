@@ -29,7 +29,7 @@ a precision target.  Example (TOML; the JSON form has the same nesting)::
 
     [precision]
     target_se = 2e-3             # or a table per effect: {multiple = 2e-3, albedo = 5e-4}
-    max_paths = 2000000          # per job (material x incident direction x phase)
+    max_paths = 2000000          # per job (material x incident direction x phase), in [1000, 2^32]
     batch = 100000               # photons per round, at most 10^7; the stopping rule is checked per round
     max_collisions = 100000      # the cap; what it cuts is tallied and reported
     slots = 0                    # photon slots per device (0: automatic)
@@ -55,6 +55,7 @@ from pathlib import Path
 
 import numpy as np
 
+from fitlab._montecarlo import MAX_PATHS, MIN_PATHS_BUDGET
 from fitlab.core import get_form
 from fitlab.families.lambert_sphere.exact import albedo_inverse
 
@@ -79,7 +80,7 @@ SAMPLERS = ("exact", "approx")
 #: few minutes); the seed is a 63-bit non-negative integer (JAX's key).
 LIMITS = {
     "seed": (0, 2**63 - 1),
-    "max_paths": (1000, 2**40),
+    "max_paths": (MIN_PATHS_BUDGET, MAX_PATHS),  # one rule for every family (fitlab._montecarlo)
     "batch": (100, 10**7),
     "max_collisions": (2, 10**8),
     "slots": (0, 2**22),
@@ -618,7 +619,10 @@ def load_scene(path, resolve_kd: bool = True) -> Scene:
     if p.suffix not in (".toml", ".json"):
         raise SceneError(f"{p}:1: (file): a scene is a .toml or .json file")
     try:
-        text = p.read_text()
+        text = p.read_text(encoding="utf-8")
     except OSError as exc:
         raise SceneError(f"{p}:1: (file): cannot read: {exc.strerror}") from None
+    except UnicodeDecodeError as exc:  # binary garbage: TOML and JSON are UTF-8 text
+        raise SceneError(f"{p}:1: (file): not a UTF-8 text file (byte {exc.object[exc.start]:#04x} at offset "
+                         f"{exc.start})") from None
     return parse_scene(text, str(p), resolve_kd=resolve_kd)

@@ -10,7 +10,10 @@ reached (no error estimate) must have its rule-of-three bound 3/(N x bin
 measure) below the target; or when it has used ``max_paths`` photons (then
 the rows say converged = False).  A job that stops on the budget has missed
 its target: :func:`unconverged` names each such job, and ``fitlab simulate``
-exits 1 unless ``--allow-unconverged`` is given.
+exits 1 unless ``--allow-unconverged`` is given.  A job whose stop (its target,
+or its budget when the target needs more paths) is projected more than an hour
+away at its measured rate is named in one warning line on stderr, once
+(:func:`fitlab._montecarlo.slow_job_warning`).
 
 Refused before any work (:class:`~fitlab.families.lambert_sphere.mc.scene.SceneError`,
 one line per problem): every scene error, a bad override, an output location
@@ -28,6 +31,7 @@ from __future__ import annotations
 import csv
 import io
 import math
+import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -36,6 +40,7 @@ import numpy as np
 from tqdm import tqdm
 
 from fitlab._io import FolderError, atomic_write_text, check_output_folder
+from fitlab._montecarlo import slow_job_warning
 from fitlab.families.lambert_sphere.mc.effects import ROW_FIELDS, attach_reference, effect_jobs, estimate_rows, plan
 from fitlab.families.lambert_sphere.mc.sampling import unbounded_reason
 from fitlab.families.lambert_sphere.mc.scene import Scene, SceneError, load_scene, with_overrides
@@ -98,6 +103,21 @@ def _effect_done(effect, scene, rows, target):
     return worst <= target, worst
 
 
+def _warn(line: str, bar=None) -> None:
+    """One warning line on stderr (through the progress bar when there is one)."""
+    line = f"fitlab simulate: warning: {line}"
+    if bar is not None:
+        bar.write(line, file=sys.stderr)
+    else:
+        print(line, file=sys.stderr, flush=True)
+
+
+def _job_name(scene: Scene, job) -> str:
+    mat = scene.materials[job.material]
+    where = f"mu_i = {scene.mu_i[job.incident]:g}" if job.incident >= 0 else "cosine incidence"
+    return f"{job.kind} job, material {mat.label} (c = {mat.c:.6g}), {where}"
+
+
 def simulate(scene: Scene, progress: bool = True, mesh=None) -> SimulationResult:
     """Run the scene; returns rows and summary (writes nothing)."""
     t_start = time.perf_counter()
@@ -120,6 +140,7 @@ def simulate(scene: Scene, progress: bool = True, mesh=None) -> SimulationResult
             st.compile_seconds = compile_walk(cfg, mesh)
             mat = scene.materials[job.material]
             mu_i = scene.mu_i[job.incident] if job.incident >= 0 else 0.0
+            warned = False
             while st.paths < scene.max_paths:
                 n = min(scene.batch, scene.max_paths - st.paths)
                 t0 = time.perf_counter()
@@ -143,6 +164,10 @@ def simulate(scene: Scene, progress: bool = True, mesh=None) -> SimulationResult
                 if done and st.paths >= MIN_PHOTONS:
                     st.converged = True
                     break
+                slow = None if warned else slow_job_warning(st.paths, st.seconds, ratio, scene.max_paths)
+                if slow:
+                    warned = True
+                    _warn(f"{_job_name(scene, job)}: {slow}", bar)
             if bar is not None and st.paths < scene.max_paths:
                 bar.update(scene.max_paths - st.paths)
     finally:
@@ -236,12 +261,9 @@ def unconverged(result: SimulationResult) -> list:
         st = result.jobs[job]
         if st.converged:
             continue
-        mat = scene.materials[job.material]
-        where = f"mu_i = {scene.mu_i[job.incident]:g}" if job.incident >= 0 else "cosine incidence"
         why = (f"standard error {st.se_ratio:.3g} x its target" if not st.se_ratio <= 1.0
                else f"fewer than the {MIN_PHOTONS} photons the stopping rule needs")
-        lines.append(f"not converged: {job.kind} job, material {mat.label} (c = {mat.c:.6g}), {where}: "
-                     f"{why} after {st.paths} paths (max_paths)")
+        lines.append(f"not converged: {_job_name(scene, job)}: {why} after {st.paths} paths (max_paths)")
     return lines
 
 

@@ -48,6 +48,7 @@ import tomllib
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
+from fitlab._montecarlo import MAX_PATHS, MIN_PATHS_BUDGET
 from fitlab.families.microfacet_energy.microsurface.fresnel import FRESNEL
 from fitlab.families.microfacet_energy.microsurface.microsurface import DISTRIBUTIONS
 from fitlab.families.microfacet_energy.microsurface.walk import KINDS
@@ -57,7 +58,7 @@ __all__ = ["SceneError", "Material", "Scene", "parse_scene", "load_scene", "with
 
 LIMITS = {
     "seed": (0, 2**63 - 1),
-    "max_paths": (1000, 2**32),
+    "max_paths": (MIN_PATHS_BUDGET, MAX_PATHS),  # one rule for every family (fitlab._montecarlo)
     "batch": (100, 10**7),
     "max_bounces": (1, 10**6),
     "slots": (64, 2**20),
@@ -177,7 +178,8 @@ class _Checker:
             self.fail(table, index, key, f"{v!r} is not a finite number")
             return None
         if not lo <= v <= hi:
-            self.fail(table, index, key, f"{v!r} is outside [{lo:g}, {hi:g}]")
+            fmt = "d" if integer else "g"
+            self.fail(table, index, key, f"{v!r} is outside [{lo:{fmt}}, {hi:{fmt}}]")
             return None
         return v
 
@@ -366,9 +368,12 @@ def load_scene(path) -> Scene:
     if p.suffix != ".toml":
         raise SceneError(f"{p}:1: (file): a microsurface scene is a .toml file")
     try:
-        text = p.read_text()
-    except (OSError, UnicodeDecodeError) as exc:
+        text = p.read_text(encoding="utf-8")
+    except OSError as exc:
         raise SceneError(f"{p}:1: (file): cannot read: {exc}") from None
+    except UnicodeDecodeError as exc:  # binary garbage: TOML is UTF-8 text
+        raise SceneError(f"{p}:1: (file): not a UTF-8 text file (byte {exc.object[exc.start]:#04x} at offset "
+                         f"{exc.start})") from None
     return parse_scene(text, str(p))
 
 

@@ -32,7 +32,9 @@ se <= target_se["lobe"] and every albedo (transmission, energy) row se <= target
 least MIN_PATHS paths;
 a bin no path reached has no error estimate and counts as done when its rule-of-three bound
 3 / (N Omega) (95 % upper limit for no event of weight <= 1) is below the target; or when it has used
-``max_paths`` (its rows then say converged = False: :func:`unconverged` names the job).
+``max_paths`` (its rows then say converged = False: :func:`unconverged` names the job).  A job whose stop
+(its target, or its budget when the target needs more paths) is projected more than an hour away at its
+measured rate is named in one warning line on stderr, once (:func:`fitlab._montecarlo.slow_job_warning`).
 """
 
 from __future__ import annotations
@@ -40,6 +42,7 @@ from __future__ import annotations
 import csv
 import io
 import math
+import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -47,6 +50,7 @@ from pathlib import Path
 import numpy as np
 
 from fitlab._io import FolderError, atomic_write_bytes, atomic_write_text, check_output_folder
+from fitlab._montecarlo import slow_job_warning
 from fitlab.families.microfacet_energy.microsurface.reference import references
 from fitlab.families.microfacet_energy.microsurface.scene import Scene, SceneError, load_scene, with_overrides
 from fitlab.families.microfacet_energy.microsurface.walk import (
@@ -228,6 +232,11 @@ def _job_done(scene: Scene, rows: list) -> tuple:
     return worst <= 1.0, worst
 
 
+def _warn(line: str) -> None:
+    """One warning line on stderr."""
+    print(f"fitlab simulate: warning: {line}", file=sys.stderr, flush=True)
+
+
 def simulate(scene: Scene, progress: bool = False) -> SimulationResult:
     """Run every job of the scene (writes nothing); see the module docstring."""
     t_start = time.perf_counter()
@@ -237,7 +246,7 @@ def simulate(scene: Scene, progress: bool = False) -> SimulationResult:
         for ii, mu_i in enumerate(scene.mu_i):
             st = JobStats(compile_seconds=compile_walk(cfg))
             key = job_key(scene.seed, mi, ii)
-            acc = None
+            acc, warned = None, False
             while st.paths < scene.max_paths:
                 n = min(scene.batch, scene.max_paths - st.paths)
                 t0 = time.perf_counter()
@@ -253,6 +262,10 @@ def simulate(scene: Scene, progress: bool = False) -> SimulationResult:
                 if done and st.paths >= MIN_PATHS:
                     st.converged = True
                     break
+                slow = None if warned else slow_job_warning(st.paths, st.seconds, st.se_ratio, scene.max_paths)
+                if slow:
+                    warned = True
+                    _warn(f"material {mat.label}, mu_i = {mu_i:g}: {slow}")
             out.tallies[(mi, ii)], out.jobs[(mi, ii)] = acc, st
             rows = estimate_rows(scene, mi, ii, acc, _references(scene, mi, ii))
             for r in rows:

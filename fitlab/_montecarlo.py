@@ -1,0 +1,62 @@
+"""Rules every family's Monte Carlo (``fitlab simulate``) shares: the path budget of one job, and the
+warning when a job's budget cannot reach its standard-error target within :data:`SLOW_JOB_SECONDS`.
+
+No JAX here: the command line reads :data:`MAX_PATHS` for its help.
+"""
+
+from __future__ import annotations
+
+import math
+
+__all__ = ["MAX_PATHS", "MIN_PATHS_BUDGET", "SLOW_JOB_SECONDS", "duration", "slow_job_warning"]
+
+#: the largest path budget of one job (``max_paths`` in a scene file, ``--max-paths``): one rule for every
+#: family and the command line (the microsurface walk numbers a job's paths with 32-bit ids)
+MAX_PATHS = 2**32
+#: the smallest path budget of one job
+MIN_PATHS_BUDGET = 1000
+#: a job whose projected time to its stop (its target, or its budget when the target is out of reach)
+#: exceeds this, at the rate its first rounds measured, is named in one warning line on stderr
+SLOW_JOB_SECONDS = 3600.0
+
+
+def duration(seconds: float) -> str:
+    """``seconds`` as a person reads it: 45 s, 12 min, 3.4 h, 38 days."""
+    if seconds < 120:
+        return f"{seconds:.0f} s"
+    if seconds < 3600:
+        return f"{seconds / 60:.0f} min"
+    if seconds < 2 * 86400:
+        return f"{seconds / 3600:.2g} h"
+    return f"{seconds / 86400:.0f} days"
+
+
+def slow_job_warning(paths: int, seconds: float, se_ratio: float, max_paths: int,
+                     bound: float = SLOW_JOB_SECONDS) -> str | None:
+    """The warning for a job that has run ``paths`` paths in ``seconds`` (walk time) with its worst standard
+    error ``se_ratio`` times its target, or None when its stop is projected within ``bound`` seconds.
+
+    The standard error falls as 1/sqrt(N): the target needs about N se_ratio^2 paths; the job stops there or at
+    ``max_paths``, whichever comes first, and the remaining paths take (stop - N) / rate at the measured rate
+    N / seconds.  While a row has no error estimate (se_ratio infinite: an empty bin whose rule-of-three bound
+    is above the target) only the budget bounds the stop.  None before a first measurement, or for a NaN."""
+    if paths <= 0 or not seconds > 0 or math.isnan(se_ratio) or paths >= max_paths:
+        return None
+    rate = paths / seconds
+    if math.isinf(se_ratio):
+        left = (max_paths - paths) / rate
+        if left <= bound:
+            return None
+        return (f"after {paths} paths a bin is still empty (no error estimate): the job may run to max_paths = "
+                f"{max_paths}, {duration(left)} more at {rate:.3g} paths/s (over the {duration(bound)} bound)")
+    needed = paths * max(se_ratio, 1.0) ** 2
+    stop = min(needed, max_paths)
+    left = (stop - paths) / rate
+    if left <= bound:
+        return None
+    head = f"standard error {se_ratio:.3g} x its target after {paths} paths; the target needs about {needed:.2g} paths"
+    if needed > max_paths:
+        return (f"{head}, more than max_paths = {max_paths}: the job will stop above its target after "
+                f"{duration(left)} more at {rate:.3g} paths/s (over the {duration(bound)} bound; lower --max-paths "
+                "or raise --target-se)")
+    return f"{head}: {duration(left)} more at {rate:.3g} paths/s (over the {duration(bound)} bound)"
