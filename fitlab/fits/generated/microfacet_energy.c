@@ -7,11 +7,11 @@
  * blog's final lobe and the tilted lobe; Kulla-Conti's f_ms.
  * Model: blog_refit (ms_blog_* in the blog's own forms, refitted (the lobe model blog_refit); every other target in its default form)
  * From these fits (file, sha256, where read, and the error fitlab codegen re-measured on the target's validation set):
- *   E_ggx_sep.json  a186df006b726b5c545dac5ebe1dca400ac37eb742aacaf1b302ccb98a17db28  packaged; max 6.35e-04, RMS 1.94e-04 (absolute, 17452 points)
- *   one_minus_E_ggx_sep.json  61c6f15e45162e1bdc03dc23130c70ab8680c04b5d991900862d38dab970f35e  packaged; max 5.18e-02, RMS 1.71e-02 (relative to max(|1 - E|, 0.001), 17452 points)
+ *   E_ggx_sep.json  de27604d80893e4bda7932521308681a0fb991bd7d0c66239bd095e924754ebc  packaged; max 5.73e-04, RMS 1.86e-04 (absolute, 17452 points)
+ *   one_minus_E_ggx_sep.json  fc9ca85b451d51130e2ce3b8146f140dfa4eef3ae4e856a4f3cbddfe15fae0ae  packaged; max 5.18e-02, RMS 1.71e-02 (relative to max(|1 - E|, 0.001), 17452 points)
  *   E_avg_ggx_sep.json  7fe29970992fc97c8d6111cca3026cff2f4b5f2cb696888e0f9055be1ed2bdf4  packaged; max 8.21e-07, RMS 5.67e-07 (absolute, 198 points)
- *   E_ggx_cor.json  006307cb26bcfa3740e6ab79baa0eab4aff570d18034c97b33611231cc94bff7  packaged; max 1.26e-03, RMS 6.89e-04 (absolute, 17452 points)
- *   one_minus_E_ggx_cor.json  d82f0d6c6b962bc78b60b390f4d8a07a0edad86792bd01301402da48d5204e51  packaged; max 6.84e-02, RMS 9.26e-03 (relative to max(|1 - E|, 0.001), 17452 points)
+ *   E_ggx_cor.json  86da6212f06eef96cfc0ff7e8400baa3b08b1a1a7ce718d18224c678ed56b3e5  packaged; max 1.26e-03, RMS 6.89e-04 (absolute, 17452 points)
+ *   one_minus_E_ggx_cor.json  fa9472acce1e77409bb427ee6634c2e76dce76fd8c5d902c4a0273e1f69e2283  packaged; max 6.84e-02, RMS 9.26e-03 (relative to max(|1 - E|, 0.001), 17452 points)
  *   E_avg_ggx_cor.json  01da745251f7c2ec93bc9c1c68cf1a9b6a4b3e761196f928c6f24191d02f1d02  packaged; max 1.36e-06, RMS 9.40e-07 (absolute, 198 points)
  *   E_on.json  58e9efd5295b35fab0b16c60a97b080c0d5582b4515f3618923f3b1847aa2d42  packaged; max 2.90e-05, RMS 1.65e-05 (absolute, 16900 points)
  *   one_minus_E_on.json  17bd127c67304aa1c32a34469de89ee3511a9195ee000a1d6420a877836ddaee  packaged; max 1.80e-03, RMS 2.23e-04 (relative to max(|1 - E|, 0.001), 16900 points)
@@ -43,47 +43,44 @@ static MICROFACET_ENERGY_FN float microfacet_energy_safe_pow_f(float x, float p)
 
 MICROFACET_ENERGY_FN double microfacet_energy_E_ggx_sep(double mu, double alpha)
 {
-    const double t18 = ((alpha < 0.0) ? (0.0) : (alpha));
-    const double t0 = ((t18 > 1.0) ? (1.0) : (t18));
+    const double t14 = ((alpha < 0.0) ? (0.0) : (alpha));
+    const double t0 = ((t14 > 1.0) ? (1.0) : (t14));
     const double t1 = (t0*t0);
     const double t2 = (t0*t0*t0);
     const double t3 = (t0*t0*t0*t0);
-    const double t19 = ((mu < 0.0) ? (0.0) : (mu));
-    const double t20 = t0 + ((t19 > 1.0) ? (1.0) : (t19));
-    const double t4 = ((t20 < 1.0e-8) ? (1.0e-8) : (t20));
-    const double t5 = 1.0/t4;
-    const double t6 = t0*t5;
-    const double t7 = t3/(t4*t4*t4*t4);
-    const double t8 = pow(t4, -3.0);
-    const double t9 = t2*t8;
-    const double t10 = t3*t8;
-    const double t11 = pow(t4, -2.0);
-    const double t12 = t1*t11;
-    const double t13 = t11*t2;
-    const double t14 = t11*t3;
-    const double t15 = t1*t5;
-    const double t16 = t2*t5;
-    const double t17 = t3*t5;
-    return (-0.3023852868868446*t0 - 0.6799923820917246*t1 + 1.8499066246812008*t10 + 9.409995063591866*t12 - 3.5810637858594774*t13 - 0.5524283516712489*t14 + 1.8805253481874398*t15 + 0.42314956759041383*t16 + 0.316147678184972*t17 + 0.436038768813364*t2 - 0.1867068588270862*t3 - 4.14676415848126*t6 + 2.907947386142237*t7 - 7.892625362634015*t9 + 1.0002980779335977)/(-0.28719775591081165*t0 - 0.43125990190309893*t1 + 1.8852566592556899*t10 + 10.094370054749017*t12 - 3.5677391643224854*t13 - 0.26501265297851156*t14 + 1.8110575625689755*t15 + 0.8615100251114759*t16 - 0.6292061023499705*t17 + 0.5751246640059697*t2 + 0.11899766412822159*t3 - 4.153507005840389*t6 + 3.3845994178220242*t7 - 8.959032732666527*t9 + 1.0);
+    const double t15 = ((mu < 0.0) ? (0.0) : (mu));
+    const double t16 = t0 + ((t15 > 1.0) ? (1.0) : (t15));
+    const double t17 = t0/((t16 < 1.1754943508222901e-38) ? (1.1754943508222901e-38) : (t16));
+    const double t4 = ((t17 > 1.0) ? (1.0) : (t17));
+    const double t5 = (t4*t4);
+    const double t6 = (t4*t4*t4);
+    const double t7 = (t4*t4*t4*t4);
+    const double t8 = t0*t4;
+    const double t9 = t1*t4;
+    const double t10 = t0*t6;
+    const double t11 = t2*t4;
+    const double t12 = t0*t5;
+    const double t13 = t1*t5;
+    return (-0.33802356632723557*t0 - 0.6092944755482748*t1 + 1.8073610448863606*t10 + 0.3922894695294117*t11 - 3.464530091637018*t12 - 0.5999822209545924*t13 + 0.4102985493438853*t2 - 0.1932264797304004*t3 - 4.1085432753779*t4 + 9.380947110096102*t5 - 7.876398507691745*t6 + 2.9208112440783323*t7 + 1.8477824789113*t8 + 0.3231182141188298*t9 + 1.0)/(-0.31801156837606853*t0 - 0.3667426098444899*t1 + 1.8214748420504359*t10 - 0.5841073276742074*t11 - 3.39477827194946*t12 - 0.32746991635805844*t13 + 0.5350404882699031*t2 + 0.12871832041278447*t3 - 4.122570178632729*t4 + 10.111918427684694*t5 - 9.008101580663862*t6 + 3.4257596137505795*t7 + 1.738419207327913*t8 + 0.8156464407375048*t9 + 1.0);
 }
 
 MICROFACET_ENERGY_FN double microfacet_energy_one_minus_E_ggx_sep(double mu, double alpha)
 {
-    const double t11 = ((alpha < 0.0) ? (0.0) : (alpha));
-    const double t0 = ((t11 > 1.0) ? (1.0) : (t11));
-    const double t1 = (t0*t0);
-    const double t12 = ((mu < 0.0) ? (0.0) : (mu));
-    const double t2 = ((t12 > 1.0) ? (1.0) : (t12));
-    const double t13 = t0 + t2;
-    const double t3 = ((t13 < 1.0e-8) ? (1.0e-8) : (t13));
-    const double t4 = pow(t3, -2.0);
-    const double t5 = (t2*t2);
-    const double t6 = t0*t2;
-    const double t7 = 1.0/t3;
-    const double t8 = t2*t7;
-    const double t9 = t4*t5;
-    const double t10 = t5*t7;
-    return t1*t4*(0.07189601103403559*t0 + 0.5199370339420534*t1 + 0.02760688930172883*t10 + 0.05170337419074014*t2 + 0.14665154365043856*t5 + 0.7623742589515757*t6 + 0.10049280955711104*t8 - 0.0472629201616696*t9 + 0.0624199688011957)/(0.4532246030247632*t0 + 0.16978082366571096*t1 + 0.4037531572403945*t10 - 0.23275877791317642*t2 - 0.018801792880311734*t5 - 0.2030602691155256*t6 - 2.3428977947145677*t8 + 1.5591441161009258*t9 + 1.0);
+    const double t9 = ((alpha < 0.0) ? (0.0) : (alpha));
+    const double t0 = ((t9 > 1.0) ? (1.0) : (t9));
+    const double t10 = ((mu < 0.0) ? (0.0) : (mu));
+    const double t1 = ((t10 > 1.0) ? (1.0) : (t10));
+    const double t11 = t0 + t1;
+    const double t2 = 1.0/((t11 < 1.1754943508222901e-38) ? (1.1754943508222901e-38) : (t11));
+    const double t3 = (t0*t0);
+    const double t4 = (t1*t1);
+    const double t5 = t0*t1;
+    const double t12 = t1*t2;
+    const double t6 = ((t12 > 1.0) ? (1.0) : (t12));
+    const double t7 = (t6*t6);
+    const double t8 = t1*t6;
+    const double t13 = t0*t2;
+    return (0.07189601103403559*t0 + 0.05170337419074014*t1 + 0.5199370339420534*t3 + 0.14665154365043856*t4 + 0.7623742589515757*t5 + 0.10049280955711104*t6 - 0.0472629201616696*t7 + 0.02760688930172883*t8 + 0.0624199688011957)*(((t13 > 1.0) ? (1.0) : (t13))*((t13 > 1.0) ? (1.0) : (t13)))/(0.4532246030247632*t0 - 0.23275877791317642*t1 + 0.16978082366571096*t3 - 0.018801792880311734*t4 - 0.2030602691155256*t5 - 2.3428977947145677*t6 + 1.5591441161009258*t7 + 0.4037531572403945*t8 + 1.0);
 }
 
 MICROFACET_ENERGY_FN double microfacet_energy_E_avg_ggx_sep(double alpha)
@@ -96,38 +93,40 @@ MICROFACET_ENERGY_FN double microfacet_energy_E_avg_ggx_sep(double alpha)
 
 MICROFACET_ENERGY_FN double microfacet_energy_E_ggx_cor(double mu, double alpha)
 {
-    const double t10 = ((mu < 0.0) ? (0.0) : (mu));
-    const double t0 = ((t10 > 1.0) ? (1.0) : (t10));
-    const double t11 = ((alpha < 0.0) ? (0.0) : (alpha));
-    const double t1 = ((t11 > 1.0) ? (1.0) : (t11));
-    const double t2 = (t1*t1);
-    const double t12 = t0 + t1;
-    const double t3 = ((t12 < 1.0e-8) ? (1.0e-8) : (t12));
-    const double t4 = 1.0/t3;
-    const double t5 = t0*t4;
-    const double t6 = (t0*t0);
-    const double t7 = t0*t1;
-    const double t8 = t6/(t3*t3);
-    const double t9 = t4*t6;
-    return -t0*t2*(1.0 - 4.9021500128909254*log(((t5 < 1.0000000000000001e-30) ? (1.0000000000000001e-30) : (t5))))*(-0.01265329025544183*t0 + 0.014169559769254688*t1 + 0.17237352490652896*t2 + 0.06725896173009777*t5 + 0.08681756809566221*t6 + 0.13113264127845528*t7 + 0.05270585673513351*t8 - 0.02276228869729462*t9 + 0.010484981271782923)/((t3*t3*t3)*(0.35732900632157455*t0 - 0.30556603292541645*t1 + 0.33147601748550554*t2 - 2.0494854472439235*t5 + 0.03489304055710101*t6 - 0.1721721901947601*t7 + 1.279397928724714*t8 - 0.3889591452237444*t9 + 1.0)) + 1.0;
+    const double t9 = ((mu < 0.0) ? (0.0) : (mu));
+    const double t0 = ((t9 > 1.0) ? (1.0) : (t9));
+    const double t10 = ((alpha < 0.0) ? (0.0) : (alpha));
+    const double t1 = ((t10 > 1.0) ? (1.0) : (t10));
+    const double t11 = t0 + t1;
+    const double t2 = 1.0/((t11 < 1.1754943508222901e-38) ? (1.1754943508222901e-38) : (t11));
+    const double t12 = t0*t2;
+    const double t3 = ((t12 > 1.0) ? (1.0) : (t12));
+    const double t4 = (t1*t1);
+    const double t5 = (t0*t0);
+    const double t6 = t0*t1;
+    const double t7 = (t3*t3);
+    const double t8 = t0*t3;
+    const double t13 = t1*t2;
+    return t3*(4.9021500128909254*log(((t3 < 1.0000000000000001e-30) ? (1.0000000000000001e-30) : (t3))) - 1.0)*(-0.01265329025544183*t0 + 0.014169559769254688*t1 + 0.06725896173009777*t3 + 0.17237352490652896*t4 + 0.08681756809566221*t5 + 0.13113264127845528*t6 + 0.05270585673513351*t7 - 0.02276228869729462*t8 + 0.010484981271782923)*(((t13 > 1.0) ? (1.0) : (t13))*((t13 > 1.0) ? (1.0) : (t13)))/(0.35732900632157455*t0 - 0.30556603292541645*t1 - 2.0494854472439235*t3 + 0.33147601748550554*t4 + 0.03489304055710101*t5 - 0.1721721901947601*t6 + 1.279397928724714*t7 - 0.3889591452237444*t8 + 1.0) + 1.0;
 }
 
 MICROFACET_ENERGY_FN double microfacet_energy_one_minus_E_ggx_cor(double mu, double alpha)
 {
-    const double t10 = ((mu < 0.0) ? (0.0) : (mu));
-    const double t0 = ((t10 > 1.0) ? (1.0) : (t10));
-    const double t11 = ((alpha < 0.0) ? (0.0) : (alpha));
-    const double t1 = ((t11 > 1.0) ? (1.0) : (t11));
-    const double t2 = (t1*t1);
-    const double t12 = t0 + t1;
-    const double t3 = ((t12 < 1.0e-8) ? (1.0e-8) : (t12));
-    const double t4 = 1.0/t3;
-    const double t5 = t0*t4;
-    const double t6 = (t0*t0);
-    const double t7 = t0*t1;
-    const double t8 = pow(t3, -2.0);
-    const double t9 = t4*t6;
-    return t0*t2*(1.0 - 2.692590339781228*log(((t5 < 1.0000000000000001e-30) ? (1.0000000000000001e-30) : (t5))))*(-0.038637842922686565*t0 + 0.01650419033612182*t1 + 0.3386162599664439*t2 + 0.14070397980664237*t5 - 0.05924467805883973*t6*t8 + 0.11788341333176851*t6 + 0.1306982500814886*t7 + 0.07742808432850105*t9 + 0.01659234577884317)/((t3*t3*t3)*(0.27382328728209177*t0 - 0.16518315935015515*t1 + 0.25999369584910853*t2 - 2.2267852458841424*t5 + 1.424431093117655*t6*t8 - 0.01011221579635299*t6 - 0.15964305918851565*t7 - 0.1940593451388915*t9 + 1.0));
+    const double t9 = ((mu < 0.0) ? (0.0) : (mu));
+    const double t0 = ((t9 > 1.0) ? (1.0) : (t9));
+    const double t10 = ((alpha < 0.0) ? (0.0) : (alpha));
+    const double t1 = ((t10 > 1.0) ? (1.0) : (t10));
+    const double t11 = t0 + t1;
+    const double t2 = 1.0/((t11 < 1.1754943508222901e-38) ? (1.1754943508222901e-38) : (t11));
+    const double t12 = t0*t2;
+    const double t3 = ((t12 > 1.0) ? (1.0) : (t12));
+    const double t4 = (t1*t1);
+    const double t5 = (t0*t0);
+    const double t6 = t0*t1;
+    const double t7 = (t3*t3);
+    const double t8 = t0*t3;
+    const double t13 = t1*t2;
+    return t3*(1.0 - 2.692590339781228*log(((t3 < 1.0000000000000001e-30) ? (1.0000000000000001e-30) : (t3))))*(-0.038637842922686565*t0 + 0.01650419033612182*t1 + 0.14070397980664237*t3 + 0.3386162599664439*t4 + 0.11788341333176851*t5 + 0.1306982500814886*t6 - 0.05924467805883973*t7 + 0.07742808432850105*t8 + 0.01659234577884317)*(((t13 > 1.0) ? (1.0) : (t13))*((t13 > 1.0) ? (1.0) : (t13)))/(0.27382328728209177*t0 - 0.16518315935015515*t1 - 2.2267852458841424*t3 + 0.25999369584910853*t4 - 0.01011221579635299*t5 - 0.15964305918851565*t6 + 1.424431093117655*t7 - 0.1940593451388915*t8 + 1.0);
 }
 
 MICROFACET_ENERGY_FN double microfacet_energy_E_avg_ggx_cor(double alpha)
@@ -606,47 +605,44 @@ MICROFACET_ENERGY_FN double microfacet_energy_ms_kulla_conti(double mu_i, double
 
 MICROFACET_ENERGY_FN float microfacet_energy_E_ggx_sep_f(float mu, float alpha)
 {
-    const float t18 = ((alpha < 0.0F) ? (0.0F) : (alpha));
-    const float t0 = ((t18 > 1.0F) ? (1.0F) : (t18));
+    const float t14 = ((alpha < 0.0F) ? (0.0F) : (alpha));
+    const float t0 = ((t14 > 1.0F) ? (1.0F) : (t14));
     const float t1 = (t0*t0);
     const float t2 = (t0*t0*t0);
     const float t3 = (t0*t0*t0*t0);
-    const float t19 = ((mu < 0.0F) ? (0.0F) : (mu));
-    const float t20 = t0 + ((t19 > 1.0F) ? (1.0F) : (t19));
-    const float t4 = ((t20 < 1.0e-8F) ? (1.0e-8F) : (t20));
-    const float t5 = 1.0F/t4;
-    const float t6 = t0*t5;
-    const float t7 = t3/(t4*t4*t4*t4);
-    const float t8 = powf(t4, -3.0F);
-    const float t9 = t2*t8;
-    const float t10 = t3*t8;
-    const float t11 = powf(t4, -2.0F);
-    const float t12 = t1*t11;
-    const float t13 = t11*t2;
-    const float t14 = t11*t3;
-    const float t15 = t1*t5;
-    const float t16 = t2*t5;
-    const float t17 = t3*t5;
-    return (-0.302385287F*t0 - 0.679992382F*t1 + 1.84990662F*t10 + 9.40999506F*t12 - 3.58106379F*t13 - 0.552428352F*t14 + 1.88052535F*t15 + 0.423149568F*t16 + 0.316147678F*t17 + 0.436038769F*t2 - 0.186706859F*t3 - 4.14676416F*t6 + 2.90794739F*t7 - 7.89262536F*t9 + 1.00029808F)/(-0.287197756F*t0 - 0.431259902F*t1 + 1.88525666F*t10 + 10.0943701F*t12 - 3.56773916F*t13 - 0.265012653F*t14 + 1.81105756F*t15 + 0.861510025F*t16 - 0.629206102F*t17 + 0.575124664F*t2 + 0.118997664F*t3 - 4.15350701F*t6 + 3.38459942F*t7 - 8.95903273F*t9 + 1.0F);
+    const float t15 = ((mu < 0.0F) ? (0.0F) : (mu));
+    const float t16 = t0 + ((t15 > 1.0F) ? (1.0F) : (t15));
+    const float t17 = t0/((t16 < 1.17549435e-38F) ? (1.17549435e-38F) : (t16));
+    const float t4 = ((t17 > 1.0F) ? (1.0F) : (t17));
+    const float t5 = (t4*t4);
+    const float t6 = (t4*t4*t4);
+    const float t7 = (t4*t4*t4*t4);
+    const float t8 = t0*t4;
+    const float t9 = t1*t4;
+    const float t10 = t0*t6;
+    const float t11 = t2*t4;
+    const float t12 = t0*t5;
+    const float t13 = t1*t5;
+    return (-0.338023566F*t0 - 0.609294476F*t1 + 1.80736104F*t10 + 0.39228947F*t11 - 3.46453009F*t12 - 0.599982221F*t13 + 0.410298549F*t2 - 0.19322648F*t3 - 4.10854327F*t4 + 9.38094711F*t5 - 7.87639851F*t6 + 2.92081124F*t7 + 1.84778248F*t8 + 0.323118214F*t9 + 1.0F)/(-0.318011568F*t0 - 0.36674261F*t1 + 1.82147484F*t10 - 0.584107328F*t11 - 3.39477827F*t12 - 0.327469916F*t13 + 0.535040488F*t2 + 0.12871832F*t3 - 4.12257018F*t4 + 10.1119184F*t5 - 9.00810158F*t6 + 3.42575961F*t7 + 1.73841921F*t8 + 0.815646441F*t9 + 1.0F);
 }
 
 MICROFACET_ENERGY_FN float microfacet_energy_one_minus_E_ggx_sep_f(float mu, float alpha)
 {
-    const float t11 = ((alpha < 0.0F) ? (0.0F) : (alpha));
-    const float t0 = ((t11 > 1.0F) ? (1.0F) : (t11));
-    const float t1 = (t0*t0);
-    const float t12 = ((mu < 0.0F) ? (0.0F) : (mu));
-    const float t2 = ((t12 > 1.0F) ? (1.0F) : (t12));
-    const float t13 = t0 + t2;
-    const float t3 = ((t13 < 1.0e-8F) ? (1.0e-8F) : (t13));
-    const float t4 = powf(t3, -2.0F);
-    const float t5 = (t2*t2);
-    const float t6 = t0*t2;
-    const float t7 = 1.0F/t3;
-    const float t8 = t2*t7;
-    const float t9 = t4*t5;
-    const float t10 = t5*t7;
-    return t1*t4*(0.071896011F*t0 + 0.519937034F*t1 + 0.0276068893F*t10 + 0.0517033742F*t2 + 0.146651544F*t5 + 0.762374259F*t6 + 0.10049281F*t8 - 0.0472629202F*t9 + 0.0624199688F)/(0.453224603F*t0 + 0.169780824F*t1 + 0.403753157F*t10 - 0.232758778F*t2 - 0.0188017929F*t5 - 0.203060269F*t6 - 2.34289779F*t8 + 1.55914412F*t9 + 1.0F);
+    const float t9 = ((alpha < 0.0F) ? (0.0F) : (alpha));
+    const float t0 = ((t9 > 1.0F) ? (1.0F) : (t9));
+    const float t10 = ((mu < 0.0F) ? (0.0F) : (mu));
+    const float t1 = ((t10 > 1.0F) ? (1.0F) : (t10));
+    const float t11 = t0 + t1;
+    const float t2 = 1.0F/((t11 < 1.17549435e-38F) ? (1.17549435e-38F) : (t11));
+    const float t3 = (t0*t0);
+    const float t4 = (t1*t1);
+    const float t5 = t0*t1;
+    const float t12 = t1*t2;
+    const float t6 = ((t12 > 1.0F) ? (1.0F) : (t12));
+    const float t7 = (t6*t6);
+    const float t8 = t1*t6;
+    const float t13 = t0*t2;
+    return (0.071896011F*t0 + 0.0517033742F*t1 + 0.519937034F*t3 + 0.146651544F*t4 + 0.762374259F*t5 + 0.10049281F*t6 - 0.0472629202F*t7 + 0.0276068893F*t8 + 0.0624199688F)*(((t13 > 1.0F) ? (1.0F) : (t13))*((t13 > 1.0F) ? (1.0F) : (t13)))/(0.453224603F*t0 - 0.232758778F*t1 + 0.169780824F*t3 - 0.0188017929F*t4 - 0.203060269F*t5 - 2.34289779F*t6 + 1.55914412F*t7 + 0.403753157F*t8 + 1.0F);
 }
 
 MICROFACET_ENERGY_FN float microfacet_energy_E_avg_ggx_sep_f(float alpha)
@@ -659,38 +655,40 @@ MICROFACET_ENERGY_FN float microfacet_energy_E_avg_ggx_sep_f(float alpha)
 
 MICROFACET_ENERGY_FN float microfacet_energy_E_ggx_cor_f(float mu, float alpha)
 {
-    const float t10 = ((mu < 0.0F) ? (0.0F) : (mu));
-    const float t0 = ((t10 > 1.0F) ? (1.0F) : (t10));
-    const float t11 = ((alpha < 0.0F) ? (0.0F) : (alpha));
-    const float t1 = ((t11 > 1.0F) ? (1.0F) : (t11));
-    const float t2 = (t1*t1);
-    const float t12 = t0 + t1;
-    const float t3 = ((t12 < 1.0e-8F) ? (1.0e-8F) : (t12));
-    const float t4 = 1.0F/t3;
-    const float t5 = t0*t4;
-    const float t6 = (t0*t0);
-    const float t7 = t0*t1;
-    const float t8 = t6/(t3*t3);
-    const float t9 = t4*t6;
-    return -t0*t2*(1.0F - 4.90215001F*logf(((t5 < 1.0e-30F) ? (1.0e-30F) : (t5))))*(-0.0126532903F*t0 + 0.0141695598F*t1 + 0.172373525F*t2 + 0.0672589617F*t5 + 0.0868175681F*t6 + 0.131132641F*t7 + 0.0527058567F*t8 - 0.0227622887F*t9 + 0.0104849813F)/((t3*t3*t3)*(0.357329006F*t0 - 0.305566033F*t1 + 0.331476017F*t2 - 2.04948545F*t5 + 0.0348930406F*t6 - 0.17217219F*t7 + 1.27939793F*t8 - 0.388959145F*t9 + 1.0F)) + 1.0F;
+    const float t9 = ((mu < 0.0F) ? (0.0F) : (mu));
+    const float t0 = ((t9 > 1.0F) ? (1.0F) : (t9));
+    const float t10 = ((alpha < 0.0F) ? (0.0F) : (alpha));
+    const float t1 = ((t10 > 1.0F) ? (1.0F) : (t10));
+    const float t11 = t0 + t1;
+    const float t2 = 1.0F/((t11 < 1.17549435e-38F) ? (1.17549435e-38F) : (t11));
+    const float t12 = t0*t2;
+    const float t3 = ((t12 > 1.0F) ? (1.0F) : (t12));
+    const float t4 = (t1*t1);
+    const float t5 = (t0*t0);
+    const float t6 = t0*t1;
+    const float t7 = (t3*t3);
+    const float t8 = t0*t3;
+    const float t13 = t1*t2;
+    return t3*(4.90215001F*logf(((t3 < 1.0e-30F) ? (1.0e-30F) : (t3))) - 1.0F)*(-0.0126532903F*t0 + 0.0141695598F*t1 + 0.0672589617F*t3 + 0.172373525F*t4 + 0.0868175681F*t5 + 0.131132641F*t6 + 0.0527058567F*t7 - 0.0227622887F*t8 + 0.0104849813F)*(((t13 > 1.0F) ? (1.0F) : (t13))*((t13 > 1.0F) ? (1.0F) : (t13)))/(0.357329006F*t0 - 0.305566033F*t1 - 2.04948545F*t3 + 0.331476017F*t4 + 0.0348930406F*t5 - 0.17217219F*t6 + 1.27939793F*t7 - 0.388959145F*t8 + 1.0F) + 1.0F;
 }
 
 MICROFACET_ENERGY_FN float microfacet_energy_one_minus_E_ggx_cor_f(float mu, float alpha)
 {
-    const float t10 = ((mu < 0.0F) ? (0.0F) : (mu));
-    const float t0 = ((t10 > 1.0F) ? (1.0F) : (t10));
-    const float t11 = ((alpha < 0.0F) ? (0.0F) : (alpha));
-    const float t1 = ((t11 > 1.0F) ? (1.0F) : (t11));
-    const float t2 = (t1*t1);
-    const float t12 = t0 + t1;
-    const float t3 = ((t12 < 1.0e-8F) ? (1.0e-8F) : (t12));
-    const float t4 = 1.0F/t3;
-    const float t5 = t0*t4;
-    const float t6 = (t0*t0);
-    const float t7 = t0*t1;
-    const float t8 = powf(t3, -2.0F);
-    const float t9 = t4*t6;
-    return t0*t2*(1.0F - 2.69259034F*logf(((t5 < 1.0e-30F) ? (1.0e-30F) : (t5))))*(-0.0386378429F*t0 + 0.0165041903F*t1 + 0.33861626F*t2 + 0.14070398F*t5 - 0.0592446781F*t6*t8 + 0.117883413F*t6 + 0.13069825F*t7 + 0.0774280843F*t9 + 0.0165923458F)/((t3*t3*t3)*(0.273823287F*t0 - 0.165183159F*t1 + 0.259993696F*t2 - 2.22678525F*t5 + 1.42443109F*t6*t8 - 0.0101122158F*t6 - 0.159643059F*t7 - 0.194059345F*t9 + 1.0F));
+    const float t9 = ((mu < 0.0F) ? (0.0F) : (mu));
+    const float t0 = ((t9 > 1.0F) ? (1.0F) : (t9));
+    const float t10 = ((alpha < 0.0F) ? (0.0F) : (alpha));
+    const float t1 = ((t10 > 1.0F) ? (1.0F) : (t10));
+    const float t11 = t0 + t1;
+    const float t2 = 1.0F/((t11 < 1.17549435e-38F) ? (1.17549435e-38F) : (t11));
+    const float t12 = t0*t2;
+    const float t3 = ((t12 > 1.0F) ? (1.0F) : (t12));
+    const float t4 = (t1*t1);
+    const float t5 = (t0*t0);
+    const float t6 = t0*t1;
+    const float t7 = (t3*t3);
+    const float t8 = t0*t3;
+    const float t13 = t1*t2;
+    return t3*(1.0F - 2.69259034F*logf(((t3 < 1.0e-30F) ? (1.0e-30F) : (t3))))*(-0.0386378429F*t0 + 0.0165041903F*t1 + 0.14070398F*t3 + 0.33861626F*t4 + 0.117883413F*t5 + 0.13069825F*t6 - 0.0592446781F*t7 + 0.0774280843F*t8 + 0.0165923458F)*(((t13 > 1.0F) ? (1.0F) : (t13))*((t13 > 1.0F) ? (1.0F) : (t13)))/(0.273823287F*t0 - 0.165183159F*t1 - 2.22678525F*t3 + 0.259993696F*t4 - 0.0101122158F*t5 - 0.159643059F*t6 + 1.42443109F*t7 - 0.194059345F*t8 + 1.0F);
 }
 
 MICROFACET_ENERGY_FN float microfacet_energy_E_avg_ggx_cor_f(float alpha)

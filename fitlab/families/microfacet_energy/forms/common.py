@@ -3,17 +3,25 @@ floors, and the complement that turns a form of E into a form of 1 - E.
 
 Grazing-layer variables (GGX): with m = max(mu + alpha, GRAZING_FLOOR),
 
-    u = mu / m,    v = alpha / m,    u + v = 1 where mu + alpha >= GRAZING_FLOOR; u = v = 0 at (0, 0).
+    u = min(1, mu / m),    v = min(1, alpha / m),
+
+so that u = mu/(mu + alpha) and v = alpha/(mu + alpha) exactly, u + v = 1, wherever mu + alpha >= GRAZING_FLOOR
+= 2^-126 (the smallest normal float32: every input pair a float32 shader holds as normal numbers), and u = v = 0
+at the corner (0, 0).
 
 For small alpha, E depends on mu through t = mu/alpha = u/v next to grazing (the layer of
 :mod:`fitlab.families.microfacet_energy.datasets`), and a polynomial in v and alpha follows that layer
 where no polynomial in mu and alpha can: v = 1 at grazing (mu = 0, alpha > 0), v = 0 on the mirror line
 alpha = 0, and at the corner itself v = 0, the mirror's value, the one the exact engine defines there.
-v is written as alpha/m, not 1 - u, so that it keeps every digit when alpha << mu.  The floor only
-decides the corner (0/0).  Its fourth power (v^4 = alpha^4/m^4 in the quartic forms) must be a normal
-float32 too, or the corner is 0/0 in a shader: 1e-8 (1e-32 > 1.2e-38).  Below mu + alpha = 1e-8 (a
-mirror for every purpose) u and v are no longer complementary and blend the corner's value with the
-layer's.
+Along any line mu = t alpha a form is therefore the same function of t for every alpha down to the floor
+(v = 1/(1 + t)), and its limit as alpha -> 0 is its value at (v, alpha) = (1/(1 + t), 0): the exact
+engine's limit to the fit's accuracy (tests/test_microfacet_energy_targets.py measures it).
+v is written as alpha/m, not 1 - u, so that it keeps every digit when alpha << mu.  The min(1, .) is
+what keeps the ratio one quantity: without it sympy writes v^4 as alpha^4/m^4, whose numerator and
+denominator underflow in float32 for mu + alpha below about 1e-10 (0/0 in a shader); a power of
+min(1, alpha/m) stays a power of a number in [0, 1].  The floor only decides the corner (0/0); a floor
+large enough for m^4 to be a normal float32 (1e-8) would blend the corner's value with the layer's for
+every mu + alpha below it.
 """
 
 from __future__ import annotations
@@ -29,14 +37,15 @@ __all__ = ["mu", "alpha", "GRAZING_FLOOR", "LOG_FLOOR", "u", "v", "safe_log", "c
 
 mu, alpha = symbols(("mu", "alpha"))
 
-#: the floor of mu + alpha in u and v (decides the corner 0/0; its 4th power is a normal float32: module docstring)
-GRAZING_FLOOR = sp.Float("1e-8")
+#: the floor of mu + alpha in u and v: 2^-126, the smallest normal float32 (decides only the corner 0/0; u and v are
+#: exact above it: module docstring)
+GRAZING_FLOOR = sp.Float(2.0**-126)
 #: the floor of the argument of a logarithm: x log(x) at x = 0 is 0 * (-69), i.e. 0, not 0 * (-inf) = nan
 LOG_FLOOR = sp.Float("1e-30")
 
 _m = sp.Max(mu + alpha, GRAZING_FLOOR)
-u = mu / _m
-v = alpha / _m
+u = sp.Min(1, mu / _m)
+v = sp.Min(1, alpha / _m)
 
 
 def safe_log(x) -> sp.Expr:

@@ -40,7 +40,8 @@ not.  The richer forms are written in the layer's variables u = mu/(mu + alpha),
 Richer forms, for refit:
 
 * ``rational_v_alpha_4``: a quartic over a quartic in (v, alpha), v = alpha/(mu + alpha) the grazing-layer
-  variable of :mod:`.common`; 29 parameters.  Starts from E = 1 (the mirror).
+  variable of :mod:`.common`; 29 parameters, a00 = 1 fixed (E = 1 on the mirror line alpha = 0, v = 0).
+  Starts from E = 1 (the mirror).
 * ``grazing_rational`` (separable): E = 1 - v^2 P(u, mu, alpha)/Q(u, mu, alpha), P and Q quadratic, Q's
   constant 1, without the monomial u alpha (u alpha = mu - u mu: a fit would wander along that null
   direction): 17 parameters.  1 - E vanishes on the mirror line alpha = 0 (v = 0) and like alpha^2 as
@@ -228,9 +229,12 @@ def rational_v_alpha_4(target: str) -> Form:
         params=num_params + den_params,
         expr=num / (1 + den),
         start=start,
+        # at alpha = 0 (v = 0) the form is a00: the mirror's E, 1 exactly (a free a00 lets a fit put E above 1 there)
+        fixed={"a00": 1.0},
         description=(
             "sum a_ij v^i alpha^j / (1 + sum b_ij v^i alpha^j), i + j <= 4, v = alpha/(mu + alpha) (the grazing-"
-            "layer variable; v = 0 at alpha = 0, where a00 is the mirror's E); labels ij = powers of v, alpha"
+            "layer variable; v = 0 at alpha = 0, where a00 = 1, fixed, is the mirror's E); labels ij = powers of v, "
+            "alpha"
         ),
     )
 
