@@ -1,15 +1,19 @@
 """Atomic writes: a file is either its old self or complete, never half-written; a set of files is
-written as one unit (all new, or all as they were), with no temporary left behind."""
+written as one unit (all new, or all as they were), with no temporary left behind.  And bounded reads of
+input files: :func:`read_regular_file` reads only a regular file of at most a given size, so that a FIFO,
+a device or a huge file named like an input can neither hang a command nor fill its memory."""
 
 from __future__ import annotations
 
 import os
+import stat
 import tempfile
 from pathlib import Path
 
 from fitlab._interrupt import check, hold
 
-__all__ = ["atomic_write_text", "atomic_write_bytes", "atomic_write_many", "temporary_name"]
+__all__ = ["atomic_write_text", "atomic_write_bytes", "atomic_write_many", "temporary_name", "InputFileError",
+           "regular_file", "read_regular_file"]
 
 
 def temporary_name(path: Path) -> Path:
@@ -121,3 +125,77 @@ def check_output_folder(path, files=()) -> Path:
         if (out / name).is_dir():
             raise FolderError("file_is_folder", out / name)
     return out
+
+
+class InputFileError(Exception):
+    """An input file fitlab will not read.  ``kind``: "missing", "folder", "not_regular" (a FIFO, socket or
+    device), "too_large" or "unreadable"; ``reason``: one line without the path (callers name the file, each
+    in its own words); ``str()`` is ``PATH: REASON``."""
+
+    def __init__(self, path, kind: str, reason: str):
+        super().__init__(f"{path}: {reason}")
+        self.path, self.kind, self.reason = Path(path), kind, reason
+
+    def refusal(self, what: str) -> str:
+        """The reason as the refusal of a ``what`` ("scene", "table"): "not a regular file (a FIFO), not a
+        scene", "a folder, not a scene", "cannot read: no such file"; the reason itself otherwise."""
+        if self.kind == "missing":
+            return "cannot read: no such file"
+        if self.kind == "folder":
+            return f"a folder, not a {what}"
+        return f"{self.reason}, not a {what}" if self.kind == "not_regular" else self.reason
+
+
+_KINDS = ((stat.S_ISFIFO, "a FIFO"), (stat.S_ISSOCK, "a socket"), (stat.S_ISCHR, "a character device"),
+          (stat.S_ISBLK, "a block device"))
+
+
+def _check_stat(path, info: os.stat_result, max_bytes: int) -> os.stat_result:
+    if stat.S_ISDIR(info.st_mode):
+        raise InputFileError(path, "folder", "a folder, not a file")
+    if not stat.S_ISREG(info.st_mode):
+        what = next((name for test, name in _KINDS if test(info.st_mode)), "a special file")
+        raise InputFileError(path, "not_regular", f"not a regular file ({what})")
+    if info.st_size > max_bytes:
+        raise InputFileError(path, "too_large", f"{info.st_size} bytes, more than the {max_bytes} bytes fitlab reads")
+    return info
+
+
+def regular_file(path, max_bytes: int) -> os.stat_result:
+    """``os.stat(path)`` once it is certain that ``path`` is a regular file (a symbolic link to one counts) of at
+    most ``max_bytes`` bytes; else one :class:`InputFileError` line.  Nothing is opened, so a FIFO or a device
+    is refused without blocking."""
+    try:
+        info = os.stat(path)
+    except FileNotFoundError:
+        raise InputFileError(path, "missing", "no such file") from None
+    except OSError as exc:
+        raise InputFileError(path, "unreadable", f"cannot read ({exc.strerror or exc})") from None
+    return _check_stat(path, info, max_bytes)
+
+
+def read_regular_file(path, max_bytes: int) -> bytes:
+    """The bytes of ``path``, a regular file of at most ``max_bytes`` bytes (:func:`regular_file`, checked before
+    it is opened and again on the open file, which is opened without blocking, so that a FIFO put in its place
+    in between is refused too); at most ``max_bytes`` are ever read.  Every refusal is one
+    :class:`InputFileError` line."""
+    regular_file(path, max_bytes)
+    try:
+        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_NOCTTY", 0))
+    except FileNotFoundError:
+        raise InputFileError(path, "missing", "no such file") from None
+    except OSError as exc:
+        raise InputFileError(path, "unreadable", f"cannot read ({exc.strerror or exc})") from None
+    try:
+        _check_stat(path, os.fstat(fd), max_bytes)
+        with os.fdopen(fd, "rb") as fh:
+            fd = -1
+            data = fh.read(max_bytes + 1)
+    except OSError as exc:
+        raise InputFileError(path, "unreadable", f"cannot read ({exc.strerror or exc})") from None
+    finally:
+        if fd >= 0:
+            os.close(fd)
+    if len(data) > max_bytes:
+        raise InputFileError(path, "too_large", f"more than the {max_bytes} bytes fitlab reads")
+    return data

@@ -9,9 +9,13 @@ of engine is a miss, never a stale hit.
 
 * Location: ``$FITLAB_CACHE_DIR``, else ``$XDG_CACHE_HOME/fitlab``, else
   ``~/.cache/fitlab``.  ``FITLAB_NO_CACHE=1`` turns the cache off.
-* Entries are ``.npz`` files read with ``allow_pickle=False`` (data, never code).
-  A missing, truncated or damaged entry, or one whose arrays do not have the
-  names the caller asks for, is a miss and is recomputed.
+* Entries are ``.npz`` files read with ``allow_pickle=False`` (data, never code),
+  each holding, beside its arrays, the sha256 of its key and of those arrays
+  (names, dtypes, shapes, bytes).  A missing, truncated or damaged entry, one
+  whose arrays do not have the names the caller asks for, one that is not a
+  regular file of at most :data:`MAX_ENTRY_BYTES`, and one whose arrays do not
+  hash to what it states (wrong values, or another key's entry under this name)
+  is a miss: it is recomputed and overwritten.
 * Writes are atomic (a temporary file named with the process id, then a
   rename): concurrent processes filling one entry never interleave, and a
   reader sees either the old entry or a whole new one.
@@ -36,11 +40,15 @@ from typing import Callable, Iterable, Mapping
 import numpy as np
 
 from fitlab import __version__
-from fitlab._io import atomic_write_bytes
+from fitlab._io import atomic_write_bytes, regular_file
 
 __all__ = ["cache_dir", "cache_key", "cached_arrays", "cache_info", "clear_cache", "enabled", "enable_compilation_cache"]
 
 _SUFFIX = ".npz"
+#: the array of an entry that holds its content hash (:func:`_content_hash`)
+_HASH = "_fitlab_sha256"
+#: the largest entry read, in bytes (the largest the commands make are a few MB)
+MAX_ENTRY_BYTES = 2_000_000_000
 #: the subfolder of JAX's compiled programs
 _XLA = "xla"
 
@@ -72,12 +80,27 @@ def cache_key(parts: Mapping, sources: Iterable[Path] = ()) -> str:
     return h.hexdigest()[:24]
 
 
+def _content_hash(entry: str, arrays: Mapping[str, np.ndarray], names: tuple[str, ...]) -> np.ndarray:
+    """sha256 of an entry's name and key (``entry``, its file name) and of its arrays ``names`` (each one's name,
+    dtype, shape and bytes), as 32 bytes."""
+    h = hashlib.sha256(entry.encode())
+    for n in names:
+        a = np.ascontiguousarray(arrays[n])
+        h.update(f"\0{n}\0{a.dtype.str}\0{a.shape}\0".encode())
+        h.update(a.tobytes())
+    return np.frombuffer(h.digest(), dtype=np.uint8).copy()
+
+
 def _load(path: Path, names: tuple[str, ...]) -> dict | None:
     try:
+        regular_file(path, MAX_ENTRY_BYTES)  # before opening: a FIFO never blocks the read
         with np.load(path, allow_pickle=False) as z:
             out = {n: np.array(z[n]) for n in names}
+            stated = np.array(z[_HASH])
     except Exception:  # noqa: BLE001 - missing, truncated or damaged (EOFError, BadZipFile, KeyError, ...): a miss
         return None
+    if not np.array_equal(stated, _content_hash(path.name, out, names)):
+        return None  # wrong values, or another entry's: a miss, recomputed and overwritten
     return out
 
 
@@ -93,6 +116,8 @@ def cached_arrays(
 
     ``name`` starts the entry's file name (``NAME-KEY.npz``); ``parts`` and ``sources`` make its key
     (:func:`cache_key`)."""
+    if _HASH in names:
+        raise ValueError(f"cache entry {name}: {_HASH} is the name of the entry's content hash")
     use = use_cache and enabled()
     path = cache_dir() / f"{name}-{cache_key(parts, sources)}{_SUFFIX}"
     if use:
@@ -105,7 +130,7 @@ def cached_arrays(
         raise KeyError(f"cache entry {name}: compute() gave no {missing}")
     if use:
         buf = io.BytesIO()
-        np.savez(buf, **{n: values[n] for n in names})
+        np.savez(buf, **{n: values[n] for n in names}, **{_HASH: _content_hash(path.name, values, names)})
         try:
             atomic_write_bytes(path, buf.getvalue())
         except OSError:

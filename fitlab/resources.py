@@ -11,7 +11,9 @@ from any directory):
 The user's data folder holds the tables ``fitlab tabulate`` computes, in the same layout
 (``DATA/FAMILY/*.csv``): ``$FITLAB_DATA`` when set (the commands' ``--data`` sets it), else
 ``$XDG_DATA_HOME/fitlab``, else ``~/.local/share/fitlab``.  A family's tables are read from there when
-that folder holds the family's tables, and from the package otherwise (the fallback).
+that folder holds every one of the family's tables, and from the package when it holds none of them (the
+fallback); a folder that holds some but not all is refused, naming the first one missing, so that a set
+is never read half from one tabulation and half from another.
 
 Nothing fitlab computes is ever written into the package: every command writes to its ``--out``
 folder, by default below the current directory.
@@ -60,21 +62,33 @@ def data_root() -> Path:
 
 def tables_folder(family: str, files_needed=(), root: Path | str | None = None) -> Path:
     """The folder ``family``'s tables are read from: ``ROOT/FAMILY`` (``root``, else :func:`data_root`)
-    when it holds every name in ``files_needed`` (any CSV when none is named), else the packaged tables."""
+    when it holds every name in ``files_needed`` (any CSV when none is named), the packaged tables when it
+    holds none of them (or is no folder).  A folder that holds some of ``files_needed`` but not all is
+    refused with one :class:`fitlab.store.TableError` line naming the first one missing.  A name counts as
+    held whatever it is (a FIFO, a folder), so that reading it refuses it rather than passing it over."""
     user = Path(root if root is not None else data_root()) / family
     if user.is_dir():
-        if files_needed and all((user / name).is_file() for name in files_needed):
-            return user
-        if not files_needed and any(user.glob("*.csv")):
+        if files_needed:
+            missing = [name for name in files_needed if not os.path.lexists(user / name)]
+            if not missing:
+                return user
+            if len(missing) < len(files_needed):
+                from fitlab.store import TableError  # the store reads the tables (and imports this module)
+
+                raise TableError(f"{user}: {missing[0]} is missing (the folder holds {len(files_needed) - len(missing)} "
+                                 f"of the {len(files_needed)} tables of {family}); run `fitlab tabulate` to write them "
+                                 "all, or remove the folder to read the packaged tables")  # fmt: skip
+        elif any(user.glob("*.csv")):
             return user
     return packaged_tables(family)
 
 
 def find_scene(name_or_path, families) -> Path | None:
-    """A scene file: ``name_or_path`` itself when it is a file, else the packaged scene of that name (with or
-    without ``.toml``) among ``families``' scenes; None when there is none."""
+    """A scene file: ``name_or_path`` itself when it exists and is no folder (a FIFO too, which reading a scene
+    then refuses), else the packaged scene of that name (with or without ``.toml``) among ``families``' scenes;
+    None when there is none."""
     p = Path(name_or_path)
-    if p.is_file():
+    if os.path.lexists(p) and not p.is_dir():
         return p
     if p.parent != Path("."):
         return None

@@ -16,6 +16,7 @@ import hashlib
 import io
 import json
 import math
+import os
 from dataclasses import dataclass
 from functools import lru_cache
 from importlib import resources
@@ -28,7 +29,7 @@ import numpy as np
 import sympy as sp
 
 from fitlab import __version__
-from fitlab._io import atomic_write_many, atomic_write_text
+from fitlab._io import InputFileError, atomic_write_many, atomic_write_text, read_regular_file
 from fitlab.core import get_target, targets
 from fitlab.forms import Form
 from fitlab.forms.symbolic import lambdify_numpy, parse_expression, symbols
@@ -236,17 +237,14 @@ def read_checked_fit(path: Path, target: str | None = None) -> tuple[dict, sp.Ex
     (TARGET.json, TARGET.FORM.json) must hold a fit of that target and form, so that a fit saved
     under another target's name is never taken for it."""
     path = Path(path)
-    try:
-        with open(path, "rb") as fh:
-            data = fh.read(MAX_FIT_BYTES + 1)
-    except FileNotFoundError:
-        raise FitFileError(f"{path}: no such fit file; run `fitlab refit --target NAME` to create it") from None
-    except IsADirectoryError:
-        raise FitFileError(f"{path}: a folder, not a fit file") from None
-    except OSError as exc:
-        raise FitFileError(f"{path}: cannot read ({exc.strerror})") from None
-    if len(data) > MAX_FIT_BYTES:
-        raise FitFileError(f"{path}: larger than {MAX_FIT_BYTES} bytes; not a fit file")
+    try:  # a regular file of at most MAX_FIT_BYTES, checked before it is opened: a FIFO or a device never blocks
+        data = read_regular_file(path, MAX_FIT_BYTES)
+    except InputFileError as exc:
+        raise FitFileError({
+            "missing": f"{path}: no such fit file; run `fitlab refit --target NAME` to create it",
+            "folder": f"{path}: a folder, not a fit file",
+            "too_large": f"{path}: larger than {MAX_FIT_BYTES} bytes; not a fit file",
+        }.get(exc.kind, f"{path}: {exc.refusal('fit file')}")) from None
     try:
         record = json.loads(data.decode("utf-8"), parse_constant=_refuse_constant)
     except json.JSONDecodeError as exc:
@@ -388,14 +386,14 @@ def fit_sha256(path: Path) -> str:
 
 def fit_source(fits_dir: Path | str | None, target: str, form: str) -> Path:
     """The file a fit of ``target`` in ``form`` is read from: ``fits_dir`` overlays the packaged fits, so it is
-    fits_dir/NAME when that file exists, else the packaged fit of that name (:func:`fit_path` names it); when
-    neither exists, the path in ``fits_dir`` (whose reading then fails naming it).  ``fits_dir`` None: the
-    packaged fits."""
+    fits_dir/NAME when anything of that name exists there (a folder or a FIFO too, which reading then refuses,
+    rather than passing it over), else the packaged fit of that name (:func:`fit_path` names it); when neither
+    exists, the path in ``fits_dir`` (whose reading then fails naming it).  ``fits_dir`` None: the packaged fits."""
     packaged = fit_path(packaged_fits(), target, form)
     if fits_dir is None:
         return packaged
     own = fit_path(Path(fits_dir), target, form)
-    if own.is_file() or not packaged.is_file():
+    if os.path.lexists(own) or not packaged.is_file():
         return own
     return packaged
 
@@ -470,24 +468,93 @@ class TableError(Exception):
     """A table is missing, malformed, or disagrees with a recomputation."""
 
 
-def read_table(path: Path, columns: tuple[str, ...] | None = None) -> tuple[list[str], np.ndarray]:
-    """Read a table written by :func:`write_tables`; ``columns`` is the header it must have."""
+#: the largest table read, in bytes (the packaged tables stay below 1 MB; a 256 x 256 E table is 3.5 MB)
+MAX_TABLE_BYTES = 50_000_000
+
+
+def _table_error(path: Path, exc: InputFileError) -> TableError:
+    if exc.kind == "missing":
+        return TableError(f"{path}: missing; run `fitlab tabulate` to create it")
+    return TableError(f"{path}: {exc.refusal('table')}")
+
+
+def read_table(path: Path, columns: tuple[str, ...] | None = None, *, grid: str | None = None,
+               points: Mapping[str, np.ndarray] | None = None, infinite: tuple[str, ...] = ()
+               ) -> tuple[list[str], np.ndarray]:
+    """Read a table written by :func:`write_tables`: (its header, its rows as an array of shape (rows, columns)).
+
+    Refused with one :class:`TableError` line naming the table (and the line, for a bad row): a path that is
+    not a regular file of at most :data:`MAX_TABLE_BYTES` (checked before it is opened, so that a FIFO or a
+    device cannot block the read), text that is not UTF-8, a header other than ``columns`` (when given), no
+    rows, a row with another number of fields than the header, a field that is not a number, NaN anywhere,
+    an infinity other than +inf in the columns ``infinite`` (the tables write inf where the exact value is
+    infinite: H at mu = inf and c = 1, for example); when ``grid`` is given, a "# grid:" header line other
+    than ``grid``; when ``points`` ({column: values, one per row}) is given, another number of rows, or a
+    row whose grid columns are not those values exactly (tables write a grid's numbers as Python's repr of
+    the doubles, which reads back exactly)."""
     path = Path(path)
-    if not path.exists():
-        raise TableError(f"{path}: missing; run `fitlab tabulate` to create it")
-    lines = [ln for ln in path.read_text().splitlines() if not ln.startswith("#")]
-    if not lines:
-        raise TableError(f"{path}: empty; run `fitlab tabulate` to rewrite it")
-    header = lines[0].split(",")
-    if columns is not None and tuple(header) != tuple(columns):
-        raise TableError(f"{path}: header {header}, expected {list(columns)}; run `fitlab tabulate` to rewrite it")
     try:
-        data = np.array([[float(x) for x in ln.split(",")] for ln in lines[1:]])
-    except ValueError as exc:
-        raise TableError(f"{path}: unreadable number ({exc}); run `fitlab tabulate` to rewrite it") from None
-    if data.ndim != 2 or data.shape[1] != len(header):
-        raise TableError(f"{path}: rows do not match the header {header}; run `fitlab tabulate`")
+        raw = read_regular_file(path, MAX_TABLE_BYTES)
+    except InputFileError as exc:
+        raise _table_error(path, exc) from None
+    rewrite = "run `fitlab tabulate` to rewrite it"
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise TableError(f"{path}: not UTF-8 text (byte {raw[exc.start]:#04x} at offset {exc.start}); {rewrite}") from None
+    header, stated, rows, first = None, None, [], 0
+    for number, line in enumerate(text.splitlines(), start=1):
+        if header is None and line.startswith("#"):  # comments head the file; below the header, a row is a row
+            if stated is None and line.startswith("# grid:"):
+                stated = line[len("# grid:"):].strip()
+            continue
+        if header is None:
+            header = line.split(",")
+            if columns is not None and tuple(header) != tuple(columns):
+                raise TableError(f"{path}: header {str(header)[:300]}, expected {list(columns)}; {rewrite}")
+            allowed = [name in infinite for name in header]
+            first = number + 1
+            continue
+        fields = line.split(",")
+        if len(fields) != len(header):
+            plural = "s" if len(fields) != 1 else ""
+            raise TableError(f"{path} line {number}: {len(fields)} field{plural}, the header has {len(header)}; {rewrite}")
+        try:
+            row = [float(x) for x in fields]
+        except ValueError:
+            bad = next(x for x in fields if not _is_float(x))
+            raise TableError(f"{path} line {number}: {bad[:40]!r} is not a number; {rewrite}") from None
+        for j, x in enumerate(row):
+            if not math.isfinite(x) and not (allowed[j] and x == math.inf):
+                raise TableError(f"{path} line {number}: {header[j]} is {x!r}, not a finite number; {rewrite}")
+        rows.append(row)
+    if header is None:
+        raise TableError(f"{path}: empty; {rewrite}")
+    if not rows:
+        raise TableError(f"{path}: no rows below the header; {rewrite}")
+    if grid is not None and stated != grid:
+        found = "no grid" if stated is None else f"the grid {stated[:200]!r}"
+        raise TableError(f"{path}: its header states {found}, not {grid!r}; {rewrite}")
+    data = np.array(rows, dtype=float)
+    for name, want in (points or {}).items():
+        want = np.asarray(want, dtype=float)
+        if want.shape != (data.shape[0],):
+            raise TableError(f"{path}: {data.shape[0]} rows, the grid its header states has {want.size}; {rewrite}")
+        j = header.index(name)
+        bad = data[:, j] != want
+        if np.any(bad):
+            i = int(np.argmax(bad))
+            raise TableError(f"{path} line {first + i}: {name} is {float(data[i, j])!r}, the grid its header states "
+                             f"has {float(want[i])!r} there; {rewrite}")
     return header, data
+
+
+def _is_float(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
 
 
 def write_tables(out: Path, tables: dict) -> dict[str, str]:

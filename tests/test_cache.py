@@ -110,3 +110,42 @@ def test_cli_info_and_clear(cache, capsys):
     assert main(["cache", "clear"]) == 0
     assert "removed 1" in capsys.readouterr().out and cache_info()["entries"] == 0
     assert clear_cache() == 0
+
+
+# -- an entry is checked against its key's content hash (issue 31, item 6) ----------------------------
+@pytest.mark.parametrize("wrong", ["values changed", "values changed, its hash kept", "another key's entry"])
+def test_a_wrong_entry_is_a_miss_recomputed_and_overwritten(cache, wrong):
+    calls = []
+    right = cached_arrays("demo", {"grid": "k/4"}, _values(calls), ("x", "y"))
+    (entry,) = cache.glob("*.npz")
+    if wrong == "values changed":  # a whole, well-formed entry with the right names and wrong numbers
+        np.savez(entry.with_suffix(""), x=np.linspace(0, 1, 5), y=2 * np.arange(5.0) ** 2)
+    elif wrong == "values changed, its hash kept":
+        with np.load(entry) as z:
+            stated = {k: np.array(z[k]) for k in z.files if k not in ("x", "y")}
+        np.savez(entry.with_suffix(""), x=np.linspace(0, 1, 5), y=2 * np.arange(5.0) ** 2, **stated)
+    else:  # an entry of another key, under this key's name
+        cached_arrays("demo", {"grid": "k/8"}, lambda: {"x": np.linspace(0, 1, 9), "y": np.arange(9.0)}, ("x", "y"))
+        (other,) = set(cache.glob("*.npz")) - {entry}
+        entry.write_bytes(other.read_bytes())
+    # before: a hit, returning y = [0, 2, 8, 18, 32] (or the other key's nine values)
+    again = cached_arrays("demo", {"grid": "k/4"}, _values(calls), ("x", "y"))
+    assert len(calls) == 2 and again["y"].tolist() == [0.0, 1.0, 4.0, 9.0, 16.0]
+    assert np.array_equal(again["x"], right["x"]) and np.array_equal(again["y"], right["y"])
+    third = cached_arrays("demo", {"grid": "k/4"}, _values(calls), ("x", "y"))  # the entry was overwritten
+    assert len(calls) == 2 and third["y"].tolist() == [0.0, 1.0, 4.0, 9.0, 16.0]
+
+
+def test_a_fifo_entry_is_a_miss_without_blocking(cache):
+    import os
+
+    from test_input_files import finishes
+
+    calls = []
+    cached_arrays("demo", {}, _values(calls), ("x", "y"))
+    (entry,) = cache.glob("*.npz")
+    entry.unlink()
+    os.mkfifo(entry)
+    out = finishes(lambda: cached_arrays("demo", {}, _values(calls), ("x", "y")), [entry])
+    assert len(calls) == 2 and out["y"].tolist() == [0.0, 1.0, 4.0, 9.0, 16.0]
+    assert entry.is_file()  # replaced by a whole entry

@@ -240,3 +240,20 @@ def test_directional_albedo_quadrature_matches_the_exact_engine():
 
     for mu in (0.0, 0.3, 0.9):
         assert directional_albedo(brdf, mu, 0.7) == pytest.approx(float(albedo(mu, 0.7, model="true")), abs=1e-8)
+
+
+def test_a_non_finite_training_point_is_refused_not_left_out():
+    """A training set with a NaN is refused naming the point (issue 31, item 6): before, the solver left the
+    point out while the fit record counted it."""
+    from fitlab.core import Dataset
+    from fitlab.fit.solver import FitError, fit_form
+
+    target = get_target("m")
+    train = target.training()
+    y = train.y.copy()
+    y[32] = np.nan
+    bad = Dataset(dict(train.inputs), y, train.grid)
+    with pytest.raises(FitError) as info:
+        fit_form(target.forms[target.default_form], bad, target.scale(bad), minimax_rounds=0)
+    assert str(info.value) == (f"m/{target.default_form}: the training value at c=0.75 is nan; every training "
+                               "point must be finite")

@@ -6,11 +6,13 @@ from __future__ import annotations
 import shutil
 
 import numpy as np
+import pytest
 
 from fitlab.cli import main
 from fitlab.families.lambert_sphere.datasets import h_training
 from fitlab.families.lambert_sphere.table_files import TABLE_FILES, tables_dir
 from fitlab.resources import DATA_ENV, data_root, find_scene, packaged_fits, packaged_tables, tables_folder
+from fitlab.store import TableError
 
 
 def _copy_tables(root):
@@ -44,9 +46,13 @@ def test_the_user_tables_are_preferred_only_when_complete(monkeypatch, tmp_path)
     assert tables_dir() == packaged_tables("lambert_sphere")  # nothing there yet: the packaged tables
     folder = _copy_tables(tmp_path)
     assert tables_dir() == folder
-    (folder / "kd.csv").unlink()  # an incomplete set is not used: no mixing of two tabulations
-    assert tables_dir() == packaged_tables("lambert_sphere")
+    (folder / "kd.csv").unlink()  # an incomplete set is refused, naming the table it lacks: no mixing of two tabulations
+    with pytest.raises(TableError, match=r"lambert_sphere: kd\.csv is missing \(the folder holds 6 of the 7 tables"):
+        tables_dir()
     assert tables_folder("lambert_sphere", ("h0.csv",), tmp_path) == folder
+    for name in TABLE_FILES:  # a folder with none of the family's tables: the packaged ones
+        (folder / name).unlink(missing_ok=True)
+    assert tables_dir() == packaged_tables("lambert_sphere")
 
 
 def test_refit_reads_the_tables_tabulate_wrote(monkeypatch, tmp_path):

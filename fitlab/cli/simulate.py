@@ -17,6 +17,7 @@ import sys
 import tomllib
 from pathlib import Path
 
+from fitlab._io import InputFileError, read_regular_file
 from fitlab._montecarlo import MAX_PATHS, MIN_PATHS_BUDGET, SLOW_JOB_SECONDS, duration
 from fitlab.cli._common import add_family, FAILURE, USAGE, fail, service
 from fitlab.core import families
@@ -58,10 +59,10 @@ def _family_of(scene: Path, family: str | None) -> str | None:
     for fam in offering:
         if scene.resolve().parent == packaged_scenes(fam).resolve():
             return fam
-    try:
-        text = scene.read_text()
+    try:  # a regular file only (a FIFO never blocks); the family's load_scene says what is wrong with it
+        text = read_regular_file(scene, 1_000_000).decode("utf-8")
         raw = json.loads(text) if scene.suffix == ".json" else tomllib.loads(text)
-    except (OSError, UnicodeDecodeError, ValueError):  # TOMLDecodeError and JSONDecodeError are ValueErrors
+    except (InputFileError, OSError, UnicodeDecodeError, ValueError):  # TOML- and JSONDecodeError are ValueErrors
         raw = {}
     claiming = [fam for fam in offering if getattr(service("simulate", fam), "claims", lambda raw: False)(raw)]
     return claiming[0] if len(claiming) == 1 else offering[0]

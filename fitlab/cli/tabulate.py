@@ -75,9 +75,9 @@ def _check(args, chosen, root) -> int:
         tables = service("tables", name)
         if args.data is not None:  # exactly the tables there, no fallback
             folder = input_folder(Path(args.data) / tables.FAMILY_NAME, "--data")
-        else:
-            folder = tables_folder(tables.FAMILY_NAME, tuple(tables.TABLE_FILES), root)
         try:
+            if args.data is None:  # an incomplete data folder is refused, naming the table it lacks
+                folder = tables_folder(tables.FAMILY_NAME, tuple(tables.TABLE_FILES), root)
             failures = tables.check_tables(folder, show_progress=not args.quiet)
         except TableError as exc:
             fail("tabulate --check", exc, 1)

@@ -49,9 +49,17 @@ class FitResult:
 
 
 def _training_arrays(form, train: Dataset, scale: np.ndarray):
-    keep = np.isfinite(train.y) & (scale > 0.0)
+    """The training points as arrays: every point must be finite (refused naming the first that is not, never
+    left out unseen); the points whose error scale is 0 (exact zeros of a relative error) are left out."""
+    finite = np.isfinite(train.y)
     for name in form.inputs:
-        keep &= np.isfinite(train.inputs[name])
+        finite &= np.isfinite(train.inputs[name])
+    if not np.all(finite):
+        i = int(np.argmax(~finite))
+        point = ", ".join(f"{n}={train.inputs[n][i]:.6g}" for n in form.inputs)
+        raise FitError(f"{form.key}: the training value at {point} is {float(train.y[i])!r}; every training point "
+                       "must be finite")
+    keep = np.asarray(scale, dtype=float) > 0.0
     if not np.any(keep):
         raise FitError(f"{form.key}: no training point with a finite value and a nonzero scale")
     xs = tuple(np.asarray(train.inputs[n][keep], dtype=float) for n in form.inputs)

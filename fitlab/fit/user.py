@@ -47,13 +47,14 @@ import keyword
 import math
 import os
 import re
-import stat
 from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
 from typing import Callable, Mapping
 
 import numpy as np
+
+from fitlab._io import InputFileError, read_regular_file
 
 __all__ = [
     "UserDataError", "UserTable", "UserFit", "fit_table", "fit_function", "read_csv_table", "table_from_arrays",
@@ -198,24 +199,10 @@ def read_csv_table(path) -> UserTable:
     missing header (a first row of numbers), empty or repeated column names, rows of another length than the
     header, no rows.  Cells stay text until :meth:`UserTable.column` reads them."""
     path = Path(path)
-    try:
-        info = os.stat(path)
-    except FileNotFoundError:
-        raise UserDataError(f"{path}: no such file") from None
-    except OSError as exc:
-        raise UserDataError(f"{path}: cannot read ({exc.strerror})") from None
-    if not stat.S_ISREG(info.st_mode):
-        kind = "a folder" if stat.S_ISDIR(info.st_mode) else "not a regular file"
-        raise UserDataError(f"{path}: {kind}, not a table")
-    if info.st_size > MAX_TABLE_BYTES:
-        raise UserDataError(f"{path}: {info.st_size} bytes; fitlab reads tables of at most {MAX_TABLE_BYTES} bytes")
-    try:
-        with open(path, "rb") as fh:
-            data = fh.read(MAX_TABLE_BYTES + 1)
-    except OSError as exc:
-        raise UserDataError(f"{path}: cannot read ({exc.strerror})") from None
-    if len(data) > MAX_TABLE_BYTES:
-        raise UserDataError(f"{path}: larger than {MAX_TABLE_BYTES} bytes; fitlab reads tables of at most that")
+    try:  # fitlab._io.read_regular_file: type and size checked before the file is opened
+        data = read_regular_file(path, MAX_TABLE_BYTES)
+    except InputFileError as exc:
+        raise UserDataError(f"{path}: {'no such file' if exc.kind == 'missing' else exc.refusal('table')}") from None
     try:
         text = data.decode("utf-8-sig")
     except UnicodeDecodeError:

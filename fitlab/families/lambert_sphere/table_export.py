@@ -51,6 +51,7 @@ from pathlib import Path
 import numpy as np
 import sympy as sp
 
+from fitlab._io import read_regular_file
 from fitlab.codegen.program import MaterialSpec, Program, Routine, material_of, with_domain
 from fitlab.codegen.texture import LOOKUPS, TEXEL, Texture, emit_textured, lookup_1d, lookup_2d
 from fitlab.families.lambert_sphere.forms import ORDER2_PART, RUNTIME_PARTS, RUNTIME_TERMS
@@ -66,11 +67,13 @@ from fitlab.families.lambert_sphere.table_files import (
     h_file,
     read_constants,
     read_h,
+    read_checked,
     read_kd,
     tables_dir,
 )
 from fitlab.families.lambert_sphere.targets import TARGETS
 from fitlab.forms.symbolic import symbols
+from fitlab.store import MAX_TABLE_BYTES
 
 __all__ = ["NAME", "LANGUAGES", "NODES", "DEFAULT_NODES", "DEFAULT_LOOKUP", "QUANTITIES", "DEFAULT_QUANTITY", "LIMIT_MU",
            "CONSTANT_ROWS", "TableLayout", "layout", "texture", "program", "generate", "command", "check_tables",
@@ -330,8 +333,12 @@ def _program(nodes: int, lookup: str, digests: tuple) -> Program:
 
 
 def _digests(data_dir: Path) -> tuple:
+    """(name, sha256) of each table the texture is made from, each read with every check first."""
     names = (*(h_file(m) for m in range(3)), CONSTANTS_FILE, KD_FILE)
-    return tuple((name, hashlib.sha256((data_dir / name).read_bytes()).hexdigest()) for name in names)
+    for name in names:
+        read_checked(name, data_dir)  # a TableError names a bad one; a FIFO is refused before it is opened
+    return tuple((name, hashlib.sha256(read_regular_file(data_dir / name, MAX_TABLE_BYTES)).hexdigest())
+                 for name in names)
 
 
 def program(nodes: int = DEFAULT_NODES, lookup: str = DEFAULT_LOOKUP, data_dir: Path | None = None) -> Program:

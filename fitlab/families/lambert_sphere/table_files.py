@@ -2,7 +2,9 @@ r"""The layout of the family's exact tables: file names and columns, written onc
 
 :mod:`.tabulate` writes these files (through :func:`fitlab.store.write_tables`);
 everything that reads them (training sets, the report's interpolation) reads
-them here, through :func:`fitlab.store.read_table`, which checks the header.
+them here, through :func:`read_checked`: :func:`fitlab.store.read_table` checks the header, that every
+value is finite (inf only where the exact value is infinite: :data:`INFINITE`), and that the rows are
+exactly the grid the header states (:func:`grid_text`, :func:`grid_points`).
 The packaged tables are ``fitlab/data/lambert_sphere/``; :func:`tables_dir`
 prefers the user's data folder when ``fitlab tabulate`` has written them there
 (:mod:`fitlab.resources`).
@@ -20,7 +22,7 @@ from fitlab.resources import tables_folder
 from fitlab.store import read_table
 
 __all__ = ["FAMILY_NAME", "tables_dir", "h_columns", "h_file", "CONSTANTS_FILE", "CONSTANT_COLUMNS", "KD_FILE", "KD_COLUMNS", "TABLE_FILES",
-           "SAMPLING_FILES", "SAMPLING_COLUMNS", "read_sampling",
+           "SAMPLING_FILES", "SAMPLING_COLUMNS", "INFINITE", "grid_text", "grid_points", "read_checked", "read_sampling",
            "read_h", "read_constants", "read_kd", "check_tables"]
 
 #: the family's name: its tables live in ``fitlab/data/FAMILY_NAME/`` and ``DATA/FAMILY_NAME/``
@@ -47,41 +49,77 @@ TABLE_FILES = {**{h_file(m): h_columns(m) for m in range(3)}, CONSTANTS_FILE: CO
                **{name: SAMPLING_COLUMNS for name in SAMPLING_FILES}}
 
 
+#: the columns that may hold +inf, by table: H at mu = inf (infinite at c = 1), and H0_inf at c = 1
+INFINITE = {**{h_file(m): ("mu", f"H{m}") for m in range(3)}, CONSTANTS_FILE: ("H0_inf",)}
+
+
 def tables_dir(data_dir: Path | str | None = None) -> Path:
     """The folder the tables are read from: ``data_dir`` itself when given; else the user's data folder's
-    ``lambert_sphere/`` when it holds every table (:func:`fitlab.resources.tables_folder`), else the
-    packaged tables."""
+    ``lambert_sphere/`` when it holds every table, the packaged tables when it holds none, and a
+    :class:`fitlab.store.TableError` naming the first one missing otherwise (:func:`fitlab.resources.tables_folder`)."""
     return Path(data_dir) if data_dir is not None else tables_folder(FAMILY_NAME, tuple(TABLE_FILES))
+
+
+def grid_text(name: str) -> str:
+    """What the "# grid:" header line of the table ``name`` states (:mod:`.tabulate` writes it)."""
+    from fitlab.families.lambert_sphere import tabulate
+
+    return tabulate.SAMPLING_GRIDS[name][2] if name in SAMPLING_FILES else tabulate.GRID_TEXT
+
+
+def grid_points(name: str) -> dict[str, np.ndarray]:
+    """The grid columns of the table ``name``, row by row, as :mod:`.tabulate` writes them: (s, c, mu) of an
+    H table (s outer), (s, c) of constants.csv and kd.csv, (s, c, mu_i) of a sampling table (s outer)."""
+    from fitlab.families.lambert_sphere import tabulate
+
+    if name in SAMPLING_FILES:
+        s_axis, mu_axis, _ = tabulate.SAMPLING_GRIDS[name]
+        return {"s": np.repeat(s_axis, len(mu_axis)), "c": np.repeat(1.0 - s_axis * s_axis, len(mu_axis)),
+                "mu_i": np.tile(mu_axis, len(s_axis))}
+    if name in (CONSTANTS_FILE, KD_FILE):
+        return {"s": tabulate.S_GRID, "c": tabulate.C_GRID}
+    n = len(tabulate.MU_GRID)
+    return {"s": np.repeat(tabulate.S_GRID, n), "c": np.repeat(tabulate.C_GRID, n),
+            "mu": np.tile(tabulate.MU_GRID, len(tabulate.S_GRID))}
+
+
+def read_checked(name: str, data_dir: Path) -> tuple[list[str], np.ndarray]:
+    """(header, rows) of the table ``name`` in ``data_dir``, read afresh with every check: its columns, finite
+    values (inf only in :data:`INFINITE`), its "# grid:" line and its rows exactly that grid
+    (:func:`fitlab.store.read_table`; each refusal one :class:`fitlab.store.TableError` line naming it)."""
+    return read_table(Path(data_dir) / name, TABLE_FILES[name], grid=grid_text(name), points=grid_points(name),
+                      infinite=INFINITE.get(name, ()))  # fmt: skip
 
 
 @lru_cache(maxsize=None)
 def read_h(order: int, data_dir: Path) -> np.ndarray:
     """Rows (s, c, mu, H) of h{order}.csv in ``data_dir``."""
-    return read_table(Path(data_dir) / h_file(order), h_columns(order))[1]
+    return read_checked(h_file(order), data_dir)[1]
 
 
 @lru_cache(maxsize=None)
 def read_constants(data_dir: Path) -> dict[str, np.ndarray]:
     """Column name -> values of constants.csv in ``data_dir`` (s, c, then every constant)."""
-    header, t = read_table(Path(data_dir) / CONSTANTS_FILE, CONSTANT_COLUMNS)
+    header, t = read_checked(CONSTANTS_FILE, data_dir)
     return {name: t[:, j] for j, name in enumerate(header)}
 
 
 @lru_cache(maxsize=None)
 def read_kd(data_dir: Path) -> dict[str, np.ndarray]:
     """Column name -> values of kd.csv in ``data_dir`` (s, c, kd_three_term, kd_true)."""
-    header, t = read_table(Path(data_dir) / KD_FILE, KD_COLUMNS)
+    header, t = read_checked(KD_FILE, data_dir)
     return {name: t[:, j] for j, name in enumerate(header)}
 
 
 @lru_cache(maxsize=None)
 def read_sampling(name: str, data_dir: Path) -> dict[str, np.ndarray]:
     """Column name -> values of the sampling table ``name`` (one of :data:`SAMPLING_FILES`) in ``data_dir``."""
-    header, t = read_table(Path(data_dir) / name, SAMPLING_COLUMNS)
+    header, t = read_checked(name, data_dir)
     return {column: t[:, j] for j, column in enumerate(header)}
 
 
 def check_tables(data_dir: Path) -> None:
-    """Read every table (a :class:`fitlab.store.TableError` names the first missing or malformed one)."""
-    for name, columns in TABLE_FILES.items():
-        read_table(Path(data_dir) / name, columns)
+    """Read every table with every check (:func:`read_checked`; a :class:`fitlab.store.TableError` names the first
+    missing or malformed one)."""
+    for name in TABLE_FILES:
+        read_checked(name, data_dir)

@@ -23,8 +23,8 @@ from fitlab.families.lambert_sphere.exact import constants, h_function, spherica
 from fitlab.families.lambert_sphere.exact.constants import CONSTANT_NAMES
 from fitlab.families.lambert_sphere.exact.sampling import (MU_MIN, QUADRATURE_NODES, optimal_mixture, relative_variance,
                                                            variance_function)
-from fitlab.families.lambert_sphere.table_files import FAMILY_NAME, SAMPLING_COLUMNS, SAMPLING_FILES, TABLE_FILES
-from fitlab.store import Table, read_table
+from fitlab.families.lambert_sphere.table_files import FAMILY_NAME, SAMPLING_COLUMNS, SAMPLING_FILES, TABLE_FILES, read_checked
+from fitlab.store import Table
 from fitlab.store import write_tables as store_write_tables
 
 # the family's `tables` service: the layout (FAMILY_NAME, TABLE_FILES) with the writer and the checker
@@ -176,11 +176,7 @@ def check_tables(out: Path, every: int = 8, show_progress: bool = True) -> list[
         c_sample = np.append(c_sample, C_GRID[-1])
     with tqdm(total=3 + 2 + len(SAMPLING_FILES), desc="checking", disable=not show_progress) as bar:
         for m in range(3):
-            _, data = read_table(out / f"h{m}.csv", ("s", "c", "mu", f"H{m}"))
-            if data.shape[0] != len(C_GRID) * len(MU_GRID):
-                failures.append(f"h{m}.csv: {data.shape[0]} rows, expected {len(C_GRID) * len(MU_GRID)}")
-                bar.update(1)
-                continue
+            _, data = read_checked(f"h{m}.csv", out)  # every check, the grid's rows included
             sel = np.isin(data[:, 1], c_sample)
             c, mu, h = data[sel, 1], data[sel, 2], data[sel, 3]
             ref = h_function(m, mu, c, method="fock")
@@ -190,7 +186,7 @@ def check_tables(out: Path, every: int = 8, show_progress: bool = True) -> list[
                 i = int(np.nanargmax(np.where(np.isnan(rel), np.inf, rel)))
                 failures.append(f"h{m}.csv: c={c[i]!r} mu={mu[i]!r}: {h[i]!r} vs Fock {ref[i]!r} (rel {rel[i]:.2e})")
             bar.update(1)
-        header, data = read_table(out / "constants.csv", ("s", "c", *CONSTANT_NAMES))
+        header, data = read_checked("constants.csv", out)
         sel = np.isin(data[:, 1], c_sample)
         ref = constants(data[sel, 1])
         for j, name in enumerate(header[2:], start=2):
@@ -202,7 +198,7 @@ def check_tables(out: Path, every: int = 8, show_progress: bool = True) -> list[
             if not np.all(err <= CONSTANT_TOLERANCE):
                 failures.append(f"constants.csv: {name} differs by {np.nanmax(err):.2e}")
         bar.update(1)
-        _, data = read_table(out / "kd.csv", ("s", "c", "kd_three_term", "kd_true"))
+        _, data = read_checked("kd.csv", out)
         sel = np.isin(data[:, 1], c_sample)
         for j, model in ((2, "three_term"), (3, "true")):
             err = np.abs(data[sel, j] - spherical_albedo(data[sel, 1], model=model))
@@ -222,10 +218,8 @@ def _check_sampling(path: Path, name: str) -> list[str]:
     started away from the table finds nothing lower."""
     from scipy.optimize import minimize
 
-    _, data = read_table(path, SAMPLING_COLUMNS)
+    _, data = read_checked(name, path.parent)
     s_axis, mu_axis, _ = SAMPLING_GRIDS[name]
-    if data.shape[0] != len(s_axis) * len(mu_axis):
-        return [f"{name}: {data.shape[0]} rows, expected {len(s_axis) * len(mu_axis)}"]
     t = dict(zip(SAMPLING_COLUMNS, data.T))
     failures = []
     for c in (t["c"].max(), t["c"][np.argmin(np.abs(t["c"] - 0.75))]):

@@ -142,6 +142,9 @@ def albedo_table(spec: AlbedoTable) -> Table:
     )
 
 
+_AVERAGE_GRID_TEXT = f"nodes: alpha = k/{AVERAGE_SIZE}, k = 0..{AVERAGE_SIZE} (every alpha of the E tables)"
+
+
 def average_table() -> Table:
     """Compute the E_avg table (every model) on alpha = k/256."""
     alpha = grid("nodes", AVERAGE_SIZE)
@@ -153,7 +156,7 @@ def average_table() -> Table:
         f"absolute {TOLERANCE:g}; values rounded to {DECIMALS} decimals",
         AVERAGE_COLUMNS,
         np.column_stack(columns).tolist(),
-        f"nodes: alpha = k/{AVERAGE_SIZE}, k = 0..{AVERAGE_SIZE} (every alpha of the E tables)",
+        _AVERAGE_GRID_TEXT,
     )
 
 
@@ -186,9 +189,9 @@ def write_tables(out: Path, show_progress: bool = True, fine: bool = False) -> d
 
 def read_albedo_table(path: Path, spec: AlbedoTable) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]]:
     """(mu axis, alpha axis, {model: E of shape (len(alpha), len(mu))}) of an E table written here; the
-    header and the grid columns are checked (:class:`fitlab.store.TableError`)."""
+    header (its "# grid:" line too) and the grid columns are checked (:class:`fitlab.store.TableError`)."""
     path = Path(path)
-    _, data = read_table(path, spec.columns)
+    _, data = read_table(path, spec.columns, grid=_grid_text(spec.kind, spec.size))
     axis = grid(spec.kind, spec.size)
     n = axis.size
     if data.shape[0] != n * n:
@@ -200,9 +203,9 @@ def read_albedo_table(path: Path, spec: AlbedoTable) -> tuple[np.ndarray, np.nda
 
 
 def read_average_table(path: Path) -> tuple[np.ndarray, dict[str, np.ndarray]]:
-    """(alpha, {model: E_avg}) of the E_avg table, header and grid checked."""
+    """(alpha, {model: E_avg}) of the E_avg table, header (its "# grid:" line too) and grid checked."""
     path = Path(path)
-    _, data = read_table(path, AVERAGE_COLUMNS)
+    _, data = read_table(path, AVERAGE_COLUMNS, grid=_AVERAGE_GRID_TEXT)
     alpha = grid("nodes", AVERAGE_SIZE)
     if data.shape[0] != alpha.size or not np.array_equal(data[:, 0], alpha):
         raise TableError(f"{path}: the alpha column is not k/{AVERAGE_SIZE}, k = 0..{AVERAGE_SIZE}")

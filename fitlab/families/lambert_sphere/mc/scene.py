@@ -55,6 +55,7 @@ from pathlib import Path
 
 import numpy as np
 
+from fitlab._io import InputFileError, read_regular_file
 from fitlab._montecarlo import MAX_PATHS, MIN_PATHS_BUDGET
 from fitlab.core import get_form
 from fitlab.families.lambert_sphere.exact import albedo_inverse
@@ -97,6 +98,10 @@ _KNOWN = {
     ("effects",): {"list", "collision_orders"},
     ("precision",): {"target_se", "max_paths", "batch", "max_collisions", "slots"},
 }
+
+
+#: the largest scene file read, in bytes
+MAX_SCENE_BYTES = 1_000_000
 
 
 class SceneError(ValueError):
@@ -618,8 +623,10 @@ def load_scene(path, resolve_kd: bool = True) -> Scene:
     p = Path(path)
     if p.suffix not in (".toml", ".json"):
         raise SceneError(f"{p}:1: (file): a scene is a .toml or .json file")
-    try:
-        text = p.read_text(encoding="utf-8")
+    try:  # a regular file of at most MAX_SCENE_BYTES, checked before it is opened: a FIFO never blocks
+        text = read_regular_file(p, MAX_SCENE_BYTES).decode("utf-8")
+    except InputFileError as exc:
+        raise SceneError(f"{p}:1: (file): {exc.refusal('scene')}") from None
     except OSError as exc:
         raise SceneError(f"{p}:1: (file): cannot read: {exc.strerror}") from None
     except UnicodeDecodeError as exc:  # binary garbage: TOML and JSON are UTF-8 text

@@ -26,7 +26,7 @@ from tqdm import tqdm
 
 from fitlab.families.microfacet_energy.lobes.fitting import fit_lobes, lobe_data
 from fitlab.families.microfacet_energy.lobes.shapes import per_lobe_form
-from fitlab.families.microfacet_energy.lobes.tables import KINDS, SETS, LobeTable, lobe_file
+from fitlab.families.microfacet_energy.lobes.tables import KINDS, SETS, LobeTable, grid_points, lobe_file
 from fitlab.store import Table, TableError, read_table
 
 __all__ = ["PARAM_COLUMNS", "PARAM_FILES", "VALUE_COLUMNS", "params_file", "params_table", "read_params",
@@ -118,11 +118,13 @@ def params_table(t: LobeTable, progress=None) -> Table:
 
 
 def read_params(folder: Path, kind: str, which: str) -> dict[str, np.ndarray]:
-    """{column: array} of a parameter table, its header checked (:class:`fitlab.store.TableError`)."""
+    """{column: array} of a parameter table, its header and its rows checked (:class:`fitlab.store.TableError`):
+    one row per job of the lobe table's grid and order, in the order :func:`params_table` writes them."""
     path = Path(folder) / params_file(kind, which)
-    _, data = read_table(path, PARAM_COLUMNS)
-    if data.shape[0] == 0 or not set(np.unique(data[:, 2])) <= set(ORDERS):
-        raise TableError(f"{path}: the order column holds other orders than {ORDERS}; run `fitlab tabulate`")
+    pts = np.array(grid_points(which), dtype=float)
+    rows = {"alpha": np.repeat(pts[:, 0], len(ORDERS)), "mu_i": np.repeat(pts[:, 1], len(ORDERS)),
+            "order": np.tile(np.asarray(ORDERS, dtype=float), len(pts))}
+    _, data = read_table(path, PARAM_COLUMNS, points=rows)
     return {c: data[:, i] for i, c in enumerate(PARAM_COLUMNS)}
 
 

@@ -259,7 +259,7 @@ def read_lobes(folder: Path, kind: str, which: str) -> LobeTable:
     """The lobe table of ``kind`` and ``which`` in ``folder``, its header and grid checked
     (:class:`fitlab.store.TableError`)."""
     path = Path(folder) / lobe_file(kind, which)
-    _, data = read_table(path, lobe_columns())
+    _, data = read_table(path, lobe_columns(), grid=_grid_text(which))  # the "# grid:" line, then the rows
     return lobes_from_rows(data, kind, which, str(path))
 
 

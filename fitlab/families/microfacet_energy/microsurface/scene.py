@@ -48,6 +48,7 @@ import tomllib
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
+from fitlab._io import InputFileError, read_regular_file
 from fitlab._montecarlo import MAX_PATHS, MIN_PATHS_BUDGET
 from fitlab.families.microfacet_energy.microsurface.fresnel import FRESNEL
 from fitlab.families.microfacet_energy.microsurface.microsurface import DISTRIBUTIONS
@@ -77,6 +78,10 @@ _KNOWN = {
     "outgoing": {"mu_o", "phi", "orders", "transmission_lobe"},
     "precision": {"target_se", "max_paths", "batch", "max_bounces", "slots"},
 }
+
+
+#: the largest scene file read, in bytes
+MAX_SCENE_BYTES = 1_000_000
 
 
 class SceneError(ValueError):
@@ -367,8 +372,10 @@ def load_scene(path) -> Scene:
     p = Path(path)
     if p.suffix != ".toml":
         raise SceneError(f"{p}:1: (file): a microsurface scene is a .toml file")
-    try:
-        text = p.read_text(encoding="utf-8")
+    try:  # a regular file of at most MAX_SCENE_BYTES, checked before it is opened: a FIFO never blocks
+        text = read_regular_file(p, MAX_SCENE_BYTES).decode("utf-8")
+    except InputFileError as exc:
+        raise SceneError(f"{p}:1: (file): {exc.refusal('scene')}") from None
     except OSError as exc:
         raise SceneError(f"{p}:1: (file): cannot read: {exc}") from None
     except UnicodeDecodeError as exc:  # binary garbage: TOML is UTF-8 text
