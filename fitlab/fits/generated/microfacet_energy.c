@@ -595,12 +595,35 @@ MICROFACET_ENERGY_FN double microfacet_energy_ms_tilt_conductor(double mu_i, dou
 
 MICROFACET_ENERGY_FN double microfacet_energy_ms_kulla_conti(double mu_i, double mu_o, double alpha)
 {
-    const double t1 = ((alpha < 0.0) ? (0.0) : (alpha));
-    const double t0 = ((t1 > 1.0) ? (1.0) : (t1));
-    const double t2 = 1.0 - microfacet_energy_E_avg_ggx_cor(t0);
-    const double t3 = ((mu_i < 0.0) ? (0.0) : (mu_i));
-    const double t4 = ((mu_o < 0.0) ? (0.0) : (mu_o));
-    return (1.0 - microfacet_energy_E_ggx_cor(((t3 > 1.0) ? (1.0) : (t3)), t0))*(1.0 - microfacet_energy_E_ggx_cor(((t4 > 1.0) ? (1.0) : (t4)), t0))/(3.141592653589793238*((t2 < 1.0000000000000001e-9) ? (1.0000000000000001e-9) : (t2)));
+    const double t18 = ((mu_i < 0.0) ? (0.0) : (mu_i));
+    const double t0 = ((t18 > 1.0) ? (1.0) : (t18));
+    const double t19 = ((alpha < 0.0) ? (0.0) : (alpha));
+    const double t1 = ((t19 > 1.0) ? (1.0) : (t19));
+    const double t20 = t0 + t1;
+    const double t2 = 1.0/((t20 < 1.1754943508222901e-38) ? (1.1754943508222901e-38) : (t20));
+    const double t21 = t0*t2;
+    const double t3 = ((t21 > 1.0) ? (1.0) : (t21));
+    const double t22 = ((mu_o < 0.0) ? (0.0) : (mu_o));
+    const double t4 = ((t22 > 1.0) ? (1.0) : (t22));
+    const double t23 = t1 + t4;
+    const double t5 = 1.0/((t23 < 1.1754943508222901e-38) ? (1.1754943508222901e-38) : (t23));
+    const double t24 = t4*t5;
+    const double t6 = ((t24 > 1.0) ? (1.0) : (t24));
+    const double t7 = (t1*t1);
+    const double t8 = (t3*t3);
+    const double t9 = (t0*t0);
+    const double t10 = 0.13113264127845528*t1;
+    const double t11 = t0*t3;
+    const double t12 = 0.014169559769254688*t1 + 0.17237352490652896*t7 + 0.010484981271782923;
+    const double t13 = (t6*t6);
+    const double t14 = (t4*t4);
+    const double t15 = t4*t6;
+    const double t16 = 0.1721721901947601*t1;
+    const double t17 = -0.30556603292541645*t1 + 0.33147601748550554*t7 + 1.0;
+    const double t25 = t7*(0.6956643876273829*t1 - 0.08013506999808337*t7 - 1.003096094866168*log(((t1 < 1.0000000000000001e-30) ? (1.0000000000000001e-30) : (t1))) + 0.4819359974975076)/(0.16341509026392703*t1 + 0.6939749652647382*t7 + 1.0);
+    const double t26 = t1*t2;
+    const double t27 = t1*t5;
+    return t3*t6*(4.9021500128909254*log(((t3 < 1.0000000000000001e-30) ? (1.0000000000000001e-30) : (t3))) - 1.0)*(4.9021500128909254*log(((t6 < 1.0000000000000001e-30) ? (1.0000000000000001e-30) : (t6))) - 1.0)*(t0*t10 - 0.01265329025544183*t0 - 0.02276228869729462*t11 + t12 + 0.06725896173009777*t3 + 0.05270585673513351*t8 + 0.08681756809566221*t9)*(t10*t4 + t12 + 0.05270585673513351*t13 + 0.08681756809566221*t14 - 0.02276228869729462*t15 - 0.01265329025544183*t4 + 0.06725896173009777*t6)*(((t26 > 1.0) ? (1.0) : (t26))*((t26 > 1.0) ? (1.0) : (t26)))*(((t27 > 1.0) ? (1.0) : (t27))*((t27 > 1.0) ? (1.0) : (t27)))/(3.141592653589793238*(1.279397928724714*t13 + 0.03489304055710101*t14 - 0.3889591452237444*t15 - t16*t4 + t17 + 0.35732900632157455*t4 - 2.0494854472439235*t6)*(-t0*t16 + 0.35732900632157455*t0 - 0.3889591452237444*t11 + t17 - 2.0494854472439235*t3 + 1.279397928724714*t8 + 0.03489304055710101*t9)*((t25 < 1.1754943508222875e-38) ? (1.1754943508222875e-38) : (t25)));
 }
 
 MICROFACET_ENERGY_FN float microfacet_energy_E_ggx_sep_f(float mu, float alpha)
@@ -1157,10 +1180,33 @@ MICROFACET_ENERGY_FN float microfacet_energy_ms_tilt_conductor_f(float mu_i, flo
 
 MICROFACET_ENERGY_FN float microfacet_energy_ms_kulla_conti_f(float mu_i, float mu_o, float alpha)
 {
-    const float t1 = ((alpha < 0.0F) ? (0.0F) : (alpha));
-    const float t0 = ((t1 > 1.0F) ? (1.0F) : (t1));
-    const float t2 = 1.0F - microfacet_energy_E_avg_ggx_cor_f(t0);
-    const float t3 = ((mu_i < 0.0F) ? (0.0F) : (mu_i));
-    const float t4 = ((mu_o < 0.0F) ? (0.0F) : (mu_o));
-    return (1.0F - microfacet_energy_E_ggx_cor_f(((t3 > 1.0F) ? (1.0F) : (t3)), t0))*(1.0F - microfacet_energy_E_ggx_cor_f(((t4 > 1.0F) ? (1.0F) : (t4)), t0))/(3.141592653589793238F*((t2 < 1.0e-9F) ? (1.0e-9F) : (t2)));
+    const float t18 = ((mu_i < 0.0F) ? (0.0F) : (mu_i));
+    const float t0 = ((t18 > 1.0F) ? (1.0F) : (t18));
+    const float t19 = ((alpha < 0.0F) ? (0.0F) : (alpha));
+    const float t1 = ((t19 > 1.0F) ? (1.0F) : (t19));
+    const float t20 = t0 + t1;
+    const float t2 = 1.0F/((t20 < 1.17549435e-38F) ? (1.17549435e-38F) : (t20));
+    const float t21 = t0*t2;
+    const float t3 = ((t21 > 1.0F) ? (1.0F) : (t21));
+    const float t22 = ((mu_o < 0.0F) ? (0.0F) : (mu_o));
+    const float t4 = ((t22 > 1.0F) ? (1.0F) : (t22));
+    const float t23 = t1 + t4;
+    const float t5 = 1.0F/((t23 < 1.17549435e-38F) ? (1.17549435e-38F) : (t23));
+    const float t24 = t4*t5;
+    const float t6 = ((t24 > 1.0F) ? (1.0F) : (t24));
+    const float t7 = (t1*t1);
+    const float t8 = (t3*t3);
+    const float t9 = (t0*t0);
+    const float t10 = 0.131132641F*t1;
+    const float t11 = t0*t3;
+    const float t12 = 0.0141695598F*t1 + 0.172373525F*t7 + 0.0104849813F;
+    const float t13 = (t6*t6);
+    const float t14 = (t4*t4);
+    const float t15 = t4*t6;
+    const float t16 = 0.17217219F*t1;
+    const float t17 = -0.305566033F*t1 + 0.331476017F*t7 + 1.0F;
+    const float t25 = t7*(0.695664388F*t1 - 0.08013507F*t7 - 1.00309609F*logf(((t1 < 1.0e-30F) ? (1.0e-30F) : (t1))) + 0.481935997F)/(0.16341509F*t1 + 0.693974965F*t7 + 1.0F);
+    const float t26 = t1*t2;
+    const float t27 = t1*t5;
+    return t3*t6*(4.90215001F*logf(((t3 < 1.0e-30F) ? (1.0e-30F) : (t3))) - 1.0F)*(4.90215001F*logf(((t6 < 1.0e-30F) ? (1.0e-30F) : (t6))) - 1.0F)*(t0*t10 - 0.0126532903F*t0 - 0.0227622887F*t11 + t12 + 0.0672589617F*t3 + 0.0527058567F*t8 + 0.0868175681F*t9)*(t10*t4 + t12 + 0.0527058567F*t13 + 0.0868175681F*t14 - 0.0227622887F*t15 - 0.0126532903F*t4 + 0.0672589617F*t6)*(((t26 > 1.0F) ? (1.0F) : (t26))*((t26 > 1.0F) ? (1.0F) : (t26)))*(((t27 > 1.0F) ? (1.0F) : (t27))*((t27 > 1.0F) ? (1.0F) : (t27)))/(3.141592653589793238F*(1.27939793F*t13 + 0.0348930406F*t14 - 0.388959145F*t15 - t16*t4 + t17 + 0.357329006F*t4 - 2.04948545F*t6)*(-t0*t16 + 0.357329006F*t0 - 0.388959145F*t11 + t17 - 2.04948545F*t3 + 1.27939793F*t8 + 0.0348930406F*t9)*((t25 < 1.17549435e-38F) ? (1.17549435e-38F) : (t25)));
 }

@@ -767,14 +767,38 @@ float microfacet_energy_ms_tilt_conductor(float mu_i, float mu_o, float cos_phi,
 }
 
 // Kulla-Conti's compensation lobe (1 - E(mu_o)) (1 - E(mu_i)) / (pi (1 - E_avg)) of height-
-// correlated GGX with F = 1, from the fits of E_ggx_cor and E_avg_ggx_cor: the multiple
-// scattering it assumes, for comparison with the fitted lobes. mu_i, mu_o, alpha in [0, 1].
+// correlated GGX with F = 1, from the fits of E_ggx_cor and E_avg_ggx_cor (1 - E and 1 - E_avg
+// written out, never formed by subtraction): the multiple scattering it assumes, for comparison
+// with the fitted lobes. mu_i, mu_o, alpha in [0, 1].
 float microfacet_energy_ms_kulla_conti(float mu_i, float mu_o, float alpha)
 {
-    float t1 = ((alpha < 0.0) ? (0.0) : (alpha));
-    float t0 = ((t1 > 1.0) ? (1.0) : (t1));
-    float t2 = 1.0 - microfacet_energy_E_avg_ggx_cor(t0);
-    float t3 = ((mu_i < 0.0) ? (0.0) : (mu_i));
-    float t4 = ((mu_o < 0.0) ? (0.0) : (mu_o));
-    return (1.0 - microfacet_energy_E_ggx_cor(((t3 > 1.0) ? (1.0) : (t3)), t0))*(1.0 - microfacet_energy_E_ggx_cor(((t4 > 1.0) ? (1.0) : (t4)), t0))/(3.141592653589793238*((t2 < 1.0000000000000001e-9) ? (1.0000000000000001e-9) : (t2)));
+    float t18 = ((mu_i < 0.0) ? (0.0) : (mu_i));
+    float t0 = ((t18 > 1.0) ? (1.0) : (t18));
+    float t19 = ((alpha < 0.0) ? (0.0) : (alpha));
+    float t1 = ((t19 > 1.0) ? (1.0) : (t19));
+    float t20 = t0 + t1;
+    float t2 = 1.0/((t20 < 1.1754943508222901e-38) ? (1.1754943508222901e-38) : (t20));
+    float t21 = t0*t2;
+    float t3 = ((t21 > 1.0) ? (1.0) : (t21));
+    float t22 = ((mu_o < 0.0) ? (0.0) : (mu_o));
+    float t4 = ((t22 > 1.0) ? (1.0) : (t22));
+    float t23 = t1 + t4;
+    float t5 = 1.0/((t23 < 1.1754943508222901e-38) ? (1.1754943508222901e-38) : (t23));
+    float t24 = t4*t5;
+    float t6 = ((t24 > 1.0) ? (1.0) : (t24));
+    float t7 = (t1*t1);
+    float t8 = (t3*t3);
+    float t9 = (t0*t0);
+    float t10 = 0.13113264127845528*t1;
+    float t11 = t0*t3;
+    float t12 = 0.014169559769254688*t1 + 0.17237352490652896*t7 + 0.010484981271782923;
+    float t13 = (t6*t6);
+    float t14 = (t4*t4);
+    float t15 = t4*t6;
+    float t16 = 0.1721721901947601*t1;
+    float t17 = -0.30556603292541645*t1 + 0.33147601748550554*t7 + 1.0;
+    float t25 = t7*(0.6956643876273829*t1 - 0.08013506999808337*t7 - 1.003096094866168*log(((t1 < 1.0000000000000001e-30) ? (1.0000000000000001e-30) : (t1))) + 0.4819359974975076)/(0.16341509026392703*t1 + 0.6939749652647382*t7 + 1.0);
+    float t26 = t1*t2;
+    float t27 = t1*t5;
+    return t3*t6*(4.9021500128909254*log(((t3 < 1.0000000000000001e-30) ? (1.0000000000000001e-30) : (t3))) - 1.0)*(4.9021500128909254*log(((t6 < 1.0000000000000001e-30) ? (1.0000000000000001e-30) : (t6))) - 1.0)*(t0*t10 - 0.01265329025544183*t0 - 0.02276228869729462*t11 + t12 + 0.06725896173009777*t3 + 0.05270585673513351*t8 + 0.08681756809566221*t9)*(t10*t4 + t12 + 0.05270585673513351*t13 + 0.08681756809566221*t14 - 0.02276228869729462*t15 - 0.01265329025544183*t4 + 0.06725896173009777*t6)*(((t26 > 1.0) ? (1.0) : (t26))*((t26 > 1.0) ? (1.0) : (t26)))*(((t27 > 1.0) ? (1.0) : (t27))*((t27 > 1.0) ? (1.0) : (t27)))/(3.141592653589793238*(1.279397928724714*t13 + 0.03489304055710101*t14 - 0.3889591452237444*t15 - t16*t4 + t17 + 0.35732900632157455*t4 - 2.0494854472439235*t6)*(-t0*t16 + 0.35732900632157455*t0 - 0.3889591452237444*t11 + t17 - 2.0494854472439235*t3 + 1.279397928724714*t8 + 0.03489304055710101*t9)*((t25 < 1.1754943508222875e-38) ? (1.1754943508222875e-38) : (t25)));
 }

@@ -362,8 +362,9 @@ MICROFACET_ENERGY_FN float microfacet_energy_ms_tilt_conductor_f(float mu_i, flo
 
 /*
  * Kulla-Conti's compensation lobe (1 - E(mu_o)) (1 - E(mu_i)) / (pi (1 - E_avg)) of height-
- * correlated GGX with F = 1, from the fits of E_ggx_cor and E_avg_ggx_cor: the multiple
- * scattering it assumes, for comparison with the fitted lobes. mu_i, mu_o, alpha in [0, 1].
+ * correlated GGX with F = 1, from the fits of E_ggx_cor and E_avg_ggx_cor (1 - E and 1 - E_avg
+ * written out, never formed by subtraction): the multiple scattering it assumes, for comparison
+ * with the fitted lobes. mu_i, mu_o, alpha in [0, 1].
  */
 MICROFACET_ENERGY_FN double microfacet_energy_ms_kulla_conti(double mu_i, double mu_o, double alpha);
 MICROFACET_ENERGY_FN float microfacet_energy_ms_kulla_conti_f(float mu_i, float mu_o, float alpha);

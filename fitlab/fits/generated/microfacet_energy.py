@@ -772,13 +772,36 @@ def ms_tilt_conductor(mu_i, mu_o, cos_phi, alpha):
 
 def ms_kulla_conti(mu_i, mu_o, alpha):
     """Kulla-Conti's compensation lobe (1 - E(mu_o)) (1 - E(mu_i)) / (pi (1 - E_avg)) of
-    height-correlated GGX with F = 1, from the fits of E_ggx_cor and E_avg_ggx_cor: the
-    multiple scattering it assumes, for comparison with the fitted lobes. mu_i, mu_o, alpha
-    in [0, 1]."""
+    height-correlated GGX with F = 1, from the fits of E_ggx_cor and E_avg_ggx_cor (1 - E
+    and 1 - E_avg written out, never formed by subtraction): the multiple scattering it
+    assumes, for comparison with the fitted lobes. mu_i, mu_o, alpha in [0, 1]."""
     mu_i, mu_o, alpha = numpy.asarray(mu_i, dtype=float), numpy.asarray(mu_o, dtype=float), numpy.asarray(alpha, dtype=float)
-    t1 = numpy.where(numpy.less(alpha, 0), 0.0, alpha)
-    t0 = numpy.where(numpy.greater(t1, 1.0), 1.0, t1)
-    t2 = 1 - E_avg_ggx_cor(t0)
-    t3 = numpy.where(numpy.less(mu_i, 0), 0.0, mu_i)
-    t4 = numpy.where(numpy.less(mu_o, 0), 0.0, mu_o)
-    return (1 - E_ggx_cor(numpy.where(numpy.greater(t3, 1.0), 1.0, t3), t0))*(1 - E_ggx_cor(numpy.where(numpy.greater(t4, 1.0), 1.0, t4), t0))/(3.141592653589793238*numpy.where(numpy.less(t2, 1.0e-9), 1.0e-9, t2))
+    t18 = numpy.where(numpy.less(mu_i, 0), 0.0, mu_i)
+    t0 = numpy.where(numpy.greater(t18, 1.0), 1.0, t18)
+    t19 = numpy.where(numpy.less(alpha, 0), 0.0, alpha)
+    t1 = numpy.where(numpy.greater(t19, 1.0), 1.0, t19)
+    t20 = t0 + t1
+    t2 = numpy.where(numpy.less(t20, 1.17549435082229e-38), 1.17549435082229e-38, t20)**(-1.0)
+    t21 = t0*t2
+    t3 = numpy.where(numpy.greater(t21, 1), 1, t21)
+    t22 = numpy.where(numpy.less(mu_o, 0), 0.0, mu_o)
+    t4 = numpy.where(numpy.greater(t22, 1.0), 1.0, t22)
+    t23 = t1 + t4
+    t5 = numpy.where(numpy.less(t23, 1.17549435082229e-38), 1.17549435082229e-38, t23)**(-1.0)
+    t24 = t4*t5
+    t6 = numpy.where(numpy.greater(t24, 1), 1, t24)
+    t7 = (t1*t1)
+    t8 = (t3*t3)
+    t9 = (t0*t0)
+    t10 = 0.13113264127845528*t1
+    t11 = t0*t3
+    t12 = 0.014169559769254688*t1 + 0.17237352490652896*t7 + 0.010484981271782923
+    t13 = (t6*t6)
+    t14 = (t4*t4)
+    t15 = t4*t6
+    t16 = 0.1721721901947601*t1
+    t17 = -0.30556603292541645*t1 + 0.33147601748550554*t7 + 1
+    t25 = t7*(0.6956643876273829*t1 - 0.08013506999808337*t7 - 1.003096094866168*numpy.log(numpy.where(numpy.less(t1, 1.0e-30), 1.0e-30, t1)) + 0.4819359974975076)/(0.16341509026392703*t1 + 0.6939749652647382*t7 + 1)
+    t26 = t1*t2
+    t27 = t1*t5
+    return t3*t6*(4.9021500128909254*numpy.log(numpy.where(numpy.less(t3, 1.0e-30), 1.0e-30, t3)) - 1)*(4.9021500128909254*numpy.log(numpy.where(numpy.less(t6, 1.0e-30), 1.0e-30, t6)) - 1)*(t0*t10 - 0.01265329025544183*t0 - 0.02276228869729462*t11 + t12 + 0.06725896173009777*t3 + 0.05270585673513351*t8 + 0.08681756809566221*t9)*(t10*t4 + t12 + 0.05270585673513351*t13 + 0.08681756809566221*t14 - 0.02276228869729462*t15 - 0.01265329025544183*t4 + 0.06725896173009777*t6)*(numpy.where(numpy.greater(t26, 1), 1, t26)*numpy.where(numpy.greater(t26, 1), 1, t26))*(numpy.where(numpy.greater(t27, 1), 1, t27)*numpy.where(numpy.greater(t27, 1), 1, t27))/(3.141592653589793238*(1.279397928724714*t13 + 0.03489304055710101*t14 - 0.3889591452237444*t15 - t16*t4 + t17 + 0.35732900632157455*t4 - 2.0494854472439235*t6)*(-t0*t16 + 0.35732900632157455*t0 - 0.3889591452237444*t11 + t17 - 2.0494854472439235*t3 + 1.279397928724714*t8 + 0.03489304055710101*t9)*numpy.where(numpy.less(t25, 1.17549435082229e-38), 1.17549435082229e-38, t25))

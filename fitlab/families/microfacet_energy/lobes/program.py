@@ -20,7 +20,10 @@ is the committed output of the packaged fits, which a test regenerates through t
   tilted lobe, every parameter per order (model ``tilted``); cos_phi = cos(phi_o - phi_i), phi = 0 the
   back-scattering side;
 * ``ms_kulla_conti(mu_i, mu_o, alpha)``: Kulla-Conti's f_ms of height-correlated GGX (the walk's order 1)
-  from the routines e_ggx_cor and e_avg_ggx_cor, for comparison.
+  from the fits of E_ggx_cor and E_avg_ggx_cor, for comparison: 1 - E and 1 - E_avg are those fits' forms
+  with the 1 cancelled (the forms are written 1 - (...)), never formed by subtraction, so that float keeps
+  the digits of double as alpha -> 0 (1 - E and 1 - E_avg vanish like alpha^2 there, below float's
+  rounding of E for alpha below about 1e-3).
 
 Every lobe is the multiple-scattering BRDF (1/sr) to add to the single-scattering one, for light from mu_i
 (rho: the facets' albedo; conductors: F = 1); inputs outside [0, 1] (cos_phi [-1, 1]) are clamped, NaN gives
@@ -35,7 +38,7 @@ from typing import Mapping
 
 import sympy as sp
 
-from fitlab.codegen import Program, ProgramSpec, Routine, build_program, call, part_routine
+from fitlab.codegen import Program, ProgramSpec, Routine, build_program, call, part_routine, stable
 from fitlab.families.microfacet_energy.lobes.runtime import MODELS, model_forms, multiple_scattering, order_lobes
 from fitlab.families.microfacet_energy.lobes.tables import KINDS
 from fitlab.families.microfacet_energy.lobes.targets import lobe_target_names
@@ -43,7 +46,8 @@ from fitlab.families.microfacet_energy.targets import TARGETS
 from fitlab.forms.symbolic import symbols
 from fitlab.store import FitFunction, fit_path, fits_folder
 
-__all__ = ["NAME", "PROGRAM", "PARTS", "PROGRAM_MODELS", "DEFAULT_MODEL", "KULLA_CONTI_PARTS", "LANGUAGES",
+__all__ = ["NAME", "PROGRAM", "PARTS", "PROGRAM_MODELS", "DEFAULT_MODEL", "KULLA_CONTI_PARTS", "KULLA_CONTI_FLOOR",
+           "LANGUAGES",
            "fit_files", "lobe_program"]
 
 #: the generated files' base name and the functions' prefix: the family's name
@@ -56,6 +60,8 @@ PROGRAM_MODELS = {"blog": "blog_refit", "tilt": "tilted"}
 DEFAULT_MODEL = PROGRAM_MODELS["blog"]
 #: the fits Kulla-Conti's routine reads: E and E_avg of height-correlated GGX
 KULLA_CONTI_PARTS = ("E_ggx_cor", "E_avg_ggx_cor")
+#: the floor of 1 - E_avg in Kulla-Conti's routine: 2^-126, the smallest normal float32 (_kulla_conti says why)
+KULLA_CONTI_FLOOR = sp.Float(2.0**-126)
 #: the languages committed in fitlab/fits/generated (those the tests compile, validate and compare)
 LANGUAGES = ("python", "c", "glsl")
 
@@ -110,14 +116,26 @@ def _composed(lobe: str, kind: str, fits: Mapping[str, FitFunction]) -> Routine:
     return Routine(f"ms_{lobe}_{kind}", tuple(args), expr, doc, domain={a: _DOMAIN[a] for a in args})
 
 
-def _kulla_conti() -> Routine:
-    e, e_avg = (TARGETS[t].routine for t in KULLA_CONTI_PARTS)
-    # E_avg -> 1 as alpha -> 0 where 1 - E -> 0 too: the floor keeps 0/0 out (the lobe is 0 there)
-    expr = (1 - call(e, mu_o, alpha)) * (1 - call(e, mu_i, alpha)) / (
-        sp.pi * sp.Max(1 - call(e_avg, alpha), sp.Float("1e-9")))
+def _one_minus(fit: FitFunction, **inputs) -> sp.Expr:
+    """1 - (the fit's expression) with its inputs replaced by name (``inputs``): the forms of E and E_avg are
+    written 1 - (...), and sympy cancels the 1, so that 1 - E keeps every digit as it goes to 0 (1 minus a call
+    of the fit's routine would lose them in float)."""
+    expr = 1 - fit.expression
+    if any(term.is_number and term != 0 for term in sp.Add.make_args(sp.expand(expr, deep=False, mul=False))):
+        raise ValueError(f"Kulla-Conti's 1 - {fit.target}: its form {fit.form} is not written 1 - (...)")
+    return stable(expr.xreplace({s: inputs[s.name] for s in expr.free_symbols if s.name in inputs}))
+
+
+def _kulla_conti(fits: Mapping[str, FitFunction]) -> Routine:
+    e, e_avg = (fits[t] for t in KULLA_CONTI_PARTS)
+    # 1 - E_avg -> 0 as alpha -> 0 where 1 - E -> 0 too; the floor keeps 0/0 out at alpha = 0 (the lobe is 0 there)
+    # and is reached only where 1 - E_avg is no normal float32 (alpha below about 1e-20)
+    expr = _one_minus(e, mu=mu_o, alpha=alpha) * _one_minus(e, mu=mu_i, alpha=alpha) / (
+        sp.pi * sp.Max(_one_minus(e_avg, alpha=alpha), KULLA_CONTI_FLOOR))
     doc = ("Kulla-Conti's compensation lobe (1 - E(mu_o)) (1 - E(mu_i)) / (pi (1 - E_avg)) of height-correlated GGX "
-           "with F = 1, from the fits of E_ggx_cor and E_avg_ggx_cor: the multiple scattering it assumes, for "
-           "comparison with the fitted lobes. mu_i, mu_o, alpha in [0, 1].")
+           "with F = 1, from the fits of E_ggx_cor and E_avg_ggx_cor (1 - E and 1 - E_avg written out, never formed "
+           "by subtraction): the multiple scattering it assumes, for comparison with the fitted lobes. "
+           "mu_i, mu_o, alpha in [0, 1].")
     return Routine("ms_kulla_conti", ("mu_i", "mu_o", "alpha"), expr, doc,
                    domain={a: _DOMAIN[a] for a in ("mu_i", "mu_o", "alpha")})
 
@@ -129,7 +147,7 @@ def routines(fits: Mapping[str, FitFunction], terms: tuple[str, ...] = ()) -> li
     for kind in KINDS:
         for lobe in PROGRAM_MODELS:
             out.append(_composed(lobe, kind, fits))
-    out.append(_kulla_conti())
+    out.append(_kulla_conti(fits))
     return out
 
 
