@@ -61,3 +61,22 @@ def test_validation_set_holds_the_edges_and_no_texel_centre():
     for n in S.TABLE_SIZES:
         centres = (np.arange(n) + 0.5) / n
         assert not np.any(np.isclose(v["mu"][:, None], centres[None, :], rtol=0, atol=1e-12))
+
+
+def test_generated_kulla_conti_furnace_float_is_double_and_the_search_finds_the_worst_point():
+    from fitlab.codegen.native import compiler
+
+    if compiler() is None:
+        pytest.skip("no C compiler on PATH")
+    native = S._kc_native()
+    rows = {(r["alpha"], r["precision"]): r for r in S.kulla_conti_furnace(native, alphas=(1e-4, 0.5))}
+    for alpha in (1e-4, 0.5):
+        d, f = rows[(alpha, "double")], rows[(alpha, "float")]
+        # float keeps double's digits (1 - E and 1 - E_avg are never formed by subtraction)
+        assert abs(f["max_furnace"] - d["max_furnace"]) < 1e-5, (alpha, d, f)
+        # the reported worst point is no better than any point of a finer scan of mu_o
+        mu_i, w = S._graded_nodes(alpha)
+        for mu_o in np.linspace(0.0, 1.0, 11).tolist() + np.minimum(alpha * np.geomspace(0.1, 100, 7), 1.0).tolist():
+            lobe = native("ms_kulla_conti", mu_i, np.full(mu_i.shape, mu_o), np.full(mu_i.shape, alpha))
+            a = float(directional_albedo(mu_o, alpha, "ggx_correlated")) + 2 * np.pi * float(np.sum(w * mu_i * lobe))
+            assert abs(a - 1.0) <= d["max_furnace"] + 1e-12, (alpha, mu_o, a)
