@@ -9,12 +9,17 @@ from __future__ import annotations
 
 import copy
 import json
+import math
 import shutil
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
+import sympy as sp
 
 from fitlab.cli import main
+from fitlab.forms.symbolic import parse_expression
 from fitlab.store import FitFileError, fit_schema, load, read_fit
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -23,6 +28,26 @@ FITS = ROOT / "fitlab" / "fits"
 
 def _base(name="m.json"):
     return json.loads((FITS / name).read_text())
+
+
+#: expressions whose numbers are too large to form, or not finite, or not real (issue 31, items 1 and 2)
+NUMBERS = {
+    "tower of powers": "c*((((2**64)**64)**64)**64)",
+    "power of a coefficient": "((2*c)**64)**64 + m1",
+    "powers combined beyond the limit": "(c**16)**8 + m1",
+    "integer literal of 400 digits": "c*" + "7" * 400 + " + m1",
+    "nan: 0/0": "m1*c*(0/0)",
+    "overflow: 1e308*1e308": "m1*c*1e308*1e308",
+    "overflow: exp(800)": "exp(800)*c + m1",
+    "underflow: 1e-200*1e-200": "c*(1e-200*1e-200) + m1",
+    "complex: acos(2)": "acos(2)*c + m1",
+    "complex: sqrt(-1)": "sqrt(-1)*c + m1",
+    "complex: (-8)**(1/3)": "(-8)**(1/3)*c + m1",
+    "complex: sqrt(-c**2)": "sqrt(-c**2) + m1",
+    "division by zero: c/0": "c/0 + m1",
+    "division by zero: c/(c - c)": "m1/(c - c)",
+    "log(0)": "log(0)*c + m1",
+}
 
 
 def _zoo(canary: Path):
@@ -51,6 +76,8 @@ def _zoo(canary: Path):
     add("deep nesting", None, raw="[" * 100_000 + "]" * 100_000)
     add("huge exponent", lambda r: r.update(expression="c**99999999999", form="sr_1_abcdef"), name="m.sr_1_abcdef.json")
     add("deep expression", lambda r: r.update(expression="(" * 300 + "c" + ")" * 300, form="sr_1_abcdef"), name="m.sr_1_abcdef.json")
+    for label, text in NUMBERS.items():
+        add(label, lambda r, text=text: r.update(expression=text, form="sr_1_abcdef"), name="m.sr_1_abcdef.json")
     add("wrong type: domain", lambda r: r.update(domain="abc"))
     add("wrong type: inputs", lambda r: r.update(inputs=5))
     add("wrong type: params", lambda r: r.update(params=[1, 2]))
@@ -131,6 +158,25 @@ def test_codegen_refuses_hostile_fits(zoo, canary, tmp_path, capsys, label):
     assert not canary.exists()
 
 
+@pytest.mark.parametrize("label, reason", [
+    ("complex: sqrt(-1)", "expression part 'sqrt(-1)' has no finite real value"),
+    ("overflow: 1e308*1e308", "expression part '1e308' is beyond 1e+300 in magnitude"),
+    ("nan: 0/0", "expression part '0/0' divides by zero"),
+    ("division by zero: c/0", "expression part 'c/0' divides by zero"),
+])
+def test_codegen_refuses_a_discovered_form_with_numbers_out_of_bounds(zoo, tmp_path, capsys, label, reason):
+    name, raw = zoo[label]
+    fits = tmp_path / "fits"
+    shutil.copytree(FITS, fits, ignore=shutil.ignore_patterns("generated"))
+    path = _write(fits, name, raw)
+    out = tmp_path / "gen"
+    code = main(["codegen", "--lang", "c", "--fits", str(fits), "--out", str(out), "--model", "default-forms",
+                 "--form", "m=sr_1_abcdef"])  # fmt: skip
+    err = capsys.readouterr().err.strip()
+    assert (code, err) == (2, f"fitlab codegen: error: {path}: {reason}")
+    assert not out.exists() or list(out.iterdir()) == []
+
+
 @pytest.mark.parametrize("label", ["code in discovered expression", "another target under this name", "huge parameter",
                                    "code in a description"])
 def test_report_refuses_hostile_fits_before_any_work(zoo, canary, tmp_path, capsys, monkeypatch, label):
@@ -150,3 +196,117 @@ def test_report_refuses_hostile_fits_before_any_work(zoo, canary, tmp_path, caps
     assert code == 2 and err.count("\n") == 0 and "Traceback" not in err and "report started" not in err
     assert not out.exists() or list(out.iterdir()) == []
     assert not canary.exists()
+
+
+@pytest.mark.parametrize("text, message", [
+    ("c*(((2**64)**64)**64)", "part '(2**64)**64' is beyond 1e+300 in magnitude"),  # six levels: in a child, below
+    ("((2*c)**64)**64", "part '((2*c)**64)**64' would make a number of more than 300 digits"),
+    ("c*(8/7)**64*(8/7)**64*(8/7)**64*(8/7)**64*(8/7)**64*(8/7)**64",
+     "part 'c*(8/7)**64*(8/7)**64*(8/7)**64*(8/7)...' makes a number of more than 300 digits"),
+    ("c*((8/7)**64)**8", "part '((8/7)**64)**8' would make a number of more than 300 digits"),
+    ("c*1e-100**2*1e-150", "part 'c*1e-100**2*1e-150' would make a number below 1e-300 in magnitude"),
+    ("c*1e100**2*1e150", "part 'c*1e100**2*1e150' would make a number beyond 1e+300 in magnitude"),
+    ("(1e-100*c)**4", "part '(1e-100*c)**4' would make a number below 1e-300 in magnitude"),
+    ("1e-299*1e-299 + c", "part '1e-299*1e-299' is not 0 and below 1e-300 in magnitude"),
+    ("c*(9**64*9**64*9**64*9**64*9**64)", "part '9**64*9**64*9**64*9**64*9**64' is beyond 1e+300 in magnitude"),
+    ("c + 1e250*1e250", "part '1e250*1e250' is beyond 1e+300 in magnitude"),
+    ("c*1e308", "part '1e308' is beyond 1e+300 in magnitude"),
+    ("c*1e-400", "part '1e-400' is not 0 and below 1e-300 in magnitude"),
+    ("c*1." + "0" * 300 + "1", "holds a number literal of more than 300 digits"),
+    ("c*" + "9" * 301, "holds an integer of more than 300 digits"),
+    ("c*0/0", "part 'c*0/0' divides by zero"),
+    ("c**-1*0**-1", "part '0**-1' divides by zero"),
+    ("acos(2)*c", "part 'acos(2)' has no finite real value"),
+    ("log(-c*0 - 1) + c", "part 'log(-c*0 - 1)' has no finite real value"),
+    ("E**c*exp(1000)", "part 'exp(1000)' is beyond 1e+300 in magnitude"),
+    ("(exp(600)*c)*(exp(600)*c)", "part '(exp(600)*c)*(exp(600)*c)' is beyond 1e+300 in magnitude"),
+    ("sqrt(-c**2)", "part 'sqrt(-c**2)' makes the imaginary unit I, not a real number"),
+    ("(c**16)**8", "part '(c**16)**8' makes the power 128; at most 64 in magnitude"),
+    ("safe_pow(3, 1000)*c", "part 'safe_pow(3, 1000)' is beyond 1e+300 in magnitude"),
+    ("exp(c + 100*log(3))", "part 'exp(c + 100*log(3))' raises to the power 100; at most 64 in magnitude"),
+    ("c/123456789**(1/81)", "part '123456789**(1/81)' would make a number of more than 300 digits"),
+    ("2**(c + 100)", "part '2**(c + 100)' makes a power with 100 added to its exponent: raises to the power 100"),
+    ("acos(cos(safe_pow(2**60, 7)))", "part 'acos(cos(safe_pow(2**60, 7)))' cannot be formed (AttributeError)"),
+])
+def test_parse_expression_bounds_every_number_before_forming_it(text, message):
+    with pytest.raises(ValueError) as info:
+        parse_expression(text, ("c", "m1"))
+    assert message in str(info.value)
+    assert "\n" not in str(info.value) and len(str(info.value)) < 200
+
+
+@pytest.mark.parametrize("text, value", [
+    ("c*1e300", 1e300),
+    ("c*1e-300", 1e-300),
+    ("c*2**64*2**64*2**64", 2.0**192),
+    ("c*(2**64)**15", 2.0**960),
+    ("c*10**64*10**64*10**64*10**64 + 0*m1", 1e256),
+    ("c*(1/3)**64", 3.0**-64),
+    ("c*exp(690)", math.exp(690)),
+    ("c*acos(1) + c*log(1) + c*sqrt(4)", 2.0),
+    ("c*8**(1/3)*8**(2/3)*(-1)**2", 8.0),
+    ("c*(8/7)**64*(8/7)**64*(8/7)**64*(8/7)**64*(8/7)**64", (8 / 7) ** 320),
+    ("((c**8)**8)/c**64*c", 1.0),
+    ("safe_pow(-1, 0.5) + c*safe_pow(4, 0.5)", 2.0),
+    ("exp(c + 5*log(3))", 243 * math.e),
+    ("2**(c + 3)", 16.0),
+    ("c*123456789**(-1/3)", 123456789 ** (-1 / 3)),
+    ("c*sqrt(2)*sqrt(6)", math.sqrt(12)),
+])
+def test_parse_expression_keeps_numbers_within_the_bounds(text, value):
+    expr = parse_expression(text, ("c", "m1"))
+    assert float(expr.subs(sp.Symbol("c", real=True), 1)) == pytest.approx(value, rel=1e-12)
+
+
+def test_every_committed_fit_is_within_the_bounds():
+    for path in sorted(FITS.glob("*.json")):
+        rec = json.loads(path.read_text())
+        expr = parse_expression(rec["expression"], (*rec["inputs"], *rec["params"]))
+        numbers = expr.atoms(sp.Number)
+        assert all(abs(float(n)) <= 1e300 and (n.is_zero or abs(float(n)) >= 1e-300) for n in numbers), path.name
+        assert not expr.has(sp.nan, sp.zoo, sp.oo, -sp.oo, sp.I), path.name
+
+
+TOWER = "c*((((((2**64)**64)**64)**64)**64)**64)"
+
+
+@pytest.mark.parametrize("command, text, reason", [
+    ("load", TOWER, "expression part '(2**64)**64' is beyond 1e+300 in magnitude"),
+    ("codegen", TOWER, "expression part '(2**64)**64' is beyond 1e+300 in magnitude"),
+    ("load", "safe_pow(3, 123456789)*c + m1", "expression part 'safe_pow(3, 123456789)' is beyond 1e+300 in magnitude"),
+    ("load", "exp(c + 123456789*log(3))",
+     "expression part 'exp(c + 123456789*log(3))' raises to the power 123456789; at most 64 in magnitude"),
+    ("load", "c/123456789**(1/2187) + m1",
+     "expression part '123456789**(1/2187)' would make a number of more than 300 digits"),
+    ("load", "c**(2**(m1 + 2**60) + 1)",
+     "expression part '2**(m1 + 2**60)' makes a power with 1152921504606846976 added to its exponent: "
+     "raises to the power 1152921504606846976; at most 64 in magnitude"),
+])  # fmt: skip
+def test_numbers_sympy_cannot_form_are_refused_at_once(tmp_path, command, text, reason):
+    # 2**(64**6), 3**123456789, 123456789**(2186/2187) with its factors, 2**(2**60): before the bounds, loading these
+    # took gigabytes and minutes (or forever); now one line naming the file.  The child runs with 2 GiB of address
+    # space and a minute, so that the failure it tests for can neither hang the suite nor take the machine's memory
+    rec = _base()
+    rec.update(expression=text, form="sr_1_abcdef")
+    if command == "load":
+        path = _write(tmp_path, "m.sr_1_abcdef.json", json.dumps(rec))
+        run = ("from fitlab.store import FitFileError, load\n"
+               "try:\n    load(sys.argv[1])\nexcept FitFileError as exc:\n    print(exc)")  # fmt: skip
+        args = [str(path)]
+    else:
+        fits = tmp_path / "fits"
+        shutil.copytree(FITS, fits, ignore=shutil.ignore_patterns("generated"))
+        path = _write(fits, "m.sr_1_abcdef.json", json.dumps(rec))
+        run = "from fitlab.cli import main\nsys.exit(main(sys.argv[1:]))"
+        args = ["codegen", "--lang", "c", "--fits", str(fits), "--out", str(tmp_path / "gen"),
+                "--model", "default-forms", "--form", "m=sr_1_abcdef"]  # fmt: skip
+    code = "import resource, sys\nresource.setrlimit(resource.RLIMIT_AS, (2 << 30, 2 << 30))\n" + run
+    try:
+        done = subprocess.run([sys.executable, "-c", code, *args], capture_output=True, text=True, timeout=60)
+    except subprocess.TimeoutExpired:
+        pytest.fail(f"{command} of {text} ran for a minute")
+    if command == "load":
+        assert (done.returncode, done.stdout) == (0, f"{path}: {reason}\n"), done.stderr[-2000:]
+    else:
+        assert (done.returncode, done.stderr) == (2, f"fitlab codegen: error: {path}: {reason}\n")
+        assert not (tmp_path / "gen").exists()
