@@ -1,9 +1,10 @@
 """A wheel built from the checkout works outside it: the installation a user gets from the package registry.
 
 The wheel is built from the files git tracks (or would track), installed into a fresh virtual environment
-(its dependencies come from the test environment's site-packages: nothing is downloaded), and driven from a
-temporary folder far from the checkout, with a cold cache and no user data folder, so every table, fit and
-scene it uses must come from inside the installed package:
+(its dependencies come from the site-packages folders of the environment running the tests, whatever kind it
+is: the base interpreter, a venv, a conda environment; nothing is downloaded), and driven from a temporary
+folder far from the checkout, with a cold cache and no user data folder, so every table, fit and scene it uses
+must come from inside the installed package:
 
 * ``fitlab refit --target H0 --out TMP`` writes a fit that the schema accepts;
 * ``fitlab codegen --lang c --out TMP`` writes the same bytes as the generated code packaged with fitlab
@@ -16,8 +17,10 @@ from __future__ import annotations
 import json
 import os
 import shutil
+import site
 import subprocess
 import sys
+import sysconfig
 import venv
 from pathlib import Path
 
@@ -31,6 +34,22 @@ def _sources() -> list[str]:
     out = subprocess.run(["git", "-C", str(ROOT), "ls-files", "-z", "--cached", "--others", "--exclude-standard"],
                          capture_output=True, check=True).stdout.decode()  # fmt: skip
     return [name for name in out.split("\0") if name and (ROOT / name).is_file()]
+
+
+def _site_folders() -> list[str]:
+    """The site-packages folders of the interpreter running the tests, where fitlab's dependencies are.
+
+    site.getsitepackages() is the environment's own (a venv's, a conda environment's, the base
+    interpreter's) plus its base interpreter's when the environment includes those; the user's site
+    folder is listed when this interpreter reads it.  The checkout itself is never listed."""
+    folders = [*site.getsitepackages(), sysconfig.get_path("purelib"), sysconfig.get_path("platlib")]
+    if site.ENABLE_USER_SITE:
+        folders.append(site.getusersitepackages())
+    out = []
+    for folder in folders:
+        if Path(folder).is_dir() and Path(folder).resolve() != ROOT and folder not in out:
+            out.append(folder)
+    return out
 
 
 @pytest.fixture(scope="module")
@@ -49,11 +68,19 @@ def installed(tmp_path_factory):
     assert built.returncode == 0, built.stdout[-3000:] + built.stderr[-3000:]
     (wheel,) = dist.glob("fitlab_brdf-*.whl")
     env_dir = base / "venv"
-    venv.EnvBuilder(system_site_packages=True, with_pip=True).create(env_dir)
+    # not system_site_packages: those are the base interpreter's site-packages (not those of a venv running the
+    # tests), and their .pth files run in the new venv (an editable install's finder among them)
+    venv.EnvBuilder(system_site_packages=False, with_pip=True).create(env_dir)
     python = env_dir / "bin" / "python"
     pip = subprocess.run([str(python), "-m", "pip", "install", "--no-deps", "--no-index", "--quiet", str(wheel)],
                          capture_output=True, text=True)  # fmt: skip
     assert pip.returncode == 0, pip.stderr[-3000:]
+    # the dependencies: the test environment's site-packages folders, after the venv's own (where the wheel is).
+    # A .pth file's plain lines are only added to sys.path: the .pth files in those folders are not run, so an
+    # editable install of fitlab there (its __editable__ finder, or a path to the checkout) never reaches the venv
+    purelib = subprocess.run([str(python), "-c", "import sysconfig; print(sysconfig.get_path('purelib'))"],
+                             capture_output=True, text=True, check=True).stdout.strip()  # fmt: skip
+    (Path(purelib) / "fitlab-test-dependencies.pth").write_text("".join(f"{folder}\n" for folder in _site_folders()))
     work = base / "elsewhere"
     work.mkdir()
     env = {**os.environ, "FITLAB_CACHE_DIR": str(base / "cache"), "FITLAB_DATA": str(base / "no-data"),
@@ -65,14 +92,18 @@ def installed(tmp_path_factory):
             assert done.returncode == 0, (args, done.stdout[-2000:], done.stderr[-2000:])
         return done
 
-    where = subprocess.run([str(python), "-c", "import fitlab; print(fitlab.__file__)"], cwd=work, env=env,
-                           capture_output=True, text=True, check=True).stdout.strip()  # fmt: skip
-    return {"run": run, "work": work, "package": Path(where).parent, "env": env_dir}
+    probe = ("import sys, fitlab; print(fitlab.__file__); print([f.__module__ + '.' + "
+             "getattr(f, '__qualname__', type(f).__qualname__) for f in sys.meta_path])")  # fmt: skip
+    where, finders = subprocess.run([str(python), "-c", probe], cwd=work, env=env, capture_output=True, text=True,
+                                    check=True).stdout.splitlines()  # fmt: skip
+    return {"run": run, "work": work, "package": Path(where).parent, "env": env_dir, "finders": finders}
 
 
 def test_the_installed_package_is_the_wheel_and_holds_its_data(installed):
     package = installed["package"]
     assert installed["env"] in package.parents, package  # not the checkout
+    # nor can an editable install's finder (__editable___fitlab_brdf_0_1_0_finder._EditableFinder) reach the venv
+    assert "editable" not in installed["finders"].lower(), installed["finders"]
     for name in ("h0.csv", "h1.csv", "h2.csv", "constants.csv", "kd.csv"):
         assert (package / "data" / "lambert_sphere" / name).is_file(), name
     assert (package / "fits" / "H0.json").is_file()
@@ -85,8 +116,12 @@ def test_refit_from_any_folder(installed):
     done = installed["run"]("refit", "--target", "H0", "--out", "out/fits", "--quiet", "--json")
     summary = json.loads(done.stdout)
     assert summary["ok"] and summary["written"]
-    record = json.loads((installed["work"] / "out" / "fits" / "H0.json").read_text())
-    assert record["target"] == "H0" and record["format"] == "fitlab-fit/1"
+    (fit,) = summary["fits"]  # the form the default model prints: H0.json if it is H0's default form, else H0.FORM.json
+    path = installed["work"] / fit["path"]
+    assert path.parent == installed["work"] / "out" / "fits", path
+    assert path.name in ("H0.json", f"H0.{fit['form']}.json"), path
+    record = json.loads(path.read_text())
+    assert (record["target"], record["form"], record["format"]) == ("H0", fit["form"], "fitlab-fit/1")
 
 
 def test_codegen_from_any_folder_reproduces_the_packaged_code(installed):
