@@ -142,3 +142,40 @@ def test_simulate_a_packaged_scene_by_name(installed):
     assert "order1_normalisation.csv" in written, written
     refused = installed["run"]("simulate", "no_such_scene", check=False)
     assert refused.returncode == 2 and "order1_normalisation" in refused.stderr
+
+
+def test_refit_then_codegen_prints_the_refit_from_an_empty_folder(installed):
+    """The loop of a new user, from an empty folder: `fitlab refit --target H1 && fitlab codegen --fits fits --lang c`
+    gives C whose h1 is that refit (the banner names its file, sha256 and origin)."""
+    import hashlib
+
+    work = installed["work"] / "loop"
+    work.mkdir()
+    env_run = installed["run"]
+    done = env_run("refit", "--target", "H1", "--out", "loop/fits", "--quiet", "--json")
+    (fit,) = json.loads(done.stdout)["fits"]
+    path = installed["work"] / fit["path"]
+    env_run("codegen", "--fits", "loop/fits", "--lang", "c", "--out", "loop/generated", "--quiet")
+    text = (work / "generated" / "lambert_sphere.c").read_text()
+    line = next(ln for ln in text.splitlines() if f" {path.name}  " in ln)
+    assert hashlib.sha256(path.read_bytes()).hexdigest() in line and "--fits;" in line
+
+
+def test_fit_a_table_then_codegen_glsl_from_any_folder(installed):
+    """`fitlab fit` on a CSV, then `fitlab codegen --fit`, gives GLSL (that glslangValidator accepts, where it is)."""
+    work = installed["work"] / "own"
+    work.mkdir()
+    rows = ["x,y,z"] + [f"{x / 10},{y / 10},{1 + x / 10 + (y / 10) ** 2}" for x in range(11) for y in range(11)]
+    (work / "t.csv").write_text("\n".join(rows) + "\n")
+    installed["run"]("fit", "own/t.csv", "--target", "z", "--form", "a0 + a1*x + a2*y**2", "--out", "own/fits", "--quiet")
+    (fit_file,) = (work / "fits").glob("z.*.json")
+    installed["run"]("codegen", "--fit", str(fit_file), "--lang", "glsl", "--out", "own/generated", "--quiet")
+    (glsl,) = (work / "generated").glob("*.glsl")
+    validator = shutil.which("glslangValidator")
+    if validator is not None:
+        shader = work / "generated" / "check.frag"
+        name = fit_file.name.split(".")[1]
+        shader.write_text("#version 330\n" + glsl.read_text() + "uniform vec2 p; out vec4 colour;\n"
+                          f"void main() {{ colour = vec4(z_{name}(p.x, p.y)); }}\n")
+        checked = subprocess.run([validator, str(shader)], capture_output=True, text=True)
+        assert checked.returncode == 0, checked.stdout[-2000:]
