@@ -91,10 +91,7 @@ def _run_table(args) -> int:
         raise UsageError(one_line(exc)) from None
     except (FitError, ValueError, ArithmeticError) as exc:
         raise RunFailure(f"the search failed: {one_line(exc)}") from None
-    for name in args.save or ():
-        if name not in disc.front:
-            raise RunFailure(f"--save {name}: {name!r} is not on the front; the front is {', '.join(disc.front)}")
-    print(front_table(disc))
+    _print_front(disc, args.save)
     saved = {Path(args.fits) / f"{disc.target}.{n}.json": {**disc.get(n).record, "user_data": {
         **disc.get(n).record["user_data"], "file": file}} for n in args.save or ()}  # fmt: skip
     try:
@@ -107,6 +104,14 @@ def _run_table(args) -> int:
         say(args, f"wrote {path}")
     say(args, f"discover {disc.target}: {disc.seconds:.1f} s")
     return 0
+
+
+def _print_front(disc, save) -> None:
+    """Refuse a --save NAME that is not on the front (before anything is written), then print the front."""
+    for name in save or ():
+        if name not in disc.front:
+            raise RunFailure(f"--save {name}: {name!r} is not on the front; the front is {', '.join(disc.front)}")
+    print(front_table(disc))
 
 
 def run(args) -> int:
@@ -155,10 +160,7 @@ def run(args) -> int:
         raise UsageError(one_line(exc)) from None
     except (FitError, ValueError, ArithmeticError) as exc:
         raise RunFailure(f"the search failed: {one_line(exc)}") from None
-    for name in args.save or ():
-        if name not in disc.front:
-            raise RunFailure(f"--save {name}: {name!r} is not on the front; the front is {', '.join(disc.front)}")
-    print(front_table(disc))
+    _print_front(disc, args.save)
     try:
         written = write_outputs(disc, Path(args.out))  # the front's three files as one unit
         if args.save:  # every saved form as one unit
