@@ -220,8 +220,9 @@ def test_mitsuba_chi2_accepts_the_sampler():
 
 
 def test_a_program_without_the_sampler_fits_leaves_the_sampler_out(tmp_path):
-    """The sampler's parts are optional (ProgramSpec.optional): a published preset has none, and a fits folder
-    without them gives the BRDF routines alone; with them the program has sample and pdf."""
+    """The sampler's parts are optional (ProgramSpec.optional): a published preset has none, and records without
+    them give the BRDF routines alone; with them the program has sample and pdf (a fits folder without them takes
+    the packaged ones: --fits overlays the packaged fits)."""
     import shutil
 
     from fitlab.report.methods import preset_records
@@ -234,6 +235,15 @@ def test_a_program_without_the_sampler_fits_leaves_the_sampler_out(tmp_path):
     for path in FITS.glob("*.json"):
         if not path.name.startswith("sample_"):
             shutil.copy(path, tmp_path / path.name)
-    without = load_program(tmp_path)
+    from fitlab.codegen import model_form, program_spec
+    from fitlab.store import fit_source, read_fit
+
+    # records without the sampler's parts (build_program takes records): the BRDF routines alone
+    without = build_program({t: read_fit(fit_source(tmp_path, t, model_form(t)))
+                             for t in program_spec("lambert_sphere").fits if not t.startswith("sample_")})  # fmt: skip
     assert "sample_local" not in {r.name for r in without.routines}
     assert "sample" in {r.name for r in load_program(FITS).material.evaluators}
+    # a --fits folder overlays the packaged fits: one without the sampler's fits takes the packaged ones
+    overlaid = load_program(tmp_path)
+    assert "sample_local" in {r.name for r in overlaid.routines}
+    assert dict(overlaid.sources)["sample_weight.json"] == dict(load_program(FITS).sources)["sample_weight.json"]
