@@ -50,7 +50,7 @@ from fitlab.store import (
     FitFileError,
     TableError,
     fit_path,
-    fits_folder,
+    fit_source,
     form_from_fit,
     read_fit,
     resolve_form,
@@ -122,7 +122,7 @@ def _requested(args) -> list[tuple]:
         domain = parse_domain(args.domain, target)
         form = resolve_form(target.name, args.form or model_form(target.name), fits)
         origin = None
-        saved = fit_path(fits_folder(fits), target.name, form.name)
+        saved = fit_source(fits, target.name, form.name)  # where resolve_form read it: --fits over the packaged fits
         if form.name not in target.forms and saved.exists():
             origin = read_fit(saved).get("origin")  # a discovered form stays one
         start = None

@@ -49,6 +49,11 @@ def _fit_domain(fit: FitFunction) -> dict:
     return {k: (float(lo), float(hi)) for k, (lo, hi) in fit.domain.items()}
 
 
+def _target_domain(fit: FitFunction) -> dict:
+    """The target's whole domain over the fit's inputs."""
+    return {k: (float(lo), float(hi)) for k, (lo, hi) in get_target(fit.target).domain.items() if k in fit.inputs}
+
+
 def measure_fit(fit: FitFunction, *, allow_partial_domain: bool = False) -> dict:
     """The fit's error on its target's validation set: over the target's whole domain, or with
     ``allow_partial_domain`` over the fit's own domain when that is narrower.
@@ -58,10 +63,9 @@ def measure_fit(fit: FitFunction, *, allow_partial_domain: bool = False) -> dict
     of code that prints the fit), "partial" (whether that is narrower than the target's), "measure" (the
     target's error measure) and "nonfinite" (an input point where the fit is not finite, or None)."""
     target = get_target(fit.target)
-    whole = {k: (float(lo), float(hi)) for k, (lo, hi) in target.domain.items()}
-    own = _fit_domain(fit)
-    partial = allow_partial_domain and own != {k: whole[k] for k in own}
-    domain = own if partial else {k: whole[k] for k in fit.inputs}
+    own, whole = _fit_domain(fit), _target_domain(fit)
+    partial = allow_partial_domain and own != whole
+    domain = own if partial else whole
     valid = target.validation()
     if partial:
         valid = valid.restricted(domain)
@@ -98,9 +102,8 @@ def verify_fit(fit: FitFunction, *, allow_partial_domain: bool = False) -> dict:
     source = str(fit.path or f"{fit.target}/{fit.form}")
     m = measure_fit(fit, allow_partial_domain=allow_partial_domain)
     own = _fit_domain(fit)
-    narrow = own != {k: (float(lo), float(hi)) for k, (lo, hi) in get_target(fit.target).domain.items() if k in own}
     hint = (f"; it was fitted on {_where(own)} only (--allow-partial-domain prints it for that domain)"
-            if narrow and not m["partial"] else "")
+            if own != _target_domain(fit) and not m["partial"] else "")
     if m["nonfinite"] is not None:
         at = ", ".join(f"{k} = {v:.6g}" for k, v in m["nonfinite"].items())
         raise FitFileError(f"{source}: not finite at {at}, inside {_where(m['domain'])}{hint}")
