@@ -1,0 +1,271 @@
+r"""The shared simulate runner: load and check a scene (every error before any work: the scene, the
+overrides, the output folder), run its jobs in rounds until each reaches its standard-error target or its
+path budget, then write a CSV of every row, a summary CSV and the family's figures.
+
+Stopping rule, per job: after every round of ``batch`` paths, the job stops when the walk says every row
+is at or below its target (:meth:`Walk.converged`) after at least :attr:`Walk.min_paths` paths; or when it
+has used ``max_paths`` (then its rows say converged = False, and :func:`unconverged` names it).  A job whose
+stop (its target, or its budget when the target needs more paths) is projected more than an hour away at
+its measured rate is named in one warning line on stderr, once (:func:`fitlab._montecarlo.slow_job_warning`).
+
+Nothing is written until the run and its references are complete; the files are then written as one unit
+(:func:`fitlab._io.atomic_write_many`): all of them, or none.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from fitlab._io import FolderError, atomic_write_many, check_output_folder
+from fitlab import _montecarlo
+from fitlab.scenes._check import Checker, with_overrides
+from fitlab.scenes._document import SceneError, parse_document, read_scene_text
+
+__all__ = ["JobStats", "SimulationResult", "parse_scene", "load_scene", "scene_with_overrides", "simulate",
+           "csv_text", "output_files", "write_outputs", "summary_table", "unconverged", "check_out_dir",
+           "simulate_file"]
+
+
+@dataclass
+class JobStats:
+    name: str = ""  # the job in messages
+    paths: int = 0
+    events: int = 0  # scattering events: the Lambert sphere's collisions, the microsurface's bounces
+    seconds: float = 0.0
+    compile_seconds: float = 0.0
+    rounds: int = 0
+    converged: bool = False
+    se_ratio: float = math.nan  # worst (standard error / target) of the job's rows, last round
+
+    # the families' names for events
+    @property
+    def collisions(self) -> int:
+        return self.events
+
+    @property
+    def bounces(self) -> int:
+        return self.events
+
+
+@dataclass
+class SimulationResult:
+    scene: Any
+    rows: Any = None  # as the walk gives them (a list, or a dict of lists)
+    summary: list = field(default_factory=list)  # one dict per summary row
+    jobs: dict = field(default_factory=dict)  # job key -> JobStats, in run order
+    tallies: dict = field(default_factory=dict)  # job key -> summed tallies
+    wall_seconds: float = 0.0
+    walk: Any = field(default=None, repr=False, compare=False)
+
+
+# ------------------------------------------------------------------ scenes
+def _family_of(doc, ck: Checker, family: str) -> dict:
+    """The document's data without ``scene.family``, which must name ``family`` when given."""
+    data = doc.data
+    sc = data.get("scene")
+    if isinstance(sc, dict) and "family" in sc:
+        if sc["family"] != family:
+            ck.fail(("scene", "family"), f"this scene is for family {sc['family']!r}; it is read as a "
+                                         f"{family} scene (name the family in the scene, or with --family)")
+        data = dict(data, scene={k: v for k, v in sc.items() if k != "family"})
+    return data
+
+
+def parse_scene(schema, text: str, path: str = "<scene>", fmt: str | None = None, **options):
+    """Parse and validate scene text by ``schema`` (format ``fmt``, else from the suffix of ``path``);
+    raises one :class:`SceneError` listing every problem."""
+    doc = parse_document(text, str(path), fmt)
+    ck = Checker(doc)
+    data = _family_of(doc, ck, schema.family)
+    if ck.errors:
+        ck.raise_errors()
+    scene = schema.parse(data, ck, **options)
+    ck.raise_errors()
+    return scene
+
+
+def load_scene(schema, path, **options):
+    """Read and validate a scene file; see :func:`parse_scene`."""
+    text = read_scene_text(path, schema.suffixes, schema.noun)
+    return parse_scene(schema, text, str(Path(path)), **options)
+
+
+def scene_with_overrides(schema, scene, target_se=None, max_paths=None, seed=None):
+    """``scene`` with the command-line overrides (None: keep), by the scene file's rules."""
+    return with_overrides(scene, schema.limits, tuple(schema.target_keys(scene)), target_se=target_se,
+                          max_paths=max_paths, seed=seed)
+
+
+# ------------------------------------------------------------------ running
+def _accumulate(acc, new):
+    if acc is None:
+        return {k: np.array(v, copy=True) for k, v in new.items()}
+    for k, v in new.items():
+        acc[k] = acc[k] + v
+    return acc
+
+
+def _warn(line: str, bar=None) -> None:
+    """One warning line on stderr (through the progress bar when there is one)."""
+    line = f"fitlab simulate: warning: {line}"
+    if bar is not None:
+        bar.write(line, file=sys.stderr)
+    else:
+        print(line, file=sys.stderr, flush=True)
+
+
+def simulate(walk, scene, progress: bool = False) -> SimulationResult:
+    """Run every job of ``scene`` with ``walk`` (writes nothing); a progress bar on stderr when
+    ``progress``."""
+    t_start = time.perf_counter()
+    jobs = list(walk.jobs(scene))
+    stats = {job.key: JobStats(name=job.name) for job in jobs}
+    tallies: dict = {}
+    bar = None
+    if progress:
+        from tqdm import tqdm
+
+        bar = tqdm(total=len(jobs) * scene.max_paths, unit="path", unit_scale=True, desc=scene.name,
+                   disable=not jobs)
+    try:
+        for k, job in enumerate(jobs):
+            st = stats[job.key]
+            st.compile_seconds = walk.compile(scene, job)
+            warned = False
+            while st.paths < scene.max_paths:
+                n = min(scene.batch, scene.max_paths - st.paths)
+                t0 = time.perf_counter()
+                res = walk.run_round(scene, job, st.rounds, st.paths, n)
+                st.seconds += time.perf_counter() - t0
+                st.rounds += 1
+                tallies[job.key] = _accumulate(tallies.get(job.key), res)
+                st.paths, st.events = walk.count(tallies[job.key])
+                done, st.se_ratio = walk.converged(scene, job, tallies[job.key])
+                if bar is not None:
+                    bar.update(n)
+                    bar.set_postfix_str(f"job {k + 1}/{len(jobs)} ({job.label}) se/target={st.se_ratio:.2f}")
+                if done and st.paths >= walk.min_paths:
+                    st.converged = True
+                    break
+                slow = None if warned else _montecarlo.slow_job_warning(st.paths, st.seconds, st.se_ratio, scene.max_paths)
+                if slow:
+                    warned = True
+                    _warn(f"{job.name}: {slow}", bar)
+            if bar is not None and st.paths < scene.max_paths:
+                bar.update(scene.max_paths - st.paths)
+    finally:
+        if bar is not None:
+            bar.close()
+    rows, summary = walk.finish(scene, jobs, tallies, stats)
+    out = SimulationResult(scene=scene, rows=rows, summary=summary, jobs=stats, tallies=tallies, walk=walk)
+    out.wall_seconds = time.perf_counter() - t_start
+    return out
+
+
+# ------------------------------------------------------------------ outputs
+def _fmt(v) -> str:
+    if isinstance(v, (float, np.floating)):
+        return "" if math.isnan(v) else f"{float(v):.10g}"
+    return str(v)
+
+
+def csv_text(rows, fields) -> str:
+    """CSV text: a header of ``fields``, then one line per row (floats to 10 significant digits, NaN
+    empty, a missing field empty)."""
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(fields)
+    for r in rows:
+        w.writerow([_fmt(r.get(f, "")) for f in fields])
+    return buf.getvalue()
+
+
+def output_files(result: SimulationResult, out_dir, plots: bool = True) -> dict:
+    """{path: bytes} of every output: <name>.csv (every row), <name>_summary.csv, the figures."""
+    out_dir, walk, name = Path(out_dir), result.walk, result.scene.name
+    files = {
+        out_dir / f"{name}.csv": csv_text(walk.csv_rows(result), walk.row_fields).encode(),
+        out_dir / f"{name}_summary.csv": csv_text(result.summary, walk.summary_fields).encode(),
+    }
+    if plots:
+        for fname, png in walk.plots(result):
+            files[out_dir / fname] = png
+    return files
+
+
+def write_outputs(result: SimulationResult, out_dir, plots: bool = True) -> list:
+    """Write :func:`output_files` as one unit; returns the paths written."""
+    files = output_files(result, out_dir, plots)
+    atomic_write_many(files)
+    return list(files)
+
+
+def summary_table(result: SimulationResult) -> str:
+    """A plain-text table of the summary (the walk's columns; a bool is "yes" or "NO"), and a last line
+    with the wall time, the compilation time and the number of jobs."""
+    columns = result.walk.summary_columns
+
+    def head(spec):  # the alignment and width of a value's format
+        i = 0
+        while i < len(spec) and (spec[i] in "<>^" or spec[i].isdigit()):
+            i += 1
+        return spec[:i]
+
+    lines = ["".join(f"{title:{head(spec)}}" for title, _, spec in columns)]
+    for s in result.summary:
+        cells = []
+        for _, key, spec in columns:
+            v = s[key]
+            cells.append(f"{('yes' if v else 'NO'):{head(spec)}}" if isinstance(v, bool) else f"{v:{spec}}")
+        lines.append("".join(cells))
+    comp = sum(st.compile_seconds for st in result.jobs.values())
+    lines.append(f"wall {result.wall_seconds:.1f} s (compilation {comp:.1f} s), {len(result.jobs)} jobs")
+    return "\n".join(lines)
+
+
+def unconverged(result: SimulationResult) -> list:
+    """One line per job that stopped on its path budget without converging (above its standard-error
+    target, or under the walk's minimum of paths)."""
+    lines = []
+    for st in result.jobs.values():
+        if st.converged:
+            continue
+        why = (f"standard error {st.se_ratio:.3g} x its target" if not st.se_ratio <= 1.0
+               else f"fewer than the {result.walk.min_paths} {result.walk.unit} the stopping rule needs")
+        lines.append(f"not converged: {st.name}: {why} after {st.paths} paths (max_paths)")
+    return lines
+
+
+def check_out_dir(out_dir) -> None:
+    """Refuse (one-line SceneError) an output location that is not, or cannot become, a writable folder
+    (:func:`fitlab._io.check_output_folder`, the check every command makes; nothing is created)."""
+    out_dir = Path(out_dir)
+    try:
+        check_output_folder(out_dir)
+    except FolderError as exc:
+        if exc.kind == "file":
+            raise SceneError(f"--out: {out_dir} exists and is not a folder") from None
+        raise SceneError(f"--out: cannot write in {out_dir}: {exc.detail or exc.kind.replace('_', ' ')} at "
+                         f"{exc.where}") from None
+
+
+def simulate_file(hook, path, out_dir=None, progress=False, plots=True, target_se=None, max_paths=None,
+                  seed=None):
+    """Load and validate (the scene, the overrides, the output folder: every error before any work),
+    simulate, write; ``hook`` is a family's :class:`SimulateHook`.  Returns (result, paths written).
+    The default output folder is mc_out/<scene name>."""
+    scene = scene_with_overrides(hook.schema, load_scene(hook.schema, path), target_se=target_se,
+                                 max_paths=max_paths, seed=seed)
+    out_dir = Path(out_dir) if out_dir is not None else Path("mc_out") / scene.name
+    check_out_dir(out_dir)
+    result = simulate(hook.walk, scene, progress=progress)
+    return result, write_outputs(result, out_dir, plots=plots)
