@@ -257,3 +257,19 @@ def test_a_non_finite_training_point_is_refused_not_left_out():
         fit_form(target.forms[target.default_form], bad, target.scale(bad), minimax_rounds=0)
     assert str(info.value) == (f"m/{target.default_form}: the training value at c=0.75 is nan; every training "
                                "point must be finite")
+
+
+def test_init_from_an_older_version_of_a_form_is_refused_before_any_work(tmp_path, capsys):
+    """rational_v_alpha_4 fixes a00 = 1 (E = 1 on the mirror line); a file from before that fix started the
+    whole refit and failed only at the write.  Now: exit 2, one line naming the parameter, nothing written."""
+    rec = json.loads((FITS / "E_ggx_sep.json").read_text())
+    assert rec["form"] == "rational_v_alpha_4" and rec["fixed"] == {"a00": 1.0}
+    rec["params"]["a00"] = 1.0003
+    rec["fixed"] = {}
+    old = tmp_path / "old.json"
+    old.write_text(json.dumps(rec))
+    out = tmp_path / "out"
+    assert main(["refit", "--target", "E_ggx_sep", "--init", str(old), "--out", str(out), "--quiet"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "fixes a00 = 1" in err and "a00 = 1.0003" in err and "\n" not in err
+    assert not out.exists() or not any(out.iterdir())

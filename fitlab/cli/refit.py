@@ -130,6 +130,11 @@ def _requested(args) -> list[tuple]:
             prior = read_fit(args.init)
             if (prior["target"], prior["form"]) != (target.name, form.name):
                 raise ValueError(f"--init {args.init}: a fit of {prior['target']}/{prior['form']}, not {form.key}")
+            clash = [k for k, v in form.fixed.items() if k in prior["params"] and prior["params"][k] != v]
+            if clash:  # an older fit of a form that now fixes a parameter: refused here, not at the write
+                k = clash[0]
+                raise ValueError(f"--init {args.init}: {form.key} fixes {k} = {form.fixed[k]:g}, the file has "
+                                 f"{k} = {prior['params'][k]:g} (a fit of an older version of the form); leave out --init")
             start = prior["params"]
         train = target.training().restricted(domain)
         if len(train) < 2 * len(form.free_params) or len(target.validation().restricted(domain)) == 0:
