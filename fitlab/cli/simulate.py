@@ -1,7 +1,11 @@
-"""``fitlab simulate``: the command-line face of the family's Monte Carlo (the ``simulate`` service;
-for the Lambert sphere :mod:`fitlab.families.lambert_sphere.mc.simulate`).
+"""``fitlab simulate``: the shared simulate runner (:func:`fitlab.scenes.simulate_file`) with the scene's
+family's ``simulate`` hook (a :class:`fitlab.scenes.SimulateHook`: its scene schema and its walk; for the
+Lambert sphere :mod:`fitlab.families.lambert_sphere.mc.simulate`).
 
-The Monte Carlo (JAX) is imported inside :func:`run` only.
+The scene's family: ``--family``; else the one family that simulates; else the family whose packaged
+scenes hold it; else the one its ``[scene] family`` names; else (a scene written before scenes named their
+family) the one whose ``claims`` accepts it; else the first family that simulates, whose rules then say what
+is wrong.  The Monte Carlo (JAX) is imported inside :func:`run` only.
 
 Exit status: 0 when every job reached its standard-error target; 1 when a job
 stopped on its path budget without reaching it ("conv NO"; the outputs are
@@ -12,12 +16,9 @@ computation (one line per problem).
 
 from __future__ import annotations
 
-import json
 import sys
-import tomllib
 from pathlib import Path
 
-from fitlab._io import InputFileError, read_regular_file
 from fitlab._montecarlo import MAX_PATHS, MIN_PATHS_BUDGET, SLOW_JOB_SECONDS, duration
 from fitlab.cli._common import add_family, FAILURE, USAGE, fail, service
 from fitlab.core import families
@@ -30,7 +31,7 @@ def add_arguments(p) -> None:
     p.add_argument("scene", help="scene file (.toml or .json), or the name of a scene packaged with fitlab "
                                  f"({', '.join(packaged_scene_names()) or 'none'})")
     p.add_argument("--out", help="output folder (default: mc_out/<scene name>)")
-    # strings: checked by the scene file's own rules (mc.scene.check_option), one line each
+    # strings: checked by the scene file's own rules (fitlab.scenes.check_option), one line each
     p.add_argument("--target-se", help="override every effect's standard-error target (positive, finite)")
     p.add_argument("--max-paths", help=f"override the path budget per job (integer in [{MIN_PATHS_BUDGET}, "
                                        f"2^{MAX_PATHS.bit_length() - 1}]); a job projected to run longer than "
@@ -48,9 +49,7 @@ def _simulating_families() -> list[str]:
 
 
 def _family_of(scene: Path, family: str | None) -> str | None:
-    """Whose Monte Carlo runs ``scene``: --family; else the one family that simulates; else the family whose
-    packaged scenes hold it; else the one whose ``claims`` accepts the parsed file (parsed as data: TOML or
-    JSON); else the first family that simulates, whose scene rules then say what is wrong."""
+    """Whose Monte Carlo runs ``scene`` (see the module's docstring); None: the one family that simulates."""
     if family is not None:
         return family
     offering = _simulating_families()
@@ -59,13 +58,18 @@ def _family_of(scene: Path, family: str | None) -> str | None:
     for fam in offering:
         if scene.resolve().parent == packaged_scenes(fam).resolve():
             return fam
-    try:  # a regular file only (a FIFO never blocks); the family's load_scene says what is wrong with it
-        text = read_regular_file(scene, 1_000_000).decode("utf-8")
-        raw = json.loads(text) if scene.suffix == ".json" else tomllib.loads(text)
-    except (InputFileError, OSError, UnicodeDecodeError, ValueError):  # TOML- and JSONDecodeError are ValueErrors
-        raw = {}
-    claiming = [fam for fam in offering if getattr(service("simulate", fam), "claims", lambda raw: False)(raw)]
+    from fitlab.scenes import declared_family, peek
+
+    raw = peek(scene)  # a regular file only (a FIFO never blocks); {} when it cannot be read or parsed
+    declared = declared_family(raw)
+    if declared is not None:
+        return declared  # a family that does not simulate is refused by service(), one line
+    claiming = [fam for fam in offering if (getattr(service("simulate", fam), "claims", None) or _nothing)(raw)]
     return claiming[0] if len(claiming) == 1 else offering[0]
+
+
+def _nothing(raw) -> bool:
+    return False
 
 
 def packaged_scene_names() -> list[str]:
@@ -80,12 +84,12 @@ def run(args) -> int:
         return fail("simulate", f"{args.scene}: no such scene file, and no packaged scene of that name "
                                 f"(packaged: {', '.join(packaged_scene_names())})", USAGE)
 
-    mc = service("simulate", _family_of(scene, args.family))  # the family's Monte Carlo (imports JAX)
-    SceneError, simulate_file, summary_table, unconverged = mc.SceneError, mc.simulate_file, mc.summary_table, mc.unconverged
+    from fitlab.scenes import SceneError, simulate_file, summary_table, unconverged
 
+    hook = service("simulate", _family_of(scene, args.family))  # the family's schema and walk (imports JAX)
     try:
         result, paths = simulate_file(
-            scene, out_dir=args.out, progress=not args.quiet, plots=not args.no_plots,
+            hook, scene, out_dir=args.out, progress=not args.quiet, plots=not args.no_plots,
             target_se=args.target_se, max_paths=args.max_paths, seed=args.seed,
         )
     except SceneError as exc:  # every input is checked before any work: a usage error

@@ -39,7 +39,10 @@ class Family:
     codegen: the program its generated code prints beyond one routine per target (a
         :class:`fitlab.codegen.ProgramSpec`), or None.
     hooks: further family services by name (runtime models, Monte Carlo scenes, report methods, tables, audit),
-        each a callable the generic command of that name looks up.
+        each a callable the generic command of that name looks up; it returns the service, imported only
+        then (JAX, Mitsuba stay unloaded until a command needs them).  A hook with a contract
+        (:data:`HOOK_CONTRACTS`: ``simulate`` returns a :class:`fitlab.scenes.SimulateHook`) is checked
+        against it when it is resolved (:func:`family_service`).
     default_program: whether its program is the one ``fitlab codegen`` (and ``fitlab.codegen.generate``,
         ``load_program``) prints when no family is named: at most one family says so (the Lambert sphere; the
         rule is :func:`fitlab.codegen.program.default_program_family`).
@@ -54,6 +57,11 @@ class Family:
     hooks: Mapping[str, Callable] = field(default_factory=dict)
     default_program: bool = False
 
+
+#: hook name -> "module:function" that checks what the hook returns against its contract (a
+#: ``typing.Protocol``), raising a one-line TypeError naming the first missing member; run when the hook
+#: is resolved (:func:`family_service`), since resolving imports the service
+HOOK_CONTRACTS = {"simulate": "fitlab.scenes:check_simulate_hook"}
 
 _FAMILIES: dict[str, Family] = {}
 _TARGETS: dict[str, Target] = {}
@@ -70,6 +78,9 @@ def register_family(family: Family) -> Family:
     other = _FAMILIES.get(family.name)
     if other is not None and other is not family:
         raise ValueError(f"a family named {family.name!r} is already registered")
+    for hook, value in family.hooks.items():
+        if not callable(value):
+            raise ValueError(f"family {family.name}: hook {hook!r} is not callable (a hook returns its service)")
     names = [t.name for t in family.targets]
     clash = [n for n in names if n in _TARGETS and _TARGETS[n].family != family.name]
     if clash or len(set(names)) != len(names):
@@ -173,11 +184,20 @@ def family_service(name: str, family: str | None = None):
     if family is not None:
         if family not in offering:
             raise KeyError(f"family {family!r} offers no {name!r}; families that do: {', '.join(offering) or 'none'}")
-        return get_family(family).hooks[name]()
+        return _service(family, name)
     if len(offering) != 1:
         raise KeyError(f"{len(offering)} families offer {name!r} ({', '.join(offering) or 'none'}); "
                        "name one with --family")
-    return get_family(offering[0]).hooks[name]()
+    return _service(offering[0], name)
+
+
+def _service(family: str, name: str):
+    """What ``family``'s hook ``name`` returns, checked against the hook's contract (:data:`HOOK_CONTRACTS`)."""
+    service = get_family(family).hooks[name]()
+    if name in HOOK_CONTRACTS:
+        module, function = HOOK_CONTRACTS[name].split(":")
+        getattr(importlib.import_module(module), function)(service, family)
+    return service
 
 
 def forms_for(target: str) -> Mapping:

@@ -5,7 +5,7 @@ member)."""
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, Hashable, Iterable, Mapping, Protocol, Sequence, runtime_checkable
+from typing import Any, Callable, Hashable, Iterable, Mapping, Protocol, Sequence, runtime_checkable
 
 from fitlab.scenes._check import Checker
 
@@ -102,10 +102,13 @@ class SimulateHook(Protocol):
 
 @dataclass(frozen=True)
 class Simulation:
-    """A :class:`SimulateHook`: a schema and a walk."""
+    """A :class:`SimulateHook`: a schema and a walk.  ``claims`` (optional): whether the data of a scene
+    file that names no family is this family's (``fitlab simulate`` asks, for the scenes written before a
+    scene named its family)."""
 
     schema: Any
     walk: Any
+    claims: Callable[[dict], bool] | None = None
 
 
 def _members(protocol) -> list[str]:
@@ -127,10 +130,9 @@ def missing_member(obj, protocol) -> str | None:
 def check_simulate_hook(hook, family: str = "?") -> SimulateHook:
     """``hook`` when it meets :class:`SimulateHook` (its schema a :class:`SceneSchema`, its walk a
     :class:`Walk`); else TypeError, one line naming the family and the missing member."""
-    for where, obj, protocol in (("", hook, SimulateHook),):
-        name = missing_member(obj, protocol)
-        if name:
-            raise TypeError(f"family {family}: its simulate hook lacks {where}{name!r} (fitlab.scenes.SimulateHook)")
+    name = missing_member(hook, SimulateHook)
+    if name:
+        raise TypeError(f"family {family}: its simulate hook lacks {name!r} (fitlab.scenes.SimulateHook)")
     for part, protocol in (("schema", SceneSchema), ("walk", Walk)):
         name = missing_member(getattr(hook, part), protocol)
         if name:

@@ -37,6 +37,12 @@ def _brdf_grid():
     return brdf_grid()
 
 
+def _simulate():
+    from fitlab.families.lambert_sphere.mc.simulate import SIMULATE
+
+    return SIMULATE
+
+
 def _report():
     from fitlab.families.lambert_sphere import report_methods
 
@@ -58,7 +64,7 @@ FAMILY = register_family(
             "tables": _lazy("tabulate"),  # write_tables, check_tables, TABLE_FILES
             "audit": _lazy("audit"),  # run_audit
             "render": _lazy("render"),  # check_generated, llvm_problem, render_comparison, RenderError
-            "simulate": _lazy("mc.simulate"),  # simulate_file, summary_table, unconverged, SceneError
+            "simulate": _simulate,  # a fitlab.scenes.SimulateHook: the scene schema and the walk
             "bench": _lazy("bench"),  # bench_exact, bench_codegen, bench_mc, bench_render
             "table_export": _lazy("table_export"),  # generate, LANGUAGES, NODES, DEFAULT_NODES, DEFAULT_LOOKUP, ...
         },

@@ -35,6 +35,12 @@ def _libraries():
     return LIBRARIES
 
 
+def _simulate():
+    from fitlab.families.microfacet_energy.microsurface.simulate import SIMULATE
+
+    return SIMULATE
+
+
 FAMILY = register_family(
     Family(
         name="microfacet_energy",
@@ -46,7 +52,7 @@ FAMILY = register_family(
         codegen=PROGRAM,
         hooks={
             "tables": _lazy("tabulate"),  # write_tables, check_tables, TABLE_FILES, FAMILY_NAME
-            "simulate": _lazy("microsurface.simulate"),  # simulate_file, summary_table, unconverged, SceneError
+            "simulate": _simulate,  # a fitlab.scenes.SimulateHook: the scene schema and the walk
             "bench": _lazy("microsurface.bench"),  # bench_mc: the microsurface walk's throughput
         },
     )

@@ -1,23 +1,15 @@
 """One PNG per effect: the MC estimates with error bars (2 standard errors)
-beside their reference values.  Matplotlib, Agg backend; files are written
-atomically (temporary file, then rename)."""
+beside their reference values.  Matplotlib's Agg canvas; the PNG is returned as bytes (the shared
+runner, :func:`fitlab.scenes.write_outputs`, writes every output as one unit)."""
 
 from __future__ import annotations
 
+import io
 import math
-import os
-from pathlib import Path
 
 from matplotlib.figure import Figure  # not pyplot: plotting leaves the caller's backend alone
 
-__all__ = ["plot_effect"]
-
-
-def _save(fig, path: Path) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(path.name + ".tmp")
-    fig.savefig(tmp, format="png", dpi=110)
-    os.replace(tmp, path)
+__all__ = ["effect_png"]
 
 
 def _finite(x):
@@ -52,8 +44,8 @@ def _directional(ax, rows, title):
     ax.legend(fontsize=6)
 
 
-def plot_effect(effect: str, rows: list, path: Path, scene_name: str) -> Path:
-    """Write the PNG of one effect; returns its path."""
+def effect_png(effect: str, rows: list, scene_name: str) -> bytes:
+    """The PNG of one effect."""
     rows = [r for r in rows if r["quantity"] != "capped"]
     if effect in ("single", "multiple", "phase_difference"):
         q = {"single": "f_ss", "multiple": "f_ms", "phase_difference": "d_f_ms"}[effect]
@@ -117,5 +109,6 @@ def plot_effect(effect: str, rows: list, path: Path, scene_name: str) -> Path:
         ax.legend(fontsize=6)
         fig.suptitle(f"{scene_name}: {effect} (MC +- 2 se; line: reference; dotted: published)", fontsize=9)
     fig.tight_layout()
-    _save(fig, path)
-    return path
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=110)
+    return buf.getvalue()

@@ -1,6 +1,8 @@
-r"""Driver of the microsurface walk: run every job of a scene (material x mu_i) in rounds until its
-rows reach their standard-error targets (or the path budget), attach the deterministic references,
-and write a CSV, a summary CSV and (when matplotlib is present) one PNG of the lobe by order per job.
+r"""The microsurface walk for the shared simulate runner (:mod:`fitlab.scenes`): every job of a scene
+(material x mu_i) run in rounds until its rows reach their standard-error targets (or the path budget),
+the deterministic references attached; a CSV row per estimate, a summary row and (when matplotlib is
+present) one PNG of the lobe by order per job.  The family's ``simulate`` hook is :data:`SIMULATE` (the
+schema of :mod:`.scene` and :class:`MicrosurfaceWalk`).
 
 Estimates from the tallies of :mod:`.walk` after N paths (a tally holds, per path, its one
 contribution x_p: the weight if the path ended there, else 0):
@@ -32,27 +34,21 @@ se <= target_se["lobe"] and every albedo (transmission, energy) row se <= target
 least MIN_PATHS paths;
 a bin no path reached has no error estimate and counts as done when its rule-of-three bound
 3 / (N Omega) (95 % upper limit for no event of weight <= 1) is below the target; or when it has used
-``max_paths`` (its rows then say converged = False: :func:`unconverged` names the job).  A job whose stop
+``max_paths`` (its rows then say converged = False: :func:`fitlab.scenes.unconverged` names the job).  A job whose stop
 (its target, or its budget when the target needs more paths) is projected more than an hour away at its
 measured rate is named in one warning line on stderr, once (:func:`fitlab._montecarlo.slow_job_warning`).
 """
 
 from __future__ import annotations
 
-import csv
 import io
 import math
-import sys
-import time
-from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
 
-from fitlab._io import FolderError, atomic_write_bytes, atomic_write_text, check_output_folder
-from fitlab._montecarlo import slow_job_warning
+from fitlab import scenes
 from fitlab.families.microfacet_energy.microsurface.reference import references
-from fitlab.families.microfacet_energy.microsurface.scene import Scene, SceneError, load_scene, with_overrides
+from fitlab.families.microfacet_energy.microsurface.scene import SCHEMA, Scene, SceneError
 from fitlab.families.microfacet_energy.microsurface.walk import (
     MaterialParams,
     WalkConfig,
@@ -60,10 +56,11 @@ from fitlab.families.microfacet_energy.microsurface.walk import (
     job_key,
     run_round,
 )
+from fitlab.scenes import SimulationResult, check_out_dir, summary_table, unconverged, write_outputs
 
-__all__ = ["claims", "SimulationResult", "SceneError", "simulate", "simulate_file", "write_outputs", "summary_table",
-           "unconverged", "check_out_dir", "count_p_value", "ROW_FIELDS", "SUMMARY_FIELDS", "MIN_PATHS",
-           "job_config", "job_params"]
+__all__ = ["claims", "SIMULATE", "MicrosurfaceWalk", "SimulationResult", "SceneError", "simulate", "simulate_file",
+           "write_outputs", "summary_table", "unconverged", "check_out_dir", "count_p_value", "ROW_FIELDS",
+           "SUMMARY_FIELDS", "MIN_PATHS", "job_config", "job_params"]
 
 MIN_PATHS = 10_000
 ROW_FIELDS = ("quantity", "material", "kind", "distribution", "alpha_x", "alpha_y", "fresnel", "mu_i", "order",
@@ -71,27 +68,6 @@ ROW_FIELDS = ("quantity", "material", "kind", "distribution", "alpha_x", "alpha_
               "paths", "bounces", "seconds", "converged", "eta")
 SUMMARY_FIELDS = ("material", "mu_i", "paths", "bounces", "seconds", "compile_seconds", "bounces_per_second",
                   "worst_se_ratio", "converged", "max_abs_z_ref", "albedo_total", "capped", "transmission")
-
-
-@dataclass
-class JobStats:
-    paths: int = 0
-    bounces: int = 0
-    seconds: float = 0.0
-    compile_seconds: float = 0.0
-    rounds: int = 0
-    converged: bool = False
-    se_ratio: float = math.nan
-
-
-@dataclass
-class SimulationResult:
-    scene: Scene
-    tallies: dict = field(default_factory=dict)  # (material index, mu_i index) -> summed tallies
-    rows: list = field(default_factory=list)
-    summary: list = field(default_factory=list)
-    jobs: dict = field(default_factory=dict)  # (material index, mu_i index) -> JobStats
-    wall_seconds: float = 0.0
 
 
 def job_config(scene: Scene, material) -> WalkConfig:
@@ -232,77 +208,10 @@ def _job_done(scene: Scene, rows: list) -> tuple:
     return worst <= 1.0, worst
 
 
-def _warn(line: str) -> None:
-    """One warning line on stderr."""
-    print(f"fitlab simulate: warning: {line}", file=sys.stderr, flush=True)
-
-
-def simulate(scene: Scene, progress: bool = False) -> SimulationResult:
-    """Run every job of the scene (writes nothing); see the module docstring."""
-    t_start = time.perf_counter()
-    out = SimulationResult(scene=scene)
-    for mi, mat in enumerate(scene.materials):
-        cfg, params = job_config(scene, mat), job_params(mat)
-        for ii, mu_i in enumerate(scene.mu_i):
-            st = JobStats(compile_seconds=compile_walk(cfg))
-            key = job_key(scene.seed, mi, ii)
-            acc, warned = None, False
-            while st.paths < scene.max_paths:
-                n = min(scene.batch, scene.max_paths - st.paths)
-                t0 = time.perf_counter()
-                res = run_round(cfg, key, params, mu_i, st.paths, n, scene.max_bounces)
-                st.seconds += time.perf_counter() - t0
-                st.rounds += 1
-                acc = res if acc is None else {k: acc[k] + v for k, v in res.items()}
-                st.paths, st.bounces = int(acc["paths"]), int(acc["bounces"])
-                done, st.se_ratio = _job_done(scene, estimate_rows(scene, mi, ii, acc))
-                if progress:
-                    print(f"{scene.name}: {mat.label} mu_i={mu_i:g}: {st.paths} paths, se/target {st.se_ratio:.2f}",
-                          flush=True)
-                if done and st.paths >= MIN_PATHS:
-                    st.converged = True
-                    break
-                slow = None if warned else slow_job_warning(st.paths, st.seconds, st.se_ratio, scene.max_paths)
-                if slow:
-                    warned = True
-                    _warn(f"material {mat.label}, mu_i = {mu_i:g}: {slow}")
-            out.tallies[(mi, ii)], out.jobs[(mi, ii)] = acc, st
-            rows = estimate_rows(scene, mi, ii, acc, _references(scene, mi, ii))
-            for r in rows:
-                r.update(paths=st.paths, bounces=st.bounces, seconds=round(st.seconds, 3), converged=st.converged)
-            out.rows.extend(rows)
-            zs = [abs(r["z_ref"]) for r in rows if math.isfinite(r["z_ref"])]
-            total = next(r for r in rows if r["quantity"] == "albedo_total")
-            capped = next(r for r in rows if r["quantity"] == "albedo" and r["order"] == "capped")
-            trans = next(r for r in rows if r["quantity"] == "transmission" and r["order"] == "all")
-            out.summary.append(dict(
-                material=mat.label, mu_i=mu_i, paths=st.paths, bounces=st.bounces, seconds=round(st.seconds, 3),
-                compile_seconds=round(st.compile_seconds, 3),
-                bounces_per_second=st.bounces / st.seconds if st.seconds > 0 else math.nan,
-                worst_se_ratio=st.se_ratio, converged=st.converged, max_abs_z_ref=max(zs, default=math.nan),
-                albedo_total=total["estimate"], capped=capped["estimate"], transmission=trans["estimate"]))
-    out.wall_seconds = time.perf_counter() - t_start
-    return out
-
-
-def _fmt(v):
-    if isinstance(v, (float, np.floating)):
-        return "" if math.isnan(v) else f"{float(v):.10g}"
-    return str(v)
-
-
-def _csv(rows, fields):
-    buf = io.StringIO()
-    w = csv.writer(buf, lineterminator="\n")
-    w.writerow(fields)
-    for r in rows:
-        w.writerow([_fmt(r.get(f, "")) for f in fields])
-    return buf.getvalue()
-
-
-def _plot(result: SimulationResult, mi: int, ii: int, path: Path):
-    """One panel per order: the bin averages of f mu_o over (mu_o, |phi_o|), and a second row for the
-    transmitted lobe (f_t |mu_o| over (|mu_o|, |phi_o|)) when it was tallied; None without matplotlib."""
+def _plot(result: SimulationResult, mi: int, ii: int) -> bytes | None:
+    """The PNG of one job: one panel per order, the bin averages of f mu_o over (mu_o, |phi_o|), and a
+    second row for the transmitted lobe (f_t |mu_o| over (|mu_o|, |phi_o|)) when it was tallied; None
+    without matplotlib."""
     try:
         import matplotlib
 
@@ -331,82 +240,101 @@ def _plot(result: SimulationResult, mi: int, ii: int, path: Path):
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=80)
     plt.close(fig)
-    atomic_write_bytes(path, buf.getvalue())
-    return path
+    return buf.getvalue()
 
 
-def write_outputs(result: SimulationResult, out_dir, plots: bool = True) -> list:
-    """<name>.csv (every row), <name>_summary.csv, and <name>_<material>_<mu_i index>.png; returns the paths."""
-    out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
-    name = result.scene.name
-    paths = [out_dir / f"{name}.csv", out_dir / f"{name}_summary.csv"]
-    atomic_write_text(paths[0], _csv(result.rows, ROW_FIELDS))
-    atomic_write_text(paths[1], _csv(result.summary, SUMMARY_FIELDS))
-    if plots:
-        for (mi, ii) in sorted(result.tallies):
-            safe = "".join(ch if ch.isalnum() or ch in "_-" else "_" for ch in result.scene.materials[mi].label)
-            p = _plot(result, mi, ii, out_dir / f"{name}_{safe}_{ii}.png")
-            if p is not None:
-                paths.append(p)
-    return paths
+class MicrosurfaceWalk:
+    """The microsurface walk (:mod:`.walk`) as a :class:`fitlab.scenes.Walk`: a job is a material and an
+    incident direction, its key (material index, mu_i index)."""
+
+    unit = "paths"
+    min_paths = MIN_PATHS
+    row_fields = ROW_FIELDS
+    summary_fields = SUMMARY_FIELDS
+    summary_columns = (("material", "material", "<16"), ("mu_i", "mu_i", ">6.3g"), ("paths", "paths", ">11"),
+                       ("bounces", "bounces", ">11"), ("seconds", "seconds", ">9.2f"),
+                       ("bounce/s", "bounces_per_second", ">11.3g"), ("se/tgt", "worst_se_ratio", ">8.2f"),
+                       ("conv", "converged", ">6"), ("max|z|", "max_abs_z_ref", ">8.2f"),
+                       ("total", "albedo_total", ">10.6f"), ("trans", "transmission", ">10.6f"))
+
+    def jobs(self, scene: Scene) -> list:
+        out = []
+        for mi, mat in enumerate(scene.materials):
+            cfg, params = job_config(scene, mat), job_params(mat)
+            for ii, mu_i in enumerate(scene.mu_i):
+                name = f"material {mat.label}, mu_i = {mu_i:g}"
+                out.append(scenes.Job(key=(mi, ii), name=name, label=f"{mat.label}, mu_i={mu_i:g}",
+                                      data=(cfg, params, job_key(scene.seed, mi, ii))))
+        return out
+
+    def compile(self, scene, job) -> float:
+        return compile_walk(job.data[0])
+
+    def run_round(self, scene, job, rounds, paths, n):
+        cfg, params, key = job.data
+        return run_round(cfg, key, params, scene.mu_i[job.key[1]], paths, n, scene.max_bounces)
+
+    def count(self, tallies):
+        return int(tallies["paths"]), int(tallies["bounces"])
+
+    def converged(self, scene, job, tallies):
+        return _job_done(scene, estimate_rows(scene, *job.key, tallies))
+
+    def finish(self, scene, jobs, tallies, stats):
+        """Every job's rows (references attached, the job's statistics on each row), one summary row per job."""
+        rows_all, summary = [], []
+        for job in jobs:
+            (mi, ii), st, acc = job.key, stats[job.key], tallies[job.key]
+            rows = estimate_rows(scene, mi, ii, acc, _references(scene, mi, ii))
+            for r in rows:
+                r.update(paths=st.paths, bounces=st.events, seconds=round(st.seconds, 3), converged=st.converged)
+            rows_all.extend(rows)
+            zs = [abs(r["z_ref"]) for r in rows if math.isfinite(r["z_ref"])]
+            total = next(r for r in rows if r["quantity"] == "albedo_total")
+            capped = next(r for r in rows if r["quantity"] == "albedo" and r["order"] == "capped")
+            trans = next(r for r in rows if r["quantity"] == "transmission" and r["order"] == "all")
+            summary.append(dict(
+                material=scene.materials[mi].label, mu_i=scene.mu_i[ii], paths=st.paths, bounces=st.events,
+                seconds=round(st.seconds, 3), compile_seconds=round(st.compile_seconds, 3),
+                bounces_per_second=st.events / st.seconds if st.seconds > 0 else math.nan,
+                worst_se_ratio=st.se_ratio, converged=st.converged, max_abs_z_ref=max(zs, default=math.nan),
+                albedo_total=total["estimate"], capped=capped["estimate"], transmission=trans["estimate"]))
+        return rows_all, summary
+
+    def csv_rows(self, result):
+        return result.rows
+
+    def plots(self, result):
+        """<name>_<material>_<mu_i index>.png of each job (none without matplotlib)."""
+        out = []
+        for (mi, ii) in result.tallies:
+            png = _plot(result, mi, ii)
+            if png is not None:
+                safe = "".join(ch if ch.isalnum() or ch in "_-" else "_" for ch in result.scene.materials[mi].label)
+                out.append((f"{result.scene.name}_{safe}_{ii}.png", png))
+        return out
 
 
-def summary_table(result: SimulationResult) -> str:
-    """A plain-text table of the summary, one line per job (total: reflected albedo of all orders with the
-    capped weight; trans: transmitted fraction)."""
-    lines = [f"{'material':<16}{'mu_i':>6}{'paths':>11}{'bounces':>11}{'seconds':>9}{'bounce/s':>11}"
-             f"{'se/tgt':>8}{'conv':>6}{'max|z|':>8}{'total':>10}{'trans':>10}"]
-    for s in result.summary:
-        lines.append(f"{s['material']:<16}{s['mu_i']:>6.3g}{s['paths']:>11}{s['bounces']:>11}{s['seconds']:>9.2f}"
-                     f"{s['bounces_per_second']:>11.3g}{s['worst_se_ratio']:>8.2f}"
-                     f"{'yes' if s['converged'] else 'NO':>6}{s['max_abs_z_ref']:>8.2f}{s['albedo_total']:>10.6f}"
-                     f"{s['transmission']:>10.6f}")
-    comp = sum(st.compile_seconds for st in result.jobs.values())
-    lines.append(f"wall {result.wall_seconds:.1f} s (compilation {comp:.1f} s), {len(result.jobs)} jobs")
-    return "\n".join(lines)
-
-
-def unconverged(result: SimulationResult) -> list:
-    """One line per job that stopped on its path budget above its standard-error target (or under MIN_PATHS)."""
-    lines = []
-    for (mi, ii), st in sorted(result.jobs.items()):
-        if st.converged:
-            continue
-        mat = result.scene.materials[mi]
-        why = (f"standard error {st.se_ratio:.3g} x its target" if not st.se_ratio <= 1.0
-               else f"fewer than the {MIN_PATHS} paths the stopping rule needs")
-        lines.append(f"not converged: material {mat.label}, mu_i = {result.scene.mu_i[ii]:g}: {why} after "
-                     f"{st.paths} paths (max_paths)")
-    return lines
-
-
-def check_out_dir(out_dir) -> None:
-    """Refuse (one-line SceneError) an output location that is not, or cannot become, a writable folder."""
-    out_dir = Path(out_dir)
-    try:
-        check_output_folder(out_dir)
-    except FolderError as exc:
-        if exc.kind == "file":
-            raise SceneError(f"--out: {out_dir} exists and is not a folder") from None
-        raise SceneError(f"--out: cannot write in {out_dir}: {exc.detail or exc.kind.replace('_', ' ')} at "
-                         f"{exc.where}") from None
+def simulate(scene: Scene, progress: bool = False) -> SimulationResult:
+    """Run every job of the scene (:func:`fitlab.scenes.simulate`; writes nothing); see the module docstring."""
+    return scenes.simulate(SIMULATE.walk, scene, progress=progress)
 
 
 def simulate_file(path, out_dir=None, progress=False, plots=True, target_se=None, max_paths=None, seed=None):
-    """Load and validate (scene, overrides, output folder: every error before any work), simulate, write.
-
-    Returns (result, paths written)."""
-    scene = with_overrides(load_scene(path), target_se=target_se, max_paths=max_paths, seed=seed)
-    out_dir = Path(out_dir) if out_dir is not None else Path("mc_out") / scene.name
-    check_out_dir(out_dir)
-    result = simulate(scene, progress=progress)
-    return result, write_outputs(result, out_dir, plots=plots)
+    """Load and validate (scene, overrides, output folder: every error before any work), simulate, write
+    (:func:`fitlab.scenes.simulate_file`).  Returns (result, paths written)."""
+    return scenes.simulate_file(SIMULATE, path, out_dir=out_dir, progress=progress, plots=plots,
+                                target_se=target_se, max_paths=max_paths, seed=seed)
 
 
 def claims(raw: dict) -> bool:
-    """Whether a parsed scene file (a dict, before any validation) is a microsurface walk's: its materials
-    name a facet kind or a slope distribution.  ``fitlab simulate`` asks each family that simulates."""
+    """Whether a parsed scene file (a dict, before any validation) that names no family is a microsurface
+    walk's: its materials name a facet kind or a slope distribution.  ``fitlab simulate`` asks each family
+    that simulates, for the scenes written before a scene named its family."""
     materials = raw.get("material") if isinstance(raw, dict) else None
     return isinstance(materials, list) and any(isinstance(m, dict) and ("kind" in m or "distribution" in m)
                                                for m in materials)  # fmt: skip
+
+
+#: the family's ``simulate`` hook (a :class:`fitlab.scenes.SimulateHook`)
+SIMULATE = scenes.Simulation(schema=SCHEMA, walk=MicrosurfaceWalk(), claims=claims)

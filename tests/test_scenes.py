@@ -1,0 +1,220 @@
+"""fitlab.scenes, the shared scene loader and simulate runner: positions from the parsers, a scene that
+names its family, the simulate hook's contract, and a toy family's walk (numpy, no JAX) run end to end."""
+
+from __future__ import annotations
+
+import csv
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+import pytest
+
+import fitlab  # noqa: F401
+from fitlab import scenes
+from fitlab.core import Family, family_service, register_family, unregister_family
+
+TOY_SCENE = """\
+[scene]
+family = "toy_scenes"
+name = "coin"
+seed = 5
+[coin]
+p = [0.25,
+     0.5]
+[precision]
+target_se = 0.02
+max_paths = 4000
+batch = 1000
+"""
+
+
+@dataclass(frozen=True)
+class ToyScene:
+    path: str
+    name: str
+    seed: int
+    p: tuple
+    target_se: dict = field(hash=False)
+    max_paths: int = 4000
+    batch: int = 1000
+
+
+class ToySchema:
+    family = "toy_scenes"
+    noun = "toy scene"
+    suffixes = (".toml", ".json")
+    limits = {"seed": (0, 2**63 - 1), "max_paths": (1000, 2**32), "batch": (100, 10**7)}
+
+    def target_keys(self, scene):
+        return ("p",)
+
+    def parse(self, data, ck):
+        ck.unknown(data, (), {"scene", "coin", "precision"})
+        sc = ck.table(data, ("scene",), {"name", "seed"})
+        coin = ck.table(data, ("coin",), {"p"})
+        prec = ck.table(data, ("precision",), {"target_se", "max_paths", "batch"})
+        name = ck.name(sc, ("scene", "name"))
+        seed = ck.number(sc, ("scene", "seed"), *self.limits["seed"], default=0, integer=True)
+        ps = coin.get("p", [])
+        if not isinstance(ps, list) or not ps:
+            ck.fail(("coin", "p"), "expected a list of probabilities")
+            ps = []
+        for k, x in enumerate(ps):
+            if isinstance(x, bool) or not isinstance(x, (int, float)) or not 0.0 <= x <= 1.0:
+                ck.fail(("coin", "p", k), f"{x!r} is outside [0.0, 1.0]")
+        target = ck.number(prec, ("precision", "target_se"), 1e-9, 1.0)
+        nums = {k: ck.number(prec, ("precision", k), *self.limits[k], default=d, integer=True)
+                for k, d in (("max_paths", 4000), ("batch", 1000))}
+        ck.raise_errors()
+        return ToyScene(path=ck.path, name=name, seed=seed, p=tuple(ps), target_se={"p": target}, **nums)
+
+
+class ToyWalk:
+    """Coin flips: a job per probability, its row the mean of the flips."""
+
+    unit = "flips"
+    min_paths = 2000
+    row_fields = ("p", "estimate", "se", "paths", "converged")
+    summary_fields = ("p", "paths", "converged", "estimate")
+    summary_columns = (("p", "p", "<8"), ("paths", "paths", ">8"), ("conv", "converged", ">6"),
+                       ("estimate", "estimate", ">10.4f"))
+
+    def jobs(self, scene):
+        return [scenes.Job(key=i, name=f"coin p = {p:g}", label=f"p={p:g}", data=p) for i, p in enumerate(scene.p)]
+
+    def compile(self, scene, job):
+        return 0.0
+
+    def run_round(self, scene, job, rounds, paths, n):
+        flips = np.random.default_rng([scene.seed, job.key, rounds]).random(n) < job.data
+        return {"n": n, "s1": float(flips.sum()), "events": n}
+
+    def count(self, tallies):
+        return int(tallies["n"]), int(tallies["events"])
+
+    def _row(self, job_p, t):
+        n = int(t["n"])
+        mean = float(t["s1"]) / n
+        return dict(p=job_p, estimate=mean, se=math.sqrt(max(mean * (1 - mean), 0.0) / max(n - 1, 1)))
+
+    def converged(self, scene, job, tallies):
+        se = self._row(job.data, tallies)["se"]
+        return se <= scene.target_se["p"], se / scene.target_se["p"]
+
+    def finish(self, scene, jobs, tallies, stats):
+        rows = []
+        for job in jobs:
+            r = self._row(job.data, tallies[job.key])
+            r.update(paths=stats[job.key].paths, converged=stats[job.key].converged)
+            rows.append(r)
+        return rows, [dict(r) for r in rows]
+
+    def csv_rows(self, result):
+        return result.rows
+
+    def plots(self, result):
+        return [(f"{result.scene.name}_coin.png", b"\x89PNG toy")]
+
+
+TOY = scenes.Simulation(schema=ToySchema(), walk=ToyWalk())
+
+
+def test_a_toy_family_runs_through_the_shared_runner(tmp_path, capsys):
+    p = tmp_path / "coin.toml"
+    p.write_text(TOY_SCENE)
+    result, paths = scenes.simulate_file(TOY, p, out_dir=tmp_path / "out")
+    assert [x.name for x in paths] == ["coin.csv", "coin_summary.csv", "coin_coin.png"]
+    rows = list(csv.DictReader(paths[0].open()))
+    assert [r["p"] for r in rows] == ["0.25", "0.5"] and tuple(rows[0]) == ToyWalk.row_fields
+    for r in rows:
+        assert abs(float(r["estimate"]) - float(r["p"])) < 4 * float(r["se"])
+    # p = 0.25 reaches se 0.02 by the minimum of 2000 flips; p = 0.5 needs 625: both stop at 2000
+    assert [st.paths for st in result.jobs.values()] == [2000, 2000] and scenes.unconverged(result) == []
+    table = scenes.summary_table(result).splitlines()
+    assert table[0] == f"{'p':<8}{'paths':>8}{'conv':>6}{'estimate':>10}"
+    assert table[1].startswith(f"{0.25:<8}{2000:>8}{'yes':>6}") and table[-1].endswith(", 2 jobs")
+    # a target out of reach: the budget stops the job, and it is named
+    result, _ = scenes.simulate_file(TOY, p, out_dir=tmp_path / "out2", target_se="1e-4", max_paths="3000",
+                                     plots=False)
+    assert scenes.unconverged(result)[0].startswith("not converged: coin p = 0.25: standard error ")
+    assert "after 3000 paths (max_paths)" in scenes.unconverged(result)[0]
+    assert not (tmp_path / "out2" / "coin_coin.png").exists()
+
+
+def test_positions_come_from_the_parsers():
+    bad = TOY_SCENE.replace("     0.5]", "     1.5]").replace("seed = 5", "seed = -5")
+    with pytest.raises(scenes.SceneError) as exc:
+        scenes.parse_scene(TOY.schema, bad, "c.toml")
+    assert str(exc.value).splitlines() == [
+        "c.toml:4: scene.seed: -5 is outside [0, 9223372036854775807]",
+        "c.toml:7: coin.p[1]: 1.5 is outside [0.0, 1.0]",  # the array closes on line 7
+    ]
+    import json
+    import tomllib
+
+    text = json.dumps(tomllib.loads(bad), indent=1)
+    with pytest.raises(scenes.SceneError) as exc:
+        scenes.parse_scene(TOY.schema, text, "c.json")
+    line = next(i for i, s in enumerate(text.splitlines(), 1) if "1.5" in s)
+    assert f"c.json:{line}: coin.p[1]: 1.5 is outside" in str(exc.value)
+    with pytest.raises(scenes.SceneError, match=r"^c.toml:3: not valid TOML"):
+        scenes.parse_scene(TOY.schema, TOY_SCENE.replace("name =", "name == "), "c.toml")
+
+
+def test_a_scene_names_its_family(tmp_path):
+    with pytest.raises(scenes.SceneError) as exc:
+        scenes.parse_scene(TOY.schema, TOY_SCENE.replace("toy_scenes", "lambert_sphere"), "c.toml")
+    assert str(exc.value).startswith("c.toml:2: scene.family: this scene is for family 'lambert_sphere'")
+    from fitlab.families.microfacet_energy.microsurface.scene import parse_scene
+
+    with pytest.raises(scenes.SceneError, match="scene.family: this scene is for family 'toy_scenes'"):
+        parse_scene(TOY_SCENE, "c.toml")
+    assert scenes.declared_family(scenes.peek(tmp_path / "absent.toml")) is None
+
+
+def test_fitlab_simulate_takes_the_family_the_scene_names(tmp_path, capsys):
+    from fitlab.cli import main
+    from fitlab.cli.simulate import _family_of
+
+    micro = tmp_path / "m.toml"
+    micro.write_text('[scene]\nfamily = "microfacet_energy"\n[[material]]\nkind = "conductor"\n'
+                     'distribution = "ggx"\nalpha = 0.5\n[incident]\nmu_i = [0.5]\n[precision]\ntarget_se = 0.01\n')
+    assert _family_of(micro, None) == "microfacet_energy"
+    sphere = tmp_path / "s.toml"  # microsurface materials, but the scene says lambert_sphere: its rules apply
+    sphere.write_text(micro.read_text().replace("microfacet_energy", "lambert_sphere"))
+    assert _family_of(sphere, None) == "lambert_sphere"
+    assert main(["simulate", str(sphere), "--quiet", "--out", str(tmp_path / "o")]) == 2
+    assert "material[0].kind: unknown field" in capsys.readouterr().err
+    assert main(["simulate", str(sphere), "--quiet", "--family", "microfacet_energy", "--out",
+                 str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err.splitlines()
+    assert len(err) == 1 and f"{sphere}:2: scene.family: this scene is for family 'lambert_sphere'" in err[0], err
+    assert not (tmp_path / "o").exists()
+
+
+def test_the_simulate_hook_is_checked_against_its_protocol():
+    assert isinstance(TOY, scenes.SimulateHook)
+    assert scenes.check_simulate_hook(TOY, "toy") is TOY
+    assert scenes.missing_member(ToyWalk(), scenes.Walk) is None
+    assert scenes.missing_member(ToySchema(), scenes.SceneSchema) is None
+
+    class NoPlots(ToyWalk):
+        plots = None  # not callable
+
+    register_family(Family("toy_hooks", "A toy family", (), hooks={
+        "simulate": lambda: scenes.Simulation(schema=ToySchema(), walk=NoPlots())}))
+    try:
+        with pytest.raises(TypeError) as exc:
+            family_service("simulate", "toy_hooks")
+        assert str(exc.value) == ("family toy_hooks: its simulate hook's walk lacks 'plots' "
+                                  "(fitlab.scenes.Walk)")
+    finally:
+        unregister_family("toy_hooks")
+    with pytest.raises(TypeError, match=r"^family toy_hooks: its simulate hook lacks 'walk'"):
+        scenes.check_simulate_hook(object.__new__(type("Half", (), {"schema": ToySchema()})), "toy_hooks")
+    with pytest.raises(ValueError, match="hook 'simulate' is not callable"):
+        register_family(Family("toy_hooks", "A toy family", (), hooks={"simulate": TOY}))
+    unregister_family("toy_hooks")
+    for fam in ("lambert_sphere", "microfacet_energy"):  # the built-in hooks meet it
+        assert isinstance(family_service("simulate", fam), scenes.SimulateHook)
