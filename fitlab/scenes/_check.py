@@ -7,6 +7,7 @@ from __future__ import annotations
 import math
 import re
 from dataclasses import replace
+from pathlib import Path
 
 from fitlab.scenes._document import Document, SceneError
 
@@ -114,7 +115,7 @@ class Checker:
         """The scene's name: ``d[keypath[-1]]``, else the file's stem; a plain file-name stem
         (:data:`NAME_RE`), since the outputs are named after it."""
         given = keypath[-1] in d
-        name = d.get(keypath[-1], _stem(self.path))
+        name = d.get(keypath[-1], Path(str(self.path)).stem)
         if not isinstance(name, str) or not NAME_RE.fullmatch(name):
             self.fail(keypath, f"expected a plain file-name stem of 1-100 letters, digits, '_' or '-', got "
                                f"{name!r}{'' if given else ' (the file stem: set scene.name)'}")
@@ -132,12 +133,6 @@ class Checker:
         elif isinstance(v, list):
             for k, x in enumerate(v):
                 self.non_finite(x, tuple(keypath) + (k,))
-
-
-def _stem(path: str) -> str:
-    from pathlib import Path
-
-    return Path(str(path)).stem
 
 
 def check_option(name: str, value, limits) -> int | float:

@@ -168,9 +168,10 @@ class Document:
 
     def __init__(self, text: str, path: str, fmt: str, data: dict):
         self.text, self.path, self.fmt, self.data = text, path, fmt, data
-        self._lines: dict = {}
+        self._lines: dict = {}  # key path -> line, or None where the parser places it nowhere
         self._toml: _TomlPositions | None = None
         self._json: dict | None = None
+        self._newlines: list | None = None
 
     def _line_of(self, keypath: tuple) -> int | None:
         if self.fmt == "json":
@@ -182,15 +183,12 @@ class Document:
             index = self._json.get(keypath)
             if index is None:
                 return None
-            return bisect.bisect_left(self._newlines(), index) + 1
+            if self._newlines is None:
+                self._newlines = [i for i, ch in enumerate(self.text) if ch == "\n"]
+            return bisect.bisect_left(self._newlines, index) + 1
         if self._toml is None:
             self._toml = _TomlPositions(self.text)
         return self._toml.line(keypath)
-
-    def _newlines(self):
-        if "newlines" not in self._lines:
-            self._lines["newlines"] = [i for i, ch in enumerate(self.text) if ch == "\n"]
-        return self._lines["newlines"]
 
     def line(self, keypath) -> int:
         """The line that sets ``keypath`` (a tuple of keys and array indices), else the nearest enclosing

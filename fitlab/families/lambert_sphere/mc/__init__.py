@@ -8,9 +8,11 @@ form of docs/model.md, "Single scattering"); tallies start at the second collisi
 
 Modules: ``sampling`` (phase sampling, eqs. 5 and 6, the signed three-term
 sampler), ``transport`` (the jitted random walk, its tallies and sharding),
-``scene`` (scene files and their validation), ``effects`` (which tallies each
-effect needs, estimates and exact values), ``simulate`` (driver: stopping
-rules, CSV and plots), ``bench`` (photons and collisions per second).
+``scene`` (the schema of its scene files, read and checked by the shared
+:mod:`fitlab.scenes`), ``effects`` (which tallies each effect needs, estimates
+and exact values), ``simulate`` (the walk the shared runner drives: jobs,
+stopping rule, rows; the family's simulate hook), ``plots`` (a PNG per effect),
+``bench`` (photons and collisions per second).
 See docs/montecarlo.md.
 """
 

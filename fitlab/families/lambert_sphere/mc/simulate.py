@@ -24,7 +24,7 @@ infinite variance (c > 1/N for the three-term walk; docs/montecarlo.md).
 Timing: each job's wall time (compilation reported apart) is charged to every
 effect that uses it; the summary lists per effect the jobs, paths and
 seconds, and the seconds of the exact references.  Nothing is written until
-the run and the references are complete; every file is written atomically.
+the run and the references are complete; the files are written as one unit.
 """
 
 from __future__ import annotations

@@ -8,23 +8,11 @@ integrates P different (mu, alpha) points at once.
 
 from __future__ import annotations
 
-from functools import lru_cache
-
 import numpy as np
 
+from fitlab.numerics import gauss_legendre  # one rule for every family (re-exported: this module's name)
+
 __all__ = ["gauss_legendre", "composite", "graded_edges"]
-
-
-@lru_cache(maxsize=None)
-def gauss_legendre(n: int) -> tuple[np.ndarray, np.ndarray]:
-    """n-point Gauss-Legendre nodes and weights on [0, 1] (exact for polynomials of degree 2n - 1)."""
-    if n < 1:
-        raise ValueError(f"a Gauss-Legendre rule needs n >= 1 nodes, got {n}")
-    x, w = np.polynomial.legendre.leggauss(n)
-    nodes, weights = 0.5 * (x + 1.0), 0.5 * w
-    nodes.setflags(write=False)
-    weights.setflags(write=False)
-    return nodes, weights
 
 
 def composite(edges: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:

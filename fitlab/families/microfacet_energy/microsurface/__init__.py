@@ -10,9 +10,10 @@ index eta, on both sides of the microsurface as in the paper's MicrosurfaceDiele
 
 Modules: ``microsurface`` (heights C1/invC1, Lambda, G1, the free path of heights, visible-normal
 sampling, reflection and refraction), ``fresnel``, ``walk`` (the jitted walk, its tallies, and its
-sharding over devices), ``scene`` (TOML scene files and their validation), ``reference`` (the analytic
-single scattering with height-correlated Smith: BRDF, Walter's BTDF, diffuse facets; bin averages and
-totals), ``simulate`` (driver: stopping rule, CSV and PNG; the family's "simulate" hook), ``validation``
+sharding over devices), ``scene`` (the schema of its TOML scene files, read and checked by the shared
+:mod:`fitlab.scenes`), ``reference`` (the analytic single scattering with height-correlated Smith: BRDF,
+Walter's BTDF, diffuse facets; bin averages and totals), ``simulate`` (the walk the shared runner drives:
+jobs, stopping rule, rows and PNGs; the family's "simulate" hook), ``validation``
 (the order-1 study at large budgets), ``bench`` (bounces and paths per second).  docs/microsurface.md
 states the walk, the references and their derivations, and the figures measured.
 """
