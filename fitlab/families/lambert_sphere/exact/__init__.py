@@ -13,7 +13,15 @@ from fitlab.families.lambert_sphere.exact.albedo import (
     spherical_albedo,
     three_term_single_albedo,
 )
-from fitlab.families.lambert_sphere.exact.brdf import brdf, brdf_modes, multiple_scattering_modes, single_scattering_modes
+from fitlab.families.lambert_sphere.exact import true_phase
+from fitlab.families.lambert_sphere.exact.brdf import (
+    DEFAULT_PHASE,
+    PHASES,
+    brdf,
+    brdf_modes,
+    multiple_scattering_modes,
+    single_scattering_modes,
+)
 from fitlab.families.lambert_sphere.exact.characteristic import (
     isotropic_characteristic,
     k_function,
@@ -25,8 +33,23 @@ from fitlab.families.lambert_sphere.exact.doubling import doubling_reflection
 from fitlab.families.lambert_sphere.exact.hfunction import _solve_cached, h_fock, h_function, solve_h
 from fitlab.families.lambert_sphere.exact.inverse import albedo_inverse, solve_albedo
 from fitlab.families.lambert_sphere.exact.phase import LEGENDRE_A, phase_function, three_term_phase_function
+from fitlab.families.lambert_sphere.exact.true_phase import (
+    legendre_moments,
+    multiple_scattering_albedo,
+    multiple_scattering_orders,
+    multiple_scattering_sum,
+    needed_orders,
+)
 
 __all__ = [
+    "DEFAULT_PHASE",
+    "PHASES",
+    "true_phase",
+    "legendre_moments",
+    "multiple_scattering_albedo",
+    "multiple_scattering_orders",
+    "multiple_scattering_sum",
+    "needed_orders",
     "albedo",
     "albedo_inverse",
     "brdf",

@@ -21,6 +21,15 @@ a closed form, so one adaptive quadrature in theta with breakpoints where the
 cone about w_i meets the horizon (theta = pi/2 -+ theta_i) gives ~1e-14.
 
 The spherical (Bond) albedo kd = 2 int_0^1 a(mu_i) mu_i dmu_i.
+
+``phase=`` names the physics as :func:`fitlab.families.lambert_sphere.exact.brdf` does
+("true", "three_term", "mixed"; default :data:`DEFAULT_PHASE`); ``model=`` is the older
+name: model "true" is phase "mixed" (true single scattering, three-term multiple
+scattering), model "three_term" is phase "three_term".  Phase "true" (the whole
+phase function in every collision): a = c a1(mu_i) + the albedo of the multiple
+scattering of :mod:`true_phase`, integrated on that solution's own rule; at c = 1
+it is 1 to about 1e-14 (energy conservation of the discrete problem, imposed
+exactly; tests/test_true_phase.py).
 """
 
 from __future__ import annotations
@@ -33,7 +42,7 @@ from scipy import integrate
 
 from fitlab.families.lambert_sphere.exact import _checks
 from fitlab.families.lambert_sphere.exact._quadrature import graded_gauss
-from fitlab.families.lambert_sphere.exact.brdf import check_cosines, single_scattering_modes
+from fitlab.families.lambert_sphere.exact.brdf import PHASES, check_cosines, check_phase, single_scattering_modes
 from fitlab.families.lambert_sphere.exact.characteristic import check_albedo, lambert_sphere_characteristic
 from fitlab.families.lambert_sphere.exact.constants import mode_polynomials
 from fitlab.families.lambert_sphere.exact.hfunction import solve_h
@@ -42,6 +51,18 @@ __all__ = ["albedo", "spherical_albedo", "single_scattering_albedo", "single_alb
            "MODELS"]
 
 MODELS = ("true", "three_term")
+_MODEL_PHASE = {"true": "mixed", "three_term": "three_term"}
+
+
+def _resolve_phase(model, phase) -> str:
+    """The phase from ``phase=`` or the older ``model=`` (model "true" means phase "mixed")."""
+    if model is not None:
+        model = _checks.choice(model, "model", MODELS)
+        implied = _MODEL_PHASE[model]
+        if phase is not None and check_phase(phase) != implied:
+            raise ValueError(f"model={model!r} means phase={implied!r}, but phase={phase!r} was given")
+        return implied
+    return check_phase(phase, PHASES)
 
 
 def _arc_integral(mu_i: float, theta: float) -> float:
@@ -130,29 +151,36 @@ def three_term_single_albedo(mu_i):
     return 2.0 * np.pi * (f0 * (w * v)[None, :]).sum(axis=1)
 
 
-def albedo(mu_i, c, model: str = "true"):
+def albedo(mu_i, c, model: str | None = None, phase: str | None = None):
     """Directional albedo a(mu_i) = int f(w_i, w_o) mu_o dw_o of an exact BRDF.
 
-    model "true": :func:`fitlab.families.lambert_sphere.exact.brdf` (true phase function in single
-    scattering); "three_term": the exact three-term half space.  mu_i in [0, 1],
-    c in [0, 1]; broadcast.  For "true", mu_i is evaluated through a
-    precomputed single-scattering table only at the graded quadrature nodes; other
-    mu_i use one adaptive quadrature each.
+    phase (default :data:`DEFAULT_PHASE`): "mixed" (:func:`fitlab.families.lambert_sphere.exact.brdf`
+    today: true phase function in single scattering, three-term multiple scattering), "three_term"
+    (the exact three-term half space), "true" (the whole phase function in every collision).
+    model: the older name, "true" = phase "mixed", "three_term" = phase "three_term".
+    mu_i in [0, 1], c in [0, 1]; broadcast.  The true single-scattering albedo is one
+    adaptive quadrature per distinct mu_i.
     """
-    model = _checks.choice(model, "model", MODELS)
+    phase = _resolve_phase(model, phase)
     mu_i = _checks.real_array(mu_i, "mu_i", 0.0, 1.0)
     c = _checks.real_array(c, "c", 0.0, 1.0, domain="[0, 1] (particle albedo)")
-    if model not in MODELS:
-        raise ValueError(f"model must be one of {MODELS}, got {model!r}")
     (mu_i,) = check_cosines(mu_i, names=("mu_i",))
     c = check_albedo(c)
     mu_i, c = np.broadcast_arrays(mu_i, c)
     out = np.empty(mu_i.shape)
     extra = None
-    if model == "true":
+    if phase != "three_term":
         flat = mu_i.ravel()
         uniq, inv = np.unique(flat, return_inverse=True)
         a1 = np.array([single_scattering_albedo(float(x)) for x in uniq])
+        if phase == "true":
+            a1 = a1[inv].reshape(mu_i.shape)
+            from fitlab.families.lambert_sphere.exact import true_phase
+
+            for cv in np.unique(c):
+                sel = c == cv
+                out[sel] = cv * a1[sel] + true_phase.multiple_scattering_albedo(mu_i[sel], float(cv))
+            return out
         extra = (a1 - three_term_single_albedo(uniq))[inv].reshape(mu_i.shape)
     for cv in np.unique(c):
         sel = c == cv
@@ -162,16 +190,23 @@ def albedo(mu_i, c, model: str = "true"):
     return out
 
 
-def spherical_albedo(c, model: str = "true"):
-    """Spherical (Bond) albedo kd = 2 int_0^1 a(mu_i) mu_i dmu_i; see :func:`albedo`."""
-    model = _checks.choice(model, "model", MODELS)
+def spherical_albedo(c, model: str | None = None, phase: str | None = None):
+    """Spherical (Bond) albedo kd = 2 int_0^1 a(mu_i) mu_i dmu_i; ``phase``/``model`` as in :func:`albedo`."""
+    phase = _resolve_phase(model, phase)
     c = _checks.real_array(c, "c", 0.0, 1.0, domain="[0, 1] (particle albedo)")
-    if model not in MODELS:
-        raise ValueError(f"model must be one of {MODELS}, got {model!r}")
     c = check_albedo(c)
     v, w = graded_gauss(8, 0.25, 1e-14)
     correction = 0.0
-    if model == "true":
+    if phase == "true":
+        from fitlab.families.lambert_sphere.exact import true_phase
+
+        out = np.empty(c.shape)
+        a1 = single_albedo_nodes("true")
+        for idx, cv in np.ndenumerate(c):
+            a = cv * a1 + true_phase.multiple_scattering_albedo(v, float(cv))
+            out[idx] = 2.0 * np.dot(w * v, a)
+        return out
+    if phase == "mixed":
         correction = 2.0 * np.dot(w * v, single_albedo_nodes("true") - three_term_single_albedo(v))
     out = np.empty(c.shape)
     for idx, cv in np.ndenumerate(c):

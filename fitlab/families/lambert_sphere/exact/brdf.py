@@ -25,15 +25,37 @@ from fitlab.families.lambert_sphere.exact import _checks
 from fitlab.families.lambert_sphere.exact.characteristic import check_albedo, lambert_sphere_characteristic
 from fitlab.families.lambert_sphere.exact.constants import mode_polynomials
 from fitlab.families.lambert_sphere.exact.hfunction import solve_h
-from fitlab.families.lambert_sphere.exact.phase import phase_function
+from fitlab.families.lambert_sphere.exact.phase import phase_function, three_term_phase_function
 
 __all__ = [
+    "DEFAULT_PHASE",
+    "PHASES",
+    "check_phase",
     "brdf_modes",
     "single_scattering_modes",
     "multiple_scattering_modes",
     "brdf",
     "check_cosines",
 ]
+
+
+#: Which physics the reference BRDF has (docs/model.md, "Which phase function"):
+#: "true": the whole phase function in every collision (the material's BRDF; true_phase.py);
+#: "three_term": the paper's three-term phase function in every collision, single scattering included;
+#: "mixed": true single scattering plus three-term multiple scattering (fitlab's reference until issue 33).
+PHASES = ("true", "three_term", "mixed")
+#: The default of every ``phase=`` in the exact engine.  Switching it to "true" is a one-line change
+#: (it changes every table, validation set and committed fit downstream: a separate step).
+DEFAULT_PHASE = "mixed"
+
+
+def check_phase(phase, allowed=PHASES) -> str:
+    """``phase`` as one of ``allowed`` (None: :data:`DEFAULT_PHASE`); one-line ValueError otherwise."""
+    if phase is None:
+        phase = DEFAULT_PHASE
+    if not isinstance(phase, str) or phase not in allowed:
+        raise ValueError(f"phase must be one of {allowed}, got {phase!r}")
+    return phase
 
 
 def check_cosines(*arrays, names=("mu_i", "mu_o")):
@@ -142,8 +164,12 @@ def _modes(mu_i, mu_o, c, multiple_only):
     return tuple(res)
 
 
-def brdf_modes(mu_i, mu_o, c):
+def brdf_modes(mu_i, mu_o, c, phase="three_term"):
     """Fourier orders (f0, f1, f2) of the exact three-term half-space BRDF.
+
+    phase: only "three_term" has a finite Fourier series; "true" and "mixed" carry the true
+    single scattering, whose series in cos(m phi) does not end (ValueError: use
+    :func:`multiple_scattering_modes` plus the closed-form single scattering).
 
     All orders of scattering: f = f0 + f1 cos(phi) + f2 cos(2 phi) (eq. 9), from
     the exact H-functions and the constants of :func:`constants`:
@@ -152,14 +178,26 @@ def brdf_modes(mu_i, mu_o, c):
       f2 = 15 c H2 H2 S^2 / (256 pi (mu_i + mu_o)).
     mu_i, mu_o in [0, 1], c in [0, 1]; broadcast.  Reciprocal in (mu_i, mu_o).
     """
+    if check_phase(phase) != "three_term":
+        raise ValueError(
+            f"brdf_modes: phase {phase!r} has infinitely many Fourier orders (true single scattering); "
+            "only 'three_term' has three"
+        )
     mu_i = _checks.real_array(mu_i, "mu_i", 0.0, 1.0)
     mu_o = _checks.real_array(mu_o, "mu_o", 0.0, 1.0)
     c = _checks.real_array(c, "c", 0.0, 1.0, domain="[0, 1] (particle albedo)")
     return _modes(mu_i, mu_o, c, multiple_only=False)
 
 
-def multiple_scattering_modes(mu_i, mu_o, c):
+def multiple_scattering_modes(mu_i, mu_o, c, phase=None):
     """brdf_modes minus single_scattering_modes, computed without cancellation.
+
+    phase (default :data:`DEFAULT_PHASE`): "three_term" and "mixed" (whose multiple scattering is
+    the three-term one) return the three orders (fm0, fm1, fm2) below; "true" returns the
+    multiple scattering of the half space with the whole phase function, a tuple of
+    :func:`true_phase.needed_orders <fitlab.families.lambert_sphere.exact.true_phase.needed_orders>`
+    orders (fm_0, fm_1, ...; the number depends on c: for an array of several c values,
+    each order is padded with zeros to the longest), from :mod:`true_phase`.
 
     fm0 and fm1 are the terms the paper's runtime model keeps (eqs. 28, 38);
     fm2 is the one it drops (eq. 21).  Each diverges like log(1/mu) as
@@ -172,18 +210,57 @@ def multiple_scattering_modes(mu_i, mu_o, c):
     c times smaller than single scattering, and :func:`brdf` is c p(u)/(mu_i + mu_o) + c^2 L to 1e-10 down to
     c = 1e-15, > 0, and 0 at c = 0.
     """
+    phase = check_phase(phase)
     mu_i = _checks.real_array(mu_i, "mu_i", 0.0, 1.0)
     mu_o = _checks.real_array(mu_o, "mu_o", 0.0, 1.0)
     c = _checks.real_array(c, "c", 0.0, 1.0, domain="[0, 1] (particle albedo)")
+    if phase == "true":
+        return _true_modes(mu_i, mu_o, c)
     return _modes(mu_i, mu_o, c, multiple_only=True)
 
 
-def brdf(mu_i, mu_o, phi, c):
+def _true_modes(mu_i, mu_o, c):
+    from fitlab.families.lambert_sphere.exact import true_phase
+
+    mu_i, mu_o = check_cosines(mu_i, mu_o)
+    c = check_albedo(c)
+    mu_i, mu_o, c = np.broadcast_arrays(mu_i, mu_o, c)
+    per_c = {}
+    for cv in np.unique(c):
+        sel = c == cv
+        per_c[float(cv)] = (sel, true_phase.multiple_scattering_orders(mu_i[sel], mu_o[sel], float(cv)))
+    n = max(len(v[1]) for v in per_c.values()) if per_c else 1
+    out = [np.zeros(mu_i.shape) for _ in range(n)]
+    for sel, modes in per_c.values():
+        for m, fm in enumerate(modes):
+            out[m][sel] = fm
+    return tuple(out)
+
+
+def _true_multiple(mu_i, mu_o, phi, c):
+    """sum_m fm_m cos(m phi) of the true-phase half space (broadcast arrays, any number of c values)."""
+    from fitlab.families.lambert_sphere.exact import true_phase
+
+    out = np.empty(mu_i.shape)
+    for cv in np.unique(c):
+        sel = c == cv
+        out[sel] = true_phase.multiple_scattering_sum(mu_i[sel], mu_o[sel], phi[sel], float(cv))
+    return out
+
+
+def brdf(mu_i, mu_o, phi, c, phase=None):
     """The reference Lambert-sphere BRDF (1/sr).
 
-    f = c p(u)/(mu_i + mu_o)  [exact single scattering, true phase function, eq. 10]
-        + fm0 + fm1 cos(phi) + fm2 cos(2 phi)  [exact multiple scattering of the
-          three-term half space, all three orders].
+    phase (default :data:`DEFAULT_PHASE`, today "mixed"):
+
+    * "mixed": f = c p(u)/(mu_i + mu_o)  [exact single scattering, true phase function, eq. 10]
+      + fm0 + fm1 cos(phi) + fm2 cos(2 phi)  [exact multiple scattering of the
+      three-term half space, all three orders];
+    * "true": the same single scattering plus the multiple scattering of the half space
+      with the whole phase function (:mod:`true_phase`; 1e-10 relative, docs/derivation.md);
+    * "three_term": the paper's model in every collision, single scattering included
+      (c p3(u)/(mu_i + mu_o) + the same fm0..fm2).
+
     u = -(mu_i mu_o + S cos phi); phi = 0 is back-scattering.  mu_i, mu_o in
     [0, 1], phi any real (radians), c in [0, 1]; broadcast.  +inf at the pole
     mu_i = mu_o = 0 (c > 0, p(u) > 0).
@@ -197,15 +274,21 @@ def brdf(mu_i, mu_o, phi, c):
     if np.any(~np.isfinite(phi)):
         raise ValueError("phi must be finite (radians)")
     c = check_albedo(c)
+    phase = check_phase(phase)
     mu_i, mu_o, phi, c = np.broadcast_arrays(mu_i, mu_o, phi, c)
     cos_phi = np.cos(phi)
     s = np.sqrt((1.0 - mu_i * mu_i) * (1.0 - mu_o * mu_o))
     u = -(mu_i * mu_o + s * cos_phi)
     pole = (mu_i + mu_o) == 0.0
+    p = three_term_phase_function if phase == "three_term" else phase_function
     with np.errstate(divide="ignore", invalid="ignore"):
-        single = c * phase_function(u) / (mu_i + mu_o)
-        fm0, fm1, fm2 = multiple_scattering_modes(mu_i, mu_o, c)
-        out = np.asarray(single + fm0 + fm1 * cos_phi + fm2 * np.cos(2.0 * phi))
+        single = c * p(u) / (mu_i + mu_o)
+        if phase == "true":
+            multiple = _true_multiple(mu_i, mu_o, phi, c)
+        else:
+            fm0, fm1, fm2 = multiple_scattering_modes(mu_i, mu_o, c, phase="three_term")
+            multiple = fm0 + fm1 * cos_phi + fm2 * np.cos(2.0 * phi)
+        out = np.asarray(single + multiple)
     # At mu_i = mu_o = 0 the log poles of fm0 + fm1 cos + fm2 cos 2phi add up to
     # c^2 (0.1453 - 0.1111 cos phi + 0.0034 cos 2phi) log(1/mu) / pi > 0: +inf.
     out[pole] = np.where(c[pole] > 0.0, np.inf, 0.0)

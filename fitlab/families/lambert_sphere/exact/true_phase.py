@@ -1,0 +1,510 @@
+r"""The half space of Lambertian spheres with the WHOLE phase function: multiple
+scattering by Fourier order in azimuth, by two independent methods.
+
+fitlab's three-term engine (:mod:`brdf`, :mod:`hfunction`) solves the half space
+whose phase function is cut to A_0..A_2 in every collision.  This module solves
+the half space of the material itself.  Single scattering has its closed form
+c p(u)/(mu_i + mu_o) (eq. 10) and is not computed here; what is computed is the
+multiple scattering, order by order in azimuth, with the phase function's
+Legendre series
+
+    p(u) = (1/4pi) sum_k A_k P_k(u),  A_k = 4 (2k+1) (-1)^k lambda_k^2,  lambda_k = int_0^1 x P_k(x) dx
+
+(the phase function is the spherical autocorrelation of the clamped cosine;
+lambda_0..2 = 1/2, 1/3, 1/8, lambda_k = 0 for odd k >= 3 and
+lambda_{k+2} = -lambda_k (k-1)/(k+4) for even k, :func:`legendre_moments`), cut at
+degree L = :data:`DEGREE` in the collisions after the first.  A_k ~ (16/pi) k^-4,
+and the multiple scattering of the degree-L half space converges to the true one
+like L^-4.7 (measured: docs/derivation.md, "The true phase function").
+
+Conventions as in docs/model.md: mu in [0, 1], phi = 0 back-scattering, and
+
+    f = c p(u)/(mu_i + mu_o) + sum_m fm_m(mu_i, mu_o) cos(m phi),
+
+fm_m = (-1)^m (2 - delta_m0)/(4 pi) Rm_m(mu_o, mu_i) with Rm the multiple-scattering
+part of the reflection function R of Fourier order m, which solves (per order,
+k_m(mu, mu') = sum_l A_l Q_l^m(mu) Q_l^m(mu'), Q_l^m = sqrt((l-m)!/(l+m)!) P_l^m)
+Ambartsumian's equation, written without any 1/mu:
+
+    (mu + mu0) R(mu, mu0) = c k(mu, -mu0) + (c/2) mu int_0^1 R(mu, mu') k(mu', mu0) dmu'
+        + (c/2) mu0 int_0^1 k(mu, mu') R(mu', mu0) dmu'
+        + (c/4) mu mu0 int int R(mu, mu') k(mu', -mu'') R(mu'', mu0) dmu' dmu''.
+
+It is discretised on a composite Gauss rule graded toward mu = 0 (:func:`node_rule`,
+more nodes in the upper panels for the degree-L Legendre functions), which turns it
+into the algebraic Riccati equation of discrete ordinates on the half space.  For
+m = 0 the Legendre vectors of even degree >= 2 are made orthogonal to 1 on the
+rule (a change at the level of the rule's own error), so that the discrete
+scattering conserves energy exactly: at c = 1 the discrete half space reflects
+everything, and the methods below impose that exactly (R s = 1, s = mu w/2), which
+removes the critical direction of the conservative problem.
+
+Methods (they share the discretisation's formulas, not the solver; tests use
+different rules for each):
+
+* ``"newton"`` (default): Newton's method on the Riccati equation in the bounded
+  form above.  Each step is a Sylvester equation A1 D M + M D A1^T = -F, solved
+  through the eigen-decomposition of M^-1 A1 (whose eigenvalues are the decay rates
+  of the half space's modes); that solve is only approximate on a graded rule
+  (the rates span 1 .. 1/mu_min), but the residual F is evaluated in the bounded
+  form, so the iteration still converges to the discrete solution (inexact Newton).
+  At c = 1, m = 0 the zero rate is dropped from the step and R is projected onto
+  R s = 1 after each step: 3-6 steps at every c.
+* ``"doubling"``: discrete ordinates with doubling-adding from a layer 2^-60 thick
+  (as :mod:`doubling` for three terms), the direct beam kept apart.  At c = 1,
+  m = 0 each doubling step re-imposes the conservation of the slab, R 1 + T 1 = 1
+  (uniform radiance is a solution), which removes the rounding "absorption"
+  that limits plain doubling to sqrt(eps) ~ 1e-7 there.
+
+Radiance at any mu, not only at the nodes, by Nystrom interpolation: the equation
+with mu arbitrary and mu0 a node is linear in the row R(mu, nodes),
+r (mu A1^T + M) = b(mu), solved through the same eigen-decomposition with
+iterative refinement on the bounded residual; R(mu, mu0) for both arbitrary then
+follows from the equation itself.  This is exact in the discretisation (at nodes
+it returns the nodes' solution) and involves no polynomial interpolation.
+
+Grazing: every quantity is computed as the numerator (mu + mu0) R and divided at
+the end.  At mu = 0, mu0 > 0 the multiple scattering is finite,
+Rm(0, mu0) = (c/2) int k(0, mu') R(mu', mu0) dmu'; it diverges like log(1/mu) as
+mu = mu0 -> 0 and is +-inf at mu = mu0 = 0 exactly (the whole BRDF is +inf there
+for c > 0: single scattering's 1/(mu_i + mu_o) pole).
+
+Cost (measured on this project's 2-core machine, one BLAS thread, Newton, the
+default rule): about 1 s per Fourier order at L = 128 (N = 245 nodes), and the
+multiple scattering needs the orders up to :func:`needed_orders`; see
+docs/derivation.md for the measured seconds per c.  Solutions are cached per
+(method, phase, L, m, c).
+"""
+
+from __future__ import annotations
+
+import contextlib
+from dataclasses import dataclass
+from functools import lru_cache
+
+import numpy as np
+
+from fitlab.families.lambert_sphere.exact import _checks
+
+__all__ = [
+    "DEGREE",
+    "METHODS",
+    "PHASES",
+    "legendre_moments",
+    "node_rule",
+    "assoc_normalised",
+    "OrderSolution",
+    "solve_order",
+    "needed_orders",
+    "multiple_scattering_orders",
+    "multiple_scattering_sum",
+    "multiple_scattering_albedo",
+]
+
+#: Legendre degree after the first collision (A_k ~ k^-4; error ~ L^-4.7: docs/derivation.md).
+DEGREE = 128
+METHODS = ("newton", "doubling")
+#: phase functions this module can solve: the whole one ("true") and the paper's cut ("three_term").
+PHASES = ("true", "three_term")
+#: relative size below which a Fourier order of the multiple scattering is dropped
+ORDER_TOLERANCE = 1e-14
+#: at most this many Fourier orders (more than ever needed; the order loop stops earlier)
+MAX_ORDERS = 96
+
+
+def _blas_one_thread():
+    """Single-threaded BLAS for the small dense matrices here (several threads only contend)."""
+    try:
+        from threadpoolctl import threadpool_limits
+    except ImportError:  # pragma: no cover - optional
+        return contextlib.nullcontext()
+    return threadpool_limits(1)
+
+
+def legendre_moments(degree: int, phase: str = "true") -> np.ndarray:
+    """A_0..A_degree of p(u) = (1/4pi) sum A_k P_k(u).
+
+    "true": A_k = 4 (2k+1) (-1)^k lambda_k^2, lambda_k = int_0^1 x P_k(x) dx, from
+    lambda_0..2 = 1/2, 1/3, 1/8, lambda_odd>=3 = 0, lambda_{k+2} = -lambda_k (k-1)/(k+4).
+    "three_term": 1, -4/3, 5/16 and zeros.
+    """
+    degree = int(degree)
+    phase = _checks.choice(phase, "phase", PHASES)
+    a = np.zeros(degree + 1)
+    if phase == "three_term":
+        a[: min(3, degree + 1)] = (1.0, -4.0 / 3.0, 5.0 / 16.0)[: min(3, degree + 1)]
+        return a
+    lam = np.zeros(degree + 1)
+    lam[0] = 0.5
+    if degree >= 1:
+        lam[1] = 1.0 / 3.0
+    if degree >= 2:
+        lam[2] = 0.125
+    for k in range(2, degree - 1, 2):
+        lam[k + 2] = -lam[k] * (k - 1) / (k + 4)
+    k = np.arange(degree + 1)
+    return 4.0 * (2 * k + 1) * (-1.0) ** k * lam**2
+
+
+def node_rule(degree: int, per_panel: int = 12, ratio: float = 0.25, smallest: float = 1e-10):
+    """Composite Gauss rule on [0, 1]: panels [ratio^(j+1), ratio^j] down to ``smallest``, then [0, ratio^J].
+
+    Each panel of length h gets max(per_panel, per_panel + ceil(0.6 degree h)) nodes (the Legendre
+    functions of degree L oscillate about L h / pi times on it).  Increasing nodes.
+    """
+    n_panels = int(np.ceil(np.log(smallest) / np.log(ratio)))
+    edges = np.concatenate(([0.0], ratio ** np.arange(n_panels, -1, -1.0)))
+    xs, ws = [], []
+    for a, b in zip(edges[:-1], edges[1:]):
+        n = max(per_panel, int(np.ceil(per_panel + 0.6 * degree * (b - a))))
+        x, w = np.polynomial.legendre.leggauss(n)
+        xs.append(a + 0.5 * (b - a) * (x + 1.0))
+        ws.append(0.5 * (b - a) * w)
+    return np.concatenate(xs), np.concatenate(ws)
+
+
+def assoc_normalised(m: int, degree: int, mu) -> np.ndarray:
+    """Q_l^m(mu) = sqrt((l-m)!/(l+m)!) P_l^m(mu) (no Condon-Shortley phase), rows l = m..degree.
+
+    Stable recurrences: Q_m^m = prod_j sqrt((2j-1)/(2j)) (1-mu^2)^(m/2), Q_{m+1}^m = sqrt(2m+1) mu Q_m^m,
+    Q_l^m = ((2l-1) mu Q_{l-1}^m - sqrt((l-1)^2 - m^2) Q_{l-2}^m) / sqrt(l^2 - m^2).
+    """
+    mu = np.asarray(mu, dtype=float)
+    s = np.sqrt((1.0 - mu) * (1.0 + mu))
+    out = np.zeros((degree - m + 1,) + mu.shape)
+    if degree < m:
+        return out
+    q = np.ones_like(mu)
+    for j in range(1, m + 1):
+        q = q * s * np.sqrt((2.0 * j - 1.0) / (2.0 * j))
+    out[0] = q
+    if degree > m:
+        out[1] = np.sqrt(2.0 * m + 1.0) * mu * q
+    for l in range(m + 2, degree + 1):
+        out[l - m] = ((2 * l - 1) * mu * out[l - 1 - m] - np.sqrt((l - 1.0) ** 2 - m * m) * out[l - 2 - m]) / np.sqrt(
+            l * l - m * m
+        )
+    return out
+
+
+@dataclass(frozen=True)
+class OrderSolution:
+    """The discrete half space of Fourier order m: R at the nodes and what the Nystrom step needs."""
+
+    order: int
+    c: float
+    method: str
+    phase: str
+    degree: int
+    nodes: np.ndarray
+    weights: np.ndarray
+    moments: np.ndarray  # c-free A_l, l = m..degree (index l - m)
+    q_nodes: np.ndarray  # Q_l^m at the nodes (m = 0: even l >= 2 orthogonalised to 1), rows l - m
+    r: np.ndarray  # R(mu_i, mu_j), the whole reflection function of the discrete problem (symmetric)
+    iterations: int
+    smallest: float
+
+    @property
+    def signs(self):
+        return (-1.0) ** (np.arange(self.order, self.degree + 1) + self.order)
+
+    def kernels(self):
+        q = self.q_nodes
+        kp = np.einsum("l,li,lj->ij", self.moments, q, q)
+        km = np.einsum("l,li,lj->ij", self.moments * self.signs, q, q)
+        return kp, km
+
+    @property
+    def single(self):
+        """Single scattering of the discrete problem at node pairs, c k(mu_i, -mu_j)/(mu_i + mu_j)."""
+        _, km = self.kernels()
+        mu = self.nodes
+        return self.c * km / (mu[:, None] + mu[None, :])
+
+
+def _node_vectors(m, degree, moments, mu, w):
+    q = assoc_normalised(m, degree, mu)
+    if m == 0:
+        q = q.copy()
+        total = w.sum()
+        for l in range(2, degree + 1, 2):
+            q[l] -= (q[l] @ w) / total
+    return q
+
+
+def _closed_loop(c, mu, w, kp, km, r):
+    """A1 = E - (c/2) K+ W - (c/4) M R W K- W."""
+    n = mu.size
+    return np.eye(n) - 0.5 * c * kp * w[None, :] - 0.25 * c * mu[:, None] * ((r * w[None, :]) @ (km * w[None, :]))
+
+
+def _residual(c, mu, w, kp, km, r):
+    rw = r * w[None, :]
+    return (
+        mu[:, None] * r
+        + r * mu[None, :]
+        - 0.5 * c * (mu[:, None] * (rw @ kp) + ((kp * w[None, :]) @ r) * mu[None, :])
+        - 0.25 * c * mu[:, None] * (rw @ (km * w[None, :]) @ r) * mu[None, :]
+        - c * km
+    )
+
+
+def _conserve(r, s):
+    """Symmetric rank-2 correction so that R s = 1 exactly (c = 1, m = 0)."""
+    e = 1.0 - r @ s
+    a = s / (s @ s)
+    return r + np.outer(e, a) + np.outer(a, e) - np.outer(a, a) * (e @ s)
+
+
+def _newton(c, mu, w, kp, km, critical, max_steps=30):
+    s = 0.5 * mu * w
+    r = c * km / (mu[:, None] + mu[None, :])
+    scale = max(float(np.max(np.abs(c * km))), 1e-300)
+    best = (np.inf, r, 0)
+    steps = 0
+    for steps in range(1, max_steps + 1):
+        if critical:
+            r = _conserve(r, s)
+        f = _residual(c, mu, w, kp, km, r)
+        res = float(np.max(np.abs(f))) / scale
+        if res < best[0]:
+            best = (res, r, steps)
+        if res < 4e-16 or (steps > 3 and res > 0.5 * best[0] and best[0] < 1e-13):
+            break
+        a1 = _closed_loop(c, mu, w, kp, km, r)
+        theta, v = np.linalg.eig(a1 / mu[:, None])
+        vi = np.linalg.inv(v)
+        y = -f / mu[:, None] / mu[None, :]
+        z = vi @ y @ vi.T
+        den = theta[:, None] + theta[None, :]
+        if critical:
+            i0 = int(np.argmin(np.abs(theta)))
+            den[i0, i0] = np.inf
+        r = r + (v @ (z / den) @ v.T).real
+    r = best[1]
+    if critical:
+        r = _conserve(r, s)
+    return 0.5 * (r + r.T), best[2]
+
+
+def _doubling(c, mu, w, kp, km, critical):
+    n = mu.size
+    inv = 1.0 / mu
+    tau = 2.0**-60
+    # thin layer by single scattering with exact exponentials (u normalisation: R = 2 rho/(mu_j w_j))
+    r = 0.5 * c * km * (w * mu)[None, :] / (mu[:, None] + mu[None, :]) * -np.expm1(-tau * (inv[:, None] + inv[None, :]))
+    x = tau * (inv[:, None] - inv[None, :])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        rel = np.where(x == 0.0, 1.0, np.expm1(x) / x)
+    td = 0.5 * c * kp * w[None, :] * (tau * inv)[:, None] * np.exp(-tau * inv)[:, None] * rel
+    d = np.exp(-tau * inv)
+    eye = np.eye(n)
+    one = np.ones(n)
+    k = 0
+    while True:
+        k += 1
+        g = np.linalg.solve(eye - r @ r, eye)
+        t = td + np.diag(d)
+        r_new = r + t @ (r @ g) @ t
+        rrg = r @ r @ g
+        td = d[:, None] * rrg * d[None, :] + (td @ g) * d[None, :] + d[:, None] * (g @ td) + td @ g @ td
+        tau *= 2.0
+        d = np.exp(-tau * inv)
+        if critical:  # a conservative slab: uniform radiance in, uniform out (R 1 + T 1 = 1)
+            rs = r_new @ one
+            r_new = r_new * (1.0 + (1.0 - rs - td @ one - d) / rs)[:, None]
+        change = np.max(np.abs(r_new - r))
+        r = r_new
+        if (change <= 1e-17 * np.max(np.abs(r)) and tau > 1e3) or tau > 2.0**55:
+            break
+    big_r = 2.0 * r / (mu * w)[None, :]
+    return 0.5 * (big_r + big_r.T), k
+
+
+RULES = {"newton": dict(per_panel=12, ratio=0.25), "doubling": dict(per_panel=14, ratio=0.2)}
+
+
+@lru_cache(maxsize=640)
+def _solve_cached(method, phase, degree, m, c, smallest):
+    mu, w = node_rule(degree, smallest=smallest, **RULES[method])
+    moments = legendre_moments(degree, phase)[m:]
+    q = _node_vectors(m, degree, moments, mu, w)
+    kp = np.einsum("l,li,lj->ij", moments, q, q)
+    km = np.einsum("l,li,lj->ij", moments * (-1.0) ** (np.arange(m, degree + 1) + m), q, q)
+    critical = m == 0 and c == 1.0
+    with _blas_one_thread():
+        if c == 0.0 or degree < m:
+            r, it = np.zeros((mu.size, mu.size)), 0
+        elif method == "newton":
+            r, it = _newton(c, mu, w, kp, km, critical)
+        else:
+            r, it = _doubling(c, mu, w, kp, km, critical)
+    for a in (mu, w, moments, q, r):
+        a.setflags(write=False)
+    return OrderSolution(m, c, method, phase, degree, mu, w, moments, q, r, it, smallest)
+
+
+def solve_order(order: int, c: float, method: str = "newton", phase: str = "true", degree: int = DEGREE,
+                smallest: float = 1e-10) -> OrderSolution:
+    """The discrete half space of Fourier order ``order`` at particle albedo c (cached)."""
+    method = _checks.choice(method, "method", METHODS)
+    phase = _checks.choice(phase, "phase", PHASES)
+    c = _checks.real_scalar(c, "c", 0.0, 1.0, domain="[0, 1] (particle albedo)")
+    degree = _checks.positive_int(degree, "degree")
+    if phase == "three_term":
+        degree = 2
+    return _solve_cached(method, phase, int(degree), int(order), float(c), float(smallest))
+
+
+@lru_cache(maxsize=160)
+def _nystrom_parts(method, phase, degree, m, c, smallest):
+    """A1 and the eigen-decomposition of M^-1 A1 for a cached solution (one per order and c)."""
+    sol = _solve_cached(method, phase, degree, m, c, smallest)
+    kp, km = sol.kernels()
+    a1 = _closed_loop(c, sol.nodes, sol.weights, kp, km, sol.r)
+    with _blas_one_thread():
+        theta, v = np.linalg.eig(a1 / sol.nodes[:, None])
+        vi = np.linalg.inv(v)
+    if np.all(theta.imag == 0.0) and np.all(v.imag == 0.0):
+        theta, v, vi = theta.real, v.real, vi.real
+    return kp, km, a1, theta, v, vi
+
+
+def _rows(sol: OrderSolution, u: np.ndarray):
+    """Nystrom rows R(u_a, nodes): r (u A1^T + M) = b(u), b_j = c k(u, -mu_j) + (c/2) mu_j sum_l w_l k(u, mu_l) R_lj.
+
+    Solved as (u A1 + M) r^T = b^T through the eigen-decomposition of M^-1 A1 with iterative
+    refinement on the bounded residual.  Also returns k(u, nodes) (c-free).
+    """
+    c, mu, w = sol.c, sol.nodes, sol.weights
+    qu = assoc_normalised(sol.order, sol.degree, u)  # (nl, nu)
+    k_plus = qu.T @ (sol.moments[:, None] * sol.q_nodes)  # k(u, mu_j)
+    k_minus = qu.T @ ((sol.moments * sol.signs)[:, None] * sol.q_nodes)  # k(u, -mu_j)
+    b = c * k_minus + 0.5 * c * ((k_plus * w[None, :]) @ sol.r) * mu[None, :]
+    _, _, a1, theta, v, vi = _nystrom_parts(sol.method, sol.phase, sol.degree, sol.order, sol.c, sol.smallest)
+    rhs = b.T  # (N, nu)
+
+    def approx(y):
+        z = vi @ (y / mu[:, None])
+        return (v @ (z / (1.0 + u[None, :] * theta[:, None]))).real
+
+    x = approx(rhs)
+    for _ in range(4):
+        res = rhs - (a1 @ x) * u[None, :] - mu[:, None] * x
+        dx = approx(res)
+        x = x + dx
+        if np.max(np.abs(dx)) <= 1e-16 * np.max(np.abs(x)):
+            break
+    return x.T, k_plus
+
+
+def _ms_numerators(sol: OrderSolution, mu_a, mu_b):
+    """(mu_a + mu_b) Rm(mu_a, mu_b) and the pole sign, for paired arrays (flat)."""
+    c, w = sol.c, sol.weights
+    if c == 0.0 or sol.degree < sol.order:
+        return np.zeros(mu_a.shape), 0.0
+    uniq, inv = np.unique(np.concatenate((mu_a, mu_b)), return_inverse=True)
+    ia, ib = inv[: mu_a.size], inv[mu_a.size:]
+    km = _nystrom_parts(sol.method, sol.phase, sol.degree, sol.order, sol.c, sol.smallest)[1]
+    with _blas_one_thread():
+        rows, k_plus = _rows(sol, uniq)
+    rw = rows * w[None, :]
+    kw = k_plus * w[None, :]
+    x = np.einsum("pj,pj->p", rw[ia], k_plus[ib])  # sum_l R(a, l) w_l k(l, b)
+    y = np.einsum("pj,pj->p", kw[ia], rows[ib])  # sum_l w_l k(a, l) R(l, b)
+    zmat = rw @ km * w[None, :]
+    z = np.einsum("pj,pj->p", zmat[ia], rows[ib])
+    num = 0.5 * c * (mu_a * x + mu_b * y) + 0.25 * c * mu_a * mu_b * z
+    # sign of the log pole at (0, 0): the diverging sum at u = 0 (Y(0, 0) on the rule)
+    pole = float(np.sign(y[(mu_a == 0.0) & (mu_b == 0.0)][0])) if np.any((mu_a == 0.0) & (mu_b == 0.0)) else 0.0
+    return num, pole
+
+
+def needed_orders(c: float, method: str = "newton", phase: str = "true", degree: int = DEGREE,
+                  smallest: float = 1e-10) -> int:
+    """Number of Fourier orders kept: orders m are solved until two in a row have
+    max |Rm_m| over the nodes >= 1e-3 below ORDER_TOLERANCE times that of order 0."""
+    phase = _checks.choice(phase, "phase", PHASES)
+    if phase == "three_term":
+        return 3
+    return _needed_cached(method, phase, int(degree), float(c), float(smallest))
+
+
+@lru_cache(maxsize=256)
+def _needed_cached(method, phase, degree, c, smallest):
+    if c == 0.0:
+        return 1
+    ref = None
+    small = 0
+    for m in range(0, min(degree, MAX_ORDERS - 1) + 1):
+        sol = solve_order(m, c, method, phase, degree, smallest)
+        sel = sol.nodes >= 1e-3
+        rm = (sol.r - sol.single)[np.ix_(sel, sel)]
+        size = float(np.max(np.abs(rm)))
+        if ref is None:
+            ref = size
+        small = small + 1 if size < ORDER_TOLERANCE * ref else 0
+        if small == 2:
+            return m + 1
+    return min(degree, MAX_ORDERS - 1) + 1
+
+
+def multiple_scattering_orders(mu_i, mu_o, c: float, method: str = "newton", phase: str = "true",
+                               degree: int = DEGREE, orders: int | None = None, smallest: float = 1e-10):
+    """Fourier orders fm_0, fm_1, ... (fitlab's azimuth, 1/sr) of the multiple scattering, one c.
+
+    mu_i, mu_o in [0, 1], broadcast; returns a tuple of arrays, one per order
+    (``orders`` of them, default :func:`needed_orders`).  fm_m at mu_i = mu_o = 0 is +-inf
+    (log pole), finite elsewhere.
+    """
+    mu_i = _checks.real_array(mu_i, "mu_i", 0.0, 1.0)
+    mu_o = _checks.real_array(mu_o, "mu_o", 0.0, 1.0)
+    c = _checks.real_scalar(c, "c", 0.0, 1.0, domain="[0, 1] (particle albedo)")
+    mu_i, mu_o = np.broadcast_arrays(mu_i, mu_o)
+    if orders is None:
+        orders = needed_orders(c, method, phase, degree, smallest)
+    a, b = mu_i.ravel(), mu_o.ravel()
+    s = a + b
+    pole = s == 0.0
+    out = []
+    for m in range(int(orders)):
+        sol = solve_order(m, c, method, phase, degree, smallest)
+        num, psign = _ms_numerators(sol, b, a)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            val = num / s
+        val[pole] = psign * np.inf if c > 0.0 else 0.0
+        val *= (-1.0) ** m * (1.0 if m == 0 else 2.0) / (4.0 * np.pi)
+        out.append(val.reshape(mu_i.shape))
+    return tuple(out)
+
+
+def multiple_scattering_sum(mu_i, mu_o, phi, c: float, method: str = "newton", phase: str = "true",
+                            degree: int = DEGREE, orders: int | None = None, smallest: float = 1e-10):
+    """sum_m fm_m(mu_i, mu_o) cos(m phi) for one c (phi = 0 back-scattering); +inf at mu_i = mu_o = 0 (c > 0)."""
+    phi = _checks.real_array(phi, "phi", domain="(-inf, inf), finite (radians)", allow_inf=False)
+    modes = multiple_scattering_orders(mu_i, mu_o, c, method, phase, degree, orders, smallest)
+    shape = np.broadcast_shapes(modes[0].shape, np.shape(phi))
+    total = np.zeros(shape)
+    pole = np.zeros(shape, dtype=bool)
+    for m, fm in enumerate(modes):
+        fm = np.broadcast_to(fm, shape)
+        inf = ~np.isfinite(fm)
+        pole |= inf
+        total += np.where(inf, 0.0, fm) * np.cos(m * np.broadcast_to(phi, shape))
+    total[pole] = np.inf
+    return total
+
+
+def multiple_scattering_albedo(mu_i, c: float, method: str = "newton", phase: str = "true", degree: int = DEGREE,
+                               smallest: float = 1e-10):
+    """2 pi int_0^1 fm_0(mu_i, mu_o) mu_o dmu_o on the solution's own rule (exact in the discretisation)."""
+    mu_i = _checks.real_array(mu_i, "mu_i", 0.0, 1.0)
+    c = _checks.real_scalar(c, "c", 0.0, 1.0, domain="[0, 1] (particle albedo)")
+    sol = solve_order(0, c, method, phase, degree, smallest)
+    flat = mu_i.ravel()
+    v, w = sol.nodes, sol.weights
+    a = np.repeat(flat, v.size)
+    b = np.tile(v, flat.size)
+    num, _ = _ms_numerators(sol, b, a)
+    rm = (num / (a + b)).reshape(flat.size, v.size)
+    return (0.5 * rm @ (w * v)).reshape(mu_i.shape)
