@@ -102,7 +102,7 @@ __all__ = [
 ]
 
 #: Legendre degree after the first collision (A_k ~ k^-4; error ~ L^-4.7: docs/derivation.md).
-DEGREE = 128
+DEGREE = 256
 METHODS = ("newton", "doubling")
 #: phase functions this module can solve: the whole one ("true") and the paper's cut ("three_term").
 PHASES = ("true", "three_term")
@@ -344,13 +344,13 @@ def _solve_cached(method, phase, degree, m, c, smallest):
     return OrderSolution(m, c, method, phase, degree, mu, w, moments, q, r, it, smallest)
 
 
-def solve_order(order: int, c: float, method: str = "newton", phase: str = "true", degree: int = DEGREE,
+def solve_order(order: int, c: float, method: str = "newton", phase: str = "true", degree: int | None = None,
                 smallest: float = 1e-10) -> OrderSolution:
     """The discrete half space of Fourier order ``order`` at particle albedo c (cached)."""
     method = _checks.choice(method, "method", METHODS)
     phase = _checks.choice(phase, "phase", PHASES)
     c = _checks.real_scalar(c, "c", 0.0, 1.0, domain="[0, 1] (particle albedo)")
-    degree = _checks.positive_int(degree, "degree")
+    degree = _checks.positive_int(DEGREE if degree is None else degree, "degree")
     if phase == "three_term":
         degree = 2
     return _solve_cached(method, phase, int(degree), int(order), float(c), float(smallest))
@@ -420,14 +420,14 @@ def _ms_numerators(sol: OrderSolution, mu_a, mu_b):
     return num, pole
 
 
-def needed_orders(c: float, method: str = "newton", phase: str = "true", degree: int = DEGREE,
+def needed_orders(c: float, method: str = "newton", phase: str = "true", degree: int | None = None,
                   smallest: float = 1e-10) -> int:
     """Number of Fourier orders kept: orders m are solved until two in a row have
     max |Rm_m| over the nodes >= 1e-3 below ORDER_TOLERANCE times that of order 0."""
     phase = _checks.choice(phase, "phase", PHASES)
     if phase == "three_term":
         return 3
-    return _needed_cached(method, phase, int(degree), float(c), float(smallest))
+    return _needed_cached(method, phase, int(DEGREE if degree is None else degree), float(c), float(smallest))
 
 
 @lru_cache(maxsize=256)
@@ -450,7 +450,7 @@ def _needed_cached(method, phase, degree, c, smallest):
 
 
 def multiple_scattering_orders(mu_i, mu_o, c: float, method: str = "newton", phase: str = "true",
-                               degree: int = DEGREE, orders: int | None = None, smallest: float = 1e-10):
+                               degree: int | None = None, orders: int | None = None, smallest: float = 1e-10):
     """Fourier orders fm_0, fm_1, ... (fitlab's azimuth, 1/sr) of the multiple scattering, one c.
 
     mu_i, mu_o in [0, 1], broadcast; returns a tuple of arrays, one per order
@@ -479,7 +479,7 @@ def multiple_scattering_orders(mu_i, mu_o, c: float, method: str = "newton", pha
 
 
 def multiple_scattering_sum(mu_i, mu_o, phi, c: float, method: str = "newton", phase: str = "true",
-                            degree: int = DEGREE, orders: int | None = None, smallest: float = 1e-10):
+                            degree: int | None = None, orders: int | None = None, smallest: float = 1e-10):
     """sum_m fm_m(mu_i, mu_o) cos(m phi) for one c (phi = 0 back-scattering); +inf at mu_i = mu_o = 0 (c > 0)."""
     phi = _checks.real_array(phi, "phi", domain="(-inf, inf), finite (radians)", allow_inf=False)
     modes = multiple_scattering_orders(mu_i, mu_o, c, method, phase, degree, orders, smallest)
@@ -495,7 +495,7 @@ def multiple_scattering_sum(mu_i, mu_o, phi, c: float, method: str = "newton", p
     return total
 
 
-def multiple_scattering_albedo(mu_i, c: float, method: str = "newton", phase: str = "true", degree: int = DEGREE,
+def multiple_scattering_albedo(mu_i, c: float, method: str = "newton", phase: str = "true", degree: int | None = None,
                                smallest: float = 1e-10):
     """2 pi int_0^1 fm_0(mu_i, mu_o) mu_o dmu_o on the solution's own rule (exact in the discretisation)."""
     mu_i = _checks.real_array(mu_i, "mu_i", 0.0, 1.0)

@@ -1,0 +1,116 @@
+"""Measure the figures docs/derivation.md quotes for the true-phase engine (issue 33).
+
+    python tools/true_phase_figures.py methods  C [C ...]    # Newton vs doubling, full degree (~5 min per c)
+    python tools/true_phase_figures.py degree   C            # truncation: L = 64 .. 256 against each other
+    python tools/true_phase_figures.py cost     C [C ...]    # seconds per c (Newton, all orders, cold cache)
+    python tools/true_phase_figures.py gap      C [C ...]    # true vs mixed, mu in [0.01, 1], phi in [0, pi]
+    python tools/true_phase_figures.py albedo                # directional albedo at c = 1
+
+Run with one BLAS thread (OPENBLAS_NUM_THREADS=1) on a shared machine; prints plain text.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+
+import numpy as np
+
+from fitlab.families.lambert_sphere import exact
+from fitlab.families.lambert_sphere.exact import true_phase as tp
+
+GRAZING = np.array([0.0, 1e-6, 1e-3, 0.01, 0.1, 0.3, 0.5, 0.8, 1.0])
+
+
+def _grid(mu):
+    mi, mo = (a.ravel() for a in np.meshgrid(mu, mu, indexing="ij"))
+    ok = (mi + mo) > 0
+    return mi[ok], mo[ok]
+
+
+def methods(cs):
+    mi, mo = _grid(GRAZING)
+    for c in cs:
+        t0 = time.perf_counter()
+        m = tp.needed_orders(c)
+        a = tp.multiple_scattering_orders(mi, mo, c, method="newton", orders=m)
+        t1 = time.perf_counter()
+        b = tp.multiple_scattering_orders(mi, mo, c, method="doubling", orders=m)
+        t2 = time.perf_counter()
+        f = exact.brdf(mi, mo, np.pi, c, phase="mixed")
+        d = sum(np.abs(x - y) for x, y in zip(a, b))  # bounds the difference at every phi
+        print(f"c = {c}: {m} orders; max sum_m |newton - doubling| / f = {np.max(d / f):.2e} "
+              f"(newton {t1 - t0:.0f} s, doubling {t2 - t1:.0f} s)", flush=True)
+
+
+def degree(c, degrees=(64, 96, 128, 192, 256)):
+    mu = np.array([0.0, 1e-6, 1e-3, 0.01, 0.1, 0.5, 1.0])
+    mi, mo = _grid(mu)
+    phi = np.array([0.0, np.pi / 2, np.pi])[:, None]
+    f = exact.brdf(mi, mo, phi, c, phase="mixed")
+    vals = {}
+    for L in degrees:
+        t0 = time.perf_counter()
+        vals[L] = tp.multiple_scattering_sum(mi, mo, phi, c, degree=L)
+        print(f"L = {L}: {tp.needed_orders(c, degree=L)} orders, {tp.solve_order(0, c, degree=L).nodes.size} nodes, "
+              f"{time.perf_counter() - t0:.0f} s", flush=True)
+    top = degrees[-1]
+    for L in degrees[:-1]:
+        d = np.abs(vals[L] - vals[top]) / f
+        g = mi.reshape(1, -1).repeat(3, 0) + mo.reshape(1, -1).repeat(3, 0)
+        print(f"|ms(L={L}) - ms(L={top})| / f: max {d.max():.2e}, max over mu_i + mu_o >= 0.02: "
+              f"{d[g >= 0.02].max():.2e}, over mu_i, mu_o >= 0.1: "
+              f"{d[(np.minimum(mi, mo) >= 0.1)[None, :].repeat(3, 0)].max():.2e}", flush=True)
+
+
+def cost(cs):
+    for c in cs:
+        tp._solve_cached.cache_clear()
+        tp._needed_cached.cache_clear()
+        tp._nystrom_parts.cache_clear()
+        t0 = time.perf_counter()
+        m = tp.needed_orders(c)
+        t1 = time.perf_counter()
+        mu = np.linspace(0.0, 1.0, 33)
+        mi, mo = (a.ravel() for a in np.meshgrid(mu, mu, indexing="ij"))
+        exact.brdf(mi, mo, 1.0, c, phase="true")
+        t2 = time.perf_counter()
+        print(f"c = {c}: solve {m} orders {t1 - t0:.1f} s, then a 33 x 33 table {t2 - t1:.1f} s", flush=True)
+
+
+def gap(cs):
+    mu = np.concatenate(([0.01], np.linspace(0.05, 1.0, 20)))
+    phi = np.linspace(0.0, np.pi, 13)
+    mi, mo, ph = (a.ravel() for a in np.meshgrid(mu, mu, phi, indexing="ij"))
+    for c in cs:
+        t = exact.brdf(mi, mo, ph, c, phase="true")
+        m = exact.brdf(mi, mo, ph, c, phase="mixed")
+        t3 = exact.brdf(mi, mo, ph, c, phase="three_term")
+        r = (m - t) / t
+        r3 = (t3 - t) / t
+        k = int(np.argmax(np.abs(r)))
+        big = np.minimum(mi, mo) >= 0.2
+        print(f"c = {c}: mixed vs true max {np.max(np.abs(r)):.2e} at (mu_i, mu_o, phi) = "
+              f"({mi[k]:.2f}, {mo[k]:.2f}, {ph[k]:.2f}), RMS {np.sqrt(np.mean(r * r)):.2e}, "
+              f"max for mu >= 0.2 {np.max(np.abs(r[big])):.2e}; three_term vs true max {np.max(np.abs(r3)):.2e}, "
+              f"RMS {np.sqrt(np.mean(r3 * r3)):.2e}", flush=True)
+        if c == 1.0:
+            print(f"  mu_i = mu_o = 0.01, phi = pi: true {float(exact.brdf(0.01, 0.01, np.pi, 1.0, phase='true')):.6f}, "
+                  f"mixed {float(exact.brdf(0.01, 0.01, np.pi, 1.0, phase='mixed')):.6f}", flush=True)
+
+
+def albedo():
+    mu = np.array([0.0, 1e-9, 1e-6, 1e-3, 0.01, 0.1, 0.3, 0.5, 0.7, 0.9, 1.0])
+    a = exact.albedo(mu, 1.0, phase="true")
+    print(f"c = 1: max |a(mu_i) - 1| over {mu.size} mu_i in [0, 1] = {np.max(np.abs(a - 1)):.2e}")
+    print("  " + ", ".join(f"{x:g}: {y - 1:.1e}" for x, y in zip(mu, a)))
+    print(f"c = 1: |spherical albedo - 1| = {abs(float(exact.spherical_albedo(1.0, phase='true')) - 1):.2e}")
+    for phase in ("mixed", "three_term"):
+        b = exact.albedo(mu, 1.0, phase=phase)
+        print(f"  phase {phase}: a(mu_i) at c = 1 in [{b.min():.7f}, {b.max():.7f}]")
+
+
+if __name__ == "__main__":
+    what, args = sys.argv[1], [float(x) for x in sys.argv[2:]]
+    {"methods": lambda: methods(args), "degree": lambda: degree(args[0]), "cost": lambda: cost(args),
+     "gap": lambda: gap(args), "albedo": albedo}[what]()
