@@ -10,6 +10,7 @@ OpenBLAS: threadpoolctl limits the libraries already loaded, and the variable
 covers subprocesses and libraries loaded later."""
 
 import os
+import shutil
 import tempfile
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
@@ -23,7 +24,54 @@ from threadpoolctl import threadpool_limits  # noqa: E402
 _BLAS_LIMIT = threadpool_limits(limits=1, user_api="blas")
 
 
+def pytest_configure(config):
+    """One set of caches for the whole run, shared by the xdist workers and the subprocesses the tests start
+    (the environment carries them):
+
+    * compiled C (``$FITLAB_NATIVE_CACHE``, :func:`fitlab.codegen.native._compile`): a folder made for this
+      run (by the controller, before the workers start; removed at its end), so a program that several
+      test modules build compiles once, keyed by the sha256 of its sources and command;
+    * exact values and JAX's compiled programs (``$FITLAB_CACHE_DIR``, :mod:`fitlab.cache`): the user's cache
+      (``$FITLAB_CACHE_DIR`` where set, else the default folder), pinned for the run, and JAX's persistent
+      compilation cache enabled in the test processes too.  Entries are keyed by the bytes of the code that
+      computes them, so a warm cache is never stale; the tests of the cache itself set their own folder."""
+    if not hasattr(config, "workerinput"):  # the controller (or a run without xdist)
+        folder = tempfile.mkdtemp(prefix="fitlab-tests-native-")
+        config._fitlab_native_cache = folder
+        os.environ["FITLAB_NATIVE_CACHE"] = folder
+        from fitlab.cache import cache_dir
+
+        os.environ["FITLAB_CACHE_DIR"] = str(cache_dir())
+    from fitlab.cache import enable_compilation_cache
+
+    enable_compilation_cache()
+
+
+def pytest_unconfigure(config):
+    folder = getattr(config, "_fitlab_native_cache", None)
+    if folder:
+        shutil.rmtree(folder, ignore_errors=True)
+
+
+@pytest.hookimpl(tryfirst=True)  # before xdist's own hook, which reads the groups
 def pytest_collection_modifyitems(config, items):
+    _group_module_fixtures(items)
+    _skip_benchmarks(config, items)
+
+
+def _group_module_fixtures(items):
+    """A test that uses a module- or class-scoped fixture runs on the worker that runs the rest of its module
+    (xdist_group, honoured by --dist loadgroup), so that the fixture is computed once, not on each worker."""
+    for item in items:
+        info = getattr(item, "_fixtureinfo", None)
+        if info is None:
+            continue
+        scopes = {d.scope for defs in info.name2fixturedefs.values() for d in defs}
+        if scopes & {"module", "class", "package"}:
+            item.add_marker(pytest.mark.xdist_group(item.nodeid.split("::")[0]))
+
+
+def _skip_benchmarks(config, items):
     if "benchmark" in (config.getoption("-m") or ""):
         return  # -m benchmark (or an expression naming it) decides by itself
     skip = pytest.mark.skip(reason="slow study: run with pytest -m benchmark")

@@ -1,6 +1,7 @@
 """The audit's helpers and the one owner of each rule they share: a preset measured on its
 validation set (fitlab.fit.refit.preset_metrics, as the fit records state it), the richer refit
-forms (the report's rule), and the exact inverse of the spherical albedo."""
+forms (the report's rule), the exact inverse of the spherical albedo, and the furnace's quadrature (the
+directional albedo) against the exact engine."""
 
 import json
 from pathlib import Path
@@ -8,8 +9,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from fitlab.families.lambert_sphere.audit import richer_forms
-from fitlab.families.lambert_sphere.exact import albedo_inverse, solve_albedo, spherical_albedo
+from fitlab.families.lambert_sphere.audit import directional_albedo, richer_forms
+from fitlab.families.lambert_sphere.exact import albedo, albedo_inverse, brdf, solve_albedo, spherical_albedo
 from fitlab.fit.refit import preset_metrics
 
 FITS = Path(__file__).resolve().parents[1] / "fitlab" / "fits"
@@ -49,3 +50,10 @@ def test_albedo_inverse_inverts_the_spherical_albedo():
             assert albedo_inverse(kd, model, guess=c + 0.003) == pytest.approx(c, abs=1e-12)
     assert albedo_inverse(0.0) == 0.0 and albedo_inverse(1.1) == 1.0
     assert solve_albedo(np.sqrt, 0.5) == pytest.approx(0.25, abs=1e-12)
+
+
+def test_directional_albedo_quadrature_matches_the_exact_engine():
+    """The audit's furnace rule (graded Gauss in mu_o, Gauss-Legendre in phi) integrates the exact BRDF to
+    its directional albedo (moved here from tests/test_refit.py)."""
+    for mu in (0.0, 0.3, 0.9):
+        assert directional_albedo(brdf, mu, 0.7) == pytest.approx(float(albedo(mu, 0.7, model="true")), abs=1e-8)

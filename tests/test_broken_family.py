@@ -55,6 +55,7 @@ def test_refit_list_names_the_broken_ones_once_and_lists_the_others(broken, caps
     assert capsys.readouterr().err == ""
 
 
+@pytest.mark.e2e
 def test_help_and_codegen_work_beside_a_broken_family(broken, capsys, tmp_path):
     with pytest.raises(SystemExit) as exit_:
         main(["--help"])

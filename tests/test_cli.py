@@ -85,6 +85,7 @@ def test_a_command_is_required(capsys):
     assert "required: command" in capsys.readouterr().err
 
 
+@pytest.mark.e2e
 def test_python_dash_m_fitlab():
     env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
     out = subprocess.run([sys.executable, "-m", "fitlab", "refit", "--all", "--target", "m"], env=env, cwd=ROOT,

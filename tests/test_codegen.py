@@ -103,6 +103,7 @@ def test_committed_generated_code_is_what_the_committed_fits_generate(sources, l
         assert committed == text, f"fitlab/fits/generated/{name} is stale: run fitlab codegen --lang {lang} --fits fitlab/fits --out fitlab/fits/generated"
 
 
+@pytest.mark.e2e
 def test_generation_does_not_depend_on_hash_seed(tmp_path):
     code = ("import os; os.chdir({root!r}); from fitlab.codegen import generate; "
             "import sys; sys.stdout.write(generate('c')['lambert_sphere.c'])").format(root=str(ROOT))  # fmt: skip

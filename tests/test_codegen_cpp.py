@@ -105,6 +105,7 @@ def test_single_header_matches_the_two_files(tmp_path):
     assert [float(x) for x in single_out.split()] == pytest.approx([float(x) for x in two_out.split()], rel=1e-15)
 
 
+@pytest.mark.e2e
 def test_banner_names_the_command_with_the_options_that_change_the_files():
     files = generate("c", forms={"H0": "hapke_rational"})
     assert "(fitlab codegen --lang c --form H0=hapke_rational)" in files["lambert_sphere.h"].splitlines()[2]

@@ -134,6 +134,7 @@ def kd_discovery():
     return discover("kd_of_c", thresholds=np.logspace(-3, 0, 4), max_terms=2, minimax_rounds=1, progress=False)
 
 
+@pytest.mark.e2e
 def test_discover_front_and_outputs(kd_discovery, tmp_path):
     disc = kd_discovery
     assert disc.front and all(name in {d.name for d in disc.refined} for name in disc.front)
@@ -160,6 +161,7 @@ def test_discover_front_and_outputs(kd_discovery, tmp_path):
     assert [p.name for p in saved] == [f"kd_of_c.{n}.json" for n in disc.front]
 
 
+@pytest.mark.e2e
 def test_discovered_form_round_trips_through_json_refit_and_codegen(kd_discovery, tmp_path):
     from fitlab.codegen import generate, write_generated
     from fitlab.store import load, read_fit

@@ -53,6 +53,7 @@ def _banner_line(text: str, name: str) -> str:
 
 
 # -- the overlay ---------------------------------------------------------------------------------------------
+@pytest.mark.e2e
 def test_a_folder_with_one_fit_overlays_the_packaged_fits(tmp_path):
     fits = tmp_path / "fits"
     write_fit(fits / "H1.log_exp.json", _nudged("H1.log_exp.json"))
@@ -80,6 +81,7 @@ def test_a_folder_with_one_fit_overlays_the_packaged_fits(tmp_path):
     assert np.max(np.abs(mod.h1(mu, c) - packaged(mu=mu, c=c))) > 0
 
 
+@pytest.mark.e2e
 def test_codegen_names_a_refit_the_model_leaves_out(tmp_path, capsys):
     fits = tmp_path / "fits"
     shutil.copytree(FITS, fits, ignore=lambda d, names: [n for n in names if n not in ("H0.json",)])
@@ -110,6 +112,7 @@ def test_refit_fits_by_default_the_form_the_default_model_prints():
     assert model_form("E_on") == get_target("E_on").default_form  # no default model picks its form: its own default
 
 
+@pytest.mark.e2e
 def test_refit_then_codegen_prints_the_refit(tmp_path):
     out = tmp_path / "fits"
     assert main(["refit", "--target", "m", "--out", str(out), "--quiet", "--no-minimax"]) == 0
@@ -236,6 +239,7 @@ def narrow(tmp_path_factory):
     return fits
 
 
+@pytest.mark.e2e
 def test_a_fit_made_on_a_sliver_of_the_domain_is_refused_and_printed_for_its_domain(narrow, tmp_path, capsys):
     argv = ["codegen", "--lang", "python", "--fits", str(narrow), "--form", "H0=hapke"]
     assert main([*argv, "--out", str(tmp_path / "refused")]) == 2

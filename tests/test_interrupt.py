@@ -153,6 +153,7 @@ def _run(out: Path, delay: float | None, env) -> tuple[int, str, float]:
     return proc.returncode, err, time.monotonic() - start
 
 
+@pytest.mark.e2e
 @pytest.mark.skipif(not Path("/proc/self/maps").exists(), reason="needs /proc to see the child's imports")
 def test_ctrl_c_at_any_moment_of_a_real_refit(tmp_path, capsys):
     """SIGINT at moments spread over a whole ``fitlab refit --target m`` (its imports, the exact values, the
@@ -198,6 +199,7 @@ runpy.run_module("fitlab", run_name="__main__", alter_sys=True)
 '''
 
 
+@pytest.mark.e2e
 def test_python_m_fitlab_exits_130_after_a_ctrl_c_inside_exec(tmp_path):
     """CPython remembers a KeyboardInterrupt that left an exec() of a string and ends ``python -m`` by SIGINT
     whatever its exit status (before: status -2 after printing "interrupted")."""

@@ -158,6 +158,7 @@ def test_only_the_jobs_and_tallies_an_effect_needs():
     assert cfg.collision_orders == 4 and not cfg.orders and cfg.mu_edges
 
 
+@pytest.mark.e2e
 def test_cli(tmp_path, capsys):
     bad = tmp_path / "bad.toml"
     bad.write_text(SCENE.replace("c = 0.5", "c = 8"))

@@ -198,6 +198,7 @@ def _run_sharded(ndev):
     return json.loads(out.stdout.strip().splitlines()[-1])
 
 
+@pytest.mark.e2e
 def test_sharded_over_four_host_devices_gives_the_same_tallies():
     """A 1-D mesh over 4 host devices (XLA_FLAGS): each device runs its id range; the
     tallies equal the one-device run up to the order of summation."""

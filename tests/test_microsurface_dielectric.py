@@ -406,6 +406,7 @@ print(json.dumps({"devices": jax.device_count(), **{k: np.asarray(v).tolist() fo
 """
 
 
+@pytest.mark.e2e
 def test_sharded_over_four_host_devices_gives_the_same_paths():
     """A mesh of 4 host devices (XLA_FLAGS, in a fresh process): each device walks a quarter of the ids, and
     the tallies equal this process's one-device run exactly (every weight is 1: the sums are counts)."""

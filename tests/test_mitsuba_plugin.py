@@ -192,6 +192,7 @@ def directional_albedo(native, mu_o, c=1.0, n=64):
     return np.array(out)
 
 
+@pytest.mark.e2e
 def test_render_matches_the_generated_c_integrated_over_each_pixel(rendered, native):
     variant, img, meta = rendered
     assert meta["variant"] == variant
@@ -209,6 +210,7 @@ def test_render_matches_the_generated_c_integrated_over_each_pixel(rendered, nat
         assert np.max(np.abs(got[inner] - mirrored[inner]) / mirrored[inner]) > 0.1  # the test sees orientation
 
 
+@pytest.mark.e2e
 def test_rgb_channels_are_the_single_channel_renders_and_textures_agree(rendered):
     variant, img, meta = rendered
     for k in range(3):
@@ -222,6 +224,7 @@ def test_rgb_channels_are_the_single_channel_renders_and_textures_agree(rendered
     assert "LambertSphereBSDF" in meta["repr"] and "reflectance" in meta["repr"]
 
 
+@pytest.mark.e2e
 def test_white_furnace_at_c_1_is_the_directional_albedo(rendered, native):
     """kd = 1 (c = c_of_kd(1) = 1) under a constant environment of radiance 1: each pixel is the directional
     albedo of the runtime model at its mu_o (averaged over the pixel), by quadrature of the generated C."""
@@ -246,6 +249,7 @@ def _furnace_residual(native, image, c):
     return image[inner] - want[inner], albedo_nodes
 
 
+@pytest.mark.e2e
 def test_furnace_in_colour_each_channel_is_its_own_albedo(rendered, native):
     """RGB kd (0.8, 0.5, 0.2) in the furnace: the sampler draws by the c of the mean kd, and each channel's
     weight f_r cos/p stays unbiased (pixels against the directional albedo at that channel's c)."""
@@ -259,6 +263,7 @@ def test_furnace_in_colour_each_channel_is_its_own_albedo(rendered, native):
         assert abs(residual.mean()) < 4 * se, (kd, residual.mean(), se)
 
 
+@pytest.mark.e2e
 def test_a_texture_that_varies_traverse_and_gradients(rendered):
     variant, img, meta = rendered
     if variant != "llvm_ad_rgb":
@@ -276,6 +281,7 @@ def test_a_texture_that_varies_traverse_and_gradients(rendered):
     assert np.isfinite(meta["grad"]) and meta["grad"] == pytest.approx(meta["fd"], rel=1e-4)
 
 
+@pytest.mark.e2e
 def test_mitsuba_chi2_accepts_the_plugin_sampler(rendered):
     """Mitsuba's chi-square test (BSDFAdapter on the registered plugin: sample() against pdf(), with its Sidak
     correction for the three points at significance 0.01)."""

@@ -10,6 +10,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -55,6 +56,7 @@ def _run(code: str, **env) -> dict:
     return json.loads(line[len("RESULT "):])
 
 
+@pytest.mark.e2e
 def test_import_keeps_float32_default_and_fits_stay_float64():
     r = _run(_SCRIPT)
     # the user's default survives import fitlab (and the family, the refit and the Monte Carlo modules)

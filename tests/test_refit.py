@@ -1,6 +1,6 @@
 """Refits: the committed fits/ load and beat the published presets (or sit at the
 floor of their form, which is computed here), the CLI fails cleanly, fits are
-reproducible, the audit runs."""
+reproducible (the audit's own tests: tests/test_audit.py)."""
 
 import json
 import shutil
@@ -135,6 +135,7 @@ def test_richer_forms_beat_the_published_shapes():
         assert rich < 0.2 * plain, target
 
 
+@pytest.mark.e2e
 def test_refit_reproduces_a_committed_fit(tmp_path):
     res = refit("m")
     committed = read_fit(FITS / "m.json")
@@ -146,6 +147,7 @@ def test_refit_reproduces_a_committed_fit(tmp_path):
     assert FitFunction(res.record)(c=np.array([0.0, 1.0]))[0] == 1.0  # m(0) = 1 exactly
 
 
+@pytest.mark.e2e
 def test_refit_h0_cli_end_to_end(tmp_path, capsys):
     assert main(["refit", "--target", "H0", "--form", "hapke", "--out", str(tmp_path), "--compare-scipy"]) == 0
     out = capsys.readouterr().out
@@ -232,14 +234,6 @@ def test_runtime_model_from_refits_beats_the_presets():
     assert refit_row["max_rel_nonzero"] < paper["max_rel_nonzero"]
     assert refit_row["rms_rel_nonzero"] < paper["rms_rel_nonzero"]
     assert refit_row["rms_rel_away"] < paper["rms_rel_away"]
-
-
-def test_directional_albedo_quadrature_matches_the_exact_engine():
-    from fitlab.families.lambert_sphere.audit import directional_albedo
-    from fitlab.families.lambert_sphere.exact import albedo, brdf
-
-    for mu in (0.0, 0.3, 0.9):
-        assert directional_albedo(brdf, mu, 0.7) == pytest.approx(float(albedo(mu, 0.7, model="true")), abs=1e-8)
 
 
 def test_a_non_finite_training_point_is_refused_not_left_out():

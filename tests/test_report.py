@@ -21,6 +21,9 @@ from fitlab.report.methods import ReportError, brdf_methods, fit_inventory
 from fitlab.families.lambert_sphere.interpolation import h_interpolant, table_brdf
 from fitlab.report.validation import albedos
 
+# one worker runs the module: its tests share the quick reports and the programs they build (xdist_group)
+pytestmark = pytest.mark.xdist_group("tests/test_report.py")
+
 FITS = Path(__file__).resolve().parents[1] / "fitlab" / "fits"
 DATA = Path(__file__).resolve().parents[1] / "fitlab" / "data" / "lambert_sphere"
 
@@ -30,12 +33,24 @@ def _read_csv(path):
         return list(csv.DictReader(fh))
 
 
+def _cache_without_report_entries(folder: Path) -> Path:
+    """A cache folder holding the run's cached exact values (tests/conftest.py) but none of the report's own
+    entries (report-*): those are what the quick reports below write and read, the rest only costs time."""
+    from fitlab.cache import cache_dir
+
+    folder.mkdir()
+    for entry in cache_dir().glob("*.npz"):
+        if not entry.name.startswith("report-"):
+            shutil.copyfile(entry, folder / entry.name)
+    return folder
+
+
 @pytest.fixture(scope="module")
 def quick(tmp_path_factory):
     """Two quick reports: (out dir of the CLI run, out dir of the API run)."""
     root = tmp_path_factory.mktemp("report")
     mp = pytest.MonkeyPatch()
-    mp.setenv("FITLAB_CACHE_DIR", str(root / "cache"))
+    mp.setenv("FITLAB_CACHE_DIR", str(_cache_without_report_entries(root / "cache")))
     try:
         assert main(["report", "--quick", "--quiet", "--out", str(root / "a"), "--fits", str(FITS)]) == 0
         assert any((root / "cache").glob("report-brdf-*.npz"))
@@ -46,6 +61,7 @@ def quick(tmp_path_factory):
     return root / "a", root / "b"
 
 
+@pytest.mark.e2e
 def test_quick_report_writes_the_three_files(quick):
     a, _ = quick
     assert (a / "accuracy_vs_cost.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
@@ -57,6 +73,7 @@ def test_quick_report_writes_the_three_files(quick):
     assert not list(a.glob("*.tmp"))
 
 
+@pytest.mark.e2e
 def test_csv_columns_and_contents(quick):
     a, _ = quick
     with open(a / "report.csv", newline="") as fh:
@@ -92,6 +109,7 @@ def test_csv_columns_and_contents(quick):
     assert all(math.isfinite(g) for g in grazing.values())
 
 
+@pytest.mark.e2e
 def test_non_timing_columns_are_reproducible(quick):
     a, b = quick
     ra, rb = _read_csv(a / "report.csv"), _read_csv(b / "report.csv")

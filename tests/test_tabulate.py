@@ -12,6 +12,7 @@ from fitlab.families.lambert_sphere.tabulate import C_GRID, FAST_TABLES, MU_GRID
 DATA = Path(__file__).resolve().parents[1] / "fitlab" / "data" / "lambert_sphere"
 
 
+@pytest.mark.e2e
 def test_committed_tables_pass_check(capsys):
     assert main(["tabulate", "--check", "--quiet"]) == 0  # the packaged tables (conftest: no user data folder)
 
@@ -30,6 +31,7 @@ def test_regenerated_tables_match_committed(tmp_path):
     assert not np.any(np.isnan(h0))
 
 
+@pytest.mark.e2e
 def test_check_fails_on_a_wrong_value(tmp_path, capsys):
     root, tmp_path = tmp_path, tmp_path / "lambert_sphere"
     tmp_path.mkdir()

@@ -26,6 +26,8 @@ from pathlib import Path
 
 import pytest
 
+pytestmark = pytest.mark.e2e  # the whole module runs commands end to end
+
 ROOT = Path(__file__).resolve().parents[1]
 
 
@@ -83,8 +85,9 @@ def installed(tmp_path_factory):
     (Path(purelib) / "fitlab-test-dependencies.pth").write_text("".join(f"{folder}\n" for folder in _site_folders()))
     work = base / "elsewhere"
     work.mkdir()
-    env = {**os.environ, "FITLAB_CACHE_DIR": str(base / "cache"), "FITLAB_DATA": str(base / "no-data"),
-           "PYTHONPATH": "", "OPENBLAS_NUM_THREADS": "1"}  # fmt: skip
+    # the run's cache of exact values and compiled programs (tests/conftest.py sets $FITLAB_CACHE_DIR): entries are
+    # keyed by the bytes of the code that computes them, which the wheel's copy shares; the cache is not under test
+    env = {**os.environ, "FITLAB_DATA": str(base / "no-data"), "PYTHONPATH": "", "OPENBLAS_NUM_THREADS": "1"}
 
     def run(*args, check=True):
         done = subprocess.run([str(env_dir / "bin" / "fitlab"), *args], cwd=work, env=env, capture_output=True, text=True)

@@ -17,6 +17,8 @@ written; a GPU compiler may fold NaN away (GLSL does not require NaN).
 from __future__ import annotations
 
 import ctypes
+import hashlib
+import os
 import shutil
 import subprocess
 from pathlib import Path
@@ -184,15 +186,48 @@ def _glsl_loop_source(program: Program, lang: str = "glsl") -> str:
     return "\n".join(lines + _material_loops(program, by_value=True, scalars=(("float", "", "_f"),)) + tail) + "\n"
 
 
+#: a folder of compiled libraries keyed by content hash (:func:`_compile`); unset: every build compiles
+NATIVE_CACHE_ENV = "FITLAB_NATIVE_CACHE"
+
+
+def _cache_key(workdir: Path, cmd: list[str]) -> str:
+    """sha256 of the compiler command (the work folder's path written as ``@``) and of the name and bytes of
+    every file in the work folder: what the library is compiled from (sources and the headers they include)."""
+    h = hashlib.sha256()
+    where = str(workdir)
+    h.update("\0".join(a.replace(where, "@") for a in cmd).encode())
+    for f in sorted(p for p in workdir.iterdir() if p.is_file() and p.suffix != ".so"):
+        h.update(b"\0" + f.name.encode() + b"\0" + f.read_bytes())
+    return h.hexdigest()
+
+
 def _compile(workdir: Path, sources: list[Path], lib: Path, flags, cxx: bool = False) -> list[str]:
-    """Compile ``sources`` into the shared library ``lib`` with the C compiler (C++ with ``cxx``)."""
+    """Compile ``sources`` into the shared library ``lib`` with the C compiler (C++ with ``cxx``).
+
+    Where ``$FITLAB_NATIVE_CACHE`` names a folder (the test suite sets one per run), a library compiled before
+    from the same command and the same work-folder files (:func:`_cache_key`) is copied from it instead;
+    a new one is added (written under a temporary name, then renamed: concurrent processes never see half
+    a file).  Failed compilations are never kept."""
     cc = cxx_compiler() if cxx else compiler()
     if cc is None:
         raise CompileError("no C++ compiler found (c++, g++ or clang++)" if cxx else "no C compiler found (cc, gcc or clang)")
     cmd = [cc, *flags, "-shared", "-fPIC", "-o", str(lib), *map(str, sources), "-lm"]
+    folder = os.environ.get(NATIVE_CACHE_ENV)
+    cached = Path(folder) / f"{_cache_key(Path(workdir), cmd)}.so" if folder else None
+    if cached is not None and cached.is_file():
+        shutil.copyfile(cached, lib)
+        return cmd
     res = subprocess.run(cmd, capture_output=True, text=True)
     if res.returncode != 0:
         raise CompileError(f"{' '.join(cmd)} failed:\n{res.stderr}")
+    if cached is not None:
+        try:
+            cached.parent.mkdir(parents=True, exist_ok=True)
+            part = cached.with_name(f"{cached.name}.{os.getpid()}.part")
+            shutil.copyfile(lib, part)
+            os.replace(part, cached)
+        except OSError:
+            pass  # a cache that cannot be written only costs time
     return cmd
 
 
