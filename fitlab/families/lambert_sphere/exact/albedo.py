@@ -54,13 +54,21 @@ MODELS = ("true", "three_term")
 _MODEL_PHASE = {"true": "mixed", "three_term": "three_term"}
 
 
+class _NotGiven:
+    def __repr__(self):
+        return "(not given)"
+
+
+_NOT_GIVEN = _NotGiven()
+
+
 def _resolve_phase(model, phase) -> str:
     """The phase from ``phase=`` or the older ``model=`` (model "true" means phase "mixed")."""
-    if model is not None:
+    if model is not _NOT_GIVEN:
         model = _checks.choice(model, "model", MODELS)
         implied = _MODEL_PHASE[model]
         if phase is not None and check_phase(phase) != implied:
-            raise ValueError(f"model={model!r} means phase={implied!r}, but phase={phase!r} was given")
+            raise ValueError(f"model {model!r} means phase {implied!r}, but phase {phase!r} was given")
         return implied
     return check_phase(phase, PHASES)
 
@@ -151,7 +159,7 @@ def three_term_single_albedo(mu_i):
     return 2.0 * np.pi * (f0 * (w * v)[None, :]).sum(axis=1)
 
 
-def albedo(mu_i, c, model: str | None = None, phase: str | None = None):
+def albedo(mu_i, c, model: str = _NOT_GIVEN, phase: str | None = None):
     """Directional albedo a(mu_i) = int f(w_i, w_o) mu_o dw_o of an exact BRDF.
 
     phase (default :data:`DEFAULT_PHASE`): "mixed" (:func:`fitlab.families.lambert_sphere.exact.brdf`
@@ -190,7 +198,7 @@ def albedo(mu_i, c, model: str | None = None, phase: str | None = None):
     return out
 
 
-def spherical_albedo(c, model: str | None = None, phase: str | None = None):
+def spherical_albedo(c, model: str = _NOT_GIVEN, phase: str | None = None):
     """Spherical (Bond) albedo kd = 2 int_0^1 a(mu_i) mu_i dmu_i; ``phase``/``model`` as in :func:`albedo`."""
     phase = _resolve_phase(model, phase)
     c = _checks.real_array(c, "c", 0.0, 1.0, domain="[0, 1] (particle albedo)")

@@ -50,12 +50,11 @@ DEFAULT_PHASE = "mixed"
 
 
 def check_phase(phase, allowed=PHASES) -> str:
-    """``phase`` as one of ``allowed`` (None: :data:`DEFAULT_PHASE`); one-line ValueError otherwise."""
+    """``phase`` as one of ``allowed`` (None: :data:`DEFAULT_PHASE`); one-line ValueError for an unknown
+    name, TypeError for a non-string."""
     if phase is None:
         phase = DEFAULT_PHASE
-    if not isinstance(phase, str) or phase not in allowed:
-        raise ValueError(f"phase must be one of {allowed}, got {phase!r}")
-    return phase
+    return _checks.choice(phase, "phase", allowed)
 
 
 def check_cosines(*arrays, names=("mu_i", "mu_o")):
@@ -180,8 +179,8 @@ def brdf_modes(mu_i, mu_o, c, phase="three_term"):
     """
     if check_phase(phase) != "three_term":
         raise ValueError(
-            f"brdf_modes: phase {phase!r} has infinitely many Fourier orders (true single scattering); "
-            "only 'three_term' has three"
+            f"phase {phase!r} has infinitely many Fourier orders (true single scattering): "
+            "brdf_modes takes only 'three_term'"
         )
     mu_i = _checks.real_array(mu_i, "mu_i", 0.0, 1.0)
     mu_o = _checks.real_array(mu_o, "mu_o", 0.0, 1.0)
