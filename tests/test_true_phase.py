@@ -52,7 +52,7 @@ def test_three_term_kernel_reproduces_h_function_engine(method, c):
     np.testing.assert_allclose(mine, f3, rtol=1e-12)
 
 
-@pytest.mark.parametrize("c", [1e-6, 0.5, 0.99, 1.0])
+@pytest.mark.parametrize("c", [1e-6, 0.1, 0.5, 0.9, 0.99, 1.0])
 def test_two_methods_agree_reduced_degree(c):
     """Newton and doubling, on different rules, at degree 4 (orders 0, 1), rules down to 1e-8: the check
     of the methods themselves; the full degree and default rules are the benchmark below."""

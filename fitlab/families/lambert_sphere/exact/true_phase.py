@@ -78,9 +78,11 @@ machine, one BLAS thread; docs/derivation.md, "The true phase function"):
   L^-4.1 at grazing, so L = 256 (:data:`DEGREE`) is within about 6e-11 of the limit everywhere;
 * the two methods agree to 1.7e-12 of the BRDF at L = 256 (c = 1, 51 orders, mu down to 0);
   with the three-term kernel each reproduces the H-function engine's orders to 4.4e-13;
-* cost: Newton solves the 51 orders of one c in about 56 s on that (loaded) machine;
-  doubling takes about 7 times longer (376 s).  Solutions are cached per
-  (method, phase, L, m, c), so a table at one c costs the solve once.
+* cost: Newton solves the 51-53 orders of one c in 23-28 s (cold cache; 56 s while the machine
+  was loaded by other jobs), then a 33 x 33 table at that c takes about 10 s; doubling takes
+  376 s per c.  Solutions are cached per (method, phase, L, m, c) (about 2 MB per order at
+  L = 256; the caches keep the last few c), so a table at one c pays the solve once; many
+  distinct c values cost a solve each.
 """
 
 from __future__ import annotations
@@ -331,7 +333,7 @@ def _doubling(c, mu, w, kp, km, critical):
 RULES = {"newton": dict(per_panel=12, ratio=0.25), "doubling": dict(per_panel=14, ratio=0.2)}
 
 
-@lru_cache(maxsize=640)
+@lru_cache(maxsize=128)
 def _solve_cached(method, phase, degree, m, c, smallest):
     mu, w = node_rule(degree, smallest=smallest, **RULES[method])
     moments = legendre_moments(degree, phase)[m:]
@@ -363,9 +365,10 @@ def solve_order(order: int, c: float, method: str = "newton", phase: str = "true
     return _solve_cached(method, phase, int(degree), int(order), float(c), float(smallest))
 
 
-@lru_cache(maxsize=160)
+@lru_cache(maxsize=64)
 def _nystrom_parts(method, phase, degree, m, c, smallest):
-    """A1 and the eigen-decomposition of M^-1 A1 for a cached solution (one per order and c)."""
+    """K-, A1 and the eigen-decomposition of M^-1 A1 for a cached solution (one per order and c;
+    about 5 MB each at L = 256, so the cache holds about one c's orders)."""
     sol = _solve_cached(method, phase, degree, m, c, smallest)
     kp, km = sol.kernels()
     a1 = _closed_loop(c, sol.nodes, sol.weights, kp, km, sol.r)
@@ -374,7 +377,7 @@ def _nystrom_parts(method, phase, degree, m, c, smallest):
         vi = np.linalg.inv(v)
     if np.all(theta.imag == 0.0) and np.all(v.imag == 0.0):
         theta, v, vi = theta.real, v.real, vi.real
-    return kp, km, a1, theta, v, vi
+    return km, a1, theta, v, vi
 
 
 def _rows(sol: OrderSolution, u: np.ndarray):
@@ -388,7 +391,7 @@ def _rows(sol: OrderSolution, u: np.ndarray):
     k_plus = qu.T @ (sol.moments[:, None] * sol.q_nodes)  # k(u, mu_j)
     k_minus = qu.T @ ((sol.moments * sol.signs)[:, None] * sol.q_nodes)  # k(u, -mu_j)
     b = c * k_minus + 0.5 * c * ((k_plus * w[None, :]) @ sol.r) * mu[None, :]
-    _, _, a1, theta, v, vi = _nystrom_parts(sol.method, sol.phase, sol.degree, sol.order, sol.c, sol.smallest)
+    _, a1, theta, v, vi = _nystrom_parts(sol.method, sol.phase, sol.degree, sol.order, sol.c, sol.smallest)
     rhs = b.T  # (N, nu)
 
     def approx(y):
@@ -412,7 +415,7 @@ def _ms_numerators(sol: OrderSolution, mu_a, mu_b):
         return np.zeros(mu_a.shape), 0.0
     uniq, inv = np.unique(np.concatenate((mu_a, mu_b)), return_inverse=True)
     ia, ib = inv[: mu_a.size], inv[mu_a.size:]
-    km = _nystrom_parts(sol.method, sol.phase, sol.degree, sol.order, sol.c, sol.smallest)[1]
+    km = _nystrom_parts(sol.method, sol.phase, sol.degree, sol.order, sol.c, sol.smallest)[0]
     with _blas_one_thread():
         rows, k_plus = _rows(sol, uniq)
     rw = rows * w[None, :]
