@@ -78,6 +78,9 @@ machine, one BLAS thread; docs/derivation.md, "The true phase function"):
   L^-4.1 at grazing, so L = 256 (:data:`DEGREE`) is within about 6e-11 of the limit everywhere;
 * the two methods agree to 1.7e-12 of the BRDF at L = 256 (c = 1, 51 orders, mu down to 0);
   with the three-term kernel each reproduces the H-function engine's orders to 4.4e-13;
+* near c = 1 (not at it) the problem is near-critical and rounding costs ~sqrt(eps)/sqrt(1-c):
+  Newton 2.3e-12 at 1 - c = 1e-9, 2.4e-10 at 1e-12 (three-term kernel against the H-route);
+  1e-10 holds for 1 - c >= ~1e-11 and at c = 1 exactly;
 * cost: Newton solves the 51-53 orders of one c in 23-28 s (cold cache; 56 s while the machine
   was loaded by other jobs), then a 33 x 33 table at that c takes about 10 s; doubling takes
   376 s per c.  Solutions are cached per (method, phase, L, m, c) (about 2 MB per order at
