@@ -95,8 +95,9 @@ def gap(cs):
               f"max for mu >= 0.2 {np.max(np.abs(r[big])):.2e}; three_term vs true max {np.max(np.abs(r3)):.2e}, "
               f"RMS {np.sqrt(np.mean(r3 * r3)):.2e}", flush=True)
         if c == 1.0:
-            print(f"  mu_i = mu_o = 0.01, phi = pi: true {float(exact.brdf(0.01, 0.01, np.pi, 1.0, phase='true')):.6f}, "
-                  f"mixed {float(exact.brdf(0.01, 0.01, np.pi, 1.0, phase='mixed')):.6f}", flush=True)
+            at = (0.01, 0.01, np.pi, 1.0)
+            print(f"  mu_i = mu_o = 0.01, phi = pi: true {float(exact.brdf(*at, phase='true')):.6f}, "
+                  f"mixed {float(exact.brdf(*at, phase='mixed')):.6f}", flush=True)
 
 
 def albedo():
