@@ -165,7 +165,10 @@ PUBLISHED.update({f"one_minus_{k}": v for k, v in list(PUBLISHED.items()) if k.s
 _DEFAULTS = {
     # the best form for the target (the refit table of the family's report): each beats the published presets of its
     # target many times over on the whole domain, the grazing layer included, where the published shapes cannot go
-    # below about 0.1 (they are smooth in mu and alpha, and the layer's width scales with alpha)
+    # below about 0.1 (they are smooth in mu and alpha, and the layer's width scales with alpha).  Separable 1 - E
+    # keeps grazing_rational although a refit of rational_v_alpha_4 has the smaller max and RMS error: that one's
+    # 1 - E = (D - N)/(1 + D) goes slightly below 0 at small alpha (a negative lobe, which the floor of the error's
+    # scale does not punish) and cancels in float, where grazing_rational's v^2 P/(1 + Q) is >= 0 and exact at 0
     "ggx_separable": {"E": "rational_v_alpha_4", "one_minus_E": "grazing_rational", "E_avg": "log_rational"},
     "ggx_correlated": {"E": "grazing_log_rational", "one_minus_E": "grazing_log_rational", "E_avg": "log_rational"},
     "oren_nayar": {"E": "abg_cubic", "one_minus_E": "abg_cubic", "E_avg": "a_plus_kappa_b"},

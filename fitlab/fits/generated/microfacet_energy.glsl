@@ -6,11 +6,11 @@
 // blog's final lobe and the tilted lobe; Kulla-Conti's f_ms.
 // Model: blog_refit (ms_blog_* in the blog's own forms, refitted (the lobe model blog_refit); every other target in its default form)
 // From these fits (file, sha256, where read, and the error fitlab codegen re-measured on the target's validation set):
-//   E_ggx_sep.json  de27604d80893e4bda7932521308681a0fb991bd7d0c66239bd095e924754ebc  packaged; max 5.73e-04, RMS 1.86e-04 (absolute, 17452 points)
-//   one_minus_E_ggx_sep.json  fc9ca85b451d51130e2ce3b8146f140dfa4eef3ae4e856a4f3cbddfe15fae0ae  packaged; max 5.18e-02, RMS 1.71e-02 (relative to max(|1 - E|, 0.001), 17452 points)
+//   E_ggx_sep.json  a1bfe9afad0a7d6b4859eba5c1e15412ad42a6e3f8adc47be8b9b458d9dd0d8d  packaged; max 5.41e-04, RMS 1.94e-04 (absolute, 21203 points)
+//   one_minus_E_ggx_sep.json  cbc39a122c11e8895f330fc456adefa90cd83249484bac475d3a125ebdd2d671  packaged; max 5.28e-02, RMS 1.53e-02 (relative to max(|1 - E|, 0.001), 21203 points)
 //   E_avg_ggx_sep.json  7fe29970992fc97c8d6111cca3026cff2f4b5f2cb696888e0f9055be1ed2bdf4  packaged; max 8.21e-07, RMS 5.67e-07 (absolute, 198 points)
-//   E_ggx_cor.json  86da6212f06eef96cfc0ff7e8400baa3b08b1a1a7ce718d18224c678ed56b3e5  packaged; max 1.26e-03, RMS 6.89e-04 (absolute, 17452 points)
-//   one_minus_E_ggx_cor.json  fa9472acce1e77409bb427ee6634c2e76dce76fd8c5d902c4a0273e1f69e2283  packaged; max 6.84e-02, RMS 9.26e-03 (relative to max(|1 - E|, 0.001), 17452 points)
+//   E_ggx_cor.json  8ee0fbae896ef4eed63e636055c287cb8ac8ec3a6a25ed688116b1541e2b61d7  packaged; max 1.32e-03, RMS 6.37e-04 (absolute, 21203 points)
+//   one_minus_E_ggx_cor.json  d85c37f458dcb3e416aa479d6347c063ea7c89ee010e3ae272a72139f3a51bda  packaged; max 9.61e-02, RMS 2.86e-02 (relative to max(|1 - E|, 0.001), 21203 points)
 //   E_avg_ggx_cor.json  01da745251f7c2ec93bc9c1c68cf1a9b6a4b3e761196f928c6f24191d02f1d02  packaged; max 1.36e-06, RMS 9.40e-07 (absolute, 198 points)
 //   E_on.json  58e9efd5295b35fab0b16c60a97b080c0d5582b4515f3618923f3b1847aa2d42  packaged; max 2.90e-05, RMS 1.65e-05 (absolute, 16900 points)
 //   one_minus_E_on.json  17bd127c67304aa1c32a34469de89ee3511a9195ee000a1d6420a877836ddaee  packaged; max 1.80e-03, RMS 2.23e-04 (relative to max(|1 - E|, 0.001), 16900 points)
@@ -53,7 +53,7 @@ float microfacet_energy_expm1(float x)
 // in [0, 1]; form rational_v_alpha_4: sum a_ij v^i alpha^j / (1 + sum b_ij v^i alpha^j), i + j
 // <= 4, v = alpha/(mu + alpha) (the grazing-layer variable; v = 0 at alpha = 0, where a00 = 1,
 // fixed, is the mirror's E); labels ij = powers of v, alpha. Measured by fitlab codegen: max
-// 5.73e-04, RMS 1.86e-04 (absolute, 17452 points).
+// 5.41e-04, RMS 1.94e-04 (absolute, 21203 points).
 float microfacet_energy_E_ggx_sep(float mu, float alpha)
 {
     float t14 = ((alpha < 0.0) ? (0.0) : (alpha));
@@ -69,20 +69,20 @@ float microfacet_energy_E_ggx_sep(float mu, float alpha)
     float t6 = (t4*t4*t4);
     float t7 = (t4*t4*t4*t4);
     float t8 = t0*t4;
-    float t9 = t1*t4;
-    float t10 = t0*t6;
+    float t9 = t0*t6;
+    float t10 = t1*t4;
     float t11 = t2*t4;
     float t12 = t0*t5;
     float t13 = t1*t5;
-    return (-0.33802356632723557*t0 - 0.6092944755482748*t1 + 1.8073610448863606*t10 + 0.3922894695294117*t11 - 3.464530091637018*t12 - 0.5999822209545924*t13 + 0.4102985493438853*t2 - 0.1932264797304004*t3 - 4.1085432753779*t4 + 9.380947110096102*t5 - 7.876398507691745*t6 + 2.9208112440783323*t7 + 1.8477824789113*t8 + 0.3231182141188298*t9 + 1.0)/(-0.31801156837606853*t0 - 0.3667426098444899*t1 + 1.8214748420504359*t10 - 0.5841073276742074*t11 - 3.39477827194946*t12 - 0.32746991635805844*t13 + 0.5350404882699031*t2 + 0.12871832041278447*t3 - 4.122570178632729*t4 + 10.111918427684694*t5 - 9.008101580663862*t6 + 3.4257596137505795*t7 + 1.738419207327913*t8 + 0.8156464407375048*t9 + 1.0);
+    return (-0.3342026130916714*t0 - 0.591523621218794*t1 + 0.3470592705040923*t10 + 0.4014224515193276*t11 - 3.397394113905067*t12 - 0.633683128651319*t13 + 0.3875722325510179*t2 - 0.18768041697624324*t3 - 4.111758587393854*t4 + 9.418199584344933*t5 - 7.940918512869557*t6 + 2.9647152830101473*t7 + 1.7926985146669765*t8 + 1.7805657105727173*t9 + 1.0)/(-0.313319767715234*t0 - 0.3527861456544629*t1 + 0.8444961688654722*t10 - 0.5951700399827389*t11 - 3.329255102953996*t12 - 0.35206512044474975*t13 + 0.5233907129917773*t2 + 0.13463534243909864*t3 - 4.126390199626173*t4 + 10.15347898757507*t5 - 9.07761592206157*t6 + 3.471885025208951*t7 + 1.680137107714514*t8 + 1.7977924812764736*t9 + 1.0);
 }
 
 // 1 - E(mu, alpha): the energy Kulla-Conti's f_ms restores, GGX, separable Smith G1(mu_i)
 // G1(mu_o); mu, alpha in [0, 1]; form grazing_rational: 1 - E with E = 1 - v^2 P/(1 + Q), P and
 // Q quadratic in (u, mu, alpha) but u alpha (= mu - u mu) (labels: powers of u, mu, alpha), u =
 // mu/(mu + alpha), v = alpha/(mu + alpha): 1 - E = 0 at alpha = 0 and O(alpha^2) at fixed mu,
-// like the exact one. Measured by fitlab codegen: max 5.18e-02, RMS 1.71e-02 (relative to
-// max(|1 - E|, 0.001), 17452 points).
+// like the exact one. Measured by fitlab codegen: max 5.28e-02, RMS 1.53e-02 (relative to
+// max(|1 - E|, 0.001), 21203 points).
 float microfacet_energy_one_minus_E_ggx_sep(float mu, float alpha)
 {
     float t9 = ((alpha < 0.0) ? (0.0) : (alpha));
@@ -99,7 +99,7 @@ float microfacet_energy_one_minus_E_ggx_sep(float mu, float alpha)
     float t7 = (t6*t6);
     float t8 = t1*t6;
     float t13 = t0*t2;
-    return (0.07189601103403559*t0 + 0.05170337419074014*t1 + 0.5199370339420534*t3 + 0.14665154365043856*t4 + 0.7623742589515757*t5 + 0.10049280955711104*t6 - 0.0472629201616696*t7 + 0.02760688930172883*t8 + 0.0624199688011957)*(((t13 > 1.0) ? (1.0) : (t13))*((t13 > 1.0) ? (1.0) : (t13)))/(0.4532246030247632*t0 - 0.23275877791317642*t1 + 0.16978082366571096*t3 - 0.018801792880311734*t4 - 0.2030602691155256*t5 - 2.3428977947145677*t6 + 1.5591441161009258*t7 + 0.4037531572403945*t8 + 1.0);
+    return (0.07675087100567762*t0 + 0.012838882155202428*t1 + 0.5147151492004027*t3 + 0.11073024406673312*t4 + 0.8709242130972937*t5 + 0.09664519230411747*t6 - 0.052390343615683545*t7 + 0.10343791886777551*t8 + 0.06231747473060401)*(((t13 > 1.0) ? (1.0) : (t13))*((t13 > 1.0) ? (1.0) : (t13)))/(0.4262032393727031*t0 - 0.08478926874417231*t1 + 0.20836345870338666*t3 - 0.026776558347170645*t4 - 0.2595233050357591*t5 - 2.368581374947587*t6 + 1.5802187384859974*t7 + 0.2659617966123465*t8 + 1.0);
 }
 
 // E_avg(alpha) = 2 int_0^1 E(mu) mu dmu (Kulla-Conti), GGX, separable Smith G1(mu_i) G1(mu_o);
@@ -119,7 +119,7 @@ float microfacet_energy_E_avg_ggx_sep(float alpha)
 // Lambda_o); mu, alpha in [0, 1]; form grazing_log_rational: 1 - v^2 u (1 - lam log u) P/(1 +
 // Q), P and Q quadratic in (u, mu, alpha) but u alpha: 1 - E = 0 at alpha = 0 and at mu = 0
 // (height-correlated Smith has E(0, alpha) = 1), with the -mu log(mu) approach of the exact 1 -
-// E. Measured by fitlab codegen: max 1.26e-03, RMS 6.89e-04 (absolute, 17452 points).
+// E. Measured by fitlab codegen: max 1.32e-03, RMS 6.37e-04 (absolute, 21203 points).
 float microfacet_energy_E_ggx_cor(float mu, float alpha)
 {
     float t9 = ((mu < 0.0) ? (0.0) : (mu));
@@ -136,15 +136,15 @@ float microfacet_energy_E_ggx_cor(float mu, float alpha)
     float t7 = (t3*t3);
     float t8 = t0*t3;
     float t13 = t1*t2;
-    return t3*(4.9021500128909254*log(((t3 < 1.0000000000000001e-30) ? (1.0000000000000001e-30) : (t3))) - 1.0)*(-0.01265329025544183*t0 + 0.014169559769254688*t1 + 0.06725896173009777*t3 + 0.17237352490652896*t4 + 0.08681756809566221*t5 + 0.13113264127845528*t6 + 0.05270585673513351*t7 - 0.02276228869729462*t8 + 0.010484981271782923)*(((t13 > 1.0) ? (1.0) : (t13))*((t13 > 1.0) ? (1.0) : (t13)))/(0.35732900632157455*t0 - 0.30556603292541645*t1 - 2.0494854472439235*t3 + 0.33147601748550554*t4 + 0.03489304055710101*t5 - 0.1721721901947601*t6 + 1.279397928724714*t7 - 0.3889591452237444*t8 + 1.0) + 1.0;
+    return t3*(4.920280655979446*log(((t3 < 1.0000000000000001e-30) ? (1.0000000000000001e-30) : (t3))) - 1.0)*(-0.011362713344900226*t0 + 0.013888392936497141*t1 + 0.06652154419119118*t3 + 0.1718579782731443*t4 + 0.08695144496852578*t5 + 0.13030082553667635*t6 + 0.05358878307494363*t7 - 0.024857791770870292*t8 + 0.010526659315635335)*(((t13 > 1.0) ? (1.0) : (t13))*((t13 > 1.0) ? (1.0) : (t13)))/(0.3589740558534391*t0 - 0.3063495639221299*t1 - 2.048643679454552*t3 + 0.3319304125834638*t4 + 0.035748791127792626*t5 - 0.17311260873283832*t6 + 1.278907217068977*t7 - 0.392192953533852*t8 + 1.0) + 1.0;
 }
 
 // 1 - E(mu, alpha): the energy Kulla-Conti's f_ms restores, GGX, height-correlated Smith 1/(1 +
 // Lambda_i + Lambda_o); mu, alpha in [0, 1]; form grazing_log_rational: 1 - E with E = 1 - v^2
 // u (1 - lam log u) P/(1 + Q), P and Q quadratic in (u, mu, alpha) but u alpha: 1 - E = 0 at
 // alpha = 0 and at mu = 0 (height-correlated Smith has E(0, alpha) = 1), with the -mu log(mu)
-// approach of the exact 1 - E. Measured by fitlab codegen: max 6.84e-02, RMS 9.26e-03 (relative
-// to max(|1 - E|, 0.001), 17452 points).
+// approach of the exact 1 - E. Measured by fitlab codegen: max 9.61e-02, RMS 2.86e-02 (relative
+// to max(|1 - E|, 0.001), 21203 points).
 float microfacet_energy_one_minus_E_ggx_cor(float mu, float alpha)
 {
     float t9 = ((mu < 0.0) ? (0.0) : (mu));
@@ -161,7 +161,7 @@ float microfacet_energy_one_minus_E_ggx_cor(float mu, float alpha)
     float t7 = (t3*t3);
     float t8 = t0*t3;
     float t13 = t1*t2;
-    return t3*(1.0 - 2.692590339781228*log(((t3 < 1.0000000000000001e-30) ? (1.0000000000000001e-30) : (t3))))*(-0.038637842922686565*t0 + 0.01650419033612182*t1 + 0.14070397980664237*t3 + 0.3386162599664439*t4 + 0.11788341333176851*t5 + 0.1306982500814886*t6 - 0.05924467805883973*t7 + 0.07742808432850105*t8 + 0.01659234577884317)*(((t13 > 1.0) ? (1.0) : (t13))*((t13 > 1.0) ? (1.0) : (t13)))/(0.27382328728209177*t0 - 0.16518315935015515*t1 - 2.2267852458841424*t3 + 0.25999369584910853*t4 - 0.01011221579635299*t5 - 0.15964305918851565*t6 + 1.424431093117655*t7 - 0.1940593451388915*t8 + 1.0);
+    return t3*(1.0 - 1.2044531409598915*log(((t3 < 1.0000000000000001e-30) ? (1.0000000000000001e-30) : (t3))))*(-0.04494561263540899*t0 - 0.001506945498921262*t1 + 0.3612034129469266*t3 + 0.7478894481374461*t4 + 0.18496936145533166*t5 - 0.36604946287249907*t6 - 0.35426199620575266*t7 + 0.05586784673077482*t8 + 0.028021474722857716)*(((t13 > 1.0) ? (1.0) : (t13))*((t13 > 1.0) ? (1.0) : (t13)))/(-0.014975544094432438*t0 - 0.2529164959845158*t1 - 2.009615057335555*t3 + 0.33706484104155565*t4 + 0.06010159147183472*t5 - 0.22668769332601665*t6 + 1.1070449066788113*t7 + 0.0854075983794332*t8 + 1.0);
 }
 
 // E_avg(alpha) = 2 int_0^1 E(mu) mu dmu (Kulla-Conti), GGX, height-correlated Smith 1/(1 +
@@ -787,18 +787,18 @@ float microfacet_energy_ms_kulla_conti(float mu_i, float mu_o, float alpha)
     float t24 = t4*t5;
     float t6 = ((t24 > 1.0) ? (1.0) : (t24));
     float t7 = (t1*t1);
-    float t8 = (t3*t3);
-    float t9 = (t0*t0);
-    float t10 = 0.13113264127845528*t1;
+    float t8 = (t0*t0);
+    float t9 = (t3*t3);
+    float t10 = 0.13030082553667635*t1;
     float t11 = t0*t3;
-    float t12 = 0.014169559769254688*t1 + 0.17237352490652896*t7 + 0.010484981271782923;
-    float t13 = (t6*t6);
-    float t14 = (t4*t4);
+    float t12 = 0.013888392936497141*t1 + 0.1718579782731443*t7 + 0.010526659315635335;
+    float t13 = (t4*t4);
+    float t14 = (t6*t6);
     float t15 = t4*t6;
-    float t16 = 0.1721721901947601*t1;
-    float t17 = -0.30556603292541645*t1 + 0.33147601748550554*t7 + 1.0;
+    float t16 = 0.17311260873283832*t1;
+    float t17 = -0.3063495639221299*t1 + 0.3319304125834638*t7 + 1.0;
     float t25 = t7*(0.6956643876273829*t1 - 0.08013506999808337*t7 - 1.003096094866168*log(((t1 < 1.0000000000000001e-30) ? (1.0000000000000001e-30) : (t1))) + 0.4819359974975076)/(0.16341509026392703*t1 + 0.6939749652647382*t7 + 1.0);
     float t26 = t1*t2;
     float t27 = t1*t5;
-    return t3*t6*(4.9021500128909254*log(((t3 < 1.0000000000000001e-30) ? (1.0000000000000001e-30) : (t3))) - 1.0)*(4.9021500128909254*log(((t6 < 1.0000000000000001e-30) ? (1.0000000000000001e-30) : (t6))) - 1.0)*(t0*t10 - 0.01265329025544183*t0 - 0.02276228869729462*t11 + t12 + 0.06725896173009777*t3 + 0.05270585673513351*t8 + 0.08681756809566221*t9)*(t10*t4 + t12 + 0.05270585673513351*t13 + 0.08681756809566221*t14 - 0.02276228869729462*t15 - 0.01265329025544183*t4 + 0.06725896173009777*t6)*(((t26 > 1.0) ? (1.0) : (t26))*((t26 > 1.0) ? (1.0) : (t26)))*(((t27 > 1.0) ? (1.0) : (t27))*((t27 > 1.0) ? (1.0) : (t27)))/(3.141592653589793238*(1.279397928724714*t13 + 0.03489304055710101*t14 - 0.3889591452237444*t15 - t16*t4 + t17 + 0.35732900632157455*t4 - 2.0494854472439235*t6)*(-t0*t16 + 0.35732900632157455*t0 - 0.3889591452237444*t11 + t17 - 2.0494854472439235*t3 + 1.279397928724714*t8 + 0.03489304055710101*t9)*((t25 < 1.1754943508222875e-38) ? (1.1754943508222875e-38) : (t25)));
+    return t3*t6*(4.920280655979446*log(((t3 < 1.0000000000000001e-30) ? (1.0000000000000001e-30) : (t3))) - 1.0)*(4.920280655979446*log(((t6 < 1.0000000000000001e-30) ? (1.0000000000000001e-30) : (t6))) - 1.0)*(t0*t10 - 0.011362713344900226*t0 - 0.024857791770870292*t11 + t12 + 0.06652154419119118*t3 + 0.08695144496852578*t8 + 0.05358878307494363*t9)*(t10*t4 + t12 + 0.08695144496852578*t13 + 0.05358878307494363*t14 - 0.024857791770870292*t15 - 0.011362713344900226*t4 + 0.06652154419119118*t6)*(((t26 > 1.0) ? (1.0) : (t26))*((t26 > 1.0) ? (1.0) : (t26)))*(((t27 > 1.0) ? (1.0) : (t27))*((t27 > 1.0) ? (1.0) : (t27)))/(3.141592653589793238*(0.035748791127792626*t13 + 1.278907217068977*t14 - 0.392192953533852*t15 - t16*t4 + t17 + 0.3589740558534391*t4 - 2.048643679454552*t6)*(-t0*t16 + 0.3589740558534391*t0 - 0.392192953533852*t11 + t17 - 2.048643679454552*t3 + 0.035748791127792626*t8 + 1.278907217068977*t9)*((t25 < 1.1754943508222875e-38) ? (1.1754943508222875e-38) : (t25)));
 }
