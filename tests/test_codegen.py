@@ -18,7 +18,7 @@ import jax
 import numpy as np
 import pytest
 
-from fitlab.codegen import POLE_FLOOR, build_program, generate, load_program, parse_terms, stable
+from fitlab.codegen import build_program, generate, load_program, parse_terms, stable
 from fitlab.codegen.emit import emit
 from fitlab.codegen.native import STRICT_FLAGS, build, build_glsl, compiler
 from fitlab.core import float64
@@ -26,6 +26,8 @@ from fitlab.codegen import program_spec
 from fitlab.core import get_target
 from fitlab.store import fit_path, load
 from fitlab.forms.symbolic import lambdify_jax, symbols
+from fitlab.families.lambert_sphere.rewrites import POLE_FLOOR
+from fitlab.families.lambert_sphere.rewrites import stable as lambert_stable
 from fitlab.families.lambert_sphere.runtime import energy_scale, runtime_model
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -185,7 +187,7 @@ def test_c_and_python_agree_with_the_jax_runtime_model(native, py, inputs):
     # points with mu_i + mu_o under the pole floor are tested apart (the unfloored model is ~1/(mu_i + mu_o))
     keep = inputs[0] + inputs[1] >= float(POLE_FLOOR)
     mu_i, mu_o, cos_phi, c = (a[keep] for a in inputs)
-    expr = stable(runtime_model(fits_dir=FITS, forms=MODEL_FORMS).expr)
+    expr = lambert_stable(runtime_model(fits_dir=FITS, forms=MODEL_FORMS).expr)
     ref = np.asarray(jax_reference(expr, ("mu_i", "mu_o", "phi", "c"))(mu_i, mu_o, np.arccos(cos_phi), c))
     got_c = native("brdf", mu_i, mu_o, cos_phi, c)
     got_py = py.brdf(mu_i, mu_o, cos_phi, c)
@@ -222,12 +224,13 @@ def test_parts_agree_with_their_fits(native, py, inputs, target, routine):
     args = (inputs[0], inputs[3]) if len(fit.inputs) == 2 else (inputs[3],)
     args = tuple(np.concatenate([a, [0.0, 1e-12, 1e-6, 0.5, 1.0]]) for a in args)
     ref = np.asarray(jax_reference(fit.expression, fit.inputs)(*args))
-    # the generated parts are rewritten to avoid cancellation near c = 0 and kd = 0 (fitlab.codegen.stable):
+    # the generated parts are rewritten to avoid cancellation near c = 0 and kd = 0 (the family's rewrites,
+    # fitlab.families.lambert_sphere.rewrites):
     # they agree with the JAX form to 1e-12 of the form's scale, and with the rewritten form to 1e-12
     scale = np.abs(ref).max()
     assert np.abs(native(routine, *args) - ref).max() < 1e-12 * scale
     assert np.abs(py.__dict__[routine](*args) - ref).max() < 1e-12 * scale
-    rewritten = np.asarray(jax_reference(stable(fit.expression), fit.inputs)(*args))
+    rewritten = np.asarray(jax_reference(lambert_stable(fit.expression), fit.inputs)(*args))
     # relative, except beside a sign change of B-F (a root), where 1e-15 of the scale
     assert np.all(np.abs(native(routine, *args) - rewritten) <= 1e-12 * np.abs(rewritten) + 1e-15 * scale)
 
@@ -240,7 +243,7 @@ def test_stable_rewrite_keeps_digits_near_the_exact_zeros():
     for target, name in (("B", "c"), ("kd_of_c", "c"), ("c_of_kd", "kd")):
         fit = load(FITS / f"{target}.json")
         x = sp.Symbol(name, real=True)
-        f = jax_reference(stable(fit.expression), fit.inputs)
+        f = jax_reference(lambert_stable(fit.expression), fit.inputs)
         for v in (1e-12, 1e-8, 1e-4):
             exact = float(fit.expression.subs(x, sp.Float(v, 50)).evalf(50))
             assert abs(float(f(v)) - exact) <= 1e-12 * abs(exact), (target, v)  # unrewritten: 1e-4 at c = 1e-12

@@ -22,23 +22,21 @@ from fitlab._io import atomic_write_text
 from fitlab.codegen.emit import LANGUAGES, emit
 from fitlab.codegen.program import (
     DEFAULT_FORMS,
-    POLE_FLOOR,
     Program,
     ProgramSpec,
     Routine,
-    azimuth_to_cosine,
     build_program,
     SAFE_POW,
     call,
     clamp,
     clamped,
     default_program_family,
-    floor_poles,
     minmax_piecewise,
     model_form,
     parse_terms,
     part_routine,
     program_spec,
+    STABLE,
     stable,
     with_domain,
 )
@@ -47,8 +45,8 @@ from fitlab.store import fit_files, fit_origin, fit_path, fit_sha256, fit_source
 
 __all__ = ["generate", "codegen_command", "load_program", "unused_fits", "parse_forms", "write_generated", "emit", "LANGUAGES", "build_program",
            "parse_terms", "program_spec", "default_program_family", "model_form", "part_routine", "Program", "ProgramSpec",
-           "Routine", "POLE_FLOOR", "call",
-           "stable", "floor_poles", "azimuth_to_cosine", "clamp", "clamped", "minmax_piecewise", "with_domain",
+           "Routine", "call",
+           "stable", "STABLE", "clamp", "clamped", "minmax_piecewise", "with_domain",
            "SAFE_POW", "DEFAULT_FORMS"]  # fmt: skip
 
 

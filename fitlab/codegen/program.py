@@ -19,9 +19,12 @@ its saved fit as it stands (:func:`part_routine`).  Where no family is named, th
 family's (:func:`default_program_family`: the one that declares ``Family.default_program``).
 
 The helpers a family's program is written with are public here:
-:func:`call`, :func:`part_routine`, :func:`stable` (cancellation-free rewrites),
-:func:`floor_poles` (1/(mu_i + mu_o) floored at :data:`POLE_FLOOR`),
-:func:`azimuth_to_cosine`, :func:`clamp` and :func:`clamped`.
+:func:`call`, :func:`part_routine`, :func:`stable` (the cancellation-free rewrites that know no
+family: :data:`STABLE`), :class:`SubsOptim`, :func:`clamp` and :func:`clamped`.  Rewrites are
+``sympy.codegen.rewriting`` optimisations (``ReplaceOptim`` and its kin, applied in order by
+``optimize``); a program names those of its family in :attr:`ProgramSpec.rewrites` (the Lambert
+sphere's, which know its symbols: :mod:`fitlab.families.lambert_sphere.rewrites`), and
+:func:`part_routine` applies the program's rewrites to every part, and only that program's.
 
 The NaN and domain policy is kept here, once for every language (see the
 section below): :func:`build_program` clamps every routine's inputs into its
@@ -38,25 +41,21 @@ from typing import Callable, Mapping, Sequence
 
 import sympy as sp
 from sympy.codegen.cfunctions import expm1, log1p
+from sympy.codegen.rewriting import Optimization, ReplaceOptim, optimize
 from sympy.core.function import AppliedUndef
 
 from fitlab.core import families, get_family, get_target
-from fitlab.forms.symbolic import safe_pow, symbols
+from fitlab.forms.symbolic import safe_pow
 from fitlab.store import FitFunction
 
 __all__ = ["Routine", "Program", "ProgramSpec", "build_program", "part_routine", "program_spec",
            "default_program_family", "model_form", "parse_terms",
-           "call", "stable", "floor_poles", "azimuth_to_cosine", "clamp", "clamped", "minmax_piecewise",
-           "with_domain", "unused_inputs", "SAFE_POW", "POLE_FLOOR", "DEFAULT_FORMS", "MaterialSpec", "Material",
+           "call", "stable", "STABLE", "ONE_MINUS_SQUARES", "ONE_MINUS_POW", "SubsOptim", "clamp", "clamped",
+           "minmax_piecewise", "with_domain", "unused_inputs", "SAFE_POW", "DEFAULT_FORMS", "MaterialSpec", "Material",
            "material_of", "field_symbol", "outputs", "inline_calls", "hoist_params", "merge_exp_products"]  # fmt: skip
 
 #: the model every program has: each target's default form (:attr:`ProgramSpec.models`)
 DEFAULT_FORMS = "default-forms"
-
-#: mu_i + mu_o is floored at this value wherever it divides
-POLE_FLOOR = sp.Rational(1, 10**6)
-
-mu_i, mu_o, phi, c, cos_phi = symbols(("mu_i", "mu_o", "phi", "c", "cos_phi"))
 
 
 @dataclass(frozen=True)
@@ -154,6 +153,12 @@ class ProgramSpec:
         is made (for the Lambert sphere, the report's real-time recommendation).
     optional: those of ``fits`` a program can do without (the routines that need them are left out, as
         from a published preset that has no such part: the Lambert sphere's sampler).
+    rewrites: the cancellation-free rewrites of this program's routines (``sympy.codegen.rewriting``
+        optimisations, applied in order by :meth:`rewrite`): :func:`part_routine` applies them to every part
+        of the family, and the family's ``routines`` to what else it chooses.  Default :data:`STABLE`, the
+        rewrites that know no family; a family adds those that know its symbols (the Lambert sphere's
+        1 - sqrt(1 - c): :data:`fitlab.families.lambert_sphere.rewrites.REWRITES`), and they apply to its
+        routines only.
     """
 
     name: str
@@ -167,6 +172,11 @@ class ProgramSpec:
     default_model: str = DEFAULT_FORMS
     material: "MaterialSpec | None" = None
     optional: tuple[str, ...] = ()
+    rewrites: tuple[Optimization, ...] = field(default_factory=lambda: STABLE)
+
+    def rewrite(self, expr: sp.Expr) -> sp.Expr:
+        """``expr`` with this program's :attr:`rewrites` applied, in order."""
+        return stable(expr, self.rewrites)
 
     def model_names(self) -> tuple[str, ...]:
         """Every model's name, the default first."""
@@ -381,57 +391,35 @@ def call(name: str, *args) -> sp.Expr:
     return sp.Function(name)(*args)
 
 
-def floor_poles(expr: sp.Expr) -> sp.Expr:
-    """1/(mu_i + mu_o)^k -> 1/max(mu_i + mu_o, POLE_FLOOR)^k."""
-    pole = mu_i + mu_o
-    return expr.replace(
-        lambda e: e.is_Pow and e.base == pole and e.exp.is_negative,
-        lambda e: sp.Pow(sp.Max(pole, POLE_FLOOR), e.exp),
-    )
+class SubsOptim(Optimization):
+    """``expr.subs(*args)`` as a ``sympy.codegen.rewriting`` optimisation (sympy's algebraic substitution,
+    where ``ReplaceOptim`` matches whole subexpressions: an old sum also matches within a larger sum,
+    1 - s in 2 - s + x)."""
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(**kwargs)
+        self.args = args
+
+    def __call__(self, expr):
+        return expr.subs(*self.args)
 
 
-def azimuth_to_cosine(expr: sp.Expr) -> sp.Expr:
-    """Forms take phi in [-pi, pi]; routines take cos(phi): |phi| = acos(cos phi)."""
-    out = expr.subs({sp.cos(phi): cos_phi, sp.Abs(phi): sp.acos(cos_phi)})
-    if phi in out.free_symbols:
-        raise ValueError(f"cannot express {expr} through cos(phi) alone")
-    return out
+def _is_one_minus_pow(e) -> bool:
+    """Whether ``e`` is 1 - safe_pow(1 + ..., p)."""
+    if not (e.is_Add and len(e.args) == 2 and sp.S.One in e.args):
+        return False
+    other = next(a for a in e.args if a != sp.S.One)
+    coeff, rest = other.as_coeff_Mul()
+    return float(coeff) == -1.0 and isinstance(rest, safe_pow) and rest.args[0].is_Add and sp.S.One in rest.args[0].args
 
 
-def stable(expr: sp.Expr) -> sp.Expr:
-    """Rewrite the cancellations the forms contain into forms that keep every digit.
-
-    * 1 - sqrt(1 - c) -> c / (1 + sqrt(1 - c)): the exact zero at c = 0 of B-F and
-      kd(c); written directly it loses all relative accuracy as c -> 0 (float:
-      1 % at c = 1e-5).
-    * 1 - (1 - x)^p -> -expm1(p log1p(-x)) for x < 1/2 (the exact zero of c(kd)
-      at kd = 0); for x >= 1/2 there is no cancellation and (1 - x)^p stays.
-    * sqrt(1 - x^2) -> sqrt((1 - x)(1 + x)), max(0, 1 - x^2) -> max(0, (1 - x)(1 + x)): as |x| -> 1,
-      1 - x*x keeps only eps/(1 - |x|) of its value (1 - x and 1 + x are exact there).  The Lambert
-      sphere's phase function has sqrt(1 - u^2) - u acos(u): in forward scattering at grazing
-      1 - u ~ (mu_i + mu_o)^2/2, and written directly the rounding of u*u cost 37 % of single
-      scattering in double at mu_i = 1e-6, mu_o = 1e-4; both terms read from the same u, they cancel
-      to full accuracy.
-    """
-    expr = _without_one_minus_squares(expr)
-    s = sp.sqrt(1 - c)
-    expr = expr.subs(1 - s, c / (1 + s))
-
-    def is_one_minus_pow(e):
-        if not (e.is_Add and len(e.args) == 2 and sp.S.One in e.args):
-            return False
-        other = next(a for a in e.args if a != sp.S.One)
-        coeff, rest = other.as_coeff_Mul()
-        return float(coeff) == -1.0 and isinstance(rest, safe_pow) and rest.args[0].is_Add and sp.S.One in rest.args[0].args
-
-    def rewrite(e):
-        other = next(a for a in e.args if a != sp.S.One)
-        base, p = other.as_coeff_Mul()[1].args
-        x = 1 - base
-        small = -expm1(p * log1p(-sp.Min(x, sp.Rational(1, 2))))
-        return sp.Piecewise((small, x < sp.Rational(1, 2)), (e, True))
-
-    return expr.replace(is_one_minus_pow, rewrite)
+def _one_minus_pow(e):
+    """1 - (1 - x)^p -> -expm1(p log1p(-x)) for x < 1/2 (see :func:`stable`)."""
+    other = next(a for a in e.args if a != sp.S.One)
+    base, p = other.as_coeff_Mul()[1].args
+    x = 1 - base
+    small = -expm1(p * log1p(-sp.Min(x, sp.Rational(1, 2))))
+    return sp.Piecewise((small, x < sp.Rational(1, 2)), (e, True))
 
 
 def _square_root(e):
@@ -442,23 +430,50 @@ def _square_root(e):
     return rest.base if coeff == -1 and rest.is_Pow and rest.exp == 2 else None
 
 
-def _without_one_minus_squares(expr: sp.Expr) -> sp.Expr:
-    """sqrt(1 - X^2) -> sqrt((1 - X)(1 + X)) and max(0, 1 - X^2) -> max(0, (1 - X)(1 + X)) (see :func:`stable`)."""
+def _is_one_minus_square(e) -> bool:
+    """Whether ``e`` is sqrt(1 - X^2) or max(0, 1 - X^2)."""
+    if e.is_Pow and e.exp == sp.S.Half:
+        return _square_root(e.base) is not None
+    return (isinstance(e, sp.Max) and len(e.args) == 2 and sp.S.Zero in e.args
+            and any(_square_root(a) is not None for a in e.args))  # fmt: skip
 
-    def is_target(e):
-        if e.is_Pow and e.exp == sp.S.Half:
-            return _square_root(e.base) is not None
-        return (isinstance(e, sp.Max) and len(e.args) == 2 and sp.S.Zero in e.args
-                and any(_square_root(a) is not None for a in e.args))  # fmt: skip
 
-    def rewrite(e):
-        if e.is_Pow:
-            x = _square_root(e.base)
-            return sp.sqrt((1 - x) * (1 + x))
-        x = next(_square_root(a) for a in e.args if _square_root(a) is not None)
-        return sp.Max(0, (1 - x) * (1 + x))
+def _one_minus_square(e):
+    """sqrt(1 - X^2) -> sqrt((1 - X)(1 + X)), max(0, 1 - X^2) -> max(0, (1 - X)(1 + X)) (see :func:`stable`)."""
+    if e.is_Pow:
+        x = _square_root(e.base)
+        return sp.sqrt((1 - x) * (1 + x))
+    x = next(_square_root(a) for a in e.args if _square_root(a) is not None)
+    return sp.Max(0, (1 - x) * (1 + x))
 
-    return expr.replace(is_target, rewrite)
+
+#: sqrt(1 - X^2) -> sqrt((1 - X)(1 + X)) and max(0, 1 - X^2) -> max(0, (1 - X)(1 + X)) (:func:`stable`)
+ONE_MINUS_SQUARES = ReplaceOptim(_is_one_minus_square, _one_minus_square)
+#: 1 - (1 - x)^p -> -expm1(p log1p(-x)) where x < 1/2 (:func:`stable`)
+ONE_MINUS_POW = ReplaceOptim(_is_one_minus_pow, _one_minus_pow)
+#: the cancellation-free rewrites that know no family, in the order they are applied (:func:`stable`);
+#: every :class:`ProgramSpec`'s :attr:`~ProgramSpec.rewrites` unless the family gives its own
+STABLE: tuple[Optimization, ...] = (ONE_MINUS_SQUARES, ONE_MINUS_POW)
+
+
+def stable(expr: sp.Expr, rewrites: Sequence[Optimization] = STABLE) -> sp.Expr:
+    """Rewrite the cancellations the forms contain into forms that keep every digit: ``rewrites``
+    (``sympy.codegen.rewriting`` optimisations) applied in order; by default :data:`STABLE`, the rewrites
+    that know no family:
+
+    * sqrt(1 - x^2) -> sqrt((1 - x)(1 + x)), max(0, 1 - x^2) -> max(0, (1 - x)(1 + x))
+      (:data:`ONE_MINUS_SQUARES`): as |x| -> 1, 1 - x*x keeps only eps/(1 - |x|) of its value (1 - x and
+      1 + x are exact there).  The Lambert sphere's phase function has sqrt(1 - u^2) - u acos(u): in
+      forward scattering at grazing 1 - u ~ (mu_i + mu_o)^2/2, and written directly the rounding of u*u
+      cost 37 % of single scattering in double at mu_i = 1e-6, mu_o = 1e-4; both terms read from the
+      same u, they cancel to full accuracy.
+    * 1 - (1 - x)^p -> -expm1(p log1p(-x)) for x < 1/2 (:data:`ONE_MINUS_POW`; the exact zero of the
+      Lambert sphere's c(kd) at kd = 0); for x >= 1/2 there is no cancellation and (1 - x)^p stays.
+
+    A family's own rewrites (those that know its symbols) are its program's
+    (:attr:`ProgramSpec.rewrites`: :meth:`ProgramSpec.rewrite`).
+    """
+    return optimize(expr, rewrites)
 
 
 # ---- the NaN and domain policy ------------------------------------------------
@@ -550,10 +565,13 @@ def unused_inputs(routine: Routine) -> list[sp.Expr]:
     return out
 
 
-def part_routine(fit: FitFunction) -> Routine:
+def part_routine(fit: FitFunction, rewrites: Sequence[Optimization] | None = None) -> Routine:
     """A target's routine (named by :attr:`fitlab.core.Target.routine`): its fit as it stands, rewritten
-    by :func:`stable`, documented by the fit's description and validation metrics."""
+    by ``rewrites`` (None: the rewrites of its family's program, :attr:`ProgramSpec.rewrites`), documented
+    by the fit's description and validation metrics."""
     target = get_target(fit.target)
+    if rewrites is None:
+        rewrites = program_spec(target.family).rewrites
     if target.routine is None:
         raise ValueError(f"target {target.name} names no generated routine (Target.routine)")
     desc = fit.record.get("target_description", fit.target)
@@ -567,7 +585,7 @@ def part_routine(fit: FitFunction) -> Routine:
         doc += f" Measured by fitlab codegen: {describe_measured(measured)}."
         if measured["partial"]:
             domain = {a: tuple(measured["domain"][a]) for a in fit.inputs}
-    return Routine(target.routine, fit.inputs, stable(fit.expression), doc, domain=domain)
+    return Routine(target.routine, fit.inputs, stable(fit.expression, rewrites), doc, domain=domain)
 
 
 def _default_spec(family) -> ProgramSpec:

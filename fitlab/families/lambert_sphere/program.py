@@ -22,13 +22,14 @@ parts included, clamps its inputs into its domain (mu, c, kd into [0, 1],
 cos_phi into [-1, 1], the local routines' vector components into [-1, 1];
 +-inf clamps like any finite value), NaN in any input gives NaN, and every
 value is finite for every other input; every pole 1/(mu_i + mu_o) is
-evaluated as 1/max(mu_i + mu_o, POLE_FLOOR).  The exact BRDF is infinite at
+evaluated as 1/max(mu_i + mu_o, POLE_FLOOR) (:data:`.rewrites.FLOOR_POLES`).  The exact BRDF is infinite at
 mu_i = mu_o = 0; with the floor the model there is large and finite
 (c p(u) / POLE_FLOOR at most 2.1e5 c, representable in float).
 
-Accuracy: every term and the fast variant are rewritten by :func:`fitlab.codegen.program.stable` (the
-parts by :func:`~fitlab.codegen.program.part_routine`), which removes the forms' cancellations; in
-single scattering, the phase function's sqrt(1 - u^2) is evaluated as sqrt((1 - u)(1 + u)).
+Accuracy: every term and the fast variant are rewritten by the program's rewrites
+(:data:`.rewrites.REWRITES`, the ``rewrites`` of :data:`PROGRAM`; the parts by
+:func:`~fitlab.codegen.program.part_routine`), which remove the forms' cancellations; in single
+scattering, the phase function's sqrt(1 - u^2) is evaluated as sqrt((1 - u)(1 + u)).
 """
 
 from __future__ import annotations
@@ -37,18 +38,10 @@ from typing import Mapping
 
 import sympy as sp
 
-from fitlab.codegen.program import (
-    MaterialSpec,
-    ProgramSpec,
-    Routine,
-    azimuth_to_cosine,
-    call,
-    floor_poles,
-    part_routine,
-    stable,
-)
+from fitlab.codegen.program import MaterialSpec, ProgramSpec, Routine, call, part_routine
 from fitlab.families.lambert_sphere.forms import ORDER2_PART, RUNTIME_PARTS, RUNTIME_TERMS, SINGLE, runtime_terms
 from fitlab.families.lambert_sphere.forms.brdf import parts_in_algebra
+from fitlab.families.lambert_sphere.rewrites import REWRITES, azimuth_to_cosine, floor_poles, stable
 from fitlab.families.lambert_sphere.runtime import ORDER2_FORMS, energy_scale
 from fitlab.families.lambert_sphere.targets import TARGETS
 from fitlab.forms.symbolic import safe_pow, symbols
@@ -99,7 +92,7 @@ def _domain(names) -> dict:
 
 def routines(fits: Mapping[str, FitFunction], terms: tuple[str, ...]) -> list[Routine]:
     """Every routine of the generated Lambert-sphere files, in file order."""
-    out = [part_routine(fits[t]) for t in PARTS if t in fits]
+    out = [part_routine(fits[t], REWRITES) for t in PARTS if t in fits]
 
     parts = {p: fits[p].expression for p in (*RUNTIME_PARTS, ORDER2_PART)}
     out += brdf_routines(terms, energy_scale(parts, terms), parts=parts)
@@ -242,6 +235,7 @@ PROGRAM = ProgramSpec(
                                      "scattering with the forms of runtime.ORDER2_FORMS")},
     default_model="order2",
     optional=SAMPLER,
+    rewrites=REWRITES,
     material=MaterialSpec(("c",), {"eval": "brdf", "eval_local": "brdf_local", "pdf": "pdf_local", "sample": "sample_local"},
                           {"prepare": ("kd", "c_of_kd")}),
     about="The Lambert-sphere BRDF (d'Eon, EGSR 2021): the runtime model of docs/model.md and its fitted parts.\n"

@@ -36,7 +36,7 @@ resolution of R_m).  kd/c comes from the root in s of the kd table's spline (:fu
 limit is the spherical albedo of single scattering per unit c, 3e-6 away).
 
 The single-scattering term is printed with sqrt((1 - u)(1 + u)) for sqrt(1 - u^2), as every generated
-Lambert-sphere program is (:func:`fitlab.codegen.program.stable`): in forward scattering at grazing, 1 - u is
+Lambert-sphere program is (:func:`fitlab.families.lambert_sphere.rewrites.stable`): in forward scattering at grazing, 1 - u is
 about mu^2 and 1 - u*u in double keeps only 1e-16/mu^2 of it (37 % of f_1 at mu = 1e-4, which shows at small c,
 where f_1 is the part of f that is O(c)).
 """

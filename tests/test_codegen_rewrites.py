@@ -1,0 +1,97 @@
+"""A program's rewrites are its family's (issue 32, item 4): a toy program with its own rewrite gets it
+applied to its parts, and the Lambert sphere's rewrite (1 - sqrt(1 - c) -> c/(1 + sqrt(1 - c)), which knows
+the family's albedo c) is applied to the Lambert sphere's routines only."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import sympy as sp
+from sympy.codegen.rewriting import ReplaceOptim
+
+from fitlab.codegen import STABLE, ProgramSpec, build_program, part_routine, program_spec, stable
+from fitlab.core import Dataset, Family, Input, Target, register_family, unregister_family
+from fitlab.forms import Form
+from fitlab.store import FitFunction
+
+c = sp.Symbol("c", real=True)
+ALBEDO_FORM = 1 - sp.sqrt(1 - c)  # the Lambert sphere's cancellation, written in a toy family's input c
+#: a toy family's own rewrite: sqrt(X) -> toy_sqrt(X)
+TOY_SQRT = sp.Function("toy_sqrt")
+TOY_REWRITE = ReplaceOptim(lambda e: e.is_Pow and e.exp == sp.S.Half, lambda e: TOY_SQRT(e.base))
+
+
+def _set():
+    x = np.linspace(0.0, 1.0, 11)
+    return Dataset({"c": x}, 1.0 - np.sqrt(1.0 - x), "c = k/10")
+
+
+def _family(name: str, codegen) -> Family:
+    target = Target(name=f"{name}_t", description="1 - sqrt(1 - c)", variables=(Input("c", (0.0, 1.0), "albedo"),),
+                    default_form="plain", published=(), training=_set, validation=_set, routine=f"{name}_t")
+    form = Form(f"{name}_t", "plain", ("c",), ("a",), sp.Symbol("a", real=True) * ALBEDO_FORM,
+                presets={"one": {"a": 1.0}}, description="a (1 - sqrt(1 - c))")
+    return Family(name, "a toy family", (target,), (form,), codegen=codegen)
+
+
+def _fit(target: str) -> FitFunction:
+    """A FitFunction of ``target``'s form at a = 1 (no file)."""
+    fit = FitFunction.__new__(FitFunction)
+    fit.record, fit.path, fit.target, fit.form = {"target": target, "form": "plain"}, None, target, "plain"
+    fit.inputs, fit.params, fit.domain, fit.expression, fit.measured = ("c",), {"a": 1.0}, {"c": (0.0, 1.0)}, ALBEDO_FORM, None
+    fit._f = None
+    return fit
+
+
+@pytest.fixture
+def toy_families():
+    own = ProgramSpec(name="toy_own", fits=("toy_own_t",), parts=("toy_own_t",), rewrites=(TOY_REWRITE,),
+                      routines=lambda fits, terms: [part_routine(fits["toy_own_t"])])
+    register_family(_family("toy_own", own))
+    register_family(_family("toy_plain", None))  # no program of its own: one routine per target
+    try:
+        yield
+    finally:
+        unregister_family("toy_own")
+        unregister_family("toy_plain")
+
+
+def test_a_program_with_its_own_rewrite_gets_it_applied(toy_families):
+    program = build_program({"toy_own_t": _fit("toy_own_t")}, family="toy_own")
+    expr = program.routine("toy_own_t").expr
+    assert expr.has(TOY_SQRT) and not expr.has(sp.sqrt(1 - sp.Min(1, sp.Max(0, c))))
+    assert program_spec("toy_own").rewrite(ALBEDO_FORM) == 1 - TOY_SQRT(1 - c)
+    # only the program's: the generic rewrites are not added to a program that gives its own
+    assert program_spec("toy_own").rewrites == (TOY_REWRITE,)
+
+
+def test_the_lambert_rewrite_is_not_applied_to_another_familys_program(toy_families):
+    from fitlab.families.lambert_sphere.rewrites import ALBEDO_ZERO, REWRITES
+    from fitlab.families.lambert_sphere.rewrites import stable as lambert_stable
+
+    assert program_spec("toy_plain").rewrites == STABLE and ALBEDO_ZERO not in STABLE
+    program = build_program({"toy_plain_t": _fit("toy_plain_t")}, family="toy_plain")
+    clamped = sp.Min(1.0, sp.Max(0.0, c))
+    assert program.routine("toy_plain_t").expr == 1 - sp.sqrt(1 - clamped)  # as it stands, but clamped
+    assert stable(ALBEDO_FORM) == ALBEDO_FORM
+    # the Lambert sphere's program rewrites it, in its own routines
+    assert program_spec("lambert_sphere").rewrites == REWRITES
+    assert lambert_stable(ALBEDO_FORM) == c / (1 + sp.sqrt(1 - c))
+    assert part_routine(_fit("toy_plain_t"), REWRITES).expr == c / (1 + sp.sqrt(1 - c))
+    # the microfacet_energy program takes the generic rewrites alone
+    assert program_spec("microfacet_energy").rewrites == STABLE
+
+
+def test_the_lambert_rewrites_are_optimisations_that_keep_the_old_order():
+    """The program's rewrites as sympy.codegen.rewriting optimisations give what the one function stable() gave
+    (one minus squares, then 1 - sqrt(1 - c), then 1 - (1 - x)^p)."""
+    from sympy.codegen.rewriting import Optimization
+
+    from fitlab.families.lambert_sphere.rewrites import FLOOR_POLES, POLE_FLOOR, REWRITES, azimuth_to_cosine
+
+    assert all(isinstance(o, Optimization) for o in REWRITES)
+    mu_i, mu_o, phi, cos_phi = (sp.Symbol(n, real=True) for n in ("mu_i", "mu_o", "phi", "cos_phi"))
+    assert FLOOR_POLES(c / (mu_i + mu_o) ** 2) == c / sp.Max(mu_i + mu_o, POLE_FLOOR) ** 2
+    assert azimuth_to_cosine(sp.cos(phi) + sp.Abs(phi)) == cos_phi + sp.acos(cos_phi)
+    with pytest.raises(ValueError, match="cos\\(phi\\) alone"):
+        azimuth_to_cosine(sp.sin(phi))
