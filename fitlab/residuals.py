@@ -38,7 +38,7 @@ from pathlib import Path
 
 import numpy as np
 
-from fitlab.core import Dataset, families, get_form, get_target
+from fitlab.core import Dataset, families, get_form, get_target, resolve_hook
 from fitlab.fit.metrics import relative_errors, summary
 from fitlab.store import FitFunction, fit_files, fits_folder, load
 
@@ -51,14 +51,14 @@ BRDF = "brdf"
 def _brdf_grid(family: str | None = None) -> tuple[tuple[str, ...], object, str]:
     """(axes, grid function, error measure) of the exact BRDF of ``family`` (default: the one family
     with a ``brdf_grid`` hook): the hook returns (axes, exact_grid, measure)."""
-    found = {name: f.hooks["brdf_grid"] for name, f in families().items() if "brdf_grid" in f.hooks}
+    found = [name for name, f in families().items() if "brdf_grid" in f.hooks]
     if family is None:
         if len(found) != 1:
             raise ValueError(f"brdf_residuals: name the family (one of {', '.join(found) or 'none'})")
-        family = next(iter(found))
+        family = found[0]
     if family not in found:
         raise KeyError(f"family {family!r} registers no exact BRDF grid; families with one: {', '.join(found)}")
-    return found[family]()
+    return resolve_hook(family, "brdf_grid")  # a fitlab.core.BrdfGridHook, checked
 
 
 def grid_axes(target: str) -> tuple[str, ...]:

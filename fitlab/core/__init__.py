@@ -8,6 +8,19 @@ targets.
 """
 
 from fitlab.core._dataset import Dataset, data_hash
+from fitlab.core._hooks import (
+    AuditHook,
+    BenchHook,
+    BrdfGrid,
+    BrdfGridHook,
+    BrdfReportHook,
+    ProgramContract,
+    RenderHook,
+    ReportHook,
+    TableExportHook,
+    TablesHook,
+    check_hook,
+)
 from fitlab.core._input import Input
 from fitlab.core._precision import float64
 from fitlab.core._registry import (
@@ -21,12 +34,25 @@ from fitlab.core._registry import (
     get_form,
     get_target,
     register_family,
+    resolve_hook,
     targets,
     unregister_family,
 )
 from fitlab.core._target import Target
 
 __all__ = [
+    "AuditHook",
+    "BenchHook",
+    "BrdfGrid",
+    "BrdfGridHook",
+    "BrdfReportHook",
+    "ProgramContract",
+    "RenderHook",
+    "ReportHook",
+    "TableExportHook",
+    "TablesHook",
+    "check_hook",
+    "resolve_hook",
     "Dataset",
     "Family",
     "Input",

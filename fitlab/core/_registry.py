@@ -18,12 +18,13 @@ import pkgutil
 import sys
 from dataclasses import dataclass, field
 from importlib.metadata import entry_points
-from typing import Any, Callable, Mapping
+from typing import Callable, Mapping
 
+from fitlab.core._hooks import ProgramContract, check_hook, check_program
 from fitlab.core._target import Target
 
 __all__ = ["Family", "register_family", "unregister_family", "families", "get_family", "targets", "get_target",
-           "forms_for", "get_form", "family_service", "broken_families"]
+           "forms_for", "get_form", "family_service", "resolve_hook", "broken_families"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -37,12 +38,16 @@ class Family:
     libraries: the candidate-term libraries of ``fitlab discover``: a function returning target -> tuple of
         libraries (the first primary), called only by discover (so that pysindy loads only there).
     codegen: the program its generated code prints beyond one routine per target (a
-        :class:`fitlab.codegen.ProgramSpec`), or None.
+        :class:`fitlab.codegen.ProgramSpec`, which meets :class:`fitlab.core.ProgramContract`: checked when
+        the family registers), or None.
     hooks: further family services by name (runtime models, Monte Carlo scenes, report methods, tables, audit),
         each a callable the generic command of that name looks up; it returns the service, imported only
-        then (JAX, Mitsuba stay unloaded until a command needs them).  A hook with a contract
-        (:data:`HOOK_CONTRACTS`: ``simulate`` returns a :class:`fitlab.scenes.SimulateHook`) is checked
-        against it when it is resolved (:func:`family_service`).
+        then (JAX, Mitsuba stay unloaded until a command needs them).  What a hook returns is checked
+        against the hook's contract, a ``typing.Protocol``, when it is resolved (:func:`family_service`,
+        :func:`resolve_hook`), with a one-line TypeError naming the first missing member: ``simulate``
+        returns a :class:`fitlab.scenes.SimulateHook` (:data:`HOOK_CONTRACTS`), ``tables``, ``audit``,
+        ``render``, ``bench``, ``report``, ``table_export`` and ``brdf_grid`` the protocols of
+        :mod:`fitlab.core._hooks` (:func:`fitlab.core.check_hook`).
     default_program: whether its program is the one ``fitlab codegen`` (and ``fitlab.codegen.generate``,
         ``load_program``) prints when no family is named: at most one family says so (the Lambert sphere; the
         rule is :func:`fitlab.codegen.program.default_program_family`).
@@ -53,14 +58,16 @@ class Family:
     targets: tuple[Target, ...]
     forms: tuple = ()
     libraries: Callable[[], Mapping[str, tuple]] = dict
-    codegen: Any = None
+    codegen: ProgramContract | None = None
     hooks: Mapping[str, Callable] = field(default_factory=dict)
     default_program: bool = False
 
 
 #: hook name -> "module:function" that checks what the hook returns against its contract (a
 #: ``typing.Protocol``), raising a one-line TypeError naming the first missing member; run when the hook
-#: is resolved (:func:`family_service`), since resolving imports the service
+#: is resolved (:func:`family_service`, :func:`resolve_hook`), since resolving imports the service.  The
+#: hooks not named here are checked by :func:`fitlab.core.check_hook` (their protocols are in
+#: :mod:`fitlab.core._hooks`)
 HOOK_CONTRACTS = {"simulate": "fitlab.scenes:check_simulate_hook"}
 
 _FAMILIES: dict[str, Family] = {}
@@ -81,6 +88,7 @@ def register_family(family: Family) -> Family:
     for hook, value in family.hooks.items():
         if not callable(value):
             raise ValueError(f"family {family.name}: hook {hook!r} is not callable (a hook returns its service)")
+    check_program(family.codegen, family.name)
     names = [t.name for t in family.targets]
     clash = [n for n in names if n in _TARGETS and _TARGETS[n].family != family.name]
     if clash or len(set(names)) != len(names):
@@ -191,13 +199,23 @@ def family_service(name: str, family: str | None = None):
     return _service(offering[0], name)
 
 
-def _service(family: str, name: str):
-    """What ``family``'s hook ``name`` returns, checked against the hook's contract (:data:`HOOK_CONTRACTS`)."""
-    service = get_family(family).hooks[name]()
+def resolve_hook(family: str, name: str):
+    """What ``family``'s hook ``name`` returns (``hooks[name]()``), checked against the hook's contract
+    (:data:`HOOK_CONTRACTS`, else :func:`fitlab.core.check_hook`): TypeError, one line naming the first
+    missing member.  KeyError when the family has no such hook."""
+    hooks = get_family(family).hooks
+    if name not in hooks:
+        raise KeyError(f"family {family!r} has no {name!r} hook")
+    service = hooks[name]()
     if name in HOOK_CONTRACTS:
         module, function = HOOK_CONTRACTS[name].split(":")
         getattr(importlib.import_module(module), function)(service, family)
+    else:
+        check_hook(service, family, name)
     return service
+
+
+_service = resolve_hook
 
 
 def forms_for(target: str) -> Mapping:

@@ -21,7 +21,7 @@ import numpy as np
 
 from fitlab.fit.metrics import relative_errors, summary
 from fitlab.fit.refit import preset_metrics
-from fitlab.report.methods import BRDF_INPUTS
+from fitlab.report.methods import brdf_hook
 
 __all__ = ["brdf_errors", "brdf_accuracy", "part_accuracy", "AWAY_MU"]
 
@@ -31,12 +31,13 @@ AWAY_MU = 1.0 / 64.0
 
 def brdf_errors(method, valid) -> np.ndarray:
     """Relative errors of ``method`` at every point of the BRDF validation set."""
-    approx = method.evaluate(*(valid.inputs[n] for n in BRDF_INPUTS))
+    approx = method.evaluate(*(valid.inputs[n] for n in brdf_hook().BRDF_INPUTS))
     return relative_errors(approx, valid.y, np.abs(valid.y))
 
 
 def _point(data, i: int) -> dict:
-    return {k: float(data.inputs[k][i]) for k in ("mu_i", "mu_o", "phi", "c")}
+    """The validation set's point ``i``: the BRDF's inputs that name it (the report hook's ``BRDF_POINT``)."""
+    return {k: float(data.inputs[k][i]) for k in brdf_hook().BRDF_POINT}
 
 
 def brdf_accuracy(method, valid, grazing=None, fresh=None, energy=None) -> dict:
@@ -57,9 +58,11 @@ def brdf_accuracy(method, valid, grazing=None, fresh=None, energy=None) -> dict:
         "points": int(err.size),
         "worst": _point(valid, i),
     }
-    zero = np.zeros_like(valid.inputs["c"])
+    hook = brdf_hook()
+    material = set(hook.BRDF_MATERIAL)  # all 0: the black material (c = 0, kd = 0)
     with np.errstate(all="ignore"):
-        at0 = method.evaluate(valid.inputs["mu_i"], valid.inputs["mu_o"], valid.inputs["phi"], zero, zero)
+        at0 = method.evaluate(*(np.zeros_like(valid.inputs[n]) if n in material else valid.inputs[n]
+                                for n in hook.BRDF_INPUTS))
     out["max_abs_c0"] = float(np.max(np.where(np.isfinite(at0), np.abs(at0), np.inf)))
     if grazing is not None:
         g = brdf_errors(method, grazing)

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 from fitlab.core import float64
 from fitlab.forms.symbolic import lambdify_jax, symbols
-from fitlab.report.methods import BRDF_INPUTS
+from fitlab.report.methods import brdf_inputs
 from fitlab.timing import best_seconds, interleaved_best
 
 __all__ = ["best_seconds", "interleaved_best", "numpy_costs", "jax_costs"]
@@ -21,7 +21,7 @@ __all__ = ["best_seconds", "interleaved_best", "numpy_costs", "jax_costs"]
 
 def numpy_costs(methods, inputs: dict, repeat: int, tick=None) -> dict:
     """{method name: ns per evaluation} of ``method.evaluate`` vectorised over ``inputs``."""
-    args = [inputs[n] for n in BRDF_INPUTS]
+    args = [inputs[n] for n in brdf_inputs()]
     fns = {m.name: (lambda m=m: m.evaluate(*args)) for m in methods}
     return {k: t / args[0].size * 1e9 for k, t in interleaved_best(fns, repeat, tick).items()}
 
@@ -32,10 +32,11 @@ def jax_costs(methods, inputs: dict, repeat: int, tick=None) -> dict:
     import jax
     import jax.numpy as jnp
 
-    args = [jnp.asarray(inputs[n], dtype=jnp.float64) for n in BRDF_INPUTS]
+    names = brdf_inputs()
+    args = [jnp.asarray(inputs[n], dtype=jnp.float64) for n in names]
     fns = {}
     for m in methods:
-        f = jax.jit(lambdify_jax(symbols(BRDF_INPUTS), m.expr))
+        f = jax.jit(lambdify_jax(symbols(names), m.expr))
         jax.block_until_ready(f(*args))  # compile
         fns[m.name] = lambda f=f: jax.block_until_ready(f(*args))
         tick and tick()

@@ -44,14 +44,19 @@ from typing import Callable
 
 import sympy as sp
 
-from fitlab.core import families, get_target, targets
+from fitlab.core import families, get_target, resolve_hook, targets
 from fitlab.store import FitFileError, load, read_fit
 
 __all__ = ["BrdfMethod", "PartMethod", "CSpec", "FitEntry", "ReportError", "fit_inventory", "brdf_methods",
-           "part_methods", "GROUPS", "BRDF_INPUTS", "preset_records", "origin_kind", "fit_group", "best_forms",
+           "part_methods", "GROUPS", "brdf_inputs", "preset_records", "origin_kind", "fit_group", "best_forms",
            "positional", "report_hooks", "brdf_hook", "required_fits", "report_parts", "preset_variants"]  # fmt: skip
 
-BRDF_INPUTS = ("mu_i", "mu_o", "phi", "c", "kd")
+
+def brdf_inputs() -> tuple[str, ...]:
+    """The BRDF's signature: its inputs, in the order every BRDF method's ``evaluate`` takes them (the report
+    hook's ``BRDF_INPUTS``, of the family whose BRDF the report measures: :func:`brdf_hook`)."""
+    return tuple(brdf_hook().BRDF_INPUTS)
+
 #: groups in the order the report lists them
 GROUPS = ("exact", "tables", "published", "refit", "refit, richer", "discovered", "fast", "baseline", "monte carlo")
 
@@ -86,7 +91,7 @@ class BrdfMethod:
     group: str
     source: str
     evaluate: Callable  # f(mu_i, mu_o, phi, c, kd) on numpy arrays
-    expr: sp.Expr | None = None  # in BRDF_INPUTS, for the JAX path
+    expr: sp.Expr | None = None  # in brdf_inputs(), for the JAX path
     c: CSpec | None = None
     bytes: float = math.nan  # the data it reads besides its code: table values, spline or fitted coefficients
 
@@ -120,7 +125,7 @@ def report_hooks() -> dict:
     PRESET_VARIANTS, tables_dir, brdf_methods, part_extras, preset_records and check_tables, and, for the
     family whose BRDF the report measures, exact_brdf, exact_kd, EXACT_SOURCES, SOURCES and the exact engine's
     and Monte Carlo's measurements (:mod:`fitlab.families.lambert_sphere.report_methods` lists them)."""
-    return {name: f.hooks["report"]() for name, f in families().items() if "report" in f.hooks}
+    return {name: resolve_hook(name, "report") for name, f in families().items() if "report" in f.hooks}
 
 
 def brdf_hook():

@@ -15,6 +15,7 @@ import platform
 import tempfile
 import time
 from dataclasses import dataclass, field, replace
+from typing import Any
 from pathlib import Path
 
 import numpy as np
@@ -38,7 +39,7 @@ from fitlab.report.methods import (
 from fitlab.report.pareto import recommend
 from fitlab.report.programs import c_costs, timing_inputs
 from fitlab.report.refits import recorded_seconds, refit_costs, refit_jobs
-from fitlab.report.settings import FULL, Settings
+from fitlab.report.settings import FULL, Settings, family_settings
 from fitlab.report.validation import brdf_set, fresh_set, grazing_set
 from fitlab.store import TableError, fits_folder
 
@@ -53,6 +54,8 @@ class Report:
     rows: list  # dicts with the columns of fitlab.report.write.COLUMNS
     recommendations: dict  # use -> BRDF row (or None)
     context: dict = field(default_factory=dict)
+    #: the settings of the family whose BRDF the report measures (fitlab.report.settings.family_settings)
+    family_settings: Any = None
 
 
 def _single_threaded_blas():
@@ -240,7 +243,8 @@ def build_report(settings: Settings = FULL, fits_dir: Path | None = None, data_d
     context.update(wall_seconds=time.perf_counter() - t_start, fits_dir=str(fits_dir),
                    machine=f"{platform.machine()}, {os.cpu_count()} CPUs, BLAS on 1 thread, JAX on "
                            f"{jax.default_backend()}")  # fmt: skip
-    return Report(settings, rows, recommend([r for r in rows if r["section"] == "brdf"]), context)
+    return Report(settings, rows, recommend([r for r in rows if r["section"] == "brdf"]), context,
+                  family_settings(settings, brdf_hook()))
 
 
 def _measure(settings, entries, fits_dir, data_dir, use_cache, p) -> tuple[list, dict]:
@@ -278,16 +282,17 @@ def _measure(settings, entries, fits_dir, data_dir, use_cache, p) -> tuple[list,
     rows = _brdf_rows(methods, acc, c_ns, py_ns, jax_tp)
     p.stage("parts", len(settings.parts))
     rows += _part_rows(settings, entries, data_dir, part_ns, p.tick)
-    p.stage("exact engine", len(settings.nystrom_nodes) + len(settings.fock_steps) + 2)
-    conv = hook.h_convergence(settings.exact_orders, settings.exact_c, settings.exact_mu_points, settings.nystrom_nodes,
-                         settings.fock_steps, tick=p.tick)  # fmt: skip
+    fam = family_settings(settings, hook)
+    p.stage("exact engine", len(fam.nystrom_nodes) + len(fam.fock_steps) + 2)
+    conv = hook.h_convergence(fam.exact_orders, fam.exact_c, fam.exact_mu_points, fam.nystrom_nodes,
+                              fam.fock_steps, tick=p.tick)  # fmt: skip
     brdf_cost = hook.exact_brdf_cost(py_inputs, settings.repeat)
     p.tick()
-    dbl = hook.doubling_agreement(settings.doubling_c, settings.doubling_orders) if settings.doubling_orders else None
+    dbl = hook.doubling_agreement(fam.doubling_c, fam.doubling_orders) if fam.doubling_orders else None
     p.tick()
     rows += _exact_rows(brdf_cost, dbl, conv, hook.time_to_error(conv, settings.error_targets), hook.SOURCES)
-    p.stage("Monte Carlo", len(settings.mc_paths))
-    study = hook.mc_study(settings, p.tick)
+    p.stage("Monte Carlo", len(fam.mc_paths))
+    study = hook.mc_study(fam, p.tick, seed=settings.seed)
     rows += _mc_rows(study, [e for e in settings.error_targets if e >= 1e-3], hook.mc_time_to_error, hook.SOURCES)
     rows += _refit_rows(entries, settings, fits_dir, p)
     counts = {}

@@ -1,14 +1,17 @@
 r"""The sizes of one report: :data:`FULL` (``fitlab report``) and :data:`QUICK` (``--quick``, the test).
 
 Every random number of the report comes from a seed here, so that every
-column but the timings is reproducible run to run.
+column but the timings is reproducible run to run.  How hard the report measures a family's own engines
+(the Lambert sphere's exact engine and Monte Carlo) is the family's: its report hook's
+``REPORT_SETTINGS`` (:func:`family_settings`).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
-__all__ = ["Settings", "FULL", "QUICK"]
+__all__ = ["Settings", "FULL", "QUICK", "family_settings"]
 
 
 @dataclass(frozen=True)
@@ -59,25 +62,13 @@ class Settings:
     jax_points: int = 1 << 20
     #: JAX throughput for every entry with an expression (False: the default refit only)
     all_jax: bool = True
-    #: exact engine: H-function convergence study (orders, albedos, resolutions)
-    exact_orders: tuple = (0, 1)
-    exact_c: tuple = (0.5, 0.99, 1.0)
-    exact_mu_points: int = 256
-    nystrom_nodes: tuple = (2, 3, 4, 6, 8, 12, 16, 24)
-    fock_steps: tuple = (1.4, 1.0, 0.7, 0.5, 0.35, 0.25, 0.1)
-    #: exact engine vs discrete ordinates + doubling (albedo, orders); () skips it
-    doubling_c: float = 0.5
-    doubling_orders: tuple = (0, 1, 2)
-    #: Monte Carlo: materials, incident cosines, path counts
-    mc_c: tuple = (0.5, 0.9)
-    mc_mu_i: tuple = (0.3, 0.7)
-    mc_mu_edges: tuple = (0.2, 0.4, 0.6, 0.8, 1.0)
-    mc_phi_bins: int = 4
-    mc_paths: tuple = (1_000, 10_000, 100_000, 1_000_000)
     #: refits timed (target, form); None: every fit file whose form fitlab.forms defines
     refits: tuple | None = None
     #: errors at which the time to reach them is reported (Monte Carlo and the exact engine)
     error_targets: tuple = (1e-2, 1e-3, 1e-6, 1e-10)
+    #: the settings of the family whose BRDF the report measures (its exact engine, Monte Carlo), given by
+    #: its report hook (``REPORT_SETTINGS``); None: the hook's settings of this one's ``name``
+    family: Any = None
 
 
 FULL = Settings(name="full", n_c=15, with_c1=True, log2_points=12)
@@ -101,16 +92,13 @@ QUICK = Settings(
     numpy_points=1 << 12,
     jax_points=1 << 12,
     all_jax=False,
-    exact_orders=(1,),
-    exact_c=(0.5,),
-    exact_mu_points=32,
-    nystrom_nodes=(4, 8),
-    fock_steps=(0.7, 0.35),
-    doubling_orders=(),
-    mc_c=(0.5,),
-    mc_mu_i=(0.5,),
-    mc_mu_edges=(0.0, 0.5, 1.0),
-    mc_phi_bins=2,
-    mc_paths=(1_000, 4_000),
     refits=(("m", "linear"),),
 )
+
+
+def family_settings(settings: Settings, hook):
+    """The settings of the family whose BRDF the report measures (its report ``hook``): ``settings.family``,
+    else the hook's ``REPORT_SETTINGS[settings.name]``."""
+    if settings.family is not None:
+        return settings.family
+    return hook.REPORT_SETTINGS[settings.name]

@@ -144,8 +144,8 @@ def _exact_section(report) -> list[str]:
                 f"{dbl['seconds_per_order']:.2f} s per (c, order) for f^m at {dbl['node_pairs']} node pairs."]
     out += ["", "H-functions by both methods at coarser and finer resolution, each against the other method at "
             "its default (16 nodes per panel; h = 0.1); seconds per (order, c): one solve and the evaluation "
-            f"at {report.settings.exact_mu_points} mu, orders {', '.join(map(str, report.settings.exact_orders))}, "
-            f"c = {', '.join(f'{c:g}' for c in report.settings.exact_c)}.", "",
+            f"at {report.family_settings.exact_mu_points} mu, orders {', '.join(map(str, report.family_settings.exact_orders))}, "
+            f"c = {', '.join(f'{c:g}' for c in report.family_settings.exact_c)}.", "",
             "| method, resolution | max rel | RMS rel | ms per (order, c) |", "|---|---|---|---|"]  # fmt: skip
     for r in _section(rows, "exact_h"):
         out.append(f"| {r['method']} | {_e(r['max_rel'])} | {_e(r['rms_rel'])} | {r['seconds'] * 1e3:.3g} |")
@@ -165,7 +165,7 @@ def _time_to_error(rows) -> list[str]:
 
 
 def _mc_section(report) -> list[str]:
-    s = report.settings
+    s = report.family_settings
     out = ["## Monte Carlo", "",
            f"`fitlab.families.lambert_sphere.mc`: c = {', '.join(map(str, s.mc_c))}, mu_i = {', '.join(map(str, s.mc_mu_i))}, mu_o bins "
            f"{list(s.mc_mu_edges)}, {s.mc_phi_bins} |phi| bins; three-term multiple scattering, single scattering "

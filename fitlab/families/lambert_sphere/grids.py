@@ -12,6 +12,7 @@ from functools import lru_cache
 
 import numpy as np
 
+from fitlab.core import BrdfGrid
 from fitlab.families.lambert_sphere.exact import (
     brdf,
     brdf_modes,
@@ -118,6 +119,7 @@ BRDF_AXES = GRID_AXES["brdf"]
 BRDF_MEASURE = "relative: |approx - exact| / |exact|, exact = fitlab.families.lambert_sphere.exact.brdf"
 
 
-def brdf_grid() -> tuple:
-    """The family's ``brdf_grid`` hook: (axes, grid function of the exact BRDF, error measure)."""
-    return BRDF_AXES, _GRIDS["brdf"], BRDF_MEASURE
+def brdf_grid() -> BrdfGrid:
+    """The family's ``brdf_grid`` hook: (axes, grid function of the exact BRDF, error measure), a
+    :class:`fitlab.core.BrdfGridHook`."""
+    return BrdfGrid(BRDF_AXES, _GRIDS["brdf"], BRDF_MEASURE)

@@ -45,6 +45,7 @@ from fitlab.families.lambert_sphere.report_exact import (
     time_to_error,
 )
 from fitlab.families.lambert_sphere.report_montecarlo import mc_study, mc_time_to_error
+from fitlab.families.lambert_sphere.report_settings import BRDF_INPUTS, BRDF_MATERIAL, BRDF_POINT, REPORT_SETTINGS
 from fitlab.codegen.program import DEFAULT_FORMS, program_spec
 from fitlab.families.lambert_sphere.runtime import FAMILY_NAME, PRESET_VARIANTS, directional_albedo, runtime_model
 from fitlab.families.lambert_sphere.table_files import check_tables, tables_dir
@@ -56,7 +57,8 @@ from fitlab.store import FORMAT, load
 
 __all__ = ["REQUIRED_FITS", "PARTS", "PRESET_VARIANTS", "tables_dir", "EXACT_SOURCES", "SOURCES", "brdf_methods",
            "part_extras", "preset_records", "check_tables", "exact_brdf", "exact_kd", "h_convergence", "exact_brdf_cost",
-           "doubling_agreement", "time_to_error", "mc_study", "mc_time_to_error", "exact_albedo", "directional_albedo"]
+           "doubling_agreement", "time_to_error", "mc_study", "mc_time_to_error", "exact_albedo", "directional_albedo",
+           "BRDF_INPUTS", "BRDF_POINT", "BRDF_MATERIAL", "REPORT_SETTINGS"]
 
 #: the albedo maps: not in the BRDF, but in its generated program (their C is timed there)
 MAPS = ("kd_of_c", "c_of_kd")

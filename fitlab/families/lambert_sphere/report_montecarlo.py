@@ -50,13 +50,15 @@ batch = {min(paths, 200_000)}
     return parse_scene(text, "<fitlab report Monte Carlo scene>")
 
 
-def mc_study(settings, tick=None) -> list[dict]:
-    """One dict per path count: values, max_rel, rms_rel, se_rms, seconds, compile_seconds, ns_per_value."""
+def mc_study(settings, tick=None, seed: int = 2021) -> list[dict]:
+    """One dict per path count: values, max_rel, rms_rel, se_rms, seconds, compile_seconds, ns_per_value.
+    ``settings``: the family's report settings (:class:`.report_settings.EngineSettings`); ``seed``: the
+    report's (:attr:`fitlab.report.Settings.seed`)."""
     from fitlab.families.lambert_sphere.mc.simulate import simulate
 
     def scene(paths):
         return mc_scene(settings.mc_c, settings.mc_mu_i, settings.mc_mu_edges, settings.mc_phi_bins, paths,
-                        settings.seed)  # fmt: skip
+                        seed)  # fmt: skip
 
     simulate(scene(min(settings.mc_paths)), progress=False)  # warm-up: compilation and first-call overheads
     out = []
