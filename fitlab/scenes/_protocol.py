@@ -7,6 +7,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any, Callable, Hashable, Iterable, Mapping, Protocol, Sequence, runtime_checkable
 
+from fitlab.core._hooks import missing_member
 from fitlab.scenes._check import Checker
 
 __all__ = ["Job", "SceneSchema", "Walk", "SimulateHook", "Simulation", "missing_member", "check_simulate_hook"]
@@ -109,22 +110,6 @@ class Simulation:
     schema: Any
     walk: Any
     claims: Callable[[dict], bool] | None = None
-
-
-def _members(protocol) -> list[str]:
-    names = list(getattr(protocol, "__annotations__", {}))
-    names += [n for n, v in vars(protocol).items() if callable(v) and not n.startswith("_")]
-    return names
-
-
-def missing_member(obj, protocol) -> str | None:
-    """The first member of ``protocol`` that ``obj`` lacks (a method must be callable), else None."""
-    for name in _members(protocol):
-        if not hasattr(obj, name):
-            return name
-        if callable(vars(protocol).get(name)) and not callable(getattr(obj, name)):
-            return name
-    return None
 
 
 def check_simulate_hook(hook, family: str = "?") -> SimulateHook:
