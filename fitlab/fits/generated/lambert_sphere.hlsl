@@ -17,7 +17,7 @@
 //   kd_of_c.json  97fd68ebd9ef5a510e97d6f742d5e9ff4ca179dfae3908df011426f60c64c6c0  packaged; max 8.71e-03, RMS 5.25e-03 (relative, 130 points)
 //   sample_weight.json  c023aba5f7c16920c95bbcef2bfcb03fb23c438b2fa85bf4ef965bd73c9c78ea  packaged; max 2.09e-01, RMS 2.70e-02 (relative, 630 points)
 //   sample_exponent.json  461f6e087b3a3b3ea084420e291400a96f4eb1a2af4d1758032926ac354f71ad  packaged; max 1.10e-01, RMS 2.39e-02 (relative, 630 points)
-//   fast_brdf.json  28be87af26765a3bfab7c76dd2eb42934f8ae3b16168c7d761c978a10bf96eca  packaged; max 9.07e-01, RMS 1.22e-01 (relative, 116640 points)
+//   fast_brdf.json  28be87af26765a3bfab7c76dd2eb42934f8ae3b16168c7d761c978a10bf96eca  packaged; max 9.07e-01, RMS 1.19e-01 (relative, 110160 points)
 // Float functions for HLSL (shader model 5 and later; DXC, FXC, glslang); #include into a shader.
 
 // x^p for x > 0, 0 for x <= 0, NaN for NaN: the forms' safe_pow (keeps pow away from x <= 0).
