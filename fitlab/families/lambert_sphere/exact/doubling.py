@@ -33,7 +33,7 @@ import numpy as np
 from fitlab.families.lambert_sphere.exact._quadrature import graded_gauss
 from fitlab.families.lambert_sphere.exact.phase import MAX_DEGREE, associated_legendre_reduced, legendre_weights
 
-__all__ = ["doubling_reflection", "DoublingResult"]
+__all__ = ["doubling_reflection", "doubling_step", "DoublingResult"]
 
 
 @dataclass(frozen=True)
@@ -49,6 +49,20 @@ class DoublingResult:
 
 def _assoc(l, m, mu):
     return (1.0 - mu * mu) ** (m / 2.0) * np.polynomial.polynomial.polyval(mu, associated_legendre_reduced(l, m))
+
+
+def doubling_step(r: np.ndarray, td: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """One doubling of a symmetric slab: its reflection R and diffuse transmission T_d from those of
+    the half slab (d: the half slab's direct transmission exp(-tau/mu_j), kept apart so that no digit is
+    lost): with G = (1 - R R)^-1 and T = T_d + diag(d), R' = R + T R G T and
+    T_d' = d R R G d + T_d G d + d G T_d + T_d G T_d (the direct beam's part d d leaves T_d')."""
+    eye = np.eye(r.shape[0])
+    g = np.linalg.solve(eye - r @ r, eye)
+    t = td + np.diag(d)
+    r_new = r + t @ (r @ g) @ t
+    rrg = r @ r @ g
+    td_new = d[:, None] * rrg * d[None, :] + (td @ g) * d[None, :] + d[:, None] * (g @ td) + td @ g @ td
+    return r_new, td_new
 
 
 @lru_cache(maxsize=256)
@@ -76,15 +90,10 @@ def doubling_reflection(order: int, c: float, nodes_per_panel: int = 12, smalles
         rel = np.where(x == 0.0, 1.0, np.expm1(x) / x)
     td = 0.5 * phi_pp * w[None, :] * (tau * inv)[:, None] * np.exp(-tau * inv)[:, None] * rel
     d = np.exp(-tau * inv)  # direct transmission, kept apart from the diffuse part
-    eye = np.eye(n)
     k = 0
     while True:
         k += 1
-        g = np.linalg.solve(eye - r @ r, eye)
-        t = td + np.diag(d)
-        r_new = r + t @ (r @ g) @ t
-        rrg = r @ r @ g
-        td = d[:, None] * rrg * d[None, :] + (td @ g) * d[None, :] + d[:, None] * (g @ td) + td @ g @ td
+        r_new, td = doubling_step(r, td, d)
         tau *= 2.0
         d = np.exp(-tau * inv)  # not d*d: exp(-2^-60/mu) rounds to 1
         change = np.max(np.abs(r_new - r))

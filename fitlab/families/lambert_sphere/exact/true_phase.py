@@ -98,6 +98,7 @@ from functools import lru_cache
 import numpy as np
 
 from fitlab.families.lambert_sphere.exact import _checks
+from fitlab.families.lambert_sphere.exact.doubling import doubling_step
 
 __all__ = [
     "DEGREE",
@@ -311,16 +312,11 @@ def _doubling(c, mu, w, kp, km, critical):
         rel = np.where(x == 0.0, 1.0, np.expm1(x) / x)
     td = 0.5 * c * kp * w[None, :] * (tau * inv)[:, None] * np.exp(-tau * inv)[:, None] * rel
     d = np.exp(-tau * inv)
-    eye = np.eye(n)
     one = np.ones(n)
     k = 0
     while True:
         k += 1
-        g = np.linalg.solve(eye - r @ r, eye)
-        t = td + np.diag(d)
-        r_new = r + t @ (r @ g) @ t
-        rrg = r @ r @ g
-        td = d[:, None] * rrg * d[None, :] + (td @ g) * d[None, :] + d[:, None] * (g @ td) + td @ g @ td
+        r_new, td = doubling_step(r, td, d)
         tau *= 2.0
         d = np.exp(-tau * inv)
         if critical:  # a conservative slab: uniform radiance in, uniform out (R 1 + T 1 = 1)
