@@ -13,6 +13,7 @@ n = 0.21, 0.43, 1.38 and k = 3.272, 2.455, 1.914 (a red, green and blue channel)
 
 from functools import lru_cache
 
+import mpmath
 import numpy as np
 import pytest
 from scipy import integrate, optimize
@@ -30,6 +31,7 @@ from fitlab.families.microfacet_energy.exact import (
     fresnel_compensation_factor,
     fresnel_conductor,
     fresnel_dielectric,
+    fresnel_dielectric_transmittance,
     fresnel_multiple_scattering_brdf,
     fresnel_schlick,
     ggx_ndf,
@@ -143,6 +145,55 @@ def test_conductor_limits_and_the_complex_amplitudes():
     for e, kk in [(0.21, 1e3), (0.21, 1e6), (1.5, 1e4)]:
         loss = 1 - fresnel_conductor(np.concatenate((c, np.geomspace(1e-9, 1e-2, 200)[:, None])), e, kk)
         assert np.all(loss <= 4 * e / kk ** 2 + e / kk) and loss.max() > e / kk / 2  # the dip is there
+
+
+def snell_transmittance_mp(cos_i, cos_t, eta, from_incident: bool):
+    """1 - F at 40 digits (mpmath): Snell's other cosine from the given one (cos_i when ``from_incident``,
+    else cos_t), then 1 - (r_s^2 + r_p^2) / 2 with the textbook amplitudes."""
+    with mpmath.workdps(40):
+        e = mpmath.mpf(eta)
+        out = []
+        for ci, ct in zip(cos_i, cos_t):
+            if from_incident:
+                ci = mpmath.mpf(ci)
+                ct = mpmath.sqrt(1 - (1 - ci * ci) / (e * e))
+            else:
+                ct = mpmath.mpf(ct)
+                ci = mpmath.sqrt(1 - e * e * (1 - ct * ct))
+            if ci + e * ct == 0:
+                out.append(0.0)
+                continue
+            r_s, r_p = (ci - e * ct) / (ci + e * ct), (e * ci - ct) / (e * ci + ct)
+            out.append(float(1 - (r_s * r_s + r_p * r_p) / 2))
+        return np.array(out)
+
+
+@pytest.mark.parametrize("eta", [1.0 / 3.0, 0.5, 1.0 / 1.5, 1.0001, 1.5, 3.0])
+def test_transmittance_from_both_cosines(eta):
+    """1 - F from both cosines against Snell's textbook form at 40 digits, to 1e-14 relative everywhere,
+    down to the critical angle (eta < 1, cos_t -> 0) and grazing (cos_i -> 0) where 1 - F -> 0 and
+    ``1 - fresnel_dielectric`` loses its relative accuracy; symmetric under (cos_i, cos_t, eta) -> (cos_t,
+    cos_i, 1 / eta); 0 at grazing on either side; float32 to float32 rounding."""
+    # both cosines without cancellation: the other from the side of the larger index (eta sin_t = sin_i)
+    given = np.concatenate((np.linspace(0.0, 1.0, 201), np.geomspace(1e-12, 1e-3, 40)))
+    if eta > 1:  # cos_t^2 = ((eta - 1)(eta + 1) + cos_i^2) / eta^2, free of cancellation
+        cos_i, cos_t = given, np.sqrt(((eta - 1) * (eta + 1) + given**2) / eta**2)
+    else:
+        cos_t, cos_i = given, np.sqrt((1 - eta) * (1 + eta) + eta**2 * given**2)
+    t = fresnel_dielectric_transmittance(cos_i, cos_t, eta)
+    np.testing.assert_allclose(t, snell_transmittance_mp(cos_i, cos_t, eta, from_incident=eta > 1), rtol=1e-14,
+                               atol=0)
+    np.testing.assert_allclose(fresnel_dielectric_transmittance(cos_t, cos_i, 1 / eta), t, rtol=4e-15, atol=0)
+    assert np.all((t >= 0) & (t <= 1))
+    np.testing.assert_array_equal(fresnel_dielectric_transmittance([0.0, 0.3], [0.3, 0.0], eta), 0.0)
+    # the one-cosine form near the critical angle: its 1 - F is off by far more than 1e-14 relative there
+    if eta < 1:
+        near = (cos_t > 0) & (cos_t < 1e-6)
+        one_cosine = 1 - fresnel_dielectric(cos_i[near], eta)
+        assert np.max(np.abs(one_cosine / t[near] - 1)) > 1e-9
+    t32 = fresnel_dielectric_transmittance(cos_i.astype(np.float32), cos_t.astype(np.float32), np.float32(eta))
+    assert t32.dtype == np.float32
+    np.testing.assert_allclose(t32, t, rtol=0, atol=2e-6)
 
 
 def test_float32_evaluation_and_edges():

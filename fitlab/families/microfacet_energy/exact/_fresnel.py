@@ -167,6 +167,7 @@ __all__ = [
     "fresnel_compensation_factor",
     "fresnel_conductor",
     "fresnel_dielectric",
+    "fresnel_dielectric_transmittance",
     "fresnel_multiple_scattering_brdf",
     "fresnel_schlick",
     "random_walk_albedo",
@@ -261,6 +262,27 @@ def fresnel_dielectric(cos, eta):
         r_p = np.where(den_p > 0, (eta * c - cos_t) / np.where(den_p > 0, den_p, 1), 0)
     return np.where(tir, 1, (r_s * r_s + r_p * r_p) / 2).astype(dtype)
 
+
+
+def fresnel_dielectric_transmittance(cos_i, cos_t, eta):
+    """1 - F at a dielectric interface of relative index eta = n_t / n_i > 0 for a refraction whose both
+    cosines are known (cos_i on the incident side, cos_t on the transmitted side, both in [0, 1], with
+    eta sin_t = sin_i), as 1 - r^2 = (1 - r)(1 + r) per polarisation:
+
+        1 - F = 2 eta cos_i cos_t (1 / (cos_i + eta cos_t)^2 + 1 / (eta cos_i + cos_t)^2).
+
+    Equal to ``1 - fresnel_dielectric(cos_i, eta)`` where cos_t is Snell's, and without its two losses:
+    no cancellation in 1 - F where F is near 1 (grazing), and no sqrt(1 - (1 - cos^2) / eta^2) near the
+    critical angle, whose rounding error grows like 1 / cos_t^2.  Symmetric under (cos_i, cos_t, eta) ->
+    (cos_t, cos_i, 1 / eta), as reciprocity needs; a BTDF whose half vector gives both cosines uses this.
+    0 where either cosine is 0.  numpy broadcasting; float32 when every argument is float32."""
+    dtype = working_dtype(cos_i, cos_t, eta)
+    c_i, c_t = _cosine(cos_i, dtype), _cosine(cos_t, dtype)
+    eta = _index(eta, "eta", dtype, True)
+    den_s, den_p = c_i + eta * c_t, eta * c_i + c_t
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = 2 * eta * c_i * c_t * (1 / (den_s * den_s) + 1 / (den_p * den_p))
+    return np.where((c_i > 0) & (c_t > 0), t, 0).astype(dtype)
 
 # -- average Fresnel ------------------------------------------------------------------------------------
 def average_fresnel(fresnel, breakpoints=()) -> float:

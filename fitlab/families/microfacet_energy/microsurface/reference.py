@@ -99,6 +99,7 @@ from fitlab.families.microfacet_energy.exact import (
     dielectric_factor,
     directional_albedo,
     fresnel_dielectric,
+    fresnel_dielectric_transmittance,
     fresnel_schlick,
     ggx_brdf,
 )
@@ -257,7 +258,10 @@ def btdf(wi, wo, alpha_x, alpha_y, distribution: str, eta: float):
     hz_safe = np.where(valid, hz, 1.0)
     g2 = transmission_g2(lambda_(ix, iy, iz, alpha_x, alpha_y, distribution),
                          lambda_(-ox, -oy, -oz, alpha_x, alpha_y, distribution))
-    f = (c_i * -c_o * eta * eta * (1.0 - fresnel_dielectric(np.clip(c_i, 0.0, 1.0), eta))
+    # 1 - F from both cosines the half vector gives (not Snell's sqrt of c_i): free of the cancellation
+    # near the critical angle, and the same expression for the path reversed
+    transmittance = fresnel_dielectric_transmittance(np.clip(c_i, 0.0, 1.0), np.clip(-c_o, 0.0, 1.0), eta)
+    f = (c_i * -c_o * eta * eta * transmittance
          * ndf(hx, hy, hz_safe, alpha_x, alpha_y, distribution) * g2 / (iz * -oz * (c_i + eta * c_o) ** 2))
     return np.where(valid, f, 0.0)
 
