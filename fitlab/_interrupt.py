@@ -11,7 +11,10 @@ set) and then:
 * elsewhere raises nothing there: inside the collector (its callbacks, a ``__del__``) the exception would be
   dropped, and in a library's Python code called back from C++ (JAX's nanobind) it can end the process
   (``std::terminate``, status -6).  A helper thread delivers the signal again every few milliseconds
-  until the main thread is in such a safe place (between the command's stages at the latest);
+  until the main thread is in such a safe place (between the command's stages at the latest).  A
+  KeyboardInterrupt raised where Python can only drop it after all (a weakref callback, as the import
+  machinery's module-lock callback) reaches fitlab's ``sys.unraisablehook``, which prints nothing and
+  delivers the request again;
 * inside :func:`hold` (the renames that put a command's outputs into place, and a command's last part)
   raises nothing there either.  :func:`check`, which every write calls just before its renames
   (:func:`fitlab._io.atomic_write_many`), refuses the write (KeyboardInterrupt) when a request was made
@@ -29,6 +32,7 @@ import _thread
 import gc
 import os
 import signal
+import sys
 import threading
 import time
 from contextlib import contextmanager
@@ -44,6 +48,7 @@ _done = False  # the command's last part (a final hold) has ended, or main() has
 _in_gc = False  # the collector is running (between its "start" and its "stop" callbacks)
 _pending = False  # a request made where raising is unsafe waits to be raised
 _previous = None  # the handler install() replaced
+_previous_unraisable = None  # the sys.unraisablehook install() replaced
 
 
 def _reset() -> None:
@@ -95,6 +100,25 @@ def _interrupt():
     return KeyboardInterrupt()
 
 
+def _redeliver() -> None:
+    """Deliver the request again from a helper thread until the main thread raises it in a safe place."""
+    global _pending
+    if not _pending:
+        _pending = True
+        threading.Thread(target=_deliver_again, name="fitlab-sigint", daemon=True).start()
+
+
+def _unraisable(args) -> None:
+    """sys.unraisablehook while the handler is in place: fitlab's KeyboardInterrupt raised where Python can
+    only drop it (a weakref callback, such as the import machinery's module-lock ``cb``, or a finaliser that
+    :func:`_safe` cannot see) is neither printed nor lost: the request is delivered again.  Anything else
+    goes to the hook that was there before."""
+    if issubclass(args.exc_type, KeyboardInterrupt) and _requested and not _accepted and not _done:
+        _redeliver()
+        return
+    (_previous_unraisable or sys.__unraisablehook__)(args)
+
+
 def _handler(signum, frame) -> None:
     global _requested, _accepted, _late, _pending
     _requested = True
@@ -105,9 +129,7 @@ def _handler(signum, frame) -> None:
         _late = _late or _checked
         return
     if not _safe(frame):
-        if not _pending:
-            _pending = True
-            threading.Thread(target=_deliver_again, name="fitlab-sigint", daemon=True).start()
+        _redeliver()
         return
     raise _interrupt()
 
@@ -115,26 +137,32 @@ def _handler(signum, frame) -> None:
 def install():
     """Put fitlab's SIGINT handler in place (main thread only; elsewhere nothing), with no request yet
     (when it is in place already, its state stays); returns the handler it replaced (for :func:`uninstall`)."""
-    global _previous
+    global _previous, _previous_unraisable
     if threading.current_thread() is not threading.main_thread():
         _reset()
         return None
     if signal.getsignal(signal.SIGINT) is not _handler:  # installed already (python -m fitlab): keep its state
         _reset()
         _previous = signal.signal(signal.SIGINT, _handler)
+    if sys.unraisablehook is not _unraisable:
+        _previous_unraisable, sys.unraisablehook = sys.unraisablehook, _unraisable
     if _gc_phase not in gc.callbacks:
         gc.callbacks.insert(0, _gc_phase)
     return _previous
 
 
 def uninstall() -> None:
-    """Put back the handler :func:`install` replaced (a ``fitlab.cli.main`` call from Python, e.g. a test)."""
-    global _previous, _in_gc
+    """Put back the handler and the unraisable hook :func:`install` replaced (a ``fitlab.cli.main`` call from
+    Python, e.g. a test)."""
+    global _previous, _previous_unraisable, _in_gc
     if threading.current_thread() is not threading.main_thread():
         return
     if signal.getsignal(signal.SIGINT) is _handler:
         signal.signal(signal.SIGINT, _previous if _previous is not None else signal.default_int_handler)
     _previous = None
+    if sys.unraisablehook is _unraisable:
+        sys.unraisablehook = _previous_unraisable or sys.__unraisablehook__
+    _previous_unraisable = None
     while _gc_phase in gc.callbacks:
         gc.callbacks.remove(_gc_phase)
     _in_gc = False

@@ -82,6 +82,44 @@ def test_a_sigint_in_a_gc_callback_stops_the_refit(tmp_path, monkeypatch, capsys
     assert signal.getsignal(signal.SIGINT) is signal.default_int_handler  # main() put pytest's handler back
 
 
+def test_a_sigint_in_a_weakref_callback_stops_the_refit(tmp_path, monkeypatch, capsys):
+    """The signal lands in a weakref callback of the import machinery (its module-lock ``cb``, which fitlab
+    takes for a safe place to raise): Python drops the KeyboardInterrupt there ("Exception ignored in"),
+    fitlab's unraisable hook delivers it again, and the refit stops soon after, exit 130, one line (before:
+    the request was lost until the write, after the whole solve; under ``python -m fitlab`` the dropped
+    exception's traceback printed on stderr)."""
+    import weakref
+
+    state = {"finished": False}
+    # a callback whose code is the import machinery's, as _get_module_lock's cb is
+    callback_code = compile("def cb(ref):\n    os.kill(os.getpid(), signal.SIGINT)\n    sum(range(1000))\n",
+                            "<frozen importlib._bootstrap>", "exec")
+    namespace = {"os": os, "signal": signal}
+    exec(callback_code, namespace)
+
+    class Lock:
+        pass
+
+    def during():
+        lock = Lock()
+        ref = weakref.ref(lock, namespace["cb"])
+        del lock  # the callback runs here, from the object's deallocation
+        deadline = time.monotonic() + 20
+        while time.monotonic() < deadline:
+            one_line("a solve step")
+        state["finished"] = ref() is None  # (the lock is gone) the whole solve ran: the request was lost
+
+    from fitlab.cli._common import one_line
+
+    _stub_refit(monkeypatch, during)
+    out = _old_out(tmp_path)
+    before = sys.unraisablehook
+    assert main(["refit", "--target", "m", "--out", str(out), "--quiet"]) == 130
+    _interrupted_as_it_should(out, capsys.readouterr().err)
+    assert not state["finished"]
+    assert sys.unraisablehook is before  # main() put pytest's hook back
+
+
 @pytest.mark.parametrize("where", ["writing the temporary", "just before the renames"])
 def test_a_sigint_while_writing_keeps_the_old_file(tmp_path, monkeypatch, capsys, where):
     import builtins
