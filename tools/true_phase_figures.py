@@ -5,6 +5,8 @@
     python tools/true_phase_figures.py cost     C [C ...]    # seconds per c (Newton, all orders, cold cache)
     python tools/true_phase_figures.py gap      C [C ...]    # true vs mixed, mu in [0.01, 1], phi in [0, pi]
     python tools/true_phase_figures.py albedo                # directional albedo at c = 1
+    python tools/true_phase_figures.py kd       C [C ...]    # spherical albedo of each phase, and eq. 40's
+    python tools/true_phase_figures.py ms_gap   C [C ...]    # the mixed reference's multiple scattering vs true
 
 Run with one BLAS thread (OPENBLAS_NUM_THREADS=1) on a shared machine; prints plain text.
 """
@@ -111,7 +113,38 @@ def albedo():
         print(f"  phase {phase}: a(mu_i) at c = 1 in [{b.min():.7f}, {b.max():.7f}]")
 
 
+def ms_gap(cs):
+    """The three-term multiple scattering of the mixed reference against the true one, on gap's grid:
+    relative to the true multiple scattering (max, where, median) and absolute (1/sr)."""
+    mu = np.concatenate(([0.01], np.linspace(0.05, 1.0, 20)))
+    phi = np.linspace(0.0, np.pi, 13)
+    mi, mo, ph = (a.ravel() for a in np.meshgrid(mu, mu, phi, indexing="ij"))
+    u = -(mi * mo + np.sqrt((1 - mi**2) * (1 - mo**2)) * np.cos(ph))
+    for c in cs:
+        t = exact.brdf(mi, mo, ph, c, phase="true")
+        d = exact.brdf(mi, mo, ph, c, phase="mixed") - t  # same single scattering: the multiple's difference
+        ms_true = t - c * exact.phase_function(u) / (mi + mo)
+        r = np.abs(d) / ms_true
+        k, ka = int(np.argmax(r)), int(np.argmax(np.abs(d)))
+        print(f"c = {c}: multiple scattering relative max {r.max():.2e} at ({mi[k]:.2f}, {mo[k]:.2f}, {ph[k]:.2f}), "
+              f"median {np.median(r):.1e}; absolute max {np.abs(d).max():.2e} 1/sr at ({mi[ka]:.2f}, {mo[ka]:.2f}, "
+              f"{ph[ka]:.2f}), for mu >= 0.2 {np.abs(d[np.minimum(mi, mo) >= 0.2]).max():.1e}", flush=True)
+
+
+def kd(cs):
+    from fitlab.families.lambert_sphere.mc.effects import eq40_kd as kd_of_c_eq40
+
+    print("| c | eq. 40 | kd three_term | kd mixed | kd true | true - three_term | true - mixed | eq. 40 - true |")
+    print("|---|---|---|---|---|---|---|---|")
+    for c in cs:
+        k = {p: float(exact.spherical_albedo(c, phase=p)) for p in ("three_term", "mixed", "true")}
+        e = float(kd_of_c_eq40(c))
+        print(f"| {c:g} | {e:.6f} | {k['three_term']:.6f} | {k['mixed']:.6f} | {k['true']:.6f} | "
+              f"{k['true'] - k['three_term']:.2e} | {k['true'] - k['mixed']:.2e} | {e - k['true']:.1e} |", flush=True)
+
+
 if __name__ == "__main__":
     what, args = sys.argv[1], [float(x) for x in sys.argv[2:]]
     {"methods": lambda: methods(args), "degree": lambda: degree(args[0]), "cost": lambda: cost(args),
-     "gap": lambda: gap(args), "albedo": albedo}[what]()
+     "gap": lambda: gap(args), "albedo": albedo, "kd": lambda: kd(args),
+     "ms_gap": lambda: ms_gap(args)}[what]()
