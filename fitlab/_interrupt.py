@@ -49,6 +49,7 @@ _in_gc = False  # the collector is running (between its "start" and its "stop" c
 _pending = False  # a request made where raising is unsafe waits to be raised
 _previous = None  # the handler install() replaced
 _previous_unraisable = None  # the sys.unraisablehook install() replaced
+_delivery = threading.Lock()  # held while the helper thread delivers SIGINT again, and by uninstall() to stop it
 
 
 def _reset() -> None:
@@ -86,11 +87,15 @@ def _safe(frame) -> bool:
 
 def _deliver_again() -> None:
     """Send SIGINT to the main thread again, every few milliseconds, until its handler has raised (runs in a
-    helper thread)."""
-    while _pending and not _done:
+    helper thread).  Under ``_delivery``, which :func:`uninstall` takes to end the deliveries: none is sent
+    after it, so none reaches the handler put back (it would raise KeyboardInterrupt in whatever runs next)."""
+    while True:
         time.sleep(0.005)
-        if _pending and not _depth and not _done:
-            _thread.interrupt_main(signal.SIGINT)
+        with _delivery:
+            if not _pending or _done:
+                return
+            if not _depth:
+                _thread.interrupt_main(signal.SIGINT)
 
 
 def _interrupt():
@@ -155,8 +160,11 @@ def uninstall() -> None:
     """Put back the handler and the unraisable hook :func:`install` replaced (a ``fitlab.cli.main`` call from
     Python, e.g. a test)."""
     global _previous, _previous_unraisable, _in_gc
+    global _done, _pending
     if threading.current_thread() is not threading.main_thread():
         return
+    with _delivery:  # no delivery after this; one already sent runs _handler (done: it does nothing) in the
+        _done, _pending = True, False  # signal.signal below, which handles pending signals first
     if signal.getsignal(signal.SIGINT) is _handler:
         signal.signal(signal.SIGINT, _previous if _previous is not None else signal.default_int_handler)
     _previous = None
