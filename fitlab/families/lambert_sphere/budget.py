@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from fitlab._io import atomic_write_text
+from fitlab._io import atomic_write_many
 from fitlab.core import get_target
 from fitlab.families.lambert_sphere.exact import constants, h_function
 from fitlab.families.lambert_sphere.forms import ORDER2_PART, RUNTIME_PARTS
@@ -110,8 +110,8 @@ def main(argv=None) -> int:
     rows = error_budget(fits, progress=lambda label: print(f"  {label}", flush=True))
     out = Path(args.out)
     command = "python -m fitlab.families.lambert_sphere.budget --out " + args.out
-    atomic_write_text(out / "error_budget.md", _markdown(rows, command))
-    atomic_write_text(out / "error_budget.json", json.dumps(rows, indent=1) + "\n")
+    atomic_write_many({out / "error_budget.md": _markdown(rows, command).encode(),
+                       out / "error_budget.json": (json.dumps(rows, indent=1) + "\n").encode()})
     print(_markdown(rows, command))
     return 0
 

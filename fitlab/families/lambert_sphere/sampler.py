@@ -25,7 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
-from fitlab._io import atomic_write_text
+from fitlab._io import atomic_write_many
 from fitlab.families.lambert_sphere.exact import albedo
 from fitlab.families.lambert_sphere.exact.sampling import MU_MIN, optimal_mixture, relative_variance
 from fitlab.core import get_target
@@ -149,8 +149,9 @@ def main(argv=None) -> int:
     command = "python -m fitlab.families.lambert_sphere.sampler --out " + args.out
     text = _markdown(rows, fresh, mc, command)
     out = Path(args.out)
-    atomic_write_text(out / "sampling.md", text)
-    atomic_write_text(out / "sampling.json", json.dumps({"quadrature": rows, "fresh": fresh, "monte_carlo": mc}, indent=1) + "\n")
+    record = {"quadrature": rows, "fresh": fresh, "monte_carlo": mc}
+    atomic_write_many({out / "sampling.md": text.encode(),
+                       out / "sampling.json": (json.dumps(record, indent=1) + "\n").encode()})
     print(text)
     return 0
 

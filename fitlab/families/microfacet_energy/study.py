@@ -281,7 +281,8 @@ def _kc_native():
         return None
     generated = Path(__file__).resolve().parents[2] / "fits" / "generated"
     files = {n: (generated / n).read_text() for n in ("microfacet_energy.c", "microfacet_energy.h")}
-    return build(files, load_program(family="microfacet_energy"), Path(tempfile.mkdtemp(prefix="kc_furnace_")))
+    with tempfile.TemporaryDirectory(prefix="kc_furnace_") as workdir:  # the loaded library outlives its file
+        return build(files, load_program(family="microfacet_energy"), Path(workdir))
 
 
 def _g(x) -> str:
