@@ -7,6 +7,7 @@
     python tools/true_phase_figures.py albedo                # directional albedo at c = 1
     python tools/true_phase_figures.py kd       C [C ...]    # spherical albedo of each phase, and eq. 40's
     python tools/true_phase_figures.py ms_gap   C [C ...]    # the mixed reference's multiple scattering vs true
+    python tools/true_phase_figures.py runtime  C [C ...]    # the shipped runtime model vs mixed and vs true
 
 Run with one BLAS thread (OPENBLAS_NUM_THREADS=1) on a shared machine; prints plain text.
 """
@@ -131,6 +132,29 @@ def ms_gap(cs):
               f"{ph[ka]:.2f}), for mu >= 0.2 {np.abs(d[np.minimum(mi, mo) >= 0.2]).max():.1e}", flush=True)
 
 
+def runtime(cs):
+    """The runtime model fitlab codegen prints (runtime_model(), packaged fits) against the mixed reference
+    and against the true BRDF, relative, on gap's grid with mu from 0.01 (the runtime model's stated domain
+    for its BRDF figures) and with mu_i, mu_o >= 0.2."""
+    from fitlab.families.lambert_sphere.runtime import runtime_model
+
+    model = runtime_model()
+    mu = np.concatenate(([0.01, 0.02, 0.03], np.linspace(0.05, 1.0, 20)))
+    phi = np.linspace(0.0, np.pi, 13)
+    mi, mo, ph = (a.ravel() for a in np.meshgrid(mu, mu, phi, indexing="ij"))
+    big = np.minimum(mi, mo) >= 0.2
+    for c in cs:
+        f = model(mi, mo, ph, c)
+        row = []
+        for phase in ("mixed", "true"):
+            ref = exact.brdf(mi, mo, ph, c, phase=phase)
+            r = (f - ref) / ref
+            k = int(np.argmax(np.abs(r)))
+            row.append(f"vs {phase}: max {np.max(np.abs(r)):.2e} at ({mi[k]:.2f}, {mo[k]:.2f}, {ph[k]:.2f}), "
+                       f"RMS {np.sqrt(np.mean(r * r)):.2e}, max for mu >= 0.2 {np.max(np.abs(r[big])):.2e}")
+        print(f"c = {c}: " + "; ".join(row), flush=True)
+
+
 def kd(cs):
     from fitlab.families.lambert_sphere.mc.effects import eq40_kd as kd_of_c_eq40
 
@@ -147,4 +171,4 @@ if __name__ == "__main__":
     what, args = sys.argv[1], [float(x) for x in sys.argv[2:]]
     {"methods": lambda: methods(args), "degree": lambda: degree(args[0]), "cost": lambda: cost(args),
      "gap": lambda: gap(args), "albedo": albedo, "kd": lambda: kd(args),
-     "ms_gap": lambda: ms_gap(args)}[what]()
+     "ms_gap": lambda: ms_gap(args), "runtime": lambda: runtime(args)}[what]()
