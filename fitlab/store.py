@@ -17,15 +17,16 @@ import io
 import json
 import math
 import os
+from collections.abc import Mapping
 from dataclasses import dataclass
 from functools import lru_cache
 from importlib import resources
 from pathlib import Path
-from typing import Mapping
+from typing import Any, cast
 
 import jsonschema
+import jsonschema.exceptions
 import numpy as np
-
 import sympy as sp
 
 from fitlab import __version__
@@ -38,8 +39,8 @@ from fitlab.resources import packaged_fits
 __all__ = [
     "FORMAT", "FitFileError", "FitFunction", "load", "read_fit", "read_checked_fit", "check_fit", "checked_fit",
     "fit_schema", "PARAM_LIMIT", "write_fit", "write_fits", "strict_json", "decode_nonfinite", "form_from_fit",
-    "fits_folder", "fit_path", "fit_source", "fit_origin", "fit_files", "fit_sha256", "resolve_form", "Table", "TableError",
-    "format_table", "read_table", "write_tables",
+    "fits_folder", "fit_path", "fit_source", "fit_origin", "fit_files", "fit_sha256", "resolve_form", "Table",
+    "TableError", "format_table", "read_table", "write_tables",
 ]
 
 FORMAT = "fitlab-fit/1"
@@ -66,7 +67,7 @@ def _encode(x):
 _NONFINITE = {"inf": math.inf, "-inf": -math.inf, "nan": math.nan}
 
 
-def _decode(x):
+def _decode(x) -> Any:
     if isinstance(x, str) and x in _NONFINITE:
         return _NONFINITE[x]
     if isinstance(x, dict):
@@ -114,7 +115,7 @@ def _validator():
 
 def fit_schema() -> dict:
     """The JSON Schema of the fit-file format (fitlab/schemas/fit-1.schema.json)."""
-    return dict(_validator().schema)
+    return dict(cast(Mapping, _validator().schema))  # the schema file holds an object, not a boolean schema
 
 
 def _refuse_constant(name):
@@ -169,7 +170,8 @@ def checked_fit(record, source: str = "fit") -> tuple[dict, sp.Expr]:
     for group in ("params", "fixed"):
         for name, value in record.get(group, {}).items():
             if not (math.isfinite(value) and abs(value) <= PARAM_LIMIT):
-                raise FitFileError(f"{source}: {group} {name} = {value!r} is not a finite number of magnitude <= {PARAM_LIMIT:g}")
+                raise FitFileError(f"{source}: {group} {name} = {value!r} is not a finite number of magnitude "
+                                   f"<= {PARAM_LIMIT:g}")
     fixed = record.get("fixed", {})
     if not set(fixed) <= set(record["params"]) or any(record["params"][k] != v for k, v in fixed.items()):
         raise FitFileError(f"{source}: fixed parameters must be parameters, with the same values")
@@ -214,7 +216,8 @@ def _checked_user_fit(record: dict, source: str) -> tuple[dict, sp.Expr]:
     for group in ("params", "fixed"):
         for key, value in record.get(group, {}).items():
             if not (math.isfinite(value) and abs(value) <= PARAM_LIMIT):
-                raise FitFileError(f"{source}: {group} {key} = {value!r} is not a finite number of magnitude <= {PARAM_LIMIT:g}")
+                raise FitFileError(f"{source}: {group} {key} = {value!r} is not a finite number of magnitude "
+                                   f"<= {PARAM_LIMIT:g}")
     fixed = record.get("fixed", {})
     if not set(fixed) <= set(record["params"]) or any(record["params"][k] != v for k, v in fixed.items()):
         raise FitFileError(f"{source}: fixed parameters must be parameters, with the same values")
@@ -286,7 +289,7 @@ class FitFunction:
         self.domain = {k: tuple(float(x) for x in v) for k, v in record["domain"].items()}
         # xreplace, not subs: the same substitution of symbols by numbers, without subs's matching (10x faster)
         expr = expr.xreplace({sp.Symbol(p, real=True): sp.Float(repr(float(v)), 17) for p, v in self.params.items()})
-        self.expression = expr
+        self.expression = cast(sp.Expr, expr)  # sympy annotates xreplace as giving a Basic
         self._f = None  # the numpy function, made on the first call: codegen reads only the expression
         #: what :func:`fitlab.fit.verify.verify_fit` measured (error figures, the set and domain measured on), or None
         self.measured: dict | None = None
@@ -501,8 +504,10 @@ def read_table(path: Path, columns: tuple[str, ...] | None = None, *, grid: str 
     try:
         text = raw.decode("utf-8")
     except UnicodeDecodeError as exc:
-        raise TableError(f"{path}: not UTF-8 text (byte {raw[exc.start]:#04x} at offset {exc.start}); {rewrite}") from None
+        raise TableError(f"{path}: not UTF-8 text (byte {raw[exc.start]:#04x} at offset {exc.start}); "
+                         f"{rewrite}") from None
     header, stated, rows, first = None, None, [], 0
+    allowed: list[bool] = []  # per column, whether +inf may stand there (set with the header)
     for number, line in enumerate(text.splitlines(), start=1):
         if header is None and line.startswith("#"):  # comments head the file; below the header, a row is a row
             if stated is None and line.startswith("# grid:"):
@@ -518,7 +523,8 @@ def read_table(path: Path, columns: tuple[str, ...] | None = None, *, grid: str 
         fields = line.split(",")
         if len(fields) != len(header):
             plural = "s" if len(fields) != 1 else ""
-            raise TableError(f"{path} line {number}: {len(fields)} field{plural}, the header has {len(header)}; {rewrite}")
+            raise TableError(f"{path} line {number}: {len(fields)} field{plural}, the header has {len(header)}; "
+                             f"{rewrite}")
         try:
             row = [float(x) for x in fields]
         except ValueError:

@@ -22,11 +22,12 @@ from fitlab._io import atomic_write_text
 from fitlab.codegen.emit import LANGUAGES, emit
 from fitlab.codegen.program import (
     DEFAULT_FORMS,
+    SAFE_POW,
+    STABLE,
     Program,
     ProgramSpec,
     Routine,
     build_program,
-    SAFE_POW,
     call,
     clamp,
     clamped,
@@ -36,16 +37,15 @@ from fitlab.codegen.program import (
     parse_terms,
     part_routine,
     program_spec,
-    STABLE,
     stable,
     with_domain,
 )
 from fitlab.core import targets
 from fitlab.store import fit_files, fit_origin, fit_path, fit_sha256, fit_source, load
 
-__all__ = ["generate", "codegen_command", "load_program", "unused_fits", "parse_forms", "write_generated", "emit", "LANGUAGES", "build_program",
-           "parse_terms", "program_spec", "default_program_family", "model_form", "part_routine", "Program", "ProgramSpec",
-           "Routine", "call",
+__all__ = ["generate", "codegen_command", "load_program", "unused_fits", "parse_forms", "write_generated", "emit",
+           "LANGUAGES", "build_program", "parse_terms", "program_spec", "default_program_family", "model_form",
+           "part_routine", "Program", "ProgramSpec", "Routine", "call",
            "stable", "STABLE", "clamp", "clamped", "minmax_piecewise", "with_domain",
            "SAFE_POW", "DEFAULT_FORMS"]  # fmt: skip
 

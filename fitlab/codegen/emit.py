@@ -31,9 +31,9 @@ from dataclasses import dataclass
 import sympy as sp
 
 from fitlab import __version__
-from fitlab.forms.symbolic import safe_pow
 from fitlab.codegen.printers import CPrinter, DrJitPrinter, GLSLPrinter, MetalPrinter, NumpyPrinter
 from fitlab.codegen.program import SAFE_POW, Material, Program, Routine, field_symbol, outputs, unused_inputs
+from fitlab.forms.symbolic import safe_pow
 
 __all__ = ["emit", "LANGUAGES"]
 
@@ -68,7 +68,9 @@ def _cse_many(exprs, name: str):
                 acc = others[0]
                 for a in others[1:-1]:
                     acc = temp(e.func(acc, a))
-                return e.func(acc, others[-1], *consts) if not consts else e.func(temp(e.func(acc, others[-1])), *consts)
+                if not consts:
+                    return e.func(acc, others[-1], *consts)
+                return e.func(temp(e.func(acc, others[-1])), *consts)
         return e if all(a is b for a, b in zip(args, e.args)) else e.func(*args)
 
     conditions = {}  # a condition shared by several branches stays written where it is used
@@ -78,7 +80,8 @@ def _cse_many(exprs, name: str):
             conditions[t] = e
             continue
         out.append((t, e))
-    exprs = [hoist(e.xreplace(conditions)) for e in exprs]
+    # sympy's cse is unannotated: pyright infers str among its reduced expressions, which are sympy expressions
+    exprs = [hoist(e.xreplace(conditions)) for e in exprs]  # pyright: ignore[reportAttributeAccessIssue]
     return out, exprs
 
 
@@ -141,7 +144,8 @@ def _c_function(routine: Routine, scalar: str, prefix: str, qualifier: str, lead
     """One routine as a C function; ``leading``: parameters before the routine's own (with their comma),
     ``names``: how further symbols read (a material's fields)."""
     suffix = "_f" if scalar == "float" else ""
-    printer = CPrinter(scalar, lambda n: f"{prefix}{n}{suffix}", {**_vector_names(routine, "{v}[{k}]"), **(names or {})})
+    symbol_names = {**_vector_names(routine, "{v}[{k}]"), **(names or {})}
+    printer = CPrinter(scalar, lambda n: f"{prefix}{n}{suffix}", symbol_names)
     temps, expr, vector = _cse(routine)
     body = [f"    const {scalar} {t} = {printer.doprint(e)};" for t, e in temps]
     body += [f"    {routine.out}[{k}] = {printer.doprint(e)};" for k, e in enumerate(vector)]
@@ -157,6 +161,7 @@ _MATERIAL_DOC = ("Per-material set-up: {prepare}({params}) fills the struct with
 
 def _material_doc(program: Program) -> str:
     m = program.material
+    assert m is not None
     setups = "".join(f", {program.prefix}{name}({arg}) the same from {arg}" for name, arg, _ in m.setups)
     return _MATERIAL_DOC.format(prepare=program.prefix + m.prepare_name, params=", ".join(m.params), n=len(m.fields),
                                 setups=setups, evals=", ".join(program.prefix + r.name for r in m.evaluators))
@@ -170,6 +175,7 @@ def _material_names(material: Material, access: str) -> dict:
 def _c_material(program: Program, qualifier: str) -> tuple[list[str], list[str]]:
     """(declarations, definitions) of the material struct and its routines, double then float."""
     m, prefix = program.material, program.prefix
+    assert m is not None
     decls, defs = ["\n/*\n" + "\n".join(_wrap(_material_doc(program), " * ")) + "\n */\n"], []
     for scalar, suffix in (("double", ""), ("float", "_f")):
         struct = f"{prefix}material{suffix}"
@@ -185,7 +191,8 @@ def _c_material(program: Program, qualifier: str) -> tuple[list[str], list[str]]
         for name, arg, routine in m.setups:
             sig = f"{struct} {prefix}{name}{suffix}({scalar} {arg})"
             decls.append(f"{qualifier} {sig};\n")
-            defs.append(f"\n{qualifier} {sig}\n{{\n    return {prefix}{m.prepare_name}{suffix}({prefix}{routine}{suffix}({arg}));\n}}\n")
+            defs.append(f"\n{qualifier} {sig}\n{{\n"
+                        f"    return {prefix}{m.prepare_name}{suffix}({prefix}{routine}{suffix}({arg}));\n}}\n")
         for name, arg in ((m.prepare_name, ", ".join(m.params)), *((n, a) for n, a, _ in m.setups)):
             sig = f"void {prefix}{name}_rgb{suffix}(const {scalar} {arg}[3], {struct} m[3])"
             decls.append(f"{qualifier} {sig};\n")
@@ -229,7 +236,8 @@ def _c_files(program: Program, command: str | None = None, single_header: bool =
         body.append(f"/* {_SAFE_POW_DOC} */\n")
         for scalar, suffix in (("double", ""), ("float", "_f")):
             text = CPrinter(scalar, str).doprint(SAFE_POW)
-            body.append(f"static {qualifier} {scalar} {prefix}safe_pow{suffix}({scalar} x, {scalar} p) {{ return {text}; }}\n")
+            body.append(f"static {qualifier} {scalar} {prefix}safe_pow{suffix}({scalar} x, {scalar} p) "
+                        f"{{ return {text}; }}\n")
     for scalar in ("double", "float"):
         for r in program.routines:
             body.append("\n" + _c_function(r, scalar, prefix, qualifier))
@@ -239,7 +247,8 @@ def _c_files(program: Program, command: str | None = None, single_header: bool =
         h.append(f"\n#endif /* {guard} */\n\n#ifdef {implementation}\n#ifndef {implementation}_DONE\n"
                  f"#define {implementation}_DONE\n\n#ifdef __cplusplus\nextern \"C\" {{\n#endif\n\n")  # fmt: skip
         h += body
-        h.append(f"\n#ifdef __cplusplus\n}}\n#endif\n\n#endif /* {implementation}_DONE */\n#endif /* {implementation} */\n")
+        h.append(f"\n#ifdef __cplusplus\n}}\n#endif\n\n#endif /* {implementation}_DONE */\n"
+                 f"#endif /* {implementation} */\n")
         return {f"{base}.h": "".join(h)}
     h.append(f"\n#endif /* {guard} */\n")
     c = [banner, f'#include "{base}.h"\n\n', *body]
@@ -267,9 +276,11 @@ _SHADING = {
                      "// OpenGL ES has no default float precision in fragment shaders: this file sets highp there.\n"
                      "#ifdef GL_ES\nprecision highp float;\n#endif\n\n", "vec4"),
     "hlsl": _Shading("hlsl", "float3",
-                     "// Float functions for HLSL (shader model 5 and later; DXC, FXC, glslang); #include into a shader.\n\n", "float4"),
+                     "// Float functions for HLSL (shader model 5 and later; DXC, FXC, glslang); "
+                     "#include into a shader.\n\n", "float4"),
     "metal": _Shading("metal", "float3",
-                      "// Float functions for the Metal Shading Language (2.0 and later); #include into a .metal file.\n"
+                      "// Float functions for the Metal Shading Language (2.0 and later); "
+                      "#include into a .metal file.\n"
                       "#include <metal_stdlib>\nusing namespace metal;\n\n", "float4", MetalPrinter),
 }
 
@@ -284,7 +295,8 @@ def _shading_files(program: Program, command: str | None, lang: str) -> dict[str
         f"// {_SAFE_POW_DOC}\n",
         f"float {prefix}safe_pow(float x, float p) {{ return {sh.printer(str).doprint(SAFE_POW)}; }}\n",
         "// log(1 + x) and exp(x) - 1 without cancellation near x = 0 (Kahan's tricks; the language lacks both).\n",
-        f"float {prefix}log1p(float x) {{ float u = {_one(sh)} + x; return u == {_one(sh)} ? x : log(u) * x / (u - {_one(sh)}); }}\n",
+        f"float {prefix}log1p(float x) {{ float u = {_one(sh)} + x; "
+        f"return u == {_one(sh)} ? x : log(u) * x / (u - {_one(sh)}); }}\n",
         f"float {prefix}expm1(float x)\n{{\n    float u = exp(x);\n    if (u == {_one(sh)}) return x;\n"
         f"    if (u - {_one(sh)} == -{_one(sh)}) return -{_one(sh)};\n    return (u - {_one(sh)}) * x / log(u);\n}}\n",
     ]
@@ -320,6 +332,7 @@ def _one(sh: _Shading) -> str:
 def _shading_material(program: Program, sh: _Shading) -> list[str]:
     """The struct, its set-up and the evaluators (structs by value); _rgb takes three materials."""
     m, prefix = program.material, program.prefix
+    assert m is not None
     struct = f"{prefix}material"
     out = ["\n" + "\n".join(_wrap(_material_doc(program), "// ")) + "\n",
            f"struct {struct} {{ float k[{len(m.fields)}]; }};\n"]
@@ -330,7 +343,8 @@ def _shading_material(program: Program, sh: _Shading) -> list[str]:
     params = ", ".join(f"float {a}" for a in m.params)
     out.append(f"\n{struct} {prefix}{m.prepare_name}({params})\n{{\n" + "\n".join(body) + "\n    return m;\n}\n")
     for name, arg, routine in m.setups:
-        out.append(f"\n{struct} {prefix}{name}(float {arg}) {{ return {prefix}{m.prepare_name}({prefix}{routine}({arg})); }}\n")
+        out.append(f"\n{struct} {prefix}{name}(float {arg}) "
+                   f"{{ return {prefix}{m.prepare_name}({prefix}{routine}({arg})); }}\n")
     for r in m.evaluators:
         out.append(_shading_function(r, sh, prefix, f"{struct} m, ", _material_names(m, "m.k[{j}]")))
         if r.out:
@@ -373,7 +387,8 @@ def _python_all(program: Program) -> str:
 
 
 def _python_files(program: Program, command: str | None = None) -> dict[str, str]:
-    header = _PY_HEADER.format(doc=program.doc, safe_pow_doc=_SAFE_POW_DOC, safe_pow=NumpyPrinter(str).doprint(SAFE_POW))
+    header = _PY_HEADER.format(doc=program.doc, safe_pow_doc=_SAFE_POW_DOC,
+                               safe_pow=NumpyPrinter(str).doprint(SAFE_POW))
     out = [_banner(program, "python", "#", command), header, _python_all(program)]
     out += [_python_function(r) for r in program.routines]
     if program.material is not None:
@@ -396,6 +411,7 @@ def _python_material(program: Program) -> list[str]:
     """The per-material routines in numpy: a material is an array whose last axis holds the fields, so
     that materials of any shape (one per channel: (..., 3, fields)) broadcast against the inputs."""
     m = program.material
+    assert m is not None
     doc = _material_doc(program).replace(program.prefix, "").replace(
         _RGB_SENTENCE,
         "A material is an array with a last axis of the fields; for RGB prepare an array of three values "
@@ -501,6 +517,7 @@ def _drjit_files(program: Program, command: str | None = None) -> dict[str, str]
 def _drjit_material(program: Program) -> list[str]:
     """The per-material routines: a material is a tuple of fields, each of the type of the parameter."""
     m = program.material
+    assert m is not None
     doc = _material_doc(program).replace(program.prefix, "").replace(
         _RGB_SENTENCE,
         "A material is a tuple of fields of the type of the argument: prepare a Color3f (one value per channel) "
@@ -536,8 +553,9 @@ def _drjit_function(r: Routine, leading=(), names=None) -> str:
     return "\n".join(lines) + "\n"
 
 
-LANGUAGES = {"c": _c_files, "python": _python_files, **{lang: (lambda program, command=None, lang=lang:
-                                                               _shading_files(program, command, lang)) for lang in _SHADING},
+LANGUAGES = {"c": _c_files, "python": _python_files,
+             **{lang: (lambda program, command=None, lang=lang: _shading_files(program, command, lang))
+                for lang in _SHADING},
              "drjit": _drjit_files}
 
 

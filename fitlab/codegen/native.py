@@ -27,8 +27,8 @@ import numpy as np
 
 from fitlab.codegen.program import Program
 
-__all__ = ["compiler", "cxx_compiler", "STRICT_FLAGS", "GLSL_FLAGS", "GLSL_SHIM", "HLSL_SHIM", "METAL_STDLIB", "METAL_FLAGS",
-           "build", "build_glsl", "NativeModel", "CompileError"]
+__all__ = ["compiler", "cxx_compiler", "STRICT_FLAGS", "GLSL_FLAGS", "GLSL_SHIM", "HLSL_SHIM", "METAL_STDLIB",
+           "METAL_FLAGS", "build", "build_glsl", "NativeModel", "CompileError"]
 
 #: the issue's standard: the generated C must compile clean under these
 STRICT_FLAGS = ("-std=c99", "-O2", "-Wall", "-Wextra", "-Wpedantic", "-Werror")
@@ -124,15 +124,18 @@ def _material_loops(program: Program, by_value: bool, scalars=(("double", "", ""
             if by_value:  # GLSL: structs and vectors by value
                 args = ", ".join(f"glsl_vec3({a} + 3 * i)" if a in r.vectors else f"{a}[i]" for a in sig)
             one = "m[which[i]]" if by_value else "m + which[i]"
-            lines.append(f"void {prefix}{r.name}{loop}_loop(long n, const {struct} *m, const long *which, {decl}, {scalar} *out)")
-            lines.append(f"{{ long i; for (i = 0; i < n; ++i) {_store(r, f'{prefix}{r.name}{suffix}', f'{one}, {args}', by_value)} }}")
+            lines.append(f"void {prefix}{r.name}{loop}_loop(long n, const {struct} *m, const long *which, "
+                         f"{decl}, {scalar} *out)")
+            store = _store(r, f"{prefix}{r.name}{suffix}", f"{one}, {args}", by_value)
+            lines.append(f"{{ long i; for (i = 0; i < n; ++i) {store} }}")
             if r.out:
                 continue
             if by_value:
                 three = "m[3 * which[i]], m[3 * which[i] + 1], m[3 * which[i] + 2]"
                 lines.append(f"void {prefix}{r.name}_rgb{loop}_loop(long n, const {struct} *m, const long *which, "
                              f"{decl}, {scalar} *out)")
-                lines.append(f"{{ long i; for (i = 0; i < n; ++i) {{ SHADER_VEC3 v = {prefix}{r.name}_rgb({three}, {args}); "
+                lines.append(f"{{ long i; for (i = 0; i < n; ++i) {{ "
+                             f"SHADER_VEC3 v = {prefix}{r.name}_rgb({three}, {args}); "
                              "out[3 * i] = v.x; out[3 * i + 1] = v.y; out[3 * i + 2] = v.z; } }")
             else:
                 lines.append(f"void {prefix}{r.name}_rgb{loop}_loop(long n, const {struct} *m, const long *which, "
@@ -210,7 +213,8 @@ def _compile(workdir: Path, sources: list[Path], lib: Path, flags, cxx: bool = F
     a file).  Failed compilations are never kept."""
     cc = cxx_compiler() if cxx else compiler()
     if cc is None:
-        raise CompileError("no C++ compiler found (c++, g++ or clang++)" if cxx else "no C compiler found (cc, gcc or clang)")
+        raise CompileError("no C++ compiler found (c++, g++ or clang++)" if cxx
+                           else "no C compiler found (cc, gcc or clang)")
     cmd = [cc, *flags, "-shared", "-fPIC", "-o", str(lib), *map(str, sources), "-lm"]
     folder = os.environ.get(NATIVE_CACHE_ENV)
     cached = Path(folder) / f"{_cache_key(Path(workdir), cmd)}.so" if folder else None
@@ -240,7 +244,7 @@ def _written(files: dict[str, str], workdir: Path, loops: dict[str, str]) -> Pat
     return workdir
 
 
-def build(files: dict[str, str], program: Program, workdir: Path, flags=STRICT_FLAGS) -> "NativeModel":
+def build(files: dict[str, str], program: Program, workdir: Path, flags=STRICT_FLAGS) -> NativeModel:
     """Write ``files`` (the generated C) to ``workdir``, compile with ``flags``
     (and -shared -fPIC) and load; the model's ``command`` is the compiler's command line."""
     workdir = _written(files, workdir, {"loops.c": _loop_source(program)})
@@ -263,7 +267,7 @@ def cxx_compiler() -> str | None:
     return None
 
 
-def build_glsl(files: dict[str, str], program: Program, workdir: Path, flags=None, lang: str = "glsl") -> "NativeModel":
+def build_glsl(files: dict[str, str], program: Program, workdir: Path, flags=None, lang: str = "glsl") -> NativeModel:
     """Write ``files`` (the generated GLSL, HLSL or Metal: ``lang``) to ``workdir``, compile them against a shim
     of the language's built-ins (GLSL and HLSL as C: :data:`GLSL_SHIM`, :data:`HLSL_SHIM`; Metal as C++:
     :data:`METAL_STDLIB`) and load: a model of the shader functions, callable in float only
@@ -307,7 +311,8 @@ class NativeModel:
 
     def loop(self, func: str, dtype=np.float64):
         if np.dtype(dtype) not in [np.dtype(d) for d in self.dtypes]:
-            raise TypeError(f"this model has no {np.dtype(dtype)} loops (it has {[np.dtype(d).name for d in self.dtypes]})")
+            raise TypeError(f"this model has no {np.dtype(dtype)} loops "
+                            f"(it has {[np.dtype(d).name for d in self.dtypes]})")
         f = getattr(self.lib, func + ("_f" if dtype == np.float32 else "") + "_loop")
         f.restype = None
         return f
@@ -331,6 +336,7 @@ class NativeModel:
         arrays = [np.asarray(a, dtype=dtype) for a in args]
         shape = np.broadcast_shapes(*(a.shape for a in arrays))
         arrays = [np.ascontiguousarray(np.broadcast_to(a, shape)) for a in arrays]
+        assert self.material is not None  # a set-up routine belongs to the material
         out = np.empty((*shape, len(self.material.fields)), dtype=dtype)
         self.loop(self.prefix + name, dtype)(ctypes.c_long(int(np.prod(shape))), *(self._ptr(a, dtype) for a in arrays),
                                              self._ptr(out, dtype))  # fmt: skip
@@ -341,6 +347,7 @@ class NativeModel:
         if len(args) != len(sig):
             raise TypeError(f"{self.prefix}{name} takes (materials, which, {', '.join(sig)})")
         materials = np.ascontiguousarray(materials, dtype=dtype)
+        assert self.material is not None  # an evaluator belongs to the material
         if materials.ndim != 2 or materials.shape[1] != len(self.material.fields):
             raise ValueError(f"materials must be an array (n, {len(self.material.fields)}) (from a prepare routine)")
         which = np.asarray(which, dtype=np.int64)

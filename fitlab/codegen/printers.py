@@ -17,15 +17,16 @@ forms need:
 
 from __future__ import annotations
 
-from typing import Callable, Mapping
+from collections.abc import Callable, Mapping
+from typing import TYPE_CHECKING
 
 import sympy as sp
 from sympy.codegen.ast import float32, float64, real
 from sympy.core.function import AppliedUndef
 from sympy.printing.c import C99CodePrinter
 from sympy.printing.numpy import NumPyPrinter
-from sympy.printing.pycode import PythonCodePrinter
 from sympy.printing.precedence import precedence
+from sympy.printing.pycode import PythonCodePrinter
 
 from fitlab.codegen.program import minmax_piecewise
 from fitlab.forms.symbolic import safe_pow
@@ -52,8 +53,20 @@ def _small_power(printer, expr) -> str | None:
     return None
 
 
-class _Common:
+if TYPE_CHECKING:  # for the type checker, the mixin is a code printer (it is mixed into one first)
+    from sympy.printing.codeprinter import CodePrinter as _MixinBase
+else:
+    _MixinBase = object
+
+
+class _Common(_MixinBase):
     """Shared overrides: routine calls, safe_pow, symbol renames."""
+
+    if TYPE_CHECKING:
+
+        def doprint(self, expr, assign_to=None) -> str: ...  # without assign_to, sympy's doprint gives text
+
+        def _conditional(self, cond: str, a: str, b: str) -> str: ...  # each language's conditional
 
     def __init__(self, call_name: Callable[[str], str], symbol_names: Mapping[str, str] | None = None, **settings):
         super().__init__(settings)
@@ -147,8 +160,8 @@ class MetalPrinter(GLSLPrinter):
     def _literal(self, text: str) -> str:
         return text + "f"
 
-    def _print_Float(self, expr):
-        return super()._print_Float(expr) + "f"
+    def _print_Float(self, flt):
+        return super()._print_Float(flt) + "f"
 
 
 class NumpyPrinter(_Common, NumPyPrinter):
@@ -189,7 +202,7 @@ class DrJitPrinter(_Common, PythonCodePrinter):
 
     def _print_Function(self, expr):
         name = type(expr).__name__
-        if isinstance(expr, AppliedUndef) or isinstance(expr, safe_pow):
+        if isinstance(expr, (AppliedUndef, safe_pow)):
             return super()._print_Function(expr)
         if name in self._FUNCTIONS:
             return f"dr.{self._FUNCTIONS[name]}({', '.join(self._print(a) for a in expr.args)})"
@@ -241,7 +254,8 @@ class DrJitPrinter(_Common, PythonCodePrinter):
 
     def _print_Not(self, expr):
         # ~ negates a Dr.Jit mask but turns the Python bool True into -2
-        raise ValueError("no Dr.Jit spelling of a negation that serves masks and Python bools: print the opposite relation")
+        raise ValueError("no Dr.Jit spelling of a negation that serves masks and Python bools: "
+                         "print the opposite relation")
 
     def _print_BooleanTrue(self, expr):
         return "True"

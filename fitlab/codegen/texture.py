@@ -185,8 +185,8 @@ def _c_data_header(program: Program, texture: Texture, banner: str) -> str:
             lines.append(line.rstrip().rstrip(","))
             out.append(f"    {{ /* row {r} */\n" + "\n".join(lines) + "\n    },\n")
     out.append("};\n\n")
-    out.append(f"/* The texture's value at (row, column), integer-valued; a NaN or out-of-range index reads index 0\n"
-               f" * (a NaN coordinate's weights make the lookup NaN; the index only has to stay in bounds). */\n")
+    out.append("/* The texture's value at (row, column), integer-valued; a NaN or out-of-range index reads index 0\n"
+               " * (a NaN coordinate's weights make the lookup NaN; the index only has to stay in bounds). */\n")
     for scalar, suffix in (("double", ""), ("float", "_f")):
         rows, cols = texture.rows - 1, texture.columns - 1
         out.append(f"static {scalar} {prefix}texel{suffix}({scalar} row, {scalar} col)\n{{\n"
@@ -206,7 +206,8 @@ def _glsl_block(program: Program, texture: Texture) -> str:
              "before this file.", "#ifdef GL_ES", "precision highp float;", "precision highp int;",
              "precision highp sampler2D;", "#endif", f"#ifndef {name}", f"#define {name} {program.prefix}texture",
              f"uniform highp sampler2D {program.prefix}texture;", "#endif",
-             f"float {program.prefix}texel(float row, float col) {{ return texelFetch({name}, ivec2(col, row), 0).r; }}",
+             f"float {program.prefix}texel(float row, float col) "
+             f"{{ return texelFetch({name}, ivec2(col, row), 0).r; }}",
              ""]  # fmt: skip
     return "\n".join(lines) + "\n"
 
@@ -243,7 +244,7 @@ def texel(row, col):
     i = numpy.where((row >= 0) & (row <= {rows - 1}), row, 0).astype(numpy.intp)
     j = numpy.where((col >= 0) & (col <= {cols - 1}), col, 0).astype(numpy.intp)
     return TEXTURE[i, j]
-'''
+'''  # noqa: E501 (a line of the generated module)
 
 
 def _banner_of(text: str, comment: str) -> str:
@@ -304,4 +305,4 @@ static shim_texel texelFetch(sampler2D sampler, shim_ivec2 p, int lod)
     t.g = t.b = 0.0f; t.a = 1.0f;
     return t;
 }
-"""
+"""  # noqa: E501 (C source)

@@ -17,16 +17,16 @@ class Dataset:
     inputs: dict
     y: np.ndarray
     grid: str
-    aux: dict = None  # other exact quantities at the same points (e.g. a scale)
+    aux: dict | None = None  # other exact quantities at the same points (e.g. a scale)
 
     def __len__(self) -> int:
         return int(self.y.size)
 
-    def select(self, mask) -> "Dataset":
+    def select(self, mask) -> Dataset:
         aux = None if self.aux is None else {k: v[mask] for k, v in self.aux.items()}
         return Dataset({k: v[mask] for k, v in self.inputs.items()}, self.y[mask], self.grid, aux)
 
-    def restricted(self, domain: dict) -> "Dataset":
+    def restricted(self, domain: dict) -> Dataset:
         """The points whose inputs lie in ``domain`` ({name: (lo, hi)}), edges included."""
         mask = np.ones(len(self), dtype=bool)
         for name, (lo, hi) in domain.items():
@@ -39,9 +39,10 @@ class Dataset:
             h.update(name.encode())
             h.update(np.ascontiguousarray(self.inputs[name], dtype="<f8").tobytes())
         h.update(np.ascontiguousarray(self.y, dtype="<f8").tobytes())
-        for name in sorted(self.aux or {}):
+        aux = self.aux or {}
+        for name in sorted(aux):
             h.update(name.encode())
-            h.update(np.ascontiguousarray(self.aux[name], dtype="<f8").tobytes())
+            h.update(np.ascontiguousarray(aux[name], dtype="<f8").tobytes())
 
 
 def data_hash(*datasets: Dataset) -> str:

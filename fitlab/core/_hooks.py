@@ -23,8 +23,9 @@ hook                      protocol
 
 from __future__ import annotations
 
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
-from typing import Any, Callable, Mapping, NamedTuple, Protocol, Sequence, runtime_checkable
+from typing import Any, NamedTuple, Protocol, runtime_checkable
 
 __all__ = ["TablesHook", "AuditHook", "RenderHook", "BenchHook", "ReportHook", "BrdfReportHook", "TableExportHook",
            "BrdfGridHook", "BrdfGrid", "ProgramContract", "missing_member", "check_hook", "BENCHES"]  # fmt: skip

@@ -9,19 +9,18 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Mapping
 
 from fitlab import __version__
-from fitlab.store import FORMAT
-from fitlab.forms import Form
-from fitlab.core import Target, data_hash
+from fitlab.core import Target, data_hash, get_target, targets
 from fitlab.fit.metrics import summary
 from fitlab.fit.solver import SOLVER_SETTINGS, FitResult, fit_form, fit_form_scipy
-from fitlab.core import get_target, targets
+from fitlab.forms import Form
+from fitlab.store import FORMAT
 
-__all__ = ["RefitResult", "refit", "refit_stages", "check_domain", "validation_metrics", "preset_metrics", "MINIMAX_ROUNDS",
-           "default_jobs", "table", "refit_verdict", "VERDICT_RTOL"]
+__all__ = ["RefitResult", "refit", "refit_stages", "check_domain", "validation_metrics", "preset_metrics",
+           "MINIMAX_ROUNDS", "default_jobs", "table", "refit_verdict", "VERDICT_RTOL"]
 
 MINIMAX_ROUNDS = 40
 
@@ -247,7 +246,8 @@ def table(results: list[RefitResult], walls: list[float]) -> str:
                 f"{res.scipy.seconds:.2f} s ({res.scipy.l2_steps} evaluations); train max rel "
                 f"{_fmt(res.fit.history[0][1])} vs {_fmt(res.scipy.train_max)}"
             )
-    lines.append("max rel* = max rel without the target's exact zeros (where missing a zero is an infinite relative error)")
+    lines.append("max rel* = max rel without the target's exact zeros "
+                 "(where missing a zero is an infinite relative error)")
     return "\n".join(lines)
 
 

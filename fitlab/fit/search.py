@@ -16,7 +16,7 @@ It reads and writes nothing.
 
 from __future__ import annotations
 
-from typing import Callable
+from collections.abc import Callable
 
 import numpy as np
 
@@ -47,12 +47,13 @@ def search_worst(target: Target, approx: Callable[..., np.ndarray], starts: Data
     computed}.  Needs ``target.exact_grid`` over the target's own inputs (ValueError otherwise)."""
     if target.exact_grid is None or tuple(target.residual_axes) != tuple(target.inputs):
         raise ValueError(f"search_worst: target {target.name} has no exact values on grids of its inputs")
+    exact_grid = target.exact_grid  # not None (above); a frozen dataclass's field
     names = tuple(target.inputs)
     bounds = dict(target.domain)
     bounds.update(domain or {})
 
     def errors(points: dict) -> tuple:
-        inputs, y, aux = target.exact_grid({n: np.asarray(points[n], dtype=float) for n in names})
+        inputs, y, aux = exact_grid({n: np.asarray(points[n], dtype=float) for n in names})
         flat = {n: np.asarray(inputs[n], dtype=float).ravel() for n in names}
         y = np.asarray(y, dtype=float).ravel()
         ds = Dataset(flat, y, "search", {k: np.asarray(v, dtype=float).ravel() for k, v in aux.items()} or None)

@@ -47,14 +47,22 @@ import keyword
 import math
 import os
 import re
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
-from typing import Callable, Mapping
+from typing import TYPE_CHECKING, cast
 
 import numpy as np
 
 from fitlab._io import InputFileError, read_regular_file
+
+if TYPE_CHECKING:  # imported where used: importing fitlab.fit.user stays light
+    import sympy as sp
+
+    from fitlab.core import Dataset
+    from fitlab.forms import Form
+    from fitlab.store import FitFunction
 
 __all__ = [
     "UserDataError", "UserTable", "UserFit", "fit_table", "fit_function", "read_csv_table", "table_from_arrays",
@@ -150,7 +158,7 @@ class UserTable:
     source: str
     name: str
     header: tuple[str, ...]
-    cells: Mapping[str, object]
+    cells: Mapping[str, np.ndarray | Sequence]  # a column: an array, or the cells' texts
     data: bytes
     lines: np.ndarray | None = None
     function: str = ""
@@ -338,7 +346,7 @@ def user_form(text: str, inputs, columns=None):
         expr = parse_expression(text, (*inputs, *params))
     except ValueError as exc:
         raise UserDataError(f"the form: {exc}") from None
-    present = {s.name for s in expr.free_symbols}
+    present = {s.name for s in cast("set[sp.Symbol]", expr.free_symbols)}  # sympy annotates them as Basic
     gone = [p for p in params if p not in present]
     if gone:
         raise UserDataError(f"{gone[0]} cancels out of the form as written ({text.strip()[:60]}); remove it")
@@ -425,7 +433,7 @@ class UserFit:
     record: dict
     table: UserTable
     result: object = None
-    _function: object = field(default=None, repr=False)
+    _function: FitFunction | None = field(default=None, repr=False)
 
     @property
     def function(self):
@@ -515,8 +523,8 @@ def _safe_text(text: str) -> str:
     return text.replace("*/", "*?")
 
 
-def _check_domain(domain, inputs) -> dict:
-    out = {}
+def _check_domain(domain, inputs) -> dict[str, tuple[float, float]]:
+    out: dict[str, tuple[float, float]] = {}
     for name, interval in (domain or {}).items():
         if name not in inputs:
             raise UserDataError(f"domain: {name!r} is not an input; the inputs are {', '.join(inputs)}")
@@ -556,8 +564,8 @@ class Rows:
 
     target: str
     inputs: tuple[str, ...]
-    train: object
-    valid: object
+    train: Dataset
+    valid: Dataset
     domain: dict
     floor: float
     error: str
@@ -599,7 +607,10 @@ class Rows:
         source = {"csv": f"column {self.target} of the table {_safe_text(Path(t.name).name)}",
                   "arrays": f"{self.target}, given to fitlab.fit_table as arrays",
                   "function": f"{self.target}, {_safe_text(t.function)}"}[t.source]  # fmt: skip
-        scale = (lambda ds, floor=self.floor, error=self.error: _scale(ds.y, error, floor))
+
+        def scale(ds, floor=self.floor, error=self.error):
+            return _scale(ds.y, error, floor)
+
         return Target(
             name=self.target,
             description=f"{source}: a table of the user's ({t.rows} rows, sha256 {t.sha256[:16]}...)",
@@ -689,7 +700,7 @@ class _Prepared:
     """Everything a fit needs, checked: the rows, the form and its start values."""
 
     rows: Rows
-    form: object
+    form: Form
     start: dict
 
 

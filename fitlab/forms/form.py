@@ -8,9 +8,10 @@ immutable; parameter values live outside them (a preset, or a fit).
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from functools import cached_property
-from typing import Mapping
+from typing import cast
 
 import numpy as np
 import sympy as sp
@@ -58,7 +59,8 @@ class Form:
             raise ValueError(f"form {self.target}/{self.name}: expression uses undeclared {sorted(free - names)}")
         for preset, values in {**self.presets, "start": self.start or {}}.items():
             if values and set(values) != set(self.params):
-                raise ValueError(f"form {self.target}/{self.name}: preset {preset!r} does not set exactly {self.params}")
+                raise ValueError(f"form {self.target}/{self.name}: preset {preset!r} does not set exactly "
+                                 f"{self.params}")
         if self.start is None and not self.presets:
             raise ValueError(f"form {self.target}/{self.name}: needs a preset or start values")
         if not set(self.fixed) <= set(self.params):
@@ -83,7 +85,7 @@ class Form:
         """
         e = self.expr
         if isinstance(e, sp.Max) and len(e.args) == 2 and sp.S.Zero in e.args:
-            return next(a for a in e.args if a != sp.S.Zero)
+            return next(cast(sp.Expr, a) for a in e.args if a != sp.S.Zero)  # sympy annotates .args as Basic
         return e
 
     @property
@@ -143,7 +145,8 @@ class Form:
 
         def f(theta, *inputs):
             out = raw(tuple(theta[i] for i in range(len(self.params))), *inputs)
-            return jnp.broadcast_to(jnp.asarray(out, dtype=float), jnp.broadcast_shapes(*(jnp.shape(x) for x in inputs)))
+            shape = jnp.broadcast_shapes(*(jnp.shape(x) for x in inputs))
+            return jnp.broadcast_to(jnp.asarray(out, dtype=float), shape)
 
         return f
 

@@ -415,7 +415,8 @@ def parse_expression(text: str, names) -> sp.Expr:
             if (nargs is not None and len(node.args) != nargs) or not 0 < len(node.args) <= MAX_ARGS:
                 raise ValueError(f"expression calls {node.func.id} with {len(node.args)} arguments")
             return formed(node, f, f, *(walk(a, depth + 1) for a in node.args))
-        raise ValueError(f"expression holds a {type(node).__name__}; only numbers, names, + - * / ** and calls are allowed")
+        raise ValueError(f"expression holds a {type(node).__name__}; "
+                         "only numbers, names, + - * / ** and calls are allowed")
 
     try:
         return walk(tree.body, 0)
