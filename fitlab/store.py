@@ -31,7 +31,7 @@ import sympy as sp
 
 from fitlab import __version__
 from fitlab._io import InputFileError, atomic_write_many, atomic_write_text, read_regular_file
-from fitlab.core import get_target, targets
+from fitlab.core import get_target, target_names
 from fitlab.forms import Form
 from fitlab.forms.symbolic import lambdify_numpy, parse_expression, symbols
 from fitlab.resources import packaged_fits
@@ -196,7 +196,7 @@ def _checked_user_fit(record: dict, source: str) -> tuple[dict, sp.Expr]:
     ``holdout_offset`` < ``holdout_every``; parameters finite and of magnitude <= :data:`PARAM_LIMIT`; the
     expression read by the restricted parser, in its inputs and parameters only."""
     name, inputs, user = record["target"], list(record["inputs"]), record["user_data"]
-    if name in targets():
+    if name in target_names():
         raise FitFileError(f"{source}: a fit of a user's table may not take the name of the registered target {name}")
     if name in inputs or set(inputs) & set(record["params"]):
         raise FitFileError(f"{source}: the target {name} and the parameters must not be among the inputs {inputs}")
@@ -259,7 +259,7 @@ def read_checked_fit(path: Path, target: str | None = None) -> tuple[dict, sp.Ex
         raise FitFileError(f"{path}: not a fit file ({str(exc)[:120] or type(exc).__name__})") from None
     record, expr = checked_fit(record, str(path))
     named = path.name.split(".")
-    if len(named) in (2, 3) and named[-1] == "json" and named[0] in targets():
+    if len(named) in (2, 3) and named[-1] == "json" and named[0] in target_names():
         default = get_target(named[0]).default_form
         form = named[1] if len(named) == 3 else default
         if (record["target"], record["form"]) != (named[0], form):

@@ -34,7 +34,7 @@ from fitlab.cli._common import (
     write_failure,
 )
 from fitlab.codegen.program import model_form
-from fitlab.core import get_target, targets
+from fitlab.core import get_target, target_names, targets
 from fitlab.fit.refit import (
     VERDICT_RTOL,
     check_domain,
@@ -71,7 +71,7 @@ def add_arguments(p) -> None:
                 "and exits 1, unless --force. Ctrl-C before the fit is written leaves the old file as it was "
                 "(exit status 130).",
              "fitlab refit --target H0 --out /tmp/fits")  # fmt: skip
-    p.add_argument("--target", metavar="NAME", help=f"what to fit: {', '.join(targets())}")
+    p.add_argument("--target", metavar="NAME", help=f"what to fit: {', '.join(target_names())}")
     p.add_argument("--form", help="which form of the target (default: the form the generated code prints, so that "
                                   "`fitlab codegen --fits OUT` prints the refit; see --list)")
     p.add_argument("--all", action="store_true", help="refit every target (every form marked for it)")
@@ -107,8 +107,8 @@ def _requested(args) -> list[tuple]:
         raise UsageError("give --target NAME (see --list) or --all")
     if args.all and (args.form or args.domain or args.init):
         raise UsageError("--form, --domain and --init go with --target, not --all")
-    if args.target not in (None, *targets()):
-        raise UsageError(f"unknown target {args.target!r}; choose one of {', '.join(targets())}")
+    if args.target not in (None, *target_names()):  # names only: no family is imported for them
+        raise UsageError(f"unknown target {args.target!r}; choose one of {', '.join(target_names())}")
     fits = fits_input(args, required=False)
     use_data(args)
     if args.init is not None:

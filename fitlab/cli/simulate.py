@@ -21,7 +21,7 @@ from pathlib import Path
 
 from fitlab._montecarlo import MAX_PATHS, MIN_PATHS_BUDGET, SLOW_JOB_SECONDS, duration
 from fitlab.cli._common import add_family, FAILURE, USAGE, fail, service
-from fitlab.core import families
+from fitlab.core import families_offering
 from fitlab.resources import find_scene, packaged_scenes
 
 __all__ = ["add_arguments", "run"]
@@ -45,7 +45,7 @@ def add_arguments(p) -> None:
 
 
 def _simulating_families() -> list[str]:
-    return [name for name, f in families().items() if "simulate" in f.hooks]
+    return families_offering("simulate")  # from the families' manifests: imports none of them
 
 
 def _family_of(scene: Path, family: str | None) -> str | None:

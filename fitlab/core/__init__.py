@@ -33,8 +33,10 @@ from fitlab.core._registry import (
     get_family,
     get_form,
     get_target,
+    manifest_hooks,
     register_family,
     resolve_hook,
+    target_names,
     targets,
     unregister_family,
 )
@@ -67,7 +69,9 @@ __all__ = [
     "get_family",
     "get_form",
     "get_target",
+    "manifest_hooks",
     "register_family",
+    "target_names",
     "targets",
     "unregister_family",
 ]

@@ -5,6 +5,16 @@ and the ``fitlab.families`` entry points of installed distributions; a module
 anywhere may also call :func:`register_family` itself (how a test registers a
 toy family).  Names are global: two families may not register one target.
 
+The registry is lazy: a command imports only the families it uses.  A built-in family's package states
+what the registry needs to know before importing it in a literal ``MANIFEST`` (its target names, in order;
+its hooks, each the module that holds it; whether it has a program and declares the default one), which the
+registry reads from the package's source without running it.  The family itself (its targets, forms,
+program: sympy, the exact engine) is imported when first needed: :func:`get_target` or :func:`get_family`
+of one of its names, or :func:`targets` / :func:`families` (every family).  :func:`target_names` and
+:func:`families_offering` import no family; :func:`resolve_hook` imports the hook's module only.  Registering
+checks the family against its manifest (ValueError, one line, naming what differs).  A package without a
+literal ``MANIFEST`` is imported when the registry first loads, as an entry point's family is.
+
 A built-in family that fails to import is an error, every time.  An entry point that fails to load
 (it raises, or its family clashes with another) is left out, with whatever it registered before it
 failed: one line on stderr names it, once per process, and :func:`broken_families` says why; every
@@ -13,18 +23,21 @@ other family works.
 
 from __future__ import annotations
 
+import ast
 import importlib
 import pkgutil
 import sys
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from importlib.metadata import entry_points
-from typing import Callable, Mapping
+from pathlib import Path
 
 from fitlab.core._hooks import ProgramContract, check_hook, check_program
 from fitlab.core._target import Target
 
 __all__ = ["Family", "register_family", "unregister_family", "families", "get_family", "targets", "get_target",
-           "forms_for", "get_form", "family_service", "resolve_hook", "broken_families"]
+           "target_names", "forms_for", "get_form", "family_service", "resolve_hook", "broken_families",
+           "manifest_hooks"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -70,18 +83,106 @@ class Family:
 #: :mod:`fitlab.core._hooks`)
 HOOK_CONTRACTS = {"simulate": "fitlab.scenes:check_simulate_hook"}
 
+@dataclass(frozen=True, eq=False)
+class _Pending:
+    """A built-in family known from its package's ``MANIFEST``, not imported yet."""
+
+    name: str
+    module: str  # the package whose import registers the family
+    targets: tuple[str, ...]
+    hooks: Mapping[str, Callable]
+    default_program: bool
+    program: bool
+
+
+#: every registered family, in registration order
 _FAMILIES: dict[str, Family] = {}
+#: every target of a registered family
 _TARGETS: dict[str, Target] = {}
+#: every family, registered (a Family) or known from its manifest (a _Pending), in the order commands list them
+_SLOTS: dict[str, Family | _Pending] = {}
+#: target name -> its family's name, for every target of _SLOTS
+_OWNER: dict[str, str] = {}
+#: built-in family name -> its package (imported, when the family is needed, every time: cheap once imported)
+_BUILTIN: dict[str, str] = {}
+#: the built-in packages being imported now (a registry call made while one imports does not import it again)
+_IMPORTING: set[str] = set()
 _LOADED = False
 #: entry point name -> why it was left out (one line)
 _BROKEN: dict[str, str] = {}
+
+
+def manifest_hooks(package: str, hooks: Mapping[str, str]) -> dict[str, Callable]:
+    """A family's hooks from its manifest's ``hooks``: name -> where the service is, relative to ``package``:
+    ``"module"`` (the module is the service), ``"module:NAME"`` (an attribute of it) or ``"module:NAME()"``
+    (what calling that attribute returns).  Each hook imports its module only when called."""
+
+    def hook(spec: str) -> Callable:
+        module, _, attr = spec.partition(":")
+        call = attr.endswith("()")
+        attr = attr.removesuffix("()")
+
+        def service():
+            value: object = importlib.import_module(f"{package}.{module}")
+            if attr:
+                value = getattr(value, attr)
+            return value() if call and callable(value) else value
+
+        service.__qualname__ = f"hook[{package}.{spec}]"
+        return service
+
+    return {name: hook(spec) for name, spec in hooks.items()}
+
+
+def _manifest(package: str, folder: Path) -> _Pending | None:
+    """The built-in family of ``package`` from the literal ``MANIFEST`` in its ``__init__.py`` (read, not run),
+    or None when it states none (then the package is imported)."""
+    try:
+        tree = ast.parse((folder / "__init__.py").read_text(encoding="utf-8"))
+    except (OSError, SyntaxError, ValueError):
+        return None  # importing it says what is wrong
+    for node in tree.body:
+        if isinstance(node, ast.Assign) and any(isinstance(t, ast.Name) and t.id == "MANIFEST" for t in node.targets):
+            try:
+                m = ast.literal_eval(node.value)
+                return _Pending(name=package.rpartition(".")[2], module=package, targets=tuple(m["targets"]),
+                                hooks=manifest_hooks(package, m.get("hooks", {})),
+                                default_program=bool(m.get("default_program", False)),
+                                program=bool(m.get("program", False)))  # fmt: skip
+            except (ValueError, TypeError, KeyError, SyntaxError):
+                return None
+    return None
+
+
+def _check_manifest(family: Family, pending: _Pending) -> None:
+    """ValueError (one line) where a family differs from what its manifest stated."""
+    names = tuple(t.name for t in family.targets)
+    where = f"family {family.name}: its MANIFEST ({pending.module}) "
+    if names != pending.targets:
+        raise ValueError(where + f"lists the targets {', '.join(pending.targets)}; it registers {', '.join(names)}")
+    if set(family.hooks) != set(pending.hooks):
+        raise ValueError(where + f"lists the hooks {', '.join(sorted(pending.hooks))}; it registers "
+                                 f"{', '.join(sorted(family.hooks))}")  # fmt: skip
+    if family.default_program != pending.default_program or (family.codegen is not None) != pending.program:
+        raise ValueError(where + f"states program={pending.program}, default_program={pending.default_program}; it "
+                                 f"registers program={family.codegen is not None}, "
+                                 f"default_program={family.default_program}")  # fmt: skip
+
+
+def _taken(name: str, names) -> None:
+    """ValueError when a family ``name`` may not have the targets ``names`` (another family has one)."""
+    names = list(names)
+    clash = [n for n in names if _OWNER.get(n, name) != name]
+    if clash or len(set(names)) != len(names):
+        raise ValueError(f"family {name}: target names {clash or names} are taken")
 
 
 def register_family(family: Family) -> Family:
     """Add ``family``: its targets become visible to every command, its forms to their targets.
 
     Refused (ValueError) when a target name is taken by another family, when a form names a target the
-    family does not register, or when two forms of one target share a name."""
+    family does not register, or when two forms of one target share a name; a built-in family also when it
+    differs from its package's ``MANIFEST``."""
     other = _FAMILIES.get(family.name)
     if other is not None and other is not family:
         raise ValueError(f"a family named {family.name!r} is already registered")
@@ -90,9 +191,10 @@ def register_family(family: Family) -> Family:
             raise ValueError(f"family {family.name}: hook {hook!r} is not callable (a hook returns its service)")
     check_program(family.codegen, family.name)
     names = [t.name for t in family.targets]
-    clash = [n for n in names if n in _TARGETS and _TARGETS[n].family != family.name]
-    if clash or len(set(names)) != len(names):
-        raise ValueError(f"family {family.name}: target names {clash or names} are taken")
+    _taken(family.name, names)
+    pending = _SLOTS.get(family.name)
+    if isinstance(pending, _Pending):
+        _check_manifest(family, pending)
     forms: dict[str, dict] = {n: {} for n in names}
     for f in family.forms:
         if f.target not in forms:
@@ -106,10 +208,13 @@ def register_family(family: Family) -> Family:
         object.__setattr__(t, "family", family.name)
         object.__setattr__(t, "_forms", forms[t.name])
         if t.default_form not in forms[t.name]:
-            raise ValueError(f"family {family.name}: target {t.name}'s default form {t.default_form!r} is not registered")
+            raise ValueError(f"family {family.name}: target {t.name}'s default form {t.default_form!r} is not "
+                             "registered")
     _FAMILIES[family.name] = family
+    _SLOTS[family.name] = family  # a manifest's place in the order is kept
     for t in family.targets:
         _TARGETS[t.name] = t
+        _OWNER[t.name] = family.name
     return family
 
 
@@ -119,9 +224,17 @@ def unregister_family(name: str) -> None:
     if family is not None:
         for t in family.targets:
             _TARGETS.pop(t.name, None)
+    slot = _SLOTS.pop(name, None)
+    if slot is not None:
+        for t in slot.targets:
+            target = t if isinstance(t, str) else t.name
+            if _OWNER.get(target) == name:
+                del _OWNER[target]
 
 
 def _load() -> None:
+    """Know every family: the built-in ones from their manifests (imported only where a package states none),
+    the entry points' by loading them."""
     global _LOADED
     if _LOADED:
         return
@@ -129,7 +242,18 @@ def _load() -> None:
 
     # a family that fails to import is an error every time, never an empty registry
     for info in sorted(pkgutil.iter_modules(builtin.__path__), key=lambda m: m.name):
-        importlib.import_module(f"{builtin.__name__}.{info.name}")
+        package = f"{builtin.__name__}.{info.name}"
+        _BUILTIN[info.name] = package
+        if info.name in _SLOTS:
+            continue  # registered already (its package imported before the registry loaded)
+        pending = _manifest(package, Path(getattr(info.module_finder, "path", "")) / info.name) if info.ispkg else None
+        if pending is None:
+            _import_builtin(info.name)
+            continue
+        _taken(pending.name, pending.targets)
+        _SLOTS[pending.name] = pending
+        for t in pending.targets:
+            _OWNER[t] = pending.name
     for ep in entry_points(group="fitlab.families"):
         before = set(_FAMILIES)
         try:
@@ -144,6 +268,35 @@ def _load() -> None:
     _LOADED = True
 
 
+def _import_builtin(name: str) -> None:
+    """Import the built-in family ``name``'s package (its import registers it); an error when it fails, or
+    when it registers no family of that name."""
+    package = _BUILTIN[name]
+    if package in _IMPORTING:
+        return  # a registry call while it imports: it is being registered
+    _IMPORTING.add(package)
+    try:
+        importlib.import_module(package)
+    finally:
+        _IMPORTING.discard(package)
+    if name not in _FAMILIES:
+        raise ImportError(f"{package} registered no family {name!r} (a built-in family registers under its folder's "
+                          "name)")
+
+
+def _ensure(name: str) -> Family | None:
+    """The family ``name`` (of _SLOTS), imported if it was only known from its manifest."""
+    if name in _BUILTIN:
+        _import_builtin(name)  # every time (cheap once imported): a built-in that fails to import is an error
+    return _FAMILIES.get(name)
+
+
+def _ensure_all() -> None:
+    _load()
+    for name in list(_SLOTS):
+        _ensure(name)
+
+
 def broken_families() -> dict[str, str]:
     """Entry point name -> why it was left out (one line), for every ``fitlab.families`` entry point that
     failed to load."""
@@ -152,34 +305,53 @@ def broken_families() -> dict[str, str]:
 
 
 def families() -> dict[str, Family]:
-    """name -> :class:`Family` of every registered family."""
-    _load()
-    return dict(_FAMILIES)
+    """name -> :class:`Family` of every registered family (every built-in family is imported)."""
+    _ensure_all()
+    return {name: _FAMILIES[name] for name in _SLOTS if name in _FAMILIES}
 
 
 def get_family(name: str) -> Family:
+    """The family ``name`` (imported if it was not; the others are not)."""
     _load()
-    if name not in _FAMILIES:
-        raise KeyError(f"unknown family {name!r}; families: {', '.join(_FAMILIES)}")
-    return _FAMILIES[name]
+    if name not in _SLOTS:
+        raise KeyError(f"unknown family {name!r}; families: {', '.join(_SLOTS)}")
+    family = _ensure(name)
+    if family is None:  # a registry call while the family's package imports
+        raise KeyError(f"family {name!r} is being imported; it is not registered yet")
+    return family
 
 
 def targets() -> dict[str, Target]:
-    """name -> :class:`Target` of every registered target, family by family."""
+    """name -> :class:`Target` of every registered target, family by family (every built-in family is
+    imported; :func:`target_names` imports none)."""
+    _ensure_all()
+    return {t.name: t for name in _SLOTS if name in _FAMILIES for t in _FAMILIES[name].targets}
+
+
+def target_names() -> tuple[str, ...]:
+    """The name of every target, family by family, in the order of :func:`targets`, importing no built-in
+    family."""
     _load()
-    return dict(_TARGETS)
+    return tuple(t if isinstance(t, str) else t.name for slot in _SLOTS.values() for t in slot.targets)
 
 
 def get_target(name: str) -> Target:
+    """The target ``name``: its family is imported if it was not (the others are not)."""
     _load()
-    if name not in _TARGETS:
-        raise KeyError(f"unknown target {name!r}; choose one of {', '.join(_TARGETS)}")
+    family = _OWNER.get(name)
+    if family is None:
+        raise KeyError(f"unknown target {name!r}; choose one of {', '.join(target_names())}")
+    _ensure(family)
+    if name not in _TARGETS:  # a registry call while the family's package imports
+        raise KeyError(f"target {name!r}: its family {family!r} is being imported; it is not registered yet")
     return _TARGETS[name]
 
 
 def families_offering(name: str) -> list[str]:
-    """The names of the registered families whose hooks include ``name``, in registration order."""
-    return [fname for fname, f in families().items() if name in f.hooks]
+    """The names of the registered families whose hooks include ``name``, in registration order (importing no
+    built-in family: their manifests name their hooks)."""
+    _load()
+    return [fname for fname, slot in _SLOTS.items() if name in slot.hooks]
 
 
 def family_service(name: str, family: str | None = None):
@@ -202,8 +374,12 @@ def family_service(name: str, family: str | None = None):
 def resolve_hook(family: str, name: str):
     """What ``family``'s hook ``name`` returns (``hooks[name]()``), checked against the hook's contract
     (:data:`HOOK_CONTRACTS`, else :func:`fitlab.core.check_hook`): TypeError, one line naming the first
-    missing member.  KeyError when the family has no such hook."""
-    hooks = get_family(family).hooks
+    missing member.  KeyError when the family has no such hook.  A built-in family not imported yet is not
+    imported for it: its manifest says which module holds the hook, and only that module is imported."""
+    _load()
+    if family not in _SLOTS:
+        raise KeyError(f"unknown family {family!r}; families: {', '.join(_SLOTS)}")
+    hooks = _SLOTS[family].hooks
     if name not in hooks:
         raise KeyError(f"family {family!r} has no {name!r} hook")
     service = hooks[name]()

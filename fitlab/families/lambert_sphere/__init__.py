@@ -9,44 +9,39 @@ libraries of ``fitlab discover`` (:mod:`.libraries`), the generated program
 and report methods as hooks.  docs/model.md states the model.
 """
 
-import importlib
-
-from fitlab.core import Family, register_family
+from fitlab.core import Family, manifest_hooks, register_family
 from fitlab.families.lambert_sphere.forms import FORMS
 from fitlab.families.lambert_sphere.program import PROGRAM
 from fitlab.families.lambert_sphere.targets import TARGETS
 
-__all__ = ["FAMILY"]
+__all__ = ["FAMILY", "MANIFEST"]
 
-
-def _lazy(module: str):
-    """A hook that imports ``module`` of this family only when a command asks for it (JAX, Mitsuba, scipy's
-    heavier parts stay unloaded until then)."""
-    return lambda: importlib.import_module(f"{__name__}.{module}")
+#: what the registry knows of the family before importing it (a literal, read from this file without running it:
+#: fitlab.core._registry): its targets in order, its hooks (each the module that holds it, relative to this
+#: package: "module", "module:NAME" or "module:NAME()", fitlab.core.manifest_hooks), its program; registering
+#: checks the family against it
+MANIFEST = {
+    "targets": ("H0", "H1", "H2", "l", "m", "B", "C", "D", "F", "kd_of_c", "c_of_kd", "fm1", "fast_brdf",
+                "sample_weight", "sample_exponent"),
+    "hooks": {
+        "brdf_grid": "grids:brdf_grid()",
+        "report": "report_methods",
+        "tables": "tabulate",  # write_tables, check_tables, TABLE_FILES
+        "audit": "audit",  # run_audit
+        "render": "render",  # check_generated, llvm_problem, render_comparison, RenderError
+        "simulate": "mc.simulate:SIMULATE",  # a fitlab.scenes.SimulateHook: the scene schema and the walk
+        "bench": "bench",  # bench_exact, bench_codegen, bench_mc, bench_render
+        "table_export": "table_export",  # generate, LANGUAGES, NODES, DEFAULT_NODES, DEFAULT_LOOKUP, ...
+    },
+    "program": True,
+    "default_program": True,  # fitlab codegen without --family prints this program
+}
 
 
 def _libraries():
     from fitlab.families.lambert_sphere.libraries import LIBRARIES
 
     return LIBRARIES
-
-
-def _brdf_grid():
-    from fitlab.families.lambert_sphere.grids import brdf_grid
-
-    return brdf_grid()
-
-
-def _simulate():
-    from fitlab.families.lambert_sphere.mc.simulate import SIMULATE
-
-    return SIMULATE
-
-
-def _report():
-    from fitlab.families.lambert_sphere import report_methods
-
-    return report_methods
 
 
 FAMILY = register_family(
@@ -57,16 +52,9 @@ FAMILY = register_family(
         forms=FORMS,
         libraries=_libraries,
         codegen=PROGRAM,
-        default_program=True,  # fitlab codegen without --family prints this program
-        hooks={
-            "brdf_grid": _brdf_grid,
-            "report": _report,
-            "tables": _lazy("tabulate"),  # write_tables, check_tables, TABLE_FILES
-            "audit": _lazy("audit"),  # run_audit
-            "render": _lazy("render"),  # check_generated, llvm_problem, render_comparison, RenderError
-            "simulate": _simulate,  # a fitlab.scenes.SimulateHook: the scene schema and the walk
-            "bench": _lazy("bench"),  # bench_exact, bench_codegen, bench_mc, bench_render
-            "table_export": _lazy("table_export"),  # generate, LANGUAGES, NODES, DEFAULT_NODES, DEFAULT_LOOKUP, ...
-        },
+        default_program=MANIFEST["default_program"],
+        # each imports its module only when a command asks for it (JAX, Mitsuba, scipy's heavier parts stay
+        # unloaded until then)
+        hooks=manifest_hooks(__name__, MANIFEST["hooks"]),
     )
 )

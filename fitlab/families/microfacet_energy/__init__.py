@@ -14,31 +14,40 @@ fitted albedo and lobe parameter as a routine, and the multiple-scattering lobes
 composed of them.
 """
 
-import importlib
-
-from fitlab.core import Family, register_family
+from fitlab.core import Family, manifest_hooks, register_family
 from fitlab.families.microfacet_energy.forms import FORMS
 from fitlab.families.microfacet_energy.lobes.program import PROGRAM
 from fitlab.families.microfacet_energy.targets import TARGETS
 
-__all__ = ["FAMILY"]
+__all__ = ["FAMILY", "MANIFEST"]
 
-
-def _lazy(module: str):
-    """A hook that imports ``module`` of this family only when a command asks for it (JAX stays unloaded)."""
-    return lambda: importlib.import_module(f"{__name__}.{module}")
+#: what the registry knows of the family before importing it (a literal, read from this file without running it:
+#: fitlab.core._registry): its targets in order, its hooks (each the module that holds it, relative to this
+#: package; fitlab.core.manifest_hooks), its program; registering checks the family against it
+MANIFEST = {
+    "targets": (
+        "E_ggx_sep", "one_minus_E_ggx_sep", "E_avg_ggx_sep", "E_ggx_cor", "one_minus_E_ggx_cor", "E_avg_ggx_cor",
+        "E_on", "one_minus_E_on", "E_avg_on",
+        "ms_blog_eta_diffuse", "ms_blog_flattening_diffuse", "ms_blog_scale_diffuse", "ms_tilt_sigma_diffuse",
+        "ms_tilt_eta_diffuse", "ms_tilt_flattening_diffuse", "ms_tilt_b_diffuse", "ms_tilt_k_diffuse",
+        "ms_blog_eta_conductor", "ms_blog_flattening_conductor", "ms_blog_scale_conductor",
+        "ms_tilt_sigma_conductor", "ms_tilt_eta_conductor", "ms_tilt_flattening_conductor", "ms_tilt_b_conductor",
+        "ms_tilt_k_conductor",
+    ),
+    "hooks": {
+        "tables": "tabulate",  # write_tables, check_tables, TABLE_FILES, FAMILY_NAME
+        "simulate": "microsurface.simulate:SIMULATE",  # a fitlab.scenes.SimulateHook: the scene schema and the walk
+        "bench": "microsurface.bench",  # bench_mc: the microsurface walk's throughput
+    },
+    "program": True,
+    "default_program": False,
+}
 
 
 def _libraries():
     from fitlab.families.microfacet_energy.libraries import LIBRARIES
 
     return LIBRARIES
-
-
-def _simulate():
-    from fitlab.families.microfacet_energy.microsurface.simulate import SIMULATE
-
-    return SIMULATE
 
 
 FAMILY = register_family(
@@ -50,10 +59,7 @@ FAMILY = register_family(
         forms=FORMS,
         libraries=_libraries,
         codegen=PROGRAM,
-        hooks={
-            "tables": _lazy("tabulate"),  # write_tables, check_tables, TABLE_FILES, FAMILY_NAME
-            "simulate": _simulate,  # a fitlab.scenes.SimulateHook: the scene schema and the walk
-            "bench": _lazy("microsurface.bench"),  # bench_mc: the microsurface walk's throughput
-        },
+        # each imports its module only when a command asks for it (JAX stays unloaded until then)
+        hooks=manifest_hooks(__name__, MANIFEST["hooks"]),
     )
 )
