@@ -1,4 +1,7 @@
-r"""The store: the only reader and writer of fit files (fits/TARGET[.FORM].json) and exact tables (data/*.csv).
+r"""The store: the owner of the fit-file format (fits/TARGET[.FORM].json) and the exact tables' (data/*.csv),
+which reads and writes both.  One other writer forms its records here: a user's fit (:mod:`fitlab.fit.user`)
+writes the record :func:`check_fit` checked and :func:`strict_json` printed, together with its table, as
+one unit.
 
 Fit files
 ---------
