@@ -9,6 +9,7 @@ from __future__ import annotations
 import importlib.util
 import shutil
 import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -155,6 +156,17 @@ def sources(tmp_path_factory):
         assert main(["codegen", "--family", "microfacet_energy", "--lang", lang, "--out", str(folder), "--quiet"]) == 0
         out[lang] = {p.name: p.read_text() for p in folder.iterdir()}
     return out
+
+
+@pytest.mark.parametrize("sympy_seed", [1])
+def test_generated_code_does_not_follow_sympys_random_state(tmp_path, sympy_seed):
+    """sympy draws from its random generators (fitlab.codegen.program.reproducible_sympy): whatever state other
+    sympy work leaves them in, the committed code comes out."""
+    script = ("import sys, sympy.core.random as r; r.seed(int(sys.argv[1])); from fitlab.cli import main; "
+              "sys.exit(main(['codegen', '--family', 'microfacet_energy', '--lang', 'python', '--out', sys.argv[2], "
+              "'--quiet']))")
+    subprocess.run([sys.executable, "-c", script, str(sympy_seed), str(tmp_path)], check=True, cwd=ROOT)
+    assert (tmp_path / "microfacet_energy.py").read_text() == (GENERATED / "microfacet_energy.py").read_text()
 
 
 @pytest.fixture(scope="module")

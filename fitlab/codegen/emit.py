@@ -32,7 +32,16 @@ import sympy as sp
 
 from fitlab import __version__
 from fitlab.codegen.printers import CPrinter, DrJitPrinter, GLSLPrinter, MetalPrinter, NumpyPrinter
-from fitlab.codegen.program import SAFE_POW, Material, Program, Routine, field_symbol, outputs, unused_inputs
+from fitlab.codegen.program import (
+    SAFE_POW,
+    Material,
+    Program,
+    Routine,
+    field_symbol,
+    outputs,
+    reproducible_sympy,
+    unused_inputs,
+)
 from fitlab.forms.symbolic import safe_pow
 
 __all__ = ["emit", "LANGUAGES"]
@@ -567,6 +576,7 @@ def emit(program: Program, lang: str, command: str | None = None, single_header:
         raise ValueError(f"unknown language {lang!r}; choose one of {', '.join(LANGUAGES)}")
     if single_header and lang != "c":
         raise ValueError("a single header is a C option")
+    reproducible_sympy()
     if lang == "c":
         return _c_files(program, command, single_header)
     return LANGUAGES[lang](program, command)

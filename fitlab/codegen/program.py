@@ -41,6 +41,7 @@ from dataclasses import dataclass, field, replace
 from typing import cast
 
 import sympy as sp
+import sympy.core.random as sympy_random
 from sympy.codegen.cfunctions import expm1, log1p
 from sympy.codegen.rewriting import Optimization, ReplaceOptim, optimize
 from sympy.core.function import AppliedUndef
@@ -681,6 +682,20 @@ def _as_fit(target: str, record) -> FitFunction:
     return fit
 
 
+#: the seed of sympy's random generators while a program is built and printed (:func:`reproducible_sympy`)
+SYMPY_SEED = 2
+
+
+def reproducible_sympy() -> None:
+    """Seed sympy's random generators (:func:`sympy.core.random.seed`) with :data:`SYMPY_SEED`.  sympy draws
+    from them (its assumptions system evaluates a fact's prerequisites in a shuffled order, and numeric
+    equality checks sample points), so a program built and printed after other sympy work could depend on
+    what that work drew; with the generators in one state it does not.  (The microfacet program's CSE
+    temporaries were seen to differ, rarely, in a test process that had run other tests first; that this was
+    the cause is not established.)"""
+    sympy_random.seed(SYMPY_SEED)
+
+
 def build_program(records: Mapping[str, object], terms: Sequence[str] | None = None,
                   sources: Sequence[tuple[str, str]] = (), family: str | None = None,
                   model: tuple[str, str] | None = None) -> Program:  # fmt: skip
@@ -691,6 +706,7 @@ def build_program(records: Mapping[str, object], terms: Sequence[str] | None = N
     lists (the records read no file here); ``model``: (name, description) the banner names.  Records of targets
     the program does not print are ignored; a missing one is a KeyError.
     """
+    reproducible_sympy()
     spec = program_spec(family, () if family else tuple(records))
     missing = [t for t in spec.fits if t not in records and t not in spec.optional]
     if missing:
