@@ -159,8 +159,7 @@ def install():
 def uninstall() -> None:
     """Put back the handler and the unraisable hook :func:`install` replaced (a ``fitlab.cli.main`` call from
     Python, e.g. a test)."""
-    global _previous, _previous_unraisable, _in_gc
-    global _done, _pending
+    global _previous, _previous_unraisable, _in_gc, _done, _pending
     if threading.current_thread() is not threading.main_thread():
         return
     with _delivery:  # no delivery after this; one already sent runs _handler (done: it does nothing) in the

@@ -81,10 +81,15 @@ def cost(cs):
         print(f"c = {c}: solve {m} orders {t1 - t0:.1f} s, then a 33 x 33 table {t2 - t1:.1f} s", flush=True)
 
 
-def gap(cs):
-    mu = np.concatenate(([0.01], np.linspace(0.05, 1.0, 20)))
+def _gap_grid(smallest=(0.01,)):
+    """(mu_i, mu_o, phi) flat over mu in ``smallest`` and {0.05, 0.1, ..., 1}, squared, x 13 phi in [0, pi]."""
+    mu = np.concatenate((smallest, np.linspace(0.05, 1.0, 20)))
     phi = np.linspace(0.0, np.pi, 13)
-    mi, mo, ph = (a.ravel() for a in np.meshgrid(mu, mu, phi, indexing="ij"))
+    return tuple(a.ravel() for a in np.meshgrid(mu, mu, phi, indexing="ij"))
+
+
+def gap(cs):
+    mi, mo, ph = _gap_grid()
     for c in cs:
         t = exact.brdf(mi, mo, ph, c, phase="true")
         m = exact.brdf(mi, mo, ph, c, phase="mixed")
@@ -117,9 +122,7 @@ def albedo():
 def ms_gap(cs):
     """The three-term multiple scattering of the mixed reference against the true one, on gap's grid:
     relative to the true multiple scattering (max, where, median) and absolute (1/sr)."""
-    mu = np.concatenate(([0.01], np.linspace(0.05, 1.0, 20)))
-    phi = np.linspace(0.0, np.pi, 13)
-    mi, mo, ph = (a.ravel() for a in np.meshgrid(mu, mu, phi, indexing="ij"))
+    mi, mo, ph = _gap_grid()
     u = -(mi * mo + np.sqrt((1 - mi**2) * (1 - mo**2)) * np.cos(ph))
     for c in cs:
         t = exact.brdf(mi, mo, ph, c, phase="true")
@@ -139,9 +142,7 @@ def runtime(cs):
     from fitlab.families.lambert_sphere.runtime import runtime_model
 
     model = runtime_model()
-    mu = np.concatenate(([0.01, 0.02, 0.03], np.linspace(0.05, 1.0, 20)))
-    phi = np.linspace(0.0, np.pi, 13)
-    mi, mo, ph = (a.ravel() for a in np.meshgrid(mu, mu, phi, indexing="ij"))
+    mi, mo, ph = _gap_grid(smallest=(0.01, 0.02, 0.03))
     big = np.minimum(mi, mo) >= 0.2
     for c in cs:
         f = model(mi, mo, ph, c)

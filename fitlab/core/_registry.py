@@ -83,6 +83,7 @@ class Family:
 #: :mod:`fitlab.core._hooks`)
 HOOK_CONTRACTS = {"simulate": "fitlab.scenes:check_simulate_hook"}
 
+
 @dataclass(frozen=True, eq=False)
 class _Pending:
     """A built-in family known from its package's ``MANIFEST``, not imported yet."""
@@ -218,6 +219,11 @@ def register_family(family: Family) -> Family:
     return family
 
 
+def _slot_targets(slot: Family | _Pending) -> tuple[str, ...]:
+    """The target names of a registered family or of one known from its manifest."""
+    return slot.targets if isinstance(slot, _Pending) else tuple(t.name for t in slot.targets)
+
+
 def unregister_family(name: str) -> None:
     """Remove a family and its targets (for tests that register a toy family)."""
     family = _FAMILIES.pop(name, None)
@@ -226,8 +232,7 @@ def unregister_family(name: str) -> None:
             _TARGETS.pop(t.name, None)
     slot = _SLOTS.pop(name, None)
     if slot is not None:
-        for t in slot.targets:
-            target = t if isinstance(t, str) else t.name
+        for target in _slot_targets(slot):
             if _OWNER.get(target) == name:
                 del _OWNER[target]
 
@@ -332,7 +337,7 @@ def target_names() -> tuple[str, ...]:
     """The name of every target, family by family, in the order of :func:`targets`, importing no built-in
     family."""
     _load()
-    return tuple(t if isinstance(t, str) else t.name for slot in _SLOTS.values() for t in slot.targets)
+    return tuple(t for slot in _SLOTS.values() for t in _slot_targets(slot))
 
 
 def get_target(name: str) -> Target:
