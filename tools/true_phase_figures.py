@@ -68,9 +68,7 @@ def degree(c, degrees=(64, 96, 128, 192, 256)):
 
 def cost(cs):
     for c in cs:
-        tp._solve_cached.cache_clear()
-        tp._needed_cached.cache_clear()
-        tp._nystrom_parts.cache_clear()
+        tp.clear_cache()
         t0 = time.perf_counter()
         m = tp.needed_orders(c)
         t1 = time.perf_counter()

@@ -49,6 +49,9 @@ different rules for each):
   of the half space's modes); that solve is only approximate on a graded rule
   (the rates span 1 .. 1/mu_min), but the residual F is evaluated in the bounded
   form, so the iteration still converges to the discrete solution (inexact Newton).
+  The decomposition is refreshed only when a step reduced the residual by less than
+  100 times, and the first steps use A1 = E (D = -F/(mu_i + mu_j)): at high orders the
+  kernel is so small that no decomposition is ever needed.
   At c = 1, m = 0 the zero rate is dropped from the step and R is projected onto
   R s = 1 after each step: 3-6 steps at every c.
 * ``"doubling"``: discrete ordinates with doubling-adding from a layer 2^-60 thick
@@ -82,11 +85,12 @@ machine, one BLAS thread; docs/derivation.md, "The true phase function"):
 * near c = 1 (not at it) the problem is near-critical and rounding costs ~sqrt(eps)/sqrt(1-c):
   Newton 2.3e-12 at 1 - c = 1e-9, 2.4e-10 at 1e-12 (three-term kernel against the H-route);
   1e-10 holds for 1 - c >= ~1e-11 and at c = 1 exactly;
-* cost: Newton solves the 51-53 orders of one c in 23-28 s (cold cache; 56 s while the machine
-  was loaded by other jobs), then a 33 x 33 table at that c takes about 10 s; doubling takes
-  376 s per c.  Solutions are cached per (method, phase, L, m, c) (about 2 MB per order at
-  L = 256; the caches keep the last few c), so a table at one c pays the solve once; many
-  distinct c values cost a solve each.
+* cost: Newton solves the 51-53 orders of one c in about 6.5 s, then a 33 x 33 table at that c
+  takes about 2 s (both measured while the machine also ran the test suite: against 25 s and 18 s
+  for the Newton of every step decomposed, in the same conditions); doubling takes 376 s per c.
+  Most orders need no decomposition: A1 is then within 1e-2 of the identity.  Solutions are cached
+  per (method, phase, L, m, c) (about 4.5 MB per order at L = 256; the cache keeps a little more
+  than one c), so a table at one c pays the solve once; many distinct c values cost a solve each.
 """
 
 from __future__ import annotations
@@ -113,6 +117,7 @@ __all__ = [
     "multiple_scattering_orders",
     "multiple_scattering_sum",
     "multiple_scattering_albedo",
+    "clear_cache",
 ]
 
 #: Legendre degree after the first collision (A_k ~ k^-4; error ~ L^-4.7: docs/derivation.md).
@@ -217,23 +222,32 @@ class OrderSolution:
     r: np.ndarray  # R(mu_i, mu_j), the whole reflection function of the discrete problem (symmetric)
     iterations: int
     smallest: float
+    km: np.ndarray  # K-(mu_i, mu_j) = k(mu_i, -mu_j), c-free
+    a1: np.ndarray  # A1 = E - (c/2) K+ W - (c/4) M R W K- W at the solution (the Nystrom step's matrix)
+    #: (theta, V, V^-1) of M^-1 A1 at a late Newton iterate, or None where A1 is near the identity
+    #: (high orders): the preconditioner of the Nystrom step (:func:`_rows`)
+    rates: tuple | None = None
 
     @property
     def signs(self):
         return (-1.0) ** (np.arange(self.order, self.degree + 1) + self.order)
 
     def kernels(self):
-        q = self.q_nodes
-        kp = np.einsum("l,li,lj->ij", self.moments, q, q)
-        km = np.einsum("l,li,lj->ij", self.moments * self.signs, q, q)
-        return kp, km
+        return _kernels(self.moments, self.signs, self.q_nodes)
 
     @property
     def single(self):
         """Single scattering of the discrete problem at node pairs, c k(mu_i, -mu_j)/(mu_i + mu_j)."""
-        _, km = self.kernels()
         mu = self.nodes
-        return self.c * km / (mu[:, None] + mu[None, :])
+        return self.c * self.km / (mu[:, None] + mu[None, :])
+
+
+def _kernels(moments, signs, q):
+    """K+ = sum_l A_l Q_l Q_l^T and K- (the same with (-1)^(l+m)) on the nodes (a matrix product: numpy's
+    einsum over three operands does not use BLAS and cost 20 times more here)."""
+    kp = (q * moments[:, None]).T @ q
+    km = (q * (moments * signs)[:, None]).T @ q
+    return kp, km
 
 
 def _node_vectors(m, degree, moments, mu, w):
@@ -253,11 +267,13 @@ def _closed_loop(c, mu, w, kp, km, r):
 
 
 def _residual(c, mu, w, kp, km, r):
+    # R, K+ and K- are symmetric, so K+ W R = (R W K+)^T
     rw = r * w[None, :]
+    rwk = mu[:, None] * (rw @ kp)
     return (
         mu[:, None] * r
         + r * mu[None, :]
-        - 0.5 * c * (mu[:, None] * (rw @ kp) + ((kp * w[None, :]) @ r) * mu[None, :])
+        - 0.5 * c * (rwk + rwk.T)
         - 0.25 * c * mu[:, None] * (rw @ (km * w[None, :]) @ r) * mu[None, :]
         - c * km
     )
@@ -270,11 +286,32 @@ def _conserve(r, s):
     return r + np.outer(e, a) + np.outer(a, e) - np.outer(a, a) * (e @ s)
 
 
-def _newton(c, mu, w, kp, km, critical, max_steps=30):
+def _rates(a1, mu):
+    """(theta, V, V^-1): the eigen-decomposition of M^-1 A1."""
+    theta, v = np.linalg.eig(a1 / mu[:, None])
+    vi = np.linalg.inv(v)
+    if np.all(theta.imag == 0.0) and np.all(v.imag == 0.0):
+        theta, v, vi = theta.real, v.real, vi.real
+    return theta, v, vi
+
+
+#: a step that reduces the residual by less than this factor makes the next step refresh the decomposition
+_SLOW = 1e-2
+
+
+def _newton(c, mu, w, kp, km, critical, max_steps=40):
+    """Inexact Newton on the bounded Riccati residual.  The Sylvester step A1 D M + M D A1^T = -F is solved
+    through a decomposition of M^-1 A1: at first the identity's (A1 = E, D = -F/(mu_i + mu_j), exact as the
+    kernel vanishes; at high orders A_l, l >= m, are so small that this alone converges in a few steps), and
+    the eigen-decomposition at the current iterate whenever a step reduced the residual by less than
+    :data:`_SLOW`.  Returns R, the number of steps and the last decomposition (None: the identity's)."""
     s = 0.5 * mu * w
     r = c * km / (mu[:, None] + mu[None, :])
     scale = max(float(np.max(np.abs(c * km))), 1e-300)
     best = (np.inf, r, 0)
+    rates = None
+    refresh = critical  # at c = 1, m = 0 the zero rate must be dropped from every step: a decomposition
+    previous = np.inf
     steps = 0
     for steps in range(1, max_steps + 1):
         if critical:
@@ -285,9 +322,14 @@ def _newton(c, mu, w, kp, km, critical, max_steps=30):
             best = (res, r, steps)
         if res < 4e-16 or (steps > 3 and res > 0.5 * best[0] and best[0] < 1e-13):
             break
-        a1 = _closed_loop(c, mu, w, kp, km, r)
-        theta, v = np.linalg.eig(a1 / mu[:, None])
-        vi = np.linalg.inv(v)
+        if refresh or res > _SLOW * previous:
+            rates = _rates(_closed_loop(c, mu, w, kp, km, r), mu)
+            refresh = False
+        previous = res
+        if rates is None:
+            r = r - f / (mu[:, None] + mu[None, :])
+            continue
+        theta, v, vi = rates
         y = -f / mu[:, None] / mu[None, :]
         z = vi @ y @ vi.T
         den = theta[:, None] + theta[None, :]
@@ -298,7 +340,7 @@ def _newton(c, mu, w, kp, km, critical, max_steps=30):
     r = best[1]
     if critical:
         r = _conserve(r, s)
-    return 0.5 * (r + r.T), best[2]
+    return 0.5 * (r + r.T), best[2], rates
 
 
 def _doubling(c, mu, w, kp, km, critical):
@@ -333,24 +375,45 @@ def _doubling(c, mu, w, kp, km, critical):
 RULES = {"newton": dict(per_panel=12, ratio=0.25), "doubling": dict(per_panel=14, ratio=0.2)}
 
 
-@lru_cache(maxsize=128)
-def _solve_cached(method, phase, degree, m, c, smallest):
+@lru_cache(maxsize=8)
+def _rule(method, degree, smallest):
     mu, w = node_rule(degree, smallest=smallest, **RULES[method])
+    mu.setflags(write=False)
+    w.setflags(write=False)
+    return mu, w
+
+
+#: solutions kept: about 4.5 MB each at L = 256, one c needs 51-53 orders
+_CACHED_ORDERS = 64
+
+
+@lru_cache(maxsize=_CACHED_ORDERS)
+def _solve_cached(method, phase, degree, m, c, smallest):
+    mu, w = _rule(method, degree, smallest)
     moments = legendre_moments(degree, phase)[m:]
     q = _node_vectors(m, degree, moments, mu, w)
-    kp = np.einsum("l,li,lj->ij", moments, q, q)
-    km = np.einsum("l,li,lj->ij", moments * (-1.0) ** (np.arange(m, degree + 1) + m), q, q)
+    kp, km = _kernels(moments, (-1.0) ** (np.arange(m, degree + 1) + m), q)
     critical = m == 0 and c == 1.0
+    rates = None
     with _blas_one_thread():
         if c == 0.0 or degree < m:
             r, it = np.zeros((mu.size, mu.size)), 0
         elif method == "newton":
-            r, it = _newton(c, mu, w, kp, km, critical)
+            r, it, rates = _newton(c, mu, w, kp, km, critical)
         else:
             r, it = _doubling(c, mu, w, kp, km, critical)
-    for a in (mu, w, moments, q, r):
+        a1 = _closed_loop(c, mu, w, kp, km, r)
+        if method == "doubling":
+            rates = _rates(a1, mu)
+    for a in (moments, q, r, km, a1, *(rates or ())):
         a.setflags(write=False)
-    return OrderSolution(m, c, method, phase, degree, mu, w, moments, q, r, it, smallest)
+    return OrderSolution(m, c, method, phase, degree, mu, w, moments, q, r, it, smallest, km, a1, rates)
+
+
+def clear_cache() -> None:
+    """Forget every cached solution (for timing a cold solve)."""
+    _solve_cached.cache_clear()
+    _needed_cached.cache_clear()
 
 
 def solve_order(order: int, c: float, method: str = "newton", phase: str = "true", degree: int | None = None,
@@ -365,46 +428,45 @@ def solve_order(order: int, c: float, method: str = "newton", phase: str = "true
     return _solve_cached(method, phase, int(degree), int(order), float(c), float(smallest))
 
 
-@lru_cache(maxsize=64)
-def _nystrom_parts(method, phase, degree, m, c, smallest):
-    """K-, A1 and the eigen-decomposition of M^-1 A1 for a cached solution (one per order and c;
-    about 5 MB each at L = 256, so the cache holds about one c's orders)."""
-    sol = _solve_cached(method, phase, degree, m, c, smallest)
-    kp, km = sol.kernels()
-    a1 = _closed_loop(c, sol.nodes, sol.weights, kp, km, sol.r)
-    with _blas_one_thread():
-        theta, v = np.linalg.eig(a1 / sol.nodes[:, None])
-        vi = np.linalg.inv(v)
-    if np.all(theta.imag == 0.0) and np.all(v.imag == 0.0):
-        theta, v, vi = theta.real, v.real, vi.real
-    return km, a1, theta, v, vi
-
-
 def _rows(sol: OrderSolution, u: np.ndarray):
     """Nystrom rows R(u_a, nodes): r (u A1^T + M) = b(u), b_j = c k(u, -mu_j) + (c/2) mu_j sum_l w_l k(u, mu_l) R_lj.
 
-    Solved as (u A1 + M) r^T = b^T through the eigen-decomposition of M^-1 A1 with iterative
-    refinement on the bounded residual.  Also returns k(u, nodes) (c-free).
+    Solved as (u A1 + M) r^T = b^T by iterative refinement on the bounded residual, preconditioned by the
+    solution's decomposition of M^-1 A1 (or by A1 = E where it has none: high orders, where A1 - E is tiny).
+    Also returns k(u, nodes) (c-free).
     """
     c, mu, w = sol.c, sol.nodes, sol.weights
     qu = assoc_normalised(sol.order, sol.degree, u)  # (nl, nu)
     k_plus = qu.T @ (sol.moments[:, None] * sol.q_nodes)  # k(u, mu_j)
     k_minus = qu.T @ ((sol.moments * sol.signs)[:, None] * sol.q_nodes)  # k(u, -mu_j)
     b = c * k_minus + 0.5 * c * ((k_plus * w[None, :]) @ sol.r) * mu[None, :]
-    _, a1, theta, v, vi = _nystrom_parts(sol.method, sol.phase, sol.degree, sol.order, sol.c, sol.smallest)
+    a1 = sol.a1
     rhs = b.T  # (N, nu)
 
-    def approx(y):
-        z = vi @ (y / mu[:, None])
-        return (v @ (z / (1.0 + u[None, :] * theta[:, None]))).real
+    def solve(rates):
+        if rates is None:
+            def approx(y):
+                return y / (mu[:, None] + u[None, :])
+        else:
+            theta, v, vi = rates
 
-    x = approx(rhs)
-    for _ in range(4):
-        res = rhs - (a1 @ x) * u[None, :] - mu[:, None] * x
-        dx = approx(res)
-        x = x + dx
-        if np.max(np.abs(dx)) <= 1e-16 * np.max(np.abs(x)):
-            break
+            def approx(y):
+                z = vi @ (y / mu[:, None])
+                return (v @ (z / (1.0 + u[None, :] * theta[:, None]))).real
+
+        x = approx(rhs)
+        for _ in range(12):
+            res = rhs - (a1 @ x) * u[None, :] - mu[:, None] * x
+            dx = approx(res)
+            x = x + dx
+            # per column: a column at u = 0 is exact at once and dwarfs the others
+            if np.all(np.max(np.abs(dx), axis=0) <= 4e-16 * np.max(np.abs(x), axis=0)):
+                return x, True
+        return x, False
+
+    x, converged = solve(sol.rates)
+    if not converged:  # the preconditioner is too far from A1 (the identity, or an early iterate's): decompose A1
+        x, _ = solve(_rates(a1, mu))
     return x.T, k_plus
 
 
@@ -415,7 +477,7 @@ def _ms_numerators(sol: OrderSolution, mu_a, mu_b):
         return np.zeros(mu_a.shape), 0.0
     uniq, inv = np.unique(np.concatenate((mu_a, mu_b)), return_inverse=True)
     ia, ib = inv[: mu_a.size], inv[mu_a.size:]
-    km = _nystrom_parts(sol.method, sol.phase, sol.degree, sol.order, sol.c, sol.smallest)[0]
+    km = sol.km
     with _blas_one_thread():
         rows, k_plus = _rows(sol, uniq)
     rw = rows * w[None, :]
