@@ -55,8 +55,43 @@ def _cse(routine: Routine):
     return temps, exprs[0], exprs[1:]
 
 
+#: :func:`_cse_many`'s results by the expressions' structure (:func:`_structure`): one routine is printed in six
+#: languages, and in C in double and float, from the same expressions, and sympy's cse of a model takes seconds
+_CSE_DONE: dict = {}
+
+
+def _structure(exprs) -> tuple:
+    """A key that tells apart any two expressions that could print differently: each node's class and its
+    arguments' keys, each atom's class and its whole hashable content (a Float's precision, a symbol's
+    assumptions: what ``==`` may not tell apart).  ``srepr`` would do, but sorts every sum and product."""
+    memo: dict = {}
+
+    def key(e):
+        out = memo.get(id(e))
+        if out is None:
+            args = e.args
+            out = (type(e), tuple(key(a) for a in args)) if args else (type(e), e._hashable_content())
+            memo[id(e)] = out
+        return out
+
+    return tuple(key(e) for e in exprs)
+
+
 def _cse_many(exprs, name: str):
     """:func:`_cse` of several expressions at once (their temporaries shared): (temps, expressions)."""
+    exprs = tuple(exprs)
+    key = _structure(exprs)
+    done = _CSE_DONE.get(key)
+    if done is None:
+        if len(_CSE_DONE) >= 256:
+            _CSE_DONE.pop(next(iter(_CSE_DONE)))
+        done = _CSE_DONE[key] = _cse_computed(exprs)
+    temps, out = done
+    return list(temps), list(out)
+
+
+def _cse_computed(exprs: tuple) -> tuple[tuple, tuple]:
+    """What :func:`_cse_many` returns, computed: (temps, expressions), each a tuple."""
     names = sp.numbered_symbols("t", real=True)
     temps, exprs = sp.cse(list(exprs), symbols=names, order="canonical")
     out = []
@@ -91,7 +126,7 @@ def _cse_many(exprs, name: str):
         out.append((t, e))
     # sympy's cse is unannotated: pyright infers str among its reduced expressions, which are sympy expressions
     exprs = [hoist(e.xreplace(conditions)) for e in exprs]  # pyright: ignore[reportAttributeAccessIssue]
-    return out, exprs
+    return tuple(out), tuple(exprs)
 
 
 #: the licence of generated source: fitlab's own (LICENSE), so that it may be dropped into any renderer
