@@ -90,18 +90,22 @@ def load_program(fits_dir: Path | None = None, terms: str | tuple | None = None,
     # the file name and its digest name a fit wherever its folder is, so regenerated code is byte-identical
     sources = tuple((p.name, fit_sha256(p)) for p in paths.values())
     # the same files (by digest) make the same program: built once per process (inlining and hoisting the
-    # model takes seconds; a Program is immutable)
-    key = (sources, tuple(fit_origin(p) for p in paths.values()), term_tuple, family, model_name, allow_partial_domain)
+    # model takes seconds; a Program is immutable).  Where each was read changes the banner's notes alone, so a
+    # folder holding copies of the packaged fits reuses their program and re-measures only
+    built_key = (sources, term_tuple, family, model_name, allow_partial_domain)
+    key = (built_key, tuple(fit_origin(p) for p in paths.values()))
     if key not in _PROGRAMS:
         records = {t: load(p) for t, p in paths.items()}
         notes = []
         for t, fit in records.items():
             measured = verify_fit(fit, allow_partial_domain=allow_partial_domain)
             notes.append(f"{fit_origin(paths[t])}; {describe_measured(measured)}")
-        if len(_PROGRAMS) >= 16:
-            _PROGRAMS.pop(next(iter(_PROGRAMS)))
-        _PROGRAMS[key] = replace(build_program(records, term_tuple, sources, family, (model_name, description)),
-                                 source_notes=tuple(notes))
+        if built_key not in _BUILT:
+            _BUILT[built_key] = build_program(records, term_tuple, sources, family, (model_name, description))
+        for memo in (_PROGRAMS, _BUILT):
+            while len(memo) > 16:
+                memo.pop(next(iter(memo)))
+        _PROGRAMS[key] = replace(_BUILT[built_key], source_notes=tuple(notes))
     return _PROGRAMS[key]
 
 
@@ -125,7 +129,11 @@ def unused_fits(fits_dir: Path, program: Program | None = None, forms: dict | No
     return unused
 
 
+#: load_program's programs by (the files' names and digests, terms, family, model, partial domain) and where each
+#: file was read (:func:`fitlab.store.fit_origin`, which the banner's notes name)
 _PROGRAMS: dict = {}
+#: the programs as build_program returns them (no notes), by the first part of _PROGRAMS's key alone
+_BUILT: dict = {}
 
 
 def generate(lang: str, fits_dir: Path | None = None, terms: str | tuple | None = None,
