@@ -90,10 +90,10 @@ def _cse_many(exprs, name: str):
     return list(temps), list(out)
 
 
-def _cse_computed(exprs: tuple) -> tuple[tuple, tuple]:
+def _cse_computed(given: tuple) -> tuple[tuple, tuple]:
     """What :func:`_cse_many` returns, computed: (temps, expressions), each a tuple."""
     names = sp.numbered_symbols("t", real=True)
-    temps, exprs = sp.cse(list(exprs), symbols=names, order="canonical")
+    temps, exprs = sp.cse(list(given), symbols=names, order="canonical")
     out = []
 
     def temp(value):
@@ -125,8 +125,8 @@ def _cse_computed(exprs: tuple) -> tuple[tuple, tuple]:
             continue
         out.append((t, e))
     # sympy's cse is unannotated: pyright infers str among its reduced expressions, which are sympy expressions
-    exprs = [hoist(e.xreplace(conditions)) for e in exprs]  # pyright: ignore[reportAttributeAccessIssue]
-    return tuple(out), tuple(exprs)
+    reduced = [hoist(e.xreplace(conditions)) for e in exprs]  # pyright: ignore[reportAttributeAccessIssue]
+    return tuple(out), tuple(reduced)
 
 
 #: the licence of generated source: fitlab's own (LICENSE), so that it may be dropped into any renderer
