@@ -264,6 +264,37 @@ def test_audit_runtime_rows_are_recomputed(audit, runtime_models):
         _check_runtime_row(row, got, ds, f"audit.json runtime {model.name}")
 
 
+def test_audit_runtime_true_rows_are_recomputed(audit, runtime_models):
+    """The rows against the true BRDF: the runtime models and the mixed reference, recomputed on the true set."""
+    from fitlab.families.lambert_sphere import datasets as d
+    from fitlab.families.lambert_sphere import exact
+    from fitlab.families.lambert_sphere.audit import MIXED_ROW, TRUE_FLOOR_ROW
+
+    ds = d.brdf_validation_true()
+    assert audit["runtime_true_grid"] == ds.grid
+    mixed = d.brdf_validation()
+    mi, mo, ph, c = (ds.inputs[k] for k in ("mu_i", "mu_o", "phi", "c"))
+    for k, v in (("mu_i", mi), ("mu_o", mo), ("phi", ph), ("c", c)):
+        np.testing.assert_array_equal(mixed.inputs[k], v)
+    rows = {r["model"]: r for r in audit["runtime_true"]}
+    assert set(rows) == {m.name for m in runtime_models} | {MIXED_ROW, TRUE_FLOOR_ROW}
+    _check_runtime_row(rows[MIXED_ROW], _runtime_figures(mixed.y, ds.y, mi, mo), ds, "audit.json mixed vs true")
+    # the floor: the true BRDF less its multiple-scattering orders >= 3; at one albedo the set's orders 0 to 2
+    # with the engine's higher orders and the closed-form single scattering add up to the set's BRDF
+    single = c * exact.phase_function(-(mi * mo + np.sqrt((1 - mi * mi) * (1 - mo * mo)) * np.cos(ph))) / (mi + mo)
+    kept = single + ds.aux["fm0"] + ds.aux["fm1"] * np.cos(ph) + ds.aux["fm2"] * np.cos(2 * ph)
+    floor = np.maximum(0.0, kept)
+    _check_runtime_row(rows[TRUE_FLOOR_ROW], _runtime_figures(floor, ds.y, mi, mo), ds, "audit.json true floor")
+    cv = float(np.unique(c)[9])  # c = 1 - (15/32)^2, mid-range
+    sel = c == cv
+    modes = exact.multiple_scattering_modes(mi[sel], mo[sel], cv, phase="true")
+    higher = sum(fm * np.cos(m * ph[sel]) for m, fm in enumerate(modes) if m >= 3)
+    np.testing.assert_allclose(kept[sel] + higher, ds.y[sel], rtol=1e-12)
+    for model in runtime_models:
+        got = _runtime_figures(model(mi, mo, ph, c), ds.y, mi, mo)
+        _check_runtime_row(rows[model.name], got, ds, f"audit.json runtime {model.name} vs true")
+
+
 @pytest.mark.benchmark
 def test_audit_runtime_floor_row_is_recomputed(audit):
     from fitlab.families.lambert_sphere import datasets as d
@@ -296,8 +327,10 @@ def test_audit_furnace_rows_are_recomputed(audit, runtime_models):
     from fitlab.families.lambert_sphere.exact import albedo
 
     rows = {r["model"]: r for r in audit["furnace"]}
-    (exact_name,) = [name for name in rows if name.startswith("exact (")]
-    assert set(rows) - {m.name for m in runtime_models} == {exact_name}
+    exact_names = {phase: name for name in rows if name.startswith("exact (")
+                   for phase in ("true", "mixed") if f"phase '{phase}'" in name}
+    assert set(rows) - {m.name for m in runtime_models} == set(exact_names.values())
+    assert set(exact_names) == {"true", "mixed"}
     for model in runtime_models:
         row = rows[model.name]
         for mu, stored in row["albedo"].items():
@@ -305,10 +338,14 @@ def test_audit_furnace_rows_are_recomputed(audit, runtime_models):
             assert got == pytest.approx(stored, abs=1e-7), f"furnace {model.name} mu_i = {mu}"
     for row in rows.values():
         assert row["max_abs_deviation"] == pytest.approx(max(abs(a - 1.0) for a in row["albedo"].values()), rel=1e-12)
-    for mu, stored in rows[exact_name]["albedo"].items():
-        got = float(albedo(float(mu), 1.0, model="true"))
-        assert got == pytest.approx(stored, rel=1e-12), f"furnace exact mu_i = {mu}"
+    for mu, stored in rows[exact_names["mixed"]]["albedo"].items():
+        got = float(albedo(float(mu), 1.0, phase="mixed"))
+        assert got == pytest.approx(stored, rel=1e-12), f"furnace exact (mixed) mu_i = {mu}"
         assert abs(got - 1.0) < 2e-4  # the true phase function's excess over the three-term one is small
+    for mu, stored in rows[exact_names["true"]]["albedo"].items():
+        got = float(albedo(float(mu), 1.0, phase="true"))
+        assert got == pytest.approx(stored, rel=1e-12), f"furnace exact (true) mu_i = {mu}"
+        assert abs(got - 1.0) < 1e-12  # the whole phase function in every collision conserves energy
 
 
 # -- fitlab.fit.metrics.summary against the independent implementation ---------------------------

@@ -185,3 +185,24 @@ def test_single_scattering_albedo_of_truncation():
         qi = tp.assoc_normalised(0, tp.DEGREE, np.array([-mu_i]))[:, 0]
         a_l = 0.5 * np.sum(a * qi * (q @ (w * v / (mu_i + v))))
         assert a_l == pytest.approx(single_scattering_albedo(mu_i), abs=1e-13)
+
+
+def test_true_brdf_validation_set():
+    """The audit's true-BRDF set: the engine's values at one of its albedos, energy at c = 0 and 1, and the
+    same points as the mixed set, which it stays within the measured gap of (2.0e-3 away from the pole)."""
+    from fitlab.families.lambert_sphere import datasets as d
+
+    ds = d.brdf_validation_true()
+    mixed = d.brdf_validation()
+    c = ds.inputs["c"]
+    for k in ("mu_i", "mu_o", "phi", "c"):
+        np.testing.assert_array_equal(ds.inputs[k], mixed.inputs[k])
+    assert np.all(ds.inputs["kd"][c == 1.0] == pytest.approx(1.0, abs=1e-12))
+    assert np.all(ds.inputs["kd"][c == 0.0] == 0.0) and np.all(ds.y[c == 0.0] == 0.0)
+    cv = float(np.unique(c)[len(np.unique(c)) // 2])
+    sel = c == cv
+    want = exact.brdf(ds.inputs["mu_i"][sel], ds.inputs["mu_o"][sel], ds.inputs["phi"][sel], cv, phase="true")
+    np.testing.assert_allclose(ds.y[sel], want, rtol=1e-13)
+    away = (ds.inputs["mu_i"] >= 1e-3) & (ds.inputs["mu_o"] >= 1e-3) & (c > 0.0)
+    gap = np.abs(mixed.y[away] / ds.y[away] - 1.0)
+    assert 1e-4 < gap.max() < 2.1e-3

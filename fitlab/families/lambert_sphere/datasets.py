@@ -195,27 +195,55 @@ def brdf_validation() -> Dataset:
     )
 
 
-def _brdf(s, mu, phi, grid, extra_c=()) -> Dataset:
-    grid = grid + "; mu_i = mu_o = 0 left out; kd = kd_true(c)"
-    return _cached(f"brdf-{len(s)}x{len(mu)}x{len(phi)}+{len(extra_c)}", grid,
-                   lambda: _brdf_exact(s, mu, phi, grid, extra_c), ("mu_i", "mu_o", "phi", "c", "kd"),
-                   s=s, mu=mu, phi=phi, extra_c=np.asarray(extra_c, dtype=float))  # fmt: skip
+@lru_cache(maxsize=None)
+def brdf_validation_true() -> Dataset:
+    """The points of :func:`brdf_validation` with the true BRDF: exact.brdf(phase="true"), the whole phase
+    function in every collision, and kd its spherical albedo (the reference of the audit's runtime rows
+    "against the true BRDF")."""
+    return _brdf(
+        _interleaved(32), _interleaved(32, extra=(1e-6,)), np.pi * _interleaved(32),
+        "s, mu, phi/pi = (2k+1)/32, plus 0, 1 and mu = 1e-6", phase="true",
+    )
 
 
-def _brdf_exact(s, mu, phi, grid, extra_c=()) -> Dataset:
+def _brdf(s, mu, phi, grid, extra_c=(), phase="mixed") -> Dataset:
+    """The BRDF on a lattice; ``phase`` as in :func:`exact.brdf <fitlab.families.lambert_sphere.exact.brdf>`,
+    and kd the spherical albedo of the same physics ("mixed": kd_true)."""
+    if phase == "mixed":
+        grid = grid + "; mu_i = mu_o = 0 left out; kd = kd_true(c)"
+        name = f"brdf-{len(s)}x{len(mu)}x{len(phi)}+{len(extra_c)}"
+    else:
+        grid = grid + f"; mu_i = mu_o = 0 left out; exact.brdf(phase={phase!r}), kd its spherical albedo"
+        name = f"brdf-{phase}-{len(s)}x{len(mu)}x{len(phi)}+{len(extra_c)}"
+    aux = ("fm0", "fm1", "fm2") if phase == "true" else ()
+    return _cached(name, grid, lambda: _brdf_exact(s, mu, phi, grid, extra_c, phase),
+                   ("mu_i", "mu_o", "phi", "c", "kd"), aux, s=s, mu=mu, phi=phi,
+                   extra_c=np.asarray(extra_c, dtype=float))
+
+
+def _brdf_exact(s, mu, phi, grid, extra_c=(), phase="mixed") -> Dataset:
     c = np.concatenate((1.0 - s**2, extra_c))
-    kd = spherical_albedo(c, model="true")
     mi, mo = _pairs(mu)
     n = mi.size
     cols = {"mu_i": [], "mu_o": [], "phi": [], "c": [], "kd": []}
     ys = []
-    for cv, kv in zip(c, kd):
+    aux = {"fm0": [], "fm1": [], "fm2": []}
+    # one c at a time: the true-phase engine caches the solutions of about one c
+    for cv in c:
+        kv = float(spherical_albedo(cv, phase=phase))
+        if phase == "true":  # the multiple scattering's Fourier orders 0 to 2 (the runtime structure's terms)
+            orders = multiple_scattering_modes(mi, mo, cv, phase=phase)
+            for m in (0, 1, 2):  # c = 0 has one order, of zeros
+                aux[f"fm{m}"] += [orders[m] if m < len(orders) else np.zeros(n)] * len(phi)
+        # every phi in one call: the true-phase engine then solves its Nystrom rows once per c, not per phi
+        ys.append(brdf(mi[None, :], mo[None, :], np.asarray(phi, dtype=float)[:, None], cv, phase=phase).ravel())
         for p in phi:
-            ys.append(brdf(mi, mo, p, cv))
-            for k, v in (("mu_i", mi), ("mu_o", mo), ("phi", np.full(n, p)), ("c", np.full(n, cv)), ("kd", np.full(n, kv))):
+            for k, v in (("mu_i", mi), ("mu_o", mo), ("phi", np.full(n, p)), ("c", np.full(n, cv)),
+                         ("kd", np.full(n, kv))):
                 cols[k].append(v)
     return Dataset(
         {k: np.concatenate(v) for k, v in cols.items()}, np.concatenate(ys), grid,
+        {k: np.concatenate(v) for k, v in aux.items()} if phase == "true" else None,
     )
 
 

@@ -131,13 +131,23 @@ ORDER_TOLERANCE = 1e-14
 MAX_ORDERS = 96
 
 
-def _blas_one_thread():
-    """Single-threaded BLAS for the small dense matrices here (several threads only contend)."""
+@lru_cache(maxsize=1)
+def _blas_controller():
     try:
-        from threadpoolctl import threadpool_limits
+        from threadpoolctl import ThreadpoolController
     except ImportError:  # pragma: no cover - optional
+        return None
+    return ThreadpoolController()
+
+
+def _blas_one_thread():
+    """Single-threaded BLAS for the small dense matrices here (several threads only contend).  One
+    controller for the process: threadpool_limits() scans every loaded library on each call (14-60 ms,
+    which was most of the cost of a BRDF at a few points), the controller's limit() takes 30 us."""
+    controller = _blas_controller()
+    if controller is None:  # pragma: no cover - optional
         return contextlib.nullcontext()
-    return threadpool_limits(1)
+    return controller.limit(limits=1, user_api="blas")
 
 
 def legendre_moments(degree: int, phase: str = "true") -> np.ndarray:
