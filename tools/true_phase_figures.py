@@ -8,6 +8,7 @@
     python tools/true_phase_figures.py kd       C [C ...]    # spherical albedo of each phase, and eq. 40's
     python tools/true_phase_figures.py ms_gap   C [C ...]    # the mixed reference's multiple scattering vs true
     python tools/true_phase_figures.py runtime  C [C ...]    # the shipped runtime model vs mixed and vs true
+    python tools/true_phase_figures.py report_cost           # the report's three validation sets with phase="true"
 
 Run with one BLAS thread (OPENBLAS_NUM_THREADS=1) on a shared machine; prints plain text.
 """
@@ -166,8 +167,37 @@ def kd(cs):
               f"{k['true'] - k['three_term']:.2e} | {k['true'] - k['mixed']:.2e} | {e - k['true']:.1e} |", flush=True)
 
 
+def report_cost():
+    """Seconds to evaluate the true BRDF at the points of the report's full validation sets (the Sobol set and
+    the grazing set share their albedos and are evaluated in one call per c; the independent set has its own
+    albedos and points), cold cache, nothing written."""
+    from fitlab.report.settings import FULL
+    from fitlab.report.validation import GRAZING_MU, GRAZING_PHI, albedos, sobol_points
+
+    points = sobol_points(FULL.log2_points, FULL.seed)
+    gi, go, gp = (a.ravel() for a in np.meshgrid(GRAZING_MU, GRAZING_MU, GRAZING_PHI, indexing="ij"))
+    mi, mo, ph = (np.concatenate((points[:, 0], gi)), np.concatenate((points[:, 1], go)),
+                  np.concatenate((np.pi * points[:, 2], gp)))
+    cs = albedos(FULL.n_c, FULL.with_c1, FULL.small_c)
+    rng = np.random.default_rng(FULL.fresh_seed)
+    fresh_c = rng.uniform(0.0, 1.0, FULL.fresh_c)
+    per_c = -(-FULL.fresh_points // FULL.fresh_c)
+    fresh = rng.uniform(0.0, 1.0, (FULL.fresh_c, per_c, 3))
+    tp.clear_cache()
+    t0 = time.perf_counter()
+    for c in cs:
+        exact.brdf(mi, mo, ph, c, phase="true")
+    t1 = time.perf_counter()
+    print(f"Sobol + grazing sets: {cs.size} albedos x {mi.size} points in {t1 - t0:.0f} s", flush=True)
+    for c, p in zip(fresh_c, fresh):
+        exact.brdf(p[:, 0], p[:, 1], np.pi * p[:, 2], c, phase="true")
+    t2 = time.perf_counter()
+    print(f"independent set: {fresh_c.size} albedos x {per_c} points in {t2 - t1:.0f} s; "
+          f"all three {t2 - t0:.0f} s", flush=True)
+
+
 if __name__ == "__main__":
     what, args = sys.argv[1], [float(x) for x in sys.argv[2:]]
     {"methods": lambda: methods(args), "degree": lambda: degree(args[0]), "cost": lambda: cost(args),
      "gap": lambda: gap(args), "albedo": albedo, "kd": lambda: kd(args),
-     "ms_gap": lambda: ms_gap(args), "runtime": lambda: runtime(args)}[what]()
+     "ms_gap": lambda: ms_gap(args), "runtime": lambda: runtime(args), "report_cost": report_cost}[what]()
