@@ -3,7 +3,8 @@
 The quick report runs once through the CLI and once through the API (the second
 reads the validation set from the disk cache the first wrote); every column but
 the timings must agree.  The module fixture is the suite's slowest single cost (170-200 s on two
-loaded cores, most of it the reduced report's own cold values); the full report is `fitlab report`.
+loaded cores; it computes the reduced report's validation values itself, on purpose); the full report
+is `fitlab report`.
 """
 
 import csv
