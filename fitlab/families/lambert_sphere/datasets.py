@@ -189,10 +189,13 @@ def brdf_training() -> Dataset:
 
 @lru_cache(maxsize=None)
 def brdf_validation() -> Dataset:
-    return _brdf(
-        _interleaved(32), _interleaved(32, extra=(1e-6,)), np.pi * _interleaved(32),
-        "s, mu, phi/pi = (2k+1)/32, plus 0, 1 and mu = 1e-6",
-    )
+    return _brdf(*_validation_lattice())
+
+
+def _validation_lattice():
+    """(s, mu, phi, grid) of the BRDF validation sets, mixed and true."""
+    return (_interleaved(32), _interleaved(32, extra=(1e-6,)), np.pi * _interleaved(32),
+            "s, mu, phi/pi = (2k+1)/32, plus 0, 1 and mu = 1e-6")
 
 
 @lru_cache(maxsize=None)
@@ -200,10 +203,7 @@ def brdf_validation_true() -> Dataset:
     """The points of :func:`brdf_validation` with the true BRDF: exact.brdf(phase="true"), the whole phase
     function in every collision, and kd its spherical albedo (the reference of the audit's runtime rows
     "against the true BRDF")."""
-    return _brdf(
-        _interleaved(32), _interleaved(32, extra=(1e-6,)), np.pi * _interleaved(32),
-        "s, mu, phi/pi = (2k+1)/32, plus 0, 1 and mu = 1e-6", phase="true",
-    )
+    return _brdf(*_validation_lattice(), phase="true")
 
 
 def _brdf(s, mu, phi, grid, extra_c=(), phase="mixed") -> Dataset:

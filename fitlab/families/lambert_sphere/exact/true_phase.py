@@ -242,9 +242,6 @@ class OrderSolution:
     def signs(self):
         return (-1.0) ** (np.arange(self.order, self.degree + 1) + self.order)
 
-    def kernels(self):
-        return _kernels(self.moments, self.signs, self.q_nodes)
-
     @property
     def single(self):
         """Single scattering of the discrete problem at node pairs, c k(mu_i, -mu_j)/(mu_i + mu_j)."""
@@ -320,7 +317,6 @@ def _newton(c, mu, w, kp, km, critical, max_steps=40):
     scale = max(float(np.max(np.abs(c * km))), 1e-300)
     best = (np.inf, r, 0)
     rates = None
-    refresh = critical  # at c = 1, m = 0 the zero rate must be dropped from every step: a decomposition
     previous = np.inf
     steps = 0
     for steps in range(1, max_steps + 1):
@@ -332,9 +328,9 @@ def _newton(c, mu, w, kp, km, critical, max_steps=40):
             best = (res, r, steps)
         if res < 4e-16 or (steps > 3 and res > 0.5 * best[0] and best[0] < 1e-13):
             break
-        if refresh or res > _SLOW * previous:
+        # at c = 1, m = 0 the zero rate must be dropped from every step, so the first step decomposes too
+        if (critical and rates is None) or res > _SLOW * previous:
             rates = _rates(_closed_loop(c, mu, w, kp, km, r), mu)
-            refresh = False
         previous = res
         if rates is None:
             r = r - f / (mu[:, None] + mu[None, :])
