@@ -212,12 +212,14 @@ def runtime_models():
     from fitlab.families.lambert_sphere.audit import richer_forms
     from fitlab.codegen import DEFAULT_FORMS
     from fitlab.families.lambert_sphere.runtime import PRESET_VARIANTS, runtime_model
+    from fitlab.families.lambert_sphere.true_refit import true_runtime_model
 
     models = [runtime_model(v) for v in PRESET_VARIANTS]
     models.append(runtime_model(fits_dir=ROOT / "fitlab" / "fits", model=DEFAULT_FORMS))
     richer = richer_forms(ROOT / "fitlab" / "fits")
     if richer:
         models.append(runtime_model(fits_dir=ROOT / "fitlab" / "fits", forms=richer, model=DEFAULT_FORMS))
+    models.append(true_runtime_model(ROOT / "fitlab" / "fits" / "true"))  # the parts fitted to the true BRDF
     return models
 
 
@@ -293,6 +295,28 @@ def test_audit_runtime_true_rows_are_recomputed(audit, runtime_models):
     for model in runtime_models:
         got = _runtime_figures(model(mi, mo, ph, c), ds.y, mi, mo)
         _check_runtime_row(rows[model.name], got, ds, f"audit.json runtime {model.name} vs true")
+
+
+def test_audit_runtime_true_independent_rows_are_recomputed(audit, runtime_models):
+    """The rows at the independent random points: the runtime models and the mixed reference against the true
+    BRDF, recomputed; the set's points are random, apart from every training lattice."""
+    from fitlab.families.lambert_sphere import datasets as d
+    from fitlab.families.lambert_sphere import exact
+    from fitlab.families.lambert_sphere.audit import MIXED_ROW
+
+    ds = d.brdf_true_independent()
+    assert audit["runtime_true_independent_grid"] == ds.grid
+    mi, mo, ph, c = (ds.inputs[k] for k in ("mu_i", "mu_o", "phi", "c"))
+    rows = {r["model"]: r for r in audit["runtime_true_independent"]}
+    assert set(rows) == {m.name for m in runtime_models} | {MIXED_ROW}
+    mixed = np.empty_like(ds.y)
+    for cv in np.unique(c):
+        sel = c == cv
+        mixed[sel] = exact.brdf(mi[sel], mo[sel], ph[sel], cv, phase="mixed")
+    _check_runtime_row(rows[MIXED_ROW], _runtime_figures(mixed, ds.y, mi, mo), ds, "audit.json mixed vs true, independent")
+    for model in runtime_models:
+        got = _runtime_figures(model(mi, mo, ph, c), ds.y, mi, mo)
+        _check_runtime_row(rows[model.name], got, ds, f"audit.json runtime {model.name} vs true, independent")
 
 
 @pytest.mark.benchmark
@@ -385,3 +409,28 @@ def test_summary_on_exact_zeros_and_nan():
     assert got["rms_rel"] == pytest.approx(math.sqrt((0.25 + 0 + 0.0625) / 3), rel=1e-15)
     got = summary(np.array([1.0, np.nan]), np.array([1.0, 1.0]), np.ones(2), {"x": np.arange(2.0)})
     assert got["max_rel"] == math.inf and got["rms_rel"] == math.inf and got["worst"]["x"] == 1.0
+
+
+def test_model_doc_true_fit_table_quotes_the_audit(audit):
+    """docs/model.md, "Parts fitted to the true BRDF": its table's figures are the audit's (docs/audit.json, which
+    the tests above recompute), rounded to the three digits printed."""
+    from fitlab.families.lambert_sphere.audit import MIXED_ROW
+    from fitlab.families.lambert_sphere.true_refit import TRUE_MODEL_NAME
+
+    text = (ROOT / "docs" / "model.md").read_text()
+    table = text[text.index("### Parts fitted to the true BRDF"):text.index("## The runtime BRDF")]
+    rows = [[cell.strip() for cell in line.strip("|").split("|")] for line in table.splitlines()
+            if line.startswith("| ") and not line.startswith("| reference")]
+    shipped = next(r["model"] for r in audit["runtime"] if r["model"].startswith("refit ("))
+    names = {"fitted to the true BRDF": TRUE_MODEL_NAME, "shipped": shipped,
+             "shipped (fitted to the mixed reference)": shipped, "mixed reference itself": MIXED_ROW}
+    sections = ["runtime_true"] * 3 + ["runtime_true_independent"] * 3 + ["runtime"] * 2
+    assert len(rows) == len(sections)
+    for cells, section in zip(rows, sections):
+        row = {r["model"]: r for r in audit[section]}[names[cells[1]]]
+        for cell, key in zip(cells[2:5], ("max_rel", "max_rel_away", "rms_rel_nonzero")):
+            assert float(cell) == float(f"{row[key]:.2e}"), (section, cells[1], key, cell, row[key])
+    # and how far the parts moved from their three-term targets, as their fit files record it
+    moved = {p: json.loads((ROOT / "fitlab" / "fits" / "true" / f).read_text())["validation"]["max_rel"]
+             for p, f in (("H0", "H0.log_exp.json"), ("l", "l.cubic.json"))}
+    assert f"H0 moves by up to {100 * moved['H0']:.1f} %, l by {100 * moved['l']:.0f} %" in " ".join(table.split())

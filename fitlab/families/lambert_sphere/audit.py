@@ -27,6 +27,7 @@ import numpy as np
 
 from fitlab.families.lambert_sphere.exact import (
     albedo,
+    brdf,
     gauss_legendre,
     graded_gauss,
     multiple_scattering_modes,
@@ -42,6 +43,7 @@ from fitlab.store import FitFileError, fit_files, fits_folder, read_fit, strict_
 from fitlab.families.lambert_sphere.forms import RUNTIME_PARTS
 from fitlab.codegen.program import DEFAULT_FORMS
 from fitlab.families.lambert_sphere.runtime import PRESET_VARIANTS, RuntimeModel, runtime_model
+from fitlab.families.lambert_sphere.true_refit import true_runtime_model
 from fitlab.report.methods import FitEntry, best_forms, origin_kind
 
 __all__ = ["run_audit", "directional_albedo", "richer_forms"]
@@ -99,6 +101,7 @@ def _runtime_models(fits_dir: Path) -> tuple[list[RuntimeModel], list[str]]:
             models.append(runtime_model(fits_dir=fits_dir, forms=forms, model=DEFAULT_FORMS))
         except FitFileError as exc:
             missing.append(str(exc))
+    models.append(true_runtime_model())  # the packaged parts fitted to the true BRDF, whatever fits_dir is
     return models, missing
 
 
@@ -135,6 +138,19 @@ def _runtime_true_rows(models) -> list[dict]:
     floor = np.maximum(0.0, single + kept)
     candidates = [(MIXED_ROW, mixed.y, {}), (TRUE_FLOOR_ROW, floor, {})]
     candidates += [(m.name, m(mi, mo, ph, c), m.sources) for m in models]
+    return _error_rows(valid, candidates)
+
+
+def _runtime_true_independent_rows(models) -> list[dict]:
+    """The runtime models and the mixed reference against the true BRDF at random points no fit saw
+    (:func:`.datasets.brdf_true_independent`)."""
+    valid = d.brdf_true_independent()
+    mi, mo, ph, c = (valid.inputs[k] for k in ("mu_i", "mu_o", "phi", "c"))
+    mixed = np.empty_like(valid.y)
+    for cv in np.unique(c):  # one albedo per call: the mixed engine solves its H-functions per c
+        sel = c == cv
+        mixed[sel] = brdf(mi[sel], mo[sel], ph[sel], cv, phase="mixed")
+    candidates = [(MIXED_ROW, mixed, {})] + [(m.name, m(mi, mo, ph, c), m.sources) for m in models]
     return _error_rows(valid, candidates)
 
 
@@ -219,14 +235,24 @@ def _markdown(result: dict) -> str:
         out.append(f"\n(not measured: {m})")
     out += ["", "## Runtime model against the true BRDF (`exact.brdf(phase=\"true\")`)", "",
             "The same points; the reference is the BRDF of the material: the whole phase function in every",
-            "collision (docs/model.md, \"Which phase function\"). The runtime parts were fitted to the mixed",
-            "reference above (true single scattering, three-term multiple scattering); its own row gives its gap.",
+            "collision (docs/model.md, \"Which phase function\"). The runtime parts of the `refit` rows were fitted to",
+            "the mixed reference above (true single scattering, three-term multiple scattering); its own row gives",
+            "its gap. The parts of the row `refit to the true BRDF` were fitted to the true BRDF's Fourier orders 0 to 2",
+            "in the same structure and forms (fitlab/fits/true; docs/model.md, \"Parts fitted to the true BRDF\").",
             "The floor of the runtime structure is the row with its terms exact (true single scattering and the",
             "true multiple scattering's Fourier orders 0 to 2): what refitted parts could reach at best.",
             f"Validation set: {result['runtime_true_grid']}.", "",
             "| model | max rel | max rel* | RMS rel* | max rel, away | RMS rel, away | worst point | worst away |",
             "|---|---|---|---|---|---|---|---|"]
     for r in result["runtime_true"]:
+        out.append(f"| {r['model']} | {_f(r['max_rel'])} | {_f(r['max_rel_nonzero'])} | {_f(r['rms_rel_nonzero'])} | "
+                   f"{_f(r['max_rel_away'])} | {_f(r['rms_rel_away'])} | {_point(r['worst'])} | {_point(r['worst_away'])} |")
+    out += ["", "### At independent points", "",
+            "The true BRDF at random points no fit saw (the parts fitted to the true BRDF were fitted on another",
+            f"lattice): {result['runtime_true_independent_grid']}.", "",
+            "| model | max rel | max rel* | RMS rel* | max rel, away | RMS rel, away | worst point | worst away |",
+            "|---|---|---|---|---|---|---|---|"]
+    for r in result["runtime_true_independent"]:
         out.append(f"| {r['model']} | {_f(r['max_rel'])} | {_f(r['max_rel_nonzero'])} | {_f(r['rms_rel_nonzero'])} | "
                    f"{_f(r['max_rel_away'])} | {_f(r['rms_rel_away'])} | {_point(r['worst'])} | {_point(r['worst_away'])} |")
     out += ["", "## White furnace (c = 1): directional albedo, should be 1", "",
@@ -243,7 +269,7 @@ def run_audit(out_dir: Path, fits_dir: Path | None = None, show_progress: bool =
     audit.json into ``out_dir`` (both or neither); ``show_progress``: a bar over its stages on stderr."""
     from tqdm import tqdm
 
-    with tqdm(total=6, desc="audit", unit="stage", disable=not show_progress, leave=False) as bar:
+    with tqdm(total=7, desc="audit", unit="stage", disable=not show_progress, leave=False) as bar:
         def stage(name, value):
             bar.set_postfix_str(name, refresh=False)
             bar.update()
@@ -255,9 +281,12 @@ def run_audit(out_dir: Path, fits_dir: Path | None = None, show_progress: bool =
         runtime = stage("runtime models", _runtime_rows(models))
         true_grid = stage("true BRDF validation set", d.brdf_validation_true().grid)
         runtime_true = stage("runtime models against the true BRDF", _runtime_true_rows(models))
+        independent_grid = d.brdf_true_independent().grid
+        runtime_true_independent = stage("... at independent points", _runtime_true_independent_rows(models))
         furnace = stage("white furnace", _furnace_rows(models))
     result = {"published": published, "runtime_grid": grid, "runtime": runtime, "runtime_true_grid": true_grid,
-              "runtime_true": runtime_true, "missing_fits": missing, "furnace": furnace}
+              "runtime_true": runtime_true, "runtime_true_independent_grid": independent_grid,
+              "runtime_true_independent": runtime_true_independent, "missing_fits": missing, "furnace": furnace}
     md = _markdown(result)
     text = strict_json(result)
     atomic_write_many({Path(out_dir) / "audit.json": text.encode(), Path(out_dir) / "audit.md": md.encode()})
