@@ -19,8 +19,8 @@ from fitlab.fit.solver import SOLVER_SETTINGS, FitResult, fit_form, fit_form_sci
 from fitlab.forms import Form
 from fitlab.store import FORMAT
 
-__all__ = ["RefitResult", "refit", "refit_stages", "check_domain", "validation_metrics", "preset_metrics",
-           "MINIMAX_ROUNDS", "default_jobs", "table", "refit_verdict", "VERDICT_RTOL"]
+__all__ = ["RefitResult", "refit", "fit_identity", "refit_stages", "check_domain", "validation_metrics",
+           "preset_metrics", "MINIMAX_ROUNDS", "default_jobs", "table", "refit_verdict", "VERDICT_RTOL"]
 
 MINIMAX_ROUNDS = 40
 
@@ -68,6 +68,27 @@ def preset_metrics(target: Target | str, form: Form | str, preset: str, ds=None)
     form = target.forms[form] if isinstance(form, str) else form
     ds = target.validation() if ds is None else ds
     return validation_metrics(form, form.vector(preset), ds, target.scale(ds))
+
+
+def fit_identity(target: Target, form: Form, theta, domain: Mapping[str, tuple[float, float]]) -> dict:
+    """The fields of a fit record that say what was fitted: format and version, the target and the form (names,
+    descriptions, inputs, expression), the parameters ``theta`` (a full vector, in the form's order), the fixed
+    ones, the ``domain`` and the target's error measure (the rest, how it was fitted and measured, is the
+    maker's)."""
+    return {
+        "format": FORMAT,
+        "fitlab_version": __version__,
+        "target": target.name,
+        "target_description": target.description,
+        "form": form.name,
+        "form_description": form.description,
+        "inputs": list(form.inputs),
+        "expression": form.expression,
+        "params": dict(zip(form.params, (float(x) for x in theta))),
+        "fixed": dict(form.fixed),
+        "domain": {k: list(v) for k, v in domain.items()},
+        "error_measure": target.error_measure,
+    }
 
 
 def refit(
@@ -130,18 +151,7 @@ def refit(
     if minimax:
         objective += f"; then Lawson minimax refinement ({rounds} rounds, best max error kept)"
     record = {
-        "format": FORMAT,
-        "fitlab_version": __version__,
-        "target": target.name,
-        "target_description": target.description,
-        "form": form.name,
-        "form_description": form.description,
-        "inputs": list(form.inputs),
-        "expression": form.expression,
-        "params": dict(zip(form.params, (float(x) for x in fit.theta))),
-        "fixed": dict(form.fixed),
-        "domain": {k: list(v) for k, v in domain.items()},
-        "error_measure": target.error_measure,
+        **fit_identity(target, form, fit.theta, domain),
         "training": {"points": len(train), "grid": train.grid},
         "validation": {"grid": valid.grid, **validation_metrics(form, fit.theta, valid, vscale)},
         "published": published,

@@ -31,16 +31,15 @@ from pathlib import Path
 import numpy as np
 import sympy as sp
 
-from fitlab import __version__
 from fitlab.codegen import program_spec
 from fitlab.core import Dataset, data_hash, get_form, get_target
-from fitlab.fit.refit import validation_metrics
+from fitlab.fit.refit import fit_identity, validation_metrics
 from fitlab.fit.solver import SOLVER_SETTINGS, fit_form
 from fitlab.families.lambert_sphere.datasets import true_orders_training
 from fitlab.families.lambert_sphere.forms import ORDER2_PART, RUNTIME_PARTS, runtime_terms
 from fitlab.families.lambert_sphere.runtime import RuntimeModel, runtime_model
 from fitlab.forms import Form
-from fitlab.store import FORMAT, fit_path, fit_source, fits_folder, load, write_fits
+from fitlab.store import fit_path, fit_source, fits_folder, load, write_fits
 
 __all__ = ["ORDER_PARTS", "TRUE_FITS", "TRUE_MODEL_NAME", "order_form", "fitted_parts", "true_runtime_model", "MINIMAX_ROUNDS"]
 
@@ -124,18 +123,7 @@ def _record(part, form_name, values, order, train, fit, minimax_rounds) -> dict:
     valid = target.validation()
     together = ", ".join(p for p in ORDER_PARTS[order] if p != part)
     return {
-        "format": FORMAT,
-        "fitlab_version": __version__,
-        "target": target.name,
-        "target_description": target.description,
-        "form": form.name,
-        "form_description": form.description,
-        "inputs": list(form.inputs),
-        "expression": form.expression,
-        "params": dict(zip(form.params, (float(x) for x in theta))),
-        "fixed": dict(form.fixed),
-        "domain": {k: list(v) for k, v in target.domain.items()},
-        "error_measure": target.error_measure,
+        **fit_identity(target, form, theta, target.domain),
         "training": {"points": len(train), "grid": f"true BRDF, Fourier order {order}: {train.grid}"},
         "validation": {"grid": valid.grid, **validation_metrics(form, theta, valid, target.scale(valid))},
         "published": [],

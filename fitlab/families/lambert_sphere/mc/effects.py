@@ -29,15 +29,15 @@ Single scattering is always the closed form c p(u)/(mu_i + mu_o) (eq. 10),
 projected here by quadrature (64 x 192 Gauss-Legendre nodes in mu_o x phi),
 independent of the printed eqs. 28 and 38.
 
-Reference values (column ``ref``): the exact three-term half space
-(:func:`fitlab.families.lambert_sphere.exact.brdf_modes`, :func:`~fitlab.families.lambert_sphere.exact.multiple_scattering_modes`,
-:func:`~fitlab.families.lambert_sphere.exact.albedo` and :func:`~fitlab.families.lambert_sphere.exact.spherical_albedo` with
-model "three_term") when the scene's phase is "three_term"; when it is
-"true", :mod:`fitlab.families.lambert_sphere.exact`'s reference model (true single scattering plus
-three-term multiple scattering), whose difference from the MC is then the
-effect of the truncation on multiple scattering, not an error.  Column
-``alt``: published values, named: the printed normalisation of eq. 22 (6 pi)
-and eq. 28 (384 pi) for order 1, and eq. 40 for kd(c).
+Reference values (column ``ref``): the exact half space of the scene's phase function, by
+:mod:`fitlab.families.lambert_sphere.exact` with ``phase`` = the scene's: "three_term" (the modes of
+:func:`~fitlab.families.lambert_sphere.exact.brdf_modes`, orders > 2 zero) or "true" (the whole phase function
+in every collision, :mod:`fitlab.families.lambert_sphere.exact.true_phase`, every Fourier order it keeps); the
+phase_difference rows against the exact difference of the two half spaces (true minus three-term).  Column
+``alt``: published values, named: the printed normalisation of eq. 22 (6 pi) and eq. 28 (384 pi) for order 1,
+and eq. 40 for kd(c); in a "true" scene, the mixed reference (true single scattering, three-term multiple
+scattering: ``exact.brdf(..., phase="mixed")``) for the BRDF and the directional albedo, whose z then measures
+the three-term truncation of multiple scattering.
 """
 
 from __future__ import annotations
@@ -335,14 +335,29 @@ def _exact_modes_bin(c, mu_i, a, b, multiple_only):
     return tuple(float(v) for v in modes @ wmu / wmu.sum())
 
 
-def _exact_directional(c, mu_i, row, key, scene, multiple_only):
-    """Exact three-term value of a Fourier/bins row (orders > 2 vanish exactly)."""
-    modes = _exact_modes_bin(c, mu_i, row["mu_lo"], row["mu_hi"], multiple_only)
+@lru_cache(maxsize=None)
+def _true_modes_bin(c, mu_i, a, b):
+    """mu_o-weighted bin averages of the true half space's multiple-scattering orders (every order the true-phase
+    engine keeps at this c; the others are below its order tolerance)."""
+    x, w = np.polynomial.legendre.leggauss(_N_MU)
+    mu = a + (b - a) * (x + 1.0) / 2.0
+    wmu = w * (b - a) / 2.0 * mu
+    modes = np.array(multiple_scattering_modes(np.full_like(mu, mu_i), mu, c, phase="true"))
+    return tuple(float(v) for v in modes @ wmu / wmu.sum())
+
+
+def _exact_directional(c, mu_i, row, key, scene, multiple_only, phase="three_term"):
+    """Exact value of a Fourier/bins row: the three-term half space (orders > 2 vanish exactly; with
+    ``multiple_only`` False, its single scattering too) or the true one's multiple scattering."""
+    if phase == "true":
+        modes = _true_modes_bin(c, mu_i, row["mu_lo"], row["mu_hi"])
+    else:
+        modes = _exact_modes_bin(c, mu_i, row["mu_lo"], row["mu_hi"], multiple_only)
     if key[0] == "m":
         m = key[2]
-        return modes[m] if m <= 2 else 0.0
+        return modes[m] if m < len(modes) else 0.0
     p, q = row["phi_lo"], row["phi_hi"]
-    avg = [1.0] + [(math.sin(m * q) - math.sin(m * p)) / (m * (q - p)) for m in (1, 2)]
+    avg = [1.0] + [(math.sin(m * q) - math.sin(m * p)) / (m * (q - p)) for m in range(1, len(modes))]
     return float(sum(f * g for f, g in zip(modes, avg)))
 
 
@@ -350,7 +365,8 @@ def attach_reference(effect: str, scene: Scene, rows: list) -> list:
     """Fill ref/ref_name/z_ref and alt/alt_name/z_alt of the rows (uses the exact engine)."""
 
     three = scene.phase == "three_term"
-    model = "exact three-term half space" if three else "fitlab.families.lambert_sphere.exact reference (true SS + three-term MS)"
+    model = "exact three-term half space" if three else "exact true-phase half space (exact.true_phase)"
+    mixed = "mixed reference (true SS + three-term MS)"
     for r in rows:
         if r.get("_diag"):
             continue
@@ -372,18 +388,33 @@ def attach_reference(effect: str, scene: Scene, rows: list) -> list:
                     alt = ref / 2.0
                     alt_name = "printed eq. 22 (6 pi)" if not ms else "printed eqs. 22 - 28 (6 pi, 384 pi)"
             else:
-                # reference model: true single scattering + three-term multiple scattering
-                ref = _exact_directional(c, mu_i, r, key, scene, True)
-                if not ms:
-                    ref += _ss_bin_from_row(scene, r)
-                r["ref_name"] = model if not ms else "three-term multiple scattering (fitlab.families.lambert_sphere.exact)"
+                # the true half space; alt: the mixed reference, its multiple scattering three-term
+                ss = 0.0 if ms else _ss_bin_from_row(scene, r)
+                ref = ss + _exact_directional(c, mu_i, r, key, scene, True, "true")
+                alt = ss + _exact_directional(c, mu_i, r, key, scene, True)
+                r["ref_name"] = model
+                alt_name = mixed if not ms else "three-term multiple scattering"
+        elif effect == "phase_difference" and key is not None:
+            # true minus three-term, both exact; the single-scattering difference is the rows' closed form
+            ss = 0.0 if q == "d_f_ms" else _ss_bin_from_row(scene, r, "true") - _ss_bin_from_row(scene, r, "three_term")
+            ref = ss + (_exact_directional(c, mu_i, r, key, scene, True, "true")
+                        - _exact_directional(c, mu_i, r, key, scene, True))
+            r["ref_name"] = "exact true minus exact three-term half space"
+        elif effect == "phase_difference":
+            ref = float(albedo(mu_i, c, phase="true")) - float(albedo(mu_i, c, phase="three_term"))
+            if q == "d_a_ms":
+                ref -= c * (_ss_albedo(mu_i, "true") - _ss_albedo(mu_i, "three_term"))
+            r["ref_name"] = "exact true minus exact three-term half space"
         elif effect == "albedo":
-            a_ref = float(albedo(mu_i, c, "three_term" if three else "true"))
+            a_ref = float(albedo(mu_i, c, phase=scene.phase))
             ss = c * _ss_albedo(mu_i, scene.phase)
             ref = a_ref if q == "a" else a_ref - ss
             r["ref_name"] = model
+            if not three:
+                a_mixed = float(albedo(mu_i, c, phase="mixed"))
+                alt, alt_name = (a_mixed if q == "a" else a_mixed - ss), mixed
         elif effect == "spherical_albedo":
-            k_ref = float(spherical_albedo(c, "three_term" if three else "true"))
+            k_ref = float(spherical_albedo(c, phase=scene.phase))
             ss = c * single_spherical_albedo(scene.phase)
             ref = k_ref if q == "kd" else k_ref - ss
             r["ref_name"] = model
@@ -400,9 +431,9 @@ def attach_reference(effect: str, scene: Scene, rows: list) -> list:
     return rows
 
 
-def _ss_bin_from_row(scene, r):
-    """The true-phase single-scattering part of a 'multiple' row (for the reference model)."""
+def _ss_bin_from_row(scene, r, phase=None):
+    """The single-scattering part of a directional row, with ``phase``'s phase function (default the scene's)."""
     mat, inc = r["_mat"], scene.mu_i.index(r["mu_i"])
     b = scene.mu_edges.index(r["mu_lo"])
     key = r["_key"]
-    return _ss_bin(scene, mat, inc, b, (key[0], key[2]))
+    return _ss_bin(scene, mat, inc, b, (key[0], key[2]), phase)
