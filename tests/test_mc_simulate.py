@@ -382,9 +382,10 @@ def _bin_average(f, mu_i, lo, hi, kind, arg):
 
 def test_true_scene_references_are_the_true_half_space(tmp_path):
     """In a scene with the true phase function the references are the true-phase engine's: each BRDF row's ref
-    is the bin average of exact.brdf(phase="true") (here through the whole BRDF and another quadrature, not the
-    Fourier orders the simulation averages), its alt the mixed reference's, the phase_difference rows' ref the
-    true minus the three-term half space; the albedo's ref is exact.albedo(phase="true"); and the MC agrees."""
+    (total and multiple scattering alone) is the bin average of exact.brdf(phase="true") (less its closed-form
+    single scattering for the latter; here through the whole BRDF and another quadrature, not the Fourier
+    orders the simulation averages), its alt the mixed reference's, the phase_difference rows' ref the true minus
+    the three-term half space; the albedos' refs are exact.albedo's; and the MC agrees."""
     import numpy as np
 
     from fitlab.families.lambert_sphere import exact
@@ -394,29 +395,54 @@ def test_true_scene_references_are_the_true_half_space(tmp_path):
     result, _ = simulate_file(p, out_dir=tmp_path / "res", progress=False)
     c, mu_i = 0.7, 0.2
 
-    def brdf(phase):
-        return lambda a, b, ph: exact.brdf(a, b, ph, c, phase=phase)
+    def single(phase):
+        p_u = exact.phase_function if phase in ("true", "mixed") else exact.three_term_phase_function
+
+        def f(a, b, ph):
+            return c * p_u(-(a * b + np.sqrt((1 - a * a) * (1 - b * b)) * np.cos(ph))) / (a + b)
+
+        return f
+
+    def brdf(phase, multiple_only):
+        def f(a, b, ph):
+            total = exact.brdf(a, b, ph, c, phase=phase)
+            return total - single(phase)(a, b, ph) if multiple_only else total
+
+        return f
 
     # both sides are Gauss rules in mu_o, and the odd orders go like sqrt(1 - mu_o^2) at mu_o = 1, where a Gauss
     # rule converges algebraically: the simulation's 64 nodes and these 40 agree to about 3e-6 of f
     tol = 2e-5
-    rows = [r for e in ("multiple", "phase_difference") for r in result.rows[e] if r["quantity"] in ("f", "d_f")]
-    assert len(rows) == 2 * (2 * 3 + 2 * 2)
+    rows = [r for e in ("multiple", "phase_difference") for r in result.rows[e]
+            if r["quantity"] in ("f", "f_ms", "d_f", "d_f_ms")]
+    assert len(rows) == 4 * (2 * 3 + 2 * 2)
     gaps = []
     for r in rows:
         kind, arg = ("m", int(r["m"])) if r["m"] != "" else ("phi", (r["phi_lo"], r["phi_hi"]))
-        true = _bin_average(brdf("true"), mu_i, r["mu_lo"], r["mu_hi"], kind, arg)
+        ms = r["quantity"].endswith("_ms")
+
+        def average(phase, r=r, kind=kind, arg=arg, ms=ms):
+            return _bin_average(brdf(phase, ms), mu_i, r["mu_lo"], r["mu_hi"], kind, arg)
+
+        true = average("true")
+        scale = abs(_bin_average(brdf("true", False), mu_i, r["mu_lo"], r["mu_hi"], kind, arg))
         if r["effect"] == "multiple":
-            mixed = _bin_average(brdf("mixed"), mu_i, r["mu_lo"], r["mu_hi"], kind, arg)
-            assert r["ref"] == pytest.approx(true, rel=tol), r
-            assert r["alt"] == pytest.approx(mixed, rel=tol), r
-            gaps.append(abs(true - mixed) / abs(true))
+            mixed = average("mixed")
+            assert r["ref"] == pytest.approx(true, abs=tol * scale), r
+            assert r["alt"] == pytest.approx(mixed, abs=tol * scale), r
+            gaps.append(abs(true - mixed) / scale)
         else:
-            three = _bin_average(brdf("three_term"), mu_i, r["mu_lo"], r["mu_hi"], kind, arg)
-            assert r["ref"] == pytest.approx(true - three, abs=tol * abs(true)), r
+            assert r["ref"] == pytest.approx(true - average("three_term"), abs=tol * scale), r
     assert max(gaps) > 5 * tol  # the check tells the true half space from the mixed reference
-    (a,) = [r for r in result.rows["albedo"] if r["quantity"] == "a"]
-    assert a["ref"] == pytest.approx(float(exact.albedo(mu_i, c, phase="true")), rel=1e-12)
-    assert a["alt"] == pytest.approx(float(exact.albedo(mu_i, c, phase="mixed")), rel=1e-12)
+    albedos = {(r["effect"], r["quantity"]): r for e in ("albedo", "phase_difference") for r in result.rows[e]
+               if r["quantity"] in ("a", "a_ms", "d_a", "d_a_ms")}
+    a = {ph: float(exact.albedo(mu_i, c, phase=ph)) for ph in ("true", "mixed", "three_term")}
+    a1 = {ph: c * float(exact.single_scattering_albedo(mu_i, ph)) for ph in ("true", "three_term")}
+    assert albedos["albedo", "a"]["ref"] == pytest.approx(a["true"], rel=1e-12)
+    assert albedos["albedo", "a"]["alt"] == pytest.approx(a["mixed"], rel=1e-12)
+    assert albedos["albedo", "a_ms"]["ref"] == pytest.approx(a["true"] - a1["true"], rel=1e-9)
+    assert albedos["phase_difference", "d_a"]["ref"] == pytest.approx(a["true"] - a["three_term"], rel=1e-9)
+    assert albedos["phase_difference", "d_a_ms"]["ref"] == pytest.approx(
+        a["true"] - a1["true"] - a["three_term"] + a1["three_term"], rel=1e-9, abs=1e-14)
     zs = [r["z_ref"] for e in result.rows.values() for r in e if r["se"] > 0 and np.isfinite(r["z_ref"])]
     assert len(zs) > 20 and max(abs(z) for z in zs) < 4

@@ -116,3 +116,30 @@ def test_true_fits_regenerate(tmp_path):
     phi *= np.pi
     np.testing.assert_allclose(true_runtime_model(tmp_path)(mi, mo, phi, c), true_runtime_model()(mi, mo, phi, c),
                                rtol=1e-9, atol=1e-300)
+
+
+def test_true_model_refuses_a_folder_without_every_part(tmp_path):
+    """A folder that lacks a part would let the packaged fit (made for the mixed reference) fill in: refused, in
+    one line naming the part."""
+    from fitlab.store import FitFileError
+
+    for path in TRUE_FITS.glob("*.json"):
+        if path.name != "H1.log_exp.json":
+            (tmp_path / path.name).write_bytes(path.read_bytes())
+    with pytest.raises(FitFileError, match=r"no fit to the true BRDF of H1 .*H1\.log_exp\.json") as err:
+        true_runtime_model(tmp_path)
+    assert "\n" not in str(err.value)
+
+
+def test_independent_set_holds_no_training_point():
+    """The audit's independent points (datasets.brdf_true_independent) are none of the training lattice's
+    (datasets.true_orders_training, read from its definition: no exact values are computed here)."""
+    from fitlab.families.lambert_sphere import datasets as d
+
+    ds = d.brdf_true_independent()
+    train_c = np.concatenate((1.0 - d.TRUE_TRAINING_S**2, d.TRUE_TRAINING_EXTRA_C))
+    on_lattice = (np.isin(ds.inputs["c"], train_c) & np.isin(ds.inputs["mu_i"], d.TRUE_TRAINING_MU)
+                  & np.isin(ds.inputs["mu_o"], d.TRUE_TRAINING_MU))
+    assert not on_lattice.any()
+    assert np.isin(ds.inputs["mu_i"], d.EDGE_MU).sum() > 1000  # the edge block is there, at mu = 0.01 too
+    assert (ds.inputs["mu_i"] == 0.01).any()

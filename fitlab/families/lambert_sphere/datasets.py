@@ -270,6 +270,13 @@ def sampling_validation(target: str, data_dir: Path | None = None) -> Dataset:
 
 
 # -- the true BRDF's Fourier orders, for the runtime parts fitted to it -------------------------------
+#: the lattice of :func:`true_orders_training`: s = sqrt(1 - c) (s = 1, c = 0, left out: every order is 0 there),
+#: more albedos where s = k/16 is sparse in c, and the cosines
+TRUE_TRAINING_S = np.arange(16) / 16
+TRUE_TRAINING_EXTRA_C = (1e-3, 3e-3, 1e-2, 2e-2, 4e-2, 7e-2)
+TRUE_TRAINING_MU = np.unique(np.concatenate((np.arange(17) / 16, (1e-5, 1e-3, 4e-3, 1e-2, 2e-2))))
+
+
 @lru_cache(maxsize=None)
 def true_orders_training() -> Dataset:
     """The true BRDF's multiple scattering by Fourier order, fm0, fm1, fm2 (exact.multiple_scattering_modes,
@@ -278,17 +285,15 @@ def true_orders_training() -> Dataset:
     4e-3, 1e-2, 2e-2 (mu_i = mu_o = 0 left out).  y is fm0; aux
     holds fm0, fm1, fm2 and "scale", the true BRDF's minimum over 33 phi in [0, pi] at each (mu_i, mu_o, c)
     (the denominator of the relative error a part's error makes in f_r)."""
-    s = np.arange(16) / 16  # s = 1 (c = 0) left out: every order is 0 there
-    extra_c = (1e-3, 3e-3, 1e-2, 2e-2, 4e-2, 7e-2)
-    mu = np.unique(np.concatenate((np.arange(17) / 16, (1e-5, 1e-3, 4e-3, 1e-2, 2e-2))))
+    s, extra_c, mu = TRUE_TRAINING_S, TRUE_TRAINING_EXTRA_C, TRUE_TRAINING_MU
     grid = "s = k/16 (k < 16) and c = 1e-3, 3e-3, 1e-2, 2e-2, 4e-2, 7e-2; mu = k/16 and 1e-5, 1e-3, 4e-3, 1e-2, 2e-2; mu_i = mu_o = 0 left out"
-    return _cached("true-orders", grid, lambda: _true_orders(s, mu, extra_c, grid), ("mu_i", "mu_o", "c"),
-                   ("fm0", "fm1", "fm2", "scale"), s=s, mu=mu, extra_c=np.asarray(extra_c, dtype=float))
-
-
-def _true_orders(s, mu, extra_c, grid) -> Dataset:
-    mi, mo = _pairs(mu)
     phi = np.linspace(0.0, np.pi, 33)
+    return _cached("true-orders", grid, lambda: _true_orders(s, mu, phi, extra_c, grid), ("mu_i", "mu_o", "c"),
+                   ("fm0", "fm1", "fm2", "scale"), s=s, mu=mu, phi=phi, extra_c=np.asarray(extra_c, dtype=float))
+
+
+def _true_orders(s, mu, phi, extra_c, grid) -> Dataset:
+    mi, mo = _pairs(mu)
     cols = {k: [] for k in ("mu_i", "mu_o", "c", "fm0", "fm1", "fm2", "scale")}
     for cv in np.concatenate((1.0 - s**2, extra_c)):
         orders = multiple_scattering_modes(mi, mo, cv, phase="true")
@@ -302,10 +307,11 @@ def _true_orders(s, mu, extra_c, grid) -> Dataset:
 
 
 #: the edge block of :func:`brdf_true_independent`: grazing cosines from the accuracy goal's edge mu = 0.01 up,
-#: at small albedos (where the runtime model's grazing forward-scattering error peaks) and the random ones
+#: at small albedos (where the runtime model's grazing forward-scattering error peaks) and the random ones; the
+#: albedos are none of :func:`true_orders_training`'s, so no point of the block is a training point
 EDGE_MU = (0.01, 0.0125, 0.015, 0.02, 0.03, 0.05)
 EDGE_PHI = (0.0, 0.5, 0.9, 1.0)  # x pi
-EDGE_C = (0.005, 0.01, 0.02, 0.03, 0.05)
+EDGE_C = (0.005, 0.015, 0.025, 0.035, 0.05)
 
 
 @lru_cache(maxsize=None)
@@ -316,16 +322,16 @@ def brdf_true_independent(seed: int = 33, n_c: int = 10, per_c: int = 400) -> Da
     * random: ``n_c`` albedos uniform in (0, 1) and c = 1, each with ``per_c`` points (mu_i, mu_o, phi)
       uniform in [0, 1]^2 x [0, pi] (seeded);
     * the edge: mu_i, mu_o in :data:`EDGE_MU`, phi/pi in :data:`EDGE_PHI`, at c in :data:`EDGE_C` and the
-      random albedos."""
+      random albedos (not at c = 1, an albedo of :func:`true_orders_training`)."""
     rng = np.random.default_rng(seed)
     c = np.concatenate((rng.uniform(0.0, 1.0, n_c), (1.0,)))
     points = rng.uniform(0.0, 1.0, (c.size, per_c, 3))
     points[..., 2] *= np.pi
     edge = np.stack([a.ravel() for a in np.meshgrid(EDGE_MU, EDGE_MU, np.pi * np.asarray(EDGE_PHI), indexing="ij")], 1)
-    blocks = [(cv, p) for cv, p in zip(c, points)] + [(cv, edge) for cv in (*EDGE_C, *c)]
+    blocks = [(cv, p) for cv, p in zip(c, points)] + [(cv, edge) for cv in (*EDGE_C, *c[:-1])]
     grid = (f"seed {seed}: {n_c} albedos uniform in (0, 1) and c = 1, {per_c} points each uniform in mu_i, mu_o, "
             f"phi/pi; and mu_i, mu_o in {{{', '.join(map(str, EDGE_MU))}}} x phi/pi in "
-            f"{{{', '.join(map(str, EDGE_PHI))}}} at c = {', '.join(map(str, EDGE_C))} and those albedos")
+            f"{{{', '.join(map(str, EDGE_PHI))}}} at c = {', '.join(map(str, EDGE_C))} and the random albedos")
 
     def compute():
         ys = [brdf(p[:, 0], p[:, 1], p[:, 2], cv, phase="true") for cv, p in blocks]
@@ -336,6 +342,6 @@ def brdf_true_independent(seed: int = 33, n_c: int = 10, per_c: int = 400) -> Da
                         "c": np.repeat([cv for cv, _ in blocks], n), "kd": np.zeros(sum(n))},
                        np.concatenate(ys), grid)
 
-    return _cached(f"brdf-true-independent-{seed}-{n_c}x{per_c}+edge", grid, compute,
+    return _cached(f"brdf-true-independent-{seed}-{n_c}x{per_c}+edge2", grid, compute,
                    ("mu_i", "mu_o", "phi", "c", "kd"), c=c, edge_mu=np.asarray(EDGE_MU), edge_phi=np.asarray(EDGE_PHI),
                    edge_c=np.asarray(EDGE_C))

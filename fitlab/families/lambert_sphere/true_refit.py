@@ -39,7 +39,7 @@ from fitlab.families.lambert_sphere.datasets import true_orders_training
 from fitlab.families.lambert_sphere.forms import ORDER2_PART, RUNTIME_PARTS, runtime_terms
 from fitlab.families.lambert_sphere.runtime import RuntimeModel, runtime_model
 from fitlab.forms import Form
-from fitlab.store import fit_path, fit_source, fits_folder, load, write_fits
+from fitlab.store import FitFileError, fit_path, fit_source, fits_folder, load, write_fits
 
 __all__ = ["ORDER_PARTS", "TRUE_FITS", "TRUE_MODEL_NAME", "order_form", "fitted_parts", "true_runtime_model", "MINIMAX_ROUNDS"]
 
@@ -58,9 +58,18 @@ TRUE_MODEL_NAME = "refit to the true BRDF (fits/true)"
 
 
 def true_runtime_model(fits_dir: Path | None = None) -> RuntimeModel:
-    """The runtime model of the parts fitted to the true BRDF: ``fits_dir`` (default :data:`TRUE_FITS`) overlaid
-    on the packaged fits, in the shipped model's forms, orders 0 to 2."""
-    m = runtime_model(fits_dir=TRUE_FITS if fits_dir is None else fits_dir)
+    """The runtime model of the parts fitted to the true BRDF, from ``fits_dir`` (default :data:`TRUE_FITS`), in the
+    shipped model's forms, orders 0 to 2; every part must be in the folder (FitFileError names those that are not),
+    the other fits the program needs come from the packaged ones."""
+    folder = TRUE_FITS if fits_dir is None else Path(fits_dir)
+    forms = _model_forms()
+    # runtime_model falls back to the packaged fits for a part the folder lacks: here that would mix in a part
+    # fitted to the mixed reference
+    missing = [p for p in (*RUNTIME_PARTS, ORDER2_PART) if not fit_path(folder, p, forms[p]).is_file()]
+    if missing:
+        raise FitFileError(f"{folder}: no fit to the true BRDF of {', '.join(missing)} in the model's forms "
+                           f"({', '.join(fit_path(folder, p, forms[p]).name for p in missing)})")
+    m = runtime_model(fits_dir=folder)
     return RuntimeModel(TRUE_MODEL_NAME, m.expr, m.sources)
 
 
