@@ -143,3 +143,27 @@ def test_independent_set_holds_no_training_point():
     assert not on_lattice.any()
     assert np.isin(ds.inputs["mu_i"], d.EDGE_MU).sum() > 1000  # the edge block is there, at mu = 0.01 too
     assert (ds.inputs["mu_i"] == 0.01).any()
+
+
+@pytest.mark.e2e
+def test_codegen_prints_the_true_model(tmp_path):
+    """From the fits to generated code: ``fitlab codegen --fits fitlab/fits/true`` prints every part from the
+    folder, and the generated brdf is the model the audit measures (to rounding)."""
+    import importlib.util
+
+    from fitlab.codegen import generate
+
+    text = generate("python", TRUE_FITS)["lambert_sphere.py"]
+    for path in TRUE_FITS.glob("*.json"):
+        line = next(ln for ln in text.splitlines() if f" {path.name}  " in ln)
+        assert "--fits;" in line, line
+    (tmp_path / "true_model.py").write_text(text)
+    spec = importlib.util.spec_from_file_location("true_model", tmp_path / "true_model.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    rng = np.random.default_rng(11)
+    mi, mo, phi, c = rng.uniform(0.0, 1.0, (4, 500))
+    mi[:2], mo[:2], c[2] = (1e-6, 0.01), (0.3, 0.01), 1.0
+    phi *= np.pi
+    np.testing.assert_allclose(mod.brdf(mi, mo, np.cos(phi), c), true_runtime_model()(mi, mo, phi, c),
+                               rtol=1e-12, atol=1e-300)
