@@ -311,7 +311,7 @@ def _true_orders(s, mu, phi, extra_c, grid) -> Dataset:
 #: albedos are none of :func:`true_orders_training`'s, so no point of the block is a training point
 EDGE_MU = (0.01, 0.0125, 0.015, 0.02, 0.03, 0.05)
 EDGE_PHI = (0.0, 0.5, 0.9, 1.0)  # x pi
-EDGE_C = (0.005, 0.015, 0.025, 0.035, 0.05)
+EDGE_C = (0.005, 0.0125, 0.0175, 0.0225, 0.03, 0.05)
 
 
 @lru_cache(maxsize=None)
