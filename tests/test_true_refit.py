@@ -132,17 +132,19 @@ def test_true_model_refuses_a_folder_without_every_part(tmp_path):
 
 
 def test_independent_set_holds_no_training_point():
-    """The audit's independent points (datasets.brdf_true_independent) are none of the training lattice's
-    (datasets.true_orders_training, read from its definition: no exact values are computed here)."""
+    """The audit's independent points (datasets.true_independent_points, those of brdf_true_independent) are
+    none of the training lattice's (datasets.true_orders_training, read from its definition): no exact values
+    are computed here."""
     from fitlab.families.lambert_sphere import datasets as d
 
-    ds = d.brdf_true_independent()
+    blocks, _ = d.true_independent_points()
+    c = np.concatenate([np.full(len(p), cv) for cv, p in blocks])
+    mu_i, mu_o = (np.concatenate([p[:, k] for _, p in blocks]) for k in (0, 1))
     train_c = np.concatenate((1.0 - d.TRUE_TRAINING_S**2, d.TRUE_TRAINING_EXTRA_C))
-    on_lattice = (np.isin(ds.inputs["c"], train_c) & np.isin(ds.inputs["mu_i"], d.TRUE_TRAINING_MU)
-                  & np.isin(ds.inputs["mu_o"], d.TRUE_TRAINING_MU))
+    on_lattice = np.isin(c, train_c) & np.isin(mu_i, d.TRUE_TRAINING_MU) & np.isin(mu_o, d.TRUE_TRAINING_MU)
     assert not on_lattice.any()
-    assert np.isin(ds.inputs["mu_i"], d.EDGE_MU).sum() > 1000  # the edge block is there, at mu = 0.01 too
-    assert (ds.inputs["mu_i"] == 0.01).any()
+    assert np.isin(mu_i, d.EDGE_MU).sum() > 1000  # the edge block is there, at mu = 0.01 too
+    assert (mu_i == 0.01).any()
 
 
 @pytest.mark.e2e

@@ -314,10 +314,9 @@ EDGE_PHI = (0.0, 0.5, 0.9, 1.0)  # x pi
 EDGE_C = (0.005, 0.0125, 0.0175, 0.0225, 0.03, 0.05)
 
 
-@lru_cache(maxsize=None)
-def brdf_true_independent(seed: int = 33, n_c: int = 10, per_c: int = 400) -> Dataset:
-    """The true BRDF (exact.brdf(phase="true")) at points no fit saw, kd 0 (not computed: the audit's runtime
-    rows do not read it):
+def true_independent_points(seed: int = 33, n_c: int = 10, per_c: int = 400) -> tuple[list, str]:
+    """The points of :func:`brdf_true_independent`, without values: [(c, array (n, 3) of (mu_i, mu_o, phi)), ...]
+    one block per albedo, and the set's description:
 
     * random: ``n_c`` albedos uniform in (0, 1) and c = 1, each with ``per_c`` points (mu_i, mu_o, phi)
       uniform in [0, 1]^2 x [0, pi] (seeded);
@@ -328,10 +327,18 @@ def brdf_true_independent(seed: int = 33, n_c: int = 10, per_c: int = 400) -> Da
     points = rng.uniform(0.0, 1.0, (c.size, per_c, 3))
     points[..., 2] *= np.pi
     edge = np.stack([a.ravel() for a in np.meshgrid(EDGE_MU, EDGE_MU, np.pi * np.asarray(EDGE_PHI), indexing="ij")], 1)
-    blocks = [(cv, p) for cv, p in zip(c, points)] + [(cv, edge) for cv in (*EDGE_C, *c[:-1])]
+    blocks = [(float(cv), p) for cv, p in zip(c, points)] + [(float(cv), edge) for cv in (*EDGE_C, *c[:-1])]
     grid = (f"seed {seed}: {n_c} albedos uniform in (0, 1) and c = 1, {per_c} points each uniform in mu_i, mu_o, "
             f"phi/pi; and mu_i, mu_o in {{{', '.join(map(str, EDGE_MU))}}} x phi/pi in "
             f"{{{', '.join(map(str, EDGE_PHI))}}} at c = {', '.join(map(str, EDGE_C))} and the random albedos")
+    return blocks, grid
+
+
+@lru_cache(maxsize=None)
+def brdf_true_independent(seed: int = 33, n_c: int = 10, per_c: int = 400) -> Dataset:
+    """The true BRDF (exact.brdf(phase="true")) at points no fit saw (:func:`true_independent_points`), kd 0
+    (not computed: the audit's runtime rows do not read it)."""
+    blocks, grid = true_independent_points(seed, n_c, per_c)
 
     def compute():
         ys = [brdf(p[:, 0], p[:, 1], p[:, 2], cv, phase="true") for cv, p in blocks]
@@ -342,6 +349,7 @@ def brdf_true_independent(seed: int = 33, n_c: int = 10, per_c: int = 400) -> Da
                         "c": np.repeat([cv for cv, _ in blocks], n), "kd": np.zeros(sum(n))},
                        np.concatenate(ys), grid)
 
+    random_c = np.array([cv for cv, _ in blocks[: n_c + 1]])  # the random blocks come first
     return _cached(f"brdf-true-independent-{seed}-{n_c}x{per_c}+edge2", grid, compute,
-                   ("mu_i", "mu_o", "phi", "c", "kd"), c=c, edge_mu=np.asarray(EDGE_MU), edge_phi=np.asarray(EDGE_PHI),
-                   edge_c=np.asarray(EDGE_C))
+                   ("mu_i", "mu_o", "phi", "c", "kd"), c=random_c, edge_mu=np.asarray(EDGE_MU),
+                   edge_phi=np.asarray(EDGE_PHI), edge_c=np.asarray(EDGE_C))
