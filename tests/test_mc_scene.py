@@ -241,3 +241,15 @@ def test_c_where_the_estimator_has_infinite_variance_is_refused():
     diff = diff.replace("target_se = 2e-3", "target_se = {phase_difference = 1e-3}")
     assert "variance is infinite" in _error(diff.replace("c = 0.9\n", "c = 0.999\n"))
     assert parse_scene(diff.replace("c = 0.9\n", "c = 0.998\n"), "s.toml").materials[1].c == 0.998
+
+
+def test_kd_material_of_a_true_scene_is_converted_through_the_true_half_space():
+    """In a scene with the true phase function kd is the spherical albedo of the true half space (the physics the
+    scene walks and its references are), not of the mixed reference."""
+    from fitlab.families.lambert_sphere.exact import spherical_albedo
+
+    s = parse_scene(GOOD.replace('phase = "three_term"', 'phase = "true"').replace("c = 0.5\n", "kd = 0.3\n"), "s.toml")
+    m = s.materials[0]
+    assert m.kd == 0.3
+    assert float(spherical_albedo(m.c, phase="true")) == pytest.approx(0.3, abs=1e-11)
+    assert abs(float(spherical_albedo(m.c, phase="mixed")) - 0.3) > 1e-7  # the two inverses differ

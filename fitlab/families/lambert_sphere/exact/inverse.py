@@ -16,21 +16,23 @@ def solve_albedo(kd_of_c, kd: float, lo: float = 0.0, hi: float = 1.0, xtol: flo
     return float(brentq(lambda c: kd_of_c(c) - kd, lo, hi, xtol=xtol))
 
 
-def albedo_inverse(kd: float, model: str = "true", guess: float | None = None) -> float:
-    """c with ``spherical_albedo(c, model) == kd`` (model "true" or "three_term"), to 1e-13 in c.
+def albedo_inverse(kd: float, model: str = "true", guess: float | None = None, phase: str | None = None) -> float:
+    """c with ``spherical_albedo(c, model) == kd`` (model "true" or "three_term"), to 1e-13 in c; with ``phase``
+    ("true", "three_term", "mixed"), ``spherical_albedo(c, phase=phase) == kd`` instead.
 
     Root by Brent's method; ``guess`` (e.g. the published eq. 39 map, the c_of_kd preset)
-    brackets it within 0.005, which saves most evaluations (each solves H0 at a new c).
-    kd <= 0 gives 0, kd at or above kd(1) gives 1.
+    brackets it within 0.005, which saves most evaluations (each solves H0, or the true half space's
+    order 0, at a new c).  kd <= 0 gives 0, kd at or above kd(1) gives 1.
     """
     kd = float(kd)
     if kd <= 0.0:
         return 0.0
-    if kd >= float(spherical_albedo(1.0, model)):
-        return 1.0
 
     def kd_of_c(c):
-        return float(spherical_albedo(c, model))
+        return float(spherical_albedo(c, model) if phase is None else spherical_albedo(c, phase=phase))
+
+    if kd >= kd_of_c(1.0):
+        return 1.0
 
     lo, hi = (0.0, 1.0) if guess is None else (max(0.0, guess - 0.005), min(1.0, guess + 0.005))
     if kd_of_c(lo) - kd > 0.0:

@@ -1,10 +1,10 @@
 r"""Scene files of the Lambert sphere's Monte Carlo: the schema (fields and rules) that the shared loader
 :mod:`fitlab.scenes` applies to a TOML or JSON file, in full, before any simulation starts.
 
-A scene names materials (c, or kd = the spherical albedo, converted to c by the
-exact engine), incident directions, how outgoing directions are tallied (mu_o
-bins and Fourier orders cos(m phi), and/or |phi| bins), the effects wanted and
-a precision target.  Example (TOML; the JSON form has the same nesting)::
+A scene names materials (c, or kd = the spherical albedo, converted to c through the
+exact spherical albedo of the half space the scene walks, three-term or true),
+incident directions, how outgoing directions are tallied (mu_o bins and Fourier
+orders cos(m phi), and/or |phi| bins), the effects wanted and a precision target.  Example (TOML; the JSON form has the same nesting)::
 
     [scene]
     family = "lambert_sphere"    # the family whose Monte Carlo runs the scene (fitlab simulate reads it)
@@ -123,13 +123,13 @@ class Scene:
 
 
 def _c_of_kd(kd: float, phase: str) -> float:
-    """c whose exact spherical albedo is kd (three-term half space, or fitlab.families.lambert_sphere.exact 'true'):
-    :func:`fitlab.families.lambert_sphere.exact.albedo_inverse`, bracketed around the published eq. 39 map
-    (the ``paper`` preset of the c_of_kd form ``rational_power``)."""
+    """c whose exact spherical albedo is kd, in the half space the scene walks (the three-term one, or the true
+    one: the whole phase function in every collision): :func:`fitlab.families.lambert_sphere.exact.albedo_inverse`
+    with that phase, bracketed around the published eq. 39 map (the ``paper`` preset of the c_of_kd form
+    ``rational_power``)."""
 
-    model = "three_term" if phase == "three_term" else "true"
     guess = float(get_form("c_of_kd", "rational_power")("paper", np.asarray(float(kd)))) if 0.0 < kd <= 1.0 else None
-    return albedo_inverse(kd, model, guess)
+    return albedo_inverse(kd, guess=guess, phase="three_term" if phase == "three_term" else "true")
 
 
 def _walks(phase: str, effects) -> tuple:
