@@ -147,15 +147,21 @@ COMMAND = "fitlab codegen --family microfacet_energy --lang {lang} --fits fitlab
 @pytest.fixture(scope="module")
 def sources(tmp_path_factory):
     """{lang: {file name: text}} as ``fitlab codegen --family microfacet_energy`` writes them (every committed
-    language, the packaged fits)."""
-    from fitlab.cli import main
+    language, the packaged fits), in a fresh process as a user runs it: in a test process that has done other
+    sympy work first, the program's CSE temporaries were seen to come out numbered otherwise, rarely (an open
+    reproducibility problem of in-process codegen, fitlab.codegen.program.reproducible_sympy; fresh processes
+    agree whatever PYTHONHASHSEED)."""
+    import subprocess
+    import sys
 
-    out = {}
-    for lang in lp.LANGUAGES:
-        folder = tmp_path_factory.mktemp(f"family_program_{lang}")
-        assert main(["codegen", "--family", "microfacet_energy", "--lang", lang, "--out", str(folder), "--quiet"]) == 0
-        out[lang] = {p.name: p.read_text() for p in folder.iterdir()}
-    return out
+    folders = {lang: tmp_path_factory.mktemp(f"family_program_{lang}") for lang in lp.LANGUAGES}
+    script = ("import sys\nfrom fitlab.cli import main\n"
+              "for lang, folder in zip(sys.argv[1::2], sys.argv[2::2]):\n"
+              "    assert main(['codegen', '--family', 'microfacet_energy', '--lang', lang, '--out', folder, '--quiet']) == 0\n")
+    args = [a for lang, folder in folders.items() for a in (lang, str(folder))]
+    run = subprocess.run([sys.executable, "-c", script, *args], capture_output=True, text=True, timeout=600)
+    assert run.returncode == 0, run.stderr[-4000:]
+    return {lang: {p.name: p.read_text() for p in folder.iterdir()} for lang, folder in folders.items()}
 
 
 @pytest.mark.parametrize("sympy_seed", [1])
