@@ -324,35 +324,26 @@ def eq40_kd(c):
 
 
 @lru_cache(maxsize=None)
-def _exact_modes_bin(c, mu_i, a, b, multiple_only):
-    """mu_o-weighted bin averages of the three exact three-term modes (f0, f1, f2)."""
+def _exact_modes_bin(c, mu_i, a, b, multiple_only, phase="three_term"):
+    """mu_o-weighted bin averages of the exact modes: the three-term half space's (f0, f1, f2; multiple
+    scattering only, or with its single scattering), or the true half space's multiple-scattering orders (every
+    order the true-phase engine keeps at this c; the others are below its order tolerance)."""
 
     x, w = np.polynomial.legendre.leggauss(_N_MU)
     mu = a + (b - a) * (x + 1.0) / 2.0
     wmu = w * (b - a) / 2.0 * mu
-    fn = multiple_scattering_modes if multiple_only else brdf_modes
-    modes = np.array(fn(np.full_like(mu, mu_i), mu, c))
-    return tuple(float(v) for v in modes @ wmu / wmu.sum())
-
-
-@lru_cache(maxsize=None)
-def _true_modes_bin(c, mu_i, a, b):
-    """mu_o-weighted bin averages of the true half space's multiple-scattering orders (every order the true-phase
-    engine keeps at this c; the others are below its order tolerance)."""
-    x, w = np.polynomial.legendre.leggauss(_N_MU)
-    mu = a + (b - a) * (x + 1.0) / 2.0
-    wmu = w * (b - a) / 2.0 * mu
-    modes = np.array(multiple_scattering_modes(np.full_like(mu, mu_i), mu, c, phase="true"))
+    mu_in = np.full_like(mu, mu_i)
+    if phase == "true":
+        modes = np.array(multiple_scattering_modes(mu_in, mu, c, phase="true"))
+    else:
+        modes = np.array((multiple_scattering_modes if multiple_only else brdf_modes)(mu_in, mu, c))
     return tuple(float(v) for v in modes @ wmu / wmu.sum())
 
 
 def _exact_directional(c, mu_i, row, key, scene, multiple_only, phase="three_term"):
     """Exact value of a Fourier/bins row: the three-term half space (orders > 2 vanish exactly; with
     ``multiple_only`` False, its single scattering too) or the true one's multiple scattering."""
-    if phase == "true":
-        modes = _true_modes_bin(c, mu_i, row["mu_lo"], row["mu_hi"])
-    else:
-        modes = _exact_modes_bin(c, mu_i, row["mu_lo"], row["mu_hi"], multiple_only)
+    modes = _exact_modes_bin(c, mu_i, row["mu_lo"], row["mu_hi"], multiple_only or phase == "true", phase)
     if key[0] == "m":
         m = key[2]
         return modes[m] if m < len(modes) else 0.0
