@@ -120,6 +120,27 @@ def test_generation_does_not_depend_on_hash_seed(tmp_path):
     assert outs[0] == outs[1] == (GENERATED / "lambert_sphere.c").read_text()
 
 
+def test_temporaries_are_named_in_an_order_that_does_not_follow_sympys():
+    """fitlab.codegen.emit names cse's temporaries in an order of their own (operands first, then by sympy's sort
+    key): sympy's cse was seen to list the same temporaries in another order after other sympy work in the
+    process.  Two topological orders of the same temporaries give the same names and the same code."""
+    import sympy as sp
+
+    from fitlab.codegen.emit import _named_in_order
+
+    x, y = sp.symbols("x y", real=True)
+    a, b, c, d = sp.symbols("a b c d", cls=sp.Dummy, real=True)
+    values = {a: x**2, b: y**2, c: a * b + x, d: sp.exp(c) + a}
+    first = [(a, values[a]), (b, values[b]), (c, values[c]), (d, values[d])]
+    second = [(b, values[b]), (a, values[a]), (c, values[c]), (d, values[d])]
+    outs = [_named_in_order(found, [d + b], sp.numbered_symbols("t", real=True)) for found in (first, second)]
+    assert outs[0] == outs[1]
+    temps, (value,) = outs[0]
+    t = sp.symbols("t0:4", real=True)
+    assert temps == [(t[0], x**2), (t[1], y**2), (t[2], t[0] * t[1] + x), (t[3], sp.exp(t[2]) + t[0])]
+    assert value == t[3] + t[1]
+
+
 def test_banner_names_every_source_fit(sources):
     text = sources["c"]["lambert_sphere.h"]
     for name in ("H0", "H1", "H2", "l", "m", "B", "C", "D", "F", "c_of_kd", "kd_of_c", "fast_brdf"):

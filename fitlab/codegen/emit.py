@@ -24,6 +24,7 @@ function names come from the program's ``name`` (``lambert_sphere`` below).
 
 from __future__ import annotations
 
+import heapq
 import itertools
 import textwrap
 from dataclasses import dataclass
@@ -90,10 +91,48 @@ def _cse_many(exprs, name: str):
     return list(temps), list(out)
 
 
+def _named_in_order(found, reduced, names):
+    """sympy's temporaries ``found`` renamed from ``names`` in an order of their own, and ``reduced`` with the new
+    names: each step names, of the temporaries whose operands are all named, the one whose expression (with
+    those names) sorts first by sympy's ``default_sort_key``.  The order of sympy's cse follows its traversal,
+    which was seen to differ between runs of one program (the same temporaries, numbered otherwise, after
+    other sympy work in the process); this order depends on the temporaries alone."""
+    value = dict(found)
+    users: dict = {t: [] for t in value}
+    waiting = {}
+    for t, e in found:
+        operands = [a for a in e.free_symbols if a in value]
+        waiting[t] = len(operands)
+        for a in operands:
+            users[a].append(t)
+    rename: dict = {}
+    ready: list = []
+    count = itertools.count()  # never reached: two temporaries with one expression would be one
+
+    def push(t):
+        e = value[t].xreplace(rename)
+        heapq.heappush(ready, (sp.default_sort_key(e), next(count), t, e))
+
+    for t, n in waiting.items():
+        if n == 0:
+            push(t)
+    out = []
+    while ready:
+        _, _, t, e = heapq.heappop(ready)
+        rename[t] = next(names)
+        out.append((rename[t], e))
+        for u in users[t]:
+            waiting[u] -= 1
+            if waiting[u] == 0:
+                push(u)
+    return out, [e.xreplace(rename) for e in reduced]
+
+
 def _cse_computed(given: tuple) -> tuple[tuple, tuple]:
     """What :func:`_cse_many` returns, computed: (temps, expressions), each a tuple."""
     names = sp.numbered_symbols("t", real=True)
-    temps, exprs = sp.cse(list(given), symbols=names, order="canonical")
+    found, exprs = sp.cse(list(given), symbols=sp.numbered_symbols("cse", cls=sp.Dummy, real=True), order="canonical")
+    temps, exprs = _named_in_order(found, exprs, names)
     out = []
 
     def temp(value):

@@ -45,19 +45,19 @@ def h0(mu, c):
     runtime BRDF keeps its log(1/mu) pole. Measured by fitlab codegen: max 5.59e-05, RMS
     2.72e-05 (relative, 17290 points)."""
     mu, c = numpy.asarray(mu, dtype=float), numpy.asarray(c, dtype=float)
-    t10 = numpy.where(numpy.less(mu, 0), 0.0, mu)
+    t10 = numpy.where(numpy.less(c, 0), 0.0, c)
     t0 = numpy.where(numpy.greater(t10, 1.0), 1.0, t10)
-    t11 = numpy.where(numpy.less(c, 0), 0.0, c)
-    t1 = numpy.where(numpy.greater(t11, 1.0), 1.0, t11)
-    t2 = (t0*t0)
-    t3 = (t0*t0*t0*t0)
-    t4 = (t0*t0*t0)
-    t5 = 1 - t1
-    t6 = numpy.sqrt(t5)
-    t7 = (t5*numpy.sqrt(t5))
-    t8 = (t5*t5)
-    t9 = (t5*t5*numpy.sqrt(t5))
-    return numpy.exp(t0*((1/384)*t1*(t2*(t1*(20*t1 + 281) - 346) + t3*(15 - 15*t1)*(4*t1 + 9) + 207)*numpy.log(1 + numpy.where(numpy.less(t0, 1.0e-30), 1.0e-30, t0)**(-1.0)) + t1*((301/384)*t0 + t1*(0.054352180621602*t0*t5 - 1.2962245400847459*t0*t6 + 1.0662443661683643*t0*t7 - 1.2792064158675018*t0*t8 + 0.7386182603458875*t0*t9 - 1.317974632049971*t0 - 0.5107867682402644*t1 + 2.6178417261370144*t2*t5 + 0.2088906671287879*t2*t6 - 3.8437036802186566*t2*t7 + 2.9870469264138593*t2*t8 - 1.6749178633061865*t2*t9 + 0.28728468847971017*t2 + 0.6451850986747949*t3*t5 + 0.022495141608287784*t3*t6 - 0.10725514469713378*t3*t7 - 0.5386479579696892*t3*t8 + 0.018803920406571046*t3*t9 + 0.06215295319723717*t3 - 2.287922901523356*t4*t5 + 0.20716954535903143*t4*t6 + 1.572829970027227*t4*t7 - 0.3547833158798482*t4*t8 + 0.6982143204310637*t4*t9 + 0.10385474081646198*t4 - 0.665811224859062*t6 - 0.4181420674159667*t7 + 0.3124914633548267*t8 - 0.12850663941518076*t9 + 1.9281823615276229)/(t6 + 1) + (45/256)*t2 - 45/128*t4 - 557/1536)))
+    t1 = 1 - t0
+    t2 = numpy.sqrt(t1)
+    t3 = (t1*numpy.sqrt(t1))
+    t4 = (t1*t1)
+    t5 = (t1*t1*numpy.sqrt(t1))
+    t11 = numpy.where(numpy.less(mu, 0), 0.0, mu)
+    t6 = numpy.where(numpy.greater(t11, 1.0), 1.0, t11)
+    t7 = (t6*t6)
+    t8 = (t6*t6*t6)
+    t9 = (t6*t6*t6*t6)
+    return numpy.exp(t6*((1/384)*t0*(t7*(t0*(20*t0 + 281) - 346) + t9*(15 - 15*t0)*(4*t0 + 9) + 207)*numpy.log(1 + numpy.where(numpy.less(t6, 1.0e-30), 1.0e-30, t6)**(-1.0)) + t0*(t0*(-0.5107867682402644*t0 + 0.054352180621602*t1*t6 + 2.6178417261370144*t1*t7 - 2.287922901523356*t1*t8 + 0.6451850986747949*t1*t9 - 1.2962245400847459*t2*t6 + 0.2088906671287879*t2*t7 + 0.20716954535903143*t2*t8 + 0.022495141608287784*t2*t9 - 0.665811224859062*t2 + 1.0662443661683643*t3*t6 - 3.8437036802186566*t3*t7 + 1.572829970027227*t3*t8 - 0.10725514469713378*t3*t9 - 0.4181420674159667*t3 - 1.2792064158675018*t4*t6 + 2.9870469264138593*t4*t7 - 0.3547833158798482*t4*t8 - 0.5386479579696892*t4*t9 + 0.3124914633548267*t4 + 0.7386182603458875*t5*t6 - 1.6749178633061865*t5*t7 + 0.6982143204310637*t5*t8 + 0.018803920406571046*t5*t9 - 0.12850663941518076*t5 - 1.317974632049971*t6 + 0.28728468847971017*t7 + 0.10385474081646198*t8 + 0.06215295319723717*t9 + 1.9281823615276229)/(t2 + 1) + (301/384)*t6 + (45/256)*t7 - 45/128*t8 - 557/1536)))
 
 
 def h1(mu, c):
@@ -69,15 +69,15 @@ def h1(mu, c):
     runtime BRDF keeps its log(1/mu) pole. Measured by fitlab codegen: max 1.39e-04, RMS
     7.73e-05 (relative, 17290 points)."""
     mu, c = numpy.asarray(mu, dtype=float), numpy.asarray(c, dtype=float)
-    t6 = numpy.where(numpy.less(mu, 0), 0.0, mu)
+    t6 = numpy.where(numpy.less(c, 0), 0.0, c)
     t0 = numpy.where(numpy.greater(t6, 1.0), 1.0, t6)
-    t7 = numpy.where(numpy.less(c, 0), 0.0, c)
-    t1 = numpy.where(numpy.greater(t7, 1.0), 1.0, t7)
-    t2 = (t0*t0)
-    t3 = (t0*t0*t0)
-    t4 = 1 - t1
-    t5 = numpy.sqrt(t4)
-    return numpy.exp(t0*(-1/192*t1*(t2 - 1)*(t2*(20*t1 + 45) - 64)*numpy.log(1 + numpy.where(numpy.less(t0, 1.0e-30), 1.0e-30, t0)**(-1.0)) + t1*(-47/96*t0 + t1*(0.05837316923777987*t0*t4 - 0.18408011133833516*t0*t5 - 0.1788584769584851*t0 - 0.004494906937942091*t1 - 0.1147580846390276*t2*t4 + 0.0662557328553895*t2*t5 + 0.05802135097287754*t2 + 0.06061898656512081*t3*t4 + 0.0574662363213306*t3*t5 + 0.06143020603611769*t3 + 0.08617889059204359*t5 + 0.090016644370520301)/(t5 + 1) - 15/128*t2 + (15/64)*t3 + 173/768)))
+    t1 = 1 - t0
+    t2 = numpy.sqrt(t1)
+    t7 = numpy.where(numpy.less(mu, 0), 0.0, mu)
+    t3 = numpy.where(numpy.greater(t7, 1.0), 1.0, t7)
+    t4 = (t3*t3)
+    t5 = (t3*t3*t3)
+    return numpy.exp(t3*(-1/192*t0*(t4 - 1)*(t4*(20*t0 + 45) - 64)*numpy.log(1 + numpy.where(numpy.less(t3, 1.0e-30), 1.0e-30, t3)**(-1.0)) + t0*(t0*(-0.004494906937942091*t0 + 0.05837316923777987*t1*t3 - 0.1147580846390276*t1*t4 + 0.06061898656512081*t1*t5 - 0.18408011133833516*t2*t3 + 0.0662557328553895*t2*t4 + 0.0574662363213306*t2*t5 + 0.08617889059204359*t2 - 0.1788584769584851*t3 + 0.05802135097287754*t4 + 0.06143020603611769*t5 + 0.090016644370520301)/(t2 + 1) - 47/96*t3 - 15/128*t4 + (15/64)*t5 + 173/768)))
 
 
 def h2(mu, c):
@@ -90,14 +90,14 @@ def h2(mu, c):
     log(1/mu) pole. Measured by fitlab codegen: max 4.35e-06, RMS 2.25e-06 (relative, 17290
     points)."""
     mu, c = numpy.asarray(mu, dtype=float), numpy.asarray(c, dtype=float)
-    t5 = numpy.where(numpy.less(mu, 0), 0.0, mu)
+    t5 = numpy.where(numpy.less(c, 0), 0.0, c)
     t0 = numpy.where(numpy.greater(t5, 1.0), 1.0, t5)
-    t6 = numpy.where(numpy.less(c, 0), 0.0, c)
-    t1 = numpy.where(numpy.greater(t6, 1.0), 1.0, t6)
-    t2 = (t0*t0)
-    t3 = (t0*t0*t0)
-    t4 = numpy.sqrt(1 - t1)
-    return numpy.exp(t0*((15/256)*t1*((t2 - 1)*(t2 - 1))*numpy.log(1 + numpy.where(numpy.less(t0, 1.0e-30), 1.0e-30, t0)**(-1.0)) + t1*((25/256)*t0 + t1*(-0.003569301003270028*t0*t4 - 0.0037961708223872375*t0 + 0.0032773104377737225*t2*t4 + 0.0037035545003035746*t2 - 0.0011793166019935435*t3*t4 - 0.0014135909284063626*t3 + 0.002147602955343103*t4 + 0.0021870832323814967)/(t4 + 1) + (15/512)*t2 - 15/256*t3 - 45/1024)))
+    t1 = numpy.sqrt(1 - t0)
+    t6 = numpy.where(numpy.less(mu, 0), 0.0, mu)
+    t2 = numpy.where(numpy.greater(t6, 1.0), 1.0, t6)
+    t3 = (t2*t2)
+    t4 = (t2*t2*t2)
+    return numpy.exp(t2*((15/256)*t0*((t3 - 1)*(t3 - 1))*numpy.log(1 + numpy.where(numpy.less(t2, 1.0e-30), 1.0e-30, t2)**(-1.0)) + t0*(t0*(-0.003569301003270028*t1*t2 + 0.0032773104377737225*t1*t3 - 0.0011793166019935435*t1*t4 + 0.002147602955343103*t1 - 0.0037961708223872375*t2 + 0.0037035545003035746*t3 - 0.0014135909284063626*t4 + 0.0021870832323814967)/(t1 + 1) + (25/256)*t2 + (15/512)*t3 - 15/256*t4 - 45/1024)))
 
 
 def const_l(c):
@@ -211,21 +211,21 @@ def sample_weight(mu_i, c):
     (relative, 630 points)."""
     mu_i, c = numpy.asarray(mu_i, dtype=float), numpy.asarray(c, dtype=float)
     t0 = 3.141592653589793238**(-1.0)
-    t13 = numpy.where(numpy.less(mu_i, 0), 0.0, mu_i)
-    t1 = numpy.arccos(numpy.where(numpy.greater(t13, 1.0), 1.0, t13))
-    t14 = numpy.where(numpy.less(c, 0), 0.0, c)
-    t2 = numpy.sqrt(1 - numpy.where(numpy.greater(t14, 1.0), 1.0, t14))
-    t3 = 4*t0*t1 - 1
-    t4 = (t3*t3)
-    t5 = (t3*t3*t3)
-    t6 = (t3*t3*t3*t3)
-    t7 = t3**5
-    t8 = t3**6
-    t9 = 2*t2 - 1
-    t10 = (t9*t9)
-    t11 = (t9*t9*t9)
-    t12 = (t9*t9*t9*t9)
-    return (9.7240632799166419*numpy.exp(1.7500311057966532*t0*t1 + 0.10959653178533475*t10*t3 + 0.1766119774816802*t10*t4 - 1.7626547831461115*t10*t5 + 0.25597403686706693*t10*t6 + 3.9162801286388897*t10*t7 - 2.8379131409273515*t10*t8 + 0.10625650933246486*t10 - 0.014210822631915428*t11*t3 + 0.5027933198177464*t11*t4 - 1.6739402521122886*t11*t5 + 0.519096218517333*t11*t6 + 2.42146807891088*t11*t7 - 1.7061192768751303*t11*t8 - 0.09050045154983123*t11 - 0.016932172543436784*t12*t3 - 0.46352701817452785*t12*t4 + 2.070129643634922*t12*t5 - 0.7128581043130656*t12*t6 - 3.6618141129510917*t12*t7 + 2.7903213618028806*t12*t8 + 0.040558449658917785*t12 - 1.8499934365876788*t2 - 0.21141002665509673*t3*t9 - 0.4890688103263692*t4*t9 + 0.04628582994795521*t4 + 1.3385823867874944*t5*t9 - 0.550401436459078*t5 - 0.49993828263168366*t6*t9 + 0.07829314674691852*t6 - 2.295795044579524*t7*t9 - 0.7161701495184881*t7 + 2.5251177518363694*t8*t9 - 0.5341871660342392*t8) + 1)**(-1.0)
+    t13 = numpy.where(numpy.less(c, 0), 0.0, c)
+    t1 = numpy.sqrt(1 - numpy.where(numpy.greater(t13, 1.0), 1.0, t13))
+    t2 = 2*t1 - 1
+    t3 = (t2*t2)
+    t4 = (t2*t2*t2)
+    t5 = (t2*t2*t2*t2)
+    t14 = numpy.where(numpy.less(mu_i, 0), 0.0, mu_i)
+    t6 = numpy.arccos(numpy.where(numpy.greater(t14, 1.0), 1.0, t14))
+    t7 = 4*t0*t6 - 1
+    t8 = (t7*t7)
+    t9 = (t7*t7*t7)
+    t10 = (t7*t7*t7*t7)
+    t11 = t7**5
+    t12 = t7**6
+    return (9.7240632799166419*numpy.exp(1.7500311057966532*t0*t6 - 1.8499934365876788*t1 - 0.49993828263168366*t10*t2 + 0.25597403686706693*t10*t3 + 0.519096218517333*t10*t4 - 0.7128581043130656*t10*t5 + 0.07829314674691852*t10 - 2.295795044579524*t11*t2 + 3.9162801286388897*t11*t3 + 2.42146807891088*t11*t4 - 3.6618141129510917*t11*t5 - 0.7161701495184881*t11 + 2.5251177518363694*t12*t2 - 2.8379131409273515*t12*t3 - 1.7061192768751303*t12*t4 + 2.7903213618028806*t12*t5 - 0.5341871660342392*t12 - 0.21141002665509673*t2*t7 - 0.4890688103263692*t2*t8 + 1.3385823867874944*t2*t9 + 0.10959653178533475*t3*t7 + 0.1766119774816802*t3*t8 - 1.7626547831461115*t3*t9 + 0.10625650933246486*t3 - 0.014210822631915428*t4*t7 + 0.5027933198177464*t4*t8 - 1.6739402521122886*t4*t9 - 0.09050045154983123*t4 - 0.016932172543436784*t5*t7 - 0.46352701817452785*t5*t8 + 2.070129643634922*t5*t9 + 0.040558449658917785*t5 + 0.04628582994795521*t8 - 0.550401436459078*t9) + 1)**(-1.0)
 
 
 def sample_exponent(mu_i, c):
@@ -236,21 +236,21 @@ def sample_exponent(mu_i, c):
     points)."""
     mu_i, c = numpy.asarray(mu_i, dtype=float), numpy.asarray(c, dtype=float)
     t0 = 3.141592653589793238**(-1.0)
-    t13 = numpy.where(numpy.less(mu_i, 0), 0.0, mu_i)
-    t1 = numpy.arccos(numpy.where(numpy.greater(t13, 1.0), 1.0, t13))
-    t14 = numpy.where(numpy.less(c, 0), 0.0, c)
-    t2 = numpy.sqrt(1 - numpy.where(numpy.greater(t14, 1.0), 1.0, t14))
-    t3 = 4*t0*t1 - 1
-    t4 = (t3*t3)
-    t5 = (t3*t3*t3)
-    t6 = (t3*t3*t3*t3)
-    t7 = t3**5
-    t8 = t3**6
-    t9 = 2*t2 - 1
-    t10 = (t9*t9)
-    t11 = (t9*t9*t9)
-    t12 = (t9*t9*t9*t9)
-    return 2.0429479122374826*numpy.exp(3.9697173818393476*t0*t1 - 0.07180031380227185*t10*t3 + 0.45043691346028303*t10*t4 - 0.49761324603578005*t10*t5 - 0.3929206076202727*t10*t6 + 0.8371462419661069*t10*t7 - 0.37270829229253744*t10*t8 + 0.07480678777429003*t10 + 0.18739898105517722*t11*t3 - 0.15688016937511312*t11*t4 - 0.6316753368520219*t11*t5 + 0.41754495392944535*t11*t6 + 0.805852957259517*t11*t7 - 0.5766031303491715*t11*t8 - 0.048730004697608804*t11 - 0.08951890733992941*t12*t3 + 0.028662593819483183*t12*t4 + 0.6212937162033938*t12*t5 - 0.37628293329323487*t12*t6 - 0.7667251911655493*t12*t7 + 0.5742385031683162*t12*t8 + 0.017690506072644132*t12 - 0.5194652563684371*t2 - 0.5773338931218077*t3*t9 - 0.43279839293414*t4*t9 - 0.861604156944149*t4 + 0.6582269037007633*t5*t9 - 0.8684385788422878*t5 + 0.4124295039969486*t6*t9 + 0.20080844606204426*t6 - 0.5901356749175913*t7*t9 - 0.36251640502651766*t7 + 0.6392720659218424*t8*t9 - 0.4275420217467747*t8)
+    t13 = numpy.where(numpy.less(c, 0), 0.0, c)
+    t1 = numpy.sqrt(1 - numpy.where(numpy.greater(t13, 1.0), 1.0, t13))
+    t2 = 2*t1 - 1
+    t3 = (t2*t2)
+    t4 = (t2*t2*t2)
+    t5 = (t2*t2*t2*t2)
+    t14 = numpy.where(numpy.less(mu_i, 0), 0.0, mu_i)
+    t6 = numpy.arccos(numpy.where(numpy.greater(t14, 1.0), 1.0, t14))
+    t7 = 4*t0*t6 - 1
+    t8 = (t7*t7)
+    t9 = (t7*t7*t7)
+    t10 = (t7*t7*t7*t7)
+    t11 = t7**5
+    t12 = t7**6
+    return 2.0429479122374826*numpy.exp(3.9697173818393476*t0*t6 - 0.5194652563684371*t1 + 0.4124295039969486*t10*t2 - 0.3929206076202727*t10*t3 + 0.41754495392944535*t10*t4 - 0.37628293329323487*t10*t5 + 0.20080844606204426*t10 - 0.5901356749175913*t11*t2 + 0.8371462419661069*t11*t3 + 0.805852957259517*t11*t4 - 0.7667251911655493*t11*t5 - 0.36251640502651766*t11 + 0.6392720659218424*t12*t2 - 0.37270829229253744*t12*t3 - 0.5766031303491715*t12*t4 + 0.5742385031683162*t12*t5 - 0.4275420217467747*t12 - 0.5773338931218077*t2*t7 - 0.43279839293414*t2*t8 + 0.6582269037007633*t2*t9 - 0.07180031380227185*t3*t7 + 0.45043691346028303*t3*t8 - 0.49761324603578005*t3*t9 + 0.07480678777429003*t3 + 0.18739898105517722*t4*t7 - 0.15688016937511312*t4*t8 - 0.6316753368520219*t4*t9 - 0.048730004697608804*t4 - 0.08951890733992941*t5*t7 + 0.028662593819483183*t5*t8 + 0.6212937162033938*t5*t9 + 0.017690506072644132*t5 - 0.861604156944149*t8 - 0.8684385788422878*t9)
 
 
 def single(mu_i, mu_o, cos_phi, c):
@@ -262,24 +262,24 @@ def single(mu_i, mu_o, cos_phi, c):
     mu_i, mu_o, cos_phi, c = numpy.asarray(mu_i, dtype=float), numpy.asarray(mu_o, dtype=float), numpy.asarray(cos_phi, dtype=float), numpy.asarray(c, dtype=float)
     t13 = numpy.where(numpy.less(mu_i, 0), 0.0, mu_i)
     t0 = numpy.where(numpy.greater(t13, 1.0), 1.0, t13)
+    t1 = (t0*t0)
+    t2 = 1 - t1
     t14 = numpy.where(numpy.less(mu_o, 0), 0.0, mu_o)
-    t1 = numpy.where(numpy.greater(t14, 1.0), 1.0, t14)
-    t2 = (t0*t0)
-    t3 = 1 - t2
-    t4 = (t1*t1)
-    t5 = numpy.sqrt(t3*(1 - t4))
+    t3 = numpy.where(numpy.greater(t14, 1.0), 1.0, t14)
+    t4 = (t3*t3)
+    t5 = numpy.sqrt(t2*(1 - t4))
     t15 = numpy.where(numpy.less(cos_phi, -1.0), -1.0, cos_phi)
-    t16 = (1/2)*t0*t1 + (1/2)*t5*(numpy.where(numpy.greater(t15, 1.0), 1.0, t15) + 1) + (1/2)*(t2 + t3*t4)/(t5 + 1)
+    t16 = (1/2)*t0*t3 + (1/2)*t5*(numpy.where(numpy.greater(t15, 1.0), 1.0, t15) + 1) + (1/2)*(t1 + t2*t4)/(t5 + 1)
     t6 = numpy.where(numpy.less(t16, 0), 0, t16)
     t7 = numpy.where(numpy.greater(t6, 1), 1, t6)
     t8 = 1 - t7
     t9 = numpy.arcsin(numpy.sqrt(numpy.where(numpy.greater(t6, t8), t8, numpy.where(numpy.less_equal(t6, t8), t6, t6 + t8))))
-    t10 = (t9*t9)
-    t11 = 4*t10
-    t12 = 2*t9
-    t17 = t0 + t1
+    t10 = 2*t9
+    t11 = (t9*t9)
+    t12 = 4*t11
+    t17 = t0 + t3
     t18 = numpy.where(numpy.less(c, 0), 0.0, c)
-    return (2/3)*numpy.where(numpy.less(t7, 1/16), 8*(t9*t9*t9)*(t11*(t11*(t11*(t11*(t11*((1/23351328000)*t10 - 1/518918400) + 1/3991680) - 1/45360) + 1/840) - 1/30) + 1/3), 2*numpy.sqrt(t7)*numpy.sqrt(t8) - (1 - 2*t7)*numpy.where(numpy.less(t7, 1/2), t12, 3.141592653589793238 - t12))*numpy.where(numpy.greater(t18, 1.0), 1.0, t18)/((3.141592653589793238*3.141592653589793238)*numpy.where(numpy.less(t17, 1/1000000), 1/1000000, t17))
+    return (2/3)*numpy.where(numpy.less(t7, 1/16), 8*(t9*t9*t9)*(t12*(t12*(t12*(t12*(t12*((1/23351328000)*t11 - 1/518918400) + 1/3991680) - 1/45360) + 1/840) - 1/30) + 1/3), 2*numpy.sqrt(t7)*numpy.sqrt(t8) - (1 - 2*t7)*numpy.where(numpy.less(t7, 1/2), t10, 3.141592653589793238 - t10))*numpy.where(numpy.greater(t18, 1.0), 1.0, t18)/((3.141592653589793238*3.141592653589793238)*numpy.where(numpy.less(t17, 1/1000000), 1/1000000, t17))
 
 
 def fm0(mu_i, mu_o, c):
@@ -287,54 +287,54 @@ def fm0(mu_i, mu_o, c):
     30, 38), evaluated as ((H0 H0 - 1) Q + (Q - Q_ss))/(2 pi (mu_i + mu_o)), Q_ss = 2 pi
     n0_ss, without cancellation at grazing and small c. Pole floored at 1e-6."""
     mu_i, mu_o, c = numpy.asarray(mu_i, dtype=float), numpy.asarray(mu_o, dtype=float), numpy.asarray(c, dtype=float)
-    t44 = numpy.where(numpy.less(mu_i, 0), 0.0, mu_i)
+    t44 = numpy.where(numpy.less(c, 0), 0.0, c)
     t0 = numpy.where(numpy.greater(t44, 1.0), 1.0, t44)
-    t45 = numpy.where(numpy.less(mu_o, 0), 0.0, mu_o)
-    t1 = numpy.where(numpy.greater(t45, 1.0), 1.0, t45)
-    t2 = t0 + t1
-    t3 = (t0*t0)
-    t4 = (t1*t1)
-    t5 = t0*t1
-    t6 = t3*t4
-    t46 = numpy.where(numpy.less(c, 0), 0.0, c)
-    t7 = numpy.where(numpy.greater(t46, 1.0), 1.0, t46)
-    t8 = (1/384)*t7
-    t9 = (t7*t7)
-    t10 = 1 - t7
-    t11 = numpy.sqrt(t10)
-    t12 = (t10*numpy.sqrt(t10))
-    t13 = t2*t5*const_d(t7) + t2*const_b(t7) + t5*t9*(-0.6683906999502577*t11 - 0.13969581510284687*t12 - 0.45542898085520883*t7 - 0.09405025651670227)/(0.5850916184498237*t11 + 0.1607346721831539*t12 + 0.3926142724681187*t7 + 0.6073857275318813) + t6*(-5/32*(t7*t7*t7) - 25/128*t9) + t9*(t3 + t4)*(0.10176577919541374*t11 + 0.022994579304556582*t12 + 0.14740850623957125*t7 - 0.03022099337713794)/(2.348527040324315*t11 - 0.9953813084156506*t12 - 0.5511565927837337*t7 + 1.5511565927837337)
-    t14 = t7*(20*t7 + 281) - 346
-    t15 = (t0*t0*t0*t0)
-    t16 = (15 - 15*t7)*(4*t7 + 9)
-    t17 = (t0*t0*t0)
-    t18 = (t10*t10)
-    t19 = 2.9870469264138593*t18
-    t20 = 1.0662443661683643*t12
-    t21 = 1.572829970027227*t12
-    t22 = 0.2088906671287879*t11
-    t23 = (t10*t10*numpy.sqrt(t10))
-    t24 = 0.018803920406571046*t23
-    t25 = 2.6178417261370144*t10
-    t26 = 0.6982143204310637*t23
-    t27 = 0.7386182603458875*t23
-    t28 = 0.20716954535903143*t11
-    t29 = 0.6451850986747949*t10
-    t30 = 0.022495141608287784*t11
-    t31 = 0.054352180621602*t10
-    t32 = 1.6749178633061865*t23
-    t33 = 1.2962245400847459*t11
-    t34 = 2.287922901523356*t10
-    t35 = 0.5386479579696892*t18
-    t36 = 1.2792064158675018*t18
-    t37 = 0.3547833158798482*t18
-    t38 = 0.10725514469713378*t12
-    t39 = 3.8437036802186566*t12
-    t40 = -0.665811224859062*t11 - 0.4181420674159667*t12 + 0.3124914633548267*t18 - 0.12850663941518076*t23 - 0.5107867682402644*t7 + 1.9281823615276229
-    t41 = t7/(t11 + 1)
-    t42 = (t1*t1*t1*t1)
-    t43 = (t1*t1*t1)
-    return (1/2)*(t13 + (t13 + t8*(-45*t3 - 45*t4 + 256*t5 + 135*t6 + 207))*numpy.expm1(t0*(t7*((301/384)*t0 - 45/128*t17 + (45/256)*t3 + t41*(t0*t20 + t0*t27 + t0*t31 - t0*t33 - t0*t36 - 1.317974632049971*t0 + t15*t24 + t15*t29 + t15*t30 - t15*t35 - t15*t38 + 0.06215295319723717*t15 + t17*t21 + t17*t26 + t17*t28 - t17*t34 - t17*t37 + 0.10385474081646198*t17 + t19*t3 + t22*t3 + t25*t3 - t3*t32 - t3*t39 + 0.28728468847971017*t3 + t40) - 557/1536) + t8*(t14*t3 + t15*t16 + 207)*numpy.log(1 + numpy.where(numpy.less(t0, 1.0e-30), 1.0e-30, t0)**(-1.0))) + t1*(t7*((301/384)*t1 + (45/256)*t4 + t41*(t1*t20 + t1*t27 + t1*t31 - t1*t33 - t1*t36 - 1.317974632049971*t1 + t19*t4 + t21*t43 + t22*t4 + t24*t42 + t25*t4 + t26*t43 + t28*t43 + t29*t42 + t30*t42 - t32*t4 - t34*t43 - t35*t42 - t37*t43 - t38*t42 - t39*t4 + 0.28728468847971017*t4 + t40 + 0.06215295319723717*t42 + 0.10385474081646198*t43) - 45/128*t43 - 557/1536) + t8*(t14*t4 + t16*t42 + 207)*numpy.log(1 + numpy.where(numpy.less(t1, 1.0e-30), 1.0e-30, t1)**(-1.0)))))/(3.141592653589793238*numpy.where(numpy.less(t2, 1/1000000), 1/1000000, t2))
+    t1 = (1/384)*t0
+    t2 = (t0*t0)
+    t3 = (15 - 15*t0)*(4*t0 + 9)
+    t4 = 1 - t0
+    t5 = numpy.sqrt(t4)
+    t6 = 0.054352180621602*t4
+    t7 = 0.6451850986747949*t4
+    t8 = 2.287922901523356*t4
+    t9 = 2.6178417261370144*t4
+    t10 = (t4*numpy.sqrt(t4))
+    t11 = 0.10725514469713378*t10
+    t12 = 1.0662443661683643*t10
+    t13 = 1.572829970027227*t10
+    t14 = 3.8437036802186566*t10
+    t15 = (t4*t4)
+    t16 = 0.3547833158798482*t15
+    t17 = 0.5386479579696892*t15
+    t18 = 1.2792064158675018*t15
+    t19 = 2.9870469264138593*t15
+    t20 = (t4*t4*numpy.sqrt(t4))
+    t21 = 0.018803920406571046*t20
+    t22 = 0.6982143204310637*t20
+    t23 = 0.7386182603458875*t20
+    t24 = 1.6749178633061865*t20
+    t25 = 0.022495141608287784*t5
+    t26 = 0.20716954535903143*t5
+    t27 = 0.2088906671287879*t5
+    t28 = 1.2962245400847459*t5
+    t29 = t0/(t5 + 1)
+    t30 = t0*(20*t0 + 281) - 346
+    t31 = -0.5107867682402644*t0 - 0.4181420674159667*t10 + 0.3124914633548267*t15 - 0.12850663941518076*t20 - 0.665811224859062*t5 + 1.9281823615276229
+    t45 = numpy.where(numpy.less(mu_i, 0), 0.0, mu_i)
+    t32 = numpy.where(numpy.greater(t45, 1.0), 1.0, t45)
+    t33 = (t32*t32)
+    t34 = (t32*t32*t32)
+    t35 = (t32*t32*t32*t32)
+    t46 = numpy.where(numpy.less(mu_o, 0), 0.0, mu_o)
+    t36 = numpy.where(numpy.greater(t46, 1.0), 1.0, t46)
+    t37 = (t36*t36)
+    t38 = (t36*t36*t36)
+    t39 = (t36*t36*t36*t36)
+    t40 = t32*t36
+    t41 = t33*t37
+    t42 = t32 + t36
+    t43 = t2*t40*(-0.45542898085520883*t0 - 0.13969581510284687*t10 - 0.6683906999502577*t5 - 0.09405025651670227)/(0.3926142724681187*t0 + 0.1607346721831539*t10 + 0.5850916184498237*t5 + 0.6073857275318813) + t2*(t33 + t37)*(0.14740850623957125*t0 + 0.022994579304556582*t10 + 0.10176577919541374*t5 - 0.03022099337713794)/(-0.5511565927837337*t0 - 0.9953813084156506*t10 + 2.348527040324315*t5 + 1.5511565927837337) + t40*t42*const_d(t0) + t41*(-5/32*(t0*t0*t0) - 25/128*t2) + t42*const_b(t0)
+    return (1/2)*(t43 + (t1*(-45*t33 - 45*t37 + 256*t40 + 135*t41 + 207) + t43)*numpy.expm1(t32*(t0*(t29*(-t11*t35 + t12*t32 + t13*t34 - t14*t33 - t16*t34 - t17*t35 - t18*t32 + t19*t33 + t21*t35 + t22*t34 + t23*t32 - t24*t33 + t25*t35 + t26*t34 + t27*t33 - t28*t32 + t31 + t32*t6 - 1.317974632049971*t32 + t33*t9 + 0.28728468847971017*t33 - t34*t8 + 0.10385474081646198*t34 + t35*t7 + 0.06215295319723717*t35) + (301/384)*t32 + (45/256)*t33 - 45/128*t34 - 557/1536) + t1*(t3*t35 + t30*t33 + 207)*numpy.log(1 + numpy.where(numpy.less(t32, 1.0e-30), 1.0e-30, t32)**(-1.0))) + t36*(t0*(t29*(-t11*t39 + t12*t36 + t13*t38 - t14*t37 - t16*t38 - t17*t39 - t18*t36 + t19*t37 + t21*t39 + t22*t38 + t23*t36 - t24*t37 + t25*t39 + t26*t38 + t27*t37 - t28*t36 + t31 + t36*t6 - 1.317974632049971*t36 + t37*t9 + 0.28728468847971017*t37 - t38*t8 + 0.10385474081646198*t38 + t39*t7 + 0.06215295319723717*t39) + (301/384)*t36 + (45/256)*t37 - 45/128*t38 - 557/1536) + t1*(t3*t39 + t30*t37 + 207)*numpy.log(1 + numpy.where(numpy.less(t36, 1.0e-30), 1.0e-30, t36)**(-1.0)))))/(3.141592653589793238*numpy.where(numpy.less(t42, 1/1000000), 1/1000000, t42))
 
 
 def fm1(mu_i, mu_o, c):
@@ -345,33 +345,33 @@ def fm1(mu_i, mu_o, c):
     mu_i, mu_o, c = numpy.asarray(mu_i, dtype=float), numpy.asarray(mu_o, dtype=float), numpy.asarray(c, dtype=float)
     t25 = numpy.where(numpy.less(c, 0), 0.0, c)
     t0 = numpy.where(numpy.greater(t25, 1.0), 1.0, t25)
-    t26 = numpy.where(numpy.less(mu_i, 0), 0.0, mu_i)
-    t1 = numpy.where(numpy.greater(t26, 1.0), 1.0, t26)
-    t27 = numpy.where(numpy.less(mu_o, 0), 0.0, mu_o)
-    t2 = numpy.where(numpy.greater(t27, 1.0), 1.0, t27)
-    t3 = t1 + t2
-    t4 = (t1*t1)
-    t5 = t4 - 1
-    t6 = (t2*t2)
-    t7 = t6 - 1
-    t8 = t1*t2
-    t9 = const_l(t0)
-    t10 = t3*t9 + t8*(-0.0042389660736671498*(t0*t0) + 0.31272388944032809*t0 + (t9*t9))
+    t1 = (1/192)*t0
+    t2 = 1 - t0
+    t3 = numpy.sqrt(t2)
+    t4 = 0.05837316923777987*t2
+    t5 = 0.06061898656512081*t2
+    t6 = 0.1147580846390276*t2
+    t7 = 0.0574662363213306*t3
+    t8 = 0.0662557328553895*t3
+    t9 = 0.18408011133833516*t3
+    t10 = t0/(t3 + 1)
     t11 = 20*t0 + 45
-    t12 = (1/192)*t0
-    t13 = (t1*t1*t1)
-    t14 = 1 - t0
-    t15 = numpy.sqrt(t14)
-    t16 = 0.0662557328553895*t15
-    t17 = 0.0574662363213306*t15
-    t18 = 0.06061898656512081*t14
-    t19 = 0.05837316923777987*t14
-    t20 = 0.18408011133833516*t15
-    t21 = 0.1147580846390276*t14
-    t22 = -0.004494906937942091*t0 + 0.08617889059204359*t15 + 0.090016644370520301
-    t23 = t0/(t15 + 1)
-    t24 = (t2*t2*t2)
-    return (1/3)*t0*numpy.sqrt(t5*t7)*(t10 + (t10 + (45/64)*t8 + 1)*numpy.expm1(t1*(t0*(-47/96*t1 + (15/64)*t13 + t23*(t1*t19 - t1*t20 - 0.1788584769584851*t1 + t13*t17 + t13*t18 + 0.06143020603611769*t13 + t16*t4 - t21*t4 + t22 + 0.05802135097287754*t4) - 15/128*t4 + 173/768) - t12*t5*(t11*t4 - 64)*numpy.log(1 + numpy.where(numpy.less(t1, 1.0e-30), 1.0e-30, t1)**(-1.0))) + t2*(t0*(-47/96*t2 + t23*(t16*t6 + t17*t24 + t18*t24 + t19*t2 - t2*t20 - 0.1788584769584851*t2 - t21*t6 + t22 + 0.06143020603611769*t24 + 0.05802135097287754*t6) + (15/64)*t24 - 15/128*t6 + 173/768) - t12*t7*(t11*t6 - 64)*numpy.log(1 + numpy.where(numpy.less(t2, 1.0e-30), 1.0e-30, t2)**(-1.0)))))/(3.141592653589793238*numpy.where(numpy.less(t3, 1/1000000), 1/1000000, t3))
+    t12 = -0.004494906937942091*t0 + 0.08617889059204359*t3 + 0.090016644370520301
+    t13 = const_l(t0)
+    t26 = numpy.where(numpy.less(mu_i, 0), 0.0, mu_i)
+    t14 = numpy.where(numpy.greater(t26, 1.0), 1.0, t26)
+    t15 = (t14*t14)
+    t16 = (t14*t14*t14)
+    t17 = t15 - 1
+    t27 = numpy.where(numpy.less(mu_o, 0), 0.0, mu_o)
+    t18 = numpy.where(numpy.greater(t27, 1.0), 1.0, t27)
+    t19 = (t18*t18)
+    t20 = (t18*t18*t18)
+    t21 = t14*t18
+    t22 = t14 + t18
+    t23 = t19 - 1
+    t24 = t13*t22 + t21*(-0.0042389660736671498*(t0*t0) + 0.31272388944032809*t0 + (t13*t13))
+    return (1/3)*t0*numpy.sqrt(t17*t23)*(t24 + ((45/64)*t21 + t24 + 1)*numpy.expm1(t14*(t0*(t10*(t12 + t14*t4 - t14*t9 - 0.1788584769584851*t14 - t15*t6 + t15*t8 + 0.05802135097287754*t15 + t16*t5 + t16*t7 + 0.06143020603611769*t16) - 47/96*t14 - 15/128*t15 + (15/64)*t16 + 173/768) - t1*t17*(t11*t15 - 64)*numpy.log(1 + numpy.where(numpy.less(t14, 1.0e-30), 1.0e-30, t14)**(-1.0))) + t18*(t0*(t10*(t12 + t18*t4 - t18*t9 - 0.1788584769584851*t18 - t19*t6 + t19*t8 + 0.05802135097287754*t19 + t20*t5 + t20*t7 + 0.06143020603611769*t20) - 47/96*t18 - 15/128*t19 + (15/64)*t20 + 173/768) - t1*t23*(t11*t19 - 64)*numpy.log(1 + numpy.where(numpy.less(t18, 1.0e-30), 1.0e-30, t18)**(-1.0)))))/(3.141592653589793238*numpy.where(numpy.less(t22, 1/1000000), 1/1000000, t22))
 
 
 def fm2(mu_i, mu_o, c):
@@ -379,26 +379,26 @@ def fm2(mu_i, mu_o, c):
     (eq. 21): fm2 = 15 c S^2 (H2(mu_i) H2(mu_o) - 1)/(256 pi (mu_i + mu_o)) (docs/model.md,
     'Order 2'). Pole floored at 1e-6."""
     mu_i, mu_o, c = numpy.asarray(mu_i, dtype=float), numpy.asarray(mu_o, dtype=float), numpy.asarray(c, dtype=float)
-    t15 = numpy.where(numpy.less(mu_i, 0), 0.0, mu_i)
+    t15 = numpy.where(numpy.less(c, 0), 0.0, c)
     t0 = numpy.where(numpy.greater(t15, 1.0), 1.0, t15)
-    t16 = numpy.where(numpy.less(mu_o, 0), 0.0, mu_o)
-    t1 = numpy.where(numpy.greater(t16, 1.0), 1.0, t16)
-    t2 = (t0*t0)
-    t3 = t2 - 1
-    t4 = (t1*t1)
-    t5 = t4 - 1
-    t17 = numpy.where(numpy.less(c, 0), 0.0, c)
-    t6 = numpy.where(numpy.greater(t17, 1.0), 1.0, t17)
-    t7 = (15/256)*t6
-    t8 = (t0*t0*t0)
-    t9 = numpy.sqrt(1 - t6)
-    t10 = 0.0011793166019935435*t9
-    t11 = 0.003569301003270028*t9
-    t12 = -0.002147602955343103*t9 - 0.0021870832323814967
-    t13 = t6/(t9 + 1)
-    t14 = (t1*t1*t1)
-    t18 = t0 + t1
-    return t3*t5*t7*numpy.expm1(t0*((t3*t3)*t7*numpy.log(1 + numpy.where(numpy.less(t0, 1.0e-30), 1.0e-30, t0)**(-1.0)) + t6*((25/256)*t0 + t13*(-t0*t11 - 0.0037961708223872375*t0 - t10*t8 - t12 + 0.0032773104377737225*t2*t9 + 0.0037035545003035746*t2 - 0.0014135909284063626*t8) + (15/512)*t2 - 15/256*t8 - 45/1024)) + t1*((t5*t5)*t7*numpy.log(1 + numpy.where(numpy.less(t1, 1.0e-30), 1.0e-30, t1)**(-1.0)) + t6*((25/256)*t1 + t13*(-t1*t11 - 0.0037961708223872375*t1 - t10*t14 - t12 - 0.0014135909284063626*t14 + 0.0032773104377737225*t4*t9 + 0.0037035545003035746*t4) - 15/256*t14 + (15/512)*t4 - 45/1024)))/(3.141592653589793238*numpy.where(numpy.less(t18, 1/1000000), 1/1000000, t18))
+    t1 = (15/256)*t0
+    t2 = numpy.sqrt(1 - t0)
+    t3 = 0.0011793166019935435*t2
+    t4 = 0.003569301003270028*t2
+    t5 = t0/(t2 + 1)
+    t6 = -0.002147602955343103*t2 - 0.0021870832323814967
+    t16 = numpy.where(numpy.less(mu_i, 0), 0.0, mu_i)
+    t7 = numpy.where(numpy.greater(t16, 1.0), 1.0, t16)
+    t8 = (t7*t7)
+    t9 = (t7*t7*t7)
+    t10 = t8 - 1
+    t17 = numpy.where(numpy.less(mu_o, 0), 0.0, mu_o)
+    t11 = numpy.where(numpy.greater(t17, 1.0), 1.0, t17)
+    t12 = (t11*t11)
+    t13 = (t11*t11*t11)
+    t14 = t12 - 1
+    t18 = t11 + t7
+    return t1*t10*t14*numpy.expm1(t11*(t0*((25/256)*t11 + (15/512)*t12 - 15/256*t13 + t5*(-t11*t4 - 0.0037961708223872375*t11 + 0.0032773104377737225*t12*t2 + 0.0037035545003035746*t12 - t13*t3 - 0.0014135909284063626*t13 - t6) - 45/1024) + t1*(t14*t14)*numpy.log(1 + numpy.where(numpy.less(t11, 1.0e-30), 1.0e-30, t11)**(-1.0))) + t7*(t0*(t5*(0.0032773104377737225*t2*t8 - t3*t9 - t4*t7 - t6 - 0.0037961708223872375*t7 + 0.0037035545003035746*t8 - 0.0014135909284063626*t9) + (25/256)*t7 + (15/512)*t8 - 15/256*t9 - 45/1024) + t1*(t10*t10)*numpy.log(1 + numpy.where(numpy.less(t7, 1.0e-30), 1.0e-30, t7)**(-1.0))))/(3.141592653589793238*numpy.where(numpy.less(t18, 1/1000000), 1/1000000, t18))
 
 
 def brdf(mu_i, mu_o, cos_phi, c):
@@ -408,15 +408,15 @@ def brdf(mu_i, mu_o, cos_phi, c):
     scattering), c the particle albedo in [0, 1]; inputs outside (+-inf included) are
     clamped, NaN in any input gives NaN."""
     mu_i, mu_o, cos_phi, c = numpy.asarray(mu_i, dtype=float), numpy.asarray(mu_o, dtype=float), numpy.asarray(cos_phi, dtype=float), numpy.asarray(c, dtype=float)
-    t4 = numpy.where(numpy.less(mu_i, 0), 0.0, mu_i)
+    t4 = numpy.where(numpy.less(cos_phi, -1.0), -1.0, cos_phi)
     t0 = numpy.where(numpy.greater(t4, 1.0), 1.0, t4)
-    t5 = numpy.where(numpy.less(mu_o, 0), 0.0, mu_o)
+    t5 = numpy.where(numpy.less(c, 0), 0.0, c)
     t1 = numpy.where(numpy.greater(t5, 1.0), 1.0, t5)
-    t6 = numpy.where(numpy.less(c, 0), 0.0, c)
+    t6 = numpy.where(numpy.less(mu_i, 0), 0.0, mu_i)
     t2 = numpy.where(numpy.greater(t6, 1.0), 1.0, t6)
-    t7 = numpy.where(numpy.less(cos_phi, -1.0), -1.0, cos_phi)
+    t7 = numpy.where(numpy.less(mu_o, 0), 0.0, mu_o)
     t3 = numpy.where(numpy.greater(t7, 1.0), 1.0, t7)
-    t8 = (499973/500000)*t3*fm1(t0, t1, t2) + (499973/500000)*(2*(t3*t3) - 1)*fm2(t0, t1, t2) + (499973/500000)*fm0(t0, t1, t2) + (499973/500000)*single(t0, t1, t3, t2)
+    t8 = (499973/500000)*t0*fm1(t2, t3, t1) + (499973/500000)*(2*(t0*t0) - 1)*fm2(t2, t3, t1) + (499973/500000)*fm0(t2, t3, t1) + (499973/500000)*single(t2, t3, t0, t1)
     return numpy.where(numpy.less(t8, 0), 0, t8)
 
 
@@ -424,17 +424,17 @@ def brdf_fast(mu_i, mu_o, cos_phi, c, kd):
     """The fast variant of the Lambert-sphere BRDF (eq. 41, refitted): max(0, f_1 + lobe(|phi|)
     + p4 kd^p5); kd = kd_of_c(c). Same domain and policy as brdf, kd in [0, 1]."""
     mu_i, mu_o, cos_phi, c, kd = numpy.asarray(mu_i, dtype=float), numpy.asarray(mu_o, dtype=float), numpy.asarray(cos_phi, dtype=float), numpy.asarray(c, dtype=float), numpy.asarray(kd, dtype=float)
-    t5 = numpy.where(numpy.less(mu_i, 0), 0.0, mu_i)
+    t5 = numpy.where(numpy.less(cos_phi, -1.0), -1.0, cos_phi)
     t0 = numpy.where(numpy.greater(t5, 1.0), 1.0, t5)
-    t6 = numpy.where(numpy.less(mu_o, 0), 0.0, mu_o)
+    t6 = numpy.where(numpy.less(c, 0), 0.0, c)
     t1 = numpy.where(numpy.greater(t6, 1.0), 1.0, t6)
-    t7 = numpy.where(numpy.less(cos_phi, -1.0), -1.0, cos_phi)
+    t7 = numpy.where(numpy.less(mu_i, 0), 0.0, mu_i)
     t2 = numpy.where(numpy.greater(t7, 1.0), 1.0, t7)
-    t8 = numpy.where(numpy.less(c, 0), 0.0, c)
+    t8 = numpy.where(numpy.less(mu_o, 0), 0.0, mu_o)
     t3 = numpy.where(numpy.greater(t8, 1.0), 1.0, t8)
-    t4 = numpy.sqrt((1 - (t0*t0))*(1 - (t1*t1)))
+    t4 = numpy.sqrt((1 - (t2*t2))*(1 - (t3*t3)))
     t9 = numpy.where(numpy.less(kd, 0), 0.0, kd)
-    t10 = 0.0002960293020859936*t4*(t3 - 0.005114435840591982)*(numpy.sqrt(t0)*numpy.sqrt(t1) + numpy.arccos(t2))/(0.03949778634318503*t4 + numpy.arccos(t4)) + single(t0, t1, t2, t3) + 0.24146093005575472*_safe_pow(numpy.where(numpy.greater(t9, 1.0), 1.0, t9), 1.652000584354108)
+    t10 = 0.0002960293020859936*t4*(t1 - 0.005114435840591982)*(numpy.sqrt(t2)*numpy.sqrt(t3) + numpy.arccos(t0))/(0.03949778634318503*t4 + numpy.arccos(t4)) + single(t2, t3, t0, t1) + 0.24146093005575472*_safe_pow(numpy.where(numpy.greater(t9, 1.0), 1.0, t9), 1.652000584354108)
     return numpy.where(numpy.less(t10, 0), 0, t10)
 
 
@@ -443,21 +443,21 @@ def brdf_local(wi, wo, c):
     from the surface); 0 if either is below the surface. Components are clamped to [-1, 1]
     (not normalised); NaN in any input gives NaN."""
     wi, wo, c = numpy.asarray(wi, dtype=float), numpy.asarray(wo, dtype=float), numpy.asarray(c, dtype=float)
-    t6 = numpy.where(numpy.less(wi[..., 2], -1.0), -1.0, wi[..., 2])
+    t6 = numpy.where(numpy.less(wi[..., 0], -1.0), -1.0, wi[..., 0])
     t0 = numpy.where(numpy.greater(t6, 1.0), 1.0, t6)
-    t7 = numpy.where(numpy.less(wo[..., 2], -1.0), -1.0, wo[..., 2])
+    t7 = numpy.where(numpy.less(wi[..., 1], -1.0), -1.0, wi[..., 1])
     t1 = numpy.where(numpy.greater(t7, 1.0), 1.0, t7)
-    t8 = numpy.where(numpy.less(wi[..., 0], -1.0), -1.0, wi[..., 0])
+    t8 = numpy.where(numpy.less(wi[..., 2], -1.0), -1.0, wi[..., 2])
     t2 = numpy.where(numpy.greater(t8, 1.0), 1.0, t8)
     t9 = numpy.where(numpy.less(wo[..., 0], -1.0), -1.0, wo[..., 0])
     t3 = numpy.where(numpy.greater(t9, 1.0), 1.0, t9)
-    t10 = numpy.where(numpy.less(wi[..., 1], -1.0), -1.0, wi[..., 1])
+    t10 = numpy.where(numpy.less(wo[..., 1], -1.0), -1.0, wo[..., 1])
     t4 = numpy.where(numpy.greater(t10, 1.0), 1.0, t10)
-    t11 = numpy.where(numpy.less(wo[..., 1], -1.0), -1.0, wo[..., 1])
+    t11 = numpy.where(numpy.less(wo[..., 2], -1.0), -1.0, wo[..., 2])
     t5 = numpy.where(numpy.greater(t11, 1.0), 1.0, t11)
-    t12 = ((t2*t2) + (t4*t4))*((t3*t3) + (t5*t5))
+    t12 = ((t0*t0) + (t1*t1))*((t3*t3) + (t4*t4))
     t13 = numpy.where(numpy.less(c, 0), 0.0, c)
-    return numpy.where(numpy.less(t0, 0), 0, 1)*numpy.where(numpy.less(t1, 0), 0, 1)*brdf(t0, t1, (t2*t3 + t4*t5)/numpy.sqrt(numpy.where(numpy.less(t12, 1/1000000000000000000000000000000), 1/1000000000000000000000000000000, t12)), numpy.where(numpy.greater(t13, 1.0), 1.0, t13))
+    return numpy.where(numpy.less(t2, 0), 0, 1)*numpy.where(numpy.less(t5, 0), 0, 1)*brdf(t2, t5, (t0*t3 + t1*t4)/numpy.sqrt(numpy.where(numpy.less(t12, 1/1000000000000000000000000000000), 1/1000000000000000000000000000000, t12)), numpy.where(numpy.greater(t13, 1.0), 1.0, t13))
 
 
 def brdf_fast_local(wi, wo, c, kd):
@@ -465,22 +465,22 @@ def brdf_fast_local(wi, wo, c, kd):
     away from the surface); 0 if either is below the surface. Components are clamped to [-1,
     1] (not normalised); NaN in any input gives NaN."""
     wi, wo, c, kd = numpy.asarray(wi, dtype=float), numpy.asarray(wo, dtype=float), numpy.asarray(c, dtype=float), numpy.asarray(kd, dtype=float)
-    t6 = numpy.where(numpy.less(wi[..., 2], -1.0), -1.0, wi[..., 2])
+    t6 = numpy.where(numpy.less(wi[..., 0], -1.0), -1.0, wi[..., 0])
     t0 = numpy.where(numpy.greater(t6, 1.0), 1.0, t6)
-    t7 = numpy.where(numpy.less(wo[..., 2], -1.0), -1.0, wo[..., 2])
+    t7 = numpy.where(numpy.less(wi[..., 1], -1.0), -1.0, wi[..., 1])
     t1 = numpy.where(numpy.greater(t7, 1.0), 1.0, t7)
-    t8 = numpy.where(numpy.less(wi[..., 0], -1.0), -1.0, wi[..., 0])
+    t8 = numpy.where(numpy.less(wi[..., 2], -1.0), -1.0, wi[..., 2])
     t2 = numpy.where(numpy.greater(t8, 1.0), 1.0, t8)
     t9 = numpy.where(numpy.less(wo[..., 0], -1.0), -1.0, wo[..., 0])
     t3 = numpy.where(numpy.greater(t9, 1.0), 1.0, t9)
-    t10 = numpy.where(numpy.less(wi[..., 1], -1.0), -1.0, wi[..., 1])
+    t10 = numpy.where(numpy.less(wo[..., 1], -1.0), -1.0, wo[..., 1])
     t4 = numpy.where(numpy.greater(t10, 1.0), 1.0, t10)
-    t11 = numpy.where(numpy.less(wo[..., 1], -1.0), -1.0, wo[..., 1])
+    t11 = numpy.where(numpy.less(wo[..., 2], -1.0), -1.0, wo[..., 2])
     t5 = numpy.where(numpy.greater(t11, 1.0), 1.0, t11)
-    t12 = ((t2*t2) + (t4*t4))*((t3*t3) + (t5*t5))
+    t12 = ((t0*t0) + (t1*t1))*((t3*t3) + (t4*t4))
     t13 = numpy.where(numpy.less(c, 0), 0.0, c)
     t14 = numpy.where(numpy.less(kd, 0), 0.0, kd)
-    return numpy.where(numpy.less(t0, 0), 0, 1)*numpy.where(numpy.less(t1, 0), 0, 1)*brdf_fast(t0, t1, (t2*t3 + t4*t5)/numpy.sqrt(numpy.where(numpy.less(t12, 1/1000000000000000000000000000000), 1/1000000000000000000000000000000, t12)), numpy.where(numpy.greater(t13, 1.0), 1.0, t13), numpy.where(numpy.greater(t14, 1.0), 1.0, t14))
+    return numpy.where(numpy.less(t2, 0), 0, 1)*numpy.where(numpy.less(t5, 0), 0, 1)*brdf_fast(t2, t5, (t0*t3 + t1*t4)/numpy.sqrt(numpy.where(numpy.less(t12, 1/1000000000000000000000000000000), 1/1000000000000000000000000000000, t12)), numpy.where(numpy.greater(t13, 1.0), 1.0, t13), numpy.where(numpy.greater(t14, 1.0), 1.0, t14))
 
 
 def pdf_local(wi, wo, c):
@@ -490,20 +490,20 @@ def pdf_local(wi, wo, c):
     f_r cos(theta_o) (docs/model.md, 'Importance sampling'); 0 if either vector is below the
     surface. Components are clamped to [-1, 1]; NaN in any input gives NaN."""
     wi, wo, c = numpy.asarray(wi, dtype=float), numpy.asarray(wo, dtype=float), numpy.asarray(c, dtype=float)
+    t0 = 3.141592653589793238**(-1.0)
     t6 = numpy.where(numpy.less(wi[..., 2], -1.0), -1.0, wi[..., 2])
-    t0 = numpy.where(numpy.greater(t6, 1.0), 1.0, t6)
+    t1 = numpy.where(numpy.greater(t6, 1.0), 1.0, t6)
     t7 = numpy.where(numpy.less(wo[..., 2], -1.0), -1.0, wo[..., 2])
-    t1 = numpy.where(numpy.greater(t7, 1.0), 1.0, t7)
-    t2 = 3.141592653589793238**(-1.0)
+    t2 = numpy.where(numpy.greater(t7, 1.0), 1.0, t7)
     t8 = numpy.where(numpy.less(c, 0), 0.0, c)
     t3 = numpy.where(numpy.greater(t8, 1.0), 1.0, t8)
-    t4 = sample_weight(t0, t3)
-    t5 = sample_exponent(t0, t3)
+    t4 = sample_exponent(t1, t3)
+    t5 = sample_weight(t1, t3)
     t9 = numpy.where(numpy.less(wi[..., 0], -1.0), -1.0, wi[..., 0])
     t10 = numpy.where(numpy.less(wo[..., 0], -1.0), -1.0, wo[..., 0])
     t11 = numpy.where(numpy.less(wi[..., 1], -1.0), -1.0, wi[..., 1])
     t12 = numpy.where(numpy.less(wo[..., 1], -1.0), -1.0, wo[..., 1])
-    return ((1/2)*t2*t4*(t5 + 1)*_safe_pow(t0*t1 + numpy.where(numpy.greater(t10, 1.0), 1.0, t10)*numpy.where(numpy.greater(t9, 1.0), 1.0, t9) + numpy.where(numpy.greater(t11, 1.0), 1.0, t11)*numpy.where(numpy.greater(t12, 1.0), 1.0, t12), t5) + t2*(1 - t4)*numpy.where(numpy.less(t1, 0), 0, t1))*numpy.where(numpy.less(t0, 0), 0, 1)*numpy.where(numpy.less(t1, 0), 0, 1)
+    return ((1/2)*t0*t5*(t4 + 1)*_safe_pow(t1*t2 + numpy.where(numpy.greater(t10, 1.0), 1.0, t10)*numpy.where(numpy.greater(t9, 1.0), 1.0, t9) + numpy.where(numpy.greater(t11, 1.0), 1.0, t11)*numpy.where(numpy.greater(t12, 1.0), 1.0, t12), t4) + t0*(1 - t5)*numpy.where(numpy.less(t2, 0), 0, t2))*numpy.where(numpy.less(t1, 0), 0, 1)*numpy.where(numpy.less(t2, 0), 0, 1)
 
 
 def sample_local(wi, u1, u2, c):
@@ -513,43 +513,43 @@ def sample_local(wi, u1, u2, c):
     marks a lost sample (wo below the surface, or wi below it). Components of wi are clamped
     to [-1, 1], u1, u2 to [0, 1]; NaN in any input gives NaN."""
     wi, u1, u2, c = numpy.asarray(wi, dtype=float), numpy.asarray(u1, dtype=float), numpy.asarray(u2, dtype=float), numpy.asarray(c, dtype=float)
-    t27 = numpy.where(numpy.less(wi[..., 2], -1.0), -1.0, wi[..., 2])
-    t0 = numpy.where(numpy.greater(t27, 1.0), 1.0, t27)
-    t28 = numpy.where(numpy.less(u1, 0), 0.0, u1)
-    t1 = numpy.where(numpy.greater(t28, 1.0), 1.0, t28)
-    t29 = numpy.where(numpy.less(c, 0), 0.0, c)
-    t2 = numpy.where(numpy.greater(t29, 1.0), 1.0, t29)
-    t3 = sample_weight(t0, t2)
-    t5 = sample_exponent(t0, t2)
-    t6 = t5 + 1
-    t7 = _safe_pow(t1/t3, t6**(-1.0))
-    t30 = numpy.where(numpy.less(wi[..., 1], -1.0), -1.0, wi[..., 1])
-    t8 = numpy.where(numpy.greater(t30, 1.0), 1.0, t30)
-    t31 = numpy.where(numpy.less(u2, 0), 0.0, u2)
-    t9 = 2*3.141592653589793238*numpy.where(numpy.greater(t31, 1.0), 1.0, t31)
-    t10 = numpy.sin(t9)
-    t32 = 1 - (t7*t7)
-    t11 = numpy.sqrt(numpy.where(numpy.less(t32, 0), 0, t32))
-    t12 = t10*t11
-    t13 = t12*t8
-    t33 = numpy.where(numpy.less(wi[..., 0], -1.0), -1.0, wi[..., 0])
-    t14 = numpy.where(numpy.greater(t33, 1.0), 1.0, t33)
-    t15 = numpy.cos(t9)
-    t16 = t11*t15
-    t17 = t14*t16
-    t18 = -t0*t7 + t13 + t17
-    t19 = 3.141592653589793238**(-1.0)
-    t20 = 1 - t3
-    t34 = (t1 - t3)/t20
-    t21 = numpy.where(numpy.less(t34, 0), 0, t34)
-    t35 = 1 - t21
-    t22 = numpy.where(numpy.less(t1, t3), -t18, numpy.sqrt(numpy.where(numpy.less(t35, 0), 0, t35)))
-    t23 = (numpy.where(numpy.less(t0, 0), 0, t0) + 1)**(-1.0)
-    t24 = numpy.sqrt(t21)
-    t25 = numpy.where(numpy.less(t1, t3), -t13*t14*t23 + t14*t7 + t16*(-(t14*t14)*t23 + 1), t15*t24)
-    t26 = numpy.where(numpy.less(t1, t3), t12*(-t23*(t8*t8) + 1) - t17*t23*t8 + t7*t8, t10*t24)
+    t0 = 3.141592653589793238**(-1.0)
+    t27 = numpy.where(numpy.less(u2, 0), 0.0, u2)
+    t1 = 2*3.141592653589793238*numpy.where(numpy.greater(t27, 1.0), 1.0, t27)
+    t2 = numpy.sin(t1)
+    t3 = numpy.cos(t1)
+    t28 = numpy.where(numpy.less(wi[..., 0], -1.0), -1.0, wi[..., 0])
+    t4 = numpy.where(numpy.greater(t28, 1.0), 1.0, t28)
+    t29 = numpy.where(numpy.less(wi[..., 1], -1.0), -1.0, wi[..., 1])
+    t5 = numpy.where(numpy.greater(t29, 1.0), 1.0, t29)
+    t30 = numpy.where(numpy.less(wi[..., 2], -1.0), -1.0, wi[..., 2])
+    t6 = numpy.where(numpy.greater(t30, 1.0), 1.0, t30)
+    t7 = (numpy.where(numpy.less(t6, 0), 0, t6) + 1)**(-1.0)
+    t31 = numpy.where(numpy.less(c, 0), 0.0, c)
+    t8 = numpy.where(numpy.greater(t31, 1.0), 1.0, t31)
+    t9 = sample_exponent(t6, t8)
+    t10 = t9 + 1
+    t11 = sample_weight(t6, t8)
+    t12 = 1 - t11
+    t32 = numpy.where(numpy.less(u1, 0), 0.0, u1)
+    t13 = numpy.where(numpy.greater(t32, 1.0), 1.0, t32)
+    t14 = _safe_pow(t13/t11, t10**(-1.0))
+    t33 = (-t11 + t13)/t12
+    t15 = numpy.where(numpy.less(t33, 0), 0, t33)
+    t16 = numpy.sqrt(t15)
+    t34 = 1 - (t14*t14)
+    t17 = numpy.sqrt(numpy.where(numpy.less(t34, 0), 0, t34))
+    t18 = t17*t2
+    t19 = t17*t3
+    t20 = t18*t5
+    t21 = t19*t4
+    t22 = -t14*t6 + t20 + t21
+    t35 = 1 - t15
+    t24 = numpy.where(numpy.greater(t11, t13), -t22, numpy.sqrt(numpy.where(numpy.less(t35, 0), 0, t35)))
+    t25 = numpy.where(numpy.greater(t11, t13), t14*t4 + t19*(-(t4*t4)*t7 + 1) - t20*t4*t7, t16*t3)
+    t26 = numpy.where(numpy.greater(t11, t13), t14*t5 + t18*(-(t5*t5)*t7 + 1) - t21*t5*t7, t16*t2)
     shape = numpy.broadcast_shapes(wi.shape[:-1], u1.shape, u2.shape, c.shape)
-    x, y, z, value = (numpy.broadcast_to(e, shape) for e in (t25, t26, t22, (t19*t20*numpy.where(numpy.less(t22, 0), 0, t22) + (1/2)*t19*t3*t6*_safe_pow(t0*t22 + t14*t25 + t26*t8, t5))*numpy.where(numpy.logical_and.reduce((numpy.greater(t18, 0),numpy.less(t1, t3))), 0, 1)*numpy.where(numpy.less(t0, 0), 0, 1)))
+    x, y, z, value = (numpy.broadcast_to(e, shape) for e in (t25, t26, t24, ((1/2)*t0*t10*t11*_safe_pow(t24*t6 + t25*t4 + t26*t5, t9) + t0*t12*numpy.where(numpy.less(t24, 0), 0, t24))*numpy.where(numpy.logical_and.reduce((numpy.greater(t11, t13),numpy.greater(t22, 0))), 0, 1)*numpy.where(numpy.less(t6, 0), 0, 1)))
     return numpy.stack((x, y, z), axis=-1), value.copy()
 
 
@@ -560,24 +560,24 @@ def prepare_c(c):
     times. A material is an array with a last axis of the fields; for RGB prepare an array
     of three values (shape (..., 3)) and give the inputs a trailing axis (mu_i[..., None])."""
     c = numpy.asarray(c, dtype=float)
+    t0 = 3.141592653589793238**(-1.0)
     t16 = numpy.where(numpy.less(c, 0), 0.0, c)
-    t0 = numpy.where(numpy.greater(t16, 1.0), 1.0, t16)
-    t1 = (t0*t0)
-    t2 = 1 - t0
-    t3 = numpy.sqrt(t2)
-    t4 = (t2*numpy.sqrt(t2))
-    t5 = (t0*t0*t0)
-    t6 = (t2*t2)
-    t7 = (t2*t2*numpy.sqrt(t2))
-    t8 = 20*t0
-    t9 = (15/256)*t0
-    t10 = 3.141592653589793238**(-1.0)
-    t11 = -0.05860387324696379*t0 - 0.005821682593788582*t1 + 0.0008773011177337195*t5
-    t12 = 2*t3 - 1
-    t13 = (t12*t12)
-    t14 = (t12*t12*t12)
-    t15 = (t12*t12*t12*t12)
-    return numpy.stack(numpy.broadcast_arrays(numpy.asarray(t1*(-0.22663319577369706*t0 + 0.29221196193805016*t3 - 0.09729469824061904*t4 + 0.14331013054356149)/(-0.2843749048892069*t0 + 1.6614506172832844*t3 - 0.4540930164912601*t4 + 1.2843749048892069), dtype=float), numpy.asarray((1/384)*t0, dtype=float), numpy.asarray(-25/128*t1 - 5/32*t5, dtype=float), numpy.asarray(t1*(0.14740850623957125*t0 + 0.10176577919541374*t3 + 0.022994579304556582*t4 - 0.03022099337713794)/(-0.5511565927837337*t0 + 2.348527040324315*t3 - 0.9953813084156506*t4 + 1.5511565927837337), dtype=float), numpy.asarray(t1*(0.1918890413123029*t0 + 0.2439251200821899*t3 - 0.005563423093113986*t4 - 0.19188888216400411)/(0.2233886724495462*t0 + 0.6918781317657061*t3 + 0.118158009514729*t4 + 0.7766113275504538), dtype=float), numpy.asarray(t1*(-0.45542898085520883*t0 - 0.6683906999502577*t3 - 0.13969581510284687*t4 - 0.09405025651670227)/(0.3926142724681187*t0 + 0.5850916184498237*t3 + 0.1607346721831539*t4 + 0.6073857275318813), dtype=float), numpy.asarray(2.9870469264138593*t6, dtype=float), numpy.asarray(1.0662443661683643*t4, dtype=float), numpy.asarray(1.572829970027227*t4, dtype=float), numpy.asarray(0.2088906671287879*t3, dtype=float), numpy.asarray(0.018803920406571046*t7, dtype=float), numpy.asarray(2.6178417261370144*t2, dtype=float), numpy.asarray(0.6982143204310637*t7, dtype=float), numpy.asarray(0.7386182603458875*t7, dtype=float), numpy.asarray(0.20716954535903143*t3, dtype=float), numpy.asarray(0.6451850986747949*t2, dtype=float), numpy.asarray(0.022495141608287784*t3, dtype=float), numpy.asarray(0.054352180621602*t2, dtype=float), numpy.asarray(-1.6749178633061865*t7, dtype=float), numpy.asarray(-1.2962245400847459*t3, dtype=float), numpy.asarray(-2.287922901523356*t2, dtype=float), numpy.asarray(-0.5386479579696892*t6, dtype=float), numpy.asarray(-1.2792064158675018*t6, dtype=float), numpy.asarray(-0.3547833158798482*t6, dtype=float), numpy.asarray(-0.10725514469713378*t4, dtype=float), numpy.asarray(-3.8437036802186566*t4, dtype=float), numpy.asarray(-0.5107867682402644*t0 - 0.665811224859062*t3 - 0.4181420674159667*t4 + 0.3124914633548267*t6 - 0.12850663941518076*t7 + 1.9281823615276229, dtype=float), numpy.asarray(t0/(t3 + 1), dtype=float), numpy.asarray(t0, dtype=float), numpy.asarray(t0*(t8 + 281) - 346, dtype=float), numpy.asarray((15 - 15*t0)*(4*t0 + 9), dtype=float), numpy.asarray((2/3)*t0/(3.141592653589793238*3.141592653589793238), dtype=float), numpy.asarray(0.0032773104377737225*t3, dtype=float), numpy.asarray(-0.0011793166019935435*t3, dtype=float), numpy.asarray(-0.003569301003270028*t3, dtype=float), numpy.asarray(0.002147602955343103*t3 + 0.0021870832323814967, dtype=float), numpy.asarray(t9, dtype=float), numpy.asarray(t10*t9, dtype=float), numpy.asarray(t11, dtype=float), numpy.asarray(0.31272388944032809*t0 - 0.0042389660736671498*t1 + (t11*t11), dtype=float), numpy.asarray(0.0662557328553895*t3, dtype=float), numpy.asarray(0.0574662363213306*t3, dtype=float), numpy.asarray(0.06061898656512081*t2, dtype=float), numpy.asarray(0.05837316923777987*t2, dtype=float), numpy.asarray(-0.18408011133833516*t3, dtype=float), numpy.asarray(-0.1147580846390276*t2, dtype=float), numpy.asarray(-0.004494906937942091*t0 + 0.08617889059204359*t3 + 0.090016644370520301, dtype=float), numpy.asarray(t8 + 45, dtype=float), numpy.asarray(-1/192*t0, dtype=float), numpy.asarray((1/3)*t0*t10, dtype=float), numpy.asarray(0.10959653178533475*t13, dtype=float), numpy.asarray(0.1766119774816802*t13, dtype=float), numpy.asarray(0.25597403686706693*t13, dtype=float), numpy.asarray(2.42146807891088*t14, dtype=float), numpy.asarray(0.5027933198177464*t14, dtype=float), numpy.asarray(2.070129643634922*t15, dtype=float), numpy.asarray(0.519096218517333*t14, dtype=float), numpy.asarray(2.5251177518363694*t12, dtype=float), numpy.asarray(1.3385823867874944*t12, dtype=float), numpy.asarray(2.7903213618028806*t15, dtype=float), numpy.asarray(3.9162801286388897*t13, dtype=float), numpy.asarray(-1.7626547831461115*t13, dtype=float), numpy.asarray(-3.6618141129510917*t15, dtype=float), numpy.asarray(-0.21141002665509673*t12, dtype=float), numpy.asarray(-0.016932172543436784*t15, dtype=float), numpy.asarray(-2.295795044579524*t12, dtype=float), numpy.asarray(-2.8379131409273515*t13, dtype=float), numpy.asarray(-0.7128581043130656*t15, dtype=float), numpy.asarray(-1.6739402521122886*t14, dtype=float), numpy.asarray(-1.7061192768751303*t14, dtype=float), numpy.asarray(-0.014210822631915428*t14, dtype=float), numpy.asarray(-0.46352701817452785*t15, dtype=float), numpy.asarray(-0.4890688103263692*t12, dtype=float), numpy.asarray(-0.49993828263168366*t12, dtype=float), numpy.asarray(0.10625650933246486*t13 - 0.09050045154983123*t14 + 0.040558449658917785*t15 - 1.8499934365876788*t3, dtype=float), numpy.asarray(0.805852957259517*t14, dtype=float), numpy.asarray(0.6582269037007633*t12, dtype=float), numpy.asarray(0.45043691346028303*t13, dtype=float), numpy.asarray(0.5742385031683162*t15, dtype=float), numpy.asarray(0.6392720659218424*t12, dtype=float), numpy.asarray(0.18739898105517722*t14, dtype=float), numpy.asarray(0.8371462419661069*t13, dtype=float), numpy.asarray(0.6212937162033938*t15, dtype=float), numpy.asarray(0.4124295039969486*t12, dtype=float), numpy.asarray(0.41754495392944535*t14, dtype=float), numpy.asarray(0.028662593819483183*t15, dtype=float), numpy.asarray(-0.5773338931218077*t12, dtype=float), numpy.asarray(-0.7667251911655493*t15, dtype=float), numpy.asarray(-0.07180031380227185*t13, dtype=float), numpy.asarray(-0.6316753368520219*t14, dtype=float), numpy.asarray(-0.5766031303491715*t14, dtype=float), numpy.asarray(-0.5901356749175913*t12, dtype=float), numpy.asarray(-0.15688016937511312*t14, dtype=float), numpy.asarray(-0.08951890733992941*t15, dtype=float), numpy.asarray(-0.37270829229253744*t13, dtype=float), numpy.asarray(-0.37628293329323487*t15, dtype=float), numpy.asarray(-0.3929206076202727*t13, dtype=float), numpy.asarray(-0.43279839293414*t12, dtype=float), numpy.asarray(-0.49761324603578005*t13, dtype=float), numpy.asarray(0.07480678777429003*t13 - 0.048730004697608804*t14 + 0.017690506072644132*t15 - 0.5194652563684371*t3, dtype=float)), axis=-1)
+    t1 = numpy.where(numpy.greater(t16, 1.0), 1.0, t16)
+    t2 = (15/256)*t1
+    t3 = 20*t1
+    t4 = (t1*t1)
+    t5 = (t1*t1*t1)
+    t6 = 1 - t1
+    t7 = numpy.sqrt(t6)
+    t8 = (t6*numpy.sqrt(t6))
+    t9 = (t6*t6)
+    t10 = (t6*t6*numpy.sqrt(t6))
+    t11 = 2*t7 - 1
+    t12 = (t11*t11)
+    t13 = (t11*t11*t11)
+    t14 = (t11*t11*t11*t11)
+    t15 = -0.05860387324696379*t1 - 0.005821682593788582*t4 + 0.0008773011177337195*t5
+    return numpy.stack(numpy.broadcast_arrays(numpy.asarray(t4*(-0.22663319577369706*t1 + 0.29221196193805016*t7 - 0.09729469824061904*t8 + 0.14331013054356149)/(-0.2843749048892069*t1 + 1.6614506172832844*t7 - 0.4540930164912601*t8 + 1.2843749048892069), dtype=float), numpy.asarray((1/384)*t1, dtype=float), numpy.asarray(-25/128*t4 - 5/32*t5, dtype=float), numpy.asarray(t4*(0.14740850623957125*t1 + 0.10176577919541374*t7 + 0.022994579304556582*t8 - 0.03022099337713794)/(-0.5511565927837337*t1 + 2.348527040324315*t7 - 0.9953813084156506*t8 + 1.5511565927837337), dtype=float), numpy.asarray(t4*(0.1918890413123029*t1 + 0.2439251200821899*t7 - 0.005563423093113986*t8 - 0.19188888216400411)/(0.2233886724495462*t1 + 0.6918781317657061*t7 + 0.118158009514729*t8 + 0.7766113275504538), dtype=float), numpy.asarray(t4*(-0.45542898085520883*t1 - 0.6683906999502577*t7 - 0.13969581510284687*t8 - 0.09405025651670227)/(0.3926142724681187*t1 + 0.5850916184498237*t7 + 0.1607346721831539*t8 + 0.6073857275318813), dtype=float), numpy.asarray(2.9870469264138593*t9, dtype=float), numpy.asarray(1.0662443661683643*t8, dtype=float), numpy.asarray(1.572829970027227*t8, dtype=float), numpy.asarray(0.2088906671287879*t7, dtype=float), numpy.asarray(0.018803920406571046*t10, dtype=float), numpy.asarray(2.6178417261370144*t6, dtype=float), numpy.asarray(0.6982143204310637*t10, dtype=float), numpy.asarray(0.7386182603458875*t10, dtype=float), numpy.asarray(0.20716954535903143*t7, dtype=float), numpy.asarray(0.6451850986747949*t6, dtype=float), numpy.asarray(0.022495141608287784*t7, dtype=float), numpy.asarray(0.054352180621602*t6, dtype=float), numpy.asarray(-1.6749178633061865*t10, dtype=float), numpy.asarray(-1.2962245400847459*t7, dtype=float), numpy.asarray(-2.287922901523356*t6, dtype=float), numpy.asarray(-0.5386479579696892*t9, dtype=float), numpy.asarray(-1.2792064158675018*t9, dtype=float), numpy.asarray(-0.3547833158798482*t9, dtype=float), numpy.asarray(-0.10725514469713378*t8, dtype=float), numpy.asarray(-3.8437036802186566*t8, dtype=float), numpy.asarray(-0.5107867682402644*t1 - 0.12850663941518076*t10 - 0.665811224859062*t7 - 0.4181420674159667*t8 + 0.3124914633548267*t9 + 1.9281823615276229, dtype=float), numpy.asarray(t1/(t7 + 1), dtype=float), numpy.asarray(t1, dtype=float), numpy.asarray(t1*(t3 + 281) - 346, dtype=float), numpy.asarray((15 - 15*t1)*(4*t1 + 9), dtype=float), numpy.asarray((2/3)*t1/(3.141592653589793238*3.141592653589793238), dtype=float), numpy.asarray(0.0032773104377737225*t7, dtype=float), numpy.asarray(-0.0011793166019935435*t7, dtype=float), numpy.asarray(-0.003569301003270028*t7, dtype=float), numpy.asarray(0.002147602955343103*t7 + 0.0021870832323814967, dtype=float), numpy.asarray(t2, dtype=float), numpy.asarray(t0*t2, dtype=float), numpy.asarray(t15, dtype=float), numpy.asarray(0.31272388944032809*t1 + (t15*t15) - 0.0042389660736671498*t4, dtype=float), numpy.asarray(0.0662557328553895*t7, dtype=float), numpy.asarray(0.0574662363213306*t7, dtype=float), numpy.asarray(0.06061898656512081*t6, dtype=float), numpy.asarray(0.05837316923777987*t6, dtype=float), numpy.asarray(-0.18408011133833516*t7, dtype=float), numpy.asarray(-0.1147580846390276*t6, dtype=float), numpy.asarray(-0.004494906937942091*t1 + 0.08617889059204359*t7 + 0.090016644370520301, dtype=float), numpy.asarray(t3 + 45, dtype=float), numpy.asarray(-1/192*t1, dtype=float), numpy.asarray((1/3)*t0*t1, dtype=float), numpy.asarray(0.10959653178533475*t12, dtype=float), numpy.asarray(0.1766119774816802*t12, dtype=float), numpy.asarray(0.25597403686706693*t12, dtype=float), numpy.asarray(2.42146807891088*t13, dtype=float), numpy.asarray(0.5027933198177464*t13, dtype=float), numpy.asarray(2.070129643634922*t14, dtype=float), numpy.asarray(0.519096218517333*t13, dtype=float), numpy.asarray(2.5251177518363694*t11, dtype=float), numpy.asarray(1.3385823867874944*t11, dtype=float), numpy.asarray(2.7903213618028806*t14, dtype=float), numpy.asarray(3.9162801286388897*t12, dtype=float), numpy.asarray(-1.7626547831461115*t12, dtype=float), numpy.asarray(-3.6618141129510917*t14, dtype=float), numpy.asarray(-0.21141002665509673*t11, dtype=float), numpy.asarray(-0.016932172543436784*t14, dtype=float), numpy.asarray(-2.295795044579524*t11, dtype=float), numpy.asarray(-2.8379131409273515*t12, dtype=float), numpy.asarray(-0.7128581043130656*t14, dtype=float), numpy.asarray(-1.6739402521122886*t13, dtype=float), numpy.asarray(-1.7061192768751303*t13, dtype=float), numpy.asarray(-0.014210822631915428*t13, dtype=float), numpy.asarray(-0.46352701817452785*t14, dtype=float), numpy.asarray(-0.4890688103263692*t11, dtype=float), numpy.asarray(-0.49993828263168366*t11, dtype=float), numpy.asarray(0.10625650933246486*t12 - 0.09050045154983123*t13 + 0.040558449658917785*t14 - 1.8499934365876788*t7, dtype=float), numpy.asarray(0.805852957259517*t13, dtype=float), numpy.asarray(0.6582269037007633*t11, dtype=float), numpy.asarray(0.45043691346028303*t12, dtype=float), numpy.asarray(0.5742385031683162*t14, dtype=float), numpy.asarray(0.6392720659218424*t11, dtype=float), numpy.asarray(0.18739898105517722*t13, dtype=float), numpy.asarray(0.8371462419661069*t12, dtype=float), numpy.asarray(0.6212937162033938*t14, dtype=float), numpy.asarray(0.4124295039969486*t11, dtype=float), numpy.asarray(0.41754495392944535*t13, dtype=float), numpy.asarray(0.028662593819483183*t14, dtype=float), numpy.asarray(-0.5773338931218077*t11, dtype=float), numpy.asarray(-0.7667251911655493*t14, dtype=float), numpy.asarray(-0.07180031380227185*t12, dtype=float), numpy.asarray(-0.6316753368520219*t13, dtype=float), numpy.asarray(-0.5766031303491715*t13, dtype=float), numpy.asarray(-0.5901356749175913*t11, dtype=float), numpy.asarray(-0.15688016937511312*t13, dtype=float), numpy.asarray(-0.08951890733992941*t14, dtype=float), numpy.asarray(-0.37270829229253744*t12, dtype=float), numpy.asarray(-0.37628293329323487*t14, dtype=float), numpy.asarray(-0.3929206076202727*t12, dtype=float), numpy.asarray(-0.43279839293414*t11, dtype=float), numpy.asarray(-0.49761324603578005*t12, dtype=float), numpy.asarray(0.07480678777429003*t12 - 0.048730004697608804*t13 + 0.017690506072644132*t14 - 0.5194652563684371*t7, dtype=float)), axis=-1)
 
 
 def prepare(kd):
@@ -597,35 +597,35 @@ def eval(material, mu_i, mu_o, cos_phi):
     t0 = numpy.where(numpy.greater(t28, 1.0), 1.0, t28)
     t29 = numpy.where(numpy.less(mu_i, 0), 0.0, mu_i)
     t1 = numpy.where(numpy.greater(t29, 1.0), 1.0, t29)
-    t30 = numpy.where(numpy.less(mu_o, 0), 0.0, mu_o)
-    t2 = numpy.where(numpy.greater(t30, 1.0), 1.0, t30)
-    t3 = t1 + t2
-    t4 = numpy.where(numpy.less(t3, 1/1000000), 1/1000000, t3)**(-1.0)
-    t5 = (t1*t1)
-    t6 = t5 - 1
+    t2 = (t1*t1)
+    t3 = (t1*t1*t1)
+    t4 = (t1*t1*t1*t1)
+    t5 = t2 - 1
+    t6 = -t5
     t7 = numpy.log(1 + numpy.where(numpy.less(t1, 1.0e-30), 1.0e-30, t1)**(-1.0))
-    t8 = (t1*t1*t1)
-    t9 = (t2*t2)
-    t10 = t9 - 1
-    t11 = numpy.log(1 + numpy.where(numpy.less(t2, 1.0e-30), 1.0e-30, t2)**(-1.0))
-    t12 = (t2*t2*t2)
-    t13 = -t6
-    t14 = -t10*t13
-    t15 = numpy.sqrt(t14)
-    t16 = t1*t2
-    t17 = material[..., 38]*t3 + material[..., 39]*t16
-    t18 = material[..., 0]*t3 + material[..., 2]*t5*t9 + material[..., 3]*(t5 + t9) + material[..., 4]*t1*t2*t3 + material[..., 5]*t16
-    t19 = (t1*t1*t1*t1)
-    t20 = (t2*t2*t2*t2)
-    t31 = (1/2)*t15*(t0 + 1) + (1/2)*t16 + (1/2)*(t13*t9 + t5)/(t15 + 1)
-    t21 = numpy.where(numpy.less(t31, 0), 0, t31)
-    t22 = numpy.where(numpy.greater(t21, 1), 1, t21)
+    t30 = numpy.where(numpy.less(mu_o, 0), 0.0, mu_o)
+    t8 = numpy.where(numpy.greater(t30, 1.0), 1.0, t30)
+    t9 = (t8*t8)
+    t10 = (t8*t8*t8)
+    t11 = (t8*t8*t8*t8)
+    t12 = t1*t8
+    t13 = t1 + t8
+    t14 = t9 - 1
+    t15 = -t14*t6
+    t16 = numpy.sqrt(t15)
+    t17 = material[..., 38]*t13 + material[..., 39]*t12
+    t18 = material[..., 0]*t13 + material[..., 2]*t2*t9 + material[..., 3]*(t2 + t9) + material[..., 4]*t1*t13*t8 + material[..., 5]*t12
+    t19 = numpy.log(1 + numpy.where(numpy.less(t8, 1.0e-30), 1.0e-30, t8)**(-1.0))
+    t31 = (1/2)*t12 + (1/2)*t16*(t0 + 1) + (1/2)*(t2 + t6*t9)/(t16 + 1)
+    t20 = numpy.where(numpy.less(t31, 0), 0, t31)
+    t21 = numpy.where(numpy.less(t13, 1/1000000), 1/1000000, t13)**(-1.0)
+    t22 = numpy.where(numpy.greater(t20, 1), 1, t20)
     t23 = 1 - t22
-    t24 = numpy.arcsin(numpy.sqrt(numpy.where(numpy.greater(t21, t23), t23, numpy.where(numpy.less_equal(t21, t23), t21, t21 + t23))))
-    t25 = (t24*t24)
-    t26 = 4*t25
-    t27 = 2*t24
-    t32 = (499973/500000)*material[..., 31]*t4*numpy.where(numpy.less(t22, 1/16), 8*(t24*t24*t24)*(t26*(t26*(t26*(t26*(t26*((1/23351328000)*t25 - 1/518918400) + 1/3991680) - 1/45360) + 1/840) - 1/30) + 1/3), 2*numpy.sqrt(t22)*numpy.sqrt(t23) - (1 - 2*t22)*numpy.where(numpy.less(t22, 1/2), t27, 3.141592653589793238 - t27)) + (499973/500000)*material[..., 37]*t14*t4*(2*(t0*t0) - 1)*numpy.expm1(t1*(material[..., 28]*(material[..., 27]*(material[..., 32]*t5 + material[..., 33]*t8 + material[..., 34]*t1 + material[..., 35] - 0.0037961708223872375*t1 + 0.0037035545003035746*t5 - 0.0014135909284063626*t8) + (25/256)*t1 + (15/512)*t5 - 15/256*t8 - 45/1024) + material[..., 36]*(t6*t6)*t7) + t2*(material[..., 28]*(material[..., 27]*(material[..., 32]*t9 + material[..., 33]*t12 + material[..., 34]*t2 + material[..., 35] - 0.0014135909284063626*t12 - 0.0037961708223872375*t2 + 0.0037035545003035746*t9) - 15/256*t12 + (25/256)*t2 + (15/512)*t9 - 45/1024) + material[..., 36]*(t10*t10)*t11)) + (499973/500000)*material[..., 49]*t0*t15*t4*(t17 + ((45/64)*t16 + t17 + 1)*numpy.expm1(t1*(material[..., 28]*(material[..., 27]*(material[..., 40]*t5 + material[..., 41]*t8 + material[..., 42]*t8 + material[..., 43]*t1 + material[..., 44]*t1 + material[..., 45]*t5 + material[..., 46] - 0.1788584769584851*t1 + 0.05802135097287754*t5 + 0.06143020603611769*t8) - 47/96*t1 - 15/128*t5 + (15/64)*t8 + 173/768) + material[..., 48]*t6*t7*(material[..., 47]*t5 - 64)) + t2*(material[..., 28]*(material[..., 27]*(material[..., 40]*t9 + material[..., 41]*t12 + material[..., 42]*t12 + material[..., 43]*t2 + material[..., 44]*t2 + material[..., 45]*t9 + material[..., 46] + 0.06143020603611769*t12 - 0.1788584769584851*t2 + 0.05802135097287754*t9) + (15/64)*t12 - 47/96*t2 - 15/128*t9 + 173/768) + material[..., 48]*t10*t11*(material[..., 47]*t9 - 64)))) + (499973/1000000)*t4*(t18 + (material[..., 1]*(256*t16 + 135*t5*t9 - 45*t5 - 45*t9 + 207) + t18)*numpy.expm1(t1*(material[..., 1]*t7*(material[..., 29]*t5 + material[..., 30]*t19 + 207) + material[..., 28]*(material[..., 27]*(material[..., 10]*t19 + material[..., 11]*t5 + material[..., 12]*t8 + material[..., 13]*t1 + material[..., 14]*t8 + material[..., 15]*t19 + material[..., 16]*t19 + material[..., 17]*t1 + material[..., 18]*t5 + material[..., 19]*t1 + material[..., 20]*t8 + material[..., 21]*t19 + material[..., 22]*t1 + material[..., 23]*t8 + material[..., 24]*t19 + material[..., 25]*t5 + material[..., 26] + material[..., 6]*t5 + material[..., 7]*t1 + material[..., 8]*t8 + material[..., 9]*t5 - 1.317974632049971*t1 + 0.06215295319723717*t19 + 0.28728468847971017*t5 + 0.10385474081646198*t8) + (301/384)*t1 + (45/256)*t5 - 45/128*t8 - 557/1536)) + t2*(material[..., 1]*t11*(material[..., 29]*t9 + material[..., 30]*t20 + 207) + material[..., 28]*(material[..., 27]*(material[..., 10]*t20 + material[..., 11]*t9 + material[..., 12]*t12 + material[..., 13]*t2 + material[..., 14]*t12 + material[..., 15]*t20 + material[..., 16]*t20 + material[..., 17]*t2 + material[..., 18]*t9 + material[..., 19]*t2 + material[..., 20]*t12 + material[..., 21]*t20 + material[..., 22]*t2 + material[..., 23]*t12 + material[..., 24]*t20 + material[..., 25]*t9 + material[..., 26] + material[..., 6]*t9 + material[..., 7]*t2 + material[..., 8]*t12 + material[..., 9]*t9 + 0.10385474081646198*t12 - 1.317974632049971*t2 + 0.06215295319723717*t20 + 0.28728468847971017*t9) - 45/128*t12 + (301/384)*t2 + (45/256)*t9 - 557/1536))))/3.141592653589793238
+    t24 = numpy.arcsin(numpy.sqrt(numpy.where(numpy.greater(t20, t23), t23, numpy.where(numpy.less_equal(t20, t23), t20, t20 + t23))))
+    t25 = 2*t24
+    t26 = (t24*t24)
+    t27 = 4*t26
+    t32 = (499973/500000)*material[..., 31]*t21*numpy.where(numpy.less(t22, 1/16), 8*(t24*t24*t24)*(t27*(t27*(t27*(t27*(t27*((1/23351328000)*t26 - 1/518918400) + 1/3991680) - 1/45360) + 1/840) - 1/30) + 1/3), 2*numpy.sqrt(t22)*numpy.sqrt(t23) - (1 - 2*t22)*numpy.where(numpy.less(t22, 1/2), t25, 3.141592653589793238 - t25)) + (499973/500000)*material[..., 37]*t15*t21*(2*(t0*t0) - 1)*numpy.expm1(t1*(material[..., 28]*(material[..., 27]*(material[..., 32]*t2 + material[..., 33]*t3 + material[..., 34]*t1 + material[..., 35] - 0.0037961708223872375*t1 + 0.0037035545003035746*t2 - 0.0014135909284063626*t3) + (25/256)*t1 + (15/512)*t2 - 15/256*t3 - 45/1024) + material[..., 36]*(t5*t5)*t7) + t8*(material[..., 28]*(material[..., 27]*(material[..., 32]*t9 + material[..., 33]*t10 + material[..., 34]*t8 + material[..., 35] - 0.0014135909284063626*t10 - 0.0037961708223872375*t8 + 0.0037035545003035746*t9) - 15/256*t10 + (25/256)*t8 + (15/512)*t9 - 45/1024) + material[..., 36]*(t14*t14)*t19)) + (499973/500000)*material[..., 49]*t0*t16*t21*(t17 + ((45/64)*t12 + t17 + 1)*numpy.expm1(t1*(material[..., 28]*(material[..., 27]*(material[..., 40]*t2 + material[..., 41]*t3 + material[..., 42]*t3 + material[..., 43]*t1 + material[..., 44]*t1 + material[..., 45]*t2 + material[..., 46] - 0.1788584769584851*t1 + 0.05802135097287754*t2 + 0.06143020603611769*t3) - 47/96*t1 - 15/128*t2 + (15/64)*t3 + 173/768) + material[..., 48]*t5*t7*(material[..., 47]*t2 - 64)) + t8*(material[..., 28]*(material[..., 27]*(material[..., 40]*t9 + material[..., 41]*t10 + material[..., 42]*t10 + material[..., 43]*t8 + material[..., 44]*t8 + material[..., 45]*t9 + material[..., 46] + 0.06143020603611769*t10 - 0.1788584769584851*t8 + 0.05802135097287754*t9) + (15/64)*t10 - 47/96*t8 - 15/128*t9 + 173/768) + material[..., 48]*t14*t19*(material[..., 47]*t9 - 64)))) + (499973/1000000)*t21*(t18 + (material[..., 1]*(256*t12 + 135*t2*t9 - 45*t2 - 45*t9 + 207) + t18)*numpy.expm1(t1*(material[..., 1]*t7*(material[..., 29]*t2 + material[..., 30]*t4 + 207) + material[..., 28]*(material[..., 27]*(material[..., 10]*t4 + material[..., 11]*t2 + material[..., 12]*t3 + material[..., 13]*t1 + material[..., 14]*t3 + material[..., 15]*t4 + material[..., 16]*t4 + material[..., 17]*t1 + material[..., 18]*t2 + material[..., 19]*t1 + material[..., 20]*t3 + material[..., 21]*t4 + material[..., 22]*t1 + material[..., 23]*t3 + material[..., 24]*t4 + material[..., 25]*t2 + material[..., 26] + material[..., 6]*t2 + material[..., 7]*t1 + material[..., 8]*t3 + material[..., 9]*t2 - 1.317974632049971*t1 + 0.28728468847971017*t2 + 0.10385474081646198*t3 + 0.06215295319723717*t4) + (301/384)*t1 + (45/256)*t2 - 45/128*t3 - 557/1536)) + t8*(material[..., 1]*t19*(material[..., 29]*t9 + material[..., 30]*t11 + 207) + material[..., 28]*(material[..., 27]*(material[..., 10]*t11 + material[..., 11]*t9 + material[..., 12]*t10 + material[..., 13]*t8 + material[..., 14]*t10 + material[..., 15]*t11 + material[..., 16]*t11 + material[..., 17]*t8 + material[..., 18]*t9 + material[..., 19]*t8 + material[..., 20]*t10 + material[..., 21]*t11 + material[..., 22]*t8 + material[..., 23]*t10 + material[..., 24]*t11 + material[..., 25]*t9 + material[..., 26] + material[..., 6]*t9 + material[..., 7]*t8 + material[..., 8]*t10 + material[..., 9]*t9 + 0.10385474081646198*t10 + 0.06215295319723717*t11 - 1.317974632049971*t8 + 0.28728468847971017*t9) - 45/128*t10 + (301/384)*t8 + (45/256)*t9 - 557/1536))))/3.141592653589793238
     return numpy.where(numpy.less(t32, 0), 0, t32)
 
 
@@ -635,54 +635,54 @@ def eval_local(material, wi, wo):
     pointing away from the surface); 0 if either is below the surface. Components are
     clamped to [-1, 1] (not normalised); NaN in any input gives NaN."""
     material, wi, wo = numpy.asarray(material, dtype=float), numpy.asarray(wi, dtype=float), numpy.asarray(wo, dtype=float)
-    t34 = numpy.where(numpy.less(wi[..., 2], -1.0), -1.0, wi[..., 2])
+    t34 = numpy.where(numpy.less(wi[..., 0], -1.0), -1.0, wi[..., 0])
     t0 = numpy.where(numpy.greater(t34, 1.0), 1.0, t34)
-    t35 = numpy.where(numpy.less(wo[..., 2], -1.0), -1.0, wo[..., 2])
+    t35 = numpy.where(numpy.less(wi[..., 1], -1.0), -1.0, wi[..., 1])
     t1 = numpy.where(numpy.greater(t35, 1.0), 1.0, t35)
-    t36 = numpy.where(numpy.less(wi[..., 0], -1.0), -1.0, wi[..., 0])
+    t36 = numpy.where(numpy.less(wi[..., 2], -1.0), -1.0, wi[..., 2])
     t2 = numpy.where(numpy.greater(t36, 1.0), 1.0, t36)
     t37 = numpy.where(numpy.less(wo[..., 0], -1.0), -1.0, wo[..., 0])
     t3 = numpy.where(numpy.greater(t37, 1.0), 1.0, t37)
-    t38 = numpy.where(numpy.less(wi[..., 1], -1.0), -1.0, wi[..., 1])
+    t38 = numpy.where(numpy.less(wo[..., 1], -1.0), -1.0, wo[..., 1])
     t4 = numpy.where(numpy.greater(t38, 1.0), 1.0, t38)
-    t39 = numpy.where(numpy.less(wo[..., 1], -1.0), -1.0, wo[..., 1])
+    t39 = numpy.where(numpy.less(wo[..., 2], -1.0), -1.0, wo[..., 2])
     t5 = numpy.where(numpy.greater(t39, 1.0), 1.0, t39)
-    t40 = ((t2*t2) + (t4*t4))*((t3*t3) + (t5*t5))
-    t41 = (t2*t3 + t4*t5)/numpy.sqrt(numpy.where(numpy.less(t40, 1/1000000000000000000000000000000), 1/1000000000000000000000000000000, t40))
+    t40 = ((t0*t0) + (t1*t1))*((t3*t3) + (t4*t4))
+    t41 = (t0*t3 + t1*t4)/numpy.sqrt(numpy.where(numpy.less(t40, 1/1000000000000000000000000000000), 1/1000000000000000000000000000000, t40))
     t42 = numpy.where(numpy.less(t41, -1.0), -1.0, t41)
     t6 = numpy.where(numpy.greater(t42, 1.0), 1.0, t42)
-    t43 = numpy.where(numpy.less(t0, 0), 0.0, t0)
+    t43 = numpy.where(numpy.less(t2, 0), 0.0, t2)
     t7 = numpy.where(numpy.greater(t43, 1.0), 1.0, t43)
-    t44 = numpy.where(numpy.less(t1, 0), 0.0, t1)
-    t8 = numpy.where(numpy.greater(t44, 1.0), 1.0, t44)
-    t9 = t7 + t8
-    t10 = numpy.where(numpy.less(t9, 1/1000000), 1/1000000, t9)**(-1.0)
-    t11 = (t7*t7)
-    t12 = t11 - 1
+    t8 = (t7*t7)
+    t9 = (t7*t7*t7)
+    t10 = (t7*t7*t7*t7)
+    t11 = t8 - 1
+    t12 = -t11
     t13 = numpy.log(1 + numpy.where(numpy.less(t7, 1.0e-30), 1.0e-30, t7)**(-1.0))
-    t14 = (t7*t7*t7)
-    t15 = (t8*t8)
-    t16 = t15 - 1
-    t17 = numpy.log(1 + numpy.where(numpy.less(t8, 1.0e-30), 1.0e-30, t8)**(-1.0))
-    t18 = (t8*t8*t8)
-    t19 = -t12
-    t20 = -t16*t19
-    t21 = numpy.sqrt(t20)
-    t22 = t7*t8
-    t23 = material[..., 38]*t9 + material[..., 39]*t22
-    t24 = material[..., 0]*t9 + material[..., 2]*t11*t15 + material[..., 3]*(t11 + t15) + material[..., 4]*t7*t8*t9 + material[..., 5]*t22
-    t25 = (t7*t7*t7*t7)
-    t26 = (t8*t8*t8*t8)
-    t45 = (1/2)*t21*(t6 + 1) + (1/2)*t22 + (1/2)*(t11 + t15*t19)/(t21 + 1)
-    t27 = numpy.where(numpy.less(t45, 0), 0, t45)
-    t28 = numpy.where(numpy.greater(t27, 1), 1, t27)
+    t44 = numpy.where(numpy.less(t5, 0), 0.0, t5)
+    t14 = numpy.where(numpy.greater(t44, 1.0), 1.0, t44)
+    t15 = (t14*t14)
+    t16 = (t14*t14*t14)
+    t17 = (t14*t14*t14*t14)
+    t18 = t14*t7
+    t19 = t14 + t7
+    t20 = t15 - 1
+    t21 = -t12*t20
+    t22 = numpy.sqrt(t21)
+    t23 = material[..., 38]*t19 + material[..., 39]*t18
+    t24 = material[..., 0]*t19 + material[..., 2]*t15*t8 + material[..., 3]*(t15 + t8) + material[..., 4]*t14*t19*t7 + material[..., 5]*t18
+    t25 = numpy.log(1 + numpy.where(numpy.less(t14, 1.0e-30), 1.0e-30, t14)**(-1.0))
+    t45 = (1/2)*t18 + (1/2)*t22*(t6 + 1) + (1/2)*(t12*t15 + t8)/(t22 + 1)
+    t26 = numpy.where(numpy.less(t45, 0), 0, t45)
+    t27 = numpy.where(numpy.less(t19, 1/1000000), 1/1000000, t19)**(-1.0)
+    t28 = numpy.where(numpy.greater(t26, 1), 1, t26)
     t29 = 1 - t28
-    t30 = numpy.arcsin(numpy.sqrt(numpy.where(numpy.greater(t27, t29), t29, numpy.where(numpy.less_equal(t27, t29), t27, t27 + t29))))
-    t31 = (t30*t30)
-    t32 = 4*t31
-    t33 = 2*t30
-    t46 = (499973/500000)*material[..., 31]*t10*numpy.where(numpy.less(t28, 1/16), 8*(t30*t30*t30)*(t32*(t32*(t32*(t32*(t32*((1/23351328000)*t31 - 1/518918400) + 1/3991680) - 1/45360) + 1/840) - 1/30) + 1/3), 2*numpy.sqrt(t28)*numpy.sqrt(t29) - (1 - 2*t28)*numpy.where(numpy.less(t28, 1/2), t33, 3.141592653589793238 - t33)) + (499973/500000)*material[..., 37]*t10*t20*(2*(t6*t6) - 1)*numpy.expm1(t7*(material[..., 28]*(material[..., 27]*(material[..., 32]*t11 + material[..., 33]*t14 + material[..., 34]*t7 + material[..., 35] + 0.0037035545003035746*t11 - 0.0014135909284063626*t14 - 0.0037961708223872375*t7) + (15/512)*t11 - 15/256*t14 + (25/256)*t7 - 45/1024) + material[..., 36]*(t12*t12)*t13) + t8*(material[..., 28]*(material[..., 27]*(material[..., 32]*t15 + material[..., 33]*t18 + material[..., 34]*t8 + material[..., 35] + 0.0037035545003035746*t15 - 0.0014135909284063626*t18 - 0.0037961708223872375*t8) + (15/512)*t15 - 15/256*t18 + (25/256)*t8 - 45/1024) + material[..., 36]*(t16*t16)*t17)) + (499973/500000)*material[..., 49]*t10*t21*t6*(t23 + ((45/64)*t22 + t23 + 1)*numpy.expm1(t7*(material[..., 28]*(material[..., 27]*(material[..., 40]*t11 + material[..., 41]*t14 + material[..., 42]*t14 + material[..., 43]*t7 + material[..., 44]*t7 + material[..., 45]*t11 + material[..., 46] + 0.05802135097287754*t11 + 0.06143020603611769*t14 - 0.1788584769584851*t7) - 15/128*t11 + (15/64)*t14 - 47/96*t7 + 173/768) + material[..., 48]*t12*t13*(material[..., 47]*t11 - 64)) + t8*(material[..., 28]*(material[..., 27]*(material[..., 40]*t15 + material[..., 41]*t18 + material[..., 42]*t18 + material[..., 43]*t8 + material[..., 44]*t8 + material[..., 45]*t15 + material[..., 46] + 0.05802135097287754*t15 + 0.06143020603611769*t18 - 0.1788584769584851*t8) - 15/128*t15 + (15/64)*t18 - 47/96*t8 + 173/768) + material[..., 48]*t16*t17*(material[..., 47]*t15 - 64)))) + (499973/1000000)*t10*(t24 + (material[..., 1]*(135*t11*t15 - 45*t11 - 45*t15 + 256*t22 + 207) + t24)*numpy.expm1(t7*(material[..., 1]*t13*(material[..., 29]*t11 + material[..., 30]*t25 + 207) + material[..., 28]*(material[..., 27]*(material[..., 10]*t25 + material[..., 11]*t11 + material[..., 12]*t14 + material[..., 13]*t7 + material[..., 14]*t14 + material[..., 15]*t25 + material[..., 16]*t25 + material[..., 17]*t7 + material[..., 18]*t11 + material[..., 19]*t7 + material[..., 20]*t14 + material[..., 21]*t25 + material[..., 22]*t7 + material[..., 23]*t14 + material[..., 24]*t25 + material[..., 25]*t11 + material[..., 26] + material[..., 6]*t11 + material[..., 7]*t7 + material[..., 8]*t14 + material[..., 9]*t11 + 0.28728468847971017*t11 + 0.10385474081646198*t14 + 0.06215295319723717*t25 - 1.317974632049971*t7) + (45/256)*t11 - 45/128*t14 + (301/384)*t7 - 557/1536)) + t8*(material[..., 1]*t17*(material[..., 29]*t15 + material[..., 30]*t26 + 207) + material[..., 28]*(material[..., 27]*(material[..., 10]*t26 + material[..., 11]*t15 + material[..., 12]*t18 + material[..., 13]*t8 + material[..., 14]*t18 + material[..., 15]*t26 + material[..., 16]*t26 + material[..., 17]*t8 + material[..., 18]*t15 + material[..., 19]*t8 + material[..., 20]*t18 + material[..., 21]*t26 + material[..., 22]*t8 + material[..., 23]*t18 + material[..., 24]*t26 + material[..., 25]*t15 + material[..., 26] + material[..., 6]*t15 + material[..., 7]*t8 + material[..., 8]*t18 + material[..., 9]*t15 + 0.28728468847971017*t15 + 0.10385474081646198*t18 + 0.06215295319723717*t26 - 1.317974632049971*t8) + (45/256)*t15 - 45/128*t18 + (301/384)*t8 - 557/1536))))/3.141592653589793238
-    return numpy.where(numpy.less(t0, 0), 0, 1)*numpy.where(numpy.less(t1, 0), 0, 1)*numpy.where(numpy.less(t46, 0), 0, t46)
+    t30 = numpy.arcsin(numpy.sqrt(numpy.where(numpy.greater(t26, t29), t29, numpy.where(numpy.less_equal(t26, t29), t26, t26 + t29))))
+    t31 = 2*t30
+    t32 = (t30*t30)
+    t33 = 4*t32
+    t46 = (499973/500000)*material[..., 31]*t27*numpy.where(numpy.less(t28, 1/16), 8*(t30*t30*t30)*(t33*(t33*(t33*(t33*(t33*((1/23351328000)*t32 - 1/518918400) + 1/3991680) - 1/45360) + 1/840) - 1/30) + 1/3), 2*numpy.sqrt(t28)*numpy.sqrt(t29) - (1 - 2*t28)*numpy.where(numpy.less(t28, 1/2), t31, 3.141592653589793238 - t31)) + (499973/500000)*material[..., 37]*t21*t27*(2*(t6*t6) - 1)*numpy.expm1(t14*(material[..., 28]*(material[..., 27]*(material[..., 32]*t15 + material[..., 33]*t16 + material[..., 34]*t14 + material[..., 35] - 0.0037961708223872375*t14 + 0.0037035545003035746*t15 - 0.0014135909284063626*t16) + (25/256)*t14 + (15/512)*t15 - 15/256*t16 - 45/1024) + material[..., 36]*(t20*t20)*t25) + t7*(material[..., 28]*(material[..., 27]*(material[..., 32]*t8 + material[..., 33]*t9 + material[..., 34]*t7 + material[..., 35] - 0.0037961708223872375*t7 + 0.0037035545003035746*t8 - 0.0014135909284063626*t9) + (25/256)*t7 + (15/512)*t8 - 15/256*t9 - 45/1024) + material[..., 36]*(t11*t11)*t13)) + (499973/500000)*material[..., 49]*t22*t27*t6*(t23 + ((45/64)*t18 + t23 + 1)*numpy.expm1(t14*(material[..., 28]*(material[..., 27]*(material[..., 40]*t15 + material[..., 41]*t16 + material[..., 42]*t16 + material[..., 43]*t14 + material[..., 44]*t14 + material[..., 45]*t15 + material[..., 46] - 0.1788584769584851*t14 + 0.05802135097287754*t15 + 0.06143020603611769*t16) - 47/96*t14 - 15/128*t15 + (15/64)*t16 + 173/768) + material[..., 48]*t20*t25*(material[..., 47]*t15 - 64)) + t7*(material[..., 28]*(material[..., 27]*(material[..., 40]*t8 + material[..., 41]*t9 + material[..., 42]*t9 + material[..., 43]*t7 + material[..., 44]*t7 + material[..., 45]*t8 + material[..., 46] - 0.1788584769584851*t7 + 0.05802135097287754*t8 + 0.06143020603611769*t9) - 47/96*t7 - 15/128*t8 + (15/64)*t9 + 173/768) + material[..., 48]*t11*t13*(material[..., 47]*t8 - 64)))) + (499973/1000000)*t27*(t24 + (material[..., 1]*(135*t15*t8 - 45*t15 + 256*t18 - 45*t8 + 207) + t24)*numpy.expm1(t14*(material[..., 1]*t25*(material[..., 29]*t15 + material[..., 30]*t17 + 207) + material[..., 28]*(material[..., 27]*(material[..., 10]*t17 + material[..., 11]*t15 + material[..., 12]*t16 + material[..., 13]*t14 + material[..., 14]*t16 + material[..., 15]*t17 + material[..., 16]*t17 + material[..., 17]*t14 + material[..., 18]*t15 + material[..., 19]*t14 + material[..., 20]*t16 + material[..., 21]*t17 + material[..., 22]*t14 + material[..., 23]*t16 + material[..., 24]*t17 + material[..., 25]*t15 + material[..., 26] + material[..., 6]*t15 + material[..., 7]*t14 + material[..., 8]*t16 + material[..., 9]*t15 - 1.317974632049971*t14 + 0.28728468847971017*t15 + 0.10385474081646198*t16 + 0.06215295319723717*t17) + (301/384)*t14 + (45/256)*t15 - 45/128*t16 - 557/1536)) + t7*(material[..., 1]*t13*(material[..., 29]*t8 + material[..., 30]*t10 + 207) + material[..., 28]*(material[..., 27]*(material[..., 10]*t10 + material[..., 11]*t8 + material[..., 12]*t9 + material[..., 13]*t7 + material[..., 14]*t9 + material[..., 15]*t10 + material[..., 16]*t10 + material[..., 17]*t7 + material[..., 18]*t8 + material[..., 19]*t7 + material[..., 20]*t9 + material[..., 21]*t10 + material[..., 22]*t7 + material[..., 23]*t9 + material[..., 24]*t10 + material[..., 25]*t8 + material[..., 26] + material[..., 6]*t8 + material[..., 7]*t7 + material[..., 8]*t9 + material[..., 9]*t8 + 0.06215295319723717*t10 - 1.317974632049971*t7 + 0.28728468847971017*t8 + 0.10385474081646198*t9) + (301/384)*t7 + (45/256)*t8 - 45/128*t9 - 557/1536))))/3.141592653589793238
+    return numpy.where(numpy.less(t2, 0), 0, 1)*numpy.where(numpy.less(t5, 0), 0, 1)*numpy.where(numpy.less(t46, 0), 0, t46)
 
 
 def pdf(material, wi, wo):
@@ -694,26 +694,26 @@ def pdf(material, wi, wo):
     either vector is below the surface. Components are clamped to [-1, 1]; NaN in any input
     gives NaN."""
     material, wi, wo = numpy.asarray(material, dtype=float), numpy.asarray(wi, dtype=float), numpy.asarray(wo, dtype=float)
+    t0 = 3.141592653589793238**(-1.0)
     t12 = numpy.where(numpy.less(wi[..., 2], -1.0), -1.0, wi[..., 2])
-    t0 = numpy.where(numpy.greater(t12, 1.0), 1.0, t12)
-    t13 = numpy.where(numpy.less(wo[..., 2], -1.0), -1.0, wo[..., 2])
-    t1 = numpy.where(numpy.greater(t13, 1.0), 1.0, t13)
-    t2 = 3.141592653589793238**(-1.0)
-    t14 = numpy.where(numpy.less(t0, 0), 0.0, t0)
-    t3 = t2*numpy.arccos(numpy.where(numpy.greater(t14, 1.0), 1.0, t14))
-    t4 = 4*t3 - 1
-    t5 = (t4*t4)
-    t6 = (t4*t4*t4)
-    t7 = (t4*t4*t4*t4)
-    t8 = t4**5
-    t9 = t4**6
-    t10 = (9.7240632799166419*numpy.exp(material[..., 50]*t4 + material[..., 51]*t5 + material[..., 52]*t7 + material[..., 53]*t8 + material[..., 54]*t5 + material[..., 55]*t6 + material[..., 56]*t7 + material[..., 57]*t9 + material[..., 58]*t6 + material[..., 59]*t9 + material[..., 60]*t8 + material[..., 61]*t6 + material[..., 62]*t8 + material[..., 63]*t4 + material[..., 64]*t4 + material[..., 65]*t8 + material[..., 66]*t9 + material[..., 67]*t7 + material[..., 68]*t6 + material[..., 69]*t9 + material[..., 70]*t4 + material[..., 71]*t5 + material[..., 72]*t5 + material[..., 73]*t7 + material[..., 74] + 1.7500311057966532*t3 + 0.04628582994795521*t5 - 0.550401436459078*t6 + 0.07829314674691852*t7 - 0.7161701495184881*t8 - 0.5341871660342392*t9) + 1)**(-1.0)
-    t11 = 2.0429479122374826*numpy.exp(material[..., 75]*t8 + material[..., 76]*t6 + material[..., 77]*t5 + material[..., 78]*t9 + material[..., 79]*t9 + material[..., 80]*t4 + material[..., 81]*t8 + material[..., 82]*t6 + material[..., 83]*t7 + material[..., 84]*t7 + material[..., 85]*t5 + material[..., 86]*t4 + material[..., 87]*t8 + material[..., 88]*t4 + material[..., 89]*t6 + material[..., 90]*t9 + material[..., 91]*t8 + material[..., 92]*t5 + material[..., 93]*t4 + material[..., 94]*t9 + material[..., 95]*t7 + material[..., 96]*t7 + material[..., 97]*t5 + material[..., 98]*t6 + material[..., 99] + 3.9697173818393476*t3 - 0.861604156944149*t5 - 0.8684385788422878*t6 + 0.20080844606204426*t7 - 0.36251640502651766*t8 - 0.4275420217467747*t9)
+    t1 = numpy.where(numpy.greater(t12, 1.0), 1.0, t12)
+    t13 = numpy.where(numpy.less(t1, 0), 0.0, t1)
+    t2 = t0*numpy.arccos(numpy.where(numpy.greater(t13, 1.0), 1.0, t13))
+    t3 = 4*t2 - 1
+    t4 = (t3*t3)
+    t5 = (t3*t3*t3)
+    t6 = (t3*t3*t3*t3)
+    t7 = t3**5
+    t8 = t3**6
+    t9 = (9.7240632799166419*numpy.exp(material[..., 50]*t3 + material[..., 51]*t4 + material[..., 52]*t6 + material[..., 53]*t7 + material[..., 54]*t4 + material[..., 55]*t5 + material[..., 56]*t6 + material[..., 57]*t8 + material[..., 58]*t5 + material[..., 59]*t8 + material[..., 60]*t7 + material[..., 61]*t5 + material[..., 62]*t7 + material[..., 63]*t3 + material[..., 64]*t3 + material[..., 65]*t7 + material[..., 66]*t8 + material[..., 67]*t6 + material[..., 68]*t5 + material[..., 69]*t8 + material[..., 70]*t3 + material[..., 71]*t4 + material[..., 72]*t4 + material[..., 73]*t6 + material[..., 74] + 1.7500311057966532*t2 + 0.04628582994795521*t4 - 0.550401436459078*t5 + 0.07829314674691852*t6 - 0.7161701495184881*t7 - 0.5341871660342392*t8) + 1)**(-1.0)
+    t10 = 2.0429479122374826*numpy.exp(material[..., 75]*t7 + material[..., 76]*t5 + material[..., 77]*t4 + material[..., 78]*t8 + material[..., 79]*t8 + material[..., 80]*t3 + material[..., 81]*t7 + material[..., 82]*t5 + material[..., 83]*t6 + material[..., 84]*t6 + material[..., 85]*t4 + material[..., 86]*t3 + material[..., 87]*t7 + material[..., 88]*t3 + material[..., 89]*t5 + material[..., 90]*t8 + material[..., 91]*t7 + material[..., 92]*t4 + material[..., 93]*t3 + material[..., 94]*t8 + material[..., 95]*t6 + material[..., 96]*t6 + material[..., 97]*t4 + material[..., 98]*t5 + material[..., 99] + 3.9697173818393476*t2 - 0.861604156944149*t4 - 0.8684385788422878*t5 + 0.20080844606204426*t6 - 0.36251640502651766*t7 - 0.4275420217467747*t8)
+    t14 = numpy.where(numpy.less(wo[..., 2], -1.0), -1.0, wo[..., 2])
+    t11 = numpy.where(numpy.greater(t14, 1.0), 1.0, t14)
     t15 = numpy.where(numpy.less(wi[..., 0], -1.0), -1.0, wi[..., 0])
     t16 = numpy.where(numpy.less(wo[..., 0], -1.0), -1.0, wo[..., 0])
     t17 = numpy.where(numpy.less(wi[..., 1], -1.0), -1.0, wi[..., 1])
     t18 = numpy.where(numpy.less(wo[..., 1], -1.0), -1.0, wo[..., 1])
-    return ((1/2)*t10*t2*(t11 + 1)*_safe_pow(t0*t1 + numpy.where(numpy.greater(t15, 1.0), 1.0, t15)*numpy.where(numpy.greater(t16, 1.0), 1.0, t16) + numpy.where(numpy.greater(t17, 1.0), 1.0, t17)*numpy.where(numpy.greater(t18, 1.0), 1.0, t18), t11) + t2*(1 - t10)*numpy.where(numpy.less(t1, 0), 0, t1))*numpy.where(numpy.less(t0, 0), 0, 1)*numpy.where(numpy.less(t1, 0), 0, 1)
+    return ((1/2)*t0*t9*(t10 + 1)*_safe_pow(t1*t11 + numpy.where(numpy.greater(t15, 1.0), 1.0, t15)*numpy.where(numpy.greater(t16, 1.0), 1.0, t16) + numpy.where(numpy.greater(t17, 1.0), 1.0, t17)*numpy.where(numpy.greater(t18, 1.0), 1.0, t18), t10) + t0*(1 - t9)*numpy.where(numpy.less(t11, 0), 0, t11))*numpy.where(numpy.less(t1, 0), 0, 1)*numpy.where(numpy.less(t11, 0), 0, 1)
 
 
 def sample(material, wi, u1, u2):
@@ -724,48 +724,48 @@ def sample(material, wi, u1, u2):
     pdf 0 marks a lost sample (wo below the surface, or wi below it). Components of wi are
     clamped to [-1, 1], u1, u2 to [0, 1]; NaN in any input gives NaN."""
     material, wi, u1, u2 = numpy.asarray(material, dtype=float), numpy.asarray(wi, dtype=float), numpy.asarray(u1, dtype=float), numpy.asarray(u2, dtype=float)
-    t34 = numpy.where(numpy.less(wi[..., 2], -1.0), -1.0, wi[..., 2])
-    t0 = numpy.where(numpy.greater(t34, 1.0), 1.0, t34)
-    t35 = numpy.where(numpy.less(u1, 0), 0.0, u1)
-    t1 = numpy.where(numpy.greater(t35, 1.0), 1.0, t35)
-    t2 = 3.141592653589793238**(-1.0)
-    t36 = numpy.where(numpy.less(t0, 0), 0.0, t0)
-    t3 = t2*numpy.arccos(numpy.where(numpy.greater(t36, 1.0), 1.0, t36))
-    t4 = 4*t3 - 1
-    t5 = (t4*t4)
-    t6 = (t4*t4*t4)
-    t7 = (t4*t4*t4*t4)
-    t8 = t4**5
-    t9 = t4**6
-    t10 = (9.7240632799166419*numpy.exp(material[..., 50]*t4 + material[..., 51]*t5 + material[..., 52]*t7 + material[..., 53]*t8 + material[..., 54]*t5 + material[..., 55]*t6 + material[..., 56]*t7 + material[..., 57]*t9 + material[..., 58]*t6 + material[..., 59]*t9 + material[..., 60]*t8 + material[..., 61]*t6 + material[..., 62]*t8 + material[..., 63]*t4 + material[..., 64]*t4 + material[..., 65]*t8 + material[..., 66]*t9 + material[..., 67]*t7 + material[..., 68]*t6 + material[..., 69]*t9 + material[..., 70]*t4 + material[..., 71]*t5 + material[..., 72]*t5 + material[..., 73]*t7 + material[..., 74] + 1.7500311057966532*t3 + 0.04628582994795521*t5 - 0.550401436459078*t6 + 0.07829314674691852*t7 - 0.7161701495184881*t8 - 0.5341871660342392*t9) + 1)**(-1.0)
-    t12 = 2.0429479122374826*numpy.exp(material[..., 75]*t8 + material[..., 76]*t6 + material[..., 77]*t5 + material[..., 78]*t9 + material[..., 79]*t9 + material[..., 80]*t4 + material[..., 81]*t8 + material[..., 82]*t6 + material[..., 83]*t7 + material[..., 84]*t7 + material[..., 85]*t5 + material[..., 86]*t4 + material[..., 87]*t8 + material[..., 88]*t4 + material[..., 89]*t6 + material[..., 90]*t9 + material[..., 91]*t8 + material[..., 92]*t5 + material[..., 93]*t4 + material[..., 94]*t9 + material[..., 95]*t7 + material[..., 96]*t7 + material[..., 97]*t5 + material[..., 98]*t6 + material[..., 99] + 3.9697173818393476*t3 - 0.861604156944149*t5 - 0.8684385788422878*t6 + 0.20080844606204426*t7 - 0.36251640502651766*t8 - 0.4275420217467747*t9)
-    t13 = t12 + 1
-    t14 = _safe_pow(t1/t10, t13**(-1.0))
-    t37 = numpy.where(numpy.less(wi[..., 1], -1.0), -1.0, wi[..., 1])
-    t15 = numpy.where(numpy.greater(t37, 1.0), 1.0, t37)
-    t38 = numpy.where(numpy.less(u2, 0), 0.0, u2)
-    t16 = 2*3.141592653589793238*numpy.where(numpy.greater(t38, 1.0), 1.0, t38)
-    t17 = numpy.sin(t16)
-    t39 = 1 - (t14*t14)
-    t18 = numpy.sqrt(numpy.where(numpy.less(t39, 0), 0, t39))
-    t19 = t17*t18
-    t20 = t15*t19
-    t40 = numpy.where(numpy.less(wi[..., 0], -1.0), -1.0, wi[..., 0])
-    t21 = numpy.where(numpy.greater(t40, 1.0), 1.0, t40)
-    t22 = numpy.cos(t16)
-    t23 = t18*t22
-    t24 = t21*t23
-    t25 = -t0*t14 + t20 + t24
-    t26 = -t10
-    t27 = t26 + 1
-    t41 = (t1 + t26)/t27
-    t28 = numpy.where(numpy.less(t41, 0), 0, t41)
-    t42 = 1 - t28
-    t29 = numpy.where(numpy.less(t1, t10), -t25, numpy.sqrt(numpy.where(numpy.less(t42, 0), 0, t42)))
-    t30 = (numpy.where(numpy.less(t0, 0), 0, t0) + 1)**(-1.0)
-    t31 = numpy.sqrt(t28)
-    t32 = numpy.where(numpy.less(t1, t10), t14*t21 - t20*t21*t30 + t23*(-(t21*t21)*t30 + 1), t22*t31)
-    t33 = numpy.where(numpy.less(t1, t10), t14*t15 - t15*t24*t30 + t19*(-(t15*t15)*t30 + 1), t17*t31)
+    t0 = 3.141592653589793238**(-1.0)
+    t34 = numpy.where(numpy.less(u2, 0), 0.0, u2)
+    t1 = 2*3.141592653589793238*numpy.where(numpy.greater(t34, 1.0), 1.0, t34)
+    t2 = numpy.sin(t1)
+    t3 = numpy.cos(t1)
+    t35 = numpy.where(numpy.less(wi[..., 0], -1.0), -1.0, wi[..., 0])
+    t4 = numpy.where(numpy.greater(t35, 1.0), 1.0, t35)
+    t36 = numpy.where(numpy.less(wi[..., 1], -1.0), -1.0, wi[..., 1])
+    t5 = numpy.where(numpy.greater(t36, 1.0), 1.0, t36)
+    t37 = numpy.where(numpy.less(wi[..., 2], -1.0), -1.0, wi[..., 2])
+    t6 = numpy.where(numpy.greater(t37, 1.0), 1.0, t37)
+    t38 = numpy.where(numpy.less(t6, 0), 0.0, t6)
+    t7 = t0*numpy.arccos(numpy.where(numpy.greater(t38, 1.0), 1.0, t38))
+    t8 = 4*t7 - 1
+    t9 = (t8*t8)
+    t10 = (t8*t8*t8)
+    t11 = (t8*t8*t8*t8)
+    t12 = t8**5
+    t13 = t8**6
+    t14 = (9.7240632799166419*numpy.exp(material[..., 50]*t8 + material[..., 51]*t9 + material[..., 52]*t11 + material[..., 53]*t12 + material[..., 54]*t9 + material[..., 55]*t10 + material[..., 56]*t11 + material[..., 57]*t13 + material[..., 58]*t10 + material[..., 59]*t13 + material[..., 60]*t12 + material[..., 61]*t10 + material[..., 62]*t12 + material[..., 63]*t8 + material[..., 64]*t8 + material[..., 65]*t12 + material[..., 66]*t13 + material[..., 67]*t11 + material[..., 68]*t10 + material[..., 69]*t13 + material[..., 70]*t8 + material[..., 71]*t9 + material[..., 72]*t9 + material[..., 73]*t11 + material[..., 74] - 0.550401436459078*t10 + 0.07829314674691852*t11 - 0.7161701495184881*t12 - 0.5341871660342392*t13 + 1.7500311057966532*t7 + 0.04628582994795521*t9) + 1)**(-1.0)
+    t15 = -t14
+    t16 = t15 + 1
+    t17 = (numpy.where(numpy.less(t6, 0), 0, t6) + 1)**(-1.0)
+    t18 = 2.0429479122374826*numpy.exp(material[..., 75]*t12 + material[..., 76]*t10 + material[..., 77]*t9 + material[..., 78]*t13 + material[..., 79]*t13 + material[..., 80]*t8 + material[..., 81]*t12 + material[..., 82]*t10 + material[..., 83]*t11 + material[..., 84]*t11 + material[..., 85]*t9 + material[..., 86]*t8 + material[..., 87]*t12 + material[..., 88]*t8 + material[..., 89]*t10 + material[..., 90]*t13 + material[..., 91]*t12 + material[..., 92]*t9 + material[..., 93]*t8 + material[..., 94]*t13 + material[..., 95]*t11 + material[..., 96]*t11 + material[..., 97]*t9 + material[..., 98]*t10 + material[..., 99] - 0.8684385788422878*t10 + 0.20080844606204426*t11 - 0.36251640502651766*t12 - 0.4275420217467747*t13 + 3.9697173818393476*t7 - 0.861604156944149*t9)
+    t19 = t18 + 1
+    t39 = numpy.where(numpy.less(u1, 0), 0.0, u1)
+    t20 = numpy.where(numpy.greater(t39, 1.0), 1.0, t39)
+    t21 = _safe_pow(t20/t14, t19**(-1.0))
+    t40 = (t15 + t20)/t16
+    t22 = numpy.where(numpy.less(t40, 0), 0, t40)
+    t23 = numpy.sqrt(t22)
+    t41 = 1 - (t21*t21)
+    t24 = numpy.sqrt(numpy.where(numpy.less(t41, 0), 0, t41))
+    t25 = t2*t24
+    t26 = t24*t3
+    t27 = t25*t5
+    t28 = t26*t4
+    t29 = -t21*t6 + t27 + t28
+    t42 = 1 - t22
+    t31 = numpy.where(numpy.greater(t14, t20), -t29, numpy.sqrt(numpy.where(numpy.less(t42, 0), 0, t42)))
+    t32 = numpy.where(numpy.greater(t14, t20), -t17*t27*t4 + t21*t4 + t26*(-t17*(t4*t4) + 1), t23*t3)
+    t33 = numpy.where(numpy.greater(t14, t20), -t17*t28*t5 + t21*t5 + t25*(-t17*(t5*t5) + 1), t2*t23)
     shape = numpy.broadcast_shapes(material.shape[:-1], wi.shape[:-1], u1.shape, u2.shape)
-    x, y, z, value = (numpy.broadcast_to(e, shape) for e in (t32, t33, t29, ((1/2)*t10*t13*t2*_safe_pow(t0*t29 + t15*t33 + t21*t32, t12) + t2*t27*numpy.where(numpy.less(t29, 0), 0, t29))*numpy.where(numpy.logical_and.reduce((numpy.greater(t25, 0),numpy.less(t1, t10))), 0, 1)*numpy.where(numpy.less(t0, 0), 0, 1)))
+    x, y, z, value = (numpy.broadcast_to(e, shape) for e in (t32, t33, t31, ((1/2)*t0*t14*t19*_safe_pow(t31*t6 + t32*t4 + t33*t5, t18) + t0*t16*numpy.where(numpy.less(t31, 0), 0, t31))*numpy.where(numpy.logical_and.reduce((numpy.greater(t14, t20),numpy.greater(t29, 0))), 0, 1)*numpy.where(numpy.less(t6, 0), 0, 1)))
     return numpy.stack((x, y, z), axis=-1), value.copy()

@@ -30,131 +30,131 @@ def h0(mu, c):
     """H0(mu, c) from the table: exp(mu (Psi0(mu) log(1 + 1/mu) + c (p0(mu) + R0(s, mu)))), R0
     read bicubic (rows 0-32). mu, c in [0, 1]."""
     mu, c = numpy.asarray(mu, dtype=float), numpy.asarray(c, dtype=float)
-    t31 = numpy.where(numpy.less(mu, 0), 0.0, mu)
+    t31 = numpy.where(numpy.less(c, 0), 0.0, c)
     t0 = numpy.where(numpy.greater(t31, 1.0), 1.0, t31)
-    t32 = numpy.where(numpy.less(c, 0), 0.0, c)
+    t32 = numpy.where(numpy.less(mu, 0), 0.0, mu)
     t1 = numpy.where(numpy.greater(t32, 1.0), 1.0, t32)
-    t2 = (t0*t0)
-    t33 = numpy.sqrt(1 - t1)
-    t34 = numpy.where(numpy.less(t33, 0), 0, t33)
-    t3 = numpy.where(numpy.greater(t34, 1), 1, t34)
+    t2 = (t1*t1)
+    t33 = numpy.where(numpy.less(t1, 0), 0, t1)
+    t3 = numpy.where(numpy.greater(t33, 1), 1, t33)
     t4 = numpy.where(numpy.less(t3, 1/32), 0, numpy.where(numpy.greater_equal(t3, 31/32), 29, numpy.floor(32*t3) - 1))
     t5 = -32*t3 + t4
-    t6 = t5 + 1
-    t7 = -t5 - 3
-    t8 = -t5 - 2
-    t35 = numpy.where(numpy.less(t0, 0), 0, t0)
-    t9 = numpy.where(numpy.greater(t35, 1), 1, t35)
-    t10 = numpy.where(numpy.less(t9, 1/32), 0, numpy.where(numpy.greater_equal(t9, 31/32), 29, numpy.floor(32*t9) - 1))
-    t11 = t10 - 32*t9
-    t12 = -t11 - 3
-    t13 = -t11 - 2
-    t14 = t11 + 1
-    t15 = (1/6)*t12*t13*t14
-    t16 = t10 + 2
-    t17 = -t14
-    t18 = (1/2)*t12
-    t19 = t11*t17*t18
-    t20 = t10 + 1
-    t21 = -t11*t13
-    t22 = t18*t21
-    t23 = t10 + 3
-    t24 = (1/6)*t17*t21
-    t25 = -t6
-    t26 = t4 + 2
-    t27 = (1/2)*t7
-    t28 = t4 + 1
-    t29 = -t5*t8
-    t30 = t4 + 3
-    return numpy.exp(t0*((1/384)*t1*((t0*t0*t0*t0)*(15 - 15*t1)*(4*t1 + 9) + t2*(t1*(20*t1 + 281) - 346) + 207)*numpy.log(1 + numpy.where(numpy.less(t0, 1.0e-30), 1.0e-30, t0)**(-1.0)) + t1*(-45/128*(t0*t0*t0) + (301/384)*t0 + (45/256)*t2 + t25*t27*t5*(t15*texel(t26, t10) + t19*texel(t26, t16) + t22*texel(t26, t20) + t24*texel(t26, t23)) + (1/6)*t25*t29*(t15*texel(t30, t10) + t19*texel(t30, t16) + t22*texel(t30, t20) + t24*texel(t30, t23)) + t27*t29*(t15*texel(t28, t10) + t19*texel(t28, t16) + t22*texel(t28, t20) + t24*texel(t28, t23)) + (1/6)*t6*t7*t8*(t15*texel(t4, t10) + t19*texel(t4, t16) + t22*texel(t4, t20) + t24*texel(t4, t23)) - 557/1536)))
+    t6 = t4 + 1
+    t7 = t4 + 2
+    t8 = t4 + 3
+    t9 = -t5 - 3
+    t10 = (1/2)*t9
+    t11 = -t5 - 2
+    t12 = -t11*t5
+    t13 = t10*t12
+    t14 = t5 + 1
+    t15 = -t14
+    t16 = (1/6)*t12*t15
+    t17 = t10*t15*t5
+    t18 = (1/6)*t11*t14*t9
+    t34 = numpy.sqrt(1 - t0)
+    t35 = numpy.where(numpy.less(t34, 0), 0, t34)
+    t19 = numpy.where(numpy.greater(t35, 1), 1, t35)
+    t20 = numpy.where(numpy.less(t19, 1/32), 0, numpy.where(numpy.greater_equal(t19, 31/32), 29, numpy.floor(32*t19) - 1))
+    t21 = -32*t19 + t20
+    t22 = t20 + 1
+    t23 = t20 + 2
+    t24 = t20 + 3
+    t25 = -t21 - 3
+    t26 = (1/2)*t25
+    t27 = -t21 - 2
+    t28 = -t21*t27
+    t29 = t21 + 1
+    t30 = -t29
+    return numpy.exp(t1*((1/384)*t0*((t1*t1*t1*t1)*(15 - 15*t0)*(4*t0 + 9) + t2*(t0*(20*t0 + 281) - 346) + 207)*numpy.log(1 + numpy.where(numpy.less(t1, 1.0e-30), 1.0e-30, t1)**(-1.0)) + t0*(-45/128*(t1*t1*t1) + (301/384)*t1 + (45/256)*t2 + t21*t26*t30*(t13*texel(t23, t6) + t16*texel(t23, t8) + t17*texel(t23, t7) + t18*texel(t23, t4)) + (1/6)*t25*t27*t29*(t13*texel(t20, t6) + t16*texel(t20, t8) + t17*texel(t20, t7) + t18*texel(t20, t4)) + t26*t28*(t13*texel(t22, t6) + t16*texel(t22, t8) + t17*texel(t22, t7) + t18*texel(t22, t4)) + (1/6)*t28*t30*(t13*texel(t24, t6) + t16*texel(t24, t8) + t17*texel(t24, t7) + t18*texel(t24, t4)) - 557/1536)))
 
 
 def h1(mu, c):
     """H1(mu, c) from the table: exp(mu (Psi1(mu) log(1 + 1/mu) + c (p1(mu) + R1(s, mu)))), R1
     read bicubic (rows 33-65). mu, c in [0, 1]."""
     mu, c = numpy.asarray(mu, dtype=float), numpy.asarray(c, dtype=float)
-    t32 = numpy.where(numpy.less(mu, 0), 0.0, mu)
+    t32 = numpy.where(numpy.less(c, 0), 0.0, c)
     t0 = numpy.where(numpy.greater(t32, 1.0), 1.0, t32)
-    t33 = numpy.where(numpy.less(c, 0), 0.0, c)
+    t33 = numpy.where(numpy.less(mu, 0), 0.0, mu)
     t1 = numpy.where(numpy.greater(t33, 1.0), 1.0, t33)
-    t2 = (t0*t0)
-    t34 = numpy.sqrt(1 - t1)
-    t35 = numpy.where(numpy.less(t34, 0), 0, t34)
-    t3 = numpy.where(numpy.greater(t35, 1), 1, t35)
+    t2 = (t1*t1)
+    t34 = numpy.where(numpy.less(t1, 0), 0, t1)
+    t3 = numpy.where(numpy.greater(t34, 1), 1, t34)
     t4 = numpy.where(numpy.less(t3, 1/32), 0, numpy.where(numpy.greater_equal(t3, 31/32), 29, numpy.floor(32*t3) - 1))
     t5 = -32*t3 + t4
-    t6 = t5 + 1
-    t7 = -t6
-    t8 = t4 + 35
-    t36 = numpy.where(numpy.less(t0, 0), 0, t0)
-    t9 = numpy.where(numpy.greater(t36, 1), 1, t36)
-    t10 = numpy.where(numpy.less(t9, 1/32), 0, numpy.where(numpy.greater_equal(t9, 31/32), 29, numpy.floor(32*t9) - 1))
-    t11 = t10 - 32*t9
-    t12 = -t11 - 3
-    t13 = -t11 - 2
-    t14 = t11 + 1
-    t15 = (1/6)*t12*t13*t14
-    t16 = t10 + 2
-    t17 = -t14
-    t18 = (1/2)*t12
-    t19 = t11*t17*t18
-    t20 = t10 + 1
-    t21 = -t11*t13
-    t22 = t18*t21
-    t23 = t10 + 3
-    t24 = (1/6)*t17*t21
-    t25 = -t5 - 3
-    t26 = (1/2)*t25
-    t27 = -t5 - 2
-    t28 = t4 + 33
-    t29 = t4 + 34
-    t30 = -t27*t5
-    t31 = t4 + 36
-    return numpy.exp(t0*(-1/192*t1*(t2 - 1)*(t2*(20*t1 + 45) - 64)*numpy.log(1 + numpy.where(numpy.less(t0, 1.0e-30), 1.0e-30, t0)**(-1.0)) + t1*((15/64)*(t0*t0*t0) - 47/96*t0 - 15/128*t2 + (1/6)*t25*t27*t6*(t15*texel(t28, t10) + t19*texel(t28, t16) + t22*texel(t28, t20) + t24*texel(t28, t23)) + t26*t30*(t15*texel(t29, t10) + t19*texel(t29, t16) + t22*texel(t29, t20) + t24*texel(t29, t23)) + t26*t5*t7*(t15*texel(t8, t10) + t19*texel(t8, t16) + t22*texel(t8, t20) + t24*texel(t8, t23)) + (1/6)*t30*t7*(t15*texel(t31, t10) + t19*texel(t31, t16) + t22*texel(t31, t20) + t24*texel(t31, t23)) + 173/768)))
+    t6 = t4 + 1
+    t7 = t4 + 2
+    t8 = t4 + 3
+    t9 = -t5 - 3
+    t10 = (1/2)*t9
+    t11 = -t5 - 2
+    t12 = -t11*t5
+    t13 = t10*t12
+    t14 = t5 + 1
+    t15 = -t14
+    t16 = (1/6)*t12*t15
+    t17 = t10*t15*t5
+    t18 = (1/6)*t11*t14*t9
+    t35 = numpy.sqrt(1 - t0)
+    t36 = numpy.where(numpy.less(t35, 0), 0, t35)
+    t19 = numpy.where(numpy.greater(t36, 1), 1, t36)
+    t20 = numpy.where(numpy.less(t19, 1/32), 0, numpy.where(numpy.greater_equal(t19, 31/32), 29, numpy.floor(32*t19) - 1))
+    t21 = -32*t19 + t20
+    t22 = t20 + 33
+    t23 = t20 + 34
+    t24 = t20 + 35
+    t25 = t20 + 36
+    t26 = -t21 - 3
+    t27 = (1/2)*t26
+    t28 = -t21 - 2
+    t29 = -t21*t28
+    t30 = t21 + 1
+    t31 = -t30
+    return numpy.exp(t1*(-1/192*t0*(t2 - 1)*(t2*(20*t0 + 45) - 64)*numpy.log(1 + numpy.where(numpy.less(t1, 1.0e-30), 1.0e-30, t1)**(-1.0)) + t0*((15/64)*(t1*t1*t1) - 47/96*t1 - 15/128*t2 + t21*t27*t31*(t13*texel(t24, t6) + t16*texel(t24, t8) + t17*texel(t24, t7) + t18*texel(t24, t4)) + (1/6)*t26*t28*t30*(t13*texel(t22, t6) + t16*texel(t22, t8) + t17*texel(t22, t7) + t18*texel(t22, t4)) + t27*t29*(t13*texel(t23, t6) + t16*texel(t23, t8) + t17*texel(t23, t7) + t18*texel(t23, t4)) + (1/6)*t29*t31*(t13*texel(t25, t6) + t16*texel(t25, t8) + t17*texel(t25, t7) + t18*texel(t25, t4)) + 173/768)))
 
 
 def h2(mu, c):
     """H2(mu, c) from the table: exp(mu (Psi2(mu) log(1 + 1/mu) + c (p2(mu) + R2(s, mu)))), R2
     read bicubic (rows 66-98). mu, c in [0, 1]."""
     mu, c = numpy.asarray(mu, dtype=float), numpy.asarray(c, dtype=float)
-    t32 = numpy.where(numpy.less(mu, 0), 0.0, mu)
+    t32 = numpy.where(numpy.less(c, 0), 0.0, c)
     t0 = numpy.where(numpy.greater(t32, 1.0), 1.0, t32)
-    t33 = numpy.where(numpy.less(c, 0), 0.0, c)
+    t33 = numpy.where(numpy.less(mu, 0), 0.0, mu)
     t1 = numpy.where(numpy.greater(t33, 1.0), 1.0, t33)
-    t2 = (t0*t0)
-    t34 = numpy.sqrt(1 - t1)
-    t35 = numpy.where(numpy.less(t34, 0), 0, t34)
-    t3 = numpy.where(numpy.greater(t35, 1), 1, t35)
+    t2 = (t1*t1)
+    t34 = numpy.where(numpy.less(t1, 0), 0, t1)
+    t3 = numpy.where(numpy.greater(t34, 1), 1, t34)
     t4 = numpy.where(numpy.less(t3, 1/32), 0, numpy.where(numpy.greater_equal(t3, 31/32), 29, numpy.floor(32*t3) - 1))
     t5 = -32*t3 + t4
-    t6 = t5 + 1
-    t7 = -t6
-    t8 = t4 + 68
-    t36 = numpy.where(numpy.less(t0, 0), 0, t0)
-    t9 = numpy.where(numpy.greater(t36, 1), 1, t36)
-    t10 = numpy.where(numpy.less(t9, 1/32), 0, numpy.where(numpy.greater_equal(t9, 31/32), 29, numpy.floor(32*t9) - 1))
-    t11 = t10 - 32*t9
-    t12 = -t11 - 3
-    t13 = -t11 - 2
-    t14 = t11 + 1
-    t15 = (1/6)*t12*t13*t14
-    t16 = t10 + 2
-    t17 = -t14
-    t18 = (1/2)*t12
-    t19 = t11*t17*t18
-    t20 = t10 + 1
-    t21 = -t11*t13
-    t22 = t18*t21
-    t23 = t10 + 3
-    t24 = (1/6)*t17*t21
-    t25 = -t5 - 3
-    t26 = (1/2)*t25
-    t27 = -t5 - 2
-    t28 = t4 + 66
-    t29 = t4 + 67
-    t30 = -t27*t5
-    t31 = t4 + 69
-    return numpy.exp(t0*((15/256)*t1*((t2 - 1)*(t2 - 1))*numpy.log(1 + numpy.where(numpy.less(t0, 1.0e-30), 1.0e-30, t0)**(-1.0)) + t1*(-15/256*(t0*t0*t0) + (25/256)*t0 + (15/512)*t2 + (1/6)*t25*t27*t6*(t15*texel(t28, t10) + t19*texel(t28, t16) + t22*texel(t28, t20) + t24*texel(t28, t23)) + t26*t30*(t15*texel(t29, t10) + t19*texel(t29, t16) + t22*texel(t29, t20) + t24*texel(t29, t23)) + t26*t5*t7*(t15*texel(t8, t10) + t19*texel(t8, t16) + t22*texel(t8, t20) + t24*texel(t8, t23)) + (1/6)*t30*t7*(t15*texel(t31, t10) + t19*texel(t31, t16) + t22*texel(t31, t20) + t24*texel(t31, t23)) - 45/1024)))
+    t6 = t4 + 1
+    t7 = t4 + 2
+    t8 = t4 + 3
+    t9 = -t5 - 3
+    t10 = (1/2)*t9
+    t11 = -t5 - 2
+    t12 = -t11*t5
+    t13 = t10*t12
+    t14 = t5 + 1
+    t15 = -t14
+    t16 = (1/6)*t12*t15
+    t17 = t10*t15*t5
+    t18 = (1/6)*t11*t14*t9
+    t35 = numpy.sqrt(1 - t0)
+    t36 = numpy.where(numpy.less(t35, 0), 0, t35)
+    t19 = numpy.where(numpy.greater(t36, 1), 1, t36)
+    t20 = numpy.where(numpy.less(t19, 1/32), 0, numpy.where(numpy.greater_equal(t19, 31/32), 29, numpy.floor(32*t19) - 1))
+    t21 = -32*t19 + t20
+    t22 = t20 + 66
+    t23 = t20 + 67
+    t24 = t20 + 68
+    t25 = t20 + 69
+    t26 = -t21 - 3
+    t27 = (1/2)*t26
+    t28 = -t21 - 2
+    t29 = -t21*t28
+    t30 = t21 + 1
+    t31 = -t30
+    return numpy.exp(t1*((15/256)*t0*((t2 - 1)*(t2 - 1))*numpy.log(1 + numpy.where(numpy.less(t1, 1.0e-30), 1.0e-30, t1)**(-1.0)) + t0*(-15/256*(t1*t1*t1) + (25/256)*t1 + (15/512)*t2 + t21*t27*t31*(t13*texel(t24, t6) + t16*texel(t24, t8) + t17*texel(t24, t7) + t18*texel(t24, t4)) + (1/6)*t26*t28*t30*(t13*texel(t22, t6) + t16*texel(t22, t8) + t17*texel(t22, t7) + t18*texel(t22, t4)) + t27*t29*(t13*texel(t23, t6) + t16*texel(t23, t8) + t17*texel(t23, t7) + t18*texel(t23, t4)) + (1/6)*t29*t31*(t13*texel(t25, t6) + t16*texel(t25, t8) + t17*texel(t25, t7) + t18*texel(t25, t4)) - 45/1024)))
 
 
 def const_l(c):
@@ -166,13 +166,13 @@ def const_l(c):
     t0 = numpy.where(numpy.greater(t11, 1), 1, t11)
     t1 = numpy.where(numpy.less(t0, 1/32), 0, numpy.where(numpy.greater_equal(t0, 31/32), 29, numpy.floor(32*t0) - 1))
     t2 = -32*t0 + t1
-    t3 = t2 + 1
-    t4 = -t2 - 3
+    t3 = -t2 - 3
+    t4 = (1/2)*t3
     t5 = -t2 - 2
-    t6 = -t3
-    t7 = (1/2)*t4
-    t8 = -t2*t5
-    return t2*t6*t7*texel(99, t1 + 2) + (1/6)*t3*t4*t5*texel(99, t1) + (1/6)*t6*t8*texel(99, t1 + 3) + t7*t8*texel(99, t1 + 1)
+    t6 = -t2*t5
+    t7 = t2 + 1
+    t8 = -t7
+    return t2*t4*t8*texel(99, t1 + 2) + (1/6)*t3*t5*t7*texel(99, t1) + t4*t6*texel(99, t1 + 1) + (1/6)*t6*t8*texel(99, t1 + 3)
 
 
 def const_m(c):
@@ -185,13 +185,13 @@ def const_m(c):
     t0 = numpy.where(numpy.greater(t11, 1), 1, t11)
     t1 = numpy.where(numpy.less(t0, 1/32), 0, numpy.where(numpy.greater_equal(t0, 31/32), 29, numpy.floor(32*t0) - 1))
     t2 = -32*t0 + t1
-    t3 = t2 + 1
-    t4 = -t2 - 3
+    t3 = -t2 - 3
+    t4 = (1/2)*t3
     t5 = -t2 - 2
-    t6 = -t3
-    t7 = (1/2)*t4
-    t8 = -t2*t5
-    return t2*t6*t7*texel(100, t1 + 2) + (1/6)*t3*t4*t5*texel(100, t1) + (1/6)*t6*t8*texel(100, t1 + 3) + t7*t8*texel(100, t1 + 1) + 1
+    t6 = -t2*t5
+    t7 = t2 + 1
+    t8 = -t7
+    return t2*t4*t8*texel(100, t1 + 2) + (1/6)*t3*t5*t7*texel(100, t1) + t4*t6*texel(100, t1 + 1) + (1/6)*t6*t8*texel(100, t1 + 3) + 1
 
 
 def const_b(c):
@@ -205,13 +205,13 @@ def const_b(c):
     t1 = numpy.where(numpy.greater(t12, 1), 1, t12)
     t2 = numpy.where(numpy.less(t1, 1/32), 0, numpy.where(numpy.greater_equal(t1, 31/32), 29, numpy.floor(32*t1) - 1))
     t3 = -32*t1 + t2
-    t4 = t3 + 1
-    t5 = -t3 - 3
+    t4 = -t3 - 3
+    t5 = (1/2)*t4
     t6 = -t3 - 2
-    t7 = -t4
-    t8 = (1/2)*t5
-    t9 = -t3*t6
-    return t0*(t3*t7*t8*texel(101, t2 + 2) + (1/6)*t4*t5*t6*texel(101, t2) + (1/6)*t7*t9*texel(101, t2 + 3) + t8*t9*texel(101, t2 + 1))
+    t7 = -t3*t6
+    t8 = t3 + 1
+    t9 = -t8
+    return t0*(t3*t5*t9*texel(101, t2 + 2) + (1/6)*t4*t6*t8*texel(101, t2) + t5*t7*texel(101, t2 + 1) + (1/6)*t7*t9*texel(101, t2 + 3))
 
 
 def const_c(c):
@@ -225,13 +225,13 @@ def const_c(c):
     t1 = numpy.where(numpy.greater(t12, 1), 1, t12)
     t2 = numpy.where(numpy.less(t1, 1/32), 0, numpy.where(numpy.greater_equal(t1, 31/32), 29, numpy.floor(32*t1) - 1))
     t3 = -32*t1 + t2
-    t4 = t3 + 1
-    t5 = -t3 - 3
+    t4 = -t3 - 3
+    t5 = (1/2)*t4
     t6 = -t3 - 2
-    t7 = -t4
-    t8 = (1/2)*t5
-    t9 = -t3*t6
-    return t0*(t3*t7*t8*texel(102, t2 + 2) + (1/6)*t4*t5*t6*texel(102, t2) + (1/6)*t7*t9*texel(102, t2 + 3) + t8*t9*texel(102, t2 + 1) + 2/3)
+    t7 = -t3*t6
+    t8 = t3 + 1
+    t9 = -t8
+    return t0*(t3*t5*t9*texel(102, t2 + 2) + (1/6)*t4*t6*t8*texel(102, t2) + t5*t7*texel(102, t2 + 1) + (1/6)*t7*t9*texel(102, t2 + 3) + 2/3)
 
 
 def const_d(c):
@@ -245,13 +245,13 @@ def const_d(c):
     t1 = numpy.where(numpy.greater(t12, 1), 1, t12)
     t2 = numpy.where(numpy.less(t1, 1/32), 0, numpy.where(numpy.greater_equal(t1, 31/32), 29, numpy.floor(32*t1) - 1))
     t3 = -32*t1 + t2
-    t4 = t3 + 1
-    t5 = -t3 - 3
+    t4 = -t3 - 3
+    t5 = (1/2)*t4
     t6 = -t3 - 2
-    t7 = -t4
-    t8 = (1/2)*t5
-    t9 = -t3*t6
-    return t0*(t3*t7*t8*texel(103, t2 + 2) + (1/6)*t4*t5*t6*texel(103, t2) + (1/6)*t7*t9*texel(103, t2 + 3) + t8*t9*texel(103, t2 + 1))
+    t7 = -t3*t6
+    t8 = t3 + 1
+    t9 = -t8
+    return t0*(t3*t5*t9*texel(103, t2 + 2) + (1/6)*t4*t6*t8*texel(103, t2) + t5*t7*texel(103, t2 + 1) + (1/6)*t7*t9*texel(103, t2 + 3))
 
 
 def const_f(c):
@@ -265,13 +265,13 @@ def const_f(c):
     t1 = numpy.where(numpy.greater(t12, 1), 1, t12)
     t2 = numpy.where(numpy.less(t1, 1/32), 0, numpy.where(numpy.greater_equal(t1, 31/32), 29, numpy.floor(32*t1) - 1))
     t3 = -32*t1 + t2
-    t4 = t3 + 1
-    t5 = -t3 - 3
+    t4 = -t3 - 3
+    t5 = (1/2)*t4
     t6 = -t3 - 2
-    t7 = -t4
-    t8 = (1/2)*t5
-    t9 = -t3*t6
-    return t0*(t3*t7*t8*texel(104, t2 + 2) + (1/6)*t4*t5*t6*texel(104, t2) + (1/6)*t7*t9*texel(104, t2 + 3) + t8*t9*texel(104, t2 + 1) - 15/128)
+    t7 = -t3*t6
+    t8 = t3 + 1
+    t9 = -t8
+    return t0*(t3*t5*t9*texel(104, t2 + 2) + (1/6)*t4*t6*t8*texel(104, t2) + t5*t7*texel(104, t2 + 1) + (1/6)*t7*t9*texel(104, t2 + 3) - 15/128)
 
 
 def c_of_kd(kd):
@@ -284,13 +284,13 @@ def c_of_kd(kd):
     t1 = numpy.where(numpy.greater(t11, 1), 1, t11)
     t2 = numpy.where(numpy.less(t1, 1/32), 0, numpy.where(numpy.greater_equal(t1, 31/32), 29, numpy.floor(32*t1) - 1))
     t3 = -32*t1 + t2
-    t4 = t3 + 1
-    t5 = -t3 - 3
+    t4 = -t3 - 3
+    t5 = (1/2)*t4
     t6 = -t3 - 2
-    t7 = -t4
-    t8 = (1/2)*t5
-    t9 = -t3*t6
-    return t0/(t3*t7*t8*texel(105, t2 + 2) + (1/6)*t4*t5*t6*texel(105, t2) + (1/6)*t7*t9*texel(105, t2 + 3) + t8*t9*texel(105, t2 + 1))
+    t7 = -t3*t6
+    t8 = t3 + 1
+    t9 = -t8
+    return t0/(t3*t5*t9*texel(105, t2 + 2) + (1/6)*t4*t6*t8*texel(105, t2) + t5*t7*texel(105, t2 + 1) + (1/6)*t7*t9*texel(105, t2 + 3))
 
 
 def single(mu_i, mu_o, cos_phi, c):
@@ -302,24 +302,24 @@ def single(mu_i, mu_o, cos_phi, c):
     mu_i, mu_o, cos_phi, c = numpy.asarray(mu_i, dtype=float), numpy.asarray(mu_o, dtype=float), numpy.asarray(cos_phi, dtype=float), numpy.asarray(c, dtype=float)
     t13 = numpy.where(numpy.less(mu_i, 0), 0.0, mu_i)
     t0 = numpy.where(numpy.greater(t13, 1.0), 1.0, t13)
+    t1 = (t0*t0)
+    t2 = 1 - t1
     t14 = numpy.where(numpy.less(mu_o, 0), 0.0, mu_o)
-    t1 = numpy.where(numpy.greater(t14, 1.0), 1.0, t14)
-    t2 = (t0*t0)
-    t3 = 1 - t2
-    t4 = (t1*t1)
-    t5 = numpy.sqrt(t3*(1 - t4))
+    t3 = numpy.where(numpy.greater(t14, 1.0), 1.0, t14)
+    t4 = (t3*t3)
+    t5 = numpy.sqrt(t2*(1 - t4))
     t15 = numpy.where(numpy.less(cos_phi, -1.0), -1.0, cos_phi)
-    t16 = (1/2)*t0*t1 + (1/2)*t5*(numpy.where(numpy.greater(t15, 1.0), 1.0, t15) + 1) + (1/2)*(t2 + t3*t4)/(t5 + 1)
+    t16 = (1/2)*t0*t3 + (1/2)*t5*(numpy.where(numpy.greater(t15, 1.0), 1.0, t15) + 1) + (1/2)*(t1 + t2*t4)/(t5 + 1)
     t6 = numpy.where(numpy.less(t16, 0), 0, t16)
     t7 = numpy.where(numpy.greater(t6, 1), 1, t6)
     t8 = 1 - t7
     t9 = numpy.arcsin(numpy.sqrt(numpy.where(numpy.greater(t6, t8), t8, numpy.where(numpy.less_equal(t6, t8), t6, t6 + t8))))
-    t10 = (t9*t9)
-    t11 = 4*t10
-    t12 = 2*t9
-    t17 = t0 + t1
+    t10 = 2*t9
+    t11 = (t9*t9)
+    t12 = 4*t11
+    t17 = t0 + t3
     t18 = numpy.where(numpy.less(c, 0), 0.0, c)
-    return (2/3)*numpy.where(numpy.less(t7, 1/16), 8*(t9*t9*t9)*(t11*(t11*(t11*(t11*(t11*((1/23351328000)*t10 - 1/518918400) + 1/3991680) - 1/45360) + 1/840) - 1/30) + 1/3), 2*numpy.sqrt(t7)*numpy.sqrt(t8) - (1 - 2*t7)*numpy.where(numpy.less(t7, 1/2), t12, 3.141592653589793238 - t12))*numpy.where(numpy.greater(t18, 1.0), 1.0, t18)/((3.141592653589793238*3.141592653589793238)*numpy.where(numpy.less(t17, 1/1000000), 1/1000000, t17))
+    return (2/3)*numpy.where(numpy.less(t7, 1/16), 8*(t9*t9*t9)*(t12*(t12*(t12*(t12*(t12*((1/23351328000)*t11 - 1/518918400) + 1/3991680) - 1/45360) + 1/840) - 1/30) + 1/3), 2*numpy.sqrt(t7)*numpy.sqrt(t8) - (1 - 2*t7)*numpy.where(numpy.less(t7, 1/2), t10, 3.141592653589793238 - t10))*numpy.where(numpy.greater(t18, 1.0), 1.0, t18)/((3.141592653589793238*3.141592653589793238)*numpy.where(numpy.less(t17, 1/1000000), 1/1000000, t17))
 
 
 def fm0(mu_i, mu_o, c):
@@ -327,73 +327,73 @@ def fm0(mu_i, mu_o, c):
     30, 38), evaluated as ((H0 H0 - 1) Q + (Q - Q_ss))/(2 pi (mu_i + mu_o)), Q_ss = 2 pi
     n0_ss, without cancellation at grazing and small c. Pole floored at 1e-6."""
     mu_i, mu_o, c = numpy.asarray(mu_i, dtype=float), numpy.asarray(mu_o, dtype=float), numpy.asarray(c, dtype=float)
-    t59 = numpy.where(numpy.less(mu_i, 0), 0.0, mu_i)
+    t59 = numpy.where(numpy.less(c, 0), 0.0, c)
     t0 = numpy.where(numpy.greater(t59, 1.0), 1.0, t59)
-    t60 = numpy.where(numpy.less(mu_o, 0), 0.0, mu_o)
-    t1 = numpy.where(numpy.greater(t60, 1.0), 1.0, t60)
-    t2 = t0 + t1
-    t61 = numpy.where(numpy.less(c, 0), 0.0, c)
-    t3 = numpy.where(numpy.greater(t61, 1.0), 1.0, t61)
-    t4 = (t0*t0)
-    t5 = (t1*t1)
-    t6 = t4*t5
-    t62 = numpy.sqrt(1 - t3)
-    t63 = numpy.where(numpy.less(t62, 0), 0, t62)
-    t7 = numpy.where(numpy.greater(t63, 1), 1, t63)
-    t8 = numpy.where(numpy.less(t7, 1/32), 0, numpy.where(numpy.greater_equal(t7, 31/32), 29, numpy.floor(32*t7) - 1))
-    t9 = -32*t7 + t8
-    t10 = t9 + 1
-    t11 = -t9 - 3
-    t12 = -t9 - 2
-    t13 = t8 + 2
-    t14 = -t10
-    t15 = t8 + 1
-    t16 = -t9
-    t17 = t8 + 3
-    t18 = t0*t1*t2*const_d(t3) + t0*t1*((1/6)*t10*t11*t12*t3*texel(102, t8) + (1/2)*t11*t12*t16*t3*texel(102, t15) + (1/2)*t11*t14*t3*t9*texel(102, t13) + (1/6)*t12*t14*t16*t3*texel(102, t17)) + t2*const_b(t3) + t6*(-5/32*(t3*t3*t3) - 25/128*(t3*t3)) + (t4 + t5)*((1/6)*t10*t11*t12*t3*texel(104, t8) + (1/2)*t11*t12*t16*t3*texel(104, t15) + (1/2)*t11*t14*t3*t9*texel(104, t13) + (1/6)*t12*t14*t16*t3*texel(104, t17))
-    t19 = t3*(20*t3 + 281) - 346
-    t20 = (15 - 15*t3)*(4*t3 + 9)
-    t64 = numpy.where(numpy.less(t0, 0), 0, t0)
-    t21 = numpy.where(numpy.greater(t64, 1), 1, t64)
-    t22 = numpy.where(numpy.less(t21, 1/32), 0, numpy.where(numpy.greater_equal(t21, 31/32), 29, numpy.floor(32*t21) - 1))
-    t23 = -32*t21 + t22
-    t24 = -t23 - 3
-    t25 = -t23 - 2
-    t26 = t23 + 1
-    t27 = (1/6)*t24*t25*t26
-    t28 = t22 + 2
-    t29 = -t26
-    t30 = (1/2)*t24
-    t31 = t23*t29*t30
-    t32 = t22 + 1
-    t33 = -t23*t25
-    t34 = t30*t33
-    t35 = t22 + 3
-    t36 = (1/6)*t29*t33
-    t37 = (1/6)*t10*t11*t12
-    t38 = (1/2)*t11
-    t39 = t14*t38*t9
-    t40 = t12*t16
-    t41 = t38*t40
-    t42 = (1/6)*t14*t40
-    t65 = numpy.where(numpy.less(t1, 0), 0, t1)
+    t1 = (15 - 15*t0)*(4*t0 + 9)
+    t2 = t0*(20*t0 + 281) - 346
+    t60 = numpy.sqrt(1 - t0)
+    t61 = numpy.where(numpy.less(t60, 0), 0, t60)
+    t3 = numpy.where(numpy.greater(t61, 1), 1, t61)
+    t4 = numpy.where(numpy.less(t3, 1/32), 0, numpy.where(numpy.greater_equal(t3, 31/32), 29, numpy.floor(32*t3) - 1))
+    t5 = -32*t3 + t4
+    t6 = -t5
+    t7 = t4 + 1
+    t8 = t4 + 2
+    t9 = t4 + 3
+    t10 = -t5 - 3
+    t11 = (1/2)*t10
+    t12 = -t5 - 2
+    t13 = t12*t6
+    t14 = t11*t13
+    t15 = t5 + 1
+    t16 = -t15
+    t17 = (1/6)*t13*t16
+    t18 = (1/6)*t10*t12*t15
+    t19 = t11*t16*t5
+    t62 = numpy.where(numpy.less(mu_i, 0), 0.0, mu_i)
+    t20 = numpy.where(numpy.greater(t62, 1.0), 1.0, t62)
+    t21 = (t20*t20)
+    t63 = numpy.where(numpy.less(mu_o, 0), 0.0, mu_o)
+    t22 = numpy.where(numpy.greater(t63, 1.0), 1.0, t63)
+    t23 = (t22*t22)
+    t24 = t21*t23
+    t25 = t20 + t22
+    t26 = t20*t22*t25*const_d(t0) + t20*t22*((1/6)*t0*t10*t12*t15*texel(102, t4) + (1/2)*t0*t10*t12*t6*texel(102, t7) + (1/2)*t0*t10*t16*t5*texel(102, t8) + (1/6)*t0*t12*t16*t6*texel(102, t9)) + t24*(-5/32*(t0*t0*t0) - 25/128*(t0*t0)) + t25*const_b(t0) + (t21 + t23)*((1/6)*t0*t10*t12*t15*texel(104, t4) + (1/2)*t0*t10*t12*t6*texel(104, t7) + (1/2)*t0*t10*t16*t5*texel(104, t8) + (1/6)*t0*t12*t16*t6*texel(104, t9))
+    t64 = numpy.where(numpy.less(t20, 0), 0, t20)
+    t27 = numpy.where(numpy.greater(t64, 1), 1, t64)
+    t28 = numpy.where(numpy.less(t27, 1/32), 0, numpy.where(numpy.greater_equal(t27, 31/32), 29, numpy.floor(32*t27) - 1))
+    t29 = -32*t27 + t28
+    t30 = t28 + 1
+    t31 = t28 + 2
+    t32 = t28 + 3
+    t33 = -t29 - 3
+    t34 = (1/2)*t33
+    t35 = -t29 - 2
+    t36 = -t29*t35
+    t37 = t34*t36
+    t38 = t29 + 1
+    t39 = -t38
+    t40 = (1/6)*t36*t39
+    t41 = t29*t34*t39
+    t42 = (1/6)*t33*t35*t38
+    t65 = numpy.where(numpy.less(t22, 0), 0, t22)
     t43 = numpy.where(numpy.greater(t65, 1), 1, t65)
     t44 = numpy.where(numpy.less(t43, 1/32), 0, numpy.where(numpy.greater_equal(t43, 31/32), 29, numpy.floor(32*t43) - 1))
     t45 = -32*t43 + t44
-    t46 = -t45 - 3
-    t47 = -t45 - 2
-    t48 = t45 + 1
-    t49 = (1/6)*t46*t47*t48
-    t50 = t44 + 2
-    t51 = -t48
-    t52 = (1/2)*t46
-    t53 = t45*t51*t52
-    t54 = t44 + 1
-    t55 = -t45*t47
-    t56 = t52*t55
-    t57 = t44 + 3
-    t58 = (1/6)*t51*t55
-    return (1/2)*(t18 + (t18 + (1/384)*t3*(256*t0*t1 - 45*t4 - 45*t5 + 135*t6 + 207))*numpy.expm1(t0*((1/384)*t3*((t0*t0*t0*t0)*t20 + t19*t4 + 207)*numpy.log(1 + numpy.where(numpy.less(t0, 1.0e-30), 1.0e-30, t0)**(-1.0)) + t3*(-45/128*(t0*t0*t0) + (301/384)*t0 + t37*(t27*texel(t8, t22) + t31*texel(t8, t28) + t34*texel(t8, t32) + t36*texel(t8, t35)) + t39*(t27*texel(t13, t22) + t31*texel(t13, t28) + t34*texel(t13, t32) + t36*texel(t13, t35)) + (45/256)*t4 + t41*(t27*texel(t15, t22) + t31*texel(t15, t28) + t34*texel(t15, t32) + t36*texel(t15, t35)) + t42*(t27*texel(t17, t22) + t31*texel(t17, t28) + t34*texel(t17, t32) + t36*texel(t17, t35)) - 557/1536)) + t1*((1/384)*t3*((t1*t1*t1*t1)*t20 + t19*t5 + 207)*numpy.log(1 + numpy.where(numpy.less(t1, 1.0e-30), 1.0e-30, t1)**(-1.0)) + t3*(-45/128*(t1*t1*t1) + (301/384)*t1 + t37*(t49*texel(t8, t44) + t53*texel(t8, t50) + t56*texel(t8, t54) + t58*texel(t8, t57)) + t39*(t49*texel(t13, t44) + t53*texel(t13, t50) + t56*texel(t13, t54) + t58*texel(t13, t57)) + t41*(t49*texel(t15, t44) + t53*texel(t15, t50) + t56*texel(t15, t54) + t58*texel(t15, t57)) + t42*(t49*texel(t17, t44) + t53*texel(t17, t50) + t56*texel(t17, t54) + t58*texel(t17, t57)) + (45/256)*t5 - 557/1536))))/(3.141592653589793238*numpy.where(numpy.less(t2, 1/1000000), 1/1000000, t2))
+    t46 = t44 + 1
+    t47 = t44 + 2
+    t48 = t44 + 3
+    t49 = -t45 - 3
+    t50 = (1/2)*t49
+    t51 = -t45 - 2
+    t52 = -t45*t51
+    t53 = t50*t52
+    t54 = t45 + 1
+    t55 = -t54
+    t56 = (1/6)*t52*t55
+    t57 = t45*t50*t55
+    t58 = (1/6)*t49*t51*t54
+    return (1/2)*(t26 + ((1/384)*t0*(256*t20*t22 - 45*t21 - 45*t23 + 135*t24 + 207) + t26)*numpy.expm1(t20*((1/384)*t0*(t1*(t20*t20*t20*t20) + t2*t21 + 207)*numpy.log(1 + numpy.where(numpy.less(t20, 1.0e-30), 1.0e-30, t20)**(-1.0)) + t0*(t14*(t37*texel(t7, t30) + t40*texel(t7, t32) + t41*texel(t7, t31) + t42*texel(t7, t28)) + t17*(t37*texel(t9, t30) + t40*texel(t9, t32) + t41*texel(t9, t31) + t42*texel(t9, t28)) + t18*(t37*texel(t4, t30) + t40*texel(t4, t32) + t41*texel(t4, t31) + t42*texel(t4, t28)) + t19*(t37*texel(t8, t30) + t40*texel(t8, t32) + t41*texel(t8, t31) + t42*texel(t8, t28)) - 45/128*(t20*t20*t20) + (301/384)*t20 + (45/256)*t21 - 557/1536)) + t22*((1/384)*t0*(t1*(t22*t22*t22*t22) + t2*t23 + 207)*numpy.log(1 + numpy.where(numpy.less(t22, 1.0e-30), 1.0e-30, t22)**(-1.0)) + t0*(t14*(t53*texel(t7, t46) + t56*texel(t7, t48) + t57*texel(t7, t47) + t58*texel(t7, t44)) + t17*(t53*texel(t9, t46) + t56*texel(t9, t48) + t57*texel(t9, t47) + t58*texel(t9, t44)) + t18*(t53*texel(t4, t46) + t56*texel(t4, t48) + t57*texel(t4, t47) + t58*texel(t4, t44)) + t19*(t53*texel(t8, t46) + t56*texel(t8, t48) + t57*texel(t8, t47) + t58*texel(t8, t44)) - 45/128*(t22*t22*t22) + (301/384)*t22 + (45/256)*t23 - 557/1536))))/(3.141592653589793238*numpy.where(numpy.less(t25, 1/1000000), 1/1000000, t25))
 
 
 def fm1(mu_i, mu_o, c):
@@ -404,79 +404,79 @@ def fm1(mu_i, mu_o, c):
     mu_i, mu_o, c = numpy.asarray(mu_i, dtype=float), numpy.asarray(mu_o, dtype=float), numpy.asarray(c, dtype=float)
     t67 = numpy.where(numpy.less(c, 0), 0.0, c)
     t0 = numpy.where(numpy.greater(t67, 1.0), 1.0, t67)
+    t1 = 20*t0 + 45
+    t2 = const_l(t0)
     t68 = numpy.where(numpy.less(mu_i, 0), 0.0, mu_i)
-    t1 = numpy.where(numpy.greater(t68, 1.0), 1.0, t68)
-    t69 = numpy.where(numpy.less(mu_o, 0), 0.0, mu_o)
-    t2 = numpy.where(numpy.greater(t69, 1.0), 1.0, t69)
-    t3 = t1 + t2
-    t4 = (t1*t1)
+    t3 = numpy.where(numpy.greater(t68, 1.0), 1.0, t68)
+    t4 = (t3*t3)
     t5 = t4 - 1
-    t6 = (t2*t2)
-    t7 = t6 - 1
-    t8 = const_l(t0)
+    t69 = numpy.where(numpy.less(t3, 0), 0, t3)
+    t6 = numpy.where(numpy.greater(t69, 1), 1, t69)
+    t7 = numpy.where(numpy.less(t6, 1/32), 0, numpy.where(numpy.greater_equal(t6, 31/32), 29, numpy.floor(32*t6) - 1))
+    t8 = -32*t6 + t7
+    t9 = t7 + 1
+    t10 = t7 + 2
+    t11 = t7 + 3
+    t12 = -t8 - 3
+    t13 = (1/2)*t12
+    t14 = -t8 - 2
+    t15 = -t14*t8
+    t16 = t13*t15
+    t17 = t8 + 1
+    t18 = -t17
+    t19 = (1/6)*t15*t18
+    t20 = (1/6)*t12*t14*t17
+    t21 = t13*t18*t8
     t70 = numpy.sqrt(1 - t0)
     t71 = numpy.where(numpy.less(t70, 0), 0, t70)
-    t9 = numpy.where(numpy.greater(t71, 1), 1, t71)
-    t10 = numpy.where(numpy.less(t9, 1/32), 0, numpy.where(numpy.greater_equal(t9, 31/32), 29, numpy.floor(32*t9) - 1))
-    t11 = t10 - 32*t9
-    t12 = -t11 - 2
-    t13 = (15/128)*t12
-    t14 = t11 + 1
-    t15 = -t11 - 3
-    t16 = t14*t15
-    t17 = (45/128)*t15
-    t18 = -t14
-    t19 = t11*t18
-    t20 = -t11
-    t21 = t12*t20
-    t22 = t18*t20
-    t23 = t1*t2*(t13*t16*texel(100, t10) + t13*t22*texel(100, t10 + 3) + t17*t19*texel(100, t10 + 2) + t17*t21*texel(100, t10 + 1) + (t8*t8)) + t3*t8
-    t24 = 20*t0 + 45
-    t25 = t10 + 35
-    t72 = numpy.where(numpy.less(t1, 0), 0, t1)
-    t26 = numpy.where(numpy.greater(t72, 1), 1, t72)
-    t27 = numpy.where(numpy.less(t26, 1/32), 0, numpy.where(numpy.greater_equal(t26, 31/32), 29, numpy.floor(32*t26) - 1))
-    t28 = -32*t26 + t27
-    t29 = -t28 - 3
-    t30 = -t28 - 2
-    t31 = t28 + 1
-    t32 = (1/6)*t29*t30*t31
-    t33 = t27 + 2
-    t34 = -t31
-    t35 = (1/2)*t29
-    t36 = t28*t34*t35
-    t37 = t27 + 1
-    t38 = -t28*t30
-    t39 = t35*t38
-    t40 = t27 + 3
-    t41 = (1/6)*t34*t38
-    t42 = (1/2)*t15
-    t43 = t19*t42
-    t44 = t10 + 33
-    t45 = (1/6)*t12
-    t46 = t16*t45
-    t47 = t10 + 34
-    t48 = t21*t42
-    t49 = t10 + 36
-    t50 = t22*t45
-    t73 = numpy.where(numpy.less(t2, 0), 0, t2)
+    t22 = numpy.where(numpy.greater(t71, 1), 1, t71)
+    t23 = numpy.where(numpy.less(t22, 1/32), 0, numpy.where(numpy.greater_equal(t22, 31/32), 29, numpy.floor(32*t22) - 1))
+    t24 = -32*t22 + t23
+    t25 = -t24
+    t26 = t23 + 33
+    t27 = t23 + 34
+    t28 = t23 + 35
+    t29 = t23 + 36
+    t30 = -t24 - 3
+    t31 = (45/128)*t30
+    t32 = (1/2)*t30
+    t33 = -t24 - 2
+    t34 = (15/128)*t33
+    t35 = (1/6)*t33
+    t36 = t25*t33
+    t37 = t32*t36
+    t38 = t24 + 1
+    t39 = -t38
+    t40 = t24*t39
+    t41 = t25*t39
+    t42 = t30*t38
+    t43 = t32*t40
+    t44 = t35*t41
+    t45 = t35*t42
+    t72 = numpy.where(numpy.less(mu_o, 0), 0.0, mu_o)
+    t46 = numpy.where(numpy.greater(t72, 1.0), 1.0, t72)
+    t47 = (t46*t46)
+    t48 = t3 + t46
+    t49 = t47 - 1
+    t50 = t2*t48 + t3*t46*((t2*t2) + t31*t36*texel(100, t23 + 1) + t31*t40*texel(100, t23 + 2) + t34*t41*texel(100, t23 + 3) + t34*t42*texel(100, t23))
+    t73 = numpy.where(numpy.less(t46, 0), 0, t46)
     t51 = numpy.where(numpy.greater(t73, 1), 1, t73)
     t52 = numpy.where(numpy.less(t51, 1/32), 0, numpy.where(numpy.greater_equal(t51, 31/32), 29, numpy.floor(32*t51) - 1))
     t53 = -32*t51 + t52
-    t54 = -t53 - 3
-    t55 = -t53 - 2
-    t56 = t53 + 1
-    t57 = (1/6)*t54*t55*t56
-    t58 = t52 + 2
-    t59 = -t56
-    t60 = (1/2)*t54
-    t61 = t53*t59*t60
-    t62 = t52 + 1
-    t63 = -t53*t55
-    t64 = t60*t63
-    t65 = t52 + 3
-    t66 = (1/6)*t59*t63
-    return (1/3)*t0*numpy.sqrt(t5*t7)*(t23 + ((45/64)*t1*t2 + t23 + 1)*numpy.expm1(t1*(-1/192*t0*t5*(t24*t4 - 64)*numpy.log(1 + numpy.where(numpy.less(t1, 1.0e-30), 1.0e-30, t1)**(-1.0)) + t0*((15/64)*(t1*t1*t1) - 47/96*t1 - 15/128*t4 + t43*(t32*texel(t25, t27) + t36*texel(t25, t33) + t39*texel(t25, t37) + t41*texel(t25, t40)) + t46*(t32*texel(t44, t27) + t36*texel(t44, t33) + t39*texel(t44, t37) + t41*texel(t44, t40)) + t48*(t32*texel(t47, t27) + t36*texel(t47, t33) + t39*texel(t47, t37) + t41*texel(t47, t40)) + t50*(t32*texel(t49, t27) + t36*texel(t49, t33) + t39*texel(t49, t37) + t41*texel(t49, t40)) + 173/768)) + t2*(-1/192*t0*t7*(t24*t6 - 64)*numpy.log(1 + numpy.where(numpy.less(t2, 1.0e-30), 1.0e-30, t2)**(-1.0)) + t0*((15/64)*(t2*t2*t2) - 47/96*t2 + t43*(t57*texel(t25, t52) + t61*texel(t25, t58) + t64*texel(t25, t62) + t66*texel(t25, t65)) + t46*(t57*texel(t44, t52) + t61*texel(t44, t58) + t64*texel(t44, t62) + t66*texel(t44, t65)) + t48*(t57*texel(t47, t52) + t61*texel(t47, t58) + t64*texel(t47, t62) + t66*texel(t47, t65)) + t50*(t57*texel(t49, t52) + t61*texel(t49, t58) + t64*texel(t49, t62) + t66*texel(t49, t65)) - 15/128*t6 + 173/768))))/(3.141592653589793238*numpy.where(numpy.less(t3, 1/1000000), 1/1000000, t3))
+    t54 = t52 + 1
+    t55 = t52 + 2
+    t56 = t52 + 3
+    t57 = -t53 - 3
+    t58 = (1/2)*t57
+    t59 = -t53 - 2
+    t60 = -t53*t59
+    t61 = t58*t60
+    t62 = t53 + 1
+    t63 = -t62
+    t64 = (1/6)*t60*t63
+    t65 = t53*t58*t63
+    t66 = (1/6)*t57*t59*t62
+    return (1/3)*t0*numpy.sqrt(t49*t5)*(t50 + ((45/64)*t3*t46 + t50 + 1)*numpy.expm1(t3*(-1/192*t0*t5*(t1*t4 - 64)*numpy.log(1 + numpy.where(numpy.less(t3, 1.0e-30), 1.0e-30, t3)**(-1.0)) + t0*((15/64)*(t3*t3*t3) - 47/96*t3 + t37*(t16*texel(t27, t9) + t19*texel(t27, t11) + t20*texel(t27, t7) + t21*texel(t27, t10)) - 15/128*t4 + t43*(t16*texel(t28, t9) + t19*texel(t28, t11) + t20*texel(t28, t7) + t21*texel(t28, t10)) + t44*(t16*texel(t29, t9) + t19*texel(t29, t11) + t20*texel(t29, t7) + t21*texel(t29, t10)) + t45*(t16*texel(t26, t9) + t19*texel(t26, t11) + t20*texel(t26, t7) + t21*texel(t26, t10)) + 173/768)) + t46*(-1/192*t0*t49*(t1*t47 - 64)*numpy.log(1 + numpy.where(numpy.less(t46, 1.0e-30), 1.0e-30, t46)**(-1.0)) + t0*(t37*(t61*texel(t27, t54) + t64*texel(t27, t56) + t65*texel(t27, t55) + t66*texel(t27, t52)) + t43*(t61*texel(t28, t54) + t64*texel(t28, t56) + t65*texel(t28, t55) + t66*texel(t28, t52)) + t44*(t61*texel(t29, t54) + t64*texel(t29, t56) + t65*texel(t29, t55) + t66*texel(t29, t52)) + t45*(t61*texel(t26, t54) + t64*texel(t26, t56) + t65*texel(t26, t55) + t66*texel(t26, t52)) + (15/64)*(t46*t46*t46) - 47/96*t46 - 15/128*t47 + 173/768))))/(3.141592653589793238*numpy.where(numpy.less(t48, 1/1000000), 1/1000000, t48))
 
 
 def fm2(mu_i, mu_o, c):
@@ -490,65 +490,65 @@ def fm2(mu_i, mu_o, c):
     t1 = numpy.where(numpy.greater(t57, 1.0), 1.0, t57)
     t2 = (t1*t1)
     t3 = t2 - 1
-    t58 = numpy.where(numpy.less(mu_o, 0), 0.0, mu_o)
-    t4 = numpy.where(numpy.greater(t58, 1.0), 1.0, t58)
-    t5 = (t4*t4)
-    t6 = t5 - 1
+    t58 = numpy.where(numpy.less(t1, 0), 0, t1)
+    t4 = numpy.where(numpy.greater(t58, 1), 1, t58)
+    t5 = numpy.where(numpy.less(t4, 1/32), 0, numpy.where(numpy.greater_equal(t4, 31/32), 29, numpy.floor(32*t4) - 1))
+    t6 = -32*t4 + t5
+    t7 = t5 + 1
+    t8 = t5 + 2
+    t9 = t5 + 3
+    t10 = -t6 - 3
+    t11 = (1/2)*t10
+    t12 = -t6 - 2
+    t13 = -t12*t6
+    t14 = t11*t13
+    t15 = t6 + 1
+    t16 = -t15
+    t17 = (1/6)*t13*t16
+    t18 = (1/6)*t10*t12*t15
+    t19 = t11*t16*t6
     t59 = numpy.sqrt(1 - t0)
     t60 = numpy.where(numpy.less(t59, 0), 0, t59)
-    t7 = numpy.where(numpy.greater(t60, 1), 1, t60)
-    t8 = numpy.where(numpy.less(t7, 1/32), 0, numpy.where(numpy.greater_equal(t7, 31/32), 29, numpy.floor(32*t7) - 1))
-    t9 = t8 + 68
-    t61 = numpy.where(numpy.less(t1, 0), 0, t1)
-    t10 = numpy.where(numpy.greater(t61, 1), 1, t61)
-    t11 = numpy.where(numpy.less(t10, 1/32), 0, numpy.where(numpy.greater_equal(t10, 31/32), 29, numpy.floor(32*t10) - 1))
-    t12 = -32*t10 + t11
-    t13 = -t12 - 3
-    t14 = -t12 - 2
-    t15 = t12 + 1
-    t16 = (1/6)*t13*t14*t15
-    t17 = t11 + 2
-    t18 = -t15
-    t19 = (1/2)*t13
-    t20 = t12*t18*t19
-    t21 = t11 + 1
-    t22 = -t12*t14
-    t23 = t19*t22
-    t24 = t11 + 3
-    t25 = (1/6)*t18*t22
-    t26 = -32*t7 + t8
-    t27 = t26 + 1
-    t28 = -t27
-    t29 = -t26 - 3
-    t30 = (1/2)*t29
-    t31 = t26*t28*t30
-    t32 = t8 + 66
-    t33 = -t26 - 2
-    t34 = (1/6)*t27*t29*t33
-    t35 = t8 + 67
-    t36 = -t26*t33
-    t37 = t30*t36
-    t38 = t8 + 69
-    t39 = (1/6)*t28*t36
-    t62 = numpy.where(numpy.less(t4, 0), 0, t4)
+    t20 = numpy.where(numpy.greater(t60, 1), 1, t60)
+    t21 = numpy.where(numpy.less(t20, 1/32), 0, numpy.where(numpy.greater_equal(t20, 31/32), 29, numpy.floor(32*t20) - 1))
+    t22 = -32*t20 + t21
+    t23 = t21 + 66
+    t24 = t21 + 67
+    t25 = t21 + 68
+    t26 = t21 + 69
+    t27 = -t22 - 3
+    t28 = (1/2)*t27
+    t29 = -t22 - 2
+    t30 = -t22*t29
+    t31 = t28*t30
+    t32 = t22 + 1
+    t33 = -t32
+    t34 = (1/6)*t30*t33
+    t35 = t22*t28*t33
+    t36 = (1/6)*t27*t29*t32
+    t61 = numpy.where(numpy.less(mu_o, 0), 0.0, mu_o)
+    t37 = numpy.where(numpy.greater(t61, 1.0), 1.0, t61)
+    t38 = (t37*t37)
+    t39 = t38 - 1
+    t62 = numpy.where(numpy.less(t37, 0), 0, t37)
     t40 = numpy.where(numpy.greater(t62, 1), 1, t62)
     t41 = numpy.where(numpy.less(t40, 1/32), 0, numpy.where(numpy.greater_equal(t40, 31/32), 29, numpy.floor(32*t40) - 1))
     t42 = -32*t40 + t41
-    t43 = -t42 - 3
-    t44 = -t42 - 2
-    t45 = t42 + 1
-    t46 = (1/6)*t43*t44*t45
-    t47 = t41 + 2
-    t48 = -t45
-    t49 = (1/2)*t43
-    t50 = t42*t48*t49
-    t51 = t41 + 1
-    t52 = -t42*t44
-    t53 = t49*t52
-    t54 = t41 + 3
-    t55 = (1/6)*t48*t52
-    t63 = t1 + t4
-    return (15/256)*t0*t3*t6*numpy.expm1(t1*((15/256)*t0*(t3*t3)*numpy.log(1 + numpy.where(numpy.less(t1, 1.0e-30), 1.0e-30, t1)**(-1.0)) + t0*(-15/256*(t1*t1*t1) + (25/256)*t1 + (15/512)*t2 + t31*(t16*texel(t9, t11) + t20*texel(t9, t17) + t23*texel(t9, t21) + t25*texel(t9, t24)) + t34*(t16*texel(t32, t11) + t20*texel(t32, t17) + t23*texel(t32, t21) + t25*texel(t32, t24)) + t37*(t16*texel(t35, t11) + t20*texel(t35, t17) + t23*texel(t35, t21) + t25*texel(t35, t24)) + t39*(t16*texel(t38, t11) + t20*texel(t38, t17) + t23*texel(t38, t21) + t25*texel(t38, t24)) - 45/1024)) + t4*((15/256)*t0*(t6*t6)*numpy.log(1 + numpy.where(numpy.less(t4, 1.0e-30), 1.0e-30, t4)**(-1.0)) + t0*(t31*(t46*texel(t9, t41) + t50*texel(t9, t47) + t53*texel(t9, t51) + t55*texel(t9, t54)) + t34*(t46*texel(t32, t41) + t50*texel(t32, t47) + t53*texel(t32, t51) + t55*texel(t32, t54)) + t37*(t46*texel(t35, t41) + t50*texel(t35, t47) + t53*texel(t35, t51) + t55*texel(t35, t54)) + t39*(t46*texel(t38, t41) + t50*texel(t38, t47) + t53*texel(t38, t51) + t55*texel(t38, t54)) - 15/256*(t4*t4*t4) + (25/256)*t4 + (15/512)*t5 - 45/1024)))/(3.141592653589793238*numpy.where(numpy.less(t63, 1/1000000), 1/1000000, t63))
+    t43 = t41 + 1
+    t44 = t41 + 2
+    t45 = t41 + 3
+    t46 = -t42 - 3
+    t47 = (1/2)*t46
+    t48 = -t42 - 2
+    t49 = -t42*t48
+    t50 = t47*t49
+    t51 = t42 + 1
+    t52 = -t51
+    t53 = (1/6)*t49*t52
+    t54 = t42*t47*t52
+    t55 = (1/6)*t46*t48*t51
+    t63 = t1 + t37
+    return (15/256)*t0*t3*t39*numpy.expm1(t1*((15/256)*t0*(t3*t3)*numpy.log(1 + numpy.where(numpy.less(t1, 1.0e-30), 1.0e-30, t1)**(-1.0)) + t0*(-15/256*(t1*t1*t1) + (25/256)*t1 + (15/512)*t2 + t31*(t14*texel(t24, t7) + t17*texel(t24, t9) + t18*texel(t24, t5) + t19*texel(t24, t8)) + t34*(t14*texel(t26, t7) + t17*texel(t26, t9) + t18*texel(t26, t5) + t19*texel(t26, t8)) + t35*(t14*texel(t25, t7) + t17*texel(t25, t9) + t18*texel(t25, t5) + t19*texel(t25, t8)) + t36*(t14*texel(t23, t7) + t17*texel(t23, t9) + t18*texel(t23, t5) + t19*texel(t23, t8)) - 45/1024)) + t37*((15/256)*t0*(t39*t39)*numpy.log(1 + numpy.where(numpy.less(t37, 1.0e-30), 1.0e-30, t37)**(-1.0)) + t0*(t31*(t50*texel(t24, t43) + t53*texel(t24, t45) + t54*texel(t24, t44) + t55*texel(t24, t41)) + t34*(t50*texel(t26, t43) + t53*texel(t26, t45) + t54*texel(t26, t44) + t55*texel(t26, t41)) + t35*(t50*texel(t25, t43) + t53*texel(t25, t45) + t54*texel(t25, t44) + t55*texel(t25, t41)) + t36*(t50*texel(t23, t43) + t53*texel(t23, t45) + t54*texel(t23, t44) + t55*texel(t23, t41)) - 15/256*(t37*t37*t37) + (25/256)*t37 + (15/512)*t38 - 45/1024)))/(3.141592653589793238*numpy.where(numpy.less(t63, 1/1000000), 1/1000000, t63))
 
 
 def brdf(mu_i, mu_o, cos_phi, c):
@@ -557,15 +557,15 @@ def brdf(mu_i, mu_o, cos_phi, c):
     cos_phi in [-1, 1] (phi = 0 back-scattering), c the particle albedo in [0, 1]; inputs
     outside (+-inf included) are clamped, NaN in any input gives NaN."""
     mu_i, mu_o, cos_phi, c = numpy.asarray(mu_i, dtype=float), numpy.asarray(mu_o, dtype=float), numpy.asarray(cos_phi, dtype=float), numpy.asarray(c, dtype=float)
-    t4 = numpy.where(numpy.less(mu_i, 0), 0.0, mu_i)
+    t4 = numpy.where(numpy.less(cos_phi, -1.0), -1.0, cos_phi)
     t0 = numpy.where(numpy.greater(t4, 1.0), 1.0, t4)
-    t5 = numpy.where(numpy.less(mu_o, 0), 0.0, mu_o)
+    t5 = numpy.where(numpy.less(c, 0), 0.0, c)
     t1 = numpy.where(numpy.greater(t5, 1.0), 1.0, t5)
-    t6 = numpy.where(numpy.less(c, 0), 0.0, c)
+    t6 = numpy.where(numpy.less(mu_i, 0), 0.0, mu_i)
     t2 = numpy.where(numpy.greater(t6, 1.0), 1.0, t6)
-    t7 = numpy.where(numpy.less(cos_phi, -1.0), -1.0, cos_phi)
+    t7 = numpy.where(numpy.less(mu_o, 0), 0.0, mu_o)
     t3 = numpy.where(numpy.greater(t7, 1.0), 1.0, t7)
-    t8 = t3*fm1(t0, t1, t2) + (2*(t3*t3) - 1)*fm2(t0, t1, t2) + fm0(t0, t1, t2) + single(t0, t1, t3, t2)
+    t8 = t0*fm1(t2, t3, t1) + (2*(t0*t0) - 1)*fm2(t2, t3, t1) + fm0(t2, t3, t1) + single(t2, t3, t0, t1)
     return numpy.where(numpy.less(t8, 0), 0, t8)
 
 
@@ -574,21 +574,21 @@ def brdf_local(wi, wo, c):
     from the surface); 0 if either is below the surface. Components are clamped to [-1, 1]
     (not normalised); NaN in any input gives NaN."""
     wi, wo, c = numpy.asarray(wi, dtype=float), numpy.asarray(wo, dtype=float), numpy.asarray(c, dtype=float)
-    t6 = numpy.where(numpy.less(wi[..., 2], -1.0), -1.0, wi[..., 2])
+    t6 = numpy.where(numpy.less(wi[..., 0], -1.0), -1.0, wi[..., 0])
     t0 = numpy.where(numpy.greater(t6, 1.0), 1.0, t6)
-    t7 = numpy.where(numpy.less(wo[..., 2], -1.0), -1.0, wo[..., 2])
+    t7 = numpy.where(numpy.less(wi[..., 1], -1.0), -1.0, wi[..., 1])
     t1 = numpy.where(numpy.greater(t7, 1.0), 1.0, t7)
-    t8 = numpy.where(numpy.less(wi[..., 0], -1.0), -1.0, wi[..., 0])
+    t8 = numpy.where(numpy.less(wi[..., 2], -1.0), -1.0, wi[..., 2])
     t2 = numpy.where(numpy.greater(t8, 1.0), 1.0, t8)
     t9 = numpy.where(numpy.less(wo[..., 0], -1.0), -1.0, wo[..., 0])
     t3 = numpy.where(numpy.greater(t9, 1.0), 1.0, t9)
-    t10 = numpy.where(numpy.less(wi[..., 1], -1.0), -1.0, wi[..., 1])
+    t10 = numpy.where(numpy.less(wo[..., 1], -1.0), -1.0, wo[..., 1])
     t4 = numpy.where(numpy.greater(t10, 1.0), 1.0, t10)
-    t11 = numpy.where(numpy.less(wo[..., 1], -1.0), -1.0, wo[..., 1])
+    t11 = numpy.where(numpy.less(wo[..., 2], -1.0), -1.0, wo[..., 2])
     t5 = numpy.where(numpy.greater(t11, 1.0), 1.0, t11)
-    t12 = ((t2*t2) + (t4*t4))*((t3*t3) + (t5*t5))
+    t12 = ((t0*t0) + (t1*t1))*((t3*t3) + (t4*t4))
     t13 = numpy.where(numpy.less(c, 0), 0.0, c)
-    return numpy.where(numpy.less(t0, 0), 0, 1)*numpy.where(numpy.less(t1, 0), 0, 1)*brdf(t0, t1, (t2*t3 + t4*t5)/numpy.sqrt(numpy.where(numpy.less(t12, 1/1000000000000000000000000000000), 1/1000000000000000000000000000000, t12)), numpy.where(numpy.greater(t13, 1.0), 1.0, t13))
+    return numpy.where(numpy.less(t2, 0), 0, 1)*numpy.where(numpy.less(t5, 0), 0, 1)*brdf(t2, t5, (t0*t3 + t1*t4)/numpy.sqrt(numpy.where(numpy.less(t12, 1/1000000000000000000000000000000), 1/1000000000000000000000000000000, t12)), numpy.where(numpy.greater(t13, 1.0), 1.0, t13))
 
 
 def prepare_c(c):
@@ -598,35 +598,35 @@ def prepare_c(c):
     an array with a last axis of the fields; for RGB prepare an array of three values (shape
     (..., 3)) and give the inputs a trailing axis (mu_i[..., None])."""
     c = numpy.asarray(c, dtype=float)
+    t0 = 3.141592653589793238**(-1.0)
     t25 = numpy.where(numpy.less(c, 0), 0.0, c)
-    t0 = numpy.where(numpy.greater(t25, 1.0), 1.0, t25)
-    t26 = numpy.sqrt(1 - t0)
+    t1 = numpy.where(numpy.greater(t25, 1.0), 1.0, t25)
+    t2 = 20*t1
+    t26 = numpy.sqrt(1 - t1)
     t27 = numpy.where(numpy.less(t26, 0), 0, t26)
-    t1 = numpy.where(numpy.greater(t27, 1), 1, t27)
-    t2 = numpy.where(numpy.less(t1, 1/32), 0, numpy.where(numpy.greater_equal(t1, 31/32), 29, numpy.floor(32*t1) - 1))
-    t3 = -32*t1 + t2
-    t4 = -t3 - 3
-    t5 = -t3 - 2
-    t6 = t3 + 1
-    t7 = t4*t5*t6
-    t8 = (1/6)*t7
-    t9 = t2 + 2
-    t10 = (1/2)*t4
-    t11 = -t6
-    t12 = t11*t3
-    t13 = t10*t12
-    t14 = t2 + 1
-    t15 = -t3
-    t16 = t15*t5
-    t17 = t10*t16
-    t18 = t2 + 3
-    t19 = t11*t16
-    t20 = (1/6)*t19
-    t21 = t13*texel(99, t9) + t17*texel(99, t14) + t20*texel(99, t18) + t8*texel(99, t2)
-    t22 = (45/128)*t4
-    t23 = 20*t0
-    t24 = 3.141592653589793238**(-1.0)
-    return numpy.stack(numpy.broadcast_arrays(numpy.asarray(t21, dtype=float), numpy.asarray(t12*t22*texel(100, t9) + t16*t22*texel(100, t14) + (15/128)*t19*texel(100, t18) + (t21*t21) + (15/128)*t7*texel(100, t2), dtype=float), numpy.asarray(t0, dtype=float), numpy.asarray(t2 + 34, dtype=float), numpy.asarray(t17, dtype=float), numpy.asarray(t2 + 35, dtype=float), numpy.asarray(t13, dtype=float), numpy.asarray(t2 + 36, dtype=float), numpy.asarray(t20, dtype=float), numpy.asarray(t2 + 33, dtype=float), numpy.asarray(t8, dtype=float), numpy.asarray(t23 + 45, dtype=float), numpy.asarray(-1/192*t0, dtype=float), numpy.asarray((1/3)*t0*t24, dtype=float), numpy.asarray(t2 + 67, dtype=float), numpy.asarray(t2 + 68, dtype=float), numpy.asarray(t2 + 69, dtype=float), numpy.asarray(t2 + 66, dtype=float), numpy.asarray((15/256)*t0, dtype=float), numpy.asarray((15/256)*t0*t24, dtype=float), numpy.asarray(t0*(t13*texel(101, t9) + t17*texel(101, t14) + t20*texel(101, t18) + t8*texel(101, t2)), dtype=float), numpy.asarray((1/6)*t0*t11*t15*t5*texel(104, t18) + (1/2)*t0*t11*t3*t4*texel(104, t9) + (1/2)*t0*t15*t4*t5*texel(104, t14) + (1/6)*t0*t4*t5*t6*texel(104, t2), dtype=float), numpy.asarray((1/384)*t0, dtype=float), numpy.asarray((1/6)*t0*t11*t15*t5*texel(102, t18) + (1/2)*t0*t11*t3*t4*texel(102, t9) + (1/2)*t0*t15*t4*t5*texel(102, t14) + (1/6)*t0*t4*t5*t6*texel(102, t2), dtype=float), numpy.asarray(-5/32*(t0*t0*t0) - 25/128*(t0*t0), dtype=float), numpy.asarray(t0*(t13*texel(103, t9) + t17*texel(103, t14) + t20*texel(103, t18) + t8*texel(103, t2)), dtype=float), numpy.asarray(t14, dtype=float), numpy.asarray(t9, dtype=float), numpy.asarray(t18, dtype=float), numpy.asarray(t2, dtype=float), numpy.asarray(t0*(t23 + 281) - 346, dtype=float), numpy.asarray((15 - 15*t0)*(4*t0 + 9), dtype=float), numpy.asarray((2/3)*t0/(3.141592653589793238*3.141592653589793238), dtype=float)), axis=-1)
+    t3 = numpy.where(numpy.greater(t27, 1), 1, t27)
+    t4 = numpy.where(numpy.less(t3, 1/32), 0, numpy.where(numpy.greater_equal(t3, 31/32), 29, numpy.floor(32*t3) - 1))
+    t5 = -32*t3 + t4
+    t6 = -t5
+    t7 = t4 + 1
+    t8 = t4 + 2
+    t9 = t4 + 3
+    t10 = -t5 - 3
+    t11 = (45/128)*t10
+    t12 = (1/2)*t10
+    t13 = -t5 - 2
+    t14 = t13*t6
+    t15 = t12*t14
+    t16 = t5 + 1
+    t17 = -t16
+    t18 = t14*t17
+    t19 = (1/6)*t18
+    t20 = t17*t5
+    t21 = t12*t20
+    t22 = t10*t13*t16
+    t23 = (1/6)*t22
+    t24 = t15*texel(99, t7) + t19*texel(99, t9) + t21*texel(99, t8) + t23*texel(99, t4)
+    return numpy.stack(numpy.broadcast_arrays(numpy.asarray(t24, dtype=float), numpy.asarray(t11*t14*texel(100, t7) + t11*t20*texel(100, t8) + (15/128)*t18*texel(100, t9) + (15/128)*t22*texel(100, t4) + (t24*t24), dtype=float), numpy.asarray(t1, dtype=float), numpy.asarray(t4 + 34, dtype=float), numpy.asarray(t15, dtype=float), numpy.asarray(t4 + 35, dtype=float), numpy.asarray(t21, dtype=float), numpy.asarray(t4 + 36, dtype=float), numpy.asarray(t19, dtype=float), numpy.asarray(t4 + 33, dtype=float), numpy.asarray(t23, dtype=float), numpy.asarray(t2 + 45, dtype=float), numpy.asarray(-1/192*t1, dtype=float), numpy.asarray((1/3)*t0*t1, dtype=float), numpy.asarray(t4 + 67, dtype=float), numpy.asarray(t4 + 68, dtype=float), numpy.asarray(t4 + 69, dtype=float), numpy.asarray(t4 + 66, dtype=float), numpy.asarray((15/256)*t1, dtype=float), numpy.asarray((15/256)*t0*t1, dtype=float), numpy.asarray(t1*(t15*texel(101, t7) + t19*texel(101, t9) + t21*texel(101, t8) + t23*texel(101, t4)), dtype=float), numpy.asarray((1/6)*t1*t10*t13*t16*texel(104, t4) + (1/2)*t1*t10*t13*t6*texel(104, t7) + (1/2)*t1*t10*t17*t5*texel(104, t8) + (1/6)*t1*t13*t17*t6*texel(104, t9), dtype=float), numpy.asarray((1/384)*t1, dtype=float), numpy.asarray((1/6)*t1*t10*t13*t16*texel(102, t4) + (1/2)*t1*t10*t13*t6*texel(102, t7) + (1/2)*t1*t10*t17*t5*texel(102, t8) + (1/6)*t1*t13*t17*t6*texel(102, t9), dtype=float), numpy.asarray(-5/32*(t1*t1*t1) - 25/128*(t1*t1), dtype=float), numpy.asarray(t1*(t15*texel(103, t7) + t19*texel(103, t9) + t21*texel(103, t8) + t23*texel(103, t4)), dtype=float), numpy.asarray(t7, dtype=float), numpy.asarray(t8, dtype=float), numpy.asarray(t9, dtype=float), numpy.asarray(t4, dtype=float), numpy.asarray(t1*(t2 + 281) - 346, dtype=float), numpy.asarray((15 - 15*t1)*(4*t1 + 9), dtype=float), numpy.asarray((2/3)*t1/(3.141592653589793238*3.141592653589793238), dtype=float)), axis=-1)
 
 
 def prepare(kd):
@@ -641,67 +641,67 @@ def eval(material, mu_i, mu_o, cos_phi):
     [0, 1], cos_phi in [-1, 1] (phi = 0 back-scattering), c the particle albedo in [0, 1];
     inputs outside (+-inf included) are clamped, NaN in any input gives NaN."""
     material, mu_i, mu_o, cos_phi = numpy.asarray(material, dtype=float), numpy.asarray(mu_i, dtype=float), numpy.asarray(mu_o, dtype=float), numpy.asarray(cos_phi, dtype=float)
-    t56 = numpy.where(numpy.less(mu_i, 0), 0.0, mu_i)
+    t56 = numpy.where(numpy.less(cos_phi, -1.0), -1.0, cos_phi)
     t0 = numpy.where(numpy.greater(t56, 1.0), 1.0, t56)
-    t57 = numpy.where(numpy.less(mu_o, 0), 0.0, mu_o)
+    t57 = numpy.where(numpy.less(mu_i, 0), 0.0, mu_i)
     t1 = numpy.where(numpy.greater(t57, 1.0), 1.0, t57)
-    t2 = t0 + t1
-    t3 = numpy.where(numpy.less(t2, 1/1000000), 1/1000000, t2)**(-1.0)
-    t4 = t0*t1
-    t58 = numpy.where(numpy.less(cos_phi, -1.0), -1.0, cos_phi)
-    t5 = numpy.where(numpy.greater(t58, 1.0), 1.0, t58)
-    t6 = (t0*t0)
-    t7 = t6 - 1
-    t8 = -t7
-    t9 = (t1*t1)
-    t10 = t9 - 1
-    t11 = -t10*t8
-    t12 = numpy.sqrt(t11)
-    t59 = (1/2)*t12*(t5 + 1) + (1/2)*t4 + (1/2)*(t6 + t8*t9)/(t12 + 1)
-    t13 = numpy.where(numpy.less(t59, 0), 0, t59)
-    t14 = numpy.where(numpy.greater(t13, 1), 1, t13)
-    t15 = 1 - t14
-    t16 = numpy.arcsin(numpy.sqrt(numpy.where(numpy.greater(t13, t15), t15, numpy.where(numpy.less_equal(t13, t15), t13, t13 + t15))))
-    t17 = (t16*t16)
-    t18 = 4*t17
-    t19 = 2*t16
-    t20 = numpy.log(1 + numpy.where(numpy.less(t0, 1.0e-30), 1.0e-30, t0)**(-1.0))
-    t21 = (t0*t0*t0)
-    t22 = numpy.where(numpy.less(t0, 1/32), 0, numpy.where(numpy.greater_equal(t0, 31/32), 29, numpy.floor(32*t0) - 1))
-    t23 = -32*t0 + t22
-    t24 = -t23 - 3
-    t25 = -t23 - 2
-    t26 = t23 + 1
-    t27 = (1/6)*t24*t25*t26
-    t28 = t22 + 2
-    t29 = -t26
-    t30 = (1/2)*t24
-    t31 = t23*t29*t30
-    t32 = t22 + 1
-    t33 = -t23*t25
-    t34 = t30*t33
-    t35 = t22 + 3
-    t36 = (1/6)*t29*t33
-    t37 = numpy.log(1 + numpy.where(numpy.less(t1, 1.0e-30), 1.0e-30, t1)**(-1.0))
-    t38 = (t1*t1*t1)
-    t39 = numpy.where(numpy.less(t1, 1/32), 0, numpy.where(numpy.greater_equal(t1, 31/32), 29, numpy.floor(32*t1) - 1))
-    t40 = -32*t1 + t39
-    t41 = -t40 - 3
-    t42 = -t40 - 2
-    t43 = t40 + 1
-    t44 = (1/6)*t41*t42*t43
-    t45 = t39 + 2
-    t46 = -t43
-    t47 = (1/2)*t41
-    t48 = t40*t46*t47
-    t49 = t39 + 1
-    t50 = -t40*t42
-    t51 = t47*t50
-    t52 = t39 + 3
-    t53 = (1/6)*t46*t50
-    t54 = material[..., 0]*t2 + material[..., 1]*t0*t1
-    t55 = material[..., 20]*t2 + material[..., 21]*(t6 + t9) + material[..., 23]*t0*t1 + material[..., 24]*t6*t9 + material[..., 25]*t0*t1*t2
-    t60 = material[..., 13]*t12*t3*t5*(t54 + ((45/64)*t4 + t54 + 1)*numpy.expm1(t0*(material[..., 12]*t20*t7*(material[..., 11]*t6 - 64) + material[..., 2]*(material[..., 10]*(t27*texel(material[..., 9], t22) + t31*texel(material[..., 9], t28) + t34*texel(material[..., 9], t32) + t36*texel(material[..., 9], t35)) + material[..., 4]*(t27*texel(material[..., 3], t22) + t31*texel(material[..., 3], t28) + t34*texel(material[..., 3], t32) + t36*texel(material[..., 3], t35)) + material[..., 6]*(t27*texel(material[..., 5], t22) + t31*texel(material[..., 5], t28) + t34*texel(material[..., 5], t32) + t36*texel(material[..., 5], t35)) + material[..., 8]*(t27*texel(material[..., 7], t22) + t31*texel(material[..., 7], t28) + t34*texel(material[..., 7], t32) + t36*texel(material[..., 7], t35)) - 47/96*t0 + (15/64)*t21 - 15/128*t6 + 173/768)) + t1*(material[..., 12]*t10*t37*(material[..., 11]*t9 - 64) + material[..., 2]*(material[..., 10]*(t44*texel(material[..., 9], t39) + t48*texel(material[..., 9], t45) + t51*texel(material[..., 9], t49) + t53*texel(material[..., 9], t52)) + material[..., 4]*(t44*texel(material[..., 3], t39) + t48*texel(material[..., 3], t45) + t51*texel(material[..., 3], t49) + t53*texel(material[..., 3], t52)) + material[..., 6]*(t44*texel(material[..., 5], t39) + t48*texel(material[..., 5], t45) + t51*texel(material[..., 5], t49) + t53*texel(material[..., 5], t52)) + material[..., 8]*(t44*texel(material[..., 7], t39) + t48*texel(material[..., 7], t45) + t51*texel(material[..., 7], t49) + t53*texel(material[..., 7], t52)) - 47/96*t1 + (15/64)*t38 - 15/128*t9 + 173/768)))) + material[..., 19]*t11*t3*(2*(t5*t5) - 1)*numpy.expm1(t0*(material[..., 18]*t20*(t7*t7) + material[..., 2]*(material[..., 10]*(t27*texel(material[..., 17], t22) + t31*texel(material[..., 17], t28) + t34*texel(material[..., 17], t32) + t36*texel(material[..., 17], t35)) + material[..., 4]*(t27*texel(material[..., 14], t22) + t31*texel(material[..., 14], t28) + t34*texel(material[..., 14], t32) + t36*texel(material[..., 14], t35)) + material[..., 6]*(t27*texel(material[..., 15], t22) + t31*texel(material[..., 15], t28) + t34*texel(material[..., 15], t32) + t36*texel(material[..., 15], t35)) + material[..., 8]*(t27*texel(material[..., 16], t22) + t31*texel(material[..., 16], t28) + t34*texel(material[..., 16], t32) + t36*texel(material[..., 16], t35)) + (25/256)*t0 - 15/256*t21 + (15/512)*t6 - 45/1024)) + t1*(material[..., 18]*(t10*t10)*t37 + material[..., 2]*(material[..., 10]*(t44*texel(material[..., 17], t39) + t48*texel(material[..., 17], t45) + t51*texel(material[..., 17], t49) + t53*texel(material[..., 17], t52)) + material[..., 4]*(t44*texel(material[..., 14], t39) + t48*texel(material[..., 14], t45) + t51*texel(material[..., 14], t49) + t53*texel(material[..., 14], t52)) + material[..., 6]*(t44*texel(material[..., 15], t39) + t48*texel(material[..., 15], t45) + t51*texel(material[..., 15], t49) + t53*texel(material[..., 15], t52)) + material[..., 8]*(t44*texel(material[..., 16], t39) + t48*texel(material[..., 16], t45) + t51*texel(material[..., 16], t49) + t53*texel(material[..., 16], t52)) + (25/256)*t1 - 15/256*t38 + (15/512)*t9 - 45/1024))) + material[..., 32]*t3*numpy.where(numpy.less(t14, 1/16), 8*(t16*t16*t16)*(t18*(t18*(t18*(t18*(t18*((1/23351328000)*t17 - 1/518918400) + 1/3991680) - 1/45360) + 1/840) - 1/30) + 1/3), 2*numpy.sqrt(t14)*numpy.sqrt(t15) - (1 - 2*t14)*numpy.where(numpy.less(t14, 1/2), t19, 3.141592653589793238 - t19)) + (1/2)*t3*(t55 + (material[..., 22]*(256*t4 + 135*t6*t9 - 45*t6 - 45*t9 + 207) + t55)*numpy.expm1(t0*(material[..., 2]*(material[..., 10]*(t27*texel(material[..., 29], t22) + t31*texel(material[..., 29], t28) + t34*texel(material[..., 29], t32) + t36*texel(material[..., 29], t35)) + material[..., 4]*(t27*texel(material[..., 26], t22) + t31*texel(material[..., 26], t28) + t34*texel(material[..., 26], t32) + t36*texel(material[..., 26], t35)) + material[..., 6]*(t27*texel(material[..., 27], t22) + t31*texel(material[..., 27], t28) + t34*texel(material[..., 27], t32) + t36*texel(material[..., 27], t35)) + material[..., 8]*(t27*texel(material[..., 28], t22) + t31*texel(material[..., 28], t28) + t34*texel(material[..., 28], t32) + t36*texel(material[..., 28], t35)) + (301/384)*t0 - 45/128*t21 + (45/256)*t6 - 557/1536) + material[..., 22]*t20*(material[..., 30]*t6 + material[..., 31]*(t0*t0*t0*t0) + 207)) + t1*(material[..., 2]*(material[..., 10]*(t44*texel(material[..., 29], t39) + t48*texel(material[..., 29], t45) + t51*texel(material[..., 29], t49) + t53*texel(material[..., 29], t52)) + material[..., 4]*(t44*texel(material[..., 26], t39) + t48*texel(material[..., 26], t45) + t51*texel(material[..., 26], t49) + t53*texel(material[..., 26], t52)) + material[..., 6]*(t44*texel(material[..., 27], t39) + t48*texel(material[..., 27], t45) + t51*texel(material[..., 27], t49) + t53*texel(material[..., 27], t52)) + material[..., 8]*(t44*texel(material[..., 28], t39) + t48*texel(material[..., 28], t45) + t51*texel(material[..., 28], t49) + t53*texel(material[..., 28], t52)) + (301/384)*t1 - 45/128*t38 + (45/256)*t9 - 557/1536) + material[..., 22]*t37*(material[..., 30]*t9 + material[..., 31]*(t1*t1*t1*t1) + 207))))/3.141592653589793238
+    t2 = (t1*t1)
+    t3 = (t1*t1*t1)
+    t4 = t2 - 1
+    t5 = -t4
+    t6 = numpy.where(numpy.less(t1, 1/32), 0, numpy.where(numpy.greater_equal(t1, 31/32), 29, numpy.floor(32*t1) - 1))
+    t7 = -32*t1 + t6
+    t8 = t6 + 1
+    t9 = t6 + 2
+    t10 = t6 + 3
+    t11 = -t7 - 3
+    t12 = (1/2)*t11
+    t13 = -t7 - 2
+    t14 = -t13*t7
+    t15 = t12*t14
+    t16 = t7 + 1
+    t17 = -t16
+    t18 = (1/6)*t14*t17
+    t19 = (1/6)*t11*t13*t16
+    t20 = t12*t17*t7
+    t21 = numpy.log(1 + numpy.where(numpy.less(t1, 1.0e-30), 1.0e-30, t1)**(-1.0))
+    t58 = numpy.where(numpy.less(mu_o, 0), 0.0, mu_o)
+    t22 = numpy.where(numpy.greater(t58, 1.0), 1.0, t58)
+    t23 = (t22*t22)
+    t24 = (t22*t22*t22)
+    t25 = t1*t22
+    t26 = t1 + t22
+    t27 = t23 - 1
+    t28 = -t27*t5
+    t29 = numpy.sqrt(t28)
+    t30 = material[..., 0]*t26 + material[..., 1]*t1*t22
+    t31 = material[..., 20]*t26 + material[..., 21]*(t2 + t23) + material[..., 23]*t1*t22 + material[..., 24]*t2*t23 + material[..., 25]*t1*t22*t26
+    t32 = numpy.where(numpy.less(t22, 1/32), 0, numpy.where(numpy.greater_equal(t22, 31/32), 29, numpy.floor(32*t22) - 1))
+    t33 = -32*t22 + t32
+    t34 = t32 + 1
+    t35 = t32 + 2
+    t36 = t32 + 3
+    t37 = -t33 - 3
+    t38 = (1/2)*t37
+    t39 = -t33 - 2
+    t40 = -t33*t39
+    t41 = t38*t40
+    t42 = t33 + 1
+    t43 = -t42
+    t44 = (1/6)*t40*t43
+    t45 = t33*t38*t43
+    t46 = (1/6)*t37*t39*t42
+    t47 = numpy.log(1 + numpy.where(numpy.less(t22, 1.0e-30), 1.0e-30, t22)**(-1.0))
+    t59 = (1/2)*t25 + (1/2)*t29*(t0 + 1) + (1/2)*(t2 + t23*t5)/(t29 + 1)
+    t48 = numpy.where(numpy.less(t59, 0), 0, t59)
+    t49 = numpy.where(numpy.less(t26, 1/1000000), 1/1000000, t26)**(-1.0)
+    t50 = numpy.where(numpy.greater(t48, 1), 1, t48)
+    t51 = 1 - t50
+    t52 = numpy.arcsin(numpy.sqrt(numpy.where(numpy.greater(t48, t51), t51, numpy.where(numpy.less_equal(t48, t51), t48, t48 + t51))))
+    t53 = 2*t52
+    t54 = (t52*t52)
+    t55 = 4*t54
+    t60 = material[..., 13]*t0*t29*t49*(t30 + ((45/64)*t25 + t30 + 1)*numpy.expm1(t1*(material[..., 12]*t21*t4*(material[..., 11]*t2 - 64) + material[..., 2]*(material[..., 10]*(t15*texel(material[..., 9], t8) + t18*texel(material[..., 9], t10) + t19*texel(material[..., 9], t6) + t20*texel(material[..., 9], t9)) + material[..., 4]*(t15*texel(material[..., 3], t8) + t18*texel(material[..., 3], t10) + t19*texel(material[..., 3], t6) + t20*texel(material[..., 3], t9)) + material[..., 6]*(t15*texel(material[..., 5], t8) + t18*texel(material[..., 5], t10) + t19*texel(material[..., 5], t6) + t20*texel(material[..., 5], t9)) + material[..., 8]*(t15*texel(material[..., 7], t8) + t18*texel(material[..., 7], t10) + t19*texel(material[..., 7], t6) + t20*texel(material[..., 7], t9)) - 47/96*t1 - 15/128*t2 + (15/64)*t3 + 173/768)) + t22*(material[..., 12]*t27*t47*(material[..., 11]*t23 - 64) + material[..., 2]*(material[..., 10]*(t41*texel(material[..., 9], t34) + t44*texel(material[..., 9], t36) + t45*texel(material[..., 9], t35) + t46*texel(material[..., 9], t32)) + material[..., 4]*(t41*texel(material[..., 3], t34) + t44*texel(material[..., 3], t36) + t45*texel(material[..., 3], t35) + t46*texel(material[..., 3], t32)) + material[..., 6]*(t41*texel(material[..., 5], t34) + t44*texel(material[..., 5], t36) + t45*texel(material[..., 5], t35) + t46*texel(material[..., 5], t32)) + material[..., 8]*(t41*texel(material[..., 7], t34) + t44*texel(material[..., 7], t36) + t45*texel(material[..., 7], t35) + t46*texel(material[..., 7], t32)) - 47/96*t22 - 15/128*t23 + (15/64)*t24 + 173/768)))) + material[..., 19]*t28*t49*(2*(t0*t0) - 1)*numpy.expm1(t1*(material[..., 18]*t21*(t4*t4) + material[..., 2]*(material[..., 10]*(t15*texel(material[..., 17], t8) + t18*texel(material[..., 17], t10) + t19*texel(material[..., 17], t6) + t20*texel(material[..., 17], t9)) + material[..., 4]*(t15*texel(material[..., 14], t8) + t18*texel(material[..., 14], t10) + t19*texel(material[..., 14], t6) + t20*texel(material[..., 14], t9)) + material[..., 6]*(t15*texel(material[..., 15], t8) + t18*texel(material[..., 15], t10) + t19*texel(material[..., 15], t6) + t20*texel(material[..., 15], t9)) + material[..., 8]*(t15*texel(material[..., 16], t8) + t18*texel(material[..., 16], t10) + t19*texel(material[..., 16], t6) + t20*texel(material[..., 16], t9)) + (25/256)*t1 + (15/512)*t2 - 15/256*t3 - 45/1024)) + t22*(material[..., 18]*(t27*t27)*t47 + material[..., 2]*(material[..., 10]*(t41*texel(material[..., 17], t34) + t44*texel(material[..., 17], t36) + t45*texel(material[..., 17], t35) + t46*texel(material[..., 17], t32)) + material[..., 4]*(t41*texel(material[..., 14], t34) + t44*texel(material[..., 14], t36) + t45*texel(material[..., 14], t35) + t46*texel(material[..., 14], t32)) + material[..., 6]*(t41*texel(material[..., 15], t34) + t44*texel(material[..., 15], t36) + t45*texel(material[..., 15], t35) + t46*texel(material[..., 15], t32)) + material[..., 8]*(t41*texel(material[..., 16], t34) + t44*texel(material[..., 16], t36) + t45*texel(material[..., 16], t35) + t46*texel(material[..., 16], t32)) + (25/256)*t22 + (15/512)*t23 - 15/256*t24 - 45/1024))) + material[..., 32]*t49*numpy.where(numpy.less(t50, 1/16), 8*(t52*t52*t52)*(t55*(t55*(t55*(t55*(t55*((1/23351328000)*t54 - 1/518918400) + 1/3991680) - 1/45360) + 1/840) - 1/30) + 1/3), 2*numpy.sqrt(t50)*numpy.sqrt(t51) - (1 - 2*t50)*numpy.where(numpy.less(t50, 1/2), t53, 3.141592653589793238 - t53)) + (1/2)*t49*(t31 + (material[..., 22]*(135*t2*t23 - 45*t2 - 45*t23 + 256*t25 + 207) + t31)*numpy.expm1(t1*(material[..., 2]*(material[..., 10]*(t15*texel(material[..., 29], t8) + t18*texel(material[..., 29], t10) + t19*texel(material[..., 29], t6) + t20*texel(material[..., 29], t9)) + material[..., 4]*(t15*texel(material[..., 26], t8) + t18*texel(material[..., 26], t10) + t19*texel(material[..., 26], t6) + t20*texel(material[..., 26], t9)) + material[..., 6]*(t15*texel(material[..., 27], t8) + t18*texel(material[..., 27], t10) + t19*texel(material[..., 27], t6) + t20*texel(material[..., 27], t9)) + material[..., 8]*(t15*texel(material[..., 28], t8) + t18*texel(material[..., 28], t10) + t19*texel(material[..., 28], t6) + t20*texel(material[..., 28], t9)) + (301/384)*t1 + (45/256)*t2 - 45/128*t3 - 557/1536) + material[..., 22]*t21*(material[..., 30]*t2 + material[..., 31]*(t1*t1*t1*t1) + 207)) + t22*(material[..., 2]*(material[..., 10]*(t41*texel(material[..., 29], t34) + t44*texel(material[..., 29], t36) + t45*texel(material[..., 29], t35) + t46*texel(material[..., 29], t32)) + material[..., 4]*(t41*texel(material[..., 26], t34) + t44*texel(material[..., 26], t36) + t45*texel(material[..., 26], t35) + t46*texel(material[..., 26], t32)) + material[..., 6]*(t41*texel(material[..., 27], t34) + t44*texel(material[..., 27], t36) + t45*texel(material[..., 27], t35) + t46*texel(material[..., 27], t32)) + material[..., 8]*(t41*texel(material[..., 28], t34) + t44*texel(material[..., 28], t36) + t45*texel(material[..., 28], t35) + t46*texel(material[..., 28], t32)) + (301/384)*t22 + (45/256)*t23 - 45/128*t24 - 557/1536) + material[..., 22]*t47*(material[..., 30]*t23 + material[..., 31]*(t22*t22*t22*t22) + 207))))/3.141592653589793238
     return numpy.where(numpy.less(t60, 0), 0, t60)
 
 
@@ -711,82 +711,82 @@ def eval_local(material, wi, wo):
     pointing away from the surface); 0 if either is below the surface. Components are
     clamped to [-1, 1] (not normalised); NaN in any input gives NaN."""
     material, wi, wo = numpy.asarray(material, dtype=float), numpy.asarray(wi, dtype=float), numpy.asarray(wo, dtype=float)
-    t62 = numpy.where(numpy.less(wi[..., 2], -1.0), -1.0, wi[..., 2])
+    t62 = numpy.where(numpy.less(wi[..., 0], -1.0), -1.0, wi[..., 0])
     t0 = numpy.where(numpy.greater(t62, 1.0), 1.0, t62)
-    t63 = numpy.where(numpy.less(wo[..., 2], -1.0), -1.0, wo[..., 2])
+    t63 = numpy.where(numpy.less(wi[..., 1], -1.0), -1.0, wi[..., 1])
     t1 = numpy.where(numpy.greater(t63, 1.0), 1.0, t63)
-    t64 = numpy.where(numpy.less(t0, 0), 0.0, t0)
+    t64 = numpy.where(numpy.less(wi[..., 2], -1.0), -1.0, wi[..., 2])
     t2 = numpy.where(numpy.greater(t64, 1.0), 1.0, t64)
-    t65 = numpy.where(numpy.less(t1, 0), 0.0, t1)
+    t65 = numpy.where(numpy.less(wo[..., 0], -1.0), -1.0, wo[..., 0])
     t3 = numpy.where(numpy.greater(t65, 1.0), 1.0, t65)
-    t4 = t2 + t3
-    t5 = numpy.where(numpy.less(t4, 1/1000000), 1/1000000, t4)**(-1.0)
-    t6 = t2*t3
-    t7 = (t2*t2)
-    t8 = t7 - 1
-    t9 = -t8
-    t10 = (t3*t3)
-    t11 = t10 - 1
-    t12 = -t11*t9
-    t13 = numpy.sqrt(t12)
-    t66 = numpy.where(numpy.less(wi[..., 0], -1.0), -1.0, wi[..., 0])
-    t14 = numpy.where(numpy.greater(t66, 1.0), 1.0, t66)
-    t67 = numpy.where(numpy.less(wo[..., 0], -1.0), -1.0, wo[..., 0])
-    t15 = numpy.where(numpy.greater(t67, 1.0), 1.0, t67)
-    t68 = numpy.where(numpy.less(wi[..., 1], -1.0), -1.0, wi[..., 1])
-    t16 = numpy.where(numpy.greater(t68, 1.0), 1.0, t68)
-    t69 = numpy.where(numpy.less(wo[..., 1], -1.0), -1.0, wo[..., 1])
-    t17 = numpy.where(numpy.greater(t69, 1.0), 1.0, t69)
-    t70 = ((t14*t14) + (t16*t16))*((t15*t15) + (t17*t17))
-    t71 = (t14*t15 + t16*t17)/numpy.sqrt(numpy.where(numpy.less(t70, 1/1000000000000000000000000000000), 1/1000000000000000000000000000000, t70))
-    t72 = numpy.where(numpy.less(t71, -1.0), -1.0, t71)
-    t18 = numpy.where(numpy.greater(t72, 1.0), 1.0, t72)
-    t73 = (1/2)*t13*(t18 + 1) + (1/2)*t6 + (1/2)*(t10*t9 + t7)/(t13 + 1)
-    t19 = numpy.where(numpy.less(t73, 0), 0, t73)
-    t20 = numpy.where(numpy.greater(t19, 1), 1, t19)
-    t21 = 1 - t20
-    t22 = numpy.arcsin(numpy.sqrt(numpy.where(numpy.greater(t19, t21), t21, numpy.where(numpy.less_equal(t19, t21), t19, t19 + t21))))
-    t23 = (t22*t22)
-    t24 = 4*t23
-    t25 = 2*t22
-    t26 = numpy.log(1 + numpy.where(numpy.less(t2, 1.0e-30), 1.0e-30, t2)**(-1.0))
-    t27 = (t2*t2*t2)
-    t28 = numpy.where(numpy.less(t2, 1/32), 0, numpy.where(numpy.greater_equal(t2, 31/32), 29, numpy.floor(32*t2) - 1))
-    t29 = -32*t2 + t28
-    t30 = -t29 - 3
-    t31 = -t29 - 2
-    t32 = t29 + 1
-    t33 = (1/6)*t30*t31*t32
-    t34 = t28 + 2
-    t35 = -t32
-    t36 = (1/2)*t30
-    t37 = t29*t35*t36
-    t38 = t28 + 1
-    t39 = -t29*t31
-    t40 = t36*t39
-    t41 = t28 + 3
-    t42 = (1/6)*t35*t39
-    t43 = numpy.log(1 + numpy.where(numpy.less(t3, 1.0e-30), 1.0e-30, t3)**(-1.0))
-    t44 = (t3*t3*t3)
-    t45 = numpy.where(numpy.less(t3, 1/32), 0, numpy.where(numpy.greater_equal(t3, 31/32), 29, numpy.floor(32*t3) - 1))
-    t46 = -32*t3 + t45
-    t47 = -t46 - 3
-    t48 = -t46 - 2
-    t49 = t46 + 1
-    t50 = (1/6)*t47*t48*t49
-    t51 = t45 + 2
-    t52 = -t49
-    t53 = (1/2)*t47
-    t54 = t46*t52*t53
-    t55 = t45 + 1
-    t56 = -t46*t48
-    t57 = t53*t56
-    t58 = t45 + 3
-    t59 = (1/6)*t52*t56
-    t60 = material[..., 0]*t4 + material[..., 1]*t2*t3
-    t61 = material[..., 20]*t4 + material[..., 21]*(t10 + t7) + material[..., 23]*t2*t3 + material[..., 24]*t10*t7 + material[..., 25]*t2*t3*t4
-    t74 = material[..., 13]*t13*t18*t5*(t60 + ((45/64)*t6 + t60 + 1)*numpy.expm1(t2*(material[..., 12]*t26*t8*(material[..., 11]*t7 - 64) + material[..., 2]*(material[..., 10]*(t33*texel(material[..., 9], t28) + t37*texel(material[..., 9], t34) + t40*texel(material[..., 9], t38) + t42*texel(material[..., 9], t41)) + material[..., 4]*(t33*texel(material[..., 3], t28) + t37*texel(material[..., 3], t34) + t40*texel(material[..., 3], t38) + t42*texel(material[..., 3], t41)) + material[..., 6]*(t33*texel(material[..., 5], t28) + t37*texel(material[..., 5], t34) + t40*texel(material[..., 5], t38) + t42*texel(material[..., 5], t41)) + material[..., 8]*(t33*texel(material[..., 7], t28) + t37*texel(material[..., 7], t34) + t40*texel(material[..., 7], t38) + t42*texel(material[..., 7], t41)) - 47/96*t2 + (15/64)*t27 - 15/128*t7 + 173/768)) + t3*(material[..., 12]*t11*t43*(material[..., 11]*t10 - 64) + material[..., 2]*(material[..., 10]*(t50*texel(material[..., 9], t45) + t54*texel(material[..., 9], t51) + t57*texel(material[..., 9], t55) + t59*texel(material[..., 9], t58)) + material[..., 4]*(t50*texel(material[..., 3], t45) + t54*texel(material[..., 3], t51) + t57*texel(material[..., 3], t55) + t59*texel(material[..., 3], t58)) + material[..., 6]*(t50*texel(material[..., 5], t45) + t54*texel(material[..., 5], t51) + t57*texel(material[..., 5], t55) + t59*texel(material[..., 5], t58)) + material[..., 8]*(t50*texel(material[..., 7], t45) + t54*texel(material[..., 7], t51) + t57*texel(material[..., 7], t55) + t59*texel(material[..., 7], t58)) - 15/128*t10 - 47/96*t3 + (15/64)*t44 + 173/768)))) + material[..., 19]*t12*t5*(2*(t18*t18) - 1)*numpy.expm1(t2*(material[..., 18]*t26*(t8*t8) + material[..., 2]*(material[..., 10]*(t33*texel(material[..., 17], t28) + t37*texel(material[..., 17], t34) + t40*texel(material[..., 17], t38) + t42*texel(material[..., 17], t41)) + material[..., 4]*(t33*texel(material[..., 14], t28) + t37*texel(material[..., 14], t34) + t40*texel(material[..., 14], t38) + t42*texel(material[..., 14], t41)) + material[..., 6]*(t33*texel(material[..., 15], t28) + t37*texel(material[..., 15], t34) + t40*texel(material[..., 15], t38) + t42*texel(material[..., 15], t41)) + material[..., 8]*(t33*texel(material[..., 16], t28) + t37*texel(material[..., 16], t34) + t40*texel(material[..., 16], t38) + t42*texel(material[..., 16], t41)) + (25/256)*t2 - 15/256*t27 + (15/512)*t7 - 45/1024)) + t3*(material[..., 18]*(t11*t11)*t43 + material[..., 2]*(material[..., 10]*(t50*texel(material[..., 17], t45) + t54*texel(material[..., 17], t51) + t57*texel(material[..., 17], t55) + t59*texel(material[..., 17], t58)) + material[..., 4]*(t50*texel(material[..., 14], t45) + t54*texel(material[..., 14], t51) + t57*texel(material[..., 14], t55) + t59*texel(material[..., 14], t58)) + material[..., 6]*(t50*texel(material[..., 15], t45) + t54*texel(material[..., 15], t51) + t57*texel(material[..., 15], t55) + t59*texel(material[..., 15], t58)) + material[..., 8]*(t50*texel(material[..., 16], t45) + t54*texel(material[..., 16], t51) + t57*texel(material[..., 16], t55) + t59*texel(material[..., 16], t58)) + (15/512)*t10 + (25/256)*t3 - 15/256*t44 - 45/1024))) + material[..., 32]*t5*numpy.where(numpy.less(t20, 1/16), 8*(t22*t22*t22)*(t24*(t24*(t24*(t24*(t24*((1/23351328000)*t23 - 1/518918400) + 1/3991680) - 1/45360) + 1/840) - 1/30) + 1/3), 2*numpy.sqrt(t20)*numpy.sqrt(t21) - (1 - 2*t20)*numpy.where(numpy.less(t20, 1/2), t25, 3.141592653589793238 - t25)) + (1/2)*t5*(t61 + (material[..., 22]*(135*t10*t7 - 45*t10 + 256*t6 - 45*t7 + 207) + t61)*numpy.expm1(t2*(material[..., 2]*(material[..., 10]*(t33*texel(material[..., 29], t28) + t37*texel(material[..., 29], t34) + t40*texel(material[..., 29], t38) + t42*texel(material[..., 29], t41)) + material[..., 4]*(t33*texel(material[..., 26], t28) + t37*texel(material[..., 26], t34) + t40*texel(material[..., 26], t38) + t42*texel(material[..., 26], t41)) + material[..., 6]*(t33*texel(material[..., 27], t28) + t37*texel(material[..., 27], t34) + t40*texel(material[..., 27], t38) + t42*texel(material[..., 27], t41)) + material[..., 8]*(t33*texel(material[..., 28], t28) + t37*texel(material[..., 28], t34) + t40*texel(material[..., 28], t38) + t42*texel(material[..., 28], t41)) + (301/384)*t2 - 45/128*t27 + (45/256)*t7 - 557/1536) + material[..., 22]*t26*(material[..., 30]*t7 + material[..., 31]*(t2*t2*t2*t2) + 207)) + t3*(material[..., 2]*(material[..., 10]*(t50*texel(material[..., 29], t45) + t54*texel(material[..., 29], t51) + t57*texel(material[..., 29], t55) + t59*texel(material[..., 29], t58)) + material[..., 4]*(t50*texel(material[..., 26], t45) + t54*texel(material[..., 26], t51) + t57*texel(material[..., 26], t55) + t59*texel(material[..., 26], t58)) + material[..., 6]*(t50*texel(material[..., 27], t45) + t54*texel(material[..., 27], t51) + t57*texel(material[..., 27], t55) + t59*texel(material[..., 27], t58)) + material[..., 8]*(t50*texel(material[..., 28], t45) + t54*texel(material[..., 28], t51) + t57*texel(material[..., 28], t55) + t59*texel(material[..., 28], t58)) + (45/256)*t10 + (301/384)*t3 - 45/128*t44 - 557/1536) + material[..., 22]*t43*(material[..., 30]*t10 + material[..., 31]*(t3*t3*t3*t3) + 207))))/3.141592653589793238
-    return numpy.where(numpy.less(t0, 0), 0, 1)*numpy.where(numpy.less(t1, 0), 0, 1)*numpy.where(numpy.less(t74, 0), 0, t74)
+    t66 = numpy.where(numpy.less(wo[..., 1], -1.0), -1.0, wo[..., 1])
+    t4 = numpy.where(numpy.greater(t66, 1.0), 1.0, t66)
+    t67 = numpy.where(numpy.less(wo[..., 2], -1.0), -1.0, wo[..., 2])
+    t5 = numpy.where(numpy.greater(t67, 1.0), 1.0, t67)
+    t68 = ((t0*t0) + (t1*t1))*((t3*t3) + (t4*t4))
+    t69 = (t0*t3 + t1*t4)/numpy.sqrt(numpy.where(numpy.less(t68, 1/1000000000000000000000000000000), 1/1000000000000000000000000000000, t68))
+    t70 = numpy.where(numpy.less(t69, -1.0), -1.0, t69)
+    t6 = numpy.where(numpy.greater(t70, 1.0), 1.0, t70)
+    t71 = numpy.where(numpy.less(t2, 0), 0.0, t2)
+    t7 = numpy.where(numpy.greater(t71, 1.0), 1.0, t71)
+    t8 = (t7*t7)
+    t9 = (t7*t7*t7)
+    t10 = t8 - 1
+    t11 = -t10
+    t12 = numpy.where(numpy.less(t7, 1/32), 0, numpy.where(numpy.greater_equal(t7, 31/32), 29, numpy.floor(32*t7) - 1))
+    t13 = t12 + 1
+    t14 = t12 + 2
+    t15 = t12 + 3
+    t16 = t12 - 32*t7
+    t17 = -t16 - 3
+    t18 = (1/2)*t17
+    t19 = -t16 - 2
+    t20 = -t16*t19
+    t21 = t18*t20
+    t22 = t16 + 1
+    t23 = -t22
+    t24 = (1/6)*t20*t23
+    t25 = t16*t18*t23
+    t26 = (1/6)*t17*t19*t22
+    t27 = numpy.log(1 + numpy.where(numpy.less(t7, 1.0e-30), 1.0e-30, t7)**(-1.0))
+    t72 = numpy.where(numpy.less(t5, 0), 0.0, t5)
+    t28 = numpy.where(numpy.greater(t72, 1.0), 1.0, t72)
+    t29 = (t28*t28)
+    t30 = (t28*t28*t28)
+    t31 = t28*t7
+    t32 = t28 + t7
+    t33 = t29 - 1
+    t34 = -t11*t33
+    t35 = numpy.sqrt(t34)
+    t36 = material[..., 0]*t32 + material[..., 1]*t28*t7
+    t37 = material[..., 20]*t32 + material[..., 21]*(t29 + t8) + material[..., 23]*t28*t7 + material[..., 24]*t29*t8 + material[..., 25]*t28*t32*t7
+    t38 = numpy.where(numpy.less(t28, 1/32), 0, numpy.where(numpy.greater_equal(t28, 31/32), 29, numpy.floor(32*t28) - 1))
+    t39 = -32*t28 + t38
+    t40 = t38 + 1
+    t41 = t38 + 2
+    t42 = t38 + 3
+    t43 = -t39 - 3
+    t44 = (1/2)*t43
+    t45 = -t39 - 2
+    t46 = -t39*t45
+    t47 = t44*t46
+    t48 = t39 + 1
+    t49 = -t48
+    t50 = (1/6)*t46*t49
+    t51 = t39*t44*t49
+    t52 = (1/6)*t43*t45*t48
+    t53 = numpy.log(1 + numpy.where(numpy.less(t28, 1.0e-30), 1.0e-30, t28)**(-1.0))
+    t73 = (1/2)*t31 + (1/2)*t35*(t6 + 1) + (1/2)*(t11*t29 + t8)/(t35 + 1)
+    t54 = numpy.where(numpy.less(t73, 0), 0, t73)
+    t55 = numpy.where(numpy.less(t32, 1/1000000), 1/1000000, t32)**(-1.0)
+    t56 = numpy.where(numpy.greater(t54, 1), 1, t54)
+    t57 = 1 - t56
+    t58 = numpy.arcsin(numpy.sqrt(numpy.where(numpy.greater(t54, t57), t57, numpy.where(numpy.less_equal(t54, t57), t54, t54 + t57))))
+    t59 = 2*t58
+    t60 = (t58*t58)
+    t61 = 4*t60
+    t74 = material[..., 13]*t35*t55*t6*(t36 + ((45/64)*t31 + t36 + 1)*numpy.expm1(t28*(material[..., 12]*t33*t53*(material[..., 11]*t29 - 64) + material[..., 2]*(material[..., 10]*(t47*texel(material[..., 9], t40) + t50*texel(material[..., 9], t42) + t51*texel(material[..., 9], t41) + t52*texel(material[..., 9], t38)) + material[..., 4]*(t47*texel(material[..., 3], t40) + t50*texel(material[..., 3], t42) + t51*texel(material[..., 3], t41) + t52*texel(material[..., 3], t38)) + material[..., 6]*(t47*texel(material[..., 5], t40) + t50*texel(material[..., 5], t42) + t51*texel(material[..., 5], t41) + t52*texel(material[..., 5], t38)) + material[..., 8]*(t47*texel(material[..., 7], t40) + t50*texel(material[..., 7], t42) + t51*texel(material[..., 7], t41) + t52*texel(material[..., 7], t38)) - 47/96*t28 - 15/128*t29 + (15/64)*t30 + 173/768)) + t7*(material[..., 12]*t10*t27*(material[..., 11]*t8 - 64) + material[..., 2]*(material[..., 10]*(t21*texel(material[..., 9], t13) + t24*texel(material[..., 9], t15) + t25*texel(material[..., 9], t14) + t26*texel(material[..., 9], t12)) + material[..., 4]*(t21*texel(material[..., 3], t13) + t24*texel(material[..., 3], t15) + t25*texel(material[..., 3], t14) + t26*texel(material[..., 3], t12)) + material[..., 6]*(t21*texel(material[..., 5], t13) + t24*texel(material[..., 5], t15) + t25*texel(material[..., 5], t14) + t26*texel(material[..., 5], t12)) + material[..., 8]*(t21*texel(material[..., 7], t13) + t24*texel(material[..., 7], t15) + t25*texel(material[..., 7], t14) + t26*texel(material[..., 7], t12)) - 47/96*t7 - 15/128*t8 + (15/64)*t9 + 173/768)))) + material[..., 19]*t34*t55*(2*(t6*t6) - 1)*numpy.expm1(t28*(material[..., 18]*(t33*t33)*t53 + material[..., 2]*(material[..., 10]*(t47*texel(material[..., 17], t40) + t50*texel(material[..., 17], t42) + t51*texel(material[..., 17], t41) + t52*texel(material[..., 17], t38)) + material[..., 4]*(t47*texel(material[..., 14], t40) + t50*texel(material[..., 14], t42) + t51*texel(material[..., 14], t41) + t52*texel(material[..., 14], t38)) + material[..., 6]*(t47*texel(material[..., 15], t40) + t50*texel(material[..., 15], t42) + t51*texel(material[..., 15], t41) + t52*texel(material[..., 15], t38)) + material[..., 8]*(t47*texel(material[..., 16], t40) + t50*texel(material[..., 16], t42) + t51*texel(material[..., 16], t41) + t52*texel(material[..., 16], t38)) + (25/256)*t28 + (15/512)*t29 - 15/256*t30 - 45/1024)) + t7*(material[..., 18]*(t10*t10)*t27 + material[..., 2]*(material[..., 10]*(t21*texel(material[..., 17], t13) + t24*texel(material[..., 17], t15) + t25*texel(material[..., 17], t14) + t26*texel(material[..., 17], t12)) + material[..., 4]*(t21*texel(material[..., 14], t13) + t24*texel(material[..., 14], t15) + t25*texel(material[..., 14], t14) + t26*texel(material[..., 14], t12)) + material[..., 6]*(t21*texel(material[..., 15], t13) + t24*texel(material[..., 15], t15) + t25*texel(material[..., 15], t14) + t26*texel(material[..., 15], t12)) + material[..., 8]*(t21*texel(material[..., 16], t13) + t24*texel(material[..., 16], t15) + t25*texel(material[..., 16], t14) + t26*texel(material[..., 16], t12)) + (25/256)*t7 + (15/512)*t8 - 15/256*t9 - 45/1024))) + material[..., 32]*t55*numpy.where(numpy.less(t56, 1/16), 8*(t58*t58*t58)*(t61*(t61*(t61*(t61*(t61*((1/23351328000)*t60 - 1/518918400) + 1/3991680) - 1/45360) + 1/840) - 1/30) + 1/3), 2*numpy.sqrt(t56)*numpy.sqrt(t57) - (1 - 2*t56)*numpy.where(numpy.less(t56, 1/2), t59, 3.141592653589793238 - t59)) + (1/2)*t55*(t37 + (material[..., 22]*(135*t29*t8 - 45*t29 + 256*t31 - 45*t8 + 207) + t37)*numpy.expm1(t28*(material[..., 2]*(material[..., 10]*(t47*texel(material[..., 29], t40) + t50*texel(material[..., 29], t42) + t51*texel(material[..., 29], t41) + t52*texel(material[..., 29], t38)) + material[..., 4]*(t47*texel(material[..., 26], t40) + t50*texel(material[..., 26], t42) + t51*texel(material[..., 26], t41) + t52*texel(material[..., 26], t38)) + material[..., 6]*(t47*texel(material[..., 27], t40) + t50*texel(material[..., 27], t42) + t51*texel(material[..., 27], t41) + t52*texel(material[..., 27], t38)) + material[..., 8]*(t47*texel(material[..., 28], t40) + t50*texel(material[..., 28], t42) + t51*texel(material[..., 28], t41) + t52*texel(material[..., 28], t38)) + (301/384)*t28 + (45/256)*t29 - 45/128*t30 - 557/1536) + material[..., 22]*t53*(material[..., 30]*t29 + material[..., 31]*(t28*t28*t28*t28) + 207)) + t7*(material[..., 2]*(material[..., 10]*(t21*texel(material[..., 29], t13) + t24*texel(material[..., 29], t15) + t25*texel(material[..., 29], t14) + t26*texel(material[..., 29], t12)) + material[..., 4]*(t21*texel(material[..., 26], t13) + t24*texel(material[..., 26], t15) + t25*texel(material[..., 26], t14) + t26*texel(material[..., 26], t12)) + material[..., 6]*(t21*texel(material[..., 27], t13) + t24*texel(material[..., 27], t15) + t25*texel(material[..., 27], t14) + t26*texel(material[..., 27], t12)) + material[..., 8]*(t21*texel(material[..., 28], t13) + t24*texel(material[..., 28], t15) + t25*texel(material[..., 28], t14) + t26*texel(material[..., 28], t12)) + (301/384)*t7 + (45/256)*t8 - 45/128*t9 - 557/1536) + material[..., 22]*t27*(material[..., 30]*t8 + material[..., 31]*(t7*t7*t7*t7) + 207))))/3.141592653589793238
+    return numpy.where(numpy.less(t2, 0), 0, 1)*numpy.where(numpy.less(t5, 0), 0, 1)*numpy.where(numpy.less(t74, 0), 0, t74)
 
 
 # ---- the texture -------------------------------------------------------------------------------------

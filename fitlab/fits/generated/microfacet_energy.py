@@ -70,12 +70,12 @@ def E_ggx_sep(mu, alpha):
     t6 = (t4*t4*t4)
     t7 = (t4*t4*t4*t4)
     t8 = t0*t4
-    t9 = t0*t6
-    t10 = t1*t4
-    t11 = t2*t4
-    t12 = t0*t5
-    t13 = t1*t5
-    return (-0.3342026130916714*t0 - 0.591523621218794*t1 + 0.3470592705040923*t10 + 0.4014224515193276*t11 - 3.397394113905067*t12 - 0.633683128651319*t13 + 0.3875722325510179*t2 - 0.18768041697624324*t3 - 4.111758587393854*t4 + 9.418199584344933*t5 - 7.940918512869557*t6 + 2.9647152830101473*t7 + 1.7926985146669765*t8 + 1.7805657105727173*t9 + 1.0)/(-0.313319767715234*t0 - 0.3527861456544629*t1 + 0.8444961688654722*t10 - 0.5951700399827389*t11 - 3.329255102953996*t12 - 0.35206512044474975*t13 + 0.5233907129917773*t2 + 0.13463534243909864*t3 - 4.126390199626173*t4 + 10.15347898757507*t5 - 9.07761592206157*t6 + 3.471885025208951*t7 + 1.680137107714514*t8 + 1.7977924812764736*t9 + 1)
+    t9 = t0*t5
+    t10 = t0*t6
+    t11 = t1*t4
+    t12 = t1*t5
+    t13 = t2*t4
+    return (-0.3342026130916714*t0 - 0.591523621218794*t1 + 1.7805657105727173*t10 + 0.3470592705040923*t11 - 0.633683128651319*t12 + 0.4014224515193276*t13 + 0.3875722325510179*t2 - 0.18768041697624324*t3 - 4.111758587393854*t4 + 9.418199584344933*t5 - 7.940918512869557*t6 + 2.9647152830101473*t7 + 1.7926985146669765*t8 - 3.397394113905067*t9 + 1.0)/(-0.313319767715234*t0 - 0.3527861456544629*t1 + 1.7977924812764736*t10 + 0.8444961688654722*t11 - 0.35206512044474975*t12 - 0.5951700399827389*t13 + 0.5233907129917773*t2 + 0.13463534243909864*t3 - 4.126390199626173*t4 + 10.15347898757507*t5 - 9.07761592206157*t6 + 3.471885025208951*t7 + 1.680137107714514*t8 - 3.329255102953996*t9 + 1)
 
 
 def one_minus_E_ggx_sep(mu, alpha):
@@ -88,19 +88,19 @@ def one_minus_E_ggx_sep(mu, alpha):
     mu, alpha = numpy.asarray(mu, dtype=float), numpy.asarray(alpha, dtype=float)
     t9 = numpy.where(numpy.less(alpha, 0), 0.0, alpha)
     t0 = numpy.where(numpy.greater(t9, 1.0), 1.0, t9)
+    t1 = (t0*t0)
     t10 = numpy.where(numpy.less(mu, 0), 0.0, mu)
-    t1 = numpy.where(numpy.greater(t10, 1.0), 1.0, t10)
-    t11 = t0 + t1
-    t2 = numpy.where(numpy.less(t11, 1.17549435082229e-38), 1.17549435082229e-38, t11)**(-1.0)
-    t3 = (t0*t0)
-    t4 = (t1*t1)
-    t5 = t0*t1
-    t12 = t1*t2
+    t2 = numpy.where(numpy.greater(t10, 1.0), 1.0, t10)
+    t3 = (t2*t2)
+    t4 = t0*t2
+    t11 = t0 + t2
+    t5 = numpy.where(numpy.less(t11, 1.17549435082229e-38), 1.17549435082229e-38, t11)**(-1.0)
+    t12 = t2*t5
     t6 = numpy.where(numpy.greater(t12, 1), 1, t12)
     t7 = (t6*t6)
-    t8 = t1*t6
-    t13 = t0*t2
-    return (0.07675087100567762*t0 + 0.012838882155202428*t1 + 0.5147151492004027*t3 + 0.11073024406673312*t4 + 0.8709242130972937*t5 + 0.09664519230411747*t6 - 0.052390343615683545*t7 + 0.10343791886777551*t8 + 0.06231747473060401)*(numpy.where(numpy.greater(t13, 1), 1, t13)*numpy.where(numpy.greater(t13, 1), 1, t13))/(0.4262032393727031*t0 - 0.08478926874417231*t1 + 0.20836345870338666*t3 - 0.026776558347170645*t4 - 0.2595233050357591*t5 - 2.368581374947587*t6 + 1.5802187384859974*t7 + 0.2659617966123465*t8 + 1)
+    t8 = t2*t6
+    t13 = t0*t5
+    return (0.07675087100567762*t0 + 0.5147151492004027*t1 + 0.012838882155202428*t2 + 0.11073024406673312*t3 + 0.8709242130972937*t4 + 0.09664519230411747*t6 - 0.052390343615683545*t7 + 0.10343791886777551*t8 + 0.06231747473060401)*(numpy.where(numpy.greater(t13, 1), 1, t13)*numpy.where(numpy.greater(t13, 1), 1, t13))/(0.4262032393727031*t0 + 0.20836345870338666*t1 - 0.08478926874417231*t2 - 0.026776558347170645*t3 - 0.2595233050357591*t4 - 2.368581374947587*t6 + 1.5802187384859974*t7 + 0.2659617966123465*t8 + 1)
 
 
 def E_avg_ggx_sep(alpha):
@@ -124,21 +124,21 @@ def E_ggx_cor(mu, alpha):
     of the exact 1 - E. Measured by fitlab codegen: max 1.32e-03, RMS 6.37e-04 (absolute,
     21203 points)."""
     mu, alpha = numpy.asarray(mu, dtype=float), numpy.asarray(alpha, dtype=float)
-    t9 = numpy.where(numpy.less(mu, 0), 0.0, mu)
+    t9 = numpy.where(numpy.less(alpha, 0), 0.0, alpha)
     t0 = numpy.where(numpy.greater(t9, 1.0), 1.0, t9)
-    t10 = numpy.where(numpy.less(alpha, 0), 0.0, alpha)
-    t1 = numpy.where(numpy.greater(t10, 1.0), 1.0, t10)
-    t11 = t0 + t1
-    t2 = numpy.where(numpy.less(t11, 1.17549435082229e-38), 1.17549435082229e-38, t11)**(-1.0)
-    t12 = t0*t2
-    t3 = numpy.where(numpy.greater(t12, 1), 1, t12)
-    t4 = (t1*t1)
-    t5 = (t0*t0)
-    t6 = t0*t1
-    t7 = (t3*t3)
-    t8 = t0*t3
-    t13 = t1*t2
-    return t3*(4.920280655979446*numpy.log(numpy.where(numpy.less(t3, 1.0e-30), 1.0e-30, t3)) - 1)*(-0.011362713344900226*t0 + 0.013888392936497141*t1 + 0.06652154419119118*t3 + 0.1718579782731443*t4 + 0.08695144496852578*t5 + 0.13030082553667635*t6 + 0.05358878307494363*t7 - 0.024857791770870292*t8 + 0.010526659315635335)*(numpy.where(numpy.greater(t13, 1), 1, t13)*numpy.where(numpy.greater(t13, 1), 1, t13))/(0.3589740558534391*t0 - 0.3063495639221299*t1 - 2.048643679454552*t3 + 0.3319304125834638*t4 + 0.035748791127792626*t5 - 0.17311260873283832*t6 + 1.278907217068977*t7 - 0.392192953533852*t8 + 1) + 1
+    t1 = (t0*t0)
+    t10 = numpy.where(numpy.less(mu, 0), 0.0, mu)
+    t2 = numpy.where(numpy.greater(t10, 1.0), 1.0, t10)
+    t3 = (t2*t2)
+    t4 = t0*t2
+    t11 = t0 + t2
+    t5 = numpy.where(numpy.less(t11, 1.17549435082229e-38), 1.17549435082229e-38, t11)**(-1.0)
+    t12 = t2*t5
+    t6 = numpy.where(numpy.greater(t12, 1), 1, t12)
+    t7 = (t6*t6)
+    t8 = t2*t6
+    t13 = t0*t5
+    return t6*(4.920280655979446*numpy.log(numpy.where(numpy.less(t6, 1.0e-30), 1.0e-30, t6)) - 1)*(0.013888392936497141*t0 + 0.1718579782731443*t1 - 0.011362713344900226*t2 + 0.08695144496852578*t3 + 0.13030082553667635*t4 + 0.06652154419119118*t6 + 0.05358878307494363*t7 - 0.024857791770870292*t8 + 0.010526659315635335)*(numpy.where(numpy.greater(t13, 1), 1, t13)*numpy.where(numpy.greater(t13, 1), 1, t13))/(-0.3063495639221299*t0 + 0.3319304125834638*t1 + 0.3589740558534391*t2 + 0.035748791127792626*t3 - 0.17311260873283832*t4 - 2.048643679454552*t6 + 1.278907217068977*t7 - 0.392192953533852*t8 + 1) + 1
 
 
 def one_minus_E_ggx_cor(mu, alpha):
@@ -149,21 +149,21 @@ def one_minus_E_ggx_cor(mu, alpha):
     1), with the -mu log(mu) approach of the exact 1 - E. Measured by fitlab codegen: max
     9.61e-02, RMS 2.86e-02 (relative to max(|1 - E|, 0.001), 21203 points)."""
     mu, alpha = numpy.asarray(mu, dtype=float), numpy.asarray(alpha, dtype=float)
-    t9 = numpy.where(numpy.less(mu, 0), 0.0, mu)
+    t9 = numpy.where(numpy.less(alpha, 0), 0.0, alpha)
     t0 = numpy.where(numpy.greater(t9, 1.0), 1.0, t9)
-    t10 = numpy.where(numpy.less(alpha, 0), 0.0, alpha)
-    t1 = numpy.where(numpy.greater(t10, 1.0), 1.0, t10)
-    t11 = t0 + t1
-    t2 = numpy.where(numpy.less(t11, 1.17549435082229e-38), 1.17549435082229e-38, t11)**(-1.0)
-    t12 = t0*t2
-    t3 = numpy.where(numpy.greater(t12, 1), 1, t12)
-    t4 = (t1*t1)
-    t5 = (t0*t0)
-    t6 = t0*t1
-    t7 = (t3*t3)
-    t8 = t0*t3
-    t13 = t1*t2
-    return t3*(1 - 1.2044531409598915*numpy.log(numpy.where(numpy.less(t3, 1.0e-30), 1.0e-30, t3)))*(-0.04494561263540899*t0 - 0.001506945498921262*t1 + 0.3612034129469266*t3 + 0.7478894481374461*t4 + 0.18496936145533166*t5 - 0.36604946287249907*t6 - 0.35426199620575266*t7 + 0.05586784673077482*t8 + 0.028021474722857716)*(numpy.where(numpy.greater(t13, 1), 1, t13)*numpy.where(numpy.greater(t13, 1), 1, t13))/(-0.014975544094432438*t0 - 0.2529164959845158*t1 - 2.009615057335555*t3 + 0.33706484104155565*t4 + 0.06010159147183472*t5 - 0.22668769332601665*t6 + 1.1070449066788113*t7 + 0.0854075983794332*t8 + 1)
+    t1 = (t0*t0)
+    t10 = numpy.where(numpy.less(mu, 0), 0.0, mu)
+    t2 = numpy.where(numpy.greater(t10, 1.0), 1.0, t10)
+    t3 = (t2*t2)
+    t4 = t0*t2
+    t11 = t0 + t2
+    t5 = numpy.where(numpy.less(t11, 1.17549435082229e-38), 1.17549435082229e-38, t11)**(-1.0)
+    t12 = t2*t5
+    t6 = numpy.where(numpy.greater(t12, 1), 1, t12)
+    t7 = (t6*t6)
+    t8 = t2*t6
+    t13 = t0*t5
+    return t6*(1 - 1.2044531409598915*numpy.log(numpy.where(numpy.less(t6, 1.0e-30), 1.0e-30, t6)))*(-0.001506945498921262*t0 + 0.7478894481374461*t1 - 0.04494561263540899*t2 + 0.18496936145533166*t3 - 0.36604946287249907*t4 + 0.3612034129469266*t6 - 0.35426199620575266*t7 + 0.05586784673077482*t8 + 0.028021474722857716)*(numpy.where(numpy.greater(t13, 1), 1, t13)*numpy.where(numpy.greater(t13, 1), 1, t13))/(-0.2529164959845158*t0 + 0.33706484104155565*t1 - 0.014975544094432438*t2 + 0.06010159147183472*t3 - 0.22668769332601665*t4 - 2.009615057335555*t6 + 1.1070449066788113*t7 + 0.0854075983794332*t8 + 1)
 
 
 def E_avg_ggx_cor(alpha):
@@ -243,12 +243,12 @@ def ms_blog_flattening_diffuse(alpha, mu_i):
     alpha, mu_i = numpy.asarray(alpha, dtype=float), numpy.asarray(mu_i, dtype=float)
     t5 = numpy.where(numpy.less(alpha, 0.05), 0.05, alpha)
     t0 = numpy.where(numpy.greater(t5, 1.0), 1.0, t5)
+    t1 = (t0*t0)
     t6 = numpy.where(numpy.less(mu_i, 0.05), 0.05, mu_i)
-    t1 = numpy.where(numpy.greater(t6, 1.0), 1.0, t6)
-    t2 = (t0*t0)
-    t3 = (t1*t1)
-    t4 = (t1*t1*t1)
-    return -1.6562656481489018*(t0*t0*t0) - 3.4628989266542267*t0*t1 + 1.2117786276097873*t0*t3 + 0.3916566532160779*t0*t4 - 0.7859353452099775*t0 + 1.1691862702252298*t1 + 4.136185804966846*t2*t3 - 3.2307224441769553*t2*t4 + 2.76778727106632*t2 - 1.327731403225174*t3 + 0.5337199392351057*t4 + 1.045680289819587
+    t2 = numpy.where(numpy.greater(t6, 1.0), 1.0, t6)
+    t3 = (t2*t2)
+    t4 = (t2*t2*t2)
+    return -1.6562656481489018*(t0*t0*t0) - 3.4628989266542267*t0*t2 + 1.2117786276097873*t0*t3 + 0.3916566532160779*t0*t4 - 0.7859353452099775*t0 + 4.136185804966846*t1*t3 - 3.2307224441769553*t1*t4 + 2.76778727106632*t1 + 1.1691862702252298*t2 - 1.327731403225174*t3 + 0.5337199392351057*t4 + 1.045680289819587
 
 
 def ms_blog_scale_diffuse(alpha, mu_i, order):
@@ -260,21 +260,21 @@ def ms_blog_scale_diffuse(alpha, mu_i, order):
     and neglects higher orders (k4 = k5 = 0); the code's preset carries its normalisation
     2/pi. Measured by fitlab codegen: max 1.23e+00, RMS 4.34e-01 (relative, 135 points)."""
     alpha, mu_i, order = numpy.asarray(alpha, dtype=float), numpy.asarray(mu_i, dtype=float), numpy.asarray(order, dtype=float)
-    t11 = numpy.where(numpy.less(order, 2.0), 2.0, order)
-    t0 = numpy.where(numpy.greater(t11, 5.0), 5.0, t11)
-    t1 = (1/2)*t0
-    t2 = t0 - 4
-    t3 = t0 - 3
-    t4 = (1/3)*t0
-    t12 = numpy.where(numpy.less(alpha, 0.05), 0.05, alpha)
-    t5 = numpy.where(numpy.greater(t12, 1.0), 1.0, t12)
-    t13 = numpy.where(numpy.less(mu_i, 0.05), 0.05, mu_i)
-    t6 = numpy.where(numpy.greater(t13, 1.0), 1.0, t13)
-    t7 = (t5*t5)
-    t8 = (t5*t5*t5)
-    t9 = (t6*t6)
-    t10 = (t6*t6*t6)
-    return (-0.3295961677232844*t2*(5/2 - t1)*(t0 - 2) + 0.06833981076173223*t2*(t1 - 3/2)*(t4 - 2/3) - t3*(5/3 - t4)*(2 - t1) + 0.10337654552309455*t3*(5 - t0)*(t1 - 1))*(0.4550167452703966*t10*t5 + 0.792194941478882*t10*t7 - 1.269640317574752*t10*t8 - 0.0594050185042275*t10 + 0.4565170363747333*t5*t6 - 0.8469936607045311*t5*t9 - 0.21261324600709514*t5 + 1.2124442264944706*t6*t7 - 1.0242284087959774*t6*t8 - 0.07185059858271628*t6 - 1.6852430138904961*t7*t9 + 1.0482635520786259*t7 + 1.9785432919671517*t8*t9 - 0.6308554470205076*t8 + 0.11729797999501176*t9 + 0.0248993418533331)
+    t11 = numpy.where(numpy.less(alpha, 0.05), 0.05, alpha)
+    t0 = numpy.where(numpy.greater(t11, 1.0), 1.0, t11)
+    t1 = (t0*t0)
+    t2 = (t0*t0*t0)
+    t12 = numpy.where(numpy.less(mu_i, 0.05), 0.05, mu_i)
+    t3 = numpy.where(numpy.greater(t12, 1.0), 1.0, t12)
+    t4 = (t3*t3)
+    t5 = (t3*t3*t3)
+    t13 = numpy.where(numpy.less(order, 2.0), 2.0, order)
+    t6 = numpy.where(numpy.greater(t13, 5.0), 5.0, t13)
+    t7 = (1/3)*t6
+    t8 = (1/2)*t6
+    t9 = t6 - 4
+    t10 = t6 - 3
+    return (-t10*(5/3 - t7)*(2 - t8) + 0.10337654552309455*t10*(5 - t6)*(t8 - 1) - 0.3295961677232844*t9*(5/2 - t8)*(t6 - 2) + 0.06833981076173223*t9*(t7 - 2/3)*(t8 - 3/2))*(0.4565170363747333*t0*t3 - 0.8469936607045311*t0*t4 + 0.4550167452703966*t0*t5 - 0.21261324600709514*t0 + 1.2124442264944706*t1*t3 - 1.6852430138904961*t1*t4 + 0.792194941478882*t1*t5 + 1.0482635520786259*t1 - 1.0242284087959774*t2*t3 + 1.9785432919671517*t2*t4 - 1.269640317574752*t2*t5 - 0.6308554470205076*t2 - 0.07185059858271628*t3 + 0.11729797999501176*t4 - 0.0594050185042275*t5 + 0.0248993418533331)
 
 
 def ms_tilt_sigma_diffuse(alpha, mu_i, order):
@@ -285,20 +285,20 @@ def ms_tilt_sigma_diffuse(alpha, mu_i, order):
     degree <= 3 in (x, y), <= 2 with z, <= 1 with z^2. Measured by fitlab codegen: max
     8.16e-01, RMS 1.55e-01 (relative, 168 points)."""
     alpha, mu_i, order = numpy.asarray(alpha, dtype=float), numpy.asarray(mu_i, dtype=float), numpy.asarray(order, dtype=float)
+    t0 = numpy.log(20)**(-1.0)
     t10 = numpy.where(numpy.less(alpha, 0.05), 0.05, alpha)
-    t0 = 20*numpy.where(numpy.greater(t10, 1.0), 1.0, t10)
-    t1 = numpy.log(20)**(-1.0)
+    t1 = 20*numpy.where(numpy.greater(t10, 1.0), 1.0, t10)
+    t2 = 2*t0*numpy.log(t1) - 1
+    t3 = (t2*t2)
     t11 = numpy.where(numpy.less(mu_i, 0.05), 0.05, mu_i)
-    t2 = numpy.where(numpy.greater(t11, 1.0), 1.0, t11)
+    t4 = numpy.where(numpy.greater(t11, 1.0), 1.0, t11)
+    t5 = 2*t4 - 1
+    t6 = (t5*t5)
     t12 = numpy.where(numpy.less(order, 2.0), 2.0, order)
-    t3 = numpy.where(numpy.greater(t12, 5.0), 5.0, t12)
-    t4 = 2*t2 - 1
-    t5 = (t4*t4)
-    t6 = (2/3)*t3 - 7/3
-    t7 = (t6*t6)
-    t8 = 2*t1*numpy.log(t0) - 1
+    t7 = numpy.where(numpy.greater(t12, 5.0), 5.0, t12)
+    t8 = (2/3)*t7 - 7/3
     t9 = (t8*t8)
-    return 0.029314643446564239*t0**(6.725286903433162*t1)*numpy.exp(-0.10982677495627066*t2 - 1.3270422800322229*t3 + 0.11114568841105608*(t4*t4*t4) - 0.03295621477689129*t4*t6*t8 + 0.21239470842098646*t4*t6 - 0.047088636069265916*t4*t7 + 0.16933520734531343*t4*t8 + 0.025745293559688475*t4*t9 - 0.1264022103295333*t5*t6 - 0.25094216141632353*t5*t8 - 0.0618292909452432*t5 + 1.6547139333800123*t6*t8 - 0.19755208044074904*t6*t9 + 0.3224309457258726*t7*t8 + 0.2618705308826311*t7 - 0.30682283103839697*(t8*t8*t8) - 0.7234161841096599*t9)
+    return 0.029314643446564239*t1**(6.725286903433162*t0)*numpy.exp(-0.30682283103839697*(t2*t2*t2) - 0.03295621477689129*t2*t5*t8 + 0.16933520734531343*t2*t5 - 0.25094216141632353*t2*t6 + 1.6547139333800123*t2*t8 + 0.3224309457258726*t2*t9 + 0.025745293559688475*t3*t5 - 0.19755208044074904*t3*t8 - 0.7234161841096599*t3 - 0.10982677495627066*t4 + 0.11114568841105608*(t5*t5*t5) + 0.21239470842098646*t5*t8 - 0.047088636069265916*t5*t9 - 0.1264022103295333*t6*t8 - 0.0618292909452432*t6 - 1.3270422800322229*t7 + 0.2618705308826311*t9)
 
 
 def ms_tilt_eta_diffuse(alpha, mu_i, order):
@@ -308,20 +308,20 @@ def ms_tilt_eta_diffuse(alpha, mu_i, order):
     order - 7)/3: degree <= 3 in (x, y), <= 2 with z, <= 1 with z^2. Measured by fitlab
     codegen: max 5.86e-01, RMS 1.00e-01 (absolute, 135 points)."""
     alpha, mu_i, order = numpy.asarray(alpha, dtype=float), numpy.asarray(mu_i, dtype=float), numpy.asarray(order, dtype=float)
-    t10 = numpy.where(numpy.less(mu_i, 0.05), 0.05, mu_i)
-    t0 = numpy.where(numpy.greater(t10, 1.0), 1.0, t10)
-    t11 = numpy.where(numpy.less(order, 2.0), 2.0, order)
-    t1 = numpy.where(numpy.greater(t11, 5.0), 5.0, t11)
-    t2 = 2*t0 - 1
-    t3 = (t2*t2)
-    t4 = (2/3)*t1 - 7/3
+    t10 = numpy.where(numpy.less(alpha, 0.05), 0.05, alpha)
+    t0 = numpy.log(20*numpy.where(numpy.greater(t10, 1.0), 1.0, t10))/numpy.log(20)
+    t1 = 2*t0 - 1
+    t2 = (t1*t1)
+    t11 = numpy.where(numpy.less(mu_i, 0.05), 0.05, mu_i)
+    t3 = numpy.where(numpy.greater(t11, 1.0), 1.0, t11)
+    t4 = 2*t3 - 1
     t5 = (t4*t4)
-    t12 = numpy.where(numpy.less(alpha, 0.05), 0.05, alpha)
-    t6 = numpy.log(20*numpy.where(numpy.greater(t12, 1.0), 1.0, t12))/numpy.log(20)
-    t7 = t2*t4
-    t8 = 2*t6 - 1
-    t9 = (t8*t8)
-    return 0.09098289863835012*t0 + 0.177522532578988*t1 + 0.04071419756203633*(t2*t2*t2) - 0.0236663961892579*t2*t5 + 0.014188670408166059*t2*t8 + 0.06389797970691098*t2*t9 + 0.027797999525746686*t3*t4 - 0.11039513365866654*t3*t8 - 0.014288782959218491*t3 - 0.24253079461777538*t4*t8 + 0.13870031070912597*t4*t9 - 0.062269363766852374*t5*t8 + 0.025688622744945752*t5 + 0.13245265177053104*t6 - 0.14006178357791182*t7*t8 + 0.07825284321538534*t7 - 0.082754400134707*(t8*t8*t8) + 0.15498204508721689*t9 - 0.65750603597102944
+    t12 = numpy.where(numpy.less(order, 2.0), 2.0, order)
+    t6 = numpy.where(numpy.greater(t12, 5.0), 5.0, t12)
+    t7 = (2/3)*t6 - 7/3
+    t8 = (t7*t7)
+    t9 = t4*t7
+    return 0.13245265177053104*t0 - 0.082754400134707*(t1*t1*t1) + 0.014188670408166059*t1*t4 - 0.11039513365866654*t1*t5 - 0.24253079461777538*t1*t7 - 0.062269363766852374*t1*t8 - 0.14006178357791182*t1*t9 + 0.06389797970691098*t2*t4 + 0.13870031070912597*t2*t7 + 0.15498204508721689*t2 + 0.09098289863835012*t3 + 0.04071419756203633*(t4*t4*t4) - 0.0236663961892579*t4*t8 + 0.027797999525746686*t5*t7 - 0.014288782959218491*t5 + 0.177522532578988*t6 + 0.025688622744945752*t8 + 0.07825284321538534*t9 - 0.65750603597102944
 
 
 def ms_tilt_flattening_diffuse(alpha, mu_i, order):
@@ -331,20 +331,20 @@ def ms_tilt_flattening_diffuse(alpha, mu_i, order):
     = 2 mu_i - 1, z = (2 order - 7)/3: degree <= 3 in (x, y), <= 2 with z, <= 1 with z^2.
     Measured by fitlab codegen: max 3.49e+00, RMS 4.08e-01 (relative, 135 points)."""
     alpha, mu_i, order = numpy.asarray(alpha, dtype=float), numpy.asarray(mu_i, dtype=float), numpy.asarray(order, dtype=float)
+    t0 = numpy.log(20)**(-1.0)
     t10 = numpy.where(numpy.less(alpha, 0.05), 0.05, alpha)
-    t0 = 20*numpy.where(numpy.greater(t10, 1.0), 1.0, t10)
-    t1 = numpy.log(20)**(-1.0)
+    t1 = 20*numpy.where(numpy.greater(t10, 1.0), 1.0, t10)
+    t2 = 2*t0*numpy.log(t1) - 1
+    t3 = (t2*t2)
     t11 = numpy.where(numpy.less(mu_i, 0.05), 0.05, mu_i)
-    t2 = numpy.where(numpy.greater(t11, 1.0), 1.0, t11)
+    t4 = numpy.where(numpy.greater(t11, 1.0), 1.0, t11)
+    t5 = 2*t4 - 1
+    t6 = (t5*t5)
     t12 = numpy.where(numpy.less(order, 2.0), 2.0, order)
-    t3 = numpy.where(numpy.greater(t12, 5.0), 5.0, t12)
-    t4 = 2*t2 - 1
-    t5 = (t4*t4)
-    t6 = (2/3)*t3 - 7/3
-    t7 = (t6*t6)
-    t8 = 2*t1*numpy.log(t0) - 1
+    t7 = numpy.where(numpy.greater(t12, 5.0), 5.0, t12)
+    t8 = (2/3)*t7 - 7/3
     t9 = (t8*t8)
-    return 2.268158760846169*t0**(0.12939302187910228*t1)*numpy.exp(-0.071919489719417848*t2 - 0.30557204024275873*t3 - 0.043467021964560724*(t4*t4*t4) + 0.1501484137324496*t4*t6*t8 - 0.07429738638933844*t4*t6 - 0.05293553501998511*t4*t7 + 0.03242399671799421*t4*t8 + 0.061056685525979905*t4*t9 - 0.03620981853674712*t5*t6 + 0.06874908122755363*t5*t8 + 0.011898062849848843*t5 + 0.7002355805790147*t6*t8 - 0.20384922969954342*t6*t9 + 0.33488085270478574*t7*t8 - 0.25690426405500344*t7 + 0.08701404214055972*(t8*t8*t8) - 0.1939363537772392*t9)
+    return 2.268158760846169*t1**(0.12939302187910228*t0)*numpy.exp(0.08701404214055972*(t2*t2*t2) + 0.1501484137324496*t2*t5*t8 + 0.03242399671799421*t2*t5 + 0.06874908122755363*t2*t6 + 0.7002355805790147*t2*t8 + 0.33488085270478574*t2*t9 + 0.061056685525979905*t3*t5 - 0.20384922969954342*t3*t8 - 0.1939363537772392*t3 - 0.071919489719417848*t4 - 0.043467021964560724*(t5*t5*t5) - 0.07429738638933844*t5*t8 - 0.05293553501998511*t5*t9 - 0.03620981853674712*t6*t8 + 0.011898062849848843*t6 - 0.30557204024275873*t7 - 0.25690426405500344*t9)
 
 
 def ms_tilt_b_diffuse(alpha, mu_i, order):
@@ -355,21 +355,21 @@ def ms_tilt_b_diffuse(alpha, mu_i, order):
     z = (2 order - 7)/3: degree <= 3 in (x, y), <= 2 with z, <= 1 with z^2. Measured by
     fitlab codegen: max 4.24e-01, RMS 1.65e-01 (absolute, 135 points)."""
     alpha, mu_i, order = numpy.asarray(alpha, dtype=float), numpy.asarray(mu_i, dtype=float), numpy.asarray(order, dtype=float)
-    t10 = numpy.where(numpy.less(mu_i, 0.05), 0.05, mu_i)
-    t0 = numpy.where(numpy.greater(t10, 1.0), 1.0, t10)
-    t11 = numpy.where(numpy.less(order, 2.0), 2.0, order)
-    t1 = numpy.where(numpy.greater(t11, 5.0), 5.0, t11)
-    t2 = 2*t0 - 1
+    t0 = numpy.log(20)**(-1.0)
+    t10 = numpy.where(numpy.less(alpha, 0.05), 0.05, alpha)
+    t1 = numpy.log(20*numpy.where(numpy.greater(t10, 1.0), 1.0, t10))
+    t2 = 2*t0*t1 - 1
     t3 = (t2*t2)
-    t4 = (2/3)*t1 - 7/3
-    t5 = (t4*t4)
-    t6 = numpy.log(20)**(-1.0)
-    t12 = numpy.where(numpy.less(alpha, 0.05), 0.05, alpha)
-    t7 = numpy.log(20*numpy.where(numpy.greater(t12, 1.0), 1.0, t12))
-    t8 = 2*t6*t7 - 1
+    t11 = numpy.where(numpy.less(mu_i, 0.05), 0.05, mu_i)
+    t4 = numpy.where(numpy.greater(t11, 1.0), 1.0, t11)
+    t5 = 2*t4 - 1
+    t6 = (t5*t5)
+    t12 = numpy.where(numpy.less(order, 2.0), 2.0, order)
+    t7 = numpy.where(numpy.greater(t12, 5.0), 5.0, t12)
+    t8 = (2/3)*t7 - 7/3
     t9 = (t8*t8)
-    t13 = (1 - t0)*(t0 + 1)
-    return (-0.022150839372880406*t0 + 0.023487515526247153*t1 - 0.015795701586849523*(t2*t2*t2) + 0.0509788412083864*t2*t4*t8 - 0.055910312617410696*t2*t4 + 0.037341576534580166*t2*t5 + 0.03728906752522548*t2*t8 - 0.042137213203556456*t2*t9 - 0.010796846265837025*t3*t4 + 0.01778152820287614*t3*t8 - 0.021246246297229463*t3 + 0.2782039497489137*t4*t8 - 0.043359979126659925*t4*t9 - 0.15791798397157478*t5*t8 - 0.27709472459335793*t5 + 0.26199686990484316*t6*t7 + 0.023531430191966886*(t8*t8*t8) - 0.12882071559344316*t9 - 0.1185791351056715)*numpy.sqrt(numpy.where(numpy.less(t13, 0), 0, t13))
+    t13 = (1 - t4)*(t4 + 1)
+    return (0.26199686990484316*t0*t1 + 0.023531430191966886*(t2*t2*t2) + 0.0509788412083864*t2*t5*t8 + 0.03728906752522548*t2*t5 + 0.01778152820287614*t2*t6 + 0.2782039497489137*t2*t8 - 0.15791798397157478*t2*t9 - 0.042137213203556456*t3*t5 - 0.043359979126659925*t3*t8 - 0.12882071559344316*t3 - 0.022150839372880406*t4 - 0.015795701586849523*(t5*t5*t5) - 0.055910312617410696*t5*t8 + 0.037341576534580166*t5*t9 - 0.010796846265837025*t6*t8 - 0.021246246297229463*t6 + 0.023487515526247153*t7 - 0.27709472459335793*t9 - 0.1185791351056715)*numpy.sqrt(numpy.where(numpy.less(t13, 0), 0, t13))
 
 
 def ms_tilt_k_diffuse(alpha, mu_i, order):
@@ -380,21 +380,21 @@ def ms_tilt_k_diffuse(alpha, mu_i, order):
     degree <= 3 in (x, y), <= 2 with z, <= 1 with z^2. Measured by fitlab codegen: max
     3.30e-01, RMS 5.43e-02 (absolute, 135 points)."""
     alpha, mu_i, order = numpy.asarray(alpha, dtype=float), numpy.asarray(mu_i, dtype=float), numpy.asarray(order, dtype=float)
-    t10 = numpy.where(numpy.less(mu_i, 0.05), 0.05, mu_i)
-    t0 = numpy.where(numpy.greater(t10, 1.0), 1.0, t10)
-    t11 = numpy.where(numpy.less(order, 2.0), 2.0, order)
-    t1 = numpy.where(numpy.greater(t11, 5.0), 5.0, t11)
-    t2 = 2*t0 - 1
-    t3 = (t2*t2)
-    t4 = (2/3)*t1 - 7/3
+    t10 = numpy.where(numpy.less(alpha, 0.05), 0.05, alpha)
+    t0 = numpy.log(20*numpy.where(numpy.greater(t10, 1.0), 1.0, t10))/numpy.log(20)
+    t1 = 2*t0 - 1
+    t2 = (t1*t1)
+    t11 = numpy.where(numpy.less(mu_i, 0.05), 0.05, mu_i)
+    t3 = numpy.where(numpy.greater(t11, 1.0), 1.0, t11)
+    t4 = 2*t3 - 1
     t5 = (t4*t4)
-    t12 = numpy.where(numpy.less(alpha, 0.05), 0.05, alpha)
-    t6 = numpy.log(20*numpy.where(numpy.greater(t12, 1.0), 1.0, t12))/numpy.log(20)
-    t7 = 2*t6 - 1
+    t12 = numpy.where(numpy.less(order, 2.0), 2.0, order)
+    t6 = numpy.where(numpy.greater(t12, 5.0), 5.0, t12)
+    t7 = (2/3)*t6 - 7/3
     t8 = (t7*t7)
-    t9 = t4*t7
-    t13 = (1 - t0)*(t0 + 1)
-    return (0.0776673786676697*t0 + 0.0091072356588052993*t1 - 0.0558980052111239*(t2*t2*t2) - 0.0265866726607751*t2*t4 + 0.0044782107909437105*t2*t5 + 0.04287736966752975*t2*t7 - 0.06093368174382067*t2*t8 + 0.07653398578719274*t2*t9 + 0.03513165962319481*t3*t4 - 0.06984768083522311*t3*t7 + 0.019945457381824287*t3 + 0.09533724338059496*t4*t8 - 0.09009509694301572*t5*t7 + 0.018099862578654535*t5 + 0.061702514887364634*t6 - 0.007254722539779813*(t7*t7*t7) - 0.032286379556750885*t8 + 0.025360531611489632*t9 - 0.12920225355036589)*numpy.where(numpy.less(t13, 0), 0, t13)
+    t9 = t1*t7
+    t13 = (1 - t3)*(t3 + 1)
+    return (0.061702514887364634*t0 - 0.007254722539779813*(t1*t1*t1) + 0.04287736966752975*t1*t4 - 0.06984768083522311*t1*t5 - 0.09009509694301572*t1*t8 - 0.06093368174382067*t2*t4 + 0.09533724338059496*t2*t7 - 0.032286379556750885*t2 + 0.0776673786676697*t3 - 0.0558980052111239*(t4*t4*t4) - 0.0265866726607751*t4*t7 + 0.0044782107909437105*t4*t8 + 0.07653398578719274*t4*t9 + 0.03513165962319481*t5*t7 + 0.019945457381824287*t5 + 0.0091072356588052993*t6 + 0.018099862578654535*t8 + 0.025360531611489632*t9 - 0.12920225355036589)*numpy.where(numpy.less(t13, 0), 0, t13)
 
 
 def ms_blog_eta_conductor(alpha, mu_i):
@@ -418,12 +418,12 @@ def ms_blog_flattening_conductor(alpha, mu_i):
     alpha, mu_i = numpy.asarray(alpha, dtype=float), numpy.asarray(mu_i, dtype=float)
     t5 = numpy.where(numpy.less(alpha, 0.05), 0.05, alpha)
     t0 = numpy.where(numpy.greater(t5, 1.0), 1.0, t5)
+    t1 = (t0*t0)
     t6 = numpy.where(numpy.less(mu_i, 0.05), 0.05, mu_i)
-    t1 = numpy.where(numpy.greater(t6, 1.0), 1.0, t6)
-    t2 = (t0*t0)
-    t3 = (t1*t1)
-    t4 = (t1*t1*t1)
-    return -3.1082678386321136*(t0*t0*t0) - 6.802150975684207*t0*t1 + 13.29086238214652*t0*t3 - 7.805927221469935*t0*t4 + 0.5695826664858286*t0 + 2.7984635734512033*t1 + 1.439047122772186*t2*t3 - 0.6370226766483926*t2*t4 + 3.3941172590945654*t2 - 6.594608958353959*t3 + 4.067979359029894*t4 - 0.028090469729388803
+    t2 = numpy.where(numpy.greater(t6, 1.0), 1.0, t6)
+    t3 = (t2*t2)
+    t4 = (t2*t2*t2)
+    return -3.1082678386321136*(t0*t0*t0) - 6.802150975684207*t0*t2 + 13.29086238214652*t0*t3 - 7.805927221469935*t0*t4 + 0.5695826664858286*t0 + 1.439047122772186*t1*t3 - 0.6370226766483926*t1*t4 + 3.3941172590945654*t1 + 2.7984635734512033*t2 - 6.594608958353959*t3 + 4.067979359029894*t4 - 0.028090469729388803
 
 
 def ms_blog_scale_conductor(alpha, mu_i, order):
@@ -436,21 +436,21 @@ def ms_blog_scale_conductor(alpha, mu_i, order):
     carries its normalisation 2/pi. Measured by fitlab codegen: max 1.37e+00, RMS 5.25e-01
     (relative, 115 points)."""
     alpha, mu_i, order = numpy.asarray(alpha, dtype=float), numpy.asarray(mu_i, dtype=float), numpy.asarray(order, dtype=float)
-    t11 = numpy.where(numpy.less(order, 2.0), 2.0, order)
-    t0 = numpy.where(numpy.greater(t11, 5.0), 5.0, t11)
-    t1 = (1/2)*t0
-    t2 = t0 - 4
-    t3 = t0 - 3
-    t4 = (1/3)*t0
-    t12 = numpy.where(numpy.less(alpha, 0.05), 0.05, alpha)
-    t5 = numpy.where(numpy.greater(t12, 1.0), 1.0, t12)
-    t13 = numpy.where(numpy.less(mu_i, 0.05), 0.05, mu_i)
-    t6 = numpy.where(numpy.greater(t13, 1.0), 1.0, t13)
-    t7 = (t5*t5)
-    t8 = (t5*t5*t5)
-    t9 = (t6*t6)
-    t10 = (t6*t6*t6)
-    return (-0.4260262302963385*t2*(5/2 - t1)*(t0 - 2) + 0.015683910418714284*t2*(t1 - 3/2)*(t4 - 2/3) - t3*(5/3 - t4)*(2 - t1) + 0.07379867281121144*t3*(5 - t0)*(t1 - 1))*(4.784811049898559*t10*t5 - 14.699633486317317*t10*t7 + 10.221765681164399*t10*t8 - 0.21918690934189689*t10 + 4.536878103649955*t5*t6 - 9.463383202511539*t5*t9 - 0.1370627169981231*t5 - 11.806819100627093*t6*t7 + 9.759737616612396*t6*t8 - 0.22133543265717803*t6 + 28.330112863251106*t7*t9 + 0.36516646079715354*t7 - 21.01995664050115*t8*t9 - 0.30233163163881577*t8 + 0.43840926760704607*t9 + 0.013381540377514373)
+    t11 = numpy.where(numpy.less(alpha, 0.05), 0.05, alpha)
+    t0 = numpy.where(numpy.greater(t11, 1.0), 1.0, t11)
+    t1 = (t0*t0)
+    t2 = (t0*t0*t0)
+    t12 = numpy.where(numpy.less(mu_i, 0.05), 0.05, mu_i)
+    t3 = numpy.where(numpy.greater(t12, 1.0), 1.0, t12)
+    t4 = (t3*t3)
+    t5 = (t3*t3*t3)
+    t13 = numpy.where(numpy.less(order, 2.0), 2.0, order)
+    t6 = numpy.where(numpy.greater(t13, 5.0), 5.0, t13)
+    t7 = (1/3)*t6
+    t8 = (1/2)*t6
+    t9 = t6 - 4
+    t10 = t6 - 3
+    return (-t10*(5/3 - t7)*(2 - t8) + 0.07379867281121144*t10*(5 - t6)*(t8 - 1) - 0.4260262302963385*t9*(5/2 - t8)*(t6 - 2) + 0.015683910418714284*t9*(t7 - 2/3)*(t8 - 3/2))*(4.536878103649955*t0*t3 - 9.463383202511539*t0*t4 + 4.784811049898559*t0*t5 - 0.1370627169981231*t0 - 11.806819100627093*t1*t3 + 28.330112863251106*t1*t4 - 14.699633486317317*t1*t5 + 0.36516646079715354*t1 + 9.759737616612396*t2*t3 - 21.01995664050115*t2*t4 + 10.221765681164399*t2*t5 - 0.30233163163881577*t2 - 0.22133543265717803*t3 + 0.43840926760704607*t4 - 0.21918690934189689*t5 + 0.013381540377514373)
 
 
 def ms_tilt_sigma_conductor(alpha, mu_i, order):
@@ -461,20 +461,20 @@ def ms_tilt_sigma_conductor(alpha, mu_i, order):
     degree <= 3 in (x, y), <= 2 with z, <= 1 with z^2. Measured by fitlab codegen: max
     2.38e+00, RMS 3.61e-01 (relative, 167 points)."""
     alpha, mu_i, order = numpy.asarray(alpha, dtype=float), numpy.asarray(mu_i, dtype=float), numpy.asarray(order, dtype=float)
+    t0 = numpy.log(20)**(-1.0)
     t10 = numpy.where(numpy.less(alpha, 0.05), 0.05, alpha)
-    t0 = 20*numpy.where(numpy.greater(t10, 1.0), 1.0, t10)
-    t1 = numpy.log(20)**(-1.0)
+    t1 = 20*numpy.where(numpy.greater(t10, 1.0), 1.0, t10)
+    t2 = 2*t0*numpy.log(t1) - 1
+    t3 = (t2*t2)
     t11 = numpy.where(numpy.less(mu_i, 0.05), 0.05, mu_i)
-    t2 = numpy.where(numpy.greater(t11, 1.0), 1.0, t11)
+    t4 = numpy.where(numpy.greater(t11, 1.0), 1.0, t11)
+    t5 = 2*t4 - 1
+    t6 = (t5*t5)
     t12 = numpy.where(numpy.less(order, 2.0), 2.0, order)
-    t3 = numpy.where(numpy.greater(t12, 5.0), 5.0, t12)
-    t4 = 2*t2 - 1
-    t5 = (t4*t4)
-    t6 = (2/3)*t3 - 7/3
-    t7 = (t6*t6)
-    t8 = 2*t1*numpy.log(t0) - 1
+    t7 = numpy.where(numpy.greater(t12, 5.0), 5.0, t12)
+    t8 = (2/3)*t7 - 7/3
     t9 = (t8*t8)
-    return 0.62951252757620981*t0**(8.752327128137852*t1)*numpy.exp(-0.11165397310749381*t2 - 2.584534222644326*t3 + 1.6959134518116719*(t4*t4*t4) + 1.1804231775789578*t4*t6*t8 + 0.5748705439756813*t4*t6 + 0.03041114601014649*t4*t7 + 1.6691952388533184*t4*t8 - 0.741221281367652*t4*t9 - 1.0435287319011535*t5*t6 - 1.7956979338693981*t5*t8 - 0.8502283099206015*t5 + 2.3702407403877768*t6*t8 - 0.007835094059160132*t6*t9 + 0.7290706727691105*t7*t8 - 1.2184307274230355*t7 + 0.37478294712803345*(t8*t8*t8) - 0.7796783384458056*t9)
+    return 0.62951252757620981*t1**(8.752327128137852*t0)*numpy.exp(0.37478294712803345*(t2*t2*t2) + 1.1804231775789578*t2*t5*t8 + 1.6691952388533184*t2*t5 - 1.7956979338693981*t2*t6 + 2.3702407403877768*t2*t8 + 0.7290706727691105*t2*t9 - 0.741221281367652*t3*t5 - 0.007835094059160132*t3*t8 - 0.7796783384458056*t3 - 0.11165397310749381*t4 + 1.6959134518116719*(t5*t5*t5) + 0.5748705439756813*t5*t8 + 0.03041114601014649*t5*t9 - 1.0435287319011535*t6*t8 - 0.8502283099206015*t6 - 2.584534222644326*t7 - 1.2184307274230355*t9)
 
 
 def ms_tilt_eta_conductor(alpha, mu_i, order):
@@ -484,20 +484,20 @@ def ms_tilt_eta_conductor(alpha, mu_i, order):
     order - 7)/3: degree <= 3 in (x, y), <= 2 with z, <= 1 with z^2. Measured by fitlab
     codegen: max 4.93e-01, RMS 1.69e-01 (absolute, 115 points)."""
     alpha, mu_i, order = numpy.asarray(alpha, dtype=float), numpy.asarray(mu_i, dtype=float), numpy.asarray(order, dtype=float)
-    t10 = numpy.where(numpy.less(mu_i, 0.05), 0.05, mu_i)
-    t0 = numpy.where(numpy.greater(t10, 1.0), 1.0, t10)
-    t11 = numpy.where(numpy.less(order, 2.0), 2.0, order)
-    t1 = numpy.where(numpy.greater(t11, 5.0), 5.0, t11)
-    t2 = 2*t0 - 1
+    t0 = numpy.log(20)**(-1.0)
+    t10 = numpy.where(numpy.less(alpha, 0.05), 0.05, alpha)
+    t1 = numpy.log(20*numpy.where(numpy.greater(t10, 1.0), 1.0, t10))
+    t2 = 2*t0*t1 - 1
     t3 = (t2*t2)
-    t4 = (2/3)*t1 - 7/3
-    t5 = (t4*t4)
-    t6 = numpy.log(20)**(-1.0)
-    t12 = numpy.where(numpy.less(alpha, 0.05), 0.05, alpha)
-    t7 = numpy.log(20*numpy.where(numpy.greater(t12, 1.0), 1.0, t12))
-    t8 = 2*t6*t7 - 1
+    t11 = numpy.where(numpy.less(mu_i, 0.05), 0.05, mu_i)
+    t4 = numpy.where(numpy.greater(t11, 1.0), 1.0, t11)
+    t5 = 2*t4 - 1
+    t6 = (t5*t5)
+    t12 = numpy.where(numpy.less(order, 2.0), 2.0, order)
+    t7 = numpy.where(numpy.greater(t12, 5.0), 5.0, t12)
+    t8 = (2/3)*t7 - 7/3
     t9 = (t8*t8)
-    return -0.6350431839472656*t0 + 0.025571389465206549*t1 + 0.45792165279495806*(t2*t2*t2) + 0.4409463673438305*t2*t4*t8 - 0.029634994753946518*t2*t4 + 0.09389943666552329*t2*t5 + 0.9030471057444573*t2*t8 - 0.1817475418143609*t2*t9 - 0.21029221311066312*t3*t4 - 0.5057264207513669*t3*t8 - 0.26154485319798637*t3 + 1.413770577498136*t4*t8 - 0.6707652884206897*t4*t9 + 0.3512679024159117*t5*t8 - 0.521641807879216*t5 + 3.128773661689535*t6*t7 + 0.09155161757052648*(t8*t8*t8) - 1.0020113294119948*t9 - 0.47371228581979312
+    return 3.128773661689535*t0*t1 + 0.09155161757052648*(t2*t2*t2) + 0.4409463673438305*t2*t5*t8 + 0.9030471057444573*t2*t5 - 0.5057264207513669*t2*t6 + 1.413770577498136*t2*t8 + 0.3512679024159117*t2*t9 - 0.1817475418143609*t3*t5 - 0.6707652884206897*t3*t8 - 1.0020113294119948*t3 - 0.6350431839472656*t4 + 0.45792165279495806*(t5*t5*t5) - 0.029634994753946518*t5*t8 + 0.09389943666552329*t5*t9 - 0.21029221311066312*t6*t8 - 0.26154485319798637*t6 + 0.025571389465206549*t7 - 0.521641807879216*t9 - 0.47371228581979312
 
 
 def ms_tilt_flattening_conductor(alpha, mu_i, order):
@@ -507,21 +507,21 @@ def ms_tilt_flattening_conductor(alpha, mu_i, order):
     = 2 mu_i - 1, z = (2 order - 7)/3: degree <= 3 in (x, y), <= 2 with z, <= 1 with z^2.
     Measured by fitlab codegen: max 1.27e+00, RMS 4.14e-01 (relative, 115 points)."""
     alpha, mu_i, order = numpy.asarray(alpha, dtype=float), numpy.asarray(mu_i, dtype=float), numpy.asarray(order, dtype=float)
+    t0 = numpy.log(20)**(-1.0)
     t11 = numpy.where(numpy.less(alpha, 0.05), 0.05, alpha)
-    t0 = 20*numpy.where(numpy.greater(t11, 1.0), 1.0, t11)
-    t1 = numpy.log(20)**(-1.0)
+    t1 = 20*numpy.where(numpy.greater(t11, 1.0), 1.0, t11)
+    t2 = 2*t0*numpy.log(t1) - 1
+    t3 = (t2*t2)
     t12 = numpy.where(numpy.less(mu_i, 0.05), 0.05, mu_i)
-    t2 = numpy.where(numpy.greater(t12, 1.0), 1.0, t12)
+    t4 = numpy.where(numpy.greater(t12, 1.0), 1.0, t12)
+    t5 = 2*t4 - 1
+    t6 = (t5*t5)
+    t7 = t2*t5
     t13 = numpy.where(numpy.less(order, 2.0), 2.0, order)
-    t3 = numpy.where(numpy.greater(t13, 5.0), 5.0, t13)
-    t4 = 2*t2 - 1
-    t5 = (t4*t4)
-    t6 = (2/3)*t3 - 7/3
-    t7 = (t6*t6)
-    t8 = 2*t1*numpy.log(t0) - 1
-    t9 = (t8*t8)
-    t10 = t4*t8
-    return 0.081276738191483959*t0**(-0.94446012963695014*t1)*numpy.exp(-0.8456465945320778*t10*t6 + 0.3135504731675751*t10 + 0.58287663612587426*t2 + 0.44441424259039113*t3 - 0.6512474083255292*(t4*t4*t4) + 0.48301180866141913*t4*t6 - 0.10813164867235003*t4*t7 - 0.30292775319588794*t4*t9 + 0.0853495562933592*t5*t6 + 1.446349237968191*t5*t8 - 0.5994584218645371*t5 - 2.156731184858749*t6*t8 + 1.6159837609424446*t6*t9 - 0.9187047469265671*t7*t8 + 1.2275683865095603*t7 - 1.5802863367124642*(t8*t8*t8) + 1.8454981024090906*t9)
+    t8 = numpy.where(numpy.greater(t13, 5.0), 5.0, t13)
+    t9 = (2/3)*t8 - 7/3
+    t10 = (t9*t9)
+    return 0.081276738191483959*t1**(-0.94446012963695014*t0)*numpy.exp(-0.9187047469265671*t10*t2 - 0.10813164867235003*t10*t5 + 1.2275683865095603*t10 - 1.5802863367124642*(t2*t2*t2) + 1.446349237968191*t2*t6 - 2.156731184858749*t2*t9 - 0.30292775319588794*t3*t5 + 1.6159837609424446*t3*t9 + 1.8454981024090906*t3 + 0.58287663612587426*t4 - 0.6512474083255292*(t5*t5*t5) + 0.48301180866141913*t5*t9 + 0.0853495562933592*t6*t9 - 0.5994584218645371*t6 - 0.8456465945320778*t7*t9 + 0.3135504731675751*t7 + 0.44441424259039113*t8)
 
 
 def ms_tilt_b_conductor(alpha, mu_i, order):
@@ -532,21 +532,21 @@ def ms_tilt_b_conductor(alpha, mu_i, order):
     - 1, y = 2 mu_i - 1, z = (2 order - 7)/3: degree <= 3 in (x, y), <= 2 with z, <= 1 with
     z^2. Measured by fitlab codegen: max 2.36e-01, RMS 5.88e-02 (absolute, 115 points)."""
     alpha, mu_i, order = numpy.asarray(alpha, dtype=float), numpy.asarray(mu_i, dtype=float), numpy.asarray(order, dtype=float)
-    t10 = numpy.where(numpy.less(mu_i, 0.05), 0.05, mu_i)
-    t0 = numpy.where(numpy.greater(t10, 1.0), 1.0, t10)
-    t11 = numpy.where(numpy.less(order, 2.0), 2.0, order)
-    t1 = numpy.where(numpy.greater(t11, 5.0), 5.0, t11)
-    t2 = 2*t0 - 1
+    t0 = numpy.log(20)**(-1.0)
+    t10 = numpy.where(numpy.less(alpha, 0.05), 0.05, alpha)
+    t1 = numpy.log(20*numpy.where(numpy.greater(t10, 1.0), 1.0, t10))
+    t2 = 2*t0*t1 - 1
     t3 = (t2*t2)
-    t4 = (2/3)*t1 - 7/3
-    t5 = (t4*t4)
-    t6 = numpy.log(20)**(-1.0)
-    t12 = numpy.where(numpy.less(alpha, 0.05), 0.05, alpha)
-    t7 = numpy.log(20*numpy.where(numpy.greater(t12, 1.0), 1.0, t12))
-    t8 = 2*t6*t7 - 1
+    t11 = numpy.where(numpy.less(mu_i, 0.05), 0.05, mu_i)
+    t4 = numpy.where(numpy.greater(t11, 1.0), 1.0, t11)
+    t5 = 2*t4 - 1
+    t6 = (t5*t5)
+    t12 = numpy.where(numpy.less(order, 2.0), 2.0, order)
+    t7 = numpy.where(numpy.greater(t12, 5.0), 5.0, t12)
+    t8 = (2/3)*t7 - 7/3
     t9 = (t8*t8)
-    t13 = (1 - t0)*(t0 + 1)
-    return (-0.06377060368475039*t0 + 0.077162515191923133*t1 - 0.11736396108741967*(t2*t2*t2) - 0.14589364188646334*t2*t4*t8 + 0.14362276704803145*t2*t4 - 0.020004972695280395*t2*t5 - 0.0980734941648107*t2*t8 + 0.21117999411115893*t2*t9 + 0.030254654746143538*t3*t4 + 0.04760040254565157*t3*t8 - 0.015792734292789254*t3 + 0.32547180093822164*t4*t8 - 0.4670767545112056*t4*t9 + 0.33581936894652337*t5*t8 - 0.337748747758625*t5 + 1.9165051485063*t6*t7 - 0.3694809482583736*(t8*t8*t8) - 0.14532530414009806*t9 - 1.6477244805951888)*numpy.sqrt(numpy.where(numpy.less(t13, 0), 0, t13))
+    t13 = (1 - t4)*(t4 + 1)
+    return (1.9165051485063*t0*t1 - 0.3694809482583736*(t2*t2*t2) - 0.14589364188646334*t2*t5*t8 - 0.0980734941648107*t2*t5 + 0.04760040254565157*t2*t6 + 0.32547180093822164*t2*t8 + 0.33581936894652337*t2*t9 + 0.21117999411115893*t3*t5 - 0.4670767545112056*t3*t8 - 0.14532530414009806*t3 - 0.06377060368475039*t4 - 0.11736396108741967*(t5*t5*t5) + 0.14362276704803145*t5*t8 - 0.020004972695280395*t5*t9 + 0.030254654746143538*t6*t8 - 0.015792734292789254*t6 + 0.077162515191923133*t7 - 0.337748747758625*t9 - 1.6477244805951888)*numpy.sqrt(numpy.where(numpy.less(t13, 0), 0, t13))
 
 
 def ms_tilt_k_conductor(alpha, mu_i, order):
@@ -557,21 +557,21 @@ def ms_tilt_k_conductor(alpha, mu_i, order):
     degree <= 3 in (x, y), <= 2 with z, <= 1 with z^2. Measured by fitlab codegen: max
     1.09e+00, RMS 2.32e-01 (absolute, 115 points)."""
     alpha, mu_i, order = numpy.asarray(alpha, dtype=float), numpy.asarray(mu_i, dtype=float), numpy.asarray(order, dtype=float)
-    t10 = numpy.where(numpy.less(mu_i, 0.05), 0.05, mu_i)
-    t0 = numpy.where(numpy.greater(t10, 1.0), 1.0, t10)
-    t11 = numpy.where(numpy.less(order, 2.0), 2.0, order)
-    t1 = numpy.where(numpy.greater(t11, 5.0), 5.0, t11)
-    t2 = 2*t0 - 1
-    t3 = (t2*t2)
-    t4 = (2/3)*t1 - 7/3
+    t10 = numpy.where(numpy.less(alpha, 0.05), 0.05, alpha)
+    t0 = numpy.log(20*numpy.where(numpy.greater(t10, 1.0), 1.0, t10))/numpy.log(20)
+    t1 = 2*t0 - 1
+    t2 = (t1*t1)
+    t11 = numpy.where(numpy.less(mu_i, 0.05), 0.05, mu_i)
+    t3 = numpy.where(numpy.greater(t11, 1.0), 1.0, t11)
+    t4 = 2*t3 - 1
     t5 = (t4*t4)
-    t12 = numpy.where(numpy.less(alpha, 0.05), 0.05, alpha)
-    t6 = numpy.log(20*numpy.where(numpy.greater(t12, 1.0), 1.0, t12))/numpy.log(20)
-    t7 = 2*t6 - 1
-    t8 = (t7*t7)
-    t9 = t2*t7
-    t13 = (1 - t0)*(t0 + 1)
-    return (0.32918818378247616*t0 - 0.33282226539112891*t1 - 0.03273943633096704*(t2*t2*t2) - 0.20276707881629305*t2*t4 - 0.011988904444744852*t2*t5 - 0.43630174618571904*t2*t8 + 0.1090201552355426*t3*t4 + 0.1715065892724311*t3*t7 - 0.09599983806480045*t3 + 0.34580011396424293*t4*t7 + 0.20015122895955334*t4*t8 + 0.22507868890420046*t4*t9 - 0.4630641583084296*t5*t7 + 0.45534399053265456*t5 - 4.2050079683504916*t6 + 1.027597643785732*(t7*t7*t7) - 0.018766008112199292*t8 + 0.27669026987181383*t9 + 4.2188131061329999)*numpy.where(numpy.less(t13, 0), 0, t13)
+    t6 = t1*t4
+    t12 = numpy.where(numpy.less(order, 2.0), 2.0, order)
+    t7 = numpy.where(numpy.greater(t12, 5.0), 5.0, t12)
+    t8 = (2/3)*t7 - 7/3
+    t9 = (t8*t8)
+    t13 = (1 - t3)*(t3 + 1)
+    return (-4.2050079683504916*t0 + 1.027597643785732*(t1*t1*t1) + 0.1715065892724311*t1*t5 + 0.34580011396424293*t1*t8 - 0.4630641583084296*t1*t9 - 0.43630174618571904*t2*t4 + 0.20015122895955334*t2*t8 - 0.018766008112199292*t2 + 0.32918818378247616*t3 - 0.03273943633096704*(t4*t4*t4) - 0.20276707881629305*t4*t8 - 0.011988904444744852*t4*t9 + 0.1090201552355426*t5*t8 - 0.09599983806480045*t5 + 0.22507868890420046*t6*t8 + 0.27669026987181383*t6 - 0.33282226539112891*t7 + 0.45534399053265456*t9 + 4.2188131061329999)*numpy.where(numpy.less(t13, 0), 0, t13)
 
 
 def ms_blog_diffuse(mu_i, mu_o, alpha, rho):
@@ -583,27 +583,27 @@ def ms_blog_diffuse(mu_i, mu_o, alpha, rho):
     mu_i, mu_o in [0, 1]; the parameters are fitted for alpha, mu_i in [0.05, 1] and clamped
     there; inputs outside their domain are clamped, NaN gives NaN."""
     mu_i, mu_o, alpha, rho = numpy.asarray(mu_i, dtype=float), numpy.asarray(mu_o, dtype=float), numpy.asarray(alpha, dtype=float), numpy.asarray(rho, dtype=float)
-    t7 = numpy.where(numpy.less(rho, 0), 0.0, rho)
+    t7 = numpy.where(numpy.less(alpha, 0), 0.0, alpha)
     t0 = numpy.where(numpy.greater(t7, 1.0), 1.0, t7)
-    t8 = numpy.where(numpy.less(alpha, 0), 0.0, alpha)
+    t8 = numpy.where(numpy.less(mu_i, 0), 0.0, mu_i)
     t1 = numpy.where(numpy.greater(t8, 1.0), 1.0, t8)
-    t9 = numpy.where(numpy.less(mu_i, 0), 0.0, mu_i)
+    t9 = numpy.where(numpy.less(mu_o, 0), 0.0, mu_o)
     t2 = numpy.where(numpy.greater(t9, 1.0), 1.0, t9)
-    t10 = numpy.where(numpy.less(mu_o, 0), 0.0, mu_o)
-    t3 = numpy.where(numpy.greater(t10, 1.0), 1.0, t10)
-    t4 = (t3*t3)
-    t11 = ms_blog_eta_diffuse(t1, t2)
+    t3 = (t2*t2)
+    t10 = numpy.where(numpy.less(rho, 0), 0.0, rho)
+    t4 = numpy.where(numpy.greater(t10, 1.0), 1.0, t10)
+    t11 = ms_blog_eta_diffuse(t0, t1)
     t12 = numpy.where(numpy.less(t11, -0.900004983958406), -0.900004983958406, t11)
     t5 = numpy.where(numpy.greater(t12, 49.984966162277246), 49.984966162277246, t12)
-    t13 = ms_blog_flattening_diffuse(t1, t2)
+    t13 = ms_blog_flattening_diffuse(t0, t1)
     t14 = numpy.where(numpy.less(t13, 0.1), 0.1, t13)
-    t15 = 1 - t4
-    t6 = (1/2)*(t5 + 2)*_safe_pow(t3, t5)/(3.141592653589793238*numpy.sqrt(t4/(numpy.where(numpy.greater(t14, 2.5), 2.5, t14)*numpy.where(numpy.greater(t14, 2.5), 2.5, t14)) + numpy.where(numpy.less(t15, 0), 0, t15)))
-    t16 = ms_blog_scale_diffuse(t1, t2, 2)
-    t17 = ms_blog_scale_diffuse(t1, t2, 3)
-    t18 = ms_blog_scale_diffuse(t1, t2, 4)
-    t19 = ms_blog_scale_diffuse(t1, t2, 5)
-    return t0**5*t6*numpy.where(numpy.less(t19, 0), 0.0, t19) + (t0*t0*t0*t0)*t6*numpy.where(numpy.less(t18, 0), 0.0, t18) + (t0*t0*t0)*t6*numpy.where(numpy.less(t17, 0), 0.0, t17) + (t0*t0)*t6*numpy.where(numpy.less(t16, 0), 0.0, t16)
+    t15 = 1 - t3
+    t6 = (1/2)*(t5 + 2)*_safe_pow(t2, t5)/(3.141592653589793238*numpy.sqrt(t3/(numpy.where(numpy.greater(t14, 2.5), 2.5, t14)*numpy.where(numpy.greater(t14, 2.5), 2.5, t14)) + numpy.where(numpy.less(t15, 0), 0, t15)))
+    t16 = ms_blog_scale_diffuse(t0, t1, 2)
+    t17 = ms_blog_scale_diffuse(t0, t1, 3)
+    t18 = ms_blog_scale_diffuse(t0, t1, 4)
+    t19 = ms_blog_scale_diffuse(t0, t1, 5)
+    return t4**5*t6*numpy.where(numpy.less(t19, 0), 0.0, t19) + (t4*t4*t4*t4)*t6*numpy.where(numpy.less(t18, 0), 0.0, t18) + (t4*t4*t4)*t6*numpy.where(numpy.less(t17, 0), 0.0, t17) + (t4*t4)*t6*numpy.where(numpy.less(t16, 0), 0.0, t16)
 
 
 def ms_tilt_diffuse(mu_i, mu_o, cos_phi, alpha, rho):
@@ -616,63 +616,63 @@ def ms_tilt_diffuse(mu_i, mu_o, cos_phi, alpha, rho):
     for alpha, mu_i in [0.05, 1] and clamped there; inputs outside their domain are clamped,
     NaN gives NaN."""
     mu_i, mu_o, cos_phi, alpha, rho = numpy.asarray(mu_i, dtype=float), numpy.asarray(mu_o, dtype=float), numpy.asarray(cos_phi, dtype=float), numpy.asarray(alpha, dtype=float), numpy.asarray(rho, dtype=float)
-    t14 = numpy.where(numpy.less(mu_o, 0), 0.0, mu_o)
-    t0 = numpy.where(numpy.greater(t14, 1.0), 1.0, t14)
-    t1 = (t0*t0)
-    t15 = 1 - t1
-    t2 = numpy.where(numpy.less(t15, 0), 0, t15)
-    t16 = numpy.where(numpy.less(alpha, 0), 0.0, alpha)
+    t0 = (1/2)/3.141592653589793238
+    t14 = numpy.where(numpy.less(cos_phi, -1.0), -1.0, cos_phi)
+    t1 = numpy.where(numpy.greater(t14, 1.0), 1.0, t14)
+    t15 = numpy.where(numpy.less(alpha, 0), 0.0, alpha)
+    t2 = numpy.where(numpy.greater(t15, 1.0), 1.0, t15)
+    t16 = numpy.where(numpy.less(mu_i, 0), 0.0, mu_i)
     t3 = numpy.where(numpy.greater(t16, 1.0), 1.0, t16)
-    t17 = numpy.where(numpy.less(mu_i, 0), 0.0, mu_i)
+    t17 = numpy.where(numpy.less(mu_o, 0), 0.0, mu_o)
     t4 = numpy.where(numpy.greater(t17, 1.0), 1.0, t17)
-    t18 = numpy.where(numpy.less(rho, 0), 0.0, rho)
-    t5 = numpy.where(numpy.greater(t18, 1.0), 1.0, t18)
-    t19 = ms_tilt_eta_diffuse(t3, t4, 2)
-    t20 = numpy.where(numpy.less(t19, -0.900004983958406), -0.900004983958406, t19)
-    t6 = numpy.where(numpy.greater(t20, 49.984966162277246), 49.984966162277246, t20)
-    t21 = numpy.where(numpy.less(cos_phi, -1.0), -1.0, cos_phi)
-    t7 = numpy.where(numpy.greater(t21, 1.0), 1.0, t21)
-    t8 = numpy.sqrt(t2)*t7
-    t9 = t2*(t7*t7)
-    t10 = (1/2)/3.141592653589793238
-    t22 = ms_tilt_eta_diffuse(t3, t4, 3)
+    t5 = (t4*t4)
+    t18 = 1 - t5
+    t6 = numpy.where(numpy.less(t18, 0), 0, t18)
+    t7 = t1*numpy.sqrt(t6)
+    t8 = (t1*t1)*t6
+    t19 = numpy.where(numpy.less(rho, 0), 0.0, rho)
+    t9 = numpy.where(numpy.greater(t19, 1.0), 1.0, t19)
+    t20 = ms_tilt_eta_diffuse(t2, t3, 2)
+    t21 = numpy.where(numpy.less(t20, -0.900004983958406), -0.900004983958406, t20)
+    t10 = numpy.where(numpy.greater(t21, 49.984966162277246), 49.984966162277246, t21)
+    t22 = ms_tilt_eta_diffuse(t2, t3, 3)
     t23 = numpy.where(numpy.less(t22, -0.900004983958406), -0.900004983958406, t22)
     t11 = numpy.where(numpy.greater(t23, 49.984966162277246), 49.984966162277246, t23)
-    t24 = ms_tilt_eta_diffuse(t3, t4, 4)
+    t24 = ms_tilt_eta_diffuse(t2, t3, 4)
     t25 = numpy.where(numpy.less(t24, -0.900004983958406), -0.900004983958406, t24)
     t12 = numpy.where(numpy.greater(t25, 49.984966162277246), 49.984966162277246, t25)
-    t26 = ms_tilt_eta_diffuse(t3, t4, 5)
+    t26 = ms_tilt_eta_diffuse(t2, t3, 5)
     t27 = numpy.where(numpy.less(t26, -0.900004983958406), -0.900004983958406, t26)
     t13 = numpy.where(numpy.greater(t27, 49.984966162277246), 49.984966162277246, t27)
-    t28 = ms_tilt_flattening_diffuse(t3, t4, 2)
+    t28 = ms_tilt_flattening_diffuse(t2, t3, 2)
     t29 = numpy.where(numpy.less(t28, 0.1), 0.1, t28)
-    t30 = ms_tilt_sigma_diffuse(t3, t4, 2)
-    t31 = ms_tilt_b_diffuse(t3, t4, 2)
+    t30 = ms_tilt_sigma_diffuse(t2, t3, 2)
+    t31 = ms_tilt_b_diffuse(t2, t3, 2)
     t32 = numpy.where(numpy.less(t31, -4.0), -4.0, t31)
-    t33 = ms_tilt_k_diffuse(t3, t4, 2)
+    t33 = ms_tilt_k_diffuse(t2, t3, 2)
     t34 = numpy.where(numpy.less(t33, -3.0), -3.0, t33)
-    t35 = ms_tilt_flattening_diffuse(t3, t4, 3)
+    t35 = ms_tilt_flattening_diffuse(t2, t3, 3)
     t36 = numpy.where(numpy.less(t35, 0.1), 0.1, t35)
-    t37 = ms_tilt_sigma_diffuse(t3, t4, 3)
-    t38 = ms_tilt_b_diffuse(t3, t4, 3)
+    t37 = ms_tilt_sigma_diffuse(t2, t3, 3)
+    t38 = ms_tilt_b_diffuse(t2, t3, 3)
     t39 = numpy.where(numpy.less(t38, -4.0), -4.0, t38)
-    t40 = ms_tilt_k_diffuse(t3, t4, 3)
+    t40 = ms_tilt_k_diffuse(t2, t3, 3)
     t41 = numpy.where(numpy.less(t40, -3.0), -3.0, t40)
-    t42 = ms_tilt_flattening_diffuse(t3, t4, 4)
+    t42 = ms_tilt_flattening_diffuse(t2, t3, 4)
     t43 = numpy.where(numpy.less(t42, 0.1), 0.1, t42)
-    t44 = ms_tilt_sigma_diffuse(t3, t4, 4)
-    t45 = ms_tilt_b_diffuse(t3, t4, 4)
+    t44 = ms_tilt_sigma_diffuse(t2, t3, 4)
+    t45 = ms_tilt_b_diffuse(t2, t3, 4)
     t46 = numpy.where(numpy.less(t45, -4.0), -4.0, t45)
-    t47 = ms_tilt_k_diffuse(t3, t4, 4)
+    t47 = ms_tilt_k_diffuse(t2, t3, 4)
     t48 = numpy.where(numpy.less(t47, -3.0), -3.0, t47)
-    t49 = ms_tilt_flattening_diffuse(t3, t4, 5)
+    t49 = ms_tilt_flattening_diffuse(t2, t3, 5)
     t50 = numpy.where(numpy.less(t49, 0.1), 0.1, t49)
-    t51 = ms_tilt_sigma_diffuse(t3, t4, 5)
-    t52 = ms_tilt_b_diffuse(t3, t4, 5)
+    t51 = ms_tilt_sigma_diffuse(t2, t3, 5)
+    t52 = ms_tilt_b_diffuse(t2, t3, 5)
     t53 = numpy.where(numpy.less(t52, -4.0), -4.0, t52)
-    t54 = ms_tilt_k_diffuse(t3, t4, 5)
+    t54 = ms_tilt_k_diffuse(t2, t3, 5)
     t55 = numpy.where(numpy.less(t54, -3.0), -3.0, t54)
-    return t10*t5**5*(t13 + 2)*numpy.exp(t8*numpy.where(numpy.greater(t53, 4.0), 4.0, t53) + t9*numpy.where(numpy.greater(t55, 3.0), 3.0, t55))*_safe_pow(t0, t13)*numpy.where(numpy.less(t51, 0), 0.0, t51)/numpy.sqrt(t1/(numpy.where(numpy.greater(t50, 2.5), 2.5, t50)*numpy.where(numpy.greater(t50, 2.5), 2.5, t50)) + t2) + t10*(t5*t5*t5*t5)*(t12 + 2)*numpy.exp(t8*numpy.where(numpy.greater(t46, 4.0), 4.0, t46) + t9*numpy.where(numpy.greater(t48, 3.0), 3.0, t48))*_safe_pow(t0, t12)*numpy.where(numpy.less(t44, 0), 0.0, t44)/numpy.sqrt(t1/(numpy.where(numpy.greater(t43, 2.5), 2.5, t43)*numpy.where(numpy.greater(t43, 2.5), 2.5, t43)) + t2) + t10*(t5*t5*t5)*(t11 + 2)*numpy.exp(t8*numpy.where(numpy.greater(t39, 4.0), 4.0, t39) + t9*numpy.where(numpy.greater(t41, 3.0), 3.0, t41))*_safe_pow(t0, t11)*numpy.where(numpy.less(t37, 0), 0.0, t37)/numpy.sqrt(t1/(numpy.where(numpy.greater(t36, 2.5), 2.5, t36)*numpy.where(numpy.greater(t36, 2.5), 2.5, t36)) + t2) + t10*(t5*t5)*(t6 + 2)*numpy.exp(t8*numpy.where(numpy.greater(t32, 4.0), 4.0, t32) + t9*numpy.where(numpy.greater(t34, 3.0), 3.0, t34))*_safe_pow(t0, t6)*numpy.where(numpy.less(t30, 0), 0.0, t30)/numpy.sqrt(t1/(numpy.where(numpy.greater(t29, 2.5), 2.5, t29)*numpy.where(numpy.greater(t29, 2.5), 2.5, t29)) + t2)
+    return t0*t9**5*(t13 + 2)*numpy.exp(t7*numpy.where(numpy.greater(t53, 4.0), 4.0, t53) + t8*numpy.where(numpy.greater(t55, 3.0), 3.0, t55))*_safe_pow(t4, t13)*numpy.where(numpy.less(t51, 0), 0.0, t51)/numpy.sqrt(t5/(numpy.where(numpy.greater(t50, 2.5), 2.5, t50)*numpy.where(numpy.greater(t50, 2.5), 2.5, t50)) + t6) + t0*(t9*t9*t9*t9)*(t12 + 2)*numpy.exp(t7*numpy.where(numpy.greater(t46, 4.0), 4.0, t46) + t8*numpy.where(numpy.greater(t48, 3.0), 3.0, t48))*_safe_pow(t4, t12)*numpy.where(numpy.less(t44, 0), 0.0, t44)/numpy.sqrt(t5/(numpy.where(numpy.greater(t43, 2.5), 2.5, t43)*numpy.where(numpy.greater(t43, 2.5), 2.5, t43)) + t6) + t0*(t9*t9*t9)*(t11 + 2)*numpy.exp(t7*numpy.where(numpy.greater(t39, 4.0), 4.0, t39) + t8*numpy.where(numpy.greater(t41, 3.0), 3.0, t41))*_safe_pow(t4, t11)*numpy.where(numpy.less(t37, 0), 0.0, t37)/numpy.sqrt(t5/(numpy.where(numpy.greater(t36, 2.5), 2.5, t36)*numpy.where(numpy.greater(t36, 2.5), 2.5, t36)) + t6) + t0*(t9*t9)*(t10 + 2)*numpy.exp(t7*numpy.where(numpy.greater(t32, 4.0), 4.0, t32) + t8*numpy.where(numpy.greater(t34, 3.0), 3.0, t34))*_safe_pow(t4, t10)*numpy.where(numpy.less(t30, 0), 0.0, t30)/numpy.sqrt(t5/(numpy.where(numpy.greater(t29, 2.5), 2.5, t29)*numpy.where(numpy.greater(t29, 2.5), 2.5, t29)) + t6)
 
 
 def ms_blog_conductor(mu_i, mu_o, alpha):
@@ -713,61 +713,61 @@ def ms_tilt_conductor(mu_i, mu_o, cos_phi, alpha):
     scattering); the parameters are fitted for alpha, mu_i in [0.05, 1] and clamped there;
     inputs outside their domain are clamped, NaN gives NaN."""
     mu_i, mu_o, cos_phi, alpha = numpy.asarray(mu_i, dtype=float), numpy.asarray(mu_o, dtype=float), numpy.asarray(cos_phi, dtype=float), numpy.asarray(alpha, dtype=float)
-    t13 = numpy.where(numpy.less(mu_o, 0), 0.0, mu_o)
-    t0 = numpy.where(numpy.greater(t13, 1.0), 1.0, t13)
-    t1 = (t0*t0)
-    t14 = 1 - t1
-    t2 = numpy.where(numpy.less(t14, 0), 0, t14)
-    t15 = numpy.where(numpy.less(alpha, 0), 0.0, alpha)
+    t0 = (1/2)/3.141592653589793238
+    t13 = numpy.where(numpy.less(cos_phi, -1.0), -1.0, cos_phi)
+    t1 = numpy.where(numpy.greater(t13, 1.0), 1.0, t13)
+    t14 = numpy.where(numpy.less(alpha, 0), 0.0, alpha)
+    t2 = numpy.where(numpy.greater(t14, 1.0), 1.0, t14)
+    t15 = numpy.where(numpy.less(mu_i, 0), 0.0, mu_i)
     t3 = numpy.where(numpy.greater(t15, 1.0), 1.0, t15)
-    t16 = numpy.where(numpy.less(mu_i, 0), 0.0, mu_i)
+    t16 = numpy.where(numpy.less(mu_o, 0), 0.0, mu_o)
     t4 = numpy.where(numpy.greater(t16, 1.0), 1.0, t16)
-    t17 = ms_tilt_eta_conductor(t3, t4, 2)
-    t18 = numpy.where(numpy.less(t17, -0.900004983958406), -0.900004983958406, t17)
-    t5 = numpy.where(numpy.greater(t18, 49.984966162277246), 49.984966162277246, t18)
-    t19 = numpy.where(numpy.less(cos_phi, -1.0), -1.0, cos_phi)
-    t6 = numpy.where(numpy.greater(t19, 1.0), 1.0, t19)
-    t7 = numpy.sqrt(t2)*t6
-    t8 = t2*(t6*t6)
-    t9 = (1/2)/3.141592653589793238
-    t20 = ms_tilt_eta_conductor(t3, t4, 3)
+    t5 = (t4*t4)
+    t17 = 1 - t5
+    t6 = numpy.where(numpy.less(t17, 0), 0, t17)
+    t7 = t1*numpy.sqrt(t6)
+    t8 = (t1*t1)*t6
+    t18 = ms_tilt_eta_conductor(t2, t3, 2)
+    t19 = numpy.where(numpy.less(t18, -0.900004983958406), -0.900004983958406, t18)
+    t9 = numpy.where(numpy.greater(t19, 49.984966162277246), 49.984966162277246, t19)
+    t20 = ms_tilt_eta_conductor(t2, t3, 3)
     t21 = numpy.where(numpy.less(t20, -0.900004983958406), -0.900004983958406, t20)
     t10 = numpy.where(numpy.greater(t21, 49.984966162277246), 49.984966162277246, t21)
-    t22 = ms_tilt_eta_conductor(t3, t4, 4)
+    t22 = ms_tilt_eta_conductor(t2, t3, 4)
     t23 = numpy.where(numpy.less(t22, -0.900004983958406), -0.900004983958406, t22)
     t11 = numpy.where(numpy.greater(t23, 49.984966162277246), 49.984966162277246, t23)
-    t24 = ms_tilt_eta_conductor(t3, t4, 5)
+    t24 = ms_tilt_eta_conductor(t2, t3, 5)
     t25 = numpy.where(numpy.less(t24, -0.900004983958406), -0.900004983958406, t24)
     t12 = numpy.where(numpy.greater(t25, 49.984966162277246), 49.984966162277246, t25)
-    t26 = ms_tilt_flattening_conductor(t3, t4, 2)
+    t26 = ms_tilt_flattening_conductor(t2, t3, 2)
     t27 = numpy.where(numpy.less(t26, 0.1), 0.1, t26)
-    t28 = ms_tilt_sigma_conductor(t3, t4, 2)
-    t29 = ms_tilt_b_conductor(t3, t4, 2)
+    t28 = ms_tilt_sigma_conductor(t2, t3, 2)
+    t29 = ms_tilt_b_conductor(t2, t3, 2)
     t30 = numpy.where(numpy.less(t29, -4.0), -4.0, t29)
-    t31 = ms_tilt_k_conductor(t3, t4, 2)
+    t31 = ms_tilt_k_conductor(t2, t3, 2)
     t32 = numpy.where(numpy.less(t31, -3.0), -3.0, t31)
-    t33 = ms_tilt_flattening_conductor(t3, t4, 3)
+    t33 = ms_tilt_flattening_conductor(t2, t3, 3)
     t34 = numpy.where(numpy.less(t33, 0.1), 0.1, t33)
-    t35 = ms_tilt_sigma_conductor(t3, t4, 3)
-    t36 = ms_tilt_b_conductor(t3, t4, 3)
+    t35 = ms_tilt_sigma_conductor(t2, t3, 3)
+    t36 = ms_tilt_b_conductor(t2, t3, 3)
     t37 = numpy.where(numpy.less(t36, -4.0), -4.0, t36)
-    t38 = ms_tilt_k_conductor(t3, t4, 3)
+    t38 = ms_tilt_k_conductor(t2, t3, 3)
     t39 = numpy.where(numpy.less(t38, -3.0), -3.0, t38)
-    t40 = ms_tilt_flattening_conductor(t3, t4, 4)
+    t40 = ms_tilt_flattening_conductor(t2, t3, 4)
     t41 = numpy.where(numpy.less(t40, 0.1), 0.1, t40)
-    t42 = ms_tilt_sigma_conductor(t3, t4, 4)
-    t43 = ms_tilt_b_conductor(t3, t4, 4)
+    t42 = ms_tilt_sigma_conductor(t2, t3, 4)
+    t43 = ms_tilt_b_conductor(t2, t3, 4)
     t44 = numpy.where(numpy.less(t43, -4.0), -4.0, t43)
-    t45 = ms_tilt_k_conductor(t3, t4, 4)
+    t45 = ms_tilt_k_conductor(t2, t3, 4)
     t46 = numpy.where(numpy.less(t45, -3.0), -3.0, t45)
-    t47 = ms_tilt_flattening_conductor(t3, t4, 5)
+    t47 = ms_tilt_flattening_conductor(t2, t3, 5)
     t48 = numpy.where(numpy.less(t47, 0.1), 0.1, t47)
-    t49 = ms_tilt_sigma_conductor(t3, t4, 5)
-    t50 = ms_tilt_b_conductor(t3, t4, 5)
+    t49 = ms_tilt_sigma_conductor(t2, t3, 5)
+    t50 = ms_tilt_b_conductor(t2, t3, 5)
     t51 = numpy.where(numpy.less(t50, -4.0), -4.0, t50)
-    t52 = ms_tilt_k_conductor(t3, t4, 5)
+    t52 = ms_tilt_k_conductor(t2, t3, 5)
     t53 = numpy.where(numpy.less(t52, -3.0), -3.0, t52)
-    return t9*(t10 + 2)*numpy.exp(t7*numpy.where(numpy.greater(t37, 4.0), 4.0, t37) + t8*numpy.where(numpy.greater(t39, 3.0), 3.0, t39))*_safe_pow(t0, t10)*numpy.where(numpy.less(t35, 0), 0.0, t35)/numpy.sqrt(t1/(numpy.where(numpy.greater(t34, 2.5), 2.5, t34)*numpy.where(numpy.greater(t34, 2.5), 2.5, t34)) + t2) + t9*(t11 + 2)*numpy.exp(t7*numpy.where(numpy.greater(t44, 4.0), 4.0, t44) + t8*numpy.where(numpy.greater(t46, 3.0), 3.0, t46))*_safe_pow(t0, t11)*numpy.where(numpy.less(t42, 0), 0.0, t42)/numpy.sqrt(t1/(numpy.where(numpy.greater(t41, 2.5), 2.5, t41)*numpy.where(numpy.greater(t41, 2.5), 2.5, t41)) + t2) + t9*(t12 + 2)*numpy.exp(t7*numpy.where(numpy.greater(t51, 4.0), 4.0, t51) + t8*numpy.where(numpy.greater(t53, 3.0), 3.0, t53))*_safe_pow(t0, t12)*numpy.where(numpy.less(t49, 0), 0.0, t49)/numpy.sqrt(t1/(numpy.where(numpy.greater(t48, 2.5), 2.5, t48)*numpy.where(numpy.greater(t48, 2.5), 2.5, t48)) + t2) + t9*(t5 + 2)*numpy.exp(t7*numpy.where(numpy.greater(t30, 4.0), 4.0, t30) + t8*numpy.where(numpy.greater(t32, 3.0), 3.0, t32))*_safe_pow(t0, t5)*numpy.where(numpy.less(t28, 0), 0.0, t28)/numpy.sqrt(t1/(numpy.where(numpy.greater(t27, 2.5), 2.5, t27)*numpy.where(numpy.greater(t27, 2.5), 2.5, t27)) + t2)
+    return t0*(t10 + 2)*numpy.exp(t7*numpy.where(numpy.greater(t37, 4.0), 4.0, t37) + t8*numpy.where(numpy.greater(t39, 3.0), 3.0, t39))*_safe_pow(t4, t10)*numpy.where(numpy.less(t35, 0), 0.0, t35)/numpy.sqrt(t5/(numpy.where(numpy.greater(t34, 2.5), 2.5, t34)*numpy.where(numpy.greater(t34, 2.5), 2.5, t34)) + t6) + t0*(t11 + 2)*numpy.exp(t7*numpy.where(numpy.greater(t44, 4.0), 4.0, t44) + t8*numpy.where(numpy.greater(t46, 3.0), 3.0, t46))*_safe_pow(t4, t11)*numpy.where(numpy.less(t42, 0), 0.0, t42)/numpy.sqrt(t5/(numpy.where(numpy.greater(t41, 2.5), 2.5, t41)*numpy.where(numpy.greater(t41, 2.5), 2.5, t41)) + t6) + t0*(t12 + 2)*numpy.exp(t7*numpy.where(numpy.greater(t51, 4.0), 4.0, t51) + t8*numpy.where(numpy.greater(t53, 3.0), 3.0, t53))*_safe_pow(t4, t12)*numpy.where(numpy.less(t49, 0), 0.0, t49)/numpy.sqrt(t5/(numpy.where(numpy.greater(t48, 2.5), 2.5, t48)*numpy.where(numpy.greater(t48, 2.5), 2.5, t48)) + t6) + t0*(t9 + 2)*numpy.exp(t7*numpy.where(numpy.greater(t30, 4.0), 4.0, t30) + t8*numpy.where(numpy.greater(t32, 3.0), 3.0, t32))*_safe_pow(t4, t9)*numpy.where(numpy.less(t28, 0), 0.0, t28)/numpy.sqrt(t5/(numpy.where(numpy.greater(t27, 2.5), 2.5, t27)*numpy.where(numpy.greater(t27, 2.5), 2.5, t27)) + t6)
 
 
 def ms_kulla_conti(mu_i, mu_o, alpha):
@@ -776,32 +776,32 @@ def ms_kulla_conti(mu_i, mu_o, alpha):
     and 1 - E_avg written out, never formed by subtraction): the multiple scattering it
     assumes, for comparison with the fitted lobes. mu_i, mu_o, alpha in [0, 1]."""
     mu_i, mu_o, alpha = numpy.asarray(mu_i, dtype=float), numpy.asarray(mu_o, dtype=float), numpy.asarray(alpha, dtype=float)
-    t18 = numpy.where(numpy.less(mu_i, 0), 0.0, mu_i)
+    t18 = numpy.where(numpy.less(alpha, 0), 0.0, alpha)
     t0 = numpy.where(numpy.greater(t18, 1.0), 1.0, t18)
-    t19 = numpy.where(numpy.less(alpha, 0), 0.0, alpha)
-    t1 = numpy.where(numpy.greater(t19, 1.0), 1.0, t19)
-    t20 = t0 + t1
-    t2 = numpy.where(numpy.less(t20, 1.17549435082229e-38), 1.17549435082229e-38, t20)**(-1.0)
-    t21 = t0*t2
-    t3 = numpy.where(numpy.greater(t21, 1), 1, t21)
-    t22 = numpy.where(numpy.less(mu_o, 0), 0.0, mu_o)
-    t4 = numpy.where(numpy.greater(t22, 1.0), 1.0, t22)
-    t23 = t1 + t4
-    t5 = numpy.where(numpy.less(t23, 1.17549435082229e-38), 1.17549435082229e-38, t23)**(-1.0)
-    t24 = t4*t5
-    t6 = numpy.where(numpy.greater(t24, 1), 1, t24)
-    t7 = (t1*t1)
-    t8 = (t0*t0)
-    t9 = (t3*t3)
-    t10 = 0.13030082553667635*t1
-    t11 = t0*t3
-    t12 = 0.013888392936497141*t1 + 0.1718579782731443*t7 + 0.010526659315635335
-    t13 = (t4*t4)
-    t14 = (t6*t6)
-    t15 = t4*t6
-    t16 = 0.17311260873283832*t1
-    t17 = -0.3063495639221299*t1 + 0.3319304125834638*t7 + 1
-    t25 = t7*(0.6956643876273829*t1 - 0.08013506999808337*t7 - 1.003096094866168*numpy.log(numpy.where(numpy.less(t1, 1.0e-30), 1.0e-30, t1)) + 0.4819359974975076)/(0.16341509026392703*t1 + 0.6939749652647382*t7 + 1)
-    t26 = t1*t2
-    t27 = t1*t5
-    return t3*t6*(4.920280655979446*numpy.log(numpy.where(numpy.less(t3, 1.0e-30), 1.0e-30, t3)) - 1)*(4.920280655979446*numpy.log(numpy.where(numpy.less(t6, 1.0e-30), 1.0e-30, t6)) - 1)*(t0*t10 - 0.011362713344900226*t0 - 0.024857791770870292*t11 + t12 + 0.06652154419119118*t3 + 0.08695144496852578*t8 + 0.05358878307494363*t9)*(t10*t4 + t12 + 0.08695144496852578*t13 + 0.05358878307494363*t14 - 0.024857791770870292*t15 - 0.011362713344900226*t4 + 0.06652154419119118*t6)*(numpy.where(numpy.greater(t26, 1), 1, t26)*numpy.where(numpy.greater(t26, 1), 1, t26))*(numpy.where(numpy.greater(t27, 1), 1, t27)*numpy.where(numpy.greater(t27, 1), 1, t27))/(3.141592653589793238*(0.035748791127792626*t13 + 1.278907217068977*t14 - 0.392192953533852*t15 - t16*t4 + t17 + 0.3589740558534391*t4 - 2.048643679454552*t6)*(-t0*t16 + 0.3589740558534391*t0 - 0.392192953533852*t11 + t17 - 2.048643679454552*t3 + 0.035748791127792626*t8 + 1.278907217068977*t9)*numpy.where(numpy.less(t25, 1.17549435082229e-38), 1.17549435082229e-38, t25))
+    t1 = 0.13030082553667635*t0
+    t2 = 0.17311260873283832*t0
+    t3 = (t0*t0)
+    t4 = -0.3063495639221299*t0 + 0.3319304125834638*t3 + 1
+    t5 = 0.013888392936497141*t0 + 0.1718579782731443*t3 + 0.010526659315635335
+    t19 = numpy.where(numpy.less(mu_i, 0), 0.0, mu_i)
+    t6 = numpy.where(numpy.greater(t19, 1.0), 1.0, t19)
+    t7 = (t6*t6)
+    t20 = t0 + t6
+    t8 = numpy.where(numpy.less(t20, 1.17549435082229e-38), 1.17549435082229e-38, t20)**(-1.0)
+    t21 = numpy.where(numpy.less(mu_o, 0), 0.0, mu_o)
+    t9 = numpy.where(numpy.greater(t21, 1.0), 1.0, t21)
+    t10 = (t9*t9)
+    t22 = t0 + t9
+    t11 = numpy.where(numpy.less(t22, 1.17549435082229e-38), 1.17549435082229e-38, t22)**(-1.0)
+    t23 = t11*t9
+    t12 = numpy.where(numpy.greater(t23, 1), 1, t23)
+    t13 = (t12*t12)
+    t14 = t12*t9
+    t24 = t6*t8
+    t15 = numpy.where(numpy.greater(t24, 1), 1, t24)
+    t16 = (t15*t15)
+    t17 = t15*t6
+    t25 = t3*(0.6956643876273829*t0 - 0.08013506999808337*t3 - 1.003096094866168*numpy.log(numpy.where(numpy.less(t0, 1.0e-30), 1.0e-30, t0)) + 0.4819359974975076)/(0.16341509026392703*t0 + 0.6939749652647382*t3 + 1)
+    t26 = t0*t11
+    t27 = t0*t8
+    return t12*t15*(4.920280655979446*numpy.log(numpy.where(numpy.less(t12, 1.0e-30), 1.0e-30, t12)) - 1)*(4.920280655979446*numpy.log(numpy.where(numpy.less(t15, 1.0e-30), 1.0e-30, t15)) - 1)*(t1*t6 + 0.06652154419119118*t15 + 0.05358878307494363*t16 - 0.024857791770870292*t17 + t5 - 0.011362713344900226*t6 + 0.08695144496852578*t7)*(t1*t9 + 0.08695144496852578*t10 + 0.06652154419119118*t12 + 0.05358878307494363*t13 - 0.024857791770870292*t14 + t5 - 0.011362713344900226*t9)*(numpy.where(numpy.greater(t26, 1), 1, t26)*numpy.where(numpy.greater(t26, 1), 1, t26))*(numpy.where(numpy.greater(t27, 1), 1, t27)*numpy.where(numpy.greater(t27, 1), 1, t27))/(3.141592653589793238*(0.035748791127792626*t10 - 2.048643679454552*t12 + 1.278907217068977*t13 - 0.392192953533852*t14 - t2*t9 + t4 + 0.3589740558534391*t9)*(-2.048643679454552*t15 + 1.278907217068977*t16 - 0.392192953533852*t17 - t2*t6 + t4 + 0.3589740558534391*t6 + 0.035748791127792626*t7)*numpy.where(numpy.less(t25, 1.17549435082229e-38), 1.17549435082229e-38, t25))
