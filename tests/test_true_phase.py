@@ -112,6 +112,43 @@ def test_reciprocity_and_phi_symmetry():
     np.testing.assert_allclose(f[1], f[2], rtol=1e-14)
 
 
+@pytest.mark.parametrize("c", [0.03, 1.0])
+def test_rows_interpolated_at_many_cosines_agree_with_rows_at_each(c):
+    """Many distinct cosines take the Nystrom rows interpolated (exact/true_phase.py, interpolation_panels): at
+    random pairs (cosines down to 1e-12, near 1, the panels' edges, 0 and 1) every order is within 1e-12 of the
+    BRDF of the rows computed at each cosine (pairs in chunks with fewer distinct cosines), and reciprocal."""
+    n, chunk = 1000, 250
+    rng = np.random.default_rng(7)
+    edges = np.array([p[0] for p in tp.interpolation_panels(tp.DEGREE, 1e-10)] + [1.0])
+    pool = np.concatenate((rng.uniform(0, 1, n), 10 ** rng.uniform(-12, 0, n // 4), 1 - 10 ** rng.uniform(-9, -1, n // 4),
+                           edges))
+    mi, mo = rng.permutation(pool)[:n], rng.permutation(pool)[:n]
+    size = sum(p[2].size for p in tp.interpolation_panels(tp.DEGREE, 1e-10))
+    assert np.unique(np.concatenate((mi, mo))).size > size > 2 * chunk
+    both = tp.multiple_scattering_orders(np.concatenate((mi, mo)), np.concatenate((mo, mi)), c)
+    parts = [tp.multiple_scattering_orders(mi[k:k + chunk], mo[k:k + chunk], c, orders=len(both))
+             for k in range(0, n, chunk)]
+    direct = [np.concatenate(p) for p in zip(*parts)]
+    phi = np.linspace(0, np.pi, n)
+    u = -(mi * mo + np.sqrt((1 - mi**2) * (1 - mo**2)) * np.cos(phi))
+    f = c * exact.phase_function(u) / (mi + mo) + sum(d * np.cos(m * phi) for m, d in enumerate(direct))
+    for a, b in zip(both, direct):
+        assert np.max(np.abs(a[:n] - b) / f) < 1e-12
+        assert np.max(np.abs(a[:n] - a[n:]) / f) < 1e-12
+
+
+def test_orders_left_out_are_below_the_tolerance_of_the_brdf():
+    """needed_orders stops at ORDER_TOLERANCE = 1e-12 of order 0: the next ten orders sum to < 1e-11 of the
+    BRDF at every phi (mu down to 1e-6; at c = 1, where multiple scattering is largest)."""
+    c = 1.0
+    mi, mo = np.array([1e-6, 1e-3, 0.01, 0.2, 0.5, 1.0, 0.05]), np.array([1e-6, 0.7, 0.01, 0.9, 0.5, 1.0, 0.3])
+    k = tp.needed_orders(c)
+    tail = tp.multiple_scattering_orders(mi, mo, c, orders=k + 10)[k:]
+    phi = np.linspace(0, np.pi, 7)[:, None]
+    f = exact.brdf(mi, mo, phi, c, phase="true")
+    assert np.max(np.abs(sum(t * np.cos((k + j) * phi) for j, t in enumerate(tail))) / f) < 1e-11
+
+
 def test_small_c_limit_is_single_scattering():
     mi, mo, phi = np.array([0.01, 0.3, 1.0]), np.array([0.5, 0.02, 1.0]), np.array([0.3, 2.0, 3.0])
     for c in (1e-3, 1e-6):

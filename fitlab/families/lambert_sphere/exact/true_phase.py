@@ -65,7 +65,13 @@ with mu arbitrary and mu0 a node is linear in the row R(mu, nodes),
 r (mu A1^T + M) = b(mu), solved through the same eigen-decomposition with
 iterative refinement on the bounded residual; R(mu, mu0) for both arbitrary then
 follows from the equation itself.  This is exact in the discretisation (at nodes
-it returns the nodes' solution) and involves no polynomial interpolation.
+it returns the nodes' solution) and involves no polynomial interpolation.  At many
+distinct cosines (more than :func:`interpolation_panels` has points: about 780 at
+L = 256) the rows are computed at that rule's Chebyshev points and interpolated per
+panel; what is interpolated is smooth (the numerators (mu + mu_j) R(mu, mu_j), and
+k(mu, mu_j), divided by sqrt(1 - mu^2) at odd orders), on panels geometric toward
+mu = 0 and even in theta = arccos(mu) toward mu = 1.  Measured within 1e-12 of the
+BRDF of the rows at each cosine (about 1e-13 typically; tests/test_true_phase.py).
 
 Grazing: every quantity is computed as the numerator (mu + mu0) R and divided at
 the end.  At mu = 0, mu0 > 0 the multiple scattering is finite,
@@ -85,12 +91,14 @@ machine, one BLAS thread; docs/derivation.md, "The true phase function"):
 * near c = 1 (not at it) the problem is near-critical and rounding costs ~sqrt(eps)/sqrt(1-c):
   Newton 2.3e-12 at 1 - c = 1e-9, 2.4e-10 at 1e-12 (three-term kernel against the H-route);
   1e-10 holds for 1 - c >= ~1e-11 and at c = 1 exactly;
-* cost: Newton solves the 51-53 orders of one c in about 6.5 s, then a 33 x 33 table at that c
-  takes about 2 s (both measured while the machine also ran the test suite: against 25 s and 18 s
-  for the Newton of every step decomposed, in the same conditions); doubling takes 376 s per c.
-  Most orders need no decomposition: A1 is then within 1e-2 of the identity.  Solutions are cached
-  per (method, phase, L, m, c) (about 4.5 MB per order at L = 256; the cache keeps a little more
-  than one c), so a table at one c pays the solve once; many distinct c values cost a solve each.
+* Fourier orders: kept until two in a row fall below :data:`ORDER_TOLERANCE` = 1e-12 of order 0
+  (31 orders at c = 0.1, 0.63 and 1); the orders left out sum to at most 1.5e-12 of the BRDF
+  (measured against the 51-53 orders of a 1e-14 tolerance, mu down to 1e-6);
+* cost: docs/derivation.md, "Cost" (Newton solves the orders of one c in a few seconds; doubling
+  takes minutes).  Most orders need no decomposition: A1 is then within 1e-2 of the identity.
+  Solutions are cached per (method, phase, L, m, c) (about 4.5 MB per order at L = 256; the cache
+  keeps a little more than one c), so a table at one c pays the solve once; many distinct c values
+  cost a solve each.
 """
 
 from __future__ import annotations
@@ -110,6 +118,8 @@ __all__ = [
     "PHASES",
     "legendre_moments",
     "node_rule",
+    "INTERPOLATION_RULE",
+    "interpolation_panels",
     "assoc_normalised",
     "OrderSolution",
     "solve_order",
@@ -125,8 +135,9 @@ DEGREE = 256
 METHODS = ("newton", "doubling")
 #: phase functions this module can solve: the whole one ("true") and the paper's cut ("three_term").
 PHASES = ("true", "three_term")
-#: relative size below which a Fourier order of the multiple scattering is dropped
-ORDER_TOLERANCE = 1e-14
+#: relative size (to order 0, over the nodes >= 1e-3) below which a Fourier order of the multiple scattering
+#: is dropped: the orders dropped sum to at most 1.5e-12 of the BRDF (module docstring)
+ORDER_TOLERANCE = 1e-12
 #: at most this many Fourier orders (more than ever needed; the order loop stops earlier)
 MAX_ORDERS = 96
 
@@ -389,7 +400,7 @@ def _rule(method, degree, smallest):
     return mu, w
 
 
-#: solutions kept: about 4.5 MB each at L = 256, one c needs 51-53 orders
+#: solutions kept: about 4.5 MB each at L = 256, one c needs about 31 orders (:data:`ORDER_TOLERANCE`)
 _CACHED_ORDERS = 64
 
 
@@ -480,22 +491,114 @@ def _rows(sol: OrderSolution, u: np.ndarray):
     return x.T, k_plus
 
 
+#: the rule on which :func:`_rows_interpolated` interpolates (:func:`interpolation_panels`): panels of at most
+#: ``longest`` in mu below mu = ``top``, of ``theta_panels`` equal widths in theta = arccos(mu) above it, each
+#: with ``per_panel`` Chebyshev points plus ``per_degree`` per unit length (of mu or theta) and Legendre degree
+INTERPOLATION_RULE = dict(per_panel=16, per_degree=0.7, longest=1.0 / 8.0, top=0.25, theta_panels=12)
+
+
+@lru_cache(maxsize=4)
+def interpolation_panels(degree: int, smallest: float, ratio: float = RULES["newton"]["ratio"]):
+    """Panels [a, b] covering [0, 1] in mu, each with Chebyshev points of the first kind in its variable (mu, or
+    theta = arccos(mu) in the panels above ``top``, where Legendre functions of degree L oscillate evenly in theta
+    and ever faster in mu, on scales down to 1/L^2 at mu = 1) and their barycentric weights:
+    ((a, b, points in mu, points in the variable, weights, in theta), ...), increasing.  Below ``top`` the
+    panels are those of :func:`node_rule` (geometric toward 0, where the rows vary on the scale of mu itself).
+    """
+    rule = INTERPOLATION_RULE
+    n_panels = int(np.ceil(np.log(smallest) / np.log(ratio)))
+    edges = np.concatenate(([0.0], ratio ** np.arange(n_panels, -1, -1.0)))
+    edges = edges[edges < rule["top"]]
+    edges = np.unique(np.concatenate([np.linspace(a, b, int(np.ceil((b - a) / rule["longest"])) + 1)
+                                      for a, b in zip(edges, np.append(edges[1:], rule["top"]))]))
+    theta_edges = np.linspace(np.arccos(rule["top"]), 0.0, rule["theta_panels"] + 1)
+    panels = []
+
+    def panel(lo, hi, theta):
+        n = max(rule["per_panel"], int(np.ceil(rule["per_panel"] + rule["per_degree"] * degree * abs(hi - lo))))
+        k = np.arange(n)
+        t = lo + 0.5 * (hi - lo) * (1.0 - np.cos((2 * k + 1) * np.pi / (2 * n)))
+        bw = (-1.0) ** k * np.sin((2 * k + 1) * np.pi / (2 * n))
+        x = np.cos(t) if theta else t
+        for arr in (x, t, bw):
+            arr.setflags(write=False)
+        a, b = (np.cos(lo), np.cos(hi)) if theta else (lo, hi)
+        panels.append((float(a), float(b), x, t, bw, theta))
+
+    for lo, hi in zip(edges[:-1], edges[1:]):
+        panel(lo, hi, False)
+    for lo, hi in zip(theta_edges[:-1], theta_edges[1:]):
+        panel(lo, hi, True)
+    return tuple(panels)
+
+
+def _barycentric(x, bw, u):
+    """The matrix L (u.size, x.size) of the polynomial interpolation through the points x: f(u) ~ L f(x)."""
+    d = u[:, None] - x[None, :]
+    hit = d == 0.0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = bw[None, :] / d
+        mat = t / t.sum(axis=1, keepdims=True)
+    rows = hit.any(axis=1)
+    mat[rows] = hit[rows]
+    return mat
+
+
+def _rows_interpolated(sol: OrderSolution, u: np.ndarray):
+    """What :func:`_rows` returns, for many cosines: the Nystrom rows at the Chebyshev points of
+    :func:`interpolation_panels`, interpolated per panel.  What is interpolated is smooth: the numerators
+    (u + mu_j) R(u, mu_j) (R itself has the pole 1/(u + mu_j), as sharp as the node mu_j is small) and
+    k(u, mu_j), each divided by sqrt(1 - u^2) at odd orders (whose Legendre functions carry it); measured within about 1e-13 of the direct rows' largest value (tests/test_true_phase.py)."""
+    mu = sol.nodes
+
+    def odd(v):  # Q_l^m has the factor (1 - u^2)^(m/2): for odd m, sqrt(1 - u^2) times a polynomial
+        return np.sqrt((1.0 - v) * (1.0 + v)) if sol.order % 2 else np.ones_like(v)
+
+    panels = interpolation_panels(sol.degree, sol.smallest)
+    x_all = np.concatenate([p[2] for p in panels])
+    r_all, k_all = _rows(sol, x_all)
+    s_all = odd(x_all)[:, None]
+    r_all = r_all * (x_all[:, None] + mu[None, :]) / s_all
+    k_all = k_all / s_all
+    rows, k_plus = np.empty((u.size, mu.size)), np.empty((u.size, mu.size))
+    start = 0
+    for a, b, x, t, bw, theta in panels:
+        part = slice(start, start + x.size)
+        start += x.size
+        sel = np.flatnonzero((u >= a) & (u <= b))
+        if sel.size == 0:
+            continue
+        mat = _barycentric(t, bw, np.arccos(u[sel]) if theta else u[sel])
+        us, su = u[sel], odd(u[sel])[:, None]
+        rows[sel] = (mat @ r_all[part]) * (su / (us[:, None] + mu[None, :]))
+        k_plus[sel] = (mat @ k_all[part]) * su
+    return rows, k_plus
+
+
+def _interpolation_size(degree: int, smallest: float) -> int:
+    return sum(p[2].size for p in interpolation_panels(degree, smallest))
+
+
 def _ms_numerators(sol: OrderSolution, mu_a, mu_b):
-    """(mu_a + mu_b) Rm(mu_a, mu_b) and the pole sign, for paired arrays (flat)."""
+    """(mu_a + mu_b) Rm(mu_a, mu_b) and the pole sign, for paired arrays (flat).  The Nystrom rows are
+    computed at each distinct cosine, or, where there are more distinct cosines than
+    :func:`interpolation_panels` has points, interpolated (:func:`_rows_interpolated`)."""
     c, w = sol.c, sol.weights
     if c == 0.0 or sol.degree < sol.order:
         return np.zeros(mu_a.shape), 0.0
     uniq, inv = np.unique(np.concatenate((mu_a, mu_b)), return_inverse=True)
     ia, ib = inv[: mu_a.size], inv[mu_a.size:]
-    km = sol.km
     with _blas_one_thread():
-        rows, k_plus = _rows(sol, uniq)
+        if uniq.size > _interpolation_size(sol.degree, sol.smallest):
+            rows, k_plus = _rows_interpolated(sol, uniq)
+        else:
+            rows, k_plus = _rows(sol, uniq)
     rw = rows * w[None, :]
     kw = k_plus * w[None, :]
     x = np.einsum("pj,pj->p", rw[ia], k_plus[ib])  # sum_l R(a, l) w_l k(l, b)
     y = np.einsum("pj,pj->p", kw[ia], rows[ib])  # sum_l w_l k(a, l) R(l, b)
-    zmat = rw @ km * w[None, :]
-    z = np.einsum("pj,pj->p", zmat[ia], rows[ib])
+    zmat = rw @ sol.km * w[None, :]
+    z = np.einsum("pj,pj->p", zmat[ia], rows[ib])  # sum_lk R(a, l) w_l K-(l, k) w_k R(k, b)
     num = 0.5 * c * (mu_a * x + mu_b * y) + 0.25 * c * mu_a * mu_b * z
     # sign of the log pole at (0, 0): the diverging sum at u = 0 (Y(0, 0) on the rule)
     pole = float(np.sign(y[(mu_a == 0.0) & (mu_b == 0.0)][0])) if np.any((mu_a == 0.0) & (mu_b == 0.0)) else 0.0
