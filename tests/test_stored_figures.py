@@ -35,6 +35,8 @@ import pytest
 import sympy as sp
 
 from fitlab.core import get_target, targets
+from fitlab.families.lambert_sphere.audit import TABLES_ROW
+from fitlab.families.lambert_sphere.table_export import numpy_brdf
 from fitlab.forms.symbolic import lambdify_numpy, parse_expression, symbols
 from fitlab.store import decode_nonfinite, load
 
@@ -258,12 +260,14 @@ def test_audit_runtime_rows_are_recomputed(audit, runtime_models):
     assert audit["runtime_grid"] == ds.grid
     mi, mo, ph, c = (ds.inputs[k] for k in ("mu_i", "mu_o", "phi", "c"))
     rows = {r["model"]: r for r in audit["runtime"]}
-    assert set(rows) - {m.name for m in runtime_models} == {"exact ingredients (fm2 dropped)"}
+    assert set(rows) - {m.name for m in runtime_models} == {"exact ingredients (fm2 dropped)", TABLES_ROW}
     for model in runtime_models:
         row = rows[model.name]
         assert row["sources"] == model.sources, f"audit.json runtime {model.name}: sources"
         got = _runtime_figures(model(mi, mo, ph, c), ds.y, mi, mo)
         _check_runtime_row(row, got, ds, f"audit.json runtime {model.name}")
+    got = _runtime_figures(numpy_brdf()(mi, mo, ph, c), ds.y, mi, mo)
+    _check_runtime_row(rows[TABLES_ROW], got, ds, "audit.json exported tables")
 
 
 def test_audit_runtime_true_rows_are_recomputed(audit, runtime_models):
@@ -279,7 +283,9 @@ def test_audit_runtime_true_rows_are_recomputed(audit, runtime_models):
     for k, v in (("mu_i", mi), ("mu_o", mo), ("phi", ph), ("c", c)):
         np.testing.assert_array_equal(mixed.inputs[k], v)
     rows = {r["model"]: r for r in audit["runtime_true"]}
-    assert set(rows) == {m.name for m in runtime_models} | {MIXED_ROW, TRUE_FLOOR_ROW}
+    assert set(rows) == {m.name for m in runtime_models} | {MIXED_ROW, TRUE_FLOOR_ROW, TABLES_ROW}
+    got = _runtime_figures(numpy_brdf()(mi, mo, ph, c), ds.y, mi, mo)
+    _check_runtime_row(rows[TABLES_ROW], got, ds, "audit.json exported tables vs true")
     _check_runtime_row(rows[MIXED_ROW], _runtime_figures(mixed.y, ds.y, mi, mo), ds, "audit.json mixed vs true")
     # the floor: the true BRDF less its multiple-scattering orders >= 3; at one albedo the set's orders 0 to 2
     # with the engine's higher orders and the closed-form single scattering add up to the set's BRDF
@@ -308,7 +314,9 @@ def test_audit_runtime_true_independent_rows_are_recomputed(audit, runtime_model
     assert audit["runtime_true_independent_grid"] == ds.grid
     mi, mo, ph, c = (ds.inputs[k] for k in ("mu_i", "mu_o", "phi", "c"))
     rows = {r["model"]: r for r in audit["runtime_true_independent"]}
-    assert set(rows) == {m.name for m in runtime_models} | {MIXED_ROW}
+    assert set(rows) == {m.name for m in runtime_models} | {MIXED_ROW, TABLES_ROW}
+    got = _runtime_figures(numpy_brdf()(mi, mo, ph, c), ds.y, mi, mo)
+    _check_runtime_row(rows[TABLES_ROW], got, ds, "audit.json exported tables vs true, independent")
     mixed = np.empty_like(ds.y)
     for cv in np.unique(c):
         sel = c == cv
@@ -353,13 +361,13 @@ def test_audit_furnace_rows_are_recomputed(audit, runtime_models):
     rows = {r["model"]: r for r in audit["furnace"]}
     exact_names = {phase: name for name in rows if name.startswith("exact (")
                    for phase in ("true", "mixed") if f"phase '{phase}'" in name}
-    assert set(rows) - {m.name for m in runtime_models} == set(exact_names.values())
+    assert set(rows) - {m.name for m in runtime_models} == set(exact_names.values()) | {TABLES_ROW}
     assert set(exact_names) == {"true", "mixed"}
-    for model in runtime_models:
-        row = rows[model.name]
+    for model in [*runtime_models, numpy_brdf()]:
+        row = rows[getattr(model, "name", TABLES_ROW)]
         for mu, stored in row["albedo"].items():
             got = directional_albedo(model, float(mu))
-            assert got == pytest.approx(stored, abs=1e-7), f"furnace {model.name} mu_i = {mu}"
+            assert got == pytest.approx(stored, abs=1e-7), f"furnace {row['model']} mu_i = {mu}"
     for row in rows.values():
         assert row["max_abs_deviation"] == pytest.approx(max(abs(a - 1.0) for a in row["albedo"].values()), rel=1e-12)
     for mu, stored in rows[exact_names["mixed"]]["albedo"].items():

@@ -12,8 +12,9 @@ parts:
    floor: only fm2 cos 2 phi is missing) against the mixed reference
    (:func:`fitlab.families.lambert_sphere.exact.brdf`, phase "mixed", which its parts were fitted to) on
    the BRDF validation set, over the whole domain and away from grazing; then the same models and
-   the mixed reference itself against the true BRDF (phase "true") on the same points;
-3. the white furnace: the directional albedo of each runtime model at c = 1,
+   the mixed reference itself against the true BRDF (phase "true") on the same points and at
+   independent random points; the exported tables (``fitlab codegen --tables``) in each of these;
+3. the white furnace: the directional albedo of each runtime model and of the exported tables at c = 1,
    which should be 1 (the true BRDF gives 1; the mixed reference gives kd_true(1) - 1 = 1.0e-5,
    the true phase function's excess over the three-term one in single scattering).
 """
@@ -43,6 +44,7 @@ from fitlab.store import FitFileError, fit_files, fits_folder, read_fit, strict_
 from fitlab.families.lambert_sphere.forms import RUNTIME_PARTS
 from fitlab.codegen.program import DEFAULT_FORMS
 from fitlab.families.lambert_sphere.runtime import PRESET_VARIANTS, RuntimeModel, runtime_model
+from fitlab.families.lambert_sphere.table_export import DEFAULT_LOOKUP, DEFAULT_NODES, numpy_brdf
 from fitlab.families.lambert_sphere.true_refit import true_runtime_model
 from fitlab.report.methods import FitEntry, best_forms, origin_kind
 
@@ -110,6 +112,13 @@ def _runtime_models(fits_dir: Path) -> tuple[list[RuntimeModel], list[str]]:
 #: dropped)
 MIXED_ROW = "mixed reference (exact.brdf, phase 'mixed')"
 TRUE_FLOOR_ROW = "true ingredients (multiple-scattering orders >= 3 dropped)"
+#: the row of the exported tables as `fitlab codegen --tables` ships them (their BRDF computed in double from
+#: the float32 texture: fitlab.families.lambert_sphere.table_export.numpy_brdf)
+TABLES_ROW = f"exported tables ({DEFAULT_NODES} nodes, {DEFAULT_LOOKUP}; fitlab codegen --tables)"
+
+
+def _tables_candidate(mi, mo, ph, c) -> tuple:
+    return TABLES_ROW, numpy_brdf()(mi, mo, ph, c), {}
 
 
 def _runtime_rows(models) -> list[dict]:
@@ -119,7 +128,7 @@ def _runtime_rows(models) -> list[dict]:
     mi, mo, ph, c = (valid.inputs[k] for k in ("mu_i", "mu_o", "phi", "c"))
     fm2 = multiple_scattering_modes(mi, mo, c, phase="mixed")[2]
     candidates = [("exact ingredients (fm2 dropped)", np.maximum(0.0, valid.y - fm2 * np.cos(2 * ph)), {})]
-    candidates += [(m.name, m(mi, mo, ph, c), m.sources) for m in models]
+    candidates += [(m.name, m(mi, mo, ph, c), m.sources) for m in models] + [_tables_candidate(mi, mo, ph, c)]
     return _error_rows(valid, candidates)
 
 
@@ -137,7 +146,7 @@ def _runtime_true_rows(models) -> list[dict]:
     kept = valid.aux["fm0"] + valid.aux["fm1"] * np.cos(ph) + valid.aux["fm2"] * np.cos(2 * ph)
     floor = np.maximum(0.0, single + kept)
     candidates = [(MIXED_ROW, mixed.y, {}), (TRUE_FLOOR_ROW, floor, {})]
-    candidates += [(m.name, m(mi, mo, ph, c), m.sources) for m in models]
+    candidates += [(m.name, m(mi, mo, ph, c), m.sources) for m in models] + [_tables_candidate(mi, mo, ph, c)]
     return _error_rows(valid, candidates)
 
 
@@ -151,7 +160,7 @@ def _runtime_true_independent_rows(models) -> list[dict]:
         sel = c == cv
         mixed[sel] = brdf(mi[sel], mo[sel], ph[sel], cv, phase="mixed")
     candidates = [(MIXED_ROW, mixed, {})] + [(m.name, m(mi, mo, ph, c), m.sources) for m in models]
-    return _error_rows(valid, candidates)
+    return _error_rows(valid, candidates + [_tables_candidate(mi, mo, ph, c)])
 
 
 def _error_rows(valid, candidates) -> list[dict]:
@@ -195,6 +204,8 @@ def _furnace_rows(models) -> list[dict]:
              "albedo": {str(m): float(albedo(m, 1.0, phase="mixed")) for m in FURNACE_MU}}]
     for model in models:
         rows.append({"model": model.name, "albedo": {str(m): directional_albedo(model, m) for m in FURNACE_MU}})
+    tables = numpy_brdf()
+    rows.append({"model": TABLES_ROW, "albedo": {str(m): directional_albedo(tables, m) for m in FURNACE_MU}})
     for r in rows:
         r["max_abs_deviation"] = max(abs(a - 1.0) for a in r["albedo"].values())
     return rows
@@ -241,6 +252,8 @@ def _markdown(result: dict) -> str:
             "in the same structure and forms (fitlab/fits/true; docs/model.md, \"Parts fitted to the true BRDF\").",
             "The floor of the runtime structure is the row with its terms exact (true single scattering and the",
             "true multiple scattering's Fourier orders 0 to 2): what refitted parts could reach at best.",
+            "The exported tables (`fitlab codegen --tables`) carry the mixed reference's H-functions and constants:",
+            "their row against the mixed reference is in the table above, against the true BRDF here.",
             f"Validation set: {result['runtime_true_grid']}.", "",
             "| model | max rel | max rel* | RMS rel* | max rel, away | RMS rel, away | worst point | worst away |",
             "|---|---|---|---|---|---|---|---|"]
