@@ -120,8 +120,8 @@ def test_rows_interpolated_at_many_cosines_agree_with_rows_at_each(c):
     n, chunk = 1000, 250
     rng = np.random.default_rng(7)
     edges = np.array([p[0] for p in tp.interpolation_panels(tp.DEGREE, 1e-10)] + [1.0])
-    pool = np.concatenate((rng.uniform(0, 1, n), 10 ** rng.uniform(-12, 0, n // 4), 1 - 10 ** rng.uniform(-9, -1, n // 4),
-                           edges))
+    pool = np.concatenate((rng.uniform(0, 1, n), 10 ** rng.uniform(-12, 0, n // 4),
+                           1 - 10 ** rng.uniform(-9, -1, n // 4), edges))
     mi, mo = rng.permutation(pool)[:n], rng.permutation(pool)[:n]
     size = sum(p[2].size for p in tp.interpolation_panels(tp.DEGREE, 1e-10))
     assert np.unique(np.concatenate((mi, mo))).size > size > 2 * chunk

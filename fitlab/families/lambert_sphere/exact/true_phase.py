@@ -548,7 +548,8 @@ def _rows_interpolated(sol: OrderSolution, u: np.ndarray):
     """What :func:`_rows` returns, for many cosines: the Nystrom rows at the Chebyshev points of
     :func:`interpolation_panels`, interpolated per panel.  What is interpolated is smooth: the numerators
     (u + mu_j) R(u, mu_j) (R itself has the pole 1/(u + mu_j), as sharp as the node mu_j is small) and
-    k(u, mu_j), each divided by sqrt(1 - u^2) at odd orders (whose Legendre functions carry it); measured within about 1e-13 of the direct rows' largest value (tests/test_true_phase.py)."""
+    k(u, mu_j), each divided by sqrt(1 - u^2) at odd orders (whose Legendre functions carry it).  Every order
+    is within 1e-12 of the BRDF of the rows at each cosine (tests/test_true_phase.py)."""
     mu = sol.nodes
 
     def odd(v):  # Q_l^m has the factor (1 - u^2)^(m/2): for odd m, sqrt(1 - u^2) times a polynomial
