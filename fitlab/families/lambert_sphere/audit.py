@@ -159,8 +159,9 @@ def _runtime_true_independent_rows(models) -> list[dict]:
     for cv in np.unique(c):  # one albedo per call: the mixed engine solves its H-functions per c
         sel = c == cv
         mixed[sel] = brdf(mi[sel], mo[sel], ph[sel], cv, phase="mixed")
-    candidates = [(MIXED_ROW, mixed, {})] + [(m.name, m(mi, mo, ph, c), m.sources) for m in models]
-    return _error_rows(valid, candidates + [_tables_candidate(mi, mo, ph, c)])
+    candidates = [(MIXED_ROW, mixed, {})]
+    candidates += [(m.name, m(mi, mo, ph, c), m.sources) for m in models] + [_tables_candidate(mi, mo, ph, c)]
+    return _error_rows(valid, candidates)
 
 
 def _error_rows(valid, candidates) -> list[dict]:

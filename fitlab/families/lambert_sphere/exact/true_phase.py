@@ -186,14 +186,19 @@ def legendre_moments(degree: int, phase: str = "true") -> np.ndarray:
     return 4.0 * (2 * k + 1) * (-1.0) ** k * lam**2
 
 
+def _geometric_edges(ratio: float, smallest: float) -> np.ndarray:
+    """0, then ratio^J, ..., ratio, 1 with ratio^J <= ``smallest``: the panels' edges of :func:`node_rule`."""
+    n_panels = int(np.ceil(np.log(smallest) / np.log(ratio)))
+    return np.concatenate(([0.0], ratio ** np.arange(n_panels, -1, -1.0)))
+
+
 def node_rule(degree: int, per_panel: int = 12, ratio: float = 0.25, smallest: float = 1e-10):
     """Composite Gauss rule on [0, 1]: panels [ratio^(j+1), ratio^j] down to ``smallest``, then [0, ratio^J].
 
     Each panel of length h gets max(per_panel, per_panel + ceil(0.6 degree h)) nodes (the Legendre
     functions of degree L oscillate about L h / pi times on it).  Increasing nodes.
     """
-    n_panels = int(np.ceil(np.log(smallest) / np.log(ratio)))
-    edges = np.concatenate(([0.0], ratio ** np.arange(n_panels, -1, -1.0)))
+    edges = _geometric_edges(ratio, smallest)
     xs, ws = [], []
     for a, b in zip(edges[:-1], edges[1:]):
         n = max(per_panel, int(np.ceil(per_panel + 0.6 * degree * (b - a))))
@@ -506,8 +511,7 @@ def interpolation_panels(degree: int, smallest: float, ratio: float = RULES["new
     panels are those of :func:`node_rule` (geometric toward 0, where the rows vary on the scale of mu itself).
     """
     rule = INTERPOLATION_RULE
-    n_panels = int(np.ceil(np.log(smallest) / np.log(ratio)))
-    edges = np.concatenate(([0.0], ratio ** np.arange(n_panels, -1, -1.0)))
+    edges = _geometric_edges(ratio, smallest)
     edges = edges[edges < rule["top"]]
     edges = np.unique(np.concatenate([np.linspace(a, b, int(np.ceil((b - a) / rule["longest"])) + 1)
                                       for a, b in zip(edges, np.append(edges[1:], rule["top"]))]))
