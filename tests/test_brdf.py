@@ -1,3 +1,7 @@
+"""The three-term engine: its Fourier orders, the split into single and multiple scattering, and the "mixed"
+reference built on them (phase="three_term" and "mixed" named where a test is about them; the whole phase
+function, the default, is tests/test_true_phase.py)."""
+
 import numpy as np
 import pytest
 
@@ -37,7 +41,7 @@ def test_reciprocity_and_decomposition(c):
     mi, mo = np.meshgrid(MU, MU, indexing="ij")
     f = brdf_modes(mi, mo, c)
     ss = single_scattering_modes(mi, mo, c)
-    ms = multiple_scattering_modes(mi, mo, c)
+    ms = multiple_scattering_modes(mi, mo, c, phase="three_term")
     direct = eq10_modes(mi, mo, c)
     off = (mi + mo) > 0
     for m in range(3):
@@ -62,7 +66,7 @@ def test_multiple_scattering_is_second_order_in_c():
     for m in range(3):
         a, b = (single_scattering_modes(mi, mo, c)[m] for c in (1e-4, 2e-4))
         np.testing.assert_allclose(b, 2 * a, rtol=1e-13, atol=1e-300)
-        a, b = (multiple_scattering_modes(mi, mo, c)[m] for c in (1e-4, 2e-4))
+        a, b = (multiple_scattering_modes(mi, mo, c, phase="three_term")[m] for c in (1e-4, 2e-4))
         nz = np.abs(a) > 0
         assert nz.sum() >= 6 and np.all(np.abs(b[nz] / a[nz] - 4) < 1e-3), m
 
@@ -78,10 +82,10 @@ def test_brdf_at_tiny_albedos_is_single_scattering_plus_c_squared_multiple_scatt
     mi, mo, ph = grid[:, grid[0] + grid[1] > 0]
     s = np.sqrt((1.0 - mi * mi) * (1.0 - mo * mo))
     p = phase_function(-(mi * mo + s * np.cos(ph)))
-    fm = multiple_scattering_modes(mi, mo, 1e-9)
+    fm = multiple_scattering_modes(mi, mo, 1e-9, phase="three_term")
     law = (fm[0] + fm[1] * np.cos(ph) + fm[2] * np.cos(2.0 * ph)) / 1e-18
     for c in (1e-12, 1e-15):
-        f = brdf(mi, mo, ph, c)
+        f = brdf(mi, mo, ph, c, phase="mixed")
         assert np.all(f > 0)
         assert np.max(np.abs(f / (c * p / (mi + mo) + c * c * law) - 1)) < 1e-8, c
     assert np.all(brdf(mi, mo, ph, 0.0) == 0.0)
@@ -94,12 +98,14 @@ def test_multiple_scattering_orders_scale_as_c_squared_down_to_1e_15():
     1.5e-16/c relative at mu_i = mu_o = 1 (the r_l - P_l^m beside O(1) coefficients are solved to eps
     absolute), checked at c = 1e-12: 1.5e-4 (bound 1e-3)."""
     mi, mo = (a.ravel() for a in np.meshgrid([1e-6, 1e-4], [1e-6, 1e-4], indexing="ij"))
-    ref = [m / 1e-18 for m in multiple_scattering_modes(mi, mo, 1e-9)]
+    ref = [m / 1e-18 for m in multiple_scattering_modes(mi, mo, 1e-9, phase="three_term")]
     for c in (1e-12, 1e-15):
-        for m, x in enumerate(multiple_scattering_modes(mi, mo, c)):
+        for m, x in enumerate(multiple_scattering_modes(mi, mo, c, phase="three_term")):
             np.testing.assert_allclose(x / (c * c), ref[m], rtol=1e-5, err_msg=f"order {m}, c = {c}")
-    ref = multiple_scattering_modes(1.0, 1.0, 1e-9)[0] / 1e-18  # order 0 (orders 1, 2 have S = 0 there)
-    np.testing.assert_allclose(multiple_scattering_modes(1.0, 1.0, 1e-12)[0] / 1e-24, ref, rtol=1e-3)
+    # order 0 (orders 1, 2 have S = 0 there)
+    ref = multiple_scattering_modes(1.0, 1.0, 1e-9, phase="three_term")[0] / 1e-18
+    at_1e_12 = multiple_scattering_modes(1.0, 1.0, 1e-12, phase="three_term")[0]
+    np.testing.assert_allclose(at_1e_12 / 1e-24, ref, rtol=1e-3)
 
 
 @pytest.mark.parametrize("c", [0.5, 0.999, 1.0])
@@ -114,7 +120,8 @@ def test_modes_agree_with_discrete_ordinates(c):
         ref = d.brdf[np.ix_(sel, sel)]
         np.testing.assert_allclose(ref, f[m], rtol=tol)
         # the split: multiple scattering = the doubling method's reflection - eq. 10's single scattering
-        err = np.abs(multiple_scattering_modes(mi, mo, c)[m] - (ref - eq10_modes(mi, mo, c)[m]))
+        ms = multiple_scattering_modes(mi, mo, c, phase="three_term")[m]
+        err = np.abs(ms - (ref - eq10_modes(mi, mo, c)[m]))
         assert np.all(err <= tol * np.abs(f[0])), (m, err.max())
 
 
@@ -134,14 +141,14 @@ def test_single_scattering_modes_are_the_fourier_series_of_eq10():
 
 
 def test_conservation_at_c_1():
-    a = albedo(MU, 1.0, model="three_term")
+    a = albedo(MU, 1.0, phase="three_term")
     np.testing.assert_allclose(a, 1.0, atol=1e-13)
-    assert spherical_albedo(1.0, model="three_term") == pytest.approx(1.0, abs=1e-13)
+    assert spherical_albedo(1.0, phase="three_term") == pytest.approx(1.0, abs=1e-13)
 
 
 def test_small_c_limit_is_single_scattering():
     c = 1e-6
-    a = albedo(MU[1:], c, model="three_term")
+    a = albedo(MU[1:], c, phase="three_term")
     np.testing.assert_allclose(a / c, three_term_single_albedo(MU[1:]), rtol=1e-5)
 
 
@@ -156,7 +163,7 @@ def test_single_scattering_albedo_two_routes():
 
 def test_albedo_values_are_ordered_and_finite():
     for model in ("true", "three_term"):
-        kd = spherical_albedo(np.array([0.0, 0.2, 0.6, 0.95, 1.0]), model=model)
+        kd = spherical_albedo(np.array([0.0, 0.2, 0.6, 0.95, 1.0]), phase=model)
         assert np.all(np.isfinite(kd)) and np.all(np.diff(kd) > 0) and kd[0] == 0.0
 
 
@@ -166,12 +173,14 @@ def test_reference_brdf_edges():
     rng = np.random.default_rng(2)
     mi, mo = rng.uniform(0, 1, (2, 1000))
     phi = rng.uniform(-np.pi, np.pi, 1000)
-    # 32 albedos (each solves its H-functions once), the edges 0 and 1 among them, over 1000 random points
-    c = rng.choice(np.concatenate(([0.0, 1.0], rng.uniform(0, 1, 30))), 1000)
-    f = brdf(mi, mo, phi, c)
-    assert np.all(np.isfinite(f)) and np.all(f >= 0)
-    np.testing.assert_allclose(f, brdf(mo, mi, phi, c), rtol=1e-13)
-    np.testing.assert_allclose(f, brdf(mi, mo, -phi, c), rtol=1e-13)
+    # the three-term engine at 32 albedos (each solves its H-functions once), the edges 0 and 1 among them; the
+    # whole-phase engine (about 4 s an albedo) at three: over 1000 random points
+    for phase, albedos in (("mixed", np.concatenate(([0.0, 1.0], rng.uniform(0, 1, 30)))), ("true", [0.0, 0.5, 1.0])):
+        c = rng.choice(albedos, 1000)
+        f = brdf(mi, mo, phi, c, phase=phase)
+        assert np.all(np.isfinite(f)) and np.all(f >= 0)
+        np.testing.assert_allclose(f, brdf(mo, mi, phi, c, phase=phase), rtol=1e-13)
+        np.testing.assert_allclose(f, brdf(mi, mo, -phi, c, phase=phase), rtol=1e-13)
 
 
 @pytest.mark.parametrize("mu_i, mu_o", [(0.5, 0.3), (0.0, 0.0), (0.0, 0.4)])
@@ -193,7 +202,7 @@ def test_runtime_model_with_exact_parts_never_needs_the_clamp():
         mi, mo, ph = np.meshgrid(mu, mu, phi, indexing="ij")
         s = np.sqrt((1 - mi**2) * (1 - mo**2))
         f1 = c * phase_function(-(mi * mo + s * np.cos(ph))) / (mi + mo)
-        fm0, fm1, _ = multiple_scattering_modes(mi, mo, c)
+        fm0, fm1, _ = multiple_scattering_modes(mi, mo, c, phase="three_term")
         assert np.all(f1 + fm0 + fm1 * np.cos(ph) > 0)
 
 
@@ -204,8 +213,8 @@ def test_runtime_model_with_exact_parts_never_needs_the_clamp():
         lambda: brdf_modes(0.5, 1.1, 0.5),
         lambda: brdf(0.5, 0.5, np.nan, 0.5),
         lambda: brdf(0.5, 0.5, 0.0, 2.0),
-        lambda: albedo(0.5, 0.5, model="lambert"),
-        lambda: spherical_albedo(0.5, model="x"),
+        lambda: albedo(0.5, 0.5, phase="lambert"),
+        lambda: spherical_albedo(0.5, phase="x"),
     ],
 )
 def test_bad_inputs_raise(call):

@@ -120,7 +120,7 @@ def test_constants_and_kd_are_smooth_in_s():
     for name in "BCDF":
         d2 = np.abs(np.diff(k[name], 2))
         assert d2.max() < 2e-3, name
-    kd = spherical_albedo(c, model="three_term")
+    kd = spherical_albedo(c, phase="three_term")
     assert np.all(np.diff(kd) < 0)  # kd falls as s grows (c falls)
     assert np.all(kd <= 1 + 1e-13)
 

@@ -185,9 +185,9 @@ def test_grazing_values_and_gap(degree_32):
 
 
 def test_phase_api():
-    assert exact.DEFAULT_PHASE == "mixed"
+    assert exact.DEFAULT_PHASE == "true"
     args = (np.array([0.3, 0.6]), np.array([0.5, 0.2]), 1.0, 0.7)
-    np.testing.assert_array_equal(exact.brdf(*args), exact.brdf(*args, phase="mixed"))
+    np.testing.assert_array_equal(exact.brdf(*args), exact.brdf(*args, phase="true"))
     for bad in ("truth", "3term", ""):
         with pytest.raises(ValueError, match="phase must be one of"):
             exact.brdf(*args, phase=bad)
@@ -197,11 +197,9 @@ def test_phase_api():
             exact.multiple_scattering_modes(0.5, 0.5, 0.5, phase=bad)
     with pytest.raises(ValueError, match="infinitely many"):
         exact.brdf_modes(0.5, 0.5, 0.5, phase="true")
-    # model= keeps its old meaning
-    assert exact.albedo(0.4, 0.8, model="true") == exact.albedo(0.4, 0.8, phase="mixed")
-    assert exact.albedo(0.4, 0.8, model="three_term") == exact.albedo(0.4, 0.8, phase="three_term")
-    with pytest.raises(ValueError):
-        exact.albedo(0.4, 0.8, model="true", phase="true")
+    # the old model= (whose "true" meant today's "mixed") is gone: one name for one physics
+    with pytest.raises(TypeError, match="model"):
+        exact.albedo(0.4, 0.8, model="true")
     # mixed and three_term share the multiple scattering
     for x, y in zip(exact.multiple_scattering_modes(0.3, 0.4, 0.6, phase="mixed"),
                     exact.multiple_scattering_modes(0.3, 0.4, 0.6, phase="three_term")):
@@ -229,8 +227,8 @@ def test_true_brdf_validation_set():
     same points as the mixed set, which it stays within the measured gap of (2.0e-3 away from the pole)."""
     from fitlab.families.lambert_sphere import datasets as d
 
-    ds = d.brdf_validation_true()
-    mixed = d.brdf_validation()
+    ds = d.brdf_validation("true")
+    mixed = d.brdf_validation("mixed")
     c = ds.inputs["c"]
     for k in ("mu_i", "mu_o", "phi", "c"):
         np.testing.assert_array_equal(ds.inputs[k], mixed.inputs[k])

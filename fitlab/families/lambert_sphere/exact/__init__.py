@@ -19,6 +19,7 @@ from fitlab.families.lambert_sphere.exact.brdf import (
     PHASES,
     brdf,
     brdf_modes,
+    check_phase,
     multiple_scattering_modes,
     single_scattering_modes,
 )
@@ -54,6 +55,7 @@ __all__ = [
     "albedo_inverse",
     "brdf",
     "brdf_modes",
+    "check_phase",
     "clear_h_cache",
     "CONSTANT_NAMES",
     "constants",

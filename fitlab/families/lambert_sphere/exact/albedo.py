@@ -1,11 +1,12 @@
 r"""Directional and spherical albedos of the exact BRDFs.
 
-Two BRDFs, two albedos each (which one kd refers to: docs/model.md, "Albedo maps"):
+Three BRDFs (``phase=``, as :func:`fitlab.families.lambert_sphere.exact.brdf`; which albedo kd refers to:
+docs/model.md, "Albedo maps"):
 
-* ``model="three_term"``: the exact half space with the three-term phase
+* ``phase="three_term"``: the exact half space with the three-term phase
   function, all orders.  a(mu_i) = 2 pi int_0^1 f0(mu_i, mu_o) mu_o dmu_o;
   only order 0 survives the azimuthal integral.  a = 1 at c = 1 (conservation).
-* ``model="true"``: :func:`fitlab.families.lambert_sphere.exact.brdf`, i.e. exact single scattering
+* ``phase="mixed"``: exact single scattering
   with the true phase function plus the three-term multiple scattering:
   a_true = a_three_term + c (a1(mu_i) - a1_3(mu_i)), with a1, a1_3 the
   single-scattering albedos per unit c of the true and three-term phase
@@ -13,6 +14,7 @@ Two BRDFs, two albedos each (which one kd refers to: docs/model.md, "Albedo maps
   with exact ingredients has the same albedo as "true": fm1 cos phi and the
   dropped fm2 cos 2 phi integrate to zero over phi, and the clamp never acts
   (tests/test_brdf.py checks f_1 + fm0 + fm1 cos phi > 0 on a grid).
+* ``phase="true"`` (the default): the whole phase function in every collision, below.
 
 a1(mu_i) = int_{mu_o > 0} p(-w_i . w_o) mu_o/(mu_i + mu_o) dw_o is computed in
 coordinates about w_i (theta the angle to w_i, psi around it): p depends on
@@ -23,9 +25,7 @@ cone about w_i meets the horizon (theta = pi/2 -+ theta_i) gives ~1e-14.
 The spherical (Bond) albedo kd = 2 int_0^1 a(mu_i) mu_i dmu_i.
 
 ``phase=`` names the physics as :func:`fitlab.families.lambert_sphere.exact.brdf` does
-("true", "three_term", "mixed"; default :data:`DEFAULT_PHASE`); ``model=`` is the older
-name: model "true" is phase "mixed" (true single scattering, three-term multiple
-scattering), model "three_term" is phase "three_term".  Phase "true" (the whole
+("true", "three_term", "mixed"; default :data:`DEFAULT_PHASE`).  Phase "true" (the whole
 phase function in every collision): a = c a1(mu_i) + the albedo of the multiple
 scattering of :mod:`true_phase`, integrated on that solution's own rule; at c = 1
 it is 1 to about 1e-14 (energy conservation of the discrete problem, imposed
@@ -48,29 +48,10 @@ from fitlab.families.lambert_sphere.exact.constants import mode_polynomials
 from fitlab.families.lambert_sphere.exact.hfunction import solve_h
 
 __all__ = ["albedo", "spherical_albedo", "single_scattering_albedo", "single_albedo_nodes", "three_term_single_albedo",
-           "MODELS"]
+           "SINGLE_PHASES"]
 
-MODELS = ("true", "three_term")
-_MODEL_PHASE = {"true": "mixed", "three_term": "three_term"}
-
-
-class _NotGiven:
-    def __repr__(self):
-        return "(not given)"
-
-
-_NOT_GIVEN = _NotGiven()
-
-
-def _resolve_phase(model, phase) -> str:
-    """The phase from ``phase=`` or the older ``model=`` (model "true" means phase "mixed")."""
-    if model is not _NOT_GIVEN:
-        model = _checks.choice(model, "model", MODELS)
-        implied = _MODEL_PHASE[model]
-        if phase is not None and check_phase(phase) != implied:
-            raise ValueError(f"model {model!r} means phase {implied!r}, but phase {phase!r} was given")
-        return implied
-    return check_phase(phase, PHASES)
+#: the phase functions of a single collision: the true one and the paper's three-term approximation
+SINGLE_PHASES = ("true", "three_term")
 
 
 def _arc_integral(mu_i: float, theta: float) -> float:
@@ -113,7 +94,7 @@ def _p_three_term(theta):
 def single_scattering_albedo(mu_i: float, phase: str = "true") -> float:
     """a1(mu_i): directional albedo of single scattering per unit c."""
     mu_i = _checks.real_scalar(mu_i, "mu_i", 0.0, 1.0)
-    phase = _checks.choice(phase, "phase", MODELS)
+    phase = _checks.choice(phase, "phase", SINGLE_PHASES)
     p = _p_true if phase == "true" else _p_three_term
     theta_i = np.arccos(mu_i)
     edges = sorted({0.0, max(0.0, np.pi / 2 - theta_i), min(np.pi, np.pi / 2 + theta_i)})
@@ -133,7 +114,7 @@ def single_scattering_albedo(mu_i: float, phase: str = "true") -> float:
 @lru_cache(maxsize=None)
 def single_albedo_nodes(phase: str):
     """a1 at the graded nodes (c-independent, computed once)."""
-    phase = _checks.choice(phase, "phase", MODELS)
+    phase = _checks.choice(phase, "phase", SINGLE_PHASES)
     v, _ = graded_gauss(8, 0.25, 1e-14)
     return np.array([single_scattering_albedo(float(x), phase) for x in v])
 
@@ -159,17 +140,16 @@ def three_term_single_albedo(mu_i):
     return 2.0 * np.pi * (f0 * (w * v)[None, :]).sum(axis=1)
 
 
-def albedo(mu_i, c, model: str = _NOT_GIVEN, phase: str | None = None):
+def albedo(mu_i, c, phase: str | None = None):
     """Directional albedo a(mu_i) = int f(w_i, w_o) mu_o dw_o of an exact BRDF.
 
-    phase (default :data:`DEFAULT_PHASE`): "mixed" (:func:`fitlab.families.lambert_sphere.exact.brdf`
-    today: true phase function in single scattering, three-term multiple scattering), "three_term"
-    (the exact three-term half space), "true" (the whole phase function in every collision).
-    model: the older name, "true" = phase "mixed", "three_term" = phase "three_term".
+    phase (default :data:`DEFAULT_PHASE`, "true": the whole phase function in every collision), "mixed"
+    (true phase function in single scattering, three-term multiple scattering), "three_term"
+    (the exact three-term half space).
     mu_i in [0, 1], c in [0, 1]; broadcast.  The true single-scattering albedo is one
     adaptive quadrature per distinct mu_i.
     """
-    phase = _resolve_phase(model, phase)
+    phase = check_phase(phase, PHASES)
     mu_i = _checks.real_array(mu_i, "mu_i", 0.0, 1.0)
     c = _checks.real_array(c, "c", 0.0, 1.0, domain="[0, 1] (particle albedo)")
     (mu_i,) = check_cosines(mu_i, names=("mu_i",))
@@ -198,9 +178,9 @@ def albedo(mu_i, c, model: str = _NOT_GIVEN, phase: str | None = None):
     return out
 
 
-def spherical_albedo(c, model: str = _NOT_GIVEN, phase: str | None = None):
-    """Spherical (Bond) albedo kd = 2 int_0^1 a(mu_i) mu_i dmu_i; ``phase``/``model`` as in :func:`albedo`."""
-    phase = _resolve_phase(model, phase)
+def spherical_albedo(c, phase: str | None = None):
+    """Spherical (Bond) albedo kd = 2 int_0^1 a(mu_i) mu_i dmu_i; ``phase`` as in :func:`albedo`."""
+    phase = check_phase(phase, PHASES)
     c = _checks.real_array(c, "c", 0.0, 1.0, domain="[0, 1] (particle albedo)")
     c = check_albedo(c)
     v, w = graded_gauss(8, 0.25, 1e-14)

@@ -42,11 +42,11 @@ __all__ = [
 #: Which physics the reference BRDF has (docs/model.md, "Which phase function"):
 #: "true": the whole phase function in every collision (the material's BRDF; true_phase.py);
 #: "three_term": the paper's three-term phase function in every collision, single scattering included;
-#: "mixed": true single scattering plus three-term multiple scattering (fitlab's reference until issue 33).
+#: "mixed": true single scattering plus three-term multiple scattering (fitlab's reference before the whole
+#: phase function was solved; kept for the paper's comparisons and as what the runtime parts were fitted to).
 PHASES = ("true", "three_term", "mixed")
-#: The default of every ``phase=`` in the exact engine.  Switching it to "true" is a one-line change
-#: (it changes every table, validation set and committed fit downstream: a separate step).
-DEFAULT_PHASE = "mixed"
+#: The default of every ``phase=`` in the exact engine: the BRDF of the material itself.
+DEFAULT_PHASE = "true"
 
 
 def check_phase(phase, allowed=PHASES) -> str:
@@ -250,13 +250,13 @@ def _true_multiple(mu_i, mu_o, phi, c):
 def brdf(mu_i, mu_o, phi, c, phase=None):
     """The reference Lambert-sphere BRDF (1/sr).
 
-    phase (default :data:`DEFAULT_PHASE`, today "mixed"):
+    phase (default :data:`DEFAULT_PHASE`, "true"):
 
-    * "mixed": f = c p(u)/(mu_i + mu_o)  [exact single scattering, true phase function, eq. 10]
-      + fm0 + fm1 cos(phi) + fm2 cos(2 phi)  [exact multiple scattering of the
-      three-term half space, all three orders];
-    * "true": the same single scattering plus the multiple scattering of the half space
-      with the whole phase function (:mod:`true_phase`; 1e-10 relative, docs/derivation.md);
+    * "true": f = c p(u)/(mu_i + mu_o)  [exact single scattering, true phase function, eq. 10]
+      plus the multiple scattering of the half space with the whole phase function
+      (:mod:`true_phase`; 1e-10 relative, docs/derivation.md): the BRDF of the material;
+    * "mixed": the same single scattering + fm0 + fm1 cos(phi) + fm2 cos(2 phi)  [exact multiple
+      scattering of the three-term half space, all three orders];
     * "three_term": the paper's model in every collision, single scattering included
       (c p3(u)/(mu_i + mu_o) + the same fm0..fm2).
 

@@ -16,9 +16,9 @@ def solve_albedo(kd_of_c, kd: float, lo: float = 0.0, hi: float = 1.0, xtol: flo
     return float(brentq(lambda c: kd_of_c(c) - kd, lo, hi, xtol=xtol))
 
 
-def albedo_inverse(kd: float, model: str = "true", guess: float | None = None, phase: str | None = None) -> float:
-    """c with ``spherical_albedo(c, model) == kd`` (model "true" or "three_term"), to 1e-13 in c; with ``phase``
-    ("true", "three_term", "mixed"), ``spherical_albedo(c, phase=phase) == kd`` instead.
+def albedo_inverse(kd: float, phase: str | None = None, guess: float | None = None) -> float:
+    """c with ``spherical_albedo(c, phase) == kd`` (phase "true", the default, "three_term" or "mixed"), to 1e-13
+    in c.
 
     Root by Brent's method; ``guess`` (e.g. the published eq. 39 map, the c_of_kd preset)
     brackets it within 0.005, which saves most evaluations (each solves H0, or the true half space's
@@ -29,7 +29,7 @@ def albedo_inverse(kd: float, model: str = "true", guess: float | None = None, p
         return 0.0
 
     def kd_of_c(c):
-        return float(spherical_albedo(c, model) if phase is None else spherical_albedo(c, phase=phase))
+        return float(spherical_albedo(c, phase))
 
     if kd >= kd_of_c(1.0):
         return 1.0

@@ -336,7 +336,7 @@ def _exact_modes_bin(c, mu_i, a, b, multiple_only, phase="three_term"):
     if phase == "true":
         modes = np.array(multiple_scattering_modes(mu_in, mu, c, phase="true"))
     else:
-        modes = np.array((multiple_scattering_modes if multiple_only else brdf_modes)(mu_in, mu, c))
+        modes = np.array((multiple_scattering_modes if multiple_only else brdf_modes)(mu_in, mu, c, phase="three_term"))
     return tuple(float(v) for v in modes @ wmu / wmu.sum())
 
 
@@ -412,7 +412,7 @@ def attach_reference(effect: str, scene: Scene, rows: list) -> list:
             if q == "kd":
                 alt, alt_name = eq40_kd(c), "published eq. 40"
         elif effect == "collisions" and q == "a_ms" and three:
-            ref = float(albedo(mu_i, c, "three_term")) - c * _ss_albedo(mu_i, "three_term")
+            ref = float(albedo(mu_i, c, phase="three_term")) - c * _ss_albedo(mu_i, "three_term")
             r["ref_name"] = model + " (sum of all orders)"
         r["ref"], r["alt"], r["alt_name"] = ref, alt, alt_name
         se = r["se"]
