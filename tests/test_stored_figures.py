@@ -116,8 +116,8 @@ def check_row(stored: dict, got: dict, ds, what: str, exact=None,
 def preset_values(target, form_name: str, params: dict, ds) -> np.ndarray:
     """A registered form with the given parameters on ``ds``: its expression text read back by the
     restricted parser, the numbers substituted, lambdified (not Form.numpy_function, which wrote the
-    stored figures).  Not through FitFunction: the audit's BRDF set holds kd = kd_true(1) = 1 + 1e-5, just
-    outside the domain a fit file may state."""
+    stored figures).  Not through FitFunction: the audit's mixed BRDF set holds kd = kd_mixed(1) = 1 + 1e-5,
+    just outside the domain a fit file may state."""
     form = target.forms[form_name]
     expr = parse_expression(form.expression, (*form.inputs, *form.params))
     expr = expr.xreplace({sp.Symbol(k, real=True): sp.Float(repr(float(v)), 17) for k, v in params.items()})
@@ -204,7 +204,7 @@ def test_audit_kd_against_three_term_albedo_is_recomputed(audit):
     (row,) = [r for r in audit["published"] if r["target"] == "kd_of_c vs kd_three_term"]
     target = get_target("kd_of_c")
     ds = _validation(target)
-    kd3 = spherical_albedo(ds.inputs["c"], model="three_term")
+    kd3 = spherical_albedo(ds.inputs["c"], phase="three_term")
     approx = preset_values(target, "printed", target.forms["printed"].presets["paper"], ds)
     check_row(row, figures(approx, kd3, np.abs(kd3)), ds, "audit.json kd_of_c vs kd_three_term", exact=kd3)
 
@@ -256,7 +256,7 @@ def _check_runtime_row(row, got, ds, what):
 def test_audit_runtime_rows_are_recomputed(audit, runtime_models):
     from fitlab.families.lambert_sphere import datasets as d
 
-    ds = d.brdf_validation()
+    ds = d.brdf_validation("mixed")
     assert audit["runtime_grid"] == ds.grid
     mi, mo, ph, c = (ds.inputs[k] for k in ("mu_i", "mu_o", "phi", "c"))
     rows = {r["model"]: r for r in audit["runtime"]}
@@ -276,9 +276,9 @@ def test_audit_runtime_true_rows_are_recomputed(audit, runtime_models):
     from fitlab.families.lambert_sphere import exact
     from fitlab.families.lambert_sphere.audit import MIXED_ROW, TRUE_FLOOR_ROW
 
-    ds = d.brdf_validation_true()
+    ds = d.brdf_validation("true")
     assert audit["runtime_true_grid"] == ds.grid
-    mixed = d.brdf_validation()
+    mixed = d.brdf_validation("mixed")
     mi, mo, ph, c = (ds.inputs[k] for k in ("mu_i", "mu_o", "phi", "c"))
     for k, v in (("mu_i", mi), ("mu_o", mo), ("phi", ph), ("c", c)):
         np.testing.assert_array_equal(mixed.inputs[k], v)
@@ -332,9 +332,9 @@ def test_audit_runtime_floor_row_is_recomputed(audit):
     from fitlab.families.lambert_sphere import datasets as d
     from fitlab.families.lambert_sphere.exact import multiple_scattering_modes
 
-    ds = d.brdf_validation()
+    ds = d.brdf_validation("mixed")
     mi, mo, ph, c = (ds.inputs[k] for k in ("mu_i", "mu_o", "phi", "c"))
-    fm2 = multiple_scattering_modes(mi, mo, c)[2]
+    fm2 = multiple_scattering_modes(mi, mo, c, phase="mixed")[2]
     (row,) = [r for r in audit["runtime"] if r["model"] == "exact ingredients (fm2 dropped)"]
     approx = np.maximum(0.0, ds.y - fm2 * np.cos(2 * ph))
     _check_runtime_row(row, _runtime_figures(approx, ds.y, mi, mo), ds, "audit.json runtime floor")

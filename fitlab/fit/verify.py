@@ -67,7 +67,8 @@ def measure_fit(fit: FitFunction, *, allow_partial_domain: bool = False) -> dict
     partial = allow_partial_domain and own != whole
     domain = own if partial else whole
     # the set restricted to the domain measured, as refit restricts it: a set may hold points just outside the
-    # domain (fast_brdf's kd = kd_true(c) reaches 1 + 1e-5 at c = 1), which are in no fit's claim
+    # domain (a computed input such as fast_brdf's kd = kd_true(c), 1 at c = 1 up to rounding), which are in no
+    # fit's claim
     valid = target.validation().restricted(domain)
     xs = [valid.inputs[n] for n in fit.inputs]
     approx = fit.evaluate(*xs)

@@ -15,8 +15,11 @@ parts:
    the mixed reference itself against the true BRDF (phase "true") on the same points and at
    independent random points; the exported tables (``fitlab codegen --tables``) in each of these;
 3. the white furnace: the directional albedo of each runtime model and of the exported tables at c = 1,
-   which should be 1 (the true BRDF gives 1; the mixed reference gives kd_true(1) - 1 = 1.0e-5,
+   which should be 1 (the true BRDF gives 1; the mixed reference gives kd_mixed(1) - 1 = 1.0e-5,
    the true phase function's excess over the three-term one in single scattering).
+
+The published formulas of the albedo maps are measured against kd_true, the spherical albedo of the
+material's BRDF (the whole phase function), and against kd_three_term.
 """
 
 from __future__ import annotations
@@ -63,7 +66,7 @@ def _published_rows() -> list[dict]:
                          "error_measure": t.error_measure, **m})
     # the same formulas against the other readings of kd (docs/model.md, "Albedo maps")
     valid = d.kd_of_c_validation()
-    kd3 = spherical_albedo(valid.inputs["c"], model="three_term")
+    kd3 = spherical_albedo(valid.inputs["c"], phase="three_term")
     form = get_target("kd_of_c").forms["printed"]
     rows.append({"target": "kd_of_c vs kd_three_term", "form": "printed", "preset": "paper", "claimed": "none stated",
                  "error_measure": "relative", **summary(form("paper", valid.inputs["c"]), kd3, kd3, valid.inputs)})
@@ -124,7 +127,7 @@ def _tables_candidate(mi, mo, ph, c) -> tuple:
 def _runtime_rows(models) -> list[dict]:
     """The runtime models against the mixed reference (exact.brdf(phase="mixed"), the reference the runtime
     parts were fitted to), with its floor: exact ingredients, fm2 dropped."""
-    valid = d.brdf_validation()
+    valid = d.brdf_validation("mixed")
     mi, mo, ph, c = (valid.inputs[k] for k in ("mu_i", "mu_o", "phi", "c"))
     fm2 = multiple_scattering_modes(mi, mo, c, phase="mixed")[2]
     candidates = [("exact ingredients (fm2 dropped)", np.maximum(0.0, valid.y - fm2 * np.cos(2 * ph)), {})]
@@ -135,8 +138,8 @@ def _runtime_rows(models) -> list[dict]:
 def _runtime_true_rows(models) -> list[dict]:
     """The runtime models and the mixed reference itself against the true BRDF (exact.brdf(phase="true"))
     on the same points."""
-    valid = d.brdf_validation_true()
-    mixed = d.brdf_validation()
+    valid = d.brdf_validation("true")
+    mixed = d.brdf_validation("mixed")
     for k in ("mu_i", "mu_o", "phi", "c"):
         if not np.array_equal(valid.inputs[k], mixed.inputs[k]):
             raise RuntimeError(f"the true and mixed BRDF validation sets differ in {k}")
@@ -291,9 +294,9 @@ def run_audit(out_dir: Path, fits_dir: Path | None = None, show_progress: bool =
 
         models, missing = _runtime_models(fits_folder(fits_dir))
         published = stage("published formulas", _published_rows())
-        grid = stage("BRDF validation set", d.brdf_validation().grid)
+        grid = stage("BRDF validation set", d.brdf_validation("mixed").grid)
         runtime = stage("runtime models", _runtime_rows(models))
-        true_grid = stage("true BRDF validation set", d.brdf_validation_true().grid)
+        true_grid = stage("true BRDF validation set", d.brdf_validation("true").grid)
         runtime_true = stage("runtime models against the true BRDF", _runtime_true_rows(models))
         independent_grid = d.brdf_true_independent().grid
         runtime_true_independent = stage("... at independent points", _runtime_true_independent_rows(models))

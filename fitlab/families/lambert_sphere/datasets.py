@@ -112,8 +112,8 @@ def _kd_training(data_dir: Path | None = None):
 @lru_cache(maxsize=None)
 def _kd_validation():
     c = 1.0 - _S_1D**2
-    ds = _cached("kd-validation", "s = (2k+1)/256, plus 0 and 1",
-                 lambda: Dataset({"c": c}, spherical_albedo(c, model="true"), ""), ("c",), c=c)  # fmt: skip
+    ds = _cached("kd-true-validation", "s = (2k+1)/256, plus 0 and 1",
+                 lambda: Dataset({"c": c}, spherical_albedo(c, phase="true"), ""), ("c",), c=c)  # fmt: skip
     return ds.inputs["c"], ds.y
 
 
@@ -128,7 +128,7 @@ def kd_of_c_validation() -> Dataset:
 
 
 def _inverse(c, kd, grid):
-    # kd_true(1) = 1 + 1.0e-5 (docs/errata.md): points with kd > 1 lie outside the map's domain
+    # kd_true(1) = 1 to about 1e-14: a point rounded above 1 lies outside the map's domain
     keep = kd <= 1.0
     return Dataset({"kd": kd[keep]}, c[keep], grid)
 
@@ -168,7 +168,7 @@ def _fm1_exact(s, mu, grid) -> Dataset:
     cols = {"mu_i": [], "mu_o": [], "c": []}
     ys, f0 = [], []
     for cv in 1.0 - s**2:
-        ys.append(multiple_scattering_modes(mi, mo, cv)[1])
+        ys.append(multiple_scattering_modes(mi, mo, cv, phase="three_term")[1])
         f0.append(brdf_modes(mi, mo, cv)[0])
         for k, v in (("mu_i", mi), ("mu_o", mo), ("c", np.full(mi.shape, cv))):
             cols[k].append(v)
@@ -188,8 +188,12 @@ def brdf_training() -> Dataset:
 
 
 @lru_cache(maxsize=None)
-def brdf_validation() -> Dataset:
-    return _brdf(*_validation_lattice())
+def brdf_validation(phase: str = "true") -> Dataset:
+    """The BRDF validation lattice: exact.brdf with ``phase`` ("true", the material's BRDF: the reference of
+    fast_brdf and of every BRDF-level figure; "mixed": the reference the runtime parts were fitted to, for
+    the audit's rows against it), kd its spherical albedo; with phase "true" also the multiple scattering's
+    Fourier orders 0 to 2 (aux fm0, fm1, fm2)."""
+    return _brdf(*_validation_lattice(), phase=phase)
 
 
 def _validation_lattice():
@@ -198,30 +202,18 @@ def _validation_lattice():
             "s, mu, phi/pi = (2k+1)/32, plus 0, 1 and mu = 1e-6")
 
 
-@lru_cache(maxsize=None)
-def brdf_validation_true() -> Dataset:
-    """The points of :func:`brdf_validation` with the true BRDF: exact.brdf(phase="true"), the whole phase
-    function in every collision, and kd its spherical albedo (the reference of the audit's runtime rows
-    "against the true BRDF")."""
-    return _brdf(*_validation_lattice(), phase="true")
-
-
-def _brdf(s, mu, phi, grid, extra_c=(), phase="mixed") -> Dataset:
+def _brdf(s, mu, phi, grid, extra_c=(), phase="true") -> Dataset:
     """The BRDF on a lattice; ``phase`` as in :func:`exact.brdf <fitlab.families.lambert_sphere.exact.brdf>`,
-    and kd the spherical albedo of the same physics ("mixed": kd_true)."""
-    if phase == "mixed":
-        grid = grid + "; mu_i = mu_o = 0 left out; kd = kd_true(c)"
-        name = f"brdf-{len(s)}x{len(mu)}x{len(phi)}+{len(extra_c)}"
-    else:
-        grid = grid + f"; mu_i = mu_o = 0 left out; exact.brdf(phase={phase!r}), kd its spherical albedo"
-        name = f"brdf-{phase}-{len(s)}x{len(mu)}x{len(phi)}+{len(extra_c)}"
+    and kd the spherical albedo of the same physics (phase "true": kd_true)."""
+    grid = grid + f"; mu_i = mu_o = 0 left out; exact.brdf(phase={phase!r}), kd its spherical albedo"
+    name = f"brdf-{phase}-{len(s)}x{len(mu)}x{len(phi)}+{len(extra_c)}"
     aux = ("fm0", "fm1", "fm2") if phase == "true" else ()
     return _cached(name, grid, lambda: _brdf_exact(s, mu, phi, grid, extra_c, phase),
                    ("mu_i", "mu_o", "phi", "c", "kd"), aux, s=s, mu=mu, phi=phi,
                    extra_c=np.asarray(extra_c, dtype=float))
 
 
-def _brdf_exact(s, mu, phi, grid, extra_c=(), phase="mixed") -> Dataset:
+def _brdf_exact(s, mu, phi, grid, extra_c=(), phase="true") -> Dataset:
     c = np.concatenate((1.0 - s**2, extra_c))
     mi, mo = _pairs(mu)
     n = mi.size

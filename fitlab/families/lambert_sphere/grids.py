@@ -3,7 +3,10 @@ r"""Exact values of the Lambert-sphere targets on tensor grids (for residual map
 ``exact_grid(target)(axes)`` takes 1-D axes by name and returns (inputs on the
 grid, exact values, aux): the inputs include those that follow from the axes
 (kd = kd_true(c) for ``fast_brdf``; for ``c_of_kd`` the axis is c and the input
-is kd_true(c), the exact pair being (kd_true(c), c)).
+is kd_true(c), the exact pair being (kd_true(c), c)).  The BRDF and kd_true are those of the
+material, :func:`fitlab.families.lambert_sphere.exact.brdf` and its spherical albedo with the
+whole phase function; fm1 is the order-1 multiple scattering of the three-term half space, the
+part of the runtime structure its forms model.
 """
 
 from __future__ import annotations
@@ -63,24 +66,21 @@ def _constant(name: str):
 
 def _kd_of_c(axes):
     g = _mesh(axes)
-    return g, spherical_albedo(g["c"], model="true"), {}
+    return g, spherical_albedo(g["c"]), {}
 
 
 def _c_of_kd(axes):
     c = np.asarray(axes["c"], dtype=float)
-    kd = spherical_albedo(c, model="true")
-    if np.any(kd > 1.0):
-        raise ValueError(
-            f"kd_true(c) > 1 at c = {c[kd > 1.0]} (kd_true(1) = 1 + 1e-5, docs/errata.md), outside "
-            "the domain kd <= 1 of c_of_kd; leave those c out"
-        )
+    # kd_true(1) = 1 to about 1e-14 (energy conservation of the whole phase function): the map's domain
+    # is kd <= 1, so rounding above 1 is clipped
+    kd = np.minimum(spherical_albedo(c), 1.0)
     return {"kd": kd}, c.copy(), {}
 
 
 def _fm1(axes):
     g = _mesh(axes)
     _check_pole(g)
-    y = multiple_scattering_modes(g["mu_i"], g["mu_o"], g["c"])[1]
+    y = multiple_scattering_modes(g["mu_i"], g["mu_o"], g["c"], phase="three_term")[1]
     return g, y, {"f0": brdf_modes(g["mu_i"], g["mu_o"], g["c"])[0]}
 
 
@@ -91,7 +91,7 @@ def _brdf(with_kd: bool):
         y = brdf(g["mu_i"], g["mu_o"], g["phi"], g["c"])
         if with_kd:
             c = np.asarray(axes["c"], dtype=float)
-            g["kd"] = np.broadcast_to(spherical_albedo(c, model="true"), y.shape).copy()
+            g["kd"] = np.broadcast_to(spherical_albedo(c), y.shape).copy()
         return g, y, {}
 
     return grid

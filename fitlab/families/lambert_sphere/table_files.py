@@ -30,7 +30,7 @@ FAMILY_NAME = "lambert_sphere"
 CONSTANTS_FILE = "constants.csv"
 CONSTANT_COLUMNS = ("s", "c", *CONSTANT_NAMES)
 KD_FILE = "kd.csv"
-KD_COLUMNS = ("s", "c", "kd_three_term", "kd_true")
+KD_COLUMNS = ("s", "c", "kd_three_term", "kd_mixed", "kd_true")
 #: the variance-optimal sampling mixture (:mod:`.exact.sampling`) on the training and the validation grid
 SAMPLING_FILES = ("sampling.csv", "sampling_validation.csv")
 SAMPLING_COLUMNS = ("s", "c", "mu_i", "weight", "exponent", "relvar_optimal", "relvar_cosine")
@@ -106,7 +106,7 @@ def read_constants(data_dir: Path) -> dict[str, np.ndarray]:
 
 @lru_cache(maxsize=None)
 def read_kd(data_dir: Path) -> dict[str, np.ndarray]:
-    """Column name -> values of kd.csv in ``data_dir`` (s, c, kd_three_term, kd_true)."""
+    """Column name -> values of kd.csv in ``data_dir`` (s, c, kd_three_term, kd_mixed, kd_true)."""
     header, t = read_checked(KD_FILE, data_dir)
     return {name: t[:, j] for j, name in enumerate(header)}
 

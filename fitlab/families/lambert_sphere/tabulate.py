@@ -23,7 +23,8 @@ from fitlab.families.lambert_sphere.exact import constants, h_function, spherica
 from fitlab.families.lambert_sphere.exact.constants import CONSTANT_NAMES
 from fitlab.families.lambert_sphere.exact.sampling import (MU_MIN, QUADRATURE_NODES, optimal_mixture, relative_variance,
                                                            variance_function)
-from fitlab.families.lambert_sphere.table_files import FAMILY_NAME, SAMPLING_COLUMNS, SAMPLING_FILES, TABLE_FILES, read_checked
+from fitlab.families.lambert_sphere.table_files import (FAMILY_NAME, KD_COLUMNS, SAMPLING_COLUMNS, SAMPLING_FILES, TABLE_FILES,
+                                                      read_checked)
 from fitlab.store import Table
 from fitlab.store import write_tables as store_write_tables
 
@@ -81,18 +82,20 @@ def constants_table(progress=None) -> Table:
 
 def albedo_table(progress=None) -> Table:
     rows = []
-    kd3 = spherical_albedo(C_GRID, model="three_term")
-    kdt = spherical_albedo(C_GRID, model="true")
-    for s, c, a, b in zip(S_GRID, C_GRID, kd3, kdt):
-        rows.append((s, c, a, b))
-    if progress is not None:
-        progress.update(len(C_GRID))
+    kd3 = spherical_albedo(C_GRID, phase="three_term")
+    kdm = spherical_albedo(C_GRID, phase="mixed")
+    for s, c, a, b in zip(S_GRID, C_GRID, kd3, kdm):
+        rows.append((s, c, a, b, float(spherical_albedo(c, phase="true"))))  # a solve per c: ticked
+        if progress is not None:
+            progress.update(1)
     return Table(
         "spherical albedo kd",
-        "kd = 2 int a(mu) mu dmu; kd_three_term: exact three-term half space; kd_true: fitlab.families.lambert_sphere.exact.brdf "
-        "(true phase function in single scattering; also the albedo of the runtime model with exact ingredients)",
+        "kd = 2 int a(mu) mu dmu of fitlab.families.lambert_sphere.exact.brdf; kd_three_term: phase 'three_term' "
+        "(the exact three-term half space); kd_mixed: phase 'mixed' (true phase function in single scattering, "
+        "three-term multiple scattering; also the albedo of the runtime model with exact ingredients); kd_true: "
+        "phase 'true' (the whole phase function: the material's albedo)",
         f"absolute {CONSTANT_TOLERANCE:g}",
-        ("s", "c", "kd_three_term", "kd_true"),
+        KD_COLUMNS,
         rows,
         GRID_TEXT,
     )
@@ -200,10 +203,10 @@ def check_tables(out: Path, every: int = 8, show_progress: bool = True) -> list[
         bar.update(1)
         _, data = read_checked("kd.csv", out)
         sel = np.isin(data[:, 1], c_sample)
-        for j, model in ((2, "three_term"), (3, "true")):
-            err = np.abs(data[sel, j] - spherical_albedo(data[sel, 1], model=model))
+        for j, phase in enumerate(("three_term", "mixed", "true"), start=2):
+            err = np.abs(data[sel, j] - spherical_albedo(data[sel, 1], phase=phase))
             if not np.all(err <= CONSTANT_TOLERANCE):
-                failures.append(f"kd.csv: kd_{model} differs by {err.max():.2e}")
+                failures.append(f"kd.csv: kd_{phase} differs by {err.max():.2e}")
         bar.update(1)
         for name in SAMPLING_FILES:
             failures += _check_sampling(out / name, name)

@@ -14,11 +14,11 @@
  *   C.c2_rational_4_3.json  7153f0382f5f1432cd48926b397bbb7ff224f606403767861cf2b7ebc078ef88  packaged; max 1.35e-07, RMS 9.38e-08 (relative to A = 69c/128, 130 points)
  *   D.c2_rational_4_3.json  08f003bcbfdfa26e4e387f90c14ca7823ac645e182e3403a5278841448f631c0  packaged; max 3.07e-07, RMS 2.12e-07 (relative to A = 69c/128, 130 points)
  *   F.c2_rational_4_3.json  0f1f7932f040e5e5b58fdba017bbba03385cf386fd03d6eb7f8af8819eda5940  packaged; max 2.54e-08, RMS 1.77e-08 (relative to A = 69c/128, 130 points)
- *   c_of_kd.json  ad8bcd2ba210486e2105a562f5eb249c207cc3857f11405e011f8d13e38c592d  packaged; max 1.13e-02, RMS 6.53e-03 (relative, 129 points)
- *   kd_of_c.json  97fd68ebd9ef5a510e97d6f742d5e9ff4ca179dfae3908df011426f60c64c6c0  packaged; max 8.71e-03, RMS 5.25e-03 (relative, 130 points)
+ *   c_of_kd.json  2bc95da2a02980f30d1d9918a36fb3bed0e9a42fc7b667a1d817ebe50d5501ad  packaged; max 1.13e-02, RMS 6.51e-03 (relative, 130 points)
+ *   kd_of_c.json  829c5a2e4d26fa0a26eced782b72ed001d1b67d4a8945dd503cd01264936c1f0  packaged; max 8.71e-03, RMS 5.26e-03 (relative, 130 points)
  *   sample_weight.json  c023aba5f7c16920c95bbcef2bfcb03fb23c438b2fa85bf4ef965bd73c9c78ea  packaged; max 2.09e-01, RMS 2.70e-02 (relative, 630 points)
  *   sample_exponent.json  461f6e087b3a3b3ea084420e291400a96f4eb1a2af4d1758032926ac354f71ad  packaged; max 1.10e-01, RMS 2.39e-02 (relative, 630 points)
- *   fast_brdf.json  28be87af26765a3bfab7c76dd2eb42934f8ae3b16168c7d761c978a10bf96eca  packaged; max 9.07e-01, RMS 1.19e-01 (relative, 110160 points)
+ *   fast_brdf.json  b3f2c92d955bae08f7d5e918fa448a994be11ce51ee9cfa82c127b48d121078d  packaged; max 9.07e-01, RMS 1.20e-01 (relative, 116640 points)
  */
 #include "lambert_sphere.h"
 
@@ -129,7 +129,7 @@ LAMBERT_SPHERE_FN double lambert_sphere_c_of_kd(double kd)
     const double t0 = ((kd < 0.0) ? (0.0) : (kd));
     const double t1 = ((t0 > 1.0) ? (1.0) : (t0));
     const double t2 = 1.0 - t1;
-    return ((t1 < (1.0/2.0)) ? (-expm1(2.8775788936624416*log1p(-((t0 > (1.0/2.0)) ? ((1.0/2.0)) : (t0))))) : (1.0 - 1.0*lambert_sphere_safe_pow(t2, 2.8775788936624416)))/(1.0 - 0.11899098002850213*lambert_sphere_safe_pow(t2, 2.5692796349372196));
+    return ((t1 < (1.0/2.0)) ? (-expm1(2.877733412139728*log1p(-((t0 > (1.0/2.0)) ? ((1.0/2.0)) : (t0))))) : (1.0 - 1.0*lambert_sphere_safe_pow(t2, 2.877733412139728)))/(1.0 - 0.11894454285650524*lambert_sphere_safe_pow(t2, 2.5693972972922574));
 }
 
 LAMBERT_SPHERE_FN double lambert_sphere_kd_of_c(double c)
@@ -137,7 +137,7 @@ LAMBERT_SPHERE_FN double lambert_sphere_kd_of_c(double c)
     const double t2 = ((c < 0.0) ? (0.0) : (c));
     const double t0 = ((t2 > 1.0) ? (1.0) : (t2));
     const double t1 = sqrt(1.0 - t0);
-    return t0*(0.65035428162017445*t1 + 1.0)/((t1 + 1.0)*(1.6879717175153437*t1 + 1.0));
+    return t0*(0.6505911877121818*t1 + 1.0)/((t1 + 1.0)*(1.6883611085669152*t1 + 1.0));
 }
 
 LAMBERT_SPHERE_FN double lambert_sphere_sample_weight(double mu_i, double c)
@@ -339,7 +339,7 @@ LAMBERT_SPHERE_FN double lambert_sphere_brdf_fast(double mu_i, double mu_o, doub
     const double t3 = ((t8 > 1.0) ? (1.0) : (t8));
     const double t4 = sqrt((1.0 - (t2*t2))*(1.0 - (t3*t3)));
     const double t9 = ((kd < 0.0) ? (0.0) : (kd));
-    const double t10 = 0.0002960293020859936*t4*(t1 - 0.005114435840591982)*(sqrt(t2)*sqrt(t3) + acos(t0))/(0.03949778634318503*t4 + acos(t4)) + lambert_sphere_single(t2, t3, t0, t1) + 0.24146093005575472*lambert_sphere_safe_pow(((t9 > 1.0) ? (1.0) : (t9)), 1.652000584354108);
+    const double t10 = 0.00025879894599463004*t4*(t1 - 0.005224700170585238)*(sqrt(t2)*sqrt(t3) + acos(t0))/(0.033841229231870835*t4 + acos(t4)) + lambert_sphere_single(t2, t3, t0, t1) + 0.23084385164526244*lambert_sphere_safe_pow(((t9 > 1.0) ? (1.0) : (t9)), 1.6220471654977038);
     return ((t10 < 0.0) ? (0.0) : (t10));
 }
 
@@ -544,7 +544,7 @@ LAMBERT_SPHERE_FN float lambert_sphere_c_of_kd_f(float kd)
     const float t0 = ((kd < 0.0F) ? (0.0F) : (kd));
     const float t1 = ((t0 > 1.0F) ? (1.0F) : (t0));
     const float t2 = 1.0F - t1;
-    return ((t1 < (1.0F/2.0F)) ? (-expm1f(2.87757889F*log1pf(-((t0 > (1.0F/2.0F)) ? ((1.0F/2.0F)) : (t0))))) : (1.0F - 1.0F*lambert_sphere_safe_pow_f(t2, 2.87757889F)))/(1.0F - 0.11899098F*lambert_sphere_safe_pow_f(t2, 2.56927963F));
+    return ((t1 < (1.0F/2.0F)) ? (-expm1f(2.87773341F*log1pf(-((t0 > (1.0F/2.0F)) ? ((1.0F/2.0F)) : (t0))))) : (1.0F - 1.0F*lambert_sphere_safe_pow_f(t2, 2.87773341F)))/(1.0F - 0.118944543F*lambert_sphere_safe_pow_f(t2, 2.5693973F));
 }
 
 LAMBERT_SPHERE_FN float lambert_sphere_kd_of_c_f(float c)
@@ -552,7 +552,7 @@ LAMBERT_SPHERE_FN float lambert_sphere_kd_of_c_f(float c)
     const float t2 = ((c < 0.0F) ? (0.0F) : (c));
     const float t0 = ((t2 > 1.0F) ? (1.0F) : (t2));
     const float t1 = sqrtf(1.0F - t0);
-    return t0*(0.650354282F*t1 + 1.0F)/((t1 + 1.0F)*(1.68797172F*t1 + 1.0F));
+    return t0*(0.650591188F*t1 + 1.0F)/((t1 + 1.0F)*(1.68836111F*t1 + 1.0F));
 }
 
 LAMBERT_SPHERE_FN float lambert_sphere_sample_weight_f(float mu_i, float c)
@@ -754,7 +754,7 @@ LAMBERT_SPHERE_FN float lambert_sphere_brdf_fast_f(float mu_i, float mu_o, float
     const float t3 = ((t8 > 1.0F) ? (1.0F) : (t8));
     const float t4 = sqrtf((1.0F - (t2*t2))*(1.0F - (t3*t3)));
     const float t9 = ((kd < 0.0F) ? (0.0F) : (kd));
-    const float t10 = 0.000296029302F*t4*(t1 - 0.00511443584F)*(sqrtf(t2)*sqrtf(t3) + acosf(t0))/(0.0394977863F*t4 + acosf(t4)) + lambert_sphere_single_f(t2, t3, t0, t1) + 0.24146093F*lambert_sphere_safe_pow_f(((t9 > 1.0F) ? (1.0F) : (t9)), 1.65200058F);
+    const float t10 = 0.000258798946F*t4*(t1 - 0.00522470017F)*(sqrtf(t2)*sqrtf(t3) + acosf(t0))/(0.0338412292F*t4 + acosf(t4)) + lambert_sphere_single_f(t2, t3, t0, t1) + 0.230843852F*lambert_sphere_safe_pow_f(((t9 > 1.0F) ? (1.0F) : (t9)), 1.62204717F);
     return ((t10 < 0.0F) ? (0.0F) : (t10));
 }
 

@@ -7,7 +7,7 @@
 //   h1.csv  dc795aa6b5550081cadbeb35de4049fb99210010881f8f522d0127d358b29635
 //   h2.csv  f7971b34b03dd4d0ddc9fe58032cdcd0b31e89fa26cc130ee688e81e6cda10f9
 //   constants.csv  4b4f1fae73547925f2b7ea45b848056903a83a13c97ed0797f7e5932bac98d0b
-//   kd.csv  9627b01d0298135608dcbd9407429315bb07ebf705a9f940d3d44547051fcc03
+//   kd.csv  679736542d73abe1a627289fc85fede4b6831bf104efe9cf7a70820306760263
 // Float functions for GLSL 3.30 / ES 3.00 and later; paste or #include after #version.
 // OpenGL ES has no default float precision in fragment shaders: this file sets highp there.
 
