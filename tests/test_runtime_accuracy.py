@@ -148,7 +148,7 @@ def test_fm2_term_with_the_exact_h2_is_the_exact_fm2():
     rng = np.random.default_rng(3)
     a, b = rng.uniform(1e-3, 1, 50), rng.uniform(1e-3, 1, 50)
     for cv in (0.1, 0.9, 1.0):
-        want = multiple_scattering_modes(a, b, cv)[2]
+        want = multiple_scattering_modes(a, b, cv, phase="three_term")[2]
         assert np.allclose(m2(a, b, cv), want, rtol=1e-9, atol=1e-14)
 
 
@@ -167,7 +167,7 @@ def test_directional_albedo_quadrature_agrees_with_the_exact_albedo():
     x = np.array([1e-3, 0.4, 1.0])
     for cv in (0.5, 1.0):
         got = directional_albedo(brdf, x, cv)
-        assert np.max(np.abs(got - albedo(x, cv, model="true"))) < 1e-5
+        assert np.max(np.abs(got - albedo(x, cv))) < 1e-5
 
 
 # -- accuracy (issue 18) -------------------------------------------------------------------------------
@@ -187,16 +187,29 @@ def test_order2_model_meets_the_issue_goals(figures):
     assert r["albedo_c1_min"] >= 0.999
 
 
+def test_order2_model_against_both_references(order2, figures):
+    """accuracy() measures against the true BRDF by default.  Against the mixed reference, which its parts were
+    fitted to, the model is within 8.9e-4 (measured; bound 1e-3), the grazing set included; against the true BRDF
+    the structure's own gap adds to that: 2.1e-3 (bound 2.5e-3), worst at grazing forward scattering, where the
+    three-term multiple scattering the parts carry is furthest from the truth."""
+    mixed = accuracy(order2, phase="mixed")
+    assert mixed["max"] <= 1e-3 and mixed["max_grazing"] <= 1e-3
+    true = figures["order2"]
+    assert mixed["max"] < true["max"] <= 2.5e-3
+    assert true["worst"]["phi"] == pytest.approx(np.pi) and true["worst"]["mu_i"] == true["worst"]["mu_o"] == 0.01
+
+
 def test_energy_at_c1_never_exceeds_one(order2):
     """Issue 18: at c = 1 the model's directional albedo is at most 1 at every incidence and at least 0.999.
-    The reference itself exceeds 1 there (true phase function in single scattering, three-term after it;
-    docs/model.md, "Energy"); the energy scale (runtime.energy_scale, set on a grid of 103 incidences) holds
-    the model below 1, checked here on 400 other incidences, the grazing edge included."""
+    The reference its parts were fitted to exceeds 1 there (phase "mixed": true phase function in single
+    scattering, three-term after it; docs/model.md, "Energy"); the energy scale (runtime.energy_scale, set on a
+    grid of 103 incidences) holds the model below 1, checked here on 400 other incidences, the grazing edge
+    included."""
     x = np.concatenate(([1e-9, 1e-7, 1e-5], np.sort(np.random.default_rng(40).uniform(0, 1, 400))))
     a = directional_albedo(order2, x, 1.0)
     assert a.max() <= 1.0, x[np.argmax(a)]
     assert a.min() >= 0.999
-    assert albedo(np.array([0.6]), 1.0, model="true")[0] > 1.0  # what the reference does (why the scale exists)
+    assert albedo(np.array([0.6]), 1.0, phase="mixed")[0] > 1.0  # why the scale exists
 
 
 def test_published_presets_need_no_energy_scale():
@@ -256,8 +269,10 @@ def test_order2_c_agrees_with_the_model_and_float_with_double(order2, order2_c):
 
 def test_runtime_structure_with_exact_parts_is_the_reference():
     """The identity the error budget (fitlab.families.lambert_sphere.budget) rests on: with every part exact,
-    f_1 + fm0 + fm1 cos phi + fm2 cos 2phi is the exact BRDF (the three-term phase function has Legendre
-    orders 0-2, so multiple scattering has these three Fourier orders and no other)."""
+    f_1 + fm0 + fm1 cos phi + fm2 cos 2phi is the "mixed" reference, true single scattering plus the three-term
+    multiple scattering (the three-term phase function has Legendre orders 0-2, so that multiple scattering has
+    these three Fourier orders and no other).  The true BRDF's multiple scattering has every order: what the
+    structure leaves of it is the error budget's first row."""
     from fitlab.families.lambert_sphere.budget import exact_parts
     from fitlab.families.lambert_sphere.runtime import assembled
 
@@ -266,13 +281,13 @@ def test_runtime_structure_with_exact_parts_is_the_reference():
     mi, mo, ph = rng.uniform(0.01, 1, n), rng.uniform(0.01, 1, n), rng.uniform(0, np.pi, n)
     cc = np.repeat([1e-4, 0.3, 0.9, 1.0], n // 4)
     got = assembled(exact_parts())(mi, mo, ph, cc)
-    want = brdf(mi, mo, ph, cc)
+    want = brdf(mi, mo, ph, cc, phase="mixed")
     assert np.max(np.abs(got / want - 1)) < 1e-9
 
 
 def test_runtime_structure_with_exact_parts_at_grazing():
-    """The same identity on the grazing set's corner (mu_i, mu_o in {1e-6, 1e-4, 1e-2}, phi in {0, pi}):
-    within 2.4e-6 (measured; bound 1e-5), the structure's own cancellation of the O(c) terms of
+    """The same identity (against the "mixed" reference) on the grazing set's corner (mu_i, mu_o in
+    {1e-6, 1e-4, 1e-2}, phi in {0, pi}): within 2.4e-6 (measured; bound 1e-5), the structure's own cancellation of the O(c) terms of
     H_i H_o Q/(2 pi) - n0_ss at mu_i = mu_o = 1e-6, c = 1e-6.  With sqrt(1 - u^2) evaluated directly, single
     scattering in forward scattering at grazing made it 1.2e-4."""
     from fitlab.families.lambert_sphere.budget import exact_parts
@@ -281,4 +296,4 @@ def test_runtime_structure_with_exact_parts_at_grazing():
     g = np.array(np.meshgrid([1e-6, 1e-4, 1e-2], [1e-6, 1e-4, 1e-2], [0.0, np.pi], [1e-6, 0.5], indexing="ij"))
     mi, mo, ph, cc = g.reshape(4, -1)
     got = assembled(exact_parts())(mi, mo, ph, cc)
-    assert np.max(np.abs(got / brdf(mi, mo, ph, cc) - 1)) < 1e-5
+    assert np.max(np.abs(got / brdf(mi, mo, ph, cc, phase="mixed") - 1)) < 1e-5

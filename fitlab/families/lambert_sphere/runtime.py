@@ -241,25 +241,68 @@ def _rel(f, exact):
         return np.abs(f - exact) / np.abs(exact)
 
 
-def accuracy(model, seed: int = 18, n: int = 400, albedo_c=(1e-3, 0.3, 0.7, 0.95, 1.0), albedo_mu=None) -> dict:
+#: the exact engine's sources: the cache of :func:`accuracy`'s exact values is keyed on them
+_ENGINE = tuple(sorted((Path(__file__).resolve().parent / "exact").glob("*.py")))
+
+
+def _albedo_mu(albedo_mu) -> np.ndarray:
+    return np.concatenate(([1e-3], np.arange(1, 21) / 20)) if albedo_mu is None else np.asarray(albedo_mu, dtype=float)
+
+
+def accuracy_reference(seed: int = 18, n: int = 400, phase: str | None = None, albedo_c=(1e-3, 0.3, 0.7, 0.95, 1.0),
+                       albedo_mu=None) -> dict:
+    """The exact values :func:`accuracy` measures against, through fitlab's persistent cache (keyed by the
+    points, the phase and the exact engine's sources): {"main": f, "grazing": f, "albedo": a[c, mu]} with
+    f = :func:`fitlab.families.lambert_sphere.exact.brdf` (``phase``, default its default) at
+    :func:`accuracy_points` and a = :func:`fitlab.families.lambert_sphere.exact.albedo` (same phase)."""
+    from fitlab.cache import cached_arrays
+    from fitlab.families.lambert_sphere.exact import albedo, brdf, check_phase
+
+    phase = check_phase(phase)
+    pts = accuracy_points(seed, n)
+    mu = _albedo_mu(albedo_mu)
+    albedo_c = np.asarray(albedo_c, dtype=float)
+
+    def compute():
+        out = {}
+        for name, p in pts.items():
+            # one albedo at a time, every point of it in one call: the true-phase engine solves once per c
+            f = np.empty(p["c"].shape)
+            for cv in np.unique(p["c"]):
+                at = p["c"] == cv
+                f[at] = brdf(p["mu_i"][at], p["mu_o"][at], p["phi"][at], cv, phase=phase)
+            out[name] = f
+        out["albedo"] = np.array([albedo(mu, cv, phase=phase) for cv in albedo_c]).reshape(albedo_c.size, mu.size)
+        return out
+
+    key = {"family": "lambert_sphere", "set": "runtime-accuracy", "seed": seed, "n": n, "phase": phase,
+           "albedo_c": albedo_c, "albedo_mu": mu}
+    return cached_arrays(f"lambert_sphere-accuracy-{phase}", key, compute, ("main", "grazing", "albedo"),
+                         sources=_ENGINE)
+
+
+def accuracy(model, seed: int = 18, n: int = 400, albedo_c=(1e-3, 0.3, 0.7, 0.95, 1.0), albedo_mu=None,
+             phase: str | None = None) -> dict:
     r"""The figures of issue 18 for a runtime model ``model(mu_i, mu_o, phi, c)``, against
-    :func:`fitlab.families.lambert_sphere.exact.brdf` (relative error |f - f_exact| / f_exact):
+    :func:`fitlab.families.lambert_sphere.exact.brdf` with ``phase`` (default the engine's default, "true": the
+    whole phase function; "mixed": the reference the runtime parts were fitted to), relative error
+    |f - f_exact| / f_exact:
 
     * "max", "rms", "worst": on the main set of :func:`accuracy_points` (mu >= 0.01, every c, every phi);
     * "max_grazing", "worst_grazing": on the grazing set (mu down to 1e-6);
     * "max_c0": max |f| at c = 0 on the main set's points (0 for an exact zero);
     * "albedo_err": max |a - a_exact| over ``albedo_c`` x ``albedo_mu`` (:func:`directional_albedo`
-      against :func:`fitlab.families.lambert_sphere.exact.albedo` with model "true");
+      against :func:`fitlab.families.lambert_sphere.exact.albedo`, same phase);
     * "albedo_c1_max", "albedo_c1_min": the model's directional albedo at c = 1, max and min over
       ``albedo_mu`` (default: 1e-3, then 0.05 ... 1 in steps of 0.05).
-    """
-    from fitlab.families.lambert_sphere.exact import albedo, brdf
 
+    The exact values are computed once per machine (:func:`accuracy_reference`).
+    """
     pts = accuracy_points(seed, n)
+    ref = accuracy_reference(seed, n, phase, albedo_c, albedo_mu)
     out = {}
     for name, p in pts.items():
-        exact = brdf(p["mu_i"], p["mu_o"], p["phi"], p["c"])
-        rel = _rel(model(p["mu_i"], p["mu_o"], p["phi"], p["c"]), exact)
+        rel = _rel(model(p["mu_i"], p["mu_o"], p["phi"], p["c"]), ref[name])
         rel = np.where(np.isnan(rel), np.inf, rel)
         k = int(np.argmax(rel))
         worst = {n_: float(v[k]) for n_, v in p.items()}
@@ -269,11 +312,11 @@ def accuracy(model, seed: int = 18, n: int = 400, albedo_c=(1e-3, 0.3, 0.7, 0.95
             out["max_c0"] = float(np.max(np.abs(zero)))
         else:
             out.update(max_grazing=float(rel.max()), worst_grazing=worst)
-    mu = np.concatenate(([1e-3], np.arange(1, 21) / 20)) if albedo_mu is None else np.asarray(albedo_mu, dtype=float)
+    mu = _albedo_mu(albedo_mu)
     err, c1 = 0.0, None
-    for cv in albedo_c:
+    for k, cv in enumerate(albedo_c):
         a = directional_albedo(model, mu, cv)
-        err = max(err, float(np.max(np.abs(a - albedo(mu, cv, model="true")))))
+        err = max(err, float(np.max(np.abs(a - ref["albedo"][k]))))
         if cv == 1.0:
             c1 = a
     out["albedo_err"] = err
