@@ -174,6 +174,9 @@ class BrdfReportHook(ReportHook, Protocol):
     def doubling_agreement(self, *args, **kwargs) -> Any:
         ...
 
+    def engine_agreement(self, *args, **kwargs) -> Any:
+        ...
+
     def time_to_error(self, *args, **kwargs) -> Any:
         ...
 

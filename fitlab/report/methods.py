@@ -94,6 +94,7 @@ class BrdfMethod:
     expr: sp.Expr | None = None  # in brdf_inputs(), for the JAX path
     c: CSpec | None = None
     bytes: float = math.nan  # the data it reads besides its code: table values, spline or fitted coefficients
+    timed: bool = True  # False: no numpy cost (an exact engine that solves per distinct c)
 
 
 @dataclass(frozen=True, eq=False)

@@ -117,12 +117,13 @@ def _brdf_rows(methods, acc, c_ns, py_ns, jax_tp) -> list[dict]:
     return rows
 
 
-def _exact_rows(brdf_cost, dbl, conv, ttes, src) -> list[dict]:
-    """The exact engine's rows; ``src``: the family's ``SOURCES`` (what each row measured)."""
-    agree = dbl or {"max_rel": NAN, "rms_rel": NAN, "points": 0}
-    where = (f"error: agreement with discrete ordinates + doubling (c = {dbl['c']:g}, orders "
-             f"{', '.join(map(str, dbl['orders']))}, node pairs with mu_i, mu_o >= 1e-3)" if dbl else
-             "error not measured (doubling skipped)")  # fmt: skip
+def _exact_rows(brdf_cost, engine, dbl, conv, ttes, src) -> list[dict]:
+    """The exact engine's rows; ``engine``: the agreement of its two methods; ``dbl``: the three-term engine's
+    agreement with discrete ordinates + doubling; ``src``: the family's ``SOURCES`` (what each row measured)."""
+    agree = engine or {"max_rel": NAN, "rms_rel": NAN, "points": 0}
+    where = (f"error: agreement of its two methods ({src['exact_agreement']}; c = {engine['c']:g}, orders "
+             f"{', '.join(map(str, engine['orders']))}, {engine['node_pairs']} pairs with mu_i, mu_o >= 1e-3, "
+             "relative to the BRDF)" if engine else "error not measured (skipped)")  # fmt: skip
     rows = [{
         "section": "brdf", "target": "f_r", "group": "exact", "method": "exact engine", "source": src["exact"],
         "points": agree["points"], "max_rel": agree["max_rel"], "rms_rel": agree["rms_rel"],
@@ -135,7 +136,16 @@ def _exact_rows(brdf_cost, dbl, conv, ttes, src) -> list[dict]:
             "source": src["doubling"], "points": dbl["points"], "max_rel": dbl["max_rel"],
             "rms_rel": dbl["rms_rel"], "seconds": dbl["seconds_per_order"],
             "ns_python": dbl["seconds_per_order"] / dbl["node_pairs"] * 1e9,
-            "note": f"f^m at {dbl['node_pairs']} node pairs per (c, order); error: against the H route",
+            "note": f"the three-term engine (the paper's model): f^m at {dbl['node_pairs']} node pairs per (c, order); "
+                    "error: against its H route",
+        })  # fmt: skip
+    if engine:
+        rows.append({
+            "section": "exact", "target": "fm^m", "group": "exact", "method": "doubling, whole phase function",
+            "source": src["exact_agreement"], "points": engine["points"], "max_rel": engine["max_rel"],
+            "rms_rel": engine["rms_rel"], "seconds": engine["seconds_per_order"],
+            "note": "the exact engine's second method: seconds per (c, order), its solve; error: against Newton, "
+                    "relative to the BRDF",
         })  # fmt: skip
     for r in conv:
         rows.append({"section": "exact_h", "target": "H0, H1", "group": "exact",
@@ -275,7 +285,7 @@ def _measure(settings, entries, fits_dir, data_dir, use_cache, p) -> tuple[list,
                                        settings.repeat, p.tick)  # fmt: skip
     py_inputs = timing_inputs(settings.numpy_points, data_dir)
     p.stage("numpy cost", settings.repeat)
-    py_ns = numpy_costs(methods, py_inputs, settings.repeat, p.tick)
+    py_ns = numpy_costs([m for m in methods if m.timed], py_inputs, settings.repeat, p.tick)
     jax_methods = [m for m in methods if m.expr is not None and (settings.all_jax or m.group == "refit")]
     p.stage("JAX throughput", len(jax_methods))
     jax_tp = jax_costs(jax_methods, timing_inputs(settings.jax_points, data_dir), settings.repeat, p.tick)
@@ -289,8 +299,9 @@ def _measure(settings, entries, fits_dir, data_dir, use_cache, p) -> tuple[list,
     brdf_cost = hook.exact_brdf_cost(py_inputs, settings.repeat)
     p.tick()
     dbl = hook.doubling_agreement(fam.doubling_c, fam.doubling_orders) if fam.doubling_orders else None
+    agree = hook.engine_agreement(fam.doubling_c, fam.doubling_orders) if fam.doubling_orders else None
     p.tick()
-    rows += _exact_rows(brdf_cost, dbl, conv, hook.time_to_error(conv, settings.error_targets), hook.SOURCES)
+    rows += _exact_rows(brdf_cost, agree, dbl, conv, hook.time_to_error(conv, settings.error_targets), hook.SOURCES)
     p.stage("Monte Carlo", len(fam.mc_paths))
     study = hook.mc_study(fam, p.tick, seed=settings.seed)
     rows += _mc_rows(study, [e for e in settings.error_targets if e >= 1e-3], hook.mc_time_to_error, hook.SOURCES)
@@ -308,7 +319,8 @@ def _measure(settings, entries, fits_dir, data_dir, use_cache, p) -> tuple[list,
         "energy": f"directional albedo at c in {{{', '.join(f'{c:g}' for c in settings.energy_c)}}} x "
                   f"{settings.energy_mu} incident cosines uniform on [0, 1] (0 read as 1e-3), against the exact one",
         "notes": notes, "exact_cost": brdf_cost,
-        "doubling": dbl, "mc": study, "c_points": settings.c_points, "repeat": settings.repeat,
+        "doubling": dbl, "engine_agreement": agree, "exact_source": hook.SOURCES["exact"], "mc": study,
+        "c_points": settings.c_points, "repeat": settings.repeat,
         "jax_points": settings.jax_points, "numpy_points": settings.numpy_points,
     }  # fmt: skip
     return rows, context

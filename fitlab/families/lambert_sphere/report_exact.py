@@ -7,11 +7,15 @@ r"""The exact engine as an evaluation method of ``fitlab report``: its cost, its
   which it shares nothing with but the characteristic function; the error
   therefore bottoms out at their mutual agreement (~1e-13).  The time is one
   solve plus the evaluation at the mu points, per (order, c), uncached.
-* The BRDF (:func:`fitlab.families.lambert_sphere.exact.brdf`): seconds of the set-up at a new c (the
-  H-functions of orders 0-2 and the moment relations) and then ns per point.
-* Its error: the H route against the independent discrete ordinates + doubling
-  (:func:`fitlab.families.lambert_sphere.exact.doubling_reflection`) at the doubling rule's node pairs
-  with mu_i, mu_o >= 1e-3, Fourier orders 0-2: max and RMS relative difference.
+* The BRDF (:func:`fitlab.families.lambert_sphere.exact.brdf`, the whole phase function): seconds of the
+  set-up at a new c (the Fourier orders of the half space, :mod:`.exact.true_phase`) and then ns per point.
+* Its error (:func:`engine_agreement`): its two methods, Newton on the Riccati equation and doubling-adding,
+  Fourier orders 0-2 of the multiple scattering at points with mu_i, mu_o >= 1e-3, each order's difference
+  relative to the whole BRDF at the point (phi = 0 and pi): max and RMS.
+* The three-term engine (the paper's model, :func:`doubling_agreement`): the H route against the
+  independent discrete ordinates + doubling (:func:`fitlab.families.lambert_sphere.exact.doubling_reflection`)
+  at the doubling rule's node pairs with mu_i, mu_o >= 1e-3, Fourier orders 0-2: max and RMS relative
+  difference.
 """
 
 from __future__ import annotations
@@ -29,10 +33,11 @@ from fitlab.families.lambert_sphere.exact import (
     lambert_sphere_characteristic,
     solve_h,
     solve_h_uncached,
+    true_phase,
 )
 from fitlab.timing import best_seconds
 
-__all__ = ["h_convergence", "exact_brdf_cost", "doubling_agreement", "time_to_error"]
+__all__ = ["h_convergence", "exact_brdf_cost", "doubling_agreement", "engine_agreement", "time_to_error"]
 
 _FRESH = itertools.count()
 
@@ -78,8 +83,29 @@ def exact_brdf_cost(inputs: dict, repeat: int, points: int = 8192) -> dict:
     return {"setup_seconds": setup, "ns_per_point": warm / mi.size * 1e9, "c": c, "points": int(mi.size)}
 
 
+def engine_agreement(c: float, orders, points: int = 24) -> dict:
+    """The exact engine's two methods (:mod:`.exact.true_phase`: Newton and doubling) at ``points`` x
+    ``points`` cosines (Gauss-Legendre on [1e-3, 1]): max and RMS over the orders of |fm_m(newton) -
+    fm_m(doubling)| / min(|f(phi = 0)|, |f(phi = pi)|), and the doubling method's seconds per order
+    (its solve, uncached)."""
+    x, _ = np.polynomial.legendre.leggauss(points)
+    mu = 1e-3 + (1.0 - 1e-3) * (x + 1.0) / 2.0
+    mi, mo = (a.ravel() for a in np.meshgrid(mu, mu, indexing="ij"))
+    f = np.minimum(*(np.abs(brdf(mi, mo, phi, c)) for phi in (0.0, np.pi)))
+    n = max(orders) + 1
+    true_phase.clear_cache()
+    t0 = time.perf_counter()
+    dbl = true_phase.multiple_scattering_orders(mi, mo, c, method="doubling", orders=n)
+    seconds = (time.perf_counter() - t0) / n
+    new = true_phase.multiple_scattering_orders(mi, mo, c, method="newton", orders=n)
+    e = np.concatenate([np.abs(new[m] - dbl[m]) / f for m in orders])
+    return {"max_rel": float(e.max()), "rms_rel": float(np.sqrt(np.mean(e**2))), "points": int(e.size),
+            "seconds_per_order": seconds, "node_pairs": int(mi.size), "c": c, "orders": tuple(orders)}
+
+
 def doubling_agreement(c: float, orders) -> dict:
-    """The H route (brdf_modes) against discrete ordinates + doubling at node pairs with mu >= 1e-3."""
+    """The three-term engine (the paper's model): the H route (brdf_modes) against discrete ordinates +
+    doubling at node pairs with mu >= 1e-3."""
     errs, secs, pairs = [], [], 0
     for m in orders:
         t0 = time.perf_counter()
@@ -87,7 +113,7 @@ def doubling_agreement(c: float, orders) -> dict:
         secs.append(time.perf_counter() - t0)
         mi, mo = np.meshgrid(d.nodes, d.nodes, indexing="ij")
         keep = (mi >= 1e-3) & (mo >= 1e-3)
-        ref = brdf_modes(mi[keep], mo[keep], c)[m]
+        ref = brdf_modes(mi[keep], mo[keep], c, phase="three_term")[m]
         errs.append(np.abs(d.brdf[keep] - ref) / np.abs(ref))
         pairs = d.nodes.size**2
     e = np.concatenate(errs)

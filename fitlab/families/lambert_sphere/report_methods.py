@@ -16,9 +16,11 @@ module, for what only the family knows:
 * :func:`preset_records`: a preset set as fit records, for codegen;
 * :func:`check_tables`, :func:`tables_dir`, :func:`exact_brdf`, :func:`exact_kd`
   and :data:`EXACT_SOURCES`: the tables, and the exact values of the report's
-  BRDF validation set with the sources its cache key hashes;
+  BRDF validation set (the material's BRDF: the whole phase function) with the sources its cache key hashes;
+* the paper's three-term model and the mixed reference as BRDF methods (:data:`REFERENCES`), measured
+  against the material's BRDF like every other method;
 * the exact engine and Monte Carlo as methods (:mod:`.report_exact`:
-  :func:`h_convergence`, :func:`exact_brdf_cost`, :func:`doubling_agreement`,
+  :func:`h_convergence`, :func:`exact_brdf_cost`, :func:`engine_agreement`, :func:`doubling_agreement`,
   :func:`time_to_error`; :mod:`.report_montecarlo`: :func:`mc_study`,
   :func:`mc_time_to_error`).
 """
@@ -40,6 +42,7 @@ from fitlab.families.lambert_sphere.interpolation import kd_interpolant, table_b
 from fitlab.families.lambert_sphere.interpolation import memory_bytes as spline_bytes
 from fitlab.families.lambert_sphere.report_exact import (
     doubling_agreement,
+    engine_agreement,
     exact_brdf_cost,
     h_convergence,
     time_to_error,
@@ -57,7 +60,8 @@ from fitlab.store import FORMAT, load
 
 __all__ = ["REQUIRED_FITS", "PARTS", "PRESET_VARIANTS", "tables_dir", "EXACT_SOURCES", "SOURCES", "brdf_methods",
            "part_extras", "preset_records", "check_tables", "exact_brdf", "exact_kd", "h_convergence", "exact_brdf_cost",
-           "doubling_agreement", "time_to_error", "mc_study", "mc_time_to_error", "exact_albedo", "directional_albedo",
+           "doubling_agreement", "engine_agreement", "REFERENCES", "time_to_error", "mc_study", "mc_time_to_error",
+           "exact_albedo", "directional_albedo",
            "BRDF_INPUTS", "BRDF_POINT", "BRDF_MATERIAL", "REPORT_SETTINGS"]
 
 #: the albedo maps: not in the BRDF, but in its generated program (their C is timed there)
@@ -69,8 +73,9 @@ PARTS = tuple(name for name in TARGETS if name != FAST)
 EXACT_SOURCES = Path(__file__).resolve().parent / "exact"
 #: what the report's exact-engine and Monte Carlo rows measured (their "source" column)
 SOURCES = {
-    "exact": "fitlab.families.lambert_sphere.exact.brdf",
-    "doubling": "fitlab.families.lambert_sphere.exact.doubling_reflection",
+    "exact": "fitlab.families.lambert_sphere.exact.brdf (phase 'true': the whole phase function)",
+    "exact_agreement": "fitlab.families.lambert_sphere.exact.true_phase (methods 'newton' and 'doubling')",
+    "doubling": "fitlab.families.lambert_sphere.exact.doubling_reflection (three-term phase function)",
     "h": "fitlab.families.lambert_sphere.exact.hfunction",
     "monte carlo": "fitlab.families.lambert_sphere.mc (three-term multiple scattering)",
 }
@@ -87,18 +92,41 @@ def timing_inputs(n: int, data_dir: Path) -> dict:
 
 
 def exact_brdf(mu_i, mu_o, phi, c: float) -> np.ndarray:
-    """The exact BRDF at points, at one albedo c."""
-    return brdf(mu_i, mu_o, phi, c)
+    """The exact BRDF at points, at one albedo c: the material's, the whole phase function in every collision."""
+    return brdf(mu_i, mu_o, phi, c, phase="true")
 
 
 def exact_albedo(mu, c: float) -> np.ndarray:
-    """The exact directional albedo at incident cosines mu, one albedo c (true phase function, as exact_brdf)."""
-    return np.asarray(albedo(np.asarray(mu, dtype=float), c, model="true"), dtype=float)
+    """The exact directional albedo at incident cosines mu, one albedo c (the whole phase function, as exact_brdf)."""
+    return np.asarray(albedo(np.asarray(mu, dtype=float), c, phase="true"), dtype=float)
 
 
 def exact_kd(c) -> np.ndarray:
     """kd = kd_true(c), the spherical albedo of the exact BRDF (the input of the fast variant and the baselines)."""
-    return np.asarray(spherical_albedo(c, model="true"), dtype=float)
+    return np.asarray(spherical_albedo(c, phase="true"), dtype=float)
+
+
+#: the approximate references the report measures as BRDF methods: (name, phase of exact.brdf)
+REFERENCES = (("mixed reference (true single, three-term multiple scattering)", "mixed"),
+              ("three-term half space (the paper's model in every collision)", "three_term"))
+
+
+def _references() -> list[BrdfMethod]:
+    """The three-term engine's BRDFs (exact.brdf with phase "mixed" and "three_term") as methods: not timed
+    (a solve per distinct c; the timing inputs have a new c at every point)."""
+    out = []
+    for name, phase in REFERENCES:
+        def f(mi, mo, ph, c, kd, phase=phase):
+            mi, mo, ph, c = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in (mi, mo, ph, c)))
+            y = np.empty(mi.shape)
+            for cv in np.unique(c):  # one albedo per call: the engine solves its H-functions per c
+                at = c == cv
+                y[at] = brdf(mi[at], mo[at], ph[at], cv, phase=phase)
+            return y
+
+        out.append(BrdfMethod(name, "exact", f"fitlab.families.lambert_sphere.exact.brdf(phase={phase!r})", f,
+                              timed=False))  # fmt: skip
+    return out
 
 
 # -- presets as fit records (for codegen) -------------------------------------------------------------
@@ -168,8 +196,7 @@ def _exported_tables(data_dir: Path) -> list[BrdfMethod]:
 
 
 def _fit_brdf(fit, name, group, cspec) -> BrdfMethod:
-    """A whole-BRDF fit (fast_brdf): inputs by name; kd clipped to [0, 1] as the generated code does
-    (kd_true(1) = 1 + 1.0e-5)."""
+    """A whole-BRDF fit (fast_brdf): inputs by name; kd clipped to [0, 1] as the generated code does."""
 
     def f(mi, mo, ph, c, kd):
         values = {"mu_i": mi, "mu_o": mo, "phi": ph, "c": c, "kd": np.minimum(kd, 1.0)}
@@ -260,7 +287,7 @@ def brdf_methods(fits_dir: Path, entries: list, data_dir: Path, preset_c: tuple 
             spec = CSpec("brdf_fast", fits_dir, () if e.default else ((FAST, e.form),))
             group = "discovered" if e.kind == "discover" else "fast"
             out.append(_fit_brdf(load(e.path), f"fast: {e.form} ({fit_group(e)})", group, spec))
-    return out + _baselines()
+    return out + _baselines() + _references()
 
 
 # -- part level ------------------------------------------------------------------------------------
