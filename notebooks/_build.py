@@ -414,13 +414,13 @@ ALBEDO = [
 # Albedo maps: $k_d(c)$, $c(k_d)$ and the round trip
 
 A renderer is given the spherical (Bond) albedo $k_d$ of the material, the fraction of light it reflects, and
-needs the particle albedo $c$. `fitlab.families.lambert_sphere.exact.spherical_albedo(c, model="true")` integrates the exact BRDF (true
-phase function in single scattering): $k_d$ = kd_true(c). The two maps are fitted separately:
+needs the particle albedo $c$. `fitlab.families.lambert_sphere.exact.spherical_albedo(c)` integrates the exact BRDF (the
+whole phase function in every collision, its default `phase="true"`): $k_d$ = kd_true(c). The two maps are fitted separately:
 * `kd_of_c`: $k_d(c)$, the printed form (which misses $k_d(0) = 0$) and forms that build the zero in;
 * `c_of_kd`: its inverse (paper and renderer coefficients, and the refit).
 
-Note kd_true(1) = 1 + [[kd_one]], not 1 (docs/errata.md): the inverse is fitted and measured on $k_d \le 1$ only, so
-[[c_of_kd_domain]].
+The true BRDF conserves energy: kd_true(1) = 1 to [[kd_one]], so the inverse is fitted and measured on all of
+$0 \le k_d \le 1$: [[c_of_kd_domain]].
 
 Errors are relative. The last section composes the two fitted maps: a renderer that converts $k_d \to c$ and
 back should get its $k_d$ back.
@@ -436,7 +436,7 @@ if SMALL:  # every new c costs the exact engine up to seconds (most near c = 1)
     C = np.array([0.0, 0.25, 0.5, 0.75, 0.9, 0.97, 1.0])
 else:
     C = np.unique(get_target("kd_of_c").validation().inputs["c"])
-C_INV = C[C < 1]  # c_of_kd is fitted and measured on kd <= 1: every c but c = 1 (its validation set)
+C_INV = C  # c_of_kd is fitted and measured on kd in [0, 1]: kd_true(1) = 1, so every c
 
 kd_res = {label: residuals("kd_of_c", a, c=C) for label, a in approximations("kd_of_c", FITS).items()}
 c_res = {label: residuals("c_of_kd", a, c=C_INV) for label, a in approximations("c_of_kd", FITS).items()}
@@ -445,21 +445,26 @@ print(f"{C.size} values of c")
     md(r"""
 ## The exact map, and the three-term phase function
 
-The three-term half space alone (`model="three_term"`) gives a slightly different albedo; the true phase function
-enters only through single scattering, so the difference grows in proportion to $c$: [[proportional]]
+The three-term half space (`phase="three_term"`, the paper's model in every collision) gives a slightly different
+albedo, and so does the mixed reference (`phase="mixed"`: true single scattering, three-term multiple scattering).
+The mixed one differs from the three-term one in single scattering only, so that difference grows in proportion to
+$c$: [[proportional]] The true albedo stays close to the three-term one: [[true_three]]
 """),
     code('''
-kd_true, kd_three = spherical_albedo(C, model="true"), spherical_albedo(C, model="three_term")
+kd_true, kd_three = spherical_albedo(C), spherical_albedo(C, phase="three_term")
+kd_mixed = spherical_albedo(C, phase="mixed")
 fig, axes = plt.subplots(1, 2, figsize=(10, 3.5), layout="constrained")
 axes[0].plot(C, kd_true, ".-", label="kd_true (exact BRDF)")
 axes[0].plot(C, C, ":", color="grey", label="kd = c")
 axes[0].set(xlabel="c", ylabel="kd", title="spherical albedo")
 axes[0].legend()
-axes[1].plot(C, kd_true - kd_three, ".-")
-axes[1].set(xlabel="c", ylabel="kd_true - kd_three_term", title="true vs three-term phase function")
+axes[1].plot(C, kd_true - kd_three, ".-", label="kd_true - kd_three_term")
+axes[1].plot(C, kd_mixed - kd_three, ".-", label="kd_mixed - kd_three_term")
+axes[1].set(xlabel="c", ylabel="difference", title="which phase function, where")
+axes[1].legend()
 plt.show()
-per_c = (kd_true - kd_three)[C > 0] / C[C > 0]
-print(f"kd_true(1) - 1 = {kd_true[C == 1][0] - 1:.2e};  (kd_true - kd_three)/c from {per_c.min():.6e} to {per_c.max():.6e}")
+per_c = (kd_mixed - kd_three)[C > 0] / C[C > 0]
+print(f"kd_true(1) - 1 = {kd_true[C == 1][0] - 1:.2e};  (kd_mixed - kd_three)/c from {per_c.min():.6e} to {per_c.max():.6e}")
 '''),
     md(r"""
 ## Errors of $k_d(c)$ and $c(k_d)$
@@ -499,7 +504,7 @@ that converts both ways actually gets. The same for the published pair (paper $k
     code('''
 kd_of_c, c_of_kd = load(FITS / "kd_of_c.json"), load(FITS / "c_of_kd.json")
 c = C_INV[C_INV > 0]
-kd = spherical_albedo(c, model="true")  # exact kd in (0, 1)
+kd = spherical_albedo(c)  # exact kd in (0, 1]
 c_back = c_of_kd(kd=kd)
 # just below kd = 1 the fitted c(kd) overshoots 1 by rounding-level amounts; a loaded fit refuses
 # inputs outside its domain, and the generated code clamps c into [0, 1]: do the same here
@@ -530,7 +535,10 @@ BRDF = [
 $f_r = \max(0, f_1 + f_m^{(0)} + f_m^{(1)}\cos\phi + f_m^{(2)}\cos 2\phi)$: exact single scattering with the true
 phase function plus the multiple scattering of Fourier orders 0, 1 and 2 built from approximations of $H_0$, $H_1$,
 $H_2$, $l$, $m$, $B..F$ (the fitted models also carry an energy scale that keeps their albedo at or below 1).
-It is measured against `fitlab.families.lambert_sphere.exact.brdf`, the reference (all three Fourier orders, exact H-functions).
+It is measured against `fitlab.families.lambert_sphere.exact.brdf`, the reference: the true BRDF, the whole phase function in
+every collision (every Fourier order). The fitted parts approximate the three-term solution's H-functions and constants, so
+every model here carries the three-term multiple scattering's own gap from the truth (up to 2e-3 at grazing forward
+scattering; docs/derivation.md).
 The fast variant (eq. 41) replaces the multiple scattering by a lobe and a constant in $k_d$ = kd_true(c).
 
 Models compared, the fitted ones from the fits packaged with fitlab (`fitlab.resources.packaged_fits()`; `fits_dir=DIR`
@@ -658,8 +666,8 @@ Along $\mu_i = \mu_o = \mu \to 0$ (the diagonal of the grid, [[grazing_mu]], at 
   (docs/fitting.md): [[grazing_fast]] The separable $H_1$ form of the paper's model and of the default forms,
   $\exp(k(c)\,\mu^{e(\mu)})$, approaches 1 like $\mu^{e(0)}$ with $e(0) < 1$, where the exact $H_1 - 1$ goes like
   $\mu\log\mu$, so $(H_1(\mu_i)H_1(\mu_o) - 1)/(\mu_i + \mu_o)$ in $f_m^{(1)}$ grows like a power of $1/\mu$ instead
-  of $\log(1/\mu)$: [[grazing_separable]] The shipped model's `log_exp` forms have the exact grazing behaviour:
-  [[grazing_shipped]]
+  of $\log(1/\mu)$: [[grazing_separable]] The shipped model's `log_exp` forms have the three-term solution's exact
+  grazing behaviour: [[grazing_shipped]]
 
 The cell prints each model at the smallest $\mu$, $\phi = \pi$.
 """),
@@ -1162,11 +1170,12 @@ CLAIMS = {
         Claim("identity", "the largest deviation on the grid is below {bound}.", "deviation.max()", "<", 1e-14),
     ],
     "03_albedo_maps.ipynb": [
-        Claim("kd_one", "{bound}", "kd_true[C == 1][0] - 1", "prints as", 1.03e-5, ".2e"),
-        Claim("c_of_kd_domain", "the validation set of `c_of_kd` leaves out $c = 1$ (its largest $k_d$ is below 1)",
-              'get_target("c_of_kd").validation().inputs["kd"].max() < 1', "true"),
-        Claim("proportional", "$(k_d^{true} - k_d^{three})/c$ is the same at every $c > 0$ of the grid to within {bound} (relative).",
-              "np.ptp(per_c) / per_c.mean()", "<", 1e-9),
+        Claim("kd_one", "{bound}", "abs(kd_true[C == 1][0] - 1)", "<", 1e-12),
+        Claim("c_of_kd_domain", "the validation set of `c_of_kd` reaches $k_d = 1$",
+              'get_target("c_of_kd").validation().inputs["kd"].max() >= 1 - 1e-12', "true"),
+        Claim("proportional", "$(k_d^{mixed} - k_d^{three})/c$ is the same at every $c > 0$ of the grid to within {bound} "
+              "(relative).", "np.ptp(per_c) / per_c.mean()", "<", 1e-9),
+        Claim("true_three", "within {bound} at every $c$ of the grid.", "np.abs(kd_true - kd_three).max()", "<", 3e-6),
         Claim("printed_kd0", "The printed $k_d(c)$ misses $k_d(0) = 0$ (infinite relative error at $c = 0$, not drawn on a "
               "log scale);", 'np.isinf(kd_res["printed / paper"].error[C == 0]).all()', "true"),
         Claim("refits_kd0", "every fit saved for $k_d(c)$ is exact there.",
@@ -1186,8 +1195,8 @@ CLAIMS = {
               '[at_grazing[label][-1] for label in FAST]', "between", (0.5, 1.0), "g"),
         Claim("grazing_separable", "at the smallest $\\mu$ their relative errors exceed {bound}.",
               f"[at_grazing[label][-1] for label in {SEPARABLE_H1}]", ">", 5.0, "g"),
-        Claim("grazing_shipped", "its relative error there stays below {bound}.",
-              'at_grazing["shipped (order 2)"][-1]', "<", 1e-3),
+        Claim("grazing_shipped", "its relative error there stays below {bound}, most of it the three-term multiple "
+              "scattering's own gap from the true BRDF.", 'at_grazing["shipped (order 2)"][-1]', "<", 4e-3),
     ],
     "05_refit_and_codegen.ipynb": [
         Claim("one_file", "The scratch folder then holds that one file, `H1.log_exp.json`.",

@@ -94,10 +94,11 @@ def test_csv_columns_and_contents(quick):
     assert float(refit["ns_c_double"]) > 0 and float(refit["jax_evals_per_s"]) > 0
     h0 = {r["method"] for r in rows if r["section"] == "part" and r["target"] == "H0"}
     assert {"exact (Fock/Krein)", "tables", "hapke / paper", "hapke", "hapke_rational"} <= h0
-    # the three-order tables are far more accurate than the runtime model (which drops fm2)
+    # the three-order tables are far more accurate than the runtime model (which drops fm2); against the true BRDF
+    # both carry the three-term multiple scattering's gap (1.1e-3 measured for the three orders on the quick set,
+    # where against the mixed reference they were 2.7e-4: the splines in s = sqrt(1 - c) are coarsest at c = 1e-4)
     tab = {r["method"]: float(r["max_rel"]) for r in brdf if r["group"] == "tables"}
-    # (2.7e-4 at the quick set's c = 1e-4: the tables' splines in s = sqrt(1 - c) are coarsest there)
-    assert tab["tables, three orders"] < 1e-3 < tab["tables, runtime model"]
+    assert tab["tables, three orders"] < 2.5e-3 and tab["tables, three orders"] < 0.5 * tab["tables, runtime model"]
     # c = 0, the independent set and the energy are measured for every BRDF method (Monte Carlo aside)
     assert float(refit["max_abs_c0"]) == 0.0 and float(refit["albedo_err"]) < 1e-2
     assert float(refit["max_rel_fresh"]) >= float(refit["rms_rel_fresh"]) > 0.0
