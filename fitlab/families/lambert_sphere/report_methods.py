@@ -114,19 +114,13 @@ REFERENCES = (("mixed reference (true single, three-term multiple scattering)", 
 def _references() -> list[BrdfMethod]:
     """The three-term engine's BRDFs (exact.brdf with phase "mixed" and "three_term") as methods: not timed
     (a solve per distinct c; the timing inputs have a new c at every point)."""
-    out = []
-    for name, phase in REFERENCES:
-        def f(mi, mo, ph, c, kd, phase=phase):
-            mi, mo, ph, c = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in (mi, mo, ph, c)))
-            y = np.empty(mi.shape)
-            for cv in np.unique(c):  # one albedo per call: the engine solves its H-functions per c
-                at = c == cv
-                y[at] = brdf(mi[at], mo[at], ph[at], cv, phase=phase)
-            return y
+    def method(name, phase):
+        def f(mi, mo, ph, c, kd):
+            return brdf(mi, mo, ph, c, phase=phase)
 
-        out.append(BrdfMethod(name, "exact", f"fitlab.families.lambert_sphere.exact.brdf(phase={phase!r})", f,
-                              timed=False))  # fmt: skip
-    return out
+        return BrdfMethod(name, "exact", f"fitlab.families.lambert_sphere.exact.brdf(phase={phase!r})", f, timed=False)
+
+    return [method(name, phase) for name, phase in REFERENCES]
 
 
 # -- presets as fit records (for codegen) -------------------------------------------------------------

@@ -50,16 +50,11 @@ REFERENCE_PHASE = "mixed"
 
 
 def _against_reference(ds):
-    """The report's set ``ds`` (its points) with the exact BRDF of :data:`REFERENCE_PHASE` (one albedo at a time)."""
+    """The report's set ``ds`` (its points) with the exact BRDF of :data:`REFERENCE_PHASE`."""
     from fitlab.core import Dataset
     from fitlab.families.lambert_sphere.exact import brdf
 
-    mi, mo, ph, c = (ds.inputs[k] for k in _INPUTS)
-    y = np.empty_like(ds.y)
-    for cv in np.unique(c):
-        at = c == cv
-        y[at] = brdf(mi[at], mo[at], ph[at], cv, phase=REFERENCE_PHASE)
-    return Dataset(ds.inputs, y, ds.grid, ds.aux)
+    return Dataset(ds.inputs, brdf(*(ds.inputs[k] for k in _INPUTS), phase=REFERENCE_PHASE), ds.grid, ds.aux)
 
 
 def _sets():

@@ -8,10 +8,10 @@ docs/model.md, "Albedo maps"):
   only order 0 survives the azimuthal integral.  a = 1 at c = 1 (conservation).
 * ``phase="mixed"``: exact single scattering
   with the true phase function plus the three-term multiple scattering:
-  a_true = a_three_term + c (a1(mu_i) - a1_3(mu_i)), with a1, a1_3 the
+  a_mixed = a_three_term + c (a1(mu_i) - a1_3(mu_i)), with a1, a1_3 the
   single-scattering albedos per unit c of the true and three-term phase
   functions.  The paper's runtime model (f_1 + fm0 + fm1 cos phi, clamped at 0)
-  with exact ingredients has the same albedo as "true": fm1 cos phi and the
+  with exact ingredients has the same albedo as "mixed": fm1 cos phi and the
   dropped fm2 cos 2 phi integrate to zero over phi, and the clamp never acts
   (tests/test_brdf.py checks f_1 + fm0 + fm1 cos phi > 0 on a grid).
 * ``phase="true"`` (the default): the whole phase function in every collision, below.
