@@ -10,7 +10,8 @@ module, for what only the family knows:
   whole-BRDF ``fast_brdf``, which is measured as a BRDF);
 * :data:`PRESET_VARIANTS`: the published runtime preset sets;
 * :func:`brdf_methods`: the BRDF-level catalogue (tables, published presets,
-  refits, the order-2 model of :data:`.runtime.ORDER2_FORMS`, richer and discovered forms, the fast variant, the baselines);
+  refits, the order-2 model of :data:`.runtime.ORDER2_FORMS` (its parts fitted to the mixed reference, and to the
+  true BRDF: :mod:`.true_refit`), richer and discovered forms, the fast variant, the baselines);
 * :func:`part_extras`: the part-level methods beyond presets and fit files
   (the exact engine's Fock method for H0 and H1, the tables);
 * :func:`preset_records`: a preset set as fit records, for codegen;
@@ -33,11 +34,13 @@ from pathlib import Path
 import numpy as np
 import sympy as sp
 
+from fitlab.codegen.program import DEFAULT_FORMS, program_spec
 from fitlab.core import get_target
+from fitlab.families.lambert_sphere import table_export
+from fitlab.families.lambert_sphere.bench import baseline_program, random_inputs  # noqa: F401 (baseline_program: the report's hook)
 from fitlab.families.lambert_sphere.exact import albedo, brdf, h_function, spherical_albedo
 from fitlab.families.lambert_sphere.forms import ORDER2_PART, RUNTIME_PARTS
 from fitlab.families.lambert_sphere.forms.baselines import BASELINE_INPUTS, LAMBERT, oren_nayar
-from fitlab.families.lambert_sphere import table_export
 from fitlab.families.lambert_sphere.interpolation import kd_interpolant, table_brdf, table_part
 from fitlab.families.lambert_sphere.interpolation import memory_bytes as spline_bytes
 from fitlab.families.lambert_sphere.report_exact import (
@@ -49,11 +52,10 @@ from fitlab.families.lambert_sphere.report_exact import (
 )
 from fitlab.families.lambert_sphere.report_montecarlo import mc_study, mc_time_to_error
 from fitlab.families.lambert_sphere.report_settings import BRDF_INPUTS, BRDF_MATERIAL, BRDF_POINT, REPORT_SETTINGS
-from fitlab.codegen.program import DEFAULT_FORMS, program_spec
 from fitlab.families.lambert_sphere.runtime import FAMILY_NAME, PRESET_VARIANTS, directional_albedo, runtime_model
 from fitlab.families.lambert_sphere.table_files import check_tables, tables_dir
 from fitlab.families.lambert_sphere.targets import TARGETS
-from fitlab.families.lambert_sphere.bench import baseline_program, random_inputs  # noqa: F401 (baseline_program: the report's hook)
+from fitlab.families.lambert_sphere.true_refit import TRUE_FITS, true_runtime_model
 from fitlab.forms.symbolic import lambdify_numpy, symbols
 from fitlab.report.methods import BrdfMethod, CSpec, PartMethod, best_forms, fit_group, positional
 from fitlab.store import FORMAT, load
@@ -246,6 +248,10 @@ def brdf_methods(fits_dir: Path, entries: list, data_dir: Path, preset_c: tuple 
         m = runtime_model(fits_dir=fits_dir)  # the default model: what fitlab codegen prints
         out.append(_runtime(m, "refit, order 2", "refit, richer", _label(order2),
                             CSpec("brdf", fits_dir, tuple(sorted(order2.items())))))  # fmt: skip
+        # the same structure and forms with the parts fitted to the true BRDF (the packaged ones, whatever fits_dir is)
+        m = true_runtime_model()
+        out.append(_runtime(m, "refit to the true BRDF, order 2", "refit, richer", f"{TRUE_FITS}: {_label(order2)}",
+                            CSpec("brdf", TRUE_FITS, tuple(sorted(order2.items())))))  # fmt: skip
     richer = best_forms(entries, {"refit"}, (*RUNTIME_PARTS, ORDER2_PART))
     if richer and richer != order2:  # the best part fits may be the order-2 model itself
         m = runtime_model(fits_dir=fits_dir, forms=richer, model=DEFAULT_FORMS)

@@ -8,11 +8,17 @@ its orders 0 to 2 differ from the three-term ones by about 2e-3 of f_r at grazin
 2e-5 of f_r at most.  Here each order's parts are fitted jointly to that order of the true BRDF, in the
 forms of the shipped model, so that the same structure, at the same cost, approximates the true BRDF:
 
-* order 0: H0, B, C, D, F to fm0;  order 1: H1, l, m to fm1;  order 2: H2 to fm2;
-* on :func:`.datasets.true_orders_training` (a lattice apart from the audit's validation lattice), each
-  residual relative to the true f_r's minimum over phi at its (mu_i, mu_o, c), by least squares
-  (:func:`fitlab.fit.solver.fit_form`, no minimax rounds: see :data:`MINIMAX_ROUNDS`), starting from the
-  shipped fits;
+* stage 1, each order's parts fitted jointly to that order of the true BRDF (order 0: H0, B, C, D, F to fm0;
+  order 1: H1, l, m to fm1; order 2: H2 to fm2), each residual relative to the true f_r's minimum over phi at
+  its (mu_i, mu_o, c), by least squares from the shipped fits (:func:`order_form`);
+* stage 2, every part at once (:func:`joint_form`, the whole BRDF f_1 + fm0 + fm1 cos phi + fm2 cos 2phi) to
+  the true BRDF of orders 0 to 2 at phi = k pi/4 (:data:`JOINT_PHI`), relative to f_r at each point, least
+  squares then :data:`MINIMAX_ROUNDS` Lawson rounds: levelled jointly, the orders' errors cannot add at phi = 0
+  and pi as they do when each order is levelled on its own.  Points with a cosine below :data:`GOAL_MU_MIN`
+  (the accuracy goal's edge) weigh :data:`GRAZING_WEIGHT`: they keep the model sane down to mu = 1e-5 without
+  spending the goal's domain on them;
+* on :func:`.datasets.true_orders_training` (a lattice apart from the audit's validation lattice and
+  independent set), with :func:`fitlab.fit.solver.fit_form`;
 * A and E stay exact (the structure holds them), and every form keeps its exact O(c) part, so the model is
   0 at c = 0 and its multiple scattering O(c^2).
 
@@ -33,24 +39,35 @@ import sympy as sp
 
 from fitlab.codegen import program_spec
 from fitlab.core import Dataset, data_hash, get_form, get_target
-from fitlab.fit.refit import fit_identity, validation_metrics
-from fitlab.fit.solver import SOLVER_SETTINGS, fit_form
 from fitlab.families.lambert_sphere.datasets import true_orders_training
 from fitlab.families.lambert_sphere.forms import ORDER2_PART, RUNTIME_PARTS, runtime_terms
+from fitlab.families.lambert_sphere.forms.brdf import AZIMUTH, SINGLE_FORWARD
 from fitlab.families.lambert_sphere.runtime import RuntimeModel, runtime_model
+from fitlab.fit.refit import fit_identity, validation_metrics
+from fitlab.fit.solver import SOLVER_SETTINGS, fit_form
 from fitlab.forms import Form
+from fitlab.forms.symbolic import lambdify_numpy, symbols
 from fitlab.store import FitFileError, fit_path, fit_source, fits_folder, load, write_fits
 
-__all__ = ["ORDER_PARTS", "TRUE_FITS", "TRUE_MODEL_NAME", "order_form", "fitted_parts", "true_runtime_model", "MINIMAX_ROUNDS"]
+__all__ = ["ORDER_PARTS", "TRUE_FITS", "TRUE_MODEL_NAME", "order_form", "joint_form", "joint_training", "fitted_parts",
+           "true_runtime_model", "MINIMAX_ROUNDS", "JOINT_PHI", "GOAL_MU_MIN", "GRAZING_WEIGHT"]
 
 #: the parts each Fourier order of the runtime structure is made of
 ORDER_PARTS = {0: ("H0", "B", "C", "D", "F"), 1: ("H1", "l", "m"), 2: (ORDER2_PART,)}
 #: the packaged fits of the parts fitted to the true BRDF, a folder that overlays the packaged fits
 TRUE_FITS = fits_folder(None) / "true"
-#: Lawson rounds after the least squares: none.  Each order is fitted on its own, and minimax rounds level each
-#: order's error to its maximum over the training set; at phi = 0 and pi the orders' errors then add, and the
-#: BRDF's error grows (30 rounds: 2.3e-3 on the audit's true set for mu >= 0.01, against 5.9e-4 for least squares)
-MINIMAX_ROUNDS = 0
+#: Lawson rounds of stage 2 (the joint fit), after its least squares.  Stage 1 has none: each order levelled on its
+#: own puts its error's extremes at phi = 0 and pi, where the orders' errors add (30 rounds per order: 2.3e-3 on the
+#: audit's true set for mu >= 1/64, against 5.9e-4 for least squares)
+MINIMAX_ROUNDS = 30
+#: the azimuths of stage 2's training points: the structure's orders 0 to 2 are fixed by three, five keep the
+#: levelling from sitting between them
+JOINT_PHI = np.linspace(0.0, np.pi, 5)
+#: the accuracy goal's grazing edge (issue 33: max relative error over mu_i, mu_o in [0.01, 1])
+GOAL_MU_MIN = 0.01
+#: the weight in stage 2 of a training point with mu_i or mu_o below GOAL_MU_MIN (its error may be 1/weight times
+#: the goal's before the levelling trades the goal's domain for it)
+GRAZING_WEIGHT = 0.1
 
 
 #: the name the audit and the report give the model of :data:`TRUE_FITS`
@@ -103,45 +120,94 @@ def order_form(order: int, forms: dict | None = None) -> tuple[Form, dict]:
     return form, start
 
 
+def joint_form(forms: dict | None = None) -> tuple[Form, dict]:
+    """The runtime structure f_1 + fm0 + fm1 cos phi + fm2 cos 2phi (:func:`.forms.runtime_terms`, without the
+    max(0, .) and the energy scale) as one form in (mu_i, mu_o, phi, c) whose parameters are every part's
+    (named ``part_param``), and the start vector by name: the shipped fits' parameters."""
+    forms = {**_model_forms(), **(forms or {})}
+    parts, params, fixed, start = {}, [], {}, {}
+    for part in (*RUNTIME_PARTS, ORDER2_PART):
+        shipped = load(fit_source(None, part, forms[part]))
+        form = get_form(part, forms[part])
+        rename = {sp.Symbol(p, real=True): sp.Symbol(f"{part}_{p}", real=True) for p in form.params}
+        parts[part] = form.expr.xreplace(rename)
+        params += [f"{part}_{p}" for p in form.params]
+        fixed.update({f"{part}_{p}": v for p, v in form.fixed.items()})
+        start.update({f"{part}_{p}": float(v) for p, v in shipped.params.items()})
+    terms = runtime_terms(parts)
+    expr = sum(terms[n] * AZIMUTH[n] for n in ("single", "m0", "m1", "m2"))
+    form = Form("f_true", "runtime_parts", ("mu_i", "mu_o", "phi", "c"), tuple(params), expr, start=start,
+                fixed=fixed, description="the runtime structure, its parts' forms: "
+                + ", ".join(f"{p} {forms[p]}" for p in (*RUNTIME_PARTS, ORDER2_PART)))
+    return form, start
+
+
 def _training(order: int) -> tuple[Dataset, np.ndarray]:
     ds = true_orders_training()
     return Dataset(ds.inputs, ds.aux[f"fm{order}"], ds.grid), ds.aux["scale"]
 
 
-def fitted_parts(forms: dict | None = None, minimax_rounds: int = MINIMAX_ROUNDS, on_order=None) -> dict:
-    """{part: fit record} of every part of the runtime structure fitted to the true BRDF's orders 0 to 2 (module
-    docstring).  ``on_order(order, result)`` is called after each order's fit (a progress hook)."""
+def joint_training() -> tuple[Dataset, np.ndarray]:
+    """Stage 2's training set and weights: the true BRDF of orders 0 to 2, f_1 + fm0 + fm1 cos phi + fm2 cos 2phi
+    (single scattering exact, the orders of :func:`.datasets.true_orders_training`; the orders >= 3 it leaves out
+    are 2e-5 of f_r at most) at every (mu_i, mu_o, c) of that set and phi in :data:`JOINT_PHI`; weights 1, and
+    :data:`GRAZING_WEIGHT` where mu_i or mu_o is below :data:`GOAL_MU_MIN`."""
+    ds = true_orders_training()
+    mi, mo, c = (np.asarray(ds.inputs[k], dtype=float) for k in ("mu_i", "mu_o", "c"))
+    single = lambdify_numpy(symbols(("mu_i", "mu_o", "phi", "c")), SINGLE_FORWARD)
+    cols = {k: [] for k in ("mu_i", "mu_o", "phi", "c")}
+    ys = []
+    for ph in JOINT_PHI:
+        phi = np.full_like(mi, ph)
+        ys.append(single(mi, mo, phi, c) + ds.aux["fm0"] + ds.aux["fm1"] * np.cos(ph) + ds.aux["fm2"] * np.cos(2 * ph))
+        for k, v in (("mu_i", mi), ("mu_o", mo), ("phi", phi), ("c", c)):
+            cols[k].append(v)
+    inputs = {k: np.concatenate(v) for k, v in cols.items()}
+    grid = f"true BRDF, orders 0 to 2, phi = k pi/{JOINT_PHI.size - 1} at {ds.grid}"
+    weights = np.where(np.minimum(inputs["mu_i"], inputs["mu_o"]) < GOAL_MU_MIN, GRAZING_WEIGHT, 1.0)
+    return Dataset(inputs, np.concatenate(ys), grid), weights
+
+
+def fitted_parts(forms: dict | None = None, minimax_rounds: int = MINIMAX_ROUNDS, on_stage=None) -> dict:
+    """{part: fit record} of every part of the runtime structure fitted to the true BRDF (module docstring:
+    stage 1 by order, stage 2 jointly with ``minimax_rounds`` Lawson rounds).  ``on_stage(name, result)`` is
+    called after each order's fit and after the joint fit (a progress hook)."""
     forms = {**_model_forms(), **(forms or {})}
-    records = {}
-    for order, names in ORDER_PARTS.items():
+    values = {}
+    for order in ORDER_PARTS:
         form, start = order_form(order, forms)
         train, scale = _training(order)
-        fit = fit_form(form, train, scale, form.vector(start), minimax_rounds=minimax_rounds)
-        if on_order is not None:
-            on_order(order, fit)
-        values = dict(zip(form.params, (float(x) for x in fit.theta)))
-        for part in names:
-            records[part] = _record(part, forms[part], values, order, train, fit, minimax_rounds)
-    return records
+        fit = fit_form(form, train, scale, form.vector(start), minimax_rounds=0)
+        if on_stage is not None:
+            on_stage(f"order {order}", fit)
+        values.update(zip(form.params, (float(x) for x in fit.theta)))
+    form, _ = joint_form(forms)
+    train, weights = joint_training()
+    fit = fit_form(form, train, np.abs(train.y), form.vector(values), minimax_rounds=minimax_rounds, weights=weights)
+    if on_stage is not None:
+        on_stage("joint", fit)
+    values = dict(zip(form.params, (float(x) for x in fit.theta)))
+    return {part: _record(part, forms[part], values, train, fit, minimax_rounds)
+            for names in ORDER_PARTS.values() for part in names}
 
 
-def _record(part, form_name, values, order, train, fit, minimax_rounds) -> dict:
+def _record(part, form_name, values, train, fit, minimax_rounds) -> dict:
     target = get_target(part)
     form = get_form(part, form_name)
     theta = np.array([values[f"{part}_{p}"] for p in form.params])
     valid = target.validation()
-    together = ", ".join(p for p in ORDER_PARTS[order] if p != part)
     return {
         **fit_identity(target, form, theta, target.domain),
-        "training": {"points": len(train), "grid": f"true BRDF, Fourier order {order}: {train.grid}"},
+        "training": {"points": len(train), "grid": train.grid},
         "validation": {"grid": valid.grid, **validation_metrics(form, theta, valid, target.scale(valid))},
         "published": [],
         "optimizer": {
             **SOLVER_SETTINGS,
-            "objective": (f"fitted{' with ' + together if together else ''} to the true BRDF's multiple scattering of "
-                          f"Fourier order {order} (exact.multiple_scattering_modes, phase='true') in the runtime "
-                          "structure, relative to the true f_r's minimum over phi; least squares, then Lawson minimax "
-                          f"refinement ({minimax_rounds} rounds, best max error kept)"),
+            "objective": ("fitted with every other part of the runtime structure to the true BRDF (exact.brdf, "
+                          "phase='true', its multiple scattering's Fourier orders 0 to 2), relative to f_r; each "
+                          "order's parts by least squares first, then all jointly: least squares, then Lawson "
+                          f"minimax refinement ({minimax_rounds} rounds, best max error kept), points with a cosine "
+                          f"below {GOAL_MU_MIN} weighted {GRAZING_WEIGHT}"),
             "least_squares_steps": fit.l2_steps,
             "total_steps": fit.total_steps,
             "result": fit.result,
@@ -164,8 +230,8 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     if args.minimax_rounds < 0:
         parser.error("--minimax-rounds must be >= 0")
-    records = fitted_parts(minimax_rounds=args.minimax_rounds, on_order=lambda o, f: print(
-        f"order {o}: train max {f.train_max:.3e}, RMS {f.train_rms:.3e} ({f.seconds:.0f} s)", flush=True))
+    records = fitted_parts(minimax_rounds=args.minimax_rounds, on_stage=lambda name, f: print(
+        f"{name}: train max {f.train_max:.3e}, RMS {f.train_rms:.3e} ({f.seconds:.0f} s)", flush=True))
     written = write_fits({fit_path(args.out, r["target"], r["form"]): r for r in records.values()})
     for path in written:
         print(path)
