@@ -667,7 +667,8 @@ def test_brdf_clamps_and_nan_in_the_built_c(native, py, dtype):
 
 def test_default_model_is_the_reports_real_time_recommendation():
     """One rule picks the real-time model (fitlab.report.pareto.recommend, on the committed docs/report.csv),
-    and the generated code's default model is the one it picks."""
+    and the generated code's default model is in the forms it picks; the pick's parts are those fitted to the true
+    BRDF (fitlab/fits/true, the row the report names by that folder), which ``--fits fitlab/fits/true`` prints."""
     import csv
     import math
 
@@ -685,5 +686,9 @@ def test_default_model_is_the_reports_real_time_recommendation():
     rows = [{**r, **{k: number(r[k]) for k in numeric}} for r in rows]
     picked = recommend(rows)["real-time"]
     changed = {t: f for t, f in MODEL_FORMS.items() if f != get_target(t).default_form}
-    assert picked["source"] == ", ".join(f"{t}: {f}" for t, f in changed.items())
+    from fitlab.families.lambert_sphere.true_refit import TRUE_FITS
+
+    label = ", ".join(f"{t}: {f}" for t, f in changed.items())
+    assert picked["source"] in (label, f"fitlab/fits/true: {label}")
+    assert TRUE_FITS == ROOT / "fitlab" / "fits" / "true"
     assert program_spec("lambert_sphere").default_model == "order2"

@@ -250,7 +250,7 @@ def brdf_methods(fits_dir: Path, entries: list, data_dir: Path, preset_c: tuple 
                             CSpec("brdf", fits_dir, tuple(sorted(order2.items())))))  # fmt: skip
         # the same structure and forms with the parts fitted to the true BRDF (the packaged ones, whatever fits_dir is)
         m = true_runtime_model()
-        out.append(_runtime(m, "refit to the true BRDF, order 2", "refit, richer", f"{TRUE_FITS}: {_label(order2)}",
+        out.append(_runtime(m, "refit to the true BRDF, order 2", "refit, richer", f"fitlab/fits/true: {_label(order2)}",
                             CSpec("brdf", TRUE_FITS, tuple(sorted(order2.items())))))  # fmt: skip
     richer = best_forms(entries, {"refit"}, (*RUNTIME_PARTS, ORDER2_PART))
     if richer and richer != order2:  # the best part fits may be the order-2 model itself
