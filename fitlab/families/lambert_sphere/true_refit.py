@@ -96,16 +96,14 @@ def _model_forms() -> dict:
     return dict(forms)
 
 
-def order_form(order: int, forms: dict | None = None) -> tuple[Form, dict]:
-    """The runtime structure's Fourier order ``order`` (fm0, fm1 or fm2 of :func:`.forms.runtime_terms`) as one
-    form in (mu_i, mu_o, c) whose parameters are its parts' (named ``part_param``), and the start vector by
-    name: the shipped fits' parameters.  ``forms``: {part: form}, default the shipped model's."""
-    forms = {**_model_forms(), **(forms or {})}
+def _parts(forms: dict, free: tuple) -> tuple[dict, list, dict, dict]:
+    """(parts, params, fixed, start) of the runtime structure: each part in ``free`` as its form with parameters
+    named ``part_param`` (start: the shipped fit's values), every other part the shipped fit's expression."""
     parts, params, fixed, start = {}, [], {}, {}
     for part in (*RUNTIME_PARTS, ORDER2_PART):
         shipped = load(fit_source(None, part, forms[part]))
-        if part not in ORDER_PARTS[order]:
-            parts[part] = shipped.expression  # not in this order's term
+        if part not in free:
+            parts[part] = shipped.expression
             continue
         form = get_form(part, forms[part])
         rename = {sp.Symbol(p, real=True): sp.Symbol(f"{part}_{p}", real=True) for p in form.params}
@@ -113,6 +111,15 @@ def order_form(order: int, forms: dict | None = None) -> tuple[Form, dict]:
         params += [f"{part}_{p}" for p in form.params]
         fixed.update({f"{part}_{p}": v for p, v in form.fixed.items()})
         start.update({f"{part}_{p}": float(v) for p, v in shipped.params.items()})
+    return parts, params, fixed, start
+
+
+def order_form(order: int, forms: dict | None = None) -> tuple[Form, dict]:
+    """The runtime structure's Fourier order ``order`` (fm0, fm1 or fm2 of :func:`.forms.runtime_terms`) as one
+    form in (mu_i, mu_o, c) whose parameters are its parts' (named ``part_param``), and the start vector by
+    name: the shipped fits' parameters.  ``forms``: {part: form}, default the shipped model's."""
+    forms = {**_model_forms(), **(forms or {})}
+    parts, params, fixed, start = _parts(forms, ORDER_PARTS[order])
     expr = runtime_terms(parts)[f"m{order}"]
     form = Form(f"fm{order}_true", "runtime_parts", ("mu_i", "mu_o", "c"), tuple(params), expr, start=start,
                 fixed=fixed, description=f"order {order} of the runtime structure, its parts' forms: "
@@ -125,15 +132,7 @@ def joint_form(forms: dict | None = None) -> tuple[Form, dict]:
     max(0, .) and the energy scale) as one form in (mu_i, mu_o, phi, c) whose parameters are every part's
     (named ``part_param``), and the start vector by name: the shipped fits' parameters."""
     forms = {**_model_forms(), **(forms or {})}
-    parts, params, fixed, start = {}, [], {}, {}
-    for part in (*RUNTIME_PARTS, ORDER2_PART):
-        shipped = load(fit_source(None, part, forms[part]))
-        form = get_form(part, forms[part])
-        rename = {sp.Symbol(p, real=True): sp.Symbol(f"{part}_{p}", real=True) for p in form.params}
-        parts[part] = form.expr.xreplace(rename)
-        params += [f"{part}_{p}" for p in form.params]
-        fixed.update({f"{part}_{p}": v for p, v in form.fixed.items()})
-        start.update({f"{part}_{p}": float(v) for p, v in shipped.params.items()})
+    parts, params, fixed, start = _parts(forms, (*RUNTIME_PARTS, ORDER2_PART))
     terms = runtime_terms(parts)
     expr = sum(terms[n] * AZIMUTH[n] for n in ("single", "m0", "m1", "m2"))
     form = Form("f_true", "runtime_parts", ("mu_i", "mu_o", "phi", "c"), tuple(params), expr, start=start,
