@@ -37,7 +37,7 @@ import sympy as sp
 from fitlab.codegen.program import DEFAULT_FORMS
 from fitlab.core import get_form, get_target
 from fitlab.families.lambert_sphere.rewrites import stable
-from fitlab.families.lambert_sphere.forms import AZIMUTH, ORDER2_PART, RUNTIME_PARTS, RUNTIME_TERMS, runtime_brdf, runtime_terms
+from fitlab.families.lambert_sphere.forms import ORDER2_PART, RUNTIME_PARTS, RUNTIME_TERMS, runtime_brdf, runtime_sum
 from fitlab.forms.symbolic import lambdify_numpy, symbols
 from fitlab.store import fit_source, load
 
@@ -173,8 +173,7 @@ def assembled(functions: dict, scale=1, terms=RUNTIME_TERMS, normalisation: str 
     mu, c = symbols(("mu", "c"))
     placeholders = {p: sp.Function(f"part_{p}")(*((mu, c) if get_target(p).inputs == ("mu", "c") else (c,)))
                     for p in functions}  # fmt: skip
-    t = runtime_terms(placeholders, normalisation)
-    total = stable(sum(t[n] * AZIMUTH[n] for n in terms if n in t))
+    total = stable(runtime_sum(placeholders, normalisation, terms))
     f = sp.lambdify(symbols(INPUTS), total, modules=[{f"part_{p}": g for p, g in functions.items()}, "numpy"])
 
     def model(mu_i, mu_o, phi, cv):

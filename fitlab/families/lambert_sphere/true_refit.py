@@ -40,8 +40,8 @@ import sympy as sp
 from fitlab.codegen import program_spec
 from fitlab.core import Dataset, data_hash, get_form, get_target
 from fitlab.families.lambert_sphere.datasets import true_orders_training
-from fitlab.families.lambert_sphere.forms import ORDER2_PART, RUNTIME_PARTS, runtime_terms
-from fitlab.families.lambert_sphere.forms.brdf import AZIMUTH, SINGLE_FORWARD
+from fitlab.families.lambert_sphere.forms import ORDER2_PART, RUNTIME_PARTS, runtime_sum, runtime_terms
+from fitlab.families.lambert_sphere.forms.brdf import SINGLE_FORWARD
 from fitlab.families.lambert_sphere.runtime import RuntimeModel, runtime_model
 from fitlab.fit.refit import fit_identity, validation_metrics
 from fitlab.fit.solver import SOLVER_SETTINGS, fit_form
@@ -133,8 +133,7 @@ def joint_form(forms: dict | None = None) -> tuple[Form, dict]:
     (named ``part_param``), and the start vector by name: the shipped fits' parameters."""
     forms = {**_model_forms(), **(forms or {})}
     parts, params, fixed, start = _parts(forms, (*RUNTIME_PARTS, ORDER2_PART))
-    terms = runtime_terms(parts)
-    expr = sum(terms[n] * AZIMUTH[n] for n in ("single", "m0", "m1", "m2"))
+    expr = runtime_sum(parts)
     form = Form("f_true", "runtime_parts", ("mu_i", "mu_o", "phi", "c"), tuple(params), expr, start=start,
                 fixed=fixed, description="the runtime structure, its parts' forms: "
                 + ", ".join(f"{p} {forms[p]}" for p in (*RUNTIME_PARTS, ORDER2_PART)))
@@ -152,19 +151,16 @@ def joint_training() -> tuple[Dataset, np.ndarray]:
     are 2e-5 of f_r at most) at every (mu_i, mu_o, c) of that set and phi in :data:`JOINT_PHI`; weights 1, and
     :data:`GRAZING_WEIGHT` where mu_i or mu_o is below :data:`GOAL_MU_MIN`."""
     ds = true_orders_training()
-    mi, mo, c = (np.asarray(ds.inputs[k], dtype=float) for k in ("mu_i", "mu_o", "c"))
+    n = len(ds)
+    mi, mo, c = (np.tile(np.asarray(ds.inputs[k], dtype=float), JOINT_PHI.size) for k in ("mu_i", "mu_o", "c"))
+    phi = np.repeat(JOINT_PHI, n)
+    fm0, fm1, fm2 = (np.tile(ds.aux[f"fm{m}"], JOINT_PHI.size) for m in range(3))
     single = lambdify_numpy(symbols(("mu_i", "mu_o", "phi", "c")), SINGLE_FORWARD)
-    cols = {k: [] for k in ("mu_i", "mu_o", "phi", "c")}
-    ys = []
-    for ph in JOINT_PHI:
-        phi = np.full_like(mi, ph)
-        ys.append(single(mi, mo, phi, c) + ds.aux["fm0"] + ds.aux["fm1"] * np.cos(ph) + ds.aux["fm2"] * np.cos(2 * ph))
-        for k, v in (("mu_i", mi), ("mu_o", mo), ("phi", phi), ("c", c)):
-            cols[k].append(v)
-    inputs = {k: np.concatenate(v) for k, v in cols.items()}
+    y = single(mi, mo, phi, c) + fm0 + fm1 * np.cos(phi) + fm2 * np.cos(2 * phi)
+    inputs = {"mu_i": mi, "mu_o": mo, "phi": phi, "c": c}
     grid = f"true BRDF, orders 0 to 2, phi = k pi/{JOINT_PHI.size - 1} at {ds.grid}"
-    weights = np.where(np.minimum(inputs["mu_i"], inputs["mu_o"]) < GOAL_MU_MIN, GRAZING_WEIGHT, 1.0)
-    return Dataset(inputs, np.concatenate(ys), grid), weights
+    weights = np.where(np.minimum(mi, mo) < GOAL_MU_MIN, GRAZING_WEIGHT, 1.0)
+    return Dataset(inputs, y, grid), weights
 
 
 def fitted_parts(forms: dict | None = None, minimax_rounds: int = MINIMAX_ROUNDS, on_stage=None) -> dict:

@@ -250,11 +250,17 @@ def runtime_terms(parts: Mapping[str, sp.Expr], normalisation: str = "corrected"
     return out
 
 
+def runtime_sum(parts: Mapping[str, sp.Expr], normalisation: str = "corrected", terms=RUNTIME_TERMS) -> sp.Expr:
+    r"""The runtime structure before its clamp and energy scale, an expression in (mu_i, mu_o, phi, c):
+    f_1 + fm0 + fm1 cos(phi) [+ fm2 cos(2 phi)], the ``terms`` kept (those :func:`runtime_terms` gives)."""
+    t = runtime_terms(parts, normalisation)
+    return sum(t[n] * AZIMUTH[n] for n in terms if n in t)
+
+
 def runtime_brdf(parts: Mapping[str, sp.Expr], normalisation: str = "corrected", scale=1) -> sp.Expr:
     r"""The runtime model (docs/model.md, "The runtime BRDF") as one expression in (mu_i, mu_o, phi, c):
     f_r = max(0, s (f_1 + fm0 + fm1 cos(phi) [+ fm2 cos(2 phi) where ``parts`` holds H2])), the terms of
     :func:`runtime_terms`; s = ``scale`` is the energy scale of fitted models (1 for the published ones;
     :func:`fitlab.families.lambert_sphere.runtime.energy_scale`)."""
-    t = runtime_terms(parts, normalisation)
-    total = sum(t[n] * AZIMUTH[n] for n in RUNTIME_TERMS if n in t)
+    total = runtime_sum(parts, normalisation)
     return sp.Max(0, total if scale == 1 else sp.Mul(scale, total, evaluate=False))
