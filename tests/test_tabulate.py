@@ -7,6 +7,7 @@ import pytest
 
 from fitlab.cli import main
 from fitlab.families.lambert_sphere import table_files
+from fitlab.families.lambert_sphere import tabulate
 from fitlab.families.lambert_sphere.tabulate import C_GRID, FAST_TABLES, MU_GRID, write_tables
 
 DATA = Path(__file__).resolve().parents[1] / "fitlab" / "data" / "lambert_sphere"
@@ -29,6 +30,30 @@ def test_regenerated_tables_match_committed(tmp_path):
     _, h0 = table_files.read_checked("h0.csv", tmp_path)
     assert h0.shape == (len(C_GRID) * len(MU_GRID), 4)
     assert not np.any(np.isnan(h0))
+
+
+def test_the_true_orders_table_regenerates_and_its_check_catches_a_wrong_value(tmp_path):
+    """true_orders.csv recomputed matches the packaged one; the check (doubling at c = 1, the three-term orders by
+    discrete ordinates) passes on it and names the column of a value off by 1e-7 of its order's largest."""
+    name = table_files.TRUE_FILE
+    write_tables(tmp_path, show_progress=False, names=(name,))
+    new, old = (tmp_path / name).read_text(), (DATA / name).read_text()
+    assert new.splitlines()[:5] == old.splitlines()[:5]
+    _, a = table_files.read_checked(name, tmp_path)
+    _, b = table_files.read_checked(name, DATA)
+    assert a.shape == (len(tabulate.TRUE_S_GRID) * tabulate.TRUE_MU_GRID.size * (tabulate.TRUE_MU_GRID.size + 1) // 2,
+                       len(table_files.TRUE_COLUMNS))
+    np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-15)
+    assert tabulate.check_true_orders(tmp_path) == []
+    lines = new.splitlines()
+    first = next(k for k, ln in enumerate(lines) if ln.startswith("0.0,1.0,"))  # c = 1: checked by doubling
+    values = lines[first + 10].split(",")  # every tenth row is checked
+    scale = np.abs(b[b[:, 0] == 0.0, 5]).max()
+    values[5] = repr(float(float(values[5]) + 1e-7 * scale))
+    lines[first + 10] = ",".join(values)
+    (tmp_path / name).write_text("\n".join(lines) + "\n")
+    failures = tabulate.check_true_orders(tmp_path)
+    assert len(failures) == 1 and "fm1_true at c=1.0" in failures[0]
 
 
 @pytest.mark.e2e
@@ -108,9 +133,10 @@ def test_a_user_folder_missing_one_table_is_refused_naming_it(tmp_path, capsys):
     folder = _user_tables(tmp_path)
     (folder / "kd.csv").unlink()
     # before: the packaged tables were read instead, as if the folder held none of the family's tables
-    assert _refit_l(tmp_path, capsys) == (2, f"fitlab refit: error: {folder}: kd.csv is missing (the folder holds 6 "
-                                             "of the 7 tables of lambert_sphere); run `fitlab tabulate` to write them "
-                                             "all, or remove the folder to read the packaged tables")  # fmt: skip
+    n = len(table_files.TABLE_FILES)
+    assert _refit_l(tmp_path, capsys) == (2, f"fitlab refit: error: {folder}: kd.csv is missing (the folder holds "
+                                             f"{n - 1} of the {n} tables of lambert_sphere); run `fitlab tabulate` to "
+                                             "write them all, or remove the folder to read the packaged tables")  # fmt: skip
     assert not (tmp_path / "fits").exists()
     with pytest.raises(TableError, match="kd.csv is missing"):
         tables_folder("lambert_sphere", tuple(table_files.TABLE_FILES), tmp_path)

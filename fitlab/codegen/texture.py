@@ -14,17 +14,17 @@ Every lookup reads the texture only through :func:`texel` (row, column), an unde
 every printer prints as a call of the generated function ``PREFIX_texel`` (``PREFIX_texel_f`` in C float).
 That function is the one thing written per language (an array read in C and numpy, ``texelFetch`` in
 GLSL); the interpolation is maths and is written once here, as sympy expressions the printers print in
-every language (:func:`lookup_1d`, :func:`lookup_2d`):
+every language (:func:`lookup_1d`, :func:`lookup_2d`, :func:`lookup_3d`):
 
 * an axis with n nodes x_k = k/(n - 1), k = 0 .. n-1, covers [0, 1]; a coordinate is clamped into [0, 1]
   and p = x (n - 1) is its position in nodes;
 * ``linear``: the two nodes around p, i = min(floor(p), n - 2), t = p - i, weights (1 - t, t);
-  bilinear in two dimensions;
+  bilinear in two dimensions, trilinear in three;
 * ``cubic``: the four nodes i .. i + 3 nearest p, i = min(max(floor(p) - 1, 0), n - 4), t = p - i in [0, 3],
   weights the Lagrange cubics through them: L_0 = -(t - 1)(t - 2)(t - 3)/6, L_1 = t (t - 2)(t - 3)/2,
   L_2 = -t (t - 1)(t - 3)/2, L_3 = t (t - 1)(t - 2)/6 (inside, the interval between the middle two
   nodes; in the first and last interval the window stays inside the table, so no texel beyond its
-  edge is needed); bicubic (16 texels) in two dimensions.  Continuous, exact for cubics, error O(h^4).
+  edge is needed); bicubic (16 texels) in two dimensions, tricubic (64) in three.  Continuous, exact for cubics, error O(h^4).
 
 Both lookups return a node's value exactly at the node (the weights are exactly 0 and 1 there), so the
 tables' values are reproduced wherever a coordinate is a node.  Texels are read with integer coordinates
@@ -48,7 +48,7 @@ import sympy as sp
 from fitlab.codegen.emit import emit
 from fitlab.codegen.program import Program, call, clamp
 
-__all__ = ["Texture", "TEXEL", "LOOKUPS", "texel", "lookup_1d", "lookup_2d", "axis_weights", "emit_textured",
+__all__ = ["Texture", "TEXEL", "LOOKUPS", "texel", "lookup_1d", "lookup_2d", "lookup_3d", "axis_weights", "emit_textured",
            "texture_bytes", "TEXTURE_SHIM", "texture_from_bytes"]
 
 #: the routine name every lookup reads texels through (printed PREFIX_texel, PREFIX_texel_f)
@@ -100,6 +100,14 @@ def lookup_2d(row0: int, x, y, n_x: int, n_y: int, lookup: str) -> sp.Expr:
     fy, wy = axis_weights(y, n_y, lookup)
     return sp.Add(*(wy[a] * sp.Add(*(wx[b] * texel(row0 + fy + a, fx + b) for b in range(len(wx))))
                     for a in range(len(wy))))  # fmt: skip
+
+
+def lookup_3d(row0: int, x, y, z, n_x: int, n_y: int, n_z: int, lookup: str) -> sp.Expr:
+    """The function tabulated in ``n_z`` slabs of ``n_y`` rows from row ``row0`` (row ``row0 + k n_y + j`` at
+    z = k/(n_z - 1), y = j/(n_y - 1); column i at x = i/(n_x - 1)), at (x, y, z): the lookup along z of the
+    slabs' :func:`lookup_2d` (trilinear or tricubic)."""
+    fz, wz = axis_weights(z, n_z, lookup)
+    return sp.Add(*(wz[k] * lookup_2d(row0 + (fz + k) * n_y, x, y, n_x, n_y, lookup) for k in range(len(wz))))
 
 
 @dataclass(frozen=True)

@@ -252,8 +252,10 @@ def _markdown(result: dict) -> str:
             "in the same structure and forms (fitlab/fits/true; docs/model.md, \"Parts fitted to the true BRDF\").",
             "The floor of the runtime structure is the row with its terms exact (true single scattering and the",
             "true multiple scattering's Fourier orders 0 to 2): what refitted parts could reach at best.",
-            "The exported tables (`fitlab codegen --tables`) carry the mixed reference's H-functions and constants:",
-            "their row against the mixed reference is in the table above, against the true BRDF here.",
+            "The exported tables (`fitlab codegen --tables`) carry the true BRDF: the three-term Fourier orders from",
+            "the H-function tables, each corrected to the whole phase function by a table of Q_m = (fm_m,true -",
+            "fm_m,three-term)/fm_0,three-term (docs/model.md, \"The exported tables\"); their row against the mixed",
+            "reference in the table above is the mixed reference's own gap.",
             f"Validation set: {result['runtime_true_grid']}.", "",
             "| model | max rel | max rel* | RMS rel* | max rel, away | RMS rel, away | worst point | worst away |",
             "|---|---|---|---|---|---|---|---|"]

@@ -53,7 +53,8 @@ import sympy as sp
 
 from fitlab._io import read_regular_file
 from fitlab.codegen.program import MaterialSpec, Program, Routine, material_of, with_domain
-from fitlab.codegen.texture import LOOKUPS, TEXEL, Texture, emit_textured, lookup_1d, lookup_2d
+from fitlab.codegen.program import call
+from fitlab.codegen.texture import LOOKUPS, TEXEL, Texture, emit_textured, lookup_1d, lookup_2d, lookup_3d
 from fitlab.families.lambert_sphere.forms import ORDER2_PART, RUNTIME_PARTS, RUNTIME_TERMS
 from fitlab.families.lambert_sphere.forms.brdf import PHASE
 from fitlab.families.lambert_sphere.forms.constants import FIRST_ORDER
@@ -63,12 +64,15 @@ from fitlab.families.lambert_sphere.program import brdf_routines, local_routine
 from fitlab.families.lambert_sphere.table_files import (
     CONSTANTS_FILE,
     KD_FILE,
+    TRUE_FILE,
+    TRUE_ORDERS,
     check_tables,
     h_file,
     read_constants,
     read_h,
     read_checked,
     read_kd,
+    read_true_orders,
     tables_dir,
 )
 from fitlab.families.lambert_sphere.targets import TARGETS
@@ -76,8 +80,9 @@ from fitlab.forms.symbolic import symbols
 from fitlab.store import MAX_TABLE_BYTES
 
 __all__ = ["NAME", "LANGUAGES", "NODES", "DEFAULT_NODES", "DEFAULT_LOOKUP", "QUANTITIES", "DEFAULT_QUANTITY", "LIMIT_MU",
-           "CONSTANT_ROWS", "TableLayout", "layout", "texture", "program", "generate", "command", "check_tables",
-           "tables_dir", "numpy_brdf", "numpy_part", "memory_bytes", "GENERATE_STEPS", "kd_ratio_limit"]
+           "CONSTANT_ROWS", "CORRECTION_S_NODES", "CORRECTION_MAX_NODES", "TableLayout", "layout", "texture", "program",
+           "generate", "command", "check_tables", "tables_dir", "numpy_brdf", "numpy_part", "numpy_correction",
+           "stored_correction", "memory_bytes", "GENERATE_STEPS", "kd_ratio_limit"]
 
 #: the generated files' base name and the functions' prefix
 NAME = "lambert_sphere_tables"
@@ -92,6 +97,10 @@ DEFAULT_NODES = 33
 DEFAULT_LOOKUP = "cubic"
 #: the table node that stands in for mu -> 0 in R_m (R_m - R_m(0) = O(mu log^2 mu): about 4e-7 here)
 LIMIT_MU = 1e-9
+#: the true-phase correction: s nodes (s = k/4: nodes of true_orders.csv) and at most this many nodes per cosine axis
+#: (sqrt(mu) = j/(n - 1), nodes of true_orders.csv: n - 1 divides 32)
+CORRECTION_S_NODES = 5
+CORRECTION_MAX_NODES = 33
 #: the c-only rows after the three H blocks, in order, with the part each gives and what is stored
 CONSTANT_ROWS = (("l", "l"), ("m", "m - 1"), ("B", "B/c - B1"), ("C", "C/c - C1"), ("D", "D/c - D1"), ("F", "F/c - F1"))
 #: what the H rows may hold (docs/table_export.md measures each): ``remainder`` is what is shipped
@@ -103,12 +112,15 @@ QUANTITIES = {
 DEFAULT_QUANTITY = "remainder"
 
 mu, c, kd = symbols(("mu", "c", "kd"))
+mu_i, mu_o, cos_phi = symbols(("mu_i", "mu_o", "cos_phi"))
 _S = sp.sqrt(1 - c)
 
 
 @dataclass(frozen=True)
 class TableLayout:
-    """Where each quantity sits in a texture of ``nodes`` nodes per axis (rows x columns = (3 nodes + 7) x nodes)."""
+    """Where each quantity sits in a texture of ``nodes`` nodes per axis: (3 nodes + 7) rows of the H functions,
+    the constants and kd, then the true-phase correction, 3 orders x :data:`CORRECTION_S_NODES` slabs x
+    :attr:`correction_nodes` rows (columns beyond :attr:`correction_nodes` hold 0)."""
 
     nodes: int
 
@@ -126,19 +138,32 @@ class TableLayout:
         return 3 * self.nodes + len(CONSTANT_ROWS)
 
     @property
+    def correction_nodes(self) -> int:
+        """Nodes per cosine axis of the correction: sqrt(mu) = j/(n - 1)."""
+        return min(self.nodes, CORRECTION_MAX_NODES)
+
+    def correction_row(self, order: int) -> int:
+        """First row of Q_order: row correction_row + k n + i holds s = k/(S - 1), sqrt(mu_i) = i/(n - 1), column
+        j sqrt(mu_o) = j/(n - 1) (n = :attr:`correction_nodes`, S = :data:`CORRECTION_S_NODES`)."""
+        return self.kd_row + 1 + order * CORRECTION_S_NODES * self.correction_nodes
+
+    @property
     def rows(self) -> int:
-        return self.kd_row + 1
+        return self.correction_row(TRUE_ORDERS)
 
     def blocks(self) -> tuple:
-        n = self.nodes
+        n, nc, ns = self.nodes, self.correction_nodes, CORRECTION_S_NODES
         out = [(self.h_row(m), n, f"R{m}(s, mu), row h + k: s = k/{n - 1}, column j: mu = j/{n - 1}") for m in range(3)]
         out += [(self.constant_row(p), 1, f"{what} at s = k/{n - 1} (column k)") for p, what in CONSTANT_ROWS]
         out.append((self.kd_row, 1, f"kd/c(kd) at kd = k/{n - 1} (column k)"))
+        out += [(self.correction_row(m), ns * nc, f"Q{m}(s, mu_i, mu_o), row q + k {nc} + i: s = k/{ns - 1}, "
+                 f"sqrt(mu_i) = i/{nc - 1}, column j: sqrt(mu_o) = j/{nc - 1}") for m in range(TRUE_ORDERS)]
         return tuple(out)
 
     def lines(self) -> tuple:
         """The layout in words (the generated files and docs/codegen.md quote it)."""
-        n, r = self.nodes, self.rows
+        n, r, nc, ns = self.nodes, self.rows, self.correction_nodes, CORRECTION_S_NODES
+        q = [self.correction_row(m) for m in range(TRUE_ORDERS + 1)]
         return (
             f"Texture: {n} columns x {r} rows of float32 (R32F), {n * r * 4} bytes; texel (column x, row y); the raw",
             f"file is little-endian float32, row 0 first, each row from column 0. N = {n} nodes per axis.",
@@ -147,9 +172,13 @@ class TableLayout:
             f"column j: mu = j/{n - 1}), H_m = exp(mu (Psi_m(mu) log(1 + 1/mu) + c (p_m(mu) + R_m(s, mu)))).",
             f"Rows {3 * n}-{3 * n + 5}: l, m - 1, B/c - B1, C/c - C1, D/c - D1, F/c - F1 at s = k/{n - 1} (column k);",
             f"B1, C1, D1, F1 = {', '.join(str(FIRST_ORDER[x]) for x in 'BCDF')} (exact O(c) terms).",
-            f"Row {self.kd_row}: kd/c(kd) at kd = k/{n - 1} (column k). Lookup: position p = x (N - 1), x in [0, 1];",
-            "bicubic: Lagrange cubics on the 4 nodes i..i+3, i = min(max(floor(p) - 1, 0), N - 4); bilinear:",
-            "nodes i, i+1, i = min(floor(p), N - 2). docs/codegen.md, 'Tables as engines ship them'.",
+            f"Row {self.kd_row}: kd/c(kd) at kd = k/{n - 1} (column k).",
+            f"Rows {q[0]}-{q[1] - 1}, {q[1]}-{q[2] - 1}, {q[2]}-{q[3] - 1}: Q0, Q1, Q2, the true-phase correction "
+            f"(fm_m,true - fm_m,three-term)/fm_0,three-term;",
+            f"row 'first + k {nc} + i': s = k/{ns - 1}, sqrt(mu_i) = i/{nc - 1}; column j < {nc}: sqrt(mu_o) = j/{nc - 1}.",
+            "Lookup: position p = x (n - 1), x in [0, 1];",
+            "cubic: Lagrange cubics on the 4 nodes i..i+3, i = min(max(floor(p) - 1, 0), n - 4); linear:",
+            "nodes i, i+1, i = min(floor(p), n - 2). docs/codegen.md, 'Tables as engines ship them'.",
         )
 
 
@@ -250,12 +279,49 @@ def kd_ratio_limit(data_dir: Path | None = None) -> float:
     return float(np.polyval(np.polyfit(c, q, 3), 0.0))
 
 
+def stored_correction(nodes: int, data_dir: Path | None = None) -> np.ndarray:
+    """Q_m(s, mu_i, mu_o) = (fm_m,true - fm_m,three-term)/fm_0,three-term on the correction's nodes, shape
+    (3, S, n, n): s = k/(S - 1), sqrt(mu_i) = i/(n - 1), sqrt(mu_o) = j/(n - 1), from true_orders.csv.
+
+    Q is a ratio of two multiple scatterings, each O(c^2) and each with the log pole at mu_i = mu_o = 0, so it is
+    bounded and smooth in (s, sqrt(mu)) where the difference itself is not (docs/model.md, "The exported
+    tables").  Two nodes are limits: mu = 0 is read at the table's mu = 1e-9, and s = 1 (c = 0, where both
+    orders are 0) is Q extrapolated from s = 4/8 .. 7/8 by the cubic through them."""
+    lay = layout(nodes)
+    data_dir = tables_dir(data_dir)
+    t = read_true_orders(data_dir)
+    nc, ns = lay.correction_nodes, CORRECTION_S_NODES
+    full = len(np.unique(t["mu_i"]))
+    step = (full - 1) // (nc - 1)
+    idx = np.arange(0, full, step)
+    i, j = np.triu_indices(full)
+    out = np.zeros((TRUE_ORDERS, 9, full, full))
+    s_all = np.unique(t["s"])
+    base = t["fm0_three_term"]
+    for m in range(TRUE_ORDERS):
+        with np.errstate(divide="ignore", invalid="ignore"):
+            q = (t[f"fm{m}_true"] - t[f"fm{m}_three_term"]) / base
+        q = q.reshape(s_all.size, i.size)
+        out[m][:, i, j] = q
+        out[m][:, j, i] = q
+    if not np.array_equal(s_all, np.arange(9) / 8.0):
+        raise ValueError(f"{data_dir / TRUE_FILE}: its s grid is not k/8, k = 0..8")
+    # s = 1: c = 0, both orders 0; the cubic through s = 4/8 .. 7/8 at s = 1 (Lagrange weights -1, 4, -6, 4)
+    out[:, 8] = -out[:, 4] + 4 * out[:, 5] - 6 * out[:, 6] + 4 * out[:, 7]
+    keep_s = np.arange(0, 9, 8 // (ns - 1))
+    return out[:, keep_s][:, :, idx][:, :, :, idx]
+
+
 @lru_cache(maxsize=None)
 def _texture(nodes: int, data_dir: Path, quantity: str) -> Texture:
     lay = layout(nodes)
     rows = [_stored_h(m, nodes, data_dir, quantity) for m in range(3)]
     rows += [v[None, :] for v in _stored_constants(nodes, data_dir)]
     rows.append(_stored_kd_ratio(nodes, data_dir)[None, :])
+    q = stored_correction(nodes, data_dir)
+    slabs = np.zeros((q.shape[0] * q.shape[1] * q.shape[2], nodes))
+    slabs[:, : q.shape[3]] = q.reshape(-1, q.shape[3])
+    rows.append(slabs)
     return Texture(np.concatenate(rows, axis=0), lay.blocks(), lay.lines())
 
 
@@ -272,6 +338,9 @@ def _check(nodes: int, lookup: str, quantity: str) -> None:
         raise ValueError(f"lookup must be one of {', '.join(LOOKUPS)}, not {lookup!r}")
     if quantity not in QUANTITIES:
         raise ValueError(f"quantity must be one of {', '.join(QUANTITIES)}, not {quantity!r}")
+
+
+_LOOKUP_3D = {"cubic": "tricubic", "linear": "trilinear"}
 
 
 def _part_routines(lay: TableLayout, lookup: str, quantity: str) -> list[Routine]:
@@ -291,6 +360,15 @@ def _part_routines(lay: TableLayout, lookup: str, quantity: str) -> list[Routine
         out.append(Routine(target.routine, ("c",), expr,
                            f"The constant {part}(c) from the table: row {lay.constant_row(part)} holds {what} at "
                            f"s = k/{n - 1}, read cubic. c in [0, 1].", domain={"c": target.domain["c"]}))  # fmt: skip
+    nc, ns = lay.correction_nodes, CORRECTION_S_NODES
+    for m in range(TRUE_ORDERS):
+        expr = lookup_3d(lay.correction_row(m), sp.sqrt(mu_o), sp.sqrt(mu_i), _S, nc, nc, ns, lookup)
+        out.append(Routine(f"true_q{m}", ("mu_i", "mu_o", "c"), expr,
+                           f"Q{m} = (fm{m},true - fm{m},three-term)/fm0,three-term, the correction of Fourier order {m} "
+                           f"of the multiple scattering to the whole phase function, read {_LOOKUP_3D[lookup]} in "
+                           f"(sqrt(mu_o), sqrt(mu_i), s) (rows {lay.correction_row(m)}-{lay.correction_row(m + 1) - 1}). "
+                           "mu_i, mu_o, c in [0, 1].",
+                           domain={"mu_i": (0.0, 1.0), "mu_o": (0.0, 1.0), "c": (0.0, 1.0)}))  # fmt: skip
     target = TARGETS["c_of_kd"]
     out.append(Routine(target.routine, ("kd",), kd / lookup_1d(lay.kd_row, kd, n, "cubic"),
                        f"The particle albedo c of the spherical albedo kd (kd_true) from the table: kd over kd/c, row {lay.kd_row}, "
@@ -298,15 +376,35 @@ def _part_routines(lay: TableLayout, lookup: str, quantity: str) -> list[Routine
     return out
 
 
+def _true_brdf() -> Routine:
+    """brdf = max(0, single + sum_m (fm_m + Q_m fm0) cos(m phi)), m = 0, 1, 2: the three-term orders from the
+    H tables, corrected to the whole phase function."""
+    args = (mu_i, mu_o, c)
+    fm0 = call("fm0", *args)
+    azimuth = (1, cos_phi, 2 * cos_phi**2 - 1)
+    total = call("single", mu_i, mu_o, cos_phi, c)
+    for m, factor in enumerate(azimuth):
+        total += (call(f"fm{m}", *args) + call(f"true_q{m}", *args) * fm0) * factor
+    return Routine(
+        "brdf", ("mu_i", "mu_o", "cos_phi", "c"), sp.Max(0, total),
+        "The Lambert-sphere BRDF from the exported tables (1/sr): max(0, single + sum over m = 0, 1, 2 of "
+        "(fm_m + Q_m fm0) cos(m phi)), the three-term orders fm_m from the H tables corrected to the whole phase "
+        "function by Q_m; orders m >= 3 of the true multiple scattering are left out (docs/model.md, 'The exported "
+        "tables'). mu_i, mu_o in [0, 1], cos_phi in [-1, 1] (phi = 0 back-scattering), c the particle albedo in "
+        "[0, 1]; inputs outside (+-inf included) are clamped, NaN in any input gives NaN.",
+        domain={"mu_i": (0.0, 1.0), "mu_o": (0.0, 1.0), "cos_phi": (-1.0, 1.0), "c": (0.0, 1.0)},
+    )
+
+
 @lru_cache(maxsize=None)
 def _routines(nodes: int, lookup: str, quantity: str) -> tuple[Routine, ...]:
     """Every routine of the program, in file order, each clamping its inputs (no per-material set-up)."""
     lay = layout(nodes)
     routines = _part_routines(lay, lookup, quantity)
-    what = "The Lambert-sphere BRDF from the exported tables, all three Fourier orders"
     by_name = {r.name: r.expr for r in routines}
     parts = {p: by_name[TARGETS[p].routine] for p in (*RUNTIME_PARTS, ORDER2_PART)}
-    routines += brdf_routines(RUNTIME_TERMS, 1, what, parts)
+    *terms, _ = brdf_routines(RUNTIME_TERMS, 1, "", parts)  # the three-term orders; brdf is the corrected sum
+    routines += [*terms, _true_brdf()]
     routines.append(local_routine("brdf"))
     # unevaluated: substituting the clamped inputs would have sympy compare every nested max and min again
     # (tens of seconds) and change nothing that is printed
@@ -322,9 +420,9 @@ def _program(nodes: int, lookup: str, digests: tuple) -> Program:
     name = "bicubic" if lookup == "cubic" else "bilinear"
     about = (f"The Lambert-sphere BRDF (d'Eon, EGSR 2021) from its exact tables: H0, H1, H2 and the constants read "
              f"{name} from one texture of {nodes} x {lay.rows} float32 (docs/codegen.md, 'Tables as engines ship them').",
-             "Terms of brdf: single, m0, m1, m2: the mixed reference BRDF up to the lookup's error (true single "
-             "scattering, three-term multiple scattering; not the whole phase function in every collision: "
-             "docs/model.md, 'Which phase function'); no energy scale.",
+             "Terms of brdf: single, m0, m1, m2 (three-term orders), each order corrected to the whole phase "
+             "function by Q0, Q1, Q2: the true BRDF up to the lookups' error and the orders m >= 3 left out "
+             "(docs/model.md, 'The exported tables'); no energy scale.",
              "From these tables (sha256):", *(f"  {file}  {digest}" for file, digest in digests))
     doc = ("The Lambert-sphere BRDF from its exported tables, generated by fitlab: numpy only.\n\n"
            "Every function takes numpy arrays (any broadcastable shapes; vectors have a\n"
@@ -336,7 +434,7 @@ def _program(nodes: int, lookup: str, digests: tuple) -> Program:
 
 def _digests(data_dir: Path) -> tuple:
     """(name, sha256) of each table the texture is made from, each read with every check first."""
-    names = (*(h_file(m) for m in range(3)), CONSTANTS_FILE, KD_FILE)
+    names = (*(h_file(m) for m in range(3)), CONSTANTS_FILE, KD_FILE, TRUE_FILE)
     for name in names:
         read_checked(name, data_dir)  # a TableError names a bad one; a FIFO is refused before it is opened
     return tuple((name, hashlib.sha256(read_regular_file(data_dir / name, MAX_TABLE_BYTES)).hexdigest())
@@ -434,3 +532,12 @@ def numpy_part(target: str, nodes: int = DEFAULT_NODES, lookup: str = DEFAULT_LO
     the target's inputs, positionally."""
     _check(nodes, lookup, quantity)
     return _vectorised(_numpy_functions(nodes, lookup, tables_dir(data_dir), quantity)[TARGETS[target].routine])
+
+
+def numpy_correction(order: int, nodes: int = DEFAULT_NODES, lookup: str = DEFAULT_LOOKUP, data_dir: Path | None = None):
+    """Q_order(mu_i, mu_o, c) of the exported tables in numpy (the routine ``true_q{order}``, reading the float32
+    texture): (fm_order,true - fm_order,three-term)/fm_0,three-term up to the lookup's error."""
+    _check(nodes, lookup, DEFAULT_QUANTITY)
+    if order not in range(TRUE_ORDERS):
+        raise ValueError(f"the correction has orders 0 to {TRUE_ORDERS - 1}, not {order!r}")
+    return _vectorised(_numpy_functions(nodes, lookup, tables_dir(data_dir), DEFAULT_QUANTITY)[f"true_q{order}"])

@@ -21,9 +21,10 @@ from fitlab.families.lambert_sphere.exact import CONSTANT_NAMES
 from fitlab.resources import tables_folder
 from fitlab.store import read_table
 
-__all__ = ["FAMILY_NAME", "tables_dir", "h_columns", "h_file", "CONSTANTS_FILE", "CONSTANT_COLUMNS", "KD_FILE", "KD_COLUMNS", "TABLE_FILES",
+__all__ = ["FAMILY_NAME", "tables_dir", "h_columns", "h_file", "CONSTANTS_FILE", "CONSTANT_COLUMNS", "KD_FILE", "KD_COLUMNS", "TRUE_FILE",
+           "TRUE_COLUMNS", "TRUE_ORDERS", "TABLE_FILES",
            "SAMPLING_FILES", "SAMPLING_COLUMNS", "INFINITE", "grid_text", "grid_points", "read_checked", "read_sampling",
-           "read_h", "read_constants", "read_kd", "check_tables"]
+           "read_h", "read_constants", "read_kd", "read_true_orders", "check_tables"]
 
 #: the family's name: its tables live in ``fitlab/data/FAMILY_NAME/`` and ``DATA/FAMILY_NAME/``
 FAMILY_NAME = "lambert_sphere"
@@ -31,6 +32,12 @@ CONSTANTS_FILE = "constants.csv"
 CONSTANT_COLUMNS = ("s", "c", *CONSTANT_NAMES)
 KD_FILE = "kd.csv"
 KD_COLUMNS = ("s", "c", "kd_three_term", "kd_mixed", "kd_true")
+#: the Fourier orders of multiple scattering kept in the true-phase table
+TRUE_ORDERS = 3
+#: the true multiple scattering beside the three-term one, orders 0 to TRUE_ORDERS - 1, on (s, mu_i <= mu_o)
+TRUE_FILE = "true_orders.csv"
+TRUE_COLUMNS = ("s", "c", "mu_i", "mu_o", *(f"fm{m}_true" for m in range(TRUE_ORDERS)),
+                *(f"fm{m}_three_term" for m in range(TRUE_ORDERS)))
 #: the variance-optimal sampling mixture (:mod:`.exact.sampling`) on the training and the validation grid
 SAMPLING_FILES = ("sampling.csv", "sampling_validation.csv")
 SAMPLING_COLUMNS = ("s", "c", "mu_i", "weight", "exponent", "relvar_optimal", "relvar_cosine")
@@ -46,7 +53,7 @@ def h_columns(order: int) -> tuple[str, ...]:
 
 #: every table file and its columns
 TABLE_FILES = {**{h_file(m): h_columns(m) for m in range(3)}, CONSTANTS_FILE: CONSTANT_COLUMNS, KD_FILE: KD_COLUMNS,
-               **{name: SAMPLING_COLUMNS for name in SAMPLING_FILES}}
+               TRUE_FILE: TRUE_COLUMNS, **{name: SAMPLING_COLUMNS for name in SAMPLING_FILES}}
 
 
 #: the columns that may hold +inf, by table: H at mu = inf (infinite at c = 1), and H0_inf at c = 1
@@ -64,14 +71,20 @@ def grid_text(name: str) -> str:
     """What the "# grid:" header line of the table ``name`` states (:mod:`.tabulate` writes it)."""
     from fitlab.families.lambert_sphere import tabulate
 
+    if name == TRUE_FILE:
+        return tabulate.TRUE_GRID_TEXT
     return tabulate.SAMPLING_GRIDS[name][2] if name in SAMPLING_FILES else tabulate.GRID_TEXT
 
 
 def grid_points(name: str) -> dict[str, np.ndarray]:
     """The grid columns of the table ``name``, row by row, as :mod:`.tabulate` writes them: (s, c, mu) of an
-    H table (s outer), (s, c) of constants.csv and kd.csv, (s, c, mu_i) of a sampling table (s outer)."""
+    H table (s outer), (s, c) of constants.csv and kd.csv, (s, c, mu_i) of a sampling table (s outer), (s, c, mu_i,
+    mu_o) of the true-phase table (s outer, then mu_i, then mu_o >= mu_i)."""
     from fitlab.families.lambert_sphere import tabulate
 
+    if name == TRUE_FILE:
+        s, mu_i, mu_o = tabulate.true_grid()
+        return {"s": s, "c": 1.0 - s * s, "mu_i": mu_i, "mu_o": mu_o}
     if name in SAMPLING_FILES:
         s_axis, mu_axis, _ = tabulate.SAMPLING_GRIDS[name]
         return {"s": np.repeat(s_axis, len(mu_axis)), "c": np.repeat(1.0 - s_axis * s_axis, len(mu_axis)),
@@ -108,6 +121,13 @@ def read_constants(data_dir: Path) -> dict[str, np.ndarray]:
 def read_kd(data_dir: Path) -> dict[str, np.ndarray]:
     """Column name -> values of kd.csv in ``data_dir`` (s, c, kd_three_term, kd_mixed, kd_true)."""
     header, t = read_checked(KD_FILE, data_dir)
+    return {name: t[:, j] for j, name in enumerate(header)}
+
+
+@lru_cache(maxsize=None)
+def read_true_orders(data_dir: Path) -> dict[str, np.ndarray]:
+    """Column name -> values of true_orders.csv in ``data_dir`` (:data:`TRUE_COLUMNS`)."""
+    header, t = read_checked(TRUE_FILE, data_dir)
     return {name: t[:, j] for j, name in enumerate(header)}
 
 

@@ -1,8 +1,8 @@
 r"""What to store in the exported tables, and at what resolution: docs/table_export.md (and .json, .png).
 
 ``python -m fitlab.families.lambert_sphere.table_study --out docs`` measures, against the exact engine (for the
-BRDF its "mixed" reference, true single scattering and the three-term multiple scattering: the BRDF the tables
-carry, so that the error is the lookup's alone; docs/audit.md measures the tables against the true BRDF):
+BRDF the true one, the whole phase function in every collision: the BRDF the tables carry, so that the error is
+the lookups' and the Fourier orders m >= 3 the correction leaves out):
 
 * the candidates for what the H rows hold (:data:`.table_export.QUANTITIES`: H itself, log(H)/mu less its
   grazing term, the remainder beyond the exact grazing and first-order parts), each with the bilinear and the
@@ -12,8 +12,9 @@ carry, so that the error is the lookup's alone; docs/audit.md measures the table
   to 1e-6, the independent set);
 * the resolution of the shipped quantity, 5 to 65 nodes, against bytes, for both lookups.
 
-The constants and c(kd) are stored and read the same way in every row (cubic, per material), so the rows
-differ in H alone.  Every exact value comes from the caches of the report and the targets (computed by the
+The constants, c(kd) and the true-phase correction are stored and read the same way in every candidate row
+(the correction with the H rows' lookup), so rows of one lookup differ in H alone.  Every exact value comes from
+the caches of the report and the targets (computed by the
 exact engine on a first run, several minutes).
 """
 
@@ -45,24 +46,18 @@ def _rel(approx, exact) -> np.ndarray:
     return np.where(np.isfinite(err), err, np.inf)
 
 
-#: the exact BRDF the tables are measured against: the one they carry (three-term multiple scattering)
-REFERENCE_PHASE = "mixed"
-
-
-def _against_reference(ds):
-    """The report's set ``ds`` (its points) with the exact BRDF of :data:`REFERENCE_PHASE`."""
-    from fitlab.core import Dataset
-    from fitlab.families.lambert_sphere.exact import brdf
-
-    return Dataset(ds.inputs, brdf(*(ds.inputs[k] for k in _INPUTS), phase=REFERENCE_PHASE), ds.grid, ds.aux)
+#: the exact BRDF the tables are measured against: the one they carry (the three-term orders corrected to the whole
+#: phase function)
+REFERENCE_PHASE = "true"
 
 
 def _sets():
+    """The report's validation, grazing and independent sets: their values are the exact BRDF of
+    :data:`REFERENCE_PHASE` (the report's exact method), computed once and cached by the report."""
     from fitlab.report.settings import FULL
     from fitlab.report.validation import brdf_set, fresh_set, grazing_set
 
-    return {name: _against_reference(ds) for name, ds in
-            (("valid", brdf_set(FULL)), ("grazing", grazing_set(FULL)), ("fresh", fresh_set(FULL)))}
+    return {"valid": brdf_set(FULL), "grazing": grazing_set(FULL), "fresh": fresh_set(FULL)}
 
 
 def _measure(nodes: int, lookup: str, quantity: str, sets: dict, h_sets: dict, data_dir) -> dict:
@@ -94,7 +89,7 @@ TINY_MU = (1e-6, 1e-4, 1e-2)
 
 
 def _tiny_c(f) -> list[dict]:
-    """Forward scattering at grazing for albedos down to 1e-10, against the mixed reference (one point each)."""
+    """Forward scattering at grazing for albedos down to 1e-10, against :data:`REFERENCE_PHASE` (one point each)."""
     from fitlab.families.lambert_sphere.exact import brdf
 
     out = []
@@ -127,6 +122,28 @@ def resolution_rows(sets, h_sets, data_dir=None, tick=None) -> list[dict]:
     return rows
 
 
+#: where the Fourier orders m >= 3 the correction leaves out are measured: c x mu_i x mu_o x phi
+LEFT_OUT_GRID = ((1.0, 0.75, 0.3, 0.05), (1e-4, 1e-3, 0.01, 0.05, 0.2, 0.5, 1.0), (0.0, np.pi / 3, np.pi / 2, np.pi))
+
+
+def orders_left_out() -> dict:
+    """max |sum_{m >= 3} fm_m cos(m phi)| / f over :data:`LEFT_OUT_GRID` (f the true BRDF), with its point: what
+    the tables leave out by correcting orders 0 to 2 only."""
+    from fitlab.families.lambert_sphere.exact import brdf, true_phase
+
+    cs, mus, phis = LEFT_OUT_GRID
+    mi, mo, ph = np.meshgrid(mus, mus, phis, indexing="ij")
+    worst = {"rel": 0.0}
+    for cv in cs:
+        orders = true_phase.multiple_scattering_orders(mi, mo, cv)
+        rest = sum(fm * np.cos(m * ph) for m, fm in enumerate(orders) if m >= 3)
+        rel = np.abs(rest) / brdf(mi, mo, ph, cv, phase="true")
+        k = np.unravel_index(int(np.argmax(rel)), rel.shape)
+        if rel[k] > worst["rel"]:
+            worst = {"rel": float(rel[k]), "c": cv, "mu_i": float(mi[k]), "mu_o": float(mo[k]), "phi": float(ph[k])}
+    return worst
+
+
 def study(data_dir=None, progress: bool = True) -> dict:
     """Both tables of the study (exact values from the caches)."""
     from tqdm import tqdm
@@ -139,7 +156,7 @@ def study(data_dir=None, progress: bool = True) -> dict:
         candidates = candidate_rows(sets, h_sets, data_dir, lambda: bar.update(1))
         resolution = resolution_rows(sets, h_sets, data_dir, lambda: bar.update(1))
     points = {name: len(v) for name, v in sets.items()}
-    return {"candidates": candidates, "resolution": resolution, "points": points,
+    return {"candidates": candidates, "resolution": resolution, "points": points, "left_out": orders_left_out(),
             "sets": {name: v.grid for name, v in sets.items()},
             "h_sets": {f"H{m}": v.grid for m, v in h_sets.items()}}  # fmt: skip
 
@@ -155,20 +172,26 @@ def _kb(n: int) -> str:
 def markdown(result: dict) -> str:
     c = result["candidates"]
     p = result["points"]
+    lo = result["left_out"]
     lookup_name = {"linear": "bilinear", "cubic": "bicubic"}
     out = ["# The exported tables: what is stored, and at what resolution", "",
            "Generated by `python -m fitlab.families.lambert_sphere.table_study --out docs` (do not edit; every number "
            "is in table_export.json). What engines ship: one float32 texture read by a bilinear or bicubic lookup "
            "(`fitlab codegen --tables`; docs/codegen.md, 'Tables as engines ship them'). Every node of the texture is "
-           "a node of the exact tables (s = sqrt(1 - c) = k/64, mu = j/64), so the only error is the lookup's between "
-           "the nodes (and float32's rounding of the stored values).", "",
+           "a node of the exact tables (s = sqrt(1 - c) = k/64, mu = j/64; the true-phase correction Q_m at s = k/4, "
+           "sqrt(mu) = j/32, nodes of true_orders.csv), so the error is the lookups' between the nodes, float32's "
+           "rounding of the stored values, and the Fourier orders m >= 3 of the true multiple scattering, which the "
+           f"correction leaves out: at most {_e(lo['rel'])} of the BRDF (at c = {lo['c']:g}, mu_i = {lo['mu_i']:g}, "
+           f"mu_o = {lo['mu_o']:g}, phi = {lo['phi'] / np.pi:g} pi) on c in {{{', '.join(f'{v:g}' for v in LEFT_OUT_GRID[0])}}} "
+           f"x mu_i, mu_o in {{{', '.join(f'{v:g}' for v in LEFT_OUT_GRID[1])}}} x phi in {{0, pi/3, pi/2, pi}}.", "",
            f"**Sets.** H: each target's validation set ({result['h_sets']['H0']}; relative error of H and of H - 1). "
-           "BRDF, against the mixed reference (`exact.brdf(phase=\"mixed\")`: true single scattering, three-term "
-           "multiple scattering, the BRDF the tables carry; docs/audit.md measures them against the true BRDF) at "
+           "BRDF, against the true BRDF (`exact.brdf(phase=\"true\")`: the whole phase function in every collision, "
+           "the BRDF the tables carry) at "
            f"the points of the report's validation set ({p['valid']} points: {result['sets']['valid']}), "
            f"its grazing set ({p['grazing']} points: {result['sets']['grazing']}) and its independent set ({p['fresh']} "
            f"points: {result['sets']['fresh']}); max and RMS relative error. The constants are read the same way in "
-           "every row (cubic in s, per material), so rows differ in H alone.", "",
+           "every row (cubic in s, per material) and the true-phase correction with the row's lookup, so rows of one "
+           "lookup differ in H alone.", "",
            "## What the H rows hold", "",
            "| stored | lookup | nodes | bytes | H0 max rel | H0 - 1 max rel | H1 - 1 max rel | H2 - 1 max rel | BRDF max rel "
            "| BRDF RMS rel | grazing max rel | fresh max rel |",
@@ -205,7 +228,7 @@ def markdown(result: dict) -> str:
             "multiple scattering is O(c^2) (the BRDF about 1e-12) while each of its terms is of order c/(mu_i + mu_o) "
             "= 0.5; the runtime formula subtracts their O(c) parts in the algebra, not in floating point (docs/model.md, "
             "'The runtime BRDF'), so the error stays at the table's level below the report's smallest albedo too (the "
-            "shipped table, forward scattering, mu_i = mu_o = mu, against the mixed reference):", "", "| c | " + " | ".join(f"mu = {m:g}" for m in TINY_MU) + " |",
+            "shipped table, forward scattering, mu_i = mu_o = mu, against the true BRDF):", "", "| c | " + " | ".join(f"mu = {m:g}" for m in TINY_MU) + " |",
             "|---|" + "---|" * len(TINY_MU),
             *(f"| {cv:g} | " + " | ".join(_e(r["rel"]) for r in tiny if r["c"] == cv) + " |" for cv in TINY_C), "",
             "## Resolution against accuracy (the shipped quantity)", "",
@@ -222,11 +245,13 @@ def markdown(result: dict) -> str:
     d = te.DEFAULT_NODES
     out += ["", f"The bicubic lookup pays: at {d} nodes ({_kb(cubic[d]['bytes'])} KB) it is "
             f"{_e(cubic[d]['valid_max_rel'])} on the BRDF, where the bilinear one needs 65 nodes "
-            f"({_kb(linear[65]['bytes'])} KB) for {_e(linear[65]['valid_max_rel'])}; its error falls as h^4 "
-            "(16 texels per lookup instead of 4). `fitlab codegen --tables` ships "
-            f"{d} nodes, bicubic, by default; 65 nodes ({_e(cubic[65]['valid_max_rel'])}) go below what float32 "
-            "evaluation resolves (a few 1e-6, docs/codegen.md), and any node count of the table's grid can be asked "
-            "for (`--nodes`, `--lookup linear`).", "",
+            f"({_kb(linear[65]['bytes'])} KB) for {_e(linear[65]['valid_max_rel'])}; the H lookups' error falls as "
+            "h^4 (16 texels per lookup instead of 4; H0 at 65 nodes: "
+            f"{_e(cubic[65]['H0_max_rel'])}), and what is left from 33 nodes up is the true-phase correction's "
+            f"(at most {te.CORRECTION_MAX_NODES} nodes per cosine axis) and the orders m >= 3 it leaves out. "
+            f"`fitlab codegen --tables` ships {d} nodes, bicubic, by default; 65 nodes "
+            f"({_e(cubic[65]['valid_max_rel'])}) buy nothing on the BRDF, and any node count of the table's grid can "
+            "be asked for (`--nodes`, `--lookup linear`).", "",
             "![BRDF error against bytes](table_export.png)", ""]  # fmt: skip
     return "\n".join(out)
 

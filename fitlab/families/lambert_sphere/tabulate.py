@@ -1,5 +1,9 @@
 """The exact tables (fitlab/data/lambert_sphere/, or DATA/lambert_sphere/ from ``fitlab tabulate``): H0, H1, H2 on a (mu, c) grid, the constants and kd.
 
+true_orders.csv holds the true multiple scattering (the whole phase function) beside the three-term one,
+Fourier orders 0 to 2, on its own grid: s = k/8, mu_i <= mu_o in 1e-9 and (j/32)^2 (what the exported tables
+correct the three-term orders with; :mod:`.table_export`).
+
 Grid (documented in every header):
   c = 1 - s^2 with s = k/64, k = 0..64 (uniform in s = sqrt(1-c): dense near
   c = 1, both ends included);
@@ -19,18 +23,20 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
-from fitlab.families.lambert_sphere.exact import constants, h_function, spherical_albedo
+from fitlab.families.lambert_sphere.exact import constants, h_function, multiple_scattering_modes, spherical_albedo
+from fitlab.families.lambert_sphere.exact.true_phase import multiple_scattering_orders
 from fitlab.families.lambert_sphere.exact.constants import CONSTANT_NAMES
 from fitlab.families.lambert_sphere.exact.sampling import (MU_MIN, QUADRATURE_NODES, optimal_mixture, relative_variance,
                                                            variance_function)
 from fitlab.families.lambert_sphere.table_files import (FAMILY_NAME, KD_COLUMNS, SAMPLING_COLUMNS, SAMPLING_FILES, TABLE_FILES,
-                                                      read_checked)
+                                                      TRUE_COLUMNS, TRUE_FILE, TRUE_ORDERS, read_checked)
 from fitlab.store import Table
 from fitlab.store import write_tables as store_write_tables
 
 # the family's `tables` service: the layout (FAMILY_NAME, TABLE_FILES) with the writer and the checker
 __all__ = ["FAMILY_NAME", "TABLE_FILES", "build_tables", "write_tables", "check_tables", "h_table", "constants_table",
-           "albedo_table", "sampling_table", "SAMPLING_GRIDS", "FAST_TABLES", "C_GRID", "MU_GRID", "S_GRID"]
+           "albedo_table", "sampling_table", "true_orders_table", "true_grid", "check_true_orders", "SAMPLING_GRIDS", "FAST_TABLES", "C_GRID",
+           "MU_GRID", "S_GRID", "TRUE_S_GRID", "TRUE_MU_GRID", "TRUE_GRID_TEXT", "TRUE_TOLERANCE"]
 
 S_GRID = np.arange(65) / 64.0
 C_GRID = 1.0 - S_GRID**2
@@ -43,6 +49,52 @@ GRID_TEXT = (
     "c = 1 - s^2, s = k/64 for k = 0..64; "
     "mu = 0, 1e-12, 1e-9, 1e-6, 1e-4, 1e-3, j/64 for j = 1..64, inf"
 )
+
+
+#: the true-phase table's grid: s = k/8, and mu = 1e-9 (where the exported tables read mu -> 0: the orders are
+#: +-inf at mu_i = mu_o = 0) then (j/32)^2, uniform in sqrt(mu), the coordinate the exported tables read it in
+TRUE_S_GRID = np.arange(9) / 8.0
+TRUE_MU_GRID = np.concatenate(([1e-9], (np.arange(1, 33) / 32.0) ** 2))
+TRUE_GRID_TEXT = "c = 1 - s^2, s = k/8 for k = 0..8; mu_i <= mu_o in 1e-9, (j/32)^2 for j = 1..32 (mu_i outer)"
+TRUE_TOLERANCE = 1e-9  # relative to the largest |value| of the order at that c: the 'doubling' method agrees
+
+
+def true_grid() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(s, mu_i, mu_o) of the true-phase table's rows: s outer, then mu_i, then mu_o >= mu_i."""
+    i, j = np.triu_indices(TRUE_MU_GRID.size)
+    n = i.size
+    return np.repeat(TRUE_S_GRID, n), np.tile(TRUE_MU_GRID[i], TRUE_S_GRID.size), np.tile(TRUE_MU_GRID[j], TRUE_S_GRID.size)
+
+
+def _true_rows(c: float, mu_i, mu_o, method: str = "newton") -> list[np.ndarray]:
+    true = multiple_scattering_orders(mu_i, mu_o, c, method=method, orders=TRUE_ORDERS)
+    three = multiple_scattering_modes(mu_i, mu_o, c, phase="three_term")[:TRUE_ORDERS]
+    return [*true, *three]
+
+
+def true_orders_table(progress=None) -> Table:
+    """The true multiple scattering (:func:`.exact.true_phase.multiple_scattering_orders`, the whole phase
+    function) and the three-term one (:func:`.exact.multiple_scattering_modes`), orders 0 to 2, on
+    :func:`true_grid`; both are 0 at c = 0."""
+    s_all, mi_all, mo_all = true_grid()
+    rows = []
+    for s in TRUE_S_GRID:
+        sel = s_all == s
+        c = 1.0 - s * s
+        values = _true_rows(c, mi_all[sel], mo_all[sel])
+        rows.extend(zip(s_all[sel], 1.0 - s_all[sel] * s_all[sel], mi_all[sel], mo_all[sel], *values))
+        if progress is not None:
+            progress.update(1)
+    return Table(
+        "true and three-term multiple scattering by Fourier order",
+        "fm_m_true: the half space with the whole phase function (fitlab.families.lambert_sphere.exact.true_phase, "
+        "discrete ordinates, Newton on the Riccati equation); fm_m_three_term: the three-term half space "
+        "(fitlab.families.lambert_sphere.exact.multiple_scattering_modes, H-functions); fitlab's azimuth, 1/sr",
+        f"relative {TRUE_TOLERANCE:g} of each order's largest value at its c, verified by doubling",
+        TRUE_COLUMNS,
+        rows,
+        TRUE_GRID_TEXT,
+    )
 
 
 def h_table(order: int, progress=None) -> Table:
@@ -149,7 +201,9 @@ def build_tables(show_progress: bool = True, names=tuple(TABLE_FILES)) -> dict[s
     unknown = set(names) - set(TABLE_FILES)
     if unknown:
         raise ValueError(f"unknown tables {sorted(unknown)}; the tables are {', '.join(TABLE_FILES)}")
-    total = sum(len(C_GRID) if n in FAST_TABLES else len(SAMPLING_GRIDS[n][0]) for n in names)
+    ticks = {**{n: len(C_GRID) for n in FAST_TABLES}, TRUE_FILE: len(TRUE_S_GRID),
+             **{n: len(SAMPLING_GRIDS[n][0]) for n in SAMPLING_FILES}}
+    total = sum(ticks[n] for n in names)
     tables = {}
     with tqdm(total=total, desc="tabulating", unit="c", disable=not show_progress) as bar:
         for name in names:
@@ -159,6 +213,8 @@ def build_tables(show_progress: bool = True, names=tuple(TABLE_FILES)) -> dict[s
                 tables[name] = constants_table(bar)
             elif name == "kd.csv":
                 tables[name] = albedo_table(bar)
+            elif name == TRUE_FILE:
+                tables[name] = true_orders_table(bar)
             else:
                 tables[name] = sampling_table(name, bar)
     return tables
@@ -177,7 +233,7 @@ def check_tables(out: Path, every: int = 8, show_progress: bool = True) -> list[
     c_sample = C_GRID[::every]
     if C_GRID[-1] not in c_sample:
         c_sample = np.append(c_sample, C_GRID[-1])
-    with tqdm(total=3 + 2 + len(SAMPLING_FILES), desc="checking", disable=not show_progress) as bar:
+    with tqdm(total=3 + 3 + len(SAMPLING_FILES), desc="checking", disable=not show_progress) as bar:
         for m in range(3):
             _, data = read_checked(f"h{m}.csv", out)  # every check, the grid's rows included
             sel = np.isin(data[:, 1], c_sample)
@@ -208,9 +264,35 @@ def check_tables(out: Path, every: int = 8, show_progress: bool = True) -> list[
             if not np.all(err <= CONSTANT_TOLERANCE):
                 failures.append(f"kd.csv: kd_{phase} differs by {err.max():.2e}")
         bar.update(1)
+        failures += check_true_orders(out)
+        bar.update(1)
         for name in SAMPLING_FILES:
             failures += _check_sampling(out / name, name)
             bar.update(1)
+    return failures
+
+
+def check_true_orders(out: Path) -> list[str]:
+    """Every tenth row at c = 1 and at s = 5/8: the true orders at c = 1 recomputed by the other method
+    (doubling, 20 s), and the three-term orders at both against the true-phase engine given the three-term phase
+    function (discrete ordinates, not H-functions)."""
+    header, data = read_checked(TRUE_FILE, out)
+    t = dict(zip(header, data.T))
+    failures = []
+    for s in (0.0, 0.625):
+        rows = np.flatnonzero(t["s"] == s)[::10]
+        c, mi, mo = 1.0 - s * s, t["mu_i"][rows], t["mu_o"][rows]
+        checks = dict(zip(TRUE_COLUMNS[4 + TRUE_ORDERS:],
+                          multiple_scattering_orders(mi, mo, c, phase="three_term", orders=TRUE_ORDERS)))
+        if s == 0.0:
+            checks.update(zip(TRUE_COLUMNS[4:4 + TRUE_ORDERS],
+                              multiple_scattering_orders(mi, mo, c, method="doubling", orders=TRUE_ORDERS)))
+        for name, want in checks.items():
+            got = t[name][rows]
+            scale = np.abs(t[name][t["s"] == s]).max()
+            err = np.abs(got - want).max() / scale
+            if not err <= TRUE_TOLERANCE:
+                failures.append(f"{TRUE_FILE}: {name} at c={c!r} differs by {err:.2e} of its largest value")
     return failures
 
 
