@@ -48,7 +48,8 @@ def test_the_user_tables_are_preferred_only_when_complete(monkeypatch, tmp_path)
     assert tables_dir() == folder
     (folder / "kd.csv").unlink()  # an incomplete set is refused, naming the table it lacks: no mixing of two tabulations
     n = len(TABLE_FILES)
-    with pytest.raises(TableError, match=rf"lambert_sphere: kd\.csv is missing \(the folder holds {n - 1} of the {n} tables"):
+    want = rf"lambert_sphere: kd\.csv is missing \(the folder holds {n - 1} of the {n} tables"
+    with pytest.raises(TableError, match=want):
         tables_dir()
     assert tables_folder("lambert_sphere", ("h0.csv",), tmp_path) == folder
     for name in TABLE_FILES:  # a folder with none of the family's tables: the packaged ones

@@ -201,8 +201,9 @@ def test_the_correction_reproduces_the_true_orders_at_its_nodes():
     mi, mo = np.meshgrid(x**2, x**2, indexing="ij")
     for s, bound in ((0.25, 2e-7), (0.75, 2e-7), (1.0, 2e-2)):
         c = 1.0 - s * s if s < 1.0 else 1e-5
-        true = true_phase.multiple_scattering_orders(np.maximum(mi, te.LIMIT_MU), np.maximum(mo, te.LIMIT_MU), c, orders=3)
-        three = multiple_scattering_modes(np.maximum(mi, te.LIMIT_MU), np.maximum(mo, te.LIMIT_MU), c, phase="three_term")
+        a, b = np.maximum(mi, te.LIMIT_MU), np.maximum(mo, te.LIMIT_MU)
+        true = true_phase.multiple_scattering_orders(a, b, c, orders=3)
+        three = multiple_scattering_modes(a, b, c, phase="three_term")
         for m in range(3):
             want = (true[m] - three[m]) / three[0]
             got = te.numpy_correction(m, data_dir=TABLES)(mi, mo, 1.0 - s * s)

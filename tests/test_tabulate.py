@@ -6,8 +6,7 @@ import numpy as np
 import pytest
 
 from fitlab.cli import main
-from fitlab.families.lambert_sphere import table_files
-from fitlab.families.lambert_sphere import tabulate
+from fitlab.families.lambert_sphere import table_files, tabulate
 from fitlab.families.lambert_sphere.tabulate import C_GRID, FAST_TABLES, MU_GRID, write_tables
 
 DATA = Path(__file__).resolve().parents[1] / "fitlab" / "data" / "lambert_sphere"
@@ -134,9 +133,10 @@ def test_a_user_folder_missing_one_table_is_refused_naming_it(tmp_path, capsys):
     (folder / "kd.csv").unlink()
     # before: the packaged tables were read instead, as if the folder held none of the family's tables
     n = len(table_files.TABLE_FILES)
-    assert _refit_l(tmp_path, capsys) == (2, f"fitlab refit: error: {folder}: kd.csv is missing (the folder holds "
-                                             f"{n - 1} of the {n} tables of lambert_sphere); run `fitlab tabulate` to "
-                                             "write them all, or remove the folder to read the packaged tables")  # fmt: skip
+    want = (f"fitlab refit: error: {folder}: kd.csv is missing (the folder holds {n - 1} of the {n} tables of "
+            "lambert_sphere); run `fitlab tabulate` to write them all, or remove the folder to read the packaged "
+            "tables")
+    assert _refit_l(tmp_path, capsys) == (2, want)
     assert not (tmp_path / "fits").exists()
     with pytest.raises(TableError, match="kd.csv is missing"):
         tables_folder("lambert_sphere", tuple(table_files.TABLE_FILES), tmp_path)

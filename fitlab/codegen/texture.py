@@ -24,7 +24,8 @@ every language (:func:`lookup_1d`, :func:`lookup_2d`, :func:`lookup_3d`):
   weights the Lagrange cubics through them: L_0 = -(t - 1)(t - 2)(t - 3)/6, L_1 = t (t - 2)(t - 3)/2,
   L_2 = -t (t - 1)(t - 3)/2, L_3 = t (t - 1)(t - 2)/6 (inside, the interval between the middle two
   nodes; in the first and last interval the window stays inside the table, so no texel beyond its
-  edge is needed); bicubic (16 texels) in two dimensions, tricubic (64) in three.  Continuous, exact for cubics, error O(h^4).
+  edge is needed); bicubic (16 texels) in two dimensions, tricubic (64) in three.  Continuous, exact for
+  cubics, error O(h^4).
 
 Both lookups return a node's value exactly at the node (the weights are exactly 0 and 1 there), so the
 tables' values are reproduced wherever a coordinate is a node.  Texels are read with integer coordinates
@@ -48,7 +49,8 @@ import sympy as sp
 from fitlab.codegen.emit import emit
 from fitlab.codegen.program import Program, call, clamp
 
-__all__ = ["Texture", "TEXEL", "LOOKUPS", "texel", "lookup_1d", "lookup_2d", "lookup_3d", "axis_weights", "emit_textured",
+__all__ = ["Texture", "TEXEL", "LOOKUPS", "texel", "lookup_1d", "lookup_2d", "lookup_3d", "axis_weights",
+           "emit_textured",
            "texture_bytes", "TEXTURE_SHIM", "texture_from_bytes"]
 
 #: the routine name every lookup reads texels through (printed PREFIX_texel, PREFIX_texel_f)
@@ -93,7 +95,7 @@ def lookup_1d(row: int, x, n: int, lookup: str) -> sp.Expr:
     return sp.Add(*(wk * texel(row, first + k) for k, wk in enumerate(w)))
 
 
-def lookup_2d(row0: int, x, y, n_x: int, n_y: int, lookup: str) -> sp.Expr:
+def lookup_2d(row0: int | sp.Expr, x, y, n_x: int, n_y: int, lookup: str) -> sp.Expr:
     """The function tabulated in rows row0 .. row0 + n_y - 1 (row ``row0 + j`` at y = j/(n_y - 1), column k at
     x = k/(n_x - 1)), at (x, y): bilinear or bicubic (:func:`axis_weights`)."""
     fx, wx = axis_weights(x, n_x, lookup)

@@ -175,7 +175,8 @@ class TableLayout:
             f"Row {self.kd_row}: kd/c(kd) at kd = k/{n - 1} (column k).",
             f"Rows {q[0]}-{q[1] - 1}, {q[1]}-{q[2] - 1}, {q[2]}-{q[3] - 1}: Q0, Q1, Q2, the true-phase correction "
             f"(fm_m,true - fm_m,three-term)/fm_0,three-term;",
-            f"row 'first + k {nc} + i': s = k/{ns - 1}, sqrt(mu_i) = i/{nc - 1}; column j < {nc}: sqrt(mu_o) = j/{nc - 1}.",
+            f"row 'first + k {nc} + i': s = k/{ns - 1}, sqrt(mu_i) = i/{nc - 1}; column j < {nc}: "
+            f"sqrt(mu_o) = j/{nc - 1}.",
             "Lookup: position p = x (n - 1), x in [0, 1];",
             "cubic: Lagrange cubics on the 4 nodes i..i+3, i = min(max(floor(p) - 1, 0), n - 4); linear:",
             "nodes i, i+1, i = min(floor(p), n - 2). docs/codegen.md, 'Tables as engines ship them'.",
@@ -364,9 +365,10 @@ def _part_routines(lay: TableLayout, lookup: str, quantity: str) -> list[Routine
     for m in range(TRUE_ORDERS):
         expr = lookup_3d(lay.correction_row(m), sp.sqrt(mu_o), sp.sqrt(mu_i), _S, nc, nc, ns, lookup)
         out.append(Routine(f"true_q{m}", ("mu_i", "mu_o", "c"), expr,
-                           f"Q{m} = (fm{m},true - fm{m},three-term)/fm0,three-term, the correction of Fourier order {m} "
-                           f"of the multiple scattering to the whole phase function, read {_LOOKUP_3D[lookup]} in "
-                           f"(sqrt(mu_o), sqrt(mu_i), s) (rows {lay.correction_row(m)}-{lay.correction_row(m + 1) - 1}). "
+                           f"Q{m} = (fm{m},true - fm{m},three-term)/fm0,three-term, the correction of Fourier "
+                           f"order {m} of the multiple scattering to the whole phase function, read "
+                           f"{_LOOKUP_3D[lookup]} in (sqrt(mu_o), sqrt(mu_i), s) (rows {lay.correction_row(m)}-"
+                           f"{lay.correction_row(m + 1) - 1}). "
                            "mu_i, mu_o, c in [0, 1].",
                            domain={"mu_i": (0.0, 1.0), "mu_o": (0.0, 1.0), "c": (0.0, 1.0)}))  # fmt: skip
     target = TARGETS["c_of_kd"]

@@ -21,8 +21,8 @@ from fitlab.families.lambert_sphere.exact import CONSTANT_NAMES
 from fitlab.resources import tables_folder
 from fitlab.store import read_table
 
-__all__ = ["FAMILY_NAME", "tables_dir", "h_columns", "h_file", "CONSTANTS_FILE", "CONSTANT_COLUMNS", "KD_FILE", "KD_COLUMNS", "TRUE_FILE",
-           "TRUE_COLUMNS", "TRUE_ORDERS", "TABLE_FILES",
+__all__ = ["FAMILY_NAME", "tables_dir", "h_columns", "h_file", "CONSTANTS_FILE", "CONSTANT_COLUMNS", "KD_FILE",
+           "KD_COLUMNS", "TRUE_FILE", "TRUE_COLUMNS", "TRUE_ORDERS", "TABLE_FILES",
            "SAMPLING_FILES", "SAMPLING_COLUMNS", "INFINITE", "grid_text", "grid_points", "read_checked", "read_sampling",
            "read_h", "read_constants", "read_kd", "read_true_orders", "check_tables"]
 

@@ -165,6 +165,10 @@ def _e(x: float) -> str:
     return f"{x:.2e}"
 
 
+def _listed(values) -> str:
+    return "{" + ", ".join(f"{v:g}" for v in values) + "}"
+
+
 def _kb(n: int) -> str:
     return f"{n / 1000:.1f}"
 
@@ -182,8 +186,8 @@ def markdown(result: dict) -> str:
            "sqrt(mu) = j/32, nodes of true_orders.csv), so the error is the lookups' between the nodes, float32's "
            "rounding of the stored values, and the Fourier orders m >= 3 of the true multiple scattering, which the "
            f"correction leaves out: at most {_e(lo['rel'])} of the BRDF (at c = {lo['c']:g}, mu_i = {lo['mu_i']:g}, "
-           f"mu_o = {lo['mu_o']:g}, phi = {lo['phi'] / np.pi:g} pi) on c in {{{', '.join(f'{v:g}' for v in LEFT_OUT_GRID[0])}}} "
-           f"x mu_i, mu_o in {{{', '.join(f'{v:g}' for v in LEFT_OUT_GRID[1])}}} x phi in {{0, pi/3, pi/2, pi}}.", "",
+           f"mu_o = {lo['mu_o']:g}, phi = {lo['phi'] / np.pi:g} pi) on c in {_listed(LEFT_OUT_GRID[0])} "
+           f"x mu_i, mu_o in {_listed(LEFT_OUT_GRID[1])} x phi in {{0, pi/3, pi/2, pi}}.", "",
            f"**Sets.** H: each target's validation set ({result['h_sets']['H0']}; relative error of H and of H - 1). "
            "BRDF, against the true BRDF (`exact.brdf(phase=\"true\")`: the whole phase function in every collision, "
            "the BRDF the tables carry) at "

@@ -28,14 +28,15 @@ from fitlab.families.lambert_sphere.exact.true_phase import multiple_scattering_
 from fitlab.families.lambert_sphere.exact.constants import CONSTANT_NAMES
 from fitlab.families.lambert_sphere.exact.sampling import (MU_MIN, QUADRATURE_NODES, optimal_mixture, relative_variance,
                                                            variance_function)
-from fitlab.families.lambert_sphere.table_files import (FAMILY_NAME, KD_COLUMNS, SAMPLING_COLUMNS, SAMPLING_FILES, TABLE_FILES,
-                                                      TRUE_COLUMNS, TRUE_FILE, TRUE_ORDERS, read_checked)
+from fitlab.families.lambert_sphere.table_files import (FAMILY_NAME, KD_COLUMNS, SAMPLING_COLUMNS, SAMPLING_FILES,
+                                                      TABLE_FILES, TRUE_COLUMNS, TRUE_FILE, TRUE_ORDERS, read_checked)
 from fitlab.store import Table
 from fitlab.store import write_tables as store_write_tables
 
 # the family's `tables` service: the layout (FAMILY_NAME, TABLE_FILES) with the writer and the checker
 __all__ = ["FAMILY_NAME", "TABLE_FILES", "build_tables", "write_tables", "check_tables", "h_table", "constants_table",
-           "albedo_table", "sampling_table", "true_orders_table", "true_grid", "check_true_orders", "SAMPLING_GRIDS", "FAST_TABLES", "C_GRID",
+           "albedo_table", "sampling_table", "true_orders_table", "true_grid", "check_true_orders", "SAMPLING_GRIDS",
+           "FAST_TABLES", "C_GRID",
            "MU_GRID", "S_GRID", "TRUE_S_GRID", "TRUE_MU_GRID", "TRUE_GRID_TEXT", "TRUE_TOLERANCE"]
 
 S_GRID = np.arange(65) / 64.0
@@ -63,7 +64,8 @@ def true_grid() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(s, mu_i, mu_o) of the true-phase table's rows: s outer, then mu_i, then mu_o >= mu_i."""
     i, j = np.triu_indices(TRUE_MU_GRID.size)
     n = i.size
-    return np.repeat(TRUE_S_GRID, n), np.tile(TRUE_MU_GRID[i], TRUE_S_GRID.size), np.tile(TRUE_MU_GRID[j], TRUE_S_GRID.size)
+    k = TRUE_S_GRID.size
+    return np.repeat(TRUE_S_GRID, n), np.tile(TRUE_MU_GRID[i], k), np.tile(TRUE_MU_GRID[j], k)
 
 
 def _true_rows(c: float, mu_i, mu_o, method: str = "newton") -> list[np.ndarray]:
