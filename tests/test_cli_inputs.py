@@ -48,7 +48,7 @@ COMMANDS = {
     "audit": (["audit", "--fits", str(FITS)], [("fitlab.families.lambert_sphere.audit", "run_audit")]),
     "codegen": (["codegen", "--lang", "c", "--fits", str(FITS)], [("fitlab.codegen", "generate")]),
     "render": (["render", "--generated", str(GENERATED), "--quiet"],
-               [("fitlab.families.lambert_sphere.render", "render_comparison")]),
+               [("fitlab.families.lambert_sphere.mitsuba.render", "render_comparison")]),
     "discover": (["discover", "--target", "H0", "--fits", str(FITS), "--quiet"],
                  [("fitlab.discover.search", "discover")]),
     "report": (["report", "--quick", "--quiet", "--fits", str(FITS)], [("fitlab.report", "build_report")]),

@@ -20,8 +20,8 @@ from hypothesis import strategies as st
 
 dr = pytest.importorskip("drjit")
 
-from fitlab.families.lambert_sphere.mitsuba_plugin import DRJIT_FILE, load_drjit_module  # noqa: E402
-from fitlab.families.lambert_sphere.render import load_generated  # noqa: E402
+from fitlab.families.lambert_sphere.mitsuba.plugin import DRJIT_FILE, load_drjit_module  # noqa: E402
+from fitlab.families.lambert_sphere.mitsuba.render import load_generated  # noqa: E402
 from fitlab.resources import packaged_fits  # noqa: E402
 
 GENERATED = packaged_fits() / "generated"
@@ -85,7 +85,7 @@ _LLVM = inspect.getsource(values) + textwrap.dedent("""
     import numpy as np
     import drjit as dr
     from drjit.llvm.ad import Array3f, Array3f64, Float, Float64
-    from fitlab.families.lambert_sphere.mitsuba_plugin import load_drjit_module
+    from fitlab.families.lambert_sphere.mitsuba.plugin import load_drjit_module
     g = load_drjit_module(sys.argv[1])
     x = dict(np.load(sys.argv[2]))
     out = {}

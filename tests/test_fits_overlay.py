@@ -181,7 +181,7 @@ def test_the_mitsuba_plugin_loads_the_default_model():
     """The plugin evaluates the packaged Dr.Jit module (tests/test_codegen_drjit.py holds it equal to the generated
     numpy to 1e-12, which the test above holds equal to runtime_model()): that module is the default model's, made
     from the same fits."""
-    from fitlab.families.lambert_sphere import mitsuba_plugin
+    from fitlab.families.lambert_sphere.mitsuba import plugin as mitsuba_plugin
 
     drjit_file = FITS / "generated" / mitsuba_plugin.DRJIT_FILE
     numpy_file = FITS / "generated" / "lambert_sphere.py"

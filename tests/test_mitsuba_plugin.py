@@ -1,4 +1,4 @@
-"""The registered Mitsuba 3 plugin ``lambert_sphere`` (fitlab.families.lambert_sphere.mitsuba_plugin) in
+"""The registered Mitsuba 3 plugin ``lambert_sphere`` (fitlab.families.lambert_sphere.mitsuba.plugin) in
 scalar_rgb and llvm_ad_rgb: loading from a dict and from XML, a render against the generated C integrated over
 each pixel, the white furnace at c = 1 against the directional albedo by quadrature of the generated C, RGB
 channels against single-channel renders, bitmap textures, mi.traverse, and Mitsuba's chi-square test of the
@@ -20,7 +20,7 @@ mi = pytest.importorskip("mitsuba")
 
 from fitlab.codegen import emit, load_program  # noqa: E402
 from fitlab.codegen.native import build, compiler  # noqa: E402
-from fitlab.families.lambert_sphere.render import pixel_geometry  # noqa: E402
+from fitlab.families.lambert_sphere.mitsuba.render import pixel_geometry  # noqa: E402
 
 SIZE, SPP = 12, 16  # the directional-light renders (the only noise: where in the pixel each sample falls)
 #: the furnace's pixels and samples per pixel by variant: the scalar one calls Python for every sample
@@ -34,7 +34,7 @@ _RENDERS = textwrap.dedent('''
     import numpy as np
     import drjit as dr
     import mitsuba as mi
-    from fitlab.families.lambert_sphere.render import render_bsdf, render_sphere
+    from fitlab.families.lambert_sphere.mitsuba.render import render_bsdf, render_sphere
     variant, out = sys.argv[1], sys.argv[2]
     light, kd = np.array(json.loads(sys.argv[3])), json.loads(sys.argv[4])
     size, spp, fsize, fspp = (int(a) for a in sys.argv[5:9])
@@ -47,7 +47,7 @@ _RENDERS = textwrap.dedent('''
     texture = {"type": "bitmap", "bitmap": mi.Bitmap(np.tile(np.array(kd, np.float32), (2, 2, 1))), "raw": True,
                "filter_type": "nearest"}
     res["texture"] = render_bsdf({"type": "lambert_sphere", "reflectance": texture}, light, size, spp, seed=1)
-    from fitlab.families.lambert_sphere.mitsuba_plugin import load_drjit_module
+    from fitlab.families.lambert_sphere.mitsuba.plugin import load_drjit_module
     c = [load_drjit_module().c_of_kd(v) for v in kd]
     res["albedo"] = render_bsdf({"type": "lambert_sphere", "albedo": {"type": "rgb", "value": c}}, light, size, spp, seed=1)
     # XML, with the plugin registered (render_bsdf did it in this variant)
@@ -64,7 +64,7 @@ _RENDERS = textwrap.dedent('''
         # the furnace in colour: the sampler follows the mean kd, each channel must still be its own albedo
         res["furnace_rgb"] = render_bsdf(rgb, None, fsize, fspp, seed=3)
         # mi.traverse: a grey sphere turned into the RGB one
-        from fitlab.families.lambert_sphere.render import sphere_scene
+        from fitlab.families.lambert_sphere.mitsuba.render import sphere_scene
         scene = sphere_scene({"type": "lambert_sphere", "reflectance": {"type": "rgb", "value": [0.5] * 3}}, light, size, spp)
         params = mi.traverse(scene)
         keys = [k for k in params.keys() if k.endswith("reflectance.value")]
@@ -295,7 +295,7 @@ def test_mitsuba_chi2_accepts_the_plugin_sampler(rendered):
 
 def test_plugin_errors_in_this_process():
     """One line for both parameters at once, a polarized variant, a module that is not generated Dr.Jit code."""
-    from fitlab.families.lambert_sphere.mitsuba_plugin import PluginError, load_drjit_module, register
+    from fitlab.families.lambert_sphere.mitsuba.plugin import PluginError, load_drjit_module, register
     from fitlab.resources import packaged_fits
 
     mi.set_variant("scalar_rgb")

@@ -10,7 +10,7 @@ import pytest
 
 mi = pytest.importorskip("mitsuba")
 
-from fitlab.families.lambert_sphere.render import (  # noqa: E402
+from fitlab.families.lambert_sphere.mitsuba.render import (  # noqa: E402
     chandrasekhar_albedo_c, _chandrasekhar_kd, oren_nayar, render_comparison, render_sphere,
 )  # fmt: skip
 
@@ -46,7 +46,7 @@ def _frame(n):
 def _expected_image(f_local, light, size, sub=6):
     """Pixel averages (and their spread) of f(wi, wo) cos(theta_i) (``f_local`` of local-frame wi, wo), unit
     irradiance toward ``light``, seen from +z, on sub x sub points per pixel (the renderer's camera)."""
-    from fitlab.families.lambert_sphere.render import pixel_geometry
+    from fitlab.families.lambert_sphere.mitsuba.render import pixel_geometry
 
     fine = pixel_geometry(size * sub).reshape(-1, 3)
     on = ~np.isnan(fine[:, 0])
@@ -66,8 +66,8 @@ def test_render_comparison_writes_png(tmp_path, monkeypatch):
     tests/test_mitsuba_plugin.py checks the plugin against the generated C), Mitsuba's diffuse against kd/pi."""
     import matplotlib.image
 
-    from fitlab.families.lambert_sphere import render
-    from fitlab.families.lambert_sphere.render import light_directions, pixel_geometry
+    from fitlab.families.lambert_sphere.mitsuba import render
+    from fitlab.families.lambert_sphere.mitsuba.render import light_directions, pixel_geometry
 
     size, spp, kd = 8, 16, 0.8
     panels = {}

@@ -15,7 +15,7 @@ import pytest
 from fitlab.codegen import build_program, emit, load_program
 from fitlab.codegen.native import build, build_glsl, compiler
 from fitlab.families.lambert_sphere.exact.sampling import MU_MIN, mixture_pdf, optimal_mixture, variance_function
-from fitlab.families.lambert_sphere.render import load_generated
+from fitlab.families.lambert_sphere.mitsuba.render import load_generated
 from fitlab.families.lambert_sphere.studies.sampling_variance import ISSUE_C, ISSUE_MU, monte_carlo_rows, variance_rows
 from fitlab.families.lambert_sphere.table_files import SAMPLING_FILES, read_sampling
 from fitlab.resources import packaged_fits, packaged_tables
@@ -180,7 +180,7 @@ _CHI2 = textwrap.dedent('''
     import mitsuba as mi
     mi.set_variant("llvm_ad_rgb")
     from mitsuba.chi2 import ChiSquareTest, SphericalDomain
-    from fitlab.families.lambert_sphere.render import load_generated
+    from fitlab.families.lambert_sphere.mitsuba.render import load_generated
     g = load_generated(sys.argv[1])
     out = []
     for c in (0.3, 0.9, 1.0):

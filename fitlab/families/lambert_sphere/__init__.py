@@ -28,7 +28,7 @@ MANIFEST = {
         "report": "report_methods",
         "tables": "tabulate",  # write_tables, check_tables, TABLE_FILES
         "audit": "audit",  # run_audit
-        "render": "render",  # check_generated, llvm_problem, render_comparison, RenderError
+        "render": "mitsuba.render",  # check_generated, llvm_problem, render_comparison, RenderError
         "simulate": "mc.simulate:SIMULATE",  # a fitlab.scenes.SimulateHook: the scene schema and the walk
         "bench": "bench",  # bench_exact, bench_codegen, bench_mc, bench_render
         "table_export": "table_export",  # generate, LANGUAGES, NODES, DEFAULT_NODES, DEFAULT_LOOKUP, ...

@@ -195,7 +195,7 @@ def bench_render(quick: bool = False, size: int | None = None, spp: int = 4, rep
     (it has nothing to compile, and the plugin's render takes seconds)."""
     from tqdm import tqdm
 
-    from fitlab.families.lambert_sphere.render import llvm_problem, sphere_scene, use_variant
+    from fitlab.families.lambert_sphere.mitsuba.render import llvm_problem, sphere_scene, use_variant
 
     size = size or (64 if quick else 256)
     problem = llvm_problem()

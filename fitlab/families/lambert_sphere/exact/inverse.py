@@ -12,7 +12,7 @@ __all__ = ["albedo_inverse", "solve_albedo"]
 def solve_albedo(kd_of_c, kd: float, lo: float = 0.0, hi: float = 1.0, xtol: float = 1e-13) -> float:
     """The particle albedo c in [lo, hi] with ``kd_of_c(c) == kd`` (Brent's method; the root must be
     bracketed): the inverse of any model's spherical albedo (:func:`albedo_inverse` for the Lambert
-    sphere's, :func:`fitlab.families.lambert_sphere.render.chandrasekhar_albedo_c` for Chandrasekhar's)."""
+    sphere's, :func:`fitlab.families.lambert_sphere.mitsuba.render.chandrasekhar_albedo_c` for Chandrasekhar's)."""
     return float(brentq(lambda c: kd_of_c(c) - kd, lo, hi, xtol=xtol))
 
 

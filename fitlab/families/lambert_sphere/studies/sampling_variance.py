@@ -139,7 +139,7 @@ def main(argv=None) -> int:
     p.add_argument("--fits", default=None, help="fits folder (default: the packaged fits)")
     p.add_argument("--out", default="docs", help="folder for sampling.md and sampling.json (default: docs)")
     args = p.parse_args(argv)
-    from fitlab.families.lambert_sphere.render import load_generated
+    from fitlab.families.lambert_sphere.mitsuba.render import load_generated
     from fitlab.resources import packaged_fits
 
     fits = Path(args.fits) if args.fits else packaged_fits()

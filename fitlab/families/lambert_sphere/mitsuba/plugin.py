@@ -4,7 +4,7 @@ r"""The Lambert-sphere BRDF as a registered Mitsuba 3 plugin, ``lambert_sphere``
 
     import mitsuba as mi
     mi.set_variant("llvm_ad_rgb")          # or scalar_rgb, cuda_ad_rgb, *_spectral, *_mono
-    from fitlab.families.lambert_sphere.mitsuba_plugin import register
+    from fitlab.families.lambert_sphere.mitsuba.plugin import register
     register()                             # the plugin "lambert_sphere" in the current variant
     bsdf = mi.load_dict({"type": "lambert_sphere", "reflectance": {"type": "rgb", "value": [0.8, 0.5, 0.2]}})
 

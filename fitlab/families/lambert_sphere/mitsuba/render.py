@@ -1,5 +1,5 @@
 r"""A real consumer of the generated code: Mitsuba 3 renders spheres with the registered ``lambert_sphere``
-plugin (:mod:`.mitsuba_plugin`, the generated Dr.Jit module), beside Lambert, Oren-Nayar and Chandrasekhar.
+plugin (:mod:`.plugin`, the generated Dr.Jit module), beside Lambert, Oren-Nayar and Chandrasekhar.
 
 Every material is vectorised with Dr.Jit, so that a render runs in ``llvm_ad_rgb`` (one kernel for the whole
 image) where Dr.Jit's LLVM backend works, and in ``scalar_rgb`` otherwise (:func:`resolve_variant`):
@@ -31,7 +31,7 @@ from tqdm import tqdm
 
 from fitlab._io import atomic_write_bytes
 from fitlab.families.lambert_sphere.exact import gauss_legendre, isotropic_characteristic, solve_albedo, solve_h
-from fitlab.families.lambert_sphere.mitsuba_plugin import PluginError, load_drjit_module, register
+from fitlab.families.lambert_sphere.mitsuba.plugin import PluginError, load_drjit_module, register
 
 __all__ = ["RenderError", "load_generated", "check_generated", "function_bsdf", "sphere_scene", "render_bsdf", "render_sphere",
            "render_comparison", "resolve_variant", "llvm_problem", "use_variant", "MATERIALS", "chandrasekhar_albedo_c",
