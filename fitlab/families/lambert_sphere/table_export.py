@@ -296,8 +296,10 @@ def stored_correction(nodes: int, data_dir: Path | None = None) -> np.ndarray:
     step = (full - 1) // (nc - 1)
     idx = np.arange(0, full, step)
     i, j = np.triu_indices(full)
-    out = np.zeros((TRUE_ORDERS, 9, full, full))
     s_all = np.unique(t["s"])
+    if not np.array_equal(s_all, np.arange(9) / 8.0):
+        raise ValueError(f"{data_dir / TRUE_FILE}: its s grid is not k/8, k = 0..8")
+    out = np.zeros((TRUE_ORDERS, s_all.size, full, full))
     base = t["fm0_three_term"]
     for m in range(TRUE_ORDERS):
         with np.errstate(divide="ignore", invalid="ignore"):
@@ -305,8 +307,6 @@ def stored_correction(nodes: int, data_dir: Path | None = None) -> np.ndarray:
         q = q.reshape(s_all.size, i.size)
         out[m][:, i, j] = q
         out[m][:, j, i] = q
-    if not np.array_equal(s_all, np.arange(9) / 8.0):
-        raise ValueError(f"{data_dir / TRUE_FILE}: its s grid is not k/8, k = 0..8")
     # s = 1: c = 0, both orders 0; the cubic through s = 4/8 .. 7/8 at s = 1 (Lagrange weights -1, 4, -6, 4)
     out[:, 8] = -out[:, 4] + 4 * out[:, 5] - 6 * out[:, 6] + 4 * out[:, 7]
     keep_s = np.arange(0, 9, 8 // (ns - 1))
