@@ -156,7 +156,7 @@ def test_the_reports_order2_row_is_the_default_model(monkeypatch):
     what is checked is which model each row asks for.)"""
     import sympy as sp
 
-    from fitlab.families.lambert_sphere import report_methods
+    from fitlab.families.lambert_sphere.report import methods as report_methods
     from fitlab.families.lambert_sphere.runtime import RuntimeModel
     from fitlab.report.methods import fit_inventory
 

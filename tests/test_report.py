@@ -20,7 +20,7 @@ from fitlab._io import atomic_write_many, temporary_name
 from fitlab.cli import main
 from fitlab.report import COLUMNS, QUICK, TIMING_COLUMNS, build_report, pareto_front, recommend, write_outputs
 from fitlab.report.methods import ReportError, brdf_methods, fit_inventory
-from fitlab.families.lambert_sphere.interpolation import h_interpolant, table_brdf
+from fitlab.families.lambert_sphere.report.spline_tables import h_interpolant, table_brdf
 from fitlab.report.validation import albedos
 
 # one worker runs the module: its tests share the quick reports and the programs they build (xdist_group)

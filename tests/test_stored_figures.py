@@ -35,7 +35,7 @@ import pytest
 import sympy as sp
 
 from fitlab.core import get_target, targets
-from fitlab.families.lambert_sphere.audit import TABLES_ROW
+from fitlab.families.lambert_sphere.report.audit import TABLES_ROW
 from fitlab.families.lambert_sphere.table_export import numpy_brdf
 from fitlab.forms.symbolic import lambdify_numpy, parse_expression, symbols
 from fitlab.store import decode_nonfinite, load
@@ -211,7 +211,7 @@ def test_audit_kd_against_three_term_albedo_is_recomputed(audit):
 
 @pytest.fixture(scope="module")
 def runtime_models():
-    from fitlab.families.lambert_sphere.audit import richer_forms
+    from fitlab.families.lambert_sphere.report.audit import richer_forms
     from fitlab.codegen import DEFAULT_FORMS
     from fitlab.families.lambert_sphere.runtime import PRESET_VARIANTS, runtime_model
     from fitlab.families.lambert_sphere.true_refit import true_runtime_model
@@ -274,7 +274,7 @@ def test_audit_runtime_true_rows_are_recomputed(audit, runtime_models):
     """The rows against the true BRDF: the runtime models and the mixed reference, recomputed on the true set."""
     from fitlab.families.lambert_sphere import datasets as d
     from fitlab.families.lambert_sphere import exact
-    from fitlab.families.lambert_sphere.audit import MIXED_ROW, TRUE_FLOOR_ROW
+    from fitlab.families.lambert_sphere.report.audit import MIXED_ROW, TRUE_FLOOR_ROW
 
     ds = d.brdf_validation("true")
     assert audit["runtime_true_grid"] == ds.grid
@@ -308,7 +308,7 @@ def test_audit_runtime_true_independent_rows_are_recomputed(audit, runtime_model
     BRDF, recomputed; the set's points are random, apart from every training lattice."""
     from fitlab.families.lambert_sphere import datasets as d
     from fitlab.families.lambert_sphere import exact
-    from fitlab.families.lambert_sphere.audit import MIXED_ROW
+    from fitlab.families.lambert_sphere.report.audit import MIXED_ROW
 
     ds = d.brdf_true_independent()
     assert audit["runtime_true_independent_grid"] == ds.grid
@@ -422,7 +422,7 @@ def test_summary_on_exact_zeros_and_nan():
 def test_model_doc_true_fit_table_quotes_the_audit(audit):
     """docs/model.md, "Parts fitted to the true BRDF": its table's figures are the audit's (docs/audit.json, which
     the tests above recompute), rounded to the three digits printed."""
-    from fitlab.families.lambert_sphere.audit import MIXED_ROW
+    from fitlab.families.lambert_sphere.report.audit import MIXED_ROW
     from fitlab.families.lambert_sphere.true_refit import TRUE_MODEL_NAME
 
     text = (ROOT / "docs" / "model.md").read_text()

@@ -11,7 +11,7 @@ import pytest
 import sympy as sp
 
 from fitlab.families.lambert_sphere import exact
-from fitlab.families.lambert_sphere.audit import directional_albedo
+from fitlab.families.lambert_sphere.report.audit import directional_albedo
 from fitlab.families.lambert_sphere.forms import ORDER2_PART, RUNTIME_PARTS, runtime_terms
 from fitlab.families.lambert_sphere.runtime import runtime_model
 from fitlab.families.lambert_sphere.true_refit import (

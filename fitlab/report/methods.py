@@ -2,7 +2,7 @@ r"""The catalogue: every way fitlab can evaluate a family's BRDF and its parts.
 
 The generic part lives here: the method records, the inventory of fit files,
 and the loops over the registered families; each family's ``report`` hook
-(for the Lambert sphere :mod:`fitlab.families.lambert_sphere.report_methods`)
+(for the Lambert sphere :mod:`fitlab.families.lambert_sphere.report.methods`)
 contributes what only it knows.
 
 BRDF level (:func:`brdf_methods`), each a numpy function of (mu_i, mu_o, phi, c, kd),
@@ -25,8 +25,8 @@ its generated C (:class:`CSpec`); for the Lambert sphere:
   not models of this material, the yardsticks of cost and of error.
 
 The exact engine and Monte Carlo are measured apart, by the family
-(:func:`brdf_hook`; for the Lambert sphere :mod:`fitlab.families.lambert_sphere.report_exact`
-and :mod:`fitlab.families.lambert_sphere.report_montecarlo`).  Part level (:func:`part_methods`): the
+(:func:`brdf_hook`; for the Lambert sphere :mod:`fitlab.families.lambert_sphere.report.exact_engine`
+and :mod:`fitlab.families.lambert_sphere.report.montecarlo`).  Part level (:func:`part_methods`): the
 family's own methods of a target (for the Lambert sphere the tables and, for
 H0 and H1, the Fock method of the exact engine), then the target's published
 presets and every fit file, all measured on the target's validation set.
@@ -125,7 +125,7 @@ def report_hooks() -> dict:
     """family name -> what its ``report`` hook returns: an object (a module) with REQUIRED_FITS, PARTS,
     PRESET_VARIANTS, tables_dir, brdf_methods, part_extras, preset_records and check_tables, and, for the
     family whose BRDF the report measures, exact_brdf, exact_kd, EXACT_SOURCES, SOURCES and the exact engine's
-    and Monte Carlo's measurements (:mod:`fitlab.families.lambert_sphere.report_methods` lists them)."""
+    and Monte Carlo's measurements (:mod:`fitlab.families.lambert_sphere.report.methods` lists them)."""
     return {name: resolve_hook(name, "report") for name, f in families().items() if "report" in f.hooks}
 
 

@@ -25,9 +25,9 @@ MANIFEST = {
                 "sample_weight", "sample_exponent"),
     "hooks": {
         "brdf_grid": "grids:brdf_grid()",
-        "report": "report_methods",
+        "report": "report.methods",
         "tables": "tabulate",  # write_tables, check_tables, TABLE_FILES
-        "audit": "audit",  # run_audit
+        "audit": "report.audit",  # run_audit
         "render": "mitsuba.render",  # check_generated, llvm_problem, render_comparison, RenderError
         "simulate": "mc.simulate:SIMULATE",  # a fitlab.scenes.SimulateHook: the scene schema and the walk
         "bench": "bench",  # bench_exact, bench_codegen, bench_mc, bench_render

@@ -10,8 +10,8 @@ module, for what only the family knows:
   whole-BRDF ``fast_brdf``, which is measured as a BRDF);
 * :data:`PRESET_VARIANTS`: the published runtime preset sets;
 * :func:`brdf_methods`: the BRDF-level catalogue (tables, published presets,
-  refits, the order-2 model of :data:`.runtime.ORDER2_FORMS` (its parts fitted to the mixed reference, and to the
-  true BRDF: :mod:`.true_refit`), richer and discovered forms, the fast variant, the baselines);
+  refits, the order-2 model of :data:`..runtime.ORDER2_FORMS` (its parts fitted to the mixed reference, and to the
+  true BRDF: :mod:`..true_refit`), richer and discovered forms, the fast variant, the baselines);
 * :func:`part_extras`: the part-level methods beyond presets and fit files
   (the exact engine's Fock method for H0 and H1, the tables);
 * :func:`preset_records`: a preset set as fit records, for codegen;
@@ -20,9 +20,9 @@ module, for what only the family knows:
   BRDF validation set (the material's BRDF: the whole phase function) with the sources its cache key hashes;
 * the paper's three-term model and the mixed reference as BRDF methods (:data:`REFERENCES`), measured
   against the material's BRDF like every other method;
-* the exact engine and Monte Carlo as methods (:mod:`.report_exact`:
+* the exact engine and Monte Carlo as methods (:mod:`.exact_engine`:
   :func:`h_convergence`, :func:`exact_brdf_cost`, :func:`engine_agreement`, :func:`doubling_agreement`,
-  :func:`time_to_error`; :mod:`.report_montecarlo`: :func:`mc_study`,
+  :func:`time_to_error`; :mod:`.montecarlo`: :func:`mc_study`,
   :func:`mc_time_to_error`).
 """
 
@@ -41,17 +41,17 @@ from fitlab.families.lambert_sphere.bench import baseline_program, random_inputs
 from fitlab.families.lambert_sphere.exact import albedo, brdf, h_function, spherical_albedo
 from fitlab.families.lambert_sphere.forms import ORDER2_PART, RUNTIME_PARTS
 from fitlab.families.lambert_sphere.forms.baselines import BASELINE_INPUTS, LAMBERT, oren_nayar
-from fitlab.families.lambert_sphere.interpolation import kd_interpolant, table_brdf, table_part
-from fitlab.families.lambert_sphere.interpolation import memory_bytes as spline_bytes
-from fitlab.families.lambert_sphere.report_exact import (
+from fitlab.families.lambert_sphere.report.spline_tables import kd_interpolant, table_brdf, table_part
+from fitlab.families.lambert_sphere.report.spline_tables import memory_bytes as spline_bytes
+from fitlab.families.lambert_sphere.report.exact_engine import (
     doubling_agreement,
     engine_agreement,
     exact_brdf_cost,
     h_convergence,
     time_to_error,
 )
-from fitlab.families.lambert_sphere.report_montecarlo import mc_study, mc_time_to_error
-from fitlab.families.lambert_sphere.report_settings import BRDF_INPUTS, BRDF_MATERIAL, BRDF_POINT, REPORT_SETTINGS
+from fitlab.families.lambert_sphere.report.montecarlo import mc_study, mc_time_to_error
+from fitlab.families.lambert_sphere.report.settings import BRDF_INPUTS, BRDF_MATERIAL, BRDF_POINT, REPORT_SETTINGS
 from fitlab.families.lambert_sphere.runtime import FAMILY_NAME, PRESET_VARIANTS, directional_albedo, runtime_model
 from fitlab.families.lambert_sphere.table_files import check_tables, tables_dir
 from fitlab.families.lambert_sphere.targets import TARGETS
@@ -72,7 +72,7 @@ FAST = "fast_brdf"
 REQUIRED_FITS = (*RUNTIME_PARTS, ORDER2_PART, *MAPS, FAST)
 PARTS = tuple(name for name in TARGETS if name != FAST)
 #: the exact engine's sources: the report's cache of exact values is keyed on them
-EXACT_SOURCES = Path(__file__).resolve().parent / "exact"
+EXACT_SOURCES = Path(__file__).resolve().parents[1] / "exact"
 #: what the report's exact-engine and Monte Carlo rows measured (their "source" column)
 SOURCES = {
     "exact": "fitlab.families.lambert_sphere.exact.brdf (phase 'true': the whole phase function)",
@@ -230,7 +230,7 @@ def brdf_methods(fits_dir: Path, entries: list, data_dir: Path, preset_c: tuple 
     out = []
     for order2, name in ((False, "tables, runtime model"), (True, "tables, three orders")):
         f = table_brdf(data_dir, order2=order2)
-        out.append(BrdfMethod(name, "tables", "data/*.csv with splines (fitlab.families.lambert_sphere.interpolation)",
+        out.append(BrdfMethod(name, "tables", "data/*.csv with splines (fitlab.families.lambert_sphere.report.spline_tables)",
                               lambda mi, mo, ph, c, kd, f=f: f(mi, mo, ph, c),
                               bytes=float(spline_bytes(data_dir, order2))))  # fmt: skip
     out += _exported_tables(data_dir)

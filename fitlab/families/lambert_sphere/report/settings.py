@@ -1,7 +1,7 @@
 r"""The Lambert sphere's settings of ``fitlab report`` (moved from :mod:`fitlab.report.settings`, which knows
 no family): how hard the report measures the family's exact engine and Monte Carlo, by the generic settings'
 name (:data:`REPORT_SETTINGS`: "full", "quick"), and the BRDF's signature (:data:`BRDF_INPUTS`).  The report
-hook (:mod:`.report_methods`) gives them to the report (:class:`fitlab.core.BrdfReportHook`).
+hook (:mod:`.methods`) gives them to the report (:class:`fitlab.core.BrdfReportHook`).
 """
 
 from __future__ import annotations

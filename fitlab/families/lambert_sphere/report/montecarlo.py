@@ -52,7 +52,7 @@ batch = {min(paths, 200_000)}
 
 def mc_study(settings, tick=None, seed: int = 2021) -> list[dict]:
     """One dict per path count: values, max_rel, rms_rel, se_rms, seconds, compile_seconds, ns_per_value.
-    ``settings``: the family's report settings (:class:`.report_settings.EngineSettings`); ``seed``: the
+    ``settings``: the family's report settings (:class:`.settings.EngineSettings`); ``seed``: the
     report's (:attr:`fitlab.report.Settings.seed`)."""
     from fitlab.families.lambert_sphere.mc.simulate import simulate
 
