@@ -9,7 +9,7 @@ and plots.
   approximation there, and the error in the target's own measure (relative to
   |exact|; to A = 69c/128 for B, C, D, F; to f^(0) for fm1).
 * ``brdf_residuals(model, mu_i=..., mu_o=..., phi=..., c=...)``: the same for
-  a model of the whole BRDF (:func:`fitlab.families.lambert_sphere.runtime.runtime_model`) against
+  a model of the whole BRDF (:func:`fitlab.families.lambert_sphere.program.runtime.runtime_model`) against
   :func:`fitlab.families.lambert_sphere.exact.brdf`, relative to |exact|.
 * :class:`Residuals`: the grid with ``worst(n)``, ``table(n)``, ``summary()``
   and ``at(c=0.9)`` (the slice at the nearest grid value).

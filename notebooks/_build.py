@@ -531,7 +531,7 @@ BRDF = [
     md(r"""
 # The full BRDF: the runtime model and the fast variant
 
-`fitlab.families.lambert_sphere.runtime.runtime_model` assembles the runtime BRDF (docs/model.md),
+`fitlab.families.lambert_sphere.program.runtime.runtime_model` assembles the runtime BRDF (docs/model.md),
 $f_r = \max(0, f_1 + f_m^{(0)} + f_m^{(1)}\cos\phi + f_m^{(2)}\cos 2\phi)$: exact single scattering with the true
 phase function plus the multiple scattering of Fourier orders 0, 1 and 2 built from approximations of $H_0$, $H_1$,
 $H_2$, $l$, $m$, $B..F$ (the fitted models also carry an energy scale that keeps their albedo at or below 1).
@@ -561,7 +561,7 @@ $\phi = 0$ is back-scattering (the viewer beside the light).
 from fitlab.families.lambert_sphere.exact import brdf
 from fitlab.store import load
 from fitlab.residuals import brdf_residuals, heatmap, residuals
-from fitlab.families.lambert_sphere.runtime import runtime_model
+from fitlab.families.lambert_sphere.program.runtime import runtime_model
 '''),
     code('''
 RICHER = {"H0": "hapke_rational", "l": "cubic", "m": "quadratic", **{n: "rational_4_3" for n in "BCDF"}}
@@ -753,7 +753,7 @@ from fitlab.codegen import generate, load_program, model_form, write_generated
 from fitlab.codegen.native import STRICT_FLAGS, CompileError, build, compiler
 from fitlab.core import get_target, targets
 from fitlab.families.lambert_sphere.exact import brdf, h_function
-from fitlab.families.lambert_sphere.runtime import runtime_model
+from fitlab.families.lambert_sphere.program.runtime import runtime_model
 from fitlab.fit.refit import refit, table
 from fitlab.fit.verify import TOLERANCE
 from fitlab.store import fit_path, fit_sha256, fit_source, load, write_fit

@@ -37,8 +37,8 @@ def _boom(*args, **kwargs):
 
 # command -> (argv without --out, [(module, attribute) of its core functions])
 COMMANDS = {
-    "tabulate": (["tabulate", "--quiet"], [("fitlab.families.lambert_sphere.tabulate", "write_tables"),
-                                           ("fitlab.families.lambert_sphere.tabulate", "build_tables")]),
+    "tabulate": (["tabulate", "--quiet"], [("fitlab.families.lambert_sphere.targets.tabulate", "write_tables"),
+                                           ("fitlab.families.lambert_sphere.targets.tabulate", "build_tables")]),
     "refit": (["refit", "--target", "l", "--quiet", "--fits", str(FITS)], [("fitlab.fit.refit", "refit"),
                                                                           ("fitlab.fit.refit", "timed_refit")]),
     "refit --all": (["refit", "--all", "--quiet"],
@@ -64,7 +64,8 @@ def guarded(monkeypatch):
     imported it by name (the command modules are imported first, so each binds the real function)."""
     import importlib
 
-    from fitlab.cli import COMMANDS as NAMES, command_module
+    from fitlab.cli import COMMANDS as NAMES
+    from fitlab.cli import command_module
 
     commands = [command_module(n) for n in NAMES]
     for _, cores in COMMANDS.values():
@@ -285,7 +286,7 @@ def test_codegen_writes_all_files_or_none(tmp_path, monkeypatch, capsys):
 
 
 def test_tabulate_writes_all_tables_or_none(tmp_path, monkeypatch):
-    import fitlab.families.lambert_sphere.tabulate as tabulate
+    import fitlab.families.lambert_sphere.targets.tabulate as tabulate
     from fitlab.store import Table
 
     out = tmp_path / "data" / "lambert_sphere"

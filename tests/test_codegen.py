@@ -1,7 +1,7 @@
 """Generated code: reproducible, compiles clean, agrees with the JAX forms, finite everywhere.
 
 The reference for every comparison is the JAX function lambdified from the same
-fits through fitlab.forms / fitlab.families.lambert_sphere.runtime (not through codegen's printers).
+fits through fitlab.forms / fitlab.families.lambert_sphere.program.runtime (not through codegen's printers).
 """
 
 from __future__ import annotations
@@ -18,17 +18,15 @@ import jax
 import numpy as np
 import pytest
 
-from fitlab.codegen import build_program, generate, load_program, parse_terms, stable
+from fitlab.codegen import build_program, generate, load_program, parse_terms, program_spec, stable
 from fitlab.codegen.emit import emit
 from fitlab.codegen.native import STRICT_FLAGS, build, build_glsl, compiler
-from fitlab.core import float64
-from fitlab.codegen import program_spec
-from fitlab.core import get_target
-from fitlab.store import fit_path, load
+from fitlab.core import float64, get_target
+from fitlab.families.lambert_sphere.program.rewrites import POLE_FLOOR
+from fitlab.families.lambert_sphere.program.rewrites import stable as lambert_stable
+from fitlab.families.lambert_sphere.program.runtime import energy_scale, runtime_model
 from fitlab.forms.symbolic import lambdify_jax, symbols
-from fitlab.families.lambert_sphere.rewrites import POLE_FLOOR
-from fitlab.families.lambert_sphere.rewrites import stable as lambert_stable
-from fitlab.families.lambert_sphere.runtime import energy_scale, runtime_model
+from fitlab.store import fit_path, load
 
 ROOT = Path(__file__).resolve().parents[1]
 FITS = ROOT / "fitlab" / "fits"
@@ -246,7 +244,7 @@ def test_parts_agree_with_their_fits(native, py, inputs, target, routine):
     args = tuple(np.concatenate([a, [0.0, 1e-12, 1e-6, 0.5, 1.0]]) for a in args)
     ref = np.asarray(jax_reference(fit.expression, fit.inputs)(*args))
     # the generated parts are rewritten to avoid cancellation near c = 0 and kd = 0 (the family's rewrites,
-    # fitlab.families.lambert_sphere.rewrites):
+    # fitlab.families.lambert_sphere.program.rewrites):
     # they agree with the JAX form to 1e-12 of the form's scale, and with the rewritten form to 1e-12
     scale = np.abs(ref).max()
     assert np.abs(native(routine, *args) - ref).max() < 1e-12 * scale

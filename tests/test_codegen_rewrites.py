@@ -66,8 +66,8 @@ def test_a_program_with_its_own_rewrite_gets_it_applied(toy_families):
 
 
 def test_the_lambert_rewrite_is_not_applied_to_another_familys_program(toy_families):
-    from fitlab.families.lambert_sphere.rewrites import ALBEDO_ZERO, REWRITES
-    from fitlab.families.lambert_sphere.rewrites import stable as lambert_stable
+    from fitlab.families.lambert_sphere.program.rewrites import ALBEDO_ZERO, REWRITES
+    from fitlab.families.lambert_sphere.program.rewrites import stable as lambert_stable
 
     assert program_spec("toy_plain").rewrites == STABLE and ALBEDO_ZERO not in STABLE
     program = build_program({"toy_plain_t": _fit("toy_plain_t")}, family="toy_plain")
@@ -87,7 +87,7 @@ def test_the_lambert_rewrites_are_optimisations_that_keep_the_old_order():
     (one minus squares, then 1 - sqrt(1 - c), then 1 - (1 - x)^p)."""
     from sympy.codegen.rewriting import Optimization
 
-    from fitlab.families.lambert_sphere.rewrites import FLOOR_POLES, POLE_FLOOR, REWRITES, azimuth_to_cosine
+    from fitlab.families.lambert_sphere.program.rewrites import FLOOR_POLES, POLE_FLOOR, REWRITES, azimuth_to_cosine
 
     assert all(isinstance(o, Optimization) for o in REWRITES)
     mu_i, mu_o, phi, cos_phi = (sp.Symbol(n, real=True) for n in ("mu_i", "mu_o", "phi", "cos_phi"))

@@ -24,7 +24,7 @@ import pytest
 
 from fitlab.cli import main
 from fitlab.codegen import generate, load_program, model_form, program_spec, unused_fits
-from fitlab.families.lambert_sphere.runtime import runtime_model
+from fitlab.families.lambert_sphere.program.runtime import runtime_model
 from fitlab.fit.refit import refit
 from fitlab.fit.verify import TOLERANCE, measure_fit
 from fitlab.resources import packaged_fits
@@ -156,8 +156,8 @@ def test_the_reports_order2_row_is_the_default_model(monkeypatch):
     what is checked is which model each row asks for.)"""
     import sympy as sp
 
+    from fitlab.families.lambert_sphere.program.runtime import RuntimeModel
     from fitlab.families.lambert_sphere.report import methods as report_methods
-    from fitlab.families.lambert_sphere.runtime import RuntimeModel
     from fitlab.report.methods import fit_inventory
 
     asked = []

@@ -149,7 +149,7 @@ def test_printed_normalisation_halves_fm1():
     # eqs. 22 and 28 as printed (6 pi, 384 pi) give exactly half the corrected fm1;
     # fm1 = (g(phi=0) - g(pi) - (f_1(0) - f_1(pi)))/2 of the unclamped sum g
     from fitlab.families.lambert_sphere.forms.brdf import SINGLE, c, mu_i, mu_o, phi
-    from fitlab.families.lambert_sphere.runtime import PRESET_VARIANTS
+    from fitlab.families.lambert_sphere.program.runtime import PRESET_VARIANTS
 
     choice, _ = PRESET_VARIANTS["paper"]
     parts = {p: get_form(p, f).substituted(pr) for p, (f, pr) in choice.items()}

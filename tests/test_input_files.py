@@ -103,7 +103,7 @@ def test_read_regular_file_checks_type_and_size(tmp_path):
 # -- scenes -----------------------------------------------------------------------------------------
 def _scene_readers():
     from fitlab.families.lambert_sphere.mc import scene as mc_scene
-    from fitlab.families.microfacet_energy.microsurface import scene as microsurface_scene
+    from fitlab.families.microfacet_energy.mc import scene as microsurface_scene
 
     return {"lambert_sphere": mc_scene, "microfacet_energy": microsurface_scene}
 

@@ -6,7 +6,7 @@ from scipy import integrate, optimize, stats
 
 import fitlab  # noqa: F401
 from fitlab.families.lambert_sphere.exact import LEGENDRE_A, phase_function, three_term_phase_function
-from fitlab.families.lambert_sphere.mc.sampling import (
+from fitlab.families.lambert_sphere.mc.phase_sampling import (
     MIX,
     THREE_TERM_NORM,
     U1,
@@ -127,7 +127,7 @@ def test_mixture_sampler_follows_its_density_and_the_variance_limits():
     (scipy quad, independent of the sampler); the per-collision second moments E_q[(p/q)^2],
     E_q[(p3/q)^2] and E_q[((p - p3)/q)^2] from the samples against scipy quad; and the module's
     MIXTURE_SECOND_MOMENTS (which set C_LIMIT['both']) against the same quad."""
-    from fitlab.families.lambert_sphere.mc.sampling import C_LIMIT, MIXTURE_SECOND_MOMENTS, sample_mixture
+    from fitlab.families.lambert_sphere.mc.phase_sampling import C_LIMIT, MIXTURE_SECOND_MOMENTS, sample_mixture
 
     def q(t):
         return float(mixture_density(t))

@@ -225,7 +225,7 @@ def test_seed_has_one_rule_for_the_scene_and_the_command_line():
 def test_c_where_the_estimator_has_infinite_variance_is_refused():
     """Three-term walk: c > 1/N (kd = 1 too) refused with the reason; 1/N itself and the true phase
     function at c = 1 are accepted; the phase_difference walk has its own, lower limit."""
-    from fitlab.families.lambert_sphere.mc.sampling import C_LIMIT
+    from fitlab.families.lambert_sphere.mc.phase_sampling import C_LIMIT
 
     msg = _error(GOOD.replace("c = 0.9\n", "c = 1.0\n"))
     assert msg.startswith("s.toml:8: material[1].c: c = 1 > 1/N = 0.999473: ") and len(msg.splitlines()) == 1

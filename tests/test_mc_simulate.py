@@ -265,8 +265,8 @@ def test_one_path_budget_limit_for_every_family_and_the_command_line(tmp_path, c
     of --max-paths say it (the Lambert sphere's scenes used to allow 2^40, the microsurface's 2^32)."""
     from fitlab._montecarlo import MAX_PATHS
     from fitlab.families.lambert_sphere.mc.scene import LIMITS as SPHERE
-    from fitlab.families.microfacet_energy.microsurface.scene import LIMITS as MICROSURFACE
-    from fitlab.families.microfacet_energy.microsurface.scene import parse_scene as parse_microsurface
+    from fitlab.families.microfacet_energy.mc.scene import LIMITS as MICROSURFACE
+    from fitlab.families.microfacet_energy.mc.scene import parse_scene as parse_microsurface
 
     assert MAX_PATHS == 2**32 and SPHERE["max_paths"] == MICROSURFACE["max_paths"] == (1000, MAX_PATHS)
     with pytest.raises(SystemExit):

@@ -14,8 +14,14 @@ import numpy as np
 import pytest
 
 import fitlab  # noqa: F401
-from fitlab.families.lambert_sphere.exact import albedo, brdf_modes, multiple_scattering_modes, single_scattering_albedo, spherical_albedo
-from fitlab.families.lambert_sphere.exact import three_term_phase_function
+from fitlab.families.lambert_sphere.exact import (
+    albedo,
+    brdf_modes,
+    multiple_scattering_modes,
+    single_scattering_albedo,
+    spherical_albedo,
+    three_term_phase_function,
+)
 from fitlab.families.lambert_sphere.mc.transport import WalkConfig, run_round
 
 EDGES = (0.0, 0.25, 0.5, 0.75, 1.0)
@@ -249,7 +255,7 @@ def test_c_above_one_over_n_is_refused_for_the_three_term_walk():
     """The three-term walk's weights have modulus (c N)^n: bounded by 1 up to c = 1/N, with an
     infinite mean and variance beyond (the analysis in docs/montecarlo.md); just below 1/N the
     estimate is right, above it run_round refuses before any work."""
-    from fitlab.families.lambert_sphere.mc.sampling import C_LIMIT, THREE_TERM_NORM
+    from fitlab.families.lambert_sphere.mc.phase_sampling import C_LIMIT, THREE_TERM_NORM
 
     assert C_LIMIT["three_term"] == pytest.approx(1 / THREE_TERM_NORM, rel=1e-15)
     with pytest.raises(ValueError, match="infinite mean and variance"):

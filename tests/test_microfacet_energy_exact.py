@@ -12,7 +12,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from fitlab.families.microfacet_energy import tabulate
 from fitlab.families.microfacet_energy.exact import (
     GGX_MODELS,
     MODEL_NAMES,
@@ -33,6 +32,7 @@ from fitlab.families.microfacet_energy.exact import (
     smith_g2,
     smith_lambda,
 )
+from fitlab.families.microfacet_energy.targets import tabulate
 from fitlab.store import read_table
 
 DATA = Path(__file__).resolve().parents[1] / "fitlab" / "data" / "microfacet_energy"

@@ -1,5 +1,5 @@
-"""The energy-compensation study (fitlab.families.microfacet_energy.study): its texture read and its furnace
-are checked on identities, at sizes small enough for the suite."""
+"""The energy-compensation study (fitlab.families.microfacet_energy.studies.energy_compensation): its texture read
+and its furnace are checked on identities, at sizes small enough for the suite."""
 
 from __future__ import annotations
 

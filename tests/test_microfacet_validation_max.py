@@ -1,6 +1,6 @@
 """The microfacet validation sets find each fit's maximum error (issue 31, item 9).
 
-Before the small-mu and dense grazing lines (fitlab.families.microfacet_energy.datasets), the validation
+Before the small-mu and dense grazing lines (fitlab.families.microfacet_energy.targets.datasets), the validation
 maxima of one_minus_E_ggx_cor, one_minus_E_ggx_sep and E_ggx_cor were below the true maxima: an adaptive
 search from the set's worst points found 4.6, 1.05 and 1.05 times the set's maximum.  Here the search
 (:func:`fitlab.fit.search.search_worst`, which climbs over the exact engine) must not find more than 5 %
@@ -14,9 +14,9 @@ import numpy as np
 import pytest
 
 from fitlab.core import Dataset, Input, Target, get_target
+from fitlab.families.microfacet_energy.targets import datasets
 from fitlab.fit.search import search_worst
 from fitlab.fit.verify import measure_fit
-from fitlab.families.microfacet_energy import datasets
 from fitlab.resources import packaged_fits
 from fitlab.store import load
 

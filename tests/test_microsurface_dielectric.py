@@ -6,7 +6,7 @@ engine, their limits and the BTDF's generalised reciprocity; energy conserved pa
 sharded over several host devices gives the paths of one device.
 
 Small budgets (a compiled walk configuration costs a few seconds and is shared through fixtures);
-the large budgets are ``python -m fitlab.families.microfacet_energy.microsurface.validation``
+the large budgets are ``python -m fitlab.families.microfacet_energy.studies.microsurface_validation``
 (tests/test_microsurface_dielectric.py::test_validation_study, a benchmark)."""
 
 from __future__ import annotations
@@ -27,10 +27,9 @@ from hypothesis import strategies as st
 
 from fitlab.core import float64
 from fitlab.families.microfacet_energy.exact import dielectric_factor, directional_albedo, fresnel_dielectric
-from fitlab.families.microfacet_energy.microsurface import SceneError, parse_scene, simulate
-from fitlab.families.microfacet_energy.microsurface.fresnel import dielectric
-from fitlab.families.microfacet_energy.microsurface.microsurface import refract
-from fitlab.families.microfacet_energy.microsurface.reference import (
+from fitlab.families.microfacet_energy.mc import SceneError, parse_scene, simulate
+from fitlab.families.microfacet_energy.mc.microsurface import refract
+from fitlab.families.microfacet_energy.mc.reference import (
     albedo_single,
     bin_average_diffuse,
     bin_average_single,
@@ -41,9 +40,10 @@ from fitlab.families.microfacet_energy.microsurface.reference import (
     order_one_by_normals,
     transmission_g2,
 )
-from fitlab.families.microfacet_energy.microsurface.scene import Material
-from fitlab.families.microfacet_energy.microsurface.simulate import count_p_value, job_config
-from fitlab.families.microfacet_energy.microsurface.walk import MaterialParams, WalkConfig, job_key, run_round
+from fitlab.families.microfacet_energy.mc.scene import Material
+from fitlab.families.microfacet_energy.mc.simulate import count_p_value, job_config
+from fitlab.families.microfacet_energy.mc.walk import MaterialParams, WalkConfig, job_key, run_round
+from fitlab.families.microfacet_energy.mc.walk_fresnel import dielectric
 
 ROOT = Path(__file__).resolve().parents[1]
 Z_MAX = 4.0
@@ -408,7 +408,7 @@ def test_dielectric_scene_rules():
 
 _SHARD_SCRIPT = """
 import json, numpy as np, jax
-from fitlab.families.microfacet_energy.microsurface.walk import MaterialParams, WalkConfig, job_key, run_round
+from fitlab.families.microfacet_energy.mc.walk import MaterialParams, WalkConfig, job_key, run_round
 cfg = WalkConfig(kind="dielectric", orders=2, mu_edges=(0.0, 0.5, 1.0), phi_edges=(0.0, 2.0, 3.14159265),
                  slots=64, transmission_lobe=True)
 r = run_round(cfg, job_key(5, 1, 2), MaterialParams(0.5, 0.7, eta=1.5), 0.6, 1_000, 5_001)
@@ -439,7 +439,7 @@ def test_sharded_over_four_host_devices_gives_the_same_paths():
 @pytest.mark.benchmark
 def test_validation_study():
     """Order 1 against the references at large budgets, every case (max |z|, RMS z); prints the table."""
-    from fitlab.families.microfacet_energy.microsurface.validation import format_table, run_validation
+    from fitlab.families.microfacet_energy.studies.microsurface_validation import format_table, run_validation
 
     rows = run_validation(paths=2_000_000, progress=True)
     print(format_table(rows))

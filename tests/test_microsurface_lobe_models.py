@@ -19,11 +19,11 @@ from hypothesis import strategies as st
 
 from fitlab.codegen.native import STRICT_FLAGS, build, compiler
 from fitlab.core import float64, get_target, targets
-from fitlab.families.microfacet_energy.lobes import program as lp
-from fitlab.families.microfacet_energy.lobes import runtime
 from fitlab.families.microfacet_energy.lobes.fitting import bin_averages_numpy, fit_lobes
 from fitlab.families.microfacet_energy.lobes.shapes import PER_LOBE_FORMS, per_lobe_form
 from fitlab.families.microfacet_energy.lobes.tables import solid_angles
+from fitlab.families.microfacet_energy.program import runtime
+from fitlab.families.microfacet_energy.program import spec as lp
 
 ROOT = Path(__file__).resolve().parents[1]
 GENERATED = ROOT / "fitlab" / "fits" / "generated"
@@ -410,8 +410,8 @@ def test_stored_study_figures_are_recomputed():
     from the committed tables and fits (a stale document fails)."""
     import json
 
-    from fitlab.families.microfacet_energy.lobes import study
     from fitlab.families.microfacet_energy.lobes import tables as lt
+    from fitlab.families.microfacet_energy.studies import lobes as study
 
     stored = json.loads(STUDY_JSON.read_text())["accuracy"]["diffuse"]
     t = lt.read_lobes(lt_folder(), "diffuse", "validation")
@@ -422,14 +422,14 @@ def test_stored_study_figures_are_recomputed():
 
 
 def lt_folder():
-    from fitlab.families.microfacet_energy.datasets import tables_dir
+    from fitlab.families.microfacet_energy.targets.datasets import tables_dir
 
     return tables_dir()
 
 
 @pytest.mark.benchmark
 def test_the_study_runs_and_writes_its_document(tmp_path):
-    from fitlab.families.microfacet_energy.lobes import study
+    from fitlab.families.microfacet_energy.studies import lobes as study
 
     assert study.main(["--out", str(tmp_path)]) == 0
     text = (tmp_path / "microsurface_lobes.md").read_text()

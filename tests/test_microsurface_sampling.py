@@ -15,8 +15,8 @@ from scipy.optimize import brentq
 from scipy.special import erfc, erfinv
 
 from fitlab.core import float64
-from fitlab.families.microfacet_energy.microsurface.microsurface import sample_vndf
-from fitlab.families.microfacet_energy.microsurface.walk import job_key, threefry_2x32_unrolled
+from fitlab.families.microfacet_energy.mc.microsurface import sample_vndf
+from fitlab.families.microfacet_energy.mc.walk import job_key, threefry_2x32_unrolled
 
 
 @float64

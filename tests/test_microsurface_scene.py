@@ -8,9 +8,9 @@ from pathlib import Path
 import pytest
 
 import fitlab
-from fitlab.families.microfacet_energy.microsurface import SceneError, load_scene, parse_scene
-from fitlab.families.microfacet_energy.microsurface.scene import with_overrides
-from fitlab.families.microfacet_energy.microsurface.simulate import simulate_file
+from fitlab.families.microfacet_energy.mc import SceneError, load_scene, parse_scene
+from fitlab.families.microfacet_energy.mc.scene import with_overrides
+from fitlab.families.microfacet_energy.mc.simulate import simulate_file
 
 GOOD = """
 [scene]

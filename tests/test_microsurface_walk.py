@@ -23,12 +23,12 @@ import pytest
 
 from fitlab.core import float64
 from fitlab.families.microfacet_energy.exact import directional_albedo, fresnel_conductor, fresnel_schlick, ggx_brdf
-from fitlab.families.microfacet_energy.microsurface import parse_scene, simulate
-from fitlab.families.microfacet_energy.microsurface.fresnel import conductor, schlick
-from fitlab.families.microfacet_energy.microsurface.microsurface import sample_vndf, smith_lambda
-from fitlab.families.microfacet_energy.microsurface.reference import bin_average_single, ndf, single_scattering_brdf
-from fitlab.families.microfacet_energy.microsurface.simulate import count_p_value, job_config
-from fitlab.families.microfacet_energy.microsurface.walk import MaterialParams, job_key, run_round
+from fitlab.families.microfacet_energy.mc import parse_scene, simulate
+from fitlab.families.microfacet_energy.mc.microsurface import sample_vndf, smith_lambda
+from fitlab.families.microfacet_energy.mc.reference import bin_average_single, ndf, single_scattering_brdf
+from fitlab.families.microfacet_energy.mc.simulate import count_p_value, job_config
+from fitlab.families.microfacet_energy.mc.walk import MaterialParams, job_key, run_round
+from fitlab.families.microfacet_energy.mc.walk_fresnel import conductor, schlick
 
 Z_MAX = 4.0
 
@@ -341,7 +341,7 @@ def test_throughput_report():
     """Bounces and paths per second of every walk on this machine, the blog's job extrapolated, and the walk
     on every CPU core as forced host devices (``fitlab bench mc --family microfacet_energy``; a report, not
     a timed assertion)."""
-    from fitlab.families.microfacet_energy.microsurface.bench import CASES, bench_mc
+    from fitlab.families.microfacet_energy.bench import CASES, bench_mc
 
     r = bench_mc(quick=False)
     for case in CASES:

@@ -30,7 +30,7 @@ out["params"] = res.record["params"]
 out["theta_dtype"] = str(np.asarray(res.fit.theta).dtype)
 out["dtype_after_refit"] = str(jnp.ones(1).dtype)
 
-from fitlab.families.lambert_sphere.mc.sampling import p_true
+from fitlab.families.lambert_sphere.mc.phase_sampling import p_true
 from fitlab.families.lambert_sphere.mc.transport import WalkConfig, run_round
 
 out["p_true_dtype"] = str(p_true(np.linspace(-1.0, 1.0, 5)).dtype)

@@ -6,7 +6,7 @@ Models under test, all as f(mu_i, mu_o, phi, c) in 1/sr:
   in every collision; the three-term H-function engine, phase "mixed", where a property is checked
   over many albedos);
 * ``paper_printed``, ``paper``, ``renderer``: the preset runtime models,
-  :func:`fitlab.families.lambert_sphere.runtime.runtime_model` (variant);
+  :func:`fitlab.families.lambert_sphere.program.runtime.runtime_model` (variant);
 * ``refit``: the runtime model of the committed fits, ``runtime_model(fits_dir=fits)``;
 * ``generated``: ``brdf(mu_i, mu_o, cos(phi), c)`` of fits/generated/lambert_sphere.py,
   loaded with importlib from the file (not from the installed package).
@@ -43,6 +43,7 @@ import pytest
 from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
+from fitlab.codegen import DEFAULT_FORMS
 from fitlab.families.lambert_sphere.exact import (
     albedo,
     brdf,
@@ -61,8 +62,7 @@ from fitlab.families.lambert_sphere.exact import (
     spherical_albedo,
     three_term_single_albedo,
 )
-from fitlab.codegen import DEFAULT_FORMS
-from fitlab.families.lambert_sphere.runtime import PRESET_VARIANTS, runtime_model
+from fitlab.families.lambert_sphere.program.runtime import PRESET_VARIANTS, runtime_model
 
 ROOT = Path(__file__).resolve().parents[1]
 FITS = ROOT / "fitlab" / "fits"

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from fitlab.cli import main
-from fitlab.families.lambert_sphere.datasets import h_training
-from fitlab.families.lambert_sphere.table_files import TABLE_FILES, tables_dir
+from fitlab.families.lambert_sphere.targets.datasets import h_training
+from fitlab.families.lambert_sphere.targets.table_files import TABLE_FILES, tables_dir
 from fitlab.resources import DATA_ENV, data_root, find_scene, packaged_fits, packaged_tables, tables_folder
 from fitlab.store import TableError
 
@@ -24,8 +24,9 @@ def _copy_tables(root):
 
 
 def test_packaged_files_are_inside_the_package():
-    import fitlab
     from pathlib import Path
+
+    import fitlab
 
     package = Path(fitlab.__file__).parent
     assert packaged_fits() == package / "fits" and (packaged_fits() / "H0.json").is_file()

@@ -2,7 +2,7 @@
 
 Every figure here is computed: the exact limits are checked against the exact engine (a second method),
 the accuracy of the order-2 model against fitlab.families.lambert_sphere.exact.brdf on the sets of
-fitlab.families.lambert_sphere.runtime.accuracy_points, next to the paper-structure model measured in the
+fitlab.families.lambert_sphere.program.runtime.accuracy_points, next to the paper-structure model measured in the
 same run.  The goals asserted are those of issue 18.
 """
 
@@ -21,7 +21,7 @@ from fitlab.families.lambert_sphere.exact import albedo, brdf, constants, h_func
 from fitlab.families.lambert_sphere.forms import runtime_terms
 from fitlab.families.lambert_sphere.forms.constants import FIRST_ORDER
 from fitlab.families.lambert_sphere.forms.h_functions import characteristic, first_order
-from fitlab.families.lambert_sphere.runtime import (
+from fitlab.families.lambert_sphere.program.runtime import (
     ORDER2_FORMS,
     accuracy,
     directional_albedo,
@@ -215,7 +215,7 @@ def test_energy_at_c1_never_exceeds_one(order2):
 def test_published_presets_need_no_energy_scale():
     """The published presets lose energy at c = 1 (1 to 2 %), so their energy scale is 1: they stay as printed."""
     from fitlab.core import get_form
-    from fitlab.families.lambert_sphere.runtime import PRESET_VARIANTS, energy_scale
+    from fitlab.families.lambert_sphere.program.runtime import PRESET_VARIANTS, energy_scale
 
     for variant, (choice, normalisation) in PRESET_VARIANTS.items():
         parts = {p: get_form(p, form).substituted(preset) for p, (form, preset) in choice.items()}
@@ -225,7 +225,7 @@ def test_published_presets_need_no_energy_scale():
 def test_energy_scale_is_a_few_parts_in_1e5_and_reproducible():
     """The order-2 fits' scale: below 1 (the unscaled model overshoots, as the reference does) by less than
     1e-4, and the same rational number when recomputed (what makes regenerated code byte-identical)."""
-    from fitlab.families.lambert_sphere.runtime import _energy_scale, energy_scale
+    from fitlab.families.lambert_sphere.program.runtime import _energy_scale, energy_scale
 
     parts = {p: load(fit_path(FITS, p, ORDER2_FORMS[p])).expression for p in ORDER2_FORMS}
     s = energy_scale(parts)
@@ -268,13 +268,13 @@ def test_order2_c_agrees_with_the_model_and_float_with_double(order2, order2_c):
 
 
 def test_runtime_structure_with_exact_parts_is_the_reference():
-    """The identity the error budget (fitlab.families.lambert_sphere.studies.error_budget) rests on: with every part exact,
-    f_1 + fm0 + fm1 cos phi + fm2 cos 2phi is the "mixed" reference, true single scattering plus the three-term
+    """The identity the error budget (fitlab.families.lambert_sphere.studies.error_budget) rests on: with every
+    part exact, f_1 + fm0 + fm1 cos phi + fm2 cos 2phi is the "mixed" reference, true single scattering plus the three-term
     multiple scattering (the three-term phase function has Legendre orders 0-2, so that multiple scattering has
     these three Fourier orders and no other).  The true BRDF's multiple scattering has every order: what the
     structure leaves of it is the error budget's first row."""
+    from fitlab.families.lambert_sphere.program.runtime import assembled
     from fitlab.families.lambert_sphere.studies.error_budget import exact_parts
-    from fitlab.families.lambert_sphere.runtime import assembled
 
     rng = np.random.default_rng(7)
     n = 300
@@ -290,8 +290,8 @@ def test_runtime_structure_with_exact_parts_at_grazing():
     {1e-6, 1e-4, 1e-2}, phi in {0, pi}): within 2.4e-6 (measured; bound 1e-5), the structure's own cancellation of the O(c) terms of
     H_i H_o Q/(2 pi) - n0_ss at mu_i = mu_o = 1e-6, c = 1e-6.  With sqrt(1 - u^2) evaluated directly, single
     scattering in forward scattering at grazing made it 1.2e-4."""
+    from fitlab.families.lambert_sphere.program.runtime import assembled
     from fitlab.families.lambert_sphere.studies.error_budget import exact_parts
-    from fitlab.families.lambert_sphere.runtime import assembled
 
     g = np.array(np.meshgrid([1e-6, 1e-4, 1e-2], [1e-6, 1e-4, 1e-2], [0.0, np.pi], [1e-6, 0.5], indexing="ij"))
     mi, mo, ph, cc = g.reshape(4, -1)

@@ -166,7 +166,7 @@ def test_a_scene_names_its_family(tmp_path):
     with pytest.raises(scenes.SceneError) as exc:
         scenes.parse_scene(TOY.schema, TOY_SCENE.replace("toy_scenes", "lambert_sphere"), "c.toml")
     assert str(exc.value).startswith("c.toml:2: scene.family: this scene is for family 'lambert_sphere'")
-    from fitlab.families.microfacet_energy.microsurface.scene import parse_scene
+    from fitlab.families.microfacet_energy.mc.scene import parse_scene
 
     with pytest.raises(scenes.SceneError, match="scene.family: this scene is for family 'toy_scenes'"):
         parse_scene(TOY_SCENE, "c.toml")

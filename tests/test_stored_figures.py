@@ -35,8 +35,8 @@ import pytest
 import sympy as sp
 
 from fitlab.core import get_target, targets
+from fitlab.families.lambert_sphere.program.table_export import numpy_brdf
 from fitlab.families.lambert_sphere.report.audit import TABLES_ROW
-from fitlab.families.lambert_sphere.table_export import numpy_brdf
 from fitlab.forms.symbolic import lambdify_numpy, parse_expression, symbols
 from fitlab.store import decode_nonfinite, load
 
@@ -211,10 +211,10 @@ def test_audit_kd_against_three_term_albedo_is_recomputed(audit):
 
 @pytest.fixture(scope="module")
 def runtime_models():
-    from fitlab.families.lambert_sphere.report.audit import richer_forms
     from fitlab.codegen import DEFAULT_FORMS
-    from fitlab.families.lambert_sphere.runtime import PRESET_VARIANTS, runtime_model
-    from fitlab.families.lambert_sphere.true_refit import true_runtime_model
+    from fitlab.families.lambert_sphere.program.runtime import PRESET_VARIANTS, runtime_model
+    from fitlab.families.lambert_sphere.program.true_refit import true_runtime_model
+    from fitlab.families.lambert_sphere.report.audit import richer_forms
 
     models = [runtime_model(v) for v in PRESET_VARIANTS]
     models.append(runtime_model(fits_dir=ROOT / "fitlab" / "fits", model=DEFAULT_FORMS))
@@ -254,7 +254,7 @@ def _check_runtime_row(row, got, ds, what):
 
 
 def test_audit_runtime_rows_are_recomputed(audit, runtime_models):
-    from fitlab.families.lambert_sphere import datasets as d
+    from fitlab.families.lambert_sphere.targets import datasets as d
 
     ds = d.brdf_validation("mixed")
     assert audit["runtime_grid"] == ds.grid
@@ -272,9 +272,9 @@ def test_audit_runtime_rows_are_recomputed(audit, runtime_models):
 
 def test_audit_runtime_true_rows_are_recomputed(audit, runtime_models):
     """The rows against the true BRDF: the runtime models and the mixed reference, recomputed on the true set."""
-    from fitlab.families.lambert_sphere import datasets as d
     from fitlab.families.lambert_sphere import exact
     from fitlab.families.lambert_sphere.report.audit import MIXED_ROW, TRUE_FLOOR_ROW
+    from fitlab.families.lambert_sphere.targets import datasets as d
 
     ds = d.brdf_validation("true")
     assert audit["runtime_true_grid"] == ds.grid
@@ -306,9 +306,9 @@ def test_audit_runtime_true_rows_are_recomputed(audit, runtime_models):
 def test_audit_runtime_true_independent_rows_are_recomputed(audit, runtime_models):
     """The rows at the independent random points: the runtime models and the mixed reference against the true
     BRDF, recomputed; the set's points are random, apart from every training lattice."""
-    from fitlab.families.lambert_sphere import datasets as d
     from fitlab.families.lambert_sphere import exact
     from fitlab.families.lambert_sphere.report.audit import MIXED_ROW
+    from fitlab.families.lambert_sphere.targets import datasets as d
 
     ds = d.brdf_true_independent()
     assert audit["runtime_true_independent_grid"] == ds.grid
@@ -329,8 +329,8 @@ def test_audit_runtime_true_independent_rows_are_recomputed(audit, runtime_model
 
 @pytest.mark.benchmark
 def test_audit_runtime_floor_row_is_recomputed(audit):
-    from fitlab.families.lambert_sphere import datasets as d
     from fitlab.families.lambert_sphere.exact import multiple_scattering_modes
+    from fitlab.families.lambert_sphere.targets import datasets as d
 
     ds = d.brdf_validation("mixed")
     mi, mo, ph, c = (ds.inputs[k] for k in ("mu_i", "mu_o", "phi", "c"))
@@ -422,8 +422,8 @@ def test_summary_on_exact_zeros_and_nan():
 def test_model_doc_true_fit_table_quotes_the_audit(audit):
     """docs/model.md, "Parts fitted to the true BRDF": its table's figures are the audit's (docs/audit.json, which
     the tests above recompute), rounded to the three digits printed."""
+    from fitlab.families.lambert_sphere.program.true_refit import TRUE_MODEL_NAME
     from fitlab.families.lambert_sphere.report.audit import MIXED_ROW
-    from fitlab.families.lambert_sphere.true_refit import TRUE_MODEL_NAME
 
     text = (ROOT / "docs" / "model.md").read_text()
     table = text[text.index("### Parts fitted to the true BRDF"):text.index("## The runtime BRDF")]

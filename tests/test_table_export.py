@@ -28,10 +28,10 @@ from hypothesis import strategies as st
 
 from fitlab.codegen.native import STRICT_FLAGS, build, build_glsl, compiler, cxx_compiler
 from fitlab.codegen.texture import TEXTURE_SHIM, lookup_1d, lookup_2d, lookup_3d, texture_from_bytes
-from fitlab.families.lambert_sphere import table_export as te
 from fitlab.families.lambert_sphere.exact import brdf as exact_brdf
-from fitlab.families.lambert_sphere.table_files import read_constants, read_h
+from fitlab.families.lambert_sphere.program import table_export as te
 from fitlab.families.lambert_sphere.studies.table_study import REFERENCE_PHASE
+from fitlab.families.lambert_sphere.targets.table_files import read_constants, read_h
 from fitlab.forms.symbolic import symbols
 from fitlab.resources import packaged_tables
 

@@ -7,7 +7,7 @@ import pytest
 
 from fitlab.cli import main
 from fitlab.families.lambert_sphere import table_files, tabulate
-from fitlab.families.lambert_sphere.tabulate import C_GRID, FAST_TABLES, MU_GRID, write_tables
+from fitlab.families.lambert_sphere.targets.tabulate import C_GRID, FAST_TABLES, MU_GRID, write_tables
 
 DATA = Path(__file__).resolve().parents[1] / "fitlab" / "data" / "lambert_sphere"
 
@@ -89,10 +89,10 @@ def test_check_reports_missing_or_corrupt_files(tmp_path, capsys, damage):
 
 
 # -- every table read is checked (issue 31, items 3 and 6) --------------------------------------------
-from fitlab.resources import DATA_ENV, packaged_tables, tables_folder  # noqa: E402
-from fitlab.store import TableError  # noqa: E402
 from test_input_files import finishes  # noqa: E402
 
+from fitlab.resources import DATA_ENV, packaged_tables, tables_folder  # noqa: E402
+from fitlab.store import TableError  # noqa: E402
 
 
 @pytest.fixture(autouse=True)
@@ -262,7 +262,7 @@ def test_a_truncated_lobe_parameter_table_is_refused_naming_it(tmp_path):
 
 
 def test_a_nan_in_a_microfacet_table_is_refused_naming_the_row(tmp_path):
-    from fitlab.families.microfacet_energy import tabulate as microfacet
+    from fitlab.families.microfacet_energy.targets import tabulate as microfacet
 
     spec = next(t for t in microfacet.TABLES if t.stem == "oren_nayar" and t.kind == "centres")
     shutil.copy(MICROFACET / spec.file, tmp_path / spec.file)
@@ -276,7 +276,7 @@ def test_a_nan_in_a_microfacet_table_is_refused_naming_the_row(tmp_path):
 
 
 def test_a_microfacet_table_whose_header_states_another_grid_is_refused(tmp_path):
-    from fitlab.families.microfacet_energy import tabulate as microfacet
+    from fitlab.families.microfacet_energy.targets import tabulate as microfacet
 
     spec = next(t for t in microfacet.TABLES if t.stem == "oren_nayar" and t.kind == "centres")
     text = (MICROFACET / spec.file).read_text()

@@ -225,7 +225,7 @@ def test_single_scattering_albedo_of_truncation():
 def test_true_brdf_validation_set():
     """The audit's true-BRDF set: the engine's values at one of its albedos, energy at c = 0 and 1, and the
     same points as the mixed set, which it stays within the measured gap of (2.0e-3 away from the pole)."""
-    from fitlab.families.lambert_sphere import datasets as d
+    from fitlab.families.lambert_sphere.targets import datasets as d
 
     ds = d.brdf_validation("true")
     mixed = d.brdf_validation("mixed")

@@ -1,5 +1,5 @@
-"""The runtime model's parts fitted to the true BRDF (fitlab.families.lambert_sphere.true_refit; issue 33, item 4):
-the joint forms are the runtime structure's terms, the packaged fits make a model that reaches the true BRDF
+"""The runtime model's parts fitted to the true BRDF (fitlab.families.lambert_sphere.program.true_refit;
+issue 33, item 4): the joint forms are the runtime structure's terms, the packaged fits make a model that reaches the true BRDF
 (measured here against exact.brdf(phase="true") at points of the test's own), conserves energy and is 0 at
 c = 0, and the fit files say what they are."""
 
@@ -11,10 +11,9 @@ import pytest
 import sympy as sp
 
 from fitlab.families.lambert_sphere import exact
-from fitlab.families.lambert_sphere.report.audit import directional_albedo
 from fitlab.families.lambert_sphere.forms import ORDER2_PART, RUNTIME_PARTS, runtime_terms
-from fitlab.families.lambert_sphere.runtime import runtime_model
-from fitlab.families.lambert_sphere.true_refit import (
+from fitlab.families.lambert_sphere.program.runtime import runtime_model
+from fitlab.families.lambert_sphere.program.true_refit import (
     GOAL_MU_MIN,
     GRAZING_WEIGHT,
     JOINT_PHI,
@@ -24,6 +23,7 @@ from fitlab.families.lambert_sphere.true_refit import (
     order_form,
     true_runtime_model,
 )
+from fitlab.families.lambert_sphere.report.audit import directional_albedo
 from fitlab.forms.symbolic import lambdify_numpy, symbols
 from fitlab.store import load
 
@@ -77,7 +77,7 @@ def test_joint_form_is_the_runtime_structure():
 def test_joint_training_is_the_true_brdf_of_orders_0_to_2():
     """Stage 2's training values are the true BRDF less its orders >= 3 (2e-5 of f_r at most), checked against
     exact.brdf at a few of its points; the weights are GRAZING_WEIGHT exactly below the goal's edge."""
-    from fitlab.families.lambert_sphere.true_refit import joint_training
+    from fitlab.families.lambert_sphere.program.true_refit import joint_training
 
     train, weights = joint_training()
     x = train.inputs
@@ -149,9 +149,9 @@ def test_true_model_is_reciprocal_finite_and_nonnegative(true_model):
 
 @pytest.mark.benchmark
 def test_true_fits_regenerate(tmp_path):
-    """``python -m fitlab.families.lambert_sphere.true_refit`` remakes the packaged fits: the model of the
+    """``python -m fitlab.families.lambert_sphere.program.true_refit`` remakes the packaged fits: the model of the
     regenerated parts is the packaged model (the exact orders' set cold: a few minutes)."""
-    from fitlab.families.lambert_sphere.true_refit import main
+    from fitlab.families.lambert_sphere.program.true_refit import main
 
     assert main(["--out", str(tmp_path)]) == 0
     assert sorted(p.name for p in tmp_path.glob("*.json")) == sorted(p.name for p in TRUE_FITS.glob("*.json"))
@@ -179,7 +179,7 @@ def test_independent_set_holds_no_training_point():
     """The audit's independent points (datasets.true_independent_points, those of brdf_true_independent) are
     none of the training lattice's (datasets.true_orders_training, read from its definition): no exact values
     are computed here."""
-    from fitlab.families.lambert_sphere import datasets as d
+    from fitlab.families.lambert_sphere.targets import datasets as d
 
     blocks, _ = d.true_independent_points()
     c = np.concatenate([np.full(len(p), cv) for cv, p in blocks])

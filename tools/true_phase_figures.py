@@ -138,7 +138,7 @@ def runtime(cs):
     """The runtime model fitlab codegen prints (runtime_model(), packaged fits) against the mixed reference
     and against the true BRDF, relative, on gap's grid with mu from 0.01 (the runtime model's stated domain
     for its BRDF figures) and with mu_i, mu_o >= 0.2."""
-    from fitlab.families.lambert_sphere.runtime import runtime_model
+    from fitlab.families.lambert_sphere.program.runtime import runtime_model
 
     model = runtime_model()
     mi, mo, ph = _gap_grid(smallest=(0.01, 0.02, 0.03))

@@ -3,7 +3,7 @@ r"""Code generation: fit records in, C / Python / GLSL source out.
 :func:`build_program` takes data (fit records by target) and returns a
 :class:`Program`; :func:`emit` prints it in one language.  What a family prints
 is its ``codegen`` (a :class:`ProgramSpec`; the Lambert sphere's runtime BRDF
-is :mod:`fitlab.families.lambert_sphere.program`), or one routine per target
+is :mod:`fitlab.families.lambert_sphere.program.spec`), or one routine per target
 that names a ``routine`` when it has none.  :mod:`.printers` and :mod:`.emit`
 only print.
 

@@ -13,7 +13,7 @@ no file (:func:`fitlab.codegen.load_program` reads a fits folder through
 :mod:`fitlab.store`).  What is printed is the family's choice: a family whose
 ``codegen`` is a :class:`ProgramSpec` contributes its own routines (for the
 Lambert sphere, the runtime BRDF assembled from its parts:
-:mod:`fitlab.families.lambert_sphere.program`); a family without one gets one
+:mod:`fitlab.families.lambert_sphere.program.spec`); a family without one gets one
 routine per target that names a ``routine`` (:attr:`fitlab.core.Target.routine`),
 its saved fit as it stands (:func:`part_routine`).  Where no family is named, the program is the default
 family's (:func:`default_program_family`: the one that declares ``Family.default_program``).
@@ -23,7 +23,7 @@ The helpers a family's program is written with are public here:
 family: :data:`STABLE`), :class:`SubsOptim`, :func:`clamp` and :func:`clamped`.  Rewrites are
 ``sympy.codegen.rewriting`` optimisations (``ReplaceOptim`` and its kin, applied in order by
 ``optimize``); a program names those of its family in :attr:`ProgramSpec.rewrites` (the Lambert
-sphere's, which know its symbols: :mod:`fitlab.families.lambert_sphere.rewrites`), and
+sphere's, which know its symbols: :mod:`fitlab.families.lambert_sphere.program.rewrites`), and
 :func:`part_routine` applies the program's rewrites to every part, and only that program's.
 
 The NaN and domain policy is kept here, once for every language (see the
@@ -159,7 +159,7 @@ class ProgramSpec:
         optimisations, applied in order by :meth:`rewrite`): :func:`part_routine` applies them to every part
         of the family, and the family's ``routines`` to what else it chooses.  Default :data:`STABLE`, the
         rewrites that know no family; a family adds those that know its symbols (the Lambert sphere's
-        1 - sqrt(1 - c): :data:`fitlab.families.lambert_sphere.rewrites.REWRITES`), and they apply to its
+        1 - sqrt(1 - c): :data:`fitlab.families.lambert_sphere.program.rewrites.REWRITES`), and they apply to its
         routines only.
     """
 
@@ -562,7 +562,7 @@ def with_domain(routine: Routine) -> Routine:
         raise ValueError(f"routine {routine.name}: no domain for {', '.join(missing)} (Routine.domain)")
     by_name = {s.name: s for s in _symbols(routine.expr)}
     subs = {by_name[a]: clamp(by_name[a], *routine.domain[a]) for a in routine.args if a in by_name}
-    # evaluated, unlike the table export's (fitlab.families.lambert_sphere.table_export): what sympy makes of the
+    # evaluated, unlike a table export's (the Lambert sphere's program.table_export): what sympy makes of the
     # Max, Min, products and powers the clamped inputs reach (min(1/2, min(1, x)) -> min(1/2, x),
     # sqrt(a b) -> sqrt(a) sqrt(b) for a, b >= 0, ...) is part of what the committed files print
     return replace(routine, expr=routine.expr.xreplace(subs))

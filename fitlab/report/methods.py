@@ -12,7 +12,7 @@ its generated C (:class:`CSpec`); for the Lambert sphere:
 * ``tables``: the runtime model with H0, H1 and the constants interpolated from
   data/, and all three orders with H2 too;
 * ``published``: the runtime model with the published coefficients
-  (:data:`fitlab.families.lambert_sphere.runtime.PRESET_VARIANTS`);
+  (:data:`fitlab.families.lambert_sphere.program.runtime.PRESET_VARIANTS`);
 * ``refit``: the runtime model from fits/ (default forms); ``refit, richer``:
   each part's most accurate refit form (lowest validation max error recorded
   in its fit file), when that differs from the default;

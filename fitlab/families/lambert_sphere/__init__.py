@@ -1,17 +1,20 @@
 r"""The Lambert-sphere BRDF (d'Eon, EGSR 2021): fitlab's first family.
 
 Registers, in one place, everything the family contributes: its targets
-(:mod:`.targets`: H0, H1, H2, l, m, B, C, D, F, kd_of_c, c_of_kd, fm1, fast_brdf),
-their forms and published presets (:mod:`.forms`), the exact engine
-(:mod:`.exact`) behind their training, validation and residual sets, the
-libraries of ``fitlab discover`` (:mod:`.libraries`), the generated program
-(:mod:`.program`), and its runtime models, Monte Carlo, tables, audit, render
-and report methods as hooks.  docs/model.md states the model.
+(:mod:`.targets`: H0, H1, H2, l, m, B, C, D, F, kd_of_c, c_of_kd, fm1, fast_brdf,
+sample_weight, sample_exponent; with their data sets, grids and exact tables),
+their forms, published presets and the libraries of ``fitlab discover``
+(:mod:`.forms`), the exact engine (:mod:`.exact`) behind their training,
+validation and residual sets, the runtime models and the generated program
+(:mod:`.program`), and as hooks its Monte Carlo (:mod:`.mc`), tables, report
+methods and audit (:mod:`.report`), render (:mod:`.mitsuba`) and benchmarks
+(:mod:`.bench`); the studies that write docs/ are in :mod:`.studies`.
+docs/model.md states the model.
 """
 
 from fitlab.core import Family, manifest_hooks, register_family
 from fitlab.families.lambert_sphere.forms import FORMS
-from fitlab.families.lambert_sphere.program import PROGRAM
+from fitlab.families.lambert_sphere.program.spec import PROGRAM
 from fitlab.families.lambert_sphere.targets import TARGETS
 
 __all__ = ["FAMILY", "MANIFEST"]
@@ -24,14 +27,14 @@ MANIFEST = {
     "targets": ("H0", "H1", "H2", "l", "m", "B", "C", "D", "F", "kd_of_c", "c_of_kd", "fm1", "fast_brdf",
                 "sample_weight", "sample_exponent"),
     "hooks": {
-        "brdf_grid": "grids:brdf_grid()",
+        "brdf_grid": "targets.grids:brdf_grid()",
         "report": "report.methods",
-        "tables": "tabulate",  # write_tables, check_tables, TABLE_FILES
+        "tables": "targets.tabulate",  # write_tables, check_tables, TABLE_FILES
         "audit": "report.audit",  # run_audit
         "render": "mitsuba.render",  # check_generated, llvm_problem, render_comparison, RenderError
         "simulate": "mc.simulate:SIMULATE",  # a fitlab.scenes.SimulateHook: the scene schema and the walk
         "bench": "bench",  # bench_exact, bench_codegen, bench_mc, bench_render
-        "table_export": "table_export",  # generate, LANGUAGES, NODES, DEFAULT_NODES, DEFAULT_LOOKUP, ...
+        "table_export": "program.table_export",  # generate, LANGUAGES, NODES, DEFAULT_NODES, DEFAULT_LOOKUP, ...
     },
     "program": True,
     "default_program": True,  # fitlab codegen without --family prints this program
@@ -39,7 +42,7 @@ MANIFEST = {
 
 
 def _libraries():
-    from fitlab.families.lambert_sphere.libraries import LIBRARIES
+    from fitlab.families.lambert_sphere.forms.libraries import LIBRARIES
 
     return LIBRARIES
 

@@ -17,6 +17,10 @@ from pathlib import Path
 
 import numpy as np
 
+from fitlab.codegen import emit, load_program
+from fitlab.codegen.bench import time_routines
+from fitlab.codegen.native import build
+from fitlab.codegen.program import MaterialSpec, Program, Routine, build_program, material_of
 from fitlab.families.lambert_sphere.exact import (
     brdf_modes,
     clear_h_cache,
@@ -25,12 +29,8 @@ from fitlab.families.lambert_sphere.exact import (
     lambert_sphere_characteristic,
     solve_h,
 )
-from fitlab.families.lambert_sphere.tabulate import write_tables
-from fitlab.codegen import emit, load_program
-from fitlab.codegen.bench import time_routines
-from fitlab.codegen.native import build
-from fitlab.codegen.program import MaterialSpec, Program, Routine, build_program, material_of
 from fitlab.families.lambert_sphere.forms.baselines import BASELINE_INPUTS, LAMBERT, oren_nayar
+from fitlab.families.lambert_sphere.targets.tabulate import write_tables
 from fitlab.timing import best_of, best_seconds
 
 __all__ = ["bench_exact", "bench_codegen", "bench_mc", "bench_render", "baseline_program", "random_inputs"]
@@ -108,8 +108,7 @@ def bench_codegen(fits_dir: Path | None = None, n: int = 1_000_000, repeat: int 
       hoisted and prepare;
     * the generated numpy module, per call.
     """
-    from fitlab.families.lambert_sphere import table_export
-
+    from fitlab.families.lambert_sphere.program import table_export
     from fitlab.report.methods import preset_records
 
     prog = load_program(fits_dir)
@@ -175,7 +174,7 @@ def bench_codegen(fits_dir: Path | None = None, n: int = 1_000_000, repeat: int 
 
 def bench_mc(quick: bool = False) -> dict:
     """Photons and collisions per second of the Monte Carlo (:func:`.mc.bench.bench_mc`; imports JAX)."""
-    from fitlab.families.lambert_sphere.mc.bench import bench_mc as run
+    from fitlab.families.lambert_sphere.mc.throughput import bench_mc as run
 
     return run(quick=quick)
 

@@ -5,18 +5,19 @@ multiple-scattering BRDFs ("Energy Compensation") and Kulla and Conti (2017).
 Registers its targets (:mod:`.targets`: E, 1 - E and E_avg of each model, named E_ggx_sep,
 one_minus_E_ggx_sep, E_avg_ggx_sep, E_ggx_cor, ..., E_on, one_minus_E_on, E_avg_on; each target's
 generated routine has its name), their forms and the published presets (:mod:`.forms`), and the
-libraries of ``fitlab discover`` (:mod:`.libraries`).  The exact engine is :mod:`.exact` (directional
-albedo E(mu, alpha), its average E_avg(alpha), the compensation lobe f_ms, with F = 1); :mod:`.tabulate`
-writes its tables and :mod:`.datasets` reads them; :mod:`.microsurface` is the Monte Carlo random walk
-on Smith microsurfaces (``fitlab simulate``), :mod:`.study` the energy-compensation study.  Its program
-(``codegen``: :data:`.lobes.program.PROGRAM`, ``fitlab codegen --family microfacet_energy``) prints every
+libraries of ``fitlab discover`` (:mod:`.forms.libraries`).  The exact engine is :mod:`.exact` (directional
+albedo E(mu, alpha), its average E_avg(alpha), the compensation lobe f_ms, with F = 1); :mod:`.targets.tabulate`
+writes its tables and :mod:`.targets.datasets` reads them; :mod:`.mc` is the Monte Carlo random walk
+on Smith microsurfaces (``fitlab simulate``), :mod:`.lobes` simulates the lobes by order and fits them, and
+:mod:`.studies` holds the studies that write docs/.  Its program
+(``codegen``: :data:`.program.spec.PROGRAM`, ``fitlab codegen --family microfacet_energy``) prints every
 fitted albedo and lobe parameter as a routine, and the multiple-scattering lobes and Kulla-Conti's f_ms
 composed of them.
 """
 
 from fitlab.core import Family, manifest_hooks, register_family
 from fitlab.families.microfacet_energy.forms import FORMS
-from fitlab.families.microfacet_energy.lobes.program import PROGRAM
+from fitlab.families.microfacet_energy.program.spec import PROGRAM
 from fitlab.families.microfacet_energy.targets import TARGETS
 
 __all__ = ["FAMILY", "MANIFEST"]
@@ -35,9 +36,9 @@ MANIFEST = {
         "ms_tilt_k_conductor",
     ),
     "hooks": {
-        "tables": "tabulate",  # write_tables, check_tables, TABLE_FILES, FAMILY_NAME
-        "simulate": "microsurface.simulate:SIMULATE",  # a fitlab.scenes.SimulateHook: the scene schema and the walk
-        "bench": "microsurface.bench",  # bench_mc: the microsurface walk's throughput
+        "tables": "targets.tabulate",  # write_tables, check_tables, TABLE_FILES, FAMILY_NAME
+        "simulate": "mc.simulate:SIMULATE",  # a fitlab.scenes.SimulateHook: the scene schema and the walk
+        "bench": "bench",  # bench_mc: the microsurface walk's throughput
     },
     "program": True,
     "default_program": False,
@@ -45,7 +46,7 @@ MANIFEST = {
 
 
 def _libraries():
-    from fitlab.families.microfacet_energy.libraries import LIBRARIES
+    from fitlab.families.microfacet_energy.forms.libraries import LIBRARIES
 
     return LIBRARIES
 

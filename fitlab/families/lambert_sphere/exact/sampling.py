@@ -40,7 +40,7 @@ The BRDF optimised for is the mixed reference (``exact.brdf(phase="mixed")``: tr
 three-term multiple scattering), not the material's BRDF (phase "true"), which is 2.5 times dearer here.
 Optimised for the true BRDF instead, at mu_i in {1e-3, 0.05, 0.3, 0.7, 0.97} and c in {0.3, 0.9, 1}, the
 weight and the exponent move by at most 1.7e-4 relative and the optimal variance by 1.4e-3 (at c = 1),
-within :data:`fitlab.families.lambert_sphere.tabulate.SAMPLING_TOLERANCE` (5e-3).
+within :data:`fitlab.families.lambert_sphere.targets.tabulate.SAMPLING_TOLERANCE` (5e-3).
 """
 
 from __future__ import annotations

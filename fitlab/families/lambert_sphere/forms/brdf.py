@@ -261,6 +261,6 @@ def runtime_brdf(parts: Mapping[str, sp.Expr], normalisation: str = "corrected",
     r"""The runtime model (docs/model.md, "The runtime BRDF") as one expression in (mu_i, mu_o, phi, c):
     f_r = max(0, s (f_1 + fm0 + fm1 cos(phi) [+ fm2 cos(2 phi) where ``parts`` holds H2])), the terms of
     :func:`runtime_terms`; s = ``scale`` is the energy scale of fitted models (1 for the published ones;
-    :func:`fitlab.families.lambert_sphere.runtime.energy_scale`)."""
+    :func:`fitlab.families.lambert_sphere.program.runtime.energy_scale`)."""
     total = runtime_sum(parts, normalisation)
     return sp.Max(0, total if scale == 1 else sp.Mul(scale, total, evaluate=False))

@@ -161,7 +161,7 @@ def log_exp(order: int, remainder: sp.Expr) -> sp.Expr:
     r"""H_order(mu, c) = exp(mu (Psi_order(mu) log(1 + 1/mu) + c (p(mu) + remainder))): the exact grazing term
     (Psi_order, eqs. 13-15) and the exact first-order cubic p (:func:`first_order`), with ``remainder`` the
     rest, O(c), a function of (mu, c): a fitted polynomial (the ``log_exp`` forms) or a table
-    (:mod:`fitlab.families.lambert_sphere.table_export`).  See :func:`log_exp_remainder` for its inverse."""
+    (:mod:`fitlab.families.lambert_sphere.program.table_export`).  See :func:`log_exp_remainder` for its inverse."""
     grazing = characteristic(order) * sp.log(1 + 1 / sp.Max(mu, LOG_FLOOR))
     return sp.exp(mu * (grazing + c * (first_order(order) + remainder)))
 

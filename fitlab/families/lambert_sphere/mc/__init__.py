@@ -16,7 +16,7 @@ stopping rule, rows; the family's simulate hook), ``plots`` (a PNG per effect),
 See docs/montecarlo.md.
 """
 
-from fitlab.families.lambert_sphere.mc.sampling import (
+from fitlab.families.lambert_sphere.mc.phase_sampling import (
     THREE_TERM_NORM,
     p_three_term,
     p_true,

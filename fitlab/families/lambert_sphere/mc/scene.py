@@ -40,7 +40,7 @@ of a file are reported together, as one :class:`SceneError`.  NaN and infinite
 numbers are refused anywhere, and so is a material whose Monte Carlo estimate
 would have an infinite variance: c > 1/N = 0.999473 with the three-term phase
 function (kd = 1 included), c > 0.998863 with ``phase_difference``
-(:data:`fitlab.families.lambert_sphere.mc.sampling.C_LIMIT`).
+(:data:`fitlab.families.lambert_sphere.mc.phase_sampling.C_LIMIT`).
 """
 
 from __future__ import annotations
@@ -143,7 +143,7 @@ def _walks(phase: str, effects) -> tuple:
 
 
 def _unbounded(walk: str, c: float):
-    from fitlab.families.lambert_sphere.mc.sampling import unbounded_reason  # JAX, only when a scene is checked
+    from fitlab.families.lambert_sphere.mc.phase_sampling import unbounded_reason  # JAX, only when a scene is checked
 
     return unbounded_reason(walk, c)
 

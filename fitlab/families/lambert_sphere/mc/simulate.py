@@ -34,7 +34,7 @@ import time
 
 from fitlab import scenes
 from fitlab.families.lambert_sphere.mc.effects import ROW_FIELDS, attach_reference, effect_jobs, estimate_rows, plan
-from fitlab.families.lambert_sphere.mc.sampling import unbounded_reason
+from fitlab.families.lambert_sphere.mc.phase_sampling import unbounded_reason
 from fitlab.families.lambert_sphere.mc.scene import SCHEMA, Scene, SceneError
 from fitlab.families.lambert_sphere.mc.transport import compile_walk, default_mesh, run_round
 from fitlab.scenes import SimulationResult, check_out_dir, summary_table, unconverged, write_outputs

@@ -18,7 +18,7 @@ scattering.
 
 Weights.  ``phase="true"``: u from p (eq. 5, or eq. 6 when sampler="approx"),
 weight c^n.  ``phase="three_term"``: u from |p3|/N, weight (c N)^n times the
-signs (see :mod:`fitlab.families.lambert_sphere.mc.sampling`).  ``phase="both"``: u from the mixture
+signs (see :mod:`fitlab.families.lambert_sphere.mc.phase_sampling`).  ``phase="both"``: u from the mixture
 q = 0.49 p + 0.49 |p3|/N + 0.02/(4 pi) and two weights on the same path,
 multiplied by p/q and p3/q; the tallies are then (true, three-term, true - three-term), the last
 with the small variance of correlated paths.  Russian roulette when the
@@ -58,8 +58,8 @@ gets a contiguous id range and the tallies are summed with ``psum``.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
 import time
+from dataclasses import dataclass, replace
 from functools import partial
 from typing import NamedTuple
 
@@ -70,7 +70,7 @@ from jax.extend.random import threefry_2x32
 from jax.sharding import Mesh, PartitionSpec
 
 from fitlab.core import float64
-from fitlab.families.lambert_sphere.mc.sampling import (
+from fitlab.families.lambert_sphere.mc.phase_sampling import (
     THREE_TERM_NORM,
     mixture_density,
     p_three_term,
@@ -433,7 +433,7 @@ def run_round(cfg: WalkConfig, seed: int, stream: tuple, c: float, mu_i: float, 
     order of summation.
 
     A c at which the walk's estimator has infinite variance (c > 1/N for the
-    three-term walk, :data:`~fitlab.families.lambert_sphere.mc.sampling.C_LIMIT`)
+    three-term walk, :data:`~fitlab.families.lambert_sphere.mc.phase_sampling.C_LIMIT`)
     is refused unless ``unbounded_ok`` (then only the collision cap bounds the
     weights: for identities that hold path by path, never for estimates).
     """

@@ -29,6 +29,9 @@ from pathlib import Path
 
 import numpy as np
 
+from fitlab._io import atomic_write_many
+from fitlab.codegen.program import DEFAULT_FORMS
+from fitlab.core import get_target, targets
 from fitlab.families.lambert_sphere.exact import (
     albedo,
     brdf,
@@ -38,18 +41,15 @@ from fitlab.families.lambert_sphere.exact import (
     phase_function,
     spherical_albedo,
 )
-from fitlab.families.lambert_sphere import datasets as d
+from fitlab.families.lambert_sphere.forms import RUNTIME_PARTS
+from fitlab.families.lambert_sphere.program.runtime import PRESET_VARIANTS, RuntimeModel, runtime_model
+from fitlab.families.lambert_sphere.program.table_export import DEFAULT_LOOKUP, DEFAULT_NODES, numpy_brdf
+from fitlab.families.lambert_sphere.program.true_refit import true_runtime_model
+from fitlab.families.lambert_sphere.targets import datasets as d
 from fitlab.fit.metrics import relative_errors, summary
 from fitlab.fit.refit import preset_metrics
-from fitlab.core import get_target, targets
-from fitlab._io import atomic_write_many
-from fitlab.store import FitFileError, fit_files, fits_folder, read_fit, strict_json
-from fitlab.families.lambert_sphere.forms import RUNTIME_PARTS
-from fitlab.codegen.program import DEFAULT_FORMS
-from fitlab.families.lambert_sphere.runtime import PRESET_VARIANTS, RuntimeModel, runtime_model
-from fitlab.families.lambert_sphere.table_export import DEFAULT_LOOKUP, DEFAULT_NODES, numpy_brdf
-from fitlab.families.lambert_sphere.true_refit import true_runtime_model
 from fitlab.report.methods import FitEntry, best_forms, origin_kind
+from fitlab.store import FitFileError, fit_files, fits_folder, read_fit, strict_json
 
 __all__ = ["run_audit", "directional_albedo", "richer_forms"]
 
@@ -116,7 +116,7 @@ def _runtime_models(fits_dir: Path) -> tuple[list[RuntimeModel], list[str]]:
 MIXED_ROW = "mixed reference (exact.brdf, phase 'mixed')"
 TRUE_FLOOR_ROW = "true ingredients (multiple-scattering orders >= 3 dropped)"
 #: the row of the exported tables as `fitlab codegen --tables` ships them (their BRDF computed in double from
-#: the float32 texture: fitlab.families.lambert_sphere.table_export.numpy_brdf)
+#: the float32 texture: fitlab.families.lambert_sphere.program.table_export.numpy_brdf)
 TABLES_ROW = f"exported tables ({DEFAULT_NODES} nodes, {DEFAULT_LOOKUP}; fitlab codegen --tables)"
 
 

@@ -11,7 +11,7 @@ module, for what only the family knows:
 * :data:`PRESET_VARIANTS`: the published runtime preset sets;
 * :func:`brdf_methods`: the BRDF-level catalogue (tables, published presets,
   refits, the order-2 model of :data:`..runtime.ORDER2_FORMS` (its parts fitted to the mixed reference, and to the
-  true BRDF: :mod:`..true_refit`), richer and discovered forms, the fast variant, the baselines);
+  true BRDF: :mod:`..program.true_refit`), richer and discovered forms, the fast variant, the baselines);
 * :func:`part_extras`: the part-level methods beyond presets and fit files
   (the exact engine's Fock method for H0 and H1, the tables);
 * :func:`preset_records`: a preset set as fit records, for codegen;
@@ -36,13 +36,18 @@ import sympy as sp
 
 from fitlab.codegen.program import DEFAULT_FORMS, program_spec
 from fitlab.core import get_target
-from fitlab.families.lambert_sphere import table_export
 from fitlab.families.lambert_sphere.bench import baseline_program, random_inputs  # noqa: F401 (baseline_program: the report's hook)
 from fitlab.families.lambert_sphere.exact import albedo, brdf, h_function, spherical_albedo
 from fitlab.families.lambert_sphere.forms import ORDER2_PART, RUNTIME_PARTS
 from fitlab.families.lambert_sphere.forms.baselines import BASELINE_INPUTS, LAMBERT, oren_nayar
-from fitlab.families.lambert_sphere.report.spline_tables import kd_interpolant, table_brdf, table_part
-from fitlab.families.lambert_sphere.report.spline_tables import memory_bytes as spline_bytes
+from fitlab.families.lambert_sphere.program import table_export
+from fitlab.families.lambert_sphere.program.runtime import (
+    FAMILY_NAME,
+    PRESET_VARIANTS,
+    directional_albedo,
+    runtime_model,
+)
+from fitlab.families.lambert_sphere.program.true_refit import TRUE_FITS, true_runtime_model
 from fitlab.families.lambert_sphere.report.exact_engine import (
     doubling_agreement,
     engine_agreement,
@@ -52,10 +57,10 @@ from fitlab.families.lambert_sphere.report.exact_engine import (
 )
 from fitlab.families.lambert_sphere.report.montecarlo import mc_study, mc_time_to_error
 from fitlab.families.lambert_sphere.report.settings import BRDF_INPUTS, BRDF_MATERIAL, BRDF_POINT, REPORT_SETTINGS
-from fitlab.families.lambert_sphere.runtime import FAMILY_NAME, PRESET_VARIANTS, directional_albedo, runtime_model
-from fitlab.families.lambert_sphere.table_files import check_tables, tables_dir
+from fitlab.families.lambert_sphere.report.spline_tables import kd_interpolant, table_brdf, table_part
+from fitlab.families.lambert_sphere.report.spline_tables import memory_bytes as spline_bytes
 from fitlab.families.lambert_sphere.targets import TARGETS
-from fitlab.families.lambert_sphere.true_refit import TRUE_FITS, true_runtime_model
+from fitlab.families.lambert_sphere.targets.table_files import check_tables, tables_dir
 from fitlab.forms.symbolic import lambdify_numpy, symbols
 from fitlab.report.methods import BrdfMethod, CSpec, PartMethod, best_forms, fit_group, positional
 from fitlab.store import FORMAT, load
@@ -185,7 +190,7 @@ def _exported_tables(data_dir: Path) -> list[BrdfMethod]:
 
         name = f"exported tables, {'bicubic' if lookup == 'cubic' else 'bilinear'} {nodes} x {nodes}"
         out.append(BrdfMethod(name, "tables", f"fitlab codegen --tables --nodes {nodes} --lookup {lookup} "
-                              "(fitlab.families.lambert_sphere.table_export)",
+                              "(fitlab.families.lambert_sphere.program.table_export)",
                               lambda mi, mo, ph, c, kd, f=f: f(mi, mo, ph, c), None, CSpec("brdf", build=c_files),
                               float(table_export.memory_bytes(nodes))))  # fmt: skip
     return out

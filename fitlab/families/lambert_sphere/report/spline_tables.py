@@ -1,4 +1,4 @@
-r"""The exact tables (:mod:`..table_files`) with interpolation, as an evaluation method of the report.
+r"""The exact tables (:mod:`..targets.table_files`) with interpolation, as an evaluation method of the report.
 
 Interpolation (chosen by its error on the H validation sets, stated in the report):
 
@@ -37,7 +37,7 @@ import sympy as sp
 
 from fitlab.families.lambert_sphere.exact import CONSTANT_NAMES
 from fitlab.families.lambert_sphere.forms import RUNTIME_PARTS, runtime_terms
-from fitlab.families.lambert_sphere.table_files import read_constants, read_h, read_kd, tables_dir
+from fitlab.families.lambert_sphere.targets.table_files import read_constants, read_h, read_kd, tables_dir
 from fitlab.forms.symbolic import symbols
 
 __all__ = ["h_interpolant", "constant_interpolant", "kd_interpolant", "c_of_kd_interpolant", "table_brdf", "table_part",

@@ -26,7 +26,7 @@ from fitlab._io import atomic_write_many
 from fitlab.core import get_target
 from fitlab.families.lambert_sphere.exact import constants, h_function
 from fitlab.families.lambert_sphere.forms import ORDER2_PART, RUNTIME_PARTS
-from fitlab.families.lambert_sphere.runtime import ORDER2_FORMS, accuracy, assembled, energy_scale
+from fitlab.families.lambert_sphere.program.runtime import ORDER2_FORMS, accuracy, assembled, energy_scale
 from fitlab.forms.symbolic import lambdify_numpy, symbols
 from fitlab.store import fit_path, load
 

@@ -26,10 +26,10 @@ from pathlib import Path
 import numpy as np
 
 from fitlab._io import atomic_write_many
+from fitlab.core import get_target
 from fitlab.families.lambert_sphere.exact import albedo
 from fitlab.families.lambert_sphere.exact.sampling import MU_MIN, optimal_mixture, relative_variance
-from fitlab.core import get_target
-from fitlab.families.lambert_sphere.program import SAMPLER
+from fitlab.families.lambert_sphere.program.spec import SAMPLER
 from fitlab.store import fit_path, load
 
 __all__ = ["ISSUE_C", "ISSUE_MU", "fitted_mixture", "variance_rows", "fresh_summary", "monte_carlo_rows"]

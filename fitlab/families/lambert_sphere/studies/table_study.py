@@ -27,8 +27,8 @@ from pathlib import Path
 
 import numpy as np
 
-from fitlab.families.lambert_sphere import table_export as te
-from fitlab.families.lambert_sphere.datasets import h_validation
+from fitlab.families.lambert_sphere.program import table_export as te
+from fitlab.families.lambert_sphere.targets.datasets import h_validation
 
 __all__ = ["candidate_rows", "resolution_rows", "study", "markdown", "plot_png", "main", "FILES", "REFERENCE_PHASE"]
 

@@ -9,7 +9,7 @@ takes every one of them as 1 - (that form), same name, parameters and presets
 
 from fitlab.families.microfacet_energy.forms import average, ggx, oren_nayar
 from fitlab.families.microfacet_energy.forms.common import complement
-from fitlab.families.microfacet_energy.lobes.forms import lobe_forms
+from fitlab.families.microfacet_energy.forms.lobes import lobe_forms
 from fitlab.families.microfacet_energy.targets import target_name
 
 __all__ = ["FORMS"]
@@ -23,5 +23,5 @@ def _model_forms(model: str) -> tuple:
 
 
 FORMS = tuple(f for model in ("ggx_separable", "ggx_correlated", "oren_nayar") for f in _model_forms(model))
-# the forms of the multiple-scattering lobe parameters (issue 20), with the blog's presets: lobes.forms
+# the forms of the multiple-scattering lobe parameters (issue 20), with the blog's presets: forms.lobes
 FORMS += tuple(f for kind in ("diffuse", "conductor") for f in lobe_forms(kind))

@@ -22,7 +22,7 @@ Richer forms:
 
 * ``log_rational`` (GGX): E_avg = 1 - alpha^2 (c0 + c1 log(alpha) + c2 alpha + c3 alpha^2)/(1 + d1 alpha + d2 alpha^2).
   The logarithm is the grazing layer's: 1 - E tends to a function of t = mu/alpha decaying like 1/t^2
-  (:mod:`fitlab.families.microfacet_energy.datasets`), whose integral against 2 mu dmu over
+  (:mod:`fitlab.families.microfacet_energy.targets.datasets`), whose integral against 2 mu dmu over
   mu in (0, 1] is alpha^2 (C log(1/alpha) + O(1)).  Starts from E_avg = 1 - alpha^2.
 * ``a_plus_kappa_b`` (Oren-Nayar): E_avg = A(sigma) + kappa B(sigma) exactly (:mod:`.oren_nayar`: the
   identity E = A + B g gives kappa = 2 int g mu dmu); one parameter, started at kappa = 1/2 = g(0).

@@ -10,7 +10,7 @@ so that u = mu/(mu + alpha) and v = alpha/(mu + alpha) exactly, u + v = 1, where
 at the corner (0, 0).
 
 For small alpha, E depends on mu through t = mu/alpha = u/v next to grazing (the layer of
-:mod:`fitlab.families.microfacet_energy.datasets`), and a polynomial in v and alpha follows that layer
+:mod:`fitlab.families.microfacet_energy.targets.datasets`), and a polynomial in v and alpha follows that layer
 where no polynomial in mu and alpha can: v = 1 at grazing (mu = 0, alpha > 0), v = 0 on the mirror line
 alpha = 0, and at the corner itself v = 0, the mirror's value, the one the exact engine defines there.
 Along any line mu = t alpha a form is therefore the same function of t for every alpha down to the floor

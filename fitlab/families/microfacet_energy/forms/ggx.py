@@ -32,7 +32,7 @@ and alpha; every mapping of a source's roughness to alpha is stated):
   roughness is perceptual, alpha = roughness^2), which does not depend on mu.
 
 The published shapes are smooth in (mu, alpha); next to grazing, for small alpha, E varies on the scale
-mu ~ alpha (:mod:`fitlab.families.microfacet_energy.datasets`), a layer whose width shrinks with alpha,
+mu ~ alpha (:mod:`fitlab.families.microfacet_energy.targets.datasets`), a layer whose width shrinks with alpha,
 which no such shape follows: on the whole domain their error stays above about 0.1 near (0, 0), refit or
 not.  The richer forms are written in the layer's variables u = mu/(mu + alpha), v = alpha/(mu + alpha)
 (:mod:`.common`) and follow it.

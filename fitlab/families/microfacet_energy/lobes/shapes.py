@@ -1,6 +1,6 @@
 r"""The lobe shapes, each written once in sympy: the blog's 5-parameter lobe and its relatives.
 
-Geometry (the walk's frame, :mod:`..microsurface.walk`): z is the macro normal, light arrives from
+Geometry (the walk's frame, :mod:`..mc.walk`): z is the macro normal, light arrives from
 w_i = (sqrt(1 - mu_i^2), 0, mu_i), and the outgoing direction is w_o = (s_o cos phi, s_o sin phi, mu_o),
 s_o = sqrt(1 - mu_o^2): phi = 0 is the back-scattering side (towards the light), phi = pi the mirror side.
 Every shape depends on phi through c = cos(phi) only (the lobes are even in phi), so the inputs of the

@@ -1,4 +1,4 @@
-r"""The simulated multiple-scattering lobes by order: the random walk of :mod:`..microsurface` on a grid of
+r"""The simulated multiple-scattering lobes by order: the random walk of :mod:`..mc` on a grid of
 (alpha, mu_i), tabulated (through :mod:`fitlab.store`) and read back.
 
 What is tabulated.  For each facet kind (``diffuse``: Lambertian facets of albedo 1, the blog's case;
@@ -8,7 +8,7 @@ Smith, isotropic alpha), for each job (alpha, mu_i) and each order S = 1, 2, 3, 
 * the bin averages of f_S mu_o (1/sr) over (mu_o, |phi_o|) bins: :data:`MU_EDGES` (10 bins uniform in
   mu_o, i.e. of equal solid angle) times :data:`PHI_EDGES` (8 bins of 22.5 degrees; phi_o = 0 is the
   back-scattering side, the plane of w_i; phi_o = pi holds the mirror direction), with their standard
-  errors (:mod:`..microsurface.simulate` gives the estimator: mean S1/N over N paths, se from S2);
+  errors (:mod:`..mc.simulate` gives the estimator: mean S1/N over N paths, se from S2);
 * the albedo of the order (every upward escape of that order, equal to the sum of the bins times their
   solid angles up to rounding), with its standard error, and the paths of the job.
 
@@ -114,7 +114,7 @@ def _grid_text(which: str) -> str:
 
 def walk_config(kind: str):
     """The walk's compiled configuration for a kind (GGX, F = 1 for conductors, orders 1..4 and above)."""
-    from fitlab.families.microfacet_energy.microsurface import WalkConfig
+    from fitlab.families.microfacet_energy.mc import WalkConfig
 
     if kind not in KINDS:
         raise ValueError(f"kind must be one of {KINDS}, got {kind!r}")
@@ -136,7 +136,7 @@ def simulate_job(kind: str, alpha: float, mu_i: float, paths: int, seed: int = S
     """One job: {"value", "se"} (5, 10, 8) bin averages of f_S mu_o and their standard errors, {"albedo",
     "albedo_se"} (5,), "paths", "capped" (the weight of paths still inside after MAX_BOUNCES events, counted
     in the tail's albedo and in no bin)."""
-    from fitlab.families.microfacet_energy.microsurface import MaterialParams, job_key, run_round
+    from fitlab.families.microfacet_energy.mc import MaterialParams, job_key, run_round
 
     cfg = walk_config(kind)
     params = MaterialParams(alpha_x=alpha, alpha_y=alpha, albedo=albedo)
@@ -191,7 +191,7 @@ def lobe_table(kind: str, which: str, progress=None) -> Table:
     what = ("Lambertian facets of albedo 1" if kind == "diffuse" else "mirror facets, F = 1")
     return Table(
         lobe_file(kind, which).removesuffix(".csv"),
-        f"microsurface random walk (Heitz et al. 2016; fitlab.families.microfacet_energy.microsurface.walk), GGX, "
+        f"microsurface random walk (Heitz et al. 2016; fitlab.families.microfacet_energy.mc.walk), GGX, "
         f"height-correlated Smith, {what}; seed {SEED}, material {KINDS.index(kind)}, incident = job index + {base}; "
         f"{PATHS} paths per job ({2 * PATHS} for alpha < {SMALL_ALPHA}), {total} in all; at most {MAX_BOUNCES} "
         f"events per path (largest weight still inside: {capped:.3g} per path, counted in the order-5 albedo); "

@@ -24,7 +24,7 @@ forms of the shipped model, so that the same structure, at the same cost, approx
 
 :func:`fitted_parts` returns one fit record per part (the format of ``fitlab refit``'s files; ``validation``
 measures the part against its own target, the three-term quantity, which it no longer approximates closely:
-that figure says how far the fitted part moved).  ``python -m fitlab.families.lambert_sphere.true_refit --out
+that figure says how far the fitted part moved).  ``python -m fitlab.families.lambert_sphere.program.true_refit --out
 DIR`` writes them; the packaged ones are in ``fitlab/fits/true`` (:data:`TRUE_FITS`), and
 ``runtime_model(fits_dir=TRUE_FITS)`` is the model they make, which the audit measures against the true BRDF.
 """
@@ -39,10 +39,10 @@ import sympy as sp
 
 from fitlab.codegen import program_spec
 from fitlab.core import Dataset, data_hash, get_form, get_target
-from fitlab.families.lambert_sphere.datasets import true_orders_training
 from fitlab.families.lambert_sphere.forms import ORDER2_PART, RUNTIME_PARTS, runtime_sum, runtime_terms
 from fitlab.families.lambert_sphere.forms.brdf import SINGLE_FORWARD
-from fitlab.families.lambert_sphere.runtime import RuntimeModel, runtime_model
+from fitlab.families.lambert_sphere.program.runtime import RuntimeModel, runtime_model
+from fitlab.families.lambert_sphere.targets.datasets import true_orders_training
 from fitlab.fit.refit import fit_identity, validation_metrics
 from fitlab.fit.solver import SOLVER_SETTINGS, fit_form
 from fitlab.forms import Form
@@ -212,7 +212,8 @@ def _record(part, form_name, values, train, fit, minimax_rounds) -> dict:
         "claimed_accuracy": "none: a part of the runtime model fitted to the true BRDF, not to its target",
         "note": ("This part approximates the true BRDF through the runtime structure, not the three-term "
                  f"{part}: its validation figures say how far it moved from the three-term quantity "
-                 "(fitlab.families.lambert_sphere.true_refit; docs/model.md, 'Parts fitted to the true BRDF')."),
+                 "(fitlab.families.lambert_sphere.program.true_refit; "
+                 "docs/model.md, 'Parts fitted to the true BRDF')."),
         "data_sha256": data_hash(train, valid),
     }
 

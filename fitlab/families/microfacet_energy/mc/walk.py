@@ -81,8 +81,7 @@ import numpy as np
 from jax.sharding import Mesh, PartitionSpec
 
 from fitlab.core import float64
-from fitlab.families.microfacet_energy.microsurface.fresnel import FRESNEL, dielectric, fresnel_factor
-from fitlab.families.microfacet_energy.microsurface.microsurface import (
+from fitlab.families.microfacet_energy.mc.microsurface import (
     DISTRIBUTIONS,
     ESCAPED,
     reflect,
@@ -90,6 +89,7 @@ from fitlab.families.microfacet_energy.microsurface.microsurface import (
     sample_height,
     sample_vndf,
 )
+from fitlab.families.microfacet_energy.mc.walk_fresnel import FRESNEL, dielectric, fresnel_factor
 
 __all__ = ["WalkConfig", "MaterialParams", "KINDS", "run_round", "compile_walk", "job_key", "default_mesh",
            "default_slots", "threefry_2x32_unrolled", "TALLY_NAMES"]

@@ -54,9 +54,9 @@ import numpy as np
 
 from fitlab.cache import cached_arrays
 from fitlab.core import Dataset
-from fitlab.families.microfacet_energy import tabulate
-from fitlab.families.microfacet_energy.tabulate import FAMILY_NAME
 from fitlab.families.microfacet_energy.exact import average_albedo, directional_albedo
+from fitlab.families.microfacet_energy.targets import tabulate
+from fitlab.families.microfacet_energy.targets.tabulate import FAMILY_NAME
 from fitlab.resources import tables_folder
 
 __all__ = ["FAMILY_NAME", "tables_dir", "albedo_training", "albedo_validation", "average_training",
@@ -80,7 +80,7 @@ VALIDATION_LAYER_T = tuple(sorted({1 / 16, *(3 * 2.0**k / 16 for k in range(0, 7
 TRAINING_SMALL_MU = tuple(10.0 ** (k / 2) for k in range(-14, -4))
 VALIDATION_SMALL_MU = tuple(10.0 ** (k / 8) for k in range(-56, -19) if k % 4)
 
-_ENGINE = tuple(sorted((Path(__file__).resolve().parent / "exact").glob("*.py")))
+_ENGINE = tuple(sorted((Path(__file__).resolve().parents[1] / "exact").glob("*.py")))
 _GGX_NODES = next(t for t in tabulate.TABLES if t.stem == "ggx" and t.kind == "nodes")
 _GGX_CENTRES = next(t for t in tabulate.TABLES if t.stem == "ggx" and t.kind == "centres" and t.size == 128)
 _ON_NODES = next(t for t in tabulate.TABLES if t.stem == "oren_nayar" and t.kind == "nodes")

@@ -2,7 +2,7 @@ r"""The validation study of the microsurface walk at large budgets: order 1 of e
 its deterministic reference (:mod:`.reference`), bin by bin and in total, over grazing to normal
 incidence, smooth to rough, isotropic and anisotropic, GGX and Beckmann; and energy, path by path.
 
-``python -m fitlab.families.microfacet_energy.microsurface.validation [--paths N] [--quiet]`` prints one
+``python -m fitlab.families.microfacet_energy.studies.microsurface_validation [--paths N] [--quiet]`` prints one
 line per material, over its order-1 lobe bins, reflected and transmitted, that the reference or a path
 reaches: the smallest two-sided p-value of a bin's count under its reference (``simulate.count_p_value``,
 binomial, calibrated where few paths land) and the number of bins below 6.3e-5 (a 4-sigma deviation; with
@@ -25,8 +25,8 @@ import sys
 
 import numpy as np
 
-from fitlab.families.microfacet_energy.microsurface.scene import parse_scene
-from fitlab.families.microfacet_energy.microsurface.simulate import count_p_value, simulate
+from fitlab.families.microfacet_energy.mc.scene import parse_scene
+from fitlab.families.microfacet_energy.mc.simulate import count_p_value, simulate
 
 __all__ = ["CASES", "MU_I", "run_validation", "format_table"]
 
@@ -119,7 +119,7 @@ def format_table(rows: list) -> str:
 
 
 def main(argv=None) -> int:
-    p = argparse.ArgumentParser(prog="python -m fitlab.families.microfacet_energy.microsurface.validation",
+    p = argparse.ArgumentParser(prog="python -m fitlab.families.microfacet_energy.studies.microsurface_validation",
                                 description="Order 1 of the microsurface walk against its references at a large "
                                             "budget (prints a markdown table).")
     p.add_argument("--paths", type=int, default=2_000_000, help="paths per job (material x mu_i), >= 10000")

@@ -36,8 +36,8 @@ import sympy as sp
 
 from fitlab.codegen.program import DEFAULT_FORMS
 from fitlab.core import get_form, get_target
-from fitlab.families.lambert_sphere.rewrites import stable
 from fitlab.families.lambert_sphere.forms import ORDER2_PART, RUNTIME_PARTS, RUNTIME_TERMS, runtime_brdf, runtime_sum
+from fitlab.families.lambert_sphere.program.rewrites import stable
 from fitlab.forms.symbolic import lambdify_numpy, symbols
 from fitlab.store import fit_source, load
 
@@ -168,8 +168,8 @@ def _energy_scale(parts: tuple, terms: tuple, normalisation: str) -> sp.Rational
 def assembled(functions: dict, scale=1, terms=RUNTIME_TERMS, normalisation: str = "corrected"):
     """The runtime structure with each part a numpy function ({part: f(mu, c) or f(c)}; H2 optional):
     a model f(mu_i, mu_o, phi, c) = max(0, scale (sum of the ``terms`` kept)), evaluated as the generated
-    code evaluates it (:func:`fitlab.families.lambert_sphere.rewrites.stable`: single scattering without the cancellation of
-    sqrt(1 - u^2) in forward scattering at grazing)."""
+    code evaluates it (:func:`fitlab.families.lambert_sphere.program.rewrites.stable`: single scattering without
+    the cancellation of sqrt(1 - u^2) in forward scattering at grazing)."""
     mu, c = symbols(("mu", "c"))
     placeholders = {p: sp.Function(f"part_{p}")(*((mu, c) if get_target(p).inputs == ("mu", "c") else (c,)))
                     for p in functions}  # fmt: skip
@@ -241,7 +241,7 @@ def _rel(f, exact):
 
 
 #: the exact engine's sources: the cache of :func:`accuracy`'s exact values is keyed on them
-_ENGINE = tuple(sorted((Path(__file__).resolve().parent / "exact").glob("*.py")))
+_ENGINE = tuple(sorted((Path(__file__).resolve().parents[1] / "exact").glob("*.py")))
 
 
 def _albedo_mu(albedo_mu) -> np.ndarray:

@@ -20,7 +20,7 @@ f_S the model's lobe of order S (5: the tail) with its parameters' functions of 
 Reference models, not built from lobe targets: ``none`` (single scattering only: f_ms = 0) and
 ``kulla_conti`` (conductors: (1 - E(mu_o)) (1 - E(mu_i)) / (pi (1 - E_avg)) of height-correlated GGX, the
 walk's order 1; exact E from the engine for accuracy, the fitted E_ggx_cor and E_avg_ggx_cor in the
-generated code, :mod:`.program`).
+generated code, :mod:`.spec`).
 """
 
 from __future__ import annotations
@@ -32,7 +32,7 @@ import sympy as sp
 from fitlab.core import get_target
 from fitlab.families.microfacet_energy.lobes.fitting import BOUNDS
 from fitlab.families.microfacet_energy.lobes.shapes import SHAPE_INPUTS, blog_lobe, tilted_lobe
-from fitlab.families.microfacet_energy.lobes.targets import lobe_target_names, target_name
+from fitlab.families.microfacet_energy.targets.lobes import lobe_target_names, target_name
 from fitlab.forms.symbolic import lambdify_numpy, symbols
 from fitlab.store import fit_path, fits_folder, load
 

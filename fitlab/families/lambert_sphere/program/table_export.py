@@ -8,7 +8,7 @@ float`` array), GLSL (an R32F texture read with ``texelFetch``) and numpy (the r
 bilinear lookup defined once (:func:`fitlab.codegen.texture.lookup_2d`).
 
 What is stored, and why (docs/model.md, "The exported tables"; the measurements are in docs/table_export.md,
-``python -m fitlab.families.lambert_sphere.table_export --out docs``):
+``python -m fitlab.families.lambert_sphere.program.table_export --out docs``):
 
 * H_m, m = 0, 1, 2, through the remainder R_m of :func:`.forms.h_functions.log_exp`:
 
@@ -36,9 +36,9 @@ resolution of R_m).  kd/c comes from the root in s of the kd table's spline (:fu
 limit is the spherical albedo of single scattering per unit c, 3e-6 away).
 
 The single-scattering term is printed with sqrt((1 - u)(1 + u)) for sqrt(1 - u^2), as every generated
-Lambert-sphere program is (:func:`fitlab.families.lambert_sphere.rewrites.stable`): in forward scattering at grazing, 1 - u is
-about mu^2 and 1 - u*u in double keeps only 1e-16/mu^2 of it (37 % of f_1 at mu = 1e-4, which shows at small c,
-where f_1 is the part of f that is O(c)).
+Lambert-sphere program is (:func:`fitlab.families.lambert_sphere.program.rewrites.stable`): in forward
+scattering at grazing, 1 - u is about mu^2 and 1 - u*u in double keeps only 1e-16/mu^2 of it (37 % of f_1 at
+mu = 1e-4, which shows at small c, where f_1 is the part of f that is O(c)).
 """
 
 from __future__ import annotations
@@ -52,30 +52,29 @@ import numpy as np
 import sympy as sp
 
 from fitlab._io import read_regular_file
-from fitlab.codegen.program import MaterialSpec, Program, Routine, material_of, with_domain
-from fitlab.codegen.program import call
+from fitlab.codegen.program import MaterialSpec, Program, Routine, call, material_of, with_domain
 from fitlab.codegen.texture import LOOKUPS, TEXEL, Texture, emit_textured, lookup_1d, lookup_2d, lookup_3d
 from fitlab.families.lambert_sphere.forms import ORDER2_PART, RUNTIME_PARTS, RUNTIME_TERMS
 from fitlab.families.lambert_sphere.forms.brdf import PHASE
 from fitlab.families.lambert_sphere.forms.constants import FIRST_ORDER
 from fitlab.families.lambert_sphere.forms.h_functions import first_order, log_exp, log_exp_remainder
+from fitlab.families.lambert_sphere.program.spec import brdf_routines, local_routine
 from fitlab.families.lambert_sphere.report.spline_tables import kd_interpolant
-from fitlab.families.lambert_sphere.program import brdf_routines, local_routine
-from fitlab.families.lambert_sphere.table_files import (
+from fitlab.families.lambert_sphere.targets import TARGETS
+from fitlab.families.lambert_sphere.targets.table_files import (
     CONSTANTS_FILE,
     KD_FILE,
     TRUE_FILE,
     TRUE_ORDERS,
     check_tables,
     h_file,
+    read_checked,
     read_constants,
     read_h,
-    read_checked,
     read_kd,
     read_true_orders,
     tables_dir,
 )
-from fitlab.families.lambert_sphere.targets import TARGETS
 from fitlab.forms.symbolic import symbols
 from fitlab.store import MAX_TABLE_BYTES
 

@@ -15,9 +15,9 @@ import math
 import numpy as np
 
 from fitlab.core import Dataset, Input, Target
-from fitlab.families.lambert_sphere.grids import GRID_AXES, exact_grid
-from fitlab.families.lambert_sphere import datasets as d
 from fitlab.families.lambert_sphere.exact import h_function
+from fitlab.families.lambert_sphere.targets import datasets as d
+from fitlab.families.lambert_sphere.targets.grids import GRID_AXES, exact_grid
 
 __all__ = ["INPUTS", "TARGETS"]
 

@@ -18,15 +18,15 @@ jobs, stopping rule, rows and PNGs; the family's "simulate" hook), ``validation`
 states the walk, the references and their derivations, and the figures measured.
 """
 
-from fitlab.families.microfacet_energy.microsurface.scene import Material, Scene, SceneError, load_scene, parse_scene
-from fitlab.families.microfacet_energy.microsurface.simulate import (
+from fitlab.families.microfacet_energy.mc.scene import Material, Scene, SceneError, load_scene, parse_scene
+from fitlab.families.microfacet_energy.mc.simulate import (
     SimulationResult,
     simulate,
     simulate_file,
     summary_table,
     unconverged,
 )
-from fitlab.families.microfacet_energy.microsurface.walk import (
+from fitlab.families.microfacet_energy.mc.walk import (
     MaterialParams,
     WalkConfig,
     default_mesh,

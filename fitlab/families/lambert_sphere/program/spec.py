@@ -41,8 +41,8 @@ import sympy as sp
 from fitlab.codegen.program import MaterialSpec, ProgramSpec, Routine, call, part_routine
 from fitlab.families.lambert_sphere.forms import ORDER2_PART, RUNTIME_PARTS, RUNTIME_TERMS, SINGLE, runtime_terms
 from fitlab.families.lambert_sphere.forms.brdf import parts_in_algebra
-from fitlab.families.lambert_sphere.rewrites import REWRITES, azimuth_to_cosine, floor_poles, stable
-from fitlab.families.lambert_sphere.runtime import ORDER2_FORMS, energy_scale
+from fitlab.families.lambert_sphere.program.rewrites import REWRITES, azimuth_to_cosine, floor_poles, stable
+from fitlab.families.lambert_sphere.program.runtime import ORDER2_FORMS, energy_scale
 from fitlab.families.lambert_sphere.targets import TARGETS
 from fitlab.forms.symbolic import safe_pow, symbols
 from fitlab.store import FitFunction

@@ -2,7 +2,7 @@
 
 true_orders.csv holds the true multiple scattering (the whole phase function) beside the three-term one,
 Fourier orders 0 to 2, on its own grid: s = k/8, mu_i <= mu_o in 1e-9 and (j/32)^2 (what the exported tables
-correct the three-term orders with; :mod:`.table_export`).
+correct the three-term orders with; :mod:`..program.table_export`).
 
 Grid (documented in every header):
   c = 1 - s^2 with s = k/64, k = 0..64 (uniform in s = sqrt(1-c): dense near
@@ -24,12 +24,26 @@ import numpy as np
 from tqdm import tqdm
 
 from fitlab.families.lambert_sphere.exact import constants, h_function, multiple_scattering_modes, spherical_albedo
-from fitlab.families.lambert_sphere.exact.true_phase import multiple_scattering_orders
 from fitlab.families.lambert_sphere.exact.constants import CONSTANT_NAMES
-from fitlab.families.lambert_sphere.exact.sampling import (MU_MIN, QUADRATURE_NODES, optimal_mixture, relative_variance,
-                                                           variance_function)
-from fitlab.families.lambert_sphere.table_files import (FAMILY_NAME, KD_COLUMNS, SAMPLING_COLUMNS, SAMPLING_FILES,
-                                                      TABLE_FILES, TRUE_COLUMNS, TRUE_FILE, TRUE_ORDERS, read_checked)
+from fitlab.families.lambert_sphere.exact.sampling import (
+    MU_MIN,
+    QUADRATURE_NODES,
+    optimal_mixture,
+    relative_variance,
+    variance_function,
+)
+from fitlab.families.lambert_sphere.exact.true_phase import multiple_scattering_orders
+from fitlab.families.lambert_sphere.targets.table_files import (
+    FAMILY_NAME,
+    KD_COLUMNS,
+    SAMPLING_COLUMNS,
+    SAMPLING_FILES,
+    TABLE_FILES,
+    TRUE_COLUMNS,
+    TRUE_FILE,
+    TRUE_ORDERS,
+    read_checked,
+)
 from fitlab.store import Table
 from fitlab.store import write_tables as store_write_tables
 

@@ -43,7 +43,8 @@ from __future__ import annotations
 import numpy as np
 
 from fitlab.core import Dataset, Input, Target
-from fitlab.families.microfacet_energy import datasets as d
+from fitlab.families.microfacet_energy.targets import datasets as d
+from fitlab.families.microfacet_energy.targets.lobes import LOBE_TARGETS
 
 __all__ = ["INPUTS", "TARGETS", "MODEL_SUFFIX", "ONE_MINUS_E_FLOOR", "ON_NEGATIVE", "target_name"]
 
@@ -176,7 +177,5 @@ _DEFAULTS = {
 
 TARGETS: dict[str, Target] = {t.name: t for model in MODEL_SUFFIX for t in _albedo_targets(model, _DEFAULTS[model])}
 
-# the parameters of the fitted multiple-scattering lobes by order (issue 20): lobes.targets owns them
-from fitlab.families.microfacet_energy.lobes.targets import LOBE_TARGETS  # noqa: E402
-
+# the parameters of the fitted multiple-scattering lobes by order (issue 20): targets.lobes owns them
 TARGETS.update(LOBE_TARGETS)

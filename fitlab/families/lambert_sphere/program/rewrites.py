@@ -2,7 +2,7 @@ r"""The Lambert sphere's rewrites of its generated program: ``sympy.codegen.rewr
 know the family's symbols (mu_i, mu_o, phi, c, cos_phi), moved here from the generic code generator.
 
 * :data:`REWRITES`: the cancellation-free rewrites of every routine of the family's program
-  (:attr:`fitlab.codegen.ProgramSpec.rewrites` of :data:`fitlab.families.lambert_sphere.program.PROGRAM`,
+  (:attr:`fitlab.codegen.ProgramSpec.rewrites` of :data:`fitlab.families.lambert_sphere.program.spec.PROGRAM`,
   applied by :func:`fitlab.codegen.part_routine` to every part and by the program to its terms): the
   generic ones of :data:`fitlab.codegen.program.STABLE` with :data:`ALBEDO_ZERO` between them, in the
   order the program has always applied them (:func:`stable`).

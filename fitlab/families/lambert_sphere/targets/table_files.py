@@ -69,7 +69,7 @@ def tables_dir(data_dir: Path | str | None = None) -> Path:
 
 def grid_text(name: str) -> str:
     """What the "# grid:" header line of the table ``name`` states (:mod:`.tabulate` writes it)."""
-    from fitlab.families.lambert_sphere import tabulate
+    from fitlab.families.lambert_sphere.targets import tabulate
 
     if name == TRUE_FILE:
         return tabulate.TRUE_GRID_TEXT
@@ -80,7 +80,7 @@ def grid_points(name: str) -> dict[str, np.ndarray]:
     """The grid columns of the table ``name``, row by row, as :mod:`.tabulate` writes them: (s, c, mu) of an
     H table (s outer), (s, c) of constants.csv and kd.csv, (s, c, mu_i) of a sampling table (s outer), (s, c, mu_i,
     mu_o) of the true-phase table (s outer, then mu_i, then mu_o >= mu_i)."""
-    from fitlab.families.lambert_sphere import tabulate
+    from fitlab.families.lambert_sphere.targets import tabulate
 
     if name == TRUE_FILE:
         s, mu_i, mu_o = tabulate.true_grid()

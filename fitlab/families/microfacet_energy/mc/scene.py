@@ -49,9 +49,9 @@ from dataclasses import dataclass, field
 
 from fitlab import scenes
 from fitlab._montecarlo import MAX_PATHS, MIN_PATHS_BUDGET
-from fitlab.families.microfacet_energy.microsurface.fresnel import FRESNEL
-from fitlab.families.microfacet_energy.microsurface.microsurface import DISTRIBUTIONS
-from fitlab.families.microfacet_energy.microsurface.walk import KINDS
+from fitlab.families.microfacet_energy.mc.microsurface import DISTRIBUTIONS
+from fitlab.families.microfacet_energy.mc.walk import KINDS
+from fitlab.families.microfacet_energy.mc.walk_fresnel import FRESNEL
 from fitlab.scenes import MAX_SCENE_BYTES, NAME_RE, SceneError  # noqa: F401 - re-exported: this module's names
 
 __all__ = ["SceneError", "Material", "Scene", "SceneSchema", "SCHEMA", "parse_scene", "load_scene", "with_overrides",

@@ -96,7 +96,7 @@ def bench_mc(quick: bool = False) -> dict:
         print(f"{'three_term / exact':<24}{0.99:>6}{slots:>7}{r['photons_per_s']:>12.3g}"
               f"{r['collisions_per_s']:>14.3g}{r['collisions_per_photon']:>13.1f}{r['compile_seconds']:>11.1f}")
     print("\ncost per effect at the same precision (bench scene: c = 0.9, mu_i = 0.5, 4 mu_o bins, orders 0-2;"
-          " targets in fitlab/families/lambert_sphere/mc/bench.py; simulation seconds, compilation excluded)\n")
+          " targets in fitlab/families/lambert_sphere/mc/throughput.py; simulation seconds, compilation excluded)\n")
     print(f"{'effects':<20}{'jobs':>5}{'paths':>11}{'collisions':>13}{'seconds':>9}{'converged':>11}")
     costs = effect_costs(quick)
     for r in costs:

@@ -33,7 +33,7 @@ CASES = tuple((d, k) for d in ("ggx", "beckmann") for k in ("conductor", "diffus
 
 
 def _config(distribution, kind, slots):
-    from fitlab.families.microfacet_energy.microsurface.walk import WalkConfig
+    from fitlab.families.microfacet_energy.mc.walk import WalkConfig
 
     return WalkConfig(distribution=distribution, kind=kind, slots=slots)
 
@@ -44,7 +44,7 @@ def bench_walk(n_paths: int = 400_000, alpha: float = 0.6, mu_i: float = 0.5, di
     """Run ``n_paths`` paths ``repeats`` times after compiling; the best round's rates.
 
     Returns dict(compile_seconds, seconds, paths, bounces, bounces_per_second, paths_per_second)."""
-    from fitlab.families.microfacet_energy.microsurface.walk import MaterialParams, compile_walk, job_key, run_round
+    from fitlab.families.microfacet_energy.mc.walk import MaterialParams, compile_walk, job_key, run_round
     from fitlab.timing import best_of
 
     cfg = _config(distribution, kind, slots)
@@ -60,7 +60,7 @@ _SHARD_SCRIPT = """
 import json, sys, time
 import jax, numpy as np
 from jax.sharding import Mesh
-from fitlab.families.microfacet_energy.microsurface.walk import (MaterialParams, WalkConfig, compile_walk,
+from fitlab.families.microfacet_energy.mc.walk import (MaterialParams, WalkConfig, compile_walk,
                                                                   default_mesh, job_key, run_round)
 from fitlab.timing import interleaved_best
 n, repeat = int(sys.argv[1]), int(sys.argv[2])
@@ -94,7 +94,7 @@ def bench_mc(quick: bool = False) -> dict:
     """The family's ``fitlab bench mc``: prints the tables, returns every figure."""
     import jax
 
-    from fitlab.families.microfacet_energy.microsurface.walk import (
+    from fitlab.families.microfacet_energy.mc.walk import (
         MaterialParams,
         compile_walk,
         default_mesh,

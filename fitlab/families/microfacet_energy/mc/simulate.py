@@ -47,9 +47,9 @@ import math
 import numpy as np
 
 from fitlab import scenes
-from fitlab.families.microfacet_energy.microsurface.reference import references
-from fitlab.families.microfacet_energy.microsurface.scene import SCHEMA, Scene, SceneError
-from fitlab.families.microfacet_energy.microsurface.walk import (
+from fitlab.families.microfacet_energy.mc.reference import references
+from fitlab.families.microfacet_energy.mc.scene import SCHEMA, Scene, SceneError
+from fitlab.families.microfacet_energy.mc.walk import (
     MaterialParams,
     WalkConfig,
     compile_walk,

@@ -1,6 +1,6 @@
 r"""The microfacet_energy family's program (:data:`PROGRAM`, its ``codegen``): the fitted albedos a renderer
 needs for Kulla-Conti energy compensation and the fitted multiple-scattering lobes, printed in Python, C and
-the shading languages from the same symbolic definitions (:mod:`.shapes`, :mod:`.runtime`) and the fits,
+the shading languages from the same symbolic definitions (:mod:`..lobes.shapes`, :mod:`.runtime`) and the fits,
 through fitlab.codegen.
 
 ``fitlab codegen --family microfacet_energy --lang LANG`` prints it to the files microfacet_energy.* (their
@@ -39,10 +39,10 @@ from typing import Mapping
 import sympy as sp
 
 from fitlab.codegen import Program, ProgramSpec, Routine, build_program, call, part_routine, stable
-from fitlab.families.microfacet_energy.lobes.runtime import MODELS, model_forms, multiple_scattering, order_lobes
 from fitlab.families.microfacet_energy.lobes.tables import KINDS
-from fitlab.families.microfacet_energy.lobes.targets import lobe_target_names
+from fitlab.families.microfacet_energy.program.runtime import MODELS, model_forms, multiple_scattering, order_lobes
 from fitlab.families.microfacet_energy.targets import TARGETS
+from fitlab.families.microfacet_energy.targets.lobes import lobe_target_names
 from fitlab.forms.symbolic import symbols
 from fitlab.store import FitFunction, fit_path, fits_folder
 

@@ -20,13 +20,25 @@ import numpy as np
 
 from fitlab.cache import cached_arrays
 from fitlab.core import Dataset
+from fitlab.families.lambert_sphere.exact import (
+    brdf,
+    brdf_modes,
+    constants,
+    h_function,
+    multiple_scattering_modes,
+    spherical_albedo,
+)
 from fitlab.families.lambert_sphere.exact.constants import CONSTANT_NAMES
+from fitlab.families.lambert_sphere.targets.table_files import (
+    SAMPLING_FILES,
+    read_constants,
+    read_h,
+    read_kd,
+    read_sampling,
+    tables_dir,
+)
 
-from fitlab.families.lambert_sphere.exact import brdf, brdf_modes, constants, h_function, multiple_scattering_modes, spherical_albedo
-from fitlab.families.lambert_sphere.table_files import SAMPLING_FILES, read_constants, read_h, read_kd, read_sampling, tables_dir
-
-
-_ENGINE = tuple(sorted((Path(__file__).resolve().parent / "exact").glob("*.py")))
+_ENGINE = tuple(sorted((Path(__file__).resolve().parents[1] / "exact").glob("*.py")))
 
 
 def _cached(name: str, grid: str, compute, inputs: tuple[str, ...], aux: tuple[str, ...] = (), **axes) -> Dataset:
@@ -245,7 +257,7 @@ SAMPLING_COLUMN = {"sample_weight": "weight", "sample_exponent": "exponent"}
 
 
 def _sampling(target: str, name: str, data_dir: Path | None) -> Dataset:
-    from fitlab.families.lambert_sphere.tabulate import SAMPLING_GRIDS
+    from fitlab.families.lambert_sphere.targets.tabulate import SAMPLING_GRIDS
 
     t = read_sampling(name, tables_dir(data_dir))
     return Dataset({"mu_i": t["mu_i"], "c": t["c"]}, t[SAMPLING_COLUMN[target]], f"table {name}: {SAMPLING_GRIDS[name][2]}")

@@ -82,7 +82,7 @@ def target_name(model: str, param: str, kind: str) -> str:
 
 
 def _tables_dir() -> Path:
-    from fitlab.families.microfacet_energy.datasets import tables_dir
+    from fitlab.families.microfacet_energy.targets.datasets import tables_dir
 
     return tables_dir()
 
@@ -118,9 +118,9 @@ def energy_scales(kind: str, which: str, folder: Path, fits_dir: Path | None = N
     import sympy as sp
 
     from fitlab.families.microfacet_energy.lobes.fitting import bin_averages_numpy
-    from fitlab.families.microfacet_energy.lobes.runtime import order_lobes, parameter_expressions
     from fitlab.families.microfacet_energy.lobes.shapes import SHAPE_INPUTS
     from fitlab.families.microfacet_energy.lobes.tables import read_lobes, solid_angles
+    from fitlab.families.microfacet_energy.program.runtime import order_lobes, parameter_expressions
     from fitlab.forms.symbolic import lambdify_numpy, symbols
 
     parts = dict(parameter_expressions("tilted", kind, fits_dir))
@@ -177,7 +177,7 @@ def _targets(kind: str) -> list[Target]:
                 claimed=("none stated (the blog: 'I'm not sure my results are accurate or useable anymore')"
                          if published else "none: the blog fitted diffuse facets only"),
                 error_measure=(f"{measure}: |approx - exact|" + (" / |exact|" if measure == "relative" else "")
-                               + " (lobes.targets says why)"),
+                               + " (targets.lobes says why)"),
                 scale=_scale(measure), minimax=False, emphasis=_emphasis(measure),
                 emphasis_text=f"each lobe weighted by 1/max(1, se/({TOLERANCE:g} scale)) (its Monte Carlo uncertainty)",
                 note=("Exact values are per-lobe fits of Monte Carlo lobes, with standard errors: the refit weighs them "
