@@ -5,14 +5,17 @@ a device or a huge file named like an input can neither hang a command nor fill 
 
 from __future__ import annotations
 
+import hashlib
+import importlib.util
 import os
 import stat
 import tempfile
 from pathlib import Path
+from types import ModuleType
 
 from fitlab._interrupt import check, hold
 
-__all__ = ["atomic_write_text", "atomic_write_bytes", "atomic_write_many", "temporary_name", "InputFileError",
+__all__ = ["import_generated", "atomic_write_text", "atomic_write_bytes", "atomic_write_many", "temporary_name", "InputFileError",
            "regular_file", "read_regular_file"]
 
 
@@ -199,3 +202,19 @@ def read_regular_file(path, max_bytes: int) -> bytes:
     if len(data) > max_bytes:
         raise InputFileError(path, "too_large", f"more than the {max_bytes} bytes fitlab reads")
     return data
+
+
+def import_generated(path: Path, prefix: str = "_fitlab_generated") -> ModuleType:
+    """The generated Python module (numpy, Dr.Jit) at ``path``, imported from its file, not through fitlab's
+    packages: the one loader of generated modules.  Its name is ``PREFIX_HASH``, the hash of the resolved
+    path, so that two files never share a module; it is not entered in ``sys.modules``.  The caller checks
+    that the file exists and has the members it needs (with its own one-line error); an unreadable file
+    raises ``OSError``, a file that is not Python what running it raises."""
+    path = Path(path)
+    tag = hashlib.sha256(str(path.resolve()).encode()).hexdigest()[:16]
+    spec = importlib.util.spec_from_file_location(f"{prefix}_{tag}", path)
+    if spec is None or spec.loader is None:
+        raise ImportError(f"{path}: not a Python module file")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module

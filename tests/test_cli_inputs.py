@@ -45,7 +45,7 @@ COMMANDS = {
                     [("fitlab.fit.refit", "refit"), ("fitlab.fit.refit", "timed_refit")]),
     "fit": (["fit", str(EXAMPLE_TABLE), "--target", "E", "--form", "a0 + a1*mu + a2*alpha", "--quiet"],
             [("fitlab.fit.user", "run_fit"), ("fitlab.fit.refit", "refit")]),
-    "audit": (["audit", "--fits", str(FITS)], [("fitlab.families.lambert_sphere.report.audit", "run_audit")]),
+    "audit": (["audit", "--fits", str(FITS)], [("fitlab.families.lambert_sphere.report.audit", "audit")]),
     "codegen": (["codegen", "--lang", "c", "--fits", str(FITS)], [("fitlab.codegen", "generate")]),
     "render": (["render", "--generated", str(GENERATED), "--quiet"],
                [("fitlab.families.lambert_sphere.mitsuba.render", "render_comparison")]),
@@ -307,6 +307,8 @@ def test_tabulate_writes_all_tables_or_none(tmp_path, monkeypatch):
 
 
 def test_audit_writes_both_files_or_neither(tmp_path, monkeypatch, capsys):
+    from fitlab.core import Outputs
+
     import fitlab.families.lambert_sphere.report.audit as audit
 
     out = tmp_path / "docs"
@@ -315,17 +317,15 @@ def test_audit_writes_both_files_or_neither(tmp_path, monkeypatch, capsys):
     (out / "audit.json").write_text("old json")
     before = _snapshot(out)
 
-    def fake_run_audit(out_dir, fits_dir, show_progress=False):
-        (Path(out_dir) / "audit.json").write_text("{}")
-        (Path(out_dir) / "audit.md").write_text("new")
-        return {"runtime": [], "furnace": [], "missing_fits": []}
+    def fake_audit(fits_dir, show_progress=False):
+        return Outputs({"runtime": [], "furnace": [], "missing_fits": []}, {"audit.json": b"{}", "audit.md": b"new"})
 
-    monkeypatch.setattr(audit, "run_audit", fake_run_audit)
+    monkeypatch.setattr(audit, "audit", fake_audit)
     _fail_on_second_file(monkeypatch, OSError)
     assert main(["audit", "--fits", str(FITS), "--out", str(out)]) == 1
     assert _snapshot(out) == before
     monkeypatch.undo()
-    monkeypatch.setattr(audit, "run_audit", fake_run_audit)
+    monkeypatch.setattr(audit, "audit", fake_audit)
     assert main(["audit", "--fits", str(FITS), "--out", str(out), "--json"]) == 0
     assert json.loads(capsys.readouterr().out)["files"] == [str(out / "audit.md"), str(out / "audit.json")]
     assert _snapshot(out) == {"audit.json": b"{}", "audit.md": b"new"}

@@ -71,8 +71,8 @@ def test_a_hook_that_lacks_a_member_is_refused_in_one_line_naming_it(toy, hook, 
 
 
 def test_a_method_member_must_be_callable(toy):
-    toy({"audit": lambda: SimpleNamespace(run_audit=3)})
-    with pytest.raises(TypeError, match="lacks 'run_audit'"):
+    toy({"audit": lambda: SimpleNamespace(audit=3)})
+    with pytest.raises(TypeError, match="lacks 'audit'"):
         family_service("audit", "toy_hooks")
 
 

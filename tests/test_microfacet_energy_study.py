@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from fitlab.families.microfacet_energy import study as S
+from fitlab.families.microfacet_energy.studies import energy_compensation as S
 from fitlab.families.microfacet_energy.exact import directional_albedo
 
 

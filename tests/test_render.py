@@ -78,9 +78,10 @@ def test_render_comparison_writes_png(tmp_path, monkeypatch):
         return panels[material]
 
     monkeypatch.setattr(render, "render_sphere", recorded)
-    out = render_comparison(tmp_path / "r.png", GENERATED, kd=kd, size=size, spp=spp, lights=1, show_progress=False,
-                            variant="scalar_rgb")  # fmt: skip
-    assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    png = render_comparison(GENERATED, kd=kd, size=size, spp=spp, lights=1, show_progress=False, variant="scalar_rgb")
+    assert png[:8] == b"\x89PNG\r\n\x1a\n"
+    out = tmp_path / "r.png"
+    out.write_bytes(png)
     assert matplotlib.image.imread(out).shape[:2] == (880, 220)  # 4 materials x 1 light, 2.2 in each at 100 dpi
     assert set(panels) == {"lambert_sphere", "lambert", "oren_nayar", "chandrasekhar"}
     (light,) = light_directions(1)
@@ -98,7 +99,7 @@ def test_render_comparison_writes_png(tmp_path, monkeypatch):
         assert np.all(np.abs(got[inner] - want[inner]) < tol), name
         assert np.median(np.abs(got[inner] - want[inner]) / want[inner]) < 0.02, name
     with pytest.raises(ValueError):
-        render_comparison(tmp_path / "bad.png", GENERATED, kd=1.5)
+        render_comparison(GENERATED, kd=1.5)
     assert not (tmp_path / "bad.png").exists()
 
 

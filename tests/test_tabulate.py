@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from fitlab.cli import main
-from fitlab.families.lambert_sphere import table_files, tabulate
+from fitlab.families.lambert_sphere.targets import table_files, tabulate
 from fitlab.families.lambert_sphere.targets.tabulate import C_GRID, FAST_TABLES, MU_GRID, write_tables
 
 DATA = Path(__file__).resolve().parents[1] / "fitlab" / "data" / "lambert_sphere"

@@ -2,9 +2,7 @@
 
 from __future__ import annotations
 
-import tempfile
 import time
-from pathlib import Path
 
 from fitlab._io import atomic_write_many
 from fitlab.cli._common import (
@@ -50,19 +48,18 @@ def run(args) -> int:
     audit = service("audit", args.family)
 
     t0 = time.perf_counter()
-    # the audit writes its two files one by one: let it write into a private folder, then move both
-    # into --out as one unit (all or nothing, no temporary left in --out)
-    with tempfile.TemporaryDirectory(prefix="fitlab-audit-") as staging:
-        try:
-            result = audit.run_audit(Path(staging), fits, show_progress=not args.quiet)
-        except (FitFileError, TableError) as exc:
-            raise UsageError(one_line(exc)) from None
-        except (ValueError, ArithmeticError) as exc:
-            raise RunFailure(f"the audit failed: {one_line(exc)}") from None
-        try:
-            atomic_write_many({out / name: (Path(staging) / name).read_bytes() for name in FILES})
-        except OSError as exc:
-            raise write_failure(out, exc) from None
+    try:
+        result, files = audit.audit(fits, show_progress=not args.quiet)
+    except (FitFileError, TableError) as exc:
+        raise UsageError(one_line(exc)) from None
+    except (ValueError, ArithmeticError) as exc:
+        raise RunFailure(f"the audit failed: {one_line(exc)}") from None
+    if set(files) != set(FILES):
+        raise RunFailure(f"the audit gave the files {sorted(files)}, not {list(FILES)}")
+    try:  # both files or neither, no temporary left in --out
+        atomic_write_many({out / name: files[name] for name in FILES})
+    except OSError as exc:
+        raise write_failure(out, exc) from None
     if args.json:
         print(strict_json({"runtime": result["runtime"], "furnace": result["furnace"],
                            "missing_fits": result["missing_fits"], "files": [str(out / n) for n in FILES]}), end="")

@@ -4,6 +4,7 @@ renders)."""
 
 from __future__ import annotations
 
+from fitlab._io import atomic_write_bytes
 from fitlab.cli._common import (
     RunFailure,
     UsageError,
@@ -69,11 +70,13 @@ def run(args) -> int:
         raise UsageError(f"--variant llvm_ad_rgb does not run here ({one_line(render.llvm_problem())}); "
                          "tools/install-system-packages.sh installs libLLVM, or use --variant scalar_rgb")
     try:
-        path = render.render_comparison(out / FILE, generated=generated, kd=args.kd, size=args.size, spp=args.spp,
-                                        lights=args.lights, show_progress=not args.quiet, variant=args.variant)  # fmt: skip
+        png = render.render_comparison(generated=generated, kd=args.kd, size=args.size, spp=args.spp,
+                                       lights=args.lights, show_progress=not args.quiet, variant=args.variant)
     except (render.RenderError, ValueError, ArithmeticError) as exc:
         raise RunFailure(one_line(exc)) from None
+    try:
+        atomic_write_bytes(out / FILE, png)
     except OSError as exc:
         raise write_failure(out, exc) from None
-    say(args, f"wrote {path}")
+    say(args, f"wrote {out / FILE}")
     return 0

@@ -14,6 +14,7 @@ from fitlab.core._hooks import (
     BrdfGrid,
     BrdfGridHook,
     BrdfReportHook,
+    Outputs,
     ProgramContract,
     RenderHook,
     ReportHook,
@@ -44,6 +45,7 @@ from fitlab.core._target import Target
 
 __all__ = [
     "AuditHook",
+    "Outputs",
     "BenchHook",
     "BrdfGrid",
     "BrdfGridHook",

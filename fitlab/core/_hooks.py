@@ -27,8 +27,9 @@ from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any, NamedTuple, Protocol, runtime_checkable
 
-__all__ = ["TablesHook", "AuditHook", "RenderHook", "BenchHook", "ReportHook", "BrdfReportHook", "TableExportHook",
-           "BrdfGridHook", "BrdfGrid", "ProgramContract", "missing_member", "check_hook", "BENCHES"]  # fmt: skip
+__all__ = ["Outputs", "TablesHook", "AuditHook", "RenderHook", "BenchHook", "ReportHook", "BrdfReportHook",
+           "TableExportHook", "BrdfGridHook", "BrdfGrid", "ProgramContract", "missing_member", "check_hook",
+           "BENCHES"]  # fmt: skip
 
 
 def _members(protocol) -> list[str]:
@@ -69,12 +70,21 @@ class TablesHook(Protocol):
         ...
 
 
+class Outputs(NamedTuple):
+    """What a hook computed, for the caller to write: ``summary`` (JSON-ready data the command prints) and
+    ``files`` (file name -> bytes), written by the command that called the hook, all or nothing."""
+
+    summary: Any
+    files: Mapping[str, bytes]
+
+
 @runtime_checkable
 class AuditHook(Protocol):
     """``audit`` (``fitlab audit``)."""
 
-    def run_audit(self, out: Path, fits_dir: Path | None = None, show_progress: bool = True) -> Any:
-        """Run the audit, writing its files into ``out``."""
+    def audit(self, fits_dir: Path | None = None, show_progress: bool = True) -> Outputs:
+        """The audit of the fits in ``fits_dir`` (None: the packaged fits): its summary and its files (the
+        caller writes them)."""
         ...
 
 
@@ -93,7 +103,7 @@ class RenderHook(Protocol):
         """Why the LLVM variant does not run here, or None."""
         ...
 
-    def render_comparison(self, out: Path, **options) -> Path:
+    def render_comparison(self, **options) -> bytes:
         """Render the comparison into ``out``; the path written."""
         ...
 

@@ -11,12 +11,12 @@ second of the registered ``lambert_sphere`` plugin in scalar_rgb and llvm_ad_rgb
 
 from __future__ import annotations
 
-import importlib.util
 import tempfile
 from pathlib import Path
 
 import numpy as np
 
+from fitlab._io import import_generated
 from fitlab.codegen import emit, load_program
 from fitlab.codegen.bench import time_routines
 from fitlab.codegen.native import build
@@ -130,9 +130,7 @@ def bench_codegen(fits_dir: Path | None = None, n: int = 1_000_000, repeat: int 
                        Path(tmp) / "tables")  # fmt: skip
         module = Path(tmp) / f"{prog.name}.py"
         module.write_text(emit(prog, "python")[module.name])
-        spec = importlib.util.spec_from_file_location("bench_generated", module)
-        py = importlib.util.module_from_spec(spec)
-        spec.loader.exec_module(py)
+        py = import_generated(module, "_fitlab_bench")
         kd = py.kd_of_c(c)
         mat_kd = py.kd_of_c(mat_c)
         cases = {

@@ -36,10 +36,10 @@ defined for this BRDF here).
 
 from __future__ import annotations
 
-import importlib.util
 import types
 from pathlib import Path
 
+from fitlab._io import import_generated
 from fitlab.resources import packaged_fits
 
 __all__ = ["register", "load_drjit_module", "bsdf_class", "PluginError", "PLUGIN", "DRJIT_FILE", "REQUIRED", "PARAMETERS"]
@@ -67,9 +67,7 @@ def load_drjit_module(path: Path | None = None):
     path = Path(path) if path is not None else packaged_fits() / "generated" / DRJIT_FILE
     if not path.is_file():
         raise PluginError(f"{path}: no generated Dr.Jit module; run `fitlab codegen --lang drjit` first")
-    spec = importlib.util.spec_from_file_location(f"_fitlab_drjit_{abs(hash(path.resolve()))}", path)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
+    module = import_generated(path, "_fitlab_drjit")
     missing = [n for n in REQUIRED if not hasattr(module, n)]
     if missing:
         raise PluginError(f"{path}: not a generated Lambert-sphere Dr.Jit module (no {', '.join(missing)})")

@@ -18,7 +18,6 @@ Every material is given the same spherical albedo kd, so differences are of shap
 
 from __future__ import annotations
 
-import importlib.util
 import io
 import subprocess
 import sys
@@ -29,7 +28,7 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
-from fitlab._io import atomic_write_bytes
+from fitlab._io import import_generated
 from fitlab.families.lambert_sphere.exact import gauss_legendre, isotropic_characteristic, solve_albedo, solve_h
 from fitlab.families.lambert_sphere.mitsuba.plugin import PluginError, load_drjit_module, register
 
@@ -50,9 +49,7 @@ def load_generated(path: Path):
     path = Path(path)
     if not path.is_file():
         raise RenderError(f"{path}: no generated module; run `fitlab codegen --lang python` first")
-    spec = importlib.util.spec_from_file_location(f"_fitlab_generated_{abs(hash(path.resolve()))}", path)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
+    module = import_generated(path)
     for name in ("brdf_local", "c_of_kd"):
         if not hasattr(module, name):
             raise RenderError(f"{path}: not a generated Lambert-sphere module (no {name})")
@@ -328,10 +325,11 @@ def pixel_geometry(size: int, extent: float = 1.05):
     return n
 
 
-def render_comparison(out: Path, generated: Path | None = None, kd: float = 0.8, size: int = 64, spp: int = 4,
-                      lights: int = 3, show_progress: bool = True, variant: str = "auto") -> Path:  # fmt: skip
-    """Render every material under ``lights`` directions to one PNG (rows: materials), in ``variant``
-    (:func:`resolve_variant`), the plugin running the generated Dr.Jit module ``generated``."""
+def render_comparison(generated: Path | None = None, kd: float = 0.8, size: int = 64, spp: int = 4,
+                      lights: int = 3, show_progress: bool = True, variant: str = "auto") -> bytes:  # fmt: skip
+    """Every material rendered under ``lights`` directions, as one PNG's bytes (rows: materials; the caller
+    writes them), in ``variant`` (:func:`resolve_variant`), the plugin running the generated Dr.Jit module
+    ``generated``."""
     from matplotlib.figure import Figure  # not pyplot: rendering leaves the caller's backend alone
 
     if not 0.0 < kd < 1.0:
@@ -362,5 +360,4 @@ def render_comparison(out: Path, generated: Path | None = None, kd: float = 0.8,
 
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=100)
-    atomic_write_bytes(Path(out), buf.getvalue())
-    return Path(out)
+    return buf.getvalue()

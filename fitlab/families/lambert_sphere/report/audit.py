@@ -29,9 +29,8 @@ from pathlib import Path
 
 import numpy as np
 
-from fitlab._io import atomic_write_many
 from fitlab.codegen.program import DEFAULT_FORMS
-from fitlab.core import get_target, targets
+from fitlab.core import Outputs, get_target, targets
 from fitlab.families.lambert_sphere.exact import (
     albedo,
     brdf,
@@ -279,9 +278,10 @@ def _markdown(result: dict) -> str:
     return "\n".join(out) + "\n"
 
 
-def run_audit(out_dir: Path, fits_dir: Path | None = None, show_progress: bool = False) -> dict:
-    """Compute the audit of the fits in ``fits_dir`` (None: the packaged fits), then write audit.md and
-    audit.json into ``out_dir`` (both or neither); ``show_progress``: a bar over its stages on stderr."""
+def audit(fits_dir: Path | None = None, show_progress: bool = False) -> Outputs:
+    """The audit of the fits in ``fits_dir`` (None: the packaged fits): its summary (the rows, a dict) and
+    its two files, audit.json and audit.md, as bytes (the caller writes them; ``fitlab audit`` as one unit);
+    ``show_progress``: a bar over its stages on stderr."""
     from tqdm import tqdm
 
     with tqdm(total=7, desc="audit", unit="stage", disable=not show_progress, leave=False) as bar:
@@ -302,7 +302,4 @@ def run_audit(out_dir: Path, fits_dir: Path | None = None, show_progress: bool =
     result = {"published": published, "runtime_grid": grid, "runtime": runtime, "runtime_true_grid": true_grid,
               "runtime_true": runtime_true, "runtime_true_independent_grid": independent_grid,
               "runtime_true_independent": runtime_true_independent, "missing_fits": missing, "furnace": furnace}
-    md = _markdown(result)
-    text = strict_json(result)
-    atomic_write_many({Path(out_dir) / "audit.json": text.encode(), Path(out_dir) / "audit.md": md.encode()})
-    return result
+    return Outputs(result, {"audit.json": strict_json(result).encode(), "audit.md": _markdown(result).encode()})
