@@ -9,6 +9,7 @@ Every column of the CSV but :data:`TIMING_COLUMNS` is reproducible run to run.
 from __future__ import annotations
 
 import csv
+import dataclasses
 import io
 import math
 from pathlib import Path
@@ -18,7 +19,7 @@ from fitlab.report.methods import GROUPS
 from fitlab.report.pareto import RULES, pareto_front
 from fitlab.report.plot import plot_cost, plot_png
 
-__all__ = ["COLUMNS", "TIMING_COLUMNS", "FILES", "csv_text", "markdown", "parts_table", "write_outputs"]
+__all__ = ["COLUMNS", "TIMING_COLUMNS", "FILES", "csv_text", "markdown", "parts_table", "as_shown", "write_outputs"]
 
 #: the CSV's columns; ``section`` says what a row is (brdf, part, exact, exact_h, time_to_error, refit)
 COLUMNS = ("section", "target", "group", "method", "source", "points", "paths", "target_error", "max_rel",
@@ -244,8 +245,30 @@ def markdown(report) -> str:
     return "\n".join(out) + "\n"
 
 
+def as_shown(report, cwd: Path | None = None):
+    """``report`` with its fits folder named as a person reads it: relative to ``cwd`` (default: the current
+    folder) when the folder lies inside it, so that a report made in a checkout names fitlab/fits/..., not
+    the checkout's absolute path; otherwise unchanged.  Rows and recommendations are copied, not edited."""
+    folder = report.context.get("fits_dir")
+    if not folder:
+        return report
+    try:
+        shown = str(Path(folder).resolve().relative_to((cwd or Path.cwd()).resolve()))
+    except ValueError:
+        return report
+
+    def row(r):
+        return None if r is None else {k: v.replace(folder, shown) if isinstance(v, str) else v for k, v in r.items()}
+
+    return dataclasses.replace(report, rows=[row(r) for r in report.rows],
+                               recommendations={k: row(r) for k, r in report.recommendations.items()},
+                               context={**report.context, "fits_dir": shown})
+
+
 def write_outputs(report, out_dir: Path) -> list[Path]:
-    """Render report.md, accuracy_vs_cost.png and report.csv and write all three (or none)."""
+    """Render report.md, accuracy_vs_cost.png and report.csv (the fits folder named by :func:`as_shown`) and
+    write all three (or none)."""
+    report = as_shown(report)
     brdf = _section(report.rows, "brdf")
     title = (f"Lambert-sphere BRDF: error vs cost of every evaluation method ({report.context['validation_points']} "
              "validation points; fitlab report)")  # fmt: skip

@@ -1,6 +1,6 @@
 r"""The exact tables as engines ship them: one float32 texture and the "tables, three orders" BRDF read from it.
 
-The report's "tables, three orders" method (:mod:`.report.spline_tables`) is the exact BRDF up to the interpolation of
+The report's "tables, three orders" method (:mod:`..report.spline_tables`) is the exact BRDF up to the interpolation of
 H0, H1, H2 and the constants; it interpolates with scipy splines and cannot be shipped.  This module stores
 what that BRDF needs in one texture (:class:`fitlab.codegen.texture.Texture`) and builds the BRDF from lookups of
 it, printed like any program (:func:`fitlab.codegen.texture.emit_textured`): C (the texture as a ``static const
@@ -10,7 +10,7 @@ bilinear lookup defined once (:func:`fitlab.codegen.texture.lookup_2d`).
 What is stored, and why (docs/model.md, "The exported tables"; the measurements are in docs/table_export.md,
 ``python -m fitlab.families.lambert_sphere.program.table_export --out docs``):
 
-* H_m, m = 0, 1, 2, through the remainder R_m of :func:`.forms.h_functions.log_exp`:
+* H_m, m = 0, 1, 2, through the remainder R_m of :func:`..forms.h_functions.log_exp`:
 
       H_m(mu, c) = exp(mu (Psi_m(mu) log(1 + 1/mu) + c (p_m(mu) + R_m(s, mu)))),  s = sqrt(1 - c),
 
@@ -21,7 +21,7 @@ What is stored, and why (docs/model.md, "The exported tables"; the measurements 
   c = 0 exactly, and enters the BRDF at O(c^3) as c -> 0.  Stored at s = k/(N - 1), mu = j/(N - 1).
 * the constants as functions of s, each as the quantity that is 0 at c = 0 and whose error stays relative as
   c -> 0: l, m - 1, and X/c - X1 for X = B, C, D, F (X1 the exact O(c) coefficient,
-  :data:`.forms.constants.FIRST_ORDER`).  They are read per material, always with the cubic lookup (a linear
+  :data:`..forms.constants.FIRST_ORDER`).  They are read per material, always with the cubic lookup (a linear
   one costs 1e-3 of the BRDF at c = 0.01, and a material is read once).
 * c(kd), the particle albedo of a spherical albedo kd (kd_true), for ``prepare(kd)``, as kd/c at kd = k/(N - 1)
   (smooth and between 0.31 and 1; c itself has large higher derivatives near kd = 0, where a cubic through
@@ -31,8 +31,9 @@ Every stored value but kd/c is an exact table value (``N - 1`` divides 64: each 
 s = k/64, mu = j/64; nothing is interpolated before it is stored), transformed; three are limits: R_m = 0 at
 c = 0 (the first-order part is exact), the constants' quantities are 0 at c = 0, and R_m at mu = 0 is read
 at the table's node mu = :data:`LIMIT_MU` (R_m - R_m(0) = O(mu log^2 mu), about 4e-7 there, below float32's
-resolution of R_m).  kd/c comes from the root in s of the kd table's spline (:func:`.report.spline_tables.kd_interpolant`,
-2.8e-7 on kd), and at kd = 0 from the table's kd/c extrapolated to c = 0 (:func:`kd_ratio_limit`; the exact
+resolution of R_m).  kd/c comes from the root in s of the kd table's spline
+(:func:`..report.spline_tables.kd_interpolant`, 2.8e-7 on kd), and at kd = 0 from the table's kd/c extrapolated
+to c = 0 (:func:`kd_ratio_limit`; the exact
 limit is the spherical albedo of single scattering per unit c, 3e-6 away).
 
 The single-scattering term is printed with sqrt((1 - u)(1 + u)) for sqrt(1 - u^2), as every generated
@@ -75,6 +76,7 @@ from fitlab.families.lambert_sphere.targets.table_files import (
     read_true_orders,
     tables_dir,
 )
+from fitlab.families.lambert_sphere.targets.tabulate import TRUE_GRID_TEXT, TRUE_S_GRID
 from fitlab.forms.symbolic import symbols
 from fitlab.store import MAX_TABLE_BYTES
 
@@ -286,7 +288,7 @@ def stored_correction(nodes: int, data_dir: Path | None = None) -> np.ndarray:
     Q is a ratio of two multiple scatterings, each O(c^2) and each with the log pole at mu_i = mu_o = 0, so it is
     bounded and smooth in (s, sqrt(mu)) where the difference itself is not (docs/model.md, "The exported
     tables").  Two nodes are limits: mu = 0 is read at the table's mu = 1e-9, and s = 1 (c = 0, where both
-    orders are 0) is Q extrapolated from s = 4/8 .. 7/8 by the cubic through them."""
+    orders are 0) is Q extrapolated from the four s nodes below it by the cubic through them."""
     lay = layout(nodes)
     data_dir = tables_dir(data_dir)
     t = read_true_orders(data_dir)
@@ -296,8 +298,11 @@ def stored_correction(nodes: int, data_dir: Path | None = None) -> np.ndarray:
     idx = np.arange(0, full, step)
     i, j = np.triu_indices(full)
     s_all = np.unique(t["s"])
-    if not np.array_equal(s_all, np.arange(9) / 8.0):
-        raise ValueError(f"{data_dir / TRUE_FILE}: its s grid is not k/8, k = 0..8")
+    if not np.array_equal(s_all, TRUE_S_GRID):
+        raise ValueError(f"{data_dir / TRUE_FILE}: its s grid is not the one fitlab tabulate writes ({TRUE_GRID_TEXT})")
+    last = s_all.size - 1
+    if last % (ns - 1):
+        raise ValueError(f"{CORRECTION_S_NODES} s nodes of the correction do not fall on the table's {s_all.size}")
     out = np.zeros((TRUE_ORDERS, s_all.size, full, full))
     base = t["fm0_three_term"]
     for m in range(TRUE_ORDERS):
@@ -306,9 +311,10 @@ def stored_correction(nodes: int, data_dir: Path | None = None) -> np.ndarray:
         q = q.reshape(s_all.size, i.size)
         out[m][:, i, j] = q
         out[m][:, j, i] = q
-    # s = 1: c = 0, both orders 0; the cubic through s = 4/8 .. 7/8 at s = 1 (Lagrange weights -1, 4, -6, 4)
-    out[:, 8] = -out[:, 4] + 4 * out[:, 5] - 6 * out[:, 6] + 4 * out[:, 7]
-    keep_s = np.arange(0, 9, 8 // (ns - 1))
+    # s = 1: c = 0, both orders 0; the cubic through the four equally spaced nodes below it, evaluated one step on
+    # (Lagrange weights -1, 4, -6, 4)
+    out[:, last] = -out[:, last - 4] + 4 * out[:, last - 3] - 6 * out[:, last - 2] + 4 * out[:, last - 1]
+    keep_s = np.arange(0, last + 1, last // (ns - 1))
     return out[:, keep_s][:, :, idx][:, :, :, idx]
 
 
@@ -326,8 +332,9 @@ def _texture(nodes: int, data_dir: Path, quantity: str) -> Texture:
 
 
 def texture(nodes: int = DEFAULT_NODES, data_dir: Path | None = None, quantity: str = DEFAULT_QUANTITY) -> Texture:
-    """The texture of ``nodes`` nodes per axis from the tables in ``data_dir`` (None: :func:`.table_files.tables_dir`);
-    ``quantity``: what its H rows hold (:data:`QUANTITIES`; the others are measured, not shipped)."""
+    """The texture of ``nodes`` nodes per axis from the tables in ``data_dir`` (None:
+    :func:`..targets.table_files.tables_dir`); ``quantity``: what its H rows hold (:data:`QUANTITIES`; the
+    others are measured, not shipped)."""
     _check(nodes, DEFAULT_LOOKUP, quantity)
     return _texture(nodes, tables_dir(data_dir), quantity)
 

@@ -1,6 +1,6 @@
 r"""The runtime model's parts fitted to the true BRDF (docs/model.md, "Parts fitted to the true BRDF").
 
-The runtime structure f_r = max(0, f_1 + fm0 + fm1 cos phi + fm2 cos 2phi) (:func:`.forms.runtime_terms`) comes from
+The runtime structure f_r = max(0, f_1 + fm0 + fm1 cos phi + fm2 cos 2phi) (:func:`..forms.runtime_terms`) comes from
 the three-term half space, where fm0 is H0(mu_i) H0(mu_o) Q(mu_i, mu_o) over (mu_i + mu_o) less single
 scattering, and so on: its parts H0, H1, H2, l, m, B, C, D, F are the three-term solution's.  The true BRDF
 (the whole phase function in every collision, ``exact.brdf(..., phase="true")``) is not of that form, but close:
@@ -17,7 +17,7 @@ forms of the shipped model, so that the same structure, at the same cost, approx
   and pi as they do when each order is levelled on its own.  Points with a cosine below :data:`GOAL_MU_MIN`
   (the accuracy goal's edge) weigh :data:`GRAZING_WEIGHT`: they keep the model sane down to mu = 1e-5 without
   spending the goal's domain on them;
-* on :func:`.datasets.true_orders_training` (a lattice apart from the audit's validation lattice and
+* on :func:`..targets.datasets.true_orders_training` (a lattice apart from the audit's validation lattice and
   independent set), with :func:`fitlab.fit.solver.fit_form`;
 * A and E stay exact (the structure holds them), and every form keeps its exact O(c) part, so the model is
   0 at c = 0 and its multiple scattering O(c^2).
@@ -115,7 +115,7 @@ def _parts(forms: dict, free: tuple) -> tuple[dict, list, dict, dict]:
 
 
 def order_form(order: int, forms: dict | None = None) -> tuple[Form, dict]:
-    """The runtime structure's Fourier order ``order`` (fm0, fm1 or fm2 of :func:`.forms.runtime_terms`) as one
+    """The runtime structure's Fourier order ``order`` (fm0, fm1 or fm2 of :func:`..forms.runtime_terms`) as one
     form in (mu_i, mu_o, c) whose parameters are its parts' (named ``part_param``), and the start vector by
     name: the shipped fits' parameters.  ``forms``: {part: form}, default the shipped model's."""
     forms = {**_model_forms(), **(forms or {})}
@@ -128,7 +128,7 @@ def order_form(order: int, forms: dict | None = None) -> tuple[Form, dict]:
 
 
 def joint_form(forms: dict | None = None) -> tuple[Form, dict]:
-    """The runtime structure f_1 + fm0 + fm1 cos phi + fm2 cos 2phi (:func:`.forms.runtime_terms`, without the
+    """The runtime structure f_1 + fm0 + fm1 cos phi + fm2 cos 2phi (:func:`..forms.runtime_terms`, without the
     max(0, .) and the energy scale) as one form in (mu_i, mu_o, phi, c) whose parameters are every part's
     (named ``part_param``), and the start vector by name: the shipped fits' parameters."""
     forms = {**_model_forms(), **(forms or {})}
@@ -147,8 +147,9 @@ def _training(order: int) -> tuple[Dataset, np.ndarray]:
 
 def joint_training() -> tuple[Dataset, np.ndarray]:
     """Stage 2's training set and weights: the true BRDF of orders 0 to 2, f_1 + fm0 + fm1 cos phi + fm2 cos 2phi
-    (single scattering exact, the orders of :func:`.datasets.true_orders_training`; the orders >= 3 it leaves out
-    are 2e-5 of f_r at most) at every (mu_i, mu_o, c) of that set and phi in :data:`JOINT_PHI`; weights 1, and
+    (single scattering exact, the orders of :func:`..targets.datasets.true_orders_training`; the orders >= 3
+    it leaves out are 2e-5 of f_r at most) at every (mu_i, mu_o, c) of that set and phi in :data:`JOINT_PHI`;
+    weights 1, and
     :data:`GRAZING_WEIGHT` where mu_i or mu_o is below :data:`GOAL_MU_MIN`."""
     ds = true_orders_training()
     n = len(ds)

@@ -10,8 +10,9 @@ module, for what only the family knows:
   whole-BRDF ``fast_brdf``, which is measured as a BRDF);
 * :data:`PRESET_VARIANTS`: the published runtime preset sets;
 * :func:`brdf_methods`: the BRDF-level catalogue (tables, published presets,
-  refits, the order-2 model of :data:`..runtime.ORDER2_FORMS` (its parts fitted to the mixed reference, and to the
-  true BRDF: :mod:`..program.true_refit`), richer and discovered forms, the fast variant, the baselines);
+  refits, the order-2 model of :data:`..program.runtime.ORDER2_FORMS` (its parts fitted to the mixed
+  reference, and to the true BRDF: :mod:`..program.true_refit`), richer and discovered forms, the fast variant,
+  the baselines);
 * :func:`part_extras`: the part-level methods beyond presets and fit files
   (the exact engine's Fock method for H0 and H1, the tables);
 * :func:`preset_records`: a preset set as fit records, for codegen;

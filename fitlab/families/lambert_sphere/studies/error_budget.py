@@ -7,7 +7,7 @@ scattering plus the three-term multiple scattering: the three-term phase functio
 so its multiple scattering has exactly these three Fourier orders.  The true BRDF's multiple scattering has
 every order, so against it that row is the structure's own floor.  :func:`error_budget` swaps in one fitted
 part at a time (the others exact), then all of them, then the energy scale (the runtime model itself), and
-measures each with :func:`.runtime.accuracy` against the true BRDF (max and RMS relative error over
+measures each with :func:`..program.runtime.accuracy` against the true BRDF (max and RMS relative error over
 mu >= 0.01 and every c, max on the grazing set, the albedo error) and against the mixed reference (max and
 RMS: each part's own share, the floor taken out).
 
@@ -66,8 +66,8 @@ def exact_parts() -> dict:
 def error_budget(fits_dir: Path, forms: dict | None = None, seed: int = 18, n: int = 400, progress=None) -> list[dict]:
     """Rows (label; max, rms, max_grazing, albedo_err, albedo_c1_max against the true BRDF; max and rms against
     the mixed reference) of the budget of the runtime model with the fits in
-    ``fits_dir`` (``forms``: {part: form}, default :data:`.runtime.ORDER2_FORMS`), on :func:`.runtime.accuracy`'s
-    sets (``seed``, ``n``).  ``progress(label)`` is called before each row."""
+    ``fits_dir`` (``forms``: {part: form}, default :data:`..program.runtime.ORDER2_FORMS`), on
+    :func:`..program.runtime.accuracy`'s sets (``seed``, ``n``).  ``progress(label)`` is called before each row."""
     forms = dict(ORDER2_FORMS if forms is None else forms)
     fits = {p: load(fit_path(Path(fits_dir), p, forms.get(p, get_target(p).default_form))) for p in PARTS}
     fitted = {p: lambdify_numpy(symbols(get_target(p).inputs), fits[p].expression) for p in PARTS}

@@ -4,7 +4,7 @@ r"""What to store in the exported tables, and at what resolution: docs/table_exp
 BRDF the true one, the whole phase function in every collision: the BRDF the tables carry, so that the error is
 the lookups' and the Fourier orders m >= 3 the correction leaves out):
 
-* the candidates for what the H rows hold (:data:`.table_export.QUANTITIES`: H itself, log(H)/mu less its
+* the candidates for what the H rows hold (:data:`..program.table_export.QUANTITIES`: H itself, log(H)/mu less its
   grazing term, the remainder beyond the exact grazing and first-order parts), each with the bilinear and the
   bicubic lookup, at 17, 33 and 65 nodes per axis: H0, H1, H2 on their validation sets (relative error of H
   and of H - 1, which the BRDF's (H_i H_o - 1)/(mu_i + mu_o) terms magnify) and the BRDF on the report's
@@ -113,7 +113,7 @@ def candidate_rows(sets, h_sets, data_dir=None, tick=None) -> list[dict]:
 
 
 def resolution_rows(sets, h_sets, data_dir=None, tick=None) -> list[dict]:
-    """The shipped quantity at every resolution (:data:`.table_export.NODES`), both lookups."""
+    """The shipped quantity at every resolution (:data:`..program.table_export.NODES`), both lookups."""
     rows = []
     for lookup in ("linear", "cubic"):
         for nodes in te.NODES:

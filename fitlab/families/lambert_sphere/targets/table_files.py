@@ -38,7 +38,7 @@ TRUE_ORDERS = 3
 TRUE_FILE = "true_orders.csv"
 TRUE_COLUMNS = ("s", "c", "mu_i", "mu_o", *(f"fm{m}_true" for m in range(TRUE_ORDERS)),
                 *(f"fm{m}_three_term" for m in range(TRUE_ORDERS)))
-#: the variance-optimal sampling mixture (:mod:`.exact.sampling`) on the training and the validation grid
+#: the variance-optimal sampling mixture (:mod:`..exact.sampling`) on the training and the validation grid
 SAMPLING_FILES = ("sampling.csv", "sampling_validation.csv")
 SAMPLING_COLUMNS = ("s", "c", "mu_i", "weight", "exponent", "relvar_optimal", "relvar_cosine")
 

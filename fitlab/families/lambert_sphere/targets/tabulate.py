@@ -89,8 +89,8 @@ def _true_rows(c: float, mu_i, mu_o, method: str = "newton") -> list[np.ndarray]
 
 
 def true_orders_table(progress=None) -> Table:
-    """The true multiple scattering (:func:`.exact.true_phase.multiple_scattering_orders`, the whole phase
-    function) and the three-term one (:func:`.exact.multiple_scattering_modes`), orders 0 to 2, on
+    """The true multiple scattering (:func:`..exact.true_phase.multiple_scattering_orders`, the whole phase
+    function) and the three-term one (:func:`..exact.multiple_scattering_modes`), orders 0 to 2, on
     :func:`true_grid`; both are 0 at c = 0."""
     s_all, mi_all, mo_all = true_grid()
     rows = []

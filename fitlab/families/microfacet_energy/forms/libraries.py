@@ -2,12 +2,12 @@ r"""The microfacet_energy libraries of ``fitlab discover``.
 
 * E of GGX (both Smith forms), ``rational_v_alpha``: E = (1 + sum a_k m_k)/(1 + sum b_k m_k), m_k the
   monomials v^i alpha^j, 1 <= i + j <= 3, v = alpha/(mu + alpha) the grazing-layer variable
-  (:mod:`.forms.common`): every m_k vanishes on the mirror line alpha = 0 (v = 0), so E = 1 there
+  (:mod:`..forms.common`): every m_k vanishes on the mirror line alpha = 0 (v = 0), so E = 1 there
   exactly, and the layer next to grazing, where E depends on mu/alpha, is a function of v (the
   ``rational_v_alpha_4`` form is the quartic member of the same family).
 * E_avg of GGX, ``log_rational_alpha``: E_avg = 1 - alpha^2 (sum a_k f_k)/(1 + sum b_k alpha^k), f in
   {1, L, alpha, alpha L, alpha^2, alpha^2 L, alpha^3}, L = log(alpha) (floored), k = 1..3: E_avg = 1 at
-  alpha = 0, with the alpha^2 log(alpha) term of the grazing layer (:mod:`.forms.average`).
+  alpha = 0, with the alpha^2 log(alpha) term of the grazing layer (:mod:`..forms.average`).
 """
 
 from __future__ import annotations

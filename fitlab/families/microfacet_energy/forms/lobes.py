@@ -1,4 +1,4 @@
-r"""Forms of the lobe-parameter targets (:mod:`.targets`), each one sympy expression, with the blog's published
+r"""Forms of the lobe-parameter targets (:mod:`..targets.lobes`), each one sympy expression, with the blog's published
 expressions as presets.
 
 The blog (section "Parameters Fitting"; docs/microsurface_lobes.md, "Reading the blog", says how each
@@ -8,7 +8,7 @@ the incidence mu = mu_i:
 * the exponent eta(alpha) = e1 alpha + e2 alpha^2: text (2.5958, -1.32697), code (2.588380909161985,
   -1.3549594389004276) (form ``blog_quadratic``); and the text's eta = 2^(10 (1 - alpha)) - 1 read
   literally as a function of the surface's alpha (form ``blog_exp2``, p = 10), which is the lobe model's
-  own parametrisation in fitlab's reading (:mod:`.shapes`), registered to show what that reading costs;
+  own parametrisation in fitlab's reading (:mod:`..lobes.shapes`), registered to show what that reading costs;
 * the normal flattening sigma_n(mu, alpha) = a + b mu + c mu^2 + d mu^3 with a cubic, b linear, c quadratic
   in alpha, and d linear (text) or quadratic (code) (form ``blog_cubic``, 12 coefficients; the text's
   alpha^2 coefficient of d is 0);

@@ -7,7 +7,7 @@ microsurface (h = 1, C1 = 1) travelling along -w_i with weight 1.  Repeat:
    with direction w after n scattering events (its order n >= 1: a falling ray always meets the
    surface) and is tallied;
 2. else scatter (n <- n + 1): m from the visible normals of w_i' = -w (``sample_vndf``), then
-   * conductor: w <- reflect(-w, m), weight *= F(w_i'.m) (:mod:`.fresnel`);
+   * conductor: w <- reflect(-w, m), weight *= F(w_i'.m) (:mod:`..mc.walk_fresnel`);
    * diffuse facets: w <- a cosine-distributed direction about m (Lambertian facet), weight *= albedo
      (the new w may point below the macro surface: step 1 takes it down);
    * dielectric: with probability F(w_i'.m) (the exact dielectric Fresnel of the relative index of the

@@ -10,11 +10,11 @@ conductors) is
 f_S the model's lobe of order S (5: the tail) with its parameters' functions of (alpha, mu_i, S):
 
 * ``blog_text``, ``blog_code``: the blog's final lobe with its published expressions (presets of
-  :mod:`.forms`; diffuse facets only): orders 2 and 3 with the order-2 shape, sigma_3 = 0.3639 sigma_2;
+  :mod:`..forms.lobes`; diffuse facets only): orders 2 and 3 with the order-2 shape, sigma_3 = 0.3639 sigma_2;
 * ``blog_refit``: the same lobe and the same forms, refitted (``fitlab refit``, the forms
   ``blog_quadratic``, ``blog_cubic``);
 * ``blog_rich``: the same lobe with the targets' default (richer) forms;
-* ``tilted``: the tilted lobe (:func:`.shapes.tilted_lobe`), every parameter per order (the tilt targets'
+* ``tilted``: the tilted lobe (:func:`..lobes.shapes.tilted_lobe`), every parameter per order (the tilt targets'
   default forms).
 
 Reference models, not built from lobe targets: ``none`` (single scattering only: f_ms = 0) and
@@ -82,7 +82,7 @@ def parameter_expressions(model: str, kind: str, fits_dir: Path | None = None) -
 
 
 def parameter_bounds() -> dict[str, tuple]:
-    """The interval each runtime parameter is clamped into: the per-lobe fits' own (:data:`.fitting.BOUNDS`;
+    """The interval each runtime parameter is clamped into: the per-lobe fits' own (:data:`..lobes.fitting.BOUNDS`;
     eta from alpha_l's), and scales >= 0.  Inside them every parameter function is what it was fitted as; a
     function extrapolated to a lobe that carries no energy (below 1e-3 of it, outside the shape targets' sets)
     cannot blow the lobe up, and a published polynomial cannot make it negative."""

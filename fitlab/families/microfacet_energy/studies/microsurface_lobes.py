@@ -5,7 +5,7 @@ docs``, about 5 minutes on 2 cores).
 Measures, on the validation grid of the lobe tables (jobs the fits never saw, the domain's edges at
 interleaved points):
 
-* per-lobe fits (the blog's step 3) of every shape of :data:`.shapes.PER_LOBE_FORMS` to every lobe of the
+* per-lobe fits (the blog's step 3) of every shape of :data:`..lobes.shapes.PER_LOBE_FORMS` to every lobe of the
   training grid: Levenberg-Marquardt steps and seconds per lobe (the blog: "sometimes a hundred
   iterations" of BFGS per lobe), and the best each shape can do lobe by lobe (its floor);
 * every model of the multiple-scattering lobe (:mod:`..program.runtime`, with ``none`` and ``kulla_conti``) against

@@ -1,5 +1,5 @@
 r"""The validation study of the microsurface walk at large budgets: order 1 of every kind of facet against
-its deterministic reference (:mod:`.reference`), bin by bin and in total, over grazing to normal
+its deterministic reference (:mod:`..mc.reference`), bin by bin and in total, over grazing to normal
 incidence, smooth to rough, isotropic and anisotropic, GGX and Beckmann; and energy, path by path.
 
 ``python -m fitlab.families.microfacet_energy.studies.microsurface_validation [--paths N] [--quiet]`` prints one

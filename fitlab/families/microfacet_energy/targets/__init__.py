@@ -35,7 +35,7 @@ Error measures (the ``scale`` of each target):
 Oren-Nayar with A's 0.57 (the 1992 footnote) is not a target: it gains energy for alpha < 0.35 (E(0) > 1),
 E_avg > 1 for alpha < 0.0996, so that its f_ms is negative below and unbounded near that alpha, and
 there is nothing to compensate; its E = A + B g(mu) differs from the 0.33 model's only in the closed-form
-A, with the same g (:mod:`.forms.oren_nayar`), so a fit of E_on serves it by replacing A.
+A, with the same g (:mod:`..forms.oren_nayar`), so a fit of E_on serves it by replacing A.
 """
 
 from __future__ import annotations
@@ -148,7 +148,7 @@ def _albedo_targets(model: str, defaults: dict) -> tuple[Target, ...]:
     )
 
 
-#: (form, preset) of the published approximations of each target (:mod:`.forms` has their sources)
+#: (form, preset) of the published approximations of each target (:mod:`..forms` has their sources)
 PUBLISHED = {
     "E_ggx_sep": (("sforza_ratpoly3", "sforza_pellacini_2022"), ("knarkowicz_poly", "knarkowicz_2014"),
                   ("karis_linear", "karis_2014")),

@@ -41,7 +41,7 @@ packaged fits it finds at most 5 % more than the set's maximum (tests/test_micro
 alpha = 0 is the mirror (E = 1 at every mu, by the engine's definition).  For separable Smith that
 value at the corner (mu, alpha) = (0, 0) is not a limit: along mu = 0, E -> 0.936 as alpha -> 0.  The
 corner stays in the sets; a form that is continuous there errs by at least half that jump at one of
-the nearby points (:mod:`.forms.ggx` writes its grazing forms in v = alpha/(mu + alpha), which takes
+the nearby points (:mod:`..forms.ggx` writes its grazing forms in v = alpha/(mu + alpha), which takes
 both values).
 """
 

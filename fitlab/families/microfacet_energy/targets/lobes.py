@@ -1,14 +1,14 @@
-r"""The lobe-parameter targets: the per-lobe fits (:mod:`.params`) as functions of alpha, mu_i and the order.
+r"""The lobe-parameter targets: the per-lobe fits (:mod:`..lobes.params`) as functions of alpha, mu_i and the order.
 
 For each facet kind (``diffuse``, ``conductor``):
 
 ==============================  =====================  ====================================================
-target (= generated routine)    inputs                 value (per-lobe fit of :mod:`.params`)
+target (= generated routine)    inputs                 value (per-lobe fit of :mod:`..lobes.params`)
 ==============================  =====================  ====================================================
 ms_blog_eta_KIND                alpha, mu_i            exponent eta of the blog's final lobe, order 2
 ms_blog_flattening_KIND         alpha, mu_i            its normal flattening sigma_n, order 2
 ms_blog_scale_KIND              alpha, mu_i, order     its scale, order 2..5, with the order-2 shape
-ms_tilt_sigma_KIND              alpha, mu_i, order     scale of the tilted lobe (:func:`.shapes.tilted_lobe`)
+ms_tilt_sigma_KIND              alpha, mu_i, order     scale of the tilted lobe (:func:`..lobes.shapes.tilted_lobe`)
 ms_tilt_eta_KIND                alpha, mu_i, order     its exponent eta
 ms_tilt_flattening_KIND         alpha, mu_i, order     its normal flattening sigma_n
 ms_tilt_b_KIND, ms_tilt_k_KIND  alpha, mu_i, order     its azimuthal tilt b and narrowing k

@@ -22,9 +22,9 @@ absolute and written rounded to 12 decimals (a 5e-13 change, which keeps the fil
 machine and library versions reproduce them byte for byte).  :func:`check_tables` recomputes a sample
 of rows by the other, independent route.
 
-The simulated multiple-scattering lobes by order (``lobes_KIND_SET.csv``, :mod:`.lobes.tables`: the
+The simulated multiple-scattering lobes by order (``lobes_KIND_SET.csv``, :mod:`..lobes.tables`: the
 microsurface random walk, 3 to 7 minutes on 2 cores) and the per-lobe fits of their shapes
-(``lobe_params_KIND_SET.csv``, :mod:`.lobes.params`, about a minute) are written beside them; their check
+(``lobe_params_KIND_SET.csv``, :mod:`..lobes.params`, about a minute) are written beside them; their check
 re-simulates one job of each kind with an independent seed and refits one lobe.
 
 A 256 x 256 GGX table (``fine=True``) is not committed: at about 3.5 MB it alone exceeds the budget for
