@@ -104,7 +104,7 @@ class RenderHook(Protocol):
         ...
 
     def render_comparison(self, **options) -> bytes:
-        """Render the comparison into ``out``; the path written."""
+        """The comparison rendered, as a PNG's bytes (the caller writes them)."""
         ...
 
 

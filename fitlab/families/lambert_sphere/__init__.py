@@ -30,7 +30,7 @@ MANIFEST = {
         "brdf_grid": "targets.grids:brdf_grid()",
         "report": "report.methods",
         "tables": "targets.tabulate",  # write_tables, check_tables, TABLE_FILES
-        "audit": "report.audit",  # run_audit
+        "audit": "report.audit",  # audit
         "render": "mitsuba.render",  # check_generated, llvm_problem, render_comparison, RenderError
         "simulate": "mc.simulate:SIMULATE",  # a fitlab.scenes.SimulateHook: the scene schema and the walk
         "bench": "bench",  # bench_exact, bench_codegen, bench_mc, bench_render

@@ -5,6 +5,9 @@ measured accuracy are described in docs/derivation.md; the normalisations of
 the published equations are settled in docs/errata.md.
 """
 
+from pathlib import Path
+
+from fitlab.families.lambert_sphere.exact import true_phase
 from fitlab.families.lambert_sphere.exact._quadrature import gauss_legendre, graded_gauss
 from fitlab.families.lambert_sphere.exact.albedo import (
     albedo,
@@ -13,7 +16,6 @@ from fitlab.families.lambert_sphere.exact.albedo import (
     spherical_albedo,
     three_term_single_albedo,
 )
-from fitlab.families.lambert_sphere.exact import true_phase
 from fitlab.families.lambert_sphere.exact.brdf import (
     DEFAULT_PHASE,
     PHASES,
@@ -42,7 +44,12 @@ from fitlab.families.lambert_sphere.exact.true_phase import (
     needed_orders,
 )
 
+#: the engine's source files, part of the key of every cached exact value (fitlab.cache.cached_arrays): editing
+#: any of them recomputes what was cached
+SOURCES = tuple(sorted(Path(__file__).resolve().parent.glob("*.py")))
+
 __all__ = [
+    "SOURCES",
     "DEFAULT_PHASE",
     "PHASES",
     "true_phase",

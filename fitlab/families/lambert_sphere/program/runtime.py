@@ -36,6 +36,7 @@ import sympy as sp
 
 from fitlab.codegen.program import DEFAULT_FORMS
 from fitlab.core import get_form, get_target
+from fitlab.families.lambert_sphere import exact
 from fitlab.families.lambert_sphere.forms import ORDER2_PART, RUNTIME_PARTS, RUNTIME_TERMS, runtime_brdf, runtime_sum
 from fitlab.families.lambert_sphere.program.rewrites import stable
 from fitlab.forms.symbolic import lambdify_numpy, symbols
@@ -240,10 +241,6 @@ def _rel(f, exact):
         return np.abs(f - exact) / np.abs(exact)
 
 
-#: the exact engine's sources: the cache of :func:`accuracy`'s exact values is keyed on them
-_ENGINE = tuple(sorted((Path(__file__).resolve().parents[1] / "exact").glob("*.py")))
-
-
 def _albedo_mu(albedo_mu) -> np.ndarray:
     return np.concatenate(([1e-3], np.arange(1, 21) / 20)) if albedo_mu is None else np.asarray(albedo_mu, dtype=float)
 
@@ -271,7 +268,7 @@ def accuracy_reference(seed: int = 18, n: int = 400, phase: str | None = None, a
     key = {"family": "lambert_sphere", "set": "runtime-accuracy", "seed": seed, "n": n, "phase": phase,
            "albedo_c": albedo_c, "albedo_mu": mu}
     return cached_arrays(f"lambert_sphere-accuracy-{phase}", key, compute, ("main", "grazing", "albedo"),
-                         sources=_ENGINE)
+                         sources=exact.SOURCES)
 
 
 def accuracy(model, seed: int = 18, n: int = 400, albedo_c=(1e-3, 0.3, 0.7, 0.95, 1.0), albedo_mu=None,

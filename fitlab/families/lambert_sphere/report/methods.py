@@ -37,6 +37,7 @@ import sympy as sp
 
 from fitlab.codegen.program import DEFAULT_FORMS, program_spec
 from fitlab.core import get_target
+from fitlab.families.lambert_sphere import exact
 from fitlab.families.lambert_sphere.bench import baseline_program, random_inputs  # noqa: F401 (baseline_program: the report's hook)
 from fitlab.families.lambert_sphere.exact import albedo, brdf, h_function, spherical_albedo
 from fitlab.families.lambert_sphere.forms import ORDER2_PART, RUNTIME_PARTS
@@ -77,8 +78,9 @@ MAPS = ("kd_of_c", "c_of_kd")
 FAST = "fast_brdf"
 REQUIRED_FITS = (*RUNTIME_PARTS, ORDER2_PART, *MAPS, FAST)
 PARTS = tuple(name for name in TARGETS if name != FAST)
-#: the exact engine's sources: the report's cache of exact values is keyed on them
-EXACT_SOURCES = Path(__file__).resolve().parents[1] / "exact"
+#: the exact engine's folder (its sources, :data:`fitlab.families.lambert_sphere.exact.SOURCES`): the report's cache
+#: of exact values is keyed on them
+EXACT_SOURCES = exact.SOURCES[0].parent
 #: what the report's exact-engine and Monte Carlo rows measured (their "source" column)
 SOURCES = {
     "exact": "fitlab.families.lambert_sphere.exact.brdf (phase 'true': the whole phase function)",

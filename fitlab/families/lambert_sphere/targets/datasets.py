@@ -20,6 +20,7 @@ import numpy as np
 
 from fitlab.cache import cached_arrays
 from fitlab.core import Dataset
+from fitlab.families.lambert_sphere import exact
 from fitlab.families.lambert_sphere.exact import (
     brdf,
     brdf_modes,
@@ -38,8 +39,6 @@ from fitlab.families.lambert_sphere.targets.table_files import (
     tables_dir,
 )
 
-_ENGINE = tuple(sorted((Path(__file__).resolve().parents[1] / "exact").glob("*.py")))
-
 
 def _cached(name: str, grid: str, compute, inputs: tuple[str, ...], aux: tuple[str, ...] = (), **axes) -> Dataset:
     """``compute()`` (a Dataset with ``inputs`` and ``aux``) through fitlab's persistent cache of exact
@@ -50,7 +49,7 @@ def _cached(name: str, grid: str, compute, inputs: tuple[str, ...], aux: tuple[s
 
     names = (*(f"in_{k}" for k in inputs), "y", *(f"aux_{k}" for k in aux))
     a = cached_arrays(f"lambert_sphere-{name}", {"family": "lambert_sphere", "set": name, "grid": grid, **{k: np.asarray(v, dtype=float) for k, v in axes.items()}}, arrays,
-                      names, sources=_ENGINE)  # fmt: skip
+                      names, sources=exact.SOURCES)  # fmt: skip
     return Dataset({k: a[f"in_{k}"] for k in inputs}, a["y"], grid, {k: a[f"aux_{k}"] for k in aux} or None)
 
 

@@ -73,6 +73,8 @@ E = int f_r (w_i . n) dw_i, Lambert would give E = 2/3; the displayed expression
 f cos(theta_i), as its HLSL returns it).
 """
 
+from pathlib import Path
+
 from fitlab.families.microfacet_energy.exact._albedo import CONVENTIONS, METHODS, average_albedo, directional_albedo
 from fitlab.families.microfacet_energy.exact._compensation import (
     compensated_albedo,
@@ -117,7 +119,12 @@ from fitlab.families.microfacet_energy.exact._oren_nayar import (
     oren_nayar_coefficients,
 )
 
+#: the engine's source files, part of the key of every cached exact value (fitlab.cache.cached_arrays): editing
+#: any of them recomputes what was cached
+SOURCES = tuple(sorted(Path(__file__).resolve().parent.glob("*.py")))
+
 __all__ = [
+    "SOURCES",
     "A_CONSTANTS",
     "AZIMUTH",
     "COMPENSATION_FORMS",

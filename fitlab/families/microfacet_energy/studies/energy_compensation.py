@@ -46,6 +46,7 @@ import numpy as np
 
 from fitlab.cache import cached_arrays
 from fitlab.codegen.native import compiler
+from fitlab.families.microfacet_energy import exact
 from fitlab.families.microfacet_energy.exact import average_albedo, directional_albedo
 
 __all__ = ["STUDY_MODELS", "TABLE_SIZES", "ALPHA_MIN", "validation_set", "centre_table", "bilinear", "study_rows", "markdown", "main", "fitted_methods", "FIT_TARGETS",
@@ -60,7 +61,6 @@ TABLE_SIZES = (16, 32, 64, 128)
 #: centre is 1/(2N))
 ALPHA_MIN = 1e-3
 _GOLDEN = (np.sqrt(5.0) - 1.0) / 2.0
-_ENGINE = tuple(sorted((Path(__file__).resolve().parents[1] / "exact").glob("*.py")))
 
 
 def _lattice(n: int, start: float) -> np.ndarray:
@@ -79,12 +79,12 @@ def validation_set(n: int = 64) -> dict[str, np.ndarray]:
 
 def _exact_E(model: str, mu: np.ndarray, alpha: np.ndarray, name: str) -> np.ndarray:
     return cached_arrays(f"microfacet_energy-study-{name}", {"model": model, "mu": mu, "alpha": alpha},
-                         lambda: {"E": directional_albedo(mu, alpha, model)}, ("E",), sources=_ENGINE)["E"]  # fmt: skip
+                         lambda: {"E": directional_albedo(mu, alpha, model)}, ("E",), sources=exact.SOURCES)["E"]  # fmt: skip
 
 
 def _exact_E_avg(model: str, alpha: np.ndarray, name: str) -> np.ndarray:
     return cached_arrays(f"microfacet_energy-study-{name}", {"model": model, "alpha": alpha},
-                         lambda: {"E_avg": average_albedo(alpha, model)}, ("E_avg",), sources=_ENGINE)["E_avg"]  # fmt: skip
+                         lambda: {"E_avg": average_albedo(alpha, model)}, ("E_avg",), sources=exact.SOURCES)["E_avg"]  # fmt: skip
 
 
 def centre_table(model: str, n: int, nodes: bool = False) -> tuple[np.ndarray, np.ndarray]:

@@ -54,6 +54,7 @@ import numpy as np
 
 from fitlab.cache import cached_arrays
 from fitlab.core import Dataset
+from fitlab.families.microfacet_energy import exact
 from fitlab.families.microfacet_energy.exact import average_albedo, directional_albedo
 from fitlab.families.microfacet_energy.targets import tabulate
 from fitlab.families.microfacet_energy.targets.tabulate import FAMILY_NAME
@@ -80,7 +81,6 @@ VALIDATION_LAYER_T = tuple(sorted({1 / 16, *(3 * 2.0**k / 16 for k in range(0, 7
 TRAINING_SMALL_MU = tuple(10.0 ** (k / 2) for k in range(-14, -4))
 VALIDATION_SMALL_MU = tuple(10.0 ** (k / 8) for k in range(-56, -19) if k % 4)
 
-_ENGINE = tuple(sorted((Path(__file__).resolve().parents[1] / "exact").glob("*.py")))
 _GGX_NODES = next(t for t in tabulate.TABLES if t.stem == "ggx" and t.kind == "nodes")
 _GGX_CENTRES = next(t for t in tabulate.TABLES if t.stem == "ggx" and t.kind == "centres" and t.size == 128)
 _ON_NODES = next(t for t in tabulate.TABLES if t.stem == "oren_nayar" and t.kind == "nodes")
@@ -104,7 +104,7 @@ def _cached(name: str, grid: str, compute, inputs: tuple[str, ...], **axes) -> D
 
     names = (*(f"in_{k}" for k in inputs), "y")
     parts = {"family": FAMILY_NAME, "set": name, "grid": grid, **{k: np.asarray(v, dtype=float) for k, v in axes.items()}}
-    a = cached_arrays(f"{FAMILY_NAME}-{name}", parts, arrays, names, sources=_ENGINE)
+    a = cached_arrays(f"{FAMILY_NAME}-{name}", parts, arrays, names, sources=exact.SOURCES)
     return Dataset({k: a[f"in_{k}"] for k in inputs}, a["y"], grid)
 
 
