@@ -626,7 +626,7 @@ def _below_double(c: float) -> bool:
     """The multiple scattering, O(c^2), is below double's smallest normal number (c < 1.5e-154): it is zero to
     double precision beside single scattering, O(c).  Solving for it there ran on subnormal numbers, and the
     order count (:func:`needed_orders`) compared rounding noise and kept every order: 80 s at c = 1e-300."""
-    return 0.0 < c and c * c < np.finfo(float).tiny
+    return c > 0.0 and c * c < np.finfo(float).tiny
 
 
 @lru_cache(maxsize=256)
