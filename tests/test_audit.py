@@ -16,6 +16,9 @@ from fitlab.fit.refit import preset_metrics
 FITS = Path(__file__).resolve().parents[1] / "fitlab" / "fits"
 
 
+# kd_of_c's validation set (kd_true at 130 albedos, about 140 s cold): on the worker that runs
+# test_residuals.py's test of it too, so that a cold run computes it once (xdist_group)
+@pytest.mark.xdist_group("kd_true-validation")
 @pytest.mark.parametrize("target", ["m", "kd_of_c"])
 def test_preset_metrics_reproduce_the_fit_records(target):
     record = json.loads((FITS / f"{target}.json").read_text())

@@ -43,6 +43,7 @@ def test_exact_itself_has_zero_error_and_axes_keep_the_targets_order():
     assert np.all(r.error == 0.0)
 
 
+@pytest.mark.xdist_group("kd_true-validation")  # with test_audit.py's test of the same set: computed once
 def test_validation_axes_reproduce_the_fit_record():
     """On the axes of the target's validation set the grid holds exactly its points: same max error."""
     ds = get_target("kd_of_c").validation()
