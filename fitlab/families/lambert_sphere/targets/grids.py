@@ -22,8 +22,8 @@ from fitlab.families.lambert_sphere.exact import (
     constants,
     h_function,
     multiple_scattering_modes,
-    spherical_albedo,
 )
+from fitlab.families.lambert_sphere.targets.datasets import kd_true
 
 __all__ = ["exact_grid", "GRID_AXES", "BRDF_AXES", "BRDF_MEASURE", "brdf_grid"]
 
@@ -66,14 +66,14 @@ def _constant(name: str):
 
 def _kd_of_c(axes):
     g = _mesh(axes)
-    return g, spherical_albedo(g["c"]), {}
+    return g, kd_true(g["c"]), {}
 
 
 def _c_of_kd(axes):
     c = np.asarray(axes["c"], dtype=float)
     # kd_true(1) = 1 to about 1e-14 (energy conservation of the whole phase function): the map's domain
     # is kd <= 1, so rounding above 1 is clipped
-    kd = np.minimum(spherical_albedo(c), 1.0)
+    kd = np.minimum(kd_true(c), 1.0)
     return {"kd": kd}, c.copy(), {}
 
 
@@ -91,7 +91,7 @@ def _brdf(with_kd: bool):
         y = brdf(g["mu_i"], g["mu_o"], g["phi"], g["c"])
         if with_kd:
             c = np.asarray(axes["c"], dtype=float)
-            g["kd"] = np.broadcast_to(spherical_albedo(c), y.shape).copy()
+            g["kd"] = np.broadcast_to(kd_true(c), y.shape).copy()
         return g, y, {}
 
     return grid
