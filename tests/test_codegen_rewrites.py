@@ -95,3 +95,72 @@ def test_the_lambert_rewrites_are_optimisations_that_keep_the_old_order():
     assert azimuth_to_cosine(sp.cos(phi) + sp.Abs(phi)) == cos_phi + sp.acos(cos_phi)
     with pytest.raises(ValueError, match="cos\\(phi\\) alone"):
         azimuth_to_cosine(sp.sin(phi))
+
+
+# ---- one-pass substitutions: what sympy's subs gives ---------------------------------------------------------
+
+_x, _y = sp.symbols("x y", real=True)
+_s = sp.sqrt(1 - c)
+#: leaves that hold the old sum, its terms, their negatives and numbers beside them
+_LEAVES = (_x, _y, c, _s, -_s, 1 - _s, 2 - _s, _s - 1, 3 * _s, _x - _s, sp.Rational(3, 2), sp.Float(0.25), 2)
+
+
+def _expressions():
+    from hypothesis import strategies as st
+
+    def grow(children):
+        pair = st.tuples(children, children)
+        return st.one_of(
+            pair.map(lambda p: p[0] + p[1]), pair.map(lambda p: p[0] * p[1]), pair.map(lambda p: p[0] - 2 * p[1]),
+            children.map(lambda a: a**2), children.map(sp.sqrt), children.map(sp.exp),
+            children.map(lambda a: sp.Max(0, a)), pair.map(lambda p: sp.Min(p[0], p[1] + _x)),
+            pair.map(lambda p: sp.Piecewise((p[0], _x < p[1]), (p[1], True))),
+        )
+
+    return st.recursive(st.sampled_from(_LEAVES), grow, max_leaves=12)
+
+
+def test_sum_subs_gives_what_subs_gives():
+    """SumSubsOptim(old, new) == expr.subs(old, new), structurally, on random trees holding old's terms in
+    every position (a whole sum, inside a larger one, negated, scaled, under max, min, powers and branches)."""
+    from hypothesis import given, settings
+
+    from fitlab.codegen.program import SumSubsOptim
+
+    new = c / (1 + _s)
+    rewrites = [(old, SumSubsOptim(old, new)) for old in (1 - _s, 2 - _x - _s)]
+
+    @settings(max_examples=300, deadline=None, derandomize=True)
+    @given(_expressions())
+    def check(e):
+        for old, rewrite in rewrites:
+            assert rewrite(e) == e.subs(old, new), (e, old)
+
+    check()
+    with pytest.raises(ValueError, match="rational constant term"):
+        SumSubsOptim(_x, new)
+
+
+def test_azimuth_to_cosine_gives_what_subs_gives_on_the_runtime_terms():
+    """The runtime terms and the single scattering, phi -> cos phi in one pass, are what sympy's subs gives."""
+    from fitlab.families.lambert_sphere.forms.brdf import ORDER2_PART, RUNTIME_PARTS, SINGLE, runtime_terms
+    from fitlab.families.lambert_sphere.program.rewrites import AZIMUTH_TO_COSINE, azimuth_to_cosine
+    from fitlab.families.lambert_sphere.targets import TARGETS
+
+    phi = sp.Symbol("phi", real=True)
+    calls = {p: sp.Function(TARGETS[p].routine)(*(sp.Symbol(a, real=True) for a in TARGETS[p].inputs))
+             for p in (*RUNTIME_PARTS, ORDER2_PART)}  # fmt: skip
+    exprs = (SINGLE, *runtime_terms(calls).values())
+    assert sum(phi in e.free_symbols for e in exprs) >= 2
+    for e in exprs:
+        assert azimuth_to_cosine(e) == e.subs(AZIMUTH_TO_COSINE.mapping)
+
+
+def test_rebuilt_keeps_max_and_min_unevaluated_unless_all_numbers():
+    from fitlab.codegen.program import rebuilt
+
+    e = sp.Max(0, _x + _y) + sp.Min(1, _x)
+    out = rebuilt(e, lambda n: {_x: c, _y: sp.Integer(-3)}.get(n, n))
+    assert out == sp.Max(0, c - 3, evaluate=False) + sp.Min(1, c, evaluate=False)
+    assert rebuilt(sp.Max(_x, _y), lambda n: {_x: sp.Integer(2), _y: sp.Integer(5)}.get(n, n)) == 5
+    assert rebuilt(e, lambda n: n) is e  # nothing changed: the same object

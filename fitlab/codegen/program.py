@@ -20,7 +20,8 @@ family's (:func:`default_program_family`: the one that declares ``Family.default
 
 The helpers a family's program is written with are public here:
 :func:`call`, :func:`part_routine`, :func:`stable` (the cancellation-free rewrites that know no
-family: :data:`STABLE`), :class:`SubsOptim`, :func:`clamp` and :func:`clamped`.  Rewrites are
+family: :data:`STABLE`), :class:`SubsOptim`, :class:`SumSubsOptim`, :func:`rebuilt`, :func:`clamp` and
+:func:`clamped`.  Rewrites are
 ``sympy.codegen.rewriting`` optimisations (``ReplaceOptim`` and its kin, applied in order by
 ``optimize``); a program names those of its family in :attr:`ProgramSpec.rewrites` (the Lambert
 sphere's, which know its symbols: :mod:`fitlab.families.lambert_sphere.program.rewrites`), and
@@ -52,7 +53,8 @@ from fitlab.store import FitFunction
 
 __all__ = ["Routine", "Program", "ProgramSpec", "build_program", "part_routine", "program_spec",
            "default_program_family", "model_form", "parse_terms",
-           "call", "stable", "STABLE", "ONE_MINUS_SQUARES", "ONE_MINUS_POW", "SubsOptim", "clamp", "clamped",
+           "call", "stable", "STABLE", "ONE_MINUS_SQUARES", "ONE_MINUS_POW", "SubsOptim", "SumSubsOptim", "rebuilt",
+           "clamp", "clamped",
            "minmax_piecewise", "with_domain", "unused_inputs", "SAFE_POW", "DEFAULT_FORMS", "MaterialSpec", "Material",
            "material_of", "field_symbol", "outputs", "inline_calls", "hoist_params", "merge_exp_products"]  # fmt: skip
 
@@ -408,7 +410,7 @@ def call(name: str, *args) -> sp.Expr:
 class SubsOptim(Optimization):
     """``expr.subs(*args)`` as a ``sympy.codegen.rewriting`` optimisation (sympy's algebraic substitution,
     where ``ReplaceOptim`` matches whole subexpressions: an old sum also matches within a larger sum,
-    1 - s in 2 - s + x)."""
+    1 - s in 2 - s + x).  :class:`SumSubsOptim` does the same for one sum in one pass."""
 
     def __init__(self, *args, **kwargs):
         super().__init__(**kwargs)
@@ -416,6 +418,77 @@ class SubsOptim(Optimization):
 
     def __call__(self, expr):
         return expr.subs(*self.args)
+
+
+def rebuilt(expr: sp.Basic, node: Callable[[sp.Basic], sp.Basic]) -> sp.Basic:
+    """``expr`` rebuilt bottom-up in one pass: every node, its arguments rebuilt first, becomes ``node(e)``
+    (``e`` itself where nothing applies); a subtree met twice is rebuilt once.
+
+    A Max or Min whose arguments changed is rebuilt unevaluated unless they are all numbers.  sympy's own
+    evaluation would try to order each pair of arguments (``_find_localzeros``: factor their difference, ask
+    its sign), which takes seconds on the large terms of a program and, where it cannot decide, gives the same
+    node; a Max it could have shortened is only longer, never another value.  ``xreplace`` and ``subs``
+    re-evaluate them, and ``subs`` also compares every unchanged argument with itself node by node
+    (``Basic.is_same``), quadratic in the depth of the tree."""
+    memo: dict[int, tuple[sp.Basic, sp.Basic]] = {}
+
+    def walk(e):
+        hit = memo.get(id(e))
+        if hit is not None:
+            return hit[1]
+        out = e
+        if e.args:
+            args = tuple(walk(a) for a in e.args)
+            if any(a is not b for a, b in zip(args, e.args)):
+                if isinstance(e, (sp.Max, sp.Min)) and not all(a.is_number for a in args):
+                    out = e.func(*args, evaluate=False)
+                else:
+                    out = e.func(*args)
+        out = node(out)
+        memo[id(e)] = (e, out)  # e kept alive with its id
+        return out
+
+    return walk(expr)
+
+
+class SumSubsOptim(Optimization):
+    """``expr.subs(old, new)`` for ``old`` a sum with a rational constant term (1 - s), in one pass over the
+    tree (:func:`rebuilt`): the matches of sympy's ``Add._eval_subs``, which are the only ones a sum can have.
+    In a sum whose constant term is rational and whose other terms are old's terms (old's terms negated) and
+    possibly more, old's terms are replaced by new minus old's constant term (by its negative); 2 - s + x
+    becomes 1 + new + x for old = 1 - s.  sympy's ``subs`` gives the same tree, in time quadratic in the tree's
+    depth (see :func:`rebuilt`)."""
+
+    def __init__(self, old, new, **kwargs):
+        super().__init__(**kwargs)
+        old, new = sp.sympify(old), sp.sympify(new)
+        constant, terms = old.as_coeff_Add()
+        if not (old.is_Add and constant.is_Rational):
+            raise ValueError(f"{old}: SumSubsOptim replaces a sum with a rational constant term")
+        self.old, self.new, self.constant, self.terms = old, new, constant, terms
+        self.plus, self.minus = frozenset(sp.Add.make_args(terms)), frozenset(sp.Add.make_args(-terms))
+
+    def _node(self, e):
+        if not e.is_Add:
+            return e
+        constant, terms = e.as_coeff_Add()
+        if not constant.is_Rational:
+            return e
+        if terms == self.terms:
+            return sp.Add(self.new, constant, -self.constant)
+        if terms == -self.terms:
+            return sp.Add(-self.new, constant, self.constant)
+        own = sp.Add.make_args(terms)
+        if len(self.plus) < len(own):
+            own_set = frozenset(own)
+            if self.plus < own_set:
+                return sp.Add(self.new, constant, -self.constant, *(own_set - self.plus))
+            if self.minus < own_set:
+                return sp.Add(-self.new, constant, self.constant, *(own_set - self.minus))
+        return e
+
+    def __call__(self, expr):
+        return rebuilt(expr, self._node)
 
 
 def _is_one_minus_pow(e) -> bool:

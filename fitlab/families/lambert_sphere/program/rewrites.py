@@ -16,7 +16,7 @@ from __future__ import annotations
 import sympy as sp
 from sympy.codegen.rewriting import Optimization, ReplaceOptim, optimize
 
-from fitlab.codegen.program import ONE_MINUS_POW, ONE_MINUS_SQUARES, SubsOptim
+from fitlab.codegen.program import ONE_MINUS_POW, ONE_MINUS_SQUARES, SumSubsOptim, rebuilt
 from fitlab.forms.symbolic import symbols
 
 __all__ = ["POLE_FLOOR", "ALBEDO_ZERO", "FLOOR_POLES", "AZIMUTH_TO_COSINE", "REWRITES", "stable", "floor_poles",
@@ -30,7 +30,7 @@ mu_i, mu_o, phi, c, cos_phi = symbols(("mu_i", "mu_o", "phi", "c", "cos_phi"))
 _S = sp.sqrt(1 - c)
 #: 1 - sqrt(1 - c) -> c / (1 + sqrt(1 - c)): the exact zero at c = 0 of B-F and kd(c); written directly it
 #: loses all relative accuracy as c -> 0 (float: 1 % at c = 1e-5)
-ALBEDO_ZERO = SubsOptim(1 - _S, c / (1 + _S))
+ALBEDO_ZERO = SumSubsOptim(1 - _S, c / (1 + _S))
 
 #: 1/(mu_i + mu_o)^k -> 1/max(mu_i + mu_o, POLE_FLOOR)^k
 FLOOR_POLES = ReplaceOptim(
@@ -39,12 +39,19 @@ FLOOR_POLES = ReplaceOptim(
 )
 
 
-class _AzimuthToCosine(SubsOptim):
+class _AzimuthToCosine(Optimization):
     """Forms take phi in [-pi, pi]; routines take cos(phi): |phi| = acos(cos phi).  ValueError when phi
-    remains (a form that is not a function of cos phi alone)."""
+    remains (a form that is not a function of cos phi alone).
+
+    Both are whole nodes, swapped in one pass over the tree (:func:`fitlab.codegen.program.rebuilt`), which
+    gives what ``subs`` gives in a fraction of its time on the large runtime terms."""
+
+    def __init__(self, mapping, **kwargs):
+        super().__init__(**kwargs)
+        self.mapping = mapping
 
     def __call__(self, expr):
-        out = super().__call__(expr)
+        out = rebuilt(expr, lambda e: self.mapping.get(e, e))
         if phi in out.free_symbols:
             raise ValueError(f"cannot express {expr} through cos(phi) alone")
         return out
