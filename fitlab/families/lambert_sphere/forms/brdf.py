@@ -263,4 +263,5 @@ def runtime_brdf(parts: Mapping[str, sp.Expr], normalisation: str = "corrected",
     :func:`runtime_terms`; s = ``scale`` is the energy scale of fitted models (1 for the published ones;
     :func:`fitlab.families.lambert_sphere.program.runtime.energy_scale`)."""
     total = runtime_sum(parts, normalisation)
-    return sp.Max(0, total if scale == 1 else sp.Mul(scale, total, evaluate=False))
+    # unevaluated: sympy would try to order 0 and the whole sum (factor it, ask its sign), seconds for nothing
+    return sp.Max(0, total if scale == 1 else sp.Mul(scale, total, evaluate=False), evaluate=False)

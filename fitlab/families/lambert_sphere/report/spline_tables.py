@@ -164,7 +164,7 @@ def table_brdf(data_dir: Path | None = None, order2: bool = False):
     if order2:
         funcs["tab_H2"] = h_interpolant(2, data_dir)
         total += _fm2(sp.Function("tab_H2")(mu, c)) * sp.cos(2 * phi)
-    raw = sp.lambdify((mu_i, mu_o, phi, c), sp.Max(0, total), modules=[funcs, "numpy"], cse=True)
+    raw = sp.lambdify((mu_i, mu_o, phi, c), sp.Max(0, total, evaluate=False), modules=[funcs, "numpy"], cse=True)
 
     def f(mu_i, mu_o, phi, c):
         arrays = np.broadcast_arrays(*(np.asarray(x, dtype=float) for x in (mu_i, mu_o, phi, c)))
