@@ -662,7 +662,10 @@ def multiple_scattering_orders(mu_i, mu_o, c: float, method: str = "newton", pha
     mu_i, mu_o = np.broadcast_arrays(mu_i, mu_o)
     if orders is None:
         orders = needed_orders(c, method, phase, degree, smallest)
-    a, b = mu_i.ravel(), mu_o.ravel()
+    # each distinct (mu_i, mu_o) pair once: a grid in (mu_i, mu_o, phi) repeats every pair at each phi, and the
+    # numerators gather a row of quadrature weights per pair (each pair's arithmetic is the same either way)
+    pairs, where = np.unique(np.stack((mu_i.ravel(), mu_o.ravel()), axis=1), axis=0, return_inverse=True)
+    a, b = pairs[:, 0].copy(), pairs[:, 1].copy()
     s = a + b
     pole = s == 0.0
     out = []
@@ -673,7 +676,7 @@ def multiple_scattering_orders(mu_i, mu_o, c: float, method: str = "newton", pha
             val = num / s
         val[pole] = psign * np.inf if c > 0.0 else 0.0
         val *= (-1.0) ** m * (1.0 if m == 0 else 2.0) / (4.0 * np.pi)
-        out.append(val.reshape(mu_i.shape))
+        out.append(val[where.ravel()].reshape(mu_i.shape))
     return tuple(out)
 
 
