@@ -102,7 +102,7 @@ def test_the_lambert_rewrites_are_optimisations_that_keep_the_old_order():
 _x, _y = sp.symbols("x y", real=True)
 _s = sp.sqrt(1 - c)
 #: leaves that hold the old sum, its terms, their negatives and numbers beside them
-_LEAVES = (_x, _y, c, _s, -_s, 1 - _s, 2 - _s, _s - 1, 3 * _s, _x - _s, sp.Rational(3, 2), sp.Float(0.25), 2)
+_LEAVES = (_x, _y, c, _s, -_s, 1 - _s, 2 - _s, _s - 1, 3 * _s, _x - _s, sp.Rational(3, 2), sp.Float(0.25), sp.Integer(2))
 
 
 def _expressions():
