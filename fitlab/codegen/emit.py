@@ -40,6 +40,7 @@ from fitlab.codegen.program import (
     Routine,
     field_symbol,
     outputs,
+    rebuilt,
     reproducible_sympy,
     unused_inputs,
 )
@@ -96,7 +97,9 @@ def _named_in_order(found, reduced, names):
     names: each step names, of the temporaries whose operands are all named, the one whose expression (with
     those names) sorts first by sympy's ``default_sort_key``.  The order of sympy's cse follows its traversal,
     which was seen to differ between runs of one program (the same temporaries, numbered otherwise, after
-    other sympy work in the process); this order depends on the temporaries alone."""
+    other sympy work in the process); this order depends on the temporaries alone.  Renaming one real symbol
+    for another leaves sympy nothing to re-order in a max or min: they are rebuilt unevaluated
+    (:func:`fitlab.codegen.program.rebuilt`)."""
     value = dict(found)
     users: dict = {t: [] for t in value}
     waiting = {}
@@ -110,7 +113,7 @@ def _named_in_order(found, reduced, names):
     count = itertools.count()  # never reached: two temporaries with one expression would be one
 
     def push(t):
-        e = value[t].xreplace(rename)
+        e = rebuilt(value[t], lambda n: rename.get(n, n))
         heapq.heappush(ready, (sp.default_sort_key(e), next(count), t, e))
 
     for t, n in waiting.items():
@@ -125,7 +128,7 @@ def _named_in_order(found, reduced, names):
             waiting[u] -= 1
             if waiting[u] == 0:
                 push(u)
-    return out, [e.xreplace(rename) for e in reduced]
+    return out, [rebuilt(e, lambda n: rename.get(n, n)) for e in reduced]
 
 
 def _cse_computed(given: tuple) -> tuple[tuple, tuple]:
