@@ -19,6 +19,14 @@ of engine is a miss, never a stale hit.
 * Writes are atomic (a temporary file named with the process id, then a
   rename): concurrent processes filling one entry never interleave, and a
   reader sees either the old entry or a whole new one.
+* An entry is computed once when several processes miss it at the same time
+  (the two workers of the test suite, two commands): the first holds a lock
+  on it (``locks/ENTRY.lock``, an exclusive ``flock``) while it computes, and
+  the others wait, then read what it wrote.  Only a process's outermost entry
+  takes the lock (entries computed inside another's compute do not), so a
+  process that holds a lock never waits for another: no two can block each
+  other.  Where ``flock`` is missing (Windows) or the folder cannot be
+  written, each computes its own as before.
 * A cache that cannot be written (read-only disk) only costs time.
 
 The same folder keeps, under ``xla/``, the programs JAX compiles for the commands
@@ -34,6 +42,9 @@ import hashlib
 import io
 import json
 import os
+import threading
+from collections.abc import Iterator
+from contextlib import contextmanager, suppress
 from pathlib import Path
 from typing import Callable, Iterable, Mapping
 
@@ -41,6 +52,11 @@ import numpy as np
 
 from fitlab import __version__
 from fitlab._io import atomic_write_bytes, regular_file
+
+try:
+    import fcntl
+except ImportError:  # Windows: no flock, no lock (see the module docstring)
+    fcntl = None
 
 __all__ = ["cache_dir", "cache_key", "cached_arrays", "cache_info", "clear_cache", "enabled", "enable_compilation_cache"]
 
@@ -51,6 +67,10 @@ _HASH = "_fitlab_sha256"
 MAX_ENTRY_BYTES = 2_000_000_000
 #: the subfolder of JAX's compiled programs
 _XLA = "xla"
+#: the subfolder of the entries' lock files (:func:`_computing`)
+_LOCKS = "locks"
+#: how deep this thread is in cached_arrays computes: only the outermost takes a lock
+_depth = threading.local()
 
 
 def cache_dir() -> Path:
@@ -124,18 +144,47 @@ def cached_arrays(
         hit = _load(path, names)
         if hit is not None:
             return hit
-    values = {n: np.asarray(v) for n, v in compute().items()}
-    missing = [n for n in names if n not in values]
-    if missing:
-        raise KeyError(f"cache entry {name}: compute() gave no {missing}")
-    if use:
-        buf = io.BytesIO()
-        np.savez(buf, **{n: values[n] for n in names}, **{_HASH: _content_hash(path.name, values, names)})
-        try:
-            atomic_write_bytes(path, buf.getvalue())
-        except OSError:
-            pass  # a cache that cannot be written only costs time
+    with _computing(path if use else None):
+        if use:  # another process may have written it while this one waited for the lock
+            hit = _load(path, names)
+            if hit is not None:
+                return hit
+        values = {n: np.asarray(v) for n, v in compute().items()}
+        missing = [n for n in names if n not in values]
+        if missing:
+            raise KeyError(f"cache entry {name}: compute() gave no {missing}")
+        if use:
+            buf = io.BytesIO()
+            np.savez(buf, **{n: values[n] for n in names}, **{_HASH: _content_hash(path.name, values, names)})
+            try:
+                atomic_write_bytes(path, buf.getvalue())
+            except OSError:
+                pass  # a cache that cannot be written only costs time
     return {n: values[n] for n in names}
+
+
+@contextmanager
+def _computing(path: Path | None) -> Iterator[None]:
+    """Hold the lock of the entry at ``path`` while it is computed, where this is the thread's outermost compute
+    (see the module docstring); None, nested computes, no flock and an unwritable folder hold nothing."""
+    depth = getattr(_depth, "value", 0)
+    fd = None
+    if path is not None and depth == 0 and fcntl is not None:
+        try:
+            (path.parent / _LOCKS).mkdir(parents=True, exist_ok=True)
+            fd = os.open(path.parent / _LOCKS / f"{path.name}.lock", os.O_RDWR | os.O_CREAT, 0o644)
+        except OSError:
+            fd = None
+    _depth.value = depth + 1
+    try:
+        if fd is not None:
+            assert fcntl is not None
+            fcntl.flock(fd, fcntl.LOCK_EX)  # released when fd closes, or when the process ends (Ctrl-C, kill)
+        yield
+    finally:
+        _depth.value = depth
+        if fd is not None:
+            os.close(fd)
 
 
 def enable_compilation_cache() -> None:
@@ -186,7 +235,11 @@ def clear_cache() -> int:
             removed += 1
         except FileNotFoundError:
             pass
-    for d in sorted((q for q in xla.rglob("*") if q.is_dir()), reverse=True) + [xla]:
+    locks = folder / _LOCKS
+    for p in locks.glob("*.lock") if locks.is_dir() else []:
+        with suppress(FileNotFoundError):
+            p.unlink()  # a process waiting on one still holds its file: at worst it computes its entry twice
+    for d in [*sorted((q for q in xla.rglob("*") if q.is_dir()), reverse=True), xla, locks]:
         try:
             d.rmdir()
         except OSError:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import json
 import multiprocessing
-from pathlib import Path
+import sys
 
 import numpy as np
 import pytest
@@ -88,6 +88,50 @@ def test_concurrent_writers_leave_one_whole_entry(cache):
     assert len(list(cache.glob("*.npz"))) == 1 and not list(cache.glob("*.tmp"))
     with np.load(next(cache.glob("*.npz")), allow_pickle=False) as z:
         assert np.array_equal(z["v"], np.arange(200_000, dtype=float))
+
+
+def _fill_slowly(folder: str, log: str) -> float:
+    import os
+    import time
+
+    os.environ["FITLAB_CACHE_DIR"] = folder
+
+    def compute():
+        with open(log, "a") as fh:
+            fh.write(f"{os.getpid()}\n")
+        time.sleep(1.0)  # long enough for the other process to miss the entry while this one computes it
+        return {"v": np.arange(10.0)}
+
+    return float(cached_arrays("shared", {}, compute, ("v",))["v"].sum())
+
+
+@pytest.mark.skipif(sys.platform == "win32", reason="no flock on Windows: each process computes its own")
+def test_processes_missing_one_entry_at_once_compute_it_once(cache, tmp_path):
+    """The second process waits on the first's lock, then reads its entry; the lock files are cleared with the
+    cache."""
+    cache.mkdir()
+    log = tmp_path / "computes.log"
+    with multiprocessing.get_context("spawn").Pool(2) as pool:
+        sums = pool.starmap(_fill_slowly, [(str(cache), str(log))] * 2)
+    assert sums == [45.0, 45.0]
+    assert len(log.read_text().split()) == 1
+    assert len(list((cache / "locks").glob("*.lock"))) == 1
+    assert clear_cache() == 1 and not (cache / "locks").exists()
+
+
+def test_an_entry_computed_inside_another_takes_no_lock_of_its_own(cache):
+    """Only the outermost compute holds a lock: the inner entry is computed (and kept) while the outer one's lock
+    is held, and a process never waits on a lock while holding one."""
+    calls = []
+
+    def outer():
+        inner = cached_arrays("inner", {}, _values(calls), ("x", "y"))
+        return {"z": inner["y"] + 1}
+
+    out = cached_arrays("outer", {}, outer, ("z",))
+    assert np.array_equal(out["z"], np.arange(5.0) ** 2 + 1) and len(calls) == 1
+    assert [p.name.split("-")[0] for p in (cache / "locks").glob("*.lock")] == ["outer"]
+    assert cached_arrays("inner", {}, _values(calls), ("x", "y"))["x"].size == 5 and len(calls) == 1
 
 
 def test_no_cache_switch_and_unwritable_folder_only_cost_time(cache, monkeypatch, tmp_path):
