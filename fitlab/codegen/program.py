@@ -20,8 +20,7 @@ family's (:func:`default_program_family`: the one that declares ``Family.default
 
 The helpers a family's program is written with are public here:
 :func:`call`, :func:`part_routine`, :func:`stable` (the cancellation-free rewrites that know no
-family: :data:`STABLE`), :class:`SubsOptim`, :class:`SumSubsOptim`, :func:`rebuilt`, :func:`clamp` and
-:func:`clamped`.  Rewrites are
+family: :data:`STABLE`), :class:`SumSubsOptim`, :func:`rebuilt`, :func:`clamp` and :func:`clamped`.  Rewrites are
 ``sympy.codegen.rewriting`` optimisations (``ReplaceOptim`` and its kin, applied in order by
 ``optimize``); a program names those of its family in :attr:`ProgramSpec.rewrites` (the Lambert
 sphere's, which know its symbols: :mod:`fitlab.families.lambert_sphere.program.rewrites`), and
@@ -53,8 +52,8 @@ from fitlab.store import FitFunction
 
 __all__ = ["Routine", "Program", "ProgramSpec", "build_program", "part_routine", "program_spec",
            "default_program_family", "model_form", "parse_terms",
-           "call", "stable", "STABLE", "ONE_MINUS_SQUARES", "ONE_MINUS_POW", "SubsOptim", "SumSubsOptim", "rebuilt",
-           "clamp", "clamped",
+           "call", "stable", "STABLE", "ONE_MINUS_SQUARES", "ONE_MINUS_POW", "SumSubsOptim", "rebuilt", "clamp",
+           "clamped",
            "minmax_piecewise", "with_domain", "unused_inputs", "SAFE_POW", "DEFAULT_FORMS", "MaterialSpec", "Material",
            "material_of", "field_symbol", "outputs", "inline_calls", "hoist_params", "merge_exp_products"]  # fmt: skip
 
@@ -407,19 +406,6 @@ def call(name: str, *args) -> sp.Expr:
     return sp.Function(name)(*args)
 
 
-class SubsOptim(Optimization):
-    """``expr.subs(*args)`` as a ``sympy.codegen.rewriting`` optimisation (sympy's algebraic substitution,
-    where ``ReplaceOptim`` matches whole subexpressions: an old sum also matches within a larger sum,
-    1 - s in 2 - s + x).  :class:`SumSubsOptim` does the same for one sum in one pass."""
-
-    def __init__(self, *args, **kwargs):
-        super().__init__(**kwargs)
-        self.args = args
-
-    def __call__(self, expr):
-        return expr.subs(*self.args)
-
-
 def rebuilt(expr: sp.Basic, node: Callable[[sp.Basic], sp.Basic]) -> sp.Basic:
     """``expr`` rebuilt bottom-up in one pass: every node, its arguments rebuilt first, becomes ``node(e)``
     (``e`` itself where nothing applies); a subtree met twice is rebuilt once.
@@ -465,7 +451,7 @@ class SumSubsOptim(Optimization):
         constant, terms = old.as_coeff_Add()
         if not (old.is_Add and constant.is_Rational):
             raise ValueError(f"{old}: SumSubsOptim replaces a sum with a rational constant term")
-        self.old, self.new, self.constant, self.terms = old, new, constant, terms
+        self.new, self.constant, self.terms = new, constant, terms
         self.plus, self.minus = frozenset(sp.Add.make_args(terms)), frozenset(sp.Add.make_args(-terms))
 
     def _node(self, e):
