@@ -90,30 +90,42 @@ def test_concurrent_writers_leave_one_whole_entry(cache):
         assert np.array_equal(z["v"], np.arange(200_000, dtype=float))
 
 
-def _fill_slowly(folder: str, log: str) -> float:
+def _fill_slowly(folder: str, log: str, ready: str, sums: str) -> None:
     import os
     import time
+    from pathlib import Path
 
     os.environ["FITLAB_CACHE_DIR"] = folder
+    Path(ready, str(os.getpid())).touch()
+    while len(os.listdir(ready)) < 2:  # both processes ask for the entry together, neither having found it
+        time.sleep(0.01)
 
     def compute():
         with open(log, "a") as fh:
             fh.write(f"{os.getpid()}\n")
-        time.sleep(1.0)  # long enough for the other process to miss the entry while this one computes it
+        time.sleep(1.0)  # the other process misses the entry meanwhile
         return {"v": np.arange(10.0)}
 
-    return float(cached_arrays("shared", {}, compute, ("v",))["v"].sum())
+    total = float(cached_arrays("shared", {}, compute, ("v",))["v"].sum())
+    Path(sums, str(os.getpid())).write_text(repr(total))
 
 
 @pytest.mark.skipif(sys.platform == "win32", reason="no flock on Windows: each process computes its own")
 def test_processes_missing_one_entry_at_once_compute_it_once(cache, tmp_path):
-    """The second process waits on the first's lock, then reads its entry; the lock files are cleared with the
-    cache."""
+    """Two processes miss one entry at the same moment: the second waits on the first's lock, then reads its
+    entry (without the lock both compute it); the lock files are cleared with the cache."""
     cache.mkdir()
-    log = tmp_path / "computes.log"
-    with multiprocessing.get_context("spawn").Pool(2) as pool:
-        sums = pool.starmap(_fill_slowly, [(str(cache), str(log))] * 2)
-    assert sums == [45.0, 45.0]
+    log, ready, sums = tmp_path / "computes.log", tmp_path / "ready", tmp_path / "sums"
+    ready.mkdir()
+    sums.mkdir()
+    spawn = multiprocessing.get_context("spawn")
+    procs = [spawn.Process(target=_fill_slowly, args=(str(cache), str(log), str(ready), str(sums))) for _ in range(2)]
+    for proc in procs:
+        proc.start()
+    for proc in procs:
+        proc.join(timeout=120)
+    assert [proc.exitcode for proc in procs] == [0, 0]
+    assert sorted(float(f.read_text()) for f in sums.iterdir()) == [45.0, 45.0]
     assert len(log.read_text().split()) == 1
     assert len(list((cache / "locks").glob("*.lock"))) == 1
     assert clear_cache() == 1 and not (cache / "locks").exists()
