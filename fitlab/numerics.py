@@ -1,13 +1,19 @@
 """Numerics shared by every family: quadrature rules (the families' exact engines build their composite and
-graded rules on these)."""
+graded rules on these) and the argument checks of their public functions.
+
+The checks give one line naming the argument and its domain: TypeError for anything that is not a real
+number or an array of real numbers (strings, None, booleans, complex values, objects); ValueError for NaN or
+a value outside the domain.  They return arrays in the working precision of :func:`working_dtype`.
+"""
 
 from __future__ import annotations
 
+import numbers
 from functools import lru_cache
 
 import numpy as np
 
-__all__ = ["gauss_legendre"]
+__all__ = ["gauss_legendre", "real_array", "choice", "working_dtype"]
 
 
 @lru_cache(maxsize=None)
@@ -21,3 +27,43 @@ def gauss_legendre(n: int) -> tuple[np.ndarray, np.ndarray]:
     nodes.setflags(write=False)
     weights.setflags(write=False)
     return nodes, weights
+
+
+def working_dtype(*values) -> type:
+    """float32 when every value is a numpy float32 array or scalar (a shader's precision), else float64."""
+    if values and all(isinstance(v, (np.ndarray, np.floating)) and np.asarray(v).dtype == np.float32 for v in values):
+        return np.float32
+    return np.float64
+
+
+def real_array(value, name: str, lo: float, hi: float, *, open_lo: bool = False, dtype=np.float64,
+               domain: str | None = None) -> np.ndarray:
+    """``value`` as an array of ``dtype`` whose elements lie in [lo, hi] ((lo, hi] with open_lo)."""
+    domain = domain or f"{'(' if open_lo else '['}{lo:g}, {hi:g}]"
+    want = f"{name} must be a real number or an array of real numbers in {domain}"
+    if value is None or isinstance(value, (str, bytes, bool, np.bool_, complex, np.complexfloating)):
+        raise TypeError(f"{want}, got {type(value).__name__} {value!r:.40}")
+    try:
+        arr = np.asarray(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{want}, got a ragged sequence") from None
+    if arr.dtype.kind == "O":
+        if not all(isinstance(x, numbers.Real) and not isinstance(x, (bool, np.bool_)) for x in arr.ravel()):
+            raise TypeError(f"{want}, got a sequence holding something else")
+    elif arr.dtype.kind not in "iuf":
+        raise TypeError(f"{want}, got an array of dtype {arr.dtype}")
+    out = np.asarray(arr, dtype=dtype)
+    if out.size:
+        if np.any(np.isnan(out)):
+            raise ValueError(f"{want}, got NaN")
+        bad = (out < lo) | (out > hi) | ((out == lo) if open_lo else False)
+        if np.any(bad):
+            raise ValueError(f"{want}, got {out[bad].ravel()[0]!r}")
+    return out
+
+
+def choice(value, name: str, options) -> str:
+    """``value`` if it is one of ``options`` (strings), else a one-line ValueError listing them."""
+    if not isinstance(value, str) or value not in options:
+        raise ValueError(f"{name} must be one of {', '.join(map(repr, options))}, got {value!r:.40}")
+    return value

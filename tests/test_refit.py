@@ -23,6 +23,8 @@ FITS = Path(__file__).resolve().parents[1] / "fitlab" / "fits"
 # (target, form): published presets cannot be halved within the form; each
 # has a test below that computes the floor.
 AT_FLOOR = {("H0", "hapke"), ("H1", "separable"), ("m", "linear"), ("fast_brdf", "paper")}
+# (tests/test_fresnel_forms.py computes this one's floor)
+AT_FLOOR |= {("F_ni_r", "gulbrandsen")}
 
 
 @pytest.mark.parametrize("job", default_jobs(), ids=lambda j: f"{j[0]}/{j[1]}")

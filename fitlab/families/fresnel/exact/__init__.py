@@ -1,0 +1,66 @@
+r"""The exact engine of the Fresnel family: the reflectance of real materials per wavelength and per colour
+channel, and its cosine-weighted average.
+
+* :func:`fresnel_reflectance` (:mod:`._optics`): unpolarised F(mu) for a complex index n + i k, from the
+  complex amplitude coefficients; :func:`normal_reflectance`; Gulbrandsen's map between (r, g) and (n, k).
+* :data:`MATERIALS` (:mod:`._materials`): measured conductors and dielectrics, with the source of each
+  index; :func:`reflectance` F_c(mu) per channel of linear sRGB or ACEScg, :func:`average_reflectance`.
+* :func:`channel_weights` (:mod:`._colour`): the CIE 1931 observer under D65 as weights per channel, from
+  the packaged table that colour-science computes (:func:`compute_channel_weights`).
+
+docs/fresnel.md states the conventions and what each approximation costs in accuracy.
+"""
+
+from pathlib import Path
+
+from fitlab.families.fresnel.exact._colour import (
+    SPACES,
+    WAVELENGTHS,
+    WEIGHTS_COLUMNS,
+    WEIGHTS_FILE,
+    channel_wavelength,
+    channel_weights,
+    compute_channel_weights,
+)
+from fitlab.families.fresnel.exact._materials import (
+    AVERAGE_ROUTES,
+    BK7_SELLMEIER,
+    CHANNELS,
+    MATERIALS,
+    Material,
+    average_reflectance,
+    get_material,
+    reflectance,
+)
+from fitlab.families.fresnel.exact._optics import (
+    fresnel_reflectance,
+    gulbrandsen_index,
+    gulbrandsen_parameters,
+    normal_reflectance,
+)
+
+#: the engine's source files, part of the key of anything cached from it
+SOURCES = tuple(sorted(Path(__file__).resolve().parent.glob("*.py")))
+
+__all__ = [
+    "AVERAGE_ROUTES",
+    "BK7_SELLMEIER",
+    "CHANNELS",
+    "MATERIALS",
+    "Material",
+    "SOURCES",
+    "SPACES",
+    "WAVELENGTHS",
+    "WEIGHTS_COLUMNS",
+    "WEIGHTS_FILE",
+    "average_reflectance",
+    "channel_wavelength",
+    "channel_weights",
+    "compute_channel_weights",
+    "fresnel_reflectance",
+    "get_material",
+    "gulbrandsen_index",
+    "gulbrandsen_parameters",
+    "normal_reflectance",
+    "reflectance",
+]
