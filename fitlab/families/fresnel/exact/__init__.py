@@ -29,6 +29,7 @@ from fitlab.families.fresnel.exact._materials import (
     MATERIALS,
     Material,
     average_reflectance,
+    cosine_average,
     get_material,
     reflectance,
 )
@@ -57,6 +58,7 @@ __all__ = [
     "channel_wavelength",
     "channel_weights",
     "compute_channel_weights",
+    "cosine_average",
     "fresnel_reflectance",
     "get_material",
     "gulbrandsen_index",
