@@ -1145,6 +1145,106 @@ shutil.rmtree(scratch)
 ]
 
 SEPARABLE_H1 = '("paper", "refit, default forms", "refit, richer forms")'
+FRESNEL = [
+    md(r"""
+# The Fresnel reflectance of a metal, exact and approximated
+
+The Fresnel family (`fitlab.families.fresnel`, docs/fresnel.md) computes the reflectance $F(\mu)$ of measured
+materials exactly, per wavelength from the complex index $n + ik$, and per channel of linear sRGB through the CIE
+1931 observer under D65. Engines approximate it: Schlick, the generalised Schlick, Lazanyi-Schlick, Hoffman's
+F82-tint, Gulbrandsen's artist-friendly metallic Fresnel. This notebook puts one metal's exact curves beside each
+approximation, as its published construction sets it and as refitted, and looks at the error where it lives: at
+grazing. Change `METAL` to any of `exact.MATERIALS`.
+"""),
+    code(SETUP + '''
+from fitlab.core import get_target
+from fitlab.families.fresnel import exact
+from fitlab.families.fresnel.forms import FORM_NAMES, MU_BAR
+from fitlab.store import load
+
+METAL = "cu"
+CHANNELS = exact.CHANNELS
+COLOURS = ("tab:red", "tab:green", "tab:blue")
+theta = np.linspace(0.0, 90.0, 181 if SMALL else 721)
+mu = np.cos(np.radians(theta))
+mu[-1] = 0.0
+'''),
+    md(r"""
+## 1. The exact reflectance
+
+Per wavelength at normal incidence, and per channel over the angle of incidence. [[grazing_white]]
+[[normal_closed_form]]
+"""),
+    code('''
+material = exact.get_material(METAL)
+lam = exact.WAVELENGTHS
+eta = material.index(lam)
+f_spectral = exact.fresnel_reflectance(np.array([1.0, 0.5, 0.0])[:, None], eta[None, :])
+F = exact.reflectance(METAL, mu)
+normal_error = np.abs(f_spectral[0] - exact.normal_reflectance(eta)).max()
+fig, (a, b) = plt.subplots(1, 2, figsize=(10, 3.2))
+for row, label in zip(f_spectral, ("normal", "60 deg", "grazing")):
+    a.plot(lam, row, label=label)
+a.set_xlabel("wavelength (nm)"); a.set_ylabel("F"); a.set_title(f"{material.name}: F per wavelength"); a.legend()
+for c in range(3):
+    b.plot(theta, F[:, c], color=COLOURS[c])
+b.set_xlabel("angle of incidence (deg)"); b.set_title("F per sRGB channel (linear)")
+plt.show()
+print("F0 (linear sRGB):", np.round(F[0], 4), " F at grazing:", F[-1])
+'''),
+    md(r"""
+## 2. Each approximation: its construction and the packaged refit
+
+A construction sets the parameters from the exact $F$ alone (Schlick: $F_0 = F(1)$; F82-tint: $F_0$ and
+$F(\bar\mu = 1/7)$, 82 degrees; Gulbrandsen: $r = F(1)$ and the edge tint of the measured $n, k$). The packaged fit
+of each channel (`fitlab/fits/F_<metal>_<channel>.json`, what `fitlab refit --target F_cu_r` writes) is the
+target's default form refitted on the validation-free training angles. [[schlick_misses]] [[f82_pins]]
+[[refit_within]]
+"""),
+    code('''
+valid = get_target(f"F_{METAL}_r").validation()
+mu_v = valid.inputs["mu"]
+F_v = exact.reflectance(METAL, mu_v)
+constructions = {"schlick": "normal", "f82_tint": "f82", "gulbrandsen": "gulbrandsen"}
+errors = {}
+fig, axes = plt.subplots(1, len(constructions) + 1, figsize=(14, 3), sharey=True)
+for ax, (name, preset) in zip(axes, constructions.items()):
+    forms = [get_target(f"F_{METAL}_{ch}").forms[name] for ch in CHANNELS]
+    approx_v = np.stack([f.numpy_function(f.vector(preset), mu_v) for f in forms], axis=-1)
+    errors[name] = np.abs(approx_v - F_v).max()
+    for c, f in enumerate(forms):
+        ax.plot(theta, f.numpy_function(f.vector(preset), mu) - F[:, c], color=COLOURS[c])
+    ax.set_title(f"{name} ({preset}): max {errors[name]:.1e}", fontsize=9); ax.set_xlabel("angle (deg)")
+fits = [load(FITS / f"F_{METAL}_{ch}.json") for ch in CHANNELS]
+refit_v = np.stack([fit(mu=mu_v) for fit in fits], axis=-1)
+errors["packaged refit"] = np.abs(refit_v - F_v).max()
+for c, fit in enumerate(fits):
+    axes[-1].plot(theta, fit(mu=mu) - F[:, c], color=COLOURS[c])
+axes[-1].set_title(f"packaged refits ({fits[0].form}): max {errors['packaged refit']:.1e}", fontsize=9)
+axes[0].set_ylabel("approx - exact")
+plt.show()
+mu_bar = np.array([float(MU_BAR)])
+f82 = [get_target(f"F_{METAL}_{ch}").forms["f82_tint"] for ch in CHANNELS]
+f82_values = np.stack([f.numpy_function(f.vector("f82"), mu_bar) for f in f82], axis=-1)
+f82_at_bar = np.abs(f82_values - exact.reflectance(METAL, mu_bar)).max()
+errors
+'''),
+    md(r"""
+## 3. The hemispherical average
+
+Kulla and Conti's coloured compensation takes $F_{avg} = 2\int_0^1 F \mu\, d\mu$. fitlab integrates it by two
+quadratures (in $\mu$ and in $\theta$); Schlick's has the closed form $(20 F_0 + 1)/21$. [[avg_routes]]
+"""),
+    code('''
+avg_mu = exact.average_reflectance(METAL, route="mu")
+avg_theta = exact.average_reflectance(METAL, route="theta")
+schlick_avg = (20 * F[0] + 1) / 21
+print("F_avg exact:", np.round(avg_mu, 5), " Schlick's:", np.round(schlick_avg, 5))
+print("difference of the two quadratures:", np.abs(avg_mu - avg_theta).max())
+'''),
+]
+
+
 CLAIMS = {
     "01_h_functions.ipynb": [
         Claim("validation_grid", "$c = 1 - s^2$, $s$ and $\\mu$ at odd multiples of 1/256, plus the edges and $\\mu$ = 1e-10, "
@@ -1253,6 +1353,18 @@ CLAIMS = {
         Claim("c_python", "the double version and the generated Python differ by less than {bound} (relative).",
               "c_difference", "<", 1e-14, when="c_difference is not None"),
     ],
+    "07_fresnel.ipynb": [
+        Claim("grazing_white", "At grazing ($\\mu = 0$) $F = 1$ in every channel, to {bound};", "np.abs(F[-1] - 1).max()", "<",
+              1e-14),
+        Claim("normal_closed_form", "at normal incidence $F = ((n-1)^2 + k^2)/((n+1)^2 + k^2)$ at every wavelength, to "
+              "{bound}.", "normal_error", "<", 1e-14),
+        Claim("schlick_misses", "For copper, Schlick's construction misses the exact $F$ by more than {bound} near grazing,",
+              'errors["schlick"]', ">", 0.03, ".2f"),
+        Claim("f82_pins", "F82-tint's construction meets it at 82 degrees to {bound},", "f82_at_bar", "<", 1e-14),
+        Claim("refit_within", "and the packaged refits stay within {bound} of it over the whole hemisphere.",
+              'errors["packaged refit"]', "<", 3e-3),
+        Claim("avg_routes", "The two quadratures agree to {bound}.", "np.abs(avg_mu - avg_theta).max()", "<", 1e-10),
+    ],
 }
 
 NOTEBOOKS = {
@@ -1262,6 +1374,7 @@ NOTEBOOKS = {
     "04_brdf.ipynb": BRDF,
     "05_refit_and_codegen.ipynb": WALKTHROUGH,
     "06_your_own_table.ipynb": OWN_TABLE,
+    "07_fresnel.ipynb": FRESNEL,
 }
 
 

@@ -76,7 +76,10 @@ def conductor_reflectance(mu, n, k2):
 def _gulbrandsen_expr():
     sr = sp.sqrt(r)
     n = g * (1 - r) / (1 + r) + (1 - g) * (1 + sr) / (1 - sr)
-    k2 = sp.Max(0, (r * (n + 1) ** 2 - (n - 1) ** 2) / (1 - r))
+    # k^2 >= 0 for g in [0, 1]; clamped at 0 beyond, where a fit's step may stray.  safe_pow(x, 1) is max(0, x)
+    # in every back end; a sympy Max would be 60 Max objects in the fit file's expanded expression, each of which
+    # sympy orders against 0 when the file is read (20 times the cost of reading it)
+    k2 = safe_pow((r * (n + 1) ** 2 - (n - 1) ** 2) / (1 - r), 1)
     return conductor_reflectance(_mu, n, k2)
 
 
