@@ -106,3 +106,27 @@ def test_every_target_has_every_form():
     for name, t in TARGETS.items():
         assert tuple(get_target(name).forms) == FORM_NAMES
         assert sum(f.refit_by_default for f in t.forms.values()) == 1
+
+
+@pytest.mark.e2e
+def test_codegen_prints_any_approximation_of_a_target(tmp_path):
+    # a refit of a non-default form, named with --form, is what the family's generated module computes; every other
+    # routine is the packaged default refit
+    from fitlab._io import import_generated
+    from fitlab.resources import packaged_fits
+    from fitlab.store import load
+
+    fits = tmp_path / "fits"
+    assert main(["refit", "--target", "F_cu_r", "--form", "f82_tint", "--out", str(fits), "--quiet"]) == 0
+    out = tmp_path / "gen"
+    assert main(["codegen", "--family", "fresnel", "--lang", "python", "--fits", str(fits), "--form", "F_cu_r=f82_tint",
+                 "--out", str(out), "--quiet"]) == 0
+    text = (out / "fresnel.py").read_text()
+    assert "F_cu_r.f82_tint.json" in text and "--form F_cu_r=f82_tint" in text
+    module = import_generated(out / "fresnel.py", "fitlab_test_fresnel_generated")
+    mu = np.concatenate((EDGES, np.linspace(0, 1, 257)))
+    refit = load(fits / "F_cu_r.f82_tint.json")
+    np.testing.assert_allclose(module.F_cu_r(mu), refit(mu=mu), rtol=1e-13, atol=1e-15)
+    for name in ("F_cu_g", "F_au_r", "F_glass_b"):
+        np.testing.assert_allclose(getattr(module, name)(mu), load(packaged_fits() / f"{name}.json")(mu=mu),
+                                   rtol=1e-12, atol=1e-14)
