@@ -159,6 +159,21 @@ def _e(x) -> str:
     return "0" if x == 0 else f"{x:.1e}"
 
 
+#: the (form, variant) columns of the tables: each form's construction (where it has one) and its refit
+_COLUMNS = tuple((f, v) for f in FORM_NAMES for v in ("construction", "refit") if v == "refit" or f in _CONSTRUCTION)
+
+
+def _header(extra: str = "") -> list[str]:
+    return ["| material | " + " | ".join(f"{_LABEL[f]}, {v}" for f, v in _COLUMNS) + f" |{extra}",
+            "|---|" + "---|" * (len(_COLUMNS) + bool(extra))]
+
+
+def _cells(row: dict, show) -> str:
+    """The row's cells of the (form, variant) columns, ``show(measures)`` each ("-" where there are none)."""
+    return " | ".join("-" if row["approximations"][f][v] is None else show(row["approximations"][f][v])
+                      for f, v in _COLUMNS)
+
+
 def _best(row: dict) -> tuple[str, str, float]:
     cands = [(v["max_abs"], name, variant) for name, by in row["approximations"].items()
              for variant, v in by.items() if v is not None and variant != "refit_cosine"]
@@ -213,20 +228,12 @@ def markdown(result: dict) -> str:
         "channel, g from the measured n, k at the channel's mean wavelength; metals only). *refit*: fitted by "
         "`fitlab refit` (least squares, then minimax on the max error).",
         "",
-        "| material | " + " | ".join(f"{_LABEL[f]}, {v}" for f in FORM_NAMES for v in ("construction", "refit")
-                                     if not (v == "construction" and f not in _CONSTRUCTION)) + " | best |",
-        "|---|" + "---|" * (len(FORM_NAMES) + len(_CONSTRUCTION) + 1),
+        *_header(" best |"),
     ]
     for row in mats.values():
-        cells = []
-        for f in FORM_NAMES:
-            for v in ("construction", "refit"):
-                if v == "construction" and f not in _CONSTRUCTION:
-                    continue
-                meas = row["approximations"][f][v]
-                cells.append(_e(None if meas is None else meas["max_abs"]))
         name, variant, err = _best(row)
-        lines.append(f"| {row['name']} | " + " | ".join(cells) + f" | {_LABEL[name]} ({variant}) {_e(err)} |")
+        lines.append(f"| {row['name']} | {_cells(row, lambda m: _e(m['max_abs']))} | {_LABEL[name]} ({variant}) "
+                     f"{_e(err)} |")
     f90 = [c["F90"] for row in mats.values() for c in row["approximations"]["schlick_generalised"]["refit"]["params"]]
     above = [v for v in f90 if v > 1.0]
     lines += [
@@ -257,19 +264,11 @@ def markdown(result: dict) -> str:
         "F_avg over the channels (the number Kulla-Conti's coloured compensation f_add = F_avg^2 E_avg / "
         "(1 - F_avg (1 - E_avg)) takes).",
         "",
-        "| material | " + " | ".join(f"{_LABEL[f]}, {v}" for f in FORM_NAMES for v in ("construction", "refit")
-                                     if not (v == "construction" and f not in _CONSTRUCTION)) + " |",
-        "|---|" + "---|" * (len(FORM_NAMES) + len(_CONSTRUCTION)),
+        *_header(),
     ]
     for row in mats.values():
-        cells = []
-        for f in FORM_NAMES:
-            for v in ("construction", "refit"):
-                if v == "construction" and f not in _CONSTRUCTION:
-                    continue
-                meas = row["approximations"][f][v]
-                cells.append("-" if meas is None else f"dE {meas['delta_e00']:.2g}, dF_avg {_e(meas['f_avg_error'])}")
-        lines.append(f"| {row['name']} | " + " | ".join(cells) + " |")
+        lines.append(f"| {row['name']} | "
+                     + _cells(row, lambda m: f"dE {m['delta_e00']:.2g}, dF_avg {_e(m['f_avg_error'])}") + " |")
     lines += [
         "",
         "## The cosine-weighted measure",
