@@ -118,7 +118,7 @@ def test_average_of_schlick_is_its_closed_form():
     # the quadrature of the average on a function with a closed form: (20 F0 + 1)/21 (SPEC section 9)
     for f0 in (0.04, 0.5, 0.95):
         for route in exact.AVERAGE_ROUTES:
-            got = exact.cosine_average(lambda mu: f0 + (1 - f0) * (1 - mu) ** 5, route)
+            got = exact.cosine_average(lambda mu, f0=f0: f0 + (1 - f0) * (1 - mu) ** 5, route)
             assert float(got) == pytest.approx((20 * f0 + 1) / 21, abs=1e-14)
 
 

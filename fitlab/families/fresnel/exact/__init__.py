@@ -18,9 +18,11 @@ from fitlab.families.fresnel.exact._colour import (
     WAVELENGTHS,
     WEIGHTS_COLUMNS,
     WEIGHTS_FILE,
+    WEIGHTS_GRID,
     channel_wavelength,
     channel_weights,
     compute_channel_weights,
+    read_weights,
 )
 from fitlab.families.fresnel.exact._materials import (
     AVERAGE_ROUTES,
@@ -54,6 +56,7 @@ __all__ = [
     "WAVELENGTHS",
     "WEIGHTS_COLUMNS",
     "WEIGHTS_FILE",
+    "WEIGHTS_GRID",
     "average_reflectance",
     "channel_wavelength",
     "channel_weights",
@@ -64,5 +67,6 @@ __all__ = [
     "gulbrandsen_index",
     "gulbrandsen_parameters",
     "normal_reflectance",
+    "read_weights",
     "reflectance",
 ]

@@ -19,15 +19,16 @@ the only function here that needs it); fitlab ships the weights it computes as a
 from __future__ import annotations
 
 from functools import cache
+from pathlib import Path
 
 import numpy as np
 
 from fitlab.numerics import choice
 from fitlab.resources import tables_folder
-from fitlab.store import TableError, read_table
+from fitlab.store import read_table
 
-__all__ = ["SPACES", "WAVELENGTHS", "WEIGHTS_FILE", "WEIGHTS_COLUMNS", "compute_channel_weights", "channel_weights",
-           "channel_wavelength"]
+__all__ = ["SPACES", "WAVELENGTHS", "WEIGHTS_FILE", "WEIGHTS_COLUMNS", "WEIGHTS_GRID", "compute_channel_weights",
+           "read_weights", "channel_weights", "channel_wavelength"]
 
 #: the linear colour spaces, each with channels r, g, b
 SPACES = ("srgb", "acescg")
@@ -36,6 +37,8 @@ WAVELENGTHS = np.arange(360.0, 781.0)
 WAVELENGTHS.setflags(write=False)
 WEIGHTS_FILE = "colour_weights.csv"
 WEIGHTS_COLUMNS = ("wavelength_nm", *(f"{s}_{c}" for s in SPACES for c in "rgb"))
+#: the grid the table's header states
+WEIGHTS_GRID = "wavelength_nm = 360..780 in steps of 1"
 
 
 def compute_channel_weights() -> dict[str, np.ndarray]:
@@ -58,21 +61,25 @@ def compute_channel_weights() -> dict[str, np.ndarray]:
     return out
 
 
-@cache
-def _read_weights() -> dict[str, np.ndarray]:
-    _, data = read_table(tables_folder("fresnel", (WEIGHTS_FILE,)) / WEIGHTS_FILE, WEIGHTS_COLUMNS)
-    if data.shape[0] != WAVELENGTHS.size or not np.array_equal(data[:, 0], WAVELENGTHS):
-        raise TableError(f"{WEIGHTS_FILE}: the wavelengths are not 360..780 nm in steps of 1 nm; "
-                         "run `fitlab tabulate` to rewrite it")
+def read_weights(folder) -> dict[str, np.ndarray]:
+    """{space: W of shape (3, wavelengths)} of the table in ``folder``, its header, grid line and wavelength
+    column checked (:class:`fitlab.store.TableError`)."""
+    _, data = read_table(Path(folder) / WEIGHTS_FILE, WEIGHTS_COLUMNS, grid=WEIGHTS_GRID,
+                         points={"wavelength_nm": WAVELENGTHS})
     out = {space: np.ascontiguousarray(data[:, 1 + 3 * i:4 + 3 * i].T) for i, space in enumerate(SPACES)}
     for w in out.values():
         w.setflags(write=False)
     return out
 
 
+@cache
+def _packaged_weights() -> dict[str, np.ndarray]:
+    return read_weights(tables_folder("fresnel", (WEIGHTS_FILE,)))
+
+
 def channel_weights(space: str = "srgb") -> tuple[np.ndarray, np.ndarray]:
     """(wavelengths in nm, W of shape (3, wavelengths)) of ``space``, from the packaged table."""
-    return WAVELENGTHS, _read_weights()[choice(space, "space", SPACES)]
+    return WAVELENGTHS, _packaged_weights()[choice(space, "space", SPACES)]
 
 
 def channel_wavelength(space: str, channel: int) -> float:

@@ -102,7 +102,7 @@ def construction(material: str, channel: str) -> dict[str, float]:
     g (of the measured n, k at the channel's wavelength), and a of the F82 term."""
     c = CHANNELS.index(channel)
     f0, f_bar = (float(v) for v in reflectance(material, np.array([1.0, float(MU_BAR)]))[:, c])
-    s_bar = f0 + (1 - f0) * (1 - float(MU_BAR)) ** 5
+    s_bar = schlick_term(f0, float(MU_BAR))
     t = f_bar / s_bar
     eta = get_material(material).index(np.array([channel_wavelength("srgb", c)]))[0]
     _, gg = gulbrandsen_parameters(eta.real, eta.imag)

@@ -30,13 +30,14 @@ import numpy as np
 from fitlab.core import get_target
 from fitlab.families.fresnel.exact import CHANNELS, MATERIALS, SPACES, average_reflectance, cosine_average, reflectance
 from fitlab.families.fresnel.forms import FORM_NAMES, MU_BAR
-from fitlab.families.fresnel.targets import target_name
+from fitlab.families.fresnel.targets import PUBLISHED, target_name
 
 __all__ = ["VARIANTS", "run", "markdown", "figure", "main"]
 
 #: the variants measured per form: its published construction (the preset's name), and the two refits
 VARIANTS = ("construction", "refit", "refit_cosine")
-_CONSTRUCTION = {"schlick": "normal", "f82_tint": "f82", "gulbrandsen": "gulbrandsen"}
+#: the forms with a published construction (for some kind of material), and its preset: the targets' PUBLISHED
+_CONSTRUCTION = {form: preset for published in PUBLISHED.values() for form, preset in published}
 _LABEL = {"schlick": "Schlick", "schlick_generalised": "generalised Schlick", "lazanyi": "Lazanyi-Schlick",
           "f82_tint": "F82-tint", "gulbrandsen": "Gulbrandsen"}
 
@@ -50,9 +51,7 @@ def _fits(material: str, form_name: str) -> dict:
     for channel in CHANNELS:
         t = get_target(target_name(material, channel))
         form = t.forms[form_name]
-        preset = _CONSTRUCTION.get(form_name)
-        if form_name == "gulbrandsen" and MATERIALS[material].kind == "dielectric":
-            preset = None  # Gulbrandsen's map is a construction for metals
+        preset = dict(t.published).get(form_name)  # Gulbrandsen's map is a construction for metals only
         out["construction"].append(None if preset is None else form.vector(preset))
         try:
             out["refit"].append(refit(t, form).fit.theta)
@@ -93,7 +92,7 @@ def _delta_e(rgb_a, rgb_b) -> float:
     return float(colour.delta_E(_lab(rgb_a), _lab(rgb_b), method="CIE 2000"))
 
 
-def _measures(material: str, f, exact_valid: np.ndarray, mu_valid: np.ndarray, f_avg: np.ndarray) -> dict:
+def _measures(f, exact_valid: np.ndarray, mu_valid: np.ndarray, f_avg: np.ndarray) -> dict:
     with np.errstate(all="ignore"):
         err = np.abs(f(mu_valid) - exact_valid)
         avg = cosine_average(f)
@@ -127,12 +126,12 @@ def run(materials=None, progress: bool = True) -> dict:
             valid = get_target(target_name(m, "r")).validation()
             mu_valid = valid.inputs["mu"]
             exact_valid = reflectance(m, mu_valid)
-            f_avg = average_reflectance(m)
+            f_avg = {s: average_reflectance(m, s) for s in SPACES}
             row: dict = {
                 "name": MATERIALS[m].name, "kind": MATERIALS[m].kind, "source": MATERIALS[m].source,
                 "F0": {s: reflectance(m, 1.0, s).tolist() for s in SPACES},
                 "F82": reflectance(m, float(MU_BAR)).tolist(),
-                "F_avg": {s: average_reflectance(m, s).tolist() for s in SPACES},
+                "F_avg": {s: v.tolist() for s, v in f_avg.items()},
                 "dip": _dip(m), "approximations": {},
             }
             for name in FORM_NAMES:
@@ -142,7 +141,7 @@ def run(materials=None, progress: bool = True) -> dict:
                     if any(t is None for t in thetas):
                         row["approximations"][name][variant] = None
                         continue
-                    meas = _measures(m, _approx(m, name, thetas), exact_valid, mu_valid, f_avg)
+                    meas = _measures(_approx(m, name, thetas), exact_valid, mu_valid, f_avg["srgb"])
                     form = get_target(target_name(m, "r")).forms[name]
                     meas["params"] = [dict(zip(form.params, np.asarray(t, dtype=float).tolist())) for t in thetas]
                     row["approximations"][name][variant] = meas

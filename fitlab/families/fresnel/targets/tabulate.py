@@ -14,8 +14,16 @@ from pathlib import Path
 
 import numpy as np
 
-from fitlab.families.fresnel.exact import SPACES, WAVELENGTHS, WEIGHTS_COLUMNS, WEIGHTS_FILE, compute_channel_weights
-from fitlab.store import Table, TableError, read_table
+from fitlab.families.fresnel.exact import (
+    SPACES,
+    WAVELENGTHS,
+    WEIGHTS_COLUMNS,
+    WEIGHTS_FILE,
+    WEIGHTS_GRID,
+    compute_channel_weights,
+    read_weights,
+)
+from fitlab.store import Table, TableError
 from fitlab.store import write_tables as store_write_tables
 
 __all__ = ["FAMILY_NAME", "TABLE_FILES", "TOLERANCE", "build_tables", "write_tables", "check_tables"]
@@ -23,7 +31,6 @@ __all__ = ["FAMILY_NAME", "TABLE_FILES", "TOLERANCE", "build_tables", "write_tab
 FAMILY_NAME = "fresnel"
 TABLE_FILES = {WEIGHTS_FILE: WEIGHTS_COLUMNS}
 TOLERANCE = 1e-12
-_GRID = "wavelength_nm = 360..780 in steps of 1"
 
 
 def build_tables(show_progress: bool = True) -> dict[str, Table]:
@@ -37,7 +44,7 @@ def build_tables(show_progress: bool = True) -> dict[str, Table]:
         f"absolute {TOLERANCE:g}",
         WEIGHTS_COLUMNS,
         np.column_stack(columns).tolist(),
-        _GRID,
+        WEIGHTS_GRID,
     )}
 
 
@@ -49,19 +56,17 @@ def write_tables(out: Path, show_progress: bool = True) -> dict[str, str]:
 def check_tables(folder: Path, show_progress: bool = True) -> list[str]:
     """Read the table in ``folder`` and recompute it; one line per failure."""
     try:
-        _, data = read_table(Path(folder) / WEIGHTS_FILE, WEIGHTS_COLUMNS, grid=_GRID)
+        table = read_weights(folder)
     except TableError as exc:
         return [str(exc)]
-    if data.shape[0] != WAVELENGTHS.size or not np.array_equal(data[:, 0], WAVELENGTHS):
-        return [f"{WEIGHTS_FILE}: the wavelengths are not {_GRID}"]
     try:
         weights = compute_channel_weights()
     except ImportError as exc:
         return [f"{WEIGHTS_FILE}: cannot be checked: {exc}"]
-    want = np.column_stack([weights[s][c] for s in SPACES for c in range(3)])
-    err = np.abs(data[:, 1:] - want)
-    if not np.all(err <= TOLERANCE):
-        i, j = np.unravel_index(int(np.argmax(err)), err.shape)
-        return [f"{WEIGHTS_FILE}: {WEIGHTS_COLUMNS[1 + j]} at {WAVELENGTHS[i]:g} nm differs from colour-science's "
-                f"by {err[i, j]:.2e}"]
+    for space in SPACES:
+        err = np.abs(table[space] - weights[space])
+        if not np.all(err <= TOLERANCE):
+            c, i = np.unravel_index(int(np.argmax(err)), err.shape)
+            return [f"{WEIGHTS_FILE}: {space}_{'rgb'[c]} at {WAVELENGTHS[i]:g} nm differs from colour-science's "
+                    f"by {err[c, i]:.2e}"]
     return []
