@@ -13,7 +13,8 @@ from fitlab.cli import COMMANDS, build_parser, main
 from fitlab.core import targets
 
 ROOT = Path(__file__).resolve().parents[1]
-NAMES = ["tabulate", "refit", "fit", "audit", "codegen", "render", "simulate", "discover", "report", "bench", "cache"]
+NAMES = ["tabulate", "refit", "fit", "audit", "codegen", "render", "simulate", "discover", "report", "export", "bench",
+         "cache"]
 
 
 def _python(code: str) -> subprocess.CompletedProcess:

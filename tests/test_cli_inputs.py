@@ -52,6 +52,8 @@ COMMANDS = {
     "discover": (["discover", "--target", "H0", "--fits", str(FITS), "--quiet"],
                  [("fitlab.discover.search", "discover")]),
     "report": (["report", "--quick", "--quiet", "--fits", str(FITS)], [("fitlab.report", "build_report")]),
+    "export": (["export", "dfg_karis", "--size", "4", "--quiet"],
+               [("fitlab.families.microfacet_energy.program.images", "dfg"), ("fitlab.export", "encode")]),
 }
 
 #: the flag that names a command's output folder: --out, but tabulate writes into the data folder
@@ -198,7 +200,8 @@ def test_version_and_help(capsys):
 
     assert _status(["--version"]) == 0
     assert capsys.readouterr().out.strip() == f"fitlab {__version__}"
-    for command in ("tabulate", "refit", "fit", "audit", "codegen", "render", "discover", "report", "bench", "cache"):
+    for command in ("tabulate", "refit", "fit", "audit", "codegen", "render", "discover", "report", "export", "bench",
+                    "cache"):
         assert _status([command, "--help"]) == 0
         text = capsys.readouterr().out
         assert "example: fitlab " + command in " ".join(text.split()), command
@@ -307,9 +310,8 @@ def test_tabulate_writes_all_tables_or_none(tmp_path, monkeypatch):
 
 
 def test_audit_writes_both_files_or_neither(tmp_path, monkeypatch, capsys):
-    from fitlab.core import Outputs
-
     import fitlab.families.lambert_sphere.report.audit as audit
+    from fitlab.core import Outputs
 
     out = tmp_path / "docs"
     out.mkdir()

@@ -13,6 +13,7 @@ from fitlab.core import (
     BrdfGrid,
     BrdfGridHook,
     Family,
+    ImagesHook,
     RenderHook,
     ReportHook,
     TableExportHook,
@@ -55,7 +56,7 @@ def toy():
 
 @pytest.mark.parametrize("hook,protocol", [("tables", TablesHook), ("audit", AuditHook), ("render", RenderHook),
                                            ("report", ReportHook), ("table_export", TableExportHook),
-                                           ("brdf_grid", BrdfGridHook)])  # fmt: skip
+                                           ("images", ImagesHook), ("brdf_grid", BrdfGridHook)])  # fmt: skip
 def test_a_hook_that_lacks_a_member_is_refused_in_one_line_naming_it(toy, hook, protocol):
     complete = _full(protocol)
     for member in _members(protocol):

@@ -38,6 +38,7 @@ COMMANDS = {
     "simulate": "Monte Carlo: simulate only the effects a scene asks for (a file, or a packaged scene by name)",
     "discover": "symbolic regression (pysindy): a Pareto front of new forms for a target",
     "report": "accuracy vs cost of every way to evaluate the BRDF: report.md, a CSV and a plot",
+    "export": "write tables as the files engines load: DFG and albedo tables, OpenEXR, 16-bit PNG, C, GLSL",
     "bench": "benchmarks (not tests): speed and accuracy",
     "cache": "show or clear the persistent cache of exact values",
 }

@@ -18,6 +18,7 @@ hook                      protocol
                           service has ``exact_brdf``) also :class:`BrdfReportHook`
 ``table_export``          :class:`TableExportHook`
 ``brdf_grid``             :class:`BrdfGridHook` (:class:`BrdfGrid` is one)
+``images``                :class:`ImagesHook`
 ========================  ======================================================================
 """
 
@@ -28,8 +29,8 @@ from pathlib import Path
 from typing import Any, NamedTuple, Protocol, runtime_checkable
 
 __all__ = ["Outputs", "TablesHook", "AuditHook", "RenderHook", "BenchHook", "ReportHook", "BrdfReportHook",
-           "TableExportHook", "BrdfGridHook", "BrdfGrid", "ProgramContract", "missing_member", "check_hook",
-           "BENCHES"]  # fmt: skip
+           "TableExportHook", "ImagesHook", "BrdfGridHook", "BrdfGrid", "ProgramContract", "missing_member",
+           "check_hook", "BENCHES"]  # fmt: skip
 
 
 def _members(protocol) -> list[str]:
@@ -221,6 +222,14 @@ class TableExportHook(Protocol):
 
 
 @runtime_checkable
+class ImagesHook(Protocol):
+    """``images`` (``fitlab export``): the family's tables as image files engines load (:mod:`fitlab.export`)."""
+
+    #: table name -> :class:`fitlab.export.ImageSpec`
+    IMAGES: Mapping[str, Any]
+
+
+@runtime_checkable
 class BrdfGridHook(Protocol):
     """``brdf_grid`` (:func:`fitlab.residuals.brdf_residuals`): the exact BRDF on residual grids."""
 
@@ -264,7 +273,7 @@ class ProgramContract(Protocol):
 
 
 _PROTOCOLS = {"tables": TablesHook, "audit": AuditHook, "render": RenderHook, "report": ReportHook,
-              "table_export": TableExportHook, "brdf_grid": BrdfGridHook}  # fmt: skip
+              "table_export": TableExportHook, "images": ImagesHook, "brdf_grid": BrdfGridHook}  # fmt: skip
 
 
 def check_hook(service, family: str = "?", hook: str = "?"):

@@ -35,6 +35,7 @@ MANIFEST = {
         "simulate": "mc.simulate:SIMULATE",  # a fitlab.scenes.SimulateHook: the scene schema and the walk
         "bench": "bench",  # bench_exact, bench_codegen, bench_mc, bench_render
         "table_export": "program.table_export",  # generate, LANGUAGES, NODES, DEFAULT_NODES, DEFAULT_LOOKUP, ...
+        "images": "program.images",  # IMAGES: the texture as fitlab export writes it
     },
     "program": True,
     "default_program": True,  # fitlab codegen without --family prints this program

@@ -39,6 +39,7 @@ MANIFEST = {
         "tables": "targets.tabulate",  # write_tables, check_tables, TABLE_FILES, FAMILY_NAME
         "simulate": "mc.simulate:SIMULATE",  # a fitlab.scenes.SimulateHook: the scene schema and the walk
         "bench": "bench",  # bench_mc: the microsurface walk's throughput
+        "images": "program.images",  # IMAGES: the DFG and albedo tables of fitlab export
     },
     "program": True,
     "default_program": False,

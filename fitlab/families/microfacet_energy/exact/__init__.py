@@ -54,8 +54,9 @@ Fresnel: :func:`directional_albedo` takes an optional F(w_o . h) applied inside 
 two agree with it too); a F with kinks (total internal reflection: a dielectric with eta < 1) comes as a
 :class:`FresnelFactor` naming them (:func:`dielectric_factor`, :func:`conductor_factor`), and the routes put
 panel edges on the curves w_o . h = c_k (:mod:`._albedo`; a plain function is taken as smooth).
-:mod:`._fresnel` gives the Fresnel factors (Schlick; the exact conductor, eta + i k; the exact dielectric), their average F_avg = 2 int_0^1 F mu dmu (adaptive Gauss-Legendre,
-1e-12; Schlick's (20 F0 + 1) / 21 in closed form) and Kulla-Conti's coloured compensation f_ms_F = f_add
+:func:`split_sum` (:mod:`._split_sum`): the split-sum integrals A, B of Karis's DFG table, E_F = F0 A + F90 B
+under Schlick's F, by either route.  :mod:`._fresnel` gives the Fresnel factors (Schlick; the exact conductor,
+eta + i k; the exact dielectric), their average F_avg = 2 int_0^1 F mu dmu (adaptive Gauss-Legendre, 1e-12; Schlick's (20 F0 + 1) / 21 in closed form) and Kulla-Conti's coloured compensation f_ms_F = f_add
 f_ms, f_add = F_avg^2 E_avg / (1 - F_avg (1 - E_avg)), derived there from a stated model of the
 inter-reflections (each later bounce cosine-distributed with escape E_avg, every reflection weighted by
 F_avg), with the form that has one Fresnel factor fewer (F_avg E_avg / (...)) and why it is not the
@@ -118,6 +119,7 @@ from fitlab.families.microfacet_energy.exact._oren_nayar import (
     oren_nayar_brdf,
     oren_nayar_coefficients,
 )
+from fitlab.families.microfacet_energy.exact._split_sum import schlick_weight, split_sum
 
 #: the engine's source files, part of the key of every cached exact value (fitlab.cache.cached_arrays): editing
 #: any of them recomputes what was cached
@@ -164,8 +166,10 @@ __all__ = [
     "oren_nayar_brdf",
     "oren_nayar_coefficients",
     "random_walk_albedo",
+    "schlick_weight",
     "smith_g1",
     "smith_g2",
     "smith_lambda",
+    "split_sum",
     "visible_fresnel",
 ]

@@ -1,0 +1,120 @@
+"""``fitlab export``: write the families' tables as the image files engines load (OpenEXR, 16-bit PNG, a C header,
+GLSL constants), each stating its layout (docs/tables.md)."""
+
+from __future__ import annotations
+
+from fitlab.cli._common import (
+    RunFailure,
+    UsageError,
+    add_quiet,
+    describe,
+    integer,
+    output_folder,
+    require_extra,
+    say,
+    service,
+    write_failure,
+)
+
+__all__ = ["add_arguments", "run"]
+
+_FORMATS = ("exr", "exr-half", "png", "c", "glsl")
+
+
+def add_arguments(p) -> None:
+    describe(p, "Write tables as the files engines load: the split-sum DFG tables of GGX (Karis's and Filament's "
+                "channels), the albedo tables E, 1 - E, E_avg of each microfacet model, the Lambert sphere's "
+                "texture; as OpenEXR (float or half), 16-bit PNG, a C header or GLSL constants, every file "
+                "written as one unit with its layout stated inside (axes, addressing, channels, linear). "
+                "--list shows the tables, their sizes and formats.",
+             "fitlab export dfg_karis dfg_filament --format exr --format png --size 64 --out tables")  # fmt: skip
+    p.add_argument("tables", nargs="*", metavar="TABLE", help="the tables to write (--list names them)")
+    p.add_argument("--list", action="store_true", help="list the tables, their sizes and formats, and stop")
+    p.add_argument("--format", action="append", choices=_FORMATS, default=None, dest="formats",
+                   help="a file format, repeatable (default: exr)")
+    p.add_argument("--size", type=integer(1), default=None,
+                   help="texels a side (a DFG or albedo table) or nodes per axis (the Lambert sphere's texture); "
+                        "default: each table's own")
+    p.add_argument("--out", default=None, help="the folder the files go to")
+    add_quiet(p)
+
+
+def _offered() -> dict:
+    """table name -> (family, ImageSpec), over every family with the ``images`` hook."""
+    from fitlab.core import families_offering
+
+    found = {}
+    for family in families_offering("images"):
+        for name, spec in service("images", family).IMAGES.items():
+            found[name] = (family, spec)
+    return found
+
+
+def _sizes_text(sizes) -> str:
+    sizes = list(sizes)
+    contiguous = sizes == list(range(sizes[0], sizes[-1] + 1))
+    return f"{sizes[0]} to {sizes[-1]}" if contiguous and len(sizes) > 5 else ", ".join(map(str, sizes))
+
+
+def _list(offered: dict) -> int:
+    for name, (family, spec) in offered.items():
+        print(f"{name:24s} {family:18s} size {spec.default_size} ({_sizes_text(spec.sizes)}); "
+              f"{', '.join(spec.formats)}; {spec.description}")
+    return 0
+
+
+def _check(args, offered: dict) -> tuple[list, list]:
+    """Every refusal before any work: (tables [(name, spec, size)], formats)."""
+    if not args.tables:
+        raise UsageError("name at least one table (fitlab export --list shows them)")
+    formats = list(dict.fromkeys(args.formats or ["exr"]))
+    chosen = []
+    for name in dict.fromkeys(args.tables):
+        if name not in offered:
+            raise UsageError(f"no table {name!r}; choose among {', '.join(offered)}")
+        _, spec = offered[name]
+        size = spec.default_size if args.size is None else args.size
+        if size not in spec.sizes:
+            raise UsageError(f"--size {size}: {name} takes {_sizes_text(spec.sizes)}")
+        for fmt in formats:
+            if fmt not in spec.formats:
+                raise UsageError(f"{name} is not written as {fmt} ({', '.join(spec.formats)} keep its values)")
+        chosen.append((name, spec, size))
+    for fmt in formats:
+        from fitlab.export import EXTRA
+
+        if fmt in EXTRA:
+            require_extra(*EXTRA[fmt])
+    return chosen, formats
+
+
+def run(args) -> int:
+    offered = _offered()
+    if args.list:
+        return _list(offered)
+    chosen, formats = _check(args, offered)
+    from fitlab.export import encode, file_name
+
+    names = [file_name(name, fmt) for name, _, _ in chosen for fmt in formats]
+    out = output_folder(args.out, "--out", files=names)
+    from tqdm import tqdm
+
+    from fitlab._io import atomic_write_many
+
+    files = {}
+    total = sum(spec.steps(size) for _, spec, size in chosen)
+    with tqdm(total=total, desc="tables", unit="step", disable=args.quiet) as bar:
+        for name, spec, size in chosen:
+            try:
+                image = spec.build(size, tick=lambda: bar.update(1))
+                for fmt in formats:
+                    files[out / file_name(name, fmt)] = encode(image, fmt)
+            except (ArithmeticError, ValueError) as exc:
+                raise RunFailure(f"table {name} could not be written: {exc}") from None
+    try:
+        atomic_write_many(files)
+    except OSError as exc:
+        raise write_failure(out, exc) from None
+    for path in files:
+        say(args, f"wrote {path}")
+    return 0
