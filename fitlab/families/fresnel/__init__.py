@@ -4,7 +4,8 @@ linear sRGB, and the approximations engines use for it (RTR4 section 9.5).
 Registers its targets (:mod:`.targets`: ``F_<material>_<channel>``, F_c(mu) for mu = cos theta in [0, 1]),
 their forms (:mod:`.forms`: Schlick, the generalised Schlick, Lazanyi-Schlick, Hoffman's F82-tint,
 Gulbrandsen's), the exact engine (:mod:`.exact`: complex Fresnel per wavelength, colour-matching weights
-from colour-science) and its table (:mod:`.targets.tabulate`, the ``tables`` hook).  The study
+from colour-science) and its table (:mod:`.targets.tabulate`, the ``tables`` hook); :mod:`.program.images` is its preset table for
+``fitlab export`` (the ``images`` hook).  The study
 :mod:`.studies.fresnel_study` writes docs/fresnel.md.
 """
 
@@ -26,6 +27,7 @@ MANIFEST = {
     ),
     "hooks": {
         "tables": "targets.tabulate",  # write_tables, check_tables, TABLE_FILES, FAMILY_NAME
+        "images": "program.images",  # IMAGES: the preset table of fitlab export
     },
     "program": False,
     "default_program": False,
