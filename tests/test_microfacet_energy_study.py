@@ -80,3 +80,26 @@ def test_generated_kulla_conti_furnace_float_is_double_and_the_search_finds_the_
             lobe = native("ms_kulla_conti", mu_i, np.full(mu_i.shape, mu_o), np.full(mu_i.shape, alpha))
             a = float(directional_albedo(mu_o, alpha, "ggx_correlated")) + 2 * np.pi * float(np.sum(w * mu_i * lobe))
             assert abs(a - 1.0) <= d["max_furnace"] + 1e-12, (alpha, mu_o, a)
+
+
+def test_coloured_compensation_takes_the_exact_f_avg_of_each_metal_and_bounds_hold():
+    """The coloured table's F_avg is the fresnel family's exact average (checked by its second quadrature route),
+    Schlick's is (20 F0 + 1)/21, each f_add lies in [0, F_avg^2] and grows with F_avg, so the Schlick-derived
+    lobe is the brighter exactly where Schlick's F_avg is; gold's red (F > 1) has none."""
+    from fitlab.families.fresnel.exact import average_reflectance
+    from fitlab.families.microfacet_energy.studies.energy_compensation import coloured_compensation
+
+    rows = coloured_compensation(alphas=(0.5, 1.0))
+    assert {r["material"] for r in rows} == {"ag", "al", "au", "cr", "cu", "ni", "w", "mo"}
+    for r in rows:
+        c = "rgb".index(r["channel"])
+        assert abs(r["F_avg"] - average_reflectance(r["material"], route="theta")[c]) < 1e-10
+        assert r["F_avg_schlick"] == (20 * r["F0"] + 1) / 21
+        if r["f_add"] is None:
+            assert (r["material"], r["channel"]) == ("au", "r")
+            continue
+        for e_avg, exact, schlick in zip(r["E_avg"], r["f_add"], r["f_add_schlick"], strict=True):
+            f = r["F_avg"]
+            assert abs(exact - f * f * e_avg / (1 - f * (1 - e_avg))) < 1e-15
+            assert 0 <= exact <= f * f
+            assert (schlick > exact) == (r["F_avg_schlick"] > r["F_avg"])

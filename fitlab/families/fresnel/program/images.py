@@ -15,11 +15,11 @@ import numpy as np
 
 from fitlab.core import get_form, get_target
 from fitlab.export import Image, ImageSpec
-from fitlab.families.fresnel.exact import CHANNELS, MATERIALS, average_reflectance
+from fitlab.families.fresnel.exact import CHANNELS, MATERIALS, average_reflectance, reflectance
 from fitlab.families.fresnel.forms import construction
 from fitlab.families.fresnel.targets import target_name
 
-__all__ = ["IMAGES", "COLUMNS", "ERROR_FLOOR", "preset_table"]
+__all__ = ["IMAGES", "COLUMNS", "ERROR_FLOOR", "preset_table", "material_averages"]
 
 #: the table's columns: (name, what it holds), each with the three channels R, G, B
 COLUMNS = (
@@ -63,6 +63,14 @@ def preset_table(tick=lambda: None) -> Image:
     channels = tuple(f"linear sRGB {c} (D65, CIE 1931 2-degree observer)" for c in ("red", "green", "blue"))
     return Image("fresnel_presets", data, channels,
                  ("Fresnel presets of measured materials, per linear sRGB channel", *columns, *rows))
+
+
+def material_averages() -> dict[str, dict]:
+    """{material key: {"name", "kind" ("conductor" or "dielectric"), "F0", "F_avg"}}, F0 and the exact F_avg as
+    linear sRGB triples: what another family's study takes through the registry
+    (``fitlab.core.family_service("images", "fresnel")``), e.g. the microfacet family's coloured compensation."""
+    return {key: {"name": m.name, "kind": m.kind, "F0": reflectance(key, 1.0), "F_avg": average_reflectance(key)}
+            for key, m in MATERIALS.items()}
 
 
 #: the tables ``fitlab export`` writes for this family

@@ -32,6 +32,13 @@ Measures, on one validation set the tables and fits never saw (a golden-ratio la
 * ns per evaluation of E_hat in C (double), tables and generated forms timed in one interleaved run
   (:func:`fitlab.codegen.bench.time_routines`): only the ratios carry meaning.
 
+And the coloured compensation of measured metals: Kulla-Conti's factor f_add = F_avg^2 E_avg / (1 - F_avg
+(1 - E_avg)) (:func:`fitlab.families.microfacet_energy.exact.fresnel_compensation_factor`) of height-correlated
+GGX, per linear sRGB channel of each conductor of the fresnel family, with its exact F_avg = 2 int F mu dmu
+(taken through the registry, ``fitlab.core.family_service("images", "fresnel").material_averages()``: no
+family imports another) against the F_avg a renderer derives from Schlick with F0 = F(1), (20 F0 + 1)/21
+(:func:`coloured_compensation`).
+
 Exact values go through fitlab's cache (:func:`fitlab.cache.cached_arrays`).
 """
 
@@ -51,7 +58,7 @@ from fitlab.families.microfacet_energy.exact import average_albedo, directional_
 
 __all__ = ["STUDY_MODELS", "TABLE_SIZES", "ALPHA_MIN", "validation_set", "centre_table", "bilinear", "study_rows", "markdown", "main", "fitted_methods", "FIT_TARGETS",
            "table_method", "exact_method", "no_compensation", "furnace", "measure", "table_lookup_ns", "KC_ALPHAS",
-           "kulla_conti_furnace"]
+           "kulla_conti_furnace", "COLOURED_ALPHAS", "coloured_compensation"]
 
 #: the models studied (the exact engine's names)
 STUDY_MODELS = ("ggx_separable", "ggx_correlated", "oren_nayar")
@@ -285,6 +292,69 @@ def _kc_native():
         return build(files, load_program(family="microfacet_energy"), Path(workdir))
 
 
+#: the roughnesses of the coloured-compensation table
+COLOURED_ALPHAS = (0.25, 0.5, 1.0)
+
+
+def coloured_compensation(model: str = "ggx_correlated", alphas=COLOURED_ALPHAS) -> list[dict]:
+    """Per conductor of the fresnel family and linear sRGB channel: F0, the exact F_avg and Schlick's (20 F0 +
+    1)/21, and Kulla-Conti's f_add of each at every alpha (module docstring).  A channel whose F0 or F_avg
+    exceeds 1 (gold's red: a colour out of sRGB's gamut) has no f_add (None): the factor is defined for
+    F_avg in [0, 1]."""
+    from fitlab.core import family_service
+
+    materials = family_service("images", "fresnel").material_averages()
+    e_avg = average_albedo(np.asarray(alphas, dtype=float), model)
+    rows = []
+    for key, m in materials.items():
+        if m["kind"] != "conductor":
+            continue
+        for c, channel in enumerate(("r", "g", "b")):
+            f0, f_avg = float(m["F0"][c]), float(m["F_avg"][c])
+            row = {"material": key, "name": m["name"], "channel": channel, "F0": f0, "F_avg": f_avg,
+                   "F_avg_schlick": (20 * f0 + 1) / 21, "alphas": list(alphas), "E_avg": e_avg.tolist()}
+            if max(f0, f_avg) <= 1.0:
+                row["f_add"] = exact.fresnel_compensation_factor(f_avg, e_avg).tolist()
+                row["f_add_schlick"] = exact.fresnel_compensation_factor(exact.average_fresnel_schlick(f0),
+                                                                         e_avg).tolist()
+            else:
+                row["f_add"] = row["f_add_schlick"] = None
+            rows.append(row)
+    return rows
+
+
+def _coloured_markdown(coloured: list[dict]) -> list[str]:
+    alphas = coloured[0]["alphas"]
+    heads = " | ".join(f"f_add, alpha = {a:g}" for a in alphas)
+    out = ["## Coloured compensation of measured metals", "",
+           "Kulla-Conti's coloured lobe f_ms_F = f_add f_ms, f_add = F_avg^2 E_avg / (1 - F_avg (1 - E_avg)), of "
+           "height-correlated GGX, per linear sRGB channel of each measured conductor of the fresnel family "
+           "(docs/fresnel.md): with the exact F_avg = 2 int_0^1 F mu dmu of its spectral Fresnel reflectance, "
+           "and with the F_avg a renderer derives from Schlick's F of the same F0 = F(1), (20 F0 + 1)/21. Each "
+           "f_add cell is exact / Schlick-derived; the last column is the largest relative difference of the "
+           "Schlick-derived f_add over these roughnesses, which is the relative error of the compensation "
+           "lobe's energy.", "",
+           f"| metal | channel | F0 | F_avg exact | F_avg Schlick | {heads} | worst relative |",
+           "|---|---|---|---|---|" + "---|" * len(alphas) + "---|"]
+    for r in coloured:
+        if r["f_add"] is None:
+            cells = " | ".join("-" for _ in alphas)
+            worst = "- (F > 1: out of sRGB's gamut)"
+        else:
+            cells = " | ".join(f"{e:.4f} / {s:.4f}" for e, s in zip(r["f_add"], r["f_add_schlick"], strict=True))
+            worst = f"{max(abs(s / e - 1) for e, s in zip(r['f_add'], r['f_add_schlick'], strict=True)):.1%}"
+        out.append(f"| {r['name']} | {r['channel']} | {r['F0']:.4f} | {r['F_avg']:.4f} | {r['F_avg_schlick']:.4f} | "
+                   f"{cells} | {worst} |")
+    rel = [abs(s / e - 1) for r in coloured if r["f_add"] for e, s in zip(r["f_add"], r["f_add_schlick"], strict=True)]
+    worst = max((r for r in coloured if r["f_add"]),
+                key=lambda r: max(abs(s / e - 1) for e, s in zip(r["f_add"], r["f_add_schlick"], strict=True)))
+    low = sum(r["F_avg_schlick"] > r["F_avg"] for r in coloured)
+    out += ["", f"Schlick's F_avg is above the exact one in {low} of {len(coloured)} channels (Schlick's curve "
+            f"lacks the dip of real metals below F0 near grazing), so the derived lobe is too bright; the largest "
+            f"relative difference of f_add is {max(rel):.1%} ({worst['name']}, {worst['channel']}).", ""]
+    return out
+
+
 def _g(x) -> str:
     return "-" if x is None else f"{x:.2e}"
 
@@ -298,9 +368,10 @@ def study_rows(models=STUDY_MODELS, sizes=TABLE_SIZES, fitted: dict | None = Non
     return rows
 
 
-def markdown(rows: list[dict], ns: dict, validation_n: int = 64, kc: list[dict] | None = None) -> str:
-    """docs/energy_compensation.md from :func:`study_rows`, :func:`table_lookup_ns` and
-    :func:`kulla_conti_furnace`."""
+def markdown(rows: list[dict], ns: dict, validation_n: int = 64, kc: list[dict] | None = None,
+             coloured: list[dict] | None = None) -> str:
+    """docs/energy_compensation.md from :func:`study_rows`, :func:`table_lookup_ns`,
+    :func:`kulla_conti_furnace` and :func:`coloured_compensation`."""
     out = ["# Energy compensation: what a renderer needs to know of E(mu, alpha)", "",
            "Generated by `python -m fitlab.families.microfacet_energy.studies.energy_compensation --out docs` "
            "(do not edit); the "
@@ -341,6 +412,8 @@ def markdown(rows: list[dict], ns: dict, validation_n: int = 64, kc: list[dict] 
                 f"{max(abs(by[(a, 'float')]['max_furnace'] - by[(a, 'double')]['max_furnace']) for a in alphas):.0e}"
                 "); the error is the fits' (E_ggx_cor, E_avg_ggx_cor), largest in the grazing layer mu_o ~ alpha "
                 "as alpha -> 0.", ""]
+    if coloured:
+        out += _coloured_markdown(coloured)
     out += ["## Why a fit's furnace can be far worse than its E", "",
             "The lobe is divided by 1 - E_avg_hat, which goes to 0 as alpha -> 0 (GGX becomes a mirror and "
             "loses nothing). A method whose E_avg_hat is not the average of its own E_hat (a fit of E beside a "
@@ -416,9 +489,11 @@ def main(argv=None) -> int:
         ns[f"fit {e_name} (generated C, a separate run)"] = next(iter(routine_cost(e_name, [None]).values()))
     native = _kc_native()
     kc = kulla_conti_furnace(native) if native is not None else None
+    coloured = coloured_compensation()
     out = Path(args.out)
-    atomic_write_many({out / "energy_compensation.md": markdown(rows, ns, kc=kc).encode(),
-                       out / "energy_compensation.json": json.dumps({"rows": rows, "kulla_conti_furnace": kc},
+    atomic_write_many({out / "energy_compensation.md": markdown(rows, ns, kc=kc, coloured=coloured).encode(),
+                       out / "energy_compensation.json": json.dumps({"rows": rows, "kulla_conti_furnace": kc,
+                                                                     "coloured_compensation": coloured},
                                                                     indent=1).encode()})
     print(f"wrote {out / 'energy_compensation.md'}")
     return 0
