@@ -447,7 +447,7 @@ MICROFACET_ENERGY_FN double microfacet_energy_ms_blog_diffuse(double mu_i, doubl
     const double t17 = microfacet_energy_ms_blog_scale_diffuse(t0, t1, 3.0);
     const double t18 = microfacet_energy_ms_blog_scale_diffuse(t0, t1, 4.0);
     const double t19 = microfacet_energy_ms_blog_scale_diffuse(t0, t1, 5.0);
-    return pow(t4, 5.0)*t6*((t19 < 0.0) ? (0.0) : (t19)) + (t4*t4*t4*t4)*t6*((t18 < 0.0) ? (0.0) : (t18)) + (t4*t4*t4)*t6*((t17 < 0.0) ? (0.0) : (t17)) + (t4*t4)*t6*((t16 < 0.0) ? (0.0) : (t16));
+    return (t4*t4*t4*t4*t4)*t6*((t19 < 0.0) ? (0.0) : (t19)) + (t4*t4*t4*t4)*t6*((t18 < 0.0) ? (0.0) : (t18)) + (t4*t4*t4)*t6*((t17 < 0.0) ? (0.0) : (t17)) + (t4*t4)*t6*((t16 < 0.0) ? (0.0) : (t16));
 }
 
 MICROFACET_ENERGY_FN double microfacet_energy_ms_tilt_diffuse(double mu_i, double mu_o, double cos_phi, double alpha, double rho)
@@ -508,7 +508,7 @@ MICROFACET_ENERGY_FN double microfacet_energy_ms_tilt_diffuse(double mu_i, doubl
     const double t53 = ((t52 < -4.0) ? (-4.0) : (t52));
     const double t54 = microfacet_energy_ms_tilt_k_diffuse(t2, t3, 5.0);
     const double t55 = ((t54 < -3.0) ? (-3.0) : (t54));
-    return t0*pow(t9, 5.0)*(t13 + 2.0)*exp(t7*((t53 > 4.0) ? (4.0) : (t53)) + t8*((t55 > 3.0) ? (3.0) : (t55)))*microfacet_energy_safe_pow(t4, t13)*((t51 < 0.0) ? (0.0) : (t51))/sqrt(t5/(((t50 > 2.5) ? (2.5) : (t50))*((t50 > 2.5) ? (2.5) : (t50))) + t6) + t0*(t9*t9*t9*t9)*(t12 + 2.0)*exp(t7*((t46 > 4.0) ? (4.0) : (t46)) + t8*((t48 > 3.0) ? (3.0) : (t48)))*microfacet_energy_safe_pow(t4, t12)*((t44 < 0.0) ? (0.0) : (t44))/sqrt(t5/(((t43 > 2.5) ? (2.5) : (t43))*((t43 > 2.5) ? (2.5) : (t43))) + t6) + t0*(t9*t9*t9)*(t11 + 2.0)*exp(t7*((t39 > 4.0) ? (4.0) : (t39)) + t8*((t41 > 3.0) ? (3.0) : (t41)))*microfacet_energy_safe_pow(t4, t11)*((t37 < 0.0) ? (0.0) : (t37))/sqrt(t5/(((t36 > 2.5) ? (2.5) : (t36))*((t36 > 2.5) ? (2.5) : (t36))) + t6) + t0*(t9*t9)*(t10 + 2.0)*exp(t7*((t32 > 4.0) ? (4.0) : (t32)) + t8*((t34 > 3.0) ? (3.0) : (t34)))*microfacet_energy_safe_pow(t4, t10)*((t30 < 0.0) ? (0.0) : (t30))/sqrt(t5/(((t29 > 2.5) ? (2.5) : (t29))*((t29 > 2.5) ? (2.5) : (t29))) + t6);
+    return t0*(t9*t9*t9*t9*t9)*(t13 + 2.0)*exp(t7*((t53 > 4.0) ? (4.0) : (t53)) + t8*((t55 > 3.0) ? (3.0) : (t55)))*microfacet_energy_safe_pow(t4, t13)*((t51 < 0.0) ? (0.0) : (t51))/sqrt(t5/(((t50 > 2.5) ? (2.5) : (t50))*((t50 > 2.5) ? (2.5) : (t50))) + t6) + t0*(t9*t9*t9*t9)*(t12 + 2.0)*exp(t7*((t46 > 4.0) ? (4.0) : (t46)) + t8*((t48 > 3.0) ? (3.0) : (t48)))*microfacet_energy_safe_pow(t4, t12)*((t44 < 0.0) ? (0.0) : (t44))/sqrt(t5/(((t43 > 2.5) ? (2.5) : (t43))*((t43 > 2.5) ? (2.5) : (t43))) + t6) + t0*(t9*t9*t9)*(t11 + 2.0)*exp(t7*((t39 > 4.0) ? (4.0) : (t39)) + t8*((t41 > 3.0) ? (3.0) : (t41)))*microfacet_energy_safe_pow(t4, t11)*((t37 < 0.0) ? (0.0) : (t37))/sqrt(t5/(((t36 > 2.5) ? (2.5) : (t36))*((t36 > 2.5) ? (2.5) : (t36))) + t6) + t0*(t9*t9)*(t10 + 2.0)*exp(t7*((t32 > 4.0) ? (4.0) : (t32)) + t8*((t34 > 3.0) ? (3.0) : (t34)))*microfacet_energy_safe_pow(t4, t10)*((t30 < 0.0) ? (0.0) : (t30))/sqrt(t5/(((t29 > 2.5) ? (2.5) : (t29))*((t29 > 2.5) ? (2.5) : (t29))) + t6);
 }
 
 MICROFACET_ENERGY_FN double microfacet_energy_ms_blog_conductor(double mu_i, double mu_o, double alpha)
@@ -1032,7 +1032,7 @@ MICROFACET_ENERGY_FN float microfacet_energy_ms_blog_diffuse_f(float mu_i, float
     const float t17 = microfacet_energy_ms_blog_scale_diffuse_f(t0, t1, 3.0F);
     const float t18 = microfacet_energy_ms_blog_scale_diffuse_f(t0, t1, 4.0F);
     const float t19 = microfacet_energy_ms_blog_scale_diffuse_f(t0, t1, 5.0F);
-    return powf(t4, 5.0F)*t6*((t19 < 0.0F) ? (0.0F) : (t19)) + (t4*t4*t4*t4)*t6*((t18 < 0.0F) ? (0.0F) : (t18)) + (t4*t4*t4)*t6*((t17 < 0.0F) ? (0.0F) : (t17)) + (t4*t4)*t6*((t16 < 0.0F) ? (0.0F) : (t16));
+    return (t4*t4*t4*t4*t4)*t6*((t19 < 0.0F) ? (0.0F) : (t19)) + (t4*t4*t4*t4)*t6*((t18 < 0.0F) ? (0.0F) : (t18)) + (t4*t4*t4)*t6*((t17 < 0.0F) ? (0.0F) : (t17)) + (t4*t4)*t6*((t16 < 0.0F) ? (0.0F) : (t16));
 }
 
 MICROFACET_ENERGY_FN float microfacet_energy_ms_tilt_diffuse_f(float mu_i, float mu_o, float cos_phi, float alpha, float rho)
@@ -1093,7 +1093,7 @@ MICROFACET_ENERGY_FN float microfacet_energy_ms_tilt_diffuse_f(float mu_i, float
     const float t53 = ((t52 < -4.0F) ? (-4.0F) : (t52));
     const float t54 = microfacet_energy_ms_tilt_k_diffuse_f(t2, t3, 5.0F);
     const float t55 = ((t54 < -3.0F) ? (-3.0F) : (t54));
-    return t0*powf(t9, 5.0F)*(t13 + 2.0F)*expf(t7*((t53 > 4.0F) ? (4.0F) : (t53)) + t8*((t55 > 3.0F) ? (3.0F) : (t55)))*microfacet_energy_safe_pow_f(t4, t13)*((t51 < 0.0F) ? (0.0F) : (t51))/sqrtf(t5/(((t50 > 2.5F) ? (2.5F) : (t50))*((t50 > 2.5F) ? (2.5F) : (t50))) + t6) + t0*(t9*t9*t9*t9)*(t12 + 2.0F)*expf(t7*((t46 > 4.0F) ? (4.0F) : (t46)) + t8*((t48 > 3.0F) ? (3.0F) : (t48)))*microfacet_energy_safe_pow_f(t4, t12)*((t44 < 0.0F) ? (0.0F) : (t44))/sqrtf(t5/(((t43 > 2.5F) ? (2.5F) : (t43))*((t43 > 2.5F) ? (2.5F) : (t43))) + t6) + t0*(t9*t9*t9)*(t11 + 2.0F)*expf(t7*((t39 > 4.0F) ? (4.0F) : (t39)) + t8*((t41 > 3.0F) ? (3.0F) : (t41)))*microfacet_energy_safe_pow_f(t4, t11)*((t37 < 0.0F) ? (0.0F) : (t37))/sqrtf(t5/(((t36 > 2.5F) ? (2.5F) : (t36))*((t36 > 2.5F) ? (2.5F) : (t36))) + t6) + t0*(t9*t9)*(t10 + 2.0F)*expf(t7*((t32 > 4.0F) ? (4.0F) : (t32)) + t8*((t34 > 3.0F) ? (3.0F) : (t34)))*microfacet_energy_safe_pow_f(t4, t10)*((t30 < 0.0F) ? (0.0F) : (t30))/sqrtf(t5/(((t29 > 2.5F) ? (2.5F) : (t29))*((t29 > 2.5F) ? (2.5F) : (t29))) + t6);
+    return t0*(t9*t9*t9*t9*t9)*(t13 + 2.0F)*expf(t7*((t53 > 4.0F) ? (4.0F) : (t53)) + t8*((t55 > 3.0F) ? (3.0F) : (t55)))*microfacet_energy_safe_pow_f(t4, t13)*((t51 < 0.0F) ? (0.0F) : (t51))/sqrtf(t5/(((t50 > 2.5F) ? (2.5F) : (t50))*((t50 > 2.5F) ? (2.5F) : (t50))) + t6) + t0*(t9*t9*t9*t9)*(t12 + 2.0F)*expf(t7*((t46 > 4.0F) ? (4.0F) : (t46)) + t8*((t48 > 3.0F) ? (3.0F) : (t48)))*microfacet_energy_safe_pow_f(t4, t12)*((t44 < 0.0F) ? (0.0F) : (t44))/sqrtf(t5/(((t43 > 2.5F) ? (2.5F) : (t43))*((t43 > 2.5F) ? (2.5F) : (t43))) + t6) + t0*(t9*t9*t9)*(t11 + 2.0F)*expf(t7*((t39 > 4.0F) ? (4.0F) : (t39)) + t8*((t41 > 3.0F) ? (3.0F) : (t41)))*microfacet_energy_safe_pow_f(t4, t11)*((t37 < 0.0F) ? (0.0F) : (t37))/sqrtf(t5/(((t36 > 2.5F) ? (2.5F) : (t36))*((t36 > 2.5F) ? (2.5F) : (t36))) + t6) + t0*(t9*t9)*(t10 + 2.0F)*expf(t7*((t32 > 4.0F) ? (4.0F) : (t32)) + t8*((t34 > 3.0F) ? (3.0F) : (t34)))*microfacet_energy_safe_pow_f(t4, t10)*((t30 < 0.0F) ? (0.0F) : (t30))/sqrtf(t5/(((t29 > 2.5F) ? (2.5F) : (t29))*((t29 > 2.5F) ? (2.5F) : (t29))) + t6);
 }
 
 MICROFACET_ENERGY_FN float microfacet_energy_ms_blog_conductor_f(float mu_i, float mu_o, float alpha)

@@ -600,7 +600,7 @@ float microfacet_energy_ms_blog_diffuse(float mu_i, float mu_o, float alpha, flo
     float t17 = microfacet_energy_ms_blog_scale_diffuse(t0, t1, 3.0);
     float t18 = microfacet_energy_ms_blog_scale_diffuse(t0, t1, 4.0);
     float t19 = microfacet_energy_ms_blog_scale_diffuse(t0, t1, 5.0);
-    return pow(t4, 5.0)*t6*((t19 < 0.0) ? (0.0) : (t19)) + (t4*t4*t4*t4)*t6*((t18 < 0.0) ? (0.0) : (t18)) + (t4*t4*t4)*t6*((t17 < 0.0) ? (0.0) : (t17)) + (t4*t4)*t6*((t16 < 0.0) ? (0.0) : (t16));
+    return (t4*t4*t4*t4*t4)*t6*((t19 < 0.0) ? (0.0) : (t19)) + (t4*t4*t4*t4)*t6*((t18 < 0.0) ? (0.0) : (t18)) + (t4*t4*t4)*t6*((t17 < 0.0) ? (0.0) : (t17)) + (t4*t4)*t6*((t16 < 0.0) ? (0.0) : (t16));
 }
 
 // Multiple scattering (orders 2..4 and the tail above 4, summed) of diffuse (Lambertian) facets
@@ -668,7 +668,7 @@ float microfacet_energy_ms_tilt_diffuse(float mu_i, float mu_o, float cos_phi, f
     float t53 = ((t52 < -4.0) ? (-4.0) : (t52));
     float t54 = microfacet_energy_ms_tilt_k_diffuse(t2, t3, 5.0);
     float t55 = ((t54 < -3.0) ? (-3.0) : (t54));
-    return t0*pow(t9, 5.0)*(t13 + 2.0)*exp(t7*((t53 > 4.0) ? (4.0) : (t53)) + t8*((t55 > 3.0) ? (3.0) : (t55)))*microfacet_energy_safe_pow(t4, t13)*((t51 < 0.0) ? (0.0) : (t51))/sqrt(t5/(((t50 > 2.5) ? (2.5) : (t50))*((t50 > 2.5) ? (2.5) : (t50))) + t6) + t0*(t9*t9*t9*t9)*(t12 + 2.0)*exp(t7*((t46 > 4.0) ? (4.0) : (t46)) + t8*((t48 > 3.0) ? (3.0) : (t48)))*microfacet_energy_safe_pow(t4, t12)*((t44 < 0.0) ? (0.0) : (t44))/sqrt(t5/(((t43 > 2.5) ? (2.5) : (t43))*((t43 > 2.5) ? (2.5) : (t43))) + t6) + t0*(t9*t9*t9)*(t11 + 2.0)*exp(t7*((t39 > 4.0) ? (4.0) : (t39)) + t8*((t41 > 3.0) ? (3.0) : (t41)))*microfacet_energy_safe_pow(t4, t11)*((t37 < 0.0) ? (0.0) : (t37))/sqrt(t5/(((t36 > 2.5) ? (2.5) : (t36))*((t36 > 2.5) ? (2.5) : (t36))) + t6) + t0*(t9*t9)*(t10 + 2.0)*exp(t7*((t32 > 4.0) ? (4.0) : (t32)) + t8*((t34 > 3.0) ? (3.0) : (t34)))*microfacet_energy_safe_pow(t4, t10)*((t30 < 0.0) ? (0.0) : (t30))/sqrt(t5/(((t29 > 2.5) ? (2.5) : (t29))*((t29 > 2.5) ? (2.5) : (t29))) + t6);
+    return t0*(t9*t9*t9*t9*t9)*(t13 + 2.0)*exp(t7*((t53 > 4.0) ? (4.0) : (t53)) + t8*((t55 > 3.0) ? (3.0) : (t55)))*microfacet_energy_safe_pow(t4, t13)*((t51 < 0.0) ? (0.0) : (t51))/sqrt(t5/(((t50 > 2.5) ? (2.5) : (t50))*((t50 > 2.5) ? (2.5) : (t50))) + t6) + t0*(t9*t9*t9*t9)*(t12 + 2.0)*exp(t7*((t46 > 4.0) ? (4.0) : (t46)) + t8*((t48 > 3.0) ? (3.0) : (t48)))*microfacet_energy_safe_pow(t4, t12)*((t44 < 0.0) ? (0.0) : (t44))/sqrt(t5/(((t43 > 2.5) ? (2.5) : (t43))*((t43 > 2.5) ? (2.5) : (t43))) + t6) + t0*(t9*t9*t9)*(t11 + 2.0)*exp(t7*((t39 > 4.0) ? (4.0) : (t39)) + t8*((t41 > 3.0) ? (3.0) : (t41)))*microfacet_energy_safe_pow(t4, t11)*((t37 < 0.0) ? (0.0) : (t37))/sqrt(t5/(((t36 > 2.5) ? (2.5) : (t36))*((t36 > 2.5) ? (2.5) : (t36))) + t6) + t0*(t9*t9)*(t10 + 2.0)*exp(t7*((t32 > 4.0) ? (4.0) : (t32)) + t8*((t34 > 3.0) ? (3.0) : (t34)))*microfacet_energy_safe_pow(t4, t10)*((t30 < 0.0) ? (0.0) : (t30))/sqrt(t5/(((t29 > 2.5) ? (2.5) : (t29))*((t29 > 2.5) ? (2.5) : (t29))) + t6);
 }
 
 // Multiple scattering (orders 2..4 and the tail above 4, summed) of conductor facets with F = 1

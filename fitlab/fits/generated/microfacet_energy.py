@@ -603,7 +603,7 @@ def ms_blog_diffuse(mu_i, mu_o, alpha, rho):
     t17 = ms_blog_scale_diffuse(t0, t1, 3)
     t18 = ms_blog_scale_diffuse(t0, t1, 4)
     t19 = ms_blog_scale_diffuse(t0, t1, 5)
-    return t4**5*t6*numpy.where(numpy.less(t19, 0), 0.0, t19) + (t4*t4*t4*t4)*t6*numpy.where(numpy.less(t18, 0), 0.0, t18) + (t4*t4*t4)*t6*numpy.where(numpy.less(t17, 0), 0.0, t17) + (t4*t4)*t6*numpy.where(numpy.less(t16, 0), 0.0, t16)
+    return (t4*t4*t4*t4*t4)*t6*numpy.where(numpy.less(t19, 0), 0.0, t19) + (t4*t4*t4*t4)*t6*numpy.where(numpy.less(t18, 0), 0.0, t18) + (t4*t4*t4)*t6*numpy.where(numpy.less(t17, 0), 0.0, t17) + (t4*t4)*t6*numpy.where(numpy.less(t16, 0), 0.0, t16)
 
 
 def ms_tilt_diffuse(mu_i, mu_o, cos_phi, alpha, rho):
@@ -672,7 +672,7 @@ def ms_tilt_diffuse(mu_i, mu_o, cos_phi, alpha, rho):
     t53 = numpy.where(numpy.less(t52, -4.0), -4.0, t52)
     t54 = ms_tilt_k_diffuse(t2, t3, 5)
     t55 = numpy.where(numpy.less(t54, -3.0), -3.0, t54)
-    return t0*t9**5*(t13 + 2)*numpy.exp(t7*numpy.where(numpy.greater(t53, 4.0), 4.0, t53) + t8*numpy.where(numpy.greater(t55, 3.0), 3.0, t55))*_safe_pow(t4, t13)*numpy.where(numpy.less(t51, 0), 0.0, t51)/numpy.sqrt(t5/(numpy.where(numpy.greater(t50, 2.5), 2.5, t50)*numpy.where(numpy.greater(t50, 2.5), 2.5, t50)) + t6) + t0*(t9*t9*t9*t9)*(t12 + 2)*numpy.exp(t7*numpy.where(numpy.greater(t46, 4.0), 4.0, t46) + t8*numpy.where(numpy.greater(t48, 3.0), 3.0, t48))*_safe_pow(t4, t12)*numpy.where(numpy.less(t44, 0), 0.0, t44)/numpy.sqrt(t5/(numpy.where(numpy.greater(t43, 2.5), 2.5, t43)*numpy.where(numpy.greater(t43, 2.5), 2.5, t43)) + t6) + t0*(t9*t9*t9)*(t11 + 2)*numpy.exp(t7*numpy.where(numpy.greater(t39, 4.0), 4.0, t39) + t8*numpy.where(numpy.greater(t41, 3.0), 3.0, t41))*_safe_pow(t4, t11)*numpy.where(numpy.less(t37, 0), 0.0, t37)/numpy.sqrt(t5/(numpy.where(numpy.greater(t36, 2.5), 2.5, t36)*numpy.where(numpy.greater(t36, 2.5), 2.5, t36)) + t6) + t0*(t9*t9)*(t10 + 2)*numpy.exp(t7*numpy.where(numpy.greater(t32, 4.0), 4.0, t32) + t8*numpy.where(numpy.greater(t34, 3.0), 3.0, t34))*_safe_pow(t4, t10)*numpy.where(numpy.less(t30, 0), 0.0, t30)/numpy.sqrt(t5/(numpy.where(numpy.greater(t29, 2.5), 2.5, t29)*numpy.where(numpy.greater(t29, 2.5), 2.5, t29)) + t6)
+    return t0*(t9*t9*t9*t9*t9)*(t13 + 2)*numpy.exp(t7*numpy.where(numpy.greater(t53, 4.0), 4.0, t53) + t8*numpy.where(numpy.greater(t55, 3.0), 3.0, t55))*_safe_pow(t4, t13)*numpy.where(numpy.less(t51, 0), 0.0, t51)/numpy.sqrt(t5/(numpy.where(numpy.greater(t50, 2.5), 2.5, t50)*numpy.where(numpy.greater(t50, 2.5), 2.5, t50)) + t6) + t0*(t9*t9*t9*t9)*(t12 + 2)*numpy.exp(t7*numpy.where(numpy.greater(t46, 4.0), 4.0, t46) + t8*numpy.where(numpy.greater(t48, 3.0), 3.0, t48))*_safe_pow(t4, t12)*numpy.where(numpy.less(t44, 0), 0.0, t44)/numpy.sqrt(t5/(numpy.where(numpy.greater(t43, 2.5), 2.5, t43)*numpy.where(numpy.greater(t43, 2.5), 2.5, t43)) + t6) + t0*(t9*t9*t9)*(t11 + 2)*numpy.exp(t7*numpy.where(numpy.greater(t39, 4.0), 4.0, t39) + t8*numpy.where(numpy.greater(t41, 3.0), 3.0, t41))*_safe_pow(t4, t11)*numpy.where(numpy.less(t37, 0), 0.0, t37)/numpy.sqrt(t5/(numpy.where(numpy.greater(t36, 2.5), 2.5, t36)*numpy.where(numpy.greater(t36, 2.5), 2.5, t36)) + t6) + t0*(t9*t9)*(t10 + 2)*numpy.exp(t7*numpy.where(numpy.greater(t32, 4.0), 4.0, t32) + t8*numpy.where(numpy.greater(t34, 3.0), 3.0, t34))*_safe_pow(t4, t10)*numpy.where(numpy.less(t30, 0), 0.0, t30)/numpy.sqrt(t5/(numpy.where(numpy.greater(t29, 2.5), 2.5, t29)*numpy.where(numpy.greater(t29, 2.5), 2.5, t29)) + t6)
 
 
 def ms_blog_conductor(mu_i, mu_o, alpha):
