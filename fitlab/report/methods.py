@@ -107,6 +107,9 @@ class PartMethod:
     domain: dict = field(default_factory=dict)  # inputs restricted to these ranges (a fit's domain)
     c_key: tuple | None = None  # (target, label) under which its C routine is timed
     preset: tuple | None = None  # (form, preset) of a published preset (measured by fitlab.fit.refit.preset_metrics)
+    #: (inputs, expression with its numbers, domain) of a form with its parameters: what its generated routine prints,
+    #: timed as a routine of its own (fitlab.report.programs.form_costs) where no program times it
+    form_routine: tuple | None = None
 
 
 @dataclass(frozen=True)
@@ -260,11 +263,14 @@ def part_methods(target_name: str, entries: list[FitEntry], data_dir: Path | Non
         out.append(PartMethod(target_name, f"{form_name} / {preset}", "published", "fitlab.forms preset",
                               positional(lambda *x, form=form, theta=theta: form.numpy_function(theta, *x),
                                          form.inputs),
-                              c_key=(target_name, f"{form_name} / {preset}"), preset=(form_name, preset)))  # fmt: skip
+                              c_key=(target_name, f"{form_name} / {preset}"), preset=(form_name, preset),
+                              form_routine=(form.inputs, form.substituted(preset),
+                                            {a: t.domain[a] for a in form.inputs})))  # fmt: skip
     for e in entries:
         if e.target == target_name:
             fit = load(e.path)
             out.append(PartMethod(target_name, e.form, fit_group(e), str(e.path),
                                   lambda fit=fit, **x: fit(**{k: x[k] for k in fit.inputs}), fit.domain,
-                                  (target_name, e.form)))  # fmt: skip
+                                  (target_name, e.form),
+                                  form_routine=(fit.inputs, fit.expression, fit.domain)))  # fmt: skip
     return out

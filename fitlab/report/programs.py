@@ -9,7 +9,9 @@ of ``repeat`` rounds that interleave every routine of every program.  Published
 presets are printed from their fit records
 (:func:`fitlab.report.methods.preset_records`), which go straight into
 :func:`fitlab.codegen.build_program`.  A program that cannot be built (no
-compiler) leaves its columns empty and says why.
+compiler) leaves its columns empty and says why.  A part no program prints (a target of a family
+without one, a richer form, a published preset of a part) is timed as a routine of its own, its form with
+its numbers (:func:`form_costs`), in one more program and run.
 """
 
 from __future__ import annotations
@@ -21,10 +23,11 @@ import numpy as np
 from fitlab.codegen import DEFAULT_FORMS, build_program, emit, load_program
 from fitlab.codegen.bench import time_routines
 from fitlab.codegen.native import CompileError, build
+from fitlab.codegen.program import Program, Routine, with_domain
 from fitlab.core import get_target
 from fitlab.report.methods import CSpec, brdf_hook, preset_records
 
-__all__ = ["c_costs", "timing_inputs"]
+__all__ = ["c_costs", "form_costs", "parts_program", "timing_inputs"]
 
 
 def timing_inputs(n: int, data_dir: Path) -> dict:
@@ -49,6 +52,38 @@ def _program(spec: CSpec):
     prog = load_program(Path(spec.fits_dir), forms=forms, model=DEFAULT_FORMS)
     labels = {get_target(t).routine: (t, forms.get(t, get_target(t).default_form)) for t in prog.parts}
     return prog, labels
+
+
+def parts_program(part_methods) -> tuple[Program | None, dict]:
+    """(Program, {routine name: c_key}): each part method's form with its numbers (its ``form_routine``) as a
+    routine ``part_K`` of its own, inputs clamped into its domain; (None, {}) when none has one."""
+    routines, keys = [], {}
+    for pm in part_methods:
+        if pm.form_routine is None or pm.c_key is None or pm.c_key in keys.values():
+            continue
+        args, expr, domain = pm.form_routine
+        name = f"part_{len(routines)}"
+        routines.append(with_domain(Routine(name, tuple(args), expr, f"{pm.target}: {pm.name}",
+                                            domain={a: tuple(domain[a]) for a in args})))
+        keys[name] = pm.c_key
+    return (Program(tuple(routines), (), (), name="fitlab_parts"), keys) if routines else (None, {})
+
+
+def form_costs(part_methods, workdir: Path, inputs: dict, repeat: int) -> tuple[dict, list]:
+    """ns per evaluation (double, float) of each part method's routine of :func:`parts_program`, all timed in one
+    interleaved run: {c_key: (ns double, ns float)}, and notes (a program that does not compile is noted, not
+    timed).  For the parts no family program times (a family without one, a richer form)."""
+    program, keys = parts_program(part_methods)
+    if program is None:
+        return {}, []
+    try:
+        lib = build(emit(program, "c"), program, Path(workdir) / "parts")
+    except CompileError as exc:
+        return {}, [f"C not timed for the parts' own routines: {str(exc).splitlines()[0]}"]
+    cases = {(name, dt): (lib, name, [inputs[a] for a in program.routine(name).signature()], dt)
+             for name in keys for dt in (np.float64, np.float32)}  # fmt: skip
+    ns = time_routines(cases, repeat)
+    return {key: (ns[(name, np.float64)], ns[(name, np.float32)]) for name, key in keys.items()}, []
 
 
 def c_costs(methods, workdir: Path, inputs: dict, repeat: int, tick=None) -> tuple[dict, dict, list]:

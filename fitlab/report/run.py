@@ -15,8 +15,8 @@ import platform
 import tempfile
 import time
 from dataclasses import dataclass, field, replace
-from typing import Any
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from tqdm import tqdm
@@ -37,7 +37,7 @@ from fitlab.report.methods import (
     report_parts,
 )
 from fitlab.report.pareto import recommend
-from fitlab.report.programs import c_costs, timing_inputs
+from fitlab.report.programs import c_costs, form_costs, timing_inputs
 from fitlab.report.refits import recorded_seconds, refit_costs, refit_jobs
 from fitlab.report.settings import FULL, Settings, family_settings
 from fitlab.report.validation import brdf_set, fresh_set, grazing_set
@@ -185,20 +185,24 @@ def _mc_rows(study, targets, mc_time_to_error, src) -> list[dict]:
     return rows
 
 
-def _part_rows(settings, entries, data_dir, part_ns, tick) -> list[dict]:
+def _part_rows(settings, entries, data_dir, part_ns, inputs, tick) -> tuple[list[dict], list[str]]:
 
+    by_target = {name: part_methods(name, entries, data_dir) for name in settings.parts}
+    untimed = [pm for pms in by_target.values() for pm in pms if pm.c_key not in part_ns]
+    with tempfile.TemporaryDirectory(prefix="fitlab-report-parts-") as tmp:
+        own_ns, notes = form_costs(untimed, Path(tmp), inputs, settings.repeat)
     rows = []
-    for name in settings.parts:
+    for name, pms in by_target.items():
         t = get_target(name)
-        for pm in part_methods(name, entries, data_dir):
+        for pm in pms:
             a = part_accuracy(pm, t)
-            ns = part_ns.get(pm.c_key, (NAN, NAN)) if pm.c_key else (NAN, NAN)
+            ns = part_ns.get(pm.c_key, own_ns.get(pm.c_key, (NAN, NAN))) if pm.c_key else (NAN, NAN)
             rows.append({"section": "part", "target": name, "group": pm.group, "method": pm.name,
                          "source": pm.source, "points": a["points"], "max_rel": a["max_rel"],
                          "max_rel_nonzero": a["max_rel_nonzero"], "rms_rel": a["rms_rel"], "ns_c_double": ns[0],
                          "ns_c_float": ns[1], "note": t.error_measure.split(":")[0]})  # fmt: skip
         tick()
-    return rows
+    return rows, notes
 
 
 def _refit_rows(entries, settings, fits_dir, progress) -> list[dict]:
@@ -291,7 +295,10 @@ def _measure(settings, entries, fits_dir, data_dir, use_cache, p) -> tuple[list,
     jax_tp = jax_costs(jax_methods, timing_inputs(settings.jax_points, data_dir), settings.repeat, p.tick)
     rows = _brdf_rows(methods, acc, c_ns, py_ns, jax_tp)
     p.stage("parts", len(settings.parts))
-    rows += _part_rows(settings, entries, data_dir, part_ns, p.tick)
+    parts, part_notes = _part_rows(settings, entries, data_dir, part_ns, timing_inputs(settings.c_points, data_dir),
+                                   p.tick)
+    rows += parts
+    notes = notes + part_notes
     fam = family_settings(settings, hook)
     p.stage("exact engine", len(fam.nystrom_nodes) + len(fam.fock_steps) + 2)
     conv = hook.h_convergence(fam.exact_orders, fam.exact_c, fam.exact_mu_points, fam.nystrom_nodes,

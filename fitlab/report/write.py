@@ -236,7 +236,9 @@ def markdown(report) -> str:
            "of its two methods.", "",
            *_brdf_table(brdf), "",
            "## The parts", "",
-           "max rel* leaves out the target's exact zeros. C ns: the part's routine in the generated code.", "",
+           "max rel* leaves out the target's exact zeros. C ns: the part's routine in the generated code: in its "
+           "family's program where one prints it, else its form with its numbers as a routine of its own (timed "
+           "in one more run: compare within a run).", "",
            *parts_table(_section(rows, "part")), "",
            *_exact_section(report), "", *_time_to_error(rows), "", *_mc_section(report), "",
            *_refit_section(rows)]  # fmt: skip
