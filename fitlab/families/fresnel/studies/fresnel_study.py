@@ -32,7 +32,7 @@ from fitlab.families.fresnel.exact import CHANNELS, MATERIALS, SPACES, average_r
 from fitlab.families.fresnel.forms import FORM_NAMES, MU_BAR
 from fitlab.families.fresnel.targets import PUBLISHED, target_name
 
-__all__ = ["VARIANTS", "run", "markdown", "figure", "main"]
+__all__ = ["VARIANTS", "run", "markdown", "figure", "main", "approximation_costs", "COST_MATERIAL"]
 
 #: the variants measured per form: its published construction (the preset's name), and the two refits
 VARIANTS = ("construction", "refit", "refit_cosine")
@@ -114,6 +114,40 @@ def _dip(material: str) -> dict:
     return {"min": f[i, range(3)].tolist(), "angle_deg": theta[i].tolist(), "depth": (f[0] - f[i, range(3)]).tolist()}
 
 
+#: the target whose presets the cost programs print (the cost of a form does not depend on its parameters' values)
+COST_MATERIAL = ("cu", "r")
+
+
+def approximation_costs(n: int = 200_000, repeat: int = 5) -> dict:
+    """{form: {"double": ns, "float": ns}}: ns per evaluation of each approximation's generated C (``-O2``, double
+    and float), every form's routine with its preset for copper's red (:data:`COST_MATERIAL`) in one program,
+    timed in one interleaved run (:func:`fitlab.codegen.bench.time_routines`) on ``n`` random mu in [0, 1]:
+    only the ratios carry meaning.  {} without a C compiler."""
+    import tempfile
+
+    from fitlab.codegen import emit
+    from fitlab.codegen.bench import time_routines
+    from fitlab.codegen.native import build, compiler
+    from fitlab.codegen.program import Program, Routine, with_domain
+
+    if compiler() is None:
+        return {}
+    target = get_target(target_name(*COST_MATERIAL))
+    routines = []
+    for name in FORM_NAMES:
+        form = target.forms[name]
+        preset = next(iter(form.presets))
+        routines.append(with_domain(Routine(name, ("mu",), form.substituted(preset), f"{_LABEL[name]} ({preset})",
+                                            domain={"mu": (0.0, 1.0)})))
+    program = Program(tuple(routines), (), (), name="fresnel_cost")
+    mu = np.random.default_rng(1).uniform(0.0, 1.0, n)
+    with tempfile.TemporaryDirectory(prefix="fitlab-fresnel-cost-") as tmp:
+        lib = build(emit(program, "c"), program, Path(tmp))
+        cases = {(name, dt): (lib, name, [mu], dt) for name in FORM_NAMES for dt in (np.float64, np.float32)}
+        ns = time_routines(cases, repeat)
+    return {name: {"double": ns[(name, np.float64)], "float": ns[(name, np.float32)]} for name in FORM_NAMES}
+
+
 def run(materials=None, progress: bool = True) -> dict:
     """Every measure of the module docstring, as data."""
     from tqdm import tqdm
@@ -147,6 +181,7 @@ def run(materials=None, progress: bool = True) -> dict:
                     row["approximations"][name][variant] = meas
                 bar.update(1)
             result["materials"][m] = row
+    result["costs"] = approximation_costs()
     return result
 
 
@@ -178,6 +213,34 @@ def _best(row: dict) -> tuple[str, str, float]:
              for variant, v in by.items() if v is not None and variant != "refit_cosine"]
     err, name, variant = min(cands)
     return name, variant, err
+
+
+def _cost_section(result: dict) -> list[str]:
+    costs = result.get("costs") or {}
+    if not costs:
+        return ["", "## Accuracy against cost", "", "Not measured: no C compiler on the machine that wrote this.", ""]
+    metals = [row for row in result["materials"].values() if row["kind"] == "conductor"]
+    lines = ["", "## Accuracy against cost", "",
+             "ns per evaluation of each approximation's generated C (`-O2`, double and float; one interleaved run "
+             "on the machine that wrote this page: only the ratios carry meaning), against its max |F - F_exact| "
+             f"on the worst of the {len(metals)} metals (worst channel): with the published construction where "
+             "there is one, and refitted. The exact F of one complex index is Gulbrandsen's form itself (its "
+             "routine evaluates the exact conductor reflectance of n(r, g) + i k(r, g)).", "",
+             "| approximation | C double ns | C float ns | worst metal, construction | worst metal, refit |",
+             "|---|---|---|---|---|"]
+    for name in FORM_NAMES:
+        worst = {}
+        for variant in ("construction", "refit"):
+            errs = [(row["approximations"][name][variant]["max_abs"], row["name"]) for row in metals
+                    if row["approximations"][name][variant] is not None]
+            worst[variant] = f"{_e(max(errs)[0])} ({max(errs)[1]})" if errs else "-"
+        c = costs[name]
+        lines.append(f"| {_LABEL[name]} | {c['double']:.2f} | {c['float']:.2f} | {worst['construction']} | "
+                     f"{worst['refit']} |")
+    base = costs["schlick"]["double"]
+    lines += ["", "Relative to Schlick in double: " + ", ".join(f"{_LABEL[n]} {costs[n]['double'] / base:.1f}x"
+                                                               for n in FORM_NAMES[1:]) + "."]
+    return lines
 
 
 def markdown(result: dict) -> str:
@@ -254,6 +317,7 @@ def markdown(result: dict) -> str:
         name, variant, err = _best(row)
         ratio = "exact" if err < 1e-12 else f"{s / err:.0f}x"
         lines.append(f"| {row['name']} | {_e(s)} | {_LABEL[name]} ({variant}): {_e(err)} | {ratio} |")
+    lines += _cost_section(result)
     lines += [
         "",
         "## Colour and energy: the hemispherical average",
