@@ -21,8 +21,8 @@ from fitlab._io import FolderError, check_output_folder
 
 __all__ = [
     "USAGE", "FAILURE", "UsageError", "RunFailure", "Parser", "fail", "one_line", "output_folder", "input_file",
-    "input_folder", "write_failure", "number", "integer", "add_quiet", "say", "describe", "add_fits", "fits_input",
-    "add_data", "use_data", "add_family", "service",
+    "input_folder", "write_failure", "write_files", "number", "integer", "add_quiet", "say", "describe", "add_fits",
+    "fits_input", "add_data", "use_data", "add_family", "service",
 ]
 
 #: exit status of a runtime failure and of a usage error
@@ -122,6 +122,21 @@ def output_folder(path, flag: str = "--out", files=()) -> Path:
 def write_failure(out, exc: OSError) -> RunFailure:
     """The one-line failure of a write into ``out`` that the checks could not foresee (a full disk)."""
     return RunFailure(f"cannot write into {out}: {exc.strerror or one_line(exc)}; nothing written")
+
+
+def write_files(args, out: Path, files: dict[str, bytes]) -> int:
+    """Every file ({name: bytes}) into ``out`` as one unit (:func:`fitlab._io.atomic_write_many`: all new, or all
+    as they were, no stray temporary), each named unless --quiet; 0, the exit status."""
+    from fitlab._io import atomic_write_many
+
+    paths = {Path(out) / name: data for name, data in files.items()}
+    try:
+        atomic_write_many(paths)
+    except OSError as exc:
+        raise write_failure(out, exc) from None
+    for path in paths:
+        say(args, f"wrote {path}")
+    return 0
 
 
 def input_file(path, flag: str, hint: str = "") -> Path:

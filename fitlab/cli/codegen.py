@@ -5,22 +5,20 @@ from __future__ import annotations
 import sys
 
 import fitlab.codegen as codegen
-from fitlab._io import atomic_write_many
 from fitlab.cli._common import (
-    fits_input,
-    add_data,
-    add_fits,
     RunFailure,
     UsageError,
+    add_data,
+    add_fits,
     add_quiet,
     describe,
+    fits_input,
     integer,
     one_line,
     output_folder,
-    say,
     service,
     use_data,
-    write_failure,
+    write_files,
 )
 from fitlab.codegen.emit import LANGUAGES
 from fitlab.codegen.program import parse_terms
@@ -184,11 +182,4 @@ def _name_the_unused(args, fits, forms: dict) -> None:
 
 def _write(args, out, files: dict[str, bytes]) -> int:
     """Every file ({name: bytes}) into ``out`` as one unit: all new, or all as they were (no stray temporary)."""
-    paths = {out / name: data for name, data in files.items()}
-    try:
-        atomic_write_many(paths)
-    except OSError as exc:
-        raise write_failure(out, exc) from None
-    for path in paths:
-        say(args, f"wrote {path}")
-    return 0
+    return write_files(args, out, files)

@@ -11,9 +11,8 @@ from fitlab.cli._common import (
     integer,
     output_folder,
     require_extra,
-    say,
     service,
-    write_failure,
+    write_files,
 )
 
 __all__ = ["add_arguments", "run"]
@@ -99,8 +98,6 @@ def run(args) -> int:
     out = output_folder(args.out, "--out", files=names)
     from tqdm import tqdm
 
-    from fitlab._io import atomic_write_many
-
     files = {}
     total = sum(spec.steps(size) for _, spec, size in chosen)
     with tqdm(total=total, desc="tables", unit="step", disable=args.quiet) as bar:
@@ -108,13 +105,7 @@ def run(args) -> int:
             try:
                 image = spec.build(size, tick=lambda: bar.update(1))
                 for fmt in formats:
-                    files[out / file_name(name, fmt)] = encode(image, fmt)
+                    files[file_name(name, fmt)] = encode(image, fmt)
             except (ArithmeticError, ValueError) as exc:
                 raise RunFailure(f"table {name} could not be written: {exc}") from None
-    try:
-        atomic_write_many(files)
-    except OSError as exc:
-        raise write_failure(out, exc) from None
-    for path in files:
-        say(args, f"wrote {path}")
-    return 0
+    return write_files(args, out, files)
