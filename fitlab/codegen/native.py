@@ -27,8 +27,8 @@ import numpy as np
 
 from fitlab.codegen.program import Program
 
-__all__ = ["compiler", "cxx_compiler", "STRICT_FLAGS", "GLSL_FLAGS", "GLSL_SHIM", "HLSL_SHIM", "METAL_STDLIB",
-           "METAL_FLAGS", "build", "build_glsl", "NativeModel", "CompileError"]
+__all__ = ["compiler", "cxx_compiler", "build_library", "STRICT_FLAGS", "GLSL_FLAGS", "GLSL_SHIM", "HLSL_SHIM",
+           "METAL_STDLIB", "METAL_FLAGS", "build", "build_glsl", "NativeModel", "CompileError"]
 
 #: the issue's standard: the generated C must compile clean under these
 STRICT_FLAGS = ("-std=c99", "-O2", "-Wall", "-Wextra", "-Wpedantic", "-Werror")
@@ -242,6 +242,15 @@ def _written(files: dict[str, str], workdir: Path, loops: dict[str, str]) -> Pat
     for name, text in {**files, **loops}.items():
         (workdir / name).write_text(text)
     return workdir
+
+
+def build_library(files: dict[str, str], workdir: Path, flags=STRICT_FLAGS) -> ctypes.CDLL:
+    """C sources ({file name: text}, every ``.c`` compiled) as one shared library in ``workdir``, loaded (the
+    same compiler, flags and cache as :func:`build`); a failed compilation raises :class:`CompileError`."""
+    workdir = _written(files, workdir, {})
+    lib = workdir / "libfitlab_native.so"
+    _compile(workdir, [workdir / name for name in sorted(files) if name.endswith(".c")], lib, flags)
+    return ctypes.CDLL(str(lib))
 
 
 def build(files: dict[str, str], program: Program, workdir: Path, flags=STRICT_FLAGS) -> NativeModel:

@@ -17,7 +17,7 @@ from fitlab.families.lambert_sphere.mc.simulate import simulate
 from fitlab.families.lambert_sphere.mc.transport import WalkConfig, compile_walk, default_mesh, default_slots, run_round
 from fitlab.timing import best_of
 
-__all__ = ["bench_mc", "throughput", "effect_costs", "BENCH_SCENE"]
+__all__ = ["bench_mc", "throughput", "native_throughput", "effect_costs", "BENCH_SCENE"]
 
 #: The scene of the cost-per-effect study (one material, one incident direction).
 BENCH_SCENE = """
@@ -50,6 +50,20 @@ def throughput(cfg: WalkConfig, c: float, mu_i: float, n: int, repeat: int = 2) 
     return dict(seconds=dt, compile_seconds=compile_s, photons_per_s=n / dt,
                 collisions_per_s=float(res["collisions"]) / dt, collisions_per_photon=float(res["collisions"]) / n,
                 steps=int(res["steps"]))
+
+
+def native_throughput(c: float, mu_i: float, n: int, repeat: int = 2) -> dict:
+    """Best-of-``repeat`` photons/s and collisions/s of the C reference walk (:mod:`.native`: the walk of
+    ``phase="true", sampler="exact"``, the same random numbers, one thread, no tallies) on n photons."""
+    import numpy as np
+
+    from fitlab.families.lambert_sphere.mc.native import native_walk
+    from fitlab.families.lambert_sphere.mc.transport import round_key
+
+    key = tuple(int(k) for k in np.asarray(round_key(1, 0)))
+    best = min((native_walk(key, c, mu_i, n) for _ in range(repeat)), key=lambda r: r["seconds"])
+    return dict(seconds=best["seconds"], photons_per_s=n / best["seconds"],
+                collisions_per_s=best["collisions"] / best["seconds"], collisions_per_photon=best["collisions"] / n)
 
 
 def effect_costs(quick: bool = False) -> list:
@@ -95,6 +109,15 @@ def bench_mc(quick: bool = False) -> dict:
         results[("three_term", "exact", 0.99, slots)] = r
         print(f"{'three_term / exact':<24}{0.99:>6}{slots:>7}{r['photons_per_s']:>12.3g}"
               f"{r['collisions_per_s']:>14.3g}{r['collisions_per_photon']:>13.1f}{r['compile_seconds']:>11.1f}")
+    print(f"\nnative reference: the same walk (true / exact) in plain C, one thread, no tallies (the JAX walk runs on "
+          f"{len(dev)} device(s); the ratio is collisions/s of the JAX walk over the C walk's)\n")
+    for c in (0.5, 0.99):
+        r = native_throughput(c, 0.5, n)
+        ratio = results[("true", "exact", c, auto)]["collisions_per_s"] / r["collisions_per_s"]
+        r["jax_over_native"] = ratio
+        results[("native", "exact", c)] = r
+        print(f"{'native C / exact':<24}{c:>6}{'-':>7}{r['photons_per_s']:>12.3g}{r['collisions_per_s']:>14.3g}"
+              f"{r['collisions_per_photon']:>13.1f}   JAX / native {ratio:.3g}")
     print("\ncost per effect at the same precision (bench scene: c = 0.9, mu_i = 0.5, 4 mu_o bins, orders 0-2;"
           " targets in fitlab/families/lambert_sphere/mc/throughput.py; simulation seconds, compilation excluded)\n")
     print(f"{'effects':<20}{'jobs':>5}{'paths':>11}{'collisions':>13}{'seconds':>9}{'converged':>11}")
