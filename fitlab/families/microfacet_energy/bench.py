@@ -1,7 +1,8 @@
 r"""Throughput of the microsurface walk (``fitlab bench mc --family microfacet_energy``): scattering events
 (bounces) and paths per second on this machine, for GGX and Beckmann microsurfaces of conductor (F = 1),
 diffuse (albedo 1) and dielectric (eta = 1.5) facets; the time the blog's job would take here; and the
-walk sharded over several host devices against one.
+walk sharded over several host devices against one; and a plain C reference of the GGX conductor walk
+(:mod:`.mc.native`: one thread, the same paths) with the ratio of the JAX walk's bounces per second to it.
 
 The blog's job (seeds, "A blog article on multiple-scattering BRDFs"): "500 million rays" on "a tiny patch
 of rough micro-surface", "accounting for 4 orders of scattering", "about 1/2 a second per simulation" with
@@ -24,7 +25,8 @@ import os
 import subprocess
 import sys
 
-__all__ = ["bench_walk", "bench_mc", "bench_sharding", "CASES", "BLOG_RAYS", "BLOG_ORDERS", "BLOG_SECONDS"]
+__all__ = ["bench_walk", "bench_mc", "bench_sharding", "bench_native", "CASES", "BLOG_RAYS", "BLOG_ORDERS",
+           "BLOG_SECONDS"]
 
 #: the blog's simulation: 5e8 rays, 4 orders of scattering, about 0.5 s on a GPU (source: module docstring)
 BLOG_RAYS, BLOG_ORDERS, BLOG_SECONDS = 500_000_000, 4, 0.5
@@ -90,6 +92,18 @@ def bench_sharding(devices: int | None = None, n_paths: int = 200_000, repeat: i
     return json.loads(out.stdout.strip().splitlines()[-1])
 
 
+def bench_native(n_paths: int = 400_000, repeat: int = 3, alpha: float = 0.6, mu_i: float = 0.5) -> dict:
+    """The C reference of the GGX conductor walk (:mod:`.mc.native`) on the bench's paths (job key (0, 0, 0)):
+    dict(seconds, bounces, bounces_per_second, paths_per_second), the best of ``repeat``."""
+    from fitlab.families.microfacet_energy.mc.native import native_walk
+    from fitlab.families.microfacet_energy.mc.walk import job_key
+
+    key = tuple(int(k) for k in job_key(0, 0, 0))
+    best = min((native_walk(key, alpha, mu_i, n_paths) for _ in range(repeat)), key=lambda r: r["seconds"])
+    return dict(seconds=best["seconds"], bounces=best["bounces"], bounces_per_second=best["bounces"] / best["seconds"],
+                paths_per_second=n_paths / best["seconds"])
+
+
 def bench_mc(quick: bool = False) -> dict:
     """The family's ``fitlab bench mc``: prints the tables, returns every figure."""
     import jax
@@ -136,6 +150,12 @@ def bench_mc(quick: bool = False) -> dict:
               f"{r['times_blog']:>8.0f}{r['compile_seconds']:>11.1f}")
     print(f"\n5e8 x 4: seconds for the blog's job ({BLOG_RAYS:.0e} rays, {BLOG_ORDERS} orders) here, from the paths/s "
           f"of the walk capped at {BLOG_ORDERS} events; x blog: against its {BLOG_SECONDS} s on a GPU.")
+    results["native"] = native = bench_native(n, repeat)
+    jax_rate = results[("ggx", "conductor")]["bounces_per_second"]
+    native["jax_over_native"] = jax_rate / native["bounces_per_second"]
+    print(f"\nnative reference: the GGX conductor walk in plain C, one thread, the same paths (no angular tallies): "
+          f"{native['bounces_per_second']:.3g} bounces/s; the JAX walk on {len(dev)} device(s): {jax_rate:.3g}, "
+          f"JAX / native {native['jax_over_native']:.3g}")
     if not quick:
         cores = os.cpu_count() or 1
         s = bench_sharding(cores)
