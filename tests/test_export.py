@@ -271,3 +271,16 @@ def test_list_names_every_table(capsys):
     out = capsys.readouterr().out
     for name in (*MICROFACET_IMAGES, "lambert_sphere_texture"):
         assert name in out
+
+
+def test_ctrl_c_while_building_writes_nothing(tmp_path, monkeypatch, capsys):
+    """A Ctrl-C while the second table is built: exit 130, and not even the first table's files are written."""
+    import fitlab.families.microfacet_energy.program.images as images
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(images, "albedo_table", interrupted)
+    out = tmp_path / "out"
+    assert main(["export", "dfg_karis", "E_ggx_cor", "--size", "4", "--out", str(out), "--quiet"]) == 130
+    assert not out.exists() or list(out.iterdir()) == []
