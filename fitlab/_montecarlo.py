@@ -1,14 +1,17 @@
-"""Rules every family's Monte Carlo (``fitlab simulate``) shares: the path budget of one job, and the
-warning when a job's budget cannot reach its standard-error target within :data:`SLOW_JOB_SECONDS`.
+"""Rules every family's Monte Carlo (``fitlab simulate``) shares: the path budget of one job, the warning
+when a job's budget cannot reach its standard-error target within :data:`SLOW_JOB_SECONDS`, and the
+counter-based hash both random walks draw their numbers from (:func:`threefry_2x32`).
 
-No JAX here: the command line reads :data:`MAX_PATHS` for its help.
+No JAX at import: the command line reads :data:`MAX_PATHS` for its help (:func:`threefry_2x32` imports it
+when it is traced).
 """
 
 from __future__ import annotations
 
 import math
 
-__all__ = ["MAX_PATHS", "MIN_PATHS_BUDGET", "SLOW_JOB_SECONDS", "duration", "slow_job_warning"]
+__all__ = ["MAX_PATHS", "MIN_PATHS_BUDGET", "SLOW_JOB_SECONDS", "THREEFRY_ROTATIONS", "duration", "slow_job_warning",
+           "threefry_2x32"]
 
 #: the largest path budget of one job (``max_paths`` in a scene file, ``--max-paths``): one rule for every
 #: family and the command line (the microsurface walk numbers a job's paths with 32-bit ids)
@@ -60,3 +63,27 @@ def slow_job_warning(paths: int, seconds: float, se_ratio: float, max_paths: int
                 f"{duration(left)} more at {rate:.3g} paths/s (over the {duration(bound)} bound; lower --max-paths "
                 "or raise --target-se)")
     return f"{head}: {duration(left)} more at {rate:.3g} paths/s (over the {duration(bound)} bound)"
+
+
+#: Threefry-2x32's rotations, the first set for rounds 1-4, 9-12, 17-20, the second for the others
+THREEFRY_ROTATIONS = ((13, 15, 26, 6), (17, 29, 16, 24))
+
+
+def threefry_2x32(key_data, x0, x1):
+    """Threefry-2x32 with 20 rounds (Salmon et al. 2011), the hash of ``jax.extend.random.threefry_2x32`` bit
+    for bit (tests/test_microsurface_sampling.py), written out round by round: on a CPU JAX lowers its own
+    to a loop of 5 steps whose dispatch costs more than the rest of a walk event.  key_data uint32[2]; x0, x1
+    uint32 arrays of one shape (the two words of each counter block); returns the two output words."""
+    import jax.numpy as jnp
+
+    k0, k1 = key_data[0], key_data[1]
+    ks = (k0, k1, k0 ^ k1 ^ jnp.uint32(0x1BD11BDA))
+    x0, x1 = x0 + ks[0], x1 + ks[1]
+    for i in range(5):
+        for r in THREEFRY_ROTATIONS[i % 2]:
+            x0 = x0 + x1
+            x1 = (x1 << jnp.uint32(r)) | (x1 >> jnp.uint32(32 - r))
+            x1 = x0 ^ x1
+        x0 = x0 + ks[(i + 1) % 3]
+        x1 = x1 + ks[(i + 2) % 3] + jnp.uint32(i + 1)
+    return x0, x1

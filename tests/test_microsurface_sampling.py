@@ -14,9 +14,10 @@ from jax.extend.random import threefry_2x32
 from scipy.optimize import brentq
 from scipy.special import erfc, erfinv
 
+from fitlab._montecarlo import threefry_2x32 as threefry_2x32_unrolled
 from fitlab.core import float64
 from fitlab.families.microfacet_energy.mc.microsurface import sample_vndf
-from fitlab.families.microfacet_energy.mc.walk import job_key, threefry_2x32_unrolled
+from fitlab.families.microfacet_energy.mc.walk import job_key
 
 
 @float64

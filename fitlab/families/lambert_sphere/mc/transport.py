@@ -66,9 +66,9 @@ from typing import NamedTuple
 import jax
 import jax.numpy as jnp
 import numpy as np
-from jax.extend.random import threefry_2x32
 from jax.sharding import Mesh, PartitionSpec
 
+from fitlab._montecarlo import threefry_2x32
 from fitlab.core import float64
 from fitlab.families.lambert_sphere.mc.phase_sampling import (
     THREE_TERM_NORM,
@@ -191,10 +191,12 @@ def _zero_tallies(cfg: WalkConfig) -> dict:
 
 
 def _uniforms(key_pair, pid, n, pairs):
-    """2*pairs uniforms in (0, 1) per slot from Threefry(key; pid, n*pairs + j)."""
+    """2*pairs uniforms in (0, 1) per slot from Threefry(key; pid, n*pairs + j): rows j < pairs the first word
+    of block j, rows pairs + j its second (the layout of ``jax.extend.random.threefry_2x32`` of the counters
+    concatenated, which fitlab._montecarlo.threefry_2x32 computes unrolled, bit for bit)."""
     x0 = jnp.broadcast_to(pid[None, :], (pairs, pid.shape[0]))
     x1 = (n.astype(jnp.uint32)[None, :] * jnp.uint32(pairs)) + jnp.arange(pairs, dtype=jnp.uint32)[:, None]
-    bits = threefry_2x32(key_pair, jnp.concatenate([x0.ravel(), x1.ravel()]))
+    bits = jnp.concatenate(threefry_2x32(key_pair, x0.ravel(), x1.ravel()))
     return (bits.reshape(2 * pairs, pid.shape[0]).astype(jnp.float64) + 0.5) * _TWO32
 
 

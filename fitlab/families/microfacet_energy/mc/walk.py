@@ -80,6 +80,7 @@ import jax.numpy as jnp
 import numpy as np
 from jax.sharding import Mesh, PartitionSpec
 
+from fitlab._montecarlo import threefry_2x32
 from fitlab.core import float64
 from fitlab.families.microfacet_energy.mc.microsurface import (
     DISTRIBUTIONS,
@@ -92,7 +93,7 @@ from fitlab.families.microfacet_energy.mc.microsurface import (
 from fitlab.families.microfacet_energy.mc.walk_fresnel import FRESNEL, dielectric, fresnel_factor
 
 __all__ = ["WalkConfig", "MaterialParams", "KINDS", "run_round", "compile_walk", "job_key", "default_mesh",
-           "default_slots", "threefry_2x32_unrolled", "TALLY_NAMES"]
+           "default_slots", "TALLY_NAMES"]
 
 KINDS = ("conductor", "diffuse", "dielectric")
 TALLY_NAMES = ("lobe", "lobe_transmission", "albedo", "transmission", "capped")
@@ -206,27 +207,6 @@ def _cosine_about(mx, my, mz, u1, u2):
     return x / n, y / n, z / n
 
 
-_ROTATIONS = ((13, 15, 26, 6), (17, 29, 16, 24))
-
-
-def threefry_2x32_unrolled(key_data, x0, x1):
-    """Threefry-2x32 with 20 rounds (Salmon et al. 2011), the hash of ``jax.extend.random.threefry_2x32``
-    (tested bit for bit), written out round by round: on a CPU JAX lowers its own to a loop of 5 steps,
-    whose dispatch cost more than the rest of a walk event.  key_data uint32[2]; x0, x1 uint32 arrays of
-    one shape (the two words of each counter block); returns the two output words."""
-    k0, k1 = key_data[0], key_data[1]
-    ks = (k0, k1, k0 ^ k1 ^ jnp.uint32(0x1BD11BDA))
-    x0, x1 = x0 + ks[0], x1 + ks[1]
-    for i in range(5):
-        for r in _ROTATIONS[i % 2]:
-            x0 = x0 + x1
-            x1 = (x1 << jnp.uint32(r)) | (x1 >> jnp.uint32(32 - r))
-            x1 = x0 ^ x1
-        x0 = x0 + ks[(i + 1) % 3]
-        x1 = x1 + ks[(i + 2) % 3] + jnp.uint32(i + 1)
-    return x0, x1
-
-
 def _uniforms(key_data, pid, order, count: int):
     """(lanes, count) uniforms in (0, 1) of events ``order`` of paths ``pid`` (module docstring): the first
     ``count`` of the event's words, so that a kind drawing fewer numbers hashes fewer blocks."""
@@ -234,7 +214,7 @@ def _uniforms(key_data, pid, order, count: int):
     base = order.astype(jnp.uint32) * jnp.uint32(_WORD_PAIRS)
     words = []
     for j in range((count + 1) // 2):
-        words.extend(threefry_2x32_unrolled(key_data, pid, base + jnp.uint32(j)))
+        words.extend(threefry_2x32(key_data, pid, base + jnp.uint32(j)))
     return jnp.stack([(w.astype(jnp.float64) + 0.5) * 2.0**-32 for w in words[:count]], axis=1)
 
 
