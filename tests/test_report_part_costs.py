@@ -18,7 +18,7 @@ pytestmark = pytest.mark.skipif(compiler() is None, reason="no C compiler")
 @pytest.fixture(scope="module")
 def methods():
     entries = fit_inventory(fits_folder(None))
-    return [pm for target in ("F_cu_r", "F_au_r", "H0") for pm in part_methods(target, entries)]
+    return [pm for target in ("F_cu_r", "F_au_r", "H0", "E_ggx_cor") for pm in part_methods(target, entries)]
 
 
 def test_each_routine_computes_its_methods_values(methods, tmp_path):
@@ -40,6 +40,7 @@ def test_each_routine_computes_its_methods_values(methods, tmp_path):
 
 
 def test_form_costs_times_every_routine(methods, tmp_path):
+    """Every routine is timed, those of a family whose inputs the timing inputs lack (alpha) included."""
     from fitlab.report.programs import timing_inputs
 
     ns, notes = form_costs(methods, tmp_path, timing_inputs(2000, None), 2)

@@ -80,7 +80,17 @@ def form_costs(part_methods, workdir: Path, inputs: dict, repeat: int) -> tuple[
         lib = build(emit(program, "c"), program, Path(workdir) / "parts")
     except CompileError as exc:
         return {}, [f"C not timed for the parts' own routines: {str(exc).splitlines()[0]}"]
-    cases = {(name, dt): (lib, name, [inputs[a] for a in program.routine(name).signature()], dt)
+    # an input the measured family's timing inputs lack (another family's: alpha) is drawn uniformly in the
+    # routine's domain, seeded, as many points as the others
+    n = len(next(iter(inputs.values())))
+    rng = np.random.default_rng(0)
+    extra = {}
+    for r in program.routines:
+        for a in r.signature():
+            if a not in inputs and a not in extra:
+                extra[a] = rng.uniform(*r.domain[a], n)
+    given = {**extra, **inputs}
+    cases = {(name, dt): (lib, name, [given[a] for a in program.routine(name).signature()], dt)
              for name in keys for dt in (np.float64, np.float32)}  # fmt: skip
     ns = time_routines(cases, repeat)
     return {key: (ns[(name, np.float64)], ns[(name, np.float32)]) for name, key in keys.items()}, []
