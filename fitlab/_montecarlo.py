@@ -10,8 +10,8 @@ from __future__ import annotations
 
 import math
 
-__all__ = ["MAX_PATHS", "MIN_PATHS_BUDGET", "SLOW_JOB_SECONDS", "THREEFRY_ROTATIONS", "duration", "slow_job_warning",
-           "threefry_2x32"]
+__all__ = ["MAX_PATHS", "MIN_PATHS_BUDGET", "SLOW_JOB_SECONDS", "THREEFRY_ROTATIONS", "THREEFRY_C", "duration",
+           "slow_job_warning", "threefry_2x32"]
 
 #: the largest path budget of one job (``max_paths`` in a scene file, ``--max-paths``): one rule for every
 #: family and the command line (the microsurface walk numbers a job's paths with 32-bit ids)
@@ -87,3 +87,34 @@ def threefry_2x32(key_data, x0, x1):
         x0 = x0 + ks[(i + 1) % 3]
         x1 = x1 + ks[(i + 2) % 3] + jnp.uint32(i + 1)
     return x0, x1
+
+
+#: :func:`threefry_2x32` in C99 (``static void threefry(k0, k1, x0, x1, &o0, &o1)``) and ``TWO32`` = 2^-32, for the
+#: C reference walks of ``fitlab bench mc``, which draw the same words as the JAX walks
+THREEFRY_C = r"""#include <stdint.h>
+
+static const double TWO32 = 2.3283064365386962890625e-10; /* 2^-32 */
+
+static uint32_t rotl(uint32_t x, int r) { return (x << r) | (x >> (32 - r)); }
+
+/* Threefry-2x32, 20 rounds (Salmon et al. 2011), as jax.random's threefry_2x32 */
+static void threefry(uint32_t k0, uint32_t k1, uint32_t x0, uint32_t x1, uint32_t *o0, uint32_t *o1)
+{
+    static const int rot[8] = {13, 15, 26, 6, 17, 29, 16, 24};
+    const uint32_t ks[3] = {k0, k1, k0 ^ k1 ^ 0x1BD11BDAu};
+    x0 += ks[0];
+    x1 += ks[1];
+    for (int i = 0; i < 5; ++i) {
+        const int *r = rot + 4 * (i & 1);
+        for (int j = 0; j < 4; ++j) {
+            x0 += x1;
+            x1 = rotl(x1, r[j]);
+            x1 ^= x0;
+        }
+        x0 += ks[(i + 1) % 3];
+        x1 += ks[(i + 2) % 3] + (uint32_t)(i + 1);
+    }
+    *o0 = x0;
+    *o1 = x1;
+}
+"""

@@ -17,18 +17,20 @@ written; a GPU compiler may fold NaN away (GLSL does not require NaN).
 from __future__ import annotations
 
 import ctypes
+import functools
 import hashlib
 import os
 import shutil
 import subprocess
+import tempfile
 from pathlib import Path
 
 import numpy as np
 
 from fitlab.codegen.program import Program
 
-__all__ = ["compiler", "cxx_compiler", "build_library", "STRICT_FLAGS", "GLSL_FLAGS", "GLSL_SHIM", "HLSL_SHIM",
-           "METAL_STDLIB", "METAL_FLAGS", "build", "build_glsl", "NativeModel", "CompileError"]
+__all__ = ["compiler", "cxx_compiler", "build_library", "c_function", "STRICT_FLAGS", "GLSL_FLAGS", "GLSL_SHIM",
+           "HLSL_SHIM", "METAL_STDLIB", "METAL_FLAGS", "build", "build_glsl", "NativeModel", "CompileError"]
 
 #: the issue's standard: the generated C must compile clean under these
 STRICT_FLAGS = ("-std=c99", "-O2", "-Wall", "-Wextra", "-Wpedantic", "-Werror")
@@ -251,6 +253,20 @@ def build_library(files: dict[str, str], workdir: Path, flags=STRICT_FLAGS) -> c
     lib = workdir / "libfitlab_native.so"
     _compile(workdir, [workdir / name for name in sorted(files) if name.endswith(".c")], lib, flags)
     return ctypes.CDLL(str(lib))
+
+
+_C_FUNCTION_FOLDERS: list = []
+
+
+@functools.cache
+def c_function(source: str, name: str, argtypes: tuple):
+    """The ``void`` C function ``name`` of ``source`` with ctypes ``argtypes``, compiled by :func:`build_library`
+    once per process into a temporary folder that lives as long as the process."""
+    folder = tempfile.TemporaryDirectory(prefix="fitlab-c-function-")
+    _C_FUNCTION_FOLDERS.append(folder)
+    f = getattr(build_library({f"{name}.c": source}, Path(folder.name)), name)
+    f.restype, f.argtypes = None, list(argtypes)
+    return f
 
 
 def build(files: dict[str, str], program: Program, workdir: Path, flags=STRICT_FLAGS) -> NativeModel:

@@ -88,7 +88,8 @@ def form_costs(part_methods, workdir: Path, inputs: dict, repeat: int) -> tuple[
     for r in program.routines:
         for a in r.signature():
             if a not in inputs and a not in extra:
-                extra[a] = rng.uniform(*r.domain[a], n)
+                lo, hi = r.domain[a]
+                extra[a] = rng.uniform(float(lo), float(hi), n)
     given = {**extra, **inputs}
     cases = {(name, dt): (lib, name, [given[a] for a in program.routine(name).signature()], dt)
              for name in keys for dt in (np.float64, np.float32)}  # fmt: skip

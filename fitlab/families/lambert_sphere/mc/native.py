@@ -14,44 +14,18 @@ checks it), so the two time the same work.
 from __future__ import annotations
 
 import ctypes
-import tempfile
 import time
-from functools import cache
-from pathlib import Path
 
 import numpy as np
 
+from fitlab._montecarlo import THREEFRY_C
+
 __all__ = ["SOURCE", "native_walk"]
 
-SOURCE = r"""
+SOURCE = THREEFRY_C + r"""
 #include <math.h>
-#include <stdint.h>
 
 static const double TWO_PI = 6.283185307179586476925;
-static const double TWO32 = 2.3283064365386962890625e-10; /* 2^-32 */
-
-static uint32_t rotl(uint32_t x, int r) { return (x << r) | (x >> (32 - r)); }
-
-/* Threefry-2x32, 20 rounds (Salmon et al. 2011), as jax.random's threefry_2x32 */
-static void threefry(uint32_t k0, uint32_t k1, uint32_t x0, uint32_t x1, uint32_t *o0, uint32_t *o1)
-{
-    static const int rot[8] = {13, 15, 26, 6, 17, 29, 16, 24};
-    const uint32_t ks[3] = {k0, k1, k0 ^ k1 ^ 0x1BD11BDAu};
-    x0 += ks[0];
-    x1 += ks[1];
-    for (int i = 0; i < 5; ++i) {
-        const int *r = rot + 4 * (i & 1);
-        for (int j = 0; j < 4; ++j) {
-            x0 += x1;
-            x1 = rotl(x1, r[j]);
-            x1 ^= x0;
-        }
-        x0 += ks[(i + 1) % 3];
-        x1 += ks[(i + 2) % 3] + (uint32_t)(i + 1);
-    }
-    *o0 = x0;
-    *o1 = x1;
-}
 
 static void turn(double *dx, double *dy, double *dz, double u, double psi)
 {
@@ -138,19 +112,9 @@ void lambert_sphere_walk(uint32_t k0, uint32_t k1, double c, double mu_i, uint32
 """
 
 
-@cache
-def _library(folder: str):
-    from fitlab.codegen.native import build_library
-
-    lib = build_library({"lambert_sphere_walk.c": SOURCE}, Path(folder))
-    f = lib.lambert_sphere_walk
-    f.restype = None
-    f.argtypes = [ctypes.c_uint32, ctypes.c_uint32, ctypes.c_double, ctypes.c_double, ctypes.c_uint32,
-                  ctypes.c_uint32, ctypes.c_int64, ctypes.c_double, ctypes.POINTER(ctypes.c_double)]
-    return f
-
-
-_FOLDER = tempfile.TemporaryDirectory(prefix="fitlab-native-walk-")
+#: the C function's arguments
+_ARGTYPES = (ctypes.c_uint32, ctypes.c_uint32, ctypes.c_double, ctypes.c_double, ctypes.c_uint32, ctypes.c_uint32,
+          ctypes.c_int64, ctypes.c_double, ctypes.POINTER(ctypes.c_double))
 
 
 def native_walk(key: tuple[int, int], c: float, mu_i: float, n_photons: int, max_collisions: int = 100_000,
@@ -161,7 +125,9 @@ def native_walk(key: tuple[int, int], c: float, mu_i: float, n_photons: int, max
         raise ValueError("c and mu_i must lie in [0, 1]")
     if not 1 <= n_photons < 2**32:
         raise ValueError("n_photons must lie in [1, 2^32)")
-    walk = _library(_FOLDER.name)
+    from fitlab.codegen.native import c_function
+
+    walk = c_function(SOURCE, "lambert_sphere_walk", _ARGTYPES)
     out = np.zeros(5)
     t0 = time.perf_counter()
     walk(int(key[0]), int(key[1]), float(c), float(mu_i), 0, int(n_photons), int(max_collisions), float(rr_weight),

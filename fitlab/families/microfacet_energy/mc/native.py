@@ -14,48 +14,21 @@ test checks it), so the two time the same work.
 from __future__ import annotations
 
 import ctypes
-import tempfile
 import time
-from functools import cache
-from pathlib import Path
 
 import numpy as np
+
+from fitlab._montecarlo import THREEFRY_C
 
 __all__ = ["SOURCE", "ORDERS", "native_walk"]
 
 #: the orders the C walk counts one by one (escapes above go to one more count)
 ORDERS = 4
 
-SOURCE = r"""
+SOURCE = THREEFRY_C + r"""
 #include <math.h>
-#include <stdint.h>
 
 static const double TWO_PI = 6.283185307179586476925;
-static const double TWO32 = 2.3283064365386962890625e-10; /* 2^-32 */
-
-static uint32_t rotl(uint32_t x, int r) { return (x << r) | (x >> (32 - r)); }
-
-/* Threefry-2x32, 20 rounds (Salmon et al. 2011), as jax.random's threefry_2x32 */
-static void threefry(uint32_t k0, uint32_t k1, uint32_t x0, uint32_t x1, uint32_t *o0, uint32_t *o1)
-{
-    static const int rot[8] = {13, 15, 26, 6, 17, 29, 16, 24};
-    const uint32_t ks[3] = {k0, k1, k0 ^ k1 ^ 0x1BD11BDAu};
-    x0 += ks[0];
-    x1 += ks[1];
-    for (int i = 0; i < 5; ++i) {
-        const int *r = rot + 4 * (i & 1);
-        for (int j = 0; j < 4; ++j) {
-            x0 += x1;
-            x1 = rotl(x1, r[j]);
-            x1 ^= x0;
-        }
-        x0 += ks[(i + 1) % 3];
-        x1 += ks[(i + 2) % 3] + (uint32_t)(i + 1);
-    }
-    *o0 = x0;
-    *o1 = x1;
-}
-
 static double clip(double x, double lo, double hi) { return x < lo ? lo : (x > hi ? hi : x); }
 
 /* Smith's Lambda of GGX on the whole sphere: Lambda(|z|) upwards, -1 - Lambda(|z|) downwards */
@@ -153,19 +126,9 @@ void microsurface_walk(uint32_t k0, uint32_t k1, double ax, double ay, double mu
 """.replace("ORDERS", str(ORDERS))
 
 
-@cache
-def _library(folder: str):
-    from fitlab.codegen.native import build_library
-
-    lib = build_library({"microsurface_walk.c": SOURCE}, Path(folder))
-    f = lib.microsurface_walk
-    f.restype = None
-    f.argtypes = [ctypes.c_uint32, ctypes.c_uint32, ctypes.c_double, ctypes.c_double, ctypes.c_double,
-                  ctypes.c_uint32, ctypes.c_uint32, ctypes.c_int64, ctypes.POINTER(ctypes.c_double)]
-    return f
-
-
-_FOLDER = tempfile.TemporaryDirectory(prefix="fitlab-native-microsurface-")
+#: the C function's arguments
+_ARGTYPES = (ctypes.c_uint32, ctypes.c_uint32, ctypes.c_double, ctypes.c_double, ctypes.c_double, ctypes.c_uint32,
+          ctypes.c_uint32, ctypes.c_int64, ctypes.POINTER(ctypes.c_double))
 
 
 def native_walk(key: tuple[int, int], alpha: float, mu_i: float, n_paths: int, max_bounces: int = 1000) -> dict:
@@ -175,7 +138,9 @@ def native_walk(key: tuple[int, int], alpha: float, mu_i: float, n_paths: int, m
         raise ValueError("alpha must be positive and mu_i in (0, 1]")
     if not 1 <= n_paths < 2**32 or max_bounces < 1:
         raise ValueError("n_paths must lie in [1, 2^32) and max_bounces be at least 1")
-    walk = _library(_FOLDER.name)
+    from fitlab.codegen.native import c_function
+
+    walk = c_function(SOURCE, "microsurface_walk", _ARGTYPES)
     out = np.zeros(ORDERS + 3)
     t0 = time.perf_counter()
     walk(int(key[0]), int(key[1]), float(alpha), float(alpha), float(mu_i), 0, int(n_paths), int(max_bounces),
