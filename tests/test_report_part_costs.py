@@ -7,9 +7,10 @@ import numpy as np
 import pytest
 
 from fitlab.codegen import emit
+from fitlab.codegen.bench import expressions_program
 from fitlab.codegen.native import build, compiler
 from fitlab.report.methods import fit_inventory, part_methods
-from fitlab.report.programs import form_costs, parts_program
+from fitlab.report.programs import form_costs, form_expressions
 from fitlab.store import fits_folder
 
 pytestmark = pytest.mark.skipif(compiler() is None, reason="no C compiler")
@@ -22,8 +23,8 @@ def methods():
 
 
 def test_each_routine_computes_its_methods_values(methods, tmp_path):
-    program, keys = parts_program(methods)
-    assert program is not None
+    program, keys = expressions_program(form_expressions(methods))
+    assert program.routines
     lib = build(emit(program, "c"), program, tmp_path)
     by_key = {pm.c_key: pm for pm in methods}
     rng = np.random.default_rng(3)

@@ -21,13 +21,12 @@ from pathlib import Path
 import numpy as np
 
 from fitlab.codegen import DEFAULT_FORMS, build_program, emit, load_program
-from fitlab.codegen.bench import time_routines
+from fitlab.codegen.bench import time_expressions, time_routines
 from fitlab.codegen.native import CompileError, build
-from fitlab.codegen.program import Program, Routine, with_domain
 from fitlab.core import get_target
 from fitlab.report.methods import CSpec, brdf_hook, preset_records
 
-__all__ = ["c_costs", "form_costs", "parts_program", "timing_inputs"]
+__all__ = ["c_costs", "form_costs", "form_expressions", "timing_inputs"]
 
 
 def timing_inputs(n: int, data_dir: Path) -> dict:
@@ -54,47 +53,26 @@ def _program(spec: CSpec):
     return prog, labels
 
 
-def parts_program(part_methods) -> tuple[Program | None, dict]:
-    """(Program, {routine name: c_key}): each part method's form with its numbers (its ``form_routine``) as a
-    routine ``part_K`` of its own, inputs clamped into its domain; (None, {}) when none has one."""
-    routines, keys = [], {}
+def form_expressions(part_methods) -> dict:
+    """{c_key: (args, expression with its numbers, domain)} of the part methods that have a ``form_routine`` (the
+    first of each c_key), for :func:`fitlab.codegen.bench.time_expressions`."""
+    out = {}
     for pm in part_methods:
-        if pm.form_routine is None or pm.c_key is None or pm.c_key in keys.values():
-            continue
-        args, expr, domain = pm.form_routine
-        name = f"part_{len(routines)}"
-        routines.append(with_domain(Routine(name, tuple(args), expr, f"{pm.target}: {pm.name}",
-                                            domain={a: tuple(domain[a]) for a in args})))
-        keys[name] = pm.c_key
-    return (Program(tuple(routines), (), (), name="fitlab_parts"), keys) if routines else (None, {})
+        if pm.form_routine is not None and pm.c_key is not None and pm.c_key not in out:
+            out[pm.c_key] = pm.form_routine
+    return out
 
 
 def form_costs(part_methods, workdir: Path, inputs: dict, repeat: int) -> tuple[dict, list]:
-    """ns per evaluation (double, float) of each part method's routine of :func:`parts_program`, all timed in one
-    interleaved run: {c_key: (ns double, ns float)}, and notes (a program that does not compile is noted, not
-    timed).  For the parts no family program times (a family without one, a richer form)."""
-    program, keys = parts_program(part_methods)
-    if program is None:
-        return {}, []
+    """ns per evaluation (double, float) of each part method's form with its numbers as a routine of its own
+    (:func:`form_expressions`), all timed in one interleaved run: {c_key: (ns double, ns float)}, and notes (a
+    program that does not compile is noted, not timed).  For the parts no family program times (a family without
+    one, a richer form).  An input the measured family's timing inputs lack (another family's: alpha) is drawn
+    uniformly in the routine's domain, seeded, as many points as the others."""
     try:
-        lib = build(emit(program, "c"), program, Path(workdir) / "parts")
+        return time_expressions(form_expressions(part_methods), inputs, repeat=repeat, workdir=workdir), []
     except CompileError as exc:
         return {}, [f"C not timed for the parts' own routines: {str(exc).splitlines()[0]}"]
-    # an input the measured family's timing inputs lack (another family's: alpha) is drawn uniformly in the
-    # routine's domain, seeded, as many points as the others
-    n = len(next(iter(inputs.values())))
-    rng = np.random.default_rng(0)
-    extra = {}
-    for r in program.routines:
-        for a in r.signature():
-            if a not in inputs and a not in extra:
-                lo, hi = r.domain[a]
-                extra[a] = rng.uniform(float(lo), float(hi), n)
-    given = {**extra, **inputs}
-    cases = {(name, dt): (lib, name, [given[a] for a in program.routine(name).signature()], dt)
-             for name in keys for dt in (np.float64, np.float32)}  # fmt: skip
-    ns = time_routines(cases, repeat)
-    return {key: (ns[(name, np.float64)], ns[(name, np.float32)]) for name, key in keys.items()}, []
 
 
 def c_costs(methods, workdir: Path, inputs: dict, repeat: int, tick=None) -> tuple[dict, dict, list]:

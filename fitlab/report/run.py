@@ -284,9 +284,9 @@ def _measure(settings, entries, fits_dir, data_dir, use_cache, p) -> tuple[list,
         acc[m.name] = brdf_accuracy(m, valid, grazing, fresh, energy)
         p.tick()
     p.stage("C cost", len({m.c.program_key for m in methods if m.c is not None}))
+    c_inputs = timing_inputs(settings.c_points, data_dir)
     with tempfile.TemporaryDirectory(prefix="fitlab-report-") as tmp:
-        c_ns, part_ns, notes = c_costs(methods, Path(tmp), timing_inputs(settings.c_points, data_dir),
-                                       settings.repeat, p.tick)  # fmt: skip
+        c_ns, part_ns, notes = c_costs(methods, Path(tmp), c_inputs, settings.repeat, p.tick)
     py_inputs = timing_inputs(settings.numpy_points, data_dir)
     p.stage("numpy cost", settings.repeat)
     py_ns = numpy_costs([m for m in methods if m.timed], py_inputs, settings.repeat, p.tick)
@@ -295,8 +295,7 @@ def _measure(settings, entries, fits_dir, data_dir, use_cache, p) -> tuple[list,
     jax_tp = jax_costs(jax_methods, timing_inputs(settings.jax_points, data_dir), settings.repeat, p.tick)
     rows = _brdf_rows(methods, acc, c_ns, py_ns, jax_tp)
     p.stage("parts", len(settings.parts))
-    parts, part_notes = _part_rows(settings, entries, data_dir, part_ns, timing_inputs(settings.c_points, data_dir),
-                                   p.tick)
+    parts, part_notes = _part_rows(settings, entries, data_dir, part_ns, c_inputs, p.tick)
     rows += parts
     notes = notes + part_notes
     fam = family_settings(settings, hook)

@@ -120,32 +120,21 @@ COST_MATERIAL = ("cu", "r")
 
 def approximation_costs(n: int = 200_000, repeat: int = 5) -> dict:
     """{form: {"double": ns, "float": ns}}: ns per evaluation of each approximation's generated C (``-O2``, double
-    and float), every form's routine with its preset for copper's red (:data:`COST_MATERIAL`) in one program,
-    timed in one interleaved run (:func:`fitlab.codegen.bench.time_routines`) on ``n`` random mu in [0, 1]:
+    and float), every form with its preset for copper's red (:data:`COST_MATERIAL`) a routine of one program,
+    timed in one interleaved run (:func:`fitlab.codegen.bench.time_expressions`) on ``n`` random mu in [0, 1]:
     only the ratios carry meaning.  {} without a C compiler."""
-    import tempfile
-
-    from fitlab.codegen import emit
-    from fitlab.codegen.bench import time_routines
-    from fitlab.codegen.native import build, compiler
-    from fitlab.codegen.program import Program, Routine, with_domain
+    from fitlab.codegen.bench import time_expressions
+    from fitlab.codegen.native import compiler
 
     if compiler() is None:
         return {}
     target = get_target(target_name(*COST_MATERIAL))
-    routines = []
+    exprs = {}
     for name in FORM_NAMES:
         form = target.forms[name]
-        preset = next(iter(form.presets))
-        routines.append(with_domain(Routine(name, ("mu",), form.substituted(preset), f"{_LABEL[name]} ({preset})",
-                                            domain={"mu": (0.0, 1.0)})))
-    program = Program(tuple(routines), (), (), name="fresnel_cost")
-    mu = np.random.default_rng(1).uniform(0.0, 1.0, n)
-    with tempfile.TemporaryDirectory(prefix="fitlab-fresnel-cost-") as tmp:
-        lib = build(emit(program, "c"), program, Path(tmp))
-        cases = {(name, dt): (lib, name, [mu], dt) for name in FORM_NAMES for dt in (np.float64, np.float32)}
-        ns = time_routines(cases, repeat)
-    return {name: {"double": ns[(name, np.float64)], "float": ns[(name, np.float32)]} for name in FORM_NAMES}
+        exprs[name] = (("mu",), form.substituted(next(iter(form.presets))), {"mu": (0.0, 1.0)})
+    ns = time_expressions(exprs, n=n, repeat=repeat, seed=1)
+    return {name: {"double": double, "float": single} for name, (double, single) in ns.items()}
 
 
 def run(materials=None, progress: bool = True) -> dict:
