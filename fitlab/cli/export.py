@@ -17,10 +17,10 @@ from fitlab.cli._common import (
 
 __all__ = ["add_arguments", "run"]
 
-_FORMATS = ("exr", "exr-half", "png", "c", "glsl")
-
 
 def add_arguments(p) -> None:
+    from fitlab.export import FORMATS
+
     describe(p, "Write tables as the files engines load: the split-sum DFG tables of GGX (Karis's and Filament's "
                 "channels), the albedo tables E, 1 - E, E_avg of each microfacet model, the Lambert sphere's "
                 "texture; as OpenEXR (float or half), 16-bit PNG, a C header or GLSL constants, every file "
@@ -29,7 +29,7 @@ def add_arguments(p) -> None:
              "fitlab export dfg_karis dfg_filament --format exr --format png --size 64 --out tables")  # fmt: skip
     p.add_argument("tables", nargs="*", metavar="TABLE", help="the tables to write (--list names them)")
     p.add_argument("--list", action="store_true", help="list the tables, their sizes and formats, and stop")
-    p.add_argument("--format", action="append", choices=_FORMATS, default=None, dest="formats",
+    p.add_argument("--format", action="append", choices=list(FORMATS), default=None, dest="formats",
                    help="a file format, repeatable (default: exr)")
     p.add_argument("--size", type=integer(1), default=None,
                    help="texels a side (a DFG or albedo table) or nodes per axis (the Lambert sphere's texture); "
@@ -79,9 +79,9 @@ def _check(args, offered: dict) -> tuple[list, list]:
             if fmt not in spec.formats:
                 raise UsageError(f"{name} is not written as {fmt} ({', '.join(spec.formats)} keep its values)")
         chosen.append((name, spec, size))
-    for fmt in formats:
-        from fitlab.export import EXTRA
+    from fitlab.export import EXTRA
 
+    for fmt in formats:
         if fmt in EXTRA:
             require_extra(*EXTRA[fmt])
     return chosen, formats

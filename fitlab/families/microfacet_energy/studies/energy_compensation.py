@@ -53,6 +53,7 @@ import numpy as np
 
 from fitlab.cache import cached_arrays
 from fitlab.codegen.native import compiler
+from fitlab.export import texel_centres
 from fitlab.families.microfacet_energy import exact
 from fitlab.families.microfacet_energy.exact import average_albedo, directional_albedo
 
@@ -97,7 +98,7 @@ def _exact_E_avg(model: str, alpha: np.ndarray, name: str) -> np.ndarray:
 def centre_table(model: str, n: int, nodes: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """(E of shape (n, n) indexed [alpha, mu], E_avg of shape (n,)) at the texel centres (k + 1/2)/n, or
     (``nodes``) at k/(n - 1)."""
-    c = np.arange(n) / (n - 1.0) if nodes else (np.arange(n) + 0.5) / n
+    c = np.arange(n) / (n - 1.0) if nodes else texel_centres(n)
     a, m = np.meshgrid(c, c, indexing="ij")
     kind = "nodes" if nodes else "table"
     E = _exact_E(model, m.ravel(), a.ravel(), f"{kind}{n}").reshape(n, n)
@@ -315,8 +316,7 @@ def coloured_compensation(model: str = "ggx_correlated", alphas=COLOURED_ALPHAS)
                    "F_avg_schlick": (20 * f0 + 1) / 21, "alphas": list(alphas), "E_avg": e_avg.tolist()}
             if max(f0, f_avg) <= 1.0:
                 row["f_add"] = exact.fresnel_compensation_factor(f_avg, e_avg).tolist()
-                row["f_add_schlick"] = exact.fresnel_compensation_factor(exact.average_fresnel_schlick(f0),
-                                                                         e_avg).tolist()
+                row["f_add_schlick"] = exact.fresnel_compensation_factor(row["F_avg_schlick"], e_avg).tolist()
             else:
                 row["f_add"] = row["f_add_schlick"] = None
             rows.append(row)
