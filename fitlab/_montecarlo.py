@@ -9,9 +9,11 @@ when it is traced).
 from __future__ import annotations
 
 import math
+import os
+import sys
 
 __all__ = ["MAX_PATHS", "MIN_PATHS_BUDGET", "SLOW_JOB_SECONDS", "THREEFRY_ROTATIONS", "THREEFRY_C", "duration",
-           "slow_job_warning", "threefry_2x32"]
+           "slow_job_warning", "threefry_2x32", "HOST_DEVICES_FLAG", "use_every_core"]
 
 #: the largest path budget of one job (``max_paths`` in a scene file, ``--max-paths``): one rule for every
 #: family and the command line (the microsurface walk numbers a job's paths with 32-bit ids)
@@ -21,6 +23,27 @@ MIN_PATHS_BUDGET = 1000
 #: a job whose projected time to its stop (its target, or its budget when the target is out of reach)
 #: exceeds this, at the rate its first rounds measured, is named in one warning line on stderr
 SLOW_JOB_SECONDS = 3600.0
+
+
+#: the XLA flag that splits the host CPU into that many JAX devices
+HOST_DEVICES_FLAG = "--xla_force_host_platform_device_count"
+
+
+def use_every_core(environ=None, cores: int | None = None) -> bool:
+    """Ask JAX, before it starts, for one CPU device per core, so that the walks' meshes (one lane pool per
+    device, ``shard_map``) keep every core busy: XLA runs a program on one thread per device, and a walk's
+    small per-event kernels gain nothing from its threads within a kernel.  Adds :data:`HOST_DEVICES_FLAG`
+    to ``XLA_FLAGS`` in ``environ`` (default ``os.environ``); returns whether it did.  It does nothing when
+    JAX is already imported (its devices are fixed by then), when ``XLA_FLAGS`` already sets the count (the
+    user's choice), or on a single core.  Accelerators are unaffected: the flag splits only the host."""
+    environ = os.environ if environ is None else environ
+    if cores is None:
+        cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
+    flags = environ.get("XLA_FLAGS", "")
+    if "jax" in sys.modules or HOST_DEVICES_FLAG in flags or cores < 2:
+        return False
+    environ["XLA_FLAGS"] = f"{flags} {HOST_DEVICES_FLAG}={cores}".strip()
+    return True
 
 
 def duration(seconds: float) -> str:

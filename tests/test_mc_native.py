@@ -18,7 +18,7 @@ def test_native_walk_is_the_jax_walk_photon_for_photon(c, mu_i):
     from fitlab.families.lambert_sphere.mc.transport import WalkConfig, round_key, run_round
 
     n = 3000
-    jax_round = run_round(WalkConfig(phase="true", sampler="exact"), 11, (4,), c, mu_i, n)
+    jax_round = run_round(WalkConfig(phase="true", sampler="exact", precision="float64"), 11, (4,), c, mu_i, n)
     key = tuple(int(k) for k in np.asarray(round_key(11, 4)))
     native = native_walk(key, c, mu_i, n)
     assert native["collisions"] == int(jax_round["collisions"])

@@ -1,10 +1,12 @@
 """Phase sampling of fitlab.families.lambert_sphere.mc against the phase functions of fitlab.families.lambert_sphere.exact."""
 
+import jax.numpy as jnp
 import numpy as np
 import pytest
 from scipy import integrate, optimize, stats
 
 import fitlab  # noqa: F401
+from fitlab.core import float64
 from fitlab.families.lambert_sphere.exact import LEGENDRE_A, phase_function, three_term_phase_function
 from fitlab.families.lambert_sphere.mc.phase_sampling import (
     MIX,
@@ -16,6 +18,7 @@ from fitlab.families.lambert_sphere.mc.phase_sampling import (
     sample_three_term,
     sample_true_approx,
     sample_true_exact,
+    sincos_2pi,
     turn,
 )
 
@@ -165,9 +168,46 @@ def test_turn_keeps_unit_length_and_angle(dz):
     d = np.array([rho * np.cos(0.7), rho * np.sin(0.7), dz])
     u = rng.uniform(-1, 1, n)
     psi = rng.uniform(0, 2 * np.pi, n)
-    nx, ny, nz = (np.asarray(a) for a in turn(*[np.full(n, v) for v in d], u, psi))
+    nx, ny, nz = (np.asarray(a) for a in turn(*[np.full(n, v) for v in d], u, np.cos(psi), np.sin(psi)))
     np.testing.assert_allclose(nx * nx + ny * ny + nz * nz, 1.0, atol=1e-13)
     np.testing.assert_allclose(nx * d[0] + ny * d[1] + nz * d[2], u, atol=2e-5 if abs(dz) > 1 - 1e-9 else 1e-12)
     # uniform azimuth about d: the mean new direction is u-weighted d
     mean = np.array([nx.mean(), ny.mean(), nz.mean()])
     assert np.all(np.abs(mean - u.mean() * d) < 0.02)
+
+
+def test_float32_azimuth_is_the_float64_one_to_its_rounding():
+    """sincos_2pi in float32 (Taylor series, double-angle formulas) agrees with the float64 sin and cos of
+    2 pi x within 1e-6 on a dense grid with the quadrant edges, at x = 0 and x = 1 too, and keeps
+    sin^2 + cos^2 = 1 within 2e-6 (the argument pi t is rounded to 1e-7, which the double-angle formulas carry
+    into cos 2a as up to 4 sin(a) 2e-7); float64 is libm's sin and cos."""
+    x = np.concatenate([np.linspace(0.0, 1.0, 200_001), [0.25, 0.5, 0.75, 1 - 2.0**-24, 2.0**-24]])
+    s32, c32 = (np.asarray(a, np.float64) for a in sincos_2pi(jnp.asarray(x, jnp.float32)))
+    x32 = x.astype(np.float32).astype(np.float64)
+    np.testing.assert_allclose(s32, np.sin(2 * np.pi * x32), rtol=0, atol=1e-6)
+    np.testing.assert_allclose(c32, np.cos(2 * np.pi * x32), rtol=0, atol=1e-6)
+    np.testing.assert_allclose(s32 * s32 + c32 * c32, 1.0, rtol=0, atol=2e-6)
+    with float64():
+        s64, c64 = (np.asarray(a) for a in sincos_2pi(jnp.asarray(x, jnp.float64)))
+    assert s64.dtype == np.float64
+    np.testing.assert_allclose(s64, np.sin(2 * np.pi * x), rtol=0, atol=2e-16)
+    np.testing.assert_allclose(c64, np.cos(2 * np.pi * x), rtol=0, atol=2e-16)
+
+
+@pytest.mark.parametrize("dz", [0.3, -0.95, 1.0, -1.0, 1 - 2.0**-24])
+def test_turn_in_float32_keeps_unit_length_and_angle(dz):
+    """The walk's float32 turn: unit length and the scattering angle to float32 rounding, at the poles too
+    (rho from dx and dy keeps its precision where 1 - dz^2 has none)."""
+    rng = np.random.default_rng(4)
+    n = 20_000
+    rho = np.sqrt(1 - dz * dz)
+    d = np.array([rho * np.cos(0.7), rho * np.sin(0.7), dz], np.float32)
+    d = d / np.sqrt(np.sum(d.astype(np.float64) ** 2)).astype(np.float32)
+    u = rng.uniform(-1, 1, n).astype(np.float32)
+    s, c = sincos_2pi(jnp.asarray(rng.random(n), jnp.float32))
+    f32 = [jnp.asarray(np.full(n, v, np.float32)) for v in d]
+    nx, ny, nz = (np.asarray(a, np.float64) for a in turn(*f32, jnp.asarray(u), c, s))
+    assert nx.dtype == np.float64 and np.asarray(turn(*f32, jnp.asarray(u), c, s)[0]).dtype == np.float32
+    np.testing.assert_allclose(nx * nx + ny * ny + nz * nz, 1.0, atol=1e-6)
+    cos_angle = nx * d[0] + ny * d[1] + nz * d[2]
+    np.testing.assert_allclose(cos_angle, u, atol=2e-5 if abs(dz) == 1.0 else 2e-6)

@@ -1,6 +1,7 @@
 """fitlab simulate end to end: stopping rules, only the needed jobs, CSV and PNG outputs, CLI."""
 
 import csv
+import sys
 from dataclasses import replace
 
 import pytest
@@ -451,3 +452,21 @@ def test_true_scene_references_are_the_true_half_space(tmp_path):
         a["true"] - a1["true"] - a["three_term"] + a1["three_term"], rel=1e-9, abs=1e-14)
     zs = [r["z_ref"] for e in result.rows.values() for r in e if r["se"] > 0 and np.isfinite(r["z_ref"])]
     assert len(zs) > 20 and max(abs(z) for z in zs) < 4
+
+
+def test_every_core_becomes_a_jax_device_before_jax_starts(monkeypatch):
+    """``use_every_core`` adds the host device count to XLA_FLAGS only while JAX is not imported, keeps the
+    user's other flags and the user's own count, and does nothing on one core."""
+    from fitlab._montecarlo import HOST_DEVICES_FLAG, use_every_core
+
+    env = {"XLA_FLAGS": "--xla_cpu_enable_fast_math=false"}
+    assert not use_every_core(env, cores=4)  # JAX is imported in this process: its devices are fixed
+    assert env == {"XLA_FLAGS": "--xla_cpu_enable_fast_math=false"}
+    monkeypatch.delitem(sys.modules, "jax")
+    assert use_every_core(env, cores=4)
+    assert env["XLA_FLAGS"] == f"--xla_cpu_enable_fast_math=false {HOST_DEVICES_FLAG}=4"
+    assert not use_every_core(env, cores=8)  # a count already set is the user's
+    assert env["XLA_FLAGS"].endswith("=4")
+    empty = {}
+    assert not use_every_core(empty, cores=1) and empty == {}
+    assert use_every_core(empty, cores=2) and empty == {"XLA_FLAGS": f"{HOST_DEVICES_FLAG}=2"}

@@ -46,6 +46,8 @@ COMMANDS = {
 
 #: the commands that run JAX: they keep its compiled programs in fitlab's cache (fitlab.cache)
 JAX_COMMANDS = ("refit", "fit", "audit", "simulate", "discover", "report", "bench")
+#: the commands that run the Monte Carlo walks, which JAX runs on one CPU device per core
+WALK_COMMANDS = ("simulate", "bench")
 
 
 def command_module(name: str):
@@ -120,6 +122,10 @@ def _run(argv) -> int:
     try:
         args = build_parser(() if not name else (name,)).parse_args(argv)
         name = args.command
+        if name in WALK_COMMANDS:
+            from fitlab._montecarlo import use_every_core
+
+            use_every_core()  # before JAX starts: one device per core for the walks' meshes
         if name in JAX_COMMANDS:
             from fitlab.cache import enable_compilation_cache
 

@@ -30,7 +30,7 @@ static const double TWO_PI = 6.283185307179586476925;
 static void turn(double *dx, double *dy, double *dz, double u, double psi)
 {
     const double s = sqrt(fmax(0.0, 1.0 - u * u)), cp = cos(psi), sp = sin(psi);
-    const double rho = sqrt(fmax(0.0, 1.0 - *dz * *dz));
+    const double rho = sqrt(*dx * *dx + *dy * *dy);
     double nx, ny, nz;
     if (rho < 1e-5) {
         nx = s * cp;

@@ -65,6 +65,7 @@ __all__ = [
     "C_LIMIT",
     "unbounded_reason",
     "turn",
+    "sincos_2pi",
 ]
 
 # --- three-term constants (exact, from g(u) = 27/32 - 4/3 u + 15/32 u^2) ---
@@ -98,9 +99,30 @@ def p_three_term(u):
 
 
 @float64
+def sincos_2pi(x):
+    """(sin 2 pi x, cos 2 pi x) for x in [0, 1]: the azimuth of a uniform x.
+
+    float64: ``jnp.sin`` and ``jnp.cos`` of 2 pi x (the C reference walk's libm values, path for path).
+    float32: x is reduced to t = x - round(x) in [-1/2, 1/2] (exact), a = pi t, sin a and cos a by their Taylor
+    series to a^11 and a^12 (truncation below 1e-9 on [-pi/2, pi/2]), and the double-angle formulas; within
+    1e-6 of the float64 values (the float32 rounding of pi t, carried through the double angle; float32's
+    own 2 pi x is 4e-7 off).  XLA's CPU backend calls the scalar
+    libm for a float32 sin, 20 times the cost of these multiply-adds, which vectorise on every device.
+    """
+    if x.dtype != jnp.float32:
+        return jnp.sin(2.0 * jnp.pi * x), jnp.cos(2.0 * jnp.pi * x)
+    a = (x - jnp.round(x)) * jnp.float32(math.pi)
+    a2 = a * a
+    sin_a = a * (1.0 + a2 * (-1 / 6 + a2 * (1 / 120 + a2 * (-1 / 5040 + a2 * (1 / 362880 + a2 * (-1 / 39916800))))))
+    cos_a = 1.0 + a2 * (-1 / 2 + a2 * (1 / 24 + a2 * (-1 / 720 + a2 * (1 / 40320 + a2 * (-1 / 3628800
+                                                                                      + a2 * (1 / 479001600))))))
+    return 2.0 * sin_a * cos_a, 1.0 - 2.0 * sin_a * sin_a
+
+
+@float64
 def sample_true_exact(x1, x2, x3):
-    """Eq. 5: u = sqrt((1-x1)(1-x2)) sin(2 pi x3) - sqrt(x1 x2); exact for p."""
-    return jnp.sqrt((1.0 - x1) * (1.0 - x2)) * jnp.sin(2.0 * jnp.pi * x3) - jnp.sqrt(x1 * x2)
+    """Eq. 5: u = sqrt((1-x1)(1-x2)) sin(2 pi x3) - sqrt(x1 x2); exact for p (sin by :func:`sincos_2pi`)."""
+    return jnp.sqrt((1.0 - x1) * (1.0 - x2)) * sincos_2pi(x3)[0] - jnp.sqrt(x1 * x2)
 
 
 @float64
@@ -212,15 +234,17 @@ def unbounded_reason(phase: str, c: float) -> str | None:
 
 
 @float64
-def turn(dx, dy, dz, u, psi):
-    """Unit direction at angle acos(u) from (dx, dy, dz), azimuth psi about it.
+def turn(dx, dy, dz, u, cos_psi, sin_psi):
+    """Unit direction at angle acos(u) from (dx, dy, dz), azimuth psi about it (given by its cosine and sine).
 
-    Standard rotation; near the poles (|dz| > 1 - 1e-10) the local frame is the
-    lab frame.  The result is renormalised (no drift over thousands of turns).
+    Standard rotation; near the poles (rho = sqrt(dx^2 + dy^2) < 1e-5) the local frame is the lab frame.
+    rho is taken from dx and dy, which keep their relative precision near a pole where 1 - dz^2 loses it
+    (in float32 the first direction off the pole has 1 - dz = 6e-8).  The result is renormalised (no drift
+    over thousands of turns).
     """
     s = jnp.sqrt(jnp.maximum(0.0, 1.0 - u * u))
-    cp, sp = jnp.cos(psi), jnp.sin(psi)
-    rho = jnp.sqrt(jnp.maximum(0.0, 1.0 - dz * dz))
+    cp, sp = cos_psi, sin_psi
+    rho = jnp.sqrt(dx * dx + dy * dy)
     polar = rho < 1e-5
     rho_safe = jnp.where(polar, 1.0, rho)
     nx = s * (dx * dz * cp - dy * sp) / rho_safe + dx * u

@@ -44,8 +44,10 @@ Random numbers are counter-based: the words for photon ``id`` at collision
 ``n`` are Threefry-2x32(round key; id, n J + j), j < J.  A photon's path
 depends only on (seed, round, id), never on the slot, the batch or the device
 that runs it, so results agree across layouts up to the order of summation.
-Uniforms are (word + 1/2) 2^-32 in (0, 1): free paths are cut at 22.9 mean
-free paths (probability 1e-10), far below any standard error here.
+Precision (``WalkConfig.precision``): the path state is float32 by default, the tallies float64.  float32
+uniforms are (word >> 8 + 1/2) 2^-24 in (0, 1): free paths are cut at 17.3 mean free paths (probability
+3e-8); float64 ones (word + 1/2) 2^-32: cut at 22.9 (1e-10), the C reference walk's numbers.  Both cuts lie
+far below any standard error here; on one key the two precisions walk the same photons (docs/montecarlo.md).
 
 Layout.  Each device runs ``slots`` photon slots in a ``lax.while_loop``; a
 slot whose photon is done takes the next photon id of its device's range
@@ -79,6 +81,7 @@ from fitlab.families.lambert_sphere.mc.phase_sampling import (
     sample_three_term,
     sample_true_approx,
     sample_true_exact,
+    sincos_2pi,
     turn,
     unbounded_reason,
 )
@@ -88,6 +91,7 @@ __all__ = ["WalkConfig", "compile_walk", "run_round", "round_key", "default_mesh
 PHASES = ("true", "three_term", "both")
 SAMPLERS = ("exact", "approx")
 INCIDENCES = ("fixed", "cosine")
+PRECISIONS = ("float32", "float64")
 AXIS = "photons"
 _TWO32 = 2.0**-32
 
@@ -98,7 +102,8 @@ class WalkConfig:
 
     An empty ``mu_edges`` means no per-direction tally; ``orders`` and
     ``phi_edges`` need ``mu_edges``.  ``collision_orders`` = N >= 2 keeps the
-    escapes after 2..N collisions and the rest (0: not kept).
+    escapes after 2..N collisions and the rest (0: not kept).  ``precision`` is
+    the path state's float type (module docstring, "Precision").
     """
 
     phase: str = "three_term"
@@ -111,6 +116,7 @@ class WalkConfig:
     max_collisions: int = 100_000
     slots: int = 0  # photon slots per device; 0: 512 on a CPU, 65536 on an accelerator
     rr_weight: float = 0.125
+    precision: str = "float32"
 
     def __post_init__(self):
         if self.phase not in PHASES:
@@ -139,6 +145,8 @@ class WalkConfig:
             raise ValueError("slots must be 0 (automatic) or >= 8")
         if not 0.0 < self.rr_weight < 1.0:
             raise ValueError("rr_weight must lie in (0, 1)")
+        if self.precision not in PRECISIONS:
+            raise ValueError(f"precision must be one of {PRECISIONS}, got {self.precision!r}")
 
     @property
     def tracks(self) -> int:
@@ -190,14 +198,17 @@ def _zero_tallies(cfg: WalkConfig) -> dict:
     return out
 
 
-def _uniforms(key_pair, pid, n, pairs):
+def _uniforms(key_pair, pid, n, pairs, dtype):
     """2*pairs uniforms in (0, 1) per slot from Threefry(key; pid, n*pairs + j): rows j < pairs the first word
     of block j, rows pairs + j its second (the layout of ``jax.extend.random.threefry_2x32`` of the counters
     concatenated, which fitlab._montecarlo.threefry_2x32 computes unrolled, bit for bit)."""
     x0 = jnp.broadcast_to(pid[None, :], (pairs, pid.shape[0]))
     x1 = (n.astype(jnp.uint32)[None, :] * jnp.uint32(pairs)) + jnp.arange(pairs, dtype=jnp.uint32)[:, None]
     bits = jnp.concatenate(threefry_2x32(key_pair, x0.ravel(), x1.ravel()))
-    return (bits.reshape(2 * pairs, pid.shape[0]).astype(jnp.float64) + 0.5) * _TWO32
+    bits = bits.reshape(2 * pairs, pid.shape[0])
+    if dtype == jnp.float32:
+        return ((bits >> jnp.uint32(8)).astype(jnp.float32) + jnp.float32(0.5)) * jnp.float32(2.0**-24)
+    return (bits.astype(jnp.float64) + 0.5) * _TWO32
 
 
 def _chebyshev(cos_phi, orders):
@@ -211,10 +222,9 @@ def _chebyshev(cos_phi, orders):
 
 def _bin_index(x, edges, dump):
     """Index of the bin [e_k, e_k+1) holding x (the last bin closed); ``dump`` if outside."""
-    e = jnp.asarray(edges)
-    k = jnp.searchsorted(e, x, side="right") - 1
-    k = jnp.where(x == e[-1], e.shape[0] - 2, k)
-    return jnp.where((x >= e[0]) & (x <= e[-1]), k, dump)
+    # a count of the inner edges at or below x: a few compares, where searchsorted is a loop on a CPU
+    k = sum(((x >= e).astype(jnp.int32) for e in edges[1:-1]), start=jnp.zeros(x.shape, jnp.int32))
+    return jnp.where((x >= edges[0]) & (x <= edges[-1]), k, dump)
 
 
 def _scatter(s: _Slots, u01, c, cfg: WalkConfig):
@@ -232,14 +242,15 @@ def _scatter(s: _Slots, u01, c, cfg: WalkConfig):
         u = sample_mixture(u01[0], u01[1], u01[2], u01[3], u01[4])
         q = mixture_density(u)
         factor = jnp.stack([p_true(u) / q, p_three_term(u) / q], axis=-1)
-    psi = 2.0 * jnp.pi * u01[-3]
-    dx, dy, dz = turn(s.dx, s.dy, s.dz, u, psi)
+    sin_psi, cos_psi = sincos_2pi(u01[-3])
+    dx, dy, dz = turn(s.dx, s.dy, s.dz, u, cos_psi, sin_psi)
     return dx, dy, dz, s.w * c * factor
 
 
 def _tally(tallies, cfg: WalkConfig, escaped, n, w, dx, dy, dz, capped):
     """Add this step's escapes (and capped photons) to the tallies."""
     t = cfg.tracks
+    w = w.astype(jnp.float64)
     if t == 3:
         w = jnp.stack([w[:, 0], w[:, 1], w[:, 0] - w[:, 1]], axis=-1)
     esc_w = jnp.where(escaped[:, None], w, 0.0)
@@ -291,11 +302,11 @@ def _step(carry, key_pair, c, mu_i, hi, cap, cfg: WalkConfig):
     w0 = jnp.ones_like(s.w)
     s = s._replace(alive=alive, pid=pid, n=n, w=jnp.where(take[:, None], w0, s.w))
 
-    u01 = _uniforms(key_pair, s.pid, s.n, cfg.words)
+    u01 = _uniforms(key_pair, s.pid, s.n, cfg.words, s.z.dtype)
     entering = s.n == 0
     # entry: direction -w_i (mu_i fixed, or cosine-distributed: mu = sqrt(x))
     mu = jnp.sqrt(u01[0]) if cfg.incidence == "cosine" else jnp.broadcast_to(mu_i, (size,))
-    ex, ey, ez = -jnp.sqrt(jnp.maximum(0.0, 1.0 - mu * mu)), jnp.zeros(size), -mu
+    ex, ey, ez = -jnp.sqrt(jnp.maximum(0.0, 1.0 - mu * mu)), jnp.zeros(size, mu.dtype), -mu
     # collision n >= 1
     cx, cy, cz, cw = _scatter(s, u01, c, cfg)
     dx = jnp.where(entering, ex, cx)
@@ -354,9 +365,11 @@ def _walk(key_pair, c, mu_i, lo, hi, cap, cfg: WalkConfig, platform: str = "cpu"
         if len(sizes) == 3:
             break
     p = sizes[0]
+    dt = jnp.dtype(cfg.precision)
+    c, mu_i = c.astype(dt), mu_i.astype(dt)
     s = _Slots(
         jnp.zeros(p, bool), jnp.zeros(p, jnp.uint32), jnp.zeros(p, jnp.int32),
-        jnp.zeros(p), jnp.zeros(p), jnp.zeros(p), jnp.zeros(p), jnp.ones((p, nw)),
+        jnp.zeros(p, dt), jnp.zeros(p, dt), jnp.zeros(p, dt), jnp.zeros(p, dt), jnp.ones((p, nw), dt),
     )
     carry = (s, _zero_tallies(cfg), jnp.asarray(lo, jnp.int64))
     body = partial(_step, key_pair=key_pair, c=c, mu_i=mu_i, hi=hi, cap=cap, cfg=cfg)
