@@ -1,9 +1,11 @@
 """Rules every family's Monte Carlo (``fitlab simulate``) shares: the path budget of one job, the warning
-when a job's budget cannot reach its standard-error target within :data:`SLOW_JOB_SECONDS`, and the
-counter-based hash both random walks draw their numbers from (:func:`threefry_2x32`).
+when a job's budget cannot reach its standard-error target within :data:`SLOW_JOB_SECONDS`, the
+counter-based hash both random walks draw their numbers from (:func:`threefry_2x32`), the uniforms they make
+of its words in either precision (:func:`uniforms`), the azimuth's sine and cosine (:func:`sincos_2pi`), and
+one JAX CPU device per core (:func:`use_every_core`).
 
-No JAX at import: the command line reads :data:`MAX_PATHS` for its help (:func:`threefry_2x32` imports it
-when it is traced).
+No JAX at import: the command line reads :data:`MAX_PATHS` for its help (the JAX functions import it when
+they are traced).
 """
 
 from __future__ import annotations
@@ -13,7 +15,8 @@ import os
 import sys
 
 __all__ = ["MAX_PATHS", "MIN_PATHS_BUDGET", "SLOW_JOB_SECONDS", "THREEFRY_ROTATIONS", "THREEFRY_C", "duration",
-           "slow_job_warning", "threefry_2x32", "HOST_DEVICES_FLAG", "use_every_core"]
+           "slow_job_warning", "threefry_2x32", "HOST_DEVICES_FLAG", "use_every_core", "PRECISIONS", "uniforms",
+           "sincos_2pi"]
 
 #: the largest path budget of one job (``max_paths`` in a scene file, ``--max-paths``): one rule for every
 #: family and the command line (the microsurface walk numbers a job's paths with 32-bit ids)
@@ -141,3 +144,40 @@ static void threefry(uint32_t k0, uint32_t k1, uint32_t x0, uint32_t x1, uint32_
     *o1 = x1;
 }
 """
+
+
+#: the walks' path-state precisions (tallies add up in float64 in both)
+PRECISIONS = ("float32", "float64")
+
+
+def uniforms(words, dtype):
+    """Uniforms in (0, 1) of uint32 ``words``: float64 (word + 1/2) 2^-32, float32 (word >> 8 + 1/2) 2^-24 (the top
+    24 bits, which a float32 holds exactly: no uniform rounds to 0 or 1).  A sampled tail is cut at
+    probability 2^-33 in float64, 2^-25 in float32."""
+    import jax.numpy as jnp
+
+    if dtype == jnp.float32:
+        return ((words >> jnp.uint32(8)).astype(jnp.float32) + jnp.float32(0.5)) * jnp.float32(2.0**-24)
+    return (words.astype(jnp.float64) + 0.5) * 2.0**-32
+
+
+def sincos_2pi(x):
+    """(sin 2 pi x, cos 2 pi x) for x in [0, 1]: the azimuth of a uniform x.
+
+    float64: ``jnp.sin`` and ``jnp.cos`` of 2 pi x (the C reference walk's libm values, path for path).
+    float32: x is reduced to t = x - round(x) in [-1/2, 1/2] (exact), a = pi t, sin a and cos a by their Taylor
+    series to a^11 and a^12 (truncation below 1e-9 on [-pi/2, pi/2]), and the double-angle formulas; within
+    1e-6 of the float64 values (the float32 rounding of pi t, carried through the double angle; float32's
+    own 2 pi x is 4e-7 off).  XLA's CPU backend calls the scalar libm for a float32 sin, 20 times the cost
+    of these multiply-adds, which vectorise on every device.
+    """
+    import jax.numpy as jnp
+
+    if x.dtype != jnp.float32:
+        return jnp.sin(2.0 * jnp.pi * x), jnp.cos(2.0 * jnp.pi * x)
+    a = (x - jnp.round(x)) * jnp.float32(math.pi)
+    a2 = a * a
+    sin_a = a * (1.0 + a2 * (-1 / 6 + a2 * (1 / 120 + a2 * (-1 / 5040 + a2 * (1 / 362880 + a2 * (-1 / 39916800))))))
+    cos_a = 1.0 + a2 * (-1 / 2 + a2 * (1 / 24 + a2 * (-1 / 720 + a2 * (1 / 40320 + a2 * (-1 / 3628800
+                                                                                      + a2 * (1 / 479001600))))))
+    return 2.0 * sin_a * cos_a, 1.0 - 2.0 * sin_a * sin_a

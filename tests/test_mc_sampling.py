@@ -6,6 +6,7 @@ import pytest
 from scipy import integrate, optimize, stats
 
 import fitlab  # noqa: F401
+from fitlab._montecarlo import sincos_2pi
 from fitlab.core import float64
 from fitlab.families.lambert_sphere.exact import LEGENDRE_A, phase_function, three_term_phase_function
 from fitlab.families.lambert_sphere.mc.phase_sampling import (
@@ -18,7 +19,6 @@ from fitlab.families.lambert_sphere.mc.phase_sampling import (
     sample_three_term,
     sample_true_approx,
     sample_true_exact,
-    sincos_2pi,
     turn,
 )
 

@@ -48,6 +48,7 @@ import math
 import jax.numpy as jnp
 import numpy as np
 
+from fitlab._montecarlo import sincos_2pi
 from fitlab.core import float64
 
 __all__ = [
@@ -65,7 +66,6 @@ __all__ = [
     "C_LIMIT",
     "unbounded_reason",
     "turn",
-    "sincos_2pi",
 ]
 
 # --- three-term constants (exact, from g(u) = 27/32 - 4/3 u + 15/32 u^2) ---
@@ -96,27 +96,6 @@ def p_true(u):
 def p_three_term(u):
     """p3(u) = (1 - (4/3) u + (5/16) P2(u)) / (4 pi), 1/sr; negative for u > 0.95029."""
     return (27.0 / 32.0 - 4.0 / 3.0 * u + 15.0 / 32.0 * u * u) / (4.0 * jnp.pi)
-
-
-@float64
-def sincos_2pi(x):
-    """(sin 2 pi x, cos 2 pi x) for x in [0, 1]: the azimuth of a uniform x.
-
-    float64: ``jnp.sin`` and ``jnp.cos`` of 2 pi x (the C reference walk's libm values, path for path).
-    float32: x is reduced to t = x - round(x) in [-1/2, 1/2] (exact), a = pi t, sin a and cos a by their Taylor
-    series to a^11 and a^12 (truncation below 1e-9 on [-pi/2, pi/2]), and the double-angle formulas; within
-    1e-6 of the float64 values (the float32 rounding of pi t, carried through the double angle; float32's
-    own 2 pi x is 4e-7 off).  XLA's CPU backend calls the scalar
-    libm for a float32 sin, 20 times the cost of these multiply-adds, which vectorise on every device.
-    """
-    if x.dtype != jnp.float32:
-        return jnp.sin(2.0 * jnp.pi * x), jnp.cos(2.0 * jnp.pi * x)
-    a = (x - jnp.round(x)) * jnp.float32(math.pi)
-    a2 = a * a
-    sin_a = a * (1.0 + a2 * (-1 / 6 + a2 * (1 / 120 + a2 * (-1 / 5040 + a2 * (1 / 362880 + a2 * (-1 / 39916800))))))
-    cos_a = 1.0 + a2 * (-1 / 2 + a2 * (1 / 24 + a2 * (-1 / 720 + a2 * (1 / 40320 + a2 * (-1 / 3628800
-                                                                                      + a2 * (1 / 479001600))))))
-    return 2.0 * sin_a * cos_a, 1.0 - 2.0 * sin_a * sin_a
 
 
 @float64

@@ -70,7 +70,7 @@ import jax.numpy as jnp
 import numpy as np
 from jax.sharding import Mesh, PartitionSpec
 
-from fitlab._montecarlo import threefry_2x32
+from fitlab._montecarlo import PRECISIONS, sincos_2pi, threefry_2x32, uniforms
 from fitlab.core import float64
 from fitlab.families.lambert_sphere.mc.phase_sampling import (
     THREE_TERM_NORM,
@@ -81,7 +81,6 @@ from fitlab.families.lambert_sphere.mc.phase_sampling import (
     sample_three_term,
     sample_true_approx,
     sample_true_exact,
-    sincos_2pi,
     turn,
     unbounded_reason,
 )
@@ -91,9 +90,7 @@ __all__ = ["WalkConfig", "compile_walk", "run_round", "round_key", "default_mesh
 PHASES = ("true", "three_term", "both")
 SAMPLERS = ("exact", "approx")
 INCIDENCES = ("fixed", "cosine")
-PRECISIONS = ("float32", "float64")
 AXIS = "photons"
-_TWO32 = 2.0**-32
 
 
 @dataclass(frozen=True)
@@ -199,16 +196,15 @@ def _zero_tallies(cfg: WalkConfig) -> dict:
 
 
 def _uniforms(key_pair, pid, n, pairs, dtype):
-    """2*pairs uniforms in (0, 1) per slot from Threefry(key; pid, n*pairs + j): rows j < pairs the first word
-    of block j, rows pairs + j its second (the layout of ``jax.extend.random.threefry_2x32`` of the counters
-    concatenated, which fitlab._montecarlo.threefry_2x32 computes unrolled, bit for bit)."""
-    x0 = jnp.broadcast_to(pid[None, :], (pairs, pid.shape[0]))
-    x1 = (n.astype(jnp.uint32)[None, :] * jnp.uint32(pairs)) + jnp.arange(pairs, dtype=jnp.uint32)[:, None]
-    bits = jnp.concatenate(threefry_2x32(key_pair, x0.ravel(), x1.ravel()))
-    bits = bits.reshape(2 * pairs, pid.shape[0])
-    if dtype == jnp.float32:
-        return ((bits >> jnp.uint32(8)).astype(jnp.float32) + jnp.float32(0.5)) * jnp.float32(2.0**-24)
-    return (bits.astype(jnp.float64) + 0.5) * _TWO32
+    """2*pairs uniforms in (0, 1) per slot from Threefry(key; pid, n*pairs + j): item j < pairs the first word
+    of block j, item pairs + j its second (the layout of ``jax.extend.random.threefry_2x32`` of the counters
+    concatenated), as a tuple of per-slot arrays.  The blocks are hashed as one array: hashed one by one,
+    XLA's CPU backend copies the hash into each of its consumers' kernels (5 times the work)."""
+    base = n.astype(jnp.uint32) * jnp.uint32(pairs)
+    x1 = base[None, :] + jnp.arange(pairs, dtype=jnp.uint32)[:, None]
+    first, second = threefry_2x32(key_pair, jnp.broadcast_to(pid[None, :], x1.shape), x1)
+    u = uniforms(jnp.concatenate([first, second]), dtype)
+    return tuple(u[j] for j in range(2 * pairs))
 
 
 def _chebyshev(cos_phi, orders):

@@ -62,6 +62,8 @@ import jax
 import jax.numpy as jnp
 from jax.scipy.special import erfc, erfinv
 
+from fitlab._montecarlo import sincos_2pi
+
 __all__ = ["DISTRIBUTIONS", "height_c1", "height_inv_c1", "smith_lambda", "masking_g1", "sample_height",
            "sample_vndf", "reflect", "refract", "ESCAPED"]
 
@@ -75,6 +77,8 @@ _BECKMANN_STEPS = 60
 _BECKMANN_TOLERANCE = 1e-14
 _BECKMANN_SLOPE_FLOOR = -6.0
 _SQRT_PI = math.sqrt(math.pi)
+#: a positive stand-in for 0 of each precision, far below any value that matters
+_TINY = {"float64": 1e-300, "float32": 1e-30}
 
 
 def height_c1(h):
@@ -85,6 +89,16 @@ def height_c1(h):
 def height_inv_c1(u):
     """invC1(U) = clip(2 U - 1, -1, 1), U in [0, 1]."""
     return jnp.clip(2.0 * u - 1.0, -1.0, 1.0)
+
+
+def _power(x, y):
+    """x^y for x in [0, 1]: ``x ** y`` in float64 (the C reference walk's pow); exp(y log x) in float32, which
+    XLA's CPU backend vectorises where its float32 pow is a scalar libm call (5 times the cost), at a relative
+    error of |y log x| float32 epsilons (1e-6 at |y log x| = 17.3, the most a float32 uniform gives a falling
+    ray)."""
+    if x.dtype == jnp.float32:
+        return jnp.exp(y * jnp.log(x))
+    return x**y
 
 
 def _stretched_tan2(x, y, z, alpha_x, alpha_y):
@@ -107,7 +121,7 @@ def smith_lambda(x, y, z, alpha_x, alpha_y, distribution: str):
     """Smith's Lambda(w) for w = (x, y, z) on the whole sphere: Lambda of |z| upwards, -1 - that downwards.
 
     Horizontal w (z = 0): +inf (the +-inf limits differ; callers treat z = 0 apart)."""
-    with_z = jnp.where(z == 0.0, 1e-300, z)
+    with_z = jnp.where(z == 0.0, _TINY[z.dtype.name], z)
     lam = _lambda_up(_stretched_tan2(x, y, with_z, alpha_x, alpha_y), distribution)
     return jnp.where(z >= 0.0, lam, -1.0 - lam)
 
@@ -116,7 +130,7 @@ def masking_g1(x, y, z, h, alpha_x, alpha_y, distribution: str):
     """G1(w, h) = C1(h)^Lambda(w) for z > 0 (1 where Lambda = 0), 0 for z <= 0."""
     lam = smith_lambda(x, y, z, alpha_x, alpha_y, distribution)
     c1 = height_c1(h)
-    up = jnp.where(lam > 0.0, c1 ** jnp.where(lam > 0.0, lam, 1.0), 1.0)
+    up = jnp.where(lam > 0.0, _power(c1, jnp.where(lam > 0.0, lam, 1.0)), 1.0)
     return jnp.where(z > 0.0, up, 0.0)
 
 
@@ -129,7 +143,7 @@ def sample_height(x, y, z, h, u, alpha_x, alpha_y, distribution: str):
     g1 = masking_g1(x, y, z, h, alpha_x, alpha_y, distribution)
     lam_safe = jnp.where(lam != 0.0, lam, 1.0)
     # (1 - u)^(1/Lambda): for a rising ray it grows C1 (the hit lies above), for a falling one it shrinks it
-    h_next = height_inv_c1(c1 / (1.0 - u) ** (1.0 / lam_safe))
+    h_next = height_inv_c1(c1 / _power(1.0 - u, 1.0 / lam_safe))
     h_next = jnp.where(z == 0.0, h, h_next)
     escapes = (z > 0.0) & (u > 1.0 - g1)
     return jnp.where(escapes, ESCAPED, h_next)
@@ -148,15 +162,15 @@ def _vndf_ggx(wx, wy, wz, u1, u2, alpha_x, alpha_y):
     # T2 = V x T1 (T1 has no z component)
     t2x, t2y, t2z = -vz * t1y, vz * t1x, vx * t1y - vy * t1x
     r = jnp.sqrt(u1)
-    ang = 2.0 * jnp.pi * u2
-    p1, p2 = r * jnp.cos(ang), r * jnp.sin(ang)
+    sin_ang, cos_ang = sincos_2pi(u2)
+    p1, p2 = r * cos_ang, r * sin_ang
     s = 0.5 * (1.0 + vz)
     p2 = (1.0 - s) * jnp.sqrt(jnp.maximum(0.0, 1.0 - p1 * p1)) + s * p2
     p3 = jnp.sqrt(jnp.maximum(0.0, 1.0 - p1 * p1 - p2 * p2))
     nx = p1 * t1x + p2 * t2x + p3 * vx
     ny = p1 * t1y + p2 * t2y + p3 * vy
     nz = p2 * t2z + p3 * vz
-    return _normalize(alpha_x * nx, alpha_y * ny, jnp.maximum(1e-300, nz))
+    return _normalize(alpha_x * nx, alpha_y * ny, jnp.maximum(_TINY[nz.dtype.name], nz))
 
 
 def _beckmann_slope_x(cot_theta, sin_theta, cos_theta, u):
@@ -219,7 +233,10 @@ def sample_vndf(wx, wy, wz, u1, u2, alpha_x, alpha_y, distribution: str):
     area vanishes only for wi straight down).  Returns (m_x, m_y, m_z), m_z > 0, wi.m >= 0."""
     if distribution == "ggx":
         return _vndf_ggx(wx, wy, wz, u1, u2, alpha_x, alpha_y)
-    return _vndf_beckmann(wx, wy, wz, u1, u2, alpha_x, alpha_y)
+    dtype = wx.dtype
+    # the visible-slope inversion's tolerances are float64's: a float32 walk inverts in float64
+    up = (jnp.asarray(a, jnp.float64) for a in (wx, wy, wz, u1, u2, alpha_x, alpha_y))
+    return tuple(m.astype(dtype) for m in _vndf_beckmann(*up))
 
 
 def reflect(wx, wy, wz, mx, my, mz):

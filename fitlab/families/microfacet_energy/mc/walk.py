@@ -80,7 +80,7 @@ import jax.numpy as jnp
 import numpy as np
 from jax.sharding import Mesh, PartitionSpec
 
-from fitlab._montecarlo import threefry_2x32
+from fitlab._montecarlo import PRECISIONS, sincos_2pi, threefry_2x32, uniforms
 from fitlab.core import float64
 from fitlab.families.microfacet_energy.mc.microsurface import (
     DISTRIBUTIONS,
@@ -118,6 +118,7 @@ class WalkConfig:
     phi_edges: tuple = (0.0, np.pi)
     slots: int = 1024
     transmission_lobe: bool = False
+    precision: str = "float32"
 
     def __post_init__(self):
         if self.distribution not in DISTRIBUTIONS:
@@ -128,6 +129,8 @@ class WalkConfig:
             raise ValueError(f"fresnel must be one of {FRESNEL}, got {self.fresnel!r}")
         if not (self.slots == 0 or self.slots >= 1):
             raise ValueError(f"slots must be 0 (automatic) or positive, got {self.slots}")
+        if self.precision not in PRECISIONS:
+            raise ValueError(f"precision must be one of {PRECISIONS}, got {self.precision!r}")
         if self.transmission_lobe and self.kind != "dielectric":
             raise ValueError("only a dielectric transmits: transmission_lobe needs kind='dielectric'")
         for name, edges in (("mu_edges", self.mu_edges), ("phi_edges", self.phi_edges)):
@@ -191,8 +194,8 @@ def _phi_bin(x, y, edges):
 def _cosine_about(mx, my, mz, u1, u2):
     """A direction with density cos/pi about the unit normal m (Malley: a uniform disk point lifted)."""
     r = jnp.sqrt(u1)
-    ang = 2.0 * jnp.pi * u2
-    a, b = r * jnp.cos(ang), r * jnp.sin(ang)
+    sin_ang, cos_ang = sincos_2pi(u2)
+    a, b = r * cos_ang, r * sin_ang
     c = jnp.sqrt(jnp.maximum(0.0, 1.0 - u1))
     # orthonormal basis about m (Duff et al. 2017, branchless)
     sign = jnp.where(mz >= 0.0, 1.0, -1.0)
@@ -207,15 +210,19 @@ def _cosine_about(mx, my, mz, u1, u2):
     return x / n, y / n, z / n
 
 
-def _uniforms(key_data, pid, order, count: int):
-    """(lanes, count) uniforms in (0, 1) of events ``order`` of paths ``pid`` (module docstring): the first
-    ``count`` of the event's words, so that a kind drawing fewer numbers hashes fewer blocks."""
+def _uniforms(key_data, pid, order, count: int, dtype):
+    """``count`` uniforms in (0, 1) of events ``order`` of paths ``pid`` (module docstring), a tuple of per-lane
+    arrays: the first ``count`` of the event's words, so that a kind drawing fewer numbers hashes fewer
+    blocks.  The blocks are hashed as one array: hashed one by one, XLA's CPU backend copies the hash into
+    each of its consumers' kernels (4 times the work)."""
     pid = pid.astype(jnp.uint32)
     base = order.astype(jnp.uint32) * jnp.uint32(_WORD_PAIRS)
-    words = []
-    for j in range((count + 1) // 2):
-        words.extend(threefry_2x32(key_data, pid, base + jnp.uint32(j)))
-    return jnp.stack([(w.astype(jnp.float64) + 0.5) * 2.0**-32 for w in words[:count]], axis=1)
+    pairs = (count + 1) // 2
+    x1 = base[None, :] + jnp.arange(pairs, dtype=jnp.uint32)[:, None]
+    first, second = threefry_2x32(key_data, jnp.broadcast_to(pid[None, :], x1.shape), x1)
+    # words 2 j and 2 j + 1 are block j's two; one hash of all the blocks, materialised once
+    u = uniforms(jnp.stack([first, second], axis=1).reshape(2 * pairs, -1), dtype)
+    return tuple(u[j] for j in range(count))
 
 
 def _step(carry, key, params, mu_i, hi, cap, cfg: WalkConfig):
@@ -236,9 +243,9 @@ def _step(carry, key, params, mu_i, hi, cap, cfg: WalkConfig):
     inside = inside & ~start
     alive = alive | start
 
-    u = _uniforms(key, pid, order, _UNIFORMS[cfg.kind])
+    u = _uniforms(key, pid, order, _UNIFORMS[cfg.kind], h.dtype)
     ax, ay = params.alpha_x, params.alpha_y
-    h_next = sample_height(wx, wy, wz, h, u[:, 0], ax, ay, cfg.distribution)
+    h_next = sample_height(wx, wy, wz, h, u[0], ax, ay, cfg.distribution)
     escaped = alive & (h_next == ESCAPED)
     capped = alive & ~escaped & (order >= cap)
     scatters = alive & ~escaped & ~capped
@@ -247,7 +254,7 @@ def _step(carry, key, params, mu_i, hi, cap, cfg: WalkConfig):
     k = jnp.minimum(order, cfg.orders + 1) - 1  # order 1..K -> 0..K-1, above K -> K
     k = jnp.where(escaped, k, 0)
     side = inside.astype(jnp.int32)
-    w_out = jnp.where(escaped, weight, 0.0)
+    w_out = jnp.where(escaped, weight, 0.0).astype(jnp.float64)  # tallies add up in float64
     bi = _bin(wz, cfg.mu_edges)  # |mu_o|
     if cfg.kind == "dielectric":  # physical azimuth: the inside frame is the point reflection of the outside
         bj = _phi_bin(jnp.where(inside, -wx, wx), wy, cfg.phi_edges)  # |phi| does not see the sign of y
@@ -263,7 +270,7 @@ def _step(carry, key, params, mu_i, hi, cap, cfg: WalkConfig):
         t["lobe_sq"] = t["lobe_sq"].at[0, k, bi, bj].add(w_up * w_up)
     t["exits"] = t["exits"].at[side, k].add(w_out)
     t["exits_sq"] = t["exits_sq"].at[side, k].add(w_out * w_out)
-    w_cap = jnp.where(capped, weight, 0.0)
+    w_cap = jnp.where(capped, weight, 0.0).astype(jnp.float64)
     t["capped"] = t["capped"] + jnp.sum(w_cap)
     t["capped_sq"] = t["capped_sq"] + jnp.sum(w_cap * w_cap)
     t["paths"] = t["paths"] + n_started
@@ -271,7 +278,7 @@ def _step(carry, key, params, mu_i, hi, cap, cfg: WalkConfig):
 
     # scattering from the facet met at h_next
     vx, vy, vz = -wx, -wy, -wz
-    mx, my, mz = sample_vndf(vx, vy, vz, u[:, 1], u[:, 2], ax, ay, cfg.distribution)
+    mx, my, mz = sample_vndf(vx, vy, vz, u[1], u[2], ax, ay, cfg.distribution)
     h_out = h_next
     if cfg.kind == "conductor":
         ox, oy, oz = reflect(vx, vy, vz, mx, my, mz)
@@ -279,12 +286,12 @@ def _step(carry, key, params, mu_i, hi, cap, cfg: WalkConfig):
         weight = jnp.where(scatters, weight * fresnel_factor(cfg.fresnel, cos_d, params.f0, params.eta, params.k),
                            weight)
     elif cfg.kind == "diffuse":
-        ox, oy, oz = _cosine_about(mx, my, mz, u[:, 3], u[:, 4])
+        ox, oy, oz = _cosine_about(mx, my, mz, u[3], u[4])
         weight = jnp.where(scatters, weight * params.albedo, weight)
     else:  # dielectric: reflect with probability F, else refract and change side; the weight stays 1
         eta = jnp.where(inside, 1.0 / params.eta, params.eta)
         cos_d = jnp.clip(vx * mx + vy * my + vz * mz, 0.0, 1.0)
-        reflects = u[:, 3] < dielectric(cos_d, eta)
+        reflects = u[3] < dielectric(cos_d, eta)
         rx, ry, rz = reflect(vx, vy, vz, mx, my, mz)
         tx, ty, tz = refract(vx, vy, vz, mx, my, mz, eta)
         ox, oy, oz = jnp.where(reflects, rx, -tx), jnp.where(reflects, ry, -ty), jnp.where(reflects, rz, -tz)
@@ -308,8 +315,11 @@ def _walk(key_data, params, mu_i, lo, hi, cap, cfg: WalkConfig, platform: str = 
     """Run path ids [lo, hi) to completion on one device; returns the tallies."""
     key = jnp.asarray(key_data, jnp.uint32)
     p = cfg.slots or default_slots(platform)
-    lanes = (jnp.zeros(p, bool), jnp.zeros(p, jnp.int64), jnp.zeros(p, jnp.int64), jnp.ones(p), jnp.zeros(p),
-             jnp.zeros(p), jnp.zeros(p), jnp.ones(p), jnp.zeros(p, bool))
+    dt = jnp.dtype(cfg.precision)
+    params = jax.tree_util.tree_map(lambda v: v.astype(dt), params)
+    mu_i = mu_i.astype(dt)
+    lanes = (jnp.zeros(p, bool), jnp.zeros(p, jnp.int64), jnp.zeros(p, jnp.int64), jnp.ones(p, dt), jnp.zeros(p, dt),
+             jnp.zeros(p, dt), jnp.zeros(p, dt), jnp.ones(p, dt), jnp.zeros(p, bool))
     carry = (lanes, _zero_tallies(cfg), lo)
     body = partial(_step, key=key, params=params, mu_i=mu_i, hi=hi, cap=cap, cfg=cfg)
     carry = jax.lax.while_loop(lambda c: (c[2] < hi) | jnp.any(c[0][0]), body, carry)
