@@ -253,3 +253,16 @@ def test_kd_material_of_a_true_scene_is_converted_through_the_true_half_space():
     assert m.kd == 0.3
     assert float(spherical_albedo(m.c, phase="true")) == pytest.approx(0.3, abs=1e-11)
     assert abs(float(spherical_albedo(m.c, phase="mixed")) - 0.3) > 1e-7  # the two inverses differ
+
+
+def test_the_walk_precision_is_a_scene_choice():
+    """``[precision] float`` picks the walk's arithmetic for every job of the scene (default float32); any other
+    value is refused with its line."""
+    from fitlab.families.lambert_sphere.mc.effects import plan
+
+    assert {cfg.precision for cfg in plan(parse_scene(GOOD, "s.toml")).values()} == {"float32"}
+    scene = parse_scene(GOOD.replace("batch = 10_000", 'batch = 10_000\nfloat = "float64"'), "s.toml")
+    assert scene.walk_precision == "float64"
+    assert {cfg.precision for cfg in plan(scene).values()} == {"float64"}
+    msg = _error(GOOD.replace("batch = 10_000", 'batch = 10_000\nfloat = "float16"'))
+    assert msg.startswith("s.toml:26: precision.float:") and "float16" in msg and len(msg.splitlines()) == 1

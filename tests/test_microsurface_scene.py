@@ -99,3 +99,16 @@ def test_binary_garbage_is_refused_in_one_line(tmp_path):
     with pytest.raises(SceneError) as exc:
         load_scene(p)
     assert str(exc.value) == f"{p}:1: (file): not a UTF-8 text file (byte 0xfc at offset 8)"
+
+
+def test_the_walk_precision_is_a_scene_choice():
+    """``[precision] float`` picks the walk's arithmetic for the scene's jobs (default float32); any other value
+    is refused with its line."""
+    from fitlab.families.microfacet_energy.mc.simulate import job_config
+
+    s = parse_scene(GOOD, "ok.toml")
+    assert s.walk_precision == "float32" and job_config(s, s.materials[0]).precision == "float32"
+    s = parse_scene(GOOD + 'float = "float64"\n', "ok.toml")
+    assert job_config(s, s.materials[0]).precision == "float64"
+    with pytest.raises(SceneError, match=r"ok.toml:12: precision.float: .*float16"):
+        parse_scene(GOOD + 'float = "float16"\n', "ok.toml")

@@ -347,3 +347,24 @@ def test_throughput_report():
     for case in CASES:
         assert r[case]["bounces_per_second"] > 0 and r[case]["bounces_per_path"] > 1.0
     assert r["sharding"]["identical_tallies"]
+
+
+@pytest.mark.parametrize("distribution, kind", [("ggx", "conductor"), ("ggx", "dielectric"), ("beckmann", "diffuse")])
+def test_float32_walk_is_the_float64_walk_to_its_rounding(distribution, kind):
+    """The float32 walk (the default) against the float64 one on one job key: the same paths but for the last
+    8 of 32 bits of their uniforms, so a discrete decision (escape, reflect or refract, the order) flips only
+    where a uniform falls within 2^-24 of its threshold.  In 20000 paths none did for these kinds (and for GGX
+    diffuse, Beckmann conductor and dielectric); at most 2 paths may differ, each by its order or side."""
+    from fitlab.families.microfacet_energy.mc.walk import MaterialParams, WalkConfig, job_key, run_round
+
+    key, n = job_key(5, 0, 0), 20_000
+    runs = {p: run_round(WalkConfig(distribution=distribution, kind=kind, precision=p), key,
+                         MaterialParams(0.6, 0.6, eta=1.5), 0.5, 0, n) for p in ("float32", "float64")}
+    f32, f64 = runs["float32"], runs["float64"]
+    moved = sum(np.abs(f32[t] - f64[t]).sum() for t in ("albedo", "transmission", "capped"))
+    assert moved <= 2 * 2  # a path that changes order or side leaves one count and adds one
+    assert np.abs(f32["lobe"] - f64["lobe"]).sum() <= 2 * 2
+    assert f32["albedo"].dtype == np.float64
+    # energy, path by path, in both precisions (every weight is 1)
+    for r in (f32, f64):
+        assert r["albedo"].sum() + r["transmission"].sum() + r["capped"] == n

@@ -112,7 +112,7 @@ def plan(scene: Scene) -> dict:
             jobs.setdefault(job, set()).add(effect)
     out = {}
     for job, effs in jobs.items():
-        common = dict(max_collisions=scene.max_collisions, slots=scene.slots)
+        common = dict(max_collisions=scene.max_collisions, slots=scene.slots, precision=scene.walk_precision)
         if job.kind == "cosine":
             cfg = WalkConfig(phase=scene.phase, sampler=scene.sampler, incidence="cosine", **common)
         elif job.kind == "both":

@@ -34,6 +34,7 @@ orders cos(m phi), and/or |phi| bins), the effects wanted and a precision target
     batch = 100000               # photons per round, at most 10^7; the stopping rule is checked per round
     max_collisions = 100000      # the cap; what it cuts is tallied and reported
     slots = 0                    # photon slots per device (0: automatic)
+    float = "float32"            # the walk's arithmetic: "float32" (default) or "float64" (docs/montecarlo.md)
 
 Every error names ``file:line`` and the field (``material[2].c``); all errors
 of a file are reported together, as one :class:`SceneError`.  NaN and infinite
@@ -51,7 +52,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from fitlab import scenes
-from fitlab._montecarlo import MAX_PATHS, MIN_PATHS_BUDGET
+from fitlab._montecarlo import MAX_PATHS, MIN_PATHS_BUDGET, PRECISIONS
 from fitlab.core import get_form
 from fitlab.families.lambert_sphere.exact import albedo_inverse
 from fitlab.scenes import MAX_SCENE_BYTES, NAME_RE, SceneError  # noqa: F401 - re-exported: this module's names
@@ -89,7 +90,7 @@ _KNOWN = {
     ("incident",): {"mu_i"},
     ("outgoing",): {"mu_o", "fourier", "phi"},
     ("effects",): {"list", "collision_orders"},
-    ("precision",): {"target_se", "max_paths", "batch", "max_collisions", "slots"},
+    ("precision",): {"target_se", "max_paths", "batch", "max_collisions", "slots", "float"},
 }
 
 
@@ -120,6 +121,7 @@ class Scene:
     batch: int = 100_000
     max_collisions: int = 100_000
     slots: int = 0  # 0: automatic (fitlab.families.lambert_sphere.mc.transport.default_slots)
+    walk_precision: str = "float32"  # [precision] float: the walk's path state (fitlab._montecarlo.PRECISIONS)
 
 
 def _c_of_kd(kd: float, phase: str) -> float:
@@ -294,6 +296,7 @@ class SceneSchema:
         num = {key: ck.number(prec, ("precision", key), *LIMITS[key], default=default, integer=True)
                for key, default in (("max_paths", 2_000_000), ("batch", 100_000), ("max_collisions", 100_000),
                                     ("slots", 0))}
+        walk_float = ck.choice(prec, ("precision", "float"), PRECISIONS, "float32")
         if num["slots"] is not None and 0 < num["slots"] < 64:
             ck.fail(("precision", "slots"), f"photon slots per device: 0 (automatic) or >= 64, got {num['slots']}")
         ck.raise_errors()
@@ -314,6 +317,7 @@ class SceneSchema:
             materials=tuple(mats), mu_i=mu_i, mu_edges=mu_edges, orders=orders, phi_edges=phi_edges,
             effects=effects, collision_orders=int(coll), target_se=target, max_paths=int(num["max_paths"]),
             batch=int(num["batch"]), max_collisions=int(num["max_collisions"]), slots=int(num["slots"]),
+            walk_precision=walk_float,
         )
 
 

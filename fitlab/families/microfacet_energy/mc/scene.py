@@ -40,6 +40,7 @@ Example::
     max_bounces = 1000          # scattering events after which a path is stopped and tallied as capped
     slots = 1024                # lanes of the vectorised walk per device, in [64, 2^20], or 0: 1024 on a
                                 #   CPU, 65536 on an accelerator
+    float = "float32"           # the walk's arithmetic: "float32" (default) or "float64" (docs/microsurface.md)
 """
 
 from __future__ import annotations
@@ -48,7 +49,7 @@ import math
 from dataclasses import dataclass, field
 
 from fitlab import scenes
-from fitlab._montecarlo import MAX_PATHS, MIN_PATHS_BUDGET
+from fitlab._montecarlo import MAX_PATHS, MIN_PATHS_BUDGET, PRECISIONS
 from fitlab.families.microfacet_energy.mc.microsurface import DISTRIBUTIONS
 from fitlab.families.microfacet_energy.mc.walk import KINDS
 from fitlab.families.microfacet_energy.mc.walk_fresnel import FRESNEL
@@ -75,7 +76,7 @@ _KNOWN = {
                  "albedo"},
     "incident": {"mu_i"},
     "outgoing": {"mu_o", "phi", "orders", "transmission_lobe"},
-    "precision": {"target_se", "max_paths", "batch", "max_bounces", "slots"},
+    "precision": {"target_se", "max_paths", "batch", "max_bounces", "slots", "float"},
 }
 
 
@@ -125,6 +126,7 @@ class Scene:
     max_bounces: int = 1000
     slots: int = 1024
     transmission_lobe: bool = True
+    walk_precision: str = "float32"  # [precision] float: the walk's path state (fitlab._montecarlo.PRECISIONS)
 
 
 def _material(ck: scenes.Checker, m, i: int):
@@ -268,10 +270,13 @@ class SceneSchema:
                 continue
             nums[key] = ck.number(prec, ("precision", key), *LIMITS[key], default=default, integer=True)
 
+        walk_float = ck.choice(prec, ("precision", "float"), PRECISIONS, "float32")
+
         ck.raise_errors()
         return Scene(path=ck.path, name=name, description=description, seed=int(seed), materials=tuple(materials),
                      mu_i=mu_i, mu_edges=mu_edges, phi_edges=phi_edges, orders=int(orders), target_se=target,
-                     transmission_lobe=transmission_lobe, **{k: int(v) for k, v in nums.items()})
+                     transmission_lobe=transmission_lobe, walk_precision=walk_float,
+                     **{k: int(v) for k, v in nums.items()})
 
 
 SCHEMA = SceneSchema()

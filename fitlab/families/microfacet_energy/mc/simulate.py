@@ -74,7 +74,8 @@ def job_config(scene: Scene, material) -> WalkConfig:
     """The compiled configuration of a material's jobs."""
     return WalkConfig(distribution=material.distribution, kind=material.kind, fresnel=material.fresnel,
                       orders=scene.orders, mu_edges=scene.mu_edges, phi_edges=scene.phi_edges, slots=scene.slots,
-                      transmission_lobe=scene.transmission_lobe and material.kind == "dielectric")
+                      transmission_lobe=scene.transmission_lobe and material.kind == "dielectric",
+                      precision=scene.walk_precision)
 
 
 def job_params(material) -> MaterialParams:
