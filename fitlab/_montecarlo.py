@@ -16,7 +16,7 @@ import sys
 
 __all__ = ["MAX_PATHS", "MIN_PATHS_BUDGET", "SLOW_JOB_SECONDS", "THREEFRY_ROTATIONS", "THREEFRY_C", "duration",
            "slow_job_warning", "threefry_2x32", "HOST_DEVICES_FLAG", "use_every_core", "PRECISIONS", "uniforms",
-           "sincos_2pi"]
+           "sincos_2pi", "threefry_blocks", "block_words"]
 
 #: the largest path budget of one job (``max_paths`` in a scene file, ``--max-paths``): one rule for every
 #: family and the command line (the microsurface walk numbers a job's paths with 32-bit ids)
@@ -181,3 +181,27 @@ def sincos_2pi(x):
     cos_a = 1.0 + a2 * (-1 / 2 + a2 * (1 / 24 + a2 * (-1 / 720 + a2 * (1 / 40320 + a2 * (-1 / 3628800
                                                                                       + a2 * (1 / 479001600))))))
     return 2.0 * sin_a * cos_a, 1.0 - 2.0 * sin_a * sin_a
+
+
+def threefry_blocks(key_data, pid, base, pairs: int):
+    """:func:`threefry_2x32` of the counters (pid, base + j), j < pairs, for each lane: a (pairs, lanes) uint64
+    array, block j's first word in the high half and its second in the low half (:func:`block_words`).
+
+    One array, because of how XLA's CPU backend fuses: a walk that hashes where it uses the words gets the
+    hash copied into each consumer's kernel (up to 6 times the work), and one that materialises them by a
+    concatenation gets a hash that does not vectorise.  The walks hash at the end of a step, for each lane's
+    next event, and carry the array to the next step."""
+    import jax.numpy as jnp
+
+    x1 = base.astype(jnp.uint32)[None, :] + jnp.arange(pairs, dtype=jnp.uint32)[:, None]
+    first, second = threefry_2x32(key_data, jnp.broadcast_to(pid.astype(jnp.uint32)[None, :], x1.shape), x1)
+    return (first.astype(jnp.uint64) << jnp.uint64(32)) | second.astype(jnp.uint64)
+
+
+def block_words(blocks):
+    """The words of :func:`threefry_blocks`: (first, second), each a list over blocks of per-lane uint32."""
+    import jax.numpy as jnp
+
+    first = [(b >> jnp.uint64(32)).astype(jnp.uint32) for b in blocks]
+    second = [(b & jnp.uint64(0xFFFFFFFF)).astype(jnp.uint32) for b in blocks]
+    return first, second

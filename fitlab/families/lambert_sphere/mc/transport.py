@@ -44,6 +44,8 @@ Random numbers are counter-based: the words for photon ``id`` at collision
 ``n`` are Threefry-2x32(round key; id, n J + j), j < J.  A photon's path
 depends only on (seed, round, id), never on the slot, the batch or the device
 that runs it, so results agree across layouts up to the order of summation.
+A step hashes each slot's blocks for its next collision and carries them to the
+next step (:func:`fitlab._montecarlo.threefry_blocks` says why).
 Precision (``WalkConfig.precision``): the path state is float32 by default, the tallies float64.  float32
 uniforms are (word >> 8 + 1/2) 2^-24 in (0, 1): free paths are cut at 17.3 mean free paths (probability
 3e-8); float64 ones (word + 1/2) 2^-32: cut at 22.9 (1e-10), the C reference walk's numbers.  Both cuts lie
@@ -70,7 +72,7 @@ import jax.numpy as jnp
 import numpy as np
 from jax.sharding import Mesh, PartitionSpec
 
-from fitlab._montecarlo import PRECISIONS, sincos_2pi, threefry_2x32, uniforms
+from fitlab._montecarlo import PRECISIONS, block_words, sincos_2pi, threefry_blocks, uniforms
 from fitlab.core import float64
 from fitlab.families.lambert_sphere.mc.phase_sampling import (
     THREE_TERM_NORM,
@@ -165,6 +167,7 @@ class _Slots(NamedTuple):
     dy: jax.Array
     dz: jax.Array
     w: jax.Array  # (slots, 1 or 2) weights
+    blocks: jax.Array  # (pairs, slots) uint64: the Threefry blocks of each slot's event n (_refill hashes them)
 
 
 def _tally_shapes(cfg: WalkConfig) -> dict:
@@ -195,16 +198,12 @@ def _zero_tallies(cfg: WalkConfig) -> dict:
     return out
 
 
-def _uniforms(key_pair, pid, n, pairs, dtype):
-    """2*pairs uniforms in (0, 1) per slot from Threefry(key; pid, n*pairs + j): item j < pairs the first word
-    of block j, item pairs + j its second (the layout of ``jax.extend.random.threefry_2x32`` of the counters
-    concatenated), as a tuple of per-slot arrays.  The blocks are hashed as one array: hashed one by one,
-    XLA's CPU backend copies the hash into each of its consumers' kernels (5 times the work)."""
-    base = n.astype(jnp.uint32) * jnp.uint32(pairs)
-    x1 = base[None, :] + jnp.arange(pairs, dtype=jnp.uint32)[:, None]
-    first, second = threefry_2x32(key_pair, jnp.broadcast_to(pid[None, :], x1.shape), x1)
-    u = uniforms(jnp.concatenate([first, second]), dtype)
-    return tuple(u[j] for j in range(2 * pairs))
+def _uniforms(blocks, dtype):
+    """The 2*pairs uniforms of a slot's event from its Threefry blocks (:func:`fitlab._montecarlo.threefry_blocks`
+    of the counters (pid, n*pairs + j)): item j < pairs from block j's first word, item pairs + j from its
+    second (the layout of ``jax.extend.random.threefry_2x32`` of the counters concatenated)."""
+    first, second = block_words(blocks)
+    return tuple(uniforms(w, dtype) for w in first + second)
 
 
 def _chebyshev(cos_phi, orders):
@@ -283,22 +282,29 @@ def _tally(tallies, cfg: WalkConfig, escaped, n, w, dx, dy, dz, capped):
     return out
 
 
-def _step(carry, key_pair, c, mu_i, hi, cap, cfg: WalkConfig):
-    """Refill empty slots with new photon ids, then one flight (+ collision) for each live slot."""
+def _refill(carry, key_pair, hi, cfg: WalkConfig):
+    """Give empty slots the next photon ids (in slot order, by a prefix sum), then hash every slot's Threefry
+    blocks for its next event (carried to the next step: :func:`fitlab._montecarlo.threefry_blocks`)."""
     s, tallies, nxt = carry
-    size = s.alive.shape[0]
     need = ~s.alive
     rank = jnp.cumsum(need.astype(jnp.int64)) - 1
     new_id = nxt + rank
     take = need & (new_id < hi)
     pid = jnp.where(take, new_id.astype(jnp.uint32), s.pid)
     n = jnp.where(take, 0, s.n)
-    alive = s.alive | take
-    nxt = jnp.minimum(nxt + need.sum(), hi)
-    w0 = jnp.ones_like(s.w)
-    s = s._replace(alive=alive, pid=pid, n=n, w=jnp.where(take[:, None], w0, s.w))
+    w = jnp.where(take[:, None], jnp.ones_like(s.w), s.w)
+    blocks = threefry_blocks(key_pair, pid, n.astype(jnp.uint32) * jnp.uint32(cfg.words), cfg.words)
+    s = s._replace(alive=s.alive | take, pid=pid, n=n, w=w, blocks=blocks)
+    tallies = dict(tallies)
+    tallies["photons"] = tallies["photons"] + take.sum()
+    return s, tallies, jnp.minimum(nxt + need.sum(), hi)
 
-    u01 = _uniforms(key_pair, s.pid, s.n, cfg.words, s.z.dtype)
+
+def _step(carry, key_pair, c, mu_i, hi, cap, cfg: WalkConfig):
+    """One flight (+ collision) for each live slot, then :func:`_refill`."""
+    s, tallies, nxt = carry
+    size = s.alive.shape[0]
+    u01 = _uniforms(s.blocks, s.z.dtype)
     entering = s.n == 0
     # entry: direction -w_i (mu_i fixed, or cosine-distributed: mu = sqrt(x))
     mu = jnp.sqrt(u01[0]) if cfg.incidence == "cosine" else jnp.broadcast_to(mu_i, (size,))
@@ -330,20 +336,19 @@ def _step(carry, key_pair, c, mu_i, hi, cap, cfg: WalkConfig):
     capped = live & ~escaped & (n_next > cap)
     alive = live & ~escaped & ~capped
     tallies = _tally(tallies, cfg, escaped, s.n, w, dx, dy, dz, capped)
-    tallies["photons"] = tallies["photons"] + take.sum()
     tallies["collisions"] = tallies["collisions"] + (s.alive & ~entering).sum()
     tallies["n_capped"] = tallies["n_capped"] + capped.sum()
     tallies["steps"] = tallies["steps"] + 1
-    s = _Slots(alive, s.pid, n_next, jnp.where(alive, z, 0.0), dx, dy, dz, w)
-    return s, tallies, nxt
+    s = _Slots(alive, s.pid, n_next, jnp.where(alive, z, 0.0), dx, dy, dz, w, s.blocks)
+    return _refill((s, tallies, nxt), key_pair, hi, cfg)
 
 
 def _compact(s: _Slots, size: int) -> _Slots:
     """The live slots, gathered into ``size`` slots (the caller ensures enough room)."""
     count = s.alive.sum()
     idx = jnp.nonzero(s.alive, size=size, fill_value=0)[0]
-    g = jax.tree_util.tree_map(lambda a: a[idx], s)
-    return g._replace(alive=jnp.arange(size) < count)
+    g = jax.tree_util.tree_map(lambda a: a[idx], s._replace(blocks=s.blocks.T))
+    return g._replace(alive=jnp.arange(size) < count, blocks=g.blocks.T)
 
 
 def default_slots(platform: str) -> int:
@@ -366,8 +371,9 @@ def _walk(key_pair, c, mu_i, lo, hi, cap, cfg: WalkConfig, platform: str = "cpu"
     s = _Slots(
         jnp.zeros(p, bool), jnp.zeros(p, jnp.uint32), jnp.zeros(p, jnp.int32),
         jnp.zeros(p, dt), jnp.zeros(p, dt), jnp.zeros(p, dt), jnp.zeros(p, dt), jnp.ones((p, nw), dt),
+        jnp.zeros((cfg.words, p), jnp.uint64),
     )
-    carry = (s, _zero_tallies(cfg), jnp.asarray(lo, jnp.int64))
+    carry = _refill((s, _zero_tallies(cfg), jnp.asarray(lo, jnp.int64)), key_pair, hi, cfg)
     body = partial(_step, key_pair=key_pair, c=c, mu_i=mu_i, hi=hi, cap=cap, cfg=cfg)
     for level, size in enumerate(sizes):
         if level:

@@ -60,7 +60,9 @@ of the ids into rounds gives the same paths (and tallies equal up to the order o
 when the weights are 1).
 
 Vectorisation: a pool of ``slots`` lanes runs one event per lane per loop iteration; a lane whose path
-ended takes the next id at once, so lanes idle only at the end of a round.
+ended takes the next id at once, so lanes idle only at the end of a round.  An iteration ends by hashing
+each lane's blocks for its next event, carried to the next iteration
+(:func:`fitlab._montecarlo.threefry_blocks` says why).
 
 Devices: the walk runs under ``jax.shard_map`` on a 1-D mesh (default: every device JAX sees, see
 :func:`default_mesh`); device d walks the d-th contiguous slice of the round's ids with its own lane
@@ -80,7 +82,7 @@ import jax.numpy as jnp
 import numpy as np
 from jax.sharding import Mesh, PartitionSpec
 
-from fitlab._montecarlo import PRECISIONS, sincos_2pi, threefry_2x32, uniforms
+from fitlab._montecarlo import PRECISIONS, block_words, sincos_2pi, threefry_blocks, uniforms
 from fitlab.core import float64
 from fitlab.families.microfacet_energy.mc.microsurface import (
     DISTRIBUTIONS,
@@ -210,25 +212,19 @@ def _cosine_about(mx, my, mz, u1, u2):
     return x / n, y / n, z / n
 
 
-def _uniforms(key_data, pid, order, count: int, dtype):
-    """``count`` uniforms in (0, 1) of events ``order`` of paths ``pid`` (module docstring), a tuple of per-lane
-    arrays: the first ``count`` of the event's words, so that a kind drawing fewer numbers hashes fewer
-    blocks.  The blocks are hashed as one array: hashed one by one, XLA's CPU backend copies the hash into
-    each of its consumers' kernels (4 times the work)."""
-    pid = pid.astype(jnp.uint32)
-    base = order.astype(jnp.uint32) * jnp.uint32(_WORD_PAIRS)
-    pairs = (count + 1) // 2
-    x1 = base[None, :] + jnp.arange(pairs, dtype=jnp.uint32)[:, None]
-    first, second = threefry_2x32(key_data, jnp.broadcast_to(pid[None, :], x1.shape), x1)
-    # words 2 j and 2 j + 1 are block j's two; one hash of all the blocks, materialised once
-    u = uniforms(jnp.stack([first, second], axis=1).reshape(2 * pairs, -1), dtype)
-    return tuple(u[j] for j in range(count))
+def _uniforms(blocks, count: int, dtype):
+    """The first ``count`` uniforms in (0, 1) of a lane's event from its Threefry blocks
+    (:func:`fitlab._montecarlo.threefry_blocks` of the counters (id, 3 n + j); module docstring): numbers 2 j
+    and 2 j + 1 are block j's two words.  A kind drawing fewer numbers hashes fewer blocks."""
+    first, second = block_words(blocks)
+    words = [w for pair in zip(first, second) for w in pair]
+    return tuple(uniforms(w, dtype) for w in words[:count])
 
 
-def _step(carry, key, params, mu_i, hi, cap, cfg: WalkConfig):
-    # (h, w) are in the frame of the side the ray is on (module docstring, "Dielectrics"); inside: below
-    (alive, pid, order, h, wx, wy, wz, weight, inside), tallies, next_id = carry
-    # refill: dead lanes take the next ids in lane order
+def _refill(lanes, t, next_id, key, mu_i, hi, cfg: WalkConfig):
+    """Dead lanes take the next ids in lane order (a prefix sum) and start at the top along -w_i; then every
+    lane's Threefry blocks for its next event are hashed, to be carried to the next step."""
+    alive, pid, order, h, wx, wy, wz, weight, inside, _ = lanes
     dead = ~alive
     rank = jnp.cumsum(dead.astype(jnp.int64)) - 1
     new_id = next_id + rank
@@ -242,8 +238,17 @@ def _step(carry, key, params, mu_i, hi, cap, cfg: WalkConfig):
     weight = jnp.where(start, 1.0, weight)
     inside = inside & ~start
     alive = alive | start
+    pairs = (_UNIFORMS[cfg.kind] + 1) // 2
+    blocks = threefry_blocks(key, pid, order.astype(jnp.uint32) * jnp.uint32(_WORD_PAIRS), pairs)
+    t = dict(t)
+    t["paths"] = t["paths"] + n_started
+    return (alive, pid, order, h, wx, wy, wz, weight, inside, blocks), t, next_id + n_started
 
-    u = _uniforms(key, pid, order, _UNIFORMS[cfg.kind], h.dtype)
+
+def _step(carry, key, params, mu_i, hi, cap, cfg: WalkConfig):
+    # (h, w) are in the frame of the side the ray is on (module docstring, "Dielectrics"); inside: below
+    (alive, pid, order, h, wx, wy, wz, weight, inside, blocks), tallies, next_id = carry
+    u = _uniforms(blocks, _UNIFORMS[cfg.kind], h.dtype)
     ax, ay = params.alpha_x, params.alpha_y
     h_next = sample_height(wx, wy, wz, h, u[0], ax, ay, cfg.distribution)
     escaped = alive & (h_next == ESCAPED)
@@ -273,7 +278,6 @@ def _step(carry, key, params, mu_i, hi, cap, cfg: WalkConfig):
     w_cap = jnp.where(capped, weight, 0.0).astype(jnp.float64)
     t["capped"] = t["capped"] + jnp.sum(w_cap)
     t["capped_sq"] = t["capped_sq"] + jnp.sum(w_cap * w_cap)
-    t["paths"] = t["paths"] + n_started
     t["bounces"] = t["bounces"] + jnp.sum(scatters.astype(jnp.int64))
 
     # scattering from the facet met at h_next
@@ -300,8 +304,8 @@ def _step(carry, key, params, mu_i, hi, cap, cfg: WalkConfig):
     wx, wy, wz = jnp.where(scatters, ox, wx), jnp.where(scatters, oy, wy), jnp.where(scatters, oz, wz)
     h = jnp.where(scatters, h_out, h)
     order = jnp.where(scatters, order + 1, order)
-    alive = scatters
-    return (alive, pid, order, h, wx, wy, wz, weight, inside), t, next_id + n_started
+    lanes = (scatters, pid, order, h, wx, wy, wz, weight, inside, blocks)
+    return _refill(lanes, t, next_id, key, mu_i, hi, cfg)
 
 
 def default_slots(platform: str) -> int:
@@ -319,8 +323,8 @@ def _walk(key_data, params, mu_i, lo, hi, cap, cfg: WalkConfig, platform: str = 
     params = jax.tree_util.tree_map(lambda v: v.astype(dt), params)
     mu_i = mu_i.astype(dt)
     lanes = (jnp.zeros(p, bool), jnp.zeros(p, jnp.int64), jnp.zeros(p, jnp.int64), jnp.ones(p, dt), jnp.zeros(p, dt),
-             jnp.zeros(p, dt), jnp.zeros(p, dt), jnp.ones(p, dt), jnp.zeros(p, bool))
-    carry = (lanes, _zero_tallies(cfg), lo)
+             jnp.zeros(p, dt), jnp.zeros(p, dt), jnp.ones(p, dt), jnp.zeros(p, bool), None)
+    carry = _refill(lanes, _zero_tallies(cfg), lo, key, mu_i, hi, cfg)
     body = partial(_step, key=key, params=params, mu_i=mu_i, hi=hi, cap=cap, cfg=cfg)
     carry = jax.lax.while_loop(lambda c: (c[2] < hi) | jnp.any(c[0][0]), body, carry)
     return carry[1]
