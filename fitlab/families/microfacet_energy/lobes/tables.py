@@ -118,8 +118,10 @@ def walk_config(kind: str):
 
     if kind not in KINDS:
         raise ValueError(f"kind must be one of {KINDS}, got {kind!r}")
+    # float64: the committed tables are rewritten byte for byte (module docstring); a float32 walk takes the same
+    # paths to 1e-7 (docs/microsurface.md, "Precision"), not to the tables' last digit
     return WalkConfig(distribution="ggx", kind=kind, fresnel="one", orders=len(ORDER_LABELS) - 1, mu_edges=MU_EDGES,
-                      phi_edges=PHI_EDGES, slots=_SLOTS)
+                      phi_edges=PHI_EDGES, slots=_SLOTS, precision="float64")
 
 
 def job_paths(alpha: float) -> int:
