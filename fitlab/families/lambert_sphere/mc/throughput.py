@@ -41,7 +41,7 @@ batch = 50000
 """
 
 
-def throughput(cfg: WalkConfig, c: float, mu_i: float, n: int, repeat: int = 2) -> dict:
+def throughput(cfg: WalkConfig, c: float, mu_i: float, n: int, repeat: int = 3) -> dict:
     """Best-of-``repeat`` photons/s and collisions/s of one round of n photons."""
     mesh = default_mesh()
     compile_s = compile_walk(cfg, mesh)
@@ -52,7 +52,7 @@ def throughput(cfg: WalkConfig, c: float, mu_i: float, n: int, repeat: int = 2) 
                 steps=int(res["steps"]))
 
 
-def native_throughput(c: float, mu_i: float, n: int, repeat: int = 2) -> dict:
+def native_throughput(c: float, mu_i: float, n: int, repeat: int = 3) -> dict:
     """Best-of-``repeat`` photons/s and collisions/s of the C reference walk (:mod:`.native`: the walk of
     ``phase="true", sampler="exact"``, the same random numbers, one thread, no tallies) on n photons."""
     import numpy as np
@@ -89,7 +89,7 @@ def bench_mc(quick: bool = False) -> dict:
     n = 50_000 if quick else 400_000
     dev = jax.devices()
     print(f"fitlab bench mc: {len(dev)} device(s) ({dev[0].platform}), {n} photons per timing, "
-          f"mu_i = 0.5, 4 mu_o bins x orders 0-2 tallied; best of 2, compilation apart\n")
+          f"mu_i = 0.5, 4 mu_o bins x orders 0-2 tallied; best of 3, compilation apart\n")
     print(f"{'phase / sampler':<24}{'c':>6}{'slots':>7}{'photons/s':>12}{'collisions/s':>14}{'coll/photon':>13}"
           f"{'compile s':>11}")
     results = {}
