@@ -62,6 +62,7 @@ gets a contiguous id range and the tallies are summed with ``psum``.
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass, replace
 from functools import partial
@@ -262,24 +263,36 @@ def _tally(tallies, cfg: WalkConfig, escaped, n, w, dx, dy, dz, capped):
         cos_phi = jnp.where(rho > 0.0, jnp.clip(dx / jnp.where(rho > 0.0, rho, 1.0), -1.0, 1.0), 1.0)
     if "fourier" in out:
         v = esc_w[:, :, None] * _chebyshev(cos_phi, cfg.orders)[:, None, :]
-        out["fourier"] = out["fourier"].at[mbin].add(v)
-        out["fourier_sq"] = out["fourier_sq"].at[mbin].add(v * v)
+        _add_with_squares(out, "fourier", (mbin,), v)
     if "bins" in out:
         nphi = len(cfg.phi_edges) - 1
-        pbin = _bin_index(jnp.arccos(cos_phi), cfg.phi_edges, nphi)
+        pbin = _phi_bin_index(cos_phi, cfg.phi_edges, nphi)
         onehot = (pbin[:, None] == jnp.arange(nphi)[None, :]).astype(jnp.float64)
-        v = esc_w[:, :, None] * onehot[:, None, :]
-        out["bins"] = out["bins"].at[mbin].add(v)
-        out["bins_sq"] = out["bins_sq"].at[mbin].add(v * v)
+        _add_with_squares(out, "bins", (mbin,), esc_w[:, :, None] * onehot[:, None, :])
     if "coll" in out:
         top = cfg.collision_orders
         cbin = jnp.where(escaped, jnp.minimum(n, top + 1) - 2, top)  # rest: top - 1; dump: top
-        out["coll"] = out["coll"].at[cbin].add(esc_w)
-        out["coll_sq"] = out["coll_sq"].at[cbin].add(esc_w * esc_w)
+        _add_with_squares(out, "coll", (cbin,), esc_w)
         if "coll_f0" in out:
-            out["coll_f0"] = out["coll_f0"].at[cbin, mbin].add(esc_w)
-            out["coll_f0_sq"] = out["coll_f0_sq"].at[cbin, mbin].add(esc_w * esc_w)
+            _add_with_squares(out, "coll_f0", (cbin, mbin), esc_w)
     return out
+
+
+def _add_with_squares(out: dict, name: str, index: tuple, v) -> None:
+    """out[name] and out[name + "_sq"] at ``index`` (one index array per leading axis) plus v and v^2, in one
+    scatter: XLA's CPU scatter costs per index, not per value added."""
+    axis = len(index)
+    pair = jnp.stack([out[name], out[name + "_sq"]], axis=axis)
+    pair = pair.at[index].add(jnp.stack([v, v * v], axis=1))
+    out[name], out[name + "_sq"] = jnp.take(pair, 0, axis=axis), jnp.take(pair, 1, axis=axis)
+
+
+def _phi_bin_index(cos_phi, edges, dump):
+    """Index of the |phi| bin [e_k, e_k+1) holding acos(cos_phi) (the last bin closed); ``dump`` if outside: a
+    count of the inner edges at or below it, compared as cosines (cos decreases on [0, pi]; no arccosine)."""
+    c = [math.cos(e) for e in edges]
+    k = sum(((cos_phi <= ce).astype(jnp.int32) for ce in c[1:-1]), start=jnp.zeros(cos_phi.shape, jnp.int32))
+    return jnp.where((cos_phi <= c[0]) & (cos_phi >= c[-1]), k, dump)
 
 
 def _refill(carry, key_pair, hi, cfg: WalkConfig):
