@@ -1,8 +1,9 @@
 """Rules every family's Monte Carlo (``fitlab simulate``) shares: the path budget of one job, the warning
 when a job's budget cannot reach its standard-error target within :data:`SLOW_JOB_SECONDS`, the
 counter-based hash both random walks draw their numbers from (:func:`threefry_2x32`), the uniforms they make
-of its words in either precision (:func:`uniforms`), the azimuth's sine and cosine (:func:`sincos_2pi`), and
-one JAX CPU device per core (:func:`use_every_core`).
+of its words in either precision (:func:`uniforms`), the azimuth's sine and cosine (:func:`sincos_2pi`), the
+tallies' bins and sums (:func:`azimuth_cosine`, :func:`bin_index`, :func:`add_with_squares`), and one JAX CPU
+device per core (:func:`use_every_core`).
 
 No JAX at import: the command line reads :data:`MAX_PATHS` for its help (the JAX functions import it when
 they are traced).
@@ -16,7 +17,7 @@ import sys
 
 __all__ = ["MAX_PATHS", "MIN_PATHS_BUDGET", "SLOW_JOB_SECONDS", "THREEFRY_ROTATIONS", "THREEFRY_C", "duration",
            "slow_job_warning", "threefry_2x32", "HOST_DEVICES_FLAG", "use_every_core", "PRECISIONS", "uniforms",
-           "sincos_2pi", "threefry_blocks", "block_words"]
+           "sincos_2pi", "threefry_blocks", "block_words", "azimuth_cosine", "bin_index", "add_with_squares"]
 
 #: the largest path budget of one job (``max_paths`` in a scene file, ``--max-paths``): one rule for every
 #: family and the command line (the microsurface walk numbers a job's paths with 32-bit ids)
@@ -205,3 +206,47 @@ def block_words(blocks):
     first = [(b >> jnp.uint64(32)).astype(jnp.uint32) for b in blocks]
     second = [(b & jnp.uint64(0xFFFFFFFF)).astype(jnp.uint32) for b in blocks]
     return first, second
+
+
+def azimuth_cosine(x, y):
+    """cos |phi| = x / sqrt(x^2 + y^2) of a direction's horizontal part (x, y), clipped to [-1, 1]; 1 (phi = 0)
+    straight up or down.  The walks bin and expand |phi| by its cosine: no arctangent or arccosine."""
+    import jax.numpy as jnp
+
+    rho = jnp.sqrt(x * x + y * y)
+    return jnp.where(rho > 0.0, jnp.clip(x / jnp.where(rho > 0.0, rho, 1.0), -1.0, 1.0), 1.0)
+
+
+def bin_index(value, edges, decreasing: bool = False):
+    """Index of the bin [e_i, e_i+1) holding value (the last bin closed), len(edges) - 1 outside.
+
+    ``decreasing``: ``value`` is g(x) of a decreasing g (the cosine of an angle) and ``edges`` are g of the
+    x edges, so that the bin of x is found without inverting g.  Up to 32 edges by counting the interior
+    edges passed (a few compares per lane; on a CPU ``searchsorted`` is a loop), beyond that by a binary
+    search."""
+    import jax.numpy as jnp
+    import numpy as np
+
+    e = np.asarray(edges, dtype=float)
+    n = len(e)
+    if decreasing:  # x >= x_j  <=>  g(x) <= g(x_j)
+        value, e = -value, -e
+    if n <= 32:
+        i = sum((value >= x).astype(jnp.int32) for x in e[1:-1]) if n > 2 else jnp.zeros(value.shape, jnp.int32)
+    else:
+        i = jnp.searchsorted(jnp.asarray(e), value, side="right") - 1
+        i = jnp.where(value == e[-1], n - 2, i)
+    outside = (value < e[0]) | (value > e[-1])
+    return jnp.where(outside, n - 1, i)
+
+
+def add_with_squares(tallies: dict, name: str, index: tuple, v) -> None:
+    """tallies[name] and tallies[name + "_sq"] at ``index`` (one index per leading axis) plus v and v^2, in one
+    scatter: XLA's CPU scatter costs per index, not per value added.  v: one value per lane (and any trailing
+    axes of the tally)."""
+    import jax.numpy as jnp
+
+    axis = len(index)
+    pair = jnp.stack([tallies[name], tallies[name + "_sq"]], axis=axis)
+    pair = pair.at[index].add(jnp.stack([v, v * v], axis=1))
+    tallies[name], tallies[name + "_sq"] = jnp.take(pair, 0, axis=axis), jnp.take(pair, 1, axis=axis)

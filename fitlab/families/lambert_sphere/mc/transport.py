@@ -73,7 +73,16 @@ import jax.numpy as jnp
 import numpy as np
 from jax.sharding import Mesh, PartitionSpec
 
-from fitlab._montecarlo import PRECISIONS, block_words, sincos_2pi, threefry_blocks, uniforms
+from fitlab._montecarlo import (
+    PRECISIONS,
+    add_with_squares,
+    azimuth_cosine,
+    bin_index,
+    block_words,
+    sincos_2pi,
+    threefry_blocks,
+    uniforms,
+)
 from fitlab.core import float64
 from fitlab.families.lambert_sphere.mc.phase_sampling import (
     THREE_TERM_NORM,
@@ -216,13 +225,6 @@ def _chebyshev(cos_phi, orders):
     return jnp.stack([t[m] for m in orders], axis=-1)
 
 
-def _bin_index(x, edges, dump):
-    """Index of the bin [e_k, e_k+1) holding x (the last bin closed); ``dump`` if outside."""
-    # a count of the inner edges at or below x: a few compares, where searchsorted is a loop on a CPU
-    k = sum(((x >= e).astype(jnp.int32) for e in edges[1:-1]), start=jnp.zeros(x.shape, jnp.int32))
-    return jnp.where((x >= edges[0]) & (x <= edges[-1]), k, dump)
-
-
 def _scatter(s: _Slots, u01, c, cfg: WalkConfig):
     """One collision: weight times c, new direction; returns (dx, dy, dz, w)."""
     if cfg.phase == "true":
@@ -258,41 +260,23 @@ def _tally(tallies, cfg: WalkConfig, escaped, n, w, dx, dy, dz, capped):
     out["capped_sq"] = out["capped_sq"] + (cap_w * cap_w).sum(0)
     nb = max(len(cfg.mu_edges) - 1, 0)
     if nb:
-        mbin = jnp.where(escaped, _bin_index(dz, cfg.mu_edges, nb), nb)
-        rho = jnp.sqrt(dx * dx + dy * dy)
-        cos_phi = jnp.where(rho > 0.0, jnp.clip(dx / jnp.where(rho > 0.0, rho, 1.0), -1.0, 1.0), 1.0)
+        mbin = jnp.where(escaped, bin_index(dz, cfg.mu_edges), nb)  # nb: outside every bin, or not escaped
+        cos_phi = azimuth_cosine(dx, dy)
     if "fourier" in out:
         v = esc_w[:, :, None] * _chebyshev(cos_phi, cfg.orders)[:, None, :]
-        _add_with_squares(out, "fourier", (mbin,), v)
+        add_with_squares(out, "fourier", (mbin,), v)
     if "bins" in out:
         nphi = len(cfg.phi_edges) - 1
-        pbin = _phi_bin_index(cos_phi, cfg.phi_edges, nphi)
+        pbin = bin_index(cos_phi, [math.cos(e) for e in cfg.phi_edges], decreasing=True)  # nphi: outside
         onehot = (pbin[:, None] == jnp.arange(nphi)[None, :]).astype(jnp.float64)
-        _add_with_squares(out, "bins", (mbin,), esc_w[:, :, None] * onehot[:, None, :])
+        add_with_squares(out, "bins", (mbin,), esc_w[:, :, None] * onehot[:, None, :])
     if "coll" in out:
         top = cfg.collision_orders
         cbin = jnp.where(escaped, jnp.minimum(n, top + 1) - 2, top)  # rest: top - 1; dump: top
-        _add_with_squares(out, "coll", (cbin,), esc_w)
+        add_with_squares(out, "coll", (cbin,), esc_w)
         if "coll_f0" in out:
-            _add_with_squares(out, "coll_f0", (cbin, mbin), esc_w)
+            add_with_squares(out, "coll_f0", (cbin, mbin), esc_w)
     return out
-
-
-def _add_with_squares(out: dict, name: str, index: tuple, v) -> None:
-    """out[name] and out[name + "_sq"] at ``index`` (one index array per leading axis) plus v and v^2, in one
-    scatter: XLA's CPU scatter costs per index, not per value added."""
-    axis = len(index)
-    pair = jnp.stack([out[name], out[name + "_sq"]], axis=axis)
-    pair = pair.at[index].add(jnp.stack([v, v * v], axis=1))
-    out[name], out[name + "_sq"] = jnp.take(pair, 0, axis=axis), jnp.take(pair, 1, axis=axis)
-
-
-def _phi_bin_index(cos_phi, edges, dump):
-    """Index of the |phi| bin [e_k, e_k+1) holding acos(cos_phi) (the last bin closed); ``dump`` if outside: a
-    count of the inner edges at or below it, compared as cosines (cos decreases on [0, pi]; no arccosine)."""
-    c = [math.cos(e) for e in edges]
-    k = sum(((cos_phi <= ce).astype(jnp.int32) for ce in c[1:-1]), start=jnp.zeros(cos_phi.shape, jnp.int32))
-    return jnp.where((cos_phi <= c[0]) & (cos_phi >= c[-1]), k, dump)
 
 
 def _refill(carry, key_pair, hi, cfg: WalkConfig):

@@ -82,7 +82,16 @@ import jax.numpy as jnp
 import numpy as np
 from jax.sharding import Mesh, PartitionSpec
 
-from fitlab._montecarlo import PRECISIONS, block_words, sincos_2pi, threefry_blocks, uniforms
+from fitlab._montecarlo import (
+    PRECISIONS,
+    add_with_squares,
+    azimuth_cosine,
+    bin_index,
+    block_words,
+    sincos_2pi,
+    threefry_blocks,
+    uniforms,
+)
 from fitlab.core import float64
 from fitlab.families.microfacet_energy.mc.microsurface import (
     DISTRIBUTIONS,
@@ -166,31 +175,10 @@ def _zero_tallies(cfg: WalkConfig) -> dict:
     return z
 
 
-def _bin(value, edges, decreasing=False):
-    """Index of the bin [e_i, e_i+1) holding value (the last bin closed), len(edges) - 1 outside.
-
-    ``decreasing``: ``value`` is g(x) of a decreasing g (the cosine of an angle) and ``edges`` are g of the
-    x edges, so that the bin of x is found without inverting g.  Up to 32 edges by counting the interior
-    edges passed (a few compares per lane), beyond that by a binary search."""
-    e = np.asarray(edges, dtype=float)
-    n = len(e)
-    if decreasing:  # x >= x_j  <=>  g(x) <= g(x_j)
-        value, e = -value, -e
-    if n <= 32:
-        i = sum((value >= x).astype(jnp.int32) for x in e[1:-1]) if n > 2 else jnp.zeros(value.shape, jnp.int32)
-    else:
-        i = jnp.searchsorted(jnp.asarray(e), value, side="right") - 1
-        i = jnp.where(value == e[-1], n - 2, i)
-    outside = (value < e[0]) | (value > e[-1])
-    return jnp.where(outside, n - 1, i)
-
-
 def _phi_bin(x, y, edges):
     """The bin of |phi| = |atan2(y, x)| in [0, pi] among ``edges``, by cos |phi| = x / sqrt(x^2 + y^2)
     (no arctangent; cos = 1, phi = 0, straight up or down)."""
-    rho = jnp.sqrt(x * x + y * y)
-    cos_phi = jnp.where(rho > 0.0, jnp.clip(x / jnp.where(rho > 0.0, rho, 1.0), -1.0, 1.0), 1.0)
-    return _bin(cos_phi, np.cos(np.asarray(edges, dtype=float)), decreasing=True)
+    return bin_index(azimuth_cosine(x, y), np.cos(np.asarray(edges, dtype=float)), decreasing=True)
 
 
 def _cosine_about(mx, my, mz, u1, u2):
@@ -260,21 +248,17 @@ def _step(carry, key, params, mu_i, hi, cap, cfg: WalkConfig):
     k = jnp.where(escaped, k, 0)
     side = inside.astype(jnp.int32)
     w_out = jnp.where(escaped, weight, 0.0).astype(jnp.float64)  # tallies add up in float64
-    bi = _bin(wz, cfg.mu_edges)  # |mu_o|
+    bi = bin_index(wz, cfg.mu_edges)  # |mu_o|
     if cfg.kind == "dielectric":  # physical azimuth: the inside frame is the point reflection of the outside
         bj = _phi_bin(jnp.where(inside, -wx, wx), wy, cfg.phi_edges)  # |phi| does not see the sign of y
     else:
         bj = _phi_bin(wx, wy, cfg.phi_edges)
     t = dict(tallies)
     if cfg.transmission_lobe:
-        t["lobe"] = t["lobe"].at[side, k, bi, bj].add(w_out)
-        t["lobe_sq"] = t["lobe_sq"].at[side, k, bi, bj].add(w_out * w_out)
+        add_with_squares(t, "lobe", (side, k, bi, bj), w_out)
     else:
-        w_up = jnp.where(inside, 0.0, w_out)
-        t["lobe"] = t["lobe"].at[0, k, bi, bj].add(w_up)
-        t["lobe_sq"] = t["lobe_sq"].at[0, k, bi, bj].add(w_up * w_up)
-    t["exits"] = t["exits"].at[side, k].add(w_out)
-    t["exits_sq"] = t["exits_sq"].at[side, k].add(w_out * w_out)
+        add_with_squares(t, "lobe", (0, k, bi, bj), jnp.where(inside, 0.0, w_out))
+    add_with_squares(t, "exits", (side, k), w_out)
     w_cap = jnp.where(capped, weight, 0.0).astype(jnp.float64)
     t["capped"] = t["capped"] + jnp.sum(w_cap)
     t["capped_sq"] = t["capped_sq"] + jnp.sum(w_cap * w_cap)
