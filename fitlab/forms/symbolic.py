@@ -16,6 +16,7 @@ import ast
 import math
 import operator
 import re
+from functools import lru_cache
 
 import numpy as np
 import sympy as sp
@@ -61,16 +62,29 @@ def _jax_safe_pow(x, p):
     return jnp.where(pos, jnp.exp(p * jnp.log(jnp.where(pos, x, 1.0))), 0.0)
 
 
+#: how many distinct expressions the memoised translations below keep (each is a pure function of its
+#: arguments; sympy's cse and printers cost 0.1 s per expression, and a report or a refit asks for the same
+#: expressions many times)
+_MEMO = 256
+
+
 def lambdify_numpy(args, expr):
     """A numpy function of ``args`` (symbols) computing ``expr``."""
-    return sp.lambdify(args, expr, modules=[{"safe_pow": _np_safe_pow}, "numpy"], cse=True)
+    return _lambdify(tuple(args), expr, "numpy")
 
 
 def lambdify_jax(args, expr):
     """A jax.numpy function of ``args`` computing ``expr`` (jit- and grad-able)."""
-    return sp.lambdify(args, expr, modules=[{"safe_pow": _jax_safe_pow}, "jax"], cse=True)
+    return _lambdify(tuple(args), expr, "jax")
 
 
+@lru_cache(maxsize=_MEMO)
+def _lambdify(args, expr, backend):
+    safe = _np_safe_pow if backend == "numpy" else _jax_safe_pow
+    return sp.lambdify(args, expr, modules=[{"safe_pow": safe}, backend], cse=True)
+
+
+@lru_cache(maxsize=_MEMO)
 def expression_text(expr) -> str:
     """The text stored in fits JSON; :func:`parse_expression` reads it back."""
     return sp.sstr(expr, full_prec=True)
@@ -345,6 +359,13 @@ def parse_expression(text: str, names) -> sp.Expr:
         raise ValueError(f"expression must be a string, not {type(text).__name__}")
     if len(text) > MAX_TEXT:
         raise ValueError(f"expression is {len(text)} characters long; at most {MAX_TEXT} are read")
+    # memoised on the text and the names (at most _MEMO texts of at most MAX_TEXT characters are kept); a
+    # refusal is not kept, it is raised again
+    return _parse(text, tuple(names))
+
+
+@lru_cache(maxsize=_MEMO)
+def _parse(text: str, names: tuple) -> sp.Expr:
     allowed = {n: sp.Symbol(n, real=True) for n in names}
     try:
         tree = ast.parse(text.strip(), mode="eval")
