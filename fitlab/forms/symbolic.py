@@ -69,7 +69,7 @@ _MEMO = 256
 
 
 def lambdify_numpy(args, expr):
-    """A numpy function of ``args`` (symbols) computing ``expr``."""
+    """A numpy function of ``args`` (symbols) computing ``expr`` (an expression, or a list of them)."""
     return _lambdify(tuple(args), expr, "numpy")
 
 
@@ -78,16 +78,32 @@ def lambdify_jax(args, expr):
     return _lambdify(tuple(args), expr, "jax")
 
 
-@lru_cache(maxsize=_MEMO)
 def _lambdify(args, expr, backend):
+    # a list of expressions (a library of terms) is translated each time: it is not hashable, and a tuple
+    # would make the function return a tuple instead of a list
+    if isinstance(expr, sp.Basic):
+        return _lambdify_memo(args, expr, backend)
+    return _translate(args, expr, backend)
+
+
+def _translate(args, expr, backend):
     safe = _np_safe_pow if backend == "numpy" else _jax_safe_pow
     return sp.lambdify(args, expr, modules=[{"safe_pow": safe}, backend], cse=True)
 
 
-@lru_cache(maxsize=_MEMO)
+_lambdify_memo = lru_cache(maxsize=_MEMO)(_translate)
+
+
 def expression_text(expr) -> str:
     """The text stored in fits JSON; :func:`parse_expression` reads it back."""
+    return _text_memo(expr) if isinstance(expr, sp.Basic) else _text(expr)
+
+
+def _text(expr) -> str:
     return sp.sstr(expr, full_prec=True)
+
+
+_text_memo = lru_cache(maxsize=_MEMO)(_text)
 
 
 #: the functions an expression in a fit file may call, with their number of arguments

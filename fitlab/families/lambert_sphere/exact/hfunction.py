@@ -78,12 +78,15 @@ class HSolution:
     def __call__(self, u):
         """H(u) for u in [0, inf]."""
         shape, flat, finite, inv_uv, psi_h = self._sums(u)
+        return self._h(flat, finite, inv_uv, psi_h).reshape(shape)
+
+    def _h(self, flat, finite, inv_uv, psi_h):
         denom = self.sqrt_k0 + inv_uv @ (self.nodes * psi_h)
         with np.errstate(divide="ignore"):
             out = 1.0 / denom
         out[~finite] = np.inf if self.sqrt_k0 == 0.0 else 1.0 / self.sqrt_k0
         out[flat == 0.0] = 1.0  # exact; the Nystrom sum gives it to one ulp
-        return out.reshape(shape)
+        return out
 
     def h_minus_one_over_u(self, u):
         """(H(u) - 1)/u without cancellation: H(u) int Psi H/(u+v) dv.
@@ -92,7 +95,7 @@ class HSolution:
         Psi(0) != 0.
         """
         shape, flat, finite, inv_uv, psi_h = self._sums(u)
-        h = self(flat)
+        h = self._h(flat, finite, inv_uv, psi_h)  # the same sums as self(u), not formed twice
         out = h * (inv_uv @ psi_h)
         zero = flat == 0.0
         if np.any(zero):
