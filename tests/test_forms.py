@@ -75,6 +75,31 @@ def test_parse_expression_rejects_unknown_names():
         parse_expression("mu + typo", ("mu",))
 
 
+def test_memoised_translations_are_what_a_fresh_translation_gives():
+    """parse_expression, expression_text and the lambdify back ends keep their results (fitlab.forms.symbolic):
+    a second call gives the same object; a refusal is raised again, never kept as a result; two expressions that
+    ``==`` tells apart only by a Float's precision keep texts of their own; the names are part of the key."""
+    from fitlab.forms.symbolic import expression_text, lambdify_numpy, symbols
+
+    text = "a*mu**2 + 0.25*safe_pow(mu, b)"
+    first = parse_expression(text, ("mu", "a", "b"))
+    assert parse_expression(text, ["mu", "a", "b"]) is first
+    mu, a, b = symbols(("mu", "a", "b"))
+    assert first == a * mu**2 + sp.Float("0.25") * safe_pow(mu, b)
+    for _ in range(2):
+        with pytest.raises(ValueError, match="unknown name 'b'"):
+            parse_expression(text, ("mu", "a"))
+    x = sp.Symbol("x", real=True)
+    short, long = sp.Float("0.1", 15) * x, sp.Float("0.1", 30) * x
+    assert expression_text(short) == "0.100000000000000*x"
+    assert expression_text(long) == "0.100000000000000000000000000000*x"
+    f = lambdify_numpy((mu, a, b), first)
+    assert lambdify_numpy([mu, a, b], first) is f
+    assert f(0.5, 2.0, 1.0) == 2.0 * 0.25 + 0.25 * 0.5
+    terms = lambdify_numpy((mu,), [mu**2, mu])  # a list: translated each time, returns a list
+    assert terms(3.0) == [9.0, 3.0]
+
+
 def test_parse_expression_matches_sympys_parser_on_every_committed_fit():
     # the restricted parser must read what sympy's (code-evaluating) parser read before, node for node
     for path in sorted((Path(__file__).resolve().parents[1] / "fitlab" / "fits").glob("*.json")):
