@@ -66,24 +66,40 @@ def _jax_safe_pow(x, p):
 #: arguments; sympy's cse and printers cost 0.1 s per expression, and a report or a refit asks for the same
 #: expressions many times)
 _MEMO = 256
+#: the longest expression text the parser's memo keeps (the packaged fits' longest is 7245 characters)
+_MEMO_TEXT = 16_384
 
 
 def lambdify_numpy(args, expr):
     """A numpy function of ``args`` (symbols) computing ``expr`` (an expression, or a list of them)."""
-    return _lambdify(tuple(args), expr, "numpy")
+    return _lambdify(args, expr, "numpy")
 
 
 def lambdify_jax(args, expr):
     """A jax.numpy function of ``args`` computing ``expr`` (jit- and grad-able)."""
-    return _lambdify(tuple(args), expr, "jax")
+    return _lambdify(args, expr, "jax")
 
 
 def _lambdify(args, expr, backend):
     # a list of expressions (a library of terms) is translated each time: it is not hashable, and a tuple
-    # would make the function return a tuple instead of a list
+    # would make the function return a tuple instead of a list; so are arguments that are not a flat sequence
+    # of symbols (a bare symbol is kept as one)
     if isinstance(expr, sp.Basic):
-        return _lambdify_memo(args, expr, backend)
+        key = _symbol_key(args)
+        if key is not None:
+            return _lambdify_memo(key, expr, backend)
     return _translate(args, expr, backend)
+
+
+def _symbol_key(args):
+    """``args`` (a symbol, or sequences of them nested, as lambdify takes them) as nested tuples; None where a
+    leaf is not a sympy object."""
+    if isinstance(args, sp.Basic):
+        return args
+    if isinstance(args, (list, tuple)):
+        parts = tuple(_symbol_key(a) for a in args)
+        return None if any(p is None for p in parts) else parts
+    return None
 
 
 def _translate(args, expr, backend):
@@ -375,8 +391,10 @@ def parse_expression(text: str, names) -> sp.Expr:
         raise ValueError(f"expression must be a string, not {type(text).__name__}")
     if len(text) > MAX_TEXT:
         raise ValueError(f"expression is {len(text)} characters long; at most {MAX_TEXT} are read")
-    # memoised on the text and the names (at most _MEMO texts of at most MAX_TEXT characters are kept); a
-    # refusal is not kept, it is raised again
+    # memoised on the text and the names (at most _MEMO texts of at most _MEMO_TEXT characters are kept; a longer
+    # one is parsed each time); a refusal is not kept, it is raised again
+    if len(text) > _MEMO_TEXT:
+        return _parse.__wrapped__(text, tuple(names))
     return _parse(text, tuple(names))
 
 

@@ -595,27 +595,27 @@ def _ms_numerators(sol: OrderSolution, mu_a, mu_b):
         return np.zeros(mu_a.shape), 0.0
     uniq, inv = np.unique(np.concatenate((mu_a, mu_b)), return_inverse=True)
     ia, ib = inv[: mu_a.size], inv[mu_a.size:]
+    ua, ka = np.unique(ia, return_inverse=True)
+    ub, kb = np.unique(ib, return_inverse=True)
     with _blas_one_thread():
         if uniq.size > _interpolation_size(sol.degree, sol.smallest):
             rows, k_plus = _rows_interpolated(sol, uniq)
         else:
             rows, k_plus = _rows(sol, uniq)
-    rw = rows * w[None, :]
-    kw = k_plus * w[None, :]
-    zmat = rw @ sol.km * w[None, :]
-    # x = sum_l R(a, l) w_l k(l, b), y = sum_l w_l k(a, l) R(l, b), z = sum_lk R(a, l) w_l K-(l, k) w_k R(k, b)
-    ua, ka = np.unique(ia, return_inverse=True)
-    ub, kb = np.unique(ib, return_inverse=True)
-    if ua.size * ub.size <= 2 * mu_a.size:
-        # the pairs fill (most of) a grid, as in a table or an albedo: one product per sum, then a gather,
-        # instead of gathering a row of quadrature weights per pair
-        x = (rw[ua] @ k_plus[ub].T)[ka, kb]
-        y = (kw[ua] @ rows[ub].T)[ka, kb]
-        z = (zmat[ua] @ rows[ub].T)[ka, kb]
-    else:
-        x = np.einsum("pj,pj->p", rw[ia], k_plus[ib])
-        y = np.einsum("pj,pj->p", kw[ia], rows[ib])
-        z = np.einsum("pj,pj->p", zmat[ia], rows[ib])
+        rw = rows * w[None, :]
+        kw = k_plus * w[None, :]
+        zmat = rw @ sol.km * w[None, :]
+        # x = sum_l R(a, l) w_l k(l, b), y = sum_l w_l k(a, l) R(l, b), z = sum_lk R(a, l) w_l K-(l, k) w_k R(k, b)
+        if ua.size * ub.size <= 2 * mu_a.size:
+            # the pairs fill (most of) a grid, as in a table or an albedo: one product per sum, then a gather,
+            # instead of gathering a row of quadrature weights per pair
+            x = (rw[ua] @ k_plus[ub].T)[ka, kb]
+            y = (kw[ua] @ rows[ub].T)[ka, kb]
+            z = (zmat[ua] @ rows[ub].T)[ka, kb]
+        else:
+            x = np.einsum("pj,pj->p", rw[ia], k_plus[ib])
+            y = np.einsum("pj,pj->p", kw[ia], rows[ib])
+            z = np.einsum("pj,pj->p", zmat[ia], rows[ib])
     num = 0.5 * c * (mu_a * x + mu_b * y) + 0.25 * c * mu_a * mu_b * z
     # sign of the log pole at (0, 0): the diverging sum at u = 0 (Y(0, 0) on the rule)
     pole = float(np.sign(y[(mu_a == 0.0) & (mu_b == 0.0)][0])) if np.any((mu_a == 0.0) & (mu_b == 0.0)) else 0.0
