@@ -393,12 +393,9 @@ def parse_expression(text: str, names) -> sp.Expr:
         raise ValueError(f"expression is {len(text)} characters long; at most {MAX_TEXT} are read")
     # memoised on the text and the names (at most _MEMO texts of at most _MEMO_TEXT characters are kept; a longer
     # one is parsed each time); a refusal is not kept, it is raised again
-    if len(text) > _MEMO_TEXT:
-        return _parse.__wrapped__(text, tuple(names))
-    return _parse(text, tuple(names))
+    return (_parse_memo if len(text) <= _MEMO_TEXT else _parse)(text, tuple(names))
 
 
-@lru_cache(maxsize=_MEMO)
 def _parse(text: str, names: tuple) -> sp.Expr:
     allowed = {n: sp.Symbol(n, real=True) for n in names}
     try:
@@ -477,3 +474,6 @@ def _parse(text: str, names: tuple) -> sp.Expr:
         return walk(tree.body, 0)
     except RecursionError:
         raise ValueError(f"expression nests deeper than {MAX_DEPTH}") from None
+
+
+_parse_memo = lru_cache(maxsize=_MEMO)(_parse)
