@@ -251,12 +251,12 @@ def test_damaged_cache_file_is_a_miss(tmp_path, monkeypatch, damage):
 
     monkeypatch.setenv("FITLAB_CACHE_DIR", str(tmp_path))
     points, c = np.array([[0.3, 0.6, 0.25]]), np.array([0.5])
-    y, kd = exact_values(points, c, "test", True, None)
+    y, kd = exact_values({"test": points}, c, True, None)
     (cached,) = tmp_path.glob("report-test-*.npz")
     cached.write_bytes(damage)
-    y2, kd2 = exact_values(points, c, "test", True, None)  # recomputed, and the cache rewritten
-    assert np.array_equal(y, y2) and np.array_equal(kd, kd2)
-    assert np.array_equal(np.load(cached)["y"], y)
+    y2, kd2 = exact_values({"test": points}, c, True, None)  # recomputed, and the cache rewritten
+    assert np.array_equal(y["test"], y2["test"]) and np.array_equal(kd, kd2)
+    assert np.array_equal(np.load(cached)["y"], y["test"])
 
 
 def test_unwritable_out_fails_before_any_work(tmp_path, capsys):

@@ -4,7 +4,7 @@ BRDF level: e_k = |f_k - f_exact,k| / |f_exact,k| over the report's validation
 set (:mod:`fitlab.report.validation`); max_rel = max_k e_k, rms_rel =
 sqrt(mean_k e_k^2), and max_rel_away the max over the points with mu_i, mu_o >=
 1/64 (away from the grazing pole, as in docs/audit.md); max_rel_grazing the max
-over the grazing set (mu_i, mu_o down to 1e-6, :func:`fitlab.report.validation.grazing_set`),
+over the grazing set (mu_i, mu_o down to 1e-6, :func:`fitlab.report.validation.validation_sets`),
 which the uniform points never reach.  A NaN or inf value
 counts as an infinite error (:func:`fitlab.fit.metrics.relative_errors`).
 

@@ -40,7 +40,7 @@ from fitlab.report.pareto import recommend
 from fitlab.report.programs import c_costs, form_costs, timing_inputs
 from fitlab.report.refits import recorded_seconds, refit_costs, refit_jobs
 from fitlab.report.settings import FULL, Settings, family_settings
-from fitlab.report.validation import brdf_set, fresh_set, grazing_set
+from fitlab.report.validation import fresh_set, validation_sets
 from fitlab.store import TableError, fits_folder
 
 __all__ = ["Report", "build_report"]
@@ -265,9 +265,8 @@ def _measure(settings, entries, fits_dir, data_dir, use_cache, p) -> tuple[list,
     hook = brdf_hook()  # the family's exact engine and Monte Carlo
 
     n_albedos = len(settings.small_c) + settings.n_c + settings.with_c1
-    p.stage("validation set", 2 * n_albedos + settings.fresh_c)
-    valid = brdf_set(settings, use_cache, p.tick)
-    grazing = grazing_set(settings, use_cache, p.tick)
+    p.stage("validation set", n_albedos + settings.fresh_c)
+    valid, grazing = validation_sets(settings, use_cache, p.tick)
     fresh = fresh_set(settings, use_cache, p.tick)
     energy_mu = np.maximum(np.linspace(0.0, 1.0, settings.energy_mu), 1e-3)
     energy_c = np.asarray(settings.energy_c, dtype=float)

@@ -15,7 +15,7 @@ the grazing pole mu_i = mu_o = 0 is approached only as far as the points go
 y = :func:`fitlab.families.lambert_sphere.exact.brdf`.
 
 Because uniform points never come near the pole, a second, small set looks there
-on purpose (:func:`grazing_set`): mu_i, mu_o in {1e-6, 1e-4, 1e-2} (all nine
+on purpose (the second set of :func:`validation_sets`): mu_i, mu_o in {1e-6, 1e-4, 1e-2} (all nine
 pairs) x phi in {0, pi/2, pi} x the same albedos.  At phi = pi with mu_i = mu_o
 -> 0 single scattering vanishes and the exact BRDF grows like log(1/mu) through
 its multiple-scattering orders, so an approximation's (H_i H_o - 1)/(mu_i + mu_o)
@@ -29,6 +29,7 @@ sources of :mod:`fitlab.families.lambert_sphere.exact`; a changed engine never r
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from pathlib import Path
 
 import numpy as np
@@ -38,8 +39,8 @@ from fitlab.core import Dataset
 from fitlab.report.methods import brdf_hook
 from fitlab.report.settings import Settings
 
-__all__ = ["albedos", "sobol_points", "brdf_set", "grazing_set", "fresh_set", "cache_dir", "exact_values", "GOLDEN", "GRAZING_MU",
-           "GRAZING_PHI"]
+__all__ = ["albedos", "sobol_points", "validation_sets", "fresh_set", "cache_dir", "exact_values", "GOLDEN",
+           "GRAZING_MU", "GRAZING_PHI"]
 
 GOLDEN = (np.sqrt(5.0) - 1.0) / 2.0
 #: the grazing set's cosines and azimuths
@@ -62,29 +63,39 @@ def sobol_points(log2_points: int, seed: int) -> np.ndarray:
     return qmc.Sobol(3, scramble=True, seed=seed).random_base2(log2_points)
 
 
-def exact_values(points: np.ndarray, c: np.ndarray, kind: str, use_cache: bool = True, tick=None) -> tuple:
-    """y[k, j] = the exact BRDF at points[j] (mu_i, mu_o, phi/pi) and c[k], and kd[k] = kd_true(c[k]),
-    through :func:`fitlab.cache.cached_arrays` (entries report-KIND-KEY.npz, keyed by the points, the
-    albedos and the family's exact sources; a damaged entry is a miss).  ``tick()`` once per albedo."""
+def exact_values(point_sets: Mapping[str, np.ndarray], c: np.ndarray, use_cache: bool = True, tick=None) -> tuple:
+    """({kind: y}, kd): y[k, j] = the exact BRDF at point_sets[kind][j] (mu_i, mu_o, phi/pi) and c[k], and
+    kd[k] = kd_true(c[k]), through :func:`fitlab.cache.cached_arrays` (one entry per kind, report-KIND-KEY.npz,
+    keyed by its points, the albedos and the family's exact sources; a damaged entry is a miss).  The sets are
+    computed together, every set at one albedo before the next (an exact engine may keep the solution of only
+    one albedo: a set after set loop would solve each albedo once per set).  ``tick()`` once per albedo."""
     hook = brdf_hook()
-    computed = []
-
-    def compute():
-        computed.append(True)
-        mu_i, mu_o, phi = points[:, 0], points[:, 1], np.pi * points[:, 2]
-        y = np.empty((c.size, points.shape[0]))
-        for k, cv in enumerate(c):
-            y[k] = hook.exact_brdf(mu_i, mu_o, phi, cv)
-            tick and tick()
-        return {"y": y, "kd": hook.exact_kd(c)}
-
     sources = sorted(Path(hook.EXACT_SOURCES).glob("*.py"))
-    out = cached_arrays(f"report-{kind}", {"points": np.asarray(points, dtype=float), "c": np.asarray(c, dtype=float)},
-                        compute, ("y", "kd"), sources, use_cache)  # fmt: skip
+    c = np.asarray(c, dtype=float)
+    kinds = list(point_sets)
+    computed: dict = {}
+
+    def compute(kind: str):
+        if kind not in computed:  # this set and those after it: the ones before were read from the cache
+            todo = kinds[kinds.index(kind):]
+            ys = {k: np.empty((c.size, point_sets[k].shape[0])) for k in todo}
+            for i, cv in enumerate(c):
+                for k in todo:
+                    p = point_sets[k]
+                    ys[k][i] = hook.exact_brdf(p[:, 0], p[:, 1], np.pi * p[:, 2], cv)
+                tick and tick()
+            kd = hook.exact_kd(c)
+            computed.update({k: {"y": ys[k], "kd": kd} for k in todo})
+        return computed[kind]
+
+    out = {}
+    for kind in kinds:
+        out[kind] = cached_arrays(f"report-{kind}", {"points": np.asarray(point_sets[kind], dtype=float), "c": c},
+                                  lambda kind=kind: compute(kind), ("y", "kd"), sources, use_cache)  # fmt: skip
     if not computed:
         for _ in c:
             tick and tick()
-    return out["y"], out["kd"]
+    return {kind: v["y"] for kind, v in out.items()}, out[kinds[0]]["kd"]
 
 
 def _dataset(points: np.ndarray, c: np.ndarray, y: np.ndarray, kd: np.ndarray, grid: str) -> Dataset:
@@ -106,28 +117,29 @@ def _albedo_grid(settings: Settings) -> str:
             f"s = (k + 0.618...)/{settings.n_c}" + (" and c = 1" if settings.with_c1 else ""))  # fmt: skip
 
 
-def brdf_set(settings: Settings, use_cache: bool = True, tick=None) -> Dataset:
-    """The validation set (a :class:`fitlab.core.Dataset` with inputs mu_i, mu_o, phi, c, kd).
+def _grazing_points() -> np.ndarray:
+    mi, mo, ph = np.meshgrid(GRAZING_MU, GRAZING_MU, np.asarray(GRAZING_PHI) / np.pi, indexing="ij")
+    return np.stack([mi.ravel(), mo.ravel(), ph.ravel()], axis=1)
 
+
+def validation_sets(settings: Settings, use_cache: bool = True, tick=None) -> tuple[Dataset, Dataset]:
+    """(the validation set, the grazing set), :class:`fitlab.core.Dataset` objects with inputs mu_i, mu_o,
+    phi, c, kd, computed together (:func:`exact_values`).
+
+    The validation set: the report's albedos x 2^``log2_points`` scrambled Sobol points in (mu_i, mu_o, phi/pi).
+    The grazing set: mu_i, mu_o in :data:`GRAZING_MU`, phi in :data:`GRAZING_PHI`, the same albedos.
     ``tick()`` is called once per albedo computed (a progress bar); a cache hit calls it for all.
     """
-    points = sobol_points(settings.log2_points, settings.seed)
+    points = {"brdf": sobol_points(settings.log2_points, settings.seed), "grazing": _grazing_points()}
     c = _albedos(settings)
-    y, kd = exact_values(points, c, "brdf", use_cache, tick)
-    grid = (_albedo_grid(settings)
-            + f", x 2^{settings.log2_points} scrambled Sobol points (seed {settings.seed}) in (mu_i, mu_o, phi/pi)")
-    return _dataset(points, c, y, kd, grid)
-
-
-def grazing_set(settings: Settings, use_cache: bool = True, tick=None) -> Dataset:
-    """The grazing set: mu_i, mu_o in :data:`GRAZING_MU`, phi in :data:`GRAZING_PHI`, the report's albedos."""
-    mi, mo, ph = np.meshgrid(GRAZING_MU, GRAZING_MU, np.asarray(GRAZING_PHI) / np.pi, indexing="ij")
-    points = np.stack([mi.ravel(), mo.ravel(), ph.ravel()], axis=1)
-    c = _albedos(settings)
-    y, kd = exact_values(points, c, "grazing", use_cache, tick)
-    grid = (_albedo_grid(settings) + " x mu_i, mu_o in {" + ", ".join(f"{m:g}" for m in GRAZING_MU)
-            + "} x phi in {0, pi/2, pi}")  # fmt: skip
-    return _dataset(points, c, y, kd, grid)
+    ys, kd = exact_values(points, c, use_cache, tick)
+    grids = {
+        "brdf": (_albedo_grid(settings) + f", x 2^{settings.log2_points} scrambled Sobol points (seed {settings.seed})"
+                 " in (mu_i, mu_o, phi/pi)"),
+        "grazing": (_albedo_grid(settings) + " x mu_i, mu_o in {" + ", ".join(f"{m:g}" for m in GRAZING_MU)
+                    + "} x phi in {0, pi/2, pi}"),
+    }  # fmt: skip
+    return tuple(_dataset(points[k], c, ys[k], kd, grids[k]) for k in ("brdf", "grazing"))
 
 
 def fresh_set(settings: Settings, use_cache: bool = True, tick=None) -> Dataset:

@@ -260,8 +260,14 @@ def accuracy_reference(seed: int = 18, n: int = 400, phase: str | None = None, a
     albedo_c = np.asarray(albedo_c, dtype=float)
 
     def compute():
-        # the engine solves once per distinct c, whatever the points' order
-        out = {name: brdf(p["mu_i"], p["mu_o"], p["phi"], p["c"], phase=phase) for name, p in pts.items()}
+        # every set at one c before the next c: the true-phase engine keeps the solutions of about one c, so a
+        # set after set loop would solve each c once per set
+        out = {name: np.empty(p["c"].shape) for name, p in pts.items()}
+        for cv in np.unique(np.concatenate([p["c"] for p in pts.values()])):
+            for name, p in pts.items():
+                sel = p["c"] == cv
+                if sel.any():
+                    out[name][sel] = brdf(p["mu_i"][sel], p["mu_o"][sel], p["phi"][sel], cv, phase=phase)
         out["albedo"] = np.array([albedo(mu, cv, phase=phase) for cv in albedo_c]).reshape(albedo_c.size, mu.size)
         return out
 

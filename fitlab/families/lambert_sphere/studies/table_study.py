@@ -55,9 +55,10 @@ def _sets():
     """The report's validation, grazing and independent sets: their values are the exact BRDF of
     :data:`REFERENCE_PHASE` (the report's exact method), computed once and cached by the report."""
     from fitlab.report.settings import FULL
-    from fitlab.report.validation import brdf_set, fresh_set, grazing_set
+    from fitlab.report.validation import fresh_set, validation_sets
 
-    return {"valid": brdf_set(FULL), "grazing": grazing_set(FULL), "fresh": fresh_set(FULL)}
+    valid, grazing = validation_sets(FULL)
+    return {"valid": valid, "grazing": grazing, "fresh": fresh_set(FULL)}
 
 
 def _measure(nodes: int, lookup: str, quantity: str, sets: dict, h_sets: dict, data_dir) -> dict:
