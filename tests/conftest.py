@@ -12,6 +12,7 @@ covers subprocesses and libraries loaded later."""
 import os
 import shutil
 import tempfile
+from pathlib import Path
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 # the tests read the tables packaged with fitlab, never a user's data folder (fitlab.resources): this one
@@ -34,17 +35,40 @@ def pytest_configure(config):
     * exact values and JAX's compiled programs (``$FITLAB_CACHE_DIR``, :mod:`fitlab.cache`): the user's cache
       (``$FITLAB_CACHE_DIR`` where set, else the default folder), pinned for the run, and JAX's persistent
       compilation cache enabled in the test processes too.  Entries are keyed by the bytes of the code that
-      computes them, so a warm cache is never stale; the tests of the cache itself set their own folder."""
+      computes them, so a warm cache is never stale; the tests of the cache itself set their own folder.
+      Before the workers start, the entries of tests/data/exact_values (tools/seed_test_cache.py: the exact
+      values that cost the suite most, about 250 CPU-seconds) are copied in where the cache lacks them, so a
+      first run starts with them warm; tests/test_exact_value_seed.py checks them against the engine."""
     if not hasattr(config, "workerinput"):  # the controller (or a run without xdist)
         folder = tempfile.mkdtemp(prefix="fitlab-tests-native-")
         config._fitlab_native_cache = folder
         os.environ["FITLAB_NATIVE_CACHE"] = folder
-        from fitlab.cache import cache_dir
+        from fitlab.cache import cache_dir, enabled
 
         os.environ["FITLAB_CACHE_DIR"] = str(cache_dir())
+        if enabled():
+            _seed_exact_values(cache_dir())
     from fitlab.cache import enable_compilation_cache
 
     enable_compilation_cache()
+
+
+#: the seed of the run's cache of exact values (tools/seed_test_cache.py)
+SEED = Path(__file__).resolve().parent / "data" / "exact_values"
+
+
+def _seed_exact_values(cache: Path) -> None:
+    """Copy the seed's entries that ``cache`` lacks into it (each as a temporary file, then renamed: a reader sees
+    a whole entry or none).  A cache that cannot be written only costs time, as in :mod:`fitlab.cache`."""
+    try:
+        cache.mkdir(parents=True, exist_ok=True)
+        for entry in sorted(SEED.glob("*.npz")):
+            if not (cache / entry.name).exists():
+                part = cache / f"{entry.name}.{os.getpid()}.tmp"
+                shutil.copyfile(entry, part)
+                os.replace(part, cache / entry.name)
+    except OSError:
+        pass
 
 
 def pytest_unconfigure(config):

@@ -355,7 +355,13 @@ def brdf_true_independent(seed: int = 33, n_c: int = 10, per_c: int = 400) -> Da
     blocks, grid = true_independent_points(seed, n_c, per_c)
 
     def compute():
-        ys = [brdf(p[:, 0], p[:, 1], p[:, 2], cv, phase="true") for cv, p in blocks]
+        # every block of one albedo before the next (a random albedo has two): the true-phase engine keeps the
+        # solutions of about one albedo
+        ys = [np.empty(0)] * len(blocks)
+        for cv in dict.fromkeys(cv for cv, _ in blocks):
+            for k, (cb, p) in enumerate(blocks):
+                if cb == cv:
+                    ys[k] = brdf(p[:, 0], p[:, 1], p[:, 2], cv, phase="true")
         n = [len(p) for _, p in blocks]
         return Dataset({"mu_i": np.concatenate([p[:, 0] for _, p in blocks]),
                         "mu_o": np.concatenate([p[:, 1] for _, p in blocks]),

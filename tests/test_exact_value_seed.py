@@ -1,0 +1,163 @@
+"""tests/data/exact_values, the seed of the run's cache of exact values (tools/seed_test_cache.py; copied in by
+tests/conftest.py): what the suite starts warm with is what the engine computes now.
+
+* The engine's fingerprint is the one the seed was made with: after an edit of the engine the seed's keys are
+  never read (each set is then computed in the run, as on a machine without the seed), and this test says to
+  run the tool again.
+* Every entry the manifest names is in the run's cache.
+* Each dataset the cache serves is, at a sample (one albedo, every point of it, plus c = 1 where the set has
+  it), what the engine computes in this test: the values are the engine's, not copies of something else.
+  Another machine's BLAS may round differently, so the comparison is to 1e-12 relative, far below every
+  tolerance the suite's figures are held to.
+"""
+
+import inspect
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from fitlab.cache import cache_dir, enabled
+from fitlab.families.lambert_sphere import exact
+from fitlab.families.lambert_sphere.program.runtime import accuracy_points, accuracy_reference
+from fitlab.families.lambert_sphere.targets import datasets as d
+
+ROOT = Path(__file__).resolve().parents[1]
+SEED = ROOT / "tests" / "data" / "exact_values"
+RTOL = 1e-12
+
+# the sample's solves are shared by the tests below: one worker runs them all
+pytestmark = pytest.mark.xdist_group("tests/test_exact_value_seed.py")
+
+
+def _manifest() -> dict:
+    return json.loads((SEED / "MANIFEST.json").read_text())
+
+
+def _tool():
+    sys.path.insert(0, str(ROOT / "tools"))
+    try:
+        import seed_test_cache
+    finally:
+        sys.path.pop(0)
+    return seed_test_cache
+
+
+def test_the_seed_was_made_by_this_engine():
+    got = _manifest()["engine_fingerprint"]
+    assert got == _tool().fingerprint(), (
+        "tests/data/exact_values was made by another exact engine (or fitlab version): its entries are never "
+        "read; run python tools/seed_test_cache.py")
+
+
+def test_the_manifest_names_every_seeded_set_and_file():
+    manifest = _manifest()
+    assert set(manifest["datasets"]) == set(CHECKS)
+    named = {f for files in manifest["datasets"].values() for f in files}
+    assert named == {p.name for p in SEED.glob("*.npz")}
+
+
+@pytest.mark.skipif(not enabled(), reason="the cache is off (FITLAB_NO_CACHE)")
+def test_the_run_cache_holds_every_seeded_entry():
+    missing = [p.name for p in SEED.glob("*.npz") if not (cache_dir() / p.name).exists()]
+    assert not missing, f"not copied into the run's cache {cache_dir()} (can it be written?): {missing}"
+
+
+def _close(got, want, label):
+    got, want = np.asarray(got, dtype=float), np.asarray(want, dtype=float)
+    assert got.shape == want.shape, label
+    both_inf = np.isinf(got) & np.isinf(want) & (np.sign(got) == np.sign(want))
+    scale = np.maximum(np.abs(want), np.finfo(float).tiny)
+    with np.errstate(invalid="ignore"):  # inf - inf where both are the same infinity
+        err = np.where(both_inf, 0.0, np.abs(got - want) / scale)
+    assert np.all(err <= RTOL), f"{label}: {np.nanmax(err):.2e} relative"
+
+
+def _sample(values):
+    """c = 1 (its solution is shared by every check: the engine keeps about two albedos) and the middle albedo."""
+    distinct = np.unique(values)
+    assert distinct[-1] == 1.0
+    return 1.0, float(distinct[distinct.size // 2])
+
+
+def _kd_of_c_validation():
+    ds = d.kd_of_c_validation()
+    c = ds.inputs["c"]
+    for cv in _sample(c):
+        k = np.flatnonzero(c == cv)
+        _close(ds.y[k], exact.spherical_albedo(c[k], phase="true"), f"kd_true at c = {cv}")
+
+
+def _constant_validation():
+    sample = np.array(_sample(d.constant_validation("l").inputs["c"]))
+    want = exact.constants(sample)
+    for name in want:
+        got = d.constant_validation(name)
+        k = [int(np.flatnonzero(got.inputs["c"] == cv)[0]) for cv in sample]
+        _close(got.y[k], want[name], f"constant {name}")
+
+
+def _brdf_validation_true():
+    ds = d.brdf_validation("true")
+    x = ds.inputs
+    for cv in _sample(x["c"]):
+        sel = x["c"] == cv
+        _close(ds.y[sel], exact.brdf(x["mu_i"][sel], x["mu_o"][sel], x["phi"][sel], cv, phase="true"), f"f at c = {cv}")
+        _close(x["kd"][sel], np.full(sel.sum(), exact.spherical_albedo(cv, phase="true")), f"kd at c = {cv}")
+        modes = exact.multiple_scattering_modes(x["mu_i"][sel], x["mu_o"][sel], cv, phase="true")
+        for m in range(3):
+            _close(ds.aux[f"fm{m}"][sel], modes[m], f"fm{m} at c = {cv}")
+
+
+def _true_orders_training():
+    ds = d.true_orders_training()
+    x = ds.inputs
+    phi = np.linspace(0.0, np.pi, 33)
+    for cv in _sample(x["c"]):
+        sel = x["c"] == cv
+        mi, mo = x["mu_i"][sel], x["mu_o"][sel]
+        modes = exact.multiple_scattering_modes(mi, mo, cv, phase="true")
+        for m in range(3):
+            _close(ds.aux[f"fm{m}"][sel], modes[m], f"fm{m} at c = {cv}")
+        f = exact.brdf(mi[None, :], mo[None, :], phi[:, None], cv, phase="true")
+        _close(ds.aux["scale"][sel], f.min(axis=0), f"scale at c = {cv}")
+
+
+def _brdf_true_independent():
+    ds = d.brdf_true_independent()
+    x = ds.inputs
+    for cv in _sample(x["c"]):
+        sel = x["c"] == cv
+        _close(ds.y[sel], exact.brdf(x["mu_i"][sel], x["mu_o"][sel], x["phi"][sel], cv, phase="true"), f"f at c = {cv}")
+
+
+def _accuracy_reference_true():
+    ref = accuracy_reference(phase="true")
+    pts = accuracy_points()
+    for cv in _sample(pts["main"]["c"]):
+        for name, p in pts.items():
+            sel = p["c"] == cv
+            want = exact.brdf(p["mu_i"][sel], p["mu_o"][sel], p["phi"][sel], cv, phase="true")
+            _close(ref[name][sel], want, f"{name} at c = {cv}")
+    albedo_c = inspect.signature(accuracy_reference).parameters["albedo_c"].default
+    mu = np.concatenate(([1e-3], np.arange(1, 21) / 20))  # the default albedo cosines (accuracy's docstring)
+    k = len(albedo_c) // 2
+    _close(ref["albedo"][k], exact.albedo(mu, albedo_c[k], phase="true"), f"albedo at c = {albedo_c[k]}")
+
+
+#: the check of each seeded dataset, by its name in the manifest
+CHECKS = {
+    "lambert_sphere.kd_of_c_validation": _kd_of_c_validation,
+    "lambert_sphere.constant_validation": _constant_validation,
+    "lambert_sphere.brdf_validation(true)": _brdf_validation_true,
+    "lambert_sphere.true_orders_training": _true_orders_training,
+    "lambert_sphere.brdf_true_independent": _brdf_true_independent,
+    "lambert_sphere.accuracy_reference(true)": _accuracy_reference_true,
+}
+
+
+@pytest.mark.parametrize("name", sorted(CHECKS))
+def test_each_seeded_set_is_what_the_engine_computes(name):
+    CHECKS[name]()

@@ -1,0 +1,92 @@
+"""Write tests/data/exact_values/: the exact values that cost the test suite most to compute, as fitlab's cache
+(:mod:`fitlab.cache`) computes and keys them, so that a test run on a fresh machine starts with them warm.
+
+Run from the project root, one BLAS thread (about 250 CPU-seconds on the project's 2-core machine):
+
+    python tools/seed_test_cache.py
+
+Each dataset of :data:`SEEDED` is computed into an empty cache folder; the entries it writes are copied, compressed,
+into tests/data/exact_values/ (their file names are their cache keys: the fitlab version, the set's grid and the
+bytes of the family's exact engine), with MANIFEST.json naming the entries of each dataset and the engine's
+fingerprint.  tests/conftest.py copies the entries into the run's cache before the workers start (an entry
+already there is left alone); an edit of the engine or of a set's grid changes the keys, so the copies are then
+never read, and tests/test_exact_value_seed.py fails on the fingerprint until this script is run again.  That
+test also recomputes a sample of every dataset with the engine and compares.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import sys
+import tempfile
+from pathlib import Path
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
+ROOT = Path(__file__).resolve().parents[1]
+OUT = ROOT / "tests" / "data" / "exact_values"
+MANIFEST = "MANIFEST.json"
+
+
+def _seeded():
+    """{dataset name: the call that computes it through the cache}."""
+    from fitlab.families.lambert_sphere.program.runtime import accuracy_reference
+    from fitlab.families.lambert_sphere.targets import datasets as d
+
+    return {
+        "lambert_sphere.kd_of_c_validation": d.kd_of_c_validation,
+        "lambert_sphere.constant_validation": lambda: d.constant_validation("H0_inf"),
+        "lambert_sphere.brdf_validation(true)": lambda: d.brdf_validation("true"),
+        "lambert_sphere.true_orders_training": d.true_orders_training,
+        "lambert_sphere.brdf_true_independent": d.brdf_true_independent,
+        "lambert_sphere.accuracy_reference(true)": lambda: accuracy_reference(phase="true"),
+    }
+
+
+def fingerprint() -> dict:
+    """{family: the cache key of nothing but the family's exact engine (and fitlab's version)}."""
+    from fitlab.cache import cache_key
+    from fitlab.families.lambert_sphere import exact
+
+    return {"lambert_sphere": cache_key({}, exact.SOURCES)}
+
+
+def main() -> int:
+    import numpy as np
+    from tqdm import tqdm
+
+    with tempfile.TemporaryDirectory(prefix="fitlab-seed-") as tmp:
+        os.environ["FITLAB_CACHE_DIR"] = str(Path(tmp) / "cache")
+        os.environ.pop("FITLAB_NO_CACHE", None)
+        cache = Path(os.environ["FITLAB_CACHE_DIR"])
+        datasets = {}
+        seeded = _seeded()
+        for name, compute in tqdm(seeded.items(), desc="exact values", unit="set"):
+            before = set(cache.glob("*.npz"))
+            compute()
+            datasets[name] = sorted(p.name for p in set(cache.glob("*.npz")) - before)
+            if not datasets[name]:
+                raise SystemExit(f"{name} wrote no cache entry")
+        # staged beside the folder, then swapped in: an interrupted run leaves the old seed whole
+        staging, old = OUT.parent / f".{OUT.name}.new", OUT.parent / f".{OUT.name}.old"
+        for folder in (staging, old):
+            shutil.rmtree(folder, ignore_errors=True)
+        staging.mkdir(parents=True)
+        for entry in sorted(cache.glob("*.npz")):
+            with np.load(entry, allow_pickle=False) as z:
+                arrays = {k: z[k] for k in z.files}
+            np.savez_compressed(staging / entry.name, **arrays)
+        manifest = {"made_by": "tools/seed_test_cache.py", "engine_fingerprint": fingerprint(), "datasets": datasets}
+        (staging / MANIFEST).write_text(json.dumps(manifest, indent=1, sort_keys=True) + "\n")
+        if OUT.exists():
+            OUT.rename(old)
+        staging.rename(OUT)
+        shutil.rmtree(old, ignore_errors=True)
+    print(f"wrote {OUT.relative_to(ROOT)}: {sum(len(v) for v in datasets.values())} entries", file=sys.stderr)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
