@@ -13,6 +13,7 @@ tests/conftest.py): what the suite starts warm with is what the engine computes 
 
 import inspect
 import json
+import os
 import sys
 from pathlib import Path
 
@@ -61,6 +62,8 @@ def test_the_manifest_names_every_seeded_set_and_file():
 
 @pytest.mark.skipif(not enabled(), reason="the cache is off (FITLAB_NO_CACHE)")
 def test_the_run_cache_holds_every_seeded_entry():
+    if not os.access(cache_dir(), os.W_OK):
+        pytest.skip(f"the run's cache {cache_dir()} cannot be written: the seed could not be copied (only costs time)")
     missing = [p.name for p in SEED.glob("*.npz") if not (cache_dir() / p.name).exists()]
     assert not missing, f"not copied into the run's cache {cache_dir()} (can it be written?): {missing}"
 
