@@ -7,11 +7,13 @@ Run from the project root, one BLAS thread (about 250 CPU-seconds on the project
 
 Each dataset of :data:`SEEDED` is computed into an empty cache folder; the entries it writes are copied, compressed,
 into tests/data/exact_values/ (their file names are their cache keys: the fitlab version, the set's grid and the
-bytes of the family's exact engine), with MANIFEST.json naming the entries of each dataset and the engine's
-fingerprint.  tests/conftest.py copies the entries into the run's cache before the workers start (an entry
-already there is left alone); an edit of the engine or of a set's grid changes the keys, so the copies are then
-never read, and tests/test_exact_value_seed.py fails on the fingerprint until this script is run again.  That
-test also recomputes a sample of every dataset with the engine and compares.
+bytes of the family's exact engine), with MANIFEST.json naming the entries of each dataset and the fingerprint
+of the code that computed them (:func:`fingerprint`: the engine and the modules that assemble the sets).
+tests/conftest.py copies the entries into the run's cache before the workers start (an entry already there is
+left alone); an edit of the engine or of a set's grid changes the keys, so the copies are then never read.
+tests/test_exact_value_seed.py fails on the fingerprint after any edit of that code, naming the files, until
+this script is run again (so that the seed is what the code computes now), and recomputes a sample of every
+dataset with the engine.
 """
 
 from __future__ import annotations
@@ -45,12 +47,23 @@ def _seeded():
     }
 
 
+#: the code that assembles the seeded sets from the engine's values: not part of their cache keys (an edit that
+#: keeps a set's grid keeps its key), so the seed is tied to it here
+ASSEMBLERS = ("fitlab/families/lambert_sphere/targets/datasets.py", "fitlab/families/lambert_sphere/program/runtime.py")
+
+
 def fingerprint() -> dict:
-    """{family: the cache key of nothing but the family's exact engine (and fitlab's version)}."""
-    from fitlab.cache import cache_key
+    """{"fitlab": the version, file: sha256 (16 hex digits)} of the exact engine's sources and of
+    :data:`ASSEMBLERS`: what the seeded values are computed by."""
+    import hashlib
+
+    import fitlab
     from fitlab.families.lambert_sphere import exact
 
-    return {"lambert_sphere": cache_key({}, exact.SOURCES)}
+    base = Path(fitlab.__file__).resolve().parents[1]  # the folder fitlab is imported from
+    files = sorted({Path(p).resolve().relative_to(base).as_posix() for p in exact.SOURCES} | set(ASSEMBLERS))
+    digests = {f: hashlib.sha256((base / f).read_bytes()).hexdigest()[:16] for f in files}
+    return {"fitlab": fitlab.__version__, **digests}
 
 
 def main() -> int:
@@ -78,7 +91,7 @@ def main() -> int:
             with np.load(entry, allow_pickle=False) as z:
                 arrays = {k: z[k] for k in z.files}
             np.savez_compressed(staging / entry.name, **arrays)
-        manifest = {"made_by": "tools/seed_test_cache.py", "engine_fingerprint": fingerprint(), "datasets": datasets}
+        manifest = {"made_by": "tools/seed_test_cache.py", "fingerprint": fingerprint(), "datasets": datasets}
         (staging / MANIFEST).write_text(json.dumps(manifest, indent=1, sort_keys=True) + "\n")
         if OUT.exists():
             OUT.rename(old)
