@@ -27,24 +27,27 @@ from fitlab.families.lambert_sphere.program.runtime import accuracy_points, accu
 from fitlab.families.lambert_sphere.targets import datasets as d
 
 ROOT = Path(__file__).resolve().parents[1]
-SEED = ROOT / "tests" / "data" / "exact_values"
 RTOL = 1e-12
 
 # the sample's solves are shared by the tests below: one worker runs them all
 pytestmark = pytest.mark.xdist_group("tests/test_exact_value_seed.py")
 
 
-def _manifest() -> dict:
-    return json.loads((SEED / "MANIFEST.json").read_text())
-
-
 def _tool():
+    """tools/seed_test_cache.py, the seed's maker: the owner of its folder, its manifest and its fingerprint."""
     sys.path.insert(0, str(ROOT / "tools"))
     try:
         import seed_test_cache
     finally:
         sys.path.pop(0)
     return seed_test_cache
+
+
+SEED = _tool().OUT
+
+
+def _manifest() -> dict:
+    return json.loads((SEED / _tool().MANIFEST).read_text())
 
 
 def test_the_seed_was_made_by_this_code():
@@ -66,7 +69,7 @@ def test_the_run_cache_holds_every_seeded_entry():
     if not os.access(cache_dir(), os.W_OK):
         pytest.skip(f"the run's cache {cache_dir()} cannot be written: the seed could not be copied (only costs time)")
     missing = [p.name for p in SEED.glob("*.npz") if not (cache_dir() / p.name).exists()]
-    assert not missing, f"not copied into the run's cache {cache_dir()} (can it be written?): {missing}"
+    assert not missing, f"not copied into the run's cache {cache_dir()}: {missing}"
 
 
 def _close(got, want, label):
