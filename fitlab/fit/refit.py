@@ -13,14 +13,14 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 
 from fitlab import __version__
-from fitlab.core import Target, data_hash, get_target, targets
+from fitlab.core import Dataset, Target, data_hash, get_target, targets
 from fitlab.fit.metrics import summary
 from fitlab.fit.solver import SOLVER_SETTINGS, FitResult, fit_form, fit_form_scipy
 from fitlab.forms import Form
 from fitlab.store import FORMAT
 
 __all__ = ["RefitResult", "refit", "fit_identity", "refit_stages", "check_domain", "validation_metrics",
-           "preset_metrics", "MINIMAX_ROUNDS", "default_jobs", "table", "refit_verdict", "VERDICT_RTOL"]
+           "preset_metrics", "published_rows", "MINIMAX_ROUNDS", "default_jobs", "table", "refit_verdict", "VERDICT_RTOL"]
 
 MINIMAX_ROUNDS = 40
 
@@ -134,17 +134,7 @@ def refit(
     scipy_fit = fit_form_scipy(form, train, target.scale(train), theta0, weights=weights) if compare_scipy else None
 
     vscale = target.scale(valid)
-    published = []
-    for pform_name, preset in target.published:
-        pform = target.forms[pform_name]
-        published.append(
-            {
-                "form": pform_name,
-                "preset": preset,
-                "params": dict(zip(pform.params, pform.vector(preset).tolist())),
-                "validation": validation_metrics(pform, pform.vector(preset), valid, vscale),
-            }
-        )
+    published = published_rows(target, valid)
     objective = "relative least squares (" + target.error_measure.split(":")[0] + ")"
     if target.emphasis_text:
         objective += "; " + target.emphasis_text
@@ -173,6 +163,24 @@ def refit(
     if on_step is not None:
         on_step("validation")
     return RefitResult(record, fit, scipy_fit)
+
+
+def published_rows(target: Target, valid: Dataset) -> list[dict]:
+    """The ``published`` rows of a fit record: each of the target's published presets (form, preset, its
+    parameters) measured on ``valid``, the record's validation set."""
+    vscale = target.scale(valid)
+    rows = []
+    for pform_name, preset in target.published:
+        pform = target.forms[pform_name]
+        rows.append(
+            {
+                "form": pform_name,
+                "preset": preset,
+                "params": dict(zip(pform.params, pform.vector(preset).tolist())),
+                "validation": validation_metrics(pform, pform.vector(preset), valid, vscale),
+            }
+        )
+    return rows
 
 
 def refit_stages(target: Target | str, minimax: bool | None = None, minimax_rounds: int | None = None) -> int:

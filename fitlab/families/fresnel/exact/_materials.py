@@ -105,7 +105,7 @@ def _spectral_index(key: str, space: str):
     return eta, weights
 
 
-_CHUNK = 2048  # cosines per block: a block holds CHUNK x 421 complex values (14 MB)
+_CHUNK = 2048  # cosines per block: a block holds CHUNK x 421 complex values (14 MB) and 3 x that many products
 
 
 def reflectance(material: str, mu, space: str = "srgb") -> np.ndarray:
@@ -118,7 +118,10 @@ def reflectance(material: str, mu, space: str = "srgb") -> np.ndarray:
     out = np.empty((flat.size, 3))
     for start in range(0, flat.size, _CHUNK):
         part = flat[start:start + _CHUNK]
-        out[start:start + _CHUNK] = fresnel_reflectance(part[:, None], eta[None, :]) @ weights.T
+        # numpy's pairwise sum per (cosine, channel), not a BLAS product: its order of summation, and so the last
+        # bits, would depend on the BLAS build and on how many cosines share the call
+        spectral = fresnel_reflectance(part[:, None], eta[None, :])
+        out[start:start + _CHUNK] = np.sum(spectral[:, None, :] * weights[None, :, :], axis=-1)
     return out.reshape(*mu.shape, 3)
 
 
