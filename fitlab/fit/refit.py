@@ -20,7 +20,8 @@ from fitlab.forms import Form
 from fitlab.store import FORMAT
 
 __all__ = ["RefitResult", "refit", "fit_identity", "refit_stages", "check_domain", "validation_metrics",
-           "preset_metrics", "published_rows", "MINIMAX_ROUNDS", "default_jobs", "table", "refit_verdict", "VERDICT_RTOL"]
+           "preset_metrics", "published_rows", "MINIMAX_ROUNDS", "default_jobs", "table", "refit_verdict",
+           "VERDICT_RTOL"]
 
 MINIMAX_ROUNDS = 40
 
