@@ -23,7 +23,14 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
-from fitlab.families.lambert_sphere.exact import constants, h_function, multiple_scattering_modes, spherical_albedo
+from fitlab.cache import cached_arrays
+from fitlab.families.lambert_sphere.exact import (
+    SOURCES,
+    constants,
+    h_function,
+    multiple_scattering_modes,
+    spherical_albedo,
+)
 from fitlab.families.lambert_sphere.exact.constants import CONSTANT_NAMES
 from fitlab.families.lambert_sphere.exact.sampling import (
     MU_MIN,
@@ -242,6 +249,16 @@ def write_tables(out: Path, show_progress: bool = True, names=tuple(TABLE_FILES)
     return store_write_tables(Path(out), build_tables(show_progress, names))
 
 
+def _reference(name: str, compute, names: tuple[str, ...], **inputs) -> dict[str, np.ndarray]:
+    """The check's reference values ``compute()`` (arrays ``names``) at the rows it samples, through fitlab's
+    persistent cache keyed by ``name``, those rows' inputs (``inputs``, as the table states them) and the exact
+    engine's sources, as the exact values of the training sets are: a second check of tables on the same grid
+    (a user's copy, the packaged ones) reads them instead of solving again, and any edit of the engine
+    recomputes them."""
+    key = {"family": "lambert_sphere", "check": name, **{k: np.asarray(v, dtype=float) for k, v in inputs.items()}}
+    return cached_arrays(f"lambert_sphere-check-{name}", key, compute, names, sources=SOURCES)
+
+
 def check_tables(out: Path, every: int = 8, show_progress: bool = True) -> list[str]:
     """Recompute a sample of rows by independent methods; return the failures."""
     out = Path(out)
@@ -254,7 +271,8 @@ def check_tables(out: Path, every: int = 8, show_progress: bool = True) -> list[
             _, data = read_checked(f"h{m}.csv", out)  # every check, the grid's rows included
             sel = np.isin(data[:, 1], c_sample)
             c, mu, h = data[sel, 1], data[sel, 2], data[sel, 3]
-            ref = h_function(m, mu, c, method="fock")
+            ref = _reference(f"h{m}", lambda m=m, mu=mu, c=c: {"h": h_function(m, mu, c, method="fock")}, ("h",),
+                             c=c, mu=mu)["h"]
             with np.errstate(invalid="ignore"):
                 rel = np.where(np.isinf(ref) & np.isinf(h), 0.0, np.abs(h / ref - 1.0))
             if not np.all(rel <= H_TOLERANCE):
@@ -263,7 +281,7 @@ def check_tables(out: Path, every: int = 8, show_progress: bool = True) -> list[
             bar.update(1)
         header, data = read_checked("constants.csv", out)
         sel = np.isin(data[:, 1], c_sample)
-        ref = constants(data[sel, 1])
+        ref = _reference("constants", lambda c=data[sel, 1]: constants(c), CONSTANT_NAMES, c=data[sel, 1])
         for j, name in enumerate(header[2:], start=2):
             got = data[sel, j]
             want = ref[name]
@@ -275,8 +293,11 @@ def check_tables(out: Path, every: int = 8, show_progress: bool = True) -> list[
         bar.update(1)
         _, data = read_checked("kd.csv", out)
         sel = np.isin(data[:, 1], c_sample)
-        for j, phase in enumerate(("three_term", "mixed", "true"), start=2):
-            err = np.abs(data[sel, j] - spherical_albedo(data[sel, 1], phase=phase))
+        phases = ("three_term", "mixed", "true")
+        kd = _reference("kd", lambda c=data[sel, 1]: {p: spherical_albedo(c, phase=p) for p in phases}, phases,
+                        c=data[sel, 1])
+        for j, phase in enumerate(phases, start=2):
+            err = np.abs(data[sel, j] - kd[phase])
             if not np.all(err <= CONSTANT_TOLERANCE):
                 failures.append(f"kd.csv: kd_{phase} differs by {err.max():.2e}")
         bar.update(1)
@@ -298,11 +319,17 @@ def check_true_orders(out: Path) -> list[str]:
     for s in (0.0, 0.625):
         rows = np.flatnonzero(t["s"] == s)[::10]
         c, mi, mo = 1.0 - s * s, t["mu_i"][rows], t["mu_o"][rows]
-        checks = dict(zip(TRUE_COLUMNS[4 + TRUE_ORDERS:],
-                          multiple_scattering_orders(mi, mo, c, phase="three_term", orders=TRUE_ORDERS)))
-        if s == 0.0:
-            checks.update(zip(TRUE_COLUMNS[4:4 + TRUE_ORDERS],
-                              multiple_scattering_orders(mi, mo, c, method="doubling", orders=TRUE_ORDERS)))
+        columns = TRUE_COLUMNS[4 + TRUE_ORDERS:] + (TRUE_COLUMNS[4:4 + TRUE_ORDERS] if s == 0.0 else ())
+
+        def compute(c=c, mi=mi, mo=mo, s=s):
+            out = dict(zip(TRUE_COLUMNS[4 + TRUE_ORDERS:],
+                           multiple_scattering_orders(mi, mo, c, phase="three_term", orders=TRUE_ORDERS)))
+            if s == 0.0:
+                out.update(zip(TRUE_COLUMNS[4:4 + TRUE_ORDERS],
+                               multiple_scattering_orders(mi, mo, c, method="doubling", orders=TRUE_ORDERS)))
+            return out
+
+        checks = _reference("true-orders", compute, columns, c=np.array([c]), mu_i=mi, mu_o=mo)
         for name, want in checks.items():
             got = t[name][rows]
             scale = np.abs(t[name][t["s"] == s]).max()
@@ -326,17 +353,27 @@ def _check_sampling(path: Path, name: str) -> list[str]:
     for c in (t["c"].max(), t["c"][np.argmin(np.abs(t["c"] - 0.75))]):
         rows = np.flatnonzero(t["c"] == c)[[0, len(mu_axis) // 2, -2]]  # mu_i = MU_MIN, about 0.5, below 1
         mu, w, n = t["mu_i"][rows], t["weight"][rows], t["exponent"][rows]
-        fine = relative_variance(mu, c, w, n, nodes=(64, 12))
-        cosine = relative_variance(mu, c, 0.0, 1.0, nodes=(64, 12))
+
+        def compute(mu=mu, c=c, w=w, n=n):
+            best = []
+            for m in mu:
+                v = variance_function(m, c)
+                best.append(minimize(lambda q, v=v: v(1.0 / (1.0 + np.exp(-q[0])), np.exp(q[1])), [0.0, np.log(2.0)],
+                                     method="Nelder-Mead", options={"xatol": 1e-6, "fatol": 1e-10}).fun)
+            return {"fine": relative_variance(mu, c, w, n, nodes=(64, 12)),
+                    "cosine": relative_variance(mu, c, 0.0, 1.0, nodes=(64, 12)), "best": np.array(best)}
+
+        ref = _reference(f"sampling-{Path(name).stem}", compute, ("fine", "cosine", "best"), c=np.array([c]), mu_i=mu, weight=w,
+                         exponent=n)
+        fine, cosine = ref["fine"], ref["cosine"]
         for k, r in enumerate(rows):
             for label, got, want in (("relvar_optimal", t["relvar_optimal"][r], fine[k]),
                                      ("relvar_cosine", t["relvar_cosine"][r], cosine[k])):
                 if not abs(got - want) <= SAMPLING_TOLERANCE * abs(want) + 1e-9:
                     failures.append(f"{name}: c={float(c)!r} mu_i={float(mu[k])!r}: {label} {float(got)!r} vs {float(want)!r} by the finer rule")
 
-            v = variance_function(mu[k], c)
-            best = minimize(lambda q: v(1.0 / (1.0 + np.exp(-q[0])), np.exp(q[1])), [0.0, np.log(2.0)], method="Nelder-Mead", options={"xatol": 1e-6, "fatol": 1e-10})
-            if best.fun < t["relvar_optimal"][r] - SAMPLING_TOLERANCE * abs(t["relvar_optimal"][r]) - 1e-9:
-                failures.append(f"{name}: c={float(c)!r} mu_i={float(mu[k])!r}: Nelder-Mead finds V = {float(best.fun)!r} "
+            best = ref["best"][k]
+            if best < t["relvar_optimal"][r] - SAMPLING_TOLERANCE * abs(t["relvar_optimal"][r]) - 1e-9:
+                failures.append(f"{name}: c={float(c)!r} mu_i={float(mu[k])!r}: Nelder-Mead finds V = {float(best)!r} "
                                 f"below the tabulated optimum {float(t['relvar_optimal'][r])!r}")
     return failures
