@@ -132,6 +132,16 @@ def test_rgb_reflectance_is_the_spectrum_weighted():
     np.testing.assert_allclose(exact.reflectance("cu", 0.0, "acescg"), 1.0, atol=1e-14)
 
 
+@pytest.mark.parametrize("material", list(exact.MATERIALS))
+def test_reflectance_does_not_depend_on_the_cosines_beside_it(material):
+    """F(mu) is the same float whatever else a call holds: the presets' F0 = F(1) (stored in the fit files) was
+    once a BLAS product whose last bits changed with the number of cosines and the BLAS build."""
+    alone = exact.reflectance(material, 1.0)
+    many = exact.reflectance(material, np.linspace(0.0, 1.0, 3001))  # mu = 1 in the second block of 2048
+    pair = exact.reflectance(material, np.array([1.0, 0.5]))
+    assert np.array_equal(alone, many[-1]) and np.array_equal(alone, pair[0])
+
+
 def test_published_facts_of_rtr4():
     # RTR4 section 9.5: glass's F0 is 0.04 (n = 1.5); "metals have F0 almost always 0.5 or above"; gold's red
     # value is slightly above 1, outside sRGB's gamut, and its blue "the only value in Table 9.2
