@@ -37,7 +37,7 @@ def pytest_configure(config):
       compilation cache enabled in the test processes too.  Entries are keyed by the bytes of the code that
       computes them, so a warm cache is never stale; the tests of the cache itself set their own folder.
       Before the workers start, the entries of tests/data/exact_values (tools/seed_test_cache.py: the exact
-      values that cost the suite most, about 250 CPU-seconds) are copied in where the cache lacks them, so a
+      values that cost the suite most, about 270 CPU-seconds) are copied in where the cache lacks them, so a
       first run starts with them warm; tests/test_exact_value_seed.py checks them against the engine."""
     if not hasattr(config, "workerinput"):  # the controller (or a run without xdist)
         folder = tempfile.mkdtemp(prefix="fitlab-tests-native-")

@@ -161,6 +161,49 @@ def _accuracy_reference_true():
     _close(ref["albedo"][k], exact.albedo(mu, albedo_c[k], phase="true"), f"albedo at c = {albedo_c[k]}")
 
 
+def _tabulate_check():
+    """The references of `fitlab tabulate --check` (each entry holds the rows it is the reference of): at c = 1
+    and the middle albedo for H, the constants and kd, the first rows of the three-term orders and of the
+    sampler's finer rule."""
+    from fitlab.families.lambert_sphere.exact.sampling import relative_variance
+    from fitlab.families.lambert_sphere.targets.table_files import TRUE_ORDERS
+
+    files = _manifest()["datasets"]["lambert_sphere.tabulate_check"]
+    seen = set()
+    for file in files:
+        with np.load(SEED / file, allow_pickle=False) as z:
+            e = {k: z[k] for k in z.files}
+        what = file.split("-")[2]  # lambert_sphere-check-WHAT-...
+        seen.add(what)
+        if what in ("h0", "h1", "h2"):
+            for cv in _sample(e["in_c"]):
+                sel = e["in_c"] == cv
+                want = exact.h_function(int(what[1]), e["in_mu"][sel], e["in_c"][sel], method="fock")
+                _close(e["h"][sel], want, f"{what} at c = {cv}")
+        elif what == "constants":
+            c = np.array(_sample(e["in_c"]))
+            want = exact.constants(c)
+            k = [int(np.flatnonzero(e["in_c"] == cv)[0]) for cv in c]
+            for name in exact.CONSTANT_NAMES:
+                _close(e[name][k], want[name], f"check's {name}")
+        elif what == "kd":
+            c = np.array(_sample(e["in_c"]))
+            k = [int(np.flatnonzero(e["in_c"] == cv)[0]) for cv in c]
+            for phase in ("three_term", "mixed", "true"):
+                _close(e[phase][k], exact.spherical_albedo(c, phase=phase), f"check's kd_{phase}")
+        elif what == "true":  # lambert_sphere-check-true-orders-...
+            c, mi, mo = float(e["in_c"][0]), e["in_mu_i"][:3], e["in_mu_o"][:3]
+            orders = exact.multiple_scattering_orders(mi, mo, c, phase="three_term", orders=TRUE_ORDERS)
+            for m in range(TRUE_ORDERS):
+                _close(e[f"fm{m}_three_term"][:3], orders[m], f"check's fm{m}_three_term at c = {c}")
+        elif what == "sampling":
+            c, args = float(e["in_c"][0]), (e["in_mu_i"][:1], e["in_weight"][:1], e["in_exponent"][:1])
+            _close(e["fine"][:1], relative_variance(args[0], c, args[1], args[2], nodes=(64, 12)), f"{file} fine")
+        else:
+            raise AssertionError(f"{file}: no check for a reference of kind {what}")
+    assert seen == {"h0", "h1", "h2", "constants", "kd", "true", "sampling"}, seen
+
+
 #: the check of each seeded dataset, by its name in the manifest
 CHECKS = {
     "lambert_sphere.kd_of_c_validation": _kd_of_c_validation,
@@ -169,6 +212,7 @@ CHECKS = {
     "lambert_sphere.true_orders_training": _true_orders_training,
     "lambert_sphere.brdf_true_independent": _brdf_true_independent,
     "lambert_sphere.accuracy_reference(true)": _accuracy_reference_true,
+    "lambert_sphere.tabulate_check": _tabulate_check,
 }
 
 

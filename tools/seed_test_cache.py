@@ -1,7 +1,7 @@
 """Write tests/data/exact_values/: the exact values that cost the test suite most to compute, as fitlab's cache
 (:mod:`fitlab.cache`) computes and keys them, so that a test run on a fresh machine starts with them warm.
 
-Run from the project root, one BLAS thread (about 250 CPU-seconds on the project's 2-core machine):
+Run from the project root, one BLAS thread (about 270 CPU-seconds on the project's 2-core machine):
 
     python tools/seed_test_cache.py
 
@@ -36,6 +36,13 @@ def _seeded():
     """{dataset name: the call that computes it through the cache}."""
     from fitlab.families.lambert_sphere.program.runtime import accuracy_reference
     from fitlab.families.lambert_sphere.targets import datasets as d
+    from fitlab.families.lambert_sphere.targets.tabulate import check_tables
+    from fitlab.resources import packaged_tables
+
+    def tabulate_check():
+        failures = check_tables(packaged_tables("lambert_sphere"), show_progress=False)
+        if failures:
+            raise SystemExit(f"the packaged tables fail their check: {failures}")
 
     return {
         "lambert_sphere.kd_of_c_validation": d.kd_of_c_validation,
@@ -44,12 +51,14 @@ def _seeded():
         "lambert_sphere.true_orders_training": d.true_orders_training,
         "lambert_sphere.brdf_true_independent": d.brdf_true_independent,
         "lambert_sphere.accuracy_reference(true)": lambda: accuracy_reference(phase="true"),
+        "lambert_sphere.tabulate_check": tabulate_check,
     }
 
 
 #: the code that assembles the seeded sets from the engine's values: not part of their cache keys (an edit that
 #: keeps a set's grid keeps its key), so the seed is tied to it here
-ASSEMBLERS = ("fitlab/families/lambert_sphere/targets/datasets.py", "fitlab/families/lambert_sphere/program/runtime.py")
+ASSEMBLERS = ("fitlab/families/lambert_sphere/targets/datasets.py", "fitlab/families/lambert_sphere/program/runtime.py",
+              "fitlab/families/lambert_sphere/targets/tabulate.py")
 
 
 def fingerprint() -> dict:

@@ -254,9 +254,15 @@ def _reference(name: str, compute, names: tuple[str, ...], **inputs) -> dict[str
     persistent cache keyed by ``name``, those rows' inputs (``inputs``, as the table states them) and the exact
     engine's sources, as the exact values of the training sets are: a second check of tables on the same grid
     (a user's copy, the packaged ones) reads them instead of solving again, and any edit of the engine
-    recomputes them."""
-    key = {"family": "lambert_sphere", "check": name, **{k: np.asarray(v, dtype=float) for k, v in inputs.items()}}
-    return cached_arrays(f"lambert_sphere-check-{name}", key, compute, names, sources=SOURCES)
+    recomputes them.  The entry holds the inputs too (``in_NAME``): it says what it is the reference of."""
+    inputs = {k: np.asarray(v, dtype=float) for k, v in inputs.items()}
+    key = {"family": "lambert_sphere", "check": name, **inputs}
+
+    def arrays():
+        return {**compute(), **{f"in_{k}": v for k, v in inputs.items()}}
+
+    names = (*names, *(f"in_{k}" for k in inputs))
+    return cached_arrays(f"lambert_sphere-check-{name}", key, arrays, names, sources=SOURCES)
 
 
 def check_tables(out: Path, every: int = 8, show_progress: bool = True) -> list[str]:
@@ -330,7 +336,8 @@ def check_true_orders(out: Path) -> list[str]:
             return out
 
         checks = _reference("true-orders", compute, columns, c=np.array([c]), mu_i=mi, mu_o=mo)
-        for name, want in checks.items():
+        for name in columns:
+            want = checks[name]
             got = t[name][rows]
             scale = np.abs(t[name][t["s"] == s]).max()
             err = np.abs(got - want).max() / scale
