@@ -287,7 +287,8 @@ def check_tables(out: Path, every: int = 8, show_progress: bool = True) -> list[
             bar.update(1)
         header, data = read_checked("constants.csv", out)
         sel = np.isin(data[:, 1], c_sample)
-        ref = _reference("constants", lambda c=data[sel, 1]: constants(c), CONSTANT_NAMES, c=data[sel, 1])
+        c = data[sel, 1]
+        ref = _reference("constants", lambda: constants(c), CONSTANT_NAMES, c=c)
         for j, name in enumerate(header[2:], start=2):
             got = data[sel, j]
             want = ref[name]
@@ -299,9 +300,8 @@ def check_tables(out: Path, every: int = 8, show_progress: bool = True) -> list[
         bar.update(1)
         _, data = read_checked("kd.csv", out)
         sel = np.isin(data[:, 1], c_sample)
-        phases = ("three_term", "mixed", "true")
-        kd = _reference("kd", lambda c=data[sel, 1]: {p: spherical_albedo(c, phase=p) for p in phases}, phases,
-                        c=data[sel, 1])
+        c, phases = data[sel, 1], ("three_term", "mixed", "true")
+        kd = _reference("kd", lambda: {p: spherical_albedo(c, phase=p) for p in phases}, phases, c=c)
         for j, phase in enumerate(phases, start=2):
             err = np.abs(data[sel, j] - kd[phase])
             if not np.all(err <= CONSTANT_TOLERANCE):
@@ -322,17 +322,16 @@ def check_true_orders(out: Path) -> list[str]:
     header, data = read_checked(TRUE_FILE, out)
     t = dict(zip(header, data.T))
     failures = []
+    true, three_term = TRUE_COLUMNS[4:4 + TRUE_ORDERS], TRUE_COLUMNS[4 + TRUE_ORDERS:]
     for s in (0.0, 0.625):
         rows = np.flatnonzero(t["s"] == s)[::10]
         c, mi, mo = 1.0 - s * s, t["mu_i"][rows], t["mu_o"][rows]
-        columns = TRUE_COLUMNS[4 + TRUE_ORDERS:] + (TRUE_COLUMNS[4:4 + TRUE_ORDERS] if s == 0.0 else ())
+        columns = three_term + (true if s == 0.0 else ())
 
         def compute(c=c, mi=mi, mo=mo, s=s):
-            out = dict(zip(TRUE_COLUMNS[4 + TRUE_ORDERS:],
-                           multiple_scattering_orders(mi, mo, c, phase="three_term", orders=TRUE_ORDERS)))
+            out = dict(zip(three_term, multiple_scattering_orders(mi, mo, c, phase="three_term", orders=TRUE_ORDERS)))
             if s == 0.0:
-                out.update(zip(TRUE_COLUMNS[4:4 + TRUE_ORDERS],
-                               multiple_scattering_orders(mi, mo, c, method="doubling", orders=TRUE_ORDERS)))
+                out.update(zip(true, multiple_scattering_orders(mi, mo, c, method="doubling", orders=TRUE_ORDERS)))
             return out
 
         checks = _reference("true-orders", compute, columns, c=np.array([c]), mu_i=mi, mu_o=mo)
@@ -370,8 +369,8 @@ def _check_sampling(path: Path, name: str) -> list[str]:
             return {"fine": relative_variance(mu, c, w, n, nodes=(64, 12)),
                     "cosine": relative_variance(mu, c, 0.0, 1.0, nodes=(64, 12)), "best": np.array(best)}
 
-        ref = _reference(f"sampling-{Path(name).stem}", compute, ("fine", "cosine", "best"), c=np.array([c]), mu_i=mu, weight=w,
-                         exponent=n)
+        ref = _reference(f"sampling-{Path(name).stem}", compute, ("fine", "cosine", "best"), c=np.array([c]),
+                         mu_i=mu, weight=w, exponent=n)
         fine, cosine = ref["fine"], ref["cosine"]
         for k, r in enumerate(rows):
             for label, got, want in (("relvar_optimal", t["relvar_optimal"][r], fine[k]),
