@@ -25,6 +25,12 @@ from threadpoolctl import threadpool_limits  # noqa: E402
 _BLAS_LIMIT = threadpool_limits(limits=1, user_api="blas")
 
 
+def pytest_addoption(parser):
+    parser.addoption("--no-exact-seed", action="store_true",
+                     help="start the run's cache of exact values without tests/data/exact_values (the seed's maker, "
+                          "tools/seed_test_cache.py, runs the tests of tests/exact_cache.py so)")
+
+
 def pytest_configure(config):
     """One set of caches for the whole run, shared by the xdist workers and the subprocesses the tests start
     (the environment carries them):
@@ -38,7 +44,8 @@ def pytest_configure(config):
       computes them, so a warm cache is never stale; the tests of the cache itself set their own folder.
       Before the workers start, the entries of tests/data/exact_values (tools/seed_test_cache.py: the exact
       values that cost the suite most, about 270 CPU-seconds) are copied in where the cache lacks them, so a
-      first run starts with them warm; tests/test_exact_value_seed.py checks them against the engine."""
+      first run starts with them warm (unless ``--no-exact-seed``); tests/test_exact_value_seed.py checks them
+      against the engine."""
     if not hasattr(config, "workerinput"):  # the controller (or a run without xdist)
         folder = tempfile.mkdtemp(prefix="fitlab-tests-native-")
         config._fitlab_native_cache = folder
@@ -46,7 +53,7 @@ def pytest_configure(config):
         from fitlab.cache import cache_dir, enabled
 
         os.environ["FITLAB_CACHE_DIR"] = str(cache_dir())
-        if enabled():
+        if enabled() and not config.getoption("--no-exact-seed"):
             _seed_exact_values(cache_dir())
     from fitlab.cache import enable_compilation_cache
 

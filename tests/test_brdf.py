@@ -2,6 +2,7 @@
 reference built on them (phase="three_term" and "mixed" named where a test is about them; the whole phase
 function, the default, is tests/test_true_phase.py)."""
 
+import exact_cache
 import numpy as np
 import pytest
 
@@ -180,10 +181,10 @@ def test_reference_brdf_edges():
     # whole-phase engine (about 4 s an albedo) at three: over 1000 random points
     for phase, albedos in (("mixed", np.concatenate(([0.0, 1.0], rng.uniform(0, 1, 30)))), ("true", [0.0, 0.5, 1.0])):
         c = rng.choice(albedos, 1000)
-        f = brdf(mi, mo, phi, c, phase=phase)
+        f = exact_cache.brdf(mi, mo, phi, c, phase=phase)  # exact.brdf, from the seeded cache (tests/exact_cache.py)
         assert np.all(np.isfinite(f)) and np.all(f >= 0)
-        np.testing.assert_allclose(f, brdf(mo, mi, phi, c, phase=phase), rtol=1e-13)
-        np.testing.assert_allclose(f, brdf(mi, mo, -phi, c, phase=phase), rtol=1e-13)
+        np.testing.assert_allclose(f, exact_cache.brdf(mo, mi, phi, c, phase=phase), rtol=1e-13)
+        np.testing.assert_allclose(f, exact_cache.brdf(mi, mo, -phi, c, phase=phase), rtol=1e-13)
 
 
 @pytest.mark.parametrize("mu_i, mu_o", [(0.5, 0.3), (0.0, 0.0), (0.0, 0.4)])

@@ -204,6 +204,49 @@ def _tabulate_check():
     assert seen == {"h0", "h1", "h2", "constants", "kd", "true", "sampling"}, seen
 
 
+def _report_quick():
+    """The quick report's validation, grazing and independent sets (fitlab.report.validation): the first 64
+    points of each at its middle albedo (the first two share theirs)."""
+    from fitlab.report import QUICK
+    from fitlab.report.validation import fresh_set, validation_sets
+
+    valid, grazing = validation_sets(QUICK)
+    fresh = fresh_set(QUICK)
+    for label, ds in (("validation", valid), ("grazing", grazing), ("independent", fresh)):
+        x = ds.inputs
+        distinct = np.unique(x["c"])
+        cv = float(distinct[distinct.size // 2])
+        sel = np.flatnonzero(x["c"] == cv)[:64]
+        want = exact.brdf(x["mu_i"][sel], x["mu_o"][sel], x["phi"][sel], cv, phase="true")
+        _close(ds.y[sel], want, f"report {label} set at c = {cv}")
+        _close(x["kd"][sel[:1]], [exact.spherical_albedo(cv, phase="true")], f"report {label} kd at c = {cv}")
+
+
+def _tests_exact_brdf():
+    """The exact values tests compute for themselves (tests/exact_cache.py; each entry holds its inputs), at a
+    sample of two albedos (a solve each): up to 20 rows of every entry at c = 1 and at the first albedo other
+    than 1 of the first entry."""
+    import exact_cache
+
+    files = _manifest()["datasets"]["tests.exact_brdf"]
+    assert files
+    entries = {}
+    for file in files:
+        with np.load(SEED / file, allow_pickle=False) as z:
+            entries[file] = {k: z[k].ravel() for k in z.files}
+    other = next(float(v) for e in entries.values() for v in e["in_c"] if v != 1.0)
+    checked = 0
+    for file, e in sorted(entries.items()):
+        phase = file[len(exact_cache.NAME) + 1:].rsplit("-", 1)[0]  # NAME-PHASE-KEY.npz
+        for cv in (1.0, other):
+            sel = np.flatnonzero(e["in_c"] == cv)[:20]
+            if sel.size:
+                x = {k: e[f"in_{k}"][sel] for k in exact_cache.INPUTS}
+                _close(e["f"][sel], exact.brdf(x["mu_i"], x["mu_o"], x["phi"], cv, phase=phase), f"{file} at c = {cv}")
+                checked += sel.size
+    assert checked
+
+
 #: the check of each seeded dataset, by its name in the manifest
 CHECKS = {
     "lambert_sphere.kd_of_c_validation": _kd_of_c_validation,
@@ -213,6 +256,8 @@ CHECKS = {
     "lambert_sphere.brdf_true_independent": _brdf_true_independent,
     "lambert_sphere.accuracy_reference(true)": _accuracy_reference_true,
     "lambert_sphere.tabulate_check": _tabulate_check,
+    "report.quick": _report_quick,
+    "tests.exact_brdf": _tests_exact_brdf,
 }
 
 

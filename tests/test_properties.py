@@ -38,6 +38,7 @@ import traceback
 from functools import lru_cache
 from pathlib import Path
 
+import exact_cache
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, example, given, settings
@@ -245,7 +246,7 @@ def test_exact_true_brdf_increases_with_c():
     rng = np.random.default_rng(7)
     edge = np.array(np.meshgrid([0.0, 1e-6, 1.0], [1e-6, 1.0], [0.0, np.pi], indexing="ij")).reshape(3, -1)
     mi, mo, ph = np.concatenate((rng.uniform(0, 1, (3, 40)) * [[1], [1], [np.pi]], edge), axis=1)
-    f = np.array([brdf(mi, mo, ph, cv) for cv in (0.0, 0.05, 0.5, 0.95, 1.0)])
+    f = np.array([exact_cache.brdf(mi, mo, ph, cv) for cv in (0.0, 0.05, 0.5, 0.95, 1.0)])  # tests/exact_cache.py
     assert np.all(np.diff(f, axis=0) >= -1e-12 * np.abs(f[:-1]) - 1e-15)
     assert np.all(f[0] == 0.0) and np.all(np.diff(f, axis=0) > 0)
 

@@ -1,15 +1,17 @@
 """fitlab report: the reduced report end to end, determinism, the Pareto front, the rules, bad input.
 
-The quick report runs once through the CLI and once through the API (the second
-reads the validation set from the disk cache the first wrote); every column but
-the timings must agree.  The module fixture is the suite's slowest single cost (170-200 s on two
-loaded cores; it computes the reduced report's validation values itself, on purpose); the full report
-is `fitlab report`.
+The quick report runs once through the CLI and once through the API, both reading their validation sets from
+the run's cache of exact values (seeded from tests/data/exact_values, as tests/conftest.py does for every
+test); every column but the timings must agree.  Computing those sets, writing them to the cache and reading
+them back is test_damaged_cache_file_is_a_miss's (and tests/test_exact_value_seed.py recomputes a sample of the
+seeded ones).  The module fixture is still the suite's slowest single cost: the two reports build and time
+everything else themselves; the full report is `fitlab report`.
 """
 
 import csv
 import json
 import math
+import re
 import shutil
 from pathlib import Path
 
@@ -19,7 +21,8 @@ import pytest
 from fitlab._io import atomic_write_many, temporary_name
 from fitlab.cli import main
 from fitlab.report import COLUMNS, QUICK, TIMING_COLUMNS, build_report, pareto_front, recommend, write_outputs
-from fitlab.report.methods import ReportError, brdf_methods, fit_inventory
+from fitlab.report.methods import ReportError, brdf_hook, brdf_methods, fit_inventory
+from fitlab.report.settings import family_settings
 from fitlab.families.lambert_sphere.report.spline_tables import h_interpolant, table_brdf
 from fitlab.report.validation import albedos
 
@@ -35,31 +38,12 @@ def _read_csv(path):
         return list(csv.DictReader(fh))
 
 
-def _cache_without_report_entries(folder: Path) -> Path:
-    """A cache folder holding the run's cached exact values (tests/conftest.py) but none of the report's own
-    entries (report-*): those are what the quick reports below write and read, the rest only costs time."""
-    from fitlab.cache import cache_dir
-
-    folder.mkdir()
-    for entry in cache_dir().glob("*.npz"):
-        if not entry.name.startswith("report-"):
-            shutil.copyfile(entry, folder / entry.name)
-    return folder
-
-
 @pytest.fixture(scope="module")
 def quick(tmp_path_factory):
     """Two quick reports: (out dir of the CLI run, out dir of the API run)."""
     root = tmp_path_factory.mktemp("report")
-    mp = pytest.MonkeyPatch()
-    mp.setenv("FITLAB_CACHE_DIR", str(_cache_without_report_entries(root / "cache")))
-    try:
-        assert main(["report", "--quick", "--quiet", "--out", str(root / "a"), "--fits", str(FITS)]) == 0
-        assert any((root / "cache").glob("report-brdf-*.npz"))
-        report = build_report(QUICK, FITS, progress=False)
-        write_outputs(report, root / "b")
-    finally:
-        mp.undo()
+    assert main(["report", "--quick", "--quiet", "--out", str(root / "a"), "--fits", str(FITS)]) == 0
+    write_outputs(build_report(QUICK, FITS, progress=False), root / "b")
     return root / "a", root / "b"
 
 
@@ -72,6 +56,9 @@ def test_quick_report_writes_the_three_files(quick):
                     "## Time to reach a given error", "## Monte Carlo", "## One-off cost of each refit"):
         assert heading in md
     assert "![accuracy vs cost](accuracy_vs_cost.png)" in md
+    # the exact engine timed on the points the family's quick settings name, as the text says
+    points = family_settings(QUICK, brdf_hook()).exact_cost_points
+    assert re.search(rf"us per point \({points} points, c = ", md)
     assert not list(a.glob("*.tmp"))
 
 

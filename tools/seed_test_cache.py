@@ -14,6 +14,10 @@ left alone); an edit of the engine or of a set's grid changes the keys, so the c
 tests/test_exact_value_seed.py fails on the fingerprint after any edit of that code, naming the files, until
 this script is run again (so that the seed is what the code computes now), and recomputes a sample of every
 dataset with the engine.
+
+Beside fitlab's own sets, the seed holds the exact values some tests compute for themselves on their own points
+(tests/exact_cache.py: ``exact.brdf`` through the cache, keyed by its inputs): this script runs those tests,
+in a cache folder of their own and without the seed (``--no-exact-seed``), and keeps the entries they write.
 """
 
 from __future__ import annotations
@@ -37,7 +41,26 @@ def _seeded():
     from fitlab.families.lambert_sphere.program.runtime import accuracy_reference
     from fitlab.families.lambert_sphere.targets import datasets as d
     from fitlab.families.lambert_sphere.targets.tabulate import check_tables
+    from fitlab.report import QUICK
+    from fitlab.report.validation import fresh_set, validation_sets
     from fitlab.resources import packaged_tables
+
+    def tests_exact_brdf():
+        """The calls of tests/exact_cache.py's brdf that its SEEDED_TESTS make: the tests run (in their own cache
+        folder, without the seed), and the entries they write are copied into this one."""
+        import subprocess
+
+        sys.path.insert(0, str(ROOT / "tests"))
+        try:
+            import exact_cache
+        finally:
+            sys.path.pop(0)
+        with tempfile.TemporaryDirectory(prefix="fitlab-seed-tests-") as own:
+            env = {**os.environ, "FITLAB_CACHE_DIR": own}
+            subprocess.run([sys.executable, "-m", "pytest", "-q", "-n", "0", "-p", "no:cacheprovider", "--no-exact-seed",
+                            *exact_cache.SEEDED_TESTS], cwd=ROOT, env=env, check=True)  # fmt: skip
+            for entry in Path(own).glob(f"{exact_cache.NAME}-*.npz"):
+                shutil.copyfile(entry, Path(os.environ["FITLAB_CACHE_DIR"]) / entry.name)
 
     def tabulate_check():
         failures = check_tables(packaged_tables("lambert_sphere"), show_progress=False)
@@ -52,13 +75,16 @@ def _seeded():
         "lambert_sphere.brdf_true_independent": d.brdf_true_independent,
         "lambert_sphere.accuracy_reference(true)": lambda: accuracy_reference(phase="true"),
         "lambert_sphere.tabulate_check": tabulate_check,
+        "report.quick": lambda: (validation_sets(QUICK), fresh_set(QUICK)),
+        "tests.exact_brdf": tests_exact_brdf,
     }
 
 
 #: the code that assembles the seeded sets from the engine's values: not part of their cache keys (an edit that
 #: keeps a set's grid keeps its key), so the seed is tied to it here
 ASSEMBLERS = ("fitlab/families/lambert_sphere/targets/datasets.py", "fitlab/families/lambert_sphere/program/runtime.py",
-              "fitlab/families/lambert_sphere/targets/tabulate.py")
+              "fitlab/families/lambert_sphere/targets/tabulate.py", "fitlab/report/validation.py",
+              "tests/exact_cache.py")
 
 
 def fingerprint() -> dict:

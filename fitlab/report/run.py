@@ -301,7 +301,7 @@ def _measure(settings, entries, fits_dir, data_dir, use_cache, p) -> tuple[list,
     p.stage("exact engine", len(fam.nystrom_nodes) + len(fam.fock_steps) + 2)
     conv = hook.h_convergence(fam.exact_orders, fam.exact_c, fam.exact_mu_points, fam.nystrom_nodes,
                               fam.fock_steps, tick=p.tick)  # fmt: skip
-    brdf_cost = hook.exact_brdf_cost(py_inputs, settings.repeat)
+    brdf_cost = hook.exact_brdf_cost(py_inputs, settings.repeat, fam.exact_cost_points)
     p.tick()
     dbl = hook.doubling_agreement(fam.doubling_c, fam.doubling_orders) if fam.doubling_orders else None
     agree = hook.engine_agreement(fam.doubling_c, fam.doubling_orders) if fam.doubling_orders else None

@@ -71,9 +71,10 @@ def h_convergence(orders, albedos, mu_points: int, nodes, steps, repeat: int = 2
 
 
 def exact_brdf_cost(inputs: dict, repeat: int, points: int = 8192) -> dict:
-    """Set-up seconds at a c not seen before in this process, then ns per point (best of ``repeat``,
-    on the first ``points`` inputs: at about 60 us a point, the per-point cost is settled long before
-    the numpy methods' 2^17 inputs, which took 40 s of the report)."""
+    """Set-up seconds at a c not seen before in this process, then ns per point (best of ``repeat``, on the
+    first ``points`` inputs, not all of the numpy methods' inputs: the engine takes about a millisecond a point).
+    Each call also pays a cost per Fourier order that does not grow with the points (the Nystrom rows at the
+    interpolation points), so fewer points give a higher figure per point; the result states how many."""
     c = 0.7 - 1e-9 * next(_FRESH)  # s > 1/2: no continuation ladder; fresh, so nothing is cached
     mi, mo, ph = (inputs[k][:points] for k in ("mu_i", "mu_o", "phi"))
     t0 = time.perf_counter()

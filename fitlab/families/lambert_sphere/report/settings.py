@@ -29,6 +29,8 @@ class EngineSettings:
     exact_mu_points: int = 256
     nystrom_nodes: tuple = (2, 3, 4, 6, 8, 12, 16, 24)
     fock_steps: tuple = (1.4, 1.0, 0.7, 0.5, 0.35, 0.25, 0.1)
+    #: exact engine: the cost of the BRDF, timed on this many of the numpy timing inputs (at most)
+    exact_cost_points: int = 8192
     #: exact engine vs discrete ordinates + doubling (albedo, orders); () skips it
     doubling_c: float = 0.5
     doubling_orders: tuple = (0, 1, 2)
@@ -49,6 +51,7 @@ REPORT_SETTINGS = {
         exact_mu_points=32,
         nystrom_nodes=(4, 8),
         fock_steps=(0.7, 0.35),
+        exact_cost_points=1024,
         doubling_orders=(),
         mc_c=(0.5,),
         mc_mu_i=(0.5,),
