@@ -2,7 +2,8 @@ r"""A persistent cache of exact values: compute once per machine, share between 
 
 Exact values (training and validation sets, constants on their grids, the
 report's validation sets) are the slow part of every command that measures a
-fit.  :func:`cached_arrays` keeps them on disk, keyed by everything that
+fit; a runtime model's energy scale (a quadrature of the model) is the slow part
+of building one.  :func:`cached_arrays` keeps them on disk, keyed by everything that
 determines them: a name, the caller's key (target, grid, method), the fitlab
 version and the bytes of the source files that compute them, so that a change
 of engine is a miss, never a stale hit.

@@ -137,7 +137,7 @@ ENERGY_MARGIN = 1e-5
 ENERGY_MU = np.concatenate(([1e-6, 1e-4, 1e-3], np.arange(1, 101) / 100))
 
 
-def energy_scale(parts: dict, terms=RUNTIME_TERMS, normalisation: str = "corrected") -> sp.Rational:
+def energy_scale(parts: dict, terms=RUNTIME_TERMS, normalisation: str = "corrected", use_cache: bool = True) -> sp.Rational:
     r"""The energy scale s of a fitted runtime model: f_r = max(0, s (f_1 + fm0 + ...)), so that the model
     never creates energy.
 
@@ -150,19 +150,40 @@ def energy_scale(parts: dict, terms=RUNTIME_TERMS, normalisation: str = "correct
     close to it overshoots 1 by as much; s < 1 scales it by a few 1e-5, far inside the accuracy goal,
     keeping the exact zero at c = 0, reciprocity and non-negativity.  The albedo is smooth in mu
     (it varies by about 1e-5 over 0.05 near its maximum), so ENERGY_MARGIN covers the incidences
-    between the grid's; tests measure the scaled model on a finer grid."""
-    return _energy_scale(tuple(sorted(parts.items())), tuple(terms), normalisation)
+    between the grid's; tests measure the scaled model on a finer grid.
+
+    The scale (a second or so of quadrature) is kept in fitlab's cache (:mod:`fitlab.cache`; ``use_cache``
+    False: computed afresh), keyed by the parts' expressions (``sympy.srepr``), ``terms``, ``normalisation``,
+    the numpy and sympy versions and the bytes of the code that computes it (:func:`_energy_sources`)."""
+    return _energy_scale(tuple(sorted(parts.items())), tuple(terms), normalisation, bool(use_cache))
+
+
+def _energy_sources() -> list[Path]:
+    """The files whose code decides an energy scale: the exact engine's quadrature rules, the family's forms,
+    this module, the stable rewrites and the lambdify of the parts."""
+    import inspect
+
+    fam = Path(__file__).resolve().parents[1]
+    return [*exact.SOURCES, *sorted((fam / "forms").glob("*.py")), Path(__file__).resolve(),
+            Path(inspect.getfile(stable)), Path(inspect.getfile(lambdify_numpy))]  # fmt: skip
 
 
 @functools.lru_cache(maxsize=64)
-def _energy_scale(parts: tuple, terms: tuple, normalisation: str) -> sp.Rational:
-    # each part lambdified on its own and the structure over placeholders: one lambdify (with cse) of the
-    # whole inlined model costs seconds
-    parts = dict(parts)
-    functions = {p: lambdify_numpy(symbols(get_target(p).inputs), e) for p, e in parts.items()}
-    model = assembled(functions, terms=terms, normalisation=normalisation)
-    peak = float(np.max(directional_albedo(model, ENERGY_MU, 1.0)))
-    scaled = int(np.floor((1.0 - ENERGY_MARGIN) / peak * 1e6))
+def _energy_scale(parts: tuple, terms: tuple, normalisation: str, use_cache: bool) -> sp.Rational:
+    from fitlab.cache import cached_arrays
+
+    def compute():
+        # each part lambdified on its own and the structure over placeholders: one lambdify (with cse) of the
+        # whole inlined model costs seconds
+        functions = {p: lambdify_numpy(symbols(get_target(p).inputs), e) for p, e in parts}
+        model = assembled(functions, terms=terms, normalisation=normalisation)
+        peak = float(np.max(directional_albedo(model, ENERGY_MU, 1.0)))
+        return {"millionths": np.int64(np.floor((1.0 - ENERGY_MARGIN) / peak * 1e6))}
+
+    key = {"parts": [[p, sp.srepr(e)] for p, e in parts], "terms": list(terms), "normalisation": normalisation,
+           "numpy": np.__version__, "sympy": sp.__version__}  # fmt: skip
+    scaled = int(cached_arrays(f"{FAMILY_NAME}-energy-scale", key, compute, ("millionths",), _energy_sources(),
+                               use_cache)["millionths"])  # fmt: skip
     return sp.S.One if scaled >= 10**6 else sp.Rational(scaled, 10**6)
 
 
