@@ -128,14 +128,15 @@ def refit(
         on_step("exact data")
 
     weights = None if target.emphasis is None else target.emphasis(train)
+    tscale = target.scale(train)
     fit = fit_form(
-        form, train, target.scale(train), theta0, minimax_rounds=rounds if minimax else 0, weights=weights,
+        form, train, tscale, theta0, minimax_rounds=rounds if minimax else 0, weights=weights,
         on_step=on_step,
     )
-    scipy_fit = fit_form_scipy(form, train, target.scale(train), theta0, weights=weights) if compare_scipy else None
+    scipy_fit = fit_form_scipy(form, train, tscale, theta0, weights=weights) if compare_scipy else None
 
     vscale = target.scale(valid)
-    published = published_rows(target, valid)
+    published = published_rows(target, valid, vscale)
     objective = "relative least squares (" + target.error_measure.split(":")[0] + ")"
     if target.emphasis_text:
         objective += "; " + target.emphasis_text
@@ -166,10 +167,10 @@ def refit(
     return RefitResult(record, fit, scipy_fit)
 
 
-def published_rows(target: Target, valid: Dataset) -> list[dict]:
+def published_rows(target: Target, valid: Dataset, vscale) -> list[dict]:
     """The ``published`` rows of a fit record: each of the target's published presets (form, preset, its
-    parameters) measured on ``valid``, the record's validation set."""
-    vscale = target.scale(valid)
+    parameters) measured on ``valid``, the record's validation set, with its error scale ``vscale``
+    (``target.scale(valid)``)."""
     rows = []
     for pform_name, preset in target.published:
         pform = target.forms[pform_name]
