@@ -59,7 +59,8 @@ try:
 except ImportError:  # Windows: no flock, no lock (see the module docstring)
     fcntl = None
 
-__all__ = ["cache_dir", "cache_key", "cached_arrays", "cache_info", "clear_cache", "enabled", "enable_compilation_cache"]
+__all__ = ["cache_dir", "cache_key", "cached_arrays", "cached_at", "cache_info", "clear_cache", "enabled",
+           "enable_compilation_cache", "INPUT_PREFIX"]
 
 _SUFFIX = ".npz"
 #: the array of an entry that holds its content hash (:func:`_content_hash`)
@@ -163,6 +164,28 @@ def cached_arrays(
                 pass  # a cache that cannot be written only costs time
     return {n: values[n] for n in names}
 
+
+#: the prefix of the arrays in which an entry of :func:`cached_at` holds its inputs
+INPUT_PREFIX = "in_"
+
+
+def cached_at(
+    name: str,
+    parts: Mapping,
+    inputs: Mapping[str, np.ndarray],
+    compute: Callable[[], Mapping[str, np.ndarray]],
+    names: tuple[str, ...],
+    sources: Iterable[Path] = (),
+) -> dict[str, np.ndarray]:
+    """:func:`cached_arrays` for values computed at points: ``inputs`` ({name: array}, as float64) join the key
+    (``parts``) and the entry, each as the array ``in_NAME`` (:data:`INPUT_PREFIX`), so that an entry says what
+    it holds the values of.  Returns the arrays ``names`` and the inputs."""
+    inputs = {k: np.asarray(v, dtype=float) for k, v in inputs.items()}
+
+    def arrays():
+        return {**compute(), **{INPUT_PREFIX + k: v for k, v in inputs.items()}}
+
+    return cached_arrays(name, {**parts, **inputs}, arrays, (*names, *(INPUT_PREFIX + k for k in inputs)), sources)
 
 @contextmanager
 def _computing(path: Path | None) -> Iterator[None]:

@@ -12,12 +12,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from fitlab.cache import cached_arrays
+from fitlab.cache import cached_at
 from fitlab.families.lambert_sphere import exact
 
 #: the entries' names start with this
 NAME = "tests-exact-brdf"
-#: the inputs of exact.brdf, as the entries name them (in_NAME)
+#: the inputs of exact.brdf, in its order (the entries hold them as in_NAME: fitlab.cache.cached_at)
 INPUTS = ("mu_i", "mu_o", "phi", "c")
 #: the tests whose calls of :func:`brdf` the seed holds (pytest node ids, from the project root)
 SEEDED_TESTS = (
@@ -34,9 +34,7 @@ def brdf(mu_i, mu_o, phi, c, phase: str | None = None) -> np.ndarray:
     inputs = dict(zip(INPUTS, np.broadcast_arrays(*(np.asarray(v, dtype=float) for v in (mu_i, mu_o, phi, c)))))
 
     def compute():
-        f = exact.brdf(inputs["mu_i"], inputs["mu_o"], inputs["phi"], inputs["c"], phase=phase)
-        return {"f": f, **{f"in_{k}": v for k, v in inputs.items()}}
+        return {"f": exact.brdf(*inputs.values(), phase=phase)}
 
-    names = ("f", *(f"in_{k}" for k in INPUTS))
-    key = {"family": "lambert_sphere", "phase": phase, **inputs}
-    return cached_arrays(f"{NAME}-{phase}", key, compute, names, sources=exact.SOURCES)["f"]
+    key = {"family": "lambert_sphere", "phase": phase}
+    return cached_at(f"{NAME}-{phase}", key, inputs, compute, ("f",), sources=exact.SOURCES)["f"]

@@ -9,7 +9,7 @@ import sys
 import numpy as np
 import pytest
 
-from fitlab.cache import cache_dir, cache_info, cache_key, cached_arrays, clear_cache
+from fitlab.cache import INPUT_PREFIX, cache_dir, cache_info, cache_key, cached_arrays, cached_at, clear_cache
 from fitlab.cli import main
 
 
@@ -35,6 +35,19 @@ def test_second_call_is_a_hit_and_returns_the_same_arrays(cache):
     b = cached_arrays("demo", {"grid": "k/4"}, _values(calls), ("x", "y"))
     assert len(calls) == 1 and all(np.array_equal(a[k], b[k]) for k in "xy")
     assert cache_dir() == cache and cache_info()["entries"] == 1
+
+
+def test_values_at_points_are_keyed_by_the_points_and_hold_them(cache):
+    calls = []
+
+    def at(x):
+        return cached_at("demo-at", {"what": "square"}, {"x": x}, lambda: calls.append(1) or {"y": x**2}, ("y",))
+
+    x = np.array([0.5, 2.0])
+    first, again, other = at(x), at(x.copy()), at(np.array([0.5, 3.0]))
+    assert len(calls) == 2 and np.array_equal(again["y"], first["y"]) and np.array_equal(other["y"], [0.25, 9.0])
+    (entry,) = [p for p in cache.glob("demo-at-*.npz") if np.array_equal(np.load(p)[INPUT_PREFIX + "x"], x)]
+    assert np.array_equal(np.load(entry)["y"], [0.25, 4.0])
 
 
 def test_key_covers_parts_arrays_and_sources(tmp_path):

@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from fitlab.cache import cache_dir, enabled
+from fitlab.cache import INPUT_PREFIX, cache_dir, enabled
 from fitlab.families.lambert_sphere import exact
 from fitlab.families.lambert_sphere.program.runtime import accuracy_points, accuracy_reference
 from fitlab.families.lambert_sphere.targets import datasets as d
@@ -161,6 +161,12 @@ def _accuracy_reference_true():
     _close(ref["albedo"][k], exact.albedo(mu, albedo_c[k], phase="true"), f"albedo at c = {albedo_c[k]}")
 
 
+def _seeded_entry(file: str) -> dict:
+    """The arrays of the seed's entry ``file``."""
+    with np.load(SEED / file, allow_pickle=False) as z:
+        return {k: z[k] for k in z.files}
+
+
 def _tabulate_check():
     """The references of `fitlab tabulate --check` (each entry holds the rows it is the reference of): at c = 1
     and the middle albedo for H, the constants and kd, the first rows of the three-term orders and of the
@@ -171,8 +177,7 @@ def _tabulate_check():
     files = _manifest()["datasets"]["lambert_sphere.tabulate_check"]
     seen = set()
     for file in files:
-        with np.load(SEED / file, allow_pickle=False) as z:
-            e = {k: z[k] for k in z.files}
+        e = _seeded_entry(file)
         what = file.split("-")[2]  # lambert_sphere-check-WHAT-...
         seen.add(what)
         if what in ("h0", "h1", "h2"):
@@ -230,10 +235,7 @@ def _tests_exact_brdf():
 
     files = _manifest()["datasets"]["tests.exact_brdf"]
     assert files
-    entries = {}
-    for file in files:
-        with np.load(SEED / file, allow_pickle=False) as z:
-            entries[file] = {k: z[k].ravel() for k in z.files}
+    entries = {file: {k: v.ravel() for k, v in _seeded_entry(file).items()} for file in files}
     other = next(float(v) for e in entries.values() for v in e["in_c"] if v != 1.0)
     checked = 0
     for file, e in sorted(entries.items()):
@@ -241,7 +243,7 @@ def _tests_exact_brdf():
         for cv in (1.0, other):
             sel = np.flatnonzero(e["in_c"] == cv)[:20]
             if sel.size:
-                x = {k: e[f"in_{k}"][sel] for k in exact_cache.INPUTS}
+                x = {k: e[INPUT_PREFIX + k][sel] for k in exact_cache.INPUTS}
                 _close(e["f"][sel], exact.brdf(x["mu_i"], x["mu_o"], x["phi"], cv, phase=phase), f"{file} at c = {cv}")
                 checked += sel.size
     assert checked

@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
-from fitlab.cache import cached_arrays
+from fitlab.cache import cached_at
 from fitlab.families.lambert_sphere.exact import (
     SOURCES,
     constants,
@@ -255,14 +255,8 @@ def _reference(name: str, compute, names: tuple[str, ...], **inputs) -> dict[str
     engine's sources, as the exact values of the training sets are: a second check of tables on the same grid
     (a user's copy, the packaged ones) reads them instead of solving again, and any edit of the engine
     recomputes them.  The entry holds the inputs too (``in_NAME``): it says what it is the reference of."""
-    inputs = {k: np.asarray(v, dtype=float) for k, v in inputs.items()}
-    key = {"family": "lambert_sphere", "check": name, **inputs}
-
-    def arrays():
-        return {**compute(), **{f"in_{k}": v for k, v in inputs.items()}}
-
-    names = (*names, *(f"in_{k}" for k in inputs))
-    return cached_arrays(f"lambert_sphere-check-{name}", key, arrays, names, sources=SOURCES)
+    key = {"family": "lambert_sphere", "check": name}
+    return cached_at(f"lambert_sphere-check-{name}", key, inputs, compute, names, sources=SOURCES)
 
 
 def check_tables(out: Path, every: int = 8, show_progress: bool = True) -> list[str]:
