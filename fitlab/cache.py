@@ -214,7 +214,9 @@ def _computing(path: Path | None) -> Iterator[None]:
 def enable_compilation_cache() -> None:
     """Keep what JAX compiles in CACHE/xla (JAX's persistent compilation cache, keyed by JAX on the program,
     its shapes, the backend and the JAX version), unless the cache is off or the user set JAX's own folder.
-    Programs that compile in under 0.2 s are not kept.  Imports JAX."""
+    Every program is kept, however fast it compiles: a command's small programs (tens of milliseconds each)
+    add up to about 0.1 s a process, which a warm run then reads back instead (JAX never keeps a program with
+    host callbacks).  Imports JAX."""
     if not enabled():
         return
     import jax
@@ -222,7 +224,7 @@ def enable_compilation_cache() -> None:
     if jax.config.jax_compilation_cache_dir:
         return  # the user's own setting wins
     jax.config.update("jax_compilation_cache_dir", str(cache_dir() / _XLA))
-    jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.2)
+    jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.0)
 
 
 def cache_info() -> dict:

@@ -191,3 +191,15 @@ def test_clamped_forms_fit_the_unclamped_expression():
     f = get_form("fast_brdf", "paper")
     assert isinstance(f.expr, sp.Max) and not isinstance(f.fit_expr, sp.Max)
     assert get_form("H0", "hapke").fit_expr == get_form("H0", "hapke").expr
+
+
+def test_the_lambert_clamps_built_unevaluated_are_sympys_evaluated_ones():
+    """forms/brdf.py builds its clamps (Max, Min) with evaluate=False, which spares every import of the family
+    sympy's ordering of their arguments; each clamp, evaluated again, is the same expression."""
+    from fitlab.families.lambert_sphere.forms.brdf import PHASE, PHASE_FORWARD, SINGLE
+
+    exprs = [PHASE, PHASE_FORWARD, SINGLE, *(f.expr for f in FORMS)]
+    clamps = {node for e in exprs for node in sp.preorder_traversal(e) if isinstance(node, (sp.Max, sp.Min))}
+    assert len(clamps) >= 5  # the phase function's three, the angle's, the fast BRDF's
+    for node in clamps:
+        assert node.func(*node.args) == node, node

@@ -25,16 +25,19 @@ mu_i, mu_o, phi, c, kd, mu = symbols(("mu_i", "mu_o", "phi", "c", "kd", "mu"))
 S = sp.sqrt((1 - mu_i**2) * (1 - mu_o**2))
 PI = sp.pi
 
-# scattering cosine, clamped so that rounding never takes it outside [-1, 1]
-_u = sp.Max(-1, sp.Min(1, -(mu_i * mu_o + S * sp.cos(phi))))
+# scattering cosine, clamped so that rounding never takes it outside [-1, 1].  The clamps of this module are built
+# unevaluated: sympy's evaluation of Max and Min tries to order their arguments (factor_terms on the whole
+# expression), 0.3 s of every import of the family, and leaves these ones as they are (tests/test_forms.py)
+_u = sp.Max(-1, sp.Min(1, -(mu_i * mu_o + S * sp.cos(phi)), evaluate=False), evaluate=False)
 #: Lambert-sphere phase function p(u) (docs/model.md, "Phase function")
-PHASE = 2 * (sp.sqrt(sp.Max(0, 1 - _u**2)) - _u * sp.acos(_u)) / (3 * PI**2)
+PHASE = 2 * (sp.sqrt(sp.Max(0, 1 - _u**2, evaluate=False)) - _u * sp.acos(_u)) / (3 * PI**2)
 #: exact single scattering with the true phase function (eq. 10)
 SINGLE = c * PHASE / (mu_i + mu_o)
 
 #: (1 - u)/2 = (1 + mu_i mu_o + S cos(phi))/2, from a sum of terms >= 0: 1 - u = (1 - S^2)/(1 + S) + mu_i mu_o +
 #: S (1 + cos phi), 1 - S^2 = mu_i^2 + mu_o^2 (1 - mu_i^2); clamped to [0, 1] against rounding
-_V = sp.Min(1, sp.Max(0, ((mu_i**2 + mu_o**2 * (1 - mu_i**2)) / (1 + S) + mu_i * mu_o + S * (1 + sp.cos(phi))) / 2))
+_V = sp.Min(1, sp.Max(0, ((mu_i**2 + mu_o**2 * (1 - mu_i**2)) / (1 + S) + mu_i * mu_o + S * (1 + sp.cos(phi))) / 2,
+                       evaluate=False), evaluate=False)
 #: x = acos(u) from v = (1 - u)/2 with one asin: 2 asin(sqrt(v)) in forward scattering (v < 1/2), pi - 2 asin(sqrt(1 - v))
 #: otherwise (1 - v is exact there, and x reads the same rounded v as sqrt(v (1 - v)): near back-scattering the
 #: two terms of p then cancel their first order exactly, as from one u; 2 asin(sqrt(v)) alone cost 6e-5 in float there)
@@ -116,7 +119,7 @@ def _fast_brdf() -> Form:
         name="paper",
         inputs=("mu_i", "mu_o", "phi", "c", "kd"),
         params=("p1", "p2", "p3", "p4", "p5"),
-        expr=sp.Max(0, SINGLE + lobe + p4 * safe_pow(kd, p5)),
+        expr=sp.Max(0, SINGLE + lobe + p4 * safe_pow(kd, p5), evaluate=False),
         presets={"paper": dict(p1=0.0151829, p2=0.249978, p3=0.113706, p4=0.234459, p5=1.85432)},
         description=(
             "Fast variant (eq. 41): max(0, f_1 + p1 (c - p2)(|phi| + sqrt(mu_i mu_o))/(acos(S)/S + p3) "
