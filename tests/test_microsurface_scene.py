@@ -57,6 +57,23 @@ def test_material_parameters_must_fit_the_kind(change, field):
         parse_scene(GOOD.replace("alpha = 0.5", "alpha = 0.5\n" + change))
 
 
+def test_target_se_per_row_kind():
+    """target_se as a table (fitlab.scenes.Checker.per_key, shared with the Lambert sphere's scenes): a value per
+    row kind; an unknown kind, a bad value and a kind left out are each refused on its own line."""
+    table = GOOD.replace("target_se = 0.01", "target_se = {lobe = 0.02, albedo = 1e-3}")
+    assert parse_scene(table).target_se == {"lobe": 0.02, "albedo": 1e-3}
+    bad = GOOD.replace("target_se = 0.01", "[precision.target_se]\nlobe = -1\ncolour = 0.1")
+    with pytest.raises(SceneError) as exc:
+        parse_scene(bad, "bad.toml")
+    lines = str(exc.value).splitlines()
+    assert len(lines) == 3
+    assert "bad.toml:12: precision.target_se.lobe: expected a positive finite number, got -1" in lines
+    assert "bad.toml:13: precision.target_se.colour: unknown row kind 'colour' (known: lobe, albedo)" in lines
+    assert any(line.endswith("precision.target_se: no target for row kind 'albedo'") for line in lines)
+    with pytest.raises(SceneError, match="expected a positive finite number or a table per row kind, got 0"):
+        parse_scene(GOOD.replace("target_se = 0.01", "target_se = 0"))
+
+
 def test_not_toml_and_wrong_types():
     with pytest.raises(SceneError, match="not valid TOML"):
         parse_scene("[scene\n")

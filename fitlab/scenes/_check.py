@@ -90,6 +90,33 @@ class Checker:
         self.unknown(v, keypath, known)
         return v
 
+    def per_key(self, d, keypath, known, required, noun: str, missing: str, every=None) -> dict:
+        """``d[keypath[-1]]``, a positive finite number per key: one number for every key of ``every`` (default
+        ``known``), or a table of them by key (each key one of ``known``, each of ``required`` present);
+        {key: float} without the keys of a problem, which is recorded (``noun`` names a key in the messages,
+        ``missing`` says what the field is)."""
+        v = d.get(keypath[-1])
+        if v is None:
+            self.fail(keypath, f"missing: {missing}")
+            return {}
+        if isinstance(v, dict):
+            out = {}
+            for k, x in v.items():
+                if k not in known:
+                    self.fail(tuple(keypath) + (k,), f"unknown {noun} {k!r} (known: {', '.join(known)})")
+                elif isinstance(x, bool) or not isinstance(x, (int, float)) or not 0 < x < math.inf:
+                    self.fail(tuple(keypath) + (k,), f"expected a positive finite number, got {x!r}")
+                else:
+                    out[k] = float(x)
+            for k in required:
+                if k not in v:
+                    self.fail(keypath, f"no target for {noun} {k!r}")
+            return out
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not 0 < v < math.inf:
+            self.fail(keypath, f"expected a positive finite number or a table per {noun}, got {v!r}")
+            return {}
+        return {k: float(v) for k in (known if every is None else every)}
+
     def edges(self, value, keypath, hi: float, what: str):
         """Bin edges on [0, hi]: from a count n (n equal bins, 1 <= n <= 1000) or a strictly increasing
         list of >= 2 numbers in [0, hi]; None after recording a problem."""

@@ -235,26 +235,9 @@ def _directions(ck, inc, out, effects) -> tuple:
 
 
 def _targets(ck, prec, effects) -> dict:
-    tse = prec.get("target_se")
-    target = {}
-    if tse is None:
-        ck.fail(("precision", "target_se"), "missing: the standard error at which each tally stops")
-    elif isinstance(tse, dict):
-        for k, v in tse.items():
-            if k not in EFFECTS:
-                ck.fail(("precision", "target_se", k), f"unknown effect {k!r}")
-            elif isinstance(v, bool) or not isinstance(v, (int, float)) or not 0 < v < math.inf:
-                ck.fail(("precision", "target_se", k), f"expected a positive finite number, got {v!r}")
-            else:
-                target[k] = float(v)
-        for e in effects:
-            if e != "single" and e not in target:
-                ck.fail(("precision", "target_se"), f"no target for effect {e!r}")
-    elif isinstance(tse, bool) or not isinstance(tse, (int, float)) or not 0 < tse < math.inf:
-        ck.fail(("precision", "target_se"), f"expected a positive finite number or a table per effect, got {tse!r}")
-    else:
-        target = {e: float(tse) for e in effects}
-    return target
+    # a table needs no target for single scattering, which is computed, not simulated
+    return ck.per_key(prec, ("precision", "target_se"), tuple(EFFECTS), [e for e in effects if e != "single"],
+                      "effect", "the standard error at which each tally stops", every=effects)
 
 
 class SceneSchema:

@@ -198,27 +198,8 @@ def _mu_i(ck: scenes.Checker, inc) -> tuple:
 
 
 def _targets(ck: scenes.Checker, prec) -> dict:
-    tse = prec.get("target_se")
-    kp = ("precision", "target_se")
-    target = {}
-    if tse is None:
-        ck.fail(kp, "missing: the standard error at which a job stops")
-    elif isinstance(tse, dict):
-        for k, x in tse.items():
-            if k not in TARGETS:
-                ck.fail(kp, f"unknown row kind {k!r} (known: {', '.join(TARGETS)})")
-            elif isinstance(x, bool) or not isinstance(x, (int, float)) or not 0 < x < math.inf:
-                ck.fail(kp, f"{k}: expected a positive finite number, got {x!r}")
-            else:
-                target[k] = float(x)
-        for k in TARGETS:
-            if k not in tse:
-                ck.fail(kp, f"no target for {k!r} rows")
-    elif isinstance(tse, bool) or not isinstance(tse, (int, float)) or not 0 < tse < math.inf:
-        ck.fail(kp, f"expected a positive finite number or a table, got {tse!r}")
-    else:
-        target = {k: float(tse) for k in TARGETS}
-    return target
+    return ck.per_key(prec, ("precision", "target_se"), TARGETS, TARGETS, "row kind",
+                      "the standard error at which a job stops")
 
 
 class SceneSchema:
