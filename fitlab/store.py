@@ -40,10 +40,33 @@ from fitlab.forms.symbolic import lambdify_numpy, parse_expression, symbols
 from fitlab.resources import packaged_fits
 
 __all__ = [
-    "FORMAT", "FitFileError", "FitFunction", "load", "read_fit", "read_checked_fit", "check_fit", "checked_fit",
-    "fit_schema", "PARAM_LIMIT", "write_fit", "write_fits", "strict_json", "decode_nonfinite", "form_from_fit",
-    "fits_folder", "fit_path", "fit_source", "fit_origin", "fit_files", "fit_sha256", "resolve_form", "Table",
-    "TableError", "format_table", "read_table", "write_tables",
+    "FORMAT",
+    "FitFileError",
+    "FitFunction",
+    "load",
+    "read_fit",
+    "read_checked_fit",
+    "check_fit",
+    "checked_fit",
+    "fit_schema",
+    "PARAM_LIMIT",
+    "write_fit",
+    "write_fits",
+    "strict_json",
+    "decode_nonfinite",
+    "form_from_fit",
+    "fits_folder",
+    "fit_path",
+    "fit_source",
+    "fit_origin",
+    "fit_files",
+    "fit_sha256",
+    "resolve_form",
+    "Table",
+    "TableError",
+    "format_table",
+    "read_table",
+    "write_tables",
 ]
 
 FORMAT = "fitlab-fit/1"
@@ -122,7 +145,7 @@ def fit_schema() -> dict:
 
 
 def _refuse_constant(name):
-    raise ValueError(f"the JSON literal {name} (non-finite numbers are written as the strings \"inf\", \"nan\")")
+    raise ValueError(f'the JSON literal {name} (non-finite numbers are written as the strings "inf", "nan")')
 
 
 def check_fit(record, source: str = "fit") -> dict:
@@ -173,8 +196,9 @@ def checked_fit(record, source: str = "fit") -> tuple[dict, sp.Expr]:
     for group in ("params", "fixed"):
         for name, value in record.get(group, {}).items():
             if not (math.isfinite(value) and abs(value) <= PARAM_LIMIT):
-                raise FitFileError(f"{source}: {group} {name} = {value!r} is not a finite number of magnitude "
-                                   f"<= {PARAM_LIMIT:g}")
+                raise FitFileError(
+                    f"{source}: {group} {name} = {value!r} is not a finite number of magnitude <= {PARAM_LIMIT:g}"
+                )
     fixed = record.get("fixed", {})
     if not set(fixed) <= set(record["params"]) or any(record["params"][k] != v for k, v in fixed.items()):
         raise FitFileError(f"{source}: fixed parameters must be parameters, with the same values")
@@ -219,8 +243,9 @@ def _checked_user_fit(record: dict, source: str) -> tuple[dict, sp.Expr]:
     for group in ("params", "fixed"):
         for key, value in record.get(group, {}).items():
             if not (math.isfinite(value) and abs(value) <= PARAM_LIMIT):
-                raise FitFileError(f"{source}: {group} {key} = {value!r} is not a finite number of magnitude "
-                                   f"<= {PARAM_LIMIT:g}")
+                raise FitFileError(
+                    f"{source}: {group} {key} = {value!r} is not a finite number of magnitude <= {PARAM_LIMIT:g}"
+                )
     fixed = record.get("fixed", {})
     if not set(fixed) <= set(record["params"]) or any(record["params"][k] != v for k, v in fixed.items()):
         raise FitFileError(f"{source}: fixed parameters must be parameters, with the same values")
@@ -246,11 +271,13 @@ def read_checked_fit(path: Path, target: str | None = None) -> tuple[dict, sp.Ex
     try:  # a regular file of at most MAX_FIT_BYTES, checked before it is opened: a FIFO or a device never blocks
         data = read_regular_file(path, MAX_FIT_BYTES)
     except InputFileError as exc:
-        raise FitFileError({
-            "missing": f"{path}: no such fit file; run `fitlab refit --target NAME` to create it",
-            "folder": f"{path}: a folder, not a fit file",
-            "too_large": f"{path}: larger than {MAX_FIT_BYTES} bytes; not a fit file",
-        }.get(exc.kind, f"{path}: {exc.refusal('fit file')}")) from None
+        raise FitFileError(
+            {
+                "missing": f"{path}: no such fit file; run `fitlab refit --target NAME` to create it",
+                "folder": f"{path}: a folder, not a fit file",
+                "too_large": f"{path}: larger than {MAX_FIT_BYTES} bytes; not a fit file",
+            }.get(exc.kind, f"{path}: {exc.refusal('fit file')}")
+        ) from None
     try:
         record = json.loads(data.decode("utf-8"), parse_constant=_refuse_constant)
     except json.JSONDecodeError as exc:
@@ -484,9 +511,14 @@ def _table_error(path: Path, exc: InputFileError) -> TableError:
     return TableError(f"{path}: {exc.refusal('table')}")
 
 
-def read_table(path: Path, columns: tuple[str, ...] | None = None, *, grid: str | None = None,
-               points: Mapping[str, np.ndarray] | None = None, infinite: tuple[str, ...] = ()
-               ) -> tuple[list[str], np.ndarray]:
+def read_table(
+    path: Path,
+    columns: tuple[str, ...] | None = None,
+    *,
+    grid: str | None = None,
+    points: Mapping[str, np.ndarray] | None = None,
+    infinite: tuple[str, ...] = (),
+) -> tuple[list[str], np.ndarray]:
     """Read a table written by :func:`write_tables`: (its header, its rows as an array of shape (rows, columns)).
 
     Refused with one :class:`TableError` line naming the table (and the line, for a bad row): a path that is
@@ -507,14 +539,15 @@ def read_table(path: Path, columns: tuple[str, ...] | None = None, *, grid: str 
     try:
         text = raw.decode("utf-8")
     except UnicodeDecodeError as exc:
-        raise TableError(f"{path}: not UTF-8 text (byte {raw[exc.start]:#04x} at offset {exc.start}); "
-                         f"{rewrite}") from None
+        raise TableError(
+            f"{path}: not UTF-8 text (byte {raw[exc.start]:#04x} at offset {exc.start}); {rewrite}"
+        ) from None
     header, stated, rows, first = None, None, [], 0
     allowed: list[bool] = []  # per column, whether +inf may stand there (set with the header)
     for number, line in enumerate(text.splitlines(), start=1):
         if header is None and line.startswith("#"):  # comments head the file; below the header, a row is a row
             if stated is None and line.startswith("# grid:"):
-                stated = line[len("# grid:"):].strip()
+                stated = line[len("# grid:") :].strip()
             continue
         if header is None:
             header = line.split(",")
@@ -526,8 +559,9 @@ def read_table(path: Path, columns: tuple[str, ...] | None = None, *, grid: str 
         fields = line.split(",")
         if len(fields) != len(header):
             plural = "s" if len(fields) != 1 else ""
-            raise TableError(f"{path} line {number}: {len(fields)} field{plural}, the header has {len(header)}; "
-                             f"{rewrite}")
+            raise TableError(
+                f"{path} line {number}: {len(fields)} field{plural}, the header has {len(header)}; {rewrite}"
+            )
         try:
             row = [float(x) for x in fields]
         except ValueError:
@@ -553,8 +587,10 @@ def read_table(path: Path, columns: tuple[str, ...] | None = None, *, grid: str 
         bad = data[:, j] != want
         if np.any(bad):
             i = int(np.argmax(bad))
-            raise TableError(f"{path} line {first + i}: {name} is {float(data[i, j])!r}, the grid its header states "
-                             f"has {float(want[i])!r} there; {rewrite}")
+            raise TableError(
+                f"{path} line {first + i}: {name} is {float(data[i, j])!r}, the grid its header states "
+                f"has {float(want[i])!r} there; {rewrite}"
+            )
     return header, data
 
 

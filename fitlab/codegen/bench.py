@@ -48,14 +48,16 @@ def expressions_program(exprs: dict):
     routines, keys = [], {}
     for key, (args, expr, domain) in exprs.items():
         name = f"expr_{len(routines)}"
-        routines.append(with_domain(Routine(name, tuple(args), expr, str(key),
-                                            domain={a: tuple(domain[a]) for a in args})))
+        routines.append(
+            with_domain(Routine(name, tuple(args), expr, str(key), domain={a: tuple(domain[a]) for a in args}))
+        )
         keys[name] = key
     return Program(tuple(routines), (), (), name="fitlab_expressions"), keys
 
 
-def time_expressions(exprs: dict, inputs: dict | None = None, n: int = 200_000, repeat: int = 5, seed: int = 0,
-                     workdir=None) -> dict:
+def time_expressions(
+    exprs: dict, inputs: dict | None = None, n: int = 200_000, repeat: int = 5, seed: int = 0, workdir=None
+) -> dict:
     """ns per evaluation, {key: (double, float)}, of expressions {key: (args, expr, domain)} printed in C
     (:func:`expressions_program`), compiled with the strict flags (:func:`fitlab.codegen.native.build`, in
     ``workdir`` or a temporary folder) and timed in one interleaved run (:func:`time_routines`).  An argument
@@ -80,8 +82,11 @@ def time_expressions(exprs: dict, inputs: dict | None = None, n: int = 200_000, 
             if a not in inputs:
                 lo, hi = r.domain[a]
                 inputs[a] = rng.uniform(float(lo), float(hi), count)
-    folder = contextlib.nullcontext(workdir) if workdir is not None else tempfile.TemporaryDirectory(
-        prefix="fitlab-expressions-")
+    folder = (
+        contextlib.nullcontext(workdir)
+        if workdir is not None
+        else tempfile.TemporaryDirectory(prefix="fitlab-expressions-")
+    )
     with folder as where:
         lib = build(emit(program, "c"), program, Path(where) / "expressions")
         cases = {(name, dt): (lib, name, [inputs[a] for a in program.routine(name).signature()], dt)

@@ -29,8 +29,22 @@ import numpy as np
 
 from fitlab.codegen.program import Program
 
-__all__ = ["compiler", "cxx_compiler", "build_library", "c_function", "STRICT_FLAGS", "GLSL_FLAGS", "GLSL_SHIM",
-           "HLSL_SHIM", "METAL_STDLIB", "METAL_FLAGS", "build", "build_glsl", "NativeModel", "CompileError"]
+__all__ = [
+    "compiler",
+    "cxx_compiler",
+    "build_library",
+    "c_function",
+    "STRICT_FLAGS",
+    "GLSL_FLAGS",
+    "GLSL_SHIM",
+    "HLSL_SHIM",
+    "METAL_STDLIB",
+    "METAL_FLAGS",
+    "build",
+    "build_glsl",
+    "NativeModel",
+    "CompileError",
+]
 
 #: the issue's standard: the generated C must compile clean under these
 STRICT_FLAGS = ("-std=c99", "-O2", "-Wall", "-Wextra", "-Wpedantic", "-Werror")
@@ -98,8 +112,10 @@ def _store(r, func: str, args: str, by_value: bool) -> str:
     if not r.out:
         return f"out[i] = {func}({args});"
     if by_value:
-        return (f"{{ SHADER_VEC4 v = {func}({args}); out[4 * i] = v.w; out[4 * i + 1] = v.x; out[4 * i + 2] = v.y; "
-                "out[4 * i + 3] = v.z; }")
+        return (
+            f"{{ SHADER_VEC4 v = {func}({args}); out[4 * i] = v.w; out[4 * i + 1] = v.x; out[4 * i + 2] = v.y; "
+            "out[4 * i + 3] = v.z; }"
+        )
     return f"out[4 * i] = {func}({args}, out + 4 * i + 1);"
 
 
@@ -117,8 +133,10 @@ def _material_loops(program: Program, by_value: bool, scalars=(("double", "", ""
         for name, params in ((m.prepare_name, m.params), *((n, (a,)) for n, a, _ in m.setups)):
             decl = ", ".join(f"const {scalar} *{a}" for a in params)
             lines.append(f"void {prefix}{name}{loop}_loop(long n, {decl}, {struct} *out)")
-            lines.append(f"{{ long i; for (i = 0; i < n; ++i) out[i] = {prefix}{name}{suffix}"
-                         f"({', '.join(f'{a}[i]' for a in params)}); }}")
+            lines.append(
+                f"{{ long i; for (i = 0; i < n; ++i) out[i] = {prefix}{name}{suffix}"
+                f"({', '.join(f'{a}[i]' for a in params)}); }}"
+            )
         for r in m.evaluators:
             sig = r.signature()
             decl = ", ".join(f"const {scalar} *{a}" for a in sig)
@@ -126,30 +144,41 @@ def _material_loops(program: Program, by_value: bool, scalars=(("double", "", ""
             if by_value:  # GLSL: structs and vectors by value
                 args = ", ".join(f"glsl_vec3({a} + 3 * i)" if a in r.vectors else f"{a}[i]" for a in sig)
             one = "m[which[i]]" if by_value else "m + which[i]"
-            lines.append(f"void {prefix}{r.name}{loop}_loop(long n, const {struct} *m, const long *which, "
-                         f"{decl}, {scalar} *out)")
+            lines.append(
+                f"void {prefix}{r.name}{loop}_loop(long n, const {struct} *m, const long *which, {decl}, {scalar} *out)"
+            )
             store = _store(r, f"{prefix}{r.name}{suffix}", f"{one}, {args}", by_value)
             lines.append(f"{{ long i; for (i = 0; i < n; ++i) {store} }}")
             if r.out:
                 continue
             if by_value:
                 three = "m[3 * which[i]], m[3 * which[i] + 1], m[3 * which[i] + 2]"
-                lines.append(f"void {prefix}{r.name}_rgb{loop}_loop(long n, const {struct} *m, const long *which, "
-                             f"{decl}, {scalar} *out)")
-                lines.append(f"{{ long i; for (i = 0; i < n; ++i) {{ "
-                             f"SHADER_VEC3 v = {prefix}{r.name}_rgb({three}, {args}); "
-                             "out[3 * i] = v.x; out[3 * i + 1] = v.y; out[3 * i + 2] = v.z; } }")
+                lines.append(
+                    f"void {prefix}{r.name}_rgb{loop}_loop(long n, const {struct} *m, const long *which, "
+                    f"{decl}, {scalar} *out)"
+                )
+                lines.append(
+                    f"{{ long i; for (i = 0; i < n; ++i) {{ "
+                    f"SHADER_VEC3 v = {prefix}{r.name}_rgb({three}, {args}); "
+                    "out[3 * i] = v.x; out[3 * i + 1] = v.y; out[3 * i + 2] = v.z; } }"
+                )
             else:
-                lines.append(f"void {prefix}{r.name}_rgb{loop}_loop(long n, const {struct} *m, const long *which, "
-                             f"{decl}, {scalar} *out)")
-                lines.append(f"{{ long i; for (i = 0; i < n; ++i) {prefix}{r.name}_rgb{suffix}(m + 3 * which[i], "
-                             f"{args}, out + 3 * i); }}")
+                lines.append(
+                    f"void {prefix}{r.name}_rgb{loop}_loop(long n, const {struct} *m, const long *which, "
+                    f"{decl}, {scalar} *out)"
+                )
+                lines.append(
+                    f"{{ long i; for (i = 0; i < n; ++i) {prefix}{r.name}_rgb{suffix}(m + 3 * which[i], "
+                    f"{args}, out + 3 * i); }}"
+                )
     return lines
 
 
 #: HLSL's float subset is C too, with float3 for vec3 (the same shim, and the name)
-HLSL_SHIM = GLSL_SHIM + ("typedef vec3 float3;\n#define float3(x, y, z) glsl_make_vec3(x, y, z)\n"
-                         "typedef vec4 float4;\n#define float4(x, y, z, w) glsl_make_vec4(x, y, z, w)\n")
+HLSL_SHIM = GLSL_SHIM + (
+    "typedef vec3 float3;\n#define float3(x, y, z) glsl_make_vec3(x, y, z)\n"
+    "typedef vec4 float4;\n#define float4(x, y, z, w) glsl_make_vec4(x, y, z, w)\n"
+)
 
 #: a C++ stand-in for <metal_stdlib>: the Metal Shading Language is C++14 with float overloads of the
 #: built-ins and a float3 type; the generated .metal file compiles against it as C++ (-I the folder)
@@ -173,9 +202,14 @@ def _glsl_loop_source(program: Program, lang: str = "glsl") -> str:
     """Loops over the shader functions: C against :data:`GLSL_SHIM` / :data:`HLSL_SHIM`, or C++ (extern "C"
     loops) against :data:`METAL_STDLIB` for Metal."""
     if lang == "metal":
-        head = ["#include <metal_stdlib>", f'#include "{program.name}.metal"', "#define SHADER_VEC3 float3",
-                "#define SHADER_VEC4 float4",
-                "static float3 glsl_vec3(const float *p) { return float3(p[0], p[1], p[2]); }", 'extern "C" {']
+        head = [
+            "#include <metal_stdlib>",
+            f'#include "{program.name}.metal"',
+            "#define SHADER_VEC3 float3",
+            "#define SHADER_VEC4 float4",
+            "static float3 glsl_vec3(const float *p) { return float3(p[0], p[1], p[2]); }",
+            'extern "C" {',
+        ]
     else:
         # the language names a struct type by its tag; C needs a typedef (allowed before the struct's definition)
         struct = [f"typedef struct {program.prefix}material {program.prefix}material;"] if program.material else []
@@ -215,8 +249,9 @@ def _compile(workdir: Path, sources: list[Path], lib: Path, flags, cxx: bool = F
     a file).  Failed compilations are never kept."""
     cc = cxx_compiler() if cxx else compiler()
     if cc is None:
-        raise CompileError("no C++ compiler found (c++, g++ or clang++)" if cxx
-                           else "no C compiler found (cc, gcc or clang)")
+        raise CompileError(
+            "no C++ compiler found (c++, g++ or clang++)" if cxx else "no C compiler found (cc, gcc or clang)"
+        )
     cmd = [cc, *flags, "-shared", "-fPIC", "-o", str(lib), *map(str, sources), "-lm"]
     folder = os.environ.get(NATIVE_CACHE_ENV)
     cached = Path(folder) / f"{_cache_key(Path(workdir), cmd)}.so" if folder else None
@@ -331,13 +366,17 @@ class NativeModel:
         self.dtypes = tuple(dtypes)
         self.material = material
         self._evaluators = {} if material is None else {r.name: r for r in material.evaluators}
-        self._setups = {} if material is None else {
-            material.prepare_name: material.params, **{n: (a,) for n, a, _ in material.setups}}
+        self._setups = (
+            {}
+            if material is None
+            else {material.prepare_name: material.params, **{n: (a,) for n, a, _ in material.setups}}
+        )
 
     def loop(self, func: str, dtype=np.float64):
         if np.dtype(dtype) not in [np.dtype(d) for d in self.dtypes]:
-            raise TypeError(f"this model has no {np.dtype(dtype)} loops "
-                            f"(it has {[np.dtype(d).name for d in self.dtypes]})")
+            raise TypeError(
+                f"this model has no {np.dtype(dtype)} loops (it has {[np.dtype(d).name for d in self.dtypes]})"
+            )
         f = getattr(self.lib, func + ("_f" if dtype == np.float32 else "") + "_loop")
         f.restype = None
         return f

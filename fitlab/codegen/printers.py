@@ -110,8 +110,9 @@ class CPrinter(_Common, C99CodePrinter):
         if scalar not in ("double", "float"):
             raise ValueError("scalar must be 'double' or 'float'")
         self.scalar = scalar
-        super().__init__(call_name, symbol_names, type_aliases={real: float64 if scalar == "double" else float32},
-                         math_macros={})
+        super().__init__(
+            call_name, symbol_names, type_aliases={real: float64 if scalar == "double" else float32}, math_macros={}
+        )
 
     def _literal(self, text: str) -> str:
         return text + ("F" if self.scalar == "float" else "")
@@ -256,8 +257,9 @@ class DrJitPrinter(_Common, PythonCodePrinter):
 
     def _print_Not(self, expr):
         # ~ negates a Dr.Jit mask but turns the Python bool True into -2
-        raise ValueError("no Dr.Jit spelling of a negation that serves masks and Python bools: "
-                         "print the opposite relation")
+        raise ValueError(
+            "no Dr.Jit spelling of a negation that serves masks and Python bools: print the opposite relation"
+        )
 
     def _print_BooleanTrue(self, expr):
         return "True"

@@ -86,8 +86,10 @@ class Routine:
 
     def __post_init__(self):
         if bool(self.out) != isinstance(self.expr, sp.Tuple) or (self.out and len(self.expr.args) != 4):
-            raise ValueError(f"routine {self.name}: a routine with an output vector has expr Tuple(value, x, y, z), "
-                             "and only such a routine")
+            raise ValueError(
+                f"routine {self.name}: a routine with an output vector has expr Tuple(value, x, y, z), "
+                "and only such a routine"
+            )
 
     def signature(self) -> tuple[str, ...]:
         """Arguments as the caller passes them: vectors as one argument."""
@@ -192,8 +194,9 @@ class ProgramSpec:
         if name == DEFAULT_FORMS:
             return name, {}, "each target's default form"
         if name not in self.models:
-            raise ValueError(f"unknown model {name!r}; the {self.name} program's models are "
-                             f"{', '.join(self.model_names())}")
+            raise ValueError(
+                f"unknown model {name!r}; the {self.name} program's models are {', '.join(self.model_names())}"
+            )
         forms, description = self.models[name]
         return name, dict(forms), description
 
@@ -394,8 +397,10 @@ def material_of(routines: Sequence[Routine], spec: MaterialSpec) -> Material:
     evaluators = []
     for (name, source), r, e in zip(kept.items(), sources, exprs):
         args = tuple(a for a in r.args if a not in spec.params)
-        doc = (f"{source} with the per-material set-up hoisted: the material m comes from "
-               f"{' or '.join(['prepare_' + '_'.join(spec.params), *spec.setups])}. " + r.doc)
+        doc = (
+            f"{source} with the per-material set-up hoisted: the material m comes from "
+            f"{' or '.join(['prepare_' + '_'.join(spec.params), *spec.setups])}. " + r.doc
+        )
         evaluators.append(Routine(name, args, e, doc, r.vectors, {a: r.domain[a] for a in args}, r.out))
     setups = tuple((name, arg, routine) for name, (arg, routine) in spec.setups.items())
     return Material(tuple(spec.params), tuple(fields), tuple(evaluators), setups, kept)
@@ -610,8 +615,9 @@ _x, _p = sp.Symbol("x", real=True), sp.Symbol("p", real=True)
 _not_positive = _x <= 0
 #: the generated safe_pow helper: x^p for x > 0, 0 for x <= 0, NaN for NaN (the comparison fails);
 #: the inner conditional keeps pow away from x <= 0 where every branch is evaluated (numpy)
-SAFE_POW = sp.Piecewise((0, _not_positive),
-                        (sp.Pow(sp.Piecewise((1, _not_positive), (_x, True)), _p, evaluate=False), True))
+SAFE_POW = sp.Piecewise(
+    (0, _not_positive), (sp.Pow(sp.Piecewise((1, _not_positive), (_x, True)), _p, evaluate=False), True)
+)
 
 
 def with_domain(routine: Routine) -> Routine:

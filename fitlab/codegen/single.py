@@ -23,8 +23,14 @@ from fitlab.codegen.emit import LANGUAGES, emit
 from fitlab.codegen.program import Program, Routine, with_domain
 from fitlab.store import FitFileError, FitFunction, fit_sha256, load
 
-__all__ = ["user_program", "generate_user_fit", "read_user_fit", "generate_fit_file", "codegen_fit_command",
-           "AGREEMENT_RTOL"]
+__all__ = [
+    "user_program",
+    "generate_user_fit",
+    "read_user_fit",
+    "generate_fit_file",
+    "codegen_fit_command",
+    "AGREEMENT_RTOL",
+]
 
 #: the relative difference allowed between the held-out error a fit states and the one measured again (the
 #: two evaluate one expression in different orders of operations)
@@ -54,8 +60,10 @@ def user_program(fit: FitFunction, table, source: tuple[str, str] | None = None)
 
     record = fit.record
     if "user_data" not in record:
-        raise FitFileError(f"{fit.target}/{fit.form}: not a fit of a user's table (no user_data); `fitlab codegen "
-                           "--fits` prints the fits of fitlab's own targets")
+        raise FitFileError(
+            f"{fit.target}/{fit.form}: not a fit of a user's table (no user_data); `fitlab codegen "
+            "--fits` prints the fits of fitlab's own targets"
+        )
     try:
         measured = remeasure(record, table)
     except UserDataError as exc:
@@ -65,33 +73,45 @@ def user_program(fit: FitFunction, table, source: tuple[str, str] | None = None)
     unit = 1.0 if record["user_data"]["error"] == "relative" else max(abs(float(measured["worst"]["exact"])), 1.0)
     for key in ("max_rel", "rms_rel"):
         if key not in stated or not _agrees(stated[key], measured[key], unit):
-            raise FitFileError(f"{fit.target}/{fit.form}: measured again on the held-out rows of {table.name}, the "
-                               f"{'max' if key == 'max_rel' else 'RMS'} error is {measured[key]:.6e}, not the "
-                               f"{float(stated.get(key, math.nan)):.6e} the fit states; the fit and its table disagree")
+            raise FitFileError(
+                f"{fit.target}/{fit.form}: measured again on the held-out rows of {table.name}, the "
+                f"{'max' if key == 'max_rel' else 'RMS'} error is {measured[key]:.6e}, not the "
+                f"{float(stated.get(key, math.nan)):.6e} the fit states; the fit and its table disagree"
+            )
     domain = {k: tuple(float(x) for x in v) for k, v in record["domain"].items()}
     where = ", ".join(f"{k} in [{lo!r}, {hi!r}]" for k, (lo, hi) in domain.items())
     args = ", ".join(fit.inputs)
     user = record["user_data"]
-    origin = {"csv": f"column {fit.target} of {Path(table.name).name}",
-              "arrays": f"{fit.target} (arrays given to fitlab.fit_table)",
-              "function": f"{fit.target} ({user.get('function', 'a sampled function')})"}[user["source"]]
+    origin = {
+        "csv": f"column {fit.target} of {Path(table.name).name}",
+        "arrays": f"{fit.target} (arrays given to fitlab.fit_table)",
+        "function": f"{fit.target} ({user.get('function', 'a sampled function')})",
+    }[user["source"]]
     split = split_text(user["holdout_every"], user["holdout_offset"], fit.inputs)
-    error = (f"held-out error measured again at generation on the {measured['points']} held-out rows ({split}), "
-             f"{_measure_words(record)}: max "
-             f"{measured['max_rel']:.3e}, RMS {measured['rms_rel']:.3e}; max absolute {measured['max_abs']:.3e}.")
-    doc = (f"{fit.target}({args}) by the form {fit.form}, {record['expression'][:300]}"
-           f"{'...' if len(record['expression']) > 300 else ''}, fitted to {origin} (sha256 {user['sha256'][:16]}..., "
-           f"{user['rows']} rows). Valid on {where}: inputs outside are clamped into it (NaN stays NaN). The {error}")
+    error = (
+        f"held-out error measured again at generation on the {measured['points']} held-out rows ({split}), "
+        f"{_measure_words(record)}: max "
+        f"{measured['max_rel']:.3e}, RMS {measured['rms_rel']:.3e}; max absolute {measured['max_abs']:.3e}."
+    )
+    doc = (
+        f"{fit.target}({args}) by the form {fit.form}, {record['expression'][:300]}"
+        f"{'...' if len(record['expression']) > 300 else ''}, fitted to {origin} (sha256 {user['sha256'][:16]}..., "
+        f"{user['rows']} rows). Valid on {where}: inputs outside are clamped into it (NaN stays NaN). The {error}"
+    )
     routine = Routine(fit.form, fit.inputs, fit.expression, doc, domain=domain)
-    about = (f"A fit of {origin} by the form {fit.form}: one function, {fit.target}_{fit.form}({args}) in C and the "
-             f"shaders, {fit.form}({args}) in the Python and Dr.Jit modules.",
-             f"Domain: {where} (inputs clamped into it).",
-             f"The {error}",
-             f"Table: {Path(table.name).name if user['source'] == 'csv' else user.get('file', table.name)} "
-             f"(sha256 {user['sha256']}).")
-    python_doc = (f"{fit.target}, fitted by fitlab to a table of the user's: numpy only.\n\n"
-                  f"{fit.form}({args}) takes numpy arrays (any broadcastable shapes) and returns an array of "
-                  "float64.\n")
+    about = (
+        f"A fit of {origin} by the form {fit.form}: one function, {fit.target}_{fit.form}({args}) in C and the "
+        f"shaders, {fit.form}({args}) in the Python and Dr.Jit modules.",
+        f"Domain: {where} (inputs clamped into it).",
+        f"The {error}",
+        f"Table: {Path(table.name).name if user['source'] == 'csv' else user.get('file', table.name)} "
+        f"(sha256 {user['sha256']}).",
+    )
+    python_doc = (
+        f"{fit.target}, fitted by fitlab to a table of the user's: numpy only.\n\n"
+        f"{fit.form}({args}) takes numpy arrays (any broadcastable shapes) and returns an array of "
+        "float64.\n"
+    )
     return Program((with_domain(routine),), (tuple(source),) if source else (), (), fit.target, about, python_doc)
 
 
@@ -119,11 +139,15 @@ def read_user_fit(path) -> tuple[FitFunction, object]:
     fit = load(path)
     user = fit.record.get("user_data")
     if user is None:
-        raise FitFileError(f"{path}: a fit of fitlab's target {fit.target}, not of a user's table; print it with "
-                           "`fitlab codegen --fits FOLDER` (and --form)")
+        raise FitFileError(
+            f"{path}: a fit of fitlab's target {fit.target}, not of a user's table; print it with "
+            "`fitlab codegen --fits FOLDER` (and --form)"
+        )
     if "file" not in user:
-        raise FitFileError(f"{path}: names no table file; codegen measures the held-out error again on the table, "
-                           "so save the fit with UserFit.save, which writes its table beside it")
+        raise FitFileError(
+            f"{path}: names no table file; codegen measures the held-out error again on the table, "
+            "so save the fit with UserFit.save, which writes its table beside it"
+        )
     table_path = path.parent / user["file"]
     try:
         table = read_csv_table(table_path)

@@ -49,9 +49,20 @@ import sympy as sp
 from fitlab.codegen.emit import emit
 from fitlab.codegen.program import Program, call, clamp
 
-__all__ = ["Texture", "TEXEL", "LOOKUPS", "texel", "lookup_1d", "lookup_2d", "lookup_3d", "axis_weights",
-           "emit_textured",
-           "texture_bytes", "TEXTURE_SHIM", "texture_from_bytes"]
+__all__ = [
+    "Texture",
+    "TEXEL",
+    "LOOKUPS",
+    "texel",
+    "lookup_1d",
+    "lookup_2d",
+    "lookup_3d",
+    "axis_weights",
+    "emit_textured",
+    "texture_bytes",
+    "TEXTURE_SHIM",
+    "texture_from_bytes",
+]
 
 #: the routine name every lookup reads texels through (printed PREFIX_texel, PREFIX_texel_f)
 TEXEL = "texel"
@@ -195,8 +206,10 @@ def _c_data_header(program: Program, texture: Texture, banner: str) -> str:
             lines.append(line.rstrip().rstrip(","))
             out.append(f"    {{ /* row {r} */\n" + "\n".join(lines) + "\n    },\n")
     out.append("};\n\n")
-    out.append("/* The texture's value at (row, column), integer-valued; a NaN or out-of-range index reads index 0\n"
-               " * (a NaN coordinate's weights make the lookup NaN; the index only has to stay in bounds). */\n")
+    out.append(
+        "/* The texture's value at (row, column), integer-valued; a NaN or out-of-range index reads index 0\n"
+        " * (a NaN coordinate's weights make the lookup NaN; the index only has to stay in bounds). */\n"
+    )
     for scalar, suffix in (("double", ""), ("float", "_f")):
         rows, cols = texture.rows - 1, texture.columns - 1
         out.append(f"static {scalar} {prefix}texel{suffix}({scalar} row, {scalar} col)\n{{\n"
@@ -282,7 +295,7 @@ def emit_textured(program: Program, texture: Texture, lang: str, command: str | 
         banner = _banner_of(source, "/*")
         data_name = f"{base}_data.h"
         # the source's banner, then the array and its texel functions, then what emit wrote
-        source = banner + f'#include "{data_name}"\n' + source[len(banner):]
+        source = banner + f'#include "{data_name}"\n' + source[len(banner) :]
         out = {f"{base}.h": header, f"{base}.c": source, data_name: _c_data_header(program, texture, banner)}
         return {name: text.encode() for name, text in out.items()}
     if lang == "glsl":

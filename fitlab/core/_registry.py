@@ -35,9 +35,22 @@ from pathlib import Path
 from fitlab.core._hooks import ProgramContract, check_hook, check_program
 from fitlab.core._target import Target
 
-__all__ = ["Family", "register_family", "unregister_family", "families", "get_family", "targets", "get_target",
-           "target_names", "forms_for", "get_form", "family_service", "resolve_hook", "broken_families",
-           "manifest_hooks"]
+__all__ = [
+    "Family",
+    "register_family",
+    "unregister_family",
+    "families",
+    "get_family",
+    "targets",
+    "get_target",
+    "target_names",
+    "forms_for",
+    "get_form",
+    "family_service",
+    "resolve_hook",
+    "broken_families",
+    "manifest_hooks",
+]
 
 
 @dataclass(frozen=True, eq=False)
@@ -209,8 +222,9 @@ def register_family(family: Family) -> Family:
         object.__setattr__(t, "family", family.name)
         object.__setattr__(t, "_forms", forms[t.name])
         if t.default_form not in forms[t.name]:
-            raise ValueError(f"family {family.name}: target {t.name}'s default form {t.default_form!r} is not "
-                             "registered")
+            raise ValueError(
+                f"family {family.name}: target {t.name}'s default form {t.default_form!r} is not registered"
+            )
     _FAMILIES[family.name] = family
     _SLOTS[family.name] = family  # a manifest's place in the order is kept
     for t in family.targets:
@@ -268,8 +282,11 @@ def _load() -> None:
                 unregister_family(name)
             text = "; ".join(line.strip() for line in str(exc).splitlines() if line.strip())
             _BROKEN[ep.name] = f"{type(exc).__name__}: {text}" if text else type(exc).__name__
-            print(f"fitlab: the family entry point {ep.name!r} ({ep.value}) failed to load and is left out: "
-                  f"{_BROKEN[ep.name]}", file=sys.stderr)
+            print(
+                f"fitlab: the family entry point {ep.name!r} ({ep.value}) failed to load and is left out: "
+                f"{_BROKEN[ep.name]}",
+                file=sys.stderr,
+            )
     _LOADED = True
 
 
@@ -285,8 +302,9 @@ def _import_builtin(name: str) -> None:
     finally:
         _IMPORTING.discard(package)
     if name not in _FAMILIES:
-        raise ImportError(f"{package} registered no family {name!r} (a built-in family registers under its folder's "
-                          "name)")
+        raise ImportError(
+            f"{package} registered no family {name!r} (a built-in family registers under its folder's name)"
+        )
 
 
 def _ensure(name: str) -> Family | None:
@@ -371,8 +389,9 @@ def family_service(name: str, family: str | None = None):
             raise KeyError(f"family {family!r} offers no {name!r}; families that do: {', '.join(offering) or 'none'}")
         return _service(family, name)
     if len(offering) != 1:
-        raise KeyError(f"{len(offering)} families offer {name!r} ({', '.join(offering) or 'none'}); "
-                       "name one with --family")
+        raise KeyError(
+            f"{len(offering)} families offer {name!r} ({', '.join(offering) or 'none'}); name one with --family"
+        )
     return _service(offering[0], name)
 
 

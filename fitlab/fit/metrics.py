@@ -37,6 +37,9 @@ def summary(approx, exact, scale, inputs: dict) -> dict:
         "rms_rel": rms,
         "max_abs": float(np.max(np.where(np.isfinite(absolute), absolute, np.inf))),
         "points": int(err.size),
-        "worst": {**{k: float(v[i]) for k, v in inputs.items()}, "exact": float(exact[i]),
-                  "approx": float(np.asarray(approx)[i])},
+        "worst": {
+            **{k: float(v[i]) for k, v in inputs.items()},
+            "exact": float(exact[i]),
+            "approx": float(np.asarray(approx)[i]),
+        },
     }

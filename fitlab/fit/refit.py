@@ -19,9 +19,21 @@ from fitlab.fit.solver import SOLVER_SETTINGS, FitResult, fit_form, fit_form_sci
 from fitlab.forms import Form
 from fitlab.store import FORMAT
 
-__all__ = ["RefitResult", "refit", "fit_identity", "refit_stages", "check_domain", "validation_metrics",
-           "preset_metrics", "published_rows", "MINIMAX_ROUNDS", "default_jobs", "table", "refit_verdict",
-           "VERDICT_RTOL"]
+__all__ = [
+    "RefitResult",
+    "refit",
+    "fit_identity",
+    "refit_stages",
+    "check_domain",
+    "validation_metrics",
+    "preset_metrics",
+    "published_rows",
+    "MINIMAX_ROUNDS",
+    "default_jobs",
+    "table",
+    "refit_verdict",
+    "VERDICT_RTOL",
+]
 
 MINIMAX_ROUNDS = 40
 
@@ -130,7 +142,12 @@ def refit(
     weights = None if target.emphasis is None else target.emphasis(train)
     tscale = target.scale(train)
     fit = fit_form(
-        form, train, tscale, theta0, minimax_rounds=rounds if minimax else 0, weights=weights,
+        form,
+        train,
+        tscale,
+        theta0,
+        minimax_rounds=rounds if minimax else 0,
+        weights=weights,
         on_step=on_step,
     )
     scipy_fit = fit_form_scipy(form, train, tscale, theta0, weights=weights) if compare_scipy else None
@@ -213,8 +230,10 @@ def refit_verdict(result: RefitResult, start_metrics: Mapping | None = None) -> 
     _g = "{:.3e}".format  # nan and inf as themselves
     mine = (float(v["max_rel_nonzero"]), float(v["rms_rel"]))
     if not all(math.isfinite(x) for x in mine):
-        return (f"{rec['target']}/{rec['form']}: the refit's validation error is not finite "
-                f"(max rel* {_g(mine[0])}, RMS {_g(mine[1])})")
+        return (
+            f"{rec['target']}/{rec['form']}: the refit's validation error is not finite "
+            f"(max rel* {_g(mine[0])}, RMS {_g(mine[1])})"
+        )
     references = []
     if start_metrics is not None:
         references.append(("its starting point", start_metrics))
@@ -223,12 +242,16 @@ def refit_verdict(result: RefitResult, start_metrics: Mapping | None = None) -> 
             references.append((f"the published preset {p['preset']}", p["validation"]))
     for label, m in references:
         if not math.isfinite(float(v["max_rel"])) and math.isfinite(float(m.get("max_rel", math.inf))):
-            return (f"{rec['target']}/{rec['form']}: the refit misses an exact zero of the target (max rel "
-                    f"{_g(float(v['max_rel']))}) that {label} keeps (max rel {_g(float(m['max_rel']))})")
+            return (
+                f"{rec['target']}/{rec['form']}: the refit misses an exact zero of the target (max rel "
+                f"{_g(float(v['max_rel']))}) that {label} keeps (max rel {_g(float(m['max_rel']))})"
+            )
         ref = (float(m["max_rel_nonzero"]), float(m["rms_rel"]))
         if all(x > r * (1 + VERDICT_RTOL) for x, r in zip(mine, ref)):
-            return (f"{rec['target']}/{rec['form']}: the refit (max rel* {_g(mine[0])}, RMS {_g(mine[1])}) "
-                    f"is worse than {label} (max rel* {_g(ref[0])}, RMS {_g(ref[1])}) on the validation set")
+            return (
+                f"{rec['target']}/{rec['form']}: the refit (max rel* {_g(mine[0])}, RMS {_g(mine[1])}) "
+                f"is worse than {label} (max rel* {_g(ref[0])}, RMS {_g(ref[1])}) on the validation set"
+            )
     return None
 
 
@@ -266,8 +289,9 @@ def table(results: list[RefitResult], walls: list[float]) -> str:
                 f"{res.scipy.seconds:.2f} s ({res.scipy.l2_steps} evaluations); train max rel "
                 f"{_fmt(res.fit.history[0][1])} vs {_fmt(res.scipy.train_max)}"
             )
-    lines.append("max rel* = max rel without the target's exact zeros "
-                 "(where missing a zero is an infinite relative error)")
+    lines.append(
+        "max rel* = max rel without the target's exact zeros (where missing a zero is an infinite relative error)"
+    )
     return "\n".join(lines)
 
 
@@ -275,4 +299,3 @@ def timed_refit(*args, **kwargs) -> tuple[RefitResult, float]:
     t0 = time.perf_counter()
     res = refit(*args, **kwargs)
     return res, time.perf_counter() - t0
-

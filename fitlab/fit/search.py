@@ -36,8 +36,15 @@ def _candidates(x: float, rho: float, lo: float, hi: float) -> np.ndarray:
     return np.unique(np.clip([x / rho, x, x * rho], lo, hi))
 
 
-def search_worst(target: Target, approx: Callable[..., np.ndarray], starts: Dataset, *, domain: dict | None = None,
-                 count: int = 6, max_steps: int = 60) -> dict:
+def search_worst(
+    target: Target,
+    approx: Callable[..., np.ndarray],
+    starts: Dataset,
+    *,
+    domain: dict | None = None,
+    count: int = 6,
+    max_steps: int = 60,
+) -> dict:
     """The largest error of ``approx`` (a function of the target's inputs, in order) found by climbing from
     the ``count`` worst points of ``starts`` (a dataset of the target: its validation set) over the target's
     exact values, inside ``domain`` ({input: (lo, hi)}; default the target's whole domain).

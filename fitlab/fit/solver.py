@@ -26,8 +26,13 @@ from fitlab.core import Dataset, float64
 
 __all__ = ["FitError", "FitResult", "fit_form", "fit_form_scipy", "SOLVER_SETTINGS"]
 
-SOLVER_SETTINGS = {"solver": "optimistix.LevenbergMarquardt", "rtol": 1e-10, "atol": 1e-14, "max_steps": 400,
-                   "round_steps": 60}
+SOLVER_SETTINGS = {
+    "solver": "optimistix.LevenbergMarquardt",
+    "rtol": 1e-10,
+    "atol": 1e-14,
+    "max_steps": 400,
+    "round_steps": 60,
+}
 
 
 class FitError(Exception):
@@ -57,8 +62,9 @@ def _training_arrays(form, train: Dataset, scale: np.ndarray):
     if not np.all(finite):
         i = int(np.argmax(~finite))
         point = ", ".join(f"{n}={train.inputs[n][i]:.6g}" for n in form.inputs)
-        raise FitError(f"{form.key}: the training value at {point} is {float(train.y[i])!r}; every training point "
-                       "must be finite")
+        raise FitError(
+            f"{form.key}: the training value at {point} is {float(train.y[i])!r}; every training point must be finite"
+        )
     keep = np.asarray(scale, dtype=float) > 0.0
     if not np.any(keep):
         raise FitError(f"{form.key}: no training point with a finite value and a nonzero scale")
@@ -189,5 +195,14 @@ def fit_form_scipy(form, train: Dataset, scale: np.ndarray, theta0=None, *, weig
     theta[free] = sol.x
     r = residual(sol.x)
     dt = time.perf_counter() - t_start
-    return FitResult(theta, int(sol.nfev), int(sol.nfev), 0, sol.message, float(np.max(np.abs(r))),
-                     float(np.sqrt(np.mean(r**2))), dt, dt)
+    return FitResult(
+        theta,
+        int(sol.nfev),
+        int(sol.nfev),
+        0,
+        sol.message,
+        float(np.max(np.abs(r))),
+        float(np.sqrt(np.mean(r**2))),
+        dt,
+        dt,
+    )

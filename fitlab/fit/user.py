@@ -65,9 +65,24 @@ if TYPE_CHECKING:  # imported where used: importing fitlab.fit.user stays light
     from fitlab.store import FitFunction
 
 __all__ = [
-    "UserDataError", "UserTable", "UserFit", "fit_table", "fit_function", "read_csv_table", "table_from_arrays",
-    "check_name", "user_form", "held_out_rows", "remeasure", "split_text", "HOLDOUT_EVERY", "SCALE_FLOOR", "RANK_RTOL",
-    "MAX_TABLE_BYTES", "MAX_TABLE_ROWS", "MINIMAX_ROUNDS",
+    "UserDataError",
+    "UserTable",
+    "UserFit",
+    "fit_table",
+    "fit_function",
+    "read_csv_table",
+    "table_from_arrays",
+    "check_name",
+    "user_form",
+    "held_out_rows",
+    "remeasure",
+    "split_text",
+    "HOLDOUT_EVERY",
+    "SCALE_FLOOR",
+    "RANK_RTOL",
+    "MAX_TABLE_BYTES",
+    "MAX_TABLE_ROWS",
+    "MINIMAX_ROUNDS",
 ]
 
 #: one row in HOLDOUT_EVERY is held out, from sorted position HOLDOUT_EVERY // 2
@@ -92,7 +107,8 @@ _TEXT = re.compile(r"^(?![\s\S]*\*/)[^\x00-\x1f\x7f\"\\`]*$")
 
 #: names an input, a fitted column or a form may not have: keywords and types of the languages codegen prints
 #: (C, C++ for Metal, GLSL, HLSL, Python), and the modules generated Python imports
-RESERVED = frozenset("""
+RESERVED = frozenset(
+    """
 auto break case char const continue default do double else enum extern float for goto if inline int long register
 restrict return short signed sizeof static struct switch typedef union unsigned void volatile while bool true false
 class namespace new delete this template typename using public private protected virtual operator friend try catch
@@ -103,14 +119,17 @@ precise discard lowp mediump highp precision vec2 vec3 vec4 ivec2 ivec3 ivec4 bv
 dvec2 dvec3 dvec4 mat2 mat3 mat4 uint half float2 float3 float4 float3x3 float4x4 half2 half3 half4 min16float
 texture sampler2D sampler3D samplerCube cbuffer tbuffer groupshared technique pass string vector matrix
 kernel device constant thread threadgroup metal main numpy dr drjit math safe_pow log1p expm1
-""".split()) | frozenset(keyword.kwlist)
+""".split()
+) | frozenset(keyword.kwlist)
 #: names an input may not have besides: the functions generated code calls (an argument of that name would
 #: hide the function) and the parser's constants
-RESERVED_INPUTS = frozenset("""
+RESERVED_INPUTS = frozenset(
+    """
 abs acos asin atan atan2 ceil clamp cos cosh cross degrees distance dot exp exp2 floor fma fmod fract inversesqrt
 length log log2 max min mix mod normalize pow radians round sign sin sinh smoothstep sqrt step tan tanh trunc
 saturate lerp rsqrt frac Abs Max Min pi E
-""".split())
+""".split()
+)
 
 
 class UserDataError(ValueError):
@@ -123,11 +142,14 @@ def check_name(name, what: str) -> str:
     that generated code can use: not a reserved word (:data:`RESERVED`; for an input :data:`RESERVED_INPUTS`
     too), not a parameter name a<digits>, not a generated temporary t<digits>); else :class:`UserDataError`."""
     if not isinstance(name, str) or not _IDENTIFIER.match(name):
-        raise UserDataError(f"{what} {str(name)[:70]!r} is not a name fitlab can use: a letter, then letters, digits "
-                            "or _ (at most 64); rename it")
+        raise UserDataError(
+            f"{what} {str(name)[:70]!r} is not a name fitlab can use: a letter, then letters, digits "
+            "or _ (at most 64); rename it"
+        )
     if _PARAMETER.match(name):
-        raise UserDataError(f"{what} {name!r} is named like a parameter (a0, a1, ... are the form's parameters); "
-                            "rename it")
+        raise UserDataError(
+            f"{what} {name!r} is named like a parameter (a0, a1, ... are the form's parameters); rename it"
+        )
     if _TEMPORARY.match(name) or name in RESERVED or (what == "input" and name in RESERVED_INPUTS):
         raise UserDataError(f"{what} {name!r} is a reserved word of a language fitlab generates; rename it")
     return name
@@ -138,8 +160,10 @@ def _not_registered(target: str) -> None:
 
     registered = targets().get(target)
     if registered is not None:
-        raise UserDataError(f"the fitted column is called {target}, like fitlab's built-in target {target} "
-                            f"({registered.family}); rename it so that its fit is never taken for that target's")
+        raise UserDataError(
+            f"the fitted column is called {target}, like fitlab's built-in target {target} "
+            f"({registered.family}); rename it so that its fit is never taken for that target's"
+        )
 
 
 # -- tables ----------------------------------------------------------------------
@@ -189,13 +213,16 @@ class UserTable:
                 try:
                     values[i] = float(text)
                 except ValueError:
-                    raise UserDataError(f"{self.name} {self.where(i)}: column {name} holds {text[:40]!r}, not a "
-                                        "number") from None
+                    raise UserDataError(
+                        f"{self.name} {self.where(i)}: column {name} holds {text[:40]!r}, not a number"
+                    ) from None
         bad = ~np.isfinite(values)
         if np.any(bad):
             i = int(np.argmax(bad))
-            raise UserDataError(f"{self.name} {self.where(i)}: column {name} is {float(values[i])!r}; every value "
-                                "must be a finite number")
+            raise UserDataError(
+                f"{self.name} {self.where(i)}: column {name} is {float(values[i])!r}; every value "
+                "must be a finite number"
+            )
         return values
 
 
@@ -335,11 +362,17 @@ def user_form(text: str, inputs, columns=None):
     params = sorted((n for n in names if _PARAMETER.match(n)), key=lambda n: int(n[1:]))
     unknown = [n for n in names if n not in params and n not in inputs and n not in CONSTANTS]
     if unknown:
-        where = (f" (the inputs are {', '.join(inputs)})" if inputs else "")
-        hint = ("" if columns is None else "; it is a column: add it to the inputs" if unknown[0] in columns
-                else f"; the table's columns are {', '.join(columns)[:200]}")
-        raise UserDataError(f"the form names {unknown[0]!r}, which is neither an input{where} nor a parameter a0, "
-                            f"a1, ...{hint}")
+        where = f" (the inputs are {', '.join(inputs)})" if inputs else ""
+        hint = (
+            ""
+            if columns is None
+            else "; it is a column: add it to the inputs"
+            if unknown[0] in columns
+            else f"; the table's columns are {', '.join(columns)[:200]}"
+        )
+        raise UserDataError(
+            f"the form names {unknown[0]!r}, which is neither an input{where} nor a parameter a0, a1, ...{hint}"
+        )
     if not params:
         raise UserDataError("the form has no parameters (a0, a1, ...): nothing to fit")
     try:
@@ -377,7 +410,7 @@ def held_out_rows(xs: Mapping[str, np.ndarray], names, every: int, offset: int) 
 
 def split_text(every: int, offset: int, names) -> str:
     """The split in words: ``rows sorted by (mu, alpha), every 4th from the 3rd held out``."""
-    return (f"rows sorted by ({', '.join(names)}), every {_ordinal(every)} from the {_ordinal(offset + 1)} held out")
+    return f"rows sorted by ({', '.join(names)}), every {_ordinal(every)} from the {_ordinal(offset + 1)} held out"
 
 
 def _ordinal(n: int) -> str:
@@ -391,8 +424,10 @@ def _scale(y: np.ndarray, error: str, floor: float) -> np.ndarray:
 
 def _measure_text(error: str, floor: float, target: str) -> str:
     if error == "relative":
-        return (f"relative with a floor: |approx - {target}| / max(|{target}|, {floor:.6g}), the floor being "
-                f"{SCALE_FLOOR:g} x the largest |{target}| of the rows used")
+        return (
+            f"relative with a floor: |approx - {target}| / max(|{target}|, {floor:.6g}), the floor being "
+            f"{SCALE_FLOOR:g} x the largest |{target}| of the rows used"
+        )
     return f"absolute: |approx - {target}|"
 
 
@@ -407,8 +442,10 @@ def remeasure(record: Mapping, table: UserTable) -> dict:
 
     user = record["user_data"]
     if table.sha256 != user["sha256"]:
-        raise UserDataError(f"{table.name}: sha256 {table.sha256[:16]}..., the fit was made on a table with "
-                            f"{user['sha256'][:16]}...; the table changed since the fit")
+        raise UserDataError(
+            f"{table.name}: sha256 {table.sha256[:16]}..., the fit was made on a table with "
+            f"{user['sha256'][:16]}...; the table changed since the fit"
+        )
     inputs, target = list(record["inputs"]), record["target"]
     xs = {n: table.column(n) for n in inputs}
     y = table.column(target)
@@ -449,8 +486,10 @@ class UserFit:
 
     def __repr__(self) -> str:
         v = self.record["validation"]
-        return (f"UserFit({self.record['target']}/{self.record['form']}, inputs={tuple(self.record['inputs'])}, "
-                f"held-out max {v['max_rel']:.3e}, RMS {v['rms_rel']:.3e})")
+        return (
+            f"UserFit({self.record['target']}/{self.record['form']}, inputs={tuple(self.record['inputs'])}, "
+            f"held-out max {v['max_rel']:.3e}, RMS {v['rms_rel']:.3e})"
+        )
 
     @property
     def params(self) -> dict:
@@ -512,8 +551,10 @@ def relative_file(table, folder) -> str:
     except ValueError:  # no relative path between them (two drives): the absolute one
         rel = Path(table).resolve().as_posix()
     if not _TEXT.match(rel) or len(rel) > 1000:
-        raise UserDataError(f"{table}: the table's path holds a character a fit file does not store (quotes, "
-                            "backslashes, backticks, control characters, */); rename or move it")
+        raise UserDataError(
+            f"{table}: the table's path holds a character a fit file does not store (quotes, "
+            "backslashes, backticks, control characters, */); rename or move it"
+        )
     return rel
 
 
@@ -544,8 +585,9 @@ def _start(params, start) -> dict:
     values = {p: 1.0 / (int(p[1:]) + 1) for p in params}
     for name, value in (start or {}).items():
         if name not in values:
-            raise UserDataError(f"start: {name!r} is not a parameter of the form; its parameters are "
-                                f"{', '.join(params)}")
+            raise UserDataError(
+                f"start: {name!r} is not a parameter of the form; its parameters are {', '.join(params)}"
+            )
         try:
             v = float(value)
         except (TypeError, ValueError):
@@ -579,9 +621,11 @@ class Rows:
         """Refuse (one line) when a form of ``p`` parameters has fewer than 2p rows to fit or p held out."""
         n_train, n_held = len(self.train), len(self.valid)
         if n_train < 2 * p or n_held < p:
-            raise UserDataError(f"{self.table.name}: {self.used} rows{' in the domain' if boxed else ''}, {n_train} to "
-                                f"fit and {n_held} held out; a form of {p} parameters needs at least {2 * p} to fit "
-                                f"and {p} held out")
+            raise UserDataError(
+                f"{self.table.name}: {self.used} rows{' in the domain' if boxed else ''}, {n_train} to "
+                f"fit and {n_held} held out; a form of {p} parameters needs at least {2 * p} to fit "
+                f"and {p} held out"
+            )
 
     def user_data(self) -> dict:
         """The record's ``user_data`` (less ``file``, which the writer sets)."""
@@ -666,23 +710,27 @@ def prepare_rows(table: UserTable, target: str, inputs, *, domain=None, error: s
     fitted_domain = {n: (float(np.min(x)), float(np.max(x))) for n, x in xs.items()}
     for n, (lo, hi) in fitted_domain.items():
         if not lo < hi:
-            raise UserDataError(f"{table.name}: input {n} is {lo:g} in every row{' of the domain' if box else ''}; "
-                                "an input must vary (leave it out)")
+            raise UserDataError(
+                f"{table.name}: input {n} is {lo:g} in every row{' of the domain' if box else ''}; "
+                "an input must vary (leave it out)"
+            )
     order = _sorted_order(xs, inputs)
     stacked = np.column_stack([xs[n][order] for n in inputs])
     same = np.flatnonzero(np.all(stacked[1:] == stacked[:-1], axis=1))
     if same.size:
         i, j = sorted((int(index[order[same[0]]]), int(index[order[same[0] + 1]])))
         point = ", ".join(f"{n}={xs_all[n][i]:.6g}" for n in inputs)
-        raise UserDataError(f"{table.name}: {table.where(i)} and {table.where(j)} have the same inputs ({point}); "
-                            "one row per point")
+        raise UserDataError(
+            f"{table.name}: {table.where(i)} and {table.where(j)} have the same inputs ({point}); one row per point"
+        )
     every = int(holdout_every)
     offset = every // 2
     held = held_out_rows(xs, inputs, every, offset)
     error_floor = SCALE_FLOOR * float(np.max(np.abs(y)))
     if error == "relative" and not error_floor > 0.0:
-        raise UserDataError(f"{table.name}: column {target} is 0 in every row; nothing to fit relative to (use the "
-                            "absolute error)")
+        raise UserDataError(
+            f"{table.name}: column {target} is 0 in every row; nothing to fit relative to (use the absolute error)"
+        )
     floor = error_floor if error == "relative" else 0.0
 
     from fitlab.core import Dataset
@@ -716,12 +764,17 @@ def prepare(table: UserTable, target: str, form: str, *, inputs=None, domain=Non
         named = set(_names_in(form))
         inputs = [c for c in table.header if c in named and c != target]
         if not inputs:
-            raise UserDataError(f"the form names no column of {table.name} ({', '.join(table.header)[:120]}); "
-                                "name the inputs (--inputs) or use them in the form")
+            raise UserDataError(
+                f"the form names no column of {table.name} ({', '.join(table.header)[:120]}); "
+                "name the inputs (--inputs) or use them in the form"
+            )
     columns = [c for c in table.header if c != target]
     expr, params, _ = user_form(form, list(inputs), columns)
-    form_name = check_name(name, "the form's name") if name is not None else "form_" + hashlib.sha256(
-        str(expr).encode()).hexdigest()[:6]
+    form_name = (
+        check_name(name, "the form's name")
+        if name is not None
+        else "form_" + hashlib.sha256(str(expr).encode()).hexdigest()[:6]
+    )
     start_values = _start(params, start)
     rows = prepare_rows(table, target, inputs, domain=domain, error=error, holdout_every=holdout_every)
     rows.check_size(len(params), bool(domain))
@@ -746,33 +799,46 @@ def _check_start(form, start: dict, train, scale, table: UserTable, rows: np.nda
     if np.any(bad):
         i = int(np.argmax(bad))
         point = ", ".join(f"{n}={x[i]:.6g}" for n, x in zip(form.inputs, xs))
-        raise UserDataError(f"{table.name} {table.where(int(rows[i]))}: the form is not finite at {point} with the "
-                            f"start values ({_start_text(start)}); give other start values")
+        raise UserDataError(
+            f"{table.name} {table.where(int(rows[i]))}: the form is not finite at {point} with the "
+            f"start values ({_start_text(start)}); give other start values"
+        )
     jac, used = _jacobian(form, theta, xs, scale)
     if not np.all(np.isfinite(jac)):
         i, k = (int(v) for v in np.argwhere(~np.isfinite(jac))[0])
         i = int(used[i])
         point = ", ".join(f"{n}={x[i]:.6g}" for n, x in zip(form.inputs, xs))
-        raise UserDataError(f"{table.name} {table.where(int(rows[i]))}: the form's derivative in {form.params[k]} is "
-                            f"not finite at {point} with the start values ({_start_text(start)}); the fit cannot "
-                            "start there: give other start values")
+        raise UserDataError(
+            f"{table.name} {table.where(int(rows[i]))}: the form's derivative in {form.params[k]} is "
+            f"not finite at {point} with the start values ({_start_text(start)}); the fit cannot "
+            "start there: give other start values"
+        )
     norms = np.sqrt(np.sum(jac**2, axis=0))
     dead = [p for p, nrm in zip(form.params, norms) if not nrm > 0.0]
     if dead:
-        raise UserDataError(f"{dead[0]} has no effect on the fitted rows at the start values ({_start_text(start)}): "
-                            "the data cannot determine it; change the form or the start values")
+        raise UserDataError(
+            f"{dead[0]} has no effect on the fitted rows at the start values ({_start_text(start)}): "
+            "the data cannot determine it; change the form or the start values"
+        )
     _, s, vt = np.linalg.svd(jac / norms, full_matrices=False)
     rank = int(np.sum(s > RANK_RTOL * s[0]))
     if rank < len(form.params):
         direction = vt[-1] / norms  # in the parameters themselves, the largest component 1
         direction = direction / direction[np.argmax(np.abs(direction))]
         terms = [(c, p) for c, p in zip(direction, form.params) if abs(c) > 0.05]
-        combo = " ".join(f"{'-' if c < 0 else '+'} {'' if abs(abs(c) - 1) < 5e-3 else f'{abs(c):.2g} '}{p}"
-                         for c, p in terms).removeprefix("+ ").replace("- ", "-", 1 if terms[0][0] < 0 else 0)
-        raise UserDataError(f"the data cannot determine the form's {len(form.params)} parameters: at the start values "
-                            f"its Jacobian on the fitted rows has rank {rank} (moving the parameters along {combo} "
-                            "leaves the fit unchanged), as in a0*a1*x; change the form, or the start values if terms "
-                            "were started equal")
+        combo = (
+            " ".join(
+                f"{'-' if c < 0 else '+'} {'' if abs(abs(c) - 1) < 5e-3 else f'{abs(c):.2g} '}{p}" for c, p in terms
+            )
+            .removeprefix("+ ")
+            .replace("- ", "-", 1 if terms[0][0] < 0 else 0)
+        )
+        raise UserDataError(
+            f"the data cannot determine the form's {len(form.params)} parameters: at the start values "
+            f"its Jacobian on the fitted rows has rank {rank} (moving the parameters along {combo} "
+            "leaves the fit unchanged), as in a0*a1*x; change the form, or the start values if terms "
+            "were started equal"
+        )
 
 
 def _start_text(start: dict) -> str:
@@ -817,8 +883,10 @@ def user_record(record: dict, rows: Rows, minimax_rounds: int) -> dict:
     record.pop("published", None)
     record["optimizer"]["objective"] = (
         f"least squares of the {rows.error} error (error_measure), then Lawson minimax refinement "
-        f"({minimax_rounds} rounds, best max error kept)" if minimax_rounds > 0 else
-        f"least squares of the {rows.error} error (error_measure)")
+        f"({minimax_rounds} rounds, best max error kept)"
+        if minimax_rounds > 0
+        else f"least squares of the {rows.error} error (error_measure)"
+    )
     record["user_data"] = rows.user_data()
     return record
 
@@ -905,11 +973,14 @@ def fit_function(function: Callable, domain: Mapping[str, tuple[float, float]], 
         try:
             values = np.broadcast_to(values, grid[0].shape).copy()
         except ValueError:
-            raise UserDataError(f"{label} returned shape {values.shape}, not ({grid[0].size},): it must take and "
-                                "return arrays") from None
+            raise UserDataError(
+                f"{label} returned shape {values.shape}, not ({grid[0].size},): it must take and return arrays"
+            ) from None
     sizes = " x ".join(str(len(a)) for a in axes)
-    what = (f"the function {label} sampled on a {sizes} grid (numpy.linspace over "
-            f"{', '.join(f'{k} [{lo:g}, {hi:g}]' for k, (lo, hi) in box.items())})")
+    what = (
+        f"the function {label} sampled on a {sizes} grid (numpy.linspace over "
+        f"{', '.join(f'{k} [{lo:g}, {hi:g}]' for k, (lo, hi) in box.items())})"
+    )
     options = dict(options)
     table = table_from_arrays(points, values, check_name(target, "the fitted quantity"), "function", what)
     prep = prepare(table, target, form, inputs=names, domain=None, name=options.pop("name", None),

@@ -107,8 +107,11 @@ def verify_fit(fit: FitFunction, *, allow_partial_domain: bool = False) -> dict:
     source = str(fit.path or f"{fit.target}/{fit.form}")
     m = measure_fit(fit, allow_partial_domain=allow_partial_domain)
     own = _fit_domain(fit)
-    hint = (f"; it was fitted on {_where(own)} only (--allow-partial-domain prints it for that domain)"
-            if own != _target_domain(fit) and not m["partial"] else "")
+    hint = (
+        f"; it was fitted on {_where(own)} only (--allow-partial-domain prints it for that domain)"
+        if own != _target_domain(fit) and not m["partial"]
+        else ""
+    )
     if m["nonfinite"] is not None:
         at = ", ".join(f"{k} = {v:.6g}" for k, v in m["nonfinite"].items())
         raise FitFileError(f"{source}: not finite at {at}, inside {_where(m['domain'])}{hint}")

@@ -59,8 +59,9 @@ class Form:
             raise ValueError(f"form {self.target}/{self.name}: expression uses undeclared {sorted(free - names)}")
         for preset, values in {**self.presets, "start": self.start or {}}.items():
             if values and set(values) != set(self.params):
-                raise ValueError(f"form {self.target}/{self.name}: preset {preset!r} does not set exactly "
-                                 f"{self.params}")
+                raise ValueError(
+                    f"form {self.target}/{self.name}: preset {preset!r} does not set exactly {self.params}"
+                )
         if self.start is None and not self.presets:
             raise ValueError(f"form {self.target}/{self.name}: needs a preset or start values")
         if not set(self.fixed) <= set(self.params):

@@ -32,6 +32,7 @@ __all__ = [
     "expression_text",
 ]
 
+
 class safe_pow(sp.Function):  # noqa: N801 (the name printed in every back end)
     """x^p for x > 0, 0 for x <= 0; numeric arguments evaluate at once."""
 
@@ -42,6 +43,7 @@ class safe_pow(sp.Function):  # noqa: N801 (the name printed in every back end)
         if x.is_Number and p.is_Number:
             return x**p if x > 0 else sp.S.Zero
         return None
+
 
 def symbols(names):
     """Real sympy symbols, one per name (a tuple, even for one name)."""
@@ -467,8 +469,9 @@ def _parse(text: str, names: tuple) -> sp.Expr:
             if (nargs is not None and len(node.args) != nargs) or not 0 < len(node.args) <= MAX_ARGS:
                 raise ValueError(f"expression calls {node.func.id} with {len(node.args)} arguments")
             return formed(node, f, f, *(walk(a, depth + 1) for a in node.args))
-        raise ValueError(f"expression holds a {type(node).__name__}; "
-                         "only numbers, names, + - * / ** and calls are allowed")
+        raise ValueError(
+            f"expression holds a {type(node).__name__}; only numbers, names, + - * / ** and calls are allowed"
+        )
 
     try:
         return walk(tree.body, 0)
