@@ -27,8 +27,10 @@ offering = families_offering("tables")
 before = loaded()
 target = get_target("H0")  # as refit resolves --target H0: the target, its default model form, the form
 form = resolve_form("H0", model_form("H0"), None)
+import fitlab.fit.refit  # the fit itself: optimistix and JAX
 print(json.dumps({"names": list(names), "offering": offering, "before": before, "after": loaded(),
-                  "form": form.name, "forms": list(target.forms)}))
+                  "form": form.name, "forms": list(target.forms),
+                  "scipy": sorted(m for m in sys.modules if m == "scipy" or m.startswith("scipy."))}))
 '''
 
 
@@ -42,6 +44,12 @@ def test_resolving_h0_imports_no_module_of_another_family(probe):
     assert probe["form"] in probe["forms"]
     assert any(m.startswith("fitlab.families.lambert_sphere") for m in probe["after"])
     assert [m for m in probe["after"] if not m.startswith("fitlab.families.lambert_sphere")] == []
+
+
+def test_refit_imports_no_scipy(probe):
+    """The exact engine imports scipy where it computes: a refit reads its exact values from the cache, and
+    scipy's integrate and optimize were about a third of a second of its start (issue 32, item 6)."""
+    assert probe["scipy"] == []
 
 
 def test_target_names_and_hook_offers_import_no_family(probe):

@@ -2,8 +2,6 @@ r"""The exact inverse of the spherical albedo: the particle albedo c whose kd is
 
 from __future__ import annotations
 
-from scipy.optimize import brentq
-
 from fitlab.families.lambert_sphere.exact.albedo import spherical_albedo
 
 __all__ = ["albedo_inverse", "solve_albedo"]
@@ -13,6 +11,8 @@ def solve_albedo(kd_of_c, kd: float, lo: float = 0.0, hi: float = 1.0, xtol: flo
     """The particle albedo c in [lo, hi] with ``kd_of_c(c) == kd`` (Brent's method; the root must be
     bracketed): the inverse of any model's spherical albedo (:func:`albedo_inverse` for the Lambert
     sphere's, :func:`fitlab.families.lambert_sphere.mitsuba.render.chandrasekhar_albedo_c` for Chandrasekhar's)."""
+    from scipy.optimize import brentq  # imported here: see single_scattering_albedo
+
     return float(brentq(lambda c: kd_of_c(c) - kd, lo, hi, xtol=xtol))
 
 

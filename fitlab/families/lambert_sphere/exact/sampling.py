@@ -46,7 +46,6 @@ within :data:`fitlab.families.lambert_sphere.targets.tabulate.SAMPLING_TOLERANCE
 from __future__ import annotations
 
 import numpy as np
-from scipy.optimize import minimize_scalar
 
 from fitlab.families.lambert_sphere.exact import _checks
 from fitlab.families.lambert_sphere.exact._quadrature import gauss_legendre, graded_gauss
@@ -139,6 +138,7 @@ def relative_variance(mu_i, c: float, weight, exponent, nodes: tuple = QUADRATUR
 def _optimum(variance):
     """(w, n, V) minimising ``variance(w, n)``: the best w for each n of a geometric scan, then the best
     bracket refined in log n."""
+    from scipy.optimize import minimize_scalar  # imported here: see .albedo.single_scattering_albedo
 
     def best_weight(n):
         r = minimize_scalar(lambda w: variance(w, n), bounds=(0.0, 1.0 - 1e-9), method="bounded",
