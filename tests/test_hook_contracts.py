@@ -90,7 +90,7 @@ def test_a_bench_hook_needs_one_bench(toy):
 def test_the_report_hook_of_a_brdf_family_gives_the_signature_and_settings(toy):
     """A report hook with exact_brdf is the measured BRDF's: it must give BRDF_INPUTS, REPORT_SETTINGS, ..."""
     complete = _full(BrdfReportHook, **{n: _fn for n in _members(ReportHook)})
-    for member in ("BRDF_INPUTS", "REPORT_SETTINGS", "mc_study"):
+    for member in ("BRDF_INPUTS", "REPORT_SETTINGS", "measure_engines", "engine_sections", "REPORT_TEXT"):
         toy({"report": lambda member=member: _without(complete, member)})
         with pytest.raises(TypeError, match=f"lacks '{member}' \\(fitlab.core.BrdfReportHook\\)"):
             resolve_hook("toy_hooks", "report")

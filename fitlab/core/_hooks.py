@@ -148,12 +148,21 @@ class ReportHook(Protocol):
 @runtime_checkable
 class BrdfReportHook(ReportHook, Protocol):
     """The ``report`` hook of the family whose whole BRDF the report measures (its service has
-    ``exact_brdf``): the BRDF's signature, the report's family settings, the exact engine's and Monte
-    Carlo's measurements."""
+    ``exact_brdf``): the BRDF's signature and material, the report's family settings, the measurements of
+    the family's own engines and report.md's words on them."""
 
-    #: the BRDF's inputs, in the order every method's ``evaluate`` takes them (the last one the material's
-    #: second parameter, 0 where a method ignores it)
+    #: the BRDF's inputs, in the order every method's ``evaluate`` takes them: the incident and outgoing
+    #: cosines, the azimuth, the material, and the material's second parameter (0 where a method ignores it)
     BRDF_INPUTS: Sequence[str]
+    #: the inputs that name a point of the validation set (the second parameter follows from the material)
+    BRDF_POINT: Sequence[str]
+    #: the material's inputs: all 0 is the black material, whose BRDF is exactly 0
+    BRDF_MATERIAL: Sequence[str]
+    #: the BRDF's name in report.md's title and the plot's
+    BRDF_TITLE: str
+    #: report.md's sentences on the material ("material": how the second parameter is set; "black": what the
+    #: black material's column measures) and on the parts ("parts": what they are measured on)
+    REPORT_TEXT: Mapping[str, str]
     #: the family's settings of the report, by the generic settings' name ("full", "quick")
     REPORT_SETTINGS: Mapping[str, Any]
     SOURCES: Mapping[str, str]
@@ -167,19 +176,23 @@ class BrdfReportHook(ReportHook, Protocol):
 
     def directional_albedo(self, *args, **kwargs) -> Any: ...
 
-    def h_convergence(self, *args, **kwargs) -> Any: ...
+    def measure_engines(self, *args, **kwargs) -> Any:
+        """``measure_engines(settings, family_settings, timing_inputs, progress)`` -> (rows, context): the family's
+        own engines (exact, Monte Carlo) measured, as the report's rows and the context its sections read;
+        ``progress.stage(name, steps)`` and ``progress.tick()`` show the stages."""
+        ...
 
-    def exact_brdf_cost(self, *args, **kwargs) -> Any: ...
+    def timing_inputs(self, *args, **kwargs) -> Any:
+        """Seeded random inputs by argument name, ``timing_inputs(n, data_dir)``: what the timings evaluate."""
+        ...
 
-    def doubling_agreement(self, *args, **kwargs) -> Any: ...
+    def baseline_program(self, *args, **kwargs) -> Any:
+        """The program of the baselines whose C the report times beside the family's."""
+        ...
 
-    def engine_agreement(self, *args, **kwargs) -> Any: ...
-
-    def time_to_error(self, *args, **kwargs) -> Any: ...
-
-    def mc_study(self, *args, **kwargs) -> Any: ...
-
-    def mc_time_to_error(self, *args, **kwargs) -> Any: ...
+    def engine_sections(self, *args, **kwargs) -> Any:
+        """report.md's sections on the family's own engines (exact, Monte Carlo): markdown lines, from the report."""
+        ...
 
 
 @runtime_checkable

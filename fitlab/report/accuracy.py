@@ -47,7 +47,9 @@ def brdf_accuracy(method, valid, grazing=None, fresh=None, energy=None) -> dict:
     albedos (one row per albedo), directional_albedo(f, mu, c)), albedo_err = max |a - a_exact| over
     mu and the albedos."""
     err = brdf_errors(method, valid)
-    away = (valid.inputs["mu_i"] >= AWAY_MU) & (valid.inputs["mu_o"] >= AWAY_MU)
+    hook = brdf_hook()
+    mu_i, mu_o = (valid.inputs[n] for n in hook.BRDF_INPUTS[:2])  # the incident and outgoing cosines
+    away = (mu_i >= AWAY_MU) & (mu_o >= AWAY_MU)
     i = int(np.argmax(err))
     with np.errstate(over="ignore"):
         rms = float(np.sqrt(np.mean(err**2)))
@@ -58,7 +60,6 @@ def brdf_accuracy(method, valid, grazing=None, fresh=None, energy=None) -> dict:
         "points": int(err.size),
         "worst": _point(valid, i),
     }
-    hook = brdf_hook()
     material = set(hook.BRDF_MATERIAL)  # all 0: the black material (c = 0, kd = 0)
     with np.errstate(all="ignore"):
         at0 = method.evaluate(*(np.zeros_like(valid.inputs[n]) if n in material else valid.inputs[n]

@@ -117,74 +117,6 @@ def _brdf_rows(methods, acc, c_ns, py_ns, jax_tp) -> list[dict]:
     return rows
 
 
-def _exact_rows(brdf_cost, engine, dbl, conv, ttes, src) -> list[dict]:
-    """The exact engine's rows; ``engine``: the agreement of its two methods; ``dbl``: the three-term engine's
-    agreement with discrete ordinates + doubling; ``src``: the family's ``SOURCES`` (what each row measured)."""
-    agree = engine or {"max_rel": NAN, "rms_rel": NAN, "points": 0}
-    where = (f"error: agreement of its two methods ({src['exact_agreement']}; c = {engine['c']:g}, orders "
-             f"{', '.join(map(str, engine['orders']))}, {engine['node_pairs']} pairs with mu_i, mu_o >= 1e-3, "
-             "relative to the BRDF)" if engine else "error not measured (skipped)")  # fmt: skip
-    rows = [{
-        "section": "brdf", "target": "f_r", "group": "exact", "method": "exact engine", "source": src["exact"],
-        "points": agree["points"], "max_rel": agree["max_rel"], "rms_rel": agree["rms_rel"],
-        "max_rel_away": agree["max_rel"], "ns_python": brdf_cost["ns_per_point"], "seconds": brdf_cost["setup_seconds"],
-        "note": where + "; cost: ns per point once c is set up, seconds: the set-up at a new c",
-    }]  # fmt: skip
-    if dbl:
-        rows.append({
-            "section": "exact", "target": "f^m", "group": "exact", "method": "discrete ordinates + doubling",
-            "source": src["doubling"], "points": dbl["points"], "max_rel": dbl["max_rel"],
-            "rms_rel": dbl["rms_rel"], "seconds": dbl["seconds_per_order"],
-            "ns_python": dbl["seconds_per_order"] / dbl["node_pairs"] * 1e9,
-            "note": f"the three-term engine (the paper's model): f^m at {dbl['node_pairs']} node pairs per (c, order); "
-                    "error: against its H route",
-        })  # fmt: skip
-    if engine:
-        rows.append({
-            "section": "exact", "target": "fm^m", "group": "exact", "method": "doubling, whole phase function",
-            "source": src["exact_agreement"], "points": engine["points"], "max_rel": engine["max_rel"],
-            "rms_rel": engine["rms_rel"], "seconds": engine["seconds_per_order"],
-            "note": "the exact engine's second method: seconds per (c, order), its solve; error: against Newton, "
-                    "relative to the BRDF",
-        })  # fmt: skip
-    for r in conv:
-        rows.append({"section": "exact_h", "target": "H0, H1", "group": "exact",
-                     "method": f"{r['method']}, {r['resolution']}", "source": src["h"],
-                     "points": r["points"], "max_rel": r["max_rel"], "rms_rel": r["rms_rel"], "seconds": r["seconds"],
-                     "note": "error against the other method at its default; seconds per (order, c): one solve "
-                             "and the evaluation at the mu points"})  # fmt: skip
-    rows.append({"section": "time_to_error", "target": "f_r", "group": "exact", "method": "exact engine (BRDF)",
-                 "target_error": agree["max_rel"], "max_rel": agree["max_rel"],
-                 "seconds": brdf_cost["setup_seconds"] + brdf_cost["ns_per_point"] * 1e-9,
-                 "note": "one value at a new c, set-up included (further points at that c: the exact engine's "
-                         "Python ns)"})  # fmt: skip
-    for t in ttes:
-        rows.append({"section": "time_to_error", "target": "H", "group": "exact", "method": t["method"],
-                     "target_error": t["target"], "max_rel": t["max_rel"], "seconds": t["seconds"],
-                     "note": t["resolution"]})  # fmt: skip
-    return rows
-
-
-def _mc_rows(study, targets, mc_time_to_error, src) -> list[dict]:
-    rows = []
-    for s in study:
-        rows.append({
-            "section": "brdf", "target": "f_r (bin averages)", "group": "monte carlo",
-            "method": f"Monte Carlo {s['paths']:.0e} paths", "source": src["monte carlo"],
-            "points": s["values"], "paths": s["paths"], "max_rel": s["max_rel"], "rms_rel": s["rms_rel"],
-            "max_rel_away": s["max_rel"], "ns_python": s["ns_per_value"], "seconds": s["seconds"],
-            "note": f"{s['jobs']} jobs x {s['paths']} paths; RMS se/exact {s['se_rms']:.3g}; error against exact "
-                    "bin averages; ns per BRDF value",
-        })  # fmt: skip
-    for eps in targets:
-        t = mc_time_to_error(study, eps)
-        rows.append({"section": "time_to_error", "target": "f_r (bin averages)", "group": "monte carlo",
-                     "method": "Monte Carlo", "target_error": eps, "paths": t["paths"], "seconds": t["seconds"],
-                     "note": f"RMS relative error, extrapolated from {study[-1]['paths']} paths per job; "
-                             f"{study[-1]['values']} values"})  # fmt: skip
-    return rows
-
-
 def _part_rows(settings, entries, data_dir, part_ns, inputs, tick) -> tuple[list[dict], list[str]]:
 
     by_target = {name: part_methods(name, entries, data_dir) for name in settings.parts}
@@ -297,19 +229,10 @@ def _measure(settings, entries, fits_dir, data_dir, use_cache, p) -> tuple[list,
     parts, part_notes = _part_rows(settings, entries, data_dir, part_ns, c_inputs, p.tick)
     rows += parts
     notes = notes + part_notes
-    fam = family_settings(settings, hook)
-    p.stage("exact engine", len(fam.nystrom_nodes) + len(fam.fock_steps) + 2)
-    conv = hook.h_convergence(fam.exact_orders, fam.exact_c, fam.exact_mu_points, fam.nystrom_nodes,
-                              fam.fock_steps, tick=p.tick)  # fmt: skip
-    brdf_cost = hook.exact_brdf_cost(py_inputs, settings.repeat, fam.exact_cost_points)
-    p.tick()
-    dbl = hook.doubling_agreement(fam.doubling_c, fam.doubling_orders) if fam.doubling_orders else None
-    agree = hook.engine_agreement(fam.doubling_c, fam.doubling_orders) if fam.doubling_orders else None
-    p.tick()
-    rows += _exact_rows(brdf_cost, agree, dbl, conv, hook.time_to_error(conv, settings.error_targets), hook.SOURCES)
-    p.stage("Monte Carlo", len(fam.mc_paths))
-    study = hook.mc_study(fam, p.tick, seed=settings.seed)
-    rows += _mc_rows(study, [e for e in settings.error_targets if e >= 1e-3], hook.mc_time_to_error, hook.SOURCES)
+    # the family's own engines (for the Lambert sphere the exact engine and Monte Carlo): their rows, and what
+    # its sections of report.md read from the context
+    engine_rows, engine_context = hook.measure_engines(settings, family_settings(settings, hook), py_inputs, p)
+    rows += engine_rows
     rows += _refit_rows(entries, settings, fits_dir, p)
     counts = {}
     for e in entries:
@@ -323,8 +246,7 @@ def _measure(settings, entries, fits_dir, data_dir, use_cache, p) -> tuple[list,
         "grazing_points": len(grazing), "fresh": fresh.grid, "fresh_points": len(fresh),
         "energy": f"directional albedo at c in {{{', '.join(f'{c:g}' for c in settings.energy_c)}}} x "
                   f"{settings.energy_mu} incident cosines uniform on [0, 1] (0 read as 1e-3), against the exact one",
-        "notes": notes, "exact_cost": brdf_cost,
-        "doubling": dbl, "engine_agreement": agree, "exact_source": hook.SOURCES["exact"], "mc": study,
+        "notes": notes, **engine_context, "exact_source": hook.SOURCES["exact"],
         "c_points": settings.c_points, "repeat": settings.repeat,
         "jax_points": settings.jax_points, "numpy_points": settings.numpy_points,
     }  # fmt: skip

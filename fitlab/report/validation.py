@@ -98,12 +98,16 @@ def exact_values(point_sets: Mapping[str, np.ndarray], c: np.ndarray, use_cache:
     return {kind: v["y"] for kind, v in out.items()}, out[kinds[0]]["kd"]
 
 
+def _inputs(mu_i, mu_o, phi, c, kd) -> dict:
+    """The BRDF's inputs by the report hook's names (``BRDF_INPUTS``: the two cosines, the azimuth, the material
+    and its second parameter, in that order)."""
+    return dict(zip(brdf_hook().BRDF_INPUTS, (mu_i, mu_o, phi, c, kd), strict=True))
+
+
 def _dataset(points: np.ndarray, c: np.ndarray, y: np.ndarray, kd: np.ndarray, grid: str) -> Dataset:
     n = points.shape[0]
-    inputs = {
-        "mu_i": np.tile(points[:, 0], c.size), "mu_o": np.tile(points[:, 1], c.size),
-        "phi": np.tile(np.pi * points[:, 2], c.size), "c": np.repeat(c, n), "kd": np.repeat(kd, n),
-    }  # fmt: skip
+    mu_i, mu_o, phi = (np.tile(points[:, k], c.size) for k in range(3))
+    inputs = _inputs(mu_i, mu_o, np.pi * phi, np.repeat(c, n), np.repeat(kd, n))
     return Dataset(inputs, y.ravel(), grid)
 
 
@@ -123,8 +127,8 @@ def _grazing_points() -> np.ndarray:
 
 
 def validation_sets(settings: Settings, use_cache: bool = True, tick=None) -> tuple[Dataset, Dataset]:
-    """(the validation set, the grazing set), :class:`fitlab.core.Dataset` objects with inputs mu_i, mu_o,
-    phi, c, kd, computed together (:func:`exact_values`).
+    """(the validation set, the grazing set), :class:`fitlab.core.Dataset` objects with the BRDF's inputs (for
+    the Lambert sphere mu_i, mu_o, phi, c, kd), computed together (:func:`exact_values`).
 
     The validation set: the report's albedos x 2^``log2_points`` scrambled Sobol points in (mu_i, mu_o, phi/pi).
     The grazing set: mu_i, mu_o in :data:`GRAZING_MU`, phi in :data:`GRAZING_PHI`, the same albedos.
@@ -168,8 +172,8 @@ def fresh_set(settings: Settings, use_cache: bool = True, tick=None) -> Dataset:
     if not computed:
         for _ in c:
             tick and tick()
-    inputs = {"mu_i": points[:, :, 0].ravel(), "mu_o": points[:, :, 1].ravel(), "phi": np.pi * points[:, :, 2].ravel(),
-              "c": np.repeat(c, per_c), "kd": np.repeat(out["kd"], per_c)}  # fmt: skip
+    inputs = _inputs(points[:, :, 0].ravel(), points[:, :, 1].ravel(), np.pi * points[:, :, 2].ravel(),
+                     np.repeat(c, per_c), np.repeat(out["kd"], per_c))  # fmt: skip
     grid = (f"{settings.fresh_c} albedos uniform in (0, 1), {per_c} points each, (mu_i, mu_o, phi) uniform, numpy "
             f"PCG64 seed {settings.fresh_seed}")  # fmt: skip
     return Dataset(inputs, out["y"].ravel(), grid)

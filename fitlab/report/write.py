@@ -15,11 +15,12 @@ import math
 from pathlib import Path
 
 from fitlab._io import atomic_write_many
-from fitlab.report.methods import GROUPS
+from fitlab.report.methods import GROUPS, brdf_hook
 from fitlab.report.pareto import RULES, pareto_front
 from fitlab.report.plot import plot_cost, plot_png
 
-__all__ = ["COLUMNS", "TIMING_COLUMNS", "FILES", "csv_text", "markdown", "parts_table", "as_shown", "write_outputs"]
+__all__ = ["COLUMNS", "TIMING_COLUMNS", "FILES", "csv_text", "markdown", "parts_table", "as_shown", "write_outputs",
+           "report_source", "section_rows", "sci", "ns"]
 
 #: the CSV's columns; ``section`` says what a row is (brdf, part, exact, exact_h, time_to_error, refit)
 COLUMNS = ("section", "target", "group", "method", "source", "points", "paths", "target_error", "max_rel",
@@ -50,13 +51,15 @@ def csv_text(rows: list[dict]) -> str:
     return buf.getvalue()
 
 
-def _e(x) -> str:
+def sci(x) -> str:
+    """A relative error as the report prints it (2 significant digits, "-" for none)."""
     if x is None or (isinstance(x, float) and math.isnan(x)):
         return "-"
     return "inf" if math.isinf(x) else f"{x:.2e}"
 
 
-def _ns(x) -> str:
+def ns(x) -> str:
+    """A time as the report prints it (3 significant digits, "-" for none)."""
     if x is None or math.isnan(x):
         return "-"
     if x < 100:
@@ -74,7 +77,8 @@ def _rate(x) -> str:
     return "-" if x is None or math.isnan(x) else f"{x / 1e6:.3g}"
 
 
-def _section(rows, name):
+def section_rows(rows, name):
+    """The report's rows of one ``section`` (the CSV's first column)."""
     return [r for r in rows if r["section"] == name]
 
 
@@ -88,18 +92,19 @@ def _front_marks(brdf) -> list[str]:
 
 
 def _brdf_table(brdf) -> list[str]:
-    out = ["| group | method | max rel | RMS rel | max rel, mu >= 1/64 | max rel, grazing | max abs, c = 0 | "
+    black = f"max abs, {brdf_hook().BRDF_MATERIAL[0]} = 0"  # the black material's column
+    out = ["| group | method | max rel | RMS rel | max rel, mu >= 1/64 | max rel, grazing | " + black + " | "
            "max rel, fresh | RMS rel, fresh | albedo error | data bytes | C double ns | C float ns | Python ns | "
            "JAX M eval/s | on the front |", "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     order = {g: k for k, g in enumerate(GROUPS)}
     marks = _front_marks(brdf)
     for k in sorted(range(len(brdf)), key=lambda k: (order.get(brdf[k]["group"], 99), k)):
         r = brdf[k]
-        out.append(f"| {r['group']} | {r['method']} | {_e(r['max_rel'])} | {_e(r['rms_rel'])} | "
-                   f"{_e(r.get('max_rel_away'))} | {_e(r.get('max_rel_grazing'))} | {_e(r.get('max_abs_c0'))} | "
-                   f"{_e(r.get('max_rel_fresh'))} | {_e(r.get('rms_rel_fresh'))} | {_e(r.get('albedo_err'))} | "
-                   f"{_bytes(r.get('bytes'))} | {_ns(r.get('ns_c_double', math.nan))} | "
-                   f"{_ns(r.get('ns_c_float', math.nan))} | {_ns(r.get('ns_python', math.nan))} | "
+        out.append(f"| {r['group']} | {r['method']} | {sci(r['max_rel'])} | {sci(r['rms_rel'])} | "
+                   f"{sci(r.get('max_rel_away'))} | {sci(r.get('max_rel_grazing'))} | {sci(r.get('max_abs_c0'))} | "
+                   f"{sci(r.get('max_rel_fresh'))} | {sci(r.get('rms_rel_fresh'))} | {sci(r.get('albedo_err'))} | "
+                   f"{_bytes(r.get('bytes'))} | {ns(r.get('ns_c_double', math.nan))} | "
+                   f"{ns(r.get('ns_c_float', math.nan))} | {ns(r.get('ns_python', math.nan))} | "
                    f"{_rate(r.get('jax_evals_per_s', math.nan))} | {marks[k]} |")  # fmt: skip
     return out
 
@@ -113,9 +118,9 @@ def _recommendations(rec) -> list[str]:
             out.append(f"| {use} | none qualifies | | | | | | | {rule} |")
             continue
         cost, kind = plot_cost(r)
-        out.append(f"| {use} | **{r['method']}** ({r['group']}) | {_e(r['max_rel'])} | {_e(r['rms_rel'])} | "
-                   f"{_e(r.get('max_rel_grazing'))} | {_e(r.get('max_rel_fresh'))} / {_e(r.get('rms_rel_fresh'))} | "
-                   f"{_e(r.get('albedo_err'))} | {_ns(cost)} ({'C double' if kind == 'C' else 'Python'}) | {rule} |")  # fmt: skip
+        out.append(f"| {use} | **{r['method']}** ({r['group']}) | {sci(r['max_rel'])} | {sci(r['rms_rel'])} | "
+                   f"{sci(r.get('max_rel_grazing'))} | {sci(r.get('max_rel_fresh'))} / {sci(r.get('rms_rel_fresh'))} | "
+                   f"{sci(r.get('albedo_err'))} | {ns(cost)} ({'C double' if kind == 'C' else 'Python'}) | {rule} |")  # fmt: skip
     return out
 
 
@@ -123,9 +128,9 @@ def parts_table(parts) -> list[str]:
     out = ["| target | method | group | max rel | max rel* | RMS rel | C double ns | C float ns |",
            "|---|---|---|---|---|---|---|---|"]  # fmt: skip
     for r in parts:
-        out.append(f"| {r['target']} | {r['method']} | {r['group']} | {_e(r['max_rel'])} | "
-                   f"{_e(r['max_rel_nonzero'])} | {_e(r['rms_rel'])} | {_ns(r.get('ns_c_double', math.nan))} | "
-                   f"{_ns(r.get('ns_c_float', math.nan))} |")  # fmt: skip
+        out.append(f"| {r['target']} | {r['method']} | {r['group']} | {sci(r['max_rel'])} | "
+                   f"{sci(r['max_rel_nonzero'])} | {sci(r['rms_rel'])} | {ns(r.get('ns_c_double', math.nan))} | "
+                   f"{ns(r.get('ns_c_float', math.nan))} |")  # fmt: skip
     return out
 
 
@@ -134,92 +139,34 @@ def report_source(report) -> str:
     return report.context.get("exact_source", "the exact engine")
 
 
-def _exact_section(report) -> list[str]:
-    ctx, rows = report.context, report.rows
-    ec = ctx["exact_cost"]
-    out = ["## The exact engine", "",
-           f"`{report_source(report)}` at a new albedo: set-up "
-           f"{ec['setup_seconds']:.2f} s, then {ec['ns_per_point'] / 1e3:.3g} us per point "
-           f"({ec['points']} points, c = {ec['c']:.4f})."]  # fmt: skip
-    agree = ctx.get("engine_agreement")
-    if agree:
-        out += ["", f"Its error, the agreement of its two methods (Newton and doubling-adding, c = {agree['c']:g}, "
-                f"Fourier orders {', '.join(map(str, agree['orders']))} of the multiple scattering at "
-                f"{agree['node_pairs']} pairs with mu_i, mu_o >= 1e-3, relative to the BRDF): max "
-                f"{_e(agree['max_rel'])}, RMS {_e(agree['rms_rel'])}. Doubling costs "
-                f"{agree['seconds_per_order']:.2f} s per (c, order)."]
-    dbl = ctx["doubling"]
-    if dbl:
-        out += ["", "The three-term engine (the paper's model; H-functions), measured against the independent "
-                "discrete ordinates + doubling "
-                f"(`fitlab.families.lambert_sphere.exact.doubling_reflection`, c = {dbl['c']:g}, Fourier orders "
-                f"{', '.join(map(str, dbl['orders']))}, {dbl['points']} node pairs with mu_i, mu_o >= 1e-3): "
-                f"max {_e(dbl['max_rel'])}, RMS {_e(dbl['rms_rel'])}. Doubling itself costs "
-                f"{dbl['seconds_per_order']:.2f} s per (c, order) for f^m at {dbl['node_pairs']} node pairs."]
-    out += ["", "H-functions by both methods at coarser and finer resolution, each against the other method at "
-            "its default (16 nodes per panel; h = 0.1); seconds per (order, c): one solve and the evaluation "
-            f"at {report.family_settings.exact_mu_points} mu, orders {', '.join(map(str, report.family_settings.exact_orders))}, "
-            f"c = {', '.join(f'{c:g}' for c in report.family_settings.exact_c)}.", "",
-            "| method, resolution | max rel | RMS rel | ms per (order, c) |", "|---|---|---|---|"]  # fmt: skip
-    for r in _section(rows, "exact_h"):
-        out.append(f"| {r['method']} | {_e(r['max_rel'])} | {_e(r['rms_rel'])} | {r['seconds'] * 1e3:.3g} |")
-    return out
-
-
-def _time_to_error(rows) -> list[str]:
-    out = ["## Time to reach a given error", "",
-           "Exact engine: the coarsest resolution whose max error (as above) is within the target, for H at one "
-           "albedo and the mu points above. Monte Carlo: RMS relative error of the BRDF bin averages, "
-           "extrapolated from the largest run by se ~ N^(-1/2); seconds for all the run's values.", "",
-           "| method | target error | how | seconds |", "|---|---|---|---|"]  # fmt: skip
-    for r in _section(rows, "time_to_error"):
-        how = r["note"] if r["group"] == "exact" else f"{r['paths']:.3g} paths per job"
-        out.append(f"| {r['method']} | {_e(r['target_error'])} | {how} | {_ns(r['seconds'])} |")
-    return out
-
-
-def _mc_section(report) -> list[str]:
-    s = report.family_settings
-    out = ["## Monte Carlo", "",
-           f"`fitlab.families.lambert_sphere.mc`: c = {', '.join(map(str, s.mc_c))}, mu_i = {', '.join(map(str, s.mc_mu_i))}, mu_o bins "
-           f"{list(s.mc_mu_edges)}, {s.mc_phi_bins} |phi| bins; three-term multiple scattering, single scattering "
-           "in closed form; errors against the exact bin averages. Seconds exclude compilation.", "",
-           "| paths per job | values | max rel | RMS rel | RMS se/exact | seconds | ns per value |",
-           "|---|---|---|---|---|---|---|"]  # fmt: skip
-    for m in report.context["mc"]:
-        out.append(f"| {m['paths']} | {m['values']} | {_e(m['max_rel'])} | {_e(m['rms_rel'])} | {_e(m['se_rms'])} | "
-                   f"{m['seconds']:.3g} | {m['ns_per_value']:.3g} |")  # fmt: skip
-    return out
-
-
 def _refit_section(rows) -> list[str]:
     out = ["## One-off cost of each refit", "",
            "Wall seconds of `fitlab.fit.refit.refit` (JIT, Levenberg-Marquardt, minimax rounds, validation; "
            "nothing written); the target's data is built beforehand (shared with the accuracy section).", "",
            "| target | form | seconds | refit max rel | note |", "|---|---|---|---|---|"]  # fmt: skip
-    for r in _section(rows, "refit"):
-        out.append(f"| {r['target']} | {r['method']} | {_ns(r['seconds'])} | {_e(r['max_rel'])} | {r['note']} |")
+    for r in section_rows(rows, "refit"):
+        out.append(f"| {r['target']} | {r['method']} | {ns(r['seconds'])} | {sci(r['max_rel'])} | {r['note']} |")
     return out
 
 
 def markdown(report) -> str:
     ctx, rows, s = report.context, report.rows, report.settings
-    brdf = _section(rows, "brdf")
-    out = ["# Accuracy and cost of every way to evaluate the Lambert-sphere BRDF", "",
+    brdf = section_rows(rows, "brdf")
+    hook = brdf_hook()
+    text = hook.REPORT_TEXT
+    out = [f"# Accuracy and cost of every way to evaluate the {hook.BRDF_TITLE}", "",
            "Generated by `fitlab report`" + (" --quick" if s.name == "quick" else "")
            + " (do not edit); every number is in `report.csv`. All columns but the timings are reproducible "
            f"run to run. Machine: {ctx['machine']}; this run took {ctx['wall_seconds']:.0f} s.", "",
            f"**Accuracy.** Against `{report_source(report)}` on one fixed validation set: {ctx['validation']} "
-           f"({ctx['validation_points']} points; kd = kd_true(c) where a method takes kd). Every "
+           f"({ctx['validation_points']} points; {text['material']}). Every "
            f"`{ctx['fits_dir']}/*.json` is measured (" + ", ".join(f"{g}: {n}" for g, n in ctx["fits"].items()) + " files). Relative error "
            "|f - f_exact| / f_exact: the max over the set, the RMS, and the max away from the grazing pole "
            "(mu_i, mu_o >= 1/64); the uniform points never come closer to the pole than mu_i + mu_o of about "
            f"2^(-{s.log2_points}/2), so a second set looks there on purpose: {ctx['grazing']} "
-           f"({ctx['grazing_points']} points; max rel, grazing). At c = 0 the BRDF is exactly 0: max abs, c = 0 is "
-           "max |f| at the set's points with c = 0. Nothing is fitted or selected on a third, independent set: "
-           f"{ctx['fresh']} ({ctx['fresh_points']} points; max rel and RMS rel, fresh). Albedo error: "
-           f"{ctx['energy']}, max over both. Parts (H0, H1, constants, albedo maps, fm1): each target's validation set and "
-           "error measure (`fitlab.families.lambert_sphere.targets`, as in docs/audit.md).", "",
+           f"({ctx['grazing_points']} points; max rel, grazing). {text['black']} Nothing is fitted or selected on a "
+           f"third, independent set: {ctx['fresh']} ({ctx['fresh_points']} points; max rel and RMS rel, fresh). "
+           f"Albedo error: {ctx['energy']}, max over both. {text['parts']}", "",
            f"**Cost.** ns per evaluation of the generated C (`fitlab.codegen`, `{ctx['c_compiler']}`), called in a C "
            f"loop over {ctx['c_points']} random inputs, best of {ctx['repeat']} (`fitlab.codegen.bench`, the harness "
            f"of `fitlab bench codegen`); Python ns: numpy vectorised over {ctx['numpy_points']} inputs (the exact "
@@ -239,8 +186,8 @@ def markdown(report) -> str:
            "max rel* leaves out the target's exact zeros. C ns: the part's routine in the generated code: in its "
            "family's program where one prints it, else its form with its numbers as a routine of its own (timed "
            "in one more run: compare within a run).", "",
-           *parts_table(_section(rows, "part")), "",
-           *_exact_section(report), "", *_time_to_error(rows), "", *_mc_section(report), "",
+           *parts_table(section_rows(rows, "part")), "",
+           *hook.engine_sections(report), "",
            *_refit_section(rows)]  # fmt: skip
     if ctx["notes"]:
         out += ["", "## Notes", "", *(f"- {n}" for n in ctx["notes"])]
@@ -271,9 +218,9 @@ def write_outputs(report, out_dir: Path) -> list[Path]:
     """Render report.md, accuracy_vs_cost.png and report.csv (the fits folder named by :func:`as_shown`) and
     write all three (or none)."""
     report = as_shown(report)
-    brdf = _section(report.rows, "brdf")
-    title = (f"Lambert-sphere BRDF: error vs cost of every evaluation method ({report.context['validation_points']} "
-             "validation points; fitlab report)")  # fmt: skip
+    brdf = section_rows(report.rows, "brdf")
+    title = (f"{brdf_hook().BRDF_TITLE}: error vs cost of every evaluation method "
+             f"({report.context['validation_points']} validation points; fitlab report)")
     files = {
         "report.md": markdown(report).encode(),
         "accuracy_vs_cost.png": plot_png(brdf, title),

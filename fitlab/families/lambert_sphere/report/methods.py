@@ -21,10 +21,10 @@ module, for what only the family knows:
   BRDF validation set (the material's BRDF: the whole phase function) with the sources its cache key hashes;
 * the paper's three-term model and the mixed reference as BRDF methods (:data:`REFERENCES`), measured
   against the material's BRDF like every other method;
-* the exact engine and Monte Carlo as methods (:mod:`.exact_engine`:
-  :func:`h_convergence`, :func:`exact_brdf_cost`, :func:`engine_agreement`, :func:`doubling_agreement`,
-  :func:`time_to_error`; :mod:`.montecarlo`: :func:`mc_study`,
-  :func:`mc_time_to_error`).
+* the exact engine and Monte Carlo, measured by :func:`measure_engines` (:mod:`.engine_rows`, from
+  :mod:`.exact_engine` and :mod:`.montecarlo`: the rows, and :data:`SOURCES`, what each measured), and their
+  sections of report.md with the BRDF's title and sentences (:mod:`.markdown`: :func:`engine_sections`,
+  :data:`BRDF_TITLE`, :data:`REPORT_TEXT`).
 """
 
 from __future__ import annotations
@@ -50,14 +50,8 @@ from fitlab.families.lambert_sphere.program.runtime import (
     runtime_model,
 )
 from fitlab.families.lambert_sphere.program.true_refit import TRUE_FITS, true_runtime_model
-from fitlab.families.lambert_sphere.report.exact_engine import (
-    doubling_agreement,
-    engine_agreement,
-    exact_brdf_cost,
-    h_convergence,
-    time_to_error,
-)
-from fitlab.families.lambert_sphere.report.montecarlo import mc_study, mc_time_to_error
+from fitlab.families.lambert_sphere.report.engine_rows import SOURCES, measure_engines
+from fitlab.families.lambert_sphere.report.markdown import BRDF_TITLE, REPORT_TEXT, engine_sections
 from fitlab.families.lambert_sphere.report.settings import BRDF_INPUTS, BRDF_MATERIAL, BRDF_POINT, REPORT_SETTINGS
 from fitlab.families.lambert_sphere.report.spline_tables import kd_interpolant, table_brdf, table_part
 from fitlab.families.lambert_sphere.report.spline_tables import memory_bytes as spline_bytes
@@ -68,10 +62,10 @@ from fitlab.report.methods import BrdfMethod, CSpec, PartMethod, best_forms, fit
 from fitlab.store import FORMAT, load
 
 __all__ = ["REQUIRED_FITS", "PARTS", "PRESET_VARIANTS", "tables_dir", "EXACT_SOURCES", "SOURCES", "brdf_methods",
-           "part_extras", "preset_records", "check_tables", "exact_brdf", "exact_kd", "h_convergence", "exact_brdf_cost",
-           "doubling_agreement", "engine_agreement", "REFERENCES", "time_to_error", "mc_study", "mc_time_to_error",
-           "exact_albedo", "directional_albedo",
-           "BRDF_INPUTS", "BRDF_POINT", "BRDF_MATERIAL", "REPORT_SETTINGS"]
+           "part_extras", "preset_records", "check_tables", "exact_brdf", "exact_kd", "measure_engines", "REFERENCES",
+           "exact_albedo", "directional_albedo", "timing_inputs", "baseline_program",
+           "BRDF_INPUTS", "BRDF_POINT", "BRDF_MATERIAL", "REPORT_SETTINGS", "BRDF_TITLE", "REPORT_TEXT",
+           "engine_sections"]
 
 #: the albedo maps: not in the BRDF, but in its generated program (their C is timed there)
 MAPS = ("kd_of_c", "c_of_kd")
@@ -81,14 +75,6 @@ PARTS = tuple(name for name in TARGETS if name != FAST)
 #: the exact engine's folder (its sources, :data:`fitlab.families.lambert_sphere.exact.SOURCES`): the report's cache
 #: of exact values is keyed on them
 EXACT_SOURCES = exact.SOURCES[0].parent
-#: what the report's exact-engine and Monte Carlo rows measured (their "source" column)
-SOURCES = {
-    "exact": "fitlab.families.lambert_sphere.exact.brdf (phase 'true': the whole phase function)",
-    "exact_agreement": "fitlab.families.lambert_sphere.exact.true_phase (methods 'newton' and 'doubling')",
-    "doubling": "fitlab.families.lambert_sphere.exact.doubling_reflection (three-term phase function)",
-    "h": "fitlab.families.lambert_sphere.exact.hfunction",
-    "monte carlo": "fitlab.families.lambert_sphere.mc (three-term multiple scattering)",
-}
 
 
 def timing_inputs(n: int, data_dir: Path) -> dict:
