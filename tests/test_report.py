@@ -79,6 +79,11 @@ def test_csv_columns_and_contents(quick):
     # the refit is timed in C, the H0 part is measured by every method
     refit = next(r for r in brdf if r["method"] == "refit")
     assert float(refit["ns_c_double"]) > 0 and float(refit["jax_evals_per_s"]) > 0
+    # the parts and refits measured are the family's choice for the quick settings (fitlab.report.QUICK names none)
+    fam = family_settings(QUICK, brdf_hook())
+    assert QUICK.parts is None and QUICK.refits is None
+    assert {r["target"] for r in rows if r["section"] == "part"} == set(fam.parts)
+    assert {(r["target"], r["method"]) for r in rows if r["section"] == "refit"} == set(fam.refits)
     h0 = {r["method"] for r in rows if r["section"] == "part" and r["target"] == "H0"}
     assert {"exact (Fock/Krein)", "tables", "hapke / paper", "hapke", "hapke_rational"} <= h0
     # the three-order tables are far more accurate than the runtime model (which drops fm2); against the true BRDF

@@ -156,7 +156,13 @@ def _refit_rows(entries, settings, fits_dir, progress) -> list[dict]:
 
 
 def _resolved(settings: Settings) -> Settings:
-    """``settings`` with None (every one the families name) replaced: the parts, the preset variants."""
+    """``settings`` with None replaced: the parts and the refits by the family's choice where its report settings
+    make one (``parts``, ``refits``), the parts and the preset variants by every one the families name."""
+    fam = family_settings(settings, brdf_hook())
+    if settings.parts is None and getattr(fam, "parts", None) is not None:
+        settings = replace(settings, parts=tuple(fam.parts))
+    if settings.refits is None and getattr(fam, "refits", None) is not None:
+        settings = replace(settings, refits=tuple(fam.refits))
     if settings.parts is None:
         settings = replace(settings, parts=report_parts())
     if settings.preset_c is None:

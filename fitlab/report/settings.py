@@ -44,8 +44,9 @@ class Settings:
     fresh_seed: int = 18_2026
     energy_c: tuple = (1e-3, 0.3, 0.7, 0.95, 1.0)
     energy_mu: int = 11
-    #: targets whose parts are measured on their validation sets; None: every target the families'
-    #: report hooks measure at part level (fitlab.report.methods.report_parts)
+    #: targets whose parts are measured on their validation sets; None: the family's choice for these settings
+    #: (its report settings' ``parts``), else every target the families' report hooks measure at part level
+    #: (fitlab.report.methods.report_parts)
     parts: tuple | None = None
     #: runtime presets whose C is built and timed; None: every preset set of the families' runtime
     #: models (fitlab.report.methods.preset_variants)
@@ -62,7 +63,8 @@ class Settings:
     jax_points: int = 1 << 20
     #: JAX throughput for every entry with an expression (False: the default refit only)
     all_jax: bool = True
-    #: refits timed (target, form); None: every fit file whose form fitlab.forms defines
+    #: refits timed (target, form); None: the family's choice for these settings (its report settings'
+    #: ``refits``), else every fit file whose form fitlab.forms defines
     refits: tuple | None = None
     #: errors at which the time to reach them is reported (Monte Carlo and the exact engine)
     error_targets: tuple = (1e-2, 1e-3, 1e-6, 1e-10)
@@ -78,7 +80,6 @@ QUICK = Settings(
     n_c=2,
     with_c1=False,
     log2_points=8,
-    parts=("H0", "m"),
     preset_c=(),
     all_c=False,
     discovered_brdf=False,
@@ -92,7 +93,6 @@ QUICK = Settings(
     numpy_points=1 << 12,
     jax_points=1 << 12,
     all_jax=False,
-    refits=(("m", "linear"),),
 )
 
 

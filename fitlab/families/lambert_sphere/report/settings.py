@@ -40,6 +40,10 @@ class EngineSettings:
     mc_mu_edges: tuple = (0.2, 0.4, 0.6, 0.8, 1.0)
     mc_phi_bins: int = 4
     mc_paths: tuple = (1_000, 10_000, 100_000, 1_000_000)
+    #: the report's choices where its generic settings leave them to the family (None: every one): the targets
+    #: measured at part level, the refits timed as (target, form)
+    parts: tuple | None = None
+    refits: tuple | None = None
 
 
 #: the generic settings' name (fitlab.report.FULL, QUICK) -> the family's
@@ -58,5 +62,7 @@ REPORT_SETTINGS = {
         mc_mu_edges=(0.0, 0.5, 1.0),
         mc_phi_bins=2,
         mc_paths=(1_000, 4_000),
+        parts=("H0", "m"),
+        refits=(("m", "linear"),),
     ),
 }
