@@ -24,7 +24,7 @@ from fitlab.report import COLUMNS, QUICK, TIMING_COLUMNS, build_report, pareto_f
 from fitlab.report.methods import ReportError, brdf_hook, brdf_methods, fit_inventory
 from fitlab.report.settings import family_settings
 from fitlab.families.lambert_sphere.report.spline_tables import h_interpolant, table_brdf
-from fitlab.report.validation import albedos
+from fitlab.families.lambert_sphere.report.materials import albedos
 
 # one worker runs the module: its tests share the quick reports and the programs they build (xdist_group)
 pytestmark = pytest.mark.xdist_group("tests/test_report.py")

@@ -171,18 +171,22 @@ def report_cost():
     """Seconds to evaluate the true BRDF at the points of the report's full validation sets (the Sobol set and
     the grazing set share their albedos and are evaluated in one call per c; the independent set has its own
     albedos and points), cold cache, nothing written."""
+    from fitlab.families.lambert_sphere.report.materials import albedos
+    from fitlab.families.lambert_sphere.report.settings import REPORT_SETTINGS
     from fitlab.report.settings import FULL
-    from fitlab.report.validation import GRAZING_MU, GRAZING_PHI, albedos, sobol_points
+    from fitlab.report.validation import GRAZING_MU, GRAZING_PHI, sobol_points
+
+    fam = REPORT_SETTINGS["full"]
 
     points = sobol_points(FULL.log2_points, FULL.seed)
     gi, go, gp = (a.ravel() for a in np.meshgrid(GRAZING_MU, GRAZING_MU, GRAZING_PHI, indexing="ij"))
     mi, mo, ph = (np.concatenate((points[:, 0], gi)), np.concatenate((points[:, 1], go)),
                   np.concatenate((np.pi * points[:, 2], gp)))
-    cs = albedos(FULL.n_c, FULL.with_c1, FULL.small_c)
+    cs = albedos(fam.n_c, fam.with_c1, fam.small_c)
     rng = np.random.default_rng(FULL.fresh_seed)
-    fresh_c = rng.uniform(0.0, 1.0, FULL.fresh_c)
-    per_c = -(-FULL.fresh_points // FULL.fresh_c)
-    fresh = rng.uniform(0.0, 1.0, (FULL.fresh_c, per_c, 3))
+    fresh_c = rng.uniform(0.0, 1.0, fam.fresh_c)
+    per_c = -(-FULL.fresh_points // fam.fresh_c)
+    fresh = rng.uniform(0.0, 1.0, (fam.fresh_c, per_c, 3))
     tp.clear_cache()
     t0 = time.perf_counter()
     for c in cs:

@@ -176,6 +176,20 @@ class BrdfReportHook(ReportHook, Protocol):
 
     def directional_albedo(self, *args, **kwargs) -> Any: ...
 
+    def validation_materials(self, *args, **kwargs) -> Any:
+        """``validation_materials(family_settings)`` -> (values, what they are): the materials of the validation
+        and grazing sets (the Lambert sphere's albedos c)."""
+        ...
+
+    def fresh_materials(self, *args, **kwargs) -> Any:
+        """``fresh_materials(rng, family_settings)`` -> (values, what they are): the independent set's materials,
+        the first draws of its generator."""
+        ...
+
+    def energy_materials(self, *args, **kwargs) -> Any:
+        """``energy_materials(family_settings)`` -> (values, what they are): where the energy is checked."""
+        ...
+
     def measure_engines(self, *args, **kwargs) -> Any:
         """``measure_engines(settings, family_settings, timing_inputs, progress)`` -> (rows, context): the family's
         own engines (exact, Monte Carlo) measured, as the report's rows and the context its sections read;

@@ -202,12 +202,14 @@ def build_report(settings: Settings = FULL, fits_dir: Path | None = None, data_d
 def _measure(settings, entries, fits_dir, data_dir, use_cache, p) -> tuple[list, dict]:
     hook = brdf_hook()  # the family's exact engine and Monte Carlo
 
-    n_albedos = len(settings.small_c) + settings.n_c + settings.with_c1
-    p.stage("validation set", n_albedos + settings.fresh_c)
+    fam = family_settings(settings, hook)
+    n_materials = (hook.validation_materials(fam)[0].size
+                   + hook.fresh_materials(np.random.default_rng(settings.fresh_seed), fam)[0].size)
+    p.stage("validation set", n_materials)
     valid, grazing = validation_sets(settings, use_cache, p.tick)
     fresh = fresh_set(settings, use_cache, p.tick)
     energy_mu = np.maximum(np.linspace(0.0, 1.0, settings.energy_mu), 1e-3)
-    energy_c = np.asarray(settings.energy_c, dtype=float)
+    energy_c, energy_materials = hook.energy_materials(fam)
     energy = (energy_mu, energy_c, hook.exact_kd(energy_c), [hook.exact_albedo(energy_mu, cv) for cv in energy_c],
               hook.directional_albedo)  # fmt: skip
     p.stage("catalogue", 1)
@@ -237,7 +239,7 @@ def _measure(settings, entries, fits_dir, data_dir, use_cache, p) -> tuple[list,
     notes = notes + part_notes
     # the family's own engines (for the Lambert sphere the exact engine and Monte Carlo): their rows, and what
     # its sections of report.md read from the context
-    engine_rows, engine_context = hook.measure_engines(settings, family_settings(settings, hook), py_inputs, p)
+    engine_rows, engine_context = hook.measure_engines(settings, fam, py_inputs, p)
     rows += engine_rows
     rows += _refit_rows(entries, settings, fits_dir, p)
     counts = {}
@@ -250,8 +252,8 @@ def _measure(settings, entries, fits_dir, data_dir, use_cache, p) -> tuple[list,
         "fits": counts,
         "validation": valid.grid, "validation_points": len(valid), "grazing": grazing.grid,
         "grazing_points": len(grazing), "fresh": fresh.grid, "fresh_points": len(fresh),
-        "energy": f"directional albedo at c in {{{', '.join(f'{c:g}' for c in settings.energy_c)}}} x "
-                  f"{settings.energy_mu} incident cosines uniform on [0, 1] (0 read as 1e-3), against the exact one",
+        "energy": f"directional albedo at {energy_materials} x {settings.energy_mu} incident cosines uniform on "
+                  "[0, 1] (0 read as 1e-3), against the exact one",
         "notes": notes, **engine_context, "exact_source": hook.SOURCES["exact"],
         "c_points": settings.c_points, "repeat": settings.repeat,
         "jax_points": settings.jax_points, "numpy_points": settings.numpy_points,

@@ -18,31 +18,23 @@ __all__ = ["Settings", "FULL", "QUICK", "family_settings"]
 class Settings:
     """What one report measures and how hard.
 
-    BRDF validation set (see :mod:`fitlab.report.validation`): ``n_c`` albedos
-    c = 1 - s^2 with s = (k + g)/n_c, k = 0..n_c-1, g = (sqrt 5 - 1)/2 (never on
-    the tables' s = k/64 grid), plus c = 1 when ``with_c1``; for each, the same
-    2^``log2_points`` scrambled Sobol points (seed ``seed``) in
-    (mu_i, mu_o, phi/pi) in (0, 1)^3; the small albedos ``small_c`` join them (the BRDF is O(c) there,
-    and O(c^2) in forward scattering at grazing, where fitted O(c) terms fail), and c = 0 is measured
-    as max |f| (exactly 0 for an exact model).
+    BRDF validation set (see :mod:`fitlab.report.validation`): at each of the family's materials (the report
+    hook's ``validation_materials``; the Lambert sphere's albedos c), the same 2^``log2_points`` scrambled
+    Sobol points (seed ``seed``) in (mu_i, mu_o, phi/pi) in (0, 1)^3; the black material is measured as
+    max |f| (exactly 0 for an exact model).
 
     A second, independent set (:func:`fitlab.report.validation.fresh_set`) that nothing is fitted or
-    selected on: ``fresh_c`` albedos uniform in (0, 1) and ``fresh_points`` points in all, (mu_i, mu_o,
-    phi) uniform, from numpy's PCG64 with seed ``fresh_seed`` (another generator and seed than the
-    main set's).  Energy: the directional albedo against the exact one at ``energy_c`` x
-    ``energy_mu`` incident cosines (uniform on [0, 1], 0 replaced by 1e-3).
+    selected on: ``fresh_points`` points in all over the family's materials for it (``fresh_materials``, the first
+    draws), (mu_i, mu_o, phi) uniform, from numpy's PCG64 with seed ``fresh_seed`` (another generator and seed
+    than the main set's).  Energy: the directional albedo against the exact one at the family's
+    ``energy_materials`` x ``energy_mu`` incident cosines (uniform on [0, 1], 0 replaced by 1e-3).
     """
 
     name: str
-    n_c: int
-    with_c1: bool
     log2_points: int
     seed: int = 2021
-    small_c: tuple = (1e-6, 1e-5, 1e-4, 1e-3, 1e-2)
-    fresh_c: int = 64
     fresh_points: int = 100_000
     fresh_seed: int = 18_2026
-    energy_c: tuple = (1e-3, 0.3, 0.7, 0.95, 1.0)
     energy_mu: int = 11
     #: targets whose parts are measured on their validation sets; None: the family's choice for these settings
     #: (its report settings' ``parts``), else every target the families' report hooks measure at part level
@@ -73,20 +65,15 @@ class Settings:
     family: Any = None
 
 
-FULL = Settings(name="full", n_c=15, with_c1=True, log2_points=12)
+FULL = Settings(name="full", log2_points=12)
 
 QUICK = Settings(
     name="quick",
-    n_c=2,
-    with_c1=False,
     log2_points=8,
     preset_c=(),
     all_c=False,
     discovered_brdf=False,
-    small_c=(1e-4,),
-    fresh_c=3,
     fresh_points=3000,
-    energy_c=(1.0,),
     energy_mu=3,
     c_points=1 << 14,
     repeat=2,

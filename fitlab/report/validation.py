@@ -1,29 +1,24 @@
-r"""The one BRDF validation set of the report, over (mu_i, mu_o, phi, c).
+r"""The one BRDF validation set of the report, over (mu_i, mu_o, phi) and the family's materials.
 
 The exact values come from the family's report hook (``exact_brdf``, ``exact_kd``:
 for the Lambert sphere :func:`fitlab.families.lambert_sphere.exact.brdf` and kd_true).
 
-Albedos c = 1 - s^2 with s = (k + g)/n, k = 0..n-1, g = (sqrt 5 - 1)/2, plus
-c = 1: an irrational offset keeps every s off the tables' grid s = k/64 (a
-table method would otherwise be exact in c at every point) and off the fits'
-training and validation grids (dyadic in s).  c = 0 is left out: the BRDF is
-0 there and a relative error means nothing.  For each c the same 2^m scrambled
-Sobol points (seeded) give (mu_i, mu_o, phi/pi) in (0, 1)^3; mu is uniform, so
-the grazing pole mu_i = mu_o = 0 is approached only as far as the points go
-(min mu_i + mu_o is about 2^(-m/2)).  kd = kd_true(c), the spherical albedo of
-:func:`fitlab.families.lambert_sphere.exact.brdf` (the input of the fast variant and the baselines).
-y = :func:`fitlab.families.lambert_sphere.exact.brdf`.
+The materials are the family's (its report hook's ``validation_materials`` and ``fresh_materials``; for the
+Lambert sphere the albedos c of :mod:`fitlab.families.lambert_sphere.report.materials`, with kd = kd_true(c),
+the hook's ``exact_kd``).  For each material the same 2^m scrambled Sobol points (seeded) give
+(mu_i, mu_o, phi/pi) in (0, 1)^3; mu is uniform, so the grazing pole mu_i = mu_o = 0 is approached only as far
+as the points go (min mu_i + mu_o is about 2^(-m/2)).
 
 Because uniform points never come near the pole, a second, small set looks there
 on purpose (the second set of :func:`validation_sets`): mu_i, mu_o in {1e-6, 1e-4, 1e-2} (all nine
-pairs) x phi in {0, pi/2, pi} x the same albedos.  At phi = pi with mu_i = mu_o
+pairs) x phi in {0, pi/2, pi} x the same materials.  At phi = pi with mu_i = mu_o
 -> 0 single scattering vanishes and the exact BRDF grows like log(1/mu) through
 its multiple-scattering orders, so an approximation's (H_i H_o - 1)/(mu_i + mu_o)
 is tested where 1/mu magnifies the error of H - 1 (docs/fitting.md, "Grazing").
 
 The exact values cost the engine about a second per c, so the set is cached
 (:mod:`fitlab.cache`: ``$FITLAB_CACHE_DIR``, else ``$XDG_CACHE_HOME/fitlab``, else
-``~/.cache/fitlab``) under a key that hashes the points, the albedos and the
+``~/.cache/fitlab``) under a key that hashes the points, the materials and the
 sources of :mod:`fitlab.families.lambert_sphere.exact`; a changed engine never reads a stale cache.
 """
 
@@ -37,23 +32,13 @@ import numpy as np
 from fitlab.cache import cache_dir, cached_arrays
 from fitlab.core import Dataset
 from fitlab.report.methods import brdf_hook
-from fitlab.report.settings import Settings
+from fitlab.report.settings import Settings, family_settings
 
-__all__ = ["albedos", "sobol_points", "validation_sets", "fresh_set", "cache_dir", "exact_values", "GOLDEN",
-           "GRAZING_MU", "GRAZING_PHI"]
+__all__ = ["sobol_points", "validation_sets", "fresh_set", "cache_dir", "exact_values", "GRAZING_MU", "GRAZING_PHI"]
 
-GOLDEN = (np.sqrt(5.0) - 1.0) / 2.0
 #: the grazing set's cosines and azimuths
 GRAZING_MU = (1e-6, 1e-4, 1e-2)
 GRAZING_PHI = (0.0, 0.5 * np.pi, np.pi)
-
-
-def albedos(n: int, with_c1: bool, small: tuple = ()) -> np.ndarray:
-    """The ``small`` albedos, then c = 1 - s^2, s = (k + g)/n for k = 0..n-1 (g the golden ratio's fraction),
-    then c = 1 if asked."""
-    s = (np.arange(n) + GOLDEN) / n
-    c = np.concatenate((np.asarray(small, dtype=float), 1.0 - s**2))
-    return np.concatenate((c, [1.0])) if with_c1 else c
 
 
 def sobol_points(log2_points: int, seed: int) -> np.ndarray:
@@ -66,7 +51,7 @@ def sobol_points(log2_points: int, seed: int) -> np.ndarray:
 def exact_values(point_sets: Mapping[str, np.ndarray], c: np.ndarray, use_cache: bool = True, tick=None) -> tuple:
     """({kind: y}, kd): y[k, j] = the exact BRDF at point_sets[kind][j] (mu_i, mu_o, phi/pi) and c[k], and
     kd[k] = kd_true(c[k]), through :func:`fitlab.cache.cached_arrays` (one entry per kind, report-KIND-KEY.npz,
-    keyed by its points, the albedos and the family's exact sources; a damaged entry is a miss).  The sets are
+    keyed by its points, the materials and the family's exact sources; a damaged entry is a miss).  The sets are
     computed together, every set at one albedo before the next (an exact engine may keep the solution of only
     one albedo: a set after set loop would solve each albedo once per set).  ``tick()`` once per albedo."""
     hook = brdf_hook()
@@ -111,16 +96,6 @@ def _dataset(points: np.ndarray, c: np.ndarray, y: np.ndarray, kd: np.ndarray, g
     return Dataset(inputs, y.ravel(), grid)
 
 
-def _albedos(settings: Settings) -> np.ndarray:
-    return albedos(settings.n_c, settings.with_c1, settings.small_c)
-
-
-def _albedo_grid(settings: Settings) -> str:
-    small = f"c in {{{', '.join(f'{c:g}' for c in settings.small_c)}}} and " if settings.small_c else ""
-    return (f"{len(settings.small_c) + settings.n_c + settings.with_c1} albedos: {small}c = 1 - s^2, "
-            f"s = (k + 0.618...)/{settings.n_c}" + (" and c = 1" if settings.with_c1 else ""))  # fmt: skip
-
-
 def _grazing_points() -> np.ndarray:
     mi, mo, ph = np.meshgrid(GRAZING_MU, GRAZING_MU, np.asarray(GRAZING_PHI) / np.pi, indexing="ij")
     return np.stack([mi.ravel(), mo.ravel(), ph.ravel()], axis=1)
@@ -130,32 +105,33 @@ def validation_sets(settings: Settings, use_cache: bool = True, tick=None) -> tu
     """(the validation set, the grazing set), :class:`fitlab.core.Dataset` objects with the BRDF's inputs (for
     the Lambert sphere mu_i, mu_o, phi, c, kd), computed together (:func:`exact_values`).
 
-    The validation set: the report's albedos x 2^``log2_points`` scrambled Sobol points in (mu_i, mu_o, phi/pi).
-    The grazing set: mu_i, mu_o in :data:`GRAZING_MU`, phi in :data:`GRAZING_PHI`, the same albedos.
+    The validation set: the family's materials x 2^``log2_points`` scrambled Sobol points in (mu_i, mu_o, phi/pi).
+    The grazing set: mu_i, mu_o in :data:`GRAZING_MU`, phi in :data:`GRAZING_PHI`, the same materials.
     ``tick()`` is called once per albedo computed (a progress bar); a cache hit calls it for all.
     """
     points = {"brdf": sobol_points(settings.log2_points, settings.seed), "grazing": _grazing_points()}
-    c = _albedos(settings)
+    hook = brdf_hook()
+    c, materials = hook.validation_materials(family_settings(settings, hook))
     ys, kd = exact_values(points, c, use_cache, tick)
     grids = {
-        "brdf": (_albedo_grid(settings) + f", x 2^{settings.log2_points} scrambled Sobol points (seed {settings.seed})"
+        "brdf": (materials + f", x 2^{settings.log2_points} scrambled Sobol points (seed {settings.seed})"
                  " in (mu_i, mu_o, phi/pi)"),
-        "grazing": (_albedo_grid(settings) + " x mu_i, mu_o in {" + ", ".join(f"{m:g}" for m in GRAZING_MU)
+        "grazing": (materials + " x mu_i, mu_o in {" + ", ".join(f"{m:g}" for m in GRAZING_MU)
                     + "} x phi in {0, pi/2, pi}"),
     }  # fmt: skip
     return tuple(_dataset(points[k], c, ys[k], kd, grids[k]) for k in ("brdf", "grazing"))
 
 
 def fresh_set(settings: Settings, use_cache: bool = True, tick=None) -> Dataset:
-    """The independent set: ``fresh_c`` albedos uniform in (0, 1), each with its own points (mu_i, mu_o,
-    phi) uniform in (0, 1)^2 x (0, pi), ``fresh_points`` in all, all drawn from numpy's PCG64 seeded with
-    ``fresh_seed`` (nothing of fitlab is fitted or selected on it; another generator and seed than the
-    Sobol set's).  ``tick()`` once per albedo."""
-    rng = np.random.default_rng(settings.fresh_seed)
-    c = rng.uniform(0.0, 1.0, settings.fresh_c)
-    per_c = -(-settings.fresh_points // settings.fresh_c)
-    points = rng.uniform(0.0, 1.0, (settings.fresh_c, per_c, 3))
+    """The independent set: the family's materials for it (``fresh_materials``, the first draws of the set's
+    generator), each with its own points (mu_i, mu_o, phi) uniform in (0, 1)^2 x (0, pi), ``fresh_points`` in
+    all, all drawn from numpy's PCG64 seeded with ``fresh_seed`` (nothing of fitlab is fitted or selected on
+    it; another generator and seed than the Sobol set's).  ``tick()`` once per material."""
     hook = brdf_hook()
+    rng = np.random.default_rng(settings.fresh_seed)
+    c, materials = hook.fresh_materials(rng, family_settings(settings, hook))  # the generator's first draws
+    per_c = -(-settings.fresh_points // c.size)
+    points = rng.uniform(0.0, 1.0, (c.size, per_c, 3))
     computed = []
 
     def compute():
@@ -174,6 +150,5 @@ def fresh_set(settings: Settings, use_cache: bool = True, tick=None) -> Dataset:
             tick and tick()
     inputs = _inputs(points[:, :, 0].ravel(), points[:, :, 1].ravel(), np.pi * points[:, :, 2].ravel(),
                      np.repeat(c, per_c), np.repeat(out["kd"], per_c))  # fmt: skip
-    grid = (f"{settings.fresh_c} albedos uniform in (0, 1), {per_c} points each, (mu_i, mu_o, phi) uniform, numpy "
-            f"PCG64 seed {settings.fresh_seed}")  # fmt: skip
+    grid = f"{materials}, {per_c} points each, (mu_i, mu_o, phi) uniform, numpy PCG64 seed {settings.fresh_seed}"
     return Dataset(inputs, out["y"].ravel(), grid)

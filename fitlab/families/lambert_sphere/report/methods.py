@@ -52,6 +52,7 @@ from fitlab.families.lambert_sphere.program.runtime import (
 from fitlab.families.lambert_sphere.program.true_refit import TRUE_FITS, true_runtime_model
 from fitlab.families.lambert_sphere.report.engine_rows import SOURCES, measure_engines
 from fitlab.families.lambert_sphere.report.markdown import BRDF_TITLE, REPORT_TEXT, engine_sections
+from fitlab.families.lambert_sphere.report.materials import energy_materials, fresh_materials, validation_materials
 from fitlab.families.lambert_sphere.report.settings import BRDF_INPUTS, BRDF_MATERIAL, BRDF_POINT, REPORT_SETTINGS
 from fitlab.families.lambert_sphere.report.spline_tables import kd_interpolant, table_brdf, table_part
 from fitlab.families.lambert_sphere.report.spline_tables import memory_bytes as spline_bytes
@@ -63,7 +64,8 @@ from fitlab.store import FORMAT, load
 
 __all__ = ["REQUIRED_FITS", "PARTS", "PRESET_VARIANTS", "tables_dir", "EXACT_SOURCES", "SOURCES", "brdf_methods",
            "part_extras", "preset_records", "check_tables", "exact_brdf", "exact_kd", "measure_engines", "REFERENCES",
-           "exact_albedo", "directional_albedo", "timing_inputs", "baseline_program",
+           "exact_albedo", "directional_albedo", "timing_inputs", "baseline_program", "validation_materials",
+           "fresh_materials", "energy_materials",
            "BRDF_INPUTS", "BRDF_POINT", "BRDF_MATERIAL", "REPORT_SETTINGS", "BRDF_TITLE", "REPORT_TEXT",
            "engine_sections"]
 

@@ -21,7 +21,16 @@ BRDF_MATERIAL = ("c", "kd")
 
 @dataclass(frozen=True)
 class EngineSettings:
-    """How hard the report measures the exact engine and Monte Carlo."""
+    """How hard the report measures the exact engine and Monte Carlo, and at which albedos it measures the
+    BRDF (:mod:`.materials`)."""
+
+    #: the validation sets' albedos: ``small_c``, then ``n_c`` values c = 1 - s^2 off every grid, then c = 1
+    #: when ``with_c1``; the independent set's ``fresh_c`` albedos; the energy check's ``energy_c``
+    n_c: int = 15
+    with_c1: bool = True
+    small_c: tuple = (1e-6, 1e-5, 1e-4, 1e-3, 1e-2)
+    fresh_c: int = 64
+    energy_c: tuple = (1e-3, 0.3, 0.7, 0.95, 1.0)
 
     #: exact engine: H-function convergence study (orders, albedos, resolutions)
     exact_orders: tuple = (0, 1)
@@ -50,6 +59,11 @@ class EngineSettings:
 REPORT_SETTINGS = {
     "full": EngineSettings(),
     "quick": EngineSettings(
+        n_c=2,
+        with_c1=False,
+        small_c=(1e-4,),
+        fresh_c=3,
+        energy_c=(1.0,),
         exact_orders=(1,),
         exact_c=(0.5,),
         exact_mu_points=32,
