@@ -191,9 +191,9 @@ class BrdfReportHook(ReportHook, Protocol):
         ...
 
     def measure_engines(self, *args, **kwargs) -> Any:
-        """``measure_engines(settings, family_settings, timing_inputs, progress)`` -> (rows, context): the family's
-        own engines (exact, Monte Carlo) measured, as the report's rows and the context its sections read;
-        ``progress.stage(name, steps)`` and ``progress.tick()`` show the stages."""
+        """``measure_engines(settings, family_settings, inputs, progress)`` -> (rows, context): the family's own
+        engines (exact, Monte Carlo) measured, as the report's rows and the context its sections read; ``inputs``
+        the numpy timing inputs by name; ``progress.stage(name, steps)`` and ``progress.tick()`` show the stages."""
         ...
 
     def timing_inputs(self, *args, **kwargs) -> Any:

@@ -24,9 +24,9 @@ its generated C (:class:`CSpec`); for the Lambert sphere:
 * ``baseline``: Lambert kd/pi and Oren-Nayar (sigma = 0.5) at kd = kd_true(c):
   not models of this material, the yardsticks of cost and of error.
 
-The exact engine and Monte Carlo are measured apart, by the family
-(:func:`brdf_hook`; for the Lambert sphere :mod:`fitlab.families.lambert_sphere.report.exact_engine`
-and :mod:`fitlab.families.lambert_sphere.report.montecarlo`).  Part level (:func:`part_methods`): the
+The family's own engines (the exact engine, Monte Carlo) are measured apart, by the family
+(:func:`brdf_hook`'s ``measure_engines``; for the Lambert sphere
+:mod:`fitlab.families.lambert_sphere.report.engine_rows`).  Part level (:func:`part_methods`): the
 family's own methods of a target (for the Lambert sphere the tables and, for
 H0 and H1, the Fock method of the exact engine), then the target's published
 presets and every fit file, all measured on the target's validation set.

@@ -1,7 +1,8 @@
 r"""The Lambert sphere's settings of ``fitlab report`` (moved from :mod:`fitlab.report.settings`, which knows
-no family): how hard the report measures the family's exact engine and Monte Carlo, by the generic settings'
-name (:data:`REPORT_SETTINGS`: "full", "quick"), and the BRDF's signature (:data:`BRDF_INPUTS`).  The report
-hook (:mod:`.methods`) gives them to the report (:class:`fitlab.core.BrdfReportHook`).
+no family), by the generic settings' name (:data:`REPORT_SETTINGS`: "full", "quick"): at which albedos the BRDF
+is measured (:mod:`.materials`), how hard the family's exact engine and Monte Carlo are measured, and the quick
+report's choice of parts and refits; and the BRDF's signature (:data:`BRDF_INPUTS`).  The report hook
+(:mod:`.methods`) gives them to the report (:class:`fitlab.core.BrdfReportHook`).
 """
 
 from __future__ import annotations
