@@ -187,6 +187,7 @@ def cached_at(
 
     return cached_arrays(name, {**parts, **inputs}, arrays, (*names, *(INPUT_PREFIX + k for k in inputs)), sources)
 
+
 @contextmanager
 def _computing(path: Path | None) -> Iterator[None]:
     """Hold the lock of the entry at ``path`` while it is computed, where this is the thread's outermost compute

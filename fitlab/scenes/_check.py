@@ -17,6 +17,11 @@ __all__ = ["NAME_RE", "Checker", "keypath_name", "check_option", "with_overrides
 NAME_RE = re.compile(r"[A-Za-z0-9_-]{1,100}")
 
 
+def _positive_finite(v) -> bool:
+    """A number (never a bool) in (0, inf): the rule of a target standard error, in a file or on the command line."""
+    return not isinstance(v, bool) and isinstance(v, (int, float)) and 0 < v < math.inf
+
+
 def keypath_name(keypath) -> str:
     """``("material", 1, "c")`` -> ``material[1].c``; () -> ``(top level)``."""
     name = ""
@@ -104,7 +109,7 @@ class Checker:
             for k, x in v.items():
                 if k not in known:
                     self.fail(tuple(keypath) + (k,), f"unknown {noun} {k!r} (known: {', '.join(known)})")
-                elif isinstance(x, bool) or not isinstance(x, (int, float)) or not 0 < x < math.inf:
+                elif not _positive_finite(x):
                     self.fail(tuple(keypath) + (k,), f"expected a positive finite number, got {x!r}")
                 else:
                     out[k] = float(x)
@@ -112,7 +117,7 @@ class Checker:
                 if k not in v:
                     self.fail(keypath, f"no target for {noun} {k!r}")
             return out
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or not 0 < v < math.inf:
+        if not _positive_finite(v):
             self.fail(keypath, f"expected a positive finite number or a table per {noun}, got {v!r}")
             return {}
         return {k: float(v) for k in (known if every is None else every)}
@@ -174,7 +179,7 @@ def check_option(name: str, value, limits) -> int | float:
         except ValueError:
             v = None
     if name == "target_se":
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or not 0 < v < math.inf:
+        if not _positive_finite(v):
             raise SceneError(f"{flag}: expected a positive finite number, got {value!r}")
         return float(v)
     lo, hi = limits[name]

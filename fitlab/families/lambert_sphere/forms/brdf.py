@@ -27,7 +27,8 @@ PI = sp.pi
 
 # scattering cosine, clamped so that rounding never takes it outside [-1, 1].  The clamps of this module are built
 # unevaluated: sympy's evaluation of Max and Min tries to order their arguments (factor_terms on the whole
-# expression), 0.3 s of every import of the family, and leaves these ones as they are (tests/test_forms.py)
+# expression), about a tenth of a second of every import of the family, and leaves these ones as they are
+# (tests/test_forms.py)
 _u = sp.Max(-1, sp.Min(1, -(mu_i * mu_o + S * sp.cos(phi)), evaluate=False), evaluate=False)
 #: Lambert-sphere phase function p(u) (docs/model.md, "Phase function")
 PHASE = 2 * (sp.sqrt(sp.Max(0, 1 - _u**2, evaluate=False)) - _u * sp.acos(_u)) / (3 * PI**2)

@@ -38,7 +38,7 @@ import sympy as sp
 from fitlab.codegen.program import DEFAULT_FORMS, program_spec
 from fitlab.core import get_target
 from fitlab.families.lambert_sphere import exact
-from fitlab.families.lambert_sphere.bench import baseline_program, random_inputs  # noqa: F401 (baseline_program: the report's hook)
+from fitlab.families.lambert_sphere.bench import baseline_program, random_inputs
 from fitlab.families.lambert_sphere.exact import albedo, brdf, h_function, spherical_albedo
 from fitlab.families.lambert_sphere.forms import ORDER2_PART, RUNTIME_PARTS
 from fitlab.families.lambert_sphere.forms.baselines import BASELINE_INPUTS, LAMBERT, oren_nayar
