@@ -26,3 +26,26 @@ def test_exact_for_degree_2n_minus_1_on_the_unit_interval(n):
 def test_no_rule_without_nodes():
     with pytest.raises(ValueError, match="n >= 1"):
         gauss_legendre(0)
+
+
+def _blas_threads() -> list[int]:
+    from threadpoolctl import threadpool_info
+
+    return [lib["num_threads"] for lib in threadpool_info() if lib["user_api"] == "blas"]
+
+
+def test_single_threaded_blas_holds_every_loaded_blas_to_one_thread_and_restores_it():
+    """The suite runs with BLAS on one thread (conftest): two threads are set first, so the limit is seen to act;
+    scipy's OpenBLAS (the one JAX's CPU LAPACK calls) is among the libraries limited."""
+    from threadpoolctl import threadpool_info, threadpool_limits
+
+    from fitlab.numerics import single_threaded_blas
+
+    with single_threaded_blas():  # loads scipy.linalg, so its BLAS is in the list below
+        pass
+    assert any("scipy" in lib["filepath"] for lib in threadpool_info() if lib["user_api"] == "blas")
+    with threadpool_limits(limits=2, user_api="blas"):
+        outside = _blas_threads()
+        with single_threaded_blas():
+            assert _blas_threads() == [1] * len(outside)
+        assert _blas_threads() == outside

@@ -255,6 +255,29 @@ def test_a_non_finite_training_point_is_refused_not_left_out():
                                "point must be finite")
 
 
+def test_the_solve_runs_with_blas_on_one_thread():
+    """LM's QR of a tall, narrow Jacobian runs on one BLAS thread (fitlab.numerics.single_threaded_blas): the
+    progress hook, called between the solve's stages, sees every BLAS library at one thread although the caller
+    allowed two, and the caller's setting is back afterwards."""
+    from threadpoolctl import threadpool_info, threadpool_limits
+
+    from fitlab.fit.solver import fit_form
+
+    def blas_threads():
+        return [lib["num_threads"] for lib in threadpool_info() if lib["user_api"] == "blas"]
+
+    target = get_target("m")
+    train = target.training()
+    seen = []
+    with threadpool_limits(limits=2, user_api="blas"):
+        before = blas_threads()
+        fit = fit_form(target.forms[target.default_form], train, target.scale(train), minimax_rounds=2,
+                       on_step=lambda stage: seen.append((stage, blas_threads())))
+        assert blas_threads() == before
+    assert [stage for stage, _ in seen] == ["least squares", "minimax 1/2", "minimax 2/2"]
+    assert all(threads == [1] * len(threads) for _, threads in seen) and np.isfinite(fit.train_max)
+
+
 def test_init_from_an_older_version_of_a_form_is_refused_before_any_work(tmp_path, capsys):
     """rational_v_alpha_4 fixes a00 = 1 (E = 1 on the mirror line); a file from before that fix started the
     whole refit and failed only at the write.  Now: exit 2, one line naming the parameter, nothing written."""

@@ -23,6 +23,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from fitlab.core import Dataset, float64
+from fitlab.numerics import single_threaded_blas
 
 __all__ = ["FitError", "FitResult", "fit_form", "fit_form_scipy", "SOLVER_SETTINGS"]
 
@@ -101,6 +102,11 @@ def fit_form(
     parameters keep their entries in theta0.  ``on_step(stage)``, when given, is called after the
     least-squares solve ("least squares") and after each minimax round ("minimax K/N"): a progress hook.
     """
+    with single_threaded_blas():  # LM's QR of a tall, narrow Jacobian: one thread is faster (fitlab.numerics)
+        return _fit(form, train, scale, theta0, minimax_rounds, weights, on_step)
+
+
+def _fit(form, train, scale, theta0, minimax_rounds, weights, on_step) -> FitResult:
     import equinox as eqx
     import jax.numpy as jnp
     import optimistix as optx

@@ -8,7 +8,6 @@ before the slow work.
 
 from __future__ import annotations
 
-import contextlib
 import math
 import os
 import platform
@@ -23,6 +22,7 @@ from tqdm import tqdm
 
 from fitlab.codegen.native import STRICT_FLAGS, compiler
 from fitlab.core import get_target
+from fitlab.numerics import single_threaded_blas
 from fitlab.report.accuracy import brdf_accuracy, part_accuracy
 from fitlab.report.cost import jax_costs, numpy_costs
 from fitlab.report.methods import (
@@ -56,17 +56,6 @@ class Report:
     context: dict = field(default_factory=dict)
     #: the settings of the family whose BRDF the report measures (fitlab.report.settings.family_settings)
     family_settings: Any = None
-
-
-def _single_threaded_blas():
-    """BLAS limited to one thread (threadpoolctl, when installed): every cost in the report is then per
-    core, like the C loop's; and on a shared, oversubscribed machine a spinning multi-threaded BLAS
-    runs the exact engine several times slower (measured 7x at load 6 on 2 cores)."""
-    try:
-        from threadpoolctl import threadpool_limits
-    except ImportError:  # pragma: no cover - threadpoolctl comes with scikit-learn (pysindy)
-        return contextlib.nullcontext()
-    return threadpool_limits(limits=1, user_api="blas")
 
 
 def _check_tables(data_dir: Path) -> None:
@@ -186,7 +175,7 @@ def build_report(settings: Settings = FULL, fits_dir: Path | None = None, data_d
     _check_tables(data_dir)
     p = _Progress(progress)
     try:
-        with _single_threaded_blas():
+        with single_threaded_blas():
             rows, context = _measure(settings, entries, fits_dir, data_dir, use_cache, p)
     finally:
         p.close()

@@ -103,7 +103,6 @@ machine, one BLAS thread; docs/derivation.md, "The true phase function"):
 
 from __future__ import annotations
 
-import contextlib
 from dataclasses import dataclass
 from functools import lru_cache
 
@@ -111,6 +110,7 @@ import numpy as np
 
 from fitlab.families.lambert_sphere.exact import _checks
 from fitlab.families.lambert_sphere.exact.doubling import doubling_step
+from fitlab.numerics import single_threaded_blas
 
 __all__ = [
     "DEGREE",
@@ -140,25 +140,6 @@ PHASES = ("true", "three_term")
 ORDER_TOLERANCE = 1e-12
 #: at most this many Fourier orders (more than ever needed; the order loop stops earlier)
 MAX_ORDERS = 96
-
-
-@lru_cache(maxsize=1)
-def _blas_controller():
-    try:
-        from threadpoolctl import ThreadpoolController
-    except ImportError:  # pragma: no cover - optional
-        return None
-    return ThreadpoolController()
-
-
-def _blas_one_thread():
-    """Single-threaded BLAS for the small dense matrices here (several threads only contend).  One
-    controller for the process: threadpool_limits() scans every loaded library on each call (14-60 ms,
-    which was most of the cost of a BRDF at a few points), the controller's limit() takes 30 us."""
-    controller = _blas_controller()
-    if controller is None:  # pragma: no cover - optional
-        return contextlib.nullcontext()
-    return controller.limit(limits=1, user_api="blas")
 
 
 def legendre_moments(degree: int, phase: str = "true") -> np.ndarray:
@@ -417,7 +398,7 @@ def _solve_cached(method, phase, degree, m, c, smallest):
     kp, km = _kernels(moments, (-1.0) ** (np.arange(m, degree + 1) + m), q)
     critical = m == 0 and c == 1.0
     rates = None
-    with _blas_one_thread():
+    with single_threaded_blas():
         if c == 0.0 or degree < m:
             r, it = np.zeros((mu.size, mu.size)), 0
         elif _below_double(c):
@@ -597,7 +578,7 @@ def _ms_numerators(sol: OrderSolution, mu_a, mu_b):
     ia, ib = inv[: mu_a.size], inv[mu_a.size:]
     ua, ka = np.unique(ia, return_inverse=True)
     ub, kb = np.unique(ib, return_inverse=True)
-    with _blas_one_thread():
+    with single_threaded_blas():
         if uniq.size > _interpolation_size(sol.degree, sol.smallest):
             rows, k_plus = _rows_interpolated(sol, uniq)
         else:
