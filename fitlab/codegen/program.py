@@ -263,7 +263,8 @@ def field_symbol(k: int) -> sp.Symbol:
 def inline_calls(expr: sp.Expr, routines: Mapping[str, Routine]) -> sp.Expr:
     """``expr`` with every call of a routine (:func:`call`) replaced by that routine's expression, recursively;
     a routine called with an argument its caller has clamped into the same domain clamps it once
-    (clamp(clamp(x, lo, hi), lo, hi) -> clamp(x, lo, hi))."""
+    (clamp(clamp(x, lo, hi), lo, hi) -> clamp(x, lo, hi)).  Max and Min are rebuilt unevaluated, as in
+    :func:`rebuilt`: evaluating them made three quarters of the Max and Min built in printing a program."""
     # one bottom-up pass with every distinct subexpression visited once: a model's tree repeats its clamped
     # inputs and its calls many times, and sympy's replace would walk each copy (and each inlined body once
     # per level of calls)
@@ -272,18 +273,19 @@ def inline_calls(expr: sp.Expr, routines: Mapping[str, Routine]) -> sp.Expr:
     def visit(e):
         out = done.get(e)
         if out is None:
-            out = done[e] = rebuilt(e)
+            out = done[e] = rebuilt_node(e)
         return out
 
-    def rebuilt(e):
+    def rebuilt_node(e):
         if e.args:
             args = tuple(visit(a) for a in e.args)
             if args != e.args:
-                e = e.func(*args)
+                e = _with_args(e, args)
         if isinstance(e, AppliedUndef) and e.func.__name__ in routines:
             r = routines[e.func.__name__]
             by_name = {s.name: s for s in _symbols(r.expr)}
-            return visit(r.expr.xreplace({by_name[a]: v for a, v in zip(r.args, e.args) if a in by_name}))
+            given = {by_name[a]: v for a, v in zip(r.args, e.args) if a in by_name}
+            return visit(rebuilt(r.expr, lambda n: given.get(n, n)))
         if _clamped_twice(e):
             parts = _clamp_parts(e)
             assert parts is not None  # _clamped_twice: e is a clamp
@@ -411,6 +413,13 @@ def call(name: str, *args) -> sp.Expr:
     return sp.Function(name)(*args)
 
 
+def _with_args(e: sp.Basic, args: tuple) -> sp.Basic:
+    """``e`` with the arguments ``args``: a Max or Min unevaluated unless they are all numbers (:func:`rebuilt`)."""
+    if isinstance(e, (sp.Max, sp.Min)) and not all(a.is_number for a in args):
+        return e.func(*args, evaluate=False)
+    return e.func(*args)
+
+
 def rebuilt(expr: sp.Basic, node: Callable[[sp.Basic], sp.Basic]) -> sp.Basic:
     """``expr`` rebuilt bottom-up in one pass: every node, its arguments rebuilt first, becomes ``node(e)``
     (``e`` itself where nothing applies); a subtree met twice is rebuilt once.
@@ -431,10 +440,7 @@ def rebuilt(expr: sp.Basic, node: Callable[[sp.Basic], sp.Basic]) -> sp.Basic:
         if e.args:
             args = tuple(walk(a) for a in e.args)
             if any(a is not b for a, b in zip(args, e.args)):
-                if isinstance(e, (sp.Max, sp.Min)) and not all(a.is_number for a in args):
-                    out = e.func(*args, evaluate=False)
-                else:
-                    out = e.func(*args)
+                out = _with_args(e, args)
         out = node(out)
         memo[id(e)] = (e, out)  # e kept alive with its id
         return out
