@@ -285,7 +285,7 @@ def inline_calls(expr: sp.Expr, routines: Mapping[str, Routine]) -> sp.Expr:
         if isinstance(e, AppliedUndef) and e.func.__name__ in routines:
             r = routines[e.func.__name__]
             by_name = {s.name: s for s in _symbols(r.expr)}
-            given = {by_name[a]: v for a, v in zip(r.args, e.args) if a in by_name}
+            given: dict[sp.Basic, sp.Basic] = {by_name[a]: v for a, v in zip(r.args, e.args) if a in by_name}
             return visit(rebuilt(r.expr, lambda n: given.get(n, n)))
         if _clamped_twice(e):
             parts = _clamp_parts(e)
