@@ -55,9 +55,11 @@ def pytest_configure(config):
         os.environ["FITLAB_CACHE_DIR"] = str(cache_dir())
         if enabled() and not config.getoption("--no-exact-seed"):
             _seed_exact_values(cache_dir())
-    from fitlab.cache import enable_compilation_cache
+    if hasattr(config, "workerinput") or not config.getoption("numprocesses", None):
+        # the processes that run tests; an xdist controller runs none, and JAX's import would only delay the workers
+        from fitlab.cache import enable_compilation_cache
 
-    enable_compilation_cache()
+        enable_compilation_cache()
 
 
 #: the seed of the run's cache of exact values (tools/seed_test_cache.py)
