@@ -44,8 +44,8 @@ def _blas_controller():
 
 
 def single_threaded_blas() -> AbstractContextManager:
-    """A context in which the BLAS and LAPACK libraries of the process (numpy's, scipy's and with it JAX's CPU
-    LAPACK) run on one thread, restored on exit.
+    """A context in which the BLAS and LAPACK libraries of the process run on one thread, restored on exit: those
+    loaded when it is first called, numpy's and scipy's among them (scipy's is JAX's CPU LAPACK).
 
     fitlab's dense linear algebra is small or tall and narrow: a Levenberg-Marquardt step's QR of a 4,550 x 30
     Jacobian, the exact engines' matrices of a few hundred rows.  OpenBLAS splits such level-2 work across
