@@ -29,6 +29,9 @@ of engine is a miss, never a stale hit.
   other.  Where ``flock`` is missing (Windows) or the folder cannot be
   written, each computes its own as before.
 * A cache that cannot be written (read-only disk) only costs time.
+* fitlab ships the entries a fresh install's first commands would spend minutes on
+  (:func:`fitlab.resources.packaged_exact_values`): a miss whose entry is there is read from there (checked
+  as any entry) and copied in.  Their keys are the engine's too, so a changed engine never reads them.
 
 The same folder keeps, under ``xla/``, the programs JAX compiles for the commands
 (:func:`enable_compilation_cache`, JAX's persistent compilation cache): a second
@@ -53,14 +56,15 @@ import numpy as np
 
 from fitlab import __version__
 from fitlab._io import atomic_write_bytes, regular_file
+from fitlab.resources import packaged_exact_values
 
 try:
     import fcntl
 except ImportError:  # Windows: no flock, no lock (see the module docstring)
     fcntl = None
 
-__all__ = ["cache_dir", "cache_key", "cached_arrays", "cached_at", "cache_info", "clear_cache", "enabled",
-           "enable_compilation_cache", "INPUT_PREFIX"]
+__all__ = ["cache_dir", "cache_key", "cached_arrays", "cached_at", "cached_files", "cache_info", "clear_cache",
+           "enabled", "enable_compilation_cache", "package_sources", "INPUT_PREFIX"]
 
 _SUFFIX = ".npz"
 #: the array of an entry that holds its content hash (:func:`_content_hash`)
@@ -100,6 +104,31 @@ def cache_key(parts: Mapping, sources: Iterable[Path] = ()) -> str:
         h.update(src.name.encode())
         h.update(src.read_bytes())
     return h.hexdigest()[:24]
+
+
+def package_sources() -> list[Path]:
+    """Every file of the installed fitlab that can change what a command computes: its Python modules, the fit
+    files and schemas it ships (not the generated code, nor compiled bytecode).  A key over these is a miss after
+    any change of fitlab, never a stale hit."""
+    root = Path(__file__).resolve().parent
+    return sorted(p for p in root.rglob("*") if p.suffix in (".py", ".json") and "__pycache__" not in p.parts
+                  and "generated" not in p.relative_to(root).parts and p.is_file())  # fmt: skip
+
+
+def cached_files(name: str, parts: Mapping, compute: Callable[[], Mapping[str, bytes]],
+                 sources: Iterable[Path] = (), use_cache: bool = True) -> dict[str, bytes]:  # fmt: skip
+    """The named byte strings ``compute()`` returns ({name: bytes}, e.g. the files a command writes), kept in the
+    cache as one entry of :func:`cached_arrays` (the names, their sizes and their bytes), keyed as it keys."""
+
+    def arrays():
+        files = dict(compute())
+        blobs = [np.frombuffer(bytes(v), dtype=np.uint8) for v in files.values()]
+        return {"names": np.array(list(files), dtype=str), "sizes": np.array([b.size for b in blobs], dtype=np.int64),
+                "blob": np.concatenate(blobs) if blobs else np.zeros(0, dtype=np.uint8)}  # fmt: skip
+
+    got = cached_arrays(name, parts, arrays, ("names", "sizes", "blob"), sources, use_cache)
+    ends = np.cumsum(got["sizes"])  # the entry's content hash holds the three arrays as compute() made them
+    return {str(n): got["blob"][e - int(k) : e].tobytes() for n, k, e in zip(got["names"], got["sizes"], ends)}
 
 
 def _content_hash(entry: str, arrays: Mapping[str, np.ndarray], names: tuple[str, ...]) -> np.ndarray:
@@ -151,18 +180,29 @@ def cached_arrays(
             hit = _load(path, names)
             if hit is not None:
                 return hit
+            # the seed fitlab ships (what a fresh install's commands measure against first), checked as any entry
+            shipped = _load(packaged_exact_values() / path.name, names)
+            if shipped is not None:
+                _store(path, shipped, names)
+                return shipped
         values = {n: np.asarray(v) for n, v in compute().items()}
         missing = [n for n in names if n not in values]
         if missing:
             raise KeyError(f"cache entry {name}: compute() gave no {missing}")
         if use:
-            buf = io.BytesIO()
-            np.savez(buf, **{n: values[n] for n in names}, **{_HASH: _content_hash(path.name, values, names)})
-            try:
-                atomic_write_bytes(path, buf.getvalue())
-            except OSError:
-                pass  # a cache that cannot be written only costs time
+            _store(path, values, names)
     return {n: values[n] for n in names}
+
+
+def _store(path: Path, values: Mapping[str, np.ndarray], names: tuple[str, ...]) -> None:
+    """Write an entry (its arrays and their content hash) atomically; a cache that cannot be written only costs
+    time."""
+    buf = io.BytesIO()
+    np.savez(buf, **{n: values[n] for n in names}, **{_HASH: _content_hash(path.name, values, names)})
+    try:
+        atomic_write_bytes(path, buf.getvalue())
+    except OSError:
+        pass
 
 
 #: the prefix of the arrays in which an entry of :func:`cached_at` holds its inputs
