@@ -60,6 +60,12 @@ def _lazy(root: griffe.Module) -> dict[str, str]:
     return ast.literal_eval(str(lazy.value)) if lazy is not None and lazy.value is not None else {}
 
 
+def unresolved(root: griffe.Module) -> list[tuple[str, str]]:
+    """(object, reference) of every role in the package's docstrings that names nothing in fitlab."""
+    return [(obj.path, m["target"]) for obj in _walk(root) if obj.docstring is not None
+            for m in ROLE.finditer(obj.docstring.value) if resolve(root, obj, m["target"]) is None]  # fmt: skip
+
+
 class SphinxRoles(griffe.Extension):
     """Rewrite every docstring's roles of the package (see the module's docstring)."""
 

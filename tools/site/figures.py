@@ -29,8 +29,8 @@ class FigureError(ValueError):
     """A page asks for a row, a column or a section the outputs do not hold."""
 
 
-def sci(x: float) -> str:
-    """A relative error as the site prints it: two significant digits, 4.9e-4 (no padded exponent)."""
+def sci(x: float, digits: int = 2) -> str:
+    """A relative error as the site prints it: ``digits`` significant digits, 4.9e-4 (no padded exponent)."""
     if x is None or (isinstance(x, float) and math.isnan(x)):
         return "-"
     if isinstance(x, str):
@@ -39,7 +39,7 @@ def sci(x: float) -> str:
         return "inf"
     if x == 0:
         return "0"
-    mantissa, exponent = f"{x:.1e}".split("e")
+    mantissa, exponent = f"{x:.{digits - 1}e}".split("e")
     return f"{mantissa}e{int(exponent)}"
 
 
@@ -171,10 +171,8 @@ def audit_table(models: list[str], sections: list[str] = tuple(_AUDIT_SETS), pat
         label = f"{_AUDIT_SETS.get(section, section)} ({audit[section][0]['points']:,} points)"
         for i, model in enumerate(models):
             row = _audit_row(audit, section, model)
-            lines.append(
-                f"| {label if i == 0 else ''} | {row['model']} | {sci(row['max_rel'])} | "
-                f"{sci(row['max_rel_away'])} | {sci(row['rms_rel_nonzero'])} | {_point(row.get('worst'))} |"
-            )
+            numbers = " | ".join(sci(row[k], 3) for k in ("max_rel", "max_rel_away", "rms_rel_nonzero"))
+            lines.append(f"| {label if i == 0 else ''} | {row['model']} | {numbers} | {_point(row.get('worst'))} |")
     return "\n".join(lines)
 
 
