@@ -99,7 +99,7 @@ def _build_module():
     return module
 
 
-_RUN: dict[str, Path] = {}  # notebook name -> its executed copy, for this process (mkdocs serve rebuilds)
+_RUN: dict = {}  # notebook name -> the notebook this process executed (mkdocs serve builds again and again)
 
 
 def executed_notebooks(names: list[str], out: Path) -> None:
@@ -113,20 +113,25 @@ def executed_notebooks(names: list[str], out: Path) -> None:
     small = os.environ.get("FITLAB_NOTEBOOK_SMALL", "1") == "1"
     for name in names:
         committed = nbformat.read(ROOT / "notebooks" / name, as_version=4)
-        for candidate in ([Path(given) / name] if given else []) + ([_RUN[name]] if name in _RUN else []):
-            if candidate.is_file() and build.same_cells(nbformat.read(candidate, as_version=4), committed):
+        candidate = Path(given) / name if given else None
+        if candidate is not None and candidate.is_file():
+            executed = nbformat.read(candidate, as_version=4)
+            if build.same_cells(executed, committed):
                 shutil.copyfile(candidate, out / name)
-                break
-        else:
-            nb, _ = build.execute(ROOT / "notebooks" / name, small=small)
-            nbformat.write(nb, out / name)
-            _RUN[name] = out / name
+                continue
+        if name not in _RUN or not build.same_cells(_RUN[name], committed):
+            _RUN[name], _ = build.execute(ROOT / "notebooks" / name, small=small)
+        nbformat.write(_RUN[name], out / name)
+
+
+_FOLDERS: list[Path] = []  # the notebooks' folders of this build, removed when it ends
 
 
 @event_priority(100)  # before mkdocs-jupyter's on_files, which turns .ipynb files into pages
 def on_files(files, config):
     names = sorted(p.name for p in (ROOT / "notebooks").glob("*.ipynb"))
     root = Path(tempfile.mkdtemp(prefix="fitlab-site-notebooks-"))
+    _FOLDERS.append(root)
     (root / "notebooks").mkdir()
     executed_notebooks(names, root / "notebooks")
     for name in names:  # a file of a second source folder: mkdocs-jupyter reads it from src_dir/notebooks/NAME
@@ -139,3 +144,10 @@ def on_files(files, config):
             )
         )
     return files
+
+
+def on_post_build(config):
+    import shutil
+
+    while _FOLDERS:
+        shutil.rmtree(_FOLDERS.pop(), ignore_errors=True)
