@@ -239,11 +239,18 @@ def cli_help() -> str:
 
     from fitlab.cli import COMMANDS, build_parser
 
+    columns = os.environ.get("COLUMNS")
     os.environ["COLUMNS"] = "100"  # argparse wraps to the terminal's width: the same width on every build
-    parser = build_parser()
-    subparsers = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
-    parts = ["```text", parser.format_help().rstrip(), "```"]
-    for name in COMMANDS:
-        sub = subparsers.choices[name]
-        parts += ["", f"## `fitlab {name}`", "", "```text", sub.format_help().rstrip(), "```"]
+    try:
+        parser = build_parser()
+        subparsers = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+        parts = ["```text", parser.format_help().rstrip(), "```"]
+        for name in COMMANDS:
+            sub = subparsers.choices[name]
+            parts += ["", f"## `fitlab {name}`", "", "```text", sub.format_help().rstrip(), "```"]
+    finally:
+        if columns is None:
+            del os.environ["COLUMNS"]
+        else:
+            os.environ["COLUMNS"] = columns
     return "\n".join(parts)
