@@ -78,5 +78,5 @@ IMAGES = {
     "fresnel_presets": ImageSpec(
         "per material: F0, F82 tint, Gulbrandsen's r and g, exact F_avg, each construction's max error (RGB)",
         lambda size, tick=lambda: None: preset_table(tick), (len(MATERIALS),), len(MATERIALS),
-        steps=lambda size: len(MATERIALS), value_range=(0.0, 2.0), formats=("exr", "c", "glsl")),
+        steps=lambda size: len(MATERIALS), value_range=(0.0, 2.0), formats=("exr", "ktx2", "c", "glsl")),
 }
