@@ -565,6 +565,12 @@ def test_an_unknown_origin_is_refused_in_one_line(tmp_path, capsys):
     assert not out.exists()
 
 
+def test_every_table_that_takes_exr_takes_ktx2():
+    for name, spec in SPECS.items():
+        assert ("exr" in spec.formats) == ("ktx2" in spec.formats), name
+        assert ("exr-half" in spec.formats) == ("ktx2-half" in spec.formats), name
+
+
 def test_list_names_every_table(capsys):
     assert main(["export", "--list"]) == 0
     out = capsys.readouterr().out
