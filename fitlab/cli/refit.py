@@ -39,6 +39,7 @@ from fitlab.fit.refit import (
     VERDICT_RTOL,
     check_domain,
     default_jobs,
+    measure_word,
     refit_stages,
     refit_verdict,
     table,
@@ -266,8 +267,9 @@ def kept_fit(path: Path, result, target) -> tuple[str | None, str | None]:
     if any(math.isnan(float(measured[k])) for k in ("max_rel", "max_rel_nonzero", "rms_rel")) or not _worse(new, measured):
         return None, None
     _g = "{:.3e}".format
-    return (f"{key}: the refit (max rel {_g(new['max_rel'])}, RMS {_g(new['rms_rel'])}) is worse than the fit in "
-            f"{path} (max rel {_g(measured['max_rel'])}, RMS {_g(measured['rms_rel'])}, measured again on the same "
+    w = measure_word(target.error_measure)
+    return (f"{key}: the refit (max {w} {_g(new['max_rel'])}, RMS {_g(new['rms_rel'])}) is worse than the fit in "
+            f"{path} (max {w} {_g(measured['max_rel'])}, RMS {_g(measured['rms_rel'])}, measured again on the same "
             f"validation set), which is kept (--force replaces it)"), None
 
 
