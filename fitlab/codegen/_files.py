@@ -25,7 +25,7 @@ __all__ = [
 ]
 
 
-def _terms(terms: str | tuple | None, family: str | None) -> tuple[str, ...] | None:
+def _terms(terms: str | tuple | None, family: str | None) -> tuple[str, ...]:
     if terms is None or isinstance(terms, str):
         return parse_terms(terms, family)
     return parse_terms(",".join(terms), family)
