@@ -31,8 +31,8 @@ of engine is a miss, never a stale hit.
 * A cache that cannot be written (read-only disk) only costs time.
 
 The same folder keeps, under ``xla/``, the programs JAX compiles for the commands
-(:func:`enable_compilation_cache`, JAX's persistent compilation cache): a second
-``fitlab refit`` traces its model but does not compile it again.
+(:func:`enable_compilation_cache`, JAX's persistent compilation cache, stored by these rules:
+:mod:`fitlab._program_cache`): a second ``fitlab refit`` traces its model but does not compile it again.
 
 ``fitlab cache info`` and ``fitlab cache clear`` manage both.
 """
@@ -60,7 +60,7 @@ except ImportError:  # Windows: no flock, no lock (see the module docstring)
     fcntl = None
 
 __all__ = ["cache_dir", "cache_key", "cached_arrays", "cached_at", "cache_info", "clear_cache", "enabled",
-           "enable_compilation_cache", "INPUT_PREFIX"]
+           "enable_compilation_cache", "INPUT_PREFIX", "PROGRAM_SUFFIX"]
 
 _SUFFIX = ".npz"
 #: the array of an entry that holds its content hash (:func:`_content_hash`)
@@ -69,6 +69,8 @@ _HASH = "_fitlab_sha256"
 MAX_ENTRY_BYTES = 2_000_000_000
 #: the subfolder of JAX's compiled programs
 _XLA = "xla"
+#: the suffix of a compiled program's entry in it (:mod:`fitlab._program_cache`)
+PROGRAM_SUFFIX = ".xla"
 #: the subfolder of the entries' lock files (:func:`_computing`)
 _LOCKS = "locks"
 #: how deep this thread is in cached_arrays computes: only the outermost takes a lock
@@ -217,14 +219,36 @@ def enable_compilation_cache() -> None:
     its shapes, the backend and the JAX version), unless the cache is off or the user set JAX's own folder.
     Every program is kept, however fast it compiles: a command's small programs (tens of milliseconds each)
     add up to about 0.1 s a process, which a warm run then reads back instead (JAX never keeps a program with
-    host callbacks).  Imports JAX."""
+    host callbacks).  The entries are stored by :class:`fitlab._program_cache.ProgramCache`, by the rules of
+    the exact values' entries (a damaged entry is a miss, removed and written again; atomic writes; a folder
+    that cannot be written only costs time, in one warning line).  A JAX without the store's hook
+    (``jax._src.compilation_cache.get_file_cache``) keeps nothing.  Imports JAX."""
     if not enabled():
         return
     import jax
 
     if jax.config.jax_compilation_cache_dir:
         return  # the user's own setting wins
-    jax.config.update("jax_compilation_cache_dir", str(cache_dir() / _XLA))
+    try:
+        from jax._src import compilation_cache
+
+        from fitlab._program_cache import ProgramCache
+    except ImportError:
+        return
+    jax_store = getattr(compilation_cache, "get_file_cache", None)
+    if jax_store is None:
+        return
+    folder = str(cache_dir() / _XLA)
+    if not getattr(jax_store, "_fitlab", False):
+
+        def file_cache(path):
+            if str(path) == folder:
+                return ProgramCache(path, PROGRAM_SUFFIX, MAX_ENTRY_BYTES), path
+            return jax_store(path)
+
+        file_cache._fitlab = True  # type: ignore[attr-defined]
+        compilation_cache.get_file_cache = file_cache
+    jax.config.update("jax_compilation_cache_dir", folder)
     jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.0)
 
 
