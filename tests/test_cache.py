@@ -341,3 +341,42 @@ def test_jax_reads_and_heals_the_program_cache_without_a_warning(tmp_path):
     third = run()
     assert third.returncode == 0 and third.stdout == first.stdout
     assert len(third.stderr.splitlines()) == 1 and "cannot be kept" in third.stderr
+
+
+# -- fitlab cache info / clear touch only what fitlab wrote -------------------------------------------------
+def test_clear_and_info_refuse_a_folder_holding_a_users_files(cache, capsys):
+    cached_arrays("demo", {}, _values([]), ("x", "y"))
+    (cache / "measurements.npz").write_bytes(b"the user's own")
+    (cache / "xla" / "src").mkdir(parents=True)
+    (cache / "xla" / "src" / "main.c").write_text("int main(void) { return 0; }\n")
+    before = sorted(p.relative_to(cache) for p in cache.rglob("*"))
+    for action in ("clear", "info"):
+        assert main(["cache", action]) == 2
+        out = capsys.readouterr()
+        assert out.out == "" and len(out.err.splitlines()) == 1
+        assert "measurements.npz" in out.err and "xla/src" in out.err and "fitlab does not write" in out.err
+    assert sorted(p.relative_to(cache) for p in cache.rglob("*")) == before  # nothing removed
+
+
+def test_clear_removes_entries_programs_locks_and_temporaries_only(cache, capsys):
+    cached_arrays("demo", {}, _values([]), ("x", "y"))
+    (entry,) = cache.glob("*.npz")
+    (cache / f"{entry.name}.123.tmp").write_bytes(b"part")
+    xla = cache / "xla"
+    xla.mkdir()
+    store = _program_cache(xla)
+    store.put(KEY, b"program")
+    (xla / f"jit_g-{'cd' * 32}-cache").write_bytes(b"JAX's own store")  # an earlier fitlab's
+    (xla / f"jit_g-{'cd' * 32}-atime").write_bytes(b"12345678")
+    info = cache_info()
+    assert info["entries"] == 3 and info["by_name"]["xla (compiled JAX programs)"][0] == 2
+    assert main(["cache", "clear"]) == 0 and "removed 3 entries" in capsys.readouterr().out
+    assert not cache.exists() or list(cache.iterdir()) == []
+
+
+def test_a_cache_path_that_is_a_file_is_refused(tmp_path, monkeypatch, capsys):
+    blocker = tmp_path / "file"
+    blocker.write_text("mine")
+    monkeypatch.setenv("FITLAB_CACHE_DIR", str(blocker))
+    assert main(["cache", "clear"]) == 2 and "is not a folder" in capsys.readouterr().err
+    assert blocker.read_text() == "mine"
