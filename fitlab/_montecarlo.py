@@ -16,8 +16,9 @@ import os
 import sys
 
 __all__ = ["MAX_PATHS", "MIN_PATHS_BUDGET", "SLOW_JOB_SECONDS", "THREEFRY_ROTATIONS", "THREEFRY_C", "duration",
-           "slow_job_warning", "threefry_2x32", "HOST_DEVICES_FLAG", "use_every_core", "PRECISIONS", "uniforms",
-           "sincos_2pi", "threefry_blocks", "block_words", "azimuth_cosine", "bin_index", "add_with_squares"]
+           "slow_job_warning", "threefry_2x32", "HOST_DEVICES_FLAG", "use_every_core", "PRECISIONS",
+           "FLOAT32_UNIFORM_BITS", "uniforms", "sincos_2pi", "threefry_blocks", "block_words", "azimuth_cosine",
+           "bin_index", "add_with_squares"]
 
 #: the largest path budget of one job (``max_paths`` in a scene file, ``--max-paths``): one rule for every
 #: family and the command line (the microsurface walk numbers a job's paths with 32-bit ids)
@@ -151,14 +152,21 @@ static void threefry(uint32_t k0, uint32_t k1, uint32_t x0, uint32_t x1, uint32_
 PRECISIONS = ("float32", "float64")
 
 
+#: the bits of a word a float32 uniform keeps (:func:`uniforms`)
+FLOAT32_UNIFORM_BITS = 23
+
+
 def uniforms(words, dtype):
-    """Uniforms in (0, 1) of uint32 ``words``: float64 (word + 1/2) 2^-32, float32 (word >> 8 + 1/2) 2^-24 (the top
-    24 bits, which a float32 holds exactly: no uniform rounds to 0 or 1).  A sampled tail is cut at
-    probability 2^-33 in float64, 2^-25 in float32."""
+    """Uniforms in (0, 1) of uint32 ``words``, each the midpoint of one of 2^b equal cells of [0, 1], exactly:
+    float64 (word + 1/2) 2^-32 (b = 32), float32 (word >> 9 + 1/2) 2^-23 (the top b = 23 bits,
+    :data:`FLOAT32_UNIFORM_BITS`: k + 1/2 < 2^23 needs 24 significant bits, all a float32 has; with 24 bits
+    the cells' midpoints above 1/2 would round, the last to 1).  So u and 1 - u are at least 2^-33 in
+    float64, 2^-24 in float32: a sampled tail is cut at those probabilities."""
     import jax.numpy as jnp
 
     if dtype == jnp.float32:
-        return ((words >> jnp.uint32(8)).astype(jnp.float32) + jnp.float32(0.5)) * jnp.float32(2.0**-24)
+        shift = jnp.uint32(32 - FLOAT32_UNIFORM_BITS)
+        return ((words >> shift).astype(jnp.float32) + jnp.float32(0.5)) * jnp.float32(2.0**-FLOAT32_UNIFORM_BITS)
     return (words.astype(jnp.float64) + 0.5) * 2.0**-32
 
 

@@ -175,10 +175,12 @@ def test_eq6_sampler_runs_and_agrees_within_errors():
 @pytest.mark.parametrize("c, mu_i", [(0.9, 0.5), (0.3, 0.05), (1.0, 1.0)])
 def test_float32_walk_is_the_float64_walk_to_its_rounding(c, mu_i):
     """The float32 walk (the default) against the float64 one on the same key: the same photons, whose uniforms
-    differ only in their last 8 of 32 bits, so the escaping weight agrees to 1e-6 relative (measured 1e-7 to
+    differ only in their last 9 of 32 bits, so the escaping weight agrees to 1e-6 relative (measured 1e-7 to
     1e-9), far below any standard error a round of photons reaches (1e-3 for 1e5 photons); a discrete
-    decision (roulette, escape) flips rarely (at c = 1, mu_i = 1 one of 20000 photons: 4 collisions, one
-    photon's Fourier tally), and the Fourier tallies agree to 1e-6 per photon where none flips."""
+    decision (roulette, escape, the mu_o bin of an escape) flips rarely: at c = 1, mu_i = 1, where paths run
+    to thousands of collisions, a few of 20000 photons (the m = 0 tallies' differences add up to 2.6 photon
+    weights: two or three photons leave in a neighbouring mu_o bin), and the Fourier tallies agree to 1e-6
+    per photon where none flips."""
     n = 20_000
     cfg = {p: WalkConfig(phase="true", mu_edges=EDGES, orders=(0, 1, 2), precision=p) for p in ("float32", "float64")}
     f32, f64 = (run_round(cfg[p], 3, (1,), c, mu_i, n) for p in ("float32", "float64"))
@@ -188,7 +190,8 @@ def test_float32_walk_is_the_float64_walk_to_its_rounding(c, mu_i):
         assert np.abs(f32["fourier"] - f64["fourier"]).max() / n < 1e-6
     else:
         assert abs(int(f32["collisions"]) - int(f64["collisions"])) < 1e-5 * int(f64["collisions"])
-        assert np.abs(f32["fourier"] - f64["fourier"]).max() / n < 2 / n  # one photon's weight at most
+        moved = np.abs(f32["fourier"][..., 0] - f64["fourier"][..., 0]).sum() / 2  # weights of photons moved
+        assert moved <= 5 and np.abs(f32["fourier"] - f64["fourier"]).max() <= 5  # a few photons (weights <= 1)
     assert f32["fourier"].dtype == np.float64  # tallies accumulate in float64 whatever the walk's precision
 
 

@@ -84,7 +84,7 @@ def run(args) -> int:
         return fail("simulate", f"{args.scene}: no such scene file, and no packaged scene of that name "
                                 f"(packaged: {', '.join(packaged_scene_names())})", USAGE)
 
-    from fitlab.scenes import SceneError, simulate_file, summary_table, unconverged
+    from fitlab.scenes import SceneError, failures, simulate_file, summary_table, unconverged
 
     hook = service("simulate", _family_of(scene, args.family))  # the family's schema and walk (imports JAX)
     try:
@@ -99,6 +99,8 @@ def run(args) -> int:
     print(summary_table(result))
     for p in paths:
         print(f"wrote {p}")
+    for line in failures(result):
+        print(f"fitlab simulate: warning: {line}", file=sys.stderr)
     missed = unconverged(result)
     for line in missed:
         print(f"fitlab simulate: {line}", file=sys.stderr)

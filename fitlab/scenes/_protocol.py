@@ -91,6 +91,8 @@ class Walk(Protocol):
         """(file name, PNG bytes) of each figure."""
         ...
 
+    # optional: ``failed(tallies) -> int``, the paths that ended on a non-finite state (fitlab.scenes.failures)
+
 
 @runtime_checkable
 class SimulateHook(Protocol):

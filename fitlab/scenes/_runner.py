@@ -31,7 +31,7 @@ from fitlab.scenes._check import Checker, with_overrides
 from fitlab.scenes._document import SceneError, parse_document, read_scene_text
 
 __all__ = ["JobStats", "SimulationResult", "parse_scene", "load_scene", "scene_with_overrides", "simulate",
-           "csv_text", "output_files", "write_outputs", "summary_table", "unconverged", "check_out_dir",
+           "csv_text", "output_files", "write_outputs", "summary_table", "unconverged", "failures", "check_out_dir",
            "simulate_file"]
 
 
@@ -242,6 +242,21 @@ def unconverged(result: SimulationResult) -> list:
         why = (f"standard error {st.se_ratio:.3g} x its target" if not st.se_ratio <= 1.0
                else f"fewer than the {result.walk.min_paths} {result.walk.unit} the stopping rule needs")
         lines.append(f"not converged: {st.name}: {why} after {st.paths} paths (max_paths)")
+    return lines
+
+
+def failures(result: SimulationResult) -> list:
+    """One line per job some of whose paths ended on a non-finite state (a walk with a ``failed(tallies)``
+    count: those paths are tallied apart from capped ones, never as light)."""
+    count = getattr(result.walk, "failed", None)
+    if count is None:
+        return []
+    lines = []
+    for key, st in result.jobs.items():
+        n = count(result.tallies[key]) if key in result.tallies else 0
+        if n:
+            lines.append(f"{st.name}: {n} of {st.paths} {result.walk.unit} ended on a non-finite height, direction "
+                         "or weight (a walk error, tallied as failed: the estimates leave them out)")
     return lines
 
 

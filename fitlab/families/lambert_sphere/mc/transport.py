@@ -47,8 +47,8 @@ that runs it, so results agree across layouts up to the order of summation.
 A step hashes each slot's blocks for its next collision and carries them to the
 next step (:func:`fitlab._montecarlo.threefry_blocks` says why).
 Precision (``WalkConfig.precision``): the path state is float32 by default, the tallies float64.  float32
-uniforms are (word >> 8 + 1/2) 2^-24 in (0, 1): free paths are cut at 17.3 mean free paths (probability
-3e-8); float64 ones (word + 1/2) 2^-32: cut at 22.9 (1e-10), the C reference walk's numbers.  Both cuts lie
+uniforms are (word >> 9 + 1/2) 2^-23 in (0, 1): free paths are cut at 16.6 mean free paths (probability
+6e-8); float64 ones (word + 1/2) 2^-32: cut at 22.9 (1e-10), the C reference walk's numbers.  Both cuts lie
 far below any standard error here; on one key the two precisions walk the same photons (docs/montecarlo.md).
 
 Layout.  Each device runs ``slots`` photon slots in a ``lax.while_loop``; a

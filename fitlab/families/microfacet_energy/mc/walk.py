@@ -48,13 +48,23 @@ Tallies (per round of paths; sums over paths of the weight w and of w^2, each pa
   the opaque materials).
 * ``capped``, ``capped_sq``: weight of paths stopped at ``max_bounces``; ``paths``; ``bounces`` (the
   scattering events of all paths).
+* ``failed``: paths that met a non-finite height, direction or weight: a walk error, ended there and
+  counted apart from the capped paths, never tallied as light.  With every weight 1, the orders, capped
+  and failed paths add up to ``paths``.
+
+Heights: the float64 walk carries h in [-1, 1], as the C reference of ``fitlab bench mc`` does; the float32
+walk carries C1(h) = (h + 1) / 2 in [0, 1] (:func:`.microsurface.sample_c1`; the flip of a refraction is
+C1 -> 1 - C1), which float32 resolves near the bottom to its relative precision.  A float32 h stops 2^-24
+from -1: a path whose C1 fell below 2^-25 (two falls at normal incidence with 1 - U of 2^-12 and 2^-14)
+sat at h = -1 exactly, where G1 = 0 and a rising ray's next height is 0 / 0.
 
 Random numbers are counter-based: the uniforms of path ``id`` at its event n are the words of
 Threefry-2x32(job_key; id, 3 n + j), j = 0, 1, 2 (the two words of block j are numbers 2 j and 2 j + 1),
-mapped to (word + 1/2) 2^-32 in (0, 1); a kind hashes only the blocks it uses (conductor 3 numbers,
-dielectric 4, diffuse 5), job_key = fold_in(fold_in(key(seed), material), incident).  32-bit uniforms
-cut the sampled tails at probabilities of 2^-33 (a Beckmann slope beyond 4.7 standard deviations, an
-escape probability below 1e-10): biases of 1e-10, far below any standard error here.  A path depends only
+mapped to (word + 1/2) 2^-32 in (0, 1) (float32: (word >> 9 + 1/2) 2^-23, :func:`fitlab._montecarlo.uniforms`);
+a kind hashes only the blocks it uses (conductor 3 numbers, dielectric 4, diffuse 5), job_key =
+fold_in(fold_in(key(seed), material), incident).  32-bit uniforms cut the sampled tails at probabilities
+of 2^-33 (a Beckmann slope beyond 4.7 standard deviations, an escape probability below 1e-10): biases of
+1e-10, far below any standard error here; float32's at 2^-24 (biases of 6e-8).  A path depends only
 on (seed, material, incident, id), never on the slot, the round or the batch that runs it, so any split
 of the ids into rounds gives the same paths (and tallies equal up to the order of summation; exactly equal
 when the weights are 1).
@@ -98,6 +108,7 @@ from fitlab.families.microfacet_energy.mc.microsurface import (
     ESCAPED,
     reflect,
     refract,
+    sample_c1,
     sample_height,
     sample_vndf,
 )
@@ -107,7 +118,7 @@ __all__ = ["WalkConfig", "MaterialParams", "KINDS", "run_round", "compile_walk",
            "default_slots", "TALLY_NAMES"]
 
 KINDS = ("conductor", "diffuse", "dielectric")
-TALLY_NAMES = ("lobe", "lobe_transmission", "albedo", "transmission", "capped")
+TALLY_NAMES = ("lobe", "lobe_transmission", "albedo", "transmission", "capped", "failed")
 AXIS = "paths"
 #: uniforms per event: the free path, the visible normal (2), then the kind's own (diffuse: a cosine
 #: direction; dielectric: reflect or refract)
@@ -171,7 +182,7 @@ def _zero_tallies(cfg: WalkConfig) -> dict:
          # [0]: escapes upwards (reflection), [1]: downwards (transmission), by order
          "exits": jnp.zeros((2, nk)), "exits_sq": jnp.zeros((2, nk)),
          "capped": jnp.zeros(()), "capped_sq": jnp.zeros(())}
-    z["paths"], z["bounces"] = jnp.zeros((), jnp.int64), jnp.zeros((), jnp.int64)
+    z["paths"], z["bounces"], z["failed"] = (jnp.zeros((), jnp.int64) for _ in range(3))
     return z
 
 
@@ -234,14 +245,18 @@ def _refill(lanes, t, next_id, key, mu_i, hi, cfg: WalkConfig):
 
 
 def _step(carry, key, params, mu_i, hi, cap, cfg: WalkConfig):
-    # (h, w) are in the frame of the side the ray is on (module docstring, "Dielectrics"); inside: below
+    # (h, w) are in the frame of the side the ray is on (module docstring, "Dielectrics"); inside: below.
+    # h is the height in float64, its C1 in float32 (module docstring, "Heights"): 1 at the top in both
     (alive, pid, order, h, wx, wy, wz, weight, inside, blocks), tallies, next_id = carry
     u = _uniforms(blocks, _UNIFORMS[cfg.kind], h.dtype)
     ax, ay = params.alpha_x, params.alpha_y
-    h_next = sample_height(wx, wy, wz, h, u[0], ax, ay, cfg.distribution)
-    escaped = alive & (h_next == ESCAPED)
-    capped = alive & ~escaped & (order >= cap)
-    scatters = alive & ~escaped & ~capped
+    by_c1 = cfg.precision == "float32"
+    h_next = (sample_c1 if by_c1 else sample_height)(wx, wy, wz, h, u[0], ax, ay, cfg.distribution)
+    state_ok = ~jnp.isnan(h_next) & jnp.isfinite(wx) & jnp.isfinite(wy) & jnp.isfinite(wz) & jnp.isfinite(weight)
+    failed = alive & ~state_ok  # ended, apart from capped paths, and never tallied as light
+    escaped = alive & state_ok & (h_next == ESCAPED)
+    capped = alive & state_ok & ~escaped & (order >= cap)
+    scatters = alive & state_ok & ~escaped & ~capped
 
     # tallies of the paths that end here; an escape is always upwards in the frame of its side
     k = jnp.minimum(order, cfg.orders + 1) - 1  # order 1..K -> 0..K-1, above K -> K
@@ -263,6 +278,7 @@ def _step(carry, key, params, mu_i, hi, cap, cfg: WalkConfig):
     t["capped"] = t["capped"] + jnp.sum(w_cap)
     t["capped_sq"] = t["capped_sq"] + jnp.sum(w_cap * w_cap)
     t["bounces"] = t["bounces"] + jnp.sum(scatters.astype(jnp.int64))
+    t["failed"] = t["failed"] + jnp.sum(failed.astype(jnp.int64))
 
     # scattering from the facet met at h_next
     vx, vy, vz = -wx, -wy, -wz
@@ -283,7 +299,7 @@ def _step(carry, key, params, mu_i, hi, cap, cfg: WalkConfig):
         rx, ry, rz = reflect(vx, vy, vz, mx, my, mz)
         tx, ty, tz = refract(vx, vy, vz, mx, my, mz, eta)
         ox, oy, oz = jnp.where(reflects, rx, -tx), jnp.where(reflects, ry, -ty), jnp.where(reflects, rz, -tz)
-        h_out = jnp.where(reflects, h_next, -h_next)
+        h_out = jnp.where(reflects, h_next, (1.0 - h_next) if by_c1 else -h_next)
         inside = jnp.where(scatters, inside ^ ~reflects, inside)
     wx, wy, wz = jnp.where(scatters, ox, wx), jnp.where(scatters, oy, wy), jnp.where(scatters, oz, wz)
     h = jnp.where(scatters, h_out, h)
@@ -401,5 +417,5 @@ def run_round(cfg: WalkConfig, key_data, params: MaterialParams, mu_i: float, fi
             res["lobe_transmission" + suffix] = lobe[1]
         res["albedo" + suffix], res["transmission" + suffix] = out["exits" + suffix][0], out["exits" + suffix][1]
         res["capped" + suffix] = out["capped" + suffix]
-    res["paths"], res["bounces"] = out["paths"], out["bounces"]
+    res["paths"], res["bounces"], res["failed"] = out["paths"], out["bounces"], out["failed"]
     return res
