@@ -18,7 +18,7 @@ import sys
 __all__ = ["MAX_PATHS", "MIN_PATHS_BUDGET", "SLOW_JOB_SECONDS", "THREEFRY_ROTATIONS", "THREEFRY_C", "duration",
            "slow_job_warning", "threefry_2x32", "HOST_DEVICES_FLAG", "use_every_core", "PRECISIONS",
            "FLOAT32_UNIFORM_BITS", "uniforms", "sincos_2pi", "threefry_blocks", "block_words", "azimuth_cosine",
-           "bin_index", "add_with_squares"]
+           "bin_index", "add_with_squares", "ChunkedRound", "device_local", "device_stacked"]
 
 #: the largest path budget of one job (``max_paths`` in a scene file, ``--max-paths``): one rule for every
 #: family and the command line (the microsurface walk numbers a job's paths with 32-bit ids)
@@ -258,3 +258,76 @@ def add_with_squares(tallies: dict, name: str, index: tuple, v) -> None:
     pair = jnp.stack([tallies[name], tallies[name + "_sq"]], axis=axis)
     pair = pair.at[index].add(jnp.stack([v, v * v], axis=1))
     tallies[name], tallies[name + "_sq"] = jnp.take(pair, 0, axis=axis), jnp.take(pair, 1, axis=axis)
+
+
+class ChunkedRound:
+    """One round of a walk, run in chunks of at most ``steps`` iterations of its loop on every device
+    (:meth:`advance`), so that the caller regains control between chunks (Ctrl-C, a progress bar) however long
+    the round.  The chunks change nothing: every device applies the same compiled loop body to its own state in
+    the same order whatever their sizes, so the tallies are those of the round run at once, bit for bit.
+
+    ``runs[L](state, steps) -> (state, status)`` runs level L (a walk that gathers its last paths into fewer
+    lanes has one level per lane count); ``status`` is an int array (devices, 3): whether the device has ended
+    the level, the paths it has started and its lanes alive.  ``compacts[L - 1](state)`` moves every device to
+    level L once all have ended level L - 1; ``finish(state)`` gives the tallies summed over the devices."""
+
+    def __init__(self, state, runs, compacts, finish, result=None):
+        self.state, self.runs, self.compacts, self._finish = state, runs, compacts, finish
+        self._result = result or (lambda tallies: tallies)
+        self.level, self.done, self.started, self.alive = 0, False, 0, 0
+
+    @property
+    def finished(self) -> int:
+        """Paths ended so far (escaped, capped or failed)."""
+        return self.started - self.alive
+
+    def advance(self, steps: int) -> bool:
+        """Run at most ``steps`` loop iterations on each device (waiting for them); returns whether the round is
+        done."""
+        import numpy as np
+
+        from fitlab.core import float64
+
+        if self.done:
+            return True
+        with float64():
+            self.state, status = self.runs[self.level](self.state, int(steps))
+            status = np.asarray(status)
+        self.started, self.alive = int(status[:, 1].sum()), int(status[:, 2].sum())
+        if status[:, 0].all():
+            if self.level + 1 < len(self.runs):
+                self.level += 1
+                with float64():
+                    self.state = self.compacts[self.level - 1](self.state)
+            else:
+                self.done = True
+        return self.done
+
+    def tallies(self) -> dict:
+        """The round's tallies (once :meth:`advance` has returned True), as the walk's ``run_round`` gives them."""
+        from fitlab.core import float64
+
+        if not self.done:
+            raise RuntimeError("the round is not done")
+        with float64():
+            return self._result(self._finish(self.state))
+
+    def run(self) -> dict:
+        """Run the round to its end at once; its tallies."""
+        while not self.advance(2**62):
+            pass
+        return self.tallies()
+
+
+def device_local(tree):
+    """A sharded state's leaves as one device sees them under ``shard_map`` (the leading axis of 1 removed)."""
+    import jax
+
+    return jax.tree_util.tree_map(lambda a: a[0], tree)
+
+
+def device_stacked(tree):
+    """The inverse of :func:`device_local`: a leading axis of 1, to be stacked over the mesh's devices."""
+    import jax
+
+    return jax.tree_util.tree_map(lambda a: a[None], tree)

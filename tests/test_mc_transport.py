@@ -195,6 +195,22 @@ def test_float32_walk_is_the_float64_walk_to_its_rounding(c, mu_i):
     assert f32["fourier"].dtype == np.float64  # tallies accumulate in float64 whatever the walk's precision
 
 
+def test_a_round_in_chunks_of_any_size_gives_the_same_tallies(fourier_runs):
+    """start_round's round run in chunks of 1, 7, 3, 50 and 2 loop steps (what fitlab simulate does, sized by
+    time, so that Ctrl-C is answered between two) gives the tallies of the round run at once, bit for bit,
+    through both slot levels (1024 slots per device, then 128 for the last photons)."""
+    from fitlab.families.lambert_sphere.mc.transport import start_round
+
+    rnd = start_round(FOURIER, 11, (2,), 0.99, 0.5, 40_000)
+    sizes, chunks, levels = [1, 7, 3, 50, 2], 0, set()
+    while not rnd.advance(sizes[chunks % 5]):
+        chunks, levels = chunks + 1, levels | {rnd.level}
+    levels.add(rnd.level)
+    chunked, whole = rnd.tallies(), fourier_runs[(0.99, 0.5)]
+    assert chunks > 100 and levels == {0, 1} and rnd.finished == 40_000
+    assert set(chunked) == set(whole) and all(np.array_equal(chunked[k], whole[k]) for k in whole)
+
+
 def test_walk_precision_is_checked():
     with pytest.raises(ValueError, match="precision"):
         WalkConfig(precision="float16")

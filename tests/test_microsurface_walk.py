@@ -370,6 +370,23 @@ def test_float32_walk_is_the_float64_walk_to_its_rounding(distribution, kind):
         assert r["albedo"].sum() + r["transmission"].sum() + r["capped"] == n
 
 
+def test_a_round_in_chunks_of_any_size_gives_the_same_tallies():
+    """start_round's round run in chunks of 1, 3 and 2 loop steps (fitlab simulate sizes them by time, so that
+    Ctrl-C is answered between two) gives run_round's tallies, bit for bit."""
+    from fitlab.families.microfacet_energy.mc.walk import WalkConfig, start_round
+
+    cfg, key, params = WalkConfig(distribution="ggx", kind="dielectric"), job_key(5, 0, 0), MaterialParams(0.6, 0.6,
+                                                                                                              eta=1.5)
+    whole = run_round(cfg, key, params, 0.5, 100, 20_000)
+    rnd = start_round(cfg, key, params, 0.5, 100, 20_000)
+    sizes, chunks = [1, 3, 2], 0
+    while not rnd.advance(sizes[chunks % 3]):
+        chunks += 1
+    chunked = rnd.tallies()
+    assert chunks > 5 and rnd.finished == 20_000
+    assert set(chunked) == set(whole) and all(np.array_equal(chunked[k], whole[k]) for k in whole)
+
+
 @pytest.mark.parametrize("path_id, order", [(5194115, 4), (16879934, 5)])
 def test_float32_walk_at_normal_incidence_escapes_where_float64_does(path_id, order):
     """The two of 2e7 paths of a white GGX conductor (alpha 1) at normal incidence, seed 1, that the float32 walk

@@ -11,7 +11,10 @@ Exit status: 0 when every job reached its standard-error target; 1 when a job
 stopped on its path budget without reaching it ("conv NO"; the outputs are
 written and their rows say converged = False) unless ``--allow-unconverged``,
 or on a runtime failure; 2 when an input is refused, always before any
-computation (one line per problem).
+computation (one line per problem); 130 on Ctrl-C, within a fraction of a second
+of device time, nothing written.  A run whose pilot projects more than a minute is
+announced in one line before its rounds; a job whose walk ended paths on a
+non-finite state is named in one warning line.
 """
 
 from __future__ import annotations

@@ -11,8 +11,9 @@ job, the stopping rule, the rows and figures).  Everything else is here, once:
   schema is refused;
 * command-line overrides (:func:`scene_with_overrides`: ``--seed``, ``--max-paths``, ``--target-se``), by
   the scene file's own rules (:func:`check_option`);
-* running (:func:`simulate`): rounds, the stopping rule, the progress bar, the warning for a job projected
-  past an hour; and the outputs (:func:`write_outputs`: the rows' CSV, the summary CSV, the figures, as one
+* running (:func:`simulate`): rounds (in chunks of a fraction of a second where the walk allows: Ctrl-C
+  between two), the stopping rule, the progress bar, the pilot's estimate of a run past a minute, the
+  warning for a job projected past an hour; and the outputs (:func:`write_outputs`: the rows' CSV, the summary CSV, the figures, as one
   unit), the summary table, the jobs that missed their target (:func:`unconverged`) and those whose walk
   counted paths ending on a non-finite state (:func:`failures`), the output folder's
   check (:func:`check_out_dir`); :func:`simulate_file` does all of it, in that order, every error before any

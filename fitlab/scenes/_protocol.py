@@ -91,7 +91,9 @@ class Walk(Protocol):
         """(file name, PNG bytes) of each figure."""
         ...
 
-    # optional: ``failed(tallies) -> int``, the paths that ended on a non-finite state (fitlab.scenes.failures)
+    # optional: ``start_round(scene, job, rounds, paths, n)``, run_round's round as a
+    # fitlab._montecarlo.ChunkedRound (run in chunks: Ctrl-C and the progress bar within a round);
+    # ``failed(tallies) -> int``, the paths that ended on a non-finite state (fitlab.scenes.failures)
 
 
 @runtime_checkable

@@ -57,7 +57,7 @@ from fitlab.families.microfacet_energy.mc.walk import (
     WalkConfig,
     compile_walk,
     job_key,
-    run_round,
+    start_round,
 )
 from fitlab.scenes import SimulationResult, check_out_dir, summary_table, unconverged, write_outputs
 
@@ -281,8 +281,11 @@ class MicrosurfaceWalk:
         return compile_walk(job.data[0])
 
     def run_round(self, scene, job, rounds, paths, n):
+        return self.start_round(scene, job, rounds, paths, n).run()
+
+    def start_round(self, scene, job, rounds, paths, n):
         cfg, params, key = job.data
-        return run_round(cfg, key, params, scene.mu_i[job.key[1]], paths, n, scene.max_bounces)
+        return start_round(cfg, key, params, scene.mu_i[job.key[1]], paths, n, scene.max_bounces)
 
     def count(self, tallies):
         return int(tallies["paths"]), int(tallies["bounces"])

@@ -79,6 +79,11 @@ Devices: the walk runs under ``jax.shard_map`` on a 1-D mesh (default: every dev
 pool, and the tallies are summed over devices (``psum``).  As paths depend only on their ids, a mesh of
 any size gives the same paths, and the same tallies up to the order of summation (exactly, when every
 weight is 1).  On one device the mesh changes nothing.
+
+Chunks: :func:`start_round` gives a round as a :class:`fitlab._montecarlo.ChunkedRound`, run a number of
+loop steps at a time (each device keeps its lanes, tallies and next id between chunks; the tallies are summed
+at the end), so that ``fitlab simulate`` answers Ctrl-C within a round; the chunks change no bit of the
+tallies.  :func:`run_round` runs the round at once.
 """
 
 from __future__ import annotations
@@ -94,10 +99,13 @@ from jax.sharding import Mesh, PartitionSpec
 
 from fitlab._montecarlo import (
     PRECISIONS,
+    ChunkedRound,
     add_with_squares,
     azimuth_cosine,
     bin_index,
     block_words,
+    device_local,
+    device_stacked,
     sincos_2pi,
     threefry_blocks,
     uniforms,
@@ -114,8 +122,8 @@ from fitlab.families.microfacet_energy.mc.microsurface import (
 )
 from fitlab.families.microfacet_energy.mc.walk_fresnel import FRESNEL, dielectric, fresnel_factor
 
-__all__ = ["WalkConfig", "MaterialParams", "KINDS", "run_round", "compile_walk", "job_key", "default_mesh",
-           "default_slots", "TALLY_NAMES"]
+__all__ = ["WalkConfig", "MaterialParams", "KINDS", "run_round", "start_round", "compile_walk", "job_key",
+           "default_mesh", "default_slots", "TALLY_NAMES"]
 
 KINDS = ("conductor", "diffuse", "dielectric")
 TALLY_NAMES = ("lobe", "lobe_transmission", "albedo", "transmission", "capped", "failed")
@@ -315,34 +323,61 @@ def default_slots(platform: str) -> int:
     return 1024 if platform == "cpu" else 65536
 
 
-def _walk(key_data, params, mu_i, lo, hi, cap, cfg: WalkConfig, platform: str = "cpu"):
-    """Run path ids [lo, hi) to completion on one device; returns the tallies."""
+def _start(key_data, mu_i, lo, hi, cfg: WalkConfig, platform: str):
+    """One device's walk of path ids [lo, hi) before its first step: every lane refilled."""
     key = jnp.asarray(key_data, jnp.uint32)
     p = cfg.slots or default_slots(platform)
     dt = jnp.dtype(cfg.precision)
-    params = jax.tree_util.tree_map(lambda v: v.astype(dt), params)
-    mu_i = mu_i.astype(dt)
     lanes = (jnp.zeros(p, bool), jnp.zeros(p, jnp.int64), jnp.zeros(p, jnp.int64), jnp.ones(p, dt), jnp.zeros(p, dt),
              jnp.zeros(p, dt), jnp.zeros(p, dt), jnp.ones(p, dt), jnp.zeros(p, bool), None)
-    carry = _refill(lanes, _zero_tallies(cfg), lo, key, mu_i, hi, cfg)
-    body = partial(_step, key=key, params=params, mu_i=mu_i, hi=hi, cap=cap, cfg=cfg)
-    carry = jax.lax.while_loop(lambda c: (c[2] < hi) | jnp.any(c[0][0]), body, carry)
-    return carry[1]
+    return _refill(lanes, _zero_tallies(cfg), lo, key, mu_i.astype(dt), hi, cfg)
 
 
-def _walk_fn(cfg: WalkConfig, mesh: Mesh):
-    ndev = mesh.size
+def _run(carry, key_data, params, mu_i, hi, cap, steps, cfg: WalkConfig):
+    """At most ``steps`` steps of one device's walk; returns the carry and the status (all its paths ended, paths
+    started, lanes alive)."""
+    key = jnp.asarray(key_data, jnp.uint32)
+    dt = jnp.dtype(cfg.precision)
+    params = jax.tree_util.tree_map(lambda v: v.astype(dt), params)
+    body = partial(_step, key=key, params=params, mu_i=mu_i.astype(dt), hi=hi, cap=cap, cfg=cfg)
 
-    def per_device(key_data, params, mu_i, lo, hi, cap):
+    def going(c):
+        return (c[2] < hi) | jnp.any(c[0][0])
+
+    _, carry = jax.lax.while_loop(lambda st: (st[0] < steps) & going(st[1]), lambda st: (st[0] + 1, body(st[1])),
+                                  (jnp.zeros((), jnp.int64), carry))
+    status = jnp.stack([(~going(carry)).astype(jnp.int64), carry[1]["paths"], jnp.sum(carry[0][0], dtype=jnp.int64)])
+    return carry, status
+
+
+def _programs(cfg: WalkConfig, mesh: Mesh) -> dict:
+    """The walk's programs on ``mesh`` (jitted ``shard_map`` s; :class:`fitlab._montecarlo.ChunkedRound`): ``start``
+    (device d takes the d-th contiguous slice of the ids), ``runs`` (one level) and ``finish`` (the tallies summed
+    over the devices, ``psum``).  A device's state carries its lanes, tallies, next id and the end of its slice."""
+    ndev, platform = mesh.size, mesh.devices.flat[0].platform
+    rep, dev = PartitionSpec(), PartitionSpec(AXIS)
+
+    def start(key_data, mu_i, lo, hi):
         d = jax.lax.axis_index(AXIS).astype(jnp.int64)
         per = (hi - lo + ndev - 1) // ndev
         a = jnp.minimum(lo + d * per, hi)
         b = jnp.minimum(a + per, hi)
-        tallies = _walk(key_data, params, mu_i, a, b, cap, cfg, mesh.devices.flat[0].platform)
+        return device_stacked((_start(key_data, mu_i, a, b, cfg, platform), b))
+
+    def run(state, key_data, params, mu_i, cap, steps):
+        carry, b = device_local(state)
+        carry, status = _run(carry, key_data, params, mu_i, b, cap, steps, cfg)
+        return device_stacked((carry, b)), status[None]
+
+    def finish(state):
+        (_, tallies, _), _ = device_local(state)
         return jax.tree_util.tree_map(lambda x: jax.lax.psum(x, AXIS), tallies)
 
-    rep = PartitionSpec()
-    return jax.jit(jax.shard_map(per_device, mesh=mesh, in_specs=(rep,) * 6, out_specs=rep, check_vma=False))
+    def sharded(f, in_specs, out_specs):
+        return jax.jit(jax.shard_map(f, mesh=mesh, in_specs=in_specs, out_specs=out_specs, check_vma=False))
+
+    return {"start": sharded(start, (rep,) * 4, dev), "run": sharded(run, (dev,) + (rep,) * 5, (dev, dev)),
+            "finish": sharded(finish, (dev,), rep)}
 
 
 jax.tree_util.register_pytree_node(
@@ -362,18 +397,44 @@ _COMPILED: dict = {}
 
 @float64
 def compile_walk(cfg: WalkConfig, mesh: Mesh | None = None) -> float:
-    """Compile the walk of ``cfg`` on ``mesh`` (default: :func:`default_mesh`) once (cached); returns the
-    seconds it took (0 when cached)."""
+    """Compile the walk of ``cfg`` on ``mesh`` (default: :func:`default_mesh`) once (cached), by running a round of
+    one path; returns the seconds it took (0 when cached)."""
     mesh = mesh or default_mesh()
     if (cfg, mesh) in _COMPILED:
         return 0.0
     t0 = time.perf_counter()
-    f64 = jax.ShapeDtypeStruct((), jnp.float64)
-    i64 = jax.ShapeDtypeStruct((), jnp.int64)
-    params = MaterialParams(*(f64,) * 6)
-    args = (jax.ShapeDtypeStruct((2,), jnp.uint32), params, f64, i64, i64, i64)
-    _COMPILED[(cfg, mesh)] = _walk_fn(cfg, mesh).lower(*args).compile()
+    _COMPILED[(cfg, mesh)] = _programs(cfg, mesh)
+    _round(cfg, mesh, np.zeros(2, np.uint32), MaterialParams(0.5, 0.5, eta=1.5), 0.5, 0, 1, 2).run()
     return time.perf_counter() - t0
+
+
+def _round(cfg: WalkConfig, mesh: Mesh, key_data, params: MaterialParams, mu_i: float, first_id: int, n_paths: int,
+           max_bounces: int) -> ChunkedRound:
+    programs = _COMPILED[(cfg, mesh)]
+    key = jnp.asarray(key_data, jnp.uint32)
+    p = MaterialParams(*(jnp.float64(v) for v in (params.alpha_x, params.alpha_y, params.f0, params.eta, params.k,
+                                                   params.albedo)))
+    state = programs["start"](key, jnp.float64(mu_i), jnp.int64(first_id), jnp.int64(first_id + n_paths))
+
+    def run(st, steps):
+        return programs["run"](st, key, p, jnp.float64(mu_i), jnp.int64(max_bounces), jnp.int64(steps))
+
+    return ChunkedRound(state, [run], [], programs["finish"], partial(_numpy_tallies, cfg))
+
+
+def _numpy_tallies(cfg: WalkConfig, out: dict) -> dict:
+    """The tallies as numpy, the outside-every-bin row and column of the lobes removed."""
+    out = {k: np.asarray(v) for k, v in out.items()}
+    res = {}
+    for suffix in ("", "_sq"):
+        lobe = out["lobe" + suffix][:, :, :-1, :-1]
+        res["lobe" + suffix] = lobe[0]
+        if cfg.transmission_lobe:
+            res["lobe_transmission" + suffix] = lobe[1]
+        res["albedo" + suffix], res["transmission" + suffix] = out["exits" + suffix][0], out["exits" + suffix][1]
+        res["capped" + suffix] = out["capped" + suffix]
+    res["paths"], res["bounces"], res["failed"] = out["paths"], out["bounces"], out["failed"]
+    return res
 
 
 @float64
@@ -384,14 +445,10 @@ def job_key(seed: int, material: int, incident: int) -> np.ndarray:
 
 
 @float64
-def run_round(cfg: WalkConfig, key_data, params: MaterialParams, mu_i: float, first_id: int, n_paths: int,
-              max_bounces: int = 1000, mesh: Mesh | None = None) -> dict:
-    """Run paths first_id .. first_id + n_paths - 1 of the job whose key is ``key_data``; tallies as numpy.
-
-    mu_i in (0, 1]; alpha_x, alpha_y > 0; a dielectric's eta > 0; ids below 2^32; max_bounces >= 1; mesh:
-    the devices (default :func:`default_mesh`; the tallies do not depend on it beyond the order of
-    summation).  The outside-every-bin row and column of the lobes are removed; ``lobe_transmission``
-    is there when ``cfg.transmission_lobe``."""
+def start_round(cfg: WalkConfig, key_data, params: MaterialParams, mu_i: float, first_id: int, n_paths: int,
+                max_bounces: int = 1000, mesh: Mesh | None = None) -> ChunkedRound:
+    """:func:`run_round` as a :class:`fitlab._montecarlo.ChunkedRound`, to be run in chunks of steps; the same
+    checks, before any work."""
     if not 0.0 < mu_i <= 1.0:
         raise ValueError(f"mu_i must lie in (0, 1], got {mu_i}")
     if not (params.alpha_x > 0.0 and params.alpha_y > 0.0):
@@ -404,18 +461,16 @@ def run_round(cfg: WalkConfig, key_data, params: MaterialParams, mu_i: float, fi
         raise ValueError("max_bounces must be >= 1")
     mesh = mesh or default_mesh()
     compile_walk(cfg, mesh)
-    p = MaterialParams(*(jnp.float64(v) for v in (params.alpha_x, params.alpha_y, params.f0, params.eta, params.k,
-                                                   params.albedo)))
-    out = _COMPILED[(cfg, mesh)](jnp.asarray(key_data, jnp.uint32), p, jnp.float64(mu_i), jnp.int64(first_id),
-                                 jnp.int64(first_id + n_paths), jnp.int64(max_bounces))
-    out = {k: np.asarray(v) for k, v in out.items()}
-    res = {}
-    for suffix in ("", "_sq"):
-        lobe = out["lobe" + suffix][:, :, :-1, :-1]
-        res["lobe" + suffix] = lobe[0]
-        if cfg.transmission_lobe:
-            res["lobe_transmission" + suffix] = lobe[1]
-        res["albedo" + suffix], res["transmission" + suffix] = out["exits" + suffix][0], out["exits" + suffix][1]
-        res["capped" + suffix] = out["capped" + suffix]
-    res["paths"], res["bounces"], res["failed"] = out["paths"], out["bounces"], out["failed"]
-    return res
+    return _round(cfg, mesh, key_data, params, mu_i, first_id, n_paths, max_bounces)
+
+
+@float64
+def run_round(cfg: WalkConfig, key_data, params: MaterialParams, mu_i: float, first_id: int, n_paths: int,
+              max_bounces: int = 1000, mesh: Mesh | None = None) -> dict:
+    """Run paths first_id .. first_id + n_paths - 1 of the job whose key is ``key_data``; tallies as numpy.
+
+    mu_i in (0, 1]; alpha_x, alpha_y > 0; a dielectric's eta > 0; ids below 2^32; max_bounces >= 1; mesh:
+    the devices (default :func:`default_mesh`; the tallies do not depend on it beyond the order of
+    summation, nor on the chunks :func:`start_round`'s round is run in).  The outside-every-bin row and column
+    of the lobes are removed; ``lobe_transmission`` is there when ``cfg.transmission_lobe``."""
+    return start_round(cfg, key_data, params, mu_i, first_id, n_paths, max_bounces, mesh).run()
