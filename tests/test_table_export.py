@@ -28,7 +28,14 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from fitlab.codegen.native import STRICT_FLAGS, build, build_glsl, compiler, cxx_compiler
-from fitlab.codegen.texture import TEXTURE_SHIM, lookup_1d, lookup_2d, lookup_3d, texture_from_bytes
+from fitlab.codegen.texture import (
+    TEXTURE_SHIM,
+    combined_lookup_3d,
+    lookup_1d,
+    lookup_2d,
+    lookup_3d,
+    texture_from_bytes,
+)
 from fitlab.families.lambert_sphere.exact import brdf as exact_brdf
 from fitlab.families.lambert_sphere.program import table_export as te
 from fitlab.families.lambert_sphere.studies.table_study import REFERENCE_PHASE
@@ -150,22 +157,42 @@ def test_lookups_return_the_node_values_exactly_at_the_nodes(lookup):
     assert np.allclose(f2(u, v), poly(u, v), rtol=0, atol=1e-12)
 
 
-@pytest.mark.parametrize("lookup", ["linear", "cubic"])
-def test_the_3d_lookup_returns_the_nodes_and_reproduces_its_degree(lookup):
+@pytest.mark.parametrize("lookup,z_lookup", [("linear", None), ("cubic", None), ("cubic", "linear")])
+def test_the_3d_lookup_returns_the_nodes_and_reproduces_its_degree(lookup, z_lookup):
     """Slabs of 6 rows x 6 columns, 5 slabs from row 2: the node values exactly at the nodes, and a polynomial of
-    the lookup's degree in each coordinate reproduced between them."""
+    each axis' lookup degree reproduced between them (bicubic in the slabs and linear across them included)."""
     rng = np.random.default_rng(8)
     data = rng.normal(size=(2 + 5 * 6, 6))
     x, y, z = symbols(("x", "y", "z"))
     read = {"texel": lambda r, c: data[np.asarray(r, dtype=int), np.asarray(c, dtype=int)]}
-    f3 = sp.lambdify((x, y, z), lookup_3d(2, x, y, z, 6, 6, 5, lookup), [read, "numpy"])
+    f3 = sp.lambdify((x, y, z), lookup_3d(2, x, y, z, 6, 6, 5, lookup, z_lookup), [read, "numpy"])
     k, i, j = np.meshgrid(np.arange(5), np.arange(6), np.arange(6), indexing="ij")
     assert np.array_equal(f3(j / 5, i / 5, k / 4), data[2 + 6 * k + i, j])
     degree = 1 if lookup == "linear" else 3
-    poly = lambda u, v, w: 0.3 + u**degree - 2 * v**degree + w**degree * (1 + u * v)  # noqa: E731
+    dz = 1 if (z_lookup or lookup) == "linear" else 3
+    poly = lambda u, v, w: 0.3 + u**degree - 2 * v**degree + w**dz * (1 + u * v)  # noqa: E731
     data[2 + 6 * k + i, j] = poly(j / 5, i / 5, k / 4)
     u, v, w = rng.random((3, 200))
     assert np.allclose(f3(u, v, w), poly(u, v, w), rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize("lookup,z_lookup", [("linear", None), ("cubic", "linear")])
+def test_the_combined_3d_lookup_is_the_sum_of_the_lookups(lookup, z_lookup):
+    """sum_m a_m f_m read with one set of weights equals the sum of the tables' own lookups (the lookup is linear
+    in the texels), and reads as many texels as the tables have nodes in its window, not more."""
+    rng = np.random.default_rng(9)
+    data = rng.normal(size=(1 + 3 * 4 * 6, 6))
+    x, y, z, a = symbols(("x", "y", "z", "a"))
+    read = {"texel": lambda r, c: data[np.asarray(r, dtype=int), np.asarray(c, dtype=int)]}
+    tables = ((1, 1), (25, a), (49, 2 * a**2 - 1))
+    combined = combined_lookup_3d(tables, x, y, z, 6, 6, 4, lookup, z_lookup)
+    separate = sum(f * lookup_3d(r, x, y, z, 6, 6, 4, lookup, z_lookup) for r, f in tables)
+    u, v, w, b = rng.random((4, 300))
+    f, g = (sp.lambdify((x, y, z, a), e, [read, "numpy"]) for e in (combined, separate))
+    assert np.allclose(f(u, v, w, b), g(u, v, w, b), rtol=1e-13, atol=1e-13)
+    texels = {e for e in sp.preorder_traversal(combined) if getattr(e, "func", None) == sp.Function("texel")}
+    window = (2 if lookup == "linear" else 4) ** 2 * (2 if (z_lookup or lookup) == "linear" else 4)
+    assert len(texels) == len(tables) * window
 
 
 def test_the_parts_reproduce_the_exact_tables_at_the_nodes():
@@ -210,6 +237,37 @@ def test_the_correction_reproduces_the_true_orders_at_its_nodes():
             got = te.numpy_correction(m, data_dir=TABLES)(mi, mo, 1.0 - s * s)
             assert np.abs(got - want).max() <= bound * np.abs(want).max(), (s, m)
             assert np.array_equal(got, got.T)
+
+
+def test_the_correction_takes_its_s_nodes_and_limit_from_the_exact_tables_grid():
+    """Every reading along s stores the nodes of TRUE_S_GRID it keeps, the same values whichever it is; the row
+    s = 1 (c = 0) is the cubic through the four nodes of the grid below it, at s = 1 (numpy's polynomial fit, another
+    route than the Lagrange weights)."""
+    from fitlab.families.lambert_sphere.targets.tabulate import TRUE_S_GRID
+
+    every = te.stored_correction(17, TABLES, ("cubic", 1))
+    assert every.shape[1] == TRUE_S_GRID.size
+    for choice in te.CORRECTION_S_CHOICES:
+        q = te.stored_correction(17, TABLES, choice)
+        keep = np.flatnonzero(np.isin(TRUE_S_GRID, te.layout(17, choice).correction_s))
+        assert keep[0] == 0 and keep[-1] == TRUE_S_GRID.size - 1 and q.shape[1] == keep.size
+        assert np.array_equal(q, every[:, keep]), choice
+    below = TRUE_S_GRID[-1 - te.CORRECTION_LIMIT_NODES : -1]
+    values = every[:, -1 - te.CORRECTION_LIMIT_NODES : -1].reshape(3, te.CORRECTION_LIMIT_NODES, -1)
+    for m in range(3):
+        fit = np.polynomial.polynomial.polyfit(below, values[m], te.CORRECTION_LIMIT_NODES - 1)
+        limit = np.polynomial.polynomial.polyval(1.0, fit)
+        assert np.allclose(every[m, -1].ravel(), limit, rtol=0, atol=1e-12 * np.abs(values[m]).max()), m
+
+
+def test_brdf_reads_each_texel_of_its_lookups_once():
+    """brdf is one routine with every lookup's weights shared: its distinct texel reads are those of H0, H1, H2 at
+    mu_i and at mu_o (bicubic), the six constants (cubic in s) and the correction (bicubic across the cosines, linear
+    in s, three orders per node), and no more."""
+    lookup, s_lookup = te.DEFAULT_LOOKUP, te.DEFAULT_CORRECTION_S[0]
+    per_axis = {"linear": 2, "cubic": 4}
+    want = 2 * 3 * per_axis[lookup] ** 2 + 6 * per_axis["cubic"] + 3 * per_axis[lookup] ** 2 * per_axis[s_lookup]
+    assert te.texels_per_call() == want
 
 
 def test_the_tables_carry_the_true_brdf_not_the_mixed_one():
@@ -257,6 +315,23 @@ def test_c_numpy_module_and_in_process_numpy_agree(native, module):
         assert np.all(np.abs(got - want) <= 1e-12 * scale)
     kd = np.linspace(0.0, 1.0, 101)
     assert rel(native("prepare", kd), native("prepare_c", native("c_of_kd", kd))).max() == 0.0
+
+
+@needs_cc
+def test_brdf_is_the_sum_of_its_routines_and_the_correction_of_its_orders(native):
+    """The one-routine brdf (every term and the correction inlined) equals single + fm0 + fm1 cos phi + fm2 cos 2phi
+    + fm0 true_correction from the routines called one by one; true_correction equals sum_m Q_m cos(m phi) of the
+    orders read one at a time (numpy, another expression of the same lookup)."""
+    mu_i, mu_o, cos_phi, c = random_inputs(5000)
+    fm = [native(f"fm{m}", mu_i, mu_o, c) for m in range(3)]
+    q = native(te.CORRECTION, mu_i, mu_o, cos_phi, c)
+    total = native("single", mu_i, mu_o, cos_phi, c) + fm[0] + fm[1] * cos_phi + fm[2] * (2 * cos_phi**2 - 1) + fm[0] * q
+    want = native("brdf", mu_i, mu_o, cos_phi, c)
+    scale = np.abs(want) + c / np.maximum(mu_i + mu_o, 1e-6)
+    assert np.all(np.abs(np.maximum(total, 0.0) - want) <= 1e-13 * scale)
+    orders = [te.numpy_correction(m, data_dir=TABLES)(mu_i, mu_o, c) for m in range(3)]
+    by_order = orders[0] + orders[1] * cos_phi + orders[2] * (2 * cos_phi**2 - 1)
+    assert np.abs(q - by_order).max() <= 1e-14 * max(np.abs(o).max() for o in orders)
 
 
 @needs_cc
@@ -368,7 +443,8 @@ def test_stable_phase_keeps_forward_grazing_single_scattering():
     plain form loses 37 % of f_1 in double; against 40-digit arithmetic of the same inputs."""
     import mpmath as mp
 
-    single = te._numpy_functions(te.DEFAULT_NODES, te.DEFAULT_LOOKUP, TABLES, te.DEFAULT_QUANTITY)["single"]
+    single = te._numpy_functions(te.DEFAULT_NODES, te.DEFAULT_LOOKUP, TABLES, te.DEFAULT_QUANTITY,
+                                 te.DEFAULT_CORRECTION_S)["single"]
     mi, mo, c = 1e-6, 1e-4, 0.5
     with mp.workdps(40):
         s = mp.sqrt((1 - mp.mpf(mi) ** 2) * (1 - mp.mpf(mo) ** 2))

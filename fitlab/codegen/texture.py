@@ -25,7 +25,11 @@ every language (:func:`lookup_1d`, :func:`lookup_2d`, :func:`lookup_3d`):
   L_2 = -t (t - 1)(t - 3)/2, L_3 = t (t - 1)(t - 2)/6 (inside, the interval between the middle two
   nodes; in the first and last interval the window stays inside the table, so no texel beyond its
   edge is needed); bicubic (16 texels) in two dimensions, tricubic (64) in three.  Continuous, exact for
-  cubics, error O(h^4).
+  cubics, error O(h^4);
+* the axes of a 3-D lookup may differ: :func:`lookup_3d` takes the lookup along its third axis apart (bicubic
+  in the slabs and linear across them: 32 texels), and :func:`combined_lookup_3d` reads a sum of several tables
+  of one layout, sum_m a_m f_m, with one set of weights and node indices: at each node it combines the tables'
+  texels, then interpolates once.
 
 Both lookups return a node's value exactly at the node (the weights are exactly 0 and 1 there), so the
 tables' values are reproduced wherever a coordinate is a node.  Texels are read with integer coordinates
@@ -58,6 +62,7 @@ __all__ = [
     "lookup_1d",
     "lookup_2d",
     "lookup_3d",
+    "combined_lookup_3d",
     "axis_weights",
     "emit_textured",
     "texture_bytes",
@@ -114,12 +119,30 @@ def lookup_2d(row0: int | sp.Expr, x, y, n_x: int, n_y: int, lookup: str) -> sp.
                     for a in range(len(wy))))  # fmt: skip
 
 
-def lookup_3d(row0: int, x, y, z, n_x: int, n_y: int, n_z: int, lookup: str) -> sp.Expr:
+def lookup_3d(row0: int, x, y, z, n_x: int, n_y: int, n_z: int, lookup: str, z_lookup: str | None = None) -> sp.Expr:
     """The function tabulated in ``n_z`` slabs of ``n_y`` rows from row ``row0`` (row ``row0 + k n_y + j`` at
-    z = k/(n_z - 1), y = j/(n_y - 1); column i at x = i/(n_x - 1)), at (x, y, z): the lookup along z of the
-    slabs' :func:`lookup_2d` (trilinear or tricubic)."""
-    fz, wz = axis_weights(z, n_z, lookup)
-    return sp.Add(*(wz[k] * lookup_2d(row0 + (fz + k) * n_y, x, y, n_x, n_y, lookup) for k in range(len(wz))))
+    z = k/(n_z - 1), y = j/(n_y - 1); column i at x = i/(n_x - 1)), at (x, y, z): the lookup along z (``z_lookup``,
+    else ``lookup``) of the slabs' :func:`lookup_2d` (trilinear, tricubic, or bicubic in the slabs and linear
+    along z)."""
+    return combined_lookup_3d(((row0, 1),), x, y, z, n_x, n_y, n_z, lookup, z_lookup)
+
+
+def combined_lookup_3d(
+    tables, x, y, z, n_x: int, n_y: int, n_z: int, lookup: str, z_lookup: str | None = None
+) -> sp.Expr:
+    """sum_m a_m f_m(x, y, z) for ``tables`` ((row0_m, a_m), ...), each f_m tabulated from row0_m as
+    :func:`lookup_3d` reads it, with one set of weights and node indices for all: at each node the texels are
+    combined, sum_m a_m texel_m, then interpolated once (the weights of x, y, z computed once; as many texels
+    as tables per node)."""
+    fx, wx = axis_weights(x, n_x, lookup)
+    fy, wy = axis_weights(y, n_y, lookup)
+    fz, wz = axis_weights(z, n_z, z_lookup or lookup)
+
+    def node(k, a, b):
+        return sp.Add(*(factor * texel(row0 + (fz + k) * n_y + fy + a, fx + b) for row0, factor in tables))
+
+    return sp.Add(*(wz[k] * sp.Add(*(wy[a] * sp.Add(*(wx[b] * node(k, a, b) for b in range(len(wx))))
+                                     for a in range(len(wy)))) for k in range(len(wz))))  # fmt: skip
 
 
 @dataclass(frozen=True)
