@@ -195,6 +195,25 @@ def test_the_combined_3d_lookup_is_the_sum_of_the_lookups(lookup, z_lookup):
     assert len(texels) == len(tables) * window
 
 
+@settings(max_examples=200, deadline=None)
+@given(x=st.floats(allow_nan=True, allow_infinity=True))
+def test_a_lookup_window_stays_on_its_axis_for_every_coordinate(x):
+    """The window's first node is an integer in 0 .. n - (its nodes) for every coordinate but NaN, +-inf included,
+    and a NaN coordinate gives NaN weights: the C texel read, which checks only index >= 0 (what a NaN index
+    fails), stays in the table."""
+    from fitlab.codegen.texture import axis_weights
+
+    u = sp.Symbol("u")
+    for lookup, width in (("linear", 2), ("cubic", 4)):
+        for n in (4, 5, 9, 33):
+            first, weights = axis_weights(u, n, lookup)
+            if np.isnan(x):
+                assert all(np.isnan(float(sp.lambdify(u, w, "numpy")(x))) for w in weights)
+                continue
+            got = float(sp.lambdify(u, first, "numpy")(np.float64(x)))
+            assert got == int(got) and 0 <= got <= n - width, (lookup, n, got)
+
+
 def test_the_parts_reproduce_the_exact_tables_at_the_nodes():
     """At s = k/32, mu = j/32 the lookup reads one texel: H_m there is the table's, to float32's rounding of the
     stored remainder (|d log H| <= mu c |R| 2^-24); the constants likewise."""
@@ -411,6 +430,67 @@ def test_edges_nan_and_clamps(native, module, glsl, dtype):
             args[k] = np.nan
             assert np.isnan(f("brdf", *args)), k
         assert np.isnan(f("h0", np.nan, 0.5)) and np.isnan(f("h2", 0.5, np.nan)) and np.isnan(f("c_of_kd", np.nan))
+
+
+#: a program of every routine that reads the texture, at NaN, +-inf, the domain's edges and beyond (double and float)
+_SANITIZED_MAIN = r"""
+#include <math.h>
+#include <stdio.h>
+#include "NAME.h"
+#define N 10
+static int bad = 0;
+static void check(double out, int nan_in, const char *what)
+{
+    if (nan_in ? !isnan(out) : !isfinite(out)) { bad++; if (bad < 10) printf("%s: %g\n", what, out); }
+}
+int main(void)
+{
+    const double v[N] = {NAN, INFINITY, -INFINITY, -1.0, 0.0, 1e-300, 0.3, 0.999, 1.0, 2.0};
+    int a, b, k, l;
+    for (a = 0; a < N; a++) {
+        check(NAME_c_of_kd(v[a]), a == 0, "c_of_kd"); check(NAME_c_of_kd_f((float)v[a]), a == 0, "c_of_kd_f");
+        check(NAME_const_l(v[a]), a == 0, "const_l"); check(NAME_const_f_f((float)v[a]), a == 0, "const_f_f");
+        for (b = 0; b < N; b++) {
+            int nan2 = a == 0 || b == 0;
+            check(NAME_h0(v[a], v[b]), nan2, "h0"); check(NAME_h2_f((float)v[a], (float)v[b]), nan2, "h2_f");
+            for (k = 0; k < N; k++) {
+                NAME_material m = NAME_prepare_c(v[k]);
+                NAME_material_f mf = NAME_prepare_c_f((float)v[k]);
+                for (l = 0; l < N; l++) {
+                    int nan4 = nan2 || k == 0 || l == 0;
+                    check(NAME_brdf(v[a], v[b], v[l], v[k]), nan4, "brdf");
+                    check(NAME_brdf_f((float)v[a], (float)v[b], (float)v[l], (float)v[k]), nan4, "brdf_f");
+                    check(NAME_true_correction(v[a], v[b], v[l], v[k]), nan4, "true_correction");
+                    check(NAME_eval(&m, v[a], v[b], v[l]), nan4, "eval");
+                    check(NAME_eval_f(&mf, (float)v[a], (float)v[b], (float)v[l]), nan4, "eval_f");
+                }
+            }
+        }
+    }
+    printf("%d bad\n", bad);
+    return bad != 0;
+}
+"""
+
+
+@needs_cc
+def test_texel_reads_stay_in_the_table_for_every_input(files, tmp_path):
+    """The C texel read checks only index >= 0 (a NaN index reads index 0): every lookup forms indices in the table
+    for every other input. Compiled with the address and undefined-behaviour
+    sanitizers (a float-to-int conversion of NaN or out of range, or a read beyond the array, aborts), every
+    routine that reads the texture runs at NaN, +-inf, the domain's edges and beyond, in double and float; NaN in
+    any input gives NaN, every other input a finite value."""
+    for name, data in files["c"].items():
+        (tmp_path / name).write_bytes(data)
+    (tmp_path / "main.c").write_text(_SANITIZED_MAIN.replace("NAME", NAME))
+    flags = ["-std=c99", "-O1", "-g", "-fsanitize=address,undefined,float-cast-overflow", "-fno-sanitize-recover=all"]
+    built = subprocess.run([compiler(), *flags, "main.c", f"{NAME}.c", "-o", "main", "-lm"], cwd=tmp_path,
+                           capture_output=True, text=True)  # fmt: skip
+    if built.returncode != 0 and "sanitize" in built.stderr:
+        pytest.skip(f"the sanitizers do not link here: {built.stderr.strip().splitlines()[-1]}")
+    assert built.returncode == 0, built.stderr[-3000:]
+    run = subprocess.run([str(tmp_path / "main")], cwd=tmp_path, capture_output=True, text=True, timeout=600)
+    assert run.returncode == 0 and run.stdout.strip().endswith("0 bad"), (run.stdout + run.stderr)[-3000:]
 
 
 # -- accuracy -------------------------------------------------------------------------------------------------------

@@ -4807,18 +4807,20 @@ static const float lambert_sphere_tables_data[601][33] = {
     },
 };
 
-/* The texture's value at (row, column), integer-valued; a NaN or out-of-range index reads index 0
- * (a NaN coordinate's weights make the lookup NaN; the index only has to stay in bounds). */
+/* The texture's value at (row, column), integer-valued: every lookup forms indices in the table for every
+ * input but NaN (its coordinates are clamped), and a NaN index reads index 0 (a NaN coordinate's weights
+ * make the lookup NaN), so only the lower bound is checked: a check of both bounds per texel would cost
+ * more than the rest of the lookup. */
 static double lambert_sphere_tables_texel(double row, double col)
 {
-    const int i = (row >= 0 && row <= 600) ? (int)row : 0;
-    const int j = (col >= 0 && col <= 32) ? (int)col : 0;
+    const int i = (row >= 0) ? (int)row : 0;
+    const int j = (col >= 0) ? (int)col : 0;
     return (double)lambert_sphere_tables_data[i][j];
 }
 static float lambert_sphere_tables_texel_f(float row, float col)
 {
-    const int i = (row >= 0 && row <= 600) ? (int)row : 0;
-    const int j = (col >= 0 && col <= 32) ? (int)col : 0;
+    const int i = (row >= 0) ? (int)row : 0;
+    const int j = (col >= 0) ? (int)col : 0;
     return (float)lambert_sphere_tables_data[i][j];
 }
 
