@@ -300,7 +300,7 @@ float lambert_sphere_tables_const_f(float c)
     return t0*(t3*t5*t9*lambert_sphere_tables_texel(104.0, t2 + 2.0) + ((1.0/6.0))*t4*t6*t8*lambert_sphere_tables_texel(104.0, t2) + t5*t7*lambert_sphere_tables_texel(104.0, t2 + 1.0) + ((1.0/6.0))*t7*t9*lambert_sphere_tables_texel(104.0, t2 + 3.0) + (-15.0/128.0));
 }
 
-// sum over m = 0, 1, 2 of Q_m cos(m phi), Q_m = (fm_m,true - fm_m,three-term)/fm_0,three-term
+// sum over m = 0, 1, 2 of Q_m cos(m phi), Q_m = (fm_m,true - fm_m,three-term)/fm_0,three-term,
 // the correction of Fourier order m of the multiple scattering to the whole phase function: one
 // lookup for the three orders (rows 106-600), cubic in sqrt(mu_o), sqrt(mu_i) and linear in s
 // on 5 nodes, the texels of the orders combined at each node. mu_i, mu_o, c in [0, 1], cos_phi

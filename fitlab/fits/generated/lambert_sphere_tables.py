@@ -277,7 +277,7 @@ def const_f(c):
 
 def true_correction(mu_i, mu_o, cos_phi, c):
     """sum over m = 0, 1, 2 of Q_m cos(m phi), Q_m = (fm_m,true - fm_m,three-term)/fm_0,three-
-    term the correction of Fourier order m of the multiple scattering to the whole phase
+    term, the correction of Fourier order m of the multiple scattering to the whole phase
     function: one lookup for the three orders (rows 106-600), cubic in sqrt(mu_o),
     sqrt(mu_i) and linear in s on 5 nodes, the texels of the orders combined at each node.
     mu_i, mu_o, c in [0, 1], cos_phi in [-1, 1]."""

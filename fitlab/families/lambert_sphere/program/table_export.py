@@ -422,7 +422,7 @@ def _part_routines(lay: TableLayout, lookup: str, quantity: str, s_lookup: str) 
                            f"s = k/{n - 1}, read cubic. c in [0, 1].", domain={"c": target.domain["c"]}))  # fmt: skip
     across = f"{'cubic' if lookup == 'cubic' else 'linear'} in sqrt(mu_o), sqrt(mu_i)"
     out.append(Routine(CORRECTION, ("mu_i", "mu_o", "cos_phi", "c"), _correction(lay, lookup, s_lookup, _AZIMUTH),
-                       "sum over m = 0, 1, 2 of Q_m cos(m phi), Q_m = (fm_m,true - fm_m,three-term)/fm_0,three-term "
+                       "sum over m = 0, 1, 2 of Q_m cos(m phi), Q_m = (fm_m,true - fm_m,three-term)/fm_0,three-term, "
                        "the correction of Fourier order m of the multiple scattering to the whole phase function: "
                        f"one lookup for the three orders (rows {lay.correction_row(0)}-{lay.rows - 1}), {across} "
                        f"and {s_lookup} in s on {lay.correction_s_nodes} nodes, the texels of the orders combined "
@@ -508,8 +508,8 @@ def _digests(data_dir: Path) -> tuple:
 
 def program(nodes: int = DEFAULT_NODES, lookup: str = DEFAULT_LOOKUP, data_dir: Path | None = None) -> Program:
     """The program of the texture of ``nodes`` nodes per axis read by ``lookup`` (cubic or linear): the parts
-    (h0, h1, h2, const_l ... const_f, c_of_kd), the terms, brdf, brdf_local and the per-material set-up
-    (prepare_c, prepare, eval, eval_local).  Built once per process for each choice."""
+    (h0, h1, h2, const_l ... const_f, c_of_kd), the correction (true_correction), the terms, brdf, brdf_local and
+    the per-material set-up (prepare_c, prepare, eval, eval_local).  Built once per process for each choice."""
     _check(nodes, lookup, DEFAULT_QUANTITY)
     return _program(nodes, lookup, _digests(tables_dir(data_dir)))
 
