@@ -344,7 +344,8 @@ def test_brdf_is_the_sum_of_its_routines_and_the_correction_of_its_orders(native
     mu_i, mu_o, cos_phi, c = random_inputs(5000)
     fm = [native(f"fm{m}", mu_i, mu_o, c) for m in range(3)]
     q = native(te.CORRECTION, mu_i, mu_o, cos_phi, c)
-    total = native("single", mu_i, mu_o, cos_phi, c) + fm[0] + fm[1] * cos_phi + fm[2] * (2 * cos_phi**2 - 1) + fm[0] * q
+    orders = fm[0] + fm[1] * cos_phi + fm[2] * (2 * cos_phi**2 - 1)
+    total = native("single", mu_i, mu_o, cos_phi, c) + orders + fm[0] * q
     want = native("brdf", mu_i, mu_o, cos_phi, c)
     scale = np.abs(want) + c / np.maximum(mu_i + mu_o, 1e-6)
     assert np.all(np.abs(np.maximum(total, 0.0) - want) <= 1e-13 * scale)
