@@ -28,7 +28,14 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from fitlab.codegen.native import STRICT_FLAGS, build, build_glsl, compiler, cxx_compiler
-from fitlab.codegen.texture import TEXTURE_SHIM, lookup_1d, lookup_2d, lookup_3d, texture_from_bytes
+from fitlab.codegen.texture import (
+    TEXTURE_SHIM,
+    combined_lookup_3d,
+    lookup_1d,
+    lookup_2d,
+    lookup_3d,
+    texture_from_bytes,
+)
 from fitlab.families.lambert_sphere.exact import brdf as exact_brdf
 from fitlab.families.lambert_sphere.program import table_export as te
 from fitlab.families.lambert_sphere.studies.table_study import REFERENCE_PHASE
@@ -150,22 +157,61 @@ def test_lookups_return_the_node_values_exactly_at_the_nodes(lookup):
     assert np.allclose(f2(u, v), poly(u, v), rtol=0, atol=1e-12)
 
 
-@pytest.mark.parametrize("lookup", ["linear", "cubic"])
-def test_the_3d_lookup_returns_the_nodes_and_reproduces_its_degree(lookup):
+@pytest.mark.parametrize("lookup,z_lookup", [("linear", None), ("cubic", None), ("cubic", "linear")])
+def test_the_3d_lookup_returns_the_nodes_and_reproduces_its_degree(lookup, z_lookup):
     """Slabs of 6 rows x 6 columns, 5 slabs from row 2: the node values exactly at the nodes, and a polynomial of
-    the lookup's degree in each coordinate reproduced between them."""
+    each axis' lookup degree reproduced between them (bicubic in the slabs and linear across them included)."""
     rng = np.random.default_rng(8)
     data = rng.normal(size=(2 + 5 * 6, 6))
     x, y, z = symbols(("x", "y", "z"))
     read = {"texel": lambda r, c: data[np.asarray(r, dtype=int), np.asarray(c, dtype=int)]}
-    f3 = sp.lambdify((x, y, z), lookup_3d(2, x, y, z, 6, 6, 5, lookup), [read, "numpy"])
+    f3 = sp.lambdify((x, y, z), lookup_3d(2, x, y, z, 6, 6, 5, lookup, z_lookup), [read, "numpy"])
     k, i, j = np.meshgrid(np.arange(5), np.arange(6), np.arange(6), indexing="ij")
     assert np.array_equal(f3(j / 5, i / 5, k / 4), data[2 + 6 * k + i, j])
     degree = 1 if lookup == "linear" else 3
-    poly = lambda u, v, w: 0.3 + u**degree - 2 * v**degree + w**degree * (1 + u * v)  # noqa: E731
+    dz = 1 if (z_lookup or lookup) == "linear" else 3
+    poly = lambda u, v, w: 0.3 + u**degree - 2 * v**degree + w**dz * (1 + u * v)  # noqa: E731
     data[2 + 6 * k + i, j] = poly(j / 5, i / 5, k / 4)
     u, v, w = rng.random((3, 200))
     assert np.allclose(f3(u, v, w), poly(u, v, w), rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize("lookup,z_lookup", [("linear", None), ("cubic", "linear")])
+def test_the_combined_3d_lookup_is_the_sum_of_the_lookups(lookup, z_lookup):
+    """sum_m a_m f_m read with one set of weights equals the sum of the tables' own lookups (the lookup is linear
+    in the texels), and reads as many texels as the tables have nodes in its window, not more."""
+    rng = np.random.default_rng(9)
+    data = rng.normal(size=(1 + 3 * 4 * 6, 6))
+    x, y, z, a = symbols(("x", "y", "z", "a"))
+    read = {"texel": lambda r, c: data[np.asarray(r, dtype=int), np.asarray(c, dtype=int)]}
+    tables = ((1, 1), (25, a), (49, 2 * a**2 - 1))
+    combined = combined_lookup_3d(tables, x, y, z, 6, 6, 4, lookup, z_lookup)
+    separate = sum(f * lookup_3d(r, x, y, z, 6, 6, 4, lookup, z_lookup) for r, f in tables)
+    u, v, w, b = rng.random((4, 300))
+    f, g = (sp.lambdify((x, y, z, a), e, [read, "numpy"]) for e in (combined, separate))
+    assert np.allclose(f(u, v, w, b), g(u, v, w, b), rtol=1e-13, atol=1e-13)
+    texels = {e for e in sp.preorder_traversal(combined) if getattr(e, "func", None) == sp.Function("texel")}
+    window = (2 if lookup == "linear" else 4) ** 2 * (2 if (z_lookup or lookup) == "linear" else 4)
+    assert len(texels) == len(tables) * window
+
+
+@settings(max_examples=200, deadline=None)
+@given(x=st.floats(allow_nan=True, allow_infinity=True))
+def test_a_lookup_window_stays_on_its_axis_for_every_coordinate(x):
+    """The window's first node is an integer in 0 .. n - (its nodes) for every coordinate but NaN, +-inf included,
+    and a NaN coordinate gives NaN weights: the C texel read, which checks only index >= 0 (what a NaN index
+    fails), stays in the table."""
+    from fitlab.codegen.texture import axis_weights
+
+    u = sp.Symbol("u")
+    for lookup, width in (("linear", 2), ("cubic", 4)):
+        for n in (4, 5, 9, 33):
+            first, weights = axis_weights(u, n, lookup)
+            if np.isnan(x):
+                assert all(np.isnan(float(sp.lambdify(u, w, "numpy")(x))) for w in weights)
+                continue
+            got = float(sp.lambdify(u, first, "numpy")(np.float64(x)))
+            assert got == int(got) and 0 <= got <= n - width, (lookup, n, got)
 
 
 def test_the_parts_reproduce_the_exact_tables_at_the_nodes():
@@ -210,6 +256,37 @@ def test_the_correction_reproduces_the_true_orders_at_its_nodes():
             got = te.numpy_correction(m, data_dir=TABLES)(mi, mo, 1.0 - s * s)
             assert np.abs(got - want).max() <= bound * np.abs(want).max(), (s, m)
             assert np.array_equal(got, got.T)
+
+
+def test_the_correction_takes_its_s_nodes_and_limit_from_the_exact_tables_grid():
+    """Every reading along s stores the nodes of TRUE_S_GRID it keeps, the same values whichever it is; the row
+    s = 1 (c = 0) is the cubic through the four nodes of the grid below it, at s = 1 (numpy's polynomial fit, another
+    route than the Lagrange weights)."""
+    from fitlab.families.lambert_sphere.targets.tabulate import TRUE_S_GRID
+
+    every = te.stored_correction(17, TABLES, ("cubic", 1))
+    assert every.shape[1] == TRUE_S_GRID.size
+    for choice in te.CORRECTION_S_CHOICES:
+        q = te.stored_correction(17, TABLES, choice)
+        keep = np.flatnonzero(np.isin(TRUE_S_GRID, te.layout(17, choice).correction_s))
+        assert keep[0] == 0 and keep[-1] == TRUE_S_GRID.size - 1 and q.shape[1] == keep.size
+        assert np.array_equal(q, every[:, keep]), choice
+    below = TRUE_S_GRID[-1 - te.CORRECTION_LIMIT_NODES : -1]
+    values = every[:, -1 - te.CORRECTION_LIMIT_NODES : -1].reshape(3, te.CORRECTION_LIMIT_NODES, -1)
+    for m in range(3):
+        fit = np.polynomial.polynomial.polyfit(below, values[m], te.CORRECTION_LIMIT_NODES - 1)
+        limit = np.polynomial.polynomial.polyval(1.0, fit)
+        assert np.allclose(every[m, -1].ravel(), limit, rtol=0, atol=1e-12 * np.abs(values[m]).max()), m
+
+
+def test_brdf_reads_each_texel_of_its_lookups_once():
+    """brdf is one routine with every lookup's weights shared: its distinct texel reads are those of H0, H1, H2 at
+    mu_i and at mu_o (bicubic), the six constants (cubic in s) and the correction (bicubic across the cosines, linear
+    in s, three orders per node), and no more."""
+    lookup, s_lookup = te.DEFAULT_LOOKUP, te.DEFAULT_CORRECTION_S[0]
+    per_axis = {"linear": 2, "cubic": 4}
+    want = 2 * 3 * per_axis[lookup] ** 2 + 6 * per_axis["cubic"] + 3 * per_axis[lookup] ** 2 * per_axis[s_lookup]
+    assert te.texels_per_call() == want
 
 
 def test_the_tables_carry_the_true_brdf_not_the_mixed_one():
@@ -257,6 +334,24 @@ def test_c_numpy_module_and_in_process_numpy_agree(native, module):
         assert np.all(np.abs(got - want) <= 1e-12 * scale)
     kd = np.linspace(0.0, 1.0, 101)
     assert rel(native("prepare", kd), native("prepare_c", native("c_of_kd", kd))).max() == 0.0
+
+
+@needs_cc
+def test_brdf_is_the_sum_of_its_routines_and_the_correction_of_its_orders(native):
+    """The one-routine brdf (every term and the correction inlined) equals single + fm0 + fm1 cos phi + fm2 cos 2phi
+    + fm0 true_correction from the routines called one by one; true_correction equals sum_m Q_m cos(m phi) of the
+    orders read one at a time (numpy, another expression of the same lookup)."""
+    mu_i, mu_o, cos_phi, c = random_inputs(5000)
+    fm = [native(f"fm{m}", mu_i, mu_o, c) for m in range(3)]
+    q = native(te.CORRECTION, mu_i, mu_o, cos_phi, c)
+    orders = fm[0] + fm[1] * cos_phi + fm[2] * (2 * cos_phi**2 - 1)
+    total = native("single", mu_i, mu_o, cos_phi, c) + orders + fm[0] * q
+    want = native("brdf", mu_i, mu_o, cos_phi, c)
+    scale = np.abs(want) + c / np.maximum(mu_i + mu_o, 1e-6)
+    assert np.all(np.abs(np.maximum(total, 0.0) - want) <= 1e-13 * scale)
+    orders = [te.numpy_correction(m, data_dir=TABLES)(mu_i, mu_o, c) for m in range(3)]
+    by_order = orders[0] + orders[1] * cos_phi + orders[2] * (2 * cos_phi**2 - 1)
+    assert np.abs(q - by_order).max() <= 1e-14 * max(np.abs(o).max() for o in orders)
 
 
 @needs_cc
@@ -338,6 +433,67 @@ def test_edges_nan_and_clamps(native, module, glsl, dtype):
         assert np.isnan(f("h0", np.nan, 0.5)) and np.isnan(f("h2", 0.5, np.nan)) and np.isnan(f("c_of_kd", np.nan))
 
 
+#: a program of every routine that reads the texture, at NaN, +-inf, the domain's edges and beyond (double and float)
+_SANITIZED_MAIN = r"""
+#include <math.h>
+#include <stdio.h>
+#include "NAME.h"
+#define N 10
+static int bad = 0;
+static void check(double out, int nan_in, const char *what)
+{
+    if (nan_in ? !isnan(out) : !isfinite(out)) { bad++; if (bad < 10) printf("%s: %g\n", what, out); }
+}
+int main(void)
+{
+    const double v[N] = {NAN, INFINITY, -INFINITY, -1.0, 0.0, 1e-300, 0.3, 0.999, 1.0, 2.0};
+    int a, b, k, l;
+    for (a = 0; a < N; a++) {
+        check(NAME_c_of_kd(v[a]), a == 0, "c_of_kd"); check(NAME_c_of_kd_f((float)v[a]), a == 0, "c_of_kd_f");
+        check(NAME_const_l(v[a]), a == 0, "const_l"); check(NAME_const_f_f((float)v[a]), a == 0, "const_f_f");
+        for (b = 0; b < N; b++) {
+            int nan2 = a == 0 || b == 0;
+            check(NAME_h0(v[a], v[b]), nan2, "h0"); check(NAME_h2_f((float)v[a], (float)v[b]), nan2, "h2_f");
+            for (k = 0; k < N; k++) {
+                NAME_material m = NAME_prepare_c(v[k]);
+                NAME_material_f mf = NAME_prepare_c_f((float)v[k]);
+                for (l = 0; l < N; l++) {
+                    int nan4 = nan2 || k == 0 || l == 0;
+                    check(NAME_brdf(v[a], v[b], v[l], v[k]), nan4, "brdf");
+                    check(NAME_brdf_f((float)v[a], (float)v[b], (float)v[l], (float)v[k]), nan4, "brdf_f");
+                    check(NAME_true_correction(v[a], v[b], v[l], v[k]), nan4, "true_correction");
+                    check(NAME_eval(&m, v[a], v[b], v[l]), nan4, "eval");
+                    check(NAME_eval_f(&mf, (float)v[a], (float)v[b], (float)v[l]), nan4, "eval_f");
+                }
+            }
+        }
+    }
+    printf("%d bad\n", bad);
+    return bad != 0;
+}
+"""
+
+
+@needs_cc
+def test_texel_reads_stay_in_the_table_for_every_input(files, tmp_path):
+    """The C texel read checks only index >= 0 (a NaN index reads index 0): every lookup forms indices in the table
+    for every other input. Compiled with the address and undefined-behaviour
+    sanitizers (a float-to-int conversion of NaN or out of range, or a read beyond the array, aborts), every
+    routine that reads the texture runs at NaN, +-inf, the domain's edges and beyond, in double and float; NaN in
+    any input gives NaN, every other input a finite value."""
+    for name, data in files["c"].items():
+        (tmp_path / name).write_bytes(data)
+    (tmp_path / "main.c").write_text(_SANITIZED_MAIN.replace("NAME", NAME))
+    flags = ["-std=c99", "-O1", "-g", "-fsanitize=address,undefined,float-cast-overflow", "-fno-sanitize-recover=all"]
+    built = subprocess.run([compiler(), *flags, "main.c", f"{NAME}.c", "-o", "main", "-lm"], cwd=tmp_path,
+                           capture_output=True, text=True)  # fmt: skip
+    if built.returncode != 0 and "sanitize" in built.stderr:
+        pytest.skip(f"the sanitizers do not link here: {built.stderr.strip().splitlines()[-1]}")
+    assert built.returncode == 0, built.stderr[-3000:]
+    run = subprocess.run([str(tmp_path / "main")], cwd=tmp_path, capture_output=True, text=True, timeout=600)
+    assert run.returncode == 0 and run.stdout.strip().endswith("0 bad"), (run.stdout + run.stderr)[-3000:]
+
+
 # -- accuracy -------------------------------------------------------------------------------------------------------
 def test_accuracy_against_the_exact_engine_within_the_stated_figure():
     """Against the BRDF the tables carry (table_study.REFERENCE_PHASE, the true BRDF). Fresh points (another
@@ -368,7 +524,8 @@ def test_stable_phase_keeps_forward_grazing_single_scattering():
     plain form loses 37 % of f_1 in double; against 40-digit arithmetic of the same inputs."""
     import mpmath as mp
 
-    single = te._numpy_functions(te.DEFAULT_NODES, te.DEFAULT_LOOKUP, TABLES, te.DEFAULT_QUANTITY)["single"]
+    single = te._numpy_functions(te.DEFAULT_NODES, te.DEFAULT_LOOKUP, TABLES, te.DEFAULT_QUANTITY,
+                                 te.DEFAULT_CORRECTION_S)["single"]
     mi, mo, c = 1e-6, 1e-4, 0.5
     with mp.workdps(40):
         s = mp.sqrt((1 - mp.mpf(mi) ** 2) * (1 - mp.mpf(mo) ** 2))

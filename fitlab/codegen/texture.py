@@ -25,13 +25,19 @@ every language (:func:`lookup_1d`, :func:`lookup_2d`, :func:`lookup_3d`):
   L_2 = -t (t - 1)(t - 3)/2, L_3 = t (t - 1)(t - 2)/6 (inside, the interval between the middle two
   nodes; in the first and last interval the window stays inside the table, so no texel beyond its
   edge is needed); bicubic (16 texels) in two dimensions, tricubic (64) in three.  Continuous, exact for
-  cubics, error O(h^4).
+  cubics, error O(h^4);
+* the axes of a 3-D lookup may differ: :func:`lookup_3d` takes the lookup along its third axis apart (bicubic
+  in the slabs and linear across them: 32 texels), and :func:`combined_lookup_3d` reads a sum of several tables
+  of one layout, sum_m a_m f_m, with one set of weights and node indices: at each node it combines the tables'
+  texels, then interpolates once.
 
 Both lookups return a node's value exactly at the node (the weights are exactly 0 and 1 there), so the
 tables' values are reproduced wherever a coordinate is a node.  Texels are read with integer coordinates
 (``texelFetch``), never through the GPU's filtering, so the result does not depend on the filtering
 precision of a GPU (often 8 bits of fraction).  NaN: a NaN coordinate gives NaN weights, hence a NaN
-result; its texel index reads texel 0 (C and numpy, never out of bounds).
+result; its texel index reads texel 0 (C and numpy, never out of bounds).  Every other input, +-inf included, is
+clamped, and its window lies inside the table, so the C texel read checks only what NaN breaks, index >= 0: a check
+of both bounds per texel cost more than half of the exported tables' BRDF, one of the lower bound a few percent.
 
 :func:`emit_textured` prints a program whose routines read a texture: :func:`fitlab.codegen.languages` prints
 the routines, and this module adds the texture to each language's files (C: the data header, included by
@@ -58,6 +64,7 @@ __all__ = [
     "lookup_1d",
     "lookup_2d",
     "lookup_3d",
+    "combined_lookup_3d",
     "axis_weights",
     "emit_textured",
     "texture_bytes",
@@ -82,7 +89,8 @@ def _lagrange(t) -> list:
 
 def axis_weights(x, n: int, lookup: str) -> tuple[sp.Expr, list]:
     """(first node index, [weight of node first + k]) of coordinate ``x`` (clamped into [0, 1]) on an axis of
-    ``n`` nodes k/(n - 1); ``lookup`` is ``linear`` (2 nodes) or ``cubic`` (4, Lagrange)."""
+    ``n`` nodes k/(n - 1); ``lookup`` is ``linear`` (2 nodes) or ``cubic`` (4, Lagrange).  The window first ..
+    first + 1 (or + 3) lies in 0 .. n - 1 for every x but NaN, which gives NaN weights."""
     if lookup not in LOOKUPS:
         raise ValueError(f"lookup must be one of {', '.join(LOOKUPS)}, not {lookup!r}")
     if n < LOOKUPS[lookup]:
@@ -114,12 +122,30 @@ def lookup_2d(row0: int | sp.Expr, x, y, n_x: int, n_y: int, lookup: str) -> sp.
                     for a in range(len(wy))))  # fmt: skip
 
 
-def lookup_3d(row0: int, x, y, z, n_x: int, n_y: int, n_z: int, lookup: str) -> sp.Expr:
+def lookup_3d(row0: int, x, y, z, n_x: int, n_y: int, n_z: int, lookup: str, z_lookup: str | None = None) -> sp.Expr:
     """The function tabulated in ``n_z`` slabs of ``n_y`` rows from row ``row0`` (row ``row0 + k n_y + j`` at
-    z = k/(n_z - 1), y = j/(n_y - 1); column i at x = i/(n_x - 1)), at (x, y, z): the lookup along z of the
-    slabs' :func:`lookup_2d` (trilinear or tricubic)."""
-    fz, wz = axis_weights(z, n_z, lookup)
-    return sp.Add(*(wz[k] * lookup_2d(row0 + (fz + k) * n_y, x, y, n_x, n_y, lookup) for k in range(len(wz))))
+    z = k/(n_z - 1), y = j/(n_y - 1); column i at x = i/(n_x - 1)), at (x, y, z): the lookup along z (``z_lookup``,
+    else ``lookup``) of the slabs' :func:`lookup_2d` (trilinear, tricubic, or bicubic in the slabs and linear
+    along z)."""
+    return combined_lookup_3d(((row0, 1),), x, y, z, n_x, n_y, n_z, lookup, z_lookup)
+
+
+def combined_lookup_3d(
+    tables, x, y, z, n_x: int, n_y: int, n_z: int, lookup: str, z_lookup: str | None = None
+) -> sp.Expr:
+    """sum_m a_m f_m(x, y, z) for ``tables`` ((row0_m, a_m), ...), each f_m tabulated from row0_m as
+    :func:`lookup_3d` reads it, with one set of weights and node indices for all: at each node the texels are
+    combined, sum_m a_m texel_m, then interpolated once (the weights of x, y, z computed once; as many texels
+    as tables per node)."""
+    fx, wx = axis_weights(x, n_x, lookup)
+    fy, wy = axis_weights(y, n_y, lookup)
+    fz, wz = axis_weights(z, n_z, z_lookup or lookup)
+
+    def node(k, a, b):
+        return sp.Add(*(factor * texel(row0 + (fz + k) * n_y + fy + a, fx + b) for row0, factor in tables))
+
+    return sp.Add(*(wz[k] * sp.Add(*(wy[a] * sp.Add(*(wx[b] * node(k, a, b) for b in range(len(wx))))
+                                     for a in range(len(wy)))) for k in range(len(wz))))  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -206,14 +232,15 @@ def _c_data_header(program: Program, texture: Texture, banner: str) -> str:
             out.append(f"    {{ /* row {r} */\n" + "\n".join(lines) + "\n    },\n")
     out.append("};\n\n")
     out.append(
-        "/* The texture's value at (row, column), integer-valued; a NaN or out-of-range index reads index 0\n"
-        " * (a NaN coordinate's weights make the lookup NaN; the index only has to stay in bounds). */\n"
+        "/* The texture's value at (row, column), integer-valued: every lookup forms indices in the table for every\n"
+        " * input but NaN (its coordinates are clamped), and a NaN index reads index 0 (a NaN coordinate's weights\n"
+        " * make the lookup NaN), so only the lower bound is checked: a check of both bounds per texel would cost\n"
+        " * more than the rest of the lookup. */\n"
     )
     for scalar, suffix in (("double", ""), ("float", "_f")):
-        rows, cols = texture.rows - 1, texture.columns - 1
         out.append(f"static {scalar} {prefix}texel{suffix}({scalar} row, {scalar} col)\n{{\n"
-                   f"    const int i = (row >= 0 && row <= {rows}) ? (int)row : 0;\n"
-                   f"    const int j = (col >= 0 && col <= {cols}) ? (int)col : 0;\n"
+                   f"    const int i = (row >= 0) ? (int)row : 0;\n"
+                   f"    const int j = (col >= 0) ? (int)col : 0;\n"
                    f"    return ({scalar}){prefix}data[i][j];\n}}\n")  # fmt: skip
     out.append(f"\n#endif /* {guard} */\n")
     return "".join(out)

@@ -120,7 +120,8 @@ def routines(fits: Mapping[str, FitFunction], terms: tuple[str, ...]) -> list[Ro
 
 
 def brdf_routines(terms: tuple[str, ...], scale=1, what: str = "The runtime Lambert-sphere BRDF",
-                  parts: Mapping[str, sp.Expr] | None = None) -> list[Routine]:  # fmt: skip
+                  parts: Mapping[str, sp.Expr] | None = None,
+                  correction: sp.Expr | None = None) -> list[Routine]:  # fmt: skip
     """The routines of the terms kept (single, fm0, fm1, fm2: :data:`RUNTIME_TERMS` order) and ``brdf``, their
     sum clamped at 0 (times the energy ``scale`` unless it is 1), each term calling the parts' routines by
     the targets' routine names (h0, ..., const_f); ``what`` opens brdf's documentation.
@@ -128,7 +129,11 @@ def brdf_routines(terms: tuple[str, ...], scale=1, what: str = "The runtime Lamb
     ``parts``: the parts' expressions (in their targets' inputs), where the caller has them: those whose form
     lets the terms subtract without cancellation (:func:`~fitlab.families.lambert_sphere.forms.brdf.parts_in_algebra`:
     H_i H_o - 1 as expm1 of the sum of the exponents, X - X1 c in the algebra) are inlined in the terms, the
-    others called."""
+    others called.
+
+    ``correction``: a call Q(mu_i, mu_o, cos_phi, c) of a routine that corrects the orders to another phase
+    function relative to fm0, Q = sum_m Q_m cos(m phi): brdf adds fm0 Q to the sum (the exported tables' orders
+    fm_m + Q_m fm0); fm0 must be among the terms."""
     calls = {p: call(TARGETS[p].routine, *symbols(TARGETS[p].inputs)) for p in (*RUNTIME_PARTS, ORDER2_PART)}
     inlined = {} if parts is None else {p: parts[p] for p in parts_in_algebra(parts)}
     term_exprs = runtime_terms({**calls, **inlined})
@@ -139,6 +144,11 @@ def brdf_routines(terms: tuple[str, ...], scale=1, what: str = "The runtime Lamb
                            domain=_domain(_TERM_ARGS[t])))  # fmt: skip
         total += call(_TERM_NAMES[t], *symbols(_TERM_ARGS[t])) * _TERM_AZIMUTH[t]
     sum_text = " + ".join(_TERM_NAMES[t] + _AZIMUTH_TEXT[t] for t in terms)
+    if correction is not None:
+        if "m0" not in terms:
+            raise ValueError("a correction relative to fm0 needs the term m0")
+        total += call(_TERM_NAMES["m0"], *symbols(_TERM_ARGS["m0"])) * correction
+        sum_text += f" + fm0 {correction.func.__name__}"
     out.append(Routine(
         "brdf", ("mu_i", "mu_o", "cos_phi", "c"), sp.Max(0, total if scale == 1 else sp.Mul(scale, total, evaluate=False)),
         f"{what} (1/sr), max(0, {sum_text if scale == 1 else f's ({sum_text})'}) "

@@ -45,7 +45,7 @@ mu = 1e-4, which shows at small c, where f_1 is the part of f that is O(c)).
 from __future__ import annotations
 
 import hashlib
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import lru_cache
 from pathlib import Path
 
@@ -53,10 +53,9 @@ import numpy as np
 import sympy as sp
 
 from fitlab._io import read_regular_file
-from fitlab.codegen.program import MaterialSpec, Program, Routine, call, material_of, with_domain
-from fitlab.codegen.texture import LOOKUPS, TEXEL, Texture, emit_textured, lookup_1d, lookup_2d, lookup_3d
+from fitlab.codegen.program import MaterialSpec, Program, Routine, call, inline_calls, material_of, with_domain
+from fitlab.codegen.texture import LOOKUPS, TEXEL, Texture, combined_lookup_3d, emit_textured, lookup_1d, lookup_2d
 from fitlab.families.lambert_sphere.forms import ORDER2_PART, RUNTIME_PARTS, RUNTIME_TERMS
-from fitlab.families.lambert_sphere.forms.brdf import PHASE
 from fitlab.families.lambert_sphere.forms.constants import FIRST_ORDER
 from fitlab.families.lambert_sphere.forms.h_functions import first_order, log_exp, log_exp_remainder
 from fitlab.families.lambert_sphere.program.spec import brdf_routines, local_routine
@@ -81,9 +80,10 @@ from fitlab.forms.symbolic import symbols
 from fitlab.store import MAX_TABLE_BYTES
 
 __all__ = ["NAME", "LANGUAGES", "NODES", "DEFAULT_NODES", "DEFAULT_LOOKUP", "QUANTITIES", "DEFAULT_QUANTITY", "LIMIT_MU",
-           "CONSTANT_ROWS", "CORRECTION_S_NODES", "CORRECTION_MAX_NODES", "TableLayout", "layout", "texture", "program",
-           "generate", "command", "check_tables", "tables_dir", "numpy_brdf", "numpy_part", "numpy_correction",
-           "stored_correction", "memory_bytes", "GENERATE_STEPS", "kd_ratio_limit"]
+           "CONSTANT_ROWS", "CORRECTION_MAX_NODES", "CORRECTION_S_CHOICES", "DEFAULT_CORRECTION_S",
+           "CORRECTION_LIMIT_NODES", "CORRECTION", "TableLayout", "layout", "texture", "program", "generate", "command",
+           "check_tables", "tables_dir", "numpy_brdf", "numpy_part", "numpy_correction", "stored_correction",
+           "memory_bytes", "texels_per_call", "GENERATE_STEPS", "kd_ratio_limit"]
 
 #: the generated files' base name and the functions' prefix
 NAME = "lambert_sphere_tables"
@@ -92,16 +92,22 @@ LANGUAGES = ("c", "glsl", "python")
 #: the table's resolution (nodes per axis) may be any of these: N - 1 divides 64, so that every node is a
 #: node of the exact tables (s = k/64, mu = j/64), and a cubic lookup has its four nodes
 NODES = (5, 9, 17, 33, 65)
-#: what ``fitlab codegen --tables`` prints unless told otherwise (docs/table_export.md: 33 nodes, bicubic, 3.4e-6
-#: on the BRDF in 13.9 KB; 65 nodes give 3.8e-7 in 52.5 KB, below what float evaluation resolves)
+#: what ``fitlab codegen --tables`` prints unless told otherwise (docs/table_export.md measures every resolution:
+#: from 33 nodes up what is left is the correction's and the Fourier orders m >= 3 it leaves out)
 DEFAULT_NODES = 33
 DEFAULT_LOOKUP = "cubic"
 #: the table node that stands in for mu -> 0 in R_m (R_m - R_m(0) = O(mu log^2 mu): about 4e-7 here)
 LIMIT_MU = 1e-9
-#: the true-phase correction: s nodes (s = k/4: nodes of true_orders.csv) and at most this many nodes per cosine axis
-#: (sqrt(mu) = j/(n - 1), nodes of true_orders.csv: n - 1 divides 32)
-CORRECTION_S_NODES = 5
+#: the true-phase correction: at most this many nodes per cosine axis (sqrt(mu) = j/(n - 1), nodes of
+#: true_orders.csv: n - 1 divides 32)
 CORRECTION_MAX_NODES = 33
+#: how the correction may be read along s, (lookup, step): its s nodes are every step-th node of the exact table's
+#: grid (:data:`..targets.tabulate.TRUE_S_GRID`), read by the lookup (across sqrt(mu_i), sqrt(mu_o) by the table's
+#: lookup); docs/table_export.md measures each
+CORRECTION_S_CHOICES = (("linear", 2), ("cubic", 2), ("linear", 1), ("cubic", 1))
+#: what is shipped: linear in s on s = k/4 (docs/table_export.md, "The correction along s": the fewest texels and
+#: bytes, and a few 1e-6 of the BRDF from the tricubic lookup on every node of the exact table)
+DEFAULT_CORRECTION_S = ("linear", 2)
 #: the c-only rows after the three H blocks, in order, with the part each gives and what is stored
 CONSTANT_ROWS = (("l", "l"), ("m", "m - 1"), ("B", "B/c - B1"), ("C", "C/c - C1"), ("D", "D/c - D1"), ("F", "F/c - F1"))
 #: what the H rows may hold (docs/table_export.md measures each): ``remainder`` is what is shipped
@@ -120,10 +126,12 @@ _S = sp.sqrt(1 - c)
 @dataclass(frozen=True)
 class TableLayout:
     """Where each quantity sits in a texture of ``nodes`` nodes per axis: (3 nodes + 7) rows of the H functions,
-    the constants and kd, then the true-phase correction, 3 orders x :data:`CORRECTION_S_NODES` slabs x
-    :attr:`correction_nodes` rows (columns beyond :attr:`correction_nodes` hold 0)."""
+    the constants and kd, then the true-phase correction, 3 orders x :attr:`correction_s_nodes` slabs x
+    :attr:`correction_nodes` rows (columns beyond :attr:`correction_nodes` hold 0); its s nodes are every
+    ``correction_s_step``-th of :data:`..targets.tabulate.TRUE_S_GRID`."""
 
     nodes: int
+    correction_s_step: int = DEFAULT_CORRECTION_S[1]
 
     def h_row(self, order: int) -> int:
         """First row of R_order: row h_row + k holds s = k/(N - 1), column j holds mu = j/(N - 1)."""
@@ -143,17 +151,26 @@ class TableLayout:
         """Nodes per cosine axis of the correction: sqrt(mu) = j/(n - 1)."""
         return min(self.nodes, CORRECTION_MAX_NODES)
 
+    @property
+    def correction_s(self) -> np.ndarray:
+        """The correction's s nodes: every :attr:`correction_s_step`-th of the exact table's, s = k/(S - 1)."""
+        return TRUE_S_GRID[:: self.correction_s_step]
+
+    @property
+    def correction_s_nodes(self) -> int:
+        return self.correction_s.size
+
     def correction_row(self, order: int) -> int:
         """First row of Q_order: row correction_row + k n + i holds s = k/(S - 1), sqrt(mu_i) = i/(n - 1), column
-        j sqrt(mu_o) = j/(n - 1) (n = :attr:`correction_nodes`, S = :data:`CORRECTION_S_NODES`)."""
-        return self.kd_row + 1 + order * CORRECTION_S_NODES * self.correction_nodes
+        j sqrt(mu_o) = j/(n - 1) (n = :attr:`correction_nodes`, S = :attr:`correction_s_nodes`)."""
+        return self.kd_row + 1 + order * self.correction_s_nodes * self.correction_nodes
 
     @property
     def rows(self) -> int:
         return self.correction_row(TRUE_ORDERS)
 
     def blocks(self) -> tuple:
-        n, nc, ns = self.nodes, self.correction_nodes, CORRECTION_S_NODES
+        n, nc, ns = self.nodes, self.correction_nodes, self.correction_s_nodes
         out = [(self.h_row(m), n, f"R{m}(s, mu), row h + k: s = k/{n - 1}, column j: mu = j/{n - 1}") for m in range(3)]
         out += [(self.constant_row(p), 1, f"{what} at s = k/{n - 1} (column k)") for p, what in CONSTANT_ROWS]
         out.append((self.kd_row, 1, f"kd/c(kd) at kd = k/{n - 1} (column k)"))
@@ -163,7 +180,7 @@ class TableLayout:
 
     def lines(self) -> tuple:
         """The layout in words (the generated files and docs/codegen.md quote it)."""
-        n, r, nc, ns = self.nodes, self.rows, self.correction_nodes, CORRECTION_S_NODES
+        n, r, nc, ns = self.nodes, self.rows, self.correction_nodes, self.correction_s_nodes
         q = [self.correction_row(m) for m in range(TRUE_ORDERS + 1)]
         return (
             f"Texture: {n} columns x {r} rows of float32 (R32F), {n * r * 4} bytes; texel (column x, row y); the raw",
@@ -184,12 +201,16 @@ class TableLayout:
         )
 
 
-def layout(nodes: int) -> TableLayout:
-    """The layout of a table of ``nodes`` nodes per axis (one of :data:`NODES`)."""
+def layout(nodes: int, correction_s: tuple = DEFAULT_CORRECTION_S) -> TableLayout:
+    """The layout of a table of ``nodes`` nodes per axis (one of :data:`NODES`) whose correction is read along s as
+    ``correction_s`` says (one of :data:`CORRECTION_S_CHOICES`)."""
     if nodes not in NODES:
         raise ValueError(f"nodes must be one of {', '.join(map(str, NODES))} (N - 1 divides 64: every node a node of "
                          f"the exact tables), not {nodes}")
-    return TableLayout(nodes)
+    if tuple(correction_s) not in CORRECTION_S_CHOICES:
+        raise ValueError(f"the correction's reading along s must be one of {CORRECTION_S_CHOICES}, "
+                         f"not {correction_s!r}")
+    return TableLayout(nodes, correction_s[1])
 
 
 def _grid_index(values: np.ndarray, wanted: np.ndarray, what: str, source: Path) -> np.ndarray:
@@ -281,18 +302,35 @@ def kd_ratio_limit(data_dir: Path | None = None) -> float:
     return float(np.polyval(np.polyfit(c, q, 3), 0.0))
 
 
-def stored_correction(nodes: int, data_dir: Path | None = None) -> np.ndarray:
+def _lagrange_weights(nodes: np.ndarray, x: float) -> np.ndarray:
+    """The weights w_k of the polynomial through ``nodes`` at ``x``, p(x) = sum_k w_k p(nodes[k]), computed exactly
+    (the nodes' binary values as fractions) and rounded once."""
+    from fractions import Fraction
+
+    exact = [Fraction(float(v)) for v in nodes]
+    at = Fraction(float(x))
+    return np.array([float(np.prod([(at - b) / (a - b) for b in exact if b != a])) for a in exact])
+
+
+#: the correction at s = 1 (c = 0) is the polynomial through this many s nodes of the exact table below it, there
+CORRECTION_LIMIT_NODES = 4
+
+
+def stored_correction(nodes: int, data_dir: Path | None = None,
+                      correction_s: tuple = DEFAULT_CORRECTION_S) -> np.ndarray:  # fmt: skip
     """Q_m(s, mu_i, mu_o) = (fm_m,true - fm_m,three-term)/fm_0,three-term on the correction's nodes, shape
-    (3, S, n, n): s = k/(S - 1), sqrt(mu_i) = i/(n - 1), sqrt(mu_o) = j/(n - 1), from true_orders.csv.
+    (3, S, n, n): s = k/(S - 1), the nodes of :data:`..targets.tabulate.TRUE_S_GRID` that ``correction_s`` keeps,
+    sqrt(mu_i) = i/(n - 1), sqrt(mu_o) = j/(n - 1), from true_orders.csv.
 
     Q is a ratio of two multiple scatterings, each O(c^2) and each with the log pole at mu_i = mu_o = 0, so it is
     bounded and smooth in (s, sqrt(mu)) where the difference itself is not (docs/model.md, "The exported
     tables").  Two nodes are limits: mu = 0 is read at the table's mu = 1e-9, and s = 1 (c = 0, where both
-    orders are 0) is Q extrapolated from the four s nodes below it by the cubic through them."""
-    lay = layout(nodes)
+    orders are 0) is Q extrapolated from the :data:`CORRECTION_LIMIT_NODES` nodes of TRUE_S_GRID below it by
+    the polynomial through them."""
+    lay = layout(nodes, correction_s)
     data_dir = tables_dir(data_dir)
     t = read_true_orders(data_dir)
-    nc, ns = lay.correction_nodes, CORRECTION_S_NODES
+    nc = lay.correction_nodes
     full = len(np.unique(t["mu_i"]))
     step = (full - 1) // (nc - 1)
     idx = np.arange(0, full, step)
@@ -300,9 +338,9 @@ def stored_correction(nodes: int, data_dir: Path | None = None) -> np.ndarray:
     s_all = np.unique(t["s"])
     if not np.array_equal(s_all, TRUE_S_GRID):
         raise ValueError(f"{data_dir / TRUE_FILE}: its s grid is not the one fitlab tabulate writes ({TRUE_GRID_TEXT})")
-    last = s_all.size - 1
-    if last % (ns - 1):
-        raise ValueError(f"{CORRECTION_S_NODES} s nodes of the correction do not fall on the table's {s_all.size}")
+    # the lookup reads slab k at s = k/(S - 1): the nodes kept must be those
+    if not np.array_equal(lay.correction_s, np.linspace(0.0, 1.0, lay.correction_s_nodes)):
+        raise ValueError(f"the correction's s nodes {lay.correction_s} are not equally spaced on [0, 1]")
     out = np.zeros((TRUE_ORDERS, s_all.size, full, full))
     base = t["fm0_three_term"]
     for m in range(TRUE_ORDERS):
@@ -311,53 +349,68 @@ def stored_correction(nodes: int, data_dir: Path | None = None) -> np.ndarray:
         q = q.reshape(s_all.size, i.size)
         out[m][:, i, j] = q
         out[m][:, j, i] = q
-    # s = 1: c = 0, both orders 0; the cubic through the four equally spaced nodes below it, evaluated one step on
-    # (Lagrange weights -1, 4, -6, 4)
-    out[:, last] = -out[:, last - 4] + 4 * out[:, last - 3] - 6 * out[:, last - 2] + 4 * out[:, last - 1]
-    keep_s = np.arange(0, last + 1, last // (ns - 1))
+    # s = 1: c = 0, both orders 0; the polynomial through the nodes below it, there
+    below = np.arange(s_all.size - 1 - CORRECTION_LIMIT_NODES, s_all.size - 1)
+    weights = _lagrange_weights(TRUE_S_GRID[below], TRUE_S_GRID[-1])
+    out[:, -1] = sum(w * out[:, k] for w, k in zip(weights, below))
+    keep_s = np.flatnonzero(np.isin(TRUE_S_GRID, lay.correction_s))
     return out[:, keep_s][:, :, idx][:, :, :, idx]
 
 
 @lru_cache(maxsize=None)
-def _texture(nodes: int, data_dir: Path, quantity: str) -> Texture:
-    lay = layout(nodes)
+def _texture(nodes: int, data_dir: Path, quantity: str, correction_s: tuple) -> Texture:
+    lay = layout(nodes, correction_s)
     rows = [_stored_h(m, nodes, data_dir, quantity) for m in range(3)]
     rows += [v[None, :] for v in _stored_constants(nodes, data_dir)]
     rows.append(_stored_kd_ratio(nodes, data_dir)[None, :])
-    q = stored_correction(nodes, data_dir)
+    q = stored_correction(nodes, data_dir, correction_s)
     slabs = np.zeros((q.shape[0] * q.shape[1] * q.shape[2], nodes))
     slabs[:, : q.shape[3]] = q.reshape(-1, q.shape[3])
     rows.append(slabs)
     return Texture(np.concatenate(rows, axis=0), lay.blocks(), lay.lines())
 
 
-def texture(nodes: int = DEFAULT_NODES, data_dir: Path | None = None, quantity: str = DEFAULT_QUANTITY) -> Texture:
+def texture(nodes: int = DEFAULT_NODES, data_dir: Path | None = None, quantity: str = DEFAULT_QUANTITY,
+            correction_s: tuple = DEFAULT_CORRECTION_S) -> Texture:  # fmt: skip
     """The texture of ``nodes`` nodes per axis from the tables in ``data_dir`` (None:
-    :func:`..targets.table_files.tables_dir`); ``quantity``: what its H rows hold (:data:`QUANTITIES`; the
-    others are measured, not shipped)."""
-    _check(nodes, DEFAULT_LOOKUP, quantity)
-    return _texture(nodes, tables_dir(data_dir), quantity)
+    :func:`..targets.table_files.tables_dir`); ``quantity``: what its H rows hold (:data:`QUANTITIES`),
+    ``correction_s``: how its correction is read along s (:data:`CORRECTION_S_CHOICES`; the others than the
+    defaults are measured, not shipped)."""
+    _check(nodes, DEFAULT_LOOKUP, quantity, correction_s)
+    return _texture(nodes, tables_dir(data_dir), quantity, tuple(correction_s))
 
 
-def _check(nodes: int, lookup: str, quantity: str) -> None:
-    layout(nodes)
+def _check(nodes: int, lookup: str, quantity: str, correction_s: tuple = DEFAULT_CORRECTION_S) -> None:
+    layout(nodes, correction_s)
     if lookup not in LOOKUPS:
         raise ValueError(f"lookup must be one of {', '.join(LOOKUPS)}, not {lookup!r}")
     if quantity not in QUANTITIES:
         raise ValueError(f"quantity must be one of {', '.join(QUANTITIES)}, not {quantity!r}")
 
 
-_LOOKUP_3D = {"cubic": "tricubic", "linear": "trilinear"}
+_LOOKUP_2D = {"cubic": "bicubic", "linear": "bilinear"}
 
 
-def _part_routines(lay: TableLayout, lookup: str, quantity: str) -> list[Routine]:
+def _correction(lay: TableLayout, lookup: str, s_lookup: str, factors) -> sp.Expr:
+    """sum_m factors[m] Q_m(mu_i, mu_o, c) from the texture: one lookup in (sqrt(mu_o), sqrt(mu_i), s), ``lookup``
+    across the cosines and ``s_lookup`` along s, its weights and indices shared by the orders."""
+    nc, ns = lay.correction_nodes, lay.correction_s_nodes
+    tables = [(lay.correction_row(m), f) for m, f in enumerate(factors) if f != 0]
+    return combined_lookup_3d(tables, sp.sqrt(mu_o), sp.sqrt(mu_i), _S, nc, nc, ns, lookup, s_lookup)
+
+
+#: cos(m phi), m = 0, 1, 2, in cos phi
+_AZIMUTH = (sp.S.One, cos_phi, 2 * cos_phi**2 - 1)
+
+
+def _part_routines(lay: TableLayout, lookup: str, quantity: str, s_lookup: str) -> list[Routine]:
     n, out = lay.nodes, []
     for m in range(3):
         target = TARGETS[f"H{m}"]
         expr = _h_of_stored(m, lookup_2d(lay.h_row(m), mu, _S, n, n, lookup), quantity)
         out.append(Routine(target.routine, ("mu", "c"), expr,
                            f"H{m}(mu, c) from the table: exp(mu (Psi{m}(mu) log(1 + 1/mu) + c (p{m}(mu) + R{m}(s, mu)))), "
-                           f"R{m} read {'bicubic' if lookup == 'cubic' else 'bilinear'} (rows {lay.h_row(m)}-"
+                           f"R{m} read {_LOOKUP_2D[lookup]} (rows {lay.h_row(m)}-"
                            f"{lay.h_row(m) + n - 1}). mu, c in [0, 1].",
                            domain={a: target.domain[a] for a in ("mu", "c")}))  # fmt: skip
     for part, what in CONSTANT_ROWS:
@@ -367,16 +420,15 @@ def _part_routines(lay: TableLayout, lookup: str, quantity: str) -> list[Routine
         out.append(Routine(target.routine, ("c",), expr,
                            f"The constant {part}(c) from the table: row {lay.constant_row(part)} holds {what} at "
                            f"s = k/{n - 1}, read cubic. c in [0, 1].", domain={"c": target.domain["c"]}))  # fmt: skip
-    nc, ns = lay.correction_nodes, CORRECTION_S_NODES
-    for m in range(TRUE_ORDERS):
-        expr = lookup_3d(lay.correction_row(m), sp.sqrt(mu_o), sp.sqrt(mu_i), _S, nc, nc, ns, lookup)
-        out.append(Routine(f"true_q{m}", ("mu_i", "mu_o", "c"), expr,
-                           f"Q{m} = (fm{m},true - fm{m},three-term)/fm0,three-term, the correction of Fourier "
-                           f"order {m} of the multiple scattering to the whole phase function, read "
-                           f"{_LOOKUP_3D[lookup]} in (sqrt(mu_o), sqrt(mu_i), s) (rows {lay.correction_row(m)}-"
-                           f"{lay.correction_row(m + 1) - 1}). "
-                           "mu_i, mu_o, c in [0, 1].",
-                           domain={"mu_i": (0.0, 1.0), "mu_o": (0.0, 1.0), "c": (0.0, 1.0)}))  # fmt: skip
+    across = f"{'cubic' if lookup == 'cubic' else 'linear'} in sqrt(mu_o), sqrt(mu_i)"
+    out.append(Routine(CORRECTION, ("mu_i", "mu_o", "cos_phi", "c"), _correction(lay, lookup, s_lookup, _AZIMUTH),
+                       "sum over m = 0, 1, 2 of Q_m cos(m phi), Q_m = (fm_m,true - fm_m,three-term)/fm_0,three-term, "
+                       "the correction of Fourier order m of the multiple scattering to the whole phase function: "
+                       f"one lookup for the three orders (rows {lay.correction_row(0)}-{lay.rows - 1}), {across} "
+                       f"and {s_lookup} in s on {lay.correction_s_nodes} nodes, the texels of the orders combined "
+                       "at each node. mu_i, mu_o, c in [0, 1], cos_phi in [-1, 1].",
+                       domain={"mu_i": (0.0, 1.0), "mu_o": (0.0, 1.0), "cos_phi": (-1.0, 1.0),
+                               "c": (0.0, 1.0)}))  # fmt: skip
     target = TARGETS["c_of_kd"]
     out.append(Routine(target.routine, ("kd",), kd / lookup_1d(lay.kd_row, kd, n, "cubic"),
                        f"The particle albedo c of the spherical albedo kd (kd_true) from the table: kd over kd/c, row {lay.kd_row}, "
@@ -384,54 +436,59 @@ def _part_routines(lay: TableLayout, lookup: str, quantity: str) -> list[Routine
     return out
 
 
-def _true_brdf() -> Routine:
-    """brdf = max(0, single + sum_m (fm_m + Q_m fm0) cos(m phi)), m = 0, 1, 2: the three-term orders from the
-    H tables, corrected to the whole phase function."""
-    args = (mu_i, mu_o, c)
-    fm0 = call("fm0", *args)
-    azimuth = (1, cos_phi, 2 * cos_phi**2 - 1)
-    total = call("single", mu_i, mu_o, cos_phi, c)
-    for m, factor in enumerate(azimuth):
-        total += (call(f"fm{m}", *args) + call(f"true_q{m}", *args) * fm0) * factor
-    return Routine(
-        "brdf", ("mu_i", "mu_o", "cos_phi", "c"), sp.Max(0, total),
-        "The Lambert-sphere BRDF from the exported tables (1/sr): max(0, single + sum over m = 0, 1, 2 of "
-        "(fm_m + Q_m fm0) cos(m phi)), the three-term orders fm_m from the H tables corrected to the whole phase "
-        "function by Q_m; orders m >= 3 of the true multiple scattering are left out (docs/model.md, 'The exported "
-        "tables'). mu_i, mu_o in [0, 1], cos_phi in [-1, 1] (phi = 0 back-scattering), c the particle albedo in "
-        "[0, 1]; inputs outside (+-inf included) are clamped, NaN in any input gives NaN.",
-        domain={"mu_i": (0.0, 1.0), "mu_o": (0.0, 1.0), "cos_phi": (-1.0, 1.0), "c": (0.0, 1.0)},
-    )
+#: the routine of the correction, sum_m Q_m cos(m phi)
+CORRECTION = "true_correction"
+
+_BRDF_NOTE = (f"The three-term orders fm_m come from the H tables; {CORRECTION} = sum_m Q_m cos(m phi) corrects each "
+              "to the whole phase function; orders m >= 3 of the true multiple scattering are left out (docs/model.md, "
+              "'The exported tables'). One routine: the terms and the correction are inlined, every lookup's weights "
+              "and indices computed once.")
 
 
 @lru_cache(maxsize=None)
-def _routines(nodes: int, lookup: str, quantity: str) -> tuple[Routine, ...]:
-    """Every routine of the program, in file order, each clamping its inputs (no per-material set-up)."""
-    lay = layout(nodes)
-    routines = _part_routines(lay, lookup, quantity)
+def _routines(nodes: int, lookup: str, quantity: str, correction_s: tuple) -> tuple[Routine, ...]:
+    """Every routine of the program, in file order, each clamping its inputs (no per-material set-up); brdf is one
+    routine, the terms and the correction inlined, so that every lookup's weights and indices are computed once
+    (those in s shared by H0, H1, H2 and the constants, those in mu by the three H at mu_i and at mu_o)."""
+    lay = layout(nodes, correction_s)
+    routines = _part_routines(lay, lookup, quantity, correction_s[0])
     by_name = {r.name: r.expr for r in routines}
     parts = {p: by_name[TARGETS[p].routine] for p in (*RUNTIME_PARTS, ORDER2_PART)}
-    *terms, _ = brdf_routines(RUNTIME_TERMS, 1, "", parts)  # the three-term orders; brdf is the corrected sum
-    routines += [*terms, _true_brdf()]
+    routines += brdf_routines(RUNTIME_TERMS, 1, "The Lambert-sphere BRDF from the exported tables", parts,
+                              correction=call(CORRECTION, mu_i, mu_o, cos_phi, c))
     routines.append(local_routine("brdf"))
     # unevaluated: substituting the clamped inputs would have sympy compare every nested max and min again
     # (tens of seconds) and change nothing that is printed
     with sp.evaluate(False):
-        return tuple(with_domain(r) for r in routines)
+        clamped = [with_domain(r) for r in routines]
+        named = {r.name: r for r in clamped}
+        brdf = named["brdf"]
+        named["brdf"] = replace(brdf, expr=inline_calls(brdf.expr, named), doc=f"{brdf.doc} {_BRDF_NOTE}")
+    return tuple(named[r.name] for r in clamped)
+
+
+def texels_per_call(nodes: int = DEFAULT_NODES, lookup: str = DEFAULT_LOOKUP,
+                    correction_s: tuple = DEFAULT_CORRECTION_S) -> int:  # fmt: skip
+    """The texels one call of brdf reads (distinct texel reads of its expression)."""
+    _check(nodes, lookup, DEFAULT_QUANTITY, correction_s)
+    brdf = next(r for r in _routines(nodes, lookup, DEFAULT_QUANTITY, tuple(correction_s)) if r.name == "brdf")
+    return len({e for e in sp.preorder_traversal(brdf.expr) if getattr(e, "func", None) == sp.Function(TEXEL)})
 
 
 @lru_cache(maxsize=None)
 def _program(nodes: int, lookup: str, digests: tuple) -> Program:
     lay = layout(nodes)
-    routines = _routines(nodes, lookup, DEFAULT_QUANTITY)
+    routines = _routines(nodes, lookup, DEFAULT_QUANTITY, DEFAULT_CORRECTION_S)
     spec = MaterialSpec(("c",), {"eval": "brdf", "eval_local": "brdf_local"}, {"prepare": ("kd", "c_of_kd")})
-    name = "bicubic" if lookup == "cubic" else "bilinear"
+    s_lookup = DEFAULT_CORRECTION_S[0]
     about = (f"The Lambert-sphere BRDF (d'Eon, EGSR 2021) from its exact tables: H0, H1, H2 and the constants read "
-             f"{name} from one texture of {nodes} x {lay.rows} float32 (docs/codegen.md, 'Tables as engines ship them').",
+             f"{_LOOKUP_2D[lookup]} from one texture of {nodes} x {lay.rows} float32 (docs/codegen.md, 'Tables as "
+             "engines ship them').",
              "Terms of brdf: single, m0, m1, m2 (three-term orders), each order corrected to the whole phase "
-             "function by Q0, Q1, Q2: the true BRDF up to the lookups' error and the orders m >= 3 left out "
-             "(docs/model.md, 'The exported tables'); no energy scale.",
-             "From these tables (sha256):", *(f"  {file}  {digest}" for file, digest in digests))
+             f"function by Q0, Q1, Q2 ({CORRECTION}: one lookup for the three, {s_lookup} in s): the true BRDF up to "
+             "the lookups' error and the orders m >= 3 left out (docs/model.md, 'The exported tables'); no energy "
+             "scale.",
+             "From these tables (sha256):", *(f"  {file}  {digest}" for file, digest in digests))  # fmt: skip
     doc = ("The Lambert-sphere BRDF from its exported tables, generated by fitlab: numpy only.\n\n"
            "Every function takes numpy arrays (any broadcastable shapes; vectors have a\n"
            "last axis of 3) and returns an array of float64; the texture is read from the\n"
@@ -451,8 +508,8 @@ def _digests(data_dir: Path) -> tuple:
 
 def program(nodes: int = DEFAULT_NODES, lookup: str = DEFAULT_LOOKUP, data_dir: Path | None = None) -> Program:
     """The program of the texture of ``nodes`` nodes per axis read by ``lookup`` (cubic or linear): the parts
-    (h0, h1, h2, const_l ... const_f, c_of_kd), the terms, brdf, brdf_local and the per-material set-up
-    (prepare_c, prepare, eval, eval_local).  Built once per process for each choice."""
+    (h0, h1, h2, const_l ... const_f, c_of_kd), the correction (true_correction), the terms, brdf, brdf_local and
+    the per-material set-up (prepare_c, prepare, eval, eval_local).  Built once per process for each choice."""
     _check(nodes, lookup, DEFAULT_QUANTITY)
     return _program(nodes, lookup, _digests(tables_dir(data_dir)))
 
@@ -487,9 +544,9 @@ def generate(lang: str, nodes: int = DEFAULT_NODES, lookup: str = DEFAULT_LOOKUP
     return files
 
 
-def memory_bytes(nodes: int) -> int:
+def memory_bytes(nodes: int, correction_s: tuple = DEFAULT_CORRECTION_S) -> int:
     """Bytes of the texture of ``nodes`` nodes per axis (float32)."""
-    return layout(nodes).rows * nodes * 4
+    return layout(nodes, correction_s).rows * nodes * 4
 
 
 # -- numpy: the report's methods and the tests' reference ----------------------------------------------------
@@ -511,9 +568,9 @@ def _numpy_routines(routines, data: np.ndarray) -> dict:
 
 
 @lru_cache(maxsize=None)
-def _numpy_functions(nodes: int, lookup: str, data_dir: Path, quantity: str) -> dict:
-    data = texture(nodes, data_dir, quantity).data.astype(np.float64)
-    return _numpy_routines(_routines(nodes, lookup, quantity), data)
+def _numpy_functions(nodes: int, lookup: str, data_dir: Path, quantity: str, correction_s: tuple) -> dict:
+    data = texture(nodes, data_dir, quantity, correction_s).data.astype(np.float64)
+    return _numpy_routines(_routines(nodes, lookup, quantity, correction_s), data)
 
 
 def _vectorised(f):
@@ -526,11 +583,11 @@ def _vectorised(f):
 
 
 def numpy_brdf(nodes: int = DEFAULT_NODES, lookup: str = DEFAULT_LOOKUP, data_dir: Path | None = None,
-               quantity: str = DEFAULT_QUANTITY):  # fmt: skip
+               quantity: str = DEFAULT_QUANTITY, correction_s: tuple = DEFAULT_CORRECTION_S):  # fmt: skip
     """f(mu_i, mu_o, phi, c) of the exported tables in numpy: the routines lambdified one by one, reading the
     texture's float32 values (what the generated code computes, in double)."""
-    _check(nodes, lookup, quantity)
-    brdf = _numpy_functions(nodes, lookup, tables_dir(data_dir), quantity)["brdf"]
+    _check(nodes, lookup, quantity, correction_s)
+    brdf = _numpy_functions(nodes, lookup, tables_dir(data_dir), quantity, tuple(correction_s))["brdf"]
     return _vectorised(lambda mi, mo, phi, c: brdf(mi, mo, np.cos(phi), c))
 
 
@@ -539,13 +596,28 @@ def numpy_part(target: str, nodes: int = DEFAULT_NODES, lookup: str = DEFAULT_LO
     """The part ``target`` (H0, H1, H2, l, m, B, C, D, F, c_of_kd) of the exported tables as a numpy function of
     the target's inputs, positionally."""
     _check(nodes, lookup, quantity)
-    return _vectorised(_numpy_functions(nodes, lookup, tables_dir(data_dir), quantity)[TARGETS[target].routine])
+    functions = _numpy_functions(nodes, lookup, tables_dir(data_dir), quantity, DEFAULT_CORRECTION_S)
+    return _vectorised(functions[TARGETS[target].routine])
 
 
-def numpy_correction(order: int, nodes: int = DEFAULT_NODES, lookup: str = DEFAULT_LOOKUP, data_dir: Path | None = None):
-    """Q_order(mu_i, mu_o, c) of the exported tables in numpy (the routine ``true_q{order}``, reading the float32
-    texture): (fm_order,true - fm_order,three-term)/fm_0,three-term up to the lookup's error."""
-    _check(nodes, lookup, DEFAULT_QUANTITY)
+@lru_cache(maxsize=None)
+def _numpy_order(order: int, nodes: int, lookup: str, data_dir: Path, correction_s: tuple):
+    lay = layout(nodes, correction_s)
+    factors = [1 if m == order else 0 for m in range(TRUE_ORDERS)]
+    routine = Routine(f"q{order}", ("mu_i", "mu_o", "c"), _correction(lay, lookup, correction_s[0], factors), "",
+                      domain={"mu_i": (0.0, 1.0), "mu_o": (0.0, 1.0), "c": (0.0, 1.0)})  # fmt: skip
+    with sp.evaluate(False):
+        routine = with_domain(routine)
+    data = texture(nodes, data_dir, DEFAULT_QUANTITY, correction_s).data.astype(np.float64)
+    return _numpy_routines((routine,), data)[routine.name]
+
+
+def numpy_correction(order: int, nodes: int = DEFAULT_NODES, lookup: str = DEFAULT_LOOKUP, data_dir: Path | None = None,
+                     correction_s: tuple = DEFAULT_CORRECTION_S):  # fmt: skip
+    """Q_order(mu_i, mu_o, c) of the exported tables in numpy, read from the float32 texture as the routine
+    ``true_correction`` reads the orders: (fm_order,true - fm_order,three-term)/fm_0,three-term up to the lookup's
+    error."""
+    _check(nodes, lookup, DEFAULT_QUANTITY, correction_s)
     if order not in range(TRUE_ORDERS):
         raise ValueError(f"the correction has orders 0 to {TRUE_ORDERS - 1}, not {order!r}")
-    return _vectorised(_numpy_functions(nodes, lookup, tables_dir(data_dir), DEFAULT_QUANTITY)[f"true_q{order}"])
+    return _vectorised(_numpy_order(order, nodes, lookup, tables_dir(data_dir), tuple(correction_s)))

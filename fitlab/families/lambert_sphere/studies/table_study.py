@@ -10,10 +10,15 @@ the lookups' and the Fourier orders m >= 3 the correction leaves out):
   and of H - 1, which the BRDF's (H_i H_o - 1)/(mu_i + mu_o) terms magnify) and the BRDF on the report's
   sets (:mod:`fitlab.report.validation`: the validation set with c down to 1e-6, the grazing set with mu down
   to 1e-6, the independent set);
-* the resolution of the shipped quantity, 5 to 65 nodes, against bytes, for both lookups.
+* the resolution of the shipped quantity, 5 to 65 nodes, against bytes and texel reads per call, for both lookups;
+* how the true-phase correction is read along s (:data:`..program.table_export.CORRECTION_S_CHOICES`: linear or
+  cubic, on every node of the exact table's s grid or every other one) at the shipped resolution: the BRDF on the
+  report's sets, its distance from the tricubic lookup on every node (what the reading along s adds), and the
+  correction's error at the exact table's s nodes a reading skips.
 
 The constants, c(kd) and the true-phase correction are stored and read the same way in every candidate row
-(the correction with the H rows' lookup), so rows of one lookup differ in H alone.  Every exact value comes from
+(the correction with the H rows' lookup across the cosines and the shipped one along s), so rows of one lookup
+differ in H alone.  Every exact value comes from
 the caches of the report and the targets (computed by the
 exact engine on a first run, several minutes).
 """
@@ -30,7 +35,8 @@ import numpy as np
 from fitlab.families.lambert_sphere.program import table_export as te
 from fitlab.families.lambert_sphere.targets.datasets import h_validation
 
-__all__ = ["candidate_rows", "resolution_rows", "study", "markdown", "plot_png", "main", "FILES", "REFERENCE_PHASE"]
+__all__ = ["candidate_rows", "resolution_rows", "correction_rows", "study", "markdown", "plot_png", "main", "FILES",
+           "REFERENCE_PHASE"]
 
 FILES = ("table_export.md", "table_export.json", "table_export.png")
 #: H - 1 is measured where |H - 1| is at least this (the exact values are H in double: 1e-16 of H)
@@ -62,7 +68,8 @@ def _sets():
 
 
 def _measure(nodes: int, lookup: str, quantity: str, sets: dict, h_sets: dict, data_dir) -> dict:
-    out = {"nodes": nodes, "lookup": lookup, "quantity": quantity, "bytes": te.memory_bytes(nodes)}
+    out = {"nodes": nodes, "lookup": lookup, "quantity": quantity, "bytes": te.memory_bytes(nodes),
+           "texels": te.texels_per_call(nodes, lookup)}  # fmt: skip
     for order, v in h_sets.items():
         h = te.numpy_part(f"H{order}", nodes, lookup, data_dir, quantity)(v.inputs["mu"], v.inputs["c"])
         out[f"H{order}_max_rel"] = float(_rel(h, v.y).max())
@@ -123,6 +130,55 @@ def resolution_rows(sets, h_sets, data_dir=None, tick=None) -> list[dict]:
     return rows
 
 
+#: the reading along s every other one is measured against: cubic on every node of the exact table's s grid
+CORRECTION_REFERENCE = ("cubic", 1)
+
+
+def correction_rows(sets, data_dir=None, tick=None) -> list[dict]:
+    """Each reading of the correction along s (:data:`..program.table_export.CORRECTION_S_CHOICES`) at the shipped
+    resolution and lookup: the BRDF against the exact one on the report's sets; its distance from the BRDF that
+    reads the correction by :data:`CORRECTION_REFERENCE` (max and RMS of |f - f_ref|/f_exact: what the reading along
+    s adds, the rest being common); and, for a reading that skips nodes of the exact table's s grid, the correction
+    there against the table's exact values (sum over the orders of max |dQ_m|, an error relative to fm0)."""
+    from fitlab.families.lambert_sphere.targets.tabulate import TRUE_S_GRID
+
+    nodes, lookup = te.DEFAULT_NODES, te.DEFAULT_LOOKUP
+    inputs = {name: [v.inputs[k] for k in _INPUTS] for name, v in sets.items()}
+    ref_f = te.numpy_brdf(nodes, lookup, data_dir, correction_s=CORRECTION_REFERENCE)
+    ref = {name: ref_f(*x) for name, x in inputs.items()}
+    every = te.stored_correction(nodes, data_dir, CORRECTION_REFERENCE).astype(np.float32).astype(float)
+    n = every.shape[2]
+    root = (np.arange(n) / (n - 1)) ** 2
+    mi, mo = np.meshgrid(root, root, indexing="ij")
+    rows = []
+    for choice in te.CORRECTION_S_CHOICES:
+        s_lookup, step = choice
+        out = {"s_lookup": s_lookup, "s_nodes": int(te.layout(nodes, choice).correction_s_nodes),
+               "bytes": te.memory_bytes(nodes, choice), "texels": te.texels_per_call(nodes, lookup, choice),
+               "shipped": tuple(choice) == tuple(te.DEFAULT_CORRECTION_S)}  # fmt: skip
+        f = te.numpy_brdf(nodes, lookup, data_dir, correction_s=choice)
+        for name, v in sets.items():
+            got = f(*inputs[name])
+            e = _rel(got, v.y)
+            out[f"{name}_max_rel"] = float(e.max())
+            out[f"{name}_rms_rel"] = float(np.sqrt(np.mean(e**2)))
+            d = np.abs(got - ref[name]) / np.abs(v.y)
+            out[f"{name}_from_reference_max"] = float(d.max())
+            out[f"{name}_from_reference_rms"] = float(np.sqrt(np.mean(d**2)))
+        skipped = [k for k in range(TRUE_S_GRID.size) if k % step]
+        if skipped:
+            worst = []
+            for m in range(every.shape[0]):
+                q = te.numpy_correction(m, nodes, lookup, data_dir, correction_s=choice)
+                at = [q(mi, mo, np.full_like(mi, 1.0 - TRUE_S_GRID[k] ** 2)) - every[m, k] for k in skipped]
+                worst.append(max(float(np.abs(d).max()) for d in at))
+            out["skipped_s"] = [float(TRUE_S_GRID[k]) for k in skipped]
+            out["skipped_max_abs_q"] = float(sum(worst))
+        rows.append(out)
+        tick and tick()
+    return rows
+
+
 #: where the Fourier orders m >= 3 the correction leaves out are measured: c x mu_i x mu_o x phi
 LEFT_OUT_GRID = ((1.0, 0.75, 0.3, 0.05), (1e-4, 1e-3, 0.01, 0.05, 0.2, 0.5, 1.0), (0.0, np.pi / 3, np.pi / 2, np.pi))
 
@@ -149,15 +205,18 @@ def study(data_dir=None, progress: bool = True) -> dict:
     """Both tables of the study (exact values from the caches)."""
     from tqdm import tqdm
 
-    with tqdm(total=3 + 18 + 10, desc="table study", unit="step", disable=not progress) as bar:
+    steps = 3 + 18 + 2 * len(te.NODES) + len(te.CORRECTION_S_CHOICES)
+    with tqdm(total=steps, desc="table study", unit="step", disable=not progress) as bar:
         sets = _sets()
         bar.update(1)
         h_sets = {m: h_validation(m) for m in range(3)}
         bar.update(2)
         candidates = candidate_rows(sets, h_sets, data_dir, lambda: bar.update(1))
         resolution = resolution_rows(sets, h_sets, data_dir, lambda: bar.update(1))
+        correction = correction_rows(sets, data_dir, lambda: bar.update(1))
     points = {name: len(v) for name, v in sets.items()}
-    return {"candidates": candidates, "resolution": resolution, "points": points, "left_out": orders_left_out(),
+    return {"candidates": candidates, "resolution": resolution, "correction": correction, "points": points,
+            "left_out": orders_left_out(),
             "sets": {name: v.grid for name, v in sets.items()},
             "h_sets": {f"H{m}": v.grid for m, v in h_sets.items()}}  # fmt: skip
 
@@ -195,8 +254,9 @@ def markdown(result: dict) -> str:
            f"the points of the report's validation set ({p['valid']} points: {result['sets']['valid']}), "
            f"its grazing set ({p['grazing']} points: {result['sets']['grazing']}) and its independent set ({p['fresh']} "
            f"points: {result['sets']['fresh']}); max and RMS relative error. The constants are read the same way in "
-           "every row (cubic in s, per material) and the true-phase correction with the row's lookup, so rows of one "
-           "lookup differ in H alone.", "",
+           "every row (cubic in s, per material) and the true-phase correction with the row's lookup across the "
+           "cosines and as shipped along s (below, 'The correction along s'), so rows of one lookup differ in H "
+           "alone.", "",
            "## What the H rows hold", "",
            "| stored | lookup | nodes | bytes | H0 max rel | H0 - 1 max rel | H1 - 1 max rel | H2 - 1 max rel | BRDF max rel "
            "| BRDF RMS rel | grazing max rel | fresh max rel |",
@@ -237,12 +297,13 @@ def markdown(result: dict) -> str:
             "|---|" + "---|" * len(TINY_MU),
             *(f"| {cv:g} | " + " | ".join(_e(r["rel"]) for r in tiny if r["c"] == cv) + " |" for cv in TINY_C), "",
             "## Resolution against accuracy (the shipped quantity)", "",
-            "| lookup | nodes per axis | texture (columns x rows) | bytes | KB | BRDF max rel | BRDF RMS rel | "
-            "grazing max rel | fresh max rel | fresh RMS rel | max abs, c = 0 |",
-            "|---|---|---|---|---|---|---|---|---|---|---|"]  # fmt: skip
+            "| lookup | nodes per axis | texture (columns x rows) | bytes | KB | texels per call | BRDF max rel | "
+            "BRDF RMS rel | grazing max rel | fresh max rel | fresh RMS rel | max abs, c = 0 |",
+            "|---|---|---|---|---|---|---|---|---|---|---|---|"]  # fmt: skip
     for r in result["resolution"]:
         n = r["nodes"]
         out.append(f"| {lookup_name[r['lookup']]} | {n} | {n} x {te.layout(n).rows} | {r['bytes']} | {_kb(r['bytes'])} | "
+                   f"{r['texels']} | "
                    f"{_e(r['valid_max_rel'])} | {_e(r['valid_rms_rel'])} | {_e(r['grazing_max_rel'])} | "
                    f"{_e(r['fresh_max_rel'])} | {_e(r['fresh_rms_rel'])} | {r['max_abs_c0']:.1e} |")  # fmt: skip
     cubic = {r["nodes"]: r for r in result["resolution"] if r["lookup"] == "cubic"}
@@ -256,9 +317,48 @@ def markdown(result: dict) -> str:
             f"(at most {te.CORRECTION_MAX_NODES} nodes per cosine axis) and the orders m >= 3 it leaves out. "
             f"`fitlab codegen --tables` ships {d} nodes, bicubic, by default; 65 nodes "
             f"({_e(cubic[65]['valid_max_rel'])}) buy nothing on the BRDF, and any node count of the table's grid can "
-            "be asked for (`--nodes`, `--lookup linear`).", "",
-            "![BRDF error against bytes](table_export.png)", ""]  # fmt: skip
+            "be asked for (`--nodes`, `--lookup linear`). Texels per call: the distinct texel reads of one call of "
+            "brdf (`table_export.texels_per_call`), which is one routine: every lookup's weights and node indices "
+            "are computed once and shared (those in s by H0, H1, H2 and the constants, those in mu by the three H "
+            "at mu_i and at mu_o, those of the correction by its three orders).", "",
+            "![BRDF error against bytes](table_export.png)", "", *_correction_markdown(result)]  # fmt: skip
     return "\n".join(out)
+
+
+def _correction_markdown(result: dict) -> list[str]:
+    rows = result["correction"]
+    ref = CORRECTION_REFERENCE
+    names = {"linear": "linear", "cubic": "cubic"}
+    out = [f"## The correction along s ({te.DEFAULT_NODES} nodes, bicubic)", "",
+           "The correction Q_m is read bicubic across sqrt(mu_o), sqrt(mu_i) and, along s, linear or cubic on the "
+           "nodes of true_orders.csv (s = k/8) or on every other one (s = k/4), one lookup for the three orders. "
+           f"'From the reference': max and RMS over the validation set of |f - f_ref|/f, f_ref the BRDF with the "
+           f"correction read {names[ref[0]]} on every node: what the reading along s adds, the rest of the error being "
+           "common. 'Skipped nodes': at the nodes of true_orders.csv a reading does not read (s = k/8, k odd; every "
+           "sqrt(mu) = j/32), the correction against the table's exact values, sum over m of max |dQ_m| (an error "
+           "relative to fm0, by which Q multiplies).", "",
+           "| along s | s nodes | texels per call | bytes | BRDF max rel | BRDF RMS rel | grazing max rel | "
+           "fresh max rel | from the reference: max | from the reference: RMS | skipped nodes: sum max abs dQ |",
+           "|---|---|---|---|---|---|---|---|---|---|---|"]  # fmt: skip
+    for r in rows:
+        label = f"{names[r['s_lookup']]}{' (shipped)' if r['shipped'] else ''}"
+        skipped = _e(r["skipped_max_abs_q"]) if "skipped_max_abs_q" in r else "-"
+        out.append(f"| {label} | {r['s_nodes']} | {r['texels']} | {r['bytes']} | {_e(r['valid_max_rel'])} | "
+                   f"{_e(r['valid_rms_rel'])} | {_e(r['grazing_max_rel'])} | {_e(r['fresh_max_rel'])} | "
+                   f"{_e(r['valid_from_reference_max'])} | {_e(r['valid_from_reference_rms'])} | "
+                   f"{skipped} |")  # fmt: skip
+    shipped = next(r for r in rows if r["shipped"])
+    adds = max(shipped[f"{name}_from_reference_max"] for name in ("valid", "grazing", "fresh"))
+    most = max(r[f"{name}_max_rel"] for r in rows for name in ("valid", "fresh"))
+    cheapest = min(rows, key=lambda r: (r["texels"], r["bytes"]))
+    out += ["", f"The shipped reading, {names[shipped['s_lookup']]} on {shipped['s_nodes']} nodes, reads "
+            f"{shipped['texels']} texels per call in {_kb(shipped['bytes'])} KB"
+            + (" (the fewest, in the fewest bytes)" if cheapest is shipped else "")
+            + f"; it adds at most {_e(adds)} of the BRDF (over the three sets, from the reference) to an error every "
+            f"reading shares, at most {_e(most)} on the validation and independent sets: the orders m >= 3 the "
+            "correction leaves out and the lookups across the cosines, not the reading along s.",
+            ""]  # fmt: skip
+    return out
 
 
 def plot_png(result: dict) -> bytes:
