@@ -24,19 +24,18 @@ from fitlab.cli._common import (
     add_data,
     add_fits,
     add_quiet,
-    fits_input,
-    use_data,
     describe,
+    fits_input,
     input_file,
     one_line,
     output_folder,
     say,
+    use_data,
     write_failure,
 )
 from fitlab.codegen.program import model_form
 from fitlab.core import get_target, target_names, targets
 from fitlab.fit.refit import (
-    VERDICT_RTOL,
     check_domain,
     default_jobs,
     refit_stages,
@@ -44,6 +43,7 @@ from fitlab.fit.refit import (
     table,
     timed_refit,
     validation_metrics,
+    worse,
 )
 from fitlab.fit.solver import FitError
 from fitlab.store import (
@@ -219,21 +219,6 @@ def _domain_text(domain) -> str:
     return ", ".join(f"{k}={float(lo):g}:{float(hi):g}" for k, (lo, hi) in domain.items())
 
 
-def _worse(mine, theirs) -> bool:
-    """Whether ``mine`` is worse than ``theirs`` (validation figures): a larger max rel (infinite where the
-    fit misses an exact zero), else a larger max rel*, else a larger RMS, each beyond rounding
-    (:data:`fitlab.fit.refit.VERDICT_RTOL`); equal figures are not worse."""
-    for key in ("max_rel", "max_rel_nonzero", "rms_rel"):
-        a, b = float(mine[key]), float(theirs[key])
-        if a == b:
-            continue
-        if a > b * (1 + VERDICT_RTOL):
-            return True
-        if a * (1 + VERDICT_RTOL) < b:
-            return False
-    return False
-
-
 def kept_fit(path: Path, result, target) -> tuple[str | None, str | None]:
     """Whether the fit already at ``path`` stays instead of ``result`` (a refit of ``target``):
     (reason, None) when it stays, (None, note) when the refit may replace it (``note``: what the
@@ -241,7 +226,7 @@ def kept_fit(path: Path, result, target) -> tuple[str | None, str | None]:
 
     It stays when it is a readable fit of the same target and form that is better on the refit's own
     validation set (measured again there, from the file's expression and parameters, not its stated
-    figures; :func:`_worse` says what better is), or that was fitted over another domain (not
+    figures; :func:`fitlab.fit.refit.worse` says what better is), or that was fitted over another domain (not
     comparable).  A file that is not a readable fit is replaced, and the note says so."""
     path = Path(path)
     if not path.exists():
@@ -263,7 +248,8 @@ def kept_fit(path: Path, result, target) -> tuple[str | None, str | None]:
     form = form_from_fit(old)
     measured = validation_metrics(form, form.vector(old["params"]), valid, target.scale(valid))
     new = rec["validation"]
-    if any(math.isnan(float(measured[k])) for k in ("max_rel", "max_rel_nonzero", "rms_rel")) or not _worse(new, measured):
+    unmeasured = any(math.isnan(float(measured[k])) for k in ("max_rel", "max_rel_nonzero", "rms_rel"))
+    if unmeasured or not worse(new, measured):
         return None, None
     _g = "{:.3e}".format
     return (f"{key}: the refit (max rel {_g(new['max_rel'])}, RMS {_g(new['rms_rel'])}) is worse than the fit in "
