@@ -33,7 +33,15 @@ import numpy as np
 import sympy as sp
 
 from fitlab import __version__
-from fitlab._io import InputFileError, atomic_write_many, atomic_write_text, read_regular_file
+from fitlab._io import (
+    InputFileError,
+    atomic_write_many,
+    atomic_write_text,
+    decimal,
+    read_regular_file,
+    text_lines,
+    unusual_character,
+)
 from fitlab.core import get_target, target_names
 from fitlab.forms import Form
 from fitlab.forms.symbolic import lambdify_numpy, parse_expression, symbols
@@ -542,9 +550,12 @@ def read_table(
         raise TableError(
             f"{path}: not UTF-8 text (byte {raw[exc.start]:#04x} at offset {exc.start}); {rewrite}"
         ) from None
+    unusual = unusual_character(text)
+    if unusual is not None:
+        raise TableError(f"{path} line {unusual[0]}: holds {unusual[1]}; {rewrite}")
     header, stated, rows, first = None, None, [], 0
     allowed: list[bool] = []  # per column, whether +inf may stand there (set with the header)
-    for number, line in enumerate(text.splitlines(), start=1):
+    for number, line in enumerate(text_lines(text), start=1):
         if header is None and line.startswith("#"):  # comments head the file; below the header, a row is a row
             if stated is None and line.startswith("# grid:"):
                 stated = line[len("# grid:") :].strip()
@@ -563,7 +574,7 @@ def read_table(
                 f"{path} line {number}: {len(fields)} field{plural}, the header has {len(header)}; {rewrite}"
             )
         try:
-            row = [float(x) for x in fields]
+            row = [decimal(x) for x in fields]
         except ValueError:
             bad = next(x for x in fields if not _is_float(x))
             raise TableError(f"{path} line {number}: {bad[:40]!r} is not a number; {rewrite}") from None
@@ -596,7 +607,7 @@ def read_table(
 
 def _is_float(text: str) -> bool:
     try:
-        float(text)
+        decimal(text)
     except ValueError:
         return False
     return True

@@ -191,6 +191,16 @@ class UserTable:
     def rows(self) -> int:
         return len(next(iter(self.cells.values())))
 
+    def _numbers(self, name: str, cells: Sequence[str]) -> np.ndarray:
+        parsed = _decimal_cells(cells)
+        if isinstance(parsed, int):
+            text = cells[parsed]
+            raise UserDataError(
+                f"{self.name} {self.where(parsed)}: column {name} holds {text[:40]!r}, not a number (a number is "
+                "written in ASCII digits, with an optional sign, point and exponent)"
+            )
+        return parsed
+
     @cached_property
     def sha256(self) -> str:
         return hashlib.sha256(self.data).hexdigest()
@@ -205,17 +215,7 @@ class UserTable:
         if name not in self.cells:
             raise UserDataError(f"{self.name}: no column {name!r}; the header has {', '.join(self.header)}")
         raw = self.cells[name]
-        if isinstance(raw, np.ndarray):
-            values = raw
-        else:
-            values = np.empty(len(raw))
-            for i, text in enumerate(raw):
-                try:
-                    values[i] = float(text)
-                except ValueError:
-                    raise UserDataError(
-                        f"{self.name} {self.where(i)}: column {name} holds {text[:40]!r}, not a number"
-                    ) from None
+        values = raw if isinstance(raw, np.ndarray) else self._numbers(name, raw)
         bad = ~np.isfinite(values)
         if np.any(bad):
             i = int(np.argmax(bad))
@@ -224,6 +224,21 @@ class UserTable:
                 "must be a finite number"
             )
         return values
+
+
+def _decimal_cells(cells: Sequence[str]) -> np.ndarray | int:
+    """The cells as float64 when each is a plain decimal number (:data:`fitlab._io.DECIMAL`), else the index of
+    the first that is not.  Python's float() takes a decimal as it is, and takes more only with a character
+    outside ASCII or an underscore (995_099), which send the cells to the check one by one."""
+    from fitlab._io import DECIMAL
+
+    joined = "\n".join(cells)
+    if joined.isascii() and "_" not in joined:
+        try:
+            return np.array(cells, dtype=float)
+        except ValueError:
+            pass
+    return next((i for i, text in enumerate(cells) if not DECIMAL.fullmatch(text)), -1)
 
 
 def read_csv_table(path) -> UserTable:
@@ -244,7 +259,7 @@ def read_csv_table(path) -> UserTable:
         raise UserDataError(f"{path}: not UTF-8 text; a table is a CSV file") from None
     header, rows, lines = None, [], []
     try:
-        for number, fields in _csv_rows(text):
+        for number, fields in _csv_rows(text, path):
             if header is None:
                 header = tuple(f.strip() for f in fields)
                 continue
@@ -268,23 +283,34 @@ def read_csv_table(path) -> UserTable:
     return UserTable("csv", str(path), header, cells, data, np.asarray(lines))
 
 
-def _csv_rows(text: str):
-    """(line number, fields) of every CSV row, without comment (#) and blank lines."""
-    kept = []
-    for number, line in enumerate(text.splitlines(), start=1):
-        if line.strip() and not line.lstrip().startswith("#"):
-            kept.append((number, line))
+def _csv_rows(text: str, path):
+    """(line number, fields) of every CSV row, without comment (#) and blank lines; lines numbered as text
+    editors number them (:func:`fitlab._io.text_lines`).  :class:`UserDataError` on a character a table may not
+    hold (:func:`fitlab._io.unusual_character`: U+2028 splits a row for some readers), and on a quoted cell that
+    runs over the end of its line (a cell holding a line break)."""
+    from fitlab._io import text_lines, unusual_character
+
+    unusual = unusual_character(text)
+    if unusual is not None:
+        line, what = unusual
+        raise UserDataError(f"{path} line {line}: holds {what}; a table is plain text, one row per line")
+    kept = [(n, line) for n, line in enumerate(text_lines(text), start=1)
+            if line.strip() and not line.lstrip().startswith("#")]  # fmt: skip
     reader = csv.reader(line for _, line in kept)
-    for (number, _), fields in zip(kept, reader):
+    for k, fields in enumerate(reader):
+        number = kept[k][0]
+        if reader.line_num != k + 1:
+            raise UserDataError(
+                f"{path} line {number}: a quoted cell runs over the end of the line (a cell holding a line "
+                "break); a cell is one line"
+            )
         yield number, fields
 
 
 def _is_number(text: str) -> bool:
-    try:
-        float(text)
-        return True
-    except ValueError:
-        return False
+    from fitlab._io import DECIMAL
+
+    return DECIMAL.fullmatch(text.strip()) is not None
 
 
 def _format_csv(header, columns, comment: str) -> bytes:
