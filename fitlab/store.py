@@ -57,6 +57,8 @@ __all__ = [
     "check_fit",
     "checked_fit",
     "fit_schema",
+    "fit_limits",
+    "FitLimits",
     "PARAM_LIMIT",
     "write_fit",
     "write_fits",
@@ -152,6 +154,61 @@ def fit_schema() -> dict:
     return dict(cast(Mapping, _validator().schema))  # the schema file holds an object, not a boolean schema
 
 
+@dataclass(frozen=True)
+class FitLimits:
+    """The sizes a fit file may have, as its schema states them (:func:`fit_limits`): what a fit must stay within
+    to be saved, so what ``fitlab fit`` checks before it starts.
+
+    inputs: inputs of a fit (the schema's ``inputs``, ``domain``, ``user_data.columns`` less the target, and
+        ``validation.worst`` less its ``exact`` and ``approx``, whichever is fewest).
+    params: parameters (``params``).
+    name: characters of a name (target, form, input, parameter): the longest the schema's name pattern accepts.
+    expression: characters of the expression text.
+    text: characters of a text field (descriptions, the error measure, a grid's description).
+    """
+
+    inputs: int
+    params: int
+    name: int
+    expression: int
+    text: int
+
+
+def _longest_match(pattern: str, limit: int = 10_000) -> int:
+    """The length of the longest run of ``a`` the regular expression ``pattern`` accepts (0 if none)."""
+    import re
+
+    rx = re.compile(pattern)
+    lo, hi = 0, limit  # the accepted lengths of a pattern like ^[A-Za-z][A-Za-z0-9_]{0,63}$ are 1..N
+    if rx.search("a" * hi):
+        return hi
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        lo, hi = (mid, hi) if rx.search("a" * mid) else (lo, mid)
+    return lo
+
+
+@lru_cache(maxsize=1)
+def fit_limits() -> FitLimits:
+    """The limits of :class:`FitLimits`, read from the fit-file schema (fitlab/schemas/fit-1.schema.json)."""
+    props = fit_schema()["properties"]
+    valid, user = props["validation"]["properties"], props["user_data"]["properties"]
+    names = [props["target"]["pattern"], props["form"]["pattern"], props["inputs"]["items"]["pattern"],
+             props["params"]["propertyNames"]["pattern"], user["columns"]["items"]["pattern"]]  # fmt: skip
+    return FitLimits(
+        inputs=min(
+            props["inputs"]["maxItems"],
+            props["domain"]["maxProperties"],
+            user["columns"]["maxItems"] - 1,
+            valid["worst"]["maxProperties"] - 2,
+        ),
+        params=props["params"]["maxProperties"],
+        name=min(_longest_match(p) for p in names),
+        expression=props["expression"]["maxLength"],
+        text=min(props[k]["maxLength"] for k in ("target_description", "form_description", "error_measure", "note")),
+    )
+
+
 def _refuse_constant(name):
     raise ValueError(f'the JSON literal {name} (non-finite numbers are written as the strings "inf", "nan")')
 
@@ -187,6 +244,9 @@ def checked_fit(record, source: str = "fit") -> tuple[dict, sp.Expr]:
     if error is not None:
         where = "/".join(str(x) for x in error.absolute_path) or "the top level"
         raise FitFileError(f"{source}: not a valid fit file at {where}: {error.message[:200]}")
+    huge = _huge_integer(record)
+    if huge is not None:
+        raise FitFileError(f"{source}: {huge}; a fit file's numbers are doubles (magnitude below 1.8e308)")
     if "user_data" in record:  # a fit of a user's own table: checked against its own inputs and domain
         return _checked_user_fit(record, source)
     try:
@@ -221,6 +281,24 @@ def checked_fit(record, source: str = "fit") -> tuple[dict, sp.Expr]:
     except ValueError as exc:
         raise FitFileError(f"{source}: {exc}") from None
     return _decode(record), expr
+
+
+def _huge_integer(value, where: str = "") -> str | None:
+    """Where ``value`` (a record, walked) holds an integer too large for a double (JSON integers read as Python
+    ints of any size), as "params/a0 is an integer of 401 digits"; None when it holds none."""
+    if isinstance(value, int) and not isinstance(value, bool):
+        try:
+            float(value)
+        except OverflowError:
+            digits = int(abs(value).bit_length() * math.log10(2)) + 1  # str() of such an int may be refused
+            return f"{where or 'the record'} is an integer of about {digits} digits"
+        return None
+    items = value.items() if isinstance(value, dict) else enumerate(value) if isinstance(value, list) else ()
+    for key, item in items:
+        found = _huge_integer(item, f"{where}/{key}" if where else str(key))
+        if found is not None:
+            return found
+    return None
 
 
 def _checked_user_fit(record: dict, source: str) -> tuple[dict, sp.Expr]:

@@ -149,4 +149,12 @@ def _run(argv) -> int:
     except Exception as exc:  # noqa: BLE001 - no traceback reaches a user; FITLAB_TRACEBACK=1 shows it
         if os.environ.get("FITLAB_TRACEBACK"):
             raise
+        if _out_of_memory(exc):
+            return fail(name, f"out of memory ({type(exc).__name__}: {' '.join(str(exc).split())[:200]})", FAILURE)
         return fail(name, f"unexpected {type(exc).__name__}: {exc} (FITLAB_TRACEBACK=1 shows where)", FAILURE)
+
+
+def _out_of_memory(exc: BaseException) -> bool:
+    """Whether ``exc`` is JAX's (XLA's) report of an allocation that failed: a runtime error whose status is
+    RESOURCE_EXHAUSTED, which is no bug of fitlab's but the machine's memory."""
+    return "RuntimeError" in type(exc).__name__ and "RESOURCE_EXHAUSTED" in str(exc)

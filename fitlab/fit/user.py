@@ -83,6 +83,13 @@ __all__ = [
     "MAX_TABLE_BYTES",
     "MAX_TABLE_ROWS",
     "MINIMAX_ROUNDS",
+    "MAX_ROW_PARAMETERS",
+    "conditioning",
+    "conditioning_warning",
+    "ILL_PARAMETER",
+    "ILL_CONDITION",
+    "VALUE_RANGE",
+    "limits_text",
 ]
 
 #: one row in HOLDOUT_EVERY is held out, from sorted position HOLDOUT_EVERY // 2
@@ -94,16 +101,20 @@ RANK_RTOL = 1e-10
 #: the largest table file read, in bytes, and the most rows
 MAX_TABLE_BYTES = 50_000_000
 MAX_TABLE_ROWS = 1_000_000
+#: the most rows to fit times parameters (a fit's Jacobian and the solver's work arrays take about 90 bytes
+#: of each, 0.9 GB at the limit), and rows times candidate terms of a search (its regression's matrix)
+MAX_ROW_PARAMETERS = 10_000_000
+#: the largest |value| of a column fitted must lie in [lo, hi]: the fit squares and multiplies values, and the
+#: square of a number outside overflows or falls below the smallest normal double (2.2e-308)
+VALUE_RANGE = (1e-150, 1e150)
 #: rows of the table the Jacobian's rank is measured on (evenly spaced among the fitted rows)
 RANK_ROWS = 50_000
 #: Lawson rounds by default: those of ``fitlab refit``
 MINIMAX_ROUNDS = 40
 
-_IDENTIFIER = re.compile(r"^[A-Za-z][A-Za-z0-9_]{0,63}$")
+_IDENTIFIER = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")  # of at most fit_limits().name characters
 _PARAMETER = re.compile(r"^a[0-9]+$")
 _TEMPORARY = re.compile(r"^t[0-9]+$")  # generated code names its common subexpressions t0, t1, ...
-#: text a fit file stores and generated code quotes: no control characters, quotes, backslashes, backticks, */
-_TEXT = re.compile(r"^(?![\s\S]*\*/)[^\x00-\x1f\x7f\"\\`]*$")
 
 #: names an input, a fitted column or a form may not have: keywords and types of the languages codegen prints
 #: (C, C++ for Metal, GLSL, HLSL, Python), and the modules generated Python imports
@@ -132,6 +143,38 @@ saturate lerp rsqrt frac Abs Max Min pi E
 )
 
 
+def limits_text() -> str:
+    """The limits of a fit of one's own table, as docs/reliability.md states them (a Markdown list), from the
+    constants the checks use: :func:`fitlab.store.fit_limits` (the fit-file schema's), :data:`MAX_TABLE_BYTES`,
+    :data:`MAX_TABLE_ROWS`, :data:`MAX_ROW_PARAMETERS`, :data:`VALUE_RANGE` and
+    :data:`fitlab.store.PARAM_LIMIT`.  Each is checked before any work (one line, exit status 2)."""
+    from fitlab.store import PARAM_LIMIT, fit_limits
+
+    lim = fit_limits()
+    lo, hi = (_power(x) for x in VALUE_RANGE)
+    return "\n".join([
+        f"* inputs: at most {lim.inputs} (a fit file's `inputs`, `domain` and `user_data.columns`, and its worst "
+        f"point, which names the inputs beside `exact` and `approx`);",
+        f"* parameters: at most {lim.params} (`params`), each fitted value of magnitude at most {_power(PARAM_LIMIT)} "
+        "(the start values are checked before the fit);",
+        f"* rows x parameters: the rows fitted times the parameters at most {_power(MAX_ROW_PARAMETERS)}, and for "
+        "`fitlab discover TABLE.csv` the rows times the library's terms and times `--max-terms` too (memory grows "
+        "with both);",
+        f"* names: at most {lim.name} characters each (the fitted column, `--name`, the inputs, the parameters "
+        "a0, a1, ...: a letter, then letters, digits or _);",
+        f"* the expression: at most {lim.expression:,} characters as fitlab writes it, the text fields of the "
+        f"record at most {lim.text:,};",
+        f"* the table: at most {MAX_TABLE_BYTES:,} bytes and {MAX_TABLE_ROWS:,} rows; each column fitted of "
+        f"largest magnitude between {lo} and {hi} (0 aside), so that the fit's squares stay normal doubles.",
+    ]) + "\n"  # fmt: skip
+
+
+def _power(x: float) -> str:
+    """A number as docs write it: a power of ten as 1e12, 1e-150; another as %g writes it."""
+    mantissa, exponent = f"{x:.0e}".split("e")
+    return f"{mantissa}e{int(exponent)}" if mantissa == "1" and float(f"1e{int(exponent)}") == x else f"{x:g}"
+
+
 class UserDataError(ValueError):
     """A table, form or option that fitlab refuses before any fit starts (one line)."""
 
@@ -141,10 +184,13 @@ def check_name(name, what: str) -> str:
     """``name`` if it can name an input, a fitted column or a form (an identifier of at most 64 characters
     that generated code can use: not a reserved word (:data:`RESERVED`; for an input :data:`RESERVED_INPUTS`
     too), not a parameter name a<digits>, not a generated temporary t<digits>); else :class:`UserDataError`."""
-    if not isinstance(name, str) or not _IDENTIFIER.match(name):
+    from fitlab.store import fit_limits
+
+    longest = fit_limits().name
+    if not isinstance(name, str) or not _IDENTIFIER.match(name) or len(name) > longest:
         raise UserDataError(
-            f"{what} {str(name)[:70]!r} is not a name fitlab can use: a letter, then letters, digits "
-            "or _ (at most 64); rename it"
+            f"{what} {str(name)[:70]!r}{'...' if len(str(name)) > 70 else ''} is not a name fitlab can use: a "
+            f"letter, then letters, digits or _ (at most {longest}); rename it"
         )
     if _PARAMETER.match(name):
         raise UserDataError(
@@ -383,9 +429,19 @@ def user_form(text: str, inputs, columns=None):
     other columns, named in the message when the form uses one that is not an input.  Parsed by the restricted
     parser; :class:`UserDataError` on any refusal, on no parameters, and on a parameter that cancels."""
     from fitlab.forms.symbolic import CONSTANTS, parse_expression
+    from fitlab.store import fit_limits
 
+    limits = fit_limits()
     names = _names_in(text)
+    long = next((n for n in names if len(n) > limits.name), None)
+    if long is not None:  # a parameter a<400 digits> is refused here, before its number is read
+        raise UserDataError(
+            f"the form names {long[:20]}... ({len(long)} characters); a fit file holds names of at most "
+            f"{limits.name} characters"
+        )
     params = sorted((n for n in names if _PARAMETER.match(n)), key=lambda n: int(n[1:]))
+    if len(params) > limits.params:
+        raise UserDataError(f"the form has {len(params)} parameters; a fit file holds at most {limits.params}")
     unknown = [n for n in names if n not in params and n not in inputs and n not in CONSTANTS]
     if unknown:
         where = f" (the inputs are {', '.join(inputs)})" if inputs else ""
@@ -644,8 +700,15 @@ class Rows:
     train_rows: np.ndarray
 
     def check_size(self, p: int, boxed: bool = False) -> None:
-        """Refuse (one line) when a form of ``p`` parameters has fewer than 2p rows to fit or p held out."""
+        """Refuse (one line) when a form of ``p`` parameters has fewer than 2p rows to fit or p held out, or more
+        rows to fit times ``p`` than :data:`MAX_ROW_PARAMETERS`."""
         n_train, n_held = len(self.train), len(self.valid)
+        if n_train * p > MAX_ROW_PARAMETERS:
+            raise UserDataError(
+                f"{self.table.name}: {n_train} rows to fit x {p} parameters = {n_train * p:.3g}; fitlab fits at most "
+                f"{_power(MAX_ROW_PARAMETERS)} (the fit's memory grows with both): fit fewer rows (--domain, or a "
+                "thinned table) or fewer parameters"
+            )
         if n_train < 2 * p or n_held < p:
             raise UserDataError(
                 f"{self.table.name}: {self.used} rows{' in the domain' if boxed else ''}, {n_train} to "
@@ -718,8 +781,10 @@ def prepare_rows(table: UserTable, target: str, inputs, *, domain=None, error: s
         raise UserDataError(f"an input is named twice: {', '.join(inputs)}")
     if not inputs:
         raise UserDataError("no input column: name the inputs (--inputs) or use them in the form")
-    if len(inputs) > 16:
-        raise UserDataError(f"{len(inputs)} inputs; a fit takes at most 16")
+    from fitlab.store import fit_limits
+
+    if len(inputs) > fit_limits().inputs:
+        raise UserDataError(f"{len(inputs)} inputs; a fit file holds at most {fit_limits().inputs}")
     if error not in ("relative", "absolute"):
         raise UserDataError(f"error: relative or absolute, not {error!r}")
     if not (isinstance(holdout_every, (int, np.integer)) and 2 <= holdout_every <= 1000):
@@ -733,6 +798,8 @@ def prepare_rows(table: UserTable, target: str, inputs, *, domain=None, error: s
     if not index.size:
         raise UserDataError(f"{table.name}: no row lies in the domain {_box_text(box)}")
     xs, y = {n: x[keep] for n, x in xs_all.items()}, y_all[keep]
+    for n, values in (*xs.items(), (target, y)):
+        _check_scale(table, n, values)
     fitted_domain = {n: (float(np.min(x)), float(np.max(x))) for n, x in xs.items()}
     for n, (lo, hi) in fitted_domain.items():
         if not lo < hi:
@@ -807,9 +874,47 @@ def prepare(table: UserTable, target: str, form: str, *, inputs=None, domain=Non
     description = f"a fit of {_safe_text(form.strip())[:200]}"
     fitted = Form(target=target, name=form_name, inputs=rows.inputs, params=params, expr=expr,
                   start=start_values, description=description, refit_by_default=False)  # fmt: skip
+    _check_savable(rows, fitted, start_values)
     _check_start(fitted, start_values, rows.train, _scale(rows.train.y, rows.error, rows.floor), table,
                  rows.train_rows)  # fmt: skip
     return _Prepared(rows, fitted, start_values)
+
+
+def _check_savable(rows: Rows, form, start: dict) -> None:
+    """Refuse a fit its fit file could not hold: the record the fit will write, made now with the start values
+    for the fitted ones, checked as the store checks every record it writes (the schema's sizes, names and
+    text; the parameters' magnitude), so that no limit of the format is met only after the fit."""
+    from fitlab.fit.refit import fit_record
+    from fitlab.fit.solver import FitResult
+    from fitlab.store import FitFileError, check_fit, fit_limits
+
+    limits = fit_limits()
+    if len(form.expression) > limits.expression:
+        raise UserDataError(
+            f"the form's expression is {len(form.expression)} characters long as fitlab writes it; a fit file "
+            f"holds at most {limits.expression}"
+        )
+    theta = form.vector(start)
+    not_run = FitResult(theta, 0, 0, 0, "not run", 0.0, 0.0, 0.0, 0.0)
+    record = fit_record(rows.target_object(form.name), form, not_run, rows.train, rows.valid, rows.domain,
+                        MINIMAX_ROUNDS)  # fmt: skip
+    record = user_record(record, rows, MINIMAX_ROUNDS)
+    record["user_data"]["file"] = table_file_name(form.target, form.name)
+    try:
+        check_fit(record, f"{form.target}/{form.name}")
+    except FitFileError as exc:
+        raise UserDataError(f"the fit could not be saved: {exc}") from None
+
+
+def _check_scale(table: UserTable, name: str, values: np.ndarray) -> None:
+    """Refuse a column whose largest |value| lies outside :data:`VALUE_RANGE` (0 excepted)."""
+    lo, hi = VALUE_RANGE
+    big = float(np.max(np.abs(values)))
+    if big > hi or 0.0 < big < lo:
+        raise UserDataError(
+            f"{table.name}: column {name} reaches |{name}| = {big:.3g}; fitlab fits columns whose largest magnitude "
+            f"lies between {_power(lo)} and {_power(hi)} (squares of the values must stay normal doubles): rescale it"
+        )
 
 
 def _box_text(box) -> str:
