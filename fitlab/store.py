@@ -326,6 +326,12 @@ def _checked_user_fit(record: dict, source: str) -> tuple[dict, sp.Expr]:
         raise FitFileError(f"{source}: user_data.scale_floor {floor!r}: a relative error needs a finite floor > 0")
     if user["holdout_offset"] >= user["holdout_every"]:
         raise FitFileError(f"{source}: user_data.holdout_offset must be below holdout_every")
+    file = user.get("file")
+    if file is not None and (file in (".", "..") or "/" in file):
+        raise FitFileError(
+            f"{source}: user_data.file {file[:80]!r} is a path; a fit's table is a file beside it, named by its "
+            "file name alone (move the table beside the fit, or fit again)"
+        )
     for group in ("params", "fixed"):
         for key, value in record.get(group, {}).items():
             if not (math.isfinite(value) and abs(value) <= PARAM_LIMIT):

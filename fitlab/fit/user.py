@@ -45,7 +45,6 @@ import hashlib
 import io
 import keyword
 import math
-import os
 import re
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -71,11 +70,14 @@ __all__ = [
     "fit_table",
     "fit_function",
     "read_csv_table",
+    "table_beside",
     "table_from_arrays",
     "check_name",
     "user_form",
     "held_out_rows",
     "remeasure",
+    "nonfinite_point",
+    "not_comparable",
     "split_text",
     "HOLDOUT_EVERY",
     "SCALE_FLOOR",
@@ -515,10 +517,13 @@ def _measure_text(error: str, floor: float, target: str) -> str:
 
 def remeasure(record: Mapping, table: UserTable) -> dict:
     """The held-out error of the fit ``record`` measured again on ``table`` (the table its ``user_data``
-    names): the rows in the record's domain, split as the record says, the fit evaluated there and measured
-    with the record's error (:func:`fitlab.fit.metrics.summary`).  :class:`UserDataError` when the table is
-    not the record's (sha256, columns)."""
-    from fitlab.core import Dataset
+    names): the rows in the record's domain, checked and split again as a fit does (:func:`prepare_rows`), the
+    fit evaluated there and measured with the record's error (:func:`fitlab.fit.metrics.summary`).
+
+    Every figure the record states of its table is derived again from the table and must be the one derived
+    (:class:`UserDataError` otherwise, naming the first that differs): the sha256, the rows, the domain (the
+    bounding box of the rows inside the stated domain: a domain edited wider than the rows is refused), the
+    error's floor, the split, and the numbers of rows fitted and held out."""
     from fitlab.fit.metrics import summary
     from fitlab.store import FitFunction
 
@@ -529,15 +534,84 @@ def remeasure(record: Mapping, table: UserTable) -> dict:
             f"{user['sha256'][:16]}...; the table changed since the fit"
         )
     inputs, target = list(record["inputs"]), record["target"]
-    xs = {n: table.column(n) for n in inputs}
-    y = table.column(target)
-    keep = _selected(xs, {k: tuple(v) for k, v in record["domain"].items()})
-    xs, y = {n: x[keep] for n, x in xs.items()}, y[keep]
-    held = held_out_rows(xs, inputs, user["holdout_every"], user["holdout_offset"])
-    valid = Dataset({n: x[held] for n, x in xs.items()}, y[held], "held-out rows")
+    stated = {k: (float(lo), float(hi)) for k, (lo, hi) in record["domain"].items()}
+    rows = prepare_rows(table, target, inputs, domain=stated, error=user["error"], holdout_every=user["holdout_every"])
+    derived = rows.user_data()
+    differ = [
+        (what, says, gives)
+        for what, says, gives in (
+            ("user_data.rows", user["rows"], derived["rows"]),
+            *(
+                (f"the domain of {k}", f"[{stated[k][0]!r}, {stated[k][1]!r}]", f"[{lo!r}, {hi!r}]")
+                for k, (lo, hi) in rows.domain.items()
+            ),
+            ("user_data.scale_floor", repr(float(user["scale_floor"])), repr(float(derived["scale_floor"]))),
+            ("user_data.holdout_offset", user["holdout_offset"], derived["holdout_offset"]),
+            ("training.points", record.get("training", {}).get("points", len(rows.train)), len(rows.train)),
+            ("validation.points", record.get("validation", {}).get("points", len(rows.valid)), len(rows.valid)),
+        )
+        if says != gives
+    ]
+    if differ:
+        what, says, gives = differ[0]
+        raise UserDataError(
+            f"the fit states {what} {says}, its table {Path(table.name).name} gives {gives}; the fit file was "
+            "edited or is not this table's"
+        )
+    valid = rows.valid
     fit = FitFunction(dict(record))
-    approx = fit(**valid.inputs)
+    approx = fit.evaluate(*(valid.inputs[n] for n in inputs))
     return summary(approx, valid.y, _scale(valid.y, user["error"], user["scale_floor"]), valid.inputs)
+
+
+#: points of the probe of a fit's domain (:func:`nonfinite_point`): a tensor grid of at most this many, and as
+#: many quasi-random points (scrambled Sobol')
+PROBE_POINTS = 65_536
+
+
+def nonfinite_point(fit, domain: Mapping[str, tuple[float, float]] | None = None) -> dict | None:
+    """A point of the box ``domain`` (default the fit's) where the fit ``fit`` (a
+    :class:`fitlab.store.FitFunction`) is not finite, or None: probed on a tensor grid of n points per input
+    (n^d <= :data:`PROBE_POINTS`, at least the two ends; crowded towards both ends, where forms with log and
+    sqrt terms turn) and on :data:`PROBE_POINTS` scrambled Sobol' points (fixed seed)."""
+    from scipy.stats import qmc
+
+    box = {k: (float(lo), float(hi)) for k, (lo, hi) in (domain or fit.domain).items()}
+    names = list(fit.inputs)
+    d = len(names)
+    n = max(2, int(math.floor(PROBE_POINTS ** (1.0 / d) + 1e-9)))
+    t = 0.5 - 0.5 * np.cos(np.linspace(0.0, math.pi, n))  # Chebyshev-Lobatto: both ends, crowded there
+    axes = [box[k][0] + (box[k][1] - box[k][0]) * t for k in names]
+    grid = [g.ravel() for g in np.meshgrid(*axes, indexing="ij")]
+    sobol = qmc.Sobol(d, scramble=True, seed=20240).random(PROBE_POINTS)
+    lo, hi = np.array([box[k][0] for k in names]), np.array([box[k][1] for k in names])
+    cloud = lo + (hi - lo) * sobol
+    for points in (grid, list(cloud.T)):
+        points = [np.clip(x, box[k][0], box[k][1]) for x, k in zip(points, names)]
+        values = fit.evaluate(*points)
+        bad = ~np.isfinite(values)
+        if np.any(bad):
+            i = int(np.argmax(bad))
+            return {k: float(x[i]) for k, x in zip(names, points)}
+    return None
+
+
+def not_comparable(record: Mapping, rows: Rows) -> str | None:
+    """Why the user fit ``record`` cannot be compared with a fit of ``rows`` on their held-out rows (another
+    table, inputs, domain, split or error measure), or None when its held-out rows and error are theirs."""
+    user, mine = record["user_data"], rows.user_data()
+    if user["sha256"] != mine["sha256"]:
+        return f"a fit of another table (sha256 {user['sha256'][:16]}..., this one {mine['sha256'][:16]}...)"
+    if list(user["columns"]) != list(mine["columns"]):
+        return f"a fit of the columns {', '.join(user['columns'])}, not {', '.join(mine['columns'])}"
+    theirs = {k: (float(lo), float(hi)) for k, (lo, hi) in record["domain"].items()}
+    if theirs != rows.domain:
+        return f"a fit over {_box_text(theirs)}, this one over {_box_text(rows.domain)}"
+    if (user["holdout_every"], user["holdout_offset"]) != (mine["holdout_every"], mine["holdout_offset"]):
+        return f"a fit validated on other held-out rows (every {user['holdout_every']} from {user['holdout_offset']})"
+    if (user["error"], float(user["scale_floor"])) != (mine["error"], float(mine["scale_floor"])):
+        return f"a fit measured by another error ({user['error']}, floor {float(user['scale_floor']):g})"
+    return None
 
 
 # -- the fit ---------------------------------------------------------------------
@@ -553,6 +627,13 @@ class UserFit:
     table: UserTable
     result: object = None
     _function: FitFunction | None = field(default=None, repr=False)
+    #: how well the data determine the fitted parameters (:func:`conditioning`), or None when not measured
+    conditioning: dict | None = None
+
+    @property
+    def warning(self) -> str | None:
+        """One line when the fit is ill-conditioned (:func:`conditioning_warning`), else None."""
+        return None if self.conditioning is None else conditioning_warning(self.conditioning)
 
     @property
     def function(self):
@@ -595,21 +676,14 @@ class UserFit:
         from fitlab.store import check_fit, strict_json
 
         path = Path(path)
-        record = dict(self.record)
-        files = {}
-        if self.table.source != "csv":
-            table_path = path.with_name(path.name[:-5] + ".csv" if path.name.endswith(".json") else path.name + ".csv")
-            files[table_path] = self.table.data
-            record["user_data"] = {**record["user_data"], "file": table_path.name}
-        elif "file" not in record["user_data"]:
-            record["user_data"] = {**record["user_data"], "file": relative_file(self.table.name, path.parent)}
-        files[path] = strict_json(check_fit(record, str(path))).encode()
-        return files
+        table_path = table_beside(path)
+        record = {**self.record, "user_data": {**self.record["user_data"], "file": table_path.name}}
+        return {table_path: self.table.data, path: strict_json(check_fit(record, str(path))).encode()}
 
     def save(self, path) -> list[Path]:
-        """Write the fit to ``path`` (JSON) and, for a table from arrays or a function, the table beside it
-        (``PATH`` less .json, plus .csv), as one unit (all or nothing); the record names the table by its path
-        relative to the fit's folder, where ``fitlab codegen --fit`` reads it to re-measure the held-out error."""
+        """Write the fit to ``path`` (JSON) and the table beside it (:func:`table_beside`: the file's bytes, or
+        the canonical CSV of arrays or a sampled function), as one unit (all or nothing); the record names the
+        table by its file name, where ``fitlab codegen --fit`` reads it to re-measure the held-out error."""
         from fitlab._io import atomic_write_many
 
         files = self.files(path)
@@ -625,19 +699,16 @@ class UserFit:
         return generate_user_fit(self.function, self.table, lang, single_header=single_header)
 
 
-def relative_file(table, folder) -> str:
-    """The path of ``table`` relative to ``folder`` (POSIX separators): how a fit names its table, so that
-    the two can move together.  :class:`UserDataError` when it holds a character a fit file does not store."""
-    try:
-        rel = Path(os.path.relpath(Path(table).resolve(), Path(folder).resolve())).as_posix()
-    except ValueError:  # no relative path between them (two drives): the absolute one
-        rel = Path(table).resolve().as_posix()
-    if not _TEXT.match(rel) or len(rel) > 1000:
-        raise UserDataError(
-            f"{table}: the table's path holds a character a fit file does not store (quotes, "
-            "backslashes, backticks, control characters, */); rename or move it"
-        )
-    return rel
+def table_beside(path) -> Path:
+    """Where the table of the fit file ``path`` is written: beside it, ``PATH`` less .json plus .csv
+    (fits/E.rational.json: fits/E.rational.csv); the fit names it by that file name alone."""
+    path = Path(path)
+    return path.with_name((path.name[:-5] if path.name.endswith(".json") else path.name) + ".csv")
+
+
+def table_file_name(target: str, form: str) -> str:
+    """The file name of the table beside the fit file COLUMN.NAME.json (:func:`table_beside`)."""
+    return f"{target}.{form}.csv"
 
 
 def _safe_text(text: str) -> str:
@@ -1005,7 +1076,57 @@ def run_fit(prep: _Prepared, minimax_rounds: int = MINIMAX_ROUNDS, on_step=None)
     rows = prep.rows
     res = refit(rows.target_object(prep.form.name), prep.form, start=prep.start, minimax=minimax_rounds > 0,
                 minimax_rounds=minimax_rounds, on_step=on_step)  # fmt: skip
-    return UserFit(user_record(res.record, rows, minimax_rounds), rows.table, res.fit)
+    record = user_record(res.record, rows, minimax_rounds)
+    return UserFit(record, rows.table, res.fit, conditioning=conditioning(prep, prep.form.vector(record["params"])))
+
+
+#: a fitted parameter beyond this magnitude, or a condition number beyond :data:`ILL_CONDITION`, makes a fit
+#: ill-conditioned (:func:`conditioning_warning`)
+ILL_PARAMETER = 1e6
+ILL_CONDITION = 1e12
+
+
+def conditioning(prep: _Prepared, theta) -> dict:
+    """How well the fitted rows determine the parameters ``theta`` of the prepared fit ``prep``: {"condition":
+    the condition number of the Jacobian of the scaled residuals at ``theta`` (on at most :data:`RANK_ROWS`
+    fitted rows) with its columns scaled to unit norm, so that a parameter's units do not count, only how
+    nearly the columns depend on one another; "weak": the parameters of the direction it is weakest in
+    (components of at least a tenth of the largest, in those scaled units); "large": [(name, value)] of the
+    parameters beyond :data:`ILL_PARAMETER` in magnitude}."""
+    form, train = prep.form, prep.rows.train
+    theta = np.asarray(theta, dtype=float)
+    xs = [train.inputs[n] for n in form.inputs]
+    jac, _ = _jacobian(form, theta, xs, _scale(train.y, prep.rows.error, prep.rows.floor))
+    large = [(p, float(v)) for p, v in zip(form.params, theta) if abs(v) > ILL_PARAMETER]
+    norms = np.sqrt(np.sum(jac**2, axis=0))
+    if not (np.all(np.isfinite(jac)) and np.all(norms > 0.0)):
+        weak = [p for p, n in zip(form.params, norms) if not (math.isfinite(n) and n > 0.0)]
+        return {"condition": math.inf, "weak": weak or list(form.params), "large": large}
+    _, sv, vt = np.linalg.svd(jac / norms, full_matrices=False)
+    condition = float(sv[0] / sv[-1]) if sv[-1] > 0.0 else math.inf
+    direction = np.abs(vt[-1])
+    weak = [p for p, c in zip(form.params, direction) if c >= 0.1 * np.max(direction)]
+    return {"condition": condition, "weak": weak, "large": large}
+
+
+def conditioning_warning(measured: Mapping) -> str | None:
+    """One line naming the parameters when :func:`conditioning` finds the fit ill-conditioned (a parameter
+    beyond :data:`ILL_PARAMETER`, or a condition number beyond :data:`ILL_CONDITION`), else None."""
+    words = []
+    if measured["large"]:
+        listed = ", ".join(f"{p} = {v:.3g}" for p, v in measured["large"])
+        words.append(f"{listed} beyond {ILL_PARAMETER:g} in magnitude")
+    if measured["condition"] > ILL_CONDITION:
+        words.append(
+            f"the Jacobian's condition number at the solution is {measured['condition']:.2g} (beyond "
+            f"{ILL_CONDITION:g}), weakest along {', '.join(measured['weak'])}"
+        )
+    if not words:
+        return None
+    return (
+        f"ill-conditioned: {'; '.join(words)}: other parameters fit the rows about as well, and the "
+        "digits printed are not all determined by the data (simplify the form, or rescale its inputs)"
+    )
 
 
 def user_record(record: dict, rows: Rows, minimax_rounds: int) -> dict:
