@@ -70,7 +70,9 @@ def _check(args, offered: dict) -> tuple[list, list]:
     chosen = []
     for name in dict.fromkeys(args.tables):
         if name not in offered:
-            raise UsageError(f"no table {name!r}; choose among {', '.join(offered)}")
+            from fitlab.core import did_you_mean
+
+            raise UsageError(f"no table {name!r}{did_you_mean(name, offered, '--list names them')}")
         _, spec = offered[name]
         size = spec.default_size if args.size is None else args.size
         if size not in spec.sizes:

@@ -34,7 +34,7 @@ from fitlab.cli._common import (
     write_failure,
 )
 from fitlab.codegen.program import model_form
-from fitlab.core import get_target, target_names, targets
+from fitlab.core import did_you_mean, get_target, target_names, targets
 from fitlab.fit.refit import (
     check_domain,
     default_jobs,
@@ -108,7 +108,8 @@ def _requested(args) -> list[tuple]:
     if args.all and (args.form or args.domain or args.init):
         raise UsageError("--form, --domain and --init go with --target, not --all")
     if args.target not in (None, *target_names()):  # names only: no family is imported for them
-        raise UsageError(f"unknown target {args.target!r}; choose one of {', '.join(target_names())}")
+        raise UsageError(f"unknown target {args.target!r}"
+                         f"{did_you_mean(args.target, target_names(), '--list names them')}")
     fits = fits_input(args, required=False)
     use_data(args)
     if args.init is not None:

@@ -40,7 +40,7 @@ from fitlab.codegen.program import (
     stable,
     with_domain,
 )
-from fitlab.core import targets
+from fitlab.core import did_you_mean, targets
 from fitlab.store import fit_files, fit_origin, fit_path, fit_sha256, fit_source, load
 
 __all__ = ["generate", "codegen_command", "load_program", "unused_fits", "parse_forms", "write_generated", "emit",
@@ -182,7 +182,7 @@ def parse_forms(items) -> dict[str, str]:
         if not sep or not form:
             raise ValueError(f"--form {item!r}: write TARGET=FORM, e.g. H0=hapke_rational")
         if target not in known:
-            raise ValueError(f"--form {item!r}: TARGET is one of {', '.join(known)}")
+            raise ValueError(f"--form {item!r}: no target {target!r}{did_you_mean(target, known)}")
         if target in out:
             raise ValueError(f"--form: {target} given twice")
         out[target] = form
