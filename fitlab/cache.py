@@ -63,7 +63,7 @@ except ImportError:  # Windows: no flock, no lock (see the module docstring)
     fcntl = None
 
 __all__ = ["cache_dir", "cache_key", "cached_arrays", "cached_at", "cache_info", "clear_cache", "enabled",
-           "enable_compilation_cache", "INPUT_PREFIX"]
+           "enable_compilation_cache", "INPUT_PREFIX", "cached_text", "code_fingerprint"]
 
 _SUFFIX = ".npz"
 #: the array of an entry that holds its content hash (:func:`_content_hash`)
@@ -166,6 +166,32 @@ def cached_arrays(
             except OSError:
                 pass  # a cache that cannot be written only costs time
     return {n: values[n] for n in names}
+
+
+def code_fingerprint() -> str:
+    """sha256 of the code fitlab runs: every Python source of the fitlab package (path and bytes) and the
+    ``fitlab.families`` entry points of installed distributions (name, value, distribution and version); what
+    a text computed from the registry alone (a command's listing) is keyed by."""
+    from importlib.metadata import entry_points
+
+    h = hashlib.sha256()
+    root = Path(__file__).resolve().parent
+    for src in sorted(root.rglob("*.py")):
+        h.update(src.relative_to(root).as_posix().encode() + b"\0")
+        h.update(src.read_bytes())
+    for ep in sorted(entry_points(group="fitlab.families"), key=lambda e: (e.name, e.value)):
+        dist = getattr(ep, "dist", None)
+        h.update(f"\0{ep.name}={ep.value}@{getattr(dist, 'name', '')}-{getattr(dist, 'version', '')}".encode())
+    return h.hexdigest()
+
+
+def cached_text(name: str, compute: Callable[[], str]) -> str:
+    """The text ``compute()`` returns, from the cache when present, keyed by :func:`code_fingerprint`: for a text
+    that only fitlab's code (and the installed families') determines, such as ``fitlab refit --list``, which
+    otherwise imports every family (JAX and sympy, seconds) to say what the registry holds."""
+    arrays = cached_arrays(name, {"code": code_fingerprint()},
+                           lambda: {"text": np.frombuffer(compute().encode(), dtype=np.uint8)}, ("text",))  # fmt: skip
+    return arrays["text"].tobytes().decode()
 
 
 #: the prefix of the arrays in which an entry of :func:`cached_at` holds its inputs

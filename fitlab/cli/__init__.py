@@ -117,9 +117,21 @@ def _interrupted(name: str) -> int:
     return 130
 
 
+#: the commands whose ``--list`` prints what only fitlab's code determines (``listing_text()`` of the command's
+#: module): ``fitlab COMMAND --list`` alone prints it from the cache (fitlab.cache.cached_text, keyed by the code)
+#: without building the command's parser, whose module imports what its work needs (sympy, JAX: seconds)
+LISTINGS = ("refit", "export")
+
+
 def _run(argv) -> int:
     name = _command_in(argv) or ""
     try:
+        if name in LISTINGS and list(argv) == [name, "--list"]:
+            from fitlab.cache import cached_text
+
+            print(cached_text(f"listing-{name}", lambda: command_module(name).listing_text()), end="")
+            sys.stdout.flush()
+            return 0
         args = build_parser(() if not name else (name,)).parse_args(argv)
         name = args.command
         if name in WALK_COMMANDS:

@@ -15,7 +15,7 @@ from fitlab.cli._common import (
     write_files,
 )
 
-__all__ = ["add_arguments", "run"]
+__all__ = ["add_arguments", "run", "listing_text"]
 
 
 def add_arguments(p) -> None:
@@ -55,11 +55,11 @@ def _sizes_text(sizes) -> str:
     return f"{sizes[0]} to {sizes[-1]}" if contiguous and len(sizes) > 5 else ", ".join(map(str, sizes))
 
 
-def _list(offered: dict) -> int:
-    for name, (family, spec) in offered.items():
-        print(f"{name:24s} {family:18s} size {spec.default_size} ({_sizes_text(spec.sizes)}); "
-              f"{', '.join(spec.formats)}; {spec.description}")
-    return 0
+def listing_text() -> str:
+    """What ``fitlab export --list`` prints: every table, its family, sizes, formats and description (the families'
+    ``images`` hooks, imported; cached by fitlab's code, :func:`fitlab.cache.cached_text`)."""
+    return "".join(f"{name:24s} {family:18s} size {spec.default_size} ({_sizes_text(spec.sizes)}); "
+                   f"{', '.join(spec.formats)}; {spec.description}\n" for name, (family, spec) in _offered().items())
 
 
 def _check(args, offered: dict) -> tuple[list, list]:

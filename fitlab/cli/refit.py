@@ -58,7 +58,7 @@ from fitlab.store import (
     write_fits,
 )
 
-__all__ = ["add_arguments", "run", "parse_domain", "kept_fit"]
+__all__ = ["add_arguments", "run", "parse_domain", "kept_fit", "listing_text"]
 
 
 def add_arguments(p) -> None:
@@ -154,12 +154,22 @@ def _start_metrics(target, form, start, domain) -> dict:
     return validation_metrics(form, theta, valid, target.scale(valid))
 
 
+def listing_text() -> str:
+    """What ``fitlab refit --list`` prints: every target, its description and its forms, the one the generated
+    code prints marked (the registry's, every family imported; cached by fitlab's code, :func:`fitlab.cache.cached_text`)."""
+    lines = []
+    for t in targets().values():
+        default = model_form(t.name)
+        forms = ", ".join(f + (" (default)" if f == default else "") for f in t.forms)
+        lines.append(f"{t.name:<10} {t.description}\n{'':<10} forms: {forms}")
+    return "\n".join(lines) + "\n"
+
+
 def run(args) -> int:
     if args.list:
-        for t in targets().values():
-            default = model_form(t.name)
-            forms = ", ".join(f + (" (default)" if f == default else "") for f in t.forms)
-            print(f"{t.name:<10} {t.description}\n{'':<10} forms: {forms}")
+        from fitlab.cache import cached_text
+
+        print(cached_text("listing-refit", listing_text), end="")
         return 0
     jobs = _jobs(args)  # every usage error before any work
 
