@@ -17,7 +17,8 @@ from types import ModuleType
 from fitlab._interrupt import check, hold
 
 __all__ = ["import_generated", "atomic_write_text", "atomic_write_bytes", "atomic_write_many", "temporary_name",
-           "InputFileError", "regular_file", "read_regular_file", "DECIMAL", "decimal", "text_lines", "unusual_character"]
+           "InputFileError", "regular_file", "read_regular_file", "DECIMAL", "decimal", "text_lines",
+           "unusual_character"]
 
 
 def temporary_name(path: Path) -> Path:
