@@ -127,11 +127,7 @@ def _run(argv) -> int:
     name = _command_in(argv) or ""
     try:
         if name in LISTINGS and list(argv) == [name, "--list"]:
-            from fitlab.cache import cached_text
-
-            print(cached_text(f"listing-{name}", lambda: command_module(name).listing_text()), end="")
-            sys.stdout.flush()
-            return 0
+            return _listing(name)
         args = build_parser(() if not name else (name,)).parse_args(argv)
         name = args.command
         if name in WALK_COMMANDS:
@@ -164,6 +160,53 @@ def _run(argv) -> int:
         if _out_of_memory(exc):
             return fail(name, f"out of memory ({type(exc).__name__}: {' '.join(str(exc).split())[:200]})", FAILURE)
         return fail(name, f"unexpected {type(exc).__name__}: {exc} (FITLAB_TRACEBACK=1 shows where)", FAILURE)
+
+
+def _listing(name: str) -> int:
+    """``fitlab NAME --list`` from the cache (:func:`fitlab.cache.cached_text`, keyed by fitlab's code and the
+    installed families): the listing on stdout, and what the registry said on stderr while it made it (a
+    family entry point that failed to load), said again by every process that prints the listing from the
+    cache (not by one whose registry has loaded already, and so has said it)."""
+    import io
+    import json
+
+    from fitlab.cache import cached_text
+
+    said = io.StringIO()
+
+    def compute() -> str:
+        stderr = sys.stderr
+        sys.stderr = _Tee(stderr, said)
+        try:
+            out = command_module(name).listing_text()
+        finally:
+            sys.stderr = stderr
+        return json.dumps({"out": out, "err": said.getvalue()})
+
+    computed = []
+    listing = json.loads(cached_text(f"listing-{name}", lambda: computed.append(True) or compute()))
+    print(listing["out"], end="")
+    registry = sys.modules.get("fitlab.core._registry")
+    if listing["err"] and not computed and not getattr(registry, "_LOADED", False):
+        print(listing["err"], end="", file=sys.stderr)
+    sys.stdout.flush()
+    return 0
+
+
+class _Tee:
+    """A text stream that writes to several: what a listing's computation says on stderr, shown and kept."""
+
+    def __init__(self, *streams):
+        self.streams = streams
+
+    def write(self, text: str) -> int:
+        for stream in self.streams:
+            stream.write(text)
+        return len(text)
+
+    def flush(self) -> None:
+        for stream in self.streams:
+            stream.flush()
 
 
 def _out_of_memory(exc: BaseException) -> bool:
