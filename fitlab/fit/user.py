@@ -28,13 +28,17 @@ non-numeric column, NaN or inf, an input that does not vary, duplicate input poi
 a name which is no input, no parameters, a form not finite at the start values, and a form the data
 cannot determine: the Jacobian of the scaled residuals in the parameters at the start values, each
 column normalised, of numerical rank below the number of parameters (singular values below
-:data:`RANK_RTOL` times the largest), as a0*a1*x has.
+:data:`RANK_RTOL` times the largest), as a0*a1*x has.  And every limit (:func:`limits_text`): those of
+the fit-file format (:func:`fitlab.store.fit_limits`; the record the fit will write is made from the
+start values and checked as the store checks a record it writes), a cell that is not a plain decimal
+number or a line break inside a cell, a column's scale (:data:`VALUE_RANGE`), rows times parameters
+(:data:`MAX_ROW_PARAMETERS`).
 
 The result is a :class:`UserFit`: the fit record (format fitlab-fit/1 with ``user_data``, which
 :mod:`fitlab.store` checks against the record's own inputs and domain), callable like
-:class:`fitlab.store.FitFunction`; ``save`` writes it (with its table beside it when it came from
-arrays or a function), ``generate`` prints it in every language codegen knows
-(:mod:`fitlab.codegen.single`).
+:class:`fitlab.store.FitFunction`, with how well the data determine its parameters
+(:func:`conditioning`); ``save`` writes it with its table beside it, ``generate`` prints it in every
+language codegen knows (:mod:`fitlab.codegen.single`).
 """
 
 from __future__ import annotations
@@ -565,17 +569,16 @@ def remeasure(record: Mapping, table: UserTable) -> dict:
 
 
 #: points of the probe of a fit's domain (:func:`nonfinite_point`): a tensor grid of at most this many, and as
-#: many quasi-random points (scrambled Sobol')
+#: many uniformly random points (a fixed seed)
 PROBE_POINTS = 65_536
 
 
-def nonfinite_point(fit, domain: Mapping[str, tuple[float, float]] | None = None) -> dict | None:
+def nonfinite_point(fit, domain: Mapping[str, Sequence[float]] | None = None) -> dict | None:
     """A point of the box ``domain`` (default the fit's) where the fit ``fit`` (a
     :class:`fitlab.store.FitFunction`) is not finite, or None: probed on a tensor grid of n points per input
     (n^d <= :data:`PROBE_POINTS`, at least the two ends; crowded towards both ends, where forms with log and
-    sqrt terms turn) and on :data:`PROBE_POINTS` scrambled Sobol' points (fixed seed)."""
-    from scipy.stats import qmc
-
+    sqrt terms turn) and on :data:`PROBE_POINTS` uniformly random points (a fixed seed), which fall between
+    the grid's lines."""
     box = {k: (float(lo), float(hi)) for k, (lo, hi) in (domain or fit.domain).items()}
     names = list(fit.inputs)
     d = len(names)
@@ -583,9 +586,8 @@ def nonfinite_point(fit, domain: Mapping[str, tuple[float, float]] | None = None
     t = 0.5 - 0.5 * np.cos(np.linspace(0.0, math.pi, n))  # Chebyshev-Lobatto: both ends, crowded there
     axes = [box[k][0] + (box[k][1] - box[k][0]) * t for k in names]
     grid = [g.ravel() for g in np.meshgrid(*axes, indexing="ij")]
-    sobol = qmc.Sobol(d, scramble=True, seed=20240).random(PROBE_POINTS)
     lo, hi = np.array([box[k][0] for k in names]), np.array([box[k][1] for k in names])
-    cloud = lo + (hi - lo) * sobol
+    cloud = lo + (hi - lo) * np.random.default_rng(20240).random((PROBE_POINTS, d))
     for points in (grid, list(cloud.T)):
         points = [np.clip(x, box[k][0], box[k][1]) for x, k in zip(points, names)]
         values = fit.evaluate(*points)
