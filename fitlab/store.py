@@ -330,7 +330,7 @@ def _checked_user_fit(record: dict, source: str) -> tuple[dict, sp.Expr]:
     if file is not None and (file in (".", "..") or "/" in file):
         raise FitFileError(
             f"{source}: user_data.file {file[:80]!r} is a path; a fit's table is a file beside it, named by its "
-            "file name alone (move the table beside the fit, or fit again)"
+            "file name alone (copy the table beside the fit and write its name there, or fit again)"
         )
     for group in ("params", "fixed"):
         for key, value in record.get(group, {}).items():
