@@ -45,12 +45,14 @@ from __future__ import annotations
 
 import ast
 import csv
+import gc
 import hashlib
 import io
 import keyword
 import math
 import re
 from collections.abc import Callable, Mapping, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
@@ -246,7 +248,7 @@ class UserTable:
     def _numbers(self, name: str, cells: Sequence[str]) -> np.ndarray:
         parsed = _decimal_cells(cells)
         if isinstance(parsed, int):
-            text = cells[parsed]
+            text = cells[parsed].strip()
             raise UserDataError(
                 f"{self.name} {self.where(parsed)}: column {name} holds {text[:40]!r}, not a number (a number is "
                 "written in ASCII digits, with an optional sign, point and exponent)"
@@ -279,18 +281,19 @@ class UserTable:
 
 
 def _decimal_cells(cells: Sequence[str]) -> np.ndarray | int:
-    """The cells as float64 when each is a plain decimal number (:data:`fitlab._io.DECIMAL`), else the index of
-    the first that is not.  Python's float() takes a decimal as it is, and takes more only with a character
-    outside ASCII or an underscore (995_099), which send the cells to the check one by one."""
+    """The cells as float64 when each is a plain decimal number (:data:`fitlab._io.DECIMAL`; spaces around it
+    aside), else the index of the first that is not.  Python's float() takes a decimal as it is, and takes more
+    only with a character outside ASCII or an underscore (995_099), which send the cells to the check one by
+    one."""
     from fitlab._io import DECIMAL
 
     joined = "\n".join(cells)
-    if joined.isascii() and "_" not in joined:
+    if joined.isascii() and "_" not in joined:  # float() reads these cells as the grammar does, spaces aside
         try:
             return np.array(cells, dtype=float)
         except ValueError:
             pass
-    return next((i for i, text in enumerate(cells) if not DECIMAL.fullmatch(text)), -1)
+    return next((i for i, text in enumerate(cells) if not DECIMAL.fullmatch(text.strip())), -1)
 
 
 def read_csv_table(path) -> UserTable:
@@ -309,54 +312,70 @@ def read_csv_table(path) -> UserTable:
         text = data.decode("utf-8-sig")
     except UnicodeDecodeError:
         raise UserDataError(f"{path}: not UTF-8 text; a table is a CSV file") from None
-    header, rows, lines = None, [], []
-    try:
-        for number, fields in _csv_rows(text, path):
-            if header is None:
-                header = tuple(f.strip() for f in fields)
-                continue
-            if len(fields) != len(header):
-                raise UserDataError(f"{path} line {number}: {len(fields)} fields, the header has {len(header)}")
-            rows.append(fields)
-            lines.append(number)
-            if len(rows) > MAX_TABLE_ROWS:
-                raise UserDataError(f"{path}: more than {MAX_TABLE_ROWS} rows; fitlab fits tables of at most that")
-    except csv.Error as exc:
-        raise UserDataError(f"{path}: not CSV ({exc})") from None
-    if header is None:
+    with _collector_paused():  # a million rows are a million lists: the cyclic collector would walk them often
+        numbers, records = _csv_rows(text, path)
+        columns = list(zip(*records[1:]))  # the columns as read, a transpose in C
+    if not records:
         raise UserDataError(f"{path}: empty; a table is a header row naming the columns, then one row per point")
+    header = tuple(f.strip() for f in records[0])
+    rows, lines = records[1:], numbers[1:]
+    if len(rows) > MAX_TABLE_ROWS:
+        raise UserDataError(f"{path}: {len(rows)} rows, more than {MAX_TABLE_ROWS}; fitlab fits tables of at most that")
+    ragged = next((i for i, r in enumerate(rows) if len(r) != len(header)), None)
+    if ragged is not None:
+        raise UserDataError(f"{path} line {lines[ragged]}: {len(rows[ragged])} fields, the header has {len(header)}")
     if all(_is_number(f) for f in header):
         raise UserDataError(f"{path}: the first row is numbers; the first row must be a header naming the columns")
     if any(not f for f in header) or len(set(header)) != len(header):
         raise UserDataError(f"{path}: the header {', '.join(header)[:120]} has an empty or repeated column name")
     if not rows:
         raise UserDataError(f"{path}: a header and no rows")
-    cells = {name: [r[k].strip() for r in rows] for k, name in enumerate(header)}
+    cells = dict(zip(header, columns))  # :meth:`UserTable.column` reads the numbers, spaces around them aside
     return UserTable("csv", str(path), header, cells, data, np.asarray(lines))
 
 
-def _csv_rows(text: str, path):
-    """(line number, fields) of every CSV row, without comment (#) and blank lines; lines numbered as text
+@contextmanager
+def _collector_paused():
+    """Python's cyclic garbage collector off while the block runs (and on again after, if it was on): reading a
+    table builds millions of lists and strings, none in a cycle, and the collector's passes over them took most
+    of the time (a 48 MB table of a million rows: 45 s, of which 3 s without them)."""
+    enabled = gc.isenabled()
+    gc.disable()
+    try:
+        yield
+    finally:
+        if enabled:
+            gc.enable()
+
+
+def _csv_rows(text: str, path) -> tuple[list[int], list[list[str]]]:
+    """(line numbers, fields) of every CSV row, without comment (#) and blank lines; lines numbered as text
     editors number them (:func:`fitlab._io.text_lines`).  :class:`UserDataError` on a character a table may not
-    hold (:func:`fitlab._io.unusual_character`: U+2028 splits a row for some readers), and on a quoted cell that
-    runs over the end of its line (a cell holding a line break)."""
+    hold (:func:`fitlab._io.unusual_character`: U+2028 splits a row for some readers), on a quoted cell that
+    runs over the end of its line (a cell holding a line break), and on text the csv module refuses."""
     from fitlab._io import text_lines, unusual_character
 
     unusual = unusual_character(text)
     if unusual is not None:
         line, what = unusual
         raise UserDataError(f"{path} line {line}: holds {what}; a table is plain text, one row per line")
-    kept = [(n, line) for n, line in enumerate(text_lines(text), start=1)
-            if line.strip() and not line.lstrip().startswith("#")]  # fmt: skip
-    reader = csv.reader(line for _, line in kept)
-    for k, fields in enumerate(reader):
-        number = kept[k][0]
-        if reader.line_num != k + 1:
-            raise UserDataError(
-                f"{path} line {number}: a quoted cell runs over the end of the line (a cell holding a line "
-                "break); a cell is one line"
-            )
-        yield number, fields
+    lines = text_lines(text)
+    numbers = [n for n, line in enumerate(lines, start=1) if line.strip() and not line.lstrip().startswith("#")]
+    try:
+        reader = csv.reader([lines[n - 1] for n in numbers])
+        records = list(reader)
+        if len(records) == len(numbers):  # each record one line
+            return numbers, records
+        reader = csv.reader(lines[n - 1] for n in numbers)  # again, to find the record that took two lines
+        for k, _ in enumerate(reader):
+            if reader.line_num != k + 1:
+                raise UserDataError(
+                    f"{path} line {numbers[k]}: a quoted cell runs over the end of the line (a cell holding a line "
+                    "break); a cell is one line"
+                )
+    except csv.Error as exc:
+        raise UserDataError(f"{path}: not CSV ({exc})") from None
+    raise AssertionError("a record of two lines was not found")  # pragma: no cover - the counts differed
 
 
 def _is_number(text: str) -> bool:
@@ -776,12 +795,7 @@ class Rows:
         """Refuse (one line) when a form of ``p`` parameters has fewer than 2p rows to fit or p held out, or more
         rows to fit times ``p`` than :data:`MAX_ROW_PARAMETERS`."""
         n_train, n_held = len(self.train), len(self.valid)
-        if n_train * p > MAX_ROW_PARAMETERS:
-            raise UserDataError(
-                f"{self.table.name}: {n_train} rows to fit x {p} parameters = {n_train * p:.3g}; fitlab fits at most "
-                f"{_power(MAX_ROW_PARAMETERS)} (the fit's memory grows with both): fit fewer rows (--domain, or a "
-                "thinned table) or fewer parameters"
-            )
+        _check_row_parameters(self.table, n_train, p)
         if n_train < 2 * p or n_held < p:
             raise UserDataError(
                 f"{self.table.name}: {self.used} rows{' in the domain' if boxed else ''}, {n_train} to "
@@ -942,6 +956,10 @@ def prepare(table: UserTable, target: str, form: str, *, inputs=None, domain=Non
         else "form_" + hashlib.sha256(str(expr).encode()).hexdigest()[:6]
     )
     start_values = _start(params, start)
+    if not domain and isinstance(holdout_every, (int, np.integer)) and holdout_every >= 2:
+        # every row is fitted or held out: the rows to fit follow from the count alone, before a number is read
+        every = int(holdout_every)
+        _check_row_parameters(table, table.rows - len(range(every // 2, table.rows, every)), len(params))
     rows = prepare_rows(table, target, inputs, domain=domain, error=error, holdout_every=holdout_every)
     rows.check_size(len(params), bool(domain))
     description = f"a fit of {_safe_text(form.strip())[:200]}"
@@ -977,6 +995,16 @@ def _check_savable(rows: Rows, form, start: dict) -> None:
         check_fit(record, f"{form.target}/{form.name}")
     except FitFileError as exc:
         raise UserDataError(f"the fit could not be saved: {exc}") from None
+
+
+def _check_row_parameters(table: UserTable, n_train: int, p: int) -> None:
+    """Refuse ``n_train`` rows to fit times ``p`` parameters beyond :data:`MAX_ROW_PARAMETERS`."""
+    if n_train * p > MAX_ROW_PARAMETERS:
+        raise UserDataError(
+            f"{table.name}: {n_train} rows to fit x {p} parameters = {n_train * p:.3g}; fitlab fits at most "
+            f"{_power(MAX_ROW_PARAMETERS)} (the fit's memory grows with both): fit fewer rows (--domain, or a "
+            "thinned table) or fewer parameters"
+        )
 
 
 def _check_scale(table: UserTable, name: str, values: np.ndarray) -> None:
