@@ -419,6 +419,18 @@ class FitFunction:
     def __repr__(self) -> str:
         return f"FitFunction({self.target}/{self.form}, inputs={self.inputs})"
 
+    @property
+    def physics(self) -> str:
+        """The physics the fit was fitted against: the record's ``physics``, else (a file older than the field) its
+        target's (:attr:`fitlab.core.Target.physics`)."""
+        stated = self.record.get("physics")
+        if stated is not None:
+            return str(stated)
+        try:
+            return get_target(self.target).physics
+        except KeyError:  # a fit of a table of one's own: its own values
+            return "exact"
+
     def __call__(self, *args, **kwargs):
         if len(args) > len(self.inputs):
             raise TypeError(f"{self!r} takes {len(self.inputs)} inputs {self.inputs}")
@@ -509,28 +521,37 @@ def fit_sha256(path: Path) -> str:
     return hashlib.sha256(Path(path).read_bytes()).hexdigest()
 
 
-def fit_source(fits_dir: Path | str | None, target: str, form: str) -> Path:
+def fit_source(fits_dir: Path | str | None, target: str, form: str, packaged_folder: str = "") -> Path:
     """The file a fit of ``target`` in ``form`` is read from: ``fits_dir`` overlays the packaged fits, so it is
     fits_dir/NAME when anything of that name exists there (a folder or a FIFO too, which reading then refuses,
     rather than passing it over), else the packaged fit of that name (:func:`fit_path` names it); when neither
-    exists, the path in ``fits_dir`` (whose reading then fails naming it).  ``fits_dir`` None: the packaged fits."""
-    packaged = fit_path(packaged_fits(), target, form)
-    if fits_dir is None:
-        return packaged
-    own = fit_path(Path(fits_dir), target, form)
-    if os.path.lexists(own) or not packaged.is_file():
-        return own
-    return packaged
+    exists, the path in ``fits_dir`` (whose reading then fails naming it).  ``fits_dir`` None: the packaged fits.
+
+    ``packaged_folder``: a subfolder that overlays each folder in turn (a model's, :attr:`fitlab.codegen.Model.folder`:
+    the packaged fits hold the parts fitted to the true BRDF in ``true/``): fits_dir/FOLDER/NAME, fits_dir/NAME,
+    then the packaged FOLDER/NAME and NAME, the first there."""
+    folders = [Path(fits_dir)] if fits_dir is not None else []
+    folders.append(packaged_fits())
+    if packaged_folder:
+        folders = [f for folder in folders for f in (folder / packaged_folder, folder)]
+    own = len(folders) - (2 if packaged_folder else 1)  # how many of them are the user's
+    for k, folder in enumerate(folders):
+        path = fit_path(folder, target, form)
+        if os.path.lexists(path) if k < own else path.is_file():
+            return path
+    return fit_path(folders[0] if own else packaged_fits(), target, form)
 
 
 def fit_origin(path: Path) -> str:
     """Where a fit file lies, as generated banners say it: "packaged" (the fits shipped with fitlab, wherever
-    they are installed) or "--fits" (a folder of the user's)."""
+    they are installed, or one of their subfolders: "packaged (true)") or "--fits" (a folder of the user's)."""
     try:
-        packaged = Path(path).resolve().parent == packaged_fits().resolve()
+        folder, root = Path(path).resolve().parent, packaged_fits().resolve()
     except OSError:
-        packaged = False
-    return "packaged" if packaged else "--fits"
+        return "--fits"
+    if folder == root:
+        return "packaged"
+    return f"packaged ({folder.name})" if folder.parent == root else "--fits"
 
 
 def fit_files(fits_dir: Path | None, target: str) -> list[Path]:

@@ -31,7 +31,7 @@ from fitlab.store import fit_path, load
 ROOT = Path(__file__).resolve().parents[1]
 FITS = ROOT / "fitlab" / "fits"
 #: the forms of the program codegen prints by default (its default model), by target
-MODEL_FORMS = program_spec("lambert_sphere").model()[1]
+MODEL_FORMS = program_spec("lambert_sphere").model().forms
 
 
 def fit_file(target: str) -> Path:
@@ -686,4 +686,4 @@ def test_default_model_is_the_reports_real_time_recommendation():
     changed = {t: f for t, f in MODEL_FORMS.items() if f != get_target(t).default_form}
     label = ", ".join(f"{t}: {f}" for t, f in changed.items())
     assert picked["source"] in (label, f"fitlab/fits/true: {label}")  # the folder: test_true_refit.py
-    assert program_spec("lambert_sphere").default_model == "order2"
+    assert program_spec("lambert_sphere").default_model == "true"

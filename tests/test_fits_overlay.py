@@ -102,8 +102,8 @@ def test_codegen_with_a_folder_that_is_not_there_is_refused(tmp_path, capsys):
 # -- one default model ---------------------------------------------------------------------------------------
 def test_refit_fits_by_default_the_form_the_default_model_prints():
     spec = program_spec("lambert_sphere")
-    forms = spec.model()[1]
-    assert spec.default_model == "order2"
+    forms = spec.model().forms
+    assert spec.default_model == "true"
     for target in ("H0", "H1", "H2", "l", "m", "B"):
         assert model_form(target) == forms.get(target, model_form(target))
     assert model_form("H1") == "log_exp" and model_form("l") == "cubic"
@@ -113,13 +113,19 @@ def test_refit_fits_by_default_the_form_the_default_model_prints():
 
 
 @pytest.mark.e2e
-def test_refit_then_codegen_prints_the_refit(tmp_path):
+def test_refit_then_codegen_prints_the_refit(tmp_path, capsys):
+    """A refit of a part is a fit to its three-term target: beside the default model's parts (fitted to the true
+    BRDF) it is refused by name, and printed with the model whose parts are all three-term."""
     out = tmp_path / "fits"
     assert main(["refit", "--target", "m", "--out", str(out), "--quiet", "--no-minimax"]) == 0
     (written,) = out.iterdir()
     assert written.name == f"m.{model_form('m')}.json"
-    assert main(["codegen", "--lang", "c", "--fits", str(out), "--out", str(tmp_path / "gen"), "--quiet"]) == 0
-    line = _banner_line((tmp_path / "gen" / "lambert_sphere.c").read_text(), written.name)
+    gen = tmp_path / "gen"
+    assert main(["codegen", "--lang", "c", "--fits", str(out), "--out", str(gen), "--quiet"]) == 2
+    assert "--model three-term" in capsys.readouterr().err and not gen.exists()
+    args = ["codegen", "--lang", "c", "--fits", str(out), "--model", "three-term", "--out", str(gen), "--quiet"]
+    assert main(args) == 0
+    line = _banner_line((gen / "lambert_sphere.c").read_text(), written.name)
     assert fit_sha256(written) in line and "--fits;" in line
 
 
@@ -139,7 +145,7 @@ def _brdf_points(n=4000, seed=7):
 def test_runtime_model_is_the_generated_default(generated_python):
     mu_i, mu_o, phi, c = _brdf_points()
     model = runtime_model()
-    assert model.name == "refit, model order2"
+    assert model.name == "refit, model true"
     assert runtime_model(fits_dir=FITS).sources == model.sources
     via_model = model(mu_i, mu_o, phi, c)
     via_generated = generated_python.brdf(mu_i, mu_o, np.cos(phi), c)
@@ -150,31 +156,23 @@ def test_runtime_model_is_the_generated_default(generated_python):
     assert np.max(np.abs(other - via_model) / scale) > 1e-4
 
 
-def test_the_reports_order2_row_is_the_default_model(monkeypatch):
-    """The report's order-2 row (its real-time recommendation, the shipped model) is runtime_model() of the
-    report's fits: asked for with no forms and no model, the default.  (The models themselves are stubs here:
-    what is checked is which model each row asks for.)"""
-    import sympy as sp
-
-    from fitlab.families.lambert_sphere.program.runtime import RuntimeModel
+def test_the_reports_true_row_is_the_default_model(monkeypatch):
+    """The report's row of the parts fitted to the true BRDF (its real-time recommendation) is runtime_model(), the
+    default model, and its three-term row the model three-term of the report's fits.  (The rows the check does not
+    need are stubs.)"""
     from fitlab.families.lambert_sphere.report import methods as report_methods
     from fitlab.report.methods import fit_inventory
 
-    asked = []
-
-    def recording(variant=None, **kwargs):
-        asked.append((variant, kwargs))
-        return RuntimeModel(f"stub {len(asked)}", sp.Integer(len(asked)), {})
-
-    monkeypatch.setattr(report_methods, "runtime_model", recording)
     monkeypatch.setattr(report_methods, "table_brdf", lambda *a, **k: None)
     monkeypatch.setattr(report_methods, "spline_bytes", lambda *a, **k: 0)
     monkeypatch.setattr(report_methods, "_exported_tables", lambda *a, **k: [])
     monkeypatch.setattr(report_methods, "_baselines", lambda *a, **k: [])
-    rows = report_methods.brdf_methods(FITS, fit_inventory(FITS), None, discovered=False)
-    row = next(m for m in rows if m.name == "refit, order 2")
-    k = int(row.evaluate(np.array([0.5]), np.array([0.5]), np.array([0.0]), np.array([0.5]), np.array([0.5]))[0])
-    assert asked[k - 1] == (None, {"fits_dir": FITS})
+    rows = {m.name: m for m in report_methods.brdf_methods(FITS, fit_inventory(FITS), None, discovered=False)}
+    mu_i, mu_o, phi, c = _brdf_points(500)
+    kd = np.zeros_like(c)
+    for name, model in (("refit to the true BRDF, order 2", runtime_model()),
+                        ("refit, order 2", runtime_model(fits_dir=FITS, model="three-term"))):  # fmt: skip
+        assert np.array_equal(rows[name].evaluate(mu_i, mu_o, phi, c, kd), model(mu_i, mu_o, phi, c)), name
 
 
 def test_the_mitsuba_plugin_loads_the_default_model():
@@ -188,7 +186,7 @@ def test_the_mitsuba_plugin_loads_the_default_model():
     banner = [ln for ln in drjit_file.read_text().splitlines()[:40] if ".json  " in ln or ln.startswith("# Model:")]
     assert banner and banner == [ln for ln in numpy_file.read_text().splitlines()[:40]
                                  if ".json  " in ln or ln.startswith("# Model:")]  # fmt: skip
-    assert "# Model: order2 " in "\n".join(banner)
+    assert "# Model: true " in "\n".join(banner)
     command = drjit_file.read_text().splitlines()[1]
     assert "--lang drjit" in command and "--model" not in command and "--form" not in command
 
@@ -221,7 +219,8 @@ def test_a_fit_worse_than_its_file_states_is_refused(tmp_path):
 
 def test_committed_fits_hold_their_figures_where_codegen_measures_them():
     for target in program_spec("lambert_sphere").fits:
-        fit = load(fit_source(None, target, program_spec("lambert_sphere").model()[1].get(target, model_form(target))),
+        model = program_spec("lambert_sphere").model()
+        fit = load(fit_source(None, target, model.forms.get(target, model_form(target)), model.folder),
                    verify=True)  # fmt: skip
         stated = fit.record["validation"]
         # the same set as the file's (fast_brdf's RMS: 0.122 against the file's 0.119, its exact values having moved

@@ -38,7 +38,9 @@ EDGES = np.array([0.0, 1e-12, 1e-6, 1e-3, 0.5, 1.0 - 1e-9, 1.0])
 
 @pytest.fixture(scope="module")
 def order2():
-    return runtime_model(fits_dir=FITS, forms=ORDER2_FORMS)
+    """The order-2 model whose parts are fitted to their own three-term targets (the program's model three-term;
+    the default, fitted to the true BRDF: tests/test_default_model.py, tests/test_true_refit.py)."""
+    return runtime_model(fits_dir=FITS, forms=ORDER2_FORMS, model="three-term")
 
 
 @pytest.fixture(scope="module")
@@ -245,7 +247,7 @@ def order2_c(tmp_path_factory):
     if compiler() is None:
         pytest.skip("no C compiler on PATH")
     forms = {p: f for p, f in ORDER2_FORMS.items() if f != get_target(p).default_form}
-    prog = load_program(FITS, forms=forms)
+    prog = load_program(FITS, forms=forms, model="three-term")
     return build(emit(prog, "c"), prog, tmp_path_factory.mktemp("order2"))
 
 

@@ -383,7 +383,7 @@ def test_command_refuses_in_one_line_and_writes_nothing(tmp_path, capsys):
 
     out = tmp_path / "out"
     for argv, needle in ((["--lang", "hlsl"], "--tables prints"), (["--lang", "c", "--nodes", "7"], "--nodes 7"),
-                         (["--lang", "c", "--model", "order2"], "--model"), (["--lang", "c", "--fits", str(tmp_path)], "--fits"),
+                         (["--lang", "c", "--model", "true"], "--model"), (["--lang", "c", "--fits", str(tmp_path)], "--fits"),
                          (["--lang", "c", "--lookup", "quintic"], "--lookup")):  # fmt: skip
         try:
             status = main(["codegen", "--tables", *argv, "--out", str(out)])

@@ -1,10 +1,17 @@
-"""``fitlab codegen``: generate C, Python or GLSL source of the runtime BRDF from the fits."""
+"""``fitlab codegen``: generate C, Python or GLSL source of the runtime BRDF from the fits.
+
+What a run prints is kept in fitlab's cache (:func:`fitlab.cache.cached_files`), keyed by the options, the bytes of
+the ``--fits`` folder's fit files and of fitlab itself: a second run of unchanged inputs reads it back without
+importing sympy, re-measuring or printing anything.  fitlab.codegen and the store are imported only on a miss.
+"""
 
 from __future__ import annotations
 
+import os
+import stat
 import sys
+from pathlib import Path
 
-import fitlab.codegen as codegen
 from fitlab.cli._common import (
     RunFailure,
     UsageError,
@@ -20,10 +27,7 @@ from fitlab.cli._common import (
     use_data,
     write_files,
 )
-from fitlab.codegen.emit import LANGUAGES
-from fitlab.codegen.program import parse_terms
-from fitlab.codegen.texture import LOOKUPS
-from fitlab.store import FitFileError, TableError
+from fitlab.codegen import LANGUAGE_NAMES, LOOKUPS
 
 __all__ = ["add_arguments", "run"]
 
@@ -36,7 +40,8 @@ def add_arguments(p) -> None:
                 "program's source files in one language into --out, all as one unit (nothing is written on a "
                 "failure). The banner lists every fit's file, sha256, origin and re-measured error.",
              "fitlab codegen --fits fits --lang c --out /tmp/generated (after fitlab refit --target H1)")  # fmt: skip
-    p.add_argument("--lang", required=True, choices=list(LANGUAGES), help=f"target language: {', '.join(LANGUAGES)}")
+    p.add_argument("--lang", required=True, choices=list(LANGUAGE_NAMES),
+                   help=f"target language: {', '.join(LANGUAGE_NAMES)}")
     add_fits(p, "folder of fits JSON, read in place of the packaged fits of the same names (the packaged fits fill "
                 "in the rest)")
     p.add_argument("--allow-partial-domain", action="store_true",
@@ -45,9 +50,13 @@ def add_arguments(p) -> None:
     p.add_argument("--out", default="generated", help="output folder (default: generated)")
     p.add_argument("--terms", help="terms of brdf to keep, comma-separated subset of single,m0,m1,m2 (default: all)")
     p.add_argument("--model", metavar="NAME", default=None,
-                   help="the forms to print: a model of the family's program (Lambert sphere: order2, the report's "
-                        "real-time recommendation and the default; microfacet_energy: blog_refit, the default; "
-                        "every program: default-forms, each target's default form); --form overrides a part")
+                   help="the fits to print: a model of the family's program (Lambert sphere: true, the default, "
+                        "every part fitted to the true BRDF; three-term, every part fitted to its own three-term "
+                        "target; microfacet_energy: blog_refit, the default; every program: default-forms, each "
+                        "target's default form); --form overrides a part")
+    p.add_argument("--allow-mixed-physics", action="store_true",
+                   help="print a model whose parts were fitted to different physics (a --fits refit of a three-term "
+                        "target with the parts fitted to the true BRDF, say), which is refused otherwise")
     p.add_argument("--form", action="append", metavar="TARGET=FORM",
                    help="use the fit TARGET.FORM.json of --fits for a part, e.g. H0=hapke_rational (repeatable)")
     p.add_argument("--single-header", action="store_true",
@@ -86,6 +95,8 @@ def _run_tables(args) -> int:
     lookup = exporter.DEFAULT_LOOKUP if args.lookup is None else args.lookup
     use_data(args, required=True)
     out = output_folder(args.out, "--out")
+    from fitlab.store import TableError
+
     try:
         exporter.check_tables(exporter.tables_dir())
     except TableError as exc:
@@ -101,6 +112,7 @@ def _run_fit(args) -> int:
     """``--fit FILE.json``: one fit of a user's table as a program of its own (:mod:`fitlab.codegen.single`)."""
     from fitlab.cli._common import input_file
     from fitlab.codegen.single import generate_fit_file
+    from fitlab.store import FitFileError
 
     others = (("--fits", "fits"), ("--model", "model"), ("--form", "form"), ("--tables", "tables"),
               ("--family", "family"), ("--terms", "terms"), ("--nodes", "nodes"), ("--lookup", "lookup"),
@@ -126,11 +138,71 @@ def run(args) -> int:
         return _run_fit(args)
     if args.tables:
         return _run_tables(args)
-    given = [flag for flag, value in (("--nodes", args.nodes), ("--lookup", args.lookup), ("--data", args.data)) if value]
+    given = [f for f, value in (("--nodes", args.nodes), ("--lookup", args.lookup), ("--data", args.data)) if value]
     if given:
         raise UsageError(f"{given[0]} is a --tables option")
     if args.single_header and args.lang != "c":
         raise UsageError("--single-header is a C option (--lang c)")
+    fits = fits_input(args, required=True)  # a folder that is not there is a typo, not "use the packaged fits"
+    out = output_folder(args.out, "--out")
+    sources = _fit_files(fits)
+    if sources is None:  # a --fits folder the key cannot read safely: the run reads it as the store reads fits
+        printed = _generate(args, fits)
+    else:
+        from fitlab.cache import cached_files, package_sources
+
+        printed = cached_files("codegen", _key(args, fits), lambda: _generate(args, fits),
+                               [*package_sources(), *sources])  # fmt: skip
+    files = {name: data for name, data in printed.items() if name != _NOTES}
+    notes = printed.get(_NOTES, b"").decode()
+    if notes and not args.quiet:
+        print(notes, end="", file=sys.stderr)
+    return _write(args, out, files)
+
+
+#: the name under which a run's lines on stderr are kept with its files (no file is named so)
+_NOTES = ":stderr"
+#: a --fits folder whose fit files are more or larger than this is not keyed (its run is not kept)
+_KEYED_FILES, _KEYED_BYTES = 10_000, 64_000_000
+
+
+def _fit_files(fits: Path | None) -> list[Path] | None:
+    """The fit files (``*.json``) of the ``--fits`` folder, which the cache key reads: [] for the packaged fits,
+    None where one is not a regular file or there are too many or too large to read (such a run is not kept)."""
+    if fits is None:
+        return []
+    files, size = [], 0
+    for path in sorted(Path(fits).glob("*.json")):
+        try:
+            info = os.stat(path)
+        except OSError:
+            return None
+        size += info.st_size
+        if not stat.S_ISREG(info.st_mode) or len(files) >= _KEYED_FILES or size > _KEYED_BYTES:
+            return None
+        files.append(path)
+    return files
+
+
+def _key(args, fits: Path | None) -> dict:
+    """Every option that changes what a run prints (the fits' bytes and fitlab's own are the key's sources)."""
+    from importlib.metadata import version
+
+    import numpy as np
+
+    return {"lang": args.lang, "terms": args.terms, "model": args.model, "form": args.form, "family": args.family,
+            "single_header": args.single_header, "allow_partial_domain": args.allow_partial_domain,
+            "allow_mixed_physics": args.allow_mixed_physics, "fits": None if fits is None else str(fits.resolve()),
+            "numpy": np.__version__, "sympy": version("sympy")}  # fmt: skip
+
+
+def _generate(args, fits: Path | None) -> dict[str, bytes]:
+    """The files of the run ({name: bytes}) and its lines on stderr (under :data:`_NOTES`): the inputs checked,
+    the fits read, measured and printed, with a progress bar on stderr."""
+    import fitlab.codegen as codegen
+    from fitlab.codegen.program import parse_terms
+    from fitlab.store import FitFileError, TableError
+
     try:
         parse_terms(args.terms, args.family)
         forms = codegen.parse_forms(args.form)
@@ -138,46 +210,59 @@ def run(args) -> int:
             codegen.program_spec(args.family, tuple(forms)).model(args.model)
     except (ValueError, KeyError) as exc:
         raise UsageError(one_line(exc)) from None
-    fits = fits_input(args, required=True)  # a folder that is not there is a typo, not "use the packaged fits"
-    out = output_folder(args.out, "--out")
-    try:
-        files = codegen.generate(args.lang, fits, args.terms, forms, args.family, args.single_header, args.model,
-                                 allow_partial_domain=args.allow_partial_domain)  # fmt: skip
-    except (ValueError, KeyError, FitFileError, TableError) as exc:  # a fit that is missing, damaged, not what it says
-        raise UsageError(one_line(exc)) from None
-    except ArithmeticError as exc:
-        raise RunFailure(f"code generation failed: {one_line(exc)}") from None
-    _name_the_default(args, forms)
-    _name_the_unused(args, fits, forms)
-    return _write(args, out, {name: text.encode() for name, text in files.items()})
+    from tqdm import tqdm
+
+    # a bar where stderr is a terminal (tqdm's disable=None), none with --quiet
+    with tqdm(total=codegen.load_steps(args.family, forms) + 1, desc="codegen", unit="step", leave=False,
+              disable=True if args.quiet else None) as bar:  # fmt: skip
+
+        def tick(next_step: str) -> None:
+            bar.set_postfix_str(next_step, refresh=False)
+            bar.update(1)
+
+        try:
+            files = codegen.generate(args.lang, fits, args.terms, forms, args.family, args.single_header, args.model,
+                                     allow_partial_domain=args.allow_partial_domain,
+                                     allow_mixed_physics=args.allow_mixed_physics, tick=tick)  # fmt: skip
+        except (ValueError, KeyError, FitFileError, TableError) as exc:  # a fit missing, damaged, not what it says
+            raise UsageError(one_line(exc)) from None
+        except ArithmeticError as exc:
+            raise RunFailure(f"code generation failed: {one_line(exc)}") from None
+    notes = [*_the_default(args, forms), *_the_unused(args, fits, forms)]
+    return {**{name: text.encode() for name, text in files.items()}, _NOTES: "".join(n + "\n" for n in notes).encode()}
 
 
-def _name_the_default(args, forms: dict) -> None:
-    """Without --family (nor --form), a line on stderr names the family whose program is printed and the others
-    that have one (the rule: fitlab.codegen.default_program_family)."""
-    if args.family is not None or forms or args.quiet:
-        return
+def _the_default(args, forms: dict) -> list[str]:
+    """Without --family (nor --form), a line naming the family whose program is printed and the others that have
+    one (the rule: fitlab.codegen.default_program_family)."""
+    if args.family is not None or forms:
+        return []
+    from fitlab.codegen import default_program_family
     from fitlab.core import families
 
     having = [name for name, f in families().items() if f.codegen is not None]
     if len(having) > 1:
-        default = codegen.default_program_family()
+        default = default_program_family()
         others = ", ".join(sorted(n for n in having if n != default))
-        print(f"fitlab codegen: family {default} (also {others}: choose with --family)", file=sys.stderr)
+        return [f"fitlab codegen: family {default} (also {others}: choose with --family)"]
+    return []
 
 
-def _name_the_unused(args, fits, forms: dict) -> None:
-    """One line on stderr naming the fits of --fits that the program's model leaves out (a refit of a part in another
-    form than the model's), and how to print them."""
-    if fits is None or args.quiet:
-        return
-    unused = codegen.unused_fits(fits, forms=forms, family=args.family, model=args.model)
-    if unused:
-        names = ", ".join(p.name for p, _, _ in unused)
-        picks = " ".join(f"--form {t}={f}" for _, t, f in unused)
-        print(f"fitlab codegen: {names} in {fits} not printed: the model uses other forms of "
-              f"{'that part' if len(unused) == 1 else 'those parts'} (to print {'it' if len(unused) == 1 else 'them'}: "
-              f"{picks})", file=sys.stderr)
+def _the_unused(args, fits, forms: dict) -> list[str]:
+    """A line naming the fits of --fits that the program's model leaves out (a refit of a part in another form than
+    the model's), and how to print them."""
+    if fits is None:
+        return []
+    from fitlab.codegen import unused_fits
+
+    unused = unused_fits(fits, forms=forms, family=args.family, model=args.model)
+    if not unused:
+        return []
+    names = ", ".join(p.name for p, _, _ in unused)
+    picks = " ".join(f"--form {t}={f}" for _, t, f in unused)
+    return [f"fitlab codegen: {names} in {fits} not printed: the model uses other forms of "
+            f"{'that part' if len(unused) == 1 else 'those parts'} (to print {'it' if len(unused) == 1 else 'them'}: "
+            f"{picks})"]  # fmt: skip
 
 
 def _write(args, out, files: dict[str, bytes]) -> int:

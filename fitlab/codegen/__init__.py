@@ -11,189 +11,115 @@ The file edge: ``generate("c", fits_dir="fits")`` reads the fits a program
 needs through :mod:`fitlab.store` (:func:`load_program`) and returns
 {file name: text}; ``write_generated`` writes them atomically.  The committed
 output of the committed fits lives in fits/generated/ and a test regenerates it.
+
+The names below are imported on first use (sympy and the families with them), so that the command line can
+read :data:`LANGUAGE_NAMES` and :data:`LOOKUPS` without that cost.
 """
 
 from __future__ import annotations
 
-from dataclasses import replace
-from pathlib import Path
+import importlib
+from typing import TYPE_CHECKING
 
-from fitlab._io import atomic_write_text
-from fitlab.codegen.emit import LANGUAGES, emit
-from fitlab.codegen.program import (
-    DEFAULT_FORMS,
-    SAFE_POW,
-    STABLE,
-    Program,
-    ProgramSpec,
-    Routine,
-    build_program,
-    call,
-    clamp,
-    clamped,
-    default_program_family,
-    minmax_piecewise,
-    model_form,
-    parse_terms,
-    part_routine,
-    program_spec,
-    stable,
-    with_domain,
-)
-from fitlab.core import did_you_mean, targets
-from fitlab.store import fit_files, fit_origin, fit_path, fit_sha256, fit_source, load
+#: the languages fitlab prints (``fitlab codegen --lang``); :data:`fitlab.codegen.emit.LANGUAGES` their printers
+LANGUAGE_NAMES = ("c", "python", "glsl", "hlsl", "metal", "drjit")
+#: how an exported table's texture is read (``fitlab codegen --tables --lookup``): the name and the taps per axis
+LOOKUPS = {"linear": 2, "cubic": 4}
 
-__all__ = ["generate", "codegen_command", "load_program", "unused_fits", "parse_forms", "write_generated", "emit",
-           "LANGUAGES", "build_program", "parse_terms", "program_spec", "default_program_family", "model_form",
-           "part_routine", "Program", "ProgramSpec", "Routine", "call",
-           "stable", "STABLE", "clamp", "clamped", "minmax_piecewise", "with_domain",
-           "SAFE_POW", "DEFAULT_FORMS"]  # fmt: skip
+#: every other public name, by the module that defines it (imported on first use)
+_LAZY = {
+    **dict.fromkeys(
+        (
+            "generate",
+            "codegen_command",
+            "load_program",
+            "load_steps",
+            "unused_fits",
+            "parse_forms",
+            "write_generated",
+            "check_physics",
+        ),
+        "fitlab.codegen._files",
+    ),  # fmt: skip
+    **dict.fromkeys(("LANGUAGES", "emit"), "fitlab.codegen.emit"),
+    **dict.fromkeys(
+        (
+            "build_program",
+            "parse_terms",
+            "program_spec",
+            "default_program_family",
+            "model_form",
+            "part_routine",
+            "Program",
+            "ProgramSpec",
+            "Routine",
+            "Model",
+            "Claim",
+            "call",
+            "stable",
+            "STABLE",
+            "clamp",
+            "clamped",
+            "minmax_piecewise",
+            "with_domain",
+            "SAFE_POW",
+            "DEFAULT_FORMS",
+        ),
+        "fitlab.codegen.program",
+    ),  # fmt: skip
+}
 
+__all__ = ["LANGUAGE_NAMES", "LOOKUPS", "generate", "codegen_command", "load_program", "load_steps", "unused_fits",
+           "parse_forms", "write_generated", "check_physics", "LANGUAGES", "emit", "build_program", "parse_terms",
+           "program_spec", "default_program_family", "model_form", "part_routine", "Program", "ProgramSpec",
+           "Routine", "Model", "Claim", "call", "stable", "STABLE", "clamp", "clamped", "minmax_piecewise",
+           "with_domain", "SAFE_POW", "DEFAULT_FORMS"]  # fmt: skip
 
-def _terms(terms: str | tuple | None, family: str | None) -> tuple[str, ...] | None:
-    if terms is None or isinstance(terms, str):
-        return parse_terms(terms, family)
-    return parse_terms(",".join(terms), family)
-
-
-def load_program(fits_dir: Path | None = None, terms: str | tuple | None = None, forms: dict | None = None,
-                 family: str | None = None, model: str | None = None, *,
-                 allow_partial_domain: bool = False) -> Program:  # fmt: skip
-    """The program of the fits in ``fits_dir`` overlaid on the packaged fits (None: the packaged fits alone).
-
-    Each target's form is the one ``forms`` picks ({"H0": "sr_7_6808f1"}: H0.sr_7_6808f1.json), else
-    the one the ``model`` picks (:attr:`ProgramSpec.models`; None: the program's default model), else the
-    target's default form.  Each fit is read from ``fits_dir`` when that folder has its file, else from the
-    packaged fits (:func:`fitlab.store.fit_source`); each must exist (FitFileError otherwise), but those of the
-    program's optional parts (:attr:`ProgramSpec.optional`).  ``family``: whose program (default: the family of
-    the targets in ``forms``, else :func:`default_program_family`).
-
-    Every fit is re-measured on its target's validation set over the target's whole domain
-    (:func:`fitlab.fit.verify.verify_fit`) and refused (FitFileError, one line naming the file) when it is not
-    finite there or more than 10 % worse than its record states; ``allow_partial_domain`` measures a fit made on
-    part of the domain over that part, and its routine clamps its inputs to it.  The banner lists, fit by fit,
-    the file, its sha256, where it was read and the figures measured here."""
-    from fitlab.fit.verify import describe_measured, verify_fit
-
-    forms = dict(forms or {})
-    spec = program_spec(family, tuple(forms))
-    family = family or next(t.family for t in targets().values() if t.name in spec.fits)
-    term_tuple = _terms(terms, family)
-    model_name, model_forms, description = spec.model(model)
-    chosen = {**model_forms, **forms}
-    paths = {t: fit_source(fits_dir, t, chosen.get(t, targets()[t].default_form)) for t in spec.fits}
-    # an optional part (ProgramSpec.optional) the folders lack leaves its routines out
-    paths = {t: p for t, p in paths.items() if t not in spec.optional or t in chosen or p.is_file()}
-    for p in paths.values():
-        if not p.is_file():
-            load(p)  # the store's own error for a missing fit ("no such fit file", naming it)
-    # the file name and its digest name a fit wherever its folder is, so regenerated code is byte-identical
-    sources = tuple((p.name, fit_sha256(p)) for p in paths.values())
-    # the same files (by digest) make the same program: built once per process (inlining and hoisting the
-    # model takes seconds; a Program is immutable).  Where each was read changes the banner's notes alone, so a
-    # folder holding copies of the packaged fits reuses their program and re-measures only
-    built_key = (sources, term_tuple, family, model_name, allow_partial_domain)
-    key = (built_key, tuple(fit_origin(p) for p in paths.values()))
-    if key not in _PROGRAMS:
-        records = {t: load(p) for t, p in paths.items()}
-        notes = []
-        for t, fit in records.items():
-            measured = verify_fit(fit, allow_partial_domain=allow_partial_domain)
-            notes.append(f"{fit_origin(paths[t])}; {describe_measured(measured)}")
-        if built_key not in _BUILT:
-            _BUILT[built_key] = build_program(records, term_tuple, sources, family, (model_name, description))
-        for memo in (_PROGRAMS, _BUILT):
-            while len(memo) > 16:
-                memo.pop(next(iter(memo)))
-        _PROGRAMS[key] = replace(_BUILT[built_key], source_notes=tuple(notes))
-    return _PROGRAMS[key]
-
-
-def unused_fits(
-    fits_dir: Path,
-    program: Program | None = None,
-    forms: dict | None = None,
-    family: str | None = None,
-    model: str | None = None,
-) -> list[tuple[Path, str, str]]:
-    """The fits of ``fits_dir`` (a user's folder) of the targets a program prints that the program does not use,
-    as (path, target, form): each a fit of one of its targets in a form other than the one its model (or
-    ``forms``) picks.  What
-    ``fitlab codegen --fits`` names in one line, so that a refit left out of the code is never a surprise."""
-    forms = dict(forms or {})
-    spec = program_spec(family, tuple(forms))
-    chosen = {**spec.model(model)[1], **forms}
-    folder = Path(fits_dir)
-    unused = []
-    for t in spec.fits:
-        used = fit_path(folder, t, chosen.get(t, targets()[t].default_form))
-        for p in fit_files(folder, t):
-            if p.parent == folder and p != used:
-                words = p.name.split(".")
-                unused.append((p, t, words[1] if len(words) == 3 else targets()[t].default_form))
-    return unused
+if TYPE_CHECKING:  # what type checkers see of the names imported on first use
+    from fitlab.codegen._files import (
+        check_physics,
+        codegen_command,
+        generate,
+        load_program,
+        load_steps,
+        parse_forms,
+        unused_fits,
+        write_generated,
+    )
+    from fitlab.codegen.emit import LANGUAGES, emit
+    from fitlab.codegen.program import (
+        DEFAULT_FORMS,
+        SAFE_POW,
+        STABLE,
+        Claim,
+        Model,
+        Program,
+        ProgramSpec,
+        Routine,
+        build_program,
+        call,
+        clamp,
+        clamped,
+        default_program_family,
+        minmax_piecewise,
+        model_form,
+        parse_terms,
+        part_routine,
+        program_spec,
+        stable,
+        with_domain,
+    )
 
 
-#: load_program's programs by (the files' names and digests, terms, family, model, partial domain) and where each
-#: file was read (:func:`fitlab.store.fit_origin`, which the banner's notes name)
-_PROGRAMS: dict = {}
-#: the programs as build_program returns them (no notes), by the first part of _PROGRAMS's key alone
-_BUILT: dict = {}
+def __getattr__(name: str):
+    """The public names of :data:`_LAZY`, imported on first use."""
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'fitlab.codegen' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value
+    return value
 
 
-def generate(lang: str, fits_dir: Path | None = None, terms: str | tuple | None = None,
-             forms: dict | None = None, family: str | None = None, single_header: bool = False,
-             model: str | None = None, *, allow_partial_domain: bool = False) -> dict[str, str]:  # fmt: skip
-    """Source files ({name: text}) in ``lang`` of the program of the fits in ``fits_dir`` (:func:`load_program`);
-    their banner names the command that makes them (:func:`codegen_command`)."""
-    if lang not in LANGUAGES:
-        raise ValueError(f"unknown language {lang!r}; choose one of {', '.join(LANGUAGES)}")
-    command = codegen_command(lang, terms, forms, family, single_header, model, allow_partial_domain)
-    program = load_program(fits_dir, terms, forms, family, model, allow_partial_domain=allow_partial_domain)
-    return emit(program, lang, command, single_header)
-
-
-def codegen_command(lang: str, terms=None, forms: dict | None = None, family: str | None = None,
-                    single_header: bool = False, model: str | None = None,
-                    allow_partial_domain: bool = False) -> str:  # fmt: skip
-    """The ``fitlab codegen`` command that makes these files, with every option that changes their content
-    (not --fits or --out: the banner's digests name the fits, and the files are the same wherever written)."""
-    words = ["fitlab codegen", f"--lang {lang}"]
-    if family is not None:
-        words.append(f"--family {family}")
-    if model is not None:
-        words.append(f"--model {model}")
-    if terms is not None:
-        words.append(f"--terms {terms if isinstance(terms, str) else ','.join(terms)}")
-    words += [f"--form {t}={f}" for t, f in (forms or {}).items()]
-    if single_header:
-        words.append("--single-header")
-    if allow_partial_domain:
-        words.append("--allow-partial-domain")
-    return " ".join(words)
-
-
-def parse_forms(items) -> dict[str, str]:
-    """``["H0=sr_7_6808f1", ...]`` -> {"H0": "sr_7_6808f1"}; each target must have a generated routine."""
-    known = [t.name for t in targets().values() if t.routine is not None]
-    out = {}
-    for item in items or ():
-        target, sep, form = item.partition("=")
-        if not sep or not form:
-            raise ValueError(f"--form {item!r}: write TARGET=FORM, e.g. H0=hapke_rational")
-        if target not in known:
-            raise ValueError(f"--form {item!r}: no target {target!r}{did_you_mean(target, known)}")
-        if target in out:
-            raise ValueError(f"--form: {target} given twice")
-        out[target] = form
-    return out
-
-
-def write_generated(files: dict[str, str], out: Path) -> list[Path]:
-    """Write every file (each atomically) into ``out``; returns the paths."""
-    out = Path(out)
-    paths = []
-    for name, text in files.items():
-        atomic_write_text(out / name, text)
-        paths.append(out / name)
-    return paths
+def __dir__():
+    return sorted([*globals(), *_LAZY])

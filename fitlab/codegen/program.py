@@ -54,11 +54,33 @@ __all__ = ["Routine", "Program", "ProgramSpec", "build_program", "part_routine",
            "default_program_family", "model_form", "parse_terms",
            "call", "stable", "STABLE", "ONE_MINUS_SQUARES", "ONE_MINUS_POW", "SumSubsOptim", "rebuilt", "clamp",
            "clamped",
-           "minmax_piecewise", "with_domain", "unused_inputs", "SAFE_POW", "DEFAULT_FORMS", "MaterialSpec", "Material",
+           "minmax_piecewise", "with_domain", "unused_inputs", "SAFE_POW", "DEFAULT_FORMS", "Model", "Claim",
+           "MaterialSpec",
+           "Material",
            "material_of", "field_symbol", "outputs", "inline_calls", "hoist_params", "merge_exp_products"]  # fmt: skip
 
 #: the model every program has: each target's default form (:attr:`ProgramSpec.models`)
 DEFAULT_FORMS = "default-forms"
+
+
+@dataclass(frozen=True)
+class Model:
+    """A named choice of the fits a program is built from (``fitlab codegen --model NAME``).
+
+    forms: {target: form} (a target not named takes its default form).
+    description: what the model is, in one phrase (the banner's).
+    folder: the subfolder of the packaged fits its fits are read from ("": the packaged fits themselves); a
+        ``--fits`` folder overlays it as it overlays the packaged fits.
+    physics: the physics every one of the program's :attr:`ProgramSpec.physics_parts` must have been fitted to
+        (:attr:`fitlab.store.FitFunction.physics`), or None (no such rule): a part fitted to other physics is
+        refused unless mixing is asked for by name.
+    """
+
+    name: str
+    forms: Mapping[str, str]
+    description: str
+    folder: str = ""
+    physics: str | None = None
 
 
 @dataclass(frozen=True)
@@ -116,6 +138,7 @@ class Program:
     doc: the generated Python module's docstring.
     parts: targets whose routine (:attr:`fitlab.core.Target.routine`) is their fit as it stands.
     model: (name, description) of the model the fits were chosen by (:attr:`ProgramSpec.models`), or None.
+    claim: the banner's lines on the model's accuracy as a whole, measured (:class:`Claim`), or ().
     material: the per-material set-up and the evaluators that use it (:class:`Material`), or None.
     """
 
@@ -130,6 +153,8 @@ class Program:
     material: Material | None = None
     #: one phrase per source, in the order of ``sources``: where the file was read, and the error measured there
     source_notes: tuple[str, ...] = ()
+    #: the banner's lines on the model's accuracy as a whole (:attr:`Claim.lines`)
+    claim: tuple[str, ...] = ()
 
     def routine(self, name: str) -> Routine:
         return next(r for r in self.routines if r.name == name)
@@ -138,6 +163,20 @@ class Program:
     def prefix(self) -> str:
         """The prefix of every generated function's name."""
         return self.name + "_"
+
+
+@dataclass(frozen=True)
+class Claim:
+    """What a program's model measures as a whole, against the physics its family takes as the truth (not its
+    parts against their own targets): measured where the program is generated (a family's
+    :attr:`ProgramSpec.claim`).
+
+    lines: the banner's lines.
+    routines: {routine name: a sentence appended to that routine's documentation}.
+    """
+
+    lines: tuple[str, ...]
+    routines: Mapping[str, str] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -152,10 +191,13 @@ class ProgramSpec:
     terms: the optional terms of the family's model (``fitlab codegen --terms``), in model order.
     about: the banner's description, formatted with ``{terms}`` (the terms kept, comma-separated).
     doc: the generated Python module's docstring.
-    models: named choices of forms ({name: ({target: form}, description)}); every program also has
-        :data:`DEFAULT_FORMS` (each target's default form).  ``fitlab codegen --model NAME``.
+    models: its named choices of fits (:class:`Model`); every program also has :data:`DEFAULT_FORMS` (each
+        target's default form, from the packaged fits).  ``fitlab codegen --model NAME``.
     default_model: the model ``fitlab codegen`` prints when none is named: the one place that choice
-        is made (for the Lambert sphere, the report's real-time recommendation).
+        is made (for the Lambert sphere, the most accurate model at its cost: the parts fitted to the true BRDF).
+    physics_parts: the fits that make one model together and must share one physics (:attr:`Model.physics`).
+    claim: ``claim(fits, terms) -> Claim``: the model's accuracy as a whole, measured from the fits
+        ({target: FitFunction}) and the terms kept, or None (a program that states its parts' errors only).
     optional: those of ``fits`` a program can do without (the routines that need them are left out, as
         from a published preset that has no such part: the Lambert sphere's sampler).
     rewrites: the cancellation-free rewrites of this program's routines (``sympy.codegen.rewriting``
@@ -173,11 +215,13 @@ class ProgramSpec:
     terms: tuple[str, ...] = ()
     about: str = ""
     doc: str = ""
-    models: Mapping[str, tuple[Mapping[str, str], str]] = field(default_factory=dict)
+    models: tuple[Model, ...] = ()
     default_model: str = DEFAULT_FORMS
+    physics_parts: tuple[str, ...] = ()
     material: MaterialSpec | None = None
     optional: tuple[str, ...] = ()
     rewrites: tuple[Optimization, ...] = field(default_factory=lambda: STABLE)
+    claim: Callable[[Mapping[str, FitFunction], tuple[str, ...]], Claim] | None = None
 
     def rewrite(self, expr: sp.Expr) -> sp.Expr:
         """``expr`` with this program's :attr:`rewrites` applied, in order."""
@@ -185,20 +229,20 @@ class ProgramSpec:
 
     def model_names(self) -> tuple[str, ...]:
         """Every model's name, the default first."""
-        names = (DEFAULT_FORMS, *self.models)
+        names = (*(m.name for m in self.models), DEFAULT_FORMS)
         return (self.default_model, *(n for n in names if n != self.default_model))
 
-    def model(self, name: str | None = None) -> tuple[str, dict, str]:
-        """(name, {target: form}, description) of the model ``name`` (None: :attr:`default_model`)."""
+    def model(self, name: str | None = None) -> Model:
+        """The model ``name`` (None: :attr:`default_model`); ValueError (one line) naming the models for another."""
         name = self.default_model if name is None else name
         if name == DEFAULT_FORMS:
-            return name, {}, "each target's default form"
-        if name not in self.models:
-            raise ValueError(
-                f"unknown model {name!r}; the {self.name} program's models are {', '.join(self.model_names())}"
-            )
-        forms, description = self.models[name]
-        return name, dict(forms), description
+            return Model(DEFAULT_FORMS, {}, "each target's default form")
+        for m in self.models:
+            if m.name == name:
+                return m
+        raise ValueError(
+            f"unknown model {name!r}; the {self.name} program's models are {', '.join(self.model_names())}"
+        )
 
     def __call__(self, fits: Mapping[str, FitFunction], terms: tuple[str, ...]) -> tuple[Routine, ...]:
         return tuple(self.routines(fits, terms))
@@ -712,7 +756,7 @@ def model_form(target: str) -> str:
     spec = get_family(t.family).codegen
     if spec is None or target not in spec.fits:
         return t.default_form
-    return spec.model()[1].get(target, t.default_form)
+    return spec.model().forms.get(target, t.default_form)
 
 
 def default_program_family() -> str:
@@ -770,13 +814,14 @@ def reproducible_sympy() -> None:
 
 def build_program(records: Mapping[str, object], terms: Sequence[str] | None = None,
                   sources: Sequence[tuple[str, str]] = (), family: str | None = None,
-                  model: tuple[str, str] | None = None) -> Program:  # fmt: skip
+                  model: tuple[str, str] | None = None, claim: Claim | None = None) -> Program:  # fmt: skip
     """The program of one family from fit records by target ({target: record or FitFunction}).
 
     The family is ``family``, else that of the records' targets.  ``terms``: the optional terms of its
     model to keep (None: all; see :func:`parse_terms`).  ``sources``: (file, sha256) pairs the banner
-    lists (the records read no file here); ``model``: (name, description) the banner names.  Records of targets
-    the program does not print are ignored; a missing one is a KeyError.
+    lists (the records read no file here); ``model``: (name, description) the banner names; ``claim``: the
+    model's measured accuracy (:attr:`ProgramSpec.claim`), its sentences appended to the routines it names and its
+    lines to the banner.  Records of targets the program does not print are ignored; a missing one is a KeyError.
     """
     reproducible_sympy()
     spec = program_spec(family, () if family else tuple(records))
@@ -789,7 +834,13 @@ def build_program(records: Mapping[str, object], terms: Sequence[str] | None = N
         raise ValueError(f"terms {unknown}: the {spec.name} program's terms are {', '.join(spec.terms) or '(none)'}")
     fits = {t: _as_fit(t, records[t]) for t in spec.fits if t in records}
     routines = tuple(with_domain(r) for r in spec(fits, terms))
+    if claim is not None:
+        unknown = sorted(set(claim.routines) - {r.name for r in routines})
+        if unknown:
+            raise KeyError(f"the claim names routines the {spec.name} program lacks: {', '.join(unknown)}")
+        routines = tuple(replace(r, doc=f"{r.doc} {claim.routines[r.name]}") if r.name in claim.routines else r
+                         for r in routines)  # fmt: skip
     material = material_of(routines, spec.material) if spec.material is not None else None
     return Program(routines, tuple(tuple(s) for s in sources), terms, spec.name,
                    tuple(spec.about.format(terms=", ".join(terms)).splitlines()), spec.doc, spec.parts, model,
-                   material)  # fmt: skip
+                   material, claim=claim.lines if claim is not None else ())  # fmt: skip

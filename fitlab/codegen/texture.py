@@ -46,6 +46,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import sympy as sp
 
+from fitlab.codegen import LOOKUPS
 from fitlab.codegen.emit import emit
 from fitlab.codegen.program import Program, call, clamp
 
@@ -66,8 +67,6 @@ __all__ = [
 
 #: the routine name every lookup reads texels through (printed PREFIX_texel, PREFIX_texel_f)
 TEXEL = "texel"
-#: the lookups and the nodes each reads per axis
-LOOKUPS = {"linear": 2, "cubic": 4}
 
 
 def texel(row, col) -> sp.Expr:

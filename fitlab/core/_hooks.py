@@ -271,7 +271,7 @@ class ProgramContract(Protocol):
     #: the cancellation-free rewrites of its routines (``sympy.codegen.rewriting`` optimisations)
     rewrites: tuple
 
-    def model(self, name: str | None = None) -> tuple[str, dict, str]: ...
+    def model(self, name: str | None = None): ...  # a fitlab.codegen.Model
 
     def model_names(self) -> tuple[str, ...]: ...
 

@@ -48,6 +48,9 @@ class Target:
     axes: the axes residual grids are drawn over, when they differ from the inputs (an input that
         follows from another left out).
     family: the registering family's name (set by :func:`fitlab.core.register_family`).
+    physics: the physics its exact values are of, as the family names it (the Lambert sphere's ``"three_term"``,
+        ``"mixed"``, ``"true"``: the ``phase`` of its exact engine); a fit of the target states the physics it was
+        fitted against (the fit file's ``physics``), which is this one unless the fit was made to other physics.
     """
 
     name: str
@@ -68,6 +71,7 @@ class Target:
     note: str = ""
     axes: tuple[str, ...] | None = None
     family: str = ""
+    physics: str = "exact"
 
     def __post_init__(self):
         names = [v.name for v in self.variables]

@@ -88,8 +88,8 @@ def preset_metrics(target: Target | str, form: Form | str, preset: str, ds=None)
 def fit_identity(target: Target, form: Form, theta, domain: Mapping[str, tuple[float, float]]) -> dict:
     """The fields of a fit record that say what was fitted: format and version, the target and the form (names,
     descriptions, inputs, expression), the parameters ``theta`` (a full vector, in the form's order), the fixed
-    ones, the ``domain`` and the target's error measure (the rest, how it was fitted and measured, is the
-    maker's)."""
+    ones, the ``domain``, the target's error measure and the physics of its values (a maker that fits other physics
+    says so; the rest, how it was fitted and measured, is the maker's)."""
     return {
         "format": FORMAT,
         "fitlab_version": __version__,
@@ -103,6 +103,7 @@ def fit_identity(target: Target, form: Form, theta, domain: Mapping[str, tuple[f
         "fixed": dict(form.fixed),
         "domain": {k: list(v) for k, v in domain.items()},
         "error_measure": target.error_measure,
+        "physics": target.physics,
     }
 
 

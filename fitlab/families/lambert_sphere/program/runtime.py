@@ -43,7 +43,7 @@ from fitlab.forms.symbolic import lambdify_numpy, symbols
 from fitlab.store import fit_source, load
 
 __all__ = ["RuntimeModel", "runtime_model", "PRESET_VARIANTS", "accuracy", "accuracy_points", "directional_albedo", "ALBEDOS",
-           "ORDER2_FORMS", "energy_scale", "assembled", "ENERGY_MARGIN", "ENERGY_MU"]
+           "ORDER2_FORMS", "energy_scale", "assembled", "ENERGY_MARGIN", "ENERGY_MU", "model_accuracy"]
 
 PRESET_VARIANTS = {
     "paper_printed": ({"H0": ("hapke", "paper"), "H1": ("separable_printed", "paper"), "l": ("quadratic", "paper"),
@@ -85,15 +85,17 @@ class RuntimeModel:
 
 def runtime_model(
     variant: str | None = None, *, fits_dir: Path | None = None, forms: dict | None = None, model: str | None = None,
-    normalisation: str = "corrected", order2: bool | None = None,
+    normalisation: str = "corrected", order2: bool | None = None, allow_mixed_physics: bool = False,
 ) -> RuntimeModel:
     """The runtime BRDF from a preset ``variant``, else from fits: ``runtime_model()`` is the model ``fitlab codegen``
     prints, from the packaged fits.
 
-    Fits are read from ``fits_dir`` overlaid on the packaged fits (:func:`fitlab.store.fit_source`; None: the
-    packaged fits).  Their forms are ``model``'s (a model of the family's program,
+    Fits are read from ``fits_dir`` overlaid on the packaged fits of ``model`` (:func:`fitlab.store.fit_source`;
+    None: the packaged fits).  Their forms are ``model``'s (a model of the family's program,
     :attr:`fitlab.codegen.ProgramSpec.models`; None: the program's default model, the one place that default is
-    chosen; ``"default-forms"``: each part's default form), with ``forms`` ({part: form}) in place of a part's.
+    chosen, "true": the parts fitted to the true BRDF; "three-term": each part fitted to its own target;
+    ``"default-forms"``: each part's default form), with ``forms`` ({part: form}) in place of a part's.  Parts
+    fitted to another physics than the model's are refused (FitFileError) unless ``allow_mixed_physics``.
     ``order2``: add fm2 cos(2 phi) with the fit of H2 (docs/model.md, "Order 2"); None means yes for fits (the
     generated program has fm2) and no for the published presets (the paper has no H2; True with a preset is an
     error)."""
@@ -114,14 +116,20 @@ def runtime_model(
             sources[part] = f"{form_name} / {preset}"
         name = variant
     else:
-        from fitlab.codegen import program_spec  # the program's models: imported here, the program imports this
+        from fitlab.codegen import check_physics, program_spec  # imported here: the program imports this module
 
-        model_name, model_forms, _ = program_spec(FAMILY_NAME).model(model)
-        chosen = {**model_forms, **(forms or {})}
+        spec = program_spec(FAMILY_NAME)
+        chosen_model = spec.model(model)
+        chosen = {**chosen_model.forms, **(forms or {})}
+        fits = {}
         for part in (*RUNTIME_PARTS, *((ORDER2_PART,) if order2 else ())):
-            path = fit_source(fits_dir, part, chosen.get(part, get_target(part).default_form))
-            parts[part] = load(path).expression
+            path = fit_source(fits_dir, part, chosen.get(part, get_target(part).default_form), chosen_model.folder)
+            fits[part] = load(path)
+            parts[part] = fits[part].expression
             sources[part] = path.name  # the file, wherever its folder is (audit.json stays the same)
+        if not allow_mixed_physics:
+            check_physics(spec, chosen_model, fits)
+        model_name = chosen_model.name
         name = "refit" if model_name == DEFAULT_FORMS else f"refit, model {model_name}"
         if forms:
             name += " (" + ", ".join(f"{k}: {v}" for k, v in forms.items()) + ")"
@@ -339,4 +347,40 @@ def accuracy(model, seed: int = 18, n: int = 400, albedo_c=(1e-3, 0.3, 0.7, 0.95
     out["albedo_err"] = err
     if c1 is not None:
         out.update(albedo_c1_max=float(c1.max()), albedo_c1_min=float(c1.min()))
+    return out
+
+
+#: the figures of :func:`accuracy` that :func:`model_accuracy` keeps (the worst points by their coordinates)
+_KEPT = ("max", "rms", "max_grazing", "max_c0", "albedo_err", "albedo_c1_min", "albedo_c1_max")
+
+
+def model_accuracy(parts: dict, terms=RUNTIME_TERMS, use_cache: bool = True) -> dict:
+    """:func:`accuracy` (against the true BRDF, the default seed and sets) of the fitted runtime model made of
+    ``parts`` ({part: expression with numbers}), the ``terms`` kept and its energy scale, as the generated code
+    evaluates it (:func:`assembled`), with "points" and "grazing_points" (the sets' sizes) and "worst" (the main
+    set's worst point).  Kept in fitlab's cache (``use_cache`` False: measured afresh), keyed by the parts'
+    expressions, the terms, the numpy and sympy versions and the code that measures it (the exact engine, the
+    family's forms and this module), as :func:`energy_scale` is."""
+    from fitlab.cache import cached_arrays
+
+    items = tuple(sorted(parts.items()))
+    terms = tuple(terms)
+
+    def compute():
+        functions = {p: lambdify_numpy(symbols(get_target(p).inputs), e) for p, e in items}
+        model = assembled(functions, energy_scale(dict(items), terms), terms)
+        figures = accuracy(model)
+        pts = accuracy_points()
+        worst = figures["worst"]
+        return {**{k: np.float64(figures[k]) for k in _KEPT},
+                "points": np.int64(pts["main"]["c"].size), "grazing_points": np.int64(pts["grazing"]["c"].size),
+                "worst": np.array([worst[k] for k in INPUTS])}  # fmt: skip
+
+    key = {"parts": [[p, sp.srepr(e)] for p, e in items], "terms": list(terms), "numpy": np.__version__,
+           "sympy": sp.__version__}  # fmt: skip
+    arrays = cached_arrays(f"{FAMILY_NAME}-model-accuracy", key, compute, (*_KEPT, "points", "grazing_points", "worst"),
+                           _energy_sources(), use_cache)  # fmt: skip
+    out = {k: float(arrays[k]) for k in _KEPT}
+    out.update(points=int(arrays["points"]), grazing_points=int(arrays["grazing_points"]),
+               worst=dict(zip(INPUTS, (float(x) for x in arrays["worst"]))))  # fmt: skip
     return out

@@ -38,16 +38,17 @@ from typing import Mapping
 
 import sympy as sp
 
-from fitlab.codegen.program import MaterialSpec, ProgramSpec, Routine, call, part_routine
+from fitlab.codegen.program import Claim, MaterialSpec, Model, ProgramSpec, Routine, call, part_routine
 from fitlab.families.lambert_sphere.forms import ORDER2_PART, RUNTIME_PARTS, RUNTIME_TERMS, SINGLE, runtime_terms
 from fitlab.families.lambert_sphere.forms.brdf import parts_in_algebra
 from fitlab.families.lambert_sphere.program.rewrites import REWRITES, azimuth_to_cosine, floor_poles, stable
-from fitlab.families.lambert_sphere.program.runtime import ORDER2_FORMS, energy_scale
-from fitlab.families.lambert_sphere.targets import TARGETS
+from fitlab.families.lambert_sphere.program.runtime import ALBEDOS, ORDER2_FORMS, energy_scale, model_accuracy
+from fitlab.families.lambert_sphere.targets import TARGETS, THREE_TERM, TRUE
 from fitlab.forms.symbolic import safe_pow, symbols
 from fitlab.store import FitFunction
 
-__all__ = ["PROGRAM", "PARTS", "FAST", "SAMPLER", "DOMAIN", "routines", "brdf_routines", "local_routine"]
+__all__ = ["PROGRAM", "PARTS", "FAST", "SAMPLER", "DOMAIN", "MODEL_PARTS", "TRUE_MODEL", "THREE_TERM_MODEL", "routines", "brdf_routines",
+           "local_routine", "claim"]
 
 mu_i, mu_o, c, kd, cos_phi = symbols(("mu_i", "mu_o", "c", "kd", "cos_phi"))
 _VEC = {v: symbols(tuple(f"{v}_{k}" for k in "xyz")) for v in ("wi", "wo")}
@@ -225,15 +226,50 @@ def _sampling_routines(vectors: dict, vec_args: tuple) -> list[Routine]:
     return out
 
 
+#: the parts that make the runtime model together: one model's are fitted to one physics
+MODEL_PARTS = (*RUNTIME_PARTS, ORDER2_PART)
+#: the program's models (:data:`PROGRAM`): every part fitted to the true BRDF (the default), or to its own
+#: three-term target
+TRUE_MODEL, THREE_TERM_MODEL = "true", "three-term"
+
+
+def claim(fits: Mapping[str, FitFunction], terms: tuple[str, ...]) -> Claim:
+    """The runtime model of ``fits`` and ``terms`` measured against the true BRDF
+    (:func:`.runtime.model_accuracy`: :func:`.runtime.accuracy`'s sets), stated in the banner and in the
+    documentation of brdf and brdf_local."""
+    a = model_accuracy({p: fits[p].expression for p in MODEL_PARTS}, terms)
+    c_lo = min(ALBEDOS)
+    main = (f"max {a['max']:.2e}, RMS {a['rms']:.2e} relative over mu_i, mu_o in [0.01, 1], c in [{c_lo:g}, 1], "
+            f"every phi ({a['points']} points)")
+    grazing = f"max {a['max_grazing']:.2e} down to mu_i, mu_o = 1e-6 ({a['grazing_points']} points)"
+    zero = "exactly 0 at c = 0" if a["max_c0"] == 0.0 else f"at most {a['max_c0']:.2e} at c = 0"
+    albedo = f"directional albedo at c = 1 from {a['albedo_c1_min']:.6f} to {a['albedo_c1_max']:.6f}"
+    worst = ", ".join(f"{k} = {v:.4g}" for k, v in a["worst"].items())
+    sentence = (f"Against the true BRDF (the whole phase function), as fitlab codegen measured it: {main}; "
+                f"{grazing}; {zero}; {albedo}.")
+    lines = ("Accuracy of brdf against the true BRDF (exact.brdf, phase 'true': the whole phase function in every "
+             "collision), measured by fitlab codegen:",
+             f"  {main}, worst at {worst};",
+             f"  {grazing}; {zero};",
+             f"  {albedo}.")
+    return Claim(lines, {"brdf": sentence, "brdf_local": sentence})
+
+
 PROGRAM = ProgramSpec(
     name="lambert_sphere",
     fits=(*PARTS, FAST),
     parts=PARTS,
     routines=routines,
     terms=RUNTIME_TERMS,
-    models={"order2": (ORDER2_FORMS, "the report's real-time recommendation: orders 0, 1 and 2 of multiple "
-                                     "scattering with the forms of runtime.ORDER2_FORMS")},
-    default_model="order2",
+    models=(
+        Model(TRUE_MODEL, ORDER2_FORMS, "the most accurate model at its cost: orders 0, 1 and 2 of multiple scattering, "
+                                    "every part fitted to the true BRDF", folder="true", physics=TRUE),
+        Model(THREE_TERM_MODEL, ORDER2_FORMS, "the same structure and forms, each part fitted to its own target, the "
+                                          "three-term half space's quantity", physics=THREE_TERM),
+    ),
+    default_model=TRUE_MODEL,
+    physics_parts=MODEL_PARTS,
+    claim=claim,
     optional=SAMPLER,
     rewrites=REWRITES,
     material=MaterialSpec(("c",), {"eval": "brdf", "eval_local": "brdf_local", "pdf": "pdf_local", "sample": "sample_local"},

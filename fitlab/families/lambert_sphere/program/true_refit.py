@@ -42,6 +42,8 @@ from fitlab.core import Dataset, data_hash, get_form, get_target
 from fitlab.families.lambert_sphere.forms import ORDER2_PART, RUNTIME_PARTS, runtime_sum, runtime_terms
 from fitlab.families.lambert_sphere.forms.brdf import SINGLE_FORWARD
 from fitlab.families.lambert_sphere.program.runtime import RuntimeModel, runtime_model
+from fitlab.families.lambert_sphere.program.spec import TRUE_MODEL
+from fitlab.families.lambert_sphere.targets import TRUE
 from fitlab.families.lambert_sphere.targets.datasets import true_orders_training
 from fitlab.fit.refit import fit_identity, validation_metrics
 from fitlab.fit.solver import SOLVER_SETTINGS, fit_form
@@ -86,14 +88,13 @@ def true_runtime_model(fits_dir: Path | None = None) -> RuntimeModel:
     if missing:
         raise FitFileError(f"{folder}: no fit to the true BRDF of {', '.join(missing)} in the model's forms "
                            f"({', '.join(fit_path(folder, p, forms[p]).name for p in missing)})")
-    m = runtime_model(fits_dir=folder)
+    m = runtime_model(fits_dir=folder, model=TRUE_MODEL)
     return RuntimeModel(TRUE_MODEL_NAME, m.expr, m.sources)
 
 
 def _model_forms() -> dict:
-    """{part: form} of the program's default model (the shipped runtime model)."""
-    _, forms, _ = program_spec("lambert_sphere").model(None)
-    return dict(forms)
+    """{part: form} of the program's model of the parts fitted to the true BRDF."""
+    return dict(program_spec("lambert_sphere").model(TRUE_MODEL).forms)
 
 
 def _parts(forms: dict, free: tuple) -> tuple[dict, list, dict, dict]:
@@ -194,6 +195,7 @@ def _record(part, form_name, values, train, fit, minimax_rounds) -> dict:
     valid = target.validation()
     return {
         **fit_identity(target, form, theta, target.domain),
+        "physics": TRUE,
         "training": {"points": len(train), "grid": train.grid},
         "validation": {"grid": valid.grid, **validation_metrics(form, theta, valid, target.scale(valid))},
         "published": [],

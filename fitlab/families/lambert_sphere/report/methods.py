@@ -49,6 +49,7 @@ from fitlab.families.lambert_sphere.program.runtime import (
     directional_albedo,
     runtime_model,
 )
+from fitlab.families.lambert_sphere.program.spec import THREE_TERM_MODEL
 from fitlab.families.lambert_sphere.program.true_refit import TRUE_FITS, true_runtime_model
 from fitlab.families.lambert_sphere.report.engine_rows import SOURCES, measure_engines
 from fitlab.families.lambert_sphere.report.markdown import BRDF_TITLE, REPORT_TEXT, engine_sections
@@ -236,15 +237,17 @@ def brdf_methods(fits_dir: Path, entries: list, data_dir: Path, preset_c: tuple 
         out.append(_runtime(m, f"published: {v}", "published", _label(m.sources), spec))
     out.append(_runtime(runtime_model(fits_dir=fits_dir, model=DEFAULT_FORMS), "refit", "refit", "default forms in " + str(fits_dir),
                         CSpec("brdf", fits_dir)))  # fmt: skip
-    # the program's default model (what fitlab codegen and runtime_model() give), where its forms are in the catalogue
-    order2 = {p: f for p, f in program_spec(FAMILY_NAME).model()[1].items() if f != get_target(p).default_form}
+    # the program's three-term model (each part fitted to its own target), where its forms are in the catalogue
+    order2 = {p: f for p, f in program_spec(FAMILY_NAME).model(THREE_TERM_MODEL).forms.items()
+              if f != get_target(p).default_form}  # fmt: skip
     if not all(any(e.target == p and e.form == f for e in entries) for p, f in order2.items()):
         order2 = None
     if order2:
-        m = runtime_model(fits_dir=fits_dir)  # the default model: what fitlab codegen prints
+        m = runtime_model(fits_dir=fits_dir, model=THREE_TERM_MODEL)
         out.append(_runtime(m, "refit, order 2", "refit, richer", _label(order2),
                             CSpec("brdf", fits_dir, tuple(sorted(order2.items())))))  # fmt: skip
-        # the same structure and forms with the parts fitted to the true BRDF (the packaged ones, whatever fits_dir is)
+        # the same structure and forms with the parts fitted to the true BRDF (the packaged ones, whatever fits_dir
+        # is): the program's default model, what fitlab codegen and runtime_model() give
         m = true_runtime_model()
         out.append(_runtime(m, "refit to the true BRDF, order 2", "refit, richer", f"fitlab/fits/true: {_label(order2)}",
                             CSpec("brdf", TRUE_FITS, tuple(sorted(order2.items())))))  # fmt: skip

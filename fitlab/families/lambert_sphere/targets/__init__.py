@@ -15,11 +15,11 @@ import math
 import numpy as np
 
 from fitlab.core import Dataset, Input, Target
-from fitlab.families.lambert_sphere.exact import h_function
+from fitlab.families.lambert_sphere.exact import PHASES, h_function
 from fitlab.families.lambert_sphere.targets import datasets as d
 from fitlab.families.lambert_sphere.targets.grids import GRID_AXES, exact_grid
 
-__all__ = ["INPUTS", "TARGETS"]
+__all__ = ["INPUTS", "TARGETS", "THREE_TERM", "MIXED", "TRUE"]
 
 
 #: the inputs of every Lambert-sphere target, each defined once (symbol and domain)
@@ -54,6 +54,12 @@ def _scale_a(ds: Dataset) -> np.ndarray:
     return 69.0 * ds.inputs["c"] / 128.0
 
 
+#: the physics of each target's exact values (:attr:`fitlab.core.Target.physics`), named as the exact engine's
+#: ``phase``: the H-functions and constants are the three-term half space's, kd the true BRDF's spherical albedo,
+#: the sampler optimised for the mixed reference (:mod:`..exact.sampling`)
+TRUE, THREE_TERM, MIXED = PHASES
+
+
 def _constant_target(name: str, forms: tuple[str, str], published, description: str, **kw) -> Target:
     return Target(
         name=name,
@@ -65,6 +71,7 @@ def _constant_target(name: str, forms: tuple[str, str], published, description: 
         validation=lambda: d.constant_validation(name),
         exact_grid=exact_grid(name),
         routine=f"const_{name.lower()}",
+        physics=THREE_TERM,
         **kw,
     )
 
@@ -79,7 +86,7 @@ TARGETS: dict[str, Target] = {
     for t in (
         Target(
             "H0", "H0(mu, c), mu and c in [0, 1]", _inputs("mu", "c"), "hapke", (("hapke", "paper"),),
-            lambda: d.h_training(0), lambda: d.h_validation(0), exact_grid("H0"), "h0",
+            lambda: d.h_training(0), lambda: d.h_validation(0), exact_grid("H0"), "h0", physics=THREE_TERM,
             claimed="relative error < 1 % on (mu, c) in [0, 1]^2 (paper, sec. 3.4)",
             emphasis=lambda ds: 1.0 / (ds.inputs["c"] + 0.1),
             emphasis_text=(
@@ -92,12 +99,13 @@ TARGETS: dict[str, Target] = {
             "H1", "H1(mu, c), mu and c in [0, 1]", _inputs("mu", "c"), "separable",
             (("separable_printed", "paper"), ("separable_printed", "paper_variant"), ("separable", "paper"),
              ("separable", "renderer")),
-            lambda: d.h_training(1), lambda: d.h_validation(1), exact_grid("H1"), "h1",
+            lambda: d.h_training(1), lambda: d.h_validation(1), exact_grid("H1"), "h1", physics=THREE_TERM,
             claimed="relative error < 0.5 % (paper, sec. 3.3)",
         ),
         Target(
             "H2", "H2(mu, c), mu and c in [0, 1]: the H-function of Fourier order 2 (eq. 15), for fm2",
             _inputs("mu", "c"), "log_exp", (("unity", "paper"),), lambda: d.h_training(2), lambda: d.h_validation(2), _h_grid(2), "h2",
+            physics=THREE_TERM,
             claimed="none: the paper drops fm2 (eq. 21), i.e. takes H2 = 1 (form unity)",
         ),
         _constant_target("l", ("quadratic",), (("quadratic", "paper"), ("quadratic", "renderer")),
@@ -110,16 +118,17 @@ TARGETS: dict[str, Target] = {
         Target(
             "kd_of_c", "kd(c): spherical albedo of fitlab.families.lambert_sphere.exact.brdf (kd_true), c in [0, 1]", _inputs("c"), "printed_c0",
             (("printed", "paper"),), d.kd_of_c_training, d.kd_of_c_validation, exact_grid("kd_of_c"), "kd_of_c",
+            physics=TRUE,
         ),
         Target(
             "c_of_kd", "c(kd): inverse of kd_true, kd in [0, 1]", _inputs("kd"), "rational_power",
             (("rational_power", "paper"), ("rational_power", "renderer")), d.c_of_kd_training, d.c_of_kd_validation,
-            exact_grid("c_of_kd"), "c_of_kd", axes=GRID_AXES["c_of_kd"],
+            exact_grid("c_of_kd"), "c_of_kd", axes=GRID_AXES["c_of_kd"], physics=TRUE,
         ),
         Target(
             "fm1", "fm1(mu_i, mu_o, c): multiple scattering of Fourier order 1 (eq. 28, corrected)",
             _inputs("mu_i", "mu_o", "c"), "fast", (("fast", "paper"),), d.fm1_training, d.fm1_validation,
-            exact_grid("fm1"),
+            exact_grid("fm1"), physics=THREE_TERM,
             error_measure=(
                 "relative to f^(0): |approx - exact| / f^(0)(mu_i, mu_o, c), f^(0) the azimuthal mean of the exact "
                 "BRDF (fm1 itself vanishes at c = 0 and mu = 1, and grows only like log(1/mu) at grazing, where "
@@ -131,7 +140,7 @@ TARGETS: dict[str, Target] = {
             "fast_brdf", "f_r(mu_i, mu_o, phi, c, kd = kd_true(c)) against fitlab.families.lambert_sphere.exact.brdf",
             _inputs("mu_i", "mu_o", "phi", "c", "kd"), "paper", (("paper", "paper"),), d.brdf_training, d.brdf_validation,
             exact_grid("fast_brdf"), "brdf_fast", axes=GRID_AXES["fast_brdf"],
-            minimax=False,
+            minimax=False, physics=TRUE,
             note=(
                 "At phi = pi, mu_i = mu_o = mu -> 0 the exact f_r grows like log(1/mu) while every member of the "
                 "eq. 41 family stays bounded (f_1 -> 0 there, the other terms are bounded), so the supremum of the "
@@ -143,7 +152,7 @@ TARGETS: dict[str, Target] = {
             Target(
                 name, f"{what}, mu_i and c in [0, 1]", _inputs("mu_i", "c"), form, (),
                 lambda name=name: d.sampling_training(name), lambda name=name: d.sampling_validation(name),
-                routine=name,
+                routine=name, physics=MIXED,
                 claimed="none: no published sampler (renderers draw cosine-weighted directions, w = 0)",
                 minimax=False,
                 note=(

@@ -38,7 +38,7 @@ from typing import Mapping
 
 import sympy as sp
 
-from fitlab.codegen import Program, ProgramSpec, Routine, build_program, call, part_routine, stable
+from fitlab.codegen import Model, Program, ProgramSpec, Routine, build_program, call, part_routine, stable
 from fitlab.families.microfacet_energy.lobes.tables import KINDS
 from fitlab.families.microfacet_energy.program.runtime import MODELS, model_forms, multiple_scattering, order_lobes
 from fitlab.families.microfacet_energy.targets import TARGETS
@@ -82,7 +82,7 @@ def fit_files(fits_dir: Path | None = None, model: str | None = None) -> dict[st
     """{target: fit file} of every fit the program of ``model`` (None: its default) reads in ``fits_dir`` (None:
     the packaged fits), in banner order: what ``fitlab codegen --family microfacet_energy`` reads."""
     folder = fits_folder(fits_dir)
-    forms = PROGRAM.model(model)[1]
+    forms = PROGRAM.model(model).forms
     return {t: fit_path(folder, t, forms.get(t, TARGETS[t].default_form)) for t in PARTS}
 
 
@@ -156,9 +156,9 @@ PROGRAM = ProgramSpec(
     fits=PARTS,
     parts=PARTS,
     routines=routines,
-    models={DEFAULT_MODEL: (_model_forms(DEFAULT_MODEL),
-                            "ms_blog_* in the blog's own forms, refitted (the lobe model blog_refit); "
-                            "every other target in its default form")},
+    models=(Model(DEFAULT_MODEL, _model_forms(DEFAULT_MODEL),
+                  "ms_blog_* in the blog's own forms, refitted (the lobe model blog_refit); "
+                  "every other target in its default form"),),
     default_model=DEFAULT_MODEL,
     about="Kulla-Conti energy compensation and multiple-scattering lobes of microfacet BRDFs: the fitted albedos E,\n"
           "1 - E and E_avg (GGX, separable and height-correlated Smith; Oren-Nayar), and the multiple scattering of\n"
