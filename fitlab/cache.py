@@ -30,6 +30,9 @@ of engine is a miss, never a stale hit.
   other.  Where ``flock`` is missing (Windows) or the folder cannot be
   written, each computes its own as before.
 * A cache that cannot be written (read-only disk) only costs time.
+* fitlab ships the entries a fresh install's first commands would spend minutes on
+  (:func:`fitlab.resources.packaged_exact_values`): a miss whose entry is there is read from there (checked
+  as any entry) and copied in.  Their keys are the engine's too, so a changed engine never reads them.
 
 The same folder keeps, under ``xla/``, the programs JAX compiles for the commands
 (:func:`enable_compilation_cache`, JAX's persistent compilation cache): a second
@@ -56,14 +59,15 @@ import numpy as np
 
 from fitlab import __version__
 from fitlab._io import atomic_write_bytes, regular_file
+from fitlab.resources import packaged_exact_values
 
 try:
     import fcntl
 except ImportError:  # Windows: no flock, no lock (see the module docstring)
     fcntl = None
 
-__all__ = ["cache_dir", "cache_key", "cached_arrays", "cached_at", "cache_info", "clear_cache", "enabled",
-           "enable_compilation_cache", "INPUT_PREFIX", "cached_text", "code_fingerprint"]
+__all__ = ["cache_dir", "cache_key", "cached_arrays", "cached_at", "cached_files", "cache_info", "clear_cache",
+           "enabled", "enable_compilation_cache", "package_sources", "INPUT_PREFIX", "cached_text", "family_entry_points"]
 
 _SUFFIX = ".npz"
 #: the array of an entry that holds its content hash (:func:`_content_hash`)
@@ -103,6 +107,31 @@ def cache_key(parts: Mapping, sources: Iterable[Path] = ()) -> str:
         h.update(src.name.encode())
         h.update(src.read_bytes())
     return h.hexdigest()[:24]
+
+
+def package_sources() -> list[Path]:
+    """Every file of the installed fitlab that can change what a command computes: its Python modules, the fit
+    files and schemas it ships (not the generated code, nor compiled bytecode).  A key over these is a miss after
+    any change of fitlab, never a stale hit."""
+    root = Path(__file__).resolve().parent
+    return sorted(p for p in root.rglob("*") if p.suffix in (".py", ".json") and "__pycache__" not in p.parts
+                  and "generated" not in p.relative_to(root).parts and p.is_file())  # fmt: skip
+
+
+def cached_files(name: str, parts: Mapping, compute: Callable[[], Mapping[str, bytes]],
+                 sources: Iterable[Path] = (), use_cache: bool = True) -> dict[str, bytes]:  # fmt: skip
+    """The named byte strings ``compute()`` returns ({name: bytes}, e.g. the files a command writes), kept in the
+    cache as one entry of :func:`cached_arrays` (the names, their sizes and their bytes), keyed as it keys."""
+
+    def arrays():
+        files = dict(compute())
+        blobs = [np.frombuffer(bytes(v), dtype=np.uint8) for v in files.values()]
+        return {"names": np.array(list(files), dtype=str), "sizes": np.array([b.size for b in blobs], dtype=np.int64),
+                "blob": np.concatenate(blobs) if blobs else np.zeros(0, dtype=np.uint8)}  # fmt: skip
+
+    got = cached_arrays(name, parts, arrays, ("names", "sizes", "blob"), sources, use_cache)
+    ends = np.cumsum(got["sizes"])  # the entry's content hash holds the three arrays as compute() made them
+    return {str(n): got["blob"][e - int(k) : e].tobytes() for n, k, e in zip(got["names"], got["sizes"], ends)}
 
 
 def _content_hash(entry: str, arrays: Mapping[str, np.ndarray], names: tuple[str, ...]) -> np.ndarray:
@@ -154,47 +183,54 @@ def cached_arrays(
             hit = _load(path, names)
             if hit is not None:
                 return hit
+            # the seed fitlab ships (what a fresh install's commands measure against first), checked as any entry
+            shipped = _load(packaged_exact_values() / path.name, names)
+            if shipped is not None:
+                _store(path, shipped, names)
+                return shipped
         values = {n: np.asarray(v) for n, v in compute().items()}
         missing = [n for n in names if n not in values]
         if missing:
             raise KeyError(f"cache entry {name}: compute() gave no {missing}")
         if use:
-            buf = io.BytesIO()
-            np.savez(buf, **{n: values[n] for n in names}, **{_HASH: _content_hash(path.name, values, names)})
-            try:
-                atomic_write_bytes(path, buf.getvalue())
-            except OSError:
-                pass  # a cache that cannot be written only costs time
+            _store(path, values, names)
     return {n: values[n] for n in names}
 
 
-def code_fingerprint() -> str:
-    """sha256 of the code fitlab runs: every Python source of the fitlab package (path and bytes) and the
-    ``fitlab.families`` entry points of installed distributions (name, value, distribution and version); what
-    a text computed from the registry alone (a command's listing) is keyed by."""
-    registry = sys.modules.get("fitlab.core._registry")  # its view of them where it is loaded (as tests set it)
+def _store(path: Path, values: Mapping[str, np.ndarray], names: tuple[str, ...]) -> None:
+    """Write an entry (its arrays and their content hash) atomically; a cache that cannot be written only costs
+    time."""
+    buf = io.BytesIO()
+    np.savez(buf, **{n: values[n] for n in names}, **{_HASH: _content_hash(path.name, values, names)})
+    try:
+        atomic_write_bytes(path, buf.getvalue())
+    except OSError:
+        pass
+
+
+def family_entry_points() -> list[str]:
+    """The installed ``fitlab.families`` entry points as "name=value@distribution-version", sorted: what, beside
+    fitlab's own files (:func:`package_sources`), decides what the registry holds.  Taken from the registry's view
+    of them where it is loaded (as tests set it)."""
+    registry = sys.modules.get("fitlab.core._registry")
     entry_points = getattr(registry, "entry_points", None)
     if entry_points is None:
         from importlib.metadata import entry_points
-
-    h = hashlib.sha256()
-    root = Path(__file__).resolve().parent
-    for src in sorted(root.rglob("*.py")):
-        h.update(src.relative_to(root).as_posix().encode() + b"\0")
-        h.update(src.read_bytes())
-    for ep in sorted(entry_points(group="fitlab.families"), key=lambda e: (e.name, e.value)):
+    found = []
+    for ep in entry_points(group="fitlab.families"):
         dist = getattr(ep, "dist", None)
-        h.update(f"\0{ep.name}={ep.value}@{getattr(dist, 'name', '')}-{getattr(dist, 'version', '')}".encode())
-    return h.hexdigest()
+        found.append(f"{ep.name}={ep.value}@{getattr(dist, 'name', '')}-{getattr(dist, 'version', '')}")
+    return sorted(found)
 
 
 def cached_text(name: str, compute: Callable[[], str]) -> str:
-    """The text ``compute()`` returns, from the cache when present, keyed by :func:`code_fingerprint`: for a text
-    that only fitlab's code (and the installed families') determines, such as ``fitlab refit --list``, which
-    otherwise imports every family (JAX and sympy, seconds) to say what the registry holds."""
-    arrays = cached_arrays(name, {"code": code_fingerprint()},
-                           lambda: {"text": np.frombuffer(compute().encode(), dtype=np.uint8)}, ("text",))  # fmt: skip
-    return arrays["text"].tobytes().decode()
+    """The text ``compute()`` returns, from the cache when present (:func:`cached_files`), keyed by fitlab's own
+    files (:func:`package_sources`) and the installed families (:func:`family_entry_points`): for a text only they
+    determine, such as ``fitlab refit --list``, which otherwise imports every family (JAX and sympy, seconds) to
+    say what the registry holds."""
+    files = cached_files(name, {"families": family_entry_points()}, lambda: {"text": compute().encode()},
+                         package_sources())  # fmt: skip
+    return files["text"].decode()
 
 
 #: the prefix of the arrays in which an entry of :func:`cached_at` holds its inputs

@@ -42,6 +42,13 @@ def packaged_fits() -> Path:
     return package_folder("fits")
 
 
+def packaged_exact_values() -> Path:
+    """The exact values shipped with fitlab (``fitlab/data/exact_values``): the entries of :mod:`fitlab.cache` that a
+    fresh install's commands would compute first (``fitlab codegen``'s validation sets and the true BRDF it measures
+    its model against), read when the cache lacks them (written by ``tools/seed_test_cache.py``)."""
+    return package_folder("data", "exact_values")
+
+
 def packaged_tables(family: str) -> Path:
     """The exact tables of ``family`` shipped with fitlab."""
     return package_folder("data", family)

@@ -1377,6 +1377,39 @@ NOTEBOOKS = {
     "07_fresnel.ipynb": FRESNEL,
 }
 
+#: the question each notebook answers, in two sentences: the build writes them under its title
+QUESTIONS = {
+    "01_h_functions.ipynb": "How far from the exact H-functions are the published approximations of H0 and H1, and "
+    "the fits fitlab ships? Where over (mu, c) do their largest errors lie, and what do they do at grazing angles?",
+    "02_constants.ipynb": "How accurate are the published and refitted approximations of the constants l, m, B, C, D "
+    "and F over every albedo c? Where does each err most, and does the exact identity between l and m hold?",
+    "03_albedo_maps.ipynb": "How accurately do the fitted maps take a material's spherical albedo kd to the particle "
+    "albedo c and back? How far do the round trips c -> kd -> c and kd -> c -> kd drift?",
+    "04_brdf.ipynb": "How far is the runtime BRDF, built from approximate parts, from the exact BRDF over every pair "
+    "of directions and every albedo? Where are its worst points, grazing angles included, and how does the fast "
+    "variant compare?",
+    "05_refit_and_codegen.ipynb": "How does one refit a part of the runtime BRDF and get generated code that uses the "
+    "refit? This walkthrough does it through the Python API and checks the code against the refit and the exact "
+    "BRDF.",
+    "06_your_own_table.ipynb": "How does one fit a form of one's own to a table of one's own and generate that "
+    "function? This notebook fits the example E(mu, alpha) table fitlab ships, measures the held-out error again "
+    "from the table alone, and generates the code.",
+    "07_fresnel.ipynb": "How far from a metal's exact Fresnel reflectance are Schlick, F82-tint, Gulbrandsen and "
+    "fitlab's refits over the whole range of incidence? And how well does each give the hemispherical average F_avg?",
+}
+
+
+def with_question(name: str, cells) -> list:
+    """The cells of notebook ``name`` with its question (:data:`QUESTIONS`) under the title of its first cell."""
+    if name not in QUESTIONS:
+        raise ValueError(f"{name}: no question in QUESTIONS")
+    first = nbformat.from_dict(dict(cells[0]))
+    title, _, rest = first.source.partition("\n")
+    if first.cell_type != "markdown" or not title.startswith("# "):
+        raise ValueError(f"{name}: the first cell is not a markdown cell with a title")
+    first.source = f"{title}\n\n*{QUESTIONS[name]}*\n{rest}"
+    return [first, *cells[1:]]
+
 
 def state_claims(name: str, cells) -> list:
     """The cells of notebook ``name`` with each marker [[key]] of its markdown replaced by its claim's sentence;
@@ -1423,8 +1456,39 @@ def build_notebook(cells, name: str | None = None) -> nbformat.NotebookNode:
     return nb
 
 
+def same_cells(a: nbformat.NotebookNode, b: nbformat.NotebookNode) -> bool:
+    """Whether two notebooks hold the same cells (type and source), outputs aside: an executed copy of the other."""
+    return [(c.cell_type, c.source) for c in a.cells] == [(c.cell_type, c.source) for c in b.cells]
+
+
+def execute(path: Path, *, small: bool = True, timeout: int = 240) -> tuple[nbformat.NotebookNode, list]:
+    """The notebook at ``path`` run top to bottom in a fresh kernel (in its own folder, ``FITLAB_NOTEBOOK_SMALL`` as
+    ``small`` says), with :func:`claims_cell` appended: every claim of its text is checked in the kernel, and a
+    false one raises (nbclient's CellExecutionError) like an error in any cell.  Returns the executed notebook
+    without the claims' cell, and what that cell found (one dict per claim, in the order of ``CLAIMS``)."""
+    import os
+
+    from nbclient import NotebookClient
+
+    nb = nbformat.read(path, as_version=4)
+    nb.cells.append(claims_cell(path.name))
+    env = {k: v for k, v in os.environ.items() if k != "MPLBACKEND"}  # the kernel's inline backend: plots as PNG
+    env = {**env, "FITLAB_NOTEBOOK_SMALL": "1" if small else "0",
+           # the exact engine's small linear solves: a second BLAS thread gains nothing, and on a busy 2-core
+           # machine OpenBLAS's spinning threads made them 10x slower (measured)
+           "OPENBLAS_NUM_THREADS": "1"}  # fmt: skip
+    client = NotebookClient(nb, timeout=timeout, kernel_name="python3",
+                            resources={"metadata": {"path": str(path.parent)}})  # fmt: skip
+    client.execute(env=env)
+    printed = [line for o in nb.cells[-1].outputs for line in o.get("text", "").splitlines()]
+    report = [line for line in printed if line.startswith("CLAIMS ")]
+    found = json.loads(report[-1][len("CLAIMS ") :]) if report else []
+    nb.cells.pop()
+    return nb, found
+
+
 def render(name: str) -> str:
-    return nbformat.writes(build_notebook(NOTEBOOKS[name], name))
+    return nbformat.writes(build_notebook(with_question(name, NOTEBOOKS[name]), name))
 
 
 def main(argv) -> int:

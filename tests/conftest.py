@@ -50,6 +50,11 @@ def pytest_configure(config):
         folder = tempfile.mkdtemp(prefix="fitlab-tests-native-")
         config._fitlab_native_cache = folder
         os.environ["FITLAB_NATIVE_CACHE"] = folder
+        # the notebooks tests/test_notebooks.py ran, for the site's build (tests/test_site.py); a folder given in
+        # the environment is used as it is (the build takes a copy only where its cells are the committed ones)
+        if not os.environ.get("FITLAB_EXECUTED_NOTEBOOKS"):
+            config._fitlab_notebooks = tempfile.mkdtemp(prefix="fitlab-tests-notebooks-")
+            os.environ["FITLAB_EXECUTED_NOTEBOOKS"] = config._fitlab_notebooks
         from fitlab.cache import cache_dir, enabled
 
         os.environ["FITLAB_CACHE_DIR"] = str(cache_dir())
@@ -81,9 +86,10 @@ def _seed_exact_values(cache: Path) -> None:
 
 
 def pytest_unconfigure(config):
-    folder = getattr(config, "_fitlab_native_cache", None)
-    if folder:
-        shutil.rmtree(folder, ignore_errors=True)
+    for name in ("_fitlab_native_cache", "_fitlab_notebooks"):
+        folder = getattr(config, name, None)
+        if folder:
+            shutil.rmtree(folder, ignore_errors=True)
 
 
 @pytest.hookimpl(tryfirst=True)  # before xdist's own hook, which reads the groups
@@ -94,10 +100,11 @@ def pytest_collection_modifyitems(config, items):
 
 def _group_module_fixtures(items):
     """A test that uses a module- or class-scoped fixture runs on the worker that runs the rest of its module
-    (xdist_group, honoured by --dist loadgroup), so that the fixture is computed once, not on each worker."""
+    (xdist_group, honoured by --dist loadgroup), so that the fixture is computed once, not on each worker; a test
+    that names its group keeps it."""
     for item in items:
         info = getattr(item, "_fixtureinfo", None)
-        if info is None:
+        if info is None or item.get_closest_marker("xdist_group") is not None:  # a group of its own stands
             continue
         scopes = {d.scope for defs in info.name2fixturedefs.values() for d in defs}
         if scopes & {"module", "class", "package"}:

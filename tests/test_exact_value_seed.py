@@ -46,24 +46,59 @@ def _tool():
 
 
 SEED = _tool().OUT
+#: the seed fitlab ships (fitlab.resources.packaged_exact_values), made by the same tool
+PACKAGED = _tool().PACKAGED
 
 
-def _manifest() -> dict:
-    return json.loads((SEED / _tool().MANIFEST).read_text())
+def _manifest(folder: Path = SEED) -> dict:
+    return json.loads((folder / _tool().MANIFEST).read_text())
 
 
-def test_the_seed_was_made_by_this_code():
-    made, now = _manifest()["fingerprint"], _tool().fingerprint()
+@pytest.mark.parametrize("folder", [SEED, PACKAGED], ids=["tests", "packaged"])
+def test_the_seed_was_made_by_this_code(folder):
+    made, now = _manifest(folder)["fingerprint"], _tool().fingerprint()
     changed = sorted(f for f in made.keys() | now.keys() if made.get(f) != now.get(f))
-    assert not changed, (f"tests/data/exact_values was made by other code ({', '.join(changed)} changed since): "
+    assert not changed, (f"{folder.relative_to(ROOT)} was made by other code ({', '.join(changed)} changed since): "
                          "run python tools/seed_test_cache.py")
 
 
-def test_the_manifest_names_every_seeded_set_and_file():
-    manifest = _manifest()
-    assert set(manifest["datasets"]) == set(CHECKS)
-    named = {f for files in manifest["datasets"].values() for f in files}
-    assert named == {p.name for p in SEED.glob("*.npz")}
+def test_the_manifests_name_every_seeded_set_and_file():
+    manifests = {folder: _manifest(folder) for folder in (SEED, PACKAGED)}
+    assert set(manifests[PACKAGED]["datasets"]) == set(_tool().SHIPPED)
+    assert {n for m in manifests.values() for n in m["datasets"]} == set(CHECKS)
+    for folder, manifest in manifests.items():
+        named = {f for files in manifest["datasets"].values() for f in files}
+        assert named == {p.name for p in folder.glob("*.npz")}, folder
+
+
+def test_the_packaged_seed_is_what_the_package_finds():
+    from fitlab.resources import packaged_exact_values
+
+    assert packaged_exact_values().resolve() == PACKAGED.resolve()
+
+
+def test_a_fresh_install_measures_its_first_codegen_without_computing_exact_values(tmp_path, monkeypatch):
+    """In an empty cache, the measurements of the default program's first ``fitlab codegen`` (each fit on its
+    target's validation set, the model against the true BRDF) find every exact value they need in the packaged
+    seed: what they compute themselves is only the model's own figures (its energy scale and accuracy)."""
+    from fitlab.codegen import program_spec
+    from fitlab.core import get_target
+    from fitlab.fit.verify import verify_fit
+    from fitlab.store import fit_source, load
+
+    monkeypatch.setenv("FITLAB_CACHE_DIR", str(tmp_path))
+    spec = program_spec("lambert_sphere")
+    model = spec.model()
+    forms = {t: model.forms.get(t, get_target(t).default_form) for t in spec.fits}
+    fits = {t: load(fit_source(None, t, forms[t], model.folder)) for t in spec.fits}
+    for fit in fits.values():
+        verify_fit(fit)
+    assert spec.claim is not None
+    spec.claim(fits, spec.terms)
+    made = {p.name for p in tmp_path.glob("*.npz")}
+    computed = made - {p.name for p in PACKAGED.glob("*.npz")}
+    assert all(n.startswith(("lambert_sphere-energy-scale-", "lambert_sphere-model-accuracy-")) for n in computed), (
+        f"computed, not in the packaged seed: {sorted(computed)}: run python tools/seed_test_cache.py")
 
 
 @pytest.mark.skipif(not enabled(), reason="the cache is off (FITLAB_NO_CACHE)")
@@ -249,8 +284,19 @@ def _tests_exact_brdf():
     assert checked
 
 
+def _h_validation():
+    """H0, H1, H2 on their validation sets at c = 1 and the middle albedo."""
+    for m in range(3):
+        ds = d.h_validation(m)
+        x = ds.inputs
+        for cv in _sample(x["c"]):
+            sel = x["c"] == cv
+            _close(ds.y[sel], exact.h_function(m, x["mu"][sel], cv), f"H{m} at c = {cv}")
+
+
 #: the check of each seeded dataset, by its name in the manifest
 CHECKS = {
+    "lambert_sphere.h_validation": _h_validation,
     "lambert_sphere.kd_of_c_validation": _kd_of_c_validation,
     "lambert_sphere.constant_validation": _constant_validation,
     "lambert_sphere.brdf_validation(true)": _brdf_validation_true,

@@ -421,26 +421,11 @@ def test_summary_on_exact_zeros_and_nan():
     assert got["max_rel"] == math.inf and got["rms_rel"] == math.inf and got["worst"]["x"] == 1.0
 
 
-def test_model_doc_true_fit_table_quotes_the_audit(audit):
-    """docs/model.md, "Parts fitted to the true BRDF": its table's figures are the audit's (docs/audit.json, which
-    the tests above recompute), rounded to the three digits printed."""
-    from fitlab.families.lambert_sphere.program.true_refit import TRUE_MODEL_NAME
-    from fitlab.families.lambert_sphere.report.audit import MIXED_ROW
-
+def test_model_doc_states_how_far_the_true_fit_parts_moved():
+    """docs/model.md, "Parts fitted to the true BRDF": how far the parts moved from their three-term targets, as
+    their fit files record it (the section's table is rendered from docs/audit.json when the site is built)."""
     text = (ROOT / "docs" / "model.md").read_text()
-    table = text[text.index("### Parts fitted to the true BRDF"):text.index("## The runtime BRDF")]
-    rows = [[cell.strip() for cell in line.strip("|").split("|")] for line in table.splitlines()
-            if line.startswith("| ") and not line.startswith("| reference")]
-    shipped = next(r["model"] for r in audit["runtime"] if r["model"].startswith("refit ("))
-    names = {"fitted to the true BRDF": TRUE_MODEL_NAME, "shipped": shipped,
-             "shipped (fitted to the mixed reference)": shipped, "mixed reference itself": MIXED_ROW}
-    sections = ["runtime_true"] * 3 + ["runtime_true_independent"] * 3 + ["runtime"] * 2
-    assert len(rows) == len(sections)
-    for cells, section in zip(rows, sections):
-        row = {r["model"]: r for r in audit[section]}[names[cells[1]]]
-        for cell, key in zip(cells[2:5], ("max_rel", "max_rel_away", "rms_rel_nonzero")):
-            assert float(cell) == float(f"{row[key]:.2e}"), (section, cells[1], key, cell, row[key])
-    # and how far the parts moved from their three-term targets, as their fit files record it
+    section = text[text.index("### Parts fitted to the true BRDF"):text.index("## The runtime BRDF")]
     moved = {p: json.loads((ROOT / "fitlab" / "fits" / "true" / f).read_text())["validation"]["max_rel"]
              for p, f in (("H0", "H0.log_exp.json"), ("l", "l.cubic.json"))}
-    assert f"H0 moves by up to {100 * moved['H0']:.1f} %, l by {100 * moved['l']:.0f} %" in " ".join(table.split())
+    assert f"H0 moves by up to {100 * moved['H0']:.1f} %, l by {100 * moved['l']:.0f} %" in " ".join(section.split())

@@ -9,6 +9,8 @@
 #   (tests/test_sampling.py, tests/test_codegen_drjit.py, tests/test_mitsuba_plugin.py, fitlab render and
 #   fitlab bench render): Dr.Jit loads the system's libLLVM, and LLVM 15 (Debian 12's default)
 #   aborts on the float maximum Dr.Jit emits.
+# * Chromium (package chromium) for the documentation site's browser test (tests/test_site.py, driven by
+#   playwright, which downloads no browser of its own).
 have_llvm() {
     for v in 19 18 17; do
         for f in /usr/lib/*/libLLVM-$v.so* /usr/lib/libLLVM-$v.so*; do
@@ -17,7 +19,8 @@ have_llvm() {
     done
     return 1
 }
-if command -v glslangValidator >/dev/null 2>&1 && command -v spirv-cross >/dev/null 2>&1 && have_llvm; then
+if command -v glslangValidator >/dev/null 2>&1 && command -v spirv-cross >/dev/null 2>&1 && have_llvm &&
+    command -v chromium >/dev/null 2>&1; then
     exit 0
 fi
 if command -v apt-get >/dev/null 2>&1 && [ "$(id -u)" = 0 ]; then
@@ -25,7 +28,7 @@ if command -v apt-get >/dev/null 2>&1 && [ "$(id -u)" = 0 ]; then
         timeout 300 apt-get install -y --no-install-recommends "$@" >/dev/null 2>&1
     }
     updated=0
-    for p in glslang-tools spirv-cross "libllvm19 libllvm18 libllvm17"; do
+    for p in glslang-tools spirv-cross "libllvm19 libllvm18 libllvm17" chromium; do
         for candidate in $p; do  # the first of the alternatives that installs
             install $candidate && break
             if [ $updated = 0 ]; then
@@ -38,5 +41,6 @@ if command -v apt-get >/dev/null 2>&1 && [ "$(id -u)" = 0 ]; then
     command -v glslangValidator >/dev/null 2>&1 && command -v spirv-cross >/dev/null 2>&1 ||
         echo "install-system-packages: no glslang-tools or spirv-cross; the shader validation tests will skip" >&2
     have_llvm || echo "install-system-packages: no libLLVM 17 or later; the Mitsuba llvm tests will skip" >&2
+    command -v chromium >/dev/null 2>&1 || echo "install-system-packages: no chromium; the site's browser test will skip" >&2
 fi
 exit 0

@@ -1,22 +1,24 @@
-"""Write tests/data/exact_values/: the exact values that cost the test suite most to compute, as fitlab's cache
-(:mod:`fitlab.cache`) computes and keys them, so that a test run on a fresh machine starts with them warm.
+"""Write the seeds of fitlab's cache of exact values (:mod:`fitlab.cache`): fitlab/data/exact_values, shipped in the
+package (the sets of :data:`SHIPPED`: what a fresh install's first ``fitlab codegen`` measures against, read by
+the cache where it lacks them), and tests/data/exact_values (the other sets that cost the test suite most), so
+that a fresh install and a test run on a fresh machine start with them warm.
 
-Run from the project root, one BLAS thread (about 270 CPU-seconds on the project's 2-core machine):
+Run from the project root, one BLAS thread (about 300 CPU-seconds on the project's 2-core machine):
 
     python tools/seed_test_cache.py
 
-Each dataset of :data:`SEEDED` is computed into an empty cache folder; the entries it writes are copied, compressed,
-into tests/data/exact_values/ (their file names are their cache keys: the fitlab version, the set's grid and the
-bytes of the family's exact engine), with MANIFEST.json naming the entries of each dataset and the fingerprint
-of the code that computed them (:func:`fingerprint`: the engine and the modules that assemble the sets).
-tests/conftest.py copies the entries into the run's cache before the workers start (an entry already there is
-left alone); an edit of the engine or of a set's grid changes the keys, so the copies are then never read.
-tests/test_exact_value_seed.py fails on the fingerprint after any edit of that code, naming the files, until
-this script is run again (so that the seed is what the code computes now), and recomputes a sample of every
-dataset with the engine.
+Each dataset of :func:`_seeded` is computed into an empty cache folder (never read from the shipped seed); the
+entries it writes are copied, compressed, into its seed folder (their file names are their cache keys: the fitlab
+version, the set's grid and the bytes of the family's exact engine), with MANIFEST.json naming the entries of each
+dataset and the fingerprint of the code that computed them (:func:`fingerprint`: the engine and the modules that
+assemble the sets).  tests/conftest.py copies the tests' entries into the run's cache before the workers start (an
+entry already there is left alone); an edit of the engine or of a set's grid changes the keys, so the copies are
+then never read.  tests/test_exact_value_seed.py fails on the fingerprint after any edit of that code, naming the
+files, until this script is run again (so that the seeds are what the code computes now), and recomputes a sample
+of every dataset with the engine.
 
-Beside fitlab's own sets, the seed holds the exact values some tests compute for themselves on their own points
-(tests/exact_cache.py: ``exact.brdf`` through the cache, keyed by its inputs): this script runs those tests,
+Beside fitlab's own sets, the tests' seed holds the exact values some tests compute for themselves on their own
+points (tests/exact_cache.py: ``exact.brdf`` through the cache, keyed by its inputs): this script runs those tests,
 in a cache folder of their own and without the seed (``--no-exact-seed``), and keeps the entries they write.
 """
 
@@ -33,7 +35,13 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 ROOT = Path(__file__).resolve().parents[1]
 OUT = ROOT / "tests" / "data" / "exact_values"
+#: the seed fitlab ships (fitlab.resources.packaged_exact_values): the sets of :data:`SHIPPED`
+PACKAGED = ROOT / "fitlab" / "data" / "exact_values"
 MANIFEST = "MANIFEST.json"
+#: the sets a fresh install's first ``fitlab codegen`` measures against (the validation sets of the program's fits and
+#: the true BRDF its model is measured against, minutes of CPU): shipped in the package, not in the tests' seed
+SHIPPED = ("lambert_sphere.h_validation", "lambert_sphere.constant_validation", "lambert_sphere.kd_of_c_validation",
+           "lambert_sphere.brdf_validation(true)", "lambert_sphere.accuracy_reference(true)")
 
 
 def _seeded():
@@ -68,6 +76,7 @@ def _seeded():
             raise SystemExit(f"the packaged tables fail their check: {failures}")
 
     return {
+        "lambert_sphere.h_validation": lambda: [d.h_validation(m) for m in range(3)],
         "lambert_sphere.kd_of_c_validation": d.kd_of_c_validation,
         "lambert_sphere.constant_validation": lambda: d.constant_validation("H0_inf"),
         "lambert_sphere.brdf_validation(true)": lambda: d.brdf_validation("true"),
@@ -110,6 +119,9 @@ def main() -> int:
         os.environ["FITLAB_CACHE_DIR"] = str(Path(tmp) / "cache")
         os.environ.pop("FITLAB_NO_CACHE", None)
         cache = Path(os.environ["FITLAB_CACHE_DIR"])
+        import fitlab.cache
+
+        fitlab.cache.packaged_exact_values = lambda: Path(tmp) / "none"  # computed afresh, not read from the old seed
         datasets = {}
         seeded = _seeded()
         for name, compute in tqdm(seeded.items(), desc="exact values", unit="set"):
@@ -118,23 +130,31 @@ def main() -> int:
             datasets[name] = sorted(p.name for p in set(cache.glob("*.npz")) - before)
             if not datasets[name]:
                 raise SystemExit(f"{name} wrote no cache entry")
-        # staged beside the folder, then swapped in: an interrupted run leaves the old seed whole
-        staging, old = OUT.parent / f".{OUT.name}.new", OUT.parent / f".{OUT.name}.old"
-        for folder in (staging, old):
-            shutil.rmtree(folder, ignore_errors=True)
-        staging.mkdir(parents=True)
-        for entry in sorted(cache.glob("*.npz")):
-            with np.load(entry, allow_pickle=False) as z:
-                arrays = {k: z[k] for k in z.files}
-            np.savez_compressed(staging / entry.name, **arrays)
-        manifest = {"made_by": "tools/seed_test_cache.py", "fingerprint": fingerprint(), "datasets": datasets}
-        (staging / MANIFEST).write_text(json.dumps(manifest, indent=1, sort_keys=True) + "\n")
-        if OUT.exists():
-            OUT.rename(old)
-        staging.rename(OUT)
-        shutil.rmtree(old, ignore_errors=True)
-    print(f"wrote {OUT.relative_to(ROOT)}: {sum(len(v) for v in datasets.values())} entries", file=sys.stderr)
+        for out, names in ((PACKAGED, SHIPPED), (OUT, [n for n in datasets if n not in SHIPPED])):
+            _write_seed(out, cache, {n: datasets[n] for n in names})
     return 0
+
+
+def _write_seed(out: Path, cache: Path, datasets: dict) -> None:
+    """The entries of ``datasets`` ({name: entry files}) from ``cache`` into the folder ``out``, compressed, with its
+    manifest; staged beside the folder, then swapped in: an interrupted run leaves the old seed whole."""
+    import numpy as np
+
+    staging, old = out.parent / f".{out.name}.new", out.parent / f".{out.name}.old"
+    for folder in (staging, old):
+        shutil.rmtree(folder, ignore_errors=True)
+    staging.mkdir(parents=True)
+    for entry in sorted({f for files in datasets.values() for f in files}):
+        with np.load(cache / entry, allow_pickle=False) as z:
+            arrays = {k: z[k] for k in z.files}
+        np.savez_compressed(staging / entry, **arrays)
+    manifest = {"made_by": "tools/seed_test_cache.py", "fingerprint": fingerprint(), "datasets": datasets}
+    (staging / MANIFEST).write_text(json.dumps(manifest, indent=1, sort_keys=True) + "\n")
+    if out.exists():
+        out.rename(old)
+    staging.rename(out)
+    shutil.rmtree(old, ignore_errors=True)
+    print(f"wrote {out.relative_to(ROOT)}: {sum(len(v) for v in datasets.values())} entries", file=sys.stderr)
 
 
 if __name__ == "__main__":

@@ -225,7 +225,7 @@ def runtime_terms(parts: Mapping[str, sp.Expr], normalisation: str = "corrected"
     cancelled in the algebra (:func:`less_exactly`) where the part holds its O(c) term exactly (the
     ``c2_rational_4_3`` and ``log_exp`` forms, the exported tables; :func:`parts_in_algebra`).  The same
     function as the printed one: the exact engine subtracts the same way
-    (:class:`fitlab.families.lambert_sphere.exact.brdf.ModePolynomials`).
+    (:class:`fitlab.families.lambert_sphere.exact.constants.ModePolynomials`).
     """
     missing = [p for p in RUNTIME_PARTS if p not in parts]
     if missing:
