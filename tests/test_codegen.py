@@ -19,14 +19,14 @@ import numpy as np
 import pytest
 
 from fitlab.codegen import build_program, generate, load_program, parse_terms, program_spec, stable
-from fitlab.codegen.emit import emit
+from fitlab.codegen.languages import emit
 from fitlab.codegen.native import STRICT_FLAGS, build, build_glsl, compiler
 from fitlab.core import float64, get_target
 from fitlab.families.lambert_sphere.program.rewrites import POLE_FLOOR
 from fitlab.families.lambert_sphere.program.rewrites import stable as lambert_stable
 from fitlab.families.lambert_sphere.program.runtime import energy_scale, runtime_model
 from fitlab.forms.symbolic import lambdify_jax, symbols
-from fitlab.store import fit_path, load
+from fitlab.store import fit_path, fit_source, load
 
 ROOT = Path(__file__).resolve().parents[1]
 FITS = ROOT / "fitlab" / "fits"
@@ -35,8 +35,9 @@ MODEL_FORMS = program_spec("lambert_sphere").model().forms
 
 
 def fit_file(target: str) -> Path:
-    """The fit file of ``target`` that the default program is built from."""
-    return fit_path(FITS, target, MODEL_FORMS.get(target, get_target(target).default_form))
+    """The fit file of ``target`` that the default program is built from (its model's folder of the fits first)."""
+    form = MODEL_FORMS.get(target, get_target(target).default_form)
+    return fit_source(FITS, target, form, program_spec("lambert_sphere").model().folder)
 GENERATED = FITS / "generated"
 N = 100_000
 needs_cc = pytest.mark.skipif(compiler() is None, reason="no C compiler on PATH")
@@ -119,12 +120,12 @@ def test_generation_does_not_depend_on_hash_seed(tmp_path):
 
 
 def test_temporaries_are_named_in_an_order_that_does_not_follow_sympys():
-    """fitlab.codegen.emit names cse's temporaries in an order of their own (operands first, then by sympy's sort
+    """fitlab.codegen.languages names cse's temporaries in an order of their own (operands first, then by sympy's sort
     key): sympy's cse was seen to list the same temporaries in another order after other sympy work in the
     process.  Two topological orders of the same temporaries give the same names and the same code."""
     import sympy as sp
 
-    from fitlab.codegen.emit import _named_in_order
+    from fitlab.codegen.languages import _named_in_order
 
     x, y = sp.symbols("x y", real=True)
     a, b, c, d = sp.symbols("a b c d", cls=sp.Dummy, real=True)
@@ -179,8 +180,9 @@ def test_build_program_takes_records_and_reads_no_file(program, monkeypatch):
     # printed (none is copied from a record), and the docs are otherwise the same
     assert prog.sources == () and program.sources and len(program.source_notes) == len(program.sources)
     for built, loaded in zip(prog.routines, program.routines):
-        assert "Measured by" not in built.doc and "Validation" not in built.doc
-        assert loaded.doc.split(" Measured by fitlab codegen")[0].rstrip(".") == built.doc.rstrip(".")
+        assert "Measured by" not in built.doc and "Validation" not in built.doc and "as fitlab codegen" not in built.doc
+        measured = loaded.doc.split(" Measured by fitlab codegen")[0].split(" Against the true BRDF")[0]
+        assert measured.rstrip(".") == built.doc.rstrip(".")
     assert {get_target(t).routine for t in prog.parts} <= {r.name for r in prog.routines}
 
 
@@ -327,9 +329,8 @@ def test_multiple_scattering_terms_keep_their_digits_in_float(native):
 @needs_cc
 def test_float_brdf_against_exact_at_grazing(native):
     """The float brdf and eval (prepare once per material) against the exact engine at grazing, plain relative
-    error, mu_i, mu_o in 1e-6 .. 1e-2, phi = 0, pi/2, pi, c in 1e-9 .. 1: against the reference the parts were
-    fitted to (phase "mixed") measured 9.0e-4 at most, the double build's own fit error (9.0e-4), and float within
-    4e-7 of double (against the true BRDF the structure's own gap adds to it: 3.0e-3 here).  Before the terms
+    error, mu_i, mu_o in 1e-6 .. 1e-2, phi = 0, pi/2, pi, c in 1e-9 .. 1: against the true BRDF, which the default
+    model's parts were fitted to, within 2e-3 (the goal down to mu = 1e-6), and float within 1e-5 of double.  Before the terms
     were written without cancellation: 2.26 (c = 1e-3, phi = pi), 100 % for c <= 1e-4, 1.1 % at c = 1; and with fm0, fm1 fixed but
     single scattering read from u: 6.7e-3 at c = 1e-6, 100 % as c -> 0 in forward scattering (u rounds to 1)."""
     from fitlab.families.lambert_sphere.exact import brdf as exact_brdf
@@ -339,12 +340,12 @@ def test_float_brdf_against_exact_at_grazing(native):
     mu_i, mu_o, c = (a.ravel() for a in np.meshgrid(mus, mus, cs, indexing="ij"))
     materials = native("prepare_c", c, dtype=np.float32)
     for phi in (0.0, np.pi / 2, np.pi):
-        exact = exact_brdf(mu_i, mu_o, phi, c, phase="mixed")
+        exact = exact_brdf(mu_i, mu_o, phi, c, phase="true")
         cos_phi = np.full_like(mu_i, np.cos(phi))
         double = native("brdf", mu_i, mu_o, cos_phi, c)
         for f in (native("brdf", mu_i, mu_o, cos_phi, c, dtype=np.float32),
                   native("eval", materials, np.arange(c.size), mu_i, mu_o, cos_phi, dtype=np.float32)):  # fmt: skip
-            assert rel(f, exact).max() < 1.5e-3
+            assert rel(f, exact).max() < 2e-3
             assert rel(f, double).max() < 1e-5
 
 

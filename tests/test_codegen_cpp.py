@@ -107,6 +107,6 @@ def test_single_header_matches_the_two_files(tmp_path):
 
 @pytest.mark.e2e
 def test_banner_names_the_command_with_the_options_that_change_the_files():
-    files = generate("c", forms={"H0": "hapke_rational"})
-    assert "(fitlab codegen --lang c --form H0=hapke_rational)" in files["lambert_sphere.h"].splitlines()[2]
+    files = generate("c", forms={"H0": "hapke_rational"}, model="three-term")
+    assert "(fitlab codegen --lang c --model three-term --form H0=hapke_rational)" in files["lambert_sphere.h"].splitlines()[2]
     assert "(fitlab codegen --lang python)" in generate("python")["lambert_sphere.py"].splitlines()[1]

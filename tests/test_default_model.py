@@ -13,7 +13,7 @@ import pytest
 
 from fitlab.cli import main
 from fitlab.codegen import load_program, program_spec
-from fitlab.codegen.emit import emit
+from fitlab.codegen.languages import emit
 from fitlab.codegen.native import build, compiler
 from fitlab.core import get_target
 from fitlab.families.lambert_sphere.program.runtime import accuracy, directional_albedo, runtime_model

@@ -62,18 +62,18 @@ def test_a_folder_with_one_fit_overlays_the_packaged_fits(tmp_path):
     assert fit_source(None, "H1", "log_exp") == FITS / "H1.log_exp.json"
     assert fit_files(fits, "H1") == [fits / "H1.log_exp.json"]  # a listing of the folder alone
 
-    program = load_program(fits)
+    program = load_program(fits, model="three-term")  # the model of parts fitted to their own targets, as H1's is
     sources = dict(program.sources)
     assert sources["H1.log_exp.json"] == fit_sha256(fits / "H1.log_exp.json")
     assert sources["H0.log_exp.json"] == fit_sha256(FITS / "H0.log_exp.json")
-    text = generate("c", fits)["lambert_sphere.c"]
+    text = generate("c", fits, model="three-term")["lambert_sphere.c"]
     assert fit_sha256(fits / "H1.log_exp.json") in _banner_line(text, "H1.log_exp.json")
     assert "--fits;" in _banner_line(text, "H1.log_exp.json")
     assert "packaged;" in _banner_line(text, "H0.log_exp.json")
     # the routine is the folder's fit: the nudged parameter, not the packaged one
     py = tmp_path / "py"
     py.mkdir()
-    (py / "lambert_sphere.py").write_text(generate("python", fits)["lambert_sphere.py"])
+    (py / "lambert_sphere.py").write_text(generate("python", fits, model="three-term")["lambert_sphere.py"])
     mod = _module(py / "lambert_sphere.py", "overlay_h1")
     mu, c = np.linspace(0, 1, 41), np.full(41, 0.7)
     mine, packaged = load(fits / "H1.log_exp.json"), load(FITS / "H1.log_exp.json")
@@ -86,10 +86,11 @@ def test_codegen_names_a_refit_the_model_leaves_out(tmp_path, capsys):
     fits = tmp_path / "fits"
     shutil.copytree(FITS, fits, ignore=lambda d, names: [n for n in names if n not in ("H0.json",)])
     assert [(p.name, t, f) for p, t, f in unused_fits(fits)] == [("H0.json", "H0", "hapke")]
-    assert main(["codegen", "--lang", "c", "--fits", str(fits), "--out", str(tmp_path / "gen")]) == 0
+    three_term = ["--model", "three-term"]  # the refit H0 is a fit of its own target, as this model's parts are
+    assert main(["codegen", "--lang", "c", "--fits", str(fits), *three_term, "--out", str(tmp_path / "gen")]) == 0
     lines = [ln for ln in capsys.readouterr().err.splitlines() if "not printed" in ln]
     assert len(lines) == 1 and "H0.json" in lines[0] and "--form H0=hapke" in lines[0]
-    assert main(["codegen", "--lang", "c", "--fits", str(fits), "--form", "H0=hapke",
+    assert main(["codegen", "--lang", "c", "--fits", str(fits), "--form", "H0=hapke", *three_term,
                  "--out", str(tmp_path / "gen2")]) == 0  # fmt: skip
     assert "--fits;" in _banner_line((tmp_path / "gen2" / "lambert_sphere.c").read_text(), "H0.json")
 
@@ -170,8 +171,8 @@ def test_the_reports_true_row_is_the_default_model(monkeypatch):
     rows = {m.name: m for m in report_methods.brdf_methods(FITS, fit_inventory(FITS), None, discovered=False)}
     mu_i, mu_o, phi, c = _brdf_points(500)
     kd = np.zeros_like(c)
-    for name, model in (("refit to the true BRDF, order 2", runtime_model()),
-                        ("refit, order 2", runtime_model(fits_dir=FITS, model="three-term"))):  # fmt: skip
+    for name, model in (("model true (the default)", runtime_model()),
+                        ("model three-term", runtime_model(fits_dir=FITS, model="three-term"))):  # fmt: skip
         assert np.array_equal(rows[name].evaluate(mu_i, mu_o, phi, c, kd), model(mu_i, mu_o, phi, c)), name
 
 
@@ -240,7 +241,7 @@ def narrow(tmp_path_factory):
 
 @pytest.mark.e2e
 def test_a_fit_made_on_a_sliver_of_the_domain_is_refused_and_printed_for_its_domain(narrow, tmp_path, capsys):
-    argv = ["codegen", "--lang", "python", "--fits", str(narrow), "--form", "H0=hapke"]
+    argv = ["codegen", "--lang", "python", "--fits", str(narrow), "--form", "H0=hapke", "--model", "three-term"]
     assert main([*argv, "--out", str(tmp_path / "refused")]) == 2
     err = capsys.readouterr().err.strip()
     assert "\n" not in err and "H0.json" in err and "--allow-partial-domain" in err and "mu in [0.99999, 1]" in err

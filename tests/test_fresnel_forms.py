@@ -68,9 +68,16 @@ def test_gradients_are_finite_at_the_edges_in_both_precisions(name):
     np.testing.assert_allclose(np.asarray(value32), form.numpy_function(np.asarray(theta), EDGES), atol=2e-6)
 
 
-def test_refit_from_the_command_line_reproduces_the_committed_fit(tmp_path):
+def test_refit_from_the_command_line_reproduces_the_committed_fit(tmp_path, capsys):
     assert main(["refit", "--target", "F_cu_g", "--out", str(tmp_path), "--quiet"]) == 0
     new = read_fit(tmp_path / "F_cu_g.json")
+    # the table names the measure the target uses: the Fresnel targets' error is absolute
+    out = capsys.readouterr().out
+    header = out.splitlines()[0].split()
+    assert ["max", "abs", "max", "abs*", "rms", "abs"] == header[4:10] and "rel" not in header, out
+    assert "error of F_cu_g: absolute: |approx - exact|" in out
+    refit_row = next(line for line in out.splitlines() if "gulbrandsen / refit" in line)
+    assert float(refit_row.split()[4]) == pytest.approx(new["validation"]["max_rel"], rel=1e-3)
     from fitlab.resources import packaged_fits
 
     old = read_fit(packaged_fits() / "F_cu_g.json")

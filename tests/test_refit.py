@@ -154,6 +154,7 @@ def test_refit_h0_cli_end_to_end(tmp_path, capsys):
     assert main(["refit", "--target", "H0", "--form", "hapke", "--out", str(tmp_path), "--compare-scipy"]) == 0
     out = capsys.readouterr().out
     assert "hapke / paper" in out and "hapke / refit" in out and "scipy" in out
+    assert "max rel" in out.splitlines()[0] and "train max rel" in out  # H0's error is relative
     rec = json.loads((tmp_path / "H0.json").read_text())
     assert rec["validation"]["max_rel"] < rec["published"][0]["validation"]["max_rel"]
     f = load(tmp_path / "H0.json")

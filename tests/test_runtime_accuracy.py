@@ -240,7 +240,7 @@ def test_energy_scale_is_a_few_parts_in_1e5_and_reproducible():
 @pytest.fixture(scope="module")
 def order2_c(tmp_path_factory):
     from fitlab.codegen import load_program
-    from fitlab.codegen.emit import emit
+    from fitlab.codegen.languages import emit
     from fitlab.codegen.native import build, compiler
     from fitlab.core import get_target
 

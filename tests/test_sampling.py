@@ -232,14 +232,16 @@ def test_a_program_without_the_sampler_fits_leaves_the_sampler_out(tmp_path):
     names = {r.name for r in preset.routines}
     assert "brdf" in names and not names & {"sample_local", "pdf_local", "sample_weight", "sample_exponent"}
     assert [r.name for r in preset.material.evaluators] == ["eval", "eval_local"]
-    for path in FITS.glob("*.json"):
+    for path in [*FITS.glob("*.json"), *FITS.glob("true/*.json")]:  # laid out as the packaged fits
         if not path.name.startswith("sample_"):
-            shutil.copy(path, tmp_path / path.name)
+            (tmp_path / path.relative_to(FITS)).parent.mkdir(exist_ok=True)
+            shutil.copy(path, tmp_path / path.relative_to(FITS))
     from fitlab.codegen import model_form, program_spec
     from fitlab.store import fit_source, read_fit
 
     # records without the sampler's parts (build_program takes records): the BRDF routines alone
-    without = build_program({t: read_fit(fit_source(tmp_path, t, model_form(t)))
+    folder = program_spec("lambert_sphere").model().folder
+    without = build_program({t: read_fit(fit_source(tmp_path, t, model_form(t), folder))
                              for t in program_spec("lambert_sphere").fits if not t.startswith("sample_")})  # fmt: skip
     assert "sample_local" not in {r.name for r in without.routines}
     assert "sample" in {r.name for r in load_program(FITS).material.evaluators}

@@ -42,7 +42,7 @@ def test_order_form_is_the_runtime_term(order):
     """At the shipped fits' parameters (its start), the joint form of an order is the runtime structure's term of
     that order built from the shipped parts."""
     form, start = order_form(order)
-    model = runtime_model()
+    model = runtime_model(model="three-term")  # the start: the parts fitted to their own targets
     parts = {p: load(ROOT / "fitlab" / "fits" / name).expression for p, name in model.sources.items()}
     term = lambdify_numpy(symbols(("mu_i", "mu_o", "c")), runtime_terms(parts)[f"m{order}"])
     rng = np.random.default_rng(order)
@@ -61,7 +61,7 @@ def test_joint_form_is_the_runtime_structure():
     from fitlab.families.lambert_sphere.forms.brdf import runtime_brdf
 
     form, start = joint_form()
-    model = runtime_model()
+    model = runtime_model(model="three-term")
     parts = {p: load(ROOT / "fitlab" / "fits" / name).expression for p, name in model.sources.items()}
     unscaled = lambdify_numpy(symbols(("mu_i", "mu_o", "phi", "c")), next(a for a in runtime_brdf(parts).args if a != 0))
     rng = np.random.default_rng(5)
@@ -112,7 +112,7 @@ def test_true_model_reaches_the_true_brdf(true_model, c):
     want = exact.brdf(mi, mo, phi, c, phase="true")
     got = true_model(mi, mo, phi, np.full_like(mi, c))
     err = np.abs(got - want) / want
-    shipped = np.abs(runtime_model()(mi, mo, phi, np.full_like(mi, c)) - want) / want
+    shipped = np.abs(runtime_model(model="three-term")(mi, mo, phi, np.full_like(mi, c)) - want) / want
     assert err.max() <= 1e-3, (c, err.max())
     assert np.sqrt(np.mean(err**2)) <= 0.6 * np.sqrt(np.mean(shipped**2)) or err.max() <= 0.6 * shipped.max(), c
 
@@ -193,16 +193,16 @@ def test_independent_set_holds_no_training_point():
 
 @pytest.mark.e2e
 def test_codegen_prints_the_true_model(tmp_path):
-    """From the fits to generated code: ``fitlab codegen --fits fitlab/fits/true`` prints every part from the
-    folder, and the generated brdf is the model the audit measures (to rounding)."""
+    """From the fits to generated code: ``fitlab codegen`` prints by default every part from the packaged folder of
+    the parts fitted to the true BRDF, and the generated brdf is the model the audit measures (to rounding)."""
     import importlib.util
 
     from fitlab.codegen import generate
 
-    text = generate("python", TRUE_FITS)["lambert_sphere.py"]
+    text = generate("python")["lambert_sphere.py"]
     for path in TRUE_FITS.glob("*.json"):
-        line = next(ln for ln in text.splitlines() if f" {path.name}  " in ln)
-        assert "--fits;" in line, line
+        line = next(ln for ln in text.splitlines() if f" {path.name}  " in ln and "packaged (true)" in ln)
+        assert "physics true;" in line, line
     (tmp_path / "true_model.py").write_text(text)
     spec = importlib.util.spec_from_file_location("true_model", tmp_path / "true_model.py")
     mod = importlib.util.module_from_spec(spec)

@@ -11,6 +11,18 @@
 #   aborts on the float maximum Dr.Jit emits.
 # * Chromium (package chromium) for the documentation site's browser test (tests/test_site.py, driven by
 #   playwright, which downloads no browser of its own).
+# * ktx-parse (npm; the version pinned in tests/ktx2_reader/package-lock.json) reads back the KTX2 files of
+#   fitlab export (tests/test_export.py), installed into tests/ktx2_reader/node_modules where npm is on the
+#   PATH (Debian's package: npm), with npm ci: the locked version and its checksum, nothing else.
+reader="$(dirname "$0")/../tests/ktx2_reader"
+if [ ! -f "$reader/node_modules/ktx-parse/package.json" ]; then
+    if command -v npm >/dev/null 2>&1; then
+        (cd "$reader" && timeout 300 npm ci --no-audit --no-fund --ignore-scripts >/dev/null 2>&1) ||
+            echo "install-system-packages: npm could not install ktx-parse; the KTX2 read-back tests will skip" >&2
+    else
+        echo "install-system-packages: no npm; the KTX2 read-back tests will skip" >&2
+    fi
+fi
 have_llvm() {
     for v in 19 18 17; do
         for f in /usr/lib/*/libLLVM-$v.so* /usr/lib/libLLVM-$v.so*; do

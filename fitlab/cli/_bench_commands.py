@@ -1,7 +1,8 @@
 """``fitlab bench commands``: what a user waits for, command by command, measured in fresh processes.
 
 Each measurement runs ``python -m fitlab ...`` in a subprocess, so it includes the interpreter's start
-and every import, as a user sees it.  A refit is run twice against one fresh, empty cache folder: cold
+and every import, as a user sees it (``fitlab bench codegen`` adds the wall time of ``fitlab codegen`` itself,
+cold and warm: :func:`codegen_walls`).  A refit is run twice against one fresh, empty cache folder: cold
 (exact values computed, JAX programs compiled) and then warm (both read from the cache).  Nothing here is
 a test: the figures depend on the machine and its load, and only ratios within one run carry meaning.
 """
@@ -17,7 +18,7 @@ from pathlib import Path
 
 from tqdm import tqdm
 
-__all__ = ["bench_commands", "QUICK_TARGETS"]
+__all__ = ["bench_commands", "codegen_walls", "QUICK_TARGETS"]
 
 #: the refits of ``--quick``: the README's first command and a constant (its validation set is the slowest)
 QUICK_TARGETS = ("H0", "m")
@@ -42,6 +43,19 @@ def bench_commands(targets, show_progress: bool = True) -> dict:
             warm, rc_warm = _timed(argv, env, tmp)
             out["refit"][target] = {"cold": cold, "warm": warm, "status": [rc_cold, rc_warm]}
     return out
+
+
+def codegen_walls(family: str | None = None, fits: Path | None = None) -> dict:
+    """{"cold": s, "warm": s, "status": (rc_cold, rc_warm)}: ``fitlab codegen --lang c`` (of ``family``, from
+    ``fits``) in a fresh process against a fresh, empty cache (a first run: every fit and the model measured, the
+    program built and printed; the exact values fitlab ships read), then again (a second run: the files read back)."""
+    with tempfile.TemporaryDirectory(prefix="fitlab-bench-") as tmp:
+        env = {**os.environ, "FITLAB_CACHE_DIR": str(Path(tmp) / "cache")}
+        argv = ["codegen", "--lang", "c", "--out", str(Path(tmp) / "generated"), "--quiet",
+                *(["--family", family] if family else []), *(["--fits", str(fits)] if fits else [])]  # fmt: skip
+        cold, rc_cold = _timed(argv, env, tmp)
+        warm, rc_warm = _timed(argv, env, tmp)
+    return {"cold": cold, "warm": warm, "status": [rc_cold, rc_warm]}
 
 
 def table(results) -> str:

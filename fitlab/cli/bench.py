@@ -24,7 +24,7 @@ __all__ = ["add_arguments", "run"]
 
 def add_arguments(p) -> None:
     describe(p, "Benchmarks, not tests: the exact engine's speed and agreement between its methods, the generated "
-                "C against a baseline, the Monte Carlo's photons (or the microsurface walk's paths and bounces) per "
+                "C against a baseline (and the wall time of `fitlab codegen` itself, cold and warm), the Monte Carlo's photons (or the microsurface walk's paths and bounces) per "
                 "second and cost per effect, Mitsuba's samples "
                 "per second with the lambert_sphere plugin (render), and (commands) "
                 "the seconds of `fitlab --help` and of every single-target refit, cold and warm, in fresh "
@@ -85,8 +85,14 @@ def run(args) -> int:
         elif args.what == "exact":
             results = _bench_function("exact", args.family, args.quiet)(quick=args.quick)
         elif args.what == "codegen":
+            from fitlab.cli._bench_commands import codegen_walls
+
             results = _bench_function("codegen", args.family, args.quiet)(fits, n=100_000 if args.quick else 1_000_000,
                                                                           repeat=3 if args.quick else 5)  # fmt: skip
+            walls = codegen_walls(args.family, fits)
+            print(f"fitlab codegen --lang c wall: cold (empty cache) {walls['cold']:.1f} s, warm {walls['warm']:.2f} s "
+                  f"(exit status {walls['status']})")  # fmt: skip
+            results = {**results, "codegen_wall": walls}
         elif args.what == "render":
             require_extra("mitsuba", "render")
             results = _bench_function("render", args.family, args.quiet)(quick=args.quick,

@@ -1,5 +1,5 @@
-"""``fitlab export``: write the families' tables as the image files engines load (OpenEXR, 16-bit PNG, a C header,
-GLSL constants), each stating its layout (docs/tables.md)."""
+"""``fitlab export``: write the families' tables as the image files engines load (OpenEXR, KTX2, 16-bit PNG, a C
+header, GLSL constants), each stating its layout and row order (docs/tables.md)."""
 
 from __future__ import annotations
 
@@ -19,13 +19,13 @@ __all__ = ["add_arguments", "run", "listing_text"]
 
 
 def add_arguments(p) -> None:
-    from fitlab.export import FORMATS
+    from fitlab.export import FORMATS, ORIGINS
 
     describe(p, "Write tables as the files engines load: the split-sum DFG tables of GGX (Karis's and Filament's "
                 "channels), the albedo tables E, 1 - E, E_avg of each microfacet model, the Lambert sphere's "
-                "texture; as OpenEXR (float or half), 16-bit PNG, a C header or GLSL constants, every file "
-                "written as one unit with its layout stated inside (axes, addressing, channels, linear). "
-                "--list shows the tables, their sizes and formats.",
+                "texture, the Fresnel presets; as OpenEXR or KTX2 (float or half), 16-bit PNG, a C header or GLSL "
+                "constants, every file written as one unit with its layout stated inside (axes, addressing, "
+                "channels, row order, linear). --list shows the tables, their sizes and formats.",
              "fitlab export dfg_karis dfg_filament --format exr --format png --size 64 --out tables")  # fmt: skip
     p.add_argument("tables", nargs="*", metavar="TABLE", help="the tables to write (--list names them)")
     p.add_argument("--list", action="store_true", help="list the tables, their sizes and formats, and stop")
@@ -34,6 +34,11 @@ def add_arguments(p) -> None:
     p.add_argument("--size", type=integer(1), default=None,
                    help="texels a side (a DFG or albedo table) or nodes per axis (the Lambert sphere's texture); "
                         "default: each table's own")
+    p.add_argument("--origin", choices=ORIGINS, default="top",
+                   help="where the table's row 0 (its smallest y: roughness, alpha, the first material) is stored: "
+                        "top, the first row of every file, the top of the picture (default); or bottom, the last "
+                        "row, the rows stored in reverse (Filament's baked DFG images; loaders that put an "
+                        "image's bottom row at t = 0). docs/tables.md gives the shader line for each")
     p.add_argument("--out", default=None, help="the folder the files go to")
     add_quiet(p)
 
@@ -141,7 +146,7 @@ def run(args) -> int:
         tick = _paced(bar, total, ", ".join(f"{name} at size {size}" for name, _, size in chosen))
         for name, spec, size in chosen:
             try:
-                image = spec.build(size, tick=tick)
+                image = spec.build(size, tick=tick).with_origin(args.origin)
                 for fmt in formats:
                     files[file_name(name, fmt)] = encode(image, fmt)
             except (ArithmeticError, ValueError) as exc:

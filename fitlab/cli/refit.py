@@ -38,6 +38,7 @@ from fitlab.core import did_you_mean, get_target, target_names, targets
 from fitlab.fit.refit import (
     check_domain,
     default_jobs,
+    measure_word,
     refit_stages,
     refit_verdict,
     table,
@@ -263,8 +264,9 @@ def kept_fit(path: Path, result, target) -> tuple[str | None, str | None]:
     if unmeasured or not worse(new, measured):
         return None, None
     _g = "{:.3e}".format
-    return (f"{key}: the refit (max rel {_g(new['max_rel'])}, RMS {_g(new['rms_rel'])}) is worse than the fit in "
-            f"{path} (max rel {_g(measured['max_rel'])}, RMS {_g(measured['rms_rel'])}, measured again on the same "
+    w = measure_word(target.error_measure)
+    return (f"{key}: the refit (max {w} {_g(new['max_rel'])}, RMS {_g(new['rms_rel'])}) is worse than the fit in "
+            f"{path} (max {w} {_g(measured['max_rel'])}, RMS {_g(measured['rms_rel'])}, measured again on the same "
             f"validation set), which is kept (--force replaces it)"), None
 
 

@@ -4,7 +4,7 @@ r"""Code generation: fit records in, C / Python / GLSL source out.
 :class:`Program`; :func:`emit` prints it in one language.  What a family prints
 is its ``codegen`` (a :class:`ProgramSpec`; the Lambert sphere's runtime BRDF
 is :mod:`fitlab.families.lambert_sphere.program.spec`), or one routine per target
-that names a ``routine`` when it has none.  :mod:`.printers` and :mod:`.emit`
+that names a ``routine`` when it has none.  :mod:`.printers` and :mod:`.languages`
 only print.
 
 The file edge: ``generate("c", fits_dir="fits")`` reads the fits a program
@@ -21,7 +21,7 @@ from __future__ import annotations
 import importlib
 from typing import TYPE_CHECKING
 
-#: the languages fitlab prints (``fitlab codegen --lang``); :data:`fitlab.codegen.emit.LANGUAGES` their printers
+#: the languages fitlab prints (``fitlab codegen --lang``); :data:`fitlab.codegen.languages.LANGUAGES` their printers
 LANGUAGE_NAMES = ("c", "python", "glsl", "hlsl", "metal", "drjit")
 #: how an exported table's texture is read (``fitlab codegen --tables --lookup``): the name and the taps per axis
 LOOKUPS = {"linear": 2, "cubic": 4}
@@ -41,7 +41,7 @@ _LAZY = {
         ),
         "fitlab.codegen._files",
     ),  # fmt: skip
-    **dict.fromkeys(("LANGUAGES", "emit"), "fitlab.codegen.emit"),
+    **dict.fromkeys(("LANGUAGES", "emit"), "fitlab.codegen.languages"),
     **dict.fromkeys(
         (
             "build_program",
@@ -86,7 +86,7 @@ if TYPE_CHECKING:  # what type checkers see of the names imported on first use
         unused_fits,
         write_generated,
     )
-    from fitlab.codegen.emit import LANGUAGES, emit
+    from fitlab.codegen.languages import LANGUAGES, emit
     from fitlab.codegen.program import (
         DEFAULT_FORMS,
         SAFE_POW,

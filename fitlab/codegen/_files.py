@@ -8,7 +8,7 @@ from dataclasses import replace
 from pathlib import Path
 
 from fitlab._io import atomic_write_text
-from fitlab.codegen.emit import LANGUAGES, emit
+from fitlab.codegen.languages import LANGUAGES, emit
 from fitlab.codegen.program import Model, Program, ProgramSpec, build_program, parse_terms, program_spec
 from fitlab.core import did_you_mean, targets
 from fitlab.store import FitFileError, FitFunction, fit_files, fit_origin, fit_path, fit_sha256, fit_source, load
@@ -25,7 +25,7 @@ __all__ = [
 ]
 
 
-def _terms(terms: str | tuple | None, family: str | None) -> tuple[str, ...] | None:
+def _terms(terms: str | tuple | None, family: str | None) -> tuple[str, ...]:
     if terms is None or isinstance(terms, str):
         return parse_terms(terms, family)
     return parse_terms(",".join(terms), family)

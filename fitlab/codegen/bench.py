@@ -68,7 +68,7 @@ def time_expressions(
     import tempfile
     from pathlib import Path
 
-    from fitlab.codegen.emit import emit
+    from fitlab.codegen.languages import emit
     from fitlab.codegen.native import build
 
     if not exprs:

@@ -4,7 +4,7 @@ Every printer extends sympy's own (C99, NumPy or Python) with the few things fit
 forms need:
 
 * ``safe_pow(x, p)`` prints as a call of the generated helper (x^p for x > 0,
-  0 otherwise); the helper is emitted once per file by :mod:`.emit`.
+  0 otherwise); the helper is emitted once per file by :mod:`.languages`.
 * calls of other routines (sympy ``Function("h0")(mu_i, c)``) print as calls
   of the generated function of that routine, with the language's name.
 * pi prints as a literal, not ``M_PI`` (not part of strict C99), and small

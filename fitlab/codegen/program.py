@@ -642,7 +642,7 @@ def minmax_piecewise(expr) -> sp.Expr:
       k = max(k1, k2, ...) (Min likewise with x > k).  A NaN x fails the comparison and is returned.
     * Max(a, b), neither a number: Piecewise((b, a < b), (a, a >= b), (a + b, True)): both comparisons
       fail only when a or b is NaN, and then a + b is NaN (Min likewise).
-    * Anything else (more arguments) is a ValueError: :mod:`fitlab.codegen.emit` splits it into pairs,
+    * Anything else (more arguments) is a ValueError: :mod:`fitlab.codegen.languages` splits it into pairs,
       each in a temporary, before printing.
     """
     is_max = isinstance(expr, sp.Max)

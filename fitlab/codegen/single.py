@@ -22,7 +22,7 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-from fitlab.codegen.emit import LANGUAGES, emit
+from fitlab.codegen.languages import LANGUAGES, emit
 from fitlab.codegen.program import Program, Routine, with_domain
 from fitlab.store import FitFileError, FitFunction, fit_sha256, load
 

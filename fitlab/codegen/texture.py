@@ -33,7 +33,7 @@ tables' values are reproduced wherever a coordinate is a node.  Texels are read 
 precision of a GPU (often 8 bits of fraction).  NaN: a NaN coordinate gives NaN weights, hence a NaN
 result; its texel index reads texel 0 (C and numpy, never out of bounds).
 
-:func:`emit_textured` prints a program whose routines read a texture: :func:`fitlab.codegen.emit` prints
+:func:`emit_textured` prints a program whose routines read a texture: :func:`fitlab.codegen.languages` prints
 the routines, and this module adds the texture to each language's files (C: the data header, included by
 the source; GLSL: the sampler and its texel function; numpy: the file's reader and its texel function) and
 the raw file.  :data:`TEXTURE_SHIM` lets the GLSL compile as C against an array, for tests without a GPU.
@@ -47,7 +47,7 @@ import numpy as np
 import sympy as sp
 
 from fitlab.codegen import LOOKUPS
-from fitlab.codegen.emit import emit
+from fitlab.codegen.languages import emit
 from fitlab.codegen.program import Program, call, clamp
 
 __all__ = [

@@ -258,6 +258,16 @@ class BrdfGrid(NamedTuple):
     measure: str
 
 
+class ModelContract(Protocol):
+    """What :meth:`ProgramContract.model` gives (:class:`fitlab.codegen.Model`): a named choice of fits."""
+
+    name: str
+    forms: Mapping[str, str]
+    description: str
+    folder: str
+    physics: str | None
+
+
 @runtime_checkable
 class ProgramContract(Protocol):
     """What :attr:`fitlab.core.Family.codegen` is: a program the code generator prints
@@ -271,7 +281,7 @@ class ProgramContract(Protocol):
     #: the cancellation-free rewrites of its routines (``sympy.codegen.rewriting`` optimisations)
     rewrites: tuple
 
-    def model(self, name: str | None = None): ...  # a fitlab.codegen.Model
+    def model(self, name: str | None = None) -> ModelContract: ...
 
     def model_names(self) -> tuple[str, ...]: ...
 

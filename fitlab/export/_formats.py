@@ -1,27 +1,38 @@
 r"""The file formats of ``fitlab export``: one encoder per format, each the image's bytes, and the precision each keeps.
 
-========== ============ ====================================================================================
-format     file         what it holds
-========== ============ ====================================================================================
-exr        NAME.exr     OpenEXR (the ``OpenEXR`` package), float32 channels R, G, B, A as many as the image has,
-                        ZIP compression, scanlines; the description in the standard ``comments`` attribute and
-                        the table's name in ``fitlab:table``.  Exact to float32: |q - v| <= 2^-24 |v|.
-exr-half   NAME_half.exr the same in half floats: |q - v| <= 2^-11 |v| (|v| >= 2^-14, half's normal range), else
-                        <= 2^-25 (subnormal spacing 2^-24, halved).
-png        NAME.png     PNG, 16 bits per channel (``pypng``): grey for one channel, RGB for two or three (a
-                        two-channel image's B is 0: PNG has no two-channel colour type), RGBA for four; each
-                        value q = round(65535 v) for v in [0, 1] (a table outside [0, 1] is refused); a gAMA
-                        chunk of 1.0 (linear) and the description in tEXt chunks (``Comment``,
-                        ``fitlab:table``).  |q/65535 - v| <= 1/131070.
-c          NAME.h       a C header: ``static const float NAME[HEIGHT][WIDTH][CHANNELS]``, each value the float32
-                        nearest v in its shortest round-trip decimal; the description as a comment.  As exr.
-glsl       NAME.glsl    GLSL constants: ``const int NAME_WIDTH``, ``NAME_HEIGHT``, ``NAME_CHANNELS`` and ``const
-                        float NAME[]`` (row after row, each texel's channels together), the same decimals.  As exr.
-========== ============ ====================================================================================
+========== ============== ==================================================================================
+format     file           what it holds
+========== ============== ==================================================================================
+exr        NAME.exr       OpenEXR (the ``OpenEXR`` package), float32 channels R, G, B, A as many as the image
+                          has, ZIP compression, scanlines; the description in the standard ``comments``
+                          attribute, the table's name in ``fitlab:table``, its origin in ``fitlab:origin``.
+                          Exact to float32: |q - v| <= 2^-24 |v|.
+exr-half   NAME_half.exr  the same in half floats: |q - v| <= 2^-11 |v| (|v| >= 2^-14, half's normal range),
+                          else <= 2^-25 (subnormal spacing 2^-24, halved).
+ktx2       NAME.ktx2      KTX 2.0 (fitlab's own writer, :mod:`fitlab.export._ktx2`, to the Khronos
+                          specification): VK_FORMAT_R32_SFLOAT, R32G32_SFLOAT or R32G32B32A32_SFLOAT (a
+                          three-channel table gains A = 1), one level, no supercompression; key/value data
+                          KTXorientation "rd", KTXwriter, ``fitlab:table``, ``fitlab:origin`` and the
+                          description in ``fitlab:layout``.  As exr.
+ktx2-half  NAME_half.ktx2 the same in the R16 half-float formats.  As exr-half.
+png        NAME.png       PNG, 16 bits per channel (``pypng``): grey for one channel, RGB for two or three (a
+                          two-channel image's B is 0: PNG has no two-channel colour type), RGBA for four; each
+                          value q = round(65535 v) for v in [0, 1] (a table outside [0, 1] is refused); a gAMA
+                          chunk of 1.0 (linear) and the description in tEXt chunks (``Comment``,
+                          ``fitlab:table``, ``fitlab:origin``).  |q/65535 - v| <= 1/131070.
+c          NAME.h         a C header: ``static const float NAME[HEIGHT][WIDTH][CHANNELS]``, each value the
+                          float32 nearest v in its shortest round-trip decimal; the description as a comment.
+                          As exr.
+glsl       NAME.glsl      GLSL constants: ``const int NAME_WIDTH``, ``NAME_HEIGHT``, ``NAME_CHANNELS`` and
+                          ``const float NAME[]`` (row after row, each texel's channels together), the same
+                          decimals.  As exr.
+========== ============== ==================================================================================
 
-Every encoder returns bytes; writing them (as one unit, atomically) is the caller's (``fitlab export``).  The
-encoders depend only on the image, so the same table encodes to the same bytes (OpenEXR's and zlib's output
-depend on their versions, which the files do not record).
+Every format stores the image's rows in its order (:attr:`Image.origin`: the table's row 0 first, or last),
+row 0 of the image first, and states which in its description.  Every encoder returns bytes; writing them (as
+one unit, atomically) is the caller's (``fitlab export``).  The encoders depend only on the image, so the same
+table encodes to the same bytes (OpenEXR's and zlib's output depend on their versions, which the files do not
+record).
 """
 
 from __future__ import annotations
@@ -36,7 +47,8 @@ from fitlab.export._image import CHANNEL_NAMES, Image
 __all__ = ["FORMATS", "EXTRA", "file_name", "encode", "tolerance", "PNG_LEVELS"]
 
 #: format -> the file name's ending after the table's name
-FORMATS = {"exr": ".exr", "exr-half": "_half.exr", "png": ".png", "c": ".h", "glsl": ".glsl"}
+FORMATS = {"exr": ".exr", "exr-half": "_half.exr", "ktx2": ".ktx2", "ktx2-half": "_half.ktx2", "png": ".png",
+           "c": ".h", "glsl": ".glsl"}
 #: the Python package each format needs and the fitlab extra that installs it
 EXTRA = {"exr": ("OpenEXR", "export"), "exr-half": ("OpenEXR", "export"), "png": ("png", "export")}
 #: the levels of a 16-bit PNG channel
@@ -52,9 +64,9 @@ def tolerance(fmt: str, values) -> np.ndarray:
     """The largest |stored - value| ``fmt`` allows for each of ``values`` (float64): what a reader of the file
     must find, at most, against the table's float64 values."""
     v = np.abs(np.asarray(values, dtype=np.float64))
-    if fmt in ("exr", "c", "glsl"):
+    if fmt in ("exr", "ktx2", "c", "glsl"):
         return np.maximum(v * 2.0**-24, 2.0**-150)
-    if fmt == "exr-half":
+    if fmt in ("exr-half", "ktx2-half"):
         return np.where(v >= 2.0**-14, v * 2.0**-11, 2.0**-25)
     if fmt == "png":
         return np.full_like(v, 0.5 / PNG_LEVELS)
@@ -74,7 +86,8 @@ def _exr(image: Image, dtype) -> bytes:
     channels = {CHANNEL_NAMES[k]: np.ascontiguousarray(image.data[:, :, k].astype(dtype))
                 for k in range(image.data.shape[2])}  # fmt: skip
     header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage,
-              "comments": "\n".join(image.description()), "fitlab:table": image.name}
+              "comments": "\n".join(image.description()), "fitlab:table": image.name,
+              "fitlab:origin": image.origin}
     # OpenEXR writes files only: through a temporary name in a private folder, read back at once
     import tempfile
     from pathlib import Path
@@ -102,11 +115,38 @@ def _png(image: Image) -> bytes:
     writer.write(buffer, levels.reshape(image.height, image.width * planes).tolist())
     chunks = list(png.Reader(bytes=buffer.getvalue()).chunks())
     text = [(b"tEXt", b"fitlab:table\0" + image.name.encode("latin-1")),
+            (b"tEXt", b"fitlab:origin\0" + image.origin.encode("latin-1")),
             (b"tEXt", b"Comment\0" + "\n".join(image.description()).encode("latin-1"))]
     first_data = next(i for i, (kind, _) in enumerate(chunks) if kind == b"IDAT")
     out = io.BytesIO()
     png.write_chunks(out, chunks[:first_data] + text + chunks[first_data:])
     return out.getvalue()
+
+
+def _ktx_writer() -> str:
+    """KTXwriter (KTX §5.5): the tool that wrote the file, with its version."""
+    from fitlab import __version__
+
+    return f"fitlab {__version__}"
+
+
+#: what a KTX2 file says of its fourth channel when the table has three
+_KTX2_PADDING = ("channel A: 1, padding: KTX2 stores a three-channel table as four channels (the KTX "
+                 "specification's format mapping has no Metal format for R32G32B32_SFLOAT and neither a Metal nor "
+                 "a DXGI format for R16G16B16_SFLOAT)")
+
+
+def _ktx2(image: Image, component_bytes: int) -> bytes:
+    from fitlab.export import _ktx2
+
+    description = image.description()
+    if image.data.shape[2] == 3:
+        description.insert(6, _KTX2_PADDING)  # after the lines of the name, order, colour space and 3 channels
+    # KTXorientation (KTX §5.2): "rd", S to the right and T down, the first row stored at the top of the picture,
+    # whichever row of the table it holds (image.origin, stated in fitlab:origin and fitlab:layout)
+    key_values = {"KTXorientation": "rd", "KTXwriter": _ktx_writer(), "fitlab:table": image.name,
+                  "fitlab:origin": image.origin, "fitlab:layout": "\n".join(description)}
+    return _ktx2.encode(image.data, component_bytes, key_values)
 
 
 def _decimal(v: np.float32) -> str:
@@ -161,4 +201,5 @@ def _glsl(image: Image) -> bytes:
 
 
 _ENCODERS = {"exr": lambda image: _exr(image, np.float32), "exr-half": lambda image: _exr(image, np.float16),
-             "png": _png, "c": _c, "glsl": _glsl}
+             "ktx2": lambda image: _ktx2(image, 4), "ktx2-half": lambda image: _ktx2(image, 2), "png": _png,
+             "c": _c, "glsl": _glsl}

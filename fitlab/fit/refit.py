@@ -230,6 +230,14 @@ def refit_stages(target: Target | str, minimax: bool | None = None, minimax_roun
 VERDICT_RTOL = 1e-6
 
 
+def measure_word(error_measure: str) -> str:
+    """The short name of a target's error measure (:attr:`fitlab.core.Target.error_measure`) in tables and
+    messages: "abs" for an absolute error, "rel" for one relative to the exact value or to a stated scale, "err"
+    for any other."""
+    kind = error_measure.split(":")[0].strip().lower()
+    return "abs" if kind.startswith("absolute") else "rel" if kind.startswith("relative") else "err"
+
+
 def refit_verdict(result: RefitResult, start_metrics: Mapping | None = None) -> str | None:
     """Whether a refit may be kept: None if so, else the reason (one line).
 
@@ -243,12 +251,13 @@ def refit_verdict(result: RefitResult, start_metrics: Mapping | None = None) -> 
     finite."""
     rec = result.record
     v = rec["validation"]
+    w = measure_word(rec["error_measure"])
     _g = "{:.3e}".format  # nan and inf as themselves
     mine = (float(v["max_rel_nonzero"]), float(v["rms_rel"]))
     if not all(math.isfinite(x) for x in mine):
         return (
             f"{rec['target']}/{rec['form']}: the refit's validation error is not finite "
-            f"(max rel* {_g(mine[0])}, RMS {_g(mine[1])})"
+            f"(max {w}* {_g(mine[0])}, RMS {_g(mine[1])})"
         )
     references = []
     if start_metrics is not None:
@@ -259,14 +268,14 @@ def refit_verdict(result: RefitResult, start_metrics: Mapping | None = None) -> 
     for label, m in references:
         if not math.isfinite(float(v["max_rel"])) and math.isfinite(float(m.get("max_rel", math.inf))):
             return (
-                f"{rec['target']}/{rec['form']}: the refit misses an exact zero of the target (max rel "
-                f"{_g(float(v['max_rel']))}) that {label} keeps (max rel {_g(float(m['max_rel']))})"
+                f"{rec['target']}/{rec['form']}: the refit misses an exact zero of the target (max {w} "
+                f"{_g(float(v['max_rel']))}) that {label} keeps (max {w} {_g(float(m['max_rel']))})"
             )
         ref = (float(m["max_rel_nonzero"]), float(m["rms_rel"]))
         if all(x > r * (1 + VERDICT_RTOL) for x, r in zip(mine, ref)):
             return (
-                f"{rec['target']}/{rec['form']}: the refit (max rel* {_g(mine[0])}, RMS {_g(mine[1])}) "
-                f"is worse than {label} (max rel* {_g(ref[0])}, RMS {_g(ref[1])}) on the validation set"
+                f"{rec['target']}/{rec['form']}: the refit (max {w}* {_g(mine[0])}, RMS {_g(mine[1])}) "
+                f"is worse than {label} (max {w}* {_g(ref[0])}, RMS {_g(ref[1])}) on the validation set"
             )
     return None
 
@@ -293,9 +302,16 @@ def _fmt(x: float) -> str:
 
 
 def table(results: list[RefitResult], walls: list[float]) -> str:
-    """The side-by-side table: each published preset, then the refit."""
+    """The side-by-side table: each published preset, then the refit; the columns named by the targets' error
+    measure (:func:`measure_word`: max abs for the Fresnel family's absolute errors, max rel for relative ones),
+    and each measure stated in full below."""
+    measures: dict[str, list[str]] = {}
+    for res in results:
+        measures.setdefault(res.record["error_measure"], []).append(res.record["target"])
+    words = {measure_word(m) for m in measures}
+    w = words.pop() if len(words) == 1 else "err"
     lines = [
-        f"{'target':<10} {'form / preset':<30} {'max rel':>10} {'max rel*':>10} {'rms rel':>10} "
+        f"{'target':<10} {'form / preset':<30} {'max ' + w:>10} {'max ' + w + '*':>10} {'rms ' + w:>10} "
         f"{'steps':>7} {'wall s':>7}  worst point of the refit",
     ]
     for res, wall in zip(results, walls):
@@ -317,12 +333,15 @@ def table(results: list[RefitResult], walls: list[float]) -> str:
             lines.append(
                 f"{'':<10} least-squares stage: optimistix LM {res.fit.l2_seconds:.2f} s incl. JIT "
                 f"({res.fit.l2_steps} steps); scipy least_squares (MINPACK LM, finite differences) "
-                f"{res.scipy.seconds:.2f} s ({res.scipy.l2_steps} evaluations); train max rel "
+                f"{res.scipy.seconds:.2f} s ({res.scipy.l2_steps} evaluations); train max {w} "
                 f"{_fmt(res.fit.history[0][1])} vs {_fmt(res.scipy.train_max)}"
             )
     lines.append(
-        "max rel* = max rel without the target's exact zeros (where missing a zero is an infinite relative error)"
+        f"max {w}* = max {w} without the target's exact zeros (where missing a zero is an infinite relative error; "
+        f"the same as max {w} for an absolute error)"
     )
+    for measure, names in measures.items():
+        lines.append(f"error of {', '.join(dict.fromkeys(names))}: {measure}")
     return "\n".join(lines)
 
 

@@ -2,7 +2,7 @@ r"""The family's preset table as engines load it (the ``images`` hook of ``fitla
 
 ``fresnel_presets``: one row per material (:data:`..exact.MATERIALS`, in order), one column per quantity
 (:data:`COLUMNS`), and the linear sRGB channels R, G, B of each: the published constructions' parameters
-(Schlick's and F82-tint's F0 = F(mu = 1), F82-tint's tint = F(82 deg) / Schlick(82 deg), Gulbrandsen's r and g;
+(Schlick's and F82-tint's F0 = F(mu = 1), F82-tint's tint = F(mu = 1/7) / Schlick(mu = 1/7), Gulbrandsen's r and g;
 :func:`..forms.construction`), the exact F_avg = 2 int_0^1 F mu dmu (the Fresnel average of Kulla-Conti's
 coloured compensation), and the max |F - F_exact| of each construction over the target's validation angles,
 measured when the table is built.  A C header or GLSL array of it is the preset table an engine compiles in;
@@ -78,5 +78,5 @@ IMAGES = {
     "fresnel_presets": ImageSpec(
         "per material: F0, F82 tint, Gulbrandsen's r and g, exact F_avg, each construction's max error (RGB)",
         lambda size, tick=lambda: None: preset_table(tick), (len(MATERIALS),), len(MATERIALS),
-        steps=lambda size: len(MATERIALS), value_range=(0.0, 2.0), formats=("exr", "c", "glsl")),
+        steps=lambda size: len(MATERIALS), value_range=(0.0, 2.0), formats=("exr", "ktx2", "c", "glsl")),
 }

@@ -3,8 +3,8 @@ one figure per material (fresnel_<material>.png), every number computed here.
 
 For every material and every approximation (:mod:`fitlab.families.fresnel.forms`), per sRGB channel:
 
-* the published construction where one exists (Schlick with F0 = F(1), F82-tint from F(82 degrees),
-  Gulbrandsen's map of the measured n, k);
+* the published construction where one exists (Schlick with F0 = F(1), F82-tint from F(mu = 1/7), Hoffman's
+  "82 degrees" (81.79 degrees), Gulbrandsen's map of the measured n, k);
 * a refit on the unweighted measure: least squares, then Lawson's minimax on |F - F_exact| over the training
   angles (``fitlab refit``), validated on the 1027 validation angles;
 * a refit on the cosine-weighted measure: least squares with weight mu (the energy a direction carries in
@@ -32,12 +32,19 @@ from fitlab.families.fresnel.exact import CHANNELS, MATERIALS, SPACES, average_r
 from fitlab.families.fresnel.forms import FORM_NAMES, MU_BAR
 from fitlab.families.fresnel.targets import PUBLISHED, target_name
 
-__all__ = ["VARIANTS", "run", "markdown", "figure", "main", "approximation_costs", "COST_MATERIAL"]
+__all__ = ["VARIANTS", "run", "markdown", "figure", "main", "approximation_costs", "COST_MATERIAL",
+           "CHROMIUM_F0_PUBLISHED", "optical_constant_points"]
 
 #: the variants measured per form: its published construction (the preset's name), and the two refits
 VARIANTS = ("construction", "refit", "refit_cosine")
 #: the forms with a published construction (for some kind of material), and its preset: the targets' PUBLISHED
 _CONSTRUCTION = {form: preset for published in PUBLISHED.values() for form, preset in published}
+#: chromium's F0 (linear sRGB / Rec. 709) as two published tables give it, against the shipped n, k's: RTR4 Table 9.2,
+#: and the Adobe Standard Material's "Metal material references" (Base Color (F0), linear Rec. 709)
+CHROMIUM_F0_PUBLISHED = {"RTR4 Table 9.2": (0.549, 0.556, 0.554),
+                         "the Adobe Standard Material's metal references": (0.5496, 0.5561, 0.5531)}
+#: the visible range a table's points are counted in, and the range the channels integrate (CIE weights' range)
+_VISIBLE_NM = (380.0, 780.0)
 _LABEL = {"schlick": "Schlick", "schlick_generalised": "generalised Schlick", "lazanyi": "Lazanyi-Schlick",
           "f82_tint": "F82-tint", "gulbrandsen": "Gulbrandsen"}
 
@@ -137,6 +144,24 @@ def approximation_costs(n: int = 200_000, repeat: int = 5) -> dict:
     return {name: {"double": double, "float": single} for name, (double, single) in ns.items()}
 
 
+def optical_constant_points(material: str) -> dict:
+    """Where a conductor's measured n, k lie: the points in 380 to 780 nm and in the range the channels integrate,
+    and the widest gap between neighbouring points of that range (nm, with its ends)."""
+    from fitlab.families.fresnel.exact._colour import channel_weights
+    from fitlab.resources import packaged_tables
+    from fitlab.store import read_table
+
+    _, table = read_table(packaged_tables("fresnel") / MATERIALS[material].file, ("wavelength_nm", "n", "k"))
+    lam = table[:, 0]
+    integrated = channel_weights("srgb")[0]
+    lo, hi = float(integrated.min()), float(integrated.max())
+    inside = lam[(lam >= lo) & (lam <= hi)]
+    widest = int(np.argmax(np.diff(inside)))
+    return {"visible": int(np.count_nonzero((lam >= _VISIBLE_NM[0]) & (lam <= _VISIBLE_NM[1]))),
+            "integrated_range_nm": [lo, hi], "integrated": int(inside.size),
+            "widest_gap_nm": [float(inside[widest]), float(inside[widest + 1])]}
+
+
 def run(materials=None, progress: bool = True) -> dict:
     """Every measure of the module docstring, as data."""
     from tqdm import tqdm
@@ -154,9 +179,12 @@ def run(materials=None, progress: bool = True) -> dict:
                 "name": MATERIALS[m].name, "kind": MATERIALS[m].kind, "source": MATERIALS[m].source,
                 "F0": {s: reflectance(m, 1.0, s).tolist() for s in SPACES},
                 "F82": reflectance(m, float(MU_BAR)).tolist(),
+                "F_82_degrees": reflectance(m, math.cos(math.radians(82.0))).tolist(),
                 "F_avg": {s: v.tolist() for s, v in f_avg.items()},
                 "dip": _dip(m), "approximations": {},
             }
+            if MATERIALS[m].kind == "conductor":
+                row["optical_constants"] = optical_constant_points(m)
             for name in FORM_NAMES:
                 fits = _fits(m, name)
                 row["approximations"][name] = {}
@@ -232,6 +260,44 @@ def _cost_section(result: dict) -> list[str]:
     return lines
 
 
+def _mu_bar_degrees() -> float:
+    """Hoffman's angle of the F82 tint, mu = 1/7, in degrees (81.79)."""
+    return math.degrees(math.acos(float(MU_BAR)))
+
+
+def _measured_data_section(mats: dict) -> list[str]:
+    """Hoffman's angle, chromium's F0 against two published tables, and where each conductor's n, k were measured."""
+    def rgb(v):
+        return "(" + ", ".join(f"{x:.4f}".rstrip("0") for x in v) + ")"
+
+    off = max(abs(a - b) for row in mats.values() for a, b in zip(row["F82"], row["F_82_degrees"]))
+    worst = max(mats.values(), key=lambda row: max(abs(a - b) for a, b in zip(row["F82"], row["F_82_degrees"])))
+    lines = ["", f"F(mu = 1/7) is the point F82-tint pins: Hoffman's \"82 degrees\" is mu = 1/7, "
+                 f"{_mu_bar_degrees():.2f} degrees. At exactly 82 degrees F differs from it by up to {off:.4f} in "
+                 f"these materials ({worst['name']}: {rgb(worst['F_82_degrees'])} at 82 degrees)."]
+    conductors = {key: row for key, row in mats.items() if "optical_constants" in row}
+    if "cr" in conductors:
+        f0 = conductors["cr"]["F0"]["srgb"]
+        published = "; ".join(f"{source} {rgb(v)}" for source, v in CHROMIUM_F0_PUBLISHED.items())
+        gaps = [a - b for v in CHROMIUM_F0_PUBLISHED.values() for a, b in zip(f0, v)]
+        lines += ["", f"Chromium's F0 from the shipped n, k is {rgb(f0)}. Two published tables give less: "
+                      f"{published}, {min(gaps):.3f} to {max(gaps):.3f} below per channel: they were not computed from "
+                      "the luxpop n, k that Mitsuba 3 ships. fitlab keeps that table as shipped; which measurement "
+                      "of chromium is right is not settled here."]
+    if conductors:
+        lo, hi = next(iter(conductors.values()))["optical_constants"]["integrated_range_nm"]
+        lines += ["", f"The measured n, k of each conductor: the points of its table between "
+                      f"{_VISIBLE_NM[0]:.0f} and {_VISIBLE_NM[1]:.0f} nm, between {lo:.0f} and {hi:.0f} nm (the "
+                      "range the channels integrate), and the widest gap between two of those, across which F is "
+                      "interpolated linearly in wavelength:", "",
+                  "| material | points, visible | points, integrated | widest gap (nm) |", "|---|---|---|---|"]
+        for row in conductors.values():
+            pts = row["optical_constants"]
+            a, b = pts["widest_gap_nm"]
+            lines.append(f"| {row['name']} | {pts['visible']} | {pts['integrated']} | {a:.1f} to {b:.1f} |")
+    return lines
+
+
 def markdown(result: dict) -> str:
     mats = result["materials"]
     lines = [
@@ -259,7 +325,8 @@ def markdown(result: dict) -> str:
         "",
         "## F0 and F_avg per material",
         "",
-        "| material | F0, linear sRGB | F0, ACEScg | F(82 deg), sRGB | F_avg = 2 int F mu dmu, sRGB | F_avg, ACEScg |",
+        f"| material | F0, linear sRGB | F0, ACEScg | F(mu = 1/7), sRGB ({_mu_bar_degrees():.2f} deg) | "
+        "F_avg = 2 int F mu dmu, sRGB | F_avg, ACEScg |",
         "|---|---|---|---|---|---|",
     ]
 
@@ -269,13 +336,14 @@ def markdown(result: dict) -> str:
     for row in mats.values():
         lines.append(f"| {row['name']} | {rgb(row['F0']['srgb'])} | {rgb(row['F0']['acescg'])} | {rgb(row['F82'])} | "
                      f"{rgb(row['F_avg']['srgb'])} | {rgb(row['F_avg']['acescg'])} |")
+    lines += _measured_data_section(mats)
     lines += [
         "",
         "## Which approximation, for which material, at what error",
         "",
-        "Max |F - F_exact| over the 1027 validation angles (evenly spaced in theta, both ends and 82 degrees "
+        "Max |F - F_exact| over the 1027 validation angles (evenly spaced in theta, both ends and mu = 1/7 "
         "included), worst of the three sRGB channels. *construction*: the published way to set the parameters "
-        "from the exact F (Schlick: F0 = F(1); F82-tint: F0 and F(82 deg); Gulbrandsen: r = F(1) of the "
+        "from the exact F (Schlick: F0 = F(1); F82-tint: F0 and F(mu = 1/7); Gulbrandsen: r = F(1) of the "
         "channel, g from the measured n, k at the channel's mean wavelength; metals only). *refit*: fitted by "
         "`fitlab refit` (least squares, then minimax on the max error).",
         "",
@@ -375,7 +443,7 @@ def markdown(result: dict) -> str:
     if deep_rows:
         lines.append(
             f"The dip is deeper than 0.01 for {', '.join(r['name'] for r in deep_rows)}: Schlick's max error there "
-            f"is {span(deep_rows, schlick)}; F82-tint's construction, which pins 82 degrees, brings it to "
+            f"is {span(deep_rows, schlick)}; F82-tint's construction, which pins mu = 1/7, brings it to "
             f"{span(deep_rows, f82)}, and the best refit of each to {span(deep_rows, lambda r: _best(r)[2])}.")
     if flat_metals:
         lines.append(f"The metals with shallower dips ({', '.join(r['name'] for r in flat_metals)}): Schlick's max "

@@ -3,7 +3,7 @@ r"""The family's table as engines load it (the ``images`` hook of ``fitlab expor
 ``lambert_sphere_texture``: the one float32 texture the generated "tables, three orders" BRDF reads
 (:func:`.table_export.texture`: H_0, H_1, H_2 through their remainders, the constants, kd and the true-phase
 correction, in the blocks its layout lines name; node addressing, read with ``texelFetch``), as a one-channel
-float OpenEXR file, beside the raw ``.f32`` and the C array that ``fitlab codegen --tables`` writes.  Only
+float OpenEXR or KTX2 file, beside the raw ``.f32`` and the C array that ``fitlab codegen --tables`` writes.  Only
 float: the remainders are read to float32's precision, which half floats and 16 bits do not keep.
 """
 
@@ -32,5 +32,5 @@ IMAGES = {
     "lambert_sphere_texture": ImageSpec(
         "the Lambert sphere's three-order texture (H_m remainders, constants, kd, true-phase correction)",
         texture_image, table_export.NODES, table_export.DEFAULT_NODES, steps=lambda size: 1,
-        value_range=(-np.inf, np.inf), formats=("exr",)),
+        value_range=(-np.inf, np.inf), formats=("exr", "ktx2")),
 }

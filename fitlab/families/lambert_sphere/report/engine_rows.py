@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 
+from fitlab.families.lambert_sphere.report.claims import claim_rows
 from fitlab.families.lambert_sphere.report.exact_engine import (
     doubling_agreement,
     engine_agreement,
@@ -49,6 +50,7 @@ def measure_engines(settings, fam, inputs: dict, progress) -> tuple[list[dict], 
     progress.stage("Monte Carlo", len(fam.mc_paths))
     study = mc_study(fam, progress.tick, seed=settings.seed)
     rows += _mc_rows(study, [e for e in settings.error_targets if e >= 1e-3], mc_time_to_error, SOURCES)
+    rows += claim_rows()  # what the generated code states (report.md's section of it: .claims)
     return rows, {"exact_cost": brdf_cost, "doubling": dbl, "engine_agreement": agree, "mc": study}
 
 

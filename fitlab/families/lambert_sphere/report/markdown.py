@@ -6,6 +6,7 @@ report hook (:mod:`.methods`) gives them to the generic writer, which knows no f
 
 from __future__ import annotations
 
+from fitlab.families.lambert_sphere.report.claims import claim_section
 from fitlab.report.write import ns, report_source, sci, section_rows
 
 __all__ = ["BRDF_TITLE", "REPORT_TEXT", "engine_sections"]
@@ -22,9 +23,10 @@ REPORT_TEXT = {
 
 
 def engine_sections(report) -> list[str]:
-    """The report.md sections on the family's engines: the exact engine, the time to reach an error, Monte
-    Carlo (markdown lines)."""
-    return [*_exact_section(report), "", *_time_to_error(report.rows), "", *_mc_section(report)]
+    """The report.md sections on what the generated code states (:mod:`.claims`) and on the family's engines: the
+    exact engine, the time to reach an error, Monte Carlo (markdown lines)."""
+    return [*claim_section(report.rows), "", *_exact_section(report), "", *_time_to_error(report.rows), "",
+            *_mc_section(report)]
 
 
 def _exact_section(report) -> list[str]:

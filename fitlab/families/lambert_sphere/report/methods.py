@@ -244,12 +244,14 @@ def brdf_methods(fits_dir: Path, entries: list, data_dir: Path, preset_c: tuple 
         order2 = None
     if order2:
         m = runtime_model(fits_dir=fits_dir, model=THREE_TERM_MODEL)
-        out.append(_runtime(m, "refit, order 2", "refit, richer", _label(order2),
-                            CSpec("brdf", fits_dir, tuple(sorted(order2.items())))))  # fmt: skip
+        out.append(_runtime(m, "model three-term", "refit, richer",
+                            f"fitlab codegen --model {THREE_TERM_MODEL} (parts fitted to their own targets: "
+                            f"{_label(order2)})", CSpec("brdf", fits_dir, tuple(sorted(order2.items())))))  # fmt: skip
         # the same structure and forms with the parts fitted to the true BRDF (the packaged ones, whatever fits_dir
         # is): the program's default model, what fitlab codegen and runtime_model() give
         m = true_runtime_model()
-        out.append(_runtime(m, "refit to the true BRDF, order 2", "refit, richer", f"fitlab/fits/true: {_label(order2)}",
+        out.append(_runtime(m, "model true (the default)", "refit, richer",
+                            f"fitlab codegen (parts fitted to the true BRDF, fitlab/fits/true: {_label(order2)})",
                             CSpec("brdf", TRUE_FITS, tuple(sorted(order2.items())))))  # fmt: skip
     richer = best_forms(entries, {"refit"}, (*RUNTIME_PARTS, ORDER2_PART))
     if richer and richer != order2:  # the best part fits may be the order-2 model itself

@@ -90,7 +90,7 @@ def _albedo_spec(model: str) -> ImageSpec:
     # Oren-Nayar as the blog writes it gains energy at small roughness (E up to 1.015), so 1 - E < 0 there:
     # no format limited to [0, 1]
     oren_nayar = model.startswith("oren_nayar")
-    formats = ("exr", "exr-half", "c", "glsl") if oren_nayar else ("exr", "exr-half", "png", "c", "glsl")
+    formats = ("exr", "exr-half", "ktx2", "ktx2-half", *(() if oren_nayar else ("png",)), "c", "glsl")
     return ImageSpec(f"E, 1 - E and E_avg of {model} on (mu_o, alpha)",
                      lambda size, tick=lambda: None: albedo_table(model, size, tick), SIZES, DEFAULT_SIZE,
                      steps=lambda size: size + 1, value_range=(-0.02, 1.02) if oren_nayar else (0.0, 1.0),
