@@ -987,8 +987,9 @@ def _check_savable(rows: Rows, form, start: dict) -> None:
         )
     theta = form.vector(start)
     not_run = FitResult(theta, 0, 0, 0, "not run", 0.0, 0.0, 0.0, 0.0)
-    record = fit_record(rows.target_object(form.name), form, not_run, rows.train, rows.valid, rows.domain,
-                        MINIMAX_ROUNDS)  # fmt: skip
+    with np.errstate(all="ignore"):  # the errors at the start values: a form not finite there is said below
+        record = fit_record(rows.target_object(form.name), form, not_run, rows.train, rows.valid, rows.domain,
+                            MINIMAX_ROUNDS)  # fmt: skip
     record = user_record(record, rows, MINIMAX_ROUNDS)
     record["user_data"]["file"] = table_file_name(form.target, form.name)
     try:
