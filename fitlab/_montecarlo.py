@@ -16,8 +16,9 @@ import os
 import sys
 
 __all__ = ["MAX_PATHS", "MIN_PATHS_BUDGET", "SLOW_JOB_SECONDS", "THREEFRY_ROTATIONS", "THREEFRY_C", "duration",
-           "slow_job_warning", "threefry_2x32", "HOST_DEVICES_FLAG", "use_every_core", "PRECISIONS", "uniforms",
-           "sincos_2pi", "threefry_blocks", "block_words", "azimuth_cosine", "bin_index", "add_with_squares"]
+           "slow_job_warning", "threefry_2x32", "HOST_DEVICES_FLAG", "use_every_core", "PRECISIONS",
+           "FLOAT32_UNIFORM_BITS", "uniforms", "sincos_2pi", "threefry_blocks", "block_words", "azimuth_cosine",
+           "bin_index", "add_with_squares", "ChunkedRound", "device_local", "device_stacked"]
 
 #: the largest path budget of one job (``max_paths`` in a scene file, ``--max-paths``): one rule for every
 #: family and the command line (the microsurface walk numbers a job's paths with 32-bit ids)
@@ -151,14 +152,21 @@ static void threefry(uint32_t k0, uint32_t k1, uint32_t x0, uint32_t x1, uint32_
 PRECISIONS = ("float32", "float64")
 
 
+#: the bits of a word a float32 uniform keeps (:func:`uniforms`)
+FLOAT32_UNIFORM_BITS = 23
+
+
 def uniforms(words, dtype):
-    """Uniforms in (0, 1) of uint32 ``words``: float64 (word + 1/2) 2^-32, float32 (word >> 8 + 1/2) 2^-24 (the top
-    24 bits, which a float32 holds exactly: no uniform rounds to 0 or 1).  A sampled tail is cut at
-    probability 2^-33 in float64, 2^-25 in float32."""
+    """Uniforms in (0, 1) of uint32 ``words``, each the midpoint of one of 2^b equal cells of [0, 1], exactly:
+    float64 (word + 1/2) 2^-32 (b = 32), float32 (word >> 9 + 1/2) 2^-23 (the top b = 23 bits,
+    :data:`FLOAT32_UNIFORM_BITS`: k + 1/2 < 2^23 needs 24 significant bits, all a float32 has; with 24 bits
+    the cells' midpoints above 1/2 would round, the last to 1).  So u and 1 - u are at least 2^-33 in
+    float64, 2^-24 in float32: a sampled tail is cut at those probabilities."""
     import jax.numpy as jnp
 
     if dtype == jnp.float32:
-        return ((words >> jnp.uint32(8)).astype(jnp.float32) + jnp.float32(0.5)) * jnp.float32(2.0**-24)
+        shift = jnp.uint32(32 - FLOAT32_UNIFORM_BITS)
+        return ((words >> shift).astype(jnp.float32) + jnp.float32(0.5)) * jnp.float32(2.0**-FLOAT32_UNIFORM_BITS)
     return (words.astype(jnp.float64) + 0.5) * 2.0**-32
 
 
@@ -250,3 +258,76 @@ def add_with_squares(tallies: dict, name: str, index: tuple, v) -> None:
     pair = jnp.stack([tallies[name], tallies[name + "_sq"]], axis=axis)
     pair = pair.at[index].add(jnp.stack([v, v * v], axis=1))
     tallies[name], tallies[name + "_sq"] = jnp.take(pair, 0, axis=axis), jnp.take(pair, 1, axis=axis)
+
+
+class ChunkedRound:
+    """One round of a walk, run in chunks of at most ``steps`` iterations of its loop on every device
+    (:meth:`advance`), so that the caller regains control between chunks (Ctrl-C, a progress bar) however long
+    the round.  The chunks change nothing: every device applies the same compiled loop body to its own state in
+    the same order whatever their sizes, so the tallies are those of the round run at once, bit for bit.
+
+    ``runs[L](state, steps) -> (state, status)`` runs level L (a walk that gathers its last paths into fewer
+    lanes has one level per lane count); ``status`` is an int array (devices, 3): whether the device has ended
+    the level, the paths it has started and its lanes alive.  ``compacts[L - 1](state)`` moves every device to
+    level L once all have ended level L - 1; ``finish(state)`` gives the tallies summed over the devices."""
+
+    def __init__(self, state, runs, compacts, finish, result=None):
+        self.state, self.runs, self.compacts, self._finish = state, runs, compacts, finish
+        self._result = result or (lambda tallies: tallies)
+        self.level, self.done, self.started, self.alive = 0, False, 0, 0
+
+    @property
+    def finished(self) -> int:
+        """Paths ended so far (escaped, capped or failed)."""
+        return self.started - self.alive
+
+    def advance(self, steps: int) -> bool:
+        """Run at most ``steps`` loop iterations on each device (waiting for them); returns whether the round is
+        done."""
+        import numpy as np
+
+        from fitlab.core import float64
+
+        if self.done:
+            return True
+        with float64():
+            self.state, status = self.runs[self.level](self.state, int(steps))
+            status = np.asarray(status)
+        self.started, self.alive = int(status[:, 1].sum()), int(status[:, 2].sum())
+        if status[:, 0].all():
+            if self.level + 1 < len(self.runs):
+                self.level += 1
+                with float64():
+                    self.state = self.compacts[self.level - 1](self.state)
+            else:
+                self.done = True
+        return self.done
+
+    def tallies(self) -> dict:
+        """The round's tallies (once :meth:`advance` has returned True), as the walk's ``run_round`` gives them."""
+        from fitlab.core import float64
+
+        if not self.done:
+            raise RuntimeError("the round is not done")
+        with float64():
+            return self._result(self._finish(self.state))
+
+    def run(self) -> dict:
+        """Run the round to its end at once; its tallies."""
+        while not self.advance(2**62):
+            pass
+        return self.tallies()
+
+
+def device_local(tree):
+    """A sharded state's leaves as one device sees them under ``shard_map`` (the leading axis of 1 removed)."""
+    import jax
+
+    return jax.tree_util.tree_map(lambda a: a[0], tree)
+
+
+def device_stacked(tree):
+    """The inverse of :func:`device_local`: a leading axis of 1, to be stacked over the mesh's devices."""
+    import jax
+
+    return jax.tree_util.tree_map(lambda a: a[None], tree)

@@ -35,10 +35,13 @@ of engine is a miss, never a stale hit.
   as any entry) and copied in.  Their keys are the engine's too, so a changed engine never reads them.
 
 The same folder keeps, under ``xla/``, the programs JAX compiles for the commands
-(:func:`enable_compilation_cache`, JAX's persistent compilation cache): a second
-``fitlab refit`` traces its model but does not compile it again.
+(:func:`enable_compilation_cache`, JAX's persistent compilation cache, stored by these rules:
+:mod:`fitlab._program_cache`): a second ``fitlab refit`` traces its model but does not compile it again.
 
-``fitlab cache info`` and ``fitlab cache clear`` manage both.
+``fitlab cache info`` and ``fitlab cache clear`` manage both.  They count and remove only the names fitlab
+writes (``NAME-KEY.npz`` entries and their temporaries, ``locks/ENTRY.lock``, and in ``xla/`` the programs'
+entries and the files of JAX's own store), and refuse a folder that holds anything else, before removing
+anything: a cache folder set to a user's own folder loses nothing.
 """
 
 from __future__ import annotations
@@ -47,6 +50,7 @@ import hashlib
 import io
 import json
 import os
+import re
 import sys
 import threading
 import time
@@ -67,7 +71,8 @@ except ImportError:  # Windows: no flock, no lock (see the module docstring)
     fcntl = None
 
 __all__ = ["cache_dir", "cache_key", "cached_arrays", "cached_at", "cached_files", "cache_info", "clear_cache",
-           "enabled", "enable_compilation_cache", "package_sources", "INPUT_PREFIX", "cached_text", "family_entry_points"]
+           "enabled", "enable_compilation_cache", "package_sources", "INPUT_PREFIX", "CacheFolderError",
+           "PROGRAM_SUFFIX", "cached_text", "family_entry_points"]
 
 _SUFFIX = ".npz"
 #: the array of an entry that holds its content hash (:func:`_content_hash`)
@@ -76,6 +81,8 @@ _HASH = "_fitlab_sha256"
 MAX_ENTRY_BYTES = 2_000_000_000
 #: the subfolder of JAX's compiled programs
 _XLA = "xla"
+#: the suffix of a compiled program's entry in it (:mod:`fitlab._program_cache`)
+PROGRAM_SUFFIX = ".xla"
 #: the subfolder of the entries' lock files (:func:`_computing`)
 _LOCKS = "locks"
 #: how deep this thread is in cached_arrays computes: only the outermost takes a lock
@@ -324,29 +331,115 @@ def enable_compilation_cache() -> None:
     its shapes, the backend and the JAX version), unless the cache is off or the user set JAX's own folder.
     Every program is kept, however fast it compiles: a command's small programs (tens of milliseconds each)
     add up to about 0.1 s a process, which a warm run then reads back instead (JAX never keeps a program with
-    host callbacks).  Imports JAX."""
+    host callbacks).  The entries are stored by :class:`fitlab._program_cache.ProgramCache`, by the rules of
+    the exact values' entries (a damaged entry is a miss, removed and written again; atomic writes; a folder
+    that cannot be written only costs time, in one warning line).  A JAX without the store's hook
+    (``jax._src.compilation_cache.get_file_cache``) keeps nothing.  Imports JAX."""
     if not enabled():
         return
     import jax
 
     if jax.config.jax_compilation_cache_dir:
         return  # the user's own setting wins
-    jax.config.update("jax_compilation_cache_dir", str(cache_dir() / _XLA))
+    try:
+        from jax._src import compilation_cache
+
+        from fitlab._program_cache import ProgramCache
+    except ImportError:
+        return
+    jax_store = getattr(compilation_cache, "get_file_cache", None)
+    if jax_store is None:
+        return
+    folder = str(cache_dir() / _XLA)
+    if not getattr(jax_store, "_fitlab", False):
+
+        def file_cache(path):
+            if str(path) == folder:
+                return ProgramCache(path, PROGRAM_SUFFIX, MAX_ENTRY_BYTES), path
+            return jax_store(path)
+
+        file_cache._fitlab = True  # type: ignore[attr-defined]
+        compilation_cache.get_file_cache = file_cache
+    jax.config.update("jax_compilation_cache_dir", folder)
     jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.0)
 
 
-def cache_info() -> dict:
-    """{"folder", "entries", "bytes", "by_name": {name: (entries, bytes)}} of the cache as it is now."""
+class CacheFolderError(Exception):
+    """The cache folder is not a folder, or holds files fitlab did not write (one line)."""
+
+
+#: the names fitlab writes in the cache folder: entries and their temporaries (:func:`cached_arrays`) ...
+_ENTRY_NAME = re.compile(r".+-[0-9a-f]{24}\.npz(\.[0-9]+\.tmp)?")
+#: ... in locks/, their locks (:func:`_computing`) ...
+_LOCK_NAME = re.compile(r".+-[0-9a-f]{24}\.npz\.lock")
+#: ... and in xla/, the compiled programs (:mod:`fitlab._program_cache`, and JAX's own store of earlier fitlabs)
+_PROGRAM_NAME = re.compile(r"[^/]+-[0-9a-f]{64}(\.xla(\.[0-9]+\.tmp)?|-cache|-atime)|\.lockfile")
+
+
+def _is_program(p: Path) -> bool:
+    """Whether a file of xla/ is a program (not a temporary, nor JAX's access times or lock)."""
+    return p.name.endswith((PROGRAM_SUFFIX, "-cache"))
+
+
+def _cache_files() -> dict[str, list[Path]]:
+    """{"entries", "locks", "programs"}: the files fitlab wrote in the cache folder (none when it does not
+    exist); a :class:`CacheFolderError` when it is not a folder or holds anything else (a file or folder whose
+    name fitlab does not write, a folder named like an entry), so that nothing of a user's is counted or
+    removed."""
     folder = cache_dir()
+    found: dict[str, list[Path]] = {"entries": [], "locks": [], "programs": []}
+    if not os.path.lexists(folder):
+        return found
+    if not folder.is_dir():
+        raise CacheFolderError(f"{folder} is not a folder")
+    others: list[str] = []
+
+    def scan(where: Path, pattern, kind: str, prefix: str = "") -> None:
+        for p in sorted(where.iterdir()):
+            if pattern.fullmatch(p.name) and not (p.is_dir() and not p.is_symlink()):
+                found[kind].append(p)
+            else:
+                others.append(prefix + p.name)
+
+    try:
+        for p in sorted(folder.iterdir()):
+            sub = {_LOCKS: (_LOCK_NAME, "locks"), _XLA: (_PROGRAM_NAME, "programs")}.get(p.name)
+            if sub is not None and p.is_dir() and not p.is_symlink():
+                scan(p, *sub, prefix=f"{p.name}/")
+            elif sub is None and _ENTRY_NAME.fullmatch(p.name) and not (p.is_dir() and not p.is_symlink()):
+                found["entries"].append(p)
+            else:
+                others.append(p.name)
+    except OSError as exc:
+        raise CacheFolderError(f"{folder}: cannot read ({exc.strerror or exc})") from None
+    if others:
+        shown = ", ".join(others[:3]) + (f" and {len(others) - 3} more" if len(others) > 3 else "")
+        raise CacheFolderError(f"{folder} holds {len(others)} name(s) fitlab does not write ({shown}): not a fitlab "
+                               "cache, left as it is (set FITLAB_CACHE_DIR to fitlab's own folder)")
+    return found
+
+
+def cache_info() -> dict:
+    """{"folder", "entries", "bytes", "by_name": {name: (entries, bytes)}} of the cache as it is now: the files
+    fitlab wrote (:class:`CacheFolderError` for a folder holding anything else)."""
+    folder = cache_dir()
+    files = _cache_files()
     by_name: dict[str, list[int]] = {}
-    for p in sorted(folder.glob(f"*{_SUFFIX}")) if folder.is_dir() else []:
-        stem = p.name[: -len(_SUFFIX)].rsplit("-", 1)[0]
-        entry = by_name.setdefault(stem, [0, 0])
-        entry[0] += 1
-        entry[1] += p.stat().st_size
-    xla = [p for p in (folder / _XLA).rglob("*") if p.is_file()] if (folder / _XLA).is_dir() else []
-    if xla:
-        by_name["xla (compiled JAX programs)"] = [len(xla), sum(p.stat().st_size for p in xla)]
+
+    def size(p: Path) -> int:
+        try:
+            return p.lstat().st_size
+        except OSError:
+            return 0
+
+    for p in files["entries"]:
+        if p.name.endswith(_SUFFIX):
+            entry = by_name.setdefault(p.name[: -len(_SUFFIX)].rsplit("-", 1)[0], [0, 0])
+            entry[0] += 1
+            entry[1] += size(p)
+    programs = [p for p in files["programs"] if _is_program(p)]
+    if programs:
+        by_name["xla (compiled JAX programs)"] = [len(programs), sum(size(p) for p in programs)]
     return {
         "folder": str(folder),
         "entries": sum(e[0] for e in by_name.values()),
@@ -356,26 +449,19 @@ def cache_info() -> dict:
 
 
 def clear_cache() -> int:
-    """Remove every entry (and stray temporaries); returns the number of files removed."""
+    """Remove every entry, compiled program, lock and stray temporary fitlab wrote; returns the number of entries
+    and programs removed.  A folder holding anything else is refused whole, before anything is removed
+    (:class:`CacheFolderError`)."""
     folder = cache_dir()
-    if not folder.is_dir():
-        return 0
+    files = _cache_files()
     removed = 0
-    xla = folder / _XLA
-    for p in [*folder.glob(f"*{_SUFFIX}"), *folder.glob(f"*{_SUFFIX}.*.tmp"),
-              *(q for q in xla.rglob("*") if q.is_file() or q.is_symlink())]:
+    for p in [*files["entries"], *files["programs"], *files["locks"]]:
         try:
-            p.unlink()
-            removed += 1
+            p.unlink()  # a process waiting on a lock still holds its file: at worst it computes its entry twice
         except FileNotFoundError:
-            pass
-    locks = folder / _LOCKS
-    for p in locks.glob("*.lock") if locks.is_dir() else []:
-        with suppress(FileNotFoundError):
-            p.unlink()  # a process waiting on one still holds its file: at worst it computes its entry twice
-    for d in [*sorted((q for q in xla.rglob("*") if q.is_dir()), reverse=True), xla, locks]:
-        try:
+            continue
+        removed += (p.parent == folder and p.name.endswith(_SUFFIX)) or (p.parent.name == _XLA and _is_program(p))
+    for d in (folder / _XLA, folder / _LOCKS):
+        with suppress(OSError):
             d.rmdir()
-        except OSError:
-            pass
     return removed

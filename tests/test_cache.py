@@ -218,3 +218,165 @@ def test_a_fifo_entry_is_a_miss_without_blocking(cache):
     out = finishes(lambda: cached_arrays("demo", {}, _values(calls), ("x", "y")), [entry])
     assert len(calls) == 2 and out["y"].tolist() == [0.0, 1.0, 4.0, 9.0, 16.0]
     assert entry.is_file()  # replaced by a whole entry
+
+
+# -- JAX's compiled programs (CACHE/xla) keep the cache's rules -------------------------------------------
+def _program_cache(folder):
+    from fitlab._program_cache import ProgramCache
+    from fitlab.cache import MAX_ENTRY_BYTES, PROGRAM_SUFFIX
+
+    return ProgramCache(folder, PROGRAM_SUFFIX, MAX_ENTRY_BYTES)
+
+
+KEY = "jit_f-" + "ab" * 32
+
+
+@pytest.mark.parametrize("damage", ["zero bytes (a full disk)", "a byte flipped", "cut short", "another key's",
+                                    "the bare program (JAX's own format)"])
+def test_a_damaged_program_is_a_miss_removed_and_written_again(tmp_path, damage, capsys):
+    store = _program_cache(tmp_path)
+    program = bytes(range(256)) * 8
+    store.put(KEY, program)
+    (entry,) = tmp_path.iterdir()
+    assert store.get(KEY) == program
+    data = bytearray(entry.read_bytes())
+    if damage.startswith("zero"):
+        data = bytearray()
+    elif damage == "a byte flipped":
+        data[len(data) // 2] ^= 0x01
+    elif damage == "cut short":
+        data = data[: len(data) // 2]
+    elif damage == "another key's":
+        other = _program_cache(tmp_path / "other")
+        other.put("jit_g-" + "cd" * 32, program)
+        data = bytearray(next((tmp_path / "other").iterdir()).read_bytes())
+    else:
+        data = bytearray(program)
+    entry.write_bytes(bytes(data))
+    assert store.get(KEY) is None and not entry.exists()  # a miss, and the entry is gone
+    store.put(KEY, program)  # JAX compiles it again and writes it
+    assert store.get(KEY) == program and capsys.readouterr().err == ""
+
+
+def test_a_fifo_program_is_a_miss_without_blocking(tmp_path):
+    import os
+
+    from test_input_files import finishes
+
+    store = _program_cache(tmp_path)
+    os.mkfifo(tmp_path / f"{KEY}.xla")
+    assert finishes(lambda: store.get(KEY), [tmp_path / f"{KEY}.xla"]) is None
+    store.put(KEY, b"program")
+    assert store.get(KEY) == b"program"
+
+
+@pytest.mark.parametrize("why", ["a full disk", "a read-only folder", "a file in the folder's place"])
+def test_an_unusable_program_folder_costs_time_in_one_line(tmp_path, monkeypatch, capsys, why):
+    import errno
+    import os
+
+    import fitlab._program_cache as program_cache
+
+    monkeypatch.setattr(program_cache, "_reported", False)
+    folder = tmp_path / "xla"
+    if why == "a file in the folder's place":
+        folder.write_text("")
+    else:
+        store = _program_cache(folder)
+        store.put(KEY, b"old program")
+        code = errno.ENOSPC if why == "a full disk" else errno.EROFS
+        real_open = open
+
+        def failing_open(path, mode="r", *args, **kwargs):
+            if "w" in mode:
+                fh = real_open(path, mode, *args, **kwargs)  # the temporary exists, then the write fails
+                fh.close()
+                raise OSError(code, os.strerror(code))
+            return real_open(path, mode, *args, **kwargs)
+
+        monkeypatch.setattr("builtins.open", failing_open)
+    store = _program_cache(folder)
+    for i in range(5):
+        store.put(f"jit_f{i}-" + "ab" * 32, b"new program")
+        assert store.get(f"jit_f{i}-" + "ab" * 32) is None
+    err = capsys.readouterr().err.splitlines()
+    assert len(err) == 1 and err[0].startswith("fitlab: warning: JAX's compiled programs cannot be kept in")
+    if folder.is_dir():  # no temporary left, the old entry intact
+        assert sorted(p.name for p in folder.iterdir()) == [f"{KEY}.xla"] and store.get(KEY) == b"old program"
+
+
+_COMPILE = """
+import sys
+from fitlab.cache import enable_compilation_cache
+enable_compilation_cache()
+import jax, jax.numpy as jnp
+print(float(jax.jit(lambda x: jnp.sin(x) * 3.0 + x)(jnp.float32(0.5))))
+"""
+
+
+@pytest.mark.e2e
+def test_jax_reads_and_heals_the_program_cache_without_a_warning(tmp_path):
+    """A JAX process on a cache whose programs were zeroed (what a full disk left) prints nothing and writes
+    them again; before, every later run printed two UserWarning lines per program and never healed."""
+    import os
+    import subprocess
+
+    env = dict(os.environ, FITLAB_CACHE_DIR=str(tmp_path / "cache"), JAX_PLATFORMS="cpu")
+    env.pop("FITLAB_NO_CACHE", None)
+
+    def run():
+        return subprocess.run([sys.executable, "-c", _COMPILE], env=env, capture_output=True, text=True, timeout=120)
+
+    first = run()
+    programs = sorted((tmp_path / "cache" / "xla").glob("*.xla"))
+    assert first.returncode == 0 and first.stderr == "" and programs
+    written = {p: p.read_bytes() for p in programs}
+    for p in programs:
+        p.write_bytes(b"")
+    second = run()
+    assert second.returncode == 0 and second.stderr == "" and second.stdout == first.stdout
+    assert {p: p.read_bytes() for p in programs} == written  # removed and written again, whole
+    (tmp_path / "blocker").write_text("")
+    env["FITLAB_CACHE_DIR"] = str(tmp_path / "blocker")
+    third = run()
+    assert third.returncode == 0 and third.stdout == first.stdout
+    assert len(third.stderr.splitlines()) == 1 and "cannot be kept" in third.stderr
+
+
+# -- fitlab cache info / clear touch only what fitlab wrote -------------------------------------------------
+def test_clear_and_info_refuse_a_folder_holding_a_users_files(cache, capsys):
+    cached_arrays("demo", {}, _values([]), ("x", "y"))
+    (cache / "measurements.npz").write_bytes(b"the user's own")
+    (cache / "xla" / "src").mkdir(parents=True)
+    (cache / "xla" / "src" / "main.c").write_text("int main(void) { return 0; }\n")
+    before = sorted(p.relative_to(cache) for p in cache.rglob("*"))
+    for action in ("clear", "info"):
+        assert main(["cache", action]) == 2
+        out = capsys.readouterr()
+        assert out.out == "" and len(out.err.splitlines()) == 1
+        assert "measurements.npz" in out.err and "xla/src" in out.err and "fitlab does not write" in out.err
+    assert sorted(p.relative_to(cache) for p in cache.rglob("*")) == before  # nothing removed
+
+
+def test_clear_removes_entries_programs_locks_and_temporaries_only(cache, capsys):
+    cached_arrays("demo", {}, _values([]), ("x", "y"))
+    (entry,) = cache.glob("*.npz")
+    (cache / f"{entry.name}.123.tmp").write_bytes(b"part")
+    xla = cache / "xla"
+    xla.mkdir()
+    store = _program_cache(xla)
+    store.put(KEY, b"program")
+    (xla / f"jit_g-{'cd' * 32}-cache").write_bytes(b"JAX's own store")  # an earlier fitlab's
+    (xla / f"jit_g-{'cd' * 32}-atime").write_bytes(b"12345678")
+    info = cache_info()
+    assert info["entries"] == 3 and info["by_name"]["xla (compiled JAX programs)"][0] == 2
+    assert main(["cache", "clear"]) == 0 and "removed 3 entries" in capsys.readouterr().out
+    assert not cache.exists() or list(cache.iterdir()) == []
+
+
+def test_a_cache_path_that_is_a_file_is_refused(tmp_path, monkeypatch, capsys):
+    blocker = tmp_path / "file"
+    blocker.write_text("mine")
+    monkeypatch.setenv("FITLAB_CACHE_DIR", str(blocker))
+    assert main(["cache", "clear"]) == 2 and "is not a folder" in capsys.readouterr().err
+    assert blocker.read_text() == "mine"

@@ -153,7 +153,7 @@ def test_bad_scene_does_no_work(tmp_path, monkeypatch):
     def boom(*a, **k):
         raise AssertionError("simulated a malformed scene")
 
-    monkeypatch.setattr(sim, "run_round", boom)
+    monkeypatch.setattr(sim, "start_round", boom)
     monkeypatch.setattr(sim, "compile_walk", boom)
     p = tmp_path / "bad.toml"
     p.write_text(GOOD.replace("c = 0.9\n", "c = 2\n"))

@@ -209,7 +209,7 @@ def test_cli_refuses_the_c1_three_term_scene_before_any_work(tmp_path, capsys, m
     def boom(*a, **k):
         raise AssertionError("simulated a refused scene")
 
-    monkeypatch.setattr(sim, "run_round", boom)
+    monkeypatch.setattr(sim, "start_round", boom)
     monkeypatch.setattr(sim, "compile_walk", boom)
     p = _albedo_scene(tmp_path, material)
     assert main(["simulate", str(p), "--quiet", "--out", str(tmp_path / "o")]) == 2
@@ -238,7 +238,7 @@ def test_cli_bad_options_one_line_exit_2_before_any_work(tmp_path, capsys, monke
     def boom(*a, **k):
         raise AssertionError("simulated with a bad option")
 
-    monkeypatch.setattr(sim, "run_round", boom)
+    monkeypatch.setattr(sim, "start_round", boom)
     monkeypatch.setattr(sim, "compile_walk", boom)
     p = _albedo_scene(tmp_path)
     extra = [str(p) if a == "FILE" else a for a in extra]
@@ -470,3 +470,58 @@ def test_every_core_becomes_a_jax_device_before_jax_starts(monkeypatch):
     empty = {}
     assert not use_every_core(empty, cores=1) and empty == {}
     assert use_every_core(empty, cores=2) and empty == {"XLA_FLAGS": f"{HOST_DEVICES_FLAG}=2"}
+
+
+LARGE_SCENE = """
+[scene]
+family = "lambert_sphere"
+name = "large"
+seed = 1
+phase = "three_term"
+[[material]]
+c = 0.999
+[incident]
+mu_i = [0.7]
+[outgoing]
+mu_o = 4
+fourier = [0]
+[effects]
+list = ["multiple"]
+[precision]
+target_se = 1e-6
+max_paths = 4294967296
+batch = 10_000_000
+max_collisions = 100_000_000
+"""
+
+
+@pytest.mark.e2e
+def test_ctrl_c_stops_a_large_scene_and_its_cost_is_said_first(tmp_path):
+    """A scene within every limit (c = 0.999, batch 1e7, max_collisions 1e8; minutes a round on a CPU): before
+    its first round, one line with the pilot's estimate; Ctrl-C then ends it with exit status 130 and one
+    line, nothing written (before: no word after 300 s, and Ctrl-C at 25 s was ignored for 125 s).  The
+    bound on the exit is a hang check, far above the 0.25 s chunks."""
+    import os
+    import select
+    import signal
+    import subprocess
+    import time
+
+    scene = tmp_path / "large.toml"
+    scene.write_text(LARGE_SCENE)
+    proc = subprocess.Popen([sys.executable, "-m", "fitlab", "simulate", str(scene), "--out", str(tmp_path / "out")],
+                            cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=dict(os.environ))
+    seen, deadline = b"", time.monotonic() + 240
+    while b"a pilot estimates" not in seen and time.monotonic() < deadline and proc.poll() is None:
+        if select.select([proc.stderr], [], [], 1.0)[0]:
+            seen += os.read(proc.stderr.fileno(), 65536)
+    assert b"a pilot estimates" in seen, seen[-2000:]
+    time.sleep(1.0)  # within the first round
+    sent = time.monotonic()
+    proc.send_signal(signal.SIGINT)
+    out, err = proc.communicate(timeout=120)
+    waited = time.monotonic() - sent
+    lines = [x for x in (seen + err).decode().replace("\r", "\n").splitlines() if x.startswith("fitlab")]
+    assert proc.returncode == 130 and waited < 60, (proc.returncode, waited, lines)
+    assert len(lines) == 2 and "Ctrl-C stops it" in lines[0] and lines[1] == "fitlab simulate: interrupted", lines
+    assert out == b"" and not (tmp_path / "out").exists()

@@ -175,10 +175,12 @@ def test_eq6_sampler_runs_and_agrees_within_errors():
 @pytest.mark.parametrize("c, mu_i", [(0.9, 0.5), (0.3, 0.05), (1.0, 1.0)])
 def test_float32_walk_is_the_float64_walk_to_its_rounding(c, mu_i):
     """The float32 walk (the default) against the float64 one on the same key: the same photons, whose uniforms
-    differ only in their last 8 of 32 bits, so the escaping weight agrees to 1e-6 relative (measured 1e-7 to
+    differ only in their last 9 of 32 bits, so the escaping weight agrees to 1e-6 relative (measured 1e-7 to
     1e-9), far below any standard error a round of photons reaches (1e-3 for 1e5 photons); a discrete
-    decision (roulette, escape) flips rarely (at c = 1, mu_i = 1 one of 20000 photons: 4 collisions, one
-    photon's Fourier tally), and the Fourier tallies agree to 1e-6 per photon where none flips."""
+    decision (roulette, escape, the mu_o bin of an escape) flips rarely: at c = 1, mu_i = 1, where paths run
+    to thousands of collisions, a few of 20000 photons (the m = 0 tallies' differences add up to 2.6 photon
+    weights: two or three photons leave in a neighbouring mu_o bin), and the Fourier tallies agree to 1e-6
+    per photon where none flips."""
     n = 20_000
     cfg = {p: WalkConfig(phase="true", mu_edges=EDGES, orders=(0, 1, 2), precision=p) for p in ("float32", "float64")}
     f32, f64 = (run_round(cfg[p], 3, (1,), c, mu_i, n) for p in ("float32", "float64"))
@@ -188,8 +190,25 @@ def test_float32_walk_is_the_float64_walk_to_its_rounding(c, mu_i):
         assert np.abs(f32["fourier"] - f64["fourier"]).max() / n < 1e-6
     else:
         assert abs(int(f32["collisions"]) - int(f64["collisions"])) < 1e-5 * int(f64["collisions"])
-        assert np.abs(f32["fourier"] - f64["fourier"]).max() / n < 2 / n  # one photon's weight at most
+        moved = np.abs(f32["fourier"][..., 0] - f64["fourier"][..., 0]).sum() / 2  # weights of photons moved
+        assert moved <= 5 and np.abs(f32["fourier"] - f64["fourier"]).max() <= 5  # a few photons (weights <= 1)
     assert f32["fourier"].dtype == np.float64  # tallies accumulate in float64 whatever the walk's precision
+
+
+def test_a_round_in_chunks_of_any_size_gives_the_same_tallies(fourier_runs):
+    """start_round's round run in chunks of 1, 7, 3, 50 and 2 loop steps (what fitlab simulate does, sized by
+    time, so that Ctrl-C is answered between two) gives the tallies of the round run at once, bit for bit,
+    through both slot levels (1024 slots per device, then 128 for the last photons)."""
+    from fitlab.families.lambert_sphere.mc.transport import start_round
+
+    rnd = start_round(FOURIER, 11, (2,), 0.99, 0.5, 40_000)
+    sizes, chunks, levels = [1, 7, 3, 50, 2], 0, set()
+    while not rnd.advance(sizes[chunks % 5]):
+        chunks, levels = chunks + 1, levels | {rnd.level}
+    levels.add(rnd.level)
+    chunked, whole = rnd.tallies(), fourier_runs[(0.99, 0.5)]
+    assert chunks > 100 and levels == {0, 1} and rnd.finished == 40_000
+    assert set(chunked) == set(whole) and all(np.array_equal(chunked[k], whole[k]) for k in whole)
 
 
 def test_walk_precision_is_checked():

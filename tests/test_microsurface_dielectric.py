@@ -447,3 +447,4 @@ def test_validation_study():
         assert r["bins_below_p"] == 0 and r["max_abs_z"] < 4.5, r
         assert r["z_bins"] < 50 or 0.7 < r["rms_z"] < 1.3, r  # an RMS over few bins says little
         assert math.isnan(r["energy_defect"]) or r["energy_defect"] == 0.0  # NaN: the facets absorb
+        assert r["failed"] == 0

@@ -81,3 +81,56 @@ def test_beckmann_inversion_agrees_with_brentq():
         slope = math.exp(-x * x) * (cos_t - x * sin_t) / math.sqrt(math.pi)
         assert abs(x_walk - x) <= 1e-12 + 1e-13 * g_max / slope, (wi, u)
         assert y_walk == pytest.approx(erfinv(2.0 * b - 1.0), abs=1e-12)
+
+
+# -- the walks' uniforms and heights in float32 ------------------------------------------------------------
+_EXTREME_WORDS = [0, 1, 0xFF, 0x1FF, 0x200, 0xFFFF, 2**23 - 1, 2**23, 2**24 - 1, 2**24, 2**31 - 1, 2**31,
+                  2**31 + 1, 0xFFFFFE00, 0xFFFFFEFF, 0xFFFFFF00, 0xFFFFFF7F, 0xFFFFFF80, 0xFFFFFFFE, 0xFFFFFFFF]
+
+
+@float64
+@pytest.mark.parametrize("dtype", ["float32", "float64"])
+def test_uniforms_are_cell_midpoints_strictly_inside_0_1(dtype):
+    """Every uniform is the midpoint of its cell of [0, 1], exactly, as the docstring states, and strictly
+    inside (0, 1), also 1 - u, at the extreme words; before, float32's (word >> 8 + 1/2) 2^-24 rounded to 1 for
+    the 256 words from 0xFFFFFF00 (and to the even neighbour for every word >= 2^31)."""
+    from fitlab._montecarlo import FLOAT32_UNIFORM_BITS, uniforms
+
+    bits = FLOAT32_UNIFORM_BITS if dtype == "float32" else 32
+    rng = np.random.default_rng(59)
+    words = np.concatenate([_EXTREME_WORDS, rng.integers(0, 2**32, 100_000)]).astype(np.uint32)
+    u = np.asarray(uniforms(jnp.asarray(words), jnp.dtype(dtype)))
+    assert u.dtype == np.dtype(dtype)
+    exact = [(math.floor(int(w) / 2 ** (32 - bits)) + 0.5) / 2**bits for w in words]  # Python floats: exact here
+    assert np.array_equal(u.astype(np.float64), np.array(exact))
+    one_minus = np.asarray(jnp.asarray(1.0, dtype) - jnp.asarray(u))
+    assert u.min() == 2.0 ** -(bits + 1) and one_minus.min() == 2.0 ** -(bits + 1) and u.max() < 1.0
+
+
+def _fall(c_or_h, one_minus_u, by_c1):
+    """The next height of a ray falling straight down (Lambda = -1: C1 -> C1 (1 - U)) from C1 or h."""
+    from fitlab.families.microfacet_energy.mc.microsurface import sample_c1, sample_height
+
+    f32 = jnp.float32
+    u = f32(1.0) - f32(one_minus_u)
+    sample = sample_c1 if by_c1 else sample_height
+    return sample(f32(0.0), f32(0.0), f32(-1.0), f32(c_or_h), u, f32(1.0), f32(1.0), "ggx")
+
+
+def test_float32_heights_resolve_the_bottom_of_the_microsurface():
+    """Two falls at normal incidence with 1 - U = 2^-12, then 2^-14, end at C1 = 2^-26.  A float32 h rounds
+    2 C1 - 1 to -1 exactly, where G1 = 0 and a rising near-normal ray's next height is 0 / 0 = NaN (how paths of
+    the float32 walk ended as NaN and were capped after 1000 bounces); the float32 walk's C1 holds it, and a
+    rising ray from there meets the surface above it or escapes."""
+    from fitlab.families.microfacet_energy.mc.microsurface import ESCAPED, sample_c1, sample_height
+
+    f32 = jnp.float32
+    h = _fall(_fall(1.0, 2.0**-12, False), 2.0**-14, False)
+    assert float(h) == -1.0
+    rise = (f32(1e-3), f32(0.0), f32(np.sqrt(1 - 1e-6)))  # near normal: 1 / Lambda ~ 1e7, (1 - U)^(1/Lambda) = 0
+    assert np.isnan(float(sample_height(*rise, h, f32(0.5), f32(1.0), f32(1.0), "ggx")))
+    c1 = _fall(_fall(1.0, 2.0**-12, True), 2.0**-14, True)
+    assert float(c1) == 2.0**-26
+    for u in (2.0**-24, 0.5, 1 - 2.0**-24):
+        after = float(sample_c1(*rise, c1, f32(u), f32(1.0), f32(1.0), "ggx"))
+        assert after == ESCAPED or 2.0**-26 < after <= 1.0

@@ -368,3 +368,66 @@ def test_float32_walk_is_the_float64_walk_to_its_rounding(distribution, kind):
     # energy, path by path, in both precisions (every weight is 1)
     for r in (f32, f64):
         assert r["albedo"].sum() + r["transmission"].sum() + r["capped"] == n
+
+
+def test_a_round_in_chunks_of_any_size_gives_the_same_tallies():
+    """start_round's round run in chunks of 1, 3 and 2 loop steps (fitlab simulate sizes them by time, so that
+    Ctrl-C is answered between two) gives run_round's tallies, bit for bit."""
+    from fitlab.families.microfacet_energy.mc.walk import WalkConfig, start_round
+
+    cfg, key, params = WalkConfig(distribution="ggx", kind="dielectric"), job_key(5, 0, 0), MaterialParams(0.6, 0.6,
+                                                                                                              eta=1.5)
+    whole = run_round(cfg, key, params, 0.5, 100, 20_000)
+    rnd = start_round(cfg, key, params, 0.5, 100, 20_000)
+    sizes, chunks = [1, 3, 2], 0
+    while not rnd.advance(sizes[chunks % 3]):
+        chunks += 1
+    chunked = rnd.tallies()
+    assert chunks > 5 and rnd.finished == 20_000
+    assert set(chunked) == set(whole) and all(np.array_equal(chunked[k], whole[k]) for k in whole)
+
+
+@pytest.mark.parametrize("path_id, order", [(5194115, 4), (16879934, 5)])
+def test_float32_walk_at_normal_incidence_escapes_where_float64_does(path_id, order):
+    """The two of 2e7 paths of a white GGX conductor (alpha 1) at normal incidence, seed 1, that the float32 walk
+    capped after 1000 bounces, found by bisecting the capped ones: the first drew the word 0xFFFFFFxx at its
+    third event, which float32's (word >> 8 + 1/2) 2^-24 rounded to U = 1 (h = -1, then NaN); the second drew
+    1 - U of 5e-4 and 1e-5 at its first two events and fell below C1 = 2^-25, where a float32 h rounds
+    2 C1 - 1 to -1.  Both now escape, at the order the float64 walk gives them, and nothing is capped or
+    failed."""
+    from fitlab.families.microfacet_energy.mc.walk import WalkConfig
+
+    key, params = job_key(1, 0, 0), MaterialParams(1.0, 1.0)
+    for precision in ("float32", "float64"):
+        r = run_round(WalkConfig(distribution="ggx", kind="conductor", precision=precision), key, params, 1.0,
+                      path_id, 1)
+        assert r["albedo"].tolist() == [1.0 if k == order - 1 else 0.0 for k in range(5)], precision
+        assert r["capped"] == 0 and r["failed"] == 0 and r["bounces"] == order
+
+
+def test_a_non_finite_state_is_a_failed_path_apart_from_capped_ones(white_ggx):
+    """A path whose weight, height or direction is not finite is ended and counted as failed, never tallied as
+    light nor as capped (NaN albedo of diffuse facets: every path that scatters once fails at its next event);
+    paths add up: reflected + transmitted + capped + failed = paths; simulate's rows and summary carry it and
+    fitlab.scenes.failures names the job."""
+    import copy
+
+    from fitlab.families.microfacet_energy.mc.walk import WalkConfig
+    from fitlab.scenes import failures
+
+    n = 2000
+    r = run_round(WalkConfig(distribution="beckmann", kind="diffuse"), job_key(5, 0, 0),
+                  MaterialParams(0.6, 0.6, albedo=math.nan), 0.5, 0, n)
+    assert r["failed"] == n and r["capped"] == 0 and r["albedo"].sum() == 0 and np.all(np.isfinite(r["lobe"]))
+    assert r["albedo"].sum() + r["transmission"].sum() + r["capped"] + r["failed"] == n
+    assert failures(white_ggx) == [] and all(t["failed"] == 0 for t in white_ggx.tallies.values())
+    result = copy.copy(white_ggx)
+    result.tallies = {k: dict(t) for k, t in white_ggx.tallies.items()}
+    result.tallies[(0, 1)]["failed"] = np.int64(7)  # as if 7 of its paths had failed
+    walk, scene = result.walk, result.scene
+    rows, summary = walk.finish(scene, list(walk.jobs(scene)), result.tallies, result.jobs)
+    failed = [(x["mu_i"], x["estimate"]) for x in rows if x["quantity"] == "failed" and x["material"] == "white"]
+    assert failed == [(0.3, 0.0), (0.8, 7 / result.jobs[(0, 1)].paths)]
+    assert [s["failed"] for s in summary] == [0, 7, 0, 0]
+    (line,) = failures(result)
+    assert line.startswith(result.jobs[(0, 1)].name) and "7 of" in line and "non-finite" in line

@@ -218,3 +218,117 @@ def test_the_simulate_hook_is_checked_against_its_protocol():
     unregister_family("toy_hooks")
     for fam in ("lambert_sphere", "microfacet_energy"):  # the built-in hooks meet it
         assert isinstance(family_service("simulate", fam), scenes.SimulateHook)
+
+
+# -- rounds in chunks: Ctrl-C, the progress bar and the pilot's estimate -----------------------------------
+class ChunkedToyWalk(ToyWalk):
+    """The coin walk as a walk whose rounds run in chunks (:class:`fitlab._montecarlo.ChunkedRound`): a step
+    ends ``LANES`` flips and costs ``step_seconds`` of (slept) device time; ``on_chunk`` sees every chunk."""
+
+    LANES = 10
+
+    def __init__(self, step_seconds=0.0, on_chunk=None):
+        self.step_seconds, self.on_chunk, self.chunks = step_seconds, on_chunk, []
+
+    def start_round(self, scene, job, rounds, paths, n):
+        import time
+
+        from fitlab._montecarlo import ChunkedRound
+
+        flips = np.random.default_rng([scene.seed, job.key, rounds]).random(n) < job.data
+
+        def run(state, steps):
+            done = min(state + steps * self.LANES, n)
+            time.sleep(self.step_seconds * -(-(done - state) // self.LANES))
+            self.chunks.append((job.key, rounds, steps))
+            if self.on_chunk is not None:
+                self.on_chunk(len(self.chunks))
+            return done, np.array([[done == n, done, 0]])
+
+        return ChunkedRound(0, [run], [], lambda state: {"n": n, "s1": float(flips[:state].sum()), "events": n})
+
+
+def _coin(tmp_path, text=TOY_SCENE):
+    p = tmp_path / "coin.toml"
+    p.write_text(text)
+    return scenes.load_scene(TOY.schema, p)
+
+
+def test_chunked_rounds_give_the_rounds_tallies(tmp_path):
+    """A walk with start_round runs each round in chunks of loop steps, growing from a few; the tallies are
+    those of the rounds run whole (run_round)."""
+    scene = _coin(tmp_path)
+    whole = scenes.simulate(ToyWalk(), scene)
+    walk = ChunkedToyWalk()
+    chunked = scenes.simulate(walk, scene)
+    assert chunked.tallies == whole.tallies and [st.paths for st in chunked.jobs.values()] == [2000, 2000]
+    assert len(walk.chunks) > 2 * 2 and walk.chunks[0][2] < 100  # several chunks per round, the first small
+
+
+def test_ctrl_c_stops_a_round_between_two_chunks(tmp_path, monkeypatch):
+    """A Ctrl-C that comes while the device runs a chunk (the handler records it; Python cannot raise it in
+    JAX's code) stops the round when the chunk ends: no further chunk, nothing returned (before: a round of
+    1e7 photons ran to its end, Ctrl-C ignored for minutes)."""
+    from fitlab import _interrupt
+
+    def ctrl_c(count):
+        if count == 5:
+            monkeypatch.setattr(_interrupt, "_requested", True)
+
+    walk = ChunkedToyWalk(on_chunk=ctrl_c)
+    with pytest.raises(KeyboardInterrupt):
+        scenes.simulate(walk, _coin(tmp_path))
+    assert len(walk.chunks) == 5
+
+
+def test_a_long_run_is_announced_in_one_line_and_chunks_stay_short(tmp_path, monkeypatch, capsys):
+    """Every job's pilot (the first chunks of its first round, kept) projects the run to its budgets; past
+    ANNOUNCE_SECONDS that is said in one line before the rounds, and chunks stay near CHUNK_SECONDS of
+    device time (here scaled down: 10 ms chunks, a 30 ms pilot, 0.2 s to announce)."""
+    from fitlab.scenes import _runner
+
+    monkeypatch.setattr(_runner, "CHUNK_SECONDS", 0.01)
+    monkeypatch.setattr(_runner, "PILOT_SECONDS", 0.03)
+    monkeypatch.setattr(_runner, "ANNOUNCE_SECONDS", 0.2)
+    walk = ChunkedToyWalk(step_seconds=2e-5)  # 2 ms per 1000 flips: 4000 flips per job, 2 jobs, 16 ms
+    scenes.simulate(walk, _coin(tmp_path))
+    assert capsys.readouterr().err == ""
+    slow = ChunkedToyWalk(step_seconds=5e-4)  # 50 ms per 1000 flips: projected 0.4 s to the budgets
+    result = scenes.simulate(slow, scenes.scene_with_overrides(TOY.schema, _coin(tmp_path), target_se="1e-6"))
+    err = capsys.readouterr().err.splitlines()
+    assert len(err) == 1 and err[0].startswith("fitlab simulate: a pilot estimates about ") and "Ctrl-C" in err[0]
+    assert "first rounds of the 2 jobs (1000 paths each)" in err[0] and "budgets of 4000 paths each" in err[0]
+    assert [st.paths for st in result.jobs.values()] == [4000, 4000]
+    # every chunk but the first few aims at 10 ms: 20 steps of 0.5 ms, growing at most 4-fold
+    sizes = [steps for _, _, steps in slow.chunks]
+    assert sizes[0] == 32 and max(sizes) <= 4 * 20 and all(b <= 4 * a for a, b in zip(sizes, sizes[1:]))
+
+
+def test_the_progress_bar_moves_within_a_round(tmp_path, monkeypatch):
+    """The bar counts the paths each chunk ends, so it moves during a round, not only after it."""
+    import tqdm
+
+    counts = []
+
+    class Bar:
+        def __init__(self, total, **kwargs):
+            self.n = 0
+
+        def update(self, k):
+            self.n += k
+            counts.append(self.n)
+
+        def set_postfix_str(self, *a, **k):
+            pass
+
+        def write(self, *a, **k):
+            pass
+
+        def close(self):
+            pass
+
+    monkeypatch.setattr(tqdm, "tqdm", Bar)
+    scene = _coin(tmp_path, TOY_SCENE.replace("batch = 1000", "batch = 4000"))
+    scenes.simulate(ChunkedToyWalk(), scene, progress=True)
+    within = [c for c in counts if 0 < c < 4000]  # the first job's one round of 4000 flips, chunk by chunk
+    assert len(set(within)) >= 2 and counts[-1] == 2 * 4000

@@ -167,7 +167,11 @@ def test_fit_published_rows_are_recomputed(path):
     for row in rec["published"]:
         what = f"{path.name} published {row['form']}/{row['preset']}"
         preset = dict(target.forms[row["form"]].presets[row["preset"]])
-        assert row["params"] == preset, f"{what}: params are not the preset's"
+        # to 4 ulps: the Fresnel family's presets are computed from measured spectra with numpy's reductions, whose
+        # SIMD paths (chosen by the processor) round the last bit differently from one machine to another
+        assert row["params"].keys() == preset.keys(), f"{what}: params are not the preset's"
+        for name, value in preset.items():
+            assert row["params"][name] == pytest.approx(value, rel=4 * np.finfo(float).eps, abs=0), f"{what}: {name}"
         approx = preset_values(target, row["form"], row["params"], ds)
         check_row(row["validation"], figures(approx, ds.y, scale), ds, what)
 

@@ -11,7 +11,10 @@ Exit status: 0 when every job reached its standard-error target; 1 when a job
 stopped on its path budget without reaching it ("conv NO"; the outputs are
 written and their rows say converged = False) unless ``--allow-unconverged``,
 or on a runtime failure; 2 when an input is refused, always before any
-computation (one line per problem).
+computation (one line per problem); 130 on Ctrl-C, within a fraction of a second
+of device time, nothing written.  A run whose pilot projects more than a minute is
+announced in one line before its rounds; a job whose walk ended paths on a
+non-finite state is named in one warning line.
 """
 
 from __future__ import annotations
@@ -84,7 +87,7 @@ def run(args) -> int:
         return fail("simulate", f"{args.scene}: no such scene file, and no packaged scene of that name "
                                 f"(packaged: {', '.join(packaged_scene_names())})", USAGE)
 
-    from fitlab.scenes import SceneError, simulate_file, summary_table, unconverged
+    from fitlab.scenes import SceneError, failures, simulate_file, summary_table, unconverged
 
     hook = service("simulate", _family_of(scene, args.family))  # the family's schema and walk (imports JAX)
     try:
@@ -99,6 +102,8 @@ def run(args) -> int:
     print(summary_table(result))
     for p in paths:
         print(f"wrote {p}")
+    for line in failures(result):
+        print(f"fitlab simulate: warning: {line}", file=sys.stderr)
     missed = unconverged(result)
     for line in missed:
         print(f"fitlab simulate: {line}", file=sys.stderr)

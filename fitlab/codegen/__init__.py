@@ -21,10 +21,7 @@ from __future__ import annotations
 import importlib
 from typing import TYPE_CHECKING
 
-#: the languages fitlab prints (``fitlab codegen --lang``); :data:`fitlab.codegen.languages.LANGUAGES` their printers
-LANGUAGE_NAMES = ("c", "python", "glsl", "hlsl", "metal", "drjit")
-#: how an exported table's texture is read (``fitlab codegen --tables --lookup``): the name and the taps per axis
-LOOKUPS = {"linear": 2, "cubic": 4}
+from fitlab.codegen.names import LANGUAGE_NAMES, LOOKUPS
 
 #: every other public name, by the module that defines it (imported on first use)
 _LAZY = {

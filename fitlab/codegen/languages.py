@@ -32,7 +32,7 @@ from dataclasses import dataclass
 import sympy as sp
 
 from fitlab import __version__
-from fitlab.codegen import LANGUAGE_NAMES
+from fitlab.codegen.names import LANGUAGE_NAMES
 from fitlab.codegen.printers import CPrinter, DrJitPrinter, GLSLPrinter, MetalPrinter, NumpyPrinter
 from fitlab.codegen.program import (
     SAFE_POW,

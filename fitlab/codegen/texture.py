@@ -46,8 +46,8 @@ from dataclasses import dataclass, field
 import numpy as np
 import sympy as sp
 
-from fitlab.codegen import LOOKUPS
 from fitlab.codegen.languages import emit
+from fitlab.codegen.names import LOOKUPS
 from fitlab.codegen.program import Program, call, clamp
 
 __all__ = [

@@ -11,9 +11,11 @@ job, the stopping rule, the rows and figures).  Everything else is here, once:
   schema is refused;
 * command-line overrides (:func:`scene_with_overrides`: ``--seed``, ``--max-paths``, ``--target-se``), by
   the scene file's own rules (:func:`check_option`);
-* running (:func:`simulate`): rounds, the stopping rule, the progress bar, the warning for a job projected
-  past an hour; and the outputs (:func:`write_outputs`: the rows' CSV, the summary CSV, the figures, as one
-  unit), the summary table, the jobs that missed their target (:func:`unconverged`), the output folder's
+* running (:func:`simulate`): rounds (in chunks of a fraction of a second where the walk allows: Ctrl-C
+  between two), the stopping rule, the progress bar, the pilot's estimate of a run past a minute, the
+  warning for a job projected past an hour; and the outputs (:func:`write_outputs`: the rows' CSV, the summary CSV, the figures, as one
+  unit), the summary table, the jobs that missed their target (:func:`unconverged`) and those whose walk
+  counted paths ending on a non-finite state (:func:`failures`), the output folder's
   check (:func:`check_out_dir`); :func:`simulate_file` does all of it, in that order, every error before any
   work.
 
@@ -36,6 +38,7 @@ from fitlab.scenes._runner import (
     SimulationResult,
     check_out_dir,
     csv_text,
+    failures,
     load_scene,
     output_files,
     parse_scene,
@@ -50,7 +53,7 @@ from fitlab.scenes._runner import (
 __all__ = [
     "MAX_SCENE_BYTES", "NAME_RE", "Checker", "Document", "Job", "JobStats", "SceneError", "SceneSchema",
     "SimulateHook", "Simulation", "SimulationResult", "Walk", "check_option", "check_out_dir",
-    "check_simulate_hook", "csv_text", "declared_family", "keypath_name", "load_scene", "missing_member",
+    "check_simulate_hook", "csv_text", "declared_family", "failures", "keypath_name", "load_scene", "missing_member",
     "output_files", "parse_document", "parse_scene", "peek", "read_scene_text", "scene_with_overrides",
     "simulate", "simulate_file", "summary_table", "unconverged", "with_overrides", "write_outputs",
 ]

@@ -91,6 +91,10 @@ class Walk(Protocol):
         """(file name, PNG bytes) of each figure."""
         ...
 
+    # optional: ``start_round(scene, job, rounds, paths, n)``, run_round's round as a
+    # fitlab._montecarlo.ChunkedRound (run in chunks: Ctrl-C and the progress bar within a round);
+    # ``failed(tallies) -> int``, the paths that ended on a non-finite state (fitlab.scenes.failures)
+
 
 @runtime_checkable
 class SimulateHook(Protocol):

@@ -8,6 +8,12 @@ has used ``max_paths`` (then its rows say converged = False, and :func:`unconver
 stop (its target, or its budget when the target needs more paths) is projected more than an hour away at
 its measured rate is named in one warning line on stderr, once (:func:`fitlab._montecarlo.slow_job_warning`).
 
+Rounds in chunks: a walk with ``start_round`` gives each round as a :class:`fitlab._montecarlo.ChunkedRound`,
+run in chunks of about :data:`CHUNK_SECONDS` of device time, so that Ctrl-C stops the run between two chunks
+and the progress bar moves within a round; the tallies do not depend on the chunks.  Before any round every
+job is compiled and piloted (the first :data:`PILOT_SECONDS` of its first round, which then goes on), and a
+run projected past :data:`ANNOUNCE_SECONDS` to the path budgets is announced in one line.
+
 Nothing is written until the run and its references are complete; the files are then written as one unit
 (:func:`fitlab._io.atomic_write_many`): all of them, or none.
 """
@@ -31,7 +37,7 @@ from fitlab.scenes._check import Checker, with_overrides
 from fitlab.scenes._document import SceneError, parse_document, read_scene_text
 
 __all__ = ["JobStats", "SimulationResult", "parse_scene", "load_scene", "scene_with_overrides", "simulate",
-           "csv_text", "output_files", "write_outputs", "summary_table", "unconverged", "check_out_dir",
+           "csv_text", "output_files", "write_outputs", "summary_table", "unconverged", "failures", "check_out_dir",
            "simulate_file"]
 
 
@@ -116,43 +122,155 @@ def _accumulate(acc, new):
 
 def _warn(line: str, bar=None) -> None:
     """One warning line on stderr (through the progress bar when there is one)."""
-    line = f"fitlab simulate: warning: {line}"
+    _say(f"warning: {line}", bar)
+
+
+def _say(line: str, bar=None) -> None:
+    """One line on stderr, ``fitlab simulate: LINE`` (through the progress bar when there is one)."""
+    line = f"fitlab simulate: {line}"
     if bar is not None:
         bar.write(line, file=sys.stderr)
     else:
         print(line, file=sys.stderr, flush=True)
 
 
+#: the device time a chunk of a round aims at (:class:`fitlab._montecarlo.ChunkedRound`): Ctrl-C and the
+#: progress bar are answered between chunks, so within about this long (chunks grow at most 4-fold, and each
+#: level of a walk keeps its own size)
+CHUNK_SECONDS = 0.25
+#: the pilot of a job: the first chunks of its first round, this long at least (or the whole round)
+PILOT_SECONDS = 0.5
+#: a run whose pilots project more than this to the path budgets is announced in one line before its rounds
+ANNOUNCE_SECONDS = 60.0
+#: the first chunk of a job's first round, in loop steps
+_FIRST_STEPS = 32
+
+
+class _Chunks:
+    """A job's chunk sizes, one per level of its walk: each aims at :data:`CHUNK_SECONDS` at the rate its last
+    chunk at that level measured."""
+
+    def __init__(self):
+        self.steps: dict[int, int] = {}
+
+    def size(self, level: int) -> int:
+        return self.steps.get(level, self.steps.get(level - 1, _FIRST_STEPS))
+
+    def measured(self, level: int, steps: int, seconds: float) -> None:
+        aim = steps * CHUNK_SECONDS / seconds if seconds > 0 else 4 * steps
+        self.steps[level] = int(min(max(aim, steps / 4, 1), 4 * steps))
+
+
+def _advance(rnd, chunks: _Chunks, st: JobStats, seconds: float, on_chunk) -> bool:
+    """Run chunks of ``rnd`` for ``seconds`` at least (math.inf: to its end), Ctrl-C checked after each;
+    returns whether the round is done."""
+    from fitlab import _interrupt
+
+    spent = 0.0
+    while spent < seconds:
+        level = rnd.level
+        steps = chunks.size(level)
+        t0 = time.perf_counter()
+        done = rnd.advance(steps)
+        dt = time.perf_counter() - t0
+        spent += dt
+        st.seconds += dt
+        chunks.measured(level, steps, dt)
+        _interrupt.check()  # a Ctrl-C the handler could not raise while the device ran: before the next chunk
+        on_chunk(rnd)
+        if done:
+            return True
+    return False
+
+
+def _estimate(scene, jobs, pilots) -> str | None:
+    """The line announcing a run that the pilots project past :data:`ANNOUNCE_SECONDS` to the path budgets,
+    or None.  A job's rate: the paths its pilot ended per second (at least one)."""
+    first = total = 0.0
+    for job in jobs:
+        rnd, spent = pilots.get(job.key, (None, 0.0))
+        if rnd is None or spent <= 0.0:
+            continue
+        rate = max(rnd.finished, 1) / spent
+        n = min(scene.batch, scene.max_paths)
+        first += n / rate
+        total += scene.max_paths / rate
+    if total <= ANNOUNCE_SECONDS:
+        return None
+    several = len(jobs) > 1
+    if scene.batch >= scene.max_paths:
+        return (f"a pilot estimates about {_montecarlo.duration(total)} for this scene ("
+                f"{f'{len(jobs)} jobs of ' if several else ''}{scene.max_paths} paths); Ctrl-C stops it")
+    return (f"a pilot estimates about {_montecarlo.duration(first)} for the first round"
+            f"{f's of the {len(jobs)} jobs ({scene.batch} paths each)' if several else f' ({scene.batch} paths)'}"
+            f" and up to {_montecarlo.duration(total)} to {'their budgets' if several else 'the budget'} of "
+            f"{scene.max_paths} paths{' each' if several else ''} (less "
+            f"{'where a job reaches its' if several else 'if it reaches its'} target sooner); Ctrl-C stops it")
+
+
 def simulate(walk, scene, progress: bool = False) -> SimulationResult:
     """Run every job of ``scene`` with ``walk`` (writes nothing); a progress bar on stderr when
-    ``progress``."""
+    ``progress``.
+
+    A walk with ``start_round`` (a :class:`fitlab._montecarlo.ChunkedRound` per round) runs each round in
+    chunks of about :data:`CHUNK_SECONDS` of device time: Ctrl-C stops it between two, and the progress bar
+    moves with each.  Every job is compiled and piloted first (the first :data:`PILOT_SECONDS` of its first
+    round, which then goes on from there: nothing is run twice); a run the pilots project past
+    :data:`ANNOUNCE_SECONDS` to the path budgets is announced in one line.  The chunks change no tally."""
     t_start = time.perf_counter()
     jobs = list(walk.jobs(scene))
     stats = {job.key: JobStats(name=job.name) for job in jobs}
     tallies: dict = {}
+    chunked = callable(getattr(walk, "start_round", None))
+    chunks = {job.key: _Chunks() for job in jobs}
+    shown = dict.fromkeys(stats, 0)  # the paths of each job the bar counts
     bar = None
     if progress:
         from tqdm import tqdm
 
         bar = tqdm(total=len(jobs) * scene.max_paths, unit="path", unit_scale=True, desc=scene.name,
                    disable=not jobs)
+
+    def show(job, k: int, paths: int, what: str) -> None:
+        if bar is not None:
+            bar.update(max(paths - shown[job.key], 0))
+            shown[job.key] = max(paths, shown[job.key])
+            bar.set_postfix_str(f"job {k + 1}/{len(jobs)} ({job.label}) {what}", refresh=False)
+
     try:
+        pilots: dict = {}
         for k, job in enumerate(jobs):
             st = stats[job.key]
             st.compile_seconds = walk.compile(scene, job)
+            if chunked:
+                rnd = walk.start_round(scene, job, 0, 0, min(scene.batch, scene.max_paths))
+                before = st.seconds
+                _advance(rnd, chunks[job.key], st, PILOT_SECONDS, lambda r, job=job, k=k: show(job, k, r.finished,
+                                                                                               "pilot"))
+                pilots[job.key] = (rnd, st.seconds - before)
+        line = _estimate(scene, jobs, pilots) if chunked else None
+        if line:
+            _say(line, bar)
+        for k, job in enumerate(jobs):
+            st = stats[job.key]
             warned = False
             while st.paths < scene.max_paths:
                 n = min(scene.batch, scene.max_paths - st.paths)
-                t0 = time.perf_counter()
-                res = walk.run_round(scene, job, st.rounds, st.paths, n)
-                st.seconds += time.perf_counter() - t0
+                if chunked:
+                    rnd = pilots.pop(job.key, (None, 0.0))[0] or walk.start_round(scene, job, st.rounds, st.paths, n)
+                    base = st.paths
+                    _advance(rnd, chunks[job.key], st, math.inf,
+                             lambda r, job=job, k=k, base=base: show(job, k, base + r.finished, "running"))
+                    res = rnd.tallies()
+                else:
+                    t0 = time.perf_counter()
+                    res = walk.run_round(scene, job, st.rounds, st.paths, n)
+                    st.seconds += time.perf_counter() - t0
                 st.rounds += 1
                 tallies[job.key] = _accumulate(tallies.get(job.key), res)
                 st.paths, st.events = walk.count(tallies[job.key])
                 done, st.se_ratio = walk.converged(scene, job, tallies[job.key])
-                if bar is not None:
-                    bar.update(n)
-                    bar.set_postfix_str(f"job {k + 1}/{len(jobs)} ({job.label}) se/target={st.se_ratio:.2f}")
+                show(job, k, st.paths, f"se/target={st.se_ratio:.2f}")
                 if done and st.paths >= walk.min_paths:
                     st.converged = True
                     break
@@ -160,8 +278,7 @@ def simulate(walk, scene, progress: bool = False) -> SimulationResult:
                 if slow:
                     warned = True
                     _warn(f"{job.name}: {slow}", bar)
-            if bar is not None and st.paths < scene.max_paths:
-                bar.update(scene.max_paths - st.paths)
+            show(job, k, scene.max_paths, "done")
     finally:
         if bar is not None:
             bar.close()
@@ -242,6 +359,21 @@ def unconverged(result: SimulationResult) -> list:
         why = (f"standard error {st.se_ratio:.3g} x its target" if not st.se_ratio <= 1.0
                else f"fewer than the {result.walk.min_paths} {result.walk.unit} the stopping rule needs")
         lines.append(f"not converged: {st.name}: {why} after {st.paths} paths (max_paths)")
+    return lines
+
+
+def failures(result: SimulationResult) -> list:
+    """One line per job some of whose paths ended on a non-finite state (a walk with a ``failed(tallies)``
+    count: those paths are tallied apart from capped ones, never as light)."""
+    count = getattr(result.walk, "failed", None)
+    if count is None:
+        return []
+    lines = []
+    for key, st in result.jobs.items():
+        n = count(result.tallies[key]) if key in result.tallies else 0
+        if n:
+            lines.append(f"{st.name}: {n} of {st.paths} {result.walk.unit} ended on a non-finite height, direction "
+                         "or weight (a walk error, tallied as failed: the estimates leave them out)")
     return lines
 
 

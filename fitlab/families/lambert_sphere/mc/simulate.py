@@ -36,7 +36,7 @@ from fitlab import scenes
 from fitlab.families.lambert_sphere.mc.effects import ROW_FIELDS, attach_reference, effect_jobs, estimate_rows, plan
 from fitlab.families.lambert_sphere.mc.phase_sampling import unbounded_reason
 from fitlab.families.lambert_sphere.mc.scene import SCHEMA, Scene, SceneError
-from fitlab.families.lambert_sphere.mc.transport import compile_walk, default_mesh, run_round
+from fitlab.families.lambert_sphere.mc.transport import compile_walk, default_mesh, start_round
 from fitlab.scenes import SimulationResult, check_out_dir, summary_table, unconverged, write_outputs
 
 __all__ = ["claims", "SIMULATE", "SphereWalk", "SimulationResult", "simulate", "simulate_file", "write_outputs",
@@ -108,10 +108,13 @@ class SphereWalk:
         return compile_walk(cfg, mesh)
 
     def run_round(self, scene, job, rounds, paths, n):
+        return self.start_round(scene, job, rounds, paths, n).run()
+
+    def start_round(self, scene, job, rounds, paths, n):
         cfg, mesh, _ = job.data
         mu_i = scene.mu_i[job.key.incident] if job.key.incident >= 0 else 0.0
-        return run_round(cfg, scene.seed, job.key.stream + (rounds,), scene.materials[job.key.material].c, mu_i, n,
-                         mesh=mesh)
+        return start_round(cfg, scene.seed, job.key.stream + (rounds,), scene.materials[job.key.material].c, mu_i, n,
+                           mesh=mesh)
 
     def count(self, tallies):
         return int(tallies["photons"]), int(tallies["collisions"])

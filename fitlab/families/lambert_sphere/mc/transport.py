@@ -47,8 +47,8 @@ that runs it, so results agree across layouts up to the order of summation.
 A step hashes each slot's blocks for its next collision and carries them to the
 next step (:func:`fitlab._montecarlo.threefry_blocks` says why).
 Precision (``WalkConfig.precision``): the path state is float32 by default, the tallies float64.  float32
-uniforms are (word >> 8 + 1/2) 2^-24 in (0, 1): free paths are cut at 17.3 mean free paths (probability
-3e-8); float64 ones (word + 1/2) 2^-32: cut at 22.9 (1e-10), the C reference walk's numbers.  Both cuts lie
+uniforms are (word >> 9 + 1/2) 2^-23 in (0, 1): free paths are cut at 16.6 mean free paths (probability
+6e-8); float64 ones (word + 1/2) 2^-32: cut at 22.9 (1e-10), the C reference walk's numbers.  Both cuts lie
 far below any standard error here; on one key the two precisions walk the same photons (docs/montecarlo.md).
 
 Layout.  Each device runs ``slots`` photon slots in a ``lax.while_loop``; a
@@ -58,6 +58,10 @@ whole batch.  When no ids are left the still-running photons are compacted
 into 1/8 as many slots, twice, so the drain of the longest paths costs little.
 Devices are a 1-D mesh over ``jax.devices()`` (``shard_map``); each device
 gets a contiguous id range and the tallies are summed with ``psum``.
+:func:`start_round` gives a round as a :class:`fitlab._montecarlo.ChunkedRound`,
+run a number of loop steps at a time (each device keeps its slots, tallies and
+next id between chunks, a level at a time), so that ``fitlab simulate`` answers
+Ctrl-C within a round; the chunks change no bit of the tallies.
 """
 
 from __future__ import annotations
@@ -75,10 +79,13 @@ from jax.sharding import Mesh, PartitionSpec
 
 from fitlab._montecarlo import (
     PRECISIONS,
+    ChunkedRound,
     add_with_squares,
     azimuth_cosine,
     bin_index,
     block_words,
+    device_local,
+    device_stacked,
     sincos_2pi,
     threefry_blocks,
     uniforms,
@@ -97,7 +104,7 @@ from fitlab.families.lambert_sphere.mc.phase_sampling import (
     unbounded_reason,
 )
 
-__all__ = ["WalkConfig", "compile_walk", "run_round", "round_key", "default_mesh", "default_slots"]
+__all__ = ["WalkConfig", "compile_walk", "run_round", "start_round", "round_key", "default_mesh", "default_slots"]
 
 PHASES = ("true", "three_term", "both")
 SAMPLERS = ("exact", "approx")
@@ -356,32 +363,42 @@ def default_slots(platform: str) -> int:
     return 1024 if platform == "cpu" else 65536
 
 
-def _walk(key_pair, c, mu_i, lo, hi, cap, cfg: WalkConfig, platform: str = "cpu") -> dict:
-    """Run photon ids [lo, hi) to completion on one device; returns the tallies."""
-    nw = 2 if cfg.phase == "both" else 1
+def _sizes(cfg: WalkConfig, platform: str) -> list:
+    """The slots of each level of a device's walk: the round's, then 1/8 as many, twice (not below 64)."""
     sizes = [cfg.slots or default_slots(platform)]
     while sizes[-1] // 8 >= 64:
         sizes.append(sizes[-1] // 8)
         if len(sizes) == 3:
             break
-    p = sizes[0]
+    return sizes
+
+
+def _start(key_pair, lo, hi, cfg: WalkConfig, platform: str):
+    """One device's walk of photon ids [lo, hi) before its first step: empty slots, refilled."""
+    nw = 2 if cfg.phase == "both" else 1
+    p = _sizes(cfg, platform)[0]
     dt = jnp.dtype(cfg.precision)
-    c, mu_i = c.astype(dt), mu_i.astype(dt)
     s = _Slots(
         jnp.zeros(p, bool), jnp.zeros(p, jnp.uint32), jnp.zeros(p, jnp.int32),
         jnp.zeros(p, dt), jnp.zeros(p, dt), jnp.zeros(p, dt), jnp.zeros(p, dt), jnp.ones((p, nw), dt),
         jnp.zeros((cfg.words, p), jnp.uint64),
     )
-    carry = _refill((s, _zero_tallies(cfg), jnp.asarray(lo, jnp.int64)), key_pair, hi, cfg)
-    body = partial(_step, key_pair=key_pair, c=c, mu_i=mu_i, hi=hi, cap=cap, cfg=cfg)
-    for level, size in enumerate(sizes):
-        if level:
-            carry = (_compact(carry[0], size),) + carry[1:]
-        room = sizes[level + 1] if level + 1 < len(sizes) else 0
-        carry = jax.lax.while_loop(
-            lambda cr, room=room: (cr[2] < hi) | (cr[0].alive.sum() > room), body, carry
-        )
-    return carry[1]
+    return _refill((s, _zero_tallies(cfg), jnp.asarray(lo, jnp.int64)), key_pair, hi, cfg)
+
+
+def _run_level(carry, key_pair, c, mu_i, hi, cap, steps, room: int, cfg: WalkConfig):
+    """At most ``steps`` steps of one device's walk at a level whose slots take up to ``room`` photons at the
+    next level (0: the last); returns the carry and the status (level ended, photons started, slots alive)."""
+    dt = carry[0].z.dtype
+    body = partial(_step, key_pair=key_pair, c=c.astype(dt), mu_i=mu_i.astype(dt), hi=hi, cap=cap, cfg=cfg)
+
+    def going(cr):
+        return (cr[2] < hi) | (cr[0].alive.sum() > room)
+
+    _, carry = jax.lax.while_loop(lambda st: (st[0] < steps) & going(st[1]), lambda st: (st[0] + 1, body(st[1])),
+                                  (jnp.zeros((), jnp.int64), carry))
+    status = jnp.stack([(~going(carry)).astype(jnp.int64), carry[1]["photons"], carry[0].alive.sum(dtype=jnp.int64)])
+    return carry, status
 
 
 def default_mesh() -> Mesh:
@@ -392,20 +409,49 @@ def default_mesh() -> Mesh:
 _COMPILED: dict = {}
 
 
-def _walk_fn(cfg: WalkConfig, mesh: Mesh):
-    ndev = mesh.size
+def _programs(cfg: WalkConfig, mesh: Mesh) -> dict:
+    """The walk's programs on ``mesh``, each a jitted ``shard_map`` (module docstring, "Layout"): ``start`` (the
+    photon ids split into one contiguous range per device), ``runs[L]`` and ``compacts`` (the levels,
+    :class:`fitlab._montecarlo.ChunkedRound`) and ``finish`` (the tallies summed over the devices).  A device's
+    state carries its slots, tallies, next id and the end of its range."""
+    ndev, platform = mesh.size, mesh.devices.flat[0].platform
+    sizes = _sizes(cfg, platform)
+    rep, dev = PartitionSpec(), PartitionSpec(AXIS)
 
-    def per_device(key_pair, c, mu_i, n_photons, cap):
+    def start(key_pair, n_photons):
         d = jax.lax.axis_index(AXIS).astype(jnp.int64)
         per = (n_photons + ndev - 1) // ndev
         lo = jnp.minimum(d * per, n_photons)
         hi = jnp.minimum(lo + per, n_photons)
-        tallies = _walk(key_pair, c, mu_i, lo, hi, cap, cfg, mesh.devices.flat[0].platform)
+        return device_stacked((_start(key_pair, lo, hi, cfg, platform), hi))
+
+    def run(level: int):
+        room = sizes[level + 1] if level + 1 < len(sizes) else 0
+
+        def per_device(state, key_pair, c, mu_i, cap, steps):
+            carry, hi = device_local(state)
+            carry, status = _run_level(carry, key_pair, c, mu_i, hi, cap, steps, room, cfg)
+            return device_stacked((carry, hi)), status[None]
+
+        return jax.jit(jax.shard_map(per_device, mesh=mesh, in_specs=(dev,) + (rep,) * 5, out_specs=(dev, dev),
+                                     check_vma=False))
+
+    def compact(size: int):
+        def per_device(state):
+            (s, tallies, nxt), hi = device_local(state)
+            return device_stacked(((_compact(s, size), tallies, nxt), hi))
+
+        return jax.jit(jax.shard_map(per_device, mesh=mesh, in_specs=(dev,), out_specs=dev, check_vma=False))
+
+    def finish(state):
+        (_, tallies, _), _ = device_local(state)
         return jax.tree_util.tree_map(lambda a: jax.lax.psum(a, AXIS), tallies)
 
-    rep = PartitionSpec()
-    f = jax.shard_map(per_device, mesh=mesh, in_specs=(rep,) * 5, out_specs=rep, check_vma=False)
-    return jax.jit(f)
+    def sharded(f, in_specs, out_specs):
+        return jax.jit(jax.shard_map(f, mesh=mesh, in_specs=in_specs, out_specs=out_specs, check_vma=False))
+
+    return {"start": sharded(start, (rep,) * 2, dev), "runs": [run(level) for level in range(len(sizes))],
+            "compacts": [compact(size) for size in sizes[1:]], "finish": sharded(finish, (dev,), rep)}
 
 
 def _static(cfg: WalkConfig) -> WalkConfig:
@@ -415,17 +461,40 @@ def _static(cfg: WalkConfig) -> WalkConfig:
 
 @float64
 def compile_walk(cfg: WalkConfig, mesh: Mesh | None = None) -> float:
-    """Compile the walk for ``cfg`` on ``mesh`` (once; cached).  Returns the seconds it took (0 if cached)."""
+    """Compile the walk's programs for ``cfg`` on ``mesh`` (once; cached), by running a round of one photon
+    through every level.  Returns the seconds it took (0 if cached)."""
     mesh = mesh or default_mesh()
     key = (_static(cfg), mesh)
     if key in _COMPILED:
         return 0.0
     t0 = time.perf_counter()
-    scalar = jax.ShapeDtypeStruct((), jnp.float64)
-    count = jax.ShapeDtypeStruct((), jnp.int64)
-    args = (jax.ShapeDtypeStruct((2,), jnp.uint32), scalar, scalar, count, count)
-    _COMPILED[key] = _walk_fn(key[0], mesh).lower(*args).compile()
+    programs = _programs(key[0], mesh)
+    _COMPILED[key] = programs
+    _round(programs, key[0], jnp.zeros(2, jnp.uint32), 0.5, 0.5, 1, 2).run()
     return time.perf_counter() - t0
+
+
+def _round(programs: dict, cfg: WalkConfig, key_pair, c: float, mu_i: float, n_photons: int,
+           cap: int) -> ChunkedRound:
+    args = (jnp.asarray(key_pair, jnp.uint32), jnp.float64(c), jnp.float64(mu_i))
+    state = programs["start"](args[0], jnp.int64(n_photons))
+    runs = [partial(lambda f, st, steps: f(st, *args, jnp.int64(cap), jnp.int64(steps)), f) for f in programs["runs"]]
+    return ChunkedRound(state, runs, programs["compacts"], programs["finish"], partial(_numpy_tallies, cfg))
+
+
+def _numpy_tallies(cfg: WalkConfig, out: dict) -> dict:
+    """The tallies as numpy arrays, the dump rows of the per-bin tallies removed."""
+    res = {k: np.asarray(v) for k, v in out.items()}
+    for name in ("fourier", "bins"):
+        for suffix in ("", "_sq"):
+            if name + suffix in res:
+                res[name + suffix] = res[name + suffix][:-1]
+    for suffix in ("", "_sq"):
+        if "coll" + suffix in res:
+            res["coll" + suffix] = res["coll" + suffix][:-1]
+        if "coll_f0" + suffix in res:
+            res["coll_f0" + suffix] = res["coll_f0" + suffix][:-1, :-1]
+    return res
 
 
 @float64
@@ -438,21 +507,10 @@ def round_key(seed: int, *stream: int) -> jax.Array:
 
 
 @float64
-def run_round(cfg: WalkConfig, seed: int, stream: tuple, c: float, mu_i: float, n_photons: int,
-              mesh: Mesh | None = None, unbounded_ok: bool = False) -> dict:
-    """Simulate ``n_photons`` photons (ids 0..n-1 of one round); tallies as numpy arrays.
-
-    ``stream`` is a tuple of non-negative ints (e.g. (job, round)) folded into
-    the key of ``seed``.  c in [0, 1]; mu_i in [0, 1] (ignored for cosine
-    incidence).  Dump rows of the per-bin tallies are removed.  Deterministic
-    in (cfg, seed, stream, c, mu_i, n_photons) whatever the mesh, up to the
-    order of summation.
-
-    A c at which the walk's estimator has infinite variance (c > 1/N for the
-    three-term walk, :data:`~fitlab.families.lambert_sphere.mc.phase_sampling.C_LIMIT`)
-    is refused unless ``unbounded_ok`` (then only the collision cap bounds the
-    weights: for identities that hold path by path, never for estimates).
-    """
+def start_round(cfg: WalkConfig, seed: int, stream: tuple, c: float, mu_i: float, n_photons: int,
+                mesh: Mesh | None = None, unbounded_ok: bool = False) -> ChunkedRound:
+    """:func:`run_round` as a :class:`fitlab._montecarlo.ChunkedRound`, to be run in chunks of steps; the same
+    checks, before any work."""
     if not 0.0 <= c <= 1.0:
         raise ValueError(f"c must lie in [0, 1], got {c}")
     why = unbounded_reason(cfg.phase, c)
@@ -464,18 +522,24 @@ def run_round(cfg: WalkConfig, seed: int, stream: tuple, c: float, mu_i: float, 
         raise ValueError("n_photons must lie in [1, 2^32)")
     mesh = mesh or default_mesh()
     compile_walk(cfg, mesh)
-    out = _COMPILED[(_static(cfg), mesh)](
-        round_key(seed, *stream), jnp.float64(c), jnp.float64(mu_i), jnp.int64(n_photons),
-        jnp.int64(cfg.max_collisions),
-    )
-    res = {k: np.asarray(v) for k, v in out.items()}
-    for name in ("fourier", "bins"):
-        for suffix in ("", "_sq"):
-            if name + suffix in res:
-                res[name + suffix] = res[name + suffix][:-1]
-    for suffix in ("", "_sq"):
-        if "coll" + suffix in res:
-            res["coll" + suffix] = res["coll" + suffix][:-1]
-        if "coll_f0" + suffix in res:
-            res["coll_f0" + suffix] = res["coll_f0" + suffix][:-1, :-1]
-    return res
+    return _round(_COMPILED[(_static(cfg), mesh)], cfg, round_key(seed, *stream), c, mu_i, n_photons,
+                  cfg.max_collisions)
+
+
+@float64
+def run_round(cfg: WalkConfig, seed: int, stream: tuple, c: float, mu_i: float, n_photons: int,
+              mesh: Mesh | None = None, unbounded_ok: bool = False) -> dict:
+    """Simulate ``n_photons`` photons (ids 0..n-1 of one round); tallies as numpy arrays.
+
+    ``stream`` is a tuple of non-negative ints (e.g. (job, round)) folded into
+    the key of ``seed``.  c in [0, 1]; mu_i in [0, 1] (ignored for cosine
+    incidence).  Dump rows of the per-bin tallies are removed.  Deterministic
+    in (cfg, seed, stream, c, mu_i, n_photons) whatever the mesh, up to the
+    order of summation, and whatever the chunks :func:`start_round`'s round is run in.
+
+    A c at which the walk's estimator has infinite variance (c > 1/N for the
+    three-term walk, :data:`~fitlab.families.lambert_sphere.mc.phase_sampling.C_LIMIT`)
+    is refused unless ``unbounded_ok`` (then only the collision cap bounds the
+    weights: for identities that hold path by path, never for estimates).
+    """
+    return start_round(cfg, seed, stream, c, mu_i, n_photons, mesh, unbounded_ok).run()

@@ -65,7 +65,7 @@ from jax.scipy.special import erfc, erfinv
 from fitlab._montecarlo import sincos_2pi
 
 __all__ = ["DISTRIBUTIONS", "height_c1", "height_inv_c1", "smith_lambda", "masking_g1", "sample_height",
-           "sample_vndf", "reflect", "refract", "ESCAPED"]
+           "sample_c1", "sample_vndf", "reflect", "refract", "ESCAPED"]
 
 DISTRIBUTIONS = ("ggx", "beckmann")
 #: sample_height's value for a ray that leaves the microsurface
@@ -147,6 +147,21 @@ def sample_height(x, y, z, h, u, alpha_x, alpha_y, distribution: str):
     h_next = jnp.where(z == 0.0, h, h_next)
     escapes = (z > 0.0) & (u > 1.0 - g1)
     return jnp.where(escapes, ESCAPED, h_next)
+
+
+def sample_c1(x, y, z, c1, u, alpha_x, alpha_y, distribution: str):
+    """:func:`sample_height` of heights given by their C1 (in [0, 1]): the C1 of the next intersection of the ray
+    from C1 = ``c1`` along w = (x, y, z), or ESCAPED.  The float32 walk carries C1, whose float32 resolves the
+    bottom of the microsurface (C1 -> 0) to float32's relative precision, where float32 heights h = 2 C1 - 1 stop
+    at 2^-24 from h = -1 (and a path there is stuck: its G1 is 0).  NaN only from C1 = 0 (an underflow)."""
+    lam = smith_lambda(x, y, z, alpha_x, alpha_y, distribution)
+    up = jnp.where(lam > 0.0, _power(c1, jnp.where(lam > 0.0, lam, 1.0)), 1.0)
+    g1 = jnp.where(z > 0.0, up, 0.0)
+    lam_safe = jnp.where(lam != 0.0, lam, 1.0)
+    c1_next = jnp.clip(c1 / _power(1.0 - u, 1.0 / lam_safe), 0.0, 1.0)
+    c1_next = jnp.where(z == 0.0, c1, c1_next)
+    escapes = (z > 0.0) & (u > 1.0 - g1)
+    return jnp.where(escapes, ESCAPED, c1_next)
 
 
 def _normalize(x, y, z):

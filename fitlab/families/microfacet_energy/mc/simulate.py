@@ -24,6 +24,9 @@ contribution x_p: the weight if the path ended there, else 0):
   :func:`.reference.transmission_single`) and in all ("all"; 0 for opaque facets);
 * ``energy_total``: reflection and transmission of every order plus the capped weight; reference 1
   (energy conservation) for lossless materials and dielectrics, where it holds path by path.
+* ``failed``: the fraction of paths that ended on a non-finite height, direction or weight (a walk error,
+  tallied apart from capped paths and never as light; reference 0); ``fitlab simulate`` names a job that
+  has any in one warning line.
 
 z_ref = (estimate - reference) / se (NaN without a reference or with se = 0).  In bins few paths reach z
 is not normal (its se comes from the few paths): :func:`count_p_value` gives the exact binomial p-value of
@@ -54,7 +57,7 @@ from fitlab.families.microfacet_energy.mc.walk import (
     WalkConfig,
     compile_walk,
     job_key,
-    run_round,
+    start_round,
 )
 from fitlab.scenes import SimulationResult, check_out_dir, summary_table, unconverged, write_outputs
 
@@ -67,7 +70,7 @@ ROW_FIELDS = ("quantity", "material", "kind", "distribution", "alpha_x", "alpha_
               "mu_lo", "mu_hi", "phi_lo", "phi_hi", "estimate", "se", "reference", "z_ref", "reference_method",
               "paths", "bounces", "seconds", "converged", "eta")
 SUMMARY_FIELDS = ("material", "mu_i", "paths", "bounces", "seconds", "compile_seconds", "bounces_per_second",
-                  "worst_se_ratio", "converged", "max_abs_z_ref", "albedo_total", "capped", "transmission")
+                  "worst_se_ratio", "converged", "max_abs_z_ref", "albedo_total", "capped", "transmission", "failed")
 
 
 def job_config(scene: Scene, material) -> WalkConfig:
@@ -159,6 +162,10 @@ def estimate_rows(scene: Scene, mi: int, ii: int, t: dict, references: dict | No
     if mat.conserves_energy:
         r.update(reference=1.0, reference_method="energy_conservation")
     rows.append(r)
+    failed = int(t.get("failed", 0))
+    f_mean, f_se = _mean_se(failed, failed, n)
+    rows.append(dict(base, quantity="failed", order="all", estimate=float(f_mean), se=float(f_se), _n=n,
+                     reference=0.0, reference_method="none: a walk error"))
     for r in rows:
         if "reference" in r:
             r["z_ref"] = (r["estimate"] - r["reference"]) / r["se"] if r["se"] > 0 else math.nan
@@ -200,6 +207,8 @@ def _job_done(scene: Scene, rows: list) -> tuple:
     for r in rows:
         if r["quantity"] == "transmission" and r["kind"] != "dielectric":
             continue  # opaque facets transmit nothing: no error estimate, and none needed
+        if r["quantity"] == "failed":
+            continue  # a count of errors, not an estimate
         target = scene.target_se["lobe" if r["quantity"] in ("lobe", "lobe_transmission") else "albedo"]
         if r["se"] == 0.0:
             if r["estimate"] == 0.0 and 3.0 / (r["_n"] * r.get("_norm", 1.0)) > target:
@@ -272,11 +281,18 @@ class MicrosurfaceWalk:
         return compile_walk(job.data[0])
 
     def run_round(self, scene, job, rounds, paths, n):
+        return self.start_round(scene, job, rounds, paths, n).run()
+
+    def start_round(self, scene, job, rounds, paths, n):
         cfg, params, key = job.data
-        return run_round(cfg, key, params, scene.mu_i[job.key[1]], paths, n, scene.max_bounces)
+        return start_round(cfg, key, params, scene.mu_i[job.key[1]], paths, n, scene.max_bounces)
 
     def count(self, tallies):
         return int(tallies["paths"]), int(tallies["bounces"])
+
+    def failed(self, tallies) -> int:
+        """The paths that ended on a non-finite height, direction or weight (the walk's ``failed`` tally)."""
+        return int(tallies.get("failed", 0))
 
     def converged(self, scene, job, tallies):
         return _job_done(scene, estimate_rows(scene, *job.key, tallies))
@@ -299,7 +315,8 @@ class MicrosurfaceWalk:
                 seconds=round(st.seconds, 3), compile_seconds=round(st.compile_seconds, 3),
                 bounces_per_second=st.events / st.seconds if st.seconds > 0 else math.nan,
                 worst_se_ratio=st.se_ratio, converged=st.converged, max_abs_z_ref=max(zs, default=math.nan),
-                albedo_total=total["estimate"], capped=capped["estimate"], transmission=trans["estimate"]))
+                albedo_total=total["estimate"], capped=capped["estimate"], transmission=trans["estimate"],
+                failed=int(acc.get("failed", 0))))
         return rows_all, summary
 
     def csv_rows(self, result):

@@ -48,13 +48,23 @@ Tallies (per round of paths; sums over paths of the weight w and of w^2, each pa
   the opaque materials).
 * ``capped``, ``capped_sq``: weight of paths stopped at ``max_bounces``; ``paths``; ``bounces`` (the
   scattering events of all paths).
+* ``failed``: paths that met a non-finite height, direction or weight: a walk error, ended there and
+  counted apart from the capped paths, never tallied as light.  With every weight 1, the orders, capped
+  and failed paths add up to ``paths``.
+
+Heights: the float64 walk carries h in [-1, 1], as the C reference of ``fitlab bench mc`` does; the float32
+walk carries C1(h) = (h + 1) / 2 in [0, 1] (:func:`.microsurface.sample_c1`; the flip of a refraction is
+C1 -> 1 - C1), which float32 resolves near the bottom to its relative precision.  A float32 h stops 2^-24
+from -1: a path whose C1 fell below 2^-25 (two falls at normal incidence with 1 - U of 2^-12 and 2^-14)
+sat at h = -1 exactly, where G1 = 0 and a rising ray's next height is 0 / 0.
 
 Random numbers are counter-based: the uniforms of path ``id`` at its event n are the words of
 Threefry-2x32(job_key; id, 3 n + j), j = 0, 1, 2 (the two words of block j are numbers 2 j and 2 j + 1),
-mapped to (word + 1/2) 2^-32 in (0, 1); a kind hashes only the blocks it uses (conductor 3 numbers,
-dielectric 4, diffuse 5), job_key = fold_in(fold_in(key(seed), material), incident).  32-bit uniforms
-cut the sampled tails at probabilities of 2^-33 (a Beckmann slope beyond 4.7 standard deviations, an
-escape probability below 1e-10): biases of 1e-10, far below any standard error here.  A path depends only
+mapped to (word + 1/2) 2^-32 in (0, 1) (float32: (word >> 9 + 1/2) 2^-23, :func:`fitlab._montecarlo.uniforms`);
+a kind hashes only the blocks it uses (conductor 3 numbers, dielectric 4, diffuse 5), job_key =
+fold_in(fold_in(key(seed), material), incident).  32-bit uniforms cut the sampled tails at probabilities
+of 2^-33 (a Beckmann slope beyond 4.7 standard deviations, an escape probability below 1e-10): biases of
+1e-10, far below any standard error here; float32's at 2^-24 (biases of 6e-8).  A path depends only
 on (seed, material, incident, id), never on the slot, the round or the batch that runs it, so any split
 of the ids into rounds gives the same paths (and tallies equal up to the order of summation; exactly equal
 when the weights are 1).
@@ -69,6 +79,11 @@ Devices: the walk runs under ``jax.shard_map`` on a 1-D mesh (default: every dev
 pool, and the tallies are summed over devices (``psum``).  As paths depend only on their ids, a mesh of
 any size gives the same paths, and the same tallies up to the order of summation (exactly, when every
 weight is 1).  On one device the mesh changes nothing.
+
+Chunks: :func:`start_round` gives a round as a :class:`fitlab._montecarlo.ChunkedRound`, run a number of
+loop steps at a time (each device keeps its lanes, tallies and next id between chunks; the tallies are summed
+at the end), so that ``fitlab simulate`` answers Ctrl-C within a round; the chunks change no bit of the
+tallies.  :func:`run_round` runs the round at once.
 """
 
 from __future__ import annotations
@@ -84,10 +99,13 @@ from jax.sharding import Mesh, PartitionSpec
 
 from fitlab._montecarlo import (
     PRECISIONS,
+    ChunkedRound,
     add_with_squares,
     azimuth_cosine,
     bin_index,
     block_words,
+    device_local,
+    device_stacked,
     sincos_2pi,
     threefry_blocks,
     uniforms,
@@ -98,16 +116,17 @@ from fitlab.families.microfacet_energy.mc.microsurface import (
     ESCAPED,
     reflect,
     refract,
+    sample_c1,
     sample_height,
     sample_vndf,
 )
 from fitlab.families.microfacet_energy.mc.walk_fresnel import FRESNEL, dielectric, fresnel_factor
 
-__all__ = ["WalkConfig", "MaterialParams", "KINDS", "run_round", "compile_walk", "job_key", "default_mesh",
-           "default_slots", "TALLY_NAMES"]
+__all__ = ["WalkConfig", "MaterialParams", "KINDS", "run_round", "start_round", "compile_walk", "job_key",
+           "default_mesh", "default_slots", "TALLY_NAMES"]
 
 KINDS = ("conductor", "diffuse", "dielectric")
-TALLY_NAMES = ("lobe", "lobe_transmission", "albedo", "transmission", "capped")
+TALLY_NAMES = ("lobe", "lobe_transmission", "albedo", "transmission", "capped", "failed")
 AXIS = "paths"
 #: uniforms per event: the free path, the visible normal (2), then the kind's own (diffuse: a cosine
 #: direction; dielectric: reflect or refract)
@@ -171,7 +190,7 @@ def _zero_tallies(cfg: WalkConfig) -> dict:
          # [0]: escapes upwards (reflection), [1]: downwards (transmission), by order
          "exits": jnp.zeros((2, nk)), "exits_sq": jnp.zeros((2, nk)),
          "capped": jnp.zeros(()), "capped_sq": jnp.zeros(())}
-    z["paths"], z["bounces"] = jnp.zeros((), jnp.int64), jnp.zeros((), jnp.int64)
+    z["paths"], z["bounces"], z["failed"] = (jnp.zeros((), jnp.int64) for _ in range(3))
     return z
 
 
@@ -234,14 +253,18 @@ def _refill(lanes, t, next_id, key, mu_i, hi, cfg: WalkConfig):
 
 
 def _step(carry, key, params, mu_i, hi, cap, cfg: WalkConfig):
-    # (h, w) are in the frame of the side the ray is on (module docstring, "Dielectrics"); inside: below
+    # (h, w) are in the frame of the side the ray is on (module docstring, "Dielectrics"); inside: below.
+    # h is the height in float64, its C1 in float32 (module docstring, "Heights"): 1 at the top in both
     (alive, pid, order, h, wx, wy, wz, weight, inside, blocks), tallies, next_id = carry
     u = _uniforms(blocks, _UNIFORMS[cfg.kind], h.dtype)
     ax, ay = params.alpha_x, params.alpha_y
-    h_next = sample_height(wx, wy, wz, h, u[0], ax, ay, cfg.distribution)
-    escaped = alive & (h_next == ESCAPED)
-    capped = alive & ~escaped & (order >= cap)
-    scatters = alive & ~escaped & ~capped
+    by_c1 = cfg.precision == "float32"
+    h_next = (sample_c1 if by_c1 else sample_height)(wx, wy, wz, h, u[0], ax, ay, cfg.distribution)
+    state_ok = ~jnp.isnan(h_next) & jnp.isfinite(wx) & jnp.isfinite(wy) & jnp.isfinite(wz) & jnp.isfinite(weight)
+    failed = alive & ~state_ok  # ended, apart from capped paths, and never tallied as light
+    escaped = alive & state_ok & (h_next == ESCAPED)
+    capped = alive & state_ok & ~escaped & (order >= cap)
+    scatters = alive & state_ok & ~escaped & ~capped
 
     # tallies of the paths that end here; an escape is always upwards in the frame of its side
     k = jnp.minimum(order, cfg.orders + 1) - 1  # order 1..K -> 0..K-1, above K -> K
@@ -263,6 +286,7 @@ def _step(carry, key, params, mu_i, hi, cap, cfg: WalkConfig):
     t["capped"] = t["capped"] + jnp.sum(w_cap)
     t["capped_sq"] = t["capped_sq"] + jnp.sum(w_cap * w_cap)
     t["bounces"] = t["bounces"] + jnp.sum(scatters.astype(jnp.int64))
+    t["failed"] = t["failed"] + jnp.sum(failed.astype(jnp.int64))
 
     # scattering from the facet met at h_next
     vx, vy, vz = -wx, -wy, -wz
@@ -283,7 +307,7 @@ def _step(carry, key, params, mu_i, hi, cap, cfg: WalkConfig):
         rx, ry, rz = reflect(vx, vy, vz, mx, my, mz)
         tx, ty, tz = refract(vx, vy, vz, mx, my, mz, eta)
         ox, oy, oz = jnp.where(reflects, rx, -tx), jnp.where(reflects, ry, -ty), jnp.where(reflects, rz, -tz)
-        h_out = jnp.where(reflects, h_next, -h_next)
+        h_out = jnp.where(reflects, h_next, (1.0 - h_next) if by_c1 else -h_next)
         inside = jnp.where(scatters, inside ^ ~reflects, inside)
     wx, wy, wz = jnp.where(scatters, ox, wx), jnp.where(scatters, oy, wy), jnp.where(scatters, oz, wz)
     h = jnp.where(scatters, h_out, h)
@@ -299,34 +323,61 @@ def default_slots(platform: str) -> int:
     return 1024 if platform == "cpu" else 65536
 
 
-def _walk(key_data, params, mu_i, lo, hi, cap, cfg: WalkConfig, platform: str = "cpu"):
-    """Run path ids [lo, hi) to completion on one device; returns the tallies."""
+def _start(key_data, mu_i, lo, hi, cfg: WalkConfig, platform: str):
+    """One device's walk of path ids [lo, hi) before its first step: every lane refilled."""
     key = jnp.asarray(key_data, jnp.uint32)
     p = cfg.slots or default_slots(platform)
     dt = jnp.dtype(cfg.precision)
-    params = jax.tree_util.tree_map(lambda v: v.astype(dt), params)
-    mu_i = mu_i.astype(dt)
     lanes = (jnp.zeros(p, bool), jnp.zeros(p, jnp.int64), jnp.zeros(p, jnp.int64), jnp.ones(p, dt), jnp.zeros(p, dt),
              jnp.zeros(p, dt), jnp.zeros(p, dt), jnp.ones(p, dt), jnp.zeros(p, bool), None)
-    carry = _refill(lanes, _zero_tallies(cfg), lo, key, mu_i, hi, cfg)
-    body = partial(_step, key=key, params=params, mu_i=mu_i, hi=hi, cap=cap, cfg=cfg)
-    carry = jax.lax.while_loop(lambda c: (c[2] < hi) | jnp.any(c[0][0]), body, carry)
-    return carry[1]
+    return _refill(lanes, _zero_tallies(cfg), lo, key, mu_i.astype(dt), hi, cfg)
 
 
-def _walk_fn(cfg: WalkConfig, mesh: Mesh):
-    ndev = mesh.size
+def _run(carry, key_data, params, mu_i, hi, cap, steps, cfg: WalkConfig):
+    """At most ``steps`` steps of one device's walk; returns the carry and the status (all its paths ended, paths
+    started, lanes alive)."""
+    key = jnp.asarray(key_data, jnp.uint32)
+    dt = jnp.dtype(cfg.precision)
+    params = jax.tree_util.tree_map(lambda v: v.astype(dt), params)
+    body = partial(_step, key=key, params=params, mu_i=mu_i.astype(dt), hi=hi, cap=cap, cfg=cfg)
 
-    def per_device(key_data, params, mu_i, lo, hi, cap):
+    def going(c):
+        return (c[2] < hi) | jnp.any(c[0][0])
+
+    _, carry = jax.lax.while_loop(lambda st: (st[0] < steps) & going(st[1]), lambda st: (st[0] + 1, body(st[1])),
+                                  (jnp.zeros((), jnp.int64), carry))
+    status = jnp.stack([(~going(carry)).astype(jnp.int64), carry[1]["paths"], jnp.sum(carry[0][0], dtype=jnp.int64)])
+    return carry, status
+
+
+def _programs(cfg: WalkConfig, mesh: Mesh) -> dict:
+    """The walk's programs on ``mesh`` (jitted ``shard_map`` s; :class:`fitlab._montecarlo.ChunkedRound`): ``start``
+    (device d takes the d-th contiguous slice of the ids), ``runs`` (one level) and ``finish`` (the tallies summed
+    over the devices, ``psum``).  A device's state carries its lanes, tallies, next id and the end of its slice."""
+    ndev, platform = mesh.size, mesh.devices.flat[0].platform
+    rep, dev = PartitionSpec(), PartitionSpec(AXIS)
+
+    def start(key_data, mu_i, lo, hi):
         d = jax.lax.axis_index(AXIS).astype(jnp.int64)
         per = (hi - lo + ndev - 1) // ndev
         a = jnp.minimum(lo + d * per, hi)
         b = jnp.minimum(a + per, hi)
-        tallies = _walk(key_data, params, mu_i, a, b, cap, cfg, mesh.devices.flat[0].platform)
+        return device_stacked((_start(key_data, mu_i, a, b, cfg, platform), b))
+
+    def run(state, key_data, params, mu_i, cap, steps):
+        carry, b = device_local(state)
+        carry, status = _run(carry, key_data, params, mu_i, b, cap, steps, cfg)
+        return device_stacked((carry, b)), status[None]
+
+    def finish(state):
+        (_, tallies, _), _ = device_local(state)
         return jax.tree_util.tree_map(lambda x: jax.lax.psum(x, AXIS), tallies)
 
-    rep = PartitionSpec()
-    return jax.jit(jax.shard_map(per_device, mesh=mesh, in_specs=(rep,) * 6, out_specs=rep, check_vma=False))
+    def sharded(f, in_specs, out_specs):
+        return jax.jit(jax.shard_map(f, mesh=mesh, in_specs=in_specs, out_specs=out_specs, check_vma=False))
+
+    return {"start": sharded(start, (rep,) * 4, dev), "run": sharded(run, (dev,) + (rep,) * 5, (dev, dev)),
+            "finish": sharded(finish, (dev,), rep)}
 
 
 jax.tree_util.register_pytree_node(
@@ -346,18 +397,44 @@ _COMPILED: dict = {}
 
 @float64
 def compile_walk(cfg: WalkConfig, mesh: Mesh | None = None) -> float:
-    """Compile the walk of ``cfg`` on ``mesh`` (default: :func:`default_mesh`) once (cached); returns the
-    seconds it took (0 when cached)."""
+    """Compile the walk of ``cfg`` on ``mesh`` (default: :func:`default_mesh`) once (cached), by running a round of
+    one path; returns the seconds it took (0 when cached)."""
     mesh = mesh or default_mesh()
     if (cfg, mesh) in _COMPILED:
         return 0.0
     t0 = time.perf_counter()
-    f64 = jax.ShapeDtypeStruct((), jnp.float64)
-    i64 = jax.ShapeDtypeStruct((), jnp.int64)
-    params = MaterialParams(*(f64,) * 6)
-    args = (jax.ShapeDtypeStruct((2,), jnp.uint32), params, f64, i64, i64, i64)
-    _COMPILED[(cfg, mesh)] = _walk_fn(cfg, mesh).lower(*args).compile()
+    _COMPILED[(cfg, mesh)] = _programs(cfg, mesh)
+    _round(cfg, mesh, np.zeros(2, np.uint32), MaterialParams(0.5, 0.5, eta=1.5), 0.5, 0, 1, 2).run()
     return time.perf_counter() - t0
+
+
+def _round(cfg: WalkConfig, mesh: Mesh, key_data, params: MaterialParams, mu_i: float, first_id: int, n_paths: int,
+           max_bounces: int) -> ChunkedRound:
+    programs = _COMPILED[(cfg, mesh)]
+    key = jnp.asarray(key_data, jnp.uint32)
+    p = MaterialParams(*(jnp.float64(v) for v in (params.alpha_x, params.alpha_y, params.f0, params.eta, params.k,
+                                                   params.albedo)))
+    state = programs["start"](key, jnp.float64(mu_i), jnp.int64(first_id), jnp.int64(first_id + n_paths))
+
+    def run(st, steps):
+        return programs["run"](st, key, p, jnp.float64(mu_i), jnp.int64(max_bounces), jnp.int64(steps))
+
+    return ChunkedRound(state, [run], [], programs["finish"], partial(_numpy_tallies, cfg))
+
+
+def _numpy_tallies(cfg: WalkConfig, out: dict) -> dict:
+    """The tallies as numpy, the outside-every-bin row and column of the lobes removed."""
+    out = {k: np.asarray(v) for k, v in out.items()}
+    res = {}
+    for suffix in ("", "_sq"):
+        lobe = out["lobe" + suffix][:, :, :-1, :-1]
+        res["lobe" + suffix] = lobe[0]
+        if cfg.transmission_lobe:
+            res["lobe_transmission" + suffix] = lobe[1]
+        res["albedo" + suffix], res["transmission" + suffix] = out["exits" + suffix][0], out["exits" + suffix][1]
+        res["capped" + suffix] = out["capped" + suffix]
+    res["paths"], res["bounces"], res["failed"] = out["paths"], out["bounces"], out["failed"]
+    return res
 
 
 @float64
@@ -368,14 +445,10 @@ def job_key(seed: int, material: int, incident: int) -> np.ndarray:
 
 
 @float64
-def run_round(cfg: WalkConfig, key_data, params: MaterialParams, mu_i: float, first_id: int, n_paths: int,
-              max_bounces: int = 1000, mesh: Mesh | None = None) -> dict:
-    """Run paths first_id .. first_id + n_paths - 1 of the job whose key is ``key_data``; tallies as numpy.
-
-    mu_i in (0, 1]; alpha_x, alpha_y > 0; a dielectric's eta > 0; ids below 2^32; max_bounces >= 1; mesh:
-    the devices (default :func:`default_mesh`; the tallies do not depend on it beyond the order of
-    summation).  The outside-every-bin row and column of the lobes are removed; ``lobe_transmission``
-    is there when ``cfg.transmission_lobe``."""
+def start_round(cfg: WalkConfig, key_data, params: MaterialParams, mu_i: float, first_id: int, n_paths: int,
+                max_bounces: int = 1000, mesh: Mesh | None = None) -> ChunkedRound:
+    """:func:`run_round` as a :class:`fitlab._montecarlo.ChunkedRound`, to be run in chunks of steps; the same
+    checks, before any work."""
     if not 0.0 < mu_i <= 1.0:
         raise ValueError(f"mu_i must lie in (0, 1], got {mu_i}")
     if not (params.alpha_x > 0.0 and params.alpha_y > 0.0):
@@ -388,18 +461,16 @@ def run_round(cfg: WalkConfig, key_data, params: MaterialParams, mu_i: float, fi
         raise ValueError("max_bounces must be >= 1")
     mesh = mesh or default_mesh()
     compile_walk(cfg, mesh)
-    p = MaterialParams(*(jnp.float64(v) for v in (params.alpha_x, params.alpha_y, params.f0, params.eta, params.k,
-                                                   params.albedo)))
-    out = _COMPILED[(cfg, mesh)](jnp.asarray(key_data, jnp.uint32), p, jnp.float64(mu_i), jnp.int64(first_id),
-                                 jnp.int64(first_id + n_paths), jnp.int64(max_bounces))
-    out = {k: np.asarray(v) for k, v in out.items()}
-    res = {}
-    for suffix in ("", "_sq"):
-        lobe = out["lobe" + suffix][:, :, :-1, :-1]
-        res["lobe" + suffix] = lobe[0]
-        if cfg.transmission_lobe:
-            res["lobe_transmission" + suffix] = lobe[1]
-        res["albedo" + suffix], res["transmission" + suffix] = out["exits" + suffix][0], out["exits" + suffix][1]
-        res["capped" + suffix] = out["capped" + suffix]
-    res["paths"], res["bounces"] = out["paths"], out["bounces"]
-    return res
+    return _round(cfg, mesh, key_data, params, mu_i, first_id, n_paths, max_bounces)
+
+
+@float64
+def run_round(cfg: WalkConfig, key_data, params: MaterialParams, mu_i: float, first_id: int, n_paths: int,
+              max_bounces: int = 1000, mesh: Mesh | None = None) -> dict:
+    """Run paths first_id .. first_id + n_paths - 1 of the job whose key is ``key_data``; tallies as numpy.
+
+    mu_i in (0, 1]; alpha_x, alpha_y > 0; a dielectric's eta > 0; ids below 2^32; max_bounces >= 1; mesh:
+    the devices (default :func:`default_mesh`; the tallies do not depend on it beyond the order of
+    summation, nor on the chunks :func:`start_round`'s round is run in).  The outside-every-bin row and column
+    of the lobes are removed; ``lobe_transmission`` is there when ``cfg.transmission_lobe``."""
+    return start_round(cfg, key_data, params, mu_i, first_id, n_paths, max_bounces, mesh).run()

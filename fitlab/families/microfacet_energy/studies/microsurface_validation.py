@@ -9,8 +9,9 @@ binomial, calibrated where few paths land) and the number of bins below 6.3e-5 (
 some 2200 bins in the study, 0.14 expected by chance); the z-scores (estimate - reference) / se of the
 bins expected to hold 25 paths or more, where z is normal (max |z| and RMS z: RMS near 1, max |z| near 3.5
 over a few hundred bins for unbiased estimates); the largest |z| of the order-1 totals (and of the
-multiple-scattering albedo against 1 - A_1 where the facets lose nothing); and the energy defect |sum of
-every tally - N| (exactly 0 where every weight is 1).  The smoothest cases (alpha = 1e-3) are dielectrics:
+multiple-scattering albedo against 1 - A_1 where the facets lose nothing); the energy defect |sum of
+every tally - N| (exactly 0 where every weight is 1); and the paths the walk ended as failed (a non-finite
+state: 0 expected).  The smoothest cases (alpha = 1e-3) are dielectrics:
 reflect-or-refract gives every bin a binomial spread, where a conductor with F = 1 sends every path into
 the mirror bin with no spread to compare a reference with (its bins are checked against the integrals over
 the normals instead, tests/test_microsurface_dielectric.py).
@@ -79,7 +80,7 @@ batch = {min(paths, 1_000_000)}
 def run_validation(paths: int = 2_000_000, progress: bool = False) -> list:
     """Simulate every case of :data:`CASES` at every :data:`MU_I` with ``paths`` paths per job; one dict per
     case (keys: case, kind, jobs, bins, min_p, bins_below_p, z_bins, max_abs_z, rms_z, max_abs_z_totals,
-    energy_defect, seconds)."""
+    energy_defect, failed, seconds)."""
     with contextlib.redirect_stdout(sys.stderr):  # simulate's progress lines go to stderr, results to stdout
         result = simulate(parse_scene(_scene_text(paths), "<validation>"), progress=progress)
     out = []
@@ -102,6 +103,7 @@ def run_validation(paths: int = 2_000_000, progress: bool = False) -> list:
                         max_abs_z=float(np.max(np.abs(zs), initial=math.nan if zs.size == 0 else 0.0)),
                         rms_z=float(np.sqrt(np.mean(zs * zs))) if zs.size else math.nan,
                         max_abs_z_totals=max(totals, default=math.nan), energy_defect=defect,
+                        failed=sum(int(t["failed"]) for (m, _), t in result.tallies.items() if m == mi),
                         seconds=sum(st.seconds for st in jobs)))
     return out
 
@@ -109,12 +111,13 @@ def run_validation(paths: int = 2_000_000, progress: bool = False) -> list:
 def format_table(rows: list) -> str:
     """A markdown table of :func:`run_validation`'s rows."""
     lines = ["| case | kind | bins | smallest p | bins with p < 6.3e-5 | bins >= 25 paths | max abs z | RMS z | "
-             "max abs z of totals | energy defect | seconds |", "|---|---|---|---|---|---|---|---|---|---|---|"]
+             "max abs z of totals | energy defect | failed | seconds |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         defect = "n/a (absorbs)" if math.isnan(r["energy_defect"]) else f"{r['energy_defect']:g}"
         lines.append(f"| {r['case']} | {r['kind']} | {r['bins']} | {r['min_p']:.2g} | {r['bins_below_p']} | "
                      f"{r['z_bins']} | {r['max_abs_z']:.2f} | {r['rms_z']:.2f} | {r['max_abs_z_totals']:.2f} | "
-                     f"{defect} | {r['seconds']:.1f} |")
+                     f"{defect} | {r['failed']} | {r['seconds']:.1f} |")
     return "\n".join(lines)
 
 
