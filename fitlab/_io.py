@@ -8,6 +8,7 @@ from __future__ import annotations
 import hashlib
 import importlib.util
 import os
+import re
 import stat
 import tempfile
 from pathlib import Path
@@ -16,7 +17,8 @@ from types import ModuleType
 from fitlab._interrupt import check, hold
 
 __all__ = ["import_generated", "atomic_write_text", "atomic_write_bytes", "atomic_write_many", "temporary_name",
-           "InputFileError", "regular_file", "read_regular_file"]
+           "InputFileError", "regular_file", "read_regular_file", "DECIMAL", "decimal", "text_lines",
+           "unusual_character"]
 
 
 def temporary_name(path: Path) -> Path:
@@ -218,3 +220,46 @@ def import_generated(path: Path, prefix: str = "_fitlab_generated") -> ModuleTyp
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module
+
+
+# -- text of tables ------------------------------------------------------------------
+#: a number as fitlab reads one from a table: an optional sign, ASCII digits with at most one point, an optional
+#: exponent; or the words inf, infinity and nan (any case, signed), which a reader then takes or refuses by value.
+#: Python's float() also takes 995_099, Arabic-Indic and full-width digits and surrounding whitespace: not numbers
+#: a table should hold
+DECIMAL = re.compile(r"[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?|[+-]?(?i:inf|infinity|nan)")
+#: the characters a table's text may not hold: control characters other than tab and the line breaks, and the
+#: characters some readers take for line breaks (U+0085, U+2028, U+2029) where text editors do not
+_UNUSUAL = re.compile("[\x00-\x08\x0b\x0c\x0e-\x1f\x7f\x85\u2028\u2029]")
+_LINE_BREAK = re.compile(r"\r\n|\r|\n")
+
+
+def decimal(text: str) -> float:
+    """``text`` as a float when it is a plain decimal number (:data:`DECIMAL`); ValueError otherwise."""
+    if not DECIMAL.fullmatch(text):
+        raise ValueError(f"{text[:40]!r} is not a decimal number")
+    return float(text)
+
+
+def text_lines(text: str) -> list[str]:
+    """The lines of ``text`` as text editors number them (from 1): split at CR LF, CR and LF only (str.splitlines
+    also splits at U+2028, form feeds and others, which editors do not); a line break at the end ends the last
+    line."""
+    lines = _LINE_BREAK.split(text)
+    if lines and not lines[-1]:
+        lines.pop()
+    return lines
+
+
+def unusual_character(text: str) -> tuple[int, str] | None:
+    """(line number as :func:`text_lines` counts, description) of the first character of ``text`` a table may
+    not hold (a control character, U+0085, U+2028, U+2029), or None."""
+    found = _UNUSUAL.search(text)
+    if found is None:
+        return None
+    line = len(_LINE_BREAK.findall(text, 0, found.start())) + 1
+    import unicodedata
+
+    char = found.group()
+    name = unicodedata.name(char, "a control character")
+    return line, f"U+{ord(char):04X} ({name.lower()})"

@@ -22,8 +22,9 @@ of engine is a miss, never a stale hit.
   reader sees either the old entry or a whole new one.
 * An entry is computed once when several processes miss it at the same time
   (the two workers of the test suite, two commands): the first holds a lock
-  on it (``locks/ENTRY.lock``, an exclusive ``flock``) while it computes, and
-  the others wait, then read what it wrote.  Only a process's outermost entry
+  on it (``locks/ENTRY.lock``, an exclusive ``flock``, the file holding its
+  process id) while it computes, and the others wait, then read what it wrote;
+  a wait longer than 2 s says, in one line, which process it waits for.  Only a process's outermost entry
   takes the lock (entries computed inside another's compute do not), so a
   process that holds a lock never waits for another: no two can block each
   other.  Where ``flock`` is missing (Windows) or the folder cannot be
@@ -50,7 +51,9 @@ import io
 import json
 import os
 import re
+import sys
 import threading
+import time
 from collections.abc import Iterator
 from contextlib import contextmanager, suppress
 from pathlib import Path
@@ -69,7 +72,7 @@ except ImportError:  # Windows: no flock, no lock (see the module docstring)
 
 __all__ = ["cache_dir", "cache_key", "cached_arrays", "cached_at", "cached_files", "cache_info", "clear_cache",
            "enabled", "enable_compilation_cache", "package_sources", "INPUT_PREFIX", "CacheFolderError",
-           "PROGRAM_SUFFIX"]
+           "PROGRAM_SUFFIX", "cached_text", "family_entry_points"]
 
 _SUFFIX = ".npz"
 #: the array of an entry that holds its content hash (:func:`_content_hash`)
@@ -212,6 +215,31 @@ def _store(path: Path, values: Mapping[str, np.ndarray], names: tuple[str, ...])
         pass
 
 
+def family_entry_points() -> list[str]:
+    """The installed ``fitlab.families`` entry points as "name=value@distribution-version", sorted: what, beside
+    fitlab's own files (:func:`package_sources`), decides what the registry holds.  Taken from the registry's view
+    of them where it is loaded (as tests set it)."""
+    registry = sys.modules.get("fitlab.core._registry")
+    entry_points = getattr(registry, "entry_points", None)
+    if entry_points is None:
+        from importlib.metadata import entry_points
+    found = []
+    for ep in entry_points(group="fitlab.families"):
+        dist = getattr(ep, "dist", None)
+        found.append(f"{ep.name}={ep.value}@{getattr(dist, 'name', '')}-{getattr(dist, 'version', '')}")
+    return sorted(found)
+
+
+def cached_text(name: str, compute: Callable[[], str]) -> str:
+    """The text ``compute()`` returns, from the cache when present (:func:`cached_files`), keyed by fitlab's own
+    files (:func:`package_sources`) and the installed families (:func:`family_entry_points`): for a text only they
+    determine, such as ``fitlab refit --list``, which otherwise imports every family (JAX and sympy, seconds) to
+    say what the registry holds."""
+    files = cached_files(name, {"families": family_entry_points()}, lambda: {"text": compute().encode()},
+                         package_sources())  # fmt: skip
+    return files["text"].decode()
+
+
 #: the prefix of the arrays in which an entry of :func:`cached_at` holds its inputs
 INPUT_PREFIX = "in_"
 
@@ -250,13 +278,52 @@ def _computing(path: Path | None) -> Iterator[None]:
     _depth.value = depth + 1
     try:
         if fd is not None:
-            assert fcntl is not None
-            fcntl.flock(fd, fcntl.LOCK_EX)  # released when fd closes, or when the process ends (Ctrl-C, kill)
+            _lock(fd, path)
         yield
     finally:
         _depth.value = depth
         if fd is not None:
             os.close(fd)
+
+
+#: seconds a process waits for another's lock on an entry before it says so (one line on stderr)
+WAIT_NOTICE_S = 2.0
+#: seconds between two tries of a lock held by another process
+_POLL_S = 0.05
+
+
+def _lock(fd: int, path: Path) -> None:
+    """Take the exclusive lock of ``fd`` (the lock file of the entry at ``path``) and write this process's id
+    into it.  While another process holds it, try again every :data:`_POLL_S` seconds (a Ctrl-C stops the wait
+    at once); after :data:`WAIT_NOTICE_S` seconds say once, on stderr, which process it waits for (the id its
+    lock file holds), so that a wait on a stopped or hung process is never silent."""
+    assert fcntl is not None
+    start = time.monotonic()
+    said = False
+    while True:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)  # released when fd closes, or the process ends
+            break
+        except BlockingIOError:
+            pass
+        if not said and time.monotonic() - start >= WAIT_NOTICE_S:
+            holder = _holder(fd)
+            print(f"fitlab: waiting for process {holder if holder else '(unknown)'}, which is computing the cache "
+                  f"entry {path.name} (its lock: {path.parent / _LOCKS / (path.name + '.lock')})", file=sys.stderr)
+            said = True
+        time.sleep(_POLL_S)
+    with suppress(OSError):  # the holder's id, for a process that waits on this one; a lock without it still holds
+        os.ftruncate(fd, 0)
+        os.pwrite(fd, f"{os.getpid()}\n".encode(), 0)
+
+
+def _holder(fd: int) -> int | None:
+    """The process id a lock file holds (written by :func:`_lock`), or None."""
+    try:
+        text = os.pread(fd, 32, 0).decode("ascii", "replace").strip()
+    except OSError:
+        return None
+    return int(text) if text.isdigit() else None
 
 
 def enable_compilation_cache() -> None:

@@ -33,7 +33,15 @@ import numpy as np
 import sympy as sp
 
 from fitlab import __version__
-from fitlab._io import InputFileError, atomic_write_many, atomic_write_text, read_regular_file
+from fitlab._io import (
+    InputFileError,
+    atomic_write_many,
+    atomic_write_text,
+    decimal,
+    read_regular_file,
+    text_lines,
+    unusual_character,
+)
 from fitlab.core import get_target, target_names
 from fitlab.forms import Form
 from fitlab.forms.symbolic import lambdify_numpy, parse_expression, symbols
@@ -49,6 +57,8 @@ __all__ = [
     "check_fit",
     "checked_fit",
     "fit_schema",
+    "fit_limits",
+    "FitLimits",
     "PARAM_LIMIT",
     "write_fit",
     "write_fits",
@@ -144,6 +154,61 @@ def fit_schema() -> dict:
     return dict(cast(Mapping, _validator().schema))  # the schema file holds an object, not a boolean schema
 
 
+@dataclass(frozen=True)
+class FitLimits:
+    """The sizes a fit file may have, as its schema states them (:func:`fit_limits`): what a fit must stay within
+    to be saved, so what ``fitlab fit`` checks before it starts.
+
+    inputs: inputs of a fit (the schema's ``inputs``, ``domain``, ``user_data.columns`` less the target, and
+        ``validation.worst`` less its ``exact`` and ``approx``, whichever is fewest).
+    params: parameters (``params``).
+    name: characters of a name (target, form, input, parameter): the longest the schema's name pattern accepts.
+    expression: characters of the expression text.
+    text: characters of a text field (descriptions, the error measure, a grid's description).
+    """
+
+    inputs: int
+    params: int
+    name: int
+    expression: int
+    text: int
+
+
+def _longest_match(pattern: str, limit: int = 10_000) -> int:
+    """The length of the longest run of ``a`` the regular expression ``pattern`` accepts (0 if none)."""
+    import re
+
+    rx = re.compile(pattern)
+    lo, hi = 0, limit  # the accepted lengths of a pattern like ^[A-Za-z][A-Za-z0-9_]{0,63}$ are 1..N
+    if rx.search("a" * hi):
+        return hi
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        lo, hi = (mid, hi) if rx.search("a" * mid) else (lo, mid)
+    return lo
+
+
+@lru_cache(maxsize=1)
+def fit_limits() -> FitLimits:
+    """The limits of :class:`FitLimits`, read from the fit-file schema (fitlab/schemas/fit-1.schema.json)."""
+    props = fit_schema()["properties"]
+    valid, user = props["validation"]["properties"], props["user_data"]["properties"]
+    names = [props["target"]["pattern"], props["form"]["pattern"], props["inputs"]["items"]["pattern"],
+             props["params"]["propertyNames"]["pattern"], user["columns"]["items"]["pattern"]]  # fmt: skip
+    return FitLimits(
+        inputs=min(
+            props["inputs"]["maxItems"],
+            props["domain"]["maxProperties"],
+            user["columns"]["maxItems"] - 1,
+            valid["worst"]["maxProperties"] - 2,
+        ),
+        params=props["params"]["maxProperties"],
+        name=min(_longest_match(p) for p in names),
+        expression=props["expression"]["maxLength"],
+        text=min(props[k]["maxLength"] for k in ("target_description", "form_description", "error_measure", "note")),
+    )
+
+
 def _refuse_constant(name):
     raise ValueError(f'the JSON literal {name} (non-finite numbers are written as the strings "inf", "nan")')
 
@@ -179,6 +244,9 @@ def checked_fit(record, source: str = "fit") -> tuple[dict, sp.Expr]:
     if error is not None:
         where = "/".join(str(x) for x in error.absolute_path) or "the top level"
         raise FitFileError(f"{source}: not a valid fit file at {where}: {error.message[:200]}")
+    huge = _huge_integer(record)
+    if huge is not None:
+        raise FitFileError(f"{source}: {huge}; a fit file's numbers are doubles (magnitude below 1.8e308)")
     if "user_data" in record:  # a fit of a user's own table: checked against its own inputs and domain
         return _checked_user_fit(record, source)
     try:
@@ -215,6 +283,24 @@ def checked_fit(record, source: str = "fit") -> tuple[dict, sp.Expr]:
     return _decode(record), expr
 
 
+def _huge_integer(value, where: str = "") -> str | None:
+    """Where ``value`` (a record, walked) holds an integer too large for a double (JSON integers read as Python
+    ints of any size), as "params/a0 is an integer of 401 digits"; None when it holds none."""
+    if isinstance(value, int) and not isinstance(value, bool):
+        try:
+            float(value)
+        except OverflowError:
+            digits = int(abs(value).bit_length() * math.log10(2)) + 1  # str() of such an int may be refused
+            return f"{where or 'the record'} is an integer of about {digits} digits"
+        return None
+    items = value.items() if isinstance(value, dict) else enumerate(value) if isinstance(value, list) else ()
+    for key, item in items:
+        found = _huge_integer(item, f"{where}/{key}" if where else str(key))
+        if found is not None:
+            return found
+    return None
+
+
 def _checked_user_fit(record: dict, source: str) -> tuple[dict, sp.Expr]:
     """:func:`checked_fit` of a record with ``user_data`` (already valid by the schema): its target is no
     registered target's name and is not among its inputs; ``user_data.columns`` are its inputs then its
@@ -240,6 +326,12 @@ def _checked_user_fit(record: dict, source: str) -> tuple[dict, sp.Expr]:
         raise FitFileError(f"{source}: user_data.scale_floor {floor!r}: a relative error needs a finite floor > 0")
     if user["holdout_offset"] >= user["holdout_every"]:
         raise FitFileError(f"{source}: user_data.holdout_offset must be below holdout_every")
+    file = user.get("file")
+    if file is not None and (file in (".", "..") or "/" in file):
+        raise FitFileError(
+            f"{source}: user_data.file {file[:80]!r} is a path; a fit's table is a file beside it, named by its "
+            "file name alone (copy the table beside the fit and write its name there, or fit again)"
+        )
     for group in ("params", "fixed"):
         for key, value in record.get(group, {}).items():
             if not (math.isfinite(value) and abs(value) <= PARAM_LIMIT):
@@ -563,9 +655,12 @@ def read_table(
         raise TableError(
             f"{path}: not UTF-8 text (byte {raw[exc.start]:#04x} at offset {exc.start}); {rewrite}"
         ) from None
+    unusual = unusual_character(text)
+    if unusual is not None:
+        raise TableError(f"{path} line {unusual[0]}: holds {unusual[1]}; {rewrite}")
     header, stated, rows, first = None, None, [], 0
     allowed: list[bool] = []  # per column, whether +inf may stand there (set with the header)
-    for number, line in enumerate(text.splitlines(), start=1):
+    for number, line in enumerate(text_lines(text), start=1):
         if header is None and line.startswith("#"):  # comments head the file; below the header, a row is a row
             if stated is None and line.startswith("# grid:"):
                 stated = line[len("# grid:") :].strip()
@@ -584,7 +679,7 @@ def read_table(
                 f"{path} line {number}: {len(fields)} field{plural}, the header has {len(header)}; {rewrite}"
             )
         try:
-            row = [float(x) for x in fields]
+            row = [decimal(x) for x in fields]
         except ValueError:
             bad = next(x for x in fields if not _is_float(x))
             raise TableError(f"{path} line {number}: {bad[:40]!r} is not a number; {rewrite}") from None
@@ -617,7 +712,7 @@ def read_table(
 
 def _is_float(text: str) -> bool:
     try:
-        float(text)
+        decimal(text)
     except ValueError:
         return False
     return True

@@ -145,6 +145,17 @@ def test_discover_front_and_outputs(kd_discovery, tmp_path):
     from fitlab.discover.output import front_json, front_table, write_outputs
 
     assert all(name in front_table(disc) for name in disc.front)
+    # every support the regression found is refitted, or dropped with its reason stated
+    refined = {d.candidate.support for d in disc.refined}
+    dropped = {(tuple(sorted(g["numerator"])), tuple(sorted(g["denominator"]))): g["reason"] for g in disc.dropped}
+    assert {c.support for c in disc.candidates} == refined | set(dropped) and not refined & set(dropped)
+    assert all(reason.startswith(("not on the linearised fronts", "its refit failed", "its linearised fit",
+                                  "its sizes and linearised error")) or "more than max_terms (2)" in reason
+               for reason in dropped.values())  # fmt: skip
+    assert any("more than max_terms (2)" in r for r in dropped.values())
+    table = front_table(disc)
+    for reason in dropped.values():
+        assert reason in table
     paths = write_outputs(disc, tmp_path)
     assert sorted(p.name for p in paths) == ["kd_of_c.json", "kd_of_c.md", "kd_of_c.png"]
     assert paths[2].read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

@@ -74,7 +74,8 @@ def test_the_fit_finds_the_smooth_part_and_states_its_held_out_error(fitted):
     for name, value in TRUE.items():
         assert rec["params"][name] == pytest.approx(value, abs=5e-3)
     user = rec["user_data"]
-    assert user["file"] == "../table.csv" and user["rows"] == 143 and user["columns"] == ["x", "y", "z"]
+    assert user["file"] == "z.rat.csv" and user["rows"] == 143 and user["columns"] == ["x", "y", "z"]
+    assert (path.parent / "z.rat.csv").read_bytes() == table.read_bytes()  # the table, copied beside the fit
     assert (user["holdout_every"], user["holdout_offset"], user["error"]) == (4, 2, "relative")
     x, y, z = _grid()
     assert user["scale_floor"] == pytest.approx(1e-3 * np.max(np.abs(z)), rel=1e-15)
@@ -335,10 +336,12 @@ def test_a_table_without_a_header_or_not_a_file_is_refused(tmp_path, capsys):
 
 # -- codegen --fit refusals and the store's checks -------------------------------------
 def _copy(fitted, tmp_path):
+    """The fit and its table (beside it) copied into tmp_path/fits; the table copied as tmp_path/table.csv too."""
     root, path, rec, table = fitted
     (tmp_path / "fits").mkdir()
     shutil.copy(table, tmp_path / "table.csv")
     shutil.copy(path, tmp_path / "fits" / path.name)
+    shutil.copy(path.parent / rec["user_data"]["file"], tmp_path / "fits" / rec["user_data"]["file"])
     return tmp_path / "fits" / path.name
 
 
@@ -353,7 +356,7 @@ def _codegen_refused(capsys, argv, *words):
 def test_codegen_refuses_a_changed_table_and_a_fit_that_disagrees_with_it(fitted, tmp_path, capsys):
     path = _copy(fitted, tmp_path)
     out = tmp_path / "gen"
-    table = tmp_path / "table.csv"
+    table = path.with_name("z.rat.csv")  # the table beside the fit
     table.write_text(table.read_text().replace("\n", "\n# edited\n", 1))
     _codegen_refused(capsys, ["codegen", "--fit", str(path), "--lang", "c", "--out", str(out)], "the table changed")
     shutil.copy(fitted[3], table)
@@ -362,12 +365,99 @@ def test_codegen_refuses_a_changed_table_and_a_fit_that_disagrees_with_it(fitted
     path.write_text(json.dumps(rec))
     _codegen_refused(capsys, ["codegen", "--fit", str(path), "--lang", "glsl", "--out", str(out)],
                      "measured again on the held-out rows", "the fit and its table disagree")
-    (tmp_path / "table.csv").unlink()
+    table.unlink()
     _codegen_refused(capsys, ["codegen", "--fit", str(path), "--lang", "c", "--out", str(out)],
                      "its table", "no such file")
     _codegen_refused(capsys, ["codegen", "--fit", str(path), "--lang", "c", "--fits", str(tmp_path), "--out", str(out)],
                      "--fits goes with a family's program, not with --fit")
     assert not out.exists()
+
+
+@pytest.mark.parametrize("what, edit, words", [
+    ("domain", lambda r: r["domain"]["x"].__setitem__(1, 1e12), ["the domain of x [0.0, 1000000000000.0]",
+                                                                 "table z.rat.csv gives [0.0, 1.0]"]),
+    ("narrower domain", lambda r: r["domain"]["y"].__setitem__(0, 0.55), ["the domain of y [0.55, 2.0]",
+                                                                          "gives [0.65, 2.0]"]),
+    ("rows", lambda r: r["user_data"].__setitem__("rows", 5), ["user_data.rows 5", "gives 143"]),
+    ("floor", lambda r: r["user_data"].__setitem__("scale_floor", 1e-300), ["user_data.scale_floor 1e-300"]),
+    ("offset", lambda r: r["user_data"].__setitem__("holdout_offset", 1), ["user_data.holdout_offset 1", "gives 2"]),
+    ("points", lambda r: r["training"].__setitem__("points", 1000), ["training.points 1000", "gives 107"]),
+    ("absolute path", lambda r: r["user_data"].__setitem__("file", "/etc/passwd"), ["'/etc/passwd' is a path"]),
+    ("relative path", lambda r: r["user_data"].__setitem__("file", "../table.csv"), ["'../table.csv' is a path"]),
+    ("huge integer", lambda r: r["params"].__setitem__("a0", 10**400), ["params/a0", "401 digits"]),
+])
+def test_codegen_derives_every_figure_it_prints_from_the_table(fitted, tmp_path, capsys, what, edit, words):
+    """The failures replayed: a domain edited to x in [0.01, 1e12] was printed as the routine's domain (which
+    returned 640.5 at a pole of the form there), the edited user_data.rows and scale_floor were printed, an
+    absolute user_data.file was read and its shape echoed, an integer parameter of 10**400 ended in 'code
+    generation failed: int too large'."""
+    path = _copy(fitted, tmp_path)
+    rec = json.loads(path.read_text())
+    edit(rec)
+    path.write_text(json.dumps(rec))
+    out = tmp_path / "gen"
+    _codegen_refused(capsys, ["codegen", "--fit", str(path), "--lang", "c", "--out", str(out)], str(path), *words)
+    assert not out.exists()
+
+
+def test_codegen_refuses_a_table_that_is_a_link(fitted, tmp_path, capsys):
+    path = _copy(fitted, tmp_path)
+    beside = path.with_name("z.rat.csv")
+    beside.unlink()
+    beside.symlink_to(tmp_path / "table.csv")  # the same bytes, read through a link
+    _codegen_refused(capsys, ["codegen", "--fit", str(path), "--lang", "c", "--out", str(tmp_path / "gen")],
+                     "is a symbolic link")
+
+
+def test_codegen_refuses_a_routine_not_finite_between_the_rows(tmp_path, capsys):
+    """A form NaN on |x - 0.55| < 0.001, between the rows x = 0.5 and 0.6: the fit and its held-out error are
+    finite, the routine is not; the dense probe of the domain finds it."""
+    x, y = (g.ravel() for g in np.meshgrid(np.linspace(0.0, 1.0, 11), np.linspace(0.5, 2.0, 7), indexing="ij"))
+    z = 1.0 + 0.3 * x + 0.2 * y
+    fit = fitlab.fit_table({"x": x, "y": y}, z, "a0 + a1*x + a2*y + a3*sqrt(Abs(x - 0.55) - 0.001)", target="z",
+                           name="gap", minimax_rounds=0, progress=False)  # fmt: skip
+    assert math.isfinite(fit.validation["max_rel"])
+    fit.save(tmp_path / "fits" / "z.gap.json")
+    out = tmp_path / "gen"
+    _codegen_refused(capsys, ["codegen", "--fit", str(tmp_path / "fits" / "z.gap.json"), "--lang", "c",
+                              "--out", str(out)], "z/gap: not finite at x = 0.54", "inside its domain")  # fmt: skip
+    assert not out.exists()
+
+
+def test_a_better_fit_already_there_is_kept_unless_forced(fitted, tmp_path, capsys):
+    """The failure replayed: `fitlab fit` with an existing --name silently replaced a better fit with a worse
+    one.  A fit of another table under that name is kept too, refused before the fit starts."""
+    root, path, rec, table = fitted
+    out = tmp_path / "fits"
+    out.mkdir()
+    for name in (path.name, "z.rat.csv"):
+        shutil.copy(path.parent / name, out / name)
+    before = (out / path.name).read_bytes()
+    argv = ["fit", str(table), "--target", "z", "--form", FORM, "--name", "rat", "--out", str(out), "--quiet"]
+    assert main([*argv, "--minimax-rounds", "0"]) == 1  # least squares only: worse than the 3 Lawson rounds
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "is worse than the fit in" in err and "which is kept (--force replaces it)" in err
+    assert (out / path.name).read_bytes() == before
+    assert main([*argv, "--minimax-rounds", "0", "--force"]) == 0
+    replaced = json.loads((out / path.name).read_text())
+    assert replaced["validation"]["max_rel"] > rec["validation"]["max_rel"]
+    # another table (one row left out): not comparable, refused before the fit
+    other = tmp_path / "other.csv"
+    other.write_text("".join(table.read_text().splitlines(keepends=True)[:-1]))
+    capsys.readouterr()
+    import fitlab.fit.user
+
+    def started(*args, **kwargs):
+        raise AssertionError("the fit started")
+
+    original = fitlab.fit.user.run_fit
+    fitlab.fit.user.run_fit = started
+    try:
+        status = main(["fit", str(other), "--target", "z", "--form", FORM, "--name", "rat", "--out", str(out)])
+    finally:
+        fitlab.fit.user.run_fit = original
+    err = capsys.readouterr().err.strip()
+    assert status == 1 and "a fit of another table" in err and "nothing fitted" in err, err
 
 
 def test_the_store_checks_a_user_fit_against_its_own_inputs_and_domain(fitted):
@@ -430,10 +520,23 @@ def test_discover_on_a_table_saves_fits_codegen_prints(fitted, tmp_path, capsys)
     saved = fits / f"z.{name}.json"
     files = generate_fit_file(saved, "c")
     assert f"z_{name}(double x, double y)" in files["z.h"]
+    assert saved.with_suffix(".csv").read_bytes() == (tmp_path / "table.csv").read_bytes()  # the table beside it
+    # --from-front: the same fit from the front written above, without searching again
+    again = tmp_path / "again"
+    t0 = time.perf_counter()
+    status = main(["discover", str(tmp_path / "table.csv"), "--target", "z", "--from-front", "--save", name,
+                   "--out", str(out), "--fits", str(again), "--quiet"])  # fmt: skip
+    assert status == 0 and time.perf_counter() - t0 < 10
+    assert (again / saved.name).read_bytes() == saved.read_bytes()
+    assert (again / saved.with_suffix(".csv").name).read_bytes() == (tmp_path / "table.csv").read_bytes()
+    # another table than the one searched: refused, nothing written
+    other = tmp_path / "other.csv"
+    other.write_text((tmp_path / "table.csv").read_text().replace("\n", "\n# another\n", 1))
     capsys.readouterr()
-    _refused = main(["discover", str(tmp_path / "table.csv"), "--target", "z", "--from-front", "--save", name,
-                     "--out", str(out), "--fits", str(fits)])  # fmt: skip
-    assert _refused == 2 and "--from-front goes with a fitlab target" in capsys.readouterr().err
+    status = main(["discover", str(other), "--target", "z", "--from-front", "--save", name, "--out", str(out),
+                   "--fits", str(tmp_path / "third")])  # fmt: skip
+    err = capsys.readouterr().err
+    assert status == 2 and "the table changed since the search" in err and not (tmp_path / "third").exists()
 
 
 # -- the benchmark -------------------------------------------------------------------------

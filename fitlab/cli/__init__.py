@@ -117,9 +117,17 @@ def _interrupted(name: str) -> int:
     return 130
 
 
+#: the commands whose ``--list`` prints what only fitlab's code determines (``listing_text()`` of the command's
+#: module): ``fitlab COMMAND --list`` alone prints it from the cache (fitlab.cache.cached_text, keyed by the code)
+#: without building the command's parser, whose module imports what its work needs (sympy, JAX: seconds)
+LISTINGS = ("refit", "export")
+
+
 def _run(argv) -> int:
     name = _command_in(argv) or ""
     try:
+        if name in LISTINGS and list(argv) == [name, "--list"]:
+            return _listing(name)
         args = build_parser(() if not name else (name,)).parse_args(argv)
         name = args.command
         if name in WALK_COMMANDS:
@@ -149,4 +157,59 @@ def _run(argv) -> int:
     except Exception as exc:  # noqa: BLE001 - no traceback reaches a user; FITLAB_TRACEBACK=1 shows it
         if os.environ.get("FITLAB_TRACEBACK"):
             raise
+        if _out_of_memory(exc):
+            return fail(name, f"out of memory ({type(exc).__name__}: {' '.join(str(exc).split())[:200]})", FAILURE)
         return fail(name, f"unexpected {type(exc).__name__}: {exc} (FITLAB_TRACEBACK=1 shows where)", FAILURE)
+
+
+def _listing(name: str) -> int:
+    """``fitlab NAME --list`` from the cache (:func:`fitlab.cache.cached_text`, keyed by fitlab's code and the
+    installed families): the listing on stdout, and what the registry said on stderr while it made it (a
+    family entry point that failed to load), said again by every process that prints the listing from the
+    cache (not by one whose registry has loaded already, and so has said it)."""
+    import io
+    import json
+
+    from fitlab.cache import cached_text
+
+    said = io.StringIO()
+
+    def compute() -> str:
+        stderr = sys.stderr
+        sys.stderr = _Tee(stderr, said)
+        try:
+            out = command_module(name).listing_text()
+        finally:
+            sys.stderr = stderr
+        return json.dumps({"out": out, "err": said.getvalue()})
+
+    computed = []
+    listing = json.loads(cached_text(f"listing-{name}", lambda: computed.append(True) or compute()))
+    print(listing["out"], end="")
+    registry = sys.modules.get("fitlab.core._registry")
+    if listing["err"] and not computed and not getattr(registry, "_LOADED", False):
+        print(listing["err"], end="", file=sys.stderr)
+    sys.stdout.flush()
+    return 0
+
+
+class _Tee:
+    """A text stream that writes to several: what a listing's computation says on stderr, shown and kept."""
+
+    def __init__(self, *streams):
+        self.streams = streams
+
+    def write(self, text: str) -> int:
+        for stream in self.streams:
+            stream.write(text)
+        return len(text)
+
+    def flush(self) -> None:
+        for stream in self.streams:
+            stream.flush()
+
+
+def _out_of_memory(exc: BaseException) -> bool:
+    """Whether ``exc`` is JAX's (XLA's) report of an allocation that failed: a runtime error whose status is
+    RESOURCE_EXHAUSTED, which is no bug of fitlab's but the machine's memory."""
+    return "RuntimeError" in type(exc).__name__ and "RESOURCE_EXHAUSTED" in str(exc)

@@ -11,15 +11,15 @@ from fitlab.cli._common import (
     UsageError,
     add_data,
     add_quiet,
-    fits_input,
-    use_data,
     describe,
     fail,
+    fits_input,
     input_folder,
     one_line,
     output_folder,
     require_extra,
     say,
+    use_data,
     write_failure,
 )
 from fitlab.discover.cost import COST_REPEAT, COST_ROUNDS, routine_cost
@@ -62,42 +62,70 @@ def add_arguments(p) -> None:
 
 def _run_table(args) -> int:
     """``fitlab discover TABLE.csv --target COLUMN``: the search on a table of one's own (:mod:`fitlab.discover.user`);
-    --save writes the front members as fits of that table (FITS/COLUMN.NAME.json)."""
-    from fitlab.fit.user import UserDataError, read_csv_table, relative_file
+    --save writes front members as fits of that table (FITS/COLUMN.NAME.json, the table beside each), from this
+    search or, with --from-front, from the front a search wrote earlier into --out (no search)."""
+    from fitlab.fit.user import UserDataError, read_csv_table
 
-    given = [flag for flag, value in (("--from-front", args.from_front), ("--cost", args.cost), ("--data", args.data))
-             if value]  # fmt: skip
+    given = [flag for flag, value in (("--cost", args.cost), ("--data", args.data)) if value]
     if given:
         raise UsageError(f"{given[0]} goes with a fitlab target, not with a table of your own")
+    if args.from_front and not args.save:
+        raise UsageError("--from-front goes with --save NAME")
     if args.max_terms < 1 or args.minimax_rounds < 0:
         raise UsageError("--max-terms must be >= 1 and --minimax-rounds >= 0")
     if args.save and len(set(args.save)) != len(args.save):
         raise UsageError("--save: a name given twice")
     inputs = None if args.inputs is None else [n.strip() for n in args.inputs.split(",") if n.strip()]
-    out = output_folder(args.out, "--out", files=[f"{args.target}{ext}" for ext in (".md", ".json", ".png")])
+    if args.from_front:
+        input_folder(args.out, "--out")  # the front is read from it
+    else:
+        out = output_folder(args.out, "--out", files=[f"{args.target}{ext}" for ext in (".md", ".json", ".png")])
     if args.save:
         if args.fits is None:
             raise UsageError("--save writes into --fits: give the folder (for example --fits fits)")
         output_folder(args.fits, "--fits")
-    require_extra("pysindy", "discover")
-    from fitlab.discover.user import discover_table
-
     try:
         table = read_csv_table(args.table)
-        file = relative_file(args.table, args.fits) if args.save else None
-        disc = discover_table(table, args.target, inputs=inputs, max_terms=args.max_terms,
-                              minimax_rounds=args.minimax_rounds, progress=not args.quiet)  # fmt: skip
+    except UserDataError as exc:
+        raise UsageError(one_line(exc)) from None
+    if args.from_front:
+        try:
+            paths = save_from_front(Path(args.out) / f"{args.target}.json", args.save, Path(args.fits), table)
+        except (KeyError, ValueError, FitFileError) as exc:
+            raise UsageError(one_line(exc)) from None
+        except OSError as exc:
+            raise write_failure(args.fits, exc) from None
+        for path in paths:
+            say(args, f"wrote {path}")
+        return 0
+    require_extra("pysindy", "discover")
+    from fitlab.discover.user import prepare_table, search_rows
+
+    try:
+        rows = prepare_table(table, args.target, inputs=inputs, max_terms=args.max_terms)
     except UserDataError as exc:  # the checks of the table, before the search
         raise UsageError(one_line(exc)) from None
+    try:
+        disc = search_rows(rows, max_terms=args.max_terms, minimax_rounds=args.minimax_rounds, progress=not args.quiet)
     except (FitError, ValueError, ArithmeticError) as exc:
         raise RunFailure(f"the search failed: {one_line(exc)}") from None
     _print_front(disc, args.save)
-    saved = {Path(args.fits) / f"{disc.target}.{n}.json": {**disc.get(n).record, "user_data": {
-        **disc.get(n).record["user_data"], "file": file}} for n in args.save or ()}  # fmt: skip
+    from fitlab._io import atomic_write_many
+    from fitlab.fit.user import table_beside
+    from fitlab.store import check_fit, strict_json
+
+    saved = {}
+    for name in args.save or ():
+        path = Path(args.fits) / f"{disc.target}.{name}.json"
+        record = disc.get(name).record
+        record = {**record, "user_data": {**record["user_data"], "file": table_beside(path).name}}
+        saved[table_beside(path)] = table.data
+        saved[path] = strict_json(check_fit(record, str(path))).encode()
     try:
         written = write_outputs(disc, out)  # the front's three files as one unit
-        if saved:  # every saved form as one unit
-            written += write_fits(saved)
+        if saved:  # every saved form, each with its table, as one unit
+            atomic_write_many(saved)
+            written += list(saved)
     except OSError as exc:
         raise write_failure(args.out, exc) from None
     for path in written:

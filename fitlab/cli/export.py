@@ -15,7 +15,7 @@ from fitlab.cli._common import (
     write_files,
 )
 
-__all__ = ["add_arguments", "run"]
+__all__ = ["add_arguments", "run", "listing_text"]
 
 
 def add_arguments(p) -> None:
@@ -60,11 +60,11 @@ def _sizes_text(sizes) -> str:
     return f"{sizes[0]} to {sizes[-1]}" if contiguous and len(sizes) > 5 else ", ".join(map(str, sizes))
 
 
-def _list(offered: dict) -> int:
-    for name, (family, spec) in offered.items():
-        print(f"{name:24s} {family:18s} size {spec.default_size} ({_sizes_text(spec.sizes)}); "
-              f"{', '.join(spec.formats)}; {spec.description}")
-    return 0
+def listing_text() -> str:
+    """What ``fitlab export --list`` prints: every table, its family, sizes, formats and description (the families'
+    ``images`` hooks, imported; cached by fitlab's code, :func:`fitlab.cache.cached_text`)."""
+    return "".join(f"{name:24s} {family:18s} size {spec.default_size} ({_sizes_text(spec.sizes)}); "
+                   f"{', '.join(spec.formats)}; {spec.description}\n" for name, (family, spec) in _offered().items())
 
 
 def _check(args, offered: dict) -> tuple[list, list]:
@@ -75,7 +75,9 @@ def _check(args, offered: dict) -> tuple[list, list]:
     chosen = []
     for name in dict.fromkeys(args.tables):
         if name not in offered:
-            raise UsageError(f"no table {name!r}; choose among {', '.join(offered)}")
+            from fitlab.core import did_you_mean
+
+            raise UsageError(f"no table {name!r}{did_you_mean(name, offered, '--list names them')}")
         _, spec = offered[name]
         size = spec.default_size if args.size is None else args.size
         if size not in spec.sizes:
@@ -92,11 +94,46 @@ def _check(args, offered: dict) -> tuple[list, list]:
     return chosen, formats
 
 
+#: a build projected to take longer than this (seconds) is named in a warning on stderr
+SLOW_EXPORT_SECONDS = 60.0
+
+
+def _paced(bar, total: int, what: str):
+    """The ``tick`` of the builds: it moves ``bar`` and, once two steps are done, projects the whole build from
+    the pace of the steps after the first (which also compiles), saying in one warning line on stderr, once, when
+    it will take longer than :data:`SLOW_EXPORT_SECONDS`."""
+    import sys
+    import time
+
+    from fitlab._montecarlo import duration
+
+    stamps: list[float] = []
+    start = time.monotonic()
+    said = False
+
+    def tick() -> None:
+        nonlocal said
+        bar.update(1)
+        stamps.append(time.monotonic())
+        if said or len(stamps) < 2:
+            return
+        pace = (stamps[-1] - stamps[0]) / (len(stamps) - 1)
+        projected = stamps[-1] - start + pace * max(0, total - len(stamps))
+        if projected > SLOW_EXPORT_SECONDS:
+            bar.write(f"fitlab export: warning: {what} will take about {duration(projected)} ({total} steps, "
+                      f"{pace:.2g} s each so far); Ctrl-C stops it with nothing written", file=sys.stderr)
+            said = True
+
+    return tick
+
+
 def run(args) -> int:
-    offered = _offered()
     if args.list:
-        return _list(offered)
-    chosen, formats = _check(args, offered)
+        from fitlab.cache import cached_text
+
+        print(cached_text("listing-export", listing_text), end="")
+        return 0
+    chosen, formats = _check(args, _offered())
     from fitlab.export import encode, file_name
 
     names = [file_name(name, fmt) for name, _, _ in chosen for fmt in formats]
@@ -106,9 +143,10 @@ def run(args) -> int:
     files = {}
     total = sum(spec.steps(size) for _, spec, size in chosen)
     with tqdm(total=total, desc="tables", unit="step", disable=args.quiet) as bar:
+        tick = _paced(bar, total, ", ".join(f"{name} at size {size}" for name, _, size in chosen))
         for name, spec, size in chosen:
             try:
-                image = spec.build(size, tick=lambda: bar.update(1)).with_origin(args.origin)
+                image = spec.build(size, tick=tick).with_origin(args.origin)
                 for fmt in formats:
                     files[file_name(name, fmt)] = encode(image, fmt)
             except (ArithmeticError, ValueError) as exc:

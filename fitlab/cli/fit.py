@@ -2,17 +2,30 @@
 
 :mod:`fitlab.fit.user` does the work and reads and writes nothing but the table; this module checks every
 option, the table, the form and the output folder before the fit starts (each refusal one line, exit
-status 2), fits with a progress bar, and writes OUT/COLUMN.NAME.json atomically only when the fit's
-held-out error is finite (exit status 1 otherwise, nothing written).
+status 2), fits with a progress bar, and writes OUT/COLUMN.NAME.json and the table beside it
+(OUT/COLUMN.NAME.csv, which the fit names) as one unit, only when the fit's held-out error is finite (exit
+status 1 otherwise, nothing written).  As ``fitlab refit`` does, it keeps a fit already there that is better
+on the same held-out rows, or that cannot be compared (another table, domain, split or error; known before
+the fit), unless ``--force`` (exit status 1, nothing written).
 """
 
 from __future__ import annotations
 
 import math
+import sys
 from pathlib import Path
 
-from fitlab.cli._common import RunFailure, UsageError, add_quiet, describe, integer, one_line, output_folder, say, \
-    write_failure
+from fitlab.cli._common import (
+    RunFailure,
+    UsageError,
+    add_quiet,
+    describe,
+    integer,
+    one_line,
+    output_folder,
+    say,
+    write_failure,
+)
 
 __all__ = ["add_arguments", "run", "parse_start", "parse_user_domain"]
 
@@ -21,9 +34,11 @@ def add_arguments(p) -> None:
     describe(p, "Fit a form written as an expression (parameters a0, a1, ...; the other names are columns of the "
                 "table) to a column of a CSV table (a header row naming the columns, then one row per point; # "
                 "lines skipped) by the refit's optimistix least squares and minimax refinement, one row in four "
-                "held out for validation, and write OUT/COLUMN.NAME.json, which `fitlab codegen --fit` prints in "
-                "every language. Every check of the table and the form is made before the fit (one line, exit "
-                "status 2).",
+                "held out for validation, and write OUT/COLUMN.NAME.json and a copy of the table beside it "
+                "(OUT/COLUMN.NAME.csv), which `fitlab codegen --fit` prints in every language. Every check of the "
+                "table and the form is made before the fit (one line, exit status 2). A fit already there that is "
+                "better on the same held-out rows, or that was fitted to another table, domain or split, is kept "
+                "(exit status 1) unless --force.",
              'fitlab fit E.csv --target E --form "(a0 + a1*mu)/(1 + a2*alpha + a3*mu)" --name rational')  # fmt: skip
     p.add_argument("table", metavar="TABLE.csv", help="the table: CSV with a header row")
     p.add_argument("--target", required=True, metavar="COLUMN", help="the column to fit")
@@ -46,6 +61,9 @@ def add_arguments(p) -> None:
     p.add_argument("--minimax-rounds", type=integer(0, 1000), default=40, metavar="N",
                    help="Lawson minimax rounds after least squares (default 40, as refit; 0: least squares only)")
     p.add_argument("--out", default="fits", help="folder for the fit JSON (default: fits, below the current folder)")
+    p.add_argument("--force", action="store_true",
+                   help="replace the fit in --out of this column and name even when it is better on the same held-out "
+                        "rows, or was fitted to another table, domain, split or error")
     p.add_argument("--json", action="store_true", help="print a machine-readable summary (JSON) instead of the text")
     add_quiet(p)
 
@@ -94,7 +112,7 @@ def parse_user_domain(items) -> dict:
 
 
 def run(args) -> int:
-    from fitlab.fit.user import UserDataError, prepare, read_csv_table, relative_file
+    from fitlab.fit.user import UserDataError, prepare, read_csv_table, table_beside
 
     try:
         start = parse_start(args.start)
@@ -109,12 +127,14 @@ def run(args) -> int:
         table = read_csv_table(args.table)
         prep = prepare(table, args.target, args.form, inputs=inputs, domain=domain, name=args.name, start=start,
                        error=args.error, holdout_every=args.holdout_every)  # fmt: skip
-        path = out / f"{args.target}.{prep.form.name}.json"
-        if path.is_dir():
-            raise UsageError(f"--out {args.out}: {path} is a folder, where the fit will be written")
-        file = relative_file(args.table, out)
     except UserDataError as exc:
         raise UsageError(one_line(exc)) from None
+    path = out / f"{args.target}.{prep.form.name}.json"
+    beside = table_beside(path)
+    for target in (path, beside):
+        if target.is_dir():
+            raise UsageError(f"--out {args.out}: {target} is a folder, where the fit will be written")
+    old, note = _existing(path, prep, args.force)
 
     from tqdm import tqdm
 
@@ -135,25 +155,79 @@ def run(args) -> int:
     finally:
         bar.close()
     record = fit.record
-    record["user_data"]["file"] = file
     v = record["validation"]
     if not (math.isfinite(v["max_rel"]) and math.isfinite(v["rms_rel"])):
         raise RunFailure(f"{args.target}/{prep.form.name}: the held-out error is not finite (max {v['max_rel']}, "
                          f"RMS {v['rms_rel']}): the fit has a pole or NaN on the held-out rows; nothing written")
-    from fitlab.store import FitFileError, strict_json, write_fit
+    if old is not None:
+        _keep_better(path, old, record)
+    from fitlab._io import atomic_write_many
+    from fitlab.store import FitFileError
 
     try:
-        write_fit(path, record)
+        files = fit.files(path)  # the fit and its table beside it, checked as the store reads them back
     except FitFileError as exc:  # what fitlab writes it can read back: a record it would refuse is never written
         raise RunFailure(one_line(exc)) from None
+    try:
+        atomic_write_many(files)
     except OSError as exc:
         raise write_failure(out, exc) from None
+    record = {**record, "user_data": {**record["user_data"], "file": beside.name}}
+    if fit.warning is not None:
+        print(f"fitlab fit: warning: {record['target']}/{record['form']}: {fit.warning}", file=sys.stderr)
     if args.json:
-        print(strict_json(_summary(record, path)), end="")
+        from fitlab.store import strict_json
+
+        print(strict_json({**_summary(record, path), "warning": fit.warning, "conditioning": fit.conditioning}),
+              end="")  # fmt: skip
     else:
         print(_text(record, table.name))
-    say(args, f"wrote {path}")
+    say(args, f"wrote {path} and its table {beside.name}{note or ''}")
     return 0
+
+
+def _existing(path: Path, prep, force: bool) -> tuple[dict | None, str | None]:
+    """The fit already at ``path`` and its held-out error measured again on this table, to keep when it is
+    better (:func:`_keep_better`, after the fit): (measured figures, None) when it is a fit of the same table,
+    rows, split and error as this one; (None, the note the ``wrote`` line adds) when there is none, or ``force``,
+    or a file that is no readable fit of this column and form, or one whose figures its table does not give
+    (each replaced).  A readable fit that is not comparable (another table, domain, split or error) is kept
+    unless ``force``: refused here, before the fit (exit status 1, nothing written)."""
+    if force or not path.exists():
+        return None, None
+    from fitlab.fit.user import UserDataError, not_comparable, remeasure
+    from fitlab.store import FitFileError, read_fit
+
+    key = f"{prep.form.target}/{prep.form.name}"
+    try:
+        old = read_fit(path)
+        if "user_data" not in old or (old["target"], old["form"]) != (prep.form.target, prep.form.name):
+            raise FitFileError(f"a fit of {old['target']}/{old['form']}{'' if 'user_data' in old else ' (fitlab)'}")
+    except FitFileError as exc:
+        return None, f" (replacing a file that was not a readable fit of {key}: {one_line(exc)})"
+    reason = not_comparable(old, prep.rows)
+    if reason is not None:
+        raise RunFailure(f"{key}: {path} holds {reason}; not comparable, so it is kept (--force replaces it); "
+                         "nothing fitted, nothing written")
+    try:
+        return remeasure(old, prep.rows.table), None
+    except UserDataError as exc:
+        return None, f" (replacing a fit whose figures its table does not give: {one_line(exc)})"
+
+
+def _keep_better(path: Path, measured: dict, record: dict) -> None:
+    """Refuse (exit status 1, nothing written) when the fit ``record`` is worse than the fit at ``path``, whose
+    held-out error on the same rows is ``measured`` (:func:`_existing`)."""
+    from fitlab.fit.refit import worse
+
+    new = record["validation"]
+    unmeasured = any(math.isnan(float(measured[k])) for k in ("max_rel", "max_rel_nonzero", "rms_rel"))
+    if unmeasured or not worse(new, measured):
+        return
+    g = "{:.3e}".format
+    raise RunFailure(f"{record['target']}/{record['form']}: the fit (max {g(new['max_rel'])}, RMS {g(new['rms_rel'])}) "
+                     f"is worse than the fit in {path} (max {g(measured['max_rel'])}, RMS {g(measured['rms_rel'])}, "
+                     "measured again on the same held-out rows), which is kept (--force replaces it); nothing written")
 
 
 def _summary(record: dict, path: Path) -> dict:

@@ -24,19 +24,18 @@ from fitlab.cli._common import (
     add_data,
     add_fits,
     add_quiet,
-    fits_input,
-    use_data,
     describe,
+    fits_input,
     input_file,
     one_line,
     output_folder,
     say,
+    use_data,
     write_failure,
 )
 from fitlab.codegen.program import model_form
-from fitlab.core import get_target, target_names, targets
+from fitlab.core import did_you_mean, get_target, target_names, targets
 from fitlab.fit.refit import (
-    VERDICT_RTOL,
     check_domain,
     default_jobs,
     measure_word,
@@ -45,6 +44,7 @@ from fitlab.fit.refit import (
     table,
     timed_refit,
     validation_metrics,
+    worse,
 )
 from fitlab.fit.solver import FitError
 from fitlab.store import (
@@ -59,7 +59,7 @@ from fitlab.store import (
     write_fits,
 )
 
-__all__ = ["add_arguments", "run", "parse_domain", "kept_fit"]
+__all__ = ["add_arguments", "run", "parse_domain", "kept_fit", "listing_text"]
 
 
 def add_arguments(p) -> None:
@@ -109,7 +109,8 @@ def _requested(args) -> list[tuple]:
     if args.all and (args.form or args.domain or args.init):
         raise UsageError("--form, --domain and --init go with --target, not --all")
     if args.target not in (None, *target_names()):  # names only: no family is imported for them
-        raise UsageError(f"unknown target {args.target!r}; choose one of {', '.join(target_names())}")
+        raise UsageError(f"unknown target {args.target!r}"
+                         f"{did_you_mean(args.target, target_names(), '--list names them')}")
     fits = fits_input(args, required=False)
     use_data(args)
     if args.init is not None:
@@ -154,12 +155,22 @@ def _start_metrics(target, form, start, domain) -> dict:
     return validation_metrics(form, theta, valid, target.scale(valid))
 
 
+def listing_text() -> str:
+    """What ``fitlab refit --list`` prints: every target, its description and its forms, the one the generated
+    code prints marked (the registry's, every family imported; cached by fitlab's code, :func:`fitlab.cache.cached_text`)."""
+    lines = []
+    for t in targets().values():
+        default = model_form(t.name)
+        forms = ", ".join(f + (" (default)" if f == default else "") for f in t.forms)
+        lines.append(f"{t.name:<10} {t.description}\n{'':<10} forms: {forms}")
+    return "\n".join(lines) + "\n"
+
+
 def run(args) -> int:
     if args.list:
-        for t in targets().values():
-            default = model_form(t.name)
-            forms = ", ".join(f + (" (default)" if f == default else "") for f in t.forms)
-            print(f"{t.name:<10} {t.description}\n{'':<10} forms: {forms}")
+        from fitlab.cache import cached_text
+
+        print(cached_text("listing-refit", listing_text), end="")
         return 0
     jobs = _jobs(args)  # every usage error before any work
 
@@ -220,21 +231,6 @@ def _domain_text(domain) -> str:
     return ", ".join(f"{k}={float(lo):g}:{float(hi):g}" for k, (lo, hi) in domain.items())
 
 
-def _worse(mine, theirs) -> bool:
-    """Whether ``mine`` is worse than ``theirs`` (validation figures): a larger max rel (infinite where the
-    fit misses an exact zero), else a larger max rel*, else a larger RMS, each beyond rounding
-    (:data:`fitlab.fit.refit.VERDICT_RTOL`); equal figures are not worse."""
-    for key in ("max_rel", "max_rel_nonzero", "rms_rel"):
-        a, b = float(mine[key]), float(theirs[key])
-        if a == b:
-            continue
-        if a > b * (1 + VERDICT_RTOL):
-            return True
-        if a * (1 + VERDICT_RTOL) < b:
-            return False
-    return False
-
-
 def kept_fit(path: Path, result, target) -> tuple[str | None, str | None]:
     """Whether the fit already at ``path`` stays instead of ``result`` (a refit of ``target``):
     (reason, None) when it stays, (None, note) when the refit may replace it (``note``: what the
@@ -242,7 +238,7 @@ def kept_fit(path: Path, result, target) -> tuple[str | None, str | None]:
 
     It stays when it is a readable fit of the same target and form that is better on the refit's own
     validation set (measured again there, from the file's expression and parameters, not its stated
-    figures; :func:`_worse` says what better is), or that was fitted over another domain (not
+    figures; :func:`fitlab.fit.refit.worse` says what better is), or that was fitted over another domain (not
     comparable).  A file that is not a readable fit is replaced, and the note says so."""
     path = Path(path)
     if not path.exists():
@@ -264,7 +260,8 @@ def kept_fit(path: Path, result, target) -> tuple[str | None, str | None]:
     form = form_from_fit(old)
     measured = validation_metrics(form, form.vector(old["params"]), valid, target.scale(valid))
     new = rec["validation"]
-    if any(math.isnan(float(measured[k])) for k in ("max_rel", "max_rel_nonzero", "rms_rel")) or not _worse(new, measured):
+    unmeasured = any(math.isnan(float(measured[k])) for k in ("max_rel", "max_rel_nonzero", "rms_rel"))
+    if unmeasured or not worse(new, measured):
         return None, None
     _g = "{:.3e}".format
     w = measure_word(target.error_measure)

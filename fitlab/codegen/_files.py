@@ -10,7 +10,7 @@ from pathlib import Path
 from fitlab._io import atomic_write_text
 from fitlab.codegen.languages import LANGUAGES, emit
 from fitlab.codegen.program import Model, Program, ProgramSpec, build_program, parse_terms, program_spec
-from fitlab.core import targets
+from fitlab.core import did_you_mean, targets
 from fitlab.store import FitFileError, FitFunction, fit_files, fit_origin, fit_path, fit_sha256, fit_source, load
 
 __all__ = [
@@ -210,7 +210,7 @@ def parse_forms(items) -> dict[str, str]:
         if not sep or not form:
             raise ValueError(f"--form {item!r}: write TARGET=FORM, e.g. H0=hapke_rational")
         if target not in known:
-            raise ValueError(f"--form {item!r}: TARGET is one of {', '.join(known)}")
+            raise ValueError(f"--form {item!r}: no target {target!r}{did_you_mean(target, known)}")
         if target in out:
             raise ValueError(f"--form: {target} given twice")
         out[target] = form

@@ -8,10 +8,13 @@ of the rows it was fitted and validated on (:func:`fitlab.codegen.program.with_d
 +-inf and other values outside are clamped).
 
 The routine's documentation and the banner state that domain and the held-out error measured again at
-generation: the table the fit names is read (its sha256 must be the one the fit states), its held-out
-rows are split again as the fit says (:func:`fitlab.fit.user.remeasure`), and the fit is measured there.
-The number the fit file states is not copied: it must agree with the one measured to rounding, else the
-fit and its table disagree and nothing is generated (:class:`fitlab.store.FitFileError`).
+generation: the table the fit names (a file beside the fit) is read (its sha256 must be the one the fit
+states), its rows are checked and split again as the fit says, and every figure the banner prints of it (the
+domain, the rows, the error's floor, the split) must be the one the table gives
+(:func:`fitlab.fit.user.remeasure`); the fit is measured on the held-out rows.  The number the fit file
+states is not copied: it must agree with the one measured to rounding, else the fit and its table disagree
+and nothing is generated (:class:`fitlab.store.FitFileError`).  The routine must be finite on a dense probe of
+its domain (:func:`fitlab.fit.user.nonfinite_point`).
 """
 
 from __future__ import annotations
@@ -56,7 +59,7 @@ def user_program(fit: FitFunction, table, source: tuple[str, str] | None = None)
     ``user_data``), its held-out error measured again on ``table`` (:class:`fitlab.fit.user.UserTable`, the
     table the record names).  ``source``: (fit file name, sha256) the banner lists.  FitFileError (one line)
     when the fit is not a user fit, the table is not its table, or the error it states is not the one measured."""
-    from fitlab.fit.user import UserDataError, remeasure, split_text
+    from fitlab.fit.user import UserDataError, nonfinite_point, remeasure, split_text
 
     record = fit.record
     if "user_data" not in record:
@@ -67,7 +70,7 @@ def user_program(fit: FitFunction, table, source: tuple[str, str] | None = None)
     try:
         measured = remeasure(record, table)
     except UserDataError as exc:
-        raise FitFileError(str(exc)) from None
+        raise FitFileError(f"{fit.path or f'{fit.target}/{fit.form}'}: {exc}") from None
     stated = record.get("validation", {})
     # an absolute error's rounding scales with the values
     unit = 1.0 if record["user_data"]["error"] == "relative" else max(abs(float(measured["worst"]["exact"])), 1.0)
@@ -80,6 +83,10 @@ def user_program(fit: FitFunction, table, source: tuple[str, str] | None = None)
             )
     domain = {k: tuple(float(x) for x in v) for k, v in record["domain"].items()}
     where = ", ".join(f"{k} in [{lo!r}, {hi!r}]" for k, (lo, hi) in domain.items())
+    bad = nonfinite_point(fit, domain)
+    if bad is not None:
+        at = ", ".join(f"{k} = {v!r}" for k, v in bad.items())
+        raise FitFileError(f"{fit.target}/{fit.form}: not finite at {at}, inside its domain {where}; nothing generated")
     args = ", ".join(fit.inputs)
     user = record["user_data"]
     origin = {
@@ -148,7 +155,11 @@ def read_user_fit(path) -> tuple[FitFunction, object]:
             f"{path}: names no table file; codegen measures the held-out error again on the table, "
             "so save the fit with UserFit.save, which writes its table beside it"
         )
-    table_path = path.parent / user["file"]
+    table_path = path.parent / user["file"]  # a file name alone (fitlab.store checks it): the fit's folder
+    if table_path.is_symlink():
+        raise FitFileError(
+            f"{path}: its table {user['file']} is a symbolic link; a fit's table is a file beside it, read only there"
+        )
     try:
         table = read_csv_table(table_path)
     except UserDataError as exc:

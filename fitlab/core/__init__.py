@@ -28,6 +28,7 @@ from fitlab.core._precision import float64
 from fitlab.core._registry import (
     Family,
     broken_families,
+    did_you_mean,
     families,
     families_offering,
     family_service,
@@ -65,6 +66,7 @@ __all__ = [
     "Target",
     "broken_families",
     "data_hash",
+    "did_you_mean",
     "families",
     "families_offering",
     "family_service",

@@ -50,6 +50,7 @@ __all__ = [
     "resolve_hook",
     "broken_families",
     "manifest_hooks",
+    "did_you_mean",
 ]
 
 
@@ -358,12 +359,29 @@ def target_names() -> tuple[str, ...]:
     return tuple(t for slot in _SLOTS.values() for t in _slot_targets(slot))
 
 
+def did_you_mean(name: str, names, listing: str = "") -> str:
+    """What follows "unknown NAME" in a refusal: ``"; did you mean H0?"`` (or "H0 or H1"), the closest of
+    ``names`` to the misspelled ``name`` (difflib's ratio of at least 0.6, ignoring case; at most three), then
+    `` (LISTING)`` when ``listing`` is given (where every name is listed, e.g. "fitlab refit --list"); with none
+    close, ``"; choose one of A, B, ..."``."""
+    import difflib
+
+    names = list(names)
+    by_case = {n.lower(): n for n in reversed(names)}
+    close = difflib.get_close_matches(str(name).lower(), list(by_case), n=3, cutoff=0.6)
+    if not close:
+        return f"; choose one of {', '.join(names)}"
+    found = [by_case[c] for c in close]
+    return (f"; did you mean {', '.join(found[:-1]) + ' or ' if len(found) > 1 else ''}{found[-1]}?"
+            f"{f' ({listing})' if listing else ''}")  # fmt: skip
+
+
 def get_target(name: str) -> Target:
     """The target ``name``: its family is imported if it was not (the others are not)."""
     _load()
     family = _OWNER.get(name)
     if family is None:
-        raise KeyError(f"unknown target {name!r}; choose one of {', '.join(target_names())}")
+        raise KeyError(f"unknown target {name!r}{did_you_mean(name, target_names(), 'fitlab refit --list names them')}")
     _ensure(family)
     if name not in _TARGETS:  # a registry call while the family's package imports
         raise KeyError(f"target {name!r}: its family {family!r} is being imported; it is not registered yet")

@@ -23,7 +23,7 @@ from typing import Mapping
 import numpy as np
 import sympy as sp
 
-from fitlab.core import families
+from fitlab.core import did_you_mean, families
 from fitlab.forms.symbolic import lambdify_numpy, symbols
 
 __all__ = ["Library", "libraries_of", "get_library", "get_libraries", "products"]
@@ -116,7 +116,7 @@ def libraries_of() -> dict[str, tuple[Library, ...]]:
 def get_libraries(target: str) -> tuple[Library, ...]:
     libraries = libraries_of()
     if target not in libraries:
-        raise KeyError(f"no discovery library for target {target!r}; targets: {', '.join(libraries)}")
+        raise KeyError(f"no discovery library for target {target!r}{did_you_mean(target, libraries)}")
     return libraries[target]
 
 

@@ -37,7 +37,8 @@ def front_table(disc: Discovery) -> str:
         "",
         *(f"Library `{lib.name}`: {lib.description}.\n" for lib in disc.libraries),
         f"{len(disc.candidates)} sparse supports from the regression; {len(disc.refined)} refitted (optimistix LM, "
-        f"then minimax where the target asks) and validated on the target's validation set. Front: lowest "
+        f"then minimax where the target asks) and validated on the target's validation set"
+        f"{f' (the other {len(disc.dropped)}, and why: below)' if disc.dropped else ''}. Front: lowest "
         f"validation {'max' if m == 'max_rel' else 'RMS'} relative error for its term count or operation count.",
         "",
         "| form | kind | terms | ops | max rel | RMS rel | found by |",
@@ -61,6 +62,14 @@ def front_table(disc: Discovery) -> str:
         if d.name in disc.front:
             lines.append(f"- **{d.name}**{_tag(disc, d)}: numerator {', '.join(d.candidate.num) or '-'}; "
                          f"denominator {', '.join(d.candidate.den) or '-'}")  # fmt: skip
+    if disc.dropped:
+        lines += ["", "## The supports not refitted or not kept, and why", "",
+                  "| numerator | denominator | terms | found by | linearised error | why |",
+                  "|---|---|---:|---|---:|---|"]  # fmt: skip
+        for g in disc.dropped:
+            tag = f" (library {g['library']})" if g["library"] != disc.libraries[0].name else ""
+            lines.append(f"| {', '.join(g['numerator']) or '-'} | {', '.join(g['denominator']) or '-'} | "
+                         f"{g['terms']} | {g['found_by']}{tag} | {_e(g['linear_error'])} | {g['reason']} |")  # fmt: skip
     return "\n".join(lines) + "\n"
 
 
@@ -73,6 +82,7 @@ def front_json(disc: Discovery) -> str:
         "front": disc.front,
         "refined": [{"name": d.name, "terms": d.terms, "operations": d.operations, "front": d.name in disc.front,
                      "record": d.record} for d in disc.refined],
+        "dropped": disc.dropped,
     })  # fmt: skip
 
 
@@ -130,27 +140,67 @@ def save(disc: Discovery, name: str, fits_dir: Path = Path("fits")) -> Path:
     return path
 
 
-def save_from_front(front_file: Path, names, fits_dir: Path = Path("fits")) -> list[Path]:
+#: the largest front file read (a front holds its refitted records, each at most a fit file's size)
+MAX_FRONT_BYTES = 100_000_000
+
+
+def save_from_front(front_file: Path, names, fits_dir: Path = Path("fits"), table=None) -> list[Path]:
     """:func:`save` from a front written earlier (docs/discover/TARGET.json), without searching again.
 
-    ``names``: front members (one name or several).  Every name is checked before anything is
-    written, and the files are written as one unit.
+    ``names``: front members (one name or several).  A front of a table of one's own (its records hold
+    ``user_data``) needs ``table`` (:class:`fitlab.fit.user.UserTable`), the table searched (its sha256 is
+    checked): each fit is written as FITS/COLUMN.NAME.json with the table beside it, as ``fitlab fit``
+    writes one.  Every name is checked before anything is written, and the files are written as one unit.
     """
+    from fitlab._io import InputFileError, read_regular_file
 
     names = [names] if isinstance(names, str) else list(names)
     front_file = Path(front_file)
     try:
-        data = json.loads(front_file.read_text())
-    except FileNotFoundError:
-        raise ValueError(f"{front_file}: no such front; run `fitlab discover --target TARGET` first") from None
+        data = json.loads(read_regular_file(front_file, MAX_FRONT_BYTES).decode("utf-8"))
+    except InputFileError as exc:
+        if exc.kind == "missing":
+            raise ValueError(f"{front_file}: no such front; run `fitlab discover` without --from-front first") from None
+        raise ValueError(f"{front_file}: {exc.refusal('front')}") from None
     except json.JSONDecodeError as exc:
         raise ValueError(f"{front_file}: corrupt JSON ({exc.msg}, line {exc.lineno})") from None
-    front = data.get("front", [])
-    records = {item["name"]: item["record"] for item in data.get("refined", []) if item["name"] in front}
+    except (UnicodeDecodeError, RecursionError) as exc:
+        raise ValueError(f"{front_file}: not a front ({type(exc).__name__})") from None
+    if not isinstance(data, dict) or not isinstance(data.get("refined"), list):
+        raise ValueError(f"{front_file}: not a front written by fitlab discover")
+    front = [n for n in data.get("front", []) if isinstance(n, str)]
+    records = {item["name"]: item["record"] for item in data["refined"]
+               if isinstance(item, dict) and item.get("name") in front and isinstance(item.get("record"), dict)}
     for name in names:
         if name not in records:
             raise KeyError(f"{front_file}: {name!r} is not on the front; the front is {', '.join(front)}")
-    return write_fits({fit_path(Path(fits_dir), data["target"], n): decode_nonfinite(records[n]) for n in names})
+        if records[name].get("form") != name:
+            raise ValueError(f"{front_file}: the front's {name!r} holds a fit of the form "
+                             f"{str(records[name].get('form'))[:70]!r}; the front is damaged")  # fmt: skip
+    own = [n for n in names if "user_data" in records[n]]
+    if not own:
+        if table is not None:
+            raise ValueError(f"{front_file}: a front of fitlab's target {data.get('target')}, not of a table")
+        return write_fits({fit_path(Path(fits_dir), data["target"], n): decode_nonfinite(records[n]) for n in names})
+    from fitlab.fit.user import table_beside
+    from fitlab.store import check_fit
+
+    if table is None or len(own) != len(names):
+        raise ValueError(f"{front_file}: a front of a table of your own; give that table")
+    files = {}
+    for name in names:
+        record = decode_nonfinite(records[name])
+        if record["user_data"].get("sha256") != table.sha256:
+            raise ValueError(f"{front_file}: {name} was fitted to a table with sha256 "
+                             f"{str(record['user_data'].get('sha256'))[:16]}..., not {table.name} "
+                             f"({table.sha256[:16]}...); the table changed since the search")  # fmt: skip
+        path = Path(fits_dir) / f"{record['target']}.{name}.json"
+        beside = table_beside(path)
+        record["user_data"] = {**record["user_data"], "file": beside.name}
+        files[beside] = table.data
+        files[path] = strict_json(check_fit(record, f"{front_file} ({name})")).encode()
+    atomic_write_many(files)
+    return list(files)
 
 
 def write_outputs(disc: Discovery, out_dir: Path) -> list[Path]:

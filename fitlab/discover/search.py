@@ -62,6 +62,9 @@ class Discovery:
     front: list  # names of the Discovered on the Pareto front
     reference: list = field(default_factory=list)  # published presets and saved fits: dicts (label, terms, ops, error)
     seconds: float = 0.0
+    #: every support the regression found that is not among ``refined``: dicts (numerator, denominator, terms,
+    #: found_by, library, linear_error, reason), in the regression's order
+    dropped: list = field(default_factory=list)
 
     def library_of(self, candidate: Candidate) -> Library:
         return next(lib for lib in self.libraries if lib.name == candidate.library)
@@ -122,18 +125,27 @@ def discover(
     by_name = {lib.name: lib for lib in libraries}
     metric = front_metric(target)
     train = target.training()
-    candidates, pool = [], []
+    candidates, pool, linear, dropped = [], [], {}, {}
     for lib in libraries:
         reg = SparseRegression(lib, thresholds=thresholds, frols_steps=max_terms + 2).fit(train.inputs, train.y, target.scale(train))
         candidates += reg.candidates_
-        pool += [(cand, err) for cand, err in zip(reg.candidates_, _linear_errors(reg, target, train))
-                 if cand.n_terms <= max_terms and np.isfinite(err)]  # fmt: skip
+        for cand, err in zip(reg.candidates_, _linear_errors(reg, target, train)):
+            linear[id(cand)] = err
+            if cand.n_terms > max_terms:
+                dropped[id(cand)] = f"{cand.n_terms} terms, more than max_terms ({max_terms})"
+            elif not np.isfinite(err):
+                dropped[id(cand)] = "its linearised fit is not finite on the training rows"
+            else:
+                pool.append((cand, err))
     if not pool:
         raise ValueError(f"{target.name}: the regression found no finite model with at most {max_terms} terms")
     ops = [operation_count(arranged(by_name[cand.library], cand.num, cand.den)) for cand, _ in pool]
     keep = (set(pareto_front([(cand.n_terms, e) for cand, e in pool], infinite_errors=True))
             | set(pareto_front([(o, e) for o, (_, e) in zip(ops, pool)], infinite_errors=True)))
     chosen = [pool[i][0] for i in sorted(keep)]
+    for i, (cand, _) in enumerate(pool):
+        if i not in keep:
+            dropped[id(cand)] = _dominated(i, pool, ops)
 
     refined = []
     for cand in tqdm(chosen, desc=f"discover {target.name}", unit="form", disable=not progress):
@@ -147,9 +159,8 @@ def discover(
                 origin={"method": "fitlab discover", "library": library.name, "found_by": cand.found_by,
                         "numerator": list(cand.num), "denominator": list(cand.den)},
             )  # fmt: skip
-        except Exception as exc:  # a candidate whose refit fails (non-finite start) is dropped, not fatal
-            if progress:
-                tqdm.write(f"  {name}: refit failed ({exc}); dropped")
+        except Exception as exc:  # noqa: BLE001 - a candidate whose refit fails (non-finite start) is dropped
+            dropped[id(cand)] = f"its refit failed: {type(exc).__name__}: {' '.join(str(exc).split())[:200]}"
             continue
         rec = res.record
         theta = {k: v for k, v in rec["params"].items()}
@@ -164,8 +175,40 @@ def discover(
     on_front |= set(pareto_front([(d.operations, e) for d, e in zip(refined, errs)], infinite_errors=True))
     front = [refined[i].name for i in sorted(on_front, key=lambda i: (refined[i].terms, errs[i]))]
     reference = reference_points(target.name, fits_dir) if target.family else []  # a registered target's
+    gone = [{"numerator": list(c.num), "denominator": list(c.den), "terms": c.n_terms, "found_by": c.found_by,
+             "library": c.library, "linear_error": linear[id(c)], "reason": dropped[id(c)]}
+            for c in candidates if id(c) in dropped]  # fmt: skip
     return Discovery(target.name, libraries, metric, candidates, refined, front, reference,
-                     time.perf_counter() - t0)  # fmt: skip
+                     time.perf_counter() - t0, gone)  # fmt: skip
+
+
+def _dominated(i: int, pool: list, ops: list) -> str:
+    """Why candidate ``pool[i]`` (candidate, linearised error) is on neither linearised front: a candidate with
+    no more terms and one with no more operations (``ops``), each of no larger error and not equal to it on
+    both counts (the first of each in the pool; one candidate when it is both)."""
+
+    def beats(j: int, size) -> bool:
+        return size(j) <= size(i) and pool[j][1] <= pool[i][1] and (size(j), pool[j][1]) != (size(i), pool[i][1])
+
+    def terms(j):
+        return pool[j][0].n_terms
+
+    def operations(j):
+        return ops[j]
+
+    def sizes(j) -> str:
+        return f"{_count(terms(j), 'term')}, {_count(operations(j), 'operation')}"
+
+    by = [next((j for j in range(len(pool)) if j != i and beats(j, size)), None) for size in (terms, operations)]
+    found = list(dict.fromkeys(j for j in by if j is not None))
+    if not found:  # equal on both counts to one listed before it: the fronts keep the first
+        return "its sizes and linearised error equal those of a candidate kept"
+    beaten = " and by ".join(f"{pool[j][0].found_by} ({sizes(j)}, error {pool[j][1]:.2e})" for j in found)
+    return f"not on the linearised fronts ({sizes(i)}, error {pool[i][1]:.2e}): beaten by {beaten}"
+
+
+def _count(n: int, word: str) -> str:
+    return f"{n} {word}{'' if n == 1 else 's'}"
 
 
 def reference_points(target_name: str, fits_dir: Path | None = None) -> list[dict]:

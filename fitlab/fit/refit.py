@@ -23,6 +23,7 @@ __all__ = [
     "RefitResult",
     "refit",
     "fit_identity",
+    "fit_record",
     "refit_stages",
     "check_domain",
     "validation_metrics",
@@ -33,6 +34,7 @@ __all__ = [
     "table",
     "refit_verdict",
     "VERDICT_RTOL",
+    "worse",
 ]
 
 MINIMAX_ROUNDS = 40
@@ -153,18 +155,36 @@ def refit(
     )
     scipy_fit = fit_form_scipy(form, train, tscale, theta0, weights=weights) if compare_scipy else None
 
+    record = fit_record(target, form, fit, train, valid, domain, rounds if minimax else 0)
+    if origin is not None:
+        record["origin"] = origin
+    if on_step is not None:
+        on_step("validation")
+    return RefitResult(record, fit, scipy_fit)
+
+
+def fit_record(
+    target: Target,
+    form: Form,
+    fit: FitResult,
+    train: Dataset,
+    valid: Dataset,
+    domain: Mapping[str, tuple[float, float]],
+    minimax_rounds: int,
+) -> dict:
+    """The record a fit file holds of ``fit`` (the solver's result) of ``form`` to ``train``, validated on
+    ``valid``, over ``domain``; ``minimax_rounds``: the Lawson rounds that followed least squares (0: none)."""
     vscale = target.scale(valid)
-    published = published_rows(target, valid, vscale)
     objective = "relative least squares (" + target.error_measure.split(":")[0] + ")"
     if target.emphasis_text:
         objective += "; " + target.emphasis_text
-    if minimax:
-        objective += f"; then Lawson minimax refinement ({rounds} rounds, best max error kept)"
-    record = {
+    if minimax_rounds:
+        objective += f"; then Lawson minimax refinement ({minimax_rounds} rounds, best max error kept)"
+    return {
         **fit_identity(target, form, fit.theta, domain),
         "training": {"points": len(train), "grid": train.grid},
         "validation": {"grid": valid.grid, **validation_metrics(form, fit.theta, valid, vscale)},
-        "published": published,
+        "published": published_rows(target, valid, vscale),
         "optimizer": {
             **SOLVER_SETTINGS,
             "objective": objective,
@@ -178,11 +198,6 @@ def refit(
         "note": target.note,
         "data_sha256": data_hash(train, valid),
     }
-    if origin is not None:
-        record["origin"] = origin
-    if on_step is not None:
-        on_step("validation")
-    return RefitResult(record, fit, scipy_fit)
 
 
 def published_rows(target: Target, valid: Dataset, vscale) -> list[dict]:
@@ -263,6 +278,21 @@ def refit_verdict(result: RefitResult, start_metrics: Mapping | None = None) -> 
                 f"is worse than {label} (max {w}* {_g(ref[0])}, RMS {_g(ref[1])}) on the validation set"
             )
     return None
+
+
+def worse(mine: Mapping, theirs: Mapping) -> bool:
+    """Whether the validation figures ``mine`` are worse than ``theirs``: a larger max rel (infinite where the
+    fit misses an exact zero), else a larger max rel*, else a larger RMS, each beyond rounding
+    (:data:`VERDICT_RTOL`); equal figures are not worse."""
+    for key in ("max_rel", "max_rel_nonzero", "rms_rel"):
+        a, b = float(mine[key]), float(theirs[key])
+        if a == b:
+            continue
+        if a > b * (1 + VERDICT_RTOL):
+            return True
+        if a * (1 + VERDICT_RTOL) < b:
+            return False
+    return False
 
 
 def _fmt(x: float) -> str:

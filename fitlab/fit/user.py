@@ -28,26 +28,31 @@ non-numeric column, NaN or inf, an input that does not vary, duplicate input poi
 a name which is no input, no parameters, a form not finite at the start values, and a form the data
 cannot determine: the Jacobian of the scaled residuals in the parameters at the start values, each
 column normalised, of numerical rank below the number of parameters (singular values below
-:data:`RANK_RTOL` times the largest), as a0*a1*x has.
+:data:`RANK_RTOL` times the largest), as a0*a1*x has.  And every limit (:func:`limits_text`): those of
+the fit-file format (:func:`fitlab.store.fit_limits`; the record the fit will write is made from the
+start values and checked as the store checks a record it writes), a cell that is not a plain decimal
+number or a line break inside a cell, a column's scale (:data:`VALUE_RANGE`), rows times parameters
+(:data:`MAX_ROW_PARAMETERS`).
 
 The result is a :class:`UserFit`: the fit record (format fitlab-fit/1 with ``user_data``, which
 :mod:`fitlab.store` checks against the record's own inputs and domain), callable like
-:class:`fitlab.store.FitFunction`; ``save`` writes it (with its table beside it when it came from
-arrays or a function), ``generate`` prints it in every language codegen knows
-(:mod:`fitlab.codegen.single`).
+:class:`fitlab.store.FitFunction`, with how well the data determine its parameters
+(:func:`conditioning`); ``save`` writes it with its table beside it, ``generate`` prints it in every
+language codegen knows (:mod:`fitlab.codegen.single`).
 """
 
 from __future__ import annotations
 
 import ast
 import csv
+import gc
 import hashlib
 import io
 import keyword
 import math
-import os
 import re
 from collections.abc import Callable, Mapping, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
@@ -71,11 +76,14 @@ __all__ = [
     "fit_table",
     "fit_function",
     "read_csv_table",
+    "table_beside",
     "table_from_arrays",
     "check_name",
     "user_form",
     "held_out_rows",
     "remeasure",
+    "nonfinite_point",
+    "not_comparable",
     "split_text",
     "HOLDOUT_EVERY",
     "SCALE_FLOOR",
@@ -83,6 +91,13 @@ __all__ = [
     "MAX_TABLE_BYTES",
     "MAX_TABLE_ROWS",
     "MINIMAX_ROUNDS",
+    "MAX_ROW_PARAMETERS",
+    "conditioning",
+    "conditioning_warning",
+    "ILL_PARAMETER",
+    "ILL_CONDITION",
+    "VALUE_RANGE",
+    "limits_text",
 ]
 
 #: one row in HOLDOUT_EVERY is held out, from sorted position HOLDOUT_EVERY // 2
@@ -94,16 +109,20 @@ RANK_RTOL = 1e-10
 #: the largest table file read, in bytes, and the most rows
 MAX_TABLE_BYTES = 50_000_000
 MAX_TABLE_ROWS = 1_000_000
+#: the most rows to fit times parameters (a fit's Jacobian and the solver's work arrays take about 90 bytes
+#: of each, 0.9 GB at the limit), and rows times candidate terms of a search (its regression's matrix)
+MAX_ROW_PARAMETERS = 10_000_000
+#: the largest |value| of a column fitted must lie in [lo, hi]: the fit squares and multiplies values, and the
+#: square of a number outside overflows or falls below the smallest normal double (2.2e-308)
+VALUE_RANGE = (1e-150, 1e150)
 #: rows of the table the Jacobian's rank is measured on (evenly spaced among the fitted rows)
 RANK_ROWS = 50_000
 #: Lawson rounds by default: those of ``fitlab refit``
 MINIMAX_ROUNDS = 40
 
-_IDENTIFIER = re.compile(r"^[A-Za-z][A-Za-z0-9_]{0,63}$")
+_IDENTIFIER = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")  # of at most fit_limits().name characters
 _PARAMETER = re.compile(r"^a[0-9]+$")
 _TEMPORARY = re.compile(r"^t[0-9]+$")  # generated code names its common subexpressions t0, t1, ...
-#: text a fit file stores and generated code quotes: no control characters, quotes, backslashes, backticks, */
-_TEXT = re.compile(r"^(?![\s\S]*\*/)[^\x00-\x1f\x7f\"\\`]*$")
 
 #: names an input, a fitted column or a form may not have: keywords and types of the languages codegen prints
 #: (C, C++ for Metal, GLSL, HLSL, Python), and the modules generated Python imports
@@ -132,6 +151,38 @@ saturate lerp rsqrt frac Abs Max Min pi E
 )
 
 
+def limits_text() -> str:
+    """The limits of a fit of one's own table, as docs/reliability.md states them (a Markdown list), from the
+    constants the checks use: :func:`fitlab.store.fit_limits` (the fit-file schema's), :data:`MAX_TABLE_BYTES`,
+    :data:`MAX_TABLE_ROWS`, :data:`MAX_ROW_PARAMETERS`, :data:`VALUE_RANGE` and
+    :data:`fitlab.store.PARAM_LIMIT`.  Each is checked before any work (one line, exit status 2)."""
+    from fitlab.store import PARAM_LIMIT, fit_limits
+
+    lim = fit_limits()
+    lo, hi = (_power(x) for x in VALUE_RANGE)
+    return "\n".join([
+        f"* inputs: at most {lim.inputs} (a fit file's `inputs`, `domain` and `user_data.columns`, and its worst "
+        f"point, which names the inputs beside `exact` and `approx`);",
+        f"* parameters: at most {lim.params} (`params`), each fitted value of magnitude at most {_power(PARAM_LIMIT)} "
+        "(the start values are checked before the fit);",
+        f"* rows x parameters: the rows fitted times the parameters at most {_power(MAX_ROW_PARAMETERS)}, and for "
+        "`fitlab discover TABLE.csv` the rows times the library's terms and times `--max-terms` too (memory grows "
+        "with both);",
+        f"* names: at most {lim.name} characters each (the fitted column, `--name`, the inputs, the parameters "
+        "a0, a1, ...: a letter, then letters, digits or _);",
+        f"* the expression: at most {lim.expression:,} characters as fitlab writes it, the text fields of the "
+        f"record at most {lim.text:,};",
+        f"* the table: at most {MAX_TABLE_BYTES:,} bytes and {MAX_TABLE_ROWS:,} rows; each column fitted of "
+        f"largest magnitude between {lo} and {hi} (0 aside), so that the fit's squares stay normal doubles.",
+    ]) + "\n"  # fmt: skip
+
+
+def _power(x: float) -> str:
+    """A number as docs write it: a power of ten as 1e12, 1e-150; another as %g writes it."""
+    mantissa, exponent = f"{x:.0e}".split("e")
+    return f"{mantissa}e{int(exponent)}" if mantissa == "1" and float(f"1e{int(exponent)}") == x else f"{x:g}"
+
+
 class UserDataError(ValueError):
     """A table, form or option that fitlab refuses before any fit starts (one line)."""
 
@@ -141,10 +192,13 @@ def check_name(name, what: str) -> str:
     """``name`` if it can name an input, a fitted column or a form (an identifier of at most 64 characters
     that generated code can use: not a reserved word (:data:`RESERVED`; for an input :data:`RESERVED_INPUTS`
     too), not a parameter name a<digits>, not a generated temporary t<digits>); else :class:`UserDataError`."""
-    if not isinstance(name, str) or not _IDENTIFIER.match(name):
+    from fitlab.store import fit_limits
+
+    longest = fit_limits().name
+    if not isinstance(name, str) or not _IDENTIFIER.match(name) or len(name) > longest:
         raise UserDataError(
-            f"{what} {str(name)[:70]!r} is not a name fitlab can use: a letter, then letters, digits "
-            "or _ (at most 64); rename it"
+            f"{what} {str(name)[:70]!r}{'...' if len(str(name)) > 70 else ''} is not a name fitlab can use: a "
+            f"letter, then letters, digits or _ (at most {longest}); rename it"
         )
     if _PARAMETER.match(name):
         raise UserDataError(
@@ -191,6 +245,16 @@ class UserTable:
     def rows(self) -> int:
         return len(next(iter(self.cells.values())))
 
+    def _numbers(self, name: str, cells: Sequence[str]) -> np.ndarray:
+        parsed = _decimal_cells(cells)
+        if isinstance(parsed, int):
+            text = cells[parsed].strip()
+            raise UserDataError(
+                f"{self.name} {self.where(parsed)}: column {name} holds {text[:40]!r}, not a number (a number is "
+                "written in ASCII digits, with an optional sign, point and exponent)"
+            )
+        return parsed
+
     @cached_property
     def sha256(self) -> str:
         return hashlib.sha256(self.data).hexdigest()
@@ -205,17 +269,7 @@ class UserTable:
         if name not in self.cells:
             raise UserDataError(f"{self.name}: no column {name!r}; the header has {', '.join(self.header)}")
         raw = self.cells[name]
-        if isinstance(raw, np.ndarray):
-            values = raw
-        else:
-            values = np.empty(len(raw))
-            for i, text in enumerate(raw):
-                try:
-                    values[i] = float(text)
-                except ValueError:
-                    raise UserDataError(
-                        f"{self.name} {self.where(i)}: column {name} holds {text[:40]!r}, not a number"
-                    ) from None
+        values = raw if isinstance(raw, np.ndarray) else self._numbers(name, raw)
         bad = ~np.isfinite(values)
         if np.any(bad):
             i = int(np.argmax(bad))
@@ -224,6 +278,22 @@ class UserTable:
                 "must be a finite number"
             )
         return values
+
+
+def _decimal_cells(cells: Sequence[str]) -> np.ndarray | int:
+    """The cells as float64 when each is a plain decimal number (:data:`fitlab._io.DECIMAL`; spaces around it
+    aside), else the index of the first that is not.  Python's float() takes a decimal as it is, and takes more
+    only with a character outside ASCII or an underscore (995_099), which send the cells to the check one by
+    one."""
+    from fitlab._io import DECIMAL
+
+    joined = "\n".join(cells)
+    if joined.isascii() and "_" not in joined:  # float() reads these cells as the grammar does, spaces aside
+        try:
+            return np.array(cells, dtype=float)
+        except ValueError:
+            pass
+    return next((i for i, text in enumerate(cells) if not DECIMAL.fullmatch(text.strip())), -1)
 
 
 def read_csv_table(path) -> UserTable:
@@ -242,49 +312,76 @@ def read_csv_table(path) -> UserTable:
         text = data.decode("utf-8-sig")
     except UnicodeDecodeError:
         raise UserDataError(f"{path}: not UTF-8 text; a table is a CSV file") from None
-    header, rows, lines = None, [], []
-    try:
-        for number, fields in _csv_rows(text):
-            if header is None:
-                header = tuple(f.strip() for f in fields)
-                continue
-            if len(fields) != len(header):
-                raise UserDataError(f"{path} line {number}: {len(fields)} fields, the header has {len(header)}")
-            rows.append(fields)
-            lines.append(number)
-            if len(rows) > MAX_TABLE_ROWS:
-                raise UserDataError(f"{path}: more than {MAX_TABLE_ROWS} rows; fitlab fits tables of at most that")
-    except csv.Error as exc:
-        raise UserDataError(f"{path}: not CSV ({exc})") from None
-    if header is None:
+    with _collector_paused():  # a million rows are a million lists: the cyclic collector would walk them often
+        numbers, records = _csv_rows(text, path)
+        columns = list(zip(*records[1:]))  # the columns as read, a transpose in C
+    if not records:
         raise UserDataError(f"{path}: empty; a table is a header row naming the columns, then one row per point")
+    header = tuple(f.strip() for f in records[0])
+    rows, lines = records[1:], numbers[1:]
+    if len(rows) > MAX_TABLE_ROWS:
+        raise UserDataError(f"{path}: {len(rows)} rows, more than {MAX_TABLE_ROWS}; fitlab fits tables of at most that")
+    ragged = next((i for i, r in enumerate(rows) if len(r) != len(header)), None)
+    if ragged is not None:
+        raise UserDataError(f"{path} line {lines[ragged]}: {len(rows[ragged])} fields, the header has {len(header)}")
     if all(_is_number(f) for f in header):
         raise UserDataError(f"{path}: the first row is numbers; the first row must be a header naming the columns")
     if any(not f for f in header) or len(set(header)) != len(header):
         raise UserDataError(f"{path}: the header {', '.join(header)[:120]} has an empty or repeated column name")
     if not rows:
         raise UserDataError(f"{path}: a header and no rows")
-    cells = {name: [r[k].strip() for r in rows] for k, name in enumerate(header)}
+    cells = dict(zip(header, columns))  # :meth:`UserTable.column` reads the numbers, spaces around them aside
     return UserTable("csv", str(path), header, cells, data, np.asarray(lines))
 
 
-def _csv_rows(text: str):
-    """(line number, fields) of every CSV row, without comment (#) and blank lines."""
-    kept = []
-    for number, line in enumerate(text.splitlines(), start=1):
-        if line.strip() and not line.lstrip().startswith("#"):
-            kept.append((number, line))
-    reader = csv.reader(line for _, line in kept)
-    for (number, _), fields in zip(kept, reader):
-        yield number, fields
+@contextmanager
+def _collector_paused():
+    """Python's cyclic garbage collector off while the block runs (and on again after, if it was on): reading a
+    table builds millions of lists and strings, none in a cycle, and the collector's passes over them took most
+    of the time."""
+    enabled = gc.isenabled()
+    gc.disable()
+    try:
+        yield
+    finally:
+        if enabled:
+            gc.enable()
+
+
+def _csv_rows(text: str, path) -> tuple[list[int], list[list[str]]]:
+    """(line numbers, fields) of every CSV row, without comment (#) and blank lines; lines numbered as text
+    editors number them (:func:`fitlab._io.text_lines`).  :class:`UserDataError` on a character a table may not
+    hold (:func:`fitlab._io.unusual_character`: U+2028 splits a row for some readers), on a quoted cell that
+    runs over the end of its line (a cell holding a line break), and on text the csv module refuses."""
+    from fitlab._io import text_lines, unusual_character
+
+    unusual = unusual_character(text)
+    if unusual is not None:
+        line, what = unusual
+        raise UserDataError(f"{path} line {line}: holds {what}; a table is plain text, one row per line")
+    lines = text_lines(text)
+    numbers = [n for n, line in enumerate(lines, start=1) if line.strip() and not line.lstrip().startswith("#")]
+    try:
+        reader = csv.reader([lines[n - 1] for n in numbers])
+        records = list(reader)
+        if len(records) == len(numbers):  # each record one line
+            return numbers, records
+        reader = csv.reader(lines[n - 1] for n in numbers)  # again, to find the record that took two lines
+        for k, _ in enumerate(reader):
+            if reader.line_num != k + 1:
+                raise UserDataError(
+                    f"{path} line {numbers[k]}: a quoted cell runs over the end of the line (a cell holding a line "
+                    "break); a cell is one line"
+                )
+    except csv.Error as exc:
+        raise UserDataError(f"{path}: not CSV ({exc})") from None
+    raise AssertionError("a record of two lines was not found")  # pragma: no cover - the counts differed
 
 
 def _is_number(text: str) -> bool:
-    try:
-        float(text)
-        return True
-    except ValueError:
-        return False
+    from fitlab._io import DECIMAL
+
+    return DECIMAL.fullmatch(text.strip()) is not None
 
 
 def _format_csv(header, columns, comment: str) -> bytes:
@@ -357,9 +454,19 @@ def user_form(text: str, inputs, columns=None):
     other columns, named in the message when the form uses one that is not an input.  Parsed by the restricted
     parser; :class:`UserDataError` on any refusal, on no parameters, and on a parameter that cancels."""
     from fitlab.forms.symbolic import CONSTANTS, parse_expression
+    from fitlab.store import fit_limits
 
+    limits = fit_limits()
     names = _names_in(text)
+    long = next((n for n in names if len(n) > limits.name), None)
+    if long is not None:  # a parameter a<400 digits> is refused here, before its number is read
+        raise UserDataError(
+            f"the form names {long[:20]}... ({len(long)} characters); a fit file holds names of at most "
+            f"{limits.name} characters"
+        )
     params = sorted((n for n in names if _PARAMETER.match(n)), key=lambda n: int(n[1:]))
+    if len(params) > limits.params:
+        raise UserDataError(f"the form has {len(params)} parameters; a fit file holds at most {limits.params}")
     unknown = [n for n in names if n not in params and n not in inputs and n not in CONSTANTS]
     if unknown:
         where = f" (the inputs are {', '.join(inputs)})" if inputs else ""
@@ -433,10 +540,13 @@ def _measure_text(error: str, floor: float, target: str) -> str:
 
 def remeasure(record: Mapping, table: UserTable) -> dict:
     """The held-out error of the fit ``record`` measured again on ``table`` (the table its ``user_data``
-    names): the rows in the record's domain, split as the record says, the fit evaluated there and measured
-    with the record's error (:func:`fitlab.fit.metrics.summary`).  :class:`UserDataError` when the table is
-    not the record's (sha256, columns)."""
-    from fitlab.core import Dataset
+    names): the rows in the record's domain, checked and split again as a fit does (:func:`prepare_rows`), the
+    fit evaluated there and measured with the record's error (:func:`fitlab.fit.metrics.summary`).
+
+    Every figure the record states of its table is derived again from the table and must be the one derived
+    (:class:`UserDataError` otherwise, naming the first that differs): the sha256, the rows, the domain (the
+    bounding box of the rows inside the stated domain: a domain edited wider than the rows is refused), the
+    error's floor, the split, and the numbers of rows fitted and held out."""
     from fitlab.fit.metrics import summary
     from fitlab.store import FitFunction
 
@@ -447,15 +557,82 @@ def remeasure(record: Mapping, table: UserTable) -> dict:
             f"{user['sha256'][:16]}...; the table changed since the fit"
         )
     inputs, target = list(record["inputs"]), record["target"]
-    xs = {n: table.column(n) for n in inputs}
-    y = table.column(target)
-    keep = _selected(xs, {k: tuple(v) for k, v in record["domain"].items()})
-    xs, y = {n: x[keep] for n, x in xs.items()}, y[keep]
-    held = held_out_rows(xs, inputs, user["holdout_every"], user["holdout_offset"])
-    valid = Dataset({n: x[held] for n, x in xs.items()}, y[held], "held-out rows")
+    stated = {k: (float(lo), float(hi)) for k, (lo, hi) in record["domain"].items()}
+    rows = prepare_rows(table, target, inputs, domain=stated, error=user["error"], holdout_every=user["holdout_every"])
+    derived = rows.user_data()
+    differ = [
+        (what, says, gives)
+        for what, says, gives in (
+            ("user_data.rows", user["rows"], derived["rows"]),
+            *(
+                (f"the domain of {k}", f"[{stated[k][0]!r}, {stated[k][1]!r}]", f"[{lo!r}, {hi!r}]")
+                for k, (lo, hi) in rows.domain.items()
+            ),
+            ("user_data.scale_floor", repr(float(user["scale_floor"])), repr(float(derived["scale_floor"]))),
+            ("user_data.holdout_offset", user["holdout_offset"], derived["holdout_offset"]),
+            ("training.points", record.get("training", {}).get("points", len(rows.train)), len(rows.train)),
+            ("validation.points", record.get("validation", {}).get("points", len(rows.valid)), len(rows.valid)),
+        )
+        if says != gives
+    ]
+    if differ:
+        what, says, gives = differ[0]
+        raise UserDataError(
+            f"the fit states {what} {says}, its table {Path(table.name).name} gives {gives}; the fit file was "
+            "edited or is not this table's"
+        )
+    valid = rows.valid
     fit = FitFunction(dict(record))
-    approx = fit(**valid.inputs)
+    approx = fit.evaluate(*(valid.inputs[n] for n in inputs))
     return summary(approx, valid.y, _scale(valid.y, user["error"], user["scale_floor"]), valid.inputs)
+
+
+#: points of the probe of a fit's domain (:func:`nonfinite_point`): a tensor grid of at most this many, and as
+#: many uniformly random points (a fixed seed)
+PROBE_POINTS = 65_536
+
+
+def nonfinite_point(fit, domain: Mapping[str, Sequence[float]] | None = None) -> dict | None:
+    """A point of the box ``domain`` (default the fit's) where the fit ``fit`` (a
+    :class:`fitlab.store.FitFunction`) is not finite, or None: probed on a tensor grid of n points per input
+    (n^d <= :data:`PROBE_POINTS`, at least the two ends; crowded towards both ends, where forms with log and
+    sqrt terms turn) and on :data:`PROBE_POINTS` uniformly random points (a fixed seed), which fall between
+    the grid's lines."""
+    box = {k: (float(lo), float(hi)) for k, (lo, hi) in (domain or fit.domain).items()}
+    names = list(fit.inputs)
+    d = len(names)
+    n = max(2, int(math.floor(PROBE_POINTS ** (1.0 / d) + 1e-9)))
+    t = 0.5 - 0.5 * np.cos(np.linspace(0.0, math.pi, n))  # Chebyshev-Lobatto: both ends, crowded there
+    axes = [box[k][0] + (box[k][1] - box[k][0]) * t for k in names]
+    grid = [g.ravel() for g in np.meshgrid(*axes, indexing="ij")]
+    lo, hi = np.array([box[k][0] for k in names]), np.array([box[k][1] for k in names])
+    cloud = lo + (hi - lo) * np.random.default_rng(20240).random((PROBE_POINTS, d))
+    for points in (grid, list(cloud.T)):
+        points = [np.clip(x, box[k][0], box[k][1]) for x, k in zip(points, names)]
+        values = fit.evaluate(*points)
+        bad = ~np.isfinite(values)
+        if np.any(bad):
+            i = int(np.argmax(bad))
+            return {k: float(x[i]) for k, x in zip(names, points)}
+    return None
+
+
+def not_comparable(record: Mapping, rows: Rows) -> str | None:
+    """Why the user fit ``record`` cannot be compared with a fit of ``rows`` on their held-out rows (another
+    table, inputs, domain, split or error measure), or None when its held-out rows and error are theirs."""
+    user, mine = record["user_data"], rows.user_data()
+    if user["sha256"] != mine["sha256"]:
+        return f"a fit of another table (sha256 {user['sha256'][:16]}..., this one {mine['sha256'][:16]}...)"
+    if list(user["columns"]) != list(mine["columns"]):
+        return f"a fit of the columns {', '.join(user['columns'])}, not {', '.join(mine['columns'])}"
+    theirs = {k: (float(lo), float(hi)) for k, (lo, hi) in record["domain"].items()}
+    if theirs != rows.domain:
+        return f"a fit over {_box_text(theirs)}, this one over {_box_text(rows.domain)}"
+    if (user["holdout_every"], user["holdout_offset"]) != (mine["holdout_every"], mine["holdout_offset"]):
+        return f"a fit validated on other held-out rows (every {user['holdout_every']} from {user['holdout_offset']})"
+    if (user["error"], float(user["scale_floor"])) != (mine["error"], float(mine["scale_floor"])):
+        return f"a fit measured by another error ({user['error']}, floor {float(user['scale_floor']):g})"
+    return None
 
 
 # -- the fit ---------------------------------------------------------------------
@@ -471,6 +648,13 @@ class UserFit:
     table: UserTable
     result: object = None
     _function: FitFunction | None = field(default=None, repr=False)
+    #: how well the data determine the fitted parameters (:func:`conditioning`), or None when not measured
+    conditioning: dict | None = None
+
+    @property
+    def warning(self) -> str | None:
+        """One line when the fit is ill-conditioned (:func:`conditioning_warning`), else None."""
+        return None if self.conditioning is None else conditioning_warning(self.conditioning)
 
     @property
     def function(self):
@@ -513,21 +697,14 @@ class UserFit:
         from fitlab.store import check_fit, strict_json
 
         path = Path(path)
-        record = dict(self.record)
-        files = {}
-        if self.table.source != "csv":
-            table_path = path.with_name(path.name[:-5] + ".csv" if path.name.endswith(".json") else path.name + ".csv")
-            files[table_path] = self.table.data
-            record["user_data"] = {**record["user_data"], "file": table_path.name}
-        elif "file" not in record["user_data"]:
-            record["user_data"] = {**record["user_data"], "file": relative_file(self.table.name, path.parent)}
-        files[path] = strict_json(check_fit(record, str(path))).encode()
-        return files
+        table_path = table_beside(path)
+        record = {**self.record, "user_data": {**self.record["user_data"], "file": table_path.name}}
+        return {table_path: self.table.data, path: strict_json(check_fit(record, str(path))).encode()}
 
     def save(self, path) -> list[Path]:
-        """Write the fit to ``path`` (JSON) and, for a table from arrays or a function, the table beside it
-        (``PATH`` less .json, plus .csv), as one unit (all or nothing); the record names the table by its path
-        relative to the fit's folder, where ``fitlab codegen --fit`` reads it to re-measure the held-out error."""
+        """Write the fit to ``path`` (JSON) and the table beside it (:func:`table_beside`: the file's bytes, or
+        the canonical CSV of arrays or a sampled function), as one unit (all or nothing); the record names the
+        table by its file name, where ``fitlab codegen --fit`` reads it to re-measure the held-out error."""
         from fitlab._io import atomic_write_many
 
         files = self.files(path)
@@ -543,19 +720,16 @@ class UserFit:
         return generate_user_fit(self.function, self.table, lang, single_header=single_header)
 
 
-def relative_file(table, folder) -> str:
-    """The path of ``table`` relative to ``folder`` (POSIX separators): how a fit names its table, so that
-    the two can move together.  :class:`UserDataError` when it holds a character a fit file does not store."""
-    try:
-        rel = Path(os.path.relpath(Path(table).resolve(), Path(folder).resolve())).as_posix()
-    except ValueError:  # no relative path between them (two drives): the absolute one
-        rel = Path(table).resolve().as_posix()
-    if not _TEXT.match(rel) or len(rel) > 1000:
-        raise UserDataError(
-            f"{table}: the table's path holds a character a fit file does not store (quotes, "
-            "backslashes, backticks, control characters, */); rename or move it"
-        )
-    return rel
+def table_beside(path) -> Path:
+    """Where the table of the fit file ``path`` is written: beside it, ``PATH`` less .json plus .csv
+    (fits/E.rational.json: fits/E.rational.csv); the fit names it by that file name alone."""
+    path = Path(path)
+    return path.with_name((path.name[:-5] if path.name.endswith(".json") else path.name) + ".csv")
+
+
+def table_file_name(target: str, form: str) -> str:
+    """The file name of the table beside the fit file COLUMN.NAME.json (:func:`table_beside`)."""
+    return f"{target}.{form}.csv"
 
 
 def _safe_text(text: str) -> str:
@@ -618,8 +792,10 @@ class Rows:
     train_rows: np.ndarray
 
     def check_size(self, p: int, boxed: bool = False) -> None:
-        """Refuse (one line) when a form of ``p`` parameters has fewer than 2p rows to fit or p held out."""
+        """Refuse (one line) when a form of ``p`` parameters has fewer than 2p rows to fit or p held out, or more
+        rows to fit times ``p`` than :data:`MAX_ROW_PARAMETERS`."""
         n_train, n_held = len(self.train), len(self.valid)
+        _check_row_parameters(self.table, n_train, p)
         if n_train < 2 * p or n_held < p:
             raise UserDataError(
                 f"{self.table.name}: {self.used} rows{' in the domain' if boxed else ''}, {n_train} to "
@@ -692,8 +868,10 @@ def prepare_rows(table: UserTable, target: str, inputs, *, domain=None, error: s
         raise UserDataError(f"an input is named twice: {', '.join(inputs)}")
     if not inputs:
         raise UserDataError("no input column: name the inputs (--inputs) or use them in the form")
-    if len(inputs) > 16:
-        raise UserDataError(f"{len(inputs)} inputs; a fit takes at most 16")
+    from fitlab.store import fit_limits
+
+    if len(inputs) > fit_limits().inputs:
+        raise UserDataError(f"{len(inputs)} inputs; a fit file holds at most {fit_limits().inputs}")
     if error not in ("relative", "absolute"):
         raise UserDataError(f"error: relative or absolute, not {error!r}")
     if not (isinstance(holdout_every, (int, np.integer)) and 2 <= holdout_every <= 1000):
@@ -707,6 +885,8 @@ def prepare_rows(table: UserTable, target: str, inputs, *, domain=None, error: s
     if not index.size:
         raise UserDataError(f"{table.name}: no row lies in the domain {_box_text(box)}")
     xs, y = {n: x[keep] for n, x in xs_all.items()}, y_all[keep]
+    for n, values in (*xs.items(), (target, y)):
+        _check_scale(table, n, values)
     fitted_domain = {n: (float(np.min(x)), float(np.max(x))) for n, x in xs.items()}
     for n, (lo, hi) in fitted_domain.items():
         if not lo < hi:
@@ -776,14 +956,67 @@ def prepare(table: UserTable, target: str, form: str, *, inputs=None, domain=Non
         else "form_" + hashlib.sha256(str(expr).encode()).hexdigest()[:6]
     )
     start_values = _start(params, start)
+    if not domain and isinstance(holdout_every, (int, np.integer)) and holdout_every >= 2:
+        # every row is fitted or held out: the rows to fit follow from the count alone, before a number is read
+        every = int(holdout_every)
+        _check_row_parameters(table, table.rows - len(range(every // 2, table.rows, every)), len(params))
     rows = prepare_rows(table, target, inputs, domain=domain, error=error, holdout_every=holdout_every)
     rows.check_size(len(params), bool(domain))
     description = f"a fit of {_safe_text(form.strip())[:200]}"
     fitted = Form(target=target, name=form_name, inputs=rows.inputs, params=params, expr=expr,
                   start=start_values, description=description, refit_by_default=False)  # fmt: skip
+    _check_savable(rows, fitted, start_values)
     _check_start(fitted, start_values, rows.train, _scale(rows.train.y, rows.error, rows.floor), table,
                  rows.train_rows)  # fmt: skip
     return _Prepared(rows, fitted, start_values)
+
+
+def _check_savable(rows: Rows, form, start: dict) -> None:
+    """Refuse a fit its fit file could not hold: the record the fit will write, made now with the start values
+    for the fitted ones, checked as the store checks every record it writes (the schema's sizes, names and
+    text; the parameters' magnitude), so that no limit of the format is met only after the fit."""
+    from fitlab.fit.refit import fit_record
+    from fitlab.fit.solver import FitResult
+    from fitlab.store import FitFileError, check_fit, fit_limits
+
+    limits = fit_limits()
+    if len(form.expression) > limits.expression:
+        raise UserDataError(
+            f"the form's expression is {len(form.expression)} characters long as fitlab writes it; a fit file "
+            f"holds at most {limits.expression}"
+        )
+    theta = form.vector(start)
+    not_run = FitResult(theta, 0, 0, 0, "not run", 0.0, 0.0, 0.0, 0.0)
+    with np.errstate(all="ignore"):  # the errors at the start values: a form not finite there is said below
+        record = fit_record(rows.target_object(form.name), form, not_run, rows.train, rows.valid, rows.domain,
+                            MINIMAX_ROUNDS)  # fmt: skip
+    record = user_record(record, rows, MINIMAX_ROUNDS)
+    record["user_data"]["file"] = table_file_name(form.target, form.name)
+    try:
+        check_fit(record, f"{form.target}/{form.name}")
+    except FitFileError as exc:
+        raise UserDataError(f"the fit could not be saved: {exc}") from None
+
+
+def _check_row_parameters(table: UserTable, n_train: int, p: int) -> None:
+    """Refuse ``n_train`` rows to fit times ``p`` parameters beyond :data:`MAX_ROW_PARAMETERS`."""
+    if n_train * p > MAX_ROW_PARAMETERS:
+        raise UserDataError(
+            f"{table.name}: {n_train} rows to fit x {p} parameters = {n_train * p:.3g}; fitlab fits at most "
+            f"{_power(MAX_ROW_PARAMETERS)} (the fit's memory grows with both): fit fewer rows (--domain, or a "
+            "thinned table) or fewer parameters"
+        )
+
+
+def _check_scale(table: UserTable, name: str, values: np.ndarray) -> None:
+    """Refuse a column whose largest |value| lies outside :data:`VALUE_RANGE` (0 excepted)."""
+    lo, hi = VALUE_RANGE
+    big = float(np.max(np.abs(values)))
+    if big > hi or 0.0 < big < lo:
+        raise UserDataError(
+            f"{table.name}: column {name} reaches |{name}| = {big:.3g}; fitlab fits columns whose largest magnitude "
+            f"lies between {_power(lo)} and {_power(hi)} (squares of the values must stay normal doubles): rescale it"
+        )
 
 
 def _box_text(box) -> str:
@@ -874,7 +1107,57 @@ def run_fit(prep: _Prepared, minimax_rounds: int = MINIMAX_ROUNDS, on_step=None)
     rows = prep.rows
     res = refit(rows.target_object(prep.form.name), prep.form, start=prep.start, minimax=minimax_rounds > 0,
                 minimax_rounds=minimax_rounds, on_step=on_step)  # fmt: skip
-    return UserFit(user_record(res.record, rows, minimax_rounds), rows.table, res.fit)
+    record = user_record(res.record, rows, minimax_rounds)
+    return UserFit(record, rows.table, res.fit, conditioning=conditioning(prep, prep.form.vector(record["params"])))
+
+
+#: a fitted parameter beyond this magnitude, or a condition number beyond :data:`ILL_CONDITION`, makes a fit
+#: ill-conditioned (:func:`conditioning_warning`)
+ILL_PARAMETER = 1e6
+ILL_CONDITION = 1e12
+
+
+def conditioning(prep: _Prepared, theta) -> dict:
+    """How well the fitted rows determine the parameters ``theta`` of the prepared fit ``prep``: {"condition":
+    the condition number of the Jacobian of the scaled residuals at ``theta`` (on at most :data:`RANK_ROWS`
+    fitted rows) with its columns scaled to unit norm, so that a parameter's units do not count, only how
+    nearly the columns depend on one another; "weak": the parameters of the direction it is weakest in
+    (components of at least a tenth of the largest, in those scaled units); "large": [(name, value)] of the
+    parameters beyond :data:`ILL_PARAMETER` in magnitude}."""
+    form, train = prep.form, prep.rows.train
+    theta = np.asarray(theta, dtype=float)
+    xs = [train.inputs[n] for n in form.inputs]
+    jac, _ = _jacobian(form, theta, xs, _scale(train.y, prep.rows.error, prep.rows.floor))
+    large = [(p, float(v)) for p, v in zip(form.params, theta) if abs(v) > ILL_PARAMETER]
+    norms = np.sqrt(np.sum(jac**2, axis=0))
+    if not (np.all(np.isfinite(jac)) and np.all(norms > 0.0)):
+        weak = [p for p, n in zip(form.params, norms) if not (math.isfinite(n) and n > 0.0)]
+        return {"condition": math.inf, "weak": weak or list(form.params), "large": large}
+    _, sv, vt = np.linalg.svd(jac / norms, full_matrices=False)
+    condition = float(sv[0] / sv[-1]) if sv[-1] > 0.0 else math.inf
+    direction = np.abs(vt[-1])
+    weak = [p for p, c in zip(form.params, direction) if c >= 0.1 * np.max(direction)]
+    return {"condition": condition, "weak": weak, "large": large}
+
+
+def conditioning_warning(measured: Mapping) -> str | None:
+    """One line naming the parameters when :func:`conditioning` finds the fit ill-conditioned (a parameter
+    beyond :data:`ILL_PARAMETER`, or a condition number beyond :data:`ILL_CONDITION`), else None."""
+    words = []
+    if measured["large"]:
+        listed = ", ".join(f"{p} = {v:.3g}" for p, v in measured["large"])
+        words.append(f"{listed} beyond {ILL_PARAMETER:g} in magnitude")
+    if measured["condition"] > ILL_CONDITION:
+        words.append(
+            f"the Jacobian's condition number at the solution is {measured['condition']:.2g} (beyond "
+            f"{ILL_CONDITION:g}), weakest along {', '.join(measured['weak'])}"
+        )
+    if not words:
+        return None
+    return (
+        f"ill-conditioned: {'; '.join(words)}: other parameters fit the rows about as well, and the "
+        "digits printed are not all determined by the data (simplify the form, or rescale its inputs)"
+    )
 
 
 def user_record(record: dict, rows: Rows, minimax_rounds: int) -> dict:
