@@ -190,10 +190,14 @@ def _key(args, fits: Path | None) -> dict:
 
     import numpy as np
 
+    from fitlab.core import family_programs
+
+    # the families with a program choose the default and are named on stderr (a family registered at run time too)
     return {"lang": args.lang, "terms": args.terms, "model": args.model, "form": args.form, "family": args.family,
             "single_header": args.single_header, "allow_partial_domain": args.allow_partial_domain,
             "allow_mixed_physics": args.allow_mixed_physics, "fits": None if fits is None else str(fits.resolve()),
-            "numpy": np.__version__, "sympy": version("sympy")}  # fmt: skip
+            "numpy": np.__version__, "sympy": version("sympy"),
+            "families": family_programs()}  # fmt: skip
 
 
 def _generate(args, fits: Path | None) -> dict[str, bytes]:

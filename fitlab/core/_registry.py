@@ -328,6 +328,19 @@ def broken_families() -> dict[str, str]:
     return dict(_BROKEN)
 
 
+def family_programs() -> tuple[tuple[str, bool, bool], ...]:
+    """(name, has a program, declares the default program) of every family, in listing order, read from the
+    manifests where a built-in family is not imported yet (cheap: no family is imported for it)."""
+    _load()
+    out = []
+    for name, slot in _SLOTS.items():
+        if isinstance(slot, _Pending):
+            out.append((name, slot.program, slot.default_program))
+        else:
+            out.append((name, slot.codegen is not None, slot.default_program))
+    return tuple(out)
+
+
 def families() -> dict[str, Family]:
     """name -> :class:`Family` of every registered family (every built-in family is imported)."""
     _ensure_all()

@@ -14,10 +14,10 @@
  *   H2.json  723f2492a8c9ec82e3e53f453a04f1ff9b4d106c17a4d4ae91c268ca7f0cd8fd  packaged (true); physics true; against H2 (three_term): max 1.21e-02, RMS 1.63e-03 (relative, 17290 points)
  *   l.cubic.json  020a889ec5444c1ed9ae95d241cc3c3fcbdef6a4304194c1e2e71aa7d237d61c  packaged (true); physics true; against l (three_term): max 1.60e-01, RMS 1.15e-01 (relative, 130 points)
  *   m.quadratic.json  33b2f1c84b86548bd2f69dd473b5fa411454a903b26270b765caa82ac0be45eb  packaged (true); physics true; against m (three_term): max 1.32e-02, RMS 7.93e-03 (relative, 130 points)
- *   B.c2_rational_4_3.json  4e506642eacffa0ce0edc26204f1d09d47c066ae34dcabcdffb1ce9f591b6485  packaged (true); physics true; against B (three_term): max 8.90e-03, RMS 5.90e-03 (relative to A = 69c/128, 130 points)
- *   C.c2_rational_4_3.json  29b6085157abe55410435e80c94d141d5337120f80d7707bc18579d6a88238af  packaged (true); physics true; against C (three_term): max 6.00e-03, RMS 3.91e-03 (relative to A = 69c/128, 130 points)
- *   D.c2_rational_4_3.json  a9ea3f6b4bd9e4c9861b0ad0bfe4678d10733f380101aedde46b285168df2d2e  packaged (true); physics true; against D (three_term): max 8.84e-03, RMS 5.59e-03 (relative to A = 69c/128, 130 points)
- *   F.c2_rational_4_3.json  df95d11cb0fc2b424efe28d5964c5cdc73a1ca3e5c8e051776f5b985c0e39e3c  packaged (true); physics true; against F (three_term): max 1.32e-02, RMS 3.84e-03 (relative to A = 69c/128, 130 points)
+ *   B.c2_rational_4_3.json  7baa68a0ede7d510b123122ec2fb504d45bb64aeffff962b2813b0662935ddae  packaged (true); physics true; against B (three_term): max 8.90e-03, RMS 5.90e-03 (relative to A = 69c/128, 130 points)
+ *   C.c2_rational_4_3.json  7950dc91559fe27295ca3844662913f899dc47dc34c0e01b1e0a733c214df6f9  packaged (true); physics true; against C (three_term): max 6.00e-03, RMS 3.91e-03 (relative to A = 69c/128, 130 points)
+ *   D.c2_rational_4_3.json  658c3fc98fe4461e75276c37b15236a3dd5bf0a151ce265d37f4c68f000d571a  packaged (true); physics true; against D (three_term): max 8.84e-03, RMS 5.59e-03 (relative to A = 69c/128, 130 points)
+ *   F.c2_rational_4_3.json  c0fe4c3b7c9d611d663704ecdc3e73e10799fd187bf9c6ef85203dbe5a372938  packaged (true); physics true; against F (three_term): max 1.32e-02, RMS 3.84e-03 (relative to A = 69c/128, 130 points)
  *   c_of_kd.json  196e63b77df4f566e79eedd9c0781dd67c8f3dd28b8271f76bf598e6eb95b12a  packaged; physics true; against c_of_kd (true): max 1.13e-02, RMS 6.51e-03 (relative, 130 points)
  *   kd_of_c.json  5161a0bae66b8507bef46066054088a59730073cba0b22609aaae8776cb485e4  packaged; physics true; against kd_of_c (true): max 8.71e-03, RMS 5.26e-03 (relative, 130 points)
  *   sample_weight.json  a652eb05655eea0f158d38aa922b591bbfeb1cffc40077cc8bda731aa140746a  packaged; physics mixed; against sample_weight (mixed): max 2.09e-01, RMS 2.70e-02 (relative, 630 points)
@@ -90,42 +90,51 @@ LAMBERT_SPHERE_FN double lambert_sphere_const_m(double c)
 
 LAMBERT_SPHERE_FN double lambert_sphere_const_b(double c)
 {
-    const double t4 = ((c < 0.0) ? (0.0) : (c));
-    const double t0 = ((t4 > 1.0) ? (1.0) : (t4));
-    const double t1 = 1.0 - t0;
-    const double t2 = sqrt(t1);
-    const double t3 = (t1*sqrt(t1));
-    return (t0*t0)*(-1.0208083202960536*t0 + 0.1872242586777193*t2 - 1.1208114157345153*t3 + 0.93462201258232595)/(1.2401477267052212*t0 + 3.1440942543136385*t2 - 2.896719702526885*t3 - 0.2401477267052212);
+    const double t6 = ((c < 0.0) ? (0.0) : (c));
+    const double t0 = ((t6 > 1.0) ? (1.0) : (t6));
+    const double t1 = (t0*t0);
+    const double t2 = -t0/(sqrt(1.0 - t0) + 1.0) + 2.0;
+    const double t3 = t0/t2;
+    const double t4 = (t0*t0*t0)/(t2*t2*t2);
+    const double t5 = t1/(t2*t2);
+    return t1*(1.1335933479337194*t3 + 1.1208114157345153*t4 - 2.3416259269074923*t5 + 0.0010348555255299506)/(8.0263603066774589*t3 + 2.896719702526885*t4 - 9.9303068342858762*t5 + 0.007226825081532294);
 }
 
 LAMBERT_SPHERE_FN double lambert_sphere_const_c(double c)
 {
-    const double t4 = ((c < 0.0) ? (0.0) : (c));
-    const double t0 = ((t4 > 1.0) ? (1.0) : (t4));
-    const double t1 = 1.0 - t0;
-    const double t2 = sqrt(t1);
-    const double t3 = (t1*sqrt(t1));
-    return (t0*t0)*(-1.5452922735792385*t0 - 0.15709300643034438*t2 - 0.8643185721759284*t3 + 0.995496454311347)/(1.6478627731982702*t0 - 0.36276294375083773*t2 + 1.047419504828386*t3 - 0.6478627731982702) + ((2.0/3.0))*t0;
+    const double t7 = ((c < 0.0) ? (0.0) : (c));
+    const double t0 = ((t7 > 1.0) ? (1.0) : (t7));
+    const double t1 = (t0*t0);
+    const double t2 = (t0*t0*t0);
+    const double t3 = -t0/(sqrt(1.0 - t0) + 1.0) + 2.0;
+    const double t4 = pow(t3, -3.0);
+    const double t5 = t0/t3;
+    const double t6 = t1/(t3*t3);
+    return ((2.0/3.0))*t0 + t1*(0.8643185721759284*t2*t4 - 0.34053582420034742*t5 - 1.0476634429485467*t6 - 0.025915124294925779)/(-1.047419504828386*t2*t4 + 0.51622997566222013*t5 + 1.4943957412868878*t6 + 0.03679378787927807);
 }
 
 LAMBERT_SPHERE_FN double lambert_sphere_const_d(double c)
 {
-    const double t4 = ((c < 0.0) ? (0.0) : (c));
-    const double t0 = ((t4 > 1.0) ? (1.0) : (t4));
-    const double t1 = 1.0 - t0;
-    const double t2 = sqrt(t1);
-    const double t3 = (t1*sqrt(t1));
-    return (t0*t0)*(0.4650170482491284*t0 + 0.2523027101469349*t2 + 0.21301389270866672*t3 - 0.46463929917364463)/(1.580636602392337*t0 - 0.19756794223198304*t2 + 0.7864936735105944*t3 - 0.580636602392337);
+    const double t6 = ((c < 0.0) ? (0.0) : (c));
+    const double t0 = ((t6 > 1.0) ? (1.0) : (t6));
+    const double t1 = (t0*t0);
+    const double t2 = -t0/(sqrt(1.0 - t0) + 1.0) + 2.0;
+    const double t3 = t0/t2;
+    const double t4 = (t0*t0*t0)/(t2*t2*t2);
+    const double t5 = t1/(t2*t2);
+    return t1*(0.03868970822532174*t3 - 0.21301389270866672*t4 + 0.17402462987687176*t5 + 0.00067730368195698695)/(0.99936012648487384*t3 - 0.7864936735105944*t4 + 0.7788444181394462*t5 + 0.0082891288862743601);
 }
 
 LAMBERT_SPHERE_FN double lambert_sphere_const_f(double c)
 {
-    const double t4 = ((c < 0.0) ? (0.0) : (c));
-    const double t0 = ((t4 > 1.0) ? (1.0) : (t4));
-    const double t1 = 1.0 - t0;
-    const double t2 = sqrt(t1);
-    const double t3 = (t1*sqrt(t1));
-    return (t0*t0)*(-0.1893057736203575*t0 - 0.2776402646891931*t2 - 0.03594639979146422*t3 + 0.31358835897097769)/(1.7524023514472222*t0 - 0.4949692743884927*t2 + 1.2477698723440553*t3 - 0.7524023514472222) - (15.0/128.0)*t0;
+    const double t6 = ((c < 0.0) ? (0.0) : (c));
+    const double t0 = ((t6 > 1.0) ? (1.0) : (t6));
+    const double t1 = (t0*t0);
+    const double t2 = -t0/(sqrt(1.0 - t0) + 1.0) + 2.0;
+    const double t3 = t0/t2;
+    const double t4 = (t0*t0*t0)/(t2*t2*t2);
+    const double t5 = t1/(t2*t2);
+    return -(15.0/128.0)*t0 + t1*(0.0068679168228707598*t3 + 0.03594639979146422*t4 + 0.08146657424596484*t5 + 1.6944903203701357e-6)/(0.2564643602507712*t3 - 1.2477698723440553*t4 + 1.9909072655849437*t5 + 0.00039824650834039896);
 }
 
 LAMBERT_SPHERE_FN double lambert_sphere_c_of_kd(double kd)
@@ -210,54 +219,60 @@ LAMBERT_SPHERE_FN double lambert_sphere_single(double mu_i, double mu_o, double 
 
 LAMBERT_SPHERE_FN double lambert_sphere_fm0(double mu_i, double mu_o, double c)
 {
-    const double t44 = ((c < 0.0) ? (0.0) : (c));
-    const double t0 = ((t44 > 1.0) ? (1.0) : (t44));
+    const double t50 = ((c < 0.0) ? (0.0) : (c));
+    const double t0 = ((t50 > 1.0) ? (1.0) : (t50));
     const double t1 = ((1.0/384.0))*t0;
     const double t2 = (t0*t0);
-    const double t3 = (15.0 - 15.0*t0)*(4.0*t0 + 9.0);
-    const double t4 = 1.0 - t0;
-    const double t5 = sqrt(t4);
-    const double t6 = 2.470025465103292*t4;
-    const double t7 = 3.383961716351341*t4;
-    const double t8 = 5.633059857885996*t4;
-    const double t9 = 7.645389081740135*t4;
-    const double t10 = (t4*sqrt(t4));
-    const double t11 = 8.67881460302426*t10;
-    const double t12 = 16.844673505718053*t10;
-    const double t13 = 29.409387398376747*t10;
-    const double t14 = 39.47136053844081*t10;
-    const double t15 = (t4*t4);
-    const double t16 = 15.55714042239967*t15;
-    const double t17 = 30.65164162022722*t15;
-    const double t18 = 54.48819921062277*t15;
-    const double t19 = 71.5529318324384*t15;
-    const double t20 = (t4*t4*sqrt(t4));
-    const double t21 = 9.656831937224494*t20;
-    const double t22 = 19.36513627154477*t20;
-    const double t23 = 34.157239957245686*t20;
-    const double t24 = 44.819359100029104*t20;
-    const double t25 = 0.33904481632399913*t5;
-    const double t26 = 0.6011702629092316*t5;
-    const double t27 = 0.9285300997139079*t5;
-    const double t28 = 1.4754666313555003*t5;
-    const double t29 = t0/(t5 + 1.0);
-    const double t30 = t0*(20.0*t0 + 281.0) - 346.0;
-    const double t31 = -0.35878996534201457*t0 + 0.05510640544644332*t10 - 0.562194525287264*t15 + 0.3859631098571893*t20 - 0.6880988541912209*t5 + 1.7851478660092009;
-    const double t45 = ((mu_i < 0.0) ? (0.0) : (mu_i));
-    const double t32 = ((t45 > 1.0) ? (1.0) : (t45));
-    const double t33 = (t32*t32);
-    const double t34 = (t32*t32*t32);
-    const double t35 = (t32*t32*t32*t32);
-    const double t46 = ((mu_o < 0.0) ? (0.0) : (mu_o));
-    const double t36 = ((t46 > 1.0) ? (1.0) : (t46));
-    const double t37 = (t36*t36);
-    const double t38 = (t36*t36*t36);
-    const double t39 = (t36*t36*t36*t36);
-    const double t40 = t32*t36;
-    const double t41 = t33*t37;
-    const double t42 = t32 + t36;
-    const double t43 = t2*t40*(-1.5452922735792385*t0 - 0.8643185721759284*t10 - 0.15709300643034438*t5 + 0.995496454311347)/(1.6478627731982702*t0 + 1.047419504828386*t10 - 0.36276294375083773*t5 - 0.6478627731982702) + t2*(t33 + t37)*(-0.1893057736203575*t0 - 0.03594639979146422*t10 - 0.2776402646891931*t5 + 0.31358835897097769)/(1.7524023514472222*t0 + 1.2477698723440553*t10 - 0.4949692743884927*t5 - 0.7524023514472222) + t40*t42*lambert_sphere_const_d(t0) + t41*(-(5.0/32.0)*(t0*t0*t0) - (25.0/128.0)*t2) + t42*lambert_sphere_const_b(t0);
-    return ((1.0/2.0))*(t43 + (t1*(-45.0*t33 - 45.0*t37 + 256.0*t40 + 135.0*t41 + 207.0) + t43)*expm1(t32*(t0*(t29*(-t11*t32 + t12*t35 + t13*t33 - t14*t34 + t16*t32 - t17*t35 - t18*t33 + t19*t34 - t21*t32 + t22*t35 + t23*t33 - t24*t34 + t25*t35 - t26*t34 + t27*t33 - t28*t32 + t31 + t32*t6 - 1.354906550811893*t32 - t33*t8 + 0.3450742468475043*t33 + t34*t9 + 0.039286501348685214*t34 - t35*t7 + 0.0880030773183851*t35) + ((301.0/384.0))*t32 + ((45.0/256.0))*t33 - (45.0/128.0)*t34 + (-557.0/1536.0)) + t1*(t3*t35 + t30*t33 + 207.0)*log(1.0 + 1.0/((t32 < 1.0000000000000001e-30) ? (1.0000000000000001e-30) : (t32)))) + t36*(t0*(t29*(-t11*t36 + t12*t39 + t13*t37 - t14*t38 + t16*t36 - t17*t39 - t18*t37 + t19*t38 - t21*t36 + t22*t39 + t23*t37 - t24*t38 + t25*t39 - t26*t38 + t27*t37 - t28*t36 + t31 + t36*t6 - 1.354906550811893*t36 - t37*t8 + 0.3450742468475043*t37 + t38*t9 + 0.039286501348685214*t38 - t39*t7 + 0.0880030773183851*t39) + ((301.0/384.0))*t36 + ((45.0/256.0))*t37 - (45.0/128.0)*t38 + (-557.0/1536.0)) + t1*(t3*t39 + t30*t37 + 207.0)*log(1.0 + 1.0/((t36 < 1.0000000000000001e-30) ? (1.0000000000000001e-30) : (t36))))))/(3.141592653589793238*((t42 < (1.0/1000000.0)) ? ((1.0/1000000.0)) : (t42)));
+    const double t3 = (t0*t0*t0);
+    const double t4 = (15.0 - 15.0*t0)*(4.0*t0 + 9.0);
+    const double t5 = 1.0 - t0;
+    const double t6 = sqrt(t5);
+    const double t7 = 2.470025465103292*t5;
+    const double t8 = 3.383961716351341*t5;
+    const double t9 = 5.633059857885996*t5;
+    const double t10 = 7.645389081740135*t5;
+    const double t11 = (t5*sqrt(t5));
+    const double t12 = 8.67881460302426*t11;
+    const double t13 = 16.844673505718053*t11;
+    const double t14 = 29.409387398376747*t11;
+    const double t15 = 39.47136053844081*t11;
+    const double t16 = (t5*t5);
+    const double t17 = 15.55714042239967*t16;
+    const double t18 = 30.65164162022722*t16;
+    const double t19 = 54.48819921062277*t16;
+    const double t20 = 71.5529318324384*t16;
+    const double t21 = (t5*t5*sqrt(t5));
+    const double t22 = 9.656831937224494*t21;
+    const double t23 = 19.36513627154477*t21;
+    const double t24 = 34.157239957245686*t21;
+    const double t25 = 44.819359100029104*t21;
+    const double t26 = 0.33904481632399913*t6;
+    const double t27 = 0.6011702629092316*t6;
+    const double t28 = 0.9285300997139079*t6;
+    const double t29 = 1.4754666313555003*t6;
+    const double t30 = t0/(t6 + 1.0);
+    const double t31 = 2.0 - t30;
+    const double t32 = pow(t31, -3.0);
+    const double t33 = t0/t31;
+    const double t34 = t2/(t31*t31);
+    const double t35 = t3*t32;
+    const double t36 = t0*(20.0*t0 + 281.0) - 346.0;
+    const double t37 = -0.35878996534201457*t0 + 0.05510640544644332*t11 - 0.562194525287264*t16 + 0.3859631098571893*t21 - 0.6880988541912209*t6 + 1.7851478660092009;
+    const double t51 = ((mu_i < 0.0) ? (0.0) : (mu_i));
+    const double t38 = ((t51 > 1.0) ? (1.0) : (t51));
+    const double t39 = (t38*t38);
+    const double t40 = (t38*t38*t38);
+    const double t41 = (t38*t38*t38*t38);
+    const double t52 = ((mu_o < 0.0) ? (0.0) : (mu_o));
+    const double t42 = ((t52 > 1.0) ? (1.0) : (t52));
+    const double t43 = (t42*t42);
+    const double t44 = (t42*t42*t42);
+    const double t45 = (t42*t42*t42*t42);
+    const double t46 = t38*t42;
+    const double t47 = t39*t43;
+    const double t48 = t38 + t42;
+    const double t49 = t2*t46*(0.8643185721759284*t3*t32 - 0.34053582420034742*t33 - 1.0476634429485467*t34 - 0.025915124294925779)/(0.51622997566222013*t33 + 1.4943957412868878*t34 - 1.047419504828386*t35 + 0.03679378787927807) + t2*(t39 + t43)*(0.0068679168228707598*t33 + 0.08146657424596484*t34 + 0.03594639979146422*t35 + 1.6944903203701357e-6)/(0.2564643602507712*t33 + 1.9909072655849437*t34 - 1.2477698723440553*t35 + 0.00039824650834039896) + t46*t48*lambert_sphere_const_d(t0) + t47*(-(25.0/128.0)*t2 - (5.0/32.0)*t3) + t48*lambert_sphere_const_b(t0);
+    return ((1.0/2.0))*(t49 + (t1*(-45.0*t39 - 45.0*t43 + 256.0*t46 + 135.0*t47 + 207.0) + t49)*expm1(t38*(t0*(t30*(t10*t40 - t12*t38 + t13*t41 + t14*t39 - t15*t40 + t17*t38 - t18*t41 - t19*t39 + t20*t40 - t22*t38 + t23*t41 + t24*t39 - t25*t40 + t26*t41 - t27*t40 + t28*t39 - t29*t38 + t37 + t38*t7 - 1.354906550811893*t38 - t39*t9 + 0.3450742468475043*t39 + 0.039286501348685214*t40 - t41*t8 + 0.0880030773183851*t41) + ((301.0/384.0))*t38 + ((45.0/256.0))*t39 - (45.0/128.0)*t40 + (-557.0/1536.0)) + t1*(t36*t39 + t4*t41 + 207.0)*log(1.0 + 1.0/((t38 < 1.0000000000000001e-30) ? (1.0000000000000001e-30) : (t38)))) + t42*(t0*(t30*(t10*t44 - t12*t42 + t13*t45 + t14*t43 - t15*t44 + t17*t42 - t18*t45 - t19*t43 + t20*t44 - t22*t42 + t23*t45 + t24*t43 - t25*t44 + t26*t45 - t27*t44 + t28*t43 - t29*t42 + t37 + t42*t7 - 1.354906550811893*t42 - t43*t9 + 0.3450742468475043*t43 + 0.039286501348685214*t44 - t45*t8 + 0.0880030773183851*t45) + ((301.0/384.0))*t42 + ((45.0/256.0))*t43 - (45.0/128.0)*t44 + (-557.0/1536.0)) + t1*(t36*t43 + t4*t45 + 207.0)*log(1.0 + 1.0/((t42 < 1.0000000000000001e-30) ? (1.0000000000000001e-30) : (t42))))))/(3.141592653589793238*((t48 < (1.0/1000000.0)) ? ((1.0/1000000.0)) : (t48)));
 }
 
 LAMBERT_SPHERE_FN double lambert_sphere_fm1(double mu_i, double mu_o, double c)
@@ -506,42 +521,51 @@ LAMBERT_SPHERE_FN float lambert_sphere_const_m_f(float c)
 
 LAMBERT_SPHERE_FN float lambert_sphere_const_b_f(float c)
 {
-    const float t4 = ((c < 0.0F) ? (0.0F) : (c));
-    const float t0 = ((t4 > 1.0F) ? (1.0F) : (t4));
-    const float t1 = 1.0F - t0;
-    const float t2 = sqrtf(t1);
-    const float t3 = (t1*sqrtf(t1));
-    return (t0*t0)*(-1.02080832F*t0 + 0.187224259F*t2 - 1.12081142F*t3 + 0.934622013F)/(1.24014773F*t0 + 3.14409425F*t2 - 2.8967197F*t3 - 0.240147727F);
+    const float t6 = ((c < 0.0F) ? (0.0F) : (c));
+    const float t0 = ((t6 > 1.0F) ? (1.0F) : (t6));
+    const float t1 = (t0*t0);
+    const float t2 = -t0/(sqrtf(1.0F - t0) + 1.0F) + 2.0F;
+    const float t3 = t0/t2;
+    const float t4 = (t0*t0*t0)/(t2*t2*t2);
+    const float t5 = t1/(t2*t2);
+    return t1*(1.13359335F*t3 + 1.12081142F*t4 - 2.34162593F*t5 + 0.00103485553F)/(8.02636031F*t3 + 2.8967197F*t4 - 9.93030684F*t5 + 0.00722682508F);
 }
 
 LAMBERT_SPHERE_FN float lambert_sphere_const_c_f(float c)
 {
-    const float t4 = ((c < 0.0F) ? (0.0F) : (c));
-    const float t0 = ((t4 > 1.0F) ? (1.0F) : (t4));
-    const float t1 = 1.0F - t0;
-    const float t2 = sqrtf(t1);
-    const float t3 = (t1*sqrtf(t1));
-    return (t0*t0)*(-1.54529227F*t0 - 0.157093006F*t2 - 0.864318572F*t3 + 0.995496454F)/(1.64786277F*t0 - 0.362762944F*t2 + 1.0474195F*t3 - 0.647862773F) + ((2.0F/3.0F))*t0;
+    const float t7 = ((c < 0.0F) ? (0.0F) : (c));
+    const float t0 = ((t7 > 1.0F) ? (1.0F) : (t7));
+    const float t1 = (t0*t0);
+    const float t2 = (t0*t0*t0);
+    const float t3 = -t0/(sqrtf(1.0F - t0) + 1.0F) + 2.0F;
+    const float t4 = powf(t3, -3.0F);
+    const float t5 = t0/t3;
+    const float t6 = t1/(t3*t3);
+    return ((2.0F/3.0F))*t0 + t1*(0.864318572F*t2*t4 - 0.340535824F*t5 - 1.04766344F*t6 - 0.0259151243F)/(-1.0474195F*t2*t4 + 0.516229976F*t5 + 1.49439574F*t6 + 0.0367937879F);
 }
 
 LAMBERT_SPHERE_FN float lambert_sphere_const_d_f(float c)
 {
-    const float t4 = ((c < 0.0F) ? (0.0F) : (c));
-    const float t0 = ((t4 > 1.0F) ? (1.0F) : (t4));
-    const float t1 = 1.0F - t0;
-    const float t2 = sqrtf(t1);
-    const float t3 = (t1*sqrtf(t1));
-    return (t0*t0)*(0.465017048F*t0 + 0.25230271F*t2 + 0.213013893F*t3 - 0.464639299F)/(1.5806366F*t0 - 0.197567942F*t2 + 0.786493673F*t3 - 0.580636602F);
+    const float t6 = ((c < 0.0F) ? (0.0F) : (c));
+    const float t0 = ((t6 > 1.0F) ? (1.0F) : (t6));
+    const float t1 = (t0*t0);
+    const float t2 = -t0/(sqrtf(1.0F - t0) + 1.0F) + 2.0F;
+    const float t3 = t0/t2;
+    const float t4 = (t0*t0*t0)/(t2*t2*t2);
+    const float t5 = t1/(t2*t2);
+    return t1*(0.0386897082F*t3 - 0.213013893F*t4 + 0.17402463F*t5 + 0.000677303682F)/(0.999360126F*t3 - 0.786493673F*t4 + 0.778844418F*t5 + 0.00828912889F);
 }
 
 LAMBERT_SPHERE_FN float lambert_sphere_const_f_f(float c)
 {
-    const float t4 = ((c < 0.0F) ? (0.0F) : (c));
-    const float t0 = ((t4 > 1.0F) ? (1.0F) : (t4));
-    const float t1 = 1.0F - t0;
-    const float t2 = sqrtf(t1);
-    const float t3 = (t1*sqrtf(t1));
-    return (t0*t0)*(-0.189305774F*t0 - 0.277640265F*t2 - 0.0359463998F*t3 + 0.313588359F)/(1.75240235F*t0 - 0.494969274F*t2 + 1.24776987F*t3 - 0.752402351F) - (15.0F/128.0F)*t0;
+    const float t6 = ((c < 0.0F) ? (0.0F) : (c));
+    const float t0 = ((t6 > 1.0F) ? (1.0F) : (t6));
+    const float t1 = (t0*t0);
+    const float t2 = -t0/(sqrtf(1.0F - t0) + 1.0F) + 2.0F;
+    const float t3 = t0/t2;
+    const float t4 = (t0*t0*t0)/(t2*t2*t2);
+    const float t5 = t1/(t2*t2);
+    return -(15.0F/128.0F)*t0 + t1*(0.00686791682F*t3 + 0.0359463998F*t4 + 0.0814665743F*t5 + 1.69449032e-6F)/(0.25646436F*t3 - 1.24776987F*t4 + 1.99090727F*t5 + 0.000398246508F);
 }
 
 LAMBERT_SPHERE_FN float lambert_sphere_c_of_kd_f(float kd)
@@ -626,54 +650,60 @@ LAMBERT_SPHERE_FN float lambert_sphere_single_f(float mu_i, float mu_o, float co
 
 LAMBERT_SPHERE_FN float lambert_sphere_fm0_f(float mu_i, float mu_o, float c)
 {
-    const float t44 = ((c < 0.0F) ? (0.0F) : (c));
-    const float t0 = ((t44 > 1.0F) ? (1.0F) : (t44));
+    const float t50 = ((c < 0.0F) ? (0.0F) : (c));
+    const float t0 = ((t50 > 1.0F) ? (1.0F) : (t50));
     const float t1 = ((1.0F/384.0F))*t0;
     const float t2 = (t0*t0);
-    const float t3 = (15.0F - 15.0F*t0)*(4.0F*t0 + 9.0F);
-    const float t4 = 1.0F - t0;
-    const float t5 = sqrtf(t4);
-    const float t6 = 2.47002546F*t4;
-    const float t7 = 3.38396172F*t4;
-    const float t8 = 5.63305986F*t4;
-    const float t9 = 7.64538908F*t4;
-    const float t10 = (t4*sqrtf(t4));
-    const float t11 = 8.6788146F*t10;
-    const float t12 = 16.8446735F*t10;
-    const float t13 = 29.4093874F*t10;
-    const float t14 = 39.4713605F*t10;
-    const float t15 = (t4*t4);
-    const float t16 = 15.5571404F*t15;
-    const float t17 = 30.6516416F*t15;
-    const float t18 = 54.4881992F*t15;
-    const float t19 = 71.5529318F*t15;
-    const float t20 = (t4*t4*sqrtf(t4));
-    const float t21 = 9.65683194F*t20;
-    const float t22 = 19.3651363F*t20;
-    const float t23 = 34.15724F*t20;
-    const float t24 = 44.8193591F*t20;
-    const float t25 = 0.339044816F*t5;
-    const float t26 = 0.601170263F*t5;
-    const float t27 = 0.9285301F*t5;
-    const float t28 = 1.47546663F*t5;
-    const float t29 = t0/(t5 + 1.0F);
-    const float t30 = t0*(20.0F*t0 + 281.0F) - 346.0F;
-    const float t31 = -0.358789965F*t0 + 0.0551064054F*t10 - 0.562194525F*t15 + 0.38596311F*t20 - 0.688098854F*t5 + 1.78514787F;
-    const float t45 = ((mu_i < 0.0F) ? (0.0F) : (mu_i));
-    const float t32 = ((t45 > 1.0F) ? (1.0F) : (t45));
-    const float t33 = (t32*t32);
-    const float t34 = (t32*t32*t32);
-    const float t35 = (t32*t32*t32*t32);
-    const float t46 = ((mu_o < 0.0F) ? (0.0F) : (mu_o));
-    const float t36 = ((t46 > 1.0F) ? (1.0F) : (t46));
-    const float t37 = (t36*t36);
-    const float t38 = (t36*t36*t36);
-    const float t39 = (t36*t36*t36*t36);
-    const float t40 = t32*t36;
-    const float t41 = t33*t37;
-    const float t42 = t32 + t36;
-    const float t43 = t2*t40*(-1.54529227F*t0 - 0.864318572F*t10 - 0.157093006F*t5 + 0.995496454F)/(1.64786277F*t0 + 1.0474195F*t10 - 0.362762944F*t5 - 0.647862773F) + t2*(t33 + t37)*(-0.189305774F*t0 - 0.0359463998F*t10 - 0.277640265F*t5 + 0.313588359F)/(1.75240235F*t0 + 1.24776987F*t10 - 0.494969274F*t5 - 0.752402351F) + t40*t42*lambert_sphere_const_d_f(t0) + t41*(-(5.0F/32.0F)*(t0*t0*t0) - (25.0F/128.0F)*t2) + t42*lambert_sphere_const_b_f(t0);
-    return ((1.0F/2.0F))*(t43 + (t1*(-45.0F*t33 - 45.0F*t37 + 256.0F*t40 + 135.0F*t41 + 207.0F) + t43)*expm1f(t32*(t0*(t29*(-t11*t32 + t12*t35 + t13*t33 - t14*t34 + t16*t32 - t17*t35 - t18*t33 + t19*t34 - t21*t32 + t22*t35 + t23*t33 - t24*t34 + t25*t35 - t26*t34 + t27*t33 - t28*t32 + t31 + t32*t6 - 1.35490655F*t32 - t33*t8 + 0.345074247F*t33 + t34*t9 + 0.0392865013F*t34 - t35*t7 + 0.0880030773F*t35) + ((301.0F/384.0F))*t32 + ((45.0F/256.0F))*t33 - (45.0F/128.0F)*t34 + (-557.0F/1536.0F)) + t1*(t3*t35 + t30*t33 + 207.0F)*logf(1.0F + 1.0F/((t32 < 1.0e-30F) ? (1.0e-30F) : (t32)))) + t36*(t0*(t29*(-t11*t36 + t12*t39 + t13*t37 - t14*t38 + t16*t36 - t17*t39 - t18*t37 + t19*t38 - t21*t36 + t22*t39 + t23*t37 - t24*t38 + t25*t39 - t26*t38 + t27*t37 - t28*t36 + t31 + t36*t6 - 1.35490655F*t36 - t37*t8 + 0.345074247F*t37 + t38*t9 + 0.0392865013F*t38 - t39*t7 + 0.0880030773F*t39) + ((301.0F/384.0F))*t36 + ((45.0F/256.0F))*t37 - (45.0F/128.0F)*t38 + (-557.0F/1536.0F)) + t1*(t3*t39 + t30*t37 + 207.0F)*logf(1.0F + 1.0F/((t36 < 1.0e-30F) ? (1.0e-30F) : (t36))))))/(3.141592653589793238F*((t42 < (1.0F/1000000.0F)) ? ((1.0F/1000000.0F)) : (t42)));
+    const float t3 = (t0*t0*t0);
+    const float t4 = (15.0F - 15.0F*t0)*(4.0F*t0 + 9.0F);
+    const float t5 = 1.0F - t0;
+    const float t6 = sqrtf(t5);
+    const float t7 = 2.47002546F*t5;
+    const float t8 = 3.38396172F*t5;
+    const float t9 = 5.63305986F*t5;
+    const float t10 = 7.64538908F*t5;
+    const float t11 = (t5*sqrtf(t5));
+    const float t12 = 8.6788146F*t11;
+    const float t13 = 16.8446735F*t11;
+    const float t14 = 29.4093874F*t11;
+    const float t15 = 39.4713605F*t11;
+    const float t16 = (t5*t5);
+    const float t17 = 15.5571404F*t16;
+    const float t18 = 30.6516416F*t16;
+    const float t19 = 54.4881992F*t16;
+    const float t20 = 71.5529318F*t16;
+    const float t21 = (t5*t5*sqrtf(t5));
+    const float t22 = 9.65683194F*t21;
+    const float t23 = 19.3651363F*t21;
+    const float t24 = 34.15724F*t21;
+    const float t25 = 44.8193591F*t21;
+    const float t26 = 0.339044816F*t6;
+    const float t27 = 0.601170263F*t6;
+    const float t28 = 0.9285301F*t6;
+    const float t29 = 1.47546663F*t6;
+    const float t30 = t0/(t6 + 1.0F);
+    const float t31 = 2.0F - t30;
+    const float t32 = powf(t31, -3.0F);
+    const float t33 = t0/t31;
+    const float t34 = t2/(t31*t31);
+    const float t35 = t3*t32;
+    const float t36 = t0*(20.0F*t0 + 281.0F) - 346.0F;
+    const float t37 = -0.358789965F*t0 + 0.0551064054F*t11 - 0.562194525F*t16 + 0.38596311F*t21 - 0.688098854F*t6 + 1.78514787F;
+    const float t51 = ((mu_i < 0.0F) ? (0.0F) : (mu_i));
+    const float t38 = ((t51 > 1.0F) ? (1.0F) : (t51));
+    const float t39 = (t38*t38);
+    const float t40 = (t38*t38*t38);
+    const float t41 = (t38*t38*t38*t38);
+    const float t52 = ((mu_o < 0.0F) ? (0.0F) : (mu_o));
+    const float t42 = ((t52 > 1.0F) ? (1.0F) : (t52));
+    const float t43 = (t42*t42);
+    const float t44 = (t42*t42*t42);
+    const float t45 = (t42*t42*t42*t42);
+    const float t46 = t38*t42;
+    const float t47 = t39*t43;
+    const float t48 = t38 + t42;
+    const float t49 = t2*t46*(0.864318572F*t3*t32 - 0.340535824F*t33 - 1.04766344F*t34 - 0.0259151243F)/(0.516229976F*t33 + 1.49439574F*t34 - 1.0474195F*t35 + 0.0367937879F) + t2*(t39 + t43)*(0.00686791682F*t33 + 0.0814665743F*t34 + 0.0359463998F*t35 + 1.69449032e-6F)/(0.25646436F*t33 + 1.99090727F*t34 - 1.24776987F*t35 + 0.000398246508F) + t46*t48*lambert_sphere_const_d_f(t0) + t47*(-(25.0F/128.0F)*t2 - (5.0F/32.0F)*t3) + t48*lambert_sphere_const_b_f(t0);
+    return ((1.0F/2.0F))*(t49 + (t1*(-45.0F*t39 - 45.0F*t43 + 256.0F*t46 + 135.0F*t47 + 207.0F) + t49)*expm1f(t38*(t0*(t30*(t10*t40 - t12*t38 + t13*t41 + t14*t39 - t15*t40 + t17*t38 - t18*t41 - t19*t39 + t20*t40 - t22*t38 + t23*t41 + t24*t39 - t25*t40 + t26*t41 - t27*t40 + t28*t39 - t29*t38 + t37 + t38*t7 - 1.35490655F*t38 - t39*t9 + 0.345074247F*t39 + 0.0392865013F*t40 - t41*t8 + 0.0880030773F*t41) + ((301.0F/384.0F))*t38 + ((45.0F/256.0F))*t39 - (45.0F/128.0F)*t40 + (-557.0F/1536.0F)) + t1*(t36*t39 + t4*t41 + 207.0F)*logf(1.0F + 1.0F/((t38 < 1.0e-30F) ? (1.0e-30F) : (t38)))) + t42*(t0*(t30*(t10*t44 - t12*t42 + t13*t45 + t14*t43 - t15*t44 + t17*t42 - t18*t45 - t19*t43 + t20*t44 - t22*t42 + t23*t45 + t24*t43 - t25*t44 + t26*t45 - t27*t44 + t28*t43 - t29*t42 + t37 + t42*t7 - 1.35490655F*t42 - t43*t9 + 0.345074247F*t43 + 0.0392865013F*t44 - t45*t8 + 0.0880030773F*t45) + ((301.0F/384.0F))*t42 + ((45.0F/256.0F))*t43 - (45.0F/128.0F)*t44 + (-557.0F/1536.0F)) + t1*(t36*t43 + t4*t45 + 207.0F)*logf(1.0F + 1.0F/((t42 < 1.0e-30F) ? (1.0e-30F) : (t42))))))/(3.141592653589793238F*((t48 < (1.0F/1000000.0F)) ? ((1.0F/1000000.0F)) : (t48)));
 }
 
 LAMBERT_SPHERE_FN float lambert_sphere_fm1_f(float mu_i, float mu_o, float c)
@@ -868,8 +898,8 @@ LAMBERT_SPHERE_FN lambert_sphere_material lambert_sphere_prepare_c(double c)
 {
     lambert_sphere_material m;
     const double t0 = 1.0/3.141592653589793238;
-    const double t16 = ((c < 0.0) ? (0.0) : (c));
-    const double t1 = ((t16 > 1.0) ? (1.0) : (t16));
+    const double t22 = ((c < 0.0) ? (0.0) : (c));
+    const double t1 = ((t22 > 1.0) ? (1.0) : (t22));
     const double t2 = ((15.0/256.0))*t1;
     const double t3 = 20.0*t1;
     const double t4 = (t1*t1);
@@ -879,17 +909,23 @@ LAMBERT_SPHERE_FN lambert_sphere_material lambert_sphere_prepare_c(double c)
     const double t8 = (t6*sqrt(t6));
     const double t9 = (t6*t6);
     const double t10 = (t6*t6*sqrt(t6));
-    const double t11 = 2.0*t7 - 1.0;
-    const double t12 = (t11*t11);
-    const double t13 = (t11*t11*t11);
-    const double t14 = (t11*t11*t11*t11);
-    const double t15 = -0.05520224328243178*t1 - 0.007285586578842816*t4 + 0.00911967909954923*t5;
-    m.k[0] = t4*(-1.0208083202960536*t1 + 0.1872242586777193*t7 - 1.1208114157345153*t8 + 0.93462201258232595)/(1.2401477267052212*t1 + 3.1440942543136385*t7 - 2.896719702526885*t8 - 0.2401477267052212);
+    const double t11 = t1/(t7 + 1.0);
+    const double t12 = 2.0 - t11;
+    const double t13 = pow(t12, -3.0);
+    const double t14 = t1/t12;
+    const double t15 = t4/(t12*t12);
+    const double t16 = t13*t5;
+    const double t17 = 2.0*t7 - 1.0;
+    const double t18 = (t17*t17);
+    const double t19 = (t17*t17*t17);
+    const double t20 = (t17*t17*t17*t17);
+    const double t21 = -0.05520224328243178*t1 - 0.007285586578842816*t4 + 0.00911967909954923*t5;
+    m.k[0] = t4*(1.1335933479337194*t14 - 2.3416259269074923*t15 + 1.1208114157345153*t16 + 0.0010348555255299506)/(8.0263603066774589*t14 - 9.9303068342858762*t15 + 2.896719702526885*t16 + 0.007226825081532294);
     m.k[1] = ((1.0/384.0))*t1;
     m.k[2] = -(25.0/128.0)*t4 - (5.0/32.0)*t5;
-    m.k[3] = t4*(-0.1893057736203575*t1 - 0.2776402646891931*t7 - 0.03594639979146422*t8 + 0.31358835897097769)/(1.7524023514472222*t1 - 0.4949692743884927*t7 + 1.2477698723440553*t8 - 0.7524023514472222);
-    m.k[4] = t4*(0.4650170482491284*t1 + 0.2523027101469349*t7 + 0.21301389270866672*t8 - 0.46463929917364463)/(1.580636602392337*t1 - 0.19756794223198304*t7 + 0.7864936735105944*t8 - 0.580636602392337);
-    m.k[5] = t4*(-1.5452922735792385*t1 - 0.15709300643034438*t7 - 0.8643185721759284*t8 + 0.995496454311347)/(1.6478627731982702*t1 - 0.36276294375083773*t7 + 1.047419504828386*t8 - 0.6478627731982702);
+    m.k[3] = t4*(0.0068679168228707598*t14 + 0.08146657424596484*t15 + 0.03594639979146422*t16 + 1.6944903203701357e-6)/(0.2564643602507712*t14 + 1.9909072655849437*t15 - 1.2477698723440553*t16 + 0.00039824650834039896);
+    m.k[4] = t4*(0.03868970822532174*t14 + 0.17402462987687176*t15 - 0.21301389270866672*t16 + 0.00067730368195698695)/(0.99936012648487384*t14 + 0.7788444181394462*t15 - 0.7864936735105944*t16 + 0.0082891288862743601);
+    m.k[5] = t4*(0.8643185721759284*t13*t5 - 0.34053582420034742*t14 - 1.0476634429485467*t15 - 0.025915124294925779)/(0.51622997566222013*t14 + 1.4943957412868878*t15 - 1.047419504828386*t16 + 0.03679378787927807);
     m.k[6] = 71.5529318324384*t9;
     m.k[7] = 16.844673505718053*t8;
     m.k[8] = 0.33904481632399913*t7;
@@ -911,7 +947,7 @@ LAMBERT_SPHERE_FN lambert_sphere_material lambert_sphere_prepare_c(double c)
     m.k[24] = -44.819359100029104*t10;
     m.k[25] = -54.48819921062277*t9;
     m.k[26] = -0.35878996534201457*t1 + 0.3859631098571893*t10 - 0.6880988541912209*t7 + 0.05510640544644332*t8 - 0.562194525287264*t9 + 1.7851478660092009;
-    m.k[27] = t1/(t7 + 1.0);
+    m.k[27] = t11;
     m.k[28] = t1;
     m.k[29] = t1*(t3 + 281.0) - 346.0;
     m.k[30] = (15.0 - 15.0*t1)*(4.0*t1 + 9.0);
@@ -922,8 +958,8 @@ LAMBERT_SPHERE_FN lambert_sphere_material lambert_sphere_prepare_c(double c)
     m.k[35] = 0.012175300667002955*t7 + 0.0035657559829922665;
     m.k[36] = t2;
     m.k[37] = t0*t2;
-    m.k[38] = t15;
-    m.k[39] = 0.30329126471747215*t1 + (t15*t15) + 0.018477092603297557*t4;
+    m.k[38] = t21;
+    m.k[39] = 0.30329126471747215*t1 + (t21*t21) + 0.018477092603297557*t4;
     m.k[40] = 0.11235087395548722*t7;
     m.k[41] = 0.1161087819075943*t6;
     m.k[42] = 0.029308878818980397*t7;
@@ -934,56 +970,56 @@ LAMBERT_SPHERE_FN lambert_sphere_material lambert_sphere_prepare_c(double c)
     m.k[47] = t3 + 45.0;
     m.k[48] = -(1.0/192.0)*t1;
     m.k[49] = ((1.0/3.0))*t0*t1;
-    m.k[50] = 0.10959653178533475*t12;
-    m.k[51] = 0.1766119774816802*t12;
-    m.k[52] = 0.25597403686706693*t12;
-    m.k[53] = 2.42146807891088*t13;
-    m.k[54] = 0.5027933198177464*t13;
-    m.k[55] = 2.070129643634922*t14;
-    m.k[56] = 0.519096218517333*t13;
-    m.k[57] = 2.5251177518363694*t11;
-    m.k[58] = 1.3385823867874944*t11;
-    m.k[59] = 2.7903213618028806*t14;
-    m.k[60] = 3.9162801286388897*t12;
-    m.k[61] = -1.7626547831461115*t12;
-    m.k[62] = -3.6618141129510917*t14;
-    m.k[63] = -0.21141002665509673*t11;
-    m.k[64] = -0.016932172543436784*t14;
-    m.k[65] = -2.295795044579524*t11;
-    m.k[66] = -2.8379131409273515*t12;
-    m.k[67] = -0.7128581043130656*t14;
-    m.k[68] = -1.6739402521122886*t13;
-    m.k[69] = -1.7061192768751303*t13;
-    m.k[70] = -0.014210822631915428*t13;
-    m.k[71] = -0.46352701817452785*t14;
-    m.k[72] = -0.4890688103263692*t11;
-    m.k[73] = -0.49993828263168366*t11;
-    m.k[74] = 0.10625650933246486*t12 - 0.09050045154983123*t13 + 0.040558449658917785*t14 - 1.8499934365876788*t7;
-    m.k[75] = 0.805852957259517*t13;
-    m.k[76] = 0.6582269037007633*t11;
-    m.k[77] = 0.45043691346028303*t12;
-    m.k[78] = 0.5742385031683162*t14;
-    m.k[79] = 0.6392720659218424*t11;
-    m.k[80] = 0.18739898105517722*t13;
-    m.k[81] = 0.8371462419661069*t12;
-    m.k[82] = 0.6212937162033938*t14;
-    m.k[83] = 0.4124295039969486*t11;
-    m.k[84] = 0.41754495392944535*t13;
-    m.k[85] = 0.028662593819483183*t14;
-    m.k[86] = -0.5773338931218077*t11;
-    m.k[87] = -0.7667251911655493*t14;
-    m.k[88] = -0.07180031380227185*t12;
-    m.k[89] = -0.6316753368520219*t13;
-    m.k[90] = -0.5766031303491715*t13;
-    m.k[91] = -0.5901356749175913*t11;
-    m.k[92] = -0.15688016937511312*t13;
-    m.k[93] = -0.08951890733992941*t14;
-    m.k[94] = -0.37270829229253744*t12;
-    m.k[95] = -0.37628293329323487*t14;
-    m.k[96] = -0.3929206076202727*t12;
-    m.k[97] = -0.43279839293414*t11;
-    m.k[98] = -0.49761324603578005*t12;
-    m.k[99] = 0.07480678777429003*t12 - 0.048730004697608804*t13 + 0.017690506072644132*t14 - 0.5194652563684371*t7;
+    m.k[50] = 0.10959653178533475*t18;
+    m.k[51] = 0.1766119774816802*t18;
+    m.k[52] = 0.25597403686706693*t18;
+    m.k[53] = 2.42146807891088*t19;
+    m.k[54] = 0.5027933198177464*t19;
+    m.k[55] = 2.070129643634922*t20;
+    m.k[56] = 0.519096218517333*t19;
+    m.k[57] = 2.5251177518363694*t17;
+    m.k[58] = 1.3385823867874944*t17;
+    m.k[59] = 2.7903213618028806*t20;
+    m.k[60] = 3.9162801286388897*t18;
+    m.k[61] = -1.7626547831461115*t18;
+    m.k[62] = -3.6618141129510917*t20;
+    m.k[63] = -0.21141002665509673*t17;
+    m.k[64] = -0.016932172543436784*t20;
+    m.k[65] = -2.295795044579524*t17;
+    m.k[66] = -2.8379131409273515*t18;
+    m.k[67] = -0.7128581043130656*t20;
+    m.k[68] = -1.6739402521122886*t19;
+    m.k[69] = -1.7061192768751303*t19;
+    m.k[70] = -0.014210822631915428*t19;
+    m.k[71] = -0.46352701817452785*t20;
+    m.k[72] = -0.4890688103263692*t17;
+    m.k[73] = -0.49993828263168366*t17;
+    m.k[74] = 0.10625650933246486*t18 - 0.09050045154983123*t19 + 0.040558449658917785*t20 - 1.8499934365876788*t7;
+    m.k[75] = 0.805852957259517*t19;
+    m.k[76] = 0.6582269037007633*t17;
+    m.k[77] = 0.45043691346028303*t18;
+    m.k[78] = 0.5742385031683162*t20;
+    m.k[79] = 0.6392720659218424*t17;
+    m.k[80] = 0.18739898105517722*t19;
+    m.k[81] = 0.8371462419661069*t18;
+    m.k[82] = 0.6212937162033938*t20;
+    m.k[83] = 0.4124295039969486*t17;
+    m.k[84] = 0.41754495392944535*t19;
+    m.k[85] = 0.028662593819483183*t20;
+    m.k[86] = -0.5773338931218077*t17;
+    m.k[87] = -0.7667251911655493*t20;
+    m.k[88] = -0.07180031380227185*t18;
+    m.k[89] = -0.6316753368520219*t19;
+    m.k[90] = -0.5766031303491715*t19;
+    m.k[91] = -0.5901356749175913*t17;
+    m.k[92] = -0.15688016937511312*t19;
+    m.k[93] = -0.08951890733992941*t20;
+    m.k[94] = -0.37270829229253744*t18;
+    m.k[95] = -0.37628293329323487*t20;
+    m.k[96] = -0.3929206076202727*t18;
+    m.k[97] = -0.43279839293414*t17;
+    m.k[98] = -0.49761324603578005*t18;
+    m.k[99] = 0.07480678777429003*t18 - 0.048730004697608804*t19 + 0.017690506072644132*t20 - 0.5194652563684371*t7;
     return m;
 }
 
@@ -1190,8 +1226,8 @@ LAMBERT_SPHERE_FN lambert_sphere_material_f lambert_sphere_prepare_c_f(float c)
 {
     lambert_sphere_material_f m;
     const float t0 = 1.0F/3.141592653589793238F;
-    const float t16 = ((c < 0.0F) ? (0.0F) : (c));
-    const float t1 = ((t16 > 1.0F) ? (1.0F) : (t16));
+    const float t22 = ((c < 0.0F) ? (0.0F) : (c));
+    const float t1 = ((t22 > 1.0F) ? (1.0F) : (t22));
     const float t2 = ((15.0F/256.0F))*t1;
     const float t3 = 20.0F*t1;
     const float t4 = (t1*t1);
@@ -1201,17 +1237,23 @@ LAMBERT_SPHERE_FN lambert_sphere_material_f lambert_sphere_prepare_c_f(float c)
     const float t8 = (t6*sqrtf(t6));
     const float t9 = (t6*t6);
     const float t10 = (t6*t6*sqrtf(t6));
-    const float t11 = 2.0F*t7 - 1.0F;
-    const float t12 = (t11*t11);
-    const float t13 = (t11*t11*t11);
-    const float t14 = (t11*t11*t11*t11);
-    const float t15 = -0.0552022433F*t1 - 0.00728558658F*t4 + 0.0091196791F*t5;
-    m.k[0] = t4*(-1.02080832F*t1 + 0.187224259F*t7 - 1.12081142F*t8 + 0.934622013F)/(1.24014773F*t1 + 3.14409425F*t7 - 2.8967197F*t8 - 0.240147727F);
+    const float t11 = t1/(t7 + 1.0F);
+    const float t12 = 2.0F - t11;
+    const float t13 = powf(t12, -3.0F);
+    const float t14 = t1/t12;
+    const float t15 = t4/(t12*t12);
+    const float t16 = t13*t5;
+    const float t17 = 2.0F*t7 - 1.0F;
+    const float t18 = (t17*t17);
+    const float t19 = (t17*t17*t17);
+    const float t20 = (t17*t17*t17*t17);
+    const float t21 = -0.0552022433F*t1 - 0.00728558658F*t4 + 0.0091196791F*t5;
+    m.k[0] = t4*(1.13359335F*t14 - 2.34162593F*t15 + 1.12081142F*t16 + 0.00103485553F)/(8.02636031F*t14 - 9.93030684F*t15 + 2.8967197F*t16 + 0.00722682508F);
     m.k[1] = ((1.0F/384.0F))*t1;
     m.k[2] = -(25.0F/128.0F)*t4 - (5.0F/32.0F)*t5;
-    m.k[3] = t4*(-0.189305774F*t1 - 0.277640265F*t7 - 0.0359463998F*t8 + 0.313588359F)/(1.75240235F*t1 - 0.494969274F*t7 + 1.24776987F*t8 - 0.752402351F);
-    m.k[4] = t4*(0.465017048F*t1 + 0.25230271F*t7 + 0.213013893F*t8 - 0.464639299F)/(1.5806366F*t1 - 0.197567942F*t7 + 0.786493673F*t8 - 0.580636602F);
-    m.k[5] = t4*(-1.54529227F*t1 - 0.157093006F*t7 - 0.864318572F*t8 + 0.995496454F)/(1.64786277F*t1 - 0.362762944F*t7 + 1.0474195F*t8 - 0.647862773F);
+    m.k[3] = t4*(0.00686791682F*t14 + 0.0814665743F*t15 + 0.0359463998F*t16 + 1.69449032e-6F)/(0.25646436F*t14 + 1.99090727F*t15 - 1.24776987F*t16 + 0.000398246508F);
+    m.k[4] = t4*(0.0386897082F*t14 + 0.17402463F*t15 - 0.213013893F*t16 + 0.000677303682F)/(0.999360126F*t14 + 0.778844418F*t15 - 0.786493673F*t16 + 0.00828912889F);
+    m.k[5] = t4*(0.864318572F*t13*t5 - 0.340535824F*t14 - 1.04766344F*t15 - 0.0259151243F)/(0.516229976F*t14 + 1.49439574F*t15 - 1.0474195F*t16 + 0.0367937879F);
     m.k[6] = 71.5529318F*t9;
     m.k[7] = 16.8446735F*t8;
     m.k[8] = 0.339044816F*t7;
@@ -1233,7 +1275,7 @@ LAMBERT_SPHERE_FN lambert_sphere_material_f lambert_sphere_prepare_c_f(float c)
     m.k[24] = -44.8193591F*t10;
     m.k[25] = -54.4881992F*t9;
     m.k[26] = -0.358789965F*t1 + 0.38596311F*t10 - 0.688098854F*t7 + 0.0551064054F*t8 - 0.562194525F*t9 + 1.78514787F;
-    m.k[27] = t1/(t7 + 1.0F);
+    m.k[27] = t11;
     m.k[28] = t1;
     m.k[29] = t1*(t3 + 281.0F) - 346.0F;
     m.k[30] = (15.0F - 15.0F*t1)*(4.0F*t1 + 9.0F);
@@ -1244,8 +1286,8 @@ LAMBERT_SPHERE_FN lambert_sphere_material_f lambert_sphere_prepare_c_f(float c)
     m.k[35] = 0.0121753007F*t7 + 0.00356575598F;
     m.k[36] = t2;
     m.k[37] = t0*t2;
-    m.k[38] = t15;
-    m.k[39] = 0.303291265F*t1 + (t15*t15) + 0.0184770926F*t4;
+    m.k[38] = t21;
+    m.k[39] = 0.303291265F*t1 + (t21*t21) + 0.0184770926F*t4;
     m.k[40] = 0.112350874F*t7;
     m.k[41] = 0.116108782F*t6;
     m.k[42] = 0.0293088788F*t7;
@@ -1256,56 +1298,56 @@ LAMBERT_SPHERE_FN lambert_sphere_material_f lambert_sphere_prepare_c_f(float c)
     m.k[47] = t3 + 45.0F;
     m.k[48] = -(1.0F/192.0F)*t1;
     m.k[49] = ((1.0F/3.0F))*t0*t1;
-    m.k[50] = 0.109596532F*t12;
-    m.k[51] = 0.176611977F*t12;
-    m.k[52] = 0.255974037F*t12;
-    m.k[53] = 2.42146808F*t13;
-    m.k[54] = 0.50279332F*t13;
-    m.k[55] = 2.07012964F*t14;
-    m.k[56] = 0.519096219F*t13;
-    m.k[57] = 2.52511775F*t11;
-    m.k[58] = 1.33858239F*t11;
-    m.k[59] = 2.79032136F*t14;
-    m.k[60] = 3.91628013F*t12;
-    m.k[61] = -1.76265478F*t12;
-    m.k[62] = -3.66181411F*t14;
-    m.k[63] = -0.211410027F*t11;
-    m.k[64] = -0.0169321725F*t14;
-    m.k[65] = -2.29579504F*t11;
-    m.k[66] = -2.83791314F*t12;
-    m.k[67] = -0.712858104F*t14;
-    m.k[68] = -1.67394025F*t13;
-    m.k[69] = -1.70611928F*t13;
-    m.k[70] = -0.0142108226F*t13;
-    m.k[71] = -0.463527018F*t14;
-    m.k[72] = -0.48906881F*t11;
-    m.k[73] = -0.499938283F*t11;
-    m.k[74] = 0.106256509F*t12 - 0.0905004516F*t13 + 0.0405584497F*t14 - 1.84999344F*t7;
-    m.k[75] = 0.805852957F*t13;
-    m.k[76] = 0.658226904F*t11;
-    m.k[77] = 0.450436913F*t12;
-    m.k[78] = 0.574238503F*t14;
-    m.k[79] = 0.639272066F*t11;
-    m.k[80] = 0.187398981F*t13;
-    m.k[81] = 0.837146242F*t12;
-    m.k[82] = 0.621293716F*t14;
-    m.k[83] = 0.412429504F*t11;
-    m.k[84] = 0.417544954F*t13;
-    m.k[85] = 0.0286625938F*t14;
-    m.k[86] = -0.577333893F*t11;
-    m.k[87] = -0.766725191F*t14;
-    m.k[88] = -0.0718003138F*t12;
-    m.k[89] = -0.631675337F*t13;
-    m.k[90] = -0.57660313F*t13;
-    m.k[91] = -0.590135675F*t11;
-    m.k[92] = -0.156880169F*t13;
-    m.k[93] = -0.0895189073F*t14;
-    m.k[94] = -0.372708292F*t12;
-    m.k[95] = -0.376282933F*t14;
-    m.k[96] = -0.392920608F*t12;
-    m.k[97] = -0.432798393F*t11;
-    m.k[98] = -0.497613246F*t12;
-    m.k[99] = 0.0748067878F*t12 - 0.0487300047F*t13 + 0.0176905061F*t14 - 0.519465256F*t7;
+    m.k[50] = 0.109596532F*t18;
+    m.k[51] = 0.176611977F*t18;
+    m.k[52] = 0.255974037F*t18;
+    m.k[53] = 2.42146808F*t19;
+    m.k[54] = 0.50279332F*t19;
+    m.k[55] = 2.07012964F*t20;
+    m.k[56] = 0.519096219F*t19;
+    m.k[57] = 2.52511775F*t17;
+    m.k[58] = 1.33858239F*t17;
+    m.k[59] = 2.79032136F*t20;
+    m.k[60] = 3.91628013F*t18;
+    m.k[61] = -1.76265478F*t18;
+    m.k[62] = -3.66181411F*t20;
+    m.k[63] = -0.211410027F*t17;
+    m.k[64] = -0.0169321725F*t20;
+    m.k[65] = -2.29579504F*t17;
+    m.k[66] = -2.83791314F*t18;
+    m.k[67] = -0.712858104F*t20;
+    m.k[68] = -1.67394025F*t19;
+    m.k[69] = -1.70611928F*t19;
+    m.k[70] = -0.0142108226F*t19;
+    m.k[71] = -0.463527018F*t20;
+    m.k[72] = -0.48906881F*t17;
+    m.k[73] = -0.499938283F*t17;
+    m.k[74] = 0.106256509F*t18 - 0.0905004516F*t19 + 0.0405584497F*t20 - 1.84999344F*t7;
+    m.k[75] = 0.805852957F*t19;
+    m.k[76] = 0.658226904F*t17;
+    m.k[77] = 0.450436913F*t18;
+    m.k[78] = 0.574238503F*t20;
+    m.k[79] = 0.639272066F*t17;
+    m.k[80] = 0.187398981F*t19;
+    m.k[81] = 0.837146242F*t18;
+    m.k[82] = 0.621293716F*t20;
+    m.k[83] = 0.412429504F*t17;
+    m.k[84] = 0.417544954F*t19;
+    m.k[85] = 0.0286625938F*t20;
+    m.k[86] = -0.577333893F*t17;
+    m.k[87] = -0.766725191F*t20;
+    m.k[88] = -0.0718003138F*t18;
+    m.k[89] = -0.631675337F*t19;
+    m.k[90] = -0.57660313F*t19;
+    m.k[91] = -0.590135675F*t17;
+    m.k[92] = -0.156880169F*t19;
+    m.k[93] = -0.0895189073F*t20;
+    m.k[94] = -0.372708292F*t18;
+    m.k[95] = -0.376282933F*t20;
+    m.k[96] = -0.392920608F*t18;
+    m.k[97] = -0.432798393F*t17;
+    m.k[98] = -0.497613246F*t18;
+    m.k[99] = 0.0748067878F*t18 - 0.0487300047F*t19 + 0.0176905061F*t20 - 0.519465256F*t7;
     return m;
 }
 

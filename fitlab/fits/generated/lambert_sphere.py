@@ -13,10 +13,10 @@
 #   H2.json  723f2492a8c9ec82e3e53f453a04f1ff9b4d106c17a4d4ae91c268ca7f0cd8fd  packaged (true); physics true; against H2 (three_term): max 1.21e-02, RMS 1.63e-03 (relative, 17290 points)
 #   l.cubic.json  020a889ec5444c1ed9ae95d241cc3c3fcbdef6a4304194c1e2e71aa7d237d61c  packaged (true); physics true; against l (three_term): max 1.60e-01, RMS 1.15e-01 (relative, 130 points)
 #   m.quadratic.json  33b2f1c84b86548bd2f69dd473b5fa411454a903b26270b765caa82ac0be45eb  packaged (true); physics true; against m (three_term): max 1.32e-02, RMS 7.93e-03 (relative, 130 points)
-#   B.c2_rational_4_3.json  4e506642eacffa0ce0edc26204f1d09d47c066ae34dcabcdffb1ce9f591b6485  packaged (true); physics true; against B (three_term): max 8.90e-03, RMS 5.90e-03 (relative to A = 69c/128, 130 points)
-#   C.c2_rational_4_3.json  29b6085157abe55410435e80c94d141d5337120f80d7707bc18579d6a88238af  packaged (true); physics true; against C (three_term): max 6.00e-03, RMS 3.91e-03 (relative to A = 69c/128, 130 points)
-#   D.c2_rational_4_3.json  a9ea3f6b4bd9e4c9861b0ad0bfe4678d10733f380101aedde46b285168df2d2e  packaged (true); physics true; against D (three_term): max 8.84e-03, RMS 5.59e-03 (relative to A = 69c/128, 130 points)
-#   F.c2_rational_4_3.json  df95d11cb0fc2b424efe28d5964c5cdc73a1ca3e5c8e051776f5b985c0e39e3c  packaged (true); physics true; against F (three_term): max 1.32e-02, RMS 3.84e-03 (relative to A = 69c/128, 130 points)
+#   B.c2_rational_4_3.json  7baa68a0ede7d510b123122ec2fb504d45bb64aeffff962b2813b0662935ddae  packaged (true); physics true; against B (three_term): max 8.90e-03, RMS 5.90e-03 (relative to A = 69c/128, 130 points)
+#   C.c2_rational_4_3.json  7950dc91559fe27295ca3844662913f899dc47dc34c0e01b1e0a733c214df6f9  packaged (true); physics true; against C (three_term): max 6.00e-03, RMS 3.91e-03 (relative to A = 69c/128, 130 points)
+#   D.c2_rational_4_3.json  658c3fc98fe4461e75276c37b15236a3dd5bf0a151ce265d37f4c68f000d571a  packaged (true); physics true; against D (three_term): max 8.84e-03, RMS 5.59e-03 (relative to A = 69c/128, 130 points)
+#   F.c2_rational_4_3.json  c0fe4c3b7c9d611d663704ecdc3e73e10799fd187bf9c6ef85203dbe5a372938  packaged (true); physics true; against F (three_term): max 1.32e-02, RMS 3.84e-03 (relative to A = 69c/128, 130 points)
 #   c_of_kd.json  196e63b77df4f566e79eedd9c0781dd67c8f3dd28b8271f76bf598e6eb95b12a  packaged; physics true; against c_of_kd (true): max 1.13e-02, RMS 6.51e-03 (relative, 130 points)
 #   kd_of_c.json  5161a0bae66b8507bef46066054088a59730073cba0b22609aaae8776cb485e4  packaged; physics true; against kd_of_c (true): max 8.71e-03, RMS 5.26e-03 (relative, 130 points)
 #   sample_weight.json  a652eb05655eea0f158d38aa922b591bbfeb1cffc40077cc8bda731aa140746a  packaged; physics mixed; against sample_weight (mixed): max 2.09e-01, RMS 2.70e-02 (relative, 630 points)
@@ -131,12 +131,14 @@ def const_b(c):
     accuracy as c -> 0. Measured by fitlab codegen: max 8.90e-03, RMS 5.90e-03 (relative to
     A = 69c/128, 130 points)."""
     c = numpy.asarray(c, dtype=float)
-    t4 = numpy.where(numpy.less(c, 0), 0.0, c)
-    t0 = numpy.where(numpy.greater(t4, 1.0), 1.0, t4)
-    t1 = 1 - t0
-    t2 = numpy.sqrt(t1)
-    t3 = (t1*numpy.sqrt(t1))
-    return (t0*t0)*(-1.0208083202960536*t0 + 0.1872242586777193*t2 - 1.1208114157345153*t3 + 0.93462201258232595)/(1.2401477267052212*t0 + 3.1440942543136385*t2 - 2.896719702526885*t3 - 0.2401477267052212)
+    t6 = numpy.where(numpy.less(c, 0), 0.0, c)
+    t0 = numpy.where(numpy.greater(t6, 1.0), 1.0, t6)
+    t1 = (t0*t0)
+    t2 = -t0/(numpy.sqrt(1 - t0) + 1) + 2
+    t3 = t0/t2
+    t4 = (t0*t0*t0)/(t2*t2*t2)
+    t5 = t1/(t2*t2)
+    return t1*(1.1335933479337194*t3 + 1.1208114157345153*t4 - 2.3416259269074923*t5 + 0.0010348555255299506)/(8.0263603066774589*t3 + 2.896719702526885*t4 - 9.9303068342858762*t5 + 0.007226825081532294)
 
 
 def const_c(c):
@@ -146,12 +148,15 @@ def const_c(c):
     accuracy as c -> 0. Measured by fitlab codegen: max 6.00e-03, RMS 3.91e-03 (relative to
     A = 69c/128, 130 points)."""
     c = numpy.asarray(c, dtype=float)
-    t4 = numpy.where(numpy.less(c, 0), 0.0, c)
-    t0 = numpy.where(numpy.greater(t4, 1.0), 1.0, t4)
-    t1 = 1 - t0
-    t2 = numpy.sqrt(t1)
-    t3 = (t1*numpy.sqrt(t1))
-    return (t0*t0)*(-1.5452922735792385*t0 - 0.15709300643034438*t2 - 0.8643185721759284*t3 + 0.995496454311347)/(1.6478627731982702*t0 - 0.36276294375083773*t2 + 1.047419504828386*t3 - 0.6478627731982702) + (2/3)*t0
+    t7 = numpy.where(numpy.less(c, 0), 0.0, c)
+    t0 = numpy.where(numpy.greater(t7, 1.0), 1.0, t7)
+    t1 = (t0*t0)
+    t2 = (t0*t0*t0)
+    t3 = -t0/(numpy.sqrt(1 - t0) + 1) + 2
+    t4 = t3**(-3.0)
+    t5 = t0/t3
+    t6 = t1/(t3*t3)
+    return (2/3)*t0 + t1*(0.8643185721759284*t2*t4 - 0.34053582420034742*t5 - 1.0476634429485467*t6 - 0.025915124294925779)/(-1.047419504828386*t2*t4 + 0.51622997566222013*t5 + 1.4943957412868878*t6 + 0.03679378787927807)
 
 
 def const_d(c):
@@ -161,12 +166,14 @@ def const_d(c):
     accuracy as c -> 0. Measured by fitlab codegen: max 8.84e-03, RMS 5.59e-03 (relative to
     A = 69c/128, 130 points)."""
     c = numpy.asarray(c, dtype=float)
-    t4 = numpy.where(numpy.less(c, 0), 0.0, c)
-    t0 = numpy.where(numpy.greater(t4, 1.0), 1.0, t4)
-    t1 = 1 - t0
-    t2 = numpy.sqrt(t1)
-    t3 = (t1*numpy.sqrt(t1))
-    return (t0*t0)*(0.4650170482491284*t0 + 0.2523027101469349*t2 + 0.21301389270866672*t3 - 0.46463929917364463)/(1.580636602392337*t0 - 0.19756794223198304*t2 + 0.7864936735105944*t3 - 0.580636602392337)
+    t6 = numpy.where(numpy.less(c, 0), 0.0, c)
+    t0 = numpy.where(numpy.greater(t6, 1.0), 1.0, t6)
+    t1 = (t0*t0)
+    t2 = -t0/(numpy.sqrt(1 - t0) + 1) + 2
+    t3 = t0/t2
+    t4 = (t0*t0*t0)/(t2*t2*t2)
+    t5 = t1/(t2*t2)
+    return t1*(0.03868970822532174*t3 - 0.21301389270866672*t4 + 0.17402462987687176*t5 + 0.00067730368195698695)/(0.99936012648487384*t3 - 0.7864936735105944*t4 + 0.7788444181394462*t5 + 0.0082891288862743601)
 
 
 def const_f(c):
@@ -176,12 +183,14 @@ def const_f(c):
     accuracy as c -> 0. Measured by fitlab codegen: max 1.32e-02, RMS 3.84e-03 (relative to
     A = 69c/128, 130 points)."""
     c = numpy.asarray(c, dtype=float)
-    t4 = numpy.where(numpy.less(c, 0), 0.0, c)
-    t0 = numpy.where(numpy.greater(t4, 1.0), 1.0, t4)
-    t1 = 1 - t0
-    t2 = numpy.sqrt(t1)
-    t3 = (t1*numpy.sqrt(t1))
-    return (t0*t0)*(-0.1893057736203575*t0 - 0.2776402646891931*t2 - 0.03594639979146422*t3 + 0.31358835897097769)/(1.7524023514472222*t0 - 0.4949692743884927*t2 + 1.2477698723440553*t3 - 0.7524023514472222) - 15/128*t0
+    t6 = numpy.where(numpy.less(c, 0), 0.0, c)
+    t0 = numpy.where(numpy.greater(t6, 1.0), 1.0, t6)
+    t1 = (t0*t0)
+    t2 = -t0/(numpy.sqrt(1 - t0) + 1) + 2
+    t3 = t0/t2
+    t4 = (t0*t0*t0)/(t2*t2*t2)
+    t5 = t1/(t2*t2)
+    return -15/128*t0 + t1*(0.0068679168228707598*t3 + 0.03594639979146422*t4 + 0.08146657424596484*t5 + 1.6944903203701357e-6)/(0.2564643602507712*t3 - 1.2477698723440553*t4 + 1.9909072655849437*t5 + 0.00039824650834039896)
 
 
 def c_of_kd(kd):
@@ -292,54 +301,60 @@ def fm0(mu_i, mu_o, c):
     30, 38), evaluated as ((H0 H0 - 1) Q + (Q - Q_ss))/(2 pi (mu_i + mu_o)), Q_ss = 2 pi
     n0_ss, without cancellation at grazing and small c. Pole floored at 1e-6."""
     mu_i, mu_o, c = numpy.asarray(mu_i, dtype=float), numpy.asarray(mu_o, dtype=float), numpy.asarray(c, dtype=float)
-    t44 = numpy.where(numpy.less(c, 0), 0.0, c)
-    t0 = numpy.where(numpy.greater(t44, 1.0), 1.0, t44)
+    t50 = numpy.where(numpy.less(c, 0), 0.0, c)
+    t0 = numpy.where(numpy.greater(t50, 1.0), 1.0, t50)
     t1 = (1/384)*t0
     t2 = (t0*t0)
-    t3 = (15 - 15*t0)*(4*t0 + 9)
-    t4 = 1 - t0
-    t5 = numpy.sqrt(t4)
-    t6 = 2.470025465103292*t4
-    t7 = 3.383961716351341*t4
-    t8 = 5.633059857885996*t4
-    t9 = 7.645389081740135*t4
-    t10 = (t4*numpy.sqrt(t4))
-    t11 = 8.67881460302426*t10
-    t12 = 16.844673505718053*t10
-    t13 = 29.409387398376747*t10
-    t14 = 39.47136053844081*t10
-    t15 = (t4*t4)
-    t16 = 15.55714042239967*t15
-    t17 = 30.65164162022722*t15
-    t18 = 54.48819921062277*t15
-    t19 = 71.5529318324384*t15
-    t20 = (t4*t4*numpy.sqrt(t4))
-    t21 = 9.656831937224494*t20
-    t22 = 19.36513627154477*t20
-    t23 = 34.157239957245686*t20
-    t24 = 44.819359100029104*t20
-    t25 = 0.33904481632399913*t5
-    t26 = 0.6011702629092316*t5
-    t27 = 0.9285300997139079*t5
-    t28 = 1.4754666313555003*t5
-    t29 = t0/(t5 + 1)
-    t30 = t0*(20*t0 + 281) - 346
-    t31 = -0.35878996534201457*t0 + 0.05510640544644332*t10 - 0.562194525287264*t15 + 0.3859631098571893*t20 - 0.6880988541912209*t5 + 1.7851478660092009
-    t45 = numpy.where(numpy.less(mu_i, 0), 0.0, mu_i)
-    t32 = numpy.where(numpy.greater(t45, 1.0), 1.0, t45)
-    t33 = (t32*t32)
-    t34 = (t32*t32*t32)
-    t35 = (t32*t32*t32*t32)
-    t46 = numpy.where(numpy.less(mu_o, 0), 0.0, mu_o)
-    t36 = numpy.where(numpy.greater(t46, 1.0), 1.0, t46)
-    t37 = (t36*t36)
-    t38 = (t36*t36*t36)
-    t39 = (t36*t36*t36*t36)
-    t40 = t32*t36
-    t41 = t33*t37
-    t42 = t32 + t36
-    t43 = t2*t40*(-1.5452922735792385*t0 - 0.8643185721759284*t10 - 0.15709300643034438*t5 + 0.995496454311347)/(1.6478627731982702*t0 + 1.047419504828386*t10 - 0.36276294375083773*t5 - 0.6478627731982702) + t2*(t33 + t37)*(-0.1893057736203575*t0 - 0.03594639979146422*t10 - 0.2776402646891931*t5 + 0.31358835897097769)/(1.7524023514472222*t0 + 1.2477698723440553*t10 - 0.4949692743884927*t5 - 0.7524023514472222) + t40*t42*const_d(t0) + t41*(-5/32*(t0*t0*t0) - 25/128*t2) + t42*const_b(t0)
-    return (1/2)*(t43 + (t1*(-45*t33 - 45*t37 + 256*t40 + 135*t41 + 207) + t43)*numpy.expm1(t32*(t0*(t29*(-t11*t32 + t12*t35 + t13*t33 - t14*t34 + t16*t32 - t17*t35 - t18*t33 + t19*t34 - t21*t32 + t22*t35 + t23*t33 - t24*t34 + t25*t35 - t26*t34 + t27*t33 - t28*t32 + t31 + t32*t6 - 1.354906550811893*t32 - t33*t8 + 0.3450742468475043*t33 + t34*t9 + 0.039286501348685214*t34 - t35*t7 + 0.0880030773183851*t35) + (301/384)*t32 + (45/256)*t33 - 45/128*t34 - 557/1536) + t1*(t3*t35 + t30*t33 + 207)*numpy.log(1 + numpy.where(numpy.less(t32, 1.0e-30), 1.0e-30, t32)**(-1.0))) + t36*(t0*(t29*(-t11*t36 + t12*t39 + t13*t37 - t14*t38 + t16*t36 - t17*t39 - t18*t37 + t19*t38 - t21*t36 + t22*t39 + t23*t37 - t24*t38 + t25*t39 - t26*t38 + t27*t37 - t28*t36 + t31 + t36*t6 - 1.354906550811893*t36 - t37*t8 + 0.3450742468475043*t37 + t38*t9 + 0.039286501348685214*t38 - t39*t7 + 0.0880030773183851*t39) + (301/384)*t36 + (45/256)*t37 - 45/128*t38 - 557/1536) + t1*(t3*t39 + t30*t37 + 207)*numpy.log(1 + numpy.where(numpy.less(t36, 1.0e-30), 1.0e-30, t36)**(-1.0)))))/(3.141592653589793238*numpy.where(numpy.less(t42, 1/1000000), 1/1000000, t42))
+    t3 = (t0*t0*t0)
+    t4 = (15 - 15*t0)*(4*t0 + 9)
+    t5 = 1 - t0
+    t6 = numpy.sqrt(t5)
+    t7 = 2.470025465103292*t5
+    t8 = 3.383961716351341*t5
+    t9 = 5.633059857885996*t5
+    t10 = 7.645389081740135*t5
+    t11 = (t5*numpy.sqrt(t5))
+    t12 = 8.67881460302426*t11
+    t13 = 16.844673505718053*t11
+    t14 = 29.409387398376747*t11
+    t15 = 39.47136053844081*t11
+    t16 = (t5*t5)
+    t17 = 15.55714042239967*t16
+    t18 = 30.65164162022722*t16
+    t19 = 54.48819921062277*t16
+    t20 = 71.5529318324384*t16
+    t21 = (t5*t5*numpy.sqrt(t5))
+    t22 = 9.656831937224494*t21
+    t23 = 19.36513627154477*t21
+    t24 = 34.157239957245686*t21
+    t25 = 44.819359100029104*t21
+    t26 = 0.33904481632399913*t6
+    t27 = 0.6011702629092316*t6
+    t28 = 0.9285300997139079*t6
+    t29 = 1.4754666313555003*t6
+    t30 = t0/(t6 + 1)
+    t31 = 2 - t30
+    t32 = t31**(-3.0)
+    t33 = t0/t31
+    t34 = t2/(t31*t31)
+    t35 = t3*t32
+    t36 = t0*(20*t0 + 281) - 346
+    t37 = -0.35878996534201457*t0 + 0.05510640544644332*t11 - 0.562194525287264*t16 + 0.3859631098571893*t21 - 0.6880988541912209*t6 + 1.7851478660092009
+    t51 = numpy.where(numpy.less(mu_i, 0), 0.0, mu_i)
+    t38 = numpy.where(numpy.greater(t51, 1.0), 1.0, t51)
+    t39 = (t38*t38)
+    t40 = (t38*t38*t38)
+    t41 = (t38*t38*t38*t38)
+    t52 = numpy.where(numpy.less(mu_o, 0), 0.0, mu_o)
+    t42 = numpy.where(numpy.greater(t52, 1.0), 1.0, t52)
+    t43 = (t42*t42)
+    t44 = (t42*t42*t42)
+    t45 = (t42*t42*t42*t42)
+    t46 = t38*t42
+    t47 = t39*t43
+    t48 = t38 + t42
+    t49 = t2*t46*(0.8643185721759284*t3*t32 - 0.34053582420034742*t33 - 1.0476634429485467*t34 - 0.025915124294925779)/(0.51622997566222013*t33 + 1.4943957412868878*t34 - 1.047419504828386*t35 + 0.03679378787927807) + t2*(t39 + t43)*(0.0068679168228707598*t33 + 0.08146657424596484*t34 + 0.03594639979146422*t35 + 1.6944903203701357e-6)/(0.2564643602507712*t33 + 1.9909072655849437*t34 - 1.2477698723440553*t35 + 0.00039824650834039896) + t46*t48*const_d(t0) + t47*(-25/128*t2 - 5/32*t3) + t48*const_b(t0)
+    return (1/2)*(t49 + (t1*(-45*t39 - 45*t43 + 256*t46 + 135*t47 + 207) + t49)*numpy.expm1(t38*(t0*(t30*(t10*t40 - t12*t38 + t13*t41 + t14*t39 - t15*t40 + t17*t38 - t18*t41 - t19*t39 + t20*t40 - t22*t38 + t23*t41 + t24*t39 - t25*t40 + t26*t41 - t27*t40 + t28*t39 - t29*t38 + t37 + t38*t7 - 1.354906550811893*t38 - t39*t9 + 0.3450742468475043*t39 + 0.039286501348685214*t40 - t41*t8 + 0.0880030773183851*t41) + (301/384)*t38 + (45/256)*t39 - 45/128*t40 - 557/1536) + t1*(t36*t39 + t4*t41 + 207)*numpy.log(1 + numpy.where(numpy.less(t38, 1.0e-30), 1.0e-30, t38)**(-1.0))) + t42*(t0*(t30*(t10*t44 - t12*t42 + t13*t45 + t14*t43 - t15*t44 + t17*t42 - t18*t45 - t19*t43 + t20*t44 - t22*t42 + t23*t45 + t24*t43 - t25*t44 + t26*t45 - t27*t44 + t28*t43 - t29*t42 + t37 + t42*t7 - 1.354906550811893*t42 - t43*t9 + 0.3450742468475043*t43 + 0.039286501348685214*t44 - t45*t8 + 0.0880030773183851*t45) + (301/384)*t42 + (45/256)*t43 - 45/128*t44 - 557/1536) + t1*(t36*t43 + t4*t45 + 207)*numpy.log(1 + numpy.where(numpy.less(t42, 1.0e-30), 1.0e-30, t42)**(-1.0)))))/(3.141592653589793238*numpy.where(numpy.less(t48, 1/1000000), 1/1000000, t48))
 
 
 def fm1(mu_i, mu_o, c):
@@ -575,8 +590,8 @@ def prepare_c(c):
     of three values (shape (..., 3)) and give the inputs a trailing axis (mu_i[..., None])."""
     c = numpy.asarray(c, dtype=float)
     t0 = 3.141592653589793238**(-1.0)
-    t16 = numpy.where(numpy.less(c, 0), 0.0, c)
-    t1 = numpy.where(numpy.greater(t16, 1.0), 1.0, t16)
+    t22 = numpy.where(numpy.less(c, 0), 0.0, c)
+    t1 = numpy.where(numpy.greater(t22, 1.0), 1.0, t22)
     t2 = (15/256)*t1
     t3 = 20*t1
     t4 = (t1*t1)
@@ -586,12 +601,18 @@ def prepare_c(c):
     t8 = (t6*numpy.sqrt(t6))
     t9 = (t6*t6)
     t10 = (t6*t6*numpy.sqrt(t6))
-    t11 = 2*t7 - 1
-    t12 = (t11*t11)
-    t13 = (t11*t11*t11)
-    t14 = (t11*t11*t11*t11)
-    t15 = -0.05520224328243178*t1 - 0.007285586578842816*t4 + 0.00911967909954923*t5
-    return numpy.stack(numpy.broadcast_arrays(numpy.asarray(t4*(-1.0208083202960536*t1 + 0.1872242586777193*t7 - 1.1208114157345153*t8 + 0.93462201258232595)/(1.2401477267052212*t1 + 3.1440942543136385*t7 - 2.896719702526885*t8 - 0.2401477267052212), dtype=float), numpy.asarray((1/384)*t1, dtype=float), numpy.asarray(-25/128*t4 - 5/32*t5, dtype=float), numpy.asarray(t4*(-0.1893057736203575*t1 - 0.2776402646891931*t7 - 0.03594639979146422*t8 + 0.31358835897097769)/(1.7524023514472222*t1 - 0.4949692743884927*t7 + 1.2477698723440553*t8 - 0.7524023514472222), dtype=float), numpy.asarray(t4*(0.4650170482491284*t1 + 0.2523027101469349*t7 + 0.21301389270866672*t8 - 0.46463929917364463)/(1.580636602392337*t1 - 0.19756794223198304*t7 + 0.7864936735105944*t8 - 0.580636602392337), dtype=float), numpy.asarray(t4*(-1.5452922735792385*t1 - 0.15709300643034438*t7 - 0.8643185721759284*t8 + 0.995496454311347)/(1.6478627731982702*t1 - 0.36276294375083773*t7 + 1.047419504828386*t8 - 0.6478627731982702), dtype=float), numpy.asarray(71.5529318324384*t9, dtype=float), numpy.asarray(16.844673505718053*t8, dtype=float), numpy.asarray(0.33904481632399913*t7, dtype=float), numpy.asarray(7.645389081740135*t6, dtype=float), numpy.asarray(34.157239957245686*t10, dtype=float), numpy.asarray(19.36513627154477*t10, dtype=float), numpy.asarray(2.470025465103292*t6, dtype=float), numpy.asarray(29.409387398376747*t8, dtype=float), numpy.asarray(0.9285300997139079*t7, dtype=float), numpy.asarray(15.55714042239967*t9, dtype=float), numpy.asarray(-8.67881460302426*t8, dtype=float), numpy.asarray(-5.633059857885996*t6, dtype=float), numpy.asarray(-0.6011702629092316*t7, dtype=float), numpy.asarray(-1.4754666313555003*t7, dtype=float), numpy.asarray(-3.383961716351341*t6, dtype=float), numpy.asarray(-30.65164162022722*t9, dtype=float), numpy.asarray(-9.656831937224494*t10, dtype=float), numpy.asarray(-39.47136053844081*t8, dtype=float), numpy.asarray(-44.819359100029104*t10, dtype=float), numpy.asarray(-54.48819921062277*t9, dtype=float), numpy.asarray(-0.35878996534201457*t1 + 0.3859631098571893*t10 - 0.6880988541912209*t7 + 0.05510640544644332*t8 - 0.562194525287264*t9 + 1.7851478660092009, dtype=float), numpy.asarray(t1/(t7 + 1), dtype=float), numpy.asarray(t1, dtype=float), numpy.asarray(t1*(t3 + 281) - 346, dtype=float), numpy.asarray((15 - 15*t1)*(4*t1 + 9), dtype=float), numpy.asarray((2/3)*t1/(3.141592653589793238*3.141592653589793238), dtype=float), numpy.asarray(0.7778112899131402*t7, dtype=float), numpy.asarray(-0.6229895537752153*t7, dtype=float), numpy.asarray(-0.24298542148533464*t7, dtype=float), numpy.asarray(0.012175300667002955*t7 + 0.0035657559829922665, dtype=float), numpy.asarray(t2, dtype=float), numpy.asarray(t0*t2, dtype=float), numpy.asarray(t15, dtype=float), numpy.asarray(0.30329126471747215*t1 + (t15*t15) + 0.018477092603297557*t4, dtype=float), numpy.asarray(0.11235087395548722*t7, dtype=float), numpy.asarray(0.1161087819075943*t6, dtype=float), numpy.asarray(0.029308878818980397*t7, dtype=float), numpy.asarray(-0.06047918808278924*t6, dtype=float), numpy.asarray(-0.04308898360798811*t6, dtype=float), numpy.asarray(-0.20000940282083204*t7, dtype=float), numpy.asarray(0.009623398742538718*t1 + 0.08191895900111167*t7 + 0.066238951968886792, dtype=float), numpy.asarray(t3 + 45, dtype=float), numpy.asarray(-1/192*t1, dtype=float), numpy.asarray((1/3)*t0*t1, dtype=float), numpy.asarray(0.10959653178533475*t12, dtype=float), numpy.asarray(0.1766119774816802*t12, dtype=float), numpy.asarray(0.25597403686706693*t12, dtype=float), numpy.asarray(2.42146807891088*t13, dtype=float), numpy.asarray(0.5027933198177464*t13, dtype=float), numpy.asarray(2.070129643634922*t14, dtype=float), numpy.asarray(0.519096218517333*t13, dtype=float), numpy.asarray(2.5251177518363694*t11, dtype=float), numpy.asarray(1.3385823867874944*t11, dtype=float), numpy.asarray(2.7903213618028806*t14, dtype=float), numpy.asarray(3.9162801286388897*t12, dtype=float), numpy.asarray(-1.7626547831461115*t12, dtype=float), numpy.asarray(-3.6618141129510917*t14, dtype=float), numpy.asarray(-0.21141002665509673*t11, dtype=float), numpy.asarray(-0.016932172543436784*t14, dtype=float), numpy.asarray(-2.295795044579524*t11, dtype=float), numpy.asarray(-2.8379131409273515*t12, dtype=float), numpy.asarray(-0.7128581043130656*t14, dtype=float), numpy.asarray(-1.6739402521122886*t13, dtype=float), numpy.asarray(-1.7061192768751303*t13, dtype=float), numpy.asarray(-0.014210822631915428*t13, dtype=float), numpy.asarray(-0.46352701817452785*t14, dtype=float), numpy.asarray(-0.4890688103263692*t11, dtype=float), numpy.asarray(-0.49993828263168366*t11, dtype=float), numpy.asarray(0.10625650933246486*t12 - 0.09050045154983123*t13 + 0.040558449658917785*t14 - 1.8499934365876788*t7, dtype=float), numpy.asarray(0.805852957259517*t13, dtype=float), numpy.asarray(0.6582269037007633*t11, dtype=float), numpy.asarray(0.45043691346028303*t12, dtype=float), numpy.asarray(0.5742385031683162*t14, dtype=float), numpy.asarray(0.6392720659218424*t11, dtype=float), numpy.asarray(0.18739898105517722*t13, dtype=float), numpy.asarray(0.8371462419661069*t12, dtype=float), numpy.asarray(0.6212937162033938*t14, dtype=float), numpy.asarray(0.4124295039969486*t11, dtype=float), numpy.asarray(0.41754495392944535*t13, dtype=float), numpy.asarray(0.028662593819483183*t14, dtype=float), numpy.asarray(-0.5773338931218077*t11, dtype=float), numpy.asarray(-0.7667251911655493*t14, dtype=float), numpy.asarray(-0.07180031380227185*t12, dtype=float), numpy.asarray(-0.6316753368520219*t13, dtype=float), numpy.asarray(-0.5766031303491715*t13, dtype=float), numpy.asarray(-0.5901356749175913*t11, dtype=float), numpy.asarray(-0.15688016937511312*t13, dtype=float), numpy.asarray(-0.08951890733992941*t14, dtype=float), numpy.asarray(-0.37270829229253744*t12, dtype=float), numpy.asarray(-0.37628293329323487*t14, dtype=float), numpy.asarray(-0.3929206076202727*t12, dtype=float), numpy.asarray(-0.43279839293414*t11, dtype=float), numpy.asarray(-0.49761324603578005*t12, dtype=float), numpy.asarray(0.07480678777429003*t12 - 0.048730004697608804*t13 + 0.017690506072644132*t14 - 0.5194652563684371*t7, dtype=float)), axis=-1)
+    t11 = t1/(t7 + 1)
+    t12 = 2 - t11
+    t13 = t12**(-3.0)
+    t14 = t1/t12
+    t15 = t4/(t12*t12)
+    t16 = t13*t5
+    t17 = 2*t7 - 1
+    t18 = (t17*t17)
+    t19 = (t17*t17*t17)
+    t20 = (t17*t17*t17*t17)
+    t21 = -0.05520224328243178*t1 - 0.007285586578842816*t4 + 0.00911967909954923*t5
+    return numpy.stack(numpy.broadcast_arrays(numpy.asarray(t4*(1.1335933479337194*t14 - 2.3416259269074923*t15 + 1.1208114157345153*t16 + 0.0010348555255299506)/(8.0263603066774589*t14 - 9.9303068342858762*t15 + 2.896719702526885*t16 + 0.007226825081532294), dtype=float), numpy.asarray((1/384)*t1, dtype=float), numpy.asarray(-25/128*t4 - 5/32*t5, dtype=float), numpy.asarray(t4*(0.0068679168228707598*t14 + 0.08146657424596484*t15 + 0.03594639979146422*t16 + 1.6944903203701357e-6)/(0.2564643602507712*t14 + 1.9909072655849437*t15 - 1.2477698723440553*t16 + 0.00039824650834039896), dtype=float), numpy.asarray(t4*(0.03868970822532174*t14 + 0.17402462987687176*t15 - 0.21301389270866672*t16 + 0.00067730368195698695)/(0.99936012648487384*t14 + 0.7788444181394462*t15 - 0.7864936735105944*t16 + 0.0082891288862743601), dtype=float), numpy.asarray(t4*(0.8643185721759284*t13*t5 - 0.34053582420034742*t14 - 1.0476634429485467*t15 - 0.025915124294925779)/(0.51622997566222013*t14 + 1.4943957412868878*t15 - 1.047419504828386*t16 + 0.03679378787927807), dtype=float), numpy.asarray(71.5529318324384*t9, dtype=float), numpy.asarray(16.844673505718053*t8, dtype=float), numpy.asarray(0.33904481632399913*t7, dtype=float), numpy.asarray(7.645389081740135*t6, dtype=float), numpy.asarray(34.157239957245686*t10, dtype=float), numpy.asarray(19.36513627154477*t10, dtype=float), numpy.asarray(2.470025465103292*t6, dtype=float), numpy.asarray(29.409387398376747*t8, dtype=float), numpy.asarray(0.9285300997139079*t7, dtype=float), numpy.asarray(15.55714042239967*t9, dtype=float), numpy.asarray(-8.67881460302426*t8, dtype=float), numpy.asarray(-5.633059857885996*t6, dtype=float), numpy.asarray(-0.6011702629092316*t7, dtype=float), numpy.asarray(-1.4754666313555003*t7, dtype=float), numpy.asarray(-3.383961716351341*t6, dtype=float), numpy.asarray(-30.65164162022722*t9, dtype=float), numpy.asarray(-9.656831937224494*t10, dtype=float), numpy.asarray(-39.47136053844081*t8, dtype=float), numpy.asarray(-44.819359100029104*t10, dtype=float), numpy.asarray(-54.48819921062277*t9, dtype=float), numpy.asarray(-0.35878996534201457*t1 + 0.3859631098571893*t10 - 0.6880988541912209*t7 + 0.05510640544644332*t8 - 0.562194525287264*t9 + 1.7851478660092009, dtype=float), numpy.asarray(t11, dtype=float), numpy.asarray(t1, dtype=float), numpy.asarray(t1*(t3 + 281) - 346, dtype=float), numpy.asarray((15 - 15*t1)*(4*t1 + 9), dtype=float), numpy.asarray((2/3)*t1/(3.141592653589793238*3.141592653589793238), dtype=float), numpy.asarray(0.7778112899131402*t7, dtype=float), numpy.asarray(-0.6229895537752153*t7, dtype=float), numpy.asarray(-0.24298542148533464*t7, dtype=float), numpy.asarray(0.012175300667002955*t7 + 0.0035657559829922665, dtype=float), numpy.asarray(t2, dtype=float), numpy.asarray(t0*t2, dtype=float), numpy.asarray(t21, dtype=float), numpy.asarray(0.30329126471747215*t1 + (t21*t21) + 0.018477092603297557*t4, dtype=float), numpy.asarray(0.11235087395548722*t7, dtype=float), numpy.asarray(0.1161087819075943*t6, dtype=float), numpy.asarray(0.029308878818980397*t7, dtype=float), numpy.asarray(-0.06047918808278924*t6, dtype=float), numpy.asarray(-0.04308898360798811*t6, dtype=float), numpy.asarray(-0.20000940282083204*t7, dtype=float), numpy.asarray(0.009623398742538718*t1 + 0.08191895900111167*t7 + 0.066238951968886792, dtype=float), numpy.asarray(t3 + 45, dtype=float), numpy.asarray(-1/192*t1, dtype=float), numpy.asarray((1/3)*t0*t1, dtype=float), numpy.asarray(0.10959653178533475*t18, dtype=float), numpy.asarray(0.1766119774816802*t18, dtype=float), numpy.asarray(0.25597403686706693*t18, dtype=float), numpy.asarray(2.42146807891088*t19, dtype=float), numpy.asarray(0.5027933198177464*t19, dtype=float), numpy.asarray(2.070129643634922*t20, dtype=float), numpy.asarray(0.519096218517333*t19, dtype=float), numpy.asarray(2.5251177518363694*t17, dtype=float), numpy.asarray(1.3385823867874944*t17, dtype=float), numpy.asarray(2.7903213618028806*t20, dtype=float), numpy.asarray(3.9162801286388897*t18, dtype=float), numpy.asarray(-1.7626547831461115*t18, dtype=float), numpy.asarray(-3.6618141129510917*t20, dtype=float), numpy.asarray(-0.21141002665509673*t17, dtype=float), numpy.asarray(-0.016932172543436784*t20, dtype=float), numpy.asarray(-2.295795044579524*t17, dtype=float), numpy.asarray(-2.8379131409273515*t18, dtype=float), numpy.asarray(-0.7128581043130656*t20, dtype=float), numpy.asarray(-1.6739402521122886*t19, dtype=float), numpy.asarray(-1.7061192768751303*t19, dtype=float), numpy.asarray(-0.014210822631915428*t19, dtype=float), numpy.asarray(-0.46352701817452785*t20, dtype=float), numpy.asarray(-0.4890688103263692*t17, dtype=float), numpy.asarray(-0.49993828263168366*t17, dtype=float), numpy.asarray(0.10625650933246486*t18 - 0.09050045154983123*t19 + 0.040558449658917785*t20 - 1.8499934365876788*t7, dtype=float), numpy.asarray(0.805852957259517*t19, dtype=float), numpy.asarray(0.6582269037007633*t17, dtype=float), numpy.asarray(0.45043691346028303*t18, dtype=float), numpy.asarray(0.5742385031683162*t20, dtype=float), numpy.asarray(0.6392720659218424*t17, dtype=float), numpy.asarray(0.18739898105517722*t19, dtype=float), numpy.asarray(0.8371462419661069*t18, dtype=float), numpy.asarray(0.6212937162033938*t20, dtype=float), numpy.asarray(0.4124295039969486*t17, dtype=float), numpy.asarray(0.41754495392944535*t19, dtype=float), numpy.asarray(0.028662593819483183*t20, dtype=float), numpy.asarray(-0.5773338931218077*t17, dtype=float), numpy.asarray(-0.7667251911655493*t20, dtype=float), numpy.asarray(-0.07180031380227185*t18, dtype=float), numpy.asarray(-0.6316753368520219*t19, dtype=float), numpy.asarray(-0.5766031303491715*t19, dtype=float), numpy.asarray(-0.5901356749175913*t17, dtype=float), numpy.asarray(-0.15688016937511312*t19, dtype=float), numpy.asarray(-0.08951890733992941*t20, dtype=float), numpy.asarray(-0.37270829229253744*t18, dtype=float), numpy.asarray(-0.37628293329323487*t20, dtype=float), numpy.asarray(-0.3929206076202727*t18, dtype=float), numpy.asarray(-0.43279839293414*t17, dtype=float), numpy.asarray(-0.49761324603578005*t18, dtype=float), numpy.asarray(0.07480678777429003*t18 - 0.048730004697608804*t19 + 0.017690506072644132*t20 - 0.5194652563684371*t7, dtype=float)), axis=-1)
 
 
 def prepare(kd):

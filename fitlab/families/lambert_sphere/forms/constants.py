@@ -141,8 +141,11 @@ def _c2_rational(name: str) -> Form:
     """X1 c + c^2 P(s)/R(s), P cubic, R cubic with R(0) = 1: exact at c = 0 and to first order in c."""
     a = symbols(tuple(f"a{k}" for k in range(4)))
     b = symbols(tuple(f"b{k}" for k in range(1, 4)))
-    num = sum(ak * s**k for k, ak in enumerate(a))
-    den = 1 + sum(bk * s ** (k + 1) for k, bk in enumerate(b))
+    # P(s) and R(s) are written as polynomials in u = 1 - s = c/(1 + s) (no cancellation): a fit may put a
+    # zero and a pole of P/R close to c = 0, where P(1) and R(1) are small differences of O(1) coefficients
+    # that float arithmetic in s would lose; the coefficients in u are those differences, taken in double
+    num = _in_u(a)
+    den = _in_u((1, *b))
     return Form(
         target=name,
         name="c2_rational_4_3",
@@ -155,6 +158,15 @@ def _c2_rational(name: str) -> Form:
             "(Q = 2 pi (mu_i + mu_o) f0_ss + O(c^2)), so that the runtime fm0 = f0 - f0_ss is O(c^2) like the "
             "exact one and keeps its relative accuracy as c -> 0."
         ),
+    )
+
+
+def _in_u(coefficients) -> sp.Expr:
+    """sum_k p_k s^k rewritten as sum_j q_j u^j with u = 1 - s = c/(1 + s): q_j = (-1)^j sum_k binom(k, j) p_k."""
+    u = c / (1 + s)
+    n = len(coefficients)
+    return sum(
+        (-1) ** j * sum(sp.binomial(k, j) * p for k, p in enumerate(coefficients) if k >= j) * u**j for j in range(n)
     )
 
 
