@@ -28,7 +28,7 @@ from fitlab.families.microfacet_energy.mc.microsurface import sample_vndf, smith
 from fitlab.families.microfacet_energy.mc.reference import bin_average_single, ndf, single_scattering_brdf
 from fitlab.families.microfacet_energy.mc.simulate import count_p_value, job_config
 from fitlab.families.microfacet_energy.mc.walk import MaterialParams, job_key, run_round
-from fitlab.families.microfacet_energy.mc.walk_fresnel import conductor, schlick
+from fitlab.families.microfacet_energy.mc.walk_fresnel import fresnel_factor
 
 Z_MAX = 4.0
 
@@ -285,11 +285,13 @@ def test_fresnel_conductor_and_beckmann_order_one():
 
 @float64
 def test_fresnel_functions_agree_with_the_exact_engine():
+    """The walk's Fresnel factors are fitlab.physics.fresnel's in JAX: the exact engine's numpy values."""
     c = np.linspace(0.0, 1.0, 101)
     for eta, k in ((0.2, 3.0), (1.5, 0.0), (2.5, 1.2)):
-        np.testing.assert_allclose(np.asarray(conductor(jnp.asarray(c), eta, k)), fresnel_conductor(c, eta, k),
-                                   rtol=1e-12, atol=1e-14)
-    np.testing.assert_allclose(np.asarray(schlick(jnp.asarray(c), 0.3)), fresnel_schlick(c, 0.3), rtol=1e-14)
+        walk = np.asarray(fresnel_factor("conductor", jnp.asarray(c), 0.0, eta, k))
+        np.testing.assert_allclose(walk, fresnel_conductor(c, eta, k), rtol=1e-14, atol=1e-16)
+    walk = np.asarray(fresnel_factor("schlick", jnp.asarray(c), 0.3, 1.0, 0.0))
+    np.testing.assert_allclose(walk, fresnel_schlick(c, 0.3), rtol=1e-14)
 
 
 def test_reference_brdf_agrees_with_exact_ggx():

@@ -7,6 +7,8 @@ the published equations are settled in docs/errata.md.
 
 from pathlib import Path
 
+from fitlab import physics
+
 from fitlab.families.lambert_sphere.exact import true_phase
 from fitlab.families.lambert_sphere.exact._quadrature import gauss_legendre, graded_gauss
 from fitlab.families.lambert_sphere.exact.albedo import (
@@ -46,7 +48,7 @@ from fitlab.families.lambert_sphere.exact.true_phase import (
 
 #: the engine's source files, part of the key of every cached exact value (fitlab.cache.cached_arrays): editing
 #: any of them recomputes what was cached
-SOURCES = tuple(sorted(Path(__file__).resolve().parent.glob("*.py")))
+SOURCES = (*sorted(Path(__file__).resolve().parent.glob("*.py")), *physics.sources("lambert_sphere"))
 
 __all__ = [
     "SOURCES",

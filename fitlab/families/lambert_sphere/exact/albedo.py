@@ -45,6 +45,7 @@ from fitlab.families.lambert_sphere.exact.brdf import PHASES, check_cosines, che
 from fitlab.families.lambert_sphere.exact.characteristic import check_albedo, lambert_sphere_characteristic
 from fitlab.families.lambert_sphere.exact.constants import mode_polynomials
 from fitlab.families.lambert_sphere.exact.hfunction import solve_h
+from fitlab.physics.lambert_sphere import phase_function_of_angle, three_term_phase_function
 
 __all__ = ["albedo", "spherical_albedo", "single_scattering_albedo", "single_albedo_nodes", "three_term_single_albedo",
            "SINGLE_PHASES"]
@@ -81,13 +82,9 @@ def _arc_integral(mu_i: float, theta: float) -> float:
     return 2.0 * psi0 - mu_i * 4.0 * x / (alpha + b) * f
 
 
-def _p_true(theta):
-    return 2.0 * (np.sin(theta) + np.cos(theta) * (np.pi - theta)) / (3.0 * np.pi**2)
-
-
-def _p_three_term(theta):
-    u = -np.cos(theta)
-    return (1.0 - 4.0 / 3.0 * u + 5.0 / 32.0 * (3.0 * u * u - 1.0)) / (4.0 * np.pi)
+def _three_term_of_angle(theta):
+    """p3 at u = -cos(theta) (:func:`fitlab.physics.lambert_sphere.three_term_phase_function`)."""
+    return three_term_phase_function(-np.cos(theta))
 
 
 def single_scattering_albedo(mu_i: float, phase: str = "true") -> float:
@@ -98,7 +95,7 @@ def single_scattering_albedo(mu_i: float, phase: str = "true") -> float:
     # cached exact values (fitlab refit: about a third of a second)
     from scipy import integrate
 
-    p = _p_true if phase == "true" else _p_three_term
+    p = phase_function_of_angle if phase == "true" else _three_term_of_angle
     theta_i = np.arccos(mu_i)
     edges = sorted({0.0, max(0.0, np.pi / 2 - theta_i), min(np.pi, np.pi / 2 + theta_i)})
     total = 0.0

@@ -20,6 +20,9 @@ from math import factorial
 
 import numpy as np
 
+from fitlab.physics import lambert_sphere as physics
+from fitlab.physics.lambert_sphere import LEGENDRE_A
+
 __all__ = [
     "LEGENDRE_A",
     "THREE_TERM",
@@ -29,22 +32,19 @@ __all__ = [
     "associated_legendre_reduced",
 ]
 
-#: Legendre coefficients A_0..A_6 of the Lambert-sphere phase function (eq. 4).
-LEGENDRE_A = (1.0, -4.0 / 3.0, 5.0 / 16.0, 0.0, 1.0 / 64.0, 0.0, 13.0 / 4096.0)
 THREE_TERM = LEGENDRE_A[:3]
 MAX_DEGREE = 2
 
 
 def phase_function(u):
-    """p(u) of a Lambertian sphere (paper eq. 1), u in [-1, 1]; 1/sr."""
-    u = np.clip(np.asarray(u, dtype=float), -1.0, 1.0)
-    return 2.0 * (np.sqrt((1.0 - u) * (1.0 + u)) - u * np.arccos(u)) / (3.0 * np.pi**2)
+    """p(u) of a Lambertian sphere (paper eq. 1; :func:`fitlab.physics.lambert_sphere.phase_function`), u in
+    [-1, 1]; 1/sr."""
+    return physics.phase_function(np.clip(np.asarray(u, dtype=float), -1.0, 1.0))
 
 
 def three_term_phase_function(u):
     """(1/4pi)(1 - (4/3) u + (5/16) P_2(u)): the truncation the BRDF derivation uses."""
-    u = np.asarray(u, dtype=float)
-    return (1.0 - 4.0 / 3.0 * u + 5.0 / 16.0 * 0.5 * (3.0 * u * u - 1.0)) / (4.0 * np.pi)
+    return physics.three_term_phase_function(np.asarray(u, dtype=float))
 
 
 def legendre_weights(m: int, c) -> list:

@@ -111,6 +111,7 @@ import numpy as np
 from fitlab.families.lambert_sphere.exact import _checks
 from fitlab.families.lambert_sphere.exact.doubling import doubling_step
 from fitlab.numerics import single_threaded_blas
+from fitlab.physics.lambert_sphere import LEGENDRE_A
 
 __all__ = [
     "DEGREE",
@@ -153,7 +154,7 @@ def legendre_moments(degree: int, phase: str = "true") -> np.ndarray:
     phase = _checks.choice(phase, "phase", PHASES)
     a = np.zeros(degree + 1)
     if phase == "three_term":
-        a[: min(3, degree + 1)] = (1.0, -4.0 / 3.0, 5.0 / 16.0)[: min(3, degree + 1)]
+        a[: min(3, degree + 1)] = LEGENDRE_A[: min(3, degree + 1)]
         return a
     lam = np.zeros(degree + 1)
     lam[0] = 0.5

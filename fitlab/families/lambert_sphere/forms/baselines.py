@@ -15,6 +15,7 @@ from __future__ import annotations
 import sympy as sp
 
 from fitlab.forms.symbolic import symbols
+from fitlab.physics import oren_nayar as physics
 
 __all__ = ["BASELINE_INPUTS", "LAMBERT", "oren_nayar"]
 
@@ -25,7 +26,6 @@ LAMBERT = kd / sp.pi
 
 
 def oren_nayar(sigma=sp.Rational(1, 2)) -> sp.Expr:
-    s2 = sp.nsimplify(sigma) ** 2
-    a, b = 1 - s2 / (2 * (s2 + sp.Rational(33, 100))), sp.Rational(45, 100) * s2 / (s2 + sp.Rational(9, 100))
-    lo, hi = sp.Min(mu_i, mu_o), sp.Max(sp.Max(mu_i, mu_o), sp.Rational(1, 10**6))
-    return kd / sp.pi * (a + b * sp.Max(0, cos_phi) * sp.sqrt(1 - lo**2) * sp.sqrt(1 - hi**2) / hi)
+    """kd times :func:`fitlab.physics.oren_nayar.oren_nayar` of the facet-slope deviation ``sigma`` (radians)."""
+    a, b = physics.oren_nayar_coefficients(sp.nsimplify(sigma), sp.Rational(33, 100))
+    return kd * physics.oren_nayar(mu_o, mu_i, cos_phi, a, b, "cos_phi", floor=sp.Rational(1, 10**6))

@@ -20,6 +20,7 @@ from sympy.codegen.cfunctions import expm1
 from fitlab.families.lambert_sphere.forms.constants import A_EXACT, E_EXACT, FIRST_ORDER
 from fitlab.forms.form import Form
 from fitlab.forms.symbolic import safe_pow, symbols
+from fitlab.physics.lambert_sphere import phase_function, phase_function_forward
 
 mu_i, mu_o, phi, c, kd, mu = symbols(("mu_i", "mu_o", "phi", "c", "kd", "mu"))
 S = sp.sqrt((1 - mu_i**2) * (1 - mu_o**2))
@@ -30,8 +31,8 @@ PI = sp.pi
 # expression), about a tenth of a second of every import of the family, and leaves these ones as they are
 # (tests/test_forms.py)
 _u = sp.Max(-1, sp.Min(1, -(mu_i * mu_o + S * sp.cos(phi)), evaluate=False), evaluate=False)
-#: Lambert-sphere phase function p(u) (docs/model.md, "Phase function")
-PHASE = 2 * (sp.sqrt(sp.Max(0, 1 - _u**2, evaluate=False)) - _u * sp.acos(_u)) / (3 * PI**2)
+#: Lambert-sphere phase function p(u) (docs/model.md, "Phase function"; :func:`fitlab.physics.lambert_sphere.phase_function`)
+PHASE = phase_function(_u)
 #: exact single scattering with the true phase function (eq. 10)
 SINGLE = c * PHASE / (mu_i + mu_o)
 
@@ -39,34 +40,11 @@ SINGLE = c * PHASE / (mu_i + mu_o)
 #: S (1 + cos phi), 1 - S^2 = mu_i^2 + mu_o^2 (1 - mu_i^2); clamped to [0, 1] against rounding
 _V = sp.Min(1, sp.Max(0, ((mu_i**2 + mu_o**2 * (1 - mu_i**2)) / (1 + S) + mu_i * mu_o + S * (1 + sp.cos(phi))) / 2,
                        evaluate=False), evaluate=False)
-#: x = acos(u) from v = (1 - u)/2 with one asin: 2 asin(sqrt(v)) in forward scattering (v < 1/2), pi - 2 asin(sqrt(1 - v))
-#: otherwise (1 - v is exact there, and x reads the same rounded v as sqrt(v (1 - v)): near back-scattering the
-#: two terms of p then cancel their first order exactly, as from one u; 2 asin(sqrt(v)) alone cost 6e-5 in float there)
-_HALF = 2 * sp.asin(sp.sqrt(sp.Min(_V, 1 - _V)))
-_X = sp.Piecewise((_HALF, _V < sp.Rational(1, 2)), (PI - _HALF, True))
-
-
-def _sin_less_x_cos(x: sp.Expr, terms: int = 7) -> sp.Expr:
-    """sin x - x cos x = sum_k (-1)^(k+1) 2k x^(2k+1)/(2k+1)!, k = 1 .. ``terms``, in Horner form in x^2: below
-    x = 0.505 the first term left out is 1e-17 of the sum."""
-    y, out = x**2, sp.S.Zero
-    for k in range(terms, 0, -1):
-        out = (-1) ** (k + 1) * sp.Rational(2 * k, sp.factorial(2 * k + 1)) + (y * out if out != 0 else 0)
-    return x**3 * out
-
-
-#: where the series of :func:`_sin_less_x_cos` is used: v < 1/16, x < 2 asin(1/4) = 0.505 (there x = _HALF).  A
-#: condition on v, not on x: a condition that holds a Piecewise becomes an ITE, which sympy's numpy printer
-#: (lambdify) simplifies with simplify_logic, a minute per model
-_SERIES_BELOW = sp.Rational(1, 16)
-
-
-#: the phase function p(u) as a function of 1 - u (:data:`PHASE`, the same function): sqrt(1 - u^2) - u acos(u) =
-#: sin x - x cos x, x = acos(u), by its series for x < 0.505 (forward scattering), where the two terms agree to
-#: 1 - O(x^2) and their difference, of order x^3/3, would keep eps/x^2 of its digits; directly above, with
-#: sqrt(1 - u^2) = 2 sqrt(v (1 - v)) and u = 1 - 2v, v = (1 - u)/2
-PHASE_FORWARD = 2 * sp.Piecewise((_sin_less_x_cos(_HALF), _V < _SERIES_BELOW),
-                                 (2 * sp.sqrt(_V * (1 - _V)) - (1 - 2 * _V) * _X, True)) / (3 * PI**2)  # fmt: skip
+#: the phase function p(u) as a function of 1 - u (:data:`PHASE`, the same function,
+#: :func:`fitlab.physics.lambert_sphere.phase_function_forward`): sqrt(1 - u^2) - u acos(u) = sin x - x cos x, x =
+#: acos(u) from v = (1 - u)/2 with one asin, by its series in forward scattering, where the two terms agree to
+#: 1 - O(x^2) and their difference, of order x^3/3, would keep eps/x^2 of its digits
+PHASE_FORWARD = phase_function_forward(_V)
 #: :data:`SINGLE` evaluated through :data:`PHASE_FORWARD`: what the runtime terms use (in forward scattering at
 #: grazing 1 - u ~ (mu_i + mu_o)^2/2, which u itself, rounded to float, no longer resolves below mu ~ 1e-4)
 SINGLE_FORWARD = c * PHASE_FORWARD / (mu_i + mu_o)

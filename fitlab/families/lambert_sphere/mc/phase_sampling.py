@@ -50,6 +50,7 @@ import numpy as np
 
 from fitlab._montecarlo import sincos_2pi
 from fitlab.core import float64
+from fitlab.physics.lambert_sphere import phase_function, three_term_phase_function
 
 __all__ = [
     "THREE_TERM_NORM",
@@ -87,15 +88,16 @@ _NEWTON_STEPS = 8
 
 @float64
 def p_true(u):
-    """p(u) = 2 (sqrt(1-u^2) - u acos u)/(3 pi^2), 1/sr; u clipped to [-1, 1]."""
-    u = jnp.clip(u, -1.0, 1.0)
-    return 2.0 * (jnp.sqrt((1.0 - u) * (1.0 + u)) - u * jnp.arccos(u)) / (3.0 * jnp.pi**2)
+    """p(u) = 2 (sqrt(1-u^2) - u acos u)/(3 pi^2), 1/sr (:func:`fitlab.physics.lambert_sphere.phase_function`); u
+    clipped to [-1, 1]."""
+    return phase_function(jnp.clip(u, -1.0, 1.0))
 
 
 @float64
 def p_three_term(u):
-    """p3(u) = (1 - (4/3) u + (5/16) P2(u)) / (4 pi), 1/sr; negative for u > 0.95029."""
-    return (27.0 / 32.0 - 4.0 / 3.0 * u + 15.0 / 32.0 * u * u) / (4.0 * jnp.pi)
+    """p3(u) = (1 - (4/3) u + (5/16) P2(u)) / (4 pi), 1/sr; negative for u > 0.95029
+    (:func:`fitlab.physics.lambert_sphere.three_term_phase_function`)."""
+    return three_term_phase_function(jnp.asarray(u))
 
 
 @float64
@@ -166,12 +168,9 @@ def _mixture_second_moments() -> tuple:
     x, w = (np.asarray(a) for a in np.polynomial.legendre.leggauss(200))
 
     def p(u):
-        u = np.clip(u, -1.0, 1.0)
-        return 2.0 * (np.sqrt((1.0 - u) * (1.0 + u)) - u * np.arccos(u)) / (3.0 * math.pi**2)
+        return phase_function(np.clip(u, -1.0, 1.0))
 
-    def p3(u):
-        return (27.0 / 32.0 - 4.0 / 3.0 * u + 15.0 / 32.0 * u * u) / (4.0 * math.pi)
-
+    p3 = three_term_phase_function
     out = [0.0, 0.0]
     for a, b in ((-1.0, U1), (U1, 0.99), (0.99, 1.0)):
         u = a + (b - a) * (x + 1.0) / 2.0

@@ -76,6 +76,8 @@ f cos(theta_i), as its HLSL returns it).
 
 from pathlib import Path
 
+from fitlab import physics
+
 from fitlab.families.microfacet_energy.exact._albedo import CONVENTIONS, METHODS, average_albedo, directional_albedo
 from fitlab.families.microfacet_energy.exact._compensation import (
     compensated_albedo,
@@ -123,7 +125,8 @@ from fitlab.families.microfacet_energy.exact._split_sum import schlick_weight, s
 
 #: the engine's source files, part of the key of every cached exact value (fitlab.cache.cached_arrays): editing
 #: any of them recomputes what was cached
-SOURCES = tuple(sorted(Path(__file__).resolve().parent.glob("*.py")))
+SOURCES = (*sorted(Path(__file__).resolve().parent.glob("*.py")),
+           *physics.sources("fresnel", "microfacet", "oren_nayar"))
 
 __all__ = [
     "SOURCES",

@@ -87,15 +87,15 @@ import numpy as np
 
 from fitlab.families.microfacet_energy.exact._checks import choice, real_array
 from fitlab.families.microfacet_energy.exact._fresnel_factor import kinks_of
-from fitlab.families.microfacet_energy.exact._ggx import mu_i_visibility, ndf_from_tangents
 from fitlab.families.microfacet_energy.exact._models import get_model
 from fitlab.families.microfacet_energy.exact._oren_nayar import (
     albedo_closed_form,
     average_albedo_closed_form,
-    brdf_kernel,
     oren_nayar_coefficients,
 )
 from fitlab.families.microfacet_energy.exact._quadrature import composite, gauss_legendre, graded_edges
+from fitlab.physics.microfacet import ggx_ndf, ggx_visibility
+from fitlab.physics.oren_nayar import oren_nayar
 
 __all__ = ["METHODS", "CONVENTIONS", "directional_albedo", "average_albedo", "average_nodes"]
 
@@ -341,7 +341,7 @@ def _ggx_half_vector_chunk(mu_o, alpha, smith, fresnel, rule):
             cos_phi = np.cos(phi_end * x_phi)
         om_over_mu_m = s_o_ * tan_m * cos_phi + mu_o_  # (w_o . m) / mu_m
         mu_i = np.maximum(s_o_ * sin_2m * cos_phi + mu_o_ * cos_2m, 0)
-        value = 4 * om_over_mu_m * mu_i_visibility(mu_o_, mu_i, a_, smith)
+        value = 4 * om_over_mu_m * ggx_visibility(mu_o_, mu_i, a_ * a_, smith, times_mu_i=True)
         if fresnel is not None:
             value = value * fresnel(om_over_mu_m / np.sqrt(1 + tan2))
         if kinks:
@@ -442,11 +442,11 @@ def _ggx_direction(mu_o, alpha, smith, fresnel, rule: DirectionRule = DIRECTION)
             diff = np.where(so + si > 0, minus_mu_o * (mu_i + mo) / (so + si), 0)  # s_o - s_i
         x = (diff * diff)[..., None] + (4 * so * si)[..., None] * half_sin2_  # X = |w_o,t + w_i,t|^2
         z = ((mo + mu_i) ** 2)[..., None]
-        d = ndf_from_tangents(x, z, a[..., None])
+        d = ggx_ndf(x, z, (a * a)[..., None])
         if fresnel is not None:
             d = d * fresnel(np.sqrt(x + z) / 2)  # w_o . h = |w_o + w_i| / 2
         azimuthal = np.sum(d * w_psi_, axis=-1) if kinks else d @ w_psi
-        out[sl] = 2 * np.sum(w_mu * mu_i_visibility(mo, mu_i, a, smith) * azimuthal, axis=1)
+        out[sl] = 2 * np.sum(w_mu * ggx_visibility(mo, mu_i, a * a, smith, times_mu_i=True) * azimuthal, axis=1)
     return out
 
 
@@ -460,8 +460,7 @@ def _oren_nayar_direction(mu_o, alpha, a_constant, azimuth, nodes: int = 24):
     w_phi = np.concatenate((np.pi / 2 * w, np.pi / 2 * w))
     a, b = oren_nayar_coefficients(alpha, a_constant)
     mu_i = np.cos(theta_i)
-    f = brdf_kernel(mu_o[:, None, None], mu_i[..., None], np.cos(phi), a[:, None, None], b[:, None, None],
-                          azimuth)
+    f = oren_nayar(mu_o[:, None, None], mu_i[..., None], np.cos(phi), a[:, None, None], b[:, None, None], azimuth)
     # 2: phi in [0, pi] stands for [0, 2 pi]
     return 2 * np.sum(w_theta * np.sin(theta_i) * mu_i * (f @ w_phi), axis=1)
 

@@ -13,8 +13,9 @@ Fresnel factors F(c), c = cos(theta_d) = w . m in [0, 1], unpolarised light from
       R_p = R_s ((a c - s2)^2 + (b c)^2) / ((a c + s2)^2 + (b c)^2),     F = (R_s + R_p) / 2.
 
   Both ratios are sums of squares, so nothing cancels in them; a^2 and b^2 are formed without
-  cancellation (the larger as (|z| + |t0|) / 2, the other as eta^2 k^2 / that), and t0 as
+  cancellation (as max(+-t0, 0) + eta^2 k^2 / h, h = (|z| + |t0|) / 2, sums of non-negative terms), and t0 as
   ((eta - 1)(eta + 1) - k^2) + c^2, accurate for eta near 1 at grazing (exact at eta = 1, k = 0).
+  The formulas are :mod:`fitlab.physics.fresnel`'s; this module checks their arguments.
   Limits: c = 1 gives ((eta - 1)^2 + k^2) / ((eta + 1)^2 + k^2) (R_p = R_s there); c = 0 gives 1;
   k = 0 gives the dielectric below (with total internal reflection, a = 0, when eta < 1); k -> inf
   gives 1, as 1 - F <= 4 eta / k^2 + eta / k (the second term is R_p's dip near c ~ 1/k).
@@ -150,9 +151,10 @@ from fitlab.families.microfacet_energy.exact._albedo import (
 from fitlab.families.microfacet_energy.exact._checks import choice, real_array, working_dtype
 from fitlab.families.microfacet_energy.exact._compensation import _lobe, multiple_scattering_brdf
 from fitlab.families.microfacet_energy.exact._fresnel_factor import FresnelFactor, kinks_of
-from fitlab.families.microfacet_energy.exact._ggx import root_term
 from fitlab.families.microfacet_energy.exact._models import get_model
 from fitlab.families.microfacet_energy.exact._quadrature import gauss_legendre
+from fitlab.physics import fresnel
+from fitlab.physics.microfacet import ggx_root_term
 
 __all__ = [
     "COMPENSATION_FORMS",
@@ -208,81 +210,47 @@ def fresnel_schlick(cos, f0):
     dtype = working_dtype(cos, f0)
     c = _cosine(cos, dtype)
     f0 = real_array(f0, "f0", 0.0, 1.0, dtype=dtype)
-    m = 1 - c
-    m2 = m * m
-    return (f0 + (1 - f0) * (m2 * m2 * m)).astype(dtype)
+    return np.asarray(fresnel.fresnel_schlick(c, f0), dtype=dtype)
 
 
 def fresnel_conductor(cos, eta, k):
     """Exact unpolarised Fresnel reflectance of a conductor of relative index eta + i k (module docstring:
-    R_s, R_p in Born and Wolf's real form, PBRT-v3's FrConductor).  cos in [0, 1]; eta > 0, k >= 0 (k = 0:
-    a dielectric, with total internal reflection for eta < 1); numpy broadcasting, so eta and k may be RGB
-    arrays.  F(1) = ((eta - 1)^2 + k^2) / ((eta + 1)^2 + k^2), F(0) = 1 (0 for the matched eta = 1, k = 0).
-    float32 when every argument is float32, else float64."""
+    R_s, R_p in Born and Wolf's real form, PBRT-v3's FrConductor; :func:`fitlab.physics.fresnel.fresnel_conductor`).
+    cos in [0, 1]; eta > 0, k >= 0 (k = 0: a dielectric, with total internal reflection for eta < 1); numpy
+    broadcasting, so eta and k may be RGB arrays.  F(1) = ((eta - 1)^2 + k^2) / ((eta + 1)^2 + k^2), F(0) = 1 (0 for
+    the matched eta = 1, k = 0).  float32 when every argument is float32, else float64."""
     dtype = working_dtype(cos, eta, k)
     c = _cosine(cos, dtype)
     eta = _index(eta, "eta", dtype, True)
     k = _index(k, "k", dtype, False)
     c, eta, k = np.broadcast_arrays(c, eta, k)
-    s2 = (1 - c) * (1 + c)
-    t0 = ((eta - 1) * (eta + 1) - k * k) + c * c  # eta^2 - k^2 - s2, exact when eta = 1, k = 0
-    ek = eta * k
-    z = np.hypot(t0, 2 * ek)  # |eta_c^2 - s2|
-    big = (z + np.abs(t0)) / 2  # the larger of a^2, b^2, without cancellation
-    with np.errstate(divide="ignore", invalid="ignore"):
-        small = np.where(big > 0, ek * (ek / np.where(big > 0, big, 1)), 0)
-    a2 = np.where(t0 >= 0, big, small)
-    b2 = np.where(t0 >= 0, small, big)
-    a = np.sqrt(a2)
-    den_s = (c + a) ** 2 + b2
-    with np.errstate(divide="ignore", invalid="ignore"):
-        r_s = np.where(den_s > 0, ((c - a) ** 2 + b2) / np.where(den_s > 0, den_s, 1), 0)  # 0: matched, c = 0
-        ac = a * c
-        b2c2 = b2 * c * c
-        den_p = (ac + s2) ** 2 + b2c2  # 0 only at c = 1 with a = b = 0 (eta^2 underflowing), where R_p = R_s
-        r_p = r_s * np.where(den_p > 0, ((ac - s2) ** 2 + b2c2) / np.where(den_p > 0, den_p, 1), 1)
-    return ((r_s + r_p) / 2).astype(dtype)
+    return np.asarray(fresnel.fresnel_conductor(c, eta, k), dtype=dtype)
 
 
 def fresnel_dielectric(cos, eta):
     """Exact unpolarised Fresnel reflectance at a dielectric interface of relative index eta = n_t / n_i > 0,
     seen from the incident side: cos_t = sqrt(1 - (1 - cos^2) / eta^2), F = 1 beyond the critical angle
-    (eta < 1).  cos in [0, 1]; numpy broadcasting.  Independent of :func:`fresnel_conductor` (its k = 0).
-    float32 when every argument is float32, else float64."""
+    (eta < 1).  cos in [0, 1]; numpy broadcasting.  The conductor's k = 0 in another form
+    (:func:`fitlab.physics.fresnel.fresnel_dielectric`).  float32 when every argument is float32, else float64."""
     dtype = working_dtype(cos, eta)
     c = _cosine(cos, dtype)
     eta = _index(eta, "eta", dtype, True)
     c, eta = np.broadcast_arrays(c, eta)
-    cos_t2 = ((eta - 1) * (eta + 1) + c * c) / (eta * eta)  # 1 - (1 - c^2) / eta^2
-    tir = cos_t2 < 0
-    cos_t = np.sqrt(np.where(tir, 0, cos_t2))
-    with np.errstate(divide="ignore", invalid="ignore"):
-        den_s, den_p = c + eta * cos_t, eta * c + cos_t
-        r_s = np.where(den_s > 0, (c - eta * cos_t) / np.where(den_s > 0, den_s, 1), 0)
-        r_p = np.where(den_p > 0, (eta * c - cos_t) / np.where(den_p > 0, den_p, 1), 0)
-    return np.where(tir, 1, (r_s * r_s + r_p * r_p) / 2).astype(dtype)
-
+    return np.asarray(fresnel.fresnel_dielectric(c, eta), dtype=dtype)
 
 
 def fresnel_dielectric_transmittance(cos_i, cos_t, eta):
     """1 - F at a dielectric interface of relative index eta = n_t / n_i > 0 for a refraction whose both
     cosines are known (cos_i on the incident side, cos_t on the transmitted side, both in [0, 1], with
-    eta sin_t = sin_i), as 1 - r^2 = (1 - r)(1 + r) per polarisation:
-
-        1 - F = 2 eta cos_i cos_t (1 / (cos_i + eta cos_t)^2 + 1 / (eta cos_i + cos_t)^2).
-
-    Equal to ``1 - fresnel_dielectric(cos_i, eta)`` where cos_t is Snell's, and without its two losses:
-    no cancellation in 1 - F where F is near 1 (grazing), and no sqrt(1 - (1 - cos^2) / eta^2) near the
-    critical angle, whose rounding error grows like 1 / cos_t^2.  Symmetric under (cos_i, cos_t, eta) ->
-    (cos_t, cos_i, 1 / eta), as reciprocity needs; a BTDF whose half vector gives both cosines uses this.
-    0 where either cosine is 0.  numpy broadcasting; float32 when every argument is float32."""
+    eta sin_t = sin_i): :func:`fitlab.physics.fresnel.fresnel_dielectric_transmittance`, equal to
+    ``1 - fresnel_dielectric(cos_i, eta)`` where cos_t is Snell's and without its cancellation at grazing and
+    near the critical angle; a BTDF whose half vector gives both cosines uses this.  0 where either cosine is 0.
+    numpy broadcasting; float32 when every argument is float32."""
     dtype = working_dtype(cos_i, cos_t, eta)
     c_i, c_t = _cosine(cos_i, dtype), _cosine(cos_t, dtype)
     eta = _index(eta, "eta", dtype, True)
-    den_s, den_p = c_i + eta * c_t, eta * c_i + c_t
-    with np.errstate(divide="ignore", invalid="ignore"):
-        t = 2 * eta * c_i * c_t * (1 / (den_s * den_s) + 1 / (den_p * den_p))
-    return np.where((c_i > 0) & (c_t > 0), t, 0).astype(dtype)
+    return np.asarray(fresnel.fresnel_dielectric_transmittance(c_i, c_t, eta), dtype=dtype)
+
 
 # -- average Fresnel ------------------------------------------------------------------------------------
 def average_fresnel(fresnel, breakpoints=()) -> float:
@@ -324,12 +292,6 @@ def average_fresnel_schlick(f0):
     return (20 * f0 + 1) / 21
 
 
-def _conductor_kink(eta, k):
-    """mu where t0 = eta^2 - k^2 - (1 - mu^2) = 0, if in (0, 1)."""
-    m2 = 1 - (eta * eta - k * k)
-    return (np.sqrt(m2),) if 0 < m2 < 1 else ()
-
-
 def _scalar_index(value, name, open_lo):
     if np.ndim(value) != 0:
         raise ValueError(f"{name} must be one number (one colour channel: its kinks are numbers), got shape "
@@ -341,14 +303,14 @@ def dielectric_factor(eta) -> FresnelFactor:
     """:func:`fresnel_dielectric` of one relative index eta > 0 as a :class:`FresnelFactor`, with its kink at the
     critical angle, cos = sqrt(1 - eta^2), when eta < 1 (the quadratures follow it there)."""
     e = _scalar_index(eta, "eta", True)
-    return FresnelFactor(lambda c: fresnel_dielectric(c, e), _conductor_kink(e, 0.0))
+    return FresnelFactor(lambda c: fresnel_dielectric(c, e), fresnel.conductor_bend(e, 0.0))
 
 
 def conductor_factor(eta, k) -> FresnelFactor:
     """:func:`fresnel_conductor` of one complex index eta + i k as a :class:`FresnelFactor`, with its bend where
     t0 = eta^2 - k^2 - (1 - cos^2) = 0 when that cosine lies in (0, 1) (a kink when k = 0)."""
     e, kk = _scalar_index(eta, "eta", True), _scalar_index(k, "k", False)
-    return FresnelFactor(lambda c: fresnel_conductor(c, e, kk), _conductor_kink(e, kk))
+    return FresnelFactor(lambda c: fresnel_conductor(c, e, kk), fresnel.conductor_bend(e, kk))
 
 
 def average_fresnel_conductor(eta, k):
@@ -360,7 +322,7 @@ def average_fresnel_conductor(eta, k):
     out = np.empty(eta.shape)
     for idx in np.ndindex(eta.shape):
         e, kk = float(eta[idx]), float(k[idx])
-        out[idx] = average_fresnel(lambda c: fresnel_conductor(c, e, kk), _conductor_kink(e, kk))
+        out[idx] = average_fresnel(lambda c: fresnel_conductor(c, e, kk), fresnel.conductor_bend(e, kk))
     return out
 
 
@@ -371,7 +333,7 @@ def average_fresnel_dielectric(eta):
     out = np.empty(eta.shape)
     for idx in np.ndindex(eta.shape):
         e = float(eta[idx])
-        out[idx] = average_fresnel(lambda c: fresnel_dielectric(c, e), _conductor_kink(e, 0.0))
+        out[idx] = average_fresnel(lambda c: fresnel_dielectric(c, e), fresnel.conductor_bend(e, 0.0))
     return out
 
 
@@ -487,7 +449,8 @@ def _visible_fresnel_chunk(mu_o, alpha, fresnel, rule=HALF_VECTOR):
             inner = (value @ w_phi) * (phi_end * dxi)[..., 0]
         return np.sum(inner * w_tau, axis=1)
 
-    return 2 * (panel(tau_a, w_a, True) + panel(tau_b, w_b, False)) / (np.pi * (mu_o + root_term(mu_o, alpha)))
+    root = ggx_root_term(mu_o, alpha * alpha)
+    return 2 * (panel(tau_a, w_a, True) + panel(tau_b, w_b, False)) / (np.pi * (mu_o + root))
 
 
 def visible_fresnel(mu_o, alpha, fresnel=None):

@@ -33,36 +33,11 @@ from __future__ import annotations
 import numpy as np
 
 from fitlab.families.microfacet_energy.exact._checks import choice, real_array, working_dtype
+from fitlab.physics import microfacet
 
-__all__ = ["SMITH", "ggx_ndf", "smith_lambda", "smith_g1", "smith_g2", "ggx_brdf", "root_term", "mu_i_visibility",
-           "ndf_from_tangents"]
+__all__ = ["SMITH", "ggx_ndf", "smith_lambda", "smith_g1", "smith_g2", "ggx_brdf"]
 
 SMITH = ("separable", "correlated")
-
-
-def root_term(mu, alpha):
-    """S(mu) = sqrt(alpha^2 + (1 - alpha^2) mu^2) = mu sqrt(1 + alpha^2 tan^2 theta)."""
-    a2 = alpha * alpha
-    return np.sqrt(a2 + (1 - a2) * mu * mu)
-
-
-def ndf_from_tangents(x, z, alpha):
-    """D = alpha^2 (X + Z)^2 / (pi (alpha^2 Z + X)^2) for tan^2(theta_m) = X / Z (see the module)."""
-    a2 = alpha * alpha
-    return a2 * (x + z) ** 2 / (np.pi * (a2 * z + x) ** 2)
-
-
-def mu_i_visibility(mu_o, mu_i, alpha, smith: str):
-    """mu_i V(mu_o, mu_i) for alpha > 0, finite everywhere on [0, 1]^2 (the integrand's factor).
-
-    correlated at mu_i = mu_o = 0: the limit along mu_o = 0, 1 / (2 alpha).
-    """
-    s_o, s_i = root_term(mu_o, alpha), root_term(mu_i, alpha)
-    if smith == "separable":
-        return mu_i / ((mu_o + s_o) * (mu_i + s_i))
-    den = 2 * (mu_o * s_i + mu_i * s_o)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        return np.where(den > 0, mu_i / np.where(den > 0, den, 1), 1 / (2 * s_o))
 
 
 def _cosines(values, names, dtype):
@@ -76,13 +51,13 @@ def _alpha(alpha, dtype, open_lo=True):
 
 def ggx_ndf(mu_m, alpha):
     """GGX normal distribution D(m) = alpha^2 / (pi ((alpha^2 - 1) mu_m^2 + 1)^2), mu_m in [0, 1],
-    alpha in (0, 1]; normalised by int D(m) mu_m dw_m = 1 over the hemisphere."""
+    alpha in (0, 1]; normalised by int D(m) mu_m dw_m = 1 over the hemisphere (:func:`fitlab.physics.microfacet.ggx_ndf`
+    of x = 1 - mu_m^2, z = mu_m^2)."""
     dtype = working_dtype(mu_m, alpha)
     (mu_m,) = _cosines((mu_m,), ("mu_m",), dtype)
     alpha = _alpha(alpha, dtype)
     mu2 = mu_m * mu_m
-    a2 = alpha * alpha
-    return a2 / (np.pi * (a2 * mu2 + (1 - mu2)) ** 2)
+    return np.asarray(microfacet.ggx_ndf((1 - mu_m) * (1 + mu_m), mu2, alpha * alpha), dtype=dtype)
 
 
 def smith_lambda(mu, alpha):
@@ -94,10 +69,7 @@ def smith_lambda(mu, alpha):
     dtype = working_dtype(mu, alpha)
     (mu,) = _cosines((mu,), ("mu",), dtype)
     alpha = _alpha(alpha, dtype, open_lo=False)
-    num = alpha * alpha * (1 - mu * mu)
-    den = 2 * mu * (root_term(mu, alpha) + mu)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        return np.where(num == 0, 0, num / den).astype(dtype)
+    return np.asarray(microfacet.ggx_lambda(mu, alpha * alpha), dtype=dtype)
 
 
 def smith_g1(mu, alpha):
@@ -106,9 +78,7 @@ def smith_g1(mu, alpha):
     dtype = working_dtype(mu, alpha)
     (mu,) = _cosines((mu,), ("mu",), dtype)
     alpha = _alpha(alpha, dtype, open_lo=False)
-    den = mu + root_term(mu, alpha)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        return np.where(den > 0, 2 * mu / np.where(den > 0, den, 1), 1).astype(dtype)
+    return np.asarray(microfacet.ggx_g1(mu, alpha * alpha), dtype=dtype)
 
 
 def smith_g2(mu_o, mu_i, alpha, smith: str = "separable"):
@@ -122,13 +92,7 @@ def smith_g2(mu_o, mu_i, alpha, smith: str = "separable"):
     dtype = working_dtype(mu_o, mu_i, alpha)
     mu_o, mu_i = _cosines((mu_o, mu_i), ("mu_o", "mu_i"), dtype)
     alpha = _alpha(alpha, dtype, open_lo=False)
-    if smith == "separable":
-        return (smith_g1(mu_o, alpha) * smith_g1(mu_i, alpha)).astype(dtype)
-    num = 2 * mu_i * mu_o
-    den = mu_o * root_term(mu_i, alpha) + mu_i * root_term(mu_o, alpha)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        g2 = np.where(den > 0, num / np.where(den > 0, den, 1), 0)
-    return np.where(alpha == 0, 1, g2).astype(dtype)
+    return np.asarray(microfacet.ggx_g2(mu_o, mu_i, alpha * alpha, smith), dtype=dtype)
 
 
 def ggx_brdf(mu_o, mu_i, phi, alpha, smith: str = "separable"):
@@ -153,10 +117,7 @@ def ggx_brdf(mu_o, mu_i, phi, alpha, smith: str = "separable"):
         diff = np.where(s_o + s_i > 0, (mu_i - mu_o) * (mu_i + mu_o) / (s_o + s_i), 0)
         x = diff * diff + 4 * s_o * s_i * np.cos(phi / 2) ** 2
         z = (mu_o + mu_i) ** 2
-        d = ndf_from_tangents(x, z, alpha)
-        s_ro, s_ri = root_term(mu_o, alpha), root_term(mu_i, alpha)
-        if smith == "separable":
-            v = 1 / ((mu_o + s_ro) * (mu_i + s_ri))
-        else:
-            v = 1 / (2 * (mu_o * s_ri + mu_i * s_ro))
+        a2 = alpha * alpha
+        d = microfacet.ggx_ndf(x, z, a2)
+        v = microfacet.ggx_visibility(mu_o, mu_i, a2, smith)
     return np.asarray(d * v, dtype=dtype)

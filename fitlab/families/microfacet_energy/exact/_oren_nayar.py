@@ -49,11 +49,12 @@ from __future__ import annotations
 import numpy as np
 
 from fitlab.families.microfacet_energy.exact._checks import choice, real_array, working_dtype
+from fitlab.physics import oren_nayar as physics
+from fitlab.physics.oren_nayar import AZIMUTH
 
-__all__ = ["AZIMUTH", "A_CONSTANTS", "oren_nayar_coefficients", "oren_nayar_brdf", "brdf_kernel",
-           "albedo_closed_form", "average_albedo_closed_form", "azimuthal_constant"]
+__all__ = ["AZIMUTH", "A_CONSTANTS", "oren_nayar_coefficients", "oren_nayar_brdf", "albedo_closed_form",
+           "average_albedo_closed_form", "azimuthal_constant"]
 
-AZIMUTH = ("cos_phi", "gamma")
 A_CONSTANTS = (0.33, 0.57)
 
 
@@ -69,9 +70,7 @@ def oren_nayar_coefficients(alpha, a_constant: float = 0.33):
     B = 0.45 sigma^2 / (sigma^2 + 0.09); alpha in [0, 1]; (1, 0) at alpha = 0 (Lambert)."""
     dtype = working_dtype(alpha)
     alpha = real_array(alpha, "alpha", 0.0, 1.0, dtype=dtype)
-    c = _a_constant(a_constant)
-    sigma2 = (np.pi / 2 * alpha) ** 2
-    return 1 - sigma2 / (2 * (sigma2 + c)), 0.45 * sigma2 / (sigma2 + 0.09)
+    return physics.oren_nayar_coefficients(physics.oren_nayar_sigma(alpha), _a_constant(a_constant))
 
 
 def oren_nayar_brdf(mu_o, mu_i, phi, alpha, a_constant: float = 0.33, azimuth: str = "cos_phi"):
@@ -89,18 +88,7 @@ def oren_nayar_brdf(mu_o, mu_i, phi, alpha, a_constant: float = 0.33, azimuth: s
     mu_i = real_array(mu_i, "mu_i", 0.0, 1.0, dtype=dtype)
     phi = real_array(phi, "phi", 0.0, 2 * np.pi, dtype=dtype, domain="[0, 2 pi]")
     a, b = oren_nayar_coefficients(alpha, a_constant)
-    return np.asarray(brdf_kernel(mu_o, mu_i, np.cos(phi), a, b, azimuth), dtype=dtype)
-
-
-def brdf_kernel(mu_o, mu_i, cos_phi, a, b, azimuth):
-    """f from cos(phi) and the coefficients (A, B), on checked float arrays (broadcast)."""
-    mu_lo, mu_hi = np.minimum(mu_o, mu_i), np.maximum(mu_o, mu_i)  # theta_max has the smaller cosine
-    c = cos_phi if azimuth == "cos_phi" else cos_phi * np.sqrt((1 - mu_o * mu_o) * (1 - mu_i * mu_i))
-    lobe = b * np.maximum(0, c)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        term = np.sqrt(1 - mu_lo * mu_lo) * np.sqrt(1 - mu_hi * mu_hi) / mu_hi
-        out = a + np.where(lobe > 0, lobe * term, 0)
-    return out / np.pi
+    return np.asarray(physics.oren_nayar(mu_o, mu_i, np.cos(phi), a, b, azimuth), dtype=dtype)
 
 
 def _brackets(mu_o, azimuth):

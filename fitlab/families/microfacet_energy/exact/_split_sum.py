@@ -18,13 +18,15 @@ from __future__ import annotations
 import numpy as np
 
 from fitlab.families.microfacet_energy.exact._albedo import directional_albedo
+from fitlab.physics import fresnel
 
 __all__ = ["schlick_weight", "split_sum"]
 
 
 def schlick_weight(cos):
-    """Fc = (1 - cos)^5, Schlick's weight of F90 - F0 (cos = w_o . h in [0, 1])."""
-    return (1.0 - np.asarray(cos, dtype=np.float64)) ** 5
+    """Fc = (1 - cos)^5, Schlick's weight of F90 - F0, cos = w_o . h in [0, 1]
+    (:func:`fitlab.physics.fresnel.schlick_weight`)."""
+    return fresnel.schlick_weight(np.asarray(cos, dtype=np.float64))
 
 
 def _one_minus_schlick_weight(cos):

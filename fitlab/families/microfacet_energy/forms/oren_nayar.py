@@ -33,13 +33,13 @@ import sympy as sp
 
 from fitlab.families.microfacet_energy.forms.common import alpha, mu
 from fitlab.forms import Form
+from fitlab.physics.oren_nayar import oren_nayar_coefficients, oren_nayar_sigma
 
 __all__ = ["SIGMA", "A_ON", "B_ON", "MATERIALX_ON", "e_forms", "materialx_rational", "abg_cubic"]
 
-SIGMA = sp.pi / 2 * alpha
-#: the qualitative Oren-Nayar's A (constant 0.33) and B, exact
-A_ON = 1 - SIGMA**2 / (2 * (SIGMA**2 + sp.Rational(33, 100)))
-B_ON = sp.Rational(45, 100) * SIGMA**2 / (SIGMA**2 + sp.Rational(9, 100))
+SIGMA = oren_nayar_sigma(alpha)
+#: the qualitative Oren-Nayar's A (constant 0.33) and B, exact (:func:`fitlab.physics.oren_nayar.oren_nayar_coefficients`)
+A_ON, B_ON = oren_nayar_coefficients(SIGMA, sp.Rational(33, 100))
 
 #: MaterialX mx_oren_nayar_diffuse_dir_albedo_analytic (libraries/pbrlib/genglsl/lib/mx_microfacet_diffuse.glsl,
 #: Apache-2.0): the vec2 of the sigma, mu sigma and sigma^2 terms

@@ -44,6 +44,7 @@ import sympy as sp
 
 from fitlab.forms import Form, safe_pow
 from fitlab.forms.symbolic import symbols
+from fitlab.physics.microfacet import beckmann_g1_rational, ggx_ndf
 
 __all__ = ["mu_o", "cos_phi", "mu_i", "alpha", "SHAPE_INPUTS", "lobe_frame", "blog_lobe", "ggx_lobe",
            "tilted_lobe", "beckmann_g1", "eta_of_lobe_roughness", "PER_LOBE_FORMS", "per_lobe_form", "MU_FLOOR"]
@@ -68,12 +69,9 @@ def lobe_frame(theta_d) -> tuple[sp.Expr, sp.Expr, sp.Expr]:
 
 
 def beckmann_g1(mu) -> sp.Expr:
-    """Smith masking of the Beckmann distribution at the surface's alpha, Walter et al. (2007), written in
-    b = alpha tan(theta)/1 = 1/a so that it stays finite at mu = 1 and mu = 0:
-    G1 = (3.535 b + 2.181)/(b^2 + 2.276 b + 2.577) for b > 1/1.6, else 1."""
-    b = alpha * sp.sqrt(sp.Max(1 - mu**2, 0)) / sp.Max(mu, MU_FLOOR)
-    ratio = (sp.Float("3.535") * b + sp.Float("2.181")) / (b**2 + sp.Float("2.276") * b + sp.Float("2.577"))
-    return sp.Piecewise((ratio, b > sp.Float("0.625")), (1, True))
+    """Smith masking of the Beckmann distribution at the surface's alpha, Walter et al.'s (2007) rational form
+    (:func:`fitlab.physics.microfacet.beckmann_g1_rational`) in b = alpha tan(theta), finite at mu = 1 and mu = 0."""
+    return beckmann_g1_rational(alpha * sp.sqrt(sp.Max(1 - mu**2, 0)) / sp.Max(mu, MU_FLOOR))
 
 
 def eta_of_lobe_roughness(alpha_l) -> sp.Expr:
@@ -115,8 +113,7 @@ def ggx_lobe(sigma, beta, sigma_n, theta_d=0) -> sp.Expr:
     whole hemisphere z' > -1 (its long tail reaches grazing, which a power cosine about the same axis
     cannot)."""
     x, y2, z = lobe_frame(theta_d)
-    b2 = beta**2
-    d = b2 / (sp.pi * (z**2 * (b2 - 1) + 1) ** 2)
+    d = ggx_ndf(1 - z**2, z**2, beta**2)
     radius = 1 / sp.sqrt(x**2 + y2 + z**2 / sigma_n**2)
     return sigma * d * radius
 

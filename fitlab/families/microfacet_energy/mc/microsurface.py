@@ -9,10 +9,11 @@ Slopes (anisotropic alpha_x, alpha_y; isotropic when equal).  With the stretched
 tangent t^2(w) = (alpha_x^2 w_x^2 + alpha_y^2 w_y^2) / w_z^2 = alpha(phi)^2 tan^2(theta):
 
 * GGX: D(m) = 1 / (pi alpha_x alpha_y mu_m^4 (1 + (m_x^2/alpha_x^2 + m_y^2/alpha_y^2) / mu_m^2)^2),
-  Lambda(w) = (-1 + sqrt(1 + t^2)) / 2 for w_z > 0 (written t^2 / (2 (1 + sqrt(1 + t^2))), free of
-  cancellation at small t).
+  Lambda(w) = (-1 + sqrt(1 + t^2)) / 2 for w_z > 0.
 * Beckmann: D(m) = exp(-(m_x^2/alpha_x^2 + m_y^2/alpha_y^2) / mu_m^2) / (pi alpha_x alpha_y mu_m^4),
   Lambda(w) = (exp(-a^2) / (a sqrt(pi)) - erfc(a)) / 2 with a = 1 / t, for w_z > 0.
+* Both are :mod:`fitlab.physics.microfacet`'s (Lambda at the roughness of w's azimuth, written without
+  cancellation); this module adds the walk's heights and sampling.
 * Downward directions (w_z < 0): Lambda(w) = -1 - Lambda(-w) (paper, eq. 9): the projected area of
   the microsurface seen along w is w_z (1 + Lambda(w)) either way.  Lambda(w) = 0 for w = +z.
 
@@ -63,6 +64,7 @@ import jax.numpy as jnp
 from jax.scipy.special import erfc, erfinv
 
 from fitlab._montecarlo import sincos_2pi
+from fitlab.physics import microfacet
 
 __all__ = ["DISTRIBUTIONS", "height_c1", "height_inv_c1", "smith_lambda", "masking_g1", "sample_height",
            "sample_c1", "sample_vndf", "reflect", "refract", "ESCAPED"]
@@ -101,28 +103,12 @@ def _power(x, y):
     return x**y
 
 
-def _stretched_tan2(x, y, z, alpha_x, alpha_y):
-    """t^2 = (alpha_x^2 x^2 + alpha_y^2 y^2) / z^2 (inf for z = 0 and a tangential part)."""
-    num = (alpha_x * x) ** 2 + (alpha_y * y) ** 2
-    return num / (z * z)
-
-
-def _lambda_up(t2, distribution: str):
-    """Lambda of an upward direction of stretched tangent^2 t2 >= 0 (0 at t2 = 0, inf at t2 = inf)."""
-    if distribution == "ggx":
-        return t2 / (2.0 * (1.0 + jnp.sqrt(1.0 + t2)))
-    t2_safe = jnp.where(t2 > 0.0, t2, 1.0)
-    a = 1.0 / jnp.sqrt(t2_safe)
-    lam = 0.5 * (jnp.exp(-a * a) / (a * _SQRT_PI) - erfc(a))
-    return jnp.where(t2 > 0.0, jnp.maximum(lam, 0.0), 0.0)
-
-
 def smith_lambda(x, y, z, alpha_x, alpha_y, distribution: str):
-    """Smith's Lambda(w) for w = (x, y, z) on the whole sphere: Lambda of |z| upwards, -1 - that downwards.
+    """Smith's Lambda(w) for w = (x, y, z) on the whole sphere: Lambda of |z| upwards
+    (:func:`fitlab.physics.microfacet.smith_lambda`), -1 - that downwards.
 
     Horizontal w (z = 0): +inf (the +-inf limits differ; callers treat z = 0 apart)."""
-    with_z = jnp.where(z == 0.0, _TINY[z.dtype.name], z)
-    lam = _lambda_up(_stretched_tan2(x, y, with_z, alpha_x, alpha_y), distribution)
+    lam = microfacet.smith_lambda(x, y, jnp.abs(z), alpha_x, alpha_y, distribution)
     return jnp.where(z >= 0.0, lam, -1.0 - lam)
 
 

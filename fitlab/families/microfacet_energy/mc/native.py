@@ -1,7 +1,8 @@
 r"""A plain C reference of the microsurface walk (GGX, conductor with F = 1), for ``fitlab bench mc``.
 
-The same physics and the same random numbers as :mod:`.walk`, path by path: path ``id`` starts at the top (h = 1)
-along -w_i; at its event n the uniforms are the words of Threefry-2x32 (20 rounds) of the job key and the
+The same physics (Lambda printed from :mod:`fitlab.physics.microfacet`) and the same random numbers as :mod:`.walk`,
+path by path: path ``id`` starts at the top (h = 1) along -w_i; at its event n the uniforms are the words of
+Threefry-2x32 (20 rounds) of the job key and the
 counter (id, 3 n + j), j = 0, 1 (words 0, 1, 2 used), (word + 1/2) 2^-32; the next height by Smith's
 height-uniform free path (:func:`.microsurface.sample_height`), an escape when it says so, else a visible
 normal of GGX (:func:`.microsurface.sample_vndf`, Heitz's stretched sampling) and the mirror reflection about
@@ -25,18 +26,31 @@ __all__ = ["SOURCE", "ORDERS", "native_walk"]
 #: the orders the C walk counts one by one (escapes above go to one more count)
 ORDERS = 4
 
+
+def _smith_lambda_c() -> str:
+    """The C of GGX's Lambda of an upward w = (x, y, mu) (:func:`fitlab.physics.microfacet.smith_lambda`, printed by
+    :class:`fitlab.codegen.printers.CPrinter`)."""
+    import sympy as sp
+
+    from fitlab.codegen.printers import CPrinter
+    from fitlab.physics.microfacet import smith_lambda
+
+    x, y, mu, ax, ay = sp.symbols("x y mu ax ay", real=True)
+    return CPrinter("double", lambda name: name).doprint(smith_lambda(x, y, mu, ax, ay, "ggx"))
+
+
 SOURCE = THREEFRY_C + r"""
 #include <math.h>
 
 static const double TWO_PI = 6.283185307179586476925;
 static double clip(double x, double lo, double hi) { return x < lo ? lo : (x > hi ? hi : x); }
 
-/* Smith's Lambda of GGX on the whole sphere: Lambda(|z|) upwards, -1 - Lambda(|z|) downwards */
+/* Smith's Lambda of GGX on the whole sphere: Lambda(|z|) upwards, -1 - Lambda(|z|) downwards; Lambda printed from
+   fitlab.physics.microfacet.smith_lambda (0 along the normal, where its azimuth's roughness is 0 / 0) */
 static double smith_lambda(double x, double y, double z, double ax, double ay)
 {
-    const double zz = z == 0.0 ? 1e-300 : z;
-    const double t2 = ((ax * x) * (ax * x) + (ay * y) * (ay * y)) / (zz * zz);
-    const double lam = t2 / (2.0 * (1.0 + sqrt(1.0 + t2)));
+    const double mu = fabs(z);
+    const double lam = x * x + y * y > 0.0 ? SMITH_LAMBDA : 0.0;
     return z >= 0.0 ? lam : -1.0 - lam;
 }
 
@@ -123,7 +137,7 @@ void microsurface_walk(uint32_t k0, uint32_t k1, double ax, double ay, double mu
     out[ORDERS + 1] = (double)capped;
     out[ORDERS + 2] = (double)bounces;
 }
-""".replace("ORDERS", str(ORDERS))
+""".replace("ORDERS", str(ORDERS)).replace("SMITH_LAMBDA", _smith_lambda_c())
 
 
 #: the C function's arguments

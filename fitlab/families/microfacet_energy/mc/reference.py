@@ -7,8 +7,8 @@ both w_i and w_o see a facet at height h, averaged over h, is int C1(h)^(Lambda_
 
     f_1(w_i, w_o) = F(w_i . h) D(h) G2(w_i, w_o) / (4 mu_i mu_o),  G2 = 1 / (1 + Lambda(w_i) + Lambda(w_o)),
 
-h = (w_i + w_o) / |w_i + w_o|, with D and Lambda of the module :mod:`.microsurface` (written here
-again in numpy from the formulas, not imported).  For isotropic GGX the tests also compare with
+h = (w_i + w_o) / |w_i + w_o|, with D and Lambda of :mod:`fitlab.physics.microfacet` (in numpy; the walk's are the
+same functions in JAX).  For isotropic GGX the tests also compare with
 :func:`fitlab.families.microfacet_energy.exact.ggx_brdf` (smith="correlated"), an independent code.
 
 Bin averages: the walk's lobe tally estimates the average of f mu_o over a bin
@@ -91,7 +91,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.special import beta, erfc
 
 from fitlab.families.microfacet_energy.exact import (
     FresnelFactor,
@@ -103,8 +102,10 @@ from fitlab.families.microfacet_energy.exact import (
     fresnel_schlick,
     ggx_brdf,
 )
+from fitlab.physics.microfacet import ndf, smith_g2_correlated, smith_lambda
+from fitlab.physics.microfacet import smith_g2_transmission as transmission_g2
 
-__all__ = ["ndf", "lambda_", "single_scattering_brdf", "bin_average_single", "albedo_single", "fresnel_numpy",
+__all__ = ["ndf", "single_scattering_brdf", "bin_average_single", "albedo_single", "fresnel_numpy",
            "transmission_g2", "btdf", "single_transmission_btdf", "bin_average_transmission",
            "transmission_single", "order_one_by_normals", "normal_rule", "diffuse_single_brdf",
            "bin_average_diffuse", "references"]
@@ -127,26 +128,6 @@ def _clipped_factor(factor: FresnelFactor) -> FresnelFactor:
     return FresnelFactor(lambda c: factor(np.clip(c, 0.0, 1.0)), factor.kinks)
 
 
-def ndf(mx, my, mz, alpha_x, alpha_y, distribution: str):
-    """D(m) for m_z > 0 (1/sr, normalised by int D m_z dw = 1)."""
-    mz2 = mz * mz
-    e = ((mx / alpha_x) ** 2 + (my / alpha_y) ** 2) / mz2
-    if distribution == "ggx":
-        return 1.0 / (math.pi * alpha_x * alpha_y * mz2 * mz2 * (1.0 + e) ** 2)
-    return np.exp(-e) / (math.pi * alpha_x * alpha_y * mz2 * mz2)
-
-
-def lambda_(x, y, z, alpha_x, alpha_y, distribution: str):
-    """Smith Lambda of an upward direction (z > 0)."""
-    t2 = ((alpha_x * x) ** 2 + (alpha_y * y) ** 2) / (z * z)
-    if distribution == "ggx":
-        return (np.sqrt(1.0 + t2) - 1.0) / 2.0
-    with np.errstate(divide="ignore", invalid="ignore"):
-        a = 1.0 / np.sqrt(t2)
-        lam = (np.exp(-a * a) / (a * math.sqrt(math.pi)) - erfc(a)) / 2.0
-    return np.where(t2 > 0, lam, 0.0)
-
-
 def single_scattering_brdf(mu_o, phi_o, mu_i, alpha_x, alpha_y, distribution: str, fresnel=None):
     """f_1 (module docstring) for w_i = (s_i, 0, mu_i), w_o = (s_o cos phi_o, s_o sin phi_o, mu_o), mu's in (0, 1]."""
     s_i = math.sqrt(1.0 - mu_i * mu_i)
@@ -155,8 +136,8 @@ def single_scattering_brdf(mu_o, phi_o, mu_i, alpha_x, alpha_y, distribution: st
     hx, hy, hz = ox + s_i, oy, oz + mu_i
     n = np.sqrt(hx * hx + hy * hy + hz * hz)
     hx, hy, hz = hx / n, hy / n, hz / n
-    g2 = 1.0 / (1.0 + lambda_(s_i, 0.0, mu_i, alpha_x, alpha_y, distribution)
-                + lambda_(ox, oy, oz, alpha_x, alpha_y, distribution))
+    g2 = smith_g2_correlated(smith_lambda(s_i, 0.0, mu_i, alpha_x, alpha_y, distribution),
+                             smith_lambda(ox, oy, oz, alpha_x, alpha_y, distribution))
     f = ndf(hx, hy, hz, alpha_x, alpha_y, distribution) * g2 / (4.0 * mu_i * mu_o)
     if fresnel is not None:
         f = f * fresnel(s_i * hx + mu_i * hz)
@@ -238,11 +219,6 @@ def _unit(x, y, z):
     return x / n, y / n, z / n
 
 
-def transmission_g2(lambda_i, lambda_o):
-    """G2_t = B(1 + Lambda_i, 1 + Lambda_o) (module docstring); Lambda's >= 0, either infinite gives 0."""
-    return beta(1.0 + np.asarray(lambda_i, float), 1.0 + np.asarray(lambda_o, float))
-
-
 def btdf(wi, wo, alpha_x, alpha_y, distribution: str, eta: float):
     """f_t(w_i, w_o) of order 1 (module docstring) for unit vectors w_i = (x, y, z), z > 0 (above) and w_o,
     z < 0 (below), each a tuple of arrays (broadcast); eta = n_lower / n_upper > 0, != 1."""
@@ -256,8 +232,8 @@ def btdf(wi, wo, alpha_x, alpha_y, distribution: str, eta: float):
     c_o = ox * hx + oy * hy + oz * hz
     valid = (hz > 0.0) & (c_i > 0.0) & (c_o < 0.0)
     hz_safe = np.where(valid, hz, 1.0)
-    g2 = transmission_g2(lambda_(ix, iy, iz, alpha_x, alpha_y, distribution),
-                         lambda_(-ox, -oy, -oz, alpha_x, alpha_y, distribution))
+    g2 = transmission_g2(smith_lambda(ix, iy, iz, alpha_x, alpha_y, distribution),
+                         smith_lambda(-ox, -oy, -oz, alpha_x, alpha_y, distribution))
     # 1 - F from both cosines the half vector gives (not Snell's sqrt of c_i): free of the cancellation
     # near the critical angle, and the same expression for the path reversed
     transmittance = fresnel_dielectric_transmittance(np.clip(c_i, 0.0, 1.0), np.clip(-c_o, 0.0, 1.0), eta)
@@ -320,15 +296,15 @@ def order_one_by_normals(mu_i, material, radial: int = 384, azimuthal: int = 768
     seen = c > 0.0
     c = np.where(seen, c, 0.0)
     f = fresnel_dielectric(c, eta)
-    lam_i = lambda_(ix, 0.0, iz, ax, ay, dist)
+    lam_i = smith_lambda(ix, 0.0, iz, ax, ay, dist)
     # reflected: 2 c m - w_i; refracted: m (c / eta - c_t) - w_i / eta (as the walk's microsurface.refract)
     rx, ry, rz = 2 * c * mx - ix, 2 * c * my, 2 * c * mz - iz
     cos_t = np.sqrt(np.maximum(0.0, 1.0 - (1.0 - c * c) / (eta * eta)))
     a = c / eta - cos_t
     tx, ty, tz = _unit(a * mx - ix / eta, a * my, a * mz - iz / eta)
     up, down = seen & (rz > 0.0), seen & (tz < 0.0) & (f < 1.0)
-    g_r = np.where(up, 1.0 / (1.0 + lam_i + lambda_(rx, ry, np.where(up, rz, 1.0), ax, ay, dist)), 0.0)
-    g_t = np.where(down, transmission_g2(lam_i, lambda_(-tx, -ty, np.where(down, -tz, 1.0), ax, ay, dist)), 0.0)
+    g_r = np.where(up, smith_g2_correlated(lam_i, smith_lambda(rx, ry, np.where(up, rz, 1.0), ax, ay, dist)), 0.0)
+    g_t = np.where(down, transmission_g2(lam_i, smith_lambda(-tx, -ty, np.where(down, -tz, 1.0), ax, ay, dist)), 0.0)
     base = w * c / (mu_i * mz)
     return float(np.sum(base * f * g_r)), float(np.sum(base * (1.0 - f) * g_t))
 
@@ -350,7 +326,7 @@ def diffuse_single_brdf(wi, wo, material, rule=None):
     co = np.maximum(0.0, ox * mx + oy * my + oz * mz)
     integral = np.sum(co * (w * ci / mz), axis=-1)
     oz = oz[..., 0]
-    g2 = 1.0 / (1.0 + lambda_(ix, iy, iz, ax, ay, dist) + lambda_(ox[..., 0], oy[..., 0], oz, ax, ay, dist))
+    g2 = smith_g2_correlated(smith_lambda(ix, iy, iz, ax, ay, dist), smith_lambda(ox[..., 0], oy[..., 0], oz, ax, ay, dist))
     return material.albedo / math.pi * integral * g2 / (iz * oz)
 
 
