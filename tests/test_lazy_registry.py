@@ -84,7 +84,7 @@ def test_a_family_that_differs_from_its_manifest_is_refused():
 def test_a_manifest_hook_imports_its_module_when_called():
     import fitlab.store
 
-    hooks = manifest_hooks("fitlab", {"module": "store", "attr": "store:PARAM_LIMIT", "call": "store:target_names()"})
+    hooks = manifest_hooks("fitlab", {"module": "store", "attr": "store:PARAM_LIMIT", "call": "core:target_names()"})
     assert hooks["module"]() is fitlab.store
     assert hooks["attr"]() == fitlab.store.PARAM_LIMIT
     assert hooks["call"]() == target_names()
