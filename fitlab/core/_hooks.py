@@ -29,8 +29,8 @@ from pathlib import Path
 from typing import Any, NamedTuple, Protocol, runtime_checkable
 
 __all__ = ["Outputs", "TablesHook", "AuditHook", "RenderHook", "BenchHook", "ReportHook", "BrdfReportHook",
-           "TableExportHook", "ImagesHook", "BrdfGridHook", "BrdfGrid", "ProgramContract", "missing_member",
-           "check_hook", "BENCHES"]  # fmt: skip
+           "TableExportHook", "ImagesHook", "BrdfGridHook", "BrdfGrid", "ModelContract", "ProgramContract",
+           "missing_member", "check_hook", "BENCHES"]  # fmt: skip
 
 
 def _members(protocol) -> list[str]:
