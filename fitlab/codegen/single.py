@@ -59,7 +59,10 @@ def user_program(fit: FitFunction, table, source: tuple[str, str] | None = None)
     ``user_data``), its held-out error measured again on ``table`` (:class:`fitlab.fit.user.UserTable`, the
     table the record names).  ``source``: (fit file name, sha256) the banner lists.  FitFileError (one line)
     when the fit is not a user fit, the table is not its table, or the error it states is not the one measured."""
-    from fitlab.fit.user import UserDataError, nonfinite_point, remeasure, split_text
+    # the modules of fitlab.fit.user, not the package, which imports this module (UserFit.generate)
+    from fitlab.fit.user._limits import UserDataError
+    from fitlab.fit.user._measure import nonfinite_point, remeasure
+    from fitlab.fit.user._split import split_text
 
     record = fit.record
     if "user_data" not in record:
@@ -140,7 +143,8 @@ def generate_user_fit(fit: FitFunction, table, lang: str, single_header: bool = 
 def read_user_fit(path) -> tuple[FitFunction, object]:
     """The user fit in the file ``path`` and the table it names (``user_data.file``, relative to the fit's
     folder), read and checked; FitFileError (one line) when either is missing or refused."""
-    from fitlab.fit.user import UserDataError, read_csv_table
+    from fitlab.fit.user._limits import UserDataError
+    from fitlab.fit.user._table import read_csv_table
 
     path = Path(path)
     fit = load(path)
