@@ -18,7 +18,7 @@ import json, sys
 import fitlab.cli
 from fitlab.cli.refit import _requested, add_arguments  # what `fitlab refit` imports
 from fitlab.core import families_offering, get_target, target_names
-from fitlab.codegen.program import model_form
+from fitlab.codegen import model_form
 from fitlab.store import resolve_form
 
 loaded = lambda: sorted(m for m in sys.modules if m.startswith("fitlab.families."))

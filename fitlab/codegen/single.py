@@ -4,7 +4,7 @@ r"""One fit as a program of its own: a fit of a user's table (``fitlab fit``, :f
 The program holds one routine: the fit's expression with its parameters as numbers, named after the form,
 in files named after the fitted column (``E.h``/``E.c``, ``E.glsl``, ``E.py``, ...: ``E_rational(mu, alpha)``
 for the form ``rational`` of a column ``E``).  Every input is clamped into the fit's domain, the bounding box
-of the rows it was fitted and validated on (:func:`fitlab.codegen.program.with_domain`: NaN stays NaN,
+of the rows it was fitted and validated on (:func:`fitlab.codegen.with_domain`: NaN stays NaN,
 +-inf and other values outside are clamped).
 
 The routine's documentation and the banner state that domain and the held-out error measured again at
@@ -22,8 +22,9 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
+from fitlab.codegen._model import Program, Routine
+from fitlab.codegen._policy import with_domain
 from fitlab.codegen.languages import LANGUAGES, emit
-from fitlab.codegen.program import Program, Routine, with_domain
 from fitlab.store import FitFileError, FitFunction, fit_sha256, load
 
 __all__ = [
