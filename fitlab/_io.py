@@ -17,7 +17,7 @@ from types import ModuleType
 from fitlab._interrupt import check, hold
 
 __all__ = ["import_generated", "atomic_write_text", "atomic_write_bytes", "atomic_write_many", "temporary_name",
-           "InputFileError", "regular_file", "read_regular_file", "DECIMAL", "decimal", "text_lines",
+           "InputFileError", "TableError", "regular_file", "read_regular_file", "DECIMAL", "decimal", "text_lines",
            "unusual_character"]
 
 
@@ -149,6 +149,11 @@ class InputFileError(Exception):
         if self.kind == "folder":
             return f"a folder, not a {what}"
         return f"{self.reason}, not a {what}" if self.kind == "not_regular" else self.reason
+
+
+class TableError(Exception):
+    """A table is missing, malformed, or disagrees with a recomputation (:func:`fitlab.store.read_table`; also
+    :func:`fitlab.resources.tables_folder`, below the store, which is why it is defined here)."""
 
 
 _KINDS = ((stat.S_ISFIFO, "a FIFO"), (stat.S_ISSOCK, "a socket"), (stat.S_ISCHR, "a character device"),

@@ -25,6 +25,8 @@ import os
 from importlib.resources import files
 from pathlib import Path
 
+from fitlab._io import TableError
+
 __all__ = ["package_folder", "packaged_fits", "packaged_tables", "packaged_scenes", "data_root", "tables_folder",
            "find_scene", "DATA_ENV"]
 
@@ -80,8 +82,6 @@ def tables_folder(family: str, files_needed=(), root: Path | str | None = None) 
             if not missing:
                 return user
             if len(missing) < len(files_needed):
-                from fitlab.store import TableError  # the store reads the tables (and imports this module)
-
                 raise TableError(f"{user}: {missing[0]} is missing (the folder holds {len(files_needed) - len(missing)} "
                                  f"of the {len(files_needed)} tables of {family}); run `fitlab tabulate` to write them "
                                  "all, or remove the folder to read the packaged tables")  # fmt: skip

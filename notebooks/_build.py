@@ -165,6 +165,7 @@ The error is relative, $|H_\text{approx} - H|/H$. What to look for:
     code(SETUP + '''
 from fitlab.families.lambert_sphere.exact import h_function
 from fitlab.core import get_target, targets
+from fitlab.fit.verify import verify_fit
 from fitlab.residuals import approximations, heatmap, residuals
 from fitlab.store import load
 '''),
@@ -213,7 +214,7 @@ print(f"Nystrom vs Fock on these curves: max relative difference {fock_differenc
 
 `max` is the largest relative error on the grid, `rms` its root mean square; `worst at` is where the maximum lies.
 For the saved fits, `record` is the validation maximum the fit file states and `re-measured` the one
-`fitlab.store.load(path, verify=True)` measures on the validation set (what `fitlab codegen` does before it prints a
+`fitlab.fit.verify.verify_fit(load(path))` measures on the validation set (what `fitlab codegen` does before it prints a
 fit): [[record_remeasured]] With full settings the grid is that set, and `max` is the same figure again.
 """),
     code('''
@@ -225,12 +226,12 @@ for name, by_label in res.items():
         fit = found[name][label]
         columns = " " * 21
         if hasattr(fit, "record"):
-            m = load(fit.path, verify=True).measured
+            m = verify_fit(load(fit.path))
             remeasured[name, label] = (fit.record["validation"]["max_rel"], m["max_rel"])
             columns = f"{fit.record['validation']['max_rel']:9.2e} {m['max_rel']:11.2e}"
         w = s["worst"]
         print(f"{name + ': ' + label:<54} {s['max_rel']:9.2e} {s['rms_rel']:9.2e} {columns}  mu = {w['mu']:.4g}, c = {w['c']:.4g}")
-hapke = load(FITS / "H0.json", verify=True).measured  # the eq. 31 form, refitted minimax
+hapke = verify_fit(load(FITS / "H0.json"))  # the eq. 31 form, refitted minimax
 '''),
     md(r"""
 ## Heat maps over $(\mu, c)$

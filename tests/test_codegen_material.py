@@ -14,19 +14,20 @@ import numpy as np
 import pytest
 import sympy as sp
 
-from fitlab.codegen import emit, load_program
-from fitlab.codegen.native import build, build_glsl, compiler
-from fitlab.codegen.program import (
+from fitlab.codegen import (
     MaterialSpec,
     Routine,
     call,
     clamp,
+    emit,
     field_symbol,
     hoist_params,
     inline_calls,
+    load_program,
     material_of,
     merge_exp_products,
 )
+from fitlab.codegen.native import build, build_glsl, compiler
 from fitlab.forms.symbolic import symbols
 
 needs_cc = pytest.mark.skipif(compiler() is None, reason="no C compiler on PATH")

@@ -125,7 +125,7 @@ def test_sum_subs_gives_what_subs_gives():
     every position (a whole sum, inside a larger one, negated, scaled, under max, min, powers and branches)."""
     from hypothesis import given, settings
 
-    from fitlab.codegen.program import SumSubsOptim
+    from fitlab.codegen import SumSubsOptim
 
     new = c / (1 + _s)
     rewrites = [(old, SumSubsOptim(old, new)) for old in (1 - _s, 2 - _x - _s)]
@@ -157,7 +157,7 @@ def test_azimuth_to_cosine_gives_what_subs_gives_on_the_runtime_terms():
 
 
 def test_rebuilt_keeps_max_and_min_unevaluated_unless_all_numbers():
-    from fitlab.codegen.program import rebuilt
+    from fitlab.codegen import rebuilt
 
     e = sp.Max(0, _x + _y) + sp.Min(1, _x)
     out = rebuilt(e, lambda n: {_x: c, _y: sp.Integer(-3)}.get(n, n))

@@ -18,7 +18,7 @@ import json, sys
 import fitlab.cli
 from fitlab.cli.refit import _requested, add_arguments  # what `fitlab refit` imports
 from fitlab.core import families_offering, get_target, target_names
-from fitlab.codegen.program import model_form
+from fitlab.codegen import model_form
 from fitlab.store import resolve_form
 
 loaded = lambda: sorted(m for m in sys.modules if m.startswith("fitlab.families."))
@@ -84,7 +84,7 @@ def test_a_family_that_differs_from_its_manifest_is_refused():
 def test_a_manifest_hook_imports_its_module_when_called():
     import fitlab.store
 
-    hooks = manifest_hooks("fitlab", {"module": "store", "attr": "store:PARAM_LIMIT", "call": "store:target_names()"})
+    hooks = manifest_hooks("fitlab", {"module": "store", "attr": "store:PARAM_LIMIT", "call": "core:target_names()"})
     assert hooks["module"]() is fitlab.store
     assert hooks["attr"]() == fitlab.store.PARAM_LIMIT
     assert hooks["call"]() == target_names()

@@ -286,8 +286,7 @@ def _generic_parameters(form):
 def test_generated_python_code_equals_the_form(key):
     # the grazing forms hold powers of 1/(mu + alpha): sympy writes v^2 as alpha^2 (mu + alpha)^-2, a power in a
     # denominator, which the printers once printed as alpha*alpha/m*m
-    from fitlab.codegen import emit
-    from fitlab.codegen.program import Program, Routine, with_domain
+    from fitlab.codegen import Program, Routine, emit, with_domain
 
     form = _form(*key)
     values = _generic_parameters(form)

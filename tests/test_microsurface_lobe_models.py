@@ -335,7 +335,7 @@ def test_an_input_a_routine_does_not_use_follows_the_nan_and_domain_policy(progr
     """ms_blog_eta_* take mu_i and do not use it (the blog's eta depends on alpha alone): NaN there gives NaN,
     +-inf and any other number the value at the domain's edge, in Python and C, double and float (the Python
     returned NaN at mu_i = +-inf, from 0 * mu_i; the C ignored a NaN mu_i)."""
-    from fitlab.codegen.program import unused_inputs
+    from fitlab.codegen import unused_inputs
 
     checked = []
     for r in program.routines:

@@ -24,6 +24,7 @@ import pytest
 
 import fitlab.cli.fit
 import fitlab.fit.user
+import fitlab.fit.user._split
 from fitlab.cli import main
 from fitlab.fit.user import UserDataError, limits_text, prepare, read_csv_table, table_from_arrays
 from fitlab.store import FitFileError, check_fit, fit_limits, fit_schema, load, read_table
@@ -246,7 +247,7 @@ def test_values_whose_scale_the_fit_cannot_represent_are_refused(tmp_path, capsy
 def test_rows_times_parameters_are_bounded_before_the_fit(tmp_path, capsys, no_fit, monkeypatch):
     """The failure replayed: 1e6 rows x 15 inputs (within every other limit) reached 2.6 GB, then 'unexpected
     JaxRuntimeError: RESOURCE_EXHAUSTED'.  The bound, lowered here so that a small table meets it."""
-    monkeypatch.setattr(fitlab.fit.user, "MAX_ROW_PARAMETERS", 50)
+    monkeypatch.setattr(fitlab.fit.user._split, "MAX_ROW_PARAMETERS", 50)  # where the check reads it
     _refused(tmp_path, capsys, ["fit", str(_small(tmp_path)), "--target", "z", "--form", "a0 + a1*x + a2*y"],
              "23 rows to fit x 3 parameters = 69", "at most 50")
 

@@ -204,7 +204,7 @@ def _generate(args, fits: Path | None) -> dict[str, bytes]:
     """The files of the run ({name: bytes}) and its lines on stderr (under :data:`_NOTES`): the inputs checked,
     the fits read, measured and printed, with a progress bar on stderr."""
     import fitlab.codegen as codegen
-    from fitlab.codegen.program import parse_terms
+    from fitlab.codegen import parse_terms
     from fitlab.store import FitFileError, TableError
 
     try:

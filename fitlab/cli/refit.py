@@ -33,7 +33,7 @@ from fitlab.cli._common import (
     use_data,
     write_failure,
 )
-from fitlab.codegen.program import model_form
+from fitlab.codegen import model_form
 from fitlab.core import did_you_mean, get_target, target_names, targets
 from fitlab.fit.refit import (
     check_domain,

@@ -5,7 +5,10 @@ r"""Code generation: fit records in, C / Python / GLSL source out.
 is its ``codegen`` (a :class:`ProgramSpec`; the Lambert sphere's runtime BRDF
 is :mod:`fitlab.families.lambert_sphere.program.spec`), or one routine per target
 that names a ``routine`` when it has none.  :mod:`.printers` and :mod:`.languages`
-only print.
+only print.  The names below come from the modules of one job each: the program's data (``_model``:
+:class:`Routine`, :class:`Program`, :class:`ProgramSpec`, ...), its building (:mod:`.program`), the
+cancellation-free rewrites (``_rewrites``), the NaN and domain policy (``_policy``) and the per-material
+set-up (``_material``).
 
 The file edge: ``generate("c", fits_dir="fits")`` reads the fits a program
 needs through :mod:`fitlab.store` (:func:`load_program`) and returns
@@ -37,8 +40,14 @@ _LAZY = {
             "check_physics",
         ),
         "fitlab.codegen._files",
-    ),  # fmt: skip
-    **dict.fromkeys(("LANGUAGES", "emit"), "fitlab.codegen.languages"),
+    ),
+    **dict.fromkeys(
+        (
+            "LANGUAGES",
+            "emit",
+        ),
+        "fitlab.codegen.languages",
+    ),
     **dict.fromkeys(
         (
             "build_program",
@@ -47,30 +56,107 @@ _LAZY = {
             "default_program_family",
             "model_form",
             "part_routine",
+            "call",
+            "reproducible_sympy",
+        ),
+        "fitlab.codegen.program",
+    ),
+    **dict.fromkeys(
+        (
             "Program",
             "ProgramSpec",
             "Routine",
             "Model",
             "Claim",
-            "call",
+            "MaterialSpec",
+            "Material",
+            "DEFAULT_FORMS",
+            "outputs",
+        ),
+        "fitlab.codegen._model",
+    ),
+    **dict.fromkeys(
+        (
             "stable",
             "STABLE",
+            "ONE_MINUS_SQUARES",
+            "ONE_MINUS_POW",
+            "SumSubsOptim",
+            "rebuilt",
+        ),
+        "fitlab.codegen._rewrites",
+    ),
+    **dict.fromkeys(
+        (
             "clamp",
             "clamped",
             "minmax_piecewise",
             "with_domain",
             "SAFE_POW",
-            "DEFAULT_FORMS",
+            "unused_inputs",
         ),
-        "fitlab.codegen.program",
-    ),  # fmt: skip
+        "fitlab.codegen._policy",
+    ),
+    **dict.fromkeys(
+        (
+            "material_of",
+            "inline_calls",
+            "hoist_params",
+            "merge_exp_products",
+            "field_symbol",
+        ),
+        "fitlab.codegen._material",
+    ),
 }
 
-__all__ = ["LANGUAGE_NAMES", "LOOKUPS", "generate", "codegen_command", "load_program", "load_steps", "unused_fits",
-           "parse_forms", "write_generated", "check_physics", "LANGUAGES", "emit", "build_program", "parse_terms",
-           "program_spec", "default_program_family", "model_form", "part_routine", "Program", "ProgramSpec",
-           "Routine", "Model", "Claim", "call", "stable", "STABLE", "clamp", "clamped", "minmax_piecewise",
-           "with_domain", "SAFE_POW", "DEFAULT_FORMS"]  # fmt: skip
+__all__ = [
+    "LANGUAGE_NAMES",
+    "LOOKUPS",
+    "generate",
+    "codegen_command",
+    "load_program",
+    "load_steps",
+    "unused_fits",
+    "parse_forms",
+    "write_generated",
+    "check_physics",
+    "LANGUAGES",
+    "emit",
+    "build_program",
+    "parse_terms",
+    "program_spec",
+    "default_program_family",
+    "model_form",
+    "part_routine",
+    "call",
+    "reproducible_sympy",
+    "Program",
+    "ProgramSpec",
+    "Routine",
+    "Model",
+    "Claim",
+    "MaterialSpec",
+    "Material",
+    "DEFAULT_FORMS",
+    "outputs",
+    "stable",
+    "STABLE",
+    "ONE_MINUS_SQUARES",
+    "ONE_MINUS_POW",
+    "SumSubsOptim",
+    "rebuilt",
+    "clamp",
+    "clamped",
+    "minmax_piecewise",
+    "with_domain",
+    "SAFE_POW",
+    "unused_inputs",
+    "material_of",
+    "inline_calls",
+    "hoist_params",
+    "merge_exp_products",
+    "field_symbol",
+]
 
 if TYPE_CHECKING:  # what type checkers see of the names imported on first use
     from fitlab.codegen._files import (
@@ -83,28 +169,53 @@ if TYPE_CHECKING:  # what type checkers see of the names imported on first use
         unused_fits,
         write_generated,
     )
-    from fitlab.codegen.languages import LANGUAGES, emit
-    from fitlab.codegen.program import (
+    from fitlab.codegen._material import (
+        field_symbol,
+        hoist_params,
+        inline_calls,
+        material_of,
+        merge_exp_products,
+    )
+    from fitlab.codegen._model import (
         DEFAULT_FORMS,
-        SAFE_POW,
-        STABLE,
         Claim,
+        Material,
+        MaterialSpec,
         Model,
         Program,
         ProgramSpec,
         Routine,
-        build_program,
-        call,
+        outputs,
+    )
+    from fitlab.codegen._policy import (
+        SAFE_POW,
         clamp,
         clamped,
-        default_program_family,
         minmax_piecewise,
+        unused_inputs,
+        with_domain,
+    )
+    from fitlab.codegen._rewrites import (
+        ONE_MINUS_POW,
+        ONE_MINUS_SQUARES,
+        STABLE,
+        SumSubsOptim,
+        rebuilt,
+        stable,
+    )
+    from fitlab.codegen.languages import (
+        LANGUAGES,
+        emit,
+    )
+    from fitlab.codegen.program import (
+        build_program,
+        call,
+        default_program_family,
         model_form,
         parse_terms,
         part_routine,
         program_spec,
-        stable,
-        with_domain,
+        reproducible_sympy,
     )
 
 

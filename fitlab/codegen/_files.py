@@ -8,8 +8,9 @@ from dataclasses import replace
 from pathlib import Path
 
 from fitlab._io import atomic_write_text
+from fitlab.codegen._model import Model, Program, ProgramSpec
 from fitlab.codegen.languages import LANGUAGES, emit
-from fitlab.codegen.program import Model, Program, ProgramSpec, build_program, parse_terms, program_spec
+from fitlab.codegen.program import build_program, parse_terms, program_spec
 from fitlab.core import did_you_mean, targets
 from fitlab.store import FitFileError, FitFunction, fit_files, fit_origin, fit_path, fit_sha256, fit_source, load
 

@@ -43,7 +43,8 @@ def _converted(a, dtype) -> np.ndarray:
 def expressions_program(exprs: dict):
     """(Program, {routine name: key}) of expressions {key: (args, expr, domain)}: each a routine ``expr_K`` of its
     own taking ``args``, every input clamped into its interval of ``domain`` ({arg: (lo, hi)})."""
-    from fitlab.codegen.program import Program, Routine, with_domain
+    from fitlab.codegen._model import Program, Routine
+    from fitlab.codegen._policy import with_domain
 
     routines, keys = [], {}
     for key, (args, expr, domain) in exprs.items():

@@ -1,4 +1,4 @@
-r"""Source files from a :class:`~fitlab.codegen.program.Program`, one emitter per language.
+r"""Source files from a :class:`~fitlab.codegen.Program`, one emitter per language.
 
 Each routine is printed as common subexpressions (sympy ``cse``) then one
 return.  The emitters only lay out files (headers, signatures, the safe_pow
@@ -32,19 +32,13 @@ from dataclasses import dataclass
 import sympy as sp
 
 from fitlab import __version__
+from fitlab.codegen._material import field_symbol
+from fitlab.codegen._model import Material, Program, Routine, outputs
+from fitlab.codegen._policy import SAFE_POW, unused_inputs
+from fitlab.codegen._rewrites import rebuilt
 from fitlab.codegen.names import LANGUAGE_NAMES
 from fitlab.codegen.printers import CPrinter, DrJitPrinter, GLSLPrinter, MetalPrinter, NumpyPrinter
-from fitlab.codegen.program import (
-    SAFE_POW,
-    Material,
-    Program,
-    Routine,
-    field_symbol,
-    outputs,
-    rebuilt,
-    reproducible_sympy,
-    unused_inputs,
-)
+from fitlab.codegen.program import reproducible_sympy
 from fitlab.forms.symbolic import safe_pow
 
 __all__ = ["emit", "LANGUAGES"]
@@ -100,7 +94,7 @@ def _named_in_order(found, reduced, names):
     which was seen to differ between runs of one program (the same temporaries, numbered otherwise, after
     other sympy work in the process); this order depends on the temporaries alone.  Renaming one real symbol
     for another leaves sympy nothing to re-order in a max or min: they are rebuilt unevaluated
-    (:func:`fitlab.codegen.program.rebuilt`)."""
+    (:func:`fitlab.codegen.rebuilt`)."""
     value = dict(found)
     users: dict = {t: [] for t in value}
     waiting = {}
@@ -222,7 +216,7 @@ def _c_params(routine: Routine, scalar: str) -> str:
 
 def _with_unused(value: str, r: Routine, printer, scalar_args: bool, skip=()) -> str:
     """``value`` plus 0 times each argument of ``r`` that it does not use, clamped into its domain
-    (:func:`fitlab.codegen.program.unused_inputs`; none when ``scalar_args`` is false, names in ``skip``
+    (:func:`fitlab.codegen.unused_inputs`; none when ``scalar_args`` is false, names in ``skip``
     excepted): a NaN there gives NaN, and +-inf or any other number adds exactly 0, in every language."""
     if not scalar_args:
         return value
@@ -506,7 +500,7 @@ def _safe_pow(x, p):
 
 '''
 
-#: what the safe_pow helper does, in every language (fitlab.codegen.program.SAFE_POW)
+#: what the safe_pow helper does, in every language (fitlab.codegen.SAFE_POW)
 _SAFE_POW_DOC = "x^p for x > 0, 0 for x <= 0, NaN for NaN: the forms' safe_pow (keeps pow away from x <= 0)."
 
 

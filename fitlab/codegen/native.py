@@ -27,7 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
-from fitlab.codegen.program import Program
+from fitlab.codegen._model import Program
 
 __all__ = [
     "compiler",
@@ -351,7 +351,7 @@ class NativeModel:
 
     command: the compiler command line the library was built with (None when not built here).
     dtypes: the scalar types its loops exist in.
-    material: the program's per-material set-up (:class:`fitlab.codegen.program.Material`), or None.
+    material: the program's per-material set-up (:class:`fitlab.codegen.Material`), or None.
     Its routines are called the same way: ``m("prepare_c", c)`` gives materials, an array (n, fields);
     ``m("eval", materials, which, mu_i, mu_o, cos_phi)`` evaluates point i with materials[which[i]]
     (``which``: integers); ``m("eval_rgb", materials, which, ...)`` with materials[3 which[i] + k],

@@ -9,7 +9,7 @@ forms need:
   of the generated function of that routine, with the language's name.
 * pi prints as a literal, not ``M_PI`` (not part of strict C99), and small
   integer powers print as products (faster than ``pow`` and exact).
-* Max and Min print as conditionals (:func:`fitlab.codegen.program.minmax_piecewise`)
+* Max and Min print as conditionals (:func:`fitlab.codegen.minmax_piecewise`)
   that let NaN through, the same in every language (not fmax, max or numpy.maximum).
 * symbols can be renamed, so that a routine's vector argument ``wi`` reads
   ``wi[0]`` in C, ``wi.x`` in GLSL and ``wi[..., 0]`` in numpy.
@@ -28,7 +28,7 @@ from sympy.printing.numpy import NumPyPrinter
 from sympy.printing.precedence import precedence
 from sympy.printing.pycode import PythonCodePrinter
 
-from fitlab.codegen.program import minmax_piecewise
+from fitlab.codegen._policy import minmax_piecewise
 from fitlab.forms.symbolic import safe_pow
 
 __all__ = ["CPrinter", "GLSLPrinter", "MetalPrinter", "NumpyPrinter", "DrJitPrinter"]
@@ -85,7 +85,7 @@ class _Common(_MixinBase):
             return f"{self.call_name('safe_pow')}({self._print(expr.args[0])}, {self._print(expr.args[1])})"
         return super()._print_Function(expr)
 
-    # Max/Min: one NaN-propagating definition for every language (fitlab.codegen.program.minmax_piecewise);
+    # Max/Min: one NaN-propagating definition for every language (fitlab.codegen.minmax_piecewise);
     # the emitter puts a non-atomic argument into a temporary first, so that it is printed once.
     # Piecewise: a conditional each language spells its way.
     def _print_Max(self, expr):

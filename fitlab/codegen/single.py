@@ -4,7 +4,7 @@ r"""One fit as a program of its own: a fit of a user's table (``fitlab fit``, :f
 The program holds one routine: the fit's expression with its parameters as numbers, named after the form,
 in files named after the fitted column (``E.h``/``E.c``, ``E.glsl``, ``E.py``, ...: ``E_rational(mu, alpha)``
 for the form ``rational`` of a column ``E``).  Every input is clamped into the fit's domain, the bounding box
-of the rows it was fitted and validated on (:func:`fitlab.codegen.program.with_domain`: NaN stays NaN,
+of the rows it was fitted and validated on (:func:`fitlab.codegen.with_domain`: NaN stays NaN,
 +-inf and other values outside are clamped).
 
 The routine's documentation and the banner state that domain and the held-out error measured again at
@@ -22,8 +22,9 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
+from fitlab.codegen._model import Program, Routine
+from fitlab.codegen._policy import with_domain
 from fitlab.codegen.languages import LANGUAGES, emit
-from fitlab.codegen.program import Program, Routine, with_domain
 from fitlab.store import FitFileError, FitFunction, fit_sha256, load
 
 __all__ = [
@@ -59,7 +60,10 @@ def user_program(fit: FitFunction, table, source: tuple[str, str] | None = None)
     ``user_data``), its held-out error measured again on ``table`` (:class:`fitlab.fit.user.UserTable`, the
     table the record names).  ``source``: (fit file name, sha256) the banner lists.  FitFileError (one line)
     when the fit is not a user fit, the table is not its table, or the error it states is not the one measured."""
-    from fitlab.fit.user import UserDataError, nonfinite_point, remeasure, split_text
+    # the modules of fitlab.fit.user, not the package, which imports this module (UserFit.generate)
+    from fitlab.fit.user._limits import UserDataError
+    from fitlab.fit.user._measure import nonfinite_point, remeasure
+    from fitlab.fit.user._split import split_text
 
     record = fit.record
     if "user_data" not in record:
@@ -140,7 +144,8 @@ def generate_user_fit(fit: FitFunction, table, lang: str, single_header: bool = 
 def read_user_fit(path) -> tuple[FitFunction, object]:
     """The user fit in the file ``path`` and the table it names (``user_data.file``, relative to the fit's
     folder), read and checked; FitFileError (one line) when either is missing or refused."""
-    from fitlab.fit.user import UserDataError, read_csv_table
+    from fitlab.fit.user._limits import UserDataError
+    from fitlab.fit.user._table import read_csv_table
 
     path = Path(path)
     fit = load(path)

@@ -52,9 +52,11 @@ from dataclasses import dataclass, field
 import numpy as np
 import sympy as sp
 
+from fitlab.codegen._model import Program
+from fitlab.codegen._policy import clamp
 from fitlab.codegen.languages import emit
 from fitlab.codegen.names import LOOKUPS
-from fitlab.codegen.program import Program, call, clamp
+from fitlab.codegen.program import call
 
 __all__ = [
     "Texture",

@@ -8,7 +8,7 @@ part of it, over the fit's domain), from the fit's expression and parameters as
 they stand in the file; :func:`verify_fit` refuses a fit whose re-measured error
 is more than :data:`TOLERANCE` worse than the recorded one (beyond :data:`ROUNDING`), or that is not
 finite somewhere on the domain.  ``fitlab codegen`` prints the re-measured
-figures, and ``fitlab.store.load(path, verify=True)`` runs the same check.
+figures; ``verify_fit(fitlab.store.load(path))`` runs the same check on a fit file.
 
 Non-finite values are looked for on the validation set (which holds the
 domain's edges where the target is defined) and on a probe grid of

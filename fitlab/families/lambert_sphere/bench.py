@@ -17,10 +17,9 @@ from pathlib import Path
 import numpy as np
 
 from fitlab._io import import_generated
-from fitlab.codegen import emit, load_program
+from fitlab.codegen import MaterialSpec, Program, Routine, build_program, emit, load_program, material_of
 from fitlab.codegen.bench import time_routines
 from fitlab.codegen.native import build
-from fitlab.codegen.program import MaterialSpec, Program, Routine, build_program, material_of
 from fitlab.families.lambert_sphere.exact import (
     brdf_modes,
     clear_h_cache,

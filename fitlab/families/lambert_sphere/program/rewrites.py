@@ -4,7 +4,7 @@ know the family's symbols (mu_i, mu_o, phi, c, cos_phi), moved here from the gen
 * :data:`REWRITES`: the cancellation-free rewrites of every routine of the family's program
   (:attr:`fitlab.codegen.ProgramSpec.rewrites` of :data:`fitlab.families.lambert_sphere.program.spec.PROGRAM`,
   applied by :func:`fitlab.codegen.part_routine` to every part and by the program to its terms): the
-  generic ones of :data:`fitlab.codegen.program.STABLE` with :data:`ALBEDO_ZERO` between them, in the
+  generic ones of :data:`fitlab.codegen.STABLE` with :data:`ALBEDO_ZERO` between them, in the
   order the program has always applied them (:func:`stable`).
 * :data:`FLOOR_POLES` (every pole 1/(mu_i + mu_o) floored at :data:`POLE_FLOOR`) and
   :data:`AZIMUTH_TO_COSINE` (phi -> cos phi): the runtime terms' and the fast variant's, applied by the
@@ -16,7 +16,7 @@ from __future__ import annotations
 import sympy as sp
 from sympy.codegen.rewriting import Optimization, ReplaceOptim, optimize
 
-from fitlab.codegen.program import ONE_MINUS_POW, ONE_MINUS_SQUARES, SumSubsOptim, rebuilt
+from fitlab.codegen import ONE_MINUS_POW, ONE_MINUS_SQUARES, SumSubsOptim, rebuilt
 from fitlab.forms.symbolic import symbols
 
 __all__ = ["POLE_FLOOR", "ALBEDO_ZERO", "FLOOR_POLES", "AZIMUTH_TO_COSINE", "REWRITES", "stable", "floor_poles",
@@ -43,7 +43,7 @@ class _AzimuthToCosine(Optimization):
     """Forms take phi in [-pi, pi]; routines take cos(phi): |phi| = acos(cos phi).  ValueError when phi
     remains (a form that is not a function of cos phi alone).
 
-    Both are whole nodes, swapped in one pass over the tree (:func:`fitlab.codegen.program.rebuilt`), which
+    Both are whole nodes, swapped in one pass over the tree (:func:`fitlab.codegen.rebuilt`), which
     gives what ``subs`` gives in a fraction of its time on the large runtime terms."""
 
     def __init__(self, mapping, **kwargs):

@@ -34,7 +34,7 @@ from pathlib import Path
 import numpy as np
 import sympy as sp
 
-from fitlab.codegen.program import DEFAULT_FORMS
+from fitlab.codegen import DEFAULT_FORMS
 from fitlab.core import get_form, get_target
 from fitlab.families.lambert_sphere import exact
 from fitlab.families.lambert_sphere.forms import ORDER2_PART, RUNTIME_PARTS, RUNTIME_TERMS, runtime_brdf, runtime_sum

@@ -17,7 +17,7 @@ Routines (args; domain), named by the targets' ``routine``:
   local frame (z the normal, both pointing away from the surface); 0 when either
   points below the surface.
 
-Robustness (the policy of :mod:`fitlab.codegen.program`): every routine, the
+Robustness (the NaN and domain policy of :mod:`fitlab.codegen`): every routine, the
 parts included, clamps its inputs into its domain (mu, c, kd into [0, 1],
 cos_phi into [-1, 1], the local routines' vector components into [-1, 1];
 +-inf clamps like any finite value), NaN in any input gives NaN, and every
@@ -38,7 +38,7 @@ from typing import Mapping
 
 import sympy as sp
 
-from fitlab.codegen.program import Claim, MaterialSpec, Model, ProgramSpec, Routine, call, part_routine
+from fitlab.codegen import Claim, MaterialSpec, Model, ProgramSpec, Routine, call, part_routine
 from fitlab.families.lambert_sphere.forms import ORDER2_PART, RUNTIME_PARTS, RUNTIME_TERMS, SINGLE, runtime_terms
 from fitlab.families.lambert_sphere.forms.brdf import parts_in_algebra
 from fitlab.families.lambert_sphere.program.rewrites import REWRITES, azimuth_to_cosine, floor_poles, stable

@@ -53,7 +53,7 @@ import numpy as np
 import sympy as sp
 
 from fitlab._io import read_regular_file
-from fitlab.codegen.program import MaterialSpec, Program, Routine, call, inline_calls, material_of, with_domain
+from fitlab.codegen import MaterialSpec, Program, Routine, call, inline_calls, material_of, with_domain
 from fitlab.codegen.texture import LOOKUPS, TEXEL, Texture, combined_lookup_3d, emit_textured, lookup_1d, lookup_2d
 from fitlab.families.lambert_sphere.forms import ORDER2_PART, RUNTIME_PARTS, RUNTIME_TERMS
 from fitlab.families.lambert_sphere.forms.constants import FIRST_ORDER

@@ -29,7 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
-from fitlab.codegen.program import DEFAULT_FORMS
+from fitlab.codegen import DEFAULT_FORMS
 from fitlab.core import Outputs, get_target, targets
 from fitlab.families.lambert_sphere.exact import (
     albedo,

@@ -5,7 +5,7 @@ report, the README and the banner print the same figures."""
 
 from __future__ import annotations
 
-from fitlab.codegen.program import program_spec
+from fitlab.codegen import program_spec
 from fitlab.core import get_target
 from fitlab.families.lambert_sphere.program.runtime import model_accuracy
 from fitlab.families.lambert_sphere.program.spec import MODEL_PARTS, THREE_TERM_MODEL, TRUE_MODEL

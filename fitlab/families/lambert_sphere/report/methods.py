@@ -35,7 +35,7 @@ from pathlib import Path
 import numpy as np
 import sympy as sp
 
-from fitlab.codegen.program import DEFAULT_FORMS, program_spec
+from fitlab.codegen import DEFAULT_FORMS, program_spec
 from fitlab.core import get_target
 from fitlab.families.lambert_sphere import exact
 from fitlab.families.lambert_sphere.bench import baseline_program, random_inputs
