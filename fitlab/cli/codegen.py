@@ -19,11 +19,11 @@ from fitlab.cli._common import (
     add_fits,
     add_quiet,
     describe,
+    family_with,
     fits_input,
     integer,
     one_line,
     output_folder,
-    service,
     use_data,
     write_files,
 )
@@ -80,12 +80,15 @@ def add_arguments(p) -> None:
 
 
 def _run_tables(args) -> int:
-    """``--tables``: the family's table export service (``table_export`` hook): its files, written as one unit."""
+    """``--tables``: the family's table export (:class:`fitlab.core.HasTableExport`): its files, written as one
+    unit."""
     given = [flag for flag, value in (("--terms", args.terms), ("--model", args.model), ("--form", args.form),
                                        ("--single-header", args.single_header), ("--fits", args.fits)) if value]
     if given:
         raise UsageError(f"{given[0]} is not a --tables option (the tables print no fits)")
-    exporter = service("table_export", args.family)
+    from fitlab.core import HasTableExport
+
+    exporter = family_with(HasTableExport, args.family).table_export()
     if args.lang not in exporter.LANGUAGES:
         raise UsageError(f"--tables prints {', '.join(exporter.LANGUAGES)}, not {args.lang}")
     nodes = exporter.DEFAULT_NODES if args.nodes is None else args.nodes
@@ -185,12 +188,15 @@ def _fit_files(fits: Path | None) -> list[Path] | None:
 
 
 def _key(args, fits: Path | None) -> dict:
-    """Every option that changes what a run prints (the fits' bytes and fitlab's own are the key's sources)."""
+    """Every option that changes what a run prints (the fits' bytes and fitlab's own are the key's sources), and the
+    families there are (:func:`fitlab.cache.family_entry_points`)."""
     from importlib.metadata import version
 
     import numpy as np
 
-    return {"lang": args.lang, "terms": args.terms, "model": args.model, "form": args.form, "family": args.family,
+    from fitlab.cache import family_entry_points
+
+    return {"families": family_entry_points(), "lang": args.lang, "terms": args.terms, "model": args.model, "form": args.form, "family": args.family,
             "single_header": args.single_header, "allow_partial_domain": args.allow_partial_domain,
             "allow_mixed_physics": args.allow_mixed_physics, "fits": None if fits is None else str(fits.resolve()),
             "numpy": np.__version__, "sympy": version("sympy")}  # fmt: skip
@@ -237,10 +243,10 @@ def _the_default(args, forms: dict) -> list[str]:
     one (the rule: fitlab.codegen.default_program_family)."""
     if args.family is not None or forms:
         return []
-    from fitlab.codegen import default_program_family
-    from fitlab.core import families
+    from fitlab.codegen import HasProgram, default_program_family
+    from fitlab.core import offering
 
-    having = [name for name, f in families().items() if f.codegen is not None]
+    having = list(offering(HasProgram))
     if len(having) > 1:
         default = default_program_family()
         others = ", ".join(sorted(n for n in having if n != default))

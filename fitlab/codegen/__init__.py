@@ -49,6 +49,7 @@ _LAZY = {
             "part_routine",
             "Program",
             "ProgramSpec",
+            "HasProgram",
             "Routine",
             "Model",
             "Claim",
@@ -69,8 +70,8 @@ _LAZY = {
 __all__ = ["LANGUAGE_NAMES", "LOOKUPS", "generate", "codegen_command", "load_program", "load_steps", "unused_fits",
            "parse_forms", "write_generated", "check_physics", "LANGUAGES", "emit", "build_program", "parse_terms",
            "program_spec", "default_program_family", "model_form", "part_routine", "Program", "ProgramSpec",
-           "Routine", "Model", "Claim", "call", "stable", "STABLE", "clamp", "clamped", "minmax_piecewise",
-           "with_domain", "SAFE_POW", "DEFAULT_FORMS"]  # fmt: skip
+           "HasProgram", "Routine", "Model", "Claim", "call", "stable", "STABLE", "clamp", "clamped",
+           "minmax_piecewise", "with_domain", "SAFE_POW", "DEFAULT_FORMS"]  # fmt: skip
 
 if TYPE_CHECKING:  # what type checkers see of the names imported on first use
     from fitlab.codegen._files import (
@@ -89,6 +90,7 @@ if TYPE_CHECKING:  # what type checkers see of the names imported on first use
         SAFE_POW,
         STABLE,
         Claim,
+        HasProgram,
         Model,
         Program,
         ProgramSpec,

@@ -16,7 +16,7 @@ Lambert sphere, the runtime BRDF assembled from its parts:
 :mod:`fitlab.families.lambert_sphere.program.spec`); a family without one gets one
 routine per target that names a ``routine`` (:attr:`fitlab.core.Target.routine`),
 its saved fit as it stands (:func:`part_routine`).  Where no family is named, the program is the default
-family's (:func:`default_program_family`: the one that declares ``Family.default_program``).
+family's (:func:`default_program_family`: the one that declares ``HasProgram.default_program``).
 
 The helpers a family's program is written with are public here:
 :func:`call`, :func:`part_routine`, :func:`stable` (the cancellation-free rewrites that know no
@@ -36,9 +36,10 @@ clamped, and every other input gives a finite value.
 
 from __future__ import annotations
 
+import abc
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
-from typing import cast
+from typing import ClassVar, cast
 
 import sympy as sp
 import sympy.core.random as sympy_random
@@ -46,11 +47,11 @@ from sympy.codegen.cfunctions import expm1, log1p
 from sympy.codegen.rewriting import Optimization, ReplaceOptim, optimize
 from sympy.core.function import AppliedUndef
 
-from fitlab.core import families, get_family, get_target
+from fitlab.core import Capability, Family, families, get_family, get_target
 from fitlab.forms.symbolic import safe_pow
 from fitlab.store import FitFunction
 
-__all__ = ["Routine", "Program", "ProgramSpec", "build_program", "part_routine", "program_spec",
+__all__ = ["Routine", "Program", "ProgramSpec", "HasProgram", "build_program", "part_routine", "program_spec",
            "default_program_family", "model_form", "parse_terms",
            "call", "stable", "STABLE", "ONE_MINUS_SQUARES", "ONE_MINUS_POW", "SumSubsOptim", "rebuilt", "clamp",
            "clamped",
@@ -181,7 +182,7 @@ class Claim:
 
 @dataclass(frozen=True)
 class ProgramSpec:
-    """What a family prints (the ``codegen`` of its :class:`fitlab.core.Family`).
+    """What a family prints (the ``program()`` of a family that is a :class:`HasProgram`).
 
     name: the generated files' base name and the functions' prefix.
     fits: the targets whose fits the program is built from, in the order of the banner.
@@ -246,6 +247,19 @@ class ProgramSpec:
 
     def __call__(self, fits: Mapping[str, FitFunction], terms: tuple[str, ...]) -> tuple[Routine, ...]:
         return tuple(self.routines(fits, terms))
+
+
+class HasProgram(Capability):
+    """A family that prints a program of its own (:class:`ProgramSpec`); without one, its program is one routine
+    per target that names a routine."""
+
+    noun = "program"
+    #: whether its program is the one ``fitlab codegen`` prints when no family is named (at most one family
+    #: says so: the Lambert sphere; :func:`default_program_family`)
+    default_program: ClassVar[bool] = False
+
+    @abc.abstractmethod
+    def program(self) -> ProgramSpec: ...
 
 
 @dataclass(frozen=True)
@@ -723,9 +737,9 @@ def part_routine(fit: FitFunction, rewrites: Sequence[Optimization] | None = Non
     return Routine(target.routine, fit.inputs, stable(fit.expression, rewrites), doc, domain=domain)
 
 
-def _default_spec(family) -> ProgramSpec:
+def _default_spec(family: Family) -> ProgramSpec:
     """One routine per target of ``family`` that names one: for a family without its own program."""
-    parts = tuple(t.name for t in family.targets if t.routine is not None)
+    parts = tuple(t.name for t in family.targets() if t.routine is not None)
     return ProgramSpec(
         name=family.name, fits=parts, parts=parts,
         routines=lambda fits, terms: [part_routine(fits[t]) for t in parts],
@@ -744,8 +758,7 @@ def program_spec(family: str | None = None, targets: Sequence[str] = ()) -> Prog
             raise ValueError(f"targets {', '.join(targets)} belong to {len(names)} families; one program holds one")
         (family,) = names
     fam = get_family(family if family is not None else default_program_family())
-    # ProgramSpec is the one implementation of the contract a family registers (fitlab.core.ProgramContract)
-    return cast(ProgramSpec, fam.codegen) if fam.codegen is not None else _default_spec(fam)
+    return fam.program() if isinstance(fam, HasProgram) else _default_spec(fam)
 
 
 def model_form(target: str) -> str:
@@ -753,25 +766,28 @@ def model_form(target: str) -> str:
     Lambert sphere's H1, log_exp), else the target's default form: the one form ``fitlab refit`` fits when none is
     named, so that a refit is what ``fitlab codegen --fits`` then prints."""
     t = get_target(target)
-    spec = get_family(t.family).codegen
-    if spec is None or target not in spec.fits:
+    family = get_family(t.family)
+    if not isinstance(family, HasProgram):
+        return t.default_form
+    spec = family.program()
+    if target not in spec.fits:
         return t.default_form
     return spec.model().forms.get(target, t.default_form)
 
 
 def default_program_family() -> str:
     """The family whose program ``fitlab codegen`` (and :func:`fitlab.codegen.generate`, ``load_program``)
-    prints when none is named: the one registered family that declares it (:attr:`fitlab.core.Family.default_program`:
+    prints when none is named: the one registered family that declares it (:attr:`HasProgram.default_program`:
     the Lambert sphere), else the one family with a program of its own, else the one family there is.
 
     A declaration, not the order of registration: a family registered at run time can precede the built-in
     ones (registering it loads none of them), and a new family's name must not move the default.  ValueError
     (one line) when several families declare it, or when none does and there is no single candidate."""
     fams = families()
-    declared = [name for name, f in fams.items() if f.default_program]
+    with_spec = [name for name, f in fams.items() if isinstance(f, HasProgram)]
+    declared = [name for name, f in fams.items() if isinstance(f, HasProgram) and f.default_program]
     if len(declared) > 1:
         raise ValueError(f"families {', '.join(declared)} each declare the default program; name one with --family")
-    with_spec = [name for name, f in fams.items() if f.codegen is not None]
     for pool in (declared, with_spec, list(fams)):
         if len(pool) == 1:
             return pool[0]
