@@ -732,15 +732,17 @@ This notebook does, through the Python API, what these commands do:
 ```
 fitlab refit --list
 fitlab refit --target H1 --out SCRATCH/fits
-fitlab codegen --lang python --fits SCRATCH/fits --out SCRATCH/generated
-fitlab codegen --lang c --fits SCRATCH/fits --out SCRATCH/generated
+fitlab codegen --lang python --fits SCRATCH/fits --model three-term --out SCRATCH/generated
+fitlab codegen --lang c --fits SCRATCH/fits --model three-term --out SCRATCH/generated
 ```
 
 `fitlab refit --target H1` fits $H_1$ in the form the generated code prints and writes that one fit file. A `--fits`
 folder overlays the fits packaged with fitlab (`fitlab.resources.packaged_fits()`): each fit is read from the folder
 when it has the file, else from the packaged fits. So the scratch folder starts empty and holds only the refit, the
 generated code uses the refit for $H_1$ and the packaged fits for every other part, and the packaged fits stay as
-they are.
+they are. The refit is a fit of $H_1$ itself, the three-term half space's H-function: it goes with the model
+`three-term`, whose parts are each fitted to their own target. The default model's parts are fitted to the true BRDF
+instead, and `fitlab codegen` refuses to mix the two in one model unless asked (`--allow-mixed-physics`).
 """),
     code(SETUP + '''
 import importlib.util
@@ -757,6 +759,8 @@ from fitlab.families.lambert_sphere.program.runtime import runtime_model
 from fitlab.fit.refit import refit, table
 from fitlab.fit.verify import TOLERANCE
 from fitlab.store import fit_path, fit_sha256, fit_source, load, write_fit
+
+MODEL = "three-term"  # the model whose parts are each fitted to their own target, as a refit of H1 is
 '''),
     md(r"""
 ## 1. The targets
@@ -846,21 +850,22 @@ except ValueError as err:
     md(r"""
 ## 5. Generate Python from the scratch folder
 
-`generate("python", fits_dir=fits_dir)` prints the runtime BRDF (the program's default model) and every fitted part,
+`generate("python", fits_dir=fits_dir, model=MODEL)` prints the runtime BRDF (the model `three-term`) and every
+fitted part,
 from the fits and the sympy forms; the module needs only numpy. It re-measures every fit on its target's validation
 set first, and refuses one [[tolerance]] than its file states. Its banner lists, fit by fit, the file, its sha256,
 where it was read and the error measured. [[banner_h1]] [[banner_rest]] [[banner_max]]
 """),
     code('''
-files = generate("python", fits_dir=fits_dir)
+files = generate("python", fits_dir=fits_dir, model=MODEL)
 paths = write_generated(files, scratch / "generated")
 print("wrote", [p.name for p in paths])
 source = files["lambert_sphere.py"]
 head = source[:source.index('"""')]  # the banner: the comment lines before the docstring
 print(head)
-# the lines under "From these fits": file, sha256, "packaged;" or "--fits;", then the figures
-listed = [line[1:].split() for line in head.splitlines() if line.startswith("#   ")]
-banner = {words[0]: (words[1], words[2].rstrip(";"), float(words[4].rstrip(","))) for words in listed}
+# the lines under "From these fits": file, sha256, "packaged;" or "--fits;", its physics, then the figures
+listed = [line[1:].split() for line in head.splitlines() if line.startswith("#   ") and ".json" in line]
+banner = {w[0]: (w[1], w[2].rstrip(";"), float(w[w.index("max") + 1].rstrip(","))) for w in listed}
 banner_h1 = banner[path.name]
 '''),
     md(r"""
@@ -882,7 +887,7 @@ print(f"h1, the refit vs the packaged fit:          max relative difference "
       f"{np.max(np.abs(packaged_h1(mu=MU_H, c=C_H) - h1_refit) / h1_refit):.1e}")
 '''),
     md(r"""
-The generated `brdf` is the model `runtime_model(fits_dir=fits_dir)` evaluates through fitlab (the same default model,
+The generated `brdf` is the model `runtime_model(fits_dir=fits_dir, model=MODEL)` evaluates through fitlab (the same model,
 the same overlay of the scratch folder on the packaged fits): [[brdf_runtime]] Against the exact BRDF
 (`fitlab.families.lambert_sphere.exact.brdf`) on random directions with $\mu \ge 0.01$, [[brdf_exact]] (the cell
 prints the figure). Note the generated `brdf` takes $\cos\phi$, `runtime_model` takes $\phi$.
@@ -893,7 +898,7 @@ n = 2000 if SMALL else 100_000
 mu_i, mu_o = rng.uniform(0.01, 1, (2, n))
 phi = rng.uniform(0, np.pi, n)
 c = rng.choice([0.2, 0.5, 0.8, 0.95, 1.0], n)  # a few albedos: the exact engine solves the H-equations once per c
-model = runtime_model(fits_dir=fits_dir)
+model = runtime_model(fits_dir=fits_dir, model=MODEL)
 print("runtime_model:", model.name, "; H1 from", model.sources["H1"])
 via_fitlab = model(mu_i, mu_o, phi, c)
 via_generated = generated.brdf(mu_i, mu_o, np.cos(phi), c)
@@ -913,7 +918,7 @@ The C file has double and float versions of every routine (`lambert_sphere_brdf`
 far the float version is from the double one.
 """),
     code('''
-files_c = generate("c", fits_dir=fits_dir)
+files_c = generate("c", fits_dir=fits_dir, model=MODEL)
 header = files_c["lambert_sphere.h"]
 words = next(line for line in header.splitlines() if path.name in line).strip(" */").split()
 c_banner_h1 = (words[0], words[1], words[2].rstrip(";"))
@@ -924,7 +929,7 @@ if compiler() is None:
     print("no C compiler (cc, gcc or clang) on PATH: skipped")
 else:
     try:
-        native = build(files_c, load_program(fits_dir), scratch / "c")
+        native = build(files_c, load_program(fits_dir, model=MODEL), scratch / "c")
     except CompileError as err:
         print(err)
     else:
@@ -943,12 +948,12 @@ The scratch folder goes away below. To keep a refit, write it into a folder of o
 
 ```
 fitlab refit --target H1 --out my-fits                       # my-fits/H1.log_exp.json
-fitlab codegen --lang c --fits my-fits --out my-generated    # and --lang python, glsl, hlsl, metal, drjit
+fitlab codegen --lang c --fits my-fits --model three-term --out my-generated    # and python, glsl, ...
 ```
 
 or, in Python, `write_fit(fit_path(Path("my-fits"), "H1", result.record["form"]), result.record)`, then
-`write_generated(generate("c", fits_dir=Path("my-fits")), Path("my-generated"))`; `runtime_model(fits_dir=Path("my-fits"))`
-evaluates the same model through fitlab. `fitlab refit --form NAME` fits another form (`fitlab refit --list` names them),
+`write_generated(generate("c", fits_dir=Path("my-fits"), model="three-term"), Path("my-generated"))`;
+`runtime_model(fits_dir=Path("my-fits"), model="three-term")` evaluates the same model through fitlab. `fitlab refit --form NAME` fits another form (`fitlab refit --list` names them),
 and `fitlab codegen --form H1=NAME` prints it.
 """),
     code('''

@@ -43,6 +43,10 @@ def _top_level_names(path: Path) -> set[str]:
                 names.update(n.id for n in ast.walk(t) if isinstance(n, ast.Name))
         elif isinstance(node, (ast.Import, ast.ImportFrom)):
             names.update((a.asname or a.name).split(".")[0] for a in node.names)
+        elif isinstance(node, ast.If) and ast.unparse(node.test) == "TYPE_CHECKING":
+            # a package that imports its names on first use (fitlab.codegen) states them for type checkers
+            names.update((a.asname or a.name).split(".")[0] for n in node.body
+                         if isinstance(n, (ast.Import, ast.ImportFrom)) for a in n.names)  # fmt: skip
     if path.name == "__init__.py":  # submodules
         names.update(p.stem for p in path.parent.glob("*.py"))
         names.update(p.name for p in path.parent.iterdir() if (p / "__init__.py").is_file())

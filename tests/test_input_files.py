@@ -68,7 +68,9 @@ def _fits_with(tmp_path, name):
 
 @pytest.mark.parametrize("name, extra", [
     ("m.sr_1_abcdef.json", ["--model", "default-forms", "--form", "m=sr_1_abcdef"]),  # a discovered form: was read, and hung
-    ("H0.log_exp.json", []),  # a registered form: was passed over for the packaged fit, as if the folder had none
+    # a registered form, where the default model reads it (the folder laid out as the packaged fits): was passed
+    # over for the packaged fit, as if the folder had none
+    ("true/H0.log_exp.json", []),
 ])  # fmt: skip
 def test_codegen_refuses_a_fifo_in_fits(tmp_path, capsys, name, extra):
     fits, fifo = _fits_with(tmp_path, name)

@@ -148,8 +148,9 @@ def test_simulate_a_packaged_scene_by_name(installed):
 
 
 def test_refit_then_codegen_prints_the_refit_from_an_empty_folder(installed):
-    """The loop of a new user, from an empty folder: `fitlab refit --target H1 && fitlab codegen --fits fits --lang c`
-    gives C whose h1 is that refit (the banner names its file, sha256 and origin)."""
+    """The loop of a new user, from an empty folder: `fitlab refit --target H1 && fitlab codegen --fits fits
+    --model three-term --lang c` gives C whose h1 is that refit (the banner names its file, sha256 and origin); the
+    refit of H1 is a fit of its three-term target, so it goes with the model whose parts are all such fits."""
     import hashlib
 
     work = installed["work"] / "loop"
@@ -158,7 +159,8 @@ def test_refit_then_codegen_prints_the_refit_from_an_empty_folder(installed):
     done = env_run("refit", "--target", "H1", "--out", "loop/fits", "--quiet", "--json")
     (fit,) = json.loads(done.stdout)["fits"]
     path = installed["work"] / fit["path"]
-    env_run("codegen", "--fits", "loop/fits", "--lang", "c", "--out", "loop/generated", "--quiet")
+    env_run("codegen", "--fits", "loop/fits", "--model", "three-term", "--lang", "c", "--out", "loop/generated",
+            "--quiet")
     text = (work / "generated" / "lambert_sphere.c").read_text()
     line = next(ln for ln in text.splitlines() if f" {path.name}  " in ln)
     assert hashlib.sha256(path.read_bytes()).hexdigest() in line and "--fits;" in line
