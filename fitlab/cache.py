@@ -216,9 +216,10 @@ def _store(path: Path, values: Mapping[str, np.ndarray], names: tuple[str, ...])
 
 
 def family_entry_points() -> list[str]:
-    """The installed ``fitlab.families`` entry points as "name=value@distribution-version", sorted: what, beside
-    fitlab's own files (:func:`package_sources`), decides what the registry holds.  Taken from the registry's view
-    of them where it is loaded (as tests set it)."""
+    """The installed ``fitlab.families`` entry points as "name=value@distribution-version", sorted, and the families
+    registered in this process by a module of their own ("name=module:class"): what, beside fitlab's own files
+    (:func:`package_sources`), decides what the registry holds.  Taken from the registry's view of them where it is
+    loaded (as tests set it)."""
     registry = sys.modules.get("fitlab.core._registry")
     entry_points = getattr(registry, "entry_points", None)
     if entry_points is None:
@@ -227,6 +228,8 @@ def family_entry_points() -> list[str]:
     for ep in entry_points(group="fitlab.families"):
         dist = getattr(ep, "dist", None)
         found.append(f"{ep.name}={ep.value}@{getattr(dist, 'name', '')}-{getattr(dist, 'version', '')}")
+    if registry is not None:
+        found += registry.registered_here()
     return sorted(found)
 
 

@@ -38,27 +38,27 @@ from pathlib import Path
 
 import numpy as np
 
-from fitlab.core import Dataset, families, get_form, get_target, resolve_hook
+from fitlab.core import BrdfGrid, Dataset, HasBrdfGrid, get_form, get_target, offering
 from fitlab.fit.metrics import relative_errors, summary
 from fitlab.store import FitFunction, fit_files, fits_folder, load
 
 __all__ = ["Residuals", "residuals", "brdf_residuals", "approximations", "grid_axes", "heatmap"]
 
-#: the pseudo-target of :func:`brdf_residuals`: a family's whole BRDF (its ``brdf_grid`` hook)
+#: the pseudo-target of :func:`brdf_residuals`: a family's whole BRDF (its :class:`fitlab.core.HasBrdfGrid`)
 BRDF = "brdf"
 
 
-def _brdf_grid(family: str | None = None) -> tuple[tuple[str, ...], object, str]:
-    """(axes, grid function, error measure) of the exact BRDF of ``family`` (default: the one family
-    with a ``brdf_grid`` hook): the hook returns (axes, exact_grid, measure)."""
-    found = [name for name, f in families().items() if "brdf_grid" in f.hooks]
+def _brdf_grid(family: str | None = None) -> BrdfGrid:
+    """(axes, grid function, error measure) of the exact BRDF of ``family`` (default: the one family that is a
+    :class:`fitlab.core.HasBrdfGrid`)."""
+    found = offering(HasBrdfGrid)
     if family is None:
         if len(found) != 1:
             raise ValueError(f"brdf_residuals: name the family (one of {', '.join(found) or 'none'})")
-        family = found[0]
+        family = next(iter(found))
     if family not in found:
-        raise KeyError(f"family {family!r} registers no exact BRDF grid; families with one: {', '.join(found)}")
-    return resolve_hook(family, "brdf_grid")  # a fitlab.core.BrdfGridHook, checked
+        raise KeyError(f"family {family!r} has no exact BRDF grid; families with one: {', '.join(found)}")
+    return found[family].brdf_grid()
 
 
 def grid_axes(target: str) -> tuple[str, ...]:
@@ -262,7 +262,7 @@ def residuals(target: str, approx, *, label: str | None = None, **axes) -> Resid
 
 def brdf_residuals(model, *, label: str | None = None, **axes) -> Residuals:
     """``model(*axes)`` (e.g. a RuntimeModel of (mu_i, mu_o, phi, c)) against the exact BRDF of the family
-    registering one (the ``brdf_grid`` hook: fitlab.families.lambert_sphere.exact.brdf) on the grid of
+    registering one (its :class:`fitlab.core.HasBrdfGrid`: fitlab.families.lambert_sphere.exact.brdf) on the grid of
     ``axes``, relative to |exact|."""
     names, _, measure = _brdf_grid()
     axes = _check_axes(BRDF, axes)

@@ -589,8 +589,15 @@ def test_a_family_without_a_program_of_its_own_gets_one_routine_per_target(tmp_p
 
     target = Target("toy_exp", "exp(x)", (Input("x", (0.0, 1.0)),), "line", (), points, points, routine="toy_exp")
     form = Form("toy_exp", "line", ("x",), ("a",), 1 + a * x, presets={"p": {"a": 1.0}})
+    class ToyCodegen(Family, name="toy_codegen", description="A toy family", target_names=("toy_exp",)):
+        def targets(self):
+            return (target,)
+
+        def forms(self):
+            return (form,)
+
     families()
-    register_family(Family("toy_codegen", "A toy family", (target,), (form,)))
+    register_family(ToyCodegen())
     try:
         record = {"format": FORMAT, "target": "toy_exp", "form": "line", "inputs": ["x"],
                   "expression": form.expression, "params": {"a": 1.75}, "domain": {"x": [0.0, 1.0]}}  # fmt: skip

@@ -9,7 +9,7 @@ import pytest
 import sympy as sp
 from sympy.codegen.rewriting import ReplaceOptim
 
-from fitlab.codegen import STABLE, ProgramSpec, build_program, part_routine, program_spec, stable
+from fitlab.codegen import STABLE, HasProgram, ProgramSpec, build_program, part_routine, program_spec, stable
 from fitlab.core import Dataset, Family, Input, Target, register_family, unregister_family
 from fitlab.forms import Form
 from fitlab.store import FitFunction
@@ -26,12 +26,27 @@ def _set():
     return Dataset({"c": x}, 1.0 - np.sqrt(1.0 - x), "c = k/10")
 
 
-def _family(name: str, codegen) -> Family:
+def _family(name: str, program: ProgramSpec | None) -> Family:
     target = Target(name=f"{name}_t", description="1 - sqrt(1 - c)", variables=(Input("c", (0.0, 1.0), "albedo"),),
                     default_form="plain", published=(), training=_set, validation=_set, routine=f"{name}_t")
     form = Form(f"{name}_t", "plain", ("c",), ("a",), sp.Symbol("a", real=True) * ALBEDO_FORM,
                 presets={"one": {"a": 1.0}}, description="a (1 - sqrt(1 - c))")
-    return Family(name, "a toy family", (target,), (form,), codegen=codegen)
+
+    class Toy(Family, name=name, description="a toy family", target_names=(target.name,)):
+        def targets(self):
+            return (target,)
+
+        def forms(self):
+            return (form,)
+
+    if program is None:
+        return Toy()
+
+    class ToyWithProgram(Toy, HasProgram, name=name, description="a toy family", target_names=(target.name,)):
+        def program(self) -> ProgramSpec:
+            return program
+
+    return ToyWithProgram()
 
 
 def _fit(target: str) -> FitFunction:

@@ -212,7 +212,7 @@ def test_the_family_program_prints_every_albedo_every_lobe_parameter_and_the_lob
     from fitlab.core import get_family
 
     names = [r.name for r in program.routines]
-    with_routine = [t.routine for t in get_family("microfacet_energy").targets if t.routine is not None]
+    with_routine = [t.routine for t in get_family("microfacet_energy").targets() if t.routine is not None]
     assert names == [*with_routine, "ms_blog_diffuse", "ms_tilt_diffuse", "ms_blog_conductor", "ms_tilt_conductor",
                      "ms_kulla_conti"]
     assert {"E_ggx_sep", "one_minus_E_ggx_cor", "E_avg_on"} <= set(names) and program.parts == tuple(with_routine)

@@ -21,7 +21,7 @@ import pytest
 from fitlab._io import atomic_write_many, temporary_name
 from fitlab.cli import main
 from fitlab.report import COLUMNS, QUICK, TIMING_COLUMNS, build_report, pareto_front, recommend, write_outputs
-from fitlab.report.methods import ReportError, brdf_hook, brdf_methods, fit_inventory
+from fitlab.report.methods import ReportError, brdf_report, brdf_methods, fit_inventory
 from fitlab.report.settings import family_settings
 from fitlab.families.lambert_sphere.report.spline_tables import h_interpolant, table_brdf
 from fitlab.families.lambert_sphere.report.materials import albedos
@@ -57,7 +57,7 @@ def test_quick_report_writes_the_three_files(quick):
         assert heading in md
     assert "![accuracy vs cost](accuracy_vs_cost.png)" in md
     # the exact engine timed on the points the family's quick settings name, as the text says
-    points = family_settings(QUICK, brdf_hook()).exact_cost_points
+    points = family_settings(QUICK, brdf_report()).exact_cost_points
     assert re.search(rf"us per point \({points} points, c = ", md)
     assert not list(a.glob("*.tmp"))
 
@@ -80,7 +80,7 @@ def test_csv_columns_and_contents(quick):
     refit = next(r for r in brdf if r["method"] == "refit")
     assert float(refit["ns_c_double"]) > 0 and float(refit["jax_evals_per_s"]) > 0
     # the parts and refits measured are the family's choice for the quick settings (fitlab.report.QUICK names none)
-    fam = family_settings(QUICK, brdf_hook())
+    fam = family_settings(QUICK, brdf_report())
     assert QUICK.parts is None and QUICK.refits is None
     assert {r["target"] for r in rows if r["section"] == "part"} == set(fam.parts)
     assert {(r["target"], r["method"]) for r in rows if r["section"] == "refit"} == set(fam.refits)

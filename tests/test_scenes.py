@@ -12,7 +12,8 @@ import pytest
 
 import fitlab  # noqa: F401
 from fitlab import scenes
-from fitlab.core import Family, family_service, register_family, unregister_family
+from fitlab.cli import main
+from fitlab.core import Family, HasMonteCarlo, family_with, offering, register_family, unregister_family
 
 TOY_SCENE = """\
 [scene]
@@ -193,31 +194,34 @@ def test_fitlab_simulate_takes_the_family_the_scene_names(tmp_path, capsys):
     assert not (tmp_path / "o").exists()
 
 
-def test_the_simulate_hook_is_checked_against_its_protocol():
-    assert isinstance(TOY, scenes.SimulateHook)
-    assert scenes.check_simulate_hook(TOY, "toy") is TOY
-    assert scenes.missing_member(ToyWalk(), scenes.Walk) is None
-    assert scenes.missing_member(ToySchema(), scenes.SceneSchema) is None
+class ToyFamily(Family, HasMonteCarlo, name="toy_scenes", description="A toy family", target_names=()):
+    def targets(self):
+        return ()
 
-    class NoPlots(ToyWalk):
-        plots = None  # not callable
+    def forms(self):
+        return ()
 
-    register_family(Family("toy_hooks", "A toy family", (), hooks={
-        "simulate": lambda: scenes.Simulation(schema=ToySchema(), walk=NoPlots())}))
+    def simulation(self) -> scenes.Simulation:
+        return TOY
+
+
+def test_a_toy_familys_monte_carlo_runs_through_fitlab_simulate(tmp_path, capsys):
+    """A family is a HasMonteCarlo: ``fitlab simulate --family`` finds it among the families that simulate and runs
+    its walk (its schema and walk meet their protocols: basedpyright checks them where the Simulation is made)."""
+    p = tmp_path / "coin.toml"
+    p.write_text(TOY_SCENE)
+    register_family(ToyFamily())
     try:
-        with pytest.raises(TypeError) as exc:
-            family_service("simulate", "toy_hooks")
-        assert str(exc.value) == ("family toy_hooks: its simulate hook's walk lacks 'plots' "
-                                  "(fitlab.scenes.Walk)")
+        assert list(offering(HasMonteCarlo)) == ["lambert_sphere", "microfacet_energy", "toy_scenes"]
+        assert main(["simulate", str(p), "--family", "toy_scenes", "--quiet", "--out", str(tmp_path / "o")]) == 0
+        assert sorted(x.name for x in (tmp_path / "o").iterdir()) == ["coin.csv", "coin_coin.png", "coin_summary.csv"]
+        assert main(["simulate", str(p), "--quiet", "--out", str(tmp_path / "o2")]) == 0  # its [scene] family
+        assert (tmp_path / "o2" / "coin.csv").is_file()
     finally:
-        unregister_family("toy_hooks")
-    with pytest.raises(TypeError, match=r"^family toy_hooks: its simulate hook lacks 'walk'"):
-        scenes.check_simulate_hook(object.__new__(type("Half", (), {"schema": ToySchema()})), "toy_hooks")
-    with pytest.raises(ValueError, match="hook 'simulate' is not callable"):
-        register_family(Family("toy_hooks", "A toy family", (), hooks={"simulate": TOY}))
-    unregister_family("toy_hooks")
-    for fam in ("lambert_sphere", "microfacet_energy"):  # the built-in hooks meet it
-        assert isinstance(family_service("simulate", fam), scenes.SimulateHook)
+        unregister_family("toy_scenes")
+    capsys.readouterr()
+    for fam in ("lambert_sphere", "microfacet_energy"):  # the built-in families' Monte Carlos
+        assert family_with(HasMonteCarlo, fam).simulation().schema.family == fam
 
 
 # -- rounds in chunks: Ctrl-C, the progress bar and the pilot's estimate -----------------------------------

@@ -186,8 +186,8 @@ def _listing(name: str) -> int:
     computed = []
     listing = json.loads(cached_text(f"listing-{name}", lambda: computed.append(True) or compute()))
     print(listing["out"], end="")
-    registry = sys.modules.get("fitlab.core._registry")
-    if listing["err"] and not computed and not getattr(registry, "_LOADED", False):
+    registry = sys.modules.get("fitlab.core._registry")  # loaded: its lines were said in this process
+    if listing["err"] and not computed and not (registry is not None and registry.loaded()):
         print(listing["err"], end="", file=sys.stderr)
     sys.stdout.flush()
     return 0

@@ -16,13 +16,19 @@ import math
 import os
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING, TypeVar
 
 from fitlab._io import FolderError, check_output_folder
+
+if TYPE_CHECKING:
+    from fitlab.core import Capability
+
+C = TypeVar("C", bound="Capability")
 
 __all__ = [
     "USAGE", "FAILURE", "UsageError", "RunFailure", "Parser", "fail", "one_line", "output_folder", "input_file",
     "input_folder", "write_failure", "write_files", "number", "integer", "add_quiet", "say", "describe", "add_fits",
-    "fits_input", "add_data", "use_data", "add_family", "service",
+    "fits_input", "add_data", "use_data", "add_family", "family_with",
 ]
 
 #: exit status of a runtime failure and of a usage error
@@ -222,18 +228,18 @@ def require_extra(module: str, extra: str) -> None:
         raise UsageError(f"this command needs {module}, which is not installed: pip install 'fitlab-brdf[{extra}]'")
 
 
-def add_family(p, hook: str, default: str = "the one family that offers it") -> None:
-    """``--family NAME``: which family's ``hook`` service a command uses (needed when several offer it)."""
+def add_family(p, what: str, default: str = "the one family that has it") -> None:
+    """``--family NAME``: which family's ``what`` a command uses (needed when several have it)."""
     p.add_argument("--family", metavar="NAME", default=None,
-                   help=f"the family whose {hook} service to use (default: {default})")
+                   help=f"the family whose {what} to use (default: {default})")
 
 
-def service(name: str, family: str | None = None):
-    """The family service ``name`` (fitlab.core.family_service): tables, audit, render, simulate, bench; of
-    ``family``, or of the one family that offers it (a usage error, one line, otherwise)."""
-    from fitlab.core import family_service
+def family_with(capability: type[C], family: str | None = None) -> C:
+    """The family ``family`` when it has ``capability`` (:func:`fitlab.core.family_with`), or the one family that
+    has it; a usage error (one line) otherwise."""
+    from fitlab.core import family_with as having
 
     try:
-        return family_service(name, family)
+        return having(capability, family)
     except KeyError as exc:
         raise UsageError(one_line(exc.args[0] if exc.args else exc)) from None

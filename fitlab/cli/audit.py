@@ -18,7 +18,7 @@ from fitlab.cli._common import (
     one_line,
     output_folder,
     say,
-    service,
+    family_with,
     write_failure,
 )
 from fitlab.store import FitFileError, TableError, strict_json
@@ -45,11 +45,13 @@ def run(args) -> int:
     fits = fits_input(args)
     use_data(args)
     out = output_folder(args.out, "--out", files=FILES)
-    audit = service("audit", args.family)
+    from fitlab.core import HasAudit
+
+    family = family_with(HasAudit, args.family)
 
     t0 = time.perf_counter()
     try:
-        result, files = audit.audit(fits, show_progress=not args.quiet)
+        result, files = family.audit(fits, show_progress=not args.quiet)
     except (FitFileError, TableError) as exc:
         raise UsageError(one_line(exc)) from None
     except (ValueError, ArithmeticError) as exc:

@@ -6,6 +6,8 @@ from __future__ import annotations
 import contextlib
 import io
 import sys
+from collections.abc import Callable
+from typing import TYPE_CHECKING, TypeVar
 
 from fitlab.cli._common import (
     UsageError,
@@ -15,11 +17,15 @@ from fitlab.cli._common import (
     describe,
     fits_input,
     require_extra,
-    service,
 )
 from fitlab.store import strict_json
 
+if TYPE_CHECKING:
+    from fitlab.core import Benchmarks
+
 __all__ = ["add_arguments", "run"]
+
+T = TypeVar("T")
 
 
 def add_arguments(p) -> None:
@@ -49,26 +55,25 @@ def _jsonable(obj):
     return obj
 
 
-def _bench_function(what: str, family: str | None, quiet: bool):
-    """``bench_<what>`` of the bench service of --family; without it, of the families whose service has one:
-    the one, else the first registered (a line on stderr names the others and --family)."""
-    from fitlab.core import families_offering
+def _bench_function(what: str, pick: Callable[[Benchmarks], T | None], family: str | None, quiet: bool) -> T:
+    """The benchmark ``what`` (``pick`` of a family's :class:`fitlab.core.Benchmarks`) of --family; without it, of
+    the families that have one: the one, else the first (a line on stderr names the others and --family)."""
+    from fitlab.core import HasBenchmarks, offering
 
-    name = "bench_" + what
+    having = {name: pick(f.benchmarks()) for name, f in offering(HasBenchmarks).items()}
+    having = {name: function for name, function in having.items() if function is not None}
     if family is not None:
-        function = getattr(service("bench", family), name, None)
-        if function is None:
-            having = [f for f in families_offering("bench") if hasattr(service("bench", f), name)]
+        if family not in having:
             raise UsageError(f"family {family!r} has no {what!r} benchmark; families that have one: "
                              f"{', '.join(having) or 'none'}")
-        return function
-    having = [f for f in families_offering("bench") if hasattr(service("bench", f), name)]
+        return having[family]
     if not having:
         raise UsageError(f"no family has a {what!r} benchmark")
-    if len(having) > 1 and not quiet:
-        print(f"fitlab bench {what}: family {having[0]} (also {', '.join(having[1:])}: choose with --family)",
+    names = list(having)
+    if len(names) > 1 and not quiet:
+        print(f"fitlab bench {what}: family {names[0]} (also {', '.join(names[1:])}: choose with --family)",
               file=sys.stderr)
-    return getattr(service("bench", having[0]), name)
+    return having[names[0]]
 
 
 def run(args) -> int:
@@ -83,22 +88,22 @@ def run(args) -> int:
             results = bench_commands(QUICK_TARGETS if args.quick else tuple(targets()), show_progress=not args.quiet)
             print(table(results))
         elif args.what == "exact":
-            results = _bench_function("exact", args.family, args.quiet)(quick=args.quick)
+            results = _bench_function("exact", lambda b: b.exact, args.family, args.quiet)(quick=args.quick)
         elif args.what == "codegen":
             from fitlab.cli._bench_commands import codegen_walls
 
-            results = _bench_function("codegen", args.family, args.quiet)(fits, n=100_000 if args.quick else 1_000_000,
-                                                                          repeat=3 if args.quick else 5)  # fmt: skip
+            bench = _bench_function("codegen", lambda b: b.codegen, args.family, args.quiet)
+            results = bench(fits, n=100_000 if args.quick else 1_000_000, repeat=3 if args.quick else 5)
             walls = codegen_walls(args.family, fits)
             print(f"fitlab codegen --lang c wall: cold (empty cache) {walls['cold']:.1f} s, warm {walls['warm']:.2f} s "
                   f"(exit status {walls['status']})")  # fmt: skip
             results = {**results, "codegen_wall": walls}
         elif args.what == "render":
             require_extra("mitsuba", "render")
-            results = _bench_function("render", args.family, args.quiet)(quick=args.quick,
-                                                                         show_progress=not args.quiet)
+            bench = _bench_function("render", lambda b: b.render, args.family, args.quiet)
+            results = bench(quick=args.quick, show_progress=not args.quiet)
         else:
-            results = _bench_function("mc", args.family, args.quiet)(quick=args.quick)  # JAX
+            results = _bench_function("mc", lambda b: b.mc, args.family, args.quiet)(quick=args.quick)  # JAX
     if args.json:
         print(strict_json({"what": args.what, "quick": args.quick, "results": _jsonable(results)}), end="")
     return 0

@@ -1,8 +1,9 @@
 """``fitlab codegen``: generate C, Python or GLSL source of the runtime BRDF from the fits.
 
 What a run prints is kept in fitlab's cache (:func:`fitlab.cache.cached_files`), keyed by the options, the bytes of
-the ``--fits`` folder's fit files and of fitlab itself: a second run of unchanged inputs reads it back without
-importing sympy, re-measuring or printing anything.  fitlab.codegen and the store are imported only on a miss.
+the ``--fits`` folder's fit files and of fitlab itself, and by the families there are: a second run of unchanged
+inputs reads it back without re-measuring or printing anything.  The key imports the families' classes (which of
+them have a program), none of their targets, fits or tables.
 """
 
 from __future__ import annotations
@@ -19,11 +20,11 @@ from fitlab.cli._common import (
     add_fits,
     add_quiet,
     describe,
+    family_with,
     fits_input,
     integer,
     one_line,
     output_folder,
-    service,
     use_data,
     write_files,
 )
@@ -80,12 +81,15 @@ def add_arguments(p) -> None:
 
 
 def _run_tables(args) -> int:
-    """``--tables``: the family's table export service (``table_export`` hook): its files, written as one unit."""
+    """``--tables``: the family's table export (:class:`fitlab.core.HasTableExport`): its files, written as one
+    unit."""
     given = [flag for flag, value in (("--terms", args.terms), ("--model", args.model), ("--form", args.form),
                                        ("--single-header", args.single_header), ("--fits", args.fits)) if value]
     if given:
         raise UsageError(f"{given[0]} is not a --tables option (the tables print no fits)")
-    exporter = service("table_export", args.family)
+    from fitlab.core import HasTableExport
+
+    exporter = family_with(HasTableExport, args.family).table_export()
     if args.lang not in exporter.LANGUAGES:
         raise UsageError(f"--tables prints {', '.join(exporter.LANGUAGES)}, not {args.lang}")
     nodes = exporter.DEFAULT_NODES if args.nodes is None else args.nodes
@@ -185,19 +189,22 @@ def _fit_files(fits: Path | None) -> list[Path] | None:
 
 
 def _key(args, fits: Path | None) -> dict:
-    """Every option that changes what a run prints (the fits' bytes and fitlab's own are the key's sources)."""
+    """Every option that changes what a run prints (the fits' bytes and fitlab's own are the key's sources), the
+    families there are (:func:`fitlab.cache.family_entry_points`) and which of them have a program and declare the
+    default (:func:`fitlab.codegen.family_programs`: they choose the default and are named on stderr), read from
+    the families' classes."""
     from importlib.metadata import version
 
     import numpy as np
 
-    from fitlab.core import family_programs
+    from fitlab.cache import family_entry_points
+    from fitlab.codegen import family_programs
 
-    # the families with a program choose the default and are named on stderr (a family registered at run time too)
-    return {"lang": args.lang, "terms": args.terms, "model": args.model, "form": args.form, "family": args.family,
-            "single_header": args.single_header, "allow_partial_domain": args.allow_partial_domain,
-            "allow_mixed_physics": args.allow_mixed_physics, "fits": None if fits is None else str(fits.resolve()),
-            "numpy": np.__version__, "sympy": version("sympy"),
-            "families": family_programs()}  # fmt: skip
+    return {"families": family_entry_points(), "programs": family_programs(), "lang": args.lang, "terms": args.terms,
+            "model": args.model, "form": args.form, "family": args.family, "single_header": args.single_header,
+            "allow_partial_domain": args.allow_partial_domain, "allow_mixed_physics": args.allow_mixed_physics,
+            "fits": None if fits is None else str(fits.resolve()), "numpy": np.__version__,
+            "sympy": version("sympy")}  # fmt: skip
 
 
 def _generate(args, fits: Path | None) -> dict[str, bytes]:
@@ -241,10 +248,10 @@ def _the_default(args, forms: dict) -> list[str]:
     one (the rule: fitlab.codegen.default_program_family)."""
     if args.family is not None or forms:
         return []
-    from fitlab.codegen import default_program_family
-    from fitlab.core import families
+    from fitlab.codegen import HasProgram, default_program_family
+    from fitlab.core import offering
 
-    having = [name for name, f in families().items() if f.codegen is not None]
+    having = list(offering(HasProgram))
     if len(having) > 1:
         default = default_program_family()
         others = ", ".join(sorted(n for n in having if n != default))

@@ -11,7 +11,6 @@ from fitlab.cli._common import (
     integer,
     output_folder,
     require_extra,
-    service,
     write_files,
 )
 
@@ -44,12 +43,12 @@ def add_arguments(p) -> None:
 
 
 def _offered() -> dict:
-    """table name -> (family, ImageSpec), over every family with the ``images`` hook."""
-    from fitlab.core import families_offering
+    """table name -> (family, ImageSpec), over every family that is a :class:`fitlab.core.HasImages`."""
+    from fitlab.core import HasImages, offering
 
     found = {}
-    for family in families_offering("images"):
-        for name, spec in service("images", family).IMAGES.items():
+    for family, having in offering(HasImages).items():
+        for name, spec in having.images().items():
             found[name] = (family, spec)
     return found
 
@@ -62,7 +61,7 @@ def _sizes_text(sizes) -> str:
 
 def listing_text() -> str:
     """What ``fitlab export --list`` prints: every table, its family, sizes, formats and description (the families'
-    ``images`` hooks, imported; cached by fitlab's code, :func:`fitlab.cache.cached_text`)."""
+    images, imported; cached by fitlab's code, :func:`fitlab.cache.cached_text`)."""
     return "".join(f"{name:24s} {family:18s} size {spec.default_size} ({_sizes_text(spec.sizes)}); "
                    f"{', '.join(spec.formats)}; {spec.description}\n" for name, (family, spec) in _offered().items())
 

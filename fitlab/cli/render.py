@@ -11,6 +11,7 @@ from fitlab.cli._common import (
     add_family,
     add_quiet,
     describe,
+    family_with,
     input_file,
     integer,
     number,
@@ -18,7 +19,6 @@ from fitlab.cli._common import (
     output_folder,
     require_extra,
     say,
-    service,
     write_failure,
 )
 from fitlab.resources import packaged_fits
@@ -58,7 +58,9 @@ def run(args) -> int:
                            "--generated", hint="; run `fitlab codegen --lang drjit` first")
     out = output_folder(args.out, "--out", files=(FILE,))
     require_extra("mitsuba", "render")
-    render = service("render", args.family)
+    from fitlab.core import HasRender
+
+    render = family_with(HasRender, args.family).render()
 
     try:
         render.check_generated(generated)  # drjit only: a module that is not a generated BRDF is refused now

@@ -1,6 +1,6 @@
 """``fitlab simulate``: the shared simulate runner (:func:`fitlab.scenes.simulate_file`) with the scene's
-family's ``simulate`` hook (a :class:`fitlab.scenes.SimulateHook`: its scene schema and its walk; for the
-Lambert sphere :mod:`fitlab.families.lambert_sphere.mc.simulate`).
+family's Monte Carlo (:class:`fitlab.core.HasMonteCarlo`: a :class:`fitlab.scenes.Simulation` of its scene schema
+and its walk; for the Lambert sphere :mod:`fitlab.families.lambert_sphere.mc.simulate`).
 
 The scene's family: ``--family``; else the one family that simulates; else the family whose packaged
 scenes hold it; else the one its ``[scene] family`` names; else (a scene written before scenes named their
@@ -23,8 +23,8 @@ import sys
 from pathlib import Path
 
 from fitlab._montecarlo import MAX_PATHS, MIN_PATHS_BUDGET, SLOW_JOB_SECONDS, duration
-from fitlab.cli._common import add_family, FAILURE, USAGE, fail, service
-from fitlab.core import families_offering
+from fitlab.cli._common import add_family, FAILURE, USAGE, fail, family_with
+from fitlab.core import HasMonteCarlo, offering
 from fitlab.resources import find_scene, packaged_scenes
 
 __all__ = ["add_arguments", "run"]
@@ -48,17 +48,17 @@ def add_arguments(p) -> None:
 
 
 def _simulating_families() -> list[str]:
-    return families_offering("simulate")  # from the families' manifests: imports none of them
+    return list(offering(HasMonteCarlo))  # the families' classes: imports none of their Monte Carlos
 
 
 def _family_of(scene: Path, family: str | None) -> str | None:
     """Whose Monte Carlo runs ``scene`` (see the module's docstring); None: the one family that simulates."""
     if family is not None:
         return family
-    offering = _simulating_families()
-    if len(offering) <= 1:
+    simulating = _simulating_families()
+    if len(simulating) <= 1:
         return None
-    for fam in offering:
+    for fam in simulating:
         if scene.resolve().parent == packaged_scenes(fam).resolve():
             return fam
     from fitlab.scenes import declared_family, peek
@@ -66,9 +66,9 @@ def _family_of(scene: Path, family: str | None) -> str | None:
     raw = peek(scene)  # a regular file only (a FIFO never blocks); {} when it cannot be read or parsed
     declared = declared_family(raw)
     if declared is not None:
-        return declared  # a family that does not simulate is refused by service(), one line
-    claiming = [fam for fam in offering if (getattr(service("simulate", fam), "claims", None) or _nothing)(raw)]
-    return claiming[0] if len(claiming) == 1 else offering[0]
+        return declared  # a family that does not simulate is refused by family_with(), one line
+    claiming = [fam for fam in simulating if (family_with(HasMonteCarlo, fam).simulation().claims or _nothing)(raw)]
+    return claiming[0] if len(claiming) == 1 else simulating[0]
 
 
 def _nothing(raw) -> bool:
@@ -89,10 +89,10 @@ def run(args) -> int:
 
     from fitlab.scenes import SceneError, failures, simulate_file, summary_table, unconverged
 
-    hook = service("simulate", _family_of(scene, args.family))  # the family's schema and walk (imports JAX)
+    simulation = family_with(HasMonteCarlo, _family_of(scene, args.family)).simulation()  # imports JAX
     try:
         result, paths = simulate_file(
-            hook, scene, out_dir=args.out, progress=not args.quiet, plots=not args.no_plots,
+            simulation, scene, out_dir=args.out, progress=not args.quiet, plots=not args.no_plots,
             target_se=args.target_se, max_paths=args.max_paths, seed=args.seed,
         )
     except SceneError as exc:  # every input is checked before any work: a usage error

@@ -14,10 +14,10 @@ from fitlab.cli._common import (
     add_quiet,
     describe,
     fail,
+    family_with,
     input_folder,
     output_folder,
     say,
-    service,
     write_failure,
 )
 from fitlab.resources import data_root, tables_folder
@@ -40,16 +40,16 @@ def add_arguments(p) -> None:
 
 
 def run(args) -> int:
-    from fitlab.core import families_offering
+    from fitlab.core import HasTables, offering
 
-    names = families_offering("tables")
+    names = list(offering(HasTables))
     if args.family is not None and args.family not in names:
         raise UsageError(f"--family {args.family}: no such family with tables; choose one of {', '.join(names)}")
     chosen = [args.family] if args.family is not None else names
     root = data_root() if args.data is None else Path(args.data)
     if args.check:
         return _check(args, chosen, root)
-    services = {name: service("tables", name) for name in chosen}
+    services = {name: family_with(HasTables, name).tables() for name in chosen}
     # every destination is checked before any family's work starts
     outs = {name: output_folder(root / tables.FAMILY_NAME, "--data", files=tables.TABLE_FILES)
             for name, tables in services.items()}  # fmt: skip
@@ -70,9 +70,11 @@ def run(args) -> int:
 
 
 def _check(args, chosen, root) -> int:
+    from fitlab.core import HasTables
+
     failed = 0
     for name in chosen:
-        tables = service("tables", name)
+        tables = family_with(HasTables, name).tables()
         if args.data is not None:  # exactly the tables there, no fallback
             folder = input_folder(Path(args.data) / tables.FAMILY_NAME, "--data")
         try:

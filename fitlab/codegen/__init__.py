@@ -2,13 +2,13 @@ r"""Code generation: fit records in, C / Python / GLSL source out.
 
 :func:`build_program` takes data (fit records by target) and returns a
 :class:`Program`; :func:`emit` prints it in one language.  What a family prints
-is its ``codegen`` (a :class:`ProgramSpec`; the Lambert sphere's runtime BRDF
-is :mod:`fitlab.families.lambert_sphere.program.spec`), or one routine per target
+is its ``program()`` where it is a :class:`HasProgram` (a :class:`ProgramSpec`; the Lambert sphere's runtime
+BRDF is :mod:`fitlab.families.lambert_sphere.program.spec`), or one routine per target
 that names a ``routine`` when it has none.  :mod:`.printers` and :mod:`.languages`
 only print.  The names below come from the modules of one job each: the program's data (``_model``:
-:class:`Routine`, :class:`Program`, :class:`ProgramSpec`, ...), its building (:mod:`.program`), the
-cancellation-free rewrites (``_rewrites``), the NaN and domain policy (``_policy``) and the per-material
-set-up (``_material``).
+:class:`Routine`, :class:`Program`, :class:`ProgramSpec`, ...), its building and the family capability
+:class:`HasProgram` (:mod:`.program`), the cancellation-free rewrites (``_rewrites``), the NaN and domain policy
+(``_policy``) and the per-material set-up (``_material``).
 
 The file edge: ``generate("c", fits_dir="fits")`` reads the fits a program
 needs through :mod:`fitlab.store` (:func:`load_program`) and returns
@@ -54,10 +54,12 @@ _LAZY = {
             "parse_terms",
             "program_spec",
             "default_program_family",
+            "family_programs",
             "model_form",
             "part_routine",
             "call",
             "reproducible_sympy",
+            "HasProgram",
         ),
         "fitlab.codegen.program",
     ),
@@ -126,10 +128,12 @@ __all__ = [
     "parse_terms",
     "program_spec",
     "default_program_family",
+    "family_programs",
     "model_form",
     "part_routine",
     "call",
     "reproducible_sympy",
+    "HasProgram",
     "Program",
     "ProgramSpec",
     "Routine",
@@ -208,9 +212,11 @@ if TYPE_CHECKING:  # what type checkers see of the names imported on first use
         emit,
     )
     from fitlab.codegen.program import (
+        HasProgram,
         build_program,
         call,
         default_program_family,
+        family_programs,
         model_form,
         parse_terms,
         part_routine,

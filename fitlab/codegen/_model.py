@@ -156,7 +156,7 @@ class Claim:
 
 @dataclass(frozen=True)
 class ProgramSpec:
-    """What a family prints (the ``codegen`` of its :class:`fitlab.core.Family`).
+    """What a family prints (the ``program()`` of a family that is a :class:`fitlab.codegen.HasProgram`).
 
     name: the generated files' base name and the functions' prefix.
     fits: the targets whose fits the program is built from, in the order of the banner.

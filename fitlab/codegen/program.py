@@ -3,13 +3,13 @@ r"""The program every back end prints, built from fit records.
 :func:`build_program` takes data (fit records by target: the dicts of fit files,
 or :class:`fitlab.store.FitFunction` objects) and returns a :class:`fitlab.codegen.Program`; it reads
 no file (:func:`fitlab.codegen.load_program` reads a fits folder through
-:mod:`fitlab.store`).  What is printed is the family's choice: a family whose
-``codegen`` is a :class:`fitlab.codegen.ProgramSpec` contributes its own routines (for the
+:mod:`fitlab.store`).  What is printed is the family's choice: a family that is a
+:class:`HasProgram` contributes the routines of its :class:`fitlab.codegen.ProgramSpec` (for the
 Lambert sphere, the runtime BRDF assembled from its parts:
 :mod:`fitlab.families.lambert_sphere.program.spec`); a family without one gets one
 routine per target that names a ``routine`` (:attr:`fitlab.core.Target.routine`),
 its saved fit as it stands (:func:`part_routine`).  Where no family is named, the program is the default
-family's (:func:`default_program_family`: the one that declares ``Family.default_program``).
+family's (:func:`default_program_family`: the one that declares ``HasProgram.default_program``).
 
 A family's program is written with :func:`call` and :func:`part_routine` (which applies the program's
 rewrites, :attr:`fitlab.codegen.ProgramSpec.rewrites`, to every part, and only that program's), and with the
@@ -20,9 +20,10 @@ helpers :mod:`fitlab.codegen` gives besides: :func:`fitlab.codegen.stable`, :cla
 
 from __future__ import annotations
 
+import abc
 from collections.abc import Mapping, Sequence
 from dataclasses import replace
-from typing import cast
+from typing import ClassVar
 
 import sympy as sp
 import sympy.core.random as sympy_random
@@ -32,20 +33,35 @@ from fitlab.codegen._material import material_of
 from fitlab.codegen._model import Claim, Program, ProgramSpec, Routine
 from fitlab.codegen._policy import with_domain
 from fitlab.codegen._rewrites import stable
-from fitlab.core import families, get_family, get_target
+from fitlab.core import Capability, Family, families, family_names, get_family, get_target, offering
 from fitlab.store import FitFunction
 
 __all__ = [
+    "HasProgram",
     "build_program",
     "part_routine",
     "program_spec",
     "default_program_family",
+    "family_programs",
     "model_form",
     "parse_terms",
     "call",
     "reproducible_sympy",
     "SYMPY_SEED",
 ]
+
+
+class HasProgram(Capability):
+    """A family that prints a program of its own (:class:`fitlab.codegen.ProgramSpec`); without one, its program is
+    one routine per target that names a routine."""
+
+    noun = "program"
+    #: whether its program is the one ``fitlab codegen`` prints when no family is named (at most one family
+    #: says so: the Lambert sphere; :func:`default_program_family`)
+    default_program: ClassVar[bool] = False
+
+    @abc.abstractmethod
+    def program(self) -> ProgramSpec: ...
 
 
 def call(name: str, *args) -> sp.Expr:
@@ -76,9 +92,9 @@ def part_routine(fit: FitFunction, rewrites: Sequence[Optimization] | None = Non
     return Routine(target.routine, fit.inputs, stable(fit.expression, rewrites), doc, domain=domain)
 
 
-def _default_spec(family) -> ProgramSpec:
+def _default_spec(family: Family) -> ProgramSpec:
     """One routine per target of ``family`` that names one: for a family without its own program."""
-    parts = tuple(t.name for t in family.targets if t.routine is not None)
+    parts = tuple(t.name for t in family.targets() if t.routine is not None)
     return ProgramSpec(
         name=family.name, fits=parts, parts=parts,
         routines=lambda fits, terms: [part_routine(fits[t]) for t in parts],
@@ -97,8 +113,7 @@ def program_spec(family: str | None = None, targets: Sequence[str] = ()) -> Prog
             raise ValueError(f"targets {', '.join(targets)} belong to {len(names)} families; one program holds one")
         (family,) = names
     fam = get_family(family if family is not None else default_program_family())
-    # ProgramSpec is the one implementation of the contract a family registers (fitlab.core.ProgramContract)
-    return cast(ProgramSpec, fam.codegen) if fam.codegen is not None else _default_spec(fam)
+    return fam.program() if isinstance(fam, HasProgram) else _default_spec(fam)
 
 
 def model_form(target: str) -> str:
@@ -106,29 +121,41 @@ def model_form(target: str) -> str:
     Lambert sphere's H1, log_exp), else the target's default form: the one form ``fitlab refit`` fits when none is
     named, so that a refit is what ``fitlab codegen --fits`` then prints."""
     t = get_target(target)
-    spec = get_family(t.family).codegen
-    if spec is None or target not in spec.fits:
+    family = get_family(t.family)
+    if not isinstance(family, HasProgram):
+        return t.default_form
+    spec = family.program()
+    if target not in spec.fits:
         return t.default_form
     return spec.model().forms.get(target, t.default_form)
 
 
 def default_program_family() -> str:
     """The family whose program ``fitlab codegen`` (and :func:`fitlab.codegen.generate`, ``load_program``)
-    prints when none is named: the one registered family that declares it (:attr:`fitlab.core.Family.default_program`:
+    prints when none is named: the one registered family that declares it (:attr:`HasProgram.default_program`:
     the Lambert sphere), else the one family with a program of its own, else the one family there is.
 
     A declaration, not the order of registration: a family registered at run time can precede the built-in
     ones (registering it loads none of them), and a new family's name must not move the default.  ValueError
     (one line) when several families declare it, or when none does and there is no single candidate."""
     fams = families()
-    declared = [name for name, f in fams.items() if f.default_program]
+    with_spec = [name for name, f in fams.items() if isinstance(f, HasProgram)]
+    declared = [name for name, f in fams.items() if isinstance(f, HasProgram) and f.default_program]
     if len(declared) > 1:
         raise ValueError(f"families {', '.join(declared)} each declare the default program; name one with --family")
-    with_spec = [name for name, f in fams.items() if f.codegen is not None]
     for pool in (declared, with_spec, list(fams)):
         if len(pool) == 1:
             return pool[0]
     raise ValueError(f"name the family to generate: one of {', '.join(fams)}")
+
+
+def family_programs() -> tuple[tuple[str, bool, bool], ...]:
+    """(name, has a program of its own, declares the default program) of every family, in listing order: what
+    :func:`default_program_family` chooses from, read from the families' classes (:func:`fitlab.core.offering`),
+    none of whose targets, forms or programs is imported."""
+    having = offering(HasProgram)
+    return tuple((name, name in having, name in having and having[name].default_program)
+                 for name in family_names())  # fmt: skip
 
 
 def parse_terms(text: str | None, family: str | None = None) -> tuple[str, ...]:

@@ -1,46 +1,45 @@
-"""fitlab's core vocabulary: inputs, targets, datasets, families and their registry.
+"""fitlab's core vocabulary: inputs, targets, datasets, the family contract and the registry.
 
-A *family* (one folder under :mod:`fitlab.families`, or any importable module that
-calls :func:`register_family`) owns its targets, forms, exact engine, runtime
-models and report methods.  The generic machinery (fit, codegen, discover,
-residuals, report, cli) loops over :func:`targets` and names no family's
-targets.
+A *family* (a :class:`Family` subclass: one folder under :mod:`fitlab.families`, or a class a distribution's
+``fitlab.families`` entry point names) owns its targets, forms, exact engine and the services of its
+capabilities (:class:`Capability`).  The generic machinery (fit, codegen, discover, residuals, report, cli)
+loops over :func:`targets` and :func:`offering` and names no family's targets.
 """
 
-from fitlab.core._dataset import Dataset, data_hash
-from fitlab.core._hooks import (
-    AuditHook,
-    BenchHook,
+from fitlab.core._capabilities import (
+    Benchmarks,
     BrdfGrid,
-    BrdfGridHook,
-    BrdfReportHook,
-    ImagesHook,
-    ModelContract,
+    HasAudit,
+    HasBenchmarks,
+    HasBrdfGrid,
+    HasImages,
+    HasMaterials,
+    HasMonteCarlo,
+    HasRender,
+    HasTableExport,
+    HasTables,
+    MeasuredMaterial,
     Outputs,
-    ProgramContract,
-    RenderHook,
-    ReportHook,
-    TableExportHook,
-    TablesHook,
-    check_hook,
+    Render,
+    TableExport,
+    Tables,
 )
+from fitlab.core._dataset import Dataset, data_hash
+from fitlab.core._family import Capability, Family
 from fitlab.core._input import Input
 from fitlab.core._precision import float64
 from fitlab.core._registry import (
-    Family,
     broken_families,
     did_you_mean,
     families,
-    families_offering,
-    family_programs,
-    family_service,
+    family_names,
+    family_with,
     forms_for,
     get_family,
     get_form,
     get_target,
-    manifest_hooks,
+    offering,
     register_family,
-    resolve_hook,
     target_names,
     targets,
     unregister_family,
@@ -48,38 +47,39 @@ from fitlab.core._registry import (
 from fitlab.core._target import Target
 
 __all__ = [
-    "AuditHook",
-    "Outputs",
-    "BenchHook",
+    "Benchmarks",
     "BrdfGrid",
-    "BrdfGridHook",
-    "BrdfReportHook",
-    "ModelContract",
-    "ProgramContract",
-    "RenderHook",
-    "ReportHook",
-    "TableExportHook",
-    "ImagesHook",
-    "TablesHook",
-    "check_hook",
-    "resolve_hook",
+    "Capability",
     "Dataset",
     "Family",
+    "HasAudit",
+    "HasBenchmarks",
+    "HasBrdfGrid",
+    "HasImages",
+    "HasMaterials",
+    "HasMonteCarlo",
+    "HasRender",
+    "HasTableExport",
+    "HasTables",
     "Input",
+    "MeasuredMaterial",
+    "Outputs",
+    "Render",
+    "TableExport",
+    "Tables",
     "Target",
     "broken_families",
     "data_hash",
     "did_you_mean",
     "families",
-    "families_offering",
-    "family_programs",
-    "family_service",
+    "family_names",
+    "family_with",
     "float64",
     "forms_for",
     "get_family",
     "get_form",
     "get_target",
-    "manifest_hooks",
+    "offering",
     "register_family",
     "target_names",
     "targets",

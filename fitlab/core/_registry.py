@@ -1,375 +1,298 @@
-r"""The family registry: every target, form and family hook fitlab knows.
+r"""The family registry: every family, target and form fitlab knows.
 
-Families are found, on first use, among the packages of :mod:`fitlab.families`
-and the ``fitlab.families`` entry points of installed distributions; a module
-anywhere may also call :func:`register_family` itself (how a test registers a
-toy family).  Names are global: two families may not register one target.
+The families are the built-in ones (the literal tuple :data:`fitlab.families.BUILTIN`), those of the
+``fitlab.families`` entry points of installed distributions (each names a :class:`~fitlab.core.Family`
+subclass), and any a module registers itself (:func:`register_family`, how a test adds a toy family).  Names
+are global: two families may not have one name or one target.
 
-The registry is lazy: a command imports only the families it uses.  A built-in family's package states
-what the registry needs to know before importing it in a literal ``MANIFEST`` (its target names, in order;
-its hooks, each the module that holds it; whether it has a program and declares the default one), which the
-registry reads from the package's source without running it.  The family itself (its targets, forms,
-program: sympy, the exact engine) is imported when first needed: :func:`get_target` or :func:`get_family`
-of one of its names, or :func:`targets` / :func:`families` (every family).  :func:`target_names` and
-:func:`families_offering` import no family; :func:`resolve_hook` imports the hook's module only.  Registering
-checks the family against its manifest (ValueError, one line, naming what differs).  A package without a
-literal ``MANIFEST`` is imported when the registry first loads, as an entry point's family is.
+The registry is lazy.  Knowing a family is importing its class, which names its targets
+(:attr:`Family.target_names`): :func:`target_names`, :func:`offering` and :func:`family_with` import nothing
+more.  A family's targets and forms are imported when first needed (:func:`get_target` or :func:`get_family`
+of one of its names, or :func:`targets` / :func:`families`: every family), then checked: its targets are the
+ones it named, in that order; each form is of one of its targets, takes that target's inputs, and has a name
+of its own; each target's default form exists (ValueError, one line, naming what differs).
 
-A built-in family that fails to import is an error, every time.  An entry point that fails to load
-(it raises, or its family clashes with another) is left out, with whatever it registered before it
-failed: one line on stderr names it, once per process, and :func:`broken_families` says why; every
+A built-in family that fails is an error, every time.  An entry point that fails (it raises, names no family
+class, its family clashes with another, or its targets fail to import) is left out, with whatever it
+registered: one line on stderr names it, once per process, and :func:`broken_families` says why; every
 other family works.
 """
 
 from __future__ import annotations
 
-import ast
 import importlib
-import pkgutil
 import sys
-from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
+from collections.abc import Mapping, Sequence
 from importlib.metadata import entry_points
-from pathlib import Path
+from typing import TYPE_CHECKING, TypeVar, cast
 
-from fitlab.core._hooks import ProgramContract, check_hook, check_program
+from fitlab.core._family import Capability, Family
 from fitlab.core._target import Target
 
-__all__ = [
-    "Family",
-    "register_family",
-    "unregister_family",
-    "families",
-    "get_family",
-    "targets",
-    "get_target",
-    "target_names",
-    "forms_for",
-    "get_form",
-    "family_service",
-    "resolve_hook",
-    "broken_families",
-    "manifest_hooks",
-    "did_you_mean",
-]
+if TYPE_CHECKING:
+    from fitlab.forms import Form
+
+__all__ = ["register_family", "unregister_family", "families", "get_family", "targets", "get_target",
+           "family_names", "target_names", "forms_for", "get_form", "offering", "family_with", "broken_families",
+           "did_you_mean"]  # fmt: skip
+
+C = TypeVar("C", bound=Capability)
+
+#: the package whose ``BUILTIN`` tuple holds the built-in families (imported by name: the families sit above
+#: the generic code, which reaches them only through the registry)
+BUILTIN_PACKAGE = "fitlab.families"
 
 
-@dataclass(frozen=True, eq=False)
-class Family:
-    """Everything one BRDF family contributes.
+class _Registry:
+    """The registry's state: one instance, :data:`_REGISTRY` (a test may swap in a fresh one)."""
 
-    name: the family's name (its folder's name for the built-in ones).
-    description: one line.
-    targets: its :class:`Target` s, in the order commands list them.
-    forms: its :class:`fitlab.forms.Form` s (each names its target).
-    libraries: the candidate-term libraries of ``fitlab discover``: a function returning target -> tuple of
-        libraries (the first primary), called only by discover (so that pysindy loads only there).
-    codegen: the program its generated code prints beyond one routine per target (a
-        :class:`fitlab.codegen.ProgramSpec`, which meets :class:`fitlab.core.ProgramContract`: checked when
-        the family registers), or None.
-    hooks: further family services by name (runtime models, Monte Carlo scenes, report methods, tables, audit),
-        each a callable the generic command of that name looks up; it returns the service, imported only
-        then (JAX, Mitsuba stay unloaded until a command needs them).  What a hook returns is checked
-        against the hook's contract, a ``typing.Protocol``, when it is resolved (:func:`family_service`,
-        :func:`resolve_hook`), with a one-line TypeError naming the first missing member: ``simulate``
-        returns a :class:`fitlab.scenes.SimulateHook` (:data:`HOOK_CONTRACTS`), ``tables``, ``audit``,
-        ``render``, ``bench``, ``report``, ``table_export`` and ``brdf_grid`` the protocols of
-        :mod:`fitlab.core._hooks` (:func:`fitlab.core.check_hook`).
-    default_program: whether its program is the one ``fitlab codegen`` (and ``fitlab.codegen.generate``,
-        ``load_program``) prints when no family is named: at most one family says so (the Lambert sphere; the
-        rule is :func:`fitlab.codegen.program.default_program_family`).
-    """
+    def __init__(self) -> None:
+        #: every known family, in the order commands list them
+        self.families: dict[str, Family] = {}
+        #: target name -> its family's name, for every target of every known family
+        self.owner: dict[str, str] = {}
+        #: family name -> its targets by name, once imported and checked
+        self.built: dict[str, dict[str, Target]] = {}
+        #: the families whose targets are being imported now (a registry call made meanwhile does not recurse)
+        self.building: set[str] = set()
+        #: the built-in families' names (once loaded)
+        self.builtin: set[str] = set()
+        #: family name -> the entry point it came from
+        self.entry: dict[str, str] = {}
+        #: entry point name -> why it was left out (one line)
+        self.broken: dict[str, str] = {}
+        self.loaded = False
 
-    name: str
-    description: str
-    targets: tuple[Target, ...]
-    forms: tuple = ()
-    libraries: Callable[[], Mapping[str, tuple]] = dict
-    codegen: ProgramContract | None = None
-    hooks: Mapping[str, Callable] = field(default_factory=dict)
-    default_program: bool = False
+    def add(self, family: Family, entry: str | None = None) -> Family:
+        other = self.families.get(family.name)
+        if other is not None:
+            if other is family:
+                return other
+            raise ValueError(f"a family named {family.name!r} is already registered")
+        names = list(family.target_names)
+        clash = [n for n in names if n in self.owner]
+        if clash or len(set(names)) != len(names):
+            raise ValueError(f"family {family.name}: target names {clash or names} are taken")
+        self.families[family.name] = family
+        for n in names:
+            self.owner[n] = family.name
+        if entry is not None:
+            self.entry[family.name] = entry
+        return family
 
+    def remove(self, name: str) -> None:
+        family = self.families.pop(name, None)
+        if family is not None:
+            for n in family.target_names:
+                if self.owner.get(n) == name:
+                    del self.owner[n]
+        self.built.pop(name, None)
+        self.entry.pop(name, None)
 
-#: hook name -> "module:function" that checks what the hook returns against its contract (a
-#: ``typing.Protocol``), raising a one-line TypeError naming the first missing member; run when the hook
-#: is resolved (:func:`family_service`, :func:`resolve_hook`), since resolving imports the service.  The
-#: hooks not named here are checked by :func:`fitlab.core.check_hook` (their protocols are in
-#: :mod:`fitlab.core._hooks`)
-HOOK_CONTRACTS = {"simulate": "fitlab.scenes:check_simulate_hook"}
-
-
-@dataclass(frozen=True, eq=False)
-class _Pending:
-    """A built-in family known from its package's ``MANIFEST``, not imported yet."""
-
-    name: str
-    module: str  # the package whose import registers the family
-    targets: tuple[str, ...]
-    hooks: Mapping[str, Callable]
-    default_program: bool
-    program: bool
-
-
-#: every registered family, in registration order
-_FAMILIES: dict[str, Family] = {}
-#: every target of a registered family
-_TARGETS: dict[str, Target] = {}
-#: every family, registered (a Family) or known from its manifest (a _Pending), in the order commands list them
-_SLOTS: dict[str, Family | _Pending] = {}
-#: target name -> its family's name, for every target of _SLOTS
-_OWNER: dict[str, str] = {}
-#: built-in family name -> its package (imported, when the family is needed, every time: cheap once imported)
-_BUILTIN: dict[str, str] = {}
-#: the built-in packages being imported now (a registry call made while one imports does not import it again)
-_IMPORTING: set[str] = set()
-_LOADED = False
-#: entry point name -> why it was left out (one line)
-_BROKEN: dict[str, str] = {}
-
-
-def manifest_hooks(package: str, hooks: Mapping[str, str]) -> dict[str, Callable]:
-    """A family's hooks from its manifest's ``hooks``: name -> where the service is, relative to ``package``:
-    ``"module"`` (the module is the service), ``"module:NAME"`` (an attribute of it) or ``"module:NAME()"``
-    (what calling that attribute returns).  Each hook imports its module only when called."""
-
-    def hook(spec: str) -> Callable:
-        module, _, attr = spec.partition(":")
-        call = attr.endswith("()")
-        attr = attr.removesuffix("()")
-
-        def service():
-            value: object = importlib.import_module(f"{package}.{module}")
-            if attr:
-                value = getattr(value, attr)
-            return value() if call and callable(value) else value
-
-        service.__qualname__ = f"hook[{package}.{spec}]"
-        return service
-
-    return {name: hook(spec) for name, spec in hooks.items()}
-
-
-def _manifest(package: str, folder: Path) -> _Pending | None:
-    """The built-in family of ``package`` from the literal ``MANIFEST`` in its ``__init__.py`` (read, not run),
-    or None when it states none (then the package is imported)."""
-    try:
-        tree = ast.parse((folder / "__init__.py").read_text(encoding="utf-8"))
-    except (OSError, SyntaxError, ValueError):
-        return None  # importing it says what is wrong
-    for node in tree.body:
-        if isinstance(node, ast.Assign) and any(isinstance(t, ast.Name) and t.id == "MANIFEST" for t in node.targets):
+    def load(self) -> None:
+        """Know every family: the built-in ones, then the entry points'."""
+        if self.loaded:
+            return
+        # a built-in family that fails to import is an error every time: nothing is marked loaded before
+        builtin = cast("Sequence[Family]", importlib.import_module(BUILTIN_PACKAGE).BUILTIN)
+        self.loaded = True
+        self.builtin = {f.name for f in builtin}
+        known = list(self.families.values())  # registered before the registry loaded: they keep their place
+        self.families.clear()
+        self.owner.clear()
+        for family in (*builtin, *known):
+            self.add(family)
+        for ep in entry_points(group="fitlab.families"):
+            before = set(self.families)
             try:
-                m = ast.literal_eval(node.value)
-                return _Pending(name=package.rpartition(".")[2], module=package, targets=tuple(m["targets"]),
-                                hooks=manifest_hooks(package, m.get("hooks", {})),
-                                default_program=bool(m.get("default_program", False)),
-                                program=bool(m.get("program", False)))  # fmt: skip
-            except (ValueError, TypeError, KeyError, SyntaxError):
-                return None
-    return None
+                cls = ep.load()
+                if not (isinstance(cls, type) and issubclass(cls, Family)):
+                    raise TypeError(f"{ep.value} is no subclass of fitlab.core.Family")
+                self.add(cls(), entry=ep.name)
+            except Exception as exc:  # noqa: BLE001 - a third party's family must not take the others down
+                for name in set(self.families) - before:  # what it registered before it failed goes too
+                    self.remove(name)
+                self.leave_out(ep.name, ep.value, exc)
+
+    def leave_out(self, entry: str, value: str, exc: BaseException) -> None:
+        text = "; ".join(line.strip() for line in str(exc).splitlines() if line.strip())
+        self.broken[entry] = f"{type(exc).__name__}: {text}" if text else type(exc).__name__
+        print(f"fitlab: the family entry point {entry!r} ({value}) failed to load and is left out: "
+              f"{self.broken[entry]}", file=sys.stderr)  # fmt: skip
+
+    def build(self, name: str) -> dict[str, Target] | None:
+        """The targets of the family ``name``, imported and checked on first use; None while they import, or
+        when the family came from an entry point and failed (then it is left out)."""
+        built = self.built.get(name)
+        if built is not None or name in self.building:
+            return built
+        family = self.families[name]
+        self.building.add(name)
+        try:
+            built = _checked(family, tuple(family.targets()), tuple(family.forms()))
+        except Exception as exc:
+            entry = self.entry.get(name)
+            if entry is None:
+                raise
+            self.remove(name)
+            self.leave_out(entry, f"family {name}", exc)
+            return None
+        finally:
+            self.building.discard(name)
+        self.built[name] = built
+        return built
+
+    def build_all(self) -> dict[str, dict[str, Target]]:
+        self.load()
+        out = {}
+        for name in list(self.families):
+            built = self.build(name)
+            if built is not None:
+                out[name] = built
+        return out
 
 
-def _check_manifest(family: Family, pending: _Pending) -> None:
-    """ValueError (one line) where a family differs from what its manifest stated."""
-    names = tuple(t.name for t in family.targets)
-    where = f"family {family.name}: its MANIFEST ({pending.module}) "
-    if names != pending.targets:
-        raise ValueError(where + f"lists the targets {', '.join(pending.targets)}; it registers {', '.join(names)}")
-    if set(family.hooks) != set(pending.hooks):
-        raise ValueError(where + f"lists the hooks {', '.join(sorted(pending.hooks))}; it registers "
-                                 f"{', '.join(sorted(family.hooks))}")  # fmt: skip
-    if family.default_program != pending.default_program or (family.codegen is not None) != pending.program:
-        raise ValueError(where + f"states program={pending.program}, default_program={pending.default_program}; it "
-                                 f"registers program={family.codegen is not None}, "
-                                 f"default_program={family.default_program}")  # fmt: skip
+_REGISTRY = _Registry()
 
 
-def _taken(name: str, names) -> None:
-    """ValueError when a family ``name`` may not have the targets ``names`` (another family has one)."""
-    names = list(names)
-    clash = [n for n in names if _OWNER.get(n, name) != name]
-    if clash or len(set(names)) != len(names):
-        raise ValueError(f"family {name}: target names {clash or names} are taken")
+def _checked(family: Family, targets: tuple[Target, ...], forms: tuple[Form, ...]) -> dict[str, Target]:
+    """``family``'s targets by name, each bound to the family and its forms; ValueError (one line) where the
+    targets differ from the names the family states, or a form does not fit its target."""
+    names = tuple(t.name for t in targets)
+    if names != family.target_names:
+        raise ValueError(f"family {family.name} names the targets {', '.join(family.target_names)}; its targets() "
+                         f"gives {', '.join(names)}")  # fmt: skip
+    by_name = {t.name: t for t in targets}
+    bound: dict[str, dict[str, Form]] = {n: {} for n in names}
+    for f in forms:
+        if f.target not in bound:
+            raise ValueError(f"family {family.name}: form {f.key} names a target the family does not have")
+        if f.name in bound[f.target]:
+            raise ValueError(f"family {family.name}: form {f.key} defined twice")
+        if set(f.inputs) != set(by_name[f.target].inputs):
+            raise ValueError(f"family {family.name}: form {f.key} takes {f.inputs}, not its target's inputs")
+        bound[f.target][f.name] = f
+    for t in targets:
+        if t.default_form not in bound[t.name]:
+            raise ValueError(f"family {family.name}: target {t.name}'s default form {t.default_form!r} is not one of "
+                             "its forms")  # fmt: skip
+    for t in targets:  # a Target is frozen: the registry is what binds it
+        object.__setattr__(t, "family", family.name)
+        object.__setattr__(t, "_forms", bound[t.name])
+    return by_name
+
+
+def loaded() -> bool:
+    """Whether the registry knows every family already (then what an entry point's failure says was said)."""
+    return _REGISTRY.loaded
+
+
+def registered_here() -> list[str]:
+    """Each family registered by a module of its own (:func:`register_family`), neither built-in nor an entry
+    point's, as "name=module:class": what a cache keyed by the families must add to the installed ones."""
+    return [f"{name}={type(f).__module__}:{type(f).__qualname__}" for name, f in _REGISTRY.families.items()
+            if name not in _REGISTRY.builtin and name not in _REGISTRY.entry]  # fmt: skip
 
 
 def register_family(family: Family) -> Family:
-    """Add ``family``: its targets become visible to every command, its forms to their targets.
-
-    Refused (ValueError) when a target name is taken by another family, when a form names a target the
-    family does not register, or when two forms of one target share a name; a built-in family also when it
-    differs from its package's ``MANIFEST``."""
-    other = _FAMILIES.get(family.name)
-    if other is not None and other is not family:
-        raise ValueError(f"a family named {family.name!r} is already registered")
-    for hook, value in family.hooks.items():
-        if not callable(value):
-            raise ValueError(f"family {family.name}: hook {hook!r} is not callable (a hook returns its service)")
-    check_program(family.codegen, family.name)
-    names = [t.name for t in family.targets]
-    _taken(family.name, names)
-    pending = _SLOTS.get(family.name)
-    if isinstance(pending, _Pending):
-        _check_manifest(family, pending)
-    forms: dict[str, dict] = {n: {} for n in names}
-    for f in family.forms:
-        if f.target not in forms:
-            raise ValueError(f"family {family.name}: form {f.key} names a target the family does not register")
-        if f.name in forms[f.target]:
-            raise ValueError(f"family {family.name}: form {f.key} defined twice")
-        if set(f.inputs) != set(next(t for t in family.targets if t.name == f.target).inputs):
-            raise ValueError(f"family {family.name}: form {f.key} takes {f.inputs}, not its target's inputs")
-        forms[f.target][f.name] = f
-    for t in family.targets:
-        object.__setattr__(t, "family", family.name)
-        object.__setattr__(t, "_forms", forms[t.name])
-        if t.default_form not in forms[t.name]:
-            raise ValueError(
-                f"family {family.name}: target {t.name}'s default form {t.default_form!r} is not registered"
-            )
-    _FAMILIES[family.name] = family
-    _SLOTS[family.name] = family  # a manifest's place in the order is kept
-    for t in family.targets:
-        _TARGETS[t.name] = t
-        _OWNER[t.name] = family.name
-    return family
-
-
-def _slot_targets(slot: Family | _Pending) -> tuple[str, ...]:
-    """The target names of a registered family or of one known from its manifest."""
-    return slot.targets if isinstance(slot, _Pending) else tuple(t.name for t in slot.targets)
+    """Add ``family`` (an instance of a :class:`Family` subclass); its targets are imported and checked on first
+    use.  ValueError when its name or one of its target names is taken."""
+    return _REGISTRY.add(family)
 
 
 def unregister_family(name: str) -> None:
     """Remove a family and its targets (for tests that register a toy family)."""
-    family = _FAMILIES.pop(name, None)
-    if family is not None:
-        for t in family.targets:
-            _TARGETS.pop(t.name, None)
-    slot = _SLOTS.pop(name, None)
-    if slot is not None:
-        for target in _slot_targets(slot):
-            if _OWNER.get(target) == name:
-                del _OWNER[target]
-
-
-def _load() -> None:
-    """Know every family: the built-in ones from their manifests (imported only where a package states none),
-    the entry points' by loading them."""
-    global _LOADED
-    if _LOADED:
-        return
-    import fitlab.families as builtin
-
-    # a family that fails to import is an error every time, never an empty registry
-    for info in sorted(pkgutil.iter_modules(builtin.__path__), key=lambda m: m.name):
-        package = f"{builtin.__name__}.{info.name}"
-        _BUILTIN[info.name] = package
-        if info.name in _SLOTS:
-            continue  # registered already (its package imported before the registry loaded)
-        pending = _manifest(package, Path(getattr(info.module_finder, "path", "")) / info.name) if info.ispkg else None
-        if pending is None:
-            _import_builtin(info.name)
-            continue
-        _taken(pending.name, pending.targets)
-        _SLOTS[pending.name] = pending
-        for t in pending.targets:
-            _OWNER[t] = pending.name
-    for ep in entry_points(group="fitlab.families"):
-        before = set(_FAMILIES)
-        try:
-            ep.load()
-        except Exception as exc:  # noqa: BLE001 - a third party's family must not take the others down
-            for name in set(_FAMILIES) - before:  # what it registered before it failed goes too
-                unregister_family(name)
-            text = "; ".join(line.strip() for line in str(exc).splitlines() if line.strip())
-            _BROKEN[ep.name] = f"{type(exc).__name__}: {text}" if text else type(exc).__name__
-            print(
-                f"fitlab: the family entry point {ep.name!r} ({ep.value}) failed to load and is left out: "
-                f"{_BROKEN[ep.name]}",
-                file=sys.stderr,
-            )
-    _LOADED = True
-
-
-def _import_builtin(name: str) -> None:
-    """Import the built-in family ``name``'s package (its import registers it); an error when it fails, or
-    when it registers no family of that name."""
-    package = _BUILTIN[name]
-    if package in _IMPORTING:
-        return  # a registry call while it imports: it is being registered
-    _IMPORTING.add(package)
-    try:
-        importlib.import_module(package)
-    finally:
-        _IMPORTING.discard(package)
-    if name not in _FAMILIES:
-        raise ImportError(
-            f"{package} registered no family {name!r} (a built-in family registers under its folder's name)"
-        )
-
-
-def _ensure(name: str) -> Family | None:
-    """The family ``name`` (of _SLOTS), imported if it was only known from its manifest."""
-    if name in _BUILTIN:
-        _import_builtin(name)  # every time (cheap once imported): a built-in that fails to import is an error
-    return _FAMILIES.get(name)
-
-
-def _ensure_all() -> None:
-    _load()
-    for name in list(_SLOTS):
-        _ensure(name)
+    _REGISTRY.remove(name)
 
 
 def broken_families() -> dict[str, str]:
     """Entry point name -> why it was left out (one line), for every ``fitlab.families`` entry point that
-    failed to load."""
-    _load()
-    return dict(_BROKEN)
-
-
-def family_programs() -> tuple[tuple[str, bool, bool], ...]:
-    """(name, has a program, declares the default program) of every family, in listing order, read from the
-    manifests where a built-in family is not imported yet (cheap: no family is imported for it)."""
-    _load()
-    out = []
-    for name, slot in _SLOTS.items():
-        if isinstance(slot, _Pending):
-            out.append((name, slot.program, slot.default_program))
-        else:
-            out.append((name, slot.codegen is not None, slot.default_program))
-    return tuple(out)
+    failed."""
+    _REGISTRY.build_all()
+    return dict(_REGISTRY.broken)
 
 
 def families() -> dict[str, Family]:
-    """name -> :class:`Family` of every registered family (every built-in family is imported)."""
-    _ensure_all()
-    return {name: _FAMILIES[name] for name in _SLOTS if name in _FAMILIES}
+    """name -> :class:`Family` of every family, its targets and forms imported and checked."""
+    built = _REGISTRY.build_all()
+    return {name: _REGISTRY.families[name] for name in built}
 
 
 def get_family(name: str) -> Family:
-    """The family ``name`` (imported if it was not; the others are not)."""
-    _load()
-    if name not in _SLOTS:
-        raise KeyError(f"unknown family {name!r}; families: {', '.join(_SLOTS)}")
-    family = _ensure(name)
-    if family is None:  # a registry call while the family's package imports
-        raise KeyError(f"family {name!r} is being imported; it is not registered yet")
-    return family
+    """The family ``name``, its targets and forms imported and checked (the other families' are not)."""
+    _REGISTRY.load()
+    if name not in _REGISTRY.families:
+        raise KeyError(f"unknown family {name!r}; families: {', '.join(_REGISTRY.families)}")
+    if _REGISTRY.build(name) is None:
+        raise KeyError(f"family {name!r}: its targets are being imported (or failed); it is not ready")
+    return _REGISTRY.families[name]
 
 
 def targets() -> dict[str, Target]:
-    """name -> :class:`Target` of every registered target, family by family (every built-in family is
-    imported; :func:`target_names` imports none)."""
-    _ensure_all()
-    return {t.name: t for name in _SLOTS if name in _FAMILIES for t in _FAMILIES[name].targets}
+    """name -> :class:`Target` of every target, family by family (every family's targets are imported;
+    :func:`target_names` imports none)."""
+    return {n: t for built in _REGISTRY.build_all().values() for n, t in built.items()}
+
+
+def family_names() -> tuple[str, ...]:
+    """The name of every family, in the order of :func:`families`, importing no family's targets."""
+    _REGISTRY.load()
+    return tuple(_REGISTRY.families)
 
 
 def target_names() -> tuple[str, ...]:
-    """The name of every target, family by family, in the order of :func:`targets`, importing no built-in
-    family."""
-    _load()
-    return tuple(t for slot in _SLOTS.values() for t in _slot_targets(slot))
+    """The name of every target, family by family, in the order of :func:`targets`, importing no family's
+    targets."""
+    _REGISTRY.load()
+    return tuple(n for family in _REGISTRY.families.values() for n in family.target_names)
+
+
+def get_target(name: str) -> Target:
+    """The target ``name``: its family's targets are imported if they were not (the other families' are not)."""
+    _REGISTRY.load()
+    family = _REGISTRY.owner.get(name)
+    if family is None:
+        raise KeyError(f"unknown target {name!r}{did_you_mean(name, target_names(), 'fitlab refit --list names them')}")
+    built = _REGISTRY.build(family)
+    if built is None:
+        raise KeyError(f"target {name!r}: its family {family!r} is being imported (or failed); it is not ready")
+    return built[name]
+
+
+def forms_for(target: str) -> Mapping[str, Form]:
+    """name -> Form of a target's forms."""
+    return get_target(target).forms
+
+
+def get_form(target: str, name: str) -> Form:
+    forms = forms_for(target)
+    if name not in forms:
+        raise KeyError(f"target {target} has no form {name!r}; forms: {', '.join(forms)}")
+    return forms[name]
+
+
+def offering(capability: type[C]) -> dict[str, C]:
+    """name -> family of every family that has ``capability`` (a :class:`Capability` among its bases), in the
+    order of :func:`families`, importing no family's targets nor services."""
+    _REGISTRY.load()
+    return {name: f for name, f in _REGISTRY.families.items() if isinstance(f, capability)}
+
+
+def family_with(capability: type[C], name: str | None = None) -> C:
+    """The family ``name`` when it has ``capability``, or (None) the one family that has it.  KeyError (one line)
+    when that family lacks it, when no family has it, or when several do and none is named (then the caller
+    must choose)."""
+    having = offering(capability)
+    if name is not None:
+        if name not in having:
+            what = "family" if name in _REGISTRY.families else "unknown family"
+            raise KeyError(f"{what} {name!r} has no {capability.noun}; families that have: "
+                           f"{', '.join(having) or 'none'}")  # fmt: skip
+        return having[name]
+    if len(having) != 1:
+        raise KeyError(f"{len(having)} families have {capability.noun} ({', '.join(having) or 'none'}); "
+                       "name one with --family")  # fmt: skip
+    return next(iter(having.values()))
 
 
 def did_you_mean(name: str, names, listing: str = "") -> str:
@@ -387,75 +310,3 @@ def did_you_mean(name: str, names, listing: str = "") -> str:
     found = [by_case[c] for c in close]
     return (f"; did you mean {', '.join(found[:-1]) + ' or ' if len(found) > 1 else ''}{found[-1]}?"
             f"{f' ({listing})' if listing else ''}")  # fmt: skip
-
-
-def get_target(name: str) -> Target:
-    """The target ``name``: its family is imported if it was not (the others are not)."""
-    _load()
-    family = _OWNER.get(name)
-    if family is None:
-        raise KeyError(f"unknown target {name!r}{did_you_mean(name, target_names(), 'fitlab refit --list names them')}")
-    _ensure(family)
-    if name not in _TARGETS:  # a registry call while the family's package imports
-        raise KeyError(f"target {name!r}: its family {family!r} is being imported; it is not registered yet")
-    return _TARGETS[name]
-
-
-def families_offering(name: str) -> list[str]:
-    """The names of the registered families whose hooks include ``name``, in registration order (importing no
-    built-in family: their manifests name their hooks)."""
-    _load()
-    return [fname for fname, slot in _SLOTS.items() if name in slot.hooks]
-
-
-def family_service(name: str, family: str | None = None):
-    """The service ``name`` (a family hook: ``hooks[name]()``) of ``family``, or (None) of the one registered
-    family that offers it.
-
-    KeyError (one line) when the family does not offer it, when no family does, or when several do and
-    none is named (then the caller must choose)."""
-    offering = families_offering(name)
-    if family is not None:
-        if family not in offering:
-            raise KeyError(f"family {family!r} offers no {name!r}; families that do: {', '.join(offering) or 'none'}")
-        return _service(family, name)
-    if len(offering) != 1:
-        raise KeyError(
-            f"{len(offering)} families offer {name!r} ({', '.join(offering) or 'none'}); name one with --family"
-        )
-    return _service(offering[0], name)
-
-
-def resolve_hook(family: str, name: str):
-    """What ``family``'s hook ``name`` returns (``hooks[name]()``), checked against the hook's contract
-    (:data:`HOOK_CONTRACTS`, else :func:`fitlab.core.check_hook`): TypeError, one line naming the first
-    missing member.  KeyError when the family has no such hook.  A built-in family not imported yet is not
-    imported for it: its manifest says which module holds the hook, and only that module is imported."""
-    _load()
-    if family not in _SLOTS:
-        raise KeyError(f"unknown family {family!r}; families: {', '.join(_SLOTS)}")
-    hooks = _SLOTS[family].hooks
-    if name not in hooks:
-        raise KeyError(f"family {family!r} has no {name!r} hook")
-    service = hooks[name]()
-    if name in HOOK_CONTRACTS:
-        module, function = HOOK_CONTRACTS[name].split(":")
-        getattr(importlib.import_module(module), function)(service, family)
-    else:
-        check_hook(service, family, name)
-    return service
-
-
-_service = resolve_hook
-
-
-def forms_for(target: str) -> Mapping:
-    """name -> Form of a target's registered forms."""
-    return get_target(target).forms
-
-
-def get_form(target: str, name: str):
-    forms = forms_for(target)
-    if name not in forms:
-        raise KeyError(f"target {target} has no form {name!r}; forms: {', '.join(forms)}")
-    return forms[name]

@@ -16,17 +16,18 @@ regression picks becomes a :class:`fitlab.forms.Form` with no formula written tw
 
 from __future__ import annotations
 
+import abc
 import itertools
+from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Mapping
 
 import numpy as np
 import sympy as sp
 
-from fitlab.core import did_you_mean, families
+from fitlab.core import Capability, did_you_mean, offering
 from fitlab.forms.symbolic import lambdify_numpy, symbols
 
-__all__ = ["Library", "libraries_of", "get_library", "get_libraries", "products"]
+__all__ = ["Library", "HasLibraries", "libraries_of", "get_library", "get_libraries", "products"]
 
 @dataclass(frozen=True, eq=False)
 class Library:
@@ -105,10 +106,20 @@ def products(*factor_sets: Mapping[str, sp.Expr], skip=()) -> dict[str, sp.Expr]
     return out
 
 
+class HasLibraries(Capability):
+    """A family whose targets ``fitlab discover`` searches."""
+
+    noun = "discovery libraries"
+
+    @abc.abstractmethod
+    def libraries(self) -> Mapping[str, tuple[Library, ...]]:
+        """target -> its libraries, the first its primary one (pysindy loads only when discover calls this)."""
+
+
 def libraries_of() -> dict[str, tuple[Library, ...]]:
-    """target -> its libraries, over every registered family (the first of each is its primary library)."""
+    """target -> its libraries, over every family that has them (the first of each is its primary library)."""
     out = {}
-    for family in families().values():
+    for family in offering(HasLibraries).values():
         out.update(family.libraries())
     return out
 

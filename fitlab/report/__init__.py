@@ -15,13 +15,13 @@ measures
   harness of :mod:`fitlab.codegen.bench`), numpy ns and JAX throughput
   (:mod:`.cost`), the exact engine's set-up and time to reach an error
   and Monte Carlo's error and time against path count (measured by the
-  family, through its ``report`` hook: :func:`fitlab.report.methods.brdf_hook`),
+  family, through its report: :func:`fitlab.report.methods.brdf_report`),
   and the one-off cost of each refit (:mod:`.refits`);
 
 and writes docs/report.md, docs/accuracy_vs_cost.png (with the Pareto front,
 :mod:`.pareto`, :mod:`.plot`) and docs/report.csv (:mod:`.write`).  The
 catalogue of methods is :mod:`.methods` (each family adds its own through its
-``report`` hook, for the Lambert sphere
+:class:`~fitlab.report.methods.Report`, for the Lambert sphere
 :mod:`fitlab.families.lambert_sphere.report.methods`); the sizes are :mod:`.settings`
 (``FULL``, and ``QUICK`` for the test); :func:`build_report` runs it all.
 """

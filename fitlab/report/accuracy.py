@@ -21,7 +21,7 @@ import numpy as np
 
 from fitlab.fit.metrics import relative_errors, summary
 from fitlab.fit.refit import preset_metrics
-from fitlab.report.methods import brdf_hook
+from fitlab.report.methods import brdf_report
 
 __all__ = ["brdf_errors", "brdf_accuracy", "part_accuracy", "AWAY_MU"]
 
@@ -31,13 +31,13 @@ AWAY_MU = 1.0 / 64.0
 
 def brdf_errors(method, valid) -> np.ndarray:
     """Relative errors of ``method`` at every point of the BRDF validation set."""
-    approx = method.evaluate(*(valid.inputs[n] for n in brdf_hook().BRDF_INPUTS))
+    approx = method.evaluate(*(valid.inputs[n] for n in brdf_report().BRDF_INPUTS))
     return relative_errors(approx, valid.y, np.abs(valid.y))
 
 
 def _point(data, i: int) -> dict:
-    """The validation set's point ``i``: the BRDF's inputs that name it (the report hook's ``BRDF_POINT``)."""
-    return {k: float(data.inputs[k][i]) for k in brdf_hook().BRDF_POINT}
+    """The validation set's point ``i``: the BRDF's inputs that name it (the report's ``BRDF_POINT``)."""
+    return {k: float(data.inputs[k][i]) for k in brdf_report().BRDF_POINT}
 
 
 def brdf_accuracy(method, valid, grazing=None, fresh=None, energy=None) -> dict:
@@ -47,7 +47,7 @@ def brdf_accuracy(method, valid, grazing=None, fresh=None, energy=None) -> dict:
     albedos (one row per albedo), directional_albedo(f, mu, c)), albedo_err = max |a - a_exact| over
     mu and the albedos."""
     err = brdf_errors(method, valid)
-    hook = brdf_hook()
+    hook = brdf_report()
     mu_i, mu_o = (valid.inputs[n] for n in hook.BRDF_INPUTS[:2])  # the incident and outgoing cosines
     away = (mu_i >= AWAY_MU) & (mu_o >= AWAY_MU)
     i = int(np.argmax(err))

@@ -1,8 +1,8 @@
 r"""The catalogue: every way fitlab can evaluate a family's BRDF and its parts.
 
 The generic part lives here: the method records, the inventory of fit files,
-and the loops over the registered families; each family's ``report`` hook
-(for the Lambert sphere :mod:`fitlab.families.lambert_sphere.report.methods`)
+and the loops over the registered families; each family that is a :class:`HasReport`
+(for the Lambert sphere :mod:`fitlab.families.lambert_sphere.report.methods` is its :class:`Report`)
 contributes what only it knows.
 
 BRDF level (:func:`brdf_methods`), each a numpy function of (mu_i, mu_o, phi, c, kd),
@@ -25,7 +25,7 @@ its generated C (:class:`CSpec`); for the Lambert sphere:
   not models of this material, the yardsticks of cost and of error.
 
 The family's own engines (the exact engine, Monte Carlo) are measured apart, by the family
-(:func:`brdf_hook`'s ``measure_engines``; for the Lambert sphere
+(:func:`brdf_report`'s ``measure_engines``; for the Lambert sphere
 :mod:`fitlab.families.lambert_sphere.report.engine_rows`).  Part level (:func:`part_methods`): the
 family's own methods of a target (for the Lambert sphere the tables and, for
 H0 and H1, the Fock method of the exact engine), then the target's published
@@ -37,25 +37,33 @@ discovered forms) join the report without any change here.
 
 from __future__ import annotations
 
+import abc
 import math
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable
+from typing import TYPE_CHECKING, Any, Protocol
 
+import numpy as np
 import sympy as sp
 
-from fitlab.core import families, get_target, resolve_hook, targets
+from fitlab.core import Capability, families, get_target, offering, targets
 from fitlab.store import FitFileError, load, read_fit
+
+if TYPE_CHECKING:
+    from fitlab.codegen.program import Program
+    from fitlab.report.settings import Settings
 
 __all__ = ["BrdfMethod", "PartMethod", "CSpec", "FitEntry", "ReportError", "fit_inventory", "brdf_methods",
            "part_methods", "GROUPS", "brdf_inputs", "preset_records", "origin_kind", "fit_group", "best_forms",
-           "positional", "report_hooks", "brdf_hook", "required_fits", "report_parts", "preset_variants"]  # fmt: skip
+           "positional", "family_reports", "brdf_report", "required_fits", "report_parts", "preset_variants",
+           "Report", "BrdfReport", "HasReport", "HasBrdfReport"]  # fmt: skip
 
 
 def brdf_inputs() -> tuple[str, ...]:
     """The BRDF's signature: its inputs, in the order every BRDF method's ``evaluate`` takes them (the report
-    hook's ``BRDF_INPUTS``, of the family whose BRDF the report measures: :func:`brdf_hook`)."""
-    return tuple(brdf_hook().BRDF_INPUTS)
+    report's ``BRDF_INPUTS``, of the family whose BRDF the report measures: :func:`brdf_report`)."""
+    return tuple(brdf_report().BRDF_INPUTS)
 
 #: groups in the order the report lists them
 GROUPS = ("exact", "tables", "published", "refit", "refit, richer", "discovered", "fast", "baseline", "monte carlo")
@@ -69,7 +77,7 @@ class ReportError(Exception):
 class CSpec:
     """Where a method's generated C comes from: a fits folder, the non-default forms, the routine.
 
-    ``fits_dir`` None means the baselines' program (the family report hook's ``baseline_program``);
+    ``fits_dir`` None means the baselines' program (:meth:`BrdfReport.baseline_program`);
     ``preset`` names a published preset set written to a temporary fits folder (see
     :func:`preset_records`); ``build``, a program that is not made from fits (the exported tables):
     ``build() -> (Program, {C file name: text})``."""
@@ -123,43 +131,191 @@ class FitEntry:
     record: dict = field(hash=False, compare=False)
 
 
-# -- the families' report hooks -------------------------------------------------------------------------
-def report_hooks() -> dict:
-    """family name -> what its ``report`` hook returns: an object (a module) with REQUIRED_FITS, PARTS,
-    PRESET_VARIANTS, tables_dir, brdf_methods, part_extras, preset_records and check_tables, and, for the
-    family whose BRDF the report measures, exact_brdf, exact_kd, EXACT_SOURCES, SOURCES and the exact engine's
-    and Monte Carlo's measurements (:mod:`fitlab.families.lambert_sphere.report.methods` lists them)."""
-    return {name: resolve_hook(name, "report") for name, f in families().items() if "report" in f.hooks}
+# -- the families' report services ------------------------------------------------------------------------
+class Report(Protocol):
+    """A family's methods in the report's catalogue."""
+
+    @property
+    def REQUIRED_FITS(self) -> Sequence[str]:
+        """The targets whose default fit the family's BRDF-level methods need."""
+        ...
+
+    @property
+    def PARTS(self) -> Sequence[str]:
+        """The targets measured at part level."""
+        ...
+
+    @property
+    def PRESET_VARIANTS(self) -> Mapping[str, Any]:
+        """Name -> the published runtime presets' parts."""
+        ...
+
+    def tables_dir(self, data_dir: Path | None = None, /) -> Path:
+        """Where the family reads its tables (``data_dir`` itself when given)."""
+        ...
+
+    def brdf_methods(self, fits_dir: Path, entries: list[FitEntry], data_dir: Path, preset_c: tuple, discovered: bool,
+                     /) -> list[BrdfMethod]:  # fmt: skip
+        """The BRDF-level methods (:func:`brdf_methods`); ``preset_c`` the preset variants whose C is built,
+        ``discovered=False`` leaves out the entries of discovered forms."""
+        ...
+
+    def part_extras(self, target: str, data_dir: Path, /) -> list[PartMethod]:
+        """The part-level methods of ``target`` beyond its presets and fit files."""
+        ...
+
+    def preset_records(self, variant: str, /) -> dict:
+        """The fit records of a published preset set (:data:`PRESET_VARIANTS`), by target."""
+        ...
+
+    def check_tables(self, folder: Path, /) -> None:
+        """Refuse (:class:`fitlab.store.TableError`) tables the report cannot read."""
+        ...
 
 
-def brdf_hook():
-    """The report hook of the family whose whole BRDF the report measures (its exact engine, Monte Carlo
-    and validation set): the one family whose hook has ``exact_brdf``."""
-    hooks = [h for h in report_hooks().values() if hasattr(h, "exact_brdf")]
-    if len(hooks) != 1:
-        raise ReportError(f"the report measures one family's BRDF; {len(hooks)} families have an exact BRDF")
-    return hooks[0]
+class BrdfReport(Report, Protocol):
+    """The report of the family whose whole BRDF the report measures: the BRDF's signature and material, the
+    report's family settings, the measurements of the family's own engines and report.md's words on them."""
+
+    @property
+    def BRDF_INPUTS(self) -> Sequence[str]:
+        """The BRDF's inputs, in the order every method's ``evaluate`` takes them: the incident and outgoing
+        cosines, the azimuth, the material, and the material's second parameter (0 where a method ignores it)."""
+        ...
+
+    @property
+    def BRDF_POINT(self) -> Sequence[str]:
+        """The inputs that name a point of the validation set (the second parameter follows from the material)."""
+        ...
+
+    @property
+    def BRDF_MATERIAL(self) -> Sequence[str]:
+        """The material's inputs: all 0 is the black material, whose BRDF is exactly 0."""
+        ...
+
+    @property
+    def BRDF_TITLE(self) -> str:
+        """The BRDF's name in report.md's title and the plot's."""
+        ...
+
+    @property
+    def REPORT_TEXT(self) -> Mapping[str, str]:
+        """report.md's sentences on the material ("material": how the second parameter is set; "black": what the
+        black material's column measures) and on the parts ("parts": what they are measured on)."""
+        ...
+
+    @property
+    def REPORT_SETTINGS(self) -> Mapping[str, Any]:
+        """The family's settings of the report, by the generic settings' name ("full", "quick")."""
+        ...
+
+    @property
+    def SOURCES(self) -> Mapping[str, str]:
+        """What each engine measurement measured ("exact": the exact engine)."""
+        ...
+
+    @property
+    def EXACT_SOURCES(self) -> Path:
+        """The folder of the exact engine's sources (hashed into the validation set's cache key)."""
+        ...
+
+    def exact_brdf(self, mu_i: np.ndarray, mu_o: np.ndarray, phi: np.ndarray, material: float, /) -> np.ndarray:
+        """The exact BRDF at points, at one material."""
+        ...
+
+    def exact_kd(self, material: np.ndarray, /) -> np.ndarray:
+        """The material's second parameter (the Lambert sphere's kd) of each material."""
+        ...
+
+    def exact_albedo(self, mu: np.ndarray, material: float, /) -> np.ndarray:
+        """The exact directional albedo at incident cosines ``mu``, one material."""
+        ...
+
+    def directional_albedo(self, f: Callable[..., np.ndarray], mu: np.ndarray, material: float, /) -> np.ndarray:
+        """The directional albedo of a BRDF ``f`` (a method's evaluate) at incident cosines ``mu``."""
+        ...
+
+    def validation_materials(self, family_settings: Any, /) -> tuple[np.ndarray, str]:
+        """(materials, what they are) of the validation and grazing sets."""
+        ...
+
+    def fresh_materials(self, rng: np.random.Generator, family_settings: Any, /) -> tuple[np.ndarray, str]:
+        """(materials, what they are) of the independent set: the first draws of its generator ``rng``."""
+        ...
+
+    def energy_materials(self, family_settings: Any, /) -> tuple[np.ndarray, str]:
+        """(materials, what they are) where the directional albedo is checked."""
+        ...
+
+    def measure_engines(self, settings: Settings, family_settings: Any, inputs: dict, progress: Any,
+                        /) -> tuple[list[dict], dict]:  # fmt: skip
+        """(rows, context) of the family's own engines (exact, Monte Carlo), as the report's rows and what its
+        sections read; ``inputs`` the numpy timing inputs by name; ``progress.stage(name, steps)`` and
+        ``progress.tick()`` show the stages."""
+        ...
+
+    def timing_inputs(self, n: int, data_dir: Path, /) -> dict:
+        """Seeded random inputs by argument name: what the timings evaluate."""
+        ...
+
+    def baseline_program(self) -> Program:
+        """The program of the baselines whose C the report times beside the family's."""
+        ...
+
+    def engine_sections(self, report: dict, /) -> list[str]:
+        """report.md's sections on the family's own engines: markdown lines."""
+        ...
+
+
+class HasReport(Capability):
+    """A family with methods in the report's catalogue."""
+
+    noun = "report"
+
+    @abc.abstractmethod
+    def report(self) -> Report: ...
+
+
+class HasBrdfReport(HasReport):
+    """The family whose whole BRDF the report measures (``fitlab report`` needs exactly one)."""
+
+    noun = "BRDF the report measures"
+
+    @abc.abstractmethod
+    def report(self) -> BrdfReport: ...
+
+
+def family_reports() -> dict[str, Report]:
+    """family name -> its :class:`Report`, of every family that is a :class:`HasReport`."""
+    return {name: f.report() for name, f in offering(HasReport).items()}
+
+
+def brdf_report() -> BrdfReport:
+    """The :class:`BrdfReport` of the family whose whole BRDF the report measures (its exact engine, Monte Carlo
+    and validation set): the one :class:`HasBrdfReport`."""
+    having = offering(HasBrdfReport)
+    if len(having) != 1:
+        raise ReportError(f"the report measures one family's BRDF; {len(having)} families have an exact BRDF")
+    return next(iter(having.values())).report()
 
 
 def required_fits() -> list[str]:
     """The targets whose default fit the families' BRDF-level methods need, in the families' order."""
-    return [t for hook in report_hooks().values() for t in hook.REQUIRED_FITS]
+    return [t for hook in family_reports().values() for t in hook.REQUIRED_FITS]
 
 
 def report_parts() -> tuple:
-    """The targets measured at part level: a family's ``PARTS`` where its report hook names them, else
+    """The targets measured at part level: a family's ``PARTS`` where its report names them, else
     every target of the family."""
-    hooks = report_hooks()
     out = []
-    for name, family in families().items():
-        parts = getattr(hooks.get(name), "PARTS", None)
-        out += list(parts) if parts is not None else [t.name for t in family.targets]
+    for family in families().values():
+        out += list(family.report().PARTS if isinstance(family, HasReport) else family.target_names)
     return tuple(out)
 
 
 def preset_variants() -> tuple:
     """The published preset sets of every family's runtime model."""
-    return tuple(v for hook in report_hooks().values() for v in hook.PRESET_VARIANTS)
+    return tuple(v for hook in family_reports().values() for v in hook.PRESET_VARIANTS)
 
 
 # -- fits ------------------------------------------------------------------------------------------
@@ -228,7 +384,7 @@ def best_forms(entries, kinds, parts) -> dict:
 def preset_records(variant: str) -> dict:
     """{(target, form): fit record} of a published preset set of a family's runtime model (the family's
     ``preset_records``), so that codegen can print the published model like any fit."""
-    for hook in report_hooks().values():
+    for hook in family_reports().values():
         if variant in hook.PRESET_VARIANTS:
             return hook.preset_records(variant)
     raise KeyError(f"no family has a preset set {variant!r}; sets: {', '.join(preset_variants())}")
@@ -241,7 +397,7 @@ def brdf_methods(fits_dir: Path, entries: list[FitEntry], data_dir: Path | None 
     each family's own); ``preset_c``: the preset variants whose C is built; ``discovered=False`` leaves out
     the entries of discovered forms."""
     out = []
-    for hook in report_hooks().values():
+    for hook in family_reports().values():
         out += hook.brdf_methods(Path(fits_dir), entries, hook.tables_dir(data_dir), preset_c, discovered)
     return out
 
@@ -255,7 +411,7 @@ def positional(f, inputs):
 def part_methods(target_name: str, entries: list[FitEntry], data_dir: Path | None = None) -> list[PartMethod]:
     """The part-level catalogue of one target (see the module docstring)."""
     t = get_target(target_name)
-    hook = report_hooks().get(t.family)
+    hook = family_reports().get(t.family)
     out = [] if hook is None else list(hook.part_extras(target_name, hook.tables_dir(data_dir)))
     for form_name, preset in t.published:
         form = t.forms[form_name]

@@ -24,15 +24,15 @@ from fitlab.codegen import DEFAULT_FORMS, build_program, emit, load_program
 from fitlab.codegen.bench import time_expressions, time_routines
 from fitlab.codegen.native import CompileError, build
 from fitlab.core import get_target
-from fitlab.report.methods import CSpec, brdf_hook, preset_records
+from fitlab.report.methods import CSpec, brdf_report, preset_records
 
 __all__ = ["c_costs", "form_costs", "form_expressions", "timing_inputs"]
 
 
 def timing_inputs(n: int, data_dir: Path) -> dict:
-    """Seeded random inputs by argument name, from the measured family's report hook
+    """Seeded random inputs by argument name, from the measured family's report
     (``timing_inputs(n, data_dir)``)."""
-    return brdf_hook().timing_inputs(n, data_dir)
+    return brdf_report().timing_inputs(n, data_dir)
 
 
 def _program(spec: CSpec):
@@ -40,7 +40,7 @@ def _program(spec: CSpec):
     if spec.build is not None:
         return spec.build()[0], {}
     if spec.fits_dir is None and spec.preset is None:
-        return brdf_hook().baseline_program(), {}
+        return brdf_report().baseline_program(), {}
     if spec.preset is not None:
         records = preset_records(spec.preset)
         prog = build_program({t: rec for (t, _), rec in records.items()})

@@ -27,13 +27,13 @@ from fitlab.report.accuracy import brdf_accuracy, part_accuracy
 from fitlab.report.cost import jax_costs, numpy_costs
 from fitlab.report.methods import (
     ReportError,
-    brdf_hook,
+    brdf_report,
     brdf_methods,
     fit_group,
     fit_inventory,
     part_methods,
     preset_variants,
-    report_hooks,
+    family_reports,
     report_parts,
 )
 from fitlab.report.pareto import recommend
@@ -60,7 +60,7 @@ class Report:
 
 def _check_tables(data_dir: Path) -> None:
     """Every family's tables (its ``check_tables``), in ``data_dir`` or where the family reads them."""
-    for hook in report_hooks().values():
+    for hook in family_reports().values():
         try:
             hook.check_tables(hook.tables_dir(data_dir))
         except TableError as exc:
@@ -147,7 +147,7 @@ def _refit_rows(entries, settings, fits_dir, progress) -> list[dict]:
 def _resolved(settings: Settings) -> Settings:
     """``settings`` with None replaced: the parts and the refits by the family's choice where its report settings
     make one (``parts``, ``refits``), the parts and the preset variants by every one the families name."""
-    fam = family_settings(settings, brdf_hook())
+    fam = family_settings(settings, brdf_report())
     if settings.parts is None and getattr(fam, "parts", None) is not None:
         settings = replace(settings, parts=tuple(fam.parts))
     if settings.refits is None and getattr(fam, "refits", None) is not None:
@@ -185,11 +185,11 @@ def build_report(settings: Settings = FULL, fits_dir: Path | None = None, data_d
                    machine=f"{platform.machine()}, {os.cpu_count()} CPUs, BLAS on 1 thread, JAX on "
                            f"{jax.default_backend()}")  # fmt: skip
     return Report(settings, rows, recommend([r for r in rows if r["section"] == "brdf"]), context,
-                  family_settings(settings, brdf_hook()))
+                  family_settings(settings, brdf_report()))
 
 
 def _measure(settings, entries, fits_dir, data_dir, use_cache, p) -> tuple[list, dict]:
-    hook = brdf_hook()  # the family's exact engine and Monte Carlo
+    hook = brdf_report()  # the family's exact engine and Monte Carlo
 
     fam = family_settings(settings, hook)
     n_materials = (hook.validation_materials(fam)[0].size

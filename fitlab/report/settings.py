@@ -2,7 +2,7 @@ r"""The sizes of one report: :data:`FULL` (``fitlab report``) and :data:`QUICK` 
 
 Every random number of the report comes from a seed here, so that every
 column but the timings is reproducible run to run.  How hard the report measures a family's own engines
-(the Lambert sphere's exact engine and Monte Carlo) is the family's: its report hook's
+(the Lambert sphere's exact engine and Monte Carlo) is the family's: its report's
 ``REPORT_SETTINGS`` (:func:`family_settings`).
 """
 
@@ -19,7 +19,7 @@ class Settings:
     """What one report measures and how hard.
 
     BRDF validation set (see :mod:`fitlab.report.validation`): at each of the family's materials (the report
-    hook's ``validation_materials``; the Lambert sphere's albedos c), the same 2^``log2_points`` scrambled
+    report's ``validation_materials``; the Lambert sphere's albedos c), the same 2^``log2_points`` scrambled
     Sobol points (seed ``seed``) in (mu_i, mu_o, phi/pi) in (0, 1)^3; the black material is measured as
     max |f| (exactly 0 for an exact model).
 
@@ -37,7 +37,7 @@ class Settings:
     fresh_seed: int = 18_2026
     energy_mu: int = 11
     #: targets whose parts are measured on their validation sets; None: the family's choice for these settings
-    #: (its report settings' ``parts``), else every target the families' report hooks measure at part level
+    #: (its report settings' ``parts``), else every target the families' reports measure at part level
     #: (fitlab.report.methods.report_parts)
     parts: tuple | None = None
     #: runtime presets whose C is built and timed; None: every preset set of the families' runtime
@@ -61,7 +61,7 @@ class Settings:
     #: errors at which the time to reach them is reported (Monte Carlo and the exact engine)
     error_targets: tuple = (1e-2, 1e-3, 1e-6, 1e-10)
     #: the settings of the family whose BRDF the report measures (its exact engine, Monte Carlo), given by
-    #: its report hook (``REPORT_SETTINGS``); None: the hook's settings of this one's ``name``
+    #: its report (``REPORT_SETTINGS``); None: the family report's settings of this one's ``name``
     family: Any = None
 
 
@@ -83,9 +83,9 @@ QUICK = Settings(
 )
 
 
-def family_settings(settings: Settings, hook):
-    """The settings of the family whose BRDF the report measures (its report ``hook``): ``settings.family``,
-    else the hook's ``REPORT_SETTINGS[settings.name]``."""
+def family_settings(settings: Settings, report):
+    """The settings of the family whose BRDF the report measures (its ``report``): ``settings.family``,
+    else the report's ``REPORT_SETTINGS[settings.name]``."""
     if settings.family is not None:
         return settings.family
-    return hook.REPORT_SETTINGS[settings.name]
+    return report.REPORT_SETTINGS[settings.name]

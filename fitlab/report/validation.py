@@ -1,11 +1,11 @@
 r"""The one BRDF validation set of the report, over (mu_i, mu_o, phi) and the family's materials.
 
-The exact values come from the family's report hook (``exact_brdf``, ``exact_kd``:
+The exact values come from the family's report (``exact_brdf``, ``exact_kd``:
 for the Lambert sphere :func:`fitlab.families.lambert_sphere.exact.brdf` and kd_true).
 
-The materials are the family's (its report hook's ``validation_materials`` and ``fresh_materials``; for the
+The materials are the family's (its report's ``validation_materials`` and ``fresh_materials``; for the
 Lambert sphere the albedos c of :mod:`fitlab.families.lambert_sphere.report.materials`, with kd = kd_true(c),
-the hook's ``exact_kd``).  For each material the same 2^m scrambled Sobol points (seeded) give
+the report's ``exact_kd``).  For each material the same 2^m scrambled Sobol points (seeded) give
 (mu_i, mu_o, phi/pi) in (0, 1)^3; mu is uniform, so the grazing pole mu_i = mu_o = 0 is approached only as far
 as the points go (min mu_i + mu_o is about 2^(-m/2)).
 
@@ -31,7 +31,7 @@ import numpy as np
 
 from fitlab.cache import cache_dir, cached_arrays
 from fitlab.core import Dataset
-from fitlab.report.methods import brdf_hook
+from fitlab.report.methods import brdf_report
 from fitlab.report.settings import Settings, family_settings
 
 __all__ = ["sobol_points", "validation_sets", "fresh_set", "cache_dir", "exact_values", "GRAZING_MU", "GRAZING_PHI"]
@@ -54,7 +54,7 @@ def exact_values(point_sets: Mapping[str, np.ndarray], c: np.ndarray, use_cache:
     keyed by its points, the materials and the family's exact sources; a damaged entry is a miss).  The sets are
     computed together, every set at one albedo before the next (an exact engine may keep the solution of only
     one albedo: a set after set loop would solve each albedo once per set).  ``tick()`` once per albedo."""
-    hook = brdf_hook()
+    hook = brdf_report()
     sources = sorted(Path(hook.EXACT_SOURCES).glob("*.py"))
     c = np.asarray(c, dtype=float)
     kinds = list(point_sets)
@@ -84,9 +84,9 @@ def exact_values(point_sets: Mapping[str, np.ndarray], c: np.ndarray, use_cache:
 
 
 def _inputs(mu_i, mu_o, phi, c, kd) -> dict:
-    """The BRDF's inputs by the report hook's names (``BRDF_INPUTS``: the two cosines, the azimuth, the material
+    """The BRDF's inputs by the report's names (``BRDF_INPUTS``: the two cosines, the azimuth, the material
     and its second parameter, in that order)."""
-    return dict(zip(brdf_hook().BRDF_INPUTS, (mu_i, mu_o, phi, c, kd), strict=True))
+    return dict(zip(brdf_report().BRDF_INPUTS, (mu_i, mu_o, phi, c, kd), strict=True))
 
 
 def _dataset(points: np.ndarray, c: np.ndarray, y: np.ndarray, kd: np.ndarray, grid: str) -> Dataset:
@@ -110,7 +110,7 @@ def validation_sets(settings: Settings, use_cache: bool = True, tick=None) -> tu
     ``tick()`` is called once per albedo computed (a progress bar); a cache hit calls it for all.
     """
     points = {"brdf": sobol_points(settings.log2_points, settings.seed), "grazing": _grazing_points()}
-    hook = brdf_hook()
+    hook = brdf_report()
     c, materials = hook.validation_materials(family_settings(settings, hook))
     ys, kd = exact_values(points, c, use_cache, tick)
     grids = {
@@ -127,7 +127,7 @@ def fresh_set(settings: Settings, use_cache: bool = True, tick=None) -> Dataset:
     generator), each with its own points (mu_i, mu_o, phi) uniform in (0, 1)^2 x (0, pi), ``fresh_points`` in
     all, all drawn from numpy's PCG64 seeded with ``fresh_seed`` (nothing of fitlab is fitted or selected on
     it; another generator and seed than the Sobol set's).  ``tick()`` once per material."""
-    hook = brdf_hook()
+    hook = brdf_report()
     rng = np.random.default_rng(settings.fresh_seed)
     c, materials = hook.fresh_materials(rng, family_settings(settings, hook))  # the generator's first draws
     per_c = -(-settings.fresh_points // c.size)

@@ -1,8 +1,8 @@
 r"""Monte Carlo scenes, for every family: one loader and checker of scene files, and one simulate runner.
 
-A family that simulates gives a :class:`SimulateHook` (its ``simulate`` hook returns one): a
-:class:`SceneSchema` (which files, which fields, the rules) and a :class:`Walk` (its jobs, one round of a
-job, the stopping rule, the rows and figures).  Everything else is here, once:
+A family that simulates is a :class:`fitlab.core.HasMonteCarlo`: its ``simulation()`` gives a
+:class:`Simulation` of a :class:`SceneSchema` (which files, which fields, the rules) and a :class:`Walk` (its
+jobs, one round of a job, the stopping rule, the rows and figures).  Everything else is here, once:
 
 * reading (:func:`load_scene`): a regular file only, UTF-8, at most :data:`MAX_SCENE_BYTES`; TOML or
   JSON; every problem one line ``file:line: field: what`` (the line from the parsers' own positions), all
@@ -19,20 +19,12 @@ job, the stopping rule, the rows and figures).  Everything else is here, once:
   check (:func:`check_out_dir`); :func:`simulate_file` does all of it, in that order, every error before any
   work.
 
-``fitlab simulate`` is :func:`simulate_file` with the family's hook (:mod:`fitlab.cli.simulate`).
+``fitlab simulate`` is :func:`simulate_file` with the family's simulation (:mod:`fitlab.cli.simulate`).
 """
 
 from fitlab.scenes._check import NAME_RE, Checker, check_option, keypath_name, with_overrides
 from fitlab.scenes._document import MAX_SCENE_BYTES, Document, SceneError, parse_document, peek, read_scene_text
-from fitlab.scenes._protocol import (
-    Job,
-    SceneSchema,
-    SimulateHook,
-    Simulation,
-    Walk,
-    check_simulate_hook,
-    missing_member,
-)
+from fitlab.scenes._protocol import Job, SceneSchema, Simulation, Walk
 from fitlab.scenes._runner import (
     JobStats,
     SimulationResult,
@@ -51,9 +43,9 @@ from fitlab.scenes._runner import (
 )
 
 __all__ = [
-    "MAX_SCENE_BYTES", "NAME_RE", "Checker", "Document", "Job", "JobStats", "SceneError", "SceneSchema",
-    "SimulateHook", "Simulation", "SimulationResult", "Walk", "check_option", "check_out_dir",
-    "check_simulate_hook", "csv_text", "declared_family", "failures", "keypath_name", "load_scene", "missing_member",
+    "MAX_SCENE_BYTES", "NAME_RE", "Checker", "Document", "Job", "JobStats", "SceneError",
+    "SceneSchema", "Simulation", "SimulationResult", "Walk", "check_option", "check_out_dir",
+    "csv_text", "declared_family", "failures", "keypath_name", "load_scene",
     "output_files", "parse_document", "parse_scene", "peek", "read_scene_text", "scene_with_overrides",
     "simulate", "simulate_file", "summary_table", "unconverged", "with_overrides", "write_outputs",
 ]

@@ -1,16 +1,16 @@
-r"""The simulate hook's contract: what a family gives the shared runner (its scene schema and its walk),
-as :class:`typing.Protocol` s, and the check of a hook against them (one line naming the first missing
-member)."""
+r"""What a family's Monte Carlo gives the shared runner: its scene schema and its walk, as
+:class:`typing.Protocol` s, in a :class:`Simulation` (what :meth:`fitlab.core.HasMonteCarlo.simulation`
+returns)."""
 
 from __future__ import annotations
 
+from collections.abc import Callable, Hashable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any, Callable, Hashable, Iterable, Mapping, Protocol, Sequence, runtime_checkable
+from typing import Any, Protocol
 
-from fitlab.core._hooks import missing_member
 from fitlab.scenes._check import Checker
 
-__all__ = ["Job", "SceneSchema", "Walk", "SimulateHook", "Simulation", "missing_member", "check_simulate_hook"]
+__all__ = ["Job", "SceneSchema", "Walk", "Simulation"]
 
 
 @dataclass(frozen=True)
@@ -29,17 +29,31 @@ class Job:
     data: Any = None
 
 
-@runtime_checkable
 class SceneSchema(Protocol):
     """A family's scene files: which suffixes, which rules; :func:`fitlab.scenes.parse_scene` reads and
     parses the file, checks its ``scene.family``, and hands the rest to :meth:`parse`."""
 
-    family: str  #: the family's name: a scene's ``[scene] family`` must say it
-    noun: str  #: what its files are called in messages ("scene")
-    suffixes: tuple[str, ...]  #: the file suffixes it reads (".toml", ".json")
-    limits: Mapping[str, tuple[int, int]]  #: closed ranges of the integer fields, seed and max_paths included
+    @property
+    def family(self) -> str:
+        """The family's name: a scene's ``[scene] family`` must say it."""
+        ...
 
-    def parse(self, data: dict, ck: Checker, **options) -> Any:
+    @property
+    def noun(self) -> str:
+        """What its files are called in messages ("scene")."""
+        ...
+
+    @property
+    def suffixes(self) -> tuple[str, ...]:
+        """The file suffixes it reads (".toml", ".json")."""
+        ...
+
+    @property
+    def limits(self) -> Mapping[str, tuple[int, int]]:
+        """Closed ranges of the integer fields, seed and max_paths included."""
+        ...
+
+    def parse(self, data: dict, ck: Checker, /) -> Any:
         """The validated scene (a dataclass with path, name, seed, max_paths, batch, target_se) from the
         file's ``data``; every problem recorded in ``ck`` and raised by ``ck.raise_errors()``."""
         ...
@@ -49,15 +63,33 @@ class SceneSchema(Protocol):
         ...
 
 
-@runtime_checkable
 class Walk(Protocol):
     """A family's Monte Carlo walk: its jobs, one round of a job, the stopping rule, the rows."""
 
-    unit: str  #: what a path is called in the stopping rule's message ("photons", "paths")
-    min_paths: int  #: the fewest paths after which a job may stop on its target
-    row_fields: tuple[str, ...]  #: the columns of <name>.csv
-    summary_fields: tuple[str, ...]  #: the columns of <name>_summary.csv
-    summary_columns: tuple[tuple[str, str, str], ...]  #: the printed summary: (title, key, format spec)
+    @property
+    def unit(self) -> str:
+        """What a path is called in the stopping rule's message ("photons", "paths")."""
+        ...
+
+    @property
+    def min_paths(self) -> int:
+        """The fewest paths after which a job may stop on its target."""
+        ...
+
+    @property
+    def row_fields(self) -> tuple[str, ...]:
+        """The columns of <name>.csv."""
+        ...
+
+    @property
+    def summary_fields(self) -> tuple[str, ...]:
+        """The columns of <name>_summary.csv."""
+        ...
+
+    @property
+    def summary_columns(self) -> tuple[tuple[str, str, str], ...]:
+        """The printed summary: (title, key, format spec)."""
+        ...
 
     def jobs(self, scene) -> Sequence[Job]:
         """The jobs, in the order they run (a :class:`SceneError` refuses a scene before any work)."""
@@ -96,35 +128,12 @@ class Walk(Protocol):
     # ``failed(tallies) -> int``, the paths that ended on a non-finite state (fitlab.scenes.failures)
 
 
-@runtime_checkable
-class SimulateHook(Protocol):
-    """The ``simulate`` hook of a family (what ``hooks["simulate"]()`` returns): its scene schema and its
-    walk; the shared runner (:func:`fitlab.scenes.simulate_file`) does the rest."""
+@dataclass(frozen=True)
+class Simulation:
+    """A family's Monte Carlo: its scene schema and its walk; the shared runner (:func:`fitlab.scenes.simulate_file`)
+    does the rest.  ``claims`` (optional): whether the data of a scene file that names no family is this family's
+    (``fitlab simulate`` asks, for the scenes written before a scene named its family)."""
 
     schema: SceneSchema
     walk: Walk
-
-
-@dataclass(frozen=True)
-class Simulation:
-    """A :class:`SimulateHook`: a schema and a walk.  ``claims`` (optional): whether the data of a scene
-    file that names no family is this family's (``fitlab simulate`` asks, for the scenes written before a
-    scene named its family)."""
-
-    schema: Any
-    walk: Any
     claims: Callable[[dict], bool] | None = None
-
-
-def check_simulate_hook(hook, family: str = "?") -> SimulateHook:
-    """``hook`` when it meets :class:`SimulateHook` (its schema a :class:`SceneSchema`, its walk a
-    :class:`Walk`); else TypeError, one line naming the family and the missing member."""
-    name = missing_member(hook, SimulateHook)
-    if name:
-        raise TypeError(f"family {family}: its simulate hook lacks {name!r} (fitlab.scenes.SimulateHook)")
-    for part, protocol in (("schema", SceneSchema), ("walk", Walk)):
-        name = missing_member(getattr(hook, part), protocol)
-        if name:
-            raise TypeError(f"family {family}: its simulate hook's {part} lacks {name!r} "
-                            f"(fitlab.scenes.{protocol.__name__})")
-    return hook

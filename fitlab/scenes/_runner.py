@@ -35,6 +35,7 @@ from fitlab._io import FolderError, atomic_write_many, check_output_folder
 from fitlab import _montecarlo
 from fitlab.scenes._check import Checker, with_overrides
 from fitlab.scenes._document import SceneError, parse_document, read_scene_text
+from fitlab.scenes._protocol import Simulation
 
 __all__ = ["JobStats", "SimulationResult", "parse_scene", "load_scene", "scene_with_overrides", "simulate",
            "csv_text", "output_files", "write_outputs", "summary_table", "unconverged", "failures", "check_out_dir",
@@ -390,14 +391,14 @@ def check_out_dir(out_dir) -> None:
                          f"{exc.where}") from None
 
 
-def simulate_file(hook, path, out_dir=None, progress=False, plots=True, target_se=None, max_paths=None,
-                  seed=None):
+def simulate_file(simulation: Simulation, path, out_dir=None, progress=False, plots=True, target_se=None,
+                  max_paths=None, seed=None):
     """Load and validate (the scene, the overrides, the output folder: every error before any work),
-    simulate, write; ``hook`` is a family's :class:`SimulateHook`.  Returns (result, paths written).
+    simulate, write; ``simulation`` is a family's :class:`Simulation`.  Returns (result, paths written).
     The default output folder is mc_out/<scene name>."""
-    scene = scene_with_overrides(hook.schema, load_scene(hook.schema, path), target_se=target_se,
+    scene = scene_with_overrides(simulation.schema, load_scene(simulation.schema, path), target_se=target_se,
                                  max_paths=max_paths, seed=seed)
     out_dir = Path(out_dir) if out_dir is not None else Path("mc_out") / scene.name
     check_out_dir(out_dir)
-    result = simulate(hook.walk, scene, progress=progress)
+    result = simulate(simulation.walk, scene, progress=progress)
     return result, write_outputs(result, out_dir, plots=plots)

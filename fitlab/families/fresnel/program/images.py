@@ -1,4 +1,4 @@
-r"""The family's preset table as engines load it (the ``images`` hook of ``fitlab export``; docs/tables.md).
+r"""The family's preset table as engines load it (its images for ``fitlab export``; docs/tables.md).
 
 ``fresnel_presets``: one row per material (:data:`..exact.MATERIALS`, in order), one column per quantity
 (:data:`COLUMNS`), and the linear sRGB channels R, G, B of each: the published constructions' parameters
@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from fitlab.core import get_form, get_target
+from fitlab.core import MeasuredMaterial, get_form, get_target
 from fitlab.export import Image, ImageSpec
 from fitlab.families.fresnel.exact import CHANNELS, MATERIALS, average_reflectance, reflectance
 from fitlab.families.fresnel.forms import construction
@@ -65,12 +65,12 @@ def preset_table(tick=lambda: None) -> Image:
                  ("Fresnel presets of measured materials, per linear sRGB channel", *columns, *rows))
 
 
-def material_averages() -> dict[str, dict]:
-    """{material key: {"name", "kind" ("conductor" or "dielectric"), "F0", "F_avg"}}, F0 and the exact F_avg as
-    linear sRGB triples: what another family's study takes through the registry
-    (``fitlab.core.family_service("images", "fresnel")``), e.g. the microfacet family's coloured compensation."""
-    return {key: {"name": m.name, "kind": m.kind, "F0": reflectance(key, 1.0), "F_avg": average_reflectance(key)}
-            for key, m in MATERIALS.items()}
+def material_averages() -> dict[str, MeasuredMaterial]:
+    """{material key: its F0 and exact F_avg as linear sRGB triples}: what another family's study takes through
+    the registry (``fitlab.core.family_with(fitlab.core.HasMaterials)``), e.g. the microfacet family's coloured
+    compensation."""
+    return {key: MeasuredMaterial(name=m.name, kind=m.kind, F0=reflectance(key, 1.0), F_avg=average_reflectance(key))
+            for key, m in MATERIALS.items()}  # fmt: skip
 
 
 #: the tables ``fitlab export`` writes for this family

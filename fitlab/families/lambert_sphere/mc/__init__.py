@@ -11,7 +11,7 @@ sampler), ``transport`` (the jitted random walk, its tallies and sharding),
 ``scene`` (the schema of its scene files, read and checked by the shared
 :mod:`fitlab.scenes`), ``effects`` (which tallies each effect needs, estimates
 and exact values), ``simulate`` (the walk the shared runner drives: jobs,
-stopping rule, rows; the family's simulate hook), ``plots`` (a PNG per effect),
+stopping rule, rows; the family's Monte Carlo), ``plots`` (a PNG per effect),
 ``bench`` (photons and collisions per second).
 See docs/montecarlo.md.
 """

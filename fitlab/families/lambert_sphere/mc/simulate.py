@@ -1,7 +1,7 @@
 r"""The Lambert sphere's walk for the shared simulate runner (:mod:`fitlab.scenes`): the jobs a scene's
 effects need, each run until its effects reach their standard-error target (or the path budget), then
 compared with the exact engine; a CSV row per estimate and one PNG per effect.  The family's
-``simulate`` hook is :data:`SIMULATE` (the schema of :mod:`.scene` and :class:`SphereWalk`).
+Monte Carlo is :data:`SIMULATE` (the schema of :mod:`.scene` and :class:`SphereWalk`).
 
 Stopping rule, per job: after every round of ``batch`` photons, the job stops
 when every effect that uses it has all its Monte Carlo rows at or below that
@@ -197,5 +197,5 @@ def claims(raw: dict) -> bool:
     return isinstance(materials, list) and any(isinstance(m, dict) and ("c" in m or "kd" in m) for m in materials)
 
 
-#: the family's ``simulate`` hook (a :class:`fitlab.scenes.SimulateHook`)
+#: the family's Monte Carlo (``LambertSphere.simulation()``)
 SIMULATE = scenes.Simulation(schema=SCHEMA, walk=SphereWalk(), claims=claims)

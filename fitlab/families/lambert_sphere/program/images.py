@@ -1,4 +1,4 @@
-r"""The family's table as engines load it (the ``images`` hook of ``fitlab export``; docs/tables.md).
+r"""The family's table as engines load it (its images for ``fitlab export``; docs/tables.md).
 
 ``lambert_sphere_texture``: the one float32 texture the generated "tables, three orders" BRDF reads
 (:func:`.table_export.texture`: H_0, H_1, H_2 through their remainders, the constants, kd and the true-phase

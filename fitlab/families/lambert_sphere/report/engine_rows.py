@@ -2,7 +2,7 @@ r"""The Lambert sphere's own engines in ``fitlab report``: the exact engine (its
 of both methods, its BRDF's cost at a new albedo, the agreement of its two methods, the three-term engine
 against discrete ordinates + doubling, the time to reach an error) and Monte Carlo at several path counts, as
 the report's rows (the columns of :data:`fitlab.report.write.COLUMNS`) and the context its sections of
-report.md read (:mod:`.markdown`).  The report hook (:mod:`.methods`) gives :func:`measure_engines` to the
+report.md read (:mod:`.markdown`).  The family's report (:mod:`.methods`) gives :func:`measure_engines` to the
 generic report, which knows no family.
 """
 

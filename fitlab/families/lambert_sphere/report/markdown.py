@@ -1,7 +1,7 @@
 r"""The Lambert sphere's prose of ``fitlab report`` (report.md, :func:`fitlab.report.write.markdown`): the BRDF's
 name, what its material columns mean, and the sections on its own engines (the exact engine, the time to
-reach an error, Monte Carlo), rendered from the rows and context the report hook's measurements gave.  The
-report hook (:mod:`.methods`) gives them to the generic writer, which knows no family.
+reach an error, Monte Carlo), rendered from the rows and context the family report's measurements gave.  The
+report (:mod:`.methods`) gives them to the generic writer, which knows no family.
 """
 
 from __future__ import annotations

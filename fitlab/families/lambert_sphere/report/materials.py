@@ -1,5 +1,5 @@
 r"""The Lambert sphere's material axis in ``fitlab report``: the albedos c at which the report's validation
-sets, its independent set and its energy check are taken.  The report hook (:mod:`.methods`) gives them to
+sets, its independent set and its energy check are taken.  The family's report (:mod:`.methods`) gives them to
 :mod:`fitlab.report.validation` and :mod:`fitlab.report.run`, which know no family; how many of each the
 family's report settings say (:class:`.settings.EngineSettings`: ``n_c``, ``with_c1``, ``small_c``,
 ``fresh_c``, ``energy_c``).

@@ -1,4 +1,4 @@
-r"""The Lambert-sphere family's part of ``fitlab report`` (its ``report`` hook).
+r"""The Lambert-sphere family's part of ``fitlab report`` (its :class:`fitlab.report.methods.BrdfReport`).
 
 :mod:`fitlab.report` loops over the families and asks each, through this
 module, for what only the family knows:

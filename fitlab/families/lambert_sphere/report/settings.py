@@ -1,8 +1,8 @@
 r"""The Lambert sphere's settings of ``fitlab report`` (moved from :mod:`fitlab.report.settings`, which knows
 no family), by the generic settings' name (:data:`REPORT_SETTINGS`: "full", "quick"): at which albedos the BRDF
 is measured (:mod:`.materials`), how hard the family's exact engine and Monte Carlo are measured, and the quick
-report's choice of parts and refits; and the BRDF's signature (:data:`BRDF_INPUTS`).  The report hook
-(:mod:`.methods`) gives them to the report (:class:`fitlab.core.BrdfReportHook`).
+report's choice of parts and refits; and the BRDF's signature (:data:`BRDF_INPUTS`).  The family's report
+(:mod:`.methods`) gives them to the report (:class:`fitlab.report.methods.BrdfReport`).
 """
 
 from __future__ import annotations

@@ -120,6 +120,6 @@ BRDF_MEASURE = "relative: |approx - exact| / |exact|, exact = fitlab.families.la
 
 
 def brdf_grid() -> BrdfGrid:
-    """The family's ``brdf_grid`` hook: (axes, grid function of the exact BRDF, error measure), a
-    :class:`fitlab.core.BrdfGridHook`."""
+    """The family's exact BRDF grid (``LambertSphere.brdf_grid()``): (axes, grid function of the exact BRDF, error
+    measure)."""
     return BrdfGrid(BRDF_AXES, _GRIDS["brdf"], BRDF_MEASURE)

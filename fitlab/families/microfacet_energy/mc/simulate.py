@@ -1,7 +1,7 @@
 r"""The microsurface walk for the shared simulate runner (:mod:`fitlab.scenes`): every job of a scene
 (material x mu_i) run in rounds until its rows reach their standard-error targets (or the path budget),
 the deterministic references attached; a CSV row per estimate, a summary row and (when matplotlib is
-present) one PNG of the lobe by order per job.  The family's ``simulate`` hook is :data:`SIMULATE` (the
+present) one PNG of the lobe by order per job.  The family's Monte Carlo is :data:`SIMULATE` (the
 schema of :mod:`.scene` and :class:`MicrosurfaceWalk`).
 
 Estimates from the tallies of :mod:`.walk` after N paths (a tally holds, per path, its one
@@ -46,6 +46,7 @@ from __future__ import annotations
 
 import io
 import math
+from typing import cast
 
 import numpy as np
 
@@ -295,7 +296,8 @@ class MicrosurfaceWalk:
         return int(tallies.get("failed", 0))
 
     def converged(self, scene, job, tallies):
-        return _job_done(scene, estimate_rows(scene, *job.key, tallies))
+        mi, ii = cast("tuple[int, int]", job.key)  # (material, incidence): the key jobs() gives
+        return _job_done(scene, estimate_rows(scene, mi, ii, tallies))
 
     def finish(self, scene, jobs, tallies, stats):
         """Every job's rows (references attached, the job's statistics on each row), one summary row per job."""
@@ -354,5 +356,5 @@ def claims(raw: dict) -> bool:
                                                for m in materials)  # fmt: skip
 
 
-#: the family's ``simulate`` hook (a :class:`fitlab.scenes.SimulateHook`)
+#: the family's Monte Carlo (``MicrofacetEnergy.simulation()``)
 SIMULATE = scenes.Simulation(schema=SCHEMA, walk=MicrosurfaceWalk(), claims=claims)

@@ -1,4 +1,4 @@
-r"""The family's tables as engines load them (the ``images`` hook of ``fitlab export``; docs/tables.md).
+r"""The family's tables as engines load them (its images for ``fitlab export``; docs/tables.md).
 
 * ``dfg_karis``: the split-sum DFG table of height-correlated GGX (:func:`..exact.split_sum`), channels
   R = A (scale of F0), G = B (bias), E_F = F0 R + F90 G under Schlick's F (Karis 2013, "Real Shading in

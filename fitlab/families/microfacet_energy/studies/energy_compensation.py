@@ -35,8 +35,8 @@ Measures, on one validation set the tables and fits never saw (a golden-ratio la
 And the coloured compensation of measured metals: Kulla-Conti's factor f_add = F_avg^2 E_avg / (1 - F_avg
 (1 - E_avg)) (:func:`fitlab.families.microfacet_energy.exact.fresnel_compensation_factor`) of height-correlated
 GGX, per linear sRGB channel of each conductor of the fresnel family, with its exact F_avg = 2 int F mu dmu
-(taken through the registry, ``fitlab.core.family_service("images", "fresnel").material_averages()``: no
-family imports another) against the F_avg a renderer derives from Schlick with F0 = F(1), (20 F0 + 1)/21
+(taken through the registry, ``fitlab.core.family_with(fitlab.core.HasMaterials).materials()``: no family
+imports another) against the F_avg a renderer derives from Schlick with F0 = F(1), (20 F0 + 1)/21
 (:func:`coloured_compensation`).
 
 Exact values go through fitlab's cache (:func:`fitlab.cache.cached_arrays`).
@@ -302,17 +302,17 @@ def coloured_compensation(model: str = "ggx_correlated", alphas=COLOURED_ALPHAS)
     1)/21, and Kulla-Conti's f_add of each at every alpha (module docstring).  A channel whose F0 or F_avg
     exceeds 1 (gold's red: a colour out of sRGB's gamut) has no f_add (None): the factor is defined for
     F_avg in [0, 1]."""
-    from fitlab.core import family_service
+    from fitlab.core import HasMaterials, family_with
 
-    materials = family_service("images", "fresnel").material_averages()
+    materials = family_with(HasMaterials).materials()
     e_avg = average_albedo(np.asarray(alphas, dtype=float), model)
     rows = []
     for key, m in materials.items():
-        if m["kind"] != "conductor":
+        if m.kind != "conductor":
             continue
         for c, channel in enumerate(("r", "g", "b")):
-            f0, f_avg = float(m["F0"][c]), float(m["F_avg"][c])
-            row = {"material": key, "name": m["name"], "channel": channel, "F0": f0, "F_avg": f_avg,
+            f0, f_avg = float(m.F0[c]), float(m.F_avg[c])
+            row = {"material": key, "name": m.name, "channel": channel, "F0": f0, "F_avg": f_avg,
                    "F_avg_schlick": (20 * f0 + 1) / 21, "alphas": list(alphas), "E_avg": e_avg.tolist()}
             if max(f0, f_avg) <= 1.0:
                 row["f_add"] = exact.fresnel_compensation_factor(f_avg, e_avg).tolist()
