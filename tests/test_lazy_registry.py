@@ -24,19 +24,20 @@ import json, sys
 import fitlab.cli
 from fitlab.cli.refit import _requested, add_arguments  # what `fitlab refit` imports
 from fitlab.core import HasMonteCarlo, HasTables, get_target, offering, target_names
-from fitlab.codegen import model_form
+from fitlab.codegen import family_programs, model_form
 from fitlab.store import resolve_form
 
 loaded = lambda: sorted(m for m in sys.modules if m.startswith("fitlab.families."))
 names = target_names()
 having = {"tables": list(offering(HasTables)), "monte carlo": list(offering(HasMonteCarlo))}
+programs = family_programs()
 before = loaded()
 target = get_target("H0")  # as refit resolves --target H0: the target, its default model form, the form
 form = resolve_form("H0", model_form("H0"), None)
 import fitlab.fit.refit  # the fit itself: optimistix and JAX
 after = loaded()
 tables = offering(HasTables)["fresnel"].tables()  # a service: its module is imported now
-print(json.dumps({"names": list(names), "having": having, "before": before, "after": after,
+print(json.dumps({"names": list(names), "having": having, "programs": programs, "before": before, "after": after,
                   "form": form.name, "forms": list(target.forms), "tables": tables.__name__,
                   "with_tables": loaded(),
                   "scipy": sorted(m for m in sys.modules if m == "scipy" or m.startswith("scipy."))}))
@@ -67,6 +68,18 @@ def test_target_names_and_capabilities_import_no_family_module_but_the_classes(p
     assert "H0" in probe["names"] and "E_ggx_sep" in probe["names"] and "F_cu_r" in probe["names"]
     assert probe["having"] == {"tables": ["fresnel", "lambert_sphere", "microfacet_energy"],
                                "monte carlo": ["lambert_sphere", "microfacet_energy"]}  # fmt: skip
+
+
+def test_family_programs_reads_the_classes_and_agrees_with_the_built_families(probe):
+    """What the codegen cache keys (which families have a program, which declares the default), read before any
+    family's targets are imported (``before``), against the families built and the rule that chooses."""
+    from fitlab.codegen import HasProgram, default_program_family
+
+    built = families()
+    default = default_program_family()
+    assert [tuple(p) for p in probe["programs"]] == [
+        (name, isinstance(f, HasProgram), name == default) for name, f in built.items()
+    ]
 
 
 def test_a_service_is_imported_when_its_method_is_called(probe):
