@@ -689,7 +689,7 @@ def test_default_model_is_the_reports_real_time_recommendation():
 
     with open(ROOT / "docs" / "report.csv", newline="") as fh:
         rows = [r for r in csv.DictReader(fh) if r["section"] == "brdf"]
-    numeric = ("max_rel", "rms_rel", "max_rel_grazing", "ns_c_double", "ns_python")
+    numeric = ("max_rel", "rms_rel", "max_rel_grazing", "bytes", "ns_c_double", "ns_python")
     rows = [{**r, **{k: number(r[k]) for k in numeric}} for r in rows]
     picked = recommend(rows)["real-time"]
     changed = {t: f for t, f in MODEL_FORMS.items() if f != get_target(t).default_form}

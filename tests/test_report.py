@@ -143,9 +143,9 @@ def test_pareto_front_takes_pairs_and_counts_infinite_errors_on_request():
 
 
 def test_recommendations_follow_the_rules():
-    def row(name, group, max_rel, rms, c=math.nan, py=math.nan, grazing=0.5):
+    def row(name, group, max_rel, rms, c=math.nan, py=math.nan, grazing=0.5, data=400.0):
         return {"method": name, "group": group, "max_rel": max_rel, "rms_rel": rms, "ns_c_double": c, "ns_python": py,
-                "max_rel_grazing": grazing}
+                "max_rel_grazing": grazing, "bytes": data}
 
     rows = [
         row("lambert", "baseline", 1.0, 1e-3, c=1.0),  # never recommended
@@ -156,9 +156,13 @@ def test_recommendations_follow_the_rules():
         row("exact", "exact", 1e-13, 1e-14, py=7e4),
     ]
     rec = recommend(rows)
-    assert rec["real-time"]["method"] == "richer"
+    assert rec["real-time"]["method"] == rec["real-time, texture"]["method"] == "richer"
     assert rec["offline"]["method"] == "tables"
     assert rec["reference"]["method"] == "exact"
+    # a texture cheaper and more accurate is the pick of engines that bind one, not of code that reads no table
+    texture = row("texture", "tables", 1e-3, 1e-4, c=150.0, data=180e3)
+    rec = recommend([*rows, texture])
+    assert rec["real-time"]["method"] == "richer" and rec["real-time, texture"]["method"] == "texture"
     rows[3]["ns_c_double"] = 400.0
     assert recommend(rows)["real-time"]["method"] == "model"
     # at grazing angles a real-time model may not be off by more than its own size

@@ -87,8 +87,8 @@ def _where(source: str) -> str:
     return where
 
 
-USES = {"real-time": "real time (shaders, engines)", "offline": "offline (film, path tracers)",
-        "reference": "reference (checking)"}  # fmt: skip
+USES = {"real-time": "real time (shaders, engines; no texture)", "real-time, texture": "real time with a texture",
+        "offline": "offline (film, path tracers)", "reference": "reference (checking)"}  # fmt: skip
 
 
 def use_table(path: Path = REPORT_CSV) -> str:
