@@ -15,6 +15,8 @@ import math
 import os
 import sys
 
+from fitlab._precision import float64
+
 __all__ = ["MAX_PATHS", "MIN_PATHS_BUDGET", "SLOW_JOB_SECONDS", "THREEFRY_ROTATIONS", "THREEFRY_C", "duration",
            "slow_job_warning", "threefry_2x32", "HOST_DEVICES_FLAG", "use_every_core", "PRECISIONS",
            "FLOAT32_UNIFORM_BITS", "uniforms", "sincos_2pi", "threefry_blocks", "block_words", "azimuth_cosine",
@@ -286,8 +288,6 @@ class ChunkedRound:
         done."""
         import numpy as np
 
-        from fitlab.core import float64
-
         if self.done:
             return True
         with float64():
@@ -305,8 +305,6 @@ class ChunkedRound:
 
     def tallies(self) -> dict:
         """The round's tallies (once :meth:`advance` has returned True), as the walk's ``run_round`` gives them."""
-        from fitlab.core import float64
-
         if not self.done:
             raise RuntimeError("the round is not done")
         with float64():

@@ -9,6 +9,7 @@ own tests (tests/test_mc_simulate.py).
 from __future__ import annotations
 
 import json
+import math
 import os
 import stat
 import subprocess
@@ -346,12 +347,18 @@ def test_refit_verdict_rule():
 
     res = _committed("l")
     v = res.record["validation"]
-    better = {"max_rel_nonzero": 2 * v["max_rel_nonzero"], "rms_rel": 2 * v["rms_rel"]}
-    worse = {"max_rel_nonzero": v["max_rel_nonzero"] / 2, "rms_rel": v["rms_rel"] / 2}
-    trade = {"max_rel_nonzero": v["max_rel_nonzero"] / 2, "rms_rel": v["rms_rel"] * 2}
+
+    def scaled(max_factor, rms_factor):  # a reference whose max and RMS are the refit's times these
+        return {"max_rel": max_factor * v["max_rel"], "max_rel_nonzero": max_factor * v["max_rel_nonzero"],
+                "rms_rel": rms_factor * v["rms_rel"]}
+
+    better, worse = scaled(2, 2), scaled(0.5, 0.5)
     assert refit_verdict(res, better) is None
     assert refit_verdict(res, dict(v)) is None  # ending where it started is not worse
-    assert refit_verdict(res, trade) is None  # better in one measure: a trade-off, kept
+    assert refit_verdict(res, scaled(1 + 1e-9, 2)) is None  # the same max to rounding, a smaller RMS: kept
+    assert refit_verdict(res, scaled(2, 0.5)) is None  # a smaller max and a larger RMS: kept
+    assert "worse than its starting point" in refit_verdict(res, scaled(0.5, 2))  # a larger max: worse
+    assert "worse than its starting point" in refit_verdict(res, scaled(1, 0.5))  # the same max, a larger RMS
     assert "worse than its starting point" in refit_verdict(res, worse)
     res.record["published"][0]["validation"].update(worse)
     assert "worse than the published preset paper" in refit_verdict(res, better)
@@ -364,6 +371,29 @@ def test_refit_verdict_rule():
     assert "not finite" in refit_verdict(res, None)
     res.record["validation"]["rms_rel"] = float("inf")
     assert "not finite" in refit_verdict(res, None)
+
+
+def test_worse_is_one_rule_defined_once():
+    """fitlab.fit.metrics.worse: the max decides, then the max without exact zeros, then the RMS, each beyond
+    rounding (relative and absolute); NaN counts as infinite.  It is the only definition in fitlab (refit's verdict,
+    refit's and fit's keeping of the better fit all call it)."""
+    import ast
+
+    from fitlab.fit.metrics import ROUNDING, WORSE_RTOL, worse
+
+    def f(m, mz=None, rms=1e-3):
+        return {"max_rel": m, "max_rel_nonzero": m if mz is None else mz, "rms_rel": rms}
+
+    assert worse(f(2e-3), f(1e-3, rms=1.0)) and not worse(f(1e-3, rms=1.0), f(2e-3))  # the max first
+    assert worse(f(math.inf, 1e-3), f(1.0))  # missing an exact zero is the largest max
+    assert worse(f(1e-3, 2e-3), f(1e-3, 1e-3)) and worse(f(1e-3, rms=2e-3), f(1e-3))  # then max*, then RMS
+    assert not worse(f(1e-3), f(1e-3)) and not worse(f(1e-3 * (1 + WORSE_RTOL / 2)), f(1e-3))  # equal: not worse
+    assert not worse(f(3 * ROUNDING / 4), f(ROUNDING / 4))  # a few ulp apart (an exact form's errors): equal
+    assert worse(f(1e-3), f(1e-3, rms=math.nan)) is False and worse(f(math.nan), f(1.0))  # NaN is infinite
+    defined = [str(p.relative_to(ROOT)) for p in (ROOT / "fitlab").rglob("*.py")
+               for node in ast.walk(ast.parse(p.read_text())) if isinstance(node, ast.FunctionDef)
+               and node.name.strip("_") == "worse"]  # fmt: skip
+    assert defined == ["fitlab/fit/metrics.py"], defined
 
 
 def test_refit_worse_than_its_start_fails_and_writes_nothing(tmp_path, monkeypatch, capsys):

@@ -221,7 +221,7 @@ def test_glsl_agrees_with_c_float(program, native, points, tmp_path):
 
 def test_baselines_have_the_same_set_up():
     """The benchmark's Lambert and Oren-Nayar get the same per-material treatment as the runtime model."""
-    from fitlab.families.lambert_sphere.bench import baseline_program
+    from fitlab.families.lambert_sphere.program.baselines import baseline_program
 
     prog = baseline_program()
     assert prog.material.params == ("kd",)

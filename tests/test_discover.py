@@ -16,7 +16,7 @@ from fitlab.cli import main
 from fitlab.core import float64, get_target
 from fitlab.discover import Library, SparseRegression, discover, get_library, pareto_front, save
 from fitlab.discover.library import libraries_of, products
-from fitlab.discover.refine import arranged, candidate_form, operation_count
+from fitlab.discover.refine import candidate_form, operation_count
 from fitlab.forms.symbolic import symbols
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -142,7 +142,7 @@ def test_discover_front_and_outputs(kd_discovery, tmp_path):
     assert {disc.refined[i].name for i in by_terms} <= set(disc.front)
     assert all(d.record["validation"]["points"] > 0 and d.operations > 0 for d in disc.refined)
     assert any(r["kind"] == "published" for r in disc.reference)
-    from fitlab.discover.output import front_json, front_table, write_outputs
+    from fitlab.discover.output import front_table, write_outputs
 
     assert all(name in front_table(disc) for name in disc.front)
     # every support the regression found is refitted, or dropped with its reason stated

@@ -14,7 +14,7 @@ import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 
 from fitlab.families.lambert_sphere.exact import brdf, constants, h_function, spherical_albedo  # noqa: E402
-from fitlab.core import get_target, targets  # noqa: E402
+from fitlab.core import get_target  # noqa: E402
 from fitlab.store import FitFileError, load  # noqa: E402
 from fitlab.core import get_form  # noqa: E402
 from fitlab.residuals import approximations, brdf_residuals, grid_axes, heatmap, residuals  # noqa: E402

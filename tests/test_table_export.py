@@ -262,7 +262,7 @@ def test_the_correction_takes_its_s_nodes_and_limit_from_the_exact_tables_grid()
     """Every reading along s stores the nodes of TRUE_S_GRID it keeps, the same values whichever it is; the row
     s = 1 (c = 0) is the cubic through the four nodes of the grid below it, at s = 1 (numpy's polynomial fit, another
     route than the Lagrange weights)."""
-    from fitlab.families.lambert_sphere.targets.tabulate import TRUE_S_GRID
+    from fitlab.families.lambert_sphere.targets.table_files import TRUE_S_GRID
 
     every = te.stored_correction(17, TABLES, ("cubic", 1))
     assert every.shape[1] == TRUE_S_GRID.size

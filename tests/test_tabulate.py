@@ -7,7 +7,8 @@ import pytest
 
 from fitlab.cli import main
 from fitlab.families.lambert_sphere.targets import table_files, tabulate
-from fitlab.families.lambert_sphere.targets.tabulate import C_GRID, FAST_TABLES, MU_GRID, write_tables
+from fitlab.families.lambert_sphere.targets.table_files import C_GRID, MU_GRID
+from fitlab.families.lambert_sphere.targets.tabulate import FAST_TABLES, write_tables
 
 DATA = Path(__file__).resolve().parents[1] / "fitlab" / "data" / "lambert_sphere"
 
@@ -40,7 +41,7 @@ def test_the_true_orders_table_regenerates_and_its_check_catches_a_wrong_value(t
     assert new.splitlines()[:5] == old.splitlines()[:5]
     _, a = table_files.read_checked(name, tmp_path)
     _, b = table_files.read_checked(name, DATA)
-    assert a.shape == (len(tabulate.TRUE_S_GRID) * tabulate.TRUE_MU_GRID.size * (tabulate.TRUE_MU_GRID.size + 1) // 2,
+    assert a.shape == (len(table_files.TRUE_S_GRID) * table_files.TRUE_MU_GRID.size * (table_files.TRUE_MU_GRID.size + 1) // 2,
                        len(table_files.TRUE_COLUMNS))
     np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-15)
     assert tabulate.check_true_orders(tmp_path) == []

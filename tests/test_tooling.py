@@ -27,7 +27,8 @@ def _paths(*patterns: str) -> list[str]:
 #: its type) and the protocols of the Monte Carlo
 CONTRACT = [*_paths("fitlab/families/__init__.py", "fitlab/families/*/__init__.py"), "fitlab/scenes/_protocol.py"]
 #: the paths held clean, relative to the repository root
-CHECKED = ["fitlab/core", "fitlab/forms", "fitlab/fit", "fitlab/store", "fitlab/codegen", "fitlab/physics", *CONTRACT]
+CHECKED = ["fitlab/core", "fitlab/forms", "fitlab/fit", "fitlab/store", "fitlab/codegen", "fitlab/physics",
+           "fitlab/_precision.py", *CONTRACT]
 #: type-checked besides: the families' modules that build the contract's values (a Simulation of their schema and
 #: walk, their ImageSpecs and discovery Libraries), where basedpyright checks those against their types
 TYPED = [*CHECKED, *_paths("fitlab/families/*/mc/simulate.py", "fitlab/families/*/program/images.py",

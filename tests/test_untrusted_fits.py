@@ -7,7 +7,6 @@ code in the zoo would create never appears.
 
 from __future__ import annotations
 
-import copy
 import json
 import math
 import shutil

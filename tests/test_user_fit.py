@@ -503,7 +503,7 @@ def test_importing_fitlab_imports_no_jax_and_the_api_is_there():
 # -- discover on a table ----------------------------------------------------------------
 def test_discover_on_a_table_saves_fits_codegen_prints(fitted, tmp_path, capsys):
     pytest.importorskip("pysindy")
-    path = _copy(fitted, tmp_path)
+    _copy(fitted, tmp_path)
     out, fits = tmp_path / "front", tmp_path / "fits"
     status = main(["discover", str(tmp_path / "table.csv"), "--target", "z", "--inputs", "x,y", "--max-terms", "2",
                    "--minimax-rounds", "1", "--out", str(out), "--fits", str(fits), "--quiet"])  # fmt: skip

@@ -112,7 +112,6 @@ def fingerprint() -> dict:
 
 
 def main() -> int:
-    import numpy as np
     from tqdm import tqdm
 
     with tempfile.TemporaryDirectory(prefix="fitlab-seed-") as tmp:

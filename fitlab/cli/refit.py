@@ -12,7 +12,6 @@ unless ``--force``.  Ctrl-C before the fits are in place leaves every old file a
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 
 from tqdm import tqdm
@@ -35,6 +34,7 @@ from fitlab.cli._common import (
 )
 from fitlab.codegen import model_form
 from fitlab.core import did_you_mean, get_target, target_names, targets
+from fitlab.fit.metrics import worse
 from fitlab.fit.refit import (
     check_domain,
     default_jobs,
@@ -44,7 +44,6 @@ from fitlab.fit.refit import (
     table,
     timed_refit,
     validation_metrics,
-    worse,
 )
 from fitlab.fit.solver import FitError
 from fitlab.store import (
@@ -64,12 +63,12 @@ __all__ = ["add_arguments", "run", "parse_domain", "kept_fit", "listing_text"]
 
 def add_arguments(p) -> None:
     describe(p, "Fit a form of a target to the target's exact training set, validate it on the denser validation "
-                "set beside the published presets, and write TARGET[.FORM].json into --out. A refit that ends worse "
-                "than its start or the published preset of its form (in both max and RMS error), or with a "
-                "non-finite error, fails (exit status 1) and replaces nothing. Nor does a refit replace a fit "
-                "already in --out that is better on the same validation set (smaller max relative error, or the "
-                "same max and a smaller RMS) or that was fitted over another --domain: it says so in one line "
-                "and exits 1, unless --force. Ctrl-C before the fit is written leaves the old file as it was "
+                "set beside the published presets, and write TARGET[.FORM].json into --out. Of two fits, the one "
+                "with the smaller max error is the better (at the same max, the one with the smaller RMS). A refit "
+                "worse than its start or the published preset of its form, or with a non-finite error, fails (exit "
+                "status 1) and replaces nothing. Nor does a refit replace a fit already in --out that is better on "
+                "the same validation set or that was fitted over another --domain: it says so in one line and exits "
+                "1, unless --force. Ctrl-C before the fit is written leaves the old file as it was "
                 "(exit status 130).",
              "fitlab refit --target H0 --out /tmp/fits")  # fmt: skip
     p.add_argument("--target", metavar="NAME", help=f"what to fit: {', '.join(target_names())}")
@@ -238,7 +237,7 @@ def kept_fit(path: Path, result, target) -> tuple[str | None, str | None]:
 
     It stays when it is a readable fit of the same target and form that is better on the refit's own
     validation set (measured again there, from the file's expression and parameters, not its stated
-    figures; :func:`fitlab.fit.refit.worse` says what better is), or that was fitted over another domain (not
+    figures; :func:`fitlab.fit.metrics.worse` says what better is), or that was fitted over another domain (not
     comparable).  A file that is not a readable fit is replaced, and the note says so."""
     path = Path(path)
     if not path.exists():
@@ -260,8 +259,7 @@ def kept_fit(path: Path, result, target) -> tuple[str | None, str | None]:
     form = form_from_fit(old)
     measured = validation_metrics(form, form.vector(old["params"]), valid, target.scale(valid))
     new = rec["validation"]
-    unmeasured = any(math.isnan(float(measured[k])) for k in ("max_rel", "max_rel_nonzero", "rms_rel"))
-    if unmeasured or not worse(new, measured):
+    if not worse(new, measured):  # a figure the old fit does not give (NaN) counts as infinite
         return None, None
     _g = "{:.3e}".format
     w = measure_word(target.error_measure)

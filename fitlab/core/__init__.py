@@ -6,6 +6,7 @@ capabilities (:class:`Capability`).  The generic machinery (fit, codegen, discov
 loops over :func:`targets` and :func:`offering` and names no family's targets.
 """
 
+from fitlab._precision import float64
 from fitlab.core._capabilities import (
     Benchmarks,
     BrdfGrid,
@@ -27,7 +28,6 @@ from fitlab.core._capabilities import (
 from fitlab.core._dataset import Dataset, data_hash
 from fitlab.core._family import Capability, Family
 from fitlab.core._input import Input
-from fitlab.core._precision import float64
 from fitlab.core._registry import (
     broken_families,
     did_you_mean,

@@ -1,10 +1,20 @@
-"""Error measures: max and RMS relative error, and where the worst point lies."""
+"""Error measures: max and RMS relative error, where the worst point lies, and when one fit is worse than
+another (:func:`worse`, the one rule every comparison of two fits uses)."""
 
 from __future__ import annotations
 
+import math
+from collections.abc import Mapping
+
 import numpy as np
 
-__all__ = ["relative_errors", "summary"]
+__all__ = ["relative_errors", "summary", "worse", "WORSE_RTOL", "ROUNDING"]
+
+#: how much larger (relative) a figure must be than another's to count as larger, beyond rounding
+WORSE_RTOL = 1e-6
+#: ...plus this much: an error of a few ulp is rounding, and a fit exact in its form (the Fresnel of a dielectric)
+#: has such errors, which move with the order of evaluation
+ROUNDING = 1e-13
 
 
 def relative_errors(approx, exact, scale) -> np.ndarray:
@@ -43,3 +53,28 @@ def summary(approx, exact, scale, inputs: dict) -> dict:
             "approx": float(np.asarray(approx)[i]),
         },
     }
+
+
+def worse(mine: Mapping, theirs: Mapping) -> bool:
+    """Whether a fit whose validation figures (:func:`summary`) are ``mine`` is worse than one whose figures on the
+    same points are ``theirs``: the one rule of every comparison of two fits (a refit against its start and the
+    published presets of its form, :func:`fitlab.fit.refit.refit_verdict`; a fit against the one already in its
+    file, ``fitlab refit`` and ``fitlab fit``).
+
+    The max error decides (``max_rel``, infinite where a fit misses an exact zero of its target), then the max
+    error without the target's exact zeros (``max_rel_nonzero``), then the RMS (``rms_rel``): the first that
+    differs beyond rounding (by more than :data:`WORSE_RTOL` relative and :data:`ROUNDING` absolute).  A figure
+    that is NaN (not measured) counts as infinite; equal figures are not worse."""
+    for key in ("max_rel", "max_rel_nonzero", "rms_rel"):
+        a, b = (_nan_as_inf(float(figures[key])) for figures in (mine, theirs))
+        if a == b:
+            continue
+        if a > b * (1 + WORSE_RTOL) + ROUNDING:
+            return True
+        if b > a * (1 + WORSE_RTOL) + ROUNDING:
+            return False
+    return False
+
+
+def _nan_as_inf(x: float) -> float:
+    return math.inf if math.isnan(x) else x

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 from fitlab import __version__
 from fitlab.core import Dataset, Target, data_hash, get_target, targets
-from fitlab.fit.metrics import summary
+from fitlab.fit.metrics import summary, worse
 from fitlab.fit.solver import SOLVER_SETTINGS, FitResult, fit_form, fit_form_scipy
 from fitlab.forms import Form
 from fitlab.store import FORMAT
@@ -33,8 +33,6 @@ __all__ = [
     "default_jobs",
     "table",
     "refit_verdict",
-    "VERDICT_RTOL",
-    "worse",
 ]
 
 MINIMAX_ROUNDS = 40
@@ -226,10 +224,6 @@ def refit_stages(target: Target | str, minimax: bool | None = None, minimax_roun
     return 3 + ((MINIMAX_ROUNDS if minimax_rounds is None else minimax_rounds) if minimax else 0)
 
 
-#: how much worse (relative) than a reference a refit may end before it counts as worse: rounding only
-VERDICT_RTOL = 1e-6
-
-
 def measure_word(error_measure: str) -> str:
     """The short name of a target's error measure (:attr:`fitlab.core.Target.error_measure`) in tables and
     messages: "abs" for an absolute error, "rel" for one relative to the exact value or to a stated scale, "err"
@@ -241,14 +235,13 @@ def measure_word(error_measure: str) -> str:
 def refit_verdict(result: RefitResult, start_metrics: Mapping | None = None) -> str | None:
     """Whether a refit may be kept: None if so, else the reason (one line).
 
-    A refit fails when its validation error (max rel* or RMS) is not finite, or when it ends worse
-    than a reference on the same validation set: its starting point (``start_metrics``, the
-    :func:`validation_metrics` of the ``--init`` parameters or of the form's start) or a published
-    preset of the same form (the record's ``published`` rows).  Worse means worse in both max rel*
-    (the error without the target's exact zeros) and RMS, by more than :data:`VERDICT_RTOL`: a refit
-    that trades one for the other (the minimax refit of H0 against the paper's preset) is kept.  A refit
-    whose max rel is infinite (it misses an exact zero of the target) fails where the reference's is
-    finite."""
+    A refit fails when its validation error (max rel* or RMS) is not finite, or when it is worse
+    (:func:`fitlab.fit.metrics.worse`, the rule every comparison of two fits uses) than a reference on the same
+    validation set: its starting point (``start_metrics``, the :func:`validation_metrics` of the ``--init``
+    parameters or of the form's start) or a published preset of the same form (the record's ``published``
+    rows).  The max error decides first: a refit with the smaller max and the larger RMS (the minimax refit
+    of H0 against the paper's preset) is kept, one with the larger max fails whatever its RMS; one that
+    misses an exact zero of the target (max rel infinite) fails where the reference keeps it."""
     rec = result.record
     v = rec["validation"]
     w = measure_word(rec["error_measure"])
@@ -266,33 +259,19 @@ def refit_verdict(result: RefitResult, start_metrics: Mapping | None = None) -> 
         if p["form"] == rec["form"]:
             references.append((f"the published preset {p['preset']}", p["validation"]))
     for label, m in references:
-        if not math.isfinite(float(v["max_rel"])) and math.isfinite(float(m.get("max_rel", math.inf))):
+        if not worse(v, m):
+            continue
+        if not math.isfinite(float(v["max_rel"])) and math.isfinite(float(m["max_rel"])):
             return (
                 f"{rec['target']}/{rec['form']}: the refit misses an exact zero of the target (max {w} "
                 f"{_g(float(v['max_rel']))}) that {label} keeps (max {w} {_g(float(m['max_rel']))})"
             )
-        ref = (float(m["max_rel_nonzero"]), float(m["rms_rel"]))
-        if all(x > r * (1 + VERDICT_RTOL) for x, r in zip(mine, ref)):
-            return (
-                f"{rec['target']}/{rec['form']}: the refit (max {w}* {_g(mine[0])}, RMS {_g(mine[1])}) "
-                f"is worse than {label} (max {w}* {_g(ref[0])}, RMS {_g(ref[1])}) on the validation set"
-            )
+        return (
+            f"{rec['target']}/{rec['form']}: the refit (max {w} {_g(float(v['max_rel']))}, max {w}* {_g(mine[0])}, "
+            f"RMS {_g(mine[1])}) is worse than {label} (max {w} {_g(float(m['max_rel']))}, max {w}* "
+            f"{_g(float(m['max_rel_nonzero']))}, RMS {_g(float(m['rms_rel']))}) on the validation set"
+        )
     return None
-
-
-def worse(mine: Mapping, theirs: Mapping) -> bool:
-    """Whether the validation figures ``mine`` are worse than ``theirs``: a larger max rel (infinite where the
-    fit misses an exact zero), else a larger max rel*, else a larger RMS, each beyond rounding
-    (:data:`VERDICT_RTOL`); equal figures are not worse."""
-    for key in ("max_rel", "max_rel_nonzero", "rms_rel"):
-        a, b = float(mine[key]), float(theirs[key])
-        if a == b:
-            continue
-        if a > b * (1 + VERDICT_RTOL):
-            return True
-        if a * (1 + VERDICT_RTOL) < b:
-            return False
-    return False
 
 
 def _fmt(x: float) -> str:

@@ -6,7 +6,7 @@ target's error measure on the target's validation set, restricted to the fit's
 validation set over the target's whole domain (or, for a fit allowed to cover
 part of it, over the fit's domain), from the fit's expression and parameters as
 they stand in the file; :func:`verify_fit` refuses a fit whose re-measured error
-is more than :data:`TOLERANCE` worse than the recorded one (beyond :data:`ROUNDING`), or that is not
+is more than :data:`TOLERANCE` worse than the recorded one (beyond :data:`fitlab.fit.metrics.ROUNDING`), or that is not
 finite somewhere on the domain.  ``fitlab codegen`` prints the re-measured
 figures; ``verify_fit(fitlab.store.load(path))`` runs the same check on a fit file.
 
@@ -25,17 +25,15 @@ import math
 import numpy as np
 
 from fitlab.core import get_target
-from fitlab.fit.metrics import summary
+from fitlab.fit.metrics import ROUNDING, summary
 from fitlab.store import FitFileError, FitFunction
 
-__all__ = ["TOLERANCE", "ROUNDING", "PROBE", "measure_fit", "verify_fit", "describe_measured"]
+__all__ = ["TOLERANCE", "PROBE", "measure_fit", "verify_fit", "describe_measured"]
 
-#: a fit whose re-measured max or RMS error exceeds (1 + TOLERANCE) x the recorded one is refused
+#: a fit whose re-measured max or RMS error exceeds (1 + TOLERANCE) x the recorded one, plus :data:`ROUNDING`, is
+#: refused (rounding: the file's figures come from the form, the re-measured ones from the expression as the file
+#: writes it)
 TOLERANCE = 0.10
-#: ...plus this much: an error of a few ulp is rounding, and a fit exact in its form (the Fresnel of a dielectric)
-#: has such errors, which move with the order of evaluation (the file's figures come from the form, the
-#: re-measured ones from the expression as the file writes it)
-ROUNDING = 1e-13
 #: interior points per input of the non-finite probe grid (besides the two ends)
 PROBE = 7
 

@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from fitlab._io import import_generated
-from fitlab.codegen import MaterialSpec, Program, Routine, build_program, emit, load_program, material_of
+from fitlab.codegen import build_program, emit, load_program
 from fitlab.codegen.bench import time_routines
 from fitlab.codegen.native import build
 from fitlab.families.lambert_sphere.exact import (
@@ -28,11 +28,11 @@ from fitlab.families.lambert_sphere.exact import (
     lambert_sphere_characteristic,
     solve_h,
 )
-from fitlab.families.lambert_sphere.forms.baselines import BASELINE_INPUTS, LAMBERT, oren_nayar
+from fitlab.families.lambert_sphere.program.baselines import baseline_program
 from fitlab.families.lambert_sphere.targets.tabulate import write_tables
 from fitlab.timing import best_of, best_seconds
 
-__all__ = ["bench_exact", "bench_codegen", "bench_mc", "bench_render", "baseline_program", "random_inputs"]
+__all__ = ["bench_exact", "bench_codegen", "bench_mc", "bench_render", "random_inputs"]
 
 
 def bench_exact(quick: bool = False) -> dict:
@@ -69,20 +69,6 @@ def bench_exact(quick: bool = False) -> dict:
 
 
 # -- generated code: the runtime model and the fast variant against Lambert and Oren-Nayar ----------
-def baseline_program() -> Program:
-    """Lambert and Oren-Nayar (sigma = 0.5) from :mod:`fitlab.families.lambert_sphere.forms.baselines`, as routines,
-    with the same per-material set-up as the runtime model (``eval_lambert(m, ...)``, ``eval_oren_nayar(m, ...)``,
-    m = ``prepare_kd(kd)``), so that the benchmark compares like with like."""
-    routines = (Routine("baseline_lambert", BASELINE_INPUTS, LAMBERT, "Lambert, kd/pi.", domain=_BASELINE_DOMAIN),
-                Routine("baseline_oren_nayar", BASELINE_INPUTS, oren_nayar(), "Oren-Nayar (qualitative), sigma = 0.5.",
-                        domain=_BASELINE_DOMAIN))  # fmt: skip
-    spec = MaterialSpec(("kd",), {"eval_lambert": "baseline_lambert", "eval_oren_nayar": "baseline_oren_nayar"})
-    return Program(routines, (), (), name="baselines", material=material_of(routines, spec))
-
-
-_BASELINE_DOMAIN = {"mu_i": (0.0, 1.0), "mu_o": (0.0, 1.0), "cos_phi": (-1.0, 1.0), "kd": (0.0, 1.0)}
-
-
 def random_inputs(n: int, seed: int = 0) -> dict:
     """The benchmark's inputs: mu_i, mu_o, c uniform on [0, 1), cos_phi uniform on [-1, 1) (numpy, seeded)."""
     rng = np.random.default_rng(seed)

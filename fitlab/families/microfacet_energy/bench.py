@@ -25,7 +25,7 @@ import os
 import subprocess
 import sys
 
-__all__ = ["bench_walk", "bench_mc", "bench_sharding", "bench_native", "CASES", "BLOG_RAYS", "BLOG_ORDERS",
+__all__ = ["bench_mc", "bench_sharding", "bench_native", "CASES", "BLOG_RAYS", "BLOG_ORDERS",
            "BLOG_SECONDS"]
 
 #: the blog's simulation: 5e8 rays, 4 orders of scattering, about 0.5 s on a GPU (source: module docstring)
@@ -40,44 +40,27 @@ def _config(distribution, kind, slots):
     return WalkConfig(distribution=distribution, kind=kind, slots=slots)
 
 
-def bench_walk(n_paths: int = 400_000, alpha: float = 0.6, mu_i: float = 0.5, distribution: str = "ggx",
-               kind: str = "conductor", slots: int = 1024, repeats: int = 3, eta: float = 1.5,
-               max_bounces: int = 1000, mesh=None) -> dict:
-    """Run ``n_paths`` paths ``repeats`` times after compiling; the best round's rates.
+def _sharding_child(n: int, repeat: int) -> dict:
+    """What :func:`bench_sharding`'s fresh process runs (``python -m fitlab.families.microfacet_energy.bench N
+    REPEAT``, with the host devices forced): the GGX dielectric walk on one device against all."""
+    import jax
+    import numpy as np
+    from jax.sharding import Mesh
 
-    Returns dict(compile_seconds, seconds, paths, bounces, bounces_per_second, paths_per_second)."""
-    from fitlab.families.microfacet_energy.mc.walk import MaterialParams, compile_walk, job_key, run_round
-    from fitlab.timing import best_of
+    from fitlab.families.microfacet_energy.mc.walk import MaterialParams, compile_walk, default_mesh, job_key, run_round
+    from fitlab.timing import interleaved_best
 
-    cfg = _config(distribution, kind, slots)
-    compile_s = compile_walk(cfg, mesh)
-    key, params = job_key(0, 0, 0), MaterialParams(alpha, alpha, eta=eta)
-    dt, res = best_of(lambda: run_round(cfg, key, params, mu_i, 0, n_paths, max_bounces, mesh=mesh), repeats)
-    paths, bounces = int(res["paths"]), int(res["bounces"])
-    return dict(compile_seconds=compile_s, seconds=dt, paths=paths, bounces=bounces,
-                bounces_per_second=bounces / dt, paths_per_second=paths / dt)
-
-
-_SHARD_SCRIPT = """
-import json, sys, time
-import jax, numpy as np
-from jax.sharding import Mesh
-from fitlab.families.microfacet_energy.mc.walk import (MaterialParams, WalkConfig, compile_walk,
-                                                                  default_mesh, job_key, run_round)
-from fitlab.timing import interleaved_best
-n, repeat = int(sys.argv[1]), int(sys.argv[2])
-cfg = WalkConfig(distribution="ggx", kind="dielectric", slots=1024)
-meshes = {"one device": Mesh(np.array(jax.devices()[:1]), ("paths",)), "all devices": default_mesh()}
-params = MaterialParams(0.6, 0.6, eta=1.5)
-for m in meshes.values():
-    compile_walk(cfg, m)
-out = {k: run_round(cfg, job_key(0, 0, 0), params, 0.5, 0, n, mesh=m) for k, m in meshes.items()}
-same = all(np.array_equal(out["one device"][k], out["all devices"][k]) for k in out["one device"])
-best = interleaved_best({k: (lambda m=m: run_round(cfg, job_key(0, 0, 0), params, 0.5, 0, n, mesh=m))
-                         for k, m in meshes.items()}, repeat)
-print(json.dumps({"devices": jax.device_count(), "paths": n, "bounces": int(out["one device"]["bounces"]),
-                  "seconds": best, "identical_tallies": bool(same)}))
-"""
+    cfg = _config("ggx", "dielectric", 1024)
+    meshes = {"one device": Mesh(np.array(jax.devices()[:1]), ("paths",)), "all devices": default_mesh()}
+    params = MaterialParams(0.6, 0.6, eta=1.5)
+    for m in meshes.values():
+        compile_walk(cfg, m)
+    out = {k: run_round(cfg, job_key(0, 0, 0), params, 0.5, 0, n, mesh=m) for k, m in meshes.items()}
+    same = all(np.array_equal(out["one device"][k], out["all devices"][k]) for k in out["one device"])
+    best = interleaved_best({k: (lambda m=m: run_round(cfg, job_key(0, 0, 0), params, 0.5, 0, n, mesh=m))
+                             for k, m in meshes.items()}, repeat)  # fmt: skip
+    return {"devices": jax.device_count(), "paths": n, "bounces": int(out["one device"]["bounces"]),
+            "seconds": best, "identical_tallies": bool(same)}  # fmt: skip
 
 
 def bench_sharding(devices: int | None = None, n_paths: int = 200_000, repeat: int = 3) -> dict:
@@ -85,7 +68,7 @@ def bench_sharding(devices: int | None = None, n_paths: int = 200_000, repeat: i
     docstring), in a fresh process: dict(devices, paths, bounces, seconds={mesh: s}, identical_tallies)."""
     devices = devices or os.cpu_count() or 1
     env = dict(os.environ, XLA_FLAGS=f"--xla_force_host_platform_device_count={devices}", JAX_PLATFORMS="cpu")
-    out = subprocess.run([sys.executable, "-c", _SHARD_SCRIPT, str(n_paths), str(repeat)], env=env,
+    out = subprocess.run([sys.executable, "-m", __name__, str(n_paths), str(repeat)], env=env,
                          capture_output=True, text=True, timeout=1800)
     if out.returncode != 0:
         raise RuntimeError(f"sharding benchmark failed: {out.stderr.strip().splitlines()[-1:]}")
@@ -165,3 +148,7 @@ def bench_mc(quick: bool = False) -> dict:
               f"one device {s['bounces'] / one:.3g} bounces/s, all {s['devices']} {s['bounces'] / every:.3g} "
               f"(x{one / every:.2f}); tallies identical: {'yes' if s['identical_tallies'] else 'NO'}")
     return results
+
+
+if __name__ == "__main__":  # bench_sharding's fresh process: N REPEAT, the figures as one JSON line
+    print(json.dumps(_sharding_child(int(sys.argv[1]), int(sys.argv[2]))))

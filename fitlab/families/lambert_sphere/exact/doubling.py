@@ -31,7 +31,7 @@ from functools import lru_cache
 import numpy as np
 
 from fitlab.families.lambert_sphere.exact._quadrature import graded_gauss
-from fitlab.families.lambert_sphere.exact.phase import MAX_DEGREE, associated_legendre_reduced, legendre_weights
+from fitlab.families.lambert_sphere.exact.phase import associated_legendre_reduced, legendre_weights
 
 __all__ = ["doubling_reflection", "doubling_step", "DoublingResult"]
 
@@ -71,15 +71,9 @@ def doubling_reflection(order: int, c: float, nodes_per_panel: int = 12, smalles
     m = int(order)
     c = float(c)
     mu, w = graded_gauss(nodes_per_panel, 0.25, smallest)
-    n = mu.size
     wl = legendre_weights(m, c)
     phi_pp = sum(wl[l] * np.outer(_assoc(l, m, mu), _assoc(l, m, mu)) for l in wl)
     phi_pm = sum(wl[l] * (-1.0) ** (l + m) * np.outer(_assoc(l, m, mu), _assoc(l, m, mu)) for l in wl)
-    p_plus = 0.5 * phi_pp * w[None, :]
-    p_minus = 0.5 * phi_pm * w[None, :]
-    a = (np.eye(n) - p_plus) / mu[:, None]
-    b = p_minus / mu[:, None]
-    gen = np.block([[a, -b], [b, -a]])
     # Thin starting layer: single scattering with exact exponentials; the
     # neglected double scattering is O(tau sum_k w_k/mu_k) ~ 1e-16 relative.
     tau = 2.0**-60

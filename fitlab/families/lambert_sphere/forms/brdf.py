@@ -17,7 +17,7 @@ from typing import Mapping
 import sympy as sp
 from sympy.codegen.cfunctions import expm1
 
-from fitlab.families.lambert_sphere.forms.constants import A_EXACT, E_EXACT, FIRST_ORDER
+from fitlab.families.lambert_sphere.forms.constants import E_EXACT, FIRST_ORDER
 from fitlab.forms.form import Form
 from fitlab.forms.symbolic import safe_pow, symbols
 from fitlab.physics.lambert_sphere import phase_function, phase_function_forward

@@ -8,4 +8,5 @@ r"""The Lambert sphere's runtime models and the program generated from them.
 * :mod:`.true_refit`: the runtime parts fitted to the true BRDF (``python -m
   fitlab.families.lambert_sphere.program.true_refit --out DIR``).
 * :mod:`.table_export`: the exact tables as engines ship them (``fitlab codegen --tables``).
+* :mod:`.baselines`: Lambert and Oren-Nayar as a program, what the benchmarks and renders compare with.
 """

@@ -75,7 +75,7 @@ from fitlab.families.lambert_sphere.targets.table_files import (
     read_true_orders,
     tables_dir,
 )
-from fitlab.families.lambert_sphere.targets.tabulate import TRUE_GRID_TEXT, TRUE_S_GRID
+from fitlab.families.lambert_sphere.targets.table_files import TRUE_GRID_TEXT, TRUE_S_GRID
 from fitlab.forms.symbolic import symbols
 from fitlab.store import MAX_TABLE_BYTES
 
@@ -102,7 +102,7 @@ LIMIT_MU = 1e-9
 #: true_orders.csv: n - 1 divides 32)
 CORRECTION_MAX_NODES = 33
 #: how the correction may be read along s, (lookup, step): its s nodes are every step-th node of the exact table's
-#: grid (:data:`..targets.tabulate.TRUE_S_GRID`), read by the lookup (across sqrt(mu_i), sqrt(mu_o) by the table's
+#: grid (:data:`..targets.table_files.TRUE_S_GRID`), read by the lookup (across sqrt(mu_i), sqrt(mu_o) by the table's
 #: lookup); docs/table_export.md measures each
 CORRECTION_S_CHOICES = (("linear", 2), ("cubic", 2), ("linear", 1), ("cubic", 1))
 #: what is shipped: linear in s on s = k/4 (docs/table_export.md, "The correction along s": the fewest texels and
@@ -128,7 +128,7 @@ class TableLayout:
     """Where each quantity sits in a texture of ``nodes`` nodes per axis: (3 nodes + 7) rows of the H functions,
     the constants and kd, then the true-phase correction, 3 orders x :attr:`correction_s_nodes` slabs x
     :attr:`correction_nodes` rows (columns beyond :attr:`correction_nodes` hold 0); its s nodes are every
-    ``correction_s_step``-th of :data:`..targets.tabulate.TRUE_S_GRID`."""
+    ``correction_s_step``-th of :data:`..targets.table_files.TRUE_S_GRID`."""
 
     nodes: int
     correction_s_step: int = DEFAULT_CORRECTION_S[1]
@@ -319,7 +319,7 @@ CORRECTION_LIMIT_NODES = 4
 def stored_correction(nodes: int, data_dir: Path | None = None,
                       correction_s: tuple = DEFAULT_CORRECTION_S) -> np.ndarray:  # fmt: skip
     """Q_m(s, mu_i, mu_o) = (fm_m,true - fm_m,three-term)/fm_0,three-term on the correction's nodes, shape
-    (3, S, n, n): s = k/(S - 1), the nodes of :data:`..targets.tabulate.TRUE_S_GRID` that ``correction_s`` keeps,
+    (3, S, n, n): s = k/(S - 1), the nodes of :data:`..targets.table_files.TRUE_S_GRID` that ``correction_s`` keeps,
     sqrt(mu_i) = i/(n - 1), sqrt(mu_o) = j/(n - 1), from true_orders.csv.
 
     Q is a ratio of two multiple scatterings, each O(c^2) and each with the log pole at mu_i = mu_o = 0, so it is

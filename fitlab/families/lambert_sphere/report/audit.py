@@ -50,7 +50,7 @@ from fitlab.fit.refit import preset_metrics
 from fitlab.report.methods import FitEntry, best_forms, origin_kind
 from fitlab.store import FitFileError, fit_files, fits_folder, read_fit, strict_json
 
-__all__ = ["run_audit", "directional_albedo", "richer_forms"]
+__all__ = ["audit", "directional_albedo", "richer_forms"]
 
 GRAZING = 1.0 / 64.0
 FURNACE_MU = (0.0, 0.01, 0.1, 0.3, 0.5, 0.7, 0.9, 1.0)

@@ -38,11 +38,12 @@ import sympy as sp
 from fitlab.codegen import DEFAULT_FORMS, program_spec
 from fitlab.core import get_target
 from fitlab.families.lambert_sphere import exact
-from fitlab.families.lambert_sphere.bench import baseline_program, random_inputs
+from fitlab.families.lambert_sphere.bench import random_inputs
 from fitlab.families.lambert_sphere.exact import albedo, brdf, h_function, spherical_albedo
 from fitlab.families.lambert_sphere.forms import ORDER2_PART, RUNTIME_PARTS
 from fitlab.families.lambert_sphere.forms.baselines import BASELINE_INPUTS, LAMBERT, oren_nayar
 from fitlab.families.lambert_sphere.program import table_export
+from fitlab.families.lambert_sphere.program.baselines import baseline_program
 from fitlab.families.lambert_sphere.program.runtime import (
     FAMILY_NAME,
     PRESET_VARIANTS,

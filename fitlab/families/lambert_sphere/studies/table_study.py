@@ -140,7 +140,7 @@ def correction_rows(sets, data_dir=None, tick=None) -> list[dict]:
     reads the correction by :data:`CORRECTION_REFERENCE` (max and RMS of |f - f_ref|/f_exact: what the reading along
     s adds, the rest being common); and, for a reading that skips nodes of the exact table's s grid, the correction
     there against the table's exact values (sum over the orders of max |dQ_m|, an error relative to fm0)."""
-    from fitlab.families.lambert_sphere.targets.tabulate import TRUE_S_GRID
+    from fitlab.families.lambert_sphere.targets.table_files import TRUE_S_GRID
 
     nodes, lookup = te.DEFAULT_NODES, te.DEFAULT_LOOKUP
     inputs = {name: [v.inputs[k] for k in _INPUTS] for name, v in sets.items()}

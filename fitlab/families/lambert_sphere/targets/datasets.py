@@ -267,7 +267,7 @@ SAMPLING_COLUMN = {"sample_weight": "weight", "sample_exponent": "exponent"}
 
 
 def _sampling(target: str, name: str, data_dir: Path | None) -> Dataset:
-    from fitlab.families.lambert_sphere.targets.tabulate import SAMPLING_GRIDS
+    from fitlab.families.lambert_sphere.targets.table_files import SAMPLING_GRIDS
 
     t = read_sampling(name, tables_dir(data_dir))
     return Dataset({"mu_i": t["mu_i"], "c": t["c"]}, t[SAMPLING_COLUMN[target]], f"table {name}: {SAMPLING_GRIDS[name][2]}")

@@ -33,7 +33,6 @@ from fitlab.families.lambert_sphere.exact import (
 )
 from fitlab.families.lambert_sphere.exact.constants import CONSTANT_NAMES
 from fitlab.families.lambert_sphere.exact.sampling import (
-    MU_MIN,
     QUADRATURE_NODES,
     optimal_mixture,
     relative_variance,
@@ -41,52 +40,34 @@ from fitlab.families.lambert_sphere.exact.sampling import (
 )
 from fitlab.families.lambert_sphere.exact.true_phase import multiple_scattering_orders
 from fitlab.families.lambert_sphere.targets.table_files import (
+    C_GRID,
     FAMILY_NAME,
+    GRID_TEXT,
     KD_COLUMNS,
+    MU_GRID,
+    S_GRID,
     SAMPLING_COLUMNS,
     SAMPLING_FILES,
+    SAMPLING_GRIDS,
     TABLE_FILES,
     TRUE_COLUMNS,
     TRUE_FILE,
+    TRUE_GRID_TEXT,
     TRUE_ORDERS,
+    TRUE_S_GRID,
     read_checked,
+    true_grid,
 )
 from fitlab.store import Table
 from fitlab.store import write_tables as store_write_tables
 
 # the family's `tables` service: the layout (FAMILY_NAME, TABLE_FILES) with the writer and the checker
 __all__ = ["FAMILY_NAME", "TABLE_FILES", "build_tables", "write_tables", "check_tables", "h_table", "constants_table",
-           "albedo_table", "sampling_table", "true_orders_table", "true_grid", "check_true_orders", "SAMPLING_GRIDS",
-           "FAST_TABLES", "C_GRID",
-           "MU_GRID", "S_GRID", "TRUE_S_GRID", "TRUE_MU_GRID", "TRUE_GRID_TEXT", "TRUE_TOLERANCE"]
-
-S_GRID = np.arange(65) / 64.0
-C_GRID = 1.0 - S_GRID**2
-MU_GRID = np.concatenate(([0.0, 1e-12, 1e-9, 1e-6, 1e-4, 1e-3], np.arange(1, 65) / 64.0, [np.inf]))
+           "albedo_table", "sampling_table", "true_orders_table", "check_true_orders", "FAST_TABLES", "TRUE_TOLERANCE"]
 
 H_TOLERANCE = 1e-10  # relative, H-functions
 CONSTANT_TOLERANCE = 1e-9  # absolute (relative for H0_inf), constants and kd
-
-GRID_TEXT = (
-    "c = 1 - s^2, s = k/64 for k = 0..64; "
-    "mu = 0, 1e-12, 1e-9, 1e-6, 1e-4, 1e-3, j/64 for j = 1..64, inf"
-)
-
-
-#: the true-phase table's grid: s = k/8, and mu = 1e-9 (where the exported tables read mu -> 0: the orders are
-#: +-inf at mu_i = mu_o = 0) then (j/32)^2, uniform in sqrt(mu), the coordinate the exported tables read it in
-TRUE_S_GRID = np.arange(9) / 8.0
-TRUE_MU_GRID = np.concatenate(([1e-9], (np.arange(1, 33) / 32.0) ** 2))
-TRUE_GRID_TEXT = "c = 1 - s^2, s = k/8 for k = 0..8; mu_i <= mu_o in 1e-9, (j/32)^2 for j = 1..32 (mu_i outer)"
 TRUE_TOLERANCE = 1e-9  # relative to the largest |value| of the order at that c: the 'doubling' method agrees
-
-
-def true_grid() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(s, mu_i, mu_o) of the true-phase table's rows: s outer, then mu_i, then mu_o >= mu_i."""
-    i, j = np.triu_indices(TRUE_MU_GRID.size)
-    n = i.size
-    k = TRUE_S_GRID.size
-    return np.repeat(TRUE_S_GRID, n), np.tile(TRUE_MU_GRID[i], k), np.tile(TRUE_MU_GRID[j], k)
 
 
 def _true_rows(c: float, mu_i, mu_o, method: str = "newton") -> list[np.ndarray]:
@@ -176,18 +157,6 @@ def albedo_table(progress=None) -> Table:
     )
 
 
-def _interleaved(denominator: int) -> np.ndarray:
-    return np.concatenate(([0.0], (2 * np.arange(denominator // 2) + 1) / denominator, [1.0]))
-
-
-#: the sampling tables' grids, (s axis, mu_i axis, text) by file: the validation grid's interior points
-#: lie between the training grid's
-SAMPLING_GRIDS = {
-    SAMPLING_FILES[0]: (np.arange(17) / 16, np.concatenate(([MU_MIN, 0.01], np.arange(1, 33) / 32)),
-                        "c = 1 - s^2, s = k/16 for k = 0..16; mu_i = 1e-3, 0.01, j/32 for j = 1..32"),
-    SAMPLING_FILES[1]: (_interleaved(32), np.concatenate(([MU_MIN, 0.003], _interleaved(64)[1:])),
-                        "c = 1 - s^2, s = 0, (2k+1)/32 for k = 0..15, 1; mu_i = 1e-3, 0.003, (2j+1)/64 for j = 0..31, 1"),
-}
 SAMPLING_TOLERANCE = 5e-3  # relative, of the optimal variance: the finer rule and the independent optimiser (2e-3 at mu_i = 1e-3)
 
 

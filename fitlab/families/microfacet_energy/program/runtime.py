@@ -32,7 +32,7 @@ import sympy as sp
 from fitlab.core import get_target
 from fitlab.families.microfacet_energy.lobes.fitting import BOUNDS
 from fitlab.families.microfacet_energy.lobes.shapes import SHAPE_INPUTS, blog_lobe, tilted_lobe
-from fitlab.families.microfacet_energy.targets.lobes import lobe_target_names, target_name
+from fitlab.families.microfacet_energy.targets.lobe_parts import lobe_target_names
 from fitlab.forms.symbolic import lambdify_numpy, symbols
 from fitlab.store import fit_path, fits_folder, load
 

@@ -42,7 +42,7 @@ from fitlab.codegen import Model, Program, ProgramSpec, Routine, build_program, 
 from fitlab.families.microfacet_energy.lobes.tables import KINDS
 from fitlab.families.microfacet_energy.program.runtime import MODELS, model_forms, multiple_scattering, order_lobes
 from fitlab.families.microfacet_energy.targets import TARGETS
-from fitlab.families.microfacet_energy.targets.lobes import lobe_target_names
+from fitlab.families.microfacet_energy.targets.lobe_parts import lobe_target_names
 from fitlab.forms.symbolic import symbols
 from fitlab.store import FitFunction, fit_path, fits_folder
 

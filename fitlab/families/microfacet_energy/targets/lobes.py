@@ -44,12 +44,15 @@ import numpy as np
 from fitlab.core import Dataset, Input, Target
 from fitlab.families.microfacet_energy.lobes.params import params_file, read_params
 from fitlab.families.microfacet_energy.lobes.tables import DOMAIN, KINDS
+from fitlab.families.microfacet_energy.targets.lobe_parts import (
+    BLOG_PARTS,
+    ENERGY_SCALE,
+    TILT_PARTS,
+    target_name,
+)
 
-__all__ = ["LOBE_TARGETS", "MIN_ALBEDO", "TOLERANCE", "lobe_target_names", "BLOG_PARTS", "TILT_PARTS", "target_name",
-           "energy_scales", "ENERGY_SCALE"]
+__all__ = ["LOBE_TARGETS", "MIN_ALBEDO", "TOLERANCE", "energy_scales"]
 
-#: the tilted lobe's scale is not the per-lobe fit's but the energy-matching one (:func:`energy_scales`)
-ENERGY_SCALE = "energy_scale"
 #: lobes below this albedo are left out of the sets (module docstring)
 MIN_ALBEDO = 1e-3
 #: the columns whose sets hold every lobe with any energy (the others': albedo >= MIN_ALBEDO): the tilted
@@ -62,23 +65,8 @@ ALPHA = Input("alpha", DOMAIN["alpha"], "GGX roughness alpha of the microsurface
 MU_I = Input("mu_i", DOMAIN["mu_i"], "cosine of the incident direction with the normal")
 ORDER = Input("order", (2.0, 5.0), "scattering order: 2, 3, 4, and 5 for every order above 4")
 
-#: (parameter, table column, error measure, what, with order) of the blog's final lobe and of the tilted lobe
-BLOG_PARTS = (("eta", "blog_eta", "absolute", "exponent eta", False),
-              ("flattening", "blog_sigma_n", "relative", "normal flattening sigma_n", False),
-              ("scale", "blog_scale", "relative", "scale sigma (with the order-2 lobe's shape)", True))
-TILT_PARTS = (("sigma", ENERGY_SCALE, "relative", "scale sigma (the one that gives the fitted shape the simulated albedo)",
-               True),
-              ("eta", "tilt_eta", "absolute", "exponent eta", True),
-              ("flattening", "tilt_sigma_n", "relative", "normal flattening sigma_n", True),
-              ("b", "tilt_b", "absolute", "azimuthal tilt b (< 0: towards the mirror side)", True),
-              ("k", "tilt_k", "absolute", "azimuthal narrowing k", True))
 _DEFAULT_FORM = {"eta": "poly", "flattening": "exp_poly", "scale": "exp_poly", "sigma": "exp_poly", "b": "sine_poly",
                  "k": "sine2_poly"}
-
-
-def target_name(model: str, param: str, kind: str) -> str:
-    """``ms_{model}_{param}_{kind}``, model "blog" or "tilt"."""
-    return f"ms_{model}_{param}_{kind}"
 
 
 def _tables_dir() -> Path:
@@ -188,9 +176,3 @@ def _targets(kind: str) -> list[Target]:
 
 #: every lobe-parameter target, by name
 LOBE_TARGETS = {t.name: t for kind in KINDS for t in _targets(kind)}
-
-
-def lobe_target_names(model: str, kind: str) -> tuple[str, ...]:
-    """The targets of ``model`` ("blog" or "tilt") and ``kind``, in the order of the shape's parameters."""
-    parts = BLOG_PARTS if model == "blog" else TILT_PARTS
-    return tuple(target_name(model, p[0], kind) for p in parts)

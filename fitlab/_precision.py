@@ -9,7 +9,7 @@ context) and restores the previous setting on return or on an exception.
 A function traced under x64 must also be called under x64 (the arguments'
 dtypes, and JAX's jit caches, depend on the setting): wrap the entry point that
 both traces and runs, not an inner helper.  JAX is imported on first use, so
-importing this module (and ``fitlab.core``) imports no JAX.
+importing this module (and ``fitlab.core``, ``fitlab._montecarlo``) imports no JAX.
 """
 
 from __future__ import annotations
