@@ -433,7 +433,7 @@ def _stub_refits(monkeypatch, worse: str | None = None):
         res = _committed(target.name)
         if target.name == worse:
             for p in res.record["published"]:
-                p["validation"].update(max_rel_nonzero=1e-9, rms_rel=1e-9)
+                p["validation"].update(max_rel=1e-9, max_rel_nonzero=1e-9, rms_rel=1e-9)
         return res, 0.01
 
     monkeypatch.setattr(fitlab.cli.refit, "timed_refit", timed_refit)
