@@ -110,6 +110,10 @@ def _measures(f, exact_valid: np.ndarray, mu_valid: np.ndarray, f_avg: np.ndarra
             "f_avg": avg.tolist()}
 
 
+#: depths F(1) - min F up to this are the exact engine's rounding, not a dip
+DIP_ROUNDING = 1e-12
+
+
 def _dip(material: str) -> dict:
     """Where the exact F falls below F(1) before its rise to 1 at grazing: per channel the least F, its angle,
     and the depth F(1) - min F."""
@@ -117,6 +121,9 @@ def _dip(material: str) -> dict:
     mu = np.cos(np.radians(theta))
     mu[-1] = 0.0
     f = reflectance(material, mu)
+    # a dielectric's F rises from F(1) as theta^4: near normal incidence that is below the engine's rounding (a few
+    # ulps), which must not read as a dip
+    f = np.where(f > f[0] - DIP_ROUNDING, np.maximum(f, f[0]), f)
     i = np.argmin(f, axis=0)
     return {"min": f[i, range(3)].tolist(), "angle_deg": theta[i].tolist(), "depth": (f[0] - f[i, range(3)]).tolist()}
 
@@ -309,9 +316,10 @@ def markdown(result: dict) -> str:
         "",
         "## What is exact",
         "",
-        "F(mu) of an interface between air and a material of complex index n + i k, unpolarised, from the complex "
-        "amplitude coefficients r_s = (mu - w)/(mu + w), r_p = (eta^2 mu - w)/(eta^2 mu + w) with "
-        "w = sqrt(eta^2 - sin^2 theta), F = (|r_s|^2 + |r_p|^2)/2, per wavelength from 360 to 780 nm "
+        "F(mu) of an interface between air and a material of complex index n + i k, unpolarised: the amplitude "
+        "coefficients r_s = (mu - w)/(mu + w), r_p = (eta^2 mu - w)/(eta^2 mu + w) with "
+        "w = sqrt(eta^2 - sin^2 theta), F = (|r_s|^2 + |r_p|^2)/2, evaluated in Born and Wolf's real form without "
+        "cancellation (`fitlab.physics.fresnel.fresnel_conductor`), per wavelength from 360 to 780 nm "
         "(1 nm steps). A channel of linear sRGB (or ACEScg) is the spectrum weighted by the CIE 1931 2-degree "
         "observer under D65 and the colour space's matrix (ACEScg reached from D65 by CAT02), each channel "
         "normalised so that a constant spectrum gives that constant; the weights come from colour-science and "
