@@ -110,8 +110,16 @@ def _forms(material: str, channel: str) -> tuple[Form, ...]:
     facts = construction(material, channel)
     default = default_form(material, channel)
     return tuple(
-        Form(target, name, ("mu",), tuple(str(s) for s in params), expr, presets=_presets(name, facts),
-             description=_DESCRIPTIONS[name], refit_by_default=name == default)
+        Form(
+            target,
+            name,
+            ("mu",),
+            tuple(str(s) for s in params),
+            expr,
+            presets=_presets(name, facts),
+            description=_DESCRIPTIONS[name],
+            refit_by_default=name == default,
+        )
         for name, (params, expr) in EXPRESSIONS.items()
     )
 
