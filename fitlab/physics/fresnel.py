@@ -16,6 +16,7 @@ __all__ = [
     "F82_COSINE",
     "schlick_weight",
     "fresnel_schlick",
+    "schlick_average",
     "schlick_generalised",
     "lazanyi",
     "f82_tint_coefficient",
@@ -43,6 +44,11 @@ def schlick_weight(c: Any) -> Any:
 def fresnel_schlick(c: Any, f0: Any) -> Any:
     """Schlick (RTR4 eq. 9.16): F0 + (1 - F0)(1 - c)^5."""
     return f0 + (1 - f0) * schlick_weight(c)
+
+
+def schlick_average(f0: Any) -> Any:
+    """Schlick's cosine-weighted average 2 int_0^1 F(c) c dc = F0 + 2 (1 - F0) B(2, 6) = (20 F0 + 1) / 21."""
+    return (20 * f0 + 1) / 21
 
 
 def schlick_generalised(c: Any, f0: Any, f90: Any, p: Any) -> Any:

@@ -1,8 +1,9 @@
 r"""The exact engine of the Fresnel family: the reflectance of real materials per wavelength and per colour
 channel, and its cosine-weighted average.
 
-* :func:`fresnel_reflectance` (:mod:`._optics`): unpolarised F(mu) for a complex index n + i k, from the
-  complex amplitude coefficients; :func:`normal_reflectance`; Gulbrandsen's map between (r, g) and (n, k).
+* :func:`fresnel_reflectance` (:mod:`._optics`): unpolarised F(mu) for a complex index n + i k
+  (:func:`fitlab.physics.fresnel.fresnel_conductor`); :func:`normal_reflectance`; Gulbrandsen's map between (r, g)
+  and (n, k).
 * :data:`MATERIALS` (:mod:`._materials`): measured conductors and dielectrics, with the source of each
   index; :func:`reflectance` F_c(mu) per channel of linear sRGB or ACEScg, :func:`average_reflectance`.
 * :func:`channel_weights` (:mod:`._colour`): the CIE 1931 observer under D65 as weights per channel, from
@@ -13,6 +14,7 @@ docs/fresnel.md states the conventions and what each approximation costs in accu
 
 from pathlib import Path
 
+from fitlab import physics
 from fitlab.families.fresnel.exact._colour import (
     SPACES,
     WAVELENGTHS,
@@ -43,7 +45,7 @@ from fitlab.families.fresnel.exact._optics import (
 )
 
 #: the engine's source files, part of the key of anything cached from it
-SOURCES = tuple(sorted(Path(__file__).resolve().parent.glob("*.py")))
+SOURCES = (*sorted(Path(__file__).resolve().parent.glob("*.py")), *physics.sources("fresnel"))
 
 __all__ = [
     "AVERAGE_ROUTES",

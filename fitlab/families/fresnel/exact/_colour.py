@@ -27,8 +27,17 @@ from fitlab.numerics import choice
 from fitlab.resources import tables_folder
 from fitlab.store import read_table
 
-__all__ = ["SPACES", "WAVELENGTHS", "WEIGHTS_FILE", "WEIGHTS_COLUMNS", "WEIGHTS_GRID", "compute_channel_weights",
-           "read_weights", "channel_weights", "channel_wavelength"]
+__all__ = [
+    "SPACES",
+    "WAVELENGTHS",
+    "WEIGHTS_FILE",
+    "WEIGHTS_COLUMNS",
+    "WEIGHTS_GRID",
+    "compute_channel_weights",
+    "read_weights",
+    "channel_weights",
+    "channel_wavelength",
+]
 
 #: the linear colour spaces, each with channels r, g, b
 SPACES = ("srgb", "acescg")
@@ -46,8 +55,9 @@ def compute_channel_weights() -> dict[str, np.ndarray]:
     try:
         import colour
     except ImportError:
-        raise ImportError("the Fresnel family's colour weights need colour-science: pip install "
-                          "'fitlab-brdf[fresnel]'") from None
+        raise ImportError(
+            "the Fresnel family's colour weights need colour-science: pip install 'fitlab-brdf[fresnel]'"
+        ) from None
     shape = colour.SpectralShape(float(WAVELENGTHS[0]), float(WAVELENGTHS[-1]), 1.0)
     cmfs = colour.MSDS_CMFS["CIE 1931 2 Degree Standard Observer"].copy().align(shape)
     d65 = colour.SDS_ILLUMINANTS["D65"].copy().align(shape)
@@ -55,8 +65,9 @@ def compute_channel_weights() -> dict[str, np.ndarray]:
     white = colour.CCS_ILLUMINANTS["CIE 1931 2 Degree Standard Observer"]["D65"]
     out = {}
     for space, name in (("srgb", "sRGB"), ("acescg", "ACEScg")):
-        rgb = colour.XYZ_to_RGB(xyz, name, illuminant=white, chromatic_adaptation_transform="CAT02",
-                                apply_cctf_encoding=False)
+        rgb = colour.XYZ_to_RGB(
+            xyz, name, illuminant=white, chromatic_adaptation_transform="CAT02", apply_cctf_encoding=False
+        )
         out[space] = (rgb / rgb.sum(axis=0)).T
     return out
 
@@ -64,9 +75,10 @@ def compute_channel_weights() -> dict[str, np.ndarray]:
 def read_weights(folder) -> dict[str, np.ndarray]:
     """{space: W of shape (3, wavelengths)} of the table in ``folder``, its header, grid line and wavelength
     column checked (:class:`fitlab.store.TableError`)."""
-    _, data = read_table(Path(folder) / WEIGHTS_FILE, WEIGHTS_COLUMNS, grid=WEIGHTS_GRID,
-                         points={"wavelength_nm": WAVELENGTHS})
-    out = {space: np.ascontiguousarray(data[:, 1 + 3 * i:4 + 3 * i].T) for i, space in enumerate(SPACES)}
+    _, data = read_table(
+        Path(folder) / WEIGHTS_FILE, WEIGHTS_COLUMNS, grid=WEIGHTS_GRID, points={"wavelength_nm": WAVELENGTHS}
+    )
+    out = {space: np.ascontiguousarray(data[:, 1 + 3 * i : 4 + 3 * i].T) for i, space in enumerate(SPACES)}
     for w in out.values():
         w.setflags(write=False)
     return out

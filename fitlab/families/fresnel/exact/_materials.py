@@ -27,8 +27,16 @@ from fitlab.numerics import choice, gauss_legendre, real_array
 from fitlab.resources import packaged_tables
 from fitlab.store import read_table
 
-__all__ = ["Material", "MATERIALS", "CHANNELS", "get_material", "reflectance", "average_reflectance", "AVERAGE_ROUTES",
-           "cosine_average"]
+__all__ = [
+    "Material",
+    "MATERIALS",
+    "CHANNELS",
+    "get_material",
+    "reflectance",
+    "average_reflectance",
+    "AVERAGE_ROUTES",
+    "cosine_average",
+]
 
 #: the channels of both colour spaces, in order
 CHANNELS = ("r", "g", "b")
@@ -68,22 +76,35 @@ class Material:
 
 
 _LUXPOP = "luxpop.com database, as shipped in Mitsuba 3 (fitlab/data/fresnel/{0}.csv)"
-MATERIALS = {m.key: m for m in (
-    Material("ag", "silver", "conductor", _LUXPOP.format("ag"), file="ag.csv"),
-    Material("al", "aluminium", "conductor", _LUXPOP.format("al"), file="al.csv"),
-    Material("au", "gold", "conductor", _LUXPOP.format("au"), file="au.csv"),
-    Material("cr", "chromium", "conductor", _LUXPOP.format("cr"), file="cr.csv"),
-    Material("cu", "copper", "conductor", _LUXPOP.format("cu"), file="cu.csv"),
-    Material("ni", "nickel", "conductor", "Palik (1985) via luxpop.com, as shipped in Mitsuba 3 "
-             "(fitlab/data/fresnel/ni.csv)", file="ni.csv"),
-    Material("w", "tungsten", "conductor", _LUXPOP.format("w"), file="w.csv"),
-    Material("mo", "molybdenum", "conductor", _LUXPOP.format("mo"), file="mo.csv"),
-    Material("glass", "glass (n = 1.5)", "dielectric", "a constant index of 1.5 (RTR4 section 9.5)", constant=1.5),
-    Material("water", "water (n = 1.333)", "dielectric", "a constant index of 1.333", constant=1.333),
-    Material("diamond", "diamond (n = 2.42)", "dielectric", "a constant index of 2.42", constant=2.42),
-    Material("bk7", "N-BK7 glass (dispersive)", "dielectric", "Sellmeier formula of the SCHOTT N-BK7 data sheet",
-             sellmeier=BK7_SELLMEIER),
-)}
+MATERIALS = {
+    m.key: m
+    for m in (
+        Material("ag", "silver", "conductor", _LUXPOP.format("ag"), file="ag.csv"),
+        Material("al", "aluminium", "conductor", _LUXPOP.format("al"), file="al.csv"),
+        Material("au", "gold", "conductor", _LUXPOP.format("au"), file="au.csv"),
+        Material("cr", "chromium", "conductor", _LUXPOP.format("cr"), file="cr.csv"),
+        Material("cu", "copper", "conductor", _LUXPOP.format("cu"), file="cu.csv"),
+        Material(
+            "ni",
+            "nickel",
+            "conductor",
+            "Palik (1985) via luxpop.com, as shipped in Mitsuba 3 (fitlab/data/fresnel/ni.csv)",
+            file="ni.csv",
+        ),
+        Material("w", "tungsten", "conductor", _LUXPOP.format("w"), file="w.csv"),
+        Material("mo", "molybdenum", "conductor", _LUXPOP.format("mo"), file="mo.csv"),
+        Material("glass", "glass (n = 1.5)", "dielectric", "a constant index of 1.5 (RTR4 section 9.5)", constant=1.5),
+        Material("water", "water (n = 1.333)", "dielectric", "a constant index of 1.333", constant=1.333),
+        Material("diamond", "diamond (n = 2.42)", "dielectric", "a constant index of 2.42", constant=2.42),
+        Material(
+            "bk7",
+            "N-BK7 glass (dispersive)",
+            "dielectric",
+            "Sellmeier formula of the SCHOTT N-BK7 data sheet",
+            sellmeier=BK7_SELLMEIER,
+        ),
+    )
+}
 
 
 @cache
@@ -117,11 +138,11 @@ def reflectance(material: str, mu, space: str = "srgb") -> np.ndarray:
     flat = mu.ravel()
     out = np.empty((flat.size, 3))
     for start in range(0, flat.size, _CHUNK):
-        part = flat[start:start + _CHUNK]
+        part = flat[start : start + _CHUNK]
         # numpy's pairwise sum per (cosine, channel), not a BLAS product: its order of summation, and so the last
         # bits, would depend on the BLAS build and on how many cosines share the call
         spectral = fresnel_reflectance(part[:, None], eta[None, :])
-        out[start:start + _CHUNK] = np.sum(spectral[:, None, :] * weights[None, :, :], axis=-1)
+        out[start : start + _CHUNK] = np.sum(spectral[:, None, :] * weights[None, :, :], axis=-1)
     return out.reshape(*mu.shape, 3)
 
 

@@ -12,8 +12,8 @@ With m = 1 - mu:
   Schlick term and mu_bar = 1/7 (82 degrees), so that F(mu_bar) = tint S(mu_bar).  Preset ``f82``: F0 = F(1),
   tint = F(mu_bar) / S(mu_bar) of the exact F: the form then meets the exact F at 0, 82 and 90 degrees.
 * ``gulbrandsen`` (Gulbrandsen 2014, "Artist Friendly Metallic Fresnel"): the exact conductor reflectance
-  of the index n(r, g) + i k(r, g) of :func:`fitlab.families.fresnel.exact.gulbrandsen_index`
-  (reflectivity r, edge tint g), in Born and Wolf's real form (docs/fresnel.md).  Preset ``gulbrandsen``:
+  of the index n(r, g) + i k(r, g) of :func:`fitlab.physics.fresnel.gulbrandsen_index` (reflectivity r, edge tint
+  g), :func:`fitlab.physics.fresnel.fresnel_conductor` (docs/fresnel.md).  Preset ``gulbrandsen``:
   r = F(1) of the channel, as an artist picks the colour at normal incidence (at most :data:`R_MAX`: the
   map needs r < 1, where gold's red channel, out of sRGB's gamut, has F(1) = 1.02), and g of Gulbrandsen's
   inverse map of the measured n, k at the channel's wavelength
@@ -40,12 +40,13 @@ from fitlab.families.fresnel.exact import (
     reflectance,
 )
 from fitlab.families.fresnel.targets import MU, default_form, target_name
-from fitlab.forms import Form, safe_pow
+from fitlab.forms import Form
+from fitlab.physics import fresnel
 
-__all__ = ["FORMS", "FORM_NAMES", "MU_BAR", "R_MAX", "construction", "conductor_reflectance", "schlick_term"]
+__all__ = ["FORMS", "FORM_NAMES", "MU_BAR", "R_MAX", "construction"]
 
 #: Hoffman's F82 angle, as a cosine
-MU_BAR = sp.Rational(1, 7)
+MU_BAR = sp.Rational(*fresnel.F82_COSINE)
 #: the largest r of the gulbrandsen preset (its map divides by 1 - sqrt r)
 R_MAX = 0.999
 FORM_NAMES = ("schlick", "schlick_generalised", "lazanyi", "f82_tint", "gulbrandsen")
@@ -54,44 +55,18 @@ _mu = MU.symbol
 F0, F90, p, a, alpha, tint, r, g = sp.symbols("F0 F90 p a alpha tint r g", real=True)
 
 
-def schlick_term(f0, mu):
-    """Schlick's F0 + (1 - F0)(1 - mu)^5."""
-    return f0 + (1 - f0) * (1 - mu) ** 5
-
-
-def conductor_reflectance(mu, n, k2):
-    """Unpolarised F of the index n + i k (k^2 = k2 >= 0) against air at cos theta = mu, in the real form:
-    with s2 = 1 - mu^2, t0 = n^2 - k^2 - s2, z = sqrt(t0^2 + 4 n^2 k^2) = a^2 + b^2, a = sqrt((z + t0)/2),
-    R_s = (z - 2 a mu + mu^2)/(z + 2 a mu + mu^2), R_p = R_s (z mu^2 - 2 a mu s2 + s2^2)/(z mu^2 + 2 a mu s2
-    + s2^2), F = (R_s + R_p)/2."""
-    s2 = 1 - mu**2
-    t0 = n**2 - k2 - s2
-    z = sp.sqrt(t0**2 + 4 * n**2 * k2)
-    a_ = sp.sqrt((z + t0) / 2)
-    r_s = (z - 2 * a_ * mu + mu**2) / (z + 2 * a_ * mu + mu**2)
-    r_p = r_s * (z * mu**2 - 2 * a_ * mu * s2 + s2**2) / (z * mu**2 + 2 * a_ * mu * s2 + s2**2)
-    return (r_s + r_p) / 2
-
-
 def _gulbrandsen_expr():
-    sr = sp.sqrt(r)
-    n = g * (1 - r) / (1 + r) + (1 - g) * (1 + sr) / (1 - sr)
-    # k^2 >= 0 for g in [0, 1]; clamped at 0 beyond, where a fit's step may stray.  safe_pow(x, 1) is max(0, x)
-    # in every back end; a sympy Max would be 60 Max objects in the fit file's expanded expression, each of which
-    # sympy orders against 0 when the file is read (20 times the cost of reading it)
-    k2 = safe_pow((r * (n + 1) ** 2 - (n - 1) ** 2) / (1 - r), 1)
-    return conductor_reflectance(_mu, n, k2)
-
-
-def _f82_a(f0, t):
-    return schlick_term(f0, MU_BAR) * (1 - t) / (MU_BAR * (1 - MU_BAR) ** 6)
+    # k^2 >= 0 for g in [0, 1]; clamped at 0 beyond, where a fit's step may stray (as safe_pow(x, 1): a sympy Max
+    # would be objects that sympy orders against 0 when the fit file is read, 20 times the cost of reading it)
+    n, k = fresnel.gulbrandsen_index(r, g)
+    return fresnel.fresnel_conductor(_mu, n, k)
 
 
 EXPRESSIONS = {
-    "schlick": ((F0,), schlick_term(F0, _mu)),
-    "schlick_generalised": ((F0, F90, p), F0 + (F90 - F0) * safe_pow(1 - _mu, 1 / p)),
-    "lazanyi": ((F0, a, alpha), schlick_term(F0, _mu) - a * _mu * safe_pow(1 - _mu, alpha)),
-    "f82_tint": ((F0, tint), schlick_term(F0, _mu) - _f82_a(F0, tint) * _mu * (1 - _mu) ** 6),
+    "schlick": ((F0,), fresnel.fresnel_schlick(_mu, F0)),
+    "schlick_generalised": ((F0, F90, p), fresnel.schlick_generalised(_mu, F0, F90, p)),
+    "lazanyi": ((F0, a, alpha), fresnel.lazanyi(_mu, F0, a, alpha)),
+    "f82_tint": ((F0, tint), fresnel.f82_tint(_mu, F0, tint)),
     "gulbrandsen": ((r, g), _gulbrandsen_expr()),
 }
 
@@ -102,12 +77,12 @@ def construction(material: str, channel: str) -> dict[str, float]:
     g (of the measured n, k at the channel's wavelength), and a of the F82 term."""
     c = CHANNELS.index(channel)
     f0, f_bar = (float(v) for v in reflectance(material, np.array([1.0, float(MU_BAR)]))[:, c])
-    s_bar = schlick_term(f0, float(MU_BAR))
+    s_bar = fresnel.fresnel_schlick(float(MU_BAR), f0)
     t = f_bar / s_bar
     eta = get_material(material).index(np.array([channel_wavelength("srgb", c)]))[0]
     _, gg = gulbrandsen_parameters(eta.real, eta.imag)
-    return {"F0": f0, "tint": t, "a": float(_f82_a(sp.Float(f0), sp.Float(t))), "r": min(f0, R_MAX),
-            "g": float(np.clip(gg, 0.0, 1.0))}
+    a_ = float(fresnel.f82_tint_coefficient(sp.Float(f0), sp.Float(t)))
+    return {"F0": f0, "tint": t, "a": a_, "r": min(f0, R_MAX), "g": float(np.clip(gg, 0.0, 1.0))}
 
 
 def _presets(name: str, facts: dict) -> dict:
@@ -135,8 +110,16 @@ def _forms(material: str, channel: str) -> tuple[Form, ...]:
     facts = construction(material, channel)
     default = default_form(material, channel)
     return tuple(
-        Form(target, name, ("mu",), tuple(str(s) for s in params), expr, presets=_presets(name, facts),
-             description=_DESCRIPTIONS[name], refit_by_default=name == default)
+        Form(
+            target,
+            name,
+            ("mu",),
+            tuple(str(s) for s in params),
+            expr,
+            presets=_presets(name, facts),
+            description=_DESCRIPTIONS[name],
+            refit_by_default=name == default,
+        )
         for name, (params, expr) in EXPRESSIONS.items()
     )
 

@@ -28,16 +28,22 @@ COLUMNS = (
     ("r", "Gulbrandsen's reflectivity r = min(F0, 0.999)"),
     ("g", "Gulbrandsen's edge tint g of the measured n, k at the channel's mean wavelength, in [0, 1]"),
     ("F_avg", "the exact cosine-weighted average 2 int_0^1 F mu dmu"),
-    ("error_schlick", "max |F - F_exact| of Schlick with that F0 over the validation angles (at least 1e-12: a "
-                      "smaller max is rounding, stored as its bound 1e-12)"),
+    (
+        "error_schlick",
+        "max |F - F_exact| of Schlick with that F0 over the validation angles (at least 1e-12: a "
+        "smaller max is rounding, stored as its bound 1e-12)",
+    ),
     ("error_f82_tint", "max |F - F_exact| of F82-tint with that F0 and tint (at least 1e-12)"),
     ("error_gulbrandsen", "max |F - F_exact| of Gulbrandsen with that r and g (at least 1e-12)"),
 )
 #: the smallest error the table states: below it the difference is the rounding of two float64 evaluations, which
 #: depends on the order of their sums (BLAS threads), so the table would not regenerate byte for byte
 ERROR_FLOOR = 1e-12
-_CONSTRUCTIONS = {"error_schlick": ("schlick", "normal"), "error_f82_tint": ("f82_tint", "f82"),
-                  "error_gulbrandsen": ("gulbrandsen", "gulbrandsen")}
+_CONSTRUCTIONS = {
+    "error_schlick": ("schlick", "normal"),
+    "error_f82_tint": ("f82_tint", "f82"),
+    "error_gulbrandsen": ("gulbrandsen", "gulbrandsen"),
+}
 
 
 def _error(material: str, channel: str, form_name: str, preset: str) -> float:
@@ -61,8 +67,12 @@ def preset_table(tick=lambda: None) -> Image:
     rows = tuple(f"row {i}: {key} ({m.name})" for i, (key, m) in enumerate(MATERIALS.items()))
     columns = tuple(f"column {j}: {name}, {text}" for j, (name, text) in enumerate(COLUMNS))
     channels = tuple(f"linear sRGB {c} (D65, CIE 1931 2-degree observer)" for c in ("red", "green", "blue"))
-    return Image("fresnel_presets", data, channels,
-                 ("Fresnel presets of measured materials, per linear sRGB channel", *columns, *rows))
+    return Image(
+        "fresnel_presets",
+        data,
+        channels,
+        ("Fresnel presets of measured materials, per linear sRGB channel", *columns, *rows),
+    )
 
 
 def material_averages() -> dict[str, MeasuredMaterial]:
@@ -77,6 +87,11 @@ def material_averages() -> dict[str, MeasuredMaterial]:
 IMAGES = {
     "fresnel_presets": ImageSpec(
         "per material: F0, F82 tint, Gulbrandsen's r and g, exact F_avg, each construction's max error (RGB)",
-        lambda size, tick=lambda: None: preset_table(tick), (len(MATERIALS),), len(MATERIALS),
-        steps=lambda size: len(MATERIALS), value_range=(0.0, 2.0), formats=("exr", "ktx2", "c", "glsl")),
+        lambda size, tick=lambda: None: preset_table(tick),
+        (len(MATERIALS),),
+        len(MATERIALS),
+        steps=lambda size: len(MATERIALS),
+        value_range=(0.0, 2.0),
+        formats=("exr", "ktx2", "c", "glsl"),
+    ),
 }

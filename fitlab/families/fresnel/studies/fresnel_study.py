@@ -32,8 +32,17 @@ from fitlab.families.fresnel.exact import CHANNELS, MATERIALS, SPACES, average_r
 from fitlab.families.fresnel.forms import FORM_NAMES, MU_BAR
 from fitlab.families.fresnel.targets import PUBLISHED, target_name
 
-__all__ = ["VARIANTS", "run", "markdown", "figure", "main", "approximation_costs", "COST_MATERIAL",
-           "CHROMIUM_F0_PUBLISHED", "optical_constant_points"]
+__all__ = [
+    "VARIANTS",
+    "run",
+    "markdown",
+    "figure",
+    "main",
+    "approximation_costs",
+    "COST_MATERIAL",
+    "CHROMIUM_F0_PUBLISHED",
+    "optical_constant_points",
+]
 
 #: the variants measured per form: its published construction (the preset's name), and the two refits
 VARIANTS = ("construction", "refit", "refit_cosine")
@@ -41,12 +50,19 @@ VARIANTS = ("construction", "refit", "refit_cosine")
 _CONSTRUCTION = {form: preset for published in PUBLISHED.values() for form, preset in published}
 #: chromium's F0 (linear sRGB / Rec. 709) as two published tables give it, against the shipped n, k's: RTR4 Table 9.2,
 #: and the Adobe Standard Material's "Metal material references" (Base Color (F0), linear Rec. 709)
-CHROMIUM_F0_PUBLISHED = {"RTR4 Table 9.2": (0.549, 0.556, 0.554),
-                         "the Adobe Standard Material's metal references": (0.5496, 0.5561, 0.5531)}
+CHROMIUM_F0_PUBLISHED = {
+    "RTR4 Table 9.2": (0.549, 0.556, 0.554),
+    "the Adobe Standard Material's metal references": (0.5496, 0.5561, 0.5531),
+}
 #: the visible range a table's points are counted in, and the range the channels integrate (CIE weights' range)
 _VISIBLE_NM = (380.0, 780.0)
-_LABEL = {"schlick": "Schlick", "schlick_generalised": "generalised Schlick", "lazanyi": "Lazanyi-Schlick",
-          "f82_tint": "F82-tint", "gulbrandsen": "Gulbrandsen"}
+_LABEL = {
+    "schlick": "Schlick",
+    "schlick_generalised": "generalised Schlick",
+    "lazanyi": "Lazanyi-Schlick",
+    "f82_tint": "F82-tint",
+    "gulbrandsen": "Gulbrandsen",
+}
 
 
 def _fits(material: str, form_name: str) -> dict:
@@ -68,8 +84,11 @@ def _fits(material: str, form_name: str) -> dict:
         try:
             # residuals are multiplied by the weights: sqrt(mu) makes the objective sum mu (F - F_exact)^2
             with np.errstate(divide="ignore"):
-                out["refit_cosine"].append(fit_form(form, train, np.ones_like(train.y), minimax_rounds=0,
-                                                    weights=np.sqrt(train.inputs["mu"])).theta)
+                out["refit_cosine"].append(
+                    fit_form(
+                        form, train, np.ones_like(train.y), minimax_rounds=0, weights=np.sqrt(train.inputs["mu"])
+                    ).theta
+                )
         except FitError:
             out["refit_cosine"].append(None)
     return out
@@ -105,9 +124,17 @@ def _measures(f, exact_valid: np.ndarray, mu_valid: np.ndarray, f_avg: np.ndarra
         avg = cosine_average(f)
     if not (np.all(np.isfinite(err)) and np.all(np.isfinite(avg))):
         return {"max_abs": math.inf, "max_abs_channel": [math.inf] * 3, "f_avg_error": math.inf, "delta_e00": math.inf}
-    return {"max_abs": float(err.max()), "max_abs_channel": err.max(axis=0).tolist(),
-            "f_avg_error": float(np.max(np.abs(avg - f_avg))), "delta_e00": _delta_e(avg, f_avg),
-            "f_avg": avg.tolist()}
+    return {
+        "max_abs": float(err.max()),
+        "max_abs_channel": err.max(axis=0).tolist(),
+        "f_avg_error": float(np.max(np.abs(avg - f_avg))),
+        "delta_e00": _delta_e(avg, f_avg),
+        "f_avg": avg.tolist(),
+    }
+
+
+#: depths F(1) - min F up to this are the exact engine's rounding, not a dip
+DIP_ROUNDING = 1e-12
 
 
 def _dip(material: str) -> dict:
@@ -117,6 +144,9 @@ def _dip(material: str) -> dict:
     mu = np.cos(np.radians(theta))
     mu[-1] = 0.0
     f = reflectance(material, mu)
+    # a dielectric's F rises from F(1) as theta^4: near normal incidence that is below the engine's rounding (a few
+    # ulps), which must not read as a dip
+    f = np.where(f > f[0] - DIP_ROUNDING, np.maximum(f, f[0]), f)
     i = np.argmin(f, axis=0)
     return {"min": f[i, range(3)].tolist(), "angle_deg": theta[i].tolist(), "depth": (f[0] - f[i, range(3)]).tolist()}
 
@@ -157,9 +187,12 @@ def optical_constant_points(material: str) -> dict:
     lo, hi = float(integrated.min()), float(integrated.max())
     inside = lam[(lam >= lo) & (lam <= hi)]
     widest = int(np.argmax(np.diff(inside)))
-    return {"visible": int(np.count_nonzero((lam >= _VISIBLE_NM[0]) & (lam <= _VISIBLE_NM[1]))),
-            "integrated_range_nm": [lo, hi], "integrated": int(inside.size),
-            "widest_gap_nm": [float(inside[widest]), float(inside[widest + 1])]}
+    return {
+        "visible": int(np.count_nonzero((lam >= _VISIBLE_NM[0]) & (lam <= _VISIBLE_NM[1]))),
+        "integrated_range_nm": [lo, hi],
+        "integrated": int(inside.size),
+        "widest_gap_nm": [float(inside[widest]), float(inside[widest + 1])],
+    }
 
 
 def run(materials=None, progress: bool = True) -> dict:
@@ -168,20 +201,22 @@ def run(materials=None, progress: bool = True) -> dict:
 
     chosen = list(materials or MATERIALS)
     result: dict = {"materials": {}, "forms": list(FORM_NAMES), "variants": list(VARIANTS)}
-    with tqdm(total=len(chosen) * len(FORM_NAMES), desc="fresnel study", unit="fit x 6",
-              disable=not progress) as bar:
+    with tqdm(total=len(chosen) * len(FORM_NAMES), desc="fresnel study", unit="fit x 6", disable=not progress) as bar:
         for m in chosen:
             valid = get_target(target_name(m, "r")).validation()
             mu_valid = valid.inputs["mu"]
             exact_valid = reflectance(m, mu_valid)
             f_avg = {s: average_reflectance(m, s) for s in SPACES}
             row: dict = {
-                "name": MATERIALS[m].name, "kind": MATERIALS[m].kind, "source": MATERIALS[m].source,
+                "name": MATERIALS[m].name,
+                "kind": MATERIALS[m].kind,
+                "source": MATERIALS[m].source,
                 "F0": {s: reflectance(m, 1.0, s).tolist() for s in SPACES},
                 "F82": reflectance(m, float(MU_BAR)).tolist(),
                 "F_82_degrees": reflectance(m, math.cos(math.radians(82.0))).tolist(),
                 "F_avg": {s: v.tolist() for s, v in f_avg.items()},
-                "dip": _dip(m), "approximations": {},
+                "dip": _dip(m),
+                "approximations": {},
             }
             if MATERIALS[m].kind == "conductor":
                 row["optical_constants"] = optical_constant_points(m)
@@ -215,19 +250,26 @@ _COLUMNS = tuple((f, v) for f in FORM_NAMES for v in ("construction", "refit") i
 
 
 def _header(extra: str = "") -> list[str]:
-    return ["| material | " + " | ".join(f"{_LABEL[f]}, {v}" for f, v in _COLUMNS) + f" |{extra}",
-            "|---|" + "---|" * (len(_COLUMNS) + bool(extra))]
+    return [
+        "| material | " + " | ".join(f"{_LABEL[f]}, {v}" for f, v in _COLUMNS) + f" |{extra}",
+        "|---|" + "---|" * (len(_COLUMNS) + bool(extra)),
+    ]
 
 
 def _cells(row: dict, show) -> str:
     """The row's cells of the (form, variant) columns, ``show(measures)`` each ("-" where there are none)."""
-    return " | ".join("-" if row["approximations"][f][v] is None else show(row["approximations"][f][v])
-                      for f, v in _COLUMNS)
+    return " | ".join(
+        "-" if row["approximations"][f][v] is None else show(row["approximations"][f][v]) for f, v in _COLUMNS
+    )
 
 
 def _best(row: dict) -> tuple[str, str, float]:
-    cands = [(v["max_abs"], name, variant) for name, by in row["approximations"].items()
-             for variant, v in by.items() if v is not None and variant != "refit_cosine"]
+    cands = [
+        (v["max_abs"], name, variant)
+        for name, by in row["approximations"].items()
+        for variant, v in by.items()
+        if v is not None and variant != "refit_cosine"
+    ]
     err, name, variant = min(cands)
     return name, variant, err
 
@@ -237,26 +279,39 @@ def _cost_section(result: dict) -> list[str]:
     if not costs:
         return ["", "## Accuracy against cost", "", "Not measured: no C compiler on the machine that wrote this.", ""]
     metals = [row for row in result["materials"].values() if row["kind"] == "conductor"]
-    lines = ["", "## Accuracy against cost", "",
-             "ns per evaluation of each approximation's generated C (`-O2`, double and float; one interleaved run "
-             "on the machine that wrote this page: only the ratios carry meaning), against its max |F - F_exact| "
-             f"on the worst of the {len(metals)} metals (worst channel): with the published construction where "
-             "there is one, and refitted. The exact F of one complex index is Gulbrandsen's form itself (its "
-             "routine evaluates the exact conductor reflectance of n(r, g) + i k(r, g)).", "",
-             "| approximation | C double ns | C float ns | worst metal, construction | worst metal, refit |",
-             "|---|---|---|---|---|"]
+    lines = [
+        "",
+        "## Accuracy against cost",
+        "",
+        "ns per evaluation of each approximation's generated C (`-O2`, double and float; one interleaved run "
+        "on the machine that wrote this page: only the ratios carry meaning), against its max |F - F_exact| "
+        f"on the worst of the {len(metals)} metals (worst channel): with the published construction where "
+        "there is one, and refitted. The exact F of one complex index is Gulbrandsen's form itself (its "
+        "routine evaluates the exact conductor reflectance of n(r, g) + i k(r, g)).",
+        "",
+        "| approximation | C double ns | C float ns | worst metal, construction | worst metal, refit |",
+        "|---|---|---|---|---|",
+    ]
     for name in FORM_NAMES:
         worst = {}
         for variant in ("construction", "refit"):
-            errs = [(row["approximations"][name][variant]["max_abs"], row["name"]) for row in metals
-                    if row["approximations"][name][variant] is not None]
+            errs = [
+                (row["approximations"][name][variant]["max_abs"], row["name"])
+                for row in metals
+                if row["approximations"][name][variant] is not None
+            ]
             worst[variant] = f"{_e(max(errs)[0])} ({max(errs)[1]})" if errs else "-"
         c = costs[name]
-        lines.append(f"| {_LABEL[name]} | {c['double']:.2f} | {c['float']:.2f} | {worst['construction']} | "
-                     f"{worst['refit']} |")
+        lines.append(
+            f"| {_LABEL[name]} | {c['double']:.2f} | {c['float']:.2f} | {worst['construction']} | {worst['refit']} |"
+        )
     base = costs["schlick"]["double"]
-    lines += ["", "Relative to Schlick in double: " + ", ".join(f"{_LABEL[n]} {costs[n]['double'] / base:.1f}x"
-                                                               for n in FORM_NAMES[1:]) + "."]
+    lines += [
+        "",
+        "Relative to Schlick in double: "
+        + ", ".join(f"{_LABEL[n]} {costs[n]['double'] / base:.1f}x" for n in FORM_NAMES[1:])
+        + ".",
+    ]
     return lines
 
 
@@ -267,30 +322,42 @@ def _mu_bar_degrees() -> float:
 
 def _measured_data_section(mats: dict) -> list[str]:
     """Hoffman's angle, chromium's F0 against two published tables, and where each conductor's n, k were measured."""
+
     def rgb(v):
         return "(" + ", ".join(f"{x:.4f}".rstrip("0") for x in v) + ")"
 
     off = max(abs(a - b) for row in mats.values() for a, b in zip(row["F82"], row["F_82_degrees"]))
     worst = max(mats.values(), key=lambda row: max(abs(a - b) for a, b in zip(row["F82"], row["F_82_degrees"])))
-    lines = ["", f"F(mu = 1/7) is the point F82-tint pins: Hoffman's \"82 degrees\" is mu = 1/7, "
-                 f"{_mu_bar_degrees():.2f} degrees. At exactly 82 degrees F differs from it by up to {off:.4f} in "
-                 f"these materials ({worst['name']}: {rgb(worst['F_82_degrees'])} at 82 degrees)."]
+    lines = [
+        "",
+        f'F(mu = 1/7) is the point F82-tint pins: Hoffman\'s "82 degrees" is mu = 1/7, '
+        f"{_mu_bar_degrees():.2f} degrees. At exactly 82 degrees F differs from it by up to {off:.4f} in "
+        f"these materials ({worst['name']}: {rgb(worst['F_82_degrees'])} at 82 degrees).",
+    ]
     conductors = {key: row for key, row in mats.items() if "optical_constants" in row}
     if "cr" in conductors:
         f0 = conductors["cr"]["F0"]["srgb"]
         published = "; ".join(f"{source} {rgb(v)}" for source, v in CHROMIUM_F0_PUBLISHED.items())
         gaps = [a - b for v in CHROMIUM_F0_PUBLISHED.values() for a, b in zip(f0, v)]
-        lines += ["", f"Chromium's F0 from the shipped n, k is {rgb(f0)}. Two published tables give less: "
-                      f"{published}, {min(gaps):.3f} to {max(gaps):.3f} below per channel: they were not computed from "
-                      "the luxpop n, k that Mitsuba 3 ships. fitlab keeps that table as shipped; which measurement "
-                      "of chromium is right is not settled here."]
+        lines += [
+            "",
+            f"Chromium's F0 from the shipped n, k is {rgb(f0)}. Two published tables give less: "
+            f"{published}, {min(gaps):.3f} to {max(gaps):.3f} below per channel: they were not computed from "
+            "the luxpop n, k that Mitsuba 3 ships. fitlab keeps that table as shipped; which measurement "
+            "of chromium is right is not settled here.",
+        ]
     if conductors:
         lo, hi = next(iter(conductors.values()))["optical_constants"]["integrated_range_nm"]
-        lines += ["", f"The measured n, k of each conductor: the points of its table between "
-                      f"{_VISIBLE_NM[0]:.0f} and {_VISIBLE_NM[1]:.0f} nm, between {lo:.0f} and {hi:.0f} nm (the "
-                      "range the channels integrate), and the widest gap between two of those, across which F is "
-                      "interpolated linearly in wavelength:", "",
-                  "| material | points, visible | points, integrated | widest gap (nm) |", "|---|---|---|---|"]
+        lines += [
+            "",
+            f"The measured n, k of each conductor: the points of its table between "
+            f"{_VISIBLE_NM[0]:.0f} and {_VISIBLE_NM[1]:.0f} nm, between {lo:.0f} and {hi:.0f} nm (the "
+            "range the channels integrate), and the widest gap between two of those, across which F is "
+            "interpolated linearly in wavelength:",
+            "",
+            "| material | points, visible | points, integrated | widest gap (nm) |",
+            "|---|---|---|---|",
+        ]
         for row in conductors.values():
             pts = row["optical_constants"]
             a, b = pts["widest_gap_nm"]
@@ -309,9 +376,10 @@ def markdown(result: dict) -> str:
         "",
         "## What is exact",
         "",
-        "F(mu) of an interface between air and a material of complex index n + i k, unpolarised, from the complex "
-        "amplitude coefficients r_s = (mu - w)/(mu + w), r_p = (eta^2 mu - w)/(eta^2 mu + w) with "
-        "w = sqrt(eta^2 - sin^2 theta), F = (|r_s|^2 + |r_p|^2)/2, per wavelength from 360 to 780 nm "
+        "F(mu) of an interface between air and a material of complex index n + i k, unpolarised: the amplitude "
+        "coefficients r_s = (mu - w)/(mu + w), r_p = (eta^2 mu - w)/(eta^2 mu + w) with "
+        "w = sqrt(eta^2 - sin^2 theta), F = (|r_s|^2 + |r_p|^2)/2, evaluated in Born and Wolf's real form without "
+        "cancellation (`fitlab.physics.fresnel.fresnel_conductor`), per wavelength from 360 to 780 nm "
         "(1 nm steps). A channel of linear sRGB (or ACEScg) is the spectrum weighted by the CIE 1931 2-degree "
         "observer under D65 and the colour space's matrix (ACEScg reached from D65 by CAT02), each channel "
         "normalised so that a constant spectrum gives that constant; the weights come from colour-science and "
@@ -334,8 +402,10 @@ def markdown(result: dict) -> str:
         return "(" + ", ".join(f"{x:.4f}" for x in v) + ")"
 
     for row in mats.values():
-        lines.append(f"| {row['name']} | {rgb(row['F0']['srgb'])} | {rgb(row['F0']['acescg'])} | {rgb(row['F82'])} | "
-                     f"{rgb(row['F_avg']['srgb'])} | {rgb(row['F_avg']['acescg'])} |")
+        lines.append(
+            f"| {row['name']} | {rgb(row['F0']['srgb'])} | {rgb(row['F0']['acescg'])} | {rgb(row['F82'])} | "
+            f"{rgb(row['F_avg']['srgb'])} | {rgb(row['F_avg']['acescg'])} |"
+        )
     lines += _measured_data_section(mats)
     lines += [
         "",
@@ -351,8 +421,9 @@ def markdown(result: dict) -> str:
     ]
     for row in mats.values():
         name, variant, err = _best(row)
-        lines.append(f"| {row['name']} | {_cells(row, lambda m: _e(m['max_abs']))} | {_LABEL[name]} ({variant}) "
-                     f"{_e(err)} |")
+        lines.append(
+            f"| {row['name']} | {_cells(row, lambda m: _e(m['max_abs']))} | {_LABEL[name]} ({variant}) {_e(err)} |"
+        )
     f90 = [c["F90"] for row in mats.values() for c in row["approximations"]["schlick_generalised"]["refit"]["params"]]
     above = [v for v in f90 if v > 1.0]
     lines += [
@@ -387,8 +458,11 @@ def markdown(result: dict) -> str:
         *_header(),
     ]
     for row in mats.values():
-        lines.append(f"| {row['name']} | "
-                     + _cells(row, lambda m: f"dE {m['delta_e00']:.2g}, dF_avg {_e(m['f_avg_error'])}") + " |")
+        lines.append(
+            f"| {row['name']} | "
+            + _cells(row, lambda m: f"dE {m['delta_e00']:.2g}, dF_avg {_e(m['f_avg_error'])}")
+            + " |"
+        )
     lines += [
         "",
         "## The cosine-weighted measure",
@@ -444,13 +518,18 @@ def markdown(result: dict) -> str:
         lines.append(
             f"The dip is deeper than 0.01 for {', '.join(r['name'] for r in deep_rows)}: Schlick's max error there "
             f"is {span(deep_rows, schlick)}; F82-tint's construction, which pins mu = 1/7, brings it to "
-            f"{span(deep_rows, f82)}, and the best refit of each to {span(deep_rows, lambda r: _best(r)[2])}.")
+            f"{span(deep_rows, f82)}, and the best refit of each to {span(deep_rows, lambda r: _best(r)[2])}."
+        )
     if flat_metals:
-        lines.append(f"The metals with shallower dips ({', '.join(r['name'] for r in flat_metals)}): Schlick's max "
-                     f"error {span(flat_metals, schlick)}.")
+        lines.append(
+            f"The metals with shallower dips ({', '.join(r['name'] for r in flat_metals)}): Schlick's max "
+            f"error {span(flat_metals, schlick)}."
+        )
     if dielectrics:
-        lines.append(f"The dielectrics have no dip (F rises from F0); Schlick's error there, "
-                     f"{span(dielectrics, schlick)}, comes from the shape of the rise near grazing.")
+        lines.append(
+            f"The dielectrics have no dip (F rises from F0); Schlick's error there, "
+            f"{span(dielectrics, schlick)}, comes from the shape of the rise near grazing."
+        )
     lines += [
         "",
         "## Figures",
@@ -507,11 +586,14 @@ def figure(material: str, row: dict) -> bytes:
 def main(argv=None) -> int:
     from fitlab._io import atomic_write_many, check_output_folder
 
-    p = argparse.ArgumentParser(prog="python -m fitlab.families.fresnel.studies.fresnel_study",
-                                description="Write fresnel.md, fresnel.json and fresnel_<material>.png.")
+    p = argparse.ArgumentParser(
+        prog="python -m fitlab.families.fresnel.studies.fresnel_study",
+        description="Write fresnel.md, fresnel.json and fresnel_<material>.png.",
+    )
     p.add_argument("--out", default=".", help="folder for the files")
-    p.add_argument("--materials", default=None,
-                   help=f"comma-separated materials (default: all of {', '.join(MATERIALS)})")
+    p.add_argument(
+        "--materials", default=None, help=f"comma-separated materials (default: all of {', '.join(MATERIALS)})"
+    )
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     args = p.parse_args(argv)
     chosen = None if args.materials is None else [m.strip() for m in args.materials.split(",")]

@@ -63,6 +63,7 @@ def validation(material: str, channel: str) -> Dataset:
 
 def grid(material: str, channel: str):
     """exact_grid of the target: ``axes`` {"mu": 1-D array} -> (inputs, F, None)."""
+
     def exact(axes):
         mu = np.asarray(axes["mu"], dtype=float)
         return {"mu": mu}, reflectance(material, mu)[..., CHANNELS.index(channel)], None

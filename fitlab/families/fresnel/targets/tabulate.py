@@ -36,16 +36,18 @@ TOLERANCE = 1e-12
 def build_tables(show_progress: bool = True) -> dict[str, Table]:
     weights = compute_channel_weights()
     columns = [WAVELENGTHS] + [weights[s][c] for s in SPACES for c in range(3)]
-    return {WEIGHTS_FILE: Table(
-        WEIGHTS_FILE.removesuffix(".csv"),
-        "W_c(lambda) = [M (xbar, ybar, zbar)(lambda) D65(lambda)]_c / sum over lambda of the same: the CIE 1931 "
-        "2-degree observer and D65 from colour-science, M its XYZ-to-linear-RGB matrix of sRGB and of ACEScg "
-        "(CAT02 from D65); each channel sums to 1",
-        f"absolute {TOLERANCE:g}",
-        WEIGHTS_COLUMNS,
-        np.column_stack(columns).tolist(),
-        WEIGHTS_GRID,
-    )}
+    return {
+        WEIGHTS_FILE: Table(
+            WEIGHTS_FILE.removesuffix(".csv"),
+            "W_c(lambda) = [M (xbar, ybar, zbar)(lambda) D65(lambda)]_c / sum over lambda of the same: the CIE 1931 "
+            "2-degree observer and D65 from colour-science, M its XYZ-to-linear-RGB matrix of sRGB and of ACEScg "
+            "(CAT02 from D65); each channel sums to 1",
+            f"absolute {TOLERANCE:g}",
+            WEIGHTS_COLUMNS,
+            np.column_stack(columns).tolist(),
+            WEIGHTS_GRID,
+        )
+    }
 
 
 def write_tables(out: Path, show_progress: bool = True) -> dict[str, str]:
@@ -67,6 +69,8 @@ def check_tables(folder: Path, show_progress: bool = True) -> list[str]:
         err = np.abs(table[space] - weights[space])
         if not np.all(err <= TOLERANCE):
             c, i = np.unravel_index(int(np.argmax(err)), err.shape)
-            return [f"{WEIGHTS_FILE}: {space}_{'rgb'[c]} at {WAVELENGTHS[i]:g} nm differs from colour-science's "
-                    f"by {err[c, i]:.2e}"]
+            return [
+                f"{WEIGHTS_FILE}: {space}_{'rgb'[c]} at {WAVELENGTHS[i]:g} nm differs from colour-science's "
+                f"by {err[c, i]:.2e}"
+            ]
     return []

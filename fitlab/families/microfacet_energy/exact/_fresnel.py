@@ -288,8 +288,7 @@ def average_fresnel(fresnel, breakpoints=()) -> float:
 
 def average_fresnel_schlick(f0):
     """F_avg of Schlick's Fresnel in closed form, (20 F0 + 1) / 21 (module docstring); F0 in [0, 1], any shape."""
-    f0 = real_array(f0, "f0", 0.0, 1.0)
-    return (20 * f0 + 1) / 21
+    return fresnel.schlick_average(real_array(f0, "f0", 0.0, 1.0))
 
 
 def _scalar_index(value, name, open_lo):

@@ -56,6 +56,7 @@ from fitlab.codegen.native import compiler
 from fitlab.export import texel_centres
 from fitlab.families.microfacet_energy import exact
 from fitlab.families.microfacet_energy.exact import average_albedo, directional_albedo
+from fitlab.physics.fresnel import schlick_average
 
 __all__ = ["STUDY_MODELS", "TABLE_SIZES", "ALPHA_MIN", "validation_set", "centre_table", "bilinear", "study_rows", "markdown", "main", "fitted_methods", "FIT_TARGETS",
            "table_method", "exact_method", "no_compensation", "furnace", "measure", "table_lookup_ns", "KC_ALPHAS",
@@ -313,7 +314,7 @@ def coloured_compensation(model: str = "ggx_correlated", alphas=COLOURED_ALPHAS)
         for c, channel in enumerate(("r", "g", "b")):
             f0, f_avg = float(m.F0[c]), float(m.F_avg[c])
             row = {"material": key, "name": m.name, "channel": channel, "F0": f0, "F_avg": f_avg,
-                   "F_avg_schlick": (20 * f0 + 1) / 21, "alphas": list(alphas), "E_avg": e_avg.tolist()}
+                   "F_avg_schlick": schlick_average(f0), "alphas": list(alphas), "E_avg": e_avg.tolist()}
             if max(f0, f_avg) <= 1.0:
                 row["f_add"] = exact.fresnel_compensation_factor(f_avg, e_avg).tolist()
                 row["f_add_schlick"] = exact.fresnel_compensation_factor(row["F_avg_schlick"], e_avg).tolist()
