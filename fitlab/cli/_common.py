@@ -28,7 +28,7 @@ C = TypeVar("C", bound="Capability")
 __all__ = [
     "USAGE", "FAILURE", "UsageError", "RunFailure", "Parser", "fail", "one_line", "output_folder", "input_file",
     "input_folder", "write_failure", "write_files", "number", "integer", "add_quiet", "say", "describe", "add_fits",
-    "fits_input", "add_data", "use_data", "add_family", "family_with",
+    "fits_input", "add_data", "use_data", "add_family", "family_with", "Once",
 ]
 
 #: exit status of a runtime failure and of a usage error
@@ -63,6 +63,16 @@ class Parser(argparse.ArgumentParser):
 
     def error(self, message):  # noqa: D401 - argparse's hook
         self.exit(USAGE, f"{self.prog}: error: {one_line(message)} (see {self.prog} --help)\n")
+
+
+class Once(argparse.Action):
+    """An option that takes one value: given twice, a usage error (argparse would keep the last silently)."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        before = getattr(namespace, self.dest, None)
+        if before is not None and before != self.default:
+            parser.error(f"argument {option_string}: given twice ({before}, then {values}); it takes one value")
+        setattr(namespace, self.dest, values)
 
 
 # -- values ------------------------------------------------------------------------

@@ -18,6 +18,7 @@ from tqdm import tqdm
 
 from fitlab import _interrupt as interrupt
 from fitlab.cli._common import (
+    Once,
     RunFailure,
     UsageError,
     add_data,
@@ -71,16 +72,17 @@ def add_arguments(p) -> None:
                 "1, unless --force. Ctrl-C before the fit is written leaves the old file as it was "
                 "(exit status 130).",
              "fitlab refit --target H0 --out /tmp/fits")  # fmt: skip
-    p.add_argument("--target", metavar="NAME", help=f"what to fit: {', '.join(target_names())}")
-    p.add_argument("--form", help="which form of the target (default: the form the generated code prints, so that "
-                                  "`fitlab codegen --fits OUT` prints the refit; see --list)")
+    p.add_argument("--target", action=Once, metavar="NAME", help=f"what to fit: {', '.join(target_names())}")
+    p.add_argument("--form", action=Once,
+                   help="which form of the target (default: the form the generated code prints, so that "
+                        "`fitlab codegen --fits OUT` prints the refit; see --list)")  # fmt: skip
     p.add_argument("--all", action="store_true", help="refit every target (every form marked for it)")
     p.add_argument("--out", default="fits", help="folder for the fit JSON (default: fits, below the current folder)")
     add_fits(p, "folder the forms saved by `fitlab discover` are read from")
     add_data(p)
     p.add_argument("--domain", action="append", metavar="NAME=LO:HI",
                    help="restrict an input, e.g. c=0.5:1 (once per input)")
-    p.add_argument("--init", type=Path, help="start from a saved fit of the same target and form")
+    p.add_argument("--init", action=Once, type=Path, help="start from a saved fit of the same target and form")
     p.add_argument("--force", action="store_true",
                    help="replace the fit in --out even when it is better than the refit, or fitted over another domain")
     p.add_argument("--no-minimax", action="store_true", help="least squares only, no minimax refinement")
