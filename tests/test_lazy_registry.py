@@ -115,3 +115,23 @@ def test_a_declaration_imports_its_own_modules_only_inside_its_methods(package):
     inside = [m for node in ast.walk(tree) if isinstance(node, ast.FunctionDef) for child in ast.walk(node)
               for m in _imported(child)]  # fmt: skip
     assert inside and all(m.startswith(package + ".") or m == package for m in inside), inside
+
+
+def test_the_lazy_codegen_names_are_listed_once_in_each_place():
+    """fitlab.codegen keeps its public names three times, for three readers: ``_LAZY`` (the import on first use),
+    ``__all__`` (ruff, mkdocstrings) and the TYPE_CHECKING imports (basedpyright); they must name the same set,
+    each from the module that defines it."""
+    import ast
+    import importlib
+    import inspect
+
+    import fitlab.codegen as codegen
+
+    lazy = codegen._LAZY
+    assert sorted(codegen.__all__) == sorted(["LANGUAGE_NAMES", "LOOKUPS", *lazy])
+    tree = ast.parse(inspect.getsource(codegen))
+    guarded = next(n for n in tree.body if isinstance(n, ast.If) and ast.unparse(n.test) == "TYPE_CHECKING")
+    typed = {a.name: node.module for node in guarded.body if isinstance(node, ast.ImportFrom) for a in node.names}
+    assert typed == lazy
+    for name, module in lazy.items():
+        assert hasattr(importlib.import_module(module), name), (name, module)
