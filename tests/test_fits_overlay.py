@@ -101,13 +101,16 @@ def test_codegen_with_a_folder_that_is_not_there_is_refused(tmp_path, capsys):
 
 
 # -- one default model ---------------------------------------------------------------------------------------
-def test_refit_fits_by_default_the_form_the_default_model_prints():
+def test_refit_fits_by_default_the_form_the_model_of_its_physics_prints():
+    """``fitlab refit`` fits a part to its own target, the three-term quantity: by default in the form of the model
+    whose parts are fitted to that physics (three-term), not the default model's, whose H forms hold the true
+    BRDF's grazing law."""
     spec = program_spec("lambert_sphere")
-    forms = spec.model().forms
-    assert spec.default_model == "true"
+    assert spec.default_model == "true" and spec.model().physics == "true"
+    three_term = spec.model("three-term").forms
     for target in ("H0", "H1", "H2", "l", "m", "B"):
-        assert model_form(target) == forms.get(target, model_form(target))
-    assert model_form("H1") == "log_exp" and model_form("l") == "cubic"
+        assert model_form(target) == three_term.get(target, model_form(target))
+    assert model_form("H1") == "log_exp" and spec.model().forms["H1"] == "log_exp_true" and model_form("l") == "cubic"
     from fitlab.core import get_target
 
     assert model_form("E_on") == get_target("E_on").default_form  # no default model picks its form: its own default
@@ -198,7 +201,8 @@ def test_a_tampered_fit_is_refused_by_codegen_and_by_verify_fit(tmp_path, capsys
     record = json.loads((FITS / "H0.log_exp.json").read_text())
     record["params"]["a00"] = 1000.0  # the issue's edit: the file still states its old 5.6e-5
     write_fit(fits / "H0.log_exp.json", record)
-    assert main(["codegen", "--lang", "c", "--fits", str(fits), "--out", str(tmp_path / "gen")]) == 2
+    three_term = ["--model", "three-term"]  # the model whose H0 is in log_exp
+    assert main(["codegen", "--lang", "c", "--fits", str(fits), *three_term, "--out", str(tmp_path / "gen")]) == 2
     err = capsys.readouterr().err.strip()
     assert "\n" not in err and "H0.log_exp.json" in err and not (tmp_path / "gen").exists()
     with pytest.raises(FitFileError, match="H0.log_exp.json"):

@@ -70,7 +70,7 @@ def _fits_with(tmp_path, name):
     ("m.sr_1_abcdef.json", ["--model", "default-forms", "--form", "m=sr_1_abcdef"]),  # a discovered form: was read, and hung
     # a registered form, where the default model reads it (the folder laid out as the packaged fits): was passed
     # over for the packaged fit, as if the folder had none
-    ("true/H0.log_exp.json", []),
+    ("true/H0.log_exp_true.json", []),
 ])  # fmt: skip
 def test_codegen_refuses_a_fifo_in_fits(tmp_path, capsys, name, extra):
     fits, fifo = _fits_with(tmp_path, name)

@@ -127,12 +127,54 @@ def hoist_params(exprs: Sequence[sp.Expr], params: Sequence[str]) -> tuple[list[
             fields[e] = field_symbol(len(fields))
         return fields[e]
 
+    def factors(term) -> list:
+        return [f for a in term.args for f in factors(a)] if isinstance(term, sp.Mul) else [term]
+
+    def split(term) -> tuple:
+        """(the factors of ``term`` in the parameters or numbers, the product of the others in a canonical order)."""
+        fs = factors(term)
+        mine = tuple(a for a in fs if only_params(a) or a.is_number)
+        others = sorted((a for a in fs if not (only_params(a) or a.is_number)), key=sp.default_sort_key)
+        return mine, sp.Mul(*others)
+
+    def distributed(term) -> list:
+        """k(c) (a + b mu + ...) -> [k a, k b mu, ...], recursively: the terms of an Add nested in a product
+        with the parameters, so that they collect with their peers."""
+        mine, rest = split(term)
+        if isinstance(rest, sp.Add) and any(only_params(a) for a in mine):
+            return [d for t in rest.args for d in distributed(sp.Mul(*mine, t))]
+        return [term]
+
+    def collected(terms) -> sp.Expr | None:
+        """An Add's terms collected by what they hold besides the parameters, k1(c) mu^2 + k2(c) mu^2 ->
+        field(k1 + k2) mu^2 (one multiply per power where a form's polynomial in (s, mu) has one per
+        coefficient); None where no two terms share a rest."""
+        groups: dict = {}
+        for a in (d for t in terms for d in distributed(t)):
+            groups.setdefault(split(a)[1], []).append(a)
+        if all(len(g) == 1 for g in groups.values()):
+            return None
+        out = []
+        for rest, group in groups.items():
+            coeffs = [sp.Mul(*split(a)[0]) for a in group]
+            if rest == 1:  # the terms in the parameters alone, and numbers
+                out.append(field(sp.Add(*group)) if any(only_params(a) for a in group) else sp.Add(*group))
+            elif len(group) > 1 and any(only_params(k) for k in coeffs):
+                out.append(sp.Mul(field(sp.Add(*coeffs)), visit(rest)))
+            else:
+                out.extend(visit(a) for a in group)
+        return sp.Add(*out)
+
     def visit(e):
         if only_params(e):
             return field(e)
         if e.is_Atom:
             return e
         args = list(e.args)
+        if isinstance(e, sp.Add):
+            grouped = collected(args)
+            if grouped is not None:
+                return grouped
         if isinstance(e, (sp.Add, sp.Mul)):
             # numbers go with the material: 0.3 k(c) mu^2 reads one field times mu^2
             mine = [a for a in args if only_params(a) or a.is_number]

@@ -71,6 +71,9 @@ class Routine:
     then ``expr`` is ``sp.Tuple(value, x, y, z)`` (:func:`outputs`), printed as a C function that
     returns the value and writes ``out[3]``, a numpy function that returns (vector, value), and a
     shader function that returns vec4(x, y, z, value).
+    inline: the routines it calls are put in its body when the program is built (:func:`.build_program`), so that
+    work its callees share is done once per call (a composed model's one log per direction, where each term
+    would take its own); the callees stay routines of their own.
     """
 
     name: str
@@ -80,6 +83,7 @@ class Routine:
     vectors: dict = field(default_factory=dict)
     domain: dict = field(default_factory=dict)
     out: str = ""
+    inline: bool = False
 
     def __post_init__(self):
         if bool(self.out) != isinstance(self.expr, sp.Tuple) or (self.out and len(self.expr.args) != 4):

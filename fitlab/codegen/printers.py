@@ -37,7 +37,8 @@ _PI_DIGITS = "3.141592653589793238"
 
 
 def _small_power(printer, expr) -> str | None:
-    """x^n for n = 2 to 6 and x^(n/2) for n = 3, 5, 7 as products (with one sqrt); None otherwise.
+    """x^n for n = 2 to 6, x^-n = 1/x^n for n = 2 to 6 and x^(n/2) for n = 3, 5, 7 as products (with one sqrt);
+    None otherwise.
 
     pow() costs tens of ns where a multiply costs one (C compilers keep pow(x, 5.0) a call without
     -ffast-math); (1 - c)^(3/2) = s^3 is common in the forms (powers of s = sqrt(1 - c)), Schlick's
@@ -50,6 +51,8 @@ def _small_power(printer, expr) -> str | None:
     # "/" unbracketed when it is a denominator (x**3/y**3 must not print as x*x*x/y*y*y)
     if e.is_Integer and 2 <= int(e) <= 6:
         return "(" + "*".join([base] * int(e)) + ")"
+    if e.is_Integer and -6 <= int(e) <= -2:
+        return f"({printer._print(sp.S.One)}/(" + "*".join([base] * -int(e)) + "))"
     if e.is_Rational and e.q == 2 and 3 <= e.p <= 7:
         return "(" + "*".join([base] * (e.p // 2) + [printer._print(sp.sqrt(expr.base))]) + ")"
     return None

@@ -29,7 +29,7 @@ import sympy as sp
 import sympy.core.random as sympy_random
 from sympy.codegen.rewriting import Optimization
 
-from fitlab.codegen._material import material_of
+from fitlab.codegen._material import field_symbol, hoist_params, inline_calls, material_of, merge_exp_products
 from fitlab.codegen._model import Claim, Program, ProgramSpec, Routine
 from fitlab.codegen._policy import with_domain
 from fitlab.codegen._rewrites import stable
@@ -117,9 +117,10 @@ def program_spec(family: str | None = None, targets: Sequence[str] = ()) -> Prog
 
 
 def model_form(target: str) -> str:
-    """The form of ``target`` its family's program prints by default (the form its default model picks: for the
-    Lambert sphere's H1, log_exp), else the target's default form: the one form ``fitlab refit`` fits when none is
-    named, so that a refit is what ``fitlab codegen --fits`` then prints."""
+    """The form of ``target`` its family's program prints (the form its default model picks, or where that model's
+    parts are fitted to other physics than the target's own, the form of the first model whose parts are fitted to the
+    target's: for the Lambert sphere's H1, log_exp, the model three-term's), else the target's default form: the one
+    form ``fitlab refit`` fits when none is named, so that a refit is what ``fitlab codegen --fits`` then prints."""
     t = get_target(target)
     family = get_family(t.family)
     if not isinstance(family, HasProgram):
@@ -127,7 +128,10 @@ def model_form(target: str) -> str:
     spec = family.program()
     if target not in spec.fits:
         return t.default_form
-    return spec.model().forms.get(target, t.default_form)
+    model = spec.model()
+    if target in spec.physics_parts and model.physics not in (None, t.physics):
+        model = next((m for m in spec.models if m.physics == t.physics), model)
+    return model.forms.get(target, t.default_form)
 
 
 def default_program_family() -> str:
@@ -192,6 +196,25 @@ def reproducible_sympy() -> None:
     sympy_random.seed(SYMPY_SEED)
 
 
+def _with_callees_inlined(routines: tuple[Routine, ...], params: Sequence[str] = ()) -> tuple[Routine, ...]:
+    """``routines`` with each :attr:`Routine.inline` one's calls replaced by its callees' bodies
+    (:func:`inline_calls`), products of exponentials merged (:func:`merge_exp_products`) and, where the program
+    has per-material ``params``, its terms collected as :func:`hoist_params` collects them (k1(c) mu^2 +
+    k2(c) mu^2 -> (k1 + k2)(c) mu^2, each coefficient then computed once per call)."""
+    by_name = {r.name: r for r in routines}
+
+    def body(r: Routine) -> sp.Expr:
+        e = merge_exp_products(inline_calls(r.expr, by_name))
+        if not params:
+            return e
+        (collected,), fields = hoist_params([e], params)
+        return collected.xreplace({field_symbol(k): f for k, f in enumerate(fields)})
+
+    # rebuilt unevaluated, as the material's evaluators are: evaluating the nested clamps changes nothing printed
+    with sp.evaluate(False):
+        return tuple(replace(r, expr=body(r), inline=False) if r.inline else r for r in routines)
+
+
 def build_program(records: Mapping[str, object], terms: Sequence[str] | None = None,
                   sources: Sequence[tuple[str, str]] = (), family: str | None = None,
                   model: tuple[str, str] | None = None, claim: Claim | None = None) -> Program:  # fmt: skip
@@ -213,7 +236,8 @@ def build_program(records: Mapping[str, object], terms: Sequence[str] | None = N
     if unknown:
         raise ValueError(f"terms {unknown}: the {spec.name} program's terms are {', '.join(spec.terms) or '(none)'}")
     fits = {t: _as_fit(t, records[t]) for t in spec.fits if t in records}
-    routines = tuple(with_domain(r) for r in spec(fits, terms))
+    routines = _with_callees_inlined(tuple(with_domain(r) for r in spec(fits, terms)),
+                                     spec.material.params if spec.material is not None else ())
     if claim is not None:
         unknown = sorted(set(claim.routines) - {r.name for r in routines})
         if unknown:

@@ -5,19 +5,19 @@
  * Terms of brdf: single, m0, m1, m2
  * Model: true (the most accurate model at its cost: orders 0, 1 and 2 of multiple scattering, every part fitted to the true BRDF)
  * Accuracy of brdf against the true BRDF (exact.brdf, phase 'true': the whole phase function in every collision), measured by fitlab codegen:
- *   max 5.61e-04, RMS 1.10e-04 relative over mu_i, mu_o in [0.01, 1], c in [1e-06, 1], every phi (9476 points), worst at mu_i = 0.01, mu_o = 0.01, phi = 3.142, c = 0.03;
- *   max 2.50e-03 down to mu_i, mu_o = 1e-6 (621 points); exactly 0 at c = 0;
- *   directional albedo at c = 1 from 0.999866 to 0.999989.
+ *   max 1.75e-04, RMS 6.19e-05 relative over mu_i, mu_o in [0.01, 1], c in [1e-06, 1], every phi (9476 points), worst at mu_i = 0.01, mu_o = 0.01, phi = 3.142, c = 0.2104;
+ *   max 1.86e-04 down to mu_i, mu_o = 1e-6 (621 points); exactly 0 at c = 0;
+ *   directional albedo at c = 1 from 0.999909 to 0.999989.
  * From these fits (file, sha256, where read, the physics it was fitted to, and its error against its own target as fitlab codegen re-measured it on the target's validation set):
- *   H0.log_exp.json  229f5eadf6e4039becddbcd2a96fcceba205574a5c7e2e66fc4e08c11264c722  packaged (true); physics true; against H0 (three_term): max 8.91e-03, RMS 3.26e-03 (relative, 17290 points)
- *   H1.log_exp.json  9184e7fd12ee9a82b77b26ccb8a2f7188466b245272a0cbecb98b6e03285a24b  packaged (true); physics true; against H1 (three_term): max 1.11e-02, RMS 3.64e-03 (relative, 17290 points)
- *   H2.json  723f2492a8c9ec82e3e53f453a04f1ff9b4d106c17a4d4ae91c268ca7f0cd8fd  packaged (true); physics true; against H2 (three_term): max 1.21e-02, RMS 1.63e-03 (relative, 17290 points)
- *   l.cubic.json  020a889ec5444c1ed9ae95d241cc3c3fcbdef6a4304194c1e2e71aa7d237d61c  packaged (true); physics true; against l (three_term): max 1.60e-01, RMS 1.15e-01 (relative, 130 points)
- *   m.quadratic.json  33b2f1c84b86548bd2f69dd473b5fa411454a903b26270b765caa82ac0be45eb  packaged (true); physics true; against m (three_term): max 1.32e-02, RMS 7.93e-03 (relative, 130 points)
- *   B.c2_rational_4_3.json  7baa68a0ede7d510b123122ec2fb504d45bb64aeffff962b2813b0662935ddae  packaged (true); physics true; against B (three_term): max 8.90e-03, RMS 5.90e-03 (relative to A = 69c/128, 130 points)
- *   C.c2_rational_4_3.json  7950dc91559fe27295ca3844662913f899dc47dc34c0e01b1e0a733c214df6f9  packaged (true); physics true; against C (three_term): max 6.00e-03, RMS 3.91e-03 (relative to A = 69c/128, 130 points)
- *   D.c2_rational_4_3.json  658c3fc98fe4461e75276c37b15236a3dd5bf0a151ce265d37f4c68f000d571a  packaged (true); physics true; against D (three_term): max 8.84e-03, RMS 5.59e-03 (relative to A = 69c/128, 130 points)
- *   F.c2_rational_4_3.json  c0fe4c3b7c9d611d663704ecdc3e73e10799fd187bf9c6ef85203dbe5a372938  packaged (true); physics true; against F (three_term): max 1.32e-02, RMS 3.84e-03 (relative to A = 69c/128, 130 points)
+ *   H0.log_exp_true.json  1ec2a5c504765c22de1fb78549188e16b04359a83c02349d53ca7b816d4b3daf  packaged (true); physics true; against H0 (three_term): max 2.66e-02, RMS 4.37e-03 (relative, 17290 points)
+ *   H1.log_exp_true.json  82d139687de3d66715b2a6ff6c1e69472ef7fe8d6e964e150a376426a91a7ec6  packaged (true); physics true; against H1 (three_term): max 5.95e-03, RMS 2.80e-03 (relative, 17290 points)
+ *   H2.log_exp_true.json  0b6646832ae45d7daec247fef9fda6529925cbe6b44b5368d84158def2f40349  packaged (true); physics true; against H2 (three_term): max 1.71e-03, RMS 2.94e-04 (relative, 17290 points)
+ *   l.cubic.json  b84bac6f652bf36ce3dc3ac76537af79da275283b52ce0876861a69614abd97a  packaged (true); physics true; against l (three_term): max 1.10e-01, RMS 9.64e-02 (relative, 130 points)
+ *   m.quadratic.json  7564d89b68908939b8f8963c41efbf3d3dbec2aab8ddd1fdc1990e8d6e5a26b7  packaged (true); physics true; against m (three_term): max 9.80e-03, RMS 6.72e-03 (relative, 130 points)
+ *   B.c2_rational_4_3.json  8cf7a76117ee04c7fbbc48a30d309420bec1691e73d4609940e8fc0323111ea8  packaged (true); physics true; against B (three_term): max 1.65e-02, RMS 5.59e-03 (relative to A = 69c/128, 130 points)
+ *   C.c2_rational_4_3.json  06e2edc04403af604df6b416e8340d2db3c60b2fd76a933da69e5a820bf45be4  packaged (true); physics true; against C (three_term): max 6.02e-03, RMS 2.62e-03 (relative to A = 69c/128, 130 points)
+ *   D.c2_rational_4_3.json  33728530ccb7be51bdcffe505b177605b7380b4e223e05f0609b3bf2d2a6e40f  packaged (true); physics true; against D (three_term): max 4.95e-03, RMS 3.34e-03 (relative to A = 69c/128, 130 points)
+ *   F.c2_rational_4_3.json  3e570fe402ca78ed1711df4f0d3ef69fcba5e689b3fdbd01f9f90cd56b733260  packaged (true); physics true; against F (three_term): max 6.79e-03, RMS 1.92e-03 (relative to A = 69c/128, 130 points)
  *   c_of_kd.json  196e63b77df4f566e79eedd9c0781dd67c8f3dd28b8271f76bf598e6eb95b12a  packaged; physics true; against c_of_kd (true): max 1.13e-02, RMS 6.51e-03 (relative, 130 points)
  *   kd_of_c.json  5161a0bae66b8507bef46066054088a59730073cba0b22609aaae8776cb485e4  packaged; physics true; against kd_of_c (true): max 8.71e-03, RMS 5.26e-03 (relative, 130 points)
  *   sample_weight.json  a652eb05655eea0f158d38aa922b591bbfeb1cffc40077cc8bda731aa140746a  packaged; physics mixed; against sample_weight (mixed): max 2.09e-01, RMS 2.70e-02 (relative, 630 points)
@@ -46,46 +46,48 @@ LAMBERT_SPHERE_FN double lambert_sphere_h0(double mu, double c)
     const double t7 = (t6*t6);
     const double t8 = (t6*t6*t6);
     const double t9 = (t6*t6*t6*t6);
-    return exp(t6*(((1.0/384.0))*t0*(t7*(t0*(20.0*t0 + 281.0) - 346.0) + t9*(15.0 - 15.0*t0)*(4.0*t0 + 9.0) + 207.0)*log(1.0 + 1.0/((t6 < 1.0000000000000001e-30) ? (1.0000000000000001e-30) : (t6))) + t0*(t0*(-0.35878996534201457*t0 + 2.470025465103292*t1*t6 - 5.633059857885996*t1*t7 + 7.645389081740135*t1*t8 - 3.383961716351341*t1*t9 - 1.4754666313555003*t2*t6 + 0.9285300997139079*t2*t7 - 0.6011702629092316*t2*t8 + 0.33904481632399913*t2*t9 - 0.6880988541912209*t2 - 8.67881460302426*t3*t6 + 29.409387398376747*t3*t7 - 39.47136053844081*t3*t8 + 16.844673505718053*t3*t9 + 0.05510640544644332*t3 + 15.55714042239967*t4*t6 - 54.48819921062277*t4*t7 + 71.5529318324384*t4*t8 - 30.65164162022722*t4*t9 - 0.562194525287264*t4 - 9.656831937224494*t5*t6 + 34.157239957245686*t5*t7 - 44.819359100029104*t5*t8 + 19.36513627154477*t5*t9 + 0.3859631098571893*t5 - 1.354906550811893*t6 + 0.3450742468475043*t7 + 0.039286501348685214*t8 + 0.0880030773183851*t9 + 1.7851478660092009)/(t2 + 1.0) + ((301.0/384.0))*t6 + ((45.0/256.0))*t7 - (45.0/128.0)*t8 + (-557.0/1536.0))));
+    return exp(t6*(t0*(t0*(-0.4297602733893703*t0 - 0.7037951254891212*t1*t6 + 3.645512215102024*t1*t7 - 3.4000753742433436*t1*t8 + 1.0944861768775513*t1*t9 - 1.1814002223985536*t2*t6 + 0.1605383762729134*t2*t7 + 0.2453286324430098*t2*t8 + 0.011834897867951796*t2*t9 - 0.609254400172483*t2 + 4.500160987587274*t3*t6 - 11.278755622213785*t3*t7 + 9.962553037534885*t3*t8 - 3.5324504310681903*t3*t9 - 0.6825277335021185*t3 - 7.387129095711035*t4*t6 + 17.725549746319885*t4*t7 - 16.968225744737694*t4*t8 + 6.213045752671517*t4*t9 + 0.9742988831680852*t4 + 4.4948337299139105*t5*t6 - 11.03135741364594*t5*t7 + 11.125723299379713*t5*t8 - 4.176585527979099*t5*t9 - 0.5774718415007855*t5 - 1.325719506885678*t6 + 0.29721701141418805*t7 + 0.08461057620269616*t8 + 0.071840922239954*t9 + 1.8257799582297295)/(t2 + 1.0) + ((301.0/384.0))*t6 + ((45.0/256.0))*t7 - (45.0/128.0)*t8 + (-557.0/1536.0)) + (((1.0/384.0))*t0*(t7*(t0*(20.0*t0 + 281.0) - 346.0) + t9*(15.0 - 15.0*t0)*(4.0*t0 + 9.0) + 207.0) + t0*((-69.0/128.0) + ((32768.0/621.0))/(3.141592653589793238*3.141592653589793238*3.141592653589793238*3.141592653589793238)))*log(1.0 + 1.0/((t6 < 1.0000000000000001e-30) ? (1.0000000000000001e-30) : (t6)))));
 }
 
 LAMBERT_SPHERE_FN double lambert_sphere_h1(double mu, double c)
 {
-    const double t6 = ((c < 0.0) ? (0.0) : (c));
-    const double t0 = ((t6 > 1.0) ? (1.0) : (t6));
+    const double t7 = ((c < 0.0) ? (0.0) : (c));
+    const double t0 = ((t7 > 1.0) ? (1.0) : (t7));
     const double t1 = 1.0 - t0;
     const double t2 = sqrt(t1);
-    const double t7 = ((mu < 0.0) ? (0.0) : (mu));
-    const double t3 = ((t7 > 1.0) ? (1.0) : (t7));
+    const double t8 = ((mu < 0.0) ? (0.0) : (mu));
+    const double t3 = ((t8 > 1.0) ? (1.0) : (t8));
     const double t4 = (t3*t3);
     const double t5 = (t3*t3*t3);
-    return exp(t3*(-(1.0/192.0)*t0*(t4 - 1.0)*(t4*(20.0*t0 + 45.0) - 64.0)*log(1.0 + 1.0/((t3 < 1.0000000000000001e-30) ? (1.0000000000000001e-30) : (t3))) + t0*(t0*(0.009623398742538718*t0 + 0.1161087819075943*t1*t3 - 0.06047918808278924*t1*t4 - 0.04308898360798811*t1*t5 - 0.20000940282083204*t2*t3 + 0.029308878818980397*t2*t4 + 0.11235087395548722*t2*t5 + 0.08191895900111167*t2 - 0.19277283587731822*t3 + 0.09132252163198407*t4 + 0.04069191575938517*t5 + 0.066238951968886792)/(t2 + 1.0) - (47.0/96.0)*t3 - (15.0/128.0)*t4 + ((15.0/64.0))*t5 + (173.0/768.0))));
+    const double t6 = (t3*t3*t3*t3);
+    return exp(t3*(-(1.0/192.0)*t0*(t4 - 1.0)*(t4*(20.0*t0 + 45.0) - 64.0)*log(1.0 + 1.0/((t3 < 1.0000000000000001e-30) ? (1.0000000000000001e-30) : (t3))) + t0*(t0*(0.002076152273646774*t0 + 0.13709267005160283*t1*t3 - 0.5873940770769441*t1*t4 + 0.8058634752484803*t1*t5 - 0.3632655319287515*t1*t6 - 0.2272147405576878*t2*t3 + 0.24047931567597833*t2*t4 - 0.17036510788579223*t2*t5 + 0.09957525508089264*t2*t6 + 0.07901493996339468*t2 - 0.22914096329585584*t3 + 0.21921972867561357*t4 - 0.13999300132719528*t5 + 0.08755164998448382*t6 + 0.080792556960468456)/(t2 + 1.0) - (47.0/96.0)*t3 - (15.0/128.0)*t4 + ((15.0/64.0))*t5 + (173.0/768.0))));
 }
 
 LAMBERT_SPHERE_FN double lambert_sphere_h2(double mu, double c)
 {
-    const double t5 = ((c < 0.0) ? (0.0) : (c));
-    const double t0 = ((t5 > 1.0) ? (1.0) : (t5));
+    const double t6 = ((c < 0.0) ? (0.0) : (c));
+    const double t0 = ((t6 > 1.0) ? (1.0) : (t6));
     const double t1 = sqrt(1.0 - t0);
-    const double t6 = ((mu < 0.0) ? (0.0) : (mu));
-    const double t2 = ((t6 > 1.0) ? (1.0) : (t6));
+    const double t7 = ((mu < 0.0) ? (0.0) : (mu));
+    const double t2 = ((t7 > 1.0) ? (1.0) : (t7));
     const double t3 = (t2*t2);
     const double t4 = (t2*t2*t2);
-    return exp(t2*(((15.0/256.0))*t0*((t3 - 1.0)*(t3 - 1.0))*log(1.0 + 1.0/((t2 < 1.0000000000000001e-30) ? (1.0000000000000001e-30) : (t2))) + t0*(t0*(-0.24298542148533464*t1*t2 + 0.7778112899131402*t1*t3 - 0.6229895537752153*t1*t4 + 0.012175300667002955*t1 + 0.02615176990129942*t2 - 0.12175302463667616*t3 + 0.10479018668034851*t4 + 0.0035657559829922665)/(t1 + 1.0) + ((25.0/256.0))*t2 + ((15.0/512.0))*t3 - (15.0/256.0)*t4 + (-45.0/1024.0))));
+    const double t5 = (t2*t2*t2*t2);
+    return exp(t2*(t0*(t0*(0.025923782434169387*t1*t2 + 0.0525665973194757*t1*t3 - 0.2389470236748654*t1*t4 + 0.17933001731622866*t1*t5 - 0.014230526142639845*t1 + 0.04029112293878068*t2 - 0.16205270481846276*t3 + 0.24454188146234696*t4 - 0.12068290344989925*t5 - 0.005153295745352563)/(t1 + 1.0) + ((25.0/256.0))*t2 + ((15.0/512.0))*t3 - (15.0/256.0)*t4 + (-45.0/1024.0)) + (((15.0/256.0))*t0*((t3 - 1.0)*(t3 - 1.0)) + t0*((-15.0/256.0) + ((65536.0/10935.0))/(3.141592653589793238*3.141592653589793238*3.141592653589793238*3.141592653589793238)))*log(1.0 + 1.0/((t2 < 1.0000000000000001e-30) ? (1.0000000000000001e-30) : (t2)))));
 }
 
 LAMBERT_SPHERE_FN double lambert_sphere_const_l(double c)
 {
     const double t1 = ((c < 0.0) ? (0.0) : (c));
     const double t0 = ((t1 > 1.0) ? (1.0) : (t1));
-    return 0.00911967909954923*(t0*t0*t0) - 0.007285586578842816*(t0*t0) - 0.05520224328243178*t0;
+    return -0.008368360430631341*(t0*t0*t0) + 0.009650569566343139*(t0*t0) - 0.05816074598872953*t0;
 }
 
 LAMBERT_SPHERE_FN double lambert_sphere_const_m(double c)
 {
     const double t1 = ((c < 0.0) ? (0.0) : (c));
     const double t0 = ((t1 > 1.0) ? (1.0) : (t1));
-    return 0.026278531702467637*(t0*t0) + 0.4313475764870715*t0 + 1.0;
+    return 0.0036181719631541874*(t0*t0) + 0.4491750815068119*t0 + 1.0;
 }
 
 LAMBERT_SPHERE_FN double lambert_sphere_const_b(double c)
@@ -97,7 +99,7 @@ LAMBERT_SPHERE_FN double lambert_sphere_const_b(double c)
     const double t3 = t0/t2;
     const double t4 = (t0*t0*t0)/(t2*t2*t2);
     const double t5 = t1/(t2*t2);
-    return t1*(1.1335933479337194*t3 + 1.1208114157345153*t4 - 2.3416259269074923*t5 + 0.0010348555255299506)/(8.0263603066774589*t3 + 2.896719702526885*t4 - 9.9303068342858762*t5 + 0.007226825081532294);
+    return t1*(1.6813112551975873*t3 + 1.9684924387571525*t4 - 3.7565785554979649*t5 + 0.032348460824723773)/(12.745733009204341*t3 + 5.049665480925919*t4 - 17.039681093232809*t5 + 0.2442826031025484);
 }
 
 LAMBERT_SPHERE_FN double lambert_sphere_const_c(double c)
@@ -107,10 +109,10 @@ LAMBERT_SPHERE_FN double lambert_sphere_const_c(double c)
     const double t1 = (t0*t0);
     const double t2 = (t0*t0*t0);
     const double t3 = -t0/(sqrt(1.0 - t0) + 1.0) + 2.0;
-    const double t4 = pow(t3, -3.0);
-    const double t5 = t0/t3;
-    const double t6 = t1/(t3*t3);
-    return ((2.0/3.0))*t0 + t1*(0.8643185721759284*t2*t4 - 0.34053582420034742*t5 - 1.0476634429485467*t6 - 0.025915124294925779)/(-1.047419504828386*t2*t4 + 0.51622997566222013*t5 + 1.4943957412868878*t6 + 0.03679378787927807);
+    const double t4 = (1.0/(t3*t3*t3));
+    const double t5 = (1.0/(t3*t3));
+    const double t6 = t0/t3;
+    return ((2.0/3.0))*t0 + t1*(0.58685331356467705*t1*t5 + 0.05579115878671145*t2*t4 - 1.1861619620094055*t6 - 0.0092049747597823503)/(-0.87344960507554615*t1*t5 + 0.09435424272060645*t2*t4 + 1.7651853809488535*t6 + 0.013909981406086191);
 }
 
 LAMBERT_SPHERE_FN double lambert_sphere_const_d(double c)
@@ -119,10 +121,10 @@ LAMBERT_SPHERE_FN double lambert_sphere_const_d(double c)
     const double t0 = ((t6 > 1.0) ? (1.0) : (t6));
     const double t1 = (t0*t0);
     const double t2 = -t0/(sqrt(1.0 - t0) + 1.0) + 2.0;
-    const double t3 = t0/t2;
-    const double t4 = (t0*t0*t0)/(t2*t2*t2);
-    const double t5 = t1/(t2*t2);
-    return t1*(0.03868970822532174*t3 - 0.21301389270866672*t4 + 0.17402462987687176*t5 + 0.00067730368195698695)/(0.99936012648487384*t3 - 0.7864936735105944*t4 + 0.7788444181394462*t5 + 0.0082891288862743601);
+    const double t3 = (1.0/(t2*t2));
+    const double t4 = 1.0/t2;
+    const double t5 = (t0*t0*t0)/(t2*t2*t2);
+    return t1*(0.039656619299156789*t0*t4 + 0.16113023258047119*t1*t3 - 0.19805185831357303*t5 - 6.4175235565609636e-5)/(1.227574234581551*t0*t4 + 0.095274957428092001*t1*t3 - 0.3235979739971235*t5 + 0.00074878198748053052);
 }
 
 LAMBERT_SPHERE_FN double lambert_sphere_const_f(double c)
@@ -134,7 +136,7 @@ LAMBERT_SPHERE_FN double lambert_sphere_const_f(double c)
     const double t3 = t0/t2;
     const double t4 = (t0*t0*t0)/(t2*t2*t2);
     const double t5 = t1/(t2*t2);
-    return -(15.0/128.0)*t0 + t1*(0.0068679168228707598*t3 + 0.03594639979146422*t4 + 0.08146657424596484*t5 + 1.6944903203701357e-6)/(0.2564643602507712*t3 - 1.2477698723440553*t4 + 1.9909072655849437*t5 + 0.00039824650834039896);
+    return -(15.0/128.0)*t0 + t1*(0.1249980985480369*t3 - 0.07833590836150241*t4 + 0.07306975142761809*t5 + 0.0011150517707980602)/(3.7390174820108686*t3 + 0.3719091586690565*t4 - 3.1394032403168942*t5 + 0.028476599636969102);
 }
 
 LAMBERT_SPHERE_FN double lambert_sphere_c_of_kd(double kd)
@@ -219,132 +221,217 @@ LAMBERT_SPHERE_FN double lambert_sphere_single(double mu_i, double mu_o, double 
 
 LAMBERT_SPHERE_FN double lambert_sphere_fm0(double mu_i, double mu_o, double c)
 {
-    const double t50 = ((c < 0.0) ? (0.0) : (c));
-    const double t0 = ((t50 > 1.0) ? (1.0) : (t50));
+    const double t52 = ((c < 0.0) ? (0.0) : (c));
+    const double t0 = ((t52 > 1.0) ? (1.0) : (t52));
     const double t1 = ((1.0/384.0))*t0;
     const double t2 = (t0*t0);
     const double t3 = (t0*t0*t0);
-    const double t4 = (15.0 - 15.0*t0)*(4.0*t0 + 9.0);
-    const double t5 = 1.0 - t0;
-    const double t6 = sqrt(t5);
-    const double t7 = 2.470025465103292*t5;
-    const double t8 = 3.383961716351341*t5;
-    const double t9 = 5.633059857885996*t5;
-    const double t10 = 7.645389081740135*t5;
-    const double t11 = (t5*sqrt(t5));
-    const double t12 = 8.67881460302426*t11;
-    const double t13 = 16.844673505718053*t11;
-    const double t14 = 29.409387398376747*t11;
-    const double t15 = 39.47136053844081*t11;
-    const double t16 = (t5*t5);
-    const double t17 = 15.55714042239967*t16;
-    const double t18 = 30.65164162022722*t16;
-    const double t19 = 54.48819921062277*t16;
-    const double t20 = 71.5529318324384*t16;
-    const double t21 = (t5*t5*sqrt(t5));
-    const double t22 = 9.656831937224494*t21;
-    const double t23 = 19.36513627154477*t21;
-    const double t24 = 34.157239957245686*t21;
-    const double t25 = 44.819359100029104*t21;
-    const double t26 = 0.33904481632399913*t6;
-    const double t27 = 0.6011702629092316*t6;
-    const double t28 = 0.9285300997139079*t6;
-    const double t29 = 1.4754666313555003*t6;
-    const double t30 = t0/(t6 + 1.0);
-    const double t31 = 2.0 - t30;
-    const double t32 = pow(t31, -3.0);
-    const double t33 = t0/t31;
-    const double t34 = t2/(t31*t31);
-    const double t35 = t3*t32;
-    const double t36 = t0*(20.0*t0 + 281.0) - 346.0;
-    const double t37 = -0.35878996534201457*t0 + 0.05510640544644332*t11 - 0.562194525287264*t16 + 0.3859631098571893*t21 - 0.6880988541912209*t6 + 1.7851478660092009;
-    const double t51 = ((mu_i < 0.0) ? (0.0) : (mu_i));
-    const double t38 = ((t51 > 1.0) ? (1.0) : (t51));
-    const double t39 = (t38*t38);
-    const double t40 = (t38*t38*t38);
-    const double t41 = (t38*t38*t38*t38);
-    const double t52 = ((mu_o < 0.0) ? (0.0) : (mu_o));
-    const double t42 = ((t52 > 1.0) ? (1.0) : (t52));
-    const double t43 = (t42*t42);
-    const double t44 = (t42*t42*t42);
-    const double t45 = (t42*t42*t42*t42);
-    const double t46 = t38*t42;
-    const double t47 = t39*t43;
-    const double t48 = t38 + t42;
-    const double t49 = t2*t46*(0.8643185721759284*t3*t32 - 0.34053582420034742*t33 - 1.0476634429485467*t34 - 0.025915124294925779)/(0.51622997566222013*t33 + 1.4943957412868878*t34 - 1.047419504828386*t35 + 0.03679378787927807) + t2*(t39 + t43)*(0.0068679168228707598*t33 + 0.08146657424596484*t34 + 0.03594639979146422*t35 + 1.6944903203701357e-6)/(0.2564643602507712*t33 + 1.9909072655849437*t34 - 1.2477698723440553*t35 + 0.00039824650834039896) + t46*t48*lambert_sphere_const_d(t0) + t47*(-(25.0/128.0)*t2 - (5.0/32.0)*t3) + t48*lambert_sphere_const_b(t0);
-    return ((1.0/2.0))*(t49 + (t1*(-45.0*t39 - 45.0*t43 + 256.0*t46 + 135.0*t47 + 207.0) + t49)*expm1(t38*(t0*(t30*(t10*t40 - t12*t38 + t13*t41 + t14*t39 - t15*t40 + t17*t38 - t18*t41 - t19*t39 + t20*t40 - t22*t38 + t23*t41 + t24*t39 - t25*t40 + t26*t41 - t27*t40 + t28*t39 - t29*t38 + t37 + t38*t7 - 1.354906550811893*t38 - t39*t9 + 0.3450742468475043*t39 + 0.039286501348685214*t40 - t41*t8 + 0.0880030773183851*t41) + ((301.0/384.0))*t38 + ((45.0/256.0))*t39 - (45.0/128.0)*t40 + (-557.0/1536.0)) + t1*(t36*t39 + t4*t41 + 207.0)*log(1.0 + 1.0/((t38 < 1.0000000000000001e-30) ? (1.0000000000000001e-30) : (t38)))) + t42*(t0*(t30*(t10*t44 - t12*t42 + t13*t45 + t14*t43 - t15*t44 + t17*t42 - t18*t45 - t19*t43 + t20*t44 - t22*t42 + t23*t45 + t24*t43 - t25*t44 + t26*t45 - t27*t44 + t28*t43 - t29*t42 + t37 + t42*t7 - 1.354906550811893*t42 - t43*t9 + 0.3450742468475043*t43 + 0.039286501348685214*t44 - t45*t8 + 0.0880030773183851*t45) + ((301.0/384.0))*t42 + ((45.0/256.0))*t43 - (45.0/128.0)*t44 + (-557.0/1536.0)) + t1*(t36*t43 + t4*t45 + 207.0)*log(1.0 + 1.0/((t42 < 1.0000000000000001e-30) ? (1.0000000000000001e-30) : (t42))))))/(3.141592653589793238*((t48 < (1.0/1000000.0)) ? ((1.0/1000000.0)) : (t48)));
+    const double t4 = t0*((-69.0/128.0) + ((32768.0/621.0))/(3.141592653589793238*3.141592653589793238*3.141592653589793238*3.141592653589793238));
+    const double t5 = (15.0 - 15.0*t0)*(4.0*t0 + 9.0);
+    const double t6 = 1.0 - t0;
+    const double t7 = sqrt(t6);
+    const double t8 = 0.7037951254891212*t6;
+    const double t9 = 1.0944861768775513*t6;
+    const double t10 = 3.4000753742433436*t6;
+    const double t11 = 3.645512215102024*t6;
+    const double t12 = (t6*sqrt(t6));
+    const double t13 = 3.5324504310681903*t12;
+    const double t14 = 4.500160987587274*t12;
+    const double t15 = 9.962553037534885*t12;
+    const double t16 = 11.278755622213785*t12;
+    const double t17 = (t6*t6);
+    const double t18 = 6.213045752671517*t17;
+    const double t19 = 7.387129095711035*t17;
+    const double t20 = 16.968225744737694*t17;
+    const double t21 = 17.725549746319885*t17;
+    const double t22 = (t6*t6*sqrt(t6));
+    const double t23 = 4.176585527979099*t22;
+    const double t24 = 4.4948337299139105*t22;
+    const double t25 = 11.03135741364594*t22;
+    const double t26 = 11.125723299379713*t22;
+    const double t27 = 0.011834897867951796*t7;
+    const double t28 = 0.1605383762729134*t7;
+    const double t29 = 0.2453286324430098*t7;
+    const double t30 = 1.1814002223985536*t7;
+    const double t31 = t0/(t7 + 1.0);
+    const double t32 = 2.0 - t31;
+    const double t33 = (1.0/(t32*t32*t32));
+    const double t34 = (1.0/(t32*t32));
+    const double t35 = t0/t32;
+    const double t36 = t2*t34;
+    const double t37 = t3*t33;
+    const double t38 = t0*(20.0*t0 + 281.0) - 346.0;
+    const double t39 = -0.4297602733893703*t0 - 0.6825277335021185*t12 + 0.9742988831680852*t17 - 0.5774718415007855*t22 - 0.609254400172483*t7 + 1.8257799582297295;
+    const double t53 = ((mu_i < 0.0) ? (0.0) : (mu_i));
+    const double t40 = ((t53 > 1.0) ? (1.0) : (t53));
+    const double t41 = (t40*t40);
+    const double t42 = (t40*t40*t40);
+    const double t43 = (t40*t40*t40*t40);
+    const double t54 = ((mu_o < 0.0) ? (0.0) : (mu_o));
+    const double t44 = ((t54 > 1.0) ? (1.0) : (t54));
+    const double t45 = (t44*t44);
+    const double t46 = (t44*t44*t44);
+    const double t47 = (t44*t44*t44*t44);
+    const double t48 = t40*t44;
+    const double t49 = t41*t45;
+    const double t50 = t40 + t44;
+    const double t51 = t2*t48*(0.58685331356467705*t2*t34 + 0.05579115878671145*t3*t33 - 1.1861619620094055*t35 - 0.0092049747597823503)/(1.7651853809488535*t35 - 0.87344960507554615*t36 + 0.09435424272060645*t37 + 0.013909981406086191) + t2*(t41 + t45)*(0.1249980985480369*t35 + 0.07306975142761809*t36 - 0.07833590836150241*t37 + 0.0011150517707980602)/(3.7390174820108686*t35 - 3.1394032403168942*t36 + 0.3719091586690565*t37 + 0.028476599636969102) + t48*t50*lambert_sphere_const_d(t0) + t49*(-(25.0/128.0)*t2 - (5.0/32.0)*t3) + t50*lambert_sphere_const_b(t0);
+    return ((1.0/2.0))*(t51 + (t1*(-45.0*t41 - 45.0*t45 + 256.0*t48 + 135.0*t49 + 207.0) + t51)*expm1(t40*(t0*(t31*(-t10*t42 + t11*t41 - t13*t43 + t14*t40 + t15*t42 - t16*t41 + t18*t43 - t19*t40 - t20*t42 + t21*t41 - t23*t43 + t24*t40 - t25*t41 + t26*t42 + t27*t43 + t28*t41 + t29*t42 - t30*t40 + t39 - t40*t8 - 1.325719506885678*t40 + 0.29721701141418805*t41 + 0.08461057620269616*t42 + t43*t9 + 0.071840922239954*t43) + ((301.0/384.0))*t40 + ((45.0/256.0))*t41 - (45.0/128.0)*t42 + (-557.0/1536.0)) + (t1*(t38*t41 + t43*t5 + 207.0) + t4)*log(1.0 + 1.0/((t40 < 1.0000000000000001e-30) ? (1.0000000000000001e-30) : (t40)))) + t44*(t0*(t31*(-t10*t46 + t11*t45 - t13*t47 + t14*t44 + t15*t46 - t16*t45 + t18*t47 - t19*t44 - t20*t46 + t21*t45 - t23*t47 + t24*t44 - t25*t45 + t26*t46 + t27*t47 + t28*t45 + t29*t46 - t30*t44 + t39 - t44*t8 - 1.325719506885678*t44 + 0.29721701141418805*t45 + 0.08461057620269616*t46 + t47*t9 + 0.071840922239954*t47) + ((301.0/384.0))*t44 + ((45.0/256.0))*t45 - (45.0/128.0)*t46 + (-557.0/1536.0)) + (t1*(t38*t45 + t47*t5 + 207.0) + t4)*log(1.0 + 1.0/((t44 < 1.0000000000000001e-30) ? (1.0000000000000001e-30) : (t44))))))/(3.141592653589793238*((t50 < (1.0/1000000.0)) ? ((1.0/1000000.0)) : (t50)));
 }
 
 LAMBERT_SPHERE_FN double lambert_sphere_fm1(double mu_i, double mu_o, double c)
 {
-    const double t25 = ((c < 0.0) ? (0.0) : (c));
-    const double t0 = ((t25 > 1.0) ? (1.0) : (t25));
+    const double t29 = ((c < 0.0) ? (0.0) : (c));
+    const double t0 = ((t29 > 1.0) ? (1.0) : (t29));
     const double t1 = ((1.0/192.0))*t0;
     const double t2 = 1.0 - t0;
     const double t3 = sqrt(t2);
-    const double t4 = 0.04308898360798811*t2;
-    const double t5 = 0.06047918808278924*t2;
-    const double t6 = 0.1161087819075943*t2;
-    const double t7 = 0.029308878818980397*t3;
-    const double t8 = 0.11235087395548722*t3;
-    const double t9 = 0.20000940282083204*t3;
-    const double t10 = t0/(t3 + 1.0);
-    const double t11 = 20.0*t0 + 45.0;
-    const double t12 = 0.009623398742538718*t0 + 0.08191895900111167*t3 + 0.066238951968886792;
-    const double t13 = lambert_sphere_const_l(t0);
-    const double t26 = ((mu_i < 0.0) ? (0.0) : (mu_i));
-    const double t14 = ((t26 > 1.0) ? (1.0) : (t26));
-    const double t15 = (t14*t14);
-    const double t16 = (t14*t14*t14);
-    const double t17 = t15 - 1.0;
-    const double t27 = ((mu_o < 0.0) ? (0.0) : (mu_o));
-    const double t18 = ((t27 > 1.0) ? (1.0) : (t27));
-    const double t19 = (t18*t18);
-    const double t20 = (t18*t18*t18);
-    const double t21 = t14*t18;
-    const double t22 = t14 + t18;
-    const double t23 = t19 - 1.0;
-    const double t24 = t13*t22 + t21*(0.018477092603297557*(t0*t0) + 0.30329126471747215*t0 + (t13*t13));
-    return ((1.0/3.0))*t0*sqrt(t17*t23)*(t24 + (((45.0/64.0))*t21 + t24 + 1.0)*expm1(t14*(t0*(t10*(t12 + t14*t6 - t14*t9 - 0.19277283587731822*t14 - t15*t5 + t15*t7 + 0.09132252163198407*t15 - t16*t4 + t16*t8 + 0.04069191575938517*t16) - (47.0/96.0)*t14 - (15.0/128.0)*t15 + ((15.0/64.0))*t16 + (173.0/768.0)) - t1*t17*(t11*t15 - 64.0)*log(1.0 + 1.0/((t14 < 1.0000000000000001e-30) ? (1.0000000000000001e-30) : (t14)))) + t18*(t0*(t10*(t12 + t18*t6 - t18*t9 - 0.19277283587731822*t18 - t19*t5 + t19*t7 + 0.09132252163198407*t19 - t20*t4 + t20*t8 + 0.04069191575938517*t20) - (47.0/96.0)*t18 - (15.0/128.0)*t19 + ((15.0/64.0))*t20 + (173.0/768.0)) - t1*t23*(t11*t19 - 64.0)*log(1.0 + 1.0/((t18 < 1.0000000000000001e-30) ? (1.0000000000000001e-30) : (t18))))))/(3.141592653589793238*((t22 < (1.0/1000000.0)) ? ((1.0/1000000.0)) : (t22)));
+    const double t4 = 0.13709267005160283*t2;
+    const double t5 = 0.3632655319287515*t2;
+    const double t6 = 0.5873940770769441*t2;
+    const double t7 = 0.8058634752484803*t2;
+    const double t8 = 0.09957525508089264*t3;
+    const double t9 = 0.17036510788579223*t3;
+    const double t10 = 0.2272147405576878*t3;
+    const double t11 = 0.24047931567597833*t3;
+    const double t12 = t0/(t3 + 1.0);
+    const double t13 = 20.0*t0 + 45.0;
+    const double t14 = 0.002076152273646774*t0 + 0.07901493996339468*t3 + 0.080792556960468456;
+    const double t15 = lambert_sphere_const_l(t0);
+    const double t30 = ((mu_i < 0.0) ? (0.0) : (mu_i));
+    const double t16 = ((t30 > 1.0) ? (1.0) : (t30));
+    const double t17 = (t16*t16);
+    const double t18 = (t16*t16*t16);
+    const double t19 = (t16*t16*t16*t16);
+    const double t20 = t17 - 1.0;
+    const double t31 = ((mu_o < 0.0) ? (0.0) : (mu_o));
+    const double t21 = ((t31 > 1.0) ? (1.0) : (t31));
+    const double t22 = (t21*t21);
+    const double t23 = (t21*t21*t21);
+    const double t24 = (t21*t21*t21*t21);
+    const double t25 = t16*t21;
+    const double t26 = t16 + t21;
+    const double t27 = t22 - 1.0;
+    const double t28 = t15*t26 + t25*(0.002544027161592788*(t0*t0) + 0.31582622918447712*t0 + (t15*t15));
+    return ((1.0/3.0))*t0*sqrt(t20*t27)*(t28 + (((45.0/64.0))*t25 + t28 + 1.0)*expm1(t16*(t0*(t12*(-t10*t16 + t11*t17 + t14 + t16*t4 - 0.22914096329585584*t16 - t17*t6 + 0.21921972867561357*t17 + t18*t7 - t18*t9 - 0.13999300132719528*t18 - t19*t5 + t19*t8 + 0.08755164998448382*t19) - (47.0/96.0)*t16 - (15.0/128.0)*t17 + ((15.0/64.0))*t18 + (173.0/768.0)) - t1*t20*(t13*t17 - 64.0)*log(1.0 + 1.0/((t16 < 1.0000000000000001e-30) ? (1.0000000000000001e-30) : (t16)))) + t21*(t0*(t12*(-t10*t21 + t11*t22 + t14 + t21*t4 - 0.22914096329585584*t21 - t22*t6 + 0.21921972867561357*t22 + t23*t7 - t23*t9 - 0.13999300132719528*t23 - t24*t5 + t24*t8 + 0.08755164998448382*t24) - (47.0/96.0)*t21 - (15.0/128.0)*t22 + ((15.0/64.0))*t23 + (173.0/768.0)) - t1*t27*(t13*t22 - 64.0)*log(1.0 + 1.0/((t21 < 1.0000000000000001e-30) ? (1.0000000000000001e-30) : (t21))))))/(3.141592653589793238*((t26 < (1.0/1000000.0)) ? ((1.0/1000000.0)) : (t26)));
 }
 
 LAMBERT_SPHERE_FN double lambert_sphere_fm2(double mu_i, double mu_o, double c)
 {
-    const double t16 = ((c < 0.0) ? (0.0) : (c));
-    const double t0 = ((t16 > 1.0) ? (1.0) : (t16));
+    const double t20 = ((c < 0.0) ? (0.0) : (c));
+    const double t0 = ((t20 > 1.0) ? (1.0) : (t20));
     const double t1 = ((15.0/256.0))*t0;
-    const double t2 = sqrt(1.0 - t0);
-    const double t3 = 0.24298542148533464*t2;
-    const double t4 = 0.6229895537752153*t2;
-    const double t5 = 0.7778112899131402*t2;
-    const double t6 = t0/(t2 + 1.0);
-    const double t7 = 0.012175300667002955*t2 + 0.0035657559829922665;
-    const double t17 = ((mu_i < 0.0) ? (0.0) : (mu_i));
-    const double t8 = ((t17 > 1.0) ? (1.0) : (t17));
-    const double t9 = (t8*t8);
-    const double t10 = (t8*t8*t8);
-    const double t11 = t9 - 1.0;
-    const double t18 = ((mu_o < 0.0) ? (0.0) : (mu_o));
-    const double t12 = ((t18 > 1.0) ? (1.0) : (t18));
-    const double t13 = (t12*t12);
-    const double t14 = (t12*t12*t12);
-    const double t15 = t13 - 1.0;
-    const double t19 = t12 + t8;
-    return t1*t11*t15*expm1(t12*(t0*(((25.0/256.0))*t12 + ((15.0/512.0))*t13 - (15.0/256.0)*t14 + t6*(-t12*t3 + 0.02615176990129942*t12 + t13*t5 - 0.12175302463667616*t13 - t14*t4 + 0.10479018668034851*t14 + t7) + (-45.0/1024.0)) + t1*(t15*t15)*log(1.0 + 1.0/((t12 < 1.0000000000000001e-30) ? (1.0000000000000001e-30) : (t12)))) + t8*(t0*(-(15.0/256.0)*t10 + t6*(-t10*t4 + 0.10479018668034851*t10 - t3*t8 + t5*t9 + t7 + 0.02615176990129942*t8 - 0.12175302463667616*t9) + ((25.0/256.0))*t8 + ((15.0/512.0))*t9 + (-45.0/1024.0)) + t1*(t11*t11)*log(1.0 + 1.0/((t8 < 1.0000000000000001e-30) ? (1.0000000000000001e-30) : (t8)))))/(3.141592653589793238*((t19 < (1.0/1000000.0)) ? ((1.0/1000000.0)) : (t19)));
+    const double t2 = t0*((-15.0/256.0) + ((65536.0/10935.0))/(3.141592653589793238*3.141592653589793238*3.141592653589793238*3.141592653589793238));
+    const double t3 = sqrt(1.0 - t0);
+    const double t4 = 0.025923782434169387*t3;
+    const double t5 = 0.0525665973194757*t3;
+    const double t6 = 0.17933001731622866*t3;
+    const double t7 = 0.2389470236748654*t3;
+    const double t8 = t0/(t3 + 1.0);
+    const double t9 = -0.014230526142639845*t3 - 0.005153295745352563;
+    const double t21 = ((mu_i < 0.0) ? (0.0) : (mu_i));
+    const double t10 = ((t21 > 1.0) ? (1.0) : (t21));
+    const double t11 = (t10*t10);
+    const double t12 = (t10*t10*t10);
+    const double t13 = (t10*t10*t10*t10);
+    const double t14 = t11 - 1.0;
+    const double t22 = ((mu_o < 0.0) ? (0.0) : (mu_o));
+    const double t15 = ((t22 > 1.0) ? (1.0) : (t22));
+    const double t16 = (t15*t15);
+    const double t17 = (t15*t15*t15);
+    const double t18 = (t15*t15*t15*t15);
+    const double t19 = t16 - 1.0;
+    const double t23 = t10 + t15;
+    return t1*t14*t19*expm1(t10*(t0*(((25.0/256.0))*t10 + ((15.0/512.0))*t11 - (15.0/256.0)*t12 + t8*(t10*t4 + 0.04029112293878068*t10 + t11*t5 - 0.16205270481846276*t11 - t12*t7 + 0.24454188146234696*t12 + t13*t6 - 0.12068290344989925*t13 + t9) + (-45.0/1024.0)) + (t1*(t14*t14) + t2)*log(1.0 + 1.0/((t10 < 1.0000000000000001e-30) ? (1.0000000000000001e-30) : (t10)))) + t15*(t0*(((25.0/256.0))*t15 + ((15.0/512.0))*t16 - (15.0/256.0)*t17 + t8*(t15*t4 + 0.04029112293878068*t15 + t16*t5 - 0.16205270481846276*t16 - t17*t7 + 0.24454188146234696*t17 + t18*t6 - 0.12068290344989925*t18 + t9) + (-45.0/1024.0)) + (t1*(t19*t19) + t2)*log(1.0 + 1.0/((t15 < 1.0000000000000001e-30) ? (1.0000000000000001e-30) : (t15)))))/(3.141592653589793238*((t23 < (1.0/1000000.0)) ? ((1.0/1000000.0)) : (t23)));
 }
 
 LAMBERT_SPHERE_FN double lambert_sphere_brdf(double mu_i, double mu_o, double cos_phi, double c)
 {
-    const double t4 = ((cos_phi < -1.0) ? (-1.0) : (cos_phi));
-    const double t0 = ((t4 > 1.0) ? (1.0) : (t4));
-    const double t5 = ((c < 0.0) ? (0.0) : (c));
-    const double t1 = ((t5 > 1.0) ? (1.0) : (t5));
-    const double t6 = ((mu_i < 0.0) ? (0.0) : (mu_i));
-    const double t2 = ((t6 > 1.0) ? (1.0) : (t6));
-    const double t7 = ((mu_o < 0.0) ? (0.0) : (mu_o));
-    const double t3 = ((t7 > 1.0) ? (1.0) : (t7));
-    const double t8 = ((199987.0/200000.0))*t0*lambert_sphere_fm1(t2, t3, t1) + ((199987.0/200000.0))*(2.0*(t0*t0) - 1.0)*lambert_sphere_fm2(t2, t3, t1) + ((199987.0/200000.0))*lambert_sphere_fm0(t2, t3, t1) + ((199987.0/200000.0))*lambert_sphere_single(t2, t3, t0, t1);
-    return ((t8 < 0.0) ? (0.0) : (t8));
+    const double t0 = (1.0/(3.141592653589793238*3.141592653589793238*3.141592653589793238*3.141592653589793238));
+    const double t1 = 1.0/3.141592653589793238;
+    const double t78 = ((cos_phi < -1.0) ? (-1.0) : (cos_phi));
+    const double t2 = ((t78 > 1.0) ? (1.0) : (t78));
+    const double t79 = ((c < 0.0) ? (0.0) : (c));
+    const double t3 = ((t79 > 1.0) ? (1.0) : (t79));
+    const double t4 = -(1.0/192.0)*t3;
+    const double t5 = ((1.0/384.0))*t3;
+    const double t6 = ((15.0/256.0))*t3;
+    const double t7 = ((69.0/128.0))*t3;
+    const double t8 = 20.0*t3;
+    const double t9 = (t3*t3);
+    const double t10 = (t3*t3*t3);
+    const double t11 = t3*(((65536.0/10935.0))*t0 + (-15.0/256.0));
+    const double t12 = (15.0 - 15.0*t3)*(4.0*t3 + 9.0);
+    const double t13 = 1.0 - t3;
+    const double t14 = sqrt(t13);
+    const double t15 = (t13*sqrt(t13));
+    const double t16 = (t13*t13);
+    const double t17 = (t13*t13*sqrt(t13));
+    const double t18 = ((5.0/32.0))*t10 + ((25.0/128.0))*t9;
+    const double t19 = 1.0/(t14 + 1.0);
+    const double t20 = t8 + 45.0;
+    const double t21 = -t19*t3 + 2.0;
+    const double t22 = (1.0/(t21*t21*t21));
+    const double t23 = (1.0/(t21*t21));
+    const double t24 = 1.0/t21;
+    const double t25 = t10*t22;
+    const double t26 = t23*t9;
+    const double t27 = t24*t3;
+    const double t28 = t9*(-0.07833590836150241*t25 + 0.07306975142761809*t26 + 0.1249980985480369*t27 + 0.0011150517707980602)/(0.3719091586690565*t25 - 3.1394032403168942*t26 + 3.7390174820108686*t27 + 0.028476599636969102);
+    const double t29 = t9*(0.05579115878671145*t10*t22 + 0.58685331356467705*t23*t9 - 1.1861619620094055*t27 - 0.0092049747597823503)/(0.09435424272060645*t25 - 0.87344960507554615*t26 + 1.7651853809488535*t27 + 0.013909981406086191);
+    const double t30 = t9*(1.9684924387571525*t25 - 3.7565785554979649*t26 + 1.6813112551975873*t27 + 0.032348460824723773)/(5.049665480925919*t25 - 17.039681093232809*t26 + 12.745733009204341*t27 + 0.2442826031025484);
+    const double t31 = t28 - (15.0/128.0)*t3;
+    const double t32 = t3*(((32768.0/621.0))*t0 + (-69.0/128.0)) + t7;
+    const double t33 = t3*(t8 + 281.0) - 346.0;
+    const double t34 = 0.17933001731622866*t14*t19*(t3*t3) - 0.12068290344989925*t19*(t3*t3);
+    const double t35 = -0.008368360430631341*t10 - 0.05816074598872953*t3 + 0.009650569566343139*t9;
+    const double t36 = 0.31582622918447712*t3 + (t35*t35) + 0.002544027161592788*t9;
+    const double t37 = -0.3632655319287515*t13*t19*(t3*t3) + 0.09957525508089264*t14*t19*(t3*t3) + 0.08755164998448382*t19*(t3*t3);
+    const double t38 = -0.2389470236748654*t14*t19*(t3*t3) + 0.24454188146234696*t19*(t3*t3) - (15.0/256.0)*t3;
+    const double t39 = -0.014230526142639845*t14*t19*(t3*t3) - 0.005153295745352563*t19*(t3*t3) - (45.0/1024.0)*t3;
+    const double t40 = 0.025923782434169387*t14*t19*(t3*t3) + 0.04029112293878068*t19*(t3*t3) + ((25.0/256.0))*t3;
+    const double t41 = 0.0525665973194757*t14*t19*(t3*t3) - 0.16205270481846276*t19*(t3*t3) + ((15.0/512.0))*t3;
+    const double t42 = -0.5873940770769441*t13*t19*(t3*t3) + 0.24047931567597833*t14*t19*(t3*t3) + 0.21921972867561357*t19*(t3*t3) - (15.0/128.0)*t3;
+    const double t43 = 0.13709267005160283*t13*t19*(t3*t3) - 0.2272147405576878*t14*t19*(t3*t3) - 0.22914096329585584*t19*(t3*t3) - (47.0/96.0)*t3;
+    const double t44 = 0.8058634752484803*t13*t19*(t3*t3) - 0.17036510788579223*t14*t19*(t3*t3) - 0.13999300132719528*t19*(t3*t3) + ((15.0/64.0))*t3;
+    const double t45 = 0.07901493996339468*t14*t19*(t3*t3) + 0.002076152273646774*t19*(t3*t3*t3) + 0.080792556960468456*t19*(t3*t3) + ((173.0/768.0))*t3;
+    const double t46 = 1.0944861768775513*t13*t19*(t3*t3) + 0.011834897867951796*t14*t19*(t3*t3) - 3.5324504310681903*t15*t19*(t3*t3) + 6.213045752671517*t16*t19*(t3*t3) - 4.176585527979099*t17*t19*(t3*t3) + 0.071840922239954*t19*(t3*t3);
+    const double t47 = -3.4000753742433436*t13*t19*(t3*t3) + 0.2453286324430098*t14*t19*(t3*t3) + 9.962553037534885*t15*t19*(t3*t3) - 16.968225744737694*t16*t19*(t3*t3) + 11.125723299379713*t17*t19*(t3*t3) + 0.08461057620269616*t19*(t3*t3) - (45.0/128.0)*t3;
+    const double t48 = -0.7037951254891212*t13*t19*(t3*t3) - 1.1814002223985536*t14*t19*(t3*t3) + 4.500160987587274*t15*t19*(t3*t3) - 7.387129095711035*t16*t19*(t3*t3) + 4.4948337299139105*t17*t19*(t3*t3) - 1.325719506885678*t19*(t3*t3) + ((301.0/384.0))*t3;
+    const double t49 = 3.645512215102024*t13*t19*(t3*t3) + 0.1605383762729134*t14*t19*(t3*t3) - 11.278755622213785*t15*t19*(t3*t3) + 17.725549746319885*t16*t19*(t3*t3) - 11.03135741364594*t17*t19*(t3*t3) + 0.29721701141418805*t19*(t3*t3) + ((45.0/256.0))*t3;
+    const double t50 = -0.609254400172483*t14*t19*(t3*t3) - 0.6825277335021185*t15*t19*(t3*t3) + 0.9742988831680852*t16*t19*(t3*t3) - 0.5774718415007855*t17*t19*(t3*t3) - 0.4297602733893703*t19*(t3*t3*t3) + 1.8257799582297295*t19*(t3*t3) - (557.0/1536.0)*t3;
+    const double t80 = ((mu_i < 0.0) ? (0.0) : (mu_i));
+    const double t51 = ((t80 > 1.0) ? (1.0) : (t80));
+    const double t52 = (t51*t51);
+    const double t53 = (t51*t51*t51);
+    const double t54 = (t51*t51*t51*t51);
+    const double t55 = t52 - 1.0;
+    const double t56 = -t55;
+    const double t57 = log(1.0 + 1.0/((t51 < 1.0000000000000001e-30) ? (1.0000000000000001e-30) : (t51)));
+    const double t81 = ((mu_o < 0.0) ? (0.0) : (mu_o));
+    const double t58 = ((t81 > 1.0) ? (1.0) : (t81));
+    const double t59 = (t58*t58);
+    const double t60 = (t58*t58*t58);
+    const double t61 = (t58*t58*t58*t58);
+    const double t62 = t51*t58;
+    const double t63 = t52*t59;
+    const double t64 = t51 + t58;
+    const double t65 = t51*t58*t64*t9*(0.16113023258047119*t23*t9 + 0.039656619299156789*t24*t3 - 0.19805185831357303*t25 - 6.4175235565609636e-5)/(-0.3235979739971235*t25 + 0.095274957428092001*t26 + 1.227574234581551*t27 + 0.00074878198748053052);
+    const double t66 = t59 - 1.0;
+    const double t67 = -t66;
+    const double t68 = sqrt(t56*t67);
+    const double t69 = log(1.0 + 1.0/((t58 < 1.0000000000000001e-30) ? (1.0000000000000001e-30) : (t58)));
+    const double t82 = ((1.0/2.0))*t62 + ((1.0/2.0))*t68*(t2 + 1.0) + ((1.0/2.0))*(t52 + t56*t59)/(t68 + 1.0);
+    const double t70 = ((t82 < 0.0) ? (0.0) : (t82));
+    const double t71 = 1.0/((t64 < (1.0/1000000.0)) ? ((1.0/1000000.0)) : (t64));
+    const double t72 = ((t70 > 1.0) ? (1.0) : (t70));
+    const double t73 = 1.0 - t72;
+    const double t74 = asin(sqrt(((t70 > t73) ? (t73) : (((t70 <= t73) ? (t70) : (t70 + t73))))));
+    const double t75 = 2.0*t74;
+    const double t76 = (t74*t74);
+    const double t77 = 4.0*t76;
+    const double t83 = ((999959.0/3000000.0))*t1*t2*t3*t68*t71*(t35*t64 + t36*t62 + (t35*t51 + t35*t58 + t62*(t36 + (45.0/64.0)) + 1.0)*expm1(t51*(t37*t54 + t4*t55*t57*(t20*t52 - 64.0) + t42*t52 + t43*t51 + t44*t53 + t45) + t58*(t37*t61 + t4*t66*t69*(t20*t59 - 64.0) + t42*t59 + t43*t58 + t44*t60 + t45))) + ((999959.0/1000000.0))*t1*t56*t6*t67*t71*(2.0*(t2*t2) - 1.0)*expm1(t51*(t34*t54 + t38*t53 + t39 + t40*t51 + t41*t52 + t57*(t11 + (t55*t55)*t6)) + t58*(t34*t61 + t38*t60 + t39 + t40*t58 + t41*t59 + t69*(t11 + t6*(t66*t66)))) + ((999959.0/2000000.0))*t1*t71*(-t18*t63 + t28*(t52 + t59) + t29*t51*t58 + t30*t64 + t65 + (t30*t51 + t30*t58 + t31*t52 + t31*t59 + t62*(t29 + ((2.0/3.0))*t3) + t63*(-t18 + ((45.0/128.0))*t3) + t65 + t7)*expm1(t51*(t46*t54 + t47*t53 + t48*t51 + t49*t52 + t50 + t57*(t12*t5*t54 + t32 + t33*t5*t52)) + t58*(t46*t61 + t47*t60 + t48*t58 + t49*t59 + t50 + t69*(t12*t5*t61 + t32 + t33*t5*t59)))) + ((999959.0/1500000.0))*t3*t71*((t72 < (1.0/16.0)) ? (8.0*(t74*t74*t74)*(t77*(t77*(t77*(t77*(t77*(((1.0/23351328000.0))*t76 + (-1.0/518918400.0)) + (1.0/3991680.0)) + (-1.0/45360.0)) + (1.0/840.0)) + (-1.0/30.0)) + (1.0/3.0))) : (2.0*sqrt(t72)*sqrt(t73) - (1.0 - 2.0*t72)*((t72 < (1.0/2.0)) ? (t75) : (3.141592653589793238 - t75))))/(3.141592653589793238*3.141592653589793238);
+    return ((t83 < 0.0) ? (0.0) : (t83));
 }
 
 LAMBERT_SPHERE_FN double lambert_sphere_brdf_fast(double mu_i, double mu_o, double cos_phi, double c, double kd)
@@ -477,46 +564,48 @@ LAMBERT_SPHERE_FN float lambert_sphere_h0_f(float mu, float c)
     const float t7 = (t6*t6);
     const float t8 = (t6*t6*t6);
     const float t9 = (t6*t6*t6*t6);
-    return expf(t6*(((1.0F/384.0F))*t0*(t7*(t0*(20.0F*t0 + 281.0F) - 346.0F) + t9*(15.0F - 15.0F*t0)*(4.0F*t0 + 9.0F) + 207.0F)*logf(1.0F + 1.0F/((t6 < 1.0e-30F) ? (1.0e-30F) : (t6))) + t0*(t0*(-0.358789965F*t0 + 2.47002546F*t1*t6 - 5.63305986F*t1*t7 + 7.64538908F*t1*t8 - 3.38396172F*t1*t9 - 1.47546663F*t2*t6 + 0.9285301F*t2*t7 - 0.601170263F*t2*t8 + 0.339044816F*t2*t9 - 0.688098854F*t2 - 8.6788146F*t3*t6 + 29.4093874F*t3*t7 - 39.4713605F*t3*t8 + 16.8446735F*t3*t9 + 0.0551064054F*t3 + 15.5571404F*t4*t6 - 54.4881992F*t4*t7 + 71.5529318F*t4*t8 - 30.6516416F*t4*t9 - 0.562194525F*t4 - 9.65683194F*t5*t6 + 34.15724F*t5*t7 - 44.8193591F*t5*t8 + 19.3651363F*t5*t9 + 0.38596311F*t5 - 1.35490655F*t6 + 0.345074247F*t7 + 0.0392865013F*t8 + 0.0880030773F*t9 + 1.78514787F)/(t2 + 1.0F) + ((301.0F/384.0F))*t6 + ((45.0F/256.0F))*t7 - (45.0F/128.0F)*t8 + (-557.0F/1536.0F))));
+    return expf(t6*(t0*(t0*(-0.429760273F*t0 - 0.703795125F*t1*t6 + 3.64551222F*t1*t7 - 3.40007537F*t1*t8 + 1.09448618F*t1*t9 - 1.18140022F*t2*t6 + 0.160538376F*t2*t7 + 0.245328632F*t2*t8 + 0.0118348979F*t2*t9 - 0.6092544F*t2 + 4.50016099F*t3*t6 - 11.2787556F*t3*t7 + 9.96255304F*t3*t8 - 3.53245043F*t3*t9 - 0.682527734F*t3 - 7.3871291F*t4*t6 + 17.7255497F*t4*t7 - 16.9682257F*t4*t8 + 6.21304575F*t4*t9 + 0.974298883F*t4 + 4.49483373F*t5*t6 - 11.0313574F*t5*t7 + 11.1257233F*t5*t8 - 4.17658553F*t5*t9 - 0.577471841F*t5 - 1.32571951F*t6 + 0.297217011F*t7 + 0.0846105762F*t8 + 0.0718409222F*t9 + 1.82577996F)/(t2 + 1.0F) + ((301.0F/384.0F))*t6 + ((45.0F/256.0F))*t7 - (45.0F/128.0F)*t8 + (-557.0F/1536.0F)) + (((1.0F/384.0F))*t0*(t7*(t0*(20.0F*t0 + 281.0F) - 346.0F) + t9*(15.0F - 15.0F*t0)*(4.0F*t0 + 9.0F) + 207.0F) + t0*((-69.0F/128.0F) + ((32768.0F/621.0F))/(3.141592653589793238F*3.141592653589793238F*3.141592653589793238F*3.141592653589793238F)))*logf(1.0F + 1.0F/((t6 < 1.0e-30F) ? (1.0e-30F) : (t6)))));
 }
 
 LAMBERT_SPHERE_FN float lambert_sphere_h1_f(float mu, float c)
 {
-    const float t6 = ((c < 0.0F) ? (0.0F) : (c));
-    const float t0 = ((t6 > 1.0F) ? (1.0F) : (t6));
+    const float t7 = ((c < 0.0F) ? (0.0F) : (c));
+    const float t0 = ((t7 > 1.0F) ? (1.0F) : (t7));
     const float t1 = 1.0F - t0;
     const float t2 = sqrtf(t1);
-    const float t7 = ((mu < 0.0F) ? (0.0F) : (mu));
-    const float t3 = ((t7 > 1.0F) ? (1.0F) : (t7));
+    const float t8 = ((mu < 0.0F) ? (0.0F) : (mu));
+    const float t3 = ((t8 > 1.0F) ? (1.0F) : (t8));
     const float t4 = (t3*t3);
     const float t5 = (t3*t3*t3);
-    return expf(t3*(-(1.0F/192.0F)*t0*(t4 - 1.0F)*(t4*(20.0F*t0 + 45.0F) - 64.0F)*logf(1.0F + 1.0F/((t3 < 1.0e-30F) ? (1.0e-30F) : (t3))) + t0*(t0*(0.00962339874F*t0 + 0.116108782F*t1*t3 - 0.0604791881F*t1*t4 - 0.0430889836F*t1*t5 - 0.200009403F*t2*t3 + 0.0293088788F*t2*t4 + 0.112350874F*t2*t5 + 0.081918959F*t2 - 0.192772836F*t3 + 0.0913225216F*t4 + 0.0406919158F*t5 + 0.066238952F)/(t2 + 1.0F) - (47.0F/96.0F)*t3 - (15.0F/128.0F)*t4 + ((15.0F/64.0F))*t5 + (173.0F/768.0F))));
+    const float t6 = (t3*t3*t3*t3);
+    return expf(t3*(-(1.0F/192.0F)*t0*(t4 - 1.0F)*(t4*(20.0F*t0 + 45.0F) - 64.0F)*logf(1.0F + 1.0F/((t3 < 1.0e-30F) ? (1.0e-30F) : (t3))) + t0*(t0*(0.00207615227F*t0 + 0.13709267F*t1*t3 - 0.587394077F*t1*t4 + 0.805863475F*t1*t5 - 0.363265532F*t1*t6 - 0.227214741F*t2*t3 + 0.240479316F*t2*t4 - 0.170365108F*t2*t5 + 0.0995752551F*t2*t6 + 0.07901494F*t2 - 0.229140963F*t3 + 0.219219729F*t4 - 0.139993001F*t5 + 0.08755165F*t6 + 0.080792557F)/(t2 + 1.0F) - (47.0F/96.0F)*t3 - (15.0F/128.0F)*t4 + ((15.0F/64.0F))*t5 + (173.0F/768.0F))));
 }
 
 LAMBERT_SPHERE_FN float lambert_sphere_h2_f(float mu, float c)
 {
-    const float t5 = ((c < 0.0F) ? (0.0F) : (c));
-    const float t0 = ((t5 > 1.0F) ? (1.0F) : (t5));
+    const float t6 = ((c < 0.0F) ? (0.0F) : (c));
+    const float t0 = ((t6 > 1.0F) ? (1.0F) : (t6));
     const float t1 = sqrtf(1.0F - t0);
-    const float t6 = ((mu < 0.0F) ? (0.0F) : (mu));
-    const float t2 = ((t6 > 1.0F) ? (1.0F) : (t6));
+    const float t7 = ((mu < 0.0F) ? (0.0F) : (mu));
+    const float t2 = ((t7 > 1.0F) ? (1.0F) : (t7));
     const float t3 = (t2*t2);
     const float t4 = (t2*t2*t2);
-    return expf(t2*(((15.0F/256.0F))*t0*((t3 - 1.0F)*(t3 - 1.0F))*logf(1.0F + 1.0F/((t2 < 1.0e-30F) ? (1.0e-30F) : (t2))) + t0*(t0*(-0.242985421F*t1*t2 + 0.77781129F*t1*t3 - 0.622989554F*t1*t4 + 0.0121753007F*t1 + 0.0261517699F*t2 - 0.121753025F*t3 + 0.104790187F*t4 + 0.00356575598F)/(t1 + 1.0F) + ((25.0F/256.0F))*t2 + ((15.0F/512.0F))*t3 - (15.0F/256.0F)*t4 + (-45.0F/1024.0F))));
+    const float t5 = (t2*t2*t2*t2);
+    return expf(t2*(t0*(t0*(0.0259237824F*t1*t2 + 0.0525665973F*t1*t3 - 0.238947024F*t1*t4 + 0.179330017F*t1*t5 - 0.0142305261F*t1 + 0.0402911229F*t2 - 0.162052705F*t3 + 0.244541881F*t4 - 0.120682903F*t5 - 0.00515329575F)/(t1 + 1.0F) + ((25.0F/256.0F))*t2 + ((15.0F/512.0F))*t3 - (15.0F/256.0F)*t4 + (-45.0F/1024.0F)) + (((15.0F/256.0F))*t0*((t3 - 1.0F)*(t3 - 1.0F)) + t0*((-15.0F/256.0F) + ((65536.0F/10935.0F))/(3.141592653589793238F*3.141592653589793238F*3.141592653589793238F*3.141592653589793238F)))*logf(1.0F + 1.0F/((t2 < 1.0e-30F) ? (1.0e-30F) : (t2)))));
 }
 
 LAMBERT_SPHERE_FN float lambert_sphere_const_l_f(float c)
 {
     const float t1 = ((c < 0.0F) ? (0.0F) : (c));
     const float t0 = ((t1 > 1.0F) ? (1.0F) : (t1));
-    return 0.0091196791F*(t0*t0*t0) - 0.00728558658F*(t0*t0) - 0.0552022433F*t0;
+    return -0.00836836043F*(t0*t0*t0) + 0.00965056957F*(t0*t0) - 0.058160746F*t0;
 }
 
 LAMBERT_SPHERE_FN float lambert_sphere_const_m_f(float c)
 {
     const float t1 = ((c < 0.0F) ? (0.0F) : (c));
     const float t0 = ((t1 > 1.0F) ? (1.0F) : (t1));
-    return 0.0262785317F*(t0*t0) + 0.431347576F*t0 + 1.0F;
+    return 0.00361817196F*(t0*t0) + 0.449175082F*t0 + 1.0F;
 }
 
 LAMBERT_SPHERE_FN float lambert_sphere_const_b_f(float c)
@@ -528,7 +617,7 @@ LAMBERT_SPHERE_FN float lambert_sphere_const_b_f(float c)
     const float t3 = t0/t2;
     const float t4 = (t0*t0*t0)/(t2*t2*t2);
     const float t5 = t1/(t2*t2);
-    return t1*(1.13359335F*t3 + 1.12081142F*t4 - 2.34162593F*t5 + 0.00103485553F)/(8.02636031F*t3 + 2.8967197F*t4 - 9.93030684F*t5 + 0.00722682508F);
+    return t1*(1.68131126F*t3 + 1.96849244F*t4 - 3.75657856F*t5 + 0.0323484608F)/(12.745733F*t3 + 5.04966548F*t4 - 17.0396811F*t5 + 0.244282603F);
 }
 
 LAMBERT_SPHERE_FN float lambert_sphere_const_c_f(float c)
@@ -538,10 +627,10 @@ LAMBERT_SPHERE_FN float lambert_sphere_const_c_f(float c)
     const float t1 = (t0*t0);
     const float t2 = (t0*t0*t0);
     const float t3 = -t0/(sqrtf(1.0F - t0) + 1.0F) + 2.0F;
-    const float t4 = powf(t3, -3.0F);
-    const float t5 = t0/t3;
-    const float t6 = t1/(t3*t3);
-    return ((2.0F/3.0F))*t0 + t1*(0.864318572F*t2*t4 - 0.340535824F*t5 - 1.04766344F*t6 - 0.0259151243F)/(-1.0474195F*t2*t4 + 0.516229976F*t5 + 1.49439574F*t6 + 0.0367937879F);
+    const float t4 = (1.0F/(t3*t3*t3));
+    const float t5 = (1.0F/(t3*t3));
+    const float t6 = t0/t3;
+    return ((2.0F/3.0F))*t0 + t1*(0.586853314F*t1*t5 + 0.0557911588F*t2*t4 - 1.18616196F*t6 - 0.00920497476F)/(-0.873449605F*t1*t5 + 0.0943542427F*t2*t4 + 1.76518538F*t6 + 0.0139099814F);
 }
 
 LAMBERT_SPHERE_FN float lambert_sphere_const_d_f(float c)
@@ -550,10 +639,10 @@ LAMBERT_SPHERE_FN float lambert_sphere_const_d_f(float c)
     const float t0 = ((t6 > 1.0F) ? (1.0F) : (t6));
     const float t1 = (t0*t0);
     const float t2 = -t0/(sqrtf(1.0F - t0) + 1.0F) + 2.0F;
-    const float t3 = t0/t2;
-    const float t4 = (t0*t0*t0)/(t2*t2*t2);
-    const float t5 = t1/(t2*t2);
-    return t1*(0.0386897082F*t3 - 0.213013893F*t4 + 0.17402463F*t5 + 0.000677303682F)/(0.999360126F*t3 - 0.786493673F*t4 + 0.778844418F*t5 + 0.00828912889F);
+    const float t3 = (1.0F/(t2*t2));
+    const float t4 = 1.0F/t2;
+    const float t5 = (t0*t0*t0)/(t2*t2*t2);
+    return t1*(0.0396566193F*t0*t4 + 0.161130233F*t1*t3 - 0.198051858F*t5 - 6.41752356e-5F)/(1.22757423F*t0*t4 + 0.0952749574F*t1*t3 - 0.323597974F*t5 + 0.000748781987F);
 }
 
 LAMBERT_SPHERE_FN float lambert_sphere_const_f_f(float c)
@@ -565,7 +654,7 @@ LAMBERT_SPHERE_FN float lambert_sphere_const_f_f(float c)
     const float t3 = t0/t2;
     const float t4 = (t0*t0*t0)/(t2*t2*t2);
     const float t5 = t1/(t2*t2);
-    return -(15.0F/128.0F)*t0 + t1*(0.00686791682F*t3 + 0.0359463998F*t4 + 0.0814665743F*t5 + 1.69449032e-6F)/(0.25646436F*t3 - 1.24776987F*t4 + 1.99090727F*t5 + 0.000398246508F);
+    return -(15.0F/128.0F)*t0 + t1*(0.124998099F*t3 - 0.0783359084F*t4 + 0.0730697514F*t5 + 0.00111505177F)/(3.73901748F*t3 + 0.371909159F*t4 - 3.13940324F*t5 + 0.0284765996F);
 }
 
 LAMBERT_SPHERE_FN float lambert_sphere_c_of_kd_f(float kd)
@@ -650,132 +739,217 @@ LAMBERT_SPHERE_FN float lambert_sphere_single_f(float mu_i, float mu_o, float co
 
 LAMBERT_SPHERE_FN float lambert_sphere_fm0_f(float mu_i, float mu_o, float c)
 {
-    const float t50 = ((c < 0.0F) ? (0.0F) : (c));
-    const float t0 = ((t50 > 1.0F) ? (1.0F) : (t50));
+    const float t52 = ((c < 0.0F) ? (0.0F) : (c));
+    const float t0 = ((t52 > 1.0F) ? (1.0F) : (t52));
     const float t1 = ((1.0F/384.0F))*t0;
     const float t2 = (t0*t0);
     const float t3 = (t0*t0*t0);
-    const float t4 = (15.0F - 15.0F*t0)*(4.0F*t0 + 9.0F);
-    const float t5 = 1.0F - t0;
-    const float t6 = sqrtf(t5);
-    const float t7 = 2.47002546F*t5;
-    const float t8 = 3.38396172F*t5;
-    const float t9 = 5.63305986F*t5;
-    const float t10 = 7.64538908F*t5;
-    const float t11 = (t5*sqrtf(t5));
-    const float t12 = 8.6788146F*t11;
-    const float t13 = 16.8446735F*t11;
-    const float t14 = 29.4093874F*t11;
-    const float t15 = 39.4713605F*t11;
-    const float t16 = (t5*t5);
-    const float t17 = 15.5571404F*t16;
-    const float t18 = 30.6516416F*t16;
-    const float t19 = 54.4881992F*t16;
-    const float t20 = 71.5529318F*t16;
-    const float t21 = (t5*t5*sqrtf(t5));
-    const float t22 = 9.65683194F*t21;
-    const float t23 = 19.3651363F*t21;
-    const float t24 = 34.15724F*t21;
-    const float t25 = 44.8193591F*t21;
-    const float t26 = 0.339044816F*t6;
-    const float t27 = 0.601170263F*t6;
-    const float t28 = 0.9285301F*t6;
-    const float t29 = 1.47546663F*t6;
-    const float t30 = t0/(t6 + 1.0F);
-    const float t31 = 2.0F - t30;
-    const float t32 = powf(t31, -3.0F);
-    const float t33 = t0/t31;
-    const float t34 = t2/(t31*t31);
-    const float t35 = t3*t32;
-    const float t36 = t0*(20.0F*t0 + 281.0F) - 346.0F;
-    const float t37 = -0.358789965F*t0 + 0.0551064054F*t11 - 0.562194525F*t16 + 0.38596311F*t21 - 0.688098854F*t6 + 1.78514787F;
-    const float t51 = ((mu_i < 0.0F) ? (0.0F) : (mu_i));
-    const float t38 = ((t51 > 1.0F) ? (1.0F) : (t51));
-    const float t39 = (t38*t38);
-    const float t40 = (t38*t38*t38);
-    const float t41 = (t38*t38*t38*t38);
-    const float t52 = ((mu_o < 0.0F) ? (0.0F) : (mu_o));
-    const float t42 = ((t52 > 1.0F) ? (1.0F) : (t52));
-    const float t43 = (t42*t42);
-    const float t44 = (t42*t42*t42);
-    const float t45 = (t42*t42*t42*t42);
-    const float t46 = t38*t42;
-    const float t47 = t39*t43;
-    const float t48 = t38 + t42;
-    const float t49 = t2*t46*(0.864318572F*t3*t32 - 0.340535824F*t33 - 1.04766344F*t34 - 0.0259151243F)/(0.516229976F*t33 + 1.49439574F*t34 - 1.0474195F*t35 + 0.0367937879F) + t2*(t39 + t43)*(0.00686791682F*t33 + 0.0814665743F*t34 + 0.0359463998F*t35 + 1.69449032e-6F)/(0.25646436F*t33 + 1.99090727F*t34 - 1.24776987F*t35 + 0.000398246508F) + t46*t48*lambert_sphere_const_d_f(t0) + t47*(-(25.0F/128.0F)*t2 - (5.0F/32.0F)*t3) + t48*lambert_sphere_const_b_f(t0);
-    return ((1.0F/2.0F))*(t49 + (t1*(-45.0F*t39 - 45.0F*t43 + 256.0F*t46 + 135.0F*t47 + 207.0F) + t49)*expm1f(t38*(t0*(t30*(t10*t40 - t12*t38 + t13*t41 + t14*t39 - t15*t40 + t17*t38 - t18*t41 - t19*t39 + t20*t40 - t22*t38 + t23*t41 + t24*t39 - t25*t40 + t26*t41 - t27*t40 + t28*t39 - t29*t38 + t37 + t38*t7 - 1.35490655F*t38 - t39*t9 + 0.345074247F*t39 + 0.0392865013F*t40 - t41*t8 + 0.0880030773F*t41) + ((301.0F/384.0F))*t38 + ((45.0F/256.0F))*t39 - (45.0F/128.0F)*t40 + (-557.0F/1536.0F)) + t1*(t36*t39 + t4*t41 + 207.0F)*logf(1.0F + 1.0F/((t38 < 1.0e-30F) ? (1.0e-30F) : (t38)))) + t42*(t0*(t30*(t10*t44 - t12*t42 + t13*t45 + t14*t43 - t15*t44 + t17*t42 - t18*t45 - t19*t43 + t20*t44 - t22*t42 + t23*t45 + t24*t43 - t25*t44 + t26*t45 - t27*t44 + t28*t43 - t29*t42 + t37 + t42*t7 - 1.35490655F*t42 - t43*t9 + 0.345074247F*t43 + 0.0392865013F*t44 - t45*t8 + 0.0880030773F*t45) + ((301.0F/384.0F))*t42 + ((45.0F/256.0F))*t43 - (45.0F/128.0F)*t44 + (-557.0F/1536.0F)) + t1*(t36*t43 + t4*t45 + 207.0F)*logf(1.0F + 1.0F/((t42 < 1.0e-30F) ? (1.0e-30F) : (t42))))))/(3.141592653589793238F*((t48 < (1.0F/1000000.0F)) ? ((1.0F/1000000.0F)) : (t48)));
+    const float t4 = t0*((-69.0F/128.0F) + ((32768.0F/621.0F))/(3.141592653589793238F*3.141592653589793238F*3.141592653589793238F*3.141592653589793238F));
+    const float t5 = (15.0F - 15.0F*t0)*(4.0F*t0 + 9.0F);
+    const float t6 = 1.0F - t0;
+    const float t7 = sqrtf(t6);
+    const float t8 = 0.703795125F*t6;
+    const float t9 = 1.09448618F*t6;
+    const float t10 = 3.40007537F*t6;
+    const float t11 = 3.64551222F*t6;
+    const float t12 = (t6*sqrtf(t6));
+    const float t13 = 3.53245043F*t12;
+    const float t14 = 4.50016099F*t12;
+    const float t15 = 9.96255304F*t12;
+    const float t16 = 11.2787556F*t12;
+    const float t17 = (t6*t6);
+    const float t18 = 6.21304575F*t17;
+    const float t19 = 7.3871291F*t17;
+    const float t20 = 16.9682257F*t17;
+    const float t21 = 17.7255497F*t17;
+    const float t22 = (t6*t6*sqrtf(t6));
+    const float t23 = 4.17658553F*t22;
+    const float t24 = 4.49483373F*t22;
+    const float t25 = 11.0313574F*t22;
+    const float t26 = 11.1257233F*t22;
+    const float t27 = 0.0118348979F*t7;
+    const float t28 = 0.160538376F*t7;
+    const float t29 = 0.245328632F*t7;
+    const float t30 = 1.18140022F*t7;
+    const float t31 = t0/(t7 + 1.0F);
+    const float t32 = 2.0F - t31;
+    const float t33 = (1.0F/(t32*t32*t32));
+    const float t34 = (1.0F/(t32*t32));
+    const float t35 = t0/t32;
+    const float t36 = t2*t34;
+    const float t37 = t3*t33;
+    const float t38 = t0*(20.0F*t0 + 281.0F) - 346.0F;
+    const float t39 = -0.429760273F*t0 - 0.682527734F*t12 + 0.974298883F*t17 - 0.577471841F*t22 - 0.6092544F*t7 + 1.82577996F;
+    const float t53 = ((mu_i < 0.0F) ? (0.0F) : (mu_i));
+    const float t40 = ((t53 > 1.0F) ? (1.0F) : (t53));
+    const float t41 = (t40*t40);
+    const float t42 = (t40*t40*t40);
+    const float t43 = (t40*t40*t40*t40);
+    const float t54 = ((mu_o < 0.0F) ? (0.0F) : (mu_o));
+    const float t44 = ((t54 > 1.0F) ? (1.0F) : (t54));
+    const float t45 = (t44*t44);
+    const float t46 = (t44*t44*t44);
+    const float t47 = (t44*t44*t44*t44);
+    const float t48 = t40*t44;
+    const float t49 = t41*t45;
+    const float t50 = t40 + t44;
+    const float t51 = t2*t48*(0.586853314F*t2*t34 + 0.0557911588F*t3*t33 - 1.18616196F*t35 - 0.00920497476F)/(1.76518538F*t35 - 0.873449605F*t36 + 0.0943542427F*t37 + 0.0139099814F) + t2*(t41 + t45)*(0.124998099F*t35 + 0.0730697514F*t36 - 0.0783359084F*t37 + 0.00111505177F)/(3.73901748F*t35 - 3.13940324F*t36 + 0.371909159F*t37 + 0.0284765996F) + t48*t50*lambert_sphere_const_d_f(t0) + t49*(-(25.0F/128.0F)*t2 - (5.0F/32.0F)*t3) + t50*lambert_sphere_const_b_f(t0);
+    return ((1.0F/2.0F))*(t51 + (t1*(-45.0F*t41 - 45.0F*t45 + 256.0F*t48 + 135.0F*t49 + 207.0F) + t51)*expm1f(t40*(t0*(t31*(-t10*t42 + t11*t41 - t13*t43 + t14*t40 + t15*t42 - t16*t41 + t18*t43 - t19*t40 - t20*t42 + t21*t41 - t23*t43 + t24*t40 - t25*t41 + t26*t42 + t27*t43 + t28*t41 + t29*t42 - t30*t40 + t39 - t40*t8 - 1.32571951F*t40 + 0.297217011F*t41 + 0.0846105762F*t42 + t43*t9 + 0.0718409222F*t43) + ((301.0F/384.0F))*t40 + ((45.0F/256.0F))*t41 - (45.0F/128.0F)*t42 + (-557.0F/1536.0F)) + (t1*(t38*t41 + t43*t5 + 207.0F) + t4)*logf(1.0F + 1.0F/((t40 < 1.0e-30F) ? (1.0e-30F) : (t40)))) + t44*(t0*(t31*(-t10*t46 + t11*t45 - t13*t47 + t14*t44 + t15*t46 - t16*t45 + t18*t47 - t19*t44 - t20*t46 + t21*t45 - t23*t47 + t24*t44 - t25*t45 + t26*t46 + t27*t47 + t28*t45 + t29*t46 - t30*t44 + t39 - t44*t8 - 1.32571951F*t44 + 0.297217011F*t45 + 0.0846105762F*t46 + t47*t9 + 0.0718409222F*t47) + ((301.0F/384.0F))*t44 + ((45.0F/256.0F))*t45 - (45.0F/128.0F)*t46 + (-557.0F/1536.0F)) + (t1*(t38*t45 + t47*t5 + 207.0F) + t4)*logf(1.0F + 1.0F/((t44 < 1.0e-30F) ? (1.0e-30F) : (t44))))))/(3.141592653589793238F*((t50 < (1.0F/1000000.0F)) ? ((1.0F/1000000.0F)) : (t50)));
 }
 
 LAMBERT_SPHERE_FN float lambert_sphere_fm1_f(float mu_i, float mu_o, float c)
 {
-    const float t25 = ((c < 0.0F) ? (0.0F) : (c));
-    const float t0 = ((t25 > 1.0F) ? (1.0F) : (t25));
+    const float t29 = ((c < 0.0F) ? (0.0F) : (c));
+    const float t0 = ((t29 > 1.0F) ? (1.0F) : (t29));
     const float t1 = ((1.0F/192.0F))*t0;
     const float t2 = 1.0F - t0;
     const float t3 = sqrtf(t2);
-    const float t4 = 0.0430889836F*t2;
-    const float t5 = 0.0604791881F*t2;
-    const float t6 = 0.116108782F*t2;
-    const float t7 = 0.0293088788F*t3;
-    const float t8 = 0.112350874F*t3;
-    const float t9 = 0.200009403F*t3;
-    const float t10 = t0/(t3 + 1.0F);
-    const float t11 = 20.0F*t0 + 45.0F;
-    const float t12 = 0.00962339874F*t0 + 0.081918959F*t3 + 0.066238952F;
-    const float t13 = lambert_sphere_const_l_f(t0);
-    const float t26 = ((mu_i < 0.0F) ? (0.0F) : (mu_i));
-    const float t14 = ((t26 > 1.0F) ? (1.0F) : (t26));
-    const float t15 = (t14*t14);
-    const float t16 = (t14*t14*t14);
-    const float t17 = t15 - 1.0F;
-    const float t27 = ((mu_o < 0.0F) ? (0.0F) : (mu_o));
-    const float t18 = ((t27 > 1.0F) ? (1.0F) : (t27));
-    const float t19 = (t18*t18);
-    const float t20 = (t18*t18*t18);
-    const float t21 = t14*t18;
-    const float t22 = t14 + t18;
-    const float t23 = t19 - 1.0F;
-    const float t24 = t13*t22 + t21*(0.0184770926F*(t0*t0) + 0.303291265F*t0 + (t13*t13));
-    return ((1.0F/3.0F))*t0*sqrtf(t17*t23)*(t24 + (((45.0F/64.0F))*t21 + t24 + 1.0F)*expm1f(t14*(t0*(t10*(t12 + t14*t6 - t14*t9 - 0.192772836F*t14 - t15*t5 + t15*t7 + 0.0913225216F*t15 - t16*t4 + t16*t8 + 0.0406919158F*t16) - (47.0F/96.0F)*t14 - (15.0F/128.0F)*t15 + ((15.0F/64.0F))*t16 + (173.0F/768.0F)) - t1*t17*(t11*t15 - 64.0F)*logf(1.0F + 1.0F/((t14 < 1.0e-30F) ? (1.0e-30F) : (t14)))) + t18*(t0*(t10*(t12 + t18*t6 - t18*t9 - 0.192772836F*t18 - t19*t5 + t19*t7 + 0.0913225216F*t19 - t20*t4 + t20*t8 + 0.0406919158F*t20) - (47.0F/96.0F)*t18 - (15.0F/128.0F)*t19 + ((15.0F/64.0F))*t20 + (173.0F/768.0F)) - t1*t23*(t11*t19 - 64.0F)*logf(1.0F + 1.0F/((t18 < 1.0e-30F) ? (1.0e-30F) : (t18))))))/(3.141592653589793238F*((t22 < (1.0F/1000000.0F)) ? ((1.0F/1000000.0F)) : (t22)));
+    const float t4 = 0.13709267F*t2;
+    const float t5 = 0.363265532F*t2;
+    const float t6 = 0.587394077F*t2;
+    const float t7 = 0.805863475F*t2;
+    const float t8 = 0.0995752551F*t3;
+    const float t9 = 0.170365108F*t3;
+    const float t10 = 0.227214741F*t3;
+    const float t11 = 0.240479316F*t3;
+    const float t12 = t0/(t3 + 1.0F);
+    const float t13 = 20.0F*t0 + 45.0F;
+    const float t14 = 0.00207615227F*t0 + 0.07901494F*t3 + 0.080792557F;
+    const float t15 = lambert_sphere_const_l_f(t0);
+    const float t30 = ((mu_i < 0.0F) ? (0.0F) : (mu_i));
+    const float t16 = ((t30 > 1.0F) ? (1.0F) : (t30));
+    const float t17 = (t16*t16);
+    const float t18 = (t16*t16*t16);
+    const float t19 = (t16*t16*t16*t16);
+    const float t20 = t17 - 1.0F;
+    const float t31 = ((mu_o < 0.0F) ? (0.0F) : (mu_o));
+    const float t21 = ((t31 > 1.0F) ? (1.0F) : (t31));
+    const float t22 = (t21*t21);
+    const float t23 = (t21*t21*t21);
+    const float t24 = (t21*t21*t21*t21);
+    const float t25 = t16*t21;
+    const float t26 = t16 + t21;
+    const float t27 = t22 - 1.0F;
+    const float t28 = t15*t26 + t25*(0.00254402716F*(t0*t0) + 0.315826229F*t0 + (t15*t15));
+    return ((1.0F/3.0F))*t0*sqrtf(t20*t27)*(t28 + (((45.0F/64.0F))*t25 + t28 + 1.0F)*expm1f(t16*(t0*(t12*(-t10*t16 + t11*t17 + t14 + t16*t4 - 0.229140963F*t16 - t17*t6 + 0.219219729F*t17 + t18*t7 - t18*t9 - 0.139993001F*t18 - t19*t5 + t19*t8 + 0.08755165F*t19) - (47.0F/96.0F)*t16 - (15.0F/128.0F)*t17 + ((15.0F/64.0F))*t18 + (173.0F/768.0F)) - t1*t20*(t13*t17 - 64.0F)*logf(1.0F + 1.0F/((t16 < 1.0e-30F) ? (1.0e-30F) : (t16)))) + t21*(t0*(t12*(-t10*t21 + t11*t22 + t14 + t21*t4 - 0.229140963F*t21 - t22*t6 + 0.219219729F*t22 + t23*t7 - t23*t9 - 0.139993001F*t23 - t24*t5 + t24*t8 + 0.08755165F*t24) - (47.0F/96.0F)*t21 - (15.0F/128.0F)*t22 + ((15.0F/64.0F))*t23 + (173.0F/768.0F)) - t1*t27*(t13*t22 - 64.0F)*logf(1.0F + 1.0F/((t21 < 1.0e-30F) ? (1.0e-30F) : (t21))))))/(3.141592653589793238F*((t26 < (1.0F/1000000.0F)) ? ((1.0F/1000000.0F)) : (t26)));
 }
 
 LAMBERT_SPHERE_FN float lambert_sphere_fm2_f(float mu_i, float mu_o, float c)
 {
-    const float t16 = ((c < 0.0F) ? (0.0F) : (c));
-    const float t0 = ((t16 > 1.0F) ? (1.0F) : (t16));
+    const float t20 = ((c < 0.0F) ? (0.0F) : (c));
+    const float t0 = ((t20 > 1.0F) ? (1.0F) : (t20));
     const float t1 = ((15.0F/256.0F))*t0;
-    const float t2 = sqrtf(1.0F - t0);
-    const float t3 = 0.242985421F*t2;
-    const float t4 = 0.622989554F*t2;
-    const float t5 = 0.77781129F*t2;
-    const float t6 = t0/(t2 + 1.0F);
-    const float t7 = 0.0121753007F*t2 + 0.00356575598F;
-    const float t17 = ((mu_i < 0.0F) ? (0.0F) : (mu_i));
-    const float t8 = ((t17 > 1.0F) ? (1.0F) : (t17));
-    const float t9 = (t8*t8);
-    const float t10 = (t8*t8*t8);
-    const float t11 = t9 - 1.0F;
-    const float t18 = ((mu_o < 0.0F) ? (0.0F) : (mu_o));
-    const float t12 = ((t18 > 1.0F) ? (1.0F) : (t18));
-    const float t13 = (t12*t12);
-    const float t14 = (t12*t12*t12);
-    const float t15 = t13 - 1.0F;
-    const float t19 = t12 + t8;
-    return t1*t11*t15*expm1f(t12*(t0*(((25.0F/256.0F))*t12 + ((15.0F/512.0F))*t13 - (15.0F/256.0F)*t14 + t6*(-t12*t3 + 0.0261517699F*t12 + t13*t5 - 0.121753025F*t13 - t14*t4 + 0.104790187F*t14 + t7) + (-45.0F/1024.0F)) + t1*(t15*t15)*logf(1.0F + 1.0F/((t12 < 1.0e-30F) ? (1.0e-30F) : (t12)))) + t8*(t0*(-(15.0F/256.0F)*t10 + t6*(-t10*t4 + 0.104790187F*t10 - t3*t8 + t5*t9 + t7 + 0.0261517699F*t8 - 0.121753025F*t9) + ((25.0F/256.0F))*t8 + ((15.0F/512.0F))*t9 + (-45.0F/1024.0F)) + t1*(t11*t11)*logf(1.0F + 1.0F/((t8 < 1.0e-30F) ? (1.0e-30F) : (t8)))))/(3.141592653589793238F*((t19 < (1.0F/1000000.0F)) ? ((1.0F/1000000.0F)) : (t19)));
+    const float t2 = t0*((-15.0F/256.0F) + ((65536.0F/10935.0F))/(3.141592653589793238F*3.141592653589793238F*3.141592653589793238F*3.141592653589793238F));
+    const float t3 = sqrtf(1.0F - t0);
+    const float t4 = 0.0259237824F*t3;
+    const float t5 = 0.0525665973F*t3;
+    const float t6 = 0.179330017F*t3;
+    const float t7 = 0.238947024F*t3;
+    const float t8 = t0/(t3 + 1.0F);
+    const float t9 = -0.0142305261F*t3 - 0.00515329575F;
+    const float t21 = ((mu_i < 0.0F) ? (0.0F) : (mu_i));
+    const float t10 = ((t21 > 1.0F) ? (1.0F) : (t21));
+    const float t11 = (t10*t10);
+    const float t12 = (t10*t10*t10);
+    const float t13 = (t10*t10*t10*t10);
+    const float t14 = t11 - 1.0F;
+    const float t22 = ((mu_o < 0.0F) ? (0.0F) : (mu_o));
+    const float t15 = ((t22 > 1.0F) ? (1.0F) : (t22));
+    const float t16 = (t15*t15);
+    const float t17 = (t15*t15*t15);
+    const float t18 = (t15*t15*t15*t15);
+    const float t19 = t16 - 1.0F;
+    const float t23 = t10 + t15;
+    return t1*t14*t19*expm1f(t10*(t0*(((25.0F/256.0F))*t10 + ((15.0F/512.0F))*t11 - (15.0F/256.0F)*t12 + t8*(t10*t4 + 0.0402911229F*t10 + t11*t5 - 0.162052705F*t11 - t12*t7 + 0.244541881F*t12 + t13*t6 - 0.120682903F*t13 + t9) + (-45.0F/1024.0F)) + (t1*(t14*t14) + t2)*logf(1.0F + 1.0F/((t10 < 1.0e-30F) ? (1.0e-30F) : (t10)))) + t15*(t0*(((25.0F/256.0F))*t15 + ((15.0F/512.0F))*t16 - (15.0F/256.0F)*t17 + t8*(t15*t4 + 0.0402911229F*t15 + t16*t5 - 0.162052705F*t16 - t17*t7 + 0.244541881F*t17 + t18*t6 - 0.120682903F*t18 + t9) + (-45.0F/1024.0F)) + (t1*(t19*t19) + t2)*logf(1.0F + 1.0F/((t15 < 1.0e-30F) ? (1.0e-30F) : (t15)))))/(3.141592653589793238F*((t23 < (1.0F/1000000.0F)) ? ((1.0F/1000000.0F)) : (t23)));
 }
 
 LAMBERT_SPHERE_FN float lambert_sphere_brdf_f(float mu_i, float mu_o, float cos_phi, float c)
 {
-    const float t4 = ((cos_phi < -1.0F) ? (-1.0F) : (cos_phi));
-    const float t0 = ((t4 > 1.0F) ? (1.0F) : (t4));
-    const float t5 = ((c < 0.0F) ? (0.0F) : (c));
-    const float t1 = ((t5 > 1.0F) ? (1.0F) : (t5));
-    const float t6 = ((mu_i < 0.0F) ? (0.0F) : (mu_i));
-    const float t2 = ((t6 > 1.0F) ? (1.0F) : (t6));
-    const float t7 = ((mu_o < 0.0F) ? (0.0F) : (mu_o));
-    const float t3 = ((t7 > 1.0F) ? (1.0F) : (t7));
-    const float t8 = ((199987.0F/200000.0F))*t0*lambert_sphere_fm1_f(t2, t3, t1) + ((199987.0F/200000.0F))*(2.0F*(t0*t0) - 1.0F)*lambert_sphere_fm2_f(t2, t3, t1) + ((199987.0F/200000.0F))*lambert_sphere_fm0_f(t2, t3, t1) + ((199987.0F/200000.0F))*lambert_sphere_single_f(t2, t3, t0, t1);
-    return ((t8 < 0.0F) ? (0.0F) : (t8));
+    const float t0 = (1.0F/(3.141592653589793238F*3.141592653589793238F*3.141592653589793238F*3.141592653589793238F));
+    const float t1 = 1.0F/3.141592653589793238F;
+    const float t78 = ((cos_phi < -1.0F) ? (-1.0F) : (cos_phi));
+    const float t2 = ((t78 > 1.0F) ? (1.0F) : (t78));
+    const float t79 = ((c < 0.0F) ? (0.0F) : (c));
+    const float t3 = ((t79 > 1.0F) ? (1.0F) : (t79));
+    const float t4 = -(1.0F/192.0F)*t3;
+    const float t5 = ((1.0F/384.0F))*t3;
+    const float t6 = ((15.0F/256.0F))*t3;
+    const float t7 = ((69.0F/128.0F))*t3;
+    const float t8 = 20.0F*t3;
+    const float t9 = (t3*t3);
+    const float t10 = (t3*t3*t3);
+    const float t11 = t3*(((65536.0F/10935.0F))*t0 + (-15.0F/256.0F));
+    const float t12 = (15.0F - 15.0F*t3)*(4.0F*t3 + 9.0F);
+    const float t13 = 1.0F - t3;
+    const float t14 = sqrtf(t13);
+    const float t15 = (t13*sqrtf(t13));
+    const float t16 = (t13*t13);
+    const float t17 = (t13*t13*sqrtf(t13));
+    const float t18 = ((5.0F/32.0F))*t10 + ((25.0F/128.0F))*t9;
+    const float t19 = 1.0F/(t14 + 1.0F);
+    const float t20 = t8 + 45.0F;
+    const float t21 = -t19*t3 + 2.0F;
+    const float t22 = (1.0F/(t21*t21*t21));
+    const float t23 = (1.0F/(t21*t21));
+    const float t24 = 1.0F/t21;
+    const float t25 = t10*t22;
+    const float t26 = t23*t9;
+    const float t27 = t24*t3;
+    const float t28 = t9*(-0.0783359084F*t25 + 0.0730697514F*t26 + 0.124998099F*t27 + 0.00111505177F)/(0.371909159F*t25 - 3.13940324F*t26 + 3.73901748F*t27 + 0.0284765996F);
+    const float t29 = t9*(0.0557911588F*t10*t22 + 0.586853314F*t23*t9 - 1.18616196F*t27 - 0.00920497476F)/(0.0943542427F*t25 - 0.873449605F*t26 + 1.76518538F*t27 + 0.0139099814F);
+    const float t30 = t9*(1.96849244F*t25 - 3.75657856F*t26 + 1.68131126F*t27 + 0.0323484608F)/(5.04966548F*t25 - 17.0396811F*t26 + 12.745733F*t27 + 0.244282603F);
+    const float t31 = t28 - (15.0F/128.0F)*t3;
+    const float t32 = t3*(((32768.0F/621.0F))*t0 + (-69.0F/128.0F)) + t7;
+    const float t33 = t3*(t8 + 281.0F) - 346.0F;
+    const float t34 = 0.179330017F*t14*t19*(t3*t3) - 0.120682903F*t19*(t3*t3);
+    const float t35 = -0.00836836043F*t10 - 0.058160746F*t3 + 0.00965056957F*t9;
+    const float t36 = 0.315826229F*t3 + (t35*t35) + 0.00254402716F*t9;
+    const float t37 = -0.363265532F*t13*t19*(t3*t3) + 0.0995752551F*t14*t19*(t3*t3) + 0.08755165F*t19*(t3*t3);
+    const float t38 = -0.238947024F*t14*t19*(t3*t3) + 0.244541881F*t19*(t3*t3) - (15.0F/256.0F)*t3;
+    const float t39 = -0.0142305261F*t14*t19*(t3*t3) - 0.00515329575F*t19*(t3*t3) - (45.0F/1024.0F)*t3;
+    const float t40 = 0.0259237824F*t14*t19*(t3*t3) + 0.0402911229F*t19*(t3*t3) + ((25.0F/256.0F))*t3;
+    const float t41 = 0.0525665973F*t14*t19*(t3*t3) - 0.162052705F*t19*(t3*t3) + ((15.0F/512.0F))*t3;
+    const float t42 = -0.587394077F*t13*t19*(t3*t3) + 0.240479316F*t14*t19*(t3*t3) + 0.219219729F*t19*(t3*t3) - (15.0F/128.0F)*t3;
+    const float t43 = 0.13709267F*t13*t19*(t3*t3) - 0.227214741F*t14*t19*(t3*t3) - 0.229140963F*t19*(t3*t3) - (47.0F/96.0F)*t3;
+    const float t44 = 0.805863475F*t13*t19*(t3*t3) - 0.170365108F*t14*t19*(t3*t3) - 0.139993001F*t19*(t3*t3) + ((15.0F/64.0F))*t3;
+    const float t45 = 0.07901494F*t14*t19*(t3*t3) + 0.00207615227F*t19*(t3*t3*t3) + 0.080792557F*t19*(t3*t3) + ((173.0F/768.0F))*t3;
+    const float t46 = 1.09448618F*t13*t19*(t3*t3) + 0.0118348979F*t14*t19*(t3*t3) - 3.53245043F*t15*t19*(t3*t3) + 6.21304575F*t16*t19*(t3*t3) - 4.17658553F*t17*t19*(t3*t3) + 0.0718409222F*t19*(t3*t3);
+    const float t47 = -3.40007537F*t13*t19*(t3*t3) + 0.245328632F*t14*t19*(t3*t3) + 9.96255304F*t15*t19*(t3*t3) - 16.9682257F*t16*t19*(t3*t3) + 11.1257233F*t17*t19*(t3*t3) + 0.0846105762F*t19*(t3*t3) - (45.0F/128.0F)*t3;
+    const float t48 = -0.703795125F*t13*t19*(t3*t3) - 1.18140022F*t14*t19*(t3*t3) + 4.50016099F*t15*t19*(t3*t3) - 7.3871291F*t16*t19*(t3*t3) + 4.49483373F*t17*t19*(t3*t3) - 1.32571951F*t19*(t3*t3) + ((301.0F/384.0F))*t3;
+    const float t49 = 3.64551222F*t13*t19*(t3*t3) + 0.160538376F*t14*t19*(t3*t3) - 11.2787556F*t15*t19*(t3*t3) + 17.7255497F*t16*t19*(t3*t3) - 11.0313574F*t17*t19*(t3*t3) + 0.297217011F*t19*(t3*t3) + ((45.0F/256.0F))*t3;
+    const float t50 = -0.6092544F*t14*t19*(t3*t3) - 0.682527734F*t15*t19*(t3*t3) + 0.974298883F*t16*t19*(t3*t3) - 0.577471841F*t17*t19*(t3*t3) - 0.429760273F*t19*(t3*t3*t3) + 1.82577996F*t19*(t3*t3) - (557.0F/1536.0F)*t3;
+    const float t80 = ((mu_i < 0.0F) ? (0.0F) : (mu_i));
+    const float t51 = ((t80 > 1.0F) ? (1.0F) : (t80));
+    const float t52 = (t51*t51);
+    const float t53 = (t51*t51*t51);
+    const float t54 = (t51*t51*t51*t51);
+    const float t55 = t52 - 1.0F;
+    const float t56 = -t55;
+    const float t57 = logf(1.0F + 1.0F/((t51 < 1.0e-30F) ? (1.0e-30F) : (t51)));
+    const float t81 = ((mu_o < 0.0F) ? (0.0F) : (mu_o));
+    const float t58 = ((t81 > 1.0F) ? (1.0F) : (t81));
+    const float t59 = (t58*t58);
+    const float t60 = (t58*t58*t58);
+    const float t61 = (t58*t58*t58*t58);
+    const float t62 = t51*t58;
+    const float t63 = t52*t59;
+    const float t64 = t51 + t58;
+    const float t65 = t51*t58*t64*t9*(0.161130233F*t23*t9 + 0.0396566193F*t24*t3 - 0.198051858F*t25 - 6.41752356e-5F)/(-0.323597974F*t25 + 0.0952749574F*t26 + 1.22757423F*t27 + 0.000748781987F);
+    const float t66 = t59 - 1.0F;
+    const float t67 = -t66;
+    const float t68 = sqrtf(t56*t67);
+    const float t69 = logf(1.0F + 1.0F/((t58 < 1.0e-30F) ? (1.0e-30F) : (t58)));
+    const float t82 = ((1.0F/2.0F))*t62 + ((1.0F/2.0F))*t68*(t2 + 1.0F) + ((1.0F/2.0F))*(t52 + t56*t59)/(t68 + 1.0F);
+    const float t70 = ((t82 < 0.0F) ? (0.0F) : (t82));
+    const float t71 = 1.0F/((t64 < (1.0F/1000000.0F)) ? ((1.0F/1000000.0F)) : (t64));
+    const float t72 = ((t70 > 1.0F) ? (1.0F) : (t70));
+    const float t73 = 1.0F - t72;
+    const float t74 = asinf(sqrtf(((t70 > t73) ? (t73) : (((t70 <= t73) ? (t70) : (t70 + t73))))));
+    const float t75 = 2.0F*t74;
+    const float t76 = (t74*t74);
+    const float t77 = 4.0F*t76;
+    const float t83 = ((999959.0F/3000000.0F))*t1*t2*t3*t68*t71*(t35*t64 + t36*t62 + (t35*t51 + t35*t58 + t62*(t36 + (45.0F/64.0F)) + 1.0F)*expm1f(t51*(t37*t54 + t4*t55*t57*(t20*t52 - 64.0F) + t42*t52 + t43*t51 + t44*t53 + t45) + t58*(t37*t61 + t4*t66*t69*(t20*t59 - 64.0F) + t42*t59 + t43*t58 + t44*t60 + t45))) + ((999959.0F/1000000.0F))*t1*t56*t6*t67*t71*(2.0F*(t2*t2) - 1.0F)*expm1f(t51*(t34*t54 + t38*t53 + t39 + t40*t51 + t41*t52 + t57*(t11 + (t55*t55)*t6)) + t58*(t34*t61 + t38*t60 + t39 + t40*t58 + t41*t59 + t69*(t11 + t6*(t66*t66)))) + ((999959.0F/2000000.0F))*t1*t71*(-t18*t63 + t28*(t52 + t59) + t29*t51*t58 + t30*t64 + t65 + (t30*t51 + t30*t58 + t31*t52 + t31*t59 + t62*(t29 + ((2.0F/3.0F))*t3) + t63*(-t18 + ((45.0F/128.0F))*t3) + t65 + t7)*expm1f(t51*(t46*t54 + t47*t53 + t48*t51 + t49*t52 + t50 + t57*(t12*t5*t54 + t32 + t33*t5*t52)) + t58*(t46*t61 + t47*t60 + t48*t58 + t49*t59 + t50 + t69*(t12*t5*t61 + t32 + t33*t5*t59)))) + ((999959.0F/1500000.0F))*t3*t71*((t72 < (1.0F/16.0F)) ? (8.0F*(t74*t74*t74)*(t77*(t77*(t77*(t77*(t77*(((1.0F/23351328000.0F))*t76 + (-1.0F/518918400.0F)) + (1.0F/3991680.0F)) + (-1.0F/45360.0F)) + (1.0F/840.0F)) + (-1.0F/30.0F)) + (1.0F/3.0F))) : (2.0F*sqrtf(t72)*sqrtf(t73) - (1.0F - 2.0F*t72)*((t72 < (1.0F/2.0F)) ? (t75) : (3.141592653589793238F - t75))))/(3.141592653589793238F*3.141592653589793238F);
+    return ((t83 < 0.0F) ? (0.0F) : (t83));
 }
 
 LAMBERT_SPHERE_FN float lambert_sphere_brdf_fast_f(float mu_i, float mu_o, float cos_phi, float c, float kd)
@@ -897,129 +1071,89 @@ LAMBERT_SPHERE_FN float lambert_sphere_sample_local_f(const float wi[3], float u
 LAMBERT_SPHERE_FN lambert_sphere_material lambert_sphere_prepare_c(double c)
 {
     lambert_sphere_material m;
-    const double t0 = 1.0/3.141592653589793238;
-    const double t22 = ((c < 0.0) ? (0.0) : (c));
-    const double t1 = ((t22 > 1.0) ? (1.0) : (t22));
-    const double t2 = ((15.0/256.0))*t1;
-    const double t3 = 20.0*t1;
-    const double t4 = (t1*t1);
-    const double t5 = (t1*t1*t1);
-    const double t6 = 1.0 - t1;
-    const double t7 = sqrt(t6);
-    const double t8 = (t6*sqrt(t6));
-    const double t9 = (t6*t6);
-    const double t10 = (t6*t6*sqrt(t6));
-    const double t11 = t1/(t7 + 1.0);
-    const double t12 = 2.0 - t11;
-    const double t13 = pow(t12, -3.0);
-    const double t14 = t1/t12;
-    const double t15 = t4/(t12*t12);
-    const double t16 = t13*t5;
-    const double t17 = 2.0*t7 - 1.0;
-    const double t18 = (t17*t17);
-    const double t19 = (t17*t17*t17);
-    const double t20 = (t17*t17*t17*t17);
-    const double t21 = -0.05520224328243178*t1 - 0.007285586578842816*t4 + 0.00911967909954923*t5;
-    m.k[0] = t4*(1.1335933479337194*t14 - 2.3416259269074923*t15 + 1.1208114157345153*t16 + 0.0010348555255299506)/(8.0263603066774589*t14 - 9.9303068342858762*t15 + 2.896719702526885*t16 + 0.007226825081532294);
-    m.k[1] = ((1.0/384.0))*t1;
-    m.k[2] = -(25.0/128.0)*t4 - (5.0/32.0)*t5;
-    m.k[3] = t4*(0.0068679168228707598*t14 + 0.08146657424596484*t15 + 0.03594639979146422*t16 + 1.6944903203701357e-6)/(0.2564643602507712*t14 + 1.9909072655849437*t15 - 1.2477698723440553*t16 + 0.00039824650834039896);
-    m.k[4] = t4*(0.03868970822532174*t14 + 0.17402462987687176*t15 - 0.21301389270866672*t16 + 0.00067730368195698695)/(0.99936012648487384*t14 + 0.7788444181394462*t15 - 0.7864936735105944*t16 + 0.0082891288862743601);
-    m.k[5] = t4*(0.8643185721759284*t13*t5 - 0.34053582420034742*t14 - 1.0476634429485467*t15 - 0.025915124294925779)/(0.51622997566222013*t14 + 1.4943957412868878*t15 - 1.047419504828386*t16 + 0.03679378787927807);
-    m.k[6] = 71.5529318324384*t9;
-    m.k[7] = 16.844673505718053*t8;
-    m.k[8] = 0.33904481632399913*t7;
-    m.k[9] = 7.645389081740135*t6;
-    m.k[10] = 34.157239957245686*t10;
-    m.k[11] = 19.36513627154477*t10;
-    m.k[12] = 2.470025465103292*t6;
-    m.k[13] = 29.409387398376747*t8;
-    m.k[14] = 0.9285300997139079*t7;
-    m.k[15] = 15.55714042239967*t9;
-    m.k[16] = -8.67881460302426*t8;
-    m.k[17] = -5.633059857885996*t6;
-    m.k[18] = -0.6011702629092316*t7;
-    m.k[19] = -1.4754666313555003*t7;
-    m.k[20] = -3.383961716351341*t6;
-    m.k[21] = -30.65164162022722*t9;
-    m.k[22] = -9.656831937224494*t10;
-    m.k[23] = -39.47136053844081*t8;
-    m.k[24] = -44.819359100029104*t10;
-    m.k[25] = -54.48819921062277*t9;
-    m.k[26] = -0.35878996534201457*t1 + 0.3859631098571893*t10 - 0.6880988541912209*t7 + 0.05510640544644332*t8 - 0.562194525287264*t9 + 1.7851478660092009;
-    m.k[27] = t11;
-    m.k[28] = t1;
-    m.k[29] = t1*(t3 + 281.0) - 346.0;
-    m.k[30] = (15.0 - 15.0*t1)*(4.0*t1 + 9.0);
-    m.k[31] = ((2.0/3.0))*t1/(3.141592653589793238*3.141592653589793238);
-    m.k[32] = 0.7778112899131402*t7;
-    m.k[33] = -0.6229895537752153*t7;
-    m.k[34] = -0.24298542148533464*t7;
-    m.k[35] = 0.012175300667002955*t7 + 0.0035657559829922665;
-    m.k[36] = t2;
-    m.k[37] = t0*t2;
-    m.k[38] = t21;
-    m.k[39] = 0.30329126471747215*t1 + (t21*t21) + 0.018477092603297557*t4;
-    m.k[40] = 0.11235087395548722*t7;
-    m.k[41] = 0.1161087819075943*t6;
-    m.k[42] = 0.029308878818980397*t7;
-    m.k[43] = -0.06047918808278924*t6;
-    m.k[44] = -0.04308898360798811*t6;
-    m.k[45] = -0.20000940282083204*t7;
-    m.k[46] = 0.009623398742538718*t1 + 0.08191895900111167*t7 + 0.066238951968886792;
-    m.k[47] = t3 + 45.0;
-    m.k[48] = -(1.0/192.0)*t1;
-    m.k[49] = ((1.0/3.0))*t0*t1;
-    m.k[50] = 0.10959653178533475*t18;
-    m.k[51] = 0.1766119774816802*t18;
-    m.k[52] = 0.25597403686706693*t18;
-    m.k[53] = 2.42146807891088*t19;
-    m.k[54] = 0.5027933198177464*t19;
-    m.k[55] = 2.070129643634922*t20;
-    m.k[56] = 0.519096218517333*t19;
-    m.k[57] = 2.5251177518363694*t17;
-    m.k[58] = 1.3385823867874944*t17;
-    m.k[59] = 2.7903213618028806*t20;
-    m.k[60] = 3.9162801286388897*t18;
-    m.k[61] = -1.7626547831461115*t18;
-    m.k[62] = -3.6618141129510917*t20;
-    m.k[63] = -0.21141002665509673*t17;
-    m.k[64] = -0.016932172543436784*t20;
-    m.k[65] = -2.295795044579524*t17;
-    m.k[66] = -2.8379131409273515*t18;
-    m.k[67] = -0.7128581043130656*t20;
-    m.k[68] = -1.6739402521122886*t19;
-    m.k[69] = -1.7061192768751303*t19;
-    m.k[70] = -0.014210822631915428*t19;
-    m.k[71] = -0.46352701817452785*t20;
-    m.k[72] = -0.4890688103263692*t17;
-    m.k[73] = -0.49993828263168366*t17;
-    m.k[74] = 0.10625650933246486*t18 - 0.09050045154983123*t19 + 0.040558449658917785*t20 - 1.8499934365876788*t7;
-    m.k[75] = 0.805852957259517*t19;
-    m.k[76] = 0.6582269037007633*t17;
-    m.k[77] = 0.45043691346028303*t18;
-    m.k[78] = 0.5742385031683162*t20;
-    m.k[79] = 0.6392720659218424*t17;
-    m.k[80] = 0.18739898105517722*t19;
-    m.k[81] = 0.8371462419661069*t18;
-    m.k[82] = 0.6212937162033938*t20;
-    m.k[83] = 0.4124295039969486*t17;
-    m.k[84] = 0.41754495392944535*t19;
-    m.k[85] = 0.028662593819483183*t20;
-    m.k[86] = -0.5773338931218077*t17;
-    m.k[87] = -0.7667251911655493*t20;
-    m.k[88] = -0.07180031380227185*t18;
-    m.k[89] = -0.6316753368520219*t19;
-    m.k[90] = -0.5766031303491715*t19;
-    m.k[91] = -0.5901356749175913*t17;
-    m.k[92] = -0.15688016937511312*t19;
-    m.k[93] = -0.08951890733992941*t20;
-    m.k[94] = -0.37270829229253744*t18;
-    m.k[95] = -0.37628293329323487*t20;
-    m.k[96] = -0.3929206076202727*t18;
-    m.k[97] = -0.43279839293414*t17;
-    m.k[98] = -0.49761324603578005*t18;
-    m.k[99] = 0.07480678777429003*t18 - 0.048730004697608804*t19 + 0.017690506072644132*t20 - 0.5194652563684371*t7;
+    const double t0 = (1.0/(3.141592653589793238*3.141592653589793238*3.141592653589793238*3.141592653589793238));
+    const double t1 = 1.0/3.141592653589793238;
+    const double t30 = ((c < 0.0) ? (0.0) : (c));
+    const double t2 = ((t30 > 1.0) ? (1.0) : (t30));
+    const double t3 = ((15.0/256.0))*t2;
+    const double t4 = ((69.0/128.0))*t2;
+    const double t5 = 20.0*t2;
+    const double t6 = (t2*t2);
+    const double t7 = (t2*t2*t2);
+    const double t8 = 1.0 - t2;
+    const double t9 = sqrt(t8);
+    const double t10 = (t8*sqrt(t8));
+    const double t11 = (t8*t8);
+    const double t12 = (t8*t8*sqrt(t8));
+    const double t13 = ((25.0/128.0))*t6 + ((5.0/32.0))*t7;
+    const double t14 = 1.0/(t9 + 1.0);
+    const double t15 = 2.0*t9 - 1.0;
+    const double t16 = (t15*t15);
+    const double t17 = (t15*t15*t15);
+    const double t18 = (t15*t15*t15*t15);
+    const double t19 = -t14*t2 + 2.0;
+    const double t20 = (1.0/(t19*t19*t19));
+    const double t21 = (1.0/(t19*t19));
+    const double t22 = 1.0/t19;
+    const double t23 = t2*t22;
+    const double t24 = t20*t7;
+    const double t25 = t21*t6;
+    const double t26 = t6*(0.1249980985480369*t23 - 0.07833590836150241*t24 + 0.07306975142761809*t25 + 0.0011150517707980602)/(3.7390174820108686*t23 + 0.3719091586690565*t24 - 3.1394032403168942*t25 + 0.028476599636969102);
+    const double t27 = t6*(0.05579115878671145*t20*t7 + 0.58685331356467705*t21*t6 - 1.1861619620094055*t23 - 0.0092049747597823503)/(1.7651853809488535*t23 + 0.09435424272060645*t24 - 0.87344960507554615*t25 + 0.013909981406086191);
+    const double t28 = -0.05816074598872953*t2 + 0.009650569566343139*t6 - 0.008368360430631341*t7;
+    const double t29 = 0.31582622918447712*t2 + (t28*t28) + 0.002544027161592788*t6;
+    m.k[0] = t6*(1.6813112551975873*t23 + 1.9684924387571525*t24 - 3.7565785554979649*t25 + 0.032348460824723773)/(12.745733009204341*t23 + 5.049665480925919*t24 - 17.039681093232809*t25 + 0.2442826031025484);
+    m.k[1] = t4;
+    m.k[2] = -(15.0/128.0)*t2 + t26;
+    m.k[3] = -t13 + ((45.0/128.0))*t2;
+    m.k[4] = ((2.0/3.0))*t2 + t27;
+    m.k[5] = t6*(0.039656619299156789*t2*t22 + 0.16113023258047119*t21*t6 - 0.19805185831357303*t24 - 6.4175235565609636e-5)/(1.227574234581551*t23 - 0.3235979739971235*t24 + 0.095274957428092001*t25 + 0.00074878198748053052);
+    m.k[6] = t2*(((32768.0/621.0))*t0 + (-69.0/128.0)) + t4;
+    m.k[7] = ((1.0/384.0))*t2;
+    m.k[8] = t2*(t5 + 281.0) - 346.0;
+    m.k[9] = (15.0 - 15.0*t2)*(4.0*t2 + 9.0);
+    m.k[10] = -0.6825277335021185*t10*t14*(t2*t2) + 0.9742988831680852*t11*t14*(t2*t2) - 0.5774718415007855*t12*t14*(t2*t2) - 0.4297602733893703*t14*(t2*t2*t2) - 0.609254400172483*t14*(t2*t2)*t9 + 1.8257799582297295*t14*(t2*t2) - (557.0/1536.0)*t2;
+    m.k[11] = 9.962553037534885*t10*t14*(t2*t2) - 16.968225744737694*t11*t14*(t2*t2) + 11.125723299379713*t12*t14*(t2*t2) - 3.4000753742433436*t14*(t2*t2)*t8 + 0.2453286324430098*t14*(t2*t2)*t9 + 0.08461057620269616*t14*(t2*t2) - (45.0/128.0)*t2;
+    m.k[12] = -11.278755622213785*t10*t14*(t2*t2) + 17.725549746319885*t11*t14*(t2*t2) - 11.03135741364594*t12*t14*(t2*t2) + 3.645512215102024*t14*(t2*t2)*t8 + 0.1605383762729134*t14*(t2*t2)*t9 + 0.29721701141418805*t14*(t2*t2) + ((45.0/256.0))*t2;
+    m.k[13] = 4.500160987587274*t10*t14*(t2*t2) - 7.387129095711035*t11*t14*(t2*t2) + 4.4948337299139105*t12*t14*(t2*t2) - 0.7037951254891212*t14*(t2*t2)*t8 - 1.1814002223985536*t14*(t2*t2)*t9 - 1.325719506885678*t14*(t2*t2) + ((301.0/384.0))*t2;
+    m.k[14] = -3.5324504310681903*t10*t14*(t2*t2) + 6.213045752671517*t11*t14*(t2*t2) - 4.176585527979099*t12*t14*(t2*t2) + 1.0944861768775513*t14*(t2*t2)*t8 + 0.011834897867951796*t14*(t2*t2)*t9 + 0.071840922239954*t14*(t2*t2);
+    m.k[15] = -t13;
+    m.k[16] = t26;
+    m.k[17] = t27;
+    m.k[18] = ((2.0/3.0))*t2/(3.141592653589793238*3.141592653589793238);
+    m.k[19] = t1*t3;
+    m.k[20] = t2*(((65536.0/10935.0))*t0 + (-15.0/256.0));
+    m.k[21] = t3;
+    m.k[22] = -0.014230526142639845*t14*(t2*t2)*t9 - 0.005153295745352563*t14*(t2*t2) - (45.0/1024.0)*t2;
+    m.k[23] = -0.2389470236748654*t14*(t2*t2)*t9 + 0.24454188146234696*t14*(t2*t2) - (15.0/256.0)*t2;
+    m.k[24] = 0.0525665973194757*t14*(t2*t2)*t9 - 0.16205270481846276*t14*(t2*t2) + ((15.0/512.0))*t2;
+    m.k[25] = 0.025923782434169387*t14*(t2*t2)*t9 + 0.04029112293878068*t14*(t2*t2) + ((25.0/256.0))*t2;
+    m.k[26] = 0.17933001731622866*t14*(t2*t2)*t9 - 0.12068290344989925*t14*(t2*t2);
+    m.k[27] = ((1.0/3.0))*t1*t2;
+    m.k[28] = t28;
+    m.k[29] = t29 + (45.0/64.0);
+    m.k[30] = 0.002076152273646774*t14*(t2*t2*t2) + 0.07901493996339468*t14*(t2*t2)*t9 + 0.080792556960468456*t14*(t2*t2) + ((173.0/768.0))*t2;
+    m.k[31] = 0.13709267005160283*t14*(t2*t2)*t8 - 0.2272147405576878*t14*(t2*t2)*t9 - 0.22914096329585584*t14*(t2*t2) - (47.0/96.0)*t2;
+    m.k[32] = -0.5873940770769441*t14*(t2*t2)*t8 + 0.24047931567597833*t14*(t2*t2)*t9 + 0.21921972867561357*t14*(t2*t2) - (15.0/128.0)*t2;
+    m.k[33] = 0.8058634752484803*t14*(t2*t2)*t8 - 0.17036510788579223*t14*(t2*t2)*t9 - 0.13999300132719528*t14*(t2*t2) + ((15.0/64.0))*t2;
+    m.k[34] = -0.3632655319287515*t14*(t2*t2)*t8 + 0.09957525508089264*t14*(t2*t2)*t9 + 0.08755164998448382*t14*(t2*t2);
+    m.k[35] = -(1.0/192.0)*t2;
+    m.k[36] = t5 + 45.0;
+    m.k[37] = t29;
+    m.k[38] = 0.21141002665509673*t15 - 0.00334002245286989*t16 - 0.076289628917915802*t17 + 0.057490622202354569*t18 - 1.8499934365876788*t9;
+    m.k[39] = -0.49993828263168366*t15 + 0.25597403686706693*t16 + 0.519096218517333*t17 - 0.7128581043130656*t18 + 0.07829314674691852;
+    m.k[40] = -0.4890688103263692*t15 + 0.1766119774816802*t16 + 0.5027933198177464*t17 - 0.46352701817452785*t18 + 0.04628582994795521;
+    m.k[41] = 2.5251177518363694*t15 - 2.8379131409273515*t16 - 1.7061192768751303*t17 + 2.7903213618028806*t18 - 0.5341871660342392;
+    m.k[42] = 1.3385823867874944*t15 - 1.7626547831461115*t16 - 1.6739402521122886*t17 + 2.070129643634922*t18 - 0.550401436459078;
+    m.k[43] = -2.295795044579524*t15 + 3.9162801286388897*t16 + 2.42146807891088*t17 - 3.6618141129510917*t18 - 0.7161701495184881;
+    m.k[44] = -0.84564010662038692*t1*t15 + 0.438386127141339*t1*t16 - 0.056843290527661712*t1*t17 - 0.067728690173747136*t1*t18 + 1.7500311057966532*t1;
+    m.k[45] = 0.5773338931218077*t15 + 0.14660710157656188*t16 - 0.23612898575278602*t17 + 0.10720941341257354*t18 - 0.5194652563684371*t9;
+    m.k[46] = 0.4124295039969486*t15 - 0.3929206076202727*t16 + 0.41754495392944535*t17 - 0.37628293329323487*t18 + 0.20080844606204426;
+    m.k[47] = -0.43279839293414*t15 + 0.45043691346028303*t16 - 0.15688016937511312*t17 + 0.028662593819483183*t18 - 0.861604156944149;
+    m.k[48] = -0.5901356749175913*t15 + 0.8371462419661069*t16 + 0.805852957259517*t17 - 0.7667251911655493*t18 - 0.36251640502651766;
+    m.k[49] = 0.6392720659218424*t15 - 0.37270829229253744*t16 - 0.5766031303491715*t17 + 0.5742385031683162*t18 - 0.4275420217467747;
+    m.k[50] = 0.6582269037007633*t15 - 0.49761324603578005*t16 - 0.6316753368520219*t17 + 0.6212937162033938*t18 - 0.8684385788422878;
+    m.k[51] = -2.3093355724872308*t1*t15 - 0.2872012552090874*t1*t16 + 0.74959592422070888*t1*t17 - 0.35807562935971764*t1*t18 + 3.9697173818393476*t1;
     return m;
 }
 
@@ -1042,40 +1176,39 @@ LAMBERT_SPHERE_FN void lambert_sphere_prepare_rgb(const double kd[3], lambert_sp
 
 LAMBERT_SPHERE_FN double lambert_sphere_eval(const lambert_sphere_material *m, double mu_i, double mu_o, double cos_phi)
 {
-    const double t28 = ((cos_phi < -1.0) ? (-1.0) : (cos_phi));
-    const double t0 = ((t28 > 1.0) ? (1.0) : (t28));
-    const double t29 = ((mu_i < 0.0) ? (0.0) : (mu_i));
-    const double t1 = ((t29 > 1.0) ? (1.0) : (t29));
+    const double t27 = ((cos_phi < -1.0) ? (-1.0) : (cos_phi));
+    const double t0 = ((t27 > 1.0) ? (1.0) : (t27));
+    const double t28 = ((mu_i < 0.0) ? (0.0) : (mu_i));
+    const double t1 = ((t28 > 1.0) ? (1.0) : (t28));
     const double t2 = (t1*t1);
     const double t3 = (t1*t1*t1);
     const double t4 = (t1*t1*t1*t1);
     const double t5 = t2 - 1.0;
     const double t6 = -t5;
     const double t7 = log(1.0 + 1.0/((t1 < 1.0000000000000001e-30) ? (1.0000000000000001e-30) : (t1)));
-    const double t30 = ((mu_o < 0.0) ? (0.0) : (mu_o));
-    const double t8 = ((t30 > 1.0) ? (1.0) : (t30));
+    const double t29 = ((mu_o < 0.0) ? (0.0) : (mu_o));
+    const double t8 = ((t29 > 1.0) ? (1.0) : (t29));
     const double t9 = (t8*t8);
     const double t10 = (t8*t8*t8);
     const double t11 = (t8*t8*t8*t8);
     const double t12 = t1*t8;
     const double t13 = t1 + t8;
-    const double t14 = t9 - 1.0;
-    const double t15 = -t14*t6;
-    const double t16 = sqrt(t15);
-    const double t17 = m->k[38]*t13 + m->k[39]*t12;
-    const double t18 = m->k[0]*t13 + m->k[2]*t2*t9 + m->k[3]*(t2 + t9) + m->k[4]*t1*t13*t8 + m->k[5]*t12;
-    const double t19 = log(1.0 + 1.0/((t8 < 1.0000000000000001e-30) ? (1.0000000000000001e-30) : (t8)));
-    const double t31 = ((1.0/2.0))*t12 + ((1.0/2.0))*t16*(t0 + 1.0) + ((1.0/2.0))*(t2 + t6*t9)/(t16 + 1.0);
-    const double t20 = ((t31 < 0.0) ? (0.0) : (t31));
-    const double t21 = 1.0/((t13 < (1.0/1000000.0)) ? ((1.0/1000000.0)) : (t13));
-    const double t22 = ((t20 > 1.0) ? (1.0) : (t20));
-    const double t23 = 1.0 - t22;
-    const double t24 = asin(sqrt(((t20 > t23) ? (t23) : (((t20 <= t23) ? (t20) : (t20 + t23))))));
-    const double t25 = 2.0*t24;
-    const double t26 = (t24*t24);
-    const double t27 = 4.0*t26;
-    const double t32 = ((199987.0/200000.0))*m->k[31]*t21*((t22 < (1.0/16.0)) ? (8.0*(t24*t24*t24)*(t27*(t27*(t27*(t27*(t27*(((1.0/23351328000.0))*t26 + (-1.0/518918400.0)) + (1.0/3991680.0)) + (-1.0/45360.0)) + (1.0/840.0)) + (-1.0/30.0)) + (1.0/3.0))) : (2.0*sqrt(t22)*sqrt(t23) - (1.0 - 2.0*t22)*((t22 < (1.0/2.0)) ? (t25) : (3.141592653589793238 - t25)))) + ((199987.0/200000.0))*m->k[37]*t15*t21*(2.0*(t0*t0) - 1.0)*expm1(t1*(m->k[28]*(m->k[27]*(m->k[32]*t2 + m->k[33]*t3 + m->k[34]*t1 + m->k[35] + 0.02615176990129942*t1 - 0.12175302463667616*t2 + 0.10479018668034851*t3) + ((25.0/256.0))*t1 + ((15.0/512.0))*t2 - (15.0/256.0)*t3 + (-45.0/1024.0)) + m->k[36]*(t5*t5)*t7) + t8*(m->k[28]*(m->k[27]*(m->k[32]*t9 + m->k[33]*t10 + m->k[34]*t8 + m->k[35] + 0.10479018668034851*t10 + 0.02615176990129942*t8 - 0.12175302463667616*t9) - (15.0/256.0)*t10 + ((25.0/256.0))*t8 + ((15.0/512.0))*t9 + (-45.0/1024.0)) + m->k[36]*(t14*t14)*t19)) + ((199987.0/200000.0))*m->k[49]*t0*t16*t21*(t17 + (((45.0/64.0))*t12 + t17 + 1.0)*expm1(t1*(m->k[28]*(m->k[27]*(m->k[40]*t3 + m->k[41]*t1 + m->k[42]*t2 + m->k[43]*t2 + m->k[44]*t3 + m->k[45]*t1 + m->k[46] - 0.19277283587731822*t1 + 0.09132252163198407*t2 + 0.04069191575938517*t3) - (47.0/96.0)*t1 - (15.0/128.0)*t2 + ((15.0/64.0))*t3 + (173.0/768.0)) + m->k[48]*t5*t7*(m->k[47]*t2 - 64.0)) + t8*(m->k[28]*(m->k[27]*(m->k[40]*t10 + m->k[41]*t8 + m->k[42]*t9 + m->k[43]*t9 + m->k[44]*t10 + m->k[45]*t8 + m->k[46] + 0.04069191575938517*t10 - 0.19277283587731822*t8 + 0.09132252163198407*t9) + ((15.0/64.0))*t10 - (47.0/96.0)*t8 - (15.0/128.0)*t9 + (173.0/768.0)) + m->k[48]*t14*t19*(m->k[47]*t9 - 64.0)))) + ((199987.0/400000.0))*t21*(t18 + (m->k[1]*(256.0*t12 + 135.0*t2*t9 - 45.0*t2 - 45.0*t9 + 207.0) + t18)*expm1(t1*(m->k[1]*t7*(m->k[29]*t2 + m->k[30]*t4 + 207.0) + m->k[28]*(m->k[27]*(m->k[10]*t2 + m->k[11]*t4 + m->k[12]*t1 + m->k[13]*t2 + m->k[14]*t2 + m->k[15]*t1 + m->k[16]*t1 + m->k[17]*t2 + m->k[18]*t3 + m->k[19]*t1 + m->k[20]*t4 + m->k[21]*t4 + m->k[22]*t1 + m->k[23]*t3 + m->k[24]*t3 + m->k[25]*t2 + m->k[26] + m->k[6]*t3 + m->k[7]*t4 + m->k[8]*t4 + m->k[9]*t3 - 1.354906550811893*t1 + 0.3450742468475043*t2 + 0.039286501348685214*t3 + 0.0880030773183851*t4) + ((301.0/384.0))*t1 + ((45.0/256.0))*t2 - (45.0/128.0)*t3 + (-557.0/1536.0))) + t8*(m->k[1]*t19*(m->k[29]*t9 + m->k[30]*t11 + 207.0) + m->k[28]*(m->k[27]*(m->k[10]*t9 + m->k[11]*t11 + m->k[12]*t8 + m->k[13]*t9 + m->k[14]*t9 + m->k[15]*t8 + m->k[16]*t8 + m->k[17]*t9 + m->k[18]*t10 + m->k[19]*t8 + m->k[20]*t11 + m->k[21]*t11 + m->k[22]*t8 + m->k[23]*t10 + m->k[24]*t10 + m->k[25]*t9 + m->k[26] + m->k[6]*t10 + m->k[7]*t11 + m->k[8]*t11 + m->k[9]*t10 + 0.039286501348685214*t10 + 0.0880030773183851*t11 - 1.354906550811893*t8 + 0.3450742468475043*t9) - (45.0/128.0)*t10 + ((301.0/384.0))*t8 + ((45.0/256.0))*t9 + (-557.0/1536.0)))))/3.141592653589793238;
-    return ((t32 < 0.0) ? (0.0) : (t32));
+    const double t14 = m->k[5]*t1*t13*t8;
+    const double t15 = t9 - 1.0;
+    const double t16 = -t15*t6;
+    const double t17 = sqrt(t16);
+    const double t18 = log(1.0 + 1.0/((t8 < 1.0000000000000001e-30) ? (1.0000000000000001e-30) : (t8)));
+    const double t30 = ((1.0/2.0))*t12 + ((1.0/2.0))*t17*(t0 + 1.0) + ((1.0/2.0))*(t2 + t6*t9)/(t17 + 1.0);
+    const double t19 = ((t30 < 0.0) ? (0.0) : (t30));
+    const double t20 = 1.0/((t13 < (1.0/1000000.0)) ? ((1.0/1000000.0)) : (t13));
+    const double t21 = ((t19 > 1.0) ? (1.0) : (t19));
+    const double t22 = 1.0 - t21;
+    const double t23 = asin(sqrt(((t19 > t22) ? (t22) : (((t19 <= t22) ? (t19) : (t19 + t22))))));
+    const double t24 = 2.0*t23;
+    const double t25 = (t23*t23);
+    const double t26 = 4.0*t25;
+    const double t31 = ((999959.0/1000000.0))*m->k[18]*t20*((t21 < (1.0/16.0)) ? (8.0*(t23*t23*t23)*(t26*(t26*(t26*(t26*(t26*(((1.0/23351328000.0))*t25 + (-1.0/518918400.0)) + (1.0/3991680.0)) + (-1.0/45360.0)) + (1.0/840.0)) + (-1.0/30.0)) + (1.0/3.0))) : (2.0*sqrt(t21)*sqrt(t22) - (1.0 - 2.0*t21)*((t21 < (1.0/2.0)) ? (t24) : (3.141592653589793238 - t24)))) + ((999959.0/1000000.0))*m->k[19]*t16*t20*(2.0*(t0*t0) - 1.0)*expm1(t1*(m->k[22] + m->k[23]*t3 + m->k[24]*t2 + m->k[25]*t1 + m->k[26]*t4 + t7*(m->k[20] + m->k[21]*(t5*t5))) + t8*(m->k[22] + m->k[23]*t10 + m->k[24]*t9 + m->k[25]*t8 + m->k[26]*t11 + t18*(m->k[20] + m->k[21]*(t15*t15)))) + ((999959.0/1000000.0))*m->k[27]*t0*t17*t20*(m->k[28]*t13 + m->k[37]*t12 + (m->k[28]*t1 + m->k[28]*t8 + m->k[29]*t12 + 1.0)*expm1(t1*(m->k[30] + m->k[31]*t1 + m->k[32]*t2 + m->k[33]*t3 + m->k[34]*t4 + m->k[35]*t5*t7*(m->k[36]*t2 - 64.0)) + t8*(m->k[30] + m->k[31]*t8 + m->k[32]*t9 + m->k[33]*t10 + m->k[34]*t11 + m->k[35]*t15*t18*(m->k[36]*t9 - 64.0)))) + ((999959.0/2000000.0))*t20*(m->k[0]*t13 + m->k[15]*t2*t9 + m->k[16]*(t2 + t9) + m->k[17]*t12 + t14 + (m->k[0]*t1 + m->k[0]*t8 + m->k[1] + m->k[2]*t2 + m->k[2]*t9 + m->k[3]*t2*t9 + m->k[4]*t12 + t14)*expm1(t1*(m->k[10] + m->k[11]*t3 + m->k[12]*t2 + m->k[13]*t1 + m->k[14]*t4 + t7*(m->k[6] + m->k[7]*m->k[8]*t2 + m->k[7]*m->k[9]*t4)) + t8*(m->k[10] + m->k[11]*t10 + m->k[12]*t9 + m->k[13]*t8 + m->k[14]*t11 + t18*(m->k[6] + m->k[7]*m->k[8]*t9 + m->k[7]*m->k[9]*t11))))/3.141592653589793238;
+    return ((t31 < 0.0) ? (0.0) : (t31));
 }
 
 LAMBERT_SPHERE_FN void lambert_sphere_eval_rgb(const lambert_sphere_material m[3], double mu_i, double mu_o, double cos_phi, double out[3])
@@ -1086,54 +1219,53 @@ LAMBERT_SPHERE_FN void lambert_sphere_eval_rgb(const lambert_sphere_material m[3
 
 LAMBERT_SPHERE_FN double lambert_sphere_eval_local(const lambert_sphere_material *m, const double wi[3], const double wo[3])
 {
-    const double t34 = ((wi[0] < -1.0) ? (-1.0) : (wi[0]));
-    const double t0 = ((t34 > 1.0) ? (1.0) : (t34));
-    const double t35 = ((wi[1] < -1.0) ? (-1.0) : (wi[1]));
-    const double t1 = ((t35 > 1.0) ? (1.0) : (t35));
-    const double t36 = ((wi[2] < -1.0) ? (-1.0) : (wi[2]));
-    const double t2 = ((t36 > 1.0) ? (1.0) : (t36));
-    const double t37 = ((wo[0] < -1.0) ? (-1.0) : (wo[0]));
-    const double t3 = ((t37 > 1.0) ? (1.0) : (t37));
-    const double t38 = ((wo[1] < -1.0) ? (-1.0) : (wo[1]));
-    const double t4 = ((t38 > 1.0) ? (1.0) : (t38));
-    const double t39 = ((wo[2] < -1.0) ? (-1.0) : (wo[2]));
-    const double t5 = ((t39 > 1.0) ? (1.0) : (t39));
-    const double t40 = ((t0*t0) + (t1*t1))*((t3*t3) + (t4*t4));
-    const double t41 = (t0*t3 + t1*t4)/sqrt(((t40 < (1.0/1000000000000000000000000000000.0)) ? ((1.0/1000000000000000000000000000000.0)) : (t40)));
-    const double t42 = ((t41 < -1.0) ? (-1.0) : (t41));
-    const double t6 = ((t42 > 1.0) ? (1.0) : (t42));
-    const double t43 = ((t2 < 0.0) ? (0.0) : (t2));
-    const double t7 = ((t43 > 1.0) ? (1.0) : (t43));
+    const double t33 = ((wi[0] < -1.0) ? (-1.0) : (wi[0]));
+    const double t0 = ((t33 > 1.0) ? (1.0) : (t33));
+    const double t34 = ((wi[1] < -1.0) ? (-1.0) : (wi[1]));
+    const double t1 = ((t34 > 1.0) ? (1.0) : (t34));
+    const double t35 = ((wi[2] < -1.0) ? (-1.0) : (wi[2]));
+    const double t2 = ((t35 > 1.0) ? (1.0) : (t35));
+    const double t36 = ((wo[0] < -1.0) ? (-1.0) : (wo[0]));
+    const double t3 = ((t36 > 1.0) ? (1.0) : (t36));
+    const double t37 = ((wo[1] < -1.0) ? (-1.0) : (wo[1]));
+    const double t4 = ((t37 > 1.0) ? (1.0) : (t37));
+    const double t38 = ((wo[2] < -1.0) ? (-1.0) : (wo[2]));
+    const double t5 = ((t38 > 1.0) ? (1.0) : (t38));
+    const double t39 = ((t0*t0) + (t1*t1))*((t3*t3) + (t4*t4));
+    const double t40 = (t0*t3 + t1*t4)/sqrt(((t39 < (1.0/1000000000000000000000000000000.0)) ? ((1.0/1000000000000000000000000000000.0)) : (t39)));
+    const double t41 = ((t40 < -1.0) ? (-1.0) : (t40));
+    const double t6 = ((t41 > 1.0) ? (1.0) : (t41));
+    const double t42 = ((t2 < 0.0) ? (0.0) : (t2));
+    const double t7 = ((t42 > 1.0) ? (1.0) : (t42));
     const double t8 = (t7*t7);
     const double t9 = (t7*t7*t7);
     const double t10 = (t7*t7*t7*t7);
     const double t11 = t8 - 1.0;
     const double t12 = -t11;
     const double t13 = log(1.0 + 1.0/((t7 < 1.0000000000000001e-30) ? (1.0000000000000001e-30) : (t7)));
-    const double t44 = ((t5 < 0.0) ? (0.0) : (t5));
-    const double t14 = ((t44 > 1.0) ? (1.0) : (t44));
+    const double t43 = ((t5 < 0.0) ? (0.0) : (t5));
+    const double t14 = ((t43 > 1.0) ? (1.0) : (t43));
     const double t15 = (t14*t14);
     const double t16 = (t14*t14*t14);
     const double t17 = (t14*t14*t14*t14);
     const double t18 = t14*t7;
     const double t19 = t14 + t7;
-    const double t20 = t15 - 1.0;
-    const double t21 = -t12*t20;
-    const double t22 = sqrt(t21);
-    const double t23 = m->k[38]*t19 + m->k[39]*t18;
-    const double t24 = m->k[0]*t19 + m->k[2]*t15*t8 + m->k[3]*(t15 + t8) + m->k[4]*t14*t19*t7 + m->k[5]*t18;
-    const double t25 = log(1.0 + 1.0/((t14 < 1.0000000000000001e-30) ? (1.0000000000000001e-30) : (t14)));
-    const double t45 = ((1.0/2.0))*t18 + ((1.0/2.0))*t22*(t6 + 1.0) + ((1.0/2.0))*(t12*t15 + t8)/(t22 + 1.0);
-    const double t26 = ((t45 < 0.0) ? (0.0) : (t45));
-    const double t27 = 1.0/((t19 < (1.0/1000000.0)) ? ((1.0/1000000.0)) : (t19));
-    const double t28 = ((t26 > 1.0) ? (1.0) : (t26));
-    const double t29 = 1.0 - t28;
-    const double t30 = asin(sqrt(((t26 > t29) ? (t29) : (((t26 <= t29) ? (t26) : (t26 + t29))))));
-    const double t31 = 2.0*t30;
-    const double t32 = (t30*t30);
-    const double t33 = 4.0*t32;
-    const double t46 = ((199987.0/200000.0))*m->k[31]*t27*((t28 < (1.0/16.0)) ? (8.0*(t30*t30*t30)*(t33*(t33*(t33*(t33*(t33*(((1.0/23351328000.0))*t32 + (-1.0/518918400.0)) + (1.0/3991680.0)) + (-1.0/45360.0)) + (1.0/840.0)) + (-1.0/30.0)) + (1.0/3.0))) : (2.0*sqrt(t28)*sqrt(t29) - (1.0 - 2.0*t28)*((t28 < (1.0/2.0)) ? (t31) : (3.141592653589793238 - t31)))) + ((199987.0/200000.0))*m->k[37]*t21*t27*(2.0*(t6*t6) - 1.0)*expm1(t14*(m->k[28]*(m->k[27]*(m->k[32]*t15 + m->k[33]*t16 + m->k[34]*t14 + m->k[35] + 0.02615176990129942*t14 - 0.12175302463667616*t15 + 0.10479018668034851*t16) + ((25.0/256.0))*t14 + ((15.0/512.0))*t15 - (15.0/256.0)*t16 + (-45.0/1024.0)) + m->k[36]*(t20*t20)*t25) + t7*(m->k[28]*(m->k[27]*(m->k[32]*t8 + m->k[33]*t9 + m->k[34]*t7 + m->k[35] + 0.02615176990129942*t7 - 0.12175302463667616*t8 + 0.10479018668034851*t9) + ((25.0/256.0))*t7 + ((15.0/512.0))*t8 - (15.0/256.0)*t9 + (-45.0/1024.0)) + m->k[36]*(t11*t11)*t13)) + ((199987.0/200000.0))*m->k[49]*t22*t27*t6*(t23 + (((45.0/64.0))*t18 + t23 + 1.0)*expm1(t14*(m->k[28]*(m->k[27]*(m->k[40]*t16 + m->k[41]*t14 + m->k[42]*t15 + m->k[43]*t15 + m->k[44]*t16 + m->k[45]*t14 + m->k[46] - 0.19277283587731822*t14 + 0.09132252163198407*t15 + 0.04069191575938517*t16) - (47.0/96.0)*t14 - (15.0/128.0)*t15 + ((15.0/64.0))*t16 + (173.0/768.0)) + m->k[48]*t20*t25*(m->k[47]*t15 - 64.0)) + t7*(m->k[28]*(m->k[27]*(m->k[40]*t9 + m->k[41]*t7 + m->k[42]*t8 + m->k[43]*t8 + m->k[44]*t9 + m->k[45]*t7 + m->k[46] - 0.19277283587731822*t7 + 0.09132252163198407*t8 + 0.04069191575938517*t9) - (47.0/96.0)*t7 - (15.0/128.0)*t8 + ((15.0/64.0))*t9 + (173.0/768.0)) + m->k[48]*t11*t13*(m->k[47]*t8 - 64.0)))) + ((199987.0/400000.0))*t27*(t24 + (m->k[1]*(135.0*t15*t8 - 45.0*t15 + 256.0*t18 - 45.0*t8 + 207.0) + t24)*expm1(t14*(m->k[1]*t25*(m->k[29]*t15 + m->k[30]*t17 + 207.0) + m->k[28]*(m->k[27]*(m->k[10]*t15 + m->k[11]*t17 + m->k[12]*t14 + m->k[13]*t15 + m->k[14]*t15 + m->k[15]*t14 + m->k[16]*t14 + m->k[17]*t15 + m->k[18]*t16 + m->k[19]*t14 + m->k[20]*t17 + m->k[21]*t17 + m->k[22]*t14 + m->k[23]*t16 + m->k[24]*t16 + m->k[25]*t15 + m->k[26] + m->k[6]*t16 + m->k[7]*t17 + m->k[8]*t17 + m->k[9]*t16 - 1.354906550811893*t14 + 0.3450742468475043*t15 + 0.039286501348685214*t16 + 0.0880030773183851*t17) + ((301.0/384.0))*t14 + ((45.0/256.0))*t15 - (45.0/128.0)*t16 + (-557.0/1536.0))) + t7*(m->k[1]*t13*(m->k[29]*t8 + m->k[30]*t10 + 207.0) + m->k[28]*(m->k[27]*(m->k[10]*t8 + m->k[11]*t10 + m->k[12]*t7 + m->k[13]*t8 + m->k[14]*t8 + m->k[15]*t7 + m->k[16]*t7 + m->k[17]*t8 + m->k[18]*t9 + m->k[19]*t7 + m->k[20]*t10 + m->k[21]*t10 + m->k[22]*t7 + m->k[23]*t9 + m->k[24]*t9 + m->k[25]*t8 + m->k[26] + m->k[6]*t9 + m->k[7]*t10 + m->k[8]*t10 + m->k[9]*t9 + 0.0880030773183851*t10 - 1.354906550811893*t7 + 0.3450742468475043*t8 + 0.039286501348685214*t9) + ((301.0/384.0))*t7 + ((45.0/256.0))*t8 - (45.0/128.0)*t9 + (-557.0/1536.0)))))/3.141592653589793238;
-    return ((t2 < 0.0) ? (0.0) : (1.0))*((t5 < 0.0) ? (0.0) : (1.0))*((t46 < 0.0) ? (0.0) : (t46));
+    const double t20 = m->k[5]*t14*t19*t7;
+    const double t21 = t15 - 1.0;
+    const double t22 = -t12*t21;
+    const double t23 = sqrt(t22);
+    const double t24 = log(1.0 + 1.0/((t14 < 1.0000000000000001e-30) ? (1.0000000000000001e-30) : (t14)));
+    const double t44 = ((1.0/2.0))*t18 + ((1.0/2.0))*t23*(t6 + 1.0) + ((1.0/2.0))*(t12*t15 + t8)/(t23 + 1.0);
+    const double t25 = ((t44 < 0.0) ? (0.0) : (t44));
+    const double t26 = 1.0/((t19 < (1.0/1000000.0)) ? ((1.0/1000000.0)) : (t19));
+    const double t27 = ((t25 > 1.0) ? (1.0) : (t25));
+    const double t28 = 1.0 - t27;
+    const double t29 = asin(sqrt(((t25 > t28) ? (t28) : (((t25 <= t28) ? (t25) : (t25 + t28))))));
+    const double t30 = 2.0*t29;
+    const double t31 = (t29*t29);
+    const double t32 = 4.0*t31;
+    const double t45 = ((999959.0/1000000.0))*m->k[18]*t26*((t27 < (1.0/16.0)) ? (8.0*(t29*t29*t29)*(t32*(t32*(t32*(t32*(t32*(((1.0/23351328000.0))*t31 + (-1.0/518918400.0)) + (1.0/3991680.0)) + (-1.0/45360.0)) + (1.0/840.0)) + (-1.0/30.0)) + (1.0/3.0))) : (2.0*sqrt(t27)*sqrt(t28) - (1.0 - 2.0*t27)*((t27 < (1.0/2.0)) ? (t30) : (3.141592653589793238 - t30)))) + ((999959.0/1000000.0))*m->k[19]*t22*t26*(2.0*(t6*t6) - 1.0)*expm1(t14*(m->k[22] + m->k[23]*t16 + m->k[24]*t15 + m->k[25]*t14 + m->k[26]*t17 + t24*(m->k[20] + m->k[21]*(t21*t21))) + t7*(m->k[22] + m->k[23]*t9 + m->k[24]*t8 + m->k[25]*t7 + m->k[26]*t10 + t13*(m->k[20] + m->k[21]*(t11*t11)))) + ((999959.0/1000000.0))*m->k[27]*t23*t26*t6*(m->k[28]*t19 + m->k[37]*t18 + (m->k[28]*t14 + m->k[28]*t7 + m->k[29]*t18 + 1.0)*expm1(t14*(m->k[30] + m->k[31]*t14 + m->k[32]*t15 + m->k[33]*t16 + m->k[34]*t17 + m->k[35]*t21*t24*(m->k[36]*t15 - 64.0)) + t7*(m->k[30] + m->k[31]*t7 + m->k[32]*t8 + m->k[33]*t9 + m->k[34]*t10 + m->k[35]*t11*t13*(m->k[36]*t8 - 64.0)))) + ((999959.0/2000000.0))*t26*(m->k[0]*t19 + m->k[15]*t15*t8 + m->k[16]*(t15 + t8) + m->k[17]*t18 + t20 + (m->k[0]*t14 + m->k[0]*t7 + m->k[1] + m->k[2]*t15 + m->k[2]*t8 + m->k[3]*t15*t8 + m->k[4]*t18 + t20)*expm1(t14*(m->k[10] + m->k[11]*t16 + m->k[12]*t15 + m->k[13]*t14 + m->k[14]*t17 + t24*(m->k[6] + m->k[7]*m->k[8]*t15 + m->k[7]*m->k[9]*t17)) + t7*(m->k[10] + m->k[11]*t9 + m->k[12]*t8 + m->k[13]*t7 + m->k[14]*t10 + t13*(m->k[6] + m->k[7]*m->k[8]*t8 + m->k[7]*m->k[9]*t10))))/3.141592653589793238;
+    return ((t2 < 0.0) ? (0.0) : (1.0))*((t5 < 0.0) ? (0.0) : (1.0))*((t45 < 0.0) ? (0.0) : (t45));
 }
 
 LAMBERT_SPHERE_FN void lambert_sphere_eval_local_rgb(const lambert_sphere_material m[3], const double wi[3], const double wo[3], double out[3])
@@ -1148,15 +1280,15 @@ LAMBERT_SPHERE_FN double lambert_sphere_pdf(const lambert_sphere_material *m, co
     const double t12 = ((wi[2] < -1.0) ? (-1.0) : (wi[2]));
     const double t1 = ((t12 > 1.0) ? (1.0) : (t12));
     const double t13 = ((t1 < 0.0) ? (0.0) : (t1));
-    const double t2 = t0*acos(((t13 > 1.0) ? (1.0) : (t13)));
-    const double t3 = 4.0*t2 - 1.0;
+    const double t2 = acos(((t13 > 1.0) ? (1.0) : (t13)));
+    const double t3 = 4.0*t0*t2 - 1.0;
     const double t4 = (t3*t3);
     const double t5 = (t3*t3*t3);
     const double t6 = (t3*t3*t3*t3);
     const double t7 = (t3*t3*t3*t3*t3);
     const double t8 = (t3*t3*t3*t3*t3*t3);
-    const double t9 = 1.0/(9.7240632799166419*exp(m->k[50]*t3 + m->k[51]*t4 + m->k[52]*t6 + m->k[53]*t7 + m->k[54]*t4 + m->k[55]*t5 + m->k[56]*t6 + m->k[57]*t8 + m->k[58]*t5 + m->k[59]*t8 + m->k[60]*t7 + m->k[61]*t5 + m->k[62]*t7 + m->k[63]*t3 + m->k[64]*t3 + m->k[65]*t7 + m->k[66]*t8 + m->k[67]*t6 + m->k[68]*t5 + m->k[69]*t8 + m->k[70]*t3 + m->k[71]*t4 + m->k[72]*t4 + m->k[73]*t6 + m->k[74] + 1.7500311057966532*t2 + 0.04628582994795521*t4 - 0.550401436459078*t5 + 0.07829314674691852*t6 - 0.7161701495184881*t7 - 0.5341871660342392*t8) + 1.0);
-    const double t10 = 2.0429479122374826*exp(m->k[75]*t7 + m->k[76]*t5 + m->k[77]*t4 + m->k[78]*t8 + m->k[79]*t8 + m->k[80]*t3 + m->k[81]*t7 + m->k[82]*t5 + m->k[83]*t6 + m->k[84]*t6 + m->k[85]*t4 + m->k[86]*t3 + m->k[87]*t7 + m->k[88]*t3 + m->k[89]*t5 + m->k[90]*t8 + m->k[91]*t7 + m->k[92]*t4 + m->k[93]*t3 + m->k[94]*t8 + m->k[95]*t6 + m->k[96]*t6 + m->k[97]*t4 + m->k[98]*t5 + m->k[99] + 3.9697173818393476*t2 - 0.861604156944149*t4 - 0.8684385788422878*t5 + 0.20080844606204426*t6 - 0.36251640502651766*t7 - 0.4275420217467747*t8);
+    const double t9 = 1.0/(9.7240632799166419*exp(m->k[38] + m->k[39]*t6 + m->k[40]*t4 + m->k[41]*t8 + m->k[42]*t5 + m->k[43]*t7 + m->k[44]*t2) + 1.0);
+    const double t10 = 2.0429479122374826*exp(m->k[45] + m->k[46]*t6 + m->k[47]*t4 + m->k[48]*t7 + m->k[49]*t8 + m->k[50]*t5 + m->k[51]*t2);
     const double t14 = ((wo[2] < -1.0) ? (-1.0) : (wo[2]));
     const double t11 = ((t14 > 1.0) ? (1.0) : (t14));
     const double t15 = ((wi[0] < -1.0) ? (-1.0) : (wi[0]));
@@ -1185,24 +1317,24 @@ LAMBERT_SPHERE_FN double lambert_sphere_sample(const lambert_sphere_material *m,
     const double t5 = ((t36 > 1.0) ? (1.0) : (t36));
     const double t37 = ((wi[2] < -1.0) ? (-1.0) : (wi[2]));
     const double t6 = ((t37 > 1.0) ? (1.0) : (t37));
+    const double t7 = 1.0/(((t6 < 0.0) ? (0.0) : (t6)) + 1.0);
     const double t38 = ((t6 < 0.0) ? (0.0) : (t6));
-    const double t7 = t0*acos(((t38 > 1.0) ? (1.0) : (t38)));
-    const double t8 = 4.0*t7 - 1.0;
-    const double t9 = (t8*t8);
-    const double t10 = (t8*t8*t8);
-    const double t11 = (t8*t8*t8*t8);
-    const double t12 = (t8*t8*t8*t8*t8);
-    const double t13 = (t8*t8*t8*t8*t8*t8);
-    const double t14 = 1.0/(9.7240632799166419*exp(m->k[50]*t8 + m->k[51]*t9 + m->k[52]*t11 + m->k[53]*t12 + m->k[54]*t9 + m->k[55]*t10 + m->k[56]*t11 + m->k[57]*t13 + m->k[58]*t10 + m->k[59]*t13 + m->k[60]*t12 + m->k[61]*t10 + m->k[62]*t12 + m->k[63]*t8 + m->k[64]*t8 + m->k[65]*t12 + m->k[66]*t13 + m->k[67]*t11 + m->k[68]*t10 + m->k[69]*t13 + m->k[70]*t8 + m->k[71]*t9 + m->k[72]*t9 + m->k[73]*t11 + m->k[74] - 0.550401436459078*t10 + 0.07829314674691852*t11 - 0.7161701495184881*t12 - 0.5341871660342392*t13 + 1.7500311057966532*t7 + 0.04628582994795521*t9) + 1.0);
-    const double t15 = -t14;
-    const double t16 = t15 + 1.0;
-    const double t17 = 1.0/(((t6 < 0.0) ? (0.0) : (t6)) + 1.0);
-    const double t18 = 2.0429479122374826*exp(m->k[75]*t12 + m->k[76]*t10 + m->k[77]*t9 + m->k[78]*t13 + m->k[79]*t13 + m->k[80]*t8 + m->k[81]*t12 + m->k[82]*t10 + m->k[83]*t11 + m->k[84]*t11 + m->k[85]*t9 + m->k[86]*t8 + m->k[87]*t12 + m->k[88]*t8 + m->k[89]*t10 + m->k[90]*t13 + m->k[91]*t12 + m->k[92]*t9 + m->k[93]*t8 + m->k[94]*t13 + m->k[95]*t11 + m->k[96]*t11 + m->k[97]*t9 + m->k[98]*t10 + m->k[99] - 0.8684385788422878*t10 + 0.20080844606204426*t11 - 0.36251640502651766*t12 - 0.4275420217467747*t13 + 3.9697173818393476*t7 - 0.861604156944149*t9);
+    const double t8 = acos(((t38 > 1.0) ? (1.0) : (t38)));
+    const double t9 = 4.0*t0*t8 - 1.0;
+    const double t10 = (t9*t9);
+    const double t11 = (t9*t9*t9);
+    const double t12 = (t9*t9*t9*t9);
+    const double t13 = (t9*t9*t9*t9*t9);
+    const double t14 = (t9*t9*t9*t9*t9*t9);
+    const double t15 = 1.0/(9.7240632799166419*exp(m->k[38] + m->k[39]*t12 + m->k[40]*t10 + m->k[41]*t14 + m->k[42]*t11 + m->k[43]*t13 + m->k[44]*t8) + 1.0);
+    const double t16 = -t15;
+    const double t17 = t16 + 1.0;
+    const double t18 = 2.0429479122374826*exp(m->k[45] + m->k[46]*t12 + m->k[47]*t10 + m->k[48]*t13 + m->k[49]*t14 + m->k[50]*t11 + m->k[51]*t8);
     const double t19 = t18 + 1.0;
     const double t39 = ((u1 < 0.0) ? (0.0) : (u1));
     const double t20 = ((t39 > 1.0) ? (1.0) : (t39));
-    const double t21 = lambert_sphere_safe_pow(t20/t14, 1.0/t19);
-    const double t40 = (t15 + t20)/t16;
+    const double t21 = lambert_sphere_safe_pow(t20/t15, 1.0/t19);
+    const double t40 = (t16 + t20)/t17;
     const double t22 = ((t40 < 0.0) ? (0.0) : (t40));
     const double t23 = sqrt(t22);
     const double t41 = 1.0 - (t21*t21);
@@ -1213,141 +1345,101 @@ LAMBERT_SPHERE_FN double lambert_sphere_sample(const lambert_sphere_material *m,
     const double t28 = t26*t4;
     const double t29 = -t21*t6 + t27 + t28;
     const double t42 = 1.0 - t22;
-    const double t31 = ((t14 > t20) ? (-t29) : (sqrt(((t42 < 0.0) ? (0.0) : (t42)))));
-    const double t32 = ((t14 > t20) ? (-t17*t27*t4 + t21*t4 + t26*(-t17*(t4*t4) + 1.0)) : (t23*t3));
-    const double t33 = ((t14 > t20) ? (-t17*t28*t5 + t21*t5 + t25*(-t17*(t5*t5) + 1.0)) : (t2*t23));
+    const double t31 = ((t15 > t20) ? (-t29) : (sqrt(((t42 < 0.0) ? (0.0) : (t42)))));
+    const double t32 = ((t15 > t20) ? (t21*t4 + t26*(-(t4*t4)*t7 + 1.0) - t27*t4*t7) : (t23*t3));
+    const double t33 = ((t15 > t20) ? (t21*t5 + t25*(-(t5*t5)*t7 + 1.0) - t28*t5*t7) : (t2*t23));
     wo[0] = t32;
     wo[1] = t33;
     wo[2] = t31;
-    return (((1.0/2.0))*t0*t14*t19*lambert_sphere_safe_pow(t31*t6 + t32*t4 + t33*t5, t18) + t0*t16*((t31 < 0.0) ? (0.0) : (t31)))*((t14 > t20 && t29 > 0.0) ? (0.0) : (1.0))*((t6 < 0.0) ? (0.0) : (1.0));
+    return (((1.0/2.0))*t0*t15*t19*lambert_sphere_safe_pow(t31*t6 + t32*t4 + t33*t5, t18) + t0*t17*((t31 < 0.0) ? (0.0) : (t31)))*((t15 > t20 && t29 > 0.0) ? (0.0) : (1.0))*((t6 < 0.0) ? (0.0) : (1.0));
 }
 
 LAMBERT_SPHERE_FN lambert_sphere_material_f lambert_sphere_prepare_c_f(float c)
 {
     lambert_sphere_material_f m;
-    const float t0 = 1.0F/3.141592653589793238F;
-    const float t22 = ((c < 0.0F) ? (0.0F) : (c));
-    const float t1 = ((t22 > 1.0F) ? (1.0F) : (t22));
-    const float t2 = ((15.0F/256.0F))*t1;
-    const float t3 = 20.0F*t1;
-    const float t4 = (t1*t1);
-    const float t5 = (t1*t1*t1);
-    const float t6 = 1.0F - t1;
-    const float t7 = sqrtf(t6);
-    const float t8 = (t6*sqrtf(t6));
-    const float t9 = (t6*t6);
-    const float t10 = (t6*t6*sqrtf(t6));
-    const float t11 = t1/(t7 + 1.0F);
-    const float t12 = 2.0F - t11;
-    const float t13 = powf(t12, -3.0F);
-    const float t14 = t1/t12;
-    const float t15 = t4/(t12*t12);
-    const float t16 = t13*t5;
-    const float t17 = 2.0F*t7 - 1.0F;
-    const float t18 = (t17*t17);
-    const float t19 = (t17*t17*t17);
-    const float t20 = (t17*t17*t17*t17);
-    const float t21 = -0.0552022433F*t1 - 0.00728558658F*t4 + 0.0091196791F*t5;
-    m.k[0] = t4*(1.13359335F*t14 - 2.34162593F*t15 + 1.12081142F*t16 + 0.00103485553F)/(8.02636031F*t14 - 9.93030684F*t15 + 2.8967197F*t16 + 0.00722682508F);
-    m.k[1] = ((1.0F/384.0F))*t1;
-    m.k[2] = -(25.0F/128.0F)*t4 - (5.0F/32.0F)*t5;
-    m.k[3] = t4*(0.00686791682F*t14 + 0.0814665743F*t15 + 0.0359463998F*t16 + 1.69449032e-6F)/(0.25646436F*t14 + 1.99090727F*t15 - 1.24776987F*t16 + 0.000398246508F);
-    m.k[4] = t4*(0.0386897082F*t14 + 0.17402463F*t15 - 0.213013893F*t16 + 0.000677303682F)/(0.999360126F*t14 + 0.778844418F*t15 - 0.786493673F*t16 + 0.00828912889F);
-    m.k[5] = t4*(0.864318572F*t13*t5 - 0.340535824F*t14 - 1.04766344F*t15 - 0.0259151243F)/(0.516229976F*t14 + 1.49439574F*t15 - 1.0474195F*t16 + 0.0367937879F);
-    m.k[6] = 71.5529318F*t9;
-    m.k[7] = 16.8446735F*t8;
-    m.k[8] = 0.339044816F*t7;
-    m.k[9] = 7.64538908F*t6;
-    m.k[10] = 34.15724F*t10;
-    m.k[11] = 19.3651363F*t10;
-    m.k[12] = 2.47002546F*t6;
-    m.k[13] = 29.4093874F*t8;
-    m.k[14] = 0.9285301F*t7;
-    m.k[15] = 15.5571404F*t9;
-    m.k[16] = -8.6788146F*t8;
-    m.k[17] = -5.63305986F*t6;
-    m.k[18] = -0.601170263F*t7;
-    m.k[19] = -1.47546663F*t7;
-    m.k[20] = -3.38396172F*t6;
-    m.k[21] = -30.6516416F*t9;
-    m.k[22] = -9.65683194F*t10;
-    m.k[23] = -39.4713605F*t8;
-    m.k[24] = -44.8193591F*t10;
-    m.k[25] = -54.4881992F*t9;
-    m.k[26] = -0.358789965F*t1 + 0.38596311F*t10 - 0.688098854F*t7 + 0.0551064054F*t8 - 0.562194525F*t9 + 1.78514787F;
-    m.k[27] = t11;
-    m.k[28] = t1;
-    m.k[29] = t1*(t3 + 281.0F) - 346.0F;
-    m.k[30] = (15.0F - 15.0F*t1)*(4.0F*t1 + 9.0F);
-    m.k[31] = ((2.0F/3.0F))*t1/(3.141592653589793238F*3.141592653589793238F);
-    m.k[32] = 0.77781129F*t7;
-    m.k[33] = -0.622989554F*t7;
-    m.k[34] = -0.242985421F*t7;
-    m.k[35] = 0.0121753007F*t7 + 0.00356575598F;
-    m.k[36] = t2;
-    m.k[37] = t0*t2;
-    m.k[38] = t21;
-    m.k[39] = 0.303291265F*t1 + (t21*t21) + 0.0184770926F*t4;
-    m.k[40] = 0.112350874F*t7;
-    m.k[41] = 0.116108782F*t6;
-    m.k[42] = 0.0293088788F*t7;
-    m.k[43] = -0.0604791881F*t6;
-    m.k[44] = -0.0430889836F*t6;
-    m.k[45] = -0.200009403F*t7;
-    m.k[46] = 0.00962339874F*t1 + 0.081918959F*t7 + 0.066238952F;
-    m.k[47] = t3 + 45.0F;
-    m.k[48] = -(1.0F/192.0F)*t1;
-    m.k[49] = ((1.0F/3.0F))*t0*t1;
-    m.k[50] = 0.109596532F*t18;
-    m.k[51] = 0.176611977F*t18;
-    m.k[52] = 0.255974037F*t18;
-    m.k[53] = 2.42146808F*t19;
-    m.k[54] = 0.50279332F*t19;
-    m.k[55] = 2.07012964F*t20;
-    m.k[56] = 0.519096219F*t19;
-    m.k[57] = 2.52511775F*t17;
-    m.k[58] = 1.33858239F*t17;
-    m.k[59] = 2.79032136F*t20;
-    m.k[60] = 3.91628013F*t18;
-    m.k[61] = -1.76265478F*t18;
-    m.k[62] = -3.66181411F*t20;
-    m.k[63] = -0.211410027F*t17;
-    m.k[64] = -0.0169321725F*t20;
-    m.k[65] = -2.29579504F*t17;
-    m.k[66] = -2.83791314F*t18;
-    m.k[67] = -0.712858104F*t20;
-    m.k[68] = -1.67394025F*t19;
-    m.k[69] = -1.70611928F*t19;
-    m.k[70] = -0.0142108226F*t19;
-    m.k[71] = -0.463527018F*t20;
-    m.k[72] = -0.48906881F*t17;
-    m.k[73] = -0.499938283F*t17;
-    m.k[74] = 0.106256509F*t18 - 0.0905004516F*t19 + 0.0405584497F*t20 - 1.84999344F*t7;
-    m.k[75] = 0.805852957F*t19;
-    m.k[76] = 0.658226904F*t17;
-    m.k[77] = 0.450436913F*t18;
-    m.k[78] = 0.574238503F*t20;
-    m.k[79] = 0.639272066F*t17;
-    m.k[80] = 0.187398981F*t19;
-    m.k[81] = 0.837146242F*t18;
-    m.k[82] = 0.621293716F*t20;
-    m.k[83] = 0.412429504F*t17;
-    m.k[84] = 0.417544954F*t19;
-    m.k[85] = 0.0286625938F*t20;
-    m.k[86] = -0.577333893F*t17;
-    m.k[87] = -0.766725191F*t20;
-    m.k[88] = -0.0718003138F*t18;
-    m.k[89] = -0.631675337F*t19;
-    m.k[90] = -0.57660313F*t19;
-    m.k[91] = -0.590135675F*t17;
-    m.k[92] = -0.156880169F*t19;
-    m.k[93] = -0.0895189073F*t20;
-    m.k[94] = -0.372708292F*t18;
-    m.k[95] = -0.376282933F*t20;
-    m.k[96] = -0.392920608F*t18;
-    m.k[97] = -0.432798393F*t17;
-    m.k[98] = -0.497613246F*t18;
-    m.k[99] = 0.0748067878F*t18 - 0.0487300047F*t19 + 0.0176905061F*t20 - 0.519465256F*t7;
+    const float t0 = (1.0F/(3.141592653589793238F*3.141592653589793238F*3.141592653589793238F*3.141592653589793238F));
+    const float t1 = 1.0F/3.141592653589793238F;
+    const float t30 = ((c < 0.0F) ? (0.0F) : (c));
+    const float t2 = ((t30 > 1.0F) ? (1.0F) : (t30));
+    const float t3 = ((15.0F/256.0F))*t2;
+    const float t4 = ((69.0F/128.0F))*t2;
+    const float t5 = 20.0F*t2;
+    const float t6 = (t2*t2);
+    const float t7 = (t2*t2*t2);
+    const float t8 = 1.0F - t2;
+    const float t9 = sqrtf(t8);
+    const float t10 = (t8*sqrtf(t8));
+    const float t11 = (t8*t8);
+    const float t12 = (t8*t8*sqrtf(t8));
+    const float t13 = ((25.0F/128.0F))*t6 + ((5.0F/32.0F))*t7;
+    const float t14 = 1.0F/(t9 + 1.0F);
+    const float t15 = 2.0F*t9 - 1.0F;
+    const float t16 = (t15*t15);
+    const float t17 = (t15*t15*t15);
+    const float t18 = (t15*t15*t15*t15);
+    const float t19 = -t14*t2 + 2.0F;
+    const float t20 = (1.0F/(t19*t19*t19));
+    const float t21 = (1.0F/(t19*t19));
+    const float t22 = 1.0F/t19;
+    const float t23 = t2*t22;
+    const float t24 = t20*t7;
+    const float t25 = t21*t6;
+    const float t26 = t6*(0.124998099F*t23 - 0.0783359084F*t24 + 0.0730697514F*t25 + 0.00111505177F)/(3.73901748F*t23 + 0.371909159F*t24 - 3.13940324F*t25 + 0.0284765996F);
+    const float t27 = t6*(0.0557911588F*t20*t7 + 0.586853314F*t21*t6 - 1.18616196F*t23 - 0.00920497476F)/(1.76518538F*t23 + 0.0943542427F*t24 - 0.873449605F*t25 + 0.0139099814F);
+    const float t28 = -0.058160746F*t2 + 0.00965056957F*t6 - 0.00836836043F*t7;
+    const float t29 = 0.315826229F*t2 + (t28*t28) + 0.00254402716F*t6;
+    m.k[0] = t6*(1.68131126F*t23 + 1.96849244F*t24 - 3.75657856F*t25 + 0.0323484608F)/(12.745733F*t23 + 5.04966548F*t24 - 17.0396811F*t25 + 0.244282603F);
+    m.k[1] = t4;
+    m.k[2] = -(15.0F/128.0F)*t2 + t26;
+    m.k[3] = -t13 + ((45.0F/128.0F))*t2;
+    m.k[4] = ((2.0F/3.0F))*t2 + t27;
+    m.k[5] = t6*(0.0396566193F*t2*t22 + 0.161130233F*t21*t6 - 0.198051858F*t24 - 6.41752356e-5F)/(1.22757423F*t23 - 0.323597974F*t24 + 0.0952749574F*t25 + 0.000748781987F);
+    m.k[6] = t2*(((32768.0F/621.0F))*t0 + (-69.0F/128.0F)) + t4;
+    m.k[7] = ((1.0F/384.0F))*t2;
+    m.k[8] = t2*(t5 + 281.0F) - 346.0F;
+    m.k[9] = (15.0F - 15.0F*t2)*(4.0F*t2 + 9.0F);
+    m.k[10] = -0.682527734F*t10*t14*(t2*t2) + 0.974298883F*t11*t14*(t2*t2) - 0.577471841F*t12*t14*(t2*t2) - 0.429760273F*t14*(t2*t2*t2) - 0.6092544F*t14*(t2*t2)*t9 + 1.82577996F*t14*(t2*t2) - (557.0F/1536.0F)*t2;
+    m.k[11] = 9.96255304F*t10*t14*(t2*t2) - 16.9682257F*t11*t14*(t2*t2) + 11.1257233F*t12*t14*(t2*t2) - 3.40007537F*t14*(t2*t2)*t8 + 0.245328632F*t14*(t2*t2)*t9 + 0.0846105762F*t14*(t2*t2) - (45.0F/128.0F)*t2;
+    m.k[12] = -11.2787556F*t10*t14*(t2*t2) + 17.7255497F*t11*t14*(t2*t2) - 11.0313574F*t12*t14*(t2*t2) + 3.64551222F*t14*(t2*t2)*t8 + 0.160538376F*t14*(t2*t2)*t9 + 0.297217011F*t14*(t2*t2) + ((45.0F/256.0F))*t2;
+    m.k[13] = 4.50016099F*t10*t14*(t2*t2) - 7.3871291F*t11*t14*(t2*t2) + 4.49483373F*t12*t14*(t2*t2) - 0.703795125F*t14*(t2*t2)*t8 - 1.18140022F*t14*(t2*t2)*t9 - 1.32571951F*t14*(t2*t2) + ((301.0F/384.0F))*t2;
+    m.k[14] = -3.53245043F*t10*t14*(t2*t2) + 6.21304575F*t11*t14*(t2*t2) - 4.17658553F*t12*t14*(t2*t2) + 1.09448618F*t14*(t2*t2)*t8 + 0.0118348979F*t14*(t2*t2)*t9 + 0.0718409222F*t14*(t2*t2);
+    m.k[15] = -t13;
+    m.k[16] = t26;
+    m.k[17] = t27;
+    m.k[18] = ((2.0F/3.0F))*t2/(3.141592653589793238F*3.141592653589793238F);
+    m.k[19] = t1*t3;
+    m.k[20] = t2*(((65536.0F/10935.0F))*t0 + (-15.0F/256.0F));
+    m.k[21] = t3;
+    m.k[22] = -0.0142305261F*t14*(t2*t2)*t9 - 0.00515329575F*t14*(t2*t2) - (45.0F/1024.0F)*t2;
+    m.k[23] = -0.238947024F*t14*(t2*t2)*t9 + 0.244541881F*t14*(t2*t2) - (15.0F/256.0F)*t2;
+    m.k[24] = 0.0525665973F*t14*(t2*t2)*t9 - 0.162052705F*t14*(t2*t2) + ((15.0F/512.0F))*t2;
+    m.k[25] = 0.0259237824F*t14*(t2*t2)*t9 + 0.0402911229F*t14*(t2*t2) + ((25.0F/256.0F))*t2;
+    m.k[26] = 0.179330017F*t14*(t2*t2)*t9 - 0.120682903F*t14*(t2*t2);
+    m.k[27] = ((1.0F/3.0F))*t1*t2;
+    m.k[28] = t28;
+    m.k[29] = t29 + (45.0F/64.0F);
+    m.k[30] = 0.00207615227F*t14*(t2*t2*t2) + 0.07901494F*t14*(t2*t2)*t9 + 0.080792557F*t14*(t2*t2) + ((173.0F/768.0F))*t2;
+    m.k[31] = 0.13709267F*t14*(t2*t2)*t8 - 0.227214741F*t14*(t2*t2)*t9 - 0.229140963F*t14*(t2*t2) - (47.0F/96.0F)*t2;
+    m.k[32] = -0.587394077F*t14*(t2*t2)*t8 + 0.240479316F*t14*(t2*t2)*t9 + 0.219219729F*t14*(t2*t2) - (15.0F/128.0F)*t2;
+    m.k[33] = 0.805863475F*t14*(t2*t2)*t8 - 0.170365108F*t14*(t2*t2)*t9 - 0.139993001F*t14*(t2*t2) + ((15.0F/64.0F))*t2;
+    m.k[34] = -0.363265532F*t14*(t2*t2)*t8 + 0.0995752551F*t14*(t2*t2)*t9 + 0.08755165F*t14*(t2*t2);
+    m.k[35] = -(1.0F/192.0F)*t2;
+    m.k[36] = t5 + 45.0F;
+    m.k[37] = t29;
+    m.k[38] = 0.211410027F*t15 - 0.00334002245F*t16 - 0.0762896289F*t17 + 0.0574906222F*t18 - 1.84999344F*t9;
+    m.k[39] = -0.499938283F*t15 + 0.255974037F*t16 + 0.519096219F*t17 - 0.712858104F*t18 + 0.0782931467F;
+    m.k[40] = -0.48906881F*t15 + 0.176611977F*t16 + 0.50279332F*t17 - 0.463527018F*t18 + 0.04628583F;
+    m.k[41] = 2.52511775F*t15 - 2.83791314F*t16 - 1.70611928F*t17 + 2.79032136F*t18 - 0.534187166F;
+    m.k[42] = 1.33858239F*t15 - 1.76265478F*t16 - 1.67394025F*t17 + 2.07012964F*t18 - 0.550401437F;
+    m.k[43] = -2.29579504F*t15 + 3.91628013F*t16 + 2.42146808F*t17 - 3.66181411F*t18 - 0.71617015F;
+    m.k[44] = -0.845640107F*t1*t15 + 0.438386127F*t1*t16 - 0.0568432905F*t1*t17 - 0.0677286902F*t1*t18 + 1.75003111F*t1;
+    m.k[45] = 0.577333893F*t15 + 0.146607102F*t16 - 0.236128986F*t17 + 0.107209413F*t18 - 0.519465256F*t9;
+    m.k[46] = 0.412429504F*t15 - 0.392920608F*t16 + 0.417544954F*t17 - 0.376282933F*t18 + 0.200808446F;
+    m.k[47] = -0.432798393F*t15 + 0.450436913F*t16 - 0.156880169F*t17 + 0.0286625938F*t18 - 0.861604157F;
+    m.k[48] = -0.590135675F*t15 + 0.837146242F*t16 + 0.805852957F*t17 - 0.766725191F*t18 - 0.362516405F;
+    m.k[49] = 0.639272066F*t15 - 0.372708292F*t16 - 0.57660313F*t17 + 0.574238503F*t18 - 0.427542022F;
+    m.k[50] = 0.658226904F*t15 - 0.497613246F*t16 - 0.631675337F*t17 + 0.621293716F*t18 - 0.868438579F;
+    m.k[51] = -2.30933557F*t1*t15 - 0.287201255F*t1*t16 + 0.749595924F*t1*t17 - 0.358075629F*t1*t18 + 3.96971738F*t1;
     return m;
 }
 
@@ -1370,40 +1462,39 @@ LAMBERT_SPHERE_FN void lambert_sphere_prepare_rgb_f(const float kd[3], lambert_s
 
 LAMBERT_SPHERE_FN float lambert_sphere_eval_f(const lambert_sphere_material_f *m, float mu_i, float mu_o, float cos_phi)
 {
-    const float t28 = ((cos_phi < -1.0F) ? (-1.0F) : (cos_phi));
-    const float t0 = ((t28 > 1.0F) ? (1.0F) : (t28));
-    const float t29 = ((mu_i < 0.0F) ? (0.0F) : (mu_i));
-    const float t1 = ((t29 > 1.0F) ? (1.0F) : (t29));
+    const float t27 = ((cos_phi < -1.0F) ? (-1.0F) : (cos_phi));
+    const float t0 = ((t27 > 1.0F) ? (1.0F) : (t27));
+    const float t28 = ((mu_i < 0.0F) ? (0.0F) : (mu_i));
+    const float t1 = ((t28 > 1.0F) ? (1.0F) : (t28));
     const float t2 = (t1*t1);
     const float t3 = (t1*t1*t1);
     const float t4 = (t1*t1*t1*t1);
     const float t5 = t2 - 1.0F;
     const float t6 = -t5;
     const float t7 = logf(1.0F + 1.0F/((t1 < 1.0e-30F) ? (1.0e-30F) : (t1)));
-    const float t30 = ((mu_o < 0.0F) ? (0.0F) : (mu_o));
-    const float t8 = ((t30 > 1.0F) ? (1.0F) : (t30));
+    const float t29 = ((mu_o < 0.0F) ? (0.0F) : (mu_o));
+    const float t8 = ((t29 > 1.0F) ? (1.0F) : (t29));
     const float t9 = (t8*t8);
     const float t10 = (t8*t8*t8);
     const float t11 = (t8*t8*t8*t8);
     const float t12 = t1*t8;
     const float t13 = t1 + t8;
-    const float t14 = t9 - 1.0F;
-    const float t15 = -t14*t6;
-    const float t16 = sqrtf(t15);
-    const float t17 = m->k[38]*t13 + m->k[39]*t12;
-    const float t18 = m->k[0]*t13 + m->k[2]*t2*t9 + m->k[3]*(t2 + t9) + m->k[4]*t1*t13*t8 + m->k[5]*t12;
-    const float t19 = logf(1.0F + 1.0F/((t8 < 1.0e-30F) ? (1.0e-30F) : (t8)));
-    const float t31 = ((1.0F/2.0F))*t12 + ((1.0F/2.0F))*t16*(t0 + 1.0F) + ((1.0F/2.0F))*(t2 + t6*t9)/(t16 + 1.0F);
-    const float t20 = ((t31 < 0.0F) ? (0.0F) : (t31));
-    const float t21 = 1.0F/((t13 < (1.0F/1000000.0F)) ? ((1.0F/1000000.0F)) : (t13));
-    const float t22 = ((t20 > 1.0F) ? (1.0F) : (t20));
-    const float t23 = 1.0F - t22;
-    const float t24 = asinf(sqrtf(((t20 > t23) ? (t23) : (((t20 <= t23) ? (t20) : (t20 + t23))))));
-    const float t25 = 2.0F*t24;
-    const float t26 = (t24*t24);
-    const float t27 = 4.0F*t26;
-    const float t32 = ((199987.0F/200000.0F))*m->k[31]*t21*((t22 < (1.0F/16.0F)) ? (8.0F*(t24*t24*t24)*(t27*(t27*(t27*(t27*(t27*(((1.0F/23351328000.0F))*t26 + (-1.0F/518918400.0F)) + (1.0F/3991680.0F)) + (-1.0F/45360.0F)) + (1.0F/840.0F)) + (-1.0F/30.0F)) + (1.0F/3.0F))) : (2.0F*sqrtf(t22)*sqrtf(t23) - (1.0F - 2.0F*t22)*((t22 < (1.0F/2.0F)) ? (t25) : (3.141592653589793238F - t25)))) + ((199987.0F/200000.0F))*m->k[37]*t15*t21*(2.0F*(t0*t0) - 1.0F)*expm1f(t1*(m->k[28]*(m->k[27]*(m->k[32]*t2 + m->k[33]*t3 + m->k[34]*t1 + m->k[35] + 0.0261517699F*t1 - 0.121753025F*t2 + 0.104790187F*t3) + ((25.0F/256.0F))*t1 + ((15.0F/512.0F))*t2 - (15.0F/256.0F)*t3 + (-45.0F/1024.0F)) + m->k[36]*(t5*t5)*t7) + t8*(m->k[28]*(m->k[27]*(m->k[32]*t9 + m->k[33]*t10 + m->k[34]*t8 + m->k[35] + 0.104790187F*t10 + 0.0261517699F*t8 - 0.121753025F*t9) - (15.0F/256.0F)*t10 + ((25.0F/256.0F))*t8 + ((15.0F/512.0F))*t9 + (-45.0F/1024.0F)) + m->k[36]*(t14*t14)*t19)) + ((199987.0F/200000.0F))*m->k[49]*t0*t16*t21*(t17 + (((45.0F/64.0F))*t12 + t17 + 1.0F)*expm1f(t1*(m->k[28]*(m->k[27]*(m->k[40]*t3 + m->k[41]*t1 + m->k[42]*t2 + m->k[43]*t2 + m->k[44]*t3 + m->k[45]*t1 + m->k[46] - 0.192772836F*t1 + 0.0913225216F*t2 + 0.0406919158F*t3) - (47.0F/96.0F)*t1 - (15.0F/128.0F)*t2 + ((15.0F/64.0F))*t3 + (173.0F/768.0F)) + m->k[48]*t5*t7*(m->k[47]*t2 - 64.0F)) + t8*(m->k[28]*(m->k[27]*(m->k[40]*t10 + m->k[41]*t8 + m->k[42]*t9 + m->k[43]*t9 + m->k[44]*t10 + m->k[45]*t8 + m->k[46] + 0.0406919158F*t10 - 0.192772836F*t8 + 0.0913225216F*t9) + ((15.0F/64.0F))*t10 - (47.0F/96.0F)*t8 - (15.0F/128.0F)*t9 + (173.0F/768.0F)) + m->k[48]*t14*t19*(m->k[47]*t9 - 64.0F)))) + ((199987.0F/400000.0F))*t21*(t18 + (m->k[1]*(256.0F*t12 + 135.0F*t2*t9 - 45.0F*t2 - 45.0F*t9 + 207.0F) + t18)*expm1f(t1*(m->k[1]*t7*(m->k[29]*t2 + m->k[30]*t4 + 207.0F) + m->k[28]*(m->k[27]*(m->k[10]*t2 + m->k[11]*t4 + m->k[12]*t1 + m->k[13]*t2 + m->k[14]*t2 + m->k[15]*t1 + m->k[16]*t1 + m->k[17]*t2 + m->k[18]*t3 + m->k[19]*t1 + m->k[20]*t4 + m->k[21]*t4 + m->k[22]*t1 + m->k[23]*t3 + m->k[24]*t3 + m->k[25]*t2 + m->k[26] + m->k[6]*t3 + m->k[7]*t4 + m->k[8]*t4 + m->k[9]*t3 - 1.35490655F*t1 + 0.345074247F*t2 + 0.0392865013F*t3 + 0.0880030773F*t4) + ((301.0F/384.0F))*t1 + ((45.0F/256.0F))*t2 - (45.0F/128.0F)*t3 + (-557.0F/1536.0F))) + t8*(m->k[1]*t19*(m->k[29]*t9 + m->k[30]*t11 + 207.0F) + m->k[28]*(m->k[27]*(m->k[10]*t9 + m->k[11]*t11 + m->k[12]*t8 + m->k[13]*t9 + m->k[14]*t9 + m->k[15]*t8 + m->k[16]*t8 + m->k[17]*t9 + m->k[18]*t10 + m->k[19]*t8 + m->k[20]*t11 + m->k[21]*t11 + m->k[22]*t8 + m->k[23]*t10 + m->k[24]*t10 + m->k[25]*t9 + m->k[26] + m->k[6]*t10 + m->k[7]*t11 + m->k[8]*t11 + m->k[9]*t10 + 0.0392865013F*t10 + 0.0880030773F*t11 - 1.35490655F*t8 + 0.345074247F*t9) - (45.0F/128.0F)*t10 + ((301.0F/384.0F))*t8 + ((45.0F/256.0F))*t9 + (-557.0F/1536.0F)))))/3.141592653589793238F;
-    return ((t32 < 0.0F) ? (0.0F) : (t32));
+    const float t14 = m->k[5]*t1*t13*t8;
+    const float t15 = t9 - 1.0F;
+    const float t16 = -t15*t6;
+    const float t17 = sqrtf(t16);
+    const float t18 = logf(1.0F + 1.0F/((t8 < 1.0e-30F) ? (1.0e-30F) : (t8)));
+    const float t30 = ((1.0F/2.0F))*t12 + ((1.0F/2.0F))*t17*(t0 + 1.0F) + ((1.0F/2.0F))*(t2 + t6*t9)/(t17 + 1.0F);
+    const float t19 = ((t30 < 0.0F) ? (0.0F) : (t30));
+    const float t20 = 1.0F/((t13 < (1.0F/1000000.0F)) ? ((1.0F/1000000.0F)) : (t13));
+    const float t21 = ((t19 > 1.0F) ? (1.0F) : (t19));
+    const float t22 = 1.0F - t21;
+    const float t23 = asinf(sqrtf(((t19 > t22) ? (t22) : (((t19 <= t22) ? (t19) : (t19 + t22))))));
+    const float t24 = 2.0F*t23;
+    const float t25 = (t23*t23);
+    const float t26 = 4.0F*t25;
+    const float t31 = ((999959.0F/1000000.0F))*m->k[18]*t20*((t21 < (1.0F/16.0F)) ? (8.0F*(t23*t23*t23)*(t26*(t26*(t26*(t26*(t26*(((1.0F/23351328000.0F))*t25 + (-1.0F/518918400.0F)) + (1.0F/3991680.0F)) + (-1.0F/45360.0F)) + (1.0F/840.0F)) + (-1.0F/30.0F)) + (1.0F/3.0F))) : (2.0F*sqrtf(t21)*sqrtf(t22) - (1.0F - 2.0F*t21)*((t21 < (1.0F/2.0F)) ? (t24) : (3.141592653589793238F - t24)))) + ((999959.0F/1000000.0F))*m->k[19]*t16*t20*(2.0F*(t0*t0) - 1.0F)*expm1f(t1*(m->k[22] + m->k[23]*t3 + m->k[24]*t2 + m->k[25]*t1 + m->k[26]*t4 + t7*(m->k[20] + m->k[21]*(t5*t5))) + t8*(m->k[22] + m->k[23]*t10 + m->k[24]*t9 + m->k[25]*t8 + m->k[26]*t11 + t18*(m->k[20] + m->k[21]*(t15*t15)))) + ((999959.0F/1000000.0F))*m->k[27]*t0*t17*t20*(m->k[28]*t13 + m->k[37]*t12 + (m->k[28]*t1 + m->k[28]*t8 + m->k[29]*t12 + 1.0F)*expm1f(t1*(m->k[30] + m->k[31]*t1 + m->k[32]*t2 + m->k[33]*t3 + m->k[34]*t4 + m->k[35]*t5*t7*(m->k[36]*t2 - 64.0F)) + t8*(m->k[30] + m->k[31]*t8 + m->k[32]*t9 + m->k[33]*t10 + m->k[34]*t11 + m->k[35]*t15*t18*(m->k[36]*t9 - 64.0F)))) + ((999959.0F/2000000.0F))*t20*(m->k[0]*t13 + m->k[15]*t2*t9 + m->k[16]*(t2 + t9) + m->k[17]*t12 + t14 + (m->k[0]*t1 + m->k[0]*t8 + m->k[1] + m->k[2]*t2 + m->k[2]*t9 + m->k[3]*t2*t9 + m->k[4]*t12 + t14)*expm1f(t1*(m->k[10] + m->k[11]*t3 + m->k[12]*t2 + m->k[13]*t1 + m->k[14]*t4 + t7*(m->k[6] + m->k[7]*m->k[8]*t2 + m->k[7]*m->k[9]*t4)) + t8*(m->k[10] + m->k[11]*t10 + m->k[12]*t9 + m->k[13]*t8 + m->k[14]*t11 + t18*(m->k[6] + m->k[7]*m->k[8]*t9 + m->k[7]*m->k[9]*t11))))/3.141592653589793238F;
+    return ((t31 < 0.0F) ? (0.0F) : (t31));
 }
 
 LAMBERT_SPHERE_FN void lambert_sphere_eval_rgb_f(const lambert_sphere_material_f m[3], float mu_i, float mu_o, float cos_phi, float out[3])
@@ -1414,54 +1505,53 @@ LAMBERT_SPHERE_FN void lambert_sphere_eval_rgb_f(const lambert_sphere_material_f
 
 LAMBERT_SPHERE_FN float lambert_sphere_eval_local_f(const lambert_sphere_material_f *m, const float wi[3], const float wo[3])
 {
-    const float t34 = ((wi[0] < -1.0F) ? (-1.0F) : (wi[0]));
-    const float t0 = ((t34 > 1.0F) ? (1.0F) : (t34));
-    const float t35 = ((wi[1] < -1.0F) ? (-1.0F) : (wi[1]));
-    const float t1 = ((t35 > 1.0F) ? (1.0F) : (t35));
-    const float t36 = ((wi[2] < -1.0F) ? (-1.0F) : (wi[2]));
-    const float t2 = ((t36 > 1.0F) ? (1.0F) : (t36));
-    const float t37 = ((wo[0] < -1.0F) ? (-1.0F) : (wo[0]));
-    const float t3 = ((t37 > 1.0F) ? (1.0F) : (t37));
-    const float t38 = ((wo[1] < -1.0F) ? (-1.0F) : (wo[1]));
-    const float t4 = ((t38 > 1.0F) ? (1.0F) : (t38));
-    const float t39 = ((wo[2] < -1.0F) ? (-1.0F) : (wo[2]));
-    const float t5 = ((t39 > 1.0F) ? (1.0F) : (t39));
-    const float t40 = ((t0*t0) + (t1*t1))*((t3*t3) + (t4*t4));
-    const float t41 = (t0*t3 + t1*t4)/sqrtf(((t40 < (1.0F/1000000000000000000000000000000.0F)) ? ((1.0F/1000000000000000000000000000000.0F)) : (t40)));
-    const float t42 = ((t41 < -1.0F) ? (-1.0F) : (t41));
-    const float t6 = ((t42 > 1.0F) ? (1.0F) : (t42));
-    const float t43 = ((t2 < 0.0F) ? (0.0F) : (t2));
-    const float t7 = ((t43 > 1.0F) ? (1.0F) : (t43));
+    const float t33 = ((wi[0] < -1.0F) ? (-1.0F) : (wi[0]));
+    const float t0 = ((t33 > 1.0F) ? (1.0F) : (t33));
+    const float t34 = ((wi[1] < -1.0F) ? (-1.0F) : (wi[1]));
+    const float t1 = ((t34 > 1.0F) ? (1.0F) : (t34));
+    const float t35 = ((wi[2] < -1.0F) ? (-1.0F) : (wi[2]));
+    const float t2 = ((t35 > 1.0F) ? (1.0F) : (t35));
+    const float t36 = ((wo[0] < -1.0F) ? (-1.0F) : (wo[0]));
+    const float t3 = ((t36 > 1.0F) ? (1.0F) : (t36));
+    const float t37 = ((wo[1] < -1.0F) ? (-1.0F) : (wo[1]));
+    const float t4 = ((t37 > 1.0F) ? (1.0F) : (t37));
+    const float t38 = ((wo[2] < -1.0F) ? (-1.0F) : (wo[2]));
+    const float t5 = ((t38 > 1.0F) ? (1.0F) : (t38));
+    const float t39 = ((t0*t0) + (t1*t1))*((t3*t3) + (t4*t4));
+    const float t40 = (t0*t3 + t1*t4)/sqrtf(((t39 < (1.0F/1000000000000000000000000000000.0F)) ? ((1.0F/1000000000000000000000000000000.0F)) : (t39)));
+    const float t41 = ((t40 < -1.0F) ? (-1.0F) : (t40));
+    const float t6 = ((t41 > 1.0F) ? (1.0F) : (t41));
+    const float t42 = ((t2 < 0.0F) ? (0.0F) : (t2));
+    const float t7 = ((t42 > 1.0F) ? (1.0F) : (t42));
     const float t8 = (t7*t7);
     const float t9 = (t7*t7*t7);
     const float t10 = (t7*t7*t7*t7);
     const float t11 = t8 - 1.0F;
     const float t12 = -t11;
     const float t13 = logf(1.0F + 1.0F/((t7 < 1.0e-30F) ? (1.0e-30F) : (t7)));
-    const float t44 = ((t5 < 0.0F) ? (0.0F) : (t5));
-    const float t14 = ((t44 > 1.0F) ? (1.0F) : (t44));
+    const float t43 = ((t5 < 0.0F) ? (0.0F) : (t5));
+    const float t14 = ((t43 > 1.0F) ? (1.0F) : (t43));
     const float t15 = (t14*t14);
     const float t16 = (t14*t14*t14);
     const float t17 = (t14*t14*t14*t14);
     const float t18 = t14*t7;
     const float t19 = t14 + t7;
-    const float t20 = t15 - 1.0F;
-    const float t21 = -t12*t20;
-    const float t22 = sqrtf(t21);
-    const float t23 = m->k[38]*t19 + m->k[39]*t18;
-    const float t24 = m->k[0]*t19 + m->k[2]*t15*t8 + m->k[3]*(t15 + t8) + m->k[4]*t14*t19*t7 + m->k[5]*t18;
-    const float t25 = logf(1.0F + 1.0F/((t14 < 1.0e-30F) ? (1.0e-30F) : (t14)));
-    const float t45 = ((1.0F/2.0F))*t18 + ((1.0F/2.0F))*t22*(t6 + 1.0F) + ((1.0F/2.0F))*(t12*t15 + t8)/(t22 + 1.0F);
-    const float t26 = ((t45 < 0.0F) ? (0.0F) : (t45));
-    const float t27 = 1.0F/((t19 < (1.0F/1000000.0F)) ? ((1.0F/1000000.0F)) : (t19));
-    const float t28 = ((t26 > 1.0F) ? (1.0F) : (t26));
-    const float t29 = 1.0F - t28;
-    const float t30 = asinf(sqrtf(((t26 > t29) ? (t29) : (((t26 <= t29) ? (t26) : (t26 + t29))))));
-    const float t31 = 2.0F*t30;
-    const float t32 = (t30*t30);
-    const float t33 = 4.0F*t32;
-    const float t46 = ((199987.0F/200000.0F))*m->k[31]*t27*((t28 < (1.0F/16.0F)) ? (8.0F*(t30*t30*t30)*(t33*(t33*(t33*(t33*(t33*(((1.0F/23351328000.0F))*t32 + (-1.0F/518918400.0F)) + (1.0F/3991680.0F)) + (-1.0F/45360.0F)) + (1.0F/840.0F)) + (-1.0F/30.0F)) + (1.0F/3.0F))) : (2.0F*sqrtf(t28)*sqrtf(t29) - (1.0F - 2.0F*t28)*((t28 < (1.0F/2.0F)) ? (t31) : (3.141592653589793238F - t31)))) + ((199987.0F/200000.0F))*m->k[37]*t21*t27*(2.0F*(t6*t6) - 1.0F)*expm1f(t14*(m->k[28]*(m->k[27]*(m->k[32]*t15 + m->k[33]*t16 + m->k[34]*t14 + m->k[35] + 0.0261517699F*t14 - 0.121753025F*t15 + 0.104790187F*t16) + ((25.0F/256.0F))*t14 + ((15.0F/512.0F))*t15 - (15.0F/256.0F)*t16 + (-45.0F/1024.0F)) + m->k[36]*(t20*t20)*t25) + t7*(m->k[28]*(m->k[27]*(m->k[32]*t8 + m->k[33]*t9 + m->k[34]*t7 + m->k[35] + 0.0261517699F*t7 - 0.121753025F*t8 + 0.104790187F*t9) + ((25.0F/256.0F))*t7 + ((15.0F/512.0F))*t8 - (15.0F/256.0F)*t9 + (-45.0F/1024.0F)) + m->k[36]*(t11*t11)*t13)) + ((199987.0F/200000.0F))*m->k[49]*t22*t27*t6*(t23 + (((45.0F/64.0F))*t18 + t23 + 1.0F)*expm1f(t14*(m->k[28]*(m->k[27]*(m->k[40]*t16 + m->k[41]*t14 + m->k[42]*t15 + m->k[43]*t15 + m->k[44]*t16 + m->k[45]*t14 + m->k[46] - 0.192772836F*t14 + 0.0913225216F*t15 + 0.0406919158F*t16) - (47.0F/96.0F)*t14 - (15.0F/128.0F)*t15 + ((15.0F/64.0F))*t16 + (173.0F/768.0F)) + m->k[48]*t20*t25*(m->k[47]*t15 - 64.0F)) + t7*(m->k[28]*(m->k[27]*(m->k[40]*t9 + m->k[41]*t7 + m->k[42]*t8 + m->k[43]*t8 + m->k[44]*t9 + m->k[45]*t7 + m->k[46] - 0.192772836F*t7 + 0.0913225216F*t8 + 0.0406919158F*t9) - (47.0F/96.0F)*t7 - (15.0F/128.0F)*t8 + ((15.0F/64.0F))*t9 + (173.0F/768.0F)) + m->k[48]*t11*t13*(m->k[47]*t8 - 64.0F)))) + ((199987.0F/400000.0F))*t27*(t24 + (m->k[1]*(135.0F*t15*t8 - 45.0F*t15 + 256.0F*t18 - 45.0F*t8 + 207.0F) + t24)*expm1f(t14*(m->k[1]*t25*(m->k[29]*t15 + m->k[30]*t17 + 207.0F) + m->k[28]*(m->k[27]*(m->k[10]*t15 + m->k[11]*t17 + m->k[12]*t14 + m->k[13]*t15 + m->k[14]*t15 + m->k[15]*t14 + m->k[16]*t14 + m->k[17]*t15 + m->k[18]*t16 + m->k[19]*t14 + m->k[20]*t17 + m->k[21]*t17 + m->k[22]*t14 + m->k[23]*t16 + m->k[24]*t16 + m->k[25]*t15 + m->k[26] + m->k[6]*t16 + m->k[7]*t17 + m->k[8]*t17 + m->k[9]*t16 - 1.35490655F*t14 + 0.345074247F*t15 + 0.0392865013F*t16 + 0.0880030773F*t17) + ((301.0F/384.0F))*t14 + ((45.0F/256.0F))*t15 - (45.0F/128.0F)*t16 + (-557.0F/1536.0F))) + t7*(m->k[1]*t13*(m->k[29]*t8 + m->k[30]*t10 + 207.0F) + m->k[28]*(m->k[27]*(m->k[10]*t8 + m->k[11]*t10 + m->k[12]*t7 + m->k[13]*t8 + m->k[14]*t8 + m->k[15]*t7 + m->k[16]*t7 + m->k[17]*t8 + m->k[18]*t9 + m->k[19]*t7 + m->k[20]*t10 + m->k[21]*t10 + m->k[22]*t7 + m->k[23]*t9 + m->k[24]*t9 + m->k[25]*t8 + m->k[26] + m->k[6]*t9 + m->k[7]*t10 + m->k[8]*t10 + m->k[9]*t9 + 0.0880030773F*t10 - 1.35490655F*t7 + 0.345074247F*t8 + 0.0392865013F*t9) + ((301.0F/384.0F))*t7 + ((45.0F/256.0F))*t8 - (45.0F/128.0F)*t9 + (-557.0F/1536.0F)))))/3.141592653589793238F;
-    return ((t2 < 0.0F) ? (0.0F) : (1.0F))*((t5 < 0.0F) ? (0.0F) : (1.0F))*((t46 < 0.0F) ? (0.0F) : (t46));
+    const float t20 = m->k[5]*t14*t19*t7;
+    const float t21 = t15 - 1.0F;
+    const float t22 = -t12*t21;
+    const float t23 = sqrtf(t22);
+    const float t24 = logf(1.0F + 1.0F/((t14 < 1.0e-30F) ? (1.0e-30F) : (t14)));
+    const float t44 = ((1.0F/2.0F))*t18 + ((1.0F/2.0F))*t23*(t6 + 1.0F) + ((1.0F/2.0F))*(t12*t15 + t8)/(t23 + 1.0F);
+    const float t25 = ((t44 < 0.0F) ? (0.0F) : (t44));
+    const float t26 = 1.0F/((t19 < (1.0F/1000000.0F)) ? ((1.0F/1000000.0F)) : (t19));
+    const float t27 = ((t25 > 1.0F) ? (1.0F) : (t25));
+    const float t28 = 1.0F - t27;
+    const float t29 = asinf(sqrtf(((t25 > t28) ? (t28) : (((t25 <= t28) ? (t25) : (t25 + t28))))));
+    const float t30 = 2.0F*t29;
+    const float t31 = (t29*t29);
+    const float t32 = 4.0F*t31;
+    const float t45 = ((999959.0F/1000000.0F))*m->k[18]*t26*((t27 < (1.0F/16.0F)) ? (8.0F*(t29*t29*t29)*(t32*(t32*(t32*(t32*(t32*(((1.0F/23351328000.0F))*t31 + (-1.0F/518918400.0F)) + (1.0F/3991680.0F)) + (-1.0F/45360.0F)) + (1.0F/840.0F)) + (-1.0F/30.0F)) + (1.0F/3.0F))) : (2.0F*sqrtf(t27)*sqrtf(t28) - (1.0F - 2.0F*t27)*((t27 < (1.0F/2.0F)) ? (t30) : (3.141592653589793238F - t30)))) + ((999959.0F/1000000.0F))*m->k[19]*t22*t26*(2.0F*(t6*t6) - 1.0F)*expm1f(t14*(m->k[22] + m->k[23]*t16 + m->k[24]*t15 + m->k[25]*t14 + m->k[26]*t17 + t24*(m->k[20] + m->k[21]*(t21*t21))) + t7*(m->k[22] + m->k[23]*t9 + m->k[24]*t8 + m->k[25]*t7 + m->k[26]*t10 + t13*(m->k[20] + m->k[21]*(t11*t11)))) + ((999959.0F/1000000.0F))*m->k[27]*t23*t26*t6*(m->k[28]*t19 + m->k[37]*t18 + (m->k[28]*t14 + m->k[28]*t7 + m->k[29]*t18 + 1.0F)*expm1f(t14*(m->k[30] + m->k[31]*t14 + m->k[32]*t15 + m->k[33]*t16 + m->k[34]*t17 + m->k[35]*t21*t24*(m->k[36]*t15 - 64.0F)) + t7*(m->k[30] + m->k[31]*t7 + m->k[32]*t8 + m->k[33]*t9 + m->k[34]*t10 + m->k[35]*t11*t13*(m->k[36]*t8 - 64.0F)))) + ((999959.0F/2000000.0F))*t26*(m->k[0]*t19 + m->k[15]*t15*t8 + m->k[16]*(t15 + t8) + m->k[17]*t18 + t20 + (m->k[0]*t14 + m->k[0]*t7 + m->k[1] + m->k[2]*t15 + m->k[2]*t8 + m->k[3]*t15*t8 + m->k[4]*t18 + t20)*expm1f(t14*(m->k[10] + m->k[11]*t16 + m->k[12]*t15 + m->k[13]*t14 + m->k[14]*t17 + t24*(m->k[6] + m->k[7]*m->k[8]*t15 + m->k[7]*m->k[9]*t17)) + t7*(m->k[10] + m->k[11]*t9 + m->k[12]*t8 + m->k[13]*t7 + m->k[14]*t10 + t13*(m->k[6] + m->k[7]*m->k[8]*t8 + m->k[7]*m->k[9]*t10))))/3.141592653589793238F;
+    return ((t2 < 0.0F) ? (0.0F) : (1.0F))*((t5 < 0.0F) ? (0.0F) : (1.0F))*((t45 < 0.0F) ? (0.0F) : (t45));
 }
 
 LAMBERT_SPHERE_FN void lambert_sphere_eval_local_rgb_f(const lambert_sphere_material_f m[3], const float wi[3], const float wo[3], float out[3])
@@ -1476,15 +1566,15 @@ LAMBERT_SPHERE_FN float lambert_sphere_pdf_f(const lambert_sphere_material_f *m,
     const float t12 = ((wi[2] < -1.0F) ? (-1.0F) : (wi[2]));
     const float t1 = ((t12 > 1.0F) ? (1.0F) : (t12));
     const float t13 = ((t1 < 0.0F) ? (0.0F) : (t1));
-    const float t2 = t0*acosf(((t13 > 1.0F) ? (1.0F) : (t13)));
-    const float t3 = 4.0F*t2 - 1.0F;
+    const float t2 = acosf(((t13 > 1.0F) ? (1.0F) : (t13)));
+    const float t3 = 4.0F*t0*t2 - 1.0F;
     const float t4 = (t3*t3);
     const float t5 = (t3*t3*t3);
     const float t6 = (t3*t3*t3*t3);
     const float t7 = (t3*t3*t3*t3*t3);
     const float t8 = (t3*t3*t3*t3*t3*t3);
-    const float t9 = 1.0F/(9.72406328F*expf(m->k[50]*t3 + m->k[51]*t4 + m->k[52]*t6 + m->k[53]*t7 + m->k[54]*t4 + m->k[55]*t5 + m->k[56]*t6 + m->k[57]*t8 + m->k[58]*t5 + m->k[59]*t8 + m->k[60]*t7 + m->k[61]*t5 + m->k[62]*t7 + m->k[63]*t3 + m->k[64]*t3 + m->k[65]*t7 + m->k[66]*t8 + m->k[67]*t6 + m->k[68]*t5 + m->k[69]*t8 + m->k[70]*t3 + m->k[71]*t4 + m->k[72]*t4 + m->k[73]*t6 + m->k[74] + 1.75003111F*t2 + 0.04628583F*t4 - 0.550401437F*t5 + 0.0782931467F*t6 - 0.71617015F*t7 - 0.534187166F*t8) + 1.0F);
-    const float t10 = 2.04294791F*expf(m->k[75]*t7 + m->k[76]*t5 + m->k[77]*t4 + m->k[78]*t8 + m->k[79]*t8 + m->k[80]*t3 + m->k[81]*t7 + m->k[82]*t5 + m->k[83]*t6 + m->k[84]*t6 + m->k[85]*t4 + m->k[86]*t3 + m->k[87]*t7 + m->k[88]*t3 + m->k[89]*t5 + m->k[90]*t8 + m->k[91]*t7 + m->k[92]*t4 + m->k[93]*t3 + m->k[94]*t8 + m->k[95]*t6 + m->k[96]*t6 + m->k[97]*t4 + m->k[98]*t5 + m->k[99] + 3.96971738F*t2 - 0.861604157F*t4 - 0.868438579F*t5 + 0.200808446F*t6 - 0.362516405F*t7 - 0.427542022F*t8);
+    const float t9 = 1.0F/(9.72406328F*expf(m->k[38] + m->k[39]*t6 + m->k[40]*t4 + m->k[41]*t8 + m->k[42]*t5 + m->k[43]*t7 + m->k[44]*t2) + 1.0F);
+    const float t10 = 2.04294791F*expf(m->k[45] + m->k[46]*t6 + m->k[47]*t4 + m->k[48]*t7 + m->k[49]*t8 + m->k[50]*t5 + m->k[51]*t2);
     const float t14 = ((wo[2] < -1.0F) ? (-1.0F) : (wo[2]));
     const float t11 = ((t14 > 1.0F) ? (1.0F) : (t14));
     const float t15 = ((wi[0] < -1.0F) ? (-1.0F) : (wi[0]));
@@ -1513,24 +1603,24 @@ LAMBERT_SPHERE_FN float lambert_sphere_sample_f(const lambert_sphere_material_f 
     const float t5 = ((t36 > 1.0F) ? (1.0F) : (t36));
     const float t37 = ((wi[2] < -1.0F) ? (-1.0F) : (wi[2]));
     const float t6 = ((t37 > 1.0F) ? (1.0F) : (t37));
+    const float t7 = 1.0F/(((t6 < 0.0F) ? (0.0F) : (t6)) + 1.0F);
     const float t38 = ((t6 < 0.0F) ? (0.0F) : (t6));
-    const float t7 = t0*acosf(((t38 > 1.0F) ? (1.0F) : (t38)));
-    const float t8 = 4.0F*t7 - 1.0F;
-    const float t9 = (t8*t8);
-    const float t10 = (t8*t8*t8);
-    const float t11 = (t8*t8*t8*t8);
-    const float t12 = (t8*t8*t8*t8*t8);
-    const float t13 = (t8*t8*t8*t8*t8*t8);
-    const float t14 = 1.0F/(9.72406328F*expf(m->k[50]*t8 + m->k[51]*t9 + m->k[52]*t11 + m->k[53]*t12 + m->k[54]*t9 + m->k[55]*t10 + m->k[56]*t11 + m->k[57]*t13 + m->k[58]*t10 + m->k[59]*t13 + m->k[60]*t12 + m->k[61]*t10 + m->k[62]*t12 + m->k[63]*t8 + m->k[64]*t8 + m->k[65]*t12 + m->k[66]*t13 + m->k[67]*t11 + m->k[68]*t10 + m->k[69]*t13 + m->k[70]*t8 + m->k[71]*t9 + m->k[72]*t9 + m->k[73]*t11 + m->k[74] - 0.550401437F*t10 + 0.0782931467F*t11 - 0.71617015F*t12 - 0.534187166F*t13 + 1.75003111F*t7 + 0.04628583F*t9) + 1.0F);
-    const float t15 = -t14;
-    const float t16 = t15 + 1.0F;
-    const float t17 = 1.0F/(((t6 < 0.0F) ? (0.0F) : (t6)) + 1.0F);
-    const float t18 = 2.04294791F*expf(m->k[75]*t12 + m->k[76]*t10 + m->k[77]*t9 + m->k[78]*t13 + m->k[79]*t13 + m->k[80]*t8 + m->k[81]*t12 + m->k[82]*t10 + m->k[83]*t11 + m->k[84]*t11 + m->k[85]*t9 + m->k[86]*t8 + m->k[87]*t12 + m->k[88]*t8 + m->k[89]*t10 + m->k[90]*t13 + m->k[91]*t12 + m->k[92]*t9 + m->k[93]*t8 + m->k[94]*t13 + m->k[95]*t11 + m->k[96]*t11 + m->k[97]*t9 + m->k[98]*t10 + m->k[99] - 0.868438579F*t10 + 0.200808446F*t11 - 0.362516405F*t12 - 0.427542022F*t13 + 3.96971738F*t7 - 0.861604157F*t9);
+    const float t8 = acosf(((t38 > 1.0F) ? (1.0F) : (t38)));
+    const float t9 = 4.0F*t0*t8 - 1.0F;
+    const float t10 = (t9*t9);
+    const float t11 = (t9*t9*t9);
+    const float t12 = (t9*t9*t9*t9);
+    const float t13 = (t9*t9*t9*t9*t9);
+    const float t14 = (t9*t9*t9*t9*t9*t9);
+    const float t15 = 1.0F/(9.72406328F*expf(m->k[38] + m->k[39]*t12 + m->k[40]*t10 + m->k[41]*t14 + m->k[42]*t11 + m->k[43]*t13 + m->k[44]*t8) + 1.0F);
+    const float t16 = -t15;
+    const float t17 = t16 + 1.0F;
+    const float t18 = 2.04294791F*expf(m->k[45] + m->k[46]*t12 + m->k[47]*t10 + m->k[48]*t13 + m->k[49]*t14 + m->k[50]*t11 + m->k[51]*t8);
     const float t19 = t18 + 1.0F;
     const float t39 = ((u1 < 0.0F) ? (0.0F) : (u1));
     const float t20 = ((t39 > 1.0F) ? (1.0F) : (t39));
-    const float t21 = lambert_sphere_safe_pow_f(t20/t14, 1.0F/t19);
-    const float t40 = (t15 + t20)/t16;
+    const float t21 = lambert_sphere_safe_pow_f(t20/t15, 1.0F/t19);
+    const float t40 = (t16 + t20)/t17;
     const float t22 = ((t40 < 0.0F) ? (0.0F) : (t40));
     const float t23 = sqrtf(t22);
     const float t41 = 1.0F - (t21*t21);
@@ -1541,11 +1631,11 @@ LAMBERT_SPHERE_FN float lambert_sphere_sample_f(const lambert_sphere_material_f 
     const float t28 = t26*t4;
     const float t29 = -t21*t6 + t27 + t28;
     const float t42 = 1.0F - t22;
-    const float t31 = ((t14 > t20) ? (-t29) : (sqrtf(((t42 < 0.0F) ? (0.0F) : (t42)))));
-    const float t32 = ((t14 > t20) ? (-t17*t27*t4 + t21*t4 + t26*(-t17*(t4*t4) + 1.0F)) : (t23*t3));
-    const float t33 = ((t14 > t20) ? (-t17*t28*t5 + t21*t5 + t25*(-t17*(t5*t5) + 1.0F)) : (t2*t23));
+    const float t31 = ((t15 > t20) ? (-t29) : (sqrtf(((t42 < 0.0F) ? (0.0F) : (t42)))));
+    const float t32 = ((t15 > t20) ? (t21*t4 + t26*(-(t4*t4)*t7 + 1.0F) - t27*t4*t7) : (t23*t3));
+    const float t33 = ((t15 > t20) ? (t21*t5 + t25*(-(t5*t5)*t7 + 1.0F) - t28*t5*t7) : (t2*t23));
     wo[0] = t32;
     wo[1] = t33;
     wo[2] = t31;
-    return (((1.0F/2.0F))*t0*t14*t19*lambert_sphere_safe_pow_f(t31*t6 + t32*t4 + t33*t5, t18) + t0*t16*((t31 < 0.0F) ? (0.0F) : (t31)))*((t14 > t20 && t29 > 0.0F) ? (0.0F) : (1.0F))*((t6 < 0.0F) ? (0.0F) : (1.0F));
+    return (((1.0F/2.0F))*t0*t15*t19*lambert_sphere_safe_pow_f(t31*t6 + t32*t4 + t33*t5, t18) + t0*t17*((t31 < 0.0F) ? (0.0F) : (t31)))*((t15 > t20 && t29 > 0.0F) ? (0.0F) : (1.0F))*((t6 < 0.0F) ? (0.0F) : (1.0F));
 }

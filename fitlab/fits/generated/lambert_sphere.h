@@ -5,19 +5,19 @@
  * Terms of brdf: single, m0, m1, m2
  * Model: true (the most accurate model at its cost: orders 0, 1 and 2 of multiple scattering, every part fitted to the true BRDF)
  * Accuracy of brdf against the true BRDF (exact.brdf, phase 'true': the whole phase function in every collision), measured by fitlab codegen:
- *   max 5.61e-04, RMS 1.10e-04 relative over mu_i, mu_o in [0.01, 1], c in [1e-06, 1], every phi (9476 points), worst at mu_i = 0.01, mu_o = 0.01, phi = 3.142, c = 0.03;
- *   max 2.50e-03 down to mu_i, mu_o = 1e-6 (621 points); exactly 0 at c = 0;
- *   directional albedo at c = 1 from 0.999866 to 0.999989.
+ *   max 1.75e-04, RMS 6.19e-05 relative over mu_i, mu_o in [0.01, 1], c in [1e-06, 1], every phi (9476 points), worst at mu_i = 0.01, mu_o = 0.01, phi = 3.142, c = 0.2104;
+ *   max 1.86e-04 down to mu_i, mu_o = 1e-6 (621 points); exactly 0 at c = 0;
+ *   directional albedo at c = 1 from 0.999909 to 0.999989.
  * From these fits (file, sha256, where read, the physics it was fitted to, and its error against its own target as fitlab codegen re-measured it on the target's validation set):
- *   H0.log_exp.json  229f5eadf6e4039becddbcd2a96fcceba205574a5c7e2e66fc4e08c11264c722  packaged (true); physics true; against H0 (three_term): max 8.91e-03, RMS 3.26e-03 (relative, 17290 points)
- *   H1.log_exp.json  9184e7fd12ee9a82b77b26ccb8a2f7188466b245272a0cbecb98b6e03285a24b  packaged (true); physics true; against H1 (three_term): max 1.11e-02, RMS 3.64e-03 (relative, 17290 points)
- *   H2.json  723f2492a8c9ec82e3e53f453a04f1ff9b4d106c17a4d4ae91c268ca7f0cd8fd  packaged (true); physics true; against H2 (three_term): max 1.21e-02, RMS 1.63e-03 (relative, 17290 points)
- *   l.cubic.json  020a889ec5444c1ed9ae95d241cc3c3fcbdef6a4304194c1e2e71aa7d237d61c  packaged (true); physics true; against l (three_term): max 1.60e-01, RMS 1.15e-01 (relative, 130 points)
- *   m.quadratic.json  33b2f1c84b86548bd2f69dd473b5fa411454a903b26270b765caa82ac0be45eb  packaged (true); physics true; against m (three_term): max 1.32e-02, RMS 7.93e-03 (relative, 130 points)
- *   B.c2_rational_4_3.json  7baa68a0ede7d510b123122ec2fb504d45bb64aeffff962b2813b0662935ddae  packaged (true); physics true; against B (three_term): max 8.90e-03, RMS 5.90e-03 (relative to A = 69c/128, 130 points)
- *   C.c2_rational_4_3.json  7950dc91559fe27295ca3844662913f899dc47dc34c0e01b1e0a733c214df6f9  packaged (true); physics true; against C (three_term): max 6.00e-03, RMS 3.91e-03 (relative to A = 69c/128, 130 points)
- *   D.c2_rational_4_3.json  658c3fc98fe4461e75276c37b15236a3dd5bf0a151ce265d37f4c68f000d571a  packaged (true); physics true; against D (three_term): max 8.84e-03, RMS 5.59e-03 (relative to A = 69c/128, 130 points)
- *   F.c2_rational_4_3.json  c0fe4c3b7c9d611d663704ecdc3e73e10799fd187bf9c6ef85203dbe5a372938  packaged (true); physics true; against F (three_term): max 1.32e-02, RMS 3.84e-03 (relative to A = 69c/128, 130 points)
+ *   H0.log_exp_true.json  1ec2a5c504765c22de1fb78549188e16b04359a83c02349d53ca7b816d4b3daf  packaged (true); physics true; against H0 (three_term): max 2.66e-02, RMS 4.37e-03 (relative, 17290 points)
+ *   H1.log_exp_true.json  82d139687de3d66715b2a6ff6c1e69472ef7fe8d6e964e150a376426a91a7ec6  packaged (true); physics true; against H1 (three_term): max 5.95e-03, RMS 2.80e-03 (relative, 17290 points)
+ *   H2.log_exp_true.json  0b6646832ae45d7daec247fef9fda6529925cbe6b44b5368d84158def2f40349  packaged (true); physics true; against H2 (three_term): max 1.71e-03, RMS 2.94e-04 (relative, 17290 points)
+ *   l.cubic.json  b84bac6f652bf36ce3dc3ac76537af79da275283b52ce0876861a69614abd97a  packaged (true); physics true; against l (three_term): max 1.10e-01, RMS 9.64e-02 (relative, 130 points)
+ *   m.quadratic.json  7564d89b68908939b8f8963c41efbf3d3dbec2aab8ddd1fdc1990e8d6e5a26b7  packaged (true); physics true; against m (three_term): max 9.80e-03, RMS 6.72e-03 (relative, 130 points)
+ *   B.c2_rational_4_3.json  8cf7a76117ee04c7fbbc48a30d309420bec1691e73d4609940e8fc0323111ea8  packaged (true); physics true; against B (three_term): max 1.65e-02, RMS 5.59e-03 (relative to A = 69c/128, 130 points)
+ *   C.c2_rational_4_3.json  06e2edc04403af604df6b416e8340d2db3c60b2fd76a933da69e5a820bf45be4  packaged (true); physics true; against C (three_term): max 6.02e-03, RMS 2.62e-03 (relative to A = 69c/128, 130 points)
+ *   D.c2_rational_4_3.json  33728530ccb7be51bdcffe505b177605b7380b4e223e05f0609b3bf2d2a6e40f  packaged (true); physics true; against D (three_term): max 4.95e-03, RMS 3.34e-03 (relative to A = 69c/128, 130 points)
+ *   F.c2_rational_4_3.json  3e570fe402ca78ed1711df4f0d3ef69fcba5e689b3fdbd01f9f90cd56b733260  packaged (true); physics true; against F (three_term): max 6.79e-03, RMS 1.92e-03 (relative to A = 69c/128, 130 points)
  *   c_of_kd.json  196e63b77df4f566e79eedd9c0781dd67c8f3dd28b8271f76bf598e6eb95b12a  packaged; physics true; against c_of_kd (true): max 1.13e-02, RMS 6.51e-03 (relative, 130 points)
  *   kd_of_c.json  5161a0bae66b8507bef46066054088a59730073cba0b22609aaae8776cb485e4  packaged; physics true; against kd_of_c (true): max 8.71e-03, RMS 5.26e-03 (relative, 130 points)
  *   sample_weight.json  a652eb05655eea0f158d38aa922b591bbfeb1cffc40077cc8bda731aa140746a  packaged; physics mixed; against sample_weight (mixed): max 2.09e-01, RMS 2.70e-02 (relative, 630 points)
@@ -42,51 +42,49 @@ extern "C" {
 #endif
 
 /*
- * H0(mu, c), mu and c in [0, 1]; form log_exp: H0 = exp(mu (Psi0(mu) log(1 + 1/mu) + c (p(mu) +
- * (1 - s) sum_jk a_jk s^j mu^k))), j <= 5, k <= 4, Psi0 the exact characteristic function (eqs.
- * 13-15) and p the exact cubic of the first iterate (first_order). Exact at mu = 0 (H = 1), at
- * c = 0 and to first order in c (1 - s = O(c)); H - 1 ~ Psi0(0) mu log(1/mu) as mu -> 0, the
- * exact grazing behaviour, so (H_i H_o - 1)/(mu_i + mu_o) in the runtime BRDF keeps its
- * log(1/mu) pole. Measured by fitlab codegen: max 8.91e-03, RMS 3.26e-03 (relative, 17290
- * points).
+ * H0(mu, c), mu and c in [0, 1]; form log_exp_true: H0 = exp(mu ((Psi0(mu) + kappa c) log(1 +
+ * 1/mu) + c (p(mu) + (1 - s) sum_jk a_jk s^j mu^k))), j <= 5, k <= 4: log_exp with kappa =
+ * 0.00263751 (true_grazing_shift), so that the runtime structure has the true BRDF's grazing
+ * law, (H_i H_o - 1) Psi(0) ~ Psi_true(0)^2 (mu_i log(1/mu_i) + mu_o log(1/mu_o)), Psi_true the
+ * whole phase function's. H = 1 at mu = 0 and at c = 0. For the parts fitted to the true BRDF.
+ * Measured by fitlab codegen: max 2.66e-02, RMS 4.37e-03 (relative, 17290 points).
  */
 LAMBERT_SPHERE_FN double lambert_sphere_h0(double mu, double c);
 LAMBERT_SPHERE_FN float lambert_sphere_h0_f(float mu, float c);
 
 /*
- * H1(mu, c), mu and c in [0, 1]; form log_exp: H1 = exp(mu (Psi1(mu) log(1 + 1/mu) + c (p(mu) +
- * (1 - s) sum_jk a_jk s^j mu^k))), j <= 2, k <= 3, Psi1 the exact characteristic function (eqs.
- * 13-15) and p the exact cubic of the first iterate (first_order). Exact at mu = 0 (H = 1), at
- * c = 0 and to first order in c (1 - s = O(c)); H - 1 ~ Psi1(0) mu log(1/mu) as mu -> 0, the
- * exact grazing behaviour, so (H_i H_o - 1)/(mu_i + mu_o) in the runtime BRDF keeps its
- * log(1/mu) pole. Measured by fitlab codegen: max 1.11e-02, RMS 3.64e-03 (relative, 17290
- * points).
+ * H1(mu, c), mu and c in [0, 1]; form log_exp_true: H1 = exp(mu ((Psi1(mu) + kappa c) log(1 +
+ * 1/mu) + c (p(mu) + (1 - s) sum_jk a_jk s^j mu^k))), j <= 2, k <= 4: log_exp with kappa = 0
+ * (true_grazing_shift), so that the runtime structure has the true BRDF's grazing law, (H_i H_o
+ * - 1) Psi(0) ~ Psi_true(0)^2 (mu_i log(1/mu_i) + mu_o log(1/mu_o)), Psi_true the whole phase
+ * function's. H = 1 at mu = 0 and at c = 0. For the parts fitted to the true BRDF. Measured by
+ * fitlab codegen: max 5.95e-03, RMS 2.80e-03 (relative, 17290 points).
  */
 LAMBERT_SPHERE_FN double lambert_sphere_h1(double mu, double c);
 LAMBERT_SPHERE_FN float lambert_sphere_h1_f(float mu, float c);
 
 /*
  * H2(mu, c), mu and c in [0, 1]: the H-function of Fourier order 2 (eq. 15), for fm2; form
- * log_exp: H2 = exp(mu (Psi2(mu) log(1 + 1/mu) + c (p(mu) + (1 - s) sum_jk a_jk s^j mu^k))), j
- * <= 1, k <= 3, Psi2 the exact characteristic function (eqs. 13-15) and p the exact cubic of
- * the first iterate (first_order). Exact at mu = 0 (H = 1), at c = 0 and to first order in c (1
- * - s = O(c)); H - 1 ~ Psi2(0) mu log(1/mu) as mu -> 0, the exact grazing behaviour, so (H_i
- * H_o - 1)/(mu_i + mu_o) in the runtime BRDF keeps its log(1/mu) pole. Measured by fitlab
- * codegen: max 1.21e-02, RMS 1.63e-03 (relative, 17290 points).
+ * log_exp_true: H2 = exp(mu ((Psi2(mu) + kappa c) log(1 + 1/mu) + c (p(mu) + (1 - s) sum_jk
+ * a_jk s^j mu^k))), j <= 1, k <= 4: log_exp with kappa = 0.00293267 (true_grazing_shift), so
+ * that the runtime structure has the true BRDF's grazing law, (H_i H_o - 1) Psi(0) ~
+ * Psi_true(0)^2 (mu_i log(1/mu_i) + mu_o log(1/mu_o)), Psi_true the whole phase function's. H =
+ * 1 at mu = 0 and at c = 0. For the parts fitted to the true BRDF. Measured by fitlab codegen:
+ * max 1.71e-03, RMS 2.94e-04 (relative, 17290 points).
  */
 LAMBERT_SPHERE_FN double lambert_sphere_h2(double mu, double c);
 LAMBERT_SPHERE_FN float lambert_sphere_h2_f(float mu, float c);
 
 /*
  * l(c) of f^(1) (eq. 22); form cubic: l = l1 c + l2 c^2 + l3 c^3: eq. 26 with one more power of
- * c. Measured by fitlab codegen: max 1.60e-01, RMS 1.15e-01 (relative, 130 points).
+ * c. Measured by fitlab codegen: max 1.10e-01, RMS 9.64e-02 (relative, 130 points).
  */
 LAMBERT_SPHERE_FN double lambert_sphere_const_l(double c);
 LAMBERT_SPHERE_FN float lambert_sphere_const_l_f(float c);
 
 /*
  * m(c) of f^(1) (eq. 22); form quadratic: m = 1 + m1 c + m2 c^2: eq. 27 with one more power of
- * c. Measured by fitlab codegen: max 1.32e-02, RMS 7.93e-03 (relative, 130 points).
+ * c. Measured by fitlab codegen: max 9.80e-03, RMS 6.72e-03 (relative, 130 points).
  */
 LAMBERT_SPHERE_FN double lambert_sphere_const_m(double c);
 LAMBERT_SPHERE_FN float lambert_sphere_const_m_f(float c);
@@ -95,7 +93,7 @@ LAMBERT_SPHERE_FN float lambert_sphere_const_m_f(float c);
  * B(c) of Q in f^(0) (eq. 30); form c2_rational_4_3: B = 0 c + c^2 P(s)/R(s), P and R cubic in
  * s, R(0) = 1: the O(c) term exact (Q = 2 pi (mu_i + mu_o) f0_ss + O(c^2)), so that the runtime
  * fm0 = f0 - f0_ss is O(c^2) like the exact one and keeps its relative accuracy as c -> 0.
- * Measured by fitlab codegen: max 8.90e-03, RMS 5.90e-03 (relative to A = 69c/128, 130 points).
+ * Measured by fitlab codegen: max 1.65e-02, RMS 5.59e-03 (relative to A = 69c/128, 130 points).
  */
 LAMBERT_SPHERE_FN double lambert_sphere_const_b(double c);
 LAMBERT_SPHERE_FN float lambert_sphere_const_b_f(float c);
@@ -104,7 +102,7 @@ LAMBERT_SPHERE_FN float lambert_sphere_const_b_f(float c);
  * C(c) of Q in f^(0) (eq. 30); form c2_rational_4_3: C = 2/3 c + c^2 P(s)/R(s), P and R cubic
  * in s, R(0) = 1: the O(c) term exact (Q = 2 pi (mu_i + mu_o) f0_ss + O(c^2)), so that the
  * runtime fm0 = f0 - f0_ss is O(c^2) like the exact one and keeps its relative accuracy as c ->
- * 0. Measured by fitlab codegen: max 6.00e-03, RMS 3.91e-03 (relative to A = 69c/128, 130
+ * 0. Measured by fitlab codegen: max 6.02e-03, RMS 2.62e-03 (relative to A = 69c/128, 130
  * points).
  */
 LAMBERT_SPHERE_FN double lambert_sphere_const_c(double c);
@@ -114,7 +112,7 @@ LAMBERT_SPHERE_FN float lambert_sphere_const_c_f(float c);
  * D(c) of Q in f^(0) (eq. 30); form c2_rational_4_3: D = 0 c + c^2 P(s)/R(s), P and R cubic in
  * s, R(0) = 1: the O(c) term exact (Q = 2 pi (mu_i + mu_o) f0_ss + O(c^2)), so that the runtime
  * fm0 = f0 - f0_ss is O(c^2) like the exact one and keeps its relative accuracy as c -> 0.
- * Measured by fitlab codegen: max 8.84e-03, RMS 5.59e-03 (relative to A = 69c/128, 130 points).
+ * Measured by fitlab codegen: max 4.95e-03, RMS 3.34e-03 (relative to A = 69c/128, 130 points).
  */
 LAMBERT_SPHERE_FN double lambert_sphere_const_d(double c);
 LAMBERT_SPHERE_FN float lambert_sphere_const_d_f(float c);
@@ -123,7 +121,7 @@ LAMBERT_SPHERE_FN float lambert_sphere_const_d_f(float c);
  * F(c) of Q in f^(0) (eq. 30); form c2_rational_4_3: F = -15/128 c + c^2 P(s)/R(s), P and R
  * cubic in s, R(0) = 1: the O(c) term exact (Q = 2 pi (mu_i + mu_o) f0_ss + O(c^2)), so that
  * the runtime fm0 = f0 - f0_ss is O(c^2) like the exact one and keeps its relative accuracy as
- * c -> 0. Measured by fitlab codegen: max 1.32e-02, RMS 3.84e-03 (relative to A = 69c/128, 130
+ * c -> 0. Measured by fitlab codegen: max 6.79e-03, RMS 1.92e-03 (relative to A = 69c/128, 130
  * points).
  */
 LAMBERT_SPHERE_FN double lambert_sphere_const_f(double c);
@@ -203,13 +201,13 @@ LAMBERT_SPHERE_FN float lambert_sphere_fm2_f(float mu_i, float mu_o, float c);
 
 /*
  * The runtime Lambert-sphere BRDF (1/sr), max(0, s (single + fm0 + fm1 cos phi + fm2 cos 2phi))
- * with the energy scale s = 0.999935, which keeps the directional albedo at c = 1 below 1
+ * with the energy scale s = 0.999959, which keeps the directional albedo at c = 1 below 1
  * (docs/model.md). mu_i, mu_o in [0, 1], cos_phi in [-1, 1] (phi = 0 back-scattering), c the
  * particle albedo in [0, 1]; inputs outside (+-inf included) are clamped, NaN in any input
  * gives NaN. Against the true BRDF (the whole phase function), as fitlab codegen measured it:
- * max 5.61e-04, RMS 1.10e-04 relative over mu_i, mu_o in [0.01, 1], c in [1e-06, 1], every phi
- * (9476 points); max 2.50e-03 down to mu_i, mu_o = 1e-6 (621 points); exactly 0 at c = 0;
- * directional albedo at c = 1 from 0.999866 to 0.999989.
+ * max 1.75e-04, RMS 6.19e-05 relative over mu_i, mu_o in [0.01, 1], c in [1e-06, 1], every phi
+ * (9476 points); max 1.86e-04 down to mu_i, mu_o = 1e-6 (621 points); exactly 0 at c = 0;
+ * directional albedo at c = 1 from 0.999909 to 0.999989.
  */
 LAMBERT_SPHERE_FN double lambert_sphere_brdf(double mu_i, double mu_o, double cos_phi, double c);
 LAMBERT_SPHERE_FN float lambert_sphere_brdf_f(float mu_i, float mu_o, float cos_phi, float c);
@@ -225,9 +223,9 @@ LAMBERT_SPHERE_FN float lambert_sphere_brdf_fast_f(float mu_i, float mu_o, float
  * brdf for unit vectors wi, wo in the local frame (z along the normal, both pointing away from
  * the surface); 0 if either is below the surface. Components are clamped to [-1, 1] (not
  * normalised); NaN in any input gives NaN. Against the true BRDF (the whole phase function), as
- * fitlab codegen measured it: max 5.61e-04, RMS 1.10e-04 relative over mu_i, mu_o in [0.01, 1],
- * c in [1e-06, 1], every phi (9476 points); max 2.50e-03 down to mu_i, mu_o = 1e-6 (621
- * points); exactly 0 at c = 0; directional albedo at c = 1 from 0.999866 to 0.999989.
+ * fitlab codegen measured it: max 1.75e-04, RMS 6.19e-05 relative over mu_i, mu_o in [0.01, 1],
+ * c in [1e-06, 1], every phi (9476 points); max 1.86e-04 down to mu_i, mu_o = 1e-6 (621
+ * points); exactly 0 at c = 0; directional albedo at c = 1 from 0.999909 to 0.999989.
  */
 LAMBERT_SPHERE_FN double lambert_sphere_brdf_local(const double wi[3], const double wo[3], double c);
 LAMBERT_SPHERE_FN float lambert_sphere_brdf_local_f(const float wi[3], const float wo[3], float c);
@@ -262,12 +260,12 @@ LAMBERT_SPHERE_FN float lambert_sphere_sample_local_f(const float wi[3], float u
 
 /*
  * Per-material set-up: lambert_sphere_prepare_c(c) fills the struct with every quantity that
- * depends on c alone (100 numbers), lambert_sphere_prepare(kd) the same from kd;
+ * depends on c alone (52 numbers), lambert_sphere_prepare(kd) the same from kd;
  * lambert_sphere_eval, lambert_sphere_eval_local, lambert_sphere_pdf, lambert_sphere_sample
  * evaluate with it, so that a renderer prepares each material once and evaluates it many times.
  * The _rgb variants take three materials (one per channel) and give three values.
  */
-typedef struct lambert_sphere_material { double k[100]; } lambert_sphere_material;
+typedef struct lambert_sphere_material { double k[52]; } lambert_sphere_material;
 LAMBERT_SPHERE_FN lambert_sphere_material lambert_sphere_prepare_c(double c);
 LAMBERT_SPHERE_FN lambert_sphere_material lambert_sphere_prepare(double kd);
 LAMBERT_SPHERE_FN void lambert_sphere_prepare_c_rgb(const double c[3], lambert_sphere_material m[3]);
@@ -276,13 +274,13 @@ LAMBERT_SPHERE_FN void lambert_sphere_prepare_rgb(const double kd[3], lambert_sp
 /*
  * brdf with the per-material set-up hoisted: the material m comes from prepare_c or prepare.
  * The runtime Lambert-sphere BRDF (1/sr), max(0, s (single + fm0 + fm1 cos phi + fm2 cos 2phi))
- * with the energy scale s = 0.999935, which keeps the directional albedo at c = 1 below 1
+ * with the energy scale s = 0.999959, which keeps the directional albedo at c = 1 below 1
  * (docs/model.md). mu_i, mu_o in [0, 1], cos_phi in [-1, 1] (phi = 0 back-scattering), c the
  * particle albedo in [0, 1]; inputs outside (+-inf included) are clamped, NaN in any input
  * gives NaN. Against the true BRDF (the whole phase function), as fitlab codegen measured it:
- * max 5.61e-04, RMS 1.10e-04 relative over mu_i, mu_o in [0.01, 1], c in [1e-06, 1], every phi
- * (9476 points); max 2.50e-03 down to mu_i, mu_o = 1e-6 (621 points); exactly 0 at c = 0;
- * directional albedo at c = 1 from 0.999866 to 0.999989.
+ * max 1.75e-04, RMS 6.19e-05 relative over mu_i, mu_o in [0.01, 1], c in [1e-06, 1], every phi
+ * (9476 points); max 1.86e-04 down to mu_i, mu_o = 1e-6 (621 points); exactly 0 at c = 0;
+ * directional albedo at c = 1 from 0.999909 to 0.999989.
  */
 LAMBERT_SPHERE_FN double lambert_sphere_eval(const lambert_sphere_material *m, double mu_i, double mu_o, double cos_phi);
 LAMBERT_SPHERE_FN void lambert_sphere_eval_rgb(const lambert_sphere_material m[3], double mu_i, double mu_o, double cos_phi, double out[3]);
@@ -292,9 +290,9 @@ LAMBERT_SPHERE_FN void lambert_sphere_eval_rgb(const lambert_sphere_material m[3
  * prepare. brdf for unit vectors wi, wo in the local frame (z along the normal, both pointing
  * away from the surface); 0 if either is below the surface. Components are clamped to [-1, 1]
  * (not normalised); NaN in any input gives NaN. Against the true BRDF (the whole phase
- * function), as fitlab codegen measured it: max 5.61e-04, RMS 1.10e-04 relative over mu_i, mu_o
- * in [0.01, 1], c in [1e-06, 1], every phi (9476 points); max 2.50e-03 down to mu_i, mu_o =
- * 1e-6 (621 points); exactly 0 at c = 0; directional albedo at c = 1 from 0.999866 to 0.999989.
+ * function), as fitlab codegen measured it: max 1.75e-04, RMS 6.19e-05 relative over mu_i, mu_o
+ * in [0.01, 1], c in [1e-06, 1], every phi (9476 points); max 1.86e-04 down to mu_i, mu_o =
+ * 1e-6 (621 points); exactly 0 at c = 0; directional albedo at c = 1 from 0.999909 to 0.999989.
  */
 LAMBERT_SPHERE_FN double lambert_sphere_eval_local(const lambert_sphere_material *m, const double wi[3], const double wo[3]);
 LAMBERT_SPHERE_FN void lambert_sphere_eval_local_rgb(const lambert_sphere_material m[3], const double wi[3], const double wo[3], double out[3]);
@@ -319,7 +317,7 @@ LAMBERT_SPHERE_FN void lambert_sphere_pdf_rgb(const lambert_sphere_material m[3]
  * 1], u1, u2 to [0, 1]; NaN in any input gives NaN.
  */
 LAMBERT_SPHERE_FN double lambert_sphere_sample(const lambert_sphere_material *m, const double wi[3], double u1, double u2, double wo[3]);
-typedef struct lambert_sphere_material_f { float k[100]; } lambert_sphere_material_f;
+typedef struct lambert_sphere_material_f { float k[52]; } lambert_sphere_material_f;
 LAMBERT_SPHERE_FN lambert_sphere_material_f lambert_sphere_prepare_c_f(float c);
 LAMBERT_SPHERE_FN lambert_sphere_material_f lambert_sphere_prepare_f(float kd);
 LAMBERT_SPHERE_FN void lambert_sphere_prepare_c_rgb_f(const float c[3], lambert_sphere_material_f m[3]);

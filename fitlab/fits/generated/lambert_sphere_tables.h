@@ -164,12 +164,12 @@ LAMBERT_SPHERE_TABLES_FN float lambert_sphere_tables_brdf_local_f(const float wi
 
 /*
  * Per-material set-up: lambert_sphere_tables_prepare_c(c) fills the struct with every quantity
- * that depends on c alone (59 numbers), lambert_sphere_tables_prepare(kd) the same from kd;
+ * that depends on c alone (64 numbers), lambert_sphere_tables_prepare(kd) the same from kd;
  * lambert_sphere_tables_eval, lambert_sphere_tables_eval_local evaluate with it, so that a
  * renderer prepares each material once and evaluates it many times. The _rgb variants take
  * three materials (one per channel) and give three values.
  */
-typedef struct lambert_sphere_tables_material { double k[59]; } lambert_sphere_tables_material;
+typedef struct lambert_sphere_tables_material { double k[64]; } lambert_sphere_tables_material;
 LAMBERT_SPHERE_TABLES_FN lambert_sphere_tables_material lambert_sphere_tables_prepare_c(double c);
 LAMBERT_SPHERE_TABLES_FN lambert_sphere_tables_material lambert_sphere_tables_prepare(double kd);
 LAMBERT_SPHERE_TABLES_FN void lambert_sphere_tables_prepare_c_rgb(const double c[3], lambert_sphere_tables_material m[3]);
@@ -197,7 +197,7 @@ LAMBERT_SPHERE_TABLES_FN void lambert_sphere_tables_eval_rgb(const lambert_spher
  */
 LAMBERT_SPHERE_TABLES_FN double lambert_sphere_tables_eval_local(const lambert_sphere_tables_material *m, const double wi[3], const double wo[3]);
 LAMBERT_SPHERE_TABLES_FN void lambert_sphere_tables_eval_local_rgb(const lambert_sphere_tables_material m[3], const double wi[3], const double wo[3], double out[3]);
-typedef struct lambert_sphere_tables_material_f { float k[59]; } lambert_sphere_tables_material_f;
+typedef struct lambert_sphere_tables_material_f { float k[64]; } lambert_sphere_tables_material_f;
 LAMBERT_SPHERE_TABLES_FN lambert_sphere_tables_material_f lambert_sphere_tables_prepare_c_f(float c);
 LAMBERT_SPHERE_TABLES_FN lambert_sphere_tables_material_f lambert_sphere_tables_prepare_f(float kd);
 LAMBERT_SPHERE_TABLES_FN void lambert_sphere_tables_prepare_c_rgb_f(const float c[3], lambert_sphere_tables_material_f m[3]);

@@ -157,12 +157,28 @@ def first_order(order: int, x: sp.Expr = mu) -> sp.Expr:
 LOG_EXP_DEGREES = {0: (5, 4), 1: (2, 3), 2: (1, 3)}
 
 
-def log_exp(order: int, remainder: sp.Expr) -> sp.Expr:
-    r"""H_order(mu, c) = exp(mu (Psi_order(mu) log(1 + 1/mu) + c (p(mu) + remainder))): the exact grazing term
-    (Psi_order, eqs. 13-15) and the exact first-order cubic p (:func:`first_order`), with ``remainder`` the
+#: Psi_order(0)/c with the whole phase function p in every collision (the true BRDF's): 2 int_0^pi p(cos x) cos(order x)
+#: dx over the horizon's circle, of which the three-term Psi_order(0)/c (:func:`characteristic`: 69/128, -1/3, 15/256)
+#: keeps the Legendre terms l <= 2; order 1 has no other (p's odd part is linear in its cosine)
+TRUE_GRAZING = {0: 16 / (3 * sp.pi**2), 1: -sp.Rational(1, 3), 2: 16 / (27 * sp.pi**2)}
+
+
+def true_grazing_shift(order: int) -> sp.Expr:
+    r"""kappa: what the ``log_exp_true`` forms add to Psi_order(mu)/c in their log term, so that the runtime structure
+    has the true BRDF's grazing law, (Psi_order(0) + kappa c) Psi_order(0) = Psi_order,true(0)^2
+    (docs/model.md, "Parts fitted to the true BRDF"): kappa = (Psi_true(0)^2/Psi(0) - Psi(0))/c."""
+    three = characteristic(order, sp.S.Zero) / c
+    return TRUE_GRAZING[order] ** 2 / three - three
+
+
+def log_exp(order: int, remainder: sp.Expr, shift: sp.Expr = sp.S.Zero) -> sp.Expr:
+    r"""H_order(mu, c) = exp(mu ((Psi_order(mu) + shift c) log(1 + 1/mu) + c (p(mu) + remainder))): the exact grazing
+    term (Psi_order, eqs. 13-15) and the exact first-order cubic p (:func:`first_order`), with ``remainder`` the
     rest, O(c), a function of (mu, c): a fitted polynomial (the ``log_exp`` forms) or a table
-    (:mod:`fitlab.families.lambert_sphere.program.table_export`).  See :func:`log_exp_remainder` for its inverse."""
-    grazing = characteristic(order) * sp.log(1 + 1 / sp.Max(mu, LOG_FLOOR))
+    (:mod:`fitlab.families.lambert_sphere.program.table_export`).  ``shift``: 0 for the three-term H-function,
+    :func:`true_grazing_shift` for the true BRDF's grazing law.  See :func:`log_exp_remainder` for its inverse
+    (shift 0)."""
+    grazing = (characteristic(order) + shift * c) * sp.log(1 + 1 / sp.Max(mu, LOG_FLOOR))
     return sp.exp(mu * (grazing + c * (first_order(order) + remainder)))
 
 
@@ -196,6 +212,35 @@ def _h_log_exp(order: int) -> Form:
     )
 
 
+#: (degree in s, degree in mu) of the fitted part of each order's log_exp_true form (the parts fitted to the true
+#: BRDF through the runtime structure): log_exp's, with one more power of mu in H1 and H2
+TRUE_LOG_EXP_DEGREES = {0: (5, 4), 1: (2, 4), 2: (1, 4)}
+
+
+def _h_log_exp_true(order: int) -> Form:
+    s_degree, mu_degree = TRUE_LOG_EXP_DEGREES[order]
+    names = tuple(f"a{j}{k}" for j in range(s_degree + 1) for k in range(mu_degree + 1))
+    coef = dict(zip(names, symbols(names)))
+    fitted = (1 - s) * sum(coef[f"a{j}{k}"] * s**j * mu**k for j in range(s_degree + 1) for k in range(mu_degree + 1))
+    kappa = true_grazing_shift(order)
+    return Form(
+        target=f"H{order}",
+        name="log_exp_true",
+        inputs=("mu", "c"),
+        params=names,
+        expr=log_exp(order, fitted, kappa),
+        start={n: 0.0 for n in names},
+        description=(
+            f"H{order} = exp(mu ((Psi{order}(mu) + kappa c) log(1 + 1/mu) + c (p(mu) + (1 - s) sum_jk a_jk s^j mu^k))), "
+            f"j <= {s_degree}, k <= {mu_degree}: log_exp with kappa = {float(kappa):.6g} (true_grazing_shift), so that "
+            "the runtime structure has the true BRDF's grazing law, (H_i H_o - 1) Psi(0) ~ Psi_true(0)^2 "
+            "(mu_i log(1/mu_i) + mu_o log(1/mu_o)), Psi_true the whole phase function's. H = 1 at mu = 0 and "
+            "at c = 0. For the parts fitted to the true BRDF."
+        ),
+        refit_by_default=False,
+    )
+
+
 def _h2_unity() -> Form:
     return Form(
         target="H2",
@@ -213,4 +258,4 @@ def _h2_unity() -> Form:
 
 
 FORMS = (_hapke(), _hapke_rational(), _h1_separable(), _h1_separable_printed(), *(_h_log_exp(n) for n in range(3)),
-         _h2_unity())  # fmt: skip
+         *(_h_log_exp_true(n) for n in range(3)), _h2_unity())  # fmt: skip

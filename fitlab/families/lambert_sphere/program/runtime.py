@@ -43,7 +43,7 @@ from fitlab.forms.symbolic import lambdify_numpy, symbols
 from fitlab.store import fit_source, load
 
 __all__ = ["RuntimeModel", "runtime_model", "PRESET_VARIANTS", "accuracy", "accuracy_points", "directional_albedo", "ALBEDOS",
-           "ORDER2_FORMS", "energy_scale", "assembled", "ENERGY_MARGIN", "ENERGY_MU", "model_accuracy"]
+           "ORDER2_FORMS", "TRUE_FORMS", "energy_scale", "assembled", "ENERGY_MARGIN", "ENERGY_MU", "model_accuracy"]
 
 PRESET_VARIANTS = {
     "paper_printed": ({"H0": ("hapke", "paper"), "H1": ("separable_printed", "paper"), "l": ("quadratic", "paper"),
@@ -65,6 +65,9 @@ FAMILY_NAME = "lambert_sphere"
 #: ``forms=ORDER2_FORMS``, :func:`runtime_model` gives f_1 + fm0 + fm1 cos phi + fm2 cos 2phi.
 ORDER2_FORMS = {"H0": "log_exp", "H1": "log_exp", "H2": "log_exp", "l": "cubic", "m": "quadratic",
                 **{n: "c2_rational_4_3" for n in "BCDF"}}  # fmt: skip
+#: the forms of the model whose parts are fitted to the true BRDF (the program's model "true"; program.true_refit): the
+#: same structure, with H0, H1, H2 in log_exp_true (the true BRDF's grazing law, and one more power of mu in H1 and H2)
+TRUE_FORMS = {**ORDER2_FORMS, "H0": "log_exp_true", "H1": "log_exp_true", "H2": "log_exp_true"}
 
 
 @dataclass(frozen=True, eq=False)

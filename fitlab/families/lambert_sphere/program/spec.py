@@ -42,7 +42,7 @@ from fitlab.codegen import Claim, MaterialSpec, Model, ProgramSpec, Routine, cal
 from fitlab.families.lambert_sphere.forms import ORDER2_PART, RUNTIME_PARTS, RUNTIME_TERMS, SINGLE, runtime_terms
 from fitlab.families.lambert_sphere.forms.brdf import parts_in_algebra
 from fitlab.families.lambert_sphere.program.rewrites import REWRITES, azimuth_to_cosine, floor_poles, stable
-from fitlab.families.lambert_sphere.program.runtime import ALBEDOS, ORDER2_FORMS, energy_scale, model_accuracy
+from fitlab.families.lambert_sphere.program.runtime import ALBEDOS, ORDER2_FORMS, TRUE_FORMS, energy_scale, model_accuracy
 from fitlab.families.lambert_sphere.targets import TARGETS, THREE_TERM, TRUE
 from fitlab.forms.symbolic import safe_pow, symbols
 from fitlab.store import FitFunction
@@ -156,6 +156,8 @@ def brdf_routines(terms: tuple[str, ...], scale=1, what: str = "The runtime Lamb
            "at c = 1 below 1 ") + "(docs/model.md). mu_i, mu_o in [0, 1], cos_phi in [-1, 1] (phi = 0 back-scattering), c the particle "
         "albedo in [0, 1]; inputs outside (+-inf included) are clamped, NaN in any input gives NaN.",
         domain=_domain(("mu_i", "mu_o", "cos_phi", "c")),
+        # the terms in its body: they share the clamped inputs, each direction's log(1 + 1/mu) and sqrt(1 - c)
+        inline=True,
     ))  # fmt: skip
     return out
 
@@ -272,7 +274,7 @@ PROGRAM = ProgramSpec(
     routines=routines,
     terms=RUNTIME_TERMS,
     models=(
-        Model(TRUE_MODEL, ORDER2_FORMS, "the most accurate model at its cost: orders 0, 1 and 2 of multiple scattering, "
+        Model(TRUE_MODEL, TRUE_FORMS, "the most accurate model at its cost: orders 0, 1 and 2 of multiple scattering, "
                                     "every part fitted to the true BRDF", folder="true", physics=TRUE),
         Model(THREE_TERM_MODEL, ORDER2_FORMS, "the same structure and forms, each part fitted to its own target, the "
                                           "three-term half space's quantity", physics=THREE_TERM),

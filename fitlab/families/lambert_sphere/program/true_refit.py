@@ -6,11 +6,12 @@ scattering, and so on: its parts H0, H1, H2, l, m, B, C, D, F are the three-term
 (the whole phase function in every collision, ``exact.brdf(..., phase="true")``) is not of that form, but close:
 its orders 0 to 2 differ from the three-term ones by about 2e-3 of f_r at grazing, and its orders >= 3 are
 2e-5 of f_r at most.  Here each order's parts are fitted jointly to that order of the true BRDF, in the
-forms of the shipped model, so that the same structure, at the same cost, approximates the true BRDF:
+forms of the program's model "true" (:data:`..program.runtime.TRUE_FORMS`: H0, H1, H2 with the true BRDF's
+grazing law), so that the same structure, at the same cost, approximates the true BRDF:
 
 * stage 1, each order's parts fitted jointly to that order of the true BRDF (order 0: H0, B, C, D, F to fm0;
   order 1: H1, l, m to fm1; order 2: H2 to fm2), each residual relative to the true f_r's minimum over phi at
-  its (mu_i, mu_o, c), by least squares from the shipped fits (:func:`order_form`);
+  its (mu_i, mu_o, c), by least squares from the three-term fits (:func:`start_values`, :func:`order_form`);
 * stage 2, every part at once (:func:`joint_form`, the whole BRDF f_1 + fm0 + fm1 cos phi + fm2 cos 2phi) to
   the true BRDF of orders 0 to 2 at phi = k pi/4 (:data:`JOINT_PHI`), relative to f_r at each point, least
   squares then :data:`MINIMAX_ROUNDS` Lawson rounds: levelled jointly, the orders' errors cannot add at phi = 0
@@ -51,7 +52,7 @@ from fitlab.forms import Form
 from fitlab.forms.symbolic import lambdify_numpy, symbols
 from fitlab.store import FitFileError, fit_path, fit_source, fits_folder, load, write_fits
 
-__all__ = ["ORDER_PARTS", "TRUE_FITS", "TRUE_MODEL_NAME", "order_form", "joint_form", "joint_training", "fitted_parts",
+__all__ = ["ORDER_PARTS", "TRUE_FITS", "TRUE_MODEL_NAME", "START_FORMS", "start_values", "order_form", "joint_form", "joint_training", "fitted_parts",
            "true_runtime_model", "MINIMAX_ROUNDS", "JOINT_PHI", "GOAL_MU_MIN", "GRAZING_WEIGHT"]
 
 #: the parts each Fourier order of the runtime structure is made of
@@ -78,7 +79,7 @@ TRUE_MODEL_NAME = "refit to the true BRDF (fits/true)"
 
 def true_runtime_model(fits_dir: Path | None = None) -> RuntimeModel:
     """The runtime model of the parts fitted to the true BRDF, from ``fits_dir`` (default :data:`TRUE_FITS`), in the
-    shipped model's forms, orders 0 to 2; every part must be in the folder (FitFileError names those that are not),
+    forms of :data:`..program.runtime.TRUE_FORMS`, orders 0 to 2; every part must be in the folder (FitFileError names those that are not),
     the other fits the program needs come from the packaged ones."""
     folder = TRUE_FITS if fits_dir is None else Path(fits_dir)
     forms = _model_forms()
@@ -97,28 +98,41 @@ def _model_forms() -> dict:
     return dict(program_spec("lambert_sphere").model(TRUE_MODEL).forms)
 
 
+#: the form whose packaged fit (to the part's own three-term target) starts a form that has none: the same
+#: parameters, and those it lacks start at 0
+START_FORMS = {"log_exp_true": "log_exp"}
+
+
+def start_values(part: str, form_name: str) -> dict:
+    """{param: value} that the fit of ``part`` in ``form_name`` starts from: the packaged fit of that form to the part's
+    own target (the three-term quantity), or of its :data:`START_FORMS` form, whose parameters it shares."""
+    form = get_form(part, form_name)
+    source = load(fit_source(None, part, START_FORMS.get(form_name, form_name)))
+    return {p: float(source.params.get(p, 0.0)) for p in form.params}
+
+
 def _parts(forms: dict, free: tuple) -> tuple[dict, list, dict, dict]:
     """(parts, params, fixed, start) of the runtime structure: each part in ``free`` as its form with parameters
-    named ``part_param`` (start: the shipped fit's values), every other part the shipped fit's expression."""
+    named ``part_param`` (start: :func:`start_values`), every other part its form at its start values."""
     parts, params, fixed, start = {}, [], {}, {}
     for part in (*RUNTIME_PARTS, ORDER2_PART):
-        shipped = load(fit_source(None, part, forms[part]))
-        if part not in free:
-            parts[part] = shipped.expression
-            continue
         form = get_form(part, forms[part])
+        values = start_values(part, forms[part])
+        if part not in free:
+            parts[part] = form.expr.xreplace({sp.Symbol(p, real=True): sp.Float(v) for p, v in values.items()})
+            continue
         rename = {sp.Symbol(p, real=True): sp.Symbol(f"{part}_{p}", real=True) for p in form.params}
         parts[part] = form.expr.xreplace(rename)
         params += [f"{part}_{p}" for p in form.params]
         fixed.update({f"{part}_{p}": v for p, v in form.fixed.items()})
-        start.update({f"{part}_{p}": float(v) for p, v in shipped.params.items()})
+        start.update({f"{part}_{p}": v for p, v in values.items()})
     return parts, params, fixed, start
 
 
 def order_form(order: int, forms: dict | None = None) -> tuple[Form, dict]:
     """The runtime structure's Fourier order ``order`` (fm0, fm1 or fm2 of :func:`..forms.runtime_terms`) as one
     form in (mu_i, mu_o, c) whose parameters are its parts' (named ``part_param``), and the start vector by
-    name: the shipped fits' parameters.  ``forms``: {part: form}, default the shipped model's."""
+    name (:func:`start_values`).  ``forms``: {part: form}, default :data:`..program.runtime.TRUE_FORMS`."""
     forms = {**_model_forms(), **(forms or {})}
     parts, params, fixed, start = _parts(forms, ORDER_PARTS[order])
     expr = runtime_terms(parts)[f"m{order}"]
@@ -131,7 +145,7 @@ def order_form(order: int, forms: dict | None = None) -> tuple[Form, dict]:
 def joint_form(forms: dict | None = None) -> tuple[Form, dict]:
     """The runtime structure f_1 + fm0 + fm1 cos phi + fm2 cos 2phi (:func:`..forms.runtime_terms`, without the
     max(0, .) and the energy scale) as one form in (mu_i, mu_o, phi, c) whose parameters are every part's
-    (named ``part_param``), and the start vector by name: the shipped fits' parameters."""
+    (named ``part_param``), and the start vector by name (:func:`start_values`)."""
     forms = {**_model_forms(), **(forms or {})}
     parts, params, fixed, start = _parts(forms, (*RUNTIME_PARTS, ORDER2_PART))
     expr = runtime_sum(parts)
