@@ -6,7 +6,7 @@ published presets and the libraries of ``fitlab discover`` (:mod:`.forms`), the 
 behind their training, validation and residual sets, the runtime models and the generated program
 (:mod:`.program`), and, as capabilities, its Monte Carlo (:mod:`.mc`), tables, report methods and audit
 (:mod:`.report`), render (:mod:`.mitsuba`) and benchmarks (:mod:`.bench`); the studies that write docs/ are in
-:mod:`.studies`.  docs/model.md states the model.
+``studies.lambert_sphere``, outside the package.  docs/model.md states the model.
 """
 
 from __future__ import annotations

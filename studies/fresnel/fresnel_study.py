@@ -14,7 +14,7 @@ Each is measured by the max of |F - F_exact| over the validation angles (worst c
 F_avg = 2 int F mu dmu (worst channel: what Kulla-Conti's coloured factor uses), and the CIEDE2000
 difference between the hemispherical averages' colours (F_avg of the three channels, linear sRGB to
 CIELAB under D65, colour-science's CIE 2000 formula).  Run as
-``python -m fitlab.families.fresnel.studies.fresnel_study --out docs`` (about 8 minutes on 2 cores: 360 fits).
+``python -m studies.fresnel.fresnel_study --out docs`` (about 8 minutes on 2 cores: 360 fits).
 """
 
 from __future__ import annotations
@@ -370,7 +370,7 @@ def markdown(result: dict) -> str:
     lines = [
         "# Fresnel reflectance of real materials, and its approximations",
         "",
-        "Written by `python -m fitlab.families.fresnel.studies.fresnel_study --out docs`; every number is computed "
+        "Written by `python -m studies.fresnel.fresnel_study --out docs`; every number is computed "
         "by that run. The family is `fitlab.families.fresnel` (targets `F_<material>_<channel>`, e.g. "
         "`fitlab refit --target F_cu_r --form gulbrandsen`).",
         "",
@@ -587,7 +587,7 @@ def main(argv=None) -> int:
     from fitlab._io import atomic_write_many, check_output_folder
 
     p = argparse.ArgumentParser(
-        prog="python -m fitlab.families.fresnel.studies.fresnel_study",
+        prog="python -m studies.fresnel.fresnel_study",
         description="Write fresnel.md, fresnel.json and fresnel_<material>.png.",
     )
     p.add_argument("--out", default=".", help="folder for the files")
