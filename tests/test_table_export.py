@@ -581,7 +581,7 @@ def test_c_of_kd_inverts_the_spherical_albedo():
     scattering per unit c (2 int a1(mu) mu dmu), the O(c) part of kd_true; and c_of_kd against kd_true read from the
     kd table's spline (another route: kd from c instead of c from kd) at kd in (0, 1)."""
     from fitlab.families.lambert_sphere.exact import graded_gauss, single_albedo_nodes
-    from fitlab.families.lambert_sphere.report.spline_tables import kd_interpolant
+    from fitlab.families.lambert_sphere.program.report.spline_tables import kd_interpolant
 
     v, w = graded_gauss(8, 0.25, 1e-14)
     exact = 2.0 * np.dot(w * v, single_albedo_nodes("true"))

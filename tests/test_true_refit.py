@@ -12,6 +12,7 @@ import sympy as sp
 
 from fitlab.families.lambert_sphere import exact
 from fitlab.families.lambert_sphere.forms import ORDER2_PART, RUNTIME_PARTS, runtime_terms
+from fitlab.families.lambert_sphere.program.report.audit import directional_albedo
 from fitlab.families.lambert_sphere.program.runtime import runtime_model
 from fitlab.families.lambert_sphere.program.true_refit import (
     GOAL_MU_MIN,
@@ -23,7 +24,6 @@ from fitlab.families.lambert_sphere.program.true_refit import (
     order_form,
     true_runtime_model,
 )
-from fitlab.families.lambert_sphere.report.audit import directional_albedo
 from fitlab.fit.verify import verify_fit
 from fitlab.forms.symbolic import lambdify_numpy, symbols
 from fitlab.store import load

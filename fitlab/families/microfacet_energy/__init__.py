@@ -86,6 +86,6 @@ class MicrofacetEnergy(
         return IMAGES
 
     def benchmarks(self) -> Benchmarks:
-        from fitlab.families.microfacet_energy.bench import bench_mc
+        from fitlab.families.microfacet_energy.mc.bench import bench_mc
 
         return Benchmarks(mc=bench_mc)  # the microsurface walk's throughput
