@@ -177,7 +177,7 @@ def approximation_costs(n: int = 200_000, repeat: int = 5) -> dict:
 def optical_constant_points(material: str) -> dict:
     """Where a conductor's measured n, k lie: the points in 380 to 780 nm and in the range the channels integrate,
     and the widest gap between neighbouring points of that range (nm, with its ends)."""
-    from fitlab.families.fresnel.exact._colour import channel_weights
+    from fitlab.families.fresnel.exact.colour import channel_weights
     from fitlab.resources import packaged_tables
     from fitlab.store import read_table
 
