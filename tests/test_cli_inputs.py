@@ -46,7 +46,7 @@ COMMANDS = {
                     [("fitlab.fit.refit", "refit"), ("fitlab.fit.refit", "timed_refit")]),
     "fit": (["fit", str(EXAMPLE_TABLE), "--target", "E", "--form", "a0 + a1*mu + a2*alpha", "--quiet"],
             [("fitlab.fit.user", "run_fit"), ("fitlab.fit.refit", "refit")]),
-    "audit": (["audit", "--fits", str(FITS)], [("fitlab.families.lambert_sphere.report.audit", "audit")]),
+    "audit": (["audit", "--fits", str(FITS)], [("fitlab.families.lambert_sphere.program.report.audit", "audit")]),
     "codegen": (["codegen", "--lang", "c", "--fits", str(FITS)], [("fitlab.codegen", "generate")]),
     "render": (["render", "--generated", str(GENERATED), "--quiet"],
                [("fitlab.families.lambert_sphere.mitsuba.render", "render_comparison")]),
@@ -314,7 +314,7 @@ def test_tabulate_writes_all_tables_or_none(tmp_path, monkeypatch):
 
 
 def test_audit_writes_both_files_or_neither(tmp_path, monkeypatch, capsys):
-    import fitlab.families.lambert_sphere.report.audit as audit
+    import fitlab.families.lambert_sphere.program.report.audit as audit
     from fitlab.core import Outputs
 
     out = tmp_path / "docs"

@@ -164,7 +164,7 @@ def test_the_reports_true_row_is_the_default_model(monkeypatch):
     """The report's row of the parts fitted to the true BRDF (its real-time recommendation) is runtime_model(), the
     default model, and its three-term row the model three-term of the report's fits.  (The rows the check does not
     need are stubs.)"""
-    from fitlab.families.lambert_sphere.report import methods as report_methods
+    from fitlab.families.lambert_sphere.program.report import methods as report_methods
     from fitlab.report.methods import fit_inventory
 
     monkeypatch.setattr(report_methods, "table_brdf", lambda *a, **k: None)

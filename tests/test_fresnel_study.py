@@ -11,7 +11,7 @@ import pytest
 
 from fitlab.core import get_target
 from fitlab.families.fresnel import exact
-from fitlab.families.fresnel.studies import fresnel_study
+from studies.fresnel import fresnel_study
 
 DOCS = Path(__file__).resolve().parents[1] / "docs"
 

@@ -1,4 +1,4 @@
-"""The energy-compensation study (fitlab.families.microfacet_energy.studies.energy_compensation): its texture read
+"""The energy-compensation study (studies.microfacet_energy.energy_compensation): its texture read
 and its furnace are checked on identities, at sizes small enough for the suite."""
 
 from __future__ import annotations
@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from fitlab.families.microfacet_energy.studies import energy_compensation as S
+from studies.microfacet_energy import energy_compensation as S
 from fitlab.families.microfacet_energy.exact import directional_albedo
 
 
@@ -87,7 +87,7 @@ def test_coloured_compensation_takes_the_exact_f_avg_of_each_metal_and_bounds_ho
     Schlick's is (20 F0 + 1)/21, each f_add lies in [0, F_avg^2] and grows with F_avg, so the Schlick-derived
     lobe is the brighter exactly where Schlick's F_avg is; gold's red (F > 1) has none."""
     from fitlab.families.fresnel.exact import average_reflectance
-    from fitlab.families.microfacet_energy.studies.energy_compensation import coloured_compensation
+    from studies.microfacet_energy.energy_compensation import coloured_compensation
 
     rows = coloured_compensation(alphas=(0.5, 1.0))
     assert {r["material"] for r in rows} == {"ag", "al", "au", "cr", "cu", "ni", "w", "mo"}

@@ -6,7 +6,7 @@ engine, their limits and the BTDF's generalised reciprocity; energy conserved pa
 sharded over several host devices gives the paths of one device.
 
 Small budgets (a compiled walk configuration costs a few seconds and is shared through fixtures);
-the large budgets are ``python -m fitlab.families.microfacet_energy.studies.microsurface_validation``
+the large budgets are ``python -m studies.microfacet_energy.microsurface_validation``
 (tests/test_microsurface_dielectric.py::test_validation_study, a benchmark)."""
 
 from __future__ import annotations
@@ -439,7 +439,7 @@ def test_sharded_over_four_host_devices_gives_the_same_paths():
 @pytest.mark.benchmark
 def test_validation_study():
     """Order 1 against the references at large budgets, every case (max |z|, RMS z); prints the table."""
-    from fitlab.families.microfacet_energy.studies.microsurface_validation import format_table, run_validation
+    from studies.microfacet_energy.microsurface_validation import format_table, run_validation
 
     rows = run_validation(paths=2_000_000, progress=True)
     print(format_table(rows))

@@ -411,7 +411,7 @@ def test_stored_study_figures_are_recomputed():
     import json
 
     from fitlab.families.microfacet_energy.lobes import tables as lt
-    from fitlab.families.microfacet_energy.studies import microsurface_lobes as study
+    from studies.microfacet_energy import microsurface_lobes as study
 
     stored = json.loads(STUDY_JSON.read_text())["accuracy"]["diffuse"]
     t = lt.read_lobes(lt_folder(), "diffuse", "validation")
@@ -429,7 +429,7 @@ def lt_folder():
 
 @pytest.mark.benchmark
 def test_the_study_runs_and_writes_its_document(tmp_path):
-    from fitlab.families.microfacet_energy.studies import microsurface_lobes as study
+    from studies.microfacet_energy import microsurface_lobes as study
 
     assert study.main(["--out", str(tmp_path)]) == 0
     text = (tmp_path / "microsurface_lobes.md").read_text()

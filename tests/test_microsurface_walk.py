@@ -343,7 +343,7 @@ def test_throughput_report():
     """Bounces and paths per second of every walk on this machine, the blog's job extrapolated, and the walk
     on every CPU core as forced host devices (``fitlab bench mc --family microfacet_energy``; a report, not
     a timed assertion)."""
-    from fitlab.families.microfacet_energy.bench import CASES, bench_mc
+    from fitlab.families.microfacet_energy.mc.bench import CASES, bench_mc
 
     r = bench_mc(quick=False)
     for case in CASES:

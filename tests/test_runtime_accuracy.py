@@ -270,13 +270,13 @@ def test_order2_c_agrees_with_the_model_and_float_with_double(order2, order2_c):
 
 
 def test_runtime_structure_with_exact_parts_is_the_reference():
-    """The identity the error budget (fitlab.families.lambert_sphere.studies.error_budget) rests on: with every
+    """The identity the error budget (studies.lambert_sphere.error_budget) rests on: with every
     part exact, f_1 + fm0 + fm1 cos phi + fm2 cos 2phi is the "mixed" reference, true single scattering plus the three-term
     multiple scattering (the three-term phase function has Legendre orders 0-2, so that multiple scattering has
     these three Fourier orders and no other).  The true BRDF's multiple scattering has every order: what the
     structure leaves of it is the error budget's first row."""
     from fitlab.families.lambert_sphere.program.runtime import assembled
-    from fitlab.families.lambert_sphere.studies.error_budget import exact_parts
+    from studies.lambert_sphere.error_budget import exact_parts
 
     rng = np.random.default_rng(7)
     n = 300
@@ -293,7 +293,7 @@ def test_runtime_structure_with_exact_parts_at_grazing():
     H_i H_o Q/(2 pi) - n0_ss at mu_i = mu_o = 1e-6, c = 1e-6.  With sqrt(1 - u^2) evaluated directly, single
     scattering in forward scattering at grazing made it 1.2e-4."""
     from fitlab.families.lambert_sphere.program.runtime import assembled
-    from fitlab.families.lambert_sphere.studies.error_budget import exact_parts
+    from studies.lambert_sphere.error_budget import exact_parts
 
     g = np.array(np.meshgrid([1e-6, 1e-4, 1e-2], [1e-6, 1e-4, 1e-2], [0.0, np.pi], [1e-6, 0.5], indexing="ij"))
     mi, mo, ph, cc = g.reshape(4, -1)

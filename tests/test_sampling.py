@@ -16,9 +16,9 @@ from fitlab.codegen import build_program, emit, load_program
 from fitlab.codegen.native import build, build_glsl, compiler
 from fitlab.families.lambert_sphere.exact.sampling import MU_MIN, mixture_pdf, optimal_mixture, variance_function
 from fitlab.families.lambert_sphere.mitsuba.render import load_generated
-from fitlab.families.lambert_sphere.studies.sampling_variance import ISSUE_C, ISSUE_MU, monte_carlo_rows, variance_rows
 from fitlab.families.lambert_sphere.targets.table_files import SAMPLING_FILES, read_sampling
 from fitlab.resources import packaged_fits, packaged_tables
+from studies.lambert_sphere.sampling_variance import ISSUE_C, ISSUE_MU, monte_carlo_rows, variance_rows
 
 FITS = packaged_fits()
 

@@ -35,8 +35,8 @@ import pytest
 import sympy as sp
 
 from fitlab.core import get_target, targets
+from fitlab.families.lambert_sphere.program.report.audit import TABLES_ROW
 from fitlab.families.lambert_sphere.program.table_export import numpy_brdf
-from fitlab.families.lambert_sphere.report.audit import TABLES_ROW
 from fitlab.forms.symbolic import lambdify_numpy, parse_expression, symbols
 from fitlab.store import decode_nonfinite, load
 
@@ -218,9 +218,9 @@ def test_audit_kd_against_three_term_albedo_is_recomputed(audit):
 @pytest.fixture(scope="module")
 def runtime_models():
     from fitlab.codegen import DEFAULT_FORMS
+    from fitlab.families.lambert_sphere.program.report.audit import richer_forms
     from fitlab.families.lambert_sphere.program.runtime import PRESET_VARIANTS, runtime_model
     from fitlab.families.lambert_sphere.program.true_refit import true_runtime_model
-    from fitlab.families.lambert_sphere.report.audit import richer_forms
 
     models = [runtime_model(v) for v in PRESET_VARIANTS]
     models.append(runtime_model(fits_dir=ROOT / "fitlab" / "fits", model=DEFAULT_FORMS))
@@ -279,7 +279,7 @@ def test_audit_runtime_rows_are_recomputed(audit, runtime_models):
 def test_audit_runtime_true_rows_are_recomputed(audit, runtime_models):
     """The rows against the true BRDF: the runtime models and the mixed reference, recomputed on the true set."""
     from fitlab.families.lambert_sphere import exact
-    from fitlab.families.lambert_sphere.report.audit import MIXED_ROW, TRUE_FLOOR_ROW
+    from fitlab.families.lambert_sphere.program.report.audit import MIXED_ROW, TRUE_FLOOR_ROW
     from fitlab.families.lambert_sphere.targets import datasets as d
 
     ds = d.brdf_validation("true")
@@ -313,7 +313,7 @@ def test_audit_runtime_true_independent_rows_are_recomputed(audit, runtime_model
     """The rows at the independent random points: the runtime models and the mixed reference against the true
     BRDF, recomputed; the set's points are random, apart from every training lattice."""
     from fitlab.families.lambert_sphere import exact
-    from fitlab.families.lambert_sphere.report.audit import MIXED_ROW
+    from fitlab.families.lambert_sphere.program.report.audit import MIXED_ROW
     from fitlab.families.lambert_sphere.targets import datasets as d
 
     ds = d.brdf_true_independent()

@@ -38,10 +38,10 @@ from fitlab.codegen.texture import (
 )
 from fitlab.families.lambert_sphere.exact import brdf as exact_brdf
 from fitlab.families.lambert_sphere.program import table_export as te
-from fitlab.families.lambert_sphere.studies.table_study import REFERENCE_PHASE
 from fitlab.families.lambert_sphere.targets.table_files import read_constants, read_h
 from fitlab.forms.symbolic import symbols
 from fitlab.resources import packaged_tables
+from studies.lambert_sphere.table_study import REFERENCE_PHASE
 
 ROOT = Path(__file__).resolve().parents[1]
 GENERATED = ROOT / "fitlab" / "fits" / "generated"
@@ -556,8 +556,8 @@ def test_command_refuses_in_one_line_and_writes_nothing(tmp_path, capsys):
 
 def test_the_study_document_is_rendered_from_its_numbers():
     """docs/table_export.md is table_study.markdown of docs/table_export.json (regenerate both with
-    python -m fitlab.families.lambert_sphere.studies.table_study --out docs)."""
-    from fitlab.families.lambert_sphere.studies.table_study import markdown
+    python -m studies.lambert_sphere.table_study --out docs)."""
+    from studies.lambert_sphere.table_study import markdown
 
     assert markdown(json.loads(STUDY.read_text())) == (ROOT / "docs" / "table_export.md").read_text()
 
@@ -581,7 +581,7 @@ def test_c_of_kd_inverts_the_spherical_albedo():
     scattering per unit c (2 int a1(mu) mu dmu), the O(c) part of kd_true; and c_of_kd against kd_true read from the
     kd table's spline (another route: kd from c instead of c from kd) at kd in (0, 1)."""
     from fitlab.families.lambert_sphere.exact import graded_gauss, single_albedo_nodes
-    from fitlab.families.lambert_sphere.report.spline_tables import kd_interpolant
+    from fitlab.families.lambert_sphere.program.report.spline_tables import kd_interpolant
 
     v, w = graded_gauss(8, 0.25, 1e-14)
     exact = 2.0 * np.dot(w * v, single_albedo_nodes("true"))

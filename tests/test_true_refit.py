@@ -13,6 +13,7 @@ import sympy as sp
 from fitlab.families.lambert_sphere import exact
 from fitlab.families.lambert_sphere.forms import ORDER2_PART, RUNTIME_PARTS, runtime_terms
 from fitlab.core import get_form
+from fitlab.families.lambert_sphere.program.report.audit import directional_albedo
 from fitlab.families.lambert_sphere.program.runtime import TRUE_FORMS, runtime_model
 from fitlab.families.lambert_sphere.program.true_refit import (
     START_FORMS,
@@ -26,7 +27,6 @@ from fitlab.families.lambert_sphere.program.true_refit import (
     start_values,
     true_runtime_model,
 )
-from fitlab.families.lambert_sphere.report.audit import directional_albedo
 from fitlab.fit.verify import verify_fit
 from fitlab.forms.symbolic import lambdify_numpy, symbols
 from fitlab.store import fit_source, load

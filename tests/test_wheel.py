@@ -10,6 +10,9 @@ must come from inside the installed package:
 * ``fitlab codegen --lang c --out TMP`` writes the same bytes as the generated code packaged with fitlab
   (regenerated from the packaged fits), and the C compiles;
 * ``fitlab simulate order1_normalisation`` (a packaged scene, by name) at a small budget writes its table.
+
+The wheel itself holds fitlab's files and nothing else: no study (``studies/``, the scripts that write docs/), test
+or tool.
 """
 
 from __future__ import annotations
@@ -22,6 +25,7 @@ import subprocess
 import sys
 import sysconfig
 import venv
+import zipfile
 from pathlib import Path
 
 import pytest
@@ -99,7 +103,25 @@ def installed(tmp_path_factory):
              "getattr(f, '__qualname__', type(f).__qualname__) for f in sys.meta_path])")  # fmt: skip
     where, finders = subprocess.run([str(python), "-c", probe], cwd=work, env=env, capture_output=True, text=True,
                                     check=True).stdout.splitlines()  # fmt: skip
-    return {"run": run, "work": work, "package": Path(where).parent, "env": env_dir, "finders": finders}
+    return {"run": run, "work": work, "package": Path(where).parent, "env": env_dir, "finders": finders,
+            "wheel": wheel}  # fmt: skip
+
+
+def test_the_wheel_holds_the_package_and_no_study(installed):
+    """Every file of the checkout's fitlab/ is in the wheel (the modules; the fits, the generated code, the exact
+    tables, the scenes, the seeds of exact values and the schema the package reads), and nothing else: no study
+    (studies/ imports fitlab as a user's code does and writes docs/), no test, no tool."""
+    with zipfile.ZipFile(installed["wheel"]) as wheel:
+        names = wheel.namelist()
+    held = {name for name in names if ".dist-info/" not in name}
+    package = {name for name in _sources() if name.startswith("fitlab/")}
+    assert held == package, (f"in the wheel, not in fitlab/: {sorted(held - package)[:10]}; "
+                             f"in fitlab/, not in the wheel: {sorted(package - held)[:10]}")  # fmt: skip
+    assert not [name for name in names if "studies" in name.split("/")[:-1] or name.startswith("studies")]
+    for folder in ("fitlab/fits/", "fitlab/fits/true/", "fitlab/fits/generated/", "fitlab/data/lambert_sphere/",
+                   "fitlab/data/microfacet_energy/", "fitlab/data/fresnel/", "fitlab/data/exact_values/",
+                   "fitlab/data/lambert_sphere/scenes/", "fitlab/schemas/"):  # fmt: skip
+        assert any(name.startswith(folder) and "/" not in name[len(folder) :] for name in held), folder
 
 
 def test_the_installed_package_is_the_wheel_and_holds_its_data(installed):

@@ -92,7 +92,7 @@ def _seeded():
 #: the code that assembles the seeded sets from the engine's values: not part of their cache keys (an edit that
 #: keeps a set's grid keeps its key), so the seed is tied to it here
 ASSEMBLERS = ("fitlab/families/lambert_sphere/targets/datasets.py", "fitlab/families/lambert_sphere/program/runtime.py",
-              "fitlab/families/lambert_sphere/report/materials.py",
+              "fitlab/families/lambert_sphere/program/report/materials.py",
               "fitlab/families/lambert_sphere/targets/tabulate.py", "fitlab/report/validation.py",
               "tests/exact_cache.py")
 

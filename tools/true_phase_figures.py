@@ -171,8 +171,8 @@ def report_cost():
     """Seconds to evaluate the true BRDF at the points of the report's full validation sets (the Sobol set and
     the grazing set share their albedos and are evaluated in one call per c; the independent set has its own
     albedos and points), cold cache, nothing written."""
-    from fitlab.families.lambert_sphere.report.materials import albedos
-    from fitlab.families.lambert_sphere.report.settings import REPORT_SETTINGS
+    from fitlab.families.lambert_sphere.program.report.materials import albedos
+    from fitlab.families.lambert_sphere.program.report.settings import REPORT_SETTINGS
     from fitlab.report.settings import FULL
     from fitlab.report.validation import GRAZING_MU, GRAZING_PHI, sobol_points
 

@@ -22,7 +22,7 @@ and writes docs/report.md, docs/accuracy_vs_cost.png (with the Pareto front,
 :mod:`.pareto`, :mod:`.plot`) and docs/report.csv (:mod:`.write`).  The
 catalogue of methods is :mod:`.methods` (each family adds its own through its
 :class:`~fitlab.report.methods.Report`, for the Lambert sphere
-:mod:`fitlab.families.lambert_sphere.report.methods`); the sizes are :mod:`.settings`
+:mod:`fitlab.families.lambert_sphere.program.report.methods`); the sizes are :mod:`.settings`
 (``FULL``, and ``QUICK`` for the test); :func:`build_report` runs it all.
 """
 

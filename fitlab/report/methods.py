@@ -2,7 +2,7 @@ r"""The catalogue: every way fitlab can evaluate a family's BRDF and its parts.
 
 The generic part lives here: the method records, the inventory of fit files,
 and the loops over the registered families; each family that is a :class:`HasReport`
-(for the Lambert sphere :mod:`fitlab.families.lambert_sphere.report.methods` is its :class:`Report`)
+(for the Lambert sphere :mod:`fitlab.families.lambert_sphere.program.report.methods` is its :class:`Report`)
 contributes what only it knows.
 
 BRDF level (:func:`brdf_methods`), each a numpy function of (mu_i, mu_o, phi, c, kd),
@@ -26,7 +26,7 @@ its generated C (:class:`CSpec`); for the Lambert sphere:
 
 The family's own engines (the exact engine, Monte Carlo) are measured apart, by the family
 (:func:`brdf_report`'s ``measure_engines``; for the Lambert sphere
-:mod:`fitlab.families.lambert_sphere.report.engine_rows`).  Part level (:func:`part_methods`): the
+:mod:`fitlab.families.lambert_sphere.program.report.engine_rows`).  Part level (:func:`part_methods`): the
 family's own methods of a target (for the Lambert sphere the tables and, for
 H0 and H1, the Fock method of the exact engine), then the target's published
 presets and every fit file, all measured on the target's validation set.

@@ -4,7 +4,7 @@ The exact values come from the family's report (``exact_brdf``, ``exact_kd``:
 for the Lambert sphere :func:`fitlab.families.lambert_sphere.exact.brdf` and kd_true).
 
 The materials are the family's (its report's ``validation_materials`` and ``fresh_materials``; for the
-Lambert sphere the albedos c of :mod:`fitlab.families.lambert_sphere.report.materials`, with kd = kd_true(c),
+Lambert sphere the albedos c of :mod:`fitlab.families.lambert_sphere.program.report.materials`, with kd = kd_true(c),
 the report's ``exact_kd``).  For each material the same 2^m scrambled Sobol points (seeded) give
 (mu_i, mu_o, phi/pi) in (0, 1)^3; mu is uniform, so the grazing pole mu_i = mu_o = 0 is approached only as far
 as the points go (min mu_i + mu_o is about 2^(-m/2)).

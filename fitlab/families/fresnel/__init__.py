@@ -6,7 +6,7 @@ in [0, 1]), their forms (:mod:`.forms`: Schlick, the generalised Schlick, Lazany
 Gulbrandsen's), the exact engine (:mod:`.exact`: complex Fresnel per wavelength, colour-matching weights from
 colour-science) and its table (:mod:`.targets.tabulate`, ``fitlab tabulate``); :mod:`.program.images` is its
 preset table for ``fitlab export`` and the measured materials' F0 and F_avg other families read.  The study
-:mod:`.studies.fresnel_study` writes docs/fresnel.md.
+that writes docs/fresnel.md is ``studies.fresnel.fresnel_study``, outside the package.
 """
 
 from __future__ import annotations

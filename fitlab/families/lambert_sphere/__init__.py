@@ -5,8 +5,8 @@ fm1, fast_brdf, sample_weight, sample_exponent; with their data sets, grids and 
 published presets and the libraries of ``fitlab discover`` (:mod:`.forms`), the exact engine (:mod:`.exact`)
 behind their training, validation and residual sets, the runtime models and the generated program
 (:mod:`.program`), and, as capabilities, its Monte Carlo (:mod:`.mc`), tables, report methods and audit
-(:mod:`.report`), render (:mod:`.mitsuba`) and benchmarks (:mod:`.bench`); the studies that write docs/ are in
-:mod:`.studies`.  docs/model.md states the model.
+(:mod:`.program.report`), render (:mod:`.mitsuba`) and benchmarks (:mod:`.program.bench`); the studies
+that write docs/ are in ``studies.lambert_sphere``, outside the package.  docs/model.md states the model.
 """
 
 from __future__ import annotations
@@ -92,18 +92,18 @@ class LambertSphere(
         return IMAGES
 
     def benchmarks(self) -> Benchmarks:
-        from fitlab.families.lambert_sphere import bench
+        from fitlab.families.lambert_sphere.program import bench
 
         return Benchmarks(exact=bench.bench_exact, codegen=bench.bench_codegen, mc=bench.bench_mc,
                           render=bench.bench_render)  # fmt: skip
 
     def report(self) -> BrdfReport:
-        from fitlab.families.lambert_sphere.report import methods
+        from fitlab.families.lambert_sphere.program.report import methods
 
         return methods
 
     def audit(self, fits_dir: Path | None = None, *, show_progress: bool = False) -> Outputs:
-        from fitlab.families.lambert_sphere.report.audit import audit
+        from fitlab.families.lambert_sphere.program.report.audit import audit
 
         return audit(fits_dir, show_progress=show_progress)
 

@@ -9,9 +9,9 @@ published presets (:mod:`.forms`), and the libraries of ``fitlab discover`` (:mo
 exact engine is :mod:`.exact` (directional albedo E(mu, alpha), its average E_avg(alpha), the compensation lobe
 f_ms, with F = 1); :mod:`.targets.tabulate` writes its tables and :mod:`.targets.datasets` reads them; :mod:`.mc`
 is the Monte Carlo random walk on Smith microsurfaces (``fitlab simulate``), :mod:`.lobes` simulates the lobes by
-order and fits them, and :mod:`.studies` holds the studies that write docs/.  Its program
-(:data:`.program.spec.PROGRAM`, ``fitlab codegen --family microfacet_energy``) prints every fitted albedo and lobe
-parameter as a routine, and the multiple-scattering lobes and Kulla-Conti's f_ms composed of them.
+order and fits them; the studies that write docs/ are in ``studies.microfacet_energy``, outside the package.  Its
+program (:data:`.program.spec.PROGRAM`, ``fitlab codegen --family microfacet_energy``) prints every fitted albedo
+and lobe parameter as a routine, and the multiple-scattering lobes and Kulla-Conti's f_ms composed of them.
 """
 
 from __future__ import annotations
@@ -86,6 +86,6 @@ class MicrofacetEnergy(
         return IMAGES
 
     def benchmarks(self) -> Benchmarks:
-        from fitlab.families.microfacet_energy.bench import bench_mc
+        from fitlab.families.microfacet_energy.mc.bench import bench_mc
 
         return Benchmarks(mc=bench_mc)  # the microsurface walk's throughput

@@ -1,12 +1,12 @@
 r"""The exact engine of the Fresnel family: the reflectance of real materials per wavelength and per colour
 channel, and its cosine-weighted average.
 
-* :func:`fresnel_reflectance` (:mod:`._optics`): unpolarised F(mu) for a complex index n + i k
+* :func:`fresnel_reflectance` (:mod:`.optics`): unpolarised F(mu) for a complex index n + i k
   (:func:`fitlab.physics.fresnel.fresnel_conductor`); :func:`normal_reflectance`; Gulbrandsen's map between (r, g)
   and (n, k).
-* :data:`MATERIALS` (:mod:`._materials`): measured conductors and dielectrics, with the source of each
+* :data:`MATERIALS` (:mod:`.materials`): measured conductors and dielectrics, with the source of each
   index; :func:`reflectance` F_c(mu) per channel of linear sRGB or ACEScg, :func:`average_reflectance`.
-* :func:`channel_weights` (:mod:`._colour`): the CIE 1931 observer under D65 as weights per channel, from
+* :func:`channel_weights` (:mod:`.colour`): the CIE 1931 observer under D65 as weights per channel, from
   the packaged table that colour-science computes (:func:`compute_channel_weights`).
 
 docs/fresnel.md states the conventions and what each approximation costs in accuracy.
@@ -15,7 +15,7 @@ docs/fresnel.md states the conventions and what each approximation costs in accu
 from pathlib import Path
 
 from fitlab import physics
-from fitlab.families.fresnel.exact._colour import (
+from fitlab.families.fresnel.exact.colour import (
     SPACES,
     WAVELENGTHS,
     WEIGHTS_COLUMNS,
@@ -26,7 +26,7 @@ from fitlab.families.fresnel.exact._colour import (
     compute_channel_weights,
     read_weights,
 )
-from fitlab.families.fresnel.exact._materials import (
+from fitlab.families.fresnel.exact.materials import (
     AVERAGE_ROUTES,
     BK7_SELLMEIER,
     CHANNELS,
@@ -37,7 +37,7 @@ from fitlab.families.fresnel.exact._materials import (
     get_material,
     reflectance,
 )
-from fitlab.families.fresnel.exact._optics import (
+from fitlab.families.fresnel.exact.optics import (
     fresnel_reflectance,
     gulbrandsen_index,
     gulbrandsen_parameters,

@@ -1,5 +1,5 @@
 r"""The Fresnel family's table (its tables for ``fitlab tabulate``): the colour-matching weights of
-:mod:`fitlab.families.fresnel.exact._colour`, computed with colour-science, written through
+:mod:`fitlab.families.fresnel.exact.colour`, computed with colour-science, written through
 :mod:`fitlab.store`; the committed copy is fitlab/data/fresnel/colour_weights.csv.  The optical constants
 beside it are measured data with their sources, not computed, so they are not rewritten here.
 

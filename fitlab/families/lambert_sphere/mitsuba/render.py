@@ -127,7 +127,7 @@ def _cos_phi(wi, wo, dr):
 @lru_cache(maxsize=1)
 def _baselines():
     """The baselines' routines (Lambert, Oren-Nayar at sigma = 0.5) printed as Dr.Jit functions from their sympy
-    expressions by the code generator (:mod:`..program.baselines`, as :mod:`..bench` prints them in C)."""
+    expressions by the code generator (:mod:`..program.baselines`, as :mod:`..program.bench` prints them in C)."""
     from fitlab.codegen import emit
     from fitlab.families.lambert_sphere.program.baselines import baseline_program
 

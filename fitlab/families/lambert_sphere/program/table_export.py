@@ -1,6 +1,6 @@
 r"""The exact tables as engines ship them: one float32 texture and the "tables, three orders" BRDF read from it.
 
-The report's "tables, three orders" method (:mod:`..report.spline_tables`) is the exact BRDF up to the interpolation of
+The report's "tables, three orders" method (:mod:`.report.spline_tables`) is the exact BRDF up to the interpolation of
 H0, H1, H2 and the constants; it interpolates with scipy splines and cannot be shipped.  This module stores
 what that BRDF needs in one texture (:class:`fitlab.codegen.texture.Texture`) and builds the BRDF from lookups of
 it, printed like any program (:func:`fitlab.codegen.texture.emit_textured`): C (the texture as a ``static const
@@ -32,7 +32,7 @@ s = k/64, mu = j/64; nothing is interpolated before it is stored), transformed; 
 c = 0 (the first-order part is exact), the constants' quantities are 0 at c = 0, and R_m at mu = 0 is read
 at the table's node mu = :data:`LIMIT_MU` (R_m - R_m(0) = O(mu log^2 mu), about 4e-7 there, below float32's
 resolution of R_m).  kd/c comes from the root in s of the kd table's spline
-(:func:`..report.spline_tables.kd_interpolant`, 2.8e-7 on kd), and at kd = 0 from the table's kd/c extrapolated
+(:func:`.report.spline_tables.kd_interpolant`, 2.8e-7 on kd), and at kd = 0 from the table's kd/c extrapolated
 to c = 0 (:func:`kd_ratio_limit`; the exact
 limit is the spherical albedo of single scattering per unit c, 3e-6 away).
 
@@ -59,7 +59,7 @@ from fitlab.families.lambert_sphere.forms import ORDER2_PART, RUNTIME_PARTS, RUN
 from fitlab.families.lambert_sphere.forms.constants import FIRST_ORDER
 from fitlab.families.lambert_sphere.forms.h_functions import first_order, log_exp, log_exp_remainder
 from fitlab.families.lambert_sphere.program.spec import brdf_routines, local_routine
-from fitlab.families.lambert_sphere.report.spline_tables import kd_interpolant
+from fitlab.families.lambert_sphere.program.report.spline_tables import kd_interpolant
 from fitlab.families.lambert_sphere.targets import TARGETS
 from fitlab.families.lambert_sphere.targets.table_files import (
     CONSTANTS_FILE,

@@ -10,9 +10,9 @@ for the height-correlated Smith function; nothing here reads those texts at run 
   height-correlated Smith G2 = 1 / (1 + Lambda_i + Lambda_o) (RTR4 eq. 9.31); Oren-Nayar as the blog
   writes it (A with 0.33 or the footnote's 0.57, sigma = (pi/2) alpha, the exact cos(phi) or the
   HLSL's unnormalised gamma).  alpha in [0, 1] is the GGX parameter itself (the blog uses alpha in D,
-  not roughness^2); phi = pi is the mirror configuration.  Conventions: :mod:`._ggx`, :mod:`._oren_nayar`.
+  not roughness^2); phi = pi is the mirror configuration.  Conventions: :mod:`.ggx`, :mod:`.oren_nayar`.
 * E(mu, alpha) = int f(w_o, w_i) mu_i dw_i (:func:`directional_albedo`), by two independent routes
-  (:mod:`._albedo`): for GGX over the half vector with the GGX distribution's own change of variable
+  (:mod:`.albedo`): for GGX over the half vector with the GGX distribution's own change of variable
   (which follows the peak down to alpha = 1e-6) and over the incident direction on graded panels; for
   Oren-Nayar a closed form and a 2-D quadrature.  The routes agree to 1e-9 or better on [0, 1] x
   [1e-5, 1] (GGX) and [0, 1]^2 (Oren-Nayar).  alpha = 0 is defined as the mirror: E = 1 at every mu.
@@ -27,7 +27,7 @@ same for both Smith forms (G1(w_o) = 1 at normal incidence); E(0, alpha) = 1 for
 Smith (at grazing every visible facet reflects upwards, and G2/G1(w_o) -> 1), while separable Smith
 keeps a factor G1(w_i) and E(0, alpha) -> 0.93613 as alpha -> 0, so that its E is discontinuous at
 the corner (mu, alpha) = (0, 0); Oren-Nayar has E = 1 at sigma = 0 (Lambert) in the convention stated
-in :mod:`._oren_nayar` (the blog's displayed formula already holds the cos(theta_i) of the integrand).
+in :mod:`.oren_nayar` (the blog's displayed formula already holds the cos(theta_i) of the integrand).
 
 The blog's statements, checked (tests/test_microfacet_energy_exact.py computes each):
 
@@ -48,14 +48,14 @@ GGX correlated 0.700240, 0.409137; Oren-Nayar 0.758285, 0.651877; with 0.57: 0.8
 Oren-Nayar as the blog writes it gains energy for small roughness: E(0, alpha) = A + B/2 > 1 for
 alpha < 0.208 (0.33) and < 0.350 (0.57), by up to 1.5 % and 4.4 % (the gamma shortcut: < 0.154, < 0.289,
 0.6 %, 2.9 %), so its compensation lobe is negative at grazing there; with the footnote's 0.57 even
-E_avg > 1 for alpha < 0.0996, and f_ms is unbounded as alpha approaches that value (:mod:`._oren_nayar`).
+E_avg > 1 for alpha < 0.0996, and f_ms is unbounded as alpha approaches that value (:mod:`.oren_nayar`).
 
 Fresnel: :func:`directional_albedo` takes an optional F(w_o . h) applied inside either GGX route (the
 two agree with it too); a F with kinks (total internal reflection: a dielectric with eta < 1) comes as a
 :class:`FresnelFactor` naming them (:func:`dielectric_factor`, :func:`conductor_factor`), and the routes put
-panel edges on the curves w_o . h = c_k (:mod:`._albedo`; a plain function is taken as smooth).
-:func:`split_sum` (:mod:`._split_sum`): the split-sum integrals A, B of Karis's DFG table, E_F = F0 A + F90 B
-under Schlick's F, by either route.  :mod:`._fresnel` gives the Fresnel factors (Schlick; the exact conductor,
+panel edges on the curves w_o . h = c_k (:mod:`.albedo`; a plain function is taken as smooth).
+:func:`split_sum` (:mod:`.split_sums`): the split-sum integrals A, B of Karis's DFG table, E_F = F0 A + F90 B
+under Schlick's F, by either route.  :mod:`.fresnel` gives the Fresnel factors (Schlick; the exact conductor,
 eta + i k; the exact dielectric), their average F_avg = 2 int_0^1 F mu dmu (adaptive Gauss-Legendre, 1e-12; Schlick's (20 F0 + 1) / 21 in closed form) and Kulla-Conti's coloured compensation f_ms_F = f_add
 f_ms, f_add = F_avg^2 E_avg / (1 - F_avg (1 - E_avg)), derived there from a stated model of the
 inter-reflections (each later bounce cosine-distributed with escape E_avg, every reflection weighted by
@@ -78,14 +78,14 @@ from pathlib import Path
 
 from fitlab import physics
 
-from fitlab.families.microfacet_energy.exact._albedo import CONVENTIONS, METHODS, average_albedo, directional_albedo
-from fitlab.families.microfacet_energy.exact._compensation import (
+from fitlab.families.microfacet_energy.exact.albedo import CONVENTIONS, METHODS, average_albedo, directional_albedo
+from fitlab.families.microfacet_energy.exact.compensation import (
     compensated_albedo,
     crossover_alpha,
     energy_integrals,
     multiple_scattering_brdf,
 )
-from fitlab.families.microfacet_energy.exact._fresnel import (
+from fitlab.families.microfacet_energy.exact.fresnel import (
     COMPENSATION_FORMS,
     FIRST_BOUNCE,
     average_fresnel,
@@ -104,9 +104,9 @@ from fitlab.families.microfacet_energy.exact._fresnel import (
     random_walk_albedo,
     visible_fresnel,
 )
-from fitlab.families.microfacet_energy.exact._fresnel_factor import FresnelFactor
-from fitlab.families.microfacet_energy.exact._ggx import SMITH, ggx_brdf, ggx_ndf, smith_g1, smith_g2, smith_lambda
-from fitlab.families.microfacet_energy.exact._models import (
+from fitlab.families.microfacet_energy.exact.fresnel_factor import FresnelFactor
+from fitlab.families.microfacet_energy.exact.ggx import SMITH, ggx_brdf, ggx_ndf, smith_g1, smith_g2, smith_lambda
+from fitlab.families.microfacet_energy.exact.models import (
     GGX_MODELS,
     MODEL_NAMES,
     MODELS,
@@ -115,13 +115,13 @@ from fitlab.families.microfacet_energy.exact._models import (
     brdf,
     get_model,
 )
-from fitlab.families.microfacet_energy.exact._oren_nayar import (
+from fitlab.families.microfacet_energy.exact.oren_nayar import (
     A_CONSTANTS,
     AZIMUTH,
     oren_nayar_brdf,
     oren_nayar_coefficients,
 )
-from fitlab.families.microfacet_energy.exact._split_sum import schlick_weight, split_sum
+from fitlab.families.microfacet_energy.exact.split_sums import schlick_weight, split_sum
 
 #: the engine's source files, part of the key of every cached exact value (fitlab.cache.cached_arrays): editing
 #: any of them recomputes what was cached

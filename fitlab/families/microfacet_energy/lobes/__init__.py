@@ -21,5 +21,5 @@ in :mod:`..targets.lobes`, their forms with the blog's published expressions as 
 fits) in :mod:`..program.runtime`, and the family's program (``fitlab codegen --family microfacet_energy``: the
 fitted albedos and the runtime lobes, fitlab/fits/generated/microfacet_energy.*) in :mod:`..program.spec`;
 docs/microsurface_lobes.md, every model against the simulated lobes with energy and cost, from
-:mod:`..studies.microsurface_lobes`.
+``studies.microfacet_energy.microsurface_lobes``.
 """

@@ -13,9 +13,8 @@ sampling, reflection and refraction), ``fresnel``, ``walk`` (the jitted walk, it
 sharding over devices), ``scene`` (the schema of its TOML scene files, read and checked by the shared
 :mod:`fitlab.scenes`), ``reference`` (the analytic single scattering with height-correlated Smith: BRDF,
 Walter's BTDF, diffuse facets; bin averages and totals), ``simulate`` (the walk the shared runner drives:
-jobs, stopping rule, rows and PNGs; the family's Monte Carlo), ``validation``
-(the order-1 study at large budgets), ``bench`` (bounces and paths per second).  docs/microsurface.md
-states the walk, the references and their derivations, and the figures measured.
+jobs, stopping rule, rows and PNGs; the family's Monte Carlo), ``bench`` (bounces and paths per second).
+docs/microsurface.md states the walk, the references and their derivations, and the figures measured.
 """
 
 from fitlab.families.microfacet_energy.mc.scene import Material, Scene, SceneError, load_scene, parse_scene

@@ -4,7 +4,7 @@
 generated C (full runtime model, fast variant) against two baselines compiled the same way (Lambert
 kd/pi; qualitative Oren-Nayar, sigma = 0.5), each printed from one sympy expression, on the same
 random inputs (:func:`fitlab.codegen.bench.time_routines`), and the generated numpy module.
-``bench_mc`` (:mod:`.mc.throughput`): photons and collisions per second.  ``bench_render``: Mitsuba 3 samples per
+``bench_mc`` (:mod:`..mc.throughput`): photons and collisions per second.  ``bench_render``: Mitsuba 3 samples per
 second of the registered ``lambert_sphere`` plugin in scalar_rgb and llvm_ad_rgb, beside Mitsuba's own
 ``diffuse``.  Timings are wall-clock on this machine, side by side in one run: only their ratios carry meaning.
 """
@@ -156,7 +156,7 @@ def bench_codegen(fits_dir: Path | None = None, n: int = 1_000_000, repeat: int 
 
 
 def bench_mc(quick: bool = False) -> dict:
-    """Photons and collisions per second of the Monte Carlo (:func:`.mc.throughput.bench_mc`; imports JAX)."""
+    """Photons and collisions per second of the Monte Carlo (:func:`..mc.throughput.bench_mc`; imports JAX)."""
     from fitlab.families.lambert_sphere.mc.throughput import bench_mc as run
 
     return run(quick=quick)

@@ -6,7 +6,7 @@ report (:mod:`.methods`) gives them to the generic writer, which knows no family
 
 from __future__ import annotations
 
-from fitlab.families.lambert_sphere.report.claims import claim_section
+from fitlab.families.lambert_sphere.program.report.claims import claim_section
 from fitlab.report.write import ns, report_source, sci, section_rows
 
 __all__ = ["BRDF_TITLE", "REPORT_TEXT", "engine_sections"]

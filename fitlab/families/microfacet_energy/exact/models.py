@@ -19,8 +19,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from fitlab.families.microfacet_energy.exact._checks import choice
-from fitlab.families.microfacet_energy.exact._ggx import ggx_brdf
-from fitlab.families.microfacet_energy.exact._oren_nayar import oren_nayar_brdf
+from fitlab.families.microfacet_energy.exact.ggx import ggx_brdf
+from fitlab.families.microfacet_energy.exact.oren_nayar import oren_nayar_brdf
 
 __all__ = ["Model", "MODELS", "MODEL_NAMES", "GGX_MODELS", "OREN_NAYAR_MODELS", "get_model", "brdf"]
 

@@ -10,8 +10,8 @@ module, for what only the family knows:
   whole-BRDF ``fast_brdf``, which is measured as a BRDF);
 * :data:`PRESET_VARIANTS`: the published runtime preset sets;
 * :func:`brdf_methods`: the BRDF-level catalogue (tables, published presets,
-  refits, the order-2 model of :data:`..program.runtime.ORDER2_FORMS` (its parts fitted to the mixed
-  reference, and to the true BRDF: :mod:`..program.true_refit`), richer and discovered forms, the fast variant,
+  refits, the order-2 model of :data:`..runtime.ORDER2_FORMS` (its parts fitted to the mixed
+  reference, and to the true BRDF: :mod:`..true_refit`), richer and discovered forms, the fast variant,
   the baselines);
 * :func:`part_extras`: the part-level methods beyond presets and fit files
   (the exact engine's Fock method for H0 and H1, the tables);
@@ -38,12 +38,27 @@ import sympy as sp
 from fitlab.codegen import DEFAULT_FORMS, program_spec
 from fitlab.core import get_target
 from fitlab.families.lambert_sphere import exact
-from fitlab.families.lambert_sphere.bench import random_inputs
 from fitlab.families.lambert_sphere.exact import albedo, brdf, h_function, spherical_albedo
 from fitlab.families.lambert_sphere.forms import ORDER2_PART, RUNTIME_PARTS
 from fitlab.families.lambert_sphere.forms.baselines import BASELINE_INPUTS, LAMBERT, oren_nayar
 from fitlab.families.lambert_sphere.program import table_export
 from fitlab.families.lambert_sphere.program.baselines import baseline_program
+from fitlab.families.lambert_sphere.program.bench import random_inputs
+from fitlab.families.lambert_sphere.program.report.engine_rows import SOURCES, measure_engines
+from fitlab.families.lambert_sphere.program.report.markdown import BRDF_TITLE, REPORT_TEXT, engine_sections
+from fitlab.families.lambert_sphere.program.report.materials import (
+    energy_materials,
+    fresh_materials,
+    validation_materials,
+)
+from fitlab.families.lambert_sphere.program.report.settings import (
+    BRDF_INPUTS,
+    BRDF_MATERIAL,
+    BRDF_POINT,
+    REPORT_SETTINGS,
+)
+from fitlab.families.lambert_sphere.program.report.spline_tables import kd_interpolant, table_brdf, table_part
+from fitlab.families.lambert_sphere.program.report.spline_tables import memory_bytes as spline_bytes
 from fitlab.families.lambert_sphere.program.runtime import (
     FAMILY_NAME,
     PRESET_VARIANTS,
@@ -52,12 +67,6 @@ from fitlab.families.lambert_sphere.program.runtime import (
 )
 from fitlab.families.lambert_sphere.program.spec import THREE_TERM_MODEL
 from fitlab.families.lambert_sphere.program.true_refit import TRUE_FITS, true_runtime_model
-from fitlab.families.lambert_sphere.report.engine_rows import SOURCES, measure_engines
-from fitlab.families.lambert_sphere.report.markdown import BRDF_TITLE, REPORT_TEXT, engine_sections
-from fitlab.families.lambert_sphere.report.materials import energy_materials, fresh_materials, validation_materials
-from fitlab.families.lambert_sphere.report.settings import BRDF_INPUTS, BRDF_MATERIAL, BRDF_POINT, REPORT_SETTINGS
-from fitlab.families.lambert_sphere.report.spline_tables import kd_interpolant, table_brdf, table_part
-from fitlab.families.lambert_sphere.report.spline_tables import memory_bytes as spline_bytes
 from fitlab.families.lambert_sphere.targets import TARGETS
 from fitlab.families.lambert_sphere.targets.table_files import check_tables, tables_dir
 from fitlab.forms.symbolic import lambdify_numpy, symbols
@@ -228,7 +237,8 @@ def brdf_methods(fits_dir: Path, entries: list, data_dir: Path, preset_c: tuple 
     out = []
     for order2, name in ((False, "tables, runtime model"), (True, "tables, three orders")):
         f = table_brdf(data_dir, order2=order2)
-        out.append(BrdfMethod(name, "tables", "data/*.csv with splines (fitlab.families.lambert_sphere.report.spline_tables)",
+        out.append(BrdfMethod(name, "tables",
+                              "data/*.csv with splines (fitlab.families.lambert_sphere.program.report.spline_tables)",
                               lambda mi, mo, ph, c, kd, f=f: f(mi, mo, ph, c),
                               bytes=float(spline_bytes(data_dir, order2))))  # fmt: skip
     out += _exported_tables(data_dir)

@@ -8,7 +8,7 @@ r"""The exact engine as an evaluation method of ``fitlab report``: its cost, its
   therefore bottoms out at their mutual agreement (~1e-13).  The time is one
   solve plus the evaluation at the mu points, per (order, c), uncached.
 * The BRDF (:func:`fitlab.families.lambert_sphere.exact.brdf`, the whole phase function): seconds of the
-  set-up at a new c (the Fourier orders of the half space, :mod:`..exact.true_phase`) and then ns per point.
+  set-up at a new c (the Fourier orders of the half space, :mod:`...exact.true_phase`) and then ns per point.
 * Its error (:func:`engine_agreement`): its two methods, Newton on the Riccati equation and doubling-adding,
   Fourier orders 0-2 of the multiple scattering at points with mu_i, mu_o >= 1e-3, each order's difference
   relative to the whole BRDF at the point (phi = 0 and pi): max and RMS.
@@ -85,7 +85,7 @@ def exact_brdf_cost(inputs: dict, repeat: int, points: int = 8192) -> dict:
 
 
 def engine_agreement(c: float, orders, points: int = 24) -> dict:
-    """The exact engine's two methods (:mod:`..exact.true_phase`: Newton and doubling) at ``points`` x
+    """The exact engine's two methods (:mod:`...exact.true_phase`: Newton and doubling) at ``points`` x
     ``points`` cosines (Gauss-Legendre on [1e-3, 1]): max and RMS over the orders of |fm_m(newton) -
     fm_m(doubling)| / min(|f(phi = 0)|, |f(phi = pi)|), and the doubling method's seconds per order
     (its solve, uncached)."""

@@ -14,7 +14,7 @@ Each is measured by the max of |F - F_exact| over the validation angles (worst c
 F_avg = 2 int F mu dmu (worst channel: what Kulla-Conti's coloured factor uses), and the CIEDE2000
 difference between the hemispherical averages' colours (F_avg of the three channels, linear sRGB to
 CIELAB under D65, colour-science's CIE 2000 formula).  Run as
-``python -m fitlab.families.fresnel.studies.fresnel_study --out docs`` (about 8 minutes on 2 cores: 360 fits).
+``python -m studies.fresnel.fresnel_study --out docs`` (about 8 minutes on 2 cores: 360 fits).
 """
 
 from __future__ import annotations
@@ -177,7 +177,7 @@ def approximation_costs(n: int = 200_000, repeat: int = 5) -> dict:
 def optical_constant_points(material: str) -> dict:
     """Where a conductor's measured n, k lie: the points in 380 to 780 nm and in the range the channels integrate,
     and the widest gap between neighbouring points of that range (nm, with its ends)."""
-    from fitlab.families.fresnel.exact._colour import channel_weights
+    from fitlab.families.fresnel.exact.colour import channel_weights
     from fitlab.resources import packaged_tables
     from fitlab.store import read_table
 
@@ -370,7 +370,7 @@ def markdown(result: dict) -> str:
     lines = [
         "# Fresnel reflectance of real materials, and its approximations",
         "",
-        "Written by `python -m fitlab.families.fresnel.studies.fresnel_study --out docs`; every number is computed "
+        "Written by `python -m studies.fresnel.fresnel_study --out docs`; every number is computed "
         "by that run. The family is `fitlab.families.fresnel` (targets `F_<material>_<channel>`, e.g. "
         "`fitlab refit --target F_cu_r --form gulbrandsen`).",
         "",
@@ -587,7 +587,7 @@ def main(argv=None) -> int:
     from fitlab._io import atomic_write_many, check_output_folder
 
     p = argparse.ArgumentParser(
-        prog="python -m fitlab.families.fresnel.studies.fresnel_study",
+        prog="python -m studies.fresnel.fresnel_study",
         description="Write fresnel.md, fresnel.json and fresnel_<material>.png.",
     )
     p.add_argument("--out", default=".", help="folder for the files")

@@ -1,8 +1,8 @@
 r"""The validation study of the microsurface walk at large budgets: order 1 of every kind of facet against
-its deterministic reference (:mod:`..mc.reference`), bin by bin and in total, over grazing to normal
-incidence, smooth to rough, isotropic and anisotropic, GGX and Beckmann; and energy, path by path.
+its deterministic reference (:mod:`fitlab.families.microfacet_energy.mc.reference`), bin by bin and in total, over
+grazing to normal incidence, smooth to rough, isotropic and anisotropic, GGX and Beckmann; and energy, path by path.
 
-``python -m fitlab.families.microfacet_energy.studies.microsurface_validation [--paths N] [--quiet]`` prints one
+``python -m studies.microfacet_energy.microsurface_validation [--paths N] [--quiet]`` prints one
 line per material, over its order-1 lobe bins, reflected and transmitted, that the reference or a path
 reaches: the smallest two-sided p-value of a bin's count under its reference (``simulate.count_p_value``,
 binomial, calibrated where few paths land) and the number of bins below 6.3e-5 (a 4-sigma deviation; with
@@ -122,7 +122,7 @@ def format_table(rows: list) -> str:
 
 
 def main(argv=None) -> int:
-    p = argparse.ArgumentParser(prog="python -m fitlab.families.microfacet_energy.studies.microsurface_validation",
+    p = argparse.ArgumentParser(prog="python -m studies.microfacet_energy.microsurface_validation",
                                 description="Order 1 of the microsurface walk against its references at a large "
                                             "budget (prints a markdown table).")
     p.add_argument("--paths", type=int, default=2_000_000, help="paths per job (material x mu_i), >= 10000")

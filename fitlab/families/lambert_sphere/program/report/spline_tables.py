@@ -1,4 +1,4 @@
-r"""The exact tables (:mod:`..targets.table_files`) with interpolation, as an evaluation method of the report.
+r"""The exact tables (:mod:`...targets.table_files`) with interpolation, as an evaluation method of the report.
 
 Interpolation (chosen by its error on the H validation sets, stated in the report):
 
@@ -48,7 +48,7 @@ mu_i, mu_o, phi, c, mu = symbols(("mu_i", "mu_o", "phi", "c", "mu"))
 
 def h_interpolant(order: int, data_dir: Path | None = None):
     """H_order(mu, c) from the table h{order}.csv: f(mu, c) on numpy arrays (mu, c in [0, 1]).
-    ``data_dir``: the tables' folder (None: :func:`..targets.table_files.tables_dir`), as in every function here."""
+    ``data_dir``: the tables' folder (None: :func:`...targets.table_files.tables_dir`), as in every function here."""
     return _h_interpolant(order, tables_dir(data_dir))
 
 

@@ -1,6 +1,6 @@
 r"""What the generated code states about itself, in the report: the accuracy against the true BRDF that
 ``fitlab codegen`` measures and prints in the banner of each model of the family's program
-(:func:`fitlab.families.lambert_sphere.program.spec.claim`, :func:`..program.runtime.model_accuracy`), so that the
+(:func:`fitlab.families.lambert_sphere.program.spec.claim`, :func:`..runtime.model_accuracy`), so that the
 report, the README and the banner print the same figures."""
 
 from __future__ import annotations

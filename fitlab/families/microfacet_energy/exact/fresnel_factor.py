@@ -1,10 +1,10 @@
 r"""A Fresnel factor F(cos theta_d) together with the cosines where it is not smooth.
 
-The quadratures of :mod:`._albedo` (and :func:`._fresnel.visible_fresnel`, :func:`._fresnel.average_fresnel`)
+The quadratures of :mod:`.albedo` (and :func:`.fresnel.visible_fresnel`, :func:`.fresnel.average_fresnel`)
 converge fast for a smooth F.  A dielectric seen from its denser side (relative index eta < 1) is not: F = 1
 for cos theta_d <= c_k = sqrt(1 - eta^2) (total internal reflection) and F = 1 - O(sqrt(cos theta_d - c_k))
 above, a square-root edge that a rule unaware of it integrates with an error of a few 1e-3 (E at alpha 0.6,
-mu 0.5, eta 1/1.5: 0.35938 and 0.35654 by the two routes of :mod:`._albedo` for 0.35801).  A conductor
+mu 0.5, eta 1/1.5: 0.35938 and 0.35654 by the two routes of :mod:`.albedo` for 0.35801).  A conductor
 bends as sharply where t0 = eta^2 - k^2 - (1 - c^2) = 0 when k is small.  The engine is fed functions,
 which cannot say where they bend; :class:`FresnelFactor` carries those cosines (``kinks``) with the
 function, and the quadratures put panel edges on them (on the curves w_o . h = c_k of their variables).

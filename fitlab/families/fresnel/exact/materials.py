@@ -10,7 +10,7 @@ Schott N-BK7 by its published Sellmeier formula (SCHOTT optical glass data sheet
 n^2 = 1 + sum_i B_i lambda^2 / (lambda^2 - C_i), lambda in micrometres.
 
 Reflectance per channel: F_c(mu) = sum_lambda W_c(lambda) F(lambda, mu) with the weights of
-:mod:`._colour` (the CIE 1931 2-degree observer under D65, into linear sRGB or ACEScg, each channel's
+:mod:`.colour` (the CIE 1931 2-degree observer under D65, into linear sRGB or ACEScg, each channel's
 weights summing to 1, so that a spectrally constant F gives that constant in every channel).
 """
 
@@ -21,8 +21,8 @@ from functools import cache, lru_cache
 
 import numpy as np
 
-from fitlab.families.fresnel.exact._colour import SPACES, channel_weights
-from fitlab.families.fresnel.exact._optics import fresnel_reflectance
+from fitlab.families.fresnel.exact.colour import SPACES, channel_weights
+from fitlab.families.fresnel.exact.optics import fresnel_reflectance
 from fitlab.numerics import choice, gauss_legendre, real_array
 from fitlab.resources import packaged_tables
 from fitlab.store import read_table

@@ -38,7 +38,7 @@ towards psi = 0, down to 3e-13 of each segment in mu_i and 3e-16 in psi.  Each n
 mu_i - mu_o are formed from its offset to the graded end, so the peak stays resolved where it is
 narrower than the spacing of floats near 1 (alpha^2 wide at normal incidence).
 
-A Fresnel factor with kinks (:class:`._fresnel_factor.FresnelFactor`; the critical angle of a dielectric seen
+A Fresnel factor with kinks (:class:`.fresnel_factor.FresnelFactor`; the critical angle of a dielectric seen
 from its denser side, c_k = sqrt(1 - eta^2), below which F = 1 and above which F - 1 grows as
 sqrt(cos theta_d - c_k)): each route puts panel edges on the curve w_o . h = c_k of its variables (a plain
 function is taken as smooth; a rule blind to the edge errs by a few 1e-3).
@@ -64,7 +64,7 @@ for eta in {1/1.5, 1/1.33, 0.9, 0.99}, alpha in {0.01, 0.05, 0.3, 1}, mu from 0 
 direction 1.5e-10 (tests/test_microfacet_energy_kinks.py), at about 6 (half vector) and 20 (direction)
 times the cost of the same F given as a plain function (best of 4 interleaved runs, one machine).
 
-Oren-Nayar: the closed form of :mod:`._oren_nayar` ("closed_form", the default) and route
+Oren-Nayar: the closed form of :mod:`.oren_nayar` ("closed_form", the default) and route
 "direction": Gauss-Legendre in (theta_i, phi), split at theta_i = theta_o (where theta_min and
 theta_max swap) and at phi = pi/2 (the max(0, cos phi)), on which the integrand is a trigonometric
 polynomial.
@@ -86,14 +86,14 @@ from functools import lru_cache
 import numpy as np
 
 from fitlab.families.microfacet_energy.exact._checks import choice, real_array
-from fitlab.families.microfacet_energy.exact._fresnel_factor import kinks_of
-from fitlab.families.microfacet_energy.exact._models import get_model
-from fitlab.families.microfacet_energy.exact._oren_nayar import (
+from fitlab.families.microfacet_energy.exact._quadrature import composite, gauss_legendre, graded_edges
+from fitlab.families.microfacet_energy.exact.fresnel_factor import kinks_of
+from fitlab.families.microfacet_energy.exact.models import get_model
+from fitlab.families.microfacet_energy.exact.oren_nayar import (
     albedo_closed_form,
     average_albedo_closed_form,
     oren_nayar_coefficients,
 )
-from fitlab.families.microfacet_energy.exact._quadrature import composite, gauss_legendre, graded_edges
 from fitlab.physics.microfacet import ggx_ndf, ggx_visibility
 from fitlab.physics.oren_nayar import oren_nayar
 

@@ -21,9 +21,9 @@ from __future__ import annotations
 import numpy as np
 from scipy import optimize
 
-from fitlab.families.microfacet_energy.exact._albedo import average_albedo, average_nodes, directional_albedo
 from fitlab.families.microfacet_energy.exact._checks import real_array
-from fitlab.families.microfacet_energy.exact._models import get_model
+from fitlab.families.microfacet_energy.exact.albedo import average_albedo, average_nodes, directional_albedo
+from fitlab.families.microfacet_energy.exact.models import get_model
 
 __all__ = ["multiple_scattering_brdf", "compensated_albedo", "energy_integrals", "crossover_alpha"]
 
@@ -42,7 +42,7 @@ def multiple_scattering_brdf(mu_o, mu_i, alpha, model: str = "ggx_separable"):
     absolute error is ~1e-12: fine for alpha >= 1e-4 (1 - E_avg ~ 1e-7 there for GGX).
 
     Oren-Nayar as the blog writes it is not energy conserving at grazing for small roughness (its E
-    exceeds 1 there, see :mod:`._oren_nayar`), so f_ms < 0 where E(mu_o) > 1 >= E(mu_i); with the
+    exceeds 1 there, see :mod:`.oren_nayar`), so f_ms < 0 where E(mu_o) > 1 >= E(mu_i); with the
     footnote's 0.57 even E_avg > 1 for alpha below about 0.0996, and f_ms is unbounded as alpha
     approaches the alpha where E_avg = 1.  The formula is applied as it stands (the furnace identity
     holds regardless); the caller decides what such a lobe is worth.

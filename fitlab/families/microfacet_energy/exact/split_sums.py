@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from fitlab.families.microfacet_energy.exact._albedo import directional_albedo
+from fitlab.families.microfacet_energy.exact.albedo import directional_albedo
 from fitlab.physics import fresnel
 
 __all__ = ["schlick_weight", "split_sum"]

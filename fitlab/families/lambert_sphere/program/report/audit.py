@@ -154,7 +154,7 @@ def _runtime_true_rows(models) -> list[dict]:
 
 def _runtime_true_independent_rows(models) -> list[dict]:
     """The runtime models and the mixed reference against the true BRDF at random points no fit saw
-    (:func:`..targets.datasets.brdf_true_independent`)."""
+    (:func:`...targets.datasets.brdf_true_independent`)."""
     valid = d.brdf_true_independent()
     mi, mo, ph, c = (valid.inputs[k] for k in ("mu_i", "mu_o", "phi", "c"))
     candidates = [(MIXED_ROW, brdf(mi, mo, ph, c, phase="mixed"), {})]

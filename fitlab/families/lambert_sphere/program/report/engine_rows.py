@@ -10,15 +10,15 @@ from __future__ import annotations
 
 import math
 
-from fitlab.families.lambert_sphere.report.claims import claim_rows
-from fitlab.families.lambert_sphere.report.exact_engine import (
+from fitlab.families.lambert_sphere.program.report.claims import claim_rows
+from fitlab.families.lambert_sphere.program.report.exact_engine import (
     doubling_agreement,
     engine_agreement,
     exact_brdf_cost,
     h_convergence,
     time_to_error,
 )
-from fitlab.families.lambert_sphere.report.montecarlo import mc_study, mc_time_to_error
+from fitlab.families.lambert_sphere.program.report.montecarlo import mc_study, mc_time_to_error
 
 __all__ = ["SOURCES", "measure_engines"]
 

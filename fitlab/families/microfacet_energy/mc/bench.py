@@ -2,7 +2,7 @@ r"""Throughput of the microsurface walk (``fitlab bench mc --family microfacet_e
 (bounces) and paths per second on this machine, for GGX and Beckmann microsurfaces of conductor (F = 1),
 diffuse (albedo 1) and dielectric (eta = 1.5) facets; the time the blog's job would take here; and the
 walk sharded over several host devices against one; and a plain C reference of the GGX conductor walk
-(:mod:`.mc.native`: one thread, the same paths) with the ratio of the JAX walk's bounces per second to it.
+(:mod:`.native`: one thread, the same paths) with the ratio of the JAX walk's bounces per second to it.
 
 The blog's job (seeds, "A blog article on multiple-scattering BRDFs"): "500 million rays" on "a tiny patch
 of rough micro-surface", "accounting for 4 orders of scattering", "about 1/2 a second per simulation" with
@@ -41,7 +41,7 @@ def _config(distribution, kind, slots):
 
 
 def _sharding_child(n: int, repeat: int) -> dict:
-    """What :func:`bench_sharding`'s fresh process runs (``python -m fitlab.families.microfacet_energy.bench N
+    """What :func:`bench_sharding`'s fresh process runs (``python -m fitlab.families.microfacet_energy.mc.bench N
     REPEAT``, with the host devices forced): the GGX dielectric walk on one device against all."""
     import jax
     import numpy as np
@@ -76,7 +76,7 @@ def bench_sharding(devices: int | None = None, n_paths: int = 200_000, repeat: i
 
 
 def bench_native(n_paths: int = 400_000, repeat: int = 3, alpha: float = 0.6, mu_i: float = 0.5) -> dict:
-    """The C reference of the GGX conductor walk (:mod:`.mc.native`) on the bench's paths (job key (0, 0, 0)):
+    """The C reference of the GGX conductor walk (:mod:`.native`) on the bench's paths (job key (0, 0, 0)):
     dict(seconds, bounces, bounces_per_second, paths_per_second), the best of ``repeat``."""
     from fitlab.families.microfacet_energy.mc.native import native_walk
     from fitlab.families.microfacet_energy.mc.walk import job_key

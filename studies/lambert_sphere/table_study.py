@@ -1,20 +1,21 @@
 r"""What to store in the exported tables, and at what resolution: docs/table_export.md (and .json, .png).
 
-``python -m fitlab.families.lambert_sphere.studies.table_study --out docs`` measures, against the exact engine (for the
+``python -m studies.lambert_sphere.table_study --out docs`` measures, against the exact engine (for the
 BRDF the true one, the whole phase function in every collision: the BRDF the tables carry, so that the error is
 the lookups' and the Fourier orders m >= 3 the correction leaves out):
 
-* the candidates for what the H rows hold (:data:`..program.table_export.QUANTITIES`: H itself, log(H)/mu less its
-  grazing term, the remainder beyond the exact grazing and first-order parts), each with the bilinear and the
-  bicubic lookup, at 17, 33 and 65 nodes per axis: H0, H1, H2 on their validation sets (relative error of H
-  and of H - 1, which the BRDF's (H_i H_o - 1)/(mu_i + mu_o) terms magnify) and the BRDF on the report's
-  sets (:mod:`fitlab.report.validation`: the validation set with c down to 1e-6, the grazing set with mu down
-  to 1e-6, the independent set);
+* the candidates for what the H rows hold (:data:`fitlab.families.lambert_sphere.program.table_export.QUANTITIES`: H
+  itself, log(H)/mu less its grazing term, the remainder beyond the exact grazing and first-order parts), each with the
+  bilinear and the bicubic lookup, at 17, 33 and 65 nodes per axis: H0, H1, H2 on their validation sets (relative error
+  of H and of H - 1, which the BRDF's (H_i H_o - 1)/(mu_i + mu_o) terms magnify) and the BRDF on the report's sets
+  (:mod:`fitlab.report.validation`: the validation set with c down to 1e-6, the grazing set with mu down to 1e-6, the
+  independent set);
 * the resolution of the shipped quantity, 5 to 65 nodes, against bytes and texel reads per call, for both lookups;
-* how the true-phase correction is read along s (:data:`..program.table_export.CORRECTION_S_CHOICES`: linear or
-  cubic, on every node of the exact table's s grid or every other one) at the shipped resolution: the BRDF on the
-  report's sets, its distance from the tricubic lookup on every node (what the reading along s adds), and the
-  correction's error at the exact table's s nodes a reading skips.
+* how the true-phase correction is read along s
+  (:data:`fitlab.families.lambert_sphere.program.table_export.CORRECTION_S_CHOICES`: linear or cubic, on every node of
+  the exact table's s grid or every other one) at the shipped resolution: the BRDF on the report's sets, its distance
+  from the tricubic lookup on every node (what the reading along s adds), and the correction's error at the exact
+  table's s nodes a reading skips.
 
 The constants, c(kd) and the true-phase correction are stored and read the same way in every candidate row
 (the correction with the H rows' lookup across the cosines and the shipped one along s), so rows of one lookup
@@ -121,7 +122,8 @@ def candidate_rows(sets, h_sets, data_dir=None, tick=None) -> list[dict]:
 
 
 def resolution_rows(sets, h_sets, data_dir=None, tick=None) -> list[dict]:
-    """The shipped quantity at every resolution (:data:`..program.table_export.NODES`), both lookups."""
+    """The shipped quantity at every resolution (:data:`fitlab.families.lambert_sphere.program.table_export.NODES`),
+    both lookups."""
     rows = []
     for lookup in ("linear", "cubic"):
         for nodes in te.NODES:
@@ -135,11 +137,12 @@ CORRECTION_REFERENCE = ("cubic", 1)
 
 
 def correction_rows(sets, data_dir=None, tick=None) -> list[dict]:
-    """Each reading of the correction along s (:data:`..program.table_export.CORRECTION_S_CHOICES`) at the shipped
-    resolution and lookup: the BRDF against the exact one on the report's sets; its distance from the BRDF that
-    reads the correction by :data:`CORRECTION_REFERENCE` (max and RMS of |f - f_ref|/f_exact: what the reading along
-    s adds, the rest being common); and, for a reading that skips nodes of the exact table's s grid, the correction
-    there against the table's exact values (sum over the orders of max |dQ_m|, an error relative to fm0)."""
+    """Each reading of the correction along s
+    (:data:`fitlab.families.lambert_sphere.program.table_export.CORRECTION_S_CHOICES`) at the shipped resolution and
+    lookup: the BRDF against the exact one on the report's sets; its distance from the BRDF that reads the correction by
+    :data:`CORRECTION_REFERENCE` (max and RMS of |f - f_ref|/f_exact: what the reading along s adds, the rest being
+    common); and, for a reading that skips nodes of the exact table's s grid, the correction there against the table's
+    exact values (sum over the orders of max |dQ_m|, an error relative to fm0)."""
     from fitlab.families.lambert_sphere.targets.table_files import TRUE_S_GRID
 
     nodes, lookup = te.DEFAULT_NODES, te.DEFAULT_LOOKUP
@@ -239,7 +242,7 @@ def markdown(result: dict) -> str:
     lo = result["left_out"]
     lookup_name = {"linear": "bilinear", "cubic": "bicubic"}
     out = ["# The exported tables: what is stored, and at what resolution", "",
-           "Generated by `python -m fitlab.families.lambert_sphere.studies.table_study --out docs` (do not edit; every number "
+           "Generated by `python -m studies.lambert_sphere.table_study --out docs` (do not edit; every number "
            "is in table_export.json). What engines ship: one float32 texture read by a bilinear or bicubic lookup "
            "(`fitlab codegen --tables`; docs/codegen.md, 'Tables as engines ship them'). Every node of the texture is "
            "a node of the exact tables (s = sqrt(1 - c) = k/64, mu = j/64; the true-phase correction Q_m at s = k/4, "
@@ -391,7 +394,7 @@ def plot_png(result: dict) -> bytes:
 def main(argv=None) -> int:
     from fitlab._io import FolderError, atomic_write_many, check_output_folder
 
-    p = argparse.ArgumentParser(prog="python -m fitlab.families.lambert_sphere.studies.table_study",
+    p = argparse.ArgumentParser(prog="python -m studies.lambert_sphere.table_study",
                                 description="Measure what the exported tables store and at what resolution; write "
                                             + ", ".join(FILES) + " into --out as one unit.")  # fmt: skip
     p.add_argument("--out", default="docs", help="output folder (default: docs)")

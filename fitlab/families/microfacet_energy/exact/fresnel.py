@@ -27,7 +27,7 @@ Fresnel factors F(c), c = cos(theta_d) = w . m in [0, 1], unpolarised light from
 The index-matched interface (eta = 1, k = 0) reflects nothing: F = 0 for c > 0, and its limit 0 at c = 0
 (every other interface has F(0) = 1).  All three evaluate in float32 when every argument is a numpy
 float32 value, otherwise in float64.  The domain is cos in [0, 1]; a cosine in [-1, 0) (a back-facing
-facet, whose light a caller weights by max(0, w . m) = 0: the half-vector route of :mod:`._albedo` evaluates
+facet, whose light a caller weights by max(0, w . m) = 0: the half-vector route of :mod:`.albedo` evaluates
 F at such nodes of zero weight, cos down to -alpha e^-19, at mu_o = 0) is taken as 0, and one up to 16 ulp
 above 1 (rounding of w . h formed from vectors) as 1, so that F stays finite there; beyond [-1, 1] the
 functions refuse the argument.
@@ -48,7 +48,7 @@ int_0^1 (1 - mu)^5 mu dmu = B(2, 6) = 1! 5! / 7! = 1/42, so
     F_avg = F0 + 2 (1 - F0) / 42 = (20 F0 + 1) / 21.
 
 The coloured compensation (Kulla and Conti 2017, the blog's source).  The model of the inter-reflections
-behind the F = 1 lobe f_ms = (1 - E(mu_o)) (1 - E(mu_i)) / (pi (1 - E_avg)) (:mod:`._compensation`),
+behind the F = 1 lobe f_ms = (1 - E(mu_o)) (1 - E(mu_i)) / (pi (1 - E_avg)) (:mod:`.compensation`),
 extended to Fresnel, assumes:
 
 (A1) a unit of energy arriving from mu_o is reflected a first time; the fraction E(mu_o) leaves (single
@@ -115,7 +115,7 @@ first_bounce="averaged" is the model of A1-A3 itself, F_avg E(mu_o) + g F_avg (1
 from Kulla-Conti's total by E_F - F_avg E only.  Neither is the true multiple scattering of a random walk
 on the microsurface (Heitz et al. 2016), which A2-A3 approximate.
 
-The visible-normal average R uses the half-vector variables of :mod:`._albedo`: tan(theta_m) = alpha e^tau,
+The visible-normal average R uses the half-vector variables of :mod:`.albedo`: tan(theta_m) = alpha e^tau,
 D mu_m dw_m = dxi dphi / (2 pi), dxi = 2 dtau / (t + 1/t)^2, so that
 
     R(mu_o) = 2 / (pi (mu_o + S(mu_o))) int dtau dxi/dtau int_0^phi_end dphi max(0, w_o . m / mu_m) F(w_o . m),
@@ -124,7 +124,7 @@ w_o . m / mu_m = mu_o + s_o tan(theta_m) cos(phi), phi_end = pi while tan(theta_
 arccos(-mu_o / (s_o tan(theta_m))) beyond; the tau rule of the half-vector route with its breakpoint at
 tan(theta_m) = mu_o / s_o (where the azimuthal integral has a (tau - tau_c)^(3/2) term).  With F = 1 it
 is exactly 1 (G1's normalisation), which the tests check to 1e-10.  A :class:`FresnelFactor`'s kinks are
-followed as in :mod:`._albedo` (the azimuths split at w_o . m = c_k, graded stretches in tau where that curve
+followed as in :mod:`.albedo` (the azimuths split at w_o . m = c_k, graded stretches in tau where that curve
 touches phi = 0 or pi); the curve never meets phi_end, where w_o . m = 0.  :func:`dielectric_factor` and
 :func:`conductor_factor` give the two exact Fresnel factors with their kinks, which :func:`average_fresnel`
 takes as panel edges too.
@@ -136,7 +136,9 @@ from functools import lru_cache
 
 import numpy as np
 
-from fitlab.families.microfacet_energy.exact._albedo import (
+from fitlab.families.microfacet_energy.exact._checks import choice, real_array, working_dtype
+from fitlab.families.microfacet_energy.exact._quadrature import gauss_legendre
+from fitlab.families.microfacet_energy.exact.albedo import (
     HALF_VECTOR,
     _half_vector_nodes,
     _kink_azimuths,
@@ -148,11 +150,9 @@ from fitlab.families.microfacet_energy.exact._albedo import (
     average_nodes,
     directional_albedo,
 )
-from fitlab.families.microfacet_energy.exact._checks import choice, real_array, working_dtype
-from fitlab.families.microfacet_energy.exact._compensation import _lobe, multiple_scattering_brdf
-from fitlab.families.microfacet_energy.exact._fresnel_factor import FresnelFactor, kinks_of
-from fitlab.families.microfacet_energy.exact._models import get_model
-from fitlab.families.microfacet_energy.exact._quadrature import gauss_legendre
+from fitlab.families.microfacet_energy.exact.compensation import _lobe, multiple_scattering_brdf
+from fitlab.families.microfacet_energy.exact.fresnel_factor import FresnelFactor, kinks_of
+from fitlab.families.microfacet_energy.exact.models import get_model
 from fitlab.physics import fresnel
 from fitlab.physics.microfacet import ggx_root_term
 
