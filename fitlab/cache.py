@@ -54,10 +54,9 @@ import re
 import sys
 import threading
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterable, Iterator, Mapping
 from contextlib import contextmanager, suppress
 from pathlib import Path
-from typing import Callable, Iterable, Mapping
 
 import numpy as np
 
@@ -209,10 +208,8 @@ def _store(path: Path, values: Mapping[str, np.ndarray], names: tuple[str, ...])
     time."""
     buf = io.BytesIO()
     np.savez(buf, **{n: values[n] for n in names}, **{_HASH: _content_hash(path.name, values, names)})
-    try:
+    with suppress(OSError):
         atomic_write_bytes(path, buf.getvalue())
-    except OSError:
-        pass
 
 
 def family_entry_points() -> list[str]:

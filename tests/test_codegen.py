@@ -106,8 +106,8 @@ def test_committed_generated_code_is_what_the_committed_fits_generate(sources, l
 
 @pytest.mark.e2e
 def test_generation_does_not_depend_on_hash_seed(tmp_path):
-    code = ("import os; os.chdir({root!r}); from fitlab.codegen import generate; "
-            "import sys; sys.stdout.write(generate('c')['lambert_sphere.c'])").format(root=str(ROOT))  # fmt: skip
+    code = (f"import os; os.chdir({str(ROOT)!r}); from fitlab.codegen import generate; "
+            "import sys; sys.stdout.write(generate('c')['lambert_sphere.c'])")  # fmt: skip
     # both at once (two cores): each builds the program from scratch
     runs = [subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                              env={**os.environ, "PYTHONHASHSEED": seed}) for seed in ("1", "2")]  # fmt: skip
@@ -374,12 +374,12 @@ def test_runtime_terms_are_the_printed_terms():
     parts.update({p: sp.Function(p)(c) for p in ("l", "m", "B", "C", "D", "F")})
     sigma, p_, q_ = mu_i + mu_o, mu_i * mu_o, mu_i**2 + mu_o**2
     h = {n: parts[n].subs(mu, mu_i) * parts[n].subs(mu, mu_o) for n in ("H0", "H1")}
-    B, C, D, F, l, m = (parts[n] for n in "BCDFlm")
+    B, C, D, F, ell, m = (parts[n] for n in "BCDFlm")
     for norm, (k, j) in forms_brdf.NORMALISATIONS.items():
         terms = forms_brdf.runtime_terms(parts, norm)
         q = A_EXACT + B * sigma + C * p_ + D * p_ * sigma + E_EXACT * p_**2 + F * q_
         fm0 = (h["H0"] * q / (2 * sp.pi) - forms_brdf.SINGLE_NUMERATOR_0) / sigma
-        fm1 = (c * h["H1"] * forms_brdf.S * (1 + l * sigma + (l**2 + sp.Rational(45, 64) * m) * p_) / (k * sp.pi)
+        fm1 = (c * h["H1"] * forms_brdf.S * (1 + ell * sigma + (ell**2 + sp.Rational(45, 64) * m) * p_) / (k * sp.pi)
                - forms_brdf.SINGLE_NUMERATOR_1 / j) / sigma  # fmt: skip
         assert sp.simplify(sp.expand((terms["m0"] - fm0) * sigma)) == 0
         assert sp.simplify(sp.expand((terms["m1"] - fm1) * sigma)) == 0

@@ -212,7 +212,7 @@ def _languages(native, glsl, py):
 @needs_cc
 def test_clamps_at_named_points(native, glsl, py):
     for lang, f in _languages(native, glsl, py).items():
-        def same(name, outside, inside):
+        def same(name, outside, inside, f=f, lang=lang):
             got, want = f(name, *outside), f(name, *inside)
             assert np.isfinite(want) and got == want, (lang, name, outside, got, want)
 

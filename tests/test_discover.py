@@ -28,7 +28,11 @@ def _toy_library(**kw):
     return Library(name="toy", target="toy", inputs=("mu",), numerator=shapes, denominator=shapes, **kw)
 
 
-def _recover(lib, y_of_mu, truth, x=np.linspace(0.0, 1.0, 401)):
+#: the points of [0, 1] where a candidate must reproduce the function
+UNIT_GRID = np.linspace(0.0, 1.0, 401)
+
+
+def _recover(lib, y_of_mu, truth, x=UNIT_GRID):
     reg = SparseRegression(lib).fit({"mu": x}, y_of_mu(x), np.abs(y_of_mu(x)))
     exact = [cand for cand in reg.candidates_ if np.max(np.abs(reg.predict({"mu": x}, cand) / y_of_mu(x) - 1)) < 1e-9]
     assert exact, "no candidate reproduces the function"

@@ -112,7 +112,7 @@ def test_the_builtin_families_meet_every_contract():
             assert all(isinstance(lib, Library) and lib.target == t for t, libs in libraries.items() for lib in libs)
         if isinstance(family, HasTables):
             tables = family.tables()
-            assert tables.FAMILY_NAME == name and len(tables.TABLE_FILES) > 0
+            assert name == tables.FAMILY_NAME and len(tables.TABLE_FILES) > 0
         if isinstance(family, HasMonteCarlo):
             simulation = family.simulation()
             assert isinstance(simulation, Simulation) and simulation.schema.family == name

@@ -6,6 +6,7 @@ other end itself, which ends the blocked read, and fails."""
 
 from __future__ import annotations
 
+import contextlib
 import os
 import shutil
 import threading
@@ -39,10 +40,8 @@ def finishes(call, fifos, seconds: float = 30.0):
     thread.join(seconds)
     if thread.is_alive():
         for fifo in fifos:
-            try:
+            with contextlib.suppress(OSError):
                 os.close(os.open(fifo, os.O_WRONLY | os.O_NONBLOCK))
-            except OSError:
-                pass
         thread.join(seconds)
         pytest.fail(f"blocked on a FIFO for more than {seconds:g} s")
     if "error" in result:

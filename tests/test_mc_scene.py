@@ -184,8 +184,8 @@ def test_non_finite_numbers_are_refused_with_their_line():
 
 
 def test_batch_is_bounded():
-    assert "s.toml:25: precision.batch: 2147483648 is outside [100, 10000000]" == _error(
-        GOOD.replace("batch = 10_000", "batch = 2147483648"))
+    assert _error(
+        GOOD.replace("batch = 10_000", "batch = 2147483648")) == "s.toml:25: precision.batch: 2147483648 is outside [100, 10000000]"
     assert parse_scene(GOOD.replace("batch = 10_000", "batch = 10_000_000"), "s.toml").batch == 10**7
 
 

@@ -24,7 +24,7 @@ def test_legendre_moments_closed_form_and_quadrature():
     assert a[8] == pytest.approx(17.0 / 16384.0, rel=1e-14)
     assert np.all(a[3::2] == 0.0)
     for k in range(0, 41, 1):
-        num, _ = integrate.quad(lambda u: exact.phase_function(u) * eval_legendre(k, u), -1, 1, limit=400,
+        num, _ = integrate.quad(lambda u, k=k: exact.phase_function(u) * eval_legendre(k, u), -1, 1, limit=400,
                                 epsabs=1e-15, epsrel=1e-13)
         assert 2 * np.pi * (2 * k + 1) * num == pytest.approx(a[k], rel=1e-9, abs=1e-13), k
     # A_k ~ (16/pi) k^-4 for even k

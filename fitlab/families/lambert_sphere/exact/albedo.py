@@ -35,7 +35,7 @@ exactly; tests/test_true_phase.py).
 from __future__ import annotations
 
 import warnings
-from functools import lru_cache
+from functools import cache
 
 import numpy as np
 
@@ -111,7 +111,7 @@ def single_scattering_albedo(mu_i: float, phase: str = "true") -> float:
     return total
 
 
-@lru_cache(maxsize=None)
+@cache
 def single_albedo_nodes(phase: str):
     """a1 at the graded nodes (c-independent, computed once)."""
     phase = _checks.choice(phase, "phase", SINGLE_PHASES)

@@ -207,9 +207,9 @@ def assoc_normalised(m: int, degree: int, mu) -> np.ndarray:
     out[0] = q
     if degree > m:
         out[1] = np.sqrt(2.0 * m + 1.0) * mu * q
-    for l in range(m + 2, degree + 1):
-        out[l - m] = ((2 * l - 1) * mu * out[l - 1 - m] - np.sqrt((l - 1.0) ** 2 - m * m) * out[l - 2 - m]) / np.sqrt(
-            l * l - m * m
+    for ell in range(m + 2, degree + 1):
+        out[ell - m] = ((2 * ell - 1) * mu * out[ell - 1 - m] - np.sqrt((ell - 1.0) ** 2 - m * m) * out[ell - 2 - m]) / np.sqrt(
+            ell * ell - m * m
         )
     return out
 
@@ -260,8 +260,8 @@ def _node_vectors(m, degree, moments, mu, w):
     if m == 0:
         q = q.copy()
         total = w.sum()
-        for l in range(2, degree + 1, 2):
-            q[l] -= (q[l] @ w) / total
+        for ell in range(2, degree + 1, 2):
+            q[ell] -= (q[ell] @ w) / total
     return q
 
 

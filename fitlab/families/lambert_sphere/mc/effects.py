@@ -44,7 +44,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from functools import lru_cache
+from functools import cache
 
 import numpy as np
 
@@ -268,7 +268,7 @@ def _p(u, phase):
     return phase_function(u) if phase == "true" else three_term_phase_function(u)
 
 
-@lru_cache(maxsize=None)
+@cache
 def _ss_bin_cached(c, mu_i, a, b, key, phase, phi_bin):
     """Bin average (mu_o weighted) of c p(u)/(mu_i + mu_o): order m, or over a |phi| bin."""
     x, w = np.polynomial.legendre.leggauss(_N_MU)
@@ -300,14 +300,14 @@ def _ss_bin(scene, mat, inc, b, key, phase=None):
                           tuple(phi_bin) if phi_bin else None)
 
 
-@lru_cache(maxsize=None)
+@cache
 def _ss_albedo(mu_i, phase):
     """Single-scattering directional albedo per unit c (fitlab.families.lambert_sphere.exact, adaptive quadrature)."""
 
     return float(single_scattering_albedo(mu_i, "true" if phase == "true" else "three_term"))
 
 
-@lru_cache(maxsize=None)
+@cache
 def single_spherical_albedo(phase):
     """2 int a1(mu) mu dmu per unit c (single scattering's share of kd), on the exact engine's graded rule."""
 
@@ -323,7 +323,7 @@ def eq40_kd(c):
     return float(get_form("kd_of_c", "printed")("paper", np.asarray(float(c))))
 
 
-@lru_cache(maxsize=None)
+@cache
 def _exact_modes_bin(c, mu_i, a, b, multiple_only, phase="three_term"):
     """mu_o-weighted bin averages of the exact modes: the three-term half space's (f0, f1, f2; multiple
     scattering only, or with its single scattering), or the true half space's multiple-scattering orders (every

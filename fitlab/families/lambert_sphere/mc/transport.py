@@ -235,10 +235,7 @@ def _chebyshev(cos_phi, orders):
 def _scatter(s: _Slots, u01, c, cfg: WalkConfig):
     """One collision: weight times c, new direction; returns (dx, dy, dz, w)."""
     if cfg.phase == "true":
-        if cfg.sampler == "exact":
-            u = sample_true_exact(u01[0], u01[1], u01[2])
-        else:
-            u = sample_true_approx(u01[0])
+        u = sample_true_exact(u01[0], u01[1], u01[2]) if cfg.sampler == "exact" else sample_true_approx(u01[0])
         factor = jnp.ones_like(u)[:, None]
     elif cfg.phase == "three_term":
         u, sign = sample_three_term(u01[0])

@@ -234,7 +234,7 @@ def accuracy_points(seed: int = 18, n: int = 400, n_random_c: int = 8, mu_min: f
     edge_mu, edge_phi = np.array([mu_min, 1.0]), np.array([0.0, np.pi / 2, np.pi])
     graze_mu = np.array([1e-6, 1e-4, 1e-2])
     sets = {"main": [], "grazing": []}
-    for cv in albedos:
+    for _ in albedos:  # one block of random points per albedo
         mi, mo, ph = rng.uniform(mu_min, 1.0, n), rng.uniform(mu_min, 1.0, n), rng.uniform(0.0, np.pi, n)
         e = np.meshgrid(edge_mu, edge_mu, edge_phi, indexing="ij")
         sets["main"].append(np.stack([np.concatenate((mi, e[0].ravel())), np.concatenate((mo, e[1].ravel())),

@@ -34,7 +34,7 @@ scattering, the phase function's sqrt(1 - u^2) is evaluated as sqrt((1 - u)(1 + 
 
 from __future__ import annotations
 
-from typing import Mapping
+from collections.abc import Mapping
 
 import sympy as sp
 

@@ -46,7 +46,7 @@ from __future__ import annotations
 
 import hashlib
 from dataclasses import dataclass, replace
-from functools import lru_cache
+from functools import cache
 from pathlib import Path
 
 import numpy as np
@@ -65,7 +65,9 @@ from fitlab.families.lambert_sphere.targets.table_files import (
     CONSTANTS_FILE,
     KD_FILE,
     TRUE_FILE,
+    TRUE_GRID_TEXT,
     TRUE_ORDERS,
+    TRUE_S_GRID,
     check_tables,
     h_file,
     read_checked,
@@ -75,7 +77,6 @@ from fitlab.families.lambert_sphere.targets.table_files import (
     read_true_orders,
     tables_dir,
 )
-from fitlab.families.lambert_sphere.targets.table_files import TRUE_GRID_TEXT, TRUE_S_GRID
 from fitlab.forms.symbolic import symbols
 from fitlab.store import MAX_TABLE_BYTES
 
@@ -222,7 +223,7 @@ def _grid_index(values: np.ndarray, wanted: np.ndarray, what: str, source: Path)
     return index
 
 
-@lru_cache(maxsize=None)
+@cache
 def _stored_function(order: int, quantity: str):
     """numpy f(H, mu, c) of the stored quantity (:data:`QUANTITIES`)."""
     h = sp.Symbol("h", positive=True)
@@ -357,7 +358,7 @@ def stored_correction(nodes: int, data_dir: Path | None = None,
     return out[:, keep_s][:, :, idx][:, :, :, idx]
 
 
-@lru_cache(maxsize=None)
+@cache
 def _texture(nodes: int, data_dir: Path, quantity: str, correction_s: tuple) -> Texture:
     lay = layout(nodes, correction_s)
     rows = [_stored_h(m, nodes, data_dir, quantity) for m in range(3)]
@@ -445,7 +446,7 @@ _BRDF_NOTE = (f"The three-term orders fm_m come from the H tables; {CORRECTION} 
               "and indices computed once.")
 
 
-@lru_cache(maxsize=None)
+@cache
 def _routines(nodes: int, lookup: str, quantity: str, correction_s: tuple) -> tuple[Routine, ...]:
     """Every routine of the program, in file order, each clamping its inputs (no per-material set-up); brdf is one
     routine, the terms and the correction inlined, so that every lookup's weights and indices are computed once
@@ -475,7 +476,7 @@ def texels_per_call(nodes: int = DEFAULT_NODES, lookup: str = DEFAULT_LOOKUP,
     return len({e for e in sp.preorder_traversal(brdf.expr) if getattr(e, "func", None) == sp.Function(TEXEL)})
 
 
-@lru_cache(maxsize=None)
+@cache
 def _program(nodes: int, lookup: str, digests: tuple) -> Program:
     lay = layout(nodes)
     routines = _routines(nodes, lookup, DEFAULT_QUANTITY, DEFAULT_CORRECTION_S)
@@ -567,7 +568,7 @@ def _numpy_routines(routines, data: np.ndarray) -> dict:
     return namespace
 
 
-@lru_cache(maxsize=None)
+@cache
 def _numpy_functions(nodes: int, lookup: str, data_dir: Path, quantity: str, correction_s: tuple) -> dict:
     data = texture(nodes, data_dir, quantity, correction_s).data.astype(np.float64)
     return _numpy_routines(_routines(nodes, lookup, quantity, correction_s), data)
@@ -600,7 +601,7 @@ def numpy_part(target: str, nodes: int = DEFAULT_NODES, lookup: str = DEFAULT_LO
     return _vectorised(functions[TARGETS[target].routine])
 
 
-@lru_cache(maxsize=None)
+@cache
 def _numpy_order(order: int, nodes: int, lookup: str, data_dir: Path, correction_s: tuple):
     lay = layout(nodes, correction_s)
     factors = [1 if m == order else 0 for m in range(TRUE_ORDERS)]

@@ -77,7 +77,6 @@ f cos(theta_i), as its HLSL returns it).
 from pathlib import Path
 
 from fitlab import physics
-
 from fitlab.families.microfacet_energy.exact._albedo import CONVENTIONS, METHODS, average_albedo, directional_albedo
 from fitlab.families.microfacet_energy.exact._compensation import (
     compensated_albedo,

@@ -81,7 +81,7 @@ term) and towards mu = 1 (Oren-Nayar's E has a sqrt(1 - mu) term); the blog's no
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import lru_cache
+from functools import cache, lru_cache
 
 import numpy as np
 
@@ -227,7 +227,7 @@ def _kink_taus(mu_o, alpha, kinks, horizon: bool):
     return np.stack(columns, axis=1)
 
 
-@lru_cache(maxsize=None)
+@cache
 def _phi_unit_rule(panels: int, nodes: int, ratio: float):
     """Nodes and weights on [0, 1] graded towards 1 (azimuths are phi_end * node)."""
     edges = graded_edges(np.array([0.0]), np.array([1.0]), panels, ratio, "hi")
@@ -235,7 +235,7 @@ def _phi_unit_rule(panels: int, nodes: int, ratio: float):
     return x[0], w[0]
 
 
-@lru_cache(maxsize=None)
+@cache
 def _kinked_unit_rule(panels: int, nodes: int, ratio: float, grade_lo: bool, grade_hi: bool, kink_lo: bool,
                       kink_hi: bool):
     """Nodes and weights on [0, 1] of one part of an inner range split at kinks of F: graded geometrically
@@ -344,16 +344,13 @@ def _ggx_half_vector_chunk(mu_o, alpha, smith, fresnel, rule):
         value = 4 * om_over_mu_m * ggx_visibility(mu_o_, mu_i, a_ * a_, smith, times_mu_i=True)
         if fresnel is not None:
             value = value * fresnel(om_over_mu_m / np.sqrt(1 + tan2))
-        if kinks:
-            inner = np.sum(value * w_phi_, axis=-1) * dxi[..., 0]
-        else:
-            inner = (value @ w_phi) * (phi_end * dxi)[..., 0]
+        inner = np.sum(value * w_phi_, axis=-1) * dxi[..., 0] if kinks else (value @ w_phi) * (phi_end * dxi)[..., 0]
         return np.sum(inner * w_tau, axis=1)
 
     return (panel(tau_a, w_a, True) + panel(tau_b, w_b, False)) / np.pi
 
 
-@lru_cache(maxsize=None)
+@cache
 def _direction_psi(rule: DirectionRule):
     edges = graded_edges(np.array([0.0]), np.array([np.pi]), rule.panels_psi, rule.ratio, "lo")
     psi, w = composite(edges, rule.nodes)
@@ -528,7 +525,7 @@ class AverageRule:
 AVERAGE = AverageRule()
 
 
-@lru_cache(maxsize=None)
+@cache
 def average_nodes(rule: AverageRule = AVERAGE) -> tuple[np.ndarray, np.ndarray]:
     """mu nodes and weights on [0, 1] of the E_avg quadrature (:class:`AverageRule`), read-only."""
     edges = np.concatenate((graded_edges(np.array([0.0]), np.array([0.5]), rule.panels_0, rule.ratio, "lo")[0, :-1],

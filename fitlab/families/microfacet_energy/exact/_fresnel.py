@@ -321,7 +321,7 @@ def average_fresnel_conductor(eta, k):
     out = np.empty(eta.shape)
     for idx in np.ndindex(eta.shape):
         e, kk = float(eta[idx]), float(k[idx])
-        out[idx] = average_fresnel(lambda c: fresnel_conductor(c, e, kk), fresnel.conductor_bend(e, kk))
+        out[idx] = average_fresnel(lambda c, e=e, kk=kk: fresnel_conductor(c, e, kk), fresnel.conductor_bend(e, kk))
     return out
 
 
@@ -332,7 +332,7 @@ def average_fresnel_dielectric(eta):
     out = np.empty(eta.shape)
     for idx in np.ndindex(eta.shape):
         e = float(eta[idx])
-        out[idx] = average_fresnel(lambda c: fresnel_dielectric(c, e), fresnel.conductor_bend(e, 0.0))
+        out[idx] = average_fresnel(lambda c, e=e: fresnel_dielectric(c, e), fresnel.conductor_bend(e, 0.0))
     return out
 
 
@@ -442,10 +442,7 @@ def _visible_fresnel_chunk(mu_o, alpha, fresnel, rule=HALF_VECTOR):
         om_over_mu_m = np.maximum(mu_o_ + s_o_ * tan_m * np.cos(phi), 0)  # (w_o . m) / mu_m
         cos_d = np.minimum(om_over_mu_m / np.sqrt(1 + tan_m * tan_m), 1)
         value = om_over_mu_m if fresnel is None else om_over_mu_m * fresnel(cos_d)
-        if kinks:
-            inner = np.sum(value * w_phi_, axis=-1) * dxi[..., 0]
-        else:
-            inner = (value @ w_phi) * (phi_end * dxi)[..., 0]
+        inner = np.sum(value * w_phi_, axis=-1) * dxi[..., 0] if kinks else (value @ w_phi) * (phi_end * dxi)[..., 0]
         return np.sum(inner * w_tau, axis=1)
 
     root = ggx_root_term(mu_o, alpha * alpha)

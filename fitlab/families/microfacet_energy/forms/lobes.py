@@ -99,7 +99,7 @@ def blog_order_factor(k3, k4, k5) -> sp.Expr:
     nodes = (2, 3, 4, 5)
     values = (1, k3, k4, k5)
     out = sp.S.Zero
-    for i, (n, v) in enumerate(zip(nodes, values)):
+    for n, v in zip(nodes, values):
         basis = sp.Mul(*((order - m) / sp.Integer(n - m) for m in nodes if m != n))
         out += v * basis
     return out

@@ -103,7 +103,7 @@ def grid_points(which: str) -> list[tuple[float, float]]:
 
 
 def _grid_text(which: str) -> str:
-    bins = (f"bins: mu_o edges k/10, k = 0..10 (uniform), |phi_o| edges k pi/8, k = 0..8 (phi_o = 0 back-scattering "
+    bins = ("bins: mu_o edges k/10, k = 0..10 (uniform), |phi_o| edges k pi/8, k = 0..8 (phi_o = 0 back-scattering "
             "side, pi the mirror side); rows: one per job and order, jobs in the order of the grid")
     if which == "training":
         return f"alpha in {ALPHA_TRAINING} x mu_i in {MU_I_TRAINING} (alpha outer); " + bins

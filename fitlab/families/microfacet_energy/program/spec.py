@@ -33,8 +33,8 @@ variants), :func:`fit_files` names the packaged fits it reads.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from pathlib import Path
-from typing import Mapping
 
 import sympy as sp
 

@@ -47,7 +47,7 @@ both values).
 
 from __future__ import annotations
 
-from functools import lru_cache
+from functools import cache
 from pathlib import Path
 
 import numpy as np
@@ -154,7 +154,7 @@ def albedo_training(model: str, data_dir: Path | None = None) -> Dataset:
     return _albedo_training(model, tables_dir(data_dir))
 
 
-@lru_cache(maxsize=None)
+@cache
 def _albedo_training(model: str, folder: Path) -> Dataset:
     if model.startswith("ggx"):
         mu_axis, alpha_axis, table = tabulate.read_albedo_table(folder / _GGX_NODES.file, _GGX_NODES)
@@ -177,7 +177,7 @@ def albedo_validation(model: str, data_dir: Path | None = None) -> Dataset:
     return _albedo_validation(model, tables_dir(data_dir))
 
 
-@lru_cache(maxsize=None)
+@cache
 def _albedo_validation(model: str, folder: Path) -> Dataset:
     ends = np.array([0.0, 1.0])
     if model.startswith("ggx"):
@@ -204,7 +204,7 @@ def _albedo_validation(model: str, folder: Path) -> Dataset:
 
 
 # -- E_avg(alpha) ------------------------------------------------------------------------------------
-@lru_cache(maxsize=None)
+@cache
 def _average_table(folder: Path) -> tuple[np.ndarray, dict]:
     return tabulate.read_average_table(folder / tabulate.AVERAGE_FILE)
 
@@ -226,7 +226,7 @@ def average_validation(model: str, data_dir: Path | None = None) -> Dataset:
     return _average_set(model, tables_dir(data_dir), False)
 
 
-@lru_cache(maxsize=None)
+@cache
 def _average_set(model: str, folder: Path, training: bool) -> Dataset:
     alpha, columns = _average_table(folder)
     k = np.arange(alpha.size)

@@ -36,7 +36,7 @@ would chase.  What a renderer sees is the lobe's error, which docs/microsurface_
 
 from __future__ import annotations
 
-from functools import lru_cache
+from functools import cache
 from pathlib import Path
 
 import numpy as np
@@ -75,7 +75,7 @@ def _tables_dir() -> Path:
     return tables_dir()
 
 
-@lru_cache(maxsize=None)
+@cache
 def _dataset(kind: str, which: str, column: str, with_order: bool, folder: Path) -> Dataset:
     p = read_params(folder, kind, which)
     if column == ENERGY_SCALE:
