@@ -16,29 +16,7 @@ phase_difference   fixed mu_i ("both")        fourier and/or bins, escape
 spherical_albedo   cosine mu_i (scene phase)  escape
 =================  =========================  ==========================================
 
-Estimators (N photons; see :mod:`fitlab.families.lambert_sphere.mc.transport` for the tallies), over
-a mu_o bin [a, b] with projected measure P = (b^2 - a^2)/2:
-
-* Fourier order m: <f_m> = E[sum w cos(m phi)] / (pi (1 + delta_m0) P),
-  <g> = int_a^b g mu_o dmu_o / P (the exact side is averaged the same way, by
-  Gauss-Legendre quadrature in mu_o).
-* |phi| bin [p, q]: <f> = E[sum w] / (2 (q - p) P) (both signs of phi).
-* albedos: E[sum w] directly.
-
-Single scattering is always the closed form c p(u)/(mu_i + mu_o) (eq. 10),
-projected here by quadrature (64 x 192 Gauss-Legendre nodes in mu_o x phi),
-independent of the printed eqs. 28 and 38.
-
-Reference values (column ``ref``): the exact half space of the scene's phase function, by
-:mod:`fitlab.families.lambert_sphere.exact` with ``phase`` = the scene's: "three_term" (the modes of
-:func:`~fitlab.families.lambert_sphere.exact.brdf_modes`, orders > 2 zero) or "true" (the whole phase function
-in every collision, :mod:`fitlab.families.lambert_sphere.exact.true_phase`, every Fourier order it keeps); the
-phase_difference rows against the exact difference of the two half spaces (true minus three-term).  Column
-``alt``: published values, named: the printed normalisation of eq. 22 (6 pi) and eq. 28 (384 pi) for order 1,
-and eq. 40 for kd(c); in a "true" scene, the mixed reference (true single scattering, three-term multiple
-scattering: ``exact.brdf(..., phase="mixed")``) for the BRDF and the directional albedo, whose z then measures
-the three-term truncation of multiple scattering.
-"""
+Details: docs/montecarlo.md, section ``fitlab.families.lambert_sphere.mc.effects``."""
 
 from __future__ import annotations
 
