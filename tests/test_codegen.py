@@ -66,6 +66,7 @@ def py(sources, tmp_path_factory):
     d = tmp_path_factory.mktemp("py")
     (d / "lambert_sphere.py").write_text(sources["python"]["lambert_sphere.py"])
     spec = importlib.util.spec_from_file_location("generated_lambert_sphere", d / "lambert_sphere.py")
+    assert spec is not None and spec.loader is not None
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
     return mod
@@ -486,7 +487,7 @@ def test_terms_option_keeps_only_the_terms_asked_for(tmp_path):
 def test_python_module_imports_only_numpy(sources):
     tree = ast.parse(sources["python"]["lambert_sphere.py"])
     imported = {a.name.split(".")[0] for n in ast.walk(tree) if isinstance(n, ast.Import) for a in n.names}
-    imported |= {n.module.split(".")[0] for n in ast.walk(tree) if isinstance(n, ast.ImportFrom)}
+    imported |= {(n.module or ".").split(".")[0] for n in ast.walk(tree) if isinstance(n, ast.ImportFrom)}
     assert imported == {"numpy"}
 
 
@@ -657,7 +658,7 @@ def test_every_routine_clamps_every_input(program):
 @needs_cc
 @pytest.mark.parametrize("dtype", [np.float64, np.float32])
 def test_brdf_clamps_and_nan_in_the_built_c(native, py, dtype):
-    """The values the issue names: brdf(..., c = 1.2) is brdf(..., c = 1), cos_phi = -2 is -1, NaN gives NaN
+    """The named edge values: brdf(..., c = 1.2) is brdf(..., c = 1), cos_phi = -2 is -1, NaN gives NaN
     in C and Python alike, and the parts are clamped too."""
     f = lambda name, *a: native(name, *a, dtype=dtype)  # noqa: E731
     for g in (f, lambda name, *a: getattr(py, name)(*a)):

@@ -262,7 +262,7 @@ FAMILIES = (NoTables(), WrongModule(), WrongSignature())
 
 @pytest.mark.e2e  # a few seconds: basedpyright's start
 def test_basedpyright_checks_the_contract_statically(tmp_path):
-    """What the registry no longer checks at run time, basedpyright does: a family that lacks a capability's method
+    """What basedpyright checks rather than the registry at run time: a family that lacks a capability's method
     cannot be instantiated, a service that is no such service is no return value of its method, a family that
     states no target names is no class."""
     if importlib.util.find_spec("basedpyright") is None:

@@ -1,4 +1,4 @@
-"""Only regular files are read (issue 31, item 3): a FIFO, a device or a folder named like a fit file is
+"""Only regular files are read: a FIFO, a device or a folder named like a fit file is
 refused with one line before it is opened, so that it can neither hang a command nor be passed over.
 
 Each call runs in a thread with a time limit.  Should it block on the FIFO, the test opens the FIFO's

@@ -238,8 +238,8 @@ def test_runtime_model_from_refits_beats_the_presets():
 
 
 def test_a_non_finite_training_point_is_refused_not_left_out():
-    """A training set with a NaN is refused naming the point (issue 31, item 6): before, the solver left the
-    point out while the fit record counted it."""
+    """A training set with a NaN is refused naming the point (the solver would leave the
+    point out while the fit record counted it)."""
     from fitlab.core import Dataset
     from fitlab.fit.solver import FitError, fit_form
 

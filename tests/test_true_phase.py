@@ -1,4 +1,4 @@
-"""The true-phase exact engine (issue 33, items 1-2): exact/true_phase.py and the phase= API.
+"""The true-phase exact engine: exact/true_phase.py and the phase= API.
 
 Fast checks run by default; the full-degree agreement of the two methods over the whole c list
 is a benchmark (pytest -m benchmark): it solves ~50 Fourier orders per c by doubling.
@@ -175,7 +175,7 @@ def test_grazing_values_and_gap(degree_32):
     assert np.all(np.isfinite(f[1:]))
     # mu_i = 0 is the limit of small mu_i
     assert f[3] == pytest.approx(f[2], rel=1e-7)
-    # The gap, same solve. Issue 33's independent solver: at c = 1, mu_i = mu_o = 0.01, phi = pi the true
+    # The gap, same solve. An independent solver: at c = 1, mu_i = mu_o = 0.01, phi = pi the true
     # BRDF is 0.44041, fitlab's mixed 0.43963 (2.0e-3 relative; five digits printed).
     t = float(exact.brdf(0.01, 0.01, np.pi, 1.0, phase="true"))
     m = float(exact.brdf(0.01, 0.01, np.pi, 1.0, phase="mixed"))

@@ -1,5 +1,5 @@
-"""The runtime model's parts fitted to the true BRDF (fitlab.families.lambert_sphere.program.true_refit;
-issue 33, item 4): the joint forms are the runtime structure's terms, the packaged fits make a model that reaches the true BRDF
+"""The runtime model's parts fitted to the true BRDF (fitlab.families.lambert_sphere.program.true_refit):
+the joint forms are the runtime structure's terms, the packaged fits make a model that reaches the true BRDF
 (measured here against exact.brdf(phase="true") at points of the test's own), conserves energy and is 0 at
 c = 0, and the fit files say what they are."""
 
@@ -107,7 +107,7 @@ def _points(c, n, seed):
 
 @pytest.mark.parametrize("c", [0.02, 0.37, 1.0])
 def test_true_model_reaches_the_true_brdf(true_model, c):
-    """Against the true BRDF at random points over mu >= 0.01 (and the grazing edge): within 1e-3, issue 33's goal
+    """Against the true BRDF at random points over mu >= 0.01 (and the grazing edge): within 1e-3, the accuracy goal
     (the audit measures the whole domain), and closer than the parts fitted to the mixed reference."""
     mi, mo, phi = _points(c, 120, int(c * 100))
     want = exact.brdf(mi, mo, phi, c, phase="true")
@@ -207,6 +207,7 @@ def test_codegen_prints_the_true_model(tmp_path):
         assert "physics true;" in line, line
     (tmp_path / "true_model.py").write_text(text)
     spec = importlib.util.spec_from_file_location("true_model", tmp_path / "true_model.py")
+    assert spec is not None and spec.loader is not None
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
     rng = np.random.default_rng(11)
