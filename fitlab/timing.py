@@ -42,5 +42,6 @@ def interleaved_best(fns: Mapping[Hashable, Callable[[], Any]], repeat: int, tic
             t0 = time.perf_counter()
             fn()
             best[k] = min(best[k], time.perf_counter() - t0)
-        tick and tick()
+        if tick:
+            tick()
     return best

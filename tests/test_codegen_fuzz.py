@@ -153,6 +153,7 @@ def glsl(program, tmp_path_factory):
 @pytest.fixture(scope="module")
 def py():
     spec = importlib.util.spec_from_file_location("fuzz_lambert_sphere", GENERATED / "lambert_sphere.py")
+    assert spec is not None and spec.loader is not None
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
     return mod

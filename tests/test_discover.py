@@ -207,6 +207,7 @@ def test_discovered_form_round_trips_through_json_refit_and_codegen(kd_discovery
     gen = tmp_path / "gen"
     write_generated(generate("python", fits, forms={"kd_of_c": best.name}), gen)
     spec = importlib.util.spec_from_file_location("gen_kd", gen / "lambert_sphere.py")
+    assert spec is not None and spec.loader is not None
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
     assert np.allclose(mod.kd_of_c(c_val), values, rtol=1e-13, atol=1e-16)

@@ -186,6 +186,7 @@ def program():
 def py(sources):
     path = GENERATED / "microfacet_energy.py"
     spec = importlib.util.spec_from_file_location("microfacet_energy_generated", path)
+    assert spec is not None and spec.loader is not None
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
     return mod
@@ -297,6 +298,7 @@ def _generated_module():
     global _GENERATED_MODULE
     if _GENERATED_MODULE is None:
         spec = importlib.util.spec_from_file_location("microfacet_energy_hypothesis", GENERATED / "microfacet_energy.py")
+        assert spec is not None and spec.loader is not None
         _GENERATED_MODULE = importlib.util.module_from_spec(spec)
         spec.loader.exec_module(_GENERATED_MODULE)
     return _GENERATED_MODULE

@@ -97,6 +97,7 @@ def true_c(c):
 @cache
 def generated_module():
     spec = importlib.util.spec_from_file_location("fitlab_generated_lambert_sphere", GENERATED)
+    assert spec is not None and spec.loader is not None
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module

@@ -47,7 +47,7 @@ def three_term_phase_function(u):
     return physics.three_term_phase_function(np.asarray(u, dtype=float))
 
 
-def legendre_weights(m: int, c) -> list:
+def legendre_weights(m: int, c) -> dict:
     """varpi_l^m = c A_l (l-m)!/(l+m)! for l = m..2 (index l)."""
     return {ell: np.asarray(c) * THREE_TERM[ell] * factorial(ell - m) / factorial(ell + m) for ell in range(m, MAX_DEGREE + 1)}
 

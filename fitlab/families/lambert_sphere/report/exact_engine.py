@@ -66,7 +66,8 @@ def h_convergence(orders, albedos, mu_points: int, nodes, steps, repeat: int = 2
         rows.append({"method": method, "resolution": resolution, "max_rel": float(e.max()),
                      "rms_rel": float(np.sqrt(np.mean(e**2))), "seconds": float(np.mean(secs)),
                      "points": int(e.size)})  # fmt: skip
-        tick and tick()
+        if tick:
+            tick()
     return rows
 
 
