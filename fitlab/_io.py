@@ -5,6 +5,7 @@ a device or a huge file named like an input can neither hang a command nor fill 
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import importlib.util
 import os
@@ -122,10 +123,8 @@ def check_output_folder(path, files=()) -> Path:
     except OSError as exc:
         raise FolderError("unwritable", where, str(exc.strerror or exc)) from None
     os.close(fd)
-    try:
+    with contextlib.suppress(OSError):  # pragma: no cover
         os.unlink(probe)
-    except OSError:  # pragma: no cover
-        pass
     for name in files:
         if (out / name).is_dir():
             raise FolderError("file_is_folder", out / name)

@@ -8,41 +8,7 @@ determines them: a name, the caller's key (target, grid, method), the fitlab
 version and the bytes of the source files that compute them, so that a change
 of engine is a miss, never a stale hit.
 
-* Location: ``$FITLAB_CACHE_DIR``, else ``$XDG_CACHE_HOME/fitlab``, else
-  ``~/.cache/fitlab``.  ``FITLAB_NO_CACHE=1`` turns the cache off.
-* Entries are ``.npz`` files read with ``allow_pickle=False`` (data, never code),
-  each holding, beside its arrays, the sha256 of its key and of those arrays
-  (names, dtypes, shapes, bytes).  A missing, truncated or damaged entry, one
-  whose arrays do not have the names the caller asks for, one that is not a
-  regular file of at most :data:`MAX_ENTRY_BYTES`, and one whose arrays do not
-  hash to what it states (wrong values, or another key's entry under this name)
-  is a miss: it is recomputed and overwritten.
-* Writes are atomic (a temporary file named with the process id, then a
-  rename): concurrent processes filling one entry never interleave, and a
-  reader sees either the old entry or a whole new one.
-* An entry is computed once when several processes miss it at the same time
-  (the two workers of the test suite, two commands): the first holds a lock
-  on it (``locks/ENTRY.lock``, an exclusive ``flock``, the file holding its
-  process id) while it computes, and the others wait, then read what it wrote;
-  a wait longer than 2 s says, in one line, which process it waits for.  Only a process's outermost entry
-  takes the lock (entries computed inside another's compute do not), so a
-  process that holds a lock never waits for another: no two can block each
-  other.  Where ``flock`` is missing (Windows) or the folder cannot be
-  written, each computes its own as before.
-* A cache that cannot be written (read-only disk) only costs time.
-* fitlab ships the entries a fresh install's first commands would spend minutes on
-  (:func:`fitlab.resources.packaged_exact_values`): a miss whose entry is there is read from there (checked
-  as any entry) and copied in.  Their keys are the engine's too, so a changed engine never reads them.
-
-The same folder keeps, under ``xla/``, the programs JAX compiles for the commands
-(:func:`enable_compilation_cache`, JAX's persistent compilation cache, stored by these rules:
-:mod:`fitlab._program_cache`): a second ``fitlab refit`` traces its model but does not compile it again.
-
-``fitlab cache info`` and ``fitlab cache clear`` manage both.  They count and remove only the names fitlab
-writes (``NAME-KEY.npz`` entries and their temporaries, ``locks/ENTRY.lock``, and in ``xla/`` the programs'
-entries and the files of JAX's own store), and refuse a folder that holds anything else, before removing
-anything: a cache folder set to a user's own folder loses nothing.
-"""
+Details: docs/reliability.md, section ``fitlab.cache``."""
 
 from __future__ import annotations
 
@@ -54,10 +20,9 @@ import re
 import sys
 import threading
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterable, Iterator, Mapping
 from contextlib import contextmanager, suppress
 from pathlib import Path
-from typing import Callable, Iterable, Mapping
 
 import numpy as np
 
@@ -67,7 +32,7 @@ from fitlab.resources import packaged_exact_values
 
 try:
     import fcntl
-except ImportError:  # Windows: no flock, no lock (see the module docstring)
+except ImportError:  # Windows: no flock, no lock (see docs/reliability.md)
     fcntl = None
 
 __all__ = ["cache_dir", "cache_key", "cached_arrays", "cached_at", "cached_files", "cache_info", "clear_cache",
@@ -90,7 +55,7 @@ _depth = threading.local()
 
 
 def cache_dir() -> Path:
-    """The cache folder (see the module docstring)."""
+    """The cache folder (see docs/reliability.md)."""
     if os.environ.get("FITLAB_CACHE_DIR"):
         return Path(os.environ["FITLAB_CACHE_DIR"])
     base = os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache"
@@ -209,10 +174,8 @@ def _store(path: Path, values: Mapping[str, np.ndarray], names: tuple[str, ...])
     time."""
     buf = io.BytesIO()
     np.savez(buf, **{n: values[n] for n in names}, **{_HASH: _content_hash(path.name, values, names)})
-    try:
+    with suppress(OSError):
         atomic_write_bytes(path, buf.getvalue())
-    except OSError:
-        pass
 
 
 def family_entry_points() -> list[str]:
@@ -269,7 +232,7 @@ def cached_at(
 @contextmanager
 def _computing(path: Path | None) -> Iterator[None]:
     """Hold the lock of the entry at ``path`` while it is computed, where this is the thread's outermost compute
-    (see the module docstring); None, nested computes, no flock and an unwritable folder hold nothing."""
+    (see docs/reliability.md); None, nested computes, no flock and an unwritable folder hold nothing."""
     depth = getattr(_depth, "value", 0)
     fd = None
     if path is not None and depth == 0 and fcntl is not None:

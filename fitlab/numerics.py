@@ -11,14 +11,14 @@ from __future__ import annotations
 
 import numbers
 from contextlib import AbstractContextManager, nullcontext
-from functools import lru_cache
+from functools import cache, lru_cache
 
 import numpy as np
 
 __all__ = ["gauss_legendre", "real_array", "choice", "working_dtype", "single_threaded_blas"]
 
 
-@lru_cache(maxsize=None)
+@cache
 def gauss_legendre(n: int) -> tuple[np.ndarray, np.ndarray]:
     """n-point Gauss-Legendre nodes and weights on [0, 1] (exact for polynomials of degree 2n - 1), as
     read-only arrays (the rule is cached: one shared copy)."""

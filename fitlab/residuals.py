@@ -134,7 +134,7 @@ class Residuals:
         lines += ["  ".join(c.rjust(w) for c, w in zip(row, widths)) for row in cells]
         return "\n".join(lines)
 
-    def at(self, **values) -> "Residuals":
+    def at(self, **values) -> Residuals:
         """The slice at the grid value nearest to each ``name=value`` (those axes are removed)."""
         res = self
         for name, value in values.items():

@@ -10,7 +10,8 @@ from __future__ import annotations
 
 import math
 import time
-from typing import Any, Callable, Hashable, Mapping
+from collections.abc import Callable, Hashable, Mapping
+from typing import Any
 
 __all__ = ["best_of", "best_seconds", "interleaved_best"]
 
@@ -41,5 +42,6 @@ def interleaved_best(fns: Mapping[Hashable, Callable[[], Any]], repeat: int, tic
             t0 = time.perf_counter()
             fn()
             best[k] = min(best[k], time.perf_counter() - t0)
-        tick and tick()
+        if tick:
+            tick()
     return best

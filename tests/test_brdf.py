@@ -76,8 +76,8 @@ def test_brdf_at_tiny_albedos_is_single_scattering_plus_c_squared_multiple_scatt
     """As c -> 0, f = c p(u)/(mu_i + mu_o) + c^2 L(mu_i, mu_o, phi) (1 + O(c)): at c = 1e-12 and 1e-15 the BRDF
     agrees with that law, L taken from the multiple scattering at c = 1e-9, to 1.2e-10 (bound 1e-8), at grazing
     (mu down to 0, forward scattering included) and elsewhere; it is > 0 wherever mu_i + mu_o > 0, and 0 at
-    c = 0.  The multiple scattering used to be a difference of O(c) numerators, which at grazing kept eps c of
-    rounding against a value of O(c^2 mu): -5.1e-24 at c = 1e-12, mu_i = mu_o = 1e-6, phi = pi."""
+    c = 0.  Formed as a difference of O(c) numerators, the multiple scattering would keep eps c of rounding at
+    grazing against a value of O(c^2 mu): -5.1e-24 at c = 1e-12, mu_i = mu_o = 1e-6, phi = pi."""
     grid = np.array(np.meshgrid([0.0, 1e-12, 1e-9, 1e-6, 1e-4, 1e-2, 0.3, 1.0], [0.0, 1e-9, 1e-6, 1e-4, 1e-2, 0.5, 1.0],
                                 [0.0, 1.0, 2.5, 3.0, np.pi], indexing="ij")).reshape(3, -1)  # fmt: skip
     mi, mo, ph = grid[:, grid[0] + grid[1] > 0]

@@ -181,7 +181,7 @@ def test_cli_info_and_clear(cache, capsys):
     assert clear_cache() == 0
 
 
-# -- an entry is checked against its key's content hash (issue 31, item 6) ----------------------------
+# -- an entry is checked against its key's content hash --------------------------------------------
 @pytest.mark.parametrize("wrong", ["values changed", "values changed, its hash kept", "another key's entry"])
 def test_a_wrong_entry_is_a_miss_recomputed_and_overwritten(cache, wrong):
     calls = []

@@ -215,8 +215,7 @@ def test_version_and_help(capsys):
 
 
 def test_top_level_help_names_every_language_codegen_writes(capsys):
-    """``fitlab --help`` used to say codegen writes "C, Python or GLSL"; it writes every language of
-    fitlab.codegen.LANGUAGES."""
+    """``fitlab --help`` names every language codegen writes: those of fitlab.codegen.LANGUAGES."""
     from fitlab.codegen import LANGUAGES
 
     names = {"c": "C", "python": "Python", "glsl": "GLSL", "hlsl": "HLSL", "metal": "Metal", "drjit": "Dr.Jit"}

@@ -66,6 +66,7 @@ def py(sources, tmp_path_factory):
     d = tmp_path_factory.mktemp("py")
     (d / "lambert_sphere.py").write_text(sources["python"]["lambert_sphere.py"])
     spec = importlib.util.spec_from_file_location("generated_lambert_sphere", d / "lambert_sphere.py")
+    assert spec is not None and spec.loader is not None
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
     return mod
@@ -106,8 +107,8 @@ def test_committed_generated_code_is_what_the_committed_fits_generate(sources, l
 
 @pytest.mark.e2e
 def test_generation_does_not_depend_on_hash_seed(tmp_path):
-    code = ("import os; os.chdir({root!r}); from fitlab.codegen import generate; "
-            "import sys; sys.stdout.write(generate('c')['lambert_sphere.c'])").format(root=str(ROOT))  # fmt: skip
+    code = (f"import os; os.chdir({str(ROOT)!r}); from fitlab.codegen import generate; "
+            "import sys; sys.stdout.write(generate('c')['lambert_sphere.c'])")  # fmt: skip
     # both at once (two cores): each builds the program from scratch
     runs = [subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                              env={**os.environ, "PYTHONHASHSEED": seed}) for seed in ("1", "2")]  # fmt: skip
@@ -374,12 +375,12 @@ def test_runtime_terms_are_the_printed_terms():
     parts.update({p: sp.Function(p)(c) for p in ("l", "m", "B", "C", "D", "F")})
     sigma, p_, q_ = mu_i + mu_o, mu_i * mu_o, mu_i**2 + mu_o**2
     h = {n: parts[n].subs(mu, mu_i) * parts[n].subs(mu, mu_o) for n in ("H0", "H1")}
-    B, C, D, F, l, m = (parts[n] for n in "BCDFlm")
+    B, C, D, F, ell, m = (parts[n] for n in "BCDFlm")
     for norm, (k, j) in forms_brdf.NORMALISATIONS.items():
         terms = forms_brdf.runtime_terms(parts, norm)
         q = A_EXACT + B * sigma + C * p_ + D * p_ * sigma + E_EXACT * p_**2 + F * q_
         fm0 = (h["H0"] * q / (2 * sp.pi) - forms_brdf.SINGLE_NUMERATOR_0) / sigma
-        fm1 = (c * h["H1"] * forms_brdf.S * (1 + l * sigma + (l**2 + sp.Rational(45, 64) * m) * p_) / (k * sp.pi)
+        fm1 = (c * h["H1"] * forms_brdf.S * (1 + ell * sigma + (ell**2 + sp.Rational(45, 64) * m) * p_) / (k * sp.pi)
                - forms_brdf.SINGLE_NUMERATOR_1 / j) / sigma  # fmt: skip
         assert sp.simplify(sp.expand((terms["m0"] - fm0) * sigma)) == 0
         assert sp.simplify(sp.expand((terms["m1"] - fm1) * sigma)) == 0
@@ -486,7 +487,7 @@ def test_terms_option_keeps_only_the_terms_asked_for(tmp_path):
 def test_python_module_imports_only_numpy(sources):
     tree = ast.parse(sources["python"]["lambert_sphere.py"])
     imported = {a.name.split(".")[0] for n in ast.walk(tree) if isinstance(n, ast.Import) for a in n.names}
-    imported |= {n.module.split(".")[0] for n in ast.walk(tree) if isinstance(n, ast.ImportFrom)}
+    imported |= {(n.module or ".").split(".")[0] for n in ast.walk(tree) if isinstance(n, ast.ImportFrom)}
     assert imported == {"numpy"}
 
 
@@ -657,7 +658,7 @@ def test_every_routine_clamps_every_input(program):
 @needs_cc
 @pytest.mark.parametrize("dtype", [np.float64, np.float32])
 def test_brdf_clamps_and_nan_in_the_built_c(native, py, dtype):
-    """The values the issue names: brdf(..., c = 1.2) is brdf(..., c = 1), cos_phi = -2 is -1, NaN gives NaN
+    """The named edge values: brdf(..., c = 1.2) is brdf(..., c = 1), cos_phi = -2 is -1, NaN gives NaN
     in C and Python alike, and the parts are clamped too."""
     f = lambda name, *a: native(name, *a, dtype=dtype)  # noqa: E731
     for g in (f, lambda name, *a: getattr(py, name)(*a)):

@@ -153,6 +153,7 @@ def glsl(program, tmp_path_factory):
 @pytest.fixture(scope="module")
 def py():
     spec = importlib.util.spec_from_file_location("fuzz_lambert_sphere", GENERATED / "lambert_sphere.py")
+    assert spec is not None and spec.loader is not None
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
     return mod
@@ -212,7 +213,7 @@ def _languages(native, glsl, py):
 @needs_cc
 def test_clamps_at_named_points(native, glsl, py):
     for lang, f in _languages(native, glsl, py).items():
-        def same(name, outside, inside):
+        def same(name, outside, inside, f=f, lang=lang):
             got, want = f(name, *outside), f(name, *inside)
             assert np.isfinite(want) and got == want, (lang, name, outside, got, want)
 

@@ -100,6 +100,7 @@ def py(program, tmp_path_factory):
     path = d / f"{program.name}.py"
     path.write_text(emit(program, "python")[path.name])
     spec = importlib.util.spec_from_file_location("material_generated", path)
+    assert spec is not None and spec.loader is not None
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
     return mod
@@ -150,7 +151,7 @@ def test_eval_is_brdf_in_c(native, points):
 
 @needs_cc
 def test_float_eval_within_1e4_of_double(native, points):
-    """Issue 18: the float version within 1e-4 relative of the double one (mu >= 0.01, as the goal's domain)."""
+    """The float version within 1e-4 relative of the double one (mu >= 0.01, as the goal's domain)."""
     c, which, mu_i, mu_o, cos_phi = (np.float32(a).astype(float) if a.dtype.kind == "f" else a for a in points)
     keep = (mu_i >= 0.01) & (mu_o >= 0.01) & (c[which] > 0)
     d = native("eval", native("prepare_c", c), which, mu_i, mu_o, cos_phi)

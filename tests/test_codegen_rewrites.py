@@ -1,4 +1,4 @@
-"""A program's rewrites are its family's (issue 32, item 4): a toy program with its own rewrite gets it
+"""A program's rewrites are its family's: a toy program with its own rewrite gets it
 applied to its parts, and the Lambert sphere's rewrite (1 - sqrt(1 - c) -> c/(1 + sqrt(1 - c)), which knows
 the family's albedo c) is applied to the Lambert sphere's routines only."""
 

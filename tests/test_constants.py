@@ -33,8 +33,8 @@ def test_psi_is_the_diagonal_of_the_bilinear_form(order, c):
     w = legendre_weights(order, c)
     mu = np.linspace(0, 1, 7)
     val = sum(
-        (-1.0) ** (l + order) * w[l] * np.polynomial.polynomial.polyval(mu, r) * np.polynomial.polynomial.polyval(-mu, r)
-        for l, r in mp.r.items()
+        (-1.0) ** (ell + order) * w[ell] * np.polynomial.polynomial.polyval(mu, r) * np.polynomial.polynomial.polyval(-mu, r)
+        for ell, r in mp.r.items()
     )
     np.testing.assert_allclose(0.5 * (1 - mu**2) ** order * val, psi(order, mu, c), atol=1e-14)
 
@@ -86,8 +86,8 @@ def _project(order, c):
     s = np.sqrt((1 - mi**2) * (1 - mo**2))
     y = (f * (mi + mo) * 3 * np.pi / (c * np.outer(h, h) * s)).ravel()
     basis = np.stack([np.ones_like(mi), mi + mo, mi * mo]).reshape(3, -1).T
-    one, l, q = np.linalg.lstsq(basis, y, rcond=None)[0]
-    return {"one": one, "l": l, "m": (q - l**2) * 64 / 45}
+    one, ell, q = np.linalg.lstsq(basis, y, rcond=None)[0]
+    return {"one": one, "l": ell, "m": (q - ell**2) * 64 / 45}
 
 
 # 0.996 and 0.999 (s = 0.063, 0.032) sit where Newton from the c -> 0 start

@@ -28,7 +28,11 @@ def _toy_library(**kw):
     return Library(name="toy", target="toy", inputs=("mu",), numerator=shapes, denominator=shapes, **kw)
 
 
-def _recover(lib, y_of_mu, truth, x=np.linspace(0.0, 1.0, 401)):
+#: the points of [0, 1] where a candidate must reproduce the function
+UNIT_GRID = np.linspace(0.0, 1.0, 401)
+
+
+def _recover(lib, y_of_mu, truth, x=UNIT_GRID):
     reg = SparseRegression(lib).fit({"mu": x}, y_of_mu(x), np.abs(y_of_mu(x)))
     exact = [cand for cand in reg.candidates_ if np.max(np.abs(reg.predict({"mu": x}, cand) / y_of_mu(x) - 1)) < 1e-9]
     assert exact, "no candidate reproduces the function"
@@ -203,6 +207,7 @@ def test_discovered_form_round_trips_through_json_refit_and_codegen(kd_discovery
     gen = tmp_path / "gen"
     write_generated(generate("python", fits, forms={"kd_of_c": best.name}), gen)
     spec = importlib.util.spec_from_file_location("gen_kd", gen / "lambert_sphere.py")
+    assert spec is not None and spec.loader is not None
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
     assert np.allclose(mod.kd_of_c(c_val), values, rtol=1e-13, atol=1e-16)

@@ -112,7 +112,7 @@ def test_the_builtin_families_meet_every_contract():
             assert all(isinstance(lib, Library) and lib.target == t for t, libs in libraries.items() for lib in libs)
         if isinstance(family, HasTables):
             tables = family.tables()
-            assert tables.FAMILY_NAME == name and len(tables.TABLE_FILES) > 0
+            assert name == tables.FAMILY_NAME and len(tables.TABLE_FILES) > 0
         if isinstance(family, HasMonteCarlo):
             simulation = family.simulation()
             assert isinstance(simulation, Simulation) and simulation.schema.family == name
@@ -262,7 +262,7 @@ FAMILIES = (NoTables(), WrongModule(), WrongSignature())
 
 @pytest.mark.e2e  # a few seconds: basedpyright's start
 def test_basedpyright_checks_the_contract_statically(tmp_path):
-    """What the registry no longer checks at run time, basedpyright does: a family that lacks a capability's method
+    """What basedpyright checks rather than the registry at run time: a family that lacks a capability's method
     cannot be instantiated, a service that is no such service is no return value of its method, a family that
     states no target names is no class."""
     if importlib.util.find_spec("basedpyright") is None:

@@ -131,6 +131,7 @@ def test_codegen_python_and_c(toy_fits, tmp_path):
     path = tmp_path / name
     path.write_text(text)
     spec = importlib.util.spec_from_file_location("toy_generated", path)
+    assert spec is not None and spec.loader is not None
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
     x = np.linspace(0.0, 2.0, 7)

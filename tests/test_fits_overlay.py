@@ -35,6 +35,7 @@ FITS = packaged_fits()
 
 def _module(path: Path, name: str):
     spec = importlib.util.spec_from_file_location(name, path)
+    assert spec is not None and spec.loader is not None
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
     return mod
@@ -199,7 +200,7 @@ def test_the_mitsuba_plugin_loads_the_default_model():
 def test_a_tampered_fit_is_refused_by_codegen_and_by_verify_fit(tmp_path, capsys):
     fits = tmp_path / "fits"
     record = json.loads((FITS / "H0.log_exp.json").read_text())
-    record["params"]["a00"] = 1000.0  # the issue's edit: the file still states its old 5.6e-5
+    record["params"]["a00"] = 1000.0  # an edit by hand: the file still states its old 5.6e-5
     write_fit(fits / "H0.log_exp.json", record)
     three_term = ["--model", "three-term"]  # the model whose H0 is in log_exp
     assert main(["codegen", "--lang", "c", "--fits", str(fits), *three_term, "--out", str(tmp_path / "gen")]) == 2
@@ -236,7 +237,7 @@ def test_committed_fits_hold_their_figures_where_codegen_measures_them():
 
 @pytest.fixture(scope="module")
 def narrow(tmp_path_factory):
-    """H0 refitted on mu in [0.99999, 1] (the issue's case), least squares only."""
+    """H0 refitted on mu in [0.99999, 1] (a narrow domain at the edge), least squares only."""
     res = refit("H0", "hapke", domain={"mu": (0.99999, 1.0)}, minimax=False)
     fits = tmp_path_factory.mktemp("narrow")
     write_fit(fits / "H0.json", res.record)

@@ -74,7 +74,7 @@ def test_refit_from_the_command_line_reproduces_the_committed_fit(tmp_path, caps
     # the table names the measure the target uses: the Fresnel targets' error is absolute
     out = capsys.readouterr().out
     header = out.splitlines()[0].split()
-    assert ["max", "abs", "max", "abs*", "rms", "abs"] == header[4:10] and "rel" not in header, out
+    assert header[4:10] == ["max", "abs", "max", "abs*", "rms", "abs"] and "rel" not in header, out
     assert "error of F_cu_g: absolute: |approx - exact|" in out
     refit_row = next(line for line in out.splitlines() if "gulbrandsen / refit" in line)
     assert float(refit_row.split()[4]) == pytest.approx(new["validation"]["max_rel"], rel=1e-3)

@@ -1,4 +1,4 @@
-"""Only regular files are read (issue 31, item 3): a FIFO, a device or a folder named like a fit file is
+"""Only regular files are read: a FIFO, a device or a folder named like a fit file is
 refused with one line before it is opened, so that it can neither hang a command nor be passed over.
 
 Each call runs in a thread with a time limit.  Should it block on the FIFO, the test opens the FIFO's
@@ -6,6 +6,7 @@ other end itself, which ends the blocked read, and fails."""
 
 from __future__ import annotations
 
+import contextlib
 import os
 import shutil
 import threading
@@ -39,10 +40,8 @@ def finishes(call, fifos, seconds: float = 30.0):
     thread.join(seconds)
     if thread.is_alive():
         for fifo in fifos:
-            try:
+            with contextlib.suppress(OSError):
                 os.close(os.open(fifo, os.O_WRONLY | os.O_NONBLOCK))
-            except OSError:
-                pass
         thread.join(seconds)
         pytest.fail(f"blocked on a FIFO for more than {seconds:g} s")
     if "error" in result:

@@ -73,7 +73,7 @@ def test_eq6_error_bound(cdf_table):
     """
     grid, cdf = cdf_table
     xs = np.concatenate([np.linspace(0, 1, 4001)[1:-1], np.linspace(0.997, 1.0, 3001)[1:-1]])
-    inv = np.array([optimize.brentq(lambda u: _cdf_true(u) - x, -1, 1, xtol=1e-14) for x in xs[::25]])
+    inv = np.array([optimize.brentq(lambda u, x=x: _cdf_true(u) - x, -1, 1, xtol=1e-14) for x in xs[::25]])
     err = np.asarray(sample_true_approx(xs[::25])) - inv
     # the finer scan uses the tabulated CDF (its own error < 1e-9 in u away from the ends)
     fine = np.interp(xs, cdf, grid)

@@ -202,8 +202,8 @@ def test_cli_exits_1_when_a_job_misses_its_target(tmp_path, capsys):
     ("kd = 1.0", "material[0].kd: kd = 1 needs c = 1 > 1/N = 0.999473: "),
 ])
 def test_cli_refuses_the_c1_three_term_scene_before_any_work(tmp_path, capsys, monkeypatch, material, expected):
-    """The unbounded scene (c = 1 or kd = 1, three-term phase function; it used to report 2.3e16 for
-    0.21 with exit 0) is refused with one line naming the reason, exit 2, before any simulation."""
+    """The unbounded scene (c = 1 or kd = 1, three-term phase function: its estimate has an infinite
+    variance) is refused with one line naming the reason, exit 2, before any simulation."""
     import fitlab.families.lambert_sphere.mc.simulate as sim
 
     def boom(*a, **k):
@@ -263,7 +263,7 @@ def test_cli_refuses_binary_garbage_in_one_line_exit_2(tmp_path, capsys, name, f
 
 def test_one_path_budget_limit_for_every_family_and_the_command_line(tmp_path, capsys):
     """One limit, 2^32 paths per job (fitlab._montecarlo.MAX_PATHS): both families' scene rules and the help
-    of --max-paths say it (the Lambert sphere's scenes used to allow 2^40, the microsurface's 2^32)."""
+    of --max-paths say it (one rule for both families)."""
     from fitlab._montecarlo import MAX_PATHS
     from fitlab.families.lambert_sphere.mc.scene import LIMITS as SPHERE
     from fitlab.families.microfacet_energy.mc.scene import LIMITS as MICROSURFACE
@@ -291,7 +291,7 @@ def test_slow_job_projection():
     from fitlab._montecarlo import SLOW_JOB_SECONDS, slow_job_warning
 
     assert SLOW_JOB_SECONDS == 3600
-    # the issue's case: a target out of reach, the largest budget, 1e6 paths/s: 2^32 paths take 1.2 h
+    # a target out of reach, the largest budget, 1e6 paths/s: 2^32 paths take 1.2 h
     w = slow_job_warning(20_000, 0.02, 1000.0, 2**32)
     assert w == ("standard error 1e+03 x its target after 20000 paths; the target needs about 2e+10 paths, more "
                  "than max_paths = 4294967296: the job will stop above its target after 1.2 h more at 1e+06 paths/s "

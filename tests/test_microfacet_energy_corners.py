@@ -34,6 +34,7 @@ ROUTINES = [f"{q}_{m}" for m in MODEL for q in ("E", "one_minus_E")]
 @pytest.fixture(scope="module")
 def py():
     spec = importlib.util.spec_from_file_location("microfacet_energy_corners", GENERATED / "microfacet_energy.py")
+    assert spec is not None and spec.loader is not None
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
     return mod

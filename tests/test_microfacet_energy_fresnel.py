@@ -11,7 +11,7 @@ Gold's complex index: P. B. Johnson and R. W. Christy, "Optical constants of the
 n = 0.21, 0.43, 1.38 and k = 3.272, 2.455, 1.914 (a red, green and blue channel).
 """
 
-from functools import lru_cache
+from functools import cache
 
 import mpmath
 import numpy as np
@@ -87,7 +87,7 @@ def gold(channel):
 CASES = {**{f"schlick {f0}": schlick(f0) for f0 in F0S}, **{f"gold {rgb}": gold(i) for i, rgb in enumerate("RGB")}}
 
 
-@lru_cache(maxsize=None)
+@cache
 def fresnel_range(name):
     """min and max of F over [0, 1]: F(0) = 1 is the maximum (F <= 1); the minimum by a dense scan refined by
     Brent's method (a conductor's F dips below F(1) near grazing)."""
@@ -99,7 +99,7 @@ def fresnel_range(name):
     return min(float(res.fun), float(f(c[i]))), float(np.max(f(c)))
 
 
-@lru_cache(maxsize=None)
+@cache
 def f_avg_of(name):
     return average_fresnel(CASES[name])
 
@@ -242,12 +242,12 @@ def test_average_fresnel_against_an_independent_quadrature():
     for e, kk, value in zip(eta, k, ours):
         m2 = 1 - (e * e - kk * kk)
         bend = (np.arccos(np.sqrt(m2)),) if 0 < m2 < 1 else ()
-        assert abs(value - theta_average(lambda c: complex_fresnel(c, e, kk), bend)) < 1e-12, (e, kk)
+        assert abs(value - theta_average(lambda c, e=e, kk=kk: complex_fresnel(c, e, kk), bend)) < 1e-12, (e, kk)
     # dielectrics, from outside (eta > 1) and from inside (eta < 1, the critical angle a square-root kink)
     eta_d = np.array([1.0001, 1.33, 1.5, 2.4, 0.5, 0.75, 1 / 1.5])
     for e, value in zip(eta_d, average_fresnel_dielectric(eta_d)):
         bend = (np.arcsin(e),) if e < 1 else ()
-        assert abs(value - theta_average(lambda c: complex_fresnel(c, e, 0.0), bend)) < 1e-12, e
+        assert abs(value - theta_average(lambda c, e=e: complex_fresnel(c, e, 0.0), bend)) < 1e-12, e
     # from inside, everything beyond the critical angle is reflected: F_avg >= 1 - eta^2 (the cosine-weighted
     # share of the cone sin(theta) > eta); and the matched interface averages to 0, large k to 1
     inside = eta_d < 1
@@ -384,17 +384,17 @@ GRID = np.concatenate(([0.0], NODES, [1.0]))
 WM = np.concatenate(([0.0], 2 * WEIGHTS * NODES, [0.0]))  # 2 int_0^1 . mu dmu on GRID
 
 
-@lru_cache(maxsize=None)
+@cache
 def albedo_on_grid(alpha, model):
     return directional_albedo(GRID, alpha, model)
 
 
-@lru_cache(maxsize=None)
+@cache
 def visible_on_grid(name, alpha):
     return visible_fresnel(GRID, alpha, CASES[name])  # the same for both Smith forms
 
 
-@lru_cache(maxsize=None)
+@cache
 def per_direction(name, alpha, model):
     """On GRID: E, E_F, R, f_add, g, Kulla-Conti's total E_F + f_add (1 - E) and the two references of the
     module docstring, from their formulas (random_walk_albedo is checked against them separately)."""

@@ -68,10 +68,7 @@ def _about_w_o(mu_o, alpha, eta, weight, visible: bool):
             return a2 / (math.pi * ((a2 - 1) * mz * mz + 1) ** 2) * weight(mu_i)
         return 2 * _quad(g, 0, end) * st_ * ct * float(fresnel_dielectric(ct, eta))
 
-    if visible:
-        ends = [abs(math.pi / 2 - t_o)]
-    else:
-        ends = [(t_o + math.pi / 2) / 2, abs(math.pi / 2 - t_o) / 2]
+    ends = [abs(math.pi / 2 - t_o)] if visible else [(t_o + math.pi / 2) / 2, abs(math.pi / 2 - t_o) / 2]
     peak = [t_o + s * alpha * k for s in (-1, 1) for k in (0.5, 2, 8)]
     return _quad(inner, 0, math.pi / 2, [t_k, t_o, *ends, *peak])
 

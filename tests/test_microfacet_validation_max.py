@@ -1,4 +1,4 @@
-"""The microfacet validation sets find each fit's maximum error (issue 31, item 9).
+"""The microfacet validation sets find each fit's maximum error.
 
 Before the small-mu and dense grazing lines (fitlab.families.microfacet_energy.targets.datasets), the validation
 maxima of one_minus_E_ggx_cor, one_minus_E_ggx_sep and E_ggx_cor were below the true maxima: an adaptive

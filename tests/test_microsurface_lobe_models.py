@@ -55,7 +55,7 @@ def test_every_form_is_finite_with_finite_gradients_at_the_domain_edges(target):
         vectors = [form.vector(p) for p in form.presets] + [form.vector(form.start_values)]
         for theta in vectors:
             assert np.all(np.isfinite(form.numpy_function(theta, *xs))), (form.key, theta)
-        grad = float64(lambda th: np.asarray(jax.jacfwd(lambda p: form.jax_function(p, *map(jnp.asarray, xs)))(th)))
+        grad = float64(lambda th, form=form: np.asarray(jax.jacfwd(lambda q: form.jax_function(q, *map(jnp.asarray, xs)))(th)))
         assert np.all(np.isfinite(grad(jnp.asarray(vectors[-1])))), form.key
 
 
@@ -186,6 +186,7 @@ def program():
 def py(sources):
     path = GENERATED / "microfacet_energy.py"
     spec = importlib.util.spec_from_file_location("microfacet_energy_generated", path)
+    assert spec is not None and spec.loader is not None
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
     return mod
@@ -297,6 +298,7 @@ def _generated_module():
     global _GENERATED_MODULE
     if _GENERATED_MODULE is None:
         spec = importlib.util.spec_from_file_location("microfacet_energy_hypothesis", GENERATED / "microfacet_energy.py")
+        assert spec is not None and spec.loader is not None
         _GENERATED_MODULE = importlib.util.module_from_spec(spec)
         spec.loader.exec_module(_GENERATED_MODULE)
     return _GENERATED_MODULE
@@ -350,8 +352,8 @@ def test_an_input_a_routine_does_not_use_follows_the_nan_and_domain_policy(progr
             inside = {a: np.full(6, v) for a, v in base.items()}
             want = getattr(py, r.name)(*inside.values())[0]
             for dtype in (np.float64, np.float32):
-                for f in (lambda *a: getattr(py, r.name)(*a),
-                          lambda *a, dtype=dtype: native(r.name, *(v.astype(dtype) for v in a), dtype=dtype)):
+                for f in (lambda *a, r=r: getattr(py, r.name)(*a),
+                          lambda *a, dtype=dtype, r=r: native(r.name, *(v.astype(dtype) for v in a), dtype=dtype)):
                     out = np.asarray(f(*x.values()), dtype=np.float64)
                     assert np.isnan(out[0]) and np.all(np.isfinite(out[1:])), (r.name, k, out)
                     np.testing.assert_allclose(out[1:], want, rtol=1e-6 if dtype == np.float32 else 0)

@@ -77,7 +77,7 @@ def test_beckmann_inversion_agrees_with_brentq():
         x_walk, y_walk = cos_p * xr + sin_p * yr, -sin_p * xr + cos_p * yr
         target = u * g_max
         assert abs(g(x_walk) - target) <= 1e-13 * g_max, (wi, u)
-        x = brentq(lambda t: g(t) - target, min(s_i - 1.0, -8.0), s_i, xtol=1e-15, rtol=1e-15)
+        x = brentq(lambda t, g=g, target=target: g(t) - target, min(s_i - 1.0, -8.0), s_i, xtol=1e-15, rtol=1e-15)
         slope = math.exp(-x * x) * (cos_t - x * sin_t) / math.sqrt(math.pi)
         assert abs(x_walk - x) <= 1e-12 + 1e-13 * g_max / slope, (wi, u)
         assert y_walk == pytest.approx(erfinv(2.0 * b - 1.0), abs=1e-12)

@@ -22,6 +22,7 @@ CELL_TIMEOUT = 240  # seconds per cell; with small grids the slowest cell takes 
 
 def _build_module():
     spec = importlib.util.spec_from_file_location("notebooks_build", NB_DIR / "_build.py")
+    assert spec is not None and spec.loader is not None
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
     return mod

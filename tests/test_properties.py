@@ -35,7 +35,7 @@ import importlib
 import importlib.util
 import time
 import traceback
-from functools import lru_cache
+from functools import cache
 from pathlib import Path
 
 import exact_cache
@@ -94,15 +94,16 @@ def true_c(c):
     return min(C_TRUE, key=lambda g: abs(g - c))
 
 
-@lru_cache(maxsize=None)
+@cache
 def generated_module():
     spec = importlib.util.spec_from_file_location("fitlab_generated_lambert_sphere", GENERATED)
+    assert spec is not None and spec.loader is not None
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module
 
 
-@lru_cache(maxsize=None)
+@cache
 def model(name):
     """f(mu_i, mu_o, phi, c) for a model name of MODELS (built once per session)."""
     if name == "exact":

@@ -14,6 +14,7 @@ COMMANDS = ['pip install -e ".[dev]" && fitlab refit --target H0',
 
 def _script():
     spec = importlib.util.spec_from_file_location("readme_table", ROOT / "tools" / "readme_table.py")
+    assert spec is not None and spec.loader is not None
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module

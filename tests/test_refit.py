@@ -11,12 +11,10 @@ import pytest
 from scipy.optimize import least_squares
 
 from fitlab.cli import main
+from fitlab.core import get_form, get_target, targets
 from fitlab.families.lambert_sphere.exact import h_function
 from fitlab.fit.refit import default_jobs, refit
-from fitlab.store import fit_path
-from fitlab.core import get_target, targets
-from fitlab.store import FitFileError, FitFunction, load, read_fit
-from fitlab.core import get_form
+from fitlab.store import FitFileError, FitFunction, fit_path, load, read_fit
 
 FITS = Path(__file__).resolve().parents[1] / "fitlab" / "fits"
 
@@ -64,7 +62,7 @@ def _minimax(residual, x0, rounds=150):
     w = np.ones_like(residual(x0))
     x = np.asarray(x0, dtype=float)
     for _ in range(rounds):
-        x = least_squares(lambda p: np.sqrt(w) * residual(p), x).x
+        x = least_squares(lambda p, w=w: np.sqrt(w) * residual(p), x).x
         e = np.abs(residual(x))
         w = w * e / np.sum(w * e)
     return np.max(np.abs(residual(x)))
@@ -240,8 +238,8 @@ def test_runtime_model_from_refits_beats_the_presets():
 
 
 def test_a_non_finite_training_point_is_refused_not_left_out():
-    """A training set with a NaN is refused naming the point (issue 31, item 6): before, the solver left the
-    point out while the fit record counted it."""
+    """A training set with a NaN is refused naming the point (the solver would leave the
+    point out while the fit record counted it)."""
     from fitlab.core import Dataset
     from fitlab.fit.solver import FitError, fit_form
 

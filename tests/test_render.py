@@ -11,7 +11,11 @@ import pytest
 mi = pytest.importorskip("mitsuba")
 
 from fitlab.families.lambert_sphere.mitsuba.render import (  # noqa: E402
-    chandrasekhar_albedo_c, _chandrasekhar_kd, oren_nayar, render_comparison, render_sphere,
+    _chandrasekhar_kd,
+    chandrasekhar_albedo_c,
+    oren_nayar,
+    render_comparison,
+    render_sphere,
 )  # fmt: skip
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -20,11 +20,11 @@ import pytest
 
 from fitlab._io import atomic_write_many, temporary_name
 from fitlab.cli import main
-from fitlab.report import COLUMNS, QUICK, TIMING_COLUMNS, build_report, pareto_front, recommend, write_outputs
-from fitlab.report.methods import ReportError, brdf_report, brdf_methods, fit_inventory
-from fitlab.report.settings import family_settings
-from fitlab.families.lambert_sphere.program.report.spline_tables import h_interpolant, table_brdf
 from fitlab.families.lambert_sphere.program.report.materials import albedos
+from fitlab.families.lambert_sphere.program.report.spline_tables import h_interpolant, table_brdf
+from fitlab.report import COLUMNS, QUICK, TIMING_COLUMNS, build_report, pareto_front, recommend, write_outputs
+from fitlab.report.methods import ReportError, brdf_methods, brdf_report, fit_inventory
+from fitlab.report.settings import family_settings
 
 # one worker runs the module: its tests share the quick reports and the programs they build (xdist_group)
 pytestmark = pytest.mark.xdist_group("tests/test_report.py")

@@ -13,11 +13,13 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 
+from fitlab.core import (
+    get_form,  # noqa: E402
+    get_target,  # noqa: E402
+)
 from fitlab.families.lambert_sphere.exact import brdf, constants, h_function, spherical_albedo  # noqa: E402
-from fitlab.core import get_target  # noqa: E402
-from fitlab.store import FitFileError, load  # noqa: E402
-from fitlab.core import get_form  # noqa: E402
 from fitlab.residuals import approximations, brdf_residuals, grid_axes, heatmap, residuals  # noqa: E402
+from fitlab.store import FitFileError, load  # noqa: E402
 
 FITS = Path(__file__).resolve().parents[1] / "fitlab" / "fits"
 MU = np.array([0.0, 0.25, 0.5, 1.0])

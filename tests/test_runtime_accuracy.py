@@ -1,9 +1,9 @@
-"""The order-2 runtime model (issue 18): its parts' exact limits, its identities, and its accuracy.
+"""The order-2 runtime model: its parts' exact limits, its identities, and its accuracy.
 
 Every figure here is computed: the exact limits are checked against the exact engine (a second method),
 the accuracy of the order-2 model against fitlab.families.lambert_sphere.exact.brdf on the sets of
 fitlab.families.lambert_sphere.program.runtime.accuracy_points, next to the paper-structure model measured in the
-same run.  The goals asserted are those of issue 18.
+same run.  The goals asserted are the model's accuracy goals.
 """
 
 from __future__ import annotations
@@ -172,7 +172,7 @@ def test_directional_albedo_quadrature_agrees_with_the_exact_albedo():
         assert np.max(np.abs(got - albedo(x, cv))) < 1e-5
 
 
-# -- accuracy (issue 18) -------------------------------------------------------------------------------
+# -- accuracy -------------------------------------------------------------------------------------------
 def test_order2_model_improves_on_the_paper_structure(figures):
     new, old = figures["order2"], figures["order1"]
     assert new["max"] < 0.5 * old["max"] and new["rms"] < 0.5 * old["rms"]
@@ -202,7 +202,7 @@ def test_order2_model_against_both_references(order2, figures):
 
 
 def test_energy_at_c1_never_exceeds_one(order2):
-    """Issue 18: at c = 1 the model's directional albedo is at most 1 at every incidence and at least 0.999.
+    """At c = 1 the model's directional albedo is at most 1 at every incidence and at least 0.999.
     The reference its parts were fitted to exceeds 1 there (phase "mixed": true phase function in single
     scattering, three-term after it; docs/model.md, "Energy"); the energy scale (runtime.energy_scale, set on a
     grid of 103 incidences) holds the model below 1, checked here on 400 other incidences, the grazing edge
@@ -253,7 +253,7 @@ def order2_c(tmp_path_factory):
 
 def test_order2_c_agrees_with_the_model_and_float_with_double(order2, order2_c):
     """C double against the numpy model (same sympy expression, other printer), C float against C double
-    (issue 18: within 1e-4) on mu >= 0.01, every c, cos phi in [-1, 1]; the parts on their own too."""
+    (within 1e-4) on mu >= 0.01, every c, cos phi in [-1, 1]; the parts on their own too."""
     rng = np.random.default_rng(5)
     n = 20000
     mi, mo, cc = rng.uniform(0.01, 1, n), rng.uniform(0.01, 1, n), rng.uniform(0, 1, n)

@@ -77,6 +77,7 @@ def module(files, tmp_path_factory):
     for name, data in files["python"].items():
         (folder / name).write_bytes(data)
     spec = importlib.util.spec_from_file_location("generated_tables", folder / f"{NAME}.py")
+    assert spec is not None and spec.loader is not None
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
     return mod

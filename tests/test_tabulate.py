@@ -94,7 +94,7 @@ def test_check_reports_missing_or_corrupt_files(tmp_path, capsys, damage):
     assert "h0.csv" in err and "fitlab tabulate" in err
 
 
-# -- every table read is checked (issue 31, items 3 and 6) --------------------------------------------
+# -- every table read is checked --------------------------------------------------------------------
 from test_input_files import finishes  # noqa: E402
 
 from fitlab.resources import DATA_ENV, packaged_tables, tables_folder  # noqa: E402

@@ -1,4 +1,4 @@
-"""The true-phase exact engine (issue 33, items 1-2): exact/true_phase.py and the phase= API.
+"""The true-phase exact engine: exact/true_phase.py and the phase= API.
 
 Fast checks run by default; the full-degree agreement of the two methods over the whole c list
 is a benchmark (pytest -m benchmark): it solves ~50 Fourier orders per c by doubling.
@@ -24,7 +24,7 @@ def test_legendre_moments_closed_form_and_quadrature():
     assert a[8] == pytest.approx(17.0 / 16384.0, rel=1e-14)
     assert np.all(a[3::2] == 0.0)
     for k in range(0, 41, 1):
-        num, _ = integrate.quad(lambda u: exact.phase_function(u) * eval_legendre(k, u), -1, 1, limit=400,
+        num, _ = integrate.quad(lambda u, k=k: exact.phase_function(u) * eval_legendre(k, u), -1, 1, limit=400,
                                 epsabs=1e-15, epsrel=1e-13)
         assert 2 * np.pi * (2 * k + 1) * num == pytest.approx(a[k], rel=1e-9, abs=1e-13), k
     # A_k ~ (16/pi) k^-4 for even k
@@ -175,7 +175,7 @@ def test_grazing_values_and_gap(degree_32):
     assert np.all(np.isfinite(f[1:]))
     # mu_i = 0 is the limit of small mu_i
     assert f[3] == pytest.approx(f[2], rel=1e-7)
-    # The gap, same solve. Issue 33's independent solver: at c = 1, mu_i = mu_o = 0.01, phi = pi the true
+    # The gap, same solve. An independent solver: at c = 1, mu_i = mu_o = 0.01, phi = pi the true
     # BRDF is 0.44041, fitlab's mixed 0.43963 (2.0e-3 relative; five digits printed).
     t = float(exact.brdf(0.01, 0.01, np.pi, 1.0, phase="true"))
     m = float(exact.brdf(0.01, 0.01, np.pi, 1.0, phase="mixed"))

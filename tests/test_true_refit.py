@@ -1,4 +1,4 @@
-"""The runtime model's parts fitted to the true BRDF (fitlab.families.lambert_sphere.program.true_refit;
+"""The runtime model's parts fitted to the true BRDF (fitlab.families.lambert_sphere.program.true_refit):
 the joint forms are the runtime structure's terms, the packaged fits make a model that reaches the true BRDF
 (measured here against exact.brdf(phase="true") at points of the test's own), conserves energy and is 0 at
 c = 0, and the fit files say what they are."""
@@ -226,6 +226,7 @@ def test_codegen_prints_the_true_model(tmp_path):
         assert "physics true;" in line, line
     (tmp_path / "true_model.py").write_text(text)
     spec = importlib.util.spec_from_file_location("true_model", tmp_path / "true_model.py")
+    assert spec is not None and spec.loader is not None
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
     rng = np.random.default_rng(11)

@@ -29,7 +29,7 @@ def _base(name="m.json"):
     return json.loads((FITS / name).read_text())
 
 
-#: expressions whose numbers are too large to form, or not finite, or not real (issue 31, items 1 and 2)
+#: expressions whose numbers are too large to form, or not finite, or not real
 NUMBERS = {
     "tower of powers": "c*((((2**64)**64)**64)**64)",
     "power of a coefficient": "((2*c)**64)**64 + m1",

@@ -170,6 +170,7 @@ def test_generated_python_and_every_language(fitted, tmp_path):
         assert "rat" in text and "fitlab codegen --fit z.rat.json" in text, lang
     (tmp_path / "z.py").write_text(generate_fit_file(path, "python")["z.py"])
     spec = importlib.util.spec_from_file_location("z_generated", tmp_path / "z.py")
+    assert spec is not None and spec.loader is not None
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     x, y, _ = _grid()

@@ -46,7 +46,7 @@ def table_text() -> str:
 
 
 def main(argv=None) -> int:
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p = argparse.ArgumentParser(description=(__doc__ or "").partition("\n")[0])
     p.add_argument("--check", action="store_true", help="recompute and compare with the file")
     args = p.parse_args(argv)
     text = table_text()

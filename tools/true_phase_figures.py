@@ -1,4 +1,4 @@
-"""Measure the figures docs/derivation.md quotes for the true-phase engine (issue 33).
+"""Measure the figures docs/derivation.md quotes for the true-phase engine.
 
     python tools/true_phase_figures.py methods  C [C ...]    # Newton vs doubling, full degree (~5 min per c)
     python tools/true_phase_figures.py degree   C            # truncation: L = 64 .. 256 against each other

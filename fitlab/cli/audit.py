@@ -6,19 +6,19 @@ import time
 
 from fitlab._io import atomic_write_many
 from fitlab.cli._common import (
-    add_family,
-    use_data,
-    add_data,
-    fits_input,
-    add_fits,
     RunFailure,
     UsageError,
+    add_data,
+    add_family,
+    add_fits,
     add_quiet,
     describe,
+    family_with,
+    fits_input,
     one_line,
     output_folder,
     say,
-    family_with,
+    use_data,
     write_failure,
 )
 from fitlab.store import FitFileError, TableError, strict_json

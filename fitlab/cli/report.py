@@ -5,17 +5,17 @@ from __future__ import annotations
 import time
 
 from fitlab.cli._common import (
-    use_data,
-    add_data,
-    fits_input,
-    add_fits,
     RunFailure,
     UsageError,
+    add_data,
+    add_fits,
     add_quiet,
     describe,
+    fits_input,
     one_line,
     output_folder,
     say,
+    use_data,
     write_failure,
 )
 from fitlab.report import FULL, QUICK, ReportError, build_report, write_outputs

@@ -23,7 +23,7 @@ import sys
 from pathlib import Path
 
 from fitlab._montecarlo import MAX_PATHS, MIN_PATHS_BUDGET, SLOW_JOB_SECONDS, duration
-from fitlab.cli._common import add_family, FAILURE, USAGE, fail, family_with
+from fitlab.cli._common import FAILURE, USAGE, add_family, fail, family_with
 from fitlab.core import HasMonteCarlo, offering
 from fitlab.resources import find_scene, packaged_scenes
 

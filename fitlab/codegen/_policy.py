@@ -28,7 +28,7 @@ __all__ = ["clamp", "clamped", "minmax_piecewise", "SAFE_POW", "with_domain", "u
 # Max and Min are printed in every language as :func:`minmax_piecewise`, a
 # conditional that returns its non-constant argument when a comparison is false,
 # so a NaN passes through (C's fmax/fmin and GLSL's max/min would drop it, numpy's
-# maximum would keep it: the three languages used to disagree).  The safe_pow
+# maximum would keep it: the three languages would disagree).  The safe_pow
 # helper is printed from :data:`SAFE_POW` (NaN in, NaN out).
 
 

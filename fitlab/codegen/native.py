@@ -46,7 +46,7 @@ __all__ = [
     "CompileError",
 ]
 
-#: the issue's standard: the generated C must compile clean under these
+#: the standard of the generated C: it compiles clean under these
 STRICT_FLAGS = ("-std=c99", "-O2", "-Wall", "-Wextra", "-Wpedantic", "-Werror")
 
 

@@ -10,40 +10,7 @@ numbers:
   ``columns`` texels wide and ``rows`` texels high, texel (x = column, y = row);
 * numpy: the generated module reads that file.
 
-Every lookup reads the texture only through :func:`texel` (row, column), an undefined sympy function, which
-every printer prints as a call of the generated function ``PREFIX_texel`` (``PREFIX_texel_f`` in C float).
-That function is the one thing written per language (an array read in C and numpy, ``texelFetch`` in
-GLSL); the interpolation is maths and is written once here, as sympy expressions the printers print in
-every language (:func:`lookup_1d`, :func:`lookup_2d`, :func:`lookup_3d`):
-
-* an axis with n nodes x_k = k/(n - 1), k = 0 .. n-1, covers [0, 1]; a coordinate is clamped into [0, 1]
-  and p = x (n - 1) is its position in nodes;
-* ``linear``: the two nodes around p, i = min(floor(p), n - 2), t = p - i, weights (1 - t, t);
-  bilinear in two dimensions, trilinear in three;
-* ``cubic``: the four nodes i .. i + 3 nearest p, i = min(max(floor(p) - 1, 0), n - 4), t = p - i in [0, 3],
-  weights the Lagrange cubics through them: L_0 = -(t - 1)(t - 2)(t - 3)/6, L_1 = t (t - 2)(t - 3)/2,
-  L_2 = -t (t - 1)(t - 3)/2, L_3 = t (t - 1)(t - 2)/6 (inside, the interval between the middle two
-  nodes; in the first and last interval the window stays inside the table, so no texel beyond its
-  edge is needed); bicubic (16 texels) in two dimensions, tricubic (64) in three.  Continuous, exact for
-  cubics, error O(h^4);
-* the axes of a 3-D lookup may differ: :func:`lookup_3d` takes the lookup along its third axis apart (bicubic
-  in the slabs and linear across them: 32 texels), and :func:`combined_lookup_3d` reads a sum of several tables
-  of one layout, sum_m a_m f_m, with one set of weights and node indices: at each node it combines the tables'
-  texels, then interpolates once.
-
-Both lookups return a node's value exactly at the node (the weights are exactly 0 and 1 there), so the
-tables' values are reproduced wherever a coordinate is a node.  Texels are read with integer coordinates
-(``texelFetch``), never through the GPU's filtering, so the result does not depend on the filtering
-precision of a GPU (often 8 bits of fraction).  NaN: a NaN coordinate gives NaN weights, hence a NaN
-result; its texel index reads texel 0 (C and numpy, never out of bounds).  Every other input, +-inf included, is
-clamped, and its window lies inside the table, so the C texel read checks only what NaN breaks, index >= 0: a check
-of both bounds per texel cost more than half of the exported tables' BRDF, one of the lower bound a few percent.
-
-:func:`emit_textured` prints a program whose routines read a texture: :func:`fitlab.codegen.languages` prints
-the routines, and this module adds the texture to each language's files (C: the data header, included by
-the source; GLSL: the sampler and its texel function; numpy: the file's reader and its texel function) and
-the raw file.  :data:`TEXTURE_SHIM` lets the GLSL compile as C against an array, for tests without a GPU.
-"""
+Details: docs/tables.md, section ``fitlab.codegen.texture``."""
 
 from __future__ import annotations
 

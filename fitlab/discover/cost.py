@@ -51,6 +51,6 @@ def routine_cost(target: str, forms: list[str | None], fits_dir: Path | None = N
         args = [np.ascontiguousarray(a, dtype=dtype) for a in _inputs(names, n)]
         for _ in range(COST_ROUNDS):  # interleaved rounds: drift in machine load hits every variant alike
             for form, model in models.items():
-                t = best_seconds(lambda: model(routine, *args, dtype=dtype), repeat) / n * 1e9
+                t = best_seconds(lambda model=model: model(routine, *args, dtype=dtype), repeat) / n * 1e9
                 out[form or "default"] = min(out.get(form or "default", np.inf), t)
     return out

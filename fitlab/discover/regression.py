@@ -107,7 +107,7 @@ class SparseRegression:
             w = base_w / np.abs(d)
         return coef
 
-    def fit(self, inputs, y, scale) -> "SparseRegression":
+    def fit(self, inputs, y, scale) -> SparseRegression:
         import pysindy as ps
 
         X, z, base_w, g, d0 = self._system(inputs, y, scale)

@@ -1,39 +1,6 @@
 r"""The file formats of ``fitlab export``: one encoder per format, each the image's bytes, and the precision each keeps.
 
-========== ============== ==================================================================================
-format     file           what it holds
-========== ============== ==================================================================================
-exr        NAME.exr       OpenEXR (the ``OpenEXR`` package), float32 channels R, G, B, A as many as the image
-                          has, ZIP compression, scanlines; the description in the standard ``comments``
-                          attribute, the table's name in ``fitlab:table``, its origin in ``fitlab:origin``.
-                          Exact to float32: |q - v| <= 2^-24 |v|.
-exr-half   NAME_half.exr  the same in half floats: |q - v| <= 2^-11 |v| (|v| >= 2^-14, half's normal range),
-                          else <= 2^-25 (subnormal spacing 2^-24, halved).
-ktx2       NAME.ktx2      KTX 2.0 (fitlab's own writer, :mod:`fitlab.export._ktx2`, to the Khronos
-                          specification): VK_FORMAT_R32_SFLOAT, R32G32_SFLOAT or R32G32B32A32_SFLOAT (a
-                          three-channel table gains A = 1), one level, no supercompression; key/value data
-                          KTXorientation "rd", KTXwriter, ``fitlab:table``, ``fitlab:origin`` and the
-                          description in ``fitlab:layout``.  As exr.
-ktx2-half  NAME_half.ktx2 the same in the R16 half-float formats.  As exr-half.
-png        NAME.png       PNG, 16 bits per channel (``pypng``): grey for one channel, RGB for two or three (a
-                          two-channel image's B is 0: PNG has no two-channel colour type), RGBA for four; each
-                          value q = round(65535 v) for v in [0, 1] (a table outside [0, 1] is refused); a gAMA
-                          chunk of 1.0 (linear) and the description in tEXt chunks (``Comment``,
-                          ``fitlab:table``, ``fitlab:origin``).  |q/65535 - v| <= 1/131070.
-c          NAME.h         a C header: ``static const float NAME[HEIGHT][WIDTH][CHANNELS]``, each value the
-                          float32 nearest v in its shortest round-trip decimal; the description as a comment.
-                          As exr.
-glsl       NAME.glsl      GLSL constants: ``const int NAME_WIDTH``, ``NAME_HEIGHT``, ``NAME_CHANNELS`` and
-                          ``const float NAME[]`` (row after row, each texel's channels together), the same
-                          decimals.  As exr.
-========== ============== ==================================================================================
-
-Every format stores the image's rows in its order (:attr:`Image.origin`: the table's row 0 first, or last),
-row 0 of the image first, and states which in its description.  Every encoder returns bytes; writing them (as
-one unit, atomically) is the caller's (``fitlab export``).  The encoders depend only on the image, so the same
-table encodes to the same bytes (OpenEXR's and zlib's output depend on their versions, which the files do not
-record).
-"""
+Details: docs/reference/file_formats.md, section ``fitlab.export._formats``."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-r"""The accuracy-vs-cost report (issue 7): ``fitlab report``.
+r"""The accuracy-vs-cost report: ``fitlab report``.
 
 For every way fitlab can evaluate the Lambert-sphere BRDF and its parts (the
 exact engine and its methods, the tables with interpolation, the published

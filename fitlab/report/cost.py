@@ -39,5 +39,6 @@ def jax_costs(methods, inputs: dict, repeat: int, tick=None) -> dict:
         f = jax.jit(lambdify_jax(symbols(names), m.expr))
         jax.block_until_ready(f(*args))  # compile
         fns[m.name] = lambda f=f: jax.block_until_ready(f(*args))
-        tick and tick()
+        if tick:
+            tick()
     return {k: args[0].size / t for k, t in interleaved_best(fns, repeat).items()}

@@ -5,35 +5,7 @@ and the loops over the registered families; each family that is a :class:`HasRep
 (for the Lambert sphere :mod:`fitlab.families.lambert_sphere.program.report.methods` is its :class:`Report`)
 contributes what only it knows.
 
-BRDF level (:func:`brdf_methods`), each a numpy function of (mu_i, mu_o, phi, c, kd),
-with, where it exists, the sympy expression (for the JAX path) and how to get
-its generated C (:class:`CSpec`); for the Lambert sphere:
-
-* ``tables``: the runtime model with H0, H1 and the constants interpolated from
-  data/, and all three orders with H2 too;
-* ``published``: the runtime model with the published coefficients
-  (:data:`fitlab.families.lambert_sphere.program.runtime.PRESET_VARIANTS`);
-* ``refit``: the runtime model from fits/ (default forms); ``refit, richer``:
-  each part's most accurate refit form (lowest validation max error recorded
-  in its fit file), when that differs from the default;
-* ``discovered``: every fit whose record says ``origin: {"method": "discover"}``,
-  each swapped into the default refit (or, for fast_brdf, on its own), plus
-  the best fit of every part among all fits when any is discovered;
-* ``fast``: the fast variant (eq. 41), its published preset and every other
-  fits/fast_brdf*.json;
-* ``baseline``: Lambert kd/pi and Oren-Nayar (sigma = 0.5) at kd = kd_true(c):
-  not models of this material, the yardsticks of cost and of error.
-
-The family's own engines (the exact engine, Monte Carlo) are measured apart, by the family
-(:func:`brdf_report`'s ``measure_engines``; for the Lambert sphere
-:mod:`fitlab.families.lambert_sphere.program.report.engine_rows`).  Part level (:func:`part_methods`): the
-family's own methods of a target (for the Lambert sphere the tables and, for
-H0 and H1, the Fock method of the exact engine), then the target's published
-presets and every fit file, all measured on the target's validation set.
-
-Fit files are found by globbing fits/*.json, so new ones (refits of new forms,
-discovered forms) join the report without any change here.
-"""
+Details: docs/accuracy.md, section ``fitlab.report.methods``."""
 
 from __future__ import annotations
 
@@ -393,7 +365,7 @@ def preset_records(variant: str) -> dict:
 # -- BRDF level ------------------------------------------------------------------------------------
 def brdf_methods(fits_dir: Path, entries: list[FitEntry], data_dir: Path | None = None, preset_c: tuple = (),
                  discovered: bool = True) -> list[BrdfMethod]:  # fmt: skip
-    """The BRDF-level catalogue of every family (see the module docstring); ``data_dir``: the tables (None:
+    """The BRDF-level catalogue of every family (see docs/accuracy.md); ``data_dir``: the tables (None:
     each family's own); ``preset_c``: the preset variants whose C is built; ``discovered=False`` leaves out
     the entries of discovered forms."""
     out = []
@@ -409,7 +381,7 @@ def positional(f, inputs):
 
 
 def part_methods(target_name: str, entries: list[FitEntry], data_dir: Path | None = None) -> list[PartMethod]:
-    """The part-level catalogue of one target (see the module docstring)."""
+    """The part-level catalogue of one target (see docs/accuracy.md)."""
     t = get_target(target_name)
     hook = family_reports().get(t.family)
     out = [] if hook is None else list(hook.part_extras(target_name, hook.tables_dir(data_dir)))

@@ -94,7 +94,8 @@ def c_costs(methods, workdir: Path, inputs: dict, repeat: int, tick=None) -> tup
             lib = build(files, prog, workdir / f"program_{k}")
         except CompileError as exc:
             notes.append(f"C not timed for {', '.join(m.name for m in ms)}: {str(exc).splitlines()[0]}")
-            tick and tick()
+            if tick:
+                tick()
             continue
         jobs = [(("method", m.name), m.c.routine) for m in ms]
         jobs += [(("part", label), routine) for routine, label in labels.items()
@@ -103,7 +104,8 @@ def c_costs(methods, workdir: Path, inputs: dict, repeat: int, tick=None) -> tup
             args = [inputs[a] for a in prog.routine(routine).signature()]
             for dt in (np.float64, np.float32):
                 cases[(what, dt)] = (lib, routine, args, dt)
-        tick and tick()
+        if tick:
+            tick()
     ns = time_routines(cases, repeat)
     costs, parts = {}, {}
     for what in dict.fromkeys(w for w, _ in cases):

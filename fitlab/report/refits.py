@@ -62,5 +62,6 @@ def refit_costs(jobs, fits_dir, tick=None) -> list[dict]:
         rows.append({"target": e.target, "form": e.form, "path": str(e.path), "seconds": seconds,
                      "steps": int(res.record["optimizer"]["total_steps"]),
                      "max_rel": float(res.record["validation"]["max_rel"]), "recorded_max_rel": e.max_rel})  # fmt: skip
-        tick and tick()
+        if tick:
+            tick()
     return rows

@@ -27,13 +27,13 @@ from fitlab.report.accuracy import brdf_accuracy, part_accuracy
 from fitlab.report.cost import jax_costs, numpy_costs
 from fitlab.report.methods import (
     ReportError,
-    brdf_report,
     brdf_methods,
+    brdf_report,
+    family_reports,
     fit_group,
     fit_inventory,
     part_methods,
     preset_variants,
-    family_reports,
     report_parts,
 )
 from fitlab.report.pareto import recommend

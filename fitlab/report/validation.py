@@ -68,7 +68,8 @@ def exact_values(point_sets: Mapping[str, np.ndarray], c: np.ndarray, use_cache:
                 for k in todo:
                     p = point_sets[k]
                     ys[k][i] = hook.exact_brdf(p[:, 0], p[:, 1], np.pi * p[:, 2], cv)
-                tick and tick()
+                if tick:
+                    tick()
             kd = hook.exact_kd(c)
             computed.update({k: {"y": ys[k], "kd": kd} for k in todo})
         return computed[kind]
@@ -79,7 +80,8 @@ def exact_values(point_sets: Mapping[str, np.ndarray], c: np.ndarray, use_cache:
                                   lambda kind=kind: compute(kind), ("y", "kd"), sources, use_cache)  # fmt: skip
     if not computed:
         for _ in c:
-            tick and tick()
+            if tick:
+                tick()
     return {kind: v["y"] for kind, v in out.items()}, out[kinds[0]]["kd"]
 
 
@@ -119,7 +121,8 @@ def validation_sets(settings: Settings, use_cache: bool = True, tick=None) -> tu
         "grazing": (materials + " x mu_i, mu_o in {" + ", ".join(f"{m:g}" for m in GRAZING_MU)
                     + "} x phi in {0, pi/2, pi}"),
     }  # fmt: skip
-    return tuple(_dataset(points[k], c, ys[k], kd, grids[k]) for k in ("brdf", "grazing"))
+    return (_dataset(points["brdf"], c, ys["brdf"], kd, grids["brdf"]),
+            _dataset(points["grazing"], c, ys["grazing"], kd, grids["grazing"]))
 
 
 def fresh_set(settings: Settings, use_cache: bool = True, tick=None) -> Dataset:
@@ -140,14 +143,16 @@ def fresh_set(settings: Settings, use_cache: bool = True, tick=None) -> Dataset:
         for k, cv in enumerate(c):
             p = points[k]
             y[k] = hook.exact_brdf(p[:, 0], p[:, 1], np.pi * p[:, 2], cv)
-            tick and tick()
+            if tick:
+                tick()
         return {"y": y, "kd": hook.exact_kd(c)}
 
     sources = sorted(Path(hook.EXACT_SOURCES).glob("*.py"))
     out = cached_arrays("report-fresh", {"points": points, "c": c}, compute, ("y", "kd"), sources, use_cache)
     if not computed:
         for _ in c:
-            tick and tick()
+            if tick:
+                tick()
     inputs = _inputs(points[:, :, 0].ravel(), points[:, :, 1].ravel(), np.pi * points[:, :, 2].ravel(),
                      np.repeat(c, per_c), np.repeat(out["kd"], per_c))  # fmt: skip
     grid = f"{materials}, {per_c} points each, (mu_i, mu_o, phi) uniform, numpy PCG64 seed {settings.fresh_seed}"

@@ -31,8 +31,8 @@ from typing import Any
 
 import numpy as np
 
-from fitlab._io import FolderError, atomic_write_many, check_output_folder
 from fitlab import _montecarlo
+from fitlab._io import FolderError, atomic_write_many, check_output_folder
 from fitlab.scenes._check import Checker, with_overrides
 from fitlab.scenes._document import SceneError, parse_document, read_scene_text
 from fitlab.scenes._protocol import Simulation

@@ -113,7 +113,7 @@ def _markdown(rows: list[dict], command: str) -> str:
 
 
 def main(argv=None) -> int:
-    p = argparse.ArgumentParser(prog="python -m studies.lambert_sphere.error_budget", description=__doc__.splitlines()[0])
+    p = argparse.ArgumentParser(prog="python -m studies.lambert_sphere.error_budget", description=(__doc__ or "").partition("\n")[0])
     p.add_argument("--fits", default=None, help="fits folder (default: the packaged fits)")
     p.add_argument("--out", default="docs", help="folder for error_budget.md and error_budget.json (default: docs)")
     args = p.parse_args(argv)

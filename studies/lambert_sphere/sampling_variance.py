@@ -7,7 +7,7 @@ f_r cos(theta_o) / p of the directional albedo has the relative variance V (``re
 module compares V of the fitted mixture with cosine sampling (w = 0) and with the variance-optimal mixture,
 two ways:
 
-* quadrature (:func:`variance_rows`): V with the exact BRDF, at the issue's points (c in {0.3, 0.9, 1},
+* quadrature (:func:`variance_rows`): V with the exact BRDF, at the study's points (c in {0.3, 0.9, 1},
   mu_i in {0.1, 0.5, 1}) and on a fresh random set (:func:`fresh_summary`: uniform c and s, the edges
   c = 0 and mu_i in {0, 1} included; seeded);
 * Monte Carlo (:func:`monte_carlo_rows`): the generated Python routines themselves, ``n`` samples of each
@@ -34,7 +34,7 @@ from fitlab.store import fit_path, load
 
 __all__ = ["ISSUE_C", "ISSUE_MU", "fitted_mixture", "variance_rows", "fresh_summary", "monte_carlo_rows"]
 
-#: the points the issue names: albedos and incidences
+#: the study's points: albedos and incidences
 ISSUE_C = (0.3, 0.9, 1.0)
 ISSUE_MU = (0.1, 0.5, 1.0)
 
@@ -135,7 +135,7 @@ def _markdown(rows, fresh, mc, command: str) -> str:
 
 
 def main(argv=None) -> int:
-    p = argparse.ArgumentParser(prog="python -m studies.lambert_sphere.sampling_variance", description=__doc__.splitlines()[0])
+    p = argparse.ArgumentParser(prog="python -m studies.lambert_sphere.sampling_variance", description=(__doc__ or "").partition("\n")[0])
     p.add_argument("--fits", default=None, help="fits folder (default: the packaged fits)")
     p.add_argument("--out", default="docs", help="folder for sampling.md and sampling.json (default: docs)")
     args = p.parse_args(argv)

@@ -117,7 +117,8 @@ def candidate_rows(sets, h_sets, data_dir=None, tick=None) -> list[dict]:
         for lookup in ("linear", "cubic"):
             for nodes in (17, 33, 65):
                 rows.append(_measure(nodes, lookup, quantity, sets, h_sets, data_dir))
-                tick and tick()
+                if tick:
+                    tick()
     return rows
 
 
@@ -128,7 +129,8 @@ def resolution_rows(sets, h_sets, data_dir=None, tick=None) -> list[dict]:
     for lookup in ("linear", "cubic"):
         for nodes in te.NODES:
             rows.append(_measure(nodes, lookup, te.DEFAULT_QUANTITY, sets, h_sets, data_dir))
-            tick and tick()
+            if tick:
+                tick()
     return rows
 
 
@@ -178,7 +180,8 @@ def correction_rows(sets, data_dir=None, tick=None) -> list[dict]:
             out["skipped_s"] = [float(TRUE_S_GRID[k]) for k in skipped]
             out["skipped_max_abs_q"] = float(sum(worst))
         rows.append(out)
-        tick and tick()
+        if tick:
+            tick()
     return rows
 
 

@@ -13,34 +13,8 @@ For each model (GGX with separable or height-correlated Smith, Oren-Nayar with A
   the filter's centres fall on the nodes (the same texture, addressed differently).
 * **fitted forms**: the fits of the family's E and E_avg targets (``fitlab refit``), when given.
 
-Measures, on one validation set the tables and fits never saw (a golden-ratio lattice of 64 x 64 points in
-(mu, alpha), plus the edges mu = 0, mu = 1, alpha = 1 and the smallest alpha studied; exact E from
-:func:`fitlab.families.microfacet_energy.exact.directional_albedo`):
-
-* max |E_hat - E| over the set, and over its interior (mu and alpha >= 1/16: away from the edge texels);
-* the white furnace of f + f_ms with the method's E_hat and E_avg_hat, as a renderer evaluates it (F = 1):
-  a(mu_o) = E(mu_o) + (1 - E_hat(mu_o)) * 2 int_0^1 (1 - E_hat(mu_i)) mu_i dmu_i / (1 - E_avg_hat),
-  the lobe's albedo integrated over mu_i with the method's own E_hat (a 512-point midpoint rule: E_hat
-  of a table is piecewise bilinear); the error is max |a - 1| over the set (0 for the exact E);
-* the white furnace of the exact single scattering plus the generated Kulla-Conti lobe
-  (``ms_kulla_conti`` of the committed C, double and float, height-correlated GGX):
-  a(mu_o) = E(mu_o) + 2 pi int_0^1 f_ms_hat(mu_i, mu_o) mu_i dmu_i, Gauss-Legendre on panels graded at
-  multiples of alpha (the lobe sits in the grazing layer mu_i ~ alpha), for alpha from 1e-6 to 1; the worst
-  mu_o of each alpha searched for (a scan of mu_o = 0, 1, t alpha for t in [1/16, 1e4] and a uniform grid,
-  then a bounded scalar search between the scan's neighbours of its worst point);
-* memory: the bytes the method keeps (float32 texels; double coefficients);
-* ns per evaluation of E_hat in C (double), tables and generated forms timed in one interleaved run
-  (:func:`fitlab.codegen.bench.time_routines`): only the ratios carry meaning.
-
-And the coloured compensation of measured metals: Kulla-Conti's factor f_add = F_avg^2 E_avg / (1 - F_avg
-(1 - E_avg)) (:func:`fitlab.families.microfacet_energy.exact.fresnel_compensation_factor`) of height-correlated
-GGX, per linear sRGB channel of each conductor of the fresnel family, with its exact F_avg = 2 int F mu dmu
-(taken through the registry, ``fitlab.core.family_with(fitlab.core.HasMaterials).materials()``: no family
-imports another) against the F_avg a renderer derives from Schlick with F0 = F(1), (20 F0 + 1)/21
-(:func:`coloured_compensation`).
-
-Exact values go through fitlab's cache (:func:`fitlab.cache.cached_arrays`).
-"""
+Details: docs/microfacet_energy_derivation.md, section
+``studies.microfacet_energy.energy_compensation``."""
 
 from __future__ import annotations
 
@@ -148,7 +122,7 @@ _MID = (np.arange(512) + 0.5) / 512
 
 
 def furnace(method: dict, model: str, mu: np.ndarray, alpha: np.ndarray, E_exact: np.ndarray) -> np.ndarray:
-    """The white furnace a(mu_o) of f + f_ms with ``method``'s E_hat and E_avg_hat (module docstring);
+    """The white furnace a(mu_o) of f + f_ms with ``method``'s E_hat and E_avg_hat (docs/microfacet_energy_derivation.md);
     ``E_exact`` is E at (mu, alpha).  No compensation: a = E."""
     if method["E"] is None:
         return E_exact
@@ -301,7 +275,7 @@ COLOURED_ALPHAS = (0.25, 0.5, 1.0)
 
 def coloured_compensation(model: str = "ggx_correlated", alphas=COLOURED_ALPHAS) -> list[dict]:
     """Per conductor of the fresnel family and linear sRGB channel: F0, the exact F_avg and Schlick's (20 F0 +
-    1)/21, and Kulla-Conti's f_add of each at every alpha (module docstring).  A channel whose F0 or F_avg
+    1)/21, and Kulla-Conti's f_add of each at every alpha (docs/microfacet_energy_derivation.md).  A channel whose F0 or F_avg
     exceeds 1 (gold's red: a colour out of sRGB's gamut) has no f_add (None): the factor is defined for
     F_avg in [0, 1]."""
     from fitlab.core import HasMaterials, family_with

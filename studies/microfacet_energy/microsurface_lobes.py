@@ -146,7 +146,7 @@ def per_lobe_study(kind: str, t: lt.LobeTable, forms=PER_LOBE_FORMS) -> dict:
         fit = fit_lobes(form, data)
         errs, order_of = [], []
         for k, ((j, s), lobe) in enumerate(zip(lobes, data)):
-            m = bin_averages_numpy(lambda mo, c, mi, a, th=fit.theta[k]: form.numpy_function(th, mo, c, mi, a),
+            m = bin_averages_numpy(lambda mo, c, mi, a, th=fit.theta[k], form=form: form.numpy_function(th, mo, c, mi, a),
                                    lobe["mu_i"], lobe["alpha"])
             y, se = t.value[j, s - 1], t.se[j, s - 1]
             ok = (y > 0) & (y >= SNR * se)
@@ -433,9 +433,9 @@ def _figure(tables: dict, fits_dir, out: Path) -> list[Path]:
         y_ms, se_ms, _, _ = sub.multiple()
         fig, axes = plt.subplots(3, len(jobs), figsize=(4.2 * len(jobs), 9.0), squeeze=False)
         for col in range(len(jobs)):
-            rows = (("order 2", sub.value[col, 1], sub.se[col, 1], lambda b: b[col, 0]),
-                    ("order 3", sub.value[col, 2], sub.se[col, 2], lambda b: b[col, 1]),
-                    ("orders >= 2", y_ms[col], se_ms[col], lambda b: b[col].sum(axis=0)))
+            rows = (("order 2", sub.value[col, 1], sub.se[col, 1], lambda b, col=col: b[col, 0]),
+                    ("order 3", sub.value[col, 2], sub.se[col, 2], lambda b, col=col: b[col, 1]),
+                    ("orders >= 2", y_ms[col], se_ms[col], lambda b, col=col: b[col].sum(axis=0)))
             for row, (label, y, se, pick) in enumerate(rows):
                 ax = axes[row, col]
                 for side, p, sign in (("back", 0, 1), ("forward", len(lt.PHI_EDGES) - 2, -1)):

@@ -94,6 +94,7 @@ def on_page_markdown(markdown: str, page, config, files) -> str:
 # -- notebooks ---------------------------------------------------------------------------------------------------
 def _build_module():
     spec = importlib.util.spec_from_file_location("notebooks_build", ROOT / "notebooks" / "_build.py")
+    assert spec is not None and spec.loader is not None
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module

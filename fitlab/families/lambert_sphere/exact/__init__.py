@@ -8,7 +8,6 @@ the published equations are settled in docs/errata.md.
 from pathlib import Path
 
 from fitlab import physics
-
 from fitlab.families.lambert_sphere.exact import true_phase
 from fitlab.families.lambert_sphere.exact._quadrature import gauss_legendre, graded_gauss
 from fitlab.families.lambert_sphere.exact.albedo import (

@@ -11,7 +11,7 @@ the number of nodes.
 
 from __future__ import annotations
 
-from functools import lru_cache
+from functools import cache
 
 import numpy as np
 
@@ -20,7 +20,7 @@ from fitlab.numerics import gauss_legendre  # one rule for every family (re-expo
 __all__ = ["graded_gauss", "gauss_legendre"]
 
 
-@lru_cache(maxsize=None)
+@cache
 def graded_gauss(
     nodes_per_panel: int = 16, ratio: float = 0.25, smallest: float = 1e-17
 ) -> tuple[np.ndarray, np.ndarray]:

@@ -16,26 +16,12 @@ docs/model.md, "Albedo maps"):
   (tests/test_brdf.py checks f_1 + fm0 + fm1 cos phi > 0 on a grid).
 * ``phase="true"`` (the default): the whole phase function in every collision, below.
 
-a1(mu_i) = int_{mu_o > 0} p(-w_i . w_o) mu_o/(mu_i + mu_o) dw_o is computed in
-coordinates about w_i (theta the angle to w_i, psi around it): p depends on
-theta only, and the psi integral of mu_o/(mu_i + mu_o) over the visible arc has
-a closed form, so one adaptive quadrature in theta with breakpoints where the
-cone about w_i meets the horizon (theta = pi/2 -+ theta_i) gives ~1e-14.
-
-The spherical (Bond) albedo kd = 2 int_0^1 a(mu_i) mu_i dmu_i.
-
-``phase=`` names the physics as :func:`fitlab.families.lambert_sphere.exact.brdf` does
-("true", "three_term", "mixed"; default :data:`DEFAULT_PHASE`).  Phase "true" (the whole
-phase function in every collision): a = c a1(mu_i) + the albedo of the multiple
-scattering of :mod:`true_phase`, integrated on that solution's own rule; at c = 1
-it is 1 to about 1e-14 (energy conservation of the discrete problem, imposed
-exactly; tests/test_true_phase.py).
-"""
+Details: docs/derivation.md, section ``fitlab.families.lambert_sphere.exact.albedo``."""
 
 from __future__ import annotations
 
 import warnings
-from functools import lru_cache
+from functools import cache
 
 import numpy as np
 
@@ -111,7 +97,7 @@ def single_scattering_albedo(mu_i: float, phase: str = "true") -> float:
     return total
 
 
-@lru_cache(maxsize=None)
+@cache
 def single_albedo_nodes(phase: str):
     """a1 at the graded nodes (c-independent, computed once)."""
     phase = _checks.choice(phase, "phase", SINGLE_PHASES)

@@ -24,8 +24,8 @@ I_0 = atan(t)/t for t > 2.  Both are accurate to a few ulp for every t >= 0.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Callable
 
 import numpy as np
 

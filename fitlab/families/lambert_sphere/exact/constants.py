@@ -33,7 +33,7 @@ E = the mu^4 coefficient of Psi_0.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import lru_cache
+from functools import cache, lru_cache
 
 import numpy as np
 from numpy.polynomial import polynomial as P
@@ -71,8 +71,8 @@ class ModePolynomials:
     multiple: np.ndarray
 
 
-def _beta(h_moments, m, rk, l):
-    q = P.polymul(P.polymul(rk, associated_legendre_reduced(l, m)), P.polypow([1.0, 0.0, -1.0], m))
+def _beta(h_moments, m, rk, ell):
+    q = P.polymul(P.polymul(rk, associated_legendre_reduced(ell, m)), P.polypow([1.0, 0.0, -1.0], m))
     return float(np.dot(q, h_moments[: q.size]))
 
 
@@ -81,24 +81,24 @@ def _residuals(x, m, w, alpha, frozen=()):
     deg = MAX_DEGREE - m
     r = {}
     i = 0
-    for l in ls:
-        r0 = associated_legendre_reduced(l, m)[0]
-        if l in frozen:
-            r[l] = np.zeros(deg + 1)
+    for ell in ls:
+        r0 = associated_legendre_reduced(ell, m)[0]
+        if ell in frozen:
+            r[ell] = np.zeros(deg + 1)
             continue
-        r[l] = np.concatenate(([r0], x[i : i + deg]))
+        r[ell] = np.concatenate(([r0], x[i : i + deg]))
         i += deg
     out = []
-    for l in ls[:-1]:
-        beta = {k: _beta(alpha, m, r[k], l) for k in ls}
+    for ell in ls[:-1]:
+        beta = {k: _beta(alpha, m, r[k], ell) for k in ls}
         lhs = P.polysub(
-            P.polymul([0.0, 2 * l + 1.0], r[l]),
-            P.polyadd((l - m + 1.0) * r[l + 1], (l + m) * r.get(l - 1, np.zeros(1))),
+            P.polymul([0.0, 2 * ell + 1.0], r[ell]),
+            P.polyadd((ell - m + 1.0) * r[ell + 1], (ell + m) * r.get(ell - 1, np.zeros(1))),
         )
         s = np.zeros(1)
         for k in ls:
             s = P.polyadd(s, (-1.0) ** (k + m) * w[k] * beta[k] * r[k])
-        rhs = P.polymul([0.0, (-1.0) ** (l + m) * (2 * l + 1) / 2.0], s)
+        rhs = P.polymul([0.0, (-1.0) ** (ell + m) * (2 * ell + 1) / 2.0], s)
         d = P.polysub(lhs, rhs)
         out.append(np.pad(d, (0, deg + 2 - d.size)))
     return np.concatenate(out) if out else np.zeros(0), r
@@ -107,8 +107,8 @@ def _residuals(x, m, w, alpha, frozen=()):
 def _default_start(m, frozen=()):
     # c -> 0 limit: r_l = reduced P_l^m
     deg = MAX_DEGREE - m
-    ls = [l for l in range(m, MAX_DEGREE + 1) if l not in frozen]
-    return np.concatenate([np.pad(associated_legendre_reduced(l, m), (0, deg + 1))[1 : deg + 1] for l in ls])
+    ls = [ell for ell in range(m, MAX_DEGREE + 1) if ell not in frozen]
+    return np.concatenate([np.pad(associated_legendre_reduced(ell, m), (0, deg + 1))[1 : deg + 1] for ell in ls])
 
 
 def _newton(x, m, w, alpha, frozen=()):
@@ -146,7 +146,7 @@ _LADDER = tuple(np.round(0.5 - 0.02 * np.arange(25), 12)) + tuple(0.02 / 2.0 ** 
 _LADDER_STOP = 29
 
 
-@lru_cache(maxsize=None)
+@cache
 def _conservative_unknowns(m):
     # Order-0 unknowns at c = 1 from the regular frozen system, r_1 = 0 put back
     # in its place: the s = 0 end of the near-conservative start.
@@ -161,7 +161,7 @@ def _moment_data(m, c):
     return legendre_weights(m, c), alpha
 
 
-@lru_cache(maxsize=None)
+@cache
 def _ladder_solution(m, k):
     """Converged unknowns at ladder point k, each from the one before (k = 0 directly)."""
     s = _LADDER[k]
@@ -229,13 +229,13 @@ def mode_polynomials(order: int, c: float) -> ModePolynomials:
     _, r = _residuals(x, m, w, alpha, frozen)
     deg = MAX_DEGREE - m
     matrix, multiple = np.zeros((deg + 1, deg + 1)), np.zeros((deg + 1, deg + 1))
-    for l, rl in r.items():
+    for ell, rl in r.items():
         rl = np.pad(rl, (0, deg + 1 - rl.size))
-        pl = associated_legendre_reduced(l, m)
+        pl = associated_legendre_reduced(ell, m)
         d = rl - np.pad(pl, (0, deg + 1 - pl.size))  # O(c); 0 at mu^0
-        matrix += (-1.0) ** (l + m) * w[l] * np.outer(rl, rl)
+        matrix += (-1.0) ** (ell + m) * w[ell] * np.outer(rl, rl)
         # r r^T - p p^T = d p^T + p d^T + d d^T = d r^T + r d^T - d d^T
-        multiple += (-1.0) ** (l + m) * w[l] * (np.outer(d, rl) + np.outer(rl, d) - np.outer(d, d))
+        multiple += (-1.0) ** (ell + m) * w[ell] * (np.outer(d, rl) + np.outer(rl, d) - np.outer(d, d))
     # (2 - delta)/(4 pi) and (-1)^m for fitlab's azimuth (phi = 0 backward; docs/model.md)
     scale = (-1.0) ** m * (1.0 if m == 0 else 2.0) / (4.0 * np.pi)
     return ModePolynomials(m, c, r, matrix * scale, res, multiple * scale)

@@ -47,8 +47,8 @@ class DoublingResult:
     doublings: int
 
 
-def _assoc(l, m, mu):
-    return (1.0 - mu * mu) ** (m / 2.0) * np.polynomial.polynomial.polyval(mu, associated_legendre_reduced(l, m))
+def _assoc(ell, m, mu):
+    return (1.0 - mu * mu) ** (m / 2.0) * np.polynomial.polynomial.polyval(mu, associated_legendre_reduced(ell, m))
 
 
 def doubling_step(r: np.ndarray, td: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -72,8 +72,8 @@ def doubling_reflection(order: int, c: float, nodes_per_panel: int = 12, smalles
     c = float(c)
     mu, w = graded_gauss(nodes_per_panel, 0.25, smallest)
     wl = legendre_weights(m, c)
-    phi_pp = sum(wl[l] * np.outer(_assoc(l, m, mu), _assoc(l, m, mu)) for l in wl)
-    phi_pm = sum(wl[l] * (-1.0) ** (l + m) * np.outer(_assoc(l, m, mu), _assoc(l, m, mu)) for l in wl)
+    phi_pp = sum(wl[ell] * np.outer(_assoc(ell, m, mu), _assoc(ell, m, mu)) for ell in wl)
+    phi_pm = sum(wl[ell] * (-1.0) ** (ell + m) * np.outer(_assoc(ell, m, mu), _assoc(ell, m, mu)) for ell in wl)
     # Thin starting layer: single scattering with exact exponentials; the
     # neglected double scattering is O(tau sum_k w_k/mu_k) ~ 1e-16 relative.
     tau = 2.0**-60

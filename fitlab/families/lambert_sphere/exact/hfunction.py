@@ -118,7 +118,7 @@ def _newton(char: Characteristic, v, w, tol=1e-15, max_steps=60):
         x = 1.0 / (s + a @ x)
     steps = 0
     res = np.inf
-    for steps in range(1, max_steps + 1):
+    for steps in range(1, max_steps + 1):  # noqa: B007 (the count of steps taken is returned)
         f = 1.0 / x - s - a @ x
         jac = -np.diag(1.0 / x**2) - a
         dx = np.linalg.solve(jac, -f)

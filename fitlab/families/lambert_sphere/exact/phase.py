@@ -47,9 +47,9 @@ def three_term_phase_function(u):
     return physics.three_term_phase_function(np.asarray(u, dtype=float))
 
 
-def legendre_weights(m: int, c) -> list:
+def legendre_weights(m: int, c) -> dict:
     """varpi_l^m = c A_l (l-m)!/(l+m)! for l = m..2 (index l)."""
-    return {l: np.asarray(c) * THREE_TERM[l] * factorial(l - m) / factorial(l + m) for l in range(m, MAX_DEGREE + 1)}
+    return {ell: np.asarray(c) * THREE_TERM[ell] * factorial(ell - m) / factorial(ell + m) for ell in range(m, MAX_DEGREE + 1)}
 
 
 # P_l^m(mu) = (1 - mu^2)^(m/2) * reduced_l^m(mu); coefficients low -> high.
@@ -63,6 +63,6 @@ _REDUCED = {
 }
 
 
-def associated_legendre_reduced(l: int, m: int) -> np.ndarray:
+def associated_legendre_reduced(ell: int, m: int) -> np.ndarray:
     """Polynomial coefficients of P_l^m(mu) / (1 - mu^2)^(m/2), low to high."""
-    return np.array(_REDUCED[(l, m)])
+    return np.array(_REDUCED[(ell, m)])

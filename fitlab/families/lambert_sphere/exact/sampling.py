@@ -17,31 +17,7 @@ a = int g dw_o, g = f_r mu_o, has the relative variance
 
     V(w, n) = int_{mu_o > 0} g^2 / p dw_o / a^2 - 1,
 
-and cosine sampling (w = 0) has V(0, .).  :func:`optimal_mixture` finds the (w, n) that minimise V
-(w in [0, 1), n in [N_MIN, N_MAX]), mu_i in [MU_MIN, 1]: the exact values of the targets ``sample_weight`` and
-``sample_exponent``.  V is convex in w for each n (p is linear in w, g^2/p convex in p); its profile
-over n can have two local minima, so the n axis is scanned on a geometric grid before the best bracket
-is refined.  V is a quadrature: in mu_o a Gauss-Legendre rule on panels graded towards 0 (8 nodes on
-each of [0, 4^-10], ..., [1/4, 1]: near grazing incidence g^2/p varies on the scale mu_i), in phi
-Gauss-Legendre on [0, pi] (f_r is even in phi).
-
-The domain is mu_i in [MU_MIN, 1]: as mu_i -> 0, f_r mu_o tends to c p(u) at the horizon while every
-density of the family tends to 0 there (but in the back-scatter lobe's directions), so V grows like
-log(1/mu_i) for every (w, n), cosine sampling included, and is infinite at mu_i = 0.  The sampler's
-targets are tabulated from MU_MIN = 1e-3 up; below it a renderer uses the fitted forms as they extend.
-
-At c = 0 the BRDF vanishes; the values there are the limit c -> 0, where f_r / c tends to the single
-scattering p(u)/(mu_i + mu_o) (eq. 10; the multiple scattering is O(c^2)).  Near normal incidence the
-optimum moves fast: at mu_i = 1 the BRDF is symmetric about the normal, the mixture can match it far
-more closely, and (w, n) jump within mu_i in [0.99, 1] (tabulated as computed; the sampler's variance
-there is small whichever pair is used, which the tests measure).
-
-The BRDF optimised for is the mixed reference (``exact.brdf(phase="mixed")``: true single scattering,
-three-term multiple scattering), not the material's BRDF (phase "true"), which is 2.5 times dearer here.
-Optimised for the true BRDF instead, at mu_i in {1e-3, 0.05, 0.3, 0.7, 0.97} and c in {0.3, 0.9, 1}, the
-weight and the exponent move by at most 1.7e-4 relative and the optimal variance by 1.4e-3 (at c = 1),
-within :data:`fitlab.families.lambert_sphere.targets.tabulate.SAMPLING_TOLERANCE` (5e-3).
-"""
+Details: docs/derivation.md, section ``fitlab.families.lambert_sphere.exact.sampling``."""
 
 from __future__ import annotations
 
@@ -59,7 +35,7 @@ __all__ = ["mixture_pdf", "relative_variance", "variance_function", "optimal_mix
 N_MIN, N_MAX = 0.25, 64.0
 #: Gauss-Legendre nodes in phi, and per graded panel in mu_o, of the variance quadrature
 QUADRATURE_NODES = (48, 8)
-#: the smallest incidence of the sampler's domain (the module docstring)
+#: the smallest incidence of the sampler's domain (docs/derivation.md)
 MU_MIN = 1e-3
 _N_SCAN = np.geomspace(N_MIN, N_MAX, 49)
 
@@ -75,7 +51,7 @@ def _mixture(cosine, dot, weight, exponent):
 
 
 def mixture_pdf(mu_i, mu_o, cos_phi, weight, exponent):
-    """The sampling density p(w_o | w_i) (1/sr) of the module docstring; 0 for mu_o <= 0.  Broadcast."""
+    """The sampling density p(w_o | w_i) (1/sr) of docs/derivation.md; 0 for mu_o <= 0.  Broadcast."""
     mu_i, mu_o, cos_phi, weight, exponent = np.broadcast_arrays(*(np.asarray(x, dtype=float) for x in
                                                                   (mu_i, mu_o, cos_phi, weight, exponent)))
     density = _mixture(mu_o / np.pi, np.maximum(_dot(mu_i, mu_o, cos_phi), 0.0), weight, exponent)
@@ -96,7 +72,7 @@ def _integrand(mu_i: np.ndarray, c: float, nodes: tuple):
     mi, mo, ph = np.meshgrid(mu_i, mu_o[:, 0], phi[0], indexing="ij")
     if c > 0.0:
         # the mixed reference (three-term multiple scattering, within 3e-3 of the material's BRDF): the
-        # packaged sampling tables are optimal for it (module docstring)
+        # packaged sampling tables are optimal for it (docs/derivation.md)
         g = brdf(mi, mo, ph, np.full(mi.shape, c), phase="mixed") * mo
     else:
         g = phase_function(-_dot(mi, mo, np.cos(ph))) / (mi + mo) * mo
@@ -116,7 +92,7 @@ def _variance_function(g, mu_i, mu_o, cos_phi, weights):
 
 
 def variance_function(mu_i: float, c: float, nodes: tuple = QUADRATURE_NODES):
-    """V(w, n) of the module docstring at one incidence mu_i in [MU_MIN, 1] and albedo c in [0, 1], as a function
+    """V(w, n) of docs/derivation.md at one incidence mu_i in [MU_MIN, 1] and albedo c in [0, 1], as a function
     of (weight, exponent) (the BRDF is evaluated once)."""
     mu_i = float(_checks.real_scalar(mu_i, "mu_i", MU_MIN, 1.0, domain="[1e-3, 1] (MU_MIN: V diverges as mu_i -> 0)"))
     c = float(_checks.real_scalar(c, "c", 0.0, 1.0))
@@ -125,7 +101,7 @@ def variance_function(mu_i: float, c: float, nodes: tuple = QUADRATURE_NODES):
 
 
 def relative_variance(mu_i, c: float, weight, exponent, nodes: tuple = QUADRATURE_NODES) -> np.ndarray:
-    """V(w, n) of the module docstring at each mu_i (1-D, in [MU_MIN, 1]) for one albedo c in [0, 1], with the
+    """V(w, n) of docs/derivation.md at each mu_i (1-D, in [MU_MIN, 1]) for one albedo c in [0, 1], with the
     mixture (``weight``, ``exponent``: scalars or one per mu_i); weight 0 is cosine sampling.  mu_i in [MU_MIN, 1]."""
     mu_i = _checks.real_array(mu_i, "mu_i", MU_MIN, 1.0, domain="[1e-3, 1] (MU_MIN: V diverges as mu_i -> 0)").ravel()
     c = float(_checks.real_scalar(c, "c", 0.0, 1.0))

@@ -18,88 +18,7 @@ whole p).  A_k ~ (16/pi) k^-4; the multiple scattering of the degree-L half spac
 converges to the true one like L^-4.7 away from grazing and L^-4.1 at grazing (measured,
 below).
 
-Conventions as in docs/model.md: mu in [0, 1], phi = 0 back-scattering, and
-
-    f = c p(u)/(mu_i + mu_o) + sum_m fm_m(mu_i, mu_o) cos(m phi),
-
-fm_m = (-1)^m (2 - delta_m0)/(4 pi) Rm_m(mu_o, mu_i) with Rm the multiple-scattering
-part of the reflection function R of Fourier order m, which solves (per order,
-k_m(mu, mu') = sum_l A_l Q_l^m(mu) Q_l^m(mu'), Q_l^m = sqrt((l-m)!/(l+m)!) P_l^m)
-Ambartsumian's equation, written without any 1/mu:
-
-    (mu + mu0) R(mu, mu0) = c k(mu, -mu0) + (c/2) mu int_0^1 R(mu, mu') k(mu', mu0) dmu'
-        + (c/2) mu0 int_0^1 k(mu, mu') R(mu', mu0) dmu'
-        + (c/4) mu mu0 int int R(mu, mu') k(mu', -mu'') R(mu'', mu0) dmu' dmu''.
-
-It is discretised on a composite Gauss rule graded toward mu = 0 (:func:`node_rule`,
-more nodes in the upper panels for the degree-L Legendre functions), which turns it
-into the algebraic Riccati equation of discrete ordinates on the half space.  For
-m = 0 the Legendre vectors of even degree >= 2 are made orthogonal to 1 on the
-rule (a change at the level of the rule's own error), so that the discrete
-scattering conserves energy exactly: at c = 1 the discrete half space reflects
-everything, and the methods below impose that exactly (R s = 1, s = mu w/2), which
-removes the critical direction of the conservative problem.
-
-Methods (they share the discretisation's formulas, not the solver; tests use
-different rules for each):
-
-* ``"newton"`` (default): Newton's method on the Riccati equation in the bounded
-  form above.  Each step is a Sylvester equation A1 D M + M D A1^T = -F, solved
-  through the eigen-decomposition of M^-1 A1 (whose eigenvalues are the decay rates
-  of the half space's modes); that solve is only approximate on a graded rule
-  (the rates span 1 .. 1/mu_min), but the residual F is evaluated in the bounded
-  form, so the iteration still converges to the discrete solution (inexact Newton).
-  The decomposition is refreshed only when a step reduced the residual by less than
-  100 times, and the first steps use A1 = E (D = -F/(mu_i + mu_j)): at high orders the
-  kernel is so small that no decomposition is ever needed.
-  At c = 1, m = 0 the zero rate is dropped from the step and R is projected onto
-  R s = 1 after each step: 3-6 steps at every c.
-* ``"doubling"``: discrete ordinates with doubling-adding from a layer 2^-60 thick
-  (as :mod:`doubling` for three terms), the direct beam kept apart.  At c = 1,
-  m = 0 each doubling step re-imposes the conservation of the slab, R 1 + T 1 = 1
-  (uniform radiance is a solution), which removes the rounding "absorption"
-  that limits plain doubling to sqrt(eps) ~ 1e-7 there.
-
-Radiance at any mu, not only at the nodes, by Nystrom interpolation: the equation
-with mu arbitrary and mu0 a node is linear in the row R(mu, nodes),
-r (mu A1^T + M) = b(mu), solved through the same eigen-decomposition with
-iterative refinement on the bounded residual; R(mu, mu0) for both arbitrary then
-follows from the equation itself.  This is exact in the discretisation (at nodes
-it returns the nodes' solution) and involves no polynomial interpolation.  At many
-distinct cosines (more than :func:`interpolation_panels` has points: about 780 at
-L = 256) the rows are computed at that rule's Chebyshev points and interpolated per
-panel; what is interpolated is smooth (the numerators (mu + mu_j) R(mu, mu_j), and
-k(mu, mu_j), divided by sqrt(1 - mu^2) at odd orders), on panels geometric toward
-mu = 0 and even in theta = arccos(mu) toward mu = 1.  Measured within 1e-12 of the
-BRDF of the rows at each cosine (about 1e-13 typically; tests/test_true_phase.py).
-
-Grazing: every quantity is computed as the numerator (mu + mu0) R and divided at
-the end.  At mu = 0, mu0 > 0 the multiple scattering is finite,
-Rm(0, mu0) = (c/2) int k(0, mu') R(mu', mu0) dmu'; it diverges like log(1/mu) as
-mu = mu0 -> 0 and is +-inf at mu = mu0 = 0 exactly (the whole BRDF is +inf there
-for c > 0: single scattering's 1/(mu_i + mu_o) pole).
-
-Accuracy and cost (measured with tools/true_phase_figures.py on this project's shared 2-core
-machine, one BLAS thread; docs/derivation.md, "The true phase function"):
-
-* truncation: at c = 1, degrees 128 and 256 differ by at most 9.8e-10 of the BRDF (at mu <= 1e-3),
-  8.3e-12 for mu_i + mu_o >= 0.02, 7.5e-14 for mu_i, mu_o >= 0.1; the differences fall like
-  L^-4.1 at grazing, so L = 256 (:data:`DEGREE`) is within about 6e-11 of the limit everywhere;
-* the two methods agree to 4e-14 (c = 1e-6, 0.1, 0.9), 7.4e-13 (c = 0.99) and 1.7e-12 (c = 1)
-  of the BRDF at L = 256, all orders, mu down to 0;
-  with the three-term kernel each reproduces the H-function engine's orders to 4.4e-13;
-* near c = 1 (not at it) the problem is near-critical and rounding costs ~sqrt(eps)/sqrt(1-c):
-  Newton 2.3e-12 at 1 - c = 1e-9, 2.4e-10 at 1e-12 (three-term kernel against the H-route);
-  1e-10 holds for 1 - c >= ~1e-11 and at c = 1 exactly;
-* Fourier orders: kept until two in a row fall below :data:`ORDER_TOLERANCE` = 1e-12 of order 0
-  (31 orders at c = 0.1, 0.63 and 1); the orders left out sum to at most 1.5e-12 of the BRDF
-  (measured against the 51-53 orders of a 1e-14 tolerance, mu down to 1e-6);
-* cost: docs/derivation.md, "Cost" (Newton solves the orders of one c in a few seconds; doubling
-  takes minutes).  Most orders need no decomposition: A1 is then within 1e-2 of the identity.
-  Solutions are cached per (method, phase, L, m, c) (about 4.5 MB per order at L = 256; the cache
-  keeps a little more than one c), so a table at one c pays the solve once; many distinct c values
-  cost a solve each.
-"""
+Details: docs/derivation.md, section ``fitlab.families.lambert_sphere.exact.true_phase``."""
 
 from __future__ import annotations
 
@@ -137,7 +56,7 @@ METHODS = ("newton", "doubling")
 #: phase functions this module can solve: the whole one ("true") and the paper's cut ("three_term").
 PHASES = ("true", "three_term")
 #: relative size (to order 0, over the nodes >= 1e-3) below which a Fourier order of the multiple scattering
-#: is dropped: the orders dropped sum to at most 1.5e-12 of the BRDF (module docstring)
+#: is dropped: the orders dropped sum to at most 1.5e-12 of the BRDF (docs/derivation.md)
 ORDER_TOLERANCE = 1e-12
 #: at most this many Fourier orders (more than ever needed; the order loop stops earlier)
 MAX_ORDERS = 96
@@ -207,9 +126,9 @@ def assoc_normalised(m: int, degree: int, mu) -> np.ndarray:
     out[0] = q
     if degree > m:
         out[1] = np.sqrt(2.0 * m + 1.0) * mu * q
-    for l in range(m + 2, degree + 1):
-        out[l - m] = ((2 * l - 1) * mu * out[l - 1 - m] - np.sqrt((l - 1.0) ** 2 - m * m) * out[l - 2 - m]) / np.sqrt(
-            l * l - m * m
+    for ell in range(m + 2, degree + 1):
+        out[ell - m] = ((2 * ell - 1) * mu * out[ell - 1 - m] - np.sqrt((ell - 1.0) ** 2 - m * m) * out[ell - 2 - m]) / np.sqrt(
+            ell * ell - m * m
         )
     return out
 
@@ -260,8 +179,8 @@ def _node_vectors(m, degree, moments, mu, w):
     if m == 0:
         q = q.copy()
         total = w.sum()
-        for l in range(2, degree + 1, 2):
-            q[l] -= (q[l] @ w) / total
+        for ell in range(2, degree + 1, 2):
+            q[ell] -= (q[ell] @ w) / total
     return q
 
 

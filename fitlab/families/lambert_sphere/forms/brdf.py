@@ -12,7 +12,7 @@ infinite, and these expressions are not meant to be evaluated there.
 
 from __future__ import annotations
 
-from typing import Mapping
+from collections.abc import Mapping
 
 import sympy as sp
 from sympy.codegen.cfunctions import expm1
@@ -216,14 +216,14 @@ def runtime_terms(parts: Mapping[str, sp.Expr], normalisation: str = "corrected"
     def pair(part):
         return product_less_one(*(parts[part].subs(mu, x) for x in (mu_i, mu_o)))
 
-    l, m = parts["l"], parts["m"]
+    ell, m = parts["l"], parts["m"]
     B, C, D, F = (_less(parts[n], _SUBTRACTED[n]) for n in "BCDF")
     # Q - Q_ss; A - 207 c/384 is 0
     dq = (B * sigma + C * _P + D * _P * sigma + sp.expand(E_EXACT - sp.Rational(135, 384) * c) * _P**2 + F * _Q)
     q_ss = 2 * PI * SINGLE_NUMERATOR_0
     fm0 = (pair("H0") * (q_ss + dq) + dq) / (2 * PI * sigma)
     g_ss = 1 + sp.Rational(45, 64) * _P
-    dg = l * sigma + (l**2 + sp.Rational(45, 64) * _less(m, _SUBTRACTED["m"])) * _P
+    dg = ell * sigma + (ell**2 + sp.Rational(45, 64) * _less(m, _SUBTRACTED["m"])) * _P
     fm1 = c * S * (pair("H1") * (g_ss + dg) + dg) / (k * PI * sigma)
     out = {"single": SINGLE_FORWARD, "m0": fm0, "m1": fm1}
     if ORDER2_PART in parts:

@@ -16,35 +16,13 @@ phase_difference   fixed mu_i ("both")        fourier and/or bins, escape
 spherical_albedo   cosine mu_i (scene phase)  escape
 =================  =========================  ==========================================
 
-Estimators (N photons; see :mod:`fitlab.families.lambert_sphere.mc.transport` for the tallies), over
-a mu_o bin [a, b] with projected measure P = (b^2 - a^2)/2:
-
-* Fourier order m: <f_m> = E[sum w cos(m phi)] / (pi (1 + delta_m0) P),
-  <g> = int_a^b g mu_o dmu_o / P (the exact side is averaged the same way, by
-  Gauss-Legendre quadrature in mu_o).
-* |phi| bin [p, q]: <f> = E[sum w] / (2 (q - p) P) (both signs of phi).
-* albedos: E[sum w] directly.
-
-Single scattering is always the closed form c p(u)/(mu_i + mu_o) (eq. 10),
-projected here by quadrature (64 x 192 Gauss-Legendre nodes in mu_o x phi),
-independent of the printed eqs. 28 and 38.
-
-Reference values (column ``ref``): the exact half space of the scene's phase function, by
-:mod:`fitlab.families.lambert_sphere.exact` with ``phase`` = the scene's: "three_term" (the modes of
-:func:`~fitlab.families.lambert_sphere.exact.brdf_modes`, orders > 2 zero) or "true" (the whole phase function
-in every collision, :mod:`fitlab.families.lambert_sphere.exact.true_phase`, every Fourier order it keeps); the
-phase_difference rows against the exact difference of the two half spaces (true minus three-term).  Column
-``alt``: published values, named: the printed normalisation of eq. 22 (6 pi) and eq. 28 (384 pi) for order 1,
-and eq. 40 for kd(c); in a "true" scene, the mixed reference (true single scattering, three-term multiple
-scattering: ``exact.brdf(..., phase="mixed")``) for the BRDF and the directional albedo, whose z then measures
-the three-term truncation of multiple scattering.
-"""
+Details: docs/montecarlo.md, section ``fitlab.families.lambert_sphere.mc.effects``."""
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from functools import lru_cache
+from functools import cache
 
 import numpy as np
 
@@ -268,7 +246,7 @@ def _p(u, phase):
     return phase_function(u) if phase == "true" else three_term_phase_function(u)
 
 
-@lru_cache(maxsize=None)
+@cache
 def _ss_bin_cached(c, mu_i, a, b, key, phase, phi_bin):
     """Bin average (mu_o weighted) of c p(u)/(mu_i + mu_o): order m, or over a |phi| bin."""
     x, w = np.polynomial.legendre.leggauss(_N_MU)
@@ -300,14 +278,14 @@ def _ss_bin(scene, mat, inc, b, key, phase=None):
                           tuple(phi_bin) if phi_bin else None)
 
 
-@lru_cache(maxsize=None)
+@cache
 def _ss_albedo(mu_i, phase):
     """Single-scattering directional albedo per unit c (fitlab.families.lambert_sphere.exact, adaptive quadrature)."""
 
     return float(single_scattering_albedo(mu_i, "true" if phase == "true" else "three_term"))
 
 
-@lru_cache(maxsize=None)
+@cache
 def single_spherical_albedo(phase):
     """2 int a1(mu) mu dmu per unit c (single scattering's share of kd), on the exact engine's graded rule."""
 
@@ -323,7 +301,7 @@ def eq40_kd(c):
     return float(get_form("kd_of_c", "printed")("paper", np.asarray(float(c))))
 
 
-@lru_cache(maxsize=None)
+@cache
 def _exact_modes_bin(c, mu_i, a, b, multiple_only, phase="three_term"):
     """mu_o-weighted bin averages of the exact modes: the three-term half space's (f0, f1, f2; multiple
     scattering only, or with its single scattering), or the true half space's multiple-scattering orders (every

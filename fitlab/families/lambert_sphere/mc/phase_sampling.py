@@ -17,29 +17,7 @@ True phase function p(u) = 2 (sqrt(1-u^2) - u acos u) / (3 pi^2):
 * ``sample_true_approx`` (eq. 6): u = 1 - 2 (1 - x^(0.0401885 x + 1.01938))^0.397225,
   one uniform; |u - F^-1(x)| < 5e-4 is the paper's claim (tests check it).
 
-Three-term truncation p3(u) = (1/4pi) g(u), g(u) = 27/32 - (4/3) u + (15/32) u^2.
-g < 0 for u in (u1, 1], u1 = (64 - sqrt 451)/45 = 0.95029: p3 is no density.
-``sample_three_term`` draws u from |p3| / N, N = int |p3| dOmega = 1.0005274,
-and returns the sign of p3(u): a walk that multiplies its weight by
-sign * N per collision estimates the three-term half space exactly, with a
-weight of modulus N^n after n collisions (second moment N^(2n), N^2 = 1.001):
-the smallest variance any signed-weight scheme can have.  With c the modulus
-is (c N)^n: at most 1 for c <= 1/N = 0.999473, and for c > 1/N the estimate
-has infinite mean and variance, for this and any other sampler (the expected
-modulus per collision is int |c p3| dOmega = c N > 1): such c are refused
-(``C_LIMIT``, ``unbounded_reason``).  (Sampling the true p
-and carrying p3/p would have an unbounded weight, p(1) = 0 < |p3(1)|, and an
-infinite variance; sampling u uniformly and carrying 4 pi p3 has a bounded
-weight but second moment 1.61^n per n collisions.)
-
-Inversion of |g|: with G(u) = int_0^u g, G(u1) - G(u1 - sigma r) = r^2 (k + sigma eps r),
-k = -g'(u1)/2 > 0, eps = 5/32, sigma = +1 on the positive branch [-1, u1] and
--1 on the negative branch [u1, 1].  The branch masses are M+ = G(u1) - G(-1)
-and M- = G(u1) - G(1); D = |x (M+ + M-) - M+| is the mass between u and u1, and
-r solves r^2 (k + sigma eps r) = D by Newton from an upper (sigma = +1) or a
-lower (sigma = -1) bound, monotone and quadratic (the cubic is convex in r on
-the branch).
-"""
+Details: docs/montecarlo.md, section ``fitlab.families.lambert_sphere.mc.phase_sampling``."""
 
 from __future__ import annotations
 

@@ -1,48 +1,7 @@
 r"""Scene files of the Lambert sphere's Monte Carlo: the schema (fields and rules) that the shared loader
 :mod:`fitlab.scenes` applies to a TOML or JSON file, in full, before any simulation starts.
 
-A scene names materials (c, or kd = the spherical albedo, converted to c through the
-exact spherical albedo of the half space the scene walks, three-term or true),
-incident directions, how outgoing directions are tallied (mu_o bins and Fourier
-orders cos(m phi), and/or |phi| bins), the effects wanted and a precision target.  Example (TOML; the JSON form has the same nesting)::
-
-    [scene]
-    family = "lambert_sphere"    # the family whose Monte Carlo runs the scene (fitlab simulate reads it)
-    name = "order1"              # optional; default: the file stem; letters, digits, _ and - only
-    seed = 1                     # integer in [0, 2^63 - 1] (the rule of --seed too)
-    phase = "three_term"         # multiple scattering by "three_term" or "true" p
-    sampler = "exact"            # eq. 5 ("exact") or eq. 6 ("approx"), true p only
-
-    [[material]]
-    c = 0.99                     # or kd = 0.5
-
-    [incident]
-    mu_i = [0.3, 0.7]
-
-    [outgoing]
-    mu_o = [0.0, 0.25, 0.5, 0.75, 1.0]   # bin edges, or an integer n (equal bins)
-    fourier = [0, 1, 2]                   # orders m of cos(m phi)
-    phi = 6                               # |phi| bins on [0, pi]: n, or edges (radians)
-
-    [effects]
-    list = ["single", "multiple", "collisions", "phase_difference", "albedo", "spherical_albedo"]
-    collision_orders = 6         # "collisions": orders 2..N and the rest
-
-    [precision]
-    target_se = 2e-3             # or a table per effect: {multiple = 2e-3, albedo = 5e-4}
-    max_paths = 2000000          # per job (material x incident direction x phase), in [1000, 2^32]
-    batch = 100000               # photons per round, at most 10^7; the stopping rule is checked per round
-    max_collisions = 100000      # the cap; what it cuts is tallied and reported
-    slots = 0                    # photon slots per device (0: automatic)
-    float = "float32"            # the walk's arithmetic: "float32" (default) or "float64" (docs/montecarlo.md)
-
-Every error names ``file:line`` and the field (``material[2].c``); all errors
-of a file are reported together, as one :class:`SceneError`.  NaN and infinite
-numbers are refused anywhere, and so is a material whose Monte Carlo estimate
-would have an infinite variance: c > 1/N = 0.999473 with the three-term phase
-function (kd = 1 included), c > 0.998863 with ``phase_difference``
-(:data:`fitlab.families.lambert_sphere.mc.phase_sampling.C_LIMIT`).
-"""
+Details: docs/montecarlo.md, section ``fitlab.families.lambert_sphere.mc.scene``."""
 
 from __future__ import annotations
 

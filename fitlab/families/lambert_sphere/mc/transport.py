@@ -16,53 +16,7 @@ the surface and the weight is multiplied by P(s < L) = 1 - exp(-L).  Every
 tally therefore starts at the 2nd collision, and no path is spent on single
 scattering.
 
-Weights.  ``phase="true"``: u from p (eq. 5, or eq. 6 when sampler="approx"),
-weight c^n.  ``phase="three_term"``: u from |p3|/N, weight (c N)^n times the
-signs (see :mod:`fitlab.families.lambert_sphere.mc.phase_sampling`).  ``phase="both"``: u from the mixture
-q = 0.49 p + 0.49 |p3|/N + 0.02/(4 pi) and two weights on the same path,
-multiplied by p/q and p3/q; the tallies are then (true, three-term, true - three-term), the last
-with the small variance of correlated paths.  Russian roulette when the
-largest |weight| falls below ``rr_weight``: survive with probability
-|w|/rr_weight and divide the weights by it (unbiased).  A photon still alive
-after ``max_collisions`` collisions is stopped and its weight is tallied as
-``capped``: the tail the cap cuts is measured, never silently dropped.
-
-Estimators (per photon started; each photon escapes at most once, so the sum
-of squares of its single contribution gives the variance):
-
-* ``escape``: int over the hemisphere of f_ms mu_o dOmega = the multiple-
-  scattering directional albedo (or, for cosine-distributed mu_i, the
-  spherical one).
-* ``fourier[b, k]``: sum of w cos(m_k phi) over escapes in mu_o bin b;
-  expectation pi (1 + delta_m0) int_b f_m mu_o dmu_o.
-* ``bins[b, j]``: sum of w over escapes in mu_o bin b and |phi| bin j;
-  expectation int f mu_o dOmega over the bin (both signs of phi).
-* ``coll[j]``, ``coll_f0[j, b]``: escapes after n = j + 2 collisions (the last
-  bucket: more than ``collision_orders``), in total and per mu_o bin.
-
-Random numbers are counter-based: the words for photon ``id`` at collision
-``n`` are Threefry-2x32(round key; id, n J + j), j < J.  A photon's path
-depends only on (seed, round, id), never on the slot, the batch or the device
-that runs it, so results agree across layouts up to the order of summation.
-A step hashes each slot's blocks for its next collision and carries them to the
-next step (:func:`fitlab._montecarlo.threefry_blocks` says why).
-Precision (``WalkConfig.precision``): the path state is float32 by default, the tallies float64.  float32
-uniforms are (word >> 9 + 1/2) 2^-23 in (0, 1): free paths are cut at 16.6 mean free paths (probability
-6e-8); float64 ones (word + 1/2) 2^-32: cut at 22.9 (1e-10), the C reference walk's numbers.  Both cuts lie
-far below any standard error here; on one key the two precisions walk the same photons (docs/montecarlo.md).
-
-Layout.  Each device runs ``slots`` photon slots in a ``lax.while_loop``; a
-slot whose photon is done takes the next photon id of its device's range
-(ids are handed out in order by a prefix sum), so long paths do not hold up a
-whole batch.  When no ids are left the still-running photons are compacted
-into 1/8 as many slots, twice, so the drain of the longest paths costs little.
-Devices are a 1-D mesh over ``jax.devices()`` (``shard_map``); each device
-gets a contiguous id range and the tallies are summed with ``psum``.
-:func:`start_round` gives a round as a :class:`fitlab._montecarlo.ChunkedRound`,
-run a number of loop steps at a time (each device keeps its slots, tallies and
-next id between chunks, a level at a time), so that ``fitlab simulate`` answers
-Ctrl-C within a round; the chunks change no bit of the tallies.
-"""
+Details: docs/montecarlo.md, section ``fitlab.families.lambert_sphere.mc.transport``."""
 
 from __future__ import annotations
 
@@ -119,7 +73,7 @@ class WalkConfig:
     An empty ``mu_edges`` means no per-direction tally; ``orders`` and
     ``phi_edges`` need ``mu_edges``.  ``collision_orders`` = N >= 2 keeps the
     escapes after 2..N collisions and the rest (0: not kept).  ``precision`` is
-    the path state's float type (module docstring, "Precision").
+    the path state's float type (docs/montecarlo.md, "Precision").
     """
 
     phase: str = "three_term"
@@ -235,10 +189,7 @@ def _chebyshev(cos_phi, orders):
 def _scatter(s: _Slots, u01, c, cfg: WalkConfig):
     """One collision: weight times c, new direction; returns (dx, dy, dz, w)."""
     if cfg.phase == "true":
-        if cfg.sampler == "exact":
-            u = sample_true_exact(u01[0], u01[1], u01[2])
-        else:
-            u = sample_true_approx(u01[0])
+        u = sample_true_exact(u01[0], u01[1], u01[2]) if cfg.sampler == "exact" else sample_true_approx(u01[0])
         factor = jnp.ones_like(u)[:, None]
     elif cfg.phase == "three_term":
         u, sign = sample_three_term(u01[0])
@@ -410,7 +361,7 @@ _COMPILED: dict = {}
 
 
 def _programs(cfg: WalkConfig, mesh: Mesh) -> dict:
-    """The walk's programs on ``mesh``, each a jitted ``shard_map`` (module docstring, "Layout"): ``start`` (the
+    """The walk's programs on ``mesh``, each a jitted ``shard_map`` (docs/montecarlo.md, "Layout"): ``start`` (the
     photon ids split into one contiguous range per device), ``runs[L]`` and ``compacts`` (the levels,
     :class:`fitlab._montecarlo.ChunkedRound`) and ``finish`` (the tallies summed over the devices).  A device's
     state carries its slots, tallies, next id and the end of its range."""

@@ -17,22 +17,7 @@ number or a colour, as Mitsuba's ``diffuse`` takes ``reflectance``):
   particle albedo of each channel is c = c_of_kd(kd) (docs/model.md, "kd");
 * ``albedo``: the particle albedo c itself, per channel (a researcher's parameter).
 
-Every method runs the generated Dr.Jit module (``fitlab/fits/generated/lambert_sphere_drjit.py``,
-``fitlab codegen --lang drjit``), printed from the same forms as the C and numpy code, and never imports a
-variant of its own: the caller's arrays carry it, so one plugin serves the scalar variants (Python floats)
-and the JIT variants (the methods trace into Mitsuba's kernels).  ``eval`` is f_r cos(theta_o) per channel
-(a material per channel, ``prepare`` of a Color3f); ``sample``, ``pdf`` and ``eval_pdf`` use the fitted
-sampler (docs/model.md, "Importance sampling"), driven by one particle albedo per shading point: the c of
-the mean of the channels' kd (``albedo``: the mean c).  Each channel's weight f_r cos/p is then unbiased
-whatever the choice, because sample and pdf use the same density; the choice only moves variance between
-channels.  One-sided (front), a diffuse reflection lobe; ``eval_diffuse_reflectance`` gives kd.
-
-A spatially uniform parameter is prepared once (when loaded, and when :func:`mitsuba.traverse` changes it;
-in the spectral variants at every lookup, an RGB value being a spectrum); a texture is prepared at every
-lookup, in the kernel.  ``mi.traverse(bsdf)`` exposes the parameter's
-texture (``reflectance.value`` for a colour).  Polarized variants are refused (no Mueller matrix is
-defined for this BRDF here).
-"""
+Details: docs/mitsuba.md, section ``fitlab.families.lambert_sphere.mitsuba.plugin``."""
 
 from __future__ import annotations
 
@@ -99,7 +84,7 @@ def bsdf_class(generated=None):
     flags = mi.BSDFFlags.DiffuseReflection | mi.BSDFFlags.FrontSide
 
     class LambertSphereBSDF(mi.BSDF):
-        """The Lambert-sphere BRDF (d'Eon, EGSR 2021), fitlab's runtime model; see the module's docstring."""
+        """The Lambert-sphere BRDF (d'Eon, EGSR 2021), fitlab's runtime model; see docs/mitsuba.md."""
 
         def __init__(self, props):
             mi.BSDF.__init__(self, props)

@@ -350,7 +350,8 @@ def render_comparison(generated: Path | None = None, kd: float = 0.8, size: int 
         for j, d in enumerate(dirs):
             ax = axes[i, j]
             ax.imshow(images[(m, tuple(d))] / vmax, cmap="gray", vmin=0, vmax=1)
-            ax.set_xticks([]), ax.set_yticks([])
+            ax.set_xticks([])
+            ax.set_yticks([])
             if j == 0:
                 ax.set_ylabel(m.replace("_", " "))
             if i == 0:

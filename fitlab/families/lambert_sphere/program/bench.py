@@ -46,9 +46,9 @@ def bench_exact(quick: bool = False) -> dict:
         for m in range(3):
             char = lambert_sphere_characteristic(m, c)
             clear_h_cache()
-            t_solve, sol = best_of(lambda: solve_h(char), 1)
-            t_ny, a = best_of(lambda: sol(mu), 3)
-            t_fo, b = best_of(lambda: h_fock(char, mu), 1)
+            t_solve, sol = best_of(lambda char=char: solve_h(char), 1)
+            t_ny, a = best_of(lambda sol=sol: sol(mu), 3)
+            t_fo, b = best_of(lambda char=char: h_fock(char, mu), 1)
             diff = float(np.max(np.abs(a / b - 1)))
             results[(m, c)] = dict(solve_s=t_solve, nystrom_pps=n / t_ny, fock_pps=n / t_fo, max_rel_diff=diff)
             print(f"H{m} c={c:<5} Nystrom (solve {t_solve * 1e3:5.1f} ms){n / t_ny:>12.3g}{diff:>16.2e}")
@@ -146,7 +146,7 @@ def bench_codegen(fits_dir: Path | None = None, n: int = 1_000_000, repeat: int 
         rows.update(time_routines(timed, repeat))
         for label, fn, args in (("brdf (shipped model)", py.brdf, (mu_i, mu_o, cos_phi, c)),
                                 ("brdf_fast (eq. 41)", py.brdf_fast, (mu_i, mu_o, cos_phi, c, kd))):  # fmt: skip
-            rows[(label, "numpy float64")] = best_seconds(lambda: fn(*args), max(1, repeat // 2)) / n * 1e9
+            rows[(label, "numpy float64")] = best_seconds(lambda fn=fn, args=args: fn(*args), max(1, repeat // 2)) / n * 1e9
     ref = rows[("lambert (baseline)", "C float64")]
     print(f"generated BRDF cost, {n} random inputs, best of {repeat} (ns per evaluation; x = / Lambert C double, per call)")
     print(f"  hoisted: {BENCH_MATERIALS} materials prepared once, each point takes one at random; prepare: ns per material")
@@ -191,9 +191,9 @@ def bench_render(quick: bool = False, size: int | None = None, spp: int = 4, rep
         scenes = {label: sphere_scene({"type": kind, "reflectance": {"type": "rgb", "value": list(RENDER_KD)}}, None,
                                       size, spp, mi) for label, kind in bsdfs.items()}  # fmt: skip
         for label, scene in scenes.items():
-            render = lambda seed=0, scene=scene: np.array(mi.render(scene, seed=seed))  # noqa: E731
+            render = lambda seed=0, scene=scene, mi=mi: np.array(mi.render(scene, seed=seed))  # noqa: E731
             first = best_seconds(render, 1)
-            later = best_seconds(lambda: render(seed=1), repeat) if variant != "scalar_rgb" else first
+            later = best_seconds(lambda render=render: render(seed=1), repeat) if variant != "scalar_rgb" else first
             rows[(label, variant)] = {"first_s": first, "best_s": later, "samples_per_s": samples / later}
             bar.update()
     bar.close()

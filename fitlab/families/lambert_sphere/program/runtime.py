@@ -59,7 +59,7 @@ INPUTS = ("mu_i", "mu_o", "phi", "c")
 #: the family's name, whose program's models :func:`runtime_model` takes
 FAMILY_NAME = "lambert_sphere"
 
-#: the forms of the order-2 runtime model (issue 18): H0, H1, H2 exact at mu = 0, to first order in c and in
+#: the forms of the order-2 runtime model: H0, H1, H2 exact at mu = 0, to first order in c and in
 #: their grazing log(1/mu) behaviour (log_exp); B, C, D, F exact to first order in c (c2_rational_4_3), so that
 #: fm0 = f0 - f0_ss is O(c^2) like the exact one; l, m the richer polynomials.  With fits_dir and
 #: ``forms=ORDER2_FORMS``, :func:`runtime_model` gives f_1 + fm0 + fm1 cos phi + fm2 cos 2phi.
@@ -218,7 +218,7 @@ def assembled(functions: dict, scale=1, terms=RUNTIME_TERMS, normalisation: str 
     return model
 
 
-# -- measurement (issue 18) -------------------------------------------------------------------------
+# -- measurement -------------------------------------------------------------------------------------
 #: albedos of the accuracy sets: the edges c -> 0 and c = 1 that the report's validation set misses
 #: (its smallest c is 0.0503), then random ones (drawn per seed, uniform in c and in s)
 ALBEDOS = (1e-6, 1e-4, 1e-3, 0.01, 0.03, 0.05, 1.0)
@@ -237,7 +237,7 @@ def accuracy_points(seed: int = 18, n: int = 400, n_random_c: int = 8, mu_min: f
     edge_mu, edge_phi = np.array([mu_min, 1.0]), np.array([0.0, np.pi / 2, np.pi])
     graze_mu = np.array([1e-6, 1e-4, 1e-2])
     sets = {"main": [], "grazing": []}
-    for cv in albedos:
+    for _ in albedos:  # one block of random points per albedo
         mi, mo, ph = rng.uniform(mu_min, 1.0, n), rng.uniform(mu_min, 1.0, n), rng.uniform(0.0, np.pi, n)
         e = np.meshgrid(edge_mu, edge_mu, edge_phi, indexing="ij")
         sets["main"].append(np.stack([np.concatenate((mi, e[0].ravel())), np.concatenate((mo, e[1].ravel())),
@@ -311,7 +311,7 @@ def accuracy_reference(seed: int = 18, n: int = 400, phase: str | None = None, a
 
 def accuracy(model, seed: int = 18, n: int = 400, albedo_c=(1e-3, 0.3, 0.7, 0.95, 1.0), albedo_mu=None,
              phase: str | None = None) -> dict:
-    r"""The figures of issue 18 for a runtime model ``model(mu_i, mu_o, phi, c)``, against
+    r"""The accuracy figures of a runtime model ``model(mu_i, mu_o, phi, c)``, against
     :func:`fitlab.families.lambert_sphere.exact.brdf` with ``phase`` (default the engine's default, "true": the
     whole phase function; "mixed": the reference the runtime parts were fitted to), relative error
     |f - f_exact| / f_exact:

@@ -17,24 +17,11 @@ Routines (args; domain), named by the targets' ``routine``:
   local frame (z the normal, both pointing away from the surface); 0 when either
   points below the surface.
 
-Robustness (the NaN and domain policy of :mod:`fitlab.codegen`): every routine, the
-parts included, clamps its inputs into its domain (mu, c, kd into [0, 1],
-cos_phi into [-1, 1], the local routines' vector components into [-1, 1];
-+-inf clamps like any finite value), NaN in any input gives NaN, and every
-value is finite for every other input; every pole 1/(mu_i + mu_o) is
-evaluated as 1/max(mu_i + mu_o, POLE_FLOOR) (:data:`.rewrites.FLOOR_POLES`).  The exact BRDF is infinite at
-mu_i = mu_o = 0; with the floor the model there is large and finite
-(c p(u) / POLE_FLOOR at most 2.1e5 c, representable in float).
-
-Accuracy: every term and the fast variant are rewritten by the program's rewrites
-(:data:`.rewrites.REWRITES`, the ``rewrites`` of :data:`PROGRAM`; the parts by
-:func:`~fitlab.codegen.program.part_routine`), which remove the forms' cancellations; in single
-scattering, the phase function's sqrt(1 - u^2) is evaluated as sqrt((1 - u)(1 + u)).
-"""
+Details: docs/codegen.md, section ``fitlab.families.lambert_sphere.program.spec``."""
 
 from __future__ import annotations
 
-from typing import Mapping
+from collections.abc import Mapping
 
 import sympy as sp
 

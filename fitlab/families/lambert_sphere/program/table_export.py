@@ -7,46 +7,13 @@ it, printed like any program (:func:`fitlab.codegen.texture.emit_textured`): C (
 float`` array), GLSL (an R32F texture read with ``texelFetch``) and numpy (the raw file), with a bicubic or
 bilinear lookup defined once (:func:`fitlab.codegen.texture.lookup_2d`).
 
-What is stored, and why (docs/model.md, "The exported tables"; the measurements are in docs/table_export.md,
-``python -m fitlab.families.lambert_sphere.program.table_export --out docs``):
-
-* H_m, m = 0, 1, 2, through the remainder R_m of :func:`..forms.h_functions.log_exp`:
-
-      H_m(mu, c) = exp(mu (Psi_m(mu) log(1 + 1/mu) + c (p_m(mu) + R_m(s, mu)))),  s = sqrt(1 - c),
-
-  Psi_m the exact characteristic function and p_m the exact first-order cubic.  The two parts the BRDF is
-  most sensitive to are then exact, not interpolated: the grazing behaviour H - 1 ~ Psi_m(0) mu log(1/mu)
-  (the terms (H_i H_o - 1)/(mu_i + mu_o) magnify any error of H - 1 there) and the O(c) part of H (as
-  c -> 0 the multiple scattering is O(c^2), a difference of O(c) terms).  R_m is smooth on [0, 1]^2, 0 at
-  c = 0 exactly, and enters the BRDF at O(c^3) as c -> 0.  Stored at s = k/(N - 1), mu = j/(N - 1).
-* the constants as functions of s, each as the quantity that is 0 at c = 0 and whose error stays relative as
-  c -> 0: l, m - 1, and X/c - X1 for X = B, C, D, F (X1 the exact O(c) coefficient,
-  :data:`..forms.constants.FIRST_ORDER`).  They are read per material, always with the cubic lookup (a linear
-  one costs 1e-3 of the BRDF at c = 0.01, and a material is read once).
-* c(kd), the particle albedo of a spherical albedo kd (kd_true), for ``prepare(kd)``, as kd/c at kd = k/(N - 1)
-  (smooth and between 0.31 and 1; c itself has large higher derivatives near kd = 0, where a cubic through
-  c(kd) is 4e-4 off): c = kd / lookup.
-
-Every stored value but kd/c is an exact table value (``N - 1`` divides 64: each node is a node of the tables,
-s = k/64, mu = j/64; nothing is interpolated before it is stored), transformed; three are limits: R_m = 0 at
-c = 0 (the first-order part is exact), the constants' quantities are 0 at c = 0, and R_m at mu = 0 is read
-at the table's node mu = :data:`LIMIT_MU` (R_m - R_m(0) = O(mu log^2 mu), about 4e-7 there, below float32's
-resolution of R_m).  kd/c comes from the root in s of the kd table's spline
-(:func:`.report.spline_tables.kd_interpolant`, 2.8e-7 on kd), and at kd = 0 from the table's kd/c extrapolated
-to c = 0 (:func:`kd_ratio_limit`; the exact
-limit is the spherical albedo of single scattering per unit c, 3e-6 away).
-
-The single-scattering term is printed with sqrt((1 - u)(1 + u)) for sqrt(1 - u^2), as every generated
-Lambert-sphere program is (:func:`fitlab.families.lambert_sphere.program.rewrites.stable`): in forward
-scattering at grazing, 1 - u is about mu^2 and 1 - u*u in double keeps only 1e-16/mu^2 of it (37 % of f_1 at
-mu = 1e-4, which shows at small c, where f_1 is the part of f that is O(c)).
-"""
+Details: docs/tables.md, section ``fitlab.families.lambert_sphere.program.table_export``."""
 
 from __future__ import annotations
 
 import hashlib
 from dataclasses import dataclass, replace
-from functools import lru_cache
+from functools import cache
 from pathlib import Path
 
 import numpy as np
@@ -65,7 +32,9 @@ from fitlab.families.lambert_sphere.targets.table_files import (
     CONSTANTS_FILE,
     KD_FILE,
     TRUE_FILE,
+    TRUE_GRID_TEXT,
     TRUE_ORDERS,
+    TRUE_S_GRID,
     check_tables,
     h_file,
     read_checked,
@@ -75,7 +44,6 @@ from fitlab.families.lambert_sphere.targets.table_files import (
     read_true_orders,
     tables_dir,
 )
-from fitlab.families.lambert_sphere.targets.table_files import TRUE_GRID_TEXT, TRUE_S_GRID
 from fitlab.forms.symbolic import symbols
 from fitlab.store import MAX_TABLE_BYTES
 
@@ -222,7 +190,7 @@ def _grid_index(values: np.ndarray, wanted: np.ndarray, what: str, source: Path)
     return index
 
 
-@lru_cache(maxsize=None)
+@cache
 def _stored_function(order: int, quantity: str):
     """numpy f(H, mu, c) of the stored quantity (:data:`QUANTITIES`)."""
     h = sp.Symbol("h", positive=True)
@@ -357,7 +325,7 @@ def stored_correction(nodes: int, data_dir: Path | None = None,
     return out[:, keep_s][:, :, idx][:, :, :, idx]
 
 
-@lru_cache(maxsize=None)
+@cache
 def _texture(nodes: int, data_dir: Path, quantity: str, correction_s: tuple) -> Texture:
     lay = layout(nodes, correction_s)
     rows = [_stored_h(m, nodes, data_dir, quantity) for m in range(3)]
@@ -445,7 +413,7 @@ _BRDF_NOTE = (f"The three-term orders fm_m come from the H tables; {CORRECTION} 
               "and indices computed once.")
 
 
-@lru_cache(maxsize=None)
+@cache
 def _routines(nodes: int, lookup: str, quantity: str, correction_s: tuple) -> tuple[Routine, ...]:
     """Every routine of the program, in file order, each clamping its inputs (no per-material set-up); brdf is one
     routine, the terms and the correction inlined, so that every lookup's weights and indices are computed once
@@ -475,7 +443,7 @@ def texels_per_call(nodes: int = DEFAULT_NODES, lookup: str = DEFAULT_LOOKUP,
     return len({e for e in sp.preorder_traversal(brdf.expr) if getattr(e, "func", None) == sp.Function(TEXEL)})
 
 
-@lru_cache(maxsize=None)
+@cache
 def _program(nodes: int, lookup: str, digests: tuple) -> Program:
     lay = layout(nodes)
     routines = _routines(nodes, lookup, DEFAULT_QUANTITY, DEFAULT_CORRECTION_S)
@@ -536,11 +504,14 @@ def generate(lang: str, nodes: int = DEFAULT_NODES, lookup: str = DEFAULT_LOOKUP
     if lang not in LANGUAGES:
         raise ValueError(f"the exported tables are printed in {', '.join(LANGUAGES)}, not {lang!r}")
     tex = texture(nodes, data_dir)
-    tick and tick()
+    if tick:
+        tick()
     prog = program(nodes, lookup, data_dir)
-    tick and tick()
+    if tick:
+        tick()
     files = emit_textured(prog, tex, lang, command(lang, nodes, lookup))
-    tick and tick()
+    if tick:
+        tick()
     return files
 
 
@@ -567,7 +538,7 @@ def _numpy_routines(routines, data: np.ndarray) -> dict:
     return namespace
 
 
-@lru_cache(maxsize=None)
+@cache
 def _numpy_functions(nodes: int, lookup: str, data_dir: Path, quantity: str, correction_s: tuple) -> dict:
     data = texture(nodes, data_dir, quantity, correction_s).data.astype(np.float64)
     return _numpy_routines(_routines(nodes, lookup, quantity, correction_s), data)
@@ -600,7 +571,7 @@ def numpy_part(target: str, nodes: int = DEFAULT_NODES, lookup: str = DEFAULT_LO
     return _vectorised(functions[TARGETS[target].routine])
 
 
-@lru_cache(maxsize=None)
+@cache
 def _numpy_order(order: int, nodes: int, lookup: str, data_dir: Path, correction_s: tuple):
     lay = layout(nodes, correction_s)
     factors = [1 if m == order else 0 for m in range(TRUE_ORDERS)]

@@ -66,7 +66,7 @@ MINIMAX_ROUNDS = 30
 #: the azimuths of stage 2's training points: the structure's orders 0 to 2 are fixed by three, five keep the
 #: levelling from sitting between them
 JOINT_PHI = np.linspace(0.0, np.pi, 5)
-#: the accuracy goal's grazing edge (issue 33: max relative error over mu_i, mu_o in [0.01, 1])
+#: the accuracy goal's grazing edge (the max relative error over mu_i, mu_o in [0.01, 1])
 GOAL_MU_MIN = 0.01
 #: the weight in stage 2 of a training point with mu_i or mu_o below GOAL_MU_MIN (its error may be 1/weight times
 #: the goal's before the levelling trades the goal's domain for it)

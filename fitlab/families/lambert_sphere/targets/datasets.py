@@ -13,7 +13,7 @@ terms is left out of every set (the exact values are infinite there).
 
 from __future__ import annotations
 
-from functools import lru_cache
+from functools import cache
 from pathlib import Path
 
 import numpy as np
@@ -65,14 +65,14 @@ def h_training(order: int, data_dir: Path | None = None) -> Dataset:
     return _h_training(order, tables_dir(data_dir))
 
 
-@lru_cache(maxsize=None)
+@cache
 def _h_training(order: int, folder: Path) -> Dataset:
     t = read_h(order, folder)
     t = t[t[:, 2] <= 1.0]
     return Dataset({"mu": t[:, 2], "c": t[:, 1]}, t[:, 3], f"table h{order}.csv, mu <= 1: s = k/64, mu = k/64 and 1e-12..1e-3")
 
 
-@lru_cache(maxsize=None)
+@cache
 def h_validation(order: int) -> Dataset:
     grid = "s, mu = (2k+1)/256, plus 0, 1 and mu = 1e-10, 1e-7, 1e-5"
 
@@ -92,7 +92,7 @@ def h_validation(order: int) -> Dataset:
 _S_1D = _interleaved(256)
 
 
-@lru_cache(maxsize=None)
+@cache
 def _constants_validation():
     c = 1.0 - _S_1D**2
 
@@ -133,7 +133,7 @@ def kd_true(c) -> np.ndarray:
     return kd[where].reshape(c.shape)
 
 
-@lru_cache(maxsize=None)
+@cache
 def _kd_validation():
     c = 1.0 - _S_1D**2
     return c, kd_true(c)
@@ -170,12 +170,12 @@ def _pairs(mu):
     return mi[keep], mo[keep]
 
 
-@lru_cache(maxsize=None)
+@cache
 def fm1_training() -> Dataset:
     return _fm1(np.arange(17) / 16, np.concatenate(([0.0, 1e-6, 1e-3], np.arange(1, 17) / 16)), "s = k/16; mu = k/16 and 1e-6, 1e-3")
 
 
-@lru_cache(maxsize=None)
+@cache
 def fm1_validation() -> Dataset:
     return _fm1(_interleaved(64), _interleaved(64, extra=(1e-9, 1e-5)), "s, mu = (2k+1)/64, plus 0, 1 and mu = 1e-9, 1e-5")
 
@@ -199,7 +199,7 @@ def _fm1_exact(s, mu, grid) -> Dataset:
     )
 
 
-@lru_cache(maxsize=None)
+@cache
 def brdf_training() -> Dataset:
     return _brdf(
         np.arange(17) / 16, np.concatenate(([0.0, 1e-4], np.arange(1, 17) / 16)), np.arange(9) * np.pi / 8,
@@ -209,7 +209,7 @@ def brdf_training() -> Dataset:
     )
 
 
-@lru_cache(maxsize=None)
+@cache
 def brdf_validation(phase: str = "true") -> Dataset:
     """The BRDF validation lattice: exact.brdf with ``phase`` ("true", the material's BRDF: the reference of
     fast_brdf and of every BRDF-level figure; "mixed": the reference the runtime parts were fitted to, for
@@ -291,7 +291,7 @@ TRUE_TRAINING_EXTRA_C = (1e-3, 3e-3, 1e-2, 2e-2, 4e-2, 7e-2)
 TRUE_TRAINING_MU = np.unique(np.concatenate((np.arange(17) / 16, (1e-5, 1e-3, 4e-3, 1e-2, 2e-2))))
 
 
-@lru_cache(maxsize=None)
+@cache
 def true_orders_training() -> Dataset:
     """The true BRDF's multiple scattering by Fourier order, fm0, fm1, fm2 (exact.multiple_scattering_modes,
     phase="true"), on a lattice apart from the validation sets' (:func:`_validation_lattice`): s = k/16 and
@@ -348,7 +348,7 @@ def true_independent_points(seed: int = 33, n_c: int = 10, per_c: int = 400) -> 
     return blocks, grid
 
 
-@lru_cache(maxsize=None)
+@cache
 def brdf_true_independent(seed: int = 33, n_c: int = 10, per_c: int = 400) -> Dataset:
     """The true BRDF (exact.brdf(phase="true")) at points no fit saw (:func:`true_independent_points`), kd 0
     (not computed: the audit's runtime rows do not read it)."""

@@ -12,7 +12,7 @@ prefers the user's data folder when ``fitlab tabulate`` has written them there
 
 from __future__ import annotations
 
-from functools import lru_cache
+from functools import cache
 from pathlib import Path
 
 import numpy as np
@@ -143,34 +143,34 @@ def read_checked(name: str, data_dir: Path) -> tuple[list[str], np.ndarray]:
                       infinite=INFINITE.get(name, ()))  # fmt: skip
 
 
-@lru_cache(maxsize=None)
+@cache
 def read_h(order: int, data_dir: Path) -> np.ndarray:
     """Rows (s, c, mu, H) of h{order}.csv in ``data_dir``."""
     return read_checked(h_file(order), data_dir)[1]
 
 
-@lru_cache(maxsize=None)
+@cache
 def read_constants(data_dir: Path) -> dict[str, np.ndarray]:
     """Column name -> values of constants.csv in ``data_dir`` (s, c, then every constant)."""
     header, t = read_checked(CONSTANTS_FILE, data_dir)
     return {name: t[:, j] for j, name in enumerate(header)}
 
 
-@lru_cache(maxsize=None)
+@cache
 def read_kd(data_dir: Path) -> dict[str, np.ndarray]:
     """Column name -> values of kd.csv in ``data_dir`` (s, c, kd_three_term, kd_mixed, kd_true)."""
     header, t = read_checked(KD_FILE, data_dir)
     return {name: t[:, j] for j, name in enumerate(header)}
 
 
-@lru_cache(maxsize=None)
+@cache
 def read_true_orders(data_dir: Path) -> dict[str, np.ndarray]:
     """Column name -> values of true_orders.csv in ``data_dir`` (:data:`TRUE_COLUMNS`)."""
     header, t = read_checked(TRUE_FILE, data_dir)
     return {name: t[:, j] for j, name in enumerate(header)}
 
 
-@lru_cache(maxsize=None)
+@cache
 def read_sampling(name: str, data_dir: Path) -> dict[str, np.ndarray]:
     """Column name -> values of the sampling table ``name`` (one of :data:`SAMPLING_FILES`) in ``data_dir``."""
     header, t = read_checked(name, data_dir)

@@ -21,58 +21,7 @@ for the height-correlated Smith function; nothing here reads those texts at run 
   blog's int E mu dw = 2 pi int_0^1 E mu dmu = pi E_avg in [0, pi], with f_ms = (1 - E)(1 - E) / (pi -
   E_avg_blog).  The two f_ms are one function (:func:`multiple_scattering_brdf`).
 
-Properties the tests check, besides the two routes: E(mu, 1) in closed form for GGX (D = 1/pi at
-alpha = 1): 2 (1 - ln 2) / (1 + mu) separable, 1 - mu ln((1 + mu)/mu) correlated; E(1, alpha) is the
-same for both Smith forms (G1(w_o) = 1 at normal incidence); E(0, alpha) = 1 for height-correlated
-Smith (at grazing every visible facet reflects upwards, and G2/G1(w_o) -> 1), while separable Smith
-keeps a factor G1(w_i) and E(0, alpha) -> 0.93613 as alpha -> 0, so that its E is discontinuous at
-the corner (mu, alpha) = (0, 0); Oren-Nayar has E = 1 at sigma = 0 (Lambert) in the convention stated
-in :mod:`.oren_nayar` (the blog's displayed formula already holds the cos(theta_i) of the integrand).
-
-The blog's statements, checked (tests/test_microfacet_energy_exact.py computes each):
-
-* "the multiple scattering BRDF term becomes preponderant over the single scattering term when
-  alpha > 0.8": in energy (the compensation's pi (1 - E_avg) against the single scattering's pi E_avg,
-  the blog's blue and grey curves), GGX separable crosses at alpha = 0.7732 and GGX height-correlated
-  at alpha = 0.8143 (:func:`crossover_alpha`); per direction (E(mu) = 1/2) at normal incidence both
-  cross at alpha = 0.7045, at mu = 0.5 at 0.818 (separable) and 0.886 (correlated), and at grazing
-  never.  So "about 0.8" holds for the average, a little lower for the blog's own (separable) GGX.
-  Oren-Nayar never crosses (E >= A > 0.55).
-* "the double integral of f + f_ms is always pi": yes, for every model and alpha, to rounding
-  (:func:`energy_integrals`), and the furnace of f + f_ms is 1 at every mu_o (:func:`compensated_albedo`).
-
-E_avg (Kulla-Conti normalisation) at alpha = 0.5 and 1: GGX separable 0.689403, 0.376635 (= 4 (1 - ln 2)^2);
-GGX correlated 0.700240, 0.409137; Oren-Nayar 0.758285, 0.651877; with 0.57: 0.824154, 0.686724; gamma:
-0.726644, 0.616895; gamma with 0.57: 0.792513, 0.651742.
-
-Oren-Nayar as the blog writes it gains energy for small roughness: E(0, alpha) = A + B/2 > 1 for
-alpha < 0.208 (0.33) and < 0.350 (0.57), by up to 1.5 % and 4.4 % (the gamma shortcut: < 0.154, < 0.289,
-0.6 %, 2.9 %), so its compensation lobe is negative at grazing there; with the footnote's 0.57 even
-E_avg > 1 for alpha < 0.0996, and f_ms is unbounded as alpha approaches that value (:mod:`.oren_nayar`).
-
-Fresnel: :func:`directional_albedo` takes an optional F(w_o . h) applied inside either GGX route (the
-two agree with it too); a F with kinks (total internal reflection: a dielectric with eta < 1) comes as a
-:class:`FresnelFactor` naming them (:func:`dielectric_factor`, :func:`conductor_factor`), and the routes put
-panel edges on the curves w_o . h = c_k (:mod:`.albedo`; a plain function is taken as smooth).
-:func:`split_sum` (:mod:`.split_sums`): the split-sum integrals A, B of Karis's DFG table, E_F = F0 A + F90 B
-under Schlick's F, by either route.  :mod:`.fresnel` gives the Fresnel factors (Schlick; the exact conductor,
-eta + i k; the exact dielectric), their average F_avg = 2 int_0^1 F mu dmu (adaptive Gauss-Legendre, 1e-12; Schlick's (20 F0 + 1) / 21 in closed form) and Kulla-Conti's coloured compensation f_ms_F = f_add
-f_ms, f_add = F_avg^2 E_avg / (1 - F_avg (1 - E_avg)), derived there from a stated model of the
-inter-reflections (each later bounce cosine-distributed with escape E_avg, every reflection weighted by
-F_avg), with the form that has one Fresnel factor fewer (F_avg E_avg / (...)) and why it is not the
-default.  Exact: the lobe's albedo f_add (1 - E(mu_o)) per direction; the white furnace 1 at F = 1; the
-cosine-averaged total E_F,avg + f_add (1 - E_avg), against the model's F_avg E_avg / (1 - F_avg (1 -
-E_avg)) (the difference is E_F,avg - F_avg E_avg, the single scattering).  Approximate, and bounded there:
-the Fresnel weight F_avg of the energy lost at the first reflection, against :func:`random_walk_albedo`,
-which takes the first reflection exactly with :func:`visible_fresnel` (tests/test_microfacet_energy_fresnel.py).
-
-Noticed in the blog on the way: its mu_h = (mu_o + mu_i) / sqrt(2 (1 + mu_o mu_i + (1 - mu_o^2)
-(1 - mu_i^2) cos phi)) lacks the square root of (1 - mu_o^2)(1 - mu_i^2) (an error of print:
-|w_o + w_i|^2 = 2 (1 + mu_o mu_i + s_o s_i cos phi); test_ggx_against_the_blog_formula_with_vectors); its
-displayed Oren-Nayar f_r includes cos(theta_i) (an ambiguity: read literally with its
-E = int f_r (w_i . n) dw_i, Lambert would give E = 2/3; the displayed expression is taken as
-f cos(theta_i), as its HLSL returns it).
-"""
+Details: docs/microfacet_energy_derivation.md, section ``fitlab.families.microfacet_energy.exact``."""
 
 from pathlib import Path
 

@@ -18,70 +18,12 @@ direction, mu_i = s_o sin(2 theta_m) cos(phi) + mu_o cos(2 theta_m), is above th
   (panel 2: phi in [0, phi_max], the integrand vanishing linearly at phi_max);
 * for no phi beyond.
 
-Rules: in tau, Gauss-Legendre (10 nodes) on sub-panels of width 1 across the peak, wider in the tails
-(TAU_EDGES), and geometrically graded (ratio 0.2) over a stretch of 1.5 next to each breakpoint, where
-S(mu_i) varies on the scale alpha/mu_o as mu_i -> 0; the azimuthal integral of panel 2 behaves as
-(distance)^(3/2) at both its ends, so the sub-panel touching each end is mapped by tau = end +- w u^2,
-which makes it smooth in u.  In phi, Gauss-Legendre on panels graded towards the horizon end (pi, or
-phi_max).  The tails are cut where what remains is below 1e-16: tau in [-19, 38 + log(1/alpha)].
-Checked against the same rule with every size raised (agreement 1e-10 or better for alpha in
-[1e-6, 1]) and against the direction route.
-
-GGX, route "direction": over the incident direction in (mu_i, phi), f evaluated as the BRDF,
-
-    E(mu_o) = 2 int_0^1 dmu_i int_0^pi dpsi f(mu_o, mu_i, pi - psi) mu_i      (psi = pi - phi),
-
-the peak of D at (mu_o, psi = 0) (widths ~ alpha s_o in mu_i and alpha mu_o / s_o in psi: axis
-aligned) resolved by composite Gauss-Legendre (12 nodes) on panels graded geometrically (ratio 0.2)
-towards mu_i = mu_o from both sides, towards mu_i = 0 (where S(mu_i) changes on the scale alpha) and
-towards psi = 0, down to 3e-13 of each segment in mu_i and 3e-16 in psi.  Each node's mu_i, 1 - mu_i and
-mu_i - mu_o are formed from its offset to the graded end, so the peak stays resolved where it is
-narrower than the spacing of floats near 1 (alpha^2 wide at normal incidence).
-
-A Fresnel factor with kinks (:class:`.fresnel_factor.FresnelFactor`; the critical angle of a dielectric seen
-from its denser side, c_k = sqrt(1 - eta^2), below which F = 1 and above which F - 1 grows as
-sqrt(cos theta_d - c_k)): each route puts panel edges on the curve w_o . h = c_k of its variables (a plain
-function is taken as smooth; a rule blind to the edge errs by a few 1e-3).
-
-* Half vector: w_o . m = (mu_o + s_o tan(theta_m) cos(phi)) cos(theta_m) decreases with phi, so each tau
-  node's azimuthal range is split at phi_k, cos(phi_k) = (c_k sec(theta_m) - mu_o) / (s_o tan(theta_m));
-  each part is graded towards its ends (the horizon end as before, and the kink from both sides: where the
-  curve touches phi = 0 or pi, w_o . m - c_k = a (phi_k^2 - phi^2) also vanishes at -phi_k), the sub-panels
-  touching the kink mapped by u^2 (which makes the square root smooth).  In tau, the azimuthal integral
-  bends where the curve meets an end of the azimuthal range: phi = 0 or pi at theta_m = theta_o + theta_k
-  and |theta_o - theta_k| (there w_o . m = cos(theta_o -+ theta_m); theta_k = arccos c_k), and the horizon
-  phi_max of panel 2 at cos(theta_m) = mu_o / (2 c_k) (mu_i = 2 (w_o . m) mu_m - mu_o = 0); those taus get
-  geometric stretches (``kink_graded`` sub-panels, ratio 0.2) on both sides.
-* Direction: w_o . h = cos(gamma / 2), gamma the angle between w_o and w_i, and |w_o + w_i|^2 = 2 (1 + mu_o
-  mu_i - s_o s_i cos psi), so the psi range of each mu_i node is split at cos(psi_k) = (mu_o mu_i -
-  cos(2 theta_k)) / (s_o s_i), each part graded towards 0 (the peak) and its kinks; in mu_i the curve
-  meets psi = 0 or pi where gamma = theta_o + theta_i or |theta_o - theta_i|: theta_i = 2 theta_k -
-  theta_o and theta_o +- 2 theta_k, breakpoints between which the segments are halved and graded as
-  the ones at mu_o are.
-
-Against QUADPACK in coordinates about w_o, where the kink is the line theta_d = theta_k (a breakpoint),
-for eta in {1/1.5, 1/1.33, 0.9, 0.99}, alpha in {0.01, 0.05, 0.3, 1}, mu from 0 to 1: half vector 3e-11,
-direction 1.5e-10 (tests/test_microfacet_energy_kinks.py), at about 6 (half vector) and 20 (direction)
-times the cost of the same F given as a plain function (best of 4 interleaved runs, one machine).
-
-Oren-Nayar: the closed form of :mod:`.oren_nayar` ("closed_form", the default) and route
-"direction": Gauss-Legendre in (theta_i, phi), split at theta_i = theta_o (where theta_min and
-theta_max swap) and at phi = pi/2 (the max(0, cos phi)), on which the integrand is a trigonometric
-polynomial.
-
-alpha = 0: the mirror, E = F(mu) (1 with F = 1) for every mu, including mu = 0 (the limit of the
-mirror; for separable Smith the limit alpha -> 0 at mu = 0 is smaller, about 0.936: E is
-discontinuous at that corner).
-
-Average albedo: E_avg = 2 int_0^1 E(mu) mu dmu (Kulla-Conti) by composite Gauss-Legendre graded
-towards mu = 0 (GGX's E changes on the scale alpha there, and the correlated form has a mu log mu
-term) and towards mu = 1 (Oren-Nayar's E has a sqrt(1 - mu) term); the blog's normalisation is pi times it.
-"""
+Details: docs/microfacet_energy_derivation.md, section ``fitlab.families.microfacet_energy.exact.albedo``."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import lru_cache
+from functools import cache, lru_cache
 
 import numpy as np
 
@@ -114,7 +56,7 @@ TAU_EDGES = (-19.0, -14.5, -12.0, -10.0, -8.5, *np.arange(-7.0, 8.0), 8.0, 9.0, 
 
 @dataclass(frozen=True)
 class HalfVectorRule:
-    """Sizes of the half-vector route (module docstring): nodes per tau sub-panel, the graded stretches
+    """Sizes of the half-vector route (docs/microfacet_energy_derivation.md): nodes per tau sub-panel, the graded stretches
     next to the horizon breakpoints, azimuthal panels."""
 
     graded: int = 6  # geometric sub-panels of each graded stretch (ratio below)
@@ -227,7 +169,7 @@ def _kink_taus(mu_o, alpha, kinks, horizon: bool):
     return np.stack(columns, axis=1)
 
 
-@lru_cache(maxsize=None)
+@cache
 def _phi_unit_rule(panels: int, nodes: int, ratio: float):
     """Nodes and weights on [0, 1] graded towards 1 (azimuths are phi_end * node)."""
     edges = graded_edges(np.array([0.0]), np.array([1.0]), panels, ratio, "hi")
@@ -235,7 +177,7 @@ def _phi_unit_rule(panels: int, nodes: int, ratio: float):
     return x[0], w[0]
 
 
-@lru_cache(maxsize=None)
+@cache
 def _kinked_unit_rule(panels: int, nodes: int, ratio: float, grade_lo: bool, grade_hi: bool, kink_lo: bool,
                       kink_hi: bool):
     """Nodes and weights on [0, 1] of one part of an inner range split at kinks of F: graded geometrically
@@ -293,7 +235,7 @@ def _half_vector_nodes(rule: HalfVectorRule, kinks: int) -> int:
 
 
 def _ggx_half_vector(mu_o, alpha, smith, fresnel, rule: HalfVectorRule = HALF_VECTOR):
-    """E for 1-D arrays mu_o, alpha (alpha > 0) by the half-vector route (module docstring)."""
+    """E for 1-D arrays mu_o, alpha (alpha > 0) by the half-vector route (docs/microfacet_energy_derivation.md)."""
     out = np.empty(mu_o.shape)
     per_point = _half_vector_nodes(rule, len(kinks_of(fresnel)))
     step = max(1, _CHUNK // per_point)
@@ -344,16 +286,13 @@ def _ggx_half_vector_chunk(mu_o, alpha, smith, fresnel, rule):
         value = 4 * om_over_mu_m * ggx_visibility(mu_o_, mu_i, a_ * a_, smith, times_mu_i=True)
         if fresnel is not None:
             value = value * fresnel(om_over_mu_m / np.sqrt(1 + tan2))
-        if kinks:
-            inner = np.sum(value * w_phi_, axis=-1) * dxi[..., 0]
-        else:
-            inner = (value @ w_phi) * (phi_end * dxi)[..., 0]
+        inner = np.sum(value * w_phi_, axis=-1) * dxi[..., 0] if kinks else (value @ w_phi) * (phi_end * dxi)[..., 0]
         return np.sum(inner * w_tau, axis=1)
 
     return (panel(tau_a, w_a, True) + panel(tau_b, w_b, False)) / np.pi
 
 
-@lru_cache(maxsize=None)
+@cache
 def _direction_psi(rule: DirectionRule):
     edges = graded_edges(np.array([0.0]), np.array([np.pi]), rule.panels_psi, rule.ratio, "lo")
     psi, w = composite(edges, rule.nodes)
@@ -418,7 +357,7 @@ def _kink_psi(mu_o, s_o, mu_i, s_i, kinks):
 
 
 def _ggx_direction(mu_o, alpha, smith, fresnel, rule: DirectionRule = DIRECTION):
-    """E for 1-D arrays mu_o, alpha (alpha > 0) by the direction route (module docstring)."""
+    """E for 1-D arrays mu_o, alpha (alpha > 0) by the direction route (docs/microfacet_energy_derivation.md)."""
     half_sin2, w_psi = _direction_psi(rule)
     kinks = kinks_of(fresnel)
     out = np.empty(mu_o.shape)
@@ -451,7 +390,7 @@ def _ggx_direction(mu_o, alpha, smith, fresnel, rule: DirectionRule = DIRECTION)
 
 
 def _oren_nayar_direction(mu_o, alpha, a_constant, azimuth, nodes: int = 24):
-    """E by Gauss-Legendre in (theta_i, phi), split at theta_o and pi/2 (module docstring)."""
+    """E by Gauss-Legendre in (theta_i, phi), split at theta_o and pi/2 (docs/microfacet_energy_derivation.md)."""
     x, w = gauss_legendre(nodes)
     theta_o = np.arccos(mu_o)[:, None]
     theta_i = np.concatenate((theta_o * x, theta_o + (np.pi / 2 - theta_o) * x), axis=1)
@@ -498,7 +437,7 @@ def directional_albedo(mu, alpha, model: str = "ggx_separable", method: str | No
 
     mu, alpha in [0, 1], broadcast; returns float64 of their broadcast shape.  method: for GGX
     "half_vector" (default) or "direction", for Oren-Nayar "closed_form" (default) or "direction"
-    (the two independent routes of the module docstring; they agree to 1e-9 or better).  By
+    (the two independent routes of docs/microfacet_energy_derivation.md; they agree to 1e-9 or better).  By
     reciprocity E is also the albedo seen from w_i.  fresnel (GGX only): a function F(cos theta_d) of
     w_o . h applied inside the integral (e.g. Schlick's); alpha = 0 gives F(mu).  A F with kinks (a
     dielectric with eta < 1: total internal reflection) must come as a :class:`FresnelFactor` that names them
@@ -528,7 +467,7 @@ class AverageRule:
 AVERAGE = AverageRule()
 
 
-@lru_cache(maxsize=None)
+@cache
 def average_nodes(rule: AverageRule = AVERAGE) -> tuple[np.ndarray, np.ndarray]:
     """mu nodes and weights on [0, 1] of the E_avg quadrature (:class:`AverageRule`), read-only."""
     edges = np.concatenate((graded_edges(np.array([0.0]), np.array([0.5]), rule.panels_0, rule.ratio, "lo")[0, :-1],

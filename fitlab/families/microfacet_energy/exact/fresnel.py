@@ -1,134 +1,7 @@
 r"""Fresnel factors and Kulla-Conti's coloured energy compensation (the blog's "With varying Fresnel",
 left as a TODO there), with what it conserves and what it approximates.
 
-Fresnel factors F(c), c = cos(theta_d) = w . m in [0, 1], unpolarised light from a medium of index 1:
-
-* Schlick: F = F0 + (1 - F0) (1 - c)^5, F0 in [0, 1] (:func:`fresnel_schlick`).
-* Conductor of complex relative index eta + i k (:func:`fresnel_conductor`), the exact average of the s and
-  p reflectances in the real form of Born and Wolf (also PBRT-v3's FrConductor, Lazanyi and Szirmay-Kalos
-  2005).  With s2 = 1 - c^2, t0 = eta^2 - k^2 - s2, |z| = sqrt(t0^2 + 4 eta^2 k^2) and a, b >= 0 defined by
-  a^2 - b^2 = t0, a^2 + b^2 = |z| (a + i b = sqrt(eta_c^2 - s2), the principal root, eta_c = eta + i k):
-
-      R_s = ((c - a)^2 + b^2) / ((c + a)^2 + b^2),
-      R_p = R_s ((a c - s2)^2 + (b c)^2) / ((a c + s2)^2 + (b c)^2),     F = (R_s + R_p) / 2.
-
-  Both ratios are sums of squares, so nothing cancels in them; a^2 and b^2 are formed without
-  cancellation (as max(+-t0, 0) + eta^2 k^2 / h, h = (|z| + |t0|) / 2, sums of non-negative terms), and t0 as
-  ((eta - 1)(eta + 1) - k^2) + c^2, accurate for eta near 1 at grazing (exact at eta = 1, k = 0).
-  The formulas are :mod:`fitlab.physics.fresnel`'s; this module checks their arguments.
-  Limits: c = 1 gives ((eta - 1)^2 + k^2) / ((eta + 1)^2 + k^2) (R_p = R_s there); c = 0 gives 1;
-  k = 0 gives the dielectric below (with total internal reflection, a = 0, when eta < 1); k -> inf
-  gives 1, as 1 - F <= 4 eta / k^2 + eta / k (the second term is R_p's dip near c ~ 1/k).
-* Dielectric of relative index eta = n_t / n_i > 0 (:func:`fresnel_dielectric`), the textbook form with
-  cos(theta_t) = sqrt(1 - s2 / eta^2): r_s = (c - eta cos_t) / (c + eta cos_t), r_p = (eta c - cos_t) /
-  (eta c + cos_t), F = (r_s^2 + r_p^2) / 2, and F = 1 beyond the critical angle (s2 > eta^2).  It is an
-  independent implementation of the conductor's k = 0.
-
-The index-matched interface (eta = 1, k = 0) reflects nothing: F = 0 for c > 0, and its limit 0 at c = 0
-(every other interface has F(0) = 1).  All three evaluate in float32 when every argument is a numpy
-float32 value, otherwise in float64.  The domain is cos in [0, 1]; a cosine in [-1, 0) (a back-facing
-facet, whose light a caller weights by max(0, w . m) = 0: the half-vector route of :mod:`.albedo` evaluates
-F at such nodes of zero weight, cos down to -alpha e^-19, at mu_o = 0) is taken as 0, and one up to 16 ulp
-above 1 (rounding of w . h formed from vectors) as 1, so that F stays finite there; beyond [-1, 1] the
-functions refuse the argument.
-
-Average Fresnel (Kulla and Conti's cosine-weighted hemispherical average):
-
-    F_avg = 2 int_0^1 F(mu) mu dmu,
-
-by adaptive Gauss-Legendre (:func:`average_fresnel`): each panel is integrated with 16 nodes and again
-with 16 nodes on each half; a panel is accepted when the two differ by less than 1e-14 (the finer value is
-kept), otherwise both halves are refined (60 bisections at most, and refinement stops when more than
-4096 panels remain open, which no piecewise smooth F reaches).  Deterministic; F_avg to 1e-12 or better
-(the tests compare an independent adaptive quadrature in theta with the complex Fresnel amplitudes).  The conductor's F bends
-sharply where t0 = 0, i.e. mu^2 = 1 - eta^2 + k^2 (for k = 0 and eta < 1: the critical angle, a square
-root there); that mu is given to the quadrature as a panel edge.  Schlick in closed form:
-int_0^1 (1 - mu)^5 mu dmu = B(2, 6) = 1! 5! / 7! = 1/42, so
-
-    F_avg = F0 + 2 (1 - F0) / 42 = (20 F0 + 1) / 21.
-
-The coloured compensation (Kulla and Conti 2017, the blog's source).  The model of the inter-reflections
-behind the F = 1 lobe f_ms = (1 - E(mu_o)) (1 - E(mu_i)) / (pi (1 - E_avg)) (:mod:`.compensation`),
-extended to Fresnel, assumes:
-
-(A1) a unit of energy arriving from mu_o is reflected a first time; the fraction E(mu_o) leaves (single
-     scattering, the BRDF f), the fraction 1 - E(mu_o) meets the microsurface again;
-(A2) energy that meets the microsurface again does so with no memory of mu_o, as from a cosine-
-     distributed direction: of it, each further reflection lets the fraction E_avg leave and 1 - E_avg
-     go on (E and E_avg of the F = 1 BRDF);
-(A3) every reflection multiplies the energy by F_avg, whichever fraction then leaves or goes on (Fresnel
-     independent of escaping, and its cosine-weighted average standing for its average over the facets
-     each bounce meets); this includes the first reflection of the energy that goes on.  (The first
-     reflection's escaping part needs no assumption in the compensated BRDF: f with Fresnel gives it,
-     E_F(mu_o); the model's own value for it is F_avg E(mu_o).)
-
-The energy that leaves after exactly n >= 2 reflections is then F_avg^n (1 - E(mu_o)) (1 - E_avg)^(n-2)
-E_avg, and summing the geometric series (|F_avg (1 - E_avg)| < 1, i.e. all but F_avg = 1 with E_avg = 0):
-
-    sum_{n>=2} ... = (1 - E(mu_o)) F_avg^2 E_avg / (1 - F_avg (1 - E_avg)) = f_add (1 - E(mu_o)),
-    f_add = F_avg^2 E_avg / (1 - F_avg (1 - E_avg))                                  (form "kulla_conti").
-
-Since the F = 1 lobe's albedo from mu_o is 1 - E(mu_o), the coloured lobe is f_ms_F = f_add f_ms
-(reciprocal, since f_add is a constant).  Averaged over mu_o (the cosine-weighted average of 1 - E(mu_o) is
-1 - E_avg) this is the series sum_{k>=1} F_avg^(k+1) E_avg (1 - E_avg)^k, k = n - 1, whose sum is
-F_avg^2 E_avg (1 - E_avg) / (1 - F_avg (1 - E_avg)); with the single-scattering term n = 1, F_avg E_avg,
-the model's total average albedo is F_avg E_avg / (1 - F_avg (1 - E_avg)) (1 at F_avg = 1).
-
-The other form: with one Fresnel factor fewer per path, i.e. if the energy 1 - E(mu_o) missing from the
-F = 1 BRDF arrived at its second reflection without the Fresnel factor of its first (dropping the last
-clause of A3), the series is sum_{k>=1} F_avg^k E_avg (1 - E_avg)^k and f_add' = F_avg E_avg / (1 -
-F_avg (1 - E_avg)) = f_add / F_avg (form "unweighted_first").  Every reflection off a facet is a Fresnel
-reflection, so that form counts a path of k + 1 reflections with k factors; for a constant F = c it gives
-c E(mu_o) + (1 - E(mu_o)) c E_avg / (1 - c (1 - E_avg)), where the sum of c^n over the paths of A1-A2 is
-c E(mu_o) + (1 - E(mu_o)) c^2 E_avg / (1 - c (1 - E_avg)): the lobe is 1/c too bright (11.7 times for
-F0 = 0.04 Schlick, F_avg = 0.0857).  "kulla_conti" is implemented and is the default; the other is kept
-for comparison.  They agree at F = 1 (f_add = f_add' = 1).
-
-What is exact and what is not (tests/test_microfacet_energy_fresnel.py checks each numerically):
-
-* per direction, the coloured lobe's albedo is int f_ms_F mu_i dw_i = f_add (1 - E(mu_o)) exactly, and the
-  compensated BRDF's is E_F(mu_o) + f_add (1 - E(mu_o)) (:func:`compensated_fresnel_albedo`), with E_F the
-  exact single-scattering albedo with Fresnel (:func:`directional_albedo` with ``fresnel``);
-* averaged over mu_o: E_F,avg + f_add (1 - E_avg), where the model above says F_avg E_avg + f_add
-  (1 - E_avg): the multiple-scattering energy is the model's exactly, the single scattering is exact
-  rather than the model's F_avg E_avg, and the difference is E_F,avg - F_avg E_avg;
-* F = 1 (F0 = 1, or k -> inf): f_add = 1 (computed as F_avg^2 E_avg / ((1 - F_avg) + F_avg E_avg), so exactly
-  1 at F_avg = 1) and the white furnace is 1 at every mu_o;
-* a constant F = c: everything in A1-A3 is then exact about Fresnel, and the compensated albedo equals the
-  model's sum of c^n over paths at every mu_o.
-
-A reference that assumes less (:func:`random_walk_albedo`, first_bounce="exact"): keep A2-A3 for the
-second and later reflections but take the first reflection exactly.  The first reflection reflects
-R(mu_o) = int D_o(m) F(w_o . m) dw_m (:func:`visible_fresnel`, the Fresnel factor averaged over the
-visible normals D_o = G1(mu_o) max(0, w_o . m) D(m) / mu_o; R = 1 at F = 1), of which E_F(mu_o) leaves;
-R - E_F meets the microsurface again, and a fraction g = F_avg E_avg / (1 - F_avg (1 - E_avg)) of that
-eventually leaves (A2-A3).  So
-
-    E_ref(mu_o) = E_F(mu_o) + g (R(mu_o) - E_F(mu_o)),
-
-against Kulla-Conti's E_F + g F_avg (1 - E(mu_o)) (f_add = g F_avg): the compensation's only per-direction
-error against this reference is g (F_avg (1 - E) - (R - E_F)), the Fresnel weight of the energy lost at
-the first reflection taken as F_avg.  Since R - E_F = int D_o F (1 - [mu_i > 0] G2/G1(mu_o)) dw_m with a
-non-negative weight whose integral is 1 - E(mu_o), both R - E_F and F_avg (1 - E) lie in [F_min, F_max]
-(1 - E), and |error| <= g (F_max - F_min) (1 - E(mu_o)); likewise |E_F - F_avg E| <= (F_max - F_min) E.
-first_bounce="averaged" is the model of A1-A3 itself, F_avg E(mu_o) + g F_avg (1 - E(mu_o)), which differs
-from Kulla-Conti's total by E_F - F_avg E only.  Neither is the true multiple scattering of a random walk
-on the microsurface (Heitz et al. 2016), which A2-A3 approximate.
-
-The visible-normal average R uses the half-vector variables of :mod:`.albedo`: tan(theta_m) = alpha e^tau,
-D mu_m dw_m = dxi dphi / (2 pi), dxi = 2 dtau / (t + 1/t)^2, so that
-
-    R(mu_o) = 2 / (pi (mu_o + S(mu_o))) int dtau dxi/dtau int_0^phi_end dphi max(0, w_o . m / mu_m) F(w_o . m),
-
-w_o . m / mu_m = mu_o + s_o tan(theta_m) cos(phi), phi_end = pi while tan(theta_m) <= mu_o / s_o and
-arccos(-mu_o / (s_o tan(theta_m))) beyond; the tau rule of the half-vector route with its breakpoint at
-tan(theta_m) = mu_o / s_o (where the azimuthal integral has a (tau - tau_c)^(3/2) term).  With F = 1 it
-is exactly 1 (G1's normalisation), which the tests check to 1e-10.  A :class:`FresnelFactor`'s kinks are
-followed as in :mod:`.albedo` (the azimuths split at w_o . m = c_k, graded stretches in tau where that curve
-touches phi = 0 or pi); the curve never meets phi_end, where w_o . m = 0.  :func:`dielectric_factor` and
-:func:`conductor_factor` give the two exact Fresnel factors with their kinks, which :func:`average_fresnel`
-takes as panel edges too.
-"""
+Details: docs/microfacet_energy_derivation.md, section ``fitlab.families.microfacet_energy.exact.fresnel``."""
 
 from __future__ import annotations
 
@@ -176,7 +49,7 @@ __all__ = [
     "visible_fresnel",
 ]
 
-#: the two forms of the coloured factor (module docstring): Kulla-Conti's F_avg^2 E_avg / (1 - F_avg (1 - E_avg))
+#: the two forms of the coloured factor (docs/microfacet_energy_derivation.md): Kulla-Conti's F_avg^2 E_avg / (1 - F_avg (1 - E_avg))
 #: (the default) and the one with a Fresnel factor fewer, F_avg E_avg / (1 - F_avg (1 - E_avg))
 COMPENSATION_FORMS = ("kulla_conti", "unweighted_first")
 #: the first reflection of :func:`random_walk_albedo`: exact, or as the model A1-A3 takes it
@@ -191,7 +64,7 @@ _AVERAGE_MAX_PANELS = 4096  # panels refined at once at most (a function that is
 
 # -- Fresnel factors ------------------------------------------------------------------------------------
 def _cosine(cos, dtype):
-    """cos as an array of dtype clipped to [0, 1]: refused beyond [-1, 1 + 16 ulp] (module docstring)."""
+    """cos as an array of dtype clipped to [0, 1]: refused beyond [-1, 1 + 16 ulp] (docs/microfacet_energy_derivation.md)."""
     slack = _ROUNDING_ULPS * float(np.finfo(dtype).eps)
     c = real_array(cos, "cos", -1.0, 1 + slack, dtype=dtype, domain="[-1, 1] (cos(theta_d) = w . m)")
     return np.clip(c, 0, 1)
@@ -214,7 +87,7 @@ def fresnel_schlick(cos, f0):
 
 
 def fresnel_conductor(cos, eta, k):
-    """Exact unpolarised Fresnel reflectance of a conductor of relative index eta + i k (module docstring:
+    """Exact unpolarised Fresnel reflectance of a conductor of relative index eta + i k (docs/microfacet_energy_derivation.md:
     R_s, R_p in Born and Wolf's real form, PBRT-v3's FrConductor; :func:`fitlab.physics.fresnel.fresnel_conductor`).
     cos in [0, 1]; eta > 0, k >= 0 (k = 0: a dielectric, with total internal reflection for eta < 1); numpy
     broadcasting, so eta and k may be RGB arrays.  F(1) = ((eta - 1)^2 + k^2) / ((eta + 1)^2 + k^2), F(0) = 1 (0 for
@@ -255,7 +128,7 @@ def fresnel_dielectric_transmittance(cos_i, cos_t, eta):
 # -- average Fresnel ------------------------------------------------------------------------------------
 def average_fresnel(fresnel, breakpoints=()) -> float:
     """F_avg = 2 int_0^1 F(mu) mu dmu of a function ``fresnel`` (1-D float64 arrays of cos in [0, 1] in, arrays
-    of their shape out), by the adaptive Gauss-Legendre rule of the module docstring (1e-12 or better).
+    of their shape out), by the adaptive Gauss-Legendre rule of docs/microfacet_energy_derivation.md (1e-12 or better).
     breakpoints: points of [0, 1] where F is not smooth (or nearly so), made panel edges, besides the kinks
     of a :class:`FresnelFactor`."""
     if not callable(fresnel):
@@ -287,7 +160,7 @@ def average_fresnel(fresnel, breakpoints=()) -> float:
 
 
 def average_fresnel_schlick(f0):
-    """F_avg of Schlick's Fresnel in closed form, (20 F0 + 1) / 21 (module docstring); F0 in [0, 1], any shape."""
+    """F_avg of Schlick's Fresnel in closed form, (20 F0 + 1) / 21 (docs/microfacet_energy_derivation.md); F0 in [0, 1], any shape."""
     return fresnel.schlick_average(real_array(f0, "f0", 0.0, 1.0))
 
 
@@ -321,7 +194,7 @@ def average_fresnel_conductor(eta, k):
     out = np.empty(eta.shape)
     for idx in np.ndindex(eta.shape):
         e, kk = float(eta[idx]), float(k[idx])
-        out[idx] = average_fresnel(lambda c: fresnel_conductor(c, e, kk), fresnel.conductor_bend(e, kk))
+        out[idx] = average_fresnel(lambda c, e=e, kk=kk: fresnel_conductor(c, e, kk), fresnel.conductor_bend(e, kk))
     return out
 
 
@@ -332,13 +205,13 @@ def average_fresnel_dielectric(eta):
     out = np.empty(eta.shape)
     for idx in np.ndindex(eta.shape):
         e = float(eta[idx])
-        out[idx] = average_fresnel(lambda c: fresnel_dielectric(c, e), fresnel.conductor_bend(e, 0.0))
+        out[idx] = average_fresnel(lambda c, e=e: fresnel_dielectric(c, e), fresnel.conductor_bend(e, 0.0))
     return out
 
 
 # -- the coloured compensation --------------------------------------------------------------------------
 def fresnel_compensation_factor(f_avg, e_avg, form: str = "kulla_conti"):
-    """The factor f_add of the coloured lobe f_ms_F = f_add f_ms (module docstring):
+    """The factor f_add of the coloured lobe f_ms_F = f_add f_ms (docs/microfacet_energy_derivation.md):
 
     "kulla_conti": F_avg^2 E_avg / (1 - F_avg (1 - E_avg)); "unweighted_first": F_avg E_avg / (1 - F_avg
     (1 - E_avg)).  f_avg, e_avg in [0, 1], broadcast (f_avg may be RGB); the denominator is formed as
@@ -442,10 +315,7 @@ def _visible_fresnel_chunk(mu_o, alpha, fresnel, rule=HALF_VECTOR):
         om_over_mu_m = np.maximum(mu_o_ + s_o_ * tan_m * np.cos(phi), 0)  # (w_o . m) / mu_m
         cos_d = np.minimum(om_over_mu_m / np.sqrt(1 + tan_m * tan_m), 1)
         value = om_over_mu_m if fresnel is None else om_over_mu_m * fresnel(cos_d)
-        if kinks:
-            inner = np.sum(value * w_phi_, axis=-1) * dxi[..., 0]
-        else:
-            inner = (value @ w_phi) * (phi_end * dxi)[..., 0]
+        inner = np.sum(value * w_phi_, axis=-1) * dxi[..., 0] if kinks else (value @ w_phi) * (phi_end * dxi)[..., 0]
         return np.sum(inner * w_tau, axis=1)
 
     root = ggx_root_term(mu_o, alpha * alpha)
@@ -455,7 +325,7 @@ def _visible_fresnel_chunk(mu_o, alpha, fresnel, rule=HALF_VECTOR):
 def visible_fresnel(mu_o, alpha, fresnel=None):
     """R(mu_o) = int D_o(m) F(w_o . m) dw_m: the Fresnel factor averaged over GGX's visible normals
     D_o = G1(mu_o) max(0, w_o . m) D(m) / mu_o, i.e. what the first reflection reflects in all, before
-    masking decides whether it leaves (module docstring).  The same for both Smith forms (G1 is).
+    masking decides whether it leaves (docs/microfacet_energy_derivation.md).  The same for both Smith forms (G1 is).
 
     mu_o, alpha in [0, 1], broadcast; fresnel as for :func:`directional_albedo` (None: F = 1, R = 1 exactly,
     to the quadrature's 1e-10 or better); alpha = 0 (the mirror) gives F(mu_o)."""
@@ -478,7 +348,7 @@ def visible_fresnel(mu_o, alpha, fresnel=None):
 
 
 def random_walk_albedo(mu_o, alpha, fresnel, model: str = "ggx_separable", f_avg=None, first_bounce: str = "exact"):
-    """Total albedo from mu_o of the inter-reflection model of the module docstring, a reference for the
+    """Total albedo from mu_o of the inter-reflection model of docs/microfacet_energy_derivation.md, a reference for the
     compensated albedo (:func:`compensated_fresnel_albedo`); g = F_avg E_avg / (1 - F_avg (1 - E_avg)) is the
     fraction of the energy meeting the microsurface a second time that eventually leaves (A2-A3):
 

@@ -17,32 +17,7 @@ the azimuthal factor c(phi):
   shortcut, which skips the division by s_o s_i (its comment says so).  The HLSL's 1e-6 added to
   cos(theta_min) only guards a division by zero in float and is not modelled here.
 
-Convention: the blog's displayed f_r(theta_o, phi_o, theta_i, phi_i) = (rho/pi) cos(theta_i) [...]
-already carries the cos(theta_i) of the irradiance integrand (its HLSL returns saturate(LdotN)
-(A + ...) and its caller divides by pi); the BRDF here is that expression divided by
-cos(theta_i), so that E(mu_o) = int f mu_i dw_i, and sigma = 0 is Lambert's 1/pi with E = 1.
-
-Directional albedo in closed form (the phi integral of max(0, cos phi) over [0, 2 pi] is 2; split the
-theta_i integral at theta_o, where theta_min and theta_max swap; t = theta_o, s = sin t, c = cos t):
-
-    cos_phi: E = A + (2B/pi) [ s (t - s c) / 2 + s c (1 + s + s^2) / (3 (1 + s)) ]
-    gamma:   E = A + (2B/pi) [ s^2 (1 - c)^2 (2 + c) / 3 + s^2 c (1 + s^2) / 4 ]
-
-(the second bracket terms are tan(t) (1 - s^3)/3 and tan(t) s (1 - s^4)/4 written without the
-0 * inf at t = pi/2).  At grazing E(0) = A + B/2 (cos_phi) and A + 4B/(3 pi) (gamma); at normal
-incidence E(1) = A.  The average albedo E_avg = 2 int_0^1 E mu dmu = A + B k integrates the
-brackets exactly (by parts; tests/test_microfacet_energy_exact.py redoes it with sympy):
-
-    cos_phi: k = 2/3 - 64 / (45 pi),    gamma: k = 44 / (105 pi).
-
-This Oren-Nayar is not energy conserving for small roughness.  A + kappa B > 1 exactly when
-sigma^2 < (0.45 kappa a_constant - 0.045) / (0.5 - 0.45 kappa), so with kappa = 1/2 (cos_phi) or
-4/(3 pi) (gamma) the grazing albedo E(0) exceeds 1 for alpha < 0.208 (cos_phi, 0.33), 0.350 (cos_phi,
-0.57), 0.154 (gamma, 0.33), 0.289 (gamma, 0.57), by up to 1.5 % and 4.4 % (cos_phi, 0.33 and 0.57;
-0.6 % and 2.9 % with gamma); with kappa = k,
-E_avg exceeds 1 for the 0.57 cos_phi variant only, for alpha < 0.0996 (by up to 0.1 %).
-(tests/test_microfacet_energy_exact.py checks these thresholds against the engine.)
-"""
+Details: docs/microfacet_energy_derivation.md, section ``fitlab.families.microfacet_energy.exact.oren_nayar``."""
 
 from __future__ import annotations
 
@@ -74,7 +49,7 @@ def oren_nayar_coefficients(alpha, a_constant: float = 0.33):
 
 
 def oren_nayar_brdf(mu_o, mu_i, phi, alpha, a_constant: float = 0.33, azimuth: str = "cos_phi"):
-    """The Oren-Nayar BRDF f (rho = 1) of the module docstring, without the cos(theta_i) of the blog's
+    """The Oren-Nayar BRDF f (rho = 1) of docs/microfacet_energy_derivation.md, without the cos(theta_i) of the blog's
     displayed formula.
 
     mu_o, mu_i in [0, 1], phi in [0, 2 pi], alpha in [0, 1]; broadcast.  Reciprocal.  When both
@@ -102,13 +77,13 @@ def _brackets(mu_o, azimuth):
 
 
 def albedo_closed_form(mu_o, alpha, a_constant: float, azimuth: str):
-    """E(mu_o) = A + (2B/pi) [brackets] (module docstring); float64 arrays in, broadcast."""
+    """E(mu_o) = A + (2B/pi) [brackets] (docs/microfacet_energy_derivation.md); float64 arrays in, broadcast."""
     a, b = oren_nayar_coefficients(alpha, a_constant)
     return a + 2 * b / np.pi * _brackets(np.asarray(mu_o, dtype=float), azimuth)
 
 
 def average_albedo_closed_form(alpha, a_constant: float, azimuth: str):
-    """E_avg = 2 int_0^1 E mu dmu = A + B k (module docstring); float64 arrays in, broadcast."""
+    """E_avg = 2 int_0^1 E mu dmu = A + B k (docs/microfacet_energy_derivation.md); float64 arrays in, broadcast."""
     a, b = oren_nayar_coefficients(alpha, a_constant)
     return a + b * azimuthal_constant(azimuth)
 

@@ -23,5 +23,5 @@ def _model_forms(model: str) -> tuple:
 
 
 FORMS = tuple(f for model in ("ggx_separable", "ggx_correlated", "oren_nayar") for f in _model_forms(model))
-# the forms of the multiple-scattering lobe parameters (issue 20), with the blog's presets: forms.lobes
+# the forms of the multiple-scattering lobe parameters, with the blog's presets: forms.lobes
 FORMS += tuple(f for kind in ("diffuse", "conductor") for f in lobe_forms(kind))

@@ -1,57 +1,7 @@
 r"""Forms of E(mu, alpha) for GGX (and, through :func:`.common.complement`, of 1 - E), mu and alpha in [0, 1],
 alpha the GGX parameter of D (a renderer's perceptual roughness r has alpha = r^2).
 
-Published approximations, each with its source's coefficients as a preset (the variables renamed to mu
-and alpha; every mapping of a source's roughness to alpha is stated):
-
-* ``sforza_ratpoly3`` (separable Smith): Sforza and Pellacini, "Enforcing Energy Preservation in
-  Microfacet Models" (STAG 2022); a cubic over a cubic in (x, y) = (sqrt(alpha), mu) with the
-  denominator's constant fixed at 1.  Coefficients verbatim from dsforza96/yocto-gl, branch
-  energy-compensation, libs/yocto/yocto_shading.h, ``microfacet_compensation_conductors_myfit`` (MIT,
-  (c) 2021 Fabio Pellacini / Davide Sforza; also dsforza96/energy-preservation,
-  resources/coefficients/conductors.csv, MIT).  yocto's ``roughness`` argument is GGX alpha and the fit
-  takes its square root.
-* ``materialx_ratquad`` (height-correlated Smith): MaterialX ``mx_ggx_dir_albedo_analytic``,
-  AcademySoftwareFoundation/MaterialX libraries/pbrlib/genglsl/lib/mx_microfacet_specular.glsl (Apache-2.0),
-  "Rational quadratic fit to Monte Carlo data for GGX directional albedo": two rationals, each a
-  bi-quadratic in (mu, alpha) over another, clamped to [0, 1] separately, returning F0 A + F90 B; with
-  F0 = F90 = 1 (white) E = A + B.  Presets: "materialx" (the set since commit 77ff72f, "Refinements to
-  GGX directional albedo (#831)", 2022-02-07, as at 4177b2cb) and "materialx_pre_2022" (the set before it).
-  MaterialX's alpha is GGX alpha (it squares the user's roughness).
-* ``knarkowicz_poly`` (separable Smith): Knarkowicz, "Analytical DFG Term for IBL" (blog, 2014-12-27),
-  ``EnvDFGPolynomial``; with specular colour 1 its result is scale + bias = delta =
-  saturate(d0 + d1 x + d2 y + d3 x^2 + d4 x y + d5 y^2 + d6 x^3), x = gloss, y = mu.  The blog states no
-  code licence; the coefficients are cited as published.  The mapping alpha = (1 - gloss)^4, i.e.
-  gloss = 1 - alpha^(1/4), is an inference (the research note /tmp/kc_approximations.md found it the best
-  of gloss = 1 - alpha^p, p in {0.2, 0.25, 0.3}; the blog text on it could not be retrieved).
-* ``karis_linear`` (a baseline for either Smith form): Karis, "Physically Based Shading on Mobile" (UE4
-  blog, 2014), ``EnvBRDFApprox``, as copied in three.js ``DFGApprox``
-  (src/renderers/shaders/ShaderChunk/lights_physical_pars_fragment.glsl.js, MIT): r = roughness c0 + c1,
-  c0 = (-1, -0.0275, -0.572, 0.022), c1 = (1, 0.0425, 1.04, -0.04), result (-1.04 a + r.z, 1.04 a + r.w).
-  With F0 = F90 = 1 the a004 term cancels: E = (c1.z + c1.w) + (c0.z + c0.w) sqrt(alpha) (three.js's
-  roughness is perceptual, alpha = roughness^2), which does not depend on mu.
-
-The published shapes are smooth in (mu, alpha); next to grazing, for small alpha, E varies on the scale
-mu ~ alpha (:mod:`fitlab.families.microfacet_energy.targets.datasets`), a layer whose width shrinks with alpha,
-which no such shape follows: on the whole domain their error stays above about 0.1 near (0, 0), refit or
-not.  The richer forms are written in the layer's variables u = mu/(mu + alpha), v = alpha/(mu + alpha)
-(:mod:`.common`) and follow it.
-
-Richer forms, for refit:
-
-* ``rational_v_alpha_4``: a quartic over a quartic in (v, alpha), v = alpha/(mu + alpha) the grazing-layer
-  variable of :mod:`.common`; 29 parameters, a00 = 1 fixed (E = 1 on the mirror line alpha = 0, v = 0).
-  Starts from E = 1 (the mirror).
-* ``grazing_rational`` (separable): E = 1 - v^2 P(u, mu, alpha)/Q(u, mu, alpha), P and Q quadratic, Q's
-  constant 1, without the monomial u alpha (u alpha = mu - u mu: a fit would wander along that null
-  direction): 17 parameters.  1 - E vanishes on the mirror line alpha = 0 (v = 0) and like alpha^2 as
-  alpha -> 0 at fixed mu (v^2 = alpha^2/(mu + alpha)^2), as the exact 1 - E does, so that its relative
-  error stays bounded there (the 1 - E target).  Starts from 1 - E = v^2.
-* ``grazing_log_rational`` (height-correlated): E = 1 - v^2 u (1 - lam log u) P/Q, which adds the exact
-  zero of 1 - E at grazing (E(0, alpha) = 1 for height-correlated Smith) and its mu log(mu) approach
-  (at alpha = 1, 1 - E = mu log((1 + mu)/mu) = -mu log u exactly); 18 parameters.  Starts from
-  1 - E = v^2 u (1 - log u).
-"""
+Details: docs/microfacet_energy_derivation.md, section ``fitlab.families.microfacet_energy.forms.ggx``."""
 
 from __future__ import annotations
 
@@ -64,7 +14,7 @@ __all__ = ["SFORZA_PELLACINI_2022", "MATERIALX", "MATERIALX_PRE_2022", "KNARKOWI
            "sforza_ratpoly3", "materialx_ratquad", "knarkowicz_poly", "karis_linear", "rational_v_alpha_4",
            "grazing_rational", "grazing_log_rational"]
 
-# -- published coefficients (numbers verbatim from the sources named in the module docstring) -----------
+# -- published coefficients (numbers verbatim from the sources named in docs/microfacet_energy_derivation.md) -----------
 #: Sforza and Pellacini 2022 (dsforza96/yocto-gl energy-compensation, libs/yocto/yocto_shading.h, MIT):
 #: coef[0..18], numerator n0..n9, then denominator d1..d9
 SFORZA_PELLACINI_2022 = (1.0247217, -10.984229, 10.918318, 46.93353, -54.779343, 21.742077, -30.368898, 31.919222,

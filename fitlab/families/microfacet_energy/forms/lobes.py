@@ -1,37 +1,7 @@
 r"""Forms of the lobe-parameter targets (:mod:`..targets.lobes`), each one sympy expression, with the blog's published
 expressions as presets.
 
-The blog (section "Parameters Fitting"; docs/microsurface_lobes.md, "Reading the blog", says how each
-number is read) fits its final lobe's parameters for diffuse facets as functions of the surface's alpha and
-the incidence mu = mu_i:
-
-* the exponent eta(alpha) = e1 alpha + e2 alpha^2: text (2.5958, -1.32697), code (2.588380909161985,
-  -1.3549594389004276) (form ``blog_quadratic``); and the text's eta = 2^(10 (1 - alpha)) - 1 read
-  literally as a function of the surface's alpha (form ``blog_exp2``, p = 10), which is the lobe model's
-  own parametrisation in fitlab's reading (:mod:`..lobes.shapes`), registered to show what that reading costs;
-* the normal flattening sigma_n(mu, alpha) = a + b mu + c mu^2 + d mu^3 with a cubic, b linear, c quadratic
-  in alpha, and d linear (text) or quadratic (code) (form ``blog_cubic``, 12 coefficients; the text's
-  alpha^2 coefficient of d is 0);
-* the scale sigma(mu, alpha) = a + b mu + c mu^2 + d mu^3 with a, b, c, d cubic in alpha (the text's
-  and the code's agree to the text's digits), sigma_2 = sigma, sigma_3 = 0.363902052363025 sigma, and no
-  higher order ("completely negligible"): form ``blog_cubic`` of the scale target, the order's factor
-  k(order) with k(2) = 1, k(3) = k3, k(4) = k4, k(5) = k5 (Lagrange interpolation in the order, so that the
-  factor is exact at the integer orders 2..5; 5 stands for every order above 4), presets k3 =
-  0.363902052363025, k4 = k5 = 0.  The code's lobe is (eta + 2) mu_o^eta / pi, twice the text's
-  (2 + eta)/(2 pi) mu_o^eta, and its caller divides it by pi once more, so that the code's BRDF is the
-  text's with sigma times 2/pi: the preset ``blog_code`` is the code's coefficients times 2/pi (computed
-  here from the printed ones).
-
-The blog fitted diffuse facets only: the conductor targets have the same forms without presets (they
-start from the blog text's diffuse values).
-
-Richer forms, the defaults: polynomials of total degree 3 in x = 2 log(20 alpha)/log(20) - 1 (log alpha
-mapped onto [-1, 1] over the domain alpha in [0.05, 1]), y = 2 mu_i - 1, and (for
-targets of the order) z = (2 order - 7)/3 in [-1, 1], z entering at most squared with lower degrees in
-(x, y) (``poly``), and their exponentials for the positive parameters (``exp_poly``).  The tilt's b and k
-vanish at normal incidence (the lobe is symmetric in phi there), exactly: b = s_i P, k = s_i^2 P,
-s_i = sqrt(1 - mu_i^2) (``sine_poly``).
-"""
+Details: docs/blog_lobe_model.md, section ``fitlab.families.microfacet_energy.forms.lobes``."""
 
 from __future__ import annotations
 
@@ -99,7 +69,7 @@ def blog_order_factor(k3, k4, k5) -> sp.Expr:
     nodes = (2, 3, 4, 5)
     values = (1, k3, k4, k5)
     out = sp.S.Zero
-    for i, (n, v) in enumerate(zip(nodes, values)):
+    for n, v in zip(nodes, values):
         basis = sp.Mul(*((order - m) / sp.Integer(n - m) for m in nodes if m != n))
         out += v * basis
     return out
@@ -124,7 +94,7 @@ def _poly(prefix: str, degree: int, with_order: bool) -> tuple[tuple[str, ...], 
 
 def _rich(target: str, kind_of_value: str, with_order: bool, start: float) -> Form:
     """The richer form of a target: ``poly`` (a polynomial), ``exp_poly`` (its exponential: positive) or
-    ``sine_poly`` (s_i times a polynomial; ``sine2_poly``: s_i^2 times it), module docstring."""
+    ``sine_poly`` (s_i times a polynomial; ``sine2_poly``: s_i^2 times it), docs/blog_lobe_model.md."""
     params, p = _poly("c", 3, with_order)
     if kind_of_value == "positive":
         name, expr, what = "exp_poly", sp.exp(p), "exp(P)"

@@ -1,4 +1,4 @@
-r"""Multiple-scattering lobes by scattering order, and analytic lobes fitted to them (issue 20, after the blog
+r"""Multiple-scattering lobes by scattering order, and analytic lobes fitted to them (after the blog
 in the seeds: its steps "analyse the shape of the lobe each order leaves", "fit a simple analytical lobe",
 "fit its parameters as functions of roughness", "evaluate the fitted lobes at runtime").
 

@@ -12,31 +12,7 @@ The blog's lobe (its section "Lobe Model"; docs/microsurface_lobes.md states eve
     N(z') = (2 + eta)/(2 pi) max(z', 0)^eta,     eta = 2^(10 (1 - alpha_l)) - 1,
     L(w_o) = 1 / sqrt(x'^2 + y'^2/(1 - a)^2 + z'^2/sigma_n^2),
 
-in the lobe frame (x', y', z') of the axis l = (sin theta_d, 0, cos theta_d):
-x' = s_o c cos theta_d - mu_o sin theta_d, y' = s_o sin phi, z' = s_o c sin theta_d + mu_o cos theta_d.
-What each parameter does:
-
-* ``sigma``, the global scale: the lobe's albedo when it is undeviated and unflattened (N is normalised by
-  int N mu_o dw_o = 1 about the normal);
-* ``theta_d``, the deviation angle (radians) of the lobe's axis from the normal, in the plane of incidence:
-  positive towards the light (back-scattering), negative towards the mirror direction;
-* ``alpha_l``, the lobe's own roughness, which sets the exponent eta = 2^(10 (1 - alpha_l)) - 1 (the
-  blog's eta(alpha) of its lobe model: alpha_l = 1 is a constant lobe, alpha_l = 0 a lobe of exponent
-  1023; alpha_l > 1 gives eta in (-1, 0), a lobe that rises towards grazing);
-* ``a``, the anisotropic flattening: the lobe is multiplied by the radius of the ellipsoid of semi-axes
-  (1, 1 - a, sigma_n) along (x', y', z'), so a > 0 squashes it across the plane of incidence (along y)
-  and a < 0 along the plane of incidence (along x', relatively);
-* ``sigma_n``, the normal flattening: the ellipsoid's semi-axis along the lobe's axis; with theta_d = a = 0
-  the radius is the blog's L = 1/sqrt(1 + mu_o^2 (1/sigma_n^2 - 1));
-* ``m``, the masking importance, with G1 the Smith masking of the Beckmann (Phong) distribution in
-  Walter et al.'s (2007) rational form at the surface's alpha; the blog found m = 0, and so does every fit
-  here that frees it (docs/microsurface_lobes.md): it is held at 0.
-
-:func:`blog_lobe` builds the expression from any parameter expressions (numbers, symbols, or the calls of
-the runtime's fitted parameter functions); :data:`PER_LOBE_FORMS` are the forms fitted lobe by lobe
-(:mod:`.fitting`), the blog's with every parameter free (``blog``) and its final model (``blog_final``:
-no deviation, no anisotropy, as the blog's runtime has it).
-"""
+Details: docs/blog_lobe_model.md, section ``fitlab.families.microfacet_energy.lobes.shapes``."""
 
 from __future__ import annotations
 
@@ -80,7 +56,7 @@ def eta_of_lobe_roughness(alpha_l) -> sp.Expr:
 
 
 def blog_lobe(sigma, eta, sigma_n, theta_d=0, a=0, m=0) -> sp.Expr:
-    """The blog's lobe f(w_o) (1/sr; module docstring) with the exponent ``eta`` given directly."""
+    """The blog's lobe f(w_o) (1/sr; docs/blog_lobe_model.md) with the exponent ``eta`` given directly."""
     n_of = lambda z: (2 + eta) / (2 * sp.pi) * safe_pow(z, eta)  # noqa: E731
     if theta_d == 0 and a == 0:
         # undeviated and isotropic: x'^2 + y'^2 = 1 - mu_o^2, no azimuth (the blog's final lobe)

@@ -17,19 +17,7 @@ events carries the weight rho^S and nothing else about the walk depends on rho (
 without looking at the weight, and there is no Russian roulette), so order S scales as rho^S exactly.
 :func:`albedo_identity` checks it by simulation (an independent seed) rather than assuming it.
 
-Grids (every header states its own): a training grid ALPHA_TRAINING x MU_I_TRAINING whose edges are the
-domain's (alpha in [0.05, 1], mu_i in [0.05, 1]), and a validation grid interleaved with it:
-ALPHA_VALIDATION x MU_I_VALIDATION (every value between two training values) plus the four edges of the
-domain at interleaved positions (alpha = 0.05 and 1 at mu_i = 0.1, 0.5, 0.9; mu_i = 0.05 and 1 at alpha =
-0.15, 0.425, 0.85), which no fit sees either.
-
-Budget and reproducibility: :data:`PATHS` paths per job (twice as many below alpha = 0.2, where
-multiple scattering is rare), all with the walk's counter-based random numbers under :data:`SEED`,
-material = the kind's index in :data:`KINDS`, incident = the job's index in its grid (validation jobs
-from 1000): the same machine and library versions rewrite the files byte for byte.  Values are written
-with 4 significant digits, standard errors with 2 (the tables' relative standard errors are 1e-3 at
-best, so the rounding is far below them).
-"""
+Details: docs/blog_lobe_model.md, section ``fitlab.families.microfacet_energy.lobes.tables``."""
 
 from __future__ import annotations
 
@@ -91,7 +79,7 @@ LOBE_FILES = {lobe_file(k, w): lobe_columns() for k in KINDS for w in SETS}
 
 
 def grid_points(which: str) -> list[tuple[float, float]]:
-    """The (alpha, mu_i) jobs of a set, in table order (module docstring)."""
+    """The (alpha, mu_i) jobs of a set, in table order (docs/blog_lobe_model.md)."""
     if which == "training":
         return [(a, m) for a in ALPHA_TRAINING for m in MU_I_TRAINING]
     if which != "validation":
@@ -103,7 +91,7 @@ def grid_points(which: str) -> list[tuple[float, float]]:
 
 
 def _grid_text(which: str) -> str:
-    bins = (f"bins: mu_o edges k/10, k = 0..10 (uniform), |phi_o| edges k pi/8, k = 0..8 (phi_o = 0 back-scattering "
+    bins = ("bins: mu_o edges k/10, k = 0..10 (uniform), |phi_o| edges k pi/8, k = 0..8 (phi_o = 0 back-scattering "
             "side, pi the mirror side); rows: one per job and order, jobs in the order of the grid")
     if which == "training":
         return f"alpha in {ALPHA_TRAINING} x mu_i in {MU_I_TRAINING} (alpha outer); " + bins
@@ -118,7 +106,7 @@ def walk_config(kind: str):
 
     if kind not in KINDS:
         raise ValueError(f"kind must be one of {KINDS}, got {kind!r}")
-    # float64: the committed tables are rewritten byte for byte (module docstring); a float32 walk takes the same
+    # float64: the committed tables are rewritten byte for byte (docs/blog_lobe_model.md); a float32 walk takes the same
     # paths to 1e-7 (docs/microsurface.md, "Precision"), not to the tables' last digit
     return WalkConfig(distribution="ggx", kind=kind, fresnel="one", orders=len(ORDER_LABELS) - 1, mu_edges=MU_EDGES,
                       phi_edges=PHI_EDGES, slots=_SLOTS, precision="float64")

@@ -17,43 +17,7 @@ tangent t^2(w) = (alpha_x^2 w_x^2 + alpha_y^2 w_y^2) / w_z^2 = alpha(phi)^2 tan^
 * Downward directions (w_z < 0): Lambda(w) = -1 - Lambda(-w) (paper, eq. 9): the projected area of
   the microsurface seen along w is w_z (1 + Lambda(w)) either way.  Lambda(w) = 0 for w = +z.
 
-Heights (uncorrelated with the slopes: the Smith assumption), the uniform distribution the paper
-uses, P1(h) = 1/2 on [-1, 1], C1(h) = clip((h + 1)/2, 0, 1), invC1(U) = clip(2 U - 1, -1, 1).
-The walk depends on the height distribution only through C1 (the paper shows its results are
-independent of P1); h = 1 is the top of the microsurface (C1 = 1), where a path starts.
-
-Masking at height h: G1(w, h) = C1(h)^Lambda(w) for w_z > 0 (the probability that a ray leaving
-height h along w escapes), 0 for w_z < 0 (a downward ray always meets the surface).
-
-Free path (``sample_height``): a ray leaving height h along a rising w passes height x > h
-unobstructed with probability G1(w, h) / G1(w, x) = (C1(h) / C1(x))^Lambda(w) (and a falling ray
-passes x < h with probability (C1(x) / C1(h))^(-Lambda(w))); inverting with one uniform U:
-
-* w_z > 0: the ray escapes if U > 1 - G1(w, h); else h' = invC1(C1(h) / (1 - U)^(1 / Lambda(w))),
-  which lies above h;
-* w_z < 0: h' = invC1(C1(h) (1 - U)^(1 / |Lambda(w)|)) (the same formula, Lambda(w) <= -1), below h;
-* w_z = 0 (horizontal): h' = h (Lambda is infinite: the ray hits at once).
-
-Visible normals (``sample_vndf``): m from D_wi(m) = G1(wi) max(0, wi.m) D(m) / wi_z, for wi on
-either side of the horizon (the walk's wi = -w can point downwards, when a rising ray is hit):
-
-* GGX, Heitz 2018 (JCGT 7(4), "Sampling the GGX Distribution of Visible Normals"): stretch wi to
-  V = normalize(alpha_x wi_x, alpha_y wi_y, wi_z), sample the projected visible hemisphere as a disk
-  point (t1, t2) = sqrt(U1) (cos 2 pi U2, sin 2 pi U2) with t2 warped to
-  (1 - s) sqrt(1 - t1^2) + s t2, s = (1 + V_z) / 2, lift it onto the hemisphere, unstretch
-  and normalise.  The warp removes the half-ellipse of semi-axis |V_z| that the horizon projects
-  to, which is right for V_z < 0 as well.
-* Beckmann, the slope-space method of Heitz and d'Eon 2014 (the paper's code): stretch wi to the
-  alpha = 1 configuration, rotate it into the xz-plane (polar angle theta, cot(theta) = s_i);
-  the visible slope x_m has the CDF c (cos(theta) erfc(-x)/2 + sin(theta) exp(-x^2) / (2 sqrt pi))
-  for x < s_i (c: 1 / the value at s_i), inverted by safeguarded Newton steps inside a bisection
-  bracket, from the root of the cos(theta) term alone (an erfinv), each lane until its CDF residual is
-  below 1e-14 of the total (a lane that has converged keeps its value while others go on: the result
-  of a lane never depends on the batch); y_m = erfinv(2 U2 - 1) (an independent unit-variance/sqrt 2
-  normal); rotate back, unstretch the slopes and m = normalize(-x_m, -y_m, 1).  Rising rays steeper than
-  cot(theta) < -6 (theta > 170.5 deg; they hit with probability below 1 - C1^Lambda, Lambda < 3e-18)
-  are given the slope bracket of cot(theta) = -6.
-"""
+Details: docs/microsurface.md, section ``fitlab.families.microfacet_energy.mc.microsurface``."""
 
 from __future__ import annotations
 
@@ -73,7 +37,7 @@ DISTRIBUTIONS = ("ggx", "beckmann")
 #: sample_height's value for a ray that leaves the microsurface
 ESCAPED = math.inf
 #: most steps of the Beckmann visible-slope inversion (a bisection step halves the bracket; from the start of
-#: the module docstring 8 are typical and 17 the most seen in 2e5 draws over the sphere of directions)
+#: docs/microsurface.md, 8 are typical and 17 the most seen in 2e5 draws over the sphere of directions)
 _BECKMANN_STEPS = 60
 #: the inversion stops when the CDF residual is below this fraction of the CDF's total
 _BECKMANN_TOLERANCE = 1e-14
@@ -123,7 +87,7 @@ def masking_g1(x, y, z, h, alpha_x, alpha_y, distribution: str):
 def sample_height(x, y, z, h, u, alpha_x, alpha_y, distribution: str):
     """The height of the next intersection of the ray from height h along w = (x, y, z), or ESCAPED.
 
-    u in (0, 1).  See the module docstring ("Free path")."""
+    u in (0, 1).  See docs/microsurface.md ("Free path")."""
     lam = smith_lambda(x, y, z, alpha_x, alpha_y, distribution)
     c1 = height_c1(h)
     g1 = masking_g1(x, y, z, h, alpha_x, alpha_y, distribution)
@@ -175,7 +139,7 @@ def _vndf_ggx(wx, wy, wz, u1, u2, alpha_x, alpha_y):
 
 
 def _beckmann_slope_x(cot_theta, sin_theta, cos_theta, u):
-    """x < s_i = cot(theta) with the visible-slope CDF of the module docstring equal to u."""
+    """x < s_i = cot(theta) with the visible-slope CDF of docs/microsurface.md equal to u."""
     s_i = jnp.clip(cot_theta, _BECKMANN_SLOPE_FLOOR, 8.0)
 
     def g(x):
@@ -228,7 +192,7 @@ def _vndf_beckmann(wx, wy, wz, u1, u2, alpha_x, alpha_y):
 
 
 def sample_vndf(wx, wy, wz, u1, u2, alpha_x, alpha_y, distribution: str):
-    """A microfacet normal m from the visible normals D_wi of wi = (wx, wy, wz) (module docstring).
+    """A microfacet normal m from the visible normals D_wi of wi = (wx, wy, wz) (docs/microsurface.md).
 
     u1, u2 in (0, 1); wi on either side of the horizon (not horizontal and below: the projected
     area vanishes only for wi straight down).  Returns (m_x, m_y, m_z), m_z > 0, wi.m >= 0."""

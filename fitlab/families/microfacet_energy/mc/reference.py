@@ -20,71 +20,7 @@ so that the peak is resolved down to the scenes' smallest alpha, 1e-3 (the bin s
 over the normals to 1e-6 there; the fixed panels alone lost 3e-3 of the total at alpha = 0.01).  Totals over
 the hemisphere: one such bin of 32 x 32 panels of 16 x 16 nodes.
 
-Albedo of order 1: for isotropic GGX with alpha <= 1, the exact engine's E(mu_i, alpha) of
-"ggx_correlated" (:func:`fitlab.families.microfacet_energy.exact.directional_albedo`, with the Fresnel
-factor inside its integral); otherwise the same bin rule over the whole hemisphere.  The Fresnel factor
-goes to the engine with its kink (:func:`fresnel_numpy`: a ``FresnelFactor``), the critical angle of a
-dielectric with eta < 1, whose square-root edge its quadratures then follow (1e-10; a plain function
-there left its two routes 3e-3 apart).
-
-Dielectric facets (relative index eta = n_lower / n_upper, light from above, eta != 1).  Reflection of
-order 1 is f_1 above with the exact dielectric F (:func:`fitlab.families.microfacet_energy.exact.fresnel_dielectric`,
-1 under total internal reflection).  Transmission of order 1 is the microfacet BTDF of Walter, Marschner,
-Li and Torrance (2007, eq. 21) with the height-correlated masking-shadowing of a refraction:
-
-    f_t(w_i, w_o) = |w_i.h| |w_o.h| eta^2 (1 - F(w_i.h)) D(h) G2_t(w_i, w_o) / (mu_i |mu_o| (w_i.h + eta w_o.h)^2),
-
-h = -(w_i + eta w_o) / |w_i + eta w_o| for eta > 1 and +(...) for eta < 1 (the facet normal, h_z > 0,
-that refracts w_i into w_o; Snell's law makes the tangential parts of w_i and eta w_o cancel), nonzero
-only where w_i.h > 0 > w_o.h, and
-
-    G2_t(w_i, w_o) = B(1 + Lambda(w_i), 1 + Lambda(-w_o))
-                   = Gamma(1 + Lambda_i) Gamma(1 + Lambda_o) / Gamma(2 + Lambda_i + Lambda_o),
-
-B the Beta function, Lambda_o of the upward direction -w_o.  Derivation for the walk's uncorrelated
-heights (C1 uniform; the result does not depend on the height distribution): coming from above, the ray
-passes height h unobstructed with probability C1(h)^(1 + Lambda_i) (the free path of :mod:`.microsurface`
-for a falling ray, exponent -Lambda(-w_i) = 1 + Lambda_i), so its first hit lies at C1 = c with density
-(1 + Lambda_i) c^Lambda_i; the facet met is drawn from the visible normals, D_wi(m) = <w_i.m> D(m) /
-(mu_i (1 + Lambda_i)); the refracted ray leaves height h downwards, where the flipped microsurface
-(h -> -h) puts it at C1 = 1 - c, and escapes with probability (1 - c)^Lambda_o.  Averaging over c,
-
-    int_0^1 (1 + Lambda_i) c^Lambda_i (1 - c)^Lambda_o dc / (1 + Lambda_i) = B(1 + Lambda_i, 1 + Lambda_o),
-
-the form Heitz (2014, "Understanding the Masking-Shadowing Function", JCGT 3(2), section 6) gives for
-height-correlated transmission; the same steps with the reflected ray escaping upwards from C1 = c give
-int (1 + Lambda_i) c^(Lambda_i + Lambda_o) dc / (1 + Lambda_i) = 1 / (1 + Lambda_i + Lambda_o), the G2
-above.  The change of variables from h to w_o is Walter's eq. 17, |dw_h / dw_o| = eta^2 |w_o.h| /
-(w_i.h + eta w_o.h)^2, so f_t |mu_o| is the density of the transmitted directions (per steradian):
-integrated over the lower hemisphere it gives the transmitted fraction, with no radiance factor.
-The generalised reciprocity f_t(w_i, w_o; eta) / eta^2 = f_t(-w_o, -w_i; 1 / eta) (light from inside,
-by the flip of :mod:`.walk`) holds for it (tested).
-
-Orders 1 by the normals (:func:`order_one_by_normals`): the same R_1 and T_1 by the other order of
-integration, over the facet normal m drawn from D with no change of variables:
-
-    R_1 = int <w_i.m> D(m) / mu_i  F(w_i.m) / (1 + Lambda_i + Lambda(w_r)) [w_r,z > 0] dm,
-    T_1 = int <w_i.m> D(m) / mu_i  (1 - F(w_i.m)) B(1 + Lambda_i, 1 + Lambda(-w_t)) [w_t,z < 0] dm,
-
-w_r, w_t the reflected and refracted directions.  Their agreement with the bin sums of f_1 and f_t
-checks the Jacobian and the half vector (tested).
-
-Diffuse (Lambertian) facets of albedo rho.  Order 1: the ray meets the visible facet m (D_wi), leaves
-along w_o with density <w_o.m> / pi about it, weight rho, and escapes from the height it hit with
-probability C1^Lambda_o; averaged over heights as above,
-
-    f_1(w_i, w_o) = rho / (pi mu_i mu_o) G2(w_i, w_o) int <w_i.m> <w_o.m> D(m) dm,  G2 = 1 / (1 + Lambda_i + Lambda_o),
-
-for mu_o > 0 (a downward w_o always hits again).  The integral over m is a product Gauss rule in the
-slope-space sampling of D (:func:`normal_rule`); at alpha -> 0 it tends to mu_i mu_o and f_1 to rho / pi.
-
-The normal rule: a standard slope of radius r (GGX r^2 = u / (1 - u), Beckmann r^2 = -ln(1 - u)) and
-azimuth 2 pi u2, stretched by alpha_x, alpha_y, has the density D(m) m_z, so int g D m_z dm = int int g du
-du2; with u = 1 - v^2 the 1 / m_z of the integrands above (g = <w_i.m> ... / m_z, bounded by O(1 / v)
-near the horizon) becomes bounded, and Gauss-Legendre panels in v and the azimuth converge (kinks where
-w_i.m, w_o.m or w_r,z change sign are resolved by the number of nodes; :func:`normal_rule` is tested
-against its own refinement and a closed form at alpha = 1).
-"""
+Details: docs/microsurface.md, section ``fitlab.families.microfacet_energy.mc.reference``."""
 
 from __future__ import annotations
 
@@ -129,7 +65,7 @@ def _clipped_factor(factor: FresnelFactor) -> FresnelFactor:
 
 
 def single_scattering_brdf(mu_o, phi_o, mu_i, alpha_x, alpha_y, distribution: str, fresnel=None):
-    """f_1 (module docstring) for w_i = (s_i, 0, mu_i), w_o = (s_o cos phi_o, s_o sin phi_o, mu_o), mu's in (0, 1]."""
+    """f_1 (docs/microsurface.md) for w_i = (s_i, 0, mu_i), w_o = (s_o cos phi_o, s_o sin phi_o, mu_o), mu's in (0, 1]."""
     s_i = math.sqrt(1.0 - mu_i * mu_i)
     s_o = np.sqrt(1.0 - mu_o * mu_o)
     ox, oy, oz = s_o * np.cos(phi_o), s_o * np.sin(phi_o), mu_o
@@ -220,7 +156,7 @@ def _unit(x, y, z):
 
 
 def btdf(wi, wo, alpha_x, alpha_y, distribution: str, eta: float):
-    """f_t(w_i, w_o) of order 1 (module docstring) for unit vectors w_i = (x, y, z), z > 0 (above) and w_o,
+    """f_t(w_i, w_o) of order 1 (docs/microsurface.md) for unit vectors w_i = (x, y, z), z > 0 (above) and w_o,
     z < 0 (below), each a tuple of arrays (broadcast); eta = n_lower / n_upper > 0, != 1."""
     if not (eta > 0.0 and eta != 1.0):
         raise ValueError(f"eta must be positive and not 1 (no interface: a delta), got {eta}")
@@ -274,7 +210,7 @@ def bin_average_transmission(mu_edges, phi_edges, mu_i, material, panels: int = 
 
 
 def normal_rule(alpha_x, alpha_y, distribution: str, radial: int = 96, azimuthal: int = 192):
-    """Nodes m (three arrays) and weights w with sum w g(m) ~ int g(m) D(m) m_z dm (module docstring, "The
+    """Nodes m (three arrays) and weights w with sum w g(m) ~ int g(m) D(m) m_z dm (docs/microsurface.md, "The
     normal rule"): Gauss-Legendre in v = sqrt(1 - u) on 4 panels and in the azimuth on 8 panels."""
     v, wv = _rule(0.0, 1.0, 4, radial // 4)
     ph, wph = _rule(0.0, 2.0 * math.pi, 8, azimuthal // 8)
@@ -287,7 +223,7 @@ def normal_rule(alpha_x, alpha_y, distribution: str, radial: int = 96, azimuthal
 
 
 def order_one_by_normals(mu_i, material, radial: int = 384, azimuthal: int = 768):
-    """(R_1, T_1) of a dielectric seen from above, integrated over the facet normals (module docstring)."""
+    """(R_1, T_1) of a dielectric seen from above, integrated over the facet normals (docs/microsurface.md)."""
     eta = material.eta
     ax, ay, dist = material.alpha_x, material.alpha_y, material.distribution
     (mx, my, mz), w = normal_rule(ax, ay, dist, radial, azimuthal)
@@ -316,7 +252,7 @@ def transmission_single(mu_i, material):
 
 
 def diffuse_single_brdf(wi, wo, material, rule=None):
-    """f_1 of diffuse facets (module docstring) for w_i = (x, y, z) (floats, z > 0) and the arrays w_o
+    """f_1 of diffuse facets (docs/microsurface.md) for w_i = (x, y, z) (floats, z > 0) and the arrays w_o
     (z > 0); rule: a :func:`normal_rule` (default 96 x 192 nodes)."""
     ax, ay, dist = material.alpha_x, material.alpha_y, material.distribution
     (mx, my, mz), w = rule if rule is not None else normal_rule(ax, ay, dist)

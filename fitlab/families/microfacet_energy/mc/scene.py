@@ -3,45 +3,7 @@ r"""Scene files of the microsurface walk: the schema (fields and rules) that the
 simulation starts; every problem is one line ``file:line: field: what``, and all of a file's problems
 come together in one :class:`SceneError`.
 
-Example::
-
-    [scene]
-    family = "microfacet_energy"  # the family whose Monte Carlo runs the scene (fitlab simulate reads it)
-    name = "white_ggx"          # optional; default: the file stem; letters, digits, _ and - only
-    description = "..."         # optional
-    seed = 1                    # integer in [0, 2^63 - 1]
-
-    [[material]]
-    label = "white"             # optional; default "material<i>"
-    kind = "conductor"          # "conductor" (mirror facets), "diffuse" (Lambertian facets) or "dielectric"
-    distribution = "ggx"        # "ggx" or "beckmann" slopes
-    alpha = 0.5                 # or alpha_x = 0.3 and alpha_y = 0.6 (anisotropic); each in [1e-3, 2]
-    fresnel = "one"             # conductor: "one" (F = 1), "schlick" (with f0 in [0, 1]),
-                                #   "conductor" (with eta in (0, 100], k in [0, 100]: eta + i k)
-    # albedo = 0.8              # diffuse: the facets' albedo in [0, 1] (default 1)
-    # eta = 1.5                 # dielectric: n_lower / n_upper in [1e-6, 100], not 1 (required); light
-                                #   arrives from the upper medium; eta < 1 is light from inside a medium of
-                                #   index 1 / eta (the walk's flip symmetry), so that case needs no option
-
-    [incident]
-    mu_i = [0.5, 0.9]           # cosines in (0, 1]
-
-    [outgoing]
-    mu_o = 8                    # mu_o bins: a count (equal bins on [0, 1]) or increasing edges in [0, 1]
-    phi = 6                     # |phi_o| bins on [0, pi] (phi = pi: the mirror side): count or edges
-    orders = 4                  # orders 1..orders tallied one by one, the rest together (1..64)
-    transmission_lobe = true    # dielectrics: also the transmitted lobe, in (|mu_o|, |phi_o|) bins (default
-                                #   true; false keeps only its totals by order); ignored by opaque facets
-
-    [precision]
-    target_se = 0.01            # or {lobe = 0.02, albedo = 2e-3}: lobe rows in 1/sr (f mu_o), albedos in 1
-    max_paths = 1000000         # per job (material x mu_i), in [1000, 2^32]
-    batch = 100000              # paths per round, in [100, 10^7]; the stopping rule is checked per round
-    max_bounces = 1000          # scattering events after which a path is stopped and tallied as capped
-    slots = 1024                # lanes of the vectorised walk per device, in [64, 2^20], or 0: 1024 on a
-                                #   CPU, 65536 on an accelerator
-    float = "float32"           # the walk's arithmetic: "float32" (default) or "float64" (docs/microsurface.md)
-"""
+Details: docs/microsurface.md, section ``fitlab.families.microfacet_energy.mc.scene``."""
 
 from __future__ import annotations
 

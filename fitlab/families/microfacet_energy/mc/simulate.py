@@ -9,38 +9,7 @@ contribution x_p: the weight if the path ended there, else 0):
 
     mean = S1 / N,  se = sqrt((S2 / N - mean^2) / (N - 1)),
 
-* ``lobe`` rows: the bin average of f mu_o (1/sr), mean / Omega, Omega = 2 (mu_1 - mu_0)(phi_1 - phi_0);
-  order "1".."K" and ">K"; reference (order 1 only): :func:`.reference.bin_average_single` (conductor
-  and dielectric facets), :func:`.reference.bin_average_diffuse` (diffuse facets);
-* ``lobe_transmission`` rows (dielectrics, when the scene asks): the same for the transmitted lobe,
-  f_t |mu_o| in bins of |mu_o| (mu_lo, mu_hi) and |phi_o|; reference :func:`.reference.bin_average_transmission`;
-* ``albedo`` rows: int f_k mu_o dw_o by order (reflection), and ``capped`` (paths stopped at
-  max_bounces); reference for order 1: :func:`.reference.albedo_single`;
-* ``albedo_multiple``: orders >= 2 with the capped weight (each path contributes once, so the sums of
-  S1 and S2 over the tallies are that row's own); reference 1 - E_1 for lossless materials (F = 1
-  conductor, albedo-1 diffuse facets) whose order 1 has a reference;
-* ``albedo_total``: every order plus the capped weight; reference 1 for lossless materials;
-* ``transmission``: exits through the bottom, by order for dielectrics (reference for order 1:
-  :func:`.reference.transmission_single`) and in all ("all"; 0 for opaque facets);
-* ``energy_total``: reflection and transmission of every order plus the capped weight; reference 1
-  (energy conservation) for lossless materials and dielectrics, where it holds path by path.
-* ``failed``: the fraction of paths that ended on a non-finite height, direction or weight (a walk error,
-  tallied apart from capped paths and never as light; reference 0); ``fitlab simulate`` names a job that
-  has any in one warning line.
-
-z_ref = (estimate - reference) / se (NaN without a reference or with se = 0).  In bins few paths reach z
-is not normal (its se comes from the few paths): :func:`count_p_value` gives the exact binomial p-value of
-a bin's count under its reference, which the tests and the validation study use for the lobes.
-
-Stopping rule, per job: after every round of ``batch`` paths, the job stops when every lobe row has
-se <= target_se["lobe"] and every albedo (transmission, energy) row se <= target_se["albedo"], after at
-least MIN_PATHS paths;
-a bin no path reached has no error estimate and counts as done when its rule-of-three bound
-3 / (N Omega) (95 % upper limit for no event of weight <= 1) is below the target; or when it has used
-``max_paths`` (its rows then say converged = False: :func:`fitlab.scenes.unconverged` names the job).  A job whose stop
-(its target, or its budget when the target needs more paths) is projected more than an hour away at its
-measured rate is named in one warning line on stderr, once (:func:`fitlab._montecarlo.slow_job_warning`).
-"""
+Details: docs/microsurface.md, section ``fitlab.families.microfacet_energy.mc.simulate``."""
 
 from __future__ import annotations
 
@@ -336,7 +305,7 @@ class MicrosurfaceWalk:
 
 
 def simulate(scene: Scene, progress: bool = False) -> SimulationResult:
-    """Run every job of the scene (:func:`fitlab.scenes.simulate`; writes nothing); see the module docstring."""
+    """Run every job of the scene (:func:`fitlab.scenes.simulate`; writes nothing); see docs/microsurface.md."""
     return scenes.simulate(SIMULATE.walk, scene, progress=progress)
 
 

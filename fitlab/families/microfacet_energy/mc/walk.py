@@ -14,77 +14,7 @@ microsurface (h = 1, C1 = 1) travelling along -w_i with weight 1.  Repeat:
      side the ray is on, 1 under total internal reflection) w <- reflect(-w, m), else w <- the direction
      refracted through m and the ray changes side; the weight stays 1.
 
-Dielectrics (the paper's MicrosurfaceDielectric): the ray alternates between the upper medium (index 1)
-and the lower one (relative index eta = n_lower / n_upper).  Seen from below, the microsurface is the same
-Smith microsurface flipped, h -> -h and w -> -w (uniform heights and the slope distributions are symmetric
-under it), so the walk keeps (h, w) in the frame of the side the ray is on, where the ray always comes
-from "above": steps 1 and 2 are the same on both sides, with relative index eta outside and 1 / eta
-inside.  A refraction changes the side and flips the state, (h, w) <- (-h, -w_t).  A ray escaping from the
-outside frame is reflected (physical w = w, mu_o > 0); one escaping from the inside frame is transmitted
-(physical w = -w_local, mu_o < 0).  Light arrives from outside (mu_i > 0).  Light from inside with index
-ratio eta is the same walk as light from outside with 1 / eta (the flip maps one onto the other,
-reflected and transmitted lobes mirrored in z, relative azimuths kept), so it needs no option of its own.
-
-The order-1 lobe is the single-scattering microfacet BRDF with the height-correlated Smith
-masking-shadowing G2 = 1 / (1 + Lambda(w_i) + Lambda(w_o)) (paper, section 5; the tests check it).
-A path still inside after ``max_bounces`` events is stopped and its weight tallied as ``capped``: the
-cut tail is measured, never dropped.  With F = 1 every path's weight is 1, so the tallies of all
-orders plus ``capped`` add up to the number of paths exactly (energy conservation, path by path).
-
-Outgoing directions: mu_o = w_z, phi_o = |atan2(w_y, w_x)| in [0, pi] (phi = pi is the mirror
-direction of w_i; the microsurface is symmetric under y -> -y, w_i lies in the xz-plane, so folding
-the sign of phi loses nothing, for anisotropic alpha too).
-
-Tallies (per round of paths; sums over paths of the weight w and of w^2, each path contributing once):
-
-* ``lobe[k, i, j]`` (and ``lobe_sq``): escapes of order k + 1 (k = K: every order above K) in mu_o bin
-  i and |phi_o| bin j; E[lobe / N] = int over the bin (both signs of phi) of f_k mu_o dw_o, so the
-  bin average of f_k mu_o is lobe / (N Omega), Omega = 2 (mu_1 - mu_0)(phi_1 - phi_0).
-* ``lobe_transmission[k, i, j]`` (``lobe_transmission_sq``; only when ``WalkConfig.transmission_lobe``):
-  the same for transmitted escapes, binned by |mu_o| and |phi_o| (phi = pi: the straight-through side,
-  where the refracted peak lies): the bin average of f_t,k |mu_o|.
-* ``albedo[k]`` (``albedo_sq``): escapes of order k + 1 (k = K: above K) anywhere: the albedo by order.
-* ``transmission[k]`` (``transmission_sq``): transmitted escapes (through the bottom) by order (none for
-  the opaque materials).
-* ``capped``, ``capped_sq``: weight of paths stopped at ``max_bounces``; ``paths``; ``bounces`` (the
-  scattering events of all paths).
-* ``failed``: paths that met a non-finite height, direction or weight: a walk error, ended there and
-  counted apart from the capped paths, never tallied as light.  With every weight 1, the orders, capped
-  and failed paths add up to ``paths``.
-
-Heights: the float64 walk carries h in [-1, 1], as the C reference of ``fitlab bench mc`` does; the float32
-walk carries C1(h) = (h + 1) / 2 in [0, 1] (:func:`.microsurface.sample_c1`; the flip of a refraction is
-C1 -> 1 - C1), which float32 resolves near the bottom to its relative precision.  A float32 h stops 2^-24
-from -1: a path whose C1 fell below 2^-25 (two falls at normal incidence with 1 - U of 2^-12 and 2^-14)
-sat at h = -1 exactly, where G1 = 0 and a rising ray's next height is 0 / 0.
-
-Random numbers are counter-based: the uniforms of path ``id`` at its event n are the words of
-Threefry-2x32(job_key; id, 3 n + j), j = 0, 1, 2 (the two words of block j are numbers 2 j and 2 j + 1),
-mapped to (word + 1/2) 2^-32 in (0, 1) (float32: (word >> 9 + 1/2) 2^-23, :func:`fitlab._montecarlo.uniforms`);
-a kind hashes only the blocks it uses (conductor 3 numbers, dielectric 4, diffuse 5), job_key =
-fold_in(fold_in(key(seed), material), incident).  32-bit uniforms cut the sampled tails at probabilities
-of 2^-33 (a Beckmann slope beyond 4.7 standard deviations, an escape probability below 1e-10): biases of
-1e-10, far below any standard error here; float32's at 2^-24 (biases of 6e-8).  A path depends only
-on (seed, material, incident, id), never on the slot, the round or the batch that runs it, so any split
-of the ids into rounds gives the same paths (and tallies equal up to the order of summation; exactly equal
-when the weights are 1).
-
-Vectorisation: a pool of ``slots`` lanes runs one event per lane per loop iteration; a lane whose path
-ended takes the next id at once, so lanes idle only at the end of a round.  An iteration ends by hashing
-each lane's blocks for its next event, carried to the next iteration
-(:func:`fitlab._montecarlo.threefry_blocks` says why).
-
-Devices: the walk runs under ``jax.shard_map`` on a 1-D mesh (default: every device JAX sees, see
-:func:`default_mesh`); device d walks the d-th contiguous slice of the round's ids with its own lane
-pool, and the tallies are summed over devices (``psum``).  As paths depend only on their ids, a mesh of
-any size gives the same paths, and the same tallies up to the order of summation (exactly, when every
-weight is 1).  On one device the mesh changes nothing.
-
-Chunks: :func:`start_round` gives a round as a :class:`fitlab._montecarlo.ChunkedRound`, run a number of
-loop steps at a time (each device keeps its lanes, tallies and next id between chunks; the tallies are summed
-at the end), so that ``fitlab simulate`` answers Ctrl-C within a round; the chunks change no bit of the
-tallies.  :func:`run_round` runs the round at once.
-"""
+Details: docs/microsurface.md, section ``fitlab.families.microfacet_energy.mc.walk``."""
 
 from __future__ import annotations
 
@@ -221,7 +151,7 @@ def _cosine_about(mx, my, mz, u1, u2):
 
 def _uniforms(blocks, count: int, dtype):
     """The first ``count`` uniforms in (0, 1) of a lane's event from its Threefry blocks
-    (:func:`fitlab._montecarlo.threefry_blocks` of the counters (id, 3 n + j); module docstring): numbers 2 j
+    (:func:`fitlab._montecarlo.threefry_blocks` of the counters (id, 3 n + j); docs/microsurface.md): numbers 2 j
     and 2 j + 1 are block j's two words.  A kind drawing fewer numbers hashes fewer blocks."""
     first, second = block_words(blocks)
     words = [w for pair in zip(first, second) for w in pair]
@@ -253,8 +183,8 @@ def _refill(lanes, t, next_id, key, mu_i, hi, cfg: WalkConfig):
 
 
 def _step(carry, key, params, mu_i, hi, cap, cfg: WalkConfig):
-    # (h, w) are in the frame of the side the ray is on (module docstring, "Dielectrics"); inside: below.
-    # h is the height in float64, its C1 in float32 (module docstring, "Heights"): 1 at the top in both
+    # (h, w) are in the frame of the side the ray is on (docs/microsurface.md, "Dielectrics"); inside: below.
+    # h is the height in float64, its C1 in float32 (docs/microsurface.md, "Heights"): 1 at the top in both
     (alive, pid, order, h, wx, wy, wz, weight, inside, blocks), tallies, next_id = carry
     u = _uniforms(blocks, _UNIFORMS[cfg.kind], h.dtype)
     ax, ay = params.alpha_x, params.alpha_y

@@ -3,38 +3,12 @@ needs for Kulla-Conti energy compensation and the fitted multiple-scattering lob
 the shading languages from the same symbolic definitions (:mod:`..lobes.shapes`, :mod:`.runtime`) and the fits,
 through fitlab.codegen.
 
-``fitlab codegen --family microfacet_energy --lang LANG`` prints it to the files microfacet_energy.* (their
-base name is the family's, as for every family's program); fitlab/fits/generated/microfacet_energy.{py,c,h,glsl}
-is the committed output of the packaged fits, which a test regenerates through that command.  Its routines:
-
-* one routine per fitted albedo, its fit as it stands: ``E_ggx_sep(mu, alpha)``, ``one_minus_E_ggx_sep``,
-  ``E_avg_ggx_sep(alpha)``, and the same of height-correlated GGX (``E_ggx_cor``, ...) and Oren-Nayar
-  (``E_on``, ...): what Kulla-Conti's f_ms reads (docs/energy_compensation.md);
-* one routine per lobe-parameter target, its fit as it stands (``ms_blog_eta_diffuse(alpha, mu_i)``,
-  ``ms_tilt_sigma_conductor(alpha, mu_i, order)``, ...; alpha and mu_i clamped into [0.05, 1], order into
-  [2, 5]);
-* ``ms_blog_diffuse(mu_i, mu_o, alpha, rho)``, ``ms_blog_conductor(mu_i, mu_o, alpha)``: the blog's final
-  lobe (no azimuth), orders 2..5 summed (:mod:`.runtime`); by default (model ``blog_refit``) with the blog's
-  own forms refitted, with ``--model default-forms`` with the targets' richer default forms (``blog_rich``);
-* ``ms_tilt_diffuse(mu_i, mu_o, cos_phi, alpha, rho)``, ``ms_tilt_conductor(mu_i, mu_o, cos_phi, alpha)``: the
-  tilted lobe, every parameter per order (model ``tilted``); cos_phi = cos(phi_o - phi_i), phi = 0 the
-  back-scattering side;
-* ``ms_kulla_conti(mu_i, mu_o, alpha)``: Kulla-Conti's f_ms of height-correlated GGX (the walk's order 1)
-  from the fits of E_ggx_cor and E_avg_ggx_cor, for comparison: 1 - E and 1 - E_avg are those fits' forms
-  with the 1 cancelled (the forms are written 1 - (...)), never formed by subtraction, so that float keeps
-  the digits of double as alpha -> 0 (1 - E and 1 - E_avg vanish like alpha^2 there, below float's
-  rounding of E for alpha below about 1e-3).
-
-Every lobe is the multiple-scattering BRDF (1/sr) to add to the single-scattering one, for light from mu_i
-(rho: the facets' albedo; conductors: F = 1); inputs outside [0, 1] (cos_phi [-1, 1]) are clamped, NaN gives
-NaN (fitlab.codegen's policy).  :func:`lobe_program` builds the program from fit records (the study's
-variants), :func:`fit_files` names the packaged fits it reads.
-"""
+Details: docs/microfacet_energy_derivation.md, section ``fitlab.families.microfacet_energy.program.spec``."""
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from pathlib import Path
-from typing import Mapping
 
 import sympy as sp
 

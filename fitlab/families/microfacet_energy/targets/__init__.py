@@ -17,26 +17,7 @@ alpha is GGX's own parameter (the one in D; a renderer's perceptual roughness r 
 Oren-Nayar the blog's alpha with sigma = (pi/2) alpha radians.  alpha = 0 is the mirror (GGX, E = 1)
 and Lambert (Oren-Nayar, E = 1).
 
-Error measures (the ``scale`` of each target):
-
-* E and E_avg: absolute, |approx - exact|.  E is a fraction of energy: an error dE is the energy the
-  compensated BRDF gains or loses in that direction (f + f_ms has albedo E + (1 - E) = 1 only with the
-  exact E).  An error dE_avg changes the normalisation 1/(1 - E_avg) of f_ms, whose albedo from
-  direction mu_o is (1 - E(mu_o)) (1 - E_avg)/(1 - E_avg'), i.e. the energy moves by about
-  dE_avg (1 - E(mu_o))/(1 - E_avg), of the order of dE_avg itself.
-* 1 - E: relative to max(|1 - E|, 1e-3).  This is the factor of f_ms in each direction: a relative error
-  of 1 - E is the relative error of the lobe's shape (and 1 - E < 0 where the approximation
-  of E exceeds 1 flips the lobe's sign, an error of at least 100 %).  Where less than 0.1 % of the
-  energy is missing the error is measured against 1e-3 instead: there the lobe is invisible and only its
-  absolute error (in units of 0.1 % of the energy) counts.  Oren-Nayar's 1 - E is negative near grazing
-  for alpha < 0.208 (the model gains energy there; exact engine's docstring), down to -0.01518 at mu = 0,
-  alpha = 0.1264 (:data:`ON_NEGATIVE`, which its target's description states): the scale uses |1 - E|.
-
-Oren-Nayar with A's 0.57 (the 1992 footnote) is not a target: it gains energy for alpha < 0.35 (E(0) > 1),
-E_avg > 1 for alpha < 0.0996, so that its f_ms is negative below and unbounded near that alpha, and
-there is nothing to compensate; its E = A + B g(mu) differs from the 0.33 model's only in the closed-form
-A, with the same g (:mod:`..forms.oren_nayar`), so a fit of E_on serves it by replacing A.
-"""
+Details: docs/microfacet_energy_derivation.md, section ``fitlab.families.microfacet_energy.targets``."""
 
 from __future__ import annotations
 
@@ -51,7 +32,7 @@ __all__ = ["INPUTS", "TARGETS", "MODEL_SUFFIX", "ONE_MINUS_E_FLOOR", "ON_NEGATIV
 #: the models that have targets, by the suffix of their targets' names
 MODEL_SUFFIX = {"ggx_separable": "ggx_sep", "ggx_correlated": "ggx_cor", "oren_nayar": "on"}
 
-#: the floor of the scale of the 1 - E targets: below it only the absolute error counts (module docstring)
+#: the floor of the scale of the 1 - E targets: below it only the absolute error counts (docs/microfacet_energy_derivation.md)
 ONE_MINUS_E_FLOOR = 1e-3
 
 #: where Oren-Nayar's 1 - E goes below 0, as its target's description states it: E > 1 (the model gains energy)
@@ -177,5 +158,5 @@ _DEFAULTS = {
 
 TARGETS: dict[str, Target] = {t.name: t for model in MODEL_SUFFIX for t in _albedo_targets(model, _DEFAULTS[model])}
 
-# the parameters of the fitted multiple-scattering lobes by order (issue 20): targets.lobes owns them
+# the parameters of the fitted multiple-scattering lobes by order: targets.lobes owns them
 TARGETS.update(LOBE_TARGETS)

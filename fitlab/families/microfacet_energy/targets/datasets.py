@@ -12,42 +12,11 @@ separable, 0 height-correlated) to about 0.12 near t = 1 and decays like 1/t^2. 
 1/64 in alpha does not resolve it for alpha < 1/64, so both sets add lines at small alpha with
 mu = t alpha.
 
-Grids (each set's ``grid`` text says its own):
-
-* GGX E, training: the table ggx_E_nodes_64 (mu, alpha = k/64, k = 0..64: both ends of both axes),
-  and the engine at alpha in {1e-4, 1e-3, 4e-3} with mu = 0 and mu = t alpha, t in {1/8, 1/4, ..., 16}
-  (powers of 2), and the small-mu lines mu = 10^(k/2), k = -14..-5, at each of those alphas > 0.
-* GGX E, validation: the table ggx_E_centres_128 (mu, alpha = (2k + 1)/256: texel centres, every one
-  between training nodes), the edges mu = 0, mu = 1 (at every validation alpha and at alpha = 0, 1) and
-  alpha = 0, alpha = 1 (at every validation mu) by the engine, and the lines alpha in
-  {1e-6, 1e-5, 5e-4, 2e-3} (down to the smallest alpha the engine resolves, 1e-6) at mu = 0, mu = t alpha
-  with t in {1/16, 3/16, 3/8, 3/4, 3/2, 3, 6, 12} and every 2^(j/4) from 1/16 to 64, and every
-  validation mu; and the small-mu lines mu = 10^(k/8) (1e-7 to 10^-2.5, none a training mu) at
-  every validation alpha > 0.  No interior point of the validation set is a training point.
-
-The small-mu and dense grazing lines are where the fits' errors peak (1 - E of height-correlated Smith falls
-to 0 like -mu log(mu), and the relative error of a fit of it peaks where 1 - E crosses its scale's floor
-1e-3, at mu ~ 1e-4; E and 1 - E peak on the grazing layer at t ~ 1 to 20): without them the validation
-maxima of three targets understated the true maximum, by up to 4.6 times (one_minus_E_ggx_cor).
-:func:`fitlab.fit.search.search_worst` climbs from a set's worst points over the exact engine; for the
-packaged fits it finds at most 5 % more than the set's maximum (tests/test_microfacet_validation_max.py).
-* Oren-Nayar E: training the table oren_nayar_E_nodes_64; validation the closed form on
-  mu, alpha in {(2k + 1)/256} and {0, 1}.
-* E_avg: the table E_avg_nodes_256 (alpha = k/256): training the rows k = 0 mod 4 (alpha = k/64) and,
-  for GGX, the engine at alpha in {1e-4, 1e-3, 4e-3}; validation the other rows (three times denser,
-  interleaved), the ends alpha = 0 and 1 (in both sets) and, for GGX, the engine at alpha in
-  {1e-6, 1e-5, 5e-4, 2e-3}.
-
-alpha = 0 is the mirror (E = 1 at every mu, by the engine's definition).  For separable Smith that
-value at the corner (mu, alpha) = (0, 0) is not a limit: along mu = 0, E -> 0.936 as alpha -> 0.  The
-corner stays in the sets; a form that is continuous there errs by at least half that jump at one of
-the nearby points (:mod:`..forms.ggx` writes its grazing forms in v = alpha/(mu + alpha), which takes
-both values).
-"""
+Details: docs/microfacet_energy_derivation.md, section ``fitlab.families.microfacet_energy.targets.datasets``."""
 
 from __future__ import annotations
 
-from functools import lru_cache
+from functools import cache
 from pathlib import Path
 
 import numpy as np
@@ -149,12 +118,12 @@ def _odd(denominator: int) -> np.ndarray:
 
 # -- E(mu, alpha) ------------------------------------------------------------------------------------
 def albedo_training(model: str, data_dir: Path | None = None) -> Dataset:
-    """E of ``model`` on its training grid (module docstring); ``data_dir``: the tables' folder (None:
+    """E of ``model`` on its training grid (docs/microfacet_energy_derivation.md); ``data_dir``: the tables' folder (None:
     :func:`tables_dir`)."""
     return _albedo_training(model, tables_dir(data_dir))
 
 
-@lru_cache(maxsize=None)
+@cache
 def _albedo_training(model: str, folder: Path) -> Dataset:
     if model.startswith("ggx"):
         mu_axis, alpha_axis, table = tabulate.read_albedo_table(folder / _GGX_NODES.file, _GGX_NODES)
@@ -173,11 +142,11 @@ def _albedo_training(model: str, folder: Path) -> Dataset:
 
 
 def albedo_validation(model: str, data_dir: Path | None = None) -> Dataset:
-    """E of ``model`` on its validation grid (module docstring)."""
+    """E of ``model`` on its validation grid (docs/microfacet_energy_derivation.md)."""
     return _albedo_validation(model, tables_dir(data_dir))
 
 
-@lru_cache(maxsize=None)
+@cache
 def _albedo_validation(model: str, folder: Path) -> Dataset:
     ends = np.array([0.0, 1.0])
     if model.startswith("ggx"):
@@ -204,7 +173,7 @@ def _albedo_validation(model: str, folder: Path) -> Dataset:
 
 
 # -- E_avg(alpha) ------------------------------------------------------------------------------------
-@lru_cache(maxsize=None)
+@cache
 def _average_table(folder: Path) -> tuple[np.ndarray, dict]:
     return tabulate.read_average_table(folder / tabulate.AVERAGE_FILE)
 
@@ -217,16 +186,16 @@ def _average_engine(model: str, alphas, name: str) -> Dataset:
 
 
 def average_training(model: str, data_dir: Path | None = None) -> Dataset:
-    """E_avg of ``model`` on its training grid (module docstring)."""
+    """E_avg of ``model`` on its training grid (docs/microfacet_energy_derivation.md)."""
     return _average_set(model, tables_dir(data_dir), True)
 
 
 def average_validation(model: str, data_dir: Path | None = None) -> Dataset:
-    """E_avg of ``model`` on its validation grid (module docstring)."""
+    """E_avg of ``model`` on its validation grid (docs/microfacet_energy_derivation.md)."""
     return _average_set(model, tables_dir(data_dir), False)
 
 
-@lru_cache(maxsize=None)
+@cache
 def _average_set(model: str, folder: Path, training: bool) -> Dataset:
     alpha, columns = _average_table(folder)
     k = np.arange(alpha.size)

@@ -14,29 +14,11 @@ ms_tilt_flattening_KIND         alpha, mu_i, order     its normal flattening sig
 ms_tilt_b_KIND, ms_tilt_k_KIND  alpha, mu_i, order     its azimuthal tilt b and narrowing k
 ==============================  =====================  ====================================================
 
-Domain: alpha and mu_i in [0.05, 1] (the lobe tables' domain), order in [2, 5] (5 stands for every order
-above 4; the forms are meant at the integer orders).  Training and validation sets: the parameter tables of
-the training and of the interleaved validation grid; for the shape parameters (exponent, flattening, tilt)
-restricted to the lobes that carry at least :data:`MIN_ALBEDO` of the energy (below it a lobe's shape is
-noise and worth nothing to a renderer: at alpha = 0.05 the conductors' orders above 2 hold 1e-5 to 1e-3),
-but for the tilted lobe's scale every lobe with any energy (a lobe without energy must get a scale near 0:
-left out, its exponential form extrapolates there freely and the lobe with it; their noisy values weigh
-little, see below).  The tilted lobe's scale is not its per-lobe fit but the scale that gives the lobe of
-the fitted shape functions the simulated albedo (:func:`energy_scales`).
-
-Error measures: relative for the scales and flattenings (a relative error of either is a relative error
-of the lobe), absolute for the exponents (a change d eta changes the lobe by the factor mu_o^d eta, about
-1 - d eta |log mu_o|, i.e. by d eta where mu_o ~ 1/e) and for b and k (exp(b s_o cos phi) moves by db at
-most).  The per-lobe values are Monte Carlo estimates: each training point is weighted by 1 / max(1,
-se / (0.05 scale)) (its standard error against a tolerance of 0.05 of the error measure's scale), so that
-the lobes whose parameter the simulation leaves uncertain pull less; the validation metrics are
-unweighted.  No minimax refinement: the largest error is the noise of one lobe, which a minimax fit
-would chase.  What a renderer sees is the lobe's error, which docs/microsurface_lobes.md measures.
-"""
+Details: docs/blog_lobe_model.md, section ``fitlab.families.microfacet_energy.targets.lobes``."""
 
 from __future__ import annotations
 
-from functools import lru_cache
+from functools import cache
 from pathlib import Path
 
 import numpy as np
@@ -53,7 +35,7 @@ from fitlab.families.microfacet_energy.targets.lobe_parts import (
 
 __all__ = ["LOBE_TARGETS", "MIN_ALBEDO", "TOLERANCE", "energy_scales"]
 
-#: lobes below this albedo are left out of the sets (module docstring)
+#: lobes below this albedo are left out of the sets (docs/blog_lobe_model.md)
 MIN_ALBEDO = 1e-3
 #: the columns whose sets hold every lobe with any energy (the others': albedo >= MIN_ALBEDO): the tilted
 #: lobe's scale (the blog's scale is fitted the blog's way, on the lobes that matter, orders 2 and 3 for it)
@@ -75,7 +57,7 @@ def _tables_dir() -> Path:
     return tables_dir()
 
 
-@lru_cache(maxsize=None)
+@cache
 def _dataset(kind: str, which: str, column: str, with_order: bool, folder: Path) -> Dataset:
     p = read_params(folder, kind, which)
     if column == ENERGY_SCALE:

@@ -17,19 +17,7 @@ Rows run over mu fastest (one block of rows per alpha, as a texture's rows run o
 E_avg(alpha) (Kulla-Conti's 2 int E mu dmu; the blog's is pi times it) is tabulated once on
 alpha = k/256, k = 0..256, which holds every alpha of the E tables above.
 
-Values are E from the default (half-vector / closed-form) route of the exact engine, accurate to 1e-9
-absolute and written rounded to 12 decimals (a 5e-13 change, which keeps the files small; the same
-machine and library versions reproduce them byte for byte).  :func:`check_tables` recomputes a sample
-of rows by the other, independent route.
-
-The simulated multiple-scattering lobes by order (``lobes_KIND_SET.csv``, :mod:`..lobes.tables`: the
-microsurface random walk, 3 to 7 minutes on 2 cores) and the per-lobe fits of their shapes
-(``lobe_params_KIND_SET.csv``, :mod:`..lobes.params`, about a minute) are written beside them; their check
-re-simulates one job of each kind with an independent seed and refits one lobe.
-
-A 256 x 256 GGX table (``fine=True``) is not committed: at about 3.5 MB it alone exceeds the budget for
-the family's tables; write it when needed.
-"""
+Details: docs/microfacet_energy_derivation.md, section ``fitlab.families.microfacet_energy.targets.tabulate``."""
 
 from __future__ import annotations
 

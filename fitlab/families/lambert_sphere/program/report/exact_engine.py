@@ -61,12 +61,13 @@ def h_convergence(orders, albedos, mu_points: int, nodes, steps, repeat: int = 2
         errs, secs = [], []
         for m, c, ch in cases:
             errs.append(np.abs(f(ch) / ref[(m, c)] - 1.0))
-            secs.append(best_seconds(lambda: f(ch), repeat))
+            secs.append(best_seconds(lambda f=f, ch=ch: f(ch), repeat))
         e = np.concatenate(errs)
         rows.append({"method": method, "resolution": resolution, "max_rel": float(e.max()),
                      "rms_rel": float(np.sqrt(np.mean(e**2))), "seconds": float(np.mean(secs)),
                      "points": int(e.size)})  # fmt: skip
-        tick and tick()
+        if tick:
+            tick()
     return rows
 
 

@@ -77,7 +77,8 @@ def mc_study(settings, tick=None, seed: int = 2021) -> list[dict]:
             "seconds": seconds, "compile_seconds": sum(st.compile_seconds for st in res.jobs.values()),
             "ns_per_value": seconds / len(rows) * 1e9,
         })  # fmt: skip
-        tick and tick()
+        if tick:
+            tick()
     return out
 
 

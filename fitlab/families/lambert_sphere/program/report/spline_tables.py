@@ -29,7 +29,7 @@ Two BRDF methods are built from them:
 
 from __future__ import annotations
 
-from functools import lru_cache
+from functools import cache
 from pathlib import Path
 
 import numpy as np
@@ -52,7 +52,7 @@ def h_interpolant(order: int, data_dir: Path | None = None):
     return _h_interpolant(order, tables_dir(data_dir))
 
 
-@lru_cache(maxsize=None)
+@cache
 def _h_spline(order: int, data_dir: Path):
     from scipy.interpolate import RectBivariateSpline
 
@@ -63,7 +63,7 @@ def _h_spline(order: int, data_dir: Path):
     return RectBivariateSpline(s, np.log(mus[keep]), np.log(h[:, keep]) / mus[keep], kx=3, ky=3)
 
 
-@lru_cache(maxsize=None)
+@cache
 def _h_interpolant(order: int, data_dir: Path):
     spline = _h_spline(order, data_dir)
 
@@ -81,7 +81,7 @@ def constant_interpolant(name: str, data_dir: Path | None = None):
     return _constant_interpolant(name, tables_dir(data_dir))
 
 
-@lru_cache(maxsize=None)
+@cache
 def _constant_interpolant(name: str, data_dir: Path):
     from scipy.interpolate import CubicSpline
 
@@ -97,7 +97,7 @@ def kd_interpolant(data_dir: Path | None = None):
     return _kd_interpolant(tables_dir(data_dir))
 
 
-@lru_cache(maxsize=None)
+@cache
 def _kd_interpolant(data_dir: Path):
     from scipy.interpolate import CubicSpline
 
@@ -111,7 +111,7 @@ def c_of_kd_interpolant(data_dir: Path | None = None):
     return _c_of_kd_interpolant(tables_dir(data_dir))
 
 
-@lru_cache(maxsize=None)
+@cache
 def _c_of_kd_interpolant(data_dir: Path):
     from scipy.interpolate import CubicSpline
 
