@@ -17,9 +17,21 @@ from types import ModuleType
 
 from fitlab._interrupt import check, hold
 
-__all__ = ["import_generated", "atomic_write_text", "atomic_write_bytes", "atomic_write_many", "temporary_name",
-           "InputFileError", "TableError", "regular_file", "read_regular_file", "DECIMAL", "decimal", "text_lines",
-           "unusual_character"]
+__all__ = [
+    "import_generated",
+    "atomic_write_text",
+    "atomic_write_bytes",
+    "atomic_write_many",
+    "temporary_name",
+    "InputFileError",
+    "TableError",
+    "regular_file",
+    "read_regular_file",
+    "DECIMAL",
+    "decimal",
+    "text_lines",
+    "unusual_character",
+]
 
 
 def temporary_name(path: Path) -> Path:
@@ -155,8 +167,12 @@ class TableError(Exception):
     :func:`fitlab.resources.tables_folder`, below the store, which is why it is defined here)."""
 
 
-_KINDS = ((stat.S_ISFIFO, "a FIFO"), (stat.S_ISSOCK, "a socket"), (stat.S_ISCHR, "a character device"),
-          (stat.S_ISBLK, "a block device"))
+_KINDS = (
+    (stat.S_ISFIFO, "a FIFO"),
+    (stat.S_ISSOCK, "a socket"),
+    (stat.S_ISCHR, "a character device"),
+    (stat.S_ISBLK, "a block device"),
+)
 
 
 def _check_stat(path, info: os.stat_result, max_bytes: int) -> os.stat_result:

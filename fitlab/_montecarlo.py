@@ -17,10 +17,30 @@ import sys
 
 from fitlab._precision import float64
 
-__all__ = ["MAX_PATHS", "MIN_PATHS_BUDGET", "SLOW_JOB_SECONDS", "THREEFRY_ROTATIONS", "THREEFRY_C", "duration",
-           "slow_job_warning", "threefry_2x32", "HOST_DEVICES_FLAG", "use_every_core", "PRECISIONS",
-           "FLOAT32_UNIFORM_BITS", "uniforms", "sincos_2pi", "threefry_blocks", "block_words", "azimuth_cosine",
-           "bin_index", "add_with_squares", "ChunkedRound", "device_local", "device_stacked"]
+__all__ = [
+    "MAX_PATHS",
+    "MIN_PATHS_BUDGET",
+    "SLOW_JOB_SECONDS",
+    "THREEFRY_ROTATIONS",
+    "THREEFRY_C",
+    "duration",
+    "slow_job_warning",
+    "threefry_2x32",
+    "HOST_DEVICES_FLAG",
+    "use_every_core",
+    "PRECISIONS",
+    "FLOAT32_UNIFORM_BITS",
+    "uniforms",
+    "sincos_2pi",
+    "threefry_blocks",
+    "block_words",
+    "azimuth_cosine",
+    "bin_index",
+    "add_with_squares",
+    "ChunkedRound",
+    "device_local",
+    "device_stacked",
+]
 
 #: the largest path budget of one job (``max_paths`` in a scene file, ``--max-paths``): one rule for every
 #: family and the command line (the microsurface walk numbers a job's paths with 32-bit ids)
@@ -64,8 +84,9 @@ def duration(seconds: float) -> str:
     return f"{seconds / 86400:.0f} days"
 
 
-def slow_job_warning(paths: int, seconds: float, se_ratio: float, max_paths: int,
-                     bound: float = SLOW_JOB_SECONDS) -> str | None:
+def slow_job_warning(
+    paths: int, seconds: float, se_ratio: float, max_paths: int, bound: float = SLOW_JOB_SECONDS
+) -> str | None:
     """The warning for a job that has run ``paths`` paths in ``seconds`` (walk time) with its worst standard
     error ``se_ratio`` times its target, or None when its stop is projected within ``bound`` seconds.
 
@@ -80,8 +101,10 @@ def slow_job_warning(paths: int, seconds: float, se_ratio: float, max_paths: int
         left = (max_paths - paths) / rate
         if left <= bound:
             return None
-        return (f"after {paths} paths a bin is still empty (no error estimate): the job may run to max_paths = "
-                f"{max_paths}, {duration(left)} more at {rate:.3g} paths/s (over the {duration(bound)} bound)")
+        return (
+            f"after {paths} paths a bin is still empty (no error estimate): the job may run to max_paths = "
+            f"{max_paths}, {duration(left)} more at {rate:.3g} paths/s (over the {duration(bound)} bound)"
+        )
     needed = paths * max(se_ratio, 1.0) ** 2
     stop = min(needed, max_paths)
     left = (stop - paths) / rate
@@ -89,9 +112,11 @@ def slow_job_warning(paths: int, seconds: float, se_ratio: float, max_paths: int
         return None
     head = f"standard error {se_ratio:.3g} x its target after {paths} paths; the target needs about {needed:.2g} paths"
     if needed > max_paths:
-        return (f"{head}, more than max_paths = {max_paths}: the job will stop above its target after "
-                f"{duration(left)} more at {rate:.3g} paths/s (over the {duration(bound)} bound; lower --max-paths "
-                "or raise --target-se)")
+        return (
+            f"{head}, more than max_paths = {max_paths}: the job will stop above its target after "
+            f"{duration(left)} more at {rate:.3g} paths/s (over the {duration(bound)} bound; lower --max-paths "
+            "or raise --target-se)"
+        )
     return f"{head}: {duration(left)} more at {rate:.3g} paths/s (over the {duration(bound)} bound)"
 
 
@@ -189,8 +214,9 @@ def sincos_2pi(x):
     a = (x - jnp.round(x)) * jnp.float32(math.pi)
     a2 = a * a
     sin_a = a * (1.0 + a2 * (-1 / 6 + a2 * (1 / 120 + a2 * (-1 / 5040 + a2 * (1 / 362880 + a2 * (-1 / 39916800))))))
-    cos_a = 1.0 + a2 * (-1 / 2 + a2 * (1 / 24 + a2 * (-1 / 720 + a2 * (1 / 40320 + a2 * (-1 / 3628800
-                                                                                      + a2 * (1 / 479001600))))))
+    cos_a = 1.0 + a2 * (
+        -1 / 2 + a2 * (1 / 24 + a2 * (-1 / 720 + a2 * (1 / 40320 + a2 * (-1 / 3628800 + a2 * (1 / 479001600)))))
+    )
     return 2.0 * sin_a * cos_a, 1.0 - 2.0 * sin_a * sin_a
 
 

@@ -35,9 +35,23 @@ try:
 except ImportError:  # Windows: no flock, no lock (see docs/reliability.md)
     fcntl = None
 
-__all__ = ["cache_dir", "cache_key", "cached_arrays", "cached_at", "cached_files", "cache_info", "clear_cache",
-           "enabled", "enable_compilation_cache", "package_sources", "INPUT_PREFIX", "CacheFolderError",
-           "PROGRAM_SUFFIX", "cached_text", "family_entry_points"]
+__all__ = [
+    "cache_dir",
+    "cache_key",
+    "cached_arrays",
+    "cached_at",
+    "cached_files",
+    "cache_info",
+    "clear_cache",
+    "enabled",
+    "enable_compilation_cache",
+    "package_sources",
+    "INPUT_PREFIX",
+    "CacheFolderError",
+    "PROGRAM_SUFFIX",
+    "cached_text",
+    "family_entry_points",
+]
 
 _SUFFIX = ".npz"
 #: the array of an entry that holds its content hash (:func:`_content_hash`)
@@ -274,8 +288,11 @@ def _lock(fd: int, path: Path) -> None:
             pass
         if not said and time.monotonic() - start >= WAIT_NOTICE_S:
             holder = _holder(fd)
-            print(f"fitlab: waiting for process {holder if holder else '(unknown)'}, which is computing the cache "
-                  f"entry {path.name} (its lock: {path.parent / _LOCKS / (path.name + '.lock')})", file=sys.stderr)
+            print(
+                f"fitlab: waiting for process {holder if holder else '(unknown)'}, which is computing the cache "
+                f"entry {path.name} (its lock: {path.parent / _LOCKS / (path.name + '.lock')})",
+                file=sys.stderr,
+            )
             said = True
         time.sleep(_POLL_S)
     with suppress(OSError):  # the holder's id, for a process that waits on this one; a lock without it still holds
@@ -380,8 +397,10 @@ def _cache_files() -> dict[str, list[Path]]:
         raise CacheFolderError(f"{folder}: cannot read ({exc.strerror or exc})") from None
     if others:
         shown = ", ".join(others[:3]) + (f" and {len(others) - 3} more" if len(others) > 3 else "")
-        raise CacheFolderError(f"{folder} holds {len(others)} name(s) fitlab does not write ({shown}): not a fitlab "
-                               "cache, left as it is (set FITLAB_CACHE_DIR to fitlab's own folder)")
+        raise CacheFolderError(
+            f"{folder} holds {len(others)} name(s) fitlab does not write ({shown}): not a fitlab "
+            "cache, left as it is (set FITLAB_CACHE_DIR to fitlab's own folder)"
+        )
     return found
 
 

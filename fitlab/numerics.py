@@ -64,8 +64,9 @@ def working_dtype(*values) -> type:
     return np.float64
 
 
-def real_array(value, name: str, lo: float, hi: float, *, open_lo: bool = False, dtype=np.float64,
-               domain: str | None = None) -> np.ndarray:
+def real_array(
+    value, name: str, lo: float, hi: float, *, open_lo: bool = False, dtype=np.float64, domain: str | None = None
+) -> np.ndarray:
     """``value`` as an array of ``dtype`` whose elements lie in [lo, hi] ((lo, hi] with open_lo)."""
     domain = domain or f"{'(' if open_lo else '['}{lo:g}, {hi:g}]"
     want = f"{name} must be a real number or an array of real numbers in {domain}"

@@ -27,8 +27,16 @@ from pathlib import Path
 
 from fitlab._io import TableError
 
-__all__ = ["package_folder", "packaged_fits", "packaged_tables", "packaged_scenes", "data_root", "tables_folder",
-           "find_scene", "DATA_ENV"]
+__all__ = [
+    "package_folder",
+    "packaged_fits",
+    "packaged_tables",
+    "packaged_scenes",
+    "data_root",
+    "tables_folder",
+    "find_scene",
+    "DATA_ENV",
+]
 
 #: the environment variable that names the user's data folder (``--data`` sets it)
 DATA_ENV = "FITLAB_DATA"

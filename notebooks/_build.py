@@ -30,7 +30,7 @@ import nbformat
 
 HERE = Path(__file__).resolve().parent
 
-SETUP = '''\
+SETUP = """\
 import os
 from pathlib import Path
 
@@ -42,7 +42,7 @@ from fitlab.resources import packaged_fits
 # tests/test_notebooks.py sets FITLAB_NOTEBOOK_SMALL=1: coarse grids, a few seconds per notebook
 SMALL = os.environ.get("FITLAB_NOTEBOOK_SMALL") == "1"
 FITS = packaged_fits()  # the fits packaged with fitlab (fitlab.resources)
-'''
+"""
 
 
 def md(text: str):
@@ -88,7 +88,7 @@ CHECKS = ("<", "<=", ">", ">=", "between", "prints as", "true")
 MARKER = re.compile(r"\[\[([A-Za-z0-9_]+)\]\]")
 
 #: the cell tests/test_notebooks.py appends: each claim's value, its check, and one JSON line of what it found
-CHECK_CELL = '''\
+CHECK_CELL = """\
 # appended by tests/test_notebooks.py (never committed): the claims of this notebook's text, notebooks/_build.py CLAIMS
 import json as _json
 import operator as _operator
@@ -117,7 +117,7 @@ for _key, _value, _check, _bound, _fmt, _when in __CLAIMS__:
         _failed.append(f"{_key}: {_v!r} {_check} {_bound!r}")
 print("CLAIMS " + _json.dumps(_found))
 assert not _failed, "a claim of the text does not hold: " + "; ".join(_failed)
-'''
+"""
 
 
 def check_source(claims) -> str:
@@ -162,20 +162,23 @@ The error is relative, $|H_\text{approx} - H|/H$. What to look for:
   power $\mu^d$, $d < 1$, can be accurate in $H$ and still wrong in $(H - 1)/\mu$, which the BRDF divides out
   (see 04_brdf.ipynb, grazing behaviour).
 """),
-    code(SETUP + '''
+    code(
+        SETUP
+        + """
 from fitlab.families.lambert_sphere.exact import h_function
 from fitlab.core import get_target, targets
 from fitlab.fit.verify import verify_fit
 from fitlab.residuals import approximations, heatmap, residuals
 from fitlab.store import load
-'''),
+"""
+    ),
     md(r"""
 ## The grid
 
 With full settings the grid is the refits' own validation grid (`get_target(...).validation()`: [[validation_grid]]),
 the one every fit record's figures are measured on. With `SMALL` it is a coarse grid of the same kind.
 """),
-    code('''
+    code("""
 validation = get_target("H0").validation()  # H1's validation set has the same points
 VALID_MU, VALID_C = np.unique(validation.inputs["mu"]), np.unique(validation.inputs["c"])
 ODD = np.arange(1, 256, 2) / 256
@@ -188,14 +191,14 @@ print(f"{MU.size} values of mu x {C.size} values of c")
 
 found = {name: approximations(name, FITS) for name in ("H0", "H1")}
 res = {name: {label: residuals(name, a, mu=MU, c=C) for label, a in found[name].items()} for name in found}
-'''),
+"""),
     md(r"""
 ## The exact functions
 
 $H_0$ and $H_1$ rise from 1 at grazing ($\mu = 0$); $H_0$ grows fastest at $c = 1$, where $H_0(\infty)$ is infinite
 (the conservative case, eq. 32). The two methods agree: [[fock]]
 """),
-    code('''
+    code("""
 fig, axes = plt.subplots(1, 2, figsize=(10, 3.5), layout="constrained")
 mu = np.linspace(0, 1, 21 if SMALL else 101)
 fock_difference = 0.0
@@ -208,7 +211,7 @@ for ax, order in zip(axes, (0, 1)):
 axes[0].legend()
 plt.show()
 print(f"Nystrom vs Fock on these curves: max relative difference {fock_difference:.1e}")
-'''),
+"""),
     md(r"""
 ## Summary
 
@@ -217,7 +220,7 @@ For the saved fits, `record` is the validation maximum the fit file states and `
 `fitlab.fit.verify.verify_fit(load(path))` measures on the validation set (what `fitlab codegen` does before it prints a
 fit): [[record_remeasured]] With full settings the grid is that set, and `max` is the same figure again.
 """),
-    code('''
+    code("""
 remeasured = {}  # (target, label): (the record's max, the max re-measured on the validation set)
 print(f"{'approximation':<54} {'max':>9} {'rms':>9} {'record':>9} {'re-measured':>11}  worst at")
 for name, by_label in res.items():
@@ -232,7 +235,7 @@ for name, by_label in res.items():
         w = s["worst"]
         print(f"{name + ': ' + label:<54} {s['max_rel']:9.2e} {s['rms_rel']:9.2e} {columns}  mu = {w['mu']:.4g}, c = {w['c']:.4g}")
 hapke = verify_fit(load(FITS / "H0.json"))  # the eq. 31 form, refitted minimax
-'''),
+"""),
     md(r"""
 ## Heat maps over $(\mu, c)$
 
@@ -240,7 +243,7 @@ One log colour scale for all panels (the colour bars show it). The rows are $H_0
 published preset, then every saved fit (the refit of the same form first). Look at where the colour is brightest, and at how
 evenly a minimax refit spreads its error compared with the published preset.
 """),
-    code('''
+    code("""
 def best_published(name):
     published = {label: r for label, r in res[name].items() if r.published}
     return min(published.values(), key=lambda r: r.summary()["max_rel"])
@@ -260,14 +263,14 @@ for row, (name, panels) in zip(axes, rows.items()):
     for ax in row[len(panels):]:
         ax.set_visible(False)
 plt.show()
-'''),
+"""),
     md(r"""
 ## Slices
 
 Left: the error along $\mu$ at a few fixed $c$ (the grid value nearest to each; log $\mu$, to show grazing angles);
 right: along $c$ at fixed $\mu$. Solid lines are the refit of the default form, dashed the best published preset.
 """),
-    code('''
+    code("""
 fig, axes = plt.subplots(2, 2, figsize=(11, 7), layout="constrained")
 for row, name in zip(axes, res):
     refit = res[name][next(label for label in res[name] if label.endswith(f"({name}.json)"))]
@@ -285,18 +288,18 @@ for row, name in zip(axes, res):
     row[0].legend(fontsize="small")
     row[1].legend(fontsize="small")
 plt.show()
-'''),
+"""),
     md(r"""
 ## The worst points
 
 The largest errors of the best published preset and of each saved fit, with the exact and approximate values.
 Neighbouring grid points of one peak follow each other in the list.
 """),
-    code('''
+    code("""
 for name in res:
     for r in (best_published(name), *saved_fits(name)):
         print(f"{name}: " + r.table(6), end="\\n\\n")
-'''),
+"""),
 ]
 
 # -----------------------------------------------------------------------------
@@ -316,34 +319,37 @@ Errors use each target's own scale (`fitlab.families.lambert_sphere.targets`):
 
 [[printed_zero]] `max*` below leaves the exact zeros out.
 """),
-    code(SETUP + '''
+    code(
+        SETUP
+        + """
 from fitlab.families.lambert_sphere.exact import constants
 from fitlab.core import get_target, targets
 from fitlab.residuals import approximations, residuals
 
 NAMES = ("l", "m", "B", "C", "D", "F")
-'''),
+"""
+    ),
     md(r"""
 ## The grid
 
 $c = 1 - s^2$ for evenly spaced $s$, dense near $c = 1$ where the constants bend. With full settings: the refits'
 validation grid ([[validation_grid]]), as in the fit records.
 """),
-    code('''
+    code("""
 VALID_C = np.unique(get_target("l").validation().inputs["c"])
 ODD = np.arange(1, 256, 2) / 256
 C = np.sort(1 - np.linspace(0, 1, 17) ** 2) if SMALL else VALID_C
 found = {name: approximations(name, FITS) for name in NAMES}
 res = {name: {label: residuals(name, a, c=C) for label, a in found[name].items()} for name in NAMES}
 print(f"{C.size} values of c; approximations: " + ", ".join(f"{n}: {len(v)}" for n, v in found.items()))
-'''),
+"""),
     md(r"""
 ## The exact constants and the approximations
 
 Each panel shows the exact constant (black) and every approximation; at this scale they overlap: the errors
 are below.
 """),
-    code('''
+    code("""
 fig, axes = plt.subplots(2, 3, figsize=(13, 7), layout="constrained")
 for ax, name in zip(axes.flat, NAMES):
     ax.plot(C, next(iter(res[name].values())).exact, "k", lw=3, alpha=0.4, label="exact")
@@ -352,14 +358,14 @@ for ax, name in zip(axes.flat, NAMES):
     ax.set(xlabel="c", title=name)
     ax.legend(fontsize="x-small")
 plt.show()
-'''),
+"""),
     md(r"""
 ## Errors along $c$
 
 Log scale; dashed lines are the published presets. Points with zero error (exact zeros the form builds in) are
 not drawn.
 """),
-    code('''
+    code("""
 fig, axes = plt.subplots(2, 3, figsize=(13, 7), layout="constrained")
 for ax, name in zip(axes.flat, NAMES):
     for label, r in res[name].items():
@@ -367,13 +373,13 @@ for ax, name in zip(axes.flat, NAMES):
     ax.set(xlabel="c", ylabel=next(iter(res[name].values())).error_measure.split(":")[0], title=name)
     ax.legend(fontsize="x-small")
 plt.show()
-'''),
+"""),
     md(r"""
 ## Summary and worst points
 
 `max*` leaves out the target's exact zeros ($c = 0$ for $B..F$), `worst at` is where `max*` lies.
 """),
-    code('''
+    code("""
 print(f"{'approximation':<44} {'max':>9} {'max*':>9} {'rms':>9}  worst at")
 for name in NAMES:
     for label, r in res[name].items():
@@ -381,12 +387,12 @@ for name in NAMES:
         nonzero = r.scale > 0
         worst_c = r.axes["c"][nonzero][np.argmax(r.error[nonzero])]
         print(f"{name + ': ' + label:<44} {s['max_rel']:9.2e} {s['max_rel_nonzero']:9.2e} {s['rms_rel']:9.2e}  c = {worst_c:.4g}")
-'''),
-    code('''
+"""),
+    code("""
 for name in NAMES:
     refit = next(r for label, r in res[name].items() if label.endswith(f"({name}.json)"))
     print(refit.table(4), end="\\n\\n")
-'''),
+"""),
     md(r"""
 ## An identity: the runtime model needs no fit of $m$
 
@@ -394,7 +400,7 @@ The order-1 term uses $l$ and $m$ only through $l$ and $l^2 + 45m/64$, and the m
 $l^2 + 45m/64 = (45 + 20c)/64$ exactly (docs/fitting.md). The exact constants confirm it to rounding: [[identity]]
 The cell also locates the sign change of $B$ and the values of $D$ and $F$ at $c = 1$ that the introduction states.
 """),
-    code('''
+    code("""
 exact = constants(C)
 deviation = np.abs(exact["l"] ** 2 + 45 * exact["m"] / 64 - (45 + 20 * C) / 64)
 print(f"max |l^2 + 45 m/64 - (45 + 20c)/64| over {C.size} values of c: {deviation.max():.1e}")
@@ -406,7 +412,7 @@ b_root = C[i] - B[i] * (C[i + 1] - C[i]) / (B[i + 1] - B[i])  # linear interpola
 A1 = 69 / 128  # A at c = 1
 at_one = {name: exact[name][C == 1][0] / A1 for name in ("D", "F")}
 print(f"B changes sign {b_flips.size} time(s), at c = {b_root:.4f};  at c = 1: D/A = {at_one['D']:.1e}, F/A = {at_one['F']:.1e}")
-'''),
+"""),
 ]
 
 # -----------------------------------------------------------------------------
@@ -426,13 +432,16 @@ $0 \le k_d \le 1$: [[c_of_kd_domain]].
 Errors are relative. The last section composes the two fitted maps: a renderer that converts $k_d \to c$ and
 back should get its $k_d$ back.
 """),
-    code(SETUP + '''
+    code(
+        SETUP
+        + """
 from fitlab.families.lambert_sphere.exact import spherical_albedo
 from fitlab.core import get_target, targets
 from fitlab.store import load
 from fitlab.residuals import approximations, residuals
-'''),
-    code('''
+"""
+    ),
+    code("""
 if SMALL:  # every new c costs the exact engine up to seconds (most near c = 1)
     C = np.array([0.0, 0.25, 0.5, 0.75, 0.9, 0.97, 1.0])
 else:
@@ -442,7 +451,7 @@ C_INV = C  # c_of_kd is fitted and measured on kd in [0, 1]: kd_true(1) = 1, so 
 kd_res = {label: residuals("kd_of_c", a, c=C) for label, a in approximations("kd_of_c", FITS).items()}
 c_res = {label: residuals("c_of_kd", a, c=C_INV) for label, a in approximations("c_of_kd", FITS).items()}
 print(f"{C.size} values of c")
-'''),
+"""),
     md(r"""
 ## The exact map, and the three-term phase function
 
@@ -451,7 +460,7 @@ albedo, and so does the mixed reference (`phase="mixed"`: true single scattering
 The mixed one differs from the three-term one in single scattering only, so that difference grows in proportion to
 $c$: [[proportional]] The true albedo stays close to the three-term one: [[true_three]]
 """),
-    code('''
+    code("""
 kd_true, kd_three = spherical_albedo(C), spherical_albedo(C, phase="three_term")
 kd_mixed = spherical_albedo(C, phase="mixed")
 fig, axes = plt.subplots(1, 2, figsize=(10, 3.5), layout="constrained")
@@ -466,13 +475,13 @@ axes[1].legend()
 plt.show()
 per_c = (kd_mixed - kd_three)[C > 0] / C[C > 0]
 print(f"kd_true(1) - 1 = {kd_true[C == 1][0] - 1:.2e};  (kd_mixed - kd_three)/c from {per_c.min():.6e} to {per_c.max():.6e}")
-'''),
+"""),
     md(r"""
 ## Errors of $k_d(c)$ and $c(k_d)$
 
 Dashed lines are published presets. [[printed_kd0]] [[refits_kd0]]
 """),
-    code('''
+    code("""
 fig, axes = plt.subplots(1, 2, figsize=(11, 4), layout="constrained")
 for label, r in kd_res.items():
     axes[0].semilogy(r.axes["c"], r.error, "--" if r.published else "-", label=label)
@@ -489,12 +498,12 @@ for group in (kd_res, c_res):
         s = r.summary()
         where = ", ".join(f"{k} = {v:.4g}" for k, v in s["worst"].items() if k not in ("exact", "approx"))
         print(f"{r.target + ': ' + label:<58} max {s['max_rel']:.2e}  max* {s['max_rel_nonzero']:.2e}  rms {s['rms_rel']:.2e}  at {where}")
-'''),
-    code('''
+"""),
+    code("""
 for r in (*kd_res.values(), *c_res.values()):
     if not r.published:
         print(r.table(5), end="\\n\\n")
-'''),
+"""),
     md(r"""
 ## The round trip
 
@@ -502,7 +511,7 @@ With the refitted maps, $c \to k_d(c) \to c(k_d)$ should return $c$, and $k_d \t
 return $k_d$. The two fits are independent, so their errors add (or cancel); the round trip shows what a renderer
 that converts both ways actually gets. The same for the published pair (paper $k_d(c)$, renderer $c(k_d)$).
 """),
-    code('''
+    code("""
 kd_of_c, c_of_kd = load(FITS / "kd_of_c.json"), load(FITS / "c_of_kd.json")
 c = C_INV[C_INV > 0]
 kd = spherical_albedo(c)  # exact kd in (0, 1]
@@ -524,7 +533,7 @@ for label, (start, back) in trips.items():
 ax.set(xlabel="c", ylabel="relative round-trip error")
 ax.legend()
 plt.show()
-'''),
+"""),
 ]
 
 # -----------------------------------------------------------------------------
@@ -558,13 +567,16 @@ $\mu_i = \mu_o = 0$ (where the exact $f_r$ grows like $\log(1/\mu)$ at $\phi = \
 single scattering elsewhere) is where forms without the exact grazing behaviour fail.
 $\phi = 0$ is back-scattering (the viewer beside the light).
 """),
-    code(SETUP + '''
+    code(
+        SETUP
+        + """
 from fitlab.families.lambert_sphere.exact import brdf
 from fitlab.store import load
 from fitlab.residuals import brdf_residuals, heatmap, residuals
 from fitlab.families.lambert_sphere.program.runtime import runtime_model
-'''),
-    code('''
+"""
+    ),
+    code("""
 RICHER = {"H0": "hapke_rational", "l": "cubic", "m": "quadratic", **{n: "rational_4_3" for n in "BCDF"}}
 MODELS = {
     "paper": runtime_model("paper"),
@@ -584,13 +596,13 @@ axes = dict(mu_i=MU, mu_o=MU, phi=PHI, c=C)
 res = {label: brdf_residuals(m, label=label, **axes) for label, m in MODELS.items()}
 res |= {label: residuals("fast_brdf", a, label=label, **axes) for label, a in FAST.items()}
 print(f"{MU.size}^2 directions x {PHI.size} azimuths x {C.size} albedos")
-'''),
+"""),
     md(r"""
 ## Summary
 
 `max` over the whole grid, `max (mu >= 0.1)` away from grazing, and where the maximum lies. [[shipped_best]]
 """),
-    code('''
+    code("""
 print(f"{'model':<22} {'max':>9} {'rms':>9} {'max (mu >= 0.1)':>16}  worst at")
 for label, r in res.items():
     s = r.summary()
@@ -598,7 +610,7 @@ for label, r in res.items():
     w = s["worst"]
     print(f"{label:<22} {s['max_rel']:9.2e} {s['rms_rel']:9.2e} {r.error[away].max():16.2e}  "
           f"mu_i = {w['mu_i']:.3g}, mu_o = {w['mu_o']:.3g}, phi = {w['phi']:.3g}, c = {w['c']:.3g}")
-'''),
+"""),
     md(r"""
 ## Heat maps over $(\mu_i, \mu_o)$
 
@@ -606,7 +618,7 @@ Rows are albedos, columns azimuths; log axes in $\mu$ and one log colour scale (
 shipped runtime model, then the refitted runtime model of the default forms, then the refitted fast variant. The
 diagonal $\mu_i = \mu_o$ at $\phi = \pi$ is where the grazing pole bites.
 """),
-    code('''
+    code("""
 def heatmaps(r):
     fig, grid = plt.subplots(C.size, PHI.size, figsize=(4.2 * PHI.size, 3.4 * C.size), layout="constrained", squeeze=False)
     for row, c in zip(grid, C):
@@ -618,20 +630,20 @@ def heatmaps(r):
 
 
 heatmaps(res["shipped (order 2)"])
-'''),
-    code('''
+"""),
+    code("""
 heatmaps(res["refit, default forms"])
-'''),
-    code('''
+"""),
+    code("""
 heatmaps(res["fast / refit"])
-'''),
+"""),
     md(r"""
 ## Polar slices in the plane of incidence
 
 The light at a fixed $\theta_i$ (the title states it); the viewer moves through the plane of incidence, from grazing
 beside the light ($\phi = 0$, negative $\theta_o$) to grazing opposite ($\phi = \pi$, positive $\theta_o$). Left: $f_r$ (1/sr); right: the relative error of each model.
 """),
-    code('''
+    code("""
 theta = np.radians(np.linspace(0, 89, 30 if SMALL else 90))
 mu_i = np.cos(np.radians(60.0))
 c = 0.9
@@ -656,7 +668,7 @@ polar.set_rticks(np.linspace(0, polar.get_rmax(), 4)[1:].round(2))
 errors.set(xlabel="theta_o (deg); negative: the light's side (phi = 0)", ylabel="relative error")
 errors.legend(fontsize="small")
 plt.show()
-'''),
+"""),
     md(r"""
 ## Grazing behaviour
 
@@ -672,7 +684,7 @@ Along $\mu_i = \mu_o = \mu \to 0$ (the diagonal of the grid, [[grazing_mu]], at 
 
 The cell prints each model at the smallest $\mu$, $\phi = \pi$.
 """),
-    code('''
+    code("""
 mu = np.geomspace(1e-6, 1, 13 if SMALL else 49)
 diag = {label: brdf_residuals(m, label=label, mu_i=mu, mu_o=mu, phi=PHI, c=[0.9]) for label, m in MODELS.items()}
 diag |= {label: residuals("fast_brdf", a, label=label, mu_i=mu, mu_o=mu, phi=PHI, c=[0.9]) for label, a in FAST.items()}
@@ -696,16 +708,16 @@ k = int(np.argmin(np.abs(PHI - np.pi)))
 for label, r in diag.items():
     print(f"{label:<22} phi = pi, mu_i = mu_o = {mu[0]:.0e}: exact {r.exact[0, 0, k, 0]:.4g}, model {r.approx[0, 0, k, 0]:.4g}, "
           f"relative error {r.error[0, 0, k, 0]:.3g}")
-'''),
+"""),
     md(r"""
 ## The worst points
 
 The grid points of largest error for the refitted runtime model and the refitted fast variant.
 """),
-    code('''
+    code("""
 for label in ("shipped (order 2)", "refit, default forms", "fast / refit"):
     print(res[label].table(8), end="\\n\\n")
-'''),
+"""),
     md(r"""
 ## One part on its own: $f_m^{(1)}$
 
@@ -713,14 +725,14 @@ The fast $f_m^{(1)}$ of eq. 29 against the exact order-1 multiple scattering, me
 azimuthal mean of the exact BRDF; $f_m^{(1)}$ itself vanishes at $c = 0$ and $\mu = 1$). The published coefficient
 was fitted to the halved $f_m^{(1)}$ of eq. 28 as printed (docs/errata.md); the refit is not.
 """),
-    code('''
+    code("""
 fm1 = {label: residuals("fm1", a, mu_i=MU, mu_o=MU, c=[0.9]) for label, a in (("fast / paper", ("fast", "paper")), ("fast / refit", load(FITS / "fm1.json")))}
 fig, axes = plt.subplots(1, 2, figsize=(10, 4), layout="constrained")
 for ax, r in zip(axes, fm1.values()):
     heatmap(r.at(c=0.9), "mu_i", "mu_o", ax=ax, vmin=1e-4, vmax=1e-1)
     ax.set(xscale="log", yscale="log")
 plt.show()
-'''),
+"""),
 ]
 
 # -----------------------------------------------------------------------------
@@ -745,7 +757,9 @@ they are. The refit is a fit of $H_1$ itself, the three-term half space's H-func
 `three-term`, whose parts are each fitted to their own target. The default model's parts are fitted to the true BRDF
 instead, and `fitlab codegen` refuses to mix the two in one model unless asked (`--allow-mixed-physics`).
 """),
-    code(SETUP + '''
+    code(
+        SETUP
+        + """
 import importlib.util
 import inspect
 import shutil
@@ -762,7 +776,8 @@ from fitlab.fit.verify import TOLERANCE
 from fitlab.store import fit_path, fit_sha256, fit_source, load, write_fit
 
 MODEL = "three-term"  # the model whose parts are each fitted to their own target, as a refit of H1 is
-'''),
+"""
+    ),
     md(r"""
 ## 1. The targets
 
@@ -771,7 +786,7 @@ Each target is something the exact engine computes (`fitlab.families.lambert_sph
 generated code prints (`fitlab.codegen.model_form`: the program's default model, the order-2 runtime model of
 docs/model.md), else the target's default form.
 """),
-    code('''
+    code("""
 for t in targets().values():
     if t.family != "lambert_sphere":
         continue
@@ -779,8 +794,8 @@ for t in targets().values():
     forms = ", ".join(f"{f}*" if f == default else f for f in t.forms)
     print(f"{t.name:<16} {forms:<58} {t.description}")
 print("* the form fitlab refit fits by default")
-'''),
-    code('''
+"""),
+    code("""
 FORM = model_form("H1")
 t = get_target("H1")
 form = t.forms[FORM]
@@ -788,7 +803,7 @@ print("H1's form in the generated code:", FORM)
 print(form.description)
 print("parameters:", form.params, " fixed:", dict(form.fixed))
 print("error measure:", t.error_measure)
-'''),
+"""),
     md(r"""
 ## 2. Refit $H_1$ into an empty scratch folder
 
@@ -798,7 +813,7 @@ refinement), measures the fit and the published presets on the denser validation
 With `SMALL` the minimax refinement is skipped: compare its maximum with the packaged fit's to see what the
 refinement buys. [[one_file]]
 """),
-    code('''
+    code("""
 scratch = Path(tempfile.mkdtemp(prefix="fitlab-walkthrough-"))
 fits_dir = scratch / "fits"
 
@@ -812,14 +827,14 @@ scratch_files = sorted(p.name for p in fits_dir.iterdir())
 scratch_sha256 = fit_sha256(path)
 print("the scratch folder holds:", scratch_files)
 print("sha256:", scratch_sha256)
-'''),
+"""),
     md(r"""
 ## 3. The record
 
 The JSON file holds everything needed to evaluate and judge the fit: the expression, the parameters, the domain, the
 validation metrics (with the worst point), the published presets measured the same way, and the optimizer's settings.
 """),
-    code('''
+    code("""
 record = result.record
 print("params:", record["params"])
 print("validation:", {k: record["validation"][k] for k in ("max_rel", "rms_rel", "points", "worst")})
@@ -829,14 +844,14 @@ print("optimizer:", record["optimizer"]["objective"])
 packaged_h1 = load(fit_source(None, "H1", FORM))  # fits_dir None: the packaged fit
 print(f"packaged fit ({packaged_h1.path.name}): max {packaged_h1.record['validation']['max_rel']:.3e};  "
       f"this refit: max {record['validation']['max_rel']:.3e}")
-'''),
+"""),
     md(r"""
 ## 4. Load and evaluate
 
 `fitlab.store.load` turns the file into a numpy callable (the file alone suffices: the expression is in it). Inputs go
 by name or position; outside the fit's domain it refuses.
 """),
-    code('''
+    code("""
 h1 = load(path)
 mu = np.array([0.0, 0.1, 0.5, 1.0])
 c = 0.9
@@ -847,7 +862,7 @@ try:
     h1(mu=1.5, c=c)
 except ValueError as err:
     print("outside the domain:", err)
-'''),
+"""),
     md(r"""
 ## 5. Generate Python from the scratch folder
 
@@ -873,7 +888,7 @@ banner_h1 = banner[path.name]
 The generated $h_1$ is the refit: [[h1_equal]] The packaged fit is another fit of the same form, and the next cell
 prints how far the two are apart.
 """),
-    code('''
+    code("""
 spec = importlib.util.spec_from_file_location("lambert_sphere_walkthrough", scratch / "generated" / "lambert_sphere.py")
 generated = importlib.util.module_from_spec(spec)
 spec.loader.exec_module(generated)
@@ -886,14 +901,14 @@ h1_difference = np.max(np.abs(generated.h1(MU_H, C_H) - h1_refit) / h1_refit)
 print(f"h1, generated vs the refit (load(path)): max relative difference {h1_difference:.1e}")
 print(f"h1, the refit vs the packaged fit:          max relative difference "
       f"{np.max(np.abs(packaged_h1(mu=MU_H, c=C_H) - h1_refit) / h1_refit):.1e}")
-'''),
+"""),
     md(r"""
 The generated `brdf` is the model `runtime_model(fits_dir=fits_dir, model=MODEL)` evaluates through fitlab (the same model,
 the same overlay of the scratch folder on the packaged fits): [[brdf_runtime]] Against the exact BRDF
 (`fitlab.families.lambert_sphere.exact.brdf`) on random directions with $\mu \ge 0.01$, [[brdf_exact]] (the cell
 prints the figure). Note the generated `brdf` takes $\cos\phi$, `runtime_model` takes $\phi$.
 """),
-    code('''
+    code("""
 rng = np.random.default_rng(0)
 n = 2000 if SMALL else 100_000
 mu_i, mu_o = rng.uniform(0.01, 1, (2, n))
@@ -909,7 +924,7 @@ exact = brdf(mu_i, mu_o, phi, c)
 err = np.abs(via_generated - exact) / exact
 brdf_error = err.max()
 print(f"generated vs exact BRDF ({n} random points, mu >= 0.01): max relative error {brdf_error:.2e}, median {np.median(err):.2e}")
-'''),
+"""),
     md(r"""
 ## 6. Generate C, compile and compare (when a compiler is present)
 
@@ -918,7 +933,7 @@ The C file has double and float versions of every routine (`lambert_sphere_brdf`
 ([[c_flags]]) and calls it through ctypes: [[c_python]] The cell also prints how
 far the float version is from the double one.
 """),
-    code('''
+    code("""
 files_c = generate("c", fits_dir=fits_dir, model=MODEL)
 header = files_c["lambert_sphere.h"]
 words = next(line for line in header.splitlines() if path.name in line).strip(" */").split()
@@ -940,7 +955,7 @@ else:
         c_difference = np.max(np.abs(double - via_generated) / via_generated)
         print(f"C double vs generated Python: max relative difference {c_difference:.1e}")
         print(f"C float vs C double:          max relative difference {np.max(np.abs(single - double) / double):.1e}")
-'''),
+"""),
     md(r"""
 ## 7. Keeping a refit
 
@@ -957,9 +972,9 @@ or, in Python, `write_fit(fit_path(Path("my-fits"), "H1", result.record["form"])
 `runtime_model(fits_dir=Path("my-fits"), model="three-term")` evaluates the same model through fitlab. `fitlab refit --form NAME` fits another form (`fitlab refit --list` names them),
 and `fitlab codegen --form H1=NAME` prints it.
 """),
-    code('''
+    code("""
 shutil.rmtree(scratch)
-'''),
+"""),
 ]
 
 # -----------------------------------------------------------------------------
@@ -980,7 +995,9 @@ The table is the example fitlab ships (`fitlab/data/examples/renderer_E.csv`, fo
 directional albedo of GGX with height-correlated Smith masking-shadowing and $F = 1$, with the noise of a Monte Carlo
 bake (its header says how it was made). The notebook works in a scratch folder it removes at the end.
 """),
-    code(SETUP + '''
+    code(
+        SETUP
+        + """
 import importlib.util
 import inspect
 import shutil
@@ -993,14 +1010,15 @@ from fitlab.codegen.single import generate_fit_file, read_user_fit, user_program
 from fitlab.fit.user import HOLDOUT_EVERY, SCALE_FLOOR
 from fitlab.resources import package_folder
 from fitlab.store import fit_sha256, load
-'''),
+"""
+    ),
     md(r"""
 ## 1. The table
 
 `fitlab.read_csv_table` reads it as `fitlab fit` does: a header row naming the columns, one row per point, lines
 starting with `#` skipped. [[table_grid]]
 """),
-    code('''
+    code("""
 TABLE = package_folder("data", "examples", "renderer_E.csv")
 print("".join(line for line in TABLE.open() if line.startswith("#")))
 table = fitlab.read_csv_table(TABLE)
@@ -1013,7 +1031,7 @@ grid = ax.tricontourf(mu, alpha, E, levels=20)
 fig.colorbar(grid, ax=ax, label="E")
 ax.set(xlabel="mu", ylabel="alpha", title="renderer_E.csv")
 plt.show()
-'''),
+"""),
     md(r"""
 ## 2. Fit it
 
@@ -1026,7 +1044,7 @@ then Lawson's minimax refinement), and measures the relative error with a floor,
 [[floor]], on the held-out rows the fit never saw. It writes no file. [[held_out_rows]] [[domain]] [[held_out_max]]
 [[held_out_worst]]
 """),
-    code('''
+    code("""
 v = "alpha/(mu + alpha)"
 FORM = (f"(a0 + a1*sqrt(alpha) + a2*alpha + (a3 + a4*sqrt(alpha) + a5*{v})*{v})"
         f" / (1 + a6*sqrt(alpha) + a7*alpha + (a8 + a9*sqrt(alpha) + a10*{v})*{v})")
@@ -1037,7 +1055,7 @@ print("parameters:", {k: float(f"{p:.6g}") for k, p in fit.params.items()})
 held_out = fit.validation
 print(f"held-out rows: {held_out['points']}; max relative error {held_out['max_rel']:.3e} at {held_out['worst']}, "
       f"RMS {held_out['rms_rel']:.3e}")
-'''),
+"""),
     md(r"""
 ## 3. The held-out error, measured here
 
@@ -1093,7 +1111,7 @@ print(inspect.getsource(generated.rational))
 The generated function is the fit: [[generated_equal]] Its held-out error, measured here on the table's held-out
 rows as above, is the one the fit states: [[generated_held_out]] Outside the domain it clamps its inputs: [[clamp]]
 """),
-    code('''
+    code("""
 MU_G, ALPHA_G = np.meshgrid(np.linspace(1 / 64, 63 / 64, 201), np.linspace(1 / 64, 63 / 64, 201))
 by_fit = fit(mu=MU_G, alpha=ALPHA_G)
 generated_difference = np.max(np.abs(generated.rational(MU_G, ALPHA_G) - by_fit) / np.abs(by_fit))
@@ -1103,7 +1121,7 @@ generated_held_difference = abs(generated_here[0] - held_out["max_rel"]) / held_
 print(f"generated, held-out rows: max {generated_here[0]:.6e}, RMS {generated_here[1]:.6e}")
 corner = (float(generated.rational(0.0, 0.0)), float(fit(mu=1 / 64, alpha=1 / 64)))
 print(f"generated at (0, 0): {corner[0]:.12g};  the fit at (1/64, 1/64): {corner[1]:.12g}")
-'''),
+"""),
     md(r"""
 ## 5. C, compiled and compared (when a compiler is present)
 
@@ -1111,7 +1129,7 @@ print(f"generated at (0, 0): {corner[0]:.12g};  the fit at (1/64, 1/64): {corner
 `fitlab.codegen.native.build` compiles them with the strict flags the tests use and calls them through ctypes:
 [[c_python]] The cell also prints how far the float version is from the double one.
 """),
-    code('''
+    code("""
 files_c = generate_fit_file(fit_file, "c")
 print("\\n".join(line for line in files_c["E.h"].splitlines() if "E_rational" in line and "(" in line))
 c_difference = None
@@ -1129,7 +1147,7 @@ else:
         c_difference = np.max(np.abs(double - python) / np.abs(python))
         print(f"C double vs generated Python: max relative difference {c_difference:.1e}")
         print(f"C float vs C double:          max relative difference {np.max(np.abs(single - double) / np.abs(double)):.1e}")
-'''),
+"""),
     md(r"""
 ## 6. Keeping it
 
@@ -1145,9 +1163,9 @@ or, in Python, `fit.save(Path("fits/E.rational.json"))` and `generate_fit_file(P
 sampled on a grid the same way, and `fitlab discover renderer_E.csv --target E` searches for a form
 (docs/your_own_data.md).
 """),
-    code('''
+    code("""
 shutil.rmtree(scratch)
-'''),
+"""),
 ]
 
 SEPARABLE_H1 = '("paper", "refit, default forms", "refit, richer forms")'
@@ -1162,7 +1180,9 @@ F82-tint, Gulbrandsen's artist-friendly metallic Fresnel. This notebook puts one
 approximation, as its published construction sets it and as refitted, and looks at the error where it lives: at
 grazing. Change `METAL` to any of `exact.MATERIALS`.
 """),
-    code(SETUP + '''
+    code(
+        SETUP
+        + """
 from fitlab.core import get_target
 from fitlab.families.fresnel import exact
 from fitlab.families.fresnel.forms import FORM_NAMES, MU_BAR
@@ -1174,14 +1194,15 @@ COLOURS = ("tab:red", "tab:green", "tab:blue")
 theta = np.linspace(0.0, 90.0, 181 if SMALL else 721)
 mu = np.cos(np.radians(theta))
 mu[-1] = 0.0
-'''),
+"""
+    ),
     md(r"""
 ## 1. The exact reflectance
 
 Per wavelength at normal incidence, and per channel over the angle of incidence. [[grazing_white]]
 [[normal_closed_form]]
 """),
-    code('''
+    code("""
 material = exact.get_material(METAL)
 lam = exact.WAVELENGTHS
 eta = material.index(lam)
@@ -1197,7 +1218,7 @@ for c in range(3):
 b.set_xlabel("angle of incidence (deg)"); b.set_title("F per sRGB channel (linear)")
 plt.show()
 print("F0 (linear sRGB):", np.round(F[0], 4), " F at grazing:", F[-1])
-'''),
+"""),
     md(r"""
 ## 2. Each approximation: its construction and the packaged refit
 
@@ -1207,7 +1228,7 @@ of each channel (`fitlab/fits/F_<metal>_<channel>.json`, what `fitlab refit --ta
 target's default form refitted on the validation-free training angles. [[schlick_misses]] [[f82_pins]]
 [[refit_within]]
 """),
-    code('''
+    code("""
 valid = get_target(f"F_{METAL}_r").validation()
 mu_v = valid.inputs["mu"]
 F_v = exact.reflectance(METAL, mu_v)
@@ -1234,141 +1255,337 @@ f82 = [get_target(f"F_{METAL}_{ch}").forms["f82_tint"] for ch in CHANNELS]
 f82_values = np.stack([f.numpy_function(f.vector("f82"), mu_bar) for f in f82], axis=-1)
 f82_at_bar = np.abs(f82_values - exact.reflectance(METAL, mu_bar)).max()
 errors
-'''),
+"""),
     md(r"""
 ## 3. The hemispherical average
 
 Kulla and Conti's coloured compensation takes $F_{avg} = 2\int_0^1 F \mu\, d\mu$. fitlab integrates it by two
 quadratures (in $\mu$ and in $\theta$); Schlick's has the closed form $(20 F_0 + 1)/21$. [[avg_routes]]
 """),
-    code('''
+    code("""
 avg_mu = exact.average_reflectance(METAL, route="mu")
 avg_theta = exact.average_reflectance(METAL, route="theta")
 schlick_avg = (20 * F[0] + 1) / 21
 print("F_avg exact:", np.round(avg_mu, 5), " Schlick's:", np.round(schlick_avg, 5))
 print("difference of the two quadratures:", np.abs(avg_mu - avg_theta).max())
-'''),
+"""),
 ]
 
 
 CLAIMS = {
     "01_h_functions.ipynb": [
-        Claim("validation_grid", "$c = 1 - s^2$, $s$ and $\\mu$ at odd multiples of 1/256, plus the edges and $\\mu$ = 1e-10, "
-              "1e-7, 1e-5",
-              "np.array_equal(VALID_MU, np.concatenate(([0, 1e-10, 1e-7, 1e-5], ODD, [1]))) and "
-              "np.allclose(VALID_C, np.sort(1 - np.concatenate(([0], ODD, [1])) ** 2), rtol=0, atol=1e-15)", "true"),
-        Claim("fock", "on the curves plotted below their largest relative difference is below {bound}.",
-              "fock_difference", "<", 1e-13),
+        Claim(
+            "validation_grid",
+            "$c = 1 - s^2$, $s$ and $\\mu$ at odd multiples of 1/256, plus the edges and $\\mu$ = 1e-10, 1e-7, 1e-5",
+            "np.array_equal(VALID_MU, np.concatenate(([0, 1e-10, 1e-7, 1e-5], ODD, [1]))) and "
+            "np.allclose(VALID_C, np.sort(1 - np.concatenate(([0], ODD, [1])) ** 2), rtol=0, atol=1e-15)",
+            "true",
+        ),
+        Claim(
+            "fock",
+            "on the curves plotted below their largest relative difference is below {bound}.",
+            "fock_difference",
+            "<",
+            1e-13,
+        ),
         Claim("hapke_floor", "the refit `H0.json` reaches {bound}", 'hapke["max_rel"]', "prints as", 0.00484, ".3%"),
         Claim("hapke_floor_at", "at $c = 1$, where its largest error lies", 'hapke["worst"]["c"] == 1', "true"),
-        Claim("record_remeasured", "for every saved fit the two differ by less than {bound} (relative).",
-              "[abs(measured - stated) / stated for stated, measured in remeasured.values()]", "<", 1e-9),
+        Claim(
+            "record_remeasured",
+            "for every saved fit the two differ by less than {bound} (relative).",
+            "[abs(measured - stated) / stated for stated, measured in remeasured.values()]",
+            "<",
+            1e-9,
+        ),
     ],
     "02_constants.ipynb": [
-        Claim("validation_grid", "$s$ at odd multiples of 1/256 plus the edges",
-              "np.allclose(VALID_C, np.sort(1 - np.concatenate(([0], ODD, [1])) ** 2), rtol=0, atol=1e-15)", "true"),
-        Claim("b_sign", "$B$ changes sign once, between $c$ = {lo} and {hi}", "b_root if b_flips.size == 1 else np.nan",
-              "between", (0.93, 0.95), "g"),
-        Claim("df_zero", "$D$, $F$ vanish at $c = 1$ (below {bound} of $A$ there)", "[abs(v) for v in at_one.values()]",
-              "<", 1e-12),
-        Claim("printed_zero", "All four printed rationals for $B..F$ miss the exact zero at $c = 0$, an infinite error in "
-              "this measure.", 'all(np.isinf(res[n]["printed / paper"].error[C == 0]).all() for n in "BCDF")', "true"),
+        Claim(
+            "validation_grid",
+            "$s$ at odd multiples of 1/256 plus the edges",
+            "np.allclose(VALID_C, np.sort(1 - np.concatenate(([0], ODD, [1])) ** 2), rtol=0, atol=1e-15)",
+            "true",
+        ),
+        Claim(
+            "b_sign",
+            "$B$ changes sign once, between $c$ = {lo} and {hi}",
+            "b_root if b_flips.size == 1 else np.nan",
+            "between",
+            (0.93, 0.95),
+            "g",
+        ),
+        Claim(
+            "df_zero",
+            "$D$, $F$ vanish at $c = 1$ (below {bound} of $A$ there)",
+            "[abs(v) for v in at_one.values()]",
+            "<",
+            1e-12,
+        ),
+        Claim(
+            "printed_zero",
+            "All four printed rationals for $B..F$ miss the exact zero at $c = 0$, an infinite error in this measure.",
+            'all(np.isinf(res[n]["printed / paper"].error[C == 0]).all() for n in "BCDF")',
+            "true",
+        ),
         Claim("identity", "the largest deviation on the grid is below {bound}.", "deviation.max()", "<", 1e-14),
     ],
     "03_albedo_maps.ipynb": [
         Claim("kd_one", "{bound}", "abs(kd_true[C == 1][0] - 1)", "<", 1e-12),
-        Claim("c_of_kd_domain", "the validation set of `c_of_kd` reaches $k_d = 1$",
-              'get_target("c_of_kd").validation().inputs["kd"].max() >= 1 - 1e-12', "true"),
-        Claim("proportional", "$(k_d^{mixed} - k_d^{three})/c$ is the same at every $c > 0$ of the grid to within {bound} "
-              "(relative).", "np.ptp(per_c) / per_c.mean()", "<", 1e-9),
+        Claim(
+            "c_of_kd_domain",
+            "the validation set of `c_of_kd` reaches $k_d = 1$",
+            'get_target("c_of_kd").validation().inputs["kd"].max() >= 1 - 1e-12',
+            "true",
+        ),
+        Claim(
+            "proportional",
+            "$(k_d^{mixed} - k_d^{three})/c$ is the same at every $c > 0$ of the grid to within {bound} (relative).",
+            "np.ptp(per_c) / per_c.mean()",
+            "<",
+            1e-9,
+        ),
         Claim("true_three", "within {bound} at every $c$ of the grid.", "np.abs(kd_true - kd_three).max()", "<", 3e-6),
-        Claim("printed_kd0", "The printed $k_d(c)$ misses $k_d(0) = 0$ (infinite relative error at $c = 0$, not drawn on a "
-              "log scale);", 'np.isinf(kd_res["printed / paper"].error[C == 0]).all()', "true"),
-        Claim("refits_kd0", "every fit saved for $k_d(c)$ is exact there.",
-              "all(r.error[C == 0][0] == 0 for r in kd_res.values() if not r.published)", "true"),
+        Claim(
+            "printed_kd0",
+            "The printed $k_d(c)$ misses $k_d(0) = 0$ (infinite relative error at $c = 0$, not drawn on a log scale);",
+            'np.isinf(kd_res["printed / paper"].error[C == 0]).all()',
+            "true",
+        ),
+        Claim(
+            "refits_kd0",
+            "every fit saved for $k_d(c)$ is exact there.",
+            "all(r.error[C == 0][0] == 0 for r in kd_res.values() if not r.published)",
+            "true",
+        ),
     ],
     "04_brdf.ipynb": [
-        Claim("order2", "The paper's model has no order-2 term (it has no $H_2$); the three fitted models each read "
-              "`H2.json` for it.",
-              '"H2" not in MODELS["paper"].sources and all(MODELS[label].sources.get("H2") == "H2.json" '
-              'for label in list(MODELS)[1:])', "true"),
-        Claim("shipped_best", "On this grid the shipped model has the smallest maximum of all the models.",
-              'min(res, key=lambda label: res[label].summary()["max_rel"]) == "shipped (order 2)"', "true"),
+        Claim(
+            "order2",
+            "The paper's model has no order-2 term (it has no $H_2$); the three fitted models each read "
+            "`H2.json` for it.",
+            '"H2" not in MODELS["paper"].sources and all(MODELS[label].sources.get("H2") == "H2.json" '
+            "for label in list(MODELS)[1:])",
+            "true",
+        ),
+        Claim(
+            "shipped_best",
+            "On this grid the shipped model has the smallest maximum of all the models.",
+            'min(res, key=lambda label: res[label].summary()["max_rel"]) == "shipped (order 2)"',
+            "true",
+        ),
         Claim("grazing_mu", "extended down to $\\mu$ = {bound}", "GRAZING_MU", "prints as", 1e-6, ".0e"),
-        Claim("grazing_forward", "at the smallest $\\mu$ every model is within {bound} of it (relative);",
-              "[errors[0] for errors in at_grazing.values()]", "<", 1e-2),
-        Claim("grazing_fast", "at the smallest $\\mu$ the fast variants' relative errors lie between {lo} and {hi}.",
-              '[at_grazing[label][-1] for label in FAST]', "between", (0.5, 1.0), "g"),
-        Claim("grazing_separable", "at the smallest $\\mu$ their relative errors exceed {bound}.",
-              f"[at_grazing[label][-1] for label in {SEPARABLE_H1}]", ">", 5.0, "g"),
-        Claim("grazing_shipped", "its relative error there stays below {bound}, most of it the three-term multiple "
-              "scattering's own gap from the true BRDF.", 'at_grazing["shipped (order 2)"][-1]', "<", 4e-3),
+        Claim(
+            "grazing_forward",
+            "at the smallest $\\mu$ every model is within {bound} of it (relative);",
+            "[errors[0] for errors in at_grazing.values()]",
+            "<",
+            1e-2,
+        ),
+        Claim(
+            "grazing_fast",
+            "at the smallest $\\mu$ the fast variants' relative errors lie between {lo} and {hi}.",
+            "[at_grazing[label][-1] for label in FAST]",
+            "between",
+            (0.5, 1.0),
+            "g",
+        ),
+        Claim(
+            "grazing_separable",
+            "at the smallest $\\mu$ their relative errors exceed {bound}.",
+            f"[at_grazing[label][-1] for label in {SEPARABLE_H1}]",
+            ">",
+            5.0,
+            "g",
+        ),
+        Claim(
+            "grazing_shipped",
+            "its relative error there stays below {bound}, most of it the three-term multiple "
+            "scattering's own gap from the true BRDF.",
+            'at_grazing["shipped (order 2)"][-1]',
+            "<",
+            4e-3,
+        ),
     ],
     "05_refit_and_codegen.ipynb": [
-        Claim("one_file", "The scratch folder then holds that one file, `H1.log_exp.json`.",
-              'scratch_files == ["H1.log_exp.json"]', "true"),
+        Claim(
+            "one_file",
+            "The scratch folder then holds that one file, `H1.log_exp.json`.",
+            'scratch_files == ["H1.log_exp.json"]',
+            "true",
+        ),
         Claim("tolerance", "more than {bound} worse", "TOLERANCE", "prints as", 0.10, ".0%"),
-        Claim("banner_h1", "The line of $H_1$ names the scratch file, `--fits` as where it was read, and the sha256 of "
-              "the file's bytes (`fitlab.store.fit_sha256(path)`);",
-              'banner_h1[:2] == (scratch_sha256, "--fits")', "true"),
-        Claim("banner_rest", "every other line says `packaged`;",
-              'len(banner) > 1 and all(where == "packaged" for name, (_, where, _) in banner.items() if name != path.name)',
-              "true"),
-        Claim("banner_max", "and the maximum it measured for $H_1$ prints as the one the refit's record states.",
-              'f"{banner_h1[2]:.2e}" == f"{record[\'validation\'][\'max_rel\']:.2e}"', "true"),
-        Claim("h1_equal", "over the whole domain ($\\mu, c \\in [0, 1]$, grazing $\\mu$ included) the generated `h1` "
-              "and the fit that `load(path)` returns differ by less than {bound} (relative).",
-              "h1_difference", "<", 1e-14),
-        Claim("brdf_runtime", "their largest relative difference on random directions is below {bound}.",
-              "brdf_difference", "<", 1e-13),
+        Claim(
+            "banner_h1",
+            "The line of $H_1$ names the scratch file, `--fits` as where it was read, and the sha256 of "
+            "the file's bytes (`fitlab.store.fit_sha256(path)`);",
+            'banner_h1[:2] == (scratch_sha256, "--fits")',
+            "true",
+        ),
+        Claim(
+            "banner_rest",
+            "every other line says `packaged`;",
+            'len(banner) > 1 and all(where == "packaged" for name, (_, where, _) in banner.items() if name != path.name)',
+            "true",
+        ),
+        Claim(
+            "banner_max",
+            "and the maximum it measured for $H_1$ prints as the one the refit's record states.",
+            "f\"{banner_h1[2]:.2e}\" == f\"{record['validation']['max_rel']:.2e}\"",
+            "true",
+        ),
+        Claim(
+            "h1_equal",
+            "over the whole domain ($\\mu, c \\in [0, 1]$, grazing $\\mu$ included) the generated `h1` "
+            "and the fit that `load(path)` returns differ by less than {bound} (relative).",
+            "h1_difference",
+            "<",
+            1e-14,
+        ),
+        Claim(
+            "brdf_runtime",
+            "their largest relative difference on random directions is below {bound}.",
+            "brdf_difference",
+            "<",
+            1e-13,
+        ),
         Claim("brdf_exact", "the largest relative error is below {bound}", "brdf_error", "<", 2e-3, ".0e"),
-        Claim("c_banner", "Its banner names the same file, sha256 and origin as the Python module's.",
-              "c_banner_h1 == (path.name, scratch_sha256, \"--fits\")", "true"),
-        Claim("c_flags", "`-std=c99 -O2 -Wall -Wextra -Wpedantic -Werror`",
-              '" ".join(STRICT_FLAGS) == "-std=c99 -O2 -Wall -Wextra -Wpedantic -Werror"', "true"),
-        Claim("c_python", "the double version and the generated Python differ by less than {bound} (relative).",
-              "c_difference", "<", 1e-13, when="c_difference is not None"),
+        Claim(
+            "c_banner",
+            "Its banner names the same file, sha256 and origin as the Python module's.",
+            'c_banner_h1 == (path.name, scratch_sha256, "--fits")',
+            "true",
+        ),
+        Claim(
+            "c_flags",
+            "`-std=c99 -O2 -Wall -Wextra -Wpedantic -Werror`",
+            '" ".join(STRICT_FLAGS) == "-std=c99 -O2 -Wall -Wextra -Wpedantic -Werror"',
+            "true",
+        ),
+        Claim(
+            "c_python",
+            "the double version and the generated Python differ by less than {bound} (relative).",
+            "c_difference",
+            "<",
+            1e-13,
+            when="c_difference is not None",
+        ),
     ],
     "06_your_own_table.ipynb": [
-        Claim("table_grid", "It has 1024 rows on the texel centres of a 32 x 32 texture, $\\mu$ and $\\alpha$ at "
-              "$(k + 1/2)/32$.",
-              "table.rows == 1024 and all(np.array_equal(np.unique(x), TEXELS) for x in (mu, alpha)) and TEXELS.size == 32",
-              "true"),
+        Claim(
+            "table_grid",
+            "It has 1024 rows on the texel centres of a 32 x 32 texture, $\\mu$ and $\\alpha$ at $(k + 1/2)/32$.",
+            "table.rows == 1024 and all(np.array_equal(np.unique(x), TEXELS) for x in (mu, alpha)) and TEXELS.size == 32",
+            "true",
+        ),
         Claim("held_out_rows", "Here {bound} rows are held out,", 'held_out["points"]', "prints as", 256, ".0f"),
-        Claim("domain", "the fit's domain is the bounding box of the rows, $\\mu, \\alpha \\in [1/64, 63/64]$,",
-              'fit.domain == {"mu": (1 / 64, 63 / 64), "alpha": (1 / 64, 63 / 64)}', "true"),
-        Claim("every", "it holds out one row in {bound} (the rows sorted by $(\\mu, \\alpha)$, every {bound}th from the 3rd)",
-              "HOLDOUT_EVERY", "prints as", 4, ".0f"),
+        Claim(
+            "domain",
+            "the fit's domain is the bounding box of the rows, $\\mu, \\alpha \\in [1/64, 63/64]$,",
+            'fit.domain == {"mu": (1 / 64, 63 / 64), "alpha": (1 / 64, 63 / 64)}',
+            "true",
+        ),
+        Claim(
+            "every",
+            "it holds out one row in {bound} (the rows sorted by $(\\mu, \\alpha)$, every {bound}th from the 3rd)",
+            "HOLDOUT_EVERY",
+            "prints as",
+            4,
+            ".0f",
+        ),
         Claim("floor", "$s_0$ = {bound} of the largest $|E|$", "SCALE_FLOOR", "prints as", 1e-3, ".0e"),
-        Claim("held_out_max", "and the largest held-out relative error is below {bound} (the cell prints it),",
-              'held_out["max_rel"]', "<", 2.5e-2, ".1e"),
-        Claim("held_out_worst", "at grazing, $\\mu = 1/64$, where $E$ of GGX changes on the scale $\\alpha$.",
-              'held_out["worst"]["mu"] == 1 / 64', "true"),
-        Claim("split_agrees", "The max and RMS agree with the fit's to a relative {bound}.", "split_difference", "<", 1e-12),
-        Claim("banner_max", "The banner states the held-out maximum it measured, which prints as the fit's.",
-              'f"{banner_max:.3e}" == f"{held_out[\'max_rel\']:.3e}"', "true"),
-        Claim("generated_equal", "on a grid over the domain the two differ by less than {bound} (relative).",
-              "generated_difference", "<", 1e-14),
-        Claim("generated_held_out", "the two maxima differ by less than {bound} (relative).",
-              "generated_held_difference", "<", 1e-12),
-        Claim("clamp", "at $(\\mu, \\alpha) = (0, 0)$ it returns the fit's value at $(1/64, 1/64)$, the domain's corner.",
-              "abs(corner[0] - corner[1]) <= 1e-15 * abs(corner[1])", "true"),
-        Claim("c_names", "`E_rational` in double and `E_rational_f` in float.",
-              '"double E_rational(double mu, double alpha)" in files_c["E.h"] and '
-              '"float E_rational_f(float mu, float alpha)" in files_c["E.h"]', "true"),
-        Claim("c_python", "the double version and the generated Python differ by less than {bound} (relative).",
-              "c_difference", "<", 1e-14, when="c_difference is not None"),
+        Claim(
+            "held_out_max",
+            "and the largest held-out relative error is below {bound} (the cell prints it),",
+            'held_out["max_rel"]',
+            "<",
+            2.5e-2,
+            ".1e",
+        ),
+        Claim(
+            "held_out_worst",
+            "at grazing, $\\mu = 1/64$, where $E$ of GGX changes on the scale $\\alpha$.",
+            'held_out["worst"]["mu"] == 1 / 64',
+            "true",
+        ),
+        Claim(
+            "split_agrees",
+            "The max and RMS agree with the fit's to a relative {bound}.",
+            "split_difference",
+            "<",
+            1e-12,
+        ),
+        Claim(
+            "banner_max",
+            "The banner states the held-out maximum it measured, which prints as the fit's.",
+            'f"{banner_max:.3e}" == f"{held_out[\'max_rel\']:.3e}"',
+            "true",
+        ),
+        Claim(
+            "generated_equal",
+            "on a grid over the domain the two differ by less than {bound} (relative).",
+            "generated_difference",
+            "<",
+            1e-14,
+        ),
+        Claim(
+            "generated_held_out",
+            "the two maxima differ by less than {bound} (relative).",
+            "generated_held_difference",
+            "<",
+            1e-12,
+        ),
+        Claim(
+            "clamp",
+            "at $(\\mu, \\alpha) = (0, 0)$ it returns the fit's value at $(1/64, 1/64)$, the domain's corner.",
+            "abs(corner[0] - corner[1]) <= 1e-15 * abs(corner[1])",
+            "true",
+        ),
+        Claim(
+            "c_names",
+            "`E_rational` in double and `E_rational_f` in float.",
+            '"double E_rational(double mu, double alpha)" in files_c["E.h"] and '
+            '"float E_rational_f(float mu, float alpha)" in files_c["E.h"]',
+            "true",
+        ),
+        Claim(
+            "c_python",
+            "the double version and the generated Python differ by less than {bound} (relative).",
+            "c_difference",
+            "<",
+            1e-14,
+            when="c_difference is not None",
+        ),
     ],
     "07_fresnel.ipynb": [
-        Claim("grazing_white", "At grazing ($\\mu = 0$) $F = 1$ in every channel, to {bound};", "np.abs(F[-1] - 1).max()", "<",
-              1e-14),
-        Claim("normal_closed_form", "at normal incidence $F = ((n-1)^2 + k^2)/((n+1)^2 + k^2)$ at every wavelength, to "
-              "{bound}.", "normal_error", "<", 1e-14),
-        Claim("schlick_misses", "For copper, Schlick's construction misses the exact $F$ by more than {bound} near grazing,",
-              'errors["schlick"]', ">", 0.03, ".2f"),
+        Claim(
+            "grazing_white",
+            "At grazing ($\\mu = 0$) $F = 1$ in every channel, to {bound};",
+            "np.abs(F[-1] - 1).max()",
+            "<",
+            1e-14,
+        ),
+        Claim(
+            "normal_closed_form",
+            "at normal incidence $F = ((n-1)^2 + k^2)/((n+1)^2 + k^2)$ at every wavelength, to {bound}.",
+            "normal_error",
+            "<",
+            1e-14,
+        ),
+        Claim(
+            "schlick_misses",
+            "For copper, Schlick's construction misses the exact $F$ by more than {bound} near grazing,",
+            'errors["schlick"]',
+            ">",
+            0.03,
+            ".2f",
+        ),
         Claim("f82_pins", "F82-tint's construction meets it at 82 degrees to {bound},", "f82_at_bar", "<", 1e-14),
-        Claim("refit_within", "and the packaged refits stay within {bound} of it over the whole hemisphere.",
-              'errors["packaged refit"]', "<", 3e-3),
+        Claim(
+            "refit_within",
+            "and the packaged refits stay within {bound} of it over the whole hemisphere.",
+            'errors["packaged refit"]',
+            "<",
+            3e-3,
+        ),
         Claim("avg_routes", "The two quadratures agree to {bound}.", "np.abs(avg_mu - avg_theta).max()", "<", 1e-10),
     ],
 }
@@ -1509,7 +1726,9 @@ def main(argv) -> int:
         else:
             path.write_text(text)
     if stale:
-        print(f"out of date with notebooks/_build.py: {', '.join(stale)}; run python notebooks/_build.py", file=sys.stderr)
+        print(
+            f"out of date with notebooks/_build.py: {', '.join(stale)}; run python notebooks/_build.py", file=sys.stderr
+        )
         return 1
     return 0
 

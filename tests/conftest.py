@@ -26,9 +26,12 @@ _BLAS_LIMIT = threadpool_limits(limits=1, user_api="blas")
 
 
 def pytest_addoption(parser):
-    parser.addoption("--no-exact-seed", action="store_true",
-                     help="start the run's cache of exact values without tests/data/exact_values (the seed's maker, "
-                          "tools/seed_test_cache.py, runs the tests of tests/exact_cache.py so)")
+    parser.addoption(
+        "--no-exact-seed",
+        action="store_true",
+        help="start the run's cache of exact values without tests/data/exact_values (the seed's maker, "
+        "tools/seed_test_cache.py, runs the tests of tests/exact_cache.py so)",
+    )
 
 
 def pytest_configure(config):

@@ -93,7 +93,8 @@ def _protocols(path: Path) -> dict[str, list[str]]:
     for node in _tree(path).body:
         if isinstance(node, ast.ClassDef) and any("Protocol" in ast.unparse(b) for b in node.bases):
             out[node.name] = [s.target.id for s in node.body if isinstance(s, ast.AnnAssign)] + [
-                s.name for s in node.body if isinstance(s, ast.FunctionDef) and not s.name.startswith("_")]
+                s.name for s in node.body if isinstance(s, ast.FunctionDef) and not s.name.startswith("_")
+            ]
     return out
 
 
@@ -110,8 +111,9 @@ def test_every_service_protocol_and_member_is_named(module):
     for name, members in protocols.items():
         if name.endswith("Bench"):  # the call shapes of Benchmarks' fields
             continue
-        assert f"`{name}`" in DOC or re.search(rf"`fitlab\.[\w.]+\.{name}`", DOC), \
+        assert f"`{name}`" in DOC or re.search(rf"`fitlab\.[\w.]+\.{name}`", DOC), (
             f"docs/architecture.md does not name {name} ({module})"
+        )
         missing = [m for m in members if not re.search(rf"`{m}[`(]", DOC)]
         assert not missing, f"docs/architecture.md does not name {name}'s members {missing}"
 
@@ -230,7 +232,7 @@ def test_families_are_on_top_and_reached_only_by_discovery():
         rel = path.relative_to(ROOT).as_posix()
         mine = _family(".".join(p for p in path.relative_to(ROOT).with_suffix("").parts if p != "__init__"))
         text = path.read_text()
-        suspect = (rf"fitlab\.families(?!\.{mine}\b)|fitlab\.cli|^\s*from \." if mine else r"\bfamilies\b")
+        suspect = rf"fitlab\.families(?!\.{mine}\b)|fitlab\.cli|^\s*from \." if mine else r"\bfamilies\b"
         if not re.search(suspect, text, re.M):  # no import that could break the rule: not parsed (speed)
             continue
         for module, _inside in _imports(path):

@@ -9,8 +9,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from fitlab.families.lambert_sphere.program.report.audit import directional_albedo, richer_forms
 from fitlab.families.lambert_sphere.exact import albedo, albedo_inverse, brdf, solve_albedo, spherical_albedo
+from fitlab.families.lambert_sphere.program.report.audit import directional_albedo, richer_forms
 from fitlab.fit.refit import preset_metrics
 
 FITS = Path(__file__).resolve().parents[1] / "fitlab" / "fits"

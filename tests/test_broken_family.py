@@ -12,7 +12,7 @@ import pytest
 import fitlab.core._registry as registry
 from fitlab.cli import main
 
-RAISES = '''
+RAISES = """
 from fitlab.core import Family, register_family
 
 
@@ -26,10 +26,10 @@ class HalfRegistered(Family, name="half_registered", description="registers, the
 
 register_family(HalfRegistered())
 raise RuntimeError("broken on purpose\\nsecond line")
-'''
+"""
 
 #: a module of three entry points: no family class, a family whose targets fail to import, a working family
-OTHERS = '''
+OTHERS = """
 from fitlab.core import Family
 
 
@@ -43,7 +43,7 @@ class FailingTargets(Family, name="failing_targets", description="its targets fa
 
     def forms(self):
         return ()
-'''
+"""
 
 
 @pytest.fixture
@@ -53,10 +53,12 @@ def broken(monkeypatch, tmp_path):
     (tmp_path / "fitlab_test_broken_family.py").write_text(RAISES)
     (tmp_path / "fitlab_test_other_families.py").write_text(OTHERS)
     monkeypatch.syspath_prepend(str(tmp_path))
-    eps = [EntryPoint("raises", "fitlab_test_broken_family", "fitlab.families"),
-           EntryPoint("missing", "fitlab_test_no_such_module:family", "fitlab.families"),
-           EntryPoint("no_class", "fitlab_test_other_families:NotAFamily", "fitlab.families"),
-           EntryPoint("failing", "fitlab_test_other_families:FailingTargets", "fitlab.families")]
+    eps = [
+        EntryPoint("raises", "fitlab_test_broken_family", "fitlab.families"),
+        EntryPoint("missing", "fitlab_test_no_such_module:family", "fitlab.families"),
+        EntryPoint("no_class", "fitlab_test_other_families:NotAFamily", "fitlab.families"),
+        EntryPoint("failing", "fitlab_test_other_families:FailingTargets", "fitlab.families"),
+    ]
     monkeypatch.setattr(registry, "entry_points", lambda group: eps if group == "fitlab.families" else [])
     monkeypatch.setattr(registry, "_REGISTRY", registry._Registry())
     yield

@@ -231,8 +231,10 @@ def _program_cache(folder):
 KEY = "jit_f-" + "ab" * 32
 
 
-@pytest.mark.parametrize("damage", ["zero bytes (a full disk)", "a byte flipped", "cut short", "another key's",
-                                    "the bare program (JAX's own format)"])
+@pytest.mark.parametrize(
+    "damage",
+    ["zero bytes (a full disk)", "a byte flipped", "cut short", "another key's", "the bare program (JAX's own format)"],
+)
 def test_a_damaged_program_is_a_miss_removed_and_written_again(tmp_path, damage, capsys):
     store = _program_cache(tmp_path)
     program = bytes(range(256)) * 8

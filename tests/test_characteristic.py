@@ -9,7 +9,9 @@ def k_printed(order, t, c):
     """Paper eqs. 18-20 as printed (accurate only for t not small)."""
     at = np.arctan(t)
     if order == 0:
-        num = (256 * c - 301) * t**3 + ((346 - c * (20 * c + 281)) * t**2 - 15 * (c - 1) * (4 * c + 9) + 207 * t**4) * at
+        num = (256 * c - 301) * t**3 + (
+            (346 - c * (20 * c + 281)) * t**2 - 15 * (c - 1) * (4 * c + 9) + 207 * t**4
+        ) * at
         num += 15 * (c - 1) * (4 * c + 9) * t
         return 1 - c * num / (192 * t**5)
     if order == 1:

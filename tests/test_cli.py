@@ -13,8 +13,20 @@ from fitlab.cli import COMMANDS, build_parser, main
 from fitlab.core import targets
 
 ROOT = Path(__file__).resolve().parents[1]
-NAMES = ["tabulate", "refit", "fit", "audit", "codegen", "render", "simulate", "discover", "report", "export", "bench",
-         "cache"]
+NAMES = [
+    "tabulate",
+    "refit",
+    "fit",
+    "audit",
+    "codegen",
+    "render",
+    "simulate",
+    "discover",
+    "report",
+    "export",
+    "bench",
+    "cache",
+]
 
 
 def _python(code: str) -> subprocess.CompletedProcess:
@@ -95,10 +107,13 @@ def test_python_dash_m_fitlab():
     assert "fitlab refit: error: give --target NAME (see --list) or --all" in out.stderr
 
 
-@pytest.mark.parametrize("argv, module, extra", [
-    (["render", "--out", "{tmp}"], "mitsuba", "render"),
-    (["discover", "--target", "kd_of_c", "--out", "{tmp}"], "pysindy", "discover"),
-])
+@pytest.mark.parametrize(
+    "argv, module, extra",
+    [
+        (["render", "--out", "{tmp}"], "mitsuba", "render"),
+        (["discover", "--target", "kd_of_c", "--out", "{tmp}"], "pysindy", "discover"),
+    ],
+)
 def test_a_missing_extra_is_named_in_one_line(tmp_path, capsys, monkeypatch, argv, module, extra):
     import importlib.util
 

@@ -38,23 +38,40 @@ def _boom(*args, **kwargs):
 
 # command -> (argv without --out, [(module, attribute) of its core functions])
 COMMANDS = {
-    "tabulate": (["tabulate", "--quiet"], [("fitlab.families.lambert_sphere.targets.tabulate", "write_tables"),
-                                           ("fitlab.families.lambert_sphere.targets.tabulate", "build_tables")]),
-    "refit": (["refit", "--target", "l", "--quiet", "--fits", str(FITS)], [("fitlab.fit.refit", "refit"),
-                                                                          ("fitlab.fit.refit", "timed_refit")]),
-    "refit --all": (["refit", "--all", "--quiet"],
-                    [("fitlab.fit.refit", "refit"), ("fitlab.fit.refit", "timed_refit")]),
-    "fit": (["fit", str(EXAMPLE_TABLE), "--target", "E", "--form", "a0 + a1*mu + a2*alpha", "--quiet"],
-            [("fitlab.fit.user", "run_fit"), ("fitlab.fit.refit", "refit")]),
+    "tabulate": (
+        ["tabulate", "--quiet"],
+        [
+            ("fitlab.families.lambert_sphere.targets.tabulate", "write_tables"),
+            ("fitlab.families.lambert_sphere.targets.tabulate", "build_tables"),
+        ],
+    ),
+    "refit": (
+        ["refit", "--target", "l", "--quiet", "--fits", str(FITS)],
+        [("fitlab.fit.refit", "refit"), ("fitlab.fit.refit", "timed_refit")],
+    ),
+    "refit --all": (
+        ["refit", "--all", "--quiet"],
+        [("fitlab.fit.refit", "refit"), ("fitlab.fit.refit", "timed_refit")],
+    ),
+    "fit": (
+        ["fit", str(EXAMPLE_TABLE), "--target", "E", "--form", "a0 + a1*mu + a2*alpha", "--quiet"],
+        [("fitlab.fit.user", "run_fit"), ("fitlab.fit.refit", "refit")],
+    ),
     "audit": (["audit", "--fits", str(FITS)], [("fitlab.families.lambert_sphere.program.report.audit", "audit")]),
     "codegen": (["codegen", "--lang", "c", "--fits", str(FITS)], [("fitlab.codegen", "generate")]),
-    "render": (["render", "--generated", str(GENERATED), "--quiet"],
-               [("fitlab.families.lambert_sphere.mitsuba.render", "render_comparison")]),
-    "discover": (["discover", "--target", "H0", "--fits", str(FITS), "--quiet"],
-                 [("fitlab.discover.search", "discover")]),
+    "render": (
+        ["render", "--generated", str(GENERATED), "--quiet"],
+        [("fitlab.families.lambert_sphere.mitsuba.render", "render_comparison")],
+    ),
+    "discover": (
+        ["discover", "--target", "H0", "--fits", str(FITS), "--quiet"],
+        [("fitlab.discover.search", "discover")],
+    ),
     "report": (["report", "--quick", "--quiet", "--fits", str(FITS)], [("fitlab.report", "build_report")]),
-    "export": (["export", "dfg_karis", "--size", "4", "--quiet"],
-               [("fitlab.families.microfacet_energy.program.images", "dfg"), ("fitlab.export", "encode")]),
+    "export": (
+        ["export", "dfg_karis", "--size", "4", "--quiet"],
+        [("fitlab.families.microfacet_energy.program.images", "dfg"), ("fitlab.export", "encode")],
+    ),
 }
 
 #: the flag that names a command's output folder: --out, but tabulate writes into the data folder
@@ -204,8 +221,19 @@ def test_version_and_help(capsys):
 
     assert _status(["--version"]) == 0
     assert capsys.readouterr().out.strip() == f"fitlab {__version__}"
-    for command in ("tabulate", "refit", "fit", "audit", "codegen", "render", "discover", "report", "export", "bench",
-                    "cache"):
+    for command in (
+        "tabulate",
+        "refit",
+        "fit",
+        "audit",
+        "codegen",
+        "render",
+        "discover",
+        "report",
+        "export",
+        "bench",
+        "cache",
+    ):
         assert _status([command, "--help"]) == 0
         text = capsys.readouterr().out
         assert "example: fitlab " + command in " ".join(text.split()), command
@@ -222,7 +250,7 @@ def test_top_level_help_names_every_language_codegen_writes(capsys):
     assert set(LANGUAGES) == set(names)
     assert _status(["--help"]) == 0
     text = " ".join(capsys.readouterr().out.split())
-    line = text[text.index("codegen generate"):text.index(" render ")]
+    line = text[text.index("codegen generate") : text.index(" render ")]
     assert line == "codegen generate C, Python, GLSL, HLSL, Metal or Dr.Jit source of the runtime BRDF from the fits"
 
 
@@ -351,8 +379,11 @@ def test_refit_verdict_rule():
     v = res.record["validation"]
 
     def scaled(max_factor, rms_factor):  # a reference whose max and RMS are the refit's times these
-        return {"max_rel": max_factor * v["max_rel"], "max_rel_nonzero": max_factor * v["max_rel_nonzero"],
-                "rms_rel": rms_factor * v["rms_rel"]}
+        return {
+            "max_rel": max_factor * v["max_rel"],
+            "max_rel_nonzero": max_factor * v["max_rel_nonzero"],
+            "rms_rel": rms_factor * v["rms_rel"],
+        }
 
     better, worse = scaled(2, 2), scaled(0.5, 0.5)
     assert refit_verdict(res, better) is None

@@ -38,6 +38,8 @@ def fit_file(target: str) -> Path:
     """The fit file of ``target`` that the default program is built from (its model's folder of the fits first)."""
     form = MODEL_FORMS.get(target, get_target(target).default_form)
     return fit_source(FITS, target, form, program_spec("lambert_sphere").model().folder)
+
+
 GENERATED = FITS / "generated"
 N = 100_000
 needs_cc = pytest.mark.skipif(compiler() is None, reason="no C compiler on PATH")
@@ -78,7 +80,9 @@ def inputs():
     mu_i, mu_o, c = rng.random(N), rng.random(N), rng.random(N)
     cos_phi = rng.uniform(-1.0, 1.0, N)
     hard_mu = [0.0, 1e-12, 1e-4, 0.5, 1.0]
-    grid = np.array(np.meshgrid(hard_mu, hard_mu, [-1.0, 0.0, 1.0], [0.0, 1e-9, 0.5, 1.0], indexing="ij")).reshape(4, -1)
+    grid = np.array(np.meshgrid(hard_mu, hard_mu, [-1.0, 0.0, 1.0], [0.0, 1e-9, 0.5, 1.0], indexing="ij")).reshape(
+        4, -1
+    )
     grid = grid[:, (grid[0] + grid[1]) > 0]  # the pole itself is tested apart (the exact value is infinite)
     return tuple(np.concatenate([a, g]) for a, g in zip((mu_i, mu_o, cos_phi, c), grid))
 
@@ -102,7 +106,9 @@ def jax_reference(expr, names):
 def test_committed_generated_code_is_what_the_committed_fits_generate(sources, lang):
     for name, text in sources[lang].items():
         committed = (GENERATED / name).read_text()
-        assert committed == text, f"fitlab/fits/generated/{name} is stale: run fitlab codegen --lang {lang} --fits fitlab/fits --out fitlab/fits/generated"
+        assert committed == text, (
+            f"fitlab/fits/generated/{name} is stale: run fitlab codegen --lang {lang} --fits fitlab/fits --out fitlab/fits/generated"
+        )
 
 
 @pytest.mark.e2e
@@ -359,7 +365,10 @@ def test_single_scattering_in_float_at_forward_grazing(native):
     grid = np.meshgrid(mus, mus, [-1.0, -0.999, 0.0, 1.0], indexing="ij")
     mu_i, mu_o, cos_phi = (np.float32(a.ravel()).astype(float) for a in grid)  # the same inputs in both
     c = np.full_like(mu_i, 0.5)
-    assert rel(native("single", mu_i, mu_o, cos_phi, c, dtype=np.float32), native("single", mu_i, mu_o, cos_phi, c)).max() < 5e-6
+    assert (
+        rel(native("single", mu_i, mu_o, cos_phi, c, dtype=np.float32), native("single", mu_i, mu_o, cos_phi, c)).max()
+        < 5e-6
+    )
 
 
 def test_runtime_terms_are_the_printed_terms():
@@ -499,6 +508,7 @@ def test_python_module_broadcasts(py):
 
 # ---- GLSL ---------------------------------------------------------------------
 
+
 @needs_cc
 def test_glsl_compiles_as_c_and_agrees(program, sources, tmp_path):
     """GLSL's float subset is C: compiled against a shim of the GLSL built-ins (fitlab.codegen.native.GLSL_SHIM),
@@ -522,7 +532,9 @@ def test_glsl_compiles_as_c_and_agrees(program, sources, tmp_path):
         glsl("c_of_kd", kd.astype(float))
 
 
-@pytest.mark.skipif(shutil.which("glslangValidator") is None, reason="glslangValidator not installed (apt: glslang-tools)")
+@pytest.mark.skipif(
+    shutil.which("glslangValidator") is None, reason="glslangValidator not installed (apt: glslang-tools)"
+)
 @pytest.mark.parametrize("version", ["#version 330", "#version 300 es\nprecision highp float;"])
 def test_glsl_validates_with_glslang(sources, tmp_path, version):
     main = ("out vec4 color; uniform vec3 wi; uniform vec3 wo; uniform float c;\nvoid main() { float kd = "
@@ -590,6 +602,7 @@ def test_a_family_without_a_program_of_its_own_gets_one_routine_per_target(tmp_p
 
     target = Target("toy_exp", "exp(x)", (Input("x", (0.0, 1.0)),), "line", (), points, points, routine="toy_exp")
     form = Form("toy_exp", "line", ("x",), ("a",), 1 + a * x, presets={"p": {"a": 1.0}})
+
     class ToyCodegen(Family, name="toy_codegen", description="A toy family", target_names=("toy_exp",)):
         def targets(self):
             return (target,)

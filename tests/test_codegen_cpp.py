@@ -90,9 +90,11 @@ def test_single_header_matches_the_two_files(tmp_path):
     assert "--single-header" in single.splitlines()[2]
     (tmp_path / "single").mkdir()
     (tmp_path / "single" / "lambert_sphere.h").write_text(single)
-    (tmp_path / "single" / "main.cpp").write_text('#define LAMBERT_SPHERE_IMPLEMENTATION\n' + CALLER)
+    (tmp_path / "single" / "main.cpp").write_text("#define LAMBERT_SPHERE_IMPLEMENTATION\n" + CALLER)
     # a second translation unit includes it without the implementation: no duplicate symbols
-    (tmp_path / "single" / "other.cpp").write_text('#include "lambert_sphere.h"\ndouble other(void) { return lambert_sphere_h0(0.5, 0.5); }\n')
+    (tmp_path / "single" / "other.cpp").write_text(
+        '#include "lambert_sphere.h"\ndouble other(void) { return lambert_sphere_h0(0.5, 0.5); }\n'
+    )
     _run([CXX, "-std=c++17", "-Wall", "-Werror", "main.cpp", "other.cpp", "-o", "caller"], tmp_path / "single")
     (tmp_path / "two").mkdir()
     for name in ("lambert_sphere.h", "lambert_sphere.c"):
@@ -108,5 +110,8 @@ def test_single_header_matches_the_two_files(tmp_path):
 @pytest.mark.e2e
 def test_banner_names_the_command_with_the_options_that_change_the_files():
     files = generate("c", forms={"H0": "hapke_rational"}, model="three-term")
-    assert "(fitlab codegen --lang c --model three-term --form H0=hapke_rational)" in files["lambert_sphere.h"].splitlines()[2]
+    assert (
+        "(fitlab codegen --lang c --model three-term --form H0=hapke_rational)"
+        in files["lambert_sphere.h"].splitlines()[2]
+    )
     assert "(fitlab codegen --lang python)" in generate("python")["lambert_sphere.py"].splitlines()[1]

@@ -57,7 +57,7 @@ def inputs(n: int = 3000, seed: int = 5) -> dict:
     kd = np.concatenate([kd, np.resize([0.0, 1e-9, 0.5, 1.0], k)])
     wi, wo = _unit(rng, n + k), _unit(rng, n + k)
     special = np.array([[1, 0, 0], [0, 0, 1], [0.6, 0, 0.8], [0.6, 0, -0.8], [0, 1, 0], [0, 0, 1]], float)
-    wi[: len(special)], wo[len(special): 2 * len(special)] = special, special
+    wi[: len(special)], wo[len(special) : 2 * len(special)] = special, special
     u1, u2 = rng.random((2, n + k))
     u1[:4], u2[4:8] = (0.0, 1e-9, 0.5, 1.0), (0.0, 1e-9, 0.5, 1.0)
     return dict(mu_i=mu_i, mu_o=mu_o, cos_phi=cos_phi, c=c, kd=kd, wi=wi, wo=wo, u1=u1, u2=u2)
@@ -158,6 +158,7 @@ def test_llvm_float32_agrees_with_double(llvm, npy):
     x, out = llvm
     x32 = {k: np.asarray(v, np.float32).astype(float) for k, v in x.items()}
     want = values(npy, x32)
+
     # relative to the single-scattering scale c/(mu_i + mu_o) where f cancels far below it (forward
     # scattering, p(u) ~ (1 - u)^(3/2)), as for C float
     def scale(c, mu_i, mu_o):

@@ -184,7 +184,9 @@ def test_python_policy_fuzz(program, py):
     for k, r in enumerate(program.routines):
         args = fuzz_inputs(r, N_PY, np.float64, seed=2000 + k)
         f = getattr(py, r.name)
-        with np.errstate(divide="raise", over="raise", invalid="raise"):  # no inf or NaN made inside, no pow of a negative
+        with np.errstate(
+            divide="raise", over="raise", invalid="raise"
+        ):  # no inf or NaN made inside, no pow of a negative
             check_policy(r.name, r, f, args, "Python")
     # float32 inputs are taken as float64 by the numpy module: the same policy
     r = program.routine("brdf")
@@ -213,6 +215,7 @@ def _languages(native, glsl, py):
 @needs_cc
 def test_clamps_at_named_points(native, glsl, py):
     for lang, f in _languages(native, glsl, py).items():
+
         def same(name, outside, inside, f=f, lang=lang):
             got, want = f(name, *outside), f(name, *inside)
             assert np.isfinite(want) and got == want, (lang, name, outside, got, want)

@@ -56,8 +56,13 @@ def test_hoist_leaves_conditions_in_place():
 
 def test_inline_and_merge_exponentials():
     h = Routine("h", ("x", "c"), sp.exp(c * x), "h", domain={"x": (0.0, 1.0), "c": (0.0, 1.0)})
-    top = Routine("top", ("x", "y", "c"), call("h", x, c) * call("h", y, c), "top",
-                  domain={"x": (0.0, 1.0), "y": (0.0, 1.0), "c": (0.0, 1.0)})
+    top = Routine(
+        "top",
+        ("x", "y", "c"),
+        call("h", x, c) * call("h", y, c),
+        "top",
+        domain={"x": (0.0, 1.0), "y": (0.0, 1.0), "c": (0.0, 1.0)},
+    )
     inlined = inline_calls(top.expr, {"h": h, "top": top})
     assert inlined == sp.exp(c * x) * sp.exp(c * y)
     merged = merge_exp_products(inlined)

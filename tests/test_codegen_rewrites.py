@@ -27,10 +27,25 @@ def _set():
 
 
 def _family(name: str, program: ProgramSpec | None) -> Family:
-    target = Target(name=f"{name}_t", description="1 - sqrt(1 - c)", variables=(Input("c", (0.0, 1.0), "albedo"),),
-                    default_form="plain", published=(), training=_set, validation=_set, routine=f"{name}_t")
-    form = Form(f"{name}_t", "plain", ("c",), ("a",), sp.Symbol("a", real=True) * ALBEDO_FORM,
-                presets={"one": {"a": 1.0}}, description="a (1 - sqrt(1 - c))")
+    target = Target(
+        name=f"{name}_t",
+        description="1 - sqrt(1 - c)",
+        variables=(Input("c", (0.0, 1.0), "albedo"),),
+        default_form="plain",
+        published=(),
+        training=_set,
+        validation=_set,
+        routine=f"{name}_t",
+    )
+    form = Form(
+        f"{name}_t",
+        "plain",
+        ("c",),
+        ("a",),
+        sp.Symbol("a", real=True) * ALBEDO_FORM,
+        presets={"one": {"a": 1.0}},
+        description="a (1 - sqrt(1 - c))",
+    )
 
     class Toy(Family, name=name, description="a toy family", target_names=(target.name,)):
         def targets(self):
@@ -53,15 +68,26 @@ def _fit(target: str) -> FitFunction:
     """A FitFunction of ``target``'s form at a = 1 (no file)."""
     fit = FitFunction.__new__(FitFunction)
     fit.record, fit.path, fit.target, fit.form = {"target": target, "form": "plain"}, None, target, "plain"
-    fit.inputs, fit.params, fit.domain, fit.expression, fit.measured = ("c",), {"a": 1.0}, {"c": (0.0, 1.0)}, ALBEDO_FORM, None
+    fit.inputs, fit.params, fit.domain, fit.expression, fit.measured = (
+        ("c",),
+        {"a": 1.0},
+        {"c": (0.0, 1.0)},
+        ALBEDO_FORM,
+        None,
+    )
     fit._f = None
     return fit
 
 
 @pytest.fixture
 def toy_families():
-    own = ProgramSpec(name="toy_own", fits=("toy_own_t",), parts=("toy_own_t",), rewrites=(TOY_REWRITE,),
-                      routines=lambda fits, terms: [part_routine(fits["toy_own_t"])])
+    own = ProgramSpec(
+        name="toy_own",
+        fits=("toy_own_t",),
+        parts=("toy_own_t",),
+        rewrites=(TOY_REWRITE,),
+        routines=lambda fits, terms: [part_routine(fits["toy_own_t"])],
+    )
     register_family(_family("toy_own", own))
     register_family(_family("toy_plain", None))  # no program of its own: one routine per target
     try:
@@ -117,7 +143,21 @@ def test_the_lambert_rewrites_are_optimisations_that_keep_the_old_order():
 _x, _y = sp.symbols("x y", real=True)
 _s = sp.sqrt(1 - c)
 #: leaves that hold the old sum, its terms, their negatives and numbers beside them
-_LEAVES = (_x, _y, c, _s, -_s, 1 - _s, 2 - _s, _s - 1, 3 * _s, _x - _s, sp.Rational(3, 2), sp.Float(0.25), sp.Integer(2))
+_LEAVES = (
+    _x,
+    _y,
+    c,
+    _s,
+    -_s,
+    1 - _s,
+    2 - _s,
+    _s - 1,
+    3 * _s,
+    _x - _s,
+    sp.Rational(3, 2),
+    sp.Float(0.25),
+    sp.Integer(2),
+)
 
 
 def _expressions():
@@ -126,9 +166,14 @@ def _expressions():
     def grow(children):
         pair = st.tuples(children, children)
         return st.one_of(
-            pair.map(lambda p: p[0] + p[1]), pair.map(lambda p: p[0] * p[1]), pair.map(lambda p: p[0] - 2 * p[1]),
-            children.map(lambda a: a**2), children.map(sp.sqrt), children.map(sp.exp),
-            children.map(lambda a: sp.Max(0, a)), pair.map(lambda p: sp.Min(p[0], p[1] + _x)),
+            pair.map(lambda p: p[0] + p[1]),
+            pair.map(lambda p: p[0] * p[1]),
+            pair.map(lambda p: p[0] - 2 * p[1]),
+            children.map(lambda a: a**2),
+            children.map(sp.sqrt),
+            children.map(sp.exp),
+            children.map(lambda a: sp.Max(0, a)),
+            pair.map(lambda p: sp.Min(p[0], p[1] + _x)),
             pair.map(lambda p: sp.Piecewise((p[0], _x < p[1]), (p[1], True))),
         )
 

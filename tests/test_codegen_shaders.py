@@ -19,8 +19,9 @@ from fitlab.codegen import emit, load_program
 from fitlab.codegen.native import build, build_glsl, compiler, cxx_compiler
 
 SHADERS = ("glsl", "hlsl", "metal")
-needs_glslang = pytest.mark.skipif(shutil.which("glslangValidator") is None,
-                                   reason="glslangValidator not installed (Debian: glslang-tools)")
+needs_glslang = pytest.mark.skipif(
+    shutil.which("glslangValidator") is None, reason="glslangValidator not installed (Debian: glslang-tools)"
+)
 
 
 @pytest.fixture(scope="module")
@@ -72,8 +73,11 @@ def test_hlsl_compiles_to_spirv_and_spirv_cross_writes_metal(sources, tmp_path):
     shader = tmp_path / "test.hlsl"
     shader.write_text(_text(sources, "hlsl") + HLSL_MAIN)
     spv = tmp_path / "test.spv"
-    res = subprocess.run(["glslangValidator", "-D", "-V", "-S", "frag", "-e", "main", "-o", str(spv), str(shader)],
-                         capture_output=True, text=True)
+    res = subprocess.run(
+        ["glslangValidator", "-D", "-V", "-S", "frag", "-e", "main", "-o", str(spv), str(shader)],
+        capture_output=True,
+        text=True,
+    )
     assert res.returncode == 0, res.stdout + res.stderr
     if shutil.which("spirv-cross") is None:
         pytest.skip("spirv-cross not installed (Debian: spirv-cross)")

@@ -33,7 +33,10 @@ def test_psi_is_the_diagonal_of_the_bilinear_form(order, c):
     w = legendre_weights(order, c)
     mu = np.linspace(0, 1, 7)
     val = sum(
-        (-1.0) ** (ell + order) * w[ell] * np.polynomial.polynomial.polyval(mu, r) * np.polynomial.polynomial.polyval(-mu, r)
+        (-1.0) ** (ell + order)
+        * w[ell]
+        * np.polynomial.polynomial.polyval(mu, r)
+        * np.polynomial.polynomial.polyval(-mu, r)
         for ell, r in mp.r.items()
     )
     np.testing.assert_allclose(0.5 * (1 - mu**2) ** order * val, psi(order, mu, c), atol=1e-14)

@@ -94,9 +94,10 @@ def test_the_banner_states_the_brdfs_error_as_measured_again():
     assert stated["albedo"] == (f"{a['albedo_c1_min']:.6f}", f"{a['albedo_c1_max']:.6f}")
     # the routine's own documentation says it too, in every language
     for name in ("lambert_sphere.h", "lambert_sphere.py", "lambert_sphere.glsl"):
-        assert f"max {stated['max']}, RMS {stated['rms']} relative over mu_i, mu_o in [0.01, 1]" in (
-            GENERATED / name
-        ).read_text(), name
+        assert (
+            f"max {stated['max']}, RMS {stated['rms']} relative over mu_i, mu_o in [0.01, 1]"
+            in (GENERATED / name).read_text()
+        ), name
 
 
 def test_the_three_term_model_states_its_own_larger_error():

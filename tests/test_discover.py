@@ -197,8 +197,10 @@ def test_discovered_form_round_trips_through_json_refit_and_codegen(kd_discovery
     # refit takes it like any other form, from its file (with its minimax stage: a least-squares refit of a minimax
     # fit trades max for RMS, worse than its start by fitlab.fit.metrics.worse)
     out = tmp_path / "refits"
-    assert main(["refit", "--target", "kd_of_c", "--form", best.name, "--fits", str(fits), "--out", str(out),
-                 "--quiet"]) == 0
+    assert (
+        main(["refit", "--target", "kd_of_c", "--form", best.name, "--fits", str(fits), "--out", str(out), "--quiet"])
+        == 0
+    )
     again = read_fit(out / f"kd_of_c.{best.name}.json")
     assert again["origin"] == best.record["origin"] and again["origin"]["method"] == "fitlab discover"
     assert again["validation"]["max_rel"] <= 1.5 * best.validation["max_rel"]

@@ -58,8 +58,10 @@ def _manifest(folder: Path = SEED) -> dict:
 def test_the_seed_was_made_by_this_code(folder):
     made, now = _manifest(folder)["fingerprint"], _tool().fingerprint()
     changed = sorted(f for f in made.keys() | now.keys() if made.get(f) != now.get(f))
-    assert not changed, (f"{folder.relative_to(ROOT)} was made by other code ({', '.join(changed)} changed since): "
-                         "run python tools/seed_test_cache.py")
+    assert not changed, (
+        f"{folder.relative_to(ROOT)} was made by other code ({', '.join(changed)} changed since): "
+        "run python tools/seed_test_cache.py"
+    )
 
 
 def test_the_manifests_name_every_seeded_set_and_file():
@@ -98,7 +100,8 @@ def test_a_fresh_install_measures_its_first_codegen_without_computing_exact_valu
     made = {p.name for p in tmp_path.glob("*.npz")}
     computed = made - {p.name for p in PACKAGED.glob("*.npz")}
     assert all(n.startswith(("lambert_sphere-energy-scale-", "lambert_sphere-model-accuracy-")) for n in computed), (
-        f"computed, not in the packaged seed: {sorted(computed)}: run python tools/seed_test_cache.py")
+        f"computed, not in the packaged seed: {sorted(computed)}: run python tools/seed_test_cache.py"
+    )
 
 
 @pytest.mark.skipif(not enabled(), reason="the cache is off (FITLAB_NO_CACHE)")
@@ -274,7 +277,7 @@ def _tests_exact_brdf():
     other = next(float(v) for e in entries.values() for v in e["in_c"] if v != 1.0)
     checked = 0
     for file, e in sorted(entries.items()):
-        phase = file[len(exact_cache.NAME) + 1:].rsplit("-", 1)[0]  # NAME-PHASE-KEY.npz
+        phase = file[len(exact_cache.NAME) + 1 :].rsplit("-", 1)[0]  # NAME-PHASE-KEY.npz
         for cv in (1.0, other):
             sel = np.flatnonzero(e["in_c"] == cv)[:20]
             if sel.size:

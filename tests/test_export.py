@@ -155,7 +155,7 @@ def test_mitsuba_bitmap_reads_every_file_within_its_precision(images, tmp_path, 
         if fmt == "png":
             assert bitmap.component_format() == mi.Struct.Type.UInt16
             stored = stored / 65535.0
-            stored = stored[:, :, :image.data.shape[2]]  # a two-channel table's B is 0
+            stored = stored[:, :, : image.data.shape[2]]  # a two-channel table's B is 0
         assert stored.shape == image.data.shape, name
         assert np.all(np.abs(stored - image.data) <= tolerance(fmt, image.data)), name
         text = str(bitmap.metadata())
@@ -188,9 +188,11 @@ def test_c_header_compiles_and_holds_the_float32_values(images, tmp_path):
     header = _write(image, "c", tmp_path)
     h, w, c = image.data.shape
     source = tmp_path / "read.c"
-    source.write_text(f'#include <stdio.h>\n#include "{header}"\nint main(void) {{\n'
-                      f"  for (int j = 0; j < {h}; ++j) for (int i = 0; i < {w}; ++i) for (int k = 0; k < {c}; ++k)\n"
-                      f'    printf("%.9g\\n", (double){image.name}[j][i][k]);\n  return 0;\n}}\n')
+    source.write_text(
+        f'#include <stdio.h>\n#include "{header}"\nint main(void) {{\n'
+        f"  for (int j = 0; j < {h}; ++j) for (int i = 0; i < {w}; ++i) for (int k = 0; k < {c}; ++k)\n"
+        f'    printf("%.9g\\n", (double){image.name}[j][i][k]);\n  return 0;\n}}\n'
+    )
     exe = tmp_path / "read"
     subprocess.run(["cc", "-std=c99", "-Wall", "-Werror", "-o", str(exe), str(source)], check=True)
     out = subprocess.run([str(exe)], check=True, capture_output=True, text=True).stdout.split()
@@ -238,10 +240,12 @@ def _ktx_parse(paths) -> dict:
     """ktx-parse's reading of each KTX2 file (tests/ktx2_reader/read.mjs): {"files": [...], "constants": {...}}."""
     node = _node()
     if node is None:
-        pytest.skip("no node to run ktx-parse (Debian's nodejs, or pip install -e \".[dev]\")")
+        pytest.skip('no node to run ktx-parse (Debian\'s nodejs, or pip install -e ".[dev]")')
     if not (KTX2_READER / "node_modules" / "ktx-parse" / "package.json").is_file():
-        pytest.skip("ktx-parse is not installed in tests/ktx2_reader (sh tools/install-system-packages.sh, where "
-                    "npm is on the PATH)")
+        pytest.skip(
+            "ktx-parse is not installed in tests/ktx2_reader (sh tools/install-system-packages.sh, where "
+            "npm is on the PATH)"
+        )
     run = subprocess.run([node, str(KTX2_READER / "read.mjs"), *map(str, paths)], capture_output=True, text=True,
                          timeout=120)  # fmt: skip
     assert run.returncode == 0, run.stderr
@@ -285,8 +289,10 @@ def _check_ktx2_reading(read: dict, constants: dict, image: Image, fmt: str) -> 
         assert (sample["bitOffset"], sample["bitLength"]) == (k * bits, bits - 1)
         assert sample["samplePosition"] == [0, 0, 0, 0]
         # -1.0 and 1.0 as float32 bit patterns (ktx-parse reads a signed sample's bounds as int32)
-        assert (sample["sampleLower"] % 2**32, sample["sampleUpper"] % 2**32) == (_float32_bits(-1.0),
-                                                                                  _float32_bits(1.0))
+        assert (sample["sampleLower"] % 2**32, sample["sampleUpper"] % 2**32) == (
+            _float32_bits(-1.0),
+            _float32_bits(1.0),
+        )
     kv = read["keyValue"]
     assert kv["KTXorientation"] == "rd" and kv["KTXwriter"] == f"fitlab {__version__}"
     text = {k: base64.b64decode(v["base64"]).decode() for k, v in kv.items() if isinstance(v, dict)}
@@ -328,8 +334,23 @@ def _ktx2_layout(blob: bytes) -> dict:
     """The file taken apart by the KTX 2.0 specification's layout (its section 2), each rule that a reader
     which does not validate (ktx-parse) would let pass checked on the way; the texels as float64."""
     assert blob[:12] == bytes.fromhex("AB4B5458203230BB0D0A1A0A")  # section 3.1
-    (vk_format, type_size, width, height, depth, layers, faces, levels, scheme, dfd_offset, dfd_length, kvd_offset,
-     kvd_length, sgd_offset, sgd_length) = struct.unpack_from("<9I4I2Q", blob, 12)
+    (
+        vk_format,
+        type_size,
+        width,
+        height,
+        depth,
+        layers,
+        faces,
+        levels,
+        scheme,
+        dfd_offset,
+        dfd_length,
+        kvd_offset,
+        kvd_length,
+        sgd_offset,
+        sgd_length,
+    ) = struct.unpack_from("<9I4I2Q", blob, 12)
     assert (depth, layers, faces, levels, scheme, sgd_offset, sgd_length) == (0, 0, 1, 1, 0, 0, 0)
     level_offset, level_length, uncompressed = struct.unpack_from("<3Q", blob, 80)
     assert dfd_offset == 104 and level_length == uncompressed
@@ -344,9 +365,9 @@ def _ktx2_layout(blob: bytes) -> dict:
     keys, at = [], kvd_offset
     while at < kvd_offset + kvd_length:  # section 3.11
         (length,) = struct.unpack_from("<I", blob, at)
-        entry = blob[at + 4:at + 4 + length]
+        entry = blob[at + 4 : at + 4 + length]
         keys.append(entry.split(b"\0", 1)[0].decode())
-        padding = blob[at + 4 + length:at + 4 + length + (-length % 4)]
+        padding = blob[at + 4 + length : at + 4 + length + (-length % 4)]
         assert padding == bytes(len(padding))
         at += 4 + length + len(padding)
     assert at == kvd_offset + kvd_length and keys == sorted(keys) and len(set(keys)) == len(keys)
@@ -364,9 +385,8 @@ def test_ktx2_layout_follows_the_specification(images):
         for fmt in ("ktx2", "ktx2-half"):
             if fmt in _formats(name):
                 laid = _ktx2_layout(encode(image, fmt))
-                assert laid["keys"] == ["KTXorientation", "KTXwriter", "fitlab:layout", "fitlab:origin",
-                                        "fitlab:table"]
-                stored = laid["texels"][:, :, :image.data.shape[2]]
+                assert laid["keys"] == ["KTXorientation", "KTXwriter", "fitlab:layout", "fitlab:origin", "fitlab:table"]
+                stored = laid["texels"][:, :, : image.data.shape[2]]
                 assert np.all(np.abs(stored - image.data) <= tolerance(fmt, image.data)), (name, fmt)
 
 
@@ -427,7 +447,7 @@ def _read_back(path: Path, fmt: str, shape) -> tuple[np.ndarray, str]:
         _, _, rows, _ = png.Reader(filename=str(path)).read()
         levels = np.array([list(r) for r in rows], dtype=np.float64).reshape(shape[0], shape[1], -1)
         text = dict(data.split(b"\0", 1) for kind, data in png.Reader(filename=str(path)).chunks() if kind == b"tEXt")
-        return levels[:, :, :shape[2]] / 65535, text[b"fitlab:origin"].decode()
+        return levels[:, :, : shape[2]] / 65535, text[b"fitlab:origin"].decode()
     text = path.read_text()
     body = text.split("= {", 1)[1] if fmt == "c" else text.split("float[](", 1)[1]
     numbers = [float(v) for v in re.findall(r"-?[0-9][0-9.]*e[+-][0-9]+", body)]
@@ -458,7 +478,7 @@ def test_origin_flips_every_format_consistently(images, tmp_path):
             else:
                 stored, stated = _read_back(path, fmt, image.data.shape)
             assert stated == origin, (fmt, origin)
-            assert np.all(np.abs(stored[::1 if origin == "top" else -1] - image.data) <= tolerance(fmt, image.data))
+            assert np.all(np.abs(stored[:: 1 if origin == "top" else -1] - image.data) <= tolerance(fmt, image.data))
             rows[origin] = stored
         assert np.array_equal(rows["bottom"], rows["top"][::-1]), fmt
     for origin, read in zip(ORIGINS, ktx["files"]):
@@ -530,24 +550,52 @@ def test_half_tolerance_covers_subnormals_and_extremes(tmp_path):
 # -- the command ----------------------------------------------------------------------------
 def test_export_writes_every_file_with_the_stated_size(tmp_path, capsys):
     out = tmp_path / "tables"
-    assert main(["export", "dfg_karis", "E_ggx_sep", "--format", "exr", "--format", "png", "--format", "c",
-                 "--size", "4", "--out", str(out), "--quiet"]) == 0
-    assert sorted(p.name for p in out.iterdir()) == ["E_ggx_sep.exr", "E_ggx_sep.h", "E_ggx_sep.png",
-                                                     "dfg_karis.exr", "dfg_karis.h", "dfg_karis.png"]
+    assert (
+        main(
+            [
+                "export",
+                "dfg_karis",
+                "E_ggx_sep",
+                "--format",
+                "exr",
+                "--format",
+                "png",
+                "--format",
+                "c",
+                "--size",
+                "4",
+                "--out",
+                str(out),
+                "--quiet",
+            ]
+        )
+        == 0
+    )
+    assert sorted(p.name for p in out.iterdir()) == [
+        "E_ggx_sep.exr",
+        "E_ggx_sep.h",
+        "E_ggx_sep.png",
+        "dfg_karis.exr",
+        "dfg_karis.h",
+        "dfg_karis.png",
+    ]
     assert "[4][4][2]" in (out / "dfg_karis.h").read_text()
     expected = dfg(4, "karis")
     assert (out / "dfg_karis.exr").read_bytes() == encode(expected, "exr")
     assert (out / "E_ggx_sep.h").read_bytes() == encode(albedo_table("ggx_separable", 4), "c")
 
 
-@pytest.mark.parametrize("argv, words", [
-    (["nosuch"], ["no table 'nosuch'"]),
-    (["E_on", "--format", "png"], ["E_on is not written as png"]),
-    (["lambert_sphere_texture", "--format", "exr-half"], ["not written as exr-half"]),
-    (["dfg_karis", "--size", "2"], ["--size 2"]),
-    (["lambert_sphere_texture", "--size", "8"], ["--size 8"]),
-    ([], ["name at least one table"]),
-])
+@pytest.mark.parametrize(
+    "argv, words",
+    [
+        (["nosuch"], ["no table 'nosuch'"]),
+        (["E_on", "--format", "png"], ["E_on is not written as png"]),
+        (["lambert_sphere_texture", "--format", "exr-half"], ["not written as exr-half"]),
+        (["dfg_karis", "--size", "2"], ["--size 2"]),
+        (["lambert_sphere_texture", "--size", "8"], ["--size 8"]),
+        ([], ["name at least one table"]),
+    ],
+)
 def test_bad_requests_are_refused_before_any_work(tmp_path, capsys, argv, words):
     out = tmp_path / "out"
     assert main(["export", *argv, "--out", str(out), "--quiet"]) == 2

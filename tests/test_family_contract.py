@@ -133,7 +133,9 @@ def test_the_builtin_families_meet_every_contract():
         if isinstance(family, HasMaterials):
             materials = family.materials()
             assert materials and all(m.kind in ("conductor", "dielectric") for m in materials.values())
-            assert all(isinstance(m, MeasuredMaterial) and m.F0.shape == m.F_avg.shape == (3,) for m in materials.values())
+            assert all(
+                isinstance(m, MeasuredMaterial) and m.F0.shape == m.F_avg.shape == (3,) for m in materials.values()
+            )
     assert list(offering(HasBrdfReport)) == ["lambert_sphere"]  # the one BRDF the report measures
 
 
@@ -205,7 +207,7 @@ def test_a_target_name_is_one_familys(registered):
         registered(_toy("toy_one", ("toy_b",), (), ()))
 
 
-STATIC = '''
+STATIC = """
 from collections.abc import Sequence
 
 from fitlab.core import Family, HasTables, Tables, Target
@@ -257,7 +259,7 @@ class NoNames(Family, name="no_names", description="states no target names"):
 
 
 FAMILIES = (NoTables(), WrongModule(), WrongSignature())
-'''
+"""
 
 
 @pytest.mark.e2e  # a few seconds: basedpyright's start

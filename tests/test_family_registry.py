@@ -127,7 +127,7 @@ def test_codegen_python_and_c(toy_fits, tmp_path):
     prog = load_program(toy_fits, family="toy")
     assert [r.name for r in prog.routines] == ["toy_recip", "toy_recip_squared"]
     files = emit(prog, "python")
-    (name, text), = files.items()
+    ((name, text),) = files.items()
     path = tmp_path / name
     path.write_text(text)
     spec = importlib.util.spec_from_file_location("toy_generated", path)

@@ -22,7 +22,9 @@ EDGE = {"mu": (0.0, 1e-12, 0.5, 1.0), "mu_i": (0.0, 1e-9, 0.5, 1.0), "mu_o": (0.
 
 def _edge_points(form):
     grid = np.array(list(itertools.product(*(EDGE[n] for n in form.inputs))))
-    if "mu_i" in form.inputs and "mu_o" in form.inputs:  # the pole mu_i = mu_o = 0 of every BRDF term is outside the forms' domain
+    if (
+        "mu_i" in form.inputs and "mu_o" in form.inputs
+    ):  # the pole mu_i = mu_o = 0 of every BRDF term is outside the forms' domain
         i, o = form.inputs.index("mu_i"), form.inputs.index("mu_o")
         grid = grid[(grid[:, i] + grid[:, o]) > 0]
     return [grid[:, k] for k in range(grid.shape[1])]
@@ -106,23 +108,28 @@ def test_parse_expression_matches_sympys_parser_on_every_committed_fit():
         rec = json.loads(path.read_text())
         names = (*rec["inputs"], *rec["params"])
         local = {n: sp.Symbol(n, real=True) for n in names} | {"safe_pow": safe_pow}
-        assert sp.srepr(parse_expression(rec["expression"], names)) == sp.srepr(sp.sympify(rec["expression"], locals=local)), path.name
+        assert sp.srepr(parse_expression(rec["expression"], names)) == sp.srepr(
+            sp.sympify(rec["expression"], locals=local)
+        ), path.name
 
 
-@pytest.mark.parametrize("text, message", [
-    ("__import__('os').system('touch /tmp/x') or mu", "BoolOp"),
-    ("mu.__class__", "Attribute"),
-    ("(lambda: 1)()", "calls"),
-    ("__import__('os')", "calls '__import__'"),
-    ("mu**99999999", "power"),
-    ("(" * 400 + "mu" + ")" * 400, "nest|parse"),
-    ("'a'", "str literal"),
-    ("mu[0]", "Subscript"),
-    ("sqrt(mu, x=1)", "keyword"),
-    ("1e999", "non-finite"),
-    ("sqrt()", "0 arguments"),
-    ("mu" + " + mu" * 60000, "characters long"),
-])
+@pytest.mark.parametrize(
+    "text, message",
+    [
+        ("__import__('os').system('touch /tmp/x') or mu", "BoolOp"),
+        ("mu.__class__", "Attribute"),
+        ("(lambda: 1)()", "calls"),
+        ("__import__('os')", "calls '__import__'"),
+        ("mu**99999999", "power"),
+        ("(" * 400 + "mu" + ")" * 400, "nest|parse"),
+        ("'a'", "str literal"),
+        ("mu[0]", "Subscript"),
+        ("sqrt(mu, x=1)", "keyword"),
+        ("1e999", "non-finite"),
+        ("sqrt()", "0 arguments"),
+        ("mu" + " + mu" * 60000, "characters long"),
+    ],
+)
 def test_parse_expression_refuses_code_without_running_it(text, message):
     with pytest.raises(ValueError, match=message):
         parse_expression(text, ("mu", "c"))
@@ -164,7 +171,9 @@ def test_fast_brdf_preset_is_eq41():
     u = -(mi * mo + S * np.cos(phi))
     f1 = c * 2 * (np.sqrt(1 - u**2) - u * np.arccos(u)) / (3 * np.pi**2) / (mi + mo)
     want = np.maximum(
-        0, f1 + 0.0151829 * (c - 0.249978) * (np.abs(phi) + np.sqrt(mi * mo)) / (np.arccos(S) / S + 0.113706)
+        0,
+        f1
+        + 0.0151829 * (c - 0.249978) * (np.abs(phi) + np.sqrt(mi * mo)) / (np.arccos(S) / S + 0.113706)
         + 0.234459 * kd**1.85432,
     )
     np.testing.assert_allclose(get_form("fast_brdf", "paper")("paper", mi, mo, phi, c, kd), want, rtol=1e-12)

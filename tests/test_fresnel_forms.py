@@ -126,8 +126,25 @@ def test_codegen_prints_any_approximation_of_a_target(tmp_path):
     fits = tmp_path / "fits"
     assert main(["refit", "--target", "F_cu_r", "--form", "f82_tint", "--out", str(fits), "--quiet"]) == 0
     out = tmp_path / "gen"
-    assert main(["codegen", "--family", "fresnel", "--lang", "python", "--fits", str(fits), "--form", "F_cu_r=f82_tint",
-                 "--out", str(out), "--quiet"]) == 0
+    assert (
+        main(
+            [
+                "codegen",
+                "--family",
+                "fresnel",
+                "--lang",
+                "python",
+                "--fits",
+                str(fits),
+                "--form",
+                "F_cu_r=f82_tint",
+                "--out",
+                str(out),
+                "--quiet",
+            ]
+        )
+        == 0
+    )
     text = (out / "fresnel.py").read_text()
     assert "F_cu_r.f82_tint.json" in text and "--form F_cu_r=f82_tint" in text
     module = import_generated(out / "fresnel.py", "fitlab_test_fresnel_generated")
@@ -135,5 +152,6 @@ def test_codegen_prints_any_approximation_of_a_target(tmp_path):
     refit = load(fits / "F_cu_r.f82_tint.json")
     np.testing.assert_allclose(module.F_cu_r(mu), refit(mu=mu), rtol=1e-13, atol=1e-15)
     for name in ("F_cu_g", "F_au_r", "F_glass_b"):
-        np.testing.assert_allclose(getattr(module, name)(mu), load(packaged_fits() / f"{name}.json")(mu=mu),
-                                   rtol=1e-12, atol=1e-14)
+        np.testing.assert_allclose(
+            getattr(module, name)(mu), load(packaged_fits() / f"{name}.json")(mu=mu), rtol=1e-12, atol=1e-14
+        )

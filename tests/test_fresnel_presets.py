@@ -51,8 +51,11 @@ def test_error_columns_find_the_maximum_of_a_dense_scan(table):
     (on the 1027 validation angles, at least ERROR_FLOOR) is within 1 % of it either way."""
     theta = np.linspace(0.0, np.pi / 2, 20001)
     mu = np.cos(theta)
-    forms = {"error_schlick": ("schlick", "normal"), "error_f82_tint": ("f82_tint", "f82"),
-             "error_gulbrandsen": ("gulbrandsen", "gulbrandsen")}
+    forms = {
+        "error_schlick": ("schlick", "normal"),
+        "error_f82_tint": ("f82_tint", "f82"),
+        "error_gulbrandsen": ("gulbrandsen", "gulbrandsen"),
+    }
     for material in ("cu", "al", "cr", "au", "glass"):
         row = list(MATERIALS).index(material)
         exact = reflectance(material, mu)

@@ -135,5 +135,7 @@ def test_simulate_refuses_a_fifo_scene_without_blocking(tmp_path, capsys):
     os.mkfifo(fifo)
     code = finishes(lambda: main(["simulate", str(fifo), "--out", str(tmp_path / "out")]), [fifo])
     assert (code, capsys.readouterr().err.strip()) == (
-        2, f"fitlab simulate: error: {fifo}:1: (file): not a regular file (a FIFO), not a scene")
+        2,
+        f"fitlab simulate: error: {fifo}:1: (file): not a regular file (a FIFO), not a scene",
+    )
     assert not (tmp_path / "out").exists()

@@ -94,8 +94,11 @@ def test_a_sigint_in_a_weakref_callback_stops_the_refit(tmp_path, monkeypatch, c
 
     state = {"finished": False}
     # a callback whose code is the import machinery's, as _get_module_lock's cb is
-    callback_code = compile("def cb(ref):\n    os.kill(os.getpid(), signal.SIGINT)\n    sum(range(1000))\n",
-                            "<frozen importlib._bootstrap>", "exec")
+    callback_code = compile(
+        "def cb(ref):\n    os.kill(os.getpid(), signal.SIGINT)\n    sum(range(1000))\n",
+        "<frozen importlib._bootstrap>",
+        "exec",
+    )
     namespace = {"os": os, "signal": signal}
     exec(callback_code, namespace)
 
@@ -130,6 +133,7 @@ def test_a_sigint_while_writing_keeps_the_old_file(tmp_path, monkeypatch, capsys
 
     _stub_refit(monkeypatch, lambda: None)
     if where == "writing the temporary":
+
         def sigint_open(path, *args, **kwargs):
             os.kill(os.getpid(), signal.SIGINT)
             return builtins.open(path, *args, **kwargs)
@@ -221,7 +225,7 @@ def test_ctrl_c_at_any_moment_of_a_real_refit(tmp_path, capsys):
     assert any(status == 130 for _, status in outcomes)
 
 
-INJECT = '''
+INJECT = """
 import os
 import runpy
 
@@ -236,7 +240,7 @@ def timed_refit(target, form, **kwargs):  # Ctrl-C raised below an exec() of a s
 
 fitlab.cli.refit.timed_refit = timed_refit
 runpy.run_module("fitlab", run_name="__main__", alter_sys=True)
-'''
+"""
 
 
 @pytest.mark.e2e

@@ -19,7 +19,7 @@ ROOT = Path(__file__).resolve().parents[1]
 #: the packages whose import declares a built-in family: its class, nothing else
 DECLARATIONS = ["fitlab.families.fresnel", "fitlab.families.lambert_sphere", "fitlab.families.microfacet_energy"]
 
-PROBE = r'''
+PROBE = r"""
 import json, sys
 import fitlab.cli
 from fitlab.cli.refit import _requested, add_arguments  # what `fitlab refit` imports
@@ -41,7 +41,7 @@ print(json.dumps({"names": list(names), "having": having, "programs": programs, 
                   "form": form.name, "forms": list(target.forms), "tables": tables.__name__,
                   "with_tables": loaded(),
                   "scipy": sorted(m for m in sys.modules if m == "scipy" or m.startswith("scipy."))}))
-'''
+"""
 
 
 @pytest.fixture(scope="module")

@@ -123,7 +123,6 @@ def test_mixture_density_and_weight_bounds():
     assert np.max(np.abs(three_term_phase_function(u)) / q) <= THREE_TERM_NORM / MIX[1] + 1e-12
 
 
-
 def test_mixture_sampler_follows_its_density_and_the_variance_limits():
     """The 'both' walk's sampler (sample_mixture, what transport draws) against mixture_density:
     chi-square of a histogram on 60 cells against the density integrated over each cell

@@ -47,7 +47,9 @@ def _as_json(text):
 
 
 def test_shipped_scenes_validate():
-    files = sorted((ROOT / "fitlab" / "data" / "lambert_sphere" / "scenes").glob("*.toml")) + sorted((ROOT / "fitlab" / "data" / "lambert_sphere" / "scenes").glob("*.json"))
+    files = sorted((ROOT / "fitlab" / "data" / "lambert_sphere" / "scenes").glob("*.toml")) + sorted(
+        (ROOT / "fitlab" / "data" / "lambert_sphere" / "scenes").glob("*.json")
+    )
     names = {p.stem for p in files}
     assert {"order1_normalisation", "order2_term", "albedo_maps"} <= names
     for p in files:
@@ -75,8 +77,11 @@ def _error(text, path="s.toml"):
     [
         ("c = 0.9\n", "c = 1.5\n", "s.toml:8: material[1].c: 1.5 is outside [0.0, 1.0]"),
         ("        0.7]", "        7.0]", "s.toml:13: incident.mu_i[1]: expected a cosine in [0, 1], got 7.0"),
-        ('list = ["single", "multiple", "albedo"]', 'list = ["single", "multiples"]',
-         "s.toml:20: effects.list[1]: unknown effect 'multiples'"),
+        (
+            'list = ["single", "multiple", "albedo"]',
+            'list = ["single", "multiples"]',
+            "s.toml:20: effects.list[1]: unknown effect 'multiples'",
+        ),
         ("seed = 3\n", "seed = 3\ncolour = 1\n", "s.toml:3: scene.colour: unknown field"),
         ("mu_o = 4\n", "", "effect 'single' needs mu_o bins"),
         ("target_se = 2e-3\n", "", "s.toml:22: precision.target_se: missing"),
@@ -187,8 +192,10 @@ def test_non_finite_numbers_are_refused_with_their_line():
 
 
 def test_batch_is_bounded():
-    assert _error(
-        GOOD.replace("batch = 10_000", "batch = 2147483648")) == "s.toml:25: precision.batch: 2147483648 is outside [100, 10000000]"
+    assert (
+        _error(GOOD.replace("batch = 10_000", "batch = 2147483648"))
+        == "s.toml:25: precision.batch: 2147483648 is outside [100, 10000000]"
+    )
     assert parse_scene(GOOD.replace("batch = 10_000", "batch = 10_000_000"), "s.toml").batch == 10**7
 
 
@@ -237,8 +244,9 @@ def test_c_where_the_estimator_has_infinite_variance_is_refused():
     assert msg.startswith("s.toml:8: material[1].kd: kd = 1 needs c = 1 > 1/N"), msg
     ok = parse_scene(GOOD.replace("c = 0.9\n", f"c = {C_LIMIT['three_term']!r}\n"), "s.toml")
     assert ok.materials[1].c == C_LIMIT["three_term"]
-    true = parse_scene(GOOD.replace('phase = "three_term"', 'phase = "true"').replace("c = 0.9\n", "c = 1.0\n"),
-                       "s.toml")
+    true = parse_scene(
+        GOOD.replace('phase = "three_term"', 'phase = "true"').replace("c = 0.9\n", "c = 1.0\n"), "s.toml"
+    )
     assert true.materials[1].c == 1.0
     diff = GOOD.replace('list = ["single", "multiple", "albedo"]', 'list = ["phase_difference"]')
     diff = diff.replace("target_se = 2e-3", "target_se = {phase_difference = 1e-3}")

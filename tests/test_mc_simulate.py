@@ -167,10 +167,15 @@ def test_cli(tmp_path, capsys):
     err = capsys.readouterr().err
     assert f"{bad}:5: material[0].c: 8 is outside [0.0, 1.0]" in err
     good = tmp_path / "one.toml"
-    good.write_text(SCENE.replace('list = ["single", "multiple", "collisions", "phase_difference", "albedo", '
-                                  '"spherical_albedo"]', 'list = ["albedo"]').replace("collision_orders = 4\n", ""))
-    assert main(["simulate", str(good), "--quiet", "--no-plots", "--out", str(tmp_path / "o"),
-                 "--target-se", "0.01"]) == 0
+    good.write_text(
+        SCENE.replace(
+            'list = ["single", "multiple", "collisions", "phase_difference", "albedo", "spherical_albedo"]',
+            'list = ["albedo"]',
+        ).replace("collision_orders = 4\n", "")
+    )
+    assert (
+        main(["simulate", str(good), "--quiet", "--no-plots", "--out", str(tmp_path / "o"), "--target-se", "0.01"]) == 0
+    )
     out = capsys.readouterr().out
     assert "albedo" in out and (tmp_path / "o" / "tiny.csv").exists()
     assert not (tmp_path / "o" / "tiny_albedo.png").exists()
@@ -179,9 +184,14 @@ def test_cli(tmp_path, capsys):
 
 def _albedo_scene(tmp_path, material="c = 0.5"):
     p = tmp_path / "alb.toml"
-    p.write_text(SCENE.replace('list = ["single", "multiple", "collisions", "phase_difference", "albedo", '
-                               '"spherical_albedo"]', 'list = ["albedo"]').replace("collision_orders = 4\n", "")
-                 .replace("c = 0.5", material))
+    p.write_text(
+        SCENE.replace(
+            'list = ["single", "multiple", "collisions", "phase_difference", "albedo", "spherical_albedo"]',
+            'list = ["albedo"]',
+        )
+        .replace("collision_orders = 4\n", "")
+        .replace("c = 0.5", material)
+    )
     return p
 
 
@@ -197,10 +207,13 @@ def test_cli_exits_1_when_a_job_misses_its_target(tmp_path, capsys):
     assert "not converged" in capsys.readouterr().err
 
 
-@pytest.mark.parametrize("material, expected", [
-    ("c = 1.0", "material[0].c: c = 1 > 1/N = 0.999473: "),
-    ("kd = 1.0", "material[0].kd: kd = 1 needs c = 1 > 1/N = 0.999473: "),
-])
+@pytest.mark.parametrize(
+    "material, expected",
+    [
+        ("c = 1.0", "material[0].c: c = 1 > 1/N = 0.999473: "),
+        ("kd = 1.0", "material[0].kd: kd = 1 needs c = 1 > 1/N = 0.999473: "),
+    ],
+)
 def test_cli_refuses_the_c1_three_term_scene_before_any_work(tmp_path, capsys, monkeypatch, material, expected):
     """The unbounded scene (c = 1 or kd = 1, three-term phase function: its estimate has an infinite
     variance) is refused with one line naming the reason, exit 2, before any simulation."""
@@ -223,15 +236,18 @@ def test_cli_refuses_the_c1_three_term_scene_before_any_work(tmp_path, capsys, m
         simulate(bad, progress=False)
 
 
-@pytest.mark.parametrize("extra, expected", [
-    (["--seed", "18446744073709551616"], "--seed: expected an integer in [0, 9223372036854775807]"),
-    (["--seed", "-1"], "--seed: expected an integer in [0, 9223372036854775807], got '-1'"),
-    (["--max-paths", "10"], "--max-paths: expected an integer in [1000, 4294967296]"),
-    (["--max-paths", str(2**32 + 1)], "--max-paths: expected an integer in [1000, 4294967296]"),
-    (["--target-se", "inf"], "--target-se: expected a positive finite number, got 'inf'"),
-    (["--out", "/proc/fitlab-x"], "--out: cannot write in /proc/fitlab-x"),
-    (["--out", "FILE"], "exists and is not a folder"),
-])
+@pytest.mark.parametrize(
+    "extra, expected",
+    [
+        (["--seed", "18446744073709551616"], "--seed: expected an integer in [0, 9223372036854775807]"),
+        (["--seed", "-1"], "--seed: expected an integer in [0, 9223372036854775807], got '-1'"),
+        (["--max-paths", "10"], "--max-paths: expected an integer in [1000, 4294967296]"),
+        (["--max-paths", str(2**32 + 1)], "--max-paths: expected an integer in [1000, 4294967296]"),
+        (["--target-se", "inf"], "--target-se: expected a positive finite number, got 'inf'"),
+        (["--out", "/proc/fitlab-x"], "--out: cannot write in /proc/fitlab-x"),
+        (["--out", "FILE"], "exists and is not a folder"),
+    ],
+)
 def test_cli_bad_options_one_line_exit_2_before_any_work(tmp_path, capsys, monkeypatch, extra, expected):
     import fitlab.families.lambert_sphere.mc.simulate as sim
 
@@ -247,8 +263,9 @@ def test_cli_bad_options_one_line_exit_2_before_any_work(tmp_path, capsys, monke
     assert len(err) == 1 and expected in err[0], err
 
 
-@pytest.mark.parametrize("name, family", [("garbage.toml", None), ("garbage.json", None),
-                                          ("garbage.toml", "microfacet_energy")])
+@pytest.mark.parametrize(
+    "name, family", [("garbage.toml", None), ("garbage.json", None), ("garbage.toml", "microfacet_energy")]
+)
 def test_cli_refuses_binary_garbage_in_one_line_exit_2(tmp_path, capsys, name, family):
     """``fitlab simulate`` on a file that is not UTF-8 text: one line naming the file, exit 2 (it was a raw
     UnicodeDecodeError with exit 1)."""
@@ -275,8 +292,10 @@ def test_one_path_budget_limit_for_every_family_and_the_command_line(tmp_path, c
     assert "(integer in [1000, 2^32])" in " ".join(capsys.readouterr().out.split())
     for limit, ok in ((MAX_PATHS, True), (MAX_PATHS + 1, False)):
         sphere = SCENE.replace("max_paths = 60_000", f"max_paths = {limit}")
-        micro = ('[[material]]\nkind = "conductor"\ndistribution = "ggx"\nalpha = 0.5\n[incident]\nmu_i = [0.5]\n'
-                 f"[precision]\ntarget_se = 0.01\nmax_paths = {limit}\n")
+        micro = (
+            '[[material]]\nkind = "conductor"\ndistribution = "ggx"\nalpha = 0.5\n[incident]\nmu_i = [0.5]\n'
+            f"[precision]\ntarget_se = 0.01\nmax_paths = {limit}\n"
+        )
         for parse, text in ((parse_scene, sphere), (parse_microsurface, micro)):
             if ok:
                 assert parse(text, "s.toml").max_paths == limit
@@ -293,18 +312,22 @@ def test_slow_job_projection():
     assert SLOW_JOB_SECONDS == 3600
     # a target out of reach, the largest budget, 1e6 paths/s: 2^32 paths take 1.2 h
     w = slow_job_warning(20_000, 0.02, 1000.0, 2**32)
-    assert w == ("standard error 1e+03 x its target after 20000 paths; the target needs about 2e+10 paths, more "
-                 "than max_paths = 4294967296: the job will stop above its target after 1.2 h more at 1e+06 paths/s "
-                 "(over the 1 h bound; lower --max-paths or raise --target-se)")
+    assert w == (
+        "standard error 1e+03 x its target after 20000 paths; the target needs about 2e+10 paths, more "
+        "than max_paths = 4294967296: the job will stop above its target after 1.2 h more at 1e+06 paths/s "
+        "(over the 1 h bound; lower --max-paths or raise --target-se)"
+    )
     # reachable, but 1.8e9 paths at 1e5 paths/s: 5 h
-    assert slow_job_warning(20_000, 0.2, 300.0, 2**32).endswith("about 1.8e+09 paths: 5 h more at 1e+05 paths/s "
-                                                                "(over the 1 h bound)")
+    assert slow_job_warning(20_000, 0.2, 300.0, 2**32).endswith(
+        "about 1.8e+09 paths: 5 h more at 1e+05 paths/s (over the 1 h bound)"
+    )
     assert slow_job_warning(20_000, 0.2, 30.0, 2**32) is None  # 1.8e7 paths: 3 min
     assert slow_job_warning(20_000, 0.02, 1000.0, 10**9) is None  # the budget ends it in 17 min
     # an empty bin above its target has no error estimate: only the budget bounds the job
     assert slow_job_warning(20_000, 0.02, float("inf"), 2**32) == (
         "after 20000 paths a bin is still empty (no error estimate): the job may run to max_paths = 4294967296, "
-        "1.2 h more at 1e+06 paths/s (over the 1 h bound)")
+        "1.2 h more at 1e+06 paths/s (over the 1 h bound)"
+    )
     assert slow_job_warning(20_000, 0.02, float("inf"), 10**9) is None
     assert slow_job_warning(20_000, 0.02, float("nan"), 2**32) is None
 
@@ -325,13 +348,26 @@ def test_cli_warns_once_per_job_projected_past_the_bound(tmp_path, capsys, monke
         budget, batch = "60000", 20_000
     else:
         p = tmp_path / "m.toml"
-        p.write_text('[[material]]\nlabel = "white"\nkind = "conductor"\ndistribution = "ggx"\nalpha = 0.5\n'
-                     "[incident]\nmu_i = [0.5]\n[outgoing]\nmu_o = 2\nphi = 2\n[precision]\ntarget_se = 0.01\n"
-                     "batch = 1000\nslots = 64\n")
+        p.write_text(
+            '[[material]]\nlabel = "white"\nkind = "conductor"\ndistribution = "ggx"\nalpha = 0.5\n'
+            "[incident]\nmu_i = [0.5]\n[outgoing]\nmu_o = 2\nphi = 2\n[precision]\ntarget_se = 0.01\n"
+            "batch = 1000\nslots = 64\n"
+        )
         job = "material white, mu_i = 0.5"
         budget, batch = "3000", 1000
-    argv = ["simulate", str(p), "--quiet", "--no-plots", "--out", str(tmp_path / "o"), "--max-paths", budget,
-            "--target-se", "1e-9", "--allow-unconverged"]
+    argv = [
+        "simulate",
+        str(p),
+        "--quiet",
+        "--no-plots",
+        "--out",
+        str(tmp_path / "o"),
+        "--max-paths",
+        budget,
+        "--target-se",
+        "1e-9",
+        "--allow-unconverged",
+    ]
     assert main(argv) == 0
     warnings = [line for line in capsys.readouterr().err.splitlines() if "warning" in line]
     assert len(warnings) == 1, warnings
@@ -419,8 +455,12 @@ def test_true_scene_references_are_the_true_half_space(tmp_path):
     # both sides are Gauss rules in mu_o, and the odd orders go like sqrt(1 - mu_o^2) at mu_o = 1, where a Gauss
     # rule converges algebraically: the simulation's 64 nodes and these 40 agree to about 3e-6 of f
     tol = 2e-5
-    rows = [r for e in ("multiple", "phase_difference") for r in result.rows[e]
-            if r["quantity"] in ("f", "f_ms", "d_f", "d_f_ms")]
+    rows = [
+        r
+        for e in ("multiple", "phase_difference")
+        for r in result.rows[e]
+        if r["quantity"] in ("f", "f_ms", "d_f", "d_f_ms")
+    ]
     assert len(rows) == 4 * (2 * 3 + 2 * 2)
     gaps = []
     for r in rows:
@@ -440,8 +480,12 @@ def test_true_scene_references_are_the_true_half_space(tmp_path):
         else:
             assert r["ref"] == pytest.approx(true - average("three_term"), abs=tol * scale), r
     assert max(gaps) > 5 * tol  # the check tells the true half space from the mixed reference
-    albedos = {(r["effect"], r["quantity"]): r for e in ("albedo", "phase_difference") for r in result.rows[e]
-               if r["quantity"] in ("a", "a_ms", "d_a", "d_a_ms")}
+    albedos = {
+        (r["effect"], r["quantity"]): r
+        for e in ("albedo", "phase_difference")
+        for r in result.rows[e]
+        if r["quantity"] in ("a", "a_ms", "d_a", "d_a_ms")
+    }
     a = {ph: float(exact.albedo(mu_i, c, phase=ph)) for ph in ("true", "mixed", "three_term")}
     a1 = {ph: c * float(exact.single_scattering_albedo(mu_i, ph)) for ph in ("true", "three_term")}
     assert albedos["albedo", "a"]["ref"] == pytest.approx(a["true"], rel=1e-12)
@@ -449,7 +493,8 @@ def test_true_scene_references_are_the_true_half_space(tmp_path):
     assert albedos["albedo", "a_ms"]["ref"] == pytest.approx(a["true"] - a1["true"], rel=1e-9)
     assert albedos["phase_difference", "d_a"]["ref"] == pytest.approx(a["true"] - a["three_term"], rel=1e-9)
     assert albedos["phase_difference", "d_a_ms"]["ref"] == pytest.approx(
-        a["true"] - a1["true"] - a["three_term"] + a1["three_term"], rel=1e-9, abs=1e-14)
+        a["true"] - a1["true"] - a["three_term"] + a1["three_term"], rel=1e-9, abs=1e-14
+    )
     zs = [r["z_ref"] for e in result.rows.values() for r in e if r["se"] > 0 and np.isfinite(r["z_ref"])]
     assert len(zs) > 20 and max(abs(z) for z in zs) < 4
 
@@ -509,8 +554,13 @@ def test_ctrl_c_stops_a_large_scene_and_its_cost_is_said_first(tmp_path):
 
     scene = tmp_path / "large.toml"
     scene.write_text(LARGE_SCENE)
-    proc = subprocess.Popen([sys.executable, "-m", "fitlab", "simulate", str(scene), "--out", str(tmp_path / "out")],
-                            cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=dict(os.environ))
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "fitlab", "simulate", str(scene), "--out", str(tmp_path / "out")],
+        cwd=tmp_path,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        env=dict(os.environ),
+    )
     seen, deadline = b"", time.monotonic() + 240
     while b"a pilot estimates" not in seen and time.monotonic() < deadline and proc.poll() is None:
         if select.select([proc.stderr], [], [], 1.0)[0]:

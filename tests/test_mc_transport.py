@@ -52,8 +52,9 @@ def _ss_modes_eq10(mu_i, c, a, b):
     vphi = v * np.pi / 2
     s = np.sqrt((1 - mu_i**2) * (1 - mu**2))[:, None]
     f = c * three_term_phase_function(-(mu_i * mu[:, None] + s * np.cos(phi))) / (mu_i + mu[:, None])
-    out = [((2.0 if m else 1.0) / np.pi * (f * np.cos(m * phi) * vphi).sum(1) * wmu).sum() / wmu.sum()
-           for m in range(3)]
+    out = [
+        ((2.0 if m else 1.0) / np.pi * (f * np.cos(m * phi) * vphi).sum(1) * wmu).sum() / wmu.sum() for m in range(3)
+    ]
     return np.array(out)
 
 
@@ -157,7 +158,9 @@ def test_both_mode_three_term_track_agrees_with_exact():
     r = run_round(cfg, 3, (0,), 0.99, 0.5, 20_000)
     assert r["n_capped"] == 0
     est, se = _mean_se(r["escape"][1], r["escape_sq"][1], r["photons"])
-    assert abs(0.99 * single_scattering_albedo(0.5, "three_term") + est - float(albedo(0.5, 0.99, "three_term"))) < 4 * se
+    assert (
+        abs(0.99 * single_scattering_albedo(0.5, "three_term") + est - float(albedo(0.5, 0.99, "three_term"))) < 4 * se
+    )
     # correlated paths: the difference has a far smaller error than either track (9x at c = 0.99)
     assert _mean_se(r["escape"][2], r["escape_sq"][2], r["photons"])[1] < 0.2 * se
 
@@ -218,8 +221,9 @@ def test_walk_precision_is_checked():
 
 def test_reproducible_and_independent_of_slots(fourier_runs):
     again = run_round(FOURIER, 11, (0,), 0.5, 0.3, 60_000)
-    other = run_round(WalkConfig(phase="three_term", mu_edges=EDGES, orders=(0, 1, 2), slots=64), 11, (0,), 0.5,
-                      0.3, 60_000)
+    other = run_round(
+        WalkConfig(phase="three_term", mu_edges=EDGES, orders=(0, 1, 2), slots=64), 11, (0,), 0.5, 0.3, 60_000
+    )
     first = fourier_runs[(0.5, 0.3)]
     for k in ("fourier", "fourier_sq", "escape", "photons", "collisions"):
         np.testing.assert_array_equal(again[k], first[k])
@@ -240,10 +244,15 @@ print(json.dumps({"devices": jax.device_count(), **{k: np.asarray(v).tolist() fo
 
 
 def _run_sharded(ndev):
-    env = dict(os.environ, XLA_FLAGS=f"--xla_force_host_platform_device_count={ndev}", JAX_PLATFORMS="cpu",
-               PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
-    out = subprocess.run([sys.executable, "-c", _SHARD_SCRIPT], env=env, capture_output=True, text=True,
-                         timeout=300, cwd=ROOT)
+    env = dict(
+        os.environ,
+        XLA_FLAGS=f"--xla_force_host_platform_device_count={ndev}",
+        JAX_PLATFORMS="cpu",
+        PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""),
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", _SHARD_SCRIPT], env=env, capture_output=True, text=True, timeout=300, cwd=ROOT
+    )
     assert out.returncode == 0, out.stderr[-2000:]
     return json.loads(out.stdout.strip().splitlines()[-1])
 

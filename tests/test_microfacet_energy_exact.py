@@ -84,8 +84,11 @@ def test_routes_agree_with_a_fresnel_factor(model):
     b = directional_albedo(mu, alpha, model, method="direction", fresnel=schlick)
     np.testing.assert_allclose(a, b, rtol=0, atol=1e-9)
     # a constant factor scales E, and alpha = 0 (the mirror, w_o . h = mu) gives F(mu)
-    np.testing.assert_allclose(directional_albedo(mu, alpha, model, fresnel=lambda c: 0.25 + 0 * c),
-                               0.25 * directional_albedo(mu, alpha, model), rtol=1e-14)
+    np.testing.assert_allclose(
+        directional_albedo(mu, alpha, model, fresnel=lambda c: 0.25 + 0 * c),
+        0.25 * directional_albedo(mu, alpha, model),
+        rtol=1e-14,
+    )
     np.testing.assert_allclose(directional_albedo(mu, 0.0, model, fresnel=schlick), schlick(mu), rtol=1e-15)
 
 
@@ -137,8 +140,12 @@ def test_ggx_at_alpha_1_in_closed_form():
 def test_smith_forms_agree_at_normal_incidence_and_correlated_is_1_at_grazing():
     alpha = np.array([1e-3, 0.05, 0.3, 0.7, 1.0])
     # G1(w_o) = 1 at mu_o = 1, so both G2 / (4 mu_i mu_o) are 1 / (2 (mu_i + S(mu_i)))
-    np.testing.assert_allclose(directional_albedo(1.0, alpha, "ggx_separable"),
-                               directional_albedo(1.0, alpha, "ggx_correlated"), rtol=0, atol=1e-12)
+    np.testing.assert_allclose(
+        directional_albedo(1.0, alpha, "ggx_separable"),
+        directional_albedo(1.0, alpha, "ggx_correlated"),
+        rtol=0,
+        atol=1e-12,
+    )
     # at grazing every visible facet reflects upwards and G2/G1(w_o) -> 1 (height-correlated only)
     np.testing.assert_allclose(directional_albedo(0.0, alpha, "ggx_correlated"), 1.0, rtol=0, atol=1e-10)
     assert np.all(directional_albedo(0.0, alpha, "ggx_separable") < 0.95)
@@ -207,8 +214,9 @@ def test_oren_nayar_average_constants_by_sympy():
     for azimuth, model in (("cos_phi", "oren_nayar"), ("gamma", "oren_nayar_gamma")):
         # E = A + (2B/pi) [int_0^t ... + int_t^(pi/2) ...] from the BRDF, then E_avg = A + B k
         c = 1 if azimuth == "cos_phi" else sp.sin(t) * sp.sin(ti)
-        inner = (sp.integrate(sp.expand(sp.sin(t) * sp.sin(ti) ** 2 * c), (ti, 0, t))
-                 + sp.tan(t) * sp.integrate(sp.expand(sp.sin(ti) ** 2 * sp.cos(ti) * c), (ti, t, sp.pi / 2)))
+        inner = sp.integrate(sp.expand(sp.sin(t) * sp.sin(ti) ** 2 * c), (ti, 0, t)) + sp.tan(t) * sp.integrate(
+            sp.expand(sp.sin(ti) ** 2 * sp.cos(ti) * c), (ti, t, sp.pi / 2)
+        )
         k = sp.nsimplify(4 / sp.pi * sp.integrate(sp.simplify(inner * sp.cos(t) * sp.sin(t)), (t, 0, sp.pi / 2)))
         a, b = oren_nayar_coefficients(0.8, 0.33)
         assert abs(average_albedo(0.8, model) - (a + b * float(k))) < 1e-14
@@ -296,13 +304,23 @@ def test_oren_nayar_brdf_conventions():
     mu_o, mu_i, phi, alpha = random_configurations()
     theta_o, theta_i = np.arccos(mu_o), np.arccos(mu_i)
     a, b = oren_nayar_coefficients(alpha)
-    blog_displayed = mu_i / np.pi * (a + b * np.maximum(0, np.cos(phi)) * np.sin(np.maximum(theta_o, theta_i))
-                                     * np.tan(np.minimum(theta_o, theta_i)))
+    blog_displayed = (
+        mu_i
+        / np.pi
+        * (
+            a
+            + b
+            * np.maximum(0, np.cos(phi))
+            * np.sin(np.maximum(theta_o, theta_i))
+            * np.tan(np.minimum(theta_o, theta_i))
+        )
+    )
     np.testing.assert_allclose(oren_nayar_brdf(mu_o, mu_i, phi, alpha) * mu_i, blog_displayed, rtol=1e-12)
     np.testing.assert_array_equal(oren_nayar_coefficients(0.0), (1.0, 0.0))  # sigma = 0: Lambert
     sigma2 = (np.pi / 2) ** 2  # alpha = 1: sigma = pi/2
-    np.testing.assert_allclose(oren_nayar_coefficients(1.0), (1 - sigma2 / (2 * (sigma2 + 0.33)),
-                                                              0.45 * sigma2 / (sigma2 + 0.09)), rtol=1e-15)
+    np.testing.assert_allclose(
+        oren_nayar_coefficients(1.0), (1 - sigma2 / (2 * (sigma2 + 0.33)), 0.45 * sigma2 / (sigma2 + 0.09)), rtol=1e-15
+    )
     # the footnote variant changes A only
     a57, b57 = oren_nayar_coefficients(alpha, 0.57)
     np.testing.assert_array_equal(b57, b)
@@ -404,16 +422,19 @@ def test_brdf_domain_edges():
 
 # -- tables ---------------------------------------------------------------------------------------------
 def test_table_writer_round_trip(tmp_path):
-    specs = (tabulate.AlbedoTable("ggx", GGX_MODELS, "nodes", 4), tabulate.AlbedoTable("oren_nayar", OREN_NAYAR_MODELS,
-                                                                                         "centres", 3))
+    specs = (
+        tabulate.AlbedoTable("ggx", GGX_MODELS, "nodes", 4),
+        tabulate.AlbedoTable("oren_nayar", OREN_NAYAR_MODELS, "centres", 3),
+    )
     from fitlab.store import write_tables
 
     write_tables(tmp_path, tabulate.build_tables(False, specs=specs))
     assert tabulate.check_tables(tmp_path, False, every=1, specs=specs) == []
     mu, alpha, values = tabulate.read_albedo_table(tmp_path / specs[0].file, specs[0])
     np.testing.assert_array_equal(mu, [0, 0.25, 0.5, 0.75, 1])
-    np.testing.assert_allclose(values["ggx_correlated"], directional_albedo(mu, alpha[:, None], "ggx_correlated"),
-                               atol=1e-12)
+    np.testing.assert_allclose(
+        values["ggx_correlated"], directional_albedo(mu, alpha[:, None], "ggx_correlated"), atol=1e-12
+    )
     header = (tmp_path / specs[1].file).read_text().splitlines()[:4]
     assert header[1].startswith("# method:") and "texel centres" in header[3]
     # a wrong value is caught
@@ -452,7 +473,8 @@ def test_committed_tables_rows_by_the_other_route():
             np.testing.assert_allclose(table[np.ix_(pick, pick)], want, rtol=0, atol=1e-9)
     alpha, averages = tabulate.read_average_table(DATA / tabulate.AVERAGE_FILE)
     for model in ("ggx_separable", "oren_nayar_gamma"):
-        np.testing.assert_allclose(averages[model][[0, 100, 256]], average_albedo(alpha[[0, 100, 256]], model,
-                                                                                   method="direction"), atol=1e-9)
+        np.testing.assert_allclose(
+            averages[model][[0, 100, 256]], average_albedo(alpha[[0, 100, 256]], model, method="direction"), atol=1e-9
+        )
     header, _ = read_table(DATA / tabulate.AVERAGE_FILE, tabulate.AVERAGE_COLUMNS)
     assert tuple(header) == tabulate.AVERAGE_COLUMNS

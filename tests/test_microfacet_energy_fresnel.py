@@ -60,8 +60,15 @@ def complex_fresnel(c, eta, k):
 
 def theta_average(f, points=()):
     """F_avg = int_0^(pi/2) 2 F(cos t) cos t sin t dt by QUADPACK's adaptive rule in theta (not in mu)."""
-    value, _ = integrate.quad(lambda t: 2 * f(np.cos(t)) * np.cos(t) * np.sin(t), 0, np.pi / 2, points=points or None,
-                              epsabs=1e-13, epsrel=1e-13, limit=400)
+    value, _ = integrate.quad(
+        lambda t: 2 * f(np.cos(t)) * np.cos(t) * np.sin(t),
+        0,
+        np.pi / 2,
+        points=points or None,
+        epsabs=1e-13,
+        epsrel=1e-13,
+        limit=400,
+    )
     return value
 
 
@@ -94,8 +101,12 @@ def fresnel_range(name):
     f = CASES[name]
     c = np.linspace(0, 1, 4001)
     i = int(np.argmin(f(c)))
-    res = optimize.minimize_scalar(lambda x: float(f(x)), bounds=(c[max(i - 1, 0)], c[min(i + 1, c.size - 1)]),
-                                   method="bounded", options={"xatol": 1e-12})
+    res = optimize.minimize_scalar(
+        lambda x: float(f(x)),
+        bounds=(c[max(i - 1, 0)], c[min(i + 1, c.size - 1)]),
+        method="bounded",
+        options={"xatol": 1e-12},
+    )
     return min(float(res.fun), float(f(c[i]))), float(np.max(f(c)))
 
 
@@ -128,13 +139,14 @@ def test_conductor_limits_and_the_complex_amplitudes():
     f = fresnel_conductor(c, eta, k)
     assert f.shape == (c.size, eta.size) and np.all((f >= 0) & (f <= 1))
     np.testing.assert_allclose(f[1:], complex_fresnel(c[1:], eta, k), rtol=0, atol=2e-15)
-    np.testing.assert_allclose(fresnel_conductor(1.0, eta, k), ((eta - 1) ** 2 + k ** 2) / ((eta + 1) ** 2 + k ** 2),
-                               rtol=1e-15)
+    np.testing.assert_allclose(
+        fresnel_conductor(1.0, eta, k), ((eta - 1) ** 2 + k**2) / ((eta + 1) ** 2 + k**2), rtol=1e-15
+    )
     np.testing.assert_array_equal(fresnel_conductor(0.0, eta, k), 1.0)
     # k = 0 is the dielectric (an independent formula), with total internal reflection for eta < 1
     eta_d = np.array([0.5, 0.9, 1.0, 1.0001, 1.33, 1.5, 2.4, 4.0])
     np.testing.assert_allclose(fresnel_conductor(c, eta_d, 0.0), fresnel_dielectric(c, eta_d), rtol=0, atol=2e-15)
-    critical = np.sqrt(1 - 0.5 ** 2)
+    critical = np.sqrt(1 - 0.5**2)
     np.testing.assert_array_equal(fresnel_dielectric(np.linspace(0, critical, 7), 0.5), 1.0)
     # the matched interface reflects nothing, and its grazing limit is 0
     np.testing.assert_array_equal(fresnel_conductor(c, 1.0, 0.0), 0.0)
@@ -144,7 +156,7 @@ def test_conductor_limits_and_the_complex_amplitudes():
     # <= eta and b >= k; so 1 - F <= 4 eta / k^2 + eta / k, the second from p's dip at c ~ 1/k
     for e, kk in [(0.21, 1e3), (0.21, 1e6), (1.5, 1e4)]:
         loss = 1 - fresnel_conductor(np.concatenate((c, np.geomspace(1e-9, 1e-2, 200)[:, None])), e, kk)
-        assert np.all(loss <= 4 * e / kk ** 2 + e / kk) and loss.max() > e / kk / 2  # the dip is there
+        assert np.all(loss <= 4 * e / kk**2 + e / kk) and loss.max() > e / kk / 2  # the dip is there
 
 
 def snell_transmittance_mp(cos_i, cos_t, eta, from_incident: bool):
@@ -181,8 +193,7 @@ def test_transmittance_from_both_cosines(eta):
     else:
         cos_t, cos_i = given, np.sqrt((1 - eta) * (1 + eta) + eta**2 * given**2)
     t = fresnel_dielectric_transmittance(cos_i, cos_t, eta)
-    np.testing.assert_allclose(t, snell_transmittance_mp(cos_i, cos_t, eta, from_incident=eta > 1), rtol=1e-14,
-                               atol=0)
+    np.testing.assert_allclose(t, snell_transmittance_mp(cos_i, cos_t, eta, from_incident=eta > 1), rtol=1e-14, atol=0)
     np.testing.assert_allclose(fresnel_dielectric_transmittance(cos_t, cos_i, 1 / eta), t, rtol=4e-15, atol=0)
     assert np.all((t >= 0) & (t <= 1))
     np.testing.assert_array_equal(fresnel_dielectric_transmittance([0.0, 0.3], [0.3, 0.0], eta), 0.0)
@@ -198,9 +209,16 @@ def test_transmittance_from_both_cosines(eta):
 
 def test_float32_evaluation_and_edges():
     c = np.concatenate(([0.0, 1e-7], np.linspace(0.001, 1, 60)))
-    cases = [(fresnel_schlick, (0.04,)), (fresnel_schlick, (0.9,)), (fresnel_dielectric, (1.5,)),
-             (fresnel_dielectric, (0.6,)), *[(fresnel_conductor, (e, k)) for e, k in zip(GOLD_ETA, GOLD_K)],
-             (fresnel_conductor, (1.2, 7.0)), (fresnel_conductor, (1e-3, 1e4)), (fresnel_conductor, (1e3, 0.0))]
+    cases = [
+        (fresnel_schlick, (0.04,)),
+        (fresnel_schlick, (0.9,)),
+        (fresnel_dielectric, (1.5,)),
+        (fresnel_dielectric, (0.6,)),
+        *[(fresnel_conductor, (e, k)) for e, k in zip(GOLD_ETA, GOLD_K)],
+        (fresnel_conductor, (1.2, 7.0)),
+        (fresnel_conductor, (1e-3, 1e4)),
+        (fresnel_conductor, (1e3, 0.0)),
+    ]
     for fn, params in cases:
         single = fn(c.astype(np.float32), *[np.float32(p) for p in params])
         double = fn(c, *params)
@@ -216,18 +234,20 @@ def test_cosines_outside_the_domain():
     # rounding just above 1 and the zero-weight nodes just below 0 that directional_albedo passes are clipped
     assert fresnel_schlick(1 + 2e-16, 0.04) == fresnel_schlick(1.0, 0.04)
     assert fresnel_conductor(-1e-9, 0.21, 3.272) == fresnel_conductor(0.0, 0.21, 3.272)
-    for call, error in [(lambda: fresnel_schlick(1.01, 0.04), ValueError),
-                        (lambda: fresnel_schlick(-1.5, 0.04), ValueError),
-                        (lambda: fresnel_schlick(0.5, 1.2), ValueError),
-                        (lambda: fresnel_conductor(0.5, 0.0, 3.0), ValueError),
-                        (lambda: fresnel_conductor(0.5, 0.2, -1.0), ValueError),
-                        (lambda: fresnel_conductor(0.5, np.inf, 1.0), ValueError),
-                        (lambda: fresnel_dielectric(np.nan, 1.5), ValueError),
-                        (lambda: fresnel_dielectric(0.5, "glass"), TypeError),
-                        (lambda: average_fresnel(0.04), TypeError),
-                        (lambda: average_fresnel(lambda c: c / 0), ValueError),
-                        (lambda: fresnel_compensation_factor(0.5, 0.5, form="other"), ValueError),
-                        (lambda: random_walk_albedo(0.5, 0.5, schlick(0.04), first_bounce="other"), ValueError)]:
+    for call, error in [
+        (lambda: fresnel_schlick(1.01, 0.04), ValueError),
+        (lambda: fresnel_schlick(-1.5, 0.04), ValueError),
+        (lambda: fresnel_schlick(0.5, 1.2), ValueError),
+        (lambda: fresnel_conductor(0.5, 0.0, 3.0), ValueError),
+        (lambda: fresnel_conductor(0.5, 0.2, -1.0), ValueError),
+        (lambda: fresnel_conductor(0.5, np.inf, 1.0), ValueError),
+        (lambda: fresnel_dielectric(np.nan, 1.5), ValueError),
+        (lambda: fresnel_dielectric(0.5, "glass"), TypeError),
+        (lambda: average_fresnel(0.04), TypeError),
+        (lambda: average_fresnel(lambda c: c / 0), ValueError),
+        (lambda: fresnel_compensation_factor(0.5, 0.5, form="other"), ValueError),
+        (lambda: random_walk_albedo(0.5, 0.5, schlick(0.04), first_bounce="other"), ValueError),
+    ]:
         with np.errstate(divide="ignore", invalid="ignore"), pytest.raises(error):
             call()
 
@@ -290,8 +310,9 @@ def test_white_furnace_with_fresnel_equal_to_one(model):
         if alpha == 0.5:
             np.testing.assert_allclose(one, compensated_albedo(MU, alpha, model), rtol=0, atol=1e-14)
         assert 1 - float(fresnel_compensation_factor(f_avg, average_albedo(alpha, model))) < 1e-9
-        np.testing.assert_allclose(compensated_fresnel_albedo(MU, alpha, metal, model, f_avg=f_avg), 1.0,
-                                   rtol=0, atol=1e-6)
+        np.testing.assert_allclose(
+            compensated_fresnel_albedo(MU, alpha, metal, model, f_avg=f_avg), 1.0, rtol=0, atol=1e-6
+        )
 
 
 @pytest.mark.parametrize("model", GGX_MODELS)
@@ -328,8 +349,9 @@ def test_constant_fresnel_is_exact_under_the_model(model):
         np.testing.assert_allclose(total, paths, rtol=0, atol=1e-10)
         # the reference with the exact first reflection agrees (R = c), so does the model's own total
         np.testing.assert_allclose(random_walk_albedo(MU, alpha, const, model), paths, rtol=0, atol=1e-10)
-        np.testing.assert_allclose(random_walk_albedo(MU, alpha, const, model, first_bounce="averaged"), paths,
-                                   rtol=0, atol=1e-12)
+        np.testing.assert_allclose(
+            random_walk_albedo(MU, alpha, const, model, first_bounce="averaged"), paths, rtol=0, atol=1e-12
+        )
         # the form with a Fresnel factor fewer makes the lobe 1/c too bright
         other = compensated_fresnel_albedo(MU, alpha, const, model, form="unweighted_first")
         np.testing.assert_allclose(other - c * e, (paths - c * e) / c, rtol=1e-9, atol=1e-12)
@@ -359,7 +381,9 @@ def test_visible_fresnel_normalisation_limits_and_an_independent_quadrature():
             def g(phi):
                 om = mu_o * ct + s_o * st * np.cos(phi)
                 return om * float(fresnel(min(max(om, 0.0), 1.0)))
+
             return 2 * integrate.quad(g, 0, edge, epsabs=1e-13, epsrel=1e-12)[0] * float(ggx_ndf(ct, alpha)) * st
+
         theta_c = np.pi / 2 - np.arccos(mu_o)
         value = integrate.quad(inner, 0, np.pi / 2, points=[theta_c], epsabs=1e-12, epsrel=1e-11, limit=200)[0]
         return float(smith_g1(mu_o, alpha)) / mu_o * value
@@ -404,8 +428,18 @@ def per_direction(name, alpha, model):
     e_avg = float(average_albedo(alpha, model))
     f_add = float(fresnel_compensation_factor(f_avg, e_avg))
     g = f_avg * e_avg / (1 - f_avg * (1 - e_avg))
-    return dict(e=e, e_f=e_f, r=r, f_avg=f_avg, e_avg=e_avg, f_add=f_add, g=g, total=e_f + f_add * (1 - e),
-                exact=e_f + g * (r - e_f), averaged=f_avg * e + g * f_avg * (1 - e))
+    return dict(
+        e=e,
+        e_f=e_f,
+        r=r,
+        f_avg=f_avg,
+        e_avg=e_avg,
+        f_add=f_add,
+        g=g,
+        total=e_f + f_add * (1 - e),
+        exact=e_f + g * (r - e_f),
+        averaged=f_avg * e + g * f_avg * (1 - e),
+    )
 
 
 def test_random_walk_albedo_is_its_formula():
@@ -414,10 +448,18 @@ def test_random_walk_albedo_is_its_formula():
         e, e_f = directional_albedo(MU, 0.5, model), directional_albedo(MU, 0.5, model, fresnel=f)
         e_avg = float(average_albedo(0.5, model))
         g = f_avg * e_avg / (1 - f_avg * (1 - e_avg))
-        np.testing.assert_allclose(random_walk_albedo(MU, 0.5, f, model, f_avg=f_avg),
-                                   e_f + g * (visible_fresnel(MU, 0.5, f) - e_f), rtol=0, atol=1e-15)
-        np.testing.assert_allclose(random_walk_albedo(MU, 0.5, f, model, first_bounce="averaged"),
-                                   f_avg * e + g * f_avg * (1 - e), rtol=0, atol=1e-15)
+        np.testing.assert_allclose(
+            random_walk_albedo(MU, 0.5, f, model, f_avg=f_avg),
+            e_f + g * (visible_fresnel(MU, 0.5, f) - e_f),
+            rtol=0,
+            atol=1e-15,
+        )
+        np.testing.assert_allclose(
+            random_walk_albedo(MU, 0.5, f, model, first_bounce="averaged"),
+            f_avg * e + g * f_avg * (1 - e),
+            rtol=0,
+            atol=1e-15,
+        )
         # and both are 1 with F = 1
         np.testing.assert_allclose(random_walk_albedo(MU, 0.5, schlick(1.0), model), 1.0, rtol=0, atol=1e-10)
 
@@ -445,16 +487,19 @@ def test_cosine_averaged_total_against_the_series(model):
             # Kulla-Conti's multiple scattering is the series' exactly; the totals differ by the single scattering
             assert abs((total_avg - series) - (e_f_avg - f_avg * e_avg)) < 1e-10
             rows.append((name, alpha, total_avg, series, e_f_avg - f_avg * e_avg, WM @ d["exact"]))
-    print(f"\n{model}: cosine-averaged albedo of f_F + f_ms_F; the series' F_avg E_avg / (1 - F_avg (1 - E_avg)); "
-          "their difference E_F,avg - F_avg E_avg; the exact-first-bounce reference's average")
+    print(
+        f"\n{model}: cosine-averaged albedo of f_F + f_ms_F; the series' F_avg E_avg / (1 - F_avg (1 - E_avg)); "
+        "their difference E_F,avg - F_avg E_avg; the exact-first-bounce reference's average"
+    )
     for name, alpha, tot, ser, diff, ref in rows:
         print(f"  {name:13s} alpha {alpha:3.1f}: {tot:.6f} {ser:.6f} {diff:+.2e} {ref:.6f}")
 
 
 @pytest.mark.parametrize("model", GGX_MODELS)
 def test_per_direction_errors_are_within_their_bounds(model):
-    print(f"\n{model}: max over mu_o of |total - reference (exact first bounce)| and of |E_F - F_avg E| "
-          "(at mu_o), f_add")
+    print(
+        f"\n{model}: max over mu_o of |total - reference (exact first bounce)| and of |E_F - F_avg E| (at mu_o), f_add"
+    )
     for name in CASES:
         f_min, f_max = fresnel_range(name)
         spread = f_max - f_min + 1e-12
@@ -476,5 +521,7 @@ def test_per_direction_errors_are_within_their_bounds(model):
             # E_F <= E and f_add <= 1: the compensated albedo never exceeds 1
             assert np.all(d["total"] <= 1 + 1e-12)
             i, j = int(np.argmax(np.abs(err))), int(np.argmax(np.abs(ss)))
-            print(f"  {name:13s} alpha {alpha:3.1f}: {err[i]:+.2e} ({GRID[i]:.3f})   {ss[j]:+.2e} ({GRID[j]:.3f})"
-                  f"   {d['f_add']:.4f}")
+            print(
+                f"  {name:13s} alpha {alpha:3.1f}: {err[i]:+.2e} ({GRID[i]:.3f})   {ss[j]:+.2e} ({GRID[j]:.3f})"
+                f"   {d['f_add']:.4f}"
+            )

@@ -66,6 +66,7 @@ def _about_w_o(mu_o, alpha, eta, weight, visible: bool):
             mz = mu_o * ct + s_o * st_ * cp
             mu_i = max(base + amp * cp, 0.0)
             return a2 / (math.pi * ((a2 - 1) * mz * mz + 1) ** 2) * weight(mu_i)
+
         return 2 * _quad(g, 0, end) * st_ * ct * float(fresnel_dielectric(ct, eta))
 
     ends = [abs(math.pi / 2 - t_o)] if visible else [(t_o + math.pi / 2) / 2, abs(math.pi / 2 - t_o) / 2]
@@ -151,8 +152,9 @@ def test_small_alpha_tends_to_the_mirror():
         e = directional_albedo(mu, alpha, "ggx_correlated")
         assert np.all(np.abs(e_f - f(mu) * e) <= alpha), alpha
         at_kink.append(abs(float(directional_albedo(c_k, alpha, "ggx_correlated", fresnel=f)) - 1.0))
-        np.testing.assert_allclose(directional_albedo(mu, alpha, "ggx_correlated", "direction", fresnel=f), e_f,
-                                   rtol=0, atol=1e-9)
+        np.testing.assert_allclose(
+            directional_albedo(mu, alpha, "ggx_correlated", "direction", fresnel=f), e_f, rtol=0, atol=1e-9
+        )
     assert at_kink[0] < 5 * math.sqrt(1e-4) and at_kink[1] < 5 * math.sqrt(1e-6) and at_kink[1] < at_kink[0] / 5
     np.testing.assert_array_equal(directional_albedo(mu, 0.0, "ggx_correlated", fresnel=f), f(mu))
 
@@ -173,8 +175,12 @@ def test_eta_tending_to_one_from_below():
 
 
 @settings(max_examples=12, deadline=None)
-@given(eta=st.floats(0.3, 0.999), alpha=st.floats(0.01, 1.0), mu=st.floats(0.0, 1.0),
-       smith=st.sampled_from(("separable", "correlated")))
+@given(
+    eta=st.floats(0.3, 0.999),
+    alpha=st.floats(0.01, 1.0),
+    mu=st.floats(0.0, 1.0),
+    smith=st.sampled_from(("separable", "correlated")),
+)
 def test_routes_agree_with_any_kink(eta, alpha, mu, smith):
     f = dielectric_factor(eta)
     a = float(directional_albedo(mu, alpha, f"ggx_{smith}", fresnel=f))
@@ -207,16 +213,19 @@ def test_fresnel_factors_carry_their_kinks():
     assert FresnelFactor(np.cos, (0.0, 0.5, 1.0, 0.5)).kinks == (0.5,)  # the ends are every rule's edges already
 
 
-@pytest.mark.parametrize("make, error", [
-    (lambda: FresnelFactor("F"), TypeError),
-    (lambda: FresnelFactor(np.cos, 0.5), TypeError),
-    (lambda: FresnelFactor(np.cos, (1.5,)), ValueError),
-    (lambda: FresnelFactor(np.cos, (math.nan,)), ValueError),
-    (lambda: FresnelFactor(np.cos, ("0.5",)), ValueError),
-    (lambda: dielectric_factor([0.5, 0.6]), ValueError),
-    (lambda: dielectric_factor(0.0), ValueError),
-    (lambda: conductor_factor(0.5, -1.0), ValueError),
-])
+@pytest.mark.parametrize(
+    "make, error",
+    [
+        (lambda: FresnelFactor("F"), TypeError),
+        (lambda: FresnelFactor(np.cos, 0.5), TypeError),
+        (lambda: FresnelFactor(np.cos, (1.5,)), ValueError),
+        (lambda: FresnelFactor(np.cos, (math.nan,)), ValueError),
+        (lambda: FresnelFactor(np.cos, ("0.5",)), ValueError),
+        (lambda: dielectric_factor([0.5, 0.6]), ValueError),
+        (lambda: dielectric_factor(0.0), ValueError),
+        (lambda: conductor_factor(0.5, -1.0), ValueError),
+    ],
+)
 def test_bad_fresnel_factors_are_refused_in_one_line(make, error):
     with pytest.raises(error) as info:
         make()

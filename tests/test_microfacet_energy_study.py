@@ -6,8 +6,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from studies.microfacet_energy import energy_compensation as S
 from fitlab.families.microfacet_energy.exact import directional_albedo
+from studies.microfacet_energy import energy_compensation as S
 
 
 def test_bilinear_read_is_exact_at_texel_centres_and_clamps_at_the_edges():

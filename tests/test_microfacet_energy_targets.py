@@ -43,7 +43,17 @@ def mx_ggx_dir_albedo_analytic(NdotV, alpha, coefficients):
     x, y = NdotV, alpha
     x2, y2 = x * x, y * y
     c = [np.array(v)[:, None] for v in coefficients]
-    r = c[0] + c[1] * x + c[2] * y + c[3] * x * y + c[4] * x2 + c[5] * y2 + c[6] * x2 * y + c[7] * x * y2 + c[8] * x2 * y2
+    r = (
+        c[0]
+        + c[1] * x
+        + c[2] * y
+        + c[3] * x * y
+        + c[4] * x2
+        + c[5] * y2
+        + c[6] * x2 * y
+        + c[7] * x * y2
+        + c[8] * x2 * y2
+    )
     ab = np.clip(r[:2] / r[2:], 0.0, 1.0)
     return ab[0] + ab[1]
 
@@ -125,13 +135,17 @@ def patapom_E0_on(alpha):
 
 SOURCE = {  # (target, form, preset) -> the source's E on (mu, alpha)
     ("E_ggx_cor", "materialx_ratquad", "materialx"): lambda m, a: mx_ggx_dir_albedo_analytic(m, a, MX_2022),
-    ("E_ggx_cor", "materialx_ratquad", "materialx_pre_2022"): lambda m, a: mx_ggx_dir_albedo_analytic(m, a, MX_PRE_2022),
+    ("E_ggx_cor", "materialx_ratquad", "materialx_pre_2022"): lambda m, a: mx_ggx_dir_albedo_analytic(
+        m, a, MX_PRE_2022
+    ),
     ("E_ggx_sep", "sforza_ratpoly3", "sforza_pellacini_2022"): lambda m, a: sforza_E(a, m),
     # gloss = 1 - alpha^(1/4): the research note's inferred mapping alpha = (1 - gloss)^4
     ("E_ggx_sep", "knarkowicz_poly", "knarkowicz_2014"): lambda m, a: env_dfg_polynomial(1.0, 1 - a**0.25, m),
     ("E_ggx_sep", "karis_linear", "karis_2014"): lambda m, a: sum(dfg_approx(m, np.sqrt(a))),
     ("E_ggx_cor", "karis_linear", "karis_2014"): lambda m, a: sum(dfg_approx(m, np.sqrt(a))),
-    ("E_on", "materialx_rational", "materialx"): lambda m, a: mx_oren_nayar_diffuse_dir_albedo_analytic(m, np.pi / 2 * a),
+    ("E_on", "materialx_rational", "materialx"): lambda m, a: mx_oren_nayar_diffuse_dir_albedo_analytic(
+        m, np.pi / 2 * a
+    ),
 }
 AVERAGE_SOURCE = {
     ("E_avg_ggx_sep", "patapom_quartic", "patapom"): lambda a: patapom_blog_E_avg_ggx(a) / np.pi,
@@ -247,12 +261,22 @@ def test_parameter_gradient_is_finite_on_the_edges(key):
 
 #: forms whose parameters a fit determines (MaterialX's splits E into A + B, which E does not determine; Karis's
 #: and Knarkowicz's have published redundancies or clamps that a start may sit on)
-DETERMINED = ("sforza_ratpoly3", "rational_v_alpha_4", "grazing_rational", "grazing_log_rational", "abg_cubic",
-              "patapom_quartic", "log_rational", "a_plus_kappa_b", "rational_alpha2")
+DETERMINED = (
+    "sforza_ratpoly3",
+    "rational_v_alpha_4",
+    "grazing_rational",
+    "grazing_log_rational",
+    "abg_cubic",
+    "patapom_quartic",
+    "log_rational",
+    "a_plus_kappa_b",
+    "rational_alpha2",
+)
 
 
-@pytest.mark.parametrize("key", [k for k in FORMS if k[1] in DETERMINED and not k[0].startswith("one_minus")],
-                         ids=lambda k: "/".join(k))
+@pytest.mark.parametrize(
+    "key", [k for k in FORMS if k[1] in DETERMINED and not k[0].startswith("one_minus")], ids=lambda k: "/".join(k)
+)
 def test_parameters_are_determined_by_the_training_set(key):
     # full column rank of the Jacobian at a generic point (the start moved by a small random step: at a start with a
     # constant numerator and a unit denominator a rational's columns pair up): no combination of terms vanishes on
@@ -293,7 +317,7 @@ def test_generated_python_code_equals_the_form(key):
     t = get_target(key[0])
     routine = with_domain(Routine(t.routine, form.inputs, form.substituted(values), "test",
                                   domain={n: t.domain[n] for n in form.inputs}))  # fmt: skip
-    (name, text), = emit(Program((routine,), (), (), FAMILY), "python").items()
+    ((name, text),) = emit(Program((routine,), (), (), FAMILY), "python").items()
     namespace = {}
     exec(compile(text, name, "exec"), namespace)
     rng = np.random.default_rng(5)
@@ -414,8 +438,9 @@ def test_oren_nayar_one_minus_e_below_zero_is_measured_and_stated():
     stated = [float(x) for x in re.findall(r"-?\d+\.\d+", ON_NEGATIVE)]
     assert stated == [0.2076, 0.49, -0.01518, 0.1264], ON_NEGATIVE
     alpha_zero, mu_reach, minimum, alpha_min = stated
-    best = minimize_scalar(lambda a: float(one_minus(0.0, a)), bounds=(0.0, 1.0), method="bounded",
-                           options={"xatol": 1e-10})
+    best = minimize_scalar(
+        lambda a: float(one_minus(0.0, a)), bounds=(0.0, 1.0), method="bounded", options={"xatol": 1e-10}
+    )
     assert round(best.fun, 5) == minimum and round(best.x, 4) == alpha_min
     # the closed form and the independent direction route agree there
     assert abs(float(1.0 - directional_albedo(0.0, best.x, "oren_nayar", method="direction")) - best.fun) < 1e-9
@@ -431,5 +456,5 @@ def test_oren_nayar_one_minus_e_below_zero_is_measured_and_stated():
     assert target.description.endswith("; " + ON_NEGATIVE)
     generated = Path(__file__).resolve().parents[1] / "fitlab" / "fits" / "generated" / "microfacet_energy.py"
     text = generated.read_text()
-    doc = text[text.index("def one_minus_E_on("):text.index("def E_avg_on(")]
+    doc = text[text.index("def one_minus_E_on(") : text.index("def E_avg_on(")]
     assert ON_NEGATIVE in " ".join(doc.split())

@@ -98,8 +98,13 @@ def glass():
 
 
 def _rows(result, quantity, material=None, order=None):
-    return [r for r in result.rows if r["quantity"] == quantity and (material is None or r["material"] == material)
-            and (order is None or r["order"] == order)]
+    return [
+        r
+        for r in result.rows
+        if r["quantity"] == quantity
+        and (material is None or r["material"] == material)
+        and (order is None or r["order"] == order)
+    ]
 
 
 #: two-sided p-value of a 4-sigma normal deviation: a bin's count must be at least this likely under its reference
@@ -186,7 +191,7 @@ def test_index_matched_interface_passes_straight_through(glass):
     lobe = r["lobe_transmission"].sum(axis=0)
     mu_bin = np.searchsorted(cfg.mu_edges, mu_i, side="right") - 1
     # straight through: |mu_o| = mu_i (up to rounding, which can put it just below the bin edge 0.75), phi = pi
-    assert lobe[:, -1].sum() == 20_000 and lobe[mu_bin - 1:mu_bin + 1, -1].sum() == 20_000
+    assert lobe[:, -1].sum() == 20_000 and lobe[mu_bin - 1 : mu_bin + 1, -1].sum() == 20_000
 
 
 def test_walk_does_not_depend_on_the_batch_split(glass):
@@ -202,15 +207,21 @@ def test_walk_does_not_depend_on_the_batch_split(glass):
 def test_dielectric_fresnel_agrees_with_the_exact_engine():
     c = np.concatenate([np.linspace(0.0, 1.0, 201), [0.74535599, 0.74535600]])  # around eta = 2/3's critical angle
     for eta in (1.5, 2.0 / 3.0, 1.0, 1e-3, 100.0):
-        np.testing.assert_allclose(np.asarray(dielectric(jnp.asarray(c), eta)), fresnel_dielectric(c, eta),
-                                   rtol=1e-13, atol=1e-15)
+        np.testing.assert_allclose(
+            np.asarray(dielectric(jnp.asarray(c), eta)), fresnel_dielectric(c, eta), rtol=1e-13, atol=1e-15
+        )
     assert float(dielectric(jnp.float64(1.0), 1.5)) == pytest.approx(0.04, rel=1e-14)  # ((eta - 1)/(eta + 1))^2
 
 
 @float64
 @settings(max_examples=60, deadline=None)
-@given(st.floats(0.02, 1.0), st.floats(0.0, 2 * math.pi), st.floats(0.0, 1.0), st.floats(0.0, 2 * math.pi),
-       st.sampled_from([1.5, 2.0 / 3.0, 1.01, 4.0]))
+@given(
+    st.floats(0.02, 1.0),
+    st.floats(0.0, 2 * math.pi),
+    st.floats(0.0, 1.0),
+    st.floats(0.0, 2 * math.pi),
+    st.sampled_from([1.5, 2.0 / 3.0, 1.01, 4.0]),
+)
 def test_refraction_obeys_snell_and_reverses(theta_m, phi_m, cos_w, phi_w, eta):
     """t = refract(w, m, eta) is a unit vector behind the facet with eta sin_t = sin_i in the plane of w and
     m; light sent back along t through the facet seen from its side (-m, 1 / eta) returns along w."""
@@ -240,9 +251,15 @@ def _direction(theta, phi, sign=1.0):
 
 
 @settings(max_examples=80, deadline=None)
-@given(st.floats(0.01, 1.55), st.floats(0.0, 2 * math.pi), st.floats(0.01, 1.55), st.floats(0.0, 2 * math.pi),
-       st.sampled_from(["ggx", "beckmann"]), st.sampled_from([(0.6, 0.6), (0.2, 0.9)]),
-       st.sampled_from([1.5, 1.0 / 1.5, 3.0]))
+@given(
+    st.floats(0.01, 1.55),
+    st.floats(0.0, 2 * math.pi),
+    st.floats(0.01, 1.55),
+    st.floats(0.0, 2 * math.pi),
+    st.sampled_from(["ggx", "beckmann"]),
+    st.sampled_from([(0.6, 0.6), (0.2, 0.9)]),
+    st.sampled_from([1.5, 1.0 / 1.5, 3.0]),
+)
 def test_btdf_generalised_reciprocity(ti, pi_, to, po, dist, alphas, eta):
     """f_t(w_i, w_o; eta) / eta^2 = f_t(-w_o, -w_i; 1 / eta): the light path reversed (from inside, which the
     walk's flip maps to light from outside with 1 / eta), in Veach's radiance form, to the rounding of the
@@ -255,9 +272,22 @@ def test_btdf_generalised_reciprocity(ti, pi_, to, po, dist, alphas, eta):
     backward = float(btdf(tuple(-x for x in wo), tuple(-x for x in wi), *alphas, dist, 1.0 / eta))
     ulps = 4.0 * np.finfo(float).eps
     signs = ((1.0, -1.0, 1.0), (-1.0, 1.0, -1.0))
-    spread = max(abs(float(btdf(tuple(c * (1 + ulps * s) for c, s in zip(wi, si)),
-                                tuple(c * (1 + ulps * s) for c, s in zip(wo, so)), *alphas, dist, eta)) - forward)
-                 for si in signs for so in signs)
+    spread = max(
+        abs(
+            float(
+                btdf(
+                    tuple(c * (1 + ulps * s) for c, s in zip(wi, si)),
+                    tuple(c * (1 + ulps * s) for c, s in zip(wo, so)),
+                    *alphas,
+                    dist,
+                    eta,
+                )
+            )
+            - forward
+        )
+        for si in signs
+        for so in signs
+    )
     assert abs(forward / eta**2 - backward) <= 8.0 * spread / eta**2 + 1e-12 * abs(backward) + 1e-300
 
 
@@ -286,13 +316,15 @@ def test_order_one_totals_by_bins_and_by_normals(dist, eta):
     for mu_i in (0.2, 0.7):
         r1, t1 = order_one_by_normals(mu_i, mat)
         assert np.sum(bin_average_single(mu_e, phi_e, mu_i, mat) * omega) == pytest.approx(r1, rel=tol_r)
-        assert np.sum(bin_average_transmission(mu_e, phi_e, mu_i, mat) * omega) == pytest.approx(t1, rel=tol_t,
-                                                                                                 abs=1e-7)
+        assert np.sum(bin_average_transmission(mu_e, phi_e, mu_i, mat) * omega) == pytest.approx(
+            t1, rel=tol_t, abs=1e-7
+        )
         assert 0.0 < r1 + t1 < 1.0
 
 
-@pytest.mark.parametrize("dist, alpha, mu_i", [("ggx", 1e-3, 0.5), ("beckmann", 1e-3, 0.9), ("ggx", 0.01, 0.9),
-                                               ("beckmann", 0.01, 0.2)])
+@pytest.mark.parametrize(
+    "dist, alpha, mu_i", [("ggx", 1e-3, 0.5), ("beckmann", 1e-3, 0.9), ("ggx", 0.01, 0.9), ("beckmann", 0.01, 0.2)]
+)
 def test_bin_references_resolve_the_peak_down_to_the_smallest_alpha(dist, alpha, mu_i):
     """The scenes' alpha goes down to 1e-3, where the whole lobe lies within 1e-3 of the mirror and refracted
     directions: the bin averages (panels graded towards the peak) still sum to the integrals over the
@@ -302,7 +334,8 @@ def test_bin_references_resolve_the_peak_down_to_the_smallest_alpha(dist, alpha,
     omega = 2.0 * np.outer(np.diff(mu_e), np.diff(phi_e))
     r1, t1 = order_one_by_normals(mu_i, glass)
     assert np.sum(bin_average_single(mu_e, phi_e, mu_i, glass, use_exact_ggx=False) * omega) == pytest.approx(
-        r1, rel=1e-5)
+        r1, rel=1e-5
+    )
     assert np.sum(bin_average_transmission(mu_e, phi_e, mu_i, glass) * omega) == pytest.approx(t1, rel=1e-6)
 
 
@@ -387,11 +420,13 @@ def test_diffuse_reference_limits_and_convergence():
 def test_dielectric_scene_rules():
     base = _scene(GLASS.split("[[material]]")[0] + "[[material]]" + GLASS.split("[[material]]")[1])
     assert parse_scene(base).materials[0].eta == 1.5
-    for change, message in (("eta = 1.5", "material[0].eta: missing"),
-                            ("eta = 1.0", "eta = 1 is no interface"),
-                            ("eta = -2.0", "material[0].eta: -2.0 is outside"),
-                            ("eta = 1.5\nfresnel = \"one\"", "a dielectric's Fresnel factor"),
-                            ("eta = 1.5\nalbedo = 0.5", "material[0].albedo: not used")):
+    for change, message in (
+        ("eta = 1.5", "material[0].eta: missing"),
+        ("eta = 1.0", "eta = 1 is no interface"),
+        ("eta = -2.0", "material[0].eta: -2.0 is outside"),
+        ('eta = 1.5\nfresnel = "one"', "a dielectric's Fresnel factor"),
+        ("eta = 1.5\nalbedo = 0.5", "material[0].albedo: not used"),
+    ):
         text = base.replace("eta = 1.5", change) if change != "eta = 1.5" else base.replace("eta = 1.5\n", "")
         with pytest.raises(SceneError, match=re.escape(message)):
             parse_scene(text)
@@ -420,15 +455,26 @@ print(json.dumps({"devices": jax.device_count(), **{k: np.asarray(v).tolist() fo
 def test_sharded_over_four_host_devices_gives_the_same_paths():
     """A mesh of 4 host devices (XLA_FLAGS, in a fresh process): each device walks a quarter of the ids, and
     the tallies equal this process's one-device run exactly (every weight is 1: the sums are counts)."""
-    env = dict(os.environ, XLA_FLAGS="--xla_force_host_platform_device_count=4", JAX_PLATFORMS="cpu",
-               PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
-    out = subprocess.run([sys.executable, "-c", _SHARD_SCRIPT], env=env, capture_output=True, text=True, timeout=300,
-                         cwd=ROOT)
+    env = dict(
+        os.environ,
+        XLA_FLAGS="--xla_force_host_platform_device_count=4",
+        JAX_PLATFORMS="cpu",
+        PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""),
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", _SHARD_SCRIPT], env=env, capture_output=True, text=True, timeout=300, cwd=ROOT
+    )
     assert out.returncode == 0, out.stderr[-2000:]
     four = json.loads(out.stdout.strip().splitlines()[-1])
     assert four.pop("devices") == 4
-    cfg = WalkConfig(kind="dielectric", orders=2, mu_edges=(0.0, 0.5, 1.0), phi_edges=(0.0, 2.0, 3.14159265),
-                     slots=64, transmission_lobe=True)
+    cfg = WalkConfig(
+        kind="dielectric",
+        orders=2,
+        mu_edges=(0.0, 0.5, 1.0),
+        phi_edges=(0.0, 2.0, 3.14159265),
+        slots=64,
+        transmission_lobe=True,
+    )
     one = run_round(cfg, job_key(5, 1, 2), MaterialParams(0.5, 0.7, eta=1.5), 0.6, 1_000, 5_001)
     assert set(one) == set(four)
     for k, v in one.items():

@@ -55,7 +55,9 @@ def test_every_form_is_finite_with_finite_gradients_at_the_domain_edges(target):
         vectors = [form.vector(p) for p in form.presets] + [form.vector(form.start_values)]
         for theta in vectors:
             assert np.all(np.isfinite(form.numpy_function(theta, *xs))), (form.key, theta)
-        grad = float64(lambda th, form=form: np.asarray(jax.jacfwd(lambda q: form.jax_function(q, *map(jnp.asarray, xs)))(th)))
+        grad = float64(
+            lambda th, form=form: np.asarray(jax.jacfwd(lambda q: form.jax_function(q, *map(jnp.asarray, xs)))(th))
+        )
         assert np.all(np.isfinite(grad(jnp.asarray(vectors[-1])))), form.key
 
 
@@ -82,16 +84,25 @@ def test_lobe_shapes_are_finite_at_grazing_and_normal_directions(name):
         assert np.all(np.isfinite(form.numpy_function(form.vector(form.start_values), mu, c, mi, a)))
 
 
-@pytest.mark.parametrize("name, truth", [
-    ("blog", {"sigma": 0.2, "theta_d": -0.3, "a": 0.2, "alpha_l": 0.85, "sigma_n": 0.7, "m": 0.0}),
-    ("tilted", {"sigma": 0.15, "alpha_l": 0.95, "sigma_n": 0.8, "b": -0.6, "k": 0.3}),
-])
+@pytest.mark.parametrize(
+    "name, truth",
+    [
+        ("blog", {"sigma": 0.2, "theta_d": -0.3, "a": 0.2, "alpha_l": 0.85, "sigma_n": 0.7, "m": 0.0}),
+        ("tilted", {"sigma": 0.15, "alpha_l": 0.95, "sigma_n": 0.8, "b": -0.6, "k": 0.3}),
+    ],
+)
 def test_per_lobe_fit_recovers_the_parameters_of_a_synthetic_lobe(name, truth):
     form = per_lobe_form(name)
     theta = form.vector(truth)
     y = bin_averages_numpy(lambda mo, c, mi, a: form.numpy_function(theta, mo, c, mi, a), 0.5, 0.6)
-    lobe = {"y": y, "se": 0.01 * y + 1e-9, "A": float((y * solid_angles()).sum()), "A_se": 1e-5, "mu_i": 0.5,
-            "alpha": 0.6}
+    lobe = {
+        "y": y,
+        "se": 0.01 * y + 1e-9,
+        "A": float((y * solid_angles()).sum()),
+        "A_se": 1e-5,
+        "mu_i": 0.5,
+        "alpha": 0.6,
+    }
     fit = fit_lobes(form, [lobe])
     np.testing.assert_allclose(fit.theta[0], theta, rtol=1e-5, atol=1e-7)
     assert fit.converged[0] and fit.steps[0] < 256
@@ -103,18 +114,22 @@ def _blog_code(light_mu, view_mu, r, albedo):
     after its reordering of components: the BRDF its caller adds."""
     cos_theta, mu = np.clip(view_mu, 0, 1), np.clip(light_mu, 0, 1)
     mu2, mu3, r2, r3 = mu * mu, mu**3, r * r, r**3
-    abcd = (0.028813261153483097 - 0.9215374811620882 * r + 6.632726114385572 * r2 - 4.5957022306534 * r3,
-            -0.09663259042197028 + 7.214143602200921 * r - 19.786845117100626 * r2 + 11.042058883797509 * r3,
-            0.10935692546815767 - 10.790405157520944 * r + 28.50803667636733 * r2 - 15.665258273262731 * r3,
-            -0.04376425480146207 + 5.2491960091879 * r - 13.582707339717146 * r2 + 7.348408854602616 * r3)
+    abcd = (
+        0.028813261153483097 - 0.9215374811620882 * r + 6.632726114385572 * r2 - 4.5957022306534 * r3,
+        -0.09663259042197028 + 7.214143602200921 * r - 19.786845117100626 * r2 + 11.042058883797509 * r3,
+        0.10935692546815767 - 10.790405157520944 * r + 28.50803667636733 * r2 - 15.665258273262731 * r3,
+        -0.04376425480146207 + 5.2491960091879 * r - 13.582707339717146 * r2 + 7.348408854602616 * r3,
+    )
     sigma2 = abcd[0] + abcd[1] * mu + abcd[2] * mu2 + abcd[3] * mu3
     sigma3 = 0.363902052363025 * sigma2
     eta = 2.588380909161985 * r - 1.3549594389004276 * r2
     intensity = (eta + 2) * cos_theta**eta / np.pi
-    abcd = (0.8850557867448499 - 1.2109761138443194 * r + 0.22569832413951335 * r2 + 0.4498256199595464 * r3,
-            0.0856807009397115 + 0.5659031384072539 * r,
-            -0.07707463071513312 - 1.384614678037336 * r + 0.8565888280926491 * r2,
-            0.010423083821992304 + 0.8525591060832015 * r - 0.6844738691665317 * r2)
+    abcd = (
+        0.8850557867448499 - 1.2109761138443194 * r + 0.22569832413951335 * r2 + 0.4498256199595464 * r3,
+        0.0856807009397115 + 0.5659031384072539 * r,
+        -0.07707463071513312 - 1.384614678037336 * r + 0.8565888280926491 * r2,
+        0.010423083821992304 + 0.8525591060832015 * r - 0.6844738691665317 * r2,
+    )
     sigma_n = abcd[0] + abcd[1] * mu + abcd[2] * mu2 + abcd[3] * mu3
     ell = 1 / np.sqrt(1.0 + cos_theta * cos_theta * (1.0 / (sigma_n * sigma_n) - 1.0))
     return ell * intensity * albedo * albedo * (sigma2 + albedo * sigma3) / np.pi
@@ -123,7 +138,12 @@ def _blog_code(light_mu, view_mu, r, albedo):
 def test_blog_code_preset_is_the_blogs_code():
     lobes = runtime.lobe_functions("blog_code", "diffuse")
     rng = np.random.default_rng(4)
-    mi, mo, a, rho = rng.uniform(0.05, 1, 500), rng.uniform(0, 1, 500), rng.uniform(0.05, 1, 500), rng.uniform(0, 1, 500)
+    mi, mo, a, rho = (
+        rng.uniform(0.05, 1, 500),
+        rng.uniform(0, 1, 500),
+        rng.uniform(0.05, 1, 500),
+        rng.uniform(0, 1, 500),
+    )
     want = _blog_code(mi, mo, a, rho)
     got = sum(rho**s * f(mo, 0.3, mi, a) for s, f in lobes.items())
     # the runtime clamps a negative published scale at 0 (a renderer's BRDF is >= 0)
@@ -139,8 +159,11 @@ def test_blog_text_and_code_scales_agree_to_the_texts_digits():
 
 
 # -- generated code -----------------------------------------------------------------------------------------
-PROGRAM_FILE = {"python": ("microfacet_energy.py",), "c": ("microfacet_energy.c", "microfacet_energy.h"),
-                "glsl": ("microfacet_energy.glsl",)}
+PROGRAM_FILE = {
+    "python": ("microfacet_energy.py",),
+    "c": ("microfacet_energy.c", "microfacet_energy.h"),
+    "glsl": ("microfacet_energy.glsl",),
+}
 COMMAND = "fitlab codegen --family microfacet_energy --lang {lang} --fits fitlab/fits --out fitlab/fits/generated"
 
 
@@ -155,9 +178,11 @@ def sources(tmp_path_factory):
     import sys
 
     folders = {lang: tmp_path_factory.mktemp(f"family_program_{lang}") for lang in lp.LANGUAGES}
-    script = ("import sys\nfrom fitlab.cli import main\n"
-              "for lang, folder in zip(sys.argv[1::2], sys.argv[2::2]):\n"
-              "    assert main(['codegen', '--family', 'microfacet_energy', '--lang', lang, '--out', folder, '--quiet']) == 0\n")
+    script = (
+        "import sys\nfrom fitlab.cli import main\n"
+        "for lang, folder in zip(sys.argv[1::2], sys.argv[2::2]):\n"
+        "    assert main(['codegen', '--family', 'microfacet_energy', '--lang', lang, '--out', folder, '--quiet']) == 0\n"
+    )
     args = [a for lang, folder in folders.items() for a in (lang, str(folder))]
     run = subprocess.run([sys.executable, "-c", script, *args], capture_output=True, text=True, timeout=600)
     assert run.returncode == 0, run.stderr[-4000:]
@@ -168,9 +193,11 @@ def sources(tmp_path_factory):
 def test_generated_code_does_not_follow_sympys_random_state(tmp_path, sympy_seed):
     """sympy draws from its random generators (fitlab.codegen.program.reproducible_sympy): whatever state other
     sympy work leaves them in, the committed code comes out."""
-    script = ("import sys, sympy.core.random as r; r.seed(int(sys.argv[1])); from fitlab.cli import main; "
-              "sys.exit(main(['codegen', '--family', 'microfacet_energy', '--lang', 'python', '--out', sys.argv[2], "
-              "'--quiet']))")
+    script = (
+        "import sys, sympy.core.random as r; r.seed(int(sys.argv[1])); from fitlab.cli import main; "
+        "sys.exit(main(['codegen', '--family', 'microfacet_energy', '--lang', 'python', '--out', sys.argv[2], "
+        "'--quiet']))"
+    )
     subprocess.run([sys.executable, "-c", script, str(sympy_seed), str(tmp_path)], check=True, cwd=ROOT)
     assert (tmp_path / "microfacet_energy.py").read_text() == (GENERATED / "microfacet_energy.py").read_text()
 
@@ -204,7 +231,8 @@ def test_committed_generated_code_is_what_the_family_codegen_writes(sources, lan
     assert set(sources[lang]) == set(PROGRAM_FILE[lang])
     for name, text in sources[lang].items():
         assert (GENERATED / name).read_text() == text, (
-            f"fitlab/fits/generated/{name} is stale: run {COMMAND.format(lang=lang)}")
+            f"fitlab/fits/generated/{name} is stale: run {COMMAND.format(lang=lang)}"
+        )
 
 
 def test_the_family_program_prints_every_albedo_every_lobe_parameter_and_the_lobes(program):
@@ -214,8 +242,14 @@ def test_the_family_program_prints_every_albedo_every_lobe_parameter_and_the_lob
 
     names = [r.name for r in program.routines]
     with_routine = [t.routine for t in get_family("microfacet_energy").targets() if t.routine is not None]
-    assert names == [*with_routine, "ms_blog_diffuse", "ms_tilt_diffuse", "ms_blog_conductor", "ms_tilt_conductor",
-                     "ms_kulla_conti"]
+    assert names == [
+        *with_routine,
+        "ms_blog_diffuse",
+        "ms_tilt_diffuse",
+        "ms_blog_conductor",
+        "ms_tilt_conductor",
+        "ms_kulla_conti",
+    ]
     assert {"E_ggx_sep", "one_minus_E_ggx_cor", "E_avg_on"} <= set(names) and program.parts == tuple(with_routine)
     assert program.model[0] == "blog_refit" and program.name == "microfacet_energy"
     assert "ms_blog_eta_diffuse.blog_quadratic.json" in dict(program.sources)
@@ -225,8 +259,10 @@ def test_default_forms_model_prints_the_blog_lobe_in_the_targets_default_forms(t
     from fitlab.codegen import load_program
 
     prog = load_program(family="microfacet_energy", model="default-forms")
-    assert "ms_blog_eta_diffuse.json" in dict(prog.sources) and "richer default forms" in prog.routine(
-        "ms_blog_diffuse").doc
+    assert (
+        "ms_blog_eta_diffuse.json" in dict(prog.sources)
+        and "richer default forms" in prog.routine("ms_blog_diffuse").doc
+    )
 
 
 @needs_cc
@@ -234,10 +270,13 @@ def test_c_compiles_clean_under_strict_flags(native):
     assert all(flag in native.command for flag in STRICT_FLAGS)
 
 
-ROUTINES = {"ms_tilt_diffuse": ("mu_i", "mu_o", "cos_phi", "alpha", "rho"),
-            "ms_tilt_conductor": ("mu_i", "mu_o", "cos_phi", "alpha"),
-            "ms_blog_diffuse": ("mu_i", "mu_o", "alpha", "rho"), "ms_blog_conductor": ("mu_i", "mu_o", "alpha"),
-            "ms_kulla_conti": ("mu_i", "mu_o", "alpha")}
+ROUTINES = {
+    "ms_tilt_diffuse": ("mu_i", "mu_o", "cos_phi", "alpha", "rho"),
+    "ms_tilt_conductor": ("mu_i", "mu_o", "cos_phi", "alpha"),
+    "ms_blog_diffuse": ("mu_i", "mu_o", "alpha", "rho"),
+    "ms_blog_conductor": ("mu_i", "mu_o", "alpha"),
+    "ms_kulla_conti": ("mu_i", "mu_o", "alpha"),
+}
 #: the fitted albedos the program prints beside the lobes (what Kulla-Conti reads)
 ALBEDOS = {name: (("mu", "alpha") if not name.startswith("E_avg") else ("alpha",))
            for name in ("E_ggx_sep", "one_minus_E_ggx_sep", "E_avg_ggx_sep", "E_ggx_cor", "one_minus_E_ggx_cor",
@@ -245,11 +284,23 @@ ALBEDOS = {name: (("mu", "alpha") if not name.startswith("E_avg") else ("alpha",
 
 
 def _inputs(n, rng, edges=True):
-    x = {"mu_i": rng.uniform(0, 1, n), "mu_o": rng.uniform(0, 1, n), "cos_phi": rng.uniform(-1, 1, n),
-         "alpha": rng.uniform(0, 1, n), "rho": rng.uniform(0, 1, n), "mu": rng.uniform(0, 1, n)}
+    x = {
+        "mu_i": rng.uniform(0, 1, n),
+        "mu_o": rng.uniform(0, 1, n),
+        "cos_phi": rng.uniform(-1, 1, n),
+        "alpha": rng.uniform(0, 1, n),
+        "rho": rng.uniform(0, 1, n),
+        "mu": rng.uniform(0, 1, n),
+    }
     if edges:  # the corners of the domain: grazing, normal, alpha 0 and 1
-        for k, (lo, hi) in {"mu_i": (0, 1), "mu_o": (0, 1), "cos_phi": (-1, 1), "alpha": (0, 1), "rho": (0, 1),
-                            "mu": (0, 1)}.items():
+        for k, (lo, hi) in {
+            "mu_i": (0, 1),
+            "mu_o": (0, 1),
+            "cos_phi": (-1, 1),
+            "alpha": (0, 1),
+            "rho": (0, 1),
+            "mu": (0, 1),
+        }.items():
             x[k][: n // 4] = rng.choice([lo, hi], n // 4)
     return x
 
@@ -282,8 +333,7 @@ def test_glsl_compiled_as_c_agrees_with_the_c_float_version(sources, program, na
 
 
 @settings(max_examples=60, deadline=None)
-@given(mu_i=st.floats(0, 1), mu_o=st.floats(0, 1), cos_phi=st.floats(-1, 1), alpha=st.floats(0, 1),
-       rho=st.floats(0, 1))
+@given(mu_i=st.floats(0, 1), mu_o=st.floats(0, 1), cos_phi=st.floats(-1, 1), alpha=st.floats(0, 1), rho=st.floats(0, 1))
 def test_generated_lobes_are_nonnegative_finite_and_grow_with_the_facet_albedo(mu_i, mu_o, cos_phi, alpha, rho):
     py = _generated_module()
     for routine, names in ROUTINES.items():
@@ -297,7 +347,9 @@ def test_generated_lobes_are_nonnegative_finite_and_grow_with_the_facet_albedo(m
 def _generated_module():
     global _GENERATED_MODULE
     if _GENERATED_MODULE is None:
-        spec = importlib.util.spec_from_file_location("microfacet_energy_hypothesis", GENERATED / "microfacet_energy.py")
+        spec = importlib.util.spec_from_file_location(
+            "microfacet_energy_hypothesis", GENERATED / "microfacet_energy.py"
+        )
         assert spec is not None and spec.loader is not None
         _GENERATED_MODULE = importlib.util.module_from_spec(spec)
         spec.loader.exec_module(_GENERATED_MODULE)
@@ -315,8 +367,10 @@ def test_generated_python_is_the_runtime_model(py, routine):
     x = _inputs(500, np.random.default_rng(2), edges=False)
     x["alpha"], x["mu_i"] = 0.05 + 0.95 * x["alpha"], 0.05 + 0.95 * x["mu_i"]
     model = lp.PROGRAM_MODELS[lobe]
-    want = sum((x["rho"] ** s if kind == "diffuse" else 1) * f(x["mu_o"], x["cos_phi"], x["mu_i"], x["alpha"])
-               for s, f in runtime.lobe_functions(model, kind).items())
+    want = sum(
+        (x["rho"] ** s if kind == "diffuse" else 1) * f(x["mu_o"], x["cos_phi"], x["mu_i"], x["alpha"])
+        for s, f in runtime.lobe_functions(model, kind).items()
+    )
     np.testing.assert_allclose(getattr(py, routine)(*[x[a] for a in ROUTINES[routine]]), want, rtol=1e-12)
 
 
@@ -352,8 +406,10 @@ def test_an_input_a_routine_does_not_use_follows_the_nan_and_domain_policy(progr
             inside = {a: np.full(6, v) for a, v in base.items()}
             want = getattr(py, r.name)(*inside.values())[0]
             for dtype in (np.float64, np.float32):
-                for f in (lambda *a, r=r: getattr(py, r.name)(*a),
-                          lambda *a, dtype=dtype, r=r: native(r.name, *(v.astype(dtype) for v in a), dtype=dtype)):
+                for f in (
+                    lambda *a, r=r: getattr(py, r.name)(*a),
+                    lambda *a, dtype=dtype, r=r: native(r.name, *(v.astype(dtype) for v in a), dtype=dtype),
+                ):
                     out = np.asarray(f(*x.values()), dtype=np.float64)
                     assert np.isnan(out[0]) and np.all(np.isfinite(out[1:])), (r.name, k, out)
                     np.testing.assert_allclose(out[1:], want, rtol=1e-6 if dtype == np.float32 else 0)
@@ -377,9 +433,11 @@ def test_the_kulla_conti_routine_restores_one_minus_E(py):
 @pytest.mark.parametrize("version", ["#version 330", "#version 300 es"])
 def test_glsl_validates(sources, tmp_path, version):
     (text,) = sources["glsl"].values()
-    main = ("\nuniform float a; out vec4 color;\nvoid main() { color = vec4(microfacet_energy_ms_tilt_diffuse(a, a, a, "
-            "a, a) + microfacet_energy_ms_blog_conductor(a, a, a) + microfacet_energy_ms_kulla_conti(a, a, a) + "
-            "microfacet_energy_E_avg_on(a)); }\n")
+    main = (
+        "\nuniform float a; out vec4 color;\nvoid main() { color = vec4(microfacet_energy_ms_tilt_diffuse(a, a, a, "
+        "a, a) + microfacet_energy_ms_blog_conductor(a, a, a) + microfacet_energy_ms_kulla_conti(a, a, a) + "
+        "microfacet_energy_E_avg_on(a)); }\n"
+    )
     shader = tmp_path / "lobes.frag"
     shader.write_text(version + "\n" + text + main)
     res = subprocess.run(["glslangValidator", str(shader)], capture_output=True, text=True)
@@ -392,9 +450,11 @@ def test_hlsl_compiles_to_spirv(program, tmp_path):
     from fitlab.codegen import emit
 
     (text,) = emit(program, "hlsl").values()
-    main = ("\ncbuffer Inputs { float a; };\nfloat4 main(float4 position : SV_Position) : SV_Target {\n"
-            "    return float4(microfacet_energy_ms_tilt_conductor(a, a, a, a) + microfacet_energy_ms_blog_diffuse(a, a, "
-            "a, a) + microfacet_energy_one_minus_E_ggx_sep(a, a), 0.0, 0.0, 1.0);\n}\n")
+    main = (
+        "\ncbuffer Inputs { float a; };\nfloat4 main(float4 position : SV_Position) : SV_Target {\n"
+        "    return float4(microfacet_energy_ms_tilt_conductor(a, a, a, a) + microfacet_energy_ms_blog_diffuse(a, a, "
+        "a, a) + microfacet_energy_one_minus_E_ggx_sep(a, a), 0.0, 0.0, 1.0);\n}\n"
+    )
     shader = tmp_path / "lobes.hlsl"
     shader.write_text(text + main)
     res = subprocess.run(["glslangValidator", "-D", "-V", "-S", "frag", "-e", "main", "-o", str(tmp_path / "lobes.spv"),

@@ -18,8 +18,9 @@ def test_native_walk_is_the_jax_walk_path_for_path(alpha, mu_i, cap):
 
     key = job_key(3, 1, 2)
     n = 4000
-    jax_round = run_round(WalkConfig(orders=ORDERS, precision="float64"), key, MaterialParams(alpha, alpha), mu_i, 0, n,
-                          cap)
+    jax_round = run_round(
+        WalkConfig(orders=ORDERS, precision="float64"), key, MaterialParams(alpha, alpha), mu_i, 0, n, cap
+    )
     native = native_walk(tuple(int(k) for k in key), alpha, mu_i, n, cap)
     assert np.array_equal(native["exits"], jax_round["albedo"].astype(np.int64))
     assert native["capped"] == int(jax_round["capped"])

@@ -61,16 +61,18 @@ def test_beckmann_inversion_agrees_with_brentq():
         w /= np.linalg.norm(w)
         v = np.array([ax * w[0], ay * w[1], w[2]])
         if v[2] / math.hypot(v[0], v[1]) < -6.0:  # steeper rising rays take the bracket of cot = -6 (module
-            continue                             # docstring): an approximation for rays that all but never hit
+            continue  # docstring): an approximation for rays that all but never hit
         cases.append((w, rng.uniform(), rng.uniform()))
     edge_u = (2.0**-33, 1e-6, 0.5, 1.0 - 1e-6, 1.0 - 2.0**-33)
-    cases += [(np.array([0.6, 0.0, 0.8]), u, 0.3) for u in edge_u] + [(np.array([0.6, 0.0, -0.8]), u, 0.7)
-                                                                      for u in edge_u]
+    cases += [(np.array([0.6, 0.0, 0.8]), u, 0.3) for u in edge_u] + [
+        (np.array([0.6, 0.0, -0.8]), u, 0.7) for u in edge_u
+    ]
     w = np.array([c[0] for c in cases])
     u1 = np.array([c[1] for c in cases])
     u2 = np.array([c[2] for c in cases])
-    m = np.array(sample_vndf(*(jnp.asarray(w[:, k]) for k in range(3)), jnp.asarray(u1), jnp.asarray(u2), ax, ay,
-                             "beckmann")).T
+    m = np.array(
+        sample_vndf(*(jnp.asarray(w[:, k]) for k in range(3)), jnp.asarray(u1), jnp.asarray(u2), ax, ay, "beckmann")
+    ).T
     for (wi, u, b), got in zip(cases, m):
         g, g_max, s_i, (cos_p, sin_p), cos_t, sin_t = _visible_slope_equation(wi, ax, ay)
         xr, yr = -got[0] / (ax * got[2]), -got[1] / (ay * got[2])
@@ -84,8 +86,28 @@ def test_beckmann_inversion_agrees_with_brentq():
 
 
 # -- the walks' uniforms and heights in float32 ------------------------------------------------------------
-_EXTREME_WORDS = [0, 1, 0xFF, 0x1FF, 0x200, 0xFFFF, 2**23 - 1, 2**23, 2**24 - 1, 2**24, 2**31 - 1, 2**31,
-                  2**31 + 1, 0xFFFFFE00, 0xFFFFFEFF, 0xFFFFFF00, 0xFFFFFF7F, 0xFFFFFF80, 0xFFFFFFFE, 0xFFFFFFFF]
+_EXTREME_WORDS = [
+    0,
+    1,
+    0xFF,
+    0x1FF,
+    0x200,
+    0xFFFF,
+    2**23 - 1,
+    2**23,
+    2**24 - 1,
+    2**24,
+    2**31 - 1,
+    2**31,
+    2**31 + 1,
+    0xFFFFFE00,
+    0xFFFFFEFF,
+    0xFFFFFF00,
+    0xFFFFFF7F,
+    0xFFFFFF80,
+    0xFFFFFFFE,
+    0xFFFFFFFF,
+]
 
 
 @float64

@@ -46,12 +46,15 @@ def test_every_problem_is_reported_with_its_line():
     assert any("incident.mu_i:" in line for line in lines)
 
 
-@pytest.mark.parametrize("change,field", [
-    ('fresnel = "schlick"', "material[0].f0: missing"),
-    ('fresnel = "conductor"\neta = 0.2', "material[0].k: missing"),
-    ("albedo = 0.5", "material[0].albedo: not used"),
-    ("alpha_x = 0.3", "give alpha, or alpha_x and alpha_y"),
-])
+@pytest.mark.parametrize(
+    "change,field",
+    [
+        ('fresnel = "schlick"', "material[0].f0: missing"),
+        ('fresnel = "conductor"\neta = 0.2', "material[0].k: missing"),
+        ("albedo = 0.5", "material[0].albedo: not used"),
+        ("alpha_x = 0.3", "give alpha, or alpha_x and alpha_y"),
+    ],
+)
 def test_material_parameters_must_fit_the_kind(change, field):
     with pytest.raises(SceneError, match=re.escape(field)):
         parse_scene(GOOD.replace("alpha = 0.5", "alpha = 0.5\n" + change))

@@ -135,6 +135,7 @@ def _wrong_alpha(result, factor=1.05):
             wrong = replace(mat, alpha_x=mat.alpha_x * factor, alpha_y=mat.alpha_y * factor)
             cache[key] = bin_average_single(scene.mu_edges, scene.phi_edges, row["mu_i"], wrong)
         return cache[key][_bin_of(scene, row)]
+
     return reference
 
 
@@ -162,12 +163,18 @@ def _separable_g2(result, nodes=24):
                     out[i, j] = np.einsum("i,j,ij->", w, w, f) / 4  # the mean over the bin: weights sum to 4
             cache[key] = out
         return cache[key][_bin_of(scene, row)]
+
     return reference
 
 
 def _rows(result, quantity, material=None, order=None):
-    return [r for r in result.rows if r["quantity"] == quantity and (material is None or r["material"] == material)
-            and (order is None or r["order"] == order)]
+    return [
+        r
+        for r in result.rows
+        if r["quantity"] == quantity
+        and (material is None or r["material"] == material)
+        and (order is None or r["order"] == order)
+    ]
 
 
 def test_order_one_lobe_is_height_correlated_single_scattering(white_ggx):
@@ -274,8 +281,9 @@ def test_fresnel_conductor_and_beckmann_order_one():
     res = simulate(parse_scene(_scene(FRESNEL_AND_BECKMANN, max_paths=100_000)))
     lobes = _rows(res, "lobe", order="1")
     assert len(lobes) == 2 * 16
-    _assert_agrees(lobes + _rows(res, "albedo", material="gold", order="1")
-                   + _rows(res, "albedo", material="beckmann", order="1"))
+    _assert_agrees(
+        lobes + _rows(res, "albedo", material="gold", order="1") + _rows(res, "albedo", material="beckmann", order="1")
+    )
     for factor in (1.05, 1 / 1.05):
         for material in ("gold", "beckmann"):
             assert _rejects(lobes, _wrong_alpha(res, factor), material), (factor, material)
@@ -360,8 +368,17 @@ def test_float32_walk_is_the_float64_walk_to_its_rounding(distribution, kind):
     from fitlab.families.microfacet_energy.mc.walk import MaterialParams, WalkConfig, job_key, run_round
 
     key, n = job_key(5, 0, 0), 20_000
-    runs = {p: run_round(WalkConfig(distribution=distribution, kind=kind, precision=p), key,
-                         MaterialParams(0.6, 0.6, eta=1.5), 0.5, 0, n) for p in ("float32", "float64")}
+    runs = {
+        p: run_round(
+            WalkConfig(distribution=distribution, kind=kind, precision=p),
+            key,
+            MaterialParams(0.6, 0.6, eta=1.5),
+            0.5,
+            0,
+            n,
+        )
+        for p in ("float32", "float64")
+    }
     f32, f64 = runs["float32"], runs["float64"]
     moved = sum(np.abs(f32[t] - f64[t]).sum() for t in ("albedo", "transmission", "capped"))
     assert moved <= 2 * 2  # a path that changes order or side leaves one count and adds one
@@ -377,8 +394,11 @@ def test_a_round_in_chunks_of_any_size_gives_the_same_tallies():
     Ctrl-C is answered between two) gives run_round's tallies, bit for bit."""
     from fitlab.families.microfacet_energy.mc.walk import WalkConfig, start_round
 
-    cfg, key, params = WalkConfig(distribution="ggx", kind="dielectric"), job_key(5, 0, 0), MaterialParams(0.6, 0.6,
-                                                                                                              eta=1.5)
+    cfg, key, params = (
+        WalkConfig(distribution="ggx", kind="dielectric"),
+        job_key(5, 0, 0),
+        MaterialParams(0.6, 0.6, eta=1.5),
+    )
     whole = run_round(cfg, key, params, 0.5, 100, 20_000)
     rnd = start_round(cfg, key, params, 0.5, 100, 20_000)
     sizes, chunks = [1, 3, 2], 0
@@ -401,8 +421,9 @@ def test_float32_walk_at_normal_incidence_escapes_where_float64_does(path_id, or
 
     key, params = job_key(1, 0, 0), MaterialParams(1.0, 1.0)
     for precision in ("float32", "float64"):
-        r = run_round(WalkConfig(distribution="ggx", kind="conductor", precision=precision), key, params, 1.0,
-                      path_id, 1)
+        r = run_round(
+            WalkConfig(distribution="ggx", kind="conductor", precision=precision), key, params, 1.0, path_id, 1
+        )
         assert r["albedo"].tolist() == [1.0 if k == order - 1 else 0.0 for k in range(5)], precision
         assert r["capped"] == 0 and r["failed"] == 0 and r["bounces"] == order
 
@@ -418,8 +439,14 @@ def test_a_non_finite_state_is_a_failed_path_apart_from_capped_ones(white_ggx):
     from fitlab.scenes import failures
 
     n = 2000
-    r = run_round(WalkConfig(distribution="beckmann", kind="diffuse"), job_key(5, 0, 0),
-                  MaterialParams(0.6, 0.6, albedo=math.nan), 0.5, 0, n)
+    r = run_round(
+        WalkConfig(distribution="beckmann", kind="diffuse"),
+        job_key(5, 0, 0),
+        MaterialParams(0.6, 0.6, albedo=math.nan),
+        0.5,
+        0,
+        n,
+    )
     assert r["failed"] == n and r["capped"] == 0 and r["albedo"].sum() == 0 and np.all(np.isfinite(r["lobe"]))
     assert r["albedo"].sum() + r["transmission"].sum() + r["capped"] + r["failed"] == n
     assert failures(white_ggx) == [] and all(t["failed"] == 0 for t in white_ggx.tallies.values())

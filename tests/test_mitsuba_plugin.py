@@ -29,7 +29,7 @@ LIGHT = np.array([0.55, 0.3, 0.78]) / np.linalg.norm([0.55, 0.3, 0.78])  # off b
 KD = (0.8, 0.5, 0.2)
 CHI2 = ((0.3, 0.1), (0.9, 0.5), (1.0, 1.0))  # (c, mu_i)
 
-_RENDERS = textwrap.dedent('''
+_RENDERS = textwrap.dedent("""
     import json, sys
     import numpy as np
     import drjit as dr
@@ -100,7 +100,7 @@ _RENDERS = textwrap.dedent('''
                                  "messages": test.messages[-400:]})
     np.savez(out, **res)
     print(json.dumps(meta))
-''')
+""")
 
 
 def _start(variant, folder):

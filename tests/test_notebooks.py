@@ -78,20 +78,34 @@ def _check(claims, namespace):
 def test_the_check_cell_refuses_a_false_claim():
     Claim = BUILD.Claim
     ns = {"x": 2.0, "xs": [0.6, 0.9], "flag": True, "np": None}
-    _check([Claim("a", "x below {bound}", "x", "<", 3.0), Claim("b", "{lo} to {hi}", "xs", "between", (0.5, 1.0), "g"),
-            Claim("c", "x is {bound}", "x", "prints as", 2.001, ".2f"), Claim("d", "a fact", "flag", "true"),
-            Claim("e", "skipped", "undefined_name", "<", 1.0, when="False")], dict(ns))
-    for wrong in (Claim("a", "x below {bound}", "x", "<", 1.0), Claim("b", "", "xs", "between", (0.7, 1.0)),
-                  Claim("c", "", "x", "prints as", 2.01, ".2f"), Claim("d", "", "not flag", "true"),
-                  Claim("e", "", "[]", "<", 1.0)):
+    _check(
+        [
+            Claim("a", "x below {bound}", "x", "<", 3.0),
+            Claim("b", "{lo} to {hi}", "xs", "between", (0.5, 1.0), "g"),
+            Claim("c", "x is {bound}", "x", "prints as", 2.001, ".2f"),
+            Claim("d", "a fact", "flag", "true"),
+            Claim("e", "skipped", "undefined_name", "<", 1.0, when="False"),
+        ],
+        dict(ns),
+    )
+    for wrong in (
+        Claim("a", "x below {bound}", "x", "<", 1.0),
+        Claim("b", "", "xs", "between", (0.7, 1.0)),
+        Claim("c", "", "x", "prints as", 2.01, ".2f"),
+        Claim("d", "", "not flag", "true"),
+        Claim("e", "", "[]", "<", 1.0),
+    ):
         with pytest.raises(AssertionError, match=wrong.key):
             _check([wrong], dict(ns))
 
 
 def test_the_build_refuses_an_unstated_claim_and_an_unknown_marker(monkeypatch):
     Claim = BUILD.Claim
-    monkeypatch.setitem(BUILD.CLAIMS, "x.ipynb", [Claim("stated", "it holds", "True", "true"),
-                                                  Claim("unstated", "it also holds", "True", "true")])
+    monkeypatch.setitem(
+        BUILD.CLAIMS,
+        "x.ipynb",
+        [Claim("stated", "it holds", "True", "true"), Claim("unstated", "it also holds", "True", "true")],
+    )
     with pytest.raises(ValueError, match="unstated"):
         BUILD.build_notebook([BUILD.md("[[stated]]")], "x.ipynb")
     with pytest.raises(ValueError, match="unknown"):

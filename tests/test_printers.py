@@ -22,7 +22,9 @@ POINT = {x: 0.7, y: 1.9, z: 0.45}
 @pytest.mark.skipif(shutil.which("cc") is None, reason="no C compiler")
 def test_c_printer_agrees_with_sympy_on_powers_in_denominators(tmp_path):
     printer = CPrinter("double", str)
-    body = "\n".join(f"double f{k}(double x, double y, double z) {{ return {printer.doprint(e)}; }}" for k, e in enumerate(CASES))
+    body = "\n".join(
+        f"double f{k}(double x, double y, double z) {{ return {printer.doprint(e)}; }}" for k, e in enumerate(CASES)
+    )
     (tmp_path / "f.c").write_text("#include <math.h>\n" + body + "\n")
     subprocess.run(["cc", "-std=c99", "-O0", "-shared", "-fPIC", str(tmp_path / "f.c"), "-o", str(tmp_path / "f.so"), "-lm"],
                    check=True, capture_output=True)  # fmt: skip
@@ -30,6 +32,9 @@ def test_c_printer_agrees_with_sympy_on_powers_in_denominators(tmp_path):
     for k, e in enumerate(CASES):
         f = getattr(lib, f"f{k}")
         f.restype, f.argtypes = ctypes.c_double, [ctypes.c_double] * 3
-        assert f(POINT[x], POINT[y], POINT[z]) == pytest.approx(float(e.subs(POINT)), rel=1e-14), (e, printer.doprint(e))
+        assert f(POINT[x], POINT[y], POINT[z]) == pytest.approx(float(e.subs(POINT)), rel=1e-14), (
+            e,
+            printer.doprint(e),
+        )
         if k >= len(CASES) - 2:  # the powers 5 and 6
             assert "pow(" not in printer.doprint(e), printer.doprint(e)

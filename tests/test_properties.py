@@ -497,7 +497,8 @@ OTHER_REFUSALS = [
 
 
 @pytest.mark.parametrize(
-    ("call", "kind", "start"), OTHER_REFUSALS,
+    ("call", "kind", "start"),
+    OTHER_REFUSALS,
     ids=[f"{i}-{a}-{k.__name__}" for i, (_, k, a) in enumerate(OTHER_REFUSALS)],
 )
 def test_other_arguments_are_refused_clearly(call, kind, start):

@@ -250,8 +250,9 @@ def test_a_non_finite_training_point_is_refused_not_left_out():
     bad = Dataset(dict(train.inputs), y, train.grid)
     with pytest.raises(FitError) as info:
         fit_form(target.forms[target.default_form], bad, target.scale(bad), minimax_rounds=0)
-    assert str(info.value) == (f"m/{target.default_form}: the training value at c=0.75 is nan; every training "
-                               "point must be finite")
+    assert str(info.value) == (
+        f"m/{target.default_form}: the training value at c=0.75 is nan; every training point must be finite"
+    )
 
 
 def test_the_solve_runs_with_blas_on_one_thread():
@@ -270,8 +271,13 @@ def test_the_solve_runs_with_blas_on_one_thread():
     seen = []
     with threadpool_limits(limits=2, user_api="blas"):
         before = blas_threads()
-        fit = fit_form(target.forms[target.default_form], train, target.scale(train), minimax_rounds=2,
-                       on_step=lambda stage: seen.append((stage, blas_threads())))
+        fit = fit_form(
+            target.forms[target.default_form],
+            train,
+            target.scale(train),
+            minimax_rounds=2,
+            on_step=lambda stage: seen.append((stage, blas_threads())),
+        )
         assert blas_threads() == before
     assert [stage for stage, _ in seen] == ["least squares", "minimax 1/2", "minimax 2/2"]
     assert all(threads == [1] * len(threads) for _, threads in seen) and np.isfinite(fit.train_max)

@@ -51,8 +51,11 @@ def _stub_refit(monkeypatch):
     from fitlab.fit.refit import RefitResult
     from fitlab.store import read_fit
 
-    monkeypatch.setattr(fitlab.cli.refit, "timed_refit",
-                        lambda target, form, **kwargs: (RefitResult(read_fit(FITS / NAME), fit=None), 0.01))
+    monkeypatch.setattr(
+        fitlab.cli.refit,
+        "timed_refit",
+        lambda target, form, **kwargs: (RefitResult(read_fit(FITS / NAME), fit=None), 0.01),
+    )
 
 
 def test_a_fit_over_another_domain_is_kept_unless_forced(tmp_path, monkeypatch, capsys):

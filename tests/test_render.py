@@ -93,8 +93,10 @@ def test_render_comparison_writes_png(tmp_path, monkeypatch):
     assert inner.sum() > 20
     generated = render.load_generated(GENERATED.with_name("lambert_sphere.py"))  # the same program, printed for numpy
     material = generated.prepare(kd)
-    refs = {"lambert": lambda wi, wo: np.full(len(wi), kd / np.pi),
-            "lambert_sphere": lambda wi, wo: generated.eval_local(material, wi, wo)}
+    refs = {
+        "lambert": lambda wi, wo: np.full(len(wi), kd / np.pi),
+        "lambert_sphere": lambda wi, wo: generated.eval_local(material, wi, wo),
+    }
     for name, f_local in refs.items():
         want, spread = _expected_image(f_local, light, size)
         got = panels[name]

@@ -52,8 +52,15 @@ def test_quick_report_writes_the_three_files(quick):
     a, _ = quick
     assert (a / "accuracy_vs_cost.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     md = (a / "report.md").read_text()
-    for heading in ("## Recommendations", "## The BRDF", "## The parts", "## The exact engine",
-                    "## Time to reach a given error", "## Monte Carlo", "## One-off cost of each refit"):
+    for heading in (
+        "## Recommendations",
+        "## The BRDF",
+        "## The parts",
+        "## The exact engine",
+        "## Time to reach a given error",
+        "## Monte Carlo",
+        "## One-off cost of each refit",
+    ):
         assert heading in md
     assert "![accuracy vs cost](accuracy_vs_cost.png)" in md
     # the exact engine timed on the points the family's quick settings name, as the text says
@@ -144,8 +151,16 @@ def test_pareto_front_takes_pairs_and_counts_infinite_errors_on_request():
 
 def test_recommendations_follow_the_rules():
     def row(name, group, max_rel, rms, c=math.nan, py=math.nan, grazing=0.5, data=400.0):
-        return {"method": name, "group": group, "max_rel": max_rel, "rms_rel": rms, "ns_c_double": c, "ns_python": py,
-                "max_rel_grazing": grazing, "bytes": data}
+        return {
+            "method": name,
+            "group": group,
+            "max_rel": max_rel,
+            "rms_rel": rms,
+            "ns_c_double": c,
+            "ns_python": py,
+            "max_rel_grazing": grazing,
+            "bytes": data,
+        }
 
     rows = [
         row("lambert", "baseline", 1.0, 1e-3, c=1.0),  # never recommended

@@ -8,10 +8,18 @@ from fitlab.report.write import as_shown, csv_text
 
 
 def _report(folder) -> Report:
-    row = {"section": "brdf", "method": f"default forms in {folder}", "source": f"{folder}/H0.log_exp.json",
-           "max_rel": 1e-3}
-    return Report(settings=None, rows=[row], recommendations={"real-time": row, "offline": None},
-                  context={"fits_dir": str(folder)})
+    row = {
+        "section": "brdf",
+        "method": f"default forms in {folder}",
+        "source": f"{folder}/H0.log_exp.json",
+        "max_rel": 1e-3,
+    }
+    return Report(
+        settings=None,
+        rows=[row],
+        recommendations={"real-time": row, "offline": None},
+        context={"fits_dir": str(folder)},
+    )
 
 
 def test_a_fits_folder_inside_the_current_folder_is_named_relative_to_it(tmp_path):

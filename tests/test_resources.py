@@ -47,7 +47,9 @@ def test_the_user_tables_are_preferred_only_when_complete(monkeypatch, tmp_path)
     assert tables_dir() == packaged_tables("lambert_sphere")  # nothing there yet: the packaged tables
     folder = _copy_tables(tmp_path)
     assert tables_dir() == folder
-    (folder / "kd.csv").unlink()  # an incomplete set is refused, naming the table it lacks: no mixing of two tabulations
+    (
+        folder / "kd.csv"
+    ).unlink()  # an incomplete set is refused, naming the table it lacks: no mixing of two tabulations
     n = len(TABLE_FILES)
     want = rf"lambert_sphere: kd\.csv is missing \(the folder holds {n - 1} of the {n} tables"
     with pytest.raises(TableError, match=want):
@@ -86,4 +88,3 @@ def test_scenes_are_found_by_name_or_path(tmp_path):
     assert find_scene(own, ["lambert_sphere"]) == own
     assert find_scene("no_such_scene", ["lambert_sphere"]) is None
     assert find_scene(tmp_path / "order1_normalisation", ["lambert_sphere"]) is None  # a path is not a name
-

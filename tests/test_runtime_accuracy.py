@@ -46,7 +46,10 @@ def order2():
 @pytest.fixture(scope="module")
 def figures(order2):
     """accuracy() of the order-2 model and of the paper-structure refit (orders 0 and 1, default forms), same run."""
-    return {"order2": accuracy(order2), "order1": accuracy(runtime_model(fits_dir=FITS, order2=False, model=DEFAULT_FORMS))}
+    return {
+        "order2": accuracy(order2),
+        "order1": accuracy(runtime_model(fits_dir=FITS, order2=False, model=DEFAULT_FORMS)),
+    }
 
 
 # -- the exact first order in c --------------------------------------------------------------------

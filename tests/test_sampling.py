@@ -142,7 +142,9 @@ def test_sampler_is_the_same_in_c_float_c_double_numpy_and_the_shaders(tmp_path,
         same = (np.abs(u1 - generated.sample_weight(wi[:, 2], c)) > 1e-4) & (np.abs(wo[:, 2]) > 1e-4)
         np.testing.assert_allclose(got_wo[same], wo[same], atol=tol * 10)
         np.testing.assert_allclose(got_pdf[same], pdf[same], rtol=tol, atol=tol)
-        np.testing.assert_allclose(native("pdf", materials, which, wi, wo, dtype=dtype)[same], pdf[same], rtol=tol, atol=tol)
+        np.testing.assert_allclose(
+            native("pdf", materials, which, wi, wo, dtype=dtype)[same], pdf[same], rtol=tol, atol=tol
+        )
     materials32 = native("prepare_c", c, dtype=np.float32)
     ref_wo, ref_pdf = native("sample", materials32, which, wi, u1, u2, dtype=np.float32)
     for lang in ("glsl", "hlsl", "metal"):
@@ -174,7 +176,7 @@ def test_monte_carlo_agrees_with_the_quadrature_and_is_unbiased(generated):
 
 
 # -- Mitsuba's chi-square test --------------------------------------------------------------------------
-_CHI2 = textwrap.dedent('''
+_CHI2 = textwrap.dedent("""
     import json, sys
     import numpy as np
     import mitsuba as mi
@@ -199,7 +201,7 @@ _CHI2 = textwrap.dedent('''
             out.append({"c": c, "mu_i": mu, "passed": bool(test.run(0.01, test_count=9, quiet=True)),
                         "messages": test.messages[-400:]})
     print(json.dumps(out))
-''')
+""")
 
 
 def test_mitsuba_chi2_accepts_the_sampler():

@@ -65,8 +65,10 @@ class ToySchema:
             if isinstance(x, bool) or not isinstance(x, (int, float)) or not 0.0 <= x <= 1.0:
                 ck.fail(("coin", "p", k), f"{x!r} is outside [0.0, 1.0]")
         target = ck.number(prec, ("precision", "target_se"), 1e-9, 1.0)
-        nums = {k: ck.number(prec, ("precision", k), *self.limits[k], default=d, integer=True)
-                for k, d in (("max_paths", 4000), ("batch", 1000))}
+        nums = {
+            k: ck.number(prec, ("precision", k), *self.limits[k], default=d, integer=True)
+            for k, d in (("max_paths", 4000), ("batch", 1000))
+        }
         ck.raise_errors()
         return ToyScene(path=ck.path, name=name, seed=seed, p=tuple(ps), target_se={"p": target}, **nums)
 
@@ -78,8 +80,12 @@ class ToyWalk:
     min_paths = 2000
     row_fields = ("p", "estimate", "se", "paths", "converged")
     summary_fields = ("p", "paths", "converged", "estimate")
-    summary_columns = (("p", "p", "<8"), ("paths", "paths", ">8"), ("conv", "converged", ">6"),
-                       ("estimate", "estimate", ">10.4f"))
+    summary_columns = (
+        ("p", "p", "<8"),
+        ("paths", "paths", ">8"),
+        ("conv", "converged", ">6"),
+        ("estimate", "estimate", ">10.4f"),
+    )
 
     def jobs(self, scene):
         return [scenes.Job(key=i, name=f"coin p = {p:g}", label=f"p={p:g}", data=p) for i, p in enumerate(scene.p)]
@@ -136,8 +142,7 @@ def test_a_toy_family_runs_through_the_shared_runner(tmp_path, capsys):
     assert table[0] == f"{'p':<8}{'paths':>8}{'conv':>6}{'estimate':>10}"
     assert table[1].startswith(f"{0.25:<8}{2000:>8}{'yes':>6}") and table[-1].endswith(", 2 jobs")
     # a target out of reach: the budget stops the job, and it is named
-    result, _ = scenes.simulate_file(TOY, p, out_dir=tmp_path / "out2", target_se="1e-4", max_paths="3000",
-                                     plots=False)
+    result, _ = scenes.simulate_file(TOY, p, out_dir=tmp_path / "out2", target_se="1e-4", max_paths="3000", plots=False)
     assert scenes.unconverged(result)[0].startswith("not converged: coin p = 0.25: standard error ")
     assert "after 3000 paths (max_paths)" in scenes.unconverged(result)[0]
     assert not (tmp_path / "out2" / "coin_coin.png").exists()
@@ -179,16 +184,19 @@ def test_fitlab_simulate_takes_the_family_the_scene_names(tmp_path, capsys):
     from fitlab.cli.simulate import _family_of
 
     micro = tmp_path / "m.toml"
-    micro.write_text('[scene]\nfamily = "microfacet_energy"\n[[material]]\nkind = "conductor"\n'
-                     'distribution = "ggx"\nalpha = 0.5\n[incident]\nmu_i = [0.5]\n[precision]\ntarget_se = 0.01\n')
+    micro.write_text(
+        '[scene]\nfamily = "microfacet_energy"\n[[material]]\nkind = "conductor"\n'
+        'distribution = "ggx"\nalpha = 0.5\n[incident]\nmu_i = [0.5]\n[precision]\ntarget_se = 0.01\n'
+    )
     assert _family_of(micro, None) == "microfacet_energy"
     sphere = tmp_path / "s.toml"  # microsurface materials, but the scene says lambert_sphere: its rules apply
     sphere.write_text(micro.read_text().replace("microfacet_energy", "lambert_sphere"))
     assert _family_of(sphere, None) == "lambert_sphere"
     assert main(["simulate", str(sphere), "--quiet", "--out", str(tmp_path / "o")]) == 2
     assert "material[0].kind: unknown field" in capsys.readouterr().err
-    assert main(["simulate", str(sphere), "--quiet", "--family", "microfacet_energy", "--out",
-                 str(tmp_path / "o")]) == 2
+    assert (
+        main(["simulate", str(sphere), "--quiet", "--family", "microfacet_energy", "--out", str(tmp_path / "o")]) == 2
+    )
     err = capsys.readouterr().err.splitlines()
     assert len(err) == 1 and f"{sphere}:2: scene.family: this scene is for family 'lambert_sphere'" in err[0], err
     assert not (tmp_path / "o").exists()

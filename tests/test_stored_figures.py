@@ -91,8 +91,9 @@ def assert_same(stored, got, what: str):
         assert got == pytest.approx(stored, rel=RTOL, abs=1e-14), f"{what}: stored {stored!r}, recomputed {got!r}"
 
 
-def check_row(stored: dict, got: dict, ds, what: str, exact=None,
-              keys=("max_rel", "rms_rel", "max_rel_nonzero", "max_abs")):
+def check_row(
+    stored: dict, got: dict, ds, what: str, exact=None, keys=("max_rel", "rms_rel", "max_rel_nonzero", "max_abs")
+):
     """``stored`` (a fit file's or the audit's row) against ``got`` (:func:`figures`) on dataset ``ds``
     (``exact``: the exact values where they are not ds.y)."""
     exact = ds.y if exact is None else exact
@@ -327,7 +328,9 @@ def test_audit_runtime_true_independent_rows_are_recomputed(audit, runtime_model
     for cv in np.unique(c):
         sel = c == cv
         mixed[sel] = exact.brdf(mi[sel], mo[sel], ph[sel], cv, phase="mixed")
-    _check_runtime_row(rows[MIXED_ROW], _runtime_figures(mixed, ds.y, mi, mo), ds, "audit.json mixed vs true, independent")
+    _check_runtime_row(
+        rows[MIXED_ROW], _runtime_figures(mixed, ds.y, mi, mo), ds, "audit.json mixed vs true, independent"
+    )
     for model in runtime_models:
         got = _runtime_figures(model(mi, mo, ph, c), ds.y, mi, mo)
         _check_runtime_row(rows[model.name], got, ds, f"audit.json runtime {model.name} vs true, independent")
@@ -365,8 +368,13 @@ def test_audit_furnace_rows_are_recomputed(audit, runtime_models):
     from fitlab.families.lambert_sphere.exact import albedo
 
     rows = {r["model"]: r for r in audit["furnace"]}
-    exact_names = {phase: name for name in rows if name.startswith("exact (")
-                   for phase in ("true", "mixed") if f"phase '{phase}'" in name}
+    exact_names = {
+        phase: name
+        for name in rows
+        if name.startswith("exact (")
+        for phase in ("true", "mixed")
+        if f"phase '{phase}'" in name
+    }
     assert set(rows) - {m.name for m in runtime_models} == set(exact_names.values()) | {TABLES_ROW}
     assert set(exact_names) == {"true", "mixed"}
     for model in [*runtime_models, numpy_brdf()]:
@@ -429,7 +437,9 @@ def test_model_doc_states_how_far_the_true_fit_parts_moved():
     """docs/model.md, "Parts fitted to the true BRDF": how far the parts moved from their three-term targets, as
     their fit files record it (the section's table is rendered from docs/audit.json when the site is built)."""
     text = (ROOT / "docs" / "model.md").read_text()
-    section = text[text.index("### Parts fitted to the true BRDF"):text.index("## The runtime BRDF")]
-    moved = {p: json.loads((ROOT / "fitlab" / "fits" / "true" / f).read_text())["validation"]["max_rel"]
-             for p, f in (("H0", "H0.log_exp.json"), ("l", "l.cubic.json"))}
+    section = text[text.index("### Parts fitted to the true BRDF") : text.index("## The runtime BRDF")]
+    moved = {
+        p: json.loads((ROOT / "fitlab" / "fits" / "true" / f).read_text())["validation"]["max_rel"]
+        for p, f in (("H0", "H0.log_exp.json"), ("l", "l.cubic.json"))
+    }
     assert f"H0 moves by up to {100 * moved['H0']:.1f} %, l by {100 * moved['l']:.0f} %" in " ".join(section.split())

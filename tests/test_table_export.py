@@ -49,8 +49,9 @@ STUDY = ROOT / "docs" / "table_export.json"
 TABLES = packaged_tables("lambert_sphere")
 NAME = te.NAME
 needs_cc = pytest.mark.skipif(compiler() is None, reason="no C compiler on PATH")
-needs_glslang = pytest.mark.skipif(shutil.which("glslangValidator") is None,
-                                   reason="glslangValidator not installed (Debian: glslang-tools)")
+needs_glslang = pytest.mark.skipif(
+    shutil.which("glslangValidator") is None, reason="glslangValidator not installed (Debian: glslang-tools)"
+)
 
 
 @pytest.fixture(scope="module")
@@ -117,13 +118,14 @@ def random_inputs(n=20_000, seed=190207):
 def test_committed_files_are_what_the_packaged_tables_generate(files, lang):
     for name, data in files[lang].items():
         assert (GENERATED / name).read_bytes() == data, (
-            f"fitlab/fits/generated/{name} is stale: run fitlab codegen --tables --lang {lang} --out fitlab/fits/generated")
+            f"fitlab/fits/generated/{name} is stale: run fitlab codegen --tables --lang {lang} --out fitlab/fits/generated"
+        )
 
 
 def test_the_raw_texture_holds_exactly_the_c_arrays(files):
     tex = te.texture(data_dir=TABLES)
     header = files["c"][f"{NAME}_data.h"].decode()
-    body = header[header.index(f"{NAME}_data["):header.index("};")]
+    body = header[header.index(f"{NAME}_data[") : header.index("};")]
     literals = re.findall(r"[-+]?(?:\d+\.\d*|\.\d+|\d+)(?:[eE][-+]?\d+)?F", body.split("=", 1)[1])
     from_c = np.array([np.float32(x[:-1]) for x in literals], dtype=np.float32)
     raw = texture_from_bytes(files["glsl"][f"{NAME}.f32"], tex.rows, tex.columns)
@@ -131,7 +133,10 @@ def test_the_raw_texture_holds_exactly_the_c_arrays(files):
     assert from_c.size == tex.rows * tex.columns == len(files["glsl"][f"{NAME}.f32"]) // 4
     assert np.array_equal(from_c.view(np.uint32), raw.ravel().view(np.uint32))
     assert np.array_equal(raw, tex.data)
-    assert f"#define {NAME.upper()}_ROWS {tex.rows}" in header and f"#define {NAME.upper()}_COLUMNS {tex.columns}" in header
+    assert (
+        f"#define {NAME.upper()}_ROWS {tex.rows}" in header
+        and f"#define {NAME.upper()}_COLUMNS {tex.columns}" in header
+    )
     with pytest.raises(ValueError, match="bytes"):
         texture_from_bytes(files["glsl"][f"{NAME}.f32"][:-4], tex.rows, tex.columns)
 
@@ -228,7 +233,7 @@ def test_the_parts_reproduce_the_exact_tables_at_the_nodes():
         table = {(a, b): h for a, b, h in zip(t[keep, 0], t[keep, 2], t[keep, 3])}
         want = np.array([[table[(a, b)] for b in grid] for a in grid])
         got = te.numpy_part(f"H{order}", data_dir=TABLES)(m, c)
-        stored = te.texture(data_dir=TABLES).data[te.layout(n).h_row(order):][:n].astype(float)
+        stored = te.texture(data_dir=TABLES).data[te.layout(n).h_row(order) :][:n].astype(float)
         bound = m * c * np.abs(stored) * 2.0**-24 + 4e-16
         assert np.all(np.abs(np.log(got) - np.log(want)) <= bound), order
     table = read_constants(TABLES)
@@ -373,10 +378,12 @@ def test_float_agrees_with_double(native):
 @needs_glslang
 @pytest.mark.parametrize("version", ["#version 330", "#version 300 es"])
 def test_glsl_validates_desktop_and_es(files, tmp_path, version):
-    main = (f"uniform vec3 wi; uniform vec3 wo; uniform float kd; out vec4 color;\nvoid main() {{\n"
-            f"    {NAME}_material m = {NAME}_prepare(kd);\n"
-            f"    vec3 rgb = {NAME}_eval_rgb(m, m, m, wi.z, wo.z, 0.5);\n"
-            f"    color = vec4(rgb + {NAME}_eval_local(m, wi, wo) + {NAME}_brdf_local(wi, wo, kd), 1.0);\n}}\n")
+    main = (
+        f"uniform vec3 wi; uniform vec3 wo; uniform float kd; out vec4 color;\nvoid main() {{\n"
+        f"    {NAME}_material m = {NAME}_prepare(kd);\n"
+        f"    vec3 rgb = {NAME}_eval_rgb(m, m, m, wi.z, wo.z, 0.5);\n"
+        f"    color = vec4(rgb + {NAME}_eval_local(m, wi, wo) + {NAME}_brdf_local(wi, wo, kd), 1.0);\n}}\n"
+    )
     shader = tmp_path / "test.frag"
     shader.write_text(version + "\n" + files["glsl"][f"{NAME}.glsl"].decode() + main)
     res = subprocess.run(["glslangValidator", str(shader)], capture_output=True, text=True)
@@ -502,14 +509,19 @@ def test_accuracy_against_the_exact_engine_within_the_stated_figure():
     mu over [0, 1] with the edges and the grazing corner: the shipped table's max relative error is within
     3 times what docs/table_export.json states for it (max over its validation and independent sets, and the
     grazing set's figure at the grazing points)."""
-    stated = next(r for r in json.loads(STUDY.read_text())["resolution"]
-                  if r["nodes"] == te.DEFAULT_NODES and r["lookup"] == te.DEFAULT_LOOKUP)
+    stated = next(
+        r
+        for r in json.loads(STUDY.read_text())["resolution"]
+        if r["nodes"] == te.DEFAULT_NODES and r["lookup"] == te.DEFAULT_LOOKUP
+    )
     f = te.numpy_brdf(data_dir=TABLES)
     rng = np.random.default_rng(2027)
     worst, worst_grazing = 0.0, 0.0
     for c in (1e-6, 2e-3, rng.uniform(0.05, 0.5), rng.uniform(0.5, 0.99), 1.0):
         mu_i, mu_o, phi = rng.random(1500), rng.random(1500), rng.uniform(0.0, np.pi, 1500)
-        e = np.array(np.meshgrid([0.0, 0.5, 1.0], [0.0, 0.5, 1.0], [0.0, np.pi / 2, np.pi], indexing="ij")).reshape(3, -1)
+        e = np.array(np.meshgrid([0.0, 0.5, 1.0], [0.0, 0.5, 1.0], [0.0, np.pi / 2, np.pi], indexing="ij")).reshape(
+            3, -1
+        )
         e = e[:, e[0] + e[1] > 0]  # not the pole itself, where the exact BRDF is infinite
         mu_i, mu_o, phi = (np.concatenate((a, b)) for a, b in zip((mu_i, mu_o, phi), e))
         exact = exact_cache.brdf(mu_i, mu_o, phi, c, phase=REFERENCE_PHASE)  # the seeded cache: tests/exact_cache.py
@@ -525,13 +537,16 @@ def test_stable_phase_keeps_forward_grazing_single_scattering():
     plain form loses 37 % of f_1 in double; against 40-digit arithmetic of the same inputs."""
     import mpmath as mp
 
-    single = te._numpy_functions(te.DEFAULT_NODES, te.DEFAULT_LOOKUP, TABLES, te.DEFAULT_QUANTITY,
-                                 te.DEFAULT_CORRECTION_S)["single"]
+    single = te._numpy_functions(
+        te.DEFAULT_NODES, te.DEFAULT_LOOKUP, TABLES, te.DEFAULT_QUANTITY, te.DEFAULT_CORRECTION_S
+    )["single"]
     mi, mo, c = 1e-6, 1e-4, 0.5
     with mp.workdps(40):
         s = mp.sqrt((1 - mp.mpf(mi) ** 2) * (1 - mp.mpf(mo) ** 2))
         u = s - mp.mpf(mi) * mp.mpf(mo)
-        want = mp.mpf(c) * 2 * (mp.sqrt((1 - u) * (1 + u)) - u * mp.acos(u)) / (3 * mp.pi**2) / (mp.mpf(mi) + mp.mpf(mo))
+        want = (
+            mp.mpf(c) * 2 * (mp.sqrt((1 - u) * (1 + u)) - u * mp.acos(u)) / (3 * mp.pi**2) / (mp.mpf(mi) + mp.mpf(mo))
+        )
     assert abs(float(single(mi, mo, -1.0, c)) / float(want) - 1.0) < 1e-6
 
 

@@ -41,8 +41,10 @@ def test_the_true_orders_table_regenerates_and_its_check_catches_a_wrong_value(t
     assert new.splitlines()[:5] == old.splitlines()[:5]
     _, a = table_files.read_checked(name, tmp_path)
     _, b = table_files.read_checked(name, DATA)
-    assert a.shape == (len(table_files.TRUE_S_GRID) * table_files.TRUE_MU_GRID.size * (table_files.TRUE_MU_GRID.size + 1) // 2,
-                       len(table_files.TRUE_COLUMNS))
+    assert a.shape == (
+        len(table_files.TRUE_S_GRID) * table_files.TRUE_MU_GRID.size * (table_files.TRUE_MU_GRID.size + 1) // 2,
+        len(table_files.TRUE_COLUMNS),
+    )
     np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-15)
     assert tabulate.check_true_orders(tmp_path) == []
     lines = new.splitlines()
@@ -139,9 +141,11 @@ def test_a_user_folder_missing_one_table_is_refused_naming_it(tmp_path, capsys):
     (folder / "kd.csv").unlink()
     # before: the packaged tables were read instead, as if the folder held none of the family's tables
     n = len(table_files.TABLE_FILES)
-    want = (f"fitlab refit: error: {folder}: kd.csv is missing (the folder holds {n - 1} of the {n} tables of "
-            "lambert_sphere); run `fitlab tabulate` to write them all, or remove the folder to read the packaged "
-            "tables")
+    want = (
+        f"fitlab refit: error: {folder}: kd.csv is missing (the folder holds {n - 1} of the {n} tables of "
+        "lambert_sphere); run `fitlab tabulate` to write them all, or remove the folder to read the packaged "
+        "tables"
+    )
     assert _refit_l(tmp_path, capsys) == (2, want)
     assert not (tmp_path / "fits").exists()
     with pytest.raises(TableError, match="kd.csv is missing"):
@@ -151,8 +155,12 @@ def test_a_user_folder_missing_one_table_is_refused_naming_it(tmp_path, capsys):
 def test_a_user_folder_with_none_of_the_tables_falls_back_to_the_packaged_ones(tmp_path):
     (tmp_path / "lambert_sphere").mkdir()
     (tmp_path / "lambert_sphere" / "notes.txt").write_text("not a table\n")
-    assert tables_folder("lambert_sphere", tuple(table_files.TABLE_FILES), tmp_path) == packaged_tables("lambert_sphere")
-    assert tables_folder("lambert_sphere", tuple(table_files.TABLE_FILES), tmp_path / "absent") == packaged_tables("lambert_sphere")
+    assert tables_folder("lambert_sphere", tuple(table_files.TABLE_FILES), tmp_path) == packaged_tables(
+        "lambert_sphere"
+    )
+    assert tables_folder("lambert_sphere", tuple(table_files.TABLE_FILES), tmp_path / "absent") == packaged_tables(
+        "lambert_sphere"
+    )
 
 
 def test_a_table_with_a_nan_row_is_refused_naming_the_table_and_row(tmp_path, capsys):
@@ -164,15 +172,24 @@ def test_a_table_with_a_nan_row_is_refused_naming_the_table_and_row(tmp_path, ca
     assert line == 38 and not (tmp_path / "fits").exists()
 
 
-@pytest.mark.parametrize("name, column, value", [("kd.csv", "kd_true", "inf"), ("h0.csv", "c", "-inf"),
-                                                 ("constants.csv", "H0_inf", "-inf"), ("h2.csv", "H2", "NaN")])
+@pytest.mark.parametrize(
+    "name, column, value",
+    [
+        ("kd.csv", "kd_true", "inf"),
+        ("h0.csv", "c", "-inf"),
+        ("constants.csv", "H0_inf", "-inf"),
+        ("h2.csv", "H2", "NaN"),
+    ],
+)
 def test_infinity_is_refused_where_the_table_holds_none(tmp_path, name, column, value):
     folder = _user_tables(tmp_path)
     line = _replace_in_row(folder / name, "0.5,0.75,", column, value)
     with pytest.raises(TableError) as info:
         table_files.check_tables(folder)
-    assert str(info.value) == (f"{folder / name} line {line}: {column} is {float(value)!r}, not a finite number; "
-                               "run `fitlab tabulate` to rewrite it")
+    assert str(info.value) == (
+        f"{folder / name} line {line}: {column} is {float(value)!r}, not a finite number; "
+        "run `fitlab tabulate` to rewrite it"
+    )
 
 
 def test_infinity_is_read_where_the_tables_hold_it():
@@ -195,12 +212,15 @@ def test_a_truncated_table_is_refused_naming_it(tmp_path, capsys, name, cut):
         table_files.check_tables(folder)
     if cut == "at a line end":
         kept = text[:half].count("\n") - 5
-        assert str(info.value) == (f"{folder / name}: {kept} rows, the grid its header states has {rows}; "
-                                   "run `fitlab tabulate` to rewrite it")
+        assert str(info.value) == (
+            f"{folder / name}: {kept} rows, the grid its header states has {rows}; run `fitlab tabulate` to rewrite it"
+        )
     else:
         n = len(table_files.TABLE_FILES[name])
-        assert str(info.value) == (f"{folder / name} line {text[:half].count(chr(10)) + 1}: 1 field, the header has "
-                                   f"{n}; run `fitlab tabulate` to rewrite it")
+        assert str(info.value) == (
+            f"{folder / name} line {text[:half].count(chr(10)) + 1}: 1 field, the header has "
+            f"{n}; run `fitlab tabulate` to rewrite it"
+        )
 
 
 def test_a_truncated_table_is_refused_by_refit_naming_the_table(tmp_path, capsys):
@@ -242,11 +262,15 @@ def test_a_fifo_table_in_a_data_folder_is_refused_without_blocking(tmp_path, cap
     os.mkfifo(fifo)
     # before: refit passed the folder over for the packaged tables; tabulate --check blocked on the FIFO
     assert finishes(lambda: _refit_l(tmp_path, capsys), [fifo]) == (
-        2, f"fitlab refit: error: {fifo}: not a regular file (a FIFO), not a table")
+        2,
+        f"fitlab refit: error: {fifo}: not a regular file (a FIFO), not a table",
+    )
     code = finishes(lambda: main(["tabulate", "--check", "--data", str(tmp_path), "--family", "lambert_sphere",
                                   "--quiet"]), [fifo])  # fmt: skip
     assert (code, capsys.readouterr().err.strip()) == (
-        1, f"fitlab tabulate --check: error: {fifo}: not a regular file (a FIFO), not a table")
+        1,
+        f"fitlab tabulate --check: error: {fifo}: not a regular file (a FIFO), not a table",
+    )
 
 
 MICROFACET = DATA.parent / "microfacet_energy"
@@ -262,8 +286,9 @@ def test_a_truncated_lobe_parameter_table_is_refused_naming_it(tmp_path):
     # before: read, with the jobs of the half left
     with pytest.raises(TableError) as info:
         read_params(tmp_path, "diffuse", "training")
-    assert str(info.value) == (f"{tmp_path / name}: {kept} rows, the grid its header states has 168; "
-                               "run `fitlab tabulate` to rewrite it")
+    assert str(info.value) == (
+        f"{tmp_path / name}: {kept} rows, the grid its header states has 168; run `fitlab tabulate` to rewrite it"
+    )
     assert len(read_params(MICROFACET, "diffuse", "training")["alpha"]) == 168
 
 
@@ -276,8 +301,9 @@ def test_a_nan_in_a_microfacet_table_is_refused_naming_the_row(tmp_path):
     line = _replace_in_row(tmp_path / spec.file, "0.03125,0.03125,", column, "nan")
     with pytest.raises(TableError) as info:
         microfacet.read_albedo_table(tmp_path / spec.file, spec)
-    assert str(info.value) == (f"{tmp_path / spec.file} line {line}: {column} is nan, not a finite number; "
-                               "run `fitlab tabulate` to rewrite it")
+    assert str(info.value) == (
+        f"{tmp_path / spec.file} line {line}: {column} is nan, not a finite number; run `fitlab tabulate` to rewrite it"
+    )
     assert line == 6
 
 
@@ -290,6 +316,8 @@ def test_a_microfacet_table_whose_header_states_another_grid_is_refused(tmp_path
     (tmp_path / spec.file).write_text(text.replace(stated, stated.replace("mu varies fastest", "alpha varies fastest")))
     with pytest.raises(TableError) as info:
         microfacet.read_albedo_table(tmp_path / spec.file, spec)
-    assert str(info.value) == (f"{tmp_path / spec.file}: its header states the grid "
-                               f"{stated.replace('mu varies', 'alpha varies')!r}, not {stated!r}; "
-                               "run `fitlab tabulate` to rewrite it")
+    assert str(info.value) == (
+        f"{tmp_path / spec.file}: its header states the grid "
+        f"{stated.replace('mu varies', 'alpha varies')!r}, not {stated!r}; "
+        "run `fitlab tabulate` to rewrite it"
+    )

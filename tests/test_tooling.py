@@ -25,9 +25,9 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 
 #: the paths held clean by ruff, relative to the repository root (basedpyright's are [tool.pyright] include)
-CHECKED = ["fitlab", "tests", "tools", "notebooks/_build.py"]
+CHECKED = ["fitlab", "studies", "tests", "tools", "notebooks/_build.py"]
 #: the folders whose Python sources follow the project's rules of docstrings and history
-SOURCES = ["fitlab", "tests", "tools"]
+SOURCES = ["fitlab", "studies", "tests", "tools"]
 #: generated code, written by fitlab codegen and compared byte for byte: not hand-written source
 GENERATED = ROOT / "fitlab" / "fits" / "generated"
 #: the most lines of a module docstring
@@ -77,7 +77,8 @@ def test_pyright_basic_clean():
                 if d["severity"] in ("error", "warning")]  # fmt: skip
     assert summary["filesAnalyzed"] > 200, summary
     assert summary["errorCount"] == 0 and summary["warningCount"] == 0, (
-        "basedpyright (basic mode) beyond its baseline:\n" + "\n".join(findings))
+        "basedpyright (basic mode) beyond its baseline:\n" + "\n".join(findings)
+    )
 
 
 def test_module_docstrings_are_short():
@@ -94,6 +95,10 @@ def test_module_docstrings_are_short():
 def test_no_issue_numbers_in_sources():
     """The sources speak of the project as it is: no issue numbers in code, comments or docstrings."""
     pattern = re.compile("iss" + r"ue\s*#?\d+", re.IGNORECASE)  # in two pieces, so this file holds no match
-    hits = [f"{path.relative_to(ROOT).as_posix()}:{n}: {line.strip()}" for path in _sources()
-            for n, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1) if pattern.search(line)]
+    hits = [
+        f"{path.relative_to(ROOT).as_posix()}:{n}: {line.strip()}"
+        for path in _sources()
+        for n, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1)
+        if pattern.search(line)
+    ]
     assert not hits, "issue numbers in the sources:\n" + "\n".join(hits)

@@ -24,8 +24,9 @@ def test_legendre_moments_closed_form_and_quadrature():
     assert a[8] == pytest.approx(17.0 / 16384.0, rel=1e-14)
     assert np.all(a[3::2] == 0.0)
     for k in range(0, 41, 1):
-        num, _ = integrate.quad(lambda u, k=k: exact.phase_function(u) * eval_legendre(k, u), -1, 1, limit=400,
-                                epsabs=1e-15, epsrel=1e-13)
+        num, _ = integrate.quad(
+            lambda u, k=k: exact.phase_function(u) * eval_legendre(k, u), -1, 1, limit=400, epsabs=1e-15, epsrel=1e-13
+        )
         assert 2 * np.pi * (2 * k + 1) * num == pytest.approx(a[k], rel=1e-9, abs=1e-13), k
     # A_k ~ (16/pi) k^-4 for even k
     k = np.arange(20, 41, 2)
@@ -120,14 +121,17 @@ def test_rows_interpolated_at_many_cosines_agree_with_rows_at_each(c):
     n, chunk = 1000, 250
     rng = np.random.default_rng(7)
     edges = np.array([p[0] for p in tp.interpolation_panels(tp.DEGREE, 1e-10)] + [1.0])
-    pool = np.concatenate((rng.uniform(0, 1, n), 10 ** rng.uniform(-12, 0, n // 4),
-                           1 - 10 ** rng.uniform(-9, -1, n // 4), edges))
+    pool = np.concatenate(
+        (rng.uniform(0, 1, n), 10 ** rng.uniform(-12, 0, n // 4), 1 - 10 ** rng.uniform(-9, -1, n // 4), edges)
+    )
     mi, mo = rng.permutation(pool)[:n], rng.permutation(pool)[:n]
     size = sum(p[2].size for p in tp.interpolation_panels(tp.DEGREE, 1e-10))
     assert np.unique(np.concatenate((mi, mo))).size > size > 2 * chunk
     both = tp.multiple_scattering_orders(np.concatenate((mi, mo)), np.concatenate((mo, mi)), c)
-    parts = [tp.multiple_scattering_orders(mi[k:k + chunk], mo[k:k + chunk], c, orders=len(both))
-             for k in range(0, n, chunk)]
+    parts = [
+        tp.multiple_scattering_orders(mi[k : k + chunk], mo[k : k + chunk], c, orders=len(both))
+        for k in range(0, n, chunk)
+    ]
     direct = [np.concatenate(p) for p in zip(*parts)]
     phi = np.linspace(0, np.pi, n)
     u = -(mi * mo + np.sqrt((1 - mi**2) * (1 - mo**2)) * np.cos(phi))
@@ -201,8 +205,10 @@ def test_phase_api():
     with pytest.raises(TypeError, match="model"):
         exact.albedo(0.4, 0.8, model="true")
     # mixed and three_term share the multiple scattering
-    for x, y in zip(exact.multiple_scattering_modes(0.3, 0.4, 0.6, phase="mixed"),
-                    exact.multiple_scattering_modes(0.3, 0.4, 0.6, phase="three_term")):
+    for x, y in zip(
+        exact.multiple_scattering_modes(0.3, 0.4, 0.6, phase="mixed"),
+        exact.multiple_scattering_modes(0.3, 0.4, 0.6, phase="three_term"),
+    ):
         assert x == y
 
 

@@ -10,17 +10,17 @@ import numpy as np
 import pytest
 import sympy as sp
 
+from fitlab.core import get_form
 from fitlab.families.lambert_sphere import exact
 from fitlab.families.lambert_sphere.forms import ORDER2_PART, RUNTIME_PARTS, runtime_terms
-from fitlab.core import get_form
 from fitlab.families.lambert_sphere.program.report.audit import directional_albedo
 from fitlab.families.lambert_sphere.program.runtime import TRUE_FORMS, runtime_model
 from fitlab.families.lambert_sphere.program.true_refit import (
-    START_FORMS,
     GOAL_MU_MIN,
     GRAZING_WEIGHT,
     JOINT_PHI,
     ORDER_PARTS,
+    START_FORMS,
     TRUE_FITS,
     joint_form,
     order_form,
@@ -49,7 +49,9 @@ def test_start_values_are_the_three_term_fits():
         source = load(fit_source(None, part, START_FORMS.get(form, form)))
         assert set(start) == set(get_form(part, form).params)
         assert all(start[k] == source.params.get(k, 0.0) for k in start), part
-    assert start_values("H1", "log_exp_true")["a04"] == 0.0 and "a04" not in load(fit_source(None, "H1", "log_exp")).params
+    assert (
+        start_values("H1", "log_exp_true")["a04"] == 0.0 and "a04" not in load(fit_source(None, "H1", "log_exp")).params
+    )
 
 
 def test_true_fits_are_the_packaged_folder():
@@ -83,13 +85,16 @@ def test_joint_form_is_the_runtime_structure():
 
     form, start = joint_form()
     parts = _start_parts()
-    unscaled = lambdify_numpy(symbols(("mu_i", "mu_o", "phi", "c")), next(a for a in runtime_brdf(parts).args if a != 0))
+    unscaled = lambdify_numpy(
+        symbols(("mu_i", "mu_o", "phi", "c")), next(a for a in runtime_brdf(parts).args if a != 0)
+    )
     rng = np.random.default_rng(5)
     mi, mo, phi, c = rng.uniform(0.0, 1.0, (4, 300))
     mi[:3], mo[:3], c[:3] = (1e-6, 0.3, 1.0), (0.5, 1e-6, 1.0), (0.5, 1.0, 1e-4)
     phi *= np.pi
-    np.testing.assert_allclose(form.numpy_function(form.vector(start), mi, mo, phi, c), unscaled(mi, mo, phi, c),
-                               rtol=1e-12, atol=1e-300)
+    np.testing.assert_allclose(
+        form.numpy_function(form.vector(start), mi, mo, phi, c), unscaled(mi, mo, phi, c), rtol=1e-12, atol=1e-300
+    )
     assert len(form.params) == sum(len(get_form(p, TRUE_FORMS[p]).params) for p in parts)
     assert not form.fixed
 
@@ -120,7 +125,10 @@ def _points(c, n, seed):
     rng = np.random.default_rng(seed)
     mi, mo = rng.uniform(0.01, 1.0, (2, n))
     phi = rng.uniform(0.0, np.pi, n)
-    mi, mo, phi = (np.concatenate((a, e)) for a, e in zip((mi, mo, phi), ((0.01, 0.01, 0.01), (0.01, 0.01, 0.2), (np.pi, 0.0, np.pi))))
+    mi, mo, phi = (
+        np.concatenate((a, e))
+        for a, e in zip((mi, mo, phi), ((0.01, 0.01, 0.01), (0.01, 0.01, 0.2), (np.pi, 0.0, np.pi)))
+    )
     return mi, mo, phi
 
 
@@ -179,8 +187,9 @@ def test_true_fits_regenerate(tmp_path):
     rng = np.random.default_rng(3)
     mi, mo, phi, c = rng.uniform(0.0, 1.0, (4, 2000))
     phi *= np.pi
-    np.testing.assert_allclose(true_runtime_model(tmp_path)(mi, mo, phi, c), true_runtime_model()(mi, mo, phi, c),
-                               rtol=1e-9, atol=1e-300)
+    np.testing.assert_allclose(
+        true_runtime_model(tmp_path)(mi, mo, phi, c), true_runtime_model()(mi, mo, phi, c), rtol=1e-9, atol=1e-300
+    )
 
 
 def test_true_model_refuses_a_folder_without_every_part(tmp_path):
@@ -233,5 +242,6 @@ def test_codegen_prints_the_true_model(tmp_path):
     mi, mo, phi, c = rng.uniform(0.0, 1.0, (4, 500))
     mi[:2], mo[:2], c[2] = (1e-6, 0.01), (0.3, 0.01), 1.0
     phi *= np.pi
-    np.testing.assert_allclose(mod.brdf(mi, mo, np.cos(phi), c), true_runtime_model()(mi, mo, phi, c),
-                               rtol=1e-12, atol=1e-300)
+    np.testing.assert_allclose(
+        mod.brdf(mi, mo, np.cos(phi), c), true_runtime_model()(mi, mo, phi, c), rtol=1e-12, atol=1e-300
+    )

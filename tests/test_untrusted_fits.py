@@ -60,8 +60,16 @@ def _zoo(canary: Path):
         zoo[label] = (name, raw if raw is not None else json.dumps(rec))
 
     add("code in expression", lambda r: r.update(expression=code))
-    add("code in discovered expression", lambda r: r.update(expression=code, form="sr_1_abcdef"), name="m.sr_1_abcdef.json")
-    add("dunder name", lambda r: r.update(expression="c.__class__.__mro__", form="sr_1_abcdef"), name="m.sr_1_abcdef.json")
+    add(
+        "code in discovered expression",
+        lambda r: r.update(expression=code, form="sr_1_abcdef"),
+        name="m.sr_1_abcdef.json",
+    )
+    add(
+        "dunder name",
+        lambda r: r.update(expression="c.__class__.__mro__", form="sr_1_abcdef"),
+        name="m.sr_1_abcdef.json",
+    )
     add("lambda", lambda r: r.update(expression="(lambda: c)()", form="sr_1_abcdef"), name="m.sr_1_abcdef.json")
     add("code in target", lambda r: r.update(target=code))
     add("code in form", lambda r: r.update(form=code))
@@ -70,11 +78,17 @@ def _zoo(canary: Path):
     add("dunder param", lambda r: r.update(params={"__class__": 1.0}))
     add("huge parameter", lambda r: r["params"].update(m1=1e300))
     add("nan parameter (string)", lambda r: r["params"].update(m1="nan"))
-    add("inf parameter (literal)", None, raw=(FITS / "m.json").read_text().replace('"m1": ', '"m1": Infinity, "x": ', 1))
+    add(
+        "inf parameter (literal)", None, raw=(FITS / "m.json").read_text().replace('"m1": ', '"m1": Infinity, "x": ', 1)
+    )
     add("NaN literal", None, raw='{"format": "fitlab-fit/1", "params": {"a": NaN}}')
     add("deep nesting", None, raw="[" * 100_000 + "]" * 100_000)
     add("huge exponent", lambda r: r.update(expression="c**99999999999", form="sr_1_abcdef"), name="m.sr_1_abcdef.json")
-    add("deep expression", lambda r: r.update(expression="(" * 300 + "c" + ")" * 300, form="sr_1_abcdef"), name="m.sr_1_abcdef.json")
+    add(
+        "deep expression",
+        lambda r: r.update(expression="(" * 300 + "c" + ")" * 300, form="sr_1_abcdef"),
+        name="m.sr_1_abcdef.json",
+    )
     for label, text in NUMBERS.items():
         add(label, lambda r, text=text: r.update(expression=text, form="sr_1_abcdef"), name="m.sr_1_abcdef.json")
     add("wrong type: domain", lambda r: r.update(domain="abc"))
@@ -128,8 +142,18 @@ def test_load_refuses_each_hostile_file(zoo, canary, tmp_path, label):
     assert not canary.exists()
 
 
-@pytest.mark.parametrize("label", ["code in expression", "huge parameter", "wrong type: domain", "another target under this name",
-                                   "deep nesting", "NaN literal", "code in a description"])
+@pytest.mark.parametrize(
+    "label",
+    [
+        "code in expression",
+        "huge parameter",
+        "wrong type: domain",
+        "another target under this name",
+        "deep nesting",
+        "NaN literal",
+        "code in a description",
+    ],
+)
 def test_refit_init_refuses_hostile_files(zoo, canary, tmp_path, capsys, label):
     name, raw = zoo[label]
     path = _write(tmp_path / "init", name, raw)
@@ -141,8 +165,9 @@ def test_refit_init_refuses_hostile_files(zoo, canary, tmp_path, capsys, label):
     assert list(out.iterdir()) == [] and not canary.exists()
 
 
-@pytest.mark.parametrize("label", ["code in expression", "another target under this name", "code in a description",
-                                   "huge parameter"])
+@pytest.mark.parametrize(
+    "label", ["code in expression", "another target under this name", "code in a description", "huge parameter"]
+)
 def test_codegen_refuses_hostile_fits(zoo, canary, tmp_path, capsys, label):
     name, raw = zoo[label]
     fits = tmp_path / "fits"
@@ -157,12 +182,15 @@ def test_codegen_refuses_hostile_fits(zoo, canary, tmp_path, capsys, label):
     assert not canary.exists()
 
 
-@pytest.mark.parametrize("label, reason", [
-    ("complex: sqrt(-1)", "expression part 'sqrt(-1)' has no finite real value"),
-    ("overflow: 1e308*1e308", "expression part '1e308' is beyond 1e+300 in magnitude"),
-    ("nan: 0/0", "expression part '0/0' divides by zero"),
-    ("division by zero: c/0", "expression part 'c/0' divides by zero"),
-])
+@pytest.mark.parametrize(
+    "label, reason",
+    [
+        ("complex: sqrt(-1)", "expression part 'sqrt(-1)' has no finite real value"),
+        ("overflow: 1e308*1e308", "expression part '1e308' is beyond 1e+300 in magnitude"),
+        ("nan: 0/0", "expression part '0/0' divides by zero"),
+        ("division by zero: c/0", "expression part 'c/0' divides by zero"),
+    ],
+)
 def test_codegen_refuses_a_discovered_form_with_numbers_out_of_bounds(zoo, tmp_path, capsys, label, reason):
     name, raw = zoo[label]
     fits = tmp_path / "fits"
@@ -176,8 +204,10 @@ def test_codegen_refuses_a_discovered_form_with_numbers_out_of_bounds(zoo, tmp_p
     assert not out.exists() or list(out.iterdir()) == []
 
 
-@pytest.mark.parametrize("label", ["code in discovered expression", "another target under this name", "huge parameter",
-                                   "code in a description"])
+@pytest.mark.parametrize(
+    "label",
+    ["code in discovered expression", "another target under this name", "huge parameter", "code in a description"],
+)
 def test_report_refuses_hostile_fits_before_any_work(zoo, canary, tmp_path, capsys, monkeypatch, label):
     import fitlab.report.run as report_run
 
@@ -197,36 +227,41 @@ def test_report_refuses_hostile_fits_before_any_work(zoo, canary, tmp_path, caps
     assert not canary.exists()
 
 
-@pytest.mark.parametrize("text, message", [
-    ("c*(((2**64)**64)**64)", "part '(2**64)**64' is beyond 1e+300 in magnitude"),  # six levels: in a child, below
-    ("((2*c)**64)**64", "part '((2*c)**64)**64' would make a number of more than 300 digits"),
-    ("c*(8/7)**64*(8/7)**64*(8/7)**64*(8/7)**64*(8/7)**64*(8/7)**64",
-     "part 'c*(8/7)**64*(8/7)**64*(8/7)**64*(8/7)...' makes a number of more than 300 digits"),
-    ("c*((8/7)**64)**8", "part '((8/7)**64)**8' would make a number of more than 300 digits"),
-    ("c*1e-100**2*1e-150", "part 'c*1e-100**2*1e-150' would make a number below 1e-300 in magnitude"),
-    ("c*1e100**2*1e150", "part 'c*1e100**2*1e150' would make a number beyond 1e+300 in magnitude"),
-    ("(1e-100*c)**4", "part '(1e-100*c)**4' would make a number below 1e-300 in magnitude"),
-    ("1e-299*1e-299 + c", "part '1e-299*1e-299' is not 0 and below 1e-300 in magnitude"),
-    ("c*(9**64*9**64*9**64*9**64*9**64)", "part '9**64*9**64*9**64*9**64*9**64' is beyond 1e+300 in magnitude"),
-    ("c + 1e250*1e250", "part '1e250*1e250' is beyond 1e+300 in magnitude"),
-    ("c*1e308", "part '1e308' is beyond 1e+300 in magnitude"),
-    ("c*1e-400", "part '1e-400' is not 0 and below 1e-300 in magnitude"),
-    ("c*1." + "0" * 300 + "1", "holds a number literal of more than 300 digits"),
-    ("c*" + "9" * 301, "holds an integer of more than 300 digits"),
-    ("c*0/0", "part 'c*0/0' divides by zero"),
-    ("c**-1*0**-1", "part '0**-1' divides by zero"),
-    ("acos(2)*c", "part 'acos(2)' has no finite real value"),
-    ("log(-c*0 - 1) + c", "part 'log(-c*0 - 1)' has no finite real value"),
-    ("E**c*exp(1000)", "part 'exp(1000)' is beyond 1e+300 in magnitude"),
-    ("(exp(600)*c)*(exp(600)*c)", "part '(exp(600)*c)*(exp(600)*c)' is beyond 1e+300 in magnitude"),
-    ("sqrt(-c**2)", "part 'sqrt(-c**2)' makes the imaginary unit I, not a real number"),
-    ("(c**16)**8", "part '(c**16)**8' makes the power 128; at most 64 in magnitude"),
-    ("safe_pow(3, 1000)*c", "part 'safe_pow(3, 1000)' is beyond 1e+300 in magnitude"),
-    ("exp(c + 100*log(3))", "part 'exp(c + 100*log(3))' raises to the power 100; at most 64 in magnitude"),
-    ("c/123456789**(1/81)", "part '123456789**(1/81)' would make a number of more than 300 digits"),
-    ("2**(c + 100)", "part '2**(c + 100)' makes a power with 100 added to its exponent: raises to the power 100"),
-    ("acos(cos(safe_pow(2**60, 7)))", "part 'acos(cos(safe_pow(2**60, 7)))' cannot be formed (AttributeError)"),
-])
+@pytest.mark.parametrize(
+    "text, message",
+    [
+        ("c*(((2**64)**64)**64)", "part '(2**64)**64' is beyond 1e+300 in magnitude"),  # six levels: in a child, below
+        ("((2*c)**64)**64", "part '((2*c)**64)**64' would make a number of more than 300 digits"),
+        (
+            "c*(8/7)**64*(8/7)**64*(8/7)**64*(8/7)**64*(8/7)**64*(8/7)**64",
+            "part 'c*(8/7)**64*(8/7)**64*(8/7)**64*(8/7)...' makes a number of more than 300 digits",
+        ),
+        ("c*((8/7)**64)**8", "part '((8/7)**64)**8' would make a number of more than 300 digits"),
+        ("c*1e-100**2*1e-150", "part 'c*1e-100**2*1e-150' would make a number below 1e-300 in magnitude"),
+        ("c*1e100**2*1e150", "part 'c*1e100**2*1e150' would make a number beyond 1e+300 in magnitude"),
+        ("(1e-100*c)**4", "part '(1e-100*c)**4' would make a number below 1e-300 in magnitude"),
+        ("1e-299*1e-299 + c", "part '1e-299*1e-299' is not 0 and below 1e-300 in magnitude"),
+        ("c*(9**64*9**64*9**64*9**64*9**64)", "part '9**64*9**64*9**64*9**64*9**64' is beyond 1e+300 in magnitude"),
+        ("c + 1e250*1e250", "part '1e250*1e250' is beyond 1e+300 in magnitude"),
+        ("c*1e308", "part '1e308' is beyond 1e+300 in magnitude"),
+        ("c*1e-400", "part '1e-400' is not 0 and below 1e-300 in magnitude"),
+        ("c*1." + "0" * 300 + "1", "holds a number literal of more than 300 digits"),
+        ("c*" + "9" * 301, "holds an integer of more than 300 digits"),
+        ("c*0/0", "part 'c*0/0' divides by zero"),
+        ("c**-1*0**-1", "part '0**-1' divides by zero"),
+        ("acos(2)*c", "part 'acos(2)' has no finite real value"),
+        ("log(-c*0 - 1) + c", "part 'log(-c*0 - 1)' has no finite real value"),
+        ("E**c*exp(1000)", "part 'exp(1000)' is beyond 1e+300 in magnitude"),
+        ("(exp(600)*c)*(exp(600)*c)", "part '(exp(600)*c)*(exp(600)*c)' is beyond 1e+300 in magnitude"),
+        ("sqrt(-c**2)", "part 'sqrt(-c**2)' makes the imaginary unit I, not a real number"),
+        ("(c**16)**8", "part '(c**16)**8' makes the power 128; at most 64 in magnitude"),
+        ("safe_pow(3, 1000)*c", "part 'safe_pow(3, 1000)' is beyond 1e+300 in magnitude"),
+        ("exp(c + 100*log(3))", "part 'exp(c + 100*log(3))' raises to the power 100; at most 64 in magnitude"),
+        ("c/123456789**(1/81)", "part '123456789**(1/81)' would make a number of more than 300 digits"),
+        ("2**(c + 100)", "part '2**(c + 100)' makes a power with 100 added to its exponent: raises to the power 100"),
+        ("acos(cos(safe_pow(2**60, 7)))", "part 'acos(cos(safe_pow(2**60, 7)))' cannot be formed (AttributeError)"),
+    ],
+)
 def test_parse_expression_bounds_every_number_before_forming_it(text, message):
     with pytest.raises(ValueError) as info:
         parse_expression(text, ("c", "m1"))
@@ -234,24 +269,27 @@ def test_parse_expression_bounds_every_number_before_forming_it(text, message):
     assert "\n" not in str(info.value) and len(str(info.value)) < 200
 
 
-@pytest.mark.parametrize("text, value", [
-    ("c*1e300", 1e300),
-    ("c*1e-300", 1e-300),
-    ("c*2**64*2**64*2**64", 2.0**192),
-    ("c*(2**64)**15", 2.0**960),
-    ("c*10**64*10**64*10**64*10**64 + 0*m1", 1e256),
-    ("c*(1/3)**64", 3.0**-64),
-    ("c*exp(690)", math.exp(690)),
-    ("c*acos(1) + c*log(1) + c*sqrt(4)", 2.0),
-    ("c*8**(1/3)*8**(2/3)*(-1)**2", 8.0),
-    ("c*(8/7)**64*(8/7)**64*(8/7)**64*(8/7)**64*(8/7)**64", (8 / 7) ** 320),
-    ("((c**8)**8)/c**64*c", 1.0),
-    ("safe_pow(-1, 0.5) + c*safe_pow(4, 0.5)", 2.0),
-    ("exp(c + 5*log(3))", 243 * math.e),
-    ("2**(c + 3)", 16.0),
-    ("c*123456789**(-1/3)", 123456789 ** (-1 / 3)),
-    ("c*sqrt(2)*sqrt(6)", math.sqrt(12)),
-])
+@pytest.mark.parametrize(
+    "text, value",
+    [
+        ("c*1e300", 1e300),
+        ("c*1e-300", 1e-300),
+        ("c*2**64*2**64*2**64", 2.0**192),
+        ("c*(2**64)**15", 2.0**960),
+        ("c*10**64*10**64*10**64*10**64 + 0*m1", 1e256),
+        ("c*(1/3)**64", 3.0**-64),
+        ("c*exp(690)", math.exp(690)),
+        ("c*acos(1) + c*log(1) + c*sqrt(4)", 2.0),
+        ("c*8**(1/3)*8**(2/3)*(-1)**2", 8.0),
+        ("c*(8/7)**64*(8/7)**64*(8/7)**64*(8/7)**64*(8/7)**64", (8 / 7) ** 320),
+        ("((c**8)**8)/c**64*c", 1.0),
+        ("safe_pow(-1, 0.5) + c*safe_pow(4, 0.5)", 2.0),
+        ("exp(c + 5*log(3))", 243 * math.e),
+        ("2**(c + 3)", 16.0),
+        ("c*123456789**(-1/3)", 123456789 ** (-1 / 3)),
+        ("c*sqrt(2)*sqrt(6)", math.sqrt(12)),
+    ],
+)
 def test_parse_expression_keeps_numbers_within_the_bounds(text, value):
     expr = parse_expression(text, ("c", "m1"))
     assert float(expr.subs(sp.Symbol("c", real=True), 1)) == pytest.approx(value, rel=1e-12)

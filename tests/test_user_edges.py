@@ -99,7 +99,11 @@ def test_the_limits_are_the_schemas():
                  props["user_data"]["properties"]["columns"]["maxItems"] - 1, worst - 2)  # fmt: skip
     lim = fit_limits()
     assert (lim.inputs, lim.params, lim.name, lim.expression) == (
-        inputs, props["params"]["maxProperties"], longest, props["expression"]["maxLength"])
+        inputs,
+        props["params"]["maxProperties"],
+        longest,
+        props["expression"]["maxLength"],
+    )
     assert lim.inputs == props["inputs"]["maxItems"] == 16  # as docs/your_own_data.md promises: the worst point fits
     assert fit_schema() == schema
     fitlab.fit.user.check_name("a" + "b" * (lim.name - 1), "input")
@@ -132,29 +136,56 @@ def test_fitlab_fit_of_16_inputs_is_written_and_printed(tmp_path, capsys):
     for d in (15, 16):
         form = "a0 + " + " + ".join(f"a{i + 1}*x{i}" for i in range(d))
         out = tmp_path / f"fits{d}"
-        assert main(["fit", str(_inputs_table(tmp_path, d)), "--target", "y", "--form", form, "--name", "lin",
-                     "--minimax-rounds", "0", "--out", str(out), "--quiet"]) == 0, capsys.readouterr().err
+        assert (
+            main(
+                [
+                    "fit",
+                    str(_inputs_table(tmp_path, d)),
+                    "--target",
+                    "y",
+                    "--form",
+                    form,
+                    "--name",
+                    "lin",
+                    "--minimax-rounds",
+                    "0",
+                    "--out",
+                    str(out),
+                    "--quiet",
+                ]
+            )
+            == 0
+        ), capsys.readouterr().err
         assert main(["codegen", "--fit", str(out / "y.lin.json"), "--lang", "c", "--out", str(tmp_path / f"c{d}"),
                      "--quiet"]) == 0  # fmt: skip
         assert f"y_lin({', '.join(f'double x{i}' for i in range(d))})" in (tmp_path / f"c{d}" / "y.h").read_text()
 
 
-@pytest.mark.parametrize("what, make, words", [
-    ("17 inputs", lambda d: ("a0 + " + " + ".join(f"a{i + 1}*x{i}" for i in range(d + 1)), d + 1),
-     ["17 inputs", "at most 16"]),
-    ("65 parameters", lambda d: (" + ".join(f"a{i}*x{i % d}" for i in range(65)), d), ["65 parameters", "at most 64"]),
-    ("a parameter of 70 digits", lambda d: ("a0 + a" + "1" * 70 + "*x0", d), ["71 characters", "at most 64"]),
-    ("a parameter of 400 digits", lambda d: ("a0 + a" + "7" * 400 + "*x0", d), ["401 characters"]),
-    ("a parameter of 5000 digits", lambda d: ("a0 + a" + "9" * 5000 + "*x0", d), ["5001 characters"]),
-    ("a name of 65 characters", lambda d: ("a0 + a1*x0", d), ["at most 64"]),
-])
+@pytest.mark.parametrize(
+    "what, make, words",
+    [
+        (
+            "17 inputs",
+            lambda d: ("a0 + " + " + ".join(f"a{i + 1}*x{i}" for i in range(d + 1)), d + 1),
+            ["17 inputs", "at most 16"],
+        ),
+        (
+            "65 parameters",
+            lambda d: (" + ".join(f"a{i}*x{i % d}" for i in range(65)), d),
+            ["65 parameters", "at most 64"],
+        ),
+        ("a parameter of 70 digits", lambda d: ("a0 + a" + "1" * 70 + "*x0", d), ["71 characters", "at most 64"]),
+        ("a parameter of 400 digits", lambda d: ("a0 + a" + "7" * 400 + "*x0", d), ["401 characters"]),
+        ("a parameter of 5000 digits", lambda d: ("a0 + a" + "9" * 5000 + "*x0", d), ["5001 characters"]),
+        ("a name of 65 characters", lambda d: ("a0 + a1*x0", d), ["at most 64"]),
+    ],
+)
 def test_a_limit_of_the_format_is_refused_before_the_fit(tmp_path, capsys, no_fit, what, make, words):
     """The failures replayed: 65 parameters or a parameter name of 70 digits ran a 29 s fit, then 'not a valid
     fit file at params'; 400 and 5000 digits ended in 'unexpected OverflowError' / 'unexpected ValueError'."""
     form, d = make(16)
     name = ["--name", "n" * 65] if "name of" in what else []
-    _refused(tmp_path, capsys, ["fit", str(_inputs_table(tmp_path, d)), "--target", "y", "--form", form, *name],
-             *words)
+    _refused(tmp_path, capsys, ["fit", str(_inputs_table(tmp_path, d)), "--target", "y", "--form", form, *name], *words)
 
 
 def test_a_start_value_beyond_the_stores_limit_is_refused_before_the_fit(tmp_path, capsys, no_fit):
@@ -191,8 +222,14 @@ def test_the_limits_in_docs_reliability_are_the_checks_constants():
 def test_only_plain_decimal_numbers_are_read(tmp_path, capsys, no_fit, cell):
     """995_099 and Arabic-Indic or full-width digits, which Python's float() reads, are no numbers of a table."""
     path = _small(tmp_path, y=(4, cell))  # row 4 is line 6 (the header is line 1)
-    _refused(tmp_path, capsys, ["fit", str(path), "--target", "z", "--form", "a0 + a1*x + a2*y"],
-             "line 6", "column y", "not a number")
+    _refused(
+        tmp_path,
+        capsys,
+        ["fit", str(path), "--target", "z", "--form", "a0 + a1*x + a2*y"],
+        "line 6",
+        "column y",
+        "not a number",
+    )
 
 
 def test_an_exact_table_holds_only_plain_decimal_numbers(tmp_path):
@@ -231,8 +268,9 @@ def test_lines_are_numbered_as_editors_number_them(tmp_path, capsys, no_fit):
                                 "--form", "a0 + a1*x"], "line 5", "column z", "'abc'")  # fmt: skip
 
 
-@pytest.mark.parametrize("column, scale, shown", [("z", 5e307, "5e+307"), ("z", 1e-320, "9.99989e-321"),
-                                                  ("x", 1e200, "1e+200")])
+@pytest.mark.parametrize(
+    "column, scale, shown", [("z", 5e307, "5e+307"), ("z", 1e-320, "9.99989e-321"), ("x", 1e200, "1e+200")]
+)
 def test_values_whose_scale_the_fit_cannot_represent_are_refused(tmp_path, capsys, no_fit, column, scale, shown):
     """The failure replayed: y near 5e307 or 1e-320 ended after the fit with 'a0 has no effect' or a leaked
     RuntimeWarning."""
@@ -248,8 +286,13 @@ def test_rows_times_parameters_are_bounded_before_the_fit(tmp_path, capsys, no_f
     """The failure replayed: 1e6 rows x 15 inputs (within every other limit) reached 2.6 GB, then 'unexpected
     JaxRuntimeError: RESOURCE_EXHAUSTED'.  The bound, lowered here so that a small table meets it."""
     monkeypatch.setattr(fitlab.fit.user._split, "MAX_ROW_PARAMETERS", 50)  # where the check reads it
-    _refused(tmp_path, capsys, ["fit", str(_small(tmp_path)), "--target", "z", "--form", "a0 + a1*x + a2*y"],
-             "23 rows to fit x 3 parameters = 69", "at most 50")
+    _refused(
+        tmp_path,
+        capsys,
+        ["fit", str(_small(tmp_path)), "--target", "z", "--form", "a0 + a1*x + a2*y"],
+        "23 rows to fit x 3 parameters = 69",
+        "at most 50",
+    )
 
 
 def test_running_out_of_memory_is_said_never_unexpected(tmp_path, capsys, monkeypatch):
@@ -260,8 +303,14 @@ def test_running_out_of_memory_is_said_never_unexpected(tmp_path, capsys, monkey
         raise JaxRuntimeError("RESOURCE_EXHAUSTED: Out of memory allocating 2147483648 bytes.")
 
     monkeypatch.setattr(fitlab.fit.user, "run_fit", exhausted)
-    err = _refused(tmp_path, capsys, ["fit", str(_small(tmp_path)), "--target", "z", "--form", "a0 + a1*x + a2*y"],
-                   "out of memory", "RESOURCE_EXHAUSTED", status=1)
+    err = _refused(
+        tmp_path,
+        capsys,
+        ["fit", str(_small(tmp_path)), "--target", "z", "--form", "a0 + a1*x + a2*y"],
+        "out of memory",
+        "RESOURCE_EXHAUSTED",
+        status=1,
+    )
     assert "unexpected" not in err
 
 
@@ -366,13 +415,16 @@ def test_export_says_when_the_tables_will_take_more_than_a_minute(tmp_path, caps
 
 
 # -- names, listings -----------------------------------------------------------------------
-@pytest.mark.parametrize("argv, words", [
-    (["refit", "--target", "h0"], ["unknown target 'h0'; did you mean H0?"]),
-    (["refit", "--target", "E_ggx_corr"], ["did you mean E_ggx_cor"]),
-    (["export", "dfg_kars", "--out", "x"], ["no table 'dfg_kars'; did you mean dfg_karis?"]),
-    (["discover", "--target", "H00"], ["did you mean H0?"]),
-    (["codegen", "--lang", "c", "--form", "H00=x"], ["no target 'H00'; did you mean H0?"]),
-])
+@pytest.mark.parametrize(
+    "argv, words",
+    [
+        (["refit", "--target", "h0"], ["unknown target 'h0'; did you mean H0?"]),
+        (["refit", "--target", "E_ggx_corr"], ["did you mean E_ggx_cor"]),
+        (["export", "dfg_kars", "--out", "x"], ["no table 'dfg_kars'; did you mean dfg_karis?"]),
+        (["discover", "--target", "H00"], ["did you mean H0?"]),
+        (["codegen", "--lang", "c", "--form", "H00=x"], ["no target 'H00'; did you mean H0?"]),
+    ],
+)
 def test_a_misspelled_name_gets_the_closest(tmp_path, capsys, argv, words):
     os.chdir(tmp_path)
     assert main(argv) == 2

@@ -30,8 +30,9 @@ TRUE = {"a0": 1.0, "a1": 0.3, "a2": 0.2, "a3": 0.5}
 ROUNDS = "3"  # a few Lawson rounds: the suite stays quick
 
 needs_cc = pytest.mark.skipif(compiler() is None, reason="no C compiler on PATH")
-needs_glslang = pytest.mark.skipif(shutil.which("glslangValidator") is None,
-                                   reason="glslangValidator not installed (Debian: glslang-tools)")
+needs_glslang = pytest.mark.skipif(
+    shutil.which("glslangValidator") is None, reason="glslangValidator not installed (Debian: glslang-tools)"
+)
 
 
 def _grid():
@@ -129,7 +130,8 @@ def test_generated_c_measures_the_claimed_held_out_error(fitted, tmp_path):
     assert abs(np.max(err_f) - v["max_rel"]) < 1e-6  # float rounding of a value near 1
     # outside the domain the inputs are clamped into it; NaN stays NaN
     assert model("rat", np.array([5.0, -1.0]), np.array([9.0, 0.0])) == pytest.approx(
-        load(path)(x=np.array([1.0, 0.0]), y=np.array([2.0, 0.5])), rel=1e-15)
+        load(path)(x=np.array([1.0, 0.0]), y=np.array([2.0, 0.5])), rel=1e-15
+    )
     assert np.isnan(model("rat", np.array([np.nan]), np.array([1.0]))[0])
 
 
@@ -141,8 +143,9 @@ def test_generated_glsl_is_accepted_by_glslang(fitted, tmp_path):
     text = (gen / "z.glsl").read_text()
     for version in ("#version 330", "#version 300 es"):
         shader = tmp_path / "test.frag"
-        shader.write_text(version + "\n" + text + "uniform vec2 p; out vec4 color;\n"
-                          "void main() { color = vec4(z_rat(p.x, p.y)); }\n")
+        shader.write_text(
+            version + "\n" + text + "uniform vec2 p; out vec4 color;\nvoid main() { color = vec4(z_rat(p.x, p.y)); }\n"
+        )
         res = subprocess.run(["glslangValidator", str(shader)], capture_output=True, text=True)
         assert res.returncode == 0, res.stdout + res.stderr
 
@@ -236,39 +239,74 @@ def test_a_missing_column_is_refused(tmp_path, capsys):
 
 def test_a_non_numeric_cell_is_refused(tmp_path, capsys):
     # the header is line 1: row 5 (from 0) is line 7
-    _bad(tmp_path, capsys, ["fit", _table(tmp_path, y=(5, "abc")), "--target", "z", "--form", FORM],
-         "line 7", "column y", "'abc'", "not a number")
+    _bad(
+        tmp_path,
+        capsys,
+        ["fit", _table(tmp_path, y=(5, "abc")), "--target", "z", "--form", FORM],
+        "line 7",
+        "column y",
+        "'abc'",
+        "not a number",
+    )
 
 
 @pytest.mark.parametrize("value", ["nan", "inf", "-inf"])
 def test_nan_and_inf_are_refused(tmp_path, capsys, value):
-    _bad(tmp_path, capsys, ["fit", _table(tmp_path, z=(7, value)), "--target", "z", "--form", FORM],
-         "line 9", f"column z is {float(value)}", "finite")
+    _bad(
+        tmp_path,
+        capsys,
+        ["fit", _table(tmp_path, z=(7, value)), "--target", "z", "--form", FORM],
+        "line 9",
+        f"column z is {float(value)}",
+        "finite",
+    )
 
 
 def test_fewer_rows_than_parameters_need_are_refused(tmp_path, capsys):
     x, y, z = (v[::16] for v in _grid())
     table = _write_csv(tmp_path / "t.csv", {"x": x, "y": y, "z": z})
-    _bad(tmp_path, capsys, ["fit", str(table), "--target", "z", "--form", FORM],
-         "9 rows", "7 to fit and 2 held out", "4 parameters needs at least 8 to fit and 4 held out")
+    _bad(
+        tmp_path,
+        capsys,
+        ["fit", str(table), "--target", "z", "--form", FORM],
+        "9 rows",
+        "7 to fit and 2 held out",
+        "4 parameters needs at least 8 to fit and 4 held out",
+    )
 
 
 def test_duplicate_points_are_refused(tmp_path, capsys):
     x, y, z = _grid()
     x[40], y[40] = x[3], y[3]
     table = _write_csv(tmp_path / "t.csv", {"x": x, "y": y, "z": z}, comment="")
-    _bad(tmp_path, capsys, ["fit", str(table), "--target", "z", "--form", FORM],
-         "line 5 and line 42 have the same inputs", "one row per point")
+    _bad(
+        tmp_path,
+        capsys,
+        ["fit", str(table), "--target", "z", "--form", FORM],
+        "line 5 and line 42 have the same inputs",
+        "one row per point",
+    )
 
 
 def test_an_expression_naming_an_unknown_input_is_refused(tmp_path, capsys):
-    _bad(tmp_path, capsys, ["fit", _table(tmp_path), "--target", "z", "--form", "a0 + a1*x + a2*w", "--inputs", "x,y"],
-         "'w'", "neither an input (the inputs are x, y) nor a parameter")
+    _bad(
+        tmp_path,
+        capsys,
+        ["fit", _table(tmp_path), "--target", "z", "--form", "a0 + a1*x + a2*w", "--inputs", "x,y"],
+        "'w'",
+        "neither an input (the inputs are x, y) nor a parameter",
+    )
 
 
 def test_a_form_the_data_cannot_determine_is_refused(tmp_path, capsys):
-    _bad(tmp_path, capsys, ["fit", _table(tmp_path), "--target", "z", "--form", "a0*a1*x + a2*y"],
-         "cannot determine", "rank 2", "a0 - 0.5 a1")
+    _bad(
+        tmp_path,
+        capsys,
+        ["fit", _table(tmp_path), "--target", "z", "--form", "a0*a1*x + a2*y"],
+        "cannot determine",
+        "rank 2",
+        "a0 - 0.5 a1",
+    )
 
 
 def test_a_form_with_an_input_too_few_values_cannot_determine_is_refused(tmp_path, capsys):
@@ -276,18 +314,26 @@ def test_a_form_with_an_input_too_few_values_cannot_determine_is_refused(tmp_pat
     x, y, z = _grid()
     keep = (x == 0.0) | (x == 1.0)
     table = _write_csv(tmp_path / "t.csv", {"x": x[keep], "y": y[keep], "z": z[keep]})
-    _bad(tmp_path, capsys, ["fit", str(table), "--target", "z", "--form", "a0 + a1*x + a2*x**2 + a3*y"],
-         "cannot determine", "rank 3")
+    _bad(
+        tmp_path,
+        capsys,
+        ["fit", str(table), "--target", "z", "--form", "a0 + a1*x + a2*x**2 + a3*y"],
+        "cannot determine",
+        "rank 3",
+    )
 
 
-@pytest.mark.parametrize("form, words", [
-    ("a0*x +", ["cannot read the form", "SyntaxError"]),
-    ("x*y", ["no parameters"]),
-    ("__import__('os').system('touch CANARY') + a0", ["expression calls 'Attribute'"]),
-    ("x.__class__ + a0", ["Attribute"]),
-    ("a0 + a1*x - a1*x + a2*y", ["a1 cancels out"]),
-    ("a0/(x - x) + a1", ["cannot read", "divides by zero"]),
-])
+@pytest.mark.parametrize(
+    "form, words",
+    [
+        ("a0*x +", ["cannot read the form", "SyntaxError"]),
+        ("x*y", ["no parameters"]),
+        ("__import__('os').system('touch CANARY') + a0", ["expression calls 'Attribute'"]),
+        ("x.__class__ + a0", ["Attribute"]),
+        ("a0 + a1*x - a1*x + a2*y", ["a1 cancels out"]),
+        ("a0/(x - x) + a1", ["cannot read", "divides by zero"]),
+    ],
+)
 def test_bad_forms_are_refused(tmp_path, capsys, form, words):
     canary = tmp_path / "CANARY"
     cwd = os.getcwd()
@@ -301,19 +347,26 @@ def test_bad_forms_are_refused(tmp_path, capsys, form, words):
 
 
 def test_a_form_not_finite_at_the_start_is_refused(tmp_path, capsys):
-    _bad(tmp_path, capsys, ["fit", _table(tmp_path), "--target", "z", "--form", "a0/(x - a1) + a2*y",
-                            "--start", "a1=0"],
-         "not finite at x=0, y=0.5", "start values (a0=1, a1=0, a2=0.333333)")
+    _bad(
+        tmp_path,
+        capsys,
+        ["fit", _table(tmp_path), "--target", "z", "--form", "a0/(x - a1) + a2*y", "--start", "a1=0"],
+        "not finite at x=0, y=0.5",
+        "start values (a0=1, a1=0, a2=0.333333)",
+    )
 
 
-@pytest.mark.parametrize("what, argv_extra, words", [
-    ("registered target", ["--target", "H0"], ["built-in target H0"]),
-    ("input that is constant", ["--target", "z", "--domain", "x=0.5:0.55"], ["input x is 0.5 in every row"]),
-    ("domain of no rows", ["--target", "z", "--domain", "x=3:4"], ["no row lies in the domain x=3:4"]),
-    ("domain of no input", ["--target", "z", "--domain", "q=0:1"], ["'q' is not an input"]),
-    ("start of no parameter", ["--target", "z", "--start", "a9=1"], ["'a9' is not a parameter"]),
-    ("reserved input", ["--target", "z", "--inputs", "x,y,float"], ["no column 'float'"]),
-])
+@pytest.mark.parametrize(
+    "what, argv_extra, words",
+    [
+        ("registered target", ["--target", "H0"], ["built-in target H0"]),
+        ("input that is constant", ["--target", "z", "--domain", "x=0.5:0.55"], ["input x is 0.5 in every row"]),
+        ("domain of no rows", ["--target", "z", "--domain", "x=3:4"], ["no row lies in the domain x=3:4"]),
+        ("domain of no input", ["--target", "z", "--domain", "q=0:1"], ["'q' is not an input"]),
+        ("start of no parameter", ["--target", "z", "--start", "a9=1"], ["'a9' is not a parameter"]),
+        ("reserved input", ["--target", "z", "--inputs", "x,y,float"], ["no column 'float'"]),
+    ],
+)
 def test_other_bad_requests_are_refused(tmp_path, capsys, what, argv_extra, words):
     x, y, z = _grid()
     table = _write_csv(tmp_path / "t.csv", {"x": x, "y": y, "z": z, "H0": z})
@@ -364,29 +417,50 @@ def test_codegen_refuses_a_changed_table_and_a_fit_that_disagrees_with_it(fitted
     rec = json.loads(path.read_text())
     rec["params"]["a0"] += 0.01  # the file states the old error
     path.write_text(json.dumps(rec))
-    _codegen_refused(capsys, ["codegen", "--fit", str(path), "--lang", "glsl", "--out", str(out)],
-                     "measured again on the held-out rows", "the fit and its table disagree")
+    _codegen_refused(
+        capsys,
+        ["codegen", "--fit", str(path), "--lang", "glsl", "--out", str(out)],
+        "measured again on the held-out rows",
+        "the fit and its table disagree",
+    )
     table.unlink()
-    _codegen_refused(capsys, ["codegen", "--fit", str(path), "--lang", "c", "--out", str(out)],
-                     "its table", "no such file")
-    _codegen_refused(capsys, ["codegen", "--fit", str(path), "--lang", "c", "--fits", str(tmp_path), "--out", str(out)],
-                     "--fits goes with a family's program, not with --fit")
+    _codegen_refused(
+        capsys, ["codegen", "--fit", str(path), "--lang", "c", "--out", str(out)], "its table", "no such file"
+    )
+    _codegen_refused(
+        capsys,
+        ["codegen", "--fit", str(path), "--lang", "c", "--fits", str(tmp_path), "--out", str(out)],
+        "--fits goes with a family's program, not with --fit",
+    )
     assert not out.exists()
 
 
-@pytest.mark.parametrize("what, edit, words", [
-    ("domain", lambda r: r["domain"]["x"].__setitem__(1, 1e12), ["the domain of x [0.0, 1000000000000.0]",
-                                                                 "table z.rat.csv gives [0.0, 1.0]"]),
-    ("narrower domain", lambda r: r["domain"]["y"].__setitem__(0, 0.55), ["the domain of y [0.55, 2.0]",
-                                                                          "gives [0.65, 2.0]"]),
-    ("rows", lambda r: r["user_data"].__setitem__("rows", 5), ["user_data.rows 5", "gives 143"]),
-    ("floor", lambda r: r["user_data"].__setitem__("scale_floor", 1e-300), ["user_data.scale_floor 1e-300"]),
-    ("offset", lambda r: r["user_data"].__setitem__("holdout_offset", 1), ["user_data.holdout_offset 1", "gives 2"]),
-    ("points", lambda r: r["training"].__setitem__("points", 1000), ["training.points 1000", "gives 107"]),
-    ("absolute path", lambda r: r["user_data"].__setitem__("file", "/etc/passwd"), ["'/etc/passwd' is a path"]),
-    ("relative path", lambda r: r["user_data"].__setitem__("file", "../table.csv"), ["'../table.csv' is a path"]),
-    ("huge integer", lambda r: r["params"].__setitem__("a0", 10**400), ["params/a0", "401 digits"]),
-])
+@pytest.mark.parametrize(
+    "what, edit, words",
+    [
+        (
+            "domain",
+            lambda r: r["domain"]["x"].__setitem__(1, 1e12),
+            ["the domain of x [0.0, 1000000000000.0]", "table z.rat.csv gives [0.0, 1.0]"],
+        ),
+        (
+            "narrower domain",
+            lambda r: r["domain"]["y"].__setitem__(0, 0.55),
+            ["the domain of y [0.55, 2.0]", "gives [0.65, 2.0]"],
+        ),
+        ("rows", lambda r: r["user_data"].__setitem__("rows", 5), ["user_data.rows 5", "gives 143"]),
+        ("floor", lambda r: r["user_data"].__setitem__("scale_floor", 1e-300), ["user_data.scale_floor 1e-300"]),
+        (
+            "offset",
+            lambda r: r["user_data"].__setitem__("holdout_offset", 1),
+            ["user_data.holdout_offset 1", "gives 2"],
+        ),
+        ("points", lambda r: r["training"].__setitem__("points", 1000), ["training.points 1000", "gives 107"]),
+        ("absolute path", lambda r: r["user_data"].__setitem__("file", "/etc/passwd"), ["'/etc/passwd' is a path"]),
+        ("relative path", lambda r: r["user_data"].__setitem__("file", "../table.csv"), ["'../table.csv' is a path"]),
+        ("huge integer", lambda r: r["params"].__setitem__("a0", 10**400), ["params/a0", "401 digits"]),
+    ],
+)
 def test_codegen_derives_every_figure_it_prints_from_the_table(fitted, tmp_path, capsys, what, edit, words):
     """The failures replayed: a domain edited to x in [0.01, 1e12] was printed as the routine's domain (which
     returned 640.5 at a pole of the form there), the edited user_data.rows and scale_floor were printed, an
@@ -406,8 +480,9 @@ def test_codegen_refuses_a_table_that_is_a_link(fitted, tmp_path, capsys):
     beside = path.with_name("z.rat.csv")
     beside.unlink()
     beside.symlink_to(tmp_path / "table.csv")  # the same bytes, read through a link
-    _codegen_refused(capsys, ["codegen", "--fit", str(path), "--lang", "c", "--out", str(tmp_path / "gen")],
-                     "is a symbolic link")
+    _codegen_refused(
+        capsys, ["codegen", "--fit", str(path), "--lang", "c", "--out", str(tmp_path / "gen")], "is a symbolic link"
+    )
 
 
 def test_codegen_refuses_a_routine_not_finite_between_the_rows(tmp_path, capsys):
@@ -465,8 +540,11 @@ def test_the_store_checks_a_user_fit_against_its_own_inputs_and_domain(fitted):
     rec = fitted[2]
     assert check_fit(json.loads(json.dumps(rec)))["target"] == "z"
     for label, mutate, words in [
-        ("registered name", lambda r: r.update(target="H0", user_data={**r["user_data"], "columns": ["x", "y", "H0"]}),
-         "registered target H0"),
+        (
+            "registered name",
+            lambda r: r.update(target="H0", user_data={**r["user_data"], "columns": ["x", "y", "H0"]}),
+            "registered target H0",
+        ),
         ("domain keys", lambda r: r.update(domain={"x": [0, 1]}), "every input"),
         ("empty interval", lambda r: r["domain"].update(y=[2.0, 0.5]), "lo < hi"),
         ("columns", lambda r: r["user_data"].update(columns=["y", "x", "z"]), "the inputs then the target"),
@@ -492,9 +570,11 @@ def test_the_report_leaves_user_fits_out(fitted, tmp_path):
 
 
 def test_importing_fitlab_imports_no_jax_and_the_api_is_there():
-    code = ("import sys, fitlab; assert 'jax' not in sys.modules and 'sympy' not in sys.modules; "
-            "f = fitlab.fit_table; assert callable(f) and callable(fitlab.fit_function); "
-            "assert 'jax' not in sys.modules; print('ok')")
+    code = (
+        "import sys, fitlab; assert 'jax' not in sys.modules and 'sympy' not in sys.modules; "
+        "f = fitlab.fit_table; assert callable(f) and callable(fitlab.fit_function); "
+        "assert 'jax' not in sys.modules; print('ok')"
+    )
     res = subprocess.run([os.sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert res.stdout.strip() == "ok", res.stderr[-2000:]
     with pytest.raises(AttributeError):
@@ -515,8 +595,27 @@ def test_discover_on_a_table_saves_fits_codegen_prints(fitted, tmp_path, capsys)
     name = front["front"][-1]
     record = next(r["record"] for r in front["refined"] if r["name"] == name)
     assert record["user_data"]["columns"] == ["x", "y", "z"] and f"| {name} (front)" in text
-    status = main(["discover", str(tmp_path / "table.csv"), "--target", "z", "--inputs", "x,y", "--max-terms", "2",
-                   "--minimax-rounds", "1", "--out", str(out), "--fits", str(fits), "--quiet", "--save", name])
+    status = main(
+        [
+            "discover",
+            str(tmp_path / "table.csv"),
+            "--target",
+            "z",
+            "--inputs",
+            "x,y",
+            "--max-terms",
+            "2",
+            "--minimax-rounds",
+            "1",
+            "--out",
+            str(out),
+            "--fits",
+            str(fits),
+            "--quiet",
+            "--save",
+            name,
+        ]
+    )
     assert status == 0
     saved = fits / f"z.{name}.json"
     files = generate_fit_file(saved, "c")
@@ -555,5 +654,7 @@ def test_benchmark_a_3000_row_table_with_a_4_parameter_rational(capsys):
         walls.append(time.perf_counter() - t0)
     assert math.isfinite(fit.validation["max_rel"]) and fit.validation["points"] == 750
     with capsys.disabled():
-        print(f"\nfit_table, 3000 rows, 4-parameter rational, 40 minimax rounds: cold {walls[0]:.2f} s, "
-              f"warm {walls[1]:.2f} s, {walls[2]:.2f} s")
+        print(
+            f"\nfit_table, 3000 rows, 4-parameter rational, 40 minimax rounds: cold {walls[0]:.2f} s, "
+            f"warm {walls[1]:.2f} s, {walls[2]:.2f} s"
+        )

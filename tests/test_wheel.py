@@ -94,7 +94,9 @@ def installed(tmp_path_factory):
     env = {**os.environ, "FITLAB_DATA": str(base / "no-data"), "PYTHONPATH": "", "OPENBLAS_NUM_THREADS": "1"}
 
     def run(*args, check=True):
-        done = subprocess.run([str(env_dir / "bin" / "fitlab"), *args], cwd=work, env=env, capture_output=True, text=True)
+        done = subprocess.run(
+            [str(env_dir / "bin" / "fitlab"), *args], cwd=work, env=env, capture_output=True, text=True
+        )
         if check:
             assert done.returncode == 0, (args, done.stdout[-2000:], done.stderr[-2000:])
         return done
@@ -181,8 +183,9 @@ def test_refit_then_codegen_prints_the_refit_from_an_empty_folder(installed):
     done = env_run("refit", "--target", "H1", "--out", "loop/fits", "--quiet", "--json")
     (fit,) = json.loads(done.stdout)["fits"]
     path = installed["work"] / fit["path"]
-    env_run("codegen", "--fits", "loop/fits", "--model", "three-term", "--lang", "c", "--out", "loop/generated",
-            "--quiet")
+    env_run(
+        "codegen", "--fits", "loop/fits", "--model", "three-term", "--lang", "c", "--out", "loop/generated", "--quiet"
+    )
     text = (work / "generated" / "lambert_sphere.c").read_text()
     line = next(ln for ln in text.splitlines() if f" {path.name}  " in ln)
     assert hashlib.sha256(path.read_bytes()).hexdigest() in line and "--fits;" in line
@@ -194,7 +197,9 @@ def test_fit_a_table_then_codegen_glsl_from_any_folder(installed):
     work.mkdir()
     rows = ["x,y,z"] + [f"{x / 10},{y / 10},{1 + x / 10 + (y / 10) ** 2}" for x in range(11) for y in range(11)]
     (work / "t.csv").write_text("\n".join(rows) + "\n")
-    installed["run"]("fit", "own/t.csv", "--target", "z", "--form", "a0 + a1*x + a2*y**2", "--out", "own/fits", "--quiet")
+    installed["run"](
+        "fit", "own/t.csv", "--target", "z", "--form", "a0 + a1*x + a2*y**2", "--out", "own/fits", "--quiet"
+    )
     (fit_file,) = (work / "fits").glob("z.*.json")
     installed["run"]("codegen", "--fit", str(fit_file), "--lang", "glsl", "--out", "own/generated", "--quiet")
     (glsl,) = (work / "generated").glob("*.glsl")
@@ -202,7 +207,9 @@ def test_fit_a_table_then_codegen_glsl_from_any_folder(installed):
     if validator is not None:
         shader = work / "generated" / "check.frag"
         name = fit_file.name.split(".")[1]
-        shader.write_text("#version 330\n" + glsl.read_text() + "uniform vec2 p; out vec4 colour;\n"
-                          f"void main() {{ colour = vec4(z_{name}(p.x, p.y)); }}\n")
+        shader.write_text(
+            "#version 330\n" + glsl.read_text() + "uniform vec2 p; out vec4 colour;\n"
+            f"void main() {{ colour = vec4(z_{name}(p.x, p.y)); }}\n"
+        )
         checked = subprocess.run([validator, str(shader)], capture_output=True, text=True)
         assert checked.returncode == 0, checked.stdout[-2000:]

@@ -10,7 +10,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-TOY_MODULE = '''
+TOY_MODULE = """
 import os
 import pytest
 
@@ -23,15 +23,15 @@ def costly():
 @pytest.mark.parametrize("i", range(12))
 def test_uses_the_module_fixture(costly, i):
     assert costly == 1
-'''
+"""
 
-OTHER_MODULE = '''
+OTHER_MODULE = """
 import pytest
 
 @pytest.mark.parametrize("i", range(12))
 def test_plain(i):
     assert i >= 0
-'''
+"""
 
 
 def test_a_module_fixture_is_set_up_once_with_two_workers(tmp_path):

@@ -40,8 +40,13 @@ PACKAGED = ROOT / "fitlab" / "data" / "exact_values"
 MANIFEST = "MANIFEST.json"
 #: the sets a fresh install's first ``fitlab codegen`` measures against (the validation sets of the program's fits and
 #: the true BRDF its model is measured against, minutes of CPU): shipped in the package, not in the tests' seed
-SHIPPED = ("lambert_sphere.h_validation", "lambert_sphere.constant_validation", "lambert_sphere.kd_of_c_validation",
-           "lambert_sphere.brdf_validation(true)", "lambert_sphere.accuracy_reference(true)")
+SHIPPED = (
+    "lambert_sphere.h_validation",
+    "lambert_sphere.constant_validation",
+    "lambert_sphere.kd_of_c_validation",
+    "lambert_sphere.brdf_validation(true)",
+    "lambert_sphere.accuracy_reference(true)",
+)
 
 
 def _seeded():
@@ -91,10 +96,14 @@ def _seeded():
 
 #: the code that assembles the seeded sets from the engine's values: not part of their cache keys (an edit that
 #: keeps a set's grid keeps its key), so the seed is tied to it here
-ASSEMBLERS = ("fitlab/families/lambert_sphere/targets/datasets.py", "fitlab/families/lambert_sphere/program/runtime.py",
-              "fitlab/families/lambert_sphere/program/report/materials.py",
-              "fitlab/families/lambert_sphere/targets/tabulate.py", "fitlab/report/validation.py",
-              "tests/exact_cache.py")
+ASSEMBLERS = (
+    "fitlab/families/lambert_sphere/targets/datasets.py",
+    "fitlab/families/lambert_sphere/program/runtime.py",
+    "fitlab/families/lambert_sphere/program/report/materials.py",
+    "fitlab/families/lambert_sphere/targets/tabulate.py",
+    "fitlab/report/validation.py",
+    "tests/exact_cache.py",
+)
 
 
 def fingerprint() -> dict:

@@ -43,8 +43,11 @@ def methods(cs):
         t2 = time.perf_counter()
         f = exact.brdf(mi, mo, np.pi, c, phase="mixed")
         d = sum(np.abs(x - y) for x, y in zip(a, b))  # bounds the difference at every phi
-        print(f"c = {c}: {m} orders; max sum_m |newton - doubling| / f = {np.max(d / f):.2e} "
-              f"(newton {t1 - t0:.0f} s, doubling {t2 - t1:.0f} s)", flush=True)
+        print(
+            f"c = {c}: {m} orders; max sum_m |newton - doubling| / f = {np.max(d / f):.2e} "
+            f"(newton {t1 - t0:.0f} s, doubling {t2 - t1:.0f} s)",
+            flush=True,
+        )
 
 
 def degree(c, degrees=(64, 96, 128, 192, 256)):
@@ -56,15 +59,21 @@ def degree(c, degrees=(64, 96, 128, 192, 256)):
     for L in degrees:
         t0 = time.perf_counter()
         vals[L] = tp.multiple_scattering_sum(mi, mo, phi, c, degree=L)
-        print(f"L = {L}: {tp.needed_orders(c, degree=L)} orders, {tp.solve_order(0, c, degree=L).nodes.size} nodes, "
-              f"{time.perf_counter() - t0:.0f} s", flush=True)
+        print(
+            f"L = {L}: {tp.needed_orders(c, degree=L)} orders, {tp.solve_order(0, c, degree=L).nodes.size} nodes, "
+            f"{time.perf_counter() - t0:.0f} s",
+            flush=True,
+        )
     top = degrees[-1]
     for L in degrees[:-1]:
         d = np.abs(vals[L] - vals[top]) / f
         g = mi.reshape(1, -1).repeat(3, 0) + mo.reshape(1, -1).repeat(3, 0)
-        print(f"|ms(L={L}) - ms(L={top})| / f: max {d.max():.2e}, max over mu_i + mu_o >= 0.02: "
-              f"{d[g >= 0.02].max():.2e}, over mu_i, mu_o >= 0.1: "
-              f"{d[(np.minimum(mi, mo) >= 0.1)[None, :].repeat(3, 0)].max():.2e}", flush=True)
+        print(
+            f"|ms(L={L}) - ms(L={top})| / f: max {d.max():.2e}, max over mu_i + mu_o >= 0.02: "
+            f"{d[g >= 0.02].max():.2e}, over mu_i, mu_o >= 0.1: "
+            f"{d[(np.minimum(mi, mo) >= 0.1)[None, :].repeat(3, 0)].max():.2e}",
+            flush=True,
+        )
 
 
 def cost(cs):
@@ -97,14 +106,20 @@ def gap(cs):
         r3 = (t3 - t) / t
         k = int(np.argmax(np.abs(r)))
         big = np.minimum(mi, mo) >= 0.2
-        print(f"c = {c}: mixed vs true max {np.max(np.abs(r)):.2e} at (mu_i, mu_o, phi) = "
-              f"({mi[k]:.2f}, {mo[k]:.2f}, {ph[k]:.2f}), RMS {np.sqrt(np.mean(r * r)):.2e}, "
-              f"max for mu >= 0.2 {np.max(np.abs(r[big])):.2e}; three_term vs true max {np.max(np.abs(r3)):.2e}, "
-              f"RMS {np.sqrt(np.mean(r3 * r3)):.2e}", flush=True)
+        print(
+            f"c = {c}: mixed vs true max {np.max(np.abs(r)):.2e} at (mu_i, mu_o, phi) = "
+            f"({mi[k]:.2f}, {mo[k]:.2f}, {ph[k]:.2f}), RMS {np.sqrt(np.mean(r * r)):.2e}, "
+            f"max for mu >= 0.2 {np.max(np.abs(r[big])):.2e}; three_term vs true max {np.max(np.abs(r3)):.2e}, "
+            f"RMS {np.sqrt(np.mean(r3 * r3)):.2e}",
+            flush=True,
+        )
         if c == 1.0:
             at = (0.01, 0.01, np.pi, 1.0)
-            print(f"  mu_i = mu_o = 0.01, phi = pi: true {float(exact.brdf(*at, phase='true')):.6f}, "
-                  f"mixed {float(exact.brdf(*at, phase='mixed')):.6f}", flush=True)
+            print(
+                f"  mu_i = mu_o = 0.01, phi = pi: true {float(exact.brdf(*at, phase='true')):.6f}, "
+                f"mixed {float(exact.brdf(*at, phase='mixed')):.6f}",
+                flush=True,
+            )
 
 
 def albedo():
@@ -129,9 +144,12 @@ def ms_gap(cs):
         ms_true = t - c * exact.phase_function(u) / (mi + mo)
         r = np.abs(d) / ms_true
         k, ka = int(np.argmax(r)), int(np.argmax(np.abs(d)))
-        print(f"c = {c}: multiple scattering relative max {r.max():.2e} at ({mi[k]:.2f}, {mo[k]:.2f}, {ph[k]:.2f}), "
-              f"median {np.median(r):.1e}; absolute max {np.abs(d).max():.2e} 1/sr at ({mi[ka]:.2f}, {mo[ka]:.2f}, "
-              f"{ph[ka]:.2f}), for mu >= 0.2 {np.abs(d[np.minimum(mi, mo) >= 0.2]).max():.1e}", flush=True)
+        print(
+            f"c = {c}: multiple scattering relative max {r.max():.2e} at ({mi[k]:.2f}, {mo[k]:.2f}, {ph[k]:.2f}), "
+            f"median {np.median(r):.1e}; absolute max {np.abs(d).max():.2e} 1/sr at ({mi[ka]:.2f}, {mo[ka]:.2f}, "
+            f"{ph[ka]:.2f}), for mu >= 0.2 {np.abs(d[np.minimum(mi, mo) >= 0.2]).max():.1e}",
+            flush=True,
+        )
 
 
 def runtime(cs):
@@ -150,8 +168,10 @@ def runtime(cs):
             ref = exact.brdf(mi, mo, ph, c, phase=phase)
             r = (f - ref) / ref
             k = int(np.argmax(np.abs(r)))
-            row.append(f"vs {phase}: max {np.max(np.abs(r)):.2e} at ({mi[k]:.2f}, {mo[k]:.2f}, {ph[k]:.2f}), "
-                       f"RMS {np.sqrt(np.mean(r * r)):.2e}, max for mu >= 0.2 {np.max(np.abs(r[big])):.2e}")
+            row.append(
+                f"vs {phase}: max {np.max(np.abs(r)):.2e} at ({mi[k]:.2f}, {mo[k]:.2f}, {ph[k]:.2f}), "
+                f"RMS {np.sqrt(np.mean(r * r)):.2e}, max for mu >= 0.2 {np.max(np.abs(r[big])):.2e}"
+            )
         print(f"c = {c}: " + "; ".join(row), flush=True)
 
 
@@ -163,8 +183,11 @@ def kd(cs):
     for c in cs:
         k = {p: float(exact.spherical_albedo(c, phase=p)) for p in ("three_term", "mixed", "true")}
         e = float(kd_of_c_eq40(c))
-        print(f"| {c:g} | {e:.6f} | {k['three_term']:.6f} | {k['mixed']:.6f} | {k['true']:.6f} | "
-              f"{k['true'] - k['three_term']:.2e} | {k['true'] - k['mixed']:.2e} | {e - k['true']:.1e} |", flush=True)
+        print(
+            f"| {c:g} | {e:.6f} | {k['three_term']:.6f} | {k['mixed']:.6f} | {k['true']:.6f} | "
+            f"{k['true'] - k['three_term']:.2e} | {k['true'] - k['mixed']:.2e} | {e - k['true']:.1e} |",
+            flush=True,
+        )
 
 
 def report_cost():
@@ -180,8 +203,11 @@ def report_cost():
 
     points = sobol_points(FULL.log2_points, FULL.seed)
     gi, go, gp = (a.ravel() for a in np.meshgrid(GRAZING_MU, GRAZING_MU, GRAZING_PHI, indexing="ij"))
-    mi, mo, ph = (np.concatenate((points[:, 0], gi)), np.concatenate((points[:, 1], go)),
-                  np.concatenate((np.pi * points[:, 2], gp)))
+    mi, mo, ph = (
+        np.concatenate((points[:, 0], gi)),
+        np.concatenate((points[:, 1], go)),
+        np.concatenate((np.pi * points[:, 2], gp)),
+    )
     cs = albedos(fam.n_c, fam.with_c1, fam.small_c)
     rng = np.random.default_rng(FULL.fresh_seed)
     fresh_c = rng.uniform(0.0, 1.0, fam.fresh_c)
@@ -196,12 +222,22 @@ def report_cost():
     for c, p in zip(fresh_c, fresh):
         exact.brdf(p[:, 0], p[:, 1], np.pi * p[:, 2], c, phase="true")
     t2 = time.perf_counter()
-    print(f"independent set: {fresh_c.size} albedos x {per_c} points in {t2 - t1:.0f} s; "
-          f"all three {t2 - t0:.0f} s", flush=True)
+    print(
+        f"independent set: {fresh_c.size} albedos x {per_c} points in {t2 - t1:.0f} s; all three {t2 - t0:.0f} s",
+        flush=True,
+    )
 
 
 if __name__ == "__main__":
     what, args = sys.argv[1], [float(x) for x in sys.argv[2:]]
-    {"methods": lambda: methods(args), "degree": lambda: degree(args[0]), "cost": lambda: cost(args),
-     "gap": lambda: gap(args), "albedo": albedo, "kd": lambda: kd(args),
-     "ms_gap": lambda: ms_gap(args), "runtime": lambda: runtime(args), "report_cost": report_cost}[what]()
+    {
+        "methods": lambda: methods(args),
+        "degree": lambda: degree(args[0]),
+        "cost": lambda: cost(args),
+        "gap": lambda: gap(args),
+        "albedo": albedo,
+        "kd": lambda: kd(args),
+        "ms_gap": lambda: ms_gap(args),
+        "runtime": lambda: runtime(args),
+        "report_cost": report_cost,
+    }[what]()

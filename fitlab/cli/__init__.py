@@ -58,8 +58,11 @@ def command_module(name: str):
 def build_parser(commands=None) -> Parser:
     """The parser; ``commands``: the commands whose arguments are added (default: all; the others are listed
     with their help line only, enough for ``fitlab --help``)."""
-    p = Parser(prog="fitlab", description="Fitting workbench for analytic BRDFs (Lambert-sphere BRDF).",
-               epilog="exit status: 0 success, 1 a runtime failure, 2 a usage error; `fitlab COMMAND --help` for more")
+    p = Parser(
+        prog="fitlab",
+        description="Fitting workbench for analytic BRDFs (Lambert-sphere BRDF).",
+        epilog="exit status: 0 success, 1 a runtime failure, 2 a usage error; `fitlab COMMAND --help` for more",
+    )
     p.add_argument("--version", action="version", version=f"fitlab {__version__}")
     sub = p.add_subparsers(dest="command", required=True)
     for name, summary in COMMANDS.items():

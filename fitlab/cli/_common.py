@@ -26,9 +26,30 @@ if TYPE_CHECKING:
 C = TypeVar("C", bound="Capability")
 
 __all__ = [
-    "USAGE", "FAILURE", "UsageError", "RunFailure", "Parser", "fail", "one_line", "output_folder", "input_file",
-    "input_folder", "write_failure", "write_files", "number", "integer", "add_quiet", "say", "describe", "add_fits",
-    "fits_input", "add_data", "use_data", "add_family", "family_with", "Once",
+    "USAGE",
+    "FAILURE",
+    "UsageError",
+    "RunFailure",
+    "Parser",
+    "fail",
+    "one_line",
+    "output_folder",
+    "input_file",
+    "input_folder",
+    "write_failure",
+    "write_files",
+    "number",
+    "integer",
+    "add_quiet",
+    "say",
+    "describe",
+    "add_fits",
+    "fits_input",
+    "add_data",
+    "use_data",
+    "add_family",
+    "family_with",
+    "Once",
 ]
 
 #: exit status of a runtime failure and of a usage error
@@ -105,8 +126,11 @@ def integer(lo: int | None = None, hi: int | None = None):
         except ValueError:
             raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
         if (lo is not None and n < lo) or (hi is not None and n > hi):
-            bounds = f"between {lo} and {hi}" if lo is not None and hi is not None else (
-                f">= {lo}" if lo is not None else f"<= {hi}")
+            bounds = (
+                f"between {lo} and {hi}"
+                if lo is not None and hi is not None
+                else (f">= {lo}" if lo is not None else f"<= {hi}")
+            )
             raise argparse.ArgumentTypeError(f"{text} must be {bounds}")
         return n
 
@@ -180,8 +204,9 @@ def input_folder(path, flag: str, required: bool = True) -> Path:
 # -- conventions --------------------------------------------------------------------
 def add_quiet(p) -> None:
     """``--quiet``: no progress bar and no status lines (results and errors still print)."""
-    p.add_argument("--quiet", action="store_true",
-                   help="no progress bar or status lines (results and errors still print)")
+    p.add_argument(
+        "--quiet", action="store_true", help="no progress bar or status lines (results and errors still print)"
+    )
 
 
 def add_fits(p, what: str = "folder of the fits JSON") -> None:
@@ -201,9 +226,13 @@ def add_data(p, output: bool = False) -> None:
     from fitlab.resources import DATA_ENV
 
     verb = "write the exact tables into DIR/FAMILY/" if output else "read the exact tables from DIR/FAMILY/ when there"
-    p.add_argument("--data", default=None, metavar="DIR",
-                   help=f"the data folder: {verb} (default: ${DATA_ENV}, else ~/.local/share/fitlab"
-                        f"{'' if output else '; else the tables packaged with fitlab'})")
+    p.add_argument(
+        "--data",
+        default=None,
+        metavar="DIR",
+        help=f"the data folder: {verb} (default: ${DATA_ENV}, else ~/.local/share/fitlab"
+        f"{'' if output else '; else the tables packaged with fitlab'})",
+    )
 
 
 def use_data(args, required: bool = True) -> Path:
@@ -240,8 +269,9 @@ def require_extra(module: str, extra: str) -> None:
 
 def add_family(p, what: str, default: str = "the one family that has it") -> None:
     """``--family NAME``: which family's ``what`` a command uses (needed when several have it)."""
-    p.add_argument("--family", metavar="NAME", default=None,
-                   help=f"the family whose {what} to use (default: {default})")
+    p.add_argument(
+        "--family", metavar="NAME", default=None, help=f"the family whose {what} to use (default: {default})"
+    )
 
 
 def family_with(capability: type[C], family: str | None = None) -> C:

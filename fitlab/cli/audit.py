@@ -63,12 +63,23 @@ def run(args) -> int:
     except OSError as exc:
         raise write_failure(out, exc) from None
     if args.json:
-        print(strict_json({"runtime": result["runtime"], "furnace": result["furnace"],
-                           "missing_fits": result["missing_fits"], "files": [str(out / n) for n in FILES]}), end="")
+        print(
+            strict_json(
+                {
+                    "runtime": result["runtime"],
+                    "furnace": result["furnace"],
+                    "missing_fits": result["missing_fits"],
+                    "files": [str(out / n) for n in FILES],
+                }
+            ),
+            end="",
+        )
         return 0
     for r in result["runtime"]:
-        print(f"{r['model']:<45} max rel* {r['max_rel_nonzero']:.3e}  RMS {r['rms_rel_nonzero']:.3e}  "
-              f"away from grazing: max {r['max_rel_away']:.3e}  RMS {r['rms_rel_away']:.3e}")
+        print(
+            f"{r['model']:<45} max rel* {r['max_rel_nonzero']:.3e}  RMS {r['rms_rel_nonzero']:.3e}  "
+            f"away from grazing: max {r['max_rel_away']:.3e}  RMS {r['rms_rel_away']:.3e}"
+        )
     for r in result["furnace"]:
         print(f"white furnace c=1, {r['model']:<45} max |a - 1| = {r['max_abs_deviation']:.2e}")
     for m in result["missing_fits"]:

@@ -36,9 +36,12 @@ def add_arguments(p) -> None:
                 "the seconds of `fitlab --help` and of every single-target refit, cold and warm, in fresh "
                 "processes. Prints a table, or with --json a machine-readable summary; writes nothing.",
              "fitlab bench codegen --quick --json")  # fmt: skip
-    p.add_argument("what", choices=["exact", "codegen", "mc", "render", "commands"],
-                   help="what to benchmark: exact, codegen, mc, render (Mitsuba samples per second of the "
-                        "lambert_sphere plugin, llvm_ad_rgb against scalar_rgb) or commands")
+    p.add_argument(
+        "what",
+        choices=["exact", "codegen", "mc", "render", "commands"],
+        help="what to benchmark: exact, codegen, mc, render (Mitsuba samples per second of the "
+        "lambert_sphere plugin, llvm_ad_rgb against scalar_rgb) or commands",
+    )
     p.add_argument("--quick", action="store_true", help="smaller sizes (commands: the refits of H0 and m only)")
     add_fits(p, "folder of the fits the generated code is built from (codegen)")
     p.add_argument("--json", action="store_true", help="print a machine-readable summary (JSON) instead of the table")
@@ -64,15 +67,18 @@ def _bench_function(what: str, pick: Callable[[Benchmarks], T | None], family: s
     having = {name: function for name, function in having.items() if function is not None}
     if family is not None:
         if family not in having:
-            raise UsageError(f"family {family!r} has no {what!r} benchmark; families that have one: "
-                             f"{', '.join(having) or 'none'}")
+            raise UsageError(
+                f"family {family!r} has no {what!r} benchmark; families that have one: {', '.join(having) or 'none'}"
+            )
         return having[family]
     if not having:
         raise UsageError(f"no family has a {what!r} benchmark")
     names = list(having)
     if len(names) > 1 and not quiet:
-        print(f"fitlab bench {what}: family {names[0]} (also {', '.join(names[1:])}: choose with --family)",
-              file=sys.stderr)
+        print(
+            f"fitlab bench {what}: family {names[0]} (also {', '.join(names[1:])}: choose with --family)",
+            file=sys.stderr,
+        )
     return having[names[0]]
 
 

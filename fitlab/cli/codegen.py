@@ -41,41 +41,82 @@ def add_arguments(p) -> None:
                 "program's source files in one language into --out, all as one unit (nothing is written on a "
                 "failure). The banner lists every fit's file, sha256, origin and re-measured error.",
              "fitlab codegen --fits fits --lang c --out /tmp/generated (after fitlab refit --target H1)")  # fmt: skip
-    p.add_argument("--lang", required=True, choices=list(LANGUAGE_NAMES),
-                   help=f"target language: {', '.join(LANGUAGE_NAMES)}")
-    add_fits(p, "folder of fits JSON, read in place of the packaged fits of the same names (the packaged fits fill "
-                "in the rest)")
-    p.add_argument("--allow-partial-domain", action="store_true",
-                   help="print a fit made on part of its target's domain (refit --domain): it is measured on that "
-                        "part only, and its routine states that domain and clamps its inputs to it")
+    p.add_argument(
+        "--lang", required=True, choices=list(LANGUAGE_NAMES), help=f"target language: {', '.join(LANGUAGE_NAMES)}"
+    )
+    add_fits(
+        p,
+        "folder of fits JSON, read in place of the packaged fits of the same names (the packaged fits fill "
+        "in the rest)",
+    )
+    p.add_argument(
+        "--allow-partial-domain",
+        action="store_true",
+        help="print a fit made on part of its target's domain (refit --domain): it is measured on that "
+        "part only, and its routine states that domain and clamps its inputs to it",
+    )
     p.add_argument("--out", default="generated", help="output folder (default: generated)")
     p.add_argument("--terms", help="terms of brdf to keep, comma-separated subset of single,m0,m1,m2 (default: all)")
-    p.add_argument("--model", metavar="NAME", default=None,
-                   help="the fits to print: a model of the family's program (Lambert sphere: true, the default, "
-                        "every part fitted to the true BRDF; three-term, every part fitted to its own three-term "
-                        "target; microfacet_energy: blog_refit, the default; every program: default-forms, each "
-                        "target's default form); --form overrides a part")
-    p.add_argument("--allow-mixed-physics", action="store_true",
-                   help="print a model whose parts were fitted to different physics (a --fits refit of a three-term "
-                        "target with the parts fitted to the true BRDF, say), which is refused otherwise")
-    p.add_argument("--form", action="append", metavar="TARGET=FORM",
-                   help="use the fit TARGET.FORM.json of --fits for a part, e.g. H0=hapke_rational (repeatable)")
-    p.add_argument("--single-header", action="store_true",
-                   help="C: one stb-style header (define PREFIX_IMPLEMENTATION in one file before including it)")
-    p.add_argument("--fit", metavar="FILE.json", default=None,
-                   help="print one fit of a table of your own (`fitlab fit`) instead of a family's program: its "
-                        "function, clamped to its domain, with the held-out error measured again on its table")
-    p.add_argument("--family", metavar="NAME", default=None,
-                   help="the family whose program to generate (default: the family of the --form targets, else the "
-                        "family that declares the default program, lambert_sphere; microfacet_energy prints the "
-                        "energy-compensation albedos and the multiple-scattering lobes)")
-    p.add_argument("--tables", action="store_true",
-                   help="print the family's exact tables as engines ship them instead of its fits: one float32 texture "
-                        "(C arrays, a raw .f32 file) and the BRDF read from it (c, glsl or python; docs/codegen.md)")
-    p.add_argument("--nodes", type=integer(2), default=None, metavar="N",
-                   help="--tables: nodes per axis of the texture (Lambert sphere: 5, 9, 17, 33 (default) or 65)")
-    p.add_argument("--lookup", choices=list(LOOKUPS), default=None,
-                   help="--tables: how the texture is read, cubic (bicubic, the default) or linear (bilinear)")
+    p.add_argument(
+        "--model",
+        metavar="NAME",
+        default=None,
+        help="the fits to print: a model of the family's program (Lambert sphere: true, the default, "
+        "every part fitted to the true BRDF; three-term, every part fitted to its own three-term "
+        "target; microfacet_energy: blog_refit, the default; every program: default-forms, each "
+        "target's default form); --form overrides a part",
+    )
+    p.add_argument(
+        "--allow-mixed-physics",
+        action="store_true",
+        help="print a model whose parts were fitted to different physics (a --fits refit of a three-term "
+        "target with the parts fitted to the true BRDF, say), which is refused otherwise",
+    )
+    p.add_argument(
+        "--form",
+        action="append",
+        metavar="TARGET=FORM",
+        help="use the fit TARGET.FORM.json of --fits for a part, e.g. H0=hapke_rational (repeatable)",
+    )
+    p.add_argument(
+        "--single-header",
+        action="store_true",
+        help="C: one stb-style header (define PREFIX_IMPLEMENTATION in one file before including it)",
+    )
+    p.add_argument(
+        "--fit",
+        metavar="FILE.json",
+        default=None,
+        help="print one fit of a table of your own (`fitlab fit`) instead of a family's program: its "
+        "function, clamped to its domain, with the held-out error measured again on its table",
+    )
+    p.add_argument(
+        "--family",
+        metavar="NAME",
+        default=None,
+        help="the family whose program to generate (default: the family of the --form targets, else the "
+        "family that declares the default program, lambert_sphere; microfacet_energy prints the "
+        "energy-compensation albedos and the multiple-scattering lobes)",
+    )
+    p.add_argument(
+        "--tables",
+        action="store_true",
+        help="print the family's exact tables as engines ship them instead of its fits: one float32 texture "
+        "(C arrays, a raw .f32 file) and the BRDF read from it (c, glsl or python; docs/codegen.md)",
+    )
+    p.add_argument(
+        "--nodes",
+        type=integer(2),
+        default=None,
+        metavar="N",
+        help="--tables: nodes per axis of the texture (Lambert sphere: 5, 9, 17, 33 (default) or 65)",
+    )
+    p.add_argument(
+        "--lookup",
+        choices=list(LOOKUPS),
+        default=None,
+        help="--tables: how the texture is read, cubic (bicubic, the default) or linear (bilinear)",
+    )
     add_data(p)
     add_quiet(p)
 
@@ -83,8 +124,17 @@ def add_arguments(p) -> None:
 def _run_tables(args) -> int:
     """``--tables``: the family's table export (:class:`fitlab.core.HasTableExport`): its files, written as one
     unit."""
-    given = [flag for flag, value in (("--terms", args.terms), ("--model", args.model), ("--form", args.form),
-                                       ("--single-header", args.single_header), ("--fits", args.fits)) if value]
+    given = [
+        flag
+        for flag, value in (
+            ("--terms", args.terms),
+            ("--model", args.model),
+            ("--form", args.form),
+            ("--single-header", args.single_header),
+            ("--fits", args.fits),
+        )
+        if value
+    ]
     if given:
         raise UsageError(f"{given[0]} is not a --tables option (the tables print no fits)")
     from fitlab.core import HasTableExport
@@ -94,8 +144,9 @@ def _run_tables(args) -> int:
         raise UsageError(f"--tables prints {', '.join(exporter.LANGUAGES)}, not {args.lang}")
     nodes = exporter.DEFAULT_NODES if args.nodes is None else args.nodes
     if nodes not in exporter.NODES:
-        raise UsageError(f"--nodes {nodes}: one of {', '.join(map(str, exporter.NODES))} (every node a node of the "
-                         "exact tables)")
+        raise UsageError(
+            f"--nodes {nodes}: one of {', '.join(map(str, exporter.NODES))} (every node a node of the exact tables)"
+        )
     lookup = exporter.DEFAULT_LOOKUP if args.lookup is None else args.lookup
     use_data(args, required=True)
     out = output_folder(args.out, "--out")

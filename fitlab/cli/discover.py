@@ -37,26 +37,50 @@ def add_arguments(p) -> None:
                 "Pareto front of error against cost as TARGET.md, .json and .png into --out; --save NAME also "
                 "writes front members as fits (--fits/TARGET.NAME.json) that refit, codegen and report take.",
              "fitlab discover --target H0 --out /tmp/discover --max-terms 6")  # fmt: skip
-    p.add_argument("table", nargs="?", metavar="TABLE.csv", default=None,
-                   help="a table of your own (CSV with a header row, as `fitlab fit` reads it): search forms of its "
-                        "column --target in its other columns (or --inputs)")
-    p.add_argument("--target", required=True, metavar="NAME",
-                   help=f"what to discover forms for: {', '.join(libraries_of())}; with TABLE.csv, its column to fit")
-    p.add_argument("--inputs", metavar="X,Y", default=None,
-                   help="with TABLE.csv: the input columns (default: every other column)")
+    p.add_argument(
+        "table",
+        nargs="?",
+        metavar="TABLE.csv",
+        default=None,
+        help="a table of your own (CSV with a header row, as `fitlab fit` reads it): search forms of its "
+        "column --target in its other columns (or --inputs)",
+    )
+    p.add_argument(
+        "--target",
+        required=True,
+        metavar="NAME",
+        help=f"what to discover forms for: {', '.join(libraries_of())}; with TABLE.csv, its column to fit",
+    )
+    p.add_argument(
+        "--inputs", metavar="X,Y", default=None, help="with TABLE.csv: the input columns (default: every other column)"
+    )
     p.add_argument("--max-terms", type=int, default=12, help="largest model refitted (default 12)")
     p.add_argument("--minimax-rounds", type=int, default=20, help="Lawson rounds per refit (default 20)")
     p.add_argument("--out", default="discover", help="folder for TARGET.md, .json, .png (default: discover)")
-    p.add_argument("--fits", default=None, metavar="DIR",
-                   help="folder of saved fits: the reference points are read from it and --save writes into it "
-                        "(default: the fits packaged with fitlab, read only; --save needs --fits)")
-    p.add_argument("--save", action="append", metavar="NAME",
-                   help="also write the front member NAME as TARGET.NAME.json into --fits (repeatable)")
+    p.add_argument(
+        "--fits",
+        default=None,
+        metavar="DIR",
+        help="folder of saved fits: the reference points are read from it and --save writes into it "
+        "(default: the fits packaged with fitlab, read only; --save needs --fits)",
+    )
+    p.add_argument(
+        "--save",
+        action="append",
+        metavar="NAME",
+        help="also write the front member NAME as TARGET.NAME.json into --fits (repeatable)",
+    )
     add_data(p)
-    p.add_argument("--from-front", action="store_true",
-                   help="with --save: take the form from the front written earlier (OUT/TARGET.json), no search")
-    p.add_argument("--cost", action="store_true",
-                   help="with --save: time the generated C of the saved forms beside the default form (a benchmark)")
+    p.add_argument(
+        "--from-front",
+        action="store_true",
+        help="with --save: take the form from the front written earlier (OUT/TARGET.json), no search",
+    )
+    p.add_argument(
+        "--cost",
+        action="store_true",
+        help="with --save: time the generated C of the saved forms beside the default form (a benchmark)",
+    )
     add_quiet(p)
 
 

@@ -28,16 +28,30 @@ def add_arguments(p) -> None:
              "fitlab export dfg_karis dfg_filament --format exr --format png --size 64 --out tables")  # fmt: skip
     p.add_argument("tables", nargs="*", metavar="TABLE", help="the tables to write (--list names them)")
     p.add_argument("--list", action="store_true", help="list the tables, their sizes and formats, and stop")
-    p.add_argument("--format", action="append", choices=list(FORMATS), default=None, dest="formats",
-                   help="a file format, repeatable (default: exr)")
-    p.add_argument("--size", type=integer(1), default=None,
-                   help="texels a side (a DFG or albedo table) or nodes per axis (the Lambert sphere's texture); "
-                        "default: each table's own")
-    p.add_argument("--origin", choices=ORIGINS, default="top",
-                   help="where the table's row 0 (its smallest y: roughness, alpha, the first material) is stored: "
-                        "top, the first row of every file, the top of the picture (default); or bottom, the last "
-                        "row, the rows stored in reverse (Filament's baked DFG images; loaders that put an "
-                        "image's bottom row at t = 0). docs/tables.md gives the shader line for each")
+    p.add_argument(
+        "--format",
+        action="append",
+        choices=list(FORMATS),
+        default=None,
+        dest="formats",
+        help="a file format, repeatable (default: exr)",
+    )
+    p.add_argument(
+        "--size",
+        type=integer(1),
+        default=None,
+        help="texels a side (a DFG or albedo table) or nodes per axis (the Lambert sphere's texture); "
+        "default: each table's own",
+    )
+    p.add_argument(
+        "--origin",
+        choices=ORIGINS,
+        default="top",
+        help="where the table's row 0 (its smallest y: roughness, alpha, the first material) is stored: "
+        "top, the first row of every file, the top of the picture (default); or bottom, the last "
+        "row, the rows stored in reverse (Filament's baked DFG images; loaders that put an "
+        "image's bottom row at t = 0). docs/tables.md gives the shader line for each",
+    )
     p.add_argument("--out", default=None, help="the folder the files go to")
     add_quiet(p)
 
@@ -62,8 +76,11 @@ def _sizes_text(sizes) -> str:
 def listing_text() -> str:
     """What ``fitlab export --list`` prints: every table, its family, sizes, formats and description (the families'
     images, imported; cached by fitlab's code, :func:`fitlab.cache.cached_text`)."""
-    return "".join(f"{name:24s} {family:18s} size {spec.default_size} ({_sizes_text(spec.sizes)}); "
-                   f"{', '.join(spec.formats)}; {spec.description}\n" for name, (family, spec) in _offered().items())
+    return "".join(
+        f"{name:24s} {family:18s} size {spec.default_size} ({_sizes_text(spec.sizes)}); "
+        f"{', '.join(spec.formats)}; {spec.description}\n"
+        for name, (family, spec) in _offered().items()
+    )
 
 
 def _check(args, offered: dict) -> tuple[list, list]:
@@ -119,8 +136,11 @@ def _paced(bar, total: int, what: str):
         pace = (stamps[-1] - stamps[0]) / (len(stamps) - 1)
         projected = stamps[-1] - start + pace * max(0, total - len(stamps))
         if projected > SLOW_EXPORT_SECONDS:
-            bar.write(f"fitlab export: warning: {what} will take about {duration(projected)} ({total} steps, "
-                      f"{pace:.2g} s each so far); Ctrl-C stops it with nothing written", file=sys.stderr)
+            bar.write(
+                f"fitlab export: warning: {what} will take about {duration(projected)} ({total} steps, "
+                f"{pace:.2g} s each so far); Ctrl-C stops it with nothing written",
+                file=sys.stderr,
+            )
             said = True
 
     return tick

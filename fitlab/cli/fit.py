@@ -42,28 +42,61 @@ def add_arguments(p) -> None:
              'fitlab fit E.csv --target E --form "(a0 + a1*mu)/(1 + a2*alpha + a3*mu)" --name rational')  # fmt: skip
     p.add_argument("table", metavar="TABLE.csv", help="the table: CSV with a header row")
     p.add_argument("--target", required=True, metavar="COLUMN", help="the column to fit")
-    p.add_argument("--form", required=True, metavar="EXPRESSION",
-                   help="the form: + - * / ** and sqrt, log, exp, cos, sin, acos, atan, tanh, Abs, Max, Min, safe_pow "
-                        "of numbers, pi, E, the parameters a0, a1, ... and the input columns")
-    p.add_argument("--inputs", metavar="X,Y", help="the input columns, in argument order (default: the columns the "
-                                                   "form names, in the table's order)")
-    p.add_argument("--domain", action="append", metavar="NAME=LO:HI",
-                   help="fit only the rows with LO <= NAME <= HI (once per input); the fit's domain is the bounding "
-                        "box of the rows fitted")
-    p.add_argument("--name", metavar="NAME", help="the form's name: OUT/COLUMN.NAME.json, function COLUMN_NAME in "
-                                                  "generated code (default: form_ and 6 hex digits of the expression)")
-    p.add_argument("--start", metavar="a0=V,a1=V",
-                   help="start values of some parameters (the others: a<k> starts at 1/(k + 1))")
-    p.add_argument("--error", choices=("relative", "absolute"), default="relative",
-                   help="relative: |f - y| / max(|y|, 1e-3 max|y|) (the default), or absolute: |f - y|")
-    p.add_argument("--holdout-every", type=integer(2, 1000), default=4, metavar="K",
-                   help="hold out one row in K of the rows sorted by the inputs (default 4)")
-    p.add_argument("--minimax-rounds", type=integer(0, 1000), default=40, metavar="N",
-                   help="Lawson minimax rounds after least squares (default 40, as refit; 0: least squares only)")
+    p.add_argument(
+        "--form",
+        required=True,
+        metavar="EXPRESSION",
+        help="the form: + - * / ** and sqrt, log, exp, cos, sin, acos, atan, tanh, Abs, Max, Min, safe_pow "
+        "of numbers, pi, E, the parameters a0, a1, ... and the input columns",
+    )
+    p.add_argument(
+        "--inputs",
+        metavar="X,Y",
+        help="the input columns, in argument order (default: the columns the form names, in the table's order)",
+    )
+    p.add_argument(
+        "--domain",
+        action="append",
+        metavar="NAME=LO:HI",
+        help="fit only the rows with LO <= NAME <= HI (once per input); the fit's domain is the bounding "
+        "box of the rows fitted",
+    )
+    p.add_argument(
+        "--name",
+        metavar="NAME",
+        help="the form's name: OUT/COLUMN.NAME.json, function COLUMN_NAME in "
+        "generated code (default: form_ and 6 hex digits of the expression)",
+    )
+    p.add_argument(
+        "--start", metavar="a0=V,a1=V", help="start values of some parameters (the others: a<k> starts at 1/(k + 1))"
+    )
+    p.add_argument(
+        "--error",
+        choices=("relative", "absolute"),
+        default="relative",
+        help="relative: |f - y| / max(|y|, 1e-3 max|y|) (the default), or absolute: |f - y|",
+    )
+    p.add_argument(
+        "--holdout-every",
+        type=integer(2, 1000),
+        default=4,
+        metavar="K",
+        help="hold out one row in K of the rows sorted by the inputs (default 4)",
+    )
+    p.add_argument(
+        "--minimax-rounds",
+        type=integer(0, 1000),
+        default=40,
+        metavar="N",
+        help="Lawson minimax rounds after least squares (default 40, as refit; 0: least squares only)",
+    )
     p.add_argument("--out", default="fits", help="folder for the fit JSON (default: fits, below the current folder)")
-    p.add_argument("--force", action="store_true",
-                   help="replace the fit in --out of this column and name even when it is better on the same held-out "
-                        "rows, or was fitted to another table, domain, split or error")
+    p.add_argument(
+        "--force",
+        action="store_true",
+        help="replace the fit in --out of this column and name even when it is better on the same held-out "
+        "rows, or was fitted to another table, domain, split or error",
+    )
     p.add_argument("--json", action="store_true", help="print a machine-readable summary (JSON) instead of the text")
     add_quiet(p)
 
@@ -157,8 +190,10 @@ def run(args) -> int:
     record = fit.record
     v = record["validation"]
     if not (math.isfinite(v["max_rel"]) and math.isfinite(v["rms_rel"])):
-        raise RunFailure(f"{args.target}/{prep.form.name}: the held-out error is not finite (max {v['max_rel']}, "
-                         f"RMS {v['rms_rel']}): the fit has a pole or NaN on the held-out rows; nothing written")
+        raise RunFailure(
+            f"{args.target}/{prep.form.name}: the held-out error is not finite (max {v['max_rel']}, "
+            f"RMS {v['rms_rel']}): the fit has a pole or NaN on the held-out rows; nothing written"
+        )
     if old is not None:
         _keep_better(path, old, record)
     from fitlab._io import atomic_write_many
@@ -207,8 +242,10 @@ def _existing(path: Path, prep, force: bool) -> tuple[dict | None, str | None]:
         return None, f" (replacing a file that was not a readable fit of {key}: {one_line(exc)})"
     reason = not_comparable(old, prep.rows)
     if reason is not None:
-        raise RunFailure(f"{key}: {path} holds {reason}; not comparable, so it is kept (--force replaces it); "
-                         "nothing fitted, nothing written")
+        raise RunFailure(
+            f"{key}: {path} holds {reason}; not comparable, so it is kept (--force replaces it); "
+            "nothing fitted, nothing written"
+        )
     try:
         return remeasure(old, prep.rows.table), None
     except UserDataError as exc:
@@ -224,9 +261,11 @@ def _keep_better(path: Path, measured: dict, record: dict) -> None:
     if not worse(new, measured):  # a figure the old fit does not give (NaN) counts as infinite
         return
     g = "{:.3e}".format
-    raise RunFailure(f"{record['target']}/{record['form']}: the fit (max {g(new['max_rel'])}, RMS {g(new['rms_rel'])}) "
-                     f"is worse than the fit in {path} (max {g(measured['max_rel'])}, RMS {g(measured['rms_rel'])}, "
-                     "measured again on the same held-out rows), which is kept (--force replaces it); nothing written")
+    raise RunFailure(
+        f"{record['target']}/{record['form']}: the fit (max {g(new['max_rel'])}, RMS {g(new['rms_rel'])}) "
+        f"is worse than the fit in {path} (max {g(measured['max_rel'])}, RMS {g(measured['rms_rel'])}, "
+        "measured again on the same held-out rows), which is kept (--force replaces it); nothing written"
+    )
 
 
 def _summary(record: dict, path: Path) -> dict:
@@ -242,7 +281,7 @@ def _text(record: dict, table: str) -> str:
     v, user = record["validation"], record["user_data"]
     worst = v["worst"]
     at = ", ".join(f"{k}={worst[k]:.6g}" for k in record["inputs"])
-    measure = (f"relative, floor {user['scale_floor']:.6g}" if user["error"] == "relative" else "absolute")
+    measure = f"relative, floor {user['scale_floor']:.6g}" if user["error"] == "relative" else "absolute"
     params = ", ".join(f"{k} = {x:.10g}" for k, x in record["params"].items())
     domain = ", ".join(f"{k} in [{lo:.6g}, {hi:.6g}]" for k, (lo, hi) in record["domain"].items())
     return "\n".join([

@@ -80,11 +80,15 @@ def add_arguments(p) -> None:
     p.add_argument("--out", default="fits", help="folder for the fit JSON (default: fits, below the current folder)")
     add_fits(p, "folder the forms saved by `fitlab discover` are read from")
     add_data(p)
-    p.add_argument("--domain", action="append", metavar="NAME=LO:HI",
-                   help="restrict an input, e.g. c=0.5:1 (once per input)")
+    p.add_argument(
+        "--domain", action="append", metavar="NAME=LO:HI", help="restrict an input, e.g. c=0.5:1 (once per input)"
+    )
     p.add_argument("--init", action=Once, type=Path, help="start from a saved fit of the same target and form")
-    p.add_argument("--force", action="store_true",
-                   help="replace the fit in --out even when it is better than the refit, or fitted over another domain")
+    p.add_argument(
+        "--force",
+        action="store_true",
+        help="replace the fit in --out even when it is better than the refit, or fitted over another domain",
+    )
     p.add_argument("--no-minimax", action="store_true", help="least squares only, no minimax refinement")
     p.add_argument("--compare-scipy", action="store_true", help="also solve the least-squares stage with scipy")
     p.add_argument("--list", action="store_true", help="list targets and forms")
@@ -110,8 +114,9 @@ def _requested(args) -> list[tuple]:
     if args.all and (args.form or args.domain or args.init):
         raise UsageError("--form, --domain and --init go with --target, not --all")
     if args.target not in (None, *target_names()):  # names only: no family is imported for them
-        raise UsageError(f"unknown target {args.target!r}"
-                         f"{did_you_mean(args.target, target_names(), '--list names them')}")
+        raise UsageError(
+            f"unknown target {args.target!r}{did_you_mean(args.target, target_names(), '--list names them')}"
+        )
     fits = fits_input(args, required=False)
     use_data(args)
     if args.init is not None:
@@ -119,7 +124,6 @@ def _requested(args) -> list[tuple]:
     output_folder(args.out, "--out")
     try:
         if args.all:
-
             return [(get_target(t), get_target(t).forms[f], None, None, None) for t, f in default_jobs()]
         target = get_target(args.target)
         domain = parse_domain(args.domain, target)
@@ -136,13 +140,17 @@ def _requested(args) -> list[tuple]:
             clash = [k for k, v in form.fixed.items() if k in prior["params"] and prior["params"][k] != v]
             if clash:  # an older fit of a form that now fixes a parameter: refused here, not at the write
                 k = clash[0]
-                raise ValueError(f"--init {args.init}: {form.key} fixes {k} = {form.fixed[k]:g}, the file has "
-                                 f"{k} = {prior['params'][k]:g} (a fit of an older version of the form); leave out --init")
+                raise ValueError(
+                    f"--init {args.init}: {form.key} fixes {k} = {form.fixed[k]:g}, the file has "
+                    f"{k} = {prior['params'][k]:g} (a fit of an older version of the form); leave out --init"
+                )
             start = prior["params"]
         train = target.training().restricted(domain)
         if len(train) < 2 * len(form.free_params) or len(target.validation().restricted(domain)) == 0:
-            raise ValueError(f"--domain leaves {len(train)} training points (and too few validation points) "
-                             f"for {len(form.free_params)} free parameters; widen it")
+            raise ValueError(
+                f"--domain leaves {len(train)} training points (and too few validation points) "
+                f"for {len(form.free_params)} free parameters; widen it"
+            )
         return [(target, form, start, origin, domain)]
     except (KeyError, ValueError, FitFileError, TableError) as exc:
         raise UsageError(one_line(exc)) from None
@@ -191,8 +199,14 @@ def run(args) -> int:
 
             try:
                 res, wall = timed_refit(
-                    target, form, domain=domain, start=start, origin=origin,
-                    minimax=minimax, compare_scipy=args.compare_scipy, on_step=on_step,
+                    target,
+                    form,
+                    domain=domain,
+                    start=start,
+                    origin=origin,
+                    minimax=minimax,
+                    compare_scipy=args.compare_scipy,
+                    on_step=on_step,
                 )
             finally:
                 stages.close()
@@ -255,8 +269,10 @@ def kept_fit(path: Path, result, target) -> tuple[str | None, str | None]:
     mine = {k: (float(lo), float(hi)) for k, (lo, hi) in rec["domain"].items()}
     theirs = {k: (float(lo), float(hi)) for k, (lo, hi) in old["domain"].items()}
     if mine != theirs:
-        return (f"{key}: {path} holds a fit over {_domain_text(theirs)}, the refit is over {_domain_text(mine)}; "
-                f"not comparable, so it is kept (--force replaces it)"), None
+        return (
+            f"{key}: {path} holds a fit over {_domain_text(theirs)}, the refit is over {_domain_text(mine)}; "
+            f"not comparable, so it is kept (--force replaces it)"
+        ), None
     valid = target.validation().restricted(mine)
     form = form_from_fit(old)
     measured = validation_metrics(form, form.vector(old["params"]), valid, target.scale(valid))
@@ -265,9 +281,11 @@ def kept_fit(path: Path, result, target) -> tuple[str | None, str | None]:
         return None, None
     _g = "{:.3e}".format
     w = measure_word(target.error_measure)
-    return (f"{key}: the refit (max {w} {_g(new['max_rel'])}, RMS {_g(new['rms_rel'])}) is worse than the fit in "
-            f"{path} (max {w} {_g(measured['max_rel'])}, RMS {_g(measured['rms_rel'])}, measured again on the same "
-            f"validation set), which is kept (--force replaces it)"), None
+    return (
+        f"{key}: the refit (max {w} {_g(new['max_rel'])}, RMS {_g(new['rms_rel'])}) is worse than the fit in "
+        f"{path} (max {w} {_g(measured['max_rel'])}, RMS {_g(measured['rms_rel'])}, measured again on the same "
+        f"validation set), which is kept (--force replaces it)"
+    ), None
 
 
 def _summary(results, walls, verdicts, paths, written: bool) -> dict:

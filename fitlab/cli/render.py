@@ -37,25 +37,40 @@ def add_arguments(p) -> None:
                 f"under several light directions, and write the comparison as {FILE} into --out.",
              "fitlab render --out /tmp/render --size 32 --spp 2")  # fmt: skip
     p.add_argument("--out", default=".", help=f"folder for {FILE} (default: the current folder)")
-    p.add_argument("--generated", default=None,
-                   help="the generated Dr.Jit module the plugin runs (default: the one packaged with fitlab, "
-                        "generated/lambert_sphere_drjit.py of its fits; `fitlab codegen --lang drjit` makes one)")
-    p.add_argument("--kd", type=number(0.0, 1.0, open_lo=True, open_hi=True), default=0.8,
-                   help="spherical albedo of every material, in (0, 1) (default 0.8)")
-    p.add_argument("--size", type=integer(8, 4096), default=64,
-                   help="image size per sphere in pixels, 8-4096 (default 64)")
+    p.add_argument(
+        "--generated",
+        default=None,
+        help="the generated Dr.Jit module the plugin runs (default: the one packaged with fitlab, "
+        "generated/lambert_sphere_drjit.py of its fits; `fitlab codegen --lang drjit` makes one)",
+    )
+    p.add_argument(
+        "--kd",
+        type=number(0.0, 1.0, open_lo=True, open_hi=True),
+        default=0.8,
+        help="spherical albedo of every material, in (0, 1) (default 0.8)",
+    )
+    p.add_argument(
+        "--size", type=integer(8, 4096), default=64, help="image size per sphere in pixels, 8-4096 (default 64)"
+    )
     p.add_argument("--spp", type=integer(1, 65536), default=4, help="samples per pixel, 1-65536 (default 4)")
     p.add_argument("--lights", type=integer(1, 5), default=3, help="number of light directions, 1-5 (default 3)")
-    p.add_argument("--variant", choices=VARIANTS, default="auto",
-                   help="the Mitsuba variant: auto (llvm_ad_rgb where Dr.Jit's LLVM backend runs here, else "
-                        "scalar_rgb; the default), scalar_rgb or llvm_ad_rgb")
+    p.add_argument(
+        "--variant",
+        choices=VARIANTS,
+        default="auto",
+        help="the Mitsuba variant: auto (llvm_ad_rgb where Dr.Jit's LLVM backend runs here, else "
+        "scalar_rgb; the default), scalar_rgb or llvm_ad_rgb",
+    )
     add_family(p, "render")
     add_quiet(p)
 
 
 def run(args) -> int:
-    generated = input_file(args.generated if args.generated is not None else packaged_fits() / "generated" / "lambert_sphere_drjit.py",
-                           "--generated", hint="; run `fitlab codegen --lang drjit` first")
+    generated = input_file(
+        args.generated if args.generated is not None else packaged_fits() / "generated" / "lambert_sphere_drjit.py",
+        "--generated",
+        hint="; run `fitlab codegen --lang drjit` first",
+    )
     out = output_folder(args.out, "--out", files=(FILE,))
     require_extra("mitsuba", "render")
     from fitlab.core import HasRender
@@ -69,11 +84,20 @@ def run(args) -> int:
     except Exception as exc:  # noqa: BLE001 - the module failed to import
         raise UsageError(f"--generated {generated}: cannot load it ({type(exc).__name__}: {one_line(exc)})") from None
     if args.variant == "llvm_ad_rgb" and render.llvm_problem() is not None:
-        raise UsageError(f"--variant llvm_ad_rgb does not run here ({one_line(render.llvm_problem())}); "
-                         "tools/install-system-packages.sh installs libLLVM, or use --variant scalar_rgb")
+        raise UsageError(
+            f"--variant llvm_ad_rgb does not run here ({one_line(render.llvm_problem())}); "
+            "tools/install-system-packages.sh installs libLLVM, or use --variant scalar_rgb"
+        )
     try:
-        png = render.render_comparison(generated=generated, kd=args.kd, size=args.size, spp=args.spp,
-                                       lights=args.lights, show_progress=not args.quiet, variant=args.variant)
+        png = render.render_comparison(
+            generated=generated,
+            kd=args.kd,
+            size=args.size,
+            spp=args.spp,
+            lights=args.lights,
+            show_progress=not args.quiet,
+            variant=args.variant,
+        )
     except (render.RenderError, ValueError, ArithmeticError) as exc:
         raise RunFailure(one_line(exc)) from None
     try:

@@ -30,8 +30,11 @@ def add_arguments(p) -> None:
                 "published formulas, the refits in --fits, the generated code, Monte Carlo) on one validation set, "
                 "and write report.md, accuracy_vs_cost.png and report.csv into --out, all three or none.",
              "fitlab report --quick --out /tmp/report")  # fmt: skip
-    p.add_argument("--out", default=".", help="folder for report.md, accuracy_vs_cost.png and report.csv "
-                                              "(default: the current folder)")
+    p.add_argument(
+        "--out",
+        default=".",
+        help="folder for report.md, accuracy_vs_cost.png and report.csv (default: the current folder)",
+    )
     add_fits(p, "folder of the fits JSON, every *.json is measured")
     add_data(p)
     p.add_argument("--quick", action="store_true", help="reduced sizes (seconds, for tests; numbers are rougher)")

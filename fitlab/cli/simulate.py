@@ -31,17 +31,26 @@ __all__ = ["add_arguments", "run"]
 
 
 def add_arguments(p) -> None:
-    p.add_argument("scene", help="scene file (.toml or .json), or the name of a scene packaged with fitlab "
-                                 f"({', '.join(packaged_scene_names()) or 'none'})")
+    p.add_argument(
+        "scene",
+        help="scene file (.toml or .json), or the name of a scene packaged with fitlab "
+        f"({', '.join(packaged_scene_names()) or 'none'})",
+    )
     p.add_argument("--out", help="output folder (default: mc_out/<scene name>)")
     # strings: checked by the scene file's own rules (fitlab.scenes.check_option), one line each
     p.add_argument("--target-se", help="override every effect's standard-error target (positive, finite)")
-    p.add_argument("--max-paths", help=f"override the path budget per job (integer in [{MIN_PATHS_BUDGET}, "
-                                       f"2^{MAX_PATHS.bit_length() - 1}]); a job projected to run longer than "
-                                       f"{duration(SLOW_JOB_SECONDS)} is named in a warning on stderr")
+    p.add_argument(
+        "--max-paths",
+        help=f"override the path budget per job (integer in [{MIN_PATHS_BUDGET}, "
+        f"2^{MAX_PATHS.bit_length() - 1}]); a job projected to run longer than "
+        f"{duration(SLOW_JOB_SECONDS)} is named in a warning on stderr",
+    )
     p.add_argument("--seed", help="override the scene's seed (integer in [0, 2^63 - 1], as in the scene file)")
-    p.add_argument("--allow-unconverged", action="store_true",
-                   help="exit 0 even when a job stops on its path budget above its target")
+    p.add_argument(
+        "--allow-unconverged",
+        action="store_true",
+        help="exit 0 even when a job stops on its path budget above its target",
+    )
     p.add_argument("--no-plots", action="store_true", help="CSV only")
     add_family(p, "simulate")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -84,16 +93,26 @@ def run(args) -> int:
     """Validate everything (every error before any work), simulate, write; see the module's exit statuses."""
     scene = find_scene(args.scene, _simulating_families())
     if scene is None:
-        return fail("simulate", f"{args.scene}: no such scene file, and no packaged scene of that name "
-                                f"(packaged: {', '.join(packaged_scene_names())})", USAGE)
+        return fail(
+            "simulate",
+            f"{args.scene}: no such scene file, and no packaged scene of that name "
+            f"(packaged: {', '.join(packaged_scene_names())})",
+            USAGE,
+        )
 
     from fitlab.scenes import SceneError, failures, simulate_file, summary_table, unconverged
 
     simulation = family_with(HasMonteCarlo, _family_of(scene, args.family)).simulation()  # imports JAX
     try:
         result, paths = simulate_file(
-            simulation, scene, out_dir=args.out, progress=not args.quiet, plots=not args.no_plots,
-            target_se=args.target_se, max_paths=args.max_paths, seed=args.seed,
+            simulation,
+            scene,
+            out_dir=args.out,
+            progress=not args.quiet,
+            plots=not args.no_plots,
+            target_se=args.target_se,
+            max_paths=args.max_paths,
+            seed=args.seed,
         )
     except SceneError as exc:  # every input is checked before any work: a usage error
         return fail("simulate", exc, USAGE)
@@ -108,6 +127,9 @@ def run(args) -> int:
     for line in missed:
         print(f"fitlab simulate: {line}", file=sys.stderr)
     if missed and not args.allow_unconverged:
-        return fail("simulate", f"{len(missed)} job(s) did not reach the standard-error target "
-                                "(--allow-unconverged accepts this)", FAILURE)
+        return fail(
+            "simulate",
+            f"{len(missed)} job(s) did not reach the standard-error target (--allow-unconverged accepts this)",
+            FAILURE,
+        )
     return 0

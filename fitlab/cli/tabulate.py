@@ -34,8 +34,11 @@ def add_arguments(p) -> None:
              "fitlab tabulate --data /tmp/fitlab-data --quiet")  # fmt: skip
     add_data(p, output=True)
     add_family(p, "tables", "every family with tables")
-    p.add_argument("--check", action="store_true",
-                   help="recompute a sample of rows of the tables in force (DATA/FAMILY/ with --data)")
+    p.add_argument(
+        "--check",
+        action="store_true",
+        help="recompute a sample of rows of the tables in force (DATA/FAMILY/ with --data)",
+    )
     add_quiet(p)
 
 

@@ -23,7 +23,7 @@ from __future__ import annotations
 import abc
 from collections.abc import Mapping, Sequence
 from dataclasses import replace
-from typing import ClassVar
+from typing import ClassVar, cast
 
 import sympy as sp
 import sympy.core.random as sympy_random
@@ -208,7 +208,7 @@ def _with_callees_inlined(routines: tuple[Routine, ...], params: Sequence[str] =
         if not params:
             return e
         (collected,), fields = hoist_params([e], params)
-        return collected.xreplace({field_symbol(k): f for k, f in enumerate(fields)})
+        return cast(sp.Expr, collected.xreplace({field_symbol(k): f for k, f in enumerate(fields)}))
 
     # rebuilt unevaluated, as the material's evaluators are: evaluating the nested clamps changes nothing printed
     with sp.evaluate(False):
@@ -236,8 +236,9 @@ def build_program(records: Mapping[str, object], terms: Sequence[str] | None = N
     if unknown:
         raise ValueError(f"terms {unknown}: the {spec.name} program's terms are {', '.join(spec.terms) or '(none)'}")
     fits = {t: _as_fit(t, records[t]) for t in spec.fits if t in records}
-    routines = _with_callees_inlined(tuple(with_domain(r) for r in spec(fits, terms)),
-                                     spec.material.params if spec.material is not None else ())
+    routines = _with_callees_inlined(
+        tuple(with_domain(r) for r in spec(fits, terms)), spec.material.params if spec.material is not None else ()
+    )
     if claim is not None:
         unknown = sorted(set(claim.routines) - {r.name for r in routines})
         if unknown:

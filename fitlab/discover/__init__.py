@@ -11,5 +11,19 @@ from fitlab.discover.output import save, save_from_front, write_outputs
 from fitlab.discover.regression import Candidate, SparseRegression
 from fitlab.discover.search import Discovery, discover, pareto_front
 
-__all__ = ["HasLibraries", "Library", "get_libraries", "get_library", "libraries_of", "products", "Candidate", "SparseRegression", "Discovery", "discover",
-           "pareto_front", "save", "save_from_front", "write_outputs"]
+__all__ = [
+    "HasLibraries",
+    "Library",
+    "get_libraries",
+    "get_library",
+    "libraries_of",
+    "products",
+    "Candidate",
+    "SparseRegression",
+    "Discovery",
+    "discover",
+    "pareto_front",
+    "save",
+    "save_from_front",
+    "write_outputs",
+]

@@ -44,8 +44,12 @@ def routine_cost(target: str, forms: list[str | None], fits_dir: Path | None = N
     with tempfile.TemporaryDirectory() as tmp:
         models, names = {}, ()
         for k, form in enumerate(forms):
-            program = load_program(fits_dir, forms={} if form is None else {target: form}, family=get_target(target).family,
-                                   model=DEFAULT_FORMS)
+            program = load_program(
+                fits_dir,
+                forms={} if form is None else {target: form},
+                family=get_target(target).family,
+                model=DEFAULT_FORMS,
+            )
             models[form] = build(emit(program, "c"), program, Path(tmp) / f"v{k}")
             names = program.routine(routine).signature()
         args = [np.ascontiguousarray(a, dtype=dtype) for a in _inputs(names, n)]

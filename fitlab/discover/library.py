@@ -29,6 +29,7 @@ from fitlab.forms.symbolic import lambdify_numpy, symbols
 
 __all__ = ["Library", "HasLibraries", "libraries_of", "get_library", "get_libraries", "products"]
 
+
 @dataclass(frozen=True, eq=False)
 class Library:
     """Candidate terms for y = offset + factor (n0 + sum a f) / (d0 + sum b g).
@@ -58,7 +59,9 @@ class Library:
                          ("d0", self.d0)):  # fmt: skip
             extra = sp.sympify(e, strict=True).free_symbols - allowed
             if extra:
-                raise ValueError(f"library {self.name}: {label} uses {sorted(map(str, extra))}, not inputs {self.inputs}")
+                raise ValueError(
+                    f"library {self.name}: {label} uses {sorted(map(str, extra))}, not inputs {self.inputs}"
+                )
         if not self.numerator:
             raise ValueError(f"library {self.name}: no numerator terms")
 

@@ -54,8 +54,12 @@ def front_table(disc: Discovery) -> str:
         v = d.validation
         lines.append(f"| {d.name}{star} | discovered | {d.terms} | {d.operations} | {_e(v['max_rel'])} | "
                      f"{_e(v['rms_rel'])} | {d.candidate.found_by}{_tag(disc, d)} |")  # fmt: skip
-    lines += ["", "terms: free parameters (for discovered forms: library terms kept); ops: operations after "
-              "common-subexpression elimination (sympy count_ops), parameters as numbers.", ""]
+    lines += [
+        "",
+        "terms: free parameters (for discovered forms: library terms kept); ops: operations after "
+        "common-subexpression elimination (sympy count_ops), parameters as numbers.",
+        "",
+    ]
     lines.append("## The front's forms")
     lines.append("")
     for d in disc.refined:
@@ -169,8 +173,11 @@ def save_from_front(front_file: Path, names, fits_dir: Path = Path("fits"), tabl
     if not isinstance(data, dict) or not isinstance(data.get("refined"), list):
         raise ValueError(f"{front_file}: not a front written by fitlab discover")
     front = [n for n in data.get("front", []) if isinstance(n, str)]
-    records = {item["name"]: item["record"] for item in data["refined"]
-               if isinstance(item, dict) and item.get("name") in front and isinstance(item.get("record"), dict)}
+    records = {
+        item["name"]: item["record"]
+        for item in data["refined"]
+        if isinstance(item, dict) and item.get("name") in front and isinstance(item.get("record"), dict)
+    }
     for name in names:
         if name not in records:
             raise KeyError(f"{front_file}: {name!r} is not on the front; the front is {', '.join(front)}")

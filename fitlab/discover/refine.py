@@ -46,7 +46,8 @@ def candidate_form(library: Library, candidate: Candidate, name: str | None = No
     start = {str(p): v for p, v in zip((*a, *b), (*candidate.num.values(), *candidate.den.values()))}
     terms = "; ".join(
         part + ": " + ", ".join(f"{p} [{label}]" for label, p in mapping.items())
-        for part, mapping in (("numerator", num), ("denominator", den)) if mapping
+        for part, mapping in (("numerator", num), ("denominator", den))
+        if mapping
     )
     return Form(
         target=library.target,

@@ -127,7 +127,9 @@ def discover(
     train = target.training()
     candidates, pool, linear, dropped = [], [], {}, {}
     for lib in libraries:
-        reg = SparseRegression(lib, thresholds=thresholds, frols_steps=max_terms + 2).fit(train.inputs, train.y, target.scale(train))
+        reg = SparseRegression(lib, thresholds=thresholds, frols_steps=max_terms + 2).fit(
+            train.inputs, train.y, target.scale(train)
+        )
         candidates += reg.candidates_
         for cand, err in zip(reg.candidates_, _linear_errors(reg, target, train)):
             linear[id(cand)] = err
@@ -140,8 +142,9 @@ def discover(
     if not pool:
         raise ValueError(f"{target.name}: the regression found no finite model with at most {max_terms} terms")
     ops = [operation_count(arranged(by_name[cand.library], cand.num, cand.den)) for cand, _ in pool]
-    keep = (set(pareto_front([(cand.n_terms, e) for cand, e in pool], infinite_errors=True))
-            | set(pareto_front([(o, e) for o, (_, e) in zip(ops, pool)], infinite_errors=True)))
+    keep = set(pareto_front([(cand.n_terms, e) for cand, e in pool], infinite_errors=True)) | set(
+        pareto_front([(o, e) for o, (_, e) in zip(ops, pool)], infinite_errors=True)
+    )
     chosen = [pool[i][0] for i in sorted(keep)]
     for i, (cand, _) in enumerate(pool):
         if i not in keep:

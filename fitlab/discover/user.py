@@ -24,8 +24,15 @@ from fitlab.discover.search import Discovery, discover
 from fitlab.fit.user import HOLDOUT_EVERY, MAX_ROW_PARAMETERS, Rows, UserDataError, UserTable, prepare_rows, user_record
 from fitlab.forms.symbolic import symbols
 
-__all__ = ["user_library", "library_size", "prepare_table", "search_rows", "discover_table", "NUMERATOR_DEGREE",
-           "DENOMINATOR_DEGREE"]
+__all__ = [
+    "user_library",
+    "library_size",
+    "prepare_table",
+    "search_rows",
+    "discover_table",
+    "NUMERATOR_DEGREE",
+    "DENOMINATOR_DEGREE",
+]
 
 NUMERATOR_DEGREE = 3
 DENOMINATOR_DEGREE = 2
@@ -54,8 +61,10 @@ def user_library(target: str, domain: dict) -> Library:
         numerator=_monomials(scaled, 0, NUMERATOR_DEGREE),
         denominator=_monomials(scaled, 1, DENOMINATOR_DEGREE),
         n0=sp.S.Zero,
-        description=(f"a rational in u = (x - lo)/(hi - lo) of each input over the fit's domain: monomials of degree "
-                     f"<= {NUMERATOR_DEGREE} over 1 + monomials of degree 1..{DENOMINATOR_DEGREE}"),
+        description=(
+            f"a rational in u = (x - lo)/(hi - lo) of each input over the fit's domain: monomials of degree "
+            f"<= {NUMERATOR_DEGREE} over 1 + monomials of degree 1..{DENOMINATOR_DEGREE}"
+        ),
     )
 
 
@@ -87,8 +96,11 @@ def prepare_table(table: UserTable, target: str, *, inputs=None, domain=None, er
 def library_size(inputs: int) -> int:
     """Terms of :func:`user_library` for ``inputs`` inputs: the monomials of degree <= NUMERATOR_DEGREE, and
     of degree 1 to DENOMINATOR_DEGREE."""
-    return math.comb(inputs + NUMERATOR_DEGREE, NUMERATOR_DEGREE) + math.comb(inputs + DENOMINATOR_DEGREE,
-                                                                            DENOMINATOR_DEGREE) - 1
+    return (
+        math.comb(inputs + NUMERATOR_DEGREE, NUMERATOR_DEGREE)
+        + math.comb(inputs + DENOMINATOR_DEGREE, DENOMINATOR_DEGREE)
+        - 1
+    )
 
 
 def search_rows(rows: Rows, *, max_terms: int = 12, minimax_rounds: int = 20, progress: bool = True) -> Discovery:

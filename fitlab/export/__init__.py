@@ -9,5 +9,16 @@ the :class:`fitlab.core.HasImages` capability; docs/tables.md describes every ta
 from fitlab.export._formats import EXTRA, FORMATS, PNG_LEVELS, encode, file_name, tolerance
 from fitlab.export._image import CHANNEL_NAMES, ORIGINS, Image, ImageSpec, texel_centres
 
-__all__ = ["Image", "ImageSpec", "texel_centres", "CHANNEL_NAMES", "ORIGINS", "FORMATS", "EXTRA", "PNG_LEVELS",
-           "encode", "file_name", "tolerance"]
+__all__ = [
+    "Image",
+    "ImageSpec",
+    "texel_centres",
+    "CHANNEL_NAMES",
+    "ORIGINS",
+    "FORMATS",
+    "EXTRA",
+    "PNG_LEVELS",
+    "encode",
+    "file_name",
+    "tolerance",
+]

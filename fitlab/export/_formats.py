@@ -14,8 +14,15 @@ from fitlab.export._image import CHANNEL_NAMES, Image
 __all__ = ["FORMATS", "EXTRA", "file_name", "encode", "tolerance", "PNG_LEVELS"]
 
 #: format -> the file name's ending after the table's name
-FORMATS = {"exr": ".exr", "exr-half": "_half.exr", "ktx2": ".ktx2", "ktx2-half": "_half.ktx2", "png": ".png",
-           "c": ".h", "glsl": ".glsl"}
+FORMATS = {
+    "exr": ".exr",
+    "exr-half": "_half.exr",
+    "ktx2": ".ktx2",
+    "ktx2-half": "_half.ktx2",
+    "png": ".png",
+    "c": ".h",
+    "glsl": ".glsl",
+}
 #: the Python package each format needs and the fitlab extra that installs it
 EXTRA = {"exr": ("OpenEXR", "export"), "exr-half": ("OpenEXR", "export"), "png": ("png", "export")}
 #: the levels of a 16-bit PNG channel
@@ -52,9 +59,13 @@ def _exr(image: Image, dtype) -> bytes:
 
     channels = {CHANNEL_NAMES[k]: np.ascontiguousarray(image.data[:, :, k].astype(dtype))
                 for k in range(image.data.shape[2])}  # fmt: skip
-    header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage,
-              "comments": "\n".join(image.description()), "fitlab:table": image.name,
-              "fitlab:origin": image.origin}
+    header = {
+        "compression": OpenEXR.ZIP_COMPRESSION,
+        "type": OpenEXR.scanlineimage,
+        "comments": "\n".join(image.description()),
+        "fitlab:table": image.name,
+        "fitlab:origin": image.origin,
+    }
     # OpenEXR writes files only: through a temporary name in a private folder, read back at once
     import tempfile
     from pathlib import Path
@@ -76,14 +87,15 @@ def _png(image: Image) -> bytes:
     if levels.shape[2] == 2:
         levels = np.concatenate((levels, np.zeros_like(levels[:, :, :1])), axis=2)
     planes = levels.shape[2]
-    writer = png.Writer(image.width, image.height, greyscale=planes == 1, alpha=planes == 4, bitdepth=16,
-                        gamma=1.0)
+    writer = png.Writer(image.width, image.height, greyscale=planes == 1, alpha=planes == 4, bitdepth=16, gamma=1.0)
     buffer = io.BytesIO()
     writer.write(buffer, levels.reshape(image.height, image.width * planes).tolist())
     chunks = list(png.Reader(bytes=buffer.getvalue()).chunks())
-    text = [(b"tEXt", b"fitlab:table\0" + image.name.encode("latin-1")),
-            (b"tEXt", b"fitlab:origin\0" + image.origin.encode("latin-1")),
-            (b"tEXt", b"Comment\0" + "\n".join(image.description()).encode("latin-1"))]
+    text = [
+        (b"tEXt", b"fitlab:table\0" + image.name.encode("latin-1")),
+        (b"tEXt", b"fitlab:origin\0" + image.origin.encode("latin-1")),
+        (b"tEXt", b"Comment\0" + "\n".join(image.description()).encode("latin-1")),
+    ]
     first_data = next(i for i, (kind, _) in enumerate(chunks) if kind == b"IDAT")
     out = io.BytesIO()
     png.write_chunks(out, chunks[:first_data] + text + chunks[first_data:])
@@ -98,9 +110,11 @@ def _ktx_writer() -> str:
 
 
 #: what a KTX2 file says of its fourth channel when the table has three
-_KTX2_PADDING = ("channel A: 1, padding: KTX2 stores a three-channel table as four channels (the KTX "
-                 "specification's format mapping has no Metal format for R32G32B32_SFLOAT and neither a Metal nor "
-                 "a DXGI format for R16G16B16_SFLOAT)")
+_KTX2_PADDING = (
+    "channel A: 1, padding: KTX2 stores a three-channel table as four channels (the KTX "
+    "specification's format mapping has no Metal format for R32G32B32_SFLOAT and neither a Metal nor "
+    "a DXGI format for R16G16B16_SFLOAT)"
+)
 
 
 def _ktx2(image: Image, component_bytes: int) -> bytes:
@@ -111,8 +125,13 @@ def _ktx2(image: Image, component_bytes: int) -> bytes:
         description.insert(6, _KTX2_PADDING)  # after the lines of the name, order, colour space and 3 channels
     # KTXorientation (KTX §5.2): "rd", S to the right and T down, the first row stored at the top of the picture,
     # whichever row of the table it holds (image.origin, stated in fitlab:origin and fitlab:layout)
-    key_values = {"KTXorientation": "rd", "KTXwriter": _ktx_writer(), "fitlab:table": image.name,
-                  "fitlab:origin": image.origin, "fitlab:layout": "\n".join(description)}
+    key_values = {
+        "KTXorientation": "rd",
+        "KTXwriter": _ktx_writer(),
+        "fitlab:table": image.name,
+        "fitlab:origin": image.origin,
+        "fitlab:layout": "\n".join(description),
+    }
     return _ktx2.encode(image.data, component_bytes, key_values)
 
 
@@ -142,15 +161,25 @@ def _c(image: Image) -> bytes:
     per_row = image.width * image.data.shape[2]
     rows = []
     for j in range(image.height):
-        row = values[j * per_row:(j + 1) * per_row]
+        row = values[j * per_row : (j + 1) * per_row]
         texels = ["{" + ", ".join(v + "f" for v in row[i:i + image.data.shape[2]]) + "}"
                   for i in range(0, per_row, image.data.shape[2])]  # fmt: skip
         rows.append("    {" + ", ".join(texels) + "}")
     guard = f"FITLAB_{name.upper()}_H"
-    lines = ["/* Generated by fitlab export; do not edit.", *_comment(image), " */", f"#ifndef {guard}",
-             f"#define {guard}", "",
-             f"static const float {name}[{image.height}][{image.width}][{image.data.shape[2]}] = {{",
-             ",\n".join(rows), "};", "", f"#endif /* {guard} */", ""]
+    lines = [
+        "/* Generated by fitlab export; do not edit.",
+        *_comment(image),
+        " */",
+        f"#ifndef {guard}",
+        f"#define {guard}",
+        "",
+        f"static const float {name}[{image.height}][{image.width}][{image.data.shape[2]}] = {{",
+        ",\n".join(rows),
+        "};",
+        "",
+        f"#endif /* {guard} */",
+        "",
+    ]
     return "\n".join(lines).encode()
 
 
@@ -158,15 +187,29 @@ def _glsl(image: Image) -> bytes:
     name = _identifier(image.name)
     values = _values(image)
     per_row = image.width * image.data.shape[2]
-    rows = ["    " + ", ".join(values[j * per_row:(j + 1) * per_row]) for j in range(image.height)]
-    lines = ["/* Generated by fitlab export; do not edit.", *_comment(image),
-             f" * texel (x, y), channel k is {name}[(y * {name}_WIDTH + x) * {name}_CHANNELS + k]", " */",
-             f"const int {name}_WIDTH = {image.width};", f"const int {name}_HEIGHT = {image.height};",
-             f"const int {name}_CHANNELS = {image.data.shape[2]};",
-             f"const float {name}[{len(values)}] = float[](", ",\n".join(rows), ");", ""]
+    rows = ["    " + ", ".join(values[j * per_row : (j + 1) * per_row]) for j in range(image.height)]
+    lines = [
+        "/* Generated by fitlab export; do not edit.",
+        *_comment(image),
+        f" * texel (x, y), channel k is {name}[(y * {name}_WIDTH + x) * {name}_CHANNELS + k]",
+        " */",
+        f"const int {name}_WIDTH = {image.width};",
+        f"const int {name}_HEIGHT = {image.height};",
+        f"const int {name}_CHANNELS = {image.data.shape[2]};",
+        f"const float {name}[{len(values)}] = float[](",
+        ",\n".join(rows),
+        ");",
+        "",
+    ]
     return "\n".join(lines).encode()
 
 
-_ENCODERS = {"exr": lambda image: _exr(image, np.float32), "exr-half": lambda image: _exr(image, np.float16),
-             "ktx2": lambda image: _ktx2(image, 4), "ktx2-half": lambda image: _ktx2(image, 2), "png": _png,
-             "c": _c, "glsl": _glsl}
+_ENCODERS = {
+    "exr": lambda image: _exr(image, np.float32),
+    "exr-half": lambda image: _exr(image, np.float16),
+    "ktx2": lambda image: _ktx2(image, 4),
+    "ktx2-half": lambda image: _ktx2(image, 2),
+    "png": _png,
+    "c": _c,
+    "glsl": _glsl,
+}

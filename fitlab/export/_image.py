@@ -76,14 +76,21 @@ class Image:
     def description(self) -> list[str]:
         """The lines every file states: name, size, row order, colour space, channels, then the layout."""
         if self.origin == "top":
-            order = ("origin top: the table's row 0 is the first row stored, the top of the picture, and its row j "
-                     "is stored as row j")
+            order = (
+                "origin top: the table's row 0 is the first row stored, the top of the picture, and its row j "
+                "is stored as row j"
+            )
         else:
-            order = (f"origin bottom: the table's row 0 is the last row stored, the bottom of the picture, and its "
-                     f"row j is stored as row {self.height - 1} - j (the rows named below are the table's)")
-        lines = [f"fitlab table {self.name}: {self.width} x {self.height} texels (width x height), "
-                 f"{len(self.channels)} channel(s)", order,
-                 "colour space: linear (the values are data, not gamma-encoded)"]
+            order = (
+                f"origin bottom: the table's row 0 is the last row stored, the bottom of the picture, and its "
+                f"row j is stored as row {self.height - 1} - j (the rows named below are the table's)"
+            )
+        lines = [
+            f"fitlab table {self.name}: {self.width} x {self.height} texels (width x height), "
+            f"{len(self.channels)} channel(s)",
+            order,
+            "colour space: linear (the values are data, not gamma-encoded)",
+        ]
         lines += [f"channel {CHANNEL_NAMES[k]}: {text}" for k, text in enumerate(self.channels)]
         return lines + list(self.layout)
 

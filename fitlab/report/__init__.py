@@ -32,5 +32,16 @@ from fitlab.report.run import Report, build_report
 from fitlab.report.settings import FULL, QUICK, Settings
 from fitlab.report.write import COLUMNS, TIMING_COLUMNS, write_outputs
 
-__all__ = ["COLUMNS", "FULL", "QUICK", "Report", "ReportError", "Settings", "TIMING_COLUMNS", "build_report",
-           "pareto_front", "recommend", "write_outputs"]
+__all__ = [
+    "COLUMNS",
+    "FULL",
+    "QUICK",
+    "Report",
+    "ReportError",
+    "Settings",
+    "TIMING_COLUMNS",
+    "build_report",
+    "pareto_front",
+    "recommend",
+    "write_outputs",
+]

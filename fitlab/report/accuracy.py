@@ -62,8 +62,9 @@ def brdf_accuracy(method, valid, grazing=None, fresh=None, energy=None) -> dict:
     }
     material = set(hook.BRDF_MATERIAL)  # all 0: the black material (c = 0, kd = 0)
     with np.errstate(all="ignore"):
-        at0 = method.evaluate(*(np.zeros_like(valid.inputs[n]) if n in material else valid.inputs[n]
-                                for n in hook.BRDF_INPUTS))
+        at0 = method.evaluate(
+            *(np.zeros_like(valid.inputs[n]) if n in material else valid.inputs[n] for n in hook.BRDF_INPUTS)
+        )
     out["max_abs_c0"] = float(np.max(np.where(np.isfinite(at0), np.abs(at0), np.inf)))
     if grazing is not None:
         g = brdf_errors(method, grazing)
@@ -78,6 +79,7 @@ def brdf_accuracy(method, valid, grazing=None, fresh=None, energy=None) -> dict:
         mu, cs, kds, exact, directional_albedo = energy
         err = 0.0
         for cv, kd, want in zip(cs, kds, exact):
+
             def f(mi, mo, ph, c, kd=kd):
                 return method.evaluate(mi, mo, ph, c, np.full(np.shape(c), kd))
 

@@ -37,6 +37,7 @@ def brdf_inputs() -> tuple[str, ...]:
     report's ``BRDF_INPUTS``, of the family whose BRDF the report measures: :func:`brdf_report`)."""
     return tuple(brdf_report().BRDF_INPUTS)
 
+
 #: groups in the order the report lists them
 GROUPS = ("exact", "tables", "published", "refit", "refit, richer", "discovered", "fast", "baseline", "monte carlo")
 

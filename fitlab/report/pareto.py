@@ -39,9 +39,11 @@ REALTIME_BYTES = 4096
 OFFLINE_NS = 1e4
 COST_TIE = 0.10
 
-_REALTIME = (f"the cheapest generated C (double) with RMS relative error <= {REALTIME_RMS:g} and max relative "
-             f"error <= {REALTIME_GRAZING:g} on the grazing set; methods within "
-             f"{COST_TIE:.0%} of that cost count as equally cheap and the lowest RMS error among them is taken")
+_REALTIME = (
+    f"the cheapest generated C (double) with RMS relative error <= {REALTIME_RMS:g} and max relative "
+    f"error <= {REALTIME_GRAZING:g} on the grazing set; methods within "
+    f"{COST_TIE:.0%} of that cost count as equally cheap and the lowest RMS error among them is taken"
+)
 RULES = {
     "real-time": f"reading no table (data <= {REALTIME_BYTES} bytes), {_REALTIME}",
     "real-time, texture": f"tables of any size, {_REALTIME}",

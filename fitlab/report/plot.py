@@ -65,8 +65,16 @@ def _draw(ax, sel, key, colors, front, size):
     """The points of ``sel`` (filled: C, hollow: Python, triangles: MC) and the staircase of ``front``."""
     for _number, r, x, kind in sel:
         col = colors.get(r["group"], "k")
-        ax.scatter([x], [r[key]], s=size, marker="^" if kind == "MC" else "o",
-                   facecolors="none" if kind == "python" else col, edgecolors=col, linewidths=1.3, zorder=3)
+        ax.scatter(
+            [x],
+            [r[key]],
+            s=size,
+            marker="^" if kind == "MC" else "o",
+            facecolors="none" if kind == "python" else col,
+            edgecolors=col,
+            linewidths=1.3,
+            zorder=3,
+        )
     if front:
         fx = np.array([sel[i][2] for i in front])
         fy = np.array([sel[i][1][key] for i in front])
@@ -121,9 +129,14 @@ def plot_png(rows: list[dict], title: str) -> bytes:
         key_ax.text(0.0, 1.0 - k * step, text, color=col, fontsize=7.5, family="monospace", va="top",
                     transform=key_ax.transAxes)  # fmt: skip
     y = 1.0 - len(lines) * step - 0.02
-    notes = ["filled: generated C (double)", "hollow: numpy / exact engine (Python)",
-             "triangles: Monte Carlo, per BRDF value,", "  error vs exact bin averages", "dashed: Pareto front",
-             "colour: the group of docs/report.md"]
+    notes = [
+        "filled: generated C (double)",
+        "hollow: numpy / exact engine (Python)",
+        "triangles: Monte Carlo, per BRDF value,",
+        "  error vs exact bin averages",
+        "dashed: Pareto front",
+        "colour: the group of docs/report.md",
+    ]
     for k, text in enumerate(notes):
         key_ax.text(0.0, y - k * 0.035, text, fontsize=7, color="0.3", va="top", transform=key_ax.transAxes,
                     wrap=True)  # fmt: skip

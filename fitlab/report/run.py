@@ -131,9 +131,19 @@ def _refit_rows(entries, settings, fits_dir, progress) -> list[dict]:
     jobs = refit_jobs(entries, settings.refits)
     progress.stage("refits", len(jobs))
     costs = refit_costs(jobs, fits_dir, progress.tick)
-    rows = [{"section": "refit", "target": r["target"], "group": "refit", "method": r["form"], "source": r["path"],
-             "max_rel": r["max_rel"], "seconds": r["seconds"],
-             "note": f"{r['steps']} steps; the file records max rel {r['recorded_max_rel']:.4g}"} for r in costs]
+    rows = [
+        {
+            "section": "refit",
+            "target": r["target"],
+            "group": "refit",
+            "method": r["form"],
+            "source": r["path"],
+            "max_rel": r["max_rel"],
+            "seconds": r["seconds"],
+            "note": f"{r['steps']} steps; the file records max rel {r['recorded_max_rel']:.4g}",
+        }
+        for r in costs
+    ]
     if settings.refits is None:
         for e in entries:
             if e.kind != "refit":
@@ -184,16 +194,23 @@ def build_report(settings: Settings = FULL, fits_dir: Path | None = None, data_d
     context.update(wall_seconds=time.perf_counter() - t_start, fits_dir=str(fits_dir),
                    machine=f"{platform.machine()}, {os.cpu_count()} CPUs, BLAS on 1 thread, JAX on "
                            f"{jax.default_backend()}")  # fmt: skip
-    return Report(settings, rows, recommend([r for r in rows if r["section"] == "brdf"]), context,
-                  family_settings(settings, brdf_report()))
+    return Report(
+        settings,
+        rows,
+        recommend([r for r in rows if r["section"] == "brdf"]),
+        context,
+        family_settings(settings, brdf_report()),
+    )
 
 
 def _measure(settings, entries, fits_dir, data_dir, use_cache, p) -> tuple[list, dict]:
     hook = brdf_report()  # the family's exact engine and Monte Carlo
 
     fam = family_settings(settings, hook)
-    n_materials = (hook.validation_materials(fam)[0].size
-                   + hook.fresh_materials(np.random.default_rng(settings.fresh_seed), fam)[0].size)
+    n_materials = (
+        hook.validation_materials(fam)[0].size
+        + hook.fresh_materials(np.random.default_rng(settings.fresh_seed), fam)[0].size
+    )
     p.stage("validation set", n_materials)
     valid, grazing = validation_sets(settings, use_cache, p.tick)
     fresh = fresh_set(settings, use_cache, p.tick)

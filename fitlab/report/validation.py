@@ -62,7 +62,7 @@ def exact_values(point_sets: Mapping[str, np.ndarray], c: np.ndarray, use_cache:
 
     def compute(kind: str):
         if kind not in computed:  # this set and those after it: the ones before were read from the cache
-            todo = kinds[kinds.index(kind):]
+            todo = kinds[kinds.index(kind) :]
             ys = {k: np.empty((c.size, point_sets[k].shape[0])) for k in todo}
             for i, cv in enumerate(c):
                 for k in todo:
@@ -121,8 +121,10 @@ def validation_sets(settings: Settings, use_cache: bool = True, tick=None) -> tu
         "grazing": (materials + " x mu_i, mu_o in {" + ", ".join(f"{m:g}" for m in GRAZING_MU)
                     + "} x phi in {0, pi/2, pi}"),
     }  # fmt: skip
-    return (_dataset(points["brdf"], c, ys["brdf"], kd, grids["brdf"]),
-            _dataset(points["grazing"], c, ys["grazing"], kd, grids["grazing"]))
+    return (
+        _dataset(points["brdf"], c, ys["brdf"], kd, grids["brdf"]),
+        _dataset(points["grazing"], c, ys["grazing"], kd, grids["grazing"]),
+    )
 
 
 def fresh_set(settings: Settings, use_cache: bool = True, tick=None) -> Dataset:

@@ -19,8 +19,20 @@ from fitlab.report.methods import GROUPS, brdf_report
 from fitlab.report.pareto import RULES, pareto_front
 from fitlab.report.plot import plot_cost, plot_png
 
-__all__ = ["COLUMNS", "TIMING_COLUMNS", "FILES", "csv_text", "markdown", "parts_table", "as_shown", "write_outputs",
-           "report_source", "section_rows", "sci", "ns"]
+__all__ = [
+    "COLUMNS",
+    "TIMING_COLUMNS",
+    "FILES",
+    "csv_text",
+    "markdown",
+    "parts_table",
+    "as_shown",
+    "write_outputs",
+    "report_source",
+    "section_rows",
+    "sci",
+    "ns",
+]
 
 #: the CSV's columns; ``section`` says what a row is (brdf, part, exact, exact_h, time_to_error, refit)
 COLUMNS = ("section", "target", "group", "method", "source", "points", "paths", "target_error", "max_rel",
@@ -93,9 +105,12 @@ def _front_marks(brdf) -> list[str]:
 
 def _brdf_table(brdf) -> list[str]:
     black = f"max abs, {brdf_report().BRDF_MATERIAL[0]} = 0"  # the black material's column
-    out = ["| group | method | max rel | RMS rel | max rel, mu >= 1/64 | max rel, grazing | " + black + " | "
-           "max rel, fresh | RMS rel, fresh | albedo error | data bytes | C double ns | C float ns | Python ns | "
-           "JAX M eval/s | on the front |", "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    out = [
+        "| group | method | max rel | RMS rel | max rel, mu >= 1/64 | max rel, grazing | " + black + " | "
+        "max rel, fresh | RMS rel, fresh | albedo error | data bytes | C double ns | C float ns | Python ns | "
+        "JAX M eval/s | on the front |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
+    ]
     order = {g: k for k, g in enumerate(GROUPS)}
     marks = _front_marks(brdf)
     for k in sorted(range(len(brdf)), key=lambda k: (order.get(brdf[k]["group"], 99), k)):
@@ -110,8 +125,11 @@ def _brdf_table(brdf) -> list[str]:
 
 
 def _recommendations(rec) -> list[str]:
-    out = ["| use | method | max rel | RMS rel | max rel, grazing | max / RMS rel, fresh set | albedo error | "
-           "cost (ns per evaluation) | rule |", "|---|---|---|---|---|---|---|---|---|"]
+    out = [
+        "| use | method | max rel | RMS rel | max rel, grazing | max / RMS rel, fresh set | albedo error | "
+        "cost (ns per evaluation) | rule |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
     for use, rule in RULES.items():
         r = rec.get(use)
         if r is None:
@@ -209,9 +227,12 @@ def as_shown(report, cwd: Path | None = None):
     def row(r):
         return None if r is None else {k: v.replace(folder, shown) if isinstance(v, str) else v for k, v in r.items()}
 
-    return dataclasses.replace(report, rows=[row(r) for r in report.rows],
-                               recommendations={k: row(r) for k, r in report.recommendations.items()},
-                               context={**report.context, "fits_dir": shown})
+    return dataclasses.replace(
+        report,
+        rows=[row(r) for r in report.rows],
+        recommendations={k: row(r) for k, r in report.recommendations.items()},
+        context={**report.context, "fits_dir": shown},
+    )
 
 
 def write_outputs(report, out_dir: Path) -> list[Path]:
@@ -219,8 +240,10 @@ def write_outputs(report, out_dir: Path) -> list[Path]:
     write all three (or none)."""
     report = as_shown(report)
     brdf = section_rows(report.rows, "brdf")
-    title = (f"{brdf_report().BRDF_TITLE}: error vs cost of every evaluation method "
-             f"({report.context['validation_points']} validation points; fitlab report)")
+    title = (
+        f"{brdf_report().BRDF_TITLE}: error vs cost of every evaluation method "
+        f"({report.context['validation_points']} validation points; fitlab report)"
+    )
     files = {
         "report.md": markdown(report).encode(),
         "accuracy_vs_cost.png": plot_png(brdf, title),

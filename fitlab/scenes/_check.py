@@ -134,8 +134,12 @@ class Checker:
             self.fail(keypath, f"expected an integer number of bins or a list of >= 2 bin edges, got {value!r}")
             return None
         for k, v in enumerate(value):
-            if (isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v)
-                    or not 0.0 <= v <= hi + 1e-12):
+            if (
+                isinstance(v, bool)
+                or not isinstance(v, (int, float))
+                or not math.isfinite(v)
+                or not 0.0 <= v <= hi + 1e-12
+            ):
                 self.fail(tuple(keypath) + (k,), f"bin edge {v!r} is not a number in [0, {hi:g}]")
                 return None
         if any(b <= a for a, b in zip(value[:-1], value[1:])):
@@ -149,8 +153,11 @@ class Checker:
         given = keypath[-1] in d
         name = d.get(keypath[-1], Path(str(self.path)).stem)
         if not isinstance(name, str) or not NAME_RE.fullmatch(name):
-            self.fail(keypath, f"expected a plain file-name stem of 1-100 letters, digits, '_' or '-', got "
-                               f"{name!r}{'' if given else ' (the file stem: set scene.name)'}")
+            self.fail(
+                keypath,
+                f"expected a plain file-name stem of 1-100 letters, digits, '_' or '-', got "
+                f"{name!r}{'' if given else ' (the file stem: set scene.name)'}",
+            )
         return name
 
     def non_finite(self, v=None, keypath=()) -> None:

@@ -54,8 +54,9 @@ def read_scene_text(path, suffixes=(".toml", ".json"), noun: str = "scene") -> s
     except OSError as exc:
         raise SceneError(f"{p}:1: (file): cannot read: {exc.strerror or exc}") from None
     except UnicodeDecodeError as exc:  # binary garbage: TOML and JSON are UTF-8 text
-        raise SceneError(f"{p}:1: (file): not a UTF-8 text file (byte {exc.object[exc.start]:#04x} at offset "
-                         f"{exc.start})") from None
+        raise SceneError(
+            f"{p}:1: (file): not a UTF-8 text file (byte {exc.object[exc.start]:#04x} at offset {exc.start})"
+        ) from None
 
 
 def _format(path, fmt: str | None) -> str:

@@ -37,9 +37,22 @@ from fitlab.scenes._check import Checker, with_overrides
 from fitlab.scenes._document import SceneError, parse_document, read_scene_text
 from fitlab.scenes._protocol import Simulation
 
-__all__ = ["JobStats", "SimulationResult", "parse_scene", "load_scene", "scene_with_overrides", "simulate",
-           "csv_text", "output_files", "write_outputs", "summary_table", "unconverged", "failures", "check_out_dir",
-           "simulate_file"]
+__all__ = [
+    "JobStats",
+    "SimulationResult",
+    "parse_scene",
+    "load_scene",
+    "scene_with_overrides",
+    "simulate",
+    "csv_text",
+    "output_files",
+    "write_outputs",
+    "summary_table",
+    "unconverged",
+    "failures",
+    "check_out_dir",
+    "simulate_file",
+]
 
 
 @dataclass
@@ -81,8 +94,11 @@ def _family_of(doc, ck: Checker, family: str) -> dict:
     sc = data.get("scene")
     if isinstance(sc, dict) and "family" in sc:
         if sc["family"] != family:
-            ck.fail(("scene", "family"), f"this scene is for family {sc['family']!r}; it is read as a "
-                                         f"{family} scene (name the family in the scene, or with --family)")
+            ck.fail(
+                ("scene", "family"),
+                f"this scene is for family {sc['family']!r}; it is read as a "
+                f"{family} scene (name the family in the scene, or with --family)",
+            )
         data = dict(data, scene={k: v for k, v in sc.items() if k != "family"})
     return data
 
@@ -108,8 +124,9 @@ def load_scene(schema, path, **options):
 
 def scene_with_overrides(schema, scene, target_se=None, max_paths=None, seed=None):
     """``scene`` with the command-line overrides (None: keep), by the scene file's rules."""
-    return with_overrides(scene, schema.limits, tuple(schema.target_keys(scene)), target_se=target_se,
-                          max_paths=max_paths, seed=seed)
+    return with_overrides(
+        scene, schema.limits, tuple(schema.target_keys(scene)), target_se=target_se, max_paths=max_paths, seed=seed
+    )
 
 
 # ------------------------------------------------------------------ running
@@ -200,13 +217,17 @@ def _estimate(scene, jobs, pilots) -> str | None:
         return None
     several = len(jobs) > 1
     if scene.batch >= scene.max_paths:
-        return (f"a pilot estimates about {_montecarlo.duration(total)} for this scene ("
-                f"{f'{len(jobs)} jobs of ' if several else ''}{scene.max_paths} paths); Ctrl-C stops it")
-    return (f"a pilot estimates about {_montecarlo.duration(first)} for the first round"
-            f"{f's of the {len(jobs)} jobs ({scene.batch} paths each)' if several else f' ({scene.batch} paths)'}"
-            f" and up to {_montecarlo.duration(total)} to {'their budgets' if several else 'the budget'} of "
-            f"{scene.max_paths} paths{' each' if several else ''} (less "
-            f"{'where a job reaches its' if several else 'if it reaches its'} target sooner); Ctrl-C stops it")
+        return (
+            f"a pilot estimates about {_montecarlo.duration(total)} for this scene ("
+            f"{f'{len(jobs)} jobs of ' if several else ''}{scene.max_paths} paths); Ctrl-C stops it"
+        )
+    return (
+        f"a pilot estimates about {_montecarlo.duration(first)} for the first round"
+        f"{f's of the {len(jobs)} jobs ({scene.batch} paths each)' if several else f' ({scene.batch} paths)'}"
+        f" and up to {_montecarlo.duration(total)} to {'their budgets' if several else 'the budget'} of "
+        f"{scene.max_paths} paths{' each' if several else ''} (less "
+        f"{'where a job reaches its' if several else 'if it reaches its'} target sooner); Ctrl-C stops it"
+    )
 
 
 def simulate(walk, scene, progress: bool = False) -> SimulationResult:
@@ -229,8 +250,7 @@ def simulate(walk, scene, progress: bool = False) -> SimulationResult:
     if progress:
         from tqdm import tqdm
 
-        bar = tqdm(total=len(jobs) * scene.max_paths, unit="path", unit_scale=True, desc=scene.name,
-                   disable=not jobs)
+        bar = tqdm(total=len(jobs) * scene.max_paths, unit="path", unit_scale=True, desc=scene.name, disable=not jobs)
 
     def show(job, k: int, paths: int, what: str) -> None:
         if bar is not None:
@@ -246,8 +266,9 @@ def simulate(walk, scene, progress: bool = False) -> SimulationResult:
             if chunked:
                 rnd = walk.start_round(scene, job, 0, 0, min(scene.batch, scene.max_paths))
                 before = st.seconds
-                _advance(rnd, chunks[job.key], st, PILOT_SECONDS, lambda r, job=job, k=k: show(job, k, r.finished,
-                                                                                               "pilot"))
+                _advance(
+                    rnd, chunks[job.key], st, PILOT_SECONDS, lambda r, job=job, k=k: show(job, k, r.finished, "pilot")
+                )
                 pilots[job.key] = (rnd, st.seconds - before)
         line = _estimate(scene, jobs, pilots) if chunked else None
         if line:
@@ -260,8 +281,13 @@ def simulate(walk, scene, progress: bool = False) -> SimulationResult:
                 if chunked:
                     rnd = pilots.pop(job.key, (None, 0.0))[0] or walk.start_round(scene, job, st.rounds, st.paths, n)
                     base = st.paths
-                    _advance(rnd, chunks[job.key], st, math.inf,
-                             lambda r, job=job, k=k, base=base: show(job, k, base + r.finished, "running"))
+                    _advance(
+                        rnd,
+                        chunks[job.key],
+                        st,
+                        math.inf,
+                        lambda r, job=job, k=k, base=base: show(job, k, base + r.finished, "running"),
+                    )
                     res = rnd.tallies()
                 else:
                     t0 = time.perf_counter()
@@ -275,7 +301,9 @@ def simulate(walk, scene, progress: bool = False) -> SimulationResult:
                 if done and st.paths >= walk.min_paths:
                     st.converged = True
                     break
-                slow = None if warned else _montecarlo.slow_job_warning(st.paths, st.seconds, st.se_ratio, scene.max_paths)
+                slow = (
+                    None if warned else _montecarlo.slow_job_warning(st.paths, st.seconds, st.se_ratio, scene.max_paths)
+                )
                 if slow:
                     warned = True
                     _warn(f"{job.name}: {slow}", bar)
@@ -357,8 +385,11 @@ def unconverged(result: SimulationResult) -> list:
     for st in result.jobs.values():
         if st.converged:
             continue
-        why = (f"standard error {st.se_ratio:.3g} x its target" if not st.se_ratio <= 1.0
-               else f"fewer than the {result.walk.min_paths} {result.walk.unit} the stopping rule needs")
+        why = (
+            f"standard error {st.se_ratio:.3g} x its target"
+            if not st.se_ratio <= 1.0
+            else f"fewer than the {result.walk.min_paths} {result.walk.unit} the stopping rule needs"
+        )
         lines.append(f"not converged: {st.name}: {why} after {st.paths} paths (max_paths)")
     return lines
 
@@ -373,8 +404,10 @@ def failures(result: SimulationResult) -> list:
     for key, st in result.jobs.items():
         n = count(result.tallies[key]) if key in result.tallies else 0
         if n:
-            lines.append(f"{st.name}: {n} of {st.paths} {result.walk.unit} ended on a non-finite height, direction "
-                         "or weight (a walk error, tallied as failed: the estimates leave them out)")
+            lines.append(
+                f"{st.name}: {n} of {st.paths} {result.walk.unit} ended on a non-finite height, direction "
+                "or weight (a walk error, tallied as failed: the estimates leave them out)"
+            )
     return lines
 
 
@@ -387,17 +420,20 @@ def check_out_dir(out_dir) -> None:
     except FolderError as exc:
         if exc.kind == "file":
             raise SceneError(f"--out: {out_dir} exists and is not a folder") from None
-        raise SceneError(f"--out: cannot write in {out_dir}: {exc.detail or exc.kind.replace('_', ' ')} at "
-                         f"{exc.where}") from None
+        raise SceneError(
+            f"--out: cannot write in {out_dir}: {exc.detail or exc.kind.replace('_', ' ')} at {exc.where}"
+        ) from None
 
 
-def simulate_file(simulation: Simulation, path, out_dir=None, progress=False, plots=True, target_se=None,
-                  max_paths=None, seed=None):
+def simulate_file(
+    simulation: Simulation, path, out_dir=None, progress=False, plots=True, target_se=None, max_paths=None, seed=None
+):
     """Load and validate (the scene, the overrides, the output folder: every error before any work),
     simulate, write; ``simulation`` is a family's :class:`Simulation`.  Returns (result, paths written).
     The default output folder is mc_out/<scene name>."""
-    scene = scene_with_overrides(simulation.schema, load_scene(simulation.schema, path), target_se=target_se,
-                                 max_paths=max_paths, seed=seed)
+    scene = scene_with_overrides(
+        simulation.schema, load_scene(simulation.schema, path), target_se=target_se, max_paths=max_paths, seed=seed
+    )
     out_dir = Path(out_dir) if out_dir is not None else Path("mc_out") / scene.name
     check_out_dir(out_dir)
     result = simulate(simulation.walk, scene, progress=progress)

@@ -119,8 +119,10 @@ def _markdown(rows, fresh, mc, command: str) -> str:
            "(docs/model.md, 'Importance sampling'). By quadrature with the exact BRDF:", "",
            "| c | mu_i | w | n | V cosine | V fitted | V optimal | fitted / cosine |", "|---|---|---|---|---|---|---|---|"]  # fmt: skip
     for r in rows:
-        out.append(f"| {r['c']:g} | {r['mu_i']:g} | {r['weight']:.3f} | {r['exponent']:.2f} | {r['relvar_cosine']:.4g} | "
-                   f"{r['relvar_fitted']:.4g} | {r['relvar_optimal']:.4g} | {r['ratio']:.3f} |")
+        out.append(
+            f"| {r['c']:g} | {r['mu_i']:g} | {r['weight']:.3f} | {r['exponent']:.2f} | {r['relvar_cosine']:.4g} | "
+            f"{r['relvar_fitted']:.4g} | {r['relvar_optimal']:.4g} | {r['ratio']:.3f} |"
+        )
     out += ["", f"On a fresh set of {fresh['points']} points (seed {fresh['seed']}; c = 0, 1e-4 and 1, mu_i = 1e-3, 2e-3, "
                 f"1 - 1e-6 and 1 among them): V fitted / V cosine is at most {fresh['ratio_max']:.3f} (mean "
                 f"{fresh['ratio_mean']:.3f}), and the fitted mixture's V exceeds the optimal one's by at most "
@@ -129,13 +131,17 @@ def _markdown(rows, fresh, mc, command: str) -> str:
             f"{mc[0]['samples']} samples per strategy (same uniform numbers):", "",
             "| c | mu_i | mean, fitted | mean, cosine | exact albedo | V fitted | V cosine | lost |", "|---|---|---|---|---|---|---|---|"]  # fmt: skip
     for r in mc:
-        out.append(f"| {r['c']:g} | {r['mu_i']:g} | {r['mean_fitted']:.5f} | {r['mean_cosine']:.5f} | {r['albedo_exact']:.5f} | "
-                   f"{r['relvar_fitted']:.4g} | {r['relvar_cosine']:.4g} | {r['lost']:.4f} |")
+        out.append(
+            f"| {r['c']:g} | {r['mu_i']:g} | {r['mean_fitted']:.5f} | {r['mean_cosine']:.5f} | {r['albedo_exact']:.5f} | "
+            f"{r['relvar_fitted']:.4g} | {r['relvar_cosine']:.4g} | {r['lost']:.4f} |"
+        )
     return "\n".join(out) + "\n"
 
 
 def main(argv=None) -> int:
-    p = argparse.ArgumentParser(prog="python -m studies.lambert_sphere.sampling_variance", description=(__doc__ or "").partition("\n")[0])
+    p = argparse.ArgumentParser(
+        prog="python -m studies.lambert_sphere.sampling_variance", description=(__doc__ or "").partition("\n")[0]
+    )
     p.add_argument("--fits", default=None, help="fits folder (default: the packaged fits)")
     p.add_argument("--out", default="docs", help="folder for sampling.md and sampling.json (default: docs)")
     args = p.parse_args(argv)
@@ -150,8 +156,9 @@ def main(argv=None) -> int:
     text = _markdown(rows, fresh, mc, command)
     out = Path(args.out)
     record = {"quadrature": rows, "fresh": fresh, "monte_carlo": mc}
-    atomic_write_many({out / "sampling.md": text.encode(),
-                       out / "sampling.json": (json.dumps(record, indent=1) + "\n").encode()})
+    atomic_write_many(
+        {out / "sampling.md": text.encode(), out / "sampling.json": (json.dumps(record, indent=1) + "\n").encode()}
+    )
     print(text)
     return 0
 

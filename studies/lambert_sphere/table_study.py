@@ -36,8 +36,17 @@ import numpy as np
 from fitlab.families.lambert_sphere.program import table_export as te
 from fitlab.families.lambert_sphere.targets.datasets import h_validation
 
-__all__ = ["candidate_rows", "resolution_rows", "correction_rows", "study", "markdown", "plot_png", "main", "FILES",
-           "REFERENCE_PHASE"]
+__all__ = [
+    "candidate_rows",
+    "resolution_rows",
+    "correction_rows",
+    "study",
+    "markdown",
+    "plot_png",
+    "main",
+    "FILES",
+    "REFERENCE_PHASE",
+]
 
 FILES = ("table_export.md", "table_export.json", "table_export.png")
 #: H - 1 is measured where |H - 1| is at least this (the exact values are H in double: 1e-16 of H)
@@ -380,8 +389,12 @@ def plot_png(result: dict) -> bytes:
     rows = result["candidates"] + [r for r in result["resolution"] if r["nodes"] not in (17, 33, 65)]
     for quantity in te.QUANTITIES:
         for lookup, style in (("linear", "--"), ("cubic", "-")):
-            pts = sorted((r["bytes"], r["valid_max_rel"]) for r in rows if r["quantity"] == quantity and r["lookup"] == lookup)
-            ax.loglog(*zip(*pts), style, marker="o", label=f"{quantity}, {'bilinear' if lookup == 'linear' else 'bicubic'}")
+            pts = sorted(
+                (r["bytes"], r["valid_max_rel"]) for r in rows if r["quantity"] == quantity and r["lookup"] == lookup
+            )
+            ax.loglog(
+                *zip(*pts), style, marker="o", label=f"{quantity}, {'bilinear' if lookup == 'linear' else 'bicubic'}"
+            )
     ax.set_xlabel("texture bytes (float32)")
     ax.set_ylabel("BRDF max relative error (validation set)")
     ax.set_title("Exported Lambert-sphere tables: error against memory")

@@ -32,9 +32,29 @@ from fitlab.families.microfacet_energy import exact
 from fitlab.families.microfacet_energy.exact import average_albedo, directional_albedo
 from fitlab.physics.fresnel import schlick_average
 
-__all__ = ["STUDY_MODELS", "TABLE_SIZES", "ALPHA_MIN", "validation_set", "centre_table", "bilinear", "study_rows", "markdown", "main", "fitted_methods", "FIT_TARGETS",
-           "table_method", "exact_method", "no_compensation", "furnace", "measure", "table_lookup_ns", "KC_ALPHAS",
-           "kulla_conti_furnace", "COLOURED_ALPHAS", "coloured_compensation"]
+__all__ = [
+    "STUDY_MODELS",
+    "TABLE_SIZES",
+    "ALPHA_MIN",
+    "validation_set",
+    "centre_table",
+    "bilinear",
+    "study_rows",
+    "markdown",
+    "main",
+    "fitted_methods",
+    "FIT_TARGETS",
+    "table_method",
+    "exact_method",
+    "no_compensation",
+    "furnace",
+    "measure",
+    "table_lookup_ns",
+    "KC_ALPHAS",
+    "kulla_conti_furnace",
+    "COLOURED_ALPHAS",
+    "coloured_compensation",
+]
 
 #: the models studied (the exact engine's names)
 STUDY_MODELS = ("ggx_separable", "ggx_correlated", "oren_nayar")
@@ -83,6 +103,7 @@ def centre_table(model: str, n: int, nodes: bool = False) -> tuple[np.ndarray, n
 def bilinear(table: np.ndarray, u: np.ndarray, v: np.ndarray | None = None) -> np.ndarray:
     """A texture read: ``table`` (1-D, or 2-D indexed [v, u]) at coordinates in [0, 1], texel centres at
     (k + 1/2)/n, linear filtering, clamp-to-edge."""
+
     def coord(x, n):
         t = np.clip(np.asarray(x, dtype=float) * n - 0.5, 0.0, n - 1.0)
         i = np.minimum(np.floor(t).astype(int), max(n - 2, 0))
@@ -218,8 +239,9 @@ KC_ALPHAS = (1e-6, 1e-5, 1e-4, 1e-3, *(float(f"{a:.3g}") for a in np.geomspace(0
 
 def _graded_nodes(alpha: float, n: int = 64) -> tuple[np.ndarray, np.ndarray]:
     """Gauss-Legendre nodes and weights on [0, 1], panels with edges at t alpha (t from 1/64 to 4096) and k/8."""
-    edges = np.unique(np.clip(np.concatenate([[0.0], alpha * np.geomspace(1 / 64, 4096, 25), np.linspace(0, 1, 9)]),
-                              0.0, 1.0))
+    edges = np.unique(
+        np.clip(np.concatenate([[0.0], alpha * np.geomspace(1 / 64, 4096, 25), np.linspace(0, 1, 9)]), 0.0, 1.0)
+    )
     x, w = np.polynomial.legendre.leggauss(n)
     lo, hi = edges[:-1, None], edges[1:, None]
     return (lo + (hi - lo) * (x + 1) / 2).ravel(), ((hi - lo) * w / 2).ravel()
@@ -234,21 +256,31 @@ def kulla_conti_furnace(native, alphas=KC_ALPHAS) -> list[dict]:
     for alpha in alphas:
         mu_i, w = _graded_nodes(alpha)
         for dtype, label in ((np.float64, "double"), (np.float32, "float")):
+
             def error(mu_o, mu_i=mu_i, w=w, dtype=dtype, alpha=alpha):
-                lobe = native("ms_kulla_conti", mu_i.astype(dtype), np.full(mu_i.shape, mu_o, dtype),
-                              np.full(mu_i.shape, alpha, dtype), dtype=dtype).astype(float)
+                lobe = native(
+                    "ms_kulla_conti",
+                    mu_i.astype(dtype),
+                    np.full(mu_i.shape, mu_o, dtype),
+                    np.full(mu_i.shape, alpha, dtype),
+                    dtype=dtype,
+                ).astype(float)
                 e = float(directional_albedo(float(mu_o), alpha, "ggx_correlated"))
                 return abs(e + 2 * np.pi * float(np.sum(w * mu_i * lobe)) - 1.0)
 
-            scan = np.unique(np.clip(np.concatenate([[0.0, 1.0], alpha * np.geomspace(1 / 16, 1e4, 41),
-                                                     np.linspace(0, 1, 41)]), 0.0, 1.0))
+            scan = np.unique(
+                np.clip(
+                    np.concatenate([[0.0, 1.0], alpha * np.geomspace(1 / 16, 1e4, 41), np.linspace(0, 1, 41)]), 0.0, 1.0
+                )
+            )
             errors = np.array([error(m) for m in scan])
             k = int(np.argmax(errors))
             best_mu, best = float(scan[k]), float(errors[k])
             lo, hi = scan[max(k - 1, 0)], scan[min(k + 1, len(scan) - 1)]
             if hi > lo:
-                res = minimize_scalar(lambda m: -error(m), bounds=(lo, hi), method="bounded",
-                                      options={"xatol": 1e-3 * (hi - lo)})
+                res = minimize_scalar(
+                    lambda m: -error(m), bounds=(lo, hi), method="bounded", options={"xatol": 1e-3 * (hi - lo)}
+                )
                 if -res.fun > best:
                     best_mu, best = float(res.x), float(-res.fun)
             rows.append({"alpha": alpha, "precision": label, "max_furnace": best, "worst_mu_o": best_mu})
@@ -288,8 +320,16 @@ def coloured_compensation(model: str = "ggx_correlated", alphas=COLOURED_ALPHAS)
             continue
         for c, channel in enumerate(("r", "g", "b")):
             f0, f_avg = float(m.F0[c]), float(m.F_avg[c])
-            row = {"material": key, "name": m.name, "channel": channel, "F0": f0, "F_avg": f_avg,
-                   "F_avg_schlick": schlick_average(f0), "alphas": list(alphas), "E_avg": e_avg.tolist()}
+            row = {
+                "material": key,
+                "name": m.name,
+                "channel": channel,
+                "F0": f0,
+                "F_avg": f_avg,
+                "F_avg_schlick": schlick_average(f0),
+                "alphas": list(alphas),
+                "E_avg": e_avg.tolist(),
+            }
             if max(f0, f_avg) <= 1.0:
                 row["f_add"] = exact.fresnel_compensation_factor(f_avg, e_avg).tolist()
                 row["f_add_schlick"] = exact.fresnel_compensation_factor(row["F_avg_schlick"], e_avg).tolist()
@@ -302,16 +342,20 @@ def coloured_compensation(model: str = "ggx_correlated", alphas=COLOURED_ALPHAS)
 def _coloured_markdown(coloured: list[dict]) -> list[str]:
     alphas = coloured[0]["alphas"]
     heads = " | ".join(f"f_add, alpha = {a:g}" for a in alphas)
-    out = ["## Coloured compensation of measured metals", "",
-           "Kulla-Conti's coloured lobe f_ms_F = f_add f_ms, f_add = F_avg^2 E_avg / (1 - F_avg (1 - E_avg)), of "
-           "height-correlated GGX, per linear sRGB channel of each measured conductor of the fresnel family "
-           "(docs/fresnel.md): with the exact F_avg = 2 int_0^1 F mu dmu of its spectral Fresnel reflectance, "
-           "and with the F_avg a renderer derives from Schlick's F of the same F0 = F(1), (20 F0 + 1)/21. Each "
-           "f_add cell is exact / Schlick-derived; the last column is the largest relative difference of the "
-           "Schlick-derived f_add over these roughnesses, which is the relative error of the compensation "
-           "lobe's energy.", "",
-           f"| metal | channel | F0 | F_avg exact | F_avg Schlick | {heads} | worst relative |",
-           "|---|---|---|---|---|" + "---|" * len(alphas) + "---|"]
+    out = [
+        "## Coloured compensation of measured metals",
+        "",
+        "Kulla-Conti's coloured lobe f_ms_F = f_add f_ms, f_add = F_avg^2 E_avg / (1 - F_avg (1 - E_avg)), of "
+        "height-correlated GGX, per linear sRGB channel of each measured conductor of the fresnel family "
+        "(docs/fresnel.md): with the exact F_avg = 2 int_0^1 F mu dmu of its spectral Fresnel reflectance, "
+        "and with the F_avg a renderer derives from Schlick's F of the same F0 = F(1), (20 F0 + 1)/21. Each "
+        "f_add cell is exact / Schlick-derived; the last column is the largest relative difference of the "
+        "Schlick-derived f_add over these roughnesses, which is the relative error of the compensation "
+        "lobe's energy.",
+        "",
+        f"| metal | channel | F0 | F_avg exact | F_avg Schlick | {heads} | worst relative |",
+        "|---|---|---|---|---|" + "---|" * len(alphas) + "---|",
+    ]
     for r in coloured:
         if r["f_add"] is None:
             cells = " | ".join("-" for _ in alphas)
@@ -319,15 +363,23 @@ def _coloured_markdown(coloured: list[dict]) -> list[str]:
         else:
             cells = " | ".join(f"{e:.4f} / {s:.4f}" for e, s in zip(r["f_add"], r["f_add_schlick"], strict=True))
             worst = f"{max(abs(s / e - 1) for e, s in zip(r['f_add'], r['f_add_schlick'], strict=True)):.1%}"
-        out.append(f"| {r['name']} | {r['channel']} | {r['F0']:.4f} | {r['F_avg']:.4f} | {r['F_avg_schlick']:.4f} | "
-                   f"{cells} | {worst} |")
+        out.append(
+            f"| {r['name']} | {r['channel']} | {r['F0']:.4f} | {r['F_avg']:.4f} | {r['F_avg_schlick']:.4f} | "
+            f"{cells} | {worst} |"
+        )
     rel = [abs(s / e - 1) for r in coloured if r["f_add"] for e, s in zip(r["f_add"], r["f_add_schlick"], strict=True)]
-    worst = max((r for r in coloured if r["f_add"]),
-                key=lambda r: max(abs(s / e - 1) for e, s in zip(r["f_add"], r["f_add_schlick"], strict=True)))
+    worst = max(
+        (r for r in coloured if r["f_add"]),
+        key=lambda r: max(abs(s / e - 1) for e, s in zip(r["f_add"], r["f_add_schlick"], strict=True)),
+    )
     low = sum(r["F_avg_schlick"] > r["F_avg"] for r in coloured)
-    out += ["", f"Schlick's F_avg is above the exact one in {low} of {len(coloured)} channels (Schlick's curve "
-            f"lacks the dip of real metals below F0 near grazing), so the derived lobe is too bright; the largest "
-            f"relative difference of f_add is {max(rel):.1%} ({worst['name']}, {worst['channel']}).", ""]
+    out += [
+        "",
+        f"Schlick's F_avg is above the exact one in {low} of {len(coloured)} channels (Schlick's curve "
+        f"lacks the dip of real metals below F0 near grazing), so the derived lobe is too bright; the largest "
+        f"relative difference of f_add is {max(rel):.1%} ({worst['name']}, {worst['channel']}).",
+        "",
+    ]
     return out
 
 
@@ -344,8 +396,9 @@ def study_rows(models=STUDY_MODELS, sizes=TABLE_SIZES, fitted: dict | None = Non
     return rows
 
 
-def markdown(rows: list[dict], ns: dict, validation_n: int = 64, kc: list[dict] | None = None,
-             coloured: list[dict] | None = None) -> str:
+def markdown(
+    rows: list[dict], ns: dict, validation_n: int = 64, kc: list[dict] | None = None, coloured: list[dict] | None = None
+) -> str:
     """docs/energy_compensation.md from :func:`study_rows`, :func:`table_lookup_ns`,
     :func:`kulla_conti_furnace` and :func:`coloured_compensation`."""
     out = ["# Energy compensation: what a renderer needs to know of E(mu, alpha)", "",
@@ -370,36 +423,56 @@ def markdown(rows: list[dict], ns: dict, validation_n: int = 64, kc: list[dict] 
     if kc:
         by = {(r["alpha"], r["precision"]): r for r in kc}
         alphas = list(dict.fromkeys(r["alpha"] for r in kc))
-        out += ["## Exact single scattering plus the generated Kulla-Conti lobe", "",
-                "The white furnace max |a - 1| over mu_o (searched for: a scan and a bounded search around its worst "
-                "point) of the exact single scattering of height-correlated GGX plus the generated "
-                "`ms_kulla_conti` (fitlab/fits/generated/microfacet_energy.c, double and `_f` float), the lobe "
-                "integrated over mu_i on panels graded at multiples of alpha; the table figures above use the "
-                "validation lattice, alpha >= 1e-3, instead.", "",
-                "| alpha | double | worst mu_o | float | worst mu_o |", "|---|---|---|---|---|"]
+        out += [
+            "## Exact single scattering plus the generated Kulla-Conti lobe",
+            "",
+            "The white furnace max |a - 1| over mu_o (searched for: a scan and a bounded search around its worst "
+            "point) of the exact single scattering of height-correlated GGX plus the generated "
+            "`ms_kulla_conti` (fitlab/fits/generated/microfacet_energy.c, double and `_f` float), the lobe "
+            "integrated over mu_i on panels graded at multiples of alpha; the table figures above use the "
+            "validation lattice, alpha >= 1e-3, instead.",
+            "",
+            "| alpha | double | worst mu_o | float | worst mu_o |",
+            "|---|---|---|---|---|",
+        ]
         for a in alphas:
             d, f = by[(a, "double")], by[(a, "float")]
-            out.append(f"| {a:g} | {_g(d['max_furnace'])} | {d['worst_mu_o']:.3g} | {_g(f['max_furnace'])} | "
-                       f"{f['worst_mu_o']:.3g} |")
+            out.append(
+                f"| {a:g} | {_g(d['max_furnace'])} | {d['worst_mu_o']:.3g} | {_g(f['max_furnace'])} | "
+                f"{f['worst_mu_o']:.3g} |"
+            )
         big = [by[(a, p)]["max_furnace"] for a in alphas if a >= 0.01 for p in ("double", "float")]
         small = [by[(a, p)]["max_furnace"] for a in alphas for p in ("double", "float")]
-        out += ["", f"So, over these alphas: at most {max(big):.1e} for alpha >= 0.01 and {max(small):.1e} from "
-                f"alpha = {min(alphas):g} up, float and double alike (float differs from double by at most "
-                f"{max(abs(by[(a, 'float')]['max_furnace'] - by[(a, 'double')]['max_furnace']) for a in alphas):.0e}"
-                "); the error is the fits' (E_ggx_cor, E_avg_ggx_cor), largest in the grazing layer mu_o ~ alpha "
-                "as alpha -> 0.", ""]
+        out += [
+            "",
+            f"So, over these alphas: at most {max(big):.1e} for alpha >= 0.01 and {max(small):.1e} from "
+            f"alpha = {min(alphas):g} up, float and double alike (float differs from double by at most "
+            f"{max(abs(by[(a, 'float')]['max_furnace'] - by[(a, 'double')]['max_furnace']) for a in alphas):.0e}"
+            "); the error is the fits' (E_ggx_cor, E_avg_ggx_cor), largest in the grazing layer mu_o ~ alpha "
+            "as alpha -> 0.",
+            "",
+        ]
     if coloured:
         out += _coloured_markdown(coloured)
-    out += ["## Why a fit's furnace can be far worse than its E", "",
-            "The lobe is divided by 1 - E_avg_hat, which goes to 0 as alpha -> 0 (GGX becomes a mirror and "
-            "loses nothing). A method whose E_avg_hat is not the average of its own E_hat (a fit of E beside a "
-            "separate fit of E_avg, or a published E with a fitted E_avg) has a numerator and a denominator that "
-            "do not vanish together there, and the ratio runs away at the smallest alpha: compare the whole-"
-            "domain and interior furnace columns. A renderer that takes E_avg_hat = 2 int E_hat mu dmu from the "
-            "same E_hat (or clamps the lobe where 1 - E_avg_hat is tiny) does not have this failure; a table "
-            "and its own 1-D average nearly do that by construction.", ""]
-    out += ["## Cost", "", "ns per evaluation of E_hat in C (double, -O2), one interleaved run on this machine "
-            "(only the ratios carry meaning): " + ", ".join(f"{k}: {v:.1f}" for k, v in ns.items()) + ".", ""]
+    out += [
+        "## Why a fit's furnace can be far worse than its E",
+        "",
+        "The lobe is divided by 1 - E_avg_hat, which goes to 0 as alpha -> 0 (GGX becomes a mirror and "
+        "loses nothing). A method whose E_avg_hat is not the average of its own E_hat (a fit of E beside a "
+        "separate fit of E_avg, or a published E with a fitted E_avg) has a numerator and a denominator that "
+        "do not vanish together there, and the ratio runs away at the smallest alpha: compare the whole-"
+        "domain and interior furnace columns. A renderer that takes E_avg_hat = 2 int E_hat mu dmu from the "
+        "same E_hat (or clamps the lobe where 1 - E_avg_hat is tiny) does not have this failure; a table "
+        "and its own 1-D average nearly do that by construction.",
+        "",
+    ]
+    out += [
+        "## Cost",
+        "",
+        "ns per evaluation of E_hat in C (double, -O2), one interleaved run on this machine "
+        "(only the ratios carry meaning): " + ", ".join(f"{k}: {v:.1f}" for k, v in ns.items()) + ".",
+        "",
+    ]
     sep = {r["method"]: r for r in rows if r["model"] == "ggx_separable"}
     t32, n32 = sep.get("table 32 x 32"), sep.get("table 32 x 32, nodes")
     if t32 is not None and n32 is not None:
@@ -415,8 +488,11 @@ def markdown(rows: list[dict], ns: dict, validation_n: int = 64, kc: list[dict] 
 
 
 #: model -> (its E target, its E_avg target) in the family's registry
-FIT_TARGETS = {"ggx_separable": ("E_ggx_sep", "E_avg_ggx_sep"), "ggx_correlated": ("E_ggx_cor", "E_avg_ggx_cor"),
-               "oren_nayar": ("E_on", "E_avg_on")}
+FIT_TARGETS = {
+    "ggx_separable": ("E_ggx_sep", "E_avg_ggx_sep"),
+    "ggx_correlated": ("E_ggx_cor", "E_avg_ggx_cor"),
+    "oren_nayar": ("E_on", "E_avg_on"),
+}
 
 
 def fitted_methods(fits_dir=None) -> dict:
@@ -453,8 +529,10 @@ def main(argv=None) -> int:
 
     from fitlab._io import atomic_write_many
 
-    p = argparse.ArgumentParser(prog="python -m studies.microfacet_energy.energy_compensation",
-                                description="Write energy_compensation.md and .json (the study of this module).")
+    p = argparse.ArgumentParser(
+        prog="python -m studies.microfacet_energy.energy_compensation",
+        description="Write energy_compensation.md and .json (the study of this module).",
+    )
     p.add_argument("--out", default=".", help="folder for energy_compensation.md and .json")
     args = p.parse_args(argv)
     rows = study_rows(fitted=fitted_methods())
@@ -467,10 +545,14 @@ def main(argv=None) -> int:
     kc = kulla_conti_furnace(native) if native is not None else None
     coloured = coloured_compensation()
     out = Path(args.out)
-    atomic_write_many({out / "energy_compensation.md": markdown(rows, ns, kc=kc, coloured=coloured).encode(),
-                       out / "energy_compensation.json": json.dumps({"rows": rows, "kulla_conti_furnace": kc,
-                                                                     "coloured_compensation": coloured},
-                                                                    indent=1).encode()})
+    atomic_write_many(
+        {
+            out / "energy_compensation.md": markdown(rows, ns, kc=kc, coloured=coloured).encode(),
+            out / "energy_compensation.json": json.dumps(
+                {"rows": rows, "kulla_conti_furnace": kc, "coloured_compensation": coloured}, indent=1
+            ).encode(),
+        }
+    )
     print(f"wrote {out / 'energy_compensation.md'}")
     return 0
 

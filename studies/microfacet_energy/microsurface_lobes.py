@@ -39,18 +39,33 @@ from fitlab.families.microfacet_energy.lobes.shapes import PER_LOBE_FORMS, per_l
 from fitlab.families.microfacet_energy.program.runtime import MODELS, ORDERS, lobe_functions
 from fitlab.families.microfacet_energy.targets.lobes import MIN_ALBEDO
 
-__all__ = ["model_bins", "kulla_conti_bins", "accuracy", "per_lobe_study", "cost_ns", "markdown", "main",
-           "SNR", "STUDY_MODELS", "FIGURE_POINTS"]
+__all__ = [
+    "model_bins",
+    "kulla_conti_bins",
+    "accuracy",
+    "per_lobe_study",
+    "cost_ns",
+    "markdown",
+    "main",
+    "SNR",
+    "STUDY_MODELS",
+    "FIGURE_POINTS",
+]
 
 #: a bin is meaningful where its value is at least SNR standard errors
 SNR = 5.0
 #: the models of the study, by kind, in table order
-STUDY_MODELS = {"diffuse": ("none", "blog_text", "blog_code", "blog_refit", "blog_rich", "tilted"),
-                "conductor": ("none", "kulla_conti", "blog_refit", "blog_rich", "tilted")}
+STUDY_MODELS = {
+    "diffuse": ("none", "blog_text", "blog_code", "blog_refit", "blog_rich", "tilted"),
+    "conductor": ("none", "kulla_conti", "blog_refit", "blog_rich", "tilted"),
+}
 #: (alpha, mu_i) of the figure's columns (validation jobs)
 FIGURE_POINTS = ((0.275, 0.1), (0.6, 0.5), (0.85, 0.9))
-_LABELS = {"none": "none (single scattering only)", "kulla_conti": "Kulla-Conti f_ms (exact E)",
-           **{m: MODELS[m][3] for m in MODELS}}
+_LABELS = {
+    "none": "none (single scattering only)",
+    "kulla_conti": "Kulla-Conti f_ms (exact E)",
+    **{m: MODELS[m][3] for m in MODELS},
+}
 
 
 def _tables(data_dir=None):
@@ -85,8 +100,10 @@ def kulla_conti_bins(t: lt.LobeTable) -> np.ndarray:
 
 
 def _where(t, j, i, p) -> str:
-    return (f"alpha {t.alpha[j]:g}, mu_i {t.mu_i[j]:g}, mu_o in [{lt.MU_EDGES[i]:.1f}, {lt.MU_EDGES[i + 1]:.1f}], "
-            f"|phi_o| in [{np.degrees(lt.PHI_EDGES[p]):.1f}, {np.degrees(lt.PHI_EDGES[p + 1]):.1f}] deg")
+    return (
+        f"alpha {t.alpha[j]:g}, mu_i {t.mu_i[j]:g}, mu_o in [{lt.MU_EDGES[i]:.1f}, {lt.MU_EDGES[i + 1]:.1f}], "
+        f"|phi_o| in [{np.degrees(lt.PHI_EDGES[p]):.1f}, {np.degrees(lt.PHI_EDGES[p + 1]):.1f}] deg"
+    )
 
 
 def _errors(t, model, y, se, albedo, where_ok=None) -> dict:
@@ -100,12 +117,17 @@ def _errors(t, model, y, se, albedo, where_ok=None) -> dict:
     a_model = np.einsum("jsp,sp->j", model, lt.solid_angles())
     keep = albedo >= MIN_ALBEDO
     e_rel = np.abs(a_model / np.where(keep, albedo, 1.0) - 1.0)[keep]
-    return {"max_rel": float(rel.max()), "rms_rel": float(np.sqrt(np.mean(rel[ok] ** 2))) if ok.any() else 0.0,
-            "noise_rms": float(np.sqrt(np.mean((se[ok] / y[ok]) ** 2))) if ok.any() else 0.0,
-            "bins": int(ok.sum()), "worst": _where(t, j, i, p),
-            "energy_max_rel": float(e_rel.max()) if e_rel.size else 0.0,
-            "energy_rms_rel": float(np.sqrt(np.mean(e_rel**2))) if e_rel.size else 0.0,
-            "energy_max_abs": float(np.max(np.abs(a_model - albedo))), "lobes": int(keep.sum())}
+    return {
+        "max_rel": float(rel.max()),
+        "rms_rel": float(np.sqrt(np.mean(rel[ok] ** 2))) if ok.any() else 0.0,
+        "noise_rms": float(np.sqrt(np.mean((se[ok] / y[ok]) ** 2))) if ok.any() else 0.0,
+        "bins": int(ok.sum()),
+        "worst": _where(t, j, i, p),
+        "energy_max_rel": float(e_rel.max()) if e_rel.size else 0.0,
+        "energy_rms_rel": float(np.sqrt(np.mean(e_rel**2))) if e_rel.size else 0.0,
+        "energy_max_abs": float(np.max(np.abs(a_model - albedo))),
+        "lobes": int(keep.sum()),
+    }
 
 
 def accuracy(kind: str, t: lt.LobeTable, models=None, fits_dir=None) -> dict:
@@ -146,8 +168,11 @@ def per_lobe_study(kind: str, t: lt.LobeTable, forms=PER_LOBE_FORMS) -> dict:
         fit = fit_lobes(form, data)
         errs, order_of = [], []
         for k, ((j, s), lobe) in enumerate(zip(lobes, data)):
-            m = bin_averages_numpy(lambda mo, c, mi, a, th=fit.theta[k], form=form: form.numpy_function(th, mo, c, mi, a),
-                                   lobe["mu_i"], lobe["alpha"])
+            m = bin_averages_numpy(
+                lambda mo, c, mi, a, th=fit.theta[k], form=form: form.numpy_function(th, mo, c, mi, a),
+                lobe["mu_i"],
+                lobe["alpha"],
+            )
             y, se = t.value[j, s - 1], t.se[j, s - 1]
             ok = (y > 0) & (y >= SNR * se)
             if t.albedo[j, s - 1] >= MIN_ALBEDO and ok.any():
@@ -158,12 +183,22 @@ def per_lobe_study(kind: str, t: lt.LobeTable, forms=PER_LOBE_FORMS) -> dict:
             e = [x for x, o in zip(errs, order_of) if o == s]
             if e:
                 cat = np.concatenate(e)
-                by_order[lt.ORDER_LABELS[s - 1]] = {"rms_rel": float(np.sqrt(np.mean(cat**2))),
-                                                    "median_lobe_max": float(np.median([x.max() for x in e]))}
-        res = {"lobes": len(data), "free": len(form.free_params), "steps_mean": float(fit.steps.mean()), "steps_max": int(fit.steps.max()),
-               "steps_all_mean": float(fit.steps_all.mean()), "seconds_mean": float(fit.seconds.mean()),
-               "seconds_max": float(fit.seconds.max()), "compile_seconds": float(fit.compile_seconds),
-               "converged": float(fit.converged.mean()), "by_order": by_order}
+                by_order[lt.ORDER_LABELS[s - 1]] = {
+                    "rms_rel": float(np.sqrt(np.mean(cat**2))),
+                    "median_lobe_max": float(np.median([x.max() for x in e])),
+                }
+        res = {
+            "lobes": len(data),
+            "free": len(form.free_params),
+            "steps_mean": float(fit.steps.mean()),
+            "steps_max": int(fit.steps.max()),
+            "steps_all_mean": float(fit.steps_all.mean()),
+            "seconds_mean": float(fit.seconds.mean()),
+            "seconds_max": float(fit.seconds.max()),
+            "compile_seconds": float(fit.compile_seconds),
+            "converged": float(fit.converged.mean()),
+            "by_order": by_order,
+        }
         if "m" in form.free_params:
             m = fit.theta[:, form.params.index("m")]
             res["m_range"] = [float(m.min()), float(m.max())]
@@ -173,8 +208,13 @@ def per_lobe_study(kind: str, t: lt.LobeTable, forms=PER_LOBE_FORMS) -> dict:
 
 def _timing_inputs(n: int) -> dict:
     rng = np.random.default_rng(20)
-    return {"mu_i": rng.uniform(0, 1, n), "mu_o": rng.uniform(0, 1, n), "cos_phi": rng.uniform(-1, 1, n),
-            "alpha": rng.uniform(0.05, 1, n), "rho": rng.uniform(0, 1, n)}
+    return {
+        "mu_i": rng.uniform(0, 1, n),
+        "mu_o": rng.uniform(0, 1, n),
+        "cos_phi": rng.uniform(-1, 1, n),
+        "alpha": rng.uniform(0.05, 1, n),
+        "rho": rng.uniform(0, 1, n),
+    }
 
 
 def cost_ns(fits_dir=None, n: int = 100_000, repeat: int = 7) -> dict:
@@ -199,10 +239,17 @@ def cost_ns(fits_dir=None, n: int = 100_000, repeat: int = 7) -> dict:
         from fitlab.core import get_target
 
         form = get_target(target).forms[form_name]
-        published[target] = FitFunction({"format": "fitlab-fit/1", "target": target, "form": form_name,
-                                         "inputs": list(form.inputs), "expression": form.expression,
-                                         "params": dict(zip(form.params, form.vector("blog_text").tolist())),
-                                         "domain": {k: list(get_target(target).domain[k]) for k in form.inputs}})
+        published[target] = FitFunction(
+            {
+                "format": "fitlab-fit/1",
+                "target": target,
+                "form": form_name,
+                "inputs": list(form.inputs),
+                "expression": form.expression,
+                "params": dict(zip(form.params, form.vector("blog_text").tolist())),
+                "domain": {k: list(get_target(target).domain[k]) for k in form.inputs},
+            }
+        )
     inputs = _timing_inputs(n)
     cases = {}
     with tempfile.TemporaryDirectory() as tmp:
@@ -214,9 +261,14 @@ def cost_ns(fits_dir=None, n: int = 100_000, repeat: int = 7) -> dict:
         except CompileError:
             return {}
         lib, prog = libs["fits"]
-        for name, routine in (("kulla_conti conductor", "ms_kulla_conti"), ("blog_refit diffuse", "ms_blog_diffuse"),
-                              ("tilted diffuse", "ms_tilt_diffuse"), ("blog_refit conductor", "ms_blog_conductor"),
-                              ("tilted conductor", "ms_tilt_conductor"), ("E_ggx_cor (one E, fitted)", "E_ggx_cor")):
+        for name, routine in (
+            ("kulla_conti conductor", "ms_kulla_conti"),
+            ("blog_refit diffuse", "ms_blog_diffuse"),
+            ("tilted diffuse", "ms_tilt_diffuse"),
+            ("blog_refit conductor", "ms_blog_conductor"),
+            ("tilted conductor", "ms_tilt_conductor"),
+            ("E_ggx_cor (one E, fitted)", "E_ggx_cor"),
+        ):
             r = prog.routine(routine)
             cases[name] = (lib, routine, [inputs.get(a, inputs["mu_o"]) for a in r.signature()], np.float64)
         lib, prog = libs["published"]
@@ -236,16 +288,21 @@ def _g(x) -> str:
 
 
 def _accuracy_table(acc: dict, ns: dict, kind: str) -> list[str]:
-    lines = ["| model | order 2: max / RMS | order 3 | order 4 | tail > 4 | orders >= 2: max / RMS (noise) | "
-             "energy of orders >= 2: max / RMS rel, max abs | whole BRDF: max / RMS | C ns |", "|---" * 9 + "|"]
+    lines = [
+        "| model | order 2: max / RMS | order 3 | order 4 | tail > 4 | orders >= 2: max / RMS (noise) | "
+        "energy of orders >= 2: max / RMS rel, max abs | whole BRDF: max / RMS | C ns |",
+        "|---" * 9 + "|",
+    ]
     for model, res in acc.items():
         cells = [f"{_g(res[o]['max_rel'])} / {_g(res[o]['rms_rel'])}" for o in ("2", "3", "4", ">4")]
         ms, br = res["multiple"], res["brdf"]
         cost = ns.get(f"{model} {kind}", ns.get(f"{model} conductor") if model == "kulla_conti" else None)
         cost = "0" if model == "none" else (f"{cost:.0f}" if cost is not None else "-")
-        lines.append(f"| {_LABELS[model]} | " + " | ".join(cells) + f" | {_g(ms['max_rel'])} / {_g(ms['rms_rel'])} "
-                     f"({_g(ms['noise_rms'])}) | {_g(ms['energy_max_rel'])} / {_g(ms['energy_rms_rel'])}, "
-                     f"{_g(ms['energy_max_abs'])} | {_g(br['max_rel'])} / {_g(br['rms_rel'])} | {cost} |")
+        lines.append(
+            f"| {_LABELS[model]} | " + " | ".join(cells) + f" | {_g(ms['max_rel'])} / {_g(ms['rms_rel'])} "
+            f"({_g(ms['noise_rms'])}) | {_g(ms['energy_max_rel'])} / {_g(ms['energy_rms_rel'])}, "
+            f"{_g(ms['energy_max_abs'])} | {_g(br['max_rel'])} / {_g(br['rms_rel'])} | {cost} |"
+        )
     return lines
 
 
@@ -261,14 +318,29 @@ def _refit_rows(fits_dir=None) -> list[dict]:
         for path in fit_files(fits_folder(fits_dir), name):
             rec = read_fit(path)
             v = rec["validation"]
-            rows.append({"target": name, "form": rec["form"], "what": "refit", "max": v["max_rel"], "rms": v["rms_rel"],
-                         "default": rec["form"] == t.default_form})
+            rows.append(
+                {
+                    "target": name,
+                    "form": rec["form"],
+                    "what": "refit",
+                    "max": v["max_rel"],
+                    "rms": v["rms_rel"],
+                    "default": rec["form"] == t.default_form,
+                }
+            )
             if rec["form"] != t.default_form or not t.published:
                 for pub in rec["published"]:
                     if pub["form"] == rec["form"] or rec["form"] == t.default_form:
-                        rows.append({"target": name, "form": pub["form"], "what": pub["preset"],
-                                     "max": pub["validation"]["max_rel"], "rms": pub["validation"]["rms_rel"],
-                                     "default": False})
+                        rows.append(
+                            {
+                                "target": name,
+                                "form": pub["form"],
+                                "what": pub["preset"],
+                                "max": pub["validation"]["max_rel"],
+                                "rms": pub["validation"]["rms_rel"],
+                                "default": False,
+                            }
+                        )
     seen, out = set(), []
     for r in rows:  # a preset shows once per target
         key = (r["target"], r["form"], r["what"])
@@ -280,83 +352,138 @@ def _refit_rows(fits_dir=None) -> list[dict]:
 
 def markdown(result: dict) -> str:
     """docs/microsurface_lobes.md from :func:`run`'s result."""
-    L = ["# Multiple-scattering lobes by order: simulated, fitted, generated", "",
-         "Generated by `python -m studies.microfacet_energy.microsurface_lobes --out docs` "
-         f"({result['seconds'] / 60:.1f} minutes on 2 cores); the numbers are in microsurface_lobes.json. How the "
-         "blog's lobe model is read (every ambiguity of its text and code) is in [blog_lobe_model.md](blog_lobe_model.md).",
-         "", "## The simulated lobes", "",
-         "The random walk of Heitz et al. (2016) on GGX microsurfaces (height-correlated Smith), diffuse (Lambertian) "
-         "facets of albedo 1 and F = 1 conductors, lobes by order (1, 2, 3, 4 and the tail above 4) in 10 x 8 "
-         "(mu_o, |phi_o|) bins with standard errors, on a 7 x 6 training grid of (alpha, mu_i) in [0.05, 1]^2 and an "
-         "interleaved 42-job validation grid (`fitlab tabulate`; fitlab/data/microfacet_energy/lobes_*.csv, "
-         "lobes/tables.py states grid, seed and budget):", ""]
+    L = [
+        "# Multiple-scattering lobes by order: simulated, fitted, generated",
+        "",
+        "Generated by `python -m studies.microfacet_energy.microsurface_lobes --out docs` "
+        f"({result['seconds'] / 60:.1f} minutes on 2 cores); the numbers are in microsurface_lobes.json. How the "
+        "blog's lobe model is read (every ambiguity of its text and code) is in [blog_lobe_model.md](blog_lobe_model.md).",
+        "",
+        "## The simulated lobes",
+        "",
+        "The random walk of Heitz et al. (2016) on GGX microsurfaces (height-correlated Smith), diffuse (Lambertian) "
+        "facets of albedo 1 and F = 1 conductors, lobes by order (1, 2, 3, 4 and the tail above 4) in 10 x 8 "
+        "(mu_o, |phi_o|) bins with standard errors, on a 7 x 6 training grid of (alpha, mu_i) in [0.05, 1]^2 and an "
+        "interleaved 42-job validation grid (`fitlab tabulate`; fitlab/data/microfacet_energy/lobes_*.csv, "
+        "lobes/tables.py states grid, seed and budget):",
+        "",
+    ]
     L += ["| table | jobs | paths |", "|---|---|---|"]
     L += [f"| {k} | {v['jobs']} | {v['paths']:.3g} |" for k, v in result["tables"].items()]
     z = result["albedo_vs_engine"]
-    L += ["", "Checks: the conductors' multiple-scattering albedo (orders >= 2) against 1 - E(mu_i) of the exact engine "
-          f"(height-correlated GGX): max |z| {z['training']['max_abs_z']:.2f} (training, {z['training']['jobs']} jobs), "
-          f"{z['validation']['max_abs_z']:.2f} (validation); RMS z {z['training']['rms_z']:.2f}, "
-          f"{z['validation']['rms_z']:.2f}. Diffuse facets of albedo 0.6 against 0.6^S times albedo 1 (independent "
-          "seeds, alpha = mu_i = 0.5): ratios " + ", ".join(f"{r:.4f}" for r in result["rho_identity"]["ratio"])
-          + " (orders 1-4), z " + ", ".join(f"{x:+.2f}" for x in result["rho_identity"]["z"]) + ".", ""]
-    L += ["## Fitting one lobe (the blog's step 3)", "",
-          "Each shape of lobes/shapes.py fitted to every lobe of the training grid (orders 2, 3, 4, tail: "
-          f"{next(iter(result['per_lobe']['diffuse'].values()))['lobes']} lobes per kind), optimistix "
-          "Levenberg-Marquardt on the chi-square of the bins plus the albedo's (lobes/fitting.py says why), one "
-          "compilation for all lobes; the forms with a deviation angle from 3 starts (-0.6, 0, 0.6 rad), the "
-          "seconds per lobe counting every start. The "
-          "blog ran BFGS, 'sometimes a hundred iterations' per lobe, overnight. Steps are LM steps (each one "
-          "Jacobian and one linear solve); seconds per lobe after compilation; the floor is the RMS relative error "
-          "of the fitted lobe on its meaningful bins (lobes of albedo >= 1e-3), by order.", ""]
-    L += ["| kind | shape | free | steps, kept start: mean (max) | steps, all starts | s per lobe: mean (max) | "
-          "compile s | converged | floor RMS: order 2 / 3 / 4 / tail |", "|---" * 9 + "|"]
+    L += [
+        "",
+        "Checks: the conductors' multiple-scattering albedo (orders >= 2) against 1 - E(mu_i) of the exact engine "
+        f"(height-correlated GGX): max |z| {z['training']['max_abs_z']:.2f} (training, {z['training']['jobs']} jobs), "
+        f"{z['validation']['max_abs_z']:.2f} (validation); RMS z {z['training']['rms_z']:.2f}, "
+        f"{z['validation']['rms_z']:.2f}. Diffuse facets of albedo 0.6 against 0.6^S times albedo 1 (independent "
+        "seeds, alpha = mu_i = 0.5): ratios "
+        + ", ".join(f"{r:.4f}" for r in result["rho_identity"]["ratio"])
+        + " (orders 1-4), z "
+        + ", ".join(f"{x:+.2f}" for x in result["rho_identity"]["z"])
+        + ".",
+        "",
+    ]
+    L += [
+        "## Fitting one lobe (the blog's step 3)",
+        "",
+        "Each shape of lobes/shapes.py fitted to every lobe of the training grid (orders 2, 3, 4, tail: "
+        f"{next(iter(result['per_lobe']['diffuse'].values()))['lobes']} lobes per kind), optimistix "
+        "Levenberg-Marquardt on the chi-square of the bins plus the albedo's (lobes/fitting.py says why), one "
+        "compilation for all lobes; the forms with a deviation angle from 3 starts (-0.6, 0, 0.6 rad), the "
+        "seconds per lobe counting every start. The "
+        "blog ran BFGS, 'sometimes a hundred iterations' per lobe, overnight. Steps are LM steps (each one "
+        "Jacobian and one linear solve); seconds per lobe after compilation; the floor is the RMS relative error "
+        "of the fitted lobe on its meaningful bins (lobes of albedo >= 1e-3), by order.",
+        "",
+    ]
+    L += [
+        "| kind | shape | free | steps, kept start: mean (max) | steps, all starts | s per lobe: mean (max) | "
+        "compile s | converged | floor RMS: order 2 / 3 / 4 / tail |",
+        "|---" * 9 + "|",
+    ]
     # (seconds per lobe: every start of the lobe together)
     for kind, forms in result["per_lobe"].items():
         for name, r in forms.items():
-            floor = " / ".join(f"{r['by_order'][o]['rms_rel']:.3f}" if o in r["by_order"] else "-"
-                               for o in ("2", "3", "4", ">4"))
-            L.append(f"| {kind} | {name} | {r['free']} | {r['steps_mean']:.0f} ({r['steps_max']}) | "
-                     f"{r['steps_all_mean']:.0f} | {r['seconds_mean'] * 1e3:.1f} ms ({r['seconds_max'] * 1e3:.0f} ms) | "
-                     f"{r['compile_seconds']:.1f} | {r['converged']:.0%} | {floor} |")
+            floor = " / ".join(
+                f"{r['by_order'][o]['rms_rel']:.3f}" if o in r["by_order"] else "-" for o in ("2", "3", "4", ">4")
+            )
+            L.append(
+                f"| {kind} | {name} | {r['free']} | {r['steps_mean']:.0f} ({r['steps_max']}) | "
+                f"{r['steps_all_mean']:.0f} | {r['seconds_mean'] * 1e3:.1f} ms ({r['seconds_max'] * 1e3:.0f} ms) | "
+                f"{r['compile_seconds']:.1f} | {r['converged']:.0%} | {floor} |"
+            )
     m = {k: v["blog_masking"]["m_range"] for k, v in result["per_lobe"].items() if "blog_masking" in v}
-    L += ["", "The masking importance m (blog_masking, m free): fitted values range over "
-          + "; ".join(f"{k} [{lo:.3g}, {hi:.3g}]" for k, (lo, hi) in m.items())
-          + " (m is meant to lie in [0, 1]), for a floor barely lower than with m = 0: the blog's 'not very "
-          "significant', confirmed; every other shape holds m at 0.", ""]
-    L += ["## The parameters as functions of alpha, mu_i and the order (the blog's step 4)", "",
-          "Targets ms_{blog,tilt}_PARAM_{diffuse,conductor} (lobes/targets.py: error measures, sets, weights), "
-          "refitted with `fitlab refit` (fits in fitlab/fits). Validation figures (the blog's presets exist for "
-          "diffuse facets only; the tilted lobe's scale is measured against the energy-matching scale):", "",
-          "| target | form | preset or refit | max | RMS |", "|---|---|---|---|---|"]
+    L += [
+        "",
+        "The masking importance m (blog_masking, m free): fitted values range over "
+        + "; ".join(f"{k} [{lo:.3g}, {hi:.3g}]" for k, (lo, hi) in m.items())
+        + " (m is meant to lie in [0, 1]), for a floor barely lower than with m = 0: the blog's 'not very "
+        "significant', confirmed; every other shape holds m at 0.",
+        "",
+    ]
+    L += [
+        "## The parameters as functions of alpha, mu_i and the order (the blog's step 4)",
+        "",
+        "Targets ms_{blog,tilt}_PARAM_{diffuse,conductor} (lobes/targets.py: error measures, sets, weights), "
+        "refitted with `fitlab refit` (fits in fitlab/fits). Validation figures (the blog's presets exist for "
+        "diffuse facets only; the tilted lobe's scale is measured against the energy-matching scale):",
+        "",
+        "| target | form | preset or refit | max | RMS |",
+        "|---|---|---|---|---|",
+    ]
     for r in result["refits"]:
         star = " (default)" if r["default"] else ""
         L.append(f"| {r['target']} | {r['form']}{star} | {r['what']} | {_g(r['max'])} | {_g(r['rms'])} |")
     for kind in lt.KINDS:
-        L += ["", f"## Accuracy and cost against the simulated lobes: {kind} facets", "",
-              "Validation grid, every lobe. Order columns: max / RMS relative error on the meaningful bins (value >= "
-              f"{SNR:g} se); orders >= 2: the multiple-scattering lobe a renderer adds, with the bins' own noise; "
-              "energy: the albedo error of orders >= 2, relative (max / RMS over the jobs) and absolute (a fraction of "
-              "the incident energy); whole BRDF: single scattering (the simulated order 1, exact in a renderer) plus "
-              "the model, relative; C ns: one evaluation of the generated C (double), one interleaved run.", ""]
+        L += [
+            "",
+            f"## Accuracy and cost against the simulated lobes: {kind} facets",
+            "",
+            "Validation grid, every lobe. Order columns: max / RMS relative error on the meaningful bins (value >= "
+            f"{SNR:g} se); orders >= 2: the multiple-scattering lobe a renderer adds, with the bins' own noise; "
+            "energy: the albedo error of orders >= 2, relative (max / RMS over the jobs) and absolute (a fraction of "
+            "the incident energy); whole BRDF: single scattering (the simulated order 1, exact in a renderer) plus "
+            "the model, relative; C ns: one evaluation of the generated C (double), one interleaved run.",
+            "",
+        ]
         L += _accuracy_table(result["accuracy"][kind], result["ns"], kind)
         worst = {m: r["multiple"]["worst"] for m, r in result["accuracy"][kind].items() if m != "none"}
         L += ["", "Where each model errs most (orders >= 2): " + "; ".join(f"{m}: {w}" for m, w in worst.items()) + "."]
         L += ["", f"![{kind}: simulated lobes against the models](microsurface_lobes_{kind}.png)", ""]
     kc = result["accuracy"]["conductor"]["kulla_conti"]
-    L += ["## Kulla-Conti's f_ms against the simulated lobe (F = 1 conductors)", "",
-          "f_ms = (1 - E(mu_o)) (1 - E(mu_i)) / (pi (1 - E_avg)) of height-correlated GGX, the walk's order 1, exact E: "
-          "its energy is the simulated one by construction (1 - E(mu_i); measured "
-          f"{kc['multiple']['energy_max_rel']:.3g} max relative, the noise of the simulation). Its shape against the "
-          "sum of the orders, and against each order's lobe scaled to that order's albedo:", "",
-          "| lobe | max rel | RMS rel | noise RMS | where it differs most |", "|---|---|---|---|---|"]
-    for o, label in (("multiple", "orders >= 2"), ("2", "order 2"), ("3", "order 3"), ("4", "order 4"),
-                     (">4", "tail above 4")):
+    L += [
+        "## Kulla-Conti's f_ms against the simulated lobe (F = 1 conductors)",
+        "",
+        "f_ms = (1 - E(mu_o)) (1 - E(mu_i)) / (pi (1 - E_avg)) of height-correlated GGX, the walk's order 1, exact E: "
+        "its energy is the simulated one by construction (1 - E(mu_i); measured "
+        f"{kc['multiple']['energy_max_rel']:.3g} max relative, the noise of the simulation). Its shape against the "
+        "sum of the orders, and against each order's lobe scaled to that order's albedo:",
+        "",
+        "| lobe | max rel | RMS rel | noise RMS | where it differs most |",
+        "|---|---|---|---|---|",
+    ]
+    for o, label in (
+        ("multiple", "orders >= 2"),
+        ("2", "order 2"),
+        ("3", "order 3"),
+        ("4", "order 4"),
+        (">4", "tail above 4"),
+    ):
         r = kc[o]
         L.append(f"| {label} | {_g(r['max_rel'])} | {_g(r['rms_rel'])} | {_g(r['noise_rms'])} | {r['worst']} |")
     ns = result["ns"]
-    L += ["", "## Cost", "", "ns per evaluation of the generated C (double, gcc -O2, 1e5 random inputs), one interleaved "
-          "run; only the ratios carry meaning. 'none' costs nothing; an E lookup of the fitted E_ggx_cor is the unit "
-          "Kulla-Conti pays three times.", "", "| routine | ns | vs one E |", "|---|---|---|"]
+    L += [
+        "",
+        "## Cost",
+        "",
+        "ns per evaluation of the generated C (double, gcc -O2, 1e5 random inputs), one interleaved "
+        "run; only the ratios carry meaning. 'none' costs nothing; an E lookup of the fitted E_ggx_cor is the unit "
+        "Kulla-Conti pays three times.",
+        "",
+        "| routine | ns | vs one E |",
+        "|---|---|---|",
+    ]
     unit = ns.get("E_ggx_cor (one E, fitted)")
     for k, v in ns.items():
         L.append(f"| {k} | {v:.0f} | {v / unit:.1f} |" if unit else f"| {k} | {v:.0f} | |")
@@ -425,22 +552,40 @@ def _figure(tables: dict, fits_dir, out: Path) -> list[Path]:
     for kind in lt.KINDS:
         t = tables[(kind, "validation")]
         jobs = [int(np.where((t.alpha == a) & (t.mu_i == m))[0][0]) for a, m in FIGURE_POINTS]
-        sub = lt.LobeTable(kind, "validation", t.alpha[jobs], t.mu_i[jobs], t.paths[jobs], t.value[jobs], t.se[jobs],
-                           t.albedo[jobs], t.albedo_se[jobs])
+        sub = lt.LobeTable(
+            kind,
+            "validation",
+            t.alpha[jobs],
+            t.mu_i[jobs],
+            t.paths[jobs],
+            t.value[jobs],
+            t.se[jobs],
+            t.albedo[jobs],
+            t.albedo_se[jobs],
+        )
         models = [m for m in STUDY_MODELS[kind] if m not in ("none", "blog_code", "blog_rich")]
         bins = {m: model_bins(m, kind, sub, fits_dir) for m in models if m != "kulla_conti"}
         kc = kulla_conti_bins(sub) if "kulla_conti" in models else None
         y_ms, se_ms, _, _ = sub.multiple()
         fig, axes = plt.subplots(3, len(jobs), figsize=(4.2 * len(jobs), 9.0), squeeze=False)
         for col in range(len(jobs)):
-            rows = (("order 2", sub.value[col, 1], sub.se[col, 1], lambda b, col=col: b[col, 0]),
-                    ("order 3", sub.value[col, 2], sub.se[col, 2], lambda b, col=col: b[col, 1]),
-                    ("orders >= 2", y_ms[col], se_ms[col], lambda b, col=col: b[col].sum(axis=0)))
+            rows = (
+                ("order 2", sub.value[col, 1], sub.se[col, 1], lambda b, col=col: b[col, 0]),
+                ("order 3", sub.value[col, 2], sub.se[col, 2], lambda b, col=col: b[col, 1]),
+                ("orders >= 2", y_ms[col], se_ms[col], lambda b, col=col: b[col].sum(axis=0)),
+            )
             for row, (label, y, se, pick) in enumerate(rows):
                 ax = axes[row, col]
                 for side, p, sign in (("back", 0, 1), ("forward", len(lt.PHI_EDGES) - 2, -1)):
-                    ax.errorbar(sign * theta, y[:, p], yerr=se[:, p], fmt="o", ms=3, color="k",
-                                label="simulated" if side == "back" else None)
+                    ax.errorbar(
+                        sign * theta,
+                        y[:, p],
+                        yerr=se[:, p],
+                        fmt="o",
+                        ms=3,
+                        color="k",
+                        label="simulated" if side == "back" else None,
+                    )
                 for m in models:
                     if m == "kulla_conti" and label != "orders >= 2":
                         continue  # Kulla-Conti's lobe is the sum of the orders
@@ -478,8 +623,11 @@ def run(fits_dir=None, data_dir=None, progress=print) -> dict:
         t = tables[("conductor", which)]
         _, _, ms, ms_se = t.multiple()
         z = (ms - (1.0 - directional_albedo(t.mu_i, t.alpha, "ggx_correlated"))) / ms_se
-        result["albedo_vs_engine"][which] = {"max_abs_z": float(np.max(np.abs(z))), "jobs": int(z.size),
-                                             "rms_z": float(np.sqrt(np.mean(z**2)))}
+        result["albedo_vs_engine"][which] = {
+            "max_abs_z": float(np.max(np.abs(z))),
+            "jobs": int(z.size),
+            "rms_z": float(np.sqrt(np.mean(z**2))),
+        }
     progress("the rho^S identity of diffuse facets")
     ident = lt.albedo_identity(rho=0.6, paths=200_000)
     result["rho_identity"] = {"ratio": ident["ratio"].tolist(), "z": ident["z"].tolist()}
@@ -494,8 +642,10 @@ def run(fits_dir=None, data_dir=None, progress=print) -> dict:
 def main(argv=None) -> int:
     from fitlab._io import atomic_write_many
 
-    p = argparse.ArgumentParser(prog="python -m studies.microfacet_energy.microsurface_lobes",
-                                description="Write microsurface_lobes.md, .json and the figures (this module's study).")
+    p = argparse.ArgumentParser(
+        prog="python -m studies.microfacet_energy.microsurface_lobes",
+        description="Write microsurface_lobes.md, .json and the figures (this module's study).",
+    )
     p.add_argument("--out", default=".", help="folder for microsurface_lobes.md, .json and .png")
     p.add_argument("--fits", default=None, help="fits folder (default: the packaged fits)")
     args = p.parse_args(argv)

@@ -34,8 +34,11 @@ __all__ = ["CASES", "MU_I", "run_validation", "format_table"]
 #: (label, TOML lines of the material) of every case of the study
 CASES = (
     ("white_ggx", 'kind = "conductor"\ndistribution = "ggx"\nalpha = 0.6'),
-    ("gold_aniso_ggx", 'kind = "conductor"\ndistribution = "ggx"\nalpha_x = 0.3\nalpha_y = 0.8\n'
-                       'fresnel = "conductor"\neta = 0.2\nk = 3.0'),
+    (
+        "gold_aniso_ggx",
+        'kind = "conductor"\ndistribution = "ggx"\nalpha_x = 0.3\nalpha_y = 0.8\n'
+        'fresnel = "conductor"\neta = 0.2\nk = 3.0',
+    ),
     ("schlick_beckmann", 'kind = "conductor"\ndistribution = "beckmann"\nalpha = 0.4\nfresnel = "schlick"\nf0 = 0.3'),
     ("glass_ggx", 'kind = "dielectric"\ndistribution = "ggx"\nalpha = 0.6\neta = 1.5'),
     ("glass_mirror_beckmann", 'kind = "dielectric"\ndistribution = "beckmann"\nalpha = 0.001\neta = 1.5'),
@@ -45,11 +48,15 @@ CASES = (
     ("glass_aniso_ggx", 'kind = "dielectric"\ndistribution = "ggx"\nalpha_x = 0.3\nalpha_y = 0.8\neta = 1.5'),
     ("glass_beckmann", 'kind = "dielectric"\ndistribution = "beckmann"\nalpha = 0.6\neta = 1.5'),
     ("inside_ggx", 'kind = "dielectric"\ndistribution = "ggx"\nalpha = 0.6\neta = 0.6666666666666666'),
-    ("inside_aniso_beckmann", 'kind = "dielectric"\ndistribution = "beckmann"\nalpha_x = 0.2\nalpha_y = 0.5\n'
-                              'eta = 0.6666666666666666'),
+    (
+        "inside_aniso_beckmann",
+        'kind = "dielectric"\ndistribution = "beckmann"\nalpha_x = 0.2\nalpha_y = 0.5\neta = 0.6666666666666666',
+    ),
     ("diffuse_white_ggx", 'kind = "diffuse"\ndistribution = "ggx"\nalpha = 0.6'),
-    ("diffuse_grey_aniso_beckmann", 'kind = "diffuse"\ndistribution = "beckmann"\nalpha_x = 0.3\nalpha_y = 0.8\n'
-                                    'albedo = 0.8'),
+    (
+        "diffuse_grey_aniso_beckmann",
+        'kind = "diffuse"\ndistribution = "beckmann"\nalpha_x = 0.3\nalpha_y = 0.8\nalbedo = 0.8',
+    ),
 )
 #: two-sided p-value of a 4-sigma normal deviation: the bins below it are counted
 P_MIN = 6.3e-5
@@ -86,45 +93,72 @@ def run_validation(paths: int = 2_000_000, progress: bool = False) -> list:
     out = []
     for mi, mat in enumerate(result.scene.materials):
         rows = [r for r in result.rows if r["material"] == mat.label]
-        lobe = [r for r in rows if r["quantity"] in ("lobe", "lobe_transmission") and r["order"] == "1"
-                and (r["reference"] > 0.0 or r["_s1"] > 0.0)]
+        lobe = [
+            r
+            for r in rows
+            if r["quantity"] in ("lobe", "lobe_transmission")
+            and r["order"] == "1"
+            and (r["reference"] > 0.0 or r["_s1"] > 0.0)
+        ]
         ps = np.array([count_p_value(r) for r in lobe])
         # z is normal where the bin holds many paths: those expected to hold 25 or more
         zs = np.array([r["z_ref"] for r in lobe if r["se"] > 0.0 and r["reference"] * r["_n"] * r["_norm"] >= 25.0])
-        totals = [abs(r["z_ref"]) for r in rows if r["quantity"] in ("albedo", "transmission", "albedo_multiple")
-                  and math.isfinite(r["z_ref"])]
+        totals = [
+            abs(r["z_ref"])
+            for r in rows
+            if r["quantity"] in ("albedo", "transmission", "albedo_multiple") and math.isfinite(r["z_ref"])
+        ]
         defect = math.nan
         if mat.conserves_energy:
-            defect = max(abs(float(np.sum(t["albedo"]) + np.sum(t["transmission"]) + t["capped"] - t["paths"]))
-                         for (m, _), t in result.tallies.items() if m == mi)
+            defect = max(
+                abs(float(np.sum(t["albedo"]) + np.sum(t["transmission"]) + t["capped"] - t["paths"]))
+                for (m, _), t in result.tallies.items()
+                if m == mi
+            )
         jobs = [st for (m, _), st in result.jobs.items() if m == mi]
-        out.append(dict(case=mat.label, kind=mat.kind, jobs=len(jobs), bins=len(lobe), min_p=float(np.min(ps)),
-                        bins_below_p=int(np.sum(ps < P_MIN)), z_bins=int(zs.size),
-                        max_abs_z=float(np.max(np.abs(zs), initial=math.nan if zs.size == 0 else 0.0)),
-                        rms_z=float(np.sqrt(np.mean(zs * zs))) if zs.size else math.nan,
-                        max_abs_z_totals=max(totals, default=math.nan), energy_defect=defect,
-                        failed=sum(int(t["failed"]) for (m, _), t in result.tallies.items() if m == mi),
-                        seconds=sum(st.seconds for st in jobs)))
+        out.append(
+            dict(
+                case=mat.label,
+                kind=mat.kind,
+                jobs=len(jobs),
+                bins=len(lobe),
+                min_p=float(np.min(ps)),
+                bins_below_p=int(np.sum(ps < P_MIN)),
+                z_bins=int(zs.size),
+                max_abs_z=float(np.max(np.abs(zs), initial=math.nan if zs.size == 0 else 0.0)),
+                rms_z=float(np.sqrt(np.mean(zs * zs))) if zs.size else math.nan,
+                max_abs_z_totals=max(totals, default=math.nan),
+                energy_defect=defect,
+                failed=sum(int(t["failed"]) for (m, _), t in result.tallies.items() if m == mi),
+                seconds=sum(st.seconds for st in jobs),
+            )
+        )
     return out
 
 
 def format_table(rows: list) -> str:
     """A markdown table of :func:`run_validation`'s rows."""
-    lines = ["| case | kind | bins | smallest p | bins with p < 6.3e-5 | bins >= 25 paths | max abs z | RMS z | "
-             "max abs z of totals | energy defect | failed | seconds |",
-             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    lines = [
+        "| case | kind | bins | smallest p | bins with p < 6.3e-5 | bins >= 25 paths | max abs z | RMS z | "
+        "max abs z of totals | energy defect | failed | seconds |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|",
+    ]
     for r in rows:
         defect = "n/a (absorbs)" if math.isnan(r["energy_defect"]) else f"{r['energy_defect']:g}"
-        lines.append(f"| {r['case']} | {r['kind']} | {r['bins']} | {r['min_p']:.2g} | {r['bins_below_p']} | "
-                     f"{r['z_bins']} | {r['max_abs_z']:.2f} | {r['rms_z']:.2f} | {r['max_abs_z_totals']:.2f} | "
-                     f"{defect} | {r['failed']} | {r['seconds']:.1f} |")
+        lines.append(
+            f"| {r['case']} | {r['kind']} | {r['bins']} | {r['min_p']:.2g} | {r['bins_below_p']} | "
+            f"{r['z_bins']} | {r['max_abs_z']:.2f} | {r['rms_z']:.2f} | {r['max_abs_z_totals']:.2f} | "
+            f"{defect} | {r['failed']} | {r['seconds']:.1f} |"
+        )
     return "\n".join(lines)
 
 
 def main(argv=None) -> int:
-    p = argparse.ArgumentParser(prog="python -m studies.microfacet_energy.microsurface_validation",
-                                description="Order 1 of the microsurface walk against its references at a large "
-                                            "budget (prints a markdown table).")
+    p = argparse.ArgumentParser(
+        prog="python -m studies.microfacet_energy.microsurface_validation",
+        description="Order 1 of the microsurface walk against its references at a large "
+        "budget (prints a markdown table).",
+    )
     p.add_argument("--paths", type=int, default=2_000_000, help="paths per job (material x mu_i), >= 10000")
     p.add_argument("--quiet", action="store_true", help="no progress lines")
     args = p.parse_args(argv)

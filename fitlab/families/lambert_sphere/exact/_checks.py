@@ -39,8 +39,16 @@ def _real_element(x) -> bool:
     return (isinstance(x, (numbers.Real, decimal.Decimal))) and not isinstance(x, (bool, np.bool_))
 
 
-def real_array(value, name: str, lo: float = -np.inf, hi: float = np.inf, *, domain: str | None = None,
-               allow_inf: bool = True, open_ends: bool = False) -> np.ndarray:
+def real_array(
+    value,
+    name: str,
+    lo: float = -np.inf,
+    hi: float = np.inf,
+    *,
+    domain: str | None = None,
+    allow_inf: bool = True,
+    open_ends: bool = False,
+) -> np.ndarray:
     """``value`` as a float64 array whose elements lie in [lo, hi] (NaN refused).
 
     allow_inf=False refuses +-inf even when the interval admits it (phi);
@@ -87,8 +95,9 @@ def real_array(value, name: str, lo: float = -np.inf, hi: float = np.inf, *, dom
     return out
 
 
-def real_scalar(value, name: str, lo: float = -np.inf, hi: float = np.inf, *, domain: str | None = None,
-                open_ends: bool = False) -> float:
+def real_scalar(
+    value, name: str, lo: float = -np.inf, hi: float = np.inf, *, domain: str | None = None, open_ends: bool = False
+) -> float:
     """One real number in [lo, hi] (0-d arrays and numpy scalars included)."""
     out = real_array(value, name, lo, hi, domain=domain, open_ends=open_ends)
     if out.ndim != 0:

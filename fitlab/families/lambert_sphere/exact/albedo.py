@@ -33,8 +33,14 @@ from fitlab.families.lambert_sphere.exact.constants import mode_polynomials
 from fitlab.families.lambert_sphere.exact.hfunction import solve_h
 from fitlab.physics.lambert_sphere import phase_function_of_angle, three_term_phase_function
 
-__all__ = ["albedo", "spherical_albedo", "single_scattering_albedo", "single_albedo_nodes", "three_term_single_albedo",
-           "SINGLE_PHASES"]
+__all__ = [
+    "albedo",
+    "spherical_albedo",
+    "single_scattering_albedo",
+    "single_albedo_nodes",
+    "three_term_single_albedo",
+    "SINGLE_PHASES",
+]
 
 #: the phase functions of a single collision: the true one and the paper's three-term approximation
 SINGLE_PHASES = ("true", "three_term")

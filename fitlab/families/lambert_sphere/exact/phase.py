@@ -49,7 +49,10 @@ def three_term_phase_function(u):
 
 def legendre_weights(m: int, c) -> dict:
     """varpi_l^m = c A_l (l-m)!/(l+m)! for l = m..2 (index l)."""
-    return {ell: np.asarray(c) * THREE_TERM[ell] * factorial(ell - m) / factorial(ell + m) for ell in range(m, MAX_DEGREE + 1)}
+    return {
+        ell: np.asarray(c) * THREE_TERM[ell] * factorial(ell - m) / factorial(ell + m)
+        for ell in range(m, MAX_DEGREE + 1)
+    }
 
 
 # P_l^m(mu) = (1 - mu^2)^(m/2) * reduced_l^m(mu); coefficients low -> high.

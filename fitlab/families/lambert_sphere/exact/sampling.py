@@ -28,8 +28,16 @@ from fitlab.families.lambert_sphere.exact._quadrature import gauss_legendre, gra
 from fitlab.families.lambert_sphere.exact.brdf import brdf
 from fitlab.families.lambert_sphere.exact.phase import phase_function
 
-__all__ = ["mixture_pdf", "relative_variance", "variance_function", "optimal_mixture", "N_MIN", "N_MAX", "QUADRATURE_NODES",
-           "MU_MIN"]
+__all__ = [
+    "mixture_pdf",
+    "relative_variance",
+    "variance_function",
+    "optimal_mixture",
+    "N_MIN",
+    "N_MAX",
+    "QUADRATURE_NODES",
+    "MU_MIN",
+]
 
 #: the exponent's search interval
 N_MIN, N_MAX = 0.25, 64.0
@@ -52,8 +60,9 @@ def _mixture(cosine, dot, weight, exponent):
 
 def mixture_pdf(mu_i, mu_o, cos_phi, weight, exponent):
     """The sampling density p(w_o | w_i) (1/sr) of docs/derivation.md; 0 for mu_o <= 0.  Broadcast."""
-    mu_i, mu_o, cos_phi, weight, exponent = np.broadcast_arrays(*(np.asarray(x, dtype=float) for x in
-                                                                  (mu_i, mu_o, cos_phi, weight, exponent)))
+    mu_i, mu_o, cos_phi, weight, exponent = np.broadcast_arrays(
+        *(np.asarray(x, dtype=float) for x in (mu_i, mu_o, cos_phi, weight, exponent))
+    )
     density = _mixture(mu_o / np.pi, np.maximum(_dot(mu_i, mu_o, cos_phi), 0.0), weight, exponent)
     return np.where(mu_o > 0.0, density, 0.0)
 
@@ -107,8 +116,12 @@ def relative_variance(mu_i, c: float, weight, exponent, nodes: tuple = QUADRATUR
     c = float(_checks.real_scalar(c, "c", 0.0, 1.0))
     weight, exponent = (np.broadcast_to(np.asarray(x, dtype=float), mu_i.shape) for x in (weight, exponent))
     g, mu_o, cos_phi, weights = _integrand(mu_i, c, nodes)
-    return np.array([_variance_function(g[k], mi, mu_o[k], cos_phi[k], weights)(weight[k], exponent[k])
-                     for k, mi in enumerate(mu_i)])
+    return np.array(
+        [
+            _variance_function(g[k], mi, mu_o[k], cos_phi[k], weights)(weight[k], exponent[k])
+            for k, mi in enumerate(mu_i)
+        ]
+    )
 
 
 def _optimum(variance):
@@ -117,15 +130,15 @@ def _optimum(variance):
     from scipy.optimize import minimize_scalar  # imported here: see .albedo.single_scattering_albedo
 
     def best_weight(n):
-        r = minimize_scalar(lambda w: variance(w, n), bounds=(0.0, 1.0 - 1e-9), method="bounded",
-                            options={"xatol": 1e-7})
+        r = minimize_scalar(
+            lambda w: variance(w, n), bounds=(0.0, 1.0 - 1e-9), method="bounded", options={"xatol": 1e-7}
+        )
         return float(r.x), float(r.fun)
 
     profile = [best_weight(n)[1] for n in _N_SCAN]
     k = int(np.argmin(profile))
     lo, hi = np.log(_N_SCAN[max(k - 1, 0)]), np.log(_N_SCAN[min(k + 1, len(_N_SCAN) - 1)])
-    r = minimize_scalar(lambda t: best_weight(np.exp(t))[1], bounds=(lo, hi), method="bounded",
-                        options={"xatol": 1e-6})
+    r = minimize_scalar(lambda t: best_weight(np.exp(t))[1], bounds=(lo, hi), method="bounded", options={"xatol": 1e-6})
     n = float(np.exp(r.x))
     w, v = best_weight(n)
     if profile[k] < v:  # the refinement can only improve on the scan (flat profiles): keep the better

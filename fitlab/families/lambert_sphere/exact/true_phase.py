@@ -127,9 +127,9 @@ def assoc_normalised(m: int, degree: int, mu) -> np.ndarray:
     if degree > m:
         out[1] = np.sqrt(2.0 * m + 1.0) * mu * q
     for ell in range(m + 2, degree + 1):
-        out[ell - m] = ((2 * ell - 1) * mu * out[ell - 1 - m] - np.sqrt((ell - 1.0) ** 2 - m * m) * out[ell - 2 - m]) / np.sqrt(
-            ell * ell - m * m
-        )
+        out[ell - m] = (
+            (2 * ell - 1) * mu * out[ell - 1 - m] - np.sqrt((ell - 1.0) ** 2 - m * m) * out[ell - 2 - m]
+        ) / np.sqrt(ell * ell - m * m)
     return out
 
 
@@ -341,8 +341,14 @@ def clear_cache() -> None:
     _needed_cached.cache_clear()
 
 
-def solve_order(order: int, c: float, method: str = "newton", phase: str = "true", degree: int | None = None,
-                smallest: float = 1e-10) -> OrderSolution:
+def solve_order(
+    order: int,
+    c: float,
+    method: str = "newton",
+    phase: str = "true",
+    degree: int | None = None,
+    smallest: float = 1e-10,
+) -> OrderSolution:
     """The discrete half space of Fourier order ``order`` at particle albedo c (cached)."""
     method = _checks.choice(method, "method", METHODS)
     phase = _checks.choice(phase, "phase", PHASES)
@@ -370,6 +376,7 @@ def _rows(sol: OrderSolution, u: np.ndarray):
 
     def solve(rates):
         if rates is None:
+
             def approx(y):
                 return y / (mu[:, None] + u[None, :])
         else:
@@ -416,8 +423,14 @@ def interpolation_panels(degree: int, smallest: float, ratio: float = RULES["new
     rule = INTERPOLATION_RULE
     edges = _geometric_edges(ratio, smallest)
     edges = edges[edges < rule["top"]]
-    edges = np.unique(np.concatenate([np.linspace(a, b, int(np.ceil((b - a) / rule["longest"])) + 1)
-                                      for a, b in zip(edges, np.append(edges[1:], rule["top"]))]))
+    edges = np.unique(
+        np.concatenate(
+            [
+                np.linspace(a, b, int(np.ceil((b - a) / rule["longest"])) + 1)
+                for a, b in zip(edges, np.append(edges[1:], rule["top"]))
+            ]
+        )
+    )
     theta_edges = np.linspace(np.arccos(rule["top"]), 0.0, rule["theta_panels"] + 1)
     panels = []
 
@@ -495,7 +508,7 @@ def _ms_numerators(sol: OrderSolution, mu_a, mu_b):
     if c == 0.0 or sol.degree < sol.order:
         return np.zeros(mu_a.shape), 0.0
     uniq, inv = np.unique(np.concatenate((mu_a, mu_b)), return_inverse=True)
-    ia, ib = inv[: mu_a.size], inv[mu_a.size:]
+    ia, ib = inv[: mu_a.size], inv[mu_a.size :]
     ua, ka = np.unique(ia, return_inverse=True)
     ub, kb = np.unique(ib, return_inverse=True)
     with single_threaded_blas():
@@ -523,8 +536,9 @@ def _ms_numerators(sol: OrderSolution, mu_a, mu_b):
     return num, pole
 
 
-def needed_orders(c: float, method: str = "newton", phase: str = "true", degree: int | None = None,
-                  smallest: float = 1e-10) -> int:
+def needed_orders(
+    c: float, method: str = "newton", phase: str = "true", degree: int | None = None, smallest: float = 1e-10
+) -> int:
     """Number of Fourier orders kept: orders m are solved until two in a row have
     max |Rm_m| over the nodes >= 1e-3 below ORDER_TOLERANCE times that of order 0."""
     phase = _checks.choice(phase, "phase", PHASES)
@@ -559,8 +573,16 @@ def _needed_cached(method, phase, degree, c, smallest):
     return min(degree, MAX_ORDERS - 1) + 1
 
 
-def multiple_scattering_orders(mu_i, mu_o, c: float, method: str = "newton", phase: str = "true",
-                               degree: int | None = None, orders: int | None = None, smallest: float = 1e-10):
+def multiple_scattering_orders(
+    mu_i,
+    mu_o,
+    c: float,
+    method: str = "newton",
+    phase: str = "true",
+    degree: int | None = None,
+    orders: int | None = None,
+    smallest: float = 1e-10,
+):
     """Fourier orders fm_0, fm_1, ... (fitlab's azimuth, 1/sr) of the multiple scattering, one c.
 
     mu_i, mu_o in [0, 1], broadcast; returns a tuple of arrays, one per order
@@ -591,8 +613,17 @@ def multiple_scattering_orders(mu_i, mu_o, c: float, method: str = "newton", pha
     return tuple(out)
 
 
-def multiple_scattering_sum(mu_i, mu_o, phi, c: float, method: str = "newton", phase: str = "true",
-                            degree: int | None = None, orders: int | None = None, smallest: float = 1e-10):
+def multiple_scattering_sum(
+    mu_i,
+    mu_o,
+    phi,
+    c: float,
+    method: str = "newton",
+    phase: str = "true",
+    degree: int | None = None,
+    orders: int | None = None,
+    smallest: float = 1e-10,
+):
     """sum_m fm_m(mu_i, mu_o) cos(m phi) for one c (phi = 0 back-scattering); +inf at mu_i = mu_o = 0 (c > 0)."""
     phi = _checks.real_array(phi, "phi", domain="(-inf, inf), finite (radians)", allow_inf=False)
     modes = multiple_scattering_orders(mu_i, mu_o, c, method, phase, degree, orders, smallest)
@@ -608,8 +639,9 @@ def multiple_scattering_sum(mu_i, mu_o, phi, c: float, method: str = "newton", p
     return total
 
 
-def multiple_scattering_albedo(mu_i, c: float, method: str = "newton", phase: str = "true", degree: int | None = None,
-                               smallest: float = 1e-10):
+def multiple_scattering_albedo(
+    mu_i, c: float, method: str = "newton", phase: str = "true", degree: int | None = None, smallest: float = 1e-10
+):
     """2 pi int_0^1 fm_0(mu_i, mu_o) mu_o dmu_o on the solution's own rule (exact in the discretisation)."""
     mu_i = _checks.real_array(mu_i, "mu_i", 0.0, 1.0)
     c = _checks.real_scalar(c, "c", 0.0, 1.0, domain="[0, 1] (particle albedo)")

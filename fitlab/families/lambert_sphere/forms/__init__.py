@@ -19,4 +19,14 @@ from fitlab.families.lambert_sphere.forms.brdf import (
 
 FORMS = (*h_functions.FORMS, *constants.FORMS, *albedo_maps.FORMS, *brdf.FORMS, *sampling.FORMS)
 
-__all__ = ["FORMS", "AZIMUTH", "ORDER2_PART", "RUNTIME_PARTS", "RUNTIME_TERMS", "SINGLE", "runtime_brdf", "runtime_sum", "runtime_terms"]
+__all__ = [
+    "FORMS",
+    "AZIMUTH",
+    "ORDER2_PART",
+    "RUNTIME_PARTS",
+    "RUNTIME_TERMS",
+    "SINGLE",
+    "runtime_brdf",
+    "runtime_sum",
+    "runtime_terms",
+]

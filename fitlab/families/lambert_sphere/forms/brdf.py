@@ -38,8 +38,13 @@ SINGLE = c * PHASE / (mu_i + mu_o)
 
 #: (1 - u)/2 = (1 + mu_i mu_o + S cos(phi))/2, from a sum of terms >= 0: 1 - u = (1 - S^2)/(1 + S) + mu_i mu_o +
 #: S (1 + cos phi), 1 - S^2 = mu_i^2 + mu_o^2 (1 - mu_i^2); clamped to [0, 1] against rounding
-_V = sp.Min(1, sp.Max(0, ((mu_i**2 + mu_o**2 * (1 - mu_i**2)) / (1 + S) + mu_i * mu_o + S * (1 + sp.cos(phi))) / 2,
-                       evaluate=False), evaluate=False)
+_V = sp.Min(
+    1,
+    sp.Max(
+        0, ((mu_i**2 + mu_o**2 * (1 - mu_i**2)) / (1 + S) + mu_i * mu_o + S * (1 + sp.cos(phi))) / 2, evaluate=False
+    ),
+    evaluate=False,
+)
 #: the phase function p(u) as a function of 1 - u (:data:`PHASE`, the same function,
 #: :func:`fitlab.physics.lambert_sphere.phase_function_forward`): sqrt(1 - u^2) - u acos(u) = sin x - x cos x, x =
 #: acos(u) from v = (1 - u)/2 with one asin, by its series in forward scattering, where the two terms agree to
@@ -79,7 +84,11 @@ def _fm1_fast_general() -> Form:
         name="fast_general",
         inputs=("mu_i", "mu_o", "c"),
         params=("k1", "k2", "g", "e"),
-        expr=-(k1 + k2 * c) * c * sp.atan(c) * S * safe_pow(sp.tanh(g * (mu_i + mu_i * mu_o + mu_o)), e)
+        expr=-(k1 + k2 * c)
+        * c
+        * sp.atan(c)
+        * S
+        * safe_pow(sp.tanh(g * (mu_i + mu_i * mu_o + mu_o)), e)
         / (mu_i + mu_o),
         start=dict(k1=0.0117, k2=0.0, g=1.0, e=0.5),
         description=(
@@ -219,7 +228,7 @@ def runtime_terms(parts: Mapping[str, sp.Expr], normalisation: str = "corrected"
     ell, m = parts["l"], parts["m"]
     B, C, D, F = (_less(parts[n], _SUBTRACTED[n]) for n in "BCDF")
     # Q - Q_ss; A - 207 c/384 is 0
-    dq = (B * sigma + C * _P + D * _P * sigma + sp.expand(E_EXACT - sp.Rational(135, 384) * c) * _P**2 + F * _Q)
+    dq = B * sigma + C * _P + D * _P * sigma + sp.expand(E_EXACT - sp.Rational(135, 384) * c) * _P**2 + F * _Q
     q_ss = 2 * PI * SINGLE_NUMERATOR_0
     fm0 = (pair("H0") * (q_ss + dq) + dq) / (2 * PI * sigma)
     g_ss = 1 + sp.Rational(45, 64) * _P

@@ -40,12 +40,16 @@ def _mixture_form(target: str, name: str, link, link_text: str, start: float, bo
         params=names,
         expr=link(p),
         start={n: (start if n == "a00" else 0.0) for n in names},
-        description=(f"{link_text}, P = sum_jk a_jk (2s - 1)^j (2t - 1)^k, t = 2 acos(mu_i)/pi, j <= {s_degree}, "
-                     f"k <= {mu_degree}: {bound} for every parameter vector"),
+        description=(
+            f"{link_text}, P = sum_jk a_jk (2s - 1)^j (2t - 1)^k, t = 2 acos(mu_i)/pi, j <= {s_degree}, "
+            f"k <= {mu_degree}: {bound} for every parameter vector"
+        ),
     )
 
 
 FORMS = (
-    _mixture_form("sample_weight", "logistic_poly", lambda p: 1 / (1 + sp.exp(-p)), "w = 1/(1 + exp(-P))", -1.0, "in (0, 1)"),
+    _mixture_form(
+        "sample_weight", "logistic_poly", lambda p: 1 / (1 + sp.exp(-p)), "w = 1/(1 + exp(-P))", -1.0, "in (0, 1)"
+    ),
     _mixture_form("sample_exponent", "exp_poly", sp.exp, "n = exp(P)", 1.0, "positive"),
 )

@@ -42,13 +42,41 @@ from fitlab.families.lambert_sphere.exact import (
 from fitlab.families.lambert_sphere.mc.scene import Scene
 from fitlab.families.lambert_sphere.mc.transport import WalkConfig
 
-__all__ = ["Job", "plan", "effect_jobs", "estimate_rows", "attach_reference", "ROW_FIELDS", "eq40_kd",
-           "single_spherical_albedo"]
+__all__ = [
+    "Job",
+    "plan",
+    "effect_jobs",
+    "estimate_rows",
+    "attach_reference",
+    "ROW_FIELDS",
+    "eq40_kd",
+    "single_spherical_albedo",
+]
 
 ROW_FIELDS = (
-    "effect", "material", "c", "mu_i", "quantity", "mu_lo", "mu_hi", "phi_lo", "phi_hi", "m", "n",
-    "estimate", "se", "ref", "ref_name", "z_ref", "alt", "alt_name", "z_alt",
-    "paths", "collisions", "seconds", "converged",
+    "effect",
+    "material",
+    "c",
+    "mu_i",
+    "quantity",
+    "mu_lo",
+    "mu_hi",
+    "phi_lo",
+    "phi_hi",
+    "m",
+    "n",
+    "estimate",
+    "se",
+    "ref",
+    "ref_name",
+    "z_ref",
+    "alt",
+    "alt_name",
+    "z_alt",
+    "paths",
+    "collisions",
+    "seconds",
+    "converged",
 )
 _KIND_ID = {"fixed": 0, "both": 1, "cosine": 2}
 _N_MU, _N_PHI = 64, 192
@@ -94,17 +122,20 @@ def plan(scene: Scene) -> dict:
         if job.kind == "cosine":
             cfg = WalkConfig(phase=scene.phase, sampler=scene.sampler, incidence="cosine", **common)
         elif job.kind == "both":
-            cfg = WalkConfig(phase="both", mu_edges=scene.mu_edges, orders=scene.orders,
-                             phi_edges=scene.phi_edges, **common)
+            cfg = WalkConfig(
+                phase="both", mu_edges=scene.mu_edges, orders=scene.orders, phi_edges=scene.phi_edges, **common
+            )
         else:
             directional = "multiple" in effs
             coll = "collisions" in effs
             cfg = WalkConfig(
-                phase=scene.phase, sampler=scene.sampler,
+                phase=scene.phase,
+                sampler=scene.sampler,
                 mu_edges=scene.mu_edges if (directional or coll) else (),
                 orders=scene.orders if directional else (),
                 phi_edges=scene.phi_edges if directional else (),
-                collision_orders=scene.collision_orders if coll else 0, **common,
+                collision_orders=scene.collision_orders if coll else 0,
+                **common,
             )
         out[job] = cfg
     return out
@@ -122,8 +153,19 @@ def _mean_se(total, sq, n):
 def _row(effect, scene, mat, mu_i, quantity, estimate, se, **kw):
     m = scene.materials[mat]
     row = dict.fromkeys(ROW_FIELDS, "")
-    row.update(effect=effect, material=m.label, c=m.c, mu_i=mu_i, quantity=quantity,
-               estimate=float(estimate), se=float(se), ref=math.nan, z_ref=math.nan, alt=math.nan, z_alt=math.nan)
+    row.update(
+        effect=effect,
+        material=m.label,
+        c=m.c,
+        mu_i=mu_i,
+        quantity=quantity,
+        estimate=float(estimate),
+        se=float(se),
+        ref=math.nan,
+        z_ref=math.nan,
+        alt=math.nan,
+        z_alt=math.nan,
+    )
     row.update(kw)
     row["_mat"] = mat
     return row
@@ -180,12 +222,27 @@ def estimate_rows(effect: str, scene: Scene, results: dict) -> list:
                 for b, (a, bb) in enumerate(_mu_bins(scene)):
                     for m in scene.orders:
                         v = _ss_bin(scene, mat, inc, b, ("m", m))
-                        rows.append(_row(effect, scene, mat, mu_i, "f_ss", v, 0.0, mu_lo=a, mu_hi=bb, m=m,
-                                         _key=("m", b, m)))
+                        rows.append(
+                            _row(effect, scene, mat, mu_i, "f_ss", v, 0.0, mu_lo=a, mu_hi=bb, m=m, _key=("m", b, m))
+                        )
                     for j, (p, q) in enumerate(_phi_bins(scene)):
                         v = _ss_bin(scene, mat, inc, b, ("phi", j))
-                        rows.append(_row(effect, scene, mat, mu_i, "f_ss", v, 0.0, mu_lo=a, mu_hi=bb, phi_lo=p,
-                                         phi_hi=q, _key=("phi", b, j)))
+                        rows.append(
+                            _row(
+                                effect,
+                                scene,
+                                mat,
+                                mu_i,
+                                "f_ss",
+                                v,
+                                0.0,
+                                mu_lo=a,
+                                mu_hi=bb,
+                                phi_lo=p,
+                                phi_hi=q,
+                                _key=("phi", b, j),
+                            )
+                        )
         return rows
     for job in effect_jobs(scene, effect):
         t = results.get(job)
@@ -195,13 +252,23 @@ def estimate_rows(effect: str, scene: Scene, results: dict) -> list:
         c = scene.materials[mat].c
         mu_i = scene.mu_i[job.incident] if job.incident >= 0 else math.nan
         if effect == "multiple":
-            rows += _directional_rows(effect, scene, mat, job.incident, t, 0, "",
-                                      lambda mt, i, b, key: _ss_bin(scene, mt, i, b, key))
+            rows += _directional_rows(
+                effect, scene, mat, job.incident, t, 0, "", lambda mt, i, b, key: _ss_bin(scene, mt, i, b, key)
+            )
             rows.append(_capped_row(effect, scene, mat, mu_i, t))
         elif effect == "phase_difference":
-            rows += _directional_rows(effect, scene, mat, job.incident, t, 2, "d_",
-                                      lambda mt, i, b, key: _ss_bin(scene, mt, i, b, key, "true")
-                                      - _ss_bin(scene, mt, i, b, key, "three_term"))
+            rows += _directional_rows(
+                effect,
+                scene,
+                mat,
+                job.incident,
+                t,
+                2,
+                "d_",
+                lambda mt, i, b, key: (
+                    _ss_bin(scene, mt, i, b, key, "true") - _ss_bin(scene, mt, i, b, key, "three_term")
+                ),
+            )
             est, se = _mean_se(t["escape"][2], t["escape_sq"][2], n)
             d_ss = c * (_ss_albedo(mu_i, "true") - _ss_albedo(mu_i, "three_term"))
             rows.append(_row(effect, scene, mat, mu_i, "d_a_ms", est, se))
@@ -217,8 +284,22 @@ def estimate_rows(effect: str, scene: Scene, results: dict) -> list:
                     for b, (a, bb) in enumerate(_mu_bins(scene)):
                         norm = math.pi * (bb * bb - a * a)
                         est, se = _mean_se(t["coll_f0"][j, b, 0], t["coll_f0_sq"][j, b, 0], n)
-                        rows.append(_row(effect, scene, mat, mu_i, "f0_ms_n", est / norm, se / norm, n=lab,
-                                         mu_lo=a, mu_hi=bb, m=0, _norm=norm))
+                        rows.append(
+                            _row(
+                                effect,
+                                scene,
+                                mat,
+                                mu_i,
+                                "f0_ms_n",
+                                est / norm,
+                                se / norm,
+                                n=lab,
+                                mu_lo=a,
+                                mu_hi=bb,
+                                m=0,
+                                _norm=norm,
+                            )
+                        )
             est, se = _mean_se(t["escape"][0], t["escape_sq"][0], n)
             rows.append(_row(effect, scene, mat, mu_i, "a_ms", est, se, n="all"))
             rows.append(_capped_row(effect, scene, mat, mu_i, t))
@@ -273,9 +354,10 @@ def _ss_bin_cached(c, mu_i, a, b, key, phase, phi_bin):
 
 def _ss_bin(scene, mat, inc, b, key, phase=None):
     a, bb = scene.mu_edges[b], scene.mu_edges[b + 1]
-    phi_bin = scene.phi_edges[key[1]: key[1] + 2] if key[0] == "phi" else None
-    return _ss_bin_cached(scene.materials[mat].c, scene.mu_i[inc], a, bb, key, phase or scene.phase,
-                          tuple(phi_bin) if phi_bin else None)
+    phi_bin = scene.phi_edges[key[1] : key[1] + 2] if key[0] == "phi" else None
+    return _ss_bin_cached(
+        scene.materials[mat].c, scene.mu_i[inc], a, bb, key, phase or scene.phase, tuple(phi_bin) if phi_bin else None
+    )
 
 
 @cache
@@ -366,8 +448,10 @@ def attach_reference(effect: str, scene: Scene, rows: list) -> list:
         elif effect == "phase_difference" and key is not None:
             # true minus three-term, both exact; the single-scattering difference is the rows' closed form
             ss = 0.0 if q == "d_f_ms" else _ss_bin_from_row(scene, r, "true") - _ss_bin_from_row(scene, r, "three_term")
-            ref = ss + (_exact_directional(c, mu_i, r, key, scene, True, "true")
-                        - _exact_directional(c, mu_i, r, key, scene, True))
+            ref = ss + (
+                _exact_directional(c, mu_i, r, key, scene, True, "true")
+                - _exact_directional(c, mu_i, r, key, scene, True)
+            )
             r["ref_name"] = "exact true minus exact three-term half space"
         elif effect == "phase_difference":
             ref = float(albedo(mu_i, c, phase="true")) - float(albedo(mu_i, c, phase="three_term"))

@@ -22,7 +22,9 @@ from fitlab._montecarlo import THREEFRY_C
 
 __all__ = ["SOURCE", "native_walk"]
 
-SOURCE = THREEFRY_C + r"""
+SOURCE = (
+    THREEFRY_C
+    + r"""
 #include <math.h>
 
 static const double TWO_PI = 6.283185307179586476925;
@@ -110,15 +112,26 @@ void lambert_sphere_walk(uint32_t k0, uint32_t k1, double c, double mu_i, uint32
     out[4] = (double)killed;
 }
 """
+)
 
 
 #: the C function's arguments
-_ARGTYPES = (ctypes.c_uint32, ctypes.c_uint32, ctypes.c_double, ctypes.c_double, ctypes.c_uint32, ctypes.c_uint32,
-          ctypes.c_int64, ctypes.c_double, ctypes.POINTER(ctypes.c_double))
+_ARGTYPES = (
+    ctypes.c_uint32,
+    ctypes.c_uint32,
+    ctypes.c_double,
+    ctypes.c_double,
+    ctypes.c_uint32,
+    ctypes.c_uint32,
+    ctypes.c_int64,
+    ctypes.c_double,
+    ctypes.POINTER(ctypes.c_double),
+)
 
 
-def native_walk(key: tuple[int, int], c: float, mu_i: float, n_photons: int, max_collisions: int = 100_000,
-                rr_weight: float = 0.125) -> dict:
+def native_walk(
+    key: tuple[int, int], c: float, mu_i: float, n_photons: int, max_collisions: int = 100_000, rr_weight: float = 0.125
+) -> dict:
     """Photons 0 .. n_photons - 1 of the round key ``key`` (:func:`.transport.round_key`'s two words) through the
     C walk: {"escape": escaping weight per photon, "collisions", "escapes", "capped", "killed", "seconds"}."""
     if not 0.0 <= c <= 1.0 or not 0.0 <= mu_i <= 1.0:
@@ -130,8 +143,23 @@ def native_walk(key: tuple[int, int], c: float, mu_i: float, n_photons: int, max
     walk = c_function(SOURCE, "lambert_sphere_walk", _ARGTYPES)
     out = np.zeros(5)
     t0 = time.perf_counter()
-    walk(int(key[0]), int(key[1]), float(c), float(mu_i), 0, int(n_photons), int(max_collisions), float(rr_weight),
-         out.ctypes.data_as(ctypes.POINTER(ctypes.c_double)))
+    walk(
+        int(key[0]),
+        int(key[1]),
+        float(c),
+        float(mu_i),
+        0,
+        int(n_photons),
+        int(max_collisions),
+        float(rr_weight),
+        out.ctypes.data_as(ctypes.POINTER(ctypes.c_double)),
+    )
     seconds = time.perf_counter() - t0
-    return {"escape": out[0] / n_photons, "collisions": int(out[1]), "escapes": int(out[2]), "capped": int(out[3]),
-            "killed": int(out[4]), "seconds": seconds}
+    return {
+        "escape": out[0] / n_photons,
+        "collisions": int(out[1]),
+        "escapes": int(out[2]),
+        "capped": int(out[3]),
+        "killed": int(out[4]),
+        "seconds": seconds,
+    }

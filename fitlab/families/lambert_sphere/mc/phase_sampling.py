@@ -182,13 +182,17 @@ def unbounded_reason(phase: str, c: float) -> str | None:
     if not c > lim:  # NaN: not judged here
         return None
     if phase == "three_term":
-        return (f"c = {c:g} > 1/N = {lim:.6f}: the three-term phase function is negative for u > {U1:.5f}, so its "
-                f"signed weights grow as (c N)^n with N = int |p3| = {THREE_TERM_NORM:.7f} and the estimate has "
-                f"infinite mean and variance (any sampler: the signed series diverges); use c <= {lim:.6f} or "
-                f"phase = \"true\"")
-    return (f"c = {c:g} > {lim:.6f}: the correlated true/three-term walk (phase_difference) multiplies each "
-            f"weight's second moment by c^2 x {max(MIXTURE_SECOND_MOMENTS):.5f} per collision, so its variance "
-            f"is infinite; use c <= {lim:.6f}")
+        return (
+            f"c = {c:g} > 1/N = {lim:.6f}: the three-term phase function is negative for u > {U1:.5f}, so its "
+            f"signed weights grow as (c N)^n with N = int |p3| = {THREE_TERM_NORM:.7f} and the estimate has "
+            f"infinite mean and variance (any sampler: the signed series diverges); use c <= {lim:.6f} or "
+            f'phase = "true"'
+        )
+    return (
+        f"c = {c:g} > {lim:.6f}: the correlated true/three-term walk (phase_difference) multiplies each "
+        f"weight's second moment by c^2 x {max(MIXTURE_SECOND_MOMENTS):.5f} per collision, so its variance "
+        f"is infinite; use c <= {lim:.6f}"
+    )
 
 
 @float64

@@ -58,7 +58,7 @@ def effect_png(effect: str, rows: list, scene_name: str) -> bytes:
         axes = fig.subplots(rows_n, cols, squeeze=False)
         for ax, ((mat, mu_i), rs) in zip(axes.ravel(), sorted(panels.items(), key=lambda kv: str(kv[0]))):
             _directional(ax, rs, f"{mat}, mu_i={mu_i:g}: {q} (1/sr)")
-        for ax in axes.ravel()[len(panels):]:
+        for ax in axes.ravel()[len(panels) :]:
             ax.axis("off")
         fig.suptitle(f"{scene_name}: {effect}\npoints: MC +- 2 se; lines: reference; dotted: printed", fontsize=9)
     elif effect == "collisions":
@@ -67,8 +67,15 @@ def effect_png(effect: str, rows: list, scene_name: str) -> bytes:
         ax = fig.subplots()
         for (mat, mu_i), rs in sorted(_groups(rows, ("material", "mu_i")).items(), key=lambda kv: str(kv[0])):
             x = list(range(len(rs)))
-            ax.errorbar(x, [r["estimate"] for r in rs], yerr=[2 * r["se"] for r in rs], fmt="o-", ms=3,
-                        capsize=2, label=f"{mat}, mu_i={mu_i:g}")
+            ax.errorbar(
+                x,
+                [r["estimate"] for r in rs],
+                yerr=[2 * r["se"] for r in rs],
+                fmt="o-",
+                ms=3,
+                capsize=2,
+                label=f"{mat}, mu_i={mu_i:g}",
+            )
             ax.set_xticks(x, [r["n"] for r in rs])
         ax.set_yscale("log")
         ax.set_xlabel("collisions before escape")
@@ -81,12 +88,20 @@ def effect_png(effect: str, rows: list, scene_name: str) -> bytes:
         xkey = "mu_i" if effect == "albedo" else "c"
         fig = Figure(figsize=(9, 3.6))
         (ax, az) = fig.subplots(1, 2)
-        for mat, rs in sorted(_groups(rows, ("material",) if effect == "albedo" else ()).items(),
-                              key=lambda kv: str(kv[0])):
+        for mat, rs in sorted(
+            _groups(rows, ("material",) if effect == "albedo" else ()).items(), key=lambda kv: str(kv[0])
+        ):
             rs = sorted(rs, key=lambda r: r[xkey])
             x = [r[xkey] for r in rs]
-            line = ax.errorbar(x, [r["estimate"] for r in rs], yerr=[2 * r["se"] for r in rs], fmt="o", ms=3,
-                               capsize=2, label=f"MC {mat[0] if mat else ''}")
+            line = ax.errorbar(
+                x,
+                [r["estimate"] for r in rs],
+                yerr=[2 * r["se"] for r in rs],
+                fmt="o",
+                ms=3,
+                capsize=2,
+                label=f"MC {mat[0] if mat else ''}",
+            )
             ref = [r["ref"] for r in rs]
             if all(_finite(v) for v in ref):
                 ax.plot(x, ref, "-", color=line[0].get_color(), lw=1)

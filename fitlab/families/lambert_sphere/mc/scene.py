@@ -16,8 +16,20 @@ from fitlab.core import get_form
 from fitlab.families.lambert_sphere.exact import albedo_inverse
 from fitlab.scenes import MAX_SCENE_BYTES, NAME_RE, SceneError  # noqa: F401 - re-exported: this module's names
 
-__all__ = ["EFFECTS", "LIMITS", "NAME_RE", "SCHEMA", "Material", "Scene", "SceneError", "SceneSchema", "check_option",
-           "load_scene", "parse_scene", "with_overrides"]
+__all__ = [
+    "EFFECTS",
+    "LIMITS",
+    "NAME_RE",
+    "SCHEMA",
+    "Material",
+    "Scene",
+    "SceneError",
+    "SceneSchema",
+    "check_option",
+    "load_scene",
+    "parse_scene",
+    "with_overrides",
+]
 
 #: effect name -> one-line description
 EFFECTS = {
@@ -168,14 +180,21 @@ def _directions(ck, inc, out, effects) -> tuple:
                     ck.fail(("incident", "mu_i", k), f"expected a cosine in [0, 1], got {x!r}")
             mu_i = tuple(float(x) for x in v if isinstance(x, (int, float)) and not isinstance(x, bool))
     elif need_mu_i:
-        ck.fail(("incident", "mu_i"), "missing: the effects " + ", ".join(
-            e for e in effects if e not in ("spherical_albedo",)) + " need incident directions")
+        ck.fail(
+            ("incident", "mu_i"),
+            "missing: the effects "
+            + ", ".join(e for e in effects if e not in ("spherical_albedo",))
+            + " need incident directions",
+        )
     mu_edges = ck.edges(out["mu_o"], ("outgoing", "mu_o"), 1.0, "mu_o") if "mu_o" in out else ()
     orders = ()
     if "fourier" in out:
         v = out["fourier"]
-        if not isinstance(v, list) or not v or any(isinstance(m, bool) or not isinstance(m, int) or not 0 <= m <= 16
-                                                   for m in v):
+        if (
+            not isinstance(v, list)
+            or not v
+            or any(isinstance(m, bool) or not isinstance(m, int) or not 0 <= m <= 16 for m in v)
+        ):
             ck.fail(("outgoing", "fourier"), f"expected a list of Fourier orders m in 0..16, got {v!r}")
         elif len(set(v)) != len(v):
             ck.fail(("outgoing", "fourier"), "an order is listed twice")
@@ -195,8 +214,15 @@ def _directions(ck, inc, out, effects) -> tuple:
 
 def _targets(ck, prec, effects) -> dict:
     # a table needs no target for single scattering, which is computed, not simulated
-    return ck.per_key(prec, ("precision", "target_se"), tuple(EFFECTS), [e for e in effects if e != "single"],
-                      "effect", "the standard error at which each tally stops", every=effects)
+    return ck.per_key(
+        prec,
+        ("precision", "target_se"),
+        tuple(EFFECTS),
+        [e for e in effects if e != "single"],
+        "effect",
+        "the standard error at which each tally stops",
+        every=effects,
+    )
 
 
 class SceneSchema:
@@ -214,8 +240,9 @@ class SceneSchema:
         ck.non_finite()
         ck.raise_errors()  # NaN/inf anywhere: refused before any other check reads the value
         ck.unknown(raw, (), _KNOWN[()])
-        sc, inc, out, eff, prec = (ck.table(raw, (k,), _KNOWN[(k,)])
-                                   for k in ("scene", "incident", "outgoing", "effects", "precision"))
+        sc, inc, out, eff, prec = (
+            ck.table(raw, (k,), _KNOWN[(k,)]) for k in ("scene", "incident", "outgoing", "effects", "precision")
+        )
         name = ck.name(sc, ("scene", "name"))
         description = sc.get("description", "")
         if not isinstance(description, str):
@@ -235,9 +262,15 @@ class SceneSchema:
         materials = _materials(ck, raw)
         mu_i, mu_edges, orders, phi_edges = _directions(ck, inc, out, effects)
         target = _targets(ck, prec, effects)
-        num = {key: ck.number(prec, ("precision", key), *LIMITS[key], default=default, integer=True)
-               for key, default in (("max_paths", 2_000_000), ("batch", 100_000), ("max_collisions", 100_000),
-                                    ("slots", 0))}
+        num = {
+            key: ck.number(prec, ("precision", key), *LIMITS[key], default=default, integer=True)
+            for key, default in (
+                ("max_paths", 2_000_000),
+                ("batch", 100_000),
+                ("max_collisions", 100_000),
+                ("slots", 0),
+            )
+        }
         walk_float = ck.choice(prec, ("precision", "float"), PRECISIONS, "float32")
         if num["slots"] is not None and 0 < num["slots"] < 64:
             ck.fail(("precision", "slots"), f"photon slots per device: 0 (automatic) or >= 64, got {num['slots']}")
@@ -255,10 +288,24 @@ class SceneSchema:
                     break
         ck.raise_errors()
         return Scene(
-            path=ck.path, name=name, description=description, seed=int(seed), phase=phase, sampler=sampler,
-            materials=tuple(mats), mu_i=mu_i, mu_edges=mu_edges, orders=orders, phi_edges=phi_edges,
-            effects=effects, collision_orders=int(coll), target_se=target, max_paths=int(num["max_paths"]),
-            batch=int(num["batch"]), max_collisions=int(num["max_collisions"]), slots=int(num["slots"]),
+            path=ck.path,
+            name=name,
+            description=description,
+            seed=int(seed),
+            phase=phase,
+            sampler=sampler,
+            materials=tuple(mats),
+            mu_i=mu_i,
+            mu_edges=mu_edges,
+            orders=orders,
+            phi_edges=phi_edges,
+            effects=effects,
+            collision_orders=int(coll),
+            target_se=target,
+            max_paths=int(num["max_paths"]),
+            batch=int(num["batch"]),
+            max_collisions=int(num["max_collisions"]),
+            slots=int(num["slots"]),
             walk_precision=walk_float,
         )
 

@@ -39,12 +39,36 @@ from fitlab.families.lambert_sphere.mc.scene import SCHEMA, Scene, SceneError
 from fitlab.families.lambert_sphere.mc.transport import compile_walk, default_mesh, start_round
 from fitlab.scenes import SimulationResult, check_out_dir, summary_table, unconverged, write_outputs
 
-__all__ = ["claims", "SIMULATE", "SphereWalk", "SimulationResult", "simulate", "simulate_file", "write_outputs",
-           "unconverged", "check_out_dir", "summary_table", "SUMMARY_FIELDS", "MIN_PHOTONS"]
+__all__ = [
+    "claims",
+    "SIMULATE",
+    "SphereWalk",
+    "SimulationResult",
+    "simulate",
+    "simulate_file",
+    "write_outputs",
+    "unconverged",
+    "check_out_dir",
+    "summary_table",
+    "SUMMARY_FIELDS",
+    "MIN_PHOTONS",
+]
 
 MIN_PHOTONS = 10_000
-SUMMARY_FIELDS = ("effect", "jobs", "paths", "collisions", "seconds", "compile_seconds", "reference_seconds",
-                  "target_se", "worst_se", "converged", "max_abs_z_ref", "capped_weight")
+SUMMARY_FIELDS = (
+    "effect",
+    "jobs",
+    "paths",
+    "collisions",
+    "seconds",
+    "compile_seconds",
+    "reference_seconds",
+    "target_se",
+    "worst_se",
+    "converged",
+    "max_abs_z_ref",
+    "capped_weight",
+)
 
 
 def _effect_done(effect, scene, rows, target):
@@ -81,10 +105,17 @@ class SphereWalk:
     min_paths = MIN_PHOTONS
     row_fields = ROW_FIELDS
     summary_fields = SUMMARY_FIELDS
-    summary_columns = (("effect", "effect", "<18"), ("jobs", "jobs", ">5"), ("paths", "paths", ">12"),
-                       ("collisions", "collisions", ">13"), ("seconds", "seconds", ">9.2f"),
-                       ("target", "target_se", ">9.1e"), ("worst se", "worst_se", ">10.2e"),
-                       ("conv", "converged", ">6"), ("max|z|", "max_abs_z_ref", ">8.2f"))
+    summary_columns = (
+        ("effect", "effect", "<18"),
+        ("jobs", "jobs", ">5"),
+        ("paths", "paths", ">12"),
+        ("collisions", "collisions", ">13"),
+        ("seconds", "seconds", ">9.2f"),
+        ("target", "target_se", ">9.1e"),
+        ("worst se", "worst_se", ">10.2e"),
+        ("conv", "converged", ">6"),
+        ("max|z|", "max_abs_z_ref", ">8.2f"),
+    )
 
     def __init__(self, mesh=None):
         self.mesh = mesh
@@ -113,8 +144,9 @@ class SphereWalk:
     def start_round(self, scene, job, rounds, paths, n):
         cfg, mesh, _ = job.data
         mu_i = scene.mu_i[job.key.incident] if job.key.incident >= 0 else 0.0
-        return start_round(cfg, scene.seed, job.key.stream + (rounds,), scene.materials[job.key.material].c, mu_i, n,
-                           mesh=mesh)
+        return start_round(
+            cfg, scene.seed, job.key.stream + (rounds,), scene.materials[job.key.material].c, mu_i, n, mesh=mesh
+        )
 
     def count(self, tallies):
         return int(tallies["photons"]), int(tallies["collisions"])
@@ -141,26 +173,29 @@ class SphereWalk:
                 job = r.get("_job")
                 if job is not None:
                     st = stats[job]
-                    r.update(paths=st.paths, collisions=st.events, seconds=round(st.seconds, 3),
-                             converged=st.converged)
+                    r.update(paths=st.paths, collisions=st.events, seconds=round(st.seconds, 3), converged=st.converged)
                 else:
                     r.update(paths=0, collisions=0, seconds=0.0, converged=True)
             real = [r for r in rows if not r.get("_diag") and r["se"] > 0]
             zs = [abs(r["z_ref"]) for r in real if math.isfinite(r["z_ref"])]
             capped = [r["estimate"] for r in rows if r["quantity"] == "capped"]
             rows_by[e] = rows
-            summary.append(dict(
-                effect=e, jobs=len(ejobs), paths=sum(stats[j].paths for j in ejobs),
-                collisions=sum(stats[j].events for j in ejobs),
-                seconds=round(sum(stats[j].seconds for j in ejobs), 3),
-                compile_seconds=round(sum(stats[j].compile_seconds for j in ejobs), 3),
-                reference_seconds=round(ref_s, 3),
-                target_se=scene.target_se.get(e, 0.0),
-                worst_se=max((r["se"] for r in real), default=0.0),
-                converged=all(stats[j].converged for j in ejobs),
-                max_abs_z_ref=max(zs, default=math.nan),
-                capped_weight=max(capped, default=0.0),
-            ))
+            summary.append(
+                dict(
+                    effect=e,
+                    jobs=len(ejobs),
+                    paths=sum(stats[j].paths for j in ejobs),
+                    collisions=sum(stats[j].events for j in ejobs),
+                    seconds=round(sum(stats[j].seconds for j in ejobs), 3),
+                    compile_seconds=round(sum(stats[j].compile_seconds for j in ejobs), 3),
+                    reference_seconds=round(ref_s, 3),
+                    target_se=scene.target_se.get(e, 0.0),
+                    worst_se=max((r["se"] for r in real), default=0.0),
+                    converged=all(stats[j].converged for j in ejobs),
+                    max_abs_z_ref=max(zs, default=math.nan),
+                    capped_weight=max(capped, default=0.0),
+                )
+            )
         return rows_by, summary
 
     def csv_rows(self, result):
@@ -182,8 +217,16 @@ def simulate_file(path, out_dir=None, progress=False, plots=True, target_se=None
     """Load, validate (all errors before any work: scene, overrides, output folder), simulate, write
     (:func:`fitlab.scenes.simulate_file`).  Returns (result, paths).  Overrides take the scene file's rules
     (:func:`~fitlab.families.lambert_sphere.mc.scene.check_option`); strings are parsed."""
-    return scenes.simulate_file(SIMULATE, path, out_dir=out_dir, progress=progress, plots=plots,
-                                target_se=target_se, max_paths=max_paths, seed=seed)
+    return scenes.simulate_file(
+        SIMULATE,
+        path,
+        out_dir=out_dir,
+        progress=progress,
+        plots=plots,
+        target_se=target_se,
+        max_paths=max_paths,
+        seed=seed,
+    )
 
 
 def claims(raw: dict) -> bool:

@@ -47,9 +47,14 @@ def throughput(cfg: WalkConfig, c: float, mu_i: float, n: int, repeat: int = 3) 
     compile_s = compile_walk(cfg, mesh)
     rounds = itertools.count()  # each timing walks its own photons (key r = 0, 1, ...)
     dt, res = best_of(lambda: run_round(cfg, 1, (next(rounds),), c, mu_i, n, mesh=mesh), repeat)
-    return dict(seconds=dt, compile_seconds=compile_s, photons_per_s=n / dt,
-                collisions_per_s=float(res["collisions"]) / dt, collisions_per_photon=float(res["collisions"]) / n,
-                steps=int(res["steps"]))
+    return dict(
+        seconds=dt,
+        compile_seconds=compile_s,
+        photons_per_s=n / dt,
+        collisions_per_s=float(res["collisions"]) / dt,
+        collisions_per_photon=float(res["collisions"]) / n,
+        steps=int(res["steps"]),
+    )
 
 
 def native_throughput(c: float, mu_i: float, n: int, repeat: int = 3) -> dict:
@@ -62,8 +67,12 @@ def native_throughput(c: float, mu_i: float, n: int, repeat: int = 3) -> dict:
 
     key = tuple(int(k) for k in np.asarray(round_key(1, 0)))
     best = min((native_walk(key, c, mu_i, n) for _ in range(repeat)), key=lambda r: r["seconds"])
-    return dict(seconds=best["seconds"], photons_per_s=n / best["seconds"],
-                collisions_per_s=best["collisions"] / best["seconds"], collisions_per_photon=best["collisions"] / n)
+    return dict(
+        seconds=best["seconds"],
+        photons_per_s=n / best["seconds"],
+        collisions_per_s=best["collisions"] / best["seconds"],
+        collisions_per_photon=best["collisions"] / n,
+    )
 
 
 def effect_costs(quick: bool = False) -> list:
@@ -77,21 +86,31 @@ def effect_costs(quick: bool = False) -> list:
         sub = replace(scene, effects=effects, target_se={e: scene.target_se[e] for e in effects if e != "single"})
         res = simulate(sub, progress=False)
         sim_s = sum(st.seconds for st in res.jobs.values())
-        out.append(dict(effects="all" if len(effects) > 1 else effects[0], jobs=len(res.jobs),
-                        paths=sum(st.paths for st in res.jobs.values()),
-                        collisions=sum(st.collisions for st in res.jobs.values()),
-                        seconds=sim_s, wall=res.wall_seconds,
-                        converged=all(s["converged"] for s in res.summary)))
+        out.append(
+            dict(
+                effects="all" if len(effects) > 1 else effects[0],
+                jobs=len(res.jobs),
+                paths=sum(st.paths for st in res.jobs.values()),
+                collisions=sum(st.collisions for st in res.jobs.values()),
+                seconds=sim_s,
+                wall=res.wall_seconds,
+                converged=all(s["converged"] for s in res.summary),
+            )
+        )
     return out
 
 
 def bench_mc(quick: bool = False) -> dict:
     n = 50_000 if quick else 400_000
     dev = jax.devices()
-    print(f"fitlab bench mc: {len(dev)} device(s) ({dev[0].platform}), {n} photons per timing, "
-          f"mu_i = 0.5, 4 mu_o bins x orders 0-2 tallied; best of 3, compilation apart\n")
-    print(f"{'phase / sampler':<24}{'c':>6}{'slots':>7}{'photons/s':>12}{'collisions/s':>14}{'coll/photon':>13}"
-          f"{'compile s':>11}")
+    print(
+        f"fitlab bench mc: {len(dev)} device(s) ({dev[0].platform}), {n} photons per timing, "
+        f"mu_i = 0.5, 4 mu_o bins x orders 0-2 tallied; best of 3, compilation apart\n"
+    )
+    print(
+        f"{'phase / sampler':<24}{'c':>6}{'slots':>7}{'photons/s':>12}{'collisions/s':>14}{'coll/photon':>13}"
+        f"{'compile s':>11}"
+    )
     results = {}
     auto = default_slots(dev[0].platform)
     edges = (0.0, 0.25, 0.5, 0.75, 1.0)
@@ -101,29 +120,41 @@ def bench_mc(quick: bool = False) -> dict:
             cfg = WalkConfig(phase=phase, sampler=sampler, mu_edges=edges, orders=(0, 1, 2))
             r = throughput(cfg, c, 0.5, n)
             results[(phase, sampler, c, auto)] = r
-            print(f"{phase + ' / ' + sampler:<24}{c:>6}{auto:>7}{r['photons_per_s']:>12.3g}"
-                  f"{r['collisions_per_s']:>14.3g}{r['collisions_per_photon']:>13.1f}{r['compile_seconds']:>11.1f}")
+            print(
+                f"{phase + ' / ' + sampler:<24}{c:>6}{auto:>7}{r['photons_per_s']:>12.3g}"
+                f"{r['collisions_per_s']:>14.3g}{r['collisions_per_photon']:>13.1f}{r['compile_seconds']:>11.1f}"
+            )
     for slots in (128, 2048, 8192):
         cfg = WalkConfig(phase="three_term", mu_edges=edges, orders=(0, 1, 2), slots=slots)
         r = throughput(cfg, 0.99, 0.5, n)
         results[("three_term", "exact", 0.99, slots)] = r
-        print(f"{'three_term / exact':<24}{0.99:>6}{slots:>7}{r['photons_per_s']:>12.3g}"
-              f"{r['collisions_per_s']:>14.3g}{r['collisions_per_photon']:>13.1f}{r['compile_seconds']:>11.1f}")
-    print(f"\nnative reference: the same walk (true / exact) in plain C, one thread, no tallies (the JAX walk runs on "
-          f"{len(dev)} device(s); the ratio is collisions/s of the JAX walk over the C walk's)\n")
+        print(
+            f"{'three_term / exact':<24}{0.99:>6}{slots:>7}{r['photons_per_s']:>12.3g}"
+            f"{r['collisions_per_s']:>14.3g}{r['collisions_per_photon']:>13.1f}{r['compile_seconds']:>11.1f}"
+        )
+    print(
+        f"\nnative reference: the same walk (true / exact) in plain C, one thread, no tallies (the JAX walk runs on "
+        f"{len(dev)} device(s); the ratio is collisions/s of the JAX walk over the C walk's)\n"
+    )
     for c in (0.5, 0.99):
         r = native_throughput(c, 0.5, n)
         ratio = results[("true", "exact", c, auto)]["collisions_per_s"] / r["collisions_per_s"]
         r["jax_over_native"] = ratio
         results[("native", "exact", c)] = r
-        print(f"{'native C / exact':<24}{c:>6}{'-':>7}{r['photons_per_s']:>12.3g}{r['collisions_per_s']:>14.3g}"
-              f"{r['collisions_per_photon']:>13.1f}   JAX / native {ratio:.3g}")
-    print("\ncost per effect at the same precision (bench scene: c = 0.9, mu_i = 0.5, 4 mu_o bins, orders 0-2;"
-          " targets in fitlab/families/lambert_sphere/mc/throughput.py; simulation seconds, compilation excluded)\n")
+        print(
+            f"{'native C / exact':<24}{c:>6}{'-':>7}{r['photons_per_s']:>12.3g}{r['collisions_per_s']:>14.3g}"
+            f"{r['collisions_per_photon']:>13.1f}   JAX / native {ratio:.3g}"
+        )
+    print(
+        "\ncost per effect at the same precision (bench scene: c = 0.9, mu_i = 0.5, 4 mu_o bins, orders 0-2;"
+        " targets in fitlab/families/lambert_sphere/mc/throughput.py; simulation seconds, compilation excluded)\n"
+    )
     print(f"{'effects':<20}{'jobs':>5}{'paths':>11}{'collisions':>13}{'seconds':>9}{'converged':>11}")
     costs = effect_costs(quick)
     for r in costs:
-        print(f"{r['effects']:<20}{r['jobs']:>5}{r['paths']:>11}{r['collisions']:>13}{r['seconds']:>9.2f}"
-              f"{'yes' if r['converged'] else 'NO':>11}")
+        print(
+            f"{r['effects']:<20}{r['jobs']:>5}{r['paths']:>11}{r['collisions']:>13}{r['seconds']:>9.2f}"
+            f"{'yes' if r['converged'] else 'NO':>11}"
+        )
     results["effects"] = costs
     return results

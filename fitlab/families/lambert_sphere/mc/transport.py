@@ -330,8 +330,14 @@ def _start(key_pair, lo, hi, cfg: WalkConfig, platform: str):
     p = _sizes(cfg, platform)[0]
     dt = jnp.dtype(cfg.precision)
     s = _Slots(
-        jnp.zeros(p, bool), jnp.zeros(p, jnp.uint32), jnp.zeros(p, jnp.int32),
-        jnp.zeros(p, dt), jnp.zeros(p, dt), jnp.zeros(p, dt), jnp.zeros(p, dt), jnp.ones((p, nw), dt),
+        jnp.zeros(p, bool),
+        jnp.zeros(p, jnp.uint32),
+        jnp.zeros(p, jnp.int32),
+        jnp.zeros(p, dt),
+        jnp.zeros(p, dt),
+        jnp.zeros(p, dt),
+        jnp.zeros(p, dt),
+        jnp.ones((p, nw), dt),
         jnp.zeros((cfg.words, p), jnp.uint64),
     )
     return _refill((s, _zero_tallies(cfg), jnp.asarray(lo, jnp.int64)), key_pair, hi, cfg)
@@ -346,8 +352,11 @@ def _run_level(carry, key_pair, c, mu_i, hi, cap, steps, room: int, cfg: WalkCon
     def going(cr):
         return (cr[2] < hi) | (cr[0].alive.sum() > room)
 
-    _, carry = jax.lax.while_loop(lambda st: (st[0] < steps) & going(st[1]), lambda st: (st[0] + 1, body(st[1])),
-                                  (jnp.zeros((), jnp.int64), carry))
+    _, carry = jax.lax.while_loop(
+        lambda st: (st[0] < steps) & going(st[1]),
+        lambda st: (st[0] + 1, body(st[1])),
+        (jnp.zeros((), jnp.int64), carry),
+    )
     status = jnp.stack([(~going(carry)).astype(jnp.int64), carry[1]["photons"], carry[0].alive.sum(dtype=jnp.int64)])
     return carry, status
 
@@ -384,8 +393,9 @@ def _programs(cfg: WalkConfig, mesh: Mesh) -> dict:
             carry, status = _run_level(carry, key_pair, c, mu_i, hi, cap, steps, room, cfg)
             return device_stacked((carry, hi)), status[None]
 
-        return jax.jit(jax.shard_map(per_device, mesh=mesh, in_specs=(dev,) + (rep,) * 5, out_specs=(dev, dev),
-                                     check_vma=False))
+        return jax.jit(
+            jax.shard_map(per_device, mesh=mesh, in_specs=(dev,) + (rep,) * 5, out_specs=(dev, dev), check_vma=False)
+        )
 
     def compact(size: int):
         def per_device(state):
@@ -401,8 +411,12 @@ def _programs(cfg: WalkConfig, mesh: Mesh) -> dict:
     def sharded(f, in_specs, out_specs):
         return jax.jit(jax.shard_map(f, mesh=mesh, in_specs=in_specs, out_specs=out_specs, check_vma=False))
 
-    return {"start": sharded(start, (rep,) * 2, dev), "runs": [run(level) for level in range(len(sizes))],
-            "compacts": [compact(size) for size in sizes[1:]], "finish": sharded(finish, (dev,), rep)}
+    return {
+        "start": sharded(start, (rep,) * 2, dev),
+        "runs": [run(level) for level in range(len(sizes))],
+        "compacts": [compact(size) for size in sizes[1:]],
+        "finish": sharded(finish, (dev,), rep),
+    }
 
 
 def _static(cfg: WalkConfig) -> WalkConfig:
@@ -425,8 +439,7 @@ def compile_walk(cfg: WalkConfig, mesh: Mesh | None = None) -> float:
     return time.perf_counter() - t0
 
 
-def _round(programs: dict, cfg: WalkConfig, key_pair, c: float, mu_i: float, n_photons: int,
-           cap: int) -> ChunkedRound:
+def _round(programs: dict, cfg: WalkConfig, key_pair, c: float, mu_i: float, n_photons: int, cap: int) -> ChunkedRound:
     args = (jnp.asarray(key_pair, jnp.uint32), jnp.float64(c), jnp.float64(mu_i))
     state = programs["start"](args[0], jnp.int64(n_photons))
     runs = [partial(lambda f, st, steps: f(st, *args, jnp.int64(cap), jnp.int64(steps)), f) for f in programs["runs"]]
@@ -458,8 +471,16 @@ def round_key(seed: int, *stream: int) -> jax.Array:
 
 
 @float64
-def start_round(cfg: WalkConfig, seed: int, stream: tuple, c: float, mu_i: float, n_photons: int,
-                mesh: Mesh | None = None, unbounded_ok: bool = False) -> ChunkedRound:
+def start_round(
+    cfg: WalkConfig,
+    seed: int,
+    stream: tuple,
+    c: float,
+    mu_i: float,
+    n_photons: int,
+    mesh: Mesh | None = None,
+    unbounded_ok: bool = False,
+) -> ChunkedRound:
     """:func:`run_round` as a :class:`fitlab._montecarlo.ChunkedRound`, to be run in chunks of steps; the same
     checks, before any work."""
     if not 0.0 <= c <= 1.0:
@@ -473,13 +494,22 @@ def start_round(cfg: WalkConfig, seed: int, stream: tuple, c: float, mu_i: float
         raise ValueError("n_photons must lie in [1, 2^32)")
     mesh = mesh or default_mesh()
     compile_walk(cfg, mesh)
-    return _round(_COMPILED[(_static(cfg), mesh)], cfg, round_key(seed, *stream), c, mu_i, n_photons,
-                  cfg.max_collisions)
+    return _round(
+        _COMPILED[(_static(cfg), mesh)], cfg, round_key(seed, *stream), c, mu_i, n_photons, cfg.max_collisions
+    )
 
 
 @float64
-def run_round(cfg: WalkConfig, seed: int, stream: tuple, c: float, mu_i: float, n_photons: int,
-              mesh: Mesh | None = None, unbounded_ok: bool = False) -> dict:
+def run_round(
+    cfg: WalkConfig,
+    seed: int,
+    stream: tuple,
+    c: float,
+    mu_i: float,
+    n_photons: int,
+    mesh: Mesh | None = None,
+    unbounded_ok: bool = False,
+) -> dict:
     """Simulate ``n_photons`` photons (ids 0..n-1 of one round); tallies as numpy arrays.
 
     ``stream`` is a tuple of non-negative ints (e.g. (job, round)) folded into

@@ -27,7 +27,16 @@ from pathlib import Path
 from fitlab._io import import_generated
 from fitlab.resources import packaged_fits
 
-__all__ = ["register", "load_drjit_module", "bsdf_class", "PluginError", "PLUGIN", "DRJIT_FILE", "REQUIRED", "PARAMETERS"]
+__all__ = [
+    "register",
+    "load_drjit_module",
+    "bsdf_class",
+    "PluginError",
+    "PLUGIN",
+    "DRJIT_FILE",
+    "REQUIRED",
+    "PARAMETERS",
+]
 
 #: the name the plugin is registered under
 PLUGIN = "lambert_sphere"
@@ -58,8 +67,10 @@ def load_drjit_module(path: Path | None = None):
         raise PluginError(f"{path}: not a generated Lambert-sphere Dr.Jit module (no {', '.join(missing)})")
     drjit = getattr(module, "dr", None)
     if not isinstance(drjit, types.ModuleType) or drjit.__name__ != "drjit":
-        raise PluginError(f"{path}: not a generated Dr.Jit module (it does not compute with drjit; "
-                          "`fitlab codegen --lang drjit` makes one)")
+        raise PluginError(
+            f"{path}: not a generated Dr.Jit module (it does not compute with drjit; "
+            "`fitlab codegen --lang drjit` makes one)"
+        )
     return module
 
 

@@ -132,7 +132,7 @@ def _baselines():
     from fitlab.families.lambert_sphere.program.baselines import baseline_program
 
     program = baseline_program()
-    (name, text), = emit(program, "drjit").items()
+    ((name, text),) = emit(program, "drjit").items()
     module = types.ModuleType(f"_fitlab_{Path(name).stem}")
     exec(compile(text, f"<fitlab codegen --lang drjit: {name}>", "exec"), module.__dict__)  # our own printed code
     return module

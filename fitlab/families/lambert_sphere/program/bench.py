@@ -58,8 +58,10 @@ def bench_exact(quick: bool = False) -> dict:
     t_modes, _ = best_of(lambda: brdf_modes(mi, mo, 0.8), 3)
     print(f"\nbrdf_modes (c fixed, solved): {k * k / t_modes:.3g} points/s")
     t_dbl, d = best_of(lambda: doubling_reflection.__wrapped__(0, 0.8), 1)
-    print(f"doubling (order 0, {d.nodes.size} ordinates, {d.doublings} doublings): {t_dbl:.2f} s "
-          f"for {d.nodes.size ** 2} node pairs")
+    print(
+        f"doubling (order 0, {d.nodes.size} ordinates, {d.doublings} doublings): {t_dbl:.2f} s "
+        f"for {d.nodes.size**2} node pairs"
+    )
     if not quick:
         with tempfile.TemporaryDirectory() as tmp:
             t_tab, _ = best_of(lambda: write_tables(tmp, show_progress=False), 1)
@@ -139,17 +141,28 @@ def bench_codegen(fits_dir: Path | None = None, n: int = 1_000_000, repeat: int 
             timed.update({(label, how): (lib, name, args, dt) for label, (lib, name, args) in cases.items()})
             for label, (lib, name, params) in hoisted.items():
                 setup = lib.material.prepare_name
-                timed[(label, how + ", hoisted")] = (lib, name, (lib(setup, params, dtype=dt), which, mu_i, mu_o, cos_phi), dt)
+                timed[(label, how + ", hoisted")] = (
+                    lib,
+                    name,
+                    (lib(setup, params, dtype=dt), which, mu_i, mu_o, cos_phi),
+                    dt,
+                )
             for label, lib in (("prepare (published: paper)", paper), ("prepare (shipped model)", model),
                                ("prepare (exported tables)", tables)):  # fmt: skip
                 timed[(label, how)] = (lib, lib.material.prepare_name, (c[: n // 16],), dt)
         rows.update(time_routines(timed, repeat))
         for label, fn, args in (("brdf (shipped model)", py.brdf, (mu_i, mu_o, cos_phi, c)),
                                 ("brdf_fast (eq. 41)", py.brdf_fast, (mu_i, mu_o, cos_phi, c, kd))):  # fmt: skip
-            rows[(label, "numpy float64")] = best_seconds(lambda fn=fn, args=args: fn(*args), max(1, repeat // 2)) / n * 1e9
+            rows[(label, "numpy float64")] = (
+                best_seconds(lambda fn=fn, args=args: fn(*args), max(1, repeat // 2)) / n * 1e9
+            )
     ref = rows[("lambert (baseline)", "C float64")]
-    print(f"generated BRDF cost, {n} random inputs, best of {repeat} (ns per evaluation; x = / Lambert C double, per call)")
-    print(f"  hoisted: {BENCH_MATERIALS} materials prepared once, each point takes one at random; prepare: ns per material")
+    print(
+        f"generated BRDF cost, {n} random inputs, best of {repeat} (ns per evaluation; x = / Lambert C double, per call)"
+    )
+    print(
+        f"  hoisted: {BENCH_MATERIALS} materials prepared once, each point takes one at random; prepare: ns per material"
+    )
     for (label, how), ns in sorted(rows.items(), key=lambda kv: (kv[0][1], kv[1])):
         print(f"  {label:<28} {how:<24} {ns:8.2f} ns  {ns / ref:7.1f} x")
     return {f"{label} / {how}": ns for (label, how), ns in rows.items()}

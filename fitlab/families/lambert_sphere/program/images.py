@@ -22,15 +22,23 @@ def texture_image(nodes: int, tick=lambda: None) -> Image:
     tex = table_export.texture(nodes)
     tick()
     blocks = tuple(f"rows {first} to {first + count - 1}: {what}" for first, count, what in tex.blocks)
-    return Image("lambert_sphere_texture", tex.data[:, :, None],
-                 ("the packed texture of the Lambert-sphere tables BRDF (float32 values, as generated)",),
-                 (*tex.layout, *blocks))
+    return Image(
+        "lambert_sphere_texture",
+        tex.data[:, :, None],
+        ("the packed texture of the Lambert-sphere tables BRDF (float32 values, as generated)",),
+        (*tex.layout, *blocks),
+    )
 
 
 #: the tables ``fitlab export`` writes for this family
 IMAGES = {
     "lambert_sphere_texture": ImageSpec(
         "the Lambert sphere's three-order texture (H_m remainders, constants, kd, true-phase correction)",
-        texture_image, table_export.NODES, table_export.DEFAULT_NODES, steps=lambda size: 1,
-        value_range=(-np.inf, np.inf), formats=("exr", "ktx2")),
+        texture_image,
+        table_export.NODES,
+        table_export.DEFAULT_NODES,
+        steps=lambda size: 1,
+        value_range=(-np.inf, np.inf),
+        formats=("exr", "ktx2"),
+    ),
 }

@@ -42,8 +42,22 @@ from fitlab.families.lambert_sphere.program.rewrites import stable
 from fitlab.forms.symbolic import lambdify_numpy, symbols
 from fitlab.store import fit_source, load
 
-__all__ = ["RuntimeModel", "runtime_model", "PRESET_VARIANTS", "accuracy", "accuracy_points", "directional_albedo", "ALBEDOS",
-           "ORDER2_FORMS", "TRUE_FORMS", "energy_scale", "assembled", "ENERGY_MARGIN", "ENERGY_MU", "model_accuracy"]
+__all__ = [
+    "RuntimeModel",
+    "runtime_model",
+    "PRESET_VARIANTS",
+    "accuracy",
+    "accuracy_points",
+    "directional_albedo",
+    "ALBEDOS",
+    "ORDER2_FORMS",
+    "TRUE_FORMS",
+    "energy_scale",
+    "assembled",
+    "ENERGY_MARGIN",
+    "ENERGY_MU",
+    "model_accuracy",
+]
 
 PRESET_VARIANTS = {
     "paper_printed": ({"H0": ("hapke", "paper"), "H1": ("separable_printed", "paper"), "l": ("quadratic", "paper"),
@@ -87,8 +101,14 @@ class RuntimeModel:
 
 
 def runtime_model(
-    variant: str | None = None, *, fits_dir: Path | None = None, forms: dict | None = None, model: str | None = None,
-    normalisation: str = "corrected", order2: bool | None = None, allow_mixed_physics: bool = False,
+    variant: str | None = None,
+    *,
+    fits_dir: Path | None = None,
+    forms: dict | None = None,
+    model: str | None = None,
+    normalisation: str = "corrected",
+    order2: bool | None = None,
+    allow_mixed_physics: bool = False,
 ) -> RuntimeModel:
     """The runtime BRDF from a preset ``variant``, else from fits: ``runtime_model()`` is the model ``fitlab codegen``
     prints, from the packaged fits.
@@ -138,7 +158,9 @@ def runtime_model(
             name += " (" + ", ".join(f"{k}: {v}" for k, v in forms.items()) + ")"
         if not order2:
             name += ", orders 0 and 1"
-    return RuntimeModel(name, runtime_brdf(parts, normalisation, energy_scale(parts, normalisation=normalisation)), sources)
+    return RuntimeModel(
+        name, runtime_brdf(parts, normalisation, energy_scale(parts, normalisation=normalisation)), sources
+    )
 
 
 # -- energy ------------------------------------------------------------------------------------------
@@ -148,7 +170,9 @@ ENERGY_MARGIN = 1e-5
 ENERGY_MU = np.concatenate(([1e-6, 1e-4, 1e-3], np.arange(1, 101) / 100))
 
 
-def energy_scale(parts: dict, terms=RUNTIME_TERMS, normalisation: str = "corrected", use_cache: bool = True) -> sp.Rational:
+def energy_scale(
+    parts: dict, terms=RUNTIME_TERMS, normalisation: str = "corrected", use_cache: bool = True
+) -> sp.Rational:
     r"""The energy scale s of a fitted runtime model: f_r = max(0, s (f_1 + fm0 + ...)), so that the model
     never creates energy.
 
@@ -277,8 +301,9 @@ def _albedo_mu(albedo_mu) -> np.ndarray:
     return np.concatenate(([1e-3], np.arange(1, 21) / 20)) if albedo_mu is None else np.asarray(albedo_mu, dtype=float)
 
 
-def accuracy_reference(seed: int = 18, n: int = 400, phase: str | None = None, albedo_c=(1e-3, 0.3, 0.7, 0.95, 1.0),
-                       albedo_mu=None) -> dict:
+def accuracy_reference(
+    seed: int = 18, n: int = 400, phase: str | None = None, albedo_c=(1e-3, 0.3, 0.7, 0.95, 1.0), albedo_mu=None
+) -> dict:
     """The exact values :func:`accuracy` measures against, through fitlab's persistent cache (keyed by the
     points, the phase and the exact engine's sources): {"main": f, "grazing": f, "albedo": a[c, mu]} with
     f = :func:`fitlab.families.lambert_sphere.exact.brdf` (``phase``, default its default) at
@@ -303,14 +328,23 @@ def accuracy_reference(seed: int = 18, n: int = 400, phase: str | None = None, a
         out["albedo"] = np.array([albedo(mu, cv, phase=phase) for cv in albedo_c]).reshape(albedo_c.size, mu.size)
         return out
 
-    key = {"family": "lambert_sphere", "set": "runtime-accuracy", "seed": seed, "n": n, "phase": phase,
-           "albedo_c": albedo_c, "albedo_mu": mu}
-    return cached_arrays(f"lambert_sphere-accuracy-{phase}", key, compute, ("main", "grazing", "albedo"),
-                         sources=exact.SOURCES)
+    key = {
+        "family": "lambert_sphere",
+        "set": "runtime-accuracy",
+        "seed": seed,
+        "n": n,
+        "phase": phase,
+        "albedo_c": albedo_c,
+        "albedo_mu": mu,
+    }
+    return cached_arrays(
+        f"lambert_sphere-accuracy-{phase}", key, compute, ("main", "grazing", "albedo"), sources=exact.SOURCES
+    )
 
 
-def accuracy(model, seed: int = 18, n: int = 400, albedo_c=(1e-3, 0.3, 0.7, 0.95, 1.0), albedo_mu=None,
-             phase: str | None = None) -> dict:
+def accuracy(
+    model, seed: int = 18, n: int = 400, albedo_c=(1e-3, 0.3, 0.7, 0.95, 1.0), albedo_mu=None, phase: str | None = None
+) -> dict:
     r"""The accuracy figures of a runtime model ``model(mu_i, mu_o, phi, c)``, against
     :func:`fitlab.families.lambert_sphere.exact.brdf` with ``phase`` (default the engine's default, "true": the
     whole phase function; "mixed": the reference the runtime parts were fitted to), relative error

@@ -29,13 +29,31 @@ from fitlab.codegen import Claim, MaterialSpec, Model, ProgramSpec, Routine, cal
 from fitlab.families.lambert_sphere.forms import ORDER2_PART, RUNTIME_PARTS, RUNTIME_TERMS, SINGLE, runtime_terms
 from fitlab.families.lambert_sphere.forms.brdf import parts_in_algebra
 from fitlab.families.lambert_sphere.program.rewrites import REWRITES, azimuth_to_cosine, floor_poles, stable
-from fitlab.families.lambert_sphere.program.runtime import ALBEDOS, ORDER2_FORMS, TRUE_FORMS, energy_scale, model_accuracy
+from fitlab.families.lambert_sphere.program.runtime import (
+    ALBEDOS,
+    ORDER2_FORMS,
+    TRUE_FORMS,
+    energy_scale,
+    model_accuracy,
+)
 from fitlab.families.lambert_sphere.targets import TARGETS, THREE_TERM, TRUE
 from fitlab.forms.symbolic import safe_pow, symbols
 from fitlab.store import FitFunction
 
-__all__ = ["PROGRAM", "PARTS", "FAST", "SAMPLER", "DOMAIN", "MODEL_PARTS", "TRUE_MODEL", "THREE_TERM_MODEL", "routines", "brdf_routines",
-           "local_routine", "claim"]
+__all__ = [
+    "PROGRAM",
+    "PARTS",
+    "FAST",
+    "SAMPLER",
+    "DOMAIN",
+    "MODEL_PARTS",
+    "TRUE_MODEL",
+    "THREE_TERM_MODEL",
+    "routines",
+    "brdf_routines",
+    "local_routine",
+    "claim",
+]
 
 mu_i, mu_o, c, kd, cos_phi = symbols(("mu_i", "mu_o", "c", "kd", "cos_phi"))
 _VEC = {v: symbols(tuple(f"{v}_{k}" for k in "xyz")) for v in ("wi", "wo")}
@@ -204,7 +222,9 @@ def _sampling_routines(vectors: dict, vec_args: tuple) -> list[Routine]:
     v = u1 / w
     cos_t = safe_pow(v, 1 / (n + 1))
     sin_t = sp.sqrt(sp.Max(1 - cos_t**2, 0))
-    lobe = [sin_t * sp.cos(angle) * tk + sin_t * sp.sin(angle) * bk + cos_t * wk for tk, bk, wk in zip(t, b, (xi, yi, zi))]
+    lobe = [
+        sin_t * sp.cos(angle) * tk + sin_t * sp.sin(angle) * bk + cos_t * wk for tk, bk, wk in zip(t, b, (xi, yi, zi))
+    ]
     # the cosine lobe about the normal (Malley's method)
     v = sp.Max((u1 - w) / (1 - w), 0)
     r = sp.sqrt(v)
@@ -238,19 +258,25 @@ def claim(fits: Mapping[str, FitFunction], terms: tuple[str, ...]) -> Claim:
     documentation of brdf and brdf_local."""
     a = model_accuracy({p: fits[p].expression for p in MODEL_PARTS}, terms)
     c_lo = min(ALBEDOS)
-    main = (f"max {a['max']:.2e}, RMS {a['rms']:.2e} relative over mu_i, mu_o in [0.01, 1], c in [{c_lo:g}, 1], "
-            f"every phi ({a['points']} points)")
+    main = (
+        f"max {a['max']:.2e}, RMS {a['rms']:.2e} relative over mu_i, mu_o in [0.01, 1], c in [{c_lo:g}, 1], "
+        f"every phi ({a['points']} points)"
+    )
     grazing = f"max {a['max_grazing']:.2e} down to mu_i, mu_o = 1e-6 ({a['grazing_points']} points)"
     zero = "exactly 0 at c = 0" if a["max_c0"] == 0.0 else f"at most {a['max_c0']:.2e} at c = 0"
     albedo = f"directional albedo at c = 1 from {a['albedo_c1_min']:.6f} to {a['albedo_c1_max']:.6f}"
     worst = ", ".join(f"{k} = {v:.4g}" for k, v in a["worst"].items())
-    sentence = (f"Against the true BRDF (the whole phase function), as fitlab codegen measured it: {main}; "
-                f"{grazing}; {zero}; {albedo}.")
-    lines = ("Accuracy of brdf against the true BRDF (exact.brdf, phase 'true': the whole phase function in every "
-             "collision), measured by fitlab codegen:",
-             f"  {main}, worst at {worst};",
-             f"  {grazing}; {zero};",
-             f"  {albedo}.")
+    sentence = (
+        f"Against the true BRDF (the whole phase function), as fitlab codegen measured it: {main}; "
+        f"{grazing}; {zero}; {albedo}."
+    )
+    lines = (
+        "Accuracy of brdf against the true BRDF (exact.brdf, phase 'true': the whole phase function in every "
+        "collision), measured by fitlab codegen:",
+        f"  {main}, worst at {worst};",
+        f"  {grazing}; {zero};",
+        f"  {albedo}.",
+    )
     return Claim(lines, {"brdf": sentence, "brdf_local": sentence})
 
 

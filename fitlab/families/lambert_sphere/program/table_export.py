@@ -25,8 +25,8 @@ from fitlab.codegen.texture import LOOKUPS, TEXEL, Texture, combined_lookup_3d, 
 from fitlab.families.lambert_sphere.forms import ORDER2_PART, RUNTIME_PARTS, RUNTIME_TERMS
 from fitlab.families.lambert_sphere.forms.constants import FIRST_ORDER
 from fitlab.families.lambert_sphere.forms.h_functions import first_order, log_exp, log_exp_remainder
-from fitlab.families.lambert_sphere.program.spec import brdf_routines, local_routine
 from fitlab.families.lambert_sphere.program.report.spline_tables import kd_interpolant
+from fitlab.families.lambert_sphere.program.spec import brdf_routines, local_routine
 from fitlab.families.lambert_sphere.targets import TARGETS
 from fitlab.families.lambert_sphere.targets.table_files import (
     CONSTANTS_FILE,
@@ -47,11 +47,38 @@ from fitlab.families.lambert_sphere.targets.table_files import (
 from fitlab.forms.symbolic import symbols
 from fitlab.store import MAX_TABLE_BYTES
 
-__all__ = ["NAME", "LANGUAGES", "NODES", "DEFAULT_NODES", "DEFAULT_LOOKUP", "QUANTITIES", "DEFAULT_QUANTITY", "LIMIT_MU",
-           "CONSTANT_ROWS", "CORRECTION_MAX_NODES", "CORRECTION_S_CHOICES", "DEFAULT_CORRECTION_S",
-           "CORRECTION_LIMIT_NODES", "CORRECTION", "TableLayout", "layout", "texture", "program", "generate", "command",
-           "check_tables", "tables_dir", "numpy_brdf", "numpy_part", "numpy_correction", "stored_correction",
-           "memory_bytes", "texels_per_call", "GENERATE_STEPS", "kd_ratio_limit"]
+__all__ = [
+    "NAME",
+    "LANGUAGES",
+    "NODES",
+    "DEFAULT_NODES",
+    "DEFAULT_LOOKUP",
+    "QUANTITIES",
+    "DEFAULT_QUANTITY",
+    "LIMIT_MU",
+    "CONSTANT_ROWS",
+    "CORRECTION_MAX_NODES",
+    "CORRECTION_S_CHOICES",
+    "DEFAULT_CORRECTION_S",
+    "CORRECTION_LIMIT_NODES",
+    "CORRECTION",
+    "TableLayout",
+    "layout",
+    "texture",
+    "program",
+    "generate",
+    "command",
+    "check_tables",
+    "tables_dir",
+    "numpy_brdf",
+    "numpy_part",
+    "numpy_correction",
+    "stored_correction",
+    "memory_bytes",
+    "texels_per_call",
+    "GENERATE_STEPS",
+    "kd_ratio_limit",
+]
 
 #: the generated files' base name and the functions' prefix
 NAME = "lambert_sphere_tables"
@@ -142,8 +169,15 @@ class TableLayout:
         out = [(self.h_row(m), n, f"R{m}(s, mu), row h + k: s = k/{n - 1}, column j: mu = j/{n - 1}") for m in range(3)]
         out += [(self.constant_row(p), 1, f"{what} at s = k/{n - 1} (column k)") for p, what in CONSTANT_ROWS]
         out.append((self.kd_row, 1, f"kd/c(kd) at kd = k/{n - 1} (column k)"))
-        out += [(self.correction_row(m), ns * nc, f"Q{m}(s, mu_i, mu_o), row q + k {nc} + i: s = k/{ns - 1}, "
-                 f"sqrt(mu_i) = i/{nc - 1}, column j: sqrt(mu_o) = j/{nc - 1}") for m in range(TRUE_ORDERS)]
+        out += [
+            (
+                self.correction_row(m),
+                ns * nc,
+                f"Q{m}(s, mu_i, mu_o), row q + k {nc} + i: s = k/{ns - 1}, "
+                f"sqrt(mu_i) = i/{nc - 1}, column j: sqrt(mu_o) = j/{nc - 1}",
+            )
+            for m in range(TRUE_ORDERS)
+        ]
         return tuple(out)
 
     def lines(self) -> tuple:
@@ -173,11 +207,14 @@ def layout(nodes: int, correction_s: tuple = DEFAULT_CORRECTION_S) -> TableLayou
     """The layout of a table of ``nodes`` nodes per axis (one of :data:`NODES`) whose correction is read along s as
     ``correction_s`` says (one of :data:`CORRECTION_S_CHOICES`)."""
     if nodes not in NODES:
-        raise ValueError(f"nodes must be one of {', '.join(map(str, NODES))} (N - 1 divides 64: every node a node of "
-                         f"the exact tables), not {nodes}")
+        raise ValueError(
+            f"nodes must be one of {', '.join(map(str, NODES))} (N - 1 divides 64: every node a node of "
+            f"the exact tables), not {nodes}"
+        )
     if tuple(correction_s) not in CORRECTION_S_CHOICES:
-        raise ValueError(f"the correction's reading along s must be one of {CORRECTION_S_CHOICES}, "
-                         f"not {correction_s!r}")
+        raise ValueError(
+            f"the correction's reading along s must be one of {CORRECTION_S_CHOICES}, not {correction_s!r}"
+        )
     return TableLayout(nodes, correction_s[1])
 
 
@@ -194,8 +231,11 @@ def _grid_index(values: np.ndarray, wanted: np.ndarray, what: str, source: Path)
 def _stored_function(order: int, quantity: str):
     """numpy f(H, mu, c) of the stored quantity (:data:`QUANTITIES`)."""
     h = sp.Symbol("h", positive=True)
-    expr = {"remainder": log_exp_remainder(order, h), "log": c * (log_exp_remainder(order, h) + first_order(order)),
-            "h": h}[quantity]
+    expr = {
+        "remainder": log_exp_remainder(order, h),
+        "log": c * (log_exp_remainder(order, h) + first_order(order)),
+        "h": h,
+    }[quantity]
     return sp.lambdify((h, mu, c), expr, "numpy")
 
 
@@ -407,10 +447,12 @@ def _part_routines(lay: TableLayout, lookup: str, quantity: str, s_lookup: str) 
 #: the routine of the correction, sum_m Q_m cos(m phi)
 CORRECTION = "true_correction"
 
-_BRDF_NOTE = (f"The three-term orders fm_m come from the H tables; {CORRECTION} = sum_m Q_m cos(m phi) corrects each "
-              "to the whole phase function; orders m >= 3 of the true multiple scattering are left out (docs/model.md, "
-              "'The exported tables'). One routine: the terms and the correction are inlined, every lookup's weights "
-              "and indices computed once.")
+_BRDF_NOTE = (
+    f"The three-term orders fm_m come from the H tables; {CORRECTION} = sum_m Q_m cos(m phi) corrects each "
+    "to the whole phase function; orders m >= 3 of the true multiple scattering are left out (docs/model.md, "
+    "'The exported tables'). One routine: the terms and the correction are inlined, every lookup's weights "
+    "and indices computed once."
+)
 
 
 @cache
@@ -422,8 +464,13 @@ def _routines(nodes: int, lookup: str, quantity: str, correction_s: tuple) -> tu
     routines = _part_routines(lay, lookup, quantity, correction_s[0])
     by_name = {r.name: r.expr for r in routines}
     parts = {p: by_name[TARGETS[p].routine] for p in (*RUNTIME_PARTS, ORDER2_PART)}
-    routines += brdf_routines(RUNTIME_TERMS, 1, "The Lambert-sphere BRDF from the exported tables", parts,
-                              correction=call(CORRECTION, mu_i, mu_o, cos_phi, c))
+    routines += brdf_routines(
+        RUNTIME_TERMS,
+        1,
+        "The Lambert-sphere BRDF from the exported tables",
+        parts,
+        correction=call(CORRECTION, mu_i, mu_o, cos_phi, c),
+    )
     routines.append(local_routine("brdf"))
     # unevaluated: substituting the clamped inputs would have sympy compare every nested max and min again
     # (tens of seconds) and change nothing that is printed
@@ -457,10 +504,12 @@ def _program(nodes: int, lookup: str, digests: tuple) -> Program:
              "the lookups' error and the orders m >= 3 left out (docs/model.md, 'The exported tables'); no energy "
              "scale.",
              "From these tables (sha256):", *(f"  {file}  {digest}" for file, digest in digests))  # fmt: skip
-    doc = ("The Lambert-sphere BRDF from its exported tables, generated by fitlab: numpy only.\n\n"
-           "Every function takes numpy arrays (any broadcastable shapes; vectors have a\n"
-           "last axis of 3) and returns an array of float64; the texture is read from the\n"
-           f"file {NAME}.f32 beside this module.\n")
+    doc = (
+        "The Lambert-sphere BRDF from its exported tables, generated by fitlab: numpy only.\n\n"
+        "Every function takes numpy arrays (any broadcastable shapes; vectors have a\n"
+        "last axis of 3) and returns an array of float64; the texture is read from the\n"
+        f"file {NAME}.f32 beside this module.\n"
+    )
     parts = (*RUNTIME_PARTS, ORDER2_PART, "c_of_kd")
     return Program(routines, (), RUNTIME_TERMS, NAME, about, doc, parts, None, material_of(routines, spec))
 
@@ -470,8 +519,9 @@ def _digests(data_dir: Path) -> tuple:
     names = (*(h_file(m) for m in range(3)), CONSTANTS_FILE, KD_FILE, TRUE_FILE)
     for name in names:
         read_checked(name, data_dir)  # a TableError names a bad one; a FIFO is refused before it is opened
-    return tuple((name, hashlib.sha256(read_regular_file(data_dir / name, MAX_TABLE_BYTES)).hexdigest())
-                 for name in names)
+    return tuple(
+        (name, hashlib.sha256(read_regular_file(data_dir / name, MAX_TABLE_BYTES)).hexdigest()) for name in names
+    )
 
 
 def program(nodes: int = DEFAULT_NODES, lookup: str = DEFAULT_LOOKUP, data_dir: Path | None = None) -> Program:

@@ -52,8 +52,22 @@ from fitlab.forms import Form
 from fitlab.forms.symbolic import lambdify_numpy, symbols
 from fitlab.store import FitFileError, fit_path, fit_source, fits_folder, load, write_fits
 
-__all__ = ["ORDER_PARTS", "TRUE_FITS", "TRUE_MODEL_NAME", "START_FORMS", "start_values", "order_form", "joint_form", "joint_training", "fitted_parts",
-           "true_runtime_model", "MINIMAX_ROUNDS", "JOINT_PHI", "GOAL_MU_MIN", "GRAZING_WEIGHT"]
+__all__ = [
+    "ORDER_PARTS",
+    "TRUE_FITS",
+    "TRUE_MODEL_NAME",
+    "START_FORMS",
+    "start_values",
+    "order_form",
+    "joint_form",
+    "joint_training",
+    "fitted_parts",
+    "true_runtime_model",
+    "MINIMAX_ROUNDS",
+    "JOINT_PHI",
+    "GOAL_MU_MIN",
+    "GRAZING_WEIGHT",
+]
 
 #: the parts each Fourier order of the runtime structure is made of
 ORDER_PARTS = {0: ("H0", "B", "C", "D", "F"), 1: ("H1", "l", "m"), 2: (ORDER2_PART,)}
@@ -87,8 +101,10 @@ def true_runtime_model(fits_dir: Path | None = None) -> RuntimeModel:
     # fitted to the mixed reference
     missing = [p for p in (*RUNTIME_PARTS, ORDER2_PART) if not fit_path(folder, p, forms[p]).is_file()]
     if missing:
-        raise FitFileError(f"{folder}: no fit to the true BRDF of {', '.join(missing)} in the model's forms "
-                           f"({', '.join(fit_path(folder, p, forms[p]).name for p in missing)})")
+        raise FitFileError(
+            f"{folder}: no fit to the true BRDF of {', '.join(missing)} in the model's forms "
+            f"({', '.join(fit_path(folder, p, forms[p]).name for p in missing)})"
+        )
     m = runtime_model(fits_dir=folder, model=TRUE_MODEL)
     return RuntimeModel(TRUE_MODEL_NAME, m.expr, m.sources)
 
@@ -136,9 +152,17 @@ def order_form(order: int, forms: dict | None = None) -> tuple[Form, dict]:
     forms = {**_model_forms(), **(forms or {})}
     parts, params, fixed, start = _parts(forms, ORDER_PARTS[order])
     expr = runtime_terms(parts)[f"m{order}"]
-    form = Form(f"fm{order}_true", "runtime_parts", ("mu_i", "mu_o", "c"), tuple(params), expr, start=start,
-                fixed=fixed, description=f"order {order} of the runtime structure, its parts' forms: "
-                + ", ".join(f"{p} {forms[p]}" for p in ORDER_PARTS[order]))
+    form = Form(
+        f"fm{order}_true",
+        "runtime_parts",
+        ("mu_i", "mu_o", "c"),
+        tuple(params),
+        expr,
+        start=start,
+        fixed=fixed,
+        description=f"order {order} of the runtime structure, its parts' forms: "
+        + ", ".join(f"{p} {forms[p]}" for p in ORDER_PARTS[order]),
+    )
     return form, start
 
 
@@ -149,9 +173,17 @@ def joint_form(forms: dict | None = None) -> tuple[Form, dict]:
     forms = {**_model_forms(), **(forms or {})}
     parts, params, fixed, start = _parts(forms, (*RUNTIME_PARTS, ORDER2_PART))
     expr = runtime_sum(parts)
-    form = Form("f_true", "runtime_parts", ("mu_i", "mu_o", "phi", "c"), tuple(params), expr, start=start,
-                fixed=fixed, description="the runtime structure, its parts' forms: "
-                + ", ".join(f"{p} {forms[p]}" for p in (*RUNTIME_PARTS, ORDER2_PART)))
+    form = Form(
+        "f_true",
+        "runtime_parts",
+        ("mu_i", "mu_o", "phi", "c"),
+        tuple(params),
+        expr,
+        start=start,
+        fixed=fixed,
+        description="the runtime structure, its parts' forms: "
+        + ", ".join(f"{p} {forms[p]}" for p in (*RUNTIME_PARTS, ORDER2_PART)),
+    )
     return form, start
 
 
@@ -198,8 +230,11 @@ def fitted_parts(forms: dict | None = None, minimax_rounds: int = MINIMAX_ROUNDS
     if on_stage is not None:
         on_stage("joint", fit)
     values = dict(zip(form.params, (float(x) for x in fit.theta)))
-    return {part: _record(part, forms[part], values, train, fit, minimax_rounds)
-            for names in ORDER_PARTS.values() for part in names}
+    return {
+        part: _record(part, forms[part], values, train, fit, minimax_rounds)
+        for names in ORDER_PARTS.values()
+        for part in names
+    }
 
 
 def _record(part, form_name, values, train, fit, minimax_rounds) -> dict:
@@ -215,11 +250,13 @@ def _record(part, form_name, values, train, fit, minimax_rounds) -> dict:
         "published": [],
         "optimizer": {
             **SOLVER_SETTINGS,
-            "objective": ("fitted with every other part of the runtime structure to the true BRDF (exact.brdf, "
-                          "phase='true', its multiple scattering's Fourier orders 0 to 2), relative to f_r; each "
-                          "order's parts by least squares first, then all jointly: least squares, then Lawson "
-                          f"minimax refinement ({minimax_rounds} rounds, best max error kept), points with a cosine "
-                          f"below {GOAL_MU_MIN} weighted {GRAZING_WEIGHT}"),
+            "objective": (
+                "fitted with every other part of the runtime structure to the true BRDF (exact.brdf, "
+                "phase='true', its multiple scattering's Fourier orders 0 to 2), relative to f_r; each "
+                "order's parts by least squares first, then all jointly: least squares, then Lawson "
+                f"minimax refinement ({minimax_rounds} rounds, best max error kept), points with a cosine "
+                f"below {GOAL_MU_MIN} weighted {GRAZING_WEIGHT}"
+            ),
             "least_squares_steps": fit.l2_steps,
             "total_steps": fit.total_steps,
             "result": fit.result,
@@ -227,24 +264,31 @@ def _record(part, form_name, values, train, fit, minimax_rounds) -> dict:
             "train_rms_rel": fit.train_rms,
         },
         "claimed_accuracy": "none: a part of the runtime model fitted to the true BRDF, not to its target",
-        "note": ("This part approximates the true BRDF through the runtime structure, not the three-term "
-                 f"{part}: its validation figures say how far it moved from the three-term quantity "
-                 "(fitlab.families.lambert_sphere.program.true_refit; "
-                 "docs/model.md, 'Parts fitted to the true BRDF')."),
+        "note": (
+            "This part approximates the true BRDF through the runtime structure, not the three-term "
+            f"{part}: its validation figures say how far it moved from the three-term quantity "
+            "(fitlab.families.lambert_sphere.program.true_refit; "
+            "docs/model.md, 'Parts fitted to the true BRDF')."
+        ),
         "data_sha256": data_hash(train, valid),
     }
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description="Fit the runtime model's parts to the true BRDF (orders 0 to 2) "
-                                                 "and write their fit files.")
+    parser = argparse.ArgumentParser(
+        description="Fit the runtime model's parts to the true BRDF (orders 0 to 2) and write their fit files."
+    )
     parser.add_argument("--out", type=Path, required=True, help="folder for the fit files (made if missing)")
     parser.add_argument("--minimax-rounds", type=int, default=MINIMAX_ROUNDS)
     args = parser.parse_args(argv)
     if args.minimax_rounds < 0:
         parser.error("--minimax-rounds must be >= 0")
-    records = fitted_parts(minimax_rounds=args.minimax_rounds, on_stage=lambda name, f: print(
-        f"{name}: train max {f.train_max:.3e}, RMS {f.train_rms:.3e} ({f.seconds:.0f} s)", flush=True))
+    records = fitted_parts(
+        minimax_rounds=args.minimax_rounds,
+        on_stage=lambda name, f: print(
+            f"{name}: train max {f.train_max:.3e}, RMS {f.train_rms:.3e} ({f.seconds:.0f} s)", flush=True
+        ),
+    )
     written = write_fits({fit_path(args.out, r["target"], r["form"]): r for r in records.values()})
     for path in written:
         print(path)

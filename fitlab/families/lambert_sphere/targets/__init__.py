@@ -85,8 +85,16 @@ TARGETS: dict[str, Target] = {
     t.name: t
     for t in (
         Target(
-            "H0", "H0(mu, c), mu and c in [0, 1]", _inputs("mu", "c"), "hapke", (("hapke", "paper"),),
-            lambda: d.h_training(0), lambda: d.h_validation(0), exact_grid("H0"), "h0", physics=THREE_TERM,
+            "H0",
+            "H0(mu, c), mu and c in [0, 1]",
+            _inputs("mu", "c"),
+            "hapke",
+            (("hapke", "paper"),),
+            lambda: d.h_training(0),
+            lambda: d.h_validation(0),
+            exact_grid("H0"),
+            "h0",
+            physics=THREE_TERM,
             claimed="relative error < 1 % on (mu, c) in [0, 1]^2 (paper, sec. 3.4)",
             emphasis=lambda ds: 1.0 / (ds.inputs["c"] + 0.1),
             emphasis_text=(
@@ -96,39 +104,79 @@ TARGETS: dict[str, Target] = {
             ),
         ),
         Target(
-            "H1", "H1(mu, c), mu and c in [0, 1]", _inputs("mu", "c"), "separable",
-            (("separable_printed", "paper"), ("separable_printed", "paper_variant"), ("separable", "paper"),
-             ("separable", "renderer")),
-            lambda: d.h_training(1), lambda: d.h_validation(1), exact_grid("H1"), "h1", physics=THREE_TERM,
+            "H1",
+            "H1(mu, c), mu and c in [0, 1]",
+            _inputs("mu", "c"),
+            "separable",
+            (
+                ("separable_printed", "paper"),
+                ("separable_printed", "paper_variant"),
+                ("separable", "paper"),
+                ("separable", "renderer"),
+            ),
+            lambda: d.h_training(1),
+            lambda: d.h_validation(1),
+            exact_grid("H1"),
+            "h1",
+            physics=THREE_TERM,
             claimed="relative error < 0.5 % (paper, sec. 3.3)",
         ),
         Target(
-            "H2", "H2(mu, c), mu and c in [0, 1]: the H-function of Fourier order 2 (eq. 15), for fm2",
-            _inputs("mu", "c"), "log_exp", (("unity", "paper"),), lambda: d.h_training(2), lambda: d.h_validation(2), _h_grid(2), "h2",
+            "H2",
+            "H2(mu, c), mu and c in [0, 1]: the H-function of Fourier order 2 (eq. 15), for fm2",
+            _inputs("mu", "c"),
+            "log_exp",
+            (("unity", "paper"),),
+            lambda: d.h_training(2),
+            lambda: d.h_validation(2),
+            _h_grid(2),
+            "h2",
             physics=THREE_TERM,
             claimed="none: the paper drops fm2 (eq. 21), i.e. takes H2 = 1 (form unity)",
         ),
-        _constant_target("l", ("quadratic",), (("quadratic", "paper"), ("quadratic", "renderer")),
-                         "l(c) of f^(1) (eq. 22)"),
+        _constant_target(
+            "l", ("quadratic",), (("quadratic", "paper"), ("quadratic", "renderer")), "l(c) of f^(1) (eq. 22)"
+        ),
         _constant_target("m", ("linear",), (("linear", "paper"), ("linear", "renderer")), "m(c) of f^(1) (eq. 22)"),
         *(
             _constant_target(n, ("rational_3_2",), (("printed", "paper"),), f"{n}(c) of Q in f^(0) (eq. 30)", **_BF)
             for n in "BCDF"
         ),
         Target(
-            "kd_of_c", "kd(c): spherical albedo of fitlab.families.lambert_sphere.exact.brdf (kd_true), c in [0, 1]", _inputs("c"), "printed_c0",
-            (("printed", "paper"),), d.kd_of_c_training, d.kd_of_c_validation, exact_grid("kd_of_c"), "kd_of_c",
+            "kd_of_c",
+            "kd(c): spherical albedo of fitlab.families.lambert_sphere.exact.brdf (kd_true), c in [0, 1]",
+            _inputs("c"),
+            "printed_c0",
+            (("printed", "paper"),),
+            d.kd_of_c_training,
+            d.kd_of_c_validation,
+            exact_grid("kd_of_c"),
+            "kd_of_c",
             physics=TRUE,
         ),
         Target(
-            "c_of_kd", "c(kd): inverse of kd_true, kd in [0, 1]", _inputs("kd"), "rational_power",
-            (("rational_power", "paper"), ("rational_power", "renderer")), d.c_of_kd_training, d.c_of_kd_validation,
-            exact_grid("c_of_kd"), "c_of_kd", axes=GRID_AXES["c_of_kd"], physics=TRUE,
+            "c_of_kd",
+            "c(kd): inverse of kd_true, kd in [0, 1]",
+            _inputs("kd"),
+            "rational_power",
+            (("rational_power", "paper"), ("rational_power", "renderer")),
+            d.c_of_kd_training,
+            d.c_of_kd_validation,
+            exact_grid("c_of_kd"),
+            "c_of_kd",
+            axes=GRID_AXES["c_of_kd"],
+            physics=TRUE,
         ),
         Target(
-            "fm1", "fm1(mu_i, mu_o, c): multiple scattering of Fourier order 1 (eq. 28, corrected)",
-            _inputs("mu_i", "mu_o", "c"), "fast", (("fast", "paper"),), d.fm1_training, d.fm1_validation,
-            exact_grid("fm1"), physics=THREE_TERM,
+            "fm1",
+            "fm1(mu_i, mu_o, c): multiple scattering of Fourier order 1 (eq. 28, corrected)",
+            _inputs("mu_i", "mu_o", "c"),
+            "fast",
+            (("fast", "paper"),),
+            d.fm1_training,
+            d.fm1_validation,
+            exact_grid("fm1"),
+            physics=THREE_TERM,
             error_measure=(
                 "relative to f^(0): |approx - exact| / f^(0)(mu_i, mu_o, c), f^(0) the azimuthal mean of the exact "
                 "BRDF (fm1 itself vanishes at c = 0 and mu = 1, and grows only like log(1/mu) at grazing, where "
@@ -137,10 +185,18 @@ TARGETS: dict[str, Target] = {
             scale=lambda ds: ds.aux["f0"],
         ),
         Target(
-            "fast_brdf", "f_r(mu_i, mu_o, phi, c, kd = kd_true(c)) against fitlab.families.lambert_sphere.exact.brdf",
-            _inputs("mu_i", "mu_o", "phi", "c", "kd"), "paper", (("paper", "paper"),), d.brdf_training, d.brdf_validation,
-            exact_grid("fast_brdf"), "brdf_fast", axes=GRID_AXES["fast_brdf"],
-            minimax=False, physics=TRUE,
+            "fast_brdf",
+            "f_r(mu_i, mu_o, phi, c, kd = kd_true(c)) against fitlab.families.lambert_sphere.exact.brdf",
+            _inputs("mu_i", "mu_o", "phi", "c", "kd"),
+            "paper",
+            (("paper", "paper"),),
+            d.brdf_training,
+            d.brdf_validation,
+            exact_grid("fast_brdf"),
+            "brdf_fast",
+            axes=GRID_AXES["fast_brdf"],
+            minimax=False,
+            physics=TRUE,
             note=(
                 "At phi = pi, mu_i = mu_o = mu -> 0 the exact f_r grows like log(1/mu) while every member of the "
                 "eq. 41 family stays bounded (f_1 -> 0 there, the other terms are bounded), so the supremum of the "
@@ -150,9 +206,15 @@ TARGETS: dict[str, Target] = {
         ),
         *(
             Target(
-                name, f"{what}, mu_i and c in [0, 1]", _inputs("mu_i", "c"), form, (),
-                lambda name=name: d.sampling_training(name), lambda name=name: d.sampling_validation(name),
-                routine=name, physics=MIXED,
+                name,
+                f"{what}, mu_i and c in [0, 1]",
+                _inputs("mu_i", "c"),
+                form,
+                (),
+                lambda name=name: d.sampling_training(name),
+                lambda name=name: d.sampling_validation(name),
+                routine=name,
+                physics=MIXED,
                 claimed="none: no published sampler (renderers draw cosine-weighted directions, w = 0)",
                 minimax=False,
                 note=(
@@ -163,10 +225,16 @@ TARGETS: dict[str, Target] = {
                 ),
             )
             for name, form, what in (
-                ("sample_weight", "logistic_poly",
-                 "w(mu_i, c): the weight of the back-scatter lobe in the variance-optimal sampling mixture (exact.sampling)"),
-                ("sample_exponent", "exp_poly",
-                 "n(mu_i, c): the exponent of the back-scatter lobe in the variance-optimal sampling mixture (exact.sampling)"),
+                (
+                    "sample_weight",
+                    "logistic_poly",
+                    "w(mu_i, c): the weight of the back-scatter lobe in the variance-optimal sampling mixture (exact.sampling)",
+                ),
+                (
+                    "sample_exponent",
+                    "exp_poly",
+                    "n(mu_i, c): the exponent of the back-scatter lobe in the variance-optimal sampling mixture (exact.sampling)",
+                ),
             )
         ),
     )

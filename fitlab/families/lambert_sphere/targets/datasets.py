@@ -43,6 +43,7 @@ from fitlab.families.lambert_sphere.targets.table_files import (
 def _cached(name: str, grid: str, compute, inputs: tuple[str, ...], aux: tuple[str, ...] = (), **axes) -> Dataset:
     """``compute()`` (a Dataset with ``inputs`` and ``aux``) through fitlab's persistent cache of exact
     values, keyed by the set's name, its grid (text and ``axes`` arrays) and the exact engine's source."""
+
     def arrays():
         ds = compute()
         return {**{f"in_{k}": ds.inputs[k] for k in inputs}, "y": ds.y, **{f"aux_{k}": ds.aux[k] for k in aux}}
@@ -69,7 +70,9 @@ def h_training(order: int, data_dir: Path | None = None) -> Dataset:
 def _h_training(order: int, folder: Path) -> Dataset:
     t = read_h(order, folder)
     t = t[t[:, 2] <= 1.0]
-    return Dataset({"mu": t[:, 2], "c": t[:, 1]}, t[:, 3], f"table h{order}.csv, mu <= 1: s = k/64, mu = k/64 and 1e-12..1e-3")
+    return Dataset(
+        {"mu": t[:, 2], "c": t[:, 1]}, t[:, 3], f"table h{order}.csv, mu <= 1: s = k/64, mu = k/64 and 1e-12..1e-3"
+    )
 
 
 @cache
@@ -112,7 +115,9 @@ def constant_training(name: str, data_dir: Path | None = None) -> Dataset:
 
 
 def constant_validation(name: str) -> Dataset:
-    return Dataset({"c": 1.0 - _S_1D**2}, np.asarray(_constants_validation()[name], dtype=float), "s = (2k+1)/256, plus 0 and 1")
+    return Dataset(
+        {"c": 1.0 - _S_1D**2}, np.asarray(_constants_validation()[name], dtype=float), "s = (2k+1)/256, plus 0 and 1"
+    )
 
 
 def _kd_training(data_dir: Path | None = None):
@@ -172,17 +177,25 @@ def _pairs(mu):
 
 @cache
 def fm1_training() -> Dataset:
-    return _fm1(np.arange(17) / 16, np.concatenate(([0.0, 1e-6, 1e-3], np.arange(1, 17) / 16)), "s = k/16; mu = k/16 and 1e-6, 1e-3")
+    return _fm1(
+        np.arange(17) / 16,
+        np.concatenate(([0.0, 1e-6, 1e-3], np.arange(1, 17) / 16)),
+        "s = k/16; mu = k/16 and 1e-6, 1e-3",
+    )
 
 
 @cache
 def fm1_validation() -> Dataset:
-    return _fm1(_interleaved(64), _interleaved(64, extra=(1e-9, 1e-5)), "s, mu = (2k+1)/64, plus 0, 1 and mu = 1e-9, 1e-5")
+    return _fm1(
+        _interleaved(64), _interleaved(64, extra=(1e-9, 1e-5)), "s, mu = (2k+1)/64, plus 0, 1 and mu = 1e-9, 1e-5"
+    )
 
 
 def _fm1(s, mu, grid) -> Dataset:
     grid = grid + "; mu_i = mu_o = 0 left out"
-    return _cached(f"fm1-{len(s)}x{len(mu)}", grid, lambda: _fm1_exact(s, mu, grid), ("mu_i", "mu_o", "c"), ("f0",), s=s, mu=mu)
+    return _cached(
+        f"fm1-{len(s)}x{len(mu)}", grid, lambda: _fm1_exact(s, mu, grid), ("mu_i", "mu_o", "c"), ("f0",), s=s, mu=mu
+    )
 
 
 def _fm1_exact(s, mu, grid) -> Dataset:
@@ -195,14 +208,19 @@ def _fm1_exact(s, mu, grid) -> Dataset:
         for k, v in (("mu_i", mi), ("mu_o", mo), ("c", np.full(mi.shape, cv))):
             cols[k].append(v)
     return Dataset(
-        {k: np.concatenate(v) for k, v in cols.items()}, np.concatenate(ys), grid, {"f0": np.concatenate(f0)},
+        {k: np.concatenate(v) for k, v in cols.items()},
+        np.concatenate(ys),
+        grid,
+        {"f0": np.concatenate(f0)},
     )
 
 
 @cache
 def brdf_training() -> Dataset:
     return _brdf(
-        np.arange(17) / 16, np.concatenate(([0.0, 1e-4], np.arange(1, 17) / 16)), np.arange(9) * np.pi / 8,
+        np.arange(17) / 16,
+        np.concatenate(([0.0, 1e-4], np.arange(1, 17) / 16)),
+        np.arange(9) * np.pi / 8,
         "s = k/16 and c = 0.005, 0.02, 0.05, 0.09 (s = k/16 leaves c in (0, 0.12) empty); mu = k/16 and 1e-4; "
         "phi = k pi/8",
         extra_c=(0.005, 0.02, 0.05, 0.09),
@@ -220,8 +238,12 @@ def brdf_validation(phase: str = "true") -> Dataset:
 
 def _validation_lattice():
     """(s, mu, phi, grid) of the BRDF validation sets, mixed and true."""
-    return (_interleaved(32), _interleaved(32, extra=(1e-6,)), np.pi * _interleaved(32),
-            "s, mu, phi/pi = (2k+1)/32, plus 0, 1 and mu = 1e-6")
+    return (
+        _interleaved(32),
+        _interleaved(32, extra=(1e-6,)),
+        np.pi * _interleaved(32),
+        "s, mu, phi/pi = (2k+1)/32, plus 0, 1 and mu = 1e-6",
+    )
 
 
 def _brdf(s, mu, phi, grid, extra_c=(), phase="true") -> Dataset:
@@ -230,9 +252,17 @@ def _brdf(s, mu, phi, grid, extra_c=(), phase="true") -> Dataset:
     grid = grid + f"; mu_i = mu_o = 0 left out; exact.brdf(phase={phase!r}), kd its spherical albedo"
     name = f"brdf-{phase}-{len(s)}x{len(mu)}x{len(phi)}+{len(extra_c)}"
     aux = ("fm0", "fm1", "fm2") if phase == "true" else ()
-    return _cached(name, grid, lambda: _brdf_exact(s, mu, phi, grid, extra_c, phase),
-                   ("mu_i", "mu_o", "phi", "c", "kd"), aux, s=s, mu=mu, phi=phi,
-                   extra_c=np.asarray(extra_c, dtype=float))
+    return _cached(
+        name,
+        grid,
+        lambda: _brdf_exact(s, mu, phi, grid, extra_c, phase),
+        ("mu_i", "mu_o", "phi", "c", "kd"),
+        aux,
+        s=s,
+        mu=mu,
+        phi=phi,
+        extra_c=np.asarray(extra_c, dtype=float),
+    )
 
 
 def _brdf_exact(s, mu, phi, grid, extra_c=(), phase="true") -> Dataset:
@@ -252,11 +282,18 @@ def _brdf_exact(s, mu, phi, grid, extra_c=(), phase="true") -> Dataset:
         # every phi in one call: the true-phase engine then solves its Nystrom rows once per c, not per phi
         ys.append(brdf(mi[None, :], mo[None, :], np.asarray(phi, dtype=float)[:, None], cv, phase=phase).ravel())
         for p in phi:
-            for k, v in (("mu_i", mi), ("mu_o", mo), ("phi", np.full(n, p)), ("c", np.full(n, cv)),
-                         ("kd", np.full(n, kv))):
+            for k, v in (
+                ("mu_i", mi),
+                ("mu_o", mo),
+                ("phi", np.full(n, p)),
+                ("c", np.full(n, cv)),
+                ("kd", np.full(n, kv)),
+            ):
                 cols[k].append(v)
     return Dataset(
-        {k: np.concatenate(v) for k, v in cols.items()}, np.concatenate(ys), grid,
+        {k: np.concatenate(v) for k, v in cols.items()},
+        np.concatenate(ys),
+        grid,
         {k: np.concatenate(v) for k, v in aux.items()} if phase == "true" else None,
     )
 
@@ -270,7 +307,9 @@ def _sampling(target: str, name: str, data_dir: Path | None) -> Dataset:
     from fitlab.families.lambert_sphere.targets.table_files import SAMPLING_GRIDS
 
     t = read_sampling(name, tables_dir(data_dir))
-    return Dataset({"mu_i": t["mu_i"], "c": t["c"]}, t[SAMPLING_COLUMN[target]], f"table {name}: {SAMPLING_GRIDS[name][2]}")
+    return Dataset(
+        {"mu_i": t["mu_i"], "c": t["c"]}, t[SAMPLING_COLUMN[target]], f"table {name}: {SAMPLING_GRIDS[name][2]}"
+    )
 
 
 def sampling_training(target: str, data_dir: Path | None = None) -> Dataset:
@@ -302,8 +341,17 @@ def true_orders_training() -> Dataset:
     s, extra_c, mu = TRUE_TRAINING_S, TRUE_TRAINING_EXTRA_C, TRUE_TRAINING_MU
     grid = "s = k/16 (k < 16) and c = 1e-3, 3e-3, 1e-2, 2e-2, 4e-2, 7e-2; mu = k/16 and 1e-5, 1e-3, 4e-3, 1e-2, 2e-2; mu_i = mu_o = 0 left out"
     phi = np.linspace(0.0, np.pi, 33)
-    return _cached("true-orders", grid, lambda: _true_orders(s, mu, phi, extra_c, grid), ("mu_i", "mu_o", "c"),
-                   ("fm0", "fm1", "fm2", "scale"), s=s, mu=mu, phi=phi, extra_c=np.asarray(extra_c, dtype=float))
+    return _cached(
+        "true-orders",
+        grid,
+        lambda: _true_orders(s, mu, phi, extra_c, grid),
+        ("mu_i", "mu_o", "c"),
+        ("fm0", "fm1", "fm2", "scale"),
+        s=s,
+        mu=mu,
+        phi=phi,
+        extra_c=np.asarray(extra_c, dtype=float),
+    )
 
 
 def _true_orders(s, mu, phi, extra_c, grid) -> Dataset:
@@ -312,12 +360,23 @@ def _true_orders(s, mu, phi, extra_c, grid) -> Dataset:
     for cv in np.concatenate((1.0 - s**2, extra_c)):
         orders = multiple_scattering_modes(mi, mo, cv, phase="true")
         f = brdf(mi[None, :], mo[None, :], phi[:, None], cv, phase="true")
-        for k, v in (("mu_i", mi), ("mu_o", mo), ("c", np.full(mi.size, cv)), ("fm0", orders[0]),
-                     ("fm1", orders[1]), ("fm2", orders[2]), ("scale", np.min(f, axis=0))):
+        for k, v in (
+            ("mu_i", mi),
+            ("mu_o", mo),
+            ("c", np.full(mi.size, cv)),
+            ("fm0", orders[0]),
+            ("fm1", orders[1]),
+            ("fm2", orders[2]),
+            ("scale", np.min(f, axis=0)),
+        ):
             cols[k].append(v)
     cols = {k: np.concatenate(v) for k, v in cols.items()}
-    return Dataset({k: cols[k] for k in ("mu_i", "mu_o", "c")}, cols["fm0"], grid,
-                   {k: cols[k] for k in ("fm0", "fm1", "fm2", "scale")})
+    return Dataset(
+        {k: cols[k] for k in ("mu_i", "mu_o", "c")},
+        cols["fm0"],
+        grid,
+        {k: cols[k] for k in ("fm0", "fm1", "fm2", "scale")},
+    )
 
 
 #: the edge block of :func:`brdf_true_independent`: grazing cosines from the accuracy goal's edge mu = 0.01 up,
@@ -342,9 +401,11 @@ def true_independent_points(seed: int = 33, n_c: int = 10, per_c: int = 400) -> 
     points[..., 2] *= np.pi
     edge = np.stack([a.ravel() for a in np.meshgrid(EDGE_MU, EDGE_MU, np.pi * np.asarray(EDGE_PHI), indexing="ij")], 1)
     blocks = [(float(cv), p) for cv, p in zip(c, points)] + [(float(cv), edge) for cv in (*EDGE_C, *c[:-1])]
-    grid = (f"seed {seed}: {n_c} albedos uniform in (0, 1) and c = 1, {per_c} points each uniform in mu_i, mu_o, "
-            f"phi/pi; and mu_i, mu_o in {{{', '.join(map(str, EDGE_MU))}}} x phi/pi in "
-            f"{{{', '.join(map(str, EDGE_PHI))}}} at c = {', '.join(map(str, EDGE_C))} and the random albedos")
+    grid = (
+        f"seed {seed}: {n_c} albedos uniform in (0, 1) and c = 1, {per_c} points each uniform in mu_i, mu_o, "
+        f"phi/pi; and mu_i, mu_o in {{{', '.join(map(str, EDGE_MU))}}} x phi/pi in "
+        f"{{{', '.join(map(str, EDGE_PHI))}}} at c = {', '.join(map(str, EDGE_C))} and the random albedos"
+    )
     return blocks, grid
 
 
@@ -363,13 +424,26 @@ def brdf_true_independent(seed: int = 33, n_c: int = 10, per_c: int = 400) -> Da
                 if cb == cv:
                     ys[k] = brdf(p[:, 0], p[:, 1], p[:, 2], cv, phase="true")
         n = [len(p) for _, p in blocks]
-        return Dataset({"mu_i": np.concatenate([p[:, 0] for _, p in blocks]),
-                        "mu_o": np.concatenate([p[:, 1] for _, p in blocks]),
-                        "phi": np.concatenate([p[:, 2] for _, p in blocks]),
-                        "c": np.repeat([cv for cv, _ in blocks], n), "kd": np.zeros(sum(n))},
-                       np.concatenate(ys), grid)
+        return Dataset(
+            {
+                "mu_i": np.concatenate([p[:, 0] for _, p in blocks]),
+                "mu_o": np.concatenate([p[:, 1] for _, p in blocks]),
+                "phi": np.concatenate([p[:, 2] for _, p in blocks]),
+                "c": np.repeat([cv for cv, _ in blocks], n),
+                "kd": np.zeros(sum(n)),
+            },
+            np.concatenate(ys),
+            grid,
+        )
 
     random_c = np.array([cv for cv, _ in blocks[: n_c + 1]])  # the random blocks come first
-    return _cached(f"brdf-true-independent-{seed}-{n_c}x{per_c}+edge2", grid, compute,
-                   ("mu_i", "mu_o", "phi", "c", "kd"), c=random_c, edge_mu=np.asarray(EDGE_MU),
-                   edge_phi=np.asarray(EDGE_PHI), edge_c=np.asarray(EDGE_C))
+    return _cached(
+        f"brdf-true-independent-{seed}-{n_c}x{per_c}+edge2",
+        grid,
+        compute,
+        ("mu_i", "mu_o", "phi", "c", "kd"),
+        c=random_c,
+        edge_mu=np.asarray(EDGE_MU),
+        edge_phi=np.asarray(EDGE_PHI),
+        edge_c=np.asarray(EDGE_C),
+    )

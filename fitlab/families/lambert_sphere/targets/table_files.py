@@ -22,11 +22,41 @@ from fitlab.families.lambert_sphere.exact.sampling import MU_MIN
 from fitlab.resources import tables_folder
 from fitlab.store import read_table
 
-__all__ = ["FAMILY_NAME", "tables_dir", "h_columns", "h_file", "CONSTANTS_FILE", "CONSTANT_COLUMNS", "KD_FILE",
-           "KD_COLUMNS", "TRUE_FILE", "TRUE_COLUMNS", "TRUE_ORDERS", "TABLE_FILES",
-           "SAMPLING_FILES", "SAMPLING_COLUMNS", "INFINITE", "S_GRID", "C_GRID", "MU_GRID", "GRID_TEXT", "TRUE_S_GRID",
-           "TRUE_MU_GRID", "TRUE_GRID_TEXT", "true_grid", "SAMPLING_GRIDS", "grid_text", "grid_points", "read_checked",
-           "read_sampling", "read_h", "read_constants", "read_kd", "read_true_orders", "check_tables"]
+__all__ = [
+    "FAMILY_NAME",
+    "tables_dir",
+    "h_columns",
+    "h_file",
+    "CONSTANTS_FILE",
+    "CONSTANT_COLUMNS",
+    "KD_FILE",
+    "KD_COLUMNS",
+    "TRUE_FILE",
+    "TRUE_COLUMNS",
+    "TRUE_ORDERS",
+    "TABLE_FILES",
+    "SAMPLING_FILES",
+    "SAMPLING_COLUMNS",
+    "INFINITE",
+    "S_GRID",
+    "C_GRID",
+    "MU_GRID",
+    "GRID_TEXT",
+    "TRUE_S_GRID",
+    "TRUE_MU_GRID",
+    "TRUE_GRID_TEXT",
+    "true_grid",
+    "SAMPLING_GRIDS",
+    "grid_text",
+    "grid_points",
+    "read_checked",
+    "read_sampling",
+    "read_h",
+    "read_constants",
+    "read_kd",
+    "read_true_orders",
+    "check_tables",
+]
 
 #: the family's name: its tables live in ``fitlab/data/FAMILY_NAME/`` and ``DATA/FAMILY_NAME/``
 FAMILY_NAME = "lambert_sphere"
@@ -38,8 +68,14 @@ KD_COLUMNS = ("s", "c", "kd_three_term", "kd_mixed", "kd_true")
 TRUE_ORDERS = 3
 #: the true multiple scattering beside the three-term one, orders 0 to TRUE_ORDERS - 1, on (s, mu_i <= mu_o)
 TRUE_FILE = "true_orders.csv"
-TRUE_COLUMNS = ("s", "c", "mu_i", "mu_o", *(f"fm{m}_true" for m in range(TRUE_ORDERS)),
-                *(f"fm{m}_three_term" for m in range(TRUE_ORDERS)))
+TRUE_COLUMNS = (
+    "s",
+    "c",
+    "mu_i",
+    "mu_o",
+    *(f"fm{m}_true" for m in range(TRUE_ORDERS)),
+    *(f"fm{m}_three_term" for m in range(TRUE_ORDERS)),
+)
 #: the variance-optimal sampling mixture (:mod:`..exact.sampling`) on the training and the validation grid
 SAMPLING_FILES = ("sampling.csv", "sampling_validation.csv")
 SAMPLING_COLUMNS = ("s", "c", "mu_i", "weight", "exponent", "relvar_optimal", "relvar_cosine")
@@ -54,8 +90,13 @@ def h_columns(order: int) -> tuple[str, ...]:
 
 
 #: every table file and its columns
-TABLE_FILES = {**{h_file(m): h_columns(m) for m in range(3)}, CONSTANTS_FILE: CONSTANT_COLUMNS, KD_FILE: KD_COLUMNS,
-               TRUE_FILE: TRUE_COLUMNS, **{name: SAMPLING_COLUMNS for name in SAMPLING_FILES}}
+TABLE_FILES = {
+    **{h_file(m): h_columns(m) for m in range(3)},
+    CONSTANTS_FILE: CONSTANT_COLUMNS,
+    KD_FILE: KD_COLUMNS,
+    TRUE_FILE: TRUE_COLUMNS,
+    **{name: SAMPLING_COLUMNS for name in SAMPLING_FILES},
+}
 
 
 #: the H tables', constants.csv's and kd.csv's grid: c = 1 - s^2 (dense near c = 1), mu with its small values and inf
@@ -64,10 +105,7 @@ C_GRID = 1.0 - S_GRID**2
 MU_GRID = np.concatenate(([0.0, 1e-12, 1e-9, 1e-6, 1e-4, 1e-3], np.arange(1, 65) / 64.0, [np.inf]))
 
 #: the H tables', constants.csv's and kd.csv's grid, as their "# grid:" header line states it
-GRID_TEXT = (
-    "c = 1 - s^2, s = k/64 for k = 0..64; "
-    "mu = 0, 1e-12, 1e-9, 1e-6, 1e-4, 1e-3, j/64 for j = 1..64, inf"
-)
+GRID_TEXT = "c = 1 - s^2, s = k/64 for k = 0..64; mu = 0, 1e-12, 1e-9, 1e-6, 1e-4, 1e-3, j/64 for j = 1..64, inf"
 
 
 #: the true-phase table's grid: s = k/8, and mu = 1e-9 (where the exported tables read mu -> 0: the orders are
@@ -92,10 +130,16 @@ def _interleaved(denominator: int) -> np.ndarray:
 #: the sampling tables' grids, (s axis, mu_i axis, text) by file: the validation grid's interior points
 #: lie between the training grid's
 SAMPLING_GRIDS = {
-    SAMPLING_FILES[0]: (np.arange(17) / 16, np.concatenate(([MU_MIN, 0.01], np.arange(1, 33) / 32)),
-                        "c = 1 - s^2, s = k/16 for k = 0..16; mu_i = 1e-3, 0.01, j/32 for j = 1..32"),
-    SAMPLING_FILES[1]: (_interleaved(32), np.concatenate(([MU_MIN, 0.003], _interleaved(64)[1:])),
-                        "c = 1 - s^2, s = 0, (2k+1)/32 for k = 0..15, 1; mu_i = 1e-3, 0.003, (2j+1)/64 for j = 0..31, 1"),
+    SAMPLING_FILES[0]: (
+        np.arange(17) / 16,
+        np.concatenate(([MU_MIN, 0.01], np.arange(1, 33) / 32)),
+        "c = 1 - s^2, s = k/16 for k = 0..16; mu_i = 1e-3, 0.01, j/32 for j = 1..32",
+    ),
+    SAMPLING_FILES[1]: (
+        _interleaved(32),
+        np.concatenate(([MU_MIN, 0.003], _interleaved(64)[1:])),
+        "c = 1 - s^2, s = 0, (2k+1)/32 for k = 0..15, 1; mu_i = 1e-3, 0.003, (2j+1)/64 for j = 0..31, 1",
+    ),
 }
 
 
@@ -126,13 +170,15 @@ def grid_points(name: str) -> dict[str, np.ndarray]:
         return {"s": s, "c": 1.0 - s * s, "mu_i": mu_i, "mu_o": mu_o}
     if name in SAMPLING_FILES:
         s_axis, mu_axis, _ = SAMPLING_GRIDS[name]
-        return {"s": np.repeat(s_axis, len(mu_axis)), "c": np.repeat(1.0 - s_axis * s_axis, len(mu_axis)),
-                "mu_i": np.tile(mu_axis, len(s_axis))}
+        return {
+            "s": np.repeat(s_axis, len(mu_axis)),
+            "c": np.repeat(1.0 - s_axis * s_axis, len(mu_axis)),
+            "mu_i": np.tile(mu_axis, len(s_axis)),
+        }
     if name in (CONSTANTS_FILE, KD_FILE):
         return {"s": S_GRID, "c": C_GRID}
     n = len(MU_GRID)
-    return {"s": np.repeat(S_GRID, n), "c": np.repeat(C_GRID, n),
-            "mu": np.tile(MU_GRID, len(S_GRID))}
+    return {"s": np.repeat(S_GRID, n), "c": np.repeat(C_GRID, n), "mu": np.tile(MU_GRID, len(S_GRID))}
 
 
 def read_checked(name: str, data_dir: Path) -> tuple[list[str], np.ndarray]:

@@ -62,8 +62,21 @@ from fitlab.store import Table
 from fitlab.store import write_tables as store_write_tables
 
 # the family's `tables` service: the layout (FAMILY_NAME, TABLE_FILES) with the writer and the checker
-__all__ = ["FAMILY_NAME", "TABLE_FILES", "build_tables", "write_tables", "check_tables", "h_table", "constants_table",
-           "albedo_table", "sampling_table", "true_orders_table", "check_true_orders", "FAST_TABLES", "TRUE_TOLERANCE"]
+__all__ = [
+    "FAMILY_NAME",
+    "TABLE_FILES",
+    "build_tables",
+    "write_tables",
+    "check_tables",
+    "h_table",
+    "constants_table",
+    "albedo_table",
+    "sampling_table",
+    "true_orders_table",
+    "check_true_orders",
+    "FAST_TABLES",
+    "TRUE_TOLERANCE",
+]
 
 H_TOLERANCE = 1e-10  # relative, H-functions
 CONSTANT_TOLERANCE = 1e-9  # absolute (relative for H0_inf), constants and kd
@@ -157,7 +170,9 @@ def albedo_table(progress=None) -> Table:
     )
 
 
-SAMPLING_TOLERANCE = 5e-3  # relative, of the optimal variance: the finer rule and the independent optimiser (2e-3 at mu_i = 1e-3)
+SAMPLING_TOLERANCE = (
+    5e-3  # relative, of the optimal variance: the finer rule and the independent optimiser (2e-3 at mu_i = 1e-3)
+)
 
 
 def sampling_table(name: str, progress=None) -> Table:
@@ -193,8 +208,11 @@ def build_tables(show_progress: bool = True, names=tuple(TABLE_FILES)) -> dict[s
     unknown = set(names) - set(TABLE_FILES)
     if unknown:
         raise ValueError(f"unknown tables {sorted(unknown)}; the tables are {', '.join(TABLE_FILES)}")
-    ticks = {**{n: len(C_GRID) for n in FAST_TABLES}, TRUE_FILE: len(TRUE_S_GRID),
-             **{n: len(SAMPLING_GRIDS[n][0]) for n in SAMPLING_FILES}}
+    ticks = {
+        **{n: len(C_GRID) for n in FAST_TABLES},
+        TRUE_FILE: len(TRUE_S_GRID),
+        **{n: len(SAMPLING_GRIDS[n][0]) for n in SAMPLING_FILES},
+    }
     total = sum(ticks[n] for n in names)
     tables = {}
     with tqdm(total=total, desc="tabulating", unit="c", disable=not show_progress) as bar:
@@ -240,8 +258,9 @@ def check_tables(out: Path, every: int = 8, show_progress: bool = True) -> list[
             _, data = read_checked(f"h{m}.csv", out)  # every check, the grid's rows included
             sel = np.isin(data[:, 1], c_sample)
             c, mu, h = data[sel, 1], data[sel, 2], data[sel, 3]
-            ref = _reference(f"h{m}", lambda m=m, mu=mu, c=c: {"h": h_function(m, mu, c, method="fock")}, ("h",),
-                             c=c, mu=mu)["h"]
+            ref = _reference(
+                f"h{m}", lambda m=m, mu=mu, c=c: {"h": h_function(m, mu, c, method="fock")}, ("h",), c=c, mu=mu
+            )["h"]
             with np.errstate(invalid="ignore"):
                 rel = np.where(np.isinf(ref) & np.isinf(h), 0.0, np.abs(h / ref - 1.0))
             if not np.all(rel <= H_TOLERANCE):
@@ -285,7 +304,7 @@ def check_true_orders(out: Path) -> list[str]:
     header, data = read_checked(TRUE_FILE, out)
     t = dict(zip(header, data.T))
     failures = []
-    true, three_term = TRUE_COLUMNS[4:4 + TRUE_ORDERS], TRUE_COLUMNS[4 + TRUE_ORDERS:]
+    true, three_term = TRUE_COLUMNS[4 : 4 + TRUE_ORDERS], TRUE_COLUMNS[4 + TRUE_ORDERS :]
     for s in (0.0, 0.625):
         rows = np.flatnonzero(t["s"] == s)[::10]
         c, mi, mo = 1.0 - s * s, t["mu_i"][rows], t["mu_o"][rows]
@@ -327,22 +346,44 @@ def _check_sampling(path: Path, name: str) -> list[str]:
             best = []
             for m in mu:
                 v = variance_function(m, c)
-                best.append(minimize(lambda q, v=v: v(1.0 / (1.0 + np.exp(-q[0])), np.exp(q[1])), [0.0, np.log(2.0)],
-                                     method="Nelder-Mead", options={"xatol": 1e-6, "fatol": 1e-10}).fun)
-            return {"fine": relative_variance(mu, c, w, n, nodes=(64, 12)),
-                    "cosine": relative_variance(mu, c, 0.0, 1.0, nodes=(64, 12)), "best": np.array(best)}
+                best.append(
+                    minimize(
+                        lambda q, v=v: v(1.0 / (1.0 + np.exp(-q[0])), np.exp(q[1])),
+                        [0.0, np.log(2.0)],
+                        method="Nelder-Mead",
+                        options={"xatol": 1e-6, "fatol": 1e-10},
+                    ).fun
+                )
+            return {
+                "fine": relative_variance(mu, c, w, n, nodes=(64, 12)),
+                "cosine": relative_variance(mu, c, 0.0, 1.0, nodes=(64, 12)),
+                "best": np.array(best),
+            }
 
-        ref = _reference(f"sampling-{Path(name).stem}", compute, ("fine", "cosine", "best"), c=np.array([c]),
-                         mu_i=mu, weight=w, exponent=n)
+        ref = _reference(
+            f"sampling-{Path(name).stem}",
+            compute,
+            ("fine", "cosine", "best"),
+            c=np.array([c]),
+            mu_i=mu,
+            weight=w,
+            exponent=n,
+        )
         fine, cosine = ref["fine"], ref["cosine"]
         for k, r in enumerate(rows):
-            for label, got, want in (("relvar_optimal", t["relvar_optimal"][r], fine[k]),
-                                     ("relvar_cosine", t["relvar_cosine"][r], cosine[k])):
+            for label, got, want in (
+                ("relvar_optimal", t["relvar_optimal"][r], fine[k]),
+                ("relvar_cosine", t["relvar_cosine"][r], cosine[k]),
+            ):
                 if not abs(got - want) <= SAMPLING_TOLERANCE * abs(want) + 1e-9:
-                    failures.append(f"{name}: c={float(c)!r} mu_i={float(mu[k])!r}: {label} {float(got)!r} vs {float(want)!r} by the finer rule")
+                    failures.append(
+                        f"{name}: c={float(c)!r} mu_i={float(mu[k])!r}: {label} {float(got)!r} vs {float(want)!r} by the finer rule"
+                    )
 
             best = ref["best"][k]
             if best < t["relvar_optimal"][r] - SAMPLING_TOLERANCE * abs(t["relvar_optimal"][r]) - 1e-9:
-                failures.append(f"{name}: c={float(c)!r} mu_i={float(mu[k])!r}: Nelder-Mead finds V = {float(best)!r} "
-                                f"below the tabulated optimum {float(t['relvar_optimal'][r])!r}")
+                failures.append(
+                    f"{name}: c={float(c)!r} mu_i={float(mu[k])!r}: Nelder-Mead finds V = {float(best)!r} "
+                    f"below the tabulated optimum {float(t['relvar_optimal'][r])!r}"
+                )
     return failures

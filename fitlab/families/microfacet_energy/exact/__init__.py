@@ -26,7 +26,6 @@ Details: docs/microfacet_energy_derivation.md, section ``fitlab.families.microfa
 from pathlib import Path
 
 from fitlab import physics
-
 from fitlab.families.microfacet_energy.exact.albedo import CONVENTIONS, METHODS, average_albedo, directional_albedo
 from fitlab.families.microfacet_energy.exact.compensation import (
     compensated_albedo,
@@ -74,8 +73,10 @@ from fitlab.families.microfacet_energy.exact.split_sums import schlick_weight, s
 
 #: the engine's source files, part of the key of every cached exact value (fitlab.cache.cached_arrays): editing
 #: any of them recomputes what was cached
-SOURCES = (*sorted(Path(__file__).resolve().parent.glob("*.py")),
-           *physics.sources("fresnel", "microfacet", "oren_nayar"))
+SOURCES = (
+    *sorted(Path(__file__).resolve().parent.glob("*.py")),
+    *physics.sources("fresnel", "microfacet", "oren_nayar"),
+)
 
 __all__ = [
     "SOURCES",

@@ -50,8 +50,28 @@ CONVENTIONS = ("kulla_conti", "blog")
 #: [-7, 7]) and growing into the tails as the integrand falls (as e^(2 tau) on the left, no slower
 #: than e^(-tau) on the right), so that every sub-panel's error stays below 1e-12; clipped to each
 #: stretch, the ones outside collapse to zero length
-TAU_EDGES = (-19.0, -14.5, -12.0, -10.0, -8.5, *np.arange(-7.0, 8.0), 8.0, 9.0, 10.0, 11.5, 13.0, 15.0, 17.5, 20.5,
-             24.0, 28.5, 34.0, 40.0, 47.0, 55.0)
+TAU_EDGES = (
+    -19.0,
+    -14.5,
+    -12.0,
+    -10.0,
+    -8.5,
+    *np.arange(-7.0, 8.0),
+    8.0,
+    9.0,
+    10.0,
+    11.5,
+    13.0,
+    15.0,
+    17.5,
+    20.5,
+    24.0,
+    28.5,
+    34.0,
+    40.0,
+    47.0,
+    55.0,
+)
 
 
 @dataclass(frozen=True)
@@ -125,17 +145,32 @@ def _tau_rule(tau_lo, tau_1, tau_2, rule: HalfVectorRule, kinks=None):
     clipped to each panel, those outside collapsing to zero-length sub-panels), where the azimuthal
     integral of a Fresnel factor with kinks bends (:func:`_kink_taus`)."""
     g1 = np.minimum(rule.stretch, tau_1 - tau_lo)
-    edges_1 = np.concatenate((_clipped(tau_lo, tau_1 - g1, rule.edges)[:, :-1],
-                              graded_edges(tau_1 - g1, tau_1, rule.graded, rule.ratio, "hi")), axis=1)
+    edges_1 = np.concatenate(
+        (
+            _clipped(tau_lo, tau_1 - g1, rule.edges)[:, :-1],
+            graded_edges(tau_1 - g1, tau_1, rule.graded, rule.ratio, "hi"),
+        ),
+        axis=1,
+    )
     g2 = np.minimum(rule.stretch, (tau_2 - tau_1) / 3)
-    edges_2 = np.concatenate((graded_edges(tau_1, tau_1 + g2, rule.graded, rule.ratio, "lo")[:, :-1],
-                              _clipped(tau_1 + g2, tau_2 - g2, rule.edges)[:, :-1],
-                              graded_edges(tau_2 - g2, tau_2, rule.graded, rule.ratio, "hi")), axis=1)
+    edges_2 = np.concatenate(
+        (
+            graded_edges(tau_1, tau_1 + g2, rule.graded, rule.ratio, "lo")[:, :-1],
+            _clipped(tau_1 + g2, tau_2 - g2, rule.edges)[:, :-1],
+            graded_edges(tau_2 - g2, tau_2, rule.graded, rule.ratio, "hi"),
+        ),
+        axis=1,
+    )
     if kinks is not None and kinks.shape[1]:
         # geometric stretches on both sides of each kink (absent ones, -inf, moved below tau_lo)
         k = np.where(np.isfinite(kinks), kinks, (tau_lo - 2 * rule.stretch)[:, None]).ravel()
-        stretches = np.concatenate((graded_edges(k - rule.stretch, k, rule.kink_graded, rule.ratio, "hi"),
-                                    graded_edges(k, k + rule.stretch, rule.kink_graded, rule.ratio, "lo")), axis=1)
+        stretches = np.concatenate(
+            (
+                graded_edges(k - rule.stretch, k, rule.kink_graded, rule.ratio, "hi"),
+                graded_edges(k, k + rule.stretch, rule.kink_graded, rule.ratio, "lo"),
+            ),
+            axis=1,
+        )
         extra = stretches.reshape(kinks.shape[0], -1)
         edges_1 = np.sort(np.concatenate((edges_1, np.clip(extra, tau_lo[:, None], tau_1[:, None])), axis=1), axis=1)
         edges_2 = np.sort(np.concatenate((edges_2, np.clip(extra, tau_1[:, None], tau_2[:, None])), axis=1), axis=1)
@@ -178,8 +213,9 @@ def _phi_unit_rule(panels: int, nodes: int, ratio: float):
 
 
 @cache
-def _kinked_unit_rule(panels: int, nodes: int, ratio: float, grade_lo: bool, grade_hi: bool, kink_lo: bool,
-                      kink_hi: bool):
+def _kinked_unit_rule(
+    panels: int, nodes: int, ratio: float, grade_lo: bool, grade_hi: bool, kink_lo: bool, kink_hi: bool
+):
     """Nodes and weights on [0, 1] of one part of an inner range split at kinks of F: graded geometrically
     towards 0 and/or 1 (each half on its own when towards both), the sub-panel touching a kink end mapped by
     u^2 (a square-root edge of F becomes smooth).  A kink end is always graded towards: near the point where
@@ -188,8 +224,10 @@ def _kinked_unit_rule(panels: int, nodes: int, ratio: float, grade_lo: bool, gra
     grade_lo, grade_hi = grade_lo or kink_lo, grade_hi or kink_hi
     zero, half, one = np.array([0.0]), np.array([0.5]), np.array([1.0])
     if grade_lo and grade_hi:
-        edges = np.concatenate((graded_edges(zero, half, panels, ratio, "lo")[:, :-1],
-                                graded_edges(half, one, panels, ratio, "hi")), axis=1)
+        edges = np.concatenate(
+            (graded_edges(zero, half, panels, ratio, "lo")[:, :-1], graded_edges(half, one, panels, ratio, "hi")),
+            axis=1,
+        )
     else:
         edges = graded_edges(zero, one, panels, ratio, "lo" if grade_lo else "hi")
     lo, hi = _panels(edges)
@@ -209,7 +247,7 @@ def _split_rule(end, splits, panels: int, nodes: int, ratio: float, grade_lo: bo
     out_x, out_w, last = [], [], bounds.shape[-1] - 2
     for j in range(last + 1):
         x, w = _kinked_unit_rule(panels, nodes, ratio, grade_lo and j == 0, grade_hi and j == last, j > 0, j < last)
-        lo, width = bounds[..., j:j + 1], bounds[..., j + 1:j + 2] - bounds[..., j:j + 1]
+        lo, width = bounds[..., j : j + 1], bounds[..., j + 1 : j + 2] - bounds[..., j : j + 1]
         out_x.append(lo + width * x)
         out_w.append(width * w)
     return np.concatenate(out_x, axis=-1), np.concatenate(out_w, axis=-1)
@@ -242,7 +280,7 @@ def _ggx_half_vector(mu_o, alpha, smith, fresnel, rule: HalfVectorRule = HALF_VE
     # points of similar (tau_1, tau_2) in one pass need similar numbers of sub-panels
     order = np.lexsort((alpha, mu_o))
     for start in range(0, mu_o.size, step):
-        sl = order[start:start + step]
+        sl = order[start : start + step]
         out[sl] = _ggx_half_vector_chunk(mu_o[sl], alpha[sl], smith, fresnel, rule)
     return out
 
@@ -276,8 +314,15 @@ def _ggx_half_vector_chunk(mu_o, alpha, smith, fresnel, rule):
             phi_end = np.arccos(np.clip(np.nan_to_num(threshold, nan=1.0), -1, 1))
         if kinks:
             # each part graded towards its upper end, as _phi_unit_rule is, and towards its kinks
-            phi, w_phi_ = _split_rule(phi_end, _kink_azimuths(mu_o_, s_o_, tan_m, kinks), rule.panels_phi,
-                                      rule.nodes_phi, rule.ratio, False, True)
+            phi, w_phi_ = _split_rule(
+                phi_end,
+                _kink_azimuths(mu_o_, s_o_, tan_m, kinks),
+                rule.panels_phi,
+                rule.nodes_phi,
+                rule.ratio,
+                False,
+                True,
+            )
             cos_phi = np.cos(phi)
         else:
             cos_phi = np.cos(phi_end * x_phi)
@@ -316,8 +361,10 @@ def _direction_mu_nodes(mu_o, rule: DirectionRule, breaks=None):
     ends = mo if breaks is None else np.sort(np.concatenate((mo, breaks), axis=1), axis=1)
     # (end, length, direction) of every graded piece: halves of [0, e_0], [e_0, e_1], ..., then [e_last, 1]
     pieces = []
-    for a, b in zip((np.zeros_like(mo), *(ends[:, j:j + 1] for j in range(ends.shape[1] - 1))),
-                    (ends[:, j:j + 1] for j in range(ends.shape[1]))):
+    for a, b in zip(
+        (np.zeros_like(mo), *(ends[:, j : j + 1] for j in range(ends.shape[1] - 1))),
+        (ends[:, j : j + 1] for j in range(ends.shape[1])),
+    ):
         half = (b - a) / 2
         pieces += [(a, half, 1.0), (b, half, -1.0)]
     last = ends[:, -1:]
@@ -372,8 +419,9 @@ def _ggx_direction(mu_o, alpha, smith, fresnel, rule: DirectionRule = DIRECTION)
         so, si = np.sqrt((1 - mo) * (1 + mo)), np.sqrt(one_minus * (1 + mu_i))
         if kinks:
             # each psi part graded towards 0 (the peak) as _direction_psi is, and towards its kinks
-            psi, w_psi_ = _split_rule(np.pi, _kink_psi(mo, so, mu_i, si, kinks), rule.panels_psi, rule.nodes,
-                                      rule.ratio, True, False)
+            psi, w_psi_ = _split_rule(
+                np.pi, _kink_psi(mo, so, mu_i, si, kinks), rule.panels_psi, rule.nodes, rule.ratio, True, False
+            )
             half_sin2_ = np.sin(psi / 2) ** 2
         else:
             half_sin2_ = half_sin2
@@ -470,8 +518,12 @@ AVERAGE = AverageRule()
 @cache
 def average_nodes(rule: AverageRule = AVERAGE) -> tuple[np.ndarray, np.ndarray]:
     """mu nodes and weights on [0, 1] of the E_avg quadrature (:class:`AverageRule`), read-only."""
-    edges = np.concatenate((graded_edges(np.array([0.0]), np.array([0.5]), rule.panels_0, rule.ratio, "lo")[0, :-1],
-                            graded_edges(np.array([0.5]), np.array([1.0]), rule.panels_1, rule.ratio, "hi")[0]))
+    edges = np.concatenate(
+        (
+            graded_edges(np.array([0.0]), np.array([0.5]), rule.panels_0, rule.ratio, "lo")[0, :-1],
+            graded_edges(np.array([0.5]), np.array([1.0]), rule.panels_1, rule.ratio, "hi")[0],
+        )
+    )
     nodes, weights = composite(edges, rule.nodes)
     nodes.setflags(write=False)
     weights.setflags(write=False)

@@ -51,8 +51,9 @@ def multiple_scattering_brdf(mu_o, mu_i, alpha, model: str = "ggx_separable"):
     mu_o = real_array(mu_o, "mu_o", 0.0, 1.0)
     mu_i = real_array(mu_i, "mu_i", 0.0, 1.0)
     alpha = real_array(alpha, "alpha", 0.0, 1.0)
-    return _lobe(directional_albedo(mu_o, alpha, model), directional_albedo(mu_i, alpha, model),
-                 average_albedo(alpha, model))
+    return _lobe(
+        directional_albedo(mu_o, alpha, model), directional_albedo(mu_i, alpha, model), average_albedo(alpha, model)
+    )
 
 
 def compensated_albedo(mu_o, alpha, model: str = "ggx_separable"):
@@ -107,6 +108,7 @@ def crossover_alpha(model: str = "ggx_separable", mu=None, xtol: float = 1e-12):
     be monotone in alpha at small mu, and the alpha returned is then one crossing of possibly several."""
     get_model(model)
     if mu is None:
+
         def excess(a):
             return float(average_albedo(a, model)) - 0.5
     else:

@@ -73,8 +73,15 @@ def _cosine(cos, dtype):
 def _index(value, name, dtype, open_lo):
     # k^2 and eta^2 must stay finite: below sqrt(max) / 4
     hi = float(np.sqrt(np.finfo(dtype).max)) / 4
-    return real_array(value, name, 0.0, hi, open_lo=open_lo, dtype=dtype,
-                      domain=f"{'(0' if open_lo else '[0'}, {hi:.3g}] (a refractive index)")
+    return real_array(
+        value,
+        name,
+        0.0,
+        hi,
+        open_lo=open_lo,
+        dtype=dtype,
+        domain=f"{'(0' if open_lo else '[0'}, {hi:.3g}] (a refractive index)",
+    )
 
 
 def fresnel_schlick(cos, f0):
@@ -145,13 +152,15 @@ def average_fresnel(fresnel, breakpoints=()) -> float:
             break
         h = hi - lo
         mid = lo + h / 2
-        nodes = np.concatenate((lo[:, None] + h[:, None] * x, lo[:, None] + (h / 2)[:, None] * x,
-                                mid[:, None] + (h / 2)[:, None] * x), axis=1)
+        nodes = np.concatenate(
+            (lo[:, None] + h[:, None] * x, lo[:, None] + (h / 2)[:, None] * x, mid[:, None] + (h / 2)[:, None] * x),
+            axis=1,
+        )
         values = np.asarray(fresnel(nodes.ravel()), dtype=float).reshape(nodes.shape) * 2 * nodes
         if not np.all(np.isfinite(values)):
             raise ValueError("fresnel returned a value that is not finite on [0, 1]")
         coarse = h * (values[:, :n] @ w)
-        fine = (h / 2) * (values[:, n:2 * n] @ w + values[:, 2 * n:] @ w)
+        fine = (h / 2) * (values[:, n : 2 * n] @ w + values[:, 2 * n :] @ w)
         last = level == _AVERAGE_MAX_LEVELS or lo.size > _AVERAGE_MAX_PANELS
         done = (np.abs(fine - coarse) <= _AVERAGE_TOL) | last
         parts.append(fine[done])
@@ -166,8 +175,9 @@ def average_fresnel_schlick(f0):
 
 def _scalar_index(value, name, open_lo):
     if np.ndim(value) != 0:
-        raise ValueError(f"{name} must be one number (one colour channel: its kinks are numbers), got shape "
-                         f"{np.shape(value)}")
+        raise ValueError(
+            f"{name} must be one number (one colour channel: its kinks are numbers), got shape {np.shape(value)}"
+        )
     return float(_index(value, name, np.float64, open_lo))
 
 
@@ -226,8 +236,7 @@ def fresnel_compensation_factor(f_avg, e_avg, form: str = "kulla_conti"):
         return np.where(f_avg == 1, 1.0, num / np.where(den > 0, den, 1))
 
 
-def fresnel_multiple_scattering_brdf(mu_o, mu_i, alpha, f_avg, model: str = "ggx_separable",
-                                     form: str = "kulla_conti"):
+def fresnel_multiple_scattering_brdf(mu_o, mu_i, alpha, f_avg, model: str = "ggx_separable", form: str = "kulla_conti"):
     """The coloured compensation lobe f_ms_F = f_add(F_avg, E_avg(alpha)) f_ms(mu_o, mu_i, alpha) with the F = 1
     lobe of :func:`multiple_scattering_brdf` and E_avg of ``model``.  mu_o, mu_i, alpha in [0, 1], f_avg in
     [0, 1] (e.g. :func:`average_fresnel_schlick`), all broadcast by numpy's rules (for RGB against arrays of
@@ -251,8 +260,9 @@ def _f_avg_of(fresnel, f_avg):
     return average_fresnel(fresnel) if f_avg is None else float(real_array(f_avg, "f_avg", 0.0, 1.0))
 
 
-def compensated_fresnel_albedo(mu_o, alpha, fresnel, model: str = "ggx_separable", f_avg=None,
-                               form: str = "kulla_conti"):
+def compensated_fresnel_albedo(
+    mu_o, alpha, fresnel, model: str = "ggx_separable", f_avg=None, form: str = "kulla_conti"
+):
     """The albedo of f_F + f_ms_F: E_F(mu_o) + int f_ms_F(mu_o, mu_i) mu_i dw_i, E_F by
     :func:`directional_albedo` with ``fresnel`` and the lobe integrated numerically over mu_i (the rule of
     :func:`compensated_albedo`), not replaced by its value f_add (1 - E(mu_o)).
@@ -308,8 +318,15 @@ def _visible_fresnel_chunk(mu_o, alpha, fresnel, rule=HALF_VECTOR):
                 threshold = np.where(s_o_ > 0, -mu_o_ / (s_o_ * tan_m), -1.0)
             phi_end = np.arccos(np.clip(np.nan_to_num(threshold, nan=-1.0), -1, 1))
         if kinks:
-            phi, w_phi_ = _split_rule(phi_end, _kink_azimuths(mu_o_, s_o_, tan_m, kinks), rule.panels_phi,
-                                      rule.nodes_phi, rule.ratio, False, True)
+            phi, w_phi_ = _split_rule(
+                phi_end,
+                _kink_azimuths(mu_o_, s_o_, tan_m, kinks),
+                rule.panels_phi,
+                rule.nodes_phi,
+                rule.ratio,
+                False,
+                True,
+            )
         else:
             phi = phi_end * x_phi
         om_over_mu_m = np.maximum(mu_o_ + s_o_ * tan_m * np.cos(phi), 0)  # (w_o . m) / mu_m
@@ -342,7 +359,7 @@ def visible_fresnel(mu_o, alpha, fresnel=None):
     rule = HALF_VECTOR
     step = max(1, _CHUNK // _half_vector_nodes(rule, len(kinks_of(fresnel))))
     for start in range(0, rough.size, step):
-        sl = rough[start:start + step]
+        sl = rough[start : start + step]
         out[sl] = _visible_fresnel_chunk(mu[sl], a[sl], fresnel)
     return out.reshape(mu_o.shape)
 

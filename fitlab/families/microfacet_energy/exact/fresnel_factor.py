@@ -31,8 +31,9 @@ class FresnelFactor:
 
     def __post_init__(self):
         if not callable(self.function):
-            raise TypeError(f"FresnelFactor.function must be a function of cos(theta_d), got "
-                            f"{type(self.function).__name__}")
+            raise TypeError(
+                f"FresnelFactor.function must be a function of cos(theta_d), got {type(self.function).__name__}"
+            )
         object.__setattr__(self, "kinks", _checked_kinks(self.kinks))
 
     def __call__(self, cos):

@@ -45,8 +45,15 @@ def _cosines(values, names, dtype):
 
 
 def _alpha(alpha, dtype, open_lo=True):
-    return real_array(alpha, "alpha", 0.0, 1.0, open_lo=open_lo, dtype=dtype,
-                      domain="(0, 1] (GGX roughness; alpha = 0 is the mirror)" if open_lo else None)
+    return real_array(
+        alpha,
+        "alpha",
+        0.0,
+        1.0,
+        open_lo=open_lo,
+        dtype=dtype,
+        domain="(0, 1] (GGX roughness; alpha = 0 is the mirror)" if open_lo else None,
+    )
 
 
 def ggx_ndf(mu_m, alpha):

@@ -42,16 +42,40 @@ MODELS = {
     m.name: m
     for m in (
         Model("ggx_separable", "ggx", "GGX, separable Smith G1(mu_i) G1(mu_o) (the blog's GGX)", smith="separable"),
-        Model("ggx_correlated", "ggx", "GGX, height-correlated Smith 1/(1 + Lambda_i + Lambda_o) (RTR4 eq. 9.31)",
-              smith="correlated"),
-        Model("oren_nayar", "oren_nayar", "Oren-Nayar, A with 0.33, cos(phi) (the blog's formula)",
-              a_constant=0.33, azimuth="cos_phi"),
-        Model("oren_nayar_057", "oren_nayar", "Oren-Nayar, A with 0.57 (1992 footnote), cos(phi)",
-              a_constant=0.57, azimuth="cos_phi"),
-        Model("oren_nayar_gamma", "oren_nayar", "Oren-Nayar, A with 0.33, the blog's HLSL gamma = s_o s_i cos(phi)",
-              a_constant=0.33, azimuth="gamma"),
-        Model("oren_nayar_gamma_057", "oren_nayar", "Oren-Nayar, A with 0.57, the blog's HLSL gamma",
-              a_constant=0.57, azimuth="gamma"),
+        Model(
+            "ggx_correlated",
+            "ggx",
+            "GGX, height-correlated Smith 1/(1 + Lambda_i + Lambda_o) (RTR4 eq. 9.31)",
+            smith="correlated",
+        ),
+        Model(
+            "oren_nayar",
+            "oren_nayar",
+            "Oren-Nayar, A with 0.33, cos(phi) (the blog's formula)",
+            a_constant=0.33,
+            azimuth="cos_phi",
+        ),
+        Model(
+            "oren_nayar_057",
+            "oren_nayar",
+            "Oren-Nayar, A with 0.57 (1992 footnote), cos(phi)",
+            a_constant=0.57,
+            azimuth="cos_phi",
+        ),
+        Model(
+            "oren_nayar_gamma",
+            "oren_nayar",
+            "Oren-Nayar, A with 0.33, the blog's HLSL gamma = s_o s_i cos(phi)",
+            a_constant=0.33,
+            azimuth="gamma",
+        ),
+        Model(
+            "oren_nayar_gamma_057",
+            "oren_nayar",
+            "Oren-Nayar, A with 0.57, the blog's HLSL gamma",
+            a_constant=0.57,
+            azimuth="gamma",
+        ),
     )
 }
 MODEL_NAMES = tuple(MODELS)
@@ -71,5 +95,3 @@ def brdf(mu_o, mu_i, phi, alpha, model: str):
     if m.kind == "ggx":
         return ggx_brdf(mu_o, mu_i, phi, alpha, smith=m.smith)
     return oren_nayar_brdf(mu_o, mu_i, phi, alpha, a_constant=m.a_constant, azimuth=m.azimuth)
-
-

@@ -27,16 +27,24 @@ from fitlab.families.microfacet_energy.exact._checks import choice, real_array, 
 from fitlab.physics import oren_nayar as physics
 from fitlab.physics.oren_nayar import AZIMUTH
 
-__all__ = ["AZIMUTH", "A_CONSTANTS", "oren_nayar_coefficients", "oren_nayar_brdf", "albedo_closed_form",
-           "average_albedo_closed_form", "azimuthal_constant"]
+__all__ = [
+    "AZIMUTH",
+    "A_CONSTANTS",
+    "oren_nayar_coefficients",
+    "oren_nayar_brdf",
+    "albedo_closed_form",
+    "average_albedo_closed_form",
+    "azimuthal_constant",
+]
 
 A_CONSTANTS = (0.33, 0.57)
 
 
 def _a_constant(a_constant) -> float:
     if isinstance(a_constant, bool) or not isinstance(a_constant, (int, float)) or float(a_constant) not in A_CONSTANTS:
-        raise ValueError(f"a_constant must be 0.33 (the blog's A) or 0.57 (the 1992 footnote's), "
-                         f"got {a_constant!r:.40}")
+        raise ValueError(
+            f"a_constant must be 0.33 (the blog's A) or 0.57 (the 1992 footnote's), got {a_constant!r:.40}"
+        )
     return float(a_constant)
 
 

@@ -39,8 +39,18 @@ from fitlab.families.microfacet_energy.forms.ggx import karis_linear
 from fitlab.families.microfacet_energy.forms.oren_nayar import A_ON, B_ON
 from fitlab.forms import Form
 
-__all__ = ["PATAPOM_GGX", "PATAPOM_ON", "PATAPOM_ZONAL_GGX", "PATAPOM_ZONAL_ON", "average_forms", "patapom_quartic",
-           "patapom_zonal", "log_rational", "a_plus_kappa_b", "rational_alpha2"]
+__all__ = [
+    "PATAPOM_GGX",
+    "PATAPOM_ON",
+    "PATAPOM_ZONAL_GGX",
+    "PATAPOM_ZONAL_ON",
+    "average_forms",
+    "patapom_quartic",
+    "patapom_zonal",
+    "log_rational",
+    "a_plus_kappa_b",
+    "rational_alpha2",
+]
 
 #: Patapom's quartics (Patapom/webgl Web/blog/patapom/docs/BRDF/MSBRDFEnergyCompensation.md, no licence found:
 #: the formula cited), the coefficients of alpha^k in his pi-normalised E_avg
@@ -63,7 +73,9 @@ def patapom_quartic(target: str, coefficients: dict, published: bool) -> Form:
         presets={"patapom": dict(coefficients)} if published else {},
         start=None if published else dict(coefficients),
         description=(
-            "Patapom's E_avg quartic divided by pi: 1 + (" + " + ".join(f"{p} alpha^{p[1:]}" for p in params) + ")/pi"
+            "Patapom's E_avg quartic divided by pi: 1 + ("
+            + " + ".join(f"{p} alpha^{p[1:]}" for p in params)
+            + ")/pi"
             + ("" if published else "; starts from his coefficients, fitted to separable Smith")
         ),
     )
@@ -80,7 +92,8 @@ def patapom_zonal(target: str, coefficients: dict) -> Form:
         expr=1 - 2 * e0 / sp.sqrt(sp.pi),
         presets={"patapom": dict(coefficients)},
         description=(
-            "Patapom's zonal-harmonic fit E0 = " + " + ".join(f"{p} alpha^({p[1:]}/2)" for p in params)
+            "Patapom's zonal-harmonic fit E0 = "
+            + " + ".join(f"{p} alpha^({p[1:]}/2)" for p in params)
             + " of 1 - E, as E_avg = 1 - E0/(Y00 pi) = 1 - 2 E0/sqrt(pi)"
         ),
         refit_by_default=False,  # the second published shape; its refit is on request
@@ -113,7 +126,7 @@ def a_plus_kappa_b(target: str) -> Form:
         expr=A_ON + kappa * B_ON,
         start={"kappa": 0.5},
         description="A(sigma) + kappa B(sigma), A, B the exact Oren-Nayar coefficients, sigma = (pi/2) alpha: exact "
-                    "for kappa = 2 int_0^1 g(mu) mu dmu",
+        "for kappa = 2 int_0^1 g(mu) mu dmu",
     )
 
 
@@ -133,9 +146,17 @@ def rational_alpha2(target: str) -> Form:
 def average_forms(target: str, model: str) -> tuple[Form, ...]:
     """Every form of the E_avg target ``target`` of ``model``."""
     if model == "ggx_separable":
-        return (patapom_quartic(target, PATAPOM_GGX, True), patapom_zonal(target, PATAPOM_ZONAL_GGX),
-                karis_linear(target, ("alpha",)), log_rational(target))
+        return (
+            patapom_quartic(target, PATAPOM_GGX, True),
+            patapom_zonal(target, PATAPOM_ZONAL_GGX),
+            karis_linear(target, ("alpha",)),
+            log_rational(target),
+        )
     if model == "ggx_correlated":
         return (patapom_quartic(target, PATAPOM_GGX, False), karis_linear(target, ("alpha",)), log_rational(target))
-    return (patapom_quartic(target, PATAPOM_ON, True), patapom_zonal(target, PATAPOM_ZONAL_ON), a_plus_kappa_b(target),
-            rational_alpha2(target))
+    return (
+        patapom_quartic(target, PATAPOM_ON, True),
+        patapom_zonal(target, PATAPOM_ZONAL_ON),
+        a_plus_kappa_b(target),
+        rational_alpha2(target),
+    )

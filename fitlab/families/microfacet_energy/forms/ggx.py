@@ -10,9 +10,21 @@ import sympy as sp
 from fitlab.families.microfacet_energy.forms.common import alpha, monomials, mu, polynomial, safe_log, u, v
 from fitlab.forms import Form
 
-__all__ = ["SFORZA_PELLACINI_2022", "MATERIALX", "MATERIALX_PRE_2022", "KNARKOWICZ_2014", "KARIS_2014", "e_forms",
-           "sforza_ratpoly3", "materialx_ratquad", "knarkowicz_poly", "karis_linear", "rational_v_alpha_4",
-           "grazing_rational", "grazing_log_rational"]
+__all__ = [
+    "SFORZA_PELLACINI_2022",
+    "MATERIALX",
+    "MATERIALX_PRE_2022",
+    "KNARKOWICZ_2014",
+    "KARIS_2014",
+    "e_forms",
+    "sforza_ratpoly3",
+    "materialx_ratquad",
+    "knarkowicz_poly",
+    "karis_linear",
+    "rational_v_alpha_4",
+    "grazing_rational",
+    "grazing_log_rational",
+]
 
 # -- published coefficients (numbers verbatim from the sources named in docs/microfacet_energy_derivation.md) -----------
 #: Sforza and Pellacini 2022 (dsforza96/yocto-gl energy-compensation, libs/yocto/yocto_shading.h, MIT):
@@ -83,8 +95,8 @@ def sforza_ratpoly3(target: str, published: bool) -> Form:
         refit_by_default=published,
         description=(
             "Sforza-Pellacini 2022: cubic/cubic rational in (sqrt(alpha), mu), denominator constant 1 "
-            "(yocto_shading.h eval_ratpoly2d)" + ("" if published else
-                                                  "; starts from their coefficients, fitted to separable Smith")
+            "(yocto_shading.h eval_ratpoly2d)"
+            + ("" if published else "; starts from their coefficients, fitted to separable Smith")
         ),
     )
 
@@ -196,7 +208,9 @@ def _grazing_parts(prefix_p: str, prefix_q: str):
     # their null combination (it did: coefficients of 1e11 cancelling); u alpha is left out
     dependent = "101"
     p_params, p = polynomial(prefix_p, {k: t for k, t in monomials(variables, 2).items() if k != dependent})
-    q_params, q = polynomial(prefix_q, {k: t for k, t in monomials(variables, 2, constant=False).items() if k != dependent})
+    q_params, q = polynomial(
+        prefix_q, {k: t for k, t in monomials(variables, 2, constant=False).items() if k != dependent}
+    )
     return p_params, p, q_params, q
 
 
@@ -244,7 +258,17 @@ def e_forms(target: str, model: str) -> tuple[Form, ...]:
     """Every form of the E target ``target`` of the GGX ``model`` ("ggx_separable" or "ggx_correlated")."""
     inputs = ("mu", "alpha")
     if model == "ggx_separable":
-        return (sforza_ratpoly3(target, True), knarkowicz_poly(target), karis_linear(target, inputs),
-                rational_v_alpha_4(target), grazing_rational(target))
-    return (materialx_ratquad(target), karis_linear(target, inputs), sforza_ratpoly3(target, False),
-            rational_v_alpha_4(target), grazing_log_rational(target))
+        return (
+            sforza_ratpoly3(target, True),
+            knarkowicz_poly(target),
+            karis_linear(target, inputs),
+            rational_v_alpha_4(target),
+            grazing_rational(target),
+        )
+    return (
+        materialx_ratquad(target),
+        karis_linear(target, inputs),
+        sforza_ratpoly3(target, False),
+        rational_v_alpha_4(target),
+        grazing_log_rational(target),
+    )

@@ -59,5 +59,8 @@ def _average_library(target: str) -> Library:
 #: the libraries of each target; the first is its primary library
 LIBRARIES: dict[str, tuple[Library, ...]] = {
     **{target_name("E", m): (_albedo_library(target_name("E", m)),) for m in ("ggx_separable", "ggx_correlated")},
-    **{target_name("E_avg", m): (_average_library(target_name("E_avg", m)),) for m in ("ggx_separable", "ggx_correlated")},
+    **{
+        target_name("E_avg", m): (_average_library(target_name("E_avg", m)),)
+        for m in ("ggx_separable", "ggx_correlated")
+    },
 }

@@ -38,8 +38,19 @@ import numpy as np
 from fitlab.core import float64
 from fitlab.families.microfacet_energy.lobes.tables import MU_EDGES, PHI_EDGES, solid_angles
 
-__all__ = ["NODES", "quadrature", "bin_averages", "bin_averages_numpy", "LobeFit", "fit_lobes", "SOLVER", "STARTS",
-           "lobe_data", "BOUNDS", "ENERGY_WEIGHT"]
+__all__ = [
+    "NODES",
+    "quadrature",
+    "bin_averages",
+    "bin_averages_numpy",
+    "LobeFit",
+    "fit_lobes",
+    "SOLVER",
+    "STARTS",
+    "lobe_data",
+    "BOUNDS",
+    "ENERGY_WEIGHT",
+]
 
 NODES = 4
 SOLVER = {"solver": "optimistix.LevenbergMarquardt", "rtol": 1e-8, "atol": 1e-10, "max_steps": 256}
@@ -49,8 +60,14 @@ SOLVER = {"solver": "optimistix.LevenbergMarquardt", "rtol": 1e-8, "atol": 1e-10
 #: exp(26), sigma_n -> infinity, eta in the hundreds) whose parameters no smooth function of (alpha, mu_i)
 #: can follow.  Every lobe the shapes do follow (the diffuse facets', the conductors' from alpha = 0.35 up)
 #: fits well inside them.  alpha_l in [0.4328, 1.3322] is eta in [-0.9, 50].
-BOUNDS = {"alpha_l": (0.4328, 1.3322), "sigma_n": (0.1, 2.5), "b": (-4.0, 4.0), "k": (-3.0, 3.0),
-          "theta_d": (-1.5, 1.5), "a": (-0.9, 0.9)}
+BOUNDS = {
+    "alpha_l": (0.4328, 1.3322),
+    "sigma_n": (0.1, 2.5),
+    "b": (-4.0, 4.0),
+    "k": (-3.0, 3.0),
+    "theta_d": (-1.5, 1.5),
+    "a": (-0.9, 0.9),
+}
 #: the weight of the energy's residual: sqrt(number of bins), so that the energy counts as much as the bins
 #: together where a shape cannot follow a lobe (without it the fitted lobe of a conductor's narrow forward
 #: streak loses up to 30 % of its energy)

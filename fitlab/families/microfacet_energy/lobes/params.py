@@ -29,15 +29,45 @@ from fitlab.families.microfacet_energy.lobes.shapes import per_lobe_form
 from fitlab.families.microfacet_energy.lobes.tables import KINDS, SETS, LobeTable, grid_points, lobe_file
 from fitlab.store import Table, TableError, read_table
 
-__all__ = ["PARAM_COLUMNS", "PARAM_FILES", "VALUE_COLUMNS", "params_file", "params_table", "read_params",
-           "ORDERS", "lobe_inputs", "build_params_tables", "check_params_tables"]
+__all__ = [
+    "PARAM_COLUMNS",
+    "PARAM_FILES",
+    "VALUE_COLUMNS",
+    "params_file",
+    "params_table",
+    "read_params",
+    "ORDERS",
+    "lobe_inputs",
+    "build_params_tables",
+    "check_params_tables",
+]
 
 #: the orders of the parameter tables (5: every order above 4)
 ORDERS = (2, 3, 4, 5)
-VALUE_COLUMNS = ("blog_sigma", "blog_eta", "blog_sigma_n", "blog_scale", "tilt_sigma", "tilt_eta", "tilt_sigma_n",
-                 "tilt_b", "tilt_k")
-PARAM_COLUMNS = ("alpha", "mu_i", "order", "albedo", "albedo_se", *VALUE_COLUMNS, *(f"se_{c}" for c in VALUE_COLUMNS),
-                 "blog_chi2", "tilt_chi2", "blog_steps", "tilt_steps")
+VALUE_COLUMNS = (
+    "blog_sigma",
+    "blog_eta",
+    "blog_sigma_n",
+    "blog_scale",
+    "tilt_sigma",
+    "tilt_eta",
+    "tilt_sigma_n",
+    "tilt_b",
+    "tilt_k",
+)
+PARAM_COLUMNS = (
+    "alpha",
+    "mu_i",
+    "order",
+    "albedo",
+    "albedo_se",
+    *VALUE_COLUMNS,
+    *(f"se_{c}" for c in VALUE_COLUMNS),
+    "blog_chi2",
+    "tilt_chi2",
+    "blog_steps",
+    "tilt_steps",
+)
 _DIGITS = 6
 
 
@@ -101,9 +131,20 @@ def params_table(t: LobeTable, progress=None) -> Table:
         cols[f"tilt_{p}"], cols[f"se_tilt_{p}"] = _column(tilted, f_tilt, p)
     rows = []
     for i, (j, s) in enumerate(jobs):
-        rows.append([float(t.alpha[j]), float(t.mu_i[j]), s, float(t.albedo[j, s - 1]), float(t.albedo_se[j, s - 1]),
-                     *_round([cols[c][i] for c in VALUE_COLUMNS]), *_round([cols["se_" + c][i] for c in VALUE_COLUMNS]),
-                     *_round([f_final.chi2_dof[i], f_tilt.chi2_dof[i]]), int(f_final.steps[i]), int(f_tilt.steps[i])])
+        rows.append(
+            [
+                float(t.alpha[j]),
+                float(t.mu_i[j]),
+                s,
+                float(t.albedo[j, s - 1]),
+                float(t.albedo_se[j, s - 1]),
+                *_round([cols[c][i] for c in VALUE_COLUMNS]),
+                *_round([cols["se_" + c][i] for c in VALUE_COLUMNS]),
+                *_round([f_final.chi2_dof[i], f_tilt.chi2_dof[i]]),
+                int(f_final.steps[i]),
+                int(f_tilt.steps[i]),
+            ]
+        )
     return Table(
         params_file(t.kind, t.which).removesuffix(".csv"),
         f"per-lobe fits (fitlab.families.microfacet_energy.lobes.fitting: optimistix Levenberg-Marquardt on the chi-square "
@@ -122,8 +163,11 @@ def read_params(folder: Path, kind: str, which: str) -> dict[str, np.ndarray]:
     one row per job of the lobe table's grid and order, in the order :func:`params_table` writes them."""
     path = Path(folder) / params_file(kind, which)
     pts = np.array(grid_points(which), dtype=float)
-    rows = {"alpha": np.repeat(pts[:, 0], len(ORDERS)), "mu_i": np.repeat(pts[:, 1], len(ORDERS)),
-            "order": np.tile(np.asarray(ORDERS, dtype=float), len(pts))}
+    rows = {
+        "alpha": np.repeat(pts[:, 0], len(ORDERS)),
+        "mu_i": np.repeat(pts[:, 1], len(ORDERS)),
+        "order": np.tile(np.asarray(ORDERS, dtype=float), len(pts)),
+    }
     _, data = read_table(path, PARAM_COLUMNS, points=rows)
     return {c: data[:, i] for i, c in enumerate(PARAM_COLUMNS)}
 
@@ -154,19 +198,29 @@ def check_params_tables(folder: Path, kinds=KINDS) -> list[str]:
                 failures.append(str(exc))
                 continue
             jobs = np.repeat(np.arange(len(t)), len(ORDERS))
-            if p["alpha"].size != jobs.size or not (np.array_equal(p["alpha"], t.alpha[jobs])
-                                                    and np.array_equal(p["mu_i"], t.mu_i[jobs])):
+            if p["alpha"].size != jobs.size or not (
+                np.array_equal(p["alpha"], t.alpha[jobs]) and np.array_equal(p["mu_i"], t.mu_i[jobs])
+            ):
                 failures.append(f"{params_file(kind, which)}: its jobs are not those of {lobe_file(kind, which)}")
             elif which == "training":
-                refits.append((params_file(kind, which), lobe_inputs(t, 0, 2),
-                               np.array([p["blog_sigma"][0], p["blog_eta"][0], p["blog_sigma_n"][0]])))
+                refits.append(
+                    (
+                        params_file(kind, which),
+                        lobe_inputs(t, 0, 2),
+                        np.array([p["blog_sigma"][0], p["blog_eta"][0], p["blog_sigma_n"][0]]),
+                    )
+                )
     if refits:
         form = per_lobe_form("blog_final")
         fit = fit_lobes(form, [lobe for _, lobe, _ in refits])
         eta, _ = _eta(form, fit)
         for k, (name, _, want) in enumerate(refits):
-            got = np.array([fit.theta[k, form.params.index("sigma")], eta[k], fit.theta[k, form.params.index("sigma_n")]])
+            got = np.array(
+                [fit.theta[k, form.params.index("sigma")], eta[k], fit.theta[k, form.params.index("sigma_n")]]
+            )
             if not np.allclose(got, want, rtol=1e-4, atol=1e-6):
-                failures.append(f"{name}: the first lobe's blog_sigma, blog_eta, blog_sigma_n {want.tolist()} differ "
-                                f"from a refit {got.tolist()}")
+                failures.append(
+                    f"{name}: the first lobe's blog_sigma, blog_eta, blog_sigma_n {want.tolist()} differ "
+                    f"from a refit {got.tolist()}"
+                )
     return failures

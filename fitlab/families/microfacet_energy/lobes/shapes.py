@@ -22,8 +22,22 @@ from fitlab.forms import Form, safe_pow
 from fitlab.forms.symbolic import symbols
 from fitlab.physics.microfacet import beckmann_g1_rational, ggx_ndf
 
-__all__ = ["mu_o", "cos_phi", "mu_i", "alpha", "SHAPE_INPUTS", "lobe_frame", "blog_lobe", "ggx_lobe",
-           "tilted_lobe", "beckmann_g1", "eta_of_lobe_roughness", "PER_LOBE_FORMS", "per_lobe_form", "MU_FLOOR"]
+__all__ = [
+    "mu_o",
+    "cos_phi",
+    "mu_i",
+    "alpha",
+    "SHAPE_INPUTS",
+    "lobe_frame",
+    "blog_lobe",
+    "ggx_lobe",
+    "tilted_lobe",
+    "beckmann_g1",
+    "eta_of_lobe_roughness",
+    "PER_LOBE_FORMS",
+    "per_lobe_form",
+    "MU_FLOOR",
+]
 
 mu_o, cos_phi, mu_i, alpha = symbols(("mu_o", "cos_phi", "mu_i", "alpha"))
 #: the inputs of every lobe shape, in argument order
@@ -94,44 +108,72 @@ def ggx_lobe(sigma, beta, sigma_n, theta_d=0) -> sp.Expr:
     return sigma * d * radius
 
 
-_alpha_l, _sigma, _theta, _a, _sn, _m, _beta, _w, _b, _k = symbols(("alpha_l", "sigma", "theta_d", "a", "sigma_n", "m", "beta", "w", "b", "k"))
+_alpha_l, _sigma, _theta, _a, _sn, _m, _beta, _w, _b, _k = symbols(
+    ("alpha_l", "sigma", "theta_d", "a", "sigma_n", "m", "beta", "w", "b", "k")
+)
 
 #: the per-lobe forms: (parameters, expression, start, fixed)
 _FORMS = {
-    "blog": (("sigma", "theta_d", "a", "alpha_l", "sigma_n", "m"),
-             blog_lobe(_sigma, eta_of_lobe_roughness(_alpha_l), _sn, _theta, _a, _m),
-             {"sigma": 0.1, "theta_d": 0.0, "a": 0.0, "alpha_l": 0.9, "sigma_n": 1.0, "m": 0.0}, {"m": 0.0},
-             "the blog's lobe, every parameter free but the masking importance m (held at 0, as the blog found)"),
-    "blog_masking": (("sigma", "theta_d", "a", "alpha_l", "sigma_n", "m"),
-                     blog_lobe(_sigma, eta_of_lobe_roughness(_alpha_l), _sn, _theta, _a, _m),
-                     {"sigma": 0.1, "theta_d": 0.0, "a": 0.0, "alpha_l": 0.9, "sigma_n": 1.0, "m": 0.0}, {},
-                     "the blog's lobe with the masking importance m free too (to measure what it adds)"),
-    "blog_final": (("sigma", "theta_d", "a", "alpha_l", "sigma_n", "m"),
-                   blog_lobe(_sigma, eta_of_lobe_roughness(_alpha_l), _sn, _theta, _a, _m),
-                   {"sigma": 0.1, "theta_d": 0.0, "a": 0.0, "alpha_l": 0.9, "sigma_n": 1.0, "m": 0.0},
-                   {"theta_d": 0.0, "a": 0.0, "m": 0.0},
-                   "the blog's final lobe: undeviated and isotropic (theta_d = a = m = 0), scale, exponent and "
-                   "normal flattening free"),
-    "tilted": (("sigma", "alpha_l", "sigma_n", "b", "k"),
-               tilted_lobe(_sigma, eta_of_lobe_roughness(_alpha_l), _sn, _b, _k),
-               {"sigma": 0.1, "alpha_l": 0.9, "sigma_n": 1.0, "b": 0.0, "k": 0.0}, {},
-               "the blog's final lobe tilted in azimuth, times exp(b s_o cos phi + k s_o^2 cos^2 phi)"),
-    "blog_scale": (("sigma", "theta_d", "a", "alpha_l", "sigma_n", "m"),
-                   blog_lobe(_sigma, eta_of_lobe_roughness(_alpha_l), _sn, _theta, _a, _m),
-                   {"sigma": 0.1, "theta_d": 0.0, "a": 0.0, "alpha_l": 0.9, "sigma_n": 1.0, "m": 0.0},
-                   {"theta_d": 0.0, "a": 0.0, "m": 0.0, "alpha_l": 0.9, "sigma_n": 1.0},
-                   "the blog's final lobe with its shape given (the order-2 lobe's, per lobe): the scale alone free"),
-    "ggx": (("sigma", "theta_d", "beta", "sigma_n"), ggx_lobe(_sigma, _beta, _sn, _theta),
-            {"sigma": 0.1, "theta_d": 0.0, "beta": 1.0, "sigma_n": 1.0}, {},
-            "a GGX-shaped lobe about a deviated axis, with the blog's normal flattening"),
+    "blog": (
+        ("sigma", "theta_d", "a", "alpha_l", "sigma_n", "m"),
+        blog_lobe(_sigma, eta_of_lobe_roughness(_alpha_l), _sn, _theta, _a, _m),
+        {"sigma": 0.1, "theta_d": 0.0, "a": 0.0, "alpha_l": 0.9, "sigma_n": 1.0, "m": 0.0},
+        {"m": 0.0},
+        "the blog's lobe, every parameter free but the masking importance m (held at 0, as the blog found)",
+    ),
+    "blog_masking": (
+        ("sigma", "theta_d", "a", "alpha_l", "sigma_n", "m"),
+        blog_lobe(_sigma, eta_of_lobe_roughness(_alpha_l), _sn, _theta, _a, _m),
+        {"sigma": 0.1, "theta_d": 0.0, "a": 0.0, "alpha_l": 0.9, "sigma_n": 1.0, "m": 0.0},
+        {},
+        "the blog's lobe with the masking importance m free too (to measure what it adds)",
+    ),
+    "blog_final": (
+        ("sigma", "theta_d", "a", "alpha_l", "sigma_n", "m"),
+        blog_lobe(_sigma, eta_of_lobe_roughness(_alpha_l), _sn, _theta, _a, _m),
+        {"sigma": 0.1, "theta_d": 0.0, "a": 0.0, "alpha_l": 0.9, "sigma_n": 1.0, "m": 0.0},
+        {"theta_d": 0.0, "a": 0.0, "m": 0.0},
+        "the blog's final lobe: undeviated and isotropic (theta_d = a = m = 0), scale, exponent and "
+        "normal flattening free",
+    ),
+    "tilted": (
+        ("sigma", "alpha_l", "sigma_n", "b", "k"),
+        tilted_lobe(_sigma, eta_of_lobe_roughness(_alpha_l), _sn, _b, _k),
+        {"sigma": 0.1, "alpha_l": 0.9, "sigma_n": 1.0, "b": 0.0, "k": 0.0},
+        {},
+        "the blog's final lobe tilted in azimuth, times exp(b s_o cos phi + k s_o^2 cos^2 phi)",
+    ),
+    "blog_scale": (
+        ("sigma", "theta_d", "a", "alpha_l", "sigma_n", "m"),
+        blog_lobe(_sigma, eta_of_lobe_roughness(_alpha_l), _sn, _theta, _a, _m),
+        {"sigma": 0.1, "theta_d": 0.0, "a": 0.0, "alpha_l": 0.9, "sigma_n": 1.0, "m": 0.0},
+        {"theta_d": 0.0, "a": 0.0, "m": 0.0, "alpha_l": 0.9, "sigma_n": 1.0},
+        "the blog's final lobe with its shape given (the order-2 lobe's, per lobe): the scale alone free",
+    ),
+    "ggx": (
+        ("sigma", "theta_d", "beta", "sigma_n"),
+        ggx_lobe(_sigma, _beta, _sn, _theta),
+        {"sigma": 0.1, "theta_d": 0.0, "beta": 1.0, "sigma_n": 1.0},
+        {},
+        "a GGX-shaped lobe about a deviated axis, with the blog's normal flattening",
+    ),
 }
 
 
 def per_lobe_form(name: str) -> Form:
     """The per-lobe form ``name`` (one of :data:`PER_LOBE_FORMS`), inputs :data:`SHAPE_INPUTS`."""
     params, expr, start, fixed, description = _FORMS[name]
-    return Form(target="ms_lobe", name=name, inputs=SHAPE_INPUTS, params=params, expr=expr, start=start,
-                fixed=fixed, description=description, refit_by_default=False)
+    return Form(
+        target="ms_lobe",
+        name=name,
+        inputs=SHAPE_INPUTS,
+        params=params,
+        expr=expr,
+        start=start,
+        fixed=fixed,
+        description=description,
+        refit_by_default=False,
+    )
 
 
 PER_LOBE_FORMS = tuple(_FORMS)

@@ -29,10 +29,35 @@ from tqdm import tqdm
 
 from fitlab.store import Table, TableError, read_table
 
-__all__ = ["KINDS", "ORDER_LABELS", "MU_EDGES", "PHI_EDGES", "SEED", "PATHS", "MAX_BOUNCES", "ALPHA_TRAINING",
-           "MU_I_TRAINING", "ALPHA_VALIDATION", "MU_I_VALIDATION", "SETS", "LobeTable", "lobe_file", "LOBE_FILES",
-           "lobe_columns", "grid_points", "simulate_job", "lobe_table", "build_lobe_tables", "read_lobes", "lobes_from_rows",
-           "solid_angles", "albedo_identity", "check_lobe_tables", "DOMAIN", "walk_config"]
+__all__ = [
+    "KINDS",
+    "ORDER_LABELS",
+    "MU_EDGES",
+    "PHI_EDGES",
+    "SEED",
+    "PATHS",
+    "MAX_BOUNCES",
+    "ALPHA_TRAINING",
+    "MU_I_TRAINING",
+    "ALPHA_VALIDATION",
+    "MU_I_VALIDATION",
+    "SETS",
+    "LobeTable",
+    "lobe_file",
+    "LOBE_FILES",
+    "lobe_columns",
+    "grid_points",
+    "simulate_job",
+    "lobe_table",
+    "build_lobe_tables",
+    "read_lobes",
+    "lobes_from_rows",
+    "solid_angles",
+    "albedo_identity",
+    "check_lobe_tables",
+    "DOMAIN",
+    "walk_config",
+]
 
 #: facet kinds (the walk's kinds; "diffuse" with albedo 1, "conductor" with F = 1)
 KINDS = ("diffuse", "conductor")
@@ -91,13 +116,16 @@ def grid_points(which: str) -> list[tuple[float, float]]:
 
 
 def _grid_text(which: str) -> str:
-    bins = ("bins: mu_o edges k/10, k = 0..10 (uniform), |phi_o| edges k pi/8, k = 0..8 (phi_o = 0 back-scattering "
-            "side, pi the mirror side); rows: one per job and order, jobs in the order of the grid")
+    bins = (
+        "bins: mu_o edges k/10, k = 0..10 (uniform), |phi_o| edges k pi/8, k = 0..8 (phi_o = 0 back-scattering "
+        "side, pi the mirror side); rows: one per job and order, jobs in the order of the grid"
+    )
     if which == "training":
         return f"alpha in {ALPHA_TRAINING} x mu_i in {MU_I_TRAINING} (alpha outer); " + bins
-    return (f"alpha in {ALPHA_VALIDATION} x mu_i in {MU_I_VALIDATION}, then alpha in {{0.05, 1}} x mu_i in "
-            f"{_EDGE_MU_I}, then mu_i in {{0.05, 1}} x alpha in {_EDGE_ALPHA} (interleaved with the training grid); "
-            + bins)
+    return (
+        f"alpha in {ALPHA_VALIDATION} x mu_i in {MU_I_VALIDATION}, then alpha in {{0.05, 1}} x mu_i in "
+        f"{_EDGE_MU_I}, then mu_i in {{0.05, 1}} x alpha in {_EDGE_ALPHA} (interleaved with the training grid); " + bins
+    )
 
 
 def walk_config(kind: str):
@@ -108,8 +136,16 @@ def walk_config(kind: str):
         raise ValueError(f"kind must be one of {KINDS}, got {kind!r}")
     # float64: the committed tables are rewritten byte for byte (docs/blog_lobe_model.md); a float32 walk takes the same
     # paths to 1e-7 (docs/microsurface.md, "Precision"), not to the tables' last digit
-    return WalkConfig(distribution="ggx", kind=kind, fresnel="one", orders=len(ORDER_LABELS) - 1, mu_edges=MU_EDGES,
-                      phi_edges=PHI_EDGES, slots=_SLOTS, precision="float64")
+    return WalkConfig(
+        distribution="ggx",
+        kind=kind,
+        fresnel="one",
+        orders=len(ORDER_LABELS) - 1,
+        mu_edges=MU_EDGES,
+        phi_edges=PHI_EDGES,
+        slots=_SLOTS,
+        precision="float64",
+    )
 
 
 def job_paths(alpha: float) -> int:
@@ -121,8 +157,16 @@ def solid_angles() -> np.ndarray:
     return 2.0 * np.outer(np.diff(MU_EDGES), np.diff(PHI_EDGES))
 
 
-def simulate_job(kind: str, alpha: float, mu_i: float, paths: int, seed: int = SEED, incident: int = 0,
-                 albedo: float = 1.0, batch: int = 500_000) -> dict:
+def simulate_job(
+    kind: str,
+    alpha: float,
+    mu_i: float,
+    paths: int,
+    seed: int = SEED,
+    incident: int = 0,
+    albedo: float = 1.0,
+    batch: int = 500_000,
+) -> dict:
     """One job: {"value", "se"} (5, 10, 8) bin averages of f_S mu_o and their standard errors, {"albedo",
     "albedo_se"} (5,), "paths", "capped" (the weight of paths still inside after MAX_BOUNCES events, counted
     in the tail's albedo and in no bin)."""
@@ -152,8 +196,14 @@ def simulate_job(kind: str, alpha: float, mu_i: float, paths: int, seed: int = S
     alb[-1] += cap
     alb_se = alb_se.copy()
     alb_se[-1] = np.hypot(alb_se[-1], cap_se)
-    return {"value": value / omega, "se": se / omega, "albedo": alb, "albedo_se": alb_se, "paths": int(n),
-            "capped": float(cap)}
+    return {
+        "value": value / omega,
+        "se": se / omega,
+        "albedo": alb,
+        "albedo_se": alb_se,
+        "paths": int(n),
+        "capped": float(cap),
+    }
 
 
 def _round(x, digits: int) -> np.ndarray:
@@ -173,12 +223,21 @@ def lobe_table(kind: str, which: str, progress=None) -> Table:
         capped = max(capped, job["capped"])
         total += job["paths"]
         for k in range(len(ORDER_LABELS)):
-            rows.append([alpha, mu_i, k + 1, job["paths"], *_round(job["albedo"][k], _DIGITS).ravel(),
-                         *_round(job["albedo_se"][k], _SE_DIGITS).ravel(), *_round(job["value"][k], _DIGITS).ravel(),
-                         *_round(job["se"][k], _SE_DIGITS).ravel()])
+            rows.append(
+                [
+                    alpha,
+                    mu_i,
+                    k + 1,
+                    job["paths"],
+                    *_round(job["albedo"][k], _DIGITS).ravel(),
+                    *_round(job["albedo_se"][k], _SE_DIGITS).ravel(),
+                    *_round(job["value"][k], _DIGITS).ravel(),
+                    *_round(job["se"][k], _SE_DIGITS).ravel(),
+                ]
+            )
         if progress is not None:
             progress.update(1)
-    what = ("Lambertian facets of albedo 1" if kind == "diffuse" else "mirror facets, F = 1")
+    what = "Lambertian facets of albedo 1" if kind == "diffuse" else "mirror facets, F = 1"
     return Table(
         lobe_file(kind, which).removesuffix(".csv"),
         f"microsurface random walk (Heitz et al. 2016; fitlab.families.microfacet_energy.mc.walk), GGX, "
@@ -261,18 +320,30 @@ def lobes_from_rows(data, kind: str, which: str, where: str = "table") -> LobeTa
     if data.shape[0] != n_orders * len(pts):
         raise TableError(f"{where}: {data.shape[0]} rows, expected {n_orders * len(pts)}; run `fitlab tabulate`")
     d = data.reshape(len(pts), n_orders, -1)
-    if not (np.array_equal(d[:, 0, 0], pts[:, 0]) and np.array_equal(d[:, 0, 1], pts[:, 1])
-            and np.array_equal(d[0, :, 2], np.arange(1, n_orders + 1))):
+    if not (
+        np.array_equal(d[:, 0, 0], pts[:, 0])
+        and np.array_equal(d[:, 0, 1], pts[:, 1])
+        and np.array_equal(d[0, :, 2], np.arange(1, n_orders + 1))
+    ):
         raise TableError(f"{where}: the (alpha, mu_i, order) columns are not the grid {_grid_text(which)}")
     nb = (len(MU_EDGES) - 1) * (len(PHI_EDGES) - 1)
     shape = (len(pts), n_orders, len(MU_EDGES) - 1, len(PHI_EDGES) - 1)
-    return LobeTable(kind, which, d[:, 0, 0].copy(), d[:, 0, 1].copy(), d[:, 0, 3].astype(np.int64),
-                     d[:, :, 6:6 + nb].reshape(shape), d[:, :, 6 + nb:].reshape(shape), d[:, :, 4].copy(),
-                     d[:, :, 5].copy())
+    return LobeTable(
+        kind,
+        which,
+        d[:, 0, 0].copy(),
+        d[:, 0, 1].copy(),
+        d[:, 0, 3].astype(np.int64),
+        d[:, :, 6 : 6 + nb].reshape(shape),
+        d[:, :, 6 + nb :].reshape(shape),
+        d[:, :, 4].copy(),
+        d[:, :, 5].copy(),
+    )
 
 
-def albedo_identity(rho: float = 0.6, alpha: float = 0.5, mu_i: float = 0.5, paths: int = 200_000,
-                    seed: int = SEED + 1) -> dict:
+def albedo_identity(
+    rho: float = 0.6, alpha: float = 0.5, mu_i: float = 0.5, paths: int = 200_000, seed: int = SEED + 1
+) -> dict:
     """The rho^S scaling of diffuse facets, by simulation: the walk at facet albedo ``rho`` and at albedo 1,
     with different seeds (independent estimates), at one (alpha, mu_i).  Returns {"ratio": albedo_rho /
     (rho^S albedo_1) by order, "z": (albedo_rho - rho^S albedo_1) / se by order} (orders 1..4; the tail
@@ -305,13 +376,17 @@ def check_lobe_tables(folder: Path, paths: int = 30_000, kinds=KINDS) -> list[st
             job = simulate_job(kind, float(t.alpha[j]), float(t.mu_i[j]), paths, seed=SEED + 7, incident=j)
             z = (job["albedo"] - t.albedo[j]) / np.hypot(job["albedo_se"], t.albedo_se[j])
             if np.any(np.abs(z[np.isfinite(z)]) > 5):
-                failures.append(f"{lobe_file(kind, which)}: albedo by order at alpha={t.alpha[j]}, mu_i={t.mu_i[j]} "
-                                f"differs from a re-simulation by z = {np.round(z, 2).tolist()}")
+                failures.append(
+                    f"{lobe_file(kind, which)}: albedo by order at alpha={t.alpha[j]}, mu_i={t.mu_i[j]} "
+                    f"differs from a re-simulation by z = {np.round(z, 2).tolist()}"
+                )
             se = np.hypot(job["se"], t.se[j])
             # bins the re-simulation reached often enough for a standard error to mean something (16 paths)
             reached = (job["se"] > 0) & (job["se"] < 0.25 * job["value"])
             chi2 = np.mean(((job["value"] - t.value[j])[reached] / se[reached]) ** 2)
             if chi2 > 2:
-                failures.append(f"{lobe_file(kind, which)}: the lobe at alpha={t.alpha[j]}, mu_i={t.mu_i[j]} differs "
-                                f"from a re-simulation: chi-square per bin {chi2:.2f}")
+                failures.append(
+                    f"{lobe_file(kind, which)}: the lobe at alpha={t.alpha[j]}, mu_i={t.mu_i[j]} differs "
+                    f"from a re-simulation: chi-square per bin {chi2:.2f}"
+                )
     return failures

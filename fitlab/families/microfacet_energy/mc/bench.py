@@ -25,8 +25,7 @@ import os
 import subprocess
 import sys
 
-__all__ = ["bench_mc", "bench_sharding", "bench_native", "CASES", "BLOG_RAYS", "BLOG_ORDERS",
-           "BLOG_SECONDS"]
+__all__ = ["bench_mc", "bench_sharding", "bench_native", "CASES", "BLOG_RAYS", "BLOG_ORDERS", "BLOG_SECONDS"]
 
 #: the blog's simulation: 5e8 rays, 4 orders of scattering, about 0.5 s on a GPU (source: module docstring)
 BLOG_RAYS, BLOG_ORDERS, BLOG_SECONDS = 500_000_000, 4, 0.5
@@ -68,8 +67,13 @@ def bench_sharding(devices: int | None = None, n_paths: int = 200_000, repeat: i
     docstring), in a fresh process: dict(devices, paths, bounces, seconds={mesh: s}, identical_tallies)."""
     devices = devices or os.cpu_count() or 1
     env = dict(os.environ, XLA_FLAGS=f"--xla_force_host_platform_device_count={devices}", JAX_PLATFORMS="cpu")
-    out = subprocess.run([sys.executable, "-m", __name__, str(n_paths), str(repeat)], env=env,
-                         capture_output=True, text=True, timeout=1800)
+    out = subprocess.run(
+        [sys.executable, "-m", __name__, str(n_paths), str(repeat)],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=1800,
+    )
     if out.returncode != 0:
         raise RuntimeError(f"sharding benchmark failed: {out.stderr.strip().splitlines()[-1:]}")
     return json.loads(out.stdout.strip().splitlines()[-1])
@@ -83,8 +87,12 @@ def bench_native(n_paths: int = 400_000, repeat: int = 3, alpha: float = 0.6, mu
 
     key = tuple(int(k) for k in job_key(0, 0, 0))
     best = min((native_walk(key, alpha, mu_i, n_paths) for _ in range(repeat)), key=lambda r: r["seconds"])
-    return dict(seconds=best["seconds"], bounces=best["bounces"], bounces_per_second=best["bounces"] / best["seconds"],
-                paths_per_second=n_paths / best["seconds"])
+    return dict(
+        seconds=best["seconds"],
+        bounces=best["bounces"],
+        bounces_per_second=best["bounces"] / best["seconds"],
+        paths_per_second=n_paths / best["seconds"],
+    )
 
 
 def bench_mc(quick: bool = False) -> dict:
@@ -104,8 +112,10 @@ def bench_mc(quick: bool = False) -> dict:
     repeat = 2 if quick else 3
     dev = jax.devices()
     mesh = default_mesh()
-    print(f"fitlab bench mc (microsurface walk): {len(dev)} device(s) ({dev[0].platform}), {n} paths per timing, "
-          f"alpha 0.6, mu_i 0.5, 1024 lanes per device, best of {repeat} interleaved rounds, compilation apart\n")
+    print(
+        f"fitlab bench mc (microsurface walk): {len(dev)} device(s) ({dev[0].platform}), {n} paths per timing, "
+        f"alpha 0.6, mu_i 0.5, 1024 lanes per device, best of {repeat} interleaved rounds, compilation apart\n"
+    )
     key = job_key(0, 0, 0)
     results, runs = {}, {}
     for dist, kind in CASES:
@@ -113,40 +123,55 @@ def bench_mc(quick: bool = False) -> dict:
         params = MaterialParams(0.6, 0.6, eta=1.5)
         comp = compile_walk(cfg, mesh)
         for cap in (1000, BLOG_ORDERS):
-            runs[(dist, kind, cap)] = (lambda cfg=cfg, params=params, cap=cap:
-                                       run_round(cfg, key, params, 0.5, 0, n, cap, mesh=mesh))
+            runs[(dist, kind, cap)] = lambda cfg=cfg, params=params, cap=cap: run_round(
+                cfg, key, params, 0.5, 0, n, cap, mesh=mesh
+            )
         results[(dist, kind)] = dict(compile_seconds=comp)
     counts = {k: f() for k, f in runs.items()}  # the work of each timing (deterministic: same ids every round)
     best = interleaved_best(runs, repeat)
-    print(f"{'walk':<22}{'bounces/s':>11}{'paths/s':>11}{'bounce/path':>12}{'paths/s (4)':>13}"
-          f"{'5e8 x 4 (s)':>13}{'x blog':>8}{'compile s':>11}")
+    print(
+        f"{'walk':<22}{'bounces/s':>11}{'paths/s':>11}{'bounce/path':>12}{'paths/s (4)':>13}"
+        f"{'5e8 x 4 (s)':>13}{'x blog':>8}{'compile s':>11}"
+    )
     for dist, kind in CASES:
         full, four = (dist, kind, 1000), (dist, kind, BLOG_ORDERS)
         r = results[(dist, kind)]
-        r.update(bounces_per_second=int(counts[full]["bounces"]) / best[full], paths_per_second=n / best[full],
-                 bounces_per_path=int(counts[full]["bounces"]) / n, paths_per_second_4_orders=n / best[four],
-                 bounces_per_second_4_orders=int(counts[four]["bounces"]) / best[four])
+        r.update(
+            bounces_per_second=int(counts[full]["bounces"]) / best[full],
+            paths_per_second=n / best[full],
+            bounces_per_path=int(counts[full]["bounces"]) / n,
+            paths_per_second_4_orders=n / best[four],
+            bounces_per_second_4_orders=int(counts[four]["bounces"]) / best[four],
+        )
         r["blog_job_seconds"] = BLOG_RAYS / r["paths_per_second_4_orders"]
         r["times_blog"] = r["blog_job_seconds"] / BLOG_SECONDS
-        print(f"{dist + ' ' + kind:<22}{r['bounces_per_second']:>11.3g}{r['paths_per_second']:>11.3g}"
-              f"{r['bounces_per_path']:>12.2f}{r['paths_per_second_4_orders']:>13.3g}{r['blog_job_seconds']:>13.0f}"
-              f"{r['times_blog']:>8.0f}{r['compile_seconds']:>11.1f}")
-    print(f"\n5e8 x 4: seconds for the blog's job ({BLOG_RAYS:.0e} rays, {BLOG_ORDERS} orders) here, from the paths/s "
-          f"of the walk capped at {BLOG_ORDERS} events; x blog: against its {BLOG_SECONDS} s on a GPU.")
+        print(
+            f"{dist + ' ' + kind:<22}{r['bounces_per_second']:>11.3g}{r['paths_per_second']:>11.3g}"
+            f"{r['bounces_per_path']:>12.2f}{r['paths_per_second_4_orders']:>13.3g}{r['blog_job_seconds']:>13.0f}"
+            f"{r['times_blog']:>8.0f}{r['compile_seconds']:>11.1f}"
+        )
+    print(
+        f"\n5e8 x 4: seconds for the blog's job ({BLOG_RAYS:.0e} rays, {BLOG_ORDERS} orders) here, from the paths/s "
+        f"of the walk capped at {BLOG_ORDERS} events; x blog: against its {BLOG_SECONDS} s on a GPU."
+    )
     results["native"] = native = bench_native(n, repeat)
     jax_rate = results[("ggx", "conductor")]["bounces_per_second"]
     native["jax_over_native"] = jax_rate / native["bounces_per_second"]
-    print(f"\nnative reference: the GGX conductor walk in plain C, one thread, the same paths (no angular tallies): "
-          f"{native['bounces_per_second']:.3g} bounces/s; the JAX walk on {len(dev)} device(s): {jax_rate:.3g}, "
-          f"JAX / native {native['jax_over_native']:.3g}")
+    print(
+        f"\nnative reference: the GGX conductor walk in plain C, one thread, the same paths (no angular tallies): "
+        f"{native['bounces_per_second']:.3g} bounces/s; the JAX walk on {len(dev)} device(s): {jax_rate:.3g}, "
+        f"JAX / native {native['jax_over_native']:.3g}"
+    )
     if not quick:
         cores = os.cpu_count() or 1
         s = bench_sharding(cores)
         results["sharding"] = s
         one, every = s["seconds"]["one device"], s["seconds"]["all devices"]
-        print(f"\nsharded (GGX dielectric, {s['paths']} paths, {s['devices']} forced host devices in a fresh process): "
-              f"one device {s['bounces'] / one:.3g} bounces/s, all {s['devices']} {s['bounces'] / every:.3g} "
-              f"(x{one / every:.2f}); tallies identical: {'yes' if s['identical_tallies'] else 'NO'}")
+        print(
+            f"\nsharded (GGX dielectric, {s['paths']} paths, {s['devices']} forced host devices in a fresh process): "
+            f"one device {s['bounces'] / one:.3g} bounces/s, all {s['devices']} {s['bounces'] / every:.3g} "
+            f"(x{one / every:.2f}); tallies identical: {'yes' if s['identical_tallies'] else 'NO'}"
+        )
     return results
 
 

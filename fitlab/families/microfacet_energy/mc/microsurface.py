@@ -30,8 +30,19 @@ from jax.scipy.special import erfc, erfinv
 from fitlab._montecarlo import sincos_2pi
 from fitlab.physics import microfacet
 
-__all__ = ["DISTRIBUTIONS", "height_c1", "height_inv_c1", "smith_lambda", "masking_g1", "sample_height",
-           "sample_c1", "sample_vndf", "reflect", "refract", "ESCAPED"]
+__all__ = [
+    "DISTRIBUTIONS",
+    "height_c1",
+    "height_inv_c1",
+    "smith_lambda",
+    "masking_g1",
+    "sample_height",
+    "sample_c1",
+    "sample_vndf",
+    "reflect",
+    "refract",
+    "ESCAPED",
+]
 
 DISTRIBUTIONS = ("ggx", "beckmann")
 #: sample_height's value for a ray that leaves the microsurface

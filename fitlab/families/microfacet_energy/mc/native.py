@@ -39,7 +39,9 @@ def _smith_lambda_c() -> str:
     return CPrinter("double", lambda name: name).doprint(smith_lambda(x, y, mu, ax, ay, "ggx"))
 
 
-SOURCE = THREEFRY_C + r"""
+SOURCE = (
+    THREEFRY_C
+    + r"""
 #include <math.h>
 
 static const double TWO_PI = 6.283185307179586476925;
@@ -138,11 +140,21 @@ void microsurface_walk(uint32_t k0, uint32_t k1, double ax, double ay, double mu
     out[ORDERS + 2] = (double)bounces;
 }
 """.replace("ORDERS", str(ORDERS)).replace("SMITH_LAMBDA", _smith_lambda_c())
+)
 
 
 #: the C function's arguments
-_ARGTYPES = (ctypes.c_uint32, ctypes.c_uint32, ctypes.c_double, ctypes.c_double, ctypes.c_double, ctypes.c_uint32,
-          ctypes.c_uint32, ctypes.c_int64, ctypes.POINTER(ctypes.c_double))
+_ARGTYPES = (
+    ctypes.c_uint32,
+    ctypes.c_uint32,
+    ctypes.c_double,
+    ctypes.c_double,
+    ctypes.c_double,
+    ctypes.c_uint32,
+    ctypes.c_uint32,
+    ctypes.c_int64,
+    ctypes.POINTER(ctypes.c_double),
+)
 
 
 def native_walk(key: tuple[int, int], alpha: float, mu_i: float, n_paths: int, max_bounces: int = 1000) -> dict:
@@ -157,8 +169,21 @@ def native_walk(key: tuple[int, int], alpha: float, mu_i: float, n_paths: int, m
     walk = c_function(SOURCE, "microsurface_walk", _ARGTYPES)
     out = np.zeros(ORDERS + 3)
     t0 = time.perf_counter()
-    walk(int(key[0]), int(key[1]), float(alpha), float(alpha), float(mu_i), 0, int(n_paths), int(max_bounces),
-         out.ctypes.data_as(ctypes.POINTER(ctypes.c_double)))
+    walk(
+        int(key[0]),
+        int(key[1]),
+        float(alpha),
+        float(alpha),
+        float(mu_i),
+        0,
+        int(n_paths),
+        int(max_bounces),
+        out.ctypes.data_as(ctypes.POINTER(ctypes.c_double)),
+    )
     seconds = time.perf_counter() - t0
-    return {"exits": out[:ORDERS + 1].astype(np.int64), "capped": int(out[ORDERS + 1]),
-            "bounces": int(out[ORDERS + 2]), "seconds": seconds}
+    return {
+        "exits": out[: ORDERS + 1].astype(np.int64),
+        "capped": int(out[ORDERS + 1]),
+        "bounces": int(out[ORDERS + 2]),
+        "seconds": seconds,
+    }

@@ -41,10 +41,23 @@ from fitlab.families.microfacet_energy.exact import (
 from fitlab.physics.microfacet import ndf, smith_g2_correlated, smith_lambda
 from fitlab.physics.microfacet import smith_g2_transmission as transmission_g2
 
-__all__ = ["ndf", "single_scattering_brdf", "bin_average_single", "albedo_single", "fresnel_numpy",
-           "transmission_g2", "btdf", "single_transmission_btdf", "bin_average_transmission",
-           "transmission_single", "order_one_by_normals", "normal_rule", "diffuse_single_brdf",
-           "bin_average_diffuse", "references"]
+__all__ = [
+    "ndf",
+    "single_scattering_brdf",
+    "bin_average_single",
+    "albedo_single",
+    "fresnel_numpy",
+    "transmission_g2",
+    "btdf",
+    "single_transmission_btdf",
+    "bin_average_transmission",
+    "transmission_single",
+    "order_one_by_normals",
+    "normal_rule",
+    "diffuse_single_brdf",
+    "bin_average_diffuse",
+    "references",
+]
 
 
 def fresnel_numpy(material):
@@ -72,8 +85,10 @@ def single_scattering_brdf(mu_o, phi_o, mu_i, alpha_x, alpha_y, distribution: st
     hx, hy, hz = ox + s_i, oy, oz + mu_i
     n = np.sqrt(hx * hx + hy * hy + hz * hz)
     hx, hy, hz = hx / n, hy / n, hz / n
-    g2 = smith_g2_correlated(smith_lambda(s_i, 0.0, mu_i, alpha_x, alpha_y, distribution),
-                             smith_lambda(ox, oy, oz, alpha_x, alpha_y, distribution))
+    g2 = smith_g2_correlated(
+        smith_lambda(s_i, 0.0, mu_i, alpha_x, alpha_y, distribution),
+        smith_lambda(ox, oy, oz, alpha_x, alpha_y, distribution),
+    )
     f = ndf(hx, hy, hz, alpha_x, alpha_y, distribution) * g2 / (4.0 * mu_i * mu_o)
     if fresnel is not None:
         f = f * fresnel(s_i * hx + mu_i * hz)
@@ -100,8 +115,9 @@ def _peak_breaks(centre: float, alpha: float) -> tuple:
     return tuple(np.concatenate([[centre], centre - d, centre + d]))
 
 
-def bin_average_single(mu_edges, phi_edges, mu_i, material, panels: int = 4, nodes: int = 12,
-                       use_exact_ggx: bool = True):
+def bin_average_single(
+    mu_edges, phi_edges, mu_i, material, panels: int = 4, nodes: int = 12, use_exact_ggx: bool = True
+):
     """Bin averages of f_1 mu_o (1/sr) over the tally's bins: array [mu bin, phi bin].  The panels are graded
     towards the mirror direction (mu_o = mu_i, |phi_o| = pi; :func:`_peak_breaks`).
 
@@ -122,8 +138,7 @@ def bin_average_single(mu_edges, phi_edges, mu_i, material, panels: int = 4, nod
                 h = np.stack([s_o * np.cos(p) + s_i, s_o * np.sin(p), m + mu_i])
                 f = f * fres(np.clip((s_i * h[0] + mu_i * h[2]) / np.linalg.norm(h, axis=0), 0, 1))
             else:
-                f = single_scattering_brdf(m, p, mu_i, material.alpha_x, material.alpha_y, material.distribution,
-                                           fres)
+                f = single_scattering_brdf(m, p, mu_i, material.alpha_x, material.alpha_y, material.distribution, fres)
             integral = np.einsum("i,j,ij->", wmu, wph, f * m)
             out[i, j] = integral / ((mu_edges[i + 1] - mu_edges[i]) * (phi_edges[j + 1] - phi_edges[j]))
     return out
@@ -168,13 +183,23 @@ def btdf(wi, wo, alpha_x, alpha_y, distribution: str, eta: float):
     c_o = ox * hx + oy * hy + oz * hz
     valid = (hz > 0.0) & (c_i > 0.0) & (c_o < 0.0)
     hz_safe = np.where(valid, hz, 1.0)
-    g2 = transmission_g2(smith_lambda(ix, iy, iz, alpha_x, alpha_y, distribution),
-                         smith_lambda(-ox, -oy, -oz, alpha_x, alpha_y, distribution))
+    g2 = transmission_g2(
+        smith_lambda(ix, iy, iz, alpha_x, alpha_y, distribution),
+        smith_lambda(-ox, -oy, -oz, alpha_x, alpha_y, distribution),
+    )
     # 1 - F from both cosines the half vector gives (not Snell's sqrt of c_i): free of the cancellation
     # near the critical angle, and the same expression for the path reversed
     transmittance = fresnel_dielectric_transmittance(np.clip(c_i, 0.0, 1.0), np.clip(-c_o, 0.0, 1.0), eta)
-    f = (c_i * -c_o * eta * eta * transmittance
-         * ndf(hx, hy, hz_safe, alpha_x, alpha_y, distribution) * g2 / (iz * -oz * (c_i + eta * c_o) ** 2))
+    f = (
+        c_i
+        * -c_o
+        * eta
+        * eta
+        * transmittance
+        * ndf(hx, hy, hz_safe, alpha_x, alpha_y, distribution)
+        * g2
+        / (iz * -oz * (c_i + eta * c_o) ** 2)
+    )
     return np.where(valid, f, 0.0)
 
 
@@ -183,8 +208,9 @@ def single_transmission_btdf(mu_o, phi_o, mu_i, alpha_x, alpha_y, distribution: 
     mu_o = |mu_o| in (0, 1] (phi_o = pi: straight through)."""
     s_i = math.sqrt(1.0 - mu_i * mu_i)
     s_o = np.sqrt(1.0 - mu_o * mu_o)
-    return btdf((s_i, 0.0, mu_i), (s_o * np.cos(phi_o), s_o * np.sin(phi_o), -mu_o), alpha_x, alpha_y,
-                distribution, eta)
+    return btdf(
+        (s_i, 0.0, mu_i), (s_o * np.cos(phi_o), s_o * np.sin(phi_o), -mu_o), alpha_x, alpha_y, distribution, eta
+    )
 
 
 def bin_average_transmission(mu_edges, phi_edges, mu_i, material, panels: int = 4, nodes: int = 12):
@@ -202,10 +228,12 @@ def bin_average_transmission(mu_edges, phi_edges, mu_i, material, panels: int = 
         for j in range(len(phi_edges) - 1):
             ph, wph = _rule(phi_edges[j], phi_edges[j + 1], panels, nodes, breaks=_peak_breaks(math.pi, alpha))
             m, p = np.meshgrid(mu, ph, indexing="ij")
-            f = single_transmission_btdf(m, p, mu_i, material.alpha_x, material.alpha_y, material.distribution,
-                                         material.eta)
-            out[i, j] = np.einsum("i,j,ij->", wmu, wph, f * m) / ((mu_edges[i + 1] - mu_edges[i])
-                                                                  * (phi_edges[j + 1] - phi_edges[j]))
+            f = single_transmission_btdf(
+                m, p, mu_i, material.alpha_x, material.alpha_y, material.distribution, material.eta
+            )
+            out[i, j] = np.einsum("i,j,ij->", wmu, wph, f * m) / (
+                (mu_edges[i + 1] - mu_edges[i]) * (phi_edges[j + 1] - phi_edges[j])
+            )
     return out
 
 
@@ -262,7 +290,9 @@ def diffuse_single_brdf(wi, wo, material, rule=None):
     co = np.maximum(0.0, ox * mx + oy * my + oz * mz)
     integral = np.sum(co * (w * ci / mz), axis=-1)
     oz = oz[..., 0]
-    g2 = smith_g2_correlated(smith_lambda(ix, iy, iz, ax, ay, dist), smith_lambda(ox[..., 0], oy[..., 0], oz, ax, ay, dist))
+    g2 = smith_g2_correlated(
+        smith_lambda(ix, iy, iz, ax, ay, dist), smith_lambda(ox[..., 0], oy[..., 0], oz, ax, ay, dist)
+    )
     return material.albedo / math.pi * integral * g2 / (iz * oz)
 
 
@@ -278,8 +308,9 @@ def bin_average_diffuse(mu_edges, phi_edges, mu_i, material, panels: int = 2, no
             m, p = np.meshgrid(mu, ph, indexing="ij")
             s = np.sqrt(1.0 - m * m)
             f = diffuse_single_brdf(wi, (s * np.cos(p), s * np.sin(p), m), material, rule)
-            out[i, j] = np.einsum("i,j,ij->", wmu, wph, f * m) / ((mu_edges[i + 1] - mu_edges[i])
-                                                                  * (phi_edges[j + 1] - phi_edges[j]))
+            out[i, j] = np.einsum("i,j,ij->", wmu, wph, f * m) / (
+                (mu_edges[i + 1] - mu_edges[i]) * (phi_edges[j + 1] - phi_edges[j])
+            )
     return out
 
 
@@ -287,8 +318,10 @@ def references(mu_edges, phi_edges, mu_i, material) -> dict:
     """The order-1 references of a job: ``lobe`` (bin averages), ``albedo`` ((value, method)), and for a
     dielectric ``lobe_transmission`` and ``transmission``."""
     if material.kind == "diffuse":
-        return {"lobe": bin_average_diffuse(mu_edges, phi_edges, mu_i, material),
-                "albedo": albedo_single(mu_i, material)}
+        return {
+            "lobe": bin_average_diffuse(mu_edges, phi_edges, mu_i, material),
+            "albedo": albedo_single(mu_i, material),
+        }
     out = {"lobe": bin_average_single(mu_edges, phi_edges, mu_i, material), "albedo": albedo_single(mu_i, material)}
     if material.kind == "dielectric":
         out["lobe_transmission"] = bin_average_transmission(mu_edges, phi_edges, mu_i, material)

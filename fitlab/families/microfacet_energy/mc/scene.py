@@ -17,8 +17,20 @@ from fitlab.families.microfacet_energy.mc.walk import KINDS
 from fitlab.families.microfacet_energy.mc.walk_fresnel import FRESNEL
 from fitlab.scenes import MAX_SCENE_BYTES, NAME_RE, SceneError  # noqa: F401 - re-exported: this module's names
 
-__all__ = ["SceneError", "Material", "Scene", "SceneSchema", "SCHEMA", "parse_scene", "load_scene", "with_overrides",
-           "LIMITS", "NAME_RE", "ALPHA_RANGE", "TARGETS"]
+__all__ = [
+    "SceneError",
+    "Material",
+    "Scene",
+    "SceneSchema",
+    "SCHEMA",
+    "parse_scene",
+    "load_scene",
+    "with_overrides",
+    "LIMITS",
+    "NAME_RE",
+    "ALPHA_RANGE",
+    "TARGETS",
+]
 
 LIMITS = {
     "seed": (0, 2**63 - 1),
@@ -34,8 +46,7 @@ TARGETS = ("lobe", "albedo")
 _KNOWN = {
     "": {"scene", "material", "incident", "outgoing", "precision"},
     "scene": {"name", "description", "seed"},
-    "material": {"label", "kind", "distribution", "alpha", "alpha_x", "alpha_y", "fresnel", "f0", "eta", "k",
-                 "albedo"},
+    "material": {"label", "kind", "distribution", "alpha", "alpha_x", "alpha_y", "fresnel", "f0", "eta", "k", "albedo"},
     "incident": {"mu_i"},
     "outgoing": {"mu_o", "phi", "orders", "transmission_lobe"},
     "precision": {"target_se", "max_paths", "batch", "max_bounces", "slots", "float"},
@@ -130,16 +141,28 @@ def _material(ck: scenes.Checker, m, i: int):
         if key in wanted:
             params[key] = ck.number(m, kp + (key,), *ranges[key], default=1.0 if key == "albedo" else None)
             if kind == "dielectric" and key == "eta" and params[key] == 1.0:
-                ck.fail(kp + (key,), "eta = 1 is no interface (every path passes straight through, the "
-                                     "transmitted lobe is a delta): give eta != 1")
+                ck.fail(
+                    kp + (key,),
+                    "eta = 1 is no interface (every path passes straight through, the "
+                    "transmitted lobe is a delta): give eta != 1",
+                )
                 params[key] = None
         elif key in m:
-            ck.fail(kp + (key,), f"not used by kind = {kind!r}" + (f" with fresnel = {fres!r}"
-                                                                   if kind == "conductor" else ""))
+            ck.fail(
+                kp + (key,),
+                f"not used by kind = {kind!r}" + (f" with fresnel = {fres!r}" if kind == "conductor" else ""),
+            )
     if None in (kind, dist, ax, ay, fres) or None in params.values() or not isinstance(label, str):
         return None
-    return Material(label=label, kind=kind, distribution=dist, alpha_x=float(ax), alpha_y=float(ay),
-                    fresnel=fres if kind == "conductor" else "one", **{k: float(v) for k, v in params.items()})
+    return Material(
+        label=label,
+        kind=kind,
+        distribution=dist,
+        alpha_x=float(ax),
+        alpha_y=float(ay),
+        fresnel=fres if kind == "conductor" else "one",
+        **{k: float(v) for k, v in params.items()},
+    )
 
 
 def _mu_i(ck: scenes.Checker, inc) -> tuple:
@@ -160,8 +183,9 @@ def _mu_i(ck: scenes.Checker, inc) -> tuple:
 
 
 def _targets(ck: scenes.Checker, prec) -> dict:
-    return ck.per_key(prec, ("precision", "target_se"), TARGETS, TARGETS, "row kind",
-                      "the standard error at which a job stops")
+    return ck.per_key(
+        prec, ("precision", "target_se"), TARGETS, TARGETS, "row kind", "the standard error at which a job stops"
+    )
 
 
 class SceneSchema:
@@ -216,10 +240,21 @@ class SceneSchema:
         walk_float = ck.choice(prec, ("precision", "float"), PRECISIONS, "float32")
 
         ck.raise_errors()
-        return Scene(path=ck.path, name=name, description=description, seed=int(seed), materials=tuple(materials),
-                     mu_i=mu_i, mu_edges=mu_edges, phi_edges=phi_edges, orders=int(orders), target_se=target,
-                     transmission_lobe=transmission_lobe, walk_precision=walk_float,
-                     **{k: int(v) for k, v in nums.items()})
+        return Scene(
+            path=ck.path,
+            name=name,
+            description=description,
+            seed=int(seed),
+            materials=tuple(materials),
+            mu_i=mu_i,
+            mu_edges=mu_edges,
+            phi_edges=phi_edges,
+            orders=int(orders),
+            target_se=target,
+            transmission_lobe=transmission_lobe,
+            walk_precision=walk_float,
+            **{k: int(v) for k, v in nums.items()},
+        )
 
 
 SCHEMA = SceneSchema()

@@ -31,29 +31,94 @@ from fitlab.families.microfacet_energy.mc.walk import (
 )
 from fitlab.scenes import SimulationResult, check_out_dir, summary_table, unconverged, write_outputs
 
-__all__ = ["claims", "SIMULATE", "MicrosurfaceWalk", "SimulationResult", "SceneError", "simulate", "simulate_file",
-           "write_outputs", "summary_table", "unconverged", "check_out_dir", "count_p_value", "ROW_FIELDS",
-           "SUMMARY_FIELDS", "MIN_PATHS", "job_config", "job_params"]
+__all__ = [
+    "claims",
+    "SIMULATE",
+    "MicrosurfaceWalk",
+    "SimulationResult",
+    "SceneError",
+    "simulate",
+    "simulate_file",
+    "write_outputs",
+    "summary_table",
+    "unconverged",
+    "check_out_dir",
+    "count_p_value",
+    "ROW_FIELDS",
+    "SUMMARY_FIELDS",
+    "MIN_PATHS",
+    "job_config",
+    "job_params",
+]
 
 MIN_PATHS = 10_000
-ROW_FIELDS = ("quantity", "material", "kind", "distribution", "alpha_x", "alpha_y", "fresnel", "mu_i", "order",
-              "mu_lo", "mu_hi", "phi_lo", "phi_hi", "estimate", "se", "reference", "z_ref", "reference_method",
-              "paths", "bounces", "seconds", "converged", "eta")
-SUMMARY_FIELDS = ("material", "mu_i", "paths", "bounces", "seconds", "compile_seconds", "bounces_per_second",
-                  "worst_se_ratio", "converged", "max_abs_z_ref", "albedo_total", "capped", "transmission", "failed")
+ROW_FIELDS = (
+    "quantity",
+    "material",
+    "kind",
+    "distribution",
+    "alpha_x",
+    "alpha_y",
+    "fresnel",
+    "mu_i",
+    "order",
+    "mu_lo",
+    "mu_hi",
+    "phi_lo",
+    "phi_hi",
+    "estimate",
+    "se",
+    "reference",
+    "z_ref",
+    "reference_method",
+    "paths",
+    "bounces",
+    "seconds",
+    "converged",
+    "eta",
+)
+SUMMARY_FIELDS = (
+    "material",
+    "mu_i",
+    "paths",
+    "bounces",
+    "seconds",
+    "compile_seconds",
+    "bounces_per_second",
+    "worst_se_ratio",
+    "converged",
+    "max_abs_z_ref",
+    "albedo_total",
+    "capped",
+    "transmission",
+    "failed",
+)
 
 
 def job_config(scene: Scene, material) -> WalkConfig:
     """The compiled configuration of a material's jobs."""
-    return WalkConfig(distribution=material.distribution, kind=material.kind, fresnel=material.fresnel,
-                      orders=scene.orders, mu_edges=scene.mu_edges, phi_edges=scene.phi_edges, slots=scene.slots,
-                      transmission_lobe=scene.transmission_lobe and material.kind == "dielectric",
-                      precision=scene.walk_precision)
+    return WalkConfig(
+        distribution=material.distribution,
+        kind=material.kind,
+        fresnel=material.fresnel,
+        orders=scene.orders,
+        mu_edges=scene.mu_edges,
+        phi_edges=scene.phi_edges,
+        slots=scene.slots,
+        transmission_lobe=scene.transmission_lobe and material.kind == "dielectric",
+        precision=scene.walk_precision,
+    )
 
 
 def job_params(material) -> MaterialParams:
-    return MaterialParams(alpha_x=material.alpha_x, alpha_y=material.alpha_y, f0=material.f0, eta=material.eta,
-                          k=material.k, albedo=material.albedo)
+    return MaterialParams(
+        alpha_x=material.alpha_x,
+        alpha_y=material.alpha_y,
+        f0=material.f0,
+        eta=material.eta,
+        k=material.k,
+        albedo=material.albedo,
+    )
 
 
 def _mean_se(s1, s2, n):
@@ -74,10 +139,21 @@ def _lobe_rows(quantity, t, base, labels, mu_e, phi_e, n, reference):
     for k, lab in enumerate(labels):
         for i in range(len(mu_e) - 1):
             for j in range(len(phi_e) - 1):
-                r = dict(base, quantity=quantity, order=lab, mu_lo=mu_e[i], mu_hi=mu_e[i + 1], phi_lo=phi_e[j],
-                         phi_hi=phi_e[j + 1], estimate=mean[k, i, j] / omega[i, j], se=se[k, i, j] / omega[i, j],
-                         _norm=omega[i, j], _n=n, _s1=float(t[quantity][k, i, j]),
-                         _s2=float(t[quantity + "_sq"][k, i, j]))
+                r = dict(
+                    base,
+                    quantity=quantity,
+                    order=lab,
+                    mu_lo=mu_e[i],
+                    mu_hi=mu_e[i + 1],
+                    phi_lo=phi_e[j],
+                    phi_hi=phi_e[j + 1],
+                    estimate=mean[k, i, j] / omega[i, j],
+                    se=se[k, i, j] / omega[i, j],
+                    _norm=omega[i, j],
+                    _n=n,
+                    _s1=float(t[quantity][k, i, j]),
+                    _s2=float(t[quantity + "_sq"][k, i, j]),
+                )
                 if k == 0 and reference is not None:
                     r.update(reference=reference[i, j], reference_method="bin_quadrature")
                 rows.append(r)
@@ -99,9 +175,16 @@ def estimate_rows(scene: Scene, mi: int, ii: int, t: dict, references: dict | No
     """The rows of one job from its summed tallies ``t`` (references: from :func:`_references`, or None)."""
     mat, mu_i, n = scene.materials[mi], scene.mu_i[ii], int(t["paths"])
     uses_eta = mat.kind == "dielectric" or (mat.kind == "conductor" and mat.fresnel == "conductor")
-    base = dict(material=mat.label, kind=mat.kind, distribution=mat.distribution, alpha_x=mat.alpha_x,
-                alpha_y=mat.alpha_y, fresnel="dielectric" if mat.kind == "dielectric" else mat.fresnel, mu_i=mu_i,
-                eta=mat.eta if uses_eta else math.nan)
+    base = dict(
+        material=mat.label,
+        kind=mat.kind,
+        distribution=mat.distribution,
+        alpha_x=mat.alpha_x,
+        alpha_y=mat.alpha_y,
+        fresnel="dielectric" if mat.kind == "dielectric" else mat.fresnel,
+        mu_i=mu_i,
+        eta=mat.eta if uses_eta else math.nan,
+    )
     ref = references or {}
     labels = _order_labels(scene.orders)
     mu_e, phi_e = np.asarray(scene.mu_edges), np.asarray(scene.phi_edges)
@@ -126,16 +209,29 @@ def estimate_rows(scene: Scene, mi: int, ii: int, t: dict, references: dict | No
     tr_mean, tr_se = _mean_se(np.sum(t["transmission"]), np.sum(t["transmission_sq"]), n)
     rows.append(dict(base, quantity="transmission", order="all", estimate=float(tr_mean), se=float(tr_se), _n=n))
     # every path ends once (escaped up or down, or capped): the sums of S1 and S2 are this row's own
-    en_mean, en_se = _mean_se(np.sum(t["albedo"]) + np.sum(t["transmission"]) + t["capped"],
-                              np.sum(t["albedo_sq"]) + np.sum(t["transmission_sq"]) + t["capped_sq"], n)
+    en_mean, en_se = _mean_se(
+        np.sum(t["albedo"]) + np.sum(t["transmission"]) + t["capped"],
+        np.sum(t["albedo_sq"]) + np.sum(t["transmission_sq"]) + t["capped_sq"],
+        n,
+    )
     r = dict(base, quantity="energy_total", order="all", estimate=float(en_mean), se=float(en_se), _n=n)
     if mat.conserves_energy:
         r.update(reference=1.0, reference_method="energy_conservation")
     rows.append(r)
     failed = int(t.get("failed", 0))
     f_mean, f_se = _mean_se(failed, failed, n)
-    rows.append(dict(base, quantity="failed", order="all", estimate=float(f_mean), se=float(f_se), _n=n,
-                     reference=0.0, reference_method="none: a walk error"))
+    rows.append(
+        dict(
+            base,
+            quantity="failed",
+            order="all",
+            estimate=float(f_mean),
+            se=float(f_se),
+            _n=n,
+            reference=0.0,
+            reference_method="none: a walk error",
+        )
+    )
     for r in rows:
         if "reference" in r:
             r["z_ref"] = (r["estimate"] - r["reference"]) / r["se"] if r["se"] > 0 else math.nan
@@ -203,8 +299,9 @@ def _plot(result: SimulationResult, mi: int, ii: int) -> bytes | None:
     mu_e, phi_e = np.asarray(scene.mu_edges), np.asarray(scene.phi_edges)
     omega = 2.0 * np.outer(np.diff(mu_e), np.diff(phi_e))
     labels = _order_labels(scene.orders)
-    lobes = [("lobe", "mu_o", "mirror")] + ([("lobe_transmission", "|mu_o|, transmitted", "straight through")]
-                                            if "lobe_transmission" in t else [])
+    lobes = [("lobe", "mu_o", "mirror")] + (
+        [("lobe_transmission", "|mu_o|, transmitted", "straight through")] if "lobe_transmission" in t else []
+    )
     fig, axes = plt.subplots(len(lobes), len(labels), figsize=(3.0 * len(labels), 3.0 * len(lobes)), squeeze=False)
     for row, (name, ylabel, pi_side) in enumerate(lobes):
         for k, lab in enumerate(labels):
@@ -231,11 +328,19 @@ class MicrosurfaceWalk:
     min_paths = MIN_PATHS
     row_fields = ROW_FIELDS
     summary_fields = SUMMARY_FIELDS
-    summary_columns = (("material", "material", "<16"), ("mu_i", "mu_i", ">6.3g"), ("paths", "paths", ">11"),
-                       ("bounces", "bounces", ">11"), ("seconds", "seconds", ">9.2f"),
-                       ("bounce/s", "bounces_per_second", ">11.3g"), ("se/tgt", "worst_se_ratio", ">8.2f"),
-                       ("conv", "converged", ">6"), ("max|z|", "max_abs_z_ref", ">8.2f"),
-                       ("total", "albedo_total", ">10.6f"), ("trans", "transmission", ">10.6f"))
+    summary_columns = (
+        ("material", "material", "<16"),
+        ("mu_i", "mu_i", ">6.3g"),
+        ("paths", "paths", ">11"),
+        ("bounces", "bounces", ">11"),
+        ("seconds", "seconds", ">9.2f"),
+        ("bounce/s", "bounces_per_second", ">11.3g"),
+        ("se/tgt", "worst_se_ratio", ">8.2f"),
+        ("conv", "converged", ">6"),
+        ("max|z|", "max_abs_z_ref", ">8.2f"),
+        ("total", "albedo_total", ">10.6f"),
+        ("trans", "transmission", ">10.6f"),
+    )
 
     def jobs(self, scene: Scene) -> list:
         out = []
@@ -243,8 +348,14 @@ class MicrosurfaceWalk:
             cfg, params = job_config(scene, mat), job_params(mat)
             for ii, mu_i in enumerate(scene.mu_i):
                 name = f"material {mat.label}, mu_i = {mu_i:g}"
-                out.append(scenes.Job(key=(mi, ii), name=name, label=f"{mat.label}, mu_i={mu_i:g}",
-                                      data=(cfg, params, job_key(scene.seed, mi, ii))))
+                out.append(
+                    scenes.Job(
+                        key=(mi, ii),
+                        name=name,
+                        label=f"{mat.label}, mu_i={mu_i:g}",
+                        data=(cfg, params, job_key(scene.seed, mi, ii)),
+                    )
+                )
         return out
 
     def compile(self, scene, job) -> float:
@@ -281,13 +392,24 @@ class MicrosurfaceWalk:
             total = next(r for r in rows if r["quantity"] == "albedo_total")
             capped = next(r for r in rows if r["quantity"] == "albedo" and r["order"] == "capped")
             trans = next(r for r in rows if r["quantity"] == "transmission" and r["order"] == "all")
-            summary.append(dict(
-                material=scene.materials[mi].label, mu_i=scene.mu_i[ii], paths=st.paths, bounces=st.events,
-                seconds=round(st.seconds, 3), compile_seconds=round(st.compile_seconds, 3),
-                bounces_per_second=st.events / st.seconds if st.seconds > 0 else math.nan,
-                worst_se_ratio=st.se_ratio, converged=st.converged, max_abs_z_ref=max(zs, default=math.nan),
-                albedo_total=total["estimate"], capped=capped["estimate"], transmission=trans["estimate"],
-                failed=int(acc.get("failed", 0))))
+            summary.append(
+                dict(
+                    material=scene.materials[mi].label,
+                    mu_i=scene.mu_i[ii],
+                    paths=st.paths,
+                    bounces=st.events,
+                    seconds=round(st.seconds, 3),
+                    compile_seconds=round(st.compile_seconds, 3),
+                    bounces_per_second=st.events / st.seconds if st.seconds > 0 else math.nan,
+                    worst_se_ratio=st.se_ratio,
+                    converged=st.converged,
+                    max_abs_z_ref=max(zs, default=math.nan),
+                    albedo_total=total["estimate"],
+                    capped=capped["estimate"],
+                    transmission=trans["estimate"],
+                    failed=int(acc.get("failed", 0)),
+                )
+            )
         return rows_all, summary
 
     def csv_rows(self, result):
@@ -296,7 +418,7 @@ class MicrosurfaceWalk:
     def plots(self, result):
         """<name>_<material>_<mu_i index>.png of each job (none without matplotlib)."""
         out = []
-        for (mi, ii) in result.tallies:
+        for mi, ii in result.tallies:
             png = _plot(result, mi, ii)
             if png is not None:
                 safe = "".join(ch if ch.isalnum() or ch in "_-" else "_" for ch in result.scene.materials[mi].label)
@@ -312,8 +434,16 @@ def simulate(scene: Scene, progress: bool = False) -> SimulationResult:
 def simulate_file(path, out_dir=None, progress=False, plots=True, target_se=None, max_paths=None, seed=None):
     """Load and validate (scene, overrides, output folder: every error before any work), simulate, write
     (:func:`fitlab.scenes.simulate_file`).  Returns (result, paths written)."""
-    return scenes.simulate_file(SIMULATE, path, out_dir=out_dir, progress=progress, plots=plots,
-                                target_se=target_se, max_paths=max_paths, seed=seed)
+    return scenes.simulate_file(
+        SIMULATE,
+        path,
+        out_dir=out_dir,
+        progress=progress,
+        plots=plots,
+        target_se=target_se,
+        max_paths=max_paths,
+        seed=seed,
+    )
 
 
 def claims(raw: dict) -> bool:

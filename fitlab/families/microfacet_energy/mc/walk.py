@@ -52,8 +52,18 @@ from fitlab.families.microfacet_energy.mc.microsurface import (
 )
 from fitlab.families.microfacet_energy.mc.walk_fresnel import FRESNEL, dielectric, fresnel_factor
 
-__all__ = ["WalkConfig", "MaterialParams", "KINDS", "run_round", "start_round", "compile_walk", "job_key",
-           "default_mesh", "default_slots", "TALLY_NAMES"]
+__all__ = [
+    "WalkConfig",
+    "MaterialParams",
+    "KINDS",
+    "run_round",
+    "start_round",
+    "compile_walk",
+    "job_key",
+    "default_mesh",
+    "default_slots",
+    "TALLY_NAMES",
+]
 
 KINDS = ("conductor", "diffuse", "dielectric")
 TALLY_NAMES = ("lobe", "lobe_transmission", "albedo", "transmission", "capped", "failed")
@@ -116,10 +126,15 @@ def _zero_tallies(cfg: WalkConfig) -> dict:
     nk = cfg.orders + 1
     sides = 2 if cfg.transmission_lobe else 1
     shape = (sides, nk, len(cfg.mu_edges), len(cfg.phi_edges))  # one extra row/column: outside every bin
-    z = {"lobe": jnp.zeros(shape), "lobe_sq": jnp.zeros(shape),
-         # [0]: escapes upwards (reflection), [1]: downwards (transmission), by order
-         "exits": jnp.zeros((2, nk)), "exits_sq": jnp.zeros((2, nk)),
-         "capped": jnp.zeros(()), "capped_sq": jnp.zeros(())}
+    z = {
+        "lobe": jnp.zeros(shape),
+        "lobe_sq": jnp.zeros(shape),
+        # [0]: escapes upwards (reflection), [1]: downwards (transmission), by order
+        "exits": jnp.zeros((2, nk)),
+        "exits_sq": jnp.zeros((2, nk)),
+        "capped": jnp.zeros(()),
+        "capped_sq": jnp.zeros(()),
+    }
     z["paths"], z["bounces"], z["failed"] = (jnp.zeros((), jnp.int64) for _ in range(3))
     return z
 
@@ -225,8 +240,9 @@ def _step(carry, key, params, mu_i, hi, cap, cfg: WalkConfig):
     if cfg.kind == "conductor":
         ox, oy, oz = reflect(vx, vy, vz, mx, my, mz)
         cos_d = jnp.clip(vx * mx + vy * my + vz * mz, 0.0, 1.0)
-        weight = jnp.where(scatters, weight * fresnel_factor(cfg.fresnel, cos_d, params.f0, params.eta, params.k),
-                           weight)
+        weight = jnp.where(
+            scatters, weight * fresnel_factor(cfg.fresnel, cos_d, params.f0, params.eta, params.k), weight
+        )
     elif cfg.kind == "diffuse":
         ox, oy, oz = _cosine_about(mx, my, mz, u[3], u[4])
         weight = jnp.where(scatters, weight * params.albedo, weight)
@@ -258,8 +274,18 @@ def _start(key_data, mu_i, lo, hi, cfg: WalkConfig, platform: str):
     key = jnp.asarray(key_data, jnp.uint32)
     p = cfg.slots or default_slots(platform)
     dt = jnp.dtype(cfg.precision)
-    lanes = (jnp.zeros(p, bool), jnp.zeros(p, jnp.int64), jnp.zeros(p, jnp.int64), jnp.ones(p, dt), jnp.zeros(p, dt),
-             jnp.zeros(p, dt), jnp.zeros(p, dt), jnp.ones(p, dt), jnp.zeros(p, bool), None)
+    lanes = (
+        jnp.zeros(p, bool),
+        jnp.zeros(p, jnp.int64),
+        jnp.zeros(p, jnp.int64),
+        jnp.ones(p, dt),
+        jnp.zeros(p, dt),
+        jnp.zeros(p, dt),
+        jnp.zeros(p, dt),
+        jnp.ones(p, dt),
+        jnp.zeros(p, bool),
+        None,
+    )
     return _refill(lanes, _zero_tallies(cfg), lo, key, mu_i.astype(dt), hi, cfg)
 
 
@@ -274,8 +300,11 @@ def _run(carry, key_data, params, mu_i, hi, cap, steps, cfg: WalkConfig):
     def going(c):
         return (c[2] < hi) | jnp.any(c[0][0])
 
-    _, carry = jax.lax.while_loop(lambda st: (st[0] < steps) & going(st[1]), lambda st: (st[0] + 1, body(st[1])),
-                                  (jnp.zeros((), jnp.int64), carry))
+    _, carry = jax.lax.while_loop(
+        lambda st: (st[0] < steps) & going(st[1]),
+        lambda st: (st[0] + 1, body(st[1])),
+        (jnp.zeros((), jnp.int64), carry),
+    )
     status = jnp.stack([(~going(carry)).astype(jnp.int64), carry[1]["paths"], jnp.sum(carry[0][0], dtype=jnp.int64)])
     return carry, status
 
@@ -306,8 +335,11 @@ def _programs(cfg: WalkConfig, mesh: Mesh) -> dict:
     def sharded(f, in_specs, out_specs):
         return jax.jit(jax.shard_map(f, mesh=mesh, in_specs=in_specs, out_specs=out_specs, check_vma=False))
 
-    return {"start": sharded(start, (rep,) * 4, dev), "run": sharded(run, (dev,) + (rep,) * 5, (dev, dev)),
-            "finish": sharded(finish, (dev,), rep)}
+    return {
+        "start": sharded(start, (rep,) * 4, dev),
+        "run": sharded(run, (dev,) + (rep,) * 5, (dev, dev)),
+        "finish": sharded(finish, (dev,), rep),
+    }
 
 
 jax.tree_util.register_pytree_node(
@@ -338,12 +370,21 @@ def compile_walk(cfg: WalkConfig, mesh: Mesh | None = None) -> float:
     return time.perf_counter() - t0
 
 
-def _round(cfg: WalkConfig, mesh: Mesh, key_data, params: MaterialParams, mu_i: float, first_id: int, n_paths: int,
-           max_bounces: int) -> ChunkedRound:
+def _round(
+    cfg: WalkConfig,
+    mesh: Mesh,
+    key_data,
+    params: MaterialParams,
+    mu_i: float,
+    first_id: int,
+    n_paths: int,
+    max_bounces: int,
+) -> ChunkedRound:
     programs = _COMPILED[(cfg, mesh)]
     key = jnp.asarray(key_data, jnp.uint32)
-    p = MaterialParams(*(jnp.float64(v) for v in (params.alpha_x, params.alpha_y, params.f0, params.eta, params.k,
-                                                   params.albedo)))
+    p = MaterialParams(
+        *(jnp.float64(v) for v in (params.alpha_x, params.alpha_y, params.f0, params.eta, params.k, params.albedo))
+    )
     state = programs["start"](key, jnp.float64(mu_i), jnp.int64(first_id), jnp.int64(first_id + n_paths))
 
     def run(st, steps):
@@ -375,8 +416,16 @@ def job_key(seed: int, material: int, incident: int) -> np.ndarray:
 
 
 @float64
-def start_round(cfg: WalkConfig, key_data, params: MaterialParams, mu_i: float, first_id: int, n_paths: int,
-                max_bounces: int = 1000, mesh: Mesh | None = None) -> ChunkedRound:
+def start_round(
+    cfg: WalkConfig,
+    key_data,
+    params: MaterialParams,
+    mu_i: float,
+    first_id: int,
+    n_paths: int,
+    max_bounces: int = 1000,
+    mesh: Mesh | None = None,
+) -> ChunkedRound:
     """:func:`run_round` as a :class:`fitlab._montecarlo.ChunkedRound`, to be run in chunks of steps; the same
     checks, before any work."""
     if not 0.0 < mu_i <= 1.0:
@@ -395,8 +444,16 @@ def start_round(cfg: WalkConfig, key_data, params: MaterialParams, mu_i: float, 
 
 
 @float64
-def run_round(cfg: WalkConfig, key_data, params: MaterialParams, mu_i: float, first_id: int, n_paths: int,
-              max_bounces: int = 1000, mesh: Mesh | None = None) -> dict:
+def run_round(
+    cfg: WalkConfig,
+    key_data,
+    params: MaterialParams,
+    mu_i: float,
+    first_id: int,
+    n_paths: int,
+    max_bounces: int = 1000,
+    mesh: Mesh | None = None,
+) -> dict:
     """Run paths first_id .. first_id + n_paths - 1 of the job whose key is ``key_data``; tallies as numpy.
 
     mu_i in (0, 1]; alpha_x, alpha_y > 0; a dielectric's eta > 0; ids below 2^32; max_bounces >= 1; mesh:

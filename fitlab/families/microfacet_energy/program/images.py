@@ -34,8 +34,10 @@ DEFAULT_SIZE = 64
 #: the BRDF of the DFG tables
 DFG_MODEL = "ggx_correlated"
 _MU_AXIS = "x (columns): mu_o = cos theta_o = (i + 0.5) / width, texel centres"
-_ROUGHNESS_AXIS = ("y (rows): perceptual roughness r = (j + 0.5) / height, texel centres; GGX alpha = r^2; "
-                   "GGX with height-correlated Smith G2")
+_ROUGHNESS_AXIS = (
+    "y (rows): perceptual roughness r = (j + 0.5) / height, texel centres; GGX alpha = r^2; "
+    "GGX with height-correlated Smith G2"
+)
 _ALPHA_AXIS = "y (rows): alpha = (j + 0.5) / height, texel centres (the GGX alpha, or Oren-Nayar's sigma = alpha pi/2)"
 
 
@@ -53,12 +55,19 @@ def dfg(size: int, convention: str, tick=lambda: None) -> Image:
     """The split-sum table ``dfg_karis`` (convention "karis") or ``dfg_filament`` ("filament")."""
     scale, bias = _rows(size, tick)
     if convention == "karis":
-        data, channels = (scale, bias), ("A, the scale of F0: E_F = F0 R + F90 G under Schlick's F",
-                                         "B, the bias (the weight of F90)")
+        data, channels = (
+            (scale, bias),
+            ("A, the scale of F0: E_F = F0 R + F90 G under Schlick's F", "B, the bias (the weight of F90)"),
+        )
         lead = "split-sum DFG (Karis): E_F(mu, alpha) = F0 A + F90 B, F = F0 + (F90 - F0)(1 - w_o.h)^5"
     elif convention == "filament":
-        data, channels = (bias, scale + bias), ("B, int (f/F) Fc mu_i dw_i: E_F = mix(R, G, F0) with F90 = 1",
-                                                "E = A + B, the albedo with F = 1: compensation 1 + F0 (1/G - 1)")
+        data, channels = (
+            (bias, scale + bias),
+            (
+                "B, int (f/F) Fc mu_i dw_i: E_F = mix(R, G, F0) with F90 = 1",
+                "E = A + B, the albedo with F = 1: compensation 1 + F0 (1/G - 1)",
+            ),
+        )
         lead = "split-sum DFG, Filament's multiple-scattering convention: E_F = (1 - F0) B + F0 (A + B)"
     else:
         raise ValueError(f"convention must be karis or filament, not {convention!r}")
@@ -75,15 +84,22 @@ def albedo_table(model: str, size: int, tick=lambda: None) -> Image:
     e_avg = average_albedo(alpha, model)
     tick()
     data = np.stack((e, 1.0 - e, np.broadcast_to(e_avg[:, None], e.shape)), axis=2)
-    channels = ("E(mu_o, alpha), the directional albedo with F = 1", "1 - E, the energy Kulla-Conti's lobe restores",
-                "E_avg(alpha) = 2 int_0^1 E mu dmu, constant along the row")
-    return Image(f"E_{MODEL_SUFFIX[model]}", data, channels,
-                 (f"directional albedo of {model}", _MU_AXIS, _ALPHA_AXIS))
+    channels = (
+        "E(mu_o, alpha), the directional albedo with F = 1",
+        "1 - E, the energy Kulla-Conti's lobe restores",
+        "E_avg(alpha) = 2 int_0^1 E mu dmu, constant along the row",
+    )
+    return Image(f"E_{MODEL_SUFFIX[model]}", data, channels, (f"directional albedo of {model}", _MU_AXIS, _ALPHA_AXIS))
 
 
 def _dfg_spec(convention: str, description: str) -> ImageSpec:
-    return ImageSpec(description, lambda size, tick=lambda: None: dfg(size, convention, tick), SIZES, DEFAULT_SIZE,
-                     steps=lambda size: size)
+    return ImageSpec(
+        description,
+        lambda size, tick=lambda: None: dfg(size, convention, tick),
+        SIZES,
+        DEFAULT_SIZE,
+        steps=lambda size: size,
+    )
 
 
 def _albedo_spec(model: str) -> ImageSpec:
@@ -91,16 +107,22 @@ def _albedo_spec(model: str) -> ImageSpec:
     # no format limited to [0, 1]
     oren_nayar = model.startswith("oren_nayar")
     formats = ("exr", "exr-half", "ktx2", "ktx2-half", *(() if oren_nayar else ("png",)), "c", "glsl")
-    return ImageSpec(f"E, 1 - E and E_avg of {model} on (mu_o, alpha)",
-                     lambda size, tick=lambda: None: albedo_table(model, size, tick), SIZES, DEFAULT_SIZE,
-                     steps=lambda size: size + 1, value_range=(-0.02, 1.02) if oren_nayar else (0.0, 1.0),
-                     formats=formats)
+    return ImageSpec(
+        f"E, 1 - E and E_avg of {model} on (mu_o, alpha)",
+        lambda size, tick=lambda: None: albedo_table(model, size, tick),
+        SIZES,
+        DEFAULT_SIZE,
+        steps=lambda size: size + 1,
+        value_range=(-0.02, 1.02) if oren_nayar else (0.0, 1.0),
+        formats=formats,
+    )
 
 
 #: the tables ``fitlab export`` writes for this family
 IMAGES = {
     "dfg_karis": _dfg_spec("karis", "split-sum DFG of height-correlated GGX, Karis's channels (scale, bias of F0)"),
-    "dfg_filament": _dfg_spec("filament", "split-sum DFG of height-correlated GGX, Filament's multiple-scattering "
-                                          "channels (B, E)"),
+    "dfg_filament": _dfg_spec(
+        "filament", "split-sum DFG of height-correlated GGX, Filament's multiple-scattering channels (B, E)"
+    ),
     **{f"E_{suffix}": _albedo_spec(model) for model, suffix in MODEL_SUFFIX.items()},
 }

@@ -36,20 +36,41 @@ from fitlab.families.microfacet_energy.targets.lobe_parts import lobe_target_nam
 from fitlab.forms.symbolic import lambdify_numpy, symbols
 from fitlab.store import fit_path, fits_folder, load
 
-__all__ = ["MODELS", "ORDERS", "model_forms", "parameter_expressions", "order_lobes", "lobe_functions",
-           "multiple_scattering", "rho", "parameter_bounds"]
+__all__ = [
+    "MODELS",
+    "ORDERS",
+    "model_forms",
+    "parameter_expressions",
+    "order_lobes",
+    "lobe_functions",
+    "multiple_scattering",
+    "rho",
+    "parameter_bounds",
+]
 
 ORDERS = (2, 3, 4, 5)
 rho, order = symbols(("rho", "order"))
 
 #: model -> (the lobe ("blog" or "tilt"), {parameter: form}, preset or None, description)
 MODELS = {
-    "blog_text": ("blog", {"eta": "blog_quadratic", "flattening": "blog_cubic", "scale": "blog_cubic"}, "blog_text",
-                  "the blog's lobe, text coefficients"),
-    "blog_code": ("blog", {"eta": "blog_quadratic", "flattening": "blog_cubic", "scale": "blog_cubic"}, "blog_code",
-                  "the blog's lobe, code coefficients (normalisation 2/pi)"),
-    "blog_refit": ("blog", {"eta": "blog_quadratic", "flattening": "blog_cubic", "scale": "blog_cubic"}, None,
-                   "the blog's lobe and forms, refitted"),
+    "blog_text": (
+        "blog",
+        {"eta": "blog_quadratic", "flattening": "blog_cubic", "scale": "blog_cubic"},
+        "blog_text",
+        "the blog's lobe, text coefficients",
+    ),
+    "blog_code": (
+        "blog",
+        {"eta": "blog_quadratic", "flattening": "blog_cubic", "scale": "blog_cubic"},
+        "blog_code",
+        "the blog's lobe, code coefficients (normalisation 2/pi)",
+    ),
+    "blog_refit": (
+        "blog",
+        {"eta": "blog_quadratic", "flattening": "blog_cubic", "scale": "blog_cubic"},
+        None,
+        "the blog's lobe and forms, refitted",
+    ),
     "blog_rich": ("blog", {}, None, "the blog's lobe, parameters in the targets' richer default forms"),
     "tilted": ("tilt", {}, None, "the tilted lobe, every parameter per order"),
 }
@@ -88,8 +109,14 @@ def parameter_bounds() -> dict[str, tuple]:
     cannot blow the lobe up, and a published polynomial cannot make it negative."""
     lo, hi = BOUNDS["alpha_l"]
     eta = (2.0 ** (10.0 * (1.0 - hi)) - 1.0, 2.0 ** (10.0 * (1.0 - lo)) - 1.0)
-    return {"eta": eta, "flattening": BOUNDS["sigma_n"], "b": BOUNDS["b"], "k": BOUNDS["k"], "scale": (0.0, None),
-            "sigma": (0.0, None)}
+    return {
+        "eta": eta,
+        "flattening": BOUNDS["sigma_n"],
+        "b": BOUNDS["b"],
+        "k": BOUNDS["k"],
+        "scale": (0.0, None),
+        "sigma": (0.0, None),
+    }
 
 
 def _clamped(value, bounds):

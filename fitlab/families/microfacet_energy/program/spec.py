@@ -20,9 +20,18 @@ from fitlab.families.microfacet_energy.targets.lobe_parts import lobe_target_nam
 from fitlab.forms.symbolic import symbols
 from fitlab.store import FitFunction, fit_path, fits_folder
 
-__all__ = ["NAME", "PROGRAM", "PARTS", "PROGRAM_MODELS", "DEFAULT_MODEL", "KULLA_CONTI_PARTS", "KULLA_CONTI_FLOOR",
-           "LANGUAGES",
-           "fit_files", "lobe_program"]
+__all__ = [
+    "NAME",
+    "PROGRAM",
+    "PARTS",
+    "PROGRAM_MODELS",
+    "DEFAULT_MODEL",
+    "KULLA_CONTI_PARTS",
+    "KULLA_CONTI_FLOOR",
+    "LANGUAGES",
+    "fit_files",
+    "lobe_program",
+]
 
 #: the generated files' base name and the functions' prefix: the family's name
 NAME = "microfacet_energy"
@@ -79,8 +88,11 @@ def _composed(lobe: str, kind: str, fits: Mapping[str, FitFunction]) -> Routine:
     expr = multiple_scattering(kind, order_lobes(model, kind, parts))
     args = ["mu_i", "mu_o", *(["cos_phi"] if lobe == "tilt" else []), "alpha", *(["rho"] if kind == "diffuse" else [])]
     what = _blog_description(fits, kind) if lobe == "blog" else "the tilted lobe, every parameter per order"
-    facets = ("diffuse (Lambertian) facets of albedo rho, order S weighted by rho^S (the tail above 4 by rho^5)"
-              if kind == "diffuse" else "conductor facets with F = 1")
+    facets = (
+        "diffuse (Lambertian) facets of albedo rho, order S weighted by rho^S (the tail above 4 by rho^5)"
+        if kind == "diffuse"
+        else "conductor facets with F = 1"
+    )
     doc = (f"Multiple scattering (orders 2..4 and the tail above 4, summed) of {facets} on a GGX microsurface of "
            f"roughness alpha, for light from mu_i: {what}, fitted to the microsurface random walk "
            "(docs/microsurface_lobes.md). The BRDF (1/sr) to add to the single-scattering one. mu_i, mu_o in [0, 1]"
@@ -104,14 +116,24 @@ def _kulla_conti(fits: Mapping[str, FitFunction]) -> Routine:
     e, e_avg = (fits[t] for t in KULLA_CONTI_PARTS)
     # 1 - E_avg -> 0 as alpha -> 0 where 1 - E -> 0 too; the floor keeps 0/0 out at alpha = 0 (the lobe is 0 there)
     # and is reached only where 1 - E_avg is no normal float32 (alpha below about 1e-20)
-    expr = _one_minus(e, mu=mu_o, alpha=alpha) * _one_minus(e, mu=mu_i, alpha=alpha) / (
-        sp.pi * sp.Max(_one_minus(e_avg, alpha=alpha), KULLA_CONTI_FLOOR))
-    doc = ("Kulla-Conti's compensation lobe (1 - E(mu_o)) (1 - E(mu_i)) / (pi (1 - E_avg)) of height-correlated GGX "
-           "with F = 1, from the fits of E_ggx_cor and E_avg_ggx_cor (1 - E and 1 - E_avg written out, never formed "
-           "by subtraction): the multiple scattering it assumes, for comparison with the fitted lobes. "
-           "mu_i, mu_o, alpha in [0, 1].")
-    return Routine("ms_kulla_conti", ("mu_i", "mu_o", "alpha"), expr, doc,
-                   domain={a: _DOMAIN[a] for a in ("mu_i", "mu_o", "alpha")})
+    expr = (
+        _one_minus(e, mu=mu_o, alpha=alpha)
+        * _one_minus(e, mu=mu_i, alpha=alpha)
+        / (sp.pi * sp.Max(_one_minus(e_avg, alpha=alpha), KULLA_CONTI_FLOOR))
+    )
+    doc = (
+        "Kulla-Conti's compensation lobe (1 - E(mu_o)) (1 - E(mu_i)) / (pi (1 - E_avg)) of height-correlated GGX "
+        "with F = 1, from the fits of E_ggx_cor and E_avg_ggx_cor (1 - E and 1 - E_avg written out, never formed "
+        "by subtraction): the multiple scattering it assumes, for comparison with the fitted lobes. "
+        "mu_i, mu_o, alpha in [0, 1]."
+    )
+    return Routine(
+        "ms_kulla_conti",
+        ("mu_i", "mu_o", "alpha"),
+        expr,
+        doc,
+        domain={a: _DOMAIN[a] for a in ("mu_i", "mu_o", "alpha")},
+    )
 
 
 def routines(fits: Mapping[str, FitFunction], terms: tuple[str, ...] = ()) -> list[Routine]:

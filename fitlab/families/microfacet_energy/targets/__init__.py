@@ -39,8 +39,10 @@ ONE_MINUS_E_FLOOR = 1e-3
 #: for alpha < 0.2076 near grazing (mu up to 0.49 as alpha -> 0); the minimum on [0, 1]^2 is at mu = 0, where
 #: 1 - E = 1 - A - B/2, for alpha = 0.1264 (the exact engine; tests/test_microfacet_energy_targets.py
 #: recomputes every figure)
-ON_NEGATIVE = ("below 0 where E > 1 (the model gains energy: alpha < 0.2076, mu below 0.49), down to -0.01518 at "
-               "mu = 0, alpha = 0.1264")
+ON_NEGATIVE = (
+    "below 0 where E > 1 (the model gains energy: alpha < 0.2076, mu below 0.49), down to -0.01518 at "
+    "mu = 0, alpha = 0.1264"
+)
 
 MU = Input("mu", (0.0, 1.0), "cosine of the direction (outgoing, or by reciprocity incident) with the normal")
 ALPHA_GGX = Input("alpha", (0.0, 1.0), "GGX roughness alpha, the parameter of D (perceptual roughness squared); "
@@ -88,9 +90,11 @@ _ABSOLUTE = dict(
     scale=_absolute,
 )
 _RELATIVE_FLOORED = dict(
-    error_measure=(f"relative to max(|1 - E|, {ONE_MINUS_E_FLOOR:g}): |approx - exact| / max(|exact|, "
-                   f"{ONE_MINUS_E_FLOOR:g}) (the relative error of the compensation lobe's factor where it "
-                   "holds at least 0.1 % of the energy; targets.py says why)"),
+    error_measure=(
+        f"relative to max(|1 - E|, {ONE_MINUS_E_FLOOR:g}): |approx - exact| / max(|exact|, "
+        f"{ONE_MINUS_E_FLOOR:g}) (the relative error of the compensation lobe's factor where it "
+        "holds at least 0.1 % of the energy; targets.py says why)"
+    ),
     scale=_one_minus_e_scale,
 )
 
@@ -105,36 +109,63 @@ def _albedo_targets(model: str, defaults: dict) -> tuple[Target, ...]:
                "hold lines at alpha down to 1e-6 there.")  # fmt: skip
     return (
         Target(
-            e_name, f"E(mu, alpha): directional albedo (F = 1), {what}; mu, alpha in [0, 1]", (MU, alpha),
-            defaults["E"], PUBLISHED[e_name],
-            lambda: d.albedo_training(model), lambda: d.albedo_validation(model), d.albedo_grid(model), e_name,
-            note=grazing.strip(), **_ABSOLUTE,
+            e_name,
+            f"E(mu, alpha): directional albedo (F = 1), {what}; mu, alpha in [0, 1]",
+            (MU, alpha),
+            defaults["E"],
+            PUBLISHED[e_name],
+            lambda: d.albedo_training(model),
+            lambda: d.albedo_validation(model),
+            d.albedo_grid(model),
+            e_name,
+            note=grazing.strip(),
+            **_ABSOLUTE,
         ),
         Target(
-            om_name, f"1 - E(mu, alpha): the energy Kulla-Conti's f_ms restores, {what}; mu, alpha in [0, 1]"
-                     + (f"; {ON_NEGATIVE}" if model == "oren_nayar" else ""),
-            (MU, alpha), defaults["one_minus_E"], PUBLISHED[om_name],
-            lambda: _complement(d.albedo_training(model)), lambda: _complement(d.albedo_validation(model)),
-            _complement_grid(d.albedo_grid(model)), om_name,
-            note=("The published approximations are of E; here they are 1 - (that E), measured relative to "
-                  "1 - E." + grazing),
+            om_name,
+            f"1 - E(mu, alpha): the energy Kulla-Conti's f_ms restores, {what}; mu, alpha in [0, 1]"
+            + (f"; {ON_NEGATIVE}" if model == "oren_nayar" else ""),
+            (MU, alpha),
+            defaults["one_minus_E"],
+            PUBLISHED[om_name],
+            lambda: _complement(d.albedo_training(model)),
+            lambda: _complement(d.albedo_validation(model)),
+            _complement_grid(d.albedo_grid(model)),
+            om_name,
+            note=(
+                "The published approximations are of E; here they are 1 - (that E), measured relative to "
+                "1 - E." + grazing
+            ),
             **_RELATIVE_FLOORED,
         ),
         Target(
-            avg_name, f"E_avg(alpha) = 2 int_0^1 E(mu) mu dmu (Kulla-Conti), {what}; alpha in [0, 1]", (alpha,),
-            defaults["E_avg"], PUBLISHED[avg_name],
-            lambda: d.average_training(model), lambda: d.average_validation(model), d.average_grid(model), avg_name,
-            note="Kulla-Conti's E_avg in [0, 1]; the blog's E_avg is pi times it.", **_ABSOLUTE,
+            avg_name,
+            f"E_avg(alpha) = 2 int_0^1 E(mu) mu dmu (Kulla-Conti), {what}; alpha in [0, 1]",
+            (alpha,),
+            defaults["E_avg"],
+            PUBLISHED[avg_name],
+            lambda: d.average_training(model),
+            lambda: d.average_validation(model),
+            d.average_grid(model),
+            avg_name,
+            note="Kulla-Conti's E_avg in [0, 1]; the blog's E_avg is pi times it.",
+            **_ABSOLUTE,
         ),
     )
 
 
 #: (form, preset) of the published approximations of each target (:mod:`..forms` has their sources)
 PUBLISHED = {
-    "E_ggx_sep": (("sforza_ratpoly3", "sforza_pellacini_2022"), ("knarkowicz_poly", "knarkowicz_2014"),
-                  ("karis_linear", "karis_2014")),
-    "E_ggx_cor": (("materialx_ratquad", "materialx"), ("materialx_ratquad", "materialx_pre_2022"),
-                  ("karis_linear", "karis_2014")),
+    "E_ggx_sep": (
+        ("sforza_ratpoly3", "sforza_pellacini_2022"),
+        ("knarkowicz_poly", "knarkowicz_2014"),
+        ("karis_linear", "karis_2014"),
+    ),
+    "E_ggx_cor": (
+        ("materialx_ratquad", "materialx"),
+        ("materialx_ratquad", "materialx_pre_2022"),
+        ("karis_linear", "karis_2014"),
+    ),
     "E_avg_ggx_sep": (("patapom_quartic", "patapom"), ("patapom_zonal", "patapom"), ("karis_linear", "karis_2014")),
     "E_avg_ggx_cor": (("karis_linear", "karis_2014"),),
     "E_on": (("materialx_rational", "materialx"),),

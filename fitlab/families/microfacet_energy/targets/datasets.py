@@ -29,9 +29,22 @@ from fitlab.families.microfacet_energy.targets import tabulate
 from fitlab.families.microfacet_energy.targets.tabulate import FAMILY_NAME
 from fitlab.resources import tables_folder
 
-__all__ = ["FAMILY_NAME", "tables_dir", "albedo_training", "albedo_validation", "average_training",
-           "average_validation", "albedo_grid", "average_grid", "TRAINING_SMALL_ALPHA", "VALIDATION_SMALL_ALPHA",
-           "TRAINING_LAYER_T", "VALIDATION_LAYER_T", "TRAINING_SMALL_MU", "VALIDATION_SMALL_MU"]
+__all__ = [
+    "FAMILY_NAME",
+    "tables_dir",
+    "albedo_training",
+    "albedo_validation",
+    "average_training",
+    "average_validation",
+    "albedo_grid",
+    "average_grid",
+    "TRAINING_SMALL_ALPHA",
+    "VALIDATION_SMALL_ALPHA",
+    "TRAINING_LAYER_T",
+    "VALIDATION_LAYER_T",
+    "TRAINING_SMALL_MU",
+    "VALIDATION_SMALL_MU",
+]
 
 
 #: small alphas of the grazing-layer lines: training and validation take different ones
@@ -72,7 +85,12 @@ def _cached(name: str, grid: str, compute, inputs: tuple[str, ...], **axes) -> D
         return {**{f"in_{k}": ds.inputs[k] for k in inputs}, "y": ds.y}
 
     names = (*(f"in_{k}" for k in inputs), "y")
-    parts = {"family": FAMILY_NAME, "set": name, "grid": grid, **{k: np.asarray(v, dtype=float) for k, v in axes.items()}}
+    parts = {
+        "family": FAMILY_NAME,
+        "set": name,
+        "grid": grid,
+        **{k: np.asarray(v, dtype=float) for k, v in axes.items()},
+    }
     a = cached_arrays(f"{FAMILY_NAME}-{name}", parts, arrays, names, sources=exact.SOURCES)
     return Dataset({k: a[f"in_{k}"] for k in inputs}, a["y"], grid)
 
@@ -133,12 +151,16 @@ def _albedo_training(model: str, folder: Path) -> Dataset:
         layer = _engine_points(model, layer_mu, layer_alpha, "training-layer", "grazing layer, training")
         small_mu, small_alpha = _mesh(TRAINING_SMALL_MU, np.concatenate((TRAINING_SMALL_ALPHA, alpha_axis[1:])))
         small = _engine_points(model, small_mu, small_alpha, "training-small-mu", "small mu, training")
-        grid = (f"table {_GGX_NODES.file}: mu, alpha = k/64, k = 0..64; engine: alpha in {TRAINING_SMALL_ALPHA} "
-                f"at mu = 0 and mu = t alpha, t = 2^k, k = -3..4; mu = 10^(k/2), k = -14..-5, at every alpha > 0")
+        grid = (
+            f"table {_GGX_NODES.file}: mu, alpha = k/64, k = 0..64; engine: alpha in {TRAINING_SMALL_ALPHA} "
+            f"at mu = 0 and mu = t alpha, t = 2^k, k = -3..4; mu = 10^(k/2), k = -14..-5, at every alpha > 0"
+        )
         return _concat(grid, bulk, layer, small)
     mu_axis, alpha_axis, table = tabulate.read_albedo_table(folder / _ON_NODES.file, _ON_NODES)
     mu, alpha = _mesh(mu_axis, alpha_axis)
-    return Dataset({"mu": mu, "alpha": alpha}, table[model].ravel(), f"table {_ON_NODES.file}: mu, alpha = k/64, k = 0..64")
+    return Dataset(
+        {"mu": mu, "alpha": alpha}, table[model].ravel(), f"table {_ON_NODES.file}: mu, alpha = k/64, k = 0..64"
+    )
 
 
 def albedo_validation(model: str, data_dir: Path | None = None) -> Dataset:
@@ -161,10 +183,12 @@ def _albedo_validation(model: str, folder: Path) -> Dataset:
         layer = _engine_points(model, layer_mu, layer_alpha, "validation-layer-dense", "grazing layer, validation")
         small_mu, small_alpha = _mesh(VALIDATION_SMALL_MU, np.concatenate((VALIDATION_SMALL_ALPHA, alpha_axis, [1.0])))
         small = _engine_points(model, small_mu, small_alpha, "validation-small-mu", "small mu, validation")
-        grid = (f"table {_GGX_CENTRES.file}: mu, alpha = (2k+1)/256; engine: mu, alpha in {{0, 1}} on those lines; "
-                f"alpha in {VALIDATION_SMALL_ALPHA} at mu = 0, 1, (2k+1)/256 and t alpha, t = 1/16, 3 2^k/16 "
-                f"(k = 0..6) and 2^(j/4) (j = -16..24); mu = 10^(k/8), k = -55..-21 not a multiple of 4, at every "
-                f"alpha > 0")
+        grid = (
+            f"table {_GGX_CENTRES.file}: mu, alpha = (2k+1)/256; engine: mu, alpha in {{0, 1}} on those lines; "
+            f"alpha in {VALIDATION_SMALL_ALPHA} at mu = 0, 1, (2k+1)/256 and t alpha, t = 1/16, 3 2^k/16 "
+            f"(k = 0..6) and 2^(j/4) (j = -16..24); mu = 10^(k/8), k = -55..-21 not a multiple of 4, at every "
+            f"alpha > 0"
+        )
         return _concat(grid, bulk, edges, layer, small)
     axis = np.concatenate((ends, _odd(256)))
     mu, alpha = _mesh(axis, axis)
@@ -181,8 +205,13 @@ def _average_table(folder: Path) -> tuple[np.ndarray, dict]:
 def _average_engine(model: str, alphas, name: str) -> Dataset:
     alpha = np.asarray(alphas, dtype=float)
     grid = f"engine: alpha in {tuple(alphas)}"
-    return _cached(f"{model}-average-{name}", grid,
-                   lambda: Dataset({"alpha": alpha}, average_albedo(alpha, model), grid), ("alpha",), alpha=alpha)
+    return _cached(
+        f"{model}-average-{name}",
+        grid,
+        lambda: Dataset({"alpha": alpha}, average_albedo(alpha, model), grid),
+        ("alpha",),
+        alpha=alpha,
+    )
 
 
 def average_training(model: str, data_dir: Path | None = None) -> Dataset:
@@ -201,7 +230,7 @@ def _average_set(model: str, folder: Path, training: bool) -> Dataset:
     k = np.arange(alpha.size)
     rows = (k % _AVERAGE_STEP == 0) if training else ((k % _AVERAGE_STEP != 0) | (k == 0) | (k == k[-1]))
     table = Dataset({"alpha": alpha[rows]}, columns[model][rows], "")
-    what = (f"rows k = 0 mod {_AVERAGE_STEP}" if training else f"rows k != 0 mod {_AVERAGE_STEP}, and k = 0, 256")
+    what = f"rows k = 0 mod {_AVERAGE_STEP}" if training else f"rows k != 0 mod {_AVERAGE_STEP}, and k = 0, 256"
     grid = f"table {tabulate.AVERAGE_FILE} (alpha = k/256), {what}"
     if not model.startswith("ggx"):
         return Dataset(table.inputs, table.y, grid)

@@ -9,15 +9,18 @@ __all__ = ["ENERGY_SCALE", "BLOG_PARTS", "TILT_PARTS", "target_name", "lobe_targ
 ENERGY_SCALE = "energy_scale"
 
 #: (parameter, table column, error measure, what, with order) of the blog's final lobe and of the tilted lobe
-BLOG_PARTS = (("eta", "blog_eta", "absolute", "exponent eta", False),
-              ("flattening", "blog_sigma_n", "relative", "normal flattening sigma_n", False),
-              ("scale", "blog_scale", "relative", "scale sigma (with the order-2 lobe's shape)", True))
-TILT_PARTS = (("sigma", ENERGY_SCALE, "relative",
-               "scale sigma (the one that gives the fitted shape the simulated albedo)", True),
-              ("eta", "tilt_eta", "absolute", "exponent eta", True),
-              ("flattening", "tilt_sigma_n", "relative", "normal flattening sigma_n", True),
-              ("b", "tilt_b", "absolute", "azimuthal tilt b (< 0: towards the mirror side)", True),
-              ("k", "tilt_k", "absolute", "azimuthal narrowing k", True))
+BLOG_PARTS = (
+    ("eta", "blog_eta", "absolute", "exponent eta", False),
+    ("flattening", "blog_sigma_n", "relative", "normal flattening sigma_n", False),
+    ("scale", "blog_scale", "relative", "scale sigma (with the order-2 lobe's shape)", True),
+)
+TILT_PARTS = (
+    ("sigma", ENERGY_SCALE, "relative", "scale sigma (the one that gives the fitted shape the simulated albedo)", True),
+    ("eta", "tilt_eta", "absolute", "exponent eta", True),
+    ("flattening", "tilt_sigma_n", "relative", "normal flattening sigma_n", True),
+    ("b", "tilt_b", "absolute", "azimuthal tilt b (< 0: towards the mirror side)", True),
+    ("k", "tilt_k", "absolute", "azimuthal narrowing k", True),
+)
 
 
 def target_name(model: str, param: str, kind: str) -> str:

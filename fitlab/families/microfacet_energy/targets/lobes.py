@@ -47,8 +47,14 @@ ALPHA = Input("alpha", DOMAIN["alpha"], "GGX roughness alpha of the microsurface
 MU_I = Input("mu_i", DOMAIN["mu_i"], "cosine of the incident direction with the normal")
 ORDER = Input("order", (2.0, 5.0), "scattering order: 2, 3, 4, and 5 for every order above 4")
 
-_DEFAULT_FORM = {"eta": "poly", "flattening": "exp_poly", "scale": "exp_poly", "sigma": "exp_poly", "b": "sine_poly",
-                 "k": "sine2_poly"}
+_DEFAULT_FORM = {
+    "eta": "poly",
+    "flattening": "exp_poly",
+    "scale": "exp_poly",
+    "sigma": "exp_poly",
+    "b": "sine_poly",
+    "k": "sine2_poly",
+}
 
 
 def _tables_dir() -> Path:
@@ -70,8 +76,9 @@ def _dataset(kind: str, which: str, column: str, with_order: bool, folder: Path)
     inputs = {"alpha": p["alpha"][keep], "mu_i": p["mu_i"][keep]}
     if with_order:
         inputs["order"] = p["order"][keep]
-    grid = (f"table {params_file(kind, which)}: the per-lobe fits, {'orders 2..5' if with_order else 'order 2'}, "
-            + ("lobes of albedo > 0" if column in SCALE_COLUMNS else f"lobes of albedo >= {MIN_ALBEDO:g}"))
+    grid = f"table {params_file(kind, which)}: the per-lobe fits, {'orders 2..5' if with_order else 'order 2'}, " + (
+        "lobes of albedo > 0" if column in SCALE_COLUMNS else f"lobes of albedo >= {MIN_ALBEDO:g}"
+    )
     if column == ENERGY_SCALE:
         grid += "; the scale that gives the shape of the packaged tilt fits the albedo of the lobe table"
     return Dataset(inputs, p[column][keep].copy(), grid, {"se": p["se_" + column][keep].copy()})
@@ -109,8 +116,10 @@ def energy_scales(kind: str, which: str, folder: Path, fits_dir: Path | None = N
 
 
 def _sets(kind: str, column: str, with_order: bool):
-    return (lambda: _dataset(kind, "training", column, with_order, _tables_dir()),
-            lambda: _dataset(kind, "validation", column, with_order, _tables_dir()))
+    return (
+        lambda: _dataset(kind, "training", column, with_order, _tables_dir()),
+        lambda: _dataset(kind, "validation", column, with_order, _tables_dir()),
+    )
 
 
 def _scale(measure: str):
@@ -124,9 +133,11 @@ def _emphasis(measure: str):
     return lambda ds: 1.0 / np.maximum(1.0, ds.aux["se"] / (TOLERANCE * scale(ds)))
 
 
-_PUBLISHED = {"eta": (("blog_quadratic", "blog_text"), ("blog_quadratic", "blog_code"), ("blog_exp2", "blog_text")),
-              "flattening": (("blog_cubic", "blog_text"), ("blog_cubic", "blog_code")),
-              "scale": (("blog_cubic", "blog_text"), ("blog_cubic", "blog_code"))}
+_PUBLISHED = {
+    "eta": (("blog_quadratic", "blog_text"), ("blog_quadratic", "blog_code"), ("blog_exp2", "blog_text")),
+    "flattening": (("blog_cubic", "blog_text"), ("blog_cubic", "blog_code")),
+    "scale": (("blog_cubic", "blog_text"), ("blog_cubic", "blog_code")),
+}
 
 
 def _targets(kind: str) -> list[Target]:

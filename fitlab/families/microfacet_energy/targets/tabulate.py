@@ -39,9 +39,25 @@ from fitlab.families.microfacet_energy.lobes import tables as lobe_tables
 from fitlab.store import Table, TableError, read_table
 from fitlab.store import write_tables as store_write_tables
 
-__all__ = ["FAMILY_NAME", "AlbedoTable", "TABLES", "FINE_TABLES", "TABLE_FILES", "AVERAGE_FILE", "AVERAGE_COLUMNS", "TOLERANCE",
-           "DECIMALS", "grid", "albedo_table", "average_table", "build_tables", "write_tables", "check_tables",
-           "read_albedo_table", "read_average_table"]
+__all__ = [
+    "FAMILY_NAME",
+    "AlbedoTable",
+    "TABLES",
+    "FINE_TABLES",
+    "TABLE_FILES",
+    "AVERAGE_FILE",
+    "AVERAGE_COLUMNS",
+    "TOLERANCE",
+    "DECIMALS",
+    "grid",
+    "albedo_table",
+    "average_table",
+    "build_tables",
+    "write_tables",
+    "check_tables",
+    "read_albedo_table",
+    "read_average_table",
+]
 
 TOLERANCE = 1e-9  # absolute, E and E_avg
 DECIMALS = 12  # values are written rounded to this many decimals
@@ -78,8 +94,12 @@ TABLES = (
 FINE_TABLES = (AlbedoTable("ggx", GGX_MODELS, "centres", 256),)
 
 #: every committed table file and its columns (the E tables, E_avg, the simulated lobes and their per-lobe fits)
-TABLE_FILES = {**{t.file: t.columns for t in TABLES}, AVERAGE_FILE: AVERAGE_COLUMNS, **lobe_tables.LOBE_FILES,
-               **lobe_params.PARAM_FILES}
+TABLE_FILES = {
+    **{t.file: t.columns for t in TABLES},
+    AVERAGE_FILE: AVERAGE_COLUMNS,
+    **lobe_tables.LOBE_FILES,
+    **lobe_params.PARAM_FILES,
+}
 #: the family's name: its tables live in fitlab/data/FAMILY_NAME/ and DATA/FAMILY_NAME/
 FAMILY_NAME = "microfacet_energy"
 
@@ -95,18 +115,23 @@ def grid(kind: str, size: int) -> np.ndarray:
 
 def _grid_text(kind: str, size: int) -> str:
     if kind == "centres":
-        return (f"texel centres: mu = (j + 1/2)/{size}, alpha = (k + 1/2)/{size}, j, k = 0..{size - 1}; "
-                "mu varies fastest")
+        return (
+            f"texel centres: mu = (j + 1/2)/{size}, alpha = (k + 1/2)/{size}, j, k = 0..{size - 1}; mu varies fastest"
+        )
     return f"nodes: mu = j/{size}, alpha = k/{size}, j, k = 0..{size} (ends included); mu varies fastest"
 
 
 def _method_text(models) -> str:
     if set(models) <= set(GGX_MODELS):
-        return ("E(mu, alpha) = int f mu_i dw_i, F = 1, GGX with separable and height-correlated Smith; "
-                "half-vector quadrature in log tan(theta_m) (fitlab.families.microfacet_energy.exact, "
-                "route half_vector); alpha = 0: the mirror, E = 1")
-    return ("E(mu, alpha) = int f mu_i dw_i of the blog's Oren-Nayar (sigma = pi alpha / 2; A with 0.33 or "
-            "0.57; cos(phi) or the HLSL's gamma), rho = 1, closed form (fitlab.families.microfacet_energy.exact)")
+        return (
+            "E(mu, alpha) = int f mu_i dw_i, F = 1, GGX with separable and height-correlated Smith; "
+            "half-vector quadrature in log tan(theta_m) (fitlab.families.microfacet_energy.exact, "
+            "route half_vector); alpha = 0: the mirror, E = 1"
+        )
+    return (
+        "E(mu, alpha) = int f mu_i dw_i of the blog's Oren-Nayar (sigma = pi alpha / 2; A with 0.33 or "
+        "0.57; cos(phi) or the HLSL's gamma), rho = 1, closed form (fitlab.families.microfacet_energy.exact)"
+    )
 
 
 def _rounded(values) -> np.ndarray:
@@ -228,8 +253,10 @@ def check_tables(folder: Path, show_progress: bool = True, every: int = 8, specs
                 err = np.abs(table[np.ix_(k, j)] - want)
                 if not np.all(err <= limit):
                     idx = np.unravel_index(int(np.argmax(err)), err.shape)
-                    failures.append(f"{spec.file}: E_{model} at mu={m[idx]!r} alpha={a[idx]!r} differs from the "
-                                    f"direction route by {err[idx]:.2e}")
+                    failures.append(
+                        f"{spec.file}: E_{model} at mu={m[idx]!r} alpha={a[idx]!r} differs from the "
+                        f"direction route by {err[idx]:.2e}"
+                    )
             bar.update(1)
         if specs is None:
             try:
@@ -241,8 +268,9 @@ def check_tables(folder: Path, show_progress: bool = True, every: int = 8, specs
                 for model, column in values.items():
                     err = np.abs(column[k] - average_albedo(alpha[k], model, method="direction"))
                     if not np.all(err <= limit):
-                        failures.append(f"{AVERAGE_FILE}: E_avg_{model} differs from the direction route by "
-                                        f"{err.max():.2e}")
+                        failures.append(
+                            f"{AVERAGE_FILE}: E_avg_{model} differs from the direction route by {err.max():.2e}"
+                        )
             bar.update(1)
     if specs is None:
         failures += lobe_tables.check_lobe_tables(folder)

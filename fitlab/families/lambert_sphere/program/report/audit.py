@@ -61,21 +61,48 @@ def _published_rows() -> list[dict]:
     for t in targets().values():
         for form_name, preset in t.published:
             m = preset_metrics(t, form_name, preset)
-            rows.append({"target": t.name, "form": form_name, "preset": preset, "claimed": t.claimed,
-                         "error_measure": t.error_measure, **m})
+            rows.append(
+                {
+                    "target": t.name,
+                    "form": form_name,
+                    "preset": preset,
+                    "claimed": t.claimed,
+                    "error_measure": t.error_measure,
+                    **m,
+                }
+            )
     # the same formulas against the other readings of kd (docs/model.md, "Albedo maps")
     valid = d.kd_of_c_validation()
     kd3 = spherical_albedo(valid.inputs["c"], phase="three_term")
     form = get_target("kd_of_c").forms["printed"]
-    rows.append({"target": "kd_of_c vs kd_three_term", "form": "printed", "preset": "paper", "claimed": "none stated",
-                 "error_measure": "relative", **summary(form("paper", valid.inputs["c"]), kd3, kd3, valid.inputs)})
+    rows.append(
+        {
+            "target": "kd_of_c vs kd_three_term",
+            "form": "printed",
+            "preset": "paper",
+            "claimed": "none stated",
+            "error_measure": "relative",
+            **summary(form("paper", valid.inputs["c"]), kd3, kd3, valid.inputs),
+        }
+    )
     valid = d.fm1_validation()
     form = get_target("fm1").forms["fast"]
     half = valid.y / 2.0
-    rows.append({"target": "fm1 vs printed eq. 28 (half)", "form": "fast", "preset": "paper", "claimed": "none stated",
-                 "error_measure": "relative to f^(0)",
-                 **summary(form("paper", valid.inputs["mu_i"], valid.inputs["mu_o"], valid.inputs["c"]), half,
-                           valid.aux["f0"], valid.inputs)})
+    rows.append(
+        {
+            "target": "fm1 vs printed eq. 28 (half)",
+            "form": "fast",
+            "preset": "paper",
+            "claimed": "none stated",
+            "error_measure": "relative to f^(0)",
+            **summary(
+                form("paper", valid.inputs["mu_i"], valid.inputs["mu_o"], valid.inputs["c"]),
+                half,
+                valid.aux["f0"],
+                valid.inputs,
+            ),
+        }
+    )
     return rows
 
 
@@ -171,18 +198,20 @@ def _error_rows(valid, candidates) -> list[dict]:
         err = relative_errors(approx, valid.y, np.abs(valid.y))
         i = int(np.argmax(np.where(nonzero, err, -1.0)))
         j = int(np.argmax(np.where(away, err, -1.0)))
-        rows.append({
-            "model": name,
-            "sources": sources,
-            "max_rel": float(err.max()),
-            "max_rel_nonzero": float(err[nonzero].max()),
-            "rms_rel_nonzero": float(np.sqrt(np.mean(err[nonzero] ** 2))),
-            "max_rel_away": float(err[away].max()),
-            "rms_rel_away": float(np.sqrt(np.mean(err[away] ** 2))),
-            "worst": {k: float(v[i]) for k, v in valid.inputs.items() if k != "kd"},
-            "worst_away": {k: float(v[j]) for k, v in valid.inputs.items() if k != "kd"},
-            "points": int(err.size),
-        })
+        rows.append(
+            {
+                "model": name,
+                "sources": sources,
+                "max_rel": float(err.max()),
+                "max_rel_nonzero": float(err[nonzero].max()),
+                "rms_rel_nonzero": float(np.sqrt(np.mean(err[nonzero] ** 2))),
+                "max_rel_away": float(err[away].max()),
+                "rms_rel_away": float(np.sqrt(np.mean(err[away] ** 2))),
+                "worst": {k: float(v[i]) for k, v in valid.inputs.items() if k != "kd"},
+                "worst_away": {k: float(v[j]) for k, v in valid.inputs.items() if k != "kd"},
+                "points": int(err.size),
+            }
+        )
     return rows
 
 
@@ -197,10 +226,16 @@ def directional_albedo(model, mu_i: float, c: float = 1.0, n_phi: int = 96) -> f
 
 
 def _furnace_rows(models) -> list[dict]:
-    rows = [{"model": "exact (fitlab.families.lambert_sphere.exact.albedo, phase 'true': whole phase function)",
-             "albedo": {str(m): float(albedo(m, 1.0, phase="true")) for m in FURNACE_MU}},
-            {"model": "exact (fitlab.families.lambert_sphere.exact.albedo, phase 'mixed')",
-             "albedo": {str(m): float(albedo(m, 1.0, phase="mixed")) for m in FURNACE_MU}}]
+    rows = [
+        {
+            "model": "exact (fitlab.families.lambert_sphere.exact.albedo, phase 'true': whole phase function)",
+            "albedo": {str(m): float(albedo(m, 1.0, phase="true")) for m in FURNACE_MU},
+        },
+        {
+            "model": "exact (fitlab.families.lambert_sphere.exact.albedo, phase 'mixed')",
+            "albedo": {str(m): float(albedo(m, 1.0, phase="mixed")) for m in FURNACE_MU},
+        },
+    ]
     for model in models:
         rows.append({"model": model.name, "albedo": {str(m): directional_albedo(model, m) for m in FURNACE_MU}})
     tables = numpy_brdf()
@@ -219,62 +254,97 @@ def _point(p: dict) -> str:
 
 
 def _markdown(result: dict) -> str:
-    out = ["# Audit of the published approximations", "",
-           "Generated by `fitlab audit` (do not edit); the numbers are in `docs/audit.json`.",
-           "Errors are measured against `fitlab.families.lambert_sphere.exact` on the validation sets of `fitlab.families.lambert_sphere.targets`",
-           "(see each target's error measure there); *max rel\\** leaves out the target's exact zeros, where any",
-           "formula that misses the zero has an infinite relative error.", "",
-           "## Published formulas", "",
-           "| target | form / preset | claimed | max rel | max rel* | RMS rel | worst point (exact, approx) |",
-           "|---|---|---|---|---|---|---|"]
+    out = [
+        "# Audit of the published approximations",
+        "",
+        "Generated by `fitlab audit` (do not edit); the numbers are in `docs/audit.json`.",
+        "Errors are measured against `fitlab.families.lambert_sphere.exact` on the validation sets of `fitlab.families.lambert_sphere.targets`",
+        "(see each target's error measure there); *max rel\\** leaves out the target's exact zeros, where any",
+        "formula that misses the zero has an infinite relative error.",
+        "",
+        "## Published formulas",
+        "",
+        "| target | form / preset | claimed | max rel | max rel* | RMS rel | worst point (exact, approx) |",
+        "|---|---|---|---|---|---|---|",
+    ]
     for r in result["published"]:
         w = r["worst"]
-        out.append(f"| {r['target']} | {r['form']} / {r['preset']} | {r['claimed']} | {_f(r['max_rel'])} | "
-                   f"{_f(r['max_rel_nonzero'])} | {_f(r['rms_rel'])} | {_point(w)} ({w['exact']:.6g}, {w['approx']:.6g}) |")
-    out += ["", "## Runtime model (docs/model.md) against the mixed reference (`exact.brdf(phase=\"mixed\")`)", "",
-            f"Validation set: {result['runtime_grid']}. *away* = mu_i, mu_o >= 1/64. Variants: `paper_printed`",
-            "(all printed, 6 pi / 384 pi, H1 read as printed), `paper` (printed coefficients, H1 in the renderer's",
-            "reading, the exact 3 pi / 192 pi), `renderer` (the renderer's coefficients), `refit` (fits/, default",
-            "forms), `refit (...)` (the richer forms).", "",
-            "| model | max rel | max rel* | RMS rel* | max rel, away | RMS rel, away | worst point | worst away |",
-            "|---|---|---|---|---|---|---|---|"]
+        out.append(
+            f"| {r['target']} | {r['form']} / {r['preset']} | {r['claimed']} | {_f(r['max_rel'])} | "
+            f"{_f(r['max_rel_nonzero'])} | {_f(r['rms_rel'])} | {_point(w)} ({w['exact']:.6g}, {w['approx']:.6g}) |"
+        )
+    out += [
+        "",
+        '## Runtime model (docs/model.md) against the mixed reference (`exact.brdf(phase="mixed")`)',
+        "",
+        f"Validation set: {result['runtime_grid']}. *away* = mu_i, mu_o >= 1/64. Variants: `paper_printed`",
+        "(all printed, 6 pi / 384 pi, H1 read as printed), `paper` (printed coefficients, H1 in the renderer's",
+        "reading, the exact 3 pi / 192 pi), `renderer` (the renderer's coefficients), `refit` (fits/, default",
+        "forms), `refit (...)` (the richer forms).",
+        "",
+        "| model | max rel | max rel* | RMS rel* | max rel, away | RMS rel, away | worst point | worst away |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
     for r in result["runtime"]:
-        out.append(f"| {r['model']} | {_f(r['max_rel'])} | {_f(r['max_rel_nonzero'])} | {_f(r['rms_rel_nonzero'])} | "
-                   f"{_f(r['max_rel_away'])} | {_f(r['rms_rel_away'])} | {_point(r['worst'])} | {_point(r['worst_away'])} |")
+        out.append(
+            f"| {r['model']} | {_f(r['max_rel'])} | {_f(r['max_rel_nonzero'])} | {_f(r['rms_rel_nonzero'])} | "
+            f"{_f(r['max_rel_away'])} | {_f(r['rms_rel_away'])} | {_point(r['worst'])} | {_point(r['worst_away'])} |"
+        )
     for m in result["missing_fits"]:
         out.append(f"\n(not measured: {m})")
-    out += ["", "## Runtime model against the true BRDF (`exact.brdf(phase=\"true\")`)", "",
-            "The same points; the reference is the BRDF of the material: the whole phase function in every",
-            "collision (docs/model.md, \"Which phase function\"). The runtime parts of the `refit` rows were fitted to",
-            "the mixed reference above (true single scattering, three-term multiple scattering); its own row gives",
-            "its gap. The parts of the row `refit to the true BRDF` were fitted to the true BRDF's Fourier orders 0 to 2",
-            "in the same structure and forms (fitlab/fits/true; docs/model.md, \"Parts fitted to the true BRDF\").",
-            "The floor of the runtime structure is the row with its terms exact (true single scattering and the",
-            "true multiple scattering's Fourier orders 0 to 2): what refitted parts could reach at best.",
-            "The exported tables (`fitlab codegen --tables`) carry the true BRDF: the three-term Fourier orders from",
-            "the H-function tables, each corrected to the whole phase function by a table of Q_m = (fm_m,true -",
-            "fm_m,three-term)/fm_0,three-term (docs/model.md, \"The exported tables\"); their row against the mixed",
-            "reference in the table above is the mixed reference's own gap.",
-            f"Validation set: {result['runtime_true_grid']}.", "",
-            "| model | max rel | max rel* | RMS rel* | max rel, away | RMS rel, away | worst point | worst away |",
-            "|---|---|---|---|---|---|---|---|"]
+    out += [
+        "",
+        '## Runtime model against the true BRDF (`exact.brdf(phase="true")`)',
+        "",
+        "The same points; the reference is the BRDF of the material: the whole phase function in every",
+        'collision (docs/model.md, "Which phase function"). The runtime parts of the `refit` rows were fitted to',
+        "the mixed reference above (true single scattering, three-term multiple scattering); its own row gives",
+        "its gap. The parts of the row `refit to the true BRDF` were fitted to the true BRDF's Fourier orders 0 to 2",
+        'in the same structure and forms (fitlab/fits/true; docs/model.md, "Parts fitted to the true BRDF").',
+        "The floor of the runtime structure is the row with its terms exact (true single scattering and the",
+        "true multiple scattering's Fourier orders 0 to 2): what refitted parts could reach at best.",
+        "The exported tables (`fitlab codegen --tables`) carry the true BRDF: the three-term Fourier orders from",
+        "the H-function tables, each corrected to the whole phase function by a table of Q_m = (fm_m,true -",
+        'fm_m,three-term)/fm_0,three-term (docs/model.md, "The exported tables"); their row against the mixed',
+        "reference in the table above is the mixed reference's own gap.",
+        f"Validation set: {result['runtime_true_grid']}.",
+        "",
+        "| model | max rel | max rel* | RMS rel* | max rel, away | RMS rel, away | worst point | worst away |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
     for r in result["runtime_true"]:
-        out.append(f"| {r['model']} | {_f(r['max_rel'])} | {_f(r['max_rel_nonzero'])} | {_f(r['rms_rel_nonzero'])} | "
-                   f"{_f(r['max_rel_away'])} | {_f(r['rms_rel_away'])} | {_point(r['worst'])} | {_point(r['worst_away'])} |")
-    out += ["", "### At independent points", "",
-            "The true BRDF at random points no fit saw (the parts fitted to the true BRDF were fitted on another",
-            f"lattice): {result['runtime_true_independent_grid']}.", "",
-            "| model | max rel | max rel* | RMS rel* | max rel, away | RMS rel, away | worst point | worst away |",
-            "|---|---|---|---|---|---|---|---|"]
+        out.append(
+            f"| {r['model']} | {_f(r['max_rel'])} | {_f(r['max_rel_nonzero'])} | {_f(r['rms_rel_nonzero'])} | "
+            f"{_f(r['max_rel_away'])} | {_f(r['rms_rel_away'])} | {_point(r['worst'])} | {_point(r['worst_away'])} |"
+        )
+    out += [
+        "",
+        "### At independent points",
+        "",
+        "The true BRDF at random points no fit saw (the parts fitted to the true BRDF were fitted on another",
+        f"lattice): {result['runtime_true_independent_grid']}.",
+        "",
+        "| model | max rel | max rel* | RMS rel* | max rel, away | RMS rel, away | worst point | worst away |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
     for r in result["runtime_true_independent"]:
-        out.append(f"| {r['model']} | {_f(r['max_rel'])} | {_f(r['max_rel_nonzero'])} | {_f(r['rms_rel_nonzero'])} | "
-                   f"{_f(r['max_rel_away'])} | {_f(r['rms_rel_away'])} | {_point(r['worst'])} | {_point(r['worst_away'])} |")
-    out += ["", "## White furnace (c = 1): directional albedo, should be 1", "",
-            "| model | " + " | ".join(f"mu_i = {m:g}" for m in FURNACE_MU) + " | max abs(a - 1) |",
-            "|---|" + "---|" * (len(FURNACE_MU) + 1)]
+        out.append(
+            f"| {r['model']} | {_f(r['max_rel'])} | {_f(r['max_rel_nonzero'])} | {_f(r['rms_rel_nonzero'])} | "
+            f"{_f(r['max_rel_away'])} | {_f(r['rms_rel_away'])} | {_point(r['worst'])} | {_point(r['worst_away'])} |"
+        )
+    out += [
+        "",
+        "## White furnace (c = 1): directional albedo, should be 1",
+        "",
+        "| model | " + " | ".join(f"mu_i = {m:g}" for m in FURNACE_MU) + " | max abs(a - 1) |",
+        "|---|" + "---|" * (len(FURNACE_MU) + 1),
+    ]
     for r in result["furnace"]:
-        out.append(f"| {r['model']} | " + " | ".join(f"{a:.6f}" for a in r["albedo"].values())
-                   + f" | {r['max_abs_deviation']:.2e} |")
+        out.append(
+            f"| {r['model']} | "
+            + " | ".join(f"{a:.6f}" for a in r["albedo"].values())
+            + f" | {r['max_abs_deviation']:.2e} |"
+        )
     return "\n".join(out) + "\n"
 
 
@@ -285,6 +355,7 @@ def audit(fits_dir: Path | None = None, show_progress: bool = False) -> Outputs:
     from tqdm import tqdm
 
     with tqdm(total=7, desc="audit", unit="stage", disable=not show_progress, leave=False) as bar:
+
         def stage(name, value):
             bar.set_postfix_str(name, refresh=False)
             bar.update()
@@ -299,7 +370,15 @@ def audit(fits_dir: Path | None = None, show_progress: bool = False) -> Outputs:
         independent_grid = d.brdf_true_independent().grid
         runtime_true_independent = stage("... at independent points", _runtime_true_independent_rows(models))
         furnace = stage("white furnace", _furnace_rows(models))
-    result = {"published": published, "runtime_grid": grid, "runtime": runtime, "runtime_true_grid": true_grid,
-              "runtime_true": runtime_true, "runtime_true_independent_grid": independent_grid,
-              "runtime_true_independent": runtime_true_independent, "missing_fits": missing, "furnace": furnace}
+    result = {
+        "published": published,
+        "runtime_grid": grid,
+        "runtime": runtime,
+        "runtime_true_grid": true_grid,
+        "runtime_true": runtime_true,
+        "runtime_true_independent_grid": independent_grid,
+        "runtime_true_independent": runtime_true_independent,
+        "missing_fits": missing,
+        "furnace": furnace,
+    }
     return Outputs(result, {"audit.json": strict_json(result).encode(), "audit.md": _markdown(result).encode()})

@@ -101,8 +101,15 @@ def engine_agreement(c: float, orders, points: int = 24) -> dict:
     seconds = (time.perf_counter() - t0) / n
     new = true_phase.multiple_scattering_orders(mi, mo, c, method="newton", orders=n)
     e = np.concatenate([np.abs(new[m] - dbl[m]) / f for m in orders])
-    return {"max_rel": float(e.max()), "rms_rel": float(np.sqrt(np.mean(e**2))), "points": int(e.size),
-            "seconds_per_order": seconds, "node_pairs": int(mi.size), "c": c, "orders": tuple(orders)}
+    return {
+        "max_rel": float(e.max()),
+        "rms_rel": float(np.sqrt(np.mean(e**2))),
+        "points": int(e.size),
+        "seconds_per_order": seconds,
+        "node_pairs": int(mi.size),
+        "c": c,
+        "orders": tuple(orders),
+    }
 
 
 def doubling_agreement(c: float, orders) -> dict:
@@ -119,8 +126,15 @@ def doubling_agreement(c: float, orders) -> dict:
         errs.append(np.abs(d.brdf[keep] - ref) / np.abs(ref))
         pairs = d.nodes.size**2
     e = np.concatenate(errs)
-    return {"max_rel": float(e.max()), "rms_rel": float(np.sqrt(np.mean(e**2))), "points": int(e.size),
-            "seconds_per_order": float(np.mean(secs)), "node_pairs": pairs, "c": c, "orders": tuple(orders)}
+    return {
+        "max_rel": float(e.max()),
+        "rms_rel": float(np.sqrt(np.mean(e**2))),
+        "points": int(e.size),
+        "seconds_per_order": float(np.mean(secs)),
+        "node_pairs": pairs,
+        "c": c,
+        "orders": tuple(orders),
+    }
 
 
 def time_to_error(rows: list[dict], targets) -> list[dict]:

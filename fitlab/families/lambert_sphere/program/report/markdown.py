@@ -17,16 +17,25 @@ BRDF_TITLE = "Lambert-sphere BRDF"
 REPORT_TEXT = {
     "material": "kd = kd_true(c) where a method takes kd",
     "black": "At c = 0 the BRDF is exactly 0: max abs, c = 0 is max |f| at the set's points with c = 0.",
-    "parts": ("Parts (H0, H1, constants, albedo maps, fm1): each target's validation set and error measure "
-              "(`fitlab.families.lambert_sphere.targets`, as in docs/audit.md)."),
+    "parts": (
+        "Parts (H0, H1, constants, albedo maps, fm1): each target's validation set and error measure "
+        "(`fitlab.families.lambert_sphere.targets`, as in docs/audit.md)."
+    ),
 }
 
 
 def engine_sections(report) -> list[str]:
     """The report.md sections on what the generated code states (:mod:`.claims`) and on the family's engines: the
     exact engine, the time to reach an error, Monte Carlo (markdown lines)."""
-    return [*claim_section(report.rows), "", *_exact_section(report), "", *_time_to_error(report.rows), "",
-            *_mc_section(report)]
+    return [
+        *claim_section(report.rows),
+        "",
+        *_exact_section(report),
+        "",
+        *_time_to_error(report.rows),
+        "",
+        *_mc_section(report),
+    ]
 
 
 def _exact_section(report) -> list[str]:
@@ -38,19 +47,25 @@ def _exact_section(report) -> list[str]:
            f"({ec['points']} points, c = {ec['c']:.4f})."]  # fmt: skip
     agree = ctx.get("engine_agreement")
     if agree:
-        out += ["", f"Its error, the agreement of its two methods (Newton and doubling-adding, c = {agree['c']:g}, "
-                f"Fourier orders {', '.join(map(str, agree['orders']))} of the multiple scattering at "
-                f"{agree['node_pairs']} pairs with mu_i, mu_o >= 1e-3, relative to the BRDF): max "
-                f"{sci(agree['max_rel'])}, RMS {sci(agree['rms_rel'])}. Doubling costs "
-                f"{agree['seconds_per_order']:.2f} s per (c, order)."]
+        out += [
+            "",
+            f"Its error, the agreement of its two methods (Newton and doubling-adding, c = {agree['c']:g}, "
+            f"Fourier orders {', '.join(map(str, agree['orders']))} of the multiple scattering at "
+            f"{agree['node_pairs']} pairs with mu_i, mu_o >= 1e-3, relative to the BRDF): max "
+            f"{sci(agree['max_rel'])}, RMS {sci(agree['rms_rel'])}. Doubling costs "
+            f"{agree['seconds_per_order']:.2f} s per (c, order).",
+        ]
     dbl = ctx["doubling"]
     if dbl:
-        out += ["", "The three-term engine (the paper's model; H-functions), measured against the independent "
-                "discrete ordinates + doubling "
-                f"(`fitlab.families.lambert_sphere.exact.doubling_reflection`, c = {dbl['c']:g}, Fourier orders "
-                f"{', '.join(map(str, dbl['orders']))}, {dbl['points']} node pairs with mu_i, mu_o >= 1e-3): "
-                f"max {sci(dbl['max_rel'])}, RMS {sci(dbl['rms_rel'])}. Doubling itself costs "
-                f"{dbl['seconds_per_order']:.2f} s per (c, order) for f^m at {dbl['node_pairs']} node pairs."]
+        out += [
+            "",
+            "The three-term engine (the paper's model; H-functions), measured against the independent "
+            "discrete ordinates + doubling "
+            f"(`fitlab.families.lambert_sphere.exact.doubling_reflection`, c = {dbl['c']:g}, Fourier orders "
+            f"{', '.join(map(str, dbl['orders']))}, {dbl['points']} node pairs with mu_i, mu_o >= 1e-3): "
+            f"max {sci(dbl['max_rel'])}, RMS {sci(dbl['rms_rel'])}. Doubling itself costs "
+            f"{dbl['seconds_per_order']:.2f} s per (c, order) for f^m at {dbl['node_pairs']} node pairs.",
+        ]
     out += ["", "H-functions by both methods at coarser and finer resolution, each against the other method at "
             "its default (16 nodes per panel; h = 0.1); seconds per (order, c): one solve and the evaluation "
             f"at {fs.exact_mu_points} mu, orders {', '.join(map(str, fs.exact_orders))}, "

@@ -32,8 +32,9 @@ def albedos(n: int, with_c1: bool, small: tuple = ()) -> np.ndarray:
 def validation_materials(fam) -> tuple[np.ndarray, str]:
     """(albedos, what they are) of the validation and grazing sets, by the family's report settings ``fam``."""
     small = f"c in {{{', '.join(f'{c:g}' for c in fam.small_c)}}} and " if fam.small_c else ""
-    text = (f"{len(fam.small_c) + fam.n_c + fam.with_c1} albedos: {small}c = 1 - s^2, s = (k + 0.618...)/{fam.n_c}"
-            + (" and c = 1" if fam.with_c1 else ""))
+    text = f"{len(fam.small_c) + fam.n_c + fam.with_c1} albedos: {small}c = 1 - s^2, s = (k + 0.618...)/{fam.n_c}" + (
+        " and c = 1" if fam.with_c1 else ""
+    )
     return albedos(fam.n_c, fam.with_c1, fam.small_c), text
 
 

@@ -73,12 +73,36 @@ from fitlab.forms.symbolic import lambdify_numpy, symbols
 from fitlab.report.methods import BrdfMethod, CSpec, PartMethod, best_forms, fit_group, positional
 from fitlab.store import FORMAT, load
 
-__all__ = ["REQUIRED_FITS", "PARTS", "PRESET_VARIANTS", "tables_dir", "EXACT_SOURCES", "SOURCES", "brdf_methods",
-           "part_extras", "preset_records", "check_tables", "exact_brdf", "exact_kd", "measure_engines", "REFERENCES",
-           "exact_albedo", "directional_albedo", "timing_inputs", "baseline_program", "validation_materials",
-           "fresh_materials", "energy_materials",
-           "BRDF_INPUTS", "BRDF_POINT", "BRDF_MATERIAL", "REPORT_SETTINGS", "BRDF_TITLE", "REPORT_TEXT",
-           "engine_sections"]
+__all__ = [
+    "REQUIRED_FITS",
+    "PARTS",
+    "PRESET_VARIANTS",
+    "tables_dir",
+    "EXACT_SOURCES",
+    "SOURCES",
+    "brdf_methods",
+    "part_extras",
+    "preset_records",
+    "check_tables",
+    "exact_brdf",
+    "exact_kd",
+    "measure_engines",
+    "REFERENCES",
+    "exact_albedo",
+    "directional_albedo",
+    "timing_inputs",
+    "baseline_program",
+    "validation_materials",
+    "fresh_materials",
+    "energy_materials",
+    "BRDF_INPUTS",
+    "BRDF_POINT",
+    "BRDF_MATERIAL",
+    "REPORT_SETTINGS",
+    "BRDF_TITLE",
+    "REPORT_TEXT",
+    "engine_sections",
+]
 
 #: the albedo maps: not in the BRDF, but in its generated program (their C is timed there)
 MAPS = ("kd_of_c", "c_of_kd")
@@ -116,13 +140,16 @@ def exact_kd(c) -> np.ndarray:
 
 
 #: the approximate references the report measures as BRDF methods: (name, phase of exact.brdf)
-REFERENCES = (("mixed reference (true single, three-term multiple scattering)", "mixed"),
-              ("three-term half space (the paper's model in every collision)", "three_term"))
+REFERENCES = (
+    ("mixed reference (true single, three-term multiple scattering)", "mixed"),
+    ("three-term half space (the paper's model in every collision)", "three_term"),
+)
 
 
 def _references() -> list[BrdfMethod]:
     """The three-term engine's BRDFs (exact.brdf with phase "mixed" and "three_term") as methods: not timed
     (a solve per distinct c; the timing inputs have a new c at every point)."""
+
     def method(name, phase):
         def f(mi, mo, ph, c, kd):
             return brdf(mi, mo, ph, c, phase=phase)

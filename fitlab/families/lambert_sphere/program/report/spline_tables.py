@@ -40,8 +40,15 @@ from fitlab.families.lambert_sphere.forms import RUNTIME_PARTS, runtime_terms
 from fitlab.families.lambert_sphere.targets.table_files import read_constants, read_h, read_kd, tables_dir
 from fitlab.forms.symbolic import symbols
 
-__all__ = ["h_interpolant", "constant_interpolant", "kd_interpolant", "c_of_kd_interpolant", "table_brdf", "table_part",
-           "memory_bytes"]
+__all__ = [
+    "h_interpolant",
+    "constant_interpolant",
+    "kd_interpolant",
+    "c_of_kd_interpolant",
+    "table_brdf",
+    "table_part",
+    "memory_bytes",
+]
 
 mu_i, mu_o, phi, c, mu = symbols(("mu_i", "mu_o", "phi", "c", "mu"))
 
