@@ -440,6 +440,6 @@ def test_model_doc_states_how_far_the_true_fit_parts_moved():
     section = text[text.index("### Parts fitted to the true BRDF") : text.index("## The runtime BRDF")]
     moved = {
         p: json.loads((ROOT / "fitlab" / "fits" / "true" / f).read_text())["validation"]["max_rel"]
-        for p, f in (("H0", "H0.log_exp.json"), ("l", "l.cubic.json"))
+        for p, f in (("H0", "H0.log_exp_true.json"), ("l", "l.cubic.json"))
     }
     assert f"H0 moves by up to {100 * moved['H0']:.1f} %, l by {100 * moved['l']:.0f} %" in " ".join(section.split())

@@ -65,7 +65,7 @@ from fitlab.families.lambert_sphere.program.runtime import (
     directional_albedo,
     runtime_model,
 )
-from fitlab.families.lambert_sphere.program.spec import THREE_TERM_MODEL
+from fitlab.families.lambert_sphere.program.spec import THREE_TERM_MODEL, TRUE_MODEL
 from fitlab.families.lambert_sphere.program.true_refit import TRUE_FITS, true_runtime_model
 from fitlab.families.lambert_sphere.targets import TARGETS
 from fitlab.families.lambert_sphere.targets.table_files import check_tables, tables_dir
@@ -287,10 +287,13 @@ def brdf_methods(fits_dir: Path, entries: list, data_dir: Path, preset_c: tuple 
                             f"{_label(order2)})", CSpec("brdf", fits_dir, tuple(sorted(order2.items())))))  # fmt: skip
         # the same structure and forms with the parts fitted to the true BRDF (the packaged ones, whatever fits_dir
         # is): the program's default model, what fitlab codegen and runtime_model() give
+        # (in the default model's own forms: its H forms are not the three-term model's)
         m = true_runtime_model()
+        true_forms = {p: f for p, f in program_spec(FAMILY_NAME).model(TRUE_MODEL).forms.items()
+                      if f != get_target(p).default_form}  # fmt: skip
         out.append(_runtime(m, "model true (the default)", "refit, richer",
-                            f"fitlab codegen (parts fitted to the true BRDF, fitlab/fits/true: {_label(order2)})",
-                            CSpec("brdf", TRUE_FITS, tuple(sorted(order2.items())))))  # fmt: skip
+                            f"fitlab codegen (parts fitted to the true BRDF, fitlab/fits/true: {_label(true_forms)})",
+                            CSpec("brdf", TRUE_FITS, tuple(sorted(true_forms.items())))))  # fmt: skip
     richer = best_forms(entries, {"refit"}, (*RUNTIME_PARTS, ORDER2_PART))
     if richer and richer != order2:  # the best part fits may be the order-2 model itself
         m = runtime_model(fits_dir=fits_dir, forms=richer, model=DEFAULT_FORMS)
