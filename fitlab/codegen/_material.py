@@ -14,7 +14,15 @@ from sympy.core.function import AppliedUndef
 from fitlab.codegen._model import Material, MaterialSpec, Routine, symbols_of
 from fitlab.codegen._rewrites import rebuilt, with_args
 
-__all__ = ["field_symbol", "inline_calls", "merge_exp_products", "hoist_params", "material_of"]
+__all__ = [
+    "field_symbol",
+    "inline_calls",
+    "merge_exp_products",
+    "inlined",
+    "collected_by_params",
+    "hoist_params",
+    "material_of",
+]
 
 
 def field_symbol(k: int) -> sp.Symbol:
@@ -95,6 +103,19 @@ def merge_exp_products(expr: sp.Expr) -> sp.Expr:
     return expr if all(a is b for a, b in zip(args, expr.args)) else expr.func(*args)
 
 
+def inlined(expr: sp.Expr, routines: Mapping[str, Routine]) -> sp.Expr:
+    """``expr`` with its calls inlined (:func:`inline_calls`) and products of exponentials merged
+    (:func:`merge_exp_products`); call it under ``sp.evaluate(False)``, as the clamps are rebuilt unevaluated."""
+    return merge_exp_products(inline_calls(expr, routines))
+
+
+def collected_by_params(expr: sp.Expr, params: Sequence[str]) -> sp.Expr:
+    """``expr`` with its terms collected as :func:`hoist_params` collects them (k1(c) mu^2 + k2(c) mu^2 ->
+    (k1 + k2)(c) mu^2), the fields written back as their expressions: each coefficient computed once per call."""
+    (out,), fields = hoist_params([expr], params)
+    return cast(sp.Expr, out.xreplace({field_symbol(k): f for k, f in enumerate(fields)}))
+
+
 def hoist_params(exprs: Sequence[sp.Expr], params: Sequence[str]) -> tuple[list[sp.Expr], list[sp.Expr]]:
     r"""Split ``exprs`` into per-material fields and what is left per evaluation.
 
@@ -149,20 +170,22 @@ def hoist_params(exprs: Sequence[sp.Expr], params: Sequence[str]) -> tuple[list[
         """An Add's terms collected by what they hold besides the parameters, k1(c) mu^2 + k2(c) mu^2 ->
         field(k1 + k2) mu^2 (one multiply per power where a form's polynomial in (s, mu) has one per
         coefficient); None where no two terms share a rest."""
-        groups: dict = {}
+        groups: dict = {}  # rest -> [(term, its factors in the parameters or numbers)]
         for a in (d for t in terms for d in distributed(t)):
-            groups.setdefault(split(a)[1], []).append(a)
+            mine, rest = split(a)
+            groups.setdefault(rest, []).append((a, mine))
         if all(len(g) == 1 for g in groups.values()):
             return None
         out = []
         for rest, group in groups.items():
-            coeffs = [sp.Mul(*split(a)[0]) for a in group]
+            whole = [a for a, _ in group]
+            coeffs = [sp.Mul(*mine) for _, mine in group]
             if rest == 1:  # the terms in the parameters alone, and numbers
-                out.append(field(sp.Add(*group)) if any(only_params(a) for a in group) else sp.Add(*group))
+                out.append(field(sp.Add(*whole)) if any(only_params(a) for a in whole) else sp.Add(*whole))
             elif len(group) > 1 and any(only_params(k) for k in coeffs):
                 out.append(sp.Mul(field(sp.Add(*coeffs)), visit(rest)))
             else:
-                out.extend(visit(a) for a in group)
+                out.extend(visit(a) for a in whole)
         return sp.Add(*out)
 
     def visit(e):
@@ -199,8 +222,7 @@ def material_of(routines: Sequence[Routine], spec: MaterialSpec) -> Material:
     # rebuilt unevaluated: sympy's evaluation of the nested Max and Min (the clamps) costs tens of seconds
     # and changes nothing that is printed
     with sp.evaluate(False):
-        inlined = [merge_exp_products(inline_calls(r.expr, by_name)) for r in sources]
-        exprs, fields = hoist_params(inlined, spec.params)
+        exprs, fields = hoist_params([inlined(r.expr, by_name) for r in sources], spec.params)
     evaluators = []
     for (name, source), r, e in zip(kept.items(), sources, exprs):
         args = tuple(a for a in r.args if a not in spec.params)

@@ -23,13 +23,13 @@ from __future__ import annotations
 import abc
 from collections.abc import Mapping, Sequence
 from dataclasses import replace
-from typing import ClassVar, cast
+from typing import ClassVar
 
 import sympy as sp
 import sympy.core.random as sympy_random
 from sympy.codegen.rewriting import Optimization
 
-from fitlab.codegen._material import field_symbol, hoist_params, inline_calls, material_of, merge_exp_products
+from fitlab.codegen._material import collected_by_params, inlined, material_of
 from fitlab.codegen._model import Claim, Program, ProgramSpec, Routine
 from fitlab.codegen._policy import with_domain
 from fitlab.codegen._rewrites import stable
@@ -198,17 +198,13 @@ def reproducible_sympy() -> None:
 
 def _with_callees_inlined(routines: tuple[Routine, ...], params: Sequence[str] = ()) -> tuple[Routine, ...]:
     """``routines`` with each :attr:`Routine.inline` one's calls replaced by its callees' bodies
-    (:func:`inline_calls`), products of exponentials merged (:func:`merge_exp_products`) and, where the program
-    has per-material ``params``, its terms collected as :func:`hoist_params` collects them (k1(c) mu^2 +
-    k2(c) mu^2 -> (k1 + k2)(c) mu^2, each coefficient then computed once per call)."""
+    (:func:`inlined`) and, where the program has per-material ``params``, its terms collected as the material's
+    fields are (:func:`collected_by_params`)."""
     by_name = {r.name: r for r in routines}
 
     def body(r: Routine) -> sp.Expr:
-        e = merge_exp_products(inline_calls(r.expr, by_name))
-        if not params:
-            return e
-        (collected,), fields = hoist_params([e], params)
-        return cast(sp.Expr, collected.xreplace({field_symbol(k): f for k, f in enumerate(fields)}))
+        e = inlined(r.expr, by_name)
+        return collected_by_params(e, params) if params else e
 
     # rebuilt unevaluated, as the material's evaluators are: evaluating the nested clamps changes nothing printed
     with sp.evaluate(False):

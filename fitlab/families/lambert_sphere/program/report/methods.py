@@ -251,6 +251,11 @@ def _baselines() -> list[BrdfMethod]:
     return out
 
 
+def _forms_off_default(model: str) -> dict:
+    """{part: form} of the program's ``model`` where the form is not the part's default."""
+    return {p: f for p, f in program_spec(FAMILY_NAME).model(model).forms.items() if f != get_target(p).default_form}
+
+
 def _label(forms: dict) -> str:
     return ", ".join(f"{k}: {v}" for k, v in forms.items())
 
@@ -276,8 +281,7 @@ def brdf_methods(fits_dir: Path, entries: list, data_dir: Path, preset_c: tuple 
     out.append(_runtime(runtime_model(fits_dir=fits_dir, model=DEFAULT_FORMS), "refit", "refit", "default forms in " + str(fits_dir),
                         CSpec("brdf", fits_dir)))  # fmt: skip
     # the program's three-term model (each part fitted to its own target), where its forms are in the catalogue
-    order2 = {p: f for p, f in program_spec(FAMILY_NAME).model(THREE_TERM_MODEL).forms.items()
-              if f != get_target(p).default_form}  # fmt: skip
+    order2 = _forms_off_default(THREE_TERM_MODEL)
     if not all(any(e.target == p and e.form == f for e in entries) for p, f in order2.items()):
         order2 = None
     if order2:
@@ -289,8 +293,7 @@ def brdf_methods(fits_dir: Path, entries: list, data_dir: Path, preset_c: tuple 
         # is): the program's default model, what fitlab codegen and runtime_model() give
         # (in the default model's own forms: its H forms are not the three-term model's)
         m = true_runtime_model()
-        true_forms = {p: f for p, f in program_spec(FAMILY_NAME).model(TRUE_MODEL).forms.items()
-                      if f != get_target(p).default_form}  # fmt: skip
+        true_forms = _forms_off_default(TRUE_MODEL)
         out.append(_runtime(m, "model true (the default)", "refit, richer",
                             f"fitlab codegen (parts fitted to the true BRDF, fitlab/fits/true: {_label(true_forms)})",
                             CSpec("brdf", TRUE_FITS, tuple(sorted(true_forms.items())))))  # fmt: skip
